@@ -16,7 +16,11 @@
 #   TQ_CACHE          where the OpenFOAM headers are unpacked (default ~/.cache/tunnelquake)
 #   TQ_SKIP_APT=1     do not touch Debian packages (non-root machines with everything installed)
 #   TQ_BUILD_TYPE     CMake build type (default Release)
+#
+# `scripts/bootstrap.sh --check` changes nothing: it reports each part and exits 1 if one is missing.
 set -euo pipefail
+CHECK_ONLY=0
+[[ ${1:-} == --check ]] && CHECK_ONLY=1
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 CACHE=${TQ_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/tunnelquake}
@@ -47,6 +51,23 @@ missing_packages() {
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || echo "$p"
   done
 }
+
+if ((CHECK_ONLY)); then
+  status=0
+  mapfile -t missing < <(missing_packages)
+  if ((${#missing[@]})); then say "MISSING Debian packages: ${missing[*]}"; status=1
+  else say "ok: Debian packages (${#APT_PACKAGES[@]})"; fi
+  of_src=${TQ_OPENFOAM_SRC:-$CACHE/openfoam-1912/src}
+  if [[ -f $of_src/finiteVolume/lnInclude/fvCFD.H ]]; then say "ok: OpenFOAM v1912 headers in $of_src"
+  else say "MISSING OpenFOAM headers in $of_src"; status=1; fi
+  if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml" 2>/dev/null
+  then say "ok: Python environment $VENV"
+  else say "MISSING Python environment or one of its packages in $VENV"; status=1; fi
+  for exe in "$BUILD/openfoam_case/libtqFoam.so"; do
+    if [[ -e $exe ]]; then say "ok: built $(basename "$exe")"; else say "MISSING build output $exe"; status=1; fi
+  done
+  exit $status
+fi
 
 if [[ "${TQ_SKIP_APT:-0}" != 1 ]]; then
   mapfile -t missing < <(missing_packages)

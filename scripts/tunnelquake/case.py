@@ -1,0 +1,349 @@
+"""The case file (`case.yaml`): its schema, its validation, and the validated `Case`.
+
+Every key is documented here with its unit; docs/user_guide.md is written from the same table.
+Values are SI numbers or '<number> <unit>' strings (see units.py). Unknown keys, missing keys,
+wrong units and impossible values are errors naming the key, the value, the line and the fix.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import units as U
+from .schema import (Bool, CaseError, Choice, Issue, LineDict, ListOf, MapOf, Number, Section,
+                     Text, Tuple, load_yaml, validate)
+
+STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
+CONDITIONS = ("no_water", "static_water", "dynamic_water")
+
+
+def _num(dim=U.DIMENSIONLESS, doc="", **kw) -> Number:
+    return Number(dim=dim, doc=doc, **kw)
+
+
+def _length(doc="", **kw):
+    return _num(U.LENGTH, doc, **kw)
+
+
+def _positive(dim, doc, **kw):
+    return Number(dim=dim, doc=doc, min=0.0, min_open=True, **kw)
+
+
+# ----------------------------------------------------------------------------------------------
+# Cross-field checks (run only when the section itself is valid)
+# ----------------------------------------------------------------------------------------------
+def _check_geometry(g, path, raw: LineDict, ctx):
+    (x0, x1), (z0, z1) = g["x_range"], g["z_range"]
+    b = g["excavated_radius"]
+    if g["lining_thickness"] >= b:
+        ctx.error(f"{path}.lining_thickness", g["lining_thickness"],
+                  f"must be smaller than the excavated radius {b:g} m (the water needs room)",
+                  "check the two values (paper: radius 5.25 m, lining 0.75 m)", raw.key_lines.get("lining_thickness"))
+    cx, cz = g["tunnel_centre_x"], g["tunnel_centre_z"]
+    if not (x0 < cx - b and cx + b < x1 and z0 < cz - b and cz + b < z1):
+        ctx.error(f"{path}.tunnel_centre_z", cz,
+                  f"the tunnel (centre x={cx:g}, z={cz:g}, radius {b:g} m) does not fit inside the block "
+                  f"x {x0:g}..{x1:g}, z {z0:g}..{z1:g}", "move the tunnel or enlarge the block",
+                  raw.key_lines.get("tunnel_centre_z"))
+
+
+def _check_material(m, path, raw, ctx):
+    if m["model"] == "mohr_coulomb_damage":
+        for key in ("cohesion", "friction_angle", "tensile_strength"):
+            if m[key] is None:
+                ctx.error(f"{path}.{key}", None, "is required by model mohr_coulomb_damage",
+                          f"add '{key}:' or set model: elastic", raw.line)
+    if m["dilation_angle"] is not None and m["friction_angle"] is not None and m["dilation_angle"] > m["friction_angle"]:
+        ctx.error(f"{path}.dilation_angle", m["dilation_angle"],
+                  f"exceeds the friction angle {m['friction_angle']:g} deg (non-physical dilatancy)",
+                  "use a dilation angle between 0 and the friction angle", raw.key_lines.get("dilation_angle"))
+
+
+def _check_interface(i, path, raw, ctx):
+    if i["dynamic_friction"] > i["static_friction"]:
+        ctx.error(f"{path}.dynamic_friction", i["dynamic_friction"],
+                  f"exceeds the static friction {i['static_friction']:g}",
+                  "use dynamic <= static friction (paper: both 0.6)", raw.key_lines.get("dynamic_friction"))
+
+
+def _check_ground_motion(gm, path, raw, ctx):
+    if gm["source"] == "file" and gm["file"] is None:
+        ctx.error(f"{path}.file", None, "is required when source is 'file'",
+                  "add 'file: <path to the record>' or use source: synthetic", raw.line)
+
+
+def _check_damping(d, path, raw, ctx):
+    f1, f2 = d["frequencies"]
+    if f1 >= f2 and d["ratio"] > 0:
+        ctx.error(f"{path}.frequencies", [f1, f2], "must be two increasing frequencies",
+                  "give [f1, f2] with f1 < f2, e.g. [1.5, 10] Hz", raw.key_lines.get("frequencies"))
+
+
+def _check_stages(s, path, raw, ctx):
+    seq = s["sequence"]
+    order = [STAGES.index(x) for x in seq]
+    if order != sorted(order):
+        ctx.error(f"{path}.sequence", seq, f"stages are out of order (the order is {', '.join(STAGES)})",
+                  "list them in that order, leaving out the ones not wanted", raw.key_lines.get("sequence"))
+    if "seismic" not in seq:
+        ctx.error(f"{path}.sequence", seq, "has no 'seismic' stage", "end the sequence with seismic",
+                  raw.key_lines.get("sequence"))
+    if "lining" in seq and "excavation" not in seq:
+        ctx.error(f"{path}.sequence", seq, "activates the lining without an excavation",
+                  "add 'excavation' before 'lining'", raw.key_lines.get("sequence"))
+
+
+def _mesh_section() -> Section:
+    """Mesh keys: the meshing module's own defaults, so the two cannot disagree."""
+    try:
+        from .meshing import MESH_DEFAULTS
+    except Exception:  # meshing not importable: accept the core keys only
+        MESH_DEFAULTS = {"mode": "slice", "max_element_size": 6.75, "lining_elements_around": 48,
+                         "lining_elements_through": 3, "elements_along_axis": 44}
+    fields = {}
+    for key, default in MESH_DEFAULTS.items():
+        if key == "mode":
+            fields[key] = Choice(choices=("3d", "slice"), default=default,
+                                 doc="'3d' full model or 'slice' one element thick (plane strain)")
+        elif isinstance(default, bool):
+            fields[key] = Bool(default=default)
+        elif isinstance(default, int):
+            fields[key] = Number(integer=True, min=1, default=default)
+        elif isinstance(default, float):
+            dim = U.LENGTH if key.endswith(("_size", "_radius", "_thickness", "_length", "_width")) else U.DIMENSIONLESS
+            fields[key] = Number(dim=dim, min=0.0, min_open=True, default=default)
+        elif isinstance(default, str):
+            fields[key] = Text(default=default)
+    return Section(fields=fields, doc="mesh controls")
+
+
+def schema() -> Section:
+    material = Section(
+        fields={
+            "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
+                            doc="constitutive model"),
+            "youngs_modulus": _positive(U.PRESSURE, "Young's (deformation) modulus, Pa", required=True),
+            "poisson_ratio": Number(min=-1.0, max=0.5, min_open=True, max_open=True, required=True,
+                                    doc="Poisson ratio, -1 < nu < 0.5",
+                                    why="nu = 0.5 is incompressible: no finite P-wave speed, no explicit step"),
+            "density": _positive(U.MASS_DENSITY, "mass density, kg/m^3", required=True),
+            "cohesion": Number(dim=U.PRESSURE, min=0.0, doc="Mohr-Coulomb cohesion c, Pa"),
+            "friction_angle": Number(min=0.0, max=90.0, max_open=True, doc="friction angle phi, degrees"),
+            "dilation_angle": Number(min=0.0, max=90.0, max_open=True, default=0.0,
+                                     doc="dilation angle psi, degrees (default 0: non-associated, no dilatancy)"),
+            "tensile_strength": Number(dim=U.PRESSURE, min=0.0, doc="tension cut-off sigma_t, Pa"),
+            "compressive_strength": Number(dim=U.PRESSURE, min=0.0, min_open=True,
+                                           doc="uniaxial compressive strength, Pa (reported only)"),
+            "damage_constant": Number(min=0.0, default=100.0,
+                                      doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
+            "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
+                                    doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+        },
+        checks=[_check_material],
+    )
+    gm_synthetic = Section(fields={
+        "seed": Number(integer=True, min=0, default=1940, doc="random seed"),
+        "duration": _positive(U.TIME, "length of the synthetic record, s", default=20.0),
+        "dt": _positive(U.TIME, "sampling step, s", default=0.01),
+        "ground_frequency": _positive(U.FREQUENCY, "Kanai-Tajimi ground frequency, Hz", default=2.5),
+        "ground_damping": _positive(U.DIMENSIONLESS, "Kanai-Tajimi ground damping ratio", default=0.6),
+    })
+    return Section(fields={
+        "name": Text(required=True, doc="a short name for the case"),
+        "description": Text(doc="free text"),
+        "geometry": Section(required=True, checks=[_check_geometry], fields={
+            "x_range": Tuple(item=_length(), increasing=True, required=True, doc="block extent across the tunnel, m"),
+            "y_range": Tuple(item=_length(), increasing=True, required=True, doc="block extent along the tunnel axis, m"),
+            "z_range": Tuple(item=_length(), increasing=True, required=True, doc="block extent vertically (top = ground surface), m"),
+            "tunnel_centre_x": _length("x of the tunnel axis, m", default=0.0),
+            "tunnel_centre_z": _length("elevation of the tunnel axis, m", required=True),
+            "excavated_radius": _positive(U.LENGTH, "radius of the excavation, m", required=True),
+            "lining_thickness": _positive(U.LENGTH, "lining thickness, m", required=True),
+        }),
+        "mesh": _mesh_section(),
+        "materials": MapOf(item=material, required_keys=("rock", "lining"), required=True,
+                           doc="one entry per mesh region (rock, lining)"),
+        "interface": Section(checks=[_check_interface], fields={
+            "model": Choice(choices=("dynamic_contact", "bonded"), default="dynamic_contact",
+                            doc="rock-lining interface: the paper's dynamic contact force method, or always bonded"),
+            "static_friction": Number(min=0.0, default=0.6, doc="mu_s"),
+            "dynamic_friction": Number(min=0.0, default=0.6, doc="mu_d"),
+            "cohesion": Number(dim=U.PRESSURE, min=0.0, default=0.5e6, doc="f_c, Pa"),
+            "after_failure": Choice(choices=("cohesion_lost", "cohesion_kept"), default="cohesion_lost",
+                                    doc="what a pair keeps once its bond has failed"),
+        }),
+        "water": Section(fields={
+            "density": _positive(U.MASS_DENSITY, "kg/m^3", default=1000.0),
+            "viscosity": _positive(U.DYNAMIC_VISCOSITY, "dynamic viscosity, Pa s", default=1.308e-3),
+            "head": Number(dim=U.LENGTH, min=0.0, default=0.0,
+                           doc="pressure head at the tunnel axis, m of water: p = rho_w g (head - (z - z_axis))"),
+            "model": Choice(choices=("incompressible", "compressible"), default="incompressible"),
+            "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
+            "ends": Choice(choices=("open", "closed"), default="open",
+                           doc="axial ends of the water column: open (pressure) or closed (walls)"),
+        }),
+        "ground_motion": Section(required=True, checks=[_check_ground_motion], fields={
+            "source": Choice(choices=("file", "synthetic"), required=True, doc="'file' (a record) or 'synthetic'"),
+            "file": Text(doc="record path, relative to the case file"),
+            "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
+            "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
+                            doc="units of the record's values (AT2: read from the header)"),
+            "if_missing": Choice(choices=("error", "synthetic"), default="error",
+                                 doc="what to do when the record file is absent"),
+            "duration": _positive(U.TIME, "window kept from the start of the record, s"),
+            "pga": _positive(U.ACCELERATION, "peak ground acceleration of x after processing, m/s^2"),
+            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0, doc="z = ratio * x (paper: 2/3)"),
+            "cutoff_frequency": _positive(U.FREQUENCY, "content above is removed, Hz", default=20.0),
+            "baseline_correction": Bool(default=True),
+            "convention": Choice(choices=("outcrop", "incident"), default="outcrop",
+                                 doc="outcrop: incident = half the record; incident: the record itself"),
+            "synthetic": gm_synthetic,
+        }),
+        "in_situ": Section(fields={
+            "kx": _positive(U.DIMENSIONLESS, "sigma_x / sigma_z", default=1.1),
+            "ky": _positive(U.DIMENSIONLESS, "sigma_y / sigma_z", default=0.8),
+            "kz": _positive(U.DIMENSIONLESS, "vertical factor", default=1.0),
+            "gravity": _positive(U.ACCELERATION, "m/s^2", default=9.81),
+        }),
+        "stages": Section(checks=[_check_stages], fields={
+            "sequence": ListOf(item=Choice(choices=STAGES), min_length=1, unique=True, default=list(STAGES)),
+            "relaxation_tolerance": Number(min=0.0, min_open=True, max=1.0, default=1e-4,
+                                           doc="dynamic relaxation stops when |unbalanced| / |applied| is below"),
+            "relaxation_max_steps": Number(integer=True, min=1, default=50000),
+        }),
+        "conditions": ListOf(item=Choice(choices=CONDITIONS), min_length=1, unique=True,
+                             default=list(CONDITIONS), doc="which of the paper's conditions to run"),
+        "coupling": Section(fields={
+            "scheme": Choice(choices=("paper", "implicit", "added_mass"), default="implicit"),
+            "window": Number(integer=True, min=1, default=1, doc="solid steps per coupling step"),
+            "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
+            "max_iterations": Number(integer=True, min=1, default=20),
+            "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
+            "transport": Choice(choices=("tcp", "mpi"), default="tcp"),
+            "timeout": _positive(U.TIME, "s; a silent partner for longer stops the run", default=120.0),
+        }),
+        "damping": Section(checks=[_check_damping], fields={
+            "ratio": Number(min=0.0, max=1.0, max_open=True, default=0.05, doc="Rayleigh damping ratio"),
+            "frequencies": Tuple(item=_positive(U.FREQUENCY, "Hz"), default=[1.5, 10.0],
+                                 doc="the two frequencies where the ratio is met, Hz"),
+        }),
+        "time": Section(fields={
+            "dt": Number(dim=U.TIME, min=0.0, min_open=True, doc="solid step, s (default: the stable step x safety)"),
+            "safety_factor": Number(min=0.0, max=1.0, min_open=True, default=0.9),
+            "end_time": _positive(U.TIME, "s (default: the motion's duration)"),
+        }),
+        "output": Section(fields={
+            "directory": Text(default="results", doc="relative to the case file"),
+            "monitors": MapOf(item=Tuple(item=_length(), length=3), default={},
+                              doc="name: [x, y, z] points whose histories are written"),
+            "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
+            "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
+        }),
+        "parallel": Section(fields={
+            "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
+            "fluid_ranks": Number(integer=True, min=1, default=1, doc="MPI ranks of the OpenFOAM side"),
+        }),
+    })
+
+
+@dataclass
+class Case:
+    """A validated case: SI values with defaults filled in."""
+
+    path: Path
+    data: dict
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def dir(self) -> Path:
+        return self.path.parent
+
+    def __getitem__(self, key):
+        return self.data[key]
+
+    @property
+    def output_dir(self) -> Path:
+        return (self.dir / self.data["output"]["directory"]).resolve()
+
+
+def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issue], list[str]]:
+    """Checks across sections, and the ground-motion file itself."""
+    issues: list[Issue] = []
+    warnings: list[str] = []
+    lines = raw.key_lines
+    water, conds = d["water"], d["conditions"]
+    if "dynamic_water" in conds and water["model"] == "incompressible" and water["ends"] == "closed":
+        issues.append(Issue("water.ends", "closed",
+                            "an incompressible fluid in a closed tunnel cannot change volume, so a lining that "
+                            "contracts makes the problem ill-posed", "use ends: open, or model: compressible",
+                            raw["water"].key_lines.get("ends") if "water" in raw else None))
+    if any(c in conds for c in ("static_water", "dynamic_water")) and water["head"] == 0.0:
+        warnings.append("water.head is 0: the static and dynamic water conditions carry no hydrostatic load "
+                        "(paper: 123 m)")
+    g = d["geometry"]
+    (x0, x1), (y0, y1), (z0, z1) = g["x_range"], g["y_range"], g["z_range"]
+    for name, p in (d["output"]["monitors"] or {}).items():
+        if p is None:
+            continue
+        if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1 and z0 <= p[2] <= z1):
+            issues.append(Issue(f"output.monitors.{name}", p, "lies outside the model block",
+                                "give a point inside the block", lines.get("output")))
+    # Mesh resolution for the cut-off frequency (Kuhlemeyer & Lysmer 1973: h <= lambda_min / 8).
+    rock = d["materials"].get("rock")
+    if rock:
+        G = rock["youngs_modulus"] / (2 * (1 + rock["poisson_ratio"]))
+        cs = math.sqrt(G / rock["density"])
+        f = d["ground_motion"]["cutoff_frequency"]
+        h = d["mesh"].get("max_element_size")
+        if h is not None and h > cs / (8 * f):
+            warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}/(8*{f:g}) "
+                            f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
+    # The ground-motion record must exist and parse (unless the case allows the synthetic fallback).
+    gm = d["ground_motion"]
+    if gm["source"] == "file":
+        from .motion import MotionError, read_record, resolve_path
+
+        path = resolve_path(gm["file"], Path(filename).parent)
+        gm_line = raw["ground_motion"].key_lines.get("file") if "ground_motion" in raw else None
+        if not path.is_file():
+            if gm["if_missing"] == "synthetic":
+                warnings.append(f"ground_motion.file {path} is not here: the synthetic motion will be used")
+            else:
+                issues.append(Issue("ground_motion.file", gm["file"], f"file not found ({path})",
+                                    "give the record's path relative to the case file, or set "
+                                    "if_missing: synthetic", gm_line))
+        else:
+            try:
+                read_record(path, gm["format"], gm["units"])
+            except MotionError as e:
+                issues.append(Issue("ground_motion.file", gm["file"], f"cannot be read: {e}",
+                                    "check the format and units keys, or the file itself", gm_line))
+    return issues, warnings
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file. Raises CaseError listing every problem found."""
+    path = Path(path).resolve()
+    name = str(path)
+    if not path.is_file():
+        raise CaseError(name, [Issue("<file>", str(path), "case file not found",
+                                     "give the path of an existing case.yaml")])
+    import yaml
+
+    try:
+        raw = load_yaml(path.read_text())
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
+        line = mark.line + 1 if mark else None
+        problem = getattr(e, "problem", None) or str(e)
+        raise CaseError(name, [Issue("<yaml>", None, f"not valid YAML: {problem}",
+                                     "fix the YAML syntax at that line (indentation, ':' after keys)", line)]) from None
+    if not isinstance(raw, dict):
+        raise CaseError(name, [Issue("<top>", raw, "the case file must be a mapping of sections",
+                                     "start with 'name:', 'geometry:', ... (see cases/example)", 1)])
+    data = validate(schema(), raw, name)
+    issues, warnings = _whole_case_checks(data, raw, name)
+    if issues:
+        raise CaseError(name, issues)
+    return Case(path=path, data=data, warnings=warnings)

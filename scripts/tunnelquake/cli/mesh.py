@@ -1,0 +1,50 @@
+"""tunnelquake mesh: build the all-hex gmsh mesh of the case -> mesh.h5 (rock, lining) + water.msh."""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from .common import load_or_report, parser, say
+
+
+def mesh_dir(case) -> Path:
+    return case.output_dir / "mesh"
+
+
+def _fingerprint(case) -> str:
+    d = {"geometry": case.data["geometry"], "mesh": case.data["mesh"]}
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def make_mesh(case, force: bool = False) -> dict:
+    """Build the mesh unless an up-to-date one (same geometry and mesh keys) is already there."""
+    from ..meshing import build_tunnel_mesh
+
+    out = mesh_dir(case)
+    stamp = out / "fingerprint.json"
+    fp = _fingerprint(case)
+    if not force and stamp.is_file():
+        old = json.loads(stamp.read_text())
+        if old.get("fingerprint") == fp and (out / "mesh.h5").is_file():
+            say(f"mesh: up to date in {out}")
+            return old["summary"]
+    out.mkdir(parents=True, exist_ok=True)
+    say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
+    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out)
+    summary = json.loads(json.dumps(summary, default=str))
+    stamp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
+    for k, v in summary.items():
+        say(f"  {k}: {v}")
+    return summary
+
+
+def main(argv: list[str]) -> int:
+    p = parser("mesh", __doc__)
+    p.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    args = p.parse_args(argv)
+    case = load_or_report(args.case)
+    if case is None:
+        return 1
+    make_mesh(case, force=args.force)
+    return 0

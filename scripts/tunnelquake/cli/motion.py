@@ -1,0 +1,77 @@
+"""tunnelquake motion: read or synthesise the ground motion, process it, write motion.h5 and a figure."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..motion import MotionError, ProcessedMotion, from_case
+from .common import atomic_path, load_or_report, parser, say
+
+
+def write_motion(motion: ProcessedMotion, path: Path) -> None:
+    import h5py
+
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = "tunnelquake-motion"
+        f.attrs["version"] = 1
+        f.attrs["dt"] = motion.dt
+        f.attrs["convention"] = motion.convention
+        f.attrs["source"] = motion.record.source
+        f.attrs["record_name"] = motion.record.name
+        f.attrs["processing"] = "\n".join(motion.steps)
+        f["time"] = motion.time
+        f["incident_ax"] = motion.ax  # m/s^2, incident (up-going) wave at the base
+        f["incident_az"] = motion.az
+        f["record_acc"] = motion.record.acc
+
+
+def plot_motion(motion: ProcessedMotion, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    factor = 2.0 if motion.convention == "outcrop" else 1.0
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    ax.plot(motion.time, factor * motion.ax, lw=0.8, label="x (horizontal)")
+    ax.plot(motion.time, factor * motion.az, lw=0.8, label="z (vertical)", alpha=0.8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("acceleration (m/s$^2$)")
+    ax.set_title(f"Input motion: {motion.record.name}")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+
+
+def make_motion(case) -> tuple[ProcessedMotion, Path]:
+    motion, notes = from_case(case.data["ground_motion"], case.dir)
+    for n in notes:
+        say(f"NOTE: {n}")
+    out = case.output_dir / "motion.h5"
+    write_motion(motion, out)
+    peak = float(np.max(np.abs(motion.ax)))
+    say(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
+        f"incident peak x {peak:.4g} m/s^2 -> {out}")
+    for s in motion.steps:
+        say(f"  - {s}")
+    return motion, out
+
+
+def main(argv: list[str]) -> int:
+    args = parser("motion", __doc__).parse_args(argv)
+    case = load_or_report(args.case)
+    if case is None:
+        return 1
+    try:
+        motion, out = make_motion(case)
+    except MotionError as e:
+        print(f"error: {e}")
+        return 1
+    fig = case.output_dir / "figures" / "fig03_input_motion.png"
+    plot_motion(motion, fig)
+    say(f"figure: {fig}")
+    return 0

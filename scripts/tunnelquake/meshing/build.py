@@ -1,0 +1,291 @@
+"""`build_tunnel_mesh`: gmsh model -> model.msh, the solid mesh.h5 and the water water.msh.
+
+Steps:
+  1. validate the inputs and derive the block divisions (params.resolve);
+  2. build and mesh the structured all-hex gmsh model (gmsh_model.build_model), write model.msh;
+  3. solid: rock + lining hexes, lining nodes on the rock-lining interface duplicated and paired,
+     elements oriented to positive volume, boundary quads named, written as mesh.h5
+     (docs/formats.md);
+  4. water: its hexes and wall/end quads written as gmsh 2.2 ASCII for gmshToFoam;
+  5. quality checks (corner Jacobians > 0, longest edge <= max_element_size) and a summary.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import time
+
+import gmsh
+import h5py
+import numpy as np
+
+from . import hexmesh
+from .gmsh_model import LINING, ROCK, WATER, build_model
+from .params import MeshInputError, MeshPlan, resolve
+
+SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax",
+                    "lining_inner", "rock_hole", "lining_outer")
+WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
+
+#: The paper's element counts (§3.1), for the summary's comparison.
+PAPER_COUNTS = {"rock": 58080, "lining": 6336, "water": 14256}
+
+
+def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict:
+    """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
+
+    geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
+    excavated_radius, lining_thickness (m). mesh: MESH_DEFAULTS keys (missing ones take the
+    default; unknown ones are rejected). Returns a summary dict (see format_summary).
+    Raises MeshInputError for bad input, RuntimeError if a quality check fails.
+    """
+    t0 = time.perf_counter()
+    plan = resolve(geometry, mesh)
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5",
+             "water": out_dir / "water.msh"}
+
+    own_session = not gmsh.isInitialized()
+    if own_session:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        model = build_model(plan, name="tunnelquake")
+        t_gmsh = time.perf_counter() - t0
+        gmsh.option.setNumber("Mesh.SaveAll", 0)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.write(str(files["model"]))
+        coords, hexes = _extract(model["volumes"])
+    finally:
+        if own_session:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+
+    solid = _solid_mesh(plan, coords, hexes)
+    _write_solid(files["solid"], solid, plan.slice)
+    water = _water_mesh(plan, coords, hexes[WATER])
+    _write_gmsh22(files["water"], water)
+
+    h = max(solid["max_edge"], water["max_edge"])
+    if h > plan.max_element_size * (1 + 1e-9):
+        raise RuntimeError(
+            f"longest element edge {h:.4f} m > max_element_size {plan.max_element_size} m; "
+            "refine the mesh (more divisions) or raise max_element_size"
+        )
+    return {
+        "mode": "slice" if plan.slice else "3d",
+        "counts": {
+            ROCK: int((solid["region"] == 0).sum()),
+            LINING: int((solid["region"] == 1).sum()),
+            WATER: len(water["hexes"]),
+            "solid_nodes": len(solid["coords"]),
+            "water_nodes": len(water["coords"]),
+        },
+        "paper_counts": dict(PAPER_COUNTS),
+        "faces": {k: len(v) for k, v in solid["faces"].items()},
+        "water_faces": {k: len(v) for k, v in water["faces"].items()},
+        "interface_pairs": len(solid["pairs"]),
+        "max_element_size": h,
+        "max_element_size_limit": plan.max_element_size,
+        "min_jacobian": min(solid["min_detj"], water["min_detj"]),
+        "min_scaled_jacobian": {ROCK: solid["min_scaled"][0], LINING: solid["min_scaled"][1],
+                                WATER: water["min_scaled"]},
+        "y_extent": [plan.ymin, plan.ymax],
+        "divisions": _divisions(plan),
+        "files": {k: str(v) for k, v in files.items()},
+        "time_s": {"gmsh": t_gmsh, "total": time.perf_counter() - t0},
+    }
+
+
+def format_summary(s: dict) -> str:
+    """Human-readable lines of a build_tunnel_mesh summary (what `tunnelquake mesh` prints)."""
+    c = s["counts"]
+    lines = [f"mesh mode: {s['mode']}  (y {s['y_extent'][0]:g} .. {s['y_extent'][1]:g} m)"]
+    for region in (ROCK, LINING, WATER):
+        paper = s["paper_counts"][region]
+        note = "" if s["mode"] != "3d" else f"  (paper {paper}, {100 * (c[region] / paper - 1):+.1f} %)"
+        lines.append(f"  {region:7s} hexahedra: {c[region]:7d}{note}")
+    lines += [
+        f"  solid nodes {c['solid_nodes']}, water nodes {c['water_nodes']}",
+        f"  rock-lining node pairs: {s['interface_pairs']}",
+        f"  longest edge: {s['max_element_size']:.3f} m (limit {s['max_element_size_limit']:g} m)",
+        f"  min corner det J: {s['min_jacobian']:.4g} m^3; min scaled Jacobian: "
+        + ", ".join(f"{k} {v:.3f}" for k, v in s["min_scaled_jacobian"].items()),
+        f"  built in {s['time_s']['total']:.2f} s (gmsh {s['time_s']['gmsh']:.2f} s)",
+    ]
+    lines += [f"  wrote {v}" for v in s["files"].values()]
+    return "\n".join(lines)
+
+
+def _divisions(p: MeshPlan) -> dict:
+    return {
+        "around": 4 * p.quarter.count, "lining_through": p.lining.count,
+        "water_ring": p.water_ring.count, "water_core": p.quarter.count,
+        "near_field_radial": p.near_field.count, "left": p.left.count, "right": p.right.count,
+        "bottom": p.bottom.count, "top": p.top.count, "axial": p.axial.count,
+    }
+
+
+def _extract(volumes: dict) -> tuple[np.ndarray, dict]:
+    """All node coordinates (indexed by gmsh node tag) and the hex connectivity per region."""
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    coords = np.full((int(tags.max()) + 1, 3), np.nan)
+    coords[tags.astype(np.int64)] = xyz.reshape(-1, 3)
+    hexes = {}
+    for region, vols in volumes.items():
+        blocks = []
+        for v in vols:
+            types, _, nodes = gmsh.model.mesh.getElements(3, v)
+            if list(types) != [5]:
+                raise RuntimeError(f"gmsh volume {v} ({region}) has non-hex elements {list(types)}")
+            blocks.append(np.asarray(nodes[0], dtype=np.int64).reshape(-1, 8))
+        hexes[region] = np.concatenate(blocks)
+    return coords, hexes
+
+
+def _radius(plan: MeshPlan, x: np.ndarray) -> np.ndarray:
+    return np.hypot(x[..., 0] - plan.xc, x[..., 2] - plan.zc)
+
+
+def _tolerance(plan: MeshPlan) -> float:
+    return 1e-6 * max(plan.xmax - plan.xmin, plan.zmax - plan.zmin)
+
+
+def _quality(conn: np.ndarray, coords: np.ndarray, what: str) -> tuple[float, float, float]:
+    detj, scaled = hexmesh.corner_jacobians(coords[conn])
+    if (detj <= 0).any():
+        bad = int((detj <= 0).any(axis=1).sum())
+        raise RuntimeError(f"{what}: {bad} hexahedra have a non-positive corner Jacobian")
+    return float(detj.min()), float(scaled.min()), hexmesh.max_edge_length(coords[conn])
+
+
+def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
+    """Rock + lining with the interface nodes duplicated: the lining gets its own copies."""
+    rock, lining = hexes[ROCK], hexes[LINING]
+    shared = np.intersect1d(rock, lining)  # gmsh tags on the rock-lining interface
+    used = np.union1d(rock, lining)
+    index = np.full(len(gcoords), -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+    dup = np.full(len(gcoords), -1, dtype=np.int64)
+    dup[shared] = len(used) + np.arange(len(shared))
+    coords = np.concatenate([gcoords[used], gcoords[shared]])
+
+    rock_c = index[rock]
+    lining_c = np.where(dup[lining] >= 0, dup[lining], index[lining])
+    conn = np.concatenate([rock_c, lining_c])
+    conn = hexmesh.orient_positive(conn, coords)
+    region = np.concatenate([np.zeros(len(rock), np.int32), np.ones(len(lining), np.int32)])
+    pairs = np.stack([index[shared], dup[shared]], axis=1)
+
+    nr = len(rock)
+    q_rock = _quality(conn[:nr], coords, "rock")
+    q_lining = _quality(conn[nr:], coords, "lining")
+
+    faces, owner = hexmesh.boundary_faces(conn)
+    groups = _classify_solid_faces(plan, coords, faces, region[owner])
+    return {
+        "coords": coords, "conn": conn, "region": region, "pairs": pairs, "faces": groups,
+        "min_detj": min(q_rock[0], q_lining[0]), "min_scaled": (q_rock[1], q_lining[1]),
+        "max_edge": max(q_rock[2], q_lining[2]),
+    }
+
+
+def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
+    """Masks of faces whose 4 nodes all lie on one of the block's six planes."""
+    tol = _tolerance(plan)
+    planes = {
+        "bottom": (2, plan.zmin), "top": (2, plan.zmax), "xmin": (0, plan.xmin),
+        "xmax": (0, plan.xmax), "ymin": (1, plan.ymin), "ymax": (1, plan.ymax),
+    }
+    return {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
+
+
+def _classify_solid_faces(plan, coords, faces, owner_region) -> dict:
+    fx = coords[faces]
+    tol = _tolerance(plan)
+    r = _radius(plan, fx)
+    masks = _plane_faces(plan, fx)
+    on_a = (np.abs(r - plan.radius_inner) < tol).all(axis=1)
+    on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
+    masks["lining_inner"] = on_a & (owner_region == 1)
+    masks["lining_outer"] = on_b & (owner_region == 1)
+    masks["rock_hole"] = on_b & (owner_region == 0)
+    hits = np.sum([m for m in masks.values()], axis=0)
+    if (hits != 1).any():
+        raise RuntimeError(
+            f"{int((hits == 0).sum())} solid boundary faces are on no named boundary and "
+            f"{int((hits > 1).sum())} on several"
+        )
+    return {name: faces[masks[name]].astype(np.int32) for name in SOLID_FACE_NAMES}
+
+
+def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
+    used = np.unique(water)
+    index = np.full(len(gcoords), -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+    coords = gcoords[used]
+    conn = hexmesh.orient_positive(index[water], coords)
+    min_detj, min_scaled, max_edge = _quality(conn, coords, "water")
+    faces, _ = hexmesh.boundary_faces(conn)
+    fx = coords[faces]
+    planes = _plane_faces(plan, fx)
+    tol = _tolerance(plan)
+    masks = {
+        "interface": (np.abs(_radius(plan, fx) - plan.radius_inner) < tol).all(axis=1),
+        "end_ymin": planes["ymin"],
+        "end_ymax": planes["ymax"],
+    }
+    hits = np.sum(list(masks.values()), axis=0)
+    if (hits != 1).any():
+        raise RuntimeError("water boundary faces not all on the interface or the axial ends")
+    return {
+        "coords": coords, "hexes": conn,
+        "faces": {k: faces[m] for k, m in masks.items()},
+        "min_detj": min_detj, "min_scaled": min_scaled, "max_edge": max_edge,
+    }
+
+
+def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool) -> None:
+    """mesh.h5 exactly as docs/formats.md describes."""
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = "tunnelquake-solid-mesh"
+        f.attrs["version"] = np.int64(1)
+        f.attrs["slice"] = np.int64(1 if slice_mode else 0)
+        f.create_dataset("nodes/coordinates", data=s["coords"].astype(np.float64))
+        el = f.create_group("elements")
+        el.create_dataset("connectivity", data=s["conn"].astype(np.int32))
+        el.create_dataset("region", data=s["region"].astype(np.int32))
+        el.attrs["regions"] = np.array([ROCK, LINING], dtype=h5py.string_dtype())
+        for name in SOLID_FACE_NAMES:
+            f.create_dataset(f"faces/{name}", data=s["faces"][name].astype(np.int32).reshape(-1, 4))
+        f.create_dataset("interfaces/rock_lining", data=s["pairs"].astype(np.int32))
+
+
+def _write_gmsh22(path: pathlib.Path, w: dict) -> None:
+    """The water mesh as gmsh 2.2 ASCII (gmshToFoam): physical groups water, interface,
+    end_ymin, end_ymax; quads ordered counter-clockwise seen from outside the water.
+    Coordinates are written with repr(), which round-trips doubles exactly, so interface points
+    coincide bit for bit with the solid's lining_inner nodes.
+    """
+    tags = {"water": 1, "interface": 2, "end_ymin": 3, "end_ymax": 4}
+    out = ["$MeshFormat", "2.2 0 8", "$EndMeshFormat", "$PhysicalNames", str(len(tags))]
+    out += [f'{3 if n == "water" else 2} {t} "{n}"' for n, t in tags.items()]
+    out += ["$EndPhysicalNames", "$Nodes", str(len(w["coords"]))]
+    out += [f"{i + 1} {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(w["coords"].tolist())]
+    out.append("$EndNodes")
+    rows = []
+    for name in ("interface", "end_ymin", "end_ymax"):
+        t = tags[name]
+        rows += [f"3 2 {t} {t} " + " ".join(map(str, q)) for q in (w["faces"][name] + 1).tolist()]
+    rows += ["5 2 1 1 " + " ".join(map(str, h)) for h in (w["hexes"] + 1).tolist()]
+    out += ["$Elements", str(len(rows))]
+    out += [f"{i + 1} {r}" for i, r in enumerate(rows)]
+    out.append("$EndElements")
+    path.write_text("\n".join(out) + "\n")
+
+
+__all__ = ["build_tunnel_mesh", "format_summary", "MeshInputError"]

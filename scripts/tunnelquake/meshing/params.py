@@ -1,0 +1,335 @@
+"""Mesh parameters: defaults, documentation, validation and the derived division counts.
+
+The case file's ``mesh:`` section accepts exactly the keys of :data:`MESH_DEFAULTS`; each key's
+meaning and unit is in :data:`MESH_DOC`. :func:`resolve` checks a geometry and a mesh dict and
+turns them into a :class:`MeshPlan`, the numbers the gmsh builder needs (division counts per
+block, progression ratios, the axial extent), so the builder itself makes no decisions.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+#: Every mesh parameter with its default. The defaults reproduce the paper's mesh (Liu, Zhang &
+#: Xiao 2021, §3.1): 58,080 rock and 6,336 lining hexahedra exactly, 14,784 water hexahedra
+#: (paper 14,256: a conforming water mesh with 48 cells around cannot reach 324 cells a layer).
+MESH_DEFAULTS: dict = {
+    "mode": "3d",
+    "max_element_size": 6.75,
+    "lining_elements_around": 48,
+    "lining_elements_through": 3,
+    "elements_along_axis": 44,
+    "slice_thickness": None,
+    "water_core_half_width_ratio": 0.5,
+    "water_ring_divisions": 4,
+    "water_ring_growth": 1.0,
+    "near_field_half_width": 14.0,
+    "near_field_radial_divisions": 11,
+    "near_field_growth": 1.1,
+    "outer_growth": 1.0,
+    "refinement_factor": 1,
+}
+
+#: One line per key of MESH_DEFAULTS: meaning and unit.
+MESH_DOC: dict = {
+    "mode": "'3d': the full model extruded along y; 'slice': the same cross-section one element "
+    "thick in y (plane strain, one-cell-thick 2D water)",
+    "max_element_size": "m; upper bound on every element edge (rock, lining, water); the build "
+    "fails if any edge is longer. Paper: 6.75 m = cs/(8 f) with cs = 1080 m/s, f = 20 Hz",
+    "lining_elements_around": "elements around the circumference (lining, rock ring and water); "
+    "a multiple of 4 (one O-grid block per quarter)",
+    "lining_elements_through": "elements through the lining thickness",
+    "elements_along_axis": "elements along the tunnel axis y (3d mode), uniform",
+    "slice_thickness": "m; y-thickness of the slice (slice mode); null = the 3d axial element "
+    "length (y extent / elements_along_axis). The slice is centred on the middle of y_range",
+    "water_core_half_width_ratio": "half-side of the square water core / lining inner radius "
+    "(dimensionless, 0.2-0.65); the core is meshed (around/4) x (around/4)",
+    "water_ring_divisions": "radial cells between the water core square and the lining",
+    "water_ring_growth": "ratio of consecutive radial cell sizes in the water ring, from the core "
+    "to the wall (1 = uniform, < 1 refines towards the wall)",
+    "near_field_half_width": "m; half-side of the square box around the tunnel centre that "
+    "bounds the rock O-grid ring; outside it the rock is a 3 x 3 block grid",
+    "near_field_radial_divisions": "radial elements in the rock ring between the lining and the "
+    "near-field box",
+    "near_field_growth": "ratio of consecutive radial element sizes in the rock ring, away from "
+    "the tunnel (1 = uniform)",
+    "outer_growth": "ratio of consecutive element sizes in the outer rock blocks, away from the "
+    "near-field box (1 = uniform); their division counts are the smallest that keep every edge "
+    "<= max_element_size",
+    "refinement_factor": "integer >= 1 multiplying every division count (convergence studies); "
+    "growth ratios are adjusted so the grading stays the same",
+}
+
+GEOMETRY_KEYS = (
+    "x_range",
+    "y_range",
+    "z_range",
+    "tunnel_centre_x",
+    "tunnel_centre_z",
+    "excavated_radius",
+    "lining_thickness",
+)
+
+#: The paper's geometry (§3.1), for tests and examples.
+PAPER_GEOMETRY: dict = {
+    "x_range": [-60.0, 60.0],
+    "y_range": [0.0, 80.0],
+    "z_range": [-28.0, 154.7],
+    "tunnel_centre_x": 0.0,
+    "tunnel_centre_z": 32.0,
+    "excavated_radius": 5.25,
+    "lining_thickness": 0.75,
+}
+
+
+class MeshInputError(ValueError):
+    """A geometry or mesh parameter is invalid; the message names the key, value and fix."""
+
+
+@dataclass(frozen=True)
+class Divisions:
+    """Element count and progression ratio along one family of block edges."""
+
+    count: int
+    growth: float = 1.0  # ratio of consecutive sizes along the edge's stored direction
+
+
+@dataclass(frozen=True)
+class MeshPlan:
+    """Everything the builder needs, derived and checked."""
+
+    # geometry (m)
+    xmin: float
+    xmax: float
+    ymin: float
+    ymax: float
+    zmin: float
+    zmax: float
+    xc: float
+    zc: float
+    radius_inner: float  # lining inner radius a = excavated radius - lining thickness
+    radius_outer: float  # excavated radius b
+    core_half_width: float  # half-side of the water core square
+    box_half_width: float  # half-side of the near-field box
+    slice: bool
+    max_element_size: float
+    # divisions
+    quarter: Divisions  # per quarter of the circumference (= per side of every square)
+    lining: Divisions
+    water_ring: Divisions
+    near_field: Divisions
+    left: Divisions  # outer columns/rows, counted away from the near-field box
+    right: Divisions
+    bottom: Divisions
+    top: Divisions
+    axial: Divisions
+
+
+def _fail(where: str, key: str, value, why: str, fix: str):
+    raise MeshInputError(f"{where} '{key}' = {value!r}: {why}. {fix}")
+
+
+def _number(where, d, key, positive=True):
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        _fail(where, key, v, "must be a finite number", "Give a value in SI units (m).")
+    if positive and v <= 0:
+        _fail(where, key, v, "must be > 0", "Give a positive value.")
+    return float(v)
+
+
+def _integer(where, d, key, minimum=1):
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
+        _fail(where, key, v, f"must be an integer >= {minimum}", "Give a whole number.")
+    return v
+
+
+def _range(where, d, key):
+    v = d[key]
+    ok = isinstance(v, (list, tuple)) and len(v) == 2
+    ok = ok and all(isinstance(t, (int, float)) and not isinstance(t, bool) for t in v)
+    if not ok or not all(math.isfinite(t) for t in v) or not v[0] < v[1]:
+        _fail(where, key, v, "must be [min, max] with min < max", "Give two numbers in m.")
+    return float(v[0]), float(v[1])
+
+
+def _check_keys(where: str, given: dict, allowed) -> None:
+    unknown = sorted(set(given) - set(allowed))
+    if unknown:
+        raise MeshInputError(
+            f"{where}: unknown key(s) {unknown}. Allowed keys: {sorted(allowed)}."
+        )
+
+
+def graded_count(length: float, max_size: float, growth: float) -> int:
+    """Smallest n whose geometric division of ``length`` (ratio ``growth``) has all sizes <= max.
+
+    Sizes h_i = h_1 g^i, i = 0..n-1, sum = length, so the largest is
+    length g^(n-1) (g-1) / (g^n - 1) (length / n for g = 1).
+    """
+    n = 1
+    while True:
+        if abs(growth - 1.0) < 1e-12:
+            largest = length / n
+        else:
+            g = max(growth, 1.0 / growth)
+            largest = length * g ** (n - 1) * (g - 1.0) / (g**n - 1.0)
+        if largest <= max_size * (1.0 + 1e-9):
+            return n
+        n += 1
+        if n > 100000:
+            raise MeshInputError(
+                f"cannot divide {length} m into elements <= {max_size} m with growth {growth}"
+            )
+
+
+def graded_sizes(length: float, div: Divisions) -> list[float]:
+    """Element sizes of an edge of ``length`` divided as ``div``, in the stored direction."""
+    g, n = div.growth, div.count
+    if abs(g - 1.0) < 1e-12:
+        return [length / n] * n
+    h1 = length * (g - 1.0) / (g**n - 1.0)
+    return [h1 * g**i for i in range(n)]
+
+
+def merged_mesh_params(mesh: dict | None) -> dict:
+    """MESH_DEFAULTS updated by ``mesh``, rejecting unknown keys."""
+    mesh = dict(mesh or {})
+    _check_keys("mesh", mesh, MESH_DEFAULTS)
+    out = dict(MESH_DEFAULTS)
+    out.update(mesh)
+    return out
+
+
+def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
+    """Validate ``geometry`` and ``mesh`` (MESH_DEFAULTS keys) and derive the block divisions."""
+    _check_keys("geometry", geometry, GEOMETRY_KEYS)
+    missing = [k for k in GEOMETRY_KEYS if k not in geometry]
+    if missing:
+        raise MeshInputError(f"geometry: missing key(s) {missing}.")
+    m = merged_mesh_params(mesh)
+    g = "geometry"
+    xmin, xmax = _range(g, geometry, "x_range")
+    ymin, ymax = _range(g, geometry, "y_range")
+    zmin, zmax = _range(g, geometry, "z_range")
+    xc = _number(g, geometry, "tunnel_centre_x", positive=False)
+    zc = _number(g, geometry, "tunnel_centre_z", positive=False)
+    b = _number(g, geometry, "excavated_radius")
+    t = _number(g, geometry, "lining_thickness")
+    if t >= b:
+        _fail(g, "lining_thickness", t, f"must be smaller than the excavated radius {b} m",
+              "Check the units (m).")
+    a = b - t
+
+    w = "mesh"
+    if m["mode"] not in ("3d", "slice"):
+        _fail(w, "mode", m["mode"], "must be '3d' or 'slice'", "Pick one of the two.")
+    hmax = _number(w, m, "max_element_size")
+    k = _integer(w, m, "refinement_factor")
+    around = _integer(w, m, "lining_elements_around", 4)
+    if around % 4:
+        _fail(w, "lining_elements_around", around, "must be a multiple of 4 (one O-grid block "
+              "per quarter)", f"Use {4 * round(around / 4) or 4}.")
+    through = _integer(w, m, "lining_elements_through")
+    along = _integer(w, m, "elements_along_axis")
+    n_water = _integer(w, m, "water_ring_divisions")
+    n_near = _integer(w, m, "near_field_radial_divisions")
+    ratio = _number(w, m, "water_core_half_width_ratio")
+    if not 0.2 <= ratio <= 0.65:
+        _fail(w, "water_core_half_width_ratio", ratio, "must lie in [0.2, 0.65] (the core square "
+              "must stay well inside the lining)", "0.5 is a good value.")
+    growths = {}
+    for key in ("water_ring_growth", "near_field_growth", "outer_growth"):
+        v = _number(w, m, key)
+        if not 0.5 <= v <= 2.0:
+            _fail(w, key, v, "must lie in [0.5, 2]", "Use 1 for uniform sizes.")
+        growths[key] = v ** (1.0 / k)  # same grading with k times more elements
+    L = _number(w, m, "near_field_half_width")
+    if L <= b * 1.2:
+        _fail(w, "near_field_half_width", L, f"must exceed 1.2 x the excavated radius ({1.2 * b:.3f}"
+              " m) to leave room for the rock ring", "Increase it.")
+    for name, inside in (
+        ("x_range[0]", xmin < xc - L),
+        ("x_range[1]", xc + L < xmax),
+        ("z_range[0]", zmin < zc - L),
+        ("z_range[1]", zc + L < zmax),
+    ):
+        if not inside:
+            _fail(w, "near_field_half_width", L, f"the near-field box around the tunnel "
+                  f"(centre x={xc}, z={zc}) reaches beyond geometry {name}",
+                  "Reduce near_field_half_width or enlarge the block.")
+
+    slice_mode = m["mode"] == "slice"
+    if slice_mode:
+        if m["slice_thickness"] is None:
+            thick = (ymax - ymin) / (along * k)
+        else:
+            thick = _number(w, m, "slice_thickness")
+        ymid = 0.5 * (ymin + ymax)
+        ymin, ymax = ymid - 0.5 * thick, ymid + 0.5 * thick
+        axial = Divisions(1)
+    else:
+        axial = Divisions(along * k)
+
+    def outer(length):
+        return Divisions(graded_count(length, hmax, growths["outer_growth"]) * k,
+                         growths["outer_growth"])
+
+    plan = MeshPlan(
+        xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, zmin=zmin, zmax=zmax, xc=xc, zc=zc,
+        radius_inner=a, radius_outer=b, core_half_width=ratio * a, box_half_width=L,
+        slice=slice_mode, max_element_size=hmax,
+        quarter=Divisions(around // 4 * k),
+        lining=Divisions(through * k),
+        water_ring=Divisions(n_water * k, growths["water_ring_growth"]),
+        near_field=Divisions(n_near * k, growths["near_field_growth"]),
+        left=outer(xc - L - xmin), right=outer(xmax - xc - L),
+        bottom=outer(zc - L - zmin), top=outer(zmax - zc - L),
+        axial=axial,
+    )
+    _check_sizes(plan)
+    return plan
+
+
+def _check_sizes(p: MeshPlan) -> None:
+    """Fail early, naming the key to change, when a structured edge family is too coarse."""
+    h = p.max_element_size
+    checks = [
+        ("near_field_half_width / lining_elements_around",
+         2 * p.box_half_width / p.quarter.count, "the near-field box side spacing"),
+        ("near_field_radial_divisions / near_field_growth",
+         max(graded_sizes(math.sqrt(2) * p.box_half_width - p.radius_outer, p.near_field)),
+         "the largest radial element of the rock ring (on its diagonal)"),
+        ("elements_along_axis" if not p.slice else "slice_thickness",
+         (p.ymax - p.ymin) / p.axial.count, "the axial element length"),
+    ]
+    for keys, size, what in checks:
+        if size > h * (1 + 1e-9):
+            raise MeshInputError(
+                f"mesh: {what} is {size:.4g} m > max_element_size {h} m. Change {keys}."
+            )
+
+
+def check_element_size(max_size: float, shear_velocity: float, cutoff_hz: float) -> str | None:
+    """Warning text when ``max_size`` exceeds lambda_min / 8 = cs / (8 f), else None.
+
+    Kuhlemeyer & Lysmer (1973): an element should be at most 1/8 to 1/12 of the shortest
+    wavelength carried, lambda_min = cs / f_max with the slowest (shear) velocity cs (m/s) and the
+    input's cut-off frequency f_max (Hz). The paper: cs ~ 1080 m/s, 20 Hz -> 6.75 m.
+    """
+    if shear_velocity <= 0 or cutoff_hz <= 0:
+        raise ValueError(
+            f"check_element_size: shear_velocity ({shear_velocity} m/s) and cutoff_hz "
+            f"({cutoff_hz} Hz) must be > 0"
+        )
+    limit = shear_velocity / (8.0 * cutoff_hz)
+    if max_size > limit * (1.0 + 1e-9):
+        return (
+            f"element size {max_size:.3f} m exceeds lambda_min/8 = cs/(8 f) = "
+            f"{shear_velocity:g}/(8 x {cutoff_hz:g}) = {limit:.3f} m: waves up to {cutoff_hz:g} Hz "
+            f"are not resolved (8 elements per shortest wavelength). Reduce mesh.max_element_size "
+            f"to {limit:.3f} m or lower the cut-off frequency."
+        )
+    return None

@@ -1,0 +1,337 @@
+"""Ground motions: read records, generate a synthetic one, and process them for input.
+
+Readers
+  * PEER AT2 (old 'NPTS=  1559, DT= .02000 SEC' and NGA-West2 'NPTS=  4000, DT=   0.0100 SEC'
+    headers, whitespace- or fixed-width-separated values; the units come from the header);
+  * plain two-column text (time, acceleration), '#' comments allowed, units given by the caller.
+
+Synthetic motion (used when no record is available; seeded, so repeatable)
+  Kanai–Tajimi filtered white noise (Tajimi 1960) under a Jennings et al. (1968) envelope:
+  a white-noise ground excitation w(t) drives the soil filter
+      x'' + 2 ξg ωg x' + ωg² x = −w(t),   a(t) = −(2 ξg ωg x' + ωg² x),
+  and the result is multiplied by e(t) = (t/t1)² for t < t1, 1 for t1 ≤ t ≤ t2,
+  exp(−c (t − t2)) after. Defaults: ωg = 2π·2.5 rad/s, ξg = 0.6 (firm ground; Tajimi's values
+  for a site like El Centro), t1 = 1.5 s, t2 = 7 s, c = 0.35 1/s, dt = 0.01 s.
+
+Processing (in this order, as the paper: 20 s window, > 20 Hz removed, PGA 1.575 m/s²)
+  1. truncate to the window [0, duration];
+  2. low-pass: zero-phase 4th-order Butterworth (forward–backward, so no phase shift) at the
+     cut-off, when the cut-off is below the record's Nyquist frequency;
+  3. baseline correction: remove the mean of the first 0.5 s, then subtract the second derivative
+     of the least-squares polynomial a2 t² + a3 t³ fitted to the integrated displacement, so the
+     corrected record ends with near-zero velocity and no drift (Boore 2005 style, initial
+     conditions kept at rest);
+  4. scale x to the target PGA; z = vertical_ratio × x (paper: 2/3);
+  5. convention: an 'outcrop' record is twice the incident wave at the base of a half-space, so
+     the incident (up-going) motion is half of it; 'incident' takes the record as the incident
+     wave itself.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .units import STANDARD_GRAVITY
+
+
+class MotionError(ValueError):
+    """A record that cannot be read; the message names the file, the line and the problem."""
+
+
+@dataclass
+class Record:
+    """An acceleration time history in m/s², sampled uniformly from t = 0."""
+
+    dt: float
+    acc: np.ndarray  # m/s^2
+    name: str = ""
+    units_note: str = ""
+    source: str = ""  # file path or 'synthetic(...)'
+
+    @property
+    def npts(self) -> int:
+        return int(self.acc.size)
+
+    @property
+    def time(self) -> np.ndarray:
+        return np.arange(self.acc.size) * self.dt
+
+    def peak(self) -> tuple[float, float]:
+        """(signed peak value in m/s², its time in s)."""
+        i = int(np.argmax(np.abs(self.acc)))
+        return float(self.acc[i]), i * self.dt
+
+
+_UNIT_FACTORS = {"g": STANDARD_GRAVITY, "m/s^2": 1.0, "cm/s^2": 0.01, "gal": 0.01}
+_NPTS_DT = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([-+0-9.Ee]+)", re.I)
+_NPTS_DT_NGA = re.compile(r"^\s*(\d+)\s+([0-9.Ee+-]+)\s+NPTS\s*,\s*DT", re.I)
+
+
+def _units_from_header(header: list[str]) -> str | None:
+    text = " ".join(header).upper()
+    if re.search(r"UNITS? (OF|ARE)?\s*\(?G\)?\b", text) or "(G)" in text:
+        return "g"
+    if "CM/S" in text or "CM/SEC" in text or "GAL" in text:
+        return "cm/s^2"
+    return None
+
+
+def read_at2(path: str | Path, units: str | None = None) -> Record:
+    """Read a PEER AT2 acceleration record. ``units`` overrides what the header says."""
+    path = Path(path)
+    try:
+        lines = path.read_text(errors="replace").splitlines()
+    except OSError as e:
+        raise MotionError(f"{path}: cannot read the record ({e.strerror})") from e
+    if len(lines) < 5:
+        raise MotionError(f"{path}: an AT2 file has 4 header lines and data; this one has {len(lines)} lines")
+    header = lines[:4]
+    npts = dt = None
+    for ln in header:
+        m = _NPTS_DT.search(ln) or _NPTS_DT_NGA.search(ln)
+        if m:
+            npts, dt = int(m.group(1)), float(m.group(2))
+    if npts is None:
+        raise MotionError(f"{path}:4: no 'NPTS=..., DT=...' in the AT2 header (line 4 is {header[3]!r})")
+    if not dt > 0:
+        raise MotionError(f"{path}:4: time step DT={dt} must be positive")
+    unit = units or _units_from_header(header)
+    if unit is None:
+        raise MotionError(f"{path}: the header does not state the units; give them (ground_motion.units)")
+    if unit not in _UNIT_FACTORS:
+        raise MotionError(f"{path}: unknown units '{unit}' (use one of {', '.join(_UNIT_FACTORS)})")
+    values: list[float] = []
+    for k, ln in enumerate(lines[4:], start=5):
+        if not ln.strip():
+            continue
+        try:
+            values.extend(float(v) for v in ln.split())
+        except ValueError:
+            # fixed-width columns that run together (e.g. 8F10.5 with large negative values)
+            try:
+                values.extend(float(ln[i:i + 10]) for i in range(0, len(ln.rstrip()), 10))
+            except ValueError as e:
+                raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+    if len(values) < npts:
+        raise MotionError(f"{path}: header says NPTS={npts} but the file holds {len(values)} values")
+    acc = np.asarray(values[:npts]) * _UNIT_FACTORS[unit]
+    if not np.all(np.isfinite(acc)):
+        raise MotionError(f"{path}: the record contains non-finite values")
+    # Old-style files name the record on line 1; PEER's own files on line 2.
+    name = (header[1] if header[0].upper().startswith("PEER") else header[0]).strip() or path.stem
+    return Record(dt=dt, acc=acc, name=name, units_note=unit, source=str(path))
+
+
+def read_two_column(path: str | Path, units: str = "g") -> Record:
+    """Read 'time acceleration' rows (uniform time step required)."""
+    path = Path(path)
+    if units not in _UNIT_FACTORS:
+        raise MotionError(f"{path}: unknown units '{units}' (use one of {', '.join(_UNIT_FACTORS)})")
+    t, a = [], []
+    try:
+        text = path.read_text(errors="replace")
+    except OSError as e:
+        raise MotionError(f"{path}: cannot read the record ({e.strerror})") from e
+    for k, ln in enumerate(text.splitlines(), start=1):
+        s = ln.split("#", 1)[0].replace(",", " ").split()
+        if not s:
+            continue
+        if len(s) != 2:
+            raise MotionError(f"{path}:{k}: expected two columns (time, acceleration), got {len(s)}")
+        try:
+            t.append(float(s[0]))
+            a.append(float(s[1]))
+        except ValueError as e:
+            raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+    if len(t) < 2:
+        raise MotionError(f"{path}: needs at least two rows of (time, acceleration)")
+    tt = np.asarray(t)
+    steps = np.diff(tt)
+    dt = float(np.median(steps))
+    if dt <= 0 or np.max(np.abs(steps - dt)) > 1e-6 * max(dt, 1e-12) + 1e-9:
+        k = int(np.argmax(np.abs(steps - dt))) + 2
+        raise MotionError(f"{path}: time step is not uniform (near data row {k}); resample the record")
+    acc = np.asarray(a) * _UNIT_FACTORS[units]
+    return Record(dt=dt, acc=acc, name=path.stem, units_note=units, source=str(path))
+
+
+def read_record(path: str | Path, fmt: str = "auto", units: str | None = None) -> Record:
+    """Read a record in 'at2' or 'two_column' format ('auto' looks at the 4th line)."""
+    path = Path(path)
+    if not path.is_file():
+        raise MotionError(f"{path}: file not found")
+    if fmt == "auto":
+        head = path.read_text(errors="replace").splitlines()[:4]
+        fmt = "at2" if path.suffix.lower() == ".at2" or any(_NPTS_DT.search(h) for h in head) else "two_column"
+    if fmt == "at2":
+        return read_at2(path, units)
+    if fmt == "two_column":
+        return read_two_column(path, units or "g")
+    raise MotionError(f"unknown record format '{fmt}' (use auto, at2 or two_column)")
+
+
+# --------------------------------------------------------------------------------------------
+# Synthetic motion
+# --------------------------------------------------------------------------------------------
+@dataclass
+class SyntheticModel:
+    """Kanai–Tajimi filtered white noise with a Jennings envelope (see the module docstring)."""
+
+    seed: int = 1940
+    duration: float = 20.0  # s
+    dt: float = 0.01  # s
+    ground_frequency: float = 2.5  # Hz, ωg/2π
+    ground_damping: float = 0.6  # ξg
+    rise_time: float = 1.5  # s, t1
+    strong_end: float = 7.0  # s, t2
+    decay: float = 0.35  # 1/s, c
+
+    def generate(self) -> Record:
+        rng = np.random.default_rng(self.seed)
+        n = int(round(self.duration / self.dt)) + 1
+        w = rng.standard_normal(n)
+        wg, xg = 2 * np.pi * self.ground_frequency, self.ground_damping
+        # Exact discrete response of the filter to piecewise-linear forcing is overkill here:
+        # integrate with a fine sub-step (RK4, 10 sub-steps) for a smooth, stable filter.
+        x = v = 0.0
+        out = np.empty(n)
+        h = self.dt / 10
+
+        def f(x_, v_, w_):
+            return v_, -w_ - 2 * xg * wg * v_ - wg * wg * x_
+
+        for i in range(n):
+            out[i] = -(2 * xg * wg * v + wg * wg * x)
+            wi = w[i]
+            for _ in range(10):
+                k1 = f(x, v, wi)
+                k2 = f(x + h / 2 * k1[0], v + h / 2 * k1[1], wi)
+                k3 = f(x + h / 2 * k2[0], v + h / 2 * k2[1], wi)
+                k4 = f(x + h * k3[0], v + h * k3[1], wi)
+                x += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+                v += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        t = np.arange(n) * self.dt
+        env = np.where(t < self.rise_time, (t / self.rise_time) ** 2,
+                       np.where(t <= self.strong_end, 1.0, np.exp(-self.decay * (t - self.strong_end))))
+        acc = out * env
+        acc /= np.max(np.abs(acc))  # unit peak; processing scales it to the target PGA
+        return Record(dt=self.dt, acc=acc, name=f"synthetic Kanai-Tajimi seed {self.seed}",
+                      units_note="m/s^2", source=f"synthetic(seed={self.seed})")
+
+
+# --------------------------------------------------------------------------------------------
+# Processing
+# --------------------------------------------------------------------------------------------
+def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass; unchanged when the cut-off is at or above Nyquist."""
+    from scipy.signal import butter, sosfiltfilt
+
+    nyq = 0.5 / dt
+    if cutoff >= nyq:
+        return acc.copy()
+    sos = butter(order, cutoff / nyq, btype="low", output="sos")
+    return sosfiltfilt(sos, acc)
+
+
+def integrate(acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and displacement by the trapezoidal rule (linear acceleration within a step)."""
+    vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * dt)])
+    disp = np.concatenate([[0.0], np.cumsum(vel[:-1] * dt + (acc[:-1] / 3 + acc[1:] / 6) * dt * dt)])
+    return vel, disp
+
+
+def baseline_correct(acc: np.ndarray, dt: float, pre_event: float = 0.5) -> np.ndarray:
+    """Remove the pre-event mean and a fitted a2 t² + a3 t³ displacement drift."""
+    n0 = max(1, int(round(pre_event / dt)))
+    a = acc - np.mean(acc[:n0])
+    t = np.arange(a.size) * dt
+    _, d = integrate(a, dt)
+    basis = np.stack([t**2, t**3], axis=1)
+    coef, *_ = np.linalg.lstsq(basis, d, rcond=None)
+    return a - (2 * coef[0] + 6 * coef[1] * t)
+
+
+@dataclass
+class ProcessedMotion:
+    """The input motion as the solver takes it: incident (up-going) accelerations at the base."""
+
+    dt: float
+    ax: np.ndarray  # m/s^2, horizontal (x, across the tunnel)
+    az: np.ndarray  # m/s^2, vertical
+    record: Record
+    steps: list[str] = field(default_factory=list)  # what was done, for the log and the report
+    convention: str = "outcrop"
+
+    @property
+    def time(self) -> np.ndarray:
+        return np.arange(self.ax.size) * self.dt
+
+
+def process(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
+            pga: float | None, vertical_ratio: float, convention: str) -> ProcessedMotion:
+    steps: list[str] = []
+    acc = record.acc.astype(float)
+    if duration is not None and duration < record.time[-1]:
+        acc = acc[: int(np.floor(duration / record.dt + 1e-9)) + 1]
+        steps.append(f"truncated to the first {duration:g} s ({acc.size} points)")
+    if cutoff < 0.5 / record.dt:
+        acc = lowpass(acc, record.dt, cutoff)
+        steps.append(f"low-pass 4th-order zero-phase Butterworth at {cutoff:g} Hz")
+    else:
+        steps.append(f"no filtering needed: the record has no content above its Nyquist "
+                     f"{0.5 / record.dt:g} Hz <= cut-off {cutoff:g} Hz")
+    if baseline:
+        acc = baseline_correct(acc, record.dt)
+        steps.append("baseline corrected (pre-event mean, quadratic+cubic displacement drift)")
+    if pga is not None:
+        peak = np.max(np.abs(acc))
+        if peak <= 0:
+            raise MotionError(f"{record.source}: the record is all zeros; it cannot be scaled to a PGA")
+        acc = acc * (pga / peak)
+        steps.append(f"scaled by {pga / peak:.5f} to PGA {pga:g} m/s^2")
+    az = vertical_ratio * acc
+    steps.append(f"vertical = {vertical_ratio:.4g} x horizontal")
+    if convention == "outcrop":
+        ax_in, az_in = 0.5 * acc, 0.5 * az
+        steps.append("outcrop record: incident wave = half the record")
+    elif convention == "incident":
+        ax_in, az_in = acc, az
+        steps.append("record taken as the incident (up-going) wave")
+    else:
+        raise MotionError(f"unknown convention '{convention}' (use outcrop or incident)")
+    return ProcessedMotion(dt=record.dt, ax=ax_in, az=az_in, record=record, steps=steps, convention=convention)
+
+
+def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
+    """Build the processed input motion from the case's validated `ground_motion` section.
+
+    Returns the motion and notes for the user (e.g. that the synthetic fallback was used).
+    """
+    notes: list[str] = []
+    record = None
+    if gm["source"] == "file":
+        path = resolve_path(gm["file"], case_dir)
+        if path.is_file():
+            record = read_record(path, gm["format"], gm["units"])
+        elif gm["if_missing"] == "synthetic":
+            notes.append(f"ground-motion record {path} is not here: using the synthetic motion "
+                         f"(Kanai-Tajimi, seed {gm['synthetic']['seed']}) instead, as the case allows")
+        else:
+            raise MotionError(f"{path}: file not found")
+    if record is None:
+        syn = gm["synthetic"]
+        record = SyntheticModel(seed=syn["seed"], duration=syn["duration"], dt=syn["dt"],
+                                ground_frequency=syn["ground_frequency"],
+                                ground_damping=syn["ground_damping"]).generate()
+    motion = process(record, duration=gm["duration"], cutoff=gm["cutoff_frequency"],
+                     baseline=gm["baseline_correction"], pga=gm["pga"],
+                     vertical_ratio=gm["vertical_ratio"], convention=gm["convention"])
+    return motion, notes
+
+
+def resolve_path(p: str, case_dir: Path) -> Path:
+    path = Path(p).expanduser()
+    return path if path.is_absolute() else (case_dir / path).resolve()

@@ -1,0 +1,30 @@
+/// @file types.hpp
+/// @brief Scalar and index types of the solid solver, and its error types.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace tq {
+
+/// Floating-point type of every physical quantity (SI units throughout).
+using Real = double;
+/// Index type of nodes, elements and degrees of freedom (meshes up to 2^31 entities).
+using Index = std::int32_t;
+
+/// Bad user input (mesh, parameters, options). The message says what is wrong, the offending
+/// value, where it came from and how to fix it.
+class InputError : public std::runtime_error {
+public:
+  explicit InputError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// A run that went unstable: a non-finite or exploding value was detected. The message names
+/// the step, the time, the quantity, the node or element and the likely cause.
+class InstabilityError : public std::runtime_error {
+public:
+  explicit InstabilityError(const std::string& what) : std::runtime_error(what) {}
+};
+
+}  // namespace tq

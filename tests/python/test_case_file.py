@@ -1,0 +1,139 @@
+"""The case file: the example validates, and bad inputs are rejected with a message naming the key,
+the value, the line and a fix (issue 2)."""
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+from tunnelquake.case import load_case
+from tunnelquake.schema import CaseError
+
+from conftest import EXAMPLE
+
+
+def test_example_case_is_valid_and_in_si():
+    case = load_case(EXAMPLE)
+    rock, lining = case["materials"]["rock"], case["materials"]["lining"]
+    # Paper Table 1, converted from the units written in the file to SI.
+    assert rock["youngs_modulus"] == pytest.approx(8.0e9, rel=1e-12)
+    assert rock["density"] == pytest.approx(2700.0)
+    assert lining["cohesion"] == pytest.approx(1.8e6)
+    assert lining["friction_angle"] == pytest.approx(40.0)
+    assert case["interface"]["cohesion"] == pytest.approx(0.5e6)
+    assert case["ground_motion"]["pga"] == pytest.approx(1.575)
+    assert case["geometry"]["excavated_radius"] == pytest.approx(5.25)
+    assert case["water"]["viscosity"] == pytest.approx(1.308e-3)
+
+
+def test_unit_conversions():
+    from tunnelquake import units as U
+
+    assert U.parse_quantity("2.7 g/cm^3", U.MASS_DENSITY).value == pytest.approx(2700.0)
+    assert U.parse_quantity("0.16 g", U.ACCELERATION).value == pytest.approx(0.16 * 9.80665)
+    assert U.parse_quantity("1.308e-3 Pa*s", U.DYNAMIC_VISCOSITY).value == pytest.approx(1.308e-3)
+    assert U.parse_quantity("0.5 rad", U.ANGLE).value == pytest.approx(math.degrees(0.5))
+    assert U.parse_quantity("150 gal", U.ACCELERATION).value == pytest.approx(1.5)
+    with pytest.raises(U.UnitError, match="length"):
+        U.parse_quantity("8 m", U.PRESSURE)
+
+
+def _mutate(text: str, old: str, new: str) -> str:
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+# Each bad input: (description, edit of the example, key that the message must name, words it must contain)
+BAD_INPUTS = [
+    ("unknown key", ("  density: 1000 kg/m^3\n", "  density: 1000 kg/m^3\n  colour: blue\n"),
+     "water.colour", "not a known key"),
+    ("misspelt key gets a suggestion", ("    poisson_ratio: 0.27\n", "    poison_ratio: 0.27\n"),
+     "materials.rock.poison_ratio", "did you mean 'poisson_ratio'"),
+    ("missing required key", ("    youngs_modulus: 28.0 GPa\n", ""),
+     "materials.lining.youngs_modulus", "is missing"),
+    ("negative density", ("    density: 2700 kg/m^3\n", "    density: -2700 kg/m^3\n"),
+     "materials.rock.density", "> 0"),
+    ("Poisson ratio 0.5", ("    poisson_ratio: 0.17\n", "    poisson_ratio: 0.5\n"),
+     "materials.lining.poisson_ratio", "incompressible"),
+    ("wrong units", ("    youngs_modulus: 8.0 GPa\n", "    youngs_modulus: 8.0 m\n"),
+     "materials.rock.youngs_modulus", "length"),
+    ("unknown unit", ("  pga: 1.575 m/s^2\n", "  pga: 1.575 furlongs\n"),
+     "ground_motion.pga", "unknown unit"),
+    ("record file missing", ("  if_missing: synthetic ", "  if_missing: error "),
+     "ground_motion.file", "file not found"),
+    ("bad choice", ("  model: incompressible\n", "  model: gaseous\n"),
+     "water.model", "use one of"),
+    ("dynamic friction above static", ("  dynamic_friction: 0.6\n", "  dynamic_friction: 0.8\n"),
+     "interface.dynamic_friction", "exceeds the static friction"),
+    ("tunnel outside the block", ("  tunnel_centre_z: 32.0\n", "  tunnel_centre_z: 152.0\n"),
+     "geometry.tunnel_centre_z", "does not fit"),
+    ("lining thicker than the radius", ("  lining_thickness: 0.75 m\n", "  lining_thickness: 6 m\n"),
+     "geometry.lining_thickness", "smaller than the excavated radius"),
+    ("decreasing range", ("  x_range: [-60.0, 60.0]", "  x_range: [60.0, -60.0]"),
+     "geometry.x_range", "increasing"),
+    ("stages out of order", ("[in_situ, excavation, lining, hydrostatic, seismic]",
+                             "[in_situ, lining, excavation, hydrostatic, seismic]"),
+     "stages.sequence", "out of order"),
+    ("incompressible water with closed ends", ("  ends: open\n", "  ends: closed\n"),
+     "water.ends", "cannot change volume"),
+    ("monitor outside", ("    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 500.0]"),
+     "output.monitors.top_arch", "outside the model"),
+    ("friction angle of 90 degrees", ("    friction_angle: 37 deg\n", "    friction_angle: 90 deg\n"),
+     "materials.rock.friction_angle", "[0, 90)"),
+    ("negative damping ratio", ("  ratio: 0.05\n", "  ratio: -0.05\n"),
+     "damping.ratio", "[0, 1)"),
+    ("unknown condition", ("conditions: [no_water, static_water, dynamic_water]",
+                           "conditions: [no_water, frozen_water]"),
+     "conditions[1]", "use one of"),
+    ("duplicated key", ("  ends: open\n", "  ends: open\n  ends: open\n"),
+     "<yaml>", "appears twice"),
+]
+
+
+@pytest.mark.parametrize("desc,edit,key,words", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
+def test_bad_input_is_rejected_naming_the_key(example_text, write_case, desc, edit, key, words):
+    text = _mutate(example_text, *edit)
+    if desc == "record file missing":
+        text = text.replace("elCentro_1940_NS_Peknold_dt0.02.AT2", "no_such_record.AT2")
+    path = write_case(text)
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    msg = str(err.value)
+    assert key in msg, msg
+    assert words in msg, msg
+    # every problem names a line of the file, so the user can go straight to it
+    assert re.search(rf"{re.escape(str(path))}:\d+: ", msg), msg
+    assert "Fix:" in msg
+
+
+def test_all_problems_reported_at_once(example_text, write_case):
+    text = _mutate(example_text, "    poisson_ratio: 0.27\n", "    poisson_ratio: 0.7\n")
+    text = _mutate(text, "    density: 2500 kg/m^3\n", "    density: 0\n")
+    with pytest.raises(CaseError) as err:
+        load_case(write_case(text))
+    paths = {i.path for i in err.value.issues}
+    assert {"materials.rock.poisson_ratio", "materials.lining.density"} <= paths
+
+
+def test_record_that_does_not_parse(example_text, write_case, tmp_path):
+    bad = tmp_path / "broken.AT2"
+    bad.write_text("header\nheader\nunits g\nno counts here\n 0.1 0.2\n")
+    text = example_text.replace("../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2",
+                                str(bad)).replace("if_missing: synthetic", "if_missing: error")
+    with pytest.raises(CaseError) as err:
+        load_case(write_case(text))
+    assert "ground_motion.file" in str(err.value) and "NPTS" in str(err.value)
+
+
+def test_synthetic_fallback_is_a_warning(example_text, write_case):
+    text = example_text.replace("elCentro_1940_NS_Peknold_dt0.02.AT2", "absent.AT2")
+    case = load_case(write_case(text))
+    assert any("synthetic" in w for w in case.warnings)
+
+
+def test_coarse_mesh_warns_about_wavelength(example_text, write_case):
+    text = _mutate(example_text, "  max_element_size: 6.75 m", "  max_element_size: 10 m")
+    case = load_case(write_case(text))
+    # cs = sqrt(E / (2 (1 + nu) rho)) = 1080 m/s for the paper's rock; lambda_min / 8 at 20 Hz = 6.75 m
+    assert any("lambda_min/8" in w and "6.75" in w for w in case.warnings), case.warnings
