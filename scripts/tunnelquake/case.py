@@ -96,12 +96,9 @@ def _check_stages(s, path, raw, ctx):
 
 def _mesh_section() -> Section:
     """Mesh keys: the meshing module's own defaults, so the two cannot disagree."""
-    try:
-        from .meshing import MESH_DEFAULTS
-    except Exception:  # meshing not importable: accept the core keys only
-        MESH_DEFAULTS = {"mode": "slice", "max_element_size": 6.75, "lining_elements_around": 48,
-                         "lining_elements_through": 3, "elements_along_axis": 44}
-    fields = {}
+    from .meshing import MESH_DEFAULTS, MESH_DOC
+
+    fields: dict = {}
     for key, default in MESH_DEFAULTS.items():
         if key == "mode":
             fields[key] = Choice(choices=("3d", "slice"), default=default,
@@ -110,11 +107,13 @@ def _mesh_section() -> Section:
             fields[key] = Bool(default=default)
         elif isinstance(default, int):
             fields[key] = Number(integer=True, min=1, default=default)
-        elif isinstance(default, float):
+        elif isinstance(default, float) or default is None:
             dim = U.LENGTH if key.endswith(("_size", "_radius", "_thickness", "_length", "_width")) else U.DIMENSIONLESS
+            # default None: optional, the mesher resolves its absence (e.g. slice_thickness)
             fields[key] = Number(dim=dim, min=0.0, min_open=True, default=default)
         elif isinstance(default, str):
             fields[key] = Text(default=default)
+        fields[key].doc = MESH_DOC.get(key, "")
     return Section(fields=fields, doc="mesh controls")
 
 

@@ -137,3 +137,13 @@ def test_coarse_mesh_warns_about_wavelength(example_text, write_case):
     case = load_case(write_case(text))
     # cs = sqrt(E / (2 (1 + nu) rho)) = 1080 m/s for the paper's rock; lambda_min / 8 at 20 Hz = 6.75 m
     assert any("lambda_min/8" in w and "6.75" in w for w in case.warnings), case.warnings
+
+
+def test_user_guide_key_table_matches_the_schema():
+    from tunnelquake.docgen import BEGIN, END, table
+
+    from conftest import ROOT
+
+    doc = (ROOT / "docs" / "user_guide.md").read_text()
+    current = doc[doc.index(BEGIN) + len(BEGIN):doc.index(END)].strip()
+    assert current == table().strip(), "run: python -m tunnelquake.docgen --write"
