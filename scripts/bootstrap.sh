@@ -41,7 +41,7 @@ APT_PACKAGES=(
   libeigen3-dev libhdf5-dev hdf5-tools       # solid solver: linear algebra, results files
   openmpi-bin libopenmpi-dev                 # MPI transport, decomposed OpenFOAM runs
   build-essential cmake ninja-build pkg-config libgtest-dev googletest
-  python3-venv python3-dev dpkg-dev xz-utils
+  python3-venv python3-dev dpkg-dev xz-utils shellcheck
   libglu1-mesa libxrender1 libxcursor1 libxft2 libxinerama1 libgl1   # gmsh wheel runtime
 )
 
@@ -63,7 +63,7 @@ if ((CHECK_ONLY)); then
   if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml" 2>/dev/null
   then say "ok: Python environment $VENV"
   else say "MISSING Python environment or one of its packages in $VENV"; status=1; fi
-  for exe in "$BUILD/openfoam_case/libtqFoam.so"; do
+  for exe in "$BUILD/openfoam_case/libtqFoam.so" "$BUILD/solid_solver/tq-solid"; do
     if [[ -e $exe ]]; then say "ok: built $(basename "$exe")"; else say "MISSING build output $exe"; status=1; fi
   done
   exit $status
@@ -92,8 +92,9 @@ enable_deb_src() {
   local legacy=/etc/apt/sources.list.d/tunnelquake-deb-src.list
   [[ -s $out || -s $legacy ]] && return 0
   [[ $(id -u) == 0 ]] || die "deb-src is not enabled and this is not root; set TQ_OPENFOAM_SRC to an OpenFOAM src/"
+  local codename
   # shellcheck disable=SC1091
-  local codename; codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-bookworm}")
+  codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-bookworm}")
   python3 - "$codename" "$out" "$legacy" <<'PY'
 import glob, re, sys
 codename, out, legacy = sys.argv[1:]
@@ -166,7 +167,7 @@ if [[ -z $OF_SRC ]]; then
     mkdir -p "$CACHE/dl"
     say "downloading Debian's openfoam source package (headers for v1912)"
     (cd "$CACHE/dl" && apt-get source -q --download-only openfoam)
-    dsc=$(ls "$CACHE"/dl/openfoam_*.dsc | head -1)
+    dsc=$(find "$CACHE/dl" -maxdepth 1 -name 'openfoam_*.dsc' | head -1)
     rm -rf "$CACHE/openfoam-1912.tmp"
     say "unpacking $(basename "$dsc") (with Debian's patches)"
     dpkg-source --no-check -x "$dsc" "$CACHE/openfoam-1912.tmp" >/dev/null
@@ -190,7 +191,7 @@ fi
 # 3. Python virtual environment
 # ---------------------------------------------------------------------------------------------
 PY_STAMP=$VENV/.tq-stamp
-py_hash=$(cat "$ROOT/scripts/pyproject.toml" | sha256sum | cut -c1-16)
+py_hash=$(sha256sum <"$ROOT/scripts/pyproject.toml" | cut -c1-16)
 if [[ ! -f $PY_STAMP || $(cat "$PY_STAMP") != "$py_hash" ]]; then
   say "creating Python environment in .venv"
   [[ -x $VENV/bin/python ]] || python3 -m venv "$VENV"
@@ -214,6 +215,6 @@ say "building native code"
 if ! cmake --build "$BUILD" -- -j"$(nproc)" >"$BUILD.log" 2>&1; then
   tail -50 "$BUILD.log"; die "build failed (full log: $BUILD.log)"
 fi
-grep -q "no work to do" "$BUILD.log" && say "native build: up to date" || say "native build: done"
+if grep -q "no work to do" "$BUILD.log"; then say "native build: up to date"; else say "native build: done"; fi
 
 say "ready in $(($(date +%s) - t_start)) s. Activate with: source .venv/bin/activate"

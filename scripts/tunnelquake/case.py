@@ -11,8 +11,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import units as U
-from .schema import (Bool, CaseError, Choice, Issue, LineDict, ListOf, MapOf, Number, Section,
-                     Text, Tuple, load_yaml, validate)
+from .schema import (
+    Bool,
+    CaseError,
+    Choice,
+    Issue,
+    LineDict,
+    ListOf,
+    MapOf,
+    Number,
+    Section,
+    Text,
+    Tuple,
+    load_yaml,
+    validate,
+)
 
 STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")

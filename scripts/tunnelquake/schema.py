@@ -6,8 +6,9 @@ together, converts quantities to SI, fills defaults, and collects *every* proble
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
@@ -106,7 +107,7 @@ class Spec:
     required: bool = False
     default: Any = _MISSING
 
-    def check(self, value, path: str, line: int | None, ctx: "Context"):
+    def check(self, value, path: str, line: int | None, ctx: Context):
         raise NotImplementedError
 
     def example(self) -> str:
@@ -218,7 +219,7 @@ class Tuple(Spec):
         out = [self.item.check(v, f"{path}[{i}]", line, ctx) for i, v in enumerate(value)]
         if any(v is None for v in out):
             return None
-        if self.increasing and any(b <= a for a, b in zip(out, out[1:])):
+        if self.increasing and any(b <= a for a, b in zip(out, out[1:], strict=False)):
             ctx.error(path, value, "must be increasing", "put the smaller value first", line)
             return None
         return out
@@ -248,7 +249,7 @@ class Section(Spec):
     """A mapping with a fixed set of keys; unknown keys are errors."""
 
     fields: dict[str, Spec] = field(default_factory=dict)
-    checks: list[Callable[[dict, str, "LineDict", Context], None]] = field(default_factory=list)
+    checks: list[Callable[[dict, str, LineDict, Context], None]] = field(default_factory=list)
 
     def check(self, value, path, line, ctx):
         if value is None:

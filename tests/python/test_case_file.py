@@ -7,10 +7,9 @@ import re
 
 import pytest
 
+from conftest import EXAMPLE
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
-
-from conftest import EXAMPLE
 
 
 def test_example_case_is_valid_and_in_si():
@@ -140,9 +139,8 @@ def test_coarse_mesh_warns_about_wavelength(example_text, write_case):
 
 
 def test_user_guide_key_table_matches_the_schema():
-    from tunnelquake.docgen import BEGIN, END, table
-
     from conftest import ROOT
+    from tunnelquake.docgen import BEGIN, END, table
 
     doc = (ROOT / "docs" / "user_guide.md").read_text()
     current = doc[doc.index(BEGIN) + len(BEGIN):doc.index(END)].strip()

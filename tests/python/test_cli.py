@@ -8,9 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from tunnelquake.cli import main
-
 from conftest import EXAMPLE, ROOT
+from tunnelquake.cli import main
 
 
 def _local_case(tmp_path, text: str):

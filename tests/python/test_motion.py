@@ -4,10 +4,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tunnelquake.motion import (MotionError, SyntheticModel, baseline_correct, integrate, lowpass,
-                                process, read_at2, read_record, read_two_column)
-
 from conftest import EL_CENTRO, EL_CENTRO_PEER
+from tunnelquake.motion import (
+    MotionError,
+    SyntheticModel,
+    baseline_correct,
+    integrate,
+    lowpass,
+    process,
+    read_at2,
+    read_record,
+    read_two_column,
+)
 
 needs_record = pytest.mark.skipif(not EL_CENTRO.is_file(), reason="shared El Centro record not present")
 G = 9.80665
