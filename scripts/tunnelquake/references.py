@@ -1,0 +1,132 @@
+"""Closed-form references used by the verification cases and the benchmarks.
+
+Each function states its source. Sign conventions are given per function; SI units throughout.
+The formulas follow ../shared/design/VERIFICATION.md.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+# ------------------------------------------------------------------------------------------------
+# Waves in a uniform half-space (vertical incidence) and a layer on rock
+# ------------------------------------------------------------------------------------------------
+def free_field_1d(u0, z: float, t: np.ndarray, H: float, c: float) -> np.ndarray:
+    """Displacement at height z above the base of a uniform layer of thickness H with a free top,
+    for an incident (up-going) displacement u0(t) at the base and no reflection back down:
+    u(z, t) = u0(t − z/c) + u0(t − (2H − z)/c)  (d'Alembert; VERIFICATION.md)."""
+    return u0(t - z / c) + u0(t - (2 * H - z) / c)
+
+
+def layer_transfer_function(f: np.ndarray, H: float, cs: float, xi: float, rho_s: float,
+                            rho_r: float, cr: float) -> np.ndarray:
+    """Surface / outcrop amplitude ratio of a damped layer on elastic rock (Kramer 1996, §7.2):
+    F2(ω) = 1 / [cos(k* H) + i α* sin(k* H)], k* = ω / cs*, cs* = cs (1 + i ξ),
+    α* = ρs cs* / (ρr cr)."""
+    w = 2 * np.pi * np.asarray(f, dtype=float)
+    cs_star = cs * (1 + 1j * xi)
+    k = w / cs_star
+    alpha = rho_s * cs_star / (rho_r * cr)
+    return 1.0 / (np.cos(k * H) + 1j * alpha * np.sin(k * H))
+
+
+def rayleigh_coefficients(xi: float, f1: float, f2: float) -> tuple[float, float]:
+    """Mass and stiffness factors (α, β) giving damping ratio ξ at f1 and f2 (Hz)."""
+    w1, w2 = 2 * np.pi * f1, 2 * np.pi * f2
+    return 2 * xi * w1 * w2 / (w1 + w2), 2 * xi / (w1 + w2)
+
+
+def stable_step(L_min: float, cp: float, xi_max: float = 0.0) -> float:
+    """Δt ≤ (2/ω_max)(√(1+ξ²) − ξ) with ω_max = 2 cp / L_min (lumped-mass hex8)."""
+    w = 2 * cp / L_min
+    return 2 / w * (math.sqrt(1 + xi_max**2) - xi_max)
+
+
+# ------------------------------------------------------------------------------------------------
+# Static stresses around the tunnel (plane strain; compression positive in Kirsch's convention)
+# ------------------------------------------------------------------------------------------------
+def kirsch(p: float, k: float, a: float, r, theta):
+    """Stresses around a circular hole of radius a in an infinite plate, far field σv = p,
+    σh = k p, compression positive, θ measured from the horizontal (Brady & Brown, ch. 7).
+    Returns (σrr, σθθ, τrθ)."""
+    r, theta = np.asarray(r, float), np.asarray(theta, float)
+    q = (a / r) ** 2
+    c2, s2 = np.cos(2 * theta), np.sin(2 * theta)
+    srr = p / 2 * ((1 + k) * (1 - q) - (1 - k) * (1 - 4 * q + 3 * q * q) * c2)
+    stt = p / 2 * ((1 + k) * (1 + q) + (1 - k) * (1 + 3 * q * q) * c2)
+    srt = p / 2 * (1 - k) * (1 + 2 * q - 3 * q * q) * s2
+    return srr, stt, srt
+
+
+def kirsch_wall_hoop(p: float, k: float, theta) -> np.ndarray:
+    """σθθ at the wall: p[(1+k) + 2(1−k) cos 2θ] — sidewall (θ=0) p(3−k), crown (θ=π/2) p(3k−1)."""
+    return p * ((1 + k) + 2 * (1 - k) * np.cos(2 * np.asarray(theta, float)))
+
+
+def lined_tunnel_internal_pressure(p_i: float, a: float, b: float, E_l: float, nu_l: float,
+                                   E_m: float, nu_m: float) -> dict:
+    """A lining a ≤ r ≤ b bonded in infinite rock under internal pressure p_i (plane strain).
+    Returns the contact pressure p_c (compression positive) and the inner/outer hoop stresses of the
+    lining (tension positive). VERIFICATION.md; G_m → 0 gives Lamé's thick cylinder."""
+    G_l, G_m = E_l / (2 * (1 + nu_l)), E_m / (2 * (1 + nu_m))
+    den = G_l * (b * b - a * a) + G_m * ((1 - 2 * nu_l) * b * b + a * a)
+    pc = p_i * 2 * G_m * (1 - nu_l) * a * a / den
+    hoop_in = p_i * (G_l * (a * a + b * b) + G_m * ((1 - 2 * nu_l) * b * b - a * a)) / den
+    hoop_out = p_i * 2 * a * a * (G_l - G_m * nu_l) / den
+    return {"contact_pressure": pc, "hoop_inner": hoop_in, "hoop_outer": hoop_out}
+
+
+def lame_thick_cylinder(p_i: float, p_o: float, a: float, b: float, r):
+    """Lamé: radial and hoop stress (tension positive) in a thick cylinder, internal p_i,
+    external p_o (pressures positive)."""
+    r = np.asarray(r, float)
+    A = (p_i * a * a - p_o * b * b) / (b * b - a * a)
+    B = (p_i - p_o) * a * a * b * b / (b * b - a * a)
+    return A - B / r**2, A + B / r**2
+
+
+# ------------------------------------------------------------------------------------------------
+# Rings
+# ------------------------------------------------------------------------------------------------
+def ring_diametral_deflection(P: float, R: float, E: float, nu: float, h: float, width: float = 1.0,
+                              plane_strain: bool = True) -> float:
+    """Shortening of the loaded diameter of a thin ring under a diametral pair of line loads P
+    (per width `width`): ΔD = 0.149 P R³ / (E' I), I = width h³/12, E' = E/(1−ν²) in plane strain
+    (Roark; VERIFICATION.md). 0.149 = π/4 − 2/π."""
+    Ep = E / (1 - nu * nu) if plane_strain else E
+    inertia = width * h**3 / 12
+    return (math.pi / 4 - 2 / math.pi) * P * R**3 / (Ep * inertia)
+
+
+def ring_ovaling_frequency(n: int, E: float, nu: float, rho_s: float, h: float, R: float,
+                           rho_f: float = 0.0) -> float:
+    """Natural frequency (Hz) of mode n of a thin ring (plane strain), empty or filled with
+    incompressible fluid of density ρf (added pressure −(ρf R/n) ẅ):
+    ω² = D n²(n²−1)² / (R⁴ [m (n²+1) + ρf R n]), D = E h³ / (12 (1−ν²)), m = ρs h."""
+    D = E * h**3 / (12 * (1 - nu * nu))
+    m = rho_s * h
+    w2 = D * n * n * (n * n - 1) ** 2 / (R**4 * (m * (n * n + 1) + rho_f * R * n))
+    return math.sqrt(w2) / (2 * math.pi)
+
+
+# ------------------------------------------------------------------------------------------------
+# Water
+# ------------------------------------------------------------------------------------------------
+def rigid_pipe_pressure(rho: float, a: float, R: float, theta) -> np.ndarray:
+    """Hydrodynamic wall pressure in a full rigid pipe under lateral acceleration a:
+    p(θ) = −ρ a R cos θ, θ from the direction of a. Valid below the first transverse acoustic mode
+    f = 1.8412 c / (2πR)."""
+    return -rho * a * R * np.cos(np.asarray(theta, float))
+
+
+def volume_change_pressure(K: float, dV_over_V: float) -> float:
+    """Weakly compressible water in a closed container: p = −K ΔV/V."""
+    return -K * dV_over_V
+
+
+def added_mass_ratio(rho_f: float, R: float, n: int, rho_s: float, h_node: float) -> float:
+    """Fluid added mass ρf R/n per unit wall area over the interface node's lumped mass per area
+    (ρs h_node): the ratio that governs staggered-coupling stability (Causin et al. 2005)."""
+    return rho_f * R / n / (rho_s * h_node)
