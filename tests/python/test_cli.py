@@ -69,3 +69,32 @@ def test_post_needs_no_solver(tmp_path):
 def test_module_entry_point():
     out = subprocess.run([sys.executable, "-m", "tunnelquake", "--version"], capture_output=True, text=True)
     assert out.returncode == 0
+
+
+def test_run_end_to_end_on_the_example(tmp_path, capsys):
+    """The main job on the built-in example: mesh, motion, a plan per condition that runs only the
+    solvers each condition needs, and a report."""
+    from tunnelquake.case import load_case
+    from tunnelquake.cli.run import plan
+
+    p = _local_case(tmp_path, EXAMPLE.read_text())
+    assert main(["run", str(p)]) == 0
+    out = capsys.readouterr().out
+    res = tmp_path / "results"
+    with h5py.File(res / "mesh" / "mesh.h5", "r") as f:
+        conn = f["elements/connectivity"][:]
+        coords = f["nodes/coordinates"][:]
+        inner = np.unique(f["faces/lining_inner"][:])
+    # slice mode: one element through y, so every node lies on one of two planes
+    assert np.unique(np.round(coords[:, 1], 9)).size == 2
+    assert conn.shape[1] == 8
+    # the lining's wetted nodes lie on the inner radius 5.25 - 0.75 = 4.5 m about (x, z) = (0, 32)
+    r = np.hypot(coords[inner, 0], coords[inner, 2] - 32.0)
+    np.testing.assert_allclose(r, 4.5, rtol=1e-12)
+    with h5py.File(res / "motion.h5", "r") as f:
+        assert np.max(np.abs(f["incident_ax"][:])) == pytest.approx(1.575 / 2, rel=1e-9)
+    # skip what a scene does not need: no fluid process in conditions 1 and 2
+    steps = dict(plan(load_case(p)))
+    assert steps == {"no_water": ("solid",), "static_water": ("solid",), "dynamic_water": ("solid", "fluid")}
+    assert "condition no_water" in out and "done:" in out
+    assert (res / "report.md").is_file()

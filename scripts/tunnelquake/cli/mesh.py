@@ -19,7 +19,7 @@ def _fingerprint(case) -> str:
 
 def make_mesh(case, force: bool = False) -> dict:
     """Build the mesh unless an up-to-date one (same geometry and mesh keys) is already there."""
-    from ..meshing import build_tunnel_mesh
+    from ..meshing import build_tunnel_mesh, format_summary
 
     out = mesh_dir(case)
     stamp = out / "fingerprint.json"
@@ -34,8 +34,8 @@ def make_mesh(case, force: bool = False) -> dict:
     summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out)
     summary = json.loads(json.dumps(summary, default=str))
     stamp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
-    for k, v in summary.items():
-        say(f"  {k}: {v}")
+    for line in format_summary(summary).splitlines():
+        say(line)
     return summary
 
 

@@ -62,8 +62,9 @@ def main(argv: list[str]) -> int:
     from .mesh import make_mesh
 
     summary = make_mesh(case)
-    done.append(f"mesh: {summary.get('n_rock', '?')} rock, {summary.get('n_lining', '?')} lining, "
-                f"{summary.get('n_water', '?')} water hexahedra ({case.data['mesh']['mode']})")
+    c = summary["counts"]
+    done.append(f"mesh: {c['rock']} rock, {c['lining']} lining, {c['water']} water hexahedra "
+                f"({summary['mode']})")
 
     from .motion import make_motion, plot_motion
 

@@ -23,8 +23,7 @@ from . import hexmesh
 from .gmsh_model import LINING, ROCK, WATER, build_model
 from .params import MeshInputError, MeshPlan, resolve
 
-SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax",
-                    "lining_inner", "rock_hole", "lining_outer")
+SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
 
 #: The paper's element counts (§3.1), for the summary's comparison.
@@ -43,8 +42,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict
     plan = resolve(geometry, mesh)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5",
-             "water": out_dir / "water.msh"}
+    files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5", "water": out_dir / "water.msh"}
 
     own_session = not gmsh.isInitialized()
     if own_session:
@@ -59,6 +57,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict
         gmsh.option.setNumber("Mesh.Binary", 0)
         gmsh.write(str(files["model"]))
         coords, hexes = _extract(model["volumes"])
+        _snap_layers(plan, coords)
     finally:
         if own_session:
             gmsh.finalize()
@@ -92,8 +91,11 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict
         "max_element_size": h,
         "max_element_size_limit": plan.max_element_size,
         "min_jacobian": min(solid["min_detj"], water["min_detj"]),
-        "min_scaled_jacobian": {ROCK: solid["min_scaled"][0], LINING: solid["min_scaled"][1],
-                                WATER: water["min_scaled"]},
+        "min_scaled_jacobian": {
+            ROCK: solid["min_scaled"][0],
+            LINING: solid["min_scaled"][1],
+            WATER: water["min_scaled"],
+        },
         "y_extent": [plan.ymin, plan.ymax],
         "divisions": _divisions(plan),
         "files": {k: str(v) for k, v in files.items()},
@@ -123,10 +125,13 @@ def format_summary(s: dict) -> str:
 
 def _divisions(p: MeshPlan) -> dict:
     return {
-        "around": 4 * p.quarter.count, "lining_through": p.lining.count,
-        "water_ring": p.water_ring.count, "water_core": p.quarter.count,
-        "near_field_radial": p.near_field.count, "left": p.left.count, "right": p.right.count,
-        "bottom": p.bottom.count, "top": p.top.count, "axial": p.axial.count,
+        "around": 4 * p.quarter.count,
+        "lining_through": p.lining.count,
+        "water_ring": p.water_ring.count,
+        "water_core": p.quarter.count,
+        "near_field_radial": p.near_field.count,
+        **{band: sum(div.count for _, div in getattr(p, band)) for band in ("left", "right", "bottom", "top")},
+        "axial": p.axial.count,
     }
 
 
@@ -145,6 +150,22 @@ def _extract(volumes: dict) -> tuple[np.ndarray, dict]:
             blocks.append(np.asarray(nodes[0], dtype=np.int64).reshape(-1, 8))
         hexes[region] = np.concatenate(blocks)
     return coords, hexes
+
+
+def _snap_layers(plan: MeshPlan, coords: np.ndarray) -> None:
+    """Put every node exactly on its extrusion layer y_k = ymin + k (ymax - ymin) / n.
+
+    gmsh's transfinite interpolation of the base surface leaves y = ymin + O(1e-15) when ymin != 0;
+    the plane-strain slice and the face tests want the layers exact. Moves are <= 1e-12 m.
+    """
+    n = plan.axial.count
+    dy = (plan.ymax - plan.ymin) / n
+    ok = np.isfinite(coords[:, 1])
+    k = np.rint((coords[ok, 1] - plan.ymin) / dy)
+    y = np.where(k == n, plan.ymax, plan.ymin + k * dy)
+    if np.abs(y - coords[ok, 1]).max(initial=0.0) > 1e-9 * max(1.0, abs(plan.ymax)):
+        raise RuntimeError("gmsh placed nodes off the extrusion layers")
+    coords[ok, 1] = y
 
 
 def _radius(plan: MeshPlan, x: np.ndarray) -> np.ndarray:
@@ -188,8 +209,13 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     faces, owner = hexmesh.boundary_faces(conn)
     groups = _classify_solid_faces(plan, coords, faces, region[owner])
     return {
-        "coords": coords, "conn": conn, "region": region, "pairs": pairs, "faces": groups,
-        "min_detj": min(q_rock[0], q_lining[0]), "min_scaled": (q_rock[1], q_lining[1]),
+        "coords": coords,
+        "conn": conn,
+        "region": region,
+        "pairs": pairs,
+        "faces": groups,
+        "min_detj": min(q_rock[0], q_lining[0]),
+        "min_scaled": (q_rock[1], q_lining[1]),
         "max_edge": max(q_rock[2], q_lining[2]),
     }
 
@@ -198,8 +224,12 @@ def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
     """Masks of faces whose 4 nodes all lie on one of the block's six planes."""
     tol = _tolerance(plan)
     planes = {
-        "bottom": (2, plan.zmin), "top": (2, plan.zmax), "xmin": (0, plan.xmin),
-        "xmax": (0, plan.xmax), "ymin": (1, plan.ymin), "ymax": (1, plan.ymax),
+        "bottom": (2, plan.zmin),
+        "top": (2, plan.zmax),
+        "xmin": (0, plan.xmin),
+        "xmax": (0, plan.xmax),
+        "ymin": (1, plan.ymin),
+        "ymax": (1, plan.ymax),
     }
     return {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
 
@@ -243,9 +273,12 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
     if (hits != 1).any():
         raise RuntimeError("water boundary faces not all on the interface or the axial ends")
     return {
-        "coords": coords, "hexes": conn,
+        "coords": coords,
+        "hexes": conn,
         "faces": {k: faces[m] for k, m in masks.items()},
-        "min_detj": min_detj, "min_scaled": min_scaled, "max_edge": max_edge,
+        "min_detj": min_detj,
+        "min_scaled": min_scaled,
+        "max_edge": max_edge,
     }
 
 

@@ -103,38 +103,51 @@ def build_cross_section(plan: MeshPlan) -> dict[str, list[int]]:
         for k in range(4):
             k1 = (k + 1) % 4
             inner = (b.line if prev_kind == "line" else b.arc)(prev_pts[k], prev_pts[k1], q)
-            side1 = b.line(prev_pts[k1], pts[k1], radial)  # created pointing outwards
+            side1 = b.line(prev_pts[k1], pts[k1], radial)
             outer = (b.line if kind == "line" else b.arc)(pts[k1], pts[k], q)
             side0 = b.line(pts[k], prev_pts[k], radial)
             regions[region].append(b.surface([inner, side1, outer, side0]))
         prev_pts, prev_kind = pts, kind
 
-    # outer rock: 3 x 3 blocks around the near-field box (box = centre block, already meshed)
+    # outer rock: a tensor grid of blocks around the near-field box (the box is the centre block,
+    # already meshed): columns left of / across / right of the box, rows likewise in z. Each outer
+    # band may have several segments (graded transition + uniform); lines in them are created
+    # pointing away from the box so their growth ratio counts outwards.
     L = plan.box_half_width
-    xs = [plan.xmin, plan.xc - L, plan.xc + L, plan.xmax]
-    zs = [plan.zmin, plan.zc - L, plan.zc + L, plan.zmax]
-    col_div = [plan.left, q, plan.right]
-    row_div = [plan.bottom, q, plan.top]
-    grid = [[b.point(xs[i], zs[j]) for j in range(4)] for i in range(4)]
 
-    def hline(i: int, j: int) -> int:
-        """Signed tag of the grid line from column boundary i to i+1 along z = zs[j]."""
-        p, r = grid[i][j], grid[i + 1][j]
-        if i == 0:  # left column: created pointing to -x, away from the box
-            return -b.line(r, p, col_div[0])
-        return b.line(p, r, col_div[i])
+    def axis(c, low_band, high_band, lo, hi):
+        """Grid coordinates and per-interval (divisions, direction) along one axis."""
+        coords, divs = [c - L], [(q, 1)]
+        for d, div in low_band:
+            coords.insert(0, coords[0] - d)
+            divs.insert(0, (div, -1))
+        coords.append(c + L)
+        for d, div in high_band:
+            coords.append(coords[-1] + d)
+            divs.append((div, 1))
+        coords[0], coords[-1] = lo, hi  # exact block bounds, free of summation round-off
+        return coords, divs
 
-    def vline(i: int, j: int) -> int:
-        p, r = grid[i][j], grid[i][j + 1]
-        if j == 0:
-            return -b.line(r, p, row_div[0])
-        return b.line(p, r, row_div[j])
+    xs, xdiv = axis(plan.xc, plan.left, plan.right, plan.xmin, plan.xmax)
+    zs, zdiv = axis(plan.zc, plan.bottom, plan.top, plan.zmin, plan.zmax)
+    ibox, jbox = len(plan.left), len(plan.bottom)  # the box's block indices
+    grid = [[b.point(x, z) for z in zs] for x in xs]
 
-    for i in range(3):
-        for j in range(3):
-            if i == 1 and j == 1:
+    def edge(p: int, r: int, div_dir) -> int:
+        """Signed tag of the line p -> r (p before r on its axis), created away from the box."""
+        div, direction = div_dir
+        return -b.line(r, p, div) if direction < 0 else b.line(p, r, div)
+
+    for i in range(len(xs) - 1):
+        for j in range(len(zs) - 1):
+            if (i, j) == (ibox, jbox):
                 continue
-            loop = [hline(i, j), vline(i + 1, j), -hline(i, j + 1), -vline(i, j)]
+            loop = [
+                edge(grid[i][j], grid[i + 1][j], xdiv[i]),
+                edge(grid[i + 1][j], grid[i + 1][j + 1], zdiv[j]),
+                -edge(grid[i][j + 1], grid[i + 1][j + 1], xdiv[i]),
+                -edge(grid[i][j], grid[i][j + 1], zdiv[j]),
+            ]
             regions[ROCK].append(b.surface(loop))
 
     b.apply_transfinite()
@@ -153,15 +166,19 @@ def build_model(plan: MeshPlan, name: str = "tunnel") -> dict:
     surfaces = build_cross_section(plan)
     order = [(region, s) for region in (ROCK, LINING, WATER) for s in surfaces[region]]
     out = gmsh.model.geo.extrude(
-        [(2, s) for _, s in order], 0.0, plan.ymax - plan.ymin, 0.0,
-        numElements=[plan.axial.count], recombine=True,
+        [(2, s) for _, s in order],
+        0.0,
+        plan.ymax - plan.ymin,
+        0.0,
+        numElements=[plan.axial.count],
+        recombine=True,
     )
     # gmsh returns, per input surface: its top copy, the volume, then the lateral surfaces.
     vols = [tag for dim, tag in out if dim == 3]
     assert len(vols) == len(order)
     volumes: dict[str, list[int]] = {ROCK: [], LINING: [], WATER: []}
     region_of: dict[int, str] = {}
-    for (region, _), v in zip(order, vols):
+    for (region, _), v in zip(order, vols, strict=True):
         volumes[region].append(v)
         region_of[v] = region
     gmsh.model.geo.synchronize()
@@ -180,7 +197,7 @@ def _physical_groups(plan: MeshPlan, volumes, region_of) -> dict:
         regs = sorted({region_of[v] for v in up})
         _, xyz, _ = gmsh.model.mesh.getNodes(2, s, includeBoundary=True)
         x, y, z = xyz[0::3], xyz[1::3], xyz[2::3]
-        r = [math.hypot(xi - plan.xc, zi - plan.zc) for xi, zi in zip(x, z)]
+        r = [math.hypot(xi - plan.xc, zi - plan.zc) for xi, zi in zip(x, z, strict=True)]
 
         def on(values, target):
             return all(abs(v - target) < tol for v in values)
@@ -194,9 +211,12 @@ def _physical_groups(plan: MeshPlan, volumes, region_of) -> dict:
             name = "lining_inner"
         elif len(up) == 1:
             for cand, vals, target in (
-                ("ymin", y, plan.ymin), ("ymax", y, plan.ymax),
-                ("bottom", z, plan.zmin), ("top", z, plan.zmax),
-                ("xmin", x, plan.xmin), ("xmax", x, plan.xmax),
+                ("ymin", y, plan.ymin),
+                ("ymax", y, plan.ymax),
+                ("bottom", z, plan.zmin),
+                ("top", z, plan.zmax),
+                ("xmin", x, plan.xmin),
+                ("xmax", x, plan.xmax),
             ):
                 if on(vals, target):
                     name = cand
@@ -213,8 +233,18 @@ def _physical_groups(plan: MeshPlan, volumes, region_of) -> dict:
     groups = {}
     for region, tags in volumes.items():
         groups[region] = (3, gmsh.model.addPhysicalGroup(3, tags, name=region))
-    for name in ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "rock_lining",
-                 "lining_inner", "end_ymin", "end_ymax"):
+    for name in (
+        "bottom",
+        "top",
+        "xmin",
+        "xmax",
+        "ymin",
+        "ymax",
+        "rock_lining",
+        "lining_inner",
+        "end_ymin",
+        "end_ymax",
+    ):
         if name not in named:
             raise RuntimeError(f"no gmsh surface found for physical group '{name}'")
         groups[name] = (2, gmsh.model.addPhysicalGroup(2, named[name], name=name))

@@ -50,8 +50,7 @@ MESH_DOC: dict = {
     "to the wall (1 = uniform, < 1 refines towards the wall)",
     "near_field_half_width": "m; half-side of the square box around the tunnel centre that "
     "bounds the rock O-grid ring; outside it the rock is a 3 x 3 block grid",
-    "near_field_radial_divisions": "radial elements in the rock ring between the lining and the "
-    "near-field box",
+    "near_field_radial_divisions": "radial elements in the rock ring between the lining and the near-field box",
     "near_field_growth": "ratio of consecutive radial element sizes in the rock ring, away from "
     "the tunnel (1 = uniform)",
     "outer_growth": "ratio of consecutive element sizes in the outer rock blocks, away from the "
@@ -119,10 +118,13 @@ class MeshPlan:
     lining: Divisions
     water_ring: Divisions
     near_field: Divisions
-    left: Divisions  # outer columns/rows, counted away from the near-field box
-    right: Divisions
-    bottom: Divisions
-    top: Divisions
+    # Outer bands beside the near-field box: segments (length in m, divisions), ordered from the
+    # box outwards, growth counted outwards. One uniform segment when outer_growth = 1; else a
+    # graded transition segment and, if the band is long enough, a uniform one at the size cap.
+    left: tuple[tuple[float, Divisions], ...]
+    right: tuple[tuple[float, Divisions], ...]
+    bottom: tuple[tuple[float, Divisions], ...]
+    top: tuple[tuple[float, Divisions], ...]
     axial: Divisions
 
 
@@ -158,31 +160,56 @@ def _range(where, d, key):
 def _check_keys(where: str, given: dict, allowed) -> None:
     unknown = sorted(set(given) - set(allowed))
     if unknown:
-        raise MeshInputError(
-            f"{where}: unknown key(s) {unknown}. Allowed keys: {sorted(allowed)}."
-        )
+        raise MeshInputError(f"{where}: unknown key(s) {unknown}. Allowed keys: {sorted(allowed)}.")
 
 
-def graded_count(length: float, max_size: float, growth: float) -> int:
+def graded_count(length: float, max_size: float, growth: float, key: str = "outer_growth") -> int:
     """Smallest n whose geometric division of ``length`` (ratio ``growth``) has all sizes <= max.
 
-    Sizes h_i = h_1 g^i, i = 0..n-1, sum = length, so the largest is
-    length g^(n-1) (g-1) / (g^n - 1) (length / n for g = 1).
+    Sizes h_i = h_1 g^i, i = 0..n-1, sum = length, so with g > 1 the largest is
+    length (g - 1) / (g - g^(1-n)) (length / n for g = 1; g < 1 is the same set reversed). As n
+    grows it tends to length (g - 1) / g: a larger growth can never meet max_size.
     """
+    g = max(growth, 1.0 / growth)
+    if abs(g - 1.0) < 1e-12:
+        return max(1, math.ceil(length / max_size - 1e-9))
+    limit = length * (g - 1.0) / g
+    if limit >= max_size:
+        g_max = 1.0 / (1.0 - max_size / length)
+        raise MeshInputError(
+            f"mesh '{key}' = {growth!r}: a geometric grading over {length:.4g} m keeps its largest "
+            f"element above {limit:.4g} m > max_element_size {max_size} m whatever the count. "
+            f"Use a ratio below {g_max:.4f} (or 1 for uniform)."
+        )
     n = 1
-    while True:
-        if abs(growth - 1.0) < 1e-12:
-            largest = length / n
-        else:
-            g = max(growth, 1.0 / growth)
-            largest = length * g ** (n - 1) * (g - 1.0) / (g**n - 1.0)
-        if largest <= max_size * (1.0 + 1e-9):
-            return n
+    while length * (g - 1.0) / (g - g ** (1 - n)) > max_size * (1.0 + 1e-9):
         n += 1
-        if n > 100000:
-            raise MeshInputError(
-                f"cannot divide {length} m into elements <= {max_size} m with growth {growth}"
-            )
+    return n
+
+
+def outer_band(length: float, h0: float, max_size: float, growth: float):
+    """Segments [(length, Divisions)] of an outer band, from the near-field box outwards.
+
+    growth = 1: one uniform segment of ceil(length / max_size) elements. growth > 1: a graded
+    transition of m elements h0 g, h0 g^2, ..., h0 g^m (length h0 g (g^m - 1)/(g - 1)), then a
+    uniform segment of size u <= max_size. m is the largest count with h0 g^m <= u, so sizes never
+    decrease outwards. When the band is shorter than the transition, one geometric segment.
+    """
+    if abs(growth - 1.0) < 1e-12 or h0 * growth > max_size:
+        return [(length, Divisions(graded_count(length, max_size, 1.0)))]
+    if growth < 1.0:
+        raise MeshInputError(f"mesh 'outer_growth' = {growth!r}: must be >= 1 (elements grow away from the tunnel)")
+    m = int(math.floor(math.log(max_size / h0) / math.log(growth) + 1e-9))
+    while m > 0:
+        t = h0 * growth * (growth**m - 1.0) / (growth - 1.0)
+        if t >= length:
+            return [(length, Divisions(graded_count(length, max_size, growth), growth))]
+        rest = length - t
+        n_u = graded_count(rest, max_size, 1.0)
+        if rest / n_u >= h0 * growth**m * (1.0 - 1e-9):
+            return [(t, Divisions(m, growth)), (rest, Divisions(n_u))]
+        m -= 1
+    return [(length, Divisions(graded_count(length, max_size, 1.0)))]
 
 
 def graded_sizes(length: float, div: Divisions) -> list[float]:
@@ -219,8 +246,7 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
     b = _number(g, geometry, "excavated_radius")
     t = _number(g, geometry, "lining_thickness")
     if t >= b:
-        _fail(g, "lining_thickness", t, f"must be smaller than the excavated radius {b} m",
-              "Check the units (m).")
+        _fail(g, "lining_thickness", t, f"must be smaller than the excavated radius {b} m", "Check the units (m).")
     a = b - t
 
     w = "mesh"
@@ -230,16 +256,26 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
     k = _integer(w, m, "refinement_factor")
     around = _integer(w, m, "lining_elements_around", 4)
     if around % 4:
-        _fail(w, "lining_elements_around", around, "must be a multiple of 4 (one O-grid block "
-              "per quarter)", f"Use {4 * round(around / 4) or 4}.")
+        _fail(
+            w,
+            "lining_elements_around",
+            around,
+            "must be a multiple of 4 (one O-grid block per quarter)",
+            f"Use {4 * round(around / 4) or 4}.",
+        )
     through = _integer(w, m, "lining_elements_through")
     along = _integer(w, m, "elements_along_axis")
     n_water = _integer(w, m, "water_ring_divisions")
     n_near = _integer(w, m, "near_field_radial_divisions")
     ratio = _number(w, m, "water_core_half_width_ratio")
     if not 0.2 <= ratio <= 0.65:
-        _fail(w, "water_core_half_width_ratio", ratio, "must lie in [0.2, 0.65] (the core square "
-              "must stay well inside the lining)", "0.5 is a good value.")
+        _fail(
+            w,
+            "water_core_half_width_ratio",
+            ratio,
+            "must lie in [0.2, 0.65] (the core square must stay well inside the lining)",
+            "0.5 is a good value.",
+        )
     growths = {}
     for key in ("water_ring_growth", "near_field_growth", "outer_growth"):
         v = _number(w, m, key)
@@ -248,8 +284,13 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
         growths[key] = v ** (1.0 / k)  # same grading with k times more elements
     L = _number(w, m, "near_field_half_width")
     if L <= b * 1.2:
-        _fail(w, "near_field_half_width", L, f"must exceed 1.2 x the excavated radius ({1.2 * b:.3f}"
-              " m) to leave room for the rock ring", "Increase it.")
+        _fail(
+            w,
+            "near_field_half_width",
+            L,
+            f"must exceed 1.2 x the excavated radius ({1.2 * b:.3f} m) to leave room for the rock ring",
+            "Increase it.",
+        )
     for name, inside in (
         ("x_range[0]", xmin < xc - L),
         ("x_range[1]", xc + L < xmax),
@@ -257,9 +298,13 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
         ("z_range[1]", zc + L < zmax),
     ):
         if not inside:
-            _fail(w, "near_field_half_width", L, f"the near-field box around the tunnel "
-                  f"(centre x={xc}, z={zc}) reaches beyond geometry {name}",
-                  "Reduce near_field_half_width or enlarge the block.")
+            _fail(
+                w,
+                "near_field_half_width",
+                L,
+                f"the near-field box around the tunnel (centre x={xc}, z={zc}) reaches beyond geometry {name}",
+                "Reduce near_field_half_width or enlarge the block.",
+            )
 
     slice_mode = m["mode"] == "slice"
     if slice_mode:
@@ -273,20 +318,35 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
     else:
         axial = Divisions(along * k)
 
+    h_box = 2.0 * L / (around // 4)  # box side spacing: the size the outer bands start from
+
     def outer(length):
-        return Divisions(graded_count(length, hmax, growths["outer_growth"]) * k,
-                         growths["outer_growth"])
+        segs = outer_band(length, h_box, hmax, float(m["outer_growth"]))
+        return tuple((d, Divisions(div.count * k, div.growth ** (1.0 / k))) for d, div in segs)
 
     plan = MeshPlan(
-        xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax, zmin=zmin, zmax=zmax, xc=xc, zc=zc,
-        radius_inner=a, radius_outer=b, core_half_width=ratio * a, box_half_width=L,
-        slice=slice_mode, max_element_size=hmax,
+        xmin=xmin,
+        xmax=xmax,
+        ymin=ymin,
+        ymax=ymax,
+        zmin=zmin,
+        zmax=zmax,
+        xc=xc,
+        zc=zc,
+        radius_inner=a,
+        radius_outer=b,
+        core_half_width=ratio * a,
+        box_half_width=L,
+        slice=slice_mode,
+        max_element_size=hmax,
         quarter=Divisions(around // 4 * k),
         lining=Divisions(through * k),
         water_ring=Divisions(n_water * k, growths["water_ring_growth"]),
         near_field=Divisions(n_near * k, growths["near_field_growth"]),
-        left=outer(xc - L - xmin), right=outer(xmax - xc - L),
-        bottom=outer(zc - L - zmin), top=outer(zmax - zc - L),
+        left=outer(xc - L - xmin),
+        right=outer(xmax - xc - L),
+        bottom=outer(zc - L - zmin),
+        top=outer(zmax - zc - L),
         axial=axial,
     )
     _check_sizes(plan)
@@ -297,19 +357,25 @@ def _check_sizes(p: MeshPlan) -> None:
     """Fail early, naming the key to change, when a structured edge family is too coarse."""
     h = p.max_element_size
     checks = [
-        ("near_field_half_width / lining_elements_around",
-         2 * p.box_half_width / p.quarter.count, "the near-field box side spacing"),
-        ("near_field_radial_divisions / near_field_growth",
-         max(graded_sizes(math.sqrt(2) * p.box_half_width - p.radius_outer, p.near_field)),
-         "the largest radial element of the rock ring (on its diagonal)"),
-        ("elements_along_axis" if not p.slice else "slice_thickness",
-         (p.ymax - p.ymin) / p.axial.count, "the axial element length"),
+        (
+            "near_field_half_width / lining_elements_around",
+            2 * p.box_half_width / p.quarter.count,
+            "the near-field box side spacing",
+        ),
+        (
+            "near_field_radial_divisions / near_field_growth",
+            max(graded_sizes(math.sqrt(2) * p.box_half_width - p.radius_outer, p.near_field)),
+            "the largest radial element of the rock ring (on its diagonal)",
+        ),
+        (
+            "elements_along_axis" if not p.slice else "slice_thickness",
+            (p.ymax - p.ymin) / p.axial.count,
+            "the axial element length",
+        ),
     ]
     for keys, size, what in checks:
         if size > h * (1 + 1e-9):
-            raise MeshInputError(
-                f"mesh: {what} is {size:.4g} m > max_element_size {h} m. Change {keys}."
-            )
+            raise MeshInputError(f"mesh: {what} is {size:.4g} m > max_element_size {h} m. Change {keys}.")
 
 
 def check_element_size(max_size: float, shear_velocity: float, cutoff_hz: float) -> str | None:
@@ -321,8 +387,7 @@ def check_element_size(max_size: float, shear_velocity: float, cutoff_hz: float)
     """
     if shear_velocity <= 0 or cutoff_hz <= 0:
         raise ValueError(
-            f"check_element_size: shear_velocity ({shear_velocity} m/s) and cutoff_hz "
-            f"({cutoff_hz} Hz) must be > 0"
+            f"check_element_size: shear_velocity ({shear_velocity} m/s) and cutoff_hz ({cutoff_hz} Hz) must be > 0"
         )
     limit = shear_velocity / (8.0 * cutoff_hz)
     if max_size > limit * (1.0 + 1e-9):
