@@ -1,0 +1,86 @@
+#pragma once
+/// @file acceleration.hpp
+/// Acceleration of the interface fixed-point iteration x ← H(x) (x: the data the second
+/// participant writes, H: one pass of first then second participant). Abstract base +
+/// variants + factory.
+
+#include <memory>
+#include <vector>
+
+#include "tq/coupler/config.hpp"
+
+namespace tq::coupler {
+
+class Acceleration {
+  public:
+    virtual ~Acceleration() = default;
+    /// A new coupling window starts: forget the iteration history of the last one.
+    virtual void startWindow() = 0;
+    /// Given the input x_k of this iteration and the output x̃_k = H(x_k), computes x_{k+1}.
+    virtual void next(const std::vector<double>& x, const std::vector<double>& xTilde,
+                      std::vector<double>& xNext) = 0;
+    /// Relaxation factor used in the last step (1 for none; IQN-ILS: the first-step factor).
+    virtual double lastRelaxation() const = 0;
+};
+
+/// x_{k+1} = x̃_k.
+class NoAcceleration final : public Acceleration {
+  public:
+    void startWindow() override {}
+    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
+              std::vector<double>& xNext) override;
+    double lastRelaxation() const override { return 1.0; }
+};
+
+/// x_{k+1} = x_k + ω (x̃_k − x_k), fixed ω.
+class ConstantRelaxation final : public Acceleration {
+  public:
+    explicit ConstantRelaxation(double omega);
+    void startWindow() override {}
+    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
+              std::vector<double>& xNext) override;
+    double lastRelaxation() const override { return omega_; }
+
+  private:
+    double omega_;
+};
+
+/// Aitken Δ²: ω_k = −ω_{k−1} r_{k−1}ᵀ(r_k − r_{k−1}) / ‖r_k − r_{k−1}‖², r = x̃ − x;
+/// ω_0 = initial relaxation in every window.
+class Aitken final : public Acceleration {
+  public:
+    explicit Aitken(double initialOmega);
+    void startWindow() override;
+    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
+              std::vector<double>& xNext) override;
+    double lastRelaxation() const override { return omega_; }
+
+  private:
+    double omega0_, omega_;
+    std::vector<double> rPrev_;
+    bool first_ = true;
+};
+
+/// Interface quasi-Newton with an inverse Jacobian from least squares (IQN-ILS, Degroote,
+/// Bathe & Vierendeels 2009): V = [Δr], W = [Δx̃] of this window; α = argmin‖Vα + r_k‖;
+/// x_{k+1} = x̃_k + Wα. The first iteration of a window is relaxed by the initial ω. Columns
+/// that make V nearly rank-deficient are dropped (oldest first).
+class IqnIls final : public Acceleration {
+  public:
+    explicit IqnIls(double initialOmega, double filterEps = 1e-10);
+    void startWindow() override;
+    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
+              std::vector<double>& xNext) override;
+    double lastRelaxation() const override { return omega0_; }
+    std::size_t columns() const { return dr_.size(); }
+
+  private:
+    double omega0_, eps_;
+    std::vector<double> rPrev_, xtPrev_;
+    std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
+    bool first_ = true;
+};
+
+std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind kind, double initialRelaxation);
+
+}  // namespace tq::coupler

@@ -1,0 +1,90 @@
+#pragma once
+/// @file config.hpp
+/// What both participants must agree on. `tunnelquake run` writes the same configuration for
+/// both sides; the handshake compares the two copies item by item and refuses to couple when
+/// any differs.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tq/coupler/maps.hpp"
+
+namespace tq::coupler {
+
+/// Coupling scheme per window (ARCHITECTURE.md §5).
+enum class SchemeKind : std::uint8_t {
+    /// Serial (Gauss–Seidel) staggered: one exchange each way per window, no iterations.
+    Explicit = 0,
+    /// The paper's §2.2.3 predictor–corrector: exactly two passes per window (predictor,
+    /// corrector), no convergence test; both sides roll back between the passes.
+    Paper = 1,
+    /// Serial implicit: passes repeated until the relative residual is below `tolerance`.
+    Implicit = 2,
+};
+
+/// Acceleration of the fixed-point iteration, applied by the second participant to the data it
+/// writes (normally the fluid force).
+enum class AccelerationKind : std::uint8_t {
+    None = 0,      ///< plain fixed-point iteration
+    Constant = 1,  ///< constant under-relaxation by `initialRelaxation`
+    Aitken = 2,    ///< Aitken's dynamic relaxation, restarted each window at `initialRelaxation`
+    IqnIls = 3,    ///< interface quasi-Newton, inverse least squares (Degroote et al. 2009)
+};
+
+const char* schemeName(SchemeKind k);
+const char* accelerationName(AccelerationKind k);
+const char* mapKindName(MapKind k);
+SchemeKind parseScheme(const std::string& s);
+AccelerationKind parseAcceleration(const std::string& s);
+MapKind parseMapKind(const std::string& s);
+
+/// One named interface mesh. Each participant gives its own vertices for it; the participant
+/// named `mappingSide` maps between its vertices and the partner's.
+struct MeshSpec {
+    std::string name;
+    MapKind mapping = MapKind::Coincident;
+    std::string mappingSide;  ///< empty: the first participant maps
+    double tolerance = 1e-6;  ///< m: coincidence tolerance, or largest projection distance
+};
+
+/// One named vector field on an interface mesh, written by one participant, read by the other.
+struct FieldSpec {
+    std::string mesh;
+    std::string name;
+    int components = 3;
+    std::string writer;  ///< participant name
+    /// Consistent for motion-like data (interpolated), conservative for force-like data
+    /// (totals preserved).
+    MapConstraint constraint = MapConstraint::Consistent;
+};
+
+struct CouplingConfig {
+    std::string first;   ///< participant that sends first in every window (the solid)
+    std::string second;  ///< the other (the fluid); it tests convergence and accelerates
+    std::string units = "SI(m,kg,s,N,Pa)";
+    SchemeKind scheme = SchemeKind::Implicit;
+    double windowSize = 0.0;     ///< s, coupling window Δt_c
+    std::uint64_t maxWindows = 0;
+    int maxIterations = 20;      ///< implicit only; the paper scheme always does 2
+    double tolerance = 1e-4;     ///< implicit: relative residual of every exchanged field
+    AccelerationKind acceleration = AccelerationKind::Aitken;
+    double initialRelaxation = 0.5;
+    std::vector<MeshSpec> meshes;
+    std::vector<FieldSpec> fields;
+
+    /// Throws ConfigError naming the offending item.
+    void validate() const;
+    const MeshSpec& mesh(const std::string& name) const;
+    int fieldIndex(const std::string& mesh, const std::string& name) const;  ///< -1 if none
+    std::string partnerOf(const std::string& participant) const;
+    std::string mappingSideOf(const MeshSpec& m) const {
+        return m.mappingSide.empty() ? first : m.mappingSide;
+    }
+};
+
+/// Human-readable list of the differences between two configurations ("" when equal).
+std::string describeDifferences(const CouplingConfig& mine, const CouplingConfig& theirs,
+                                const std::string& partnerName);
+
+}  // namespace tq::coupler

@@ -1,0 +1,145 @@
+// Fixed-point accelerations: none, constant relaxation, Aitken, IQN-ILS.
+#include "tq/coupler/acceleration.hpp"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "tq/coupler/errors.hpp"
+
+namespace tq::coupler {
+
+namespace {
+void checkSizes(const std::vector<double>& x, const std::vector<double>& xt) {
+    if (x.size() != xt.size())
+        throw ConfigError("acceleration: input and output sizes differ (" +
+                          std::to_string(x.size()) + " vs " + std::to_string(xt.size()) + ")");
+}
+}  // namespace
+
+void NoAcceleration::next(const std::vector<double>& x, const std::vector<double>& xt,
+                          std::vector<double>& out) {
+    checkSizes(x, xt);
+    out = xt;
+}
+
+ConstantRelaxation::ConstantRelaxation(double omega) : omega_(omega) {
+    if (!(omega > 0 && omega <= 1)) throw ConfigError("relaxation factor must be in (0, 1]");
+}
+void ConstantRelaxation::next(const std::vector<double>& x, const std::vector<double>& xt,
+                              std::vector<double>& out) {
+    checkSizes(x, xt);
+    out.resize(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) out[i] = x[i] + omega_ * (xt[i] - x[i]);
+}
+
+Aitken::Aitken(double w0) : omega0_(w0), omega_(w0) {
+    if (!(w0 > 0 && w0 <= 1)) throw ConfigError("Aitken initial relaxation must be in (0, 1]");
+}
+void Aitken::startWindow() {
+    first_ = true;
+    omega_ = omega0_;
+}
+void Aitken::next(const std::vector<double>& x, const std::vector<double>& xt,
+                  std::vector<double>& out) {
+    checkSizes(x, xt);
+    const std::size_t n = x.size();
+    std::vector<double> r(n);
+    for (std::size_t i = 0; i < n; ++i) r[i] = xt[i] - x[i];
+    if (first_) {
+        omega_ = omega0_;
+        first_ = false;
+    } else {
+        double num = 0, den = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const double dr = r[i] - rPrev_[i];
+            num += rPrev_[i] * dr;
+            den += dr * dr;
+        }
+        if (den > 0) omega_ = -omega_ * num / den;
+        // A factor of either sign is allowed (Aitken); cap its size so that a near-zero
+        // denominator cannot throw the iterate far away.
+        omega_ = std::max(-10.0, std::min(10.0, omega_));
+    }
+    out.resize(n);
+    for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega_ * r[i];
+    rPrev_ = std::move(r);
+}
+
+IqnIls::IqnIls(double w0, double eps) : omega0_(w0), eps_(eps) {
+    if (!(w0 > 0 && w0 <= 1)) throw ConfigError("IQN-ILS initial relaxation must be in (0, 1]");
+}
+void IqnIls::startWindow() {
+    first_ = true;
+    dr_.clear();
+    dxt_.clear();
+}
+void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
+                  std::vector<double>& out) {
+    checkSizes(x, xt);
+    const std::size_t n = x.size();
+    std::vector<double> r(n);
+    for (std::size_t i = 0; i < n; ++i) r[i] = xt[i] - x[i];
+    out.resize(n);
+    if (!first_) {
+        std::vector<double> a(n), b(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            a[i] = r[i] - rPrev_[i];
+            b[i] = xt[i] - xtPrev_[i];
+        }
+        dr_.push_back(std::move(a));
+        dxt_.push_back(std::move(b));
+        if (dr_.size() > n) {  // never more columns than unknowns
+            dr_.erase(dr_.begin());
+            dxt_.erase(dxt_.begin());
+        }
+    }
+    rPrev_ = r;
+    xtPrev_ = xt;
+    if (first_ || dr_.empty()) {
+        first_ = false;
+        for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
+        return;
+    }
+    // Least squares min ‖V α + r‖ by QR; drop the oldest columns while R is nearly singular.
+    Eigen::VectorXd rv = Eigen::Map<const Eigen::VectorXd>(r.data(), Eigen::Index(n));
+    for (;;) {
+        const Eigen::Index m = Eigen::Index(dr_.size());
+        Eigen::MatrixXd V(Eigen::Index(n), m);
+        for (Eigen::Index j = 0; j < m; ++j)
+            V.col(j) = Eigen::Map<const Eigen::VectorXd>(dr_[std::size_t(j)].data(), Eigen::Index(n));
+        Eigen::HouseholderQR<Eigen::MatrixXd> qr(V);
+        const Eigen::MatrixXd R = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
+        const double scale = V.norm();
+        bool ok = scale > 0;
+        for (Eigen::Index j = 0; ok && j < m; ++j)
+            if (std::abs(R(j, j)) < eps_ * scale) ok = false;
+        if (!ok) {
+            dr_.erase(dr_.begin());
+            dxt_.erase(dxt_.begin());
+            if (dr_.empty()) {
+                for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
+                return;
+            }
+            continue;
+        }
+        const Eigen::VectorXd alpha = qr.solve(Eigen::VectorXd(-rv));
+        for (std::size_t i = 0; i < n; ++i) {
+            double s = xt[i];
+            for (Eigen::Index j = 0; j < m; ++j) s += dxt_[std::size_t(j)][i] * alpha(j);
+            out[i] = s;
+        }
+        return;
+    }
+}
+
+std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind k, double w0) {
+    switch (k) {
+        case AccelerationKind::None: return std::make_unique<NoAcceleration>();
+        case AccelerationKind::Constant: return std::make_unique<ConstantRelaxation>(w0);
+        case AccelerationKind::Aitken: return std::make_unique<Aitken>(w0);
+        case AccelerationKind::IqnIls: return std::make_unique<IqnIls>(w0);
+    }
+    throw ConfigError("unknown acceleration");
+}
+
+}  // namespace tq::coupler

@@ -1,0 +1,148 @@
+// Coupling schemes: serial explicit, serial implicit (and the paper's two-pass variant).
+#include "tq/coupler/scheme.hpp"
+
+#include <cmath>
+
+#include "tq/coupler/errors.hpp"
+#include "tq/coupler/messages.hpp"
+
+namespace tq::coupler {
+
+double relativeDifference(const std::vector<double>& a, const std::vector<double>& b) {
+    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+    double d = 0, n = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        d += (a[i] - b[i]) * (a[i] - b[i]);
+        n += a[i] * a[i];
+    }
+    if (n == 0) return d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
+    return std::sqrt(d / n);
+}
+
+// ---------------------------------------------------------------- explicit
+void SerialExplicit::initialize(ExchangePort& port) {
+    state_.ongoing = config_.maxWindows > 0;
+    if (!first_ && state_.ongoing) port.receiveData(0, 0);
+}
+
+void SerialExplicit::endWindow(ExchangePort& port) {
+    const std::uint64_t w = state_.window;
+    const bool last = w + 1 >= config_.maxWindows;
+    if (first_) {
+        port.sendData(w, 0, last ? flags::kLastWindow : 0, std::nan(""));
+        port.receiveData(w, 0);
+    } else {
+        port.sendData(w, 0, flags::kConverged | (last ? flags::kLastWindow : 0), std::nan(""));
+    }
+    ++state_.totalIterations;
+    state_.window = w + 1;
+    state_.iteration = 0;
+    state_.ongoing = !last;
+    state_.windowComplete = true;
+    if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
+}
+
+// ---------------------------------------------------------------- implicit
+SerialImplicit::SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses,
+                               bool testConvergence, std::unique_ptr<Acceleration> acc)
+    : CouplingScheme(c, amFirst), maxPasses_(maxPasses), test_(testConvergence),
+      acc_(std::move(acc)) {}
+
+void SerialImplicit::initialize(ExchangePort& port) {
+    state_.ongoing = config_.maxWindows > 0;
+    state_.writeCheckpoint = state_.ongoing;
+    if (!first_ && state_.ongoing) {
+        port.receiveData(0, 0);
+        prevReceived_ = port.receivedValues();
+        lastSent_ = port.writtenValues();  // what the first participant used: the initial values
+        acc_->startWindow();
+    }
+}
+
+void SerialImplicit::endWindow(ExchangePort& port) {
+    const std::uint64_t w = state_.window;
+    const std::uint32_t k = state_.iteration;
+    const bool lastWindow = w + 1 >= config_.maxWindows;
+    ++state_.totalIterations;
+    bool complete = false;
+    if (first_) {
+        port.sendData(w, k, 0, std::nan(""));
+        const auto got = port.receiveData(w, k);
+        state_.residual = got.residual;
+        complete = (got.flags & flags::kConverged) != 0;
+        if (!complete && int(k) + 1 >= maxPasses_)
+            throw ProtocolError(ProtocolFault::BadPayload,
+                                "the partner asked for pass " + std::to_string(k + 2) +
+                                    " of window " + std::to_string(w) + " but at most " +
+                                    std::to_string(maxPasses_) + " are configured");
+    } else {
+        const std::vector<double> xt = port.writtenValues();  // x̃_k = H(x_k)
+        for (double v : xt)
+            if (!std::isfinite(v))
+                throw DivergenceError("non-finite interface values written in window " +
+                                      std::to_string(w) + ", pass " + std::to_string(k) +
+                                      ": the coupled iteration diverged (see docs/coupler.md, "
+                                      "added-mass instability)");
+        const std::vector<double>& d = port.receivedValues();
+        const double resWrite = relativeDifference(xt, lastSent_);
+        const double resRead = k >= 1 ? relativeDifference(d, prevReceived_)
+                                      : std::numeric_limits<double>::infinity();
+        state_.residual = std::max(resWrite, resRead);
+        if (!std::isfinite(resWrite) && k >= 1)
+            throw DivergenceError("interface residual is not finite in window " +
+                                  std::to_string(w) + ", pass " + std::to_string(k));
+        const bool converged = test_ && k >= 1 && state_.residual < config_.tolerance;
+        complete = converged || int(k) + 1 >= maxPasses_;
+        if (complete) {
+            if (test_ && !converged) ++state_.unconvergedWindows;
+            port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0),
+                          state_.residual);
+            lastSent_ = xt;
+        } else {
+            acc_->next(lastSent_, xt, next_);
+            port.writtenValues() = next_;
+            port.sendData(w, k, 0, state_.residual);
+            lastSent_ = next_;
+        }
+    }
+    state_.windowComplete = complete;
+    if (complete) {
+        state_.window = w + 1;
+        state_.iteration = 0;
+        state_.ongoing = !lastWindow;
+        state_.writeCheckpoint = state_.ongoing;
+        state_.readCheckpoint = false;
+        if (!first_) {
+            acc_->startWindow();
+            if (state_.ongoing) {
+                port.receiveData(state_.window, 0);
+                prevReceived_ = port.receivedValues();
+            }
+        }
+    } else {
+        state_.iteration = k + 1;
+        state_.readCheckpoint = true;
+        state_.writeCheckpoint = false;
+        if (!first_) {
+            prevReceived_ = port.receivedValues();
+            port.receiveData(w, k + 1);
+        }
+    }
+}
+
+std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::string& me) {
+    const bool amFirst = me == c.first;
+    switch (c.scheme) {
+        case SchemeKind::Explicit: return std::make_unique<SerialExplicit>(c, amFirst);
+        case SchemeKind::Paper:
+            return std::make_unique<SerialImplicit>(c, amFirst, 2, false,
+                                                    std::make_unique<NoAcceleration>());
+        case SchemeKind::Implicit:
+            return std::make_unique<SerialImplicit>(
+                c, amFirst, c.maxIterations, true,
+                makeAcceleration(c.acceleration, c.initialRelaxation));
+    }
+    throw ConfigError("unknown coupling scheme");
+}
+
+}  // namespace tq::coupler

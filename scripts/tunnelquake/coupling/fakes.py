@@ -1,0 +1,292 @@
+"""Fake participants ("solver dummies") that drive the coupling API alone, for tests and for
+debugging one real solver against a fake partner:
+
+- :class:`FakeSolid` replays a prescribed interface motion (wall velocity) and records the
+  forces it receives;
+- :class:`FakeFluid` replays a prescribed force history (or a pressure history turned into nodal
+  forces) and records the motion it receives.
+
+A prescription is any callable ``t -> array[nodes, 3]``: :class:`RingScenario` is the analytic
+one the C++ ``tq-coupler-dummy`` also uses (coupler/include/tq/coupler/ring_scenario.hpp: both
+compute the same numbers), :class:`History` replays a sampled history (HDF5 or .npz) with
+linear interpolation in time.
+
+Command line (the same options as tq-coupler-dummy)::
+
+    python -m tunnelquake.coupling.fakes --role fluid --token T --address-file run/wall.addr
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .participant import Participant
+from .protocol import CouplerError, CouplingConfig, FieldSpec, MeshSpec
+
+Prescription = Callable[[float], np.ndarray]
+
+
+# ----------------------------------------------------------------------------- prescriptions
+@dataclass
+class RingScenario:
+    """Cylindrical interface of radius R: n_theta nodes around, n_layers rings along y.
+    Solid node k: ring j = k // n_theta, θ = 2π (k % n_theta)/n_theta; fluid nodes are the same
+    points in reverse order (so a coincident map must find the permutation)."""
+
+    n_theta: int = 64
+    n_layers: int = 2
+    radius: float = 4.5
+    length: float = 1.0
+
+    @property
+    def nodes(self) -> int:
+        return self.n_theta * self.n_layers
+
+    def theta(self, k) -> np.ndarray:
+        return 2.0 * np.pi * (np.asarray(k) % self.n_theta) / self.n_theta
+
+    def solid_coordinates(self) -> np.ndarray:
+        k = np.arange(self.nodes)
+        th = self.theta(k)
+        y = self.length * (k // self.n_theta) / (self.n_layers - 1) if self.n_layers > 1 else np.zeros(self.nodes)
+        return np.column_stack([self.radius * np.cos(th), y, self.radius * np.sin(th)])
+
+    def solid_ids(self) -> np.ndarray:
+        return 1000 + np.arange(self.nodes, dtype=np.int64)
+
+    def solid_triangles(self) -> np.ndarray:
+        t = []
+        for j in range(self.n_layers - 1):
+            for i in range(self.n_theta):
+                a, b = j * self.n_theta + i, j * self.n_theta + (i + 1) % self.n_theta
+                c, d = b + self.n_theta, a + self.n_theta
+                t += [[a, b, c], [a, c, d]]
+        return np.array(t, dtype=np.int32).reshape(-1, 3)
+
+    def solid_index_of_fluid(self, k) -> np.ndarray:
+        return self.nodes - 1 - np.asarray(k)
+
+    def fluid_coordinates(self) -> np.ndarray:
+        return self.solid_coordinates()[self.solid_index_of_fluid(np.arange(self.nodes))]
+
+    def fluid_ids(self) -> np.ndarray:
+        return 500000 + self.solid_index_of_fluid(np.arange(self.nodes)).astype(np.int64)
+
+    def fluid_triangles(self) -> np.ndarray:
+        return self.solid_index_of_fluid(self.solid_triangles()).astype(np.int32)
+
+    def _theta_on(self, on_solid: bool) -> np.ndarray:
+        k = np.arange(self.nodes)
+        return self.theta(k if on_solid else self.solid_index_of_fluid(k))
+
+    def velocity(self, t: float, on_solid: bool = True) -> np.ndarray:
+        """v = (0.01 cos 2π·2t + 0.001 cos 2θ, 0, 0.005 sin 2π·2t), m/s."""
+        th = self._theta_on(on_solid)
+        v = np.zeros((self.nodes, 3))
+        v[:, 0] = 0.01 * math.cos(2 * math.pi * 2 * t) + 0.001 * np.cos(2 * th)
+        v[:, 2] = 0.005 * math.sin(2 * math.pi * 2 * t)
+        return v
+
+    def force(self, t: float, on_solid: bool = False) -> np.ndarray:
+        """f = (1e3 cos θ sin 2π·3t, 0, 1e3 sin θ sin 2π·3t + 10), N per node."""
+        th = self._theta_on(on_solid)
+        s = math.sin(2 * math.pi * 3 * t)
+        f = np.zeros((self.nodes, 3))
+        f[:, 0] = 1e3 * np.cos(th) * s
+        f[:, 2] = 1e3 * np.sin(th) * s + 10.0
+        return f
+
+
+class History:
+    """A sampled history values[k] at times[k] (shape [samples, nodes, components]) on nodes
+    (ids, coordinates), replayed with linear interpolation in time (held constant outside).
+
+    File layout (HDF5 or .npz): ``times`` [S] (s), ``values`` [S, N, C], ``ids`` [N],
+    ``coordinates`` [N, 3] (m)."""
+
+    def __init__(self, times, values, ids, coordinates):
+        self.times = np.asarray(times, dtype=np.float64)
+        self.values = np.asarray(values, dtype=np.float64)
+        self.ids = np.asarray(ids, dtype=np.int64)
+        self.coordinates = np.asarray(coordinates, dtype=np.float64).reshape(-1, 3)
+        if self.values.ndim != 3 or self.values.shape[0] != len(self.times) or self.values.shape[1] != len(self.ids):
+            raise ValueError(
+                f"history: values must be [samples={len(self.times)}, nodes={len(self.ids)}, components], got {self.values.shape}"
+            )
+        if np.any(np.diff(self.times) <= 0):
+            raise ValueError("history: times must increase strictly")
+
+    @classmethod
+    def load(cls, path) -> History:
+        path = Path(path)
+        if path.suffix == ".npz":
+            d = np.load(path)
+            return cls(d["times"], d["values"], d["ids"], d["coordinates"])
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            return cls(f["times"][:], f["values"][:], f["ids"][:], f["coordinates"][:])
+
+    def __call__(self, t: float) -> np.ndarray:
+        i = int(np.searchsorted(self.times, t))
+        if i <= 0:
+            return self.values[0].copy()
+        if i >= len(self.times):
+            return self.values[-1].copy()
+        a = (t - self.times[i - 1]) / (self.times[i] - self.times[i - 1])
+        return (1 - a) * self.values[i - 1] + a * self.values[i]
+
+
+def pressure_to_force(pressure: np.ndarray, area_vectors: np.ndarray) -> np.ndarray:
+    """Nodal forces on the lining from a nodal water pressure (Pa): f = p·a, with a the
+    node's tributary area vector (m²) pointing from the water into the lining."""
+    return np.asarray(pressure, dtype=np.float64)[:, None] * np.asarray(area_vectors, dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------- fakes
+def ring_config(scheme="implicit", windows=10, window_size=1e-3, acceleration="aitken", max_iterations=20,
+                tolerance=1e-8, mapping="coincident") -> CouplingConfig:
+    """The configuration tq-coupler-dummy builds from the same options."""
+    return CouplingConfig(
+        first="solid", second="fluid", window_size=window_size, max_windows=windows, scheme=scheme,
+        max_iterations=max_iterations, tolerance=tolerance, acceleration=acceleration, initial_relaxation=0.5,
+        meshes=[MeshSpec("wall", mapping, "solid", 1e-6)],
+        fields=[FieldSpec("wall", "velocity", 3, "solid", "consistent"),
+                FieldSpec("wall", "force", 3, "fluid", "conservative")],
+    )
+
+
+class _Fake:
+    role = ""
+    writes = reads = ""
+
+    def __init__(self, participant: Participant, ids, coordinates, prescription: Prescription, triangles=None,
+                 mesh: str = "wall", die_at_window: int = -1, hang_at_window: int = -1):
+        self.p = participant
+        self.mesh = mesh
+        self.prescription = prescription
+        self.die_at, self.hang_at = die_at_window, hang_at_window
+        self.p.set_mesh_vertices(mesh, ids, coordinates, triangles)
+        #: (window, pass, values read at the start of that pass)
+        self.received: list[tuple[int, int, np.ndarray]] = []
+        self.passes = 0
+
+    def run(self) -> list[tuple[int, int, np.ndarray]]:
+        """Runs the coupling to its end; returns what was read. Coupler errors propagate."""
+        p = self.p
+        p.initialize()
+        c = p.config
+        while p.is_coupling_ongoing():
+            w, k = p.state.window, p.state.iteration
+            if w == self.die_at:
+                print(f"fake {self.role}: dying at window {w}", file=sys.stderr, flush=True)
+                os._exit(9)
+            if w == self.hang_at:
+                print(f"fake {self.role}: hanging at window {w}", file=sys.stderr, flush=True)
+                time.sleep(3600)
+            self.received.append((w, k, p.read_data(self.mesh, self.reads)))
+            p.write_data(self.mesh, self.writes, self.prescription((w + 1) * c.window_size))
+            p.advance(p.get_max_time_step_size())
+            self.passes += 1
+        self.received.append((p.state.window, 0, p.read_data(self.mesh, self.reads)))
+        p.finalize()
+        return self.received
+
+
+class FakeSolid(_Fake):
+    """Replays a prescribed wall velocity; reads the force."""
+
+    role, writes, reads = "solid", "velocity", "force"
+
+
+class FakeFluid(_Fake):
+    """Replays a prescribed force (N per node); reads the wall velocity."""
+
+    role, writes, reads = "fluid", "force", "velocity"
+
+
+# ----------------------------------------------------------------------------- command line
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m tunnelquake.coupling.fakes", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--role", choices=["solid", "fluid"], required=True)
+    ap.add_argument("--token", required=True)
+    ap.add_argument("--transport", choices=["tcp", "mpi"], default="tcp")
+    ap.add_argument("--address-file")
+    ap.add_argument("--port", type=int, default=0)
+    ap.add_argument("--listen", action="store_true")
+    ap.add_argument("--connect", action="store_true")
+    ap.add_argument("--bind", default="127.0.0.1")
+    ap.add_argument("--scheme", default="implicit")
+    ap.add_argument("--acceleration", default="aitken")
+    ap.add_argument("--windows", type=int, default=10)
+    ap.add_argument("--window-size", type=float, default=1e-3)
+    ap.add_argument("--max-iterations", type=int, default=20)
+    ap.add_argument("--tolerance", type=float, default=1e-8)
+    ap.add_argument("--n-theta", type=int, default=64)
+    ap.add_argument("--n-layers", type=int, default=2)
+    ap.add_argument("--map", default="coincident")
+    ap.add_argument("--timeout", type=float, default=10.0)
+    ap.add_argument("--connect-timeout", type=float, default=10.0)
+    ap.add_argument("--die-at-window", type=int, default=-1)
+    ap.add_argument("--hang-at-window", type=int, default=-1)
+    ap.add_argument("--history", help="replay this HDF5/.npz history instead of the analytic ring scenario")
+    ap.add_argument("--report", help="write 'key value' lines: windows, passes, max_error, error_kind, exit")
+    a = ap.parse_args(argv)
+
+    ring = RingScenario(a.n_theta, a.n_layers)
+    cfg = ring_config(a.scheme, a.windows, a.window_size, a.acceleration, a.max_iterations, a.tolerance, a.map)
+    listen = True if a.listen else False if a.connect else None
+    report: dict[str, str] = {}
+    solid = a.role == "solid"
+    rc = 0
+    try:
+        p = Participant(a.role, cfg, a.token, transport=a.transport, address_file=a.address_file, listen=listen,
+                        bind=a.bind, connect_port=a.port, connect_timeout=a.connect_timeout,
+                        receive_timeout=a.timeout)
+        if a.history:
+            h = History.load(a.history)
+            fake = (FakeSolid if solid else FakeFluid)(p, h.ids, h.coordinates, h,
+                                                       die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+        elif solid:
+            fake = FakeSolid(p, ring.solid_ids(), ring.solid_coordinates(), lambda t: ring.velocity(t, True),
+                             ring.solid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+        else:
+            fake = FakeFluid(p, ring.fluid_ids(), ring.fluid_coordinates(), lambda t: ring.force(t, False),
+                             ring.fluid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+        received = fake.run()
+        # Check what was read against the partner's prescription (analytic scenario only): the
+        # fluid every pass (the solid's data are never relaxed), the solid at window starts.
+        err = 0.0
+        if not a.history:
+            for w, k, got in received:
+                if solid and (k != 0 or w == 0):
+                    continue
+                if not solid and w >= a.windows:
+                    continue
+                want = ring.force(w * a.window_size, True) if solid else ring.velocity((w + 1) * a.window_size, False)
+                err = max(err, float(np.max(np.abs(got - want) / np.maximum(1.0, np.abs(want)))))
+        report.update(windows=str(p.state.window), passes=str(fake.passes), max_error=repr(err))
+        print(f"fake {a.role} (python): {p.state.window} windows, {fake.passes} passes, "
+              f"max relative error of received data {err:g}")
+        rc = 0 if err <= 1e-12 else 3
+    except CouplerError as e:
+        print(f"fake {a.role} (python): {type(e).__name__}: {e}", file=sys.stderr)
+        report["error_kind"] = type(e).__name__
+        rc = 2
+    report["exit"] = str(rc)
+    if a.report:
+        Path(a.report).write_text("".join(f"{k} {v}\n" for k, v in report.items()))
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main())
