@@ -1,0 +1,299 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | TunnelQuake: water side, built against
+   \\    /   O peration     | OpenFOAM v1912
+    \\  /    A nd           |
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+License
+    GPL-3.0-or-later, like the OpenFOAM libraries it links against.
+
+\*---------------------------------------------------------------------------*/
+
+#include "fieldCheckpoint.H"
+#include "volFields.H"
+#include "surfaceFields.H"
+#include "pointFields.H"
+#include "valuePointPatchField.H"
+
+// * * * * * * * * * * * * * * * Local Functions * * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace tq
+{
+namespace
+{
+
+// Storage behind a patch field, or nullptr where the patch type holds none.
+// fv and fvs patch fields are Fields; point patch fields only when they hold
+// values (fixedValue and the like).
+
+template<class Type>
+Field<Type>* patchStorage(fvPatchField<Type>& pf)
+{
+    return &pf;
+}
+
+template<class Type>
+Field<Type>* patchStorage(fvsPatchField<Type>& pf)
+{
+    return &pf;
+}
+
+template<class Type>
+Field<Type>* patchStorage(pointPatchField<Type>& pf)
+{
+    return dynamic_cast<valuePointPatchField<Type>*>(&pf);
+}
+
+
+//- A saved GeometricField: internal and boundary values
+template<class GeoField>
+class savedGeoField
+:
+    public savedObject
+{
+    typedef typename GeoField::value_type Type;
+
+    word name_;
+    Field<Type> internal_;
+    List<Field<Type>> patches_;
+    boolList hasPatch_;
+
+public:
+
+    explicit savedGeoField(const GeoField& fld)
+    :
+        name_(fld.name()),
+        internal_(fld.primitiveField()),
+        patches_(fld.boundaryField().size()),
+        hasPatch_(fld.boundaryField().size(), false)
+    {
+        // Read the boundary without triggering the old-time bookkeeping
+        GeoField& f = const_cast<GeoField&>(fld);
+        auto& bf = f.boundaryFieldRef(false);
+        forAll(bf, patchi)
+        {
+            const Field<Type>* s = patchStorage(bf[patchi]);
+            if (s)
+            {
+                patches_[patchi] = *s;
+                hasPatch_[patchi] = true;
+            }
+        }
+    }
+
+    virtual const word& name() const
+    {
+        return name_;
+    }
+
+    virtual bool restore(const objectRegistry& obr) const
+    {
+        GeoField* fldPtr = obr.getObjectPtr<GeoField>(name_);
+        if (!fldPtr)
+        {
+            return false;
+        }
+        GeoField& fld = *fldPtr;
+
+        // Raw copies: 'false' keeps OpenFOAM from storing old-time levels
+        // at this (unchanged) time index.
+        fld.primitiveFieldRef(false) = internal_;
+        auto& bf = fld.boundaryFieldRef(false);
+        forAll(bf, patchi)
+        {
+            Field<Type>* s = patchStorage(bf[patchi]);
+            if (s && hasPatch_[patchi])
+            {
+                *s = patches_[patchi];
+            }
+        }
+        return true;
+    }
+};
+
+} // End anonymous namespace
+} // End namespace tq
+} // End namespace Foam
+
+
+// * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace tq
+{
+    defineTypeNameAndDebug(fieldCheckpoint, 0);
+}
+}
+
+
+// * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
+
+template<class GeoField>
+void Foam::tq::fieldCheckpoint::storeFields()
+{
+    const wordList names(mesh_.sortedNames<GeoField>());
+    for (const word& name : names)
+    {
+        const GeoField& fld = mesh_.lookupObject<GeoField>(name);
+        fields_.append(new savedGeoField<GeoField>(fld));
+    }
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::tq::fieldCheckpoint::fieldCheckpoint(const fvMesh& mesh)
+:
+    mesh_(mesh),
+    valid_(false),
+    time_(0),
+    deltaT_(0),
+    timeIndex_(-1),
+    fields_(),
+    moving_(false)
+{}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+void Foam::tq::fieldCheckpoint::store()
+{
+    const Time& runTime = mesh_.time();
+    time_ = runTime.value();
+    deltaT_ = runTime.deltaTValue();
+    timeIndex_ = runTime.timeIndex();
+
+    fields_.clear();
+    storeFields<volScalarField>();
+    storeFields<volVectorField>();
+    storeFields<volSymmTensorField>();
+    storeFields<volTensorField>();
+    storeFields<surfaceScalarField>();
+    storeFields<surfaceVectorField>();
+    storeFields<surfaceSymmTensorField>();
+    storeFields<surfaceTensorField>();
+    storeFields<pointScalarField>();
+    storeFields<pointVectorField>();
+
+    // Mesh motion state.  V0 and meshPhi exist once the mesh has moved.
+    points_ = mesh_.points();
+    moving_ = mesh_.moving() && runTime.timeIndex() > runTime.startTimeIndex();
+    if (moving_)
+    {
+        fvMesh& mesh = const_cast<fvMesh&>(mesh_);
+        V0_ = mesh.setV0();
+
+        surfaceScalarField& meshPhi = mesh.setPhi();
+        meshPhi_ = meshPhi.primitiveField();
+        const auto& bf = meshPhi.boundaryFieldRef(false);
+        meshPhiBf_.setSize(bf.size());
+        forAll(bf, patchi)
+        {
+            meshPhiBf_[patchi] = bf[patchi];
+        }
+
+        // meshPhi_0: at this time index its access stores nothing
+        const surfaceScalarField& meshPhi0 = meshPhi.oldTime();
+        meshPhi0_ = meshPhi0.primitiveField();
+        meshPhi0Bf_.setSize(bf.size());
+        forAll(bf, patchi)
+        {
+            meshPhi0Bf_[patchi] = meshPhi0.boundaryField()[patchi];
+        }
+    }
+
+    valid_ = true;
+
+    if (debug)
+    {
+        Info<< "tq::fieldCheckpoint: stored " << fields_.size()
+            << " fields at time " << time_ << endl;
+    }
+}
+
+
+void Foam::tq::fieldCheckpoint::restore() const
+{
+    if (!valid_)
+    {
+        FatalErrorInFunction
+            << "No checkpoint to restore: the partner asked for a rollback"
+            << " before any state was saved (the exchange must ask for"
+            << " writing a checkpoint first)." << exit(FatalError);
+    }
+
+    Time& runTime = const_cast<Time&>(mesh_.time());
+    if (mag(runTime.deltaTValue() - deltaT_) > 1e-12*deltaT_)
+    {
+        FatalErrorInFunction
+            << "Rollback with a changed time step (" << runTime.deltaTValue()
+            << " s now, " << deltaT_ << " s when saved) is not supported."
+            << nl << "Fix: use a fixed deltaT in coupled runs."
+            << exit(FatalError);
+    }
+
+    // Time value back, step index kept increasing (see class description)
+    runTime.setTime(time_, runTime.timeIndex());
+
+    fvMesh& mesh = const_cast<fvMesh&>(mesh_);
+    if (moving_)
+    {
+        // Same time index as the last motion: moves without shifting V0,
+        // oldPoints or meshPhi_0; the swept-volume fluxes it computes are
+        // overwritten below.
+        mesh.movePoints(points_);
+        mesh.setV0().field() = V0_;
+
+        surfaceScalarField& meshPhi = mesh.setPhi();
+        meshPhi.primitiveFieldRef(false) = meshPhi_;
+        auto& bf = meshPhi.boundaryFieldRef(false);
+        forAll(bf, patchi)
+        {
+            static_cast<scalarField&>(bf[patchi]) = meshPhiBf_[patchi];
+        }
+        surfaceScalarField& meshPhi0 = meshPhi.oldTime();
+        meshPhi0.primitiveFieldRef(false) = meshPhi0_;
+        auto& bf0 = meshPhi0.boundaryFieldRef(false);
+        forAll(bf0, patchi)
+        {
+            static_cast<scalarField&>(bf0[patchi]) = meshPhi0Bf_[patchi];
+        }
+    }
+    else if (mesh_.moving())
+    {
+        // Saved before the mesh first moved: back to the points of the
+        // saved state, mesh at rest (no motion flux).  The next step stores
+        // the current volumes as V0, as a fresh first step does.
+        mesh.movePoints(points_);
+        surfaceScalarField& meshPhi = mesh.setPhi();
+        meshPhi.primitiveFieldRef(false) = 0;
+        for (auto& pf : meshPhi.boundaryFieldRef(false))
+        {
+            static_cast<scalarField&>(pf) = 0;
+        }
+    }
+
+    forAll(fields_, i)
+    {
+        if (!fields_[i].restore(mesh_))
+        {
+            WarningInFunction
+                << "Field " << fields_[i].name() << " saved at time "
+                << time_ << " no longer exists; not restored." << endl;
+        }
+    }
+
+    if (debug)
+    {
+        Info<< "tq::fieldCheckpoint: restored " << fields_.size()
+            << " fields to time " << time_ << " (saved at index "
+            << timeIndex_ << ")" << endl;
+    }
+}
+
+
+// ************************************************************************* //

@@ -1,0 +1,70 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | TunnelQuake: water side, built against
+   \\    /   O peration     | OpenFOAM v1912
+    \\  /    A nd           |
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+License
+    GPL-3.0-or-later, like the OpenFOAM libraries it links against.
+
+\*---------------------------------------------------------------------------*/
+
+#include "interfaceExchange.H"
+#include "addToRunTimeSelectionTable.H"
+
+// * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace tq
+{
+    defineTypeNameAndDebug(interfaceExchange, 0);
+    defineRunTimeSelectionTable(interfaceExchange, dictionary);
+
+    defineTypeNameAndDebug(noneExchange, 0);
+    addToRunTimeSelectionTable(interfaceExchange, noneExchange, dictionary);
+}
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::tq::interfaceExchange::interfaceExchange
+(
+    const Time& runTime,
+    const dictionary& dict
+)
+:
+    time_(runTime),
+    dict_(dict)
+{}
+
+
+// * * * * * * * * * * * * * * * * Selectors * * * * * * * * * * * * * * * * //
+
+Foam::autoPtr<Foam::tq::interfaceExchange> Foam::tq::interfaceExchange::New
+(
+    const Time& runTime,
+    const dictionary& dict
+)
+{
+    const word exchangeType(dict.get<word>("type"));
+
+    auto cstrIter = dictionaryConstructorTablePtr_->cfind(exchangeType);
+
+    if (!cstrIter.found())
+    {
+        FatalIOErrorInFunction(dict)
+            << "Unknown interface exchange type '" << exchangeType
+            << "' in " << dict.name() << nl
+            << "Valid types: " << dictionaryConstructorTablePtr_->sortedToc()
+            << nl << "Fix: set 'type' of the exchange dictionary to one of"
+            << " these." << exit(FatalIOError);
+    }
+
+    return autoPtr<interfaceExchange>(cstrIter()(runTime, dict));
+}
+
+
+// ************************************************************************* //

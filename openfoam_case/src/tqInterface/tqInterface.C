@@ -1,0 +1,593 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | TunnelQuake: water side, built against
+   \\    /   O peration     | OpenFOAM v1912
+    \\  /    A nd           |
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+License
+    GPL-3.0-or-later, like the OpenFOAM libraries it links against.
+
+\*---------------------------------------------------------------------------*/
+
+#include "tqInterface.H"
+#include "interfaceTraction.H"
+#include "volFields.H"
+#include "surfaceFields.H"
+#include "pointFields.H"
+#include "fixedValuePointPatchFields.H"
+#include "fvcGrad.H"
+#include "fvcDdt.H"
+#include "IOdictionary.H"
+#include "OFstream.H"
+#include "addToRunTimeSelectionTable.H"
+
+// * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace functionObjects
+{
+    defineTypeNameAndDebug(tqInterface, 0);
+    addToRunTimeSelectionTable(functionObject, tqInterface, dictionary);
+}
+}
+
+const Foam::Enum
+<
+    Foam::functionObjects::tqInterface::wallPressureType
+>
+Foam::functionObjects::tqInterface::wallPressureTypeNames_
+({
+    { wallPressureType::patchValue, "patchValue" },
+    { wallPressureType::extrapolated, "extrapolated" },
+});
+
+
+// * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
+
+Foam::scalar Foam::functionObjects::tqInterface::nu() const
+{
+    if (nu_ > 0)
+    {
+        return nu_;
+    }
+    if (foundObject<IOdictionary>("transportProperties"))
+    {
+        const IOdictionary& tp =
+            lookupObject<IOdictionary>("transportProperties");
+        return dimensionedScalar("nu", dimViscosity, tp).value();
+    }
+    FatalErrorInFunction
+        << "No viscosity: give 'nu' [m^2/s] in the " << name()
+        << " dictionary or constant/transportProperties." << exit(FatalError);
+    return 0;
+}
+
+
+void Foam::functionObjects::tqInterface::calcLoads()
+{
+    const fvPatch& fvp = mesh_.boundary()[patchi_];
+    const polyPatch& pp = fvp.patch();
+    const volScalarField& p = lookupObject<volScalarField>(pName_);
+    const volVectorField& U = lookupObject<volVectorField>(UName_);
+
+    // Face density [kg/m^3] and the factor taking p to Pa
+    scalarField rhoF(fvp.size(), rhoInf_);
+    scalar pToPa = rhoInf_;
+    if (rhoName_ != "rhoInf")
+    {
+        rhoF = lookupObject<volScalarField>(rhoName_).boundaryField()[patchi_];
+        pToPa = 1;
+    }
+
+    // Wall pressure, in p's units
+    pCell_ = p.boundaryField()[patchi_].patchInternalField();
+    scalarField pW;
+    if (wallPressure_ == wallPressureType::patchValue)
+    {
+        pW = p.boundaryField()[patchi_];
+    }
+    else
+    {
+        const vectorField nf(fvp.nf());
+        const vectorField d(fvp.Cf() - fvp.Cn());
+        const scalarField dn(nf & d);
+
+        // Wall acceleration: ddt(U) on the patch, by U's ddt scheme; normal
+        // momentum at a no-slip wall: dp/dn = -a_w.n (kinematic p)
+        const tmp<volVectorField> tddtU(fvc::ddt(U));
+        scalarField dpdn(-(tddtU().boundaryField()[patchi_] & nf));
+        if (rhoName_ != "rhoInf")
+        {
+            dpdn *= rhoF;
+        }
+
+        const tmp<volVectorField> tgradP(fvc::grad(p));
+        const vectorField gradPc
+        (
+            tgradP().boundaryField()[patchi_].patchInternalField()
+        );
+
+        pW = pCell_ + dn*dpdn + ((d - nf*dn) & gradPc);
+    }
+    pWall_ = pToPa*(pW - pRef_);
+    pCell_ = pToPa*(pCell_ - pRef_);
+
+    // Pressure part: p_w S_f (S_f points out of the water, into the lining)
+    faceForceP_ = pWall_*fvp.Sf();
+
+    // Viscous part: S_f . devRhoReff, devRhoReff = -mu_eff dev(twoSymm(gradU))
+    {
+        scalarField nuEff(fvp.size(), nu());
+        const volScalarField* nutPtr = findObject<volScalarField>("nut");
+        if (nutPtr)
+        {
+            nuEff += nutPtr->boundaryField()[patchi_];
+        }
+        const tmp<volTensorField> tgradU(fvc::grad(U));
+        const tensorField& gradUb = tgradU().boundaryField()[patchi_];
+        faceForceV_ = fvp.Sf() & (-(rhoF*nuEff)*dev(twoSymm(gradUb)));
+    }
+    faceForce_ = faceForceP_ + faceForceV_;
+
+    // Point forces (conservative map), on the current geometry
+    const faceList& lf = pp.localFaces();
+    const List<scalarList> w(tq::medianDualWeights(lf, pp.localPoints()));
+    pointForce_ = tq::distributeToPoints(lf, w, pp.nPoints(), faceForce_);
+
+    totalP_ = returnReduce(sum(faceForceP_), sumOp<vector>());
+    totalV_ = returnReduce(sum(faceForceV_), sumOp<vector>());
+    totalPoint_ = returnReduce(sum(pointForce_), sumOp<vector>());
+    const scalar area = returnReduce(sum(fvp.magSf()), sumOp<scalar>());
+    pMean_ =
+        returnReduce(sum(pWall_*fvp.magSf()), sumOp<scalar>())
+       /max(area, VSMALL);
+
+    totalHs_ = Zero;
+    if (hydrostatic_)
+    {
+        const scalar magG = mag(g_);
+        const vector up(-g_/magG);
+        const scalarField pHs(rhoF*magG*(freeSurfaceLevel_ - (up & fvp.Cf())));
+        totalHs_ = returnReduce(sum(pHs*fvp.Sf()), sumOp<vector>());
+    }
+}
+
+
+void Foam::functionObjects::tqInterface::applyMotion()
+{
+    pointVectorField* pDPtr =
+        mesh_.getObjectPtr<pointVectorField>("pointDisplacement");
+    if (!pDPtr)
+    {
+        FatalErrorInFunction
+            << "The exchange moves the interface, but the mesh has no"
+            << " pointDisplacement field." << nl
+            << "Fix: in constant/dynamicMeshDict use dynamicFvMesh"
+            << " dynamicMotionSolverFvMesh with motionSolver"
+            << " tqInterpolatedDisplacement (or another displacement-based"
+            << " solver), and give 0/pointDisplacement." << exit(FatalError);
+    }
+
+    pointPatchVectorField& ppf = pDPtr->boundaryFieldRef()[patchi_];
+    if (!isA<fixedValuePointPatchVectorField>(ppf))
+    {
+        FatalErrorInFunction
+            << "pointDisplacement on patch " << patchName_ << " is of type '"
+            << ppf.type() << "'." << nl
+            << "Fix: make it 'fixedValue' (value uniform (0 0 0);) so that"
+            << " the received interface displacement can be applied."
+            << exit(FatalError);
+    }
+    refCast<fixedValuePointPatchVectorField>(ppf) == displacement_;
+}
+
+
+void Foam::functionObjects::tqInterface::receiveMotion()
+{
+    const scalar tNext = time().value() + time().deltaTValue();
+    exchange_->readMotion(tNext, displacement_, velocity_);
+
+    const label nPoints = points0_.size();
+    if (displacement_.size() != nPoints || velocity_.size() != nPoints)
+    {
+        FatalErrorInFunction
+            << "The exchange returned " << displacement_.size()
+            << " displacements and " << velocity_.size() << " velocities for "
+            << nPoints << " interface points of patch " << patchName_
+            << exit(FatalError);
+    }
+    checkVolumeChange();
+    applyMotion();
+}
+
+
+void Foam::functionObjects::tqInterface::checkVolumeChange() const
+{
+    // Incompressible water in a closed domain (no fixed-value pressure
+    // anywhere) cannot change volume: refuse a wall motion that asks for it.
+    if (rhoName_ != "rhoInf")
+    {
+        return;
+    }
+    const volScalarField& p = lookupObject<volScalarField>(pName_);
+    if (!p.needReference())
+    {
+        return;
+    }
+
+    const polyPatch& pp = mesh_.boundaryMesh()[patchi_];
+    const faceList& lf = pp.localFaces();
+    const vectorField& Sf = pp.faceAreas();
+    scalar dVdt = 0;
+    scalar scale = 0;
+    forAll(lf, facei)
+    {
+        vector vf = Zero;
+        for (const label pointi : lf[facei])
+        {
+            vf += velocity_[pointi];
+        }
+        vf /= lf[facei].size();
+        dVdt += vf & Sf[facei];
+        scale += mag(vf)*mag(Sf[facei]);
+    }
+    reduce(dVdt, sumOp<scalar>());
+    reduce(scale, sumOp<scalar>());
+
+    if (mag(dVdt) > volumeChangeTol_*max(scale, VSMALL))
+    {
+        FatalErrorInFunction
+            << "The received wall motion changes the volume of the water"
+            << " (dV/dt = " << dVdt << " m^3/s through patch " << patchName_
+            << ", " << mag(dVdt)/max(scale, VSMALL) << " of the wall flux"
+            << " magnitude) but the water is incompressible and the domain"
+            << " is closed (no fixed-value pressure boundary): the problem"
+            << " has no solution." << nl
+            << "Fix: open the axial ends (p fixedValue on end_ymin/end_ymax,"
+            << " see openfoam_case/template), or use the weakly compressible"
+            << " water model (rhoPimpleFoam), or set volumeChangeTolerance"
+            << " in the " << name() << " dictionary if this is a round-off"
+            << " effect." << exit(FatalError);
+    }
+}
+
+
+void Foam::functionObjects::tqInterface::writeRow
+(
+    const scalar t,
+    const bool accepted
+)
+{
+    Log << type() << " " << name() << ": t = " << t
+        << (accepted ? "" : " (rolled back)") << nl
+        << "    force on lining [N] " << (totalP_ + totalV_)
+        << " (pressure " << totalP_ << ", viscous " << totalV_ << ")" << nl;
+    if (hydrostatic_)
+    {
+        Log << "    hydrostatic resultant [N] " << totalHs_ << nl;
+    }
+
+    if (!filePtr_.valid())
+    {
+        return;
+    }
+    OFstream& os = filePtr_();
+    const vector F(totalP_ + totalV_);
+    os  << t << ' ' << (accepted ? 1 : 0);
+    for (const vector& v : {F, totalP_, totalV_, totalHs_, totalPoint_})
+    {
+        os  << ' ' << v.x() << ' ' << v.y() << ' ' << v.z();
+    }
+    os  << ' ' << pMean_ << ' ' << nRollbacks_ << endl;
+}
+
+
+void Foam::functionObjects::tqInterface::writeFields() const
+{
+    const fvPatch& fvp = mesh_.boundary()[patchi_];
+    const polyPatch& pp = fvp.patch();
+
+    const fileName dir(baseTimeDir());
+    mkDir(dir);
+    const word suffix
+    (
+        Pstream::parRun() ? "_proc" + Foam::name(Pstream::myProcNo()) : ""
+    );
+
+    {
+        OFstream os(dir/"faces" + suffix + ".dat");
+        os.precision(12);
+        os  << "# x y z Sx Sy Sz pWall[Pa] pCell[Pa] fx fy fz [N]" << nl;
+        const vectorField& Cf = fvp.Cf();
+        const vectorField& Sf = fvp.Sf();
+        forAll(Cf, facei)
+        {
+            os  << Cf[facei].x() << ' ' << Cf[facei].y() << ' '
+                << Cf[facei].z() << ' ' << Sf[facei].x() << ' '
+                << Sf[facei].y() << ' ' << Sf[facei].z() << ' '
+                << pWall_[facei] << ' ' << pCell_[facei] << ' '
+                << faceForce_[facei].x() << ' ' << faceForce_[facei].y()
+                << ' ' << faceForce_[facei].z() << nl;
+        }
+    }
+    {
+        OFstream os(dir/"points" + suffix + ".dat");
+        os.precision(12);
+        os  << "# x0 y0 z0 x y z ux uy uz vx vy vz fx fy fz" << nl;
+        const pointField& x = pp.localPoints();
+        forAll(x, i)
+        {
+            for
+            (
+                const vector& v
+              : {points0_[i], x[i], displacement_[i], velocity_[i],
+                 pointForce_[i]}
+            )
+            {
+                os  << v.x() << ' ' << v.y() << ' ' << v.z() << ' ';
+            }
+            os  << nl;
+        }
+    }
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::functionObjects::tqInterface::tqInterface
+(
+    const word& name,
+    const Time& runTime,
+    const dictionary& dict
+)
+:
+    fvMeshFunctionObject(name, runTime, dict),
+    writeFile(mesh_, name, typeName, dict),
+    patchName_(),
+    patchi_(-1),
+    pName_("p"),
+    UName_("U"),
+    rhoName_("rhoInf"),
+    rhoInf_(1),
+    pRef_(0),
+    volumeChangeTol_(1e-3),
+    nu_(-1),
+    wallPressure_(wallPressureType::extrapolated),
+    hydrostatic_(false),
+    g_(Zero),
+    freeSurfaceLevel_(0),
+    exchange_(),
+    checkpoint_(mesh_),
+    endTime_(runTime.endTime().value()),
+    totalP_(Zero),
+    totalV_(Zero),
+    totalHs_(Zero),
+    totalPoint_(Zero),
+    pMean_(0),
+    nRollbacks_(0),
+    rewriteTime_(-1)
+{
+    // A wrong coupling set-up must end the run: while constructing function
+    // objects OpenFOAM turns FatalError into a warning and would go on
+    // uncoupled.
+    const bool throwing = FatalError.dontThrowExceptions();
+    const bool throwingIO = FatalIOError.dontThrowExceptions();
+
+    read(dict);
+
+    // The wall acceleration of the first step is ddt(U) on the patch against
+    // the initial state: create U's old-time level now, before the first
+    // mesh motion updates the wall velocity (OpenFOAM would otherwise create
+    // it lazily from the already updated boundary values).
+    if (wallPressure_ == wallPressureType::extrapolated)
+    {
+        lookupObject<volVectorField>(UName_).oldTime();
+    }
+
+    const polyPatch& pp = mesh_.boundaryMesh()[patchi_];
+    points0_ = pp.localPoints();
+    displacement_.setSize(pp.nPoints(), Zero);
+    velocity_.setSize(pp.nPoints(), Zero);
+
+    // Interface description for the partner
+    const faceList& lf = pp.localFaces();
+    const scalarField pointArea
+    (
+        tq::pointAreas
+        (
+            lf,
+            tq::medianDualWeights(lf, points0_),
+            pp.nPoints(),
+            mag(pp.faceAreas())
+        )
+    );
+
+    if (dict.found("exchange"))
+    {
+        exchange_ = tq::interfaceExchange::New(runTime, dict.subDict("exchange"));
+    }
+    else
+    {
+        exchange_.reset(new tq::noneExchange(runTime, dictionary()));
+    }
+    exchange_->initialize(points0_, pointArea);
+
+    if (exchange_->isCouplingOngoing())
+    {
+        // The coupling owns the end of the run (see class description)
+        endTime_ = runTime.endTime().value();
+        const_cast<Time&>(runTime).setEndTime
+        (
+            endTime_ + 10*runTime.deltaTValue()
+        );
+
+        if (exchange_->requiresWritingCheckpoint())
+        {
+            checkpoint_.store();
+        }
+        receiveMotion();
+    }
+
+    FatalError.throwExceptions(throwing);
+    FatalIOError.throwExceptions(throwingIO);
+
+    filePtr_ = createFile("interface");
+    if (filePtr_.valid())
+    {
+        OFstream& os = filePtr_();
+        os.precision(15);
+        writeHeader(os, "tqInterface: water loads on patch " + patchName_);
+        writeHeader
+        (
+            os,
+            "t accepted Fx Fy Fz Fpx Fpy Fpz Fvx Fvy Fvz Fhsx Fhsy Fhsz"
+            " sumPointFx sumPointFy sumPointFz pMean nRollbacks"
+        );
+        writeHeader
+        (
+            os,
+            "units: s - N N N N N N N N N N N N N N N Pa -"
+        );
+    }
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
+{
+    fvMeshFunctionObject::read(dict);
+    writeFile::read(dict);
+
+    patchName_ = dict.get<word>("patch");
+    patchi_ = mesh_.boundaryMesh().findPatchID(patchName_);
+    if (patchi_ < 0)
+    {
+        FatalIOErrorInFunction(dict)
+            << "Unknown patch '" << patchName_ << "' (entry 'patch')." << nl
+            << "Patches of the mesh: " << mesh_.boundaryMesh().names()
+            << exit(FatalIOError);
+    }
+
+    pName_ = dict.lookupOrDefault<word>("p", "p");
+    UName_ = dict.lookupOrDefault<word>("U", "U");
+    rhoName_ = dict.lookupOrDefault<word>("rho", "rhoInf");
+    if (rhoName_ == "rhoInf")
+    {
+        rhoInf_ = dict.get<scalar>("rhoInf");
+        if (rhoInf_ <= 0)
+        {
+            FatalIOErrorInFunction(dict)
+                << "rhoInf " << rhoInf_ << " must be positive (water: 1000)."
+                << exit(FatalIOError);
+        }
+    }
+    pRef_ = dict.lookupOrDefault<scalar>("pRef", 0);
+    volumeChangeTol_ =
+        dict.lookupOrDefault<scalar>("volumeChangeTolerance", 1e-3);
+    nu_ = dict.lookupOrDefault<scalar>("nu", -1);
+    wallPressure_ = wallPressureTypeNames_.lookupOrDefault
+    (
+        "wallPressure",
+        dict,
+        wallPressureType::extrapolated
+    );
+
+    hydrostatic_ = dict.found("hydrostatic");
+    if (hydrostatic_)
+    {
+        const dictionary& hd = dict.subDict("hydrostatic");
+        g_ = hd.get<vector>("g");
+        freeSurfaceLevel_ = hd.get<scalar>("freeSurfaceLevel");
+        if (mag(g_) < SMALL)
+        {
+            FatalIOErrorInFunction(hd)
+                << "g " << g_ << " has zero length." << exit(FatalIOError);
+        }
+    }
+
+    return true;
+}
+
+
+bool Foam::functionObjects::tqInterface::execute()
+{
+    calcLoads();
+
+    const scalar t = time().value();
+    const scalar dt = time().deltaTValue();
+    const bool coupled = exchange_->isCouplingOngoing();
+
+    bool accepted = true;
+    if (coupled)
+    {
+        exchange_->writeForces(t, pointForce_);
+        exchange_->advance(dt);
+        accepted = !exchange_->requiresReadingCheckpoint();
+    }
+
+    writeRow(t, accepted);
+
+    if (accepted)
+    {
+        const bool rewrite =
+            rewriteTime_ >= 0 && mag(t - rewriteTime_) < 0.5*dt;
+        if (time().writeTime() || rewrite)
+        {
+            writeFields();
+        }
+        if (rewrite)
+        {
+            // This write time was written by a rejected attempt
+            const_cast<Time&>(time()).writeNow();
+            rewriteTime_ = -1;
+        }
+    }
+    else
+    {
+        if (time().writeTime())
+        {
+            rewriteTime_ = t;
+        }
+        checkpoint_.restore();
+        ++nRollbacks_;
+    }
+
+    if (coupled)
+    {
+        if (accepted && t >= endTime_ - 0.5*dt)
+        {
+            exchange_->finalize();
+            const_cast<Time&>(time()).writeAndEnd();
+            return true;
+        }
+        if (exchange_->requiresWritingCheckpoint())
+        {
+            checkpoint_.store();
+        }
+        receiveMotion();
+    }
+
+    return true;
+}
+
+
+bool Foam::functionObjects::tqInterface::write()
+{
+    return true;
+}
+
+
+bool Foam::functionObjects::tqInterface::end()
+{
+    if (exchange_.valid())
+    {
+        exchange_->finalize();
+    }
+    return true;
+}
+
+
+// ************************************************************************* //

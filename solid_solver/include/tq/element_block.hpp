@@ -1,0 +1,124 @@
+/// @file element_block.hpp
+/// @brief A group of hex8 elements of one formulation and one material. Element state is held per
+///        block, one contiguous array per stress/strain component and per history variable.
+///        The force kernel works in fixed-size chunks: gather -> strain -> material update on the
+///        chunk -> stress divergence + hourglass forces -> per-corner force buffer (no atomics;
+///        the node assembly sums the corners in a fixed order, so results are bitwise identical
+///        for any number of OpenMP threads).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/material.hpp"
+#include "tq/mesh.hpp"
+#include "tq/nodal_state.hpp"
+
+namespace tq {
+
+/// Element formulation of a block (see docs/solid_solver.md, "Element formulation").
+enum class Hex8Formulation {
+  /// Default. One-point (uniform-gradient) hex8 with assumed-strain physical hourglass
+  /// stabilisation: linear hourglass strain field, parasitic in-plane bending shear removed, and
+  /// the transverse normal strain of each bending mode set so that σ_nn = 0 across the bending
+  /// plane (ν̄ = λ/(λ+2μ)): exact for pure plate/ring bending in plane strain.
+  OnePointAssumedStrain,
+  /// Same without the transverse Poisson correction (ν̄ = 0): bending modulus λ+2μ in the
+  /// hourglass part. Kept for comparison.
+  OnePointAssumedStrainNoPoisson,
+  /// Fully integrated trilinear hex (2x2x2 Gauss), linear elastic only. Reference: shear-locks.
+  FullIntegration,
+};
+
+/// Parse "one_point_assumed_strain" | "one_point_assumed_strain_no_poisson" | "full_integration".
+Hex8Formulation parseFormulation(const std::string& name);
+std::string formulationName(Hex8Formulation f);
+
+/// Energy terms of one block for one force evaluation (J).
+struct BlockEnergy {
+  Real stressWork = 0;     ///< ∫ ½(σ^n + σ^{n+1}) : Δε dV of this evaluation (accumulated by the solver)
+  Real storedEnergy = 0;   ///< current elastic hourglass energy (full integration: all strain energy)
+  Real dampingWork = 0;    ///< work of the stiffness-proportional damping forces over this step
+};
+
+/// What the force kernel needs besides the nodal state.
+struct ElementStepParams {
+  Real dt = 0;          ///< step about to be taken (s)
+  Real dtLast = 0;      ///< step that produced the current displacement increment (0 at start)
+  Real beta = 0;        ///< stiffness-proportional Rayleigh coefficient β (s)
+};
+
+class ElementBlock {
+public:
+  static constexpr Index kChunk = 64;  ///< elements per chunk (material update unit)
+
+  /// @param meshElems mesh element indices that form this block (all of one region).
+  ElementBlock(std::string name, std::shared_ptr<const Material> material,
+               Hex8Formulation formulation, const Mesh& mesh, std::vector<Index> meshElems,
+               Real hourglassScale = 1.0);
+
+  const std::string& name() const { return name_; }
+  const Material& material() const { return *material_; }
+  Hex8Formulation formulation() const { return formulation_; }
+  Index numElems() const { return nElems_; }
+  Index meshElem(Index e) const { return meshElems_[e]; }
+  Index node(Index e, int k) const { return conn_[8 * size_t(e) + k]; }
+  Real volume(Index e) const { return vol_[e]; }
+  Real charLength(Index e) const { return charLen_[e]; }
+  /// Stress component (Pa), Voigt order xx, yy, zz, xy, yz, zx.
+  Real stress(Index e, int comp) const { return stress_[comp][e]; }
+  void setStress(Index e, int comp, Real value) { stress_[comp][e] = value; }
+  /// Total small strain of the element (engineering shear), as last evaluated.
+  Real strain(Index e, int comp) const { return strain_[comp][e]; }
+  /// History variable h of element e.
+  Real history(int h, Index e) const { return history_[h][e]; }
+  bool active(Index e) const { return active_[e] != 0; }
+  /// Activate or deactivate (excavation, lining installation). Reactivated elements restart
+  /// stress- and strain-free from the current displacement.
+  void setActive(Index e, bool on, const NodalState& state);
+  /// Restart the strain record of every element from the current displacement, keeping stresses
+  /// and history (used when the displacement record is zeroed before the earthquake).
+  void rebaseStrain(const NodalState& state);
+
+  /// Add ρ V / 8 of every active element to its nodes.
+  void lumpMassInto(NodalState& state) const;
+  /// Largest element frequency estimate ω = 2 c_p / L_e (rad/s); *where receives the element.
+  Real maxFrequency(Index* where = nullptr) const;
+
+  /// Internal + stiffness-damping forces of every element into corner buffers
+  /// corner[(e*8 + k)*3 + d] (this block's slice), and the block's energy terms.
+  BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p,
+                                    Real* corner);
+
+  /// Element index of the first non-finite or exploding stress (|σ| > limit) or -1.
+  Index findBadStress(Real limit) const;
+
+private:
+  template <bool kDamp>
+  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p,
+                     Real* corner, BlockEnergy& en);
+  void fullIntegrationChunk(Index c, const Real* u, Real* corner, BlockEnergy& en);
+  void hourglassStiffness(Index e, const Real qh[3][4], Real Qh[3][4]) const;
+  void strainFromDisplacement(Index e, const NodalState& state);
+
+  std::string name_;
+  std::shared_ptr<const Material> material_;
+  Hex8Formulation formulation_;
+  Index nElems_ = 0;
+  std::vector<Index> meshElems_, conn_;
+  std::vector<std::uint8_t> active_;
+  // Geometry (fixed: small strain), per element contiguous.
+  std::vector<Real> vol_, charLen_, b_ /*24*/, gamma_ /*32*/, rot_ /*9*/, invHalf_ /*3*/;
+  std::vector<Real> bg_ /*8*24, full integration*/, wdet_ /*8*/;
+  // State.
+  std::vector<Real> stress_[6], strain_[6];
+  std::vector<std::vector<Real>> history_;
+  std::vector<Real*> historyPtr_;
+  // Constants.
+  ElasticModuli mod_;
+  Real nuBar_ = 0, hgScale_ = 1;
+  std::vector<BlockEnergy> chunkEnergy_;
+};
+
+}  // namespace tq

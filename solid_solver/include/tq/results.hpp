@@ -1,0 +1,38 @@
+/// @file results.hpp
+/// @brief results.h5 writer: monitor histories, energy balance, field snapshots, timings, and the
+///        run status. Rows are appended as the run goes and the file is flushed regularly, so it
+///        stays readable (h5py) after a stop at any point.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/input.hpp"
+#include "tq/solver.hpp"
+
+namespace tq {
+
+/// Principal stresses in ascending order (σ1 ≤ σ2 ≤ σ3, Pa): with tension positive σ1 is the
+/// most compressive, as in the paper.
+void principalStresses(const Real s[6], Real p[3]);
+
+class ResultsWriter {
+public:
+  ResultsWriter(const std::string& path, const SolidInput& in, const Solver& solver);
+  ~ResultsWriter();
+  /// Append one monitor + energy row at the solver's current time.
+  void sample(const Solver& solver);
+  /// Write a field snapshot (u, v, stress) at the solver's current time.
+  void snapshot(const Solver& solver);
+  /// Set the status attribute ("running", "completed", "stopped: ...") and flush.
+  void setStatus(const std::string& status);
+  void writeTimings(double wallSeconds, long long steps, long long elementSteps, int threads);
+  void flush();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace tq

@@ -1,0 +1,194 @@
+/// @file solver.hpp
+/// @brief Explicit time integration of M ü + C u̇ + f_int(u) = f_ext (paper eq. 2) for rock and
+///        lining: lumped mass, Rayleigh damping, stable step from the element CFL, the energy
+///        balance, and a check for non-finite or exploding values every step.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/element_block.hpp"
+#include "tq/mesh.hpp"
+#include "tq/nodal_state.hpp"
+
+namespace tq {
+
+/// Time integrator.
+enum class Integrator {
+  /// Default. Central difference in half-step (leapfrog) velocity form: Newmark β = 0, γ = ½.
+  /// v^{n+½} = v^{n-½} + Δt M⁻¹(f_ext^n - f_int^n - C v); u^{n+1} = u^n + Δt v^{n+½}.
+  /// Its displacement update coincides with the paper's eq. (3); conditionally stable.
+  CentralDifference,
+  /// The paper's eqs. (3)-(4) taken literally: u^{n+1} = u^n + Δt v^n + Δt²/2 a^n and
+  /// v^{n+1} = 2(u^{n+1}-u^n)/Δt - v^n = v^n + Δt a^n. Its amplification matrix for ü = -ω²u
+  /// has determinant 1 + (ωΔt)²/2 > 1: unstable for any step without damping. For study only.
+  PaperEq34,
+};
+Integrator parseIntegrator(const std::string& name);  // "central_difference" | "paper_eq3_4"
+std::string integratorName(Integrator i);
+
+/// Rayleigh damping C = α M + β K.
+struct RayleighDamping {
+  Real alpha = 0;  ///< mass-proportional coefficient α (1/s)
+  Real beta = 0;   ///< stiffness-proportional coefficient β (s)
+  /// Damping ratio ξ at the two frequencies f1, f2 (Hz): α = 2ξω1ω2/(ω1+ω2), β = 2ξ/(ω1+ω2).
+  static RayleighDamping fromRatio(Real xi, Real f1, Real f2);
+};
+
+/// Piecewise-linear function of time; holds the end values outside the table.
+struct TimeFunction {
+  std::vector<Real> t, value;
+  Real operator()(Real time) const;
+  static TimeFunction constant(Real v) { return {{0.0}, {v}}; }
+};
+
+/// Force on a set of nodes in one direction: F(t) = forcePerNode * f(t) on each node (N).
+struct NodalLoad {
+  std::vector<Index> nodes;
+  int direction = 0;
+  Real forcePerNode = 0;
+  TimeFunction function = TimeFunction::constant(1.0);
+};
+
+/// Something that adds nodal forces each step (absorbing boundaries, input waves, contact,
+/// fluid loads): the solver calls it after the element forces are assembled, before the update.
+class NodalForceContributor {
+public:
+  virtual ~NodalForceContributor() = default;
+  virtual std::string name() const = 0;
+  /// Add forces to state.fExt at time t (the state holds u^n, v, f_int^n).
+  virtual void addForces(Real t, Real dt, NodalState& state) = 0;
+};
+
+/// The stable time step and what limits it.
+struct StableStep {
+  Real dtCritical = 0;  ///< (2/ω_max)(√(1+ξ²) - ξ) (s)
+  Real dtSafe = 0;      ///< safety * dtCritical (s)
+  Real omegaMax = 0;    ///< max element frequency 2 c_p / L_e (rad/s)
+  Real xiMax = 0;       ///< damping ratio at ω_max from β (and α for paper_eq3_4)
+  std::string block;    ///< block of the limiting element
+  Index element = -1;   ///< mesh index of the limiting element
+  Real charLength = 0;  ///< its V / A_max (m)
+  Real waveSpeed = 0;   ///< its c_p (m/s)
+};
+
+/// Energy balance (J). balance = kinetic + internal + damping + boundary - external stays
+/// constant; `error` is its drift relative to the largest of the terms.
+struct EnergyBalance {
+  Real kinetic = 0;   ///< ½ m v^{n-½}·v^{n+½} (central difference; exact invariant when undamped)
+  Real internal = 0;  ///< strain energy incl. hourglass (= work of the stresses)
+  Real damping = 0;   ///< dissipated by Rayleigh damping
+  Real boundary = 0;  ///< absorbed by boundary dashpots
+  Real external = 0;  ///< work of the external forces
+  Real error = 0;     ///< |balance - balance_0| / max(terms)
+};
+
+struct SolverOptions {
+  Integrator integrator = Integrator::CentralDifference;
+  RayleighDamping damping;
+  Real safety = 0.9;            ///< stable-step safety factor
+  Real dt = 0;                  ///< user step (s); 0 = safety * critical
+  bool allowUnstableStep = false;  ///< testing only: accept dt above the stable limit
+  Real velocityLimit = 1.0e3;   ///< |v| above this (m/s) counts as exploding
+  Real gravity[3] = {0, 0, 0};  ///< body acceleration (m/s^2), e.g. {0, 0, -9.81}
+};
+
+/// Dynamic relaxation to static equilibrium (explicit steps with adaptive critical mass damping,
+/// Underwood's Rayleigh-quotient estimate of the lowest active frequency).
+struct RelaxParams {
+  Real tolerance = 1e-6;   ///< stop when |f_ext - f_int| / |f_ext| on free dofs is below this
+  Index maxSteps = 200000;
+  Index checkEvery = 10;   ///< steps between residual checks
+};
+struct RelaxResult {
+  Index steps = 0;
+  Real ratio = 0;          ///< final unbalanced-force ratio
+  bool converged = false;
+};
+
+class Solver {
+public:
+  Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt);
+
+  // ---- set-up -------------------------------------------------------------------------------
+  /// Fix direction d (0 x, 1 y, 2 z) of a node (zero displacement increment).
+  void fix(Index node, int d);
+  /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
+  void fixFaceGroup(const std::string& group, const std::string& dirs);
+  void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
+  void addContributor(std::shared_ptr<NodalForceContributor> c) { contributors_.push_back(std::move(c)); }
+  /// Recompute lumped masses and the node->corner map (after (de)activating elements).
+  void rebuild();
+  /// The stable step for the current mesh, materials and damping.
+  StableStep stableStep() const;
+  /// Set the step; throws InputError (with the limiting element) when above the stable one
+  /// unless options.allowUnstableStep. dt = 0 picks safety * critical.
+  void setTimeStep(Real dt);
+
+  // ---- time stepping ------------------------------------------------------------------------
+  /// One explicit step: element forces -> assembly -> external forces -> update -> check.
+  void step();
+  /// Steps until time >= tEnd (calls `each` after every step if given).
+  void runUntil(Real tEnd, const std::function<void()>& each = {});
+  /// Dynamic relaxation to static equilibrium (Rayleigh damping is suspended meanwhile).
+  RelaxResult relax(const RelaxParams& p);
+  /// Start the seismic record: velocities zeroed, displacements from here on reported relative
+  /// to the current (equilibrium) state by relativeDisplacement(), energies restart at 0.
+  void resetMotion();
+  /// Displacement relative to the state at the last resetMotion() (m).
+  Real relativeDisplacement(Index node, int d) const;
+
+  // ---- access -------------------------------------------------------------------------------
+  NodalState& state() { return state_; }
+  const NodalState& state() const { return state_; }
+  const Mesh& mesh() const { return mesh_; }
+  std::vector<std::unique_ptr<ElementBlock>>& blocks() { return blocks_; }
+  const std::vector<std::unique_ptr<ElementBlock>>& blocks() const { return blocks_; }
+  const SolverOptions& options() const { return opt_; }
+  Real time() const { return t_; }
+  Real dt() const { return dt_; }
+  Index stepCount() const { return step_; }
+  const EnergyBalance& energy() const { return energy_; }
+  bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0.0; }
+  /// Latest velocity: v^{n+½} after a central-difference step to t_{n+1} (half a step behind the
+  /// displacement), v^{n+1} for paper_eq3_4.
+  Real velocityAt(Index node, int d) const;
+  /// Residual |f_ext - f_int| / max(|f_ext|, |f_int|) over free dofs (2-norms).
+  Real unbalancedRatio() const;
+
+private:
+  void computeInternalForces();
+  void assembleForcesForNodes();
+  void computeExternalForces();
+  void updateNodes();
+  [[noreturn]] void reportInstability(Index dof, Real value);
+
+  const Mesh& mesh_;
+  std::vector<std::unique_ptr<ElementBlock>> blocks_;
+  SolverOptions opt_;
+  NodalState state_;
+  std::vector<Real> free_;          // [3N] 1 free, 0 fixed
+  std::vector<Real> corner_;        // [24 E_total] per-corner element forces
+  std::vector<Index> blockOffset_;  // first global element of each block
+  std::vector<Index> nodeCornerStart_, nodeCorner_;  // CSR node -> corner ids (sorted)
+  std::vector<Real> fExtPrev_, vHalfPrev_, uRef_;  // for the trapezoidal work and velocityAt
+  std::vector<NodalLoad> loads_;
+  std::vector<std::shared_ptr<NodalForceContributor>> contributors_;
+  Real t_ = 0, dt_ = 0, dtLast_ = 0;
+  Index step_ = 0;
+  Real alphaRelax_ = -1;  // >= 0 while relaxing: replaces α
+  EnergyBalance energy_;
+  Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
+  Real balance0_ = 0;
+  bool balanceSet_ = false;
+  std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
+};
+
+/// One block per mesh region, each with the material given for that region name.
+std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
+    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
+    Hex8Formulation formulation = Hex8Formulation::OnePointAssumedStrain);
+
+}  // namespace tq

@@ -1,0 +1,148 @@
+// tq-solid: explicit dynamics of rock and lining (see docs/solid_solver.md).
+//
+//   tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]
+//
+// Steps: 1. read and check the input and the mesh; 2. build blocks, supports and loads; 3. pick
+// and check the time step; 4. integrate to t_end writing monitors, energies and snapshots;
+// 5. write timings and the final status.
+#include "tq/app.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "tq/input.hpp"
+#include "tq/results.hpp"
+
+namespace tq {
+
+namespace {
+const char* kUsage =
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]\n"
+    "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
+    "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
+    "  --check      validate input and mesh, print the stable step, do not run\n"
+    "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
+
+std::string hms(double s) {
+  std::ostringstream os;
+  if (s >= 3600) os << int(s / 3600) << " h ";
+  if (s >= 60) os << int(std::fmod(s, 3600) / 60) << " min ";
+  os << int(std::fmod(s, 60)) << " s";
+  return os.str();
+}
+}  // namespace
+
+int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  std::string input, output = "results.h5";
+  bool check = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      out << kUsage;
+      return 0;
+    } else if (a == "-o" && i + 1 < args.size()) {
+      output = args[++i];
+    } else if (a == "--check") {
+      check = true;
+    } else if (a == "--threads" && i + 1 < args.size()) {
+      omp_set_num_threads(std::stoi(args[++i]));
+    } else if (!a.empty() && a[0] != '-' && input.empty()) {
+      input = a;
+    } else {
+      err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
+      return 1;
+    }
+  }
+  if (input.empty()) {
+    err << kUsage;
+    return 1;
+  }
+  // 1-3. Input, mesh, solver, time step (the "starter").
+  SolidInput in;
+  Mesh mesh;
+  std::unique_ptr<Solver> solver;
+  try {
+    in = readSolidInput(input);
+    mesh = readMeshH5(in.meshPath, {in.requiredFaces});
+    solver = buildSolver(in, mesh);
+  } catch (const InputError& e) {
+    err << "tq-solid: input error: " << e.what() << "\n";
+    return 2;
+  }
+  Solver& s = *solver;
+  const StableStep st = s.stableStep();
+  Index nElems = 0;
+  for (const auto& b : s.blocks()) nElems += b->numElems();
+  out << "tq-solid: " << mesh.numNodes() << " nodes, " << nElems << " elements in " << s.blocks().size()
+      << " block(s), " << integratorName(s.options().integrator) << ", " << formulationName(in.formulation)
+      << "\n  stable step " << st.dtCritical << " s (element " << st.element << " of '" << st.block
+      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = "
+      << in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
+  if (check) {
+    out << "tq-solid: input and mesh are valid\n";
+    return 0;
+  }
+  // 4. Time loop (the "engine").
+  ResultsWriter results(output, in, s);
+  results.sample(s);
+  size_t nextSnap = 0;
+  Real nextSample = in.monitorDt;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto lastReport = t0, lastFlush = t0;
+  const Index step0 = s.stepCount();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  try {
+    while (s.time() < in.tEnd - 1e-9 * s.dt()) {
+      s.step();
+      const Real t = s.time();
+      if (t >= nextSample - 1e-9 * s.dt()) {
+        results.sample(s);
+        nextSample += in.monitorDt;
+      }
+      while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
+        results.snapshot(s);
+        ++nextSnap;
+      }
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
+        results.flush();
+        lastFlush = now;
+      }
+      if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
+        const double wall = elapsed(), rate = double(s.stepCount() - step0) / wall;
+        const double left = (in.tEnd - t) / s.dt() / rate;
+        out << "  t = " << std::setprecision(5) << t << " s / " << in.tEnd << " s (" << std::setprecision(3)
+            << 100 * t / in.tEnd << " %), step " << s.stepCount() << ", " << std::setprecision(4) << rate
+            << " steps/s, energy error " << std::setprecision(2) << s.energy().error << ", ETA " << hms(left)
+            << std::endl;
+        lastReport = now;
+      }
+    }
+  } catch (const InstabilityError& e) {
+    results.setStatus(std::string("stopped: ") + e.what());
+    results.writeTimings(elapsed(), s.stepCount() - step0, (long long)(s.stepCount() - step0) * nElems,
+                         omp_get_max_threads());
+    err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+    return 3;
+  } catch (const InputError& e) {
+    results.setStatus(std::string("stopped: ") + e.what());
+    err << "tq-solid: input error: " << e.what() << "\n";
+    return 2;
+  }
+  // 5. Timings and status.
+  const double wall = elapsed();
+  const long long steps = s.stepCount() - step0;
+  results.writeTimings(wall, steps, steps * nElems, omp_get_max_threads());
+  results.setStatus("completed");
+  out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
+      << (steps > 0 ? 1e6 * wall / (double(steps) * nElems) : 0.0) << " µs per element-step), energy error "
+      << s.energy().error << "\n  results: " << output << "\n";
+  return 0;
+}
+
+}  // namespace tq

@@ -1,0 +1,286 @@
+#include "h5util.hpp"
+
+#include <cstring>
+#include <memory>
+
+namespace tq::h5 {
+
+void quiet() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+static void check(bool ok, const std::string& what) {
+  if (!ok) throw InputError("HDF5: " + what);
+}
+
+Handle openFile(const std::string& path, bool write) {
+  quiet();
+  hid_t f = H5Fopen(path.c_str(), write ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) throw InputError("cannot open HDF5 file '" + path + "' (missing, unreadable or not HDF5)");
+  return Handle(f, H5Fclose);
+}
+
+Handle createFile(const std::string& path) {
+  quiet();
+  hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) throw InputError("cannot create HDF5 file '" + path + "' (check the folder exists and is writable)");
+  return Handle(f, H5Fclose);
+}
+
+bool exists(hid_t loc, const std::string& path) {
+  // Walk the path level by level: H5Lexists fails on a missing intermediate group.
+  std::string cur;
+  size_t pos = 0;
+  while (pos <= path.size()) {
+    size_t next = path.find('/', pos);
+    if (next == std::string::npos) next = path.size();
+    std::string part = path.substr(pos, next - pos);
+    if (!part.empty()) {
+      cur += (cur.empty() && path[0] != '/' ? "" : "/") + part;
+      if (H5Lexists(loc, cur.c_str(), H5P_DEFAULT) <= 0) return false;
+    }
+    pos = next + 1;
+  }
+  return true;
+}
+
+Handle openGroup(hid_t loc, const std::string& path) {
+  hid_t g = H5Gopen2(loc, path.c_str(), H5P_DEFAULT);
+  check(g >= 0, "cannot open group '" + path + "'");
+  return Handle(g, H5Gclose);
+}
+
+Handle ensureGroup(hid_t loc, const std::string& path) {
+  std::string cur;
+  size_t pos = 0;
+  while (pos < path.size()) {
+    size_t next = path.find('/', pos);
+    if (next == std::string::npos) next = path.size();
+    std::string part = path.substr(pos, next - pos);
+    if (!part.empty()) {
+      cur += "/" + part;
+      if (H5Lexists(loc, cur.c_str(), H5P_DEFAULT) <= 0) {
+        hid_t g = H5Gcreate2(loc, cur.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+        check(g >= 0, "cannot create group '" + cur + "'");
+        H5Gclose(g);
+      }
+    }
+    pos = next + 1;
+  }
+  return openGroup(loc, path.empty() ? "/" : path);
+}
+
+bool hasAttr(hid_t obj, const std::string& name) { return H5Aexists(obj, name.c_str()) > 0; }
+
+static herr_t collectName(hid_t, const char* name, const H5A_info_t*, void* data) {
+  static_cast<std::vector<std::string>*>(data)->push_back(name);
+  return 0;
+}
+std::vector<std::string> attrNames(hid_t obj) {
+  std::vector<std::string> out;
+  H5Aiterate2(obj, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectName, &out);
+  return out;
+}
+
+static herr_t collectLink(hid_t, const char* name, const H5L_info_t*, void* data) {
+  static_cast<std::vector<std::string>*>(data)->push_back(name);
+  return 0;
+}
+std::vector<std::string> members(hid_t group) {
+  std::vector<std::string> out;
+  H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collectLink, &out);
+  return out;
+}
+
+static std::vector<std::string> readStringsFrom(hid_t obj, bool isAttr, const std::string& what) {
+  Handle type(isAttr ? H5Aget_type(obj) : H5Dget_type(obj), H5Tclose);
+  Handle space(isAttr ? H5Aget_space(obj) : H5Dget_space(obj), H5Sclose);
+  check(type.valid() && space.valid(), "cannot inspect " + what);
+  if (H5Tget_class(type) != H5T_STRING) throw InputError(what + " must be a string");
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::vector<std::string> out;
+  if (H5Tis_variable_str(type) > 0) {
+    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    H5Tset_size(mem, H5T_VARIABLE);
+    H5Tset_cset(mem, H5Tget_cset(type));
+    std::vector<char*> buf(static_cast<size_t>(n), nullptr);
+    herr_t st = isAttr ? H5Aread(obj, mem, buf.data())
+                       : H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
+    check(st >= 0, "cannot read " + what);
+    for (auto* p : buf) out.emplace_back(p ? p : "");
+    H5Dvlen_reclaim(mem, space, H5P_DEFAULT, buf.data());
+  } else {
+    const size_t len = H5Tget_size(type);
+    std::vector<char> buf(len * static_cast<size_t>(n) + 1, 0);
+    herr_t st = isAttr ? H5Aread(obj, type, buf.data())
+                       : H5Dread(obj, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
+    check(st >= 0, "cannot read " + what);
+    for (hssize_t i = 0; i < n; ++i) {
+      std::string s(buf.data() + i * len, len);
+      s = s.substr(0, std::strlen(s.c_str()));
+      out.push_back(s);
+    }
+  }
+  return out;
+}
+
+std::string readStringAttr(hid_t obj, const std::string& name) {
+  Handle a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) throw InputError("attribute '" + name + "' is missing");
+  auto v = readStringsFrom(a, true, "attribute '" + name + "'");
+  return v.empty() ? std::string() : v[0];
+}
+
+std::vector<std::string> readStringListAttr(hid_t obj, const std::string& name) {
+  Handle a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) throw InputError("attribute '" + name + "' is missing");
+  return readStringsFrom(a, true, "attribute '" + name + "'");
+}
+
+double readDoubleAttr(hid_t obj, const std::string& name) {
+  Handle a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) throw InputError("attribute '" + name + "' is missing");
+  Handle type(H5Aget_type(a), H5Tclose);
+  const auto cls = H5Tget_class(type);
+  if (cls != H5T_FLOAT && cls != H5T_INTEGER) throw InputError("attribute '" + name + "' must be a number");
+  double v = 0;
+  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v) >= 0, "cannot read attribute '" + name + "'");
+  return v;
+}
+
+long long readIntAttr(hid_t obj, const std::string& name) {
+  Handle a(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!a.valid()) throw InputError("attribute '" + name + "' is missing");
+  Handle type(H5Aget_type(a), H5Tclose);
+  if (H5Tget_class(type) != H5T_INTEGER) throw InputError("attribute '" + name + "' must be an integer");
+  long long v = 0;
+  check(H5Aread(a, H5T_NATIVE_LLONG, &v) >= 0, "cannot read attribute '" + name + "'");
+  return v;
+}
+
+template <class T>
+static std::vector<T> readNumeric(hid_t loc, const std::string& path, hid_t memType,
+                                  std::vector<hsize_t>* dims) {
+  Handle ds(H5Dopen2(loc, path.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!ds.valid()) throw InputError("dataset '" + path + "' is missing");
+  Handle space(H5Dget_space(ds), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  std::vector<hsize_t> d(static_cast<size_t>(std::max(rank, 0)));
+  H5Sget_simple_extent_dims(space, d.data(), nullptr);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::vector<T> out(static_cast<size_t>(n));
+  if (n > 0) check(H5Dread(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0,
+                   "cannot read dataset '" + path + "' as numbers");
+  if (dims) *dims = d;
+  return out;
+}
+
+std::vector<double> readDoubles(hid_t loc, const std::string& path, std::vector<hsize_t>* dims) {
+  return readNumeric<double>(loc, path, H5T_NATIVE_DOUBLE, dims);
+}
+std::vector<Index> readInts(hid_t loc, const std::string& path, std::vector<hsize_t>* dims) {
+  return readNumeric<Index>(loc, path, H5T_NATIVE_INT32, dims);
+}
+std::vector<std::string> readStrings(hid_t loc, const std::string& path) {
+  Handle ds(H5Dopen2(loc, path.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!ds.valid()) throw InputError("dataset '" + path + "' is missing");
+  return readStringsFrom(ds, false, "dataset '" + path + "'");
+}
+
+static Handle vlenStringType() {
+  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(t, H5T_VARIABLE);
+  H5Tset_cset(t, H5T_CSET_UTF8);
+  return t;
+}
+
+static void replaceAttr(hid_t obj, const std::string& name) {
+  if (H5Aexists(obj, name.c_str()) > 0) H5Adelete(obj, name.c_str());
+}
+
+void writeStringAttr(hid_t obj, const std::string& name, const std::string& value) {
+  replaceAttr(obj, name);
+  Handle t = vlenStringType();
+  Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name.c_str(), t, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  const char* p = value.c_str();
+  check(a.valid() && H5Awrite(a, t, &p) >= 0, "cannot write attribute '" + name + "'");
+}
+
+void writeStringListAttr(hid_t obj, const std::string& name, const std::vector<std::string>& v) {
+  replaceAttr(obj, name);
+  Handle t = vlenStringType();
+  hsize_t n = v.size();
+  Handle sp(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Handle a(H5Acreate2(obj, name.c_str(), t, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  std::vector<const char*> p;
+  for (auto& s : v) p.push_back(s.c_str());
+  check(a.valid() && H5Awrite(a, t, p.data()) >= 0, "cannot write attribute '" + name + "'");
+}
+
+void writeDoubleAttr(hid_t obj, const std::string& name, double value) {
+  replaceAttr(obj, name);
+  Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name.c_str(), H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  check(a.valid() && H5Awrite(a, H5T_NATIVE_DOUBLE, &value) >= 0, "cannot write attribute '" + name + "'");
+}
+
+void writeIntAttr(hid_t obj, const std::string& name, long long value) {
+  replaceAttr(obj, name);
+  Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name.c_str(), H5T_STD_I64LE, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  check(a.valid() && H5Awrite(a, H5T_NATIVE_LLONG, &value) >= 0, "cannot write attribute '" + name + "'");
+}
+
+static void writeNumeric(hid_t loc, const std::string& path, const void* data,
+                         const std::vector<hsize_t>& dims, hid_t fileType, hid_t memType) {
+  Handle sp(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  H5Pset_create_intermediate_group(lcpl, 1);
+  Handle ds(H5Dcreate2(loc, path.c_str(), fileType, sp, lcpl, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  check(ds.valid(), "cannot create dataset '" + path + "'");
+  check(H5Dwrite(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0,
+        "cannot write dataset '" + path + "'");
+}
+
+void writeDoubles(hid_t loc, const std::string& path, const double* data, const std::vector<hsize_t>& dims) {
+  writeNumeric(loc, path, data, dims, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE);
+}
+void writeInts(hid_t loc, const std::string& path, const Index* data, const std::vector<hsize_t>& dims) {
+  writeNumeric(loc, path, data, dims, H5T_STD_I32LE, H5T_NATIVE_INT32);
+}
+void writeStrings(hid_t loc, const std::string& path, const std::vector<std::string>& v) {
+  Handle t = vlenStringType();
+  hsize_t n = v.size();
+  Handle sp(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  H5Pset_create_intermediate_group(lcpl, 1);
+  Handle ds(H5Dcreate2(loc, path.c_str(), t, sp, lcpl, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  std::vector<const char*> p;
+  for (auto& s : v) p.push_back(s.c_str());
+  check(ds.valid() && H5Dwrite(ds, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) >= 0,
+        "cannot write dataset '" + path + "'");
+}
+
+RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize_t chunkRows)
+    : cols_(cols) {
+  hsize_t dims[2] = {0, cols}, maxd[2] = {H5S_UNLIMITED, cols}, chunk[2] = {chunkRows, cols};
+  Handle sp(H5Screate_simple(2, dims, maxd), H5Sclose);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  H5Pset_chunk(dcpl, 2, chunk);
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  H5Pset_create_intermediate_group(lcpl, 1);
+  ds_ = Handle(H5Dcreate2(loc, path.c_str(), H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT), H5Dclose);
+  check(ds_.valid(), "cannot create dataset '" + path + "'");
+}
+
+void RowAppender::append(const double* row) {
+  hsize_t newDims[2] = {rows_ + 1, cols_};
+  check(H5Dset_extent(ds_, newDims) >= 0, "cannot extend a history dataset");
+  Handle fs(H5Dget_space(ds_), H5Sclose);
+  hsize_t start[2] = {rows_, 0}, count[2] = {1, cols_};
+  H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr);
+  Handle ms(H5Screate_simple(2, count, nullptr), H5Sclose);
+  check(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, "cannot write a history row");
+  ++rows_;
+}
+
+}  // namespace tq::h5

@@ -1,0 +1,166 @@
+// results.h5 writer (layout in docs/solid_solver.md, "Output").
+#include "tq/results.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "h5util.hpp"
+
+namespace tq {
+
+void principalStresses(const Real s[6], Real p[3]) {
+  Eigen::Matrix3d m;
+  m << s[XX], s[XY], s[ZX], s[XY], s[YY], s[YZ], s[ZX], s[YZ], s[ZZ];
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(m, Eigen::EigenvaluesOnly);
+  for (int i = 0; i < 3; ++i) p[i] = es.eigenvalues()(i);  // ascending
+}
+
+struct ResultsWriter::Impl {
+  struct Monitor {
+    std::string name;
+    Index node = -1, block = -1, elem = -1;
+    h5::RowAppender time, u, v, a, stress, principal;
+  };
+  h5::Handle file;
+  std::vector<Monitor> monitors;
+  h5::RowAppender energy;
+  int snapshots = 0;
+};
+
+ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, const Solver& s)
+    : impl_(std::make_unique<Impl>()) {
+  auto& I = *impl_;
+  I.file = h5::createFile(path);
+  hid_t f = I.file;
+  h5::writeStringAttr(f, "format", "tunnelquake-solid-results");
+  h5::writeIntAttr(f, "version", 1);
+  h5::writeStringAttr(f, "status", "running");
+  h5::writeStringAttr(f, "input", in.path);
+  h5::writeStringAttr(f, "mesh", in.meshPath);
+  h5::writeStringAttr(f, "integrator", integratorName(s.options().integrator));
+  h5::writeStringAttr(f, "formulation", formulationName(in.formulation));
+  const StableStep st = s.stableStep();
+  h5::writeDoubleAttr(f, "dt", s.dt());
+  h5::writeDoubleAttr(f, "dt_critical", st.dtCritical);
+  h5::writeDoubleAttr(f, "rayleigh_alpha", s.options().damping.alpha);
+  h5::writeDoubleAttr(f, "rayleigh_beta", s.options().damping.beta);
+  const Mesh& m = s.mesh();
+  h5::writeDoubles(f, "/mesh/coordinates", m.coords.data(), {m.coords.size() / 3, 3});
+  h5::writeInts(f, "/mesh/connectivity", m.connectivity.data(), {m.connectivity.size() / 8, 8});
+  h5::writeInts(f, "/mesh/region", m.region.data(), {m.region.size()});
+  {
+    auto g = h5::openGroup(f, "/mesh");
+    h5::writeStringListAttr(g, "regions", m.regionNames);
+  }
+  // Monitors: nearest node; element whose centroid is nearest (for stresses).
+  for (const auto& mi : in.monitors) {
+    Impl::Monitor mon;
+    mon.name = mi.name;
+    Real best = std::numeric_limits<Real>::max();
+    for (Index n = 0; n < m.numNodes(); ++n) {
+      Real d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += std::pow(m.coords[3 * size_t(n) + k] - mi.point[k], 2);
+      if (d2 < best) { best = d2; mon.node = n; }
+    }
+    best = std::numeric_limits<Real>::max();
+    const auto& blocks = s.blocks();
+    for (size_t b = 0; b < blocks.size(); ++b)
+      for (Index e = 0; e < blocks[b]->numElems(); ++e) {
+        Real c[3] = {0, 0, 0};
+        for (int k = 0; k < 8; ++k)
+          for (int d = 0; d < 3; ++d) c[d] += 0.125 * m.coords[3 * size_t(blocks[b]->node(e, k)) + d];
+        Real d2 = 0;
+        for (int d = 0; d < 3; ++d) d2 += std::pow(c[d] - mi.point[d], 2);
+        if (d2 < best) { best = d2; mon.block = Index(b); mon.elem = e; }
+      }
+    const std::string g = "/monitors/" + mi.name;
+    mon.time = h5::RowAppender(f, g + "/time", 1);
+    mon.u = h5::RowAppender(f, g + "/u", 3);
+    mon.v = h5::RowAppender(f, g + "/v", 3);
+    mon.a = h5::RowAppender(f, g + "/a", 3);
+    mon.stress = h5::RowAppender(f, g + "/stress", 6);
+    mon.principal = h5::RowAppender(f, g + "/principal", 3);
+    auto gg = h5::openGroup(f, g);
+    h5::writeIntAttr(gg, "node", mon.node);
+    h5::writeIntAttr(gg, "element", blocks[size_t(mon.block)]->meshElem(mon.elem));
+    h5::writeDoubleAttr(gg, "x", mi.point[0]);
+    h5::writeDoubleAttr(gg, "y", mi.point[1]);
+    h5::writeDoubleAttr(gg, "z", mi.point[2]);
+    I.monitors.push_back(std::move(mon));
+  }
+  I.energy = h5::RowAppender(f, "/energy/history", 7);
+  auto eg = h5::openGroup(f, "/energy");
+  h5::writeStringListAttr(eg, "columns", {"time", "kinetic", "internal", "damping", "boundary", "external", "error"});
+  flush();
+}
+
+ResultsWriter::~ResultsWriter() = default;
+
+void ResultsWriter::sample(const Solver& s) {
+  auto& I = *impl_;
+  const Real t = s.time();
+  for (auto& mon : I.monitors) {
+    Real u[3], v[3], a[3], st[6], p[3];
+    for (int d = 0; d < 3; ++d) {
+      u[d] = s.relativeDisplacement(mon.node, d);
+      v[d] = s.velocityAt(mon.node, d);
+      a[d] = s.state().a(mon.node, d);
+    }
+    const auto& b = *s.blocks()[size_t(mon.block)];
+    for (int c = 0; c < 6; ++c) st[c] = b.stress(mon.elem, c);
+    principalStresses(st, p);
+    mon.time.append(&t);
+    mon.u.append(u);
+    mon.v.append(v);
+    mon.a.append(a);
+    mon.stress.append(st);
+    mon.principal.append(p);
+  }
+  const EnergyBalance& e = s.energy();
+  const Real row[7] = {t, e.kinetic, e.internal, e.damping, e.boundary, e.external, e.error};
+  I.energy.append(row);
+}
+
+void ResultsWriter::snapshot(const Solver& s) {
+  auto& I = *impl_;
+  const std::string g = "/snapshots/" + std::to_string(I.snapshots++);
+  const Mesh& m = s.mesh();
+  const Index N = m.numNodes(), E = m.numElems();
+  std::vector<Real> u(3 * size_t(N)), v(3 * size_t(N)), st(6 * size_t(E), 0.0);
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      u[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
+      v[3 * size_t(n) + d] = s.velocityAt(n, d);
+    }
+  for (const auto& b : s.blocks())
+    for (Index e = 0; e < b->numElems(); ++e)
+      for (int c = 0; c < 6; ++c) st[6 * size_t(b->meshElem(e)) + c] = b->stress(e, c);
+  h5::writeDoubles(I.file, g + "/u", u.data(), {hsize_t(N), 3});
+  h5::writeDoubles(I.file, g + "/v", v.data(), {hsize_t(N), 3});
+  h5::writeDoubles(I.file, g + "/stress", st.data(), {hsize_t(E), 6});
+  auto gg = h5::openGroup(I.file, g);
+  h5::writeDoubleAttr(gg, "time", s.time());
+  flush();
+}
+
+void ResultsWriter::setStatus(const std::string& status) {
+  h5::writeStringAttr(impl_->file, "status", status);
+  flush();
+}
+
+void ResultsWriter::writeTimings(double wall, long long steps, long long elementSteps, int threads) {
+  auto g = h5::ensureGroup(impl_->file, "/timings");
+  h5::writeDoubleAttr(g, "wall_s", wall);
+  h5::writeIntAttr(g, "steps", steps);
+  h5::writeIntAttr(g, "element_steps", elementSteps);
+  h5::writeIntAttr(g, "threads", threads);
+  h5::writeDoubleAttr(g, "us_per_element_step", elementSteps > 0 ? 1e6 * wall / double(elementSteps) : 0.0);
+  flush();
+}
+
+void ResultsWriter::flush() { H5Fflush(impl_->file, H5F_SCOPE_GLOBAL); }
+
+}  // namespace tq

@@ -1,0 +1,491 @@
+#include "tq/solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace tq {
+
+namespace {
+constexpr Index kNodeChunk = 1024;
+constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof (as Real)
+}  // namespace
+
+Integrator parseIntegrator(const std::string& n) {
+  if (n == "central_difference") return Integrator::CentralDifference;
+  if (n == "paper_eq3_4") return Integrator::PaperEq34;
+  throw InputError("unknown integrator '" + n +
+                   "'; use central_difference (default) or paper_eq3_4 (the paper's eqs. 3-4 taken "
+                   "literally, unstable without damping: for study only)");
+}
+
+std::string integratorName(Integrator i) {
+  return i == Integrator::CentralDifference ? "central_difference" : "paper_eq3_4";
+}
+
+RayleighDamping RayleighDamping::fromRatio(Real xi, Real f1, Real f2) {
+  if (!(xi >= 0 && xi < 1))
+    throw InputError("damping ratio " + std::to_string(xi) + " is outside [0, 1); give e.g. 0.05 for 5 %");
+  if (xi == 0) return {};
+  if (!(f1 > 0 && f2 > 0))
+    throw InputError("Rayleigh damping needs two frequencies f1, f2 > 0 Hz (got " +
+                     std::to_string(f1) + ", " + std::to_string(f2) + ")");
+  const Real w1 = 2 * M_PI * f1, w2 = 2 * M_PI * f2;
+  return {2 * xi * w1 * w2 / (w1 + w2), 2 * xi / (w1 + w2)};
+}
+
+Real TimeFunction::operator()(Real time) const {
+  if (t.empty()) return 0;
+  if (time <= t.front()) return value.front();
+  if (time >= t.back()) return value.back();
+  const auto it = std::upper_bound(t.begin(), t.end(), time);
+  const size_t i = size_t(it - t.begin());
+  const Real w = (time - t[i - 1]) / (t[i] - t[i - 1]);
+  return value[i - 1] + w * (value[i] - value[i - 1]);
+}
+
+std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
+    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
+    Hex8Formulation formulation) {
+  std::vector<std::unique_ptr<ElementBlock>> blocks;
+  std::vector<bool> covered(mesh.regionNames.size(), false);
+  for (const auto& [name, mat] : materials) {
+    const Index r = mesh.regionIndex(name);
+    if (r < 0) {
+      std::string have;
+      for (auto& n : mesh.regionNames) have += " '" + n + "'";
+      throw InputError("material for region '" + name + "' but the mesh " + mesh.source +
+                       " has no such region (it has:" + have + ")");
+    }
+    covered[size_t(r)] = true;
+    std::vector<Index> elems;
+    for (Index e = 0; e < mesh.numElems(); ++e)
+      if (mesh.region[e] == r) elems.push_back(e);
+    if (!elems.empty())
+      blocks.push_back(std::make_unique<ElementBlock>(name, mat, formulation, mesh, std::move(elems)));
+  }
+  for (size_t r = 0; r < covered.size(); ++r)
+    if (!covered[r])
+      for (Index e = 0; e < mesh.numElems(); ++e)
+        if (mesh.region[e] == Index(r))
+          throw InputError("region '" + mesh.regionNames[r] + "' of mesh " + mesh.source +
+                           " has elements but no material; add /materials/" + mesh.regionNames[r]);
+  return blocks;
+}
+
+Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt)
+    : mesh_(mesh), blocks_(std::move(blocks)), opt_(opt) {
+  if (!(opt_.safety > 0 && opt_.safety <= 1))
+    throw InputError("time step safety factor " + std::to_string(opt_.safety) + " must lie in (0, 1]");
+  const Index N = mesh.numNodes();
+  state_.resize(N);
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[3 * size_t(n) + d]);
+  free_.assign(3 * size_t(N), 1.0);
+  fExtPrev_.assign(3 * size_t(N), 0.0);
+  vHalfPrev_.assign(3 * size_t(N), 0.0);
+  Index total = 0;
+  for (auto& b : blocks_) {
+    blockOffset_.push_back(total);
+    total += b->numElems();
+  }
+  corner_.assign(24 * size_t(total), 0.0);
+  nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
+  if (mesh.slice)  // plane strain along y: u_y = 0 everywhere
+    for (Index n = 0; n < N; ++n) fix(n, 1);
+  rebuild();
+  setTimeStep(opt_.dt);
+}
+
+void Solver::fix(Index node, int d) { free_[3 * size_t(node) + d] = 0.0; }
+
+void Solver::fixFaceGroup(const std::string& group, const std::string& dirs) {
+  const auto nodes = mesh_.faceNodes(group);
+  for (char c : dirs) {
+    const int d = c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : -1;
+    if (d < 0)
+      throw InputError("fixed directions '" + dirs + "' for face group '" + group +
+                       "': use letters x, y, z (e.g. \"xyz\" or \"z\")");
+    for (Index n : nodes) fix(n, d);
+  }
+}
+
+void Solver::rebuild() {
+  const Index N = state_.numNodes();
+  // Lumped masses: re-sum from active elements.
+  NodalState fresh(N);
+  for (auto& b : blocks_) b->lumpMassInto(fresh);
+  std::vector<Real> m(static_cast<size_t>(N));
+  for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
+  for (Index n = 0; n < N; ++n) state_.addMass(n, m[size_t(n)] - state_.mass(n));
+  // Node -> corner CSR, corners in increasing global order (deterministic sums).
+  nodeCornerStart_.assign(size_t(N) + 1, 0);
+  for (size_t bi = 0; bi < blocks_.size(); ++bi)
+    for (Index e = 0; e < blocks_[bi]->numElems(); ++e)
+      for (int k = 0; k < 8; ++k) ++nodeCornerStart_[size_t(blocks_[bi]->node(e, k)) + 1];
+  for (Index n = 0; n < N; ++n) nodeCornerStart_[size_t(n) + 1] += nodeCornerStart_[size_t(n)];
+  nodeCorner_.assign(size_t(nodeCornerStart_.back()), 0);
+  std::vector<Index> fill(nodeCornerStart_.begin(), nodeCornerStart_.end() - 1);
+  for (size_t bi = 0; bi < blocks_.size(); ++bi)
+    for (Index e = 0; e < blocks_[bi]->numElems(); ++e)
+      for (int k = 0; k < 8; ++k) {
+        const Index n = blocks_[bi]->node(e, k);
+        nodeCorner_[size_t(fill[size_t(n)]++)] = 8 * (blockOffset_[bi] + e) + k;
+      }
+}
+
+StableStep Solver::stableStep() const {
+  StableStep s;
+  for (const auto& b : blocks_) {
+    Index e = -1;
+    const Real w = b->maxFrequency(&e);
+    if (w > s.omegaMax) {
+      s.omegaMax = w;
+      s.block = b->name();
+      s.element = e >= 0 ? b->meshElem(e) : -1;
+      s.charLength = e >= 0 ? b->charLength(e) : 0;
+      s.waveSpeed = 0.5 * w * s.charLength;
+    }
+  }
+  if (s.omegaMax <= 0) throw InputError("no active elements: nothing to integrate");
+  // Stiffness-proportional damping with the lagged velocity (Belytschko et al., Nonlinear FE,
+  // §6.3): Δt ≤ (2/ω_max)(√(1+ξ²) - ξ), ξ = β ω_max / 2. The central difference treats α M with
+  // the mean of the half-step velocities (unconditionally stable); the literal paper form treats it
+  // explicitly, so α/(2ω_max) is added there.
+  s.xiMax = 0.5 * opt_.damping.beta * s.omegaMax;
+  if (opt_.integrator == Integrator::PaperEq34) s.xiMax += opt_.damping.alpha / (2 * s.omegaMax);
+  s.dtCritical = (2 / s.omegaMax) * (std::sqrt(1 + s.xiMax * s.xiMax) - s.xiMax);
+  s.dtSafe = opt_.safety * s.dtCritical;
+  return s;
+}
+
+void Solver::setTimeStep(Real dt) {
+  const StableStep s = stableStep();
+  if (dt == 0) {
+    dt_ = s.dtSafe;
+    return;
+  }
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw InputError("time step dt = " + std::to_string(dt) + " s is invalid; give dt > 0 or 0 for automatic");
+  if (dt > s.dtSafe && !opt_.allowUnstableStep) {
+    std::ostringstream os;
+    os.precision(4);
+    os << "time step dt = " << dt << " s is above the stable limit " << s.dtSafe << " s (= safety "
+       << opt_.safety << " x critical " << s.dtCritical << " s). The limit comes from element "
+       << s.element << " of block '" << s.block << "': characteristic length " << s.charLength
+       << " m, P-wave speed " << s.waveSpeed << " m/s, ω_max = 2 c_p / L = " << s.omegaMax
+       << " rad/s, damping ratio at ω_max ξ = " << s.xiMax
+       << " (Δt ≤ (2/ω_max)(√(1+ξ²) - ξ)). Fix: use dt ≤ " << s.dtSafe
+       << " s or dt = 0 for automatic; or coarsen/regularise the smallest elements; or lower the "
+          "stiffness-proportional damping (its β shortens the step).";
+    throw InputError(os.str());
+  }
+  dt_ = dt;
+}
+
+void Solver::computeInternalForces() {
+  ElementStepParams p;
+  p.dt = dt_;
+  p.dtLast = dtLast_;
+  p.beta = alphaRelax_ >= 0 ? 0.0 : opt_.damping.beta;
+  Real work = 0, stored = 0, damp = 0;
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+    const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, corner_.data() + 24 * size_t(blockOffset_[bi]));
+    work += en.stressWork;
+    stored += en.storedEnergy;
+    damp += en.dampingWork;
+  }
+  stressWork_ += work;
+  storedEnergy_ = stored;
+  dampWork_ += damp;
+}
+
+void Solver::assembleForcesForNodes() {
+  const Index N = state_.numNodes();
+  Real* __restrict f = state_.fIntData();
+  const Real* __restrict c = corner_.data();
+  const Index* start = nodeCornerStart_.data();
+  const Index* list = nodeCorner_.data();
+#pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
+  for (Index n = 0; n < N; ++n) {
+    Real fx = 0, fy = 0, fz = 0;
+    for (Index j = start[n]; j < start[n + 1]; ++j) {
+      const Real* cf = c + 3 * size_t(list[j]);
+      fx += cf[0];
+      fy += cf[1];
+      fz += cf[2];
+    }
+    f[3 * size_t(n)] = fx;
+    f[3 * size_t(n) + 1] = fy;
+    f[3 * size_t(n) + 2] = fz;
+  }
+}
+
+void Solver::computeExternalForces() {
+  const Index N = state_.numNodes();
+  Real* fe = state_.fExtData();
+  const Real* m = state_.massData();
+  const Real g0 = opt_.gravity[0], g1 = opt_.gravity[1], g2 = opt_.gravity[2];
+#pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
+  for (Index n = 0; n < N; ++n) {
+    fe[3 * size_t(n)] = m[n] * g0;
+    fe[3 * size_t(n) + 1] = m[n] * g1;
+    fe[3 * size_t(n) + 2] = m[n] * g2;
+  }
+  for (const auto& l : loads_) {
+    const Real f = l.forcePerNode * l.function(t_);
+    for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
+  }
+  for (auto& c : contributors_) c->addForces(t_, dt_, state_);
+}
+
+void Solver::updateNodes() {
+  const Index N = state_.numNodes();
+  const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
+  Real* __restrict u = state_.uData();
+  Real* __restrict v = state_.vData();
+  Real* __restrict a = state_.aData();
+  const Real* __restrict fi = state_.fIntData();
+  const Real* __restrict fe = state_.fExtData();
+  const Real* __restrict m = state_.massData();
+  const Real* __restrict cb = state_.dashpotData();
+  const Real* __restrict fr = free_.data();
+  Real* __restrict fprev = fExtPrev_.data();
+  Real* __restrict vprev = vHalfPrev_.data();
+  const Real dt = dt_, dtl = dtLast_;
+  const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
+  const Real vlim = opt_.velocityLimit;
+  const bool leapfrog = opt_.integrator == Integrator::CentralDifference;
+  Real* sums = nodeChunkSums_.data();
+#pragma omp parallel for schedule(static) if (nChunks >= 2)
+  for (Index c = 0; c < nChunks; ++c) {
+    const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
+    Real ke = 0, ext = 0, damp = 0, bdry = 0;
+    Index bad = -1;
+    for (Index n = n0; n < n1; ++n) {
+      const Real mn = m[n];
+      if (!(mn > 0)) {  // node of no active element (excavated, not yet installed): at rest
+        for (int d = 0; d < 3; ++d) {
+          const size_t i = 3 * size_t(n) + d;
+          v[i] = a[i] = 0;
+          vprev[i] = 0;
+          fprev[i] = fe[i];
+        }
+        continue;
+      }
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = 3 * size_t(n) + d;
+        const Real f = fe[i] - fi[i];
+        const Real vo = v[i];
+        const Real cm = alpha * mn, cd = cb[i];
+        Real vn, du;
+        if (leapfrog) {
+          // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
+          ext += 0.5 * (fe[i] + fprev[i]) * dtl * vo;
+          // Dashpots (α M and boundary) with the mean of the half-step velocities:
+          // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
+          const Real mdt = mn / dt, ch = 0.5 * (cm + cd);
+          vn = fr[i] * ((mdt - ch) * vo + f) / (mdt + ch);
+          a[i] = (vn - vo) / dt;
+          du = dt * vn;
+          ke += 0.5 * mn * vo * vn;
+          const Real vb = 0.5 * (vo + vn);
+          damp += cm * vb * vb * dt;
+          bdry += cd * vb * vb * dt;
+          vprev[i] = vo;
+        } else {
+          // Paper eqs. (3)-(4): explicit damping with the full-step velocity.
+          const Real acc = fr[i] * (f - (cm + cd) * vo) / mn;
+          du = dt * vo + 0.5 * dt * dt * acc;
+          vn = fr[i] * (2 * du / dt - vo);
+          a[i] = acc;
+          ke += 0.5 * mn * vo * vo;
+          ext += fe[i] * du;
+          damp += cm * vo * vo * dt;
+          bdry += cd * vo * vo * dt;
+          vprev[i] = vo;
+        }
+        v[i] = vn;
+        u[i] += du;
+        fprev[i] = fe[i];
+        if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
+      }
+    }
+    Real* s = sums + kSums * size_t(c);
+    s[0] = ke;
+    s[1] = ext;
+    s[2] = damp;
+    s[3] = bdry;
+    s[4] = Real(bad);
+  }
+  Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Index bad = -1;
+  for (Index c = 0; c < nChunks; ++c) {
+    const Real* s = sums + kSums * size_t(c);
+    ke += s[0];
+    ext += s[1];
+    damp += s[2];
+    bdry += s[3];
+    if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
+  }
+  if (bad >= 0) reportInstability(bad, v[bad]);
+  extWork_ += ext;
+  dampWork_ += damp;
+  bdryWork_ += bdry;
+  energy_.kinetic = ke;
+  energy_.internal = stressWork_ + storedEnergy_;
+  energy_.damping = dampWork_;
+  energy_.boundary = bdryWork_;
+  energy_.external = extWork_;
+  const Real bal = energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary - energy_.external;
+  if (!balanceSet_) {
+    balance0_ = bal;
+    balanceSet_ = true;
+  }
+  const Real scale = std::max({std::abs(energy_.kinetic) + std::abs(energy_.internal),
+                               std::abs(energy_.external), std::abs(energy_.damping) + std::abs(energy_.boundary),
+                               std::numeric_limits<Real>::min()});
+  energy_.error = std::abs(bal - balance0_) / scale;
+}
+
+void Solver::reportInstability(Index dof, Real value) {
+  const Index node = dof / 3;
+  const int d = int(dof % 3);
+  const StableStep s = stableStep();
+  std::ostringstream os;
+  os.precision(6);
+  os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_" << "xyz"[d] << " = "
+     << value << " m/s at node " << node << " (x, y, z = " << state_.x0(node, 0) << ", "
+     << state_.x0(node, 1) << ", " << state_.x0(node, 2) << " m) is "
+     << (std::isfinite(value) ? "exploding (|v| above the limit " : "not finite (limit ")
+     << opt_.velocityLimit << " m/s)"
+     << ". Likely cause: ";
+  Index badElem = -1;
+  std::string badBlock;
+  for (const auto& b : blocks_) {
+    const Index e = b->findBadStress(1e300);
+    if (e >= 0) {
+      badElem = b->meshElem(e);
+      badBlock = b->name();
+      break;
+    }
+  }
+  if (dt_ > s.dtCritical)
+    os << "the time step " << dt_ << " s is above the critical step " << s.dtCritical
+       << " s (limited by element " << s.element << " of block '" << s.block
+       << "'); use dt = 0 (automatic) or dt <= " << s.dtSafe << " s.";
+  else if (opt_.integrator == Integrator::PaperEq34)
+    os << "integrator paper_eq3_4 is unstable for any step without enough damping (growth "
+          "factor √(1+(ωΔt)²/2) per step); use central_difference.";
+  else if (badElem >= 0)
+    os << "element " << badElem << " of block '" << badBlock
+       << "' has a non-finite stress; check its material parameters.";
+  else
+    os << "the motion grows without bound: check loads, boundary conditions (an unsupported model "
+          "under gravity accelerates freely), and material parameters.";
+  throw InstabilityError(os.str());
+}
+
+void Solver::step() {
+  computeInternalForces();
+  assembleForcesForNodes();
+  computeExternalForces();
+  updateNodes();
+  dtLast_ = dt_;
+  t_ += dt_;
+  ++step_;
+}
+
+void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
+  while (t_ < tEnd - 1e-9 * dt_) {
+    step();
+    if (each) each();
+  }
+}
+
+Real Solver::velocityAt(Index node, int d) const { return state_.vData()[3 * size_t(node) + d]; }
+
+Real Solver::unbalancedRatio() const {
+  const Index N = state_.numNodes();
+  Real r2 = 0, fe2 = 0, fi2 = 0;
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + d;
+      if (free_[i] == 0) continue;
+      const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
+      r2 += (fe - fi) * (fe - fi);
+      fe2 += fe * fe;
+      fi2 += fi * fi;
+    }
+  const Real ref = std::sqrt(std::max(fe2, fi2));
+  return ref > 0 ? std::sqrt(r2) / ref : 0;
+}
+
+RelaxResult Solver::relax(const RelaxParams& p) {
+  RelaxResult r;
+  const Index N = state_.numNodes();
+  std::vector<Real> fPrev(3 * size_t(N), 0.0);
+  const Real wmax = stableStep().omegaMax;
+  Real omega = 0;
+  alphaRelax_ = 0;
+  for (Index s = 0; s < p.maxSteps; ++s) {
+    // Underwood (1983): lowest active frequency from the Rayleigh quotient of the last
+    // increment, ω² = Δu·Δf_int / Δu·M·Δu; critical mass damping c = 2ω.
+    computeInternalForces();
+    assembleForcesForNodes();
+    if (s > 0) {
+      Real num = 0, den = 0;
+      const Real* f = state_.fIntData();
+      const Real* v = state_.vData();
+      for (Index n = 0; n < N; ++n)
+        for (int d = 0; d < 3; ++d) {
+          const size_t i = 3 * size_t(n) + d;
+          const Real du = dtLast_ * v[i];
+          num += du * (f[i] - fPrev[i]);
+          den += du * du * state_.mass(n);
+        }
+      if (den > 0 && num > 0) omega = std::min(std::sqrt(num / den), wmax);
+    }
+    std::copy(state_.fIntData(), state_.fIntData() + 3 * size_t(N), fPrev.begin());
+    alphaRelax_ = 2 * omega;
+    computeExternalForces();
+    updateNodes();
+    dtLast_ = dt_;
+    t_ += dt_;
+    ++step_;
+    r.steps = s + 1;
+    if ((s + 1) % p.checkEvery == 0) {
+      r.ratio = unbalancedRatio();
+      if (r.ratio < p.tolerance) {
+        r.converged = true;
+        break;
+      }
+    }
+  }
+  alphaRelax_ = -1;
+  return r;
+}
+
+void Solver::resetMotion() {
+  // The displacement itself is kept (the hourglass forces and strains are functions of the total
+  // displacement, so zeroing it would make the model jump); results are reported relative to it.
+  const Index N = state_.numNodes();
+  uRef_.assign(state_.uData(), state_.uData() + 3 * size_t(N));
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      state_.v(n, d) = 0;
+      state_.a(n, d) = 0;
+    }
+  std::fill(vHalfPrev_.begin(), vHalfPrev_.end(), 0.0);
+  stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
+  stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
+  balanceSet_ = false;
+}
+
+Real Solver::relativeDisplacement(Index node, int d) const {
+  const size_t i = 3 * size_t(node) + d;
+  return state_.uData()[i] - (uRef_.empty() ? 0.0 : uRef_[i]);
+}
+
+}  // namespace tq
