@@ -19,6 +19,16 @@ def main(argv: list[str]) -> int:
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
     say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
         f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
+    from ..scene import assess_slice, plan
+
+    for cond, parts in plan(case):
+        say(f"  condition {cond}: runs {' + '.join(parts)}")
+    sl = assess_slice(case)
+    if d["mesh"]["mode"] == "slice" and not sl.valid:
+        for r in sl.reasons:
+            print(f"warning: slice mode is not equivalent to the 3D model here: {r}")
+    for a in sl.advice:
+        say(f"  advice: {a}")
     if case.warnings:
         say(f"  {len(case.warnings)} warning(s) above")
     return 0

@@ -11,17 +11,8 @@ import time
 
 from .. import paths
 from ..motion import MotionError
+from ..scene import plan
 from .common import load_or_report, parser, say
-
-PARTICIPANTS = {
-    "no_water": ("solid",),
-    "static_water": ("solid",),
-    "dynamic_water": ("solid", "fluid"),
-}
-
-
-def plan(case) -> list[tuple[str, tuple[str, ...]]]:
-    return [(c, PARTICIPANTS[c]) for c in case.data["conditions"]]
 
 
 def solver_status() -> dict[str, str | None]:
