@@ -17,6 +17,7 @@
 
 #include "tq/input.hpp"
 #include "tq/results.hpp"
+#include "tq/stages.hpp"
 
 namespace tq {
 
@@ -26,7 +27,13 @@ const char* kUsage =
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
-    "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
+    "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+    "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n";
+
+// What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
+const char* kCapabilities =
+    "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
+    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2";
 
 std::string hms(double s) {
   std::ostringstream os;
@@ -47,6 +54,9 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       return 0;
     } else if (a == "-o" && i + 1 < args.size()) {
       output = args[++i];
+    } else if (a == "--capabilities") {
+      out << "tq-solid capabilities: " << kCapabilities << "\n";
+      return 0;
     } else if (a == "--check") {
       check = true;
     } else if (a == "--threads" && i + 1 < args.size()) {
@@ -66,10 +76,12 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   SolidInput in;
   Mesh mesh;
   std::unique_ptr<Solver> solver;
+  std::unique_ptr<StagedAnalysis> stages;  // version 2: the staged analysis (stages.cpp)
   try {
     in = readSolidInput(input);
     mesh = readMeshH5(in.meshPath, {in.requiredFaces});
     solver = buildSolver(in, mesh);
+    if (in.staged.present) stages = std::make_unique<StagedAnalysis>(in, mesh, *solver);
   } catch (const InputError& e) {
     err << "tq-solid: input error: " << e.what() << "\n";
     return 2;
@@ -83,12 +95,45 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       << "\n  stable step " << st.dtCritical << " s (element " << st.element << " of '" << st.block
       << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = "
       << in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
+  if (stages) {
+    out << "  stages:";
+    for (const auto& n : in.staged.stages.sequence) out << " " << n;
+    out << (in.staged.condition.empty() ? "" : " (condition " + in.staged.condition + ")") << "\n";
+    const std::string w = elementSizeWarning(s, in.staged.motion.cutoffFrequency);
+    if (!w.empty()) out << "tq-solid: " << w << "\n";
+  }
   if (check) {
     out << "tq-solid: input and mesh are valid\n";
     return 0;
   }
   // 4. Time loop (the "engine").
   ResultsWriter results(output, in, s);
+  if (stages) {  // 4a. Static stages (dynamic relaxation), then the switch to the seismic stage.
+    auto writeStages = [&] {
+      for (const auto& r : stages->reports())
+        results.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+    };
+    try {
+      stages->runStatics(out, in.progressSeconds);
+      if (stages->hasSeismic()) stages->switchToDynamics(out);
+    } catch (const InstabilityError& e) {
+      writeStages();
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+      return 3;
+    } catch (const InputError& e) {
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: input error: " << e.what() << "\n";
+      return 2;
+    }
+    writeStages();
+    if (!stages->hasSeismic()) {  // statics only: the equilibrium state is the result
+      results.snapshot(s);
+      results.setStatus("completed");
+      out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << output << "\n";
+      return 0;
+    }
+  }
   results.sample(s);
   size_t nextSnap = 0;
   Real nextSample = in.monitorDt;

@@ -119,6 +119,14 @@ void ElementBlock::lumpMassInto(NodalState& state) const {
   }
 }
 
+Real ElementBlock::dissipatedEnergy() const {
+  const int h = material_->dissipationHistory();
+  if (h < 0 || size_t(h) >= history_.size()) return 0;
+  Real sum = 0;  // serial, fixed order: the same for any thread count
+  for (Index e = 0; e < nElems_; ++e) sum += vol_[e] * history_[size_t(h)][e];
+  return sum;
+}
+
 Real ElementBlock::maxFrequency(Index* where) const {
   const Real cp = std::sqrt(mod_.pModulus() / material_->density());
   Real wmax = 0;

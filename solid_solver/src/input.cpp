@@ -7,6 +7,7 @@
 #include <set>
 
 #include "h5util.hpp"
+#include "input_staged.hpp"
 
 namespace tq {
 
@@ -78,16 +79,22 @@ SolidInput readSolidInput(const std::string& path) {
   SolidInput in;
   in.path = path;
   auto f = h5::openFile(path);
-  checkKeys(c, f, "root", {"format", "version", "mesh"});
+  checkKeys(c, f, "root", {"format", "version", "mesh", "condition"});
   const std::string fmt = str(c, f, "root", "format", "", true);
   if (fmt != "tunnelquake-solid-input")
     c.fail("root", "format is '" + fmt + "', expected 'tunnelquake-solid-input'");
   const Real ver = num(c, f, "root", "version", 0, true);
-  if (ver != 1) c.fail("root", "version " + std::to_string(int(ver)) + " is not supported (this tq-solid reads 1)");
+  if (ver != 1 && ver != 2)
+    c.fail("root", "version " + std::to_string(int(ver)) + " is not supported (this tq-solid reads 1 and 2)");
   const std::string mesh = str(c, f, "root", "mesh", "", true);
   const auto dir = std::filesystem::path(path).parent_path();
   in.meshPath = std::filesystem::path(mesh).is_absolute() ? mesh : (dir / mesh).string();
-  checkMembers(c, f, "root", {"solver", "damping", "materials", "boundary", "loads", "monitors", "output"});
+  {
+    std::set<std::string> rootGroups = {"solver", "damping", "materials", "boundary", "loads", "monitors", "output"};
+    if (ver == 2) rootGroups.insert(std::begin(kStagedRootGroups), std::end(kStagedRootGroups));
+    checkMembers(c, f, "root", rootGroups);
+    if (ver == 1 && h5::hasAttr(f, "condition")) c.fail("root", "attribute 'condition' needs version 2");
+  }
 
   // /solver
   if (!h5::exists(f, "/solver")) c.fail("/solver", "group is required (at least attribute t_end)");
@@ -134,10 +141,15 @@ SolidInput readSolidInput(const std::string& path) {
     for (const auto& region : h5::members(g)) {
       auto mg = h5::openGroup(g, region);
       const std::string w = "/materials/" + region;
-      const std::string type = str(c, mg, w, "type", "elastic");
-      if (type != "elastic")
-        c.fail(w, "material type '" + type + "' is not available yet (this tq-solid has: elastic)");
-      checkKeys(c, mg, w, {"type", "E", "nu", "rho"});
+      // `model` (issue 4); `type` is version 1's name for the same choice.
+      const std::string type = str(c, mg, w, "type", "elastic"), model = str(c, mg, w, "model", type);
+      if (model != "elastic" && model != "mohr_coulomb_damage")
+        c.fail(w, "model '" + model + "' is unknown; use elastic or mohr_coulomb_damage");
+      if (h5::hasAttr(mg, "type") && h5::hasAttr(mg, "model") && type != model)
+        c.fail(w, "attributes type = '" + type + "' and model = '" + model + "' disagree; give model only");
+      std::set<std::string> keys = {"type", "E", "nu", "rho"};
+      keys.insert(std::begin(kMohrCoulombAttrs), std::end(kMohrCoulombAttrs));  // for issue 4's material
+      checkKeys(c, mg, w, keys);
       ElasticParams p{num(c, mg, w, "E", 0, true), num(c, mg, w, "nu", 0, true), num(c, mg, w, "rho", 0, true)};
       try {
         ElasticMaterial check(p);
@@ -145,6 +157,22 @@ SolidInput readSolidInput(const std::string& path) {
         c.fail(w, e.what());
       }
       in.materials.emplace_back(region, p);
+      if (model == "mohr_coulomb_damage") {  // eqs. 16-18; the other attributes are ignored for elastic
+        MohrCoulombDamageParams mp;
+        mp.elastic = p;
+        mp.cohesion = num(c, mg, w, "cohesion", 0, true);
+        mp.frictionAngle = num(c, mg, w, "friction_angle", 0, true);
+        mp.dilationAngle = num(c, mg, w, "dilation_angle", 0);
+        mp.tensileStrength = num(c, mg, w, "tensile_strength", 0, true);
+        mp.damageConstant = num(c, mg, w, "damage_constant", 100);
+        try {
+          mp.damageEffect = parseDamageEffect(str(c, mg, w, "damage_effect", "cohesion"));
+          MohrCoulombDamageMaterial check(mp);
+        } catch (const InputError& e) {
+          c.fail(w, e.what());
+        }
+        in.mohrCoulomb[region] = mp;
+      }
     }
   }
   // /boundary/fixed/<face group>
@@ -220,13 +248,14 @@ SolidInput readSolidInput(const std::string& path) {
     if (h5::exists(g, "snapshot_times")) in.snapshotTimes = h5::readDoubles(g, "snapshot_times");
     std::sort(in.snapshotTimes.begin(), in.snapshotTimes.end());
   }
+  if (ver == 2) readStagedInput(f, in);  // stages, in-situ, boundaries, motion (input_staged.cpp)
   return in;
 }
 
 void writeSolidInput(const SolidInput& in, const std::string& path, const std::string& meshAttr) {
   auto f = h5::createFile(path);
   h5::writeStringAttr(f, "format", "tunnelquake-solid-input");
-  h5::writeIntAttr(f, "version", 1);
+  h5::writeIntAttr(f, "version", in.staged.present ? 2 : 1);
   h5::writeStringAttr(f, "mesh", meshAttr);
   {
     auto g = h5::ensureGroup(f, "/solver");
@@ -245,10 +274,20 @@ void writeSolidInput(const SolidInput& in, const std::string& path, const std::s
   }
   for (const auto& [region, p] : in.materials) {
     auto g = h5::ensureGroup(f, "/materials/" + region);
-    h5::writeStringAttr(g, "type", "elastic");
     h5::writeDoubleAttr(g, "E", p.youngsModulus);
     h5::writeDoubleAttr(g, "nu", p.poissonRatio);
     h5::writeDoubleAttr(g, "rho", p.density);
+    const auto mc = in.mohrCoulomb.find(region);
+    h5::writeStringAttr(g, "model", mc == in.mohrCoulomb.end() ? "elastic" : "mohr_coulomb_damage");
+    if (mc != in.mohrCoulomb.end()) {
+      const MohrCoulombDamageParams& q = mc->second;
+      h5::writeDoubleAttr(g, "cohesion", q.cohesion);
+      h5::writeDoubleAttr(g, "friction_angle", q.frictionAngle);
+      h5::writeDoubleAttr(g, "dilation_angle", q.dilationAngle);
+      h5::writeDoubleAttr(g, "tensile_strength", q.tensileStrength);
+      h5::writeDoubleAttr(g, "damage_constant", q.damageConstant);
+      h5::writeStringAttr(g, "damage_effect", damageEffectName(q.damageEffect));
+    }
   }
   for (const auto& [group, dirs] : in.fixed) {
     auto g = h5::ensureGroup(f, "/boundary/fixed/" + group);
@@ -277,11 +316,18 @@ void writeSolidInput(const SolidInput& in, const std::string& path, const std::s
   h5::writeDoubleAttr(g, "progress_s", in.progressSeconds);
   if (!in.snapshotTimes.empty())
     h5::writeDoubles(g, "snapshot_times", in.snapshotTimes.data(), {in.snapshotTimes.size()});
+  if (in.staged.present) writeStagedInput(f, in);
 }
 
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {
   std::vector<std::pair<std::string, std::shared_ptr<const Material>>> mats;
-  for (const auto& [region, p] : in.materials) mats.emplace_back(region, std::make_shared<ElasticMaterial>(p));
+  for (const auto& [region, p] : in.materials) {
+    const auto mc = in.mohrCoulomb.find(region);
+    if (mc != in.mohrCoulomb.end())
+      mats.emplace_back(region, std::make_shared<MohrCoulombDamageMaterial>(mc->second));
+    else
+      mats.emplace_back(region, std::make_shared<ElasticMaterial>(p));
+  }
   auto s = std::make_unique<Solver>(mesh, makeBlocksByRegion(mesh, mats, in.formulation), in.options);
   for (const auto& [group, dirs] : in.fixed) s->fixFaceGroup(group, dirs);
   for (const auto& l : in.loads) {

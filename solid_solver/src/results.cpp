@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "h5util.hpp"
+#include "results_nonlinear.hpp"
 
 namespace tq {
 
@@ -28,6 +29,8 @@ struct ResultsWriter::Impl {
   std::vector<Monitor> monitors;
   h5::RowAppender energy;
   int snapshots = 0;
+  nlout::State nl;                                // damage and interface output (issue 4)
+  std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
 };
 
 ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, const Solver& s)
@@ -89,11 +92,14 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     h5::writeDoubleAttr(gg, "x", mi.point[0]);
     h5::writeDoubleAttr(gg, "y", mi.point[1]);
     h5::writeDoubleAttr(gg, "z", mi.point[2]);
+    nlout::addMonitor(f, g, I.nl);
+    I.monElems.emplace_back(mon.block, mon.elem);
     I.monitors.push_back(std::move(mon));
   }
   I.energy = h5::RowAppender(f, "/energy/history", 7);
   auto eg = h5::openGroup(f, "/energy");
   h5::writeStringListAttr(eg, "columns", {"time", "kinetic", "internal", "damping", "boundary", "external", "error"});
+  nlout::addEnergy(f, I.nl);
   flush();
 }
 
@@ -122,6 +128,7 @@ void ResultsWriter::sample(const Solver& s) {
   const EnergyBalance& e = s.energy();
   const Real row[7] = {t, e.kinetic, e.internal, e.damping, e.boundary, e.external, e.error};
   I.energy.append(row);
+  nlout::sample(I.file, s, I.monElems, I.nl);
 }
 
 void ResultsWriter::snapshot(const Solver& s) {
@@ -141,6 +148,7 @@ void ResultsWriter::snapshot(const Solver& s) {
   h5::writeDoubles(I.file, g + "/u", u.data(), {hsize_t(N), 3});
   h5::writeDoubles(I.file, g + "/v", v.data(), {hsize_t(N), 3});
   h5::writeDoubles(I.file, g + "/stress", st.data(), {hsize_t(E), 6});
+  nlout::snapshot(I.file, g, s, I.nl);
   auto gg = h5::openGroup(I.file, g);
   h5::writeDoubleAttr(gg, "time", s.time());
   flush();
@@ -158,6 +166,19 @@ void ResultsWriter::writeTimings(double wall, long long steps, long long element
   h5::writeIntAttr(g, "element_steps", elementSteps);
   h5::writeIntAttr(g, "threads", threads);
   h5::writeDoubleAttr(g, "us_per_element_step", elementSteps > 0 ? 1e6 * wall / double(elementSteps) : 0.0);
+  flush();
+}
+
+void ResultsWriter::writeStage(const std::string& name, long long steps, double ratio, bool converged,
+                               double wallSeconds, const std::string& note) {
+  auto root = h5::ensureGroup(impl_->file, "/stages");
+  const std::string path = "/stages/" + std::to_string(h5::members(root).size()) + "_" + name;
+  auto g = h5::ensureGroup(impl_->file, path);
+  h5::writeIntAttr(g, "steps", steps);
+  h5::writeDoubleAttr(g, "unbalanced_ratio", ratio);
+  h5::writeIntAttr(g, "converged", converged ? 1 : 0);
+  h5::writeDoubleAttr(g, "wall_s", wallSeconds);
+  h5::writeStringAttr(g, "note", note);
   flush();
 }
 

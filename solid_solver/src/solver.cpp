@@ -225,7 +225,8 @@ void Solver::assembleForcesForNodes() {
 void Solver::computeExternalForces() {
   const Index N = state_.numNodes();
   Real* fe = state_.fExtData();
-  const Real* m = state_.massData();
+  // Gravity acts on the true masses, also while relax() runs with scaled ones.
+  const Real* m = gravityMass_.empty() ? state_.massData() : gravityMass_.data();
   const Real g0 = opt_.gravity[0], g1 = opt_.gravity[1], g2 = opt_.gravity[2];
 #pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
   for (Index n = 0; n < N; ++n) {
@@ -237,7 +238,10 @@ void Solver::computeExternalForces() {
     const Real f = l.forcePerNode * l.function(t_);
     for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
   }
-  for (auto& c : contributors_) c->addForces(t_, dt_, state_);
+  for (auto& c : contributors_)
+    if (!c->runsLast()) c->addForces(t_, dt_, state_);
+  for (auto& c : contributors_)  // e.g. the dynamic contact force: predicts from all other forces
+    if (c->runsLast()) c->addForces(t_, dt_, state_);
 }
 
 void Solver::updateNodes() {
@@ -333,18 +337,30 @@ void Solver::updateNodes() {
   extWork_ += ext;
   dampWork_ += damp;
   bdryWork_ += bdry;
+  // Contributors that dissipate (interface friction) or store/absorb (boundary springs) book their
+  // own work W_c = -E_c; the solver's external work includes it, so it is moved out of `external`
+  // into `interface` / `boundary`: balance = interface + kinetic + internal + damping + boundary
+  // - external stays constant.
+  Real dissContrib = 0, bdryContrib = 0, plastic = 0;
+  for (const auto& c : contributors_) dissContrib += c->dissipatedEnergy();
+  for (const auto& c : contributors_) bdryContrib += c->boundaryEnergy();
+  for (const auto& b : blocks_) plastic += b->dissipatedEnergy();
+  const Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
   energy_.kinetic = ke;
   energy_.internal = stressWork_ + storedEnergy_;
   energy_.damping = dampWork_;
-  energy_.boundary = bdryWork_;
-  energy_.external = extWork_;
-  const Real bal = energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary - energy_.external;
+  energy_.boundary = bdryWork_ + bE;
+  energy_.interface = diss;
+  energy_.plastic = plastic - plastic0_;
+  energy_.external = extWork_ + diss + bE;
+  const Real bal = energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary -
+                   energy_.external;
   if (!balanceSet_) {
     balance0_ = bal;
     balanceSet_ = true;
   }
-  const Real scale = std::max({std::abs(energy_.kinetic) + std::abs(energy_.internal),
-                               std::abs(energy_.external), std::abs(energy_.damping) + std::abs(energy_.boundary),
+  const Real scale = std::max({std::abs(energy_.kinetic) + std::abs(energy_.internal), std::abs(energy_.external),
+                               std::abs(energy_.damping) + std::abs(energy_.boundary) + std::abs(energy_.interface),
                                std::numeric_limits<Real>::min()});
   energy_.error = std::abs(bal - balance0_) / scale;
 }
@@ -406,27 +422,83 @@ void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
 
 Real Solver::velocityAt(Index node, int d) const { return state_.vData()[3 * size_t(node) + d]; }
 
-Real Solver::unbalancedRatio() const {
+Real Solver::unbalancedRatio() const { return unbalancedRatio(false); }
+
+Real Solver::unbalancedRatio(bool allDofsReference) const {
   const Index N = state_.numNodes();
   Real r2 = 0, fe2 = 0, fi2 = 0;
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3; ++d) {
       const size_t i = 3 * size_t(n) + d;
-      if (free_[i] == 0) continue;
       const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
-      r2 += (fe - fi) * (fe - fi);
-      fe2 += fe * fe;
-      fi2 += fi * fi;
+      const bool isFree = free_[i] != 0;
+      if (isFree) r2 += (fe - fi) * (fe - fi);
+      if (isFree || allDofsReference) {
+        fe2 += fe * fe;
+        fi2 += fi * fi;
+      }
     }
   const Real ref = std::sqrt(std::max(fe2, fi2));
   return ref > 0 ? std::sqrt(r2) / ref : 0;
+}
+
+Real Solver::residualNorm() const {
+  const Index N = state_.numNodes();
+  Real r2 = 0;
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + d;
+      if (free_[i] == 0) continue;
+      const Real r = state_.fExtData()[i] - state_.fIntData()[i];
+      r2 += r * r;
+    }
+  return std::sqrt(r2);
+}
+
+void Solver::computeForces(bool withContributors) {
+  const Real saved = alphaRelax_;
+  alphaRelax_ = 0;  // no stiffness-proportional damping force: the state is taken at rest
+  computeInternalForces();
+  assembleForcesForNodes();
+  std::vector<std::shared_ptr<NodalForceContributor>> none;
+  if (!withContributors) none.swap(contributors_);
+  computeExternalForces();
+  if (!withContributors) none.swap(contributors_);
+  alphaRelax_ = saved;
 }
 
 RelaxResult Solver::relax(const RelaxParams& p) {
   RelaxResult r;
   const Index N = state_.numNodes();
   std::vector<Real> fPrev(3 * size_t(N), 0.0);
-  const Real wmax = stableStep().omegaMax;
+  Real wmax = stableStep().omegaMax;
+  const Real dtDynamic = dt_;
+  if (p.massScaling) {
+    // Statics only: every element's mass is scaled by (ω_e / ω_ref)² so that its frequency
+    // 2 c_p / L_e becomes the lowest one, ω_ref; the step grows to safety × 2 / ω_ref. Gravity
+    // keeps the true masses (gravityMass_).
+    Real wref = std::numeric_limits<Real>::max();
+    for (const auto& b : blocks_) {
+      const Real cp = std::sqrt(b->material().elasticModuli().pModulus() / b->material().density());
+      for (Index e = 0; e < b->numElems(); ++e)
+        if (b->active(e)) wref = std::min(wref, 2 * cp / b->charLength(e));
+    }
+    gravityMass_.assign(state_.massData(), state_.massData() + N);
+    std::vector<Real> scaled(size_t(N), 0.0);
+    for (const auto& b : blocks_) {
+      const Real rho = b->material().density();
+      const Real cp = std::sqrt(b->material().elasticModuli().pModulus() / rho);
+      for (Index e = 0; e < b->numElems(); ++e) {
+        if (!b->active(e)) continue;
+        const Real we = 2 * cp / b->charLength(e), f = (we / wref) * (we / wref);
+        const Real m = f * rho * b->volume(e) / 8;
+        for (int k = 0; k < 8; ++k) scaled[size_t(b->node(e, k))] += m;
+      }
+    }
+    for (Index n = 0; n < N; ++n) state_.addMass(n, scaled[size_t(n)] - state_.mass(n));
+    wmax = wref;
+    dt_ = opt_.safety * 2 / wref;
+  }
   Real omega = 0;
   alphaRelax_ = 0;
   for (Index s = 0; s < p.maxSteps; ++s) {
@@ -456,14 +528,18 @@ RelaxResult Solver::relax(const RelaxParams& p) {
     ++step_;
     r.steps = s + 1;
     if ((s + 1) % p.checkEvery == 0) {
-      r.ratio = unbalancedRatio();
-      if (r.ratio < p.tolerance) {
-        r.converged = true;
-        break;
-      }
+      r.ratio = p.referenceForce > 0 ? residualNorm() / p.referenceForce : unbalancedRatio();
+      if (r.ratio < p.tolerance) r.converged = true;
+      if (p.onCheck) p.onCheck(r);
+      if (r.converged) break;
     }
   }
   alphaRelax_ = -1;
+  if (p.massScaling) {  // back to the true masses and the dynamic step
+    for (Index n = 0; n < N; ++n) state_.addMass(n, gravityMass_[size_t(n)] - state_.mass(n));
+    gravityMass_.clear();
+    dt_ = dtDynamic;
+  }
   return r;
 }
 
@@ -480,6 +556,10 @@ void Solver::resetMotion() {
   std::fill(vHalfPrev_.begin(), vHalfPrev_.end(), 0.0);
   stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
   stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
+  interface0_ = plastic0_ = boundary0_ = 0;
+  for (const auto& c : contributors_) interface0_ += c->dissipatedEnergy();
+  for (const auto& b : blocks_) plastic0_ += b->dissipatedEnergy();
+  for (const auto& c : contributors_) boundary0_ += c->boundaryEnergy();
   balanceSet_ = false;
 }
 

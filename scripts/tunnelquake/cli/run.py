@@ -38,6 +38,25 @@ def _solid_runs_cases(exe) -> bool:
     return out.returncode == 0 and "staged-seismic" in out.stdout
 
 
+def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
+    """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
+    report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...)."""
+    import subprocess
+
+    from ..solid_input import write_solid_input
+    from .mesh import mesh_dir
+
+    work = case.output_dir / cond
+    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+    res = case.output_dir / f"results_{cond}.h5"
+    cmd = [str(paths.solid_executable()), str(inp), "-o", str(res)]
+    threads = case.data["parallel"]["threads"]
+    if threads:
+        cmd += ["--threads", str(threads)]
+    say(f"condition {cond}: running the solid ({' '.join(cmd)})")
+    return subprocess.run(cmd).returncode, res
+
+
 def main(argv: list[str]) -> int:
     p = parser("run", __doc__)
     p.add_argument("--no-post", action="store_true", help="skip post-processing")
@@ -49,6 +68,7 @@ def main(argv: list[str]) -> int:
     say(f"case '{case.data['name']}' valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []
+    failed: list[str] = []
 
     from .mesh import make_mesh
 
@@ -75,8 +95,13 @@ def main(argv: list[str]) -> int:
         if missing:
             say(f"condition {cond}: would run {runs}; not run: {'; '.join(missing)}")
             skipped.append(f"{cond} ({runs}): {'; '.join(missing)}")
-        else:  # pragma: no cover - filled in by the solver issues
-            raise NotImplementedError
+            continue
+        rc, res = run_solid_condition(case, cond, motion_file)
+        if rc == 0:
+            done.append(f"{cond} ({runs}): completed -> {res.name}")
+        else:
+            failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
+                          f"what was written is in {res.name}")
 
     if not args.no_post:
         from .post import post_case
@@ -92,4 +117,9 @@ def main(argv: list[str]) -> int:
         say("not run (the solver pieces are still being built):")
         for s in skipped:
             say(f"  - {s}")
+    if failed:
+        say("FAILED:")
+        for s in failed:
+            say(f"  ! {s}")
+        return 1
     return 0

@@ -73,6 +73,9 @@ public:
   Real strain(Index e, int comp) const { return strain_[comp][e]; }
   /// History variable h of element e.
   Real history(int h, Index e) const { return history_[h][e]; }
+  /// Energy dissipated by the material so far (plasticity, damage; J): Σ_e V_e h_diss(e) with the
+  /// material's dissipation history (J/m^3); 0 for a material that dissipates nothing.
+  Real dissipatedEnergy() const;
   bool active(Index e) const { return active_[e] != 0; }
   /// Activate or deactivate (excavation, lining installation). Reactivated elements restart
   /// stress- and strain-free from the current displacement.

@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "tq/material_mc.hpp"
 #include "tq/solver.hpp"
+#include "tq/staged_input.hpp"
 
 namespace tq {
 
@@ -35,6 +37,8 @@ struct SolidInput {
   Hex8Formulation formulation = Hex8Formulation::OnePointAssumedStrain;
   Real tEnd = 0;           ///< end time (s)
   std::vector<std::pair<std::string, ElasticParams>> materials;  ///< region -> elastic params
+  /// Regions whose model is mohr_coulomb_damage -> its parameters (elastic part = `materials`).
+  std::map<std::string, MohrCoulombDamageParams> mohrCoulomb;
   std::map<std::string, std::string> fixed;   ///< face group -> directions ("xyz", "z", ...)
   std::vector<LoadInput> loads;
   std::vector<MonitorInput> monitors;
@@ -42,6 +46,7 @@ struct SolidInput {
   std::vector<Real> snapshotTimes;  ///< field snapshot times (s)
   Real progressSeconds = 5;         ///< wall time between progress lines (s)
   std::vector<std::string> requiredFaces;  ///< face groups the run needs (checked on the mesh)
+  StagedInput staged;      ///< version 2: stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
 };
 
 /// Read and validate solid_input.h5. Unknown groups and attributes are rejected with their path.

@@ -56,6 +56,10 @@ public:
   virtual ElasticModuli elasticModuli() const = 0;
   /// Names of per-element history variables (each gets one contiguous array in the block).
   virtual std::vector<std::string> historyNames() const { return {}; }
+  /// Index (into historyNames()) of the history variable that accumulates the energy dissipated
+  /// per unit volume (J/m^3, plasticity and damage), or -1 when the material dissipates nothing.
+  /// The solver sums V times it for the energy balance's dissipation term.
+  virtual int dissipationHistory() const { return -1; }
   /// True when σ = C ε exactly (lets the fully integrated reference element be used).
   virtual bool isLinearElastic() const { return false; }
   /// Update the stresses of a chunk of elements from their strain increments.

@@ -28,6 +28,9 @@ public:
   /// Set the status attribute ("running", "completed", "stopped: ...") and flush.
   void setStatus(const std::string& status);
   void writeTimings(double wallSeconds, long long steps, long long elementSteps, int threads);
+  /// One static stage's report: /stages/<k>_<name> attrs steps, unbalanced_ratio, converged, wall_s, note.
+  void writeStage(const std::string& name, long long steps, double ratio, bool converged, double wallSeconds,
+                  const std::string& note);
   void flush();
 
 private:

@@ -60,6 +60,17 @@ public:
   virtual std::string name() const = 0;
   /// Add forces to state.fExt at time t (the state holds u^n, v, f_int^n).
   virtual void addForces(Real t, Real dt, NodalState& state) = 0;
+  /// True for a contributor that must see every other force of the step first (the dynamic
+  /// contact force predicts the nodes' motion from the complete force): called after the others.
+  virtual bool runsLast() const { return false; }
+  /// Energy this contributor has dissipated so far (J) = minus the work of its own forces, booked
+  /// by the solver's trapezoid rule (e.g. friction at an interface). The solver reports it as the
+  /// balance term `interface` instead of as external work. Default 0: its work is external work.
+  virtual Real dissipatedEnergy() const { return 0; }
+  /// Energy held or absorbed by this contributor's boundary springs (J) = minus the work of those
+  /// forces, booked by the solver's trapezoid rule (the viscoelastic base). The solver reports it
+  /// in the balance term `boundary` (with the dashpots) instead of as external work. Default 0.
+  virtual Real boundaryEnergy() const { return 0; }
 };
 
 /// The stable time step and what limits it.
@@ -82,6 +93,8 @@ struct EnergyBalance {
   Real damping = 0;   ///< dissipated by Rayleigh damping
   Real boundary = 0;  ///< absorbed by boundary dashpots
   Real external = 0;  ///< work of the external forces
+  Real interface = 0; ///< dissipated by contributors (interface friction); not part of `external`
+  Real plastic = 0;   ///< dissipated by plasticity and damage (already part of `internal`)
   Real error = 0;     ///< |balance - balance_0| / max(terms)
 };
 
@@ -97,10 +110,21 @@ struct SolverOptions {
 
 /// Dynamic relaxation to static equilibrium (explicit steps with adaptive critical mass damping,
 /// Underwood's Rayleigh-quotient estimate of the lowest active frequency).
+struct RelaxResult;
 struct RelaxParams {
   Real tolerance = 1e-6;   ///< stop when |f_ext - f_int| / |f_ext| on free dofs is below this
   Index maxSteps = 200000;
   Index checkEvery = 10;   ///< steps between residual checks
+  /// Scale each element's mass so that all share the largest element's critical step (statics
+  /// only: the equilibrium does not depend on the mass; gravity keeps the true mass). Turns the
+  /// step count from (largest/smallest element) × (elements across) into (elements across).
+  bool massScaling = false;
+  /// If > 0: the ratio is |f_ext − f_int|₂ (free dofs) / referenceForce instead, e.g. the
+  /// out-of-balance force a stage starts from (its load), so the tolerance means "this stage's
+  /// load equilibrated to that fraction" whatever else the model carries.
+  Real referenceForce = 0;
+  /// Called at every check with the result so far (progress lines).
+  std::function<void(const RelaxResult&)> onCheck;
 };
 struct RelaxResult {
   Index steps = 0;
@@ -115,6 +139,8 @@ public:
   // ---- set-up -------------------------------------------------------------------------------
   /// Fix direction d (0 x, 1 y, 2 z) of a node (zero displacement increment).
   void fix(Index node, int d);
+  /// Free a fixed direction again (a static support replaced by a dynamic boundary).
+  void release(Index node, int d) { free_[3 * size_t(node) + d] = 1.0; }
   /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
   void fixFaceGroup(const std::string& group, const std::string& dirs);
   void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
@@ -139,6 +165,11 @@ public:
   void resetMotion();
   /// Displacement relative to the state at the last resetMotion() (m).
   Real relativeDisplacement(Index node, int d) const;
+  /// Evaluate f_int and f_ext (gravity, loads and, if asked, the contributors) at the current
+  /// displacement without stepping and without damping forces (support reactions at rest).
+  void computeForces(bool withContributors);
+  /// Set the clock (the seismic stage restarts it at 0 after the static stages).
+  void setTime(Real t) { t_ = t; }
 
   // ---- access -------------------------------------------------------------------------------
   NodalState& state() { return state_; }
@@ -152,11 +183,19 @@ public:
   Index stepCount() const { return step_; }
   const EnergyBalance& energy() const { return energy_; }
   bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0.0; }
+  /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
+  Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
+  /// The nodal force contributors, in the order they were added.
+  const std::vector<std::shared_ptr<NodalForceContributor>>& contributors() const { return contributors_; }
   /// Latest velocity: v^{n+½} after a central-difference step to t_{n+1} (half a step behind the
   /// displacement), v^{n+1} for paper_eq3_4.
   Real velocityAt(Index node, int d) const;
   /// Residual |f_ext - f_int| / max(|f_ext|, |f_int|) over free dofs (2-norms).
   Real unbalancedRatio() const;
+  /// Same, with the reference norms over all dofs (supports included) when allDofsReference.
+  Real unbalancedRatio(bool allDofsReference) const;
+  /// |f_ext − f_int|₂ over the free dofs (N).
+  Real residualNorm() const;
 
 private:
   void computeInternalForces();
@@ -182,6 +221,9 @@ private:
   EnergyBalance energy_;
   Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
   Real balance0_ = 0;
+  Real interface0_ = 0, plastic0_ = 0;  // dissipation totals at the last resetMotion()
+  Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
+  std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
   bool balanceSet_ = false;
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
 };

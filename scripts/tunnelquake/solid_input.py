@@ -1,0 +1,196 @@
+"""solid_input.h5 (version 2) for tq-solid, from a validated case, its mesh.h5 and motion.h5.
+
+The layout is docs/formats.md "## solid_input.h5"; tq-solid rejects any group or attribute it does
+not know, so this writer and that table change together.
+
+    write_solid_input(case, mesh_h5, motion_h5, condition, out) -> Path
+
+Per condition (the paper's §3.2):
+
+    no_water        stages without the hydrostatic one (no internal pressure)
+    static_water    hydrostatic internal pressure p(z) = rho_w g (head - (z - z_axis)) on lining_inner
+    dynamic_water   the same static pressure; the hydrodynamic part comes from the coupled water
+
+Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundaries"):
+
+* supports during the static stages: base fixed in x, y, z; the four sides on rollers (normal
+  direction fixed); at the seismic stage the base becomes the viscoelastic boundary and xmin/xmax
+  the free-field boundaries, each support replaced by its reaction. The ymin/ymax faces stay on
+  rollers (u_y = 0): for a vertically incident x/z wave along a long tunnel the y-faces are
+  symmetry planes, and their layers are not horizontal where the tunnel crosses them;
+* the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
+* materials: the elastic constants plus the case's ``model`` and the Mohr-Coulomb damage
+  parameters as attributes (tq-solid builds the nonlinear material of issue 4 from them when
+  ``model`` is ``mohr_coulomb_damage``);
+* in slice mode (mesh attribute slice = 1) the monitors' y is moved into the slice's mid-plane.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+FORMAT = "tunnelquake-solid-input"
+VERSION = 2
+CONDITIONS = ("no_water", "static_water", "dynamic_water")
+#: Mohr-Coulomb damage parameters passed through to tq-solid (issue 4's material reads them).
+MOHR_COULOMB_KEYS = ("model", "cohesion", "friction_angle", "dilation_angle", "tensile_strength",
+                     "damage_constant", "damage_effect")
+
+
+class SolidInputError(ValueError):
+    """The case, mesh or motion cannot make a solid input; the message says what and how to fix it."""
+
+
+def _mesh_facts(mesh_h5: Path) -> dict:
+    import h5py
+
+    with h5py.File(mesh_h5, "r") as f:
+        if f.attrs.get("format") != "tunnelquake-solid-mesh":
+            raise SolidInputError(f"{mesh_h5}: not a tunnelquake solid mesh (attribute format is "
+                                  f"{f.attrs.get('format')!r}); run `tunnelquake mesh` first")
+        xyz = f["/nodes/coordinates"][...]
+        regions = [r.decode() if isinstance(r, bytes) else str(r) for r in f["/elements"].attrs["regions"]]
+        return {
+            "slice": int(f.attrs.get("slice", 0)) == 1,
+            "regions": regions,
+            "faces": sorted(f["/faces"].keys()) if "faces" in f else [],
+            "pairs": int(f["/interfaces/rock_lining"].shape[0]) if "/interfaces/rock_lining" in f else 0,
+            "lo": xyz.min(axis=0),
+            "hi": xyz.max(axis=0),
+        }
+
+
+def _motion(motion_h5: Path) -> dict:
+    import h5py
+
+    with h5py.File(motion_h5, "r") as f:
+        if f.attrs.get("format") != "tunnelquake-motion":
+            raise SolidInputError(f"{motion_h5}: not a tunnelquake motion file; run `tunnelquake motion` first")
+        conv = f.attrs.get("convention", "")
+        return {
+            "time": np.asarray(f["time"][...], float),
+            "ax": np.asarray(f["incident_ax"][...], float),
+            "az": np.asarray(f["incident_az"][...], float),
+            "convention": conv.decode() if isinstance(conv, bytes) else str(conv),
+        }
+
+
+def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out: Path) -> Path:
+    """Write tq-solid's input for one condition of a validated case. Returns `out`."""
+    import h5py
+
+    if condition not in CONDITIONS:
+        raise SolidInputError(f"condition {condition!r} is not one of {', '.join(CONDITIONS)}")
+    d = case.data
+    mesh_h5, motion_h5, out = Path(mesh_h5), Path(motion_h5), Path(out)
+    mesh = _mesh_facts(mesh_h5)
+    motion = _motion(motion_h5)
+    geo, ins, water, stages = d["geometry"], d["in_situ"], d["water"], d["stages"]
+
+    missing = [r for r in mesh["regions"] if r not in d["materials"]]
+    if missing:
+        raise SolidInputError(f"mesh {mesh_h5} has region(s) {missing} without a material in the case; "
+                              f"add materials.{missing[0]}")
+    sequence = list(stages["sequence"])
+    hydrostatic = condition in ("static_water", "dynamic_water") and water["head"] > 0
+    if not hydrostatic:
+        sequence = [s for s in sequence if s != "hydrostatic"]
+    if "lining" in sequence and mesh["pairs"] == 0:
+        raise SolidInputError(f"mesh {mesh_h5} has no rock-lining node pairs (/interfaces/rock_lining), which "
+                              "the lining stage needs; rebuild it with `tunnelquake mesh --force`")
+    g = ins["gravity"]
+    t_end = d["time"]["end_time"] if d["time"]["end_time"] is not None else float(motion["time"][-1])
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.part")
+    with h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["version"] = VERSION
+        f.attrs["mesh"] = os.path.relpath(mesh_h5.resolve(), out.parent.resolve())
+        f.attrs["condition"] = condition
+
+        s = f.create_group("solver")
+        s.attrs["t_end"] = float(t_end)
+        s.attrs["dt"] = float(d["time"]["dt"] or 0.0)
+        s.attrs["safety"] = float(d["time"]["safety_factor"])
+
+        if d["damping"]["ratio"] > 0:
+            dm = f.create_group("damping")
+            dm.attrs["ratio"] = float(d["damping"]["ratio"])
+            dm.attrs["f1"], dm.attrs["f2"] = (float(x) for x in d["damping"]["frequencies"])
+
+        for region in mesh["regions"]:
+            m = d["materials"][region]
+            mg = f.create_group(f"materials/{region}")
+            mg.attrs["E"] = float(m["youngs_modulus"])
+            mg.attrs["nu"] = float(m["poisson_ratio"])
+            mg.attrs["rho"] = float(m["density"])
+            # `model` is the case's choice (elastic or mohr_coulomb_damage); the Mohr-Coulomb damage
+            # parameters go along (issue 4's material reads them; an elastic material ignores them).
+            for key in MOHR_COULOMB_KEYS:
+                if m.get(key) is not None:
+                    mg.attrs[key] = m[key] if isinstance(m[key], str) else float(m[key])
+
+        supports = {"bottom": "xyz", "xmin": "x", "xmax": "x"}
+        if not mesh["slice"]:
+            supports.update({"ymin": "y", "ymax": "y"})
+        for face, dirs in supports.items():
+            f.create_group(f"boundary/fixed/{face}").attrs["directions"] = dirs
+
+        st = f.create_group("stages")
+        st.attrs["sequence"] = ",".join(sequence)
+        st.attrs["relaxation_tolerance"] = float(stages["relaxation_tolerance"])
+        st.attrs["relaxation_max_steps"] = int(stages["relaxation_max_steps"])
+
+        if "in_situ" in sequence:
+            i = f.create_group("in_situ")
+            for k in ("kx", "ky", "kz"):
+                i.attrs[k] = float(ins[k])
+            i.attrs["gravity"] = float(g)
+            i.attrs["z_top"] = float(geo["z_range"][1])
+        if hydrostatic:
+            h = f.create_group("hydrostatic")
+            h.attrs["face"] = "lining_inner"
+            h.attrs["unit_weight"] = float(water["density"] * g)
+            h.attrs["pressure_at_axis"] = float(water["density"] * g * water["head"])
+            h.attrs["z_axis"] = float(geo["tunnel_centre_z"])
+        if mesh["pairs"]:
+            it = d["interface"]
+            r = f.create_group("interfaces/rock_lining")
+            r.attrs["model"] = it["model"]
+            r.attrs["static_friction"] = float(it["static_friction"])
+            r.attrs["dynamic_friction"] = float(it["dynamic_friction"])
+            r.attrs["cohesion"] = float(it["cohesion"])
+            r.attrs["after_failure"] = it["after_failure"]
+
+        if "seismic" in sequence:
+            b = f.create_group("boundaries/bottom")
+            b.attrs["face"] = "bottom"
+            b.attrs["type"] = "viscoelastic"
+            b.attrs["distance"] = float(geo["tunnel_centre_z"] - geo["z_range"][0])
+            f.create_group("boundaries/free_field").attrs["faces"] = "xmin,xmax"
+            mo = f.create_group("motion")
+            mo["time"] = motion["time"]
+            mo["ax"] = motion["ax"]
+            mo["az"] = motion["az"]
+            mo.attrs["cutoff_frequency"] = float(d["ground_motion"]["cutoff_frequency"])
+            if motion["convention"]:
+                mo.attrs["convention"] = motion["convention"]
+
+        monitors = d["output"]["monitors"] or {}
+        if monitors:
+            names = list(monitors)
+            pts = np.array([monitors[n] for n in names], float)
+            if mesh["slice"]:
+                pts[:, 1] = 0.5 * (mesh["lo"][1] + mesh["hi"][1])
+            mg = f.create_group("monitors")
+            mg["names"] = np.array(names, dtype=h5py.string_dtype())
+            mg["points"] = pts
+        o = f.create_group("output")
+        o.attrs["monitor_dt"] = float(d["output"]["history_interval"])
+        if d["output"]["snapshot_times"]:
+            o["snapshot_times"] = np.asarray(d["output"]["snapshot_times"], float)
+    os.replace(tmp, out)
+    return out

@@ -1,0 +1,103 @@
+/// @file staged_input.hpp
+/// @brief The solid_input.h5 version 2 groups (docs/formats.md "## solid_input.h5"): stages,
+///        in-situ stress, hydrostatic pressure, the rock-lining interface, seismic boundaries and
+///        the incident motion. Plain data, read and checked apart from the time loop
+///        (src/input_staged.cpp); the stage driver (tq/stages.hpp) uses it.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "tq/types.hpp"
+
+namespace tq {
+
+/// The stage names in their only allowed order (paper §3.2; ARCHITECTURE.md §2).
+inline const std::vector<std::string> kStageOrder = {"in_situ", "excavation", "lining", "hydrostatic",
+                                                     "seismic"};
+
+/// /stages: which stages run and how static equilibrium is reached.
+struct StagesInput {
+  std::vector<std::string> sequence;  ///< subset of kStageOrder, in that order
+  Real tolerance = 1e-4;              ///< dynamic relaxation stops when the unbalanced-force ratio is below
+  Index maxSteps = 50000;             ///< per static stage
+  bool massScaling = true;            ///< relax with element masses scaled to one common step (statics only)
+  bool equilibriumCorrection = true;  ///< at the switch, hold the residual out-of-balance force constant
+  std::string liningRegion = "lining";  ///< region activated by the `lining` stage
+  bool has(const std::string& s) const {
+    for (const auto& x : sequence)
+      if (x == s) return true;
+    return false;
+  }
+};
+
+/// /in_situ: σv(z) = −(q + ρ g (z_top − z)) (tension positive), σzz = kz σv, σxx = kx σv,
+/// σyy = ky σv, set at the element centroids of every region except the lining.
+struct InSituInput {
+  bool present = false;
+  Real kx = 1, ky = 1, kz = 1;
+  Real gravity = 0;   ///< g (m/s², ≥ 0); also the body force −g ẑ of the whole run
+  Real density = 0;   ///< overburden density ρ (kg/m³); 0 = each element's own material density
+  Real zTop = std::numeric_limits<Real>::quiet_NaN();  ///< ground surface (m); NaN = the mesh's top
+  Real surcharge = 0; ///< q: compressive vertical stress at z_top (Pa, ≥ 0); e.g. a far-field stress with g = 0
+};
+
+/// /hydrostatic: p(z) = p_axis − γw (z − z_axis), clipped at 0, on the face group `face`
+/// (pressure pushes on the solid against the face's outward normal).
+struct HydrostaticInput {
+  bool present = false;
+  std::string face = "lining_inner";
+  Real pressureAtAxis = 0;  ///< p_axis = ρw g H (Pa)
+  Real unitWeight = 0;      ///< γw = ρw g (N/m³)
+  Real zAxis = 0;           ///< elevation of the tunnel axis (m)
+};
+
+/// /interfaces/rock_lining: the rock-lining node pairs of mesh.h5 and how they interact.
+struct InterfaceInput {
+  bool present = false;
+  std::string model = "bonded";  ///< "bonded" (tied); "dynamic_contact" is issue 4's contact
+  Real staticFriction = 0.6, dynamicFriction = 0.6;  ///< μs, μd (contact only)
+  Real cohesion = 0;                                 ///< f_c (Pa) (contact only)
+  std::string afterFailure = "cohesion_lost";        ///< contact only
+};
+
+/// /boundaries/bottom: viscoelastic base (Deeks & Randolph 1994; Liu Jingbo et al. 2006).
+struct BottomBoundaryInput {
+  bool present = false;
+  std::string face = "bottom";
+  Real distance = 0;        ///< R (m) in K = αG/R; 0 = default (tunnel axis to base, else model height)
+  Real alphaN = 0, alphaT = 0;  ///< 0 = 4/3, 2/3 (3D) or 1, 1/2 (slice)
+  Real rho = 0, cp = 0, cs = 0; ///< half-space below the base; 0 = from the elements on the face
+  std::string columnFace;   ///< face whose layering defines the base free-field column ("" = first free-field face, else xmin)
+};
+
+/// /boundaries/free_field: lateral boundaries driven by 1D free-field columns.
+struct FreeFieldInput {
+  bool present = false;
+  std::vector<std::string> faces;  ///< e.g. xmin, xmax (and ymin, ymax in 3D)
+};
+
+/// /motion: incident (up-going) accelerations at the base, vertically incident
+/// (x, y: SH waves, z: P wave); piecewise linear in time, integrated exactly.
+struct MotionInput {
+  bool present = false;
+  std::vector<Real> time, ax, ay, az;  ///< s, m/s² (an empty component is zero)
+  Real cutoffFrequency = 0;        ///< Hz, for the λ_min/8 element-size warning (0: no check)
+  std::string convention;          ///< informational ("outcrop" or "incident" record)
+};
+
+/// Everything the v2 groups hold; `present` is false for a version 1 input.
+struct StagedInput {
+  bool present = false;
+  StagesInput stages;
+  InSituInput inSitu;
+  HydrostaticInput hydrostatic;
+  InterfaceInput rockLining;
+  BottomBoundaryInput bottom;
+  FreeFieldInput freeField;
+  MotionInput motion;
+  std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
+};
+
+}  // namespace tq

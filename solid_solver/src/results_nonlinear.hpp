@@ -1,0 +1,44 @@
+// results.h5 output of the nonlinear parts (issue 4; layout in docs/solid_solver.md "Nonlinear
+// output"): damage, plastic strain and dissipation of Mohr–Coulomb damage elements, and the
+// per-pair state of the rock–lining dynamic contact. Private to tqsolid; called by results.cpp.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "h5util.hpp"
+#include "tq/contact.hpp"
+#include "tq/solver.hpp"
+
+namespace tq::nlout {
+
+/// What the writer keeps between calls.
+struct State {
+  std::vector<h5::RowAppender> monitorDamage;  ///< /monitors/<name>/damage [T, 1], one per monitor
+  const DynamicContact* contact = nullptr;     ///< found among the solver's contributors
+  h5::RowAppender interfaceHistory;            ///< /interface/history [T, 7]
+  h5::RowAppender dissipation;                 ///< /energy/dissipation [T, 3]
+};
+
+/// The rock–lining contact among the solver's contributors, or nullptr.
+const DynamicContact* findContact(const Solver& s);
+
+/// Damage D of element e of block b (0 for a material without damage).
+Real elementDamage(const Solver& s, Index block, Index elem);
+
+/// Create /energy/dissipation [T, 3]: time, plastic (part of `internal`), interface (a balance
+/// term of its own: kinetic + internal + damping + boundary + interface − external = const).
+void addEnergy(hid_t file, State& st);
+
+/// Create /monitors/<name>/damage for one monitor (call once per monitor, in order).
+void addMonitor(hid_t file, const std::string& monitorGroup, State& st);
+
+/// One row per monitor (damage of its element), of /energy/dissipation and of the interface history.
+void sample(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st);
+
+/// Field snapshot additions under `group`: damage [E], plastic_strain [E, 6], dissipation [E]
+/// when a block has a Mohr–Coulomb damage material; interface/{state, opening, slip,
+/// normal_force, tangential_force} [P] when the contact exists.
+void snapshot(hid_t file, const std::string& group, const Solver& s, State& st);
+
+}  // namespace tq::nlout

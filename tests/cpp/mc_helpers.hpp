@@ -1,0 +1,158 @@
+// Helpers for the Mohr–Coulomb damage and contact tests: a material point driven without a mesh,
+// the paper's Table 1 parameters, and principal stresses.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "tq/material_mc.hpp"
+#include "tq/solver.hpp"
+#include <functional>
+
+namespace tqtest {
+
+using tq::Index;
+using tq::Real;
+
+/// Paper Table 1, rock: E 8 GPa, ν 0.27, c 0.55 MPa, φ 37°, ρ 2700, σt 1.20 MPa.
+inline tq::MohrCoulombDamageParams paperRock(Real R = 100) {
+  tq::MohrCoulombDamageParams p;
+  p.elastic = {8e9, 0.27, 2700};
+  p.cohesion = 0.55e6;
+  p.frictionAngle = 37;
+  p.tensileStrength = 1.20e6;
+  p.damageConstant = R;
+  return p;
+}
+
+/// Paper Table 1, lining (C25): E 28 GPa, ν 0.17, c 1.80 MPa, φ 40°, ρ 2500, σt 1.27 MPa.
+inline tq::MohrCoulombDamageParams paperLining(Real R = 100) {
+  tq::MohrCoulombDamageParams p;
+  p.elastic = {28e9, 0.17, 2500};
+  p.cohesion = 1.80e6;
+  p.frictionAngle = 40;
+  p.tensileStrength = 1.27e6;
+  p.damageConstant = R;
+  return p;
+}
+
+inline Real nPhi(Real phiDeg) {
+  const Real s = std::sin(phiDeg * M_PI / 180);
+  return (1 + s) / (1 - s);
+}
+
+/// Principal stresses ascending (σ1 most compressive).
+inline void principal(const Real s[6], Real p[3]) {
+  Eigen::Matrix3d m;
+  m << s[tq::XX], s[tq::XY], s[tq::ZX], s[tq::XY], s[tq::YY], s[tq::YZ], s[tq::ZX], s[tq::YZ], s[tq::ZZ];
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(m, Eigen::EigenvaluesOnly);
+  for (int i = 0; i < 3; ++i) p[i] = es.eigenvalues()(i);
+}
+
+/// One material point: stress, history, and strain-driven updates through the chunk interface.
+struct MaterialPoint {
+  std::shared_ptr<const tq::Material> mat;
+  Real stress[6] = {0, 0, 0, 0, 0, 0};
+  Real strain[6] = {0, 0, 0, 0, 0, 0};
+  std::vector<Real> hist;
+  explicit MaterialPoint(std::shared_ptr<const tq::Material> m) : mat(std::move(m)) {
+    hist.assign(mat->historyNames().size(), 0.0);
+  }
+  Real h(int i) const { return hist[size_t(i)]; }
+  /// Apply a strain increment (engineering shear).
+  void apply(const Real de[6]) {
+    Real d[6], s[6];
+    Real* sp[6];
+    std::vector<Real*> hp(hist.size());
+    for (size_t i = 0; i < hist.size(); ++i) hp[i] = &hist[i];
+    tq::MaterialChunk c;
+    c.count = 1;
+    for (int k = 0; k < 6; ++k) {
+      d[k] = de[k];
+      s[k] = stress[k];
+      c.dstrain[k] = &d[k];
+      sp[k] = &s[k];
+      c.stress[k] = sp[k];
+    }
+    c.history = hp.data();
+    mat->updateStressForElems(c);
+    for (int k = 0; k < 6; ++k) {
+      stress[k] = s[k];
+      strain[k] += de[k];
+    }
+  }
+  /// Mixed control: strain increments on the components with controlled[k] = false; on the others
+  /// the strain is found (quasi-Newton with the elastic compliance) so that σ_k = target[k].
+  void applyMixed(const Real de[6], const bool controlled[6], const Real target[6]) {
+    const auto m = mat->elasticModuli();
+    const Real E = m.mu * (3 * m.lambda + 2 * m.mu) / (m.lambda + m.mu), nu = m.lambda / (2 * (m.lambda + m.mu));
+    const Real s0[6] = {stress[0], stress[1], stress[2], stress[3], stress[4], stress[5]};
+    const Real e0[6] = {strain[0], strain[1], strain[2], strain[3], strain[4], strain[5]};
+    const std::vector<Real> h0 = hist;
+    Real d[6];
+    for (int k = 0; k < 6; ++k) d[k] = de[k];
+    for (int it = 0; it < 200; ++it) {
+      for (int k = 0; k < 6; ++k) {
+        stress[k] = s0[k];
+        strain[k] = e0[k];
+      }
+      hist = h0;
+      apply(d);
+      Real r[6] = {0, 0, 0, 0, 0, 0}, rmax = 0, scale = 1;
+      for (int k = 0; k < 6; ++k) {
+        scale = std::max(scale, std::abs(stress[k]));
+        if (controlled[k]) {
+          r[k] = stress[k] - target[k];
+          rmax = std::max(rmax, std::abs(r[k]));
+        }
+      }
+      if (rmax <= 1e-13 * scale) return;
+      // Δε_k -= C⁻¹ r on the controlled components (isotropic compliance).
+      for (int k = 0; k < 3; ++k)
+        if (controlled[k]) d[k] -= (r[k] - nu * (r[(k + 1) % 3] + r[(k + 2) % 3])) / E;
+      for (int k = 3; k < 6; ++k)
+        if (controlled[k]) d[k] -= r[k] / m.mu;
+    }
+  }
+};
+
+/// Displacement control of some dofs through a force (a test actuator): each step it adds the force
+/// that brings the dof to target(t + Δt) exactly under the central difference (undamped, as the
+/// dynamic contact force does for a pair), and books that force's work by the solver's trapezoid
+/// rule. Its work is the loop area ∮F du of a cyclic test.
+class DisplacementActuator final : public tq::NodalForceContributor {
+public:
+  DisplacementActuator(std::vector<Index> nodes, int dir, std::function<Real(Real)> target)
+      : nodes_(std::move(nodes)), dir_(dir), target_(std::move(target)), fPrev_(nodes_.size(), 0.0),
+        uPrev_(nodes_.size(), 0.0) {}
+  std::string name() const override { return "test actuator"; }
+  bool runsLast() const override { return true; }
+  void addForces(Real t, Real dt, tq::NodalState& s) override {
+    force_ = 0;
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const size_t i = 3 * size_t(nodes_[k]) + size_t(dir_);
+      const Real m = s.mass(nodes_[k]);
+      const Real f0 = s.fExtData()[i] - s.fIntData()[i];
+      const Real uPred = s.uData()[i] + dt * (s.vData()[i] + dt * f0 / m);
+      const Real F = m * (target_(t + dt) - uPred) / (dt * dt);
+      work_ += 0.5 * (fPrev_[k] + F) * (s.uData()[i] - uPrev_[k]);
+      fPrev_[k] = F;
+      uPrev_[k] = s.uData()[i];
+      s.fExt(nodes_[k], dir_) += F;
+      force_ += F;
+    }
+  }
+  Real work() const { return work_; }    ///< work of the actuator forces so far (J)
+  Real force() const { return force_; }  ///< total actuator force of the last step (N)
+
+private:
+  std::vector<Index> nodes_;
+  int dir_;
+  std::function<Real(Real)> target_;
+  std::vector<Real> fPrev_, uPrev_;
+  Real work_ = 0, force_ = 0;
+};
+
+}  // namespace tqtest

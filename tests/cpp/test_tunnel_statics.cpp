@@ -1,0 +1,324 @@
+// Static stages around the tunnel (issue 3, tests 4 and 5; tests/verification/solid_kirsch,
+// solid_lined_tunnel), through the stage driver exactly as tq-solid runs them.
+//
+//  - Kirsch (Brady & Brown, Rock Mechanics for Underground Mining, ch. 7; VERIFICATION.md): a
+//    circular hole of radius b excavated under a uniform far-field stress σv = p, σh = k p
+//    (gravity off): wall hoop stress p[(1+k) + 2(1−k) cos 2θ] (compression positive; θ from the
+//    horizontal): sidewall p(3 − k), crown p(3k − 1).
+//  - Lining a ≤ r ≤ b installed stress-free after the excavation, bonded to the rock, then an
+//    internal pressure p_i (VERIFICATION.md; tunnelquake.references.lined_tunnel_internal_pressure):
+//    contact pressure, inner and outer hoop stress of the lining.
+//  - The hydrostatic load p = p_axis − γw (z − z_axis) on the lining's inner face: its resultant is
+//    the weight of the water, γw × (enclosed area) × width, downwards (divergence theorem).
+//
+// Meshes: a quarter of the plane-strain plate (symmetry planes x = 0 and z = 0 on rollers), one
+// element thick, rays from the hole to the square outer boundary at L = 20 b (rollers), radial
+// sizes growing geometrically so the elements stay square (r Δθ by Δr).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "staged_helpers.hpp"
+#include "tq/hex8.hpp"
+
+using namespace tq;
+
+namespace {
+
+struct QuarterSpec {
+  Real b = 5.25;        // hole radius (m)
+  Real L = 105;         // outer square half-side (m)
+  Index nTheta = 12;    // elements around the quarter
+  Real liningT = 0;     // lining thickness (m); 0: no lining
+  Index nLining = 3;    // elements through the lining
+  Real width = 0.5;     // slice thickness along y (m)
+};
+
+/// Quarter plate with a hole (and optionally a lining ring with duplicated interface nodes).
+/// Faces: bottom (z = 0), xmin (x = 0), xmax (x = L), top (z = L), ymin, ymax, rock_hole,
+/// lining_inner, lining_outer; regions rock (0), lining (1).
+Mesh quarterPlate(const QuarterSpec& q) {
+  Mesh m;
+  m.slice = true;
+  m.source = "<quarter plate>";
+  m.regionNames = {"rock", "lining"};
+  const Index nt = q.nTheta;
+  const Real dth = M_PI / 2 / nt;
+  const Index nr = std::max<Index>(1, Index(std::lround(std::log(q.L / q.b) / dth)));
+  auto addNode = [&](Real x, Real y, Real z) {
+    m.coords.insert(m.coords.end(), {x, y, z});
+    return m.numNodes() - 1;
+  };
+  // Node grids id[i][j][k]: i hoop, j radial, k = 0, 1 along y.
+  auto grid = [&](Index nj, auto radius) {
+    std::vector<Index> id(size_t((nt + 1) * (nj + 1) * 2));
+    for (Index k = 0; k < 2; ++k)
+      for (Index j = 0; j <= nj; ++j)
+        for (Index i = 0; i <= nt; ++i) {
+          const Real th = i * dth, r = radius(th, j);
+          id[size_t((k * (nj + 1) + j) * (nt + 1) + i)] = addNode(r * std::cos(th), k * q.width, r * std::sin(th));
+        }
+    return id;
+  };
+  auto at = [&](const std::vector<Index>& id, Index nj, Index i, Index j, Index k) {
+    return id[size_t((k * (nj + 1) + j) * (nt + 1) + i)];
+  };
+  auto addBlock = [&](const std::vector<Index>& id, Index nj, Index region, const std::string& inner,
+                      const std::string& outer, bool splitOuter) {
+    for (Index j = 0; j < nj; ++j)
+      for (Index i = 0; i < nt; ++i) {
+        const Index c[8] = {at(id, nj, i, j, 0),     at(id, nj, i + 1, j, 0),     at(id, nj, i + 1, j + 1, 0),
+                            at(id, nj, i, j + 1, 0), at(id, nj, i, j, 1),         at(id, nj, i + 1, j, 1),
+                            at(id, nj, i + 1, j + 1, 1), at(id, nj, i, j + 1, 1)};
+        m.connectivity.insert(m.connectivity.end(), c, c + 8);
+        m.region.push_back(region);
+        auto face = [&](const std::string& name, int f) {
+          for (int v = 0; v < 4; ++v) m.faces[name].push_back(c[hex8::kFaces[f][v]]);
+        };
+        face("ymin", 0);
+        face("ymax", 1);
+        if (j == 0) face(inner, 2);
+        if (j == nj - 1) face(splitOuter ? ((i + 0.5) * dth < M_PI / 4 ? "xmax" : "top") : outer, 4);
+        if (i == 0) face("bottom", 5);
+        if (i == nt - 1) face("xmin", 3);
+      }
+  };
+  const Real b = q.b, L = q.L;
+  const auto rock = grid(nr, [&](Real th, Index j) {
+    const Real rsq = L / std::max(std::cos(th), std::sin(th));
+    return b * std::pow(rsq / b, Real(j) / nr);
+  });
+  addBlock(rock, nr, 0, "rock_hole", "", true);
+  if (q.liningT > 0) {
+    const Real a = b - q.liningT;
+    const auto lin = grid(q.nLining, [&](Real, Index j) { return a + (b - a) * Real(j) / q.nLining; });
+    addBlock(lin, q.nLining, 1, "lining_inner", "lining_outer", false);
+    for (Index k = 0; k < 2; ++k)
+      for (Index i = 0; i <= nt; ++i) {
+        m.rockLiningPairs.push_back(at(rock, nr, i, 0, k));
+        m.rockLiningPairs.push_back(at(lin, q.nLining, i, q.nLining, k));
+      }
+  }
+  checkMesh(m);
+  return m;
+}
+
+/// Hoop and radial stress (tension positive) of an element from its Cartesian stress, at the
+/// centroid angle; returns the centroid radius.
+Real polarStress(const Mesh& m, const ElementBlock& blk, Index e, Real* hoop, Real* radial, Real* theta) {
+  Real x = 0, z = 0;
+  for (int k = 0; k < 8; ++k) {
+    x += 0.125 * m.coords[3 * size_t(blk.node(e, k))];
+    z += 0.125 * m.coords[3 * size_t(blk.node(e, k)) + 2];
+  }
+  const Real th = std::atan2(z, x), c = std::cos(th), s = std::sin(th);
+  const Real sxx = blk.stress(e, XX), szz = blk.stress(e, ZZ), sxz = blk.stress(e, ZX);
+  *hoop = sxx * s * s + szz * c * c - 2 * sxz * s * c;
+  *radial = sxx * c * c + szz * s * s + 2 * sxz * s * c;
+  *theta = th;
+  return std::hypot(x, z);
+}
+
+constexpr Real kEr = 8e9, kNur = 0.27, kRhor = 2700;   // rock (paper Table 1)
+constexpr Real kEl = 28e9, kNul = 0.17, kRhol = 2500;  // lining, C25
+
+struct KirschResult {
+  Real errSide = 0, errCrown = 0;  // relative errors of the wall hoop stress
+  Index steps = 0, elems = 0;
+};
+
+KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
+  tqtest::StagedRun run;
+  QuarterSpec qs;
+  qs.nTheta = nTheta;
+  qs.L = Lfactor * qs.b;
+  run.mesh = quarterPlate(qs);
+  run.in.materials = {{"rock", {kEr, kNur, kRhor}}};
+  run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
+  StagedInput& S = run.in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "excavation"};
+  S.stages.tolerance = 1e-4;  // of the released tractions: far below the discretisation error
+  S.stages.maxSteps = 200000;
+  S.inSitu.present = true;
+  S.inSitu.kx = k;
+  S.inSitu.ky = 0.5 * (1 + k);
+  S.inSitu.kz = 1;
+  S.inSitu.surcharge = p;  // uniform σv = −p (gravity off)
+  run.build();
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  const ElementBlock& blk = *run.solver->blocks()[0];
+  // Wall hoop stress at the first and last element columns (θ_c = Δθ/2 and π/2 − Δθ/2): linear
+  // extrapolation in r of the two innermost elements to r = b, against Kirsch at (b, θ_c).
+  const Real dth = M_PI / 2 / nTheta;
+  auto wall = [&](Index column) {
+    Real r[2], h[2], th = 0;
+    for (Index j = 0; j < 2; ++j) {
+      Real rad;
+      r[j] = polarStress(run.mesh, blk, j * nTheta + column, &h[j], &rad, &th);
+    }
+    const Real hw = h[0] + (h[1] - h[0]) * (qs.b - r[0]) / (r[1] - r[0]);
+    const Real ref = -p * ((1 + k) + 2 * (1 - k) * std::cos(2 * th));  // tension positive
+    return hw / ref - 1;
+  };
+  KirschResult res;
+  res.errSide = wall(0);
+  res.errCrown = wall(nTheta - 1);
+  res.steps = run.stages->reports().back().steps;
+  res.elems = run.mesh.numElems();
+  std::printf("Kirsch k = %.2f, %d around the quarter (%d elements): sidewall %+.2f %%, crown %+.2f %% (θ_c = "
+              "%.2f°), %d relaxation steps\n",
+              k, nTheta, res.elems, 100 * res.errSide, 100 * res.errCrown, 90 - 0.5 * dth * 180 / M_PI, res.steps);
+  (void)dth;
+  return res;
+}
+
+}  // namespace
+
+// Excavation under k = 0.5 (sidewall 2.5 p, crown 0.5 p): within 3 % on the refined mesh (32 per
+// quarter = 128 around), and the error falls at second order with refinement (one-point
+// elements: centroid stresses, the linear extrapolation to the wall and the polygonal hole are all
+// O(h²)). The rollers at L = 80 b leave an O((b/L)²) floor (about 0.05 %; 0.4 % at L = 20 b), and
+// 8 per quarter is not yet asymptotic for the crown, so the order is asserted (> 1.5) on the finer
+// step 16 -> 32; measured 1.74 (sidewall), 1.69 (crown); 1.70 and 1.46 on 8 -> 16.
+TEST(Kirsch, WallHoopStressConvergesAtSecondOrder) {
+  const Real p = 10e6, k = 0.5, L = 80;
+  const KirschResult r8 = kirsch(8, p, k, L), r16 = kirsch(16, p, k, L), r32 = kirsch(32, p, k, L);
+  EXPECT_LT(std::abs(r32.errSide), 0.03);
+  EXPECT_LT(std::abs(r32.errCrown), 0.03);
+  const Real side1 = std::log2(std::abs(r8.errSide / r16.errSide));
+  const Real side2 = std::log2(std::abs(r16.errSide / r32.errSide));
+  const Real crown1 = std::log2(std::abs(r8.errCrown / r16.errCrown));
+  const Real crown2 = std::log2(std::abs(r16.errCrown / r32.errCrown));
+  std::printf("Kirsch observed orders (8->16, 16->32): sidewall %.2f, %.2f; crown %.2f, %.2f\n", side1, side2, crown1,
+              crown2);
+  EXPECT_GT(side2, 1.5);
+  EXPECT_GT(crown2, 1.5);
+  EXPECT_GT(side1, 1.2);  // falling clearly already on the coarse step
+  EXPECT_GT(crown1, 1.2);
+}
+
+namespace {
+
+struct LinedResult {
+  Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
+};
+
+LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0) {
+  tqtest::StagedRun run;
+  QuarterSpec qs;
+  qs.nTheta = nTheta;
+  qs.liningT = 0.75;
+  qs.nLining = nThrough;
+  run.mesh = quarterPlate(qs);
+  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+  run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
+  StagedInput& S = run.in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "excavation", "lining", "hydrostatic"};
+  S.stages.tolerance = 1e-6;
+  S.stages.maxSteps = 200000;
+  S.inSitu.present = true;
+  S.inSitu.kx = 1.1;  // paper
+  S.inSitu.ky = 0.8;
+  S.inSitu.kz = 1.0;
+  S.inSitu.surcharge = p0;  // the rock's prestress: the lining, installed after, must not feel it
+  S.hydrostatic.present = true;
+  S.hydrostatic.pressureAtAxis = pi;
+  S.hydrostatic.unitWeight = 0;  // uniform: the closed form is for a uniform internal pressure
+  run.build();
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  const ElementBlock* lin = nullptr;
+  for (const auto& b : run.solver->blocks())
+    if (b->name() == "lining") lin = b.get();
+  // Lamé form in the ring: σθθ = A + B/r², σrr = A − B/r² (exact for an axisymmetric ring):
+  // least squares over every lining element.
+  Real s11 = 0, s12 = 0, s22 = 0, r1 = 0, r2 = 0;
+  for (Index e = 0; e < lin->numElems(); ++e) {
+    Real h, rad, th;
+    const Real r = polarStress(run.mesh, *lin, e, &h, &rad, &th);
+    const Real q = 1 / (r * r);
+    // rows [1, q] -> h and [1, −q] -> rad
+    s11 += 2;
+    s12 += q - q;
+    s22 += 2 * q * q;
+    r1 += h + rad;
+    r2 += q * h - q * rad;
+  }
+  const Real det = s11 * s22 - s12 * s12;
+  const Real A = (r1 * s22 - r2 * s12) / det, B = (s11 * r2 - s12 * r1) / det;
+  const Real a = qs.b - qs.liningT, b = qs.b;
+  LinedResult res;
+  res.hoopIn = A + B / (a * a);
+  res.hoopOut = A + B / (b * b);
+  res.pc = -(A - B / (b * b));
+  // The contact pressure from the interface forces on the lining nodes (rock -> lining), over the
+  // polygonal interface's area.
+  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
+  Real fr = 0;
+  for (Index g = 0; g < tie->numGroups(); ++g) {
+    const Index ln = tie->begin(g)[1];
+    const Real* f = tie->force(tie->memberIndex(g, 1));
+    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2], r = std::hypot(x, z);
+    fr += (f[0] * x + f[2] * z) / r;
+  }
+  const Real dth = M_PI / 2 / nTheta;
+  res.pcTie = -fr / (nTheta * 2 * b * std::sin(dth / 2) * qs.width);
+  return res;
+}
+
+}  // namespace
+
+// The paper's lining (3 elements through 0.75 m, 48 around) and rock, 1.207 MPa (123 m of water):
+// contact pressure and inner/outer hoop within 3 % of the closed form, with the rock prestressed
+// (p0 = 5 MPa, kx 1.1) before the lining goes in.
+TEST(LinedTunnel, InternalPressureMatchesClosedForm) {
+  const Real pi = 1000 * 9.81 * 123, p0 = 5e6;
+  const Real a = 4.5, b = 5.25;
+  const Real Gl = kEl / (2 * (1 + kNul)), Gm = kEr / (2 * (1 + kNur));
+  const Real den = Gl * (b * b - a * a) + Gm * ((1 - 2 * kNul) * b * b + a * a);
+  const Real pcRef = pi * 2 * Gm * (1 - kNul) * a * a / den;
+  const Real hinRef = pi * (Gl * (a * a + b * b) + Gm * ((1 - 2 * kNul) * b * b - a * a)) / den;
+  const Real houtRef = pi * 2 * a * a * (Gl - Gm * kNul) / den;
+  for (Index n : {12, 24}) {
+    const LinedResult r = linedTunnel(n, n / 4, pi, p0);
+    std::printf("lined tunnel, %d around the quarter, %d through: contact pressure %+.2f %% (interface forces "
+                "%+.2f %%), inner hoop %+.2f %%, outer hoop %+.2f %% (reference p_c %.4g, hoop %.4g / %.4g MPa)\n",
+                n, n / 4, 100 * (r.pc / pcRef - 1), 100 * (r.pcTie / pcRef - 1), 100 * (r.hoopIn / hinRef - 1),
+                100 * (r.hoopOut / houtRef - 1), pcRef / 1e6, hinRef / 1e6, houtRef / 1e6);
+    if (n == 12) {  // the paper's mesh
+      EXPECT_NEAR(r.pc / pcRef, 1, 0.03);
+      EXPECT_NEAR(r.pcTie / pcRef, 1, 0.03);
+      EXPECT_NEAR(r.hoopIn / hinRef, 1, 0.03);
+      EXPECT_NEAR(r.hoopOut / houtRef, 1, 0.03);
+    }
+  }
+}
+
+// The hydrostatic load's consistent nodal forces: resultant = −γw × enclosed area × width in z
+// (the water's weight), 0 in x, for p varying linearly with height (exact with 2×2 Gauss).
+TEST(Hydrostatic, ResultantIsTheWeightOfTheWater) {
+  RingSpec rs;
+  rs.rInner = 4.5;
+  rs.rOuter = 5.25;
+  rs.nRadial = 3;
+  rs.nAround = 48;
+  rs.width = 1.0;
+  const Mesh m = makeRingSliceMesh(rs);
+  const Real gw = 9810, pAxis = 1.207e6, zAxis = 0;
+  const auto f = pressureNodalForces(m, "inner", [&](const Real x[3]) { return pAxis - gw * (x[2] - zAxis); });
+  Real fx = 0, fz = 0;
+  for (Index n = 0; n < m.numNodes(); ++n) {
+    fx += f[3 * size_t(n)];
+    fz += f[3 * size_t(n) + 2];
+  }
+  const Real area = 0.5 * rs.nAround * rs.rInner * rs.rInner * std::sin(2 * M_PI / rs.nAround);  // the polygon
+  std::printf("hydrostatic resultant: Fz / (−γ A w) − 1 = %.2e, Fx / (γ A w) = %.2e\n", fz / (-gw * area) - 1,
+              fx / (gw * area));
+  EXPECT_NEAR(fz / (-gw * area), 1, 1e-12);
+  EXPECT_NEAR(fx / (gw * area), 0, 1e-12);
+}
