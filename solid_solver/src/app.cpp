@@ -33,7 +33,8 @@ const char* kUsage =
 // What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
-    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2";
+    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
+    "mohr-coulomb-damage dynamic-contact";
 
 std::string hms(double s) {
   std::ostringstream os;

@@ -1,6 +1,8 @@
 // The staged analysis (tq/stages.hpp; docs/solid_solver.md "Staged initial state").
 #include "tq/stages.hpp"
 
+#include "tq/contact.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -143,20 +145,22 @@ StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& lo
 
 void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
   const InterfaceInput& R = in_.staged.rockLining;
-  // The bonded tie; issue 4's DynamicContact (tq/contact.hpp) replaces it for "dynamic_contact"
-  // (and can serve "bonded" too): construct it here instead.
+  if (R.present && R.model == "dynamic_contact") {
+    // The paper's dynamic contact force method (eqs. 9-13, tq/contact.hpp): each pair bonds in
+    // its current configuration once both sides have mass, then separates or slips.
+    auto c = std::make_shared<DynamicContact>(solver_, rockLiningPairs(mesh_), contactParamsFrom(R));
+    solver_.addContributor(c);
+    interface_ = c;
+    rep.note = "rock-lining interface: dynamic contact (" + std::to_string(c->numPairs()) + " pairs)";
+    log << "  " << rep.note << std::endl;
+    return;
+  }
   auto tie = std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)",
                                               TiedNodeGroups::pairs(mesh_.rockLiningPairs));
   tie->install(solver_);
   interface_ = tie;
   solver_.addContributor(tie);
   rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tie->numGroups()) + ")";
-  if (R.present && R.model == "dynamic_contact") {
-    rep.note += "; WARNING: model dynamic_contact is not in this tq-solid yet (issue 4), the pairs are bonded";
-    log << "  warning: interface model dynamic_contact is not available in this tq-solid yet (issue 4); the "
-           "rock-lining pairs are tied (bonded) instead"
-        << std::endl;
-  }
 }
 
 void StagedAnalysis::activateLining(std::ostream& log, StageReport& rep) {
