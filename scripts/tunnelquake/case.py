@@ -88,7 +88,7 @@ def _check_ground_motion(gm, path, raw, ctx):
 
 def _check_damping(d, path, raw, ctx):
     f1, f2 = d["frequencies"]
-    if f1 >= f2 and d["ratio"] > 0:
+    if f1 >= f2 and d["ratio"] > 0 and d["model"] == "rayleigh":
         ctx.error(f"{path}.frequencies", [f1, f2], "must be two increasing frequencies",
                   "give [f1, f2] with f1 < f2, e.g. [1.5, 10] Hz", raw.key_lines.get("frequencies"))
 
@@ -236,7 +236,11 @@ def schema() -> Section:
             "timeout": _positive(U.TIME, "s; a silent partner for longer stops the run", default=120.0),
         }),
         "damping": Section(checks=[_check_damping], fields={
-            "ratio": Number(min=0.0, max=1.0, max_open=True, default=0.05, doc="Rayleigh damping ratio"),
+            "model": Choice(choices=("rayleigh", "mass_proportional"), default="rayleigh",
+                            doc="rayleigh: alpha M + beta K with the ratio at both frequencies; mass_proportional: "
+                                "alpha M only, the ratio at the first frequency (no stiffness term, so no cut in the "
+                                "stable step: see docs/theory.md §1)"),
+            "ratio": Number(min=0.0, max=1.0, max_open=True, default=0.05, doc="damping ratio"),
             "frequencies": Tuple(item=_positive(U.FREQUENCY, "Hz"), default=[1.5, 10.0],
                                  doc="the two frequencies where the ratio is met, Hz"),
         }),

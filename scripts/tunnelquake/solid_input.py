@@ -116,10 +116,15 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         s.attrs["dt"] = float(d["time"]["dt"] or 0.0)
         s.attrs["safety"] = float(d["time"]["safety_factor"])
 
-        if d["damping"]["ratio"] > 0:
+        damp = d["damping"]
+        if damp["ratio"] > 0:
             dm = f.create_group("damping")
-            dm.attrs["ratio"] = float(d["damping"]["ratio"])
-            dm.attrs["f1"], dm.attrs["f2"] = (float(x) for x in d["damping"]["frequencies"])
+            if damp["model"] == "rayleigh":
+                dm.attrs["ratio"] = float(damp["ratio"])
+                dm.attrs["f1"], dm.attrs["f2"] = (float(x) for x in damp["frequencies"])
+            else:  # mass-proportional only: the ratio at f1, falling as f1/f above it
+                dm.attrs["alpha"] = 2 * float(damp["ratio"]) * 2 * np.pi * float(damp["frequencies"][0])
+                dm.attrs["beta"] = 0.0
 
         for region in mesh["regions"]:
             m = d["materials"][region]

@@ -162,3 +162,23 @@ def test_tq_solid_lining_under_water_matches_closed_form(prepared, tmp_path):
     got = sigma["static_water"][2] - sigma["no_water"][2]
     assert a < rc < b
     assert got == pytest.approx(expected, rel=0.02), (got, expected)
+
+
+@pytest.mark.parametrize("model", ["rayleigh", "mass_proportional"])
+def test_damping_models_give_the_ratio_where_asked(prepared, tmp_path, model):
+    """Rayleigh: xi at f1 and f2; mass-proportional: xi at f1, falling as f1/f (docs/theory.md §1)."""
+    p = tmp_path / "case.yaml"
+    text = CASE.replace("MODEL", "elastic").replace("END", "0.002")
+    text += f"damping:\n  model: {model}\n  ratio: 0.05\n  frequencies: [1.5 Hz, 10 Hz]\n"
+    p.write_text(text)
+    case = load_case(p)
+    out = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "no_water", tmp_path / "in.h5")
+    with h5py.File(out) as f:
+        a = dict(f["damping"].attrs)
+    if model == "rayleigh":
+        assert a["ratio"] == 0.05 and (a["f1"], a["f2"]) == (1.5, 10.0)
+    else:
+        w1 = 2 * np.pi * 1.5
+        assert a["beta"] == 0.0
+        assert a["alpha"] / (2 * w1) == pytest.approx(0.05, rel=1e-12)  # xi(w) = alpha / (2 w)
+        assert a["alpha"] / (2 * 2 * np.pi * 10.0) == pytest.approx(0.05 * 1.5 / 10, rel=1e-12)
