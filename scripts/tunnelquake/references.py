@@ -130,3 +130,40 @@ def added_mass_ratio(rho_f: float, R: float, n: int, rho_s: float, h_node: float
     """Fluid added mass ρf R/n per unit wall area over the interface node's lumped mass per area
     (ρs h_node): the ratio that governs staggered-coupling stability (Causin et al. 2005)."""
     return rho_f * R / n / (rho_s * h_node)
+
+
+def open_pipe_contraction(rho: float, R: float, L: float, w: float, w_dot: float, y, r=None):
+    """Incompressible water in a pipe with open ends whose wall moves radially, uniformly along
+    the axis: 1D (plug-flow) solution, issue 5 check 3.
+
+    Pipe 0 ≤ y ≤ L, radius R, radial wall velocity w(t) (> 0 outwards) and its rate ẇ; both
+    ends open at p = 0 (hydrodynamic pressure); inviscid; the radius change itself is neglected
+    (u_r ≪ R, error O(u_r/R)).
+
+    Continuity of the section A = πR²: ∂(A u)/∂y = −∂A/∂t = −2πR w, so ∂u/∂y = −2w/R, and by
+    symmetry u(L/2) = 0:  u(y) = −s (y − L/2),  s = 2w/R.
+    Momentum (1D Euler): ∂u/∂t + u ∂u/∂y = −(1/ρ) ∂p/∂y, with ∂u/∂t = −ṡ (y − L/2) and
+    u ∂u/∂y = s² (y − L/2):  ∂p/∂y = ρ (ṡ − s²)(y − L/2), and with p(0) = p(L) = 0
+        p(y) = −(ρ/2) (ṡ − s²) y (L − y),   ṡ = 2ẇ/R.
+    Contraction (w < 0) accelerating inwards (ẇ < 0) raises the pressure, most at mid-length:
+    p(L/2) = −ρ (ṡ − s²) L²/8.  Outflow through each end (out of the pipe):
+        Q = A |u(0)| = −π R L w.
+
+    Radial variation (r given): the 3D potential flow φ = −s (y − L/2)²/2 + s r²/4 is an exact
+    incompressible flow with wall velocity w whose axial velocity is the 1D one; its unsteady
+    Bernoulli pressure adds ρ (ṡ/4 + s²/8)(R²/2 − r²) to the 1D (section-mean) pressure, so at
+    the wall (r = R) p_w = p(y) − ρ (ṡ/4 + s²/8) R²/2.  Relative to the mid-length pressure this
+    is O(2R²/L²) (0.6 % for the paper's L/R = 17.8); the open-end condition p = 0 on a whole end
+    section adds local end effects over about R.
+
+    Returns (p [Pa] at y (section mean, or at radius r), u [m/s] at y, Q [m³/s] per end).
+    """
+    y = np.asarray(y, float)
+    s = 2.0 * w / R
+    s_dot = 2.0 * w_dot / R
+    p = -0.5 * rho * (s_dot - s * s) * y * (L - y)
+    if r is not None:
+        p = p + rho * (s_dot / 4.0 + s * s / 8.0) * (R * R / 2.0 - np.asarray(r, float) ** 2)
+    u = -s * (y - L / 2.0)
+    Q = -math.pi * R * L * w
+    return p, u, Q

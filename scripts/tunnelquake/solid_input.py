@@ -3,13 +3,17 @@
 The layout is docs/formats.md "## solid_input.h5"; tq-solid rejects any group or attribute it does
 not know, so this writer and that table change together.
 
-    write_solid_input(case, mesh_h5, motion_h5, condition, out) -> Path
+    write_solid_input(case, mesh_h5, motion_h5, condition, out,
+                      coupling_address=None, coupling_token=None) -> Path
 
 Per condition (the paper's §3.2):
 
     no_water        stages without the hydrostatic one (no internal pressure)
     static_water    hydrostatic internal pressure p(z) = rho_w g (head - (z - z_axis)) on lining_inner
-    dynamic_water   the same static pressure; the hydrodynamic part comes from the coupled water
+    dynamic_water   the same static pressure; the hydrodynamic part comes from the coupled water:
+                    with ``coupling_address`` (the TCP address file tq-solid publishes its port in)
+                    and ``coupling_token`` (the run's secret, given to the fluid too) a ``/coupling``
+                    group from the case's ``coupling`` section (docs/coupler.md "Solid adapter")
 
 Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundaries"):
 
@@ -77,8 +81,16 @@ def _motion(motion_h5: Path) -> dict:
         }
 
 
-def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out: Path) -> Path:
-    """Write tq-solid's input for one condition of a validated case. Returns `out`."""
+#: Coupling schemes tq-solid's adapter runs (the case also offers added_mass, not built yet).
+COUPLING_SCHEMES = ("explicit", "paper", "implicit")
+
+
+def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out: Path,
+                      coupling_address: str | Path | None = None, coupling_token: str | None = None) -> Path:
+    """Write tq-solid's input for one condition of a validated case. Returns `out`.
+
+    For ``dynamic_water`` with ``coupling_address`` and ``coupling_token`` given, the ``/coupling``
+    group is written from the case's ``coupling`` section (the fluid must be given the same)."""
     import h5py
 
     if condition not in CONDITIONS:
@@ -183,6 +195,32 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             mo.attrs["cutoff_frequency"] = float(d["ground_motion"]["cutoff_frequency"])
             if motion["convention"]:
                 mo.attrs["convention"] = motion["convention"]
+
+        if condition == "dynamic_water" and (coupling_address is not None or coupling_token is not None):
+            if coupling_address is None or not coupling_token:
+                raise SolidInputError("dynamic_water coupling needs both coupling_address (the TCP address file) "
+                                      "and coupling_token (the run's secret)")
+            if "seismic" not in sequence:
+                raise SolidInputError("dynamic_water couples the water in the seismic stage; add seismic to "
+                                      "stages.sequence")
+            cs = d["coupling"]
+            if cs["scheme"] not in COUPLING_SCHEMES:
+                raise SolidInputError(f"coupling.scheme {cs['scheme']!r} is not available in tq-solid's adapter "
+                                      f"(it runs {', '.join(COUPLING_SCHEMES)}); choose implicit or paper")
+            if int(cs["window"]) > 1 and cs["scheme"] != "explicit":
+                raise SolidInputError(f"coupling.window = {cs['window']} solid steps needs scheme explicit (the "
+                                      f"{cs['scheme']} scheme repeats windows of one solid step); use window: 1")
+            c = f.create_group("coupling")
+            c.attrs["scheme"] = cs["scheme"]
+            c.attrs["window"] = int(cs["window"])
+            c.attrs["tolerance"] = float(cs["tolerance"])
+            c.attrs["max_iterations"] = int(cs["max_iterations"])
+            c.attrs["acceleration"] = cs["acceleration"]
+            c.attrs["transport"] = cs["transport"]
+            c.attrs["timeout"] = float(cs["timeout"])
+            c.attrs["address_file"] = str(coupling_address)
+            c.attrs["token"] = str(coupling_token)
+            c.attrs["face"] = "lining_inner"
 
         monitors = d["output"]["monitors"] or {}
         if monitors:

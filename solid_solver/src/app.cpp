@@ -15,6 +15,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "tq/fluid_coupling.hpp"
 #include "tq/input.hpp"
 #include "tq/results.hpp"
 #include "tq/stages.hpp"
@@ -34,7 +35,7 @@ const char* kUsage =
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
     "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
-    "mohr-coulomb-damage dynamic-contact";
+    "mohr-coulomb-damage dynamic-contact water-coupling";
 
 std::string hms(double s) {
   std::ostringstream os;
@@ -135,6 +136,38 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       return 0;
     }
   }
+  // 4b. The water coupling (dynamic_water): connects to the fluid after the static stages, so the
+  //     displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
+  std::shared_ptr<FluidCoupling> coupling;
+  if (in.staged.coupling.present) {
+    try {
+      coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
+      out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
+      coupling->initialize();
+      s.addContributor(coupling);
+      in.tEnd = coupling->endTime();  // whole windows
+      results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
+      out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
+          << " windows)" << std::endl;
+    } catch (const InputError& e) {
+      if (coupling) coupling->abort(e.what());
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: input error: " << e.what() << "\n";
+      return 2;
+    } catch (const CouplingError& e) {
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+      return 4;
+    }
+  }
+  auto couplingSummary = [&] {
+    if (!coupling) return;
+    const FluidCouplingStats cs = coupling->stats();
+    results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
+                                     {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
+                                     {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()}},
+                       {{"scheme", in.staged.coupling.scheme}});
+  };
   results.sample(s);
   size_t nextSnap = 0;
   Real nextSample = in.monitorDt;
@@ -143,7 +176,7 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const Index step0 = s.stepCount();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   try {
-    while (s.time() < in.tEnd - 1e-9 * s.dt()) {
+    while (s.time() < in.tEnd - 1e-9 * s.dt() && (!coupling || coupling->ongoing())) {
       s.step();
       const Real t = s.time();
       if (t >= nextSample - 1e-9 * s.dt()) {
@@ -170,15 +203,37 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       }
     }
   } catch (const InstabilityError& e) {
+    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
+    couplingSummary();
     results.setStatus(std::string("stopped: ") + e.what());
     results.writeTimings(elapsed(), s.stepCount() - step0, (long long)(s.stepCount() - step0) * nElems,
                          omp_get_max_threads());
     err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
     return 3;
   } catch (const InputError& e) {
+    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
     results.setStatus(std::string("stopped: ") + e.what());
     err << "tq-solid: input error: " << e.what() << "\n";
     return 2;
+  } catch (const CouplingError& e) {  // the fluid is lost, silent or refused: stop with its cause
+    results.sample(s);
+    couplingSummary();
+    results.setStatus(std::string("stopped: ") + e.what());
+    results.writeTimings(elapsed(), s.stepCount() - step0, (long long)(s.stepCount() - step0) * nElems,
+                         omp_get_max_threads());
+    err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+    return 4;
+  }
+  if (coupling) {
+    try {
+      coupling->finalize();
+    } catch (const CouplingError& e) {
+      couplingSummary();
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+      return 4;
+    }
+    couplingSummary();
   }
   // 5. Timings and status.
   const double wall = elapsed();

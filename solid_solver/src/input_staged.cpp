@@ -258,6 +258,59 @@ void readStagedInput(hid_t f, SolidInput& in) {
   }
   if (S.stages.has("seismic") && !S.bottom.present && !S.freeField.present && S.motion.present)
     c.fail("/boundaries", "the motion needs a base to enter through: add /boundaries/bottom");
+  // /coupling (dynamic_water: the water through the coupler; docs/coupler.md "Solid adapter")
+  if (h5::exists(f, "/coupling")) {
+    auto g = h5::openGroup(f, "/coupling");
+    const std::string w = "/coupling";
+    onlyKeys(c, g, w, {"scheme", "window", "window_size", "windows", "tolerance", "max_iterations", "acceleration",
+                       "initial_relaxation", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
+                       "mesh", "map", "map_tolerance", "write_fields", "participant", "partner"});
+    onlyMembers(c, g, w, {});
+    CouplingInput& C = S.coupling;
+    C.present = true;
+    C.scheme = text(c, g, w, "scheme", C.scheme);
+    if (C.scheme != "explicit" && C.scheme != "paper" && C.scheme != "implicit")
+      c.fail(w, "scheme '" + C.scheme + "' is not one of explicit, paper, implicit");
+    C.windowSteps = Index(number(c, g, w, "window", 1, 1));
+    C.windowSize = number(c, g, w, "window_size", 0, 0);
+    C.windows = Index(number(c, g, w, "windows", 0, 0));
+    C.tolerance = number(c, g, w, "tolerance", C.tolerance, 0);
+    C.maxIterations = Index(number(c, g, w, "max_iterations", Real(C.maxIterations), 1));
+    C.acceleration = text(c, g, w, "acceleration", C.acceleration);
+    if (C.acceleration != "none" && C.acceleration != "constant" && C.acceleration != "aitken" &&
+        C.acceleration != "iqn-ils")
+      c.fail(w, "acceleration '" + C.acceleration + "' is not one of none, constant, aitken, iqn-ils");
+    C.initialRelaxation = number(c, g, w, "initial_relaxation", C.initialRelaxation, 0);
+    C.transport = text(c, g, w, "transport", C.transport);
+    if (C.transport != "tcp" && C.transport != "mpi") c.fail(w, "transport '" + C.transport + "' is not tcp or mpi");
+    C.addressFile = text(c, g, w, "address_file", "");
+    if (C.transport == "tcp" && C.addressFile.empty())
+      c.fail(w, "attribute 'address_file' is required with transport tcp (the file where tq-solid publishes its "
+                "port for the fluid)");
+    C.token = text(c, g, w, "token", "");
+    if (C.token.empty()) c.fail(w, "attribute 'token' is required (the per-run secret given to both sides)");
+    C.timeout = number(c, g, w, "timeout", C.timeout, 0);
+    if (!(C.timeout > 0)) c.fail(w, "timeout must be > 0 s");
+    C.connectTimeout = number(c, g, w, "connect_timeout", 0, 0);
+    C.face = text(c, g, w, "face", C.face);
+    C.mesh = text(c, g, w, "mesh", C.mesh);
+    C.map = text(c, g, w, "map", C.map);
+    if (C.map != "coincident" && C.map != "projection") c.fail(w, "map '" + C.map + "' is not coincident or projection");
+    C.mapTolerance = number(c, g, w, "map_tolerance", C.mapTolerance, 0);
+    if (h5::hasAttr(g, "write_fields")) C.writeFields = names(c, g, w, "write_fields");
+    for (const auto& fld : C.writeFields)
+      if (fld != "velocity" && fld != "displacement")
+        c.fail(w, "write_fields: '" + fld + "' is not velocity or displacement");
+    if (C.writeFields.empty()) c.fail(w, "write_fields is empty (give velocity, displacement or both)");
+    C.participant = text(c, g, w, "participant", C.participant);
+    C.partner = text(c, g, w, "partner", C.partner);
+    if (C.windowSteps > 1 && C.scheme != "explicit")
+      c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit (the " + C.scheme +
+                    " scheme repeats a window, which the solid can only do for a window of one step); use window 1");
+    if (!S.stages.has("seismic"))
+      c.fail(w, "the coupling runs in the seismic stage, which /stages sequence does not have");
+    in.requiredFaces.push_back(C.face);
+  }
 }
 
 void writeStagedInput(hid_t f, const SolidInput& in) {
@@ -318,6 +371,30 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
   if (S.freeField.present) {
     auto g = h5::ensureGroup(f, "/boundaries/free_field");
     h5::writeStringListAttr(g, "faces", S.freeField.faces);
+  }
+  if (S.coupling.present) {
+    auto g = h5::ensureGroup(f, "/coupling");
+    const CouplingInput& C = S.coupling;
+    h5::writeStringAttr(g, "scheme", C.scheme);
+    h5::writeIntAttr(g, "window", C.windowSteps);
+    h5::writeDoubleAttr(g, "window_size", C.windowSize);
+    h5::writeIntAttr(g, "windows", C.windows);
+    h5::writeDoubleAttr(g, "tolerance", C.tolerance);
+    h5::writeIntAttr(g, "max_iterations", C.maxIterations);
+    h5::writeStringAttr(g, "acceleration", C.acceleration);
+    h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
+    h5::writeStringAttr(g, "transport", C.transport);
+    h5::writeStringAttr(g, "address_file", C.addressFile);
+    h5::writeStringAttr(g, "token", C.token);
+    h5::writeDoubleAttr(g, "timeout", C.timeout);
+    h5::writeDoubleAttr(g, "connect_timeout", C.connectTimeout);
+    h5::writeStringAttr(g, "face", C.face);
+    h5::writeStringAttr(g, "mesh", C.mesh);
+    h5::writeStringAttr(g, "map", C.map);
+    h5::writeDoubleAttr(g, "map_tolerance", C.mapTolerance);
+    h5::writeStringListAttr(g, "write_fields", C.writeFields);
+    h5::writeStringAttr(g, "participant", C.participant);
+    h5::writeStringAttr(g, "partner", C.partner);
   }
   if (S.motion.present) {
     auto g = h5::ensureGroup(f, "/motion");

@@ -31,6 +31,7 @@ struct ResultsWriter::Impl {
   int snapshots = 0;
   nlout::State nl;                                // damage and interface output (issue 4)
   std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
+  std::vector<std::pair<h5::RowAppender, std::function<Real()>>> series;  // addSeries
 };
 
 ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, const Solver& s)
@@ -128,7 +129,27 @@ void ResultsWriter::sample(const Solver& s) {
   const EnergyBalance& e = s.energy();
   const Real row[7] = {t, e.kinetic, e.internal, e.damping, e.boundary, e.external, e.error};
   I.energy.append(row);
+  for (auto& [rows, value] : I.series) {
+    const Real r[2] = {t, value()};
+    rows.append(r);
+  }
   nlout::sample(I.file, s, I.monElems, I.nl);
+}
+
+void ResultsWriter::addSeries(const std::string& path, std::function<Real()> value, const std::string& unit) {
+  auto& I = *impl_;
+  I.series.emplace_back(h5::RowAppender(I.file, path, 2), std::move(value));
+  h5::Handle ds(H5Dopen2(I.file, path.c_str(), H5P_DEFAULT), H5Dclose);
+  h5::writeStringListAttr(ds, "columns", {"time", unit});
+  flush();
+}
+
+void ResultsWriter::writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,
+                               const std::map<std::string, std::string>& texts) {
+  auto g = h5::ensureGroup(impl_->file, group);
+  for (const auto& [k, v] : numbers) h5::writeDoubleAttr(g, k, v);
+  for (const auto& [k, v] : texts) h5::writeStringAttr(g, k, v);
+  flush();
 }
 
 void ResultsWriter::snapshot(const Solver& s) {

@@ -9,8 +9,11 @@ water on the lining = -rho V a0, V the meshed volume (checkMesh).  With Euler st
 u sampled exactly the discrete wall acceleration is a0 from the second step on; the
 second step still carries a start-up deviation of about 1 % (the flux of the first step
 enters its convection and ddt correction), so steps 3 on are checked, to 1 % (the
-issue's tolerance for the resultant; measured -0.40 % on this unstructured mesh with
-24 deg non-orthogonality and one non-orthogonal corrector).
+issue's tolerance for the resultant; measured +0.27 % on this unstructured mesh with
+24 deg non-orthogonality and one non-orthogonal corrector, with the template's transpiration
+interface and one PISO corrector; -0.40 % with the earlier moving mesh and two correctors).
+Second test: Allrun -2d -compressible, the weakly compressible water in the closed slice
+under a slow uniform contraction, p = -K dV/V within 2 % (measured 0.047 %).
 """
 
 from __future__ import annotations
@@ -99,8 +102,44 @@ def test_template_2d_on_gmsh_mesh(tmp_path):
     err = np.abs(rows.Fx[2:] / f_ref - 1).max()
     assert err < 0.01, f"resultant off by {err:.3%}"
     assert np.abs(rows.Fz).max() < 5e-3 * abs(f_ref)  # unstructured mesh: 0.16 % measured
-    # the hydrostatic report: rho g (H - z) over the closed section integrates to
-    # +rho g A L upwards (buoyancy of the water on the lining, sign: force on the lining)
+    # the hydrostatic report: rho g (H - z) on the closed section pushes the lining down with
+    # the water's weight rho g V (test_openfoam_hydrostatic.py); displaced by a0 t^2/2 laterally
     fhs = pipe.RHO * 9.81 * volume
-    assert rows.Fhsz[-1] == pytest.approx(-fhs, rel=1e-6) or rows.Fhsz[-1] == pytest.approx(fhs, rel=1e-6)
+    assert rows.Fhsz[-1] == pytest.approx(-fhs, rel=1e-6)
     print(f"template 2D on gmsh mesh: resultant error {err:.2e}, hydrostatic {rows.Fhsz[-1]:.4g} N")
+
+
+def test_template_2d_compressible_closed_contraction(tmp_path):
+    """Allrun -2d -compressible: the weakly compressible water (rhoPimpleFoam, K = 2.2 GPa) in
+    the closed slice, slow uniform contraction u_r = -U0 (1 - cos(pi t/T))/2 then held:
+    p = -K dV/V, dV/V = (1 + u_r/R)^2 - 1, within 2 % (VERIFICATION.md) over the hold."""
+    assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
+    case = tmp_path / "water"
+    shutil.copytree(TEMPLATE, case)
+    _gmsh_slice(case / "water.msh")
+    u0, ramp, dt = 1e-3, 0.05, 1e-3
+    end = 1.4 * ramp
+    cd = case / "system" / "controlDict"
+    text = cd.read_text().replace("endTime         20;", f"endTime         {end};")
+    text = text.replace("deltaT          1e-4;", f"deltaT          {dt};")
+    text = text.replace(
+        "type            none;", f'type replay; file "{case}/constant/m.dat"; axisPoint (0 0 0); axisDirection (0 1 0);'
+    )
+    cd.write_text(text)
+    t = np.arange(0, end + 3 * dt, dt)
+    ur = np.where(t < ramp, -u0 * (1 - np.cos(np.pi * t / ramp)) / 2, -u0)
+    vr = np.concatenate([[0.0], np.diff(ur) / dt])
+    z3 = np.zeros((len(t), 3))
+    pipe.write_motion(case / "constant" / "m.dat", t, z3, z3, ur, vr)
+
+    env = dict(fc.env(), TQ_LIBDIR=str(fc.LIBRARY.parent))
+    out = subprocess.run([str(case / "Allrun"), "-2d", "-compressible"], env=env, capture_output=True, text=True,
+                         timeout=120)
+    log = case / "log.rhoPimpleFoam"
+    assert out.returncode == 0, out.stderr + (log.read_text()[-3000:] if log.exists() else "")
+    rows = fc.read_interface(case)
+    hold = rows.t > ramp + 2 * dt
+    p_ref = -pipe.K_WATER * ((1 - u0 / R) ** 2 - 1)
+    err = np.abs(rows.pMean[hold] / p_ref - 1).max()
+    assert err < 0.02, f"compressible template: p off by {err:.3%} of K dV/V"
+    print(f"template 2D compressible: p = {rows.pMean[hold].mean():.6g} Pa vs {p_ref:.6g} Pa ({err:.3%})")

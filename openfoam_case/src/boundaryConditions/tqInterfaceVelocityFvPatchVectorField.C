@@ -23,7 +23,9 @@ tqInterfaceVelocityFvPatchVectorField
     const DimensionedField<vector, volMesh>& iF
 )
 :
-    movingWallVelocityFvPatchVectorField(p, iF)
+    movingWallVelocityFvPatchVectorField(p, iF),
+    wallVelocity_(p.size(), Zero),
+    hasWallVelocity_(false)
 {}
 
 
@@ -35,7 +37,9 @@ tqInterfaceVelocityFvPatchVectorField
     const dictionary& dict
 )
 :
-    movingWallVelocityFvPatchVectorField(p, iF, dict)
+    movingWallVelocityFvPatchVectorField(p, iF, dict),
+    wallVelocity_(p.size(), Zero),
+    hasWallVelocity_(false)
 {}
 
 
@@ -48,7 +52,9 @@ tqInterfaceVelocityFvPatchVectorField
     const fvPatchFieldMapper& mapper
 )
 :
-    movingWallVelocityFvPatchVectorField(ptf, p, iF, mapper)
+    movingWallVelocityFvPatchVectorField(ptf, p, iF, mapper),
+    wallVelocity_(ptf.wallVelocity_, mapper),
+    hasWallVelocity_(ptf.hasWallVelocity_)
 {}
 
 
@@ -58,7 +64,9 @@ tqInterfaceVelocityFvPatchVectorField
     const tqInterfaceVelocityFvPatchVectorField& ptf
 )
 :
-    movingWallVelocityFvPatchVectorField(ptf)
+    movingWallVelocityFvPatchVectorField(ptf),
+    wallVelocity_(ptf.wallVelocity_),
+    hasWallVelocity_(ptf.hasWallVelocity_)
 {}
 
 
@@ -69,8 +77,69 @@ tqInterfaceVelocityFvPatchVectorField
     const DimensionedField<vector, volMesh>& iF
 )
 :
-    movingWallVelocityFvPatchVectorField(ptf, iF)
+    movingWallVelocityFvPatchVectorField(ptf, iF),
+    wallVelocity_(ptf.wallVelocity_),
+    hasWallVelocity_(ptf.hasWallVelocity_)
 {}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+void Foam::tqInterfaceVelocityFvPatchVectorField::setWallVelocity
+(
+    const vectorField& Uw
+)
+{
+    if (Uw.size() != size())
+    {
+        FatalErrorInFunction
+            << "Wall velocity of " << Uw.size() << " faces given for patch "
+            << patch().name() << " of " << size() << " faces."
+            << exit(FatalError);
+    }
+    wallVelocity_ = Uw;
+    hasWallVelocity_ = true;
+}
+
+
+void Foam::tqInterfaceVelocityFvPatchVectorField::updateCoeffs()
+{
+    if (updated())
+    {
+        return;
+    }
+
+    if (hasWallVelocity_ && !internalField().mesh().moving())
+    {
+        // Transpiration: the faces stay, the water takes the wall velocity
+        fvPatchVectorField::operator==(wallVelocity_);
+    }
+
+    movingWallVelocityFvPatchVectorField::updateCoeffs();
+}
+
+
+void Foam::tqInterfaceVelocityFvPatchVectorField::autoMap
+(
+    const fvPatchFieldMapper& m
+)
+{
+    movingWallVelocityFvPatchVectorField::autoMap(m);
+    wallVelocity_.autoMap(m);
+}
+
+
+void Foam::tqInterfaceVelocityFvPatchVectorField::rmap
+(
+    const fvPatchVectorField& ptf,
+    const labelList& addr
+)
+{
+    movingWallVelocityFvPatchVectorField::rmap(ptf, addr);
+    const tqInterfaceVelocityFvPatchVectorField& tiptf =
+        refCast<const tqInterfaceVelocityFvPatchVectorField>(ptf);
+    wallVelocity_.rmap(tiptf.wallVelocity_, addr);
+}
 
 
 // * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //

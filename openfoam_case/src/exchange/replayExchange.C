@@ -40,13 +40,14 @@ void Foam::tq::replayExchange::readTable()
         FatalIOErrorInFunction(dict_)
             << "Cannot open the wall motion file '" << file_ << "' (entry"
             << " 'file' of " << dict_.name() << ")." << nl
-            << "Fix: give the path of a table 't ux uy uz vx vy vz [ur vr]'."
+            << "Fix: give the path of a table"
+            << " 't ux uy uz vx vy vz [ur vr [uo vo]]'."
             << exit(FatalIOError);
     }
 
     DynamicList<scalar> t;
     DynamicList<vector> d, v;
-    DynamicList<scalar> rd, rv;
+    DynamicList<scalar> rd, rv, od, ov;
     label nCols = -1;
     std::string line;
     label lineNo = 0;
@@ -76,12 +77,13 @@ void Foam::tq::replayExchange::readTable()
             continue;
         }
         const label n = label(row.size());
-        if ((n != 7 && n != 9) || (nCols != -1 && n != nCols))
+        if ((n != 7 && n != 9 && n != 11) || (nCols != -1 && n != nCols))
         {
             FatalErrorInFunction
                 << file_ << " line " << lineNo << ": " << n << " columns;"
-                << " expected 7 (t ux uy uz vx vy vz) or 9 (... ur vr), the"
-                << " same on every row." << exit(FatalError);
+                << " expected 7 (t ux uy uz vx vy vz), 9 (... ur vr) or 11"
+                << " (... ur vr uo vo), the same on every row."
+                << exit(FatalError);
         }
         nCols = n;
         if (t.size() && row[0] <= t.last())
@@ -94,8 +96,10 @@ void Foam::tq::replayExchange::readTable()
         t.append(row[0]);
         d.append(vector(row[1], row[2], row[3]));
         v.append(vector(row[4], row[5], row[6]));
-        rd.append(n == 9 ? row[7] : 0.0);
-        rv.append(n == 9 ? row[8] : 0.0);
+        rd.append(n >= 9 ? row[7] : 0.0);
+        rv.append(n >= 9 ? row[8] : 0.0);
+        od.append(n == 11 ? row[9] : 0.0);
+        ov.append(n == 11 ? row[10] : 0.0);
     }
 
     if (t.size() < 2)
@@ -110,6 +114,8 @@ void Foam::tq::replayExchange::readTable()
     vel_.transfer(v);
     radialDisp_.transfer(rd);
     radialVel_.transfer(rv);
+    ovalDisp_.transfer(od);
+    ovalVel_.transfer(ov);
 }
 
 
@@ -166,6 +172,7 @@ Foam::tq::replayExchange::replayExchange
     (
         dict.lookupOrDefault<vector>("axisDirection", vector(0, 1, 0))
     ),
+    thetaZero_(dict.lookupOrDefault<vector>("thetaZero", vector(1, 0, 0))),
     rollbacksPerStep_(dict.lookupOrDefault<label>("rollbacksPerStep", 0)),
     predictorScale_(dict.lookupOrDefault<scalar>("predictorScale", 1.0)),
     rollbackFromStep_(dict.lookupOrDefault<label>("rollbackFromStep", 1)),
@@ -182,6 +189,15 @@ Foam::tq::replayExchange::replayExchange
     }
     axisDirection_ /= mag(axisDirection_);
 
+    thetaZero_ -= (thetaZero_ & axisDirection_)*axisDirection_;
+    if (mag(thetaZero_) < SMALL)
+    {
+        FatalIOErrorInFunction(dict)
+            << "thetaZero is parallel to the axis " << axisDirection_
+            << exit(FatalIOError);
+    }
+    thetaZero_ /= mag(thetaZero_);
+
     if (rollbacksPerStep_ < 0)
     {
         FatalIOErrorInFunction(dict)
@@ -197,17 +213,27 @@ Foam::tq::replayExchange::replayExchange
 
 void Foam::tq::replayExchange::initialize
 (
+    const polyPatch&,
     const pointField& points0,
     const scalarField& pointAreas
 )
 {
     radialDir_.setSize(points0.size());
+    ovalShape_.setSize(points0.size());
+    const vector thetaNinety(axisDirection_ ^ thetaZero_);
     forAll(points0, i)
     {
         vector r = points0[i] - axisPoint_;
         r -= (r & axisDirection_)*axisDirection_;
         const scalar magR = mag(r);
         radialDir_[i] = (magR > SMALL ? r/magR : vector::zero);
+
+        // theta from thetaZero towards axis x thetaZero; e_t = axis x e_r
+        const vector et(axisDirection_ ^ radialDir_[i]);
+        const scalar theta =
+            ::atan2(radialDir_[i] & thetaNinety, radialDir_[i] & thetaZero_);
+        ovalShape_[i] =
+            ::cos(2*theta)*radialDir_[i] - 0.5*::sin(2*theta)*et;
     }
     lastForces_.setSize(points0.size(), Zero);
 
@@ -267,13 +293,15 @@ void Foam::tq::replayExchange::readMotion
     const vector v = scale*(w0*vel_[i0] + w1*vel_[i1]);
     const scalar rd = scale*(w0*radialDisp_[i0] + w1*radialDisp_[i1]);
     const scalar rv = scale*(w0*radialVel_[i0] + w1*radialVel_[i1]);
+    const scalar od = scale*(w0*ovalDisp_[i0] + w1*ovalDisp_[i1]);
+    const scalar ov = scale*(w0*ovalVel_[i0] + w1*ovalVel_[i1]);
 
     displacement.setSize(radialDir_.size());
     velocity.setSize(radialDir_.size());
     forAll(radialDir_, i)
     {
-        displacement[i] = d + rd*radialDir_[i];
-        velocity[i] = v + rv*radialDir_[i];
+        displacement[i] = d + rd*radialDir_[i] + od*ovalShape_[i];
+        velocity[i] = v + rv*radialDir_[i] + ov*ovalShape_[i];
     }
 }
 

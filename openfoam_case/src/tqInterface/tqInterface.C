@@ -12,15 +12,19 @@ License
 
 #include "tqInterface.H"
 #include "interfaceTraction.H"
+#include "wallCellGradient.H"
 #include "volFields.H"
 #include "surfaceFields.H"
 #include "pointFields.H"
 #include "fixedValuePointPatchFields.H"
+#include "tqInterfaceVelocityFvPatchVectorField.H"
 #include "fvcGrad.H"
 #include "fvcDdt.H"
 #include "IOdictionary.H"
 #include "OFstream.H"
 #include "addToRunTimeSelectionTable.H"
+
+#include <malloc.h>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
@@ -41,6 +45,16 @@ Foam::functionObjects::tqInterface::wallPressureTypeNames_
 ({
     { wallPressureType::patchValue, "patchValue" },
     { wallPressureType::extrapolated, "extrapolated" },
+});
+
+const Foam::Enum
+<
+    Foam::functionObjects::tqInterface::interfaceMotionType
+>
+Foam::functionObjects::tqInterface::interfaceMotionTypeNames_
+({
+    { interfaceMotionType::meshMotion, "meshMotion" },
+    { interfaceMotionType::transpiration, "transpiration" },
 });
 
 
@@ -69,8 +83,28 @@ void Foam::functionObjects::tqInterface::calcLoads()
 {
     const fvPatch& fvp = mesh_.boundary()[patchi_];
     const polyPatch& pp = fvp.patch();
+    const faceList& lf = pp.localFaces();
     const volScalarField& p = lookupObject<volScalarField>(pName_);
     const volVectorField& U = lookupObject<volVectorField>(UName_);
+
+    // Transpiration with the geometric correction: the loads act on the
+    // displaced interface, not on the (fixed) mesh faces
+    const bool displaced =
+        interfaceMotion_ == interfaceMotionType::transpiration
+     && geometricCorrection_;
+
+    pointField xLoaded(pp.localPoints());
+    vectorField Sf(fvp.Sf());
+    vectorField faceShift;
+    if (displaced)
+    {
+        xLoaded += displacement_;
+        forAll(lf, facei)
+        {
+            Sf[facei] = lf[facei].areaNormal(xLoaded);
+        }
+        faceShift = faceAverage(displacement_);
+    }
 
     // Face density [kg/m^3] and the factor taking p to Pa
     scalarField rhoF(fvp.size(), rhoInf_);
@@ -84,7 +118,7 @@ void Foam::functionObjects::tqInterface::calcLoads()
     // Wall pressure, in p's units
     pCell_ = p.boundaryField()[patchi_].patchInternalField();
     scalarField pW;
-    if (wallPressure_ == wallPressureType::patchValue)
+    if (wallPressure_ == wallPressureType::patchValue && !displaced)
     {
         pW = p.boundaryField()[patchi_];
     }
@@ -94,28 +128,69 @@ void Foam::functionObjects::tqInterface::calcLoads()
         const vectorField d(fvp.Cf() - fvp.Cn());
         const scalarField dn(nf & d);
 
-        // Wall acceleration: ddt(U) on the patch, by U's ddt scheme; normal
-        // momentum at a no-slip wall: dp/dn = -a_w.n (kinematic p)
-        const tmp<volVectorField> tddtU(fvc::ddt(U));
-        scalarField dpdn(-(tddtU().boundaryField()[patchi_] & nf));
-        if (rhoName_ != "rhoInf")
+        // Wall-normal pressure gradient, in p's units per m
+        scalarField dpdn;
+        if (wallPressure_ == wallPressureType::extrapolated)
         {
-            dpdn *= rhoF;
+            // Wall acceleration: ddt(U) on the patch, by U's ddt scheme;
+            // normal momentum at a no-slip wall: dp/dn = -a_w.n (kinematic
+            // p)
+            // (patch only for Euler and backward, else the whole field)
+            bool backward = false;
+            if (tq::simpleDdtScheme(mesh_, "ddt(" + UName_ + ')', backward))
+            {
+                dpdn = -(tq::patchDdt(U, patchi_, backward) & nf);
+            }
+            else
+            {
+                const tmp<volVectorField> tddtU(fvc::ddt(U));
+                dpdn = -(tddtU().boundaryField()[patchi_] & nf);
+            }
+            if (rhoName_ != "rhoInf")
+            {
+                dpdn *= rhoF;
+            }
+        }
+        else
+        {
+            dpdn = p.boundaryField()[patchi_].snGrad();
         }
 
-        const tmp<volVectorField> tgradP(fvc::grad(p));
-        const vectorField gradPc
-        (
-            tgradP().boundaryField()[patchi_].patchInternalField()
-        );
+        // Gradient of the wall cells (patch only for 'Gauss linear')
+        vectorField gradPc;
+        if (tq::isGaussLinear(mesh_, "grad(" + pName_ + ')'))
+        {
+            gradPc = tq::wallCellGaussGrad(p, patchi_);
+        }
+        else
+        {
+            const tmp<volVectorField> tgradP(fvc::grad(p));
+            gradPc = tgradP().boundaryField()[patchi_].patchInternalField();
+        }
 
-        pW = pCell_ + dn*dpdn + ((d - nf*dn) & gradPc);
+        if (wallPressure_ == wallPressureType::extrapolated)
+        {
+            pW = pCell_ + dn*dpdn + ((d - nf*dn) & gradPc);
+        }
+        else
+        {
+            pW = p.boundaryField()[patchi_];
+        }
+
+        if (displaced)
+        {
+            // Pressure at the displaced face centre, to first order:
+            // p_w + u_f . grad(p)_w, normal part from dp/dn, tangential part
+            // from the wall cell's gradient
+            const scalarField un(faceShift & nf);
+            pW += un*dpdn + ((faceShift - nf*un) & gradPc);
+        }
     }
     pWall_ = pToPa*(pW - pRef_);
     pCell_ = pToPa*(pCell_ - pRef_);
 
     // Pressure part: p_w S_f (S_f points out of the water, into the lining)
-    faceForceP_ = pWall_*fvp.Sf();
+    faceForceP_ = pWall_*Sf;
 
     // Viscous part: S_f . devRhoReff, devRhoReff = -mu_eff dev(twoSymm(gradU))
     {
@@ -125,23 +200,35 @@ void Foam::functionObjects::tqInterface::calcLoads()
         {
             nuEff += nutPtr->boundaryField()[patchi_];
         }
-        const tmp<volTensorField> tgradU(fvc::grad(U));
-        const tensorField& gradUb = tgradU().boundaryField()[patchi_];
-        faceForceV_ = fvp.Sf() & (-(rhoF*nuEff)*dev(twoSymm(gradUb)));
+        // Wall value of grad(U) (patch only for 'Gauss linear')
+        tensorField gradUb;
+        if (tq::isGaussLinear(mesh_, "grad(" + UName_ + ')'))
+        {
+            gradUb = tq::wallGradCorrected
+            (
+                U, patchi_, tq::wallCellGaussGrad(U, patchi_)()
+            );
+        }
+        else
+        {
+            const tmp<volTensorField> tgradU(fvc::grad(U));
+            gradUb = tgradU().boundaryField()[patchi_];
+        }
+        faceForceV_ = Sf & (-(rhoF*nuEff)*dev(twoSymm(gradUb)));
     }
     faceForce_ = faceForceP_ + faceForceV_;
 
-    // Point forces (conservative map), on the current geometry
-    const faceList& lf = pp.localFaces();
-    const List<scalarList> w(tq::medianDualWeights(lf, pp.localPoints()));
+    // Point forces (conservative map), on the loaded geometry
+    const List<scalarList> w(tq::medianDualWeights(lf, xLoaded));
     pointForce_ = tq::distributeToPoints(lf, w, pp.nPoints(), faceForce_);
 
     totalP_ = returnReduce(sum(faceForceP_), sumOp<vector>());
     totalV_ = returnReduce(sum(faceForceV_), sumOp<vector>());
     totalPoint_ = returnReduce(sum(pointForce_), sumOp<vector>());
-    const scalar area = returnReduce(sum(fvp.magSf()), sumOp<scalar>());
+    const scalarField magSf(mag(Sf));
+    const scalar area = returnReduce(sum(magSf), sumOp<scalar>());
     pMean_ =
-        returnReduce(sum(pWall_*fvp.magSf()), sumOp<scalar>())
+        returnReduce(sum(pWall_*magSf), sumOp<scalar>())
        /max(area, VSMALL);
 
     totalHs_ = Zero;
@@ -149,16 +236,145 @@ void Foam::functionObjects::tqInterface::calcLoads()
     {
         const scalar magG = mag(g_);
         const vector up(-g_/magG);
-        const scalarField pHs(rhoF*magG*(freeSurfaceLevel_ - (up & fvp.Cf())));
-        totalHs_ = returnReduce(sum(pHs*fvp.Sf()), sumOp<vector>());
+        vectorField Cf(fvp.Cf());
+        if (displaced)
+        {
+            Cf += faceShift;
+        }
+        const scalarField pHs(rhoF*magG*(freeSurfaceLevel_ - (up & Cf)));
+        totalHs_ = returnReduce(sum(pHs*Sf), sumOp<vector>());
     }
+}
+
+
+Foam::tmp<Foam::vectorField>
+Foam::functionObjects::tqInterface::faceAverage
+(
+    const vectorField& pointValues
+) const
+{
+    const faceList& lf = mesh_.boundaryMesh()[patchi_].localFaces();
+    tmp<vectorField> tfv(new vectorField(lf.size(), Zero));
+    vectorField& fv = tfv.ref();
+    forAll(lf, facei)
+    {
+        for (const label pointi : lf[facei])
+        {
+            fv[facei] += pointValues[pointi];
+        }
+        fv[facei] /= lf[facei].size();
+    }
+    return tfv;
 }
 
 
 void Foam::functionObjects::tqInterface::applyMotion()
 {
+    if (interfaceMotion_ == interfaceMotionType::transpiration)
+    {
+        const volVectorField& U = lookupObject<volVectorField>(UName_);
+        vectorField Uw(faceAverage(velocity_));
+
+        if (geometricCorrection_)
+        {
+            // Flux through each fixed face = the volume the displaced face
+            // sweeps: v.S_f(x0 + u) instead of v.S_f(x0).  Keeps the
+            // second-order volume change of the wall (an ovaling wall
+            // encloses less volume), which an open pipe turns into a
+            // uniform pressure of order rho L^2/(12 V) d2V/dt2.
+            const polyPatch& pp = mesh_.boundaryMesh()[patchi_];
+            const faceList& lf = pp.localFaces();
+            const vectorField& S0 = pp.faceAreas();
+            const pointField xd(points0_ + displacement_);
+            forAll(lf, facei)
+            {
+                const vector Sd(lf[facei].areaNormal(xd));
+                const scalar magS0 = mag(S0[facei]);
+                Uw[facei] +=
+                    S0[facei]*((Uw[facei] & (Sd - S0[facei]))/sqr(magS0));
+            }
+
+            // Closed incompressible water cannot change volume (the check of
+            // checkVolumeChange has let the first-order flux through): take
+            // the net flux off uniformly, or adjustPhi finds a one-signed
+            // wall flux near a velocity reversal and stops
+            const volScalarField& p = lookupObject<volScalarField>(pName_);
+            if (rhoName_ == "rhoInf" && p.needReference())
+            {
+                const scalar net =
+                    returnReduce(sum(Uw & S0), sumOp<scalar>());
+                const scalar area =
+                    returnReduce(sum(mag(S0)), sumOp<scalar>());
+                Uw -= (net/max(area, VSMALL))*S0/mag(S0);
+            }
+        }
+
+        // Only the condition's pending wall velocity changes, not the
+        // field's values (the old-time level keeps this step's velocity)
+        fvPatchVectorField& Up =
+            const_cast<fvPatchVectorField&>(U.boundaryField()[patchi_]);
+        refCast<tqInterfaceVelocityFvPatchVectorField>(Up).setWallVelocity
+        (
+            Uw
+        );
+        return;
+    }
+
     pointVectorField* pDPtr =
         mesh_.getObjectPtr<pointVectorField>("pointDisplacement");
+    pointPatchVectorField& ppf = pDPtr->boundaryFieldRef()[patchi_];
+    refCast<fixedValuePointPatchVectorField>(ppf) == displacement_;
+}
+
+
+void Foam::functionObjects::tqInterface::checkMotionSetup() const
+{
+    const pointVectorField* pDPtr =
+        mesh_.findObject<pointVectorField>("pointDisplacement");
+
+    if (interfaceMotion_ == interfaceMotionType::transpiration)
+    {
+        if (pDPtr)
+        {
+            FatalErrorInFunction
+                << "interfaceMotion transpiration keeps the mesh fixed, but"
+                << " the mesh has a motion solver (pointDisplacement)." << nl
+                << "Fix: in constant/dynamicMeshDict set 'dynamicFvMesh"
+                << " staticFvMesh;', or use interfaceMotion meshMotion."
+                << exit(FatalError);
+        }
+        const volVectorField& U = lookupObject<volVectorField>(UName_);
+        if (!isA<tqInterfaceVelocityFvPatchVectorField>(U.boundaryField()[patchi_]))
+        {
+            FatalErrorInFunction
+                << UName_ << " on patch " << patchName_ << " is of type '"
+                << U.boundaryField()[patchi_].type() << "'." << nl
+                << "Fix: with interfaceMotion transpiration the interface"
+                << " velocity must be 'tqInterfaceVelocity' (it receives the"
+                << " wall velocity)." << exit(FatalError);
+        }
+        return;
+    }
+
+    if (rhoName_ != "rhoInf")
+    {
+        // v1912 rhoPimpleFoam (pEqn.H) makes phiHbyA relative to the mesh
+        // motion before constrainPressure, which compares it with the
+        // absolute wall flux rho S_f.U_b: the flux of a moving wall enters
+        // twice (measured on a closed contracting pipe: p = 2.00 K dV/V).
+        FatalErrorInFunction
+            << "The compressible water (rho " << rhoName_ << ") cannot be"
+            << " coupled with interfaceMotion meshMotion in OpenFOAM v1912:"
+            << " rhoPimpleFoam makes the flux relative to the mesh motion"
+            << " before constrainPressure, so the flux of the moving wall is"
+            << " counted twice (a closed pipe compressed by dV gets"
+            << " p = -2 K dV/V)." << nl
+            << "Fix: use 'interfaceMotion transpiration;' (static mesh,"
+            << " dynamicFvMesh staticFvMesh), which is exact to first order"
+            << " in the wall displacement and keeps the volume change of the"
+            << " displaced wall." << exit(FatalError);
+    }
+
     if (!pDPtr)
     {
         FatalErrorInFunction
@@ -167,10 +383,12 @@ void Foam::functionObjects::tqInterface::applyMotion()
             << "Fix: in constant/dynamicMeshDict use dynamicFvMesh"
             << " dynamicMotionSolverFvMesh with motionSolver"
             << " tqInterpolatedDisplacement (or another displacement-based"
-            << " solver), and give 0/pointDisplacement." << exit(FatalError);
+            << " solver), and give 0/pointDisplacement; or use"
+            << " interfaceMotion transpiration on a static mesh."
+            << exit(FatalError);
     }
 
-    pointPatchVectorField& ppf = pDPtr->boundaryFieldRef()[patchi_];
+    const pointPatchVectorField& ppf = pDPtr->boundaryField()[patchi_];
     if (!isA<fixedValuePointPatchVectorField>(ppf))
     {
         FatalErrorInFunction
@@ -180,7 +398,6 @@ void Foam::functionObjects::tqInterface::applyMotion()
             << " the received interface displacement can be applied."
             << exit(FatalError);
     }
-    refCast<fixedValuePointPatchVectorField>(ppf) == displacement_;
 }
 
 
@@ -316,7 +533,13 @@ void Foam::functionObjects::tqInterface::writeFields() const
         OFstream os(dir/"points" + suffix + ".dat");
         os.precision(12);
         os  << "# x0 y0 z0 x y z ux uy uz vx vy vz fx fy fz" << nl;
-        const pointField& x = pp.localPoints();
+        // Current interface: the moved mesh, or (transpiration) the
+        // reference points plus the received displacement
+        pointField x(pp.localPoints());
+        if (interfaceMotion_ == interfaceMotionType::transpiration)
+        {
+            x = points0_ + displacement_;
+        }
         forAll(x, i)
         {
             for
@@ -355,6 +578,8 @@ Foam::functionObjects::tqInterface::tqInterface
     volumeChangeTol_(1e-3),
     nu_(-1),
     wallPressure_(wallPressureType::extrapolated),
+    interfaceMotion_(interfaceMotionType::meshMotion),
+    geometricCorrection_(true),
     hydrostatic_(false),
     g_(Zero),
     freeSurfaceLevel_(0),
@@ -376,6 +601,17 @@ Foam::functionObjects::tqInterface::tqInterface
     const bool throwingIO = FatalIOError.dontThrowExceptions();
 
     read(dict);
+
+    if (dict.lookupOrDefault<bool>("heapTuning", true))
+    {
+        // OpenFOAM allocates and frees field temporaries of 0.1-1 MB many
+        // times per step; glibc serves blocks above its mmap threshold with
+        // mmap/munmap, so every temporary costs fresh page faults (measured:
+        // 15 % of a water step on the paper mesh).  Keep freed memory in the
+        // heap instead (process-wide; the solver's memory use is steady).
+        mallopt(M_MMAP_THRESHOLD, 512*1024*1024);
+        mallopt(M_TRIM_THRESHOLD, 1024*1024*1024);
+    }
 
     // The wall acceleration of the first step is ddt(U) on the patch against
     // the initial state: create U's old-time level now, before the first
@@ -412,10 +648,12 @@ Foam::functionObjects::tqInterface::tqInterface
     {
         exchange_.reset(new tq::noneExchange(runTime, dictionary()));
     }
-    exchange_->initialize(points0_, pointArea);
+    exchange_->initialize(pp, points0_, pointArea);
 
     if (exchange_->isCouplingOngoing())
     {
+        checkMotionSetup();
+
         // The coupling owns the end of the run (see class description)
         endTime_ = runTime.endTime().value();
         const_cast<Time&>(runTime).setEndTime
@@ -494,6 +732,14 @@ bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
         dict,
         wallPressureType::extrapolated
     );
+    interfaceMotion_ = interfaceMotionTypeNames_.lookupOrDefault
+    (
+        "interfaceMotion",
+        dict,
+        interfaceMotionType::meshMotion
+    );
+    geometricCorrection_ =
+        dict.lookupOrDefault<bool>("geometricCorrection", true);
 
     hydrostatic_ = dict.found("hydrostatic");
     if (hydrostatic_)
@@ -557,8 +803,14 @@ bool Foam::functionObjects::tqInterface::execute()
 
     if (coupled)
     {
-        if (accepted && t >= endTime_ - 0.5*dt)
+        const bool partnerDone = !exchange_->isCouplingOngoing();
+        if (accepted && (t >= endTime_ - 0.5*dt || partnerDone))
         {
+            if (partnerDone && t < endTime_ - 0.5*dt)
+            {
+                Info<< type() << " " << name() << ": the coupling ended at t = "
+                    << t << " s (before endTime " << endTime_ << " s)" << endl;
+            }
             exchange_->finalize();
             const_cast<Time&>(time()).writeAndEnd();
             return true;

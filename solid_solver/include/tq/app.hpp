@@ -8,7 +8,8 @@
 
 namespace tq {
 
-/// Exit codes: 0 completed, 1 usage, 2 input error, 3 run stopped (instability).
+/// Exit codes: 0 completed, 1 usage, 2 input error, 3 run stopped (instability), 4 run stopped by
+/// the water coupling (fluid lost, silent or refused; the message names the cause and the fix).
 int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace tq

@@ -4,6 +4,8 @@
 ///        stays readable (h5py) after a stop at any point.
 #pragma once
 
+#include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -32,6 +34,12 @@ public:
   void writeStage(const std::string& name, long long steps, double ratio, bool converged, double wallSeconds,
                   const std::string& note);
   void flush();
+  /// An extra time series sampled with every sample(): dataset `path` [rows, 2] = (time, value()),
+  /// e.g. /energy/fluid_work (the water coupling).
+  void addSeries(const std::string& path, std::function<Real()> value, const std::string& unit);
+  /// Attributes on a group (created if missing), e.g. the coupling's summary.
+  void writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,
+                  const std::map<std::string, std::string>& texts = {});
 
 private:
   struct Impl;

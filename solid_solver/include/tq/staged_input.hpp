@@ -87,6 +87,31 @@ struct MotionInput {
   std::string convention;          ///< informational ("outcrop" or "incident" record)
 };
 
+/// /coupling: the water coupling of condition dynamic_water (docs/formats.md, docs/coupler.md
+/// "Solid adapter"); read by input_staged.cpp, used by tq/fluid_coupling.hpp.
+struct CouplingInput {
+  bool present = false;
+  std::string scheme = "implicit";        ///< explicit | paper | implicit
+  Index windowSteps = 1;                  ///< solid steps per coupling window (k > 1: explicit only)
+  Real windowSize = 0;                    ///< s; 0 = windowSteps × the solid step
+  Index windows = 0;                      ///< 0 = ceil(t_end / window size)
+  Real tolerance = 1e-4;                  ///< implicit: relative residual
+  Index maxIterations = 20;               ///< implicit: passes per window at most
+  std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
+  Real initialRelaxation = 0.5;
+  std::string transport = "tcp";          ///< tcp | mpi
+  std::string addressFile;                ///< tcp: where the listener publishes its port
+  std::string token;                      ///< per-run secret both sides were given
+  Real timeout = 120;                     ///< s: a silent partner for longer stops the run
+  Real connectTimeout = 0;                ///< s: waiting for the partner to appear (0 = timeout)
+  std::string face = "lining_inner";      ///< mesh.h5 face group of the wetted interface
+  std::string mesh = "wall";              ///< interface mesh name on the wire
+  std::string map = "coincident";         ///< coincident | projection (the solid maps)
+  Real mapTolerance = 1e-6;               ///< m
+  std::vector<std::string> writeFields = {"velocity", "displacement"};  ///< solid → fluid, in order
+  std::string participant = "solid", partner = "fluid";
+};
+
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
 struct StagedInput {
   bool present = false;
@@ -98,6 +123,7 @@ struct StagedInput {
   FreeFieldInput freeField;
   MotionInput motion;
   std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
+  CouplingInput coupling;  ///< /coupling (dynamic_water)
 };
 
 }  // namespace tq

@@ -22,6 +22,10 @@ from . import foamcase as fc
 
 RHO = 1000.0
 NU = 1.308e-6
+#: Bulk modulus of water [Pa] (weakly compressible model)
+K_WATER = 2.2e9
+#: Reference temperature of the compressible model [K]
+T0 = 293.15
 
 
 def _blockmesh(
@@ -110,17 +114,21 @@ def write_motion(
     v: np.ndarray,
     ur: np.ndarray | None = None,
     vr: np.ndarray | None = None,
+    uo: np.ndarray | None = None,
+    vo: np.ndarray | None = None,
 ) -> None:
-    """Fake-solid motion table: t ux uy uz vx vy vz [ur vr] (SI)."""
+    """Fake-solid motion table: t ux uy uz vx vy vz [ur vr [uo vo]] (SI); ur/vr uniform radial,
+    uo/vo ovaling n = 2 amplitude (replayExchange.H)."""
     cols = [t[:, None], u, v]
-    if ur is not None:
-        cols += [ur[:, None], vr[:, None]]
-    np.savetxt(
-        path,
-        np.hstack(cols),
-        fmt="%.17g",
-        header="t ux uy uz vx vy vz" + (" ur vr" if ur is not None else ""),
-    )
+    header = "t ux uy uz vx vy vz"
+    if ur is not None or uo is not None:
+        z = np.zeros_like(t)
+        cols += [(ur if ur is not None else z)[:, None], (vr if vr is not None else z)[:, None]]
+        header += " ur vr"
+    if uo is not None:
+        cols += [uo[:, None], vo[:, None]]
+        header += " uo vo"
+    np.savetxt(path, np.hstack(cols), fmt="%.17g", header=header)
 
 
 def make_pipe_case(
@@ -144,8 +152,23 @@ def make_pipe_case(
     p_tol: float = 1e-10,
     extra_functions: str = "",
     open_ends: bool = False,
+    interface_motion: str = "meshMotion",
+    water: str = "incompressible",
+    bulk_modulus: float = K_WATER,
+    hydrostatic: tuple[float, float] | None = None,
 ) -> Path:
-    """Write the case; returns the path of the motion table to fill with write_motion()."""
+    """Write the case; returns the path of the motion table to fill with write_motion().
+
+    interface_motion: 'meshMotion' (the mesh follows the wall: motion_solver) or
+    'transpiration' (static mesh, wall velocity imposed on the fixed faces).
+    water: 'incompressible' (pimpleFoam, kinematic p) or 'compressible' (rhoPimpleFoam, p in
+    Pa, linear equation of state rho = rho0 + p/K_rho with K = bulk_modulus; see
+    compressible_files()).  hydrostatic (g, free-surface level): tqInterface reports the
+    hydrostatic resultant with gravity (0 0 -g)."""
+    transpiration = interface_motion == "transpiration"
+    compressible = water == "compressible"
+    if water not in ("incompressible", "compressible"):
+        raise ValueError(water)
     case = Path(case)
     ends = "empty" if two_d else ("patch" if open_ends else "wall")
     fc.write(case, "system/blockMeshDict", _blockmesh(R, L, nq, nr, ny, two_d, ends, grading))
@@ -155,7 +178,7 @@ def make_pipe_case(
         case,
         "system/controlDict",
         f"""
-application     pimpleFoam;
+application     {"rhoPimpleFoam" if compressible else "pimpleFoam"};
 startFrom       startTime;
 startTime       0;
 stopAt          endTime;
@@ -176,9 +199,11 @@ functions
         type            tqInterface;
         libs            ("{fc.LIBRARY}");
         patch           interface;
-        rho             rhoInf;
-        rhoInf          {RHO};
+        {"rho rho;" if compressible else f"rho rhoInf; rhoInf {RHO};"}
+        {f"nu {NU};" if compressible else ""}
         wallPressure    extrapolated;
+        interfaceMotion {interface_motion};
+        {f"hydrostatic {{ g (0 0 {-hydrostatic[0]!r}); freeSurfaceLevel {hydrostatic[1]!r}; }}" if hydrostatic else ""}
         exchange
         {{
             type            replay;
@@ -200,7 +225,9 @@ functions
         f"""
 ddtSchemes {{ default {ddt}; }}
 gradSchemes {{ default Gauss linear; }}
-divSchemes {{ default none; div(phi,U) Gauss linear; div((nuEff*dev2(T(grad(U))))) Gauss linear; }}
+divSchemes {{ default none; div(phi,U) Gauss linear; div((nuEff*dev2(T(grad(U))))) Gauss linear;
+    div(((rho*nuEff)*dev2(T(grad(U))))) Gauss linear; div(phi,e) Gauss linear; div(phi,K) Gauss linear;
+    div(phiv,p) Gauss linear; div(phi,h) Gauss linear; }}
 laplacianSchemes {{ default Gauss linear corrected; }}
 interpolationSchemes {{ default linear; }}
 snGradSchemes {{ default corrected; }}
@@ -215,6 +242,9 @@ solvers
 {{
     "p(Final)?" {{ solver PCG; preconditioner DIC; tolerance {p_tol}; relTol 0; }}
     "U(Final)?" {{ solver smoothSolver; smoother symGaussSeidel; tolerance 1e-10; relTol 0; }}
+    // energy (compressible water): T stays at T0 (no pressure work), h barely moves
+    "(e|h)(Final)?" {{ solver smoothSolver; smoother symGaussSeidel; tolerance 1e-4; relTol 0; maxIter 10; }}
+    "rho(Final)?" {{ solver diagonal; }}
     "cellDisplacement(Final)?" {{ solver PCG; preconditioner DIC; tolerance 1e-8; relTol 0; }}
 }}
 PIMPLE
@@ -223,13 +253,18 @@ PIMPLE
     nCorrectors     2;
     nNonOrthogonalCorrectors 0;
     correctPhi      no;
-    {"pRefCell 0; pRefValue 0;" if closed else ""}
+    {"pRefCell 0; pRefValue 0;" if closed and not compressible else ""}
+    {"transonic no;" if compressible else ""}
 }}
 """,
     )
     fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {NU};\n")
+    if compressible:
+        fc.write(case, "constant/thermophysicalProperties", thermophysical_properties(bulk_modulus))
     fc.write(case, "constant/turbulenceProperties", "simulationType laminar;\n")
-    if motion_solver == "tqInterpolated":
+    if transpiration:
+        msolver = ""
+    elif motion_solver == "tqInterpolated":
         msolver = """motionSolver    tqInterpolatedDisplacement;
 tqInterpolatedDisplacementCoeffs { patches (interface); decay linear; }"""
     elif motion_solver == "laplacian":
@@ -246,7 +281,7 @@ displacementLaplacianCoeffs { diffusivity inverseDistance (interface); }"""
         case,
         "constant/dynamicMeshDict",
         f"""
-dynamicFvMesh   dynamicMotionSolverFvMesh;
+dynamicFvMesh   {"staticFvMesh" if transpiration else "dynamicMotionSolverFvMesh"};
 motionSolverLibs ("{fc.LIBRARY}");
 {msolver}
 """,
@@ -290,6 +325,26 @@ boundaryField
 """,
         cls="volScalarField",
     )
+    if compressible:
+        # p in Pa (hydrodynamic, 0 at rest); T uniform and insulated
+        text = (case / "0" / "p").read_text().replace("dimensions [0 2 -2 0 0 0 0];", "dimensions [1 -1 -2 0 0 0 0];")
+        (case / "0" / "p").write_text(text)
+        fc.write(
+            case,
+            "0/T",
+            f"""
+dimensions [0 0 0 1 0 0 0];
+internalField uniform {T0};
+boundaryField
+{{
+    interface {{ type zeroGradient; }}
+    "end_y(min|max)" {{ {"type empty;" if two_d else "type zeroGradient;"} }}
+}}
+""",
+            cls="volScalarField",
+        )
+    if transpiration:
+        return motion
     fc.write(
         case,
         "0/pointDisplacement",
@@ -305,6 +360,34 @@ boundaryField
         cls="pointVectorField",
     )
     return motion
+
+
+def thermophysical_properties(bulk_modulus: float = K_WATER) -> str:
+    """Weakly compressible water for rhoPimpleFoam: rho = rho0 + p/(R T) (perfectFluid), with
+    R T0 = K/rho0, so that dp/drho = K/rho0 (c = 1483 m/s for K = 2.2 GPa) at the hydrodynamic
+    p = 0 of the water at rest; mu 1.308e-3 Pa s; no pressure work in the energy equation
+    (dpdt no: T stays T0 to 1e-4 K, so psi = 1/(R T) is constant)."""
+    r_gas = bulk_modulus / (RHO * T0)
+    return f"""
+thermoType
+{{
+    type            heRhoThermo;
+    mixture         pureMixture;
+    transport       const;
+    thermo          hConst;
+    equationOfState perfectFluid;
+    specie          specie;
+    energy          sensibleEnthalpy;
+}}
+mixture
+{{
+    specie          {{ molWeight 18.015; }}
+    equationOfState {{ R {r_gas!r}; rho0 {RHO}; }}
+    thermodynamics  {{ Cp 4181; Hf 0; }}
+    transport       {{ mu {RHO * NU!r}; Pr 7; }}
+}}
+dpdt no;
+"""
 
 
 def harmonic_lateral(t: np.ndarray, a0: float, omega: float):

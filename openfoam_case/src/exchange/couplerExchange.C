@@ -1,0 +1,503 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | TunnelQuake: water side, built against
+   \\    /   O peration     | OpenFOAM v1912
+    \\  /    A nd           |
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+License
+    GPL-3.0-or-later, like the OpenFOAM libraries it links against.
+
+\*---------------------------------------------------------------------------*/
+
+// The coupler's headers first: plain C++17, parsed before OpenFOAM's macros
+#include "tq/coupler/errors.hpp"
+#include "tq/coupler/participant.hpp"
+
+#include "couplerExchange.H"
+#include "addToRunTimeSelectionTable.H"
+#include "polyMesh.H"
+#include "globalMeshData.H"
+#include "globalIndex.H"
+#include "Pstream.H"
+#include "OSspecific.H"
+
+#include <cstdlib>
+
+// * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace tq
+{
+    defineTypeNameAndDebug(couplerExchange, 0);
+    addToRunTimeSelectionTable(interfaceExchange, couplerExchange, dictionary);
+}
+}
+
+
+// * * * * * * * * * * * * * * * Local Functions * * * * * * * * * * * * * * //
+
+namespace
+{
+
+std::string str(const Foam::string& s)
+{
+    return std::string(s.c_str());
+}
+
+} // End anonymous namespace
+
+
+// * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
+
+void Foam::tq::couplerExchange::fail
+(
+    const std::string& where,
+    const std::string& what
+) const
+{
+    FatalErrorInFunction
+        << "Coupling with the solid failed in " << where.c_str() << ":" << nl
+        << "    " << what.c_str() << nl
+        << "The partner has been told (ABORT) where the link still works."
+        << exit(FatalError);
+}
+
+
+void Foam::tq::couplerExchange::syncFlags()
+{
+    if (Pstream::master())
+    {
+        readCheckpoint_ = participant_->requiresReadingCheckpoint();
+        writeCheckpoint_ = participant_->requiresWritingCheckpoint();
+        ongoing_ = participant_->isCouplingOngoing();
+    }
+    Pstream::scatter(readCheckpoint_);
+    Pstream::scatter(writeCheckpoint_);
+    Pstream::scatter(ongoing_);
+}
+
+
+Foam::tmp<Foam::vectorField> Foam::tq::couplerExchange::readLocal
+(
+    const word& field
+)
+{
+    vectorField global(nGlobal_, Zero);
+    if (Pstream::master())
+    {
+        std::vector<double> v;
+        try
+        {
+            participant_->readData(meshName_, field, v);
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("readData", e.what());
+        }
+        if (label(v.size()) != 3*nGlobal_)
+        {
+            fail
+            (
+                "readData",
+                "field '" + field + "' has " + std::to_string(v.size())
+              + " values for " + std::to_string(nGlobal_) + " points x 3"
+            );
+        }
+        forAll(global, i)
+        {
+            global[i] = vector(v[3*i], v[3*i + 1], v[3*i + 2]);
+        }
+    }
+    Pstream::scatter(global);
+    return tmp<vectorField>(new vectorField(global, pointToGlobal_));
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::tq::couplerExchange::couplerExchange
+(
+    const Time& runTime,
+    const dictionary& dict
+)
+:
+    interfaceExchange(runTime, dict),
+    participant_(),
+    name_(dict.lookupOrDefault<word>("participant", "fluid")),
+    meshName_(dict.lookupOrDefault<word>("mesh", "wall")),
+    readFields_
+    (
+        dict.lookupOrDefault<wordList>("readFields", wordList{"velocity"})
+    ),
+    writeFields_
+    (
+        dict.lookupOrDefault<wordList>("writeFields", wordList{"force"})
+    ),
+    readsDisplacement_(false),
+    windowSize_
+    (
+        dict.lookupOrDefault<scalar>("windowSize", runTime.deltaTValue())
+    ),
+    startTime_(runTime.value()),
+    pointToGlobal_(),
+    nGlobal_(0),
+    windowStart_(runTime.value()),
+    readCheckpoint_(false),
+    writeCheckpoint_(false),
+    ongoing_(false),
+    finalized_(false)
+{
+    if (!readFields_.found("velocity"))
+    {
+        FatalIOErrorInFunction(dict)
+            << "readFields " << readFields_ << " must contain 'velocity' (the"
+            << " wall velocity of the solid)." << exit(FatalIOError);
+    }
+    readsDisplacement_ = readFields_.found("displacement");
+    if (writeFields_.size() != 1)
+    {
+        FatalIOErrorInFunction(dict)
+            << "writeFields " << writeFields_ << ": give the one force field"
+            << " (e.g. (force))." << exit(FatalIOError);
+    }
+    if (windowSize_ < runTime.deltaTValue()*(1 - 1e-9))
+    {
+        FatalIOErrorInFunction(dict)
+            << "windowSize " << windowSize_ << " s is smaller than the fluid"
+            << " step deltaT " << runTime.deltaTValue() << " s." << nl
+            << "Fix: a coupling window holds one or more fluid steps."
+            << exit(FatalIOError);
+    }
+}
+
+
+Foam::tq::couplerExchange::~couplerExchange()
+{
+    // Participant's destructor sends ABORT when not finalized
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+void Foam::tq::couplerExchange::initialize
+(
+    const polyPatch& patch,
+    const pointField& points0,
+    const scalarField&
+)
+{
+    // Unique numbering of the interface points over all ranks
+    labelList uniqueMeshPoints;
+    autoPtr<globalIndex> gi = patch.boundaryMesh().mesh().globalData()
+        .mergePoints
+        (
+            patch.meshPoints(),
+            patch.meshPointMap(),
+            pointToGlobal_,
+            uniqueMeshPoints
+        );
+    nGlobal_ = gi().size();
+
+    windowDisplacement_.setSize(points0.size(), Zero);
+    lastDisplacement_.setSize(points0.size(), Zero);
+
+    // Reference coordinates of every interface point, on the master
+    List<labelList> procIds(Pstream::nProcs());
+    List<pointField> procPoints(Pstream::nProcs());
+    procIds[Pstream::myProcNo()] = pointToGlobal_;
+    procPoints[Pstream::myProcNo()] = points0;
+    Pstream::gatherList(procIds);
+    Pstream::gatherList(procPoints);
+
+    if (Pstream::master())
+    {
+        std::vector<std::int64_t> ids(nGlobal_);
+        std::vector<double> xyz(3*nGlobal_, 0.0);
+        forAll(procIds, proci)
+        {
+            forAll(procIds[proci], i)
+            {
+                const label g = procIds[proci][i];
+                const point& x = procPoints[proci][i];
+                xyz[3*g] = x.x();
+                xyz[3*g + 1] = x.y();
+                xyz[3*g + 2] = x.z();
+            }
+        }
+        for (label g = 0; g < nGlobal_; ++g)
+        {
+            ids[g] = g;
+        }
+
+        // The coupling configuration, item by item from the dictionary
+        ::tq::coupler::CouplingConfig c;
+        const word partner(dict_.lookupOrDefault<word>("partner", "solid"));
+        c.first = partner;
+        c.second = name_;
+        c.units = str(dict_.lookupOrDefault<string>("units", "SI(m,kg,s,N,Pa)"));
+        c.windowSize = windowSize_;
+        {
+            const scalar span = time_.endTime().value() - startTime_;
+            const label nDefault = label(std::llround(span/windowSize_));
+            c.maxWindows = dict_.lookupOrDefault<label>("windows", nDefault);
+        }
+        c.maxIterations = dict_.lookupOrDefault<label>("maxIterations", 20);
+        c.tolerance = dict_.lookupOrDefault<scalar>("tolerance", 1e-4);
+        c.initialRelaxation =
+            dict_.lookupOrDefault<scalar>("initialRelaxation", 0.5);
+
+        ::tq::coupler::TransportOptions t;
+        try
+        {
+            c.scheme = ::tq::coupler::parseScheme
+            (
+                dict_.lookupOrDefault<word>("scheme", "explicit")
+            );
+            c.acceleration = ::tq::coupler::parseAcceleration
+            (
+                dict_.lookupOrDefault<word>("acceleration", "aitken")
+            );
+            ::tq::coupler::MeshSpec m;
+            m.name = meshName_;
+            m.mapping = ::tq::coupler::parseMapKind
+            (
+                dict_.lookupOrDefault<word>("map", "coincident")
+            );
+            m.mappingSide =
+                str(dict_.lookupOrDefault<string>("mappingSide", ""));
+            m.tolerance = dict_.lookupOrDefault<scalar>("mapTolerance", 1e-6);
+            c.meshes.push_back(m);
+            for (const word& f : readFields_)
+            {
+                c.fields.push_back
+                (
+                    {
+                        meshName_, f, 3, partner,
+                        ::tq::coupler::MapConstraint::Consistent
+                    }
+                );
+            }
+            for (const word& f : writeFields_)
+            {
+                c.fields.push_back
+                (
+                    {
+                        meshName_, f, 3, name_,
+                        ::tq::coupler::MapConstraint::Conservative
+                    }
+                );
+            }
+            c.validate();
+
+            // Transport: TCP (the MPI transport needs the world split of
+            // an MPMD start, which OpenFOAM's Pstream does not offer)
+            const word transport
+            (
+                dict_.lookupOrDefault<word>("transport", "tcp")
+            );
+            if (transport != "tcp")
+            {
+                fail
+                (
+                    "initialize",
+                    "transport '" + transport + "': the OpenFOAM side speaks"
+                    " tcp only (set 'transport tcp;')"
+                );
+            }
+            t.addressFile =
+                str(dict_.lookupOrDefault<fileName>("addressFile", "").expand());
+            t.receiveTimeout = dict_.lookupOrDefault<scalar>("timeout", 120);
+            t.connectTimeout =
+                dict_.lookupOrDefault<scalar>("connectTimeout", 120);
+            t.connectHost =
+                str(dict_.lookupOrDefault<string>("host", "127.0.0.1"));
+            t.connectPort = dict_.lookupOrDefault<label>("port", 0);
+            const word role(dict_.lookupOrDefault<word>("role", "auto"));
+            if (role == "listen")
+            {
+                t.role = ::tq::coupler::ConnectRole::Listen;
+            }
+            else if (role == "connect")
+            {
+                t.role = ::tq::coupler::ConnectRole::Connect;
+            }
+            else if (role != "auto")
+            {
+                fail("initialize", "role '" + role + "': auto, listen or connect");
+            }
+            if (t.addressFile.empty() && t.connectPort <= 0)
+            {
+                fail
+                (
+                    "initialize",
+                    "no 'addressFile' (or 'port') to find the partner"
+                );
+            }
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("the coupling configuration", e.what());
+        }
+
+        // The run token: from the dictionary or the environment
+        std::string token = str(dict_.lookupOrDefault<string>("token", ""));
+        if (token.empty())
+        {
+            const word env
+            (
+                dict_.lookupOrDefault<word>("tokenEnv", "TQ_COUPLING_TOKEN")
+            );
+            token = str(Foam::getEnv(env));
+            if (token.empty())
+            {
+                fail
+                (
+                    "initialize",
+                    "no run token: give 'token' in the exchange dictionary"
+                    " or set the environment variable " + env
+                );
+            }
+        }
+
+        try
+        {
+            participant_.reset
+            (
+                new ::tq::coupler::Participant(name_, c, t, token)
+            );
+            participant_->setMeshVertices(meshName_, ids, xyz);
+            participant_->initialize();
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("initialize (connect, handshake)", e.what());
+        }
+
+        Info<< "couplerExchange: participant '" << name_ << "' coupled with '"
+            << partner << "' on mesh '" << meshName_ << "' ("
+            << nGlobal_ << " points), scheme "
+            << ::tq::coupler::schemeName(c.scheme) << ", window "
+            << windowSize_ << " s x " << label(c.maxWindows) << endl;
+    }
+
+    syncFlags();
+}
+
+
+void Foam::tq::couplerExchange::writeForces
+(
+    const scalar,
+    const vectorField& forces
+)
+{
+    // Point forces of all ranks, summed per global point (shared points
+    // carry partial sums on each rank)
+    List<labelList> procIds(Pstream::nProcs());
+    List<vectorField> procF(Pstream::nProcs());
+    procIds[Pstream::myProcNo()] = pointToGlobal_;
+    procF[Pstream::myProcNo()] = forces;
+    Pstream::gatherList(procIds);
+    Pstream::gatherList(procF);
+
+    if (Pstream::master())
+    {
+        std::vector<double> f(3*nGlobal_, 0.0);
+        forAll(procIds, proci)
+        {
+            forAll(procIds[proci], i)
+            {
+                const label g = procIds[proci][i];
+                const vector& F = procF[proci][i];
+                f[3*g] += F.x();
+                f[3*g + 1] += F.y();
+                f[3*g + 2] += F.z();
+            }
+        }
+        try
+        {
+            participant_->writeData(meshName_, writeFields_[0], f);
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("writeData", e.what());
+        }
+    }
+}
+
+
+void Foam::tq::couplerExchange::advance(const scalar dt)
+{
+    bool complete = false;
+    scalar windowStart = windowStart_;
+    if (Pstream::master())
+    {
+        try
+        {
+            participant_->advance(dt);
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("advance", e.what());
+        }
+        complete = participant_->isTimeWindowComplete();
+        windowStart = startTime_ + participant_->windowStartTime();
+    }
+    Pstream::scatter(complete);
+    Pstream::scatter(windowStart);
+    syncFlags();
+
+    if (complete)
+    {
+        // The window is accepted: the next one starts from here
+        windowDisplacement_ = lastDisplacement_;
+        windowStart_ = windowStart;
+    }
+}
+
+
+void Foam::tq::couplerExchange::readMotion
+(
+    const scalar t,
+    vectorField& displacement,
+    vectorField& velocity
+)
+{
+    velocity = readLocal("velocity");
+    if (readsDisplacement_)
+    {
+        displacement = readLocal("displacement");
+    }
+    else
+    {
+        // u = u_w + v (t - t_w): the velocity is held over the window
+        displacement = windowDisplacement_ + velocity*(t - windowStart_);
+    }
+    lastDisplacement_ = displacement;
+}
+
+
+void Foam::tq::couplerExchange::finalize()
+{
+    if (finalized_)
+    {
+        return;
+    }
+    finalized_ = true;
+    if (Pstream::master() && participant_)
+    {
+        try
+        {
+            participant_->finalize();
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("finalize", e.what());
+        }
+    }
+    ongoing_ = false;
+}
+
+
+// ************************************************************************* //

@@ -1,0 +1,315 @@
+// The solid adapter of the water coupling (tq/fluid_coupling.hpp; docs/coupler.md "Solid adapter").
+// The only solid source that includes the coupler's headers.
+#include "tq/fluid_coupling.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "tq/coupler/errors.hpp"
+#include "tq/coupler/participant.hpp"
+
+namespace tq {
+
+namespace cp = tq::coupler;
+
+namespace {
+
+/// The cause-specific advice appended to a coupler error.
+std::string fixFor(const std::exception& e, const CouplingInput& in) {
+  std::ostringstream os;
+  if (dynamic_cast<const cp::TimeoutError*>(&e))
+    os << "The water solver sent nothing within the coupling timeout of " << in.timeout
+       << " s. Fix: see the water solver's log (hung or crashed); if it is only slow, raise coupling.timeout "
+          "(solid_input.h5 /coupling timeout).";
+  else if (dynamic_cast<const cp::PartnerLostError*>(&e))
+    os << "The water solver stopped or closed the connection. Fix: see the water solver's log for its error, "
+          "correct it and start the run again.";
+  else if (dynamic_cast<const cp::HandshakeError*>(&e))
+    os << "The water solver is configured differently or belongs to another run. Fix: start both sides from "
+          "the same `tunnelquake run` (same coupling section, mesh and token).";
+  else if (dynamic_cast<const cp::ProtocolError*>(&e))
+    os << "A malformed or out-of-step message arrived. Fix: check that both sides are built from the same "
+          "release; a foreign program may have connected to the coupling port.";
+  else if (dynamic_cast<const cp::DivergenceError*>(&e))
+    os << "The coupled iteration diverged (non-finite values). Fix: use scheme implicit with acceleration "
+          "iqn-ils, or a shorter coupling window (see docs/coupler.md).";
+  else if (dynamic_cast<const cp::MapError*>(&e))
+    os << "The interface meshes do not match. Fix: regenerate the water mesh from the same geometry as mesh.h5 "
+          "(its interface points must coincide with the solid's '" << in.face << "' nodes), or use map projection.";
+  else if (dynamic_cast<const cp::TransportError*>(&e))
+    os << "The connection to the water solver failed. Fix: check the address file '" << in.addressFile
+       << "' and that both sides run on this machine (or set transport mpi under mpirun).";
+  else
+    os << "Fix: check /coupling in solid_input.h5 against the water side's configuration.";
+  return os.str();
+}
+
+}  // namespace
+
+struct FluidCoupling::Impl {
+  Solver& solver;
+  CouplingInput in;
+  std::vector<Index> nodes;          // interface nodes (mesh indices, ascending)
+  std::vector<Real> u0;              // [3n] displacement at the seismic start (reference)
+  std::vector<Real> force, prev;     // [3n] force added this step / last step (N)
+  std::vector<Real> received;        // [3n] latest force read from the fluid
+  std::vector<Real> trial;           // [3n] force used in the current prediction
+  std::vector<Real> disp, vel;       // [3n] predicted motion written
+  std::unique_ptr<cp::Participant> p;
+  cp::SchemeKind scheme = cp::SchemeKind::Implicit;
+  Real window = 0, dtPrev = 0;
+  long long windows = 0;
+  Index stepInWindow = 0;
+  Real work = 0;
+  FluidCouplingStats stats;
+  bool initialized = false, finalized = false;
+
+  explicit Impl(Solver& s) : solver(s) {}
+
+  [[noreturn]] void fail(const std::string& what, const std::exception& e) {
+    std::ostringstream os;
+    os << "water coupling: " << what << " at t = " << solver.time() << " s (solid step " << solver.stepCount()
+       << "): " << e.what() << " " << fixFor(e, in);
+    throw CouplingError(os.str());
+  }
+
+  /// Predicted u^{n+1} − u0 and v^{n+½} of the interface nodes with the extra force F, by the
+  /// solver's own update (Solver::updateNodes).
+  void predict(Real dt, const NodalState& st, const std::vector<Real>& F) {
+    const bool leapfrog = solver.options().integrator == Integrator::CentralDifference;
+    const Real alpha = solver.massDampingCoefficient();
+    const Real* u = st.uData();
+    const Real* v = st.vData();
+    const Real* fi = st.fIntData();
+    const Real* fe = st.fExtData();
+    const Real* cb = st.dashpotData();
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Index n = nodes[k];
+      const Real mn = st.mass(n);
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = 3 * size_t(n) + size_t(d), j = 3 * k + size_t(d);
+        if (!(mn > 0)) {  // node of no active element: the solver holds it at rest
+          disp[j] = u[i] - u0[j];
+          vel[j] = 0;
+          continue;
+        }
+        const Real fr = solver.isFixed(n, d) ? 0.0 : 1.0;
+        const Real f = (fe[i] + F[j]) - fi[i], cm = alpha * mn;
+        Real vn, du;
+        if (leapfrog) {
+          const Real mdt = mn / dt, ch = 0.5 * (cm + cb[i]);
+          vn = fr * ((mdt - ch) * v[i] + f) / (mdt + ch);
+          du = dt * vn;
+        } else {
+          const Real acc = fr * (f - (cm + cb[i]) * v[i]) / mn;
+          du = dt * v[i] + 0.5 * dt * dt * acc;
+          vn = fr * (2 * du / dt - v[i]);
+        }
+        disp[j] = (u[i] + du) - u0[j];
+        vel[j] = vn;
+      }
+    }
+  }
+
+  void write() {
+    for (const auto& name : in.writeFields)
+      p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
+  }
+};
+
+FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
+    : impl_(std::make_unique<Impl>(solver)) {
+  Impl& I = *impl_;
+  I.in = in;
+  const Mesh& mesh = solver.mesh();
+  I.nodes = mesh.faceNodes(in.face);  // throws InputError naming the missing group
+  std::sort(I.nodes.begin(), I.nodes.end());
+  I.nodes.erase(std::unique(I.nodes.begin(), I.nodes.end()), I.nodes.end());
+  if (I.nodes.empty()) throw InputError("/coupling: face group '" + in.face + "' has no nodes");
+  const size_t n3 = 3 * I.nodes.size();
+  I.u0.resize(n3);
+  I.force.assign(n3, 0.0);
+  I.prev.assign(n3, 0.0);
+  I.received.assign(n3, 0.0);
+  I.trial.assign(n3, 0.0);
+  I.disp.assign(n3, 0.0);
+  I.vel.assign(n3, 0.0);
+  for (size_t k = 0; k < I.nodes.size(); ++k)
+    for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
+
+  // Step and window: window = k solid steps.
+  if (in.windowSize > 0) solver.setTimeStep(in.windowSize / Real(in.windowSteps));  // InputError if unstable
+  I.window = in.windowSize > 0 ? in.windowSize : Real(in.windowSteps) * solver.dt();
+  I.windows = in.windows > 0 ? in.windows : (long long)std::ceil(tEnd / I.window - 1e-9);
+  if (I.windows < 1) I.windows = 1;
+
+  cp::CouplingConfig c;
+  c.first = in.participant;
+  c.second = in.partner;
+  c.windowSize = I.window;
+  c.maxWindows = std::uint64_t(I.windows);
+  c.maxIterations = int(in.maxIterations);
+  c.tolerance = in.tolerance;
+  c.initialRelaxation = in.initialRelaxation;
+  cp::TransportOptions t;
+  try {
+    c.scheme = cp::parseScheme(in.scheme);
+    c.acceleration = cp::parseAcceleration(in.acceleration);
+    c.meshes.push_back({in.mesh, cp::parseMapKind(in.map), in.participant, in.mapTolerance});
+    for (const auto& f : in.writeFields)
+      c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent});
+    c.fields.push_back({in.mesh, "force", 3, in.partner, cp::MapConstraint::Conservative});
+    c.validate();
+  } catch (const cp::CouplerError& e) {
+    throw InputError(std::string("/coupling: ") + e.what());
+  }
+  I.scheme = c.scheme;
+  t.kind = in.transport == "mpi" ? cp::TransportKind::Mpi : cp::TransportKind::Tcp;
+  t.addressFile = in.addressFile;
+  t.receiveTimeout = in.timeout;
+  t.connectTimeout = in.connectTimeout > 0 ? in.connectTimeout : in.timeout;
+
+  // Interface vertices: mesh node index as id, reference coordinates, the face's quads as triangles.
+  std::vector<std::int64_t> ids(I.nodes.begin(), I.nodes.end());
+  std::vector<double> xyz(n3);
+  for (size_t k = 0; k < I.nodes.size(); ++k)
+    for (int d = 0; d < 3; ++d) xyz[3 * k + d] = mesh.coords[3 * size_t(I.nodes[k]) + d];
+  std::vector<std::int32_t> tri;
+  const auto& quads = mesh.faces.at(in.face);
+  auto local = [&](Index n) {
+    return std::int32_t(std::lower_bound(I.nodes.begin(), I.nodes.end(), n) - I.nodes.begin());
+  };
+  for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+    const std::int32_t a = local(quads[q]), b = local(quads[q + 1]), cc = local(quads[q + 2]), d = local(quads[q + 3]);
+    tri.insert(tri.end(), {a, b, cc, a, cc, d});
+  }
+  try {
+    I.p = std::make_unique<cp::Participant>(in.participant, c, t, in.token);
+    I.p->setMeshVertices(in.mesh, std::move(ids), std::move(xyz), std::move(tri));
+  } catch (const cp::CouplerError& e) {
+    throw InputError(std::string("/coupling: ") + e.what());
+  }
+}
+
+FluidCoupling::~FluidCoupling() = default;  // the Participant sends ABORT when not finalized
+
+void FluidCoupling::initialize() {
+  Impl& I = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    I.p->initialize();
+    I.p->readData(I.in.mesh, "force", I.received);
+  } catch (const cp::CouplerError& e) {
+    I.fail("could not start the coupling with '" + I.in.partner + "'", e);
+  }
+  I.stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  I.initialized = true;
+}
+
+void FluidCoupling::finalize() {
+  Impl& I = *impl_;
+  if (!I.initialized || I.finalized) return;
+  try {
+    I.p->finalize();
+  } catch (const cp::CouplerError& e) {
+    I.fail("the clean end of the coupling failed", e);
+  }
+  I.finalized = true;
+}
+
+void FluidCoupling::abort(const std::string& reason) noexcept {
+  if (impl_->p && !impl_->finalized) impl_->p->abort(reason);
+  impl_->finalized = true;
+}
+
+std::string FluidCoupling::name() const { return "water coupling on '" + impl_->in.face + "'"; }
+
+void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
+  Impl& I = *impl_;
+  if (!I.initialized) throw CouplingError("water coupling: addForces before initialize()");
+  if (!I.p->isCouplingOngoing())  // past the last window (never in tq-solid: its loop stops there)
+    throw CouplingError("water coupling: the solid stepped past the last coupling window (t_end = " +
+                        std::to_string(endTime()) + " s); stop the time loop when ongoing() is false");
+  const size_t n3 = I.force.size();
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    if (++I.stepInWindow < I.in.windowSteps) {
+      // Inside a window of k steps (explicit scheme): the last force is held; time moves on.
+      I.force = I.received;
+      I.p->advance(dt);
+    } else {
+      I.stepInWindow = 0;
+      // Pass 0 force: the paper's predictor and the explicit scheme predict without the fluid;
+      // the implicit scheme starts from the last converged force.
+      if (I.scheme == cp::SchemeKind::Implicit)
+        I.trial = I.received;
+      else
+        std::fill(I.trial.begin(), I.trial.end(), 0.0);
+      long long passes = 0;
+      for (;;) {
+        I.predict(dt, st, I.trial);
+        I.write();
+        I.p->advance(dt);
+        ++passes;
+        I.p->readData(I.in.mesh, "force", I.received);
+        if (!I.p->requiresReadingCheckpoint()) break;  // window complete
+        I.trial = I.received;  // repeat: the solid's answer to the new force is the local update
+      }
+      // The force applied: explicit — the one exchange's answer (the corrector of the prediction);
+      // paper and implicit — the force the last written prediction was made with (paper: R3 of the
+      // predictor pass; implicit: the converged force), so the fluid saw exactly this motion.
+      I.force = I.scheme == cp::SchemeKind::Explicit ? I.received : I.trial;
+      ++I.stats.windows;
+      I.stats.passes += passes;
+      I.stats.maxPasses = std::max(I.stats.maxPasses, passes);
+    }
+  } catch (const cp::CouplerError& e) {
+    I.fail("exchange with '" + I.in.partner + "' failed", e);
+  }
+  I.stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Add R3 and book its work over u^{n−1} → u^n exactly as the solver books f_ext (trapezoid).
+  Real* fe = st.fExtData();
+  const Real* v = st.vData();
+  Real w = 0;
+  for (size_t k = 0; k < I.nodes.size(); ++k)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(I.nodes[k]) + size_t(d), j = 3 * k + size_t(d);
+      if (!(st.mass(I.nodes[k]) > 0)) continue;
+      fe[i] += I.force[j];
+      w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+    }
+  (void)n3;
+  I.work += w;
+  I.prev = I.force;
+  I.dtPrev = dt;
+}
+
+bool FluidCoupling::ongoing() const { return impl_->p && impl_->initialized && impl_->p->isCouplingOngoing(); }
+Real FluidCoupling::endTime() const { return Real(impl_->windows) * impl_->window; }
+Real FluidCoupling::windowSize() const { return impl_->window; }
+long long FluidCoupling::windowCount() const { return impl_->windows; }
+Real FluidCoupling::fluidWork() const { return impl_->work; }
+FluidCouplingStats FluidCoupling::stats() const { return impl_->stats; }
+const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
+const std::vector<Real>& FluidCoupling::force() const { return impl_->force; }
+
+std::string FluidCoupling::describe() const {
+  const Impl& I = *impl_;
+  std::ostringstream os;
+  os.precision(6);
+  os << "water coupling: scheme " << I.in.scheme << ", window " << I.window << " s (" << I.in.windowSteps
+     << " solid step(s)) x " << I.windows << ", " << I.nodes.size() << " nodes of '" << I.in.face << "' as mesh '"
+     << I.in.mesh << "', writes";
+  for (const auto& f : I.in.writeFields) os << " " << f;
+  os << ", reads force; " << I.in.transport;
+  if (I.in.transport == "tcp") os << " (address file " << I.in.addressFile << ")";
+  os << ", timeout " << I.in.timeout << " s";
+  if (I.scheme == cp::SchemeKind::Implicit)
+    os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration;
+  return os.str();
+}
+
+}  // namespace tq
