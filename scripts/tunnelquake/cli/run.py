@@ -22,25 +22,26 @@ def solver_status() -> dict[str, str | None]:
     return {
         "solid": None if solid and _solid_runs_cases(solid) else
         "the solid solver does not run staged seismic cases yet (issue 3: tq-solid)",
-        # The OpenFOAM library may be built, but the coupler that joins it to the solid is not yet.
-        "fluid": "the coupled water side is not in place yet (issues 5 and 6)"
-        if fluid else "the OpenFOAM-side library is not built (run scripts/bootstrap.sh)",
+        "fluid": None if fluid and solid and _solid_runs_cases(solid, "water-coupling") else
+        ("the OpenFOAM-side library is not built (run scripts/bootstrap.sh)" if not fluid else
+         "tq-solid does not report the water-coupling capability (rebuild it)"),
     }
 
 
-def _solid_runs_cases(exe) -> bool:
+def _solid_runs_cases(exe, capability: str = "staged-seismic") -> bool:
     import subprocess
 
     try:
         out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.TimeoutExpired):
         return False
-    return out.returncode == 0 and "staged-seismic" in out.stdout
+    return out.returncode == 0 and capability in out.stdout.split()
 
 
 def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
     """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
-    report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...)."""
+    report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
+    the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence)."""
     import subprocess
 
     from ..solid_input import write_solid_input
@@ -55,6 +56,192 @@ def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
         cmd += ["--threads", str(threads)]
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     return subprocess.run(cmd).returncode, res
+
+
+def _solid_step(exe, solid_input) -> float:
+    """The solid step tq-solid will take (its --check: safety x the stable step, or the case's dt)."""
+    import math
+    import re
+    import subprocess
+
+    out = subprocess.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
+    m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
+    if out.returncode != 0 or not m:
+        raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
+    # printed to 6 digits: round *down* to 5 so that the pinned step is never above the limit
+    dt = float(m.group(1))
+    q = 10.0 ** (math.floor(math.log10(dt)) - 4)
+    return math.floor(dt / q) * q
+
+
+class _Side:
+    """One participant's process, its log streamed to a file and echoed (filtered) to the terminal."""
+
+    def __init__(self, name: str, cmd: list[str], log, env, echo):
+        import subprocess
+        import threading
+
+        self.name, self.log, self.lines = name, log, []
+        self.fh = open(log, "w")
+        self.proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     bufsize=1)
+        self.thread = threading.Thread(target=self._pump, args=(echo,), daemon=True)
+        self.thread.start()
+
+    def _pump(self, echo) -> None:
+        for line in self.proc.stdout:
+            self.fh.write(line)
+            self.fh.flush()
+            self.lines.append(line.rstrip())
+            del self.lines[:-40]
+            if echo(line):
+                say(f"  [{self.name}] {line.rstrip()}")
+
+    def close(self) -> None:
+        self.thread.join(timeout=10)
+        self.fh.close()
+
+    def tail(self, n: int = 6) -> str:
+        return "\n".join(f"      {x}" for x in self.lines[-n:])
+
+
+def _fluid_echo():
+    """Which OpenFOAM lines reach the terminal: errors, the library's messages, the end, and the
+    simulated time every 5 s of wall time."""
+    import time as _time
+
+    last = [0.0]
+
+    def echo(line: str) -> bool:
+        if line.startswith("tqInterface interface: t ="):  # one per pass: to the log only
+            return False
+        if "FATAL" in line or "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
+            return True
+        if line.startswith("Time = ") and _time.monotonic() - last[0] > 5.0:
+            last[0] = _time.monotonic()
+            return True
+        return False
+
+    return echo
+
+
+def _stop(side: _Side, grace: float) -> None:
+    """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
+    after its coupling timeout), then kill it."""
+    import subprocess
+
+    try:
+        side.proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        say(f"  {side.name} did not stop within {grace:.0f} s: killing it (pid {side.proc.pid})")
+        side.proc.kill()
+        side.proc.wait(timeout=30)
+
+
+def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, str]:
+    """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
+    by the coupler over TCP. Returns (exit code, results path, what happened). Exit code: 0 both
+    completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1)."""
+    import secrets
+    import time as _time
+
+    import h5py
+
+    from .. import fluid_case as fc
+    from ..solid_input import write_solid_input
+    from .mesh import mesh_dir
+
+    work = case.output_dir / cond
+    work.mkdir(parents=True, exist_ok=True)
+    res = case.output_dir / f"results_{cond}.h5"
+    exe = paths.solid_executable()
+    token = secrets.token_hex(16)
+    addr = work / "wall.addr"
+    addr.unlink(missing_ok=True)
+    mesh_h5 = mesh_dir(case) / "mesh.h5"
+    try:
+        inp = write_solid_input(case, mesh_h5, motion_file, cond, work / "solid_input.h5",
+                                coupling_address=addr, coupling_token=token)
+        with h5py.File(inp, "r") as f:
+            t_end = float(f["solver"].attrs["t_end"])
+        with h5py.File(mesh_h5, "r") as f:
+            slice_mode = int(f.attrs.get("slice", 0)) == 1
+        k = int(case.data["coupling"]["window"])
+        settings = fc.coupling_settings(case, k * _solid_step(exe, inp), addr, token, t_end=t_end)
+        with h5py.File(inp, "a") as f:  # pin every item of the handshake on the solid side too
+            f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
+        fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
+        env = fc.fluid_env()
+    except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
+        say(f"condition {cond}: cannot set up the coupled run: {e}")
+        return 2, res, f"not started: {e}"
+    say(f"condition {cond}: {settings['windows']} coupling windows of {settings['window_size']:.6g} s "
+        f"({settings['scheme']}, {settings['acceleration']}); water: {fluid.solver} ({fluid.model}, {fluid.mode}) "
+        f"in {fluid.path}")
+
+    import os
+
+    env[fc.TOKEN_ENV] = token
+    solid_env = dict(os.environ)
+    solid_cmd = [str(exe), str(inp), "-o", str(res)]
+    threads = case.data["parallel"]["threads"]
+    if threads:
+        solid_cmd += ["--threads", str(threads)]
+    t0 = _time.perf_counter()
+    say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
+    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env, lambda line: True)
+    fluid_side = None
+    timeout = settings["timeout"]
+    # the solid publishes its address after its static stages (relaxation: no time limit known)
+    while fluid_side is None:
+        if addr.exists():
+            fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
+            say(f"condition {cond}: solid listening; running the water ({' '.join(fluid_cmd)}); "
+                f"log {work / 'fluid.log'}")
+            fluid_side = _Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
+            break
+        if solid.proc.poll() is not None:
+            break
+        _time.sleep(0.05)
+
+    failed = None
+    if fluid_side is not None:
+        while True:
+            rs, rf = solid.proc.poll(), fluid_side.proc.poll()
+            if rs is not None and rs != 0:
+                failed = solid
+                _stop(fluid_side, timeout)
+                break
+            if rf is not None and rf != 0:
+                failed = fluid_side
+                _stop(solid, timeout)
+                break
+            if rs == 0 and rf == 0:
+                break
+            if rs == 0 or rf == 0:  # one ended cleanly: the other must follow (BYE) within the timeout
+                other = fluid_side if rs == 0 else solid
+                try:
+                    other.proc.wait(timeout=timeout)
+                except Exception:  # noqa: BLE001 - a hung partner after BYE
+                    _stop(other, 0)
+                if other.proc.returncode != 0:
+                    failed = other
+                break
+            _time.sleep(0.1)
+        fluid_side.close()
+    elif solid.proc.wait() == 0:  # the solid ended without publishing: it never coupled
+        failed = solid
+    else:
+        failed = solid
+    solid.close()
+    wall = _time.perf_counter() - t0
+    if failed is not None:
+        rc = failed.proc.returncode or 1
+        side = "tq-solid (solid)" if failed is solid else f"{fluid.solver} (water)"
+        say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
+        return (rc if failed is solid else 1), res, (f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
+                                                     f"; what the solid wrote is in {res.name}")
+    return 0, res, f"coupled with {fluid.solver} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
 
 
 def main(argv: list[str]) -> int:
@@ -95,6 +282,13 @@ def main(argv: list[str]) -> int:
         if missing:
             say(f"condition {cond}: would run {runs}; not run: {'; '.join(missing)}")
             skipped.append(f"{cond} ({runs}): {'; '.join(missing)}")
+            continue
+        if "fluid" in parts:
+            rc, res, why = run_coupled_condition(case, cond, motion_file)
+            if rc == 0:
+                done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
+            else:
+                failed.append(f"{cond} ({runs}): {why}")
             continue
         rc, res = run_solid_condition(case, cond, motion_file)
         if rc == 0:

@@ -1,0 +1,297 @@
+"""The OpenFOAM case of condition dynamic_water, built from openfoam_case/template and the case's
+water mesh (results/mesh/water.msh), coupled to tq-solid through the coupler (docs/water.md §8,
+docs/coupler.md "Running condition 3").
+
+    settings = coupling_settings(case, window_size, address_file, token)   # one source of truth
+    solid_coupling_attrs(settings)   -> the /coupling attributes of solid_input.h5
+    exchange_dict(settings)          -> the fluid's `exchange { type coupler; ... }` dictionary
+    build_fluid_case(case, water_msh, folder, settings) -> FluidCase
+
+The two sides' coupling configurations are compared item by item in the coupler's handshake, so
+both are written from the same `settings`: mesh name, participants, scheme, tolerance,
+iterations, acceleration, relaxation, the fields the solid writes (in order), the map, the window
+size and the number of windows are pinned on both sides (none is left to a side's default).
+
+Water models (case `water` section):
+
+    compressible     rhoPimpleFoam, perfectFluid with R T0 = K / rho0 (K = water.bulk_modulus), p in Pa
+    incompressible   pimpleFoam, nu = viscosity / density, p kinematic
+
+Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed (compressible
+water only: the case check refuses a closed incompressible slice). 3D: incompressible water with
+open ends (p = 0); compressible water with `ends: closed` (walls) or `ends: open` (p = 0).
+Interface: transpiration (the template's default). nNonOrthogonalCorrectors 0: the meshes of
+tunnelquake.meshing are structured all-hex (docs/water.md §10).
+
+The token is not written into the case: the fluid reads it from the environment variable
+TQ_COUPLING_TOKEN (`tokenEnv`), see fluid_env().
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import paths
+
+TEMPLATE = paths.ROOT / "openfoam_case" / "template"
+T0 = 293.15  # K, the template's 0.compressible/T
+TOKEN_ENV = "TQ_COUPLING_TOKEN"
+#: what the solid writes by default (tq-solid's CouplingInput::writeFields), in order
+SOLID_WRITE_FIELDS = ("velocity", "displacement")
+
+
+class FluidCaseError(RuntimeError):
+    """The water case cannot be built; the message says why and what to do."""
+
+
+@dataclass
+class FluidCase:
+    path: Path
+    solver: str  # pimpleFoam | rhoPimpleFoam
+    mode: str  # slice | 3d
+    model: str  # incompressible | compressible
+    end_time: float
+    delta_t: float
+
+
+def coupling_settings(case, window_size: float, address_file: Path, token: str,
+                      t_end: float | None = None) -> dict:
+    """Everything both sides must agree on, from the case's coupling section and the solid step.
+
+    window_size: the coupling window in s (k solid steps); windows: ceil(t_end / window_size), the
+    rule tq-solid applies itself when it is not given."""
+    d = case.data
+    cs = d["coupling"]
+    if t_end is None:
+        t_end = d["time"]["end_time"]
+    if t_end is None:
+        raise FluidCaseError("coupling_settings needs the seismic duration (time.end_time or the motion's)")
+    if not window_size > 0:
+        raise FluidCaseError(f"coupling window size {window_size!r} s is not positive")
+    windows = max(1, math.ceil(t_end / window_size - 1e-9))
+    return {
+        "scheme": cs["scheme"],
+        "window": int(cs["window"]),
+        "window_size": float(window_size),
+        "windows": int(windows),
+        "tolerance": float(cs["tolerance"]),
+        "max_iterations": int(cs["max_iterations"]),
+        "acceleration": cs["acceleration"],
+        "initial_relaxation": 0.5,
+        "transport": cs["transport"],
+        "address_file": str(address_file),
+        "token": token,
+        "timeout": float(cs["timeout"]),
+        "connect_timeout": float(cs["timeout"]),
+        "face": "lining_inner",
+        "mesh": "wall",
+        "map": "coincident",
+        "map_tolerance": 1e-6,
+        "write_fields": list(SOLID_WRITE_FIELDS),
+        "participant": "solid",
+        "partner": "fluid",
+    }
+
+
+def solid_coupling_attrs(s: dict) -> dict:
+    """The /coupling attributes of solid_input.h5 (docs/formats.md) for these settings."""
+    out = {k: s[k] for k in ("scheme", "window", "window_size", "windows", "tolerance", "max_iterations",
+                             "acceleration", "initial_relaxation", "transport", "address_file", "token",
+                             "timeout", "connect_timeout", "face", "mesh", "map", "map_tolerance",
+                             "participant", "partner")}
+    out["write_fields"] = ",".join(s["write_fields"])
+    return out
+
+
+def exchange_dict(s: dict) -> str:
+    """The fluid's `exchange` dictionary (couplerExchange, docs/water.md §2) for these settings.
+    The fluid is the second participant; the solid (first) maps, so mappingSide is the solid."""
+    if s["transport"] != "tcp":
+        raise FluidCaseError(f"coupling.transport {s['transport']!r}: the OpenFOAM side speaks tcp only "
+                             "(docs/water.md §11); use transport: tcp")
+    if s["window"] != 1:
+        raise FluidCaseError(f"coupling.window = {s['window']}: `tunnelquake run` couples every solid step "
+                             "(window: 1); a window of k solid steps is not wired up for the fluid yet")
+    reads = " ".join(s["write_fields"])
+    return f"""exchange
+        {{
+            type            coupler;
+            participant     {s['partner']};
+            partner         {s['participant']};
+            tokenEnv        {TOKEN_ENV};
+            addressFile     "{s['address_file']}";
+            transport       {s['transport']};
+            timeout         {s['timeout']!r};
+            connectTimeout  {s['connect_timeout']!r};
+            scheme          {s['scheme']};
+            windowSize      {s['window_size']!r};
+            windows         {s['windows']};
+            maxIterations   {s['max_iterations']};
+            tolerance       {s['tolerance']!r};
+            acceleration    {s['acceleration']};
+            initialRelaxation {s['initial_relaxation']!r};
+            mesh            {s['mesh']};
+            map             {s['map']};
+            mapTolerance    {s['map_tolerance']!r};
+            mappingSide     "{s['participant']}";
+            readFields      ({reads});
+            writeFields     (force);
+        }}"""
+
+
+def _set_entry(text: str, key: str, value: str) -> str:
+    """Replace the value of a top-level-style `key value;` line (first occurrence)."""
+    new, n = re.subn(rf"^(\s*){re.escape(key)}(\s+)[^;\n]*;", rf"\g<1>{key}\g<2>{value};", text, count=1,
+                     flags=re.M)
+    if n != 1:
+        raise FluidCaseError(f"template entry '{key}' not found; the template and fluid_case.py disagree")
+    return new
+
+
+def _replace_block(text: str, name: str, block: str) -> str:
+    """Replace `name { ... }` (balanced braces, first occurrence) by `block`."""
+    m = re.search(rf"^\s*{re.escape(name)}\s*\n\s*\{{", text, flags=re.M)
+    if not m:
+        raise FluidCaseError(f"template block '{name}' not found in the controlDict")
+    start = text.index(name, m.start())
+    depth, i = 0, text.index("{", start)
+    while True:
+        if text[i] == "{":
+            depth += 1
+        elif text[i] == "}":
+            depth -= 1
+            if depth == 0:
+                break
+        i += 1
+    return text[:start] + block + text[i + 1:]
+
+
+def _boundary_types(folder: Path, types: dict[str, str]) -> None:
+    """Set the patch types gmshToFoam left as 'patch' (as the template's Allrun does)."""
+    boundary = folder / "constant" / "polyMesh" / "boundary"
+    for patch, typ in types.items():
+        if typ == "patch":
+            continue
+        _foam(folder, "foamDictionary", str(boundary), "-entry", f"entry0/{patch}/type", "-set", typ,
+              log=f"foamDictionary.{patch}", case=False)
+
+
+def fluid_env() -> dict[str, str]:
+    """OpenFOAM's environment (WM_PROJECT_DIR) with libtqFoam.so (and through it libmpi) loadable."""
+    env = paths.openfoam_env()
+    lib = paths.openfoam_library()
+    if lib is None:
+        raise FluidCaseError("libtqFoam.so is not built (cmake --build build --target tqFoam)")
+    env.setdefault("WM_PROJECT_DIR", "/usr/share/openfoam")
+    dirs = [str(lib.parent)]
+    mpi = Path("/usr/lib/x86_64-linux-gnu/openmpi/lib")
+    if mpi.is_dir():
+        dirs.append(str(mpi))
+    if env.get("LD_LIBRARY_PATH"):
+        dirs.append(env["LD_LIBRARY_PATH"])
+    env["LD_LIBRARY_PATH"] = os.pathsep.join(dirs)
+    env.setdefault("FOAM_SIGFPE", "true")
+    return env
+
+
+def _foam(folder: Path, *cmd: str, log: str, case: bool = True) -> None:
+    exe = shutil.which(cmd[0])
+    if exe is None:
+        raise FluidCaseError(f"OpenFOAM's {cmd[0]} is not on PATH (Debian package openfoam, v1912)")
+    proc = subprocess.run([exe, *cmd[1:], *(["-case", str(folder)] if case else [])], env=fluid_env(),
+                          capture_output=True, text=True, timeout=600)
+    (folder / f"log.{log}").write_text(proc.stdout + proc.stderr)
+    if proc.returncode != 0 or "FOAM FATAL" in proc.stdout + proc.stderr:
+        raise FluidCaseError(f"{cmd[0]} failed on the water case; see {folder / f'log.{log}'}")
+
+
+def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_mode: bool,
+                     write_interval: float | None = None) -> FluidCase:
+    """Make `folder` an OpenFOAM case of the water of `case`, ready to run coupled (not run)."""
+    d = case.data
+    water = d["water"]
+    model = water["model"]
+    mode = "slice" if slice_mode else "3d"
+    if mode == "slice" and model == "incompressible":
+        raise FluidCaseError("incompressible water in a slice cannot change its cross-section (closed domain); "
+                             "use water.model: compressible, or mesh.mode: 3d with open ends (docs/water.md §7)")
+    if mode == "3d" and model == "incompressible" and water["ends"] == "closed":
+        raise FluidCaseError("incompressible water with closed ends cannot change volume; use water.ends: open")
+    water_msh = Path(water_msh)
+    if not water_msh.is_file():
+        raise FluidCaseError(f"water mesh {water_msh} not found; run `tunnelquake mesh`")
+    rho, mu = float(water["density"]), float(water["viscosity"])
+    nu = mu / rho
+    dt = settings["window_size"]
+    end_time = settings["windows"] * dt
+
+    folder = Path(folder)
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    for sub in ("constant", "system"):
+        shutil.copytree(TEMPLATE / sub, folder / sub)
+    shutil.copy(water_msh, folder / "water.msh")
+    _foam(folder, "gmshToFoam", str(folder / "water.msh"), log="gmshToFoam")
+    closed_ends = mode == "slice" or (model == "compressible" and water["ends"] == "closed")
+    ends = "empty" if mode == "slice" else ("wall" if closed_ends else "patch")
+    _boundary_types(folder, {"interface": "wall", "end_ymin": ends, "end_ymax": ends})
+    _foam(folder, "checkMesh", log="checkMesh")
+
+    # initial fields
+    zero = folder / "0"
+    shutil.copytree(TEMPLATE / ("0.2d" if mode == "slice" else "0.3d"), zero)
+    if model == "compressible":
+        for name in ("p", "T"):
+            shutil.copy(TEMPLATE / "0.compressible" / name, zero / name)
+        if mode == "slice":
+            for name in ("p", "T"):
+                f = zero / name
+                f.write_text(re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type empty; }",
+                                    f.read_text(), flags=re.M))
+        elif closed_ends:
+            shutil.copy(TEMPLATE / "0.compressible" / "U", zero / "U")
+        else:  # open ends: hydrodynamic p = 0 there, the 3D template's U
+            f = zero / "p"
+            f.write_text(re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type fixedValue; value uniform 0; }",
+                                f.read_text(), flags=re.M))
+    # constant: the case's water
+    tp = folder / "constant" / "transportProperties"
+    tp.write_text(_set_entry(tp.read_text(), "nu", f"{nu!r}"))
+    th = folder / "constant" / "thermophysicalProperties"
+    t = th.read_text()
+    t = re.sub(r"equationOfState \{ R [^;]*; rho0 [^;]*; \}",
+               f"equationOfState {{ R {float(water['bulk_modulus']) / (rho * T0)!r}; rho0 {rho!r}; }}", t)
+    t = re.sub(r"transport\s+\{ mu [^;]*;", f"transport       {{ mu {mu!r};", t)
+    th.write_text(t)
+
+    # system: solver settings
+    fs = folder / "system" / "fvSolution"
+    t = _set_entry(fs.read_text(), "nNonOrthogonalCorrectors", "0")
+    if closed_ends:  # closed domain: p to an absolute tolerance (as the template's Allrun)
+        t = re.sub(r"(p(?:Final)?\s+\{ solver GAMG; smoother GaussSeidel;) tolerance 0; relTol 0\.1;",
+                   r"\1 tolerance 1e-6; relTol 0;", t)
+    fs.write_text(t)
+
+    solver = "rhoPimpleFoam" if model == "compressible" else "pimpleFoam"
+    cd = folder / "system" / "controlDict"
+    t = cd.read_text()
+    t = _set_entry(t, "application", solver)
+    t = _set_entry(t, "endTime", f"{end_time!r}")
+    t = _set_entry(t, "deltaT", f"{dt!r}")
+    t = _set_entry(t, "writeInterval", f"{write_interval if write_interval else max(end_time, 0.1)!r}")
+    t = _set_entry(t, "timePrecision", "12")
+    t = _set_entry(t, "rhoInf", f"{rho!r}")
+    if model == "compressible":
+        t = _set_entry(t, "rho", "rho")
+        t = t.replace(f"rhoInf          {rho!r};", f"rhoInf          {rho!r};\n        nu              {nu!r};")
+    t = t.replace("freeSurfaceLevel 123;",
+                  f"freeSurfaceLevel {float(d['geometry']['tunnel_centre_z']) + float(water['head'])!r};")
+    t = _replace_block(t, "exchange", exchange_dict(settings))
+    cd.write_text(t)
+    return FluidCase(folder, solver, mode, model, end_time, dt)

@@ -1,0 +1,57 @@
+"""tunnelquake.fluid_case: both sides' coupling configuration from one set of settings (the
+coupler's handshake compares every item), and the water model chosen from the case."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from conftest import EXAMPLE
+from tunnelquake import fluid_case as fc
+from tunnelquake.case import load_case
+
+
+def _settings(tmp_path, **kw):
+    case = load_case(EXAMPLE)
+    return case, fc.coupling_settings(case, 6.3006e-05, tmp_path / "wall.addr", "ab" * 16, t_end=0.02, **kw)
+
+
+def _entry(text: str, key: str) -> str:
+    m = re.search(rf"^\s*{key}\s+(.*?);\s*$", text, flags=re.M)
+    assert m, key
+    return m.group(1).strip().strip('"')
+
+
+def test_both_sides_get_the_same_configuration(tmp_path):
+    case, s = _settings(tmp_path)
+    solid = fc.solid_coupling_attrs(s)
+    fluid = fc.exchange_dict(s)
+    # windows: ceil(0.02 / 6.3006e-5) = 318, the rule tq-solid applies, pinned on both sides
+    assert solid["windows"] == 318 and int(_entry(fluid, "windows")) == 318
+    assert float(_entry(fluid, "windowSize")) == solid["window_size"] == 6.3006e-05
+    pairs = {"scheme": "scheme", "tolerance": "tolerance", "max_iterations": "maxIterations",
+             "acceleration": "acceleration", "initial_relaxation": "initialRelaxation", "mesh": "mesh",
+             "map": "map", "map_tolerance": "mapTolerance", "timeout": "timeout", "address_file": "addressFile"}
+    for k, f in pairs.items():
+        assert str(_entry(fluid, f)) == str(solid[k]), k
+    # the fluid is the second participant, the solid maps, and the fluid reads what the solid writes,
+    # in the solid's order
+    assert _entry(fluid, "participant") == solid["partner"] == "fluid"
+    assert _entry(fluid, "partner") == solid["participant"] == "solid"
+    assert _entry(fluid, "mappingSide") == "solid"
+    assert _entry(fluid, "readFields") == "(" + solid["write_fields"].replace(",", " ") + ")"
+    assert solid["write_fields"] == "velocity,displacement"
+    # the case's choices went through (the example: implicit, iqn-ils)
+    assert solid["scheme"] == case.data["coupling"]["scheme"] == "implicit"
+    assert solid["acceleration"] == "iqn-ils"
+    # the secret is not written into the OpenFOAM case
+    assert "ab" * 16 not in fluid and _entry(fluid, "tokenEnv") == fc.TOKEN_ENV
+
+
+def test_refusals_name_the_fix(tmp_path):
+    case, s = _settings(tmp_path)
+    with pytest.raises(fc.FluidCaseError, match="tcp"):
+        fc.exchange_dict({**s, "transport": "mpi"})
+    case.data["water"]["model"] = "incompressible"
+    with pytest.raises(fc.FluidCaseError, match="compressible"):
+        fc.build_fluid_case(case, tmp_path / "water.msh", tmp_path / "fluid", s, slice_mode=True)
