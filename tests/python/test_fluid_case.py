@@ -41,8 +41,8 @@ def test_both_sides_get_the_same_configuration(tmp_path):
     assert _entry(fluid, "mappingSide") == "solid"
     assert _entry(fluid, "readFields") == "(" + solid["write_fields"].replace(",", " ") + ")"
     assert solid["write_fields"] == "velocity,displacement"
-    # the case's choices went through (the example: implicit, iqn-ils)
-    assert solid["scheme"] == case.data["coupling"]["scheme"] == "implicit"
+    # the case's choices went through (the example: the paper's scheme, iqn-ils as the default acceleration)
+    assert solid["scheme"] == case.data["coupling"]["scheme"] == "paper"
     assert solid["acceleration"] == "iqn-ils"
     # the secret is not written into the OpenFOAM case
     assert "ab" * 16 not in fluid and _entry(fluid, "tokenEnv") == fc.TOKEN_ENV
