@@ -1,6 +1,8 @@
 """What each condition runs, and when a slice is equivalent to the 3D model (ARCHITECTURE.md §6)."""
 from __future__ import annotations
 
+import pytest
+
 from conftest import EXAMPLE
 from tunnelquake.case import load_case
 from tunnelquake.scene import assess_slice, plan
@@ -38,3 +40,26 @@ def test_3d_case_is_offered_the_slice(write_case):
     case = _case(write_case, m=("  mode: slice ", "  mode: 3d "))
     a = assess_slice(case)
     assert a.valid and "mesh.mode: slice" in a.advice[0]
+
+
+def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
+    """ARCHITECTURE.md §5: m_G = 2500 x 0.25 / 2 = 312.5 kg/m^2; incompressible water adds
+    rho_w R / n = 4500 (n = 1) and 2250 (n = 2) kg/m^2: ratios 14.4 and 7.2, so the paper's one-pass
+    scheme diverges; compressible water (c = sqrt(2.2e9 / 1000) = 1483 m/s) with the solid step
+    0.9 x 0.25 m / c_p(lining) gives rho_w c dt / m_G ~ 0.31 < 2: stable."""
+    import math
+
+    from tunnelquake.scene import added_mass_diagnostic
+
+    am = added_mass_diagnostic(_case(write_case))
+    assert am.interface_mass == pytest.approx(312.5, rel=1e-12)
+    cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
+    assert am.ratios["impedance"] == pytest.approx(1000 * math.sqrt(2.2e6) * 0.9 * 0.25 / cp / 312.5, rel=1e-12)
+    assert am.stable and 0.25 < am.ratios["impedance"] < 0.4
+    inc = added_mass_diagnostic(_case(write_case, m=("  model: compressible\n", "  model: incompressible\n")))
+    assert inc.ratios["mode 1"] == pytest.approx(1000 * 4.5 / 312.5, rel=1e-12)
+    assert inc.ratios["mode 2"] == pytest.approx(1000 * 4.5 / 2 / 312.5, rel=1e-12)
+    assert not inc.stable and "diverge" in inc.message
+    ok = added_mass_diagnostic(_case(write_case, m=("  model: compressible\n", "  model: incompressible\n"),
+                                     s=("  scheme: paper\n", "  scheme: implicit\n")))
+    assert ok.stable

@@ -19,10 +19,16 @@ def main(argv: list[str]) -> int:
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
     say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
         f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
-    from ..scene import assess_slice, plan
+    from ..scene import added_mass_diagnostic, assess_slice, plan
 
     for cond, parts in plan(case):
         say(f"  condition {cond}: runs {' + '.join(parts)}")
+    if "dynamic_water" in d["conditions"]:
+        am = added_mass_diagnostic(case)
+        if am.stable:
+            say(f"  {am.message}")
+        else:
+            print(f"warning: {am.message}")
     sl = assess_slice(case)
     if d["mesh"]["mode"] == "slice" and not sl.valid:
         for r in sl.reasons:
