@@ -19,23 +19,25 @@ def solver_status() -> dict[str, str | None]:
     """Which participants can run today; None means ready, else the reason it cannot."""
     solid = paths.solid_executable()
     fluid = paths.openfoam_library()
+    caps = _solid_capabilities(solid) if solid else set()
     return {
-        "solid": None if solid and _solid_runs_cases(solid) else
+        "solid": None if "staged-seismic" in caps else
         "the solid solver does not run staged seismic cases yet (issue 3: tq-solid)",
-        "fluid": None if fluid and solid and _solid_runs_cases(solid, "water-coupling") else
+        "fluid": None if fluid and "water-coupling" in caps else
         ("the OpenFOAM-side library is not built (run scripts/bootstrap.sh)" if not fluid else
          "tq-solid does not report the water-coupling capability (rebuild it)"),
     }
 
 
-def _solid_runs_cases(exe, capability: str = "staged-seismic") -> bool:
+def _solid_capabilities(exe) -> set[str]:
+    """What this tq-solid build can run (`tq-solid --capabilities`); empty if it cannot say."""
     import subprocess
 
     try:
         out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.TimeoutExpired):
-        return False
-    return out.returncode == 0 and capability in out.stdout.split()
+        return set()
+    return set(out.stdout.split()) if out.returncode == 0 else set()
 
 
 def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
