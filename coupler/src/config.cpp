@@ -81,6 +81,9 @@ void CouplingConfig::validate() const {
             bad("field '" + f.name + "': components must be 1..9");
         if (f.writer != first && f.writer != second)
             bad("field '" + f.name + "': writer '" + f.writer + "' is not a participant");
+        if (!(f.absoluteTolerance >= 0) || !std::isfinite(f.absoluteTolerance))
+            bad("field '" + f.name + "': absolute tolerance must be >= 0 and finite, got " +
+                std::to_string(f.absoluteTolerance));
     }
 }
 
@@ -143,6 +146,7 @@ std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b
         diff(p + "'" + x.name + "' constraint",
              std::string(x.constraint == MapConstraint::Consistent ? "consistent" : "conservative"),
              std::string(y.constraint == MapConstraint::Consistent ? "consistent" : "conservative"));
+        diff(p + "'" + x.name + "' absolute tolerance", x.absoluteTolerance, y.absoluteTolerance);
     }
     return s.str();
 }

@@ -92,6 +92,9 @@ Message Endpoint::receive(Deadline d, const std::string& expecting) {
     } tally{*this, t0};
     try {
         channel_->receive(h, sizeof h, d);
+        // The header arrived: the time until now was spent waiting for the partner (a sender
+        // writes header and payload in one call, so the payload follows at transfer speed).
+        secondsWaiting_ += std::chrono::duration<double>(Clock::now() - t0).count();
         m.header = wire::decodeHeader(h);
         if (m.header.sequence != recvSeq_)
             throw ProtocolError(ProtocolFault::BadSequence,

@@ -35,6 +35,7 @@ void encodeConfig(Writer& w, const CouplingConfig& c) {
         w.u32(std::uint32_t(f.components));
         w.str(f.writer);
         w.u8(std::uint8_t(f.constraint));
+        w.f64(f.absoluteTolerance);
     }
 }
 
@@ -75,6 +76,7 @@ CouplingConfig decodeConfig(Reader& r) {
         f.components = int(r.u32());
         f.writer = r.str();
         f.constraint = MapConstraint(enumValue(r, 1, "map constraint"));
+        f.absoluteTolerance = r.f64();
         c.fields.push_back(std::move(f));
     }
     return c;

@@ -242,6 +242,13 @@ void Participant::buildMaps(const Hello& theirs) {
         }
         fields_.push_back(std::move(f));
     }
+    writtenSlices_.clear();
+    receivedSlices_.clear();
+    for (const auto& f : fields_) {
+        const std::size_t n = (f->write ? f->ownNodes : f->wireNodes) * std::size_t(f->comps);
+        (f->write ? writtenSlices_ : receivedSlices_)
+            .push_back({f->spec.name, f->offset, n, f->spec.absoluteTolerance});
+    }
     written_.assign(wOff, 0.0);
     received_.assign(rOff, 0.0);
     partnerDataBytes_ = dataPayloadSize(partnerBlocks);
@@ -413,6 +420,7 @@ double Participant::initialize() {
         runConnector(deadline);
     link_->setExpectedDataSize(partnerDataBytes_);
     scheme_ = makeScheme(config_, name_);
+    if (amFirst_) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
     initialized_ = true;
     guarded("initialize", [&] { scheme_->initialize(*this); });
     return getMaxTimeStepSize();
@@ -579,7 +587,15 @@ double Participant::advance(double dt) {
         return getMaxTimeStepSize();
     }
     timeInWindow_ = 0.0;
-    guarded("advance", [&] { scheme_->endWindow(*this); });
+    guarded("advance", [&] {
+        scheme_->endWindow(*this);
+        const SchemeState& st = scheme_->state();
+        if (monitor_ && st.windowComplete) {
+            const bool unconverged =
+                config_.scheme == SchemeKind::Implicit && !(st.residual < config_.tolerance);
+            monitor_->windowDone(st.window - 1, received_, unconverged, st.residual);
+        }
+    });
     return getMaxTimeStepSize();
 }
 
@@ -618,6 +634,7 @@ ExchangeStats Participant::stats() const {
     s.secondsMapping = secondsMapping_;
     if (link_) {
         s.secondsInTransport = link_->secondsInTransport();
+        s.secondsWaiting = link_->secondsWaiting();
         s.bytesSent = link_->bytesSent();
         s.bytesReceived = link_->bytesReceived();
     }

@@ -19,6 +19,24 @@ double relativeDifference(const std::vector<double>& a, const std::vector<double
     return std::sqrt(d / n);
 }
 
+double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
+                          const std::vector<FieldSlice>& slices, double tolerance) {
+    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+    double worst = 0;
+    for (const auto& f : slices) {
+        double d = 0, n = 0;
+        for (std::size_t i = f.offset; i < f.offset + f.size; ++i) {
+            d += (a[i] - b[i]) * (a[i] - b[i]);
+            n += a[i] * a[i];
+        }
+        double m = n > 0 ? std::sqrt(d / n) : d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
+        if (f.absoluteTolerance > 0 && f.size > 0)
+            m = std::min(m, tolerance * std::sqrt(d / double(f.size)) / f.absoluteTolerance);
+        worst = std::max(worst, m);
+    }
+    return worst;
+}
+
 // ---------------------------------------------------------------- explicit
 void SerialExplicit::initialize(ExchangePort& port) {
     state_.ongoing = config_.maxWindows > 0;
@@ -84,9 +102,11 @@ void SerialImplicit::endWindow(ExchangePort& port) {
                                       ": the coupled iteration diverged (see docs/coupler.md, "
                                       "added-mass instability)");
         const std::vector<double>& d = port.receivedValues();
-        const double resWrite = relativeDifference(xt, lastSent_);
-        const double resRead = k >= 1 ? relativeDifference(d, prevReceived_)
-                                      : std::numeric_limits<double>::infinity();
+        const double tol = config_.tolerance;
+        const double resWrite = convergenceMeasure(xt, lastSent_, port.writtenSlices(), tol);
+        const double resRead = k >= 1
+                                   ? convergenceMeasure(d, prevReceived_, port.receivedSlices(), tol)
+                                   : std::numeric_limits<double>::infinity();
         state_.residual = std::max(resWrite, resRead);
         if (!std::isfinite(resWrite) && k >= 1)
             throw DivergenceError("interface residual is not finite in window " +

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
+from .coupling_scales import absolute_tolerances
 
 TEMPLATE = paths.ROOT / "openfoam_case" / "template"
 T0 = 293.15  # K, the template's 0.compressible/T
@@ -80,6 +81,8 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "window_size": float(window_size),
         "windows": int(windows),
         "tolerance": float(cs["tolerance"]),
+        # absolute floors per field (coupling_scales.py; issue 6 item 1)
+        "absolute_tolerance": absolute_tolerances(case, window_size, float(cs["tolerance"])),
         "max_iterations": int(cs["max_iterations"]),
         "acceleration": cs["acceleration"],
         "initial_relaxation": 0.5,
@@ -105,6 +108,7 @@ def solid_coupling_attrs(s: dict) -> dict:
                              "timeout", "connect_timeout", "face", "mesh", "map", "map_tolerance",
                              "participant", "partner")}
     out["write_fields"] = ",".join(s["write_fields"])
+    out.update({f"absolute_tolerance_{k}": float(v) for k, v in s["absolute_tolerance"].items()})
     return out
 
 
@@ -114,10 +118,11 @@ def exchange_dict(s: dict) -> str:
     if s["transport"] != "tcp":
         raise FluidCaseError(f"coupling.transport {s['transport']!r}: the OpenFOAM side speaks tcp only "
                              "(docs/water.md §11); use transport: tcp")
-    if s["window"] != 1:
-        raise FluidCaseError(f"coupling.window = {s['window']}: `tunnelquake run` couples every solid step "
-                             "(window: 1); a window of k solid steps is not wired up for the fluid yet")
+    if s["window"] != 1 and s["scheme"] != "explicit":
+        raise FluidCaseError(f"coupling.window = {s['window']} solid steps needs scheme explicit (the "
+                             f"{s['scheme']} scheme repeats windows of one solid step); use window: 1")
     reads = " ".join(s["write_fields"])
+    atol = " ".join(f"{k} {v!r};" for k, v in s["absolute_tolerance"].items())
     return f"""exchange
         {{
             type            coupler;
@@ -135,6 +140,7 @@ def exchange_dict(s: dict) -> str:
             tolerance       {s['tolerance']!r};
             acceleration    {s['acceleration']};
             initialRelaxation {s['initial_relaxation']!r};
+            absoluteTolerance {{ {atol} }}
             mesh            {s['mesh']};
             map             {s['map']};
             mapTolerance    {s['map_tolerance']!r};

@@ -34,8 +34,8 @@ std::string fixFor(const std::exception& e, const CouplingInput& in) {
     os << "A malformed or out-of-step message arrived. Fix: check that both sides are built from the same "
           "release; a foreign program may have connected to the coupling port.";
   else if (dynamic_cast<const cp::DivergenceError*>(&e))
-    os << "The coupled iteration diverged (non-finite values). Fix: use scheme implicit with acceleration "
-          "iqn-ils, or a shorter coupling window (see docs/coupler.md).";
+    os << "(The coupler's message above names the likely cause and the fix; see docs/coupler.md \"Divergence "
+          "detection\".)";
   else if (dynamic_cast<const cp::MapError*>(&e))
     os << "The interface meshes do not match. Fix: regenerate the water mesh from the same geometry as mesh.h5 "
           "(its interface points must coincide with the solid's '" << in.face << "' nodes), or use map projection.";
@@ -58,13 +58,22 @@ struct FluidCoupling::Impl {
   std::vector<Real> received;        // [3n] latest force read from the fluid
   std::vector<Real> trial;           // [3n] force used in the current prediction
   std::vector<Real> disp, vel;       // [3n] predicted motion written
+  std::vector<Real> dispStart;       // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   Real window = 0, dtPrev = 0;
   long long windows = 0;
   Index stepInWindow = 0;
   Real work = 0;
+  // Work the fluid received from the wall, from the exchanged data (issue 6 item 3): the final
+  // force of each window (the fluid's own last answer) on the motion the fluid was sent.
+  std::vector<Real> sent1, sent2;  // [3n] displacement sent one / two windows ago
+  std::vector<Real> recvPrev;      // [3n] final force of the last window
+  Real fluidReceived = 0;
   FluidCouplingStats stats;
+  // Timers of the cost split: start of the stepping, and the coupler's own tallies then.
+  std::chrono::steady_clock::time_point steppingStart;
+  double waitAtStart = 0, mappingAtStart = 0;
   bool initialized = false, finalized = false;
 
   explicit Impl(Solver& s) : solver(s) {}
@@ -114,6 +123,33 @@ struct FluidCoupling::Impl {
     }
   }
 
+  /// Window of k > 1 steps: the velocity written is the window's mean, (u_end − u_start)/window,
+  /// so that the water's wall flux over its one step of length `window` sweeps exactly the volume
+  /// the solid's wall swept (a transpiration interface integrates the velocity, not the position).
+  void markWindowStart(const NodalState& st) {
+    const Real* u = st.uData();
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        dispStart[j] = u[3 * size_t(nodes[k]) + size_t(d)] - u0[j];
+      }
+  }
+  void windowMeanVelocity() {
+    for (size_t j = 0; j < vel.size(); ++j) vel[j] = (disp[j] - dispStart[j]) / window;
+  }
+
+  /// The fluid's work, by the same trapezoid rule and pairing as the solid's booking:
+  /// −½(R_f^n + R_f^{n−1})·(u_s^n − u_s^{n−1}), R_f the window's final force, u_s the motion the
+  /// fluid was sent (made one window earlier).
+  void bookReceivedWork() {
+    Real wf = 0;
+    for (size_t j = 0; j < received.size(); ++j) wf -= 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
+    fluidReceived += wf;
+    recvPrev = received;
+    sent2.swap(sent1);
+    sent1 = disp;
+  }
+
   void write() {
     for (const auto& name : in.writeFields)
       p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
@@ -137,6 +173,10 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.trial.assign(n3, 0.0);
   I.disp.assign(n3, 0.0);
   I.vel.assign(n3, 0.0);
+  I.dispStart.assign(n3, 0.0);
+  I.sent1.assign(n3, 0.0);
+  I.sent2.assign(n3, 0.0);
+  I.recvPrev.assign(n3, 0.0);
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
 
@@ -160,8 +200,9 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
     c.acceleration = cp::parseAcceleration(in.acceleration);
     c.meshes.push_back({in.mesh, cp::parseMapKind(in.map), in.participant, in.mapTolerance});
     for (const auto& f : in.writeFields)
-      c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent});
-    c.fields.push_back({in.mesh, "force", 3, in.partner, cp::MapConstraint::Conservative});
+      c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent,
+                          f == "velocity" ? in.absoluteTolVelocity : in.absoluteTolDisplacement});
+    c.fields.push_back({in.mesh, "force", 3, in.partner, cp::MapConstraint::Conservative, in.absoluteTolForce});
     c.validate();
   } catch (const cp::CouplerError& e) {
     throw InputError(std::string("/coupling: ") + e.what());
@@ -206,6 +247,10 @@ void FluidCoupling::initialize() {
     I.fail("could not start the coupling with '" + I.in.partner + "'", e);
   }
   I.stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const cp::ExchangeStats xs = I.p->stats();
+  I.waitAtStart = xs.secondsWaiting;
+  I.mappingAtStart = xs.secondsMapping;
+  I.steppingStart = std::chrono::steady_clock::now();
   I.initialized = true;
 }
 
@@ -238,6 +283,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   try {
     if (++I.stepInWindow < I.in.windowSteps) {
       // Inside a window of k steps (explicit scheme): the last force is held; time moves on.
+      if (I.stepInWindow == 1) I.markWindowStart(st);
       I.force = I.received;
       I.p->advance(dt);
     } else {
@@ -251,6 +297,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       long long passes = 0;
       for (;;) {
         I.predict(dt, st, I.trial);
+        if (I.in.windowSteps > 1) I.windowMeanVelocity();
         I.write();
         I.p->advance(dt);
         ++passes;
@@ -262,6 +309,11 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       // paper and implicit — the force the last written prediction was made with (paper: R3 of the
       // predictor pass; implicit: the converged force), so the fluid saw exactly this motion.
       I.force = I.scheme == cp::SchemeKind::Explicit ? I.received : I.trial;
+      // The fluid's work, by the same trapezoid rule and pairing as the solid's booking below:
+      // −½(R_f^n + R_f^{n−1})·(u_s^n − u_s^{n−1}), R_f the window's final force, u_s the motion
+      // the fluid was sent (made one window earlier). Converged exchange: R_f = the force applied
+      // and u_s = the motion made, so the sum with the solid's work is zero (to the tolerance).
+      I.bookReceivedWork();
       ++I.stats.windows;
       I.stats.passes += passes;
       I.stats.maxPasses = std::max(I.stats.maxPasses, passes);
@@ -269,7 +321,11 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   } catch (const cp::CouplerError& e) {
     I.fail("exchange with '" + I.in.partner + "' failed", e);
   }
-  I.stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto t1 = std::chrono::steady_clock::now();
+  const double inCoupler = std::chrono::duration<double>(t1 - t0).count();
+  I.stats.secondsExchanging += inCoupler;
+  I.stats.secondsInCoupler += inCoupler;
+  I.stats.secondsCoupled = std::chrono::duration<double>(t1 - I.steppingStart).count();
   // Add R3 and book its work over u^{n−1} → u^n exactly as the solver books f_ext (trapezoid).
   Real* fe = st.fExtData();
   const Real* v = st.vData();
@@ -292,7 +348,17 @@ Real FluidCoupling::endTime() const { return Real(impl_->windows) * impl_->windo
 Real FluidCoupling::windowSize() const { return impl_->window; }
 long long FluidCoupling::windowCount() const { return impl_->windows; }
 Real FluidCoupling::fluidWork() const { return impl_->work; }
-FluidCouplingStats FluidCoupling::stats() const { return impl_->stats; }
+Real FluidCoupling::fluidReceivedWork() const { return impl_->fluidReceived; }
+Real FluidCoupling::couplingEnergy() const { return impl_->work + impl_->fluidReceived; }
+FluidCouplingStats FluidCoupling::stats() const {
+  FluidCouplingStats s = impl_->stats;
+  if (impl_->p && impl_->initialized) {
+    const cp::ExchangeStats xs = impl_->p->stats();
+    s.secondsWaiting = xs.secondsWaiting - impl_->waitAtStart;
+    s.secondsMapping = xs.secondsMapping - impl_->mappingAtStart;
+  }
+  return s;
+}
 const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
 const std::vector<Real>& FluidCoupling::force() const { return impl_->force; }
 

@@ -264,7 +264,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     const std::string w = "/coupling";
     onlyKeys(c, g, w, {"scheme", "window", "window_size", "windows", "tolerance", "max_iterations", "acceleration",
                        "initial_relaxation", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
-                       "mesh", "map", "map_tolerance", "write_fields", "participant", "partner"});
+                       "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
+                       "absolute_tolerance_velocity", "absolute_tolerance_displacement",
+                       "absolute_tolerance_force"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -275,6 +277,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.windowSize = number(c, g, w, "window_size", 0, 0);
     C.windows = Index(number(c, g, w, "windows", 0, 0));
     C.tolerance = number(c, g, w, "tolerance", C.tolerance, 0);
+    C.absoluteTolVelocity = number(c, g, w, "absolute_tolerance_velocity", 0, 0);
+    C.absoluteTolDisplacement = number(c, g, w, "absolute_tolerance_displacement", 0, 0);
+    C.absoluteTolForce = number(c, g, w, "absolute_tolerance_force", 0, 0);
     C.maxIterations = Index(number(c, g, w, "max_iterations", Real(C.maxIterations), 1));
     C.acceleration = text(c, g, w, "acceleration", C.acceleration);
     if (C.acceleration != "none" && C.acceleration != "constant" && C.acceleration != "aitken" &&
@@ -380,6 +385,9 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeDoubleAttr(g, "window_size", C.windowSize);
     h5::writeIntAttr(g, "windows", C.windows);
     h5::writeDoubleAttr(g, "tolerance", C.tolerance);
+    h5::writeDoubleAttr(g, "absolute_tolerance_velocity", C.absoluteTolVelocity);
+    h5::writeDoubleAttr(g, "absolute_tolerance_displacement", C.absoluteTolDisplacement);
+    h5::writeDoubleAttr(g, "absolute_tolerance_force", C.absoluteTolForce);
     h5::writeIntAttr(g, "max_iterations", C.maxIterations);
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);

@@ -41,8 +41,8 @@ def test_both_sides_get_the_same_configuration(tmp_path):
     assert _entry(fluid, "mappingSide") == "solid"
     assert _entry(fluid, "readFields") == "(" + solid["write_fields"].replace(",", " ") + ")"
     assert solid["write_fields"] == "velocity,displacement"
-    # the case's choices went through (the example: the paper's scheme, iqn-ils as the default acceleration)
-    assert solid["scheme"] == case.data["coupling"]["scheme"] == "paper"
+    # the case's choices went through (the example: the implicit scheme with iqn-ils)
+    assert solid["scheme"] == case.data["coupling"]["scheme"] == "implicit"
     assert solid["acceleration"] == "iqn-ils"
     # the secret is not written into the OpenFOAM case
     assert "ab" * 16 not in fluid and _entry(fluid, "tokenEnv") == fc.TOKEN_ENV
@@ -55,3 +55,19 @@ def test_refusals_name_the_fix(tmp_path):
     case.data["water"]["model"] = "incompressible"
     with pytest.raises(fc.FluidCaseError, match="compressible"):
         fc.build_fluid_case(case, tmp_path / "water.msh", tmp_path / "fluid", s, slice_mode=True)
+
+
+def test_absolute_tolerances_reach_both_sides(tmp_path):
+    """Issue 6 item 1: the absolute convergence floors (coupling_scales.py) go to both sides alike."""
+    case, s = _settings(tmp_path)
+    solid = fc.solid_coupling_attrs(s)
+    fluid = fc.exchange_dict(s)
+    block = re.search(r"absoluteTolerance\s*\{([^}]*)\}", fluid)
+    assert block, "absoluteTolerance block missing from the exchange dictionary"
+    theirs = {k: float(v) for k, v in re.findall(r"(\w+)\s+([^;\s]+);", block.group(1))}
+    for name in ("velocity", "displacement", "force"):
+        assert theirs[name] == solid[f"absolute_tolerance_{name}"] > 0, name
+    # the scale rule: tolerance x PGA x window (m/s), x window again (m)
+    pga, tol = case.data["ground_motion"]["pga"], s["tolerance"]
+    assert solid["absolute_tolerance_velocity"] == pytest.approx(tol * pga * 6.3006e-05, rel=1e-12)
+    assert solid["absolute_tolerance_displacement"] == pytest.approx(tol * pga * 6.3006e-05**2, rel=1e-12)

@@ -22,6 +22,7 @@ License
 #include "Pstream.H"
 #include "OSspecific.H"
 
+#include <chrono>
 #include <cstdlib>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
@@ -46,6 +47,14 @@ std::string str(const Foam::string& s)
     return std::string(s.c_str());
 }
 
+double wallNow()
+{
+    return std::chrono::duration<double>
+    (
+        std::chrono::steady_clock::now().time_since_epoch()
+    ).count();
+}
+
 } // End anonymous namespace
 
 
@@ -62,6 +71,42 @@ void Foam::tq::couplerExchange::fail
         << "    " << what.c_str() << nl
         << "The partner has been told (ABORT) where the link still works."
         << exit(FatalError);
+}
+
+
+void Foam::tq::couplerExchange::enterCall()
+{
+    const double now = wallNow();
+    secondsSolver_ += now - clockLast_;
+    clockLast_ = now;
+}
+
+
+void Foam::tq::couplerExchange::leaveCall()
+{
+    const double now = wallNow();
+    secondsInside_ += now - clockLast_;
+    clockLast_ = now;
+}
+
+
+void Foam::tq::couplerExchange::reportCost() const
+{
+    if (!Pstream::master() || !participant_ || passes_ < 1)
+    {
+        return;
+    }
+    const ::tq::coupler::ExchangeStats xs = participant_->stats();
+    const double wait = xs.secondsWaiting - waitAtStart_;
+    const double work = secondsInside_ - wait;
+    const double per = 1e3/double(passes_);
+    Info<< "couplerExchange: cost over " << passes_ << " passes: water solve "
+        << secondsSolver_ << " s (" << secondsSolver_*per
+        << " ms a pass); exchange calls " << secondsInside_
+        << " s, of which waiting for the solid " << wait
+        << " s; exchange work " << work << " s (" << work*per
+        << " ms a pass; mapping " << xs.secondsMapping - mappingAtStart_
+        << " s)" << endl;
 }
 
 
@@ -147,7 +192,13 @@ Foam::tq::couplerExchange::couplerExchange
     readCheckpoint_(false),
     writeCheckpoint_(false),
     ongoing_(false),
-    finalized_(false)
+    finalized_(false),
+    clockLast_(0),
+    secondsSolver_(0),
+    secondsInside_(0),
+    waitAtStart_(0),
+    mappingAtStart_(0),
+    passes_(0)
 {
     if (!readFields_.found("velocity"))
     {
@@ -269,13 +320,21 @@ void Foam::tq::couplerExchange::initialize
                 str(dict_.lookupOrDefault<string>("mappingSide", ""));
             m.tolerance = dict_.lookupOrDefault<scalar>("mapTolerance", 1e-6);
             c.meshes.push_back(m);
+            // Implicit scheme: absolute convergence floor per field, in
+            // the field's units (absoluteTolerance { velocity ...; });
+            // absent: 0, the relative test only (docs/coupler.md)
+            const dictionary atol
+            (
+                dict_.subOrEmptyDict("absoluteTolerance")
+            );
             for (const word& f : readFields_)
             {
                 c.fields.push_back
                 (
                     {
                         meshName_, f, 3, partner,
-                        ::tq::coupler::MapConstraint::Consistent
+                        ::tq::coupler::MapConstraint::Consistent,
+                        atol.lookupOrDefault<scalar>(f, 0)
                     }
                 );
             }
@@ -285,7 +344,8 @@ void Foam::tq::couplerExchange::initialize
                 (
                     {
                         meshName_, f, 3, name_,
-                        ::tq::coupler::MapConstraint::Conservative
+                        ::tq::coupler::MapConstraint::Conservative,
+                        atol.lookupOrDefault<scalar>(f, 0)
                     }
                 );
             }
@@ -380,9 +440,13 @@ void Foam::tq::couplerExchange::initialize
             << nGlobal_ << " points), scheme "
             << ::tq::coupler::schemeName(c.scheme) << ", window "
             << windowSize_ << " s x " << label(c.maxWindows) << endl;
+        const ::tq::coupler::ExchangeStats xs = participant_->stats();
+        waitAtStart_ = xs.secondsWaiting;
+        mappingAtStart_ = xs.secondsMapping;
     }
 
     syncFlags();
+    clockLast_ = wallNow();
 }
 
 
@@ -392,6 +456,7 @@ void Foam::tq::couplerExchange::writeForces
     const vectorField& forces
 )
 {
+    enterCall();
     // Point forces of all ranks, summed per global point (shared points
     // carry partial sums on each rank)
     List<labelList> procIds(Pstream::nProcs());
@@ -424,11 +489,14 @@ void Foam::tq::couplerExchange::writeForces
             fail("writeData", e.what());
         }
     }
+    leaveCall();
 }
 
 
 void Foam::tq::couplerExchange::advance(const scalar dt)
 {
+    enterCall();
+    ++passes_;
     bool complete = false;
     scalar windowStart = windowStart_;
     if (Pstream::master())
@@ -454,6 +522,7 @@ void Foam::tq::couplerExchange::advance(const scalar dt)
         windowDisplacement_ = lastDisplacement_;
         windowStart_ = windowStart;
     }
+    leaveCall();
 }
 
 
@@ -464,6 +533,7 @@ void Foam::tq::couplerExchange::readMotion
     vectorField& velocity
 )
 {
+    enterCall();
     velocity = readLocal("velocity");
     if (readsDisplacement_)
     {
@@ -475,6 +545,7 @@ void Foam::tq::couplerExchange::readMotion
         displacement = windowDisplacement_ + velocity*(t - windowStart_);
     }
     lastDisplacement_ = displacement;
+    leaveCall();
 }
 
 
@@ -485,6 +556,7 @@ void Foam::tq::couplerExchange::finalize()
         return;
     }
     finalized_ = true;
+    reportCost();
     if (Pstream::master() && participant_)
     {
         try

@@ -145,6 +145,22 @@ def relative_difference(a: np.ndarray, b: np.ndarray) -> float:
     return math.sqrt(d / n)
 
 
+def convergence_measure(a: np.ndarray, b: np.ndarray, slices, tolerance: float) -> float:
+    """Max over the fields of min(relative residual, tolerance * rms / absolute tolerance), the second
+    term only where the field has an absolute tolerance (the C++ convergenceMeasure): a pass has
+    converged when it is below the tolerance. slices: (offset, size, absolute tolerance) per field."""
+    if a.shape != b.shape:
+        return math.inf
+    worst = 0.0
+    for off, size, atol in slices:
+        x, y = a[off : off + size], b[off : off + size]
+        m = relative_difference(x, y)
+        if atol > 0 and size > 0:
+            m = min(m, tolerance * math.sqrt(float(np.sum((x - y) ** 2)) / size) / atol)
+        worst = max(worst, m)
+    return worst
+
+
 # ----------------------------------------------------------------------------- maps
 def coincident_permutation(source: np.ndarray, target: np.ndarray, tol: float, source_ids=None, target_ids=None):
     """perm[t] = source index paired with target node t; MapError listing unmatched nodes."""
@@ -498,6 +514,16 @@ class Participant:
                 f.own[:] = x[o : o + f.own.size].reshape(f.own.shape)
                 o += f.own.size
 
+    def _slices(self, write: bool) -> list[tuple[int, int, float]]:
+        """(offset, size, absolute tolerance) of the written (own layout) or received (wire) fields."""
+        out, o = [], 0
+        for f in self.fields:
+            if f.write == write:
+                n = (f.own if write else f.wire).size
+                out.append((o, n, f.spec.absolute_tolerance))
+                o += n
+        return out
+
     def _received(self) -> np.ndarray:
         return np.concatenate([f.wire.reshape(-1) for f in self.fields if not f.write] or [np.zeros(0)])
 
@@ -569,8 +595,8 @@ class Participant:
             if not np.all(np.isfinite(xt)):
                 raise DivergenceError(f"non-finite interface values written in window {w + 1}, pass {k + 1}")
             d = self._received()
-            res_w = relative_difference(xt, self._last_sent)
-            res_r = relative_difference(d, self._prev_received) if k >= 1 else math.inf
+            res_w = convergence_measure(xt, self._last_sent, self._slices(True), c.tolerance)
+            res_r = convergence_measure(d, self._prev_received, self._slices(False), c.tolerance) if k >= 1 else math.inf
             st.residual = max(res_w, res_r)
             converged = self.test_convergence and k >= 1 and st.residual < c.tolerance
             complete = converged or k + 1 >= self.max_passes

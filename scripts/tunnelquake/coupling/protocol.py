@@ -19,6 +19,7 @@ vectors in tests/data/coupler/vectors_v1.txt (made by :func:`write_test_vectors`
 from __future__ import annotations
 
 import enum
+import math
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -298,6 +299,8 @@ class FieldSpec:
     components: int
     writer: str
     constraint: str = "consistent"  # consistent | conservative
+    # implicit scheme: convergence floor on the RMS of the field's residual, in its units (0 = none)
+    absolute_tolerance: float = 0.0
 
 
 @dataclass
@@ -369,6 +372,8 @@ class CouplingConfig:
                 bad(f"field '{f.name}': writer '{f.writer}' is not a participant")
             if f.constraint not in CONSTRAINTS:
                 bad(f"field '{f.name}': unknown constraint '{f.constraint}'")
+            if not (f.absolute_tolerance >= 0 and math.isfinite(f.absolute_tolerance)):
+                bad(f"field '{f.name}': absolute tolerance must be >= 0 and finite, got {f.absolute_tolerance}")
 
 
 @dataclass
@@ -442,6 +447,7 @@ def _encode_config(w: Writer, c: CouplingConfig) -> None:
         w.u32(f.components)
         w.str(f.writer)
         w.u8(CONSTRAINTS.index(f.constraint))
+        w.f64(f.absolute_tolerance)
 
 
 def _decode_config(r: Reader) -> CouplingConfig:
@@ -457,7 +463,8 @@ def _decode_config(r: Reader) -> CouplingConfig:
     nf = r.u32()
     if nf > 4096:
         r.fail(f"field count {nf} above the limit 4096")
-    fields = [FieldSpec(r.str(), r.str(), r.u32(), r.str(), r.enum(CONSTRAINTS, "map constraint")) for _ in range(nf)]
+    fields = [FieldSpec(r.str(), r.str(), r.u32(), r.str(), r.enum(CONSTRAINTS, "map constraint"), r.f64())
+              for _ in range(nf)]
     return CouplingConfig(first, second, window, maxw, units, scheme, maxit, tol, acc, relax, meshes, fields)
 
 
@@ -587,8 +594,8 @@ def sample_config() -> CouplingConfig:
         initial_relaxation=0.5,
         meshes=[MeshSpec("wall", "coincident", "solid", 1e-6)],
         fields=[
-            FieldSpec("wall", "velocity", 3, "solid", "consistent"),
-            FieldSpec("wall", "force", 3, "fluid", "conservative"),
+            FieldSpec("wall", "velocity", 3, "solid", "consistent", 1e-9),
+            FieldSpec("wall", "force", 3, "fluid", "conservative", 0.25),
         ],
     )
 

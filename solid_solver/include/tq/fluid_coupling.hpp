@@ -41,6 +41,11 @@ struct FluidCouplingStats {
   long long passes = 0;         ///< exchanges (a paper window has 2, an implicit one ≥ 2)
   long long maxPasses = 0;      ///< most passes in one window
   double secondsExchanging = 0; ///< wall time inside the coupler (waiting for the fluid included)
+  // Cost split (docs/coupler.md "Exchange cost"), all over the stepping only (start-up excluded):
+  double secondsCoupled = 0;    ///< wall from the end of initialize() to the end of the last addForces()
+  double secondsInCoupler = 0;  ///< wall inside addForces' coupler part (predict, write, advance, read)
+  double secondsWaiting = 0;    ///< of which receives were blocked until the fluid's message began
+  double secondsMapping = 0;    ///< of which the interface maps were applied
 };
 
 class FluidCoupling final : public NodalForceContributor {
@@ -74,6 +79,12 @@ public:
   /// Work of the interface force R3 on the solid so far (J), booked by the solver's own
   /// trapezoid rule (it is part of the balance's `external` term).
   Real fluidWork() const;
+  /// Work the fluid received from the wall so far (J), from the exchanged data: each window's
+  /// final force on the motion the fluid was sent, same trapezoid rule (docs/coupler.md "Energy").
+  Real fluidReceivedWork() const;
+  /// fluidWork() + fluidReceivedWork(): the energy the coupling scheme created (> 0) or
+  /// destroyed (< 0) at the interface (J); zero for an exchange converged to round-off.
+  Real couplingEnergy() const;
   FluidCouplingStats stats() const;
   /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N).
   const std::vector<Index>& nodes() const;

@@ -96,6 +96,9 @@ struct CouplingInput {
   Real windowSize = 0;                    ///< s; 0 = windowSteps × the solid step
   Index windows = 0;                      ///< 0 = ceil(t_end / window size)
   Real tolerance = 1e-4;                  ///< implicit: relative residual
+  /// implicit: absolute convergence floors on the RMS residual of each exchanged field, in its
+  /// units (0 = none; `tunnelquake run` derives them from the problem scale, docs/coupler.md)
+  Real absoluteTolVelocity = 0, absoluteTolDisplacement = 0, absoluteTolForce = 0;
   Index maxIterations = 20;               ///< implicit: passes per window at most
   std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;

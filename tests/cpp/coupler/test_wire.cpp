@@ -54,8 +54,8 @@ CouplingConfig sampleConfig() {
     c.acceleration = AccelerationKind::Aitken;
     c.initialRelaxation = 0.5;
     c.meshes.push_back({"wall", MapKind::Coincident, "solid", 1e-6});
-    c.fields.push_back({"wall", "velocity", 3, "solid", MapConstraint::Consistent});
-    c.fields.push_back({"wall", "force", 3, "fluid", MapConstraint::Conservative});
+    c.fields.push_back({"wall", "velocity", 3, "solid", MapConstraint::Consistent, 1e-9});
+    c.fields.push_back({"wall", "force", 3, "fluid", MapConstraint::Conservative, 0.25});
     return c;
 }
 
@@ -145,6 +145,7 @@ TEST(Wire, CodecsRoundTrip) {
     const Hello h = decodeHello(p.data(), p.size());
     EXPECT_EQ(h.token, "run-7f3a");
     EXPECT_EQ(h.config.fields.at(1).constraint, MapConstraint::Conservative);
+    EXPECT_EQ(h.config.fields.at(1).absoluteTolerance, 0.25);
     EXPECT_EQ(describeDifferences(h.config, sampleConfig(), "x"), "");
     EXPECT_EQ(h.meshes.at(0).ids, (std::vector<std::int64_t>{1000, 1001, 1002}));
     EXPECT_EQ(h.meshes.at(0).triangles, (std::vector<std::int32_t>{0, 1, 2}));

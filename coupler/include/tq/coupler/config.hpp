@@ -57,6 +57,11 @@ struct FieldSpec {
     /// Consistent for motion-like data (interpolated), conservative for force-like data
     /// (totals preserved).
     MapConstraint constraint = MapConstraint::Consistent;
+    /// Implicit scheme: absolute convergence floor in the field's own units (m/s, m, N), on the
+    /// root mean square of the residual over the field's values: a pass whose residual of this
+    /// field is below it counts as converged for this field whatever the relative residual
+    /// (a wall at rest, round-off sized motion). 0 = none (relative test only).
+    double absoluteTolerance = 0.0;
 };
 
 struct CouplingConfig {

@@ -41,6 +41,9 @@ class Endpoint {
     std::string describe() const { return channel_ ? channel_->describe() : "closed"; }
     /// Seconds spent inside send() and receive() (including waiting for the partner).
     double secondsInTransport() const { return seconds_; }
+    /// Of secondsInTransport: seconds a receive() waited until the message's header had arrived,
+    /// i.e. blocked on the partner (its compute, or the network) rather than moving data.
+    double secondsWaiting() const { return secondsWaiting_; }
     std::uint64_t bytesSent() const { return bytesSent_; }
     std::uint64_t bytesReceived() const { return bytesReceived_; }
 
@@ -50,6 +53,7 @@ class Endpoint {
     std::uint64_t sendSeq_ = 0, recvSeq_ = 0;
     std::uint64_t expectedData_ = 0;
     double seconds_ = 0.0;
+    double secondsWaiting_ = 0.0;
     std::uint64_t bytesSent_ = 0, bytesReceived_ = 0;
     std::vector<std::uint8_t> buffer_;
 };

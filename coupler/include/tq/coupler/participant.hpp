@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "tq/coupler/config.hpp"
+#include "tq/coupler/divergence.hpp"
 #include "tq/coupler/endpoint.hpp"
 #include "tq/coupler/maps.hpp"
 #include "tq/coupler/messages.hpp"
@@ -40,6 +41,7 @@ namespace tq::coupler {
 struct ExchangeStats {
     std::uint64_t exchanges = 0;     ///< DATA messages received
     double secondsInTransport = 0;   ///< inside send/receive, waiting for the partner included
+    double secondsWaiting = 0;       ///< of which receives waited for a message's header (partner busy)
     double secondsMapping = 0;       ///< applying interface maps
     std::uint64_t bytesSent = 0, bytesReceived = 0;
 };
@@ -115,6 +117,8 @@ class Participant : private ExchangePort {
     Received receiveData(std::uint64_t window, std::uint32_t iteration) override;
     std::vector<double>& writtenValues() override;
     const std::vector<double>& receivedValues() const override;
+    const std::vector<FieldSlice>& writtenSlices() const override { return writtenSlices_; }
+    const std::vector<FieldSlice>& receivedSlices() const override { return receivedSlices_; }
 
     Hello makeHello() const;
     /// All the reasons the partner's record is unacceptable ("" if none).
@@ -142,6 +146,9 @@ class Participant : private ExchangePort {
     bool initialized_ = false, finalized_ = false;
     double timeInWindow_ = 0.0;
     std::vector<double> written_, received_;  ///< concatenated, for the scheme
+    std::vector<FieldSlice> writtenSlices_, receivedSlices_;
+    /// First participant: watches the partner's data for a coupling instability.
+    std::unique_ptr<DivergenceMonitor> monitor_;
     double secondsMapping_ = 0.0;
     std::uint64_t partnerDataBytes_ = 0;  ///< exact DATA payload size from the partner
     std::uint64_t exchanges_ = 0;

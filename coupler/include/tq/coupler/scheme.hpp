@@ -15,6 +15,13 @@
 
 namespace tq::coupler {
 
+/// One field's place in the concatenated written or received values.
+struct FieldSlice {
+    std::string name;
+    std::size_t offset = 0, size = 0;
+    double absoluteTolerance = 0.0;  ///< FieldSpec::absoluteTolerance (field units, RMS)
+};
+
 /// What a scheme needs from its participant.
 class ExchangePort {
   public:
@@ -33,6 +40,9 @@ class ExchangePort {
     virtual std::vector<double>& writtenValues() = 0;
     /// The partner's values as last received, all read fields concatenated.
     virtual const std::vector<double>& receivedValues() const = 0;
+    /// Where each written / read field lies in writtenValues() / receivedValues().
+    virtual const std::vector<FieldSlice>& writtenSlices() const = 0;
+    virtual const std::vector<FieldSlice>& receivedSlices() const = 0;
 };
 
 struct SchemeState {
@@ -78,8 +88,10 @@ class SerialExplicit final : public CouplingScheme {
 };
 
 /// Serial implicit: passes repeated with checkpoint/rollback until converged (the second
-/// participant measures ‖d_k − d_{k−1}‖/‖d_k‖ of what it reads and ‖x̃_k − x_k‖/‖x̃_k‖ of what
-/// it writes, every one below tolerance, k ≥ 1) or maxIterations; it accelerates its writes.
+/// participant measures, field by field, ‖d_k − d_{k−1}‖/‖d_k‖ of what it reads and
+/// ‖x̃_k − x_k‖/‖x̃_k‖ of what it writes; a field has converged when that is below tolerance
+/// or the RMS of its residual is below the field's absolute tolerance; all fields, k ≥ 1) or
+/// maxIterations; it accelerates its writes.
 /// With fixedPasses = 2 and no convergence test this is the paper's predictor–corrector.
 class SerialImplicit final : public CouplingScheme {
   public:
@@ -101,5 +113,12 @@ std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::s
 
 /// ‖a − b‖ / ‖a‖ (0 when both are zero, +inf when only a is zero).
 double relativeDifference(const std::vector<double>& a, const std::vector<double>& b);
+
+/// The convergence measure of one pass, max over the fields of
+/// min(‖a − b‖/‖a‖, tolerance × rms(a − b) / absoluteTolerance) (the second term only where the
+/// field has an absolute tolerance): the pass has converged when it is below `tolerance`. It is
+/// the relative residual except where the absolute floor is nearer to being met.
+double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
+                          const std::vector<FieldSlice>& slices, double tolerance);
 
 }  // namespace tq::coupler

@@ -1,0 +1,70 @@
+#pragma once
+/// @file divergence.hpp
+/// Detection of a coupling instability during the run, before any value overflows
+/// (docs/coupler.md "Divergence detection").
+///
+/// What separates numerical from physical growth: a response the coupling window resolves
+/// changes smoothly from window to window, so two consecutive changes of the interface data,
+/// Δ_n = x_n − x_{n−1} and Δ_{n−1}, point the same way (their cosine is near +1, below zero only
+/// at an isolated extremum), whether the response decays, oscillates or grows (a resonant forced
+/// response grows by a factor 1 + O(ωΔt) per window). The added-mass instability of a staggered
+/// scheme is the opposite: its error has the amplification factor λ ≈ −m_a/m per window (explicit
+/// scheme), a mode of period two windows that no physical response resolved by the window can
+/// have: consecutive changes point in opposite directions window after window and grow by |λ|.
+/// The monitor flags a window as alternating when cos(Δ_n, Δ_{n−1}) < −½ and both changes are
+/// above the noise floor, and stops the run when `windows` consecutive windows alternate and the
+/// change grew by at least `growth` per window on average over them. An implicit scheme that
+/// reaches its pass limit in `unconverged` consecutive windows with a residual that grows in each
+/// and by `residualGrowth` over them is stopped too (a residual that stagnates near the tolerance
+/// is not: that is a slow iteration, counted in SchemeState::unconvergedWindows).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tq/coupler/config.hpp"
+#include "tq/coupler/scheme.hpp"
+
+namespace tq::coupler {
+
+struct DivergenceSettings {
+    int windows = 8;          ///< consecutive alternating windows before stopping
+    double growth = 1.1;      ///< least mean growth per window of the alternating change
+    int unconverged = 5;      ///< consecutive unconverged implicit windows with growing residual
+    double residualGrowth = 10; ///< ... that grew by at least this factor over them
+    double noiseFloor = 1e-9; ///< with no absolute tolerance: the floor relative to the peak RMS
+};
+
+class DivergenceMonitor {
+  public:
+    /// `slices`: the monitored fields in `x` (normally the data the partner sends);
+    /// `who`: the participant named in the message.
+    DivergenceMonitor(const CouplingConfig& c, std::vector<FieldSlice> slices, std::string who,
+                      DivergenceSettings s = {});
+    /// After every completed window: its final data and the scheme's state (residual and
+    /// whether the window ended at the pass limit). Throws DivergenceError naming the likely
+    /// cause and the fix.
+    void windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged,
+                    double residual);
+    /// Estimated amplification per window of the alternating mode (0 when none seen).
+    double lastAmplification() const { return lastAmp_; }
+
+  private:
+    struct Track {
+        std::vector<double> prev, prevDelta;
+        double prevChange = 0, peak = 0;
+        int run = 0;
+        double runStartChange = 0;
+        bool hasPrev = false, hasDelta = false;
+    };
+    const CouplingConfig& config_;
+    std::vector<FieldSlice> slices_;
+    std::string who_;
+    DivergenceSettings s_;
+    std::vector<Track> tracks_;
+    int unconvergedRun_ = 0;
+    std::vector<double> unconvergedResiduals_;
+    double lastAmp_ = 0;
+};
+
+}  // namespace tq::coupler
