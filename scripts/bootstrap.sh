@@ -2,7 +2,8 @@
 # TunnelQuake bootstrap: takes a fresh Debian bookworm machine (as root) to a working install.
 #
 #   1. Debian packages: OpenFOAM v1912 (`openfoam`), Eigen, HDF5, Open MPI, compilers, CMake,
-#      GoogleTest, and the X/GL runtime libraries the gmsh wheel needs.
+#      GoogleTest, CalculiX (`calculix-ccx`, for the solid benchmark), and the X/GL runtime
+#      libraries the gmsh wheel needs.
 #   2. OpenFOAM v1912 headers from Debian's own source package (Debian ships none): deb-src is
 #      derived from this machine's own apt source entries, the source is unpacked once into a
 #      cache and lnInclude folders are made the way wmakeLnInclude makes them.
@@ -42,6 +43,7 @@ APT_PACKAGES=(
   openmpi-bin libopenmpi-dev                 # MPI transport, decomposed OpenFOAM runs
   build-essential cmake ninja-build pkg-config libgtest-dev googletest
   python3-venv python3-dev dpkg-dev xz-utils shellcheck
+  calculix-ccx                               # CalculiX: the solid benchmark's side-by-side run
   libglu1-mesa libxrender1 libxcursor1 libxft2 libxinerama1 libgl1   # gmsh wheel runtime
 )
 

@@ -1,25 +1,78 @@
 // tq-solid-bench: time per element-step of elastic hex8 on an n x n x n box (not a test).
 //
-//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping]
+//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] [--generic]
+//                  [--column P --dt DT [--write-ccx deck.inp]]
 //
-// Builds the box in memory (one region, base fixed), gives it small random velocities, and
-// times `steps` explicit steps `repeat` times; prints the median µs per element-step, the
-// figure of merit (element-steps per second) and, per stage, where the time goes.
+// Default case: builds the box in memory (one region, base fixed), gives it small random
+// velocities, and times `steps` explicit steps `repeat` times; prints the median µs per
+// element-step and the figure of merit (element-steps per second).
+// --column P: the CalculiX side-by-side case (tests/verification/solid_benchmark/
+// calculix_compare.py): the same box at rest, base on rollers (u_z = 0), sides on rollers
+// (u_x = 0 on x faces, u_y = 0 on y faces), a step pressure P (Pa) on the top as nodal forces
+// P A/4 per quad corner, fixed step DT; every repeat starts from rest, and the top centre node's
+// u_z after `steps` steps is printed. --write-ccx writes the same problem as a CalculiX deck
+// (*DYNAMIC, EXPLICIT, DIRECT; C3D8R; same nodes, elements, loads and step).
+// --generic: the generic x86-64 kernel instead of the AVX2 one (same as TQ_SOLID_SIMD=generic).
 #include <omp.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "tq/solver.hpp"
 
+namespace {
+
+// The CalculiX deck of the column case: node k of the mesh is node k + 1, element e is e + 1.
+void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, double>>& topForces,
+                  const tq::ElasticParams& mat, double dt, int steps, tq::Index monitor, const std::string& path) {
+  std::ofstream f(path);
+  f.precision(17);
+  f << "** tq-solid-bench --column: elastic box, rollers on base and sides, step load on top\n*NODE, NSET=NALL\n";
+  for (tq::Index n = 0; n < mesh.numNodes(); ++n)
+    f << n + 1 << ", " << mesh.coords[3 * n] << ", " << mesh.coords[3 * n + 1] << ", " << mesh.coords[3 * n + 2] << "\n";
+  f << "*ELEMENT, TYPE=C3D8R, ELSET=EALL\n";
+  for (tq::Index e = 0; e < mesh.numElems(); ++e) {
+    f << e + 1;
+    for (int k = 0; k < 8; ++k) f << ", " << mesh.connectivity[8 * size_t(e) + k] + 1;
+    f << "\n";
+  }
+  auto nset = [&](const char* name, const std::vector<tq::Index>& nodes) {
+    f << "*NSET, NSET=" << name << "\n";
+    for (size_t i = 0; i < nodes.size(); ++i) f << nodes[i] + 1 << ((i % 8 == 7 || i + 1 == nodes.size()) ? "\n" : ", ");
+  };
+  nset("NBOT", mesh.faceNodes("bottom"));
+  std::vector<tq::Index> xs = mesh.faceNodes("xmin"), ys = mesh.faceNodes("ymin");
+  for (tq::Index n : mesh.faceNodes("xmax")) xs.push_back(n);
+  for (tq::Index n : mesh.faceNodes("ymax")) ys.push_back(n);
+  nset("NXS", xs);
+  nset("NYS", ys);
+  nset("NMON", {monitor});
+  f << "*MATERIAL, NAME=ROCK\n*ELASTIC\n" << mat.youngsModulus << ", " << mat.poissonRatio << "\n*DENSITY\n"
+    << mat.density << "\n*SOLID SECTION, ELSET=EALL, MATERIAL=ROCK\n";
+  f << "*BOUNDARY\nNBOT, 3, 3\nNXS, 1, 1\nNYS, 2, 2\n";
+  f << "*AMPLITUDE, NAME=STEPLOAD\n0., 1., 1.e6, 1.\n";
+  // initial, period, minimum, maximum increment: the fixed step (CalculiX takes the maximum when
+  // its own Courant estimate is larger)
+  f << "*STEP, INC=" << steps + 10 << "\n*DYNAMIC, EXPLICIT, DIRECT\n" << dt << ", " << dt * steps << ", " << dt << ", " << dt << "\n";
+  f << "*CLOAD, AMPLITUDE=STEPLOAD\n";
+  for (const auto& [n, F] : topForces) f << n + 1 << ", 3, " << F << "\n";
+  f << "*NODE PRINT, NSET=NMON, FREQUENCY=" << steps << "\nU\n*END STEP\n";
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace tq;
   int n = 40, steps = 200, repeat = 5;
-  bool damping = false;
+  bool damping = false, generic = false;
+  double columnP = 0, fixedDt = 0;
+  std::string ccxDeck;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--n" && i + 1 < argc) n = std::stoi(argv[++i]);
@@ -27,15 +80,68 @@ int main(int argc, char** argv) {
     else if (a == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) omp_set_num_threads(std::stoi(argv[++i]));
     else if (a == "--damping") damping = true;
+    else if (a == "--generic") generic = true;
+    else if (a == "--column" && i + 1 < argc) columnP = std::stod(argv[++i]);
+    else if (a == "--dt" && i + 1 < argc) fixedDt = std::stod(argv[++i]);
+    else if (a == "--write-ccx" && i + 1 < argc) ccxDeck = argv[++i];
     else {
-      std::fprintf(stderr, "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping]\n");
+      std::fprintf(stderr, "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] "
+                           "[--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
       return 1;
     }
   }
+  if (columnP > 0 && !(fixedDt > 0)) {
+    std::fprintf(stderr, "tq-solid-bench: --column needs --dt (the fixed step shared with CalculiX)\n");
+    return 1;
+  }
+  if (generic) setenv("TQ_SOLID_SIMD", "generic", 1);
   const Mesh mesh = makeBoxMesh({n, n, n, 0, 0, 0, 1.0 * n, 1.0 * n, 1.0 * n});
   SolverOptions opt;
   if (damping) opt.damping = RayleighDamping::fromRatio(0.05, 1.0, 20.0);
-  auto mat = std::make_shared<ElasticMaterial>(ElasticParams{8e9, 0.27, 2700});
+  const ElasticParams matParams{8e9, 0.27, 2700};
+  auto mat = std::make_shared<ElasticMaterial>(matParams);
+  if (columnP > 0) {
+    opt.dt = fixedDt;
+    // Nodal forces of the uniform pressure: P A / 4 per corner of each top quad.
+    std::vector<Real> fz(size_t(mesh.numNodes()), 0.0);
+    const auto& quads = mesh.faces.at("top");
+    for (size_t q = 0; q < quads.size() / 4; ++q) {
+      const Real* x0 = &mesh.coords[3 * size_t(quads[4 * q])];
+      const Real* x2 = &mesh.coords[3 * size_t(quads[4 * q + 2])];
+      const Real area = std::abs((x2[0] - x0[0]) * (x2[1] - x0[1]));  // axis-parallel squares
+      for (int k = 0; k < 4; ++k) fz[size_t(quads[4 * q + k])] -= columnP * area / 4;
+    }
+    std::vector<std::pair<Index, double>> topForces;
+    for (Index i = 0; i < mesh.numNodes(); ++i)
+      if (fz[size_t(i)] != 0) topForces.emplace_back(i, fz[size_t(i)]);
+    const Index monitor = (n / 2) + (n + 1) * ((n / 2) + (n + 1) * n);  // top centre
+    if (!ccxDeck.empty()) writeCcxDeck(mesh, topForces, matParams, fixedDt, steps, monitor, ccxDeck);
+    std::vector<double> us;
+    double uz = 0;
+    Index elems = 0;
+    for (int r = 0; r < repeat; ++r) {
+      Solver s(mesh, makeBlocksByRegion(mesh, {{"rock", mat}}), opt);
+      s.fixFaceGroup("bottom", "z");
+      s.fixFaceGroup("xmin", "x");
+      s.fixFaceGroup("xmax", "x");
+      s.fixFaceGroup("ymin", "y");
+      s.fixFaceGroup("ymax", "y");
+      for (const auto& [node, F] : topForces) s.addLoad({{node}, 2, F, TimeFunction::constant(1.0)});
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int i = 0; i < steps; ++i) s.step();
+      const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      us.push_back(1e6 * sec / (double(steps) * mesh.numElems()));
+      uz = s.relativeDisplacement(monitor, 2);
+      elems = mesh.numElems();
+    }
+    std::sort(us.begin(), us.end());
+    std::printf("tq-solid-bench --column: %d elements, %d steps of dt %.6g s, pressure %.6g Pa, %d thread(s), %s kernel\n",
+                elems, steps, fixedDt, columnP, omp_get_max_threads(), generic ? "generic" : "default");
+    std::printf("  median %.4f us per element-step (min %.4f, max %.4f) over %d runs\n", us[us.size() / 2], us.front(),
+                us.back(), repeat);
+    std::printf("  top centre node %d: u_z = %.12e m\n", monitor + 1, uz);
+    return 0;
+  }
   Solver s(mesh, makeBlocksByRegion(mesh, {{"rock", mat}}), opt);
   s.fixFaceGroup("bottom", "xyz");
   std::mt19937 rng(1);
@@ -53,8 +159,9 @@ int main(int argc, char** argv) {
   std::sort(us.begin(), us.end());
   const double med = us[us.size() / 2];
   std::printf("tq-solid-bench: %d elements (%d^3 box), %d nodes, elastic hex8 one_point_assumed_strain, "
-              "damping %s, %d thread(s)\n",
-              mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads());
+              "damping %s, %d thread(s), %s kernel\n",
+              mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads(),
+              s.blocks()[0]->usesAvx2() ? "AVX2" : "generic");
   std::printf("  %d x %d steps: median %.4f us per element-step (min %.4f, max %.4f); "
               "%.3g element-steps/s; energy error %.2e\n",
               repeat, steps, med, us.front(), us.back(), 1.0 / med * 1e6, s.energy().error);

@@ -2,8 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
 
 #include "tq/hex8.hpp"
+
+// The kernel's 4-wide vector helpers are always inlined: the AVX ABI note does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace tq {
 
@@ -25,20 +31,33 @@ std::string formulationName(Hex8Formulation f) {
   return "?";
 }
 
+namespace {
+// Chunk-SoA geometry record of the one-point element: component `comp` of lane l of chunk c at
+// geo_[(c * kGeo + comp) * kChunk + l].
+constexpr int kGB = 0;     // uniform gradient b_jI at kGB + 8 j + I
+constexpr int kGHx = 24;   // h_α · x_j at kGHx + 3 α + j (γ_α = (h_α − Σ_j (h_α·x_j) b_j) / 8)
+constexpr int kGRot = 36;  // local frame R_ik at kGRot + 3 i + k
+constexpr int kGIa = 45;   // inverse half edge lengths 1/a_k at kGIa + k
+constexpr int kGVol = 48;  // volume
+constexpr int kGeo = 49;
+}  // namespace
+
 ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> material,
                            Hex8Formulation formulation, const Mesh& mesh,
                            std::vector<Index> meshElems, Real hourglassScale)
     : name_(std::move(name)), material_(std::move(material)), formulation_(formulation),
       nElems_(static_cast<Index>(meshElems.size())), meshElems_(std::move(meshElems)),
-      hgScale_(hourglassScale) {
+      hgScale_(hourglassScale), avx2_(defaultUseAvx2()) {
   if (formulation_ == Hex8Formulation::FullIntegration && !material_->isLinearElastic())
     throw InputError("block '" + name_ + "': full_integration is a linear elastic reference "
                      "formulation; material '" + material_->typeName() + "' needs one_point_assumed_strain");
   mod_ = material_->elasticModuli();
   nuBar_ = formulation_ == Hex8Formulation::OnePointAssumedStrain ? mod_.lambda / mod_.pModulus() : 0.0;
   const size_t E = size_t(nElems_);
+  const size_t nChunks = (E + kChunk - 1) / kChunk;
   conn_.resize(8 * E);
-  active_.assign(E, 1);
+  active_.assign(nChunks * kChunk, 0);  // padding lanes of the last chunk stay inactive
+  std::fill(active_.begin(), active_.begin() + E, 1);
   vol_.resize(E);
   charLen_.resize(E);
   const bool full = formulation_ == Hex8Formulation::FullIntegration;
@@ -46,13 +65,10 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
     bg_.resize(8 * 24 * E);
     wdet_.resize(8 * E);
   } else {
-    b_.resize(24 * E);
-    gamma_.resize(32 * E);
-    rot_.resize(9 * E);
-    invHalf_.resize(3 * E);
+    geo_.assign(nChunks * kGeo * kChunk, 0.0);  // padding lanes: zero geometry
   }
-  for (auto& s : stress_) s.assign(E, 0.0);
-  for (auto& s : strain_) s.assign(E, 0.0);
+  for (auto& s : stress_) s.assign(nChunks * kChunk, 0.0);  // padded to whole chunks
+  for (auto& s : strain_) s.assign(nChunks * kChunk, 0.0);
   for (size_t h = 0; h < material_->historyNames().size(); ++h) history_.emplace_back(E, 0.0);
   for (auto& h : history_) historyPtr_.push_back(h.data());
   for (size_t e = 0; e < E; ++e) {
@@ -71,13 +87,39 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
       std::copy(&bg[0][0][0], &bg[0][0][0] + 192, &bg_[192 * e]);
       std::copy(wd, wd + 8, &wdet_[8 * e]);
     } else {
-      std::copy(&g.b[0][0], &g.b[0][0] + 24, &b_[24 * e]);
-      std::copy(&g.gamma[0][0], &g.gamma[0][0] + 32, &gamma_[32 * e]);
-      std::copy(&g.rot[0][0], &g.rot[0][0] + 9, &rot_[9 * e]);
-      std::copy(g.invHalf, g.invHalf + 3, &invHalf_[3 * e]);
+      Real* G = &geo_[(e / kChunk) * kGeo * kChunk + e % kChunk];
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 8; ++k) G[(kGB + 8 * j + k) * kChunk] = g.b[j][k];
+      for (int a = 0; a < 4; ++a)
+        for (int j = 0; j < 3; ++j) {
+          Real hx = 0;
+          for (int k = 0; k < 8; ++k) hx += hex8::kH[a][k] * x[j][k];
+          G[(kGHx + 3 * a + j) * kChunk] = hx;
+        }
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) G[(kGRot + 3 * i + k) * kChunk] = g.rot[i][k];
+      for (int k = 0; k < 3; ++k) G[(kGIa + k) * kChunk] = g.invHalf[k];
+      G[kGVol * kChunk] = g.volume;
     }
   }
-  chunkEnergy_.resize(size_t((nElems_ + kChunk - 1) / kChunk));
+  chunkEnergy_.resize(nChunks);
+  // Slabs for the scatter: wider than the largest distance between two elements sharing a node,
+  // so a node is touched by at most two consecutive slabs (depends on the mesh only).
+  Index span = 0;
+  {
+    std::vector<Index> first(size_t(mesh.numNodes()), -1);
+    for (Index e = 0; e < nElems_; ++e)
+      for (int k = 0; k < 8; ++k) {
+        Index& f = first[size_t(conn_[8 * size_t(e) + k])];
+        if (f < 0) f = e;
+        span = std::max(span, e - f);
+      }
+  }
+  slabChunks_ = std::max<Index>(4, (span + kChunk) / kChunk);  // (span + 1) elements, rounded up
+}
+
+Real ElementBlock::geo(Index e, int comp) const {
+  return geo_[(size_t(e) / kChunk * kGeo + comp) * kChunk + size_t(e) % kChunk];
 }
 
 void ElementBlock::setActive(Index e, bool on, const NodalState& state) {
@@ -94,13 +136,12 @@ void ElementBlock::rebaseStrain(const NodalState& state) {
 }
 
 void ElementBlock::strainFromDisplacement(Index e, const NodalState& state) {
-  if (b_.empty()) return;
-  const Real* b = &b_[24 * size_t(e)];
+  if (geo_.empty()) return;
   Real L[3][3] = {};
   for (int k = 0; k < 8; ++k) {
     const Index n = conn_[8 * size_t(e) + k];
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) L[i][j] += state.u(n, i) * b[8 * j + k];
+      for (int j = 0; j < 3; ++j) L[i][j] += state.u(n, i) * geo(e, kGB + 8 * j + k);
   }
   strain_[XX][e] = L[0][0];
   strain_[YY][e] = L[1][1];
@@ -147,224 +188,383 @@ Index ElementBlock::findBadStress(Real limit) const {
   return -1;
 }
 
+namespace {
+
+// The one-point kernel is written on short vectors of elements (GCC vector extensions): 2 lanes
+// (SSE2) for the generic x86-64 build, 4 lanes for the AVX2 path, chosen at run time when the CPU
+// has AVX2 and FMA (TQ_SOLID_SIMD=generic forces the generic one).
+typedef Real V2 __attribute__((vector_size(16)));
+typedef Real V4 __attribute__((vector_size(32)));
+
+template <class V>
+inline __attribute__((always_inline)) V loadv(const Real* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class V>
+inline __attribute__((always_inline)) void storev(Real* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+
+/// Block constants of the assumed-strain hourglass stiffness.
+struct HourglassModuli {
+  Real lam, mu, lp2m, nuBar, scale;
+};
+
 // Assumed-strain hourglass stiffness in the element's local frame (derivation in
 // docs/solid_solver.md). qh[k][α]: local component k of hourglass mode α (H_0 = ηζ, H_1 = ζξ,
 // H_2 = ξη, H_3 = ξηζ); Qh: generalised hourglass forces, U = ½ Σ Qh·qh.
-inline __attribute__((always_inline)) void ElementBlock::hourglassStiffness(Index e, const Real qh[3][4], Real Qh[3][4]) const {
-  const Real* ia = &invHalf_[3 * size_t(e)];
-  const Real lam = mod_.lambda, mu = mod_.mu, lp2m = mod_.pModulus();
-  const Real V3 = hgScale_ * vol_[e] / 3, V9 = hgScale_ * vol_[e] / 9;
+template <class V>
+inline __attribute__((always_inline)) void hourglassStiffness(const HourglassModuli& hm, V vol,
+                                                              const V ia[3], const V qh[3][4],
+                                                              V Qh[3][4]) {
+  const Real lam = hm.lam, mu = hm.mu, lp2m = hm.lp2m, nuBar = hm.nuBar;
+  const V V3 = hm.scale * vol / 3, V9 = hm.scale * vol / 9;
   // Twist/warping modes (component k of mode k): shear strains 2ε_12 ∝ ξ0, 2ε_20 ∝ ξ1, 2ε_01 ∝ ξ2.
-  const Real t0 = qh[1][1] * ia[2] + qh[2][2] * ia[1];
-  const Real t1 = qh[2][2] * ia[0] + qh[0][0] * ia[2];
-  const Real t2 = qh[0][0] * ia[1] + qh[1][1] * ia[0];
+  const V t0 = qh[1][1] * ia[2] + qh[2][2] * ia[1];
+  const V t1 = qh[2][2] * ia[0] + qh[0][0] * ia[2];
+  const V t2 = qh[0][0] * ia[1] + qh[1][1] * ia[0];
   Qh[0][0] = mu * V3 * (t1 * ia[2] + t2 * ia[1]);
   Qh[1][1] = mu * V3 * (t0 * ia[2] + t2 * ia[0]);
   Qh[2][2] = mu * V3 * (t0 * ia[1] + t1 * ia[0]);
   // Bending modes: component k ≠ α of mode α is fibre k bending with curvature along
   // m = 3 - α - k; its normal strain ε_kk = s ξ_m with s = qh[k][α]/a_k. For each m the two
   // bending strains (k ≠ m) share the transverse strain ε_mm = -ν̄ Σ s.
+#pragma GCC unroll 3
   for (int m = 0; m < 3; ++m) {
     const int k1 = (m + 1) % 3, k2 = (m + 2) % 3;
     const int a1 = 3 - m - k1, a2 = 3 - m - k2;  // modes: α = third index of (k, m)
-    const Real s1 = qh[k1][a1] * ia[k1], s2 = qh[k2][a2] * ia[k2];
-    const Real em = -nuBar_ * (s1 + s2);
-    const Real tr = s1 + s2 + em;
-    const Real sg1 = lam * tr + 2 * mu * s1, sg2 = lam * tr + 2 * mu * s2, sgm = lam * tr + 2 * mu * em;
-    Qh[k1][a1] = V3 * ia[k1] * (sg1 - nuBar_ * sgm);
-    Qh[k2][a2] = V3 * ia[k2] * (sg2 - nuBar_ * sgm);
+    const V s1 = qh[k1][a1] * ia[k1], s2 = qh[k2][a2] * ia[k2];
+    const V em = -nuBar * (s1 + s2);
+    const V tr = s1 + s2 + em;
+    const V sg1 = lam * tr + 2 * mu * s1, sg2 = lam * tr + 2 * mu * s2, sgm = lam * tr + 2 * mu * em;
+    Qh[k1][a1] = V3 * ia[k1] * (sg1 - nuBar * sgm);
+    Qh[k2][a2] = V3 * ia[k2] * (sg2 - nuBar * sgm);
   }
   // ξηζ mode: compatible bilinear strains (orthogonal to everything else).
-  const Real s0 = ia[0] * ia[0], s1 = ia[1] * ia[1], s2 = ia[2] * ia[2];
+  const V s0 = ia[0] * ia[0], s1 = ia[1] * ia[1], s2 = ia[2] * ia[2];
   Qh[0][3] = V9 * (lp2m * s0 + mu * (s1 + s2)) * qh[0][3];
   Qh[1][3] = V9 * (lp2m * s1 + mu * (s2 + s0)) * qh[1][3];
   Qh[2][3] = V9 * (lp2m * s2 + mu * (s0 + s1)) * qh[2][3];
 }
 
-template <bool kDamp>
-void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* __restrict v,
-                                 const ElementStepParams& p, Real* __restrict corner,
-                                 BlockEnergy& en) {
-  const Index e0 = c * kChunk, n = std::min(kChunk, nElems_ - e0);
-  alignas(64) Real de[6][kChunk];
-  alignas(64) Real w1[kChunk];
-  Real wStress = 0, eHg = 0, wDamp = 0;
-  // 1. Gather, total strain and its increment, hourglass forces into the corner buffer.
-  for (Index l = 0; l < n; ++l) {
-    const size_t e = size_t(e0 + l);
-    Real* __restrict fe = corner + 24 * e;
-    if (!active_[e]) {
-      for (int k = 0; k < 6; ++k) de[k][l] = 0;
-      w1[l] = 0;
-      continue;
+/// Load component `comp` of the lanes l..l+3 of a chunk-SoA array (kChunk values per component).
+template <class V>
+inline __attribute__((always_inline)) V geov(const Real* G, int comp, Index l) {
+  return loadv<V>(G + comp * ElementBlock::kChunk + l);
+}
+
+/// L_ij = Σ_I b_jI g_iI for gathered nodal values g[i][I][lane] (displacement or velocity).
+template <class V>
+inline __attribute__((always_inline)) void gradient(const Real (*g)[8][ElementBlock::kChunk],
+                                                    const Real* G, Index l, V L[3][3]) {
+#pragma GCC unroll 3
+  for (int j = 0; j < 3; ++j)
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      V s = loadv<V>(&g[i][0][l]) * geov<V>(G, kGB + 8 * j, l);
+#pragma GCC unroll 8
+      for (int k = 1; k < 8; ++k) s += loadv<V>(&g[i][k][l]) * geov<V>(G, kGB + 8 * j + k, l);
+      L[i][j] = s;
     }
-    const Index* cn = &conn_[8 * e];
-    Real ux[8], uy[8], uz[8];
+}
+
+/// Generalised hourglass displacements in the element frame, q̂_kα = Σ_i R_ik q_iα with
+/// q_iα = γ_α·g_i = (h_α·g_i − Σ_j (h_α·x_j) L_ij) / 8 (Flanagan & Belytschko's form of
+/// γ_α = (h_α − Σ_j (h_α·x_j) b_j) / 8: γ is not stored).
+template <class V>
+inline __attribute__((always_inline)) void hourglassModes(const Real (*g)[8][ElementBlock::kChunk],
+                                                          const Real* G, Index l, const V L[3][3],
+                                                          V qh[3][4]) {
+  V q[3][4];
+#pragma GCC unroll 4
+  for (int a = 0; a < 4; ++a)
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      V hu = hex8::kH[a][0] * loadv<V>(&g[i][0][l]);
+#pragma GCC unroll 8
+      for (int k = 1; k < 8; ++k) hu += hex8::kH[a][k] * loadv<V>(&g[i][k][l]);
+      const V hl = geov<V>(G, kGHx + 3 * a, l) * L[i][0] + geov<V>(G, kGHx + 3 * a + 1, l) * L[i][1] +
+                    geov<V>(G, kGHx + 3 * a + 2, l) * L[i][2];
+      q[i][a] = 0.125 * (hu - hl);
+    }
+#pragma GCC unroll 3
+  for (int k = 0; k < 3; ++k)
+#pragma GCC unroll 4
+    for (int a = 0; a < 4; ++a)
+      qh[k][a] = geov<V>(G, kGRot + k, l) * q[0][a] + geov<V>(G, kGRot + 3 + k, l) * q[1][a] +
+                 geov<V>(G, kGRot + 6 + k, l) * q[2][a];
+}
+
+}  // namespace
+
+/// Raw view of one chunk for the kernel (pointers at the chunk's first element).
+struct ElementBlock::ChunkView {
+  const Real* G;              // geometry [kGeo][kChunk]
+  const Index* conn;          // [8 n]
+  const std::uint8_t* act;    // [kChunk] (padding lanes inactive)
+  Real* strain[6];            // [kChunk] each
+  Real* stress[6];
+  Real* const* history;       // [count] per history variable
+  const Material* material;
+  Index n;                    // elements in the chunk
+  HourglassModuli hm;
+  Real beta, dt, dtLast;
+};
+
+namespace {
+
+// The kernel body for one chunk; instantiated for the generic and the AVX2 target.
+template <bool kDamp, class V>
+inline __attribute__((always_inline)) void onePointBody(const ElementBlock::ChunkView& cv,
+                                                        const Real* __restrict u,
+                                                        const Real* __restrict v, Real* __restrict f,
+                                                        BlockEnergy& en) {
+  constexpr Index W = ElementBlock::kChunk, kLanes = sizeof(V) / sizeof(Real);
+  using M = decltype(V{} != V{});
+  const Real* __restrict G = cv.G;
+  const Index* __restrict cn = cv.conn;
+  const Index n = cv.n, nv = (n + kLanes - 1) / kLanes * kLanes;
+  // 1. Gather the corners' displacements (and velocities) into [component][corner][lane].
+  alignas(64) Real ug[3][8][W];
+  alignas(64) Real vg[kDamp ? 3 : 1][8][W];
+  for (Index l = 0; l < n; ++l)
     for (int k = 0; k < 8; ++k) {
-      const Real* un = u + 3 * size_t(cn[k]);
-      ux[k] = un[0];
-      uy[k] = un[1];
-      uz[k] = un[2];
-    }
-    const Real* __restrict b = &b_[24 * e];
-    Real L[3][3];
-    for (int j = 0; j < 3; ++j) {
-      Real sx = 0, sy = 0, sz = 0;
-      for (int k = 0; k < 8; ++k) {
-        sx += ux[k] * b[8 * j + k];
-        sy += uy[k] * b[8 * j + k];
-        sz += uz[k] * b[8 * j + k];
+      const Real* un = u + 3 * size_t(cn[8 * l + k]);
+      ug[0][k][l] = un[0];
+      ug[1][k][l] = un[1];
+      ug[2][k][l] = un[2];
+      if constexpr (kDamp) {
+        const Real* vn = v + 3 * size_t(cn[8 * l + k]);
+        vg[0][k][l] = vn[0];
+        vg[1][k][l] = vn[1];
+        vg[2][k][l] = vn[2];
       }
-      L[0][j] = sx;
-      L[1][j] = sy;
-      L[2][j] = sz;
     }
-    const Real eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1],
-                         L[2][0] + L[0][2]};
-    Real w = 0;
+  for (Index l = n; l < nv; ++l)  // padding lanes: at rest (their results are not used)
+    for (int k = 0; k < 8; ++k)
+      for (int i = 0; i < 3; ++i) {
+        ug[i][k][l] = 0;
+        if constexpr (kDamp) vg[i][k][l] = 0;
+      }
+  // 2. Total strain and its increment, hourglass forces (generalised, global frame: Qg).
+  alignas(64) Real de[6][W];
+  alignas(64) Real Qg[12][W];
+  alignas(64) Real ws[W], eh[W], wd[W];
+  const HourglassModuli& hm = cv.hm;
+  for (Index l = 0; l < nv; l += kLanes) {
+    V actv;
+    for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
+    const M on = actv != 0.0;
+    const V zero = V{};
+    V L[3][3];
+    gradient(ug, G, l, L);
+    const V eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
+    V w = zero;
+#pragma GCC unroll 6
     for (int k = 0; k < 6; ++k) {
-      de[k][l] = eps[k] - strain_[k][e];
-      strain_[k][e] = eps[k];
-      w += stress_[k][e] * de[k][l];
+      const V old = loadv<V>(cv.strain[k] + l);
+      const V d = on ? eps[k] - old : zero;
+      storev(de[k] + l, d);
+      storev(cv.strain[k] + l, on ? eps[k] : old);
+      w += loadv<V>(cv.stress[k] + l) * d;
     }
-    w1[l] = w;
-    // Hourglass: generalised displacements q_iα = γ_α · u_i, rotated to the local frame.
-    const Real* __restrict g = &gamma_[32 * e];
-    const Real* __restrict R = &rot_[9 * e];
-    Real q[3][4];
-    for (int a = 0; a < 4; ++a) {
-      Real sx = 0, sy = 0, sz = 0;
-      for (int k = 0; k < 8; ++k) {
-        sx += g[8 * a + k] * ux[k];
-        sy += g[8 * a + k] * uy[k];
-        sz += g[8 * a + k] * uz[k];
-      }
-      q[0][a] = sx;
-      q[1][a] = sy;
-      q[2][a] = sz;
-    }
-    Real qh[3][4], Qh[3][4];
+    storev(ws + l, w);  // σ^n : Δε for now
+    V qh[3][4], Qh[3][4];
+    hourglassModes(ug, G, l, L, qh);
+    const V vol = geov<V>(G, kGVol, l);
+    const V ia[3] = {geov<V>(G, kGIa, l), geov<V>(G, kGIa + 1, l), geov<V>(G, kGIa + 2, l)};
+    hourglassStiffness(hm, vol, ia, qh, Qh);
+    V ehg = zero;
+#pragma GCC unroll 3
     for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 4; ++a) qh[k][a] = R[k] * q[0][a] + R[3 + k] * q[1][a] + R[6 + k] * q[2][a];
-    hourglassStiffness(Index(e), qh, Qh);
-    Real ehg = 0;
-    for (int k = 0; k < 3; ++k)
+#pragma GCC unroll 4
       for (int a = 0; a < 4; ++a) ehg += qh[k][a] * Qh[k][a];
-    eHg += 0.5 * ehg;
+    storev(eh + l, on ? 0.5 * ehg : zero);
     if constexpr (kDamp) {
       // Stiffness-proportional damping on the hourglass modes: β K_hg q̇ with the lagged
       // velocity v^{n-1/2}.
-      Real vx[8], vy[8], vz[8];
-      for (int k = 0; k < 8; ++k) {
-        const Real* vn = v + 3 * size_t(cn[k]);
-        vx[k] = vn[0];
-        vy[k] = vn[1];
-        vz[k] = vn[2];
-      }
-      Real qd[3][4], qdh[3][4], Qdh[3][4];
-      for (int a = 0; a < 4; ++a) {
-        Real sx = 0, sy = 0, sz = 0;
-        for (int k = 0; k < 8; ++k) {
-          sx += g[8 * a + k] * vx[k];
-          sy += g[8 * a + k] * vy[k];
-          sz += g[8 * a + k] * vz[k];
-        }
-        qd[0][a] = sx;
-        qd[1][a] = sy;
-        qd[2][a] = sz;
-      }
+      V Lv[3][3], qdh[3][4], Qdh[3][4];
+      gradient(vg, G, l, Lv);
+      hourglassModes(vg, G, l, Lv, qdh);
+      hourglassStiffness(hm, vol, ia, qdh, Qdh);
+      V pd = zero;
+#pragma GCC unroll 3
       for (int k = 0; k < 3; ++k)
-        for (int a = 0; a < 4; ++a)
-          qdh[k][a] = R[k] * qd[0][a] + R[3 + k] * qd[1][a] + R[6 + k] * qd[2][a];
-      hourglassStiffness(Index(e), qdh, Qdh);
-      Real pd = 0;
-      for (int k = 0; k < 3; ++k)
+#pragma GCC unroll 4
         for (int a = 0; a < 4; ++a) {
           pd += qdh[k][a] * Qdh[k][a];
-          Qh[k][a] += p.beta * Qdh[k][a];
+          Qh[k][a] += cv.beta * Qdh[k][a];
         }
-      wDamp += p.beta * pd * p.dt;
+      storev(wd + l, on ? cv.beta * pd * cv.dt : zero);
     }
-    Real Q[3][4];
+#pragma GCC unroll 3
     for (int i = 0; i < 3; ++i)
-      for (int a = 0; a < 4; ++a) Q[i][a] = R[3 * i] * Qh[0][a] + R[3 * i + 1] * Qh[1][a] + R[3 * i + 2] * Qh[2][a];
-    for (int k = 0; k < 8; ++k) {
-      fe[3 * k + 0] = Q[0][0] * g[k] + Q[0][1] * g[8 + k] + Q[0][2] * g[16 + k] + Q[0][3] * g[24 + k];
-      fe[3 * k + 1] = Q[1][0] * g[k] + Q[1][1] * g[8 + k] + Q[1][2] * g[16 + k] + Q[1][3] * g[24 + k];
-      fe[3 * k + 2] = Q[2][0] * g[k] + Q[2][1] * g[8 + k] + Q[2][2] * g[16 + k] + Q[2][3] * g[24 + k];
-    }
+#pragma GCC unroll 4
+      for (int a = 0; a < 4; ++a)
+        storev(Qg[4 * i + a] + l, geov<V>(G, kGRot + 3 * i, l) * Qh[0][a] +
+                                      geov<V>(G, kGRot + 3 * i + 1, l) * Qh[1][a] +
+                                      geov<V>(G, kGRot + 3 * i + 2, l) * Qh[2][a]);
   }
-  // 2. Material update of the whole chunk.
+  // 3. Material update of the whole chunk.
   MaterialChunk mc;
   mc.count = n;
-  mc.dt = p.dtLast;
+  mc.dt = cv.dtLast;
   for (int k = 0; k < 6; ++k) {
     mc.dstrain[k] = de[k];
-    mc.stress[k] = stress_[k].data() + e0;
+    mc.stress[k] = cv.stress[k];
   }
-  Real* hp[16];
-  const size_t nh = std::min<size_t>(historyPtr_.size(), 16);
-  for (size_t h = 0; h < nh; ++h) hp[h] = historyPtr_[h] + e0;
-  mc.history = hp;
-  material_->updateStressForElems(mc);
-  // 3. Stress divergence f_iI += V Σ_j b_jI (σ + σ_d)_ij.
-  const Real lam = mod_.lambda, mu = mod_.mu;
-  const Real rate = (kDamp && p.dtLast > 0) ? p.beta / p.dtLast : 0;
-  for (Index l = 0; l < n; ++l) {
-    const size_t e = size_t(e0 + l);
-    Real* __restrict fe = corner + 24 * e;
-    if (!active_[e]) {
-      for (int k = 0; k < 24; ++k) fe[k] = 0;
-      continue;
-    }
-    Real s[6];
-    Real w2 = 0;
+  mc.history = cv.history;
+  cv.material->updateStressForElems(mc);
+  // 4. Nodal forces f_iI = Σ_j b_jI P_ij + Σ_α Q_iα h_αI / 8 with P = V(σ + σ_d) − Σ_α Q_α (h_α·x)ᵀ / 8
+  //    (stress divergence and hourglass forces Q_iα γ_αI in one pass).
+  const Real lam = hm.lam, mu = hm.mu;
+  const Real rate = (kDamp && cv.dtLast > 0) ? cv.beta / cv.dtLast : 0;
+  const Real dtRatio = cv.dtLast > 0 ? cv.dt / cv.dtLast : 0;
+  alignas(64) Real F[24][W];
+  for (Index l = 0; l < nv; l += kLanes) {
+    V actv;
+    for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
+    const M on = actv != 0.0;
+    const V zero = V{};
+    V s[6];
+    V w2 = zero;
+#pragma GCC unroll 6
     for (int k = 0; k < 6; ++k) {
-      s[k] = stress_[k][e];
-      w2 += s[k] * de[k][l];
+      s[k] = loadv<V>(cv.stress[k] + l);
+      w2 += s[k] * loadv<V>(de[k] + l);
     }
-    const Real V = vol_[e];
-    wStress += 0.5 * (w1[l] + w2) * V;
+    const V vol = geov<V>(G, kGVol, l);
+    storev(ws + l, on ? 0.5 * (loadv<V>(ws + l) + w2) * vol : zero);
     if constexpr (kDamp) {
       // σ_d = β C : ε̇ with ε̇ = Δε/Δt_last = sym ∇v^{n-1/2} (lagged velocity).
-      const Real tr = de[XX][l] + de[YY][l] + de[ZZ][l];
-      Real sd[6];
-      sd[XX] = rate * (lam * tr + 2 * mu * de[XX][l]);
-      sd[YY] = rate * (lam * tr + 2 * mu * de[YY][l]);
-      sd[ZZ] = rate * (lam * tr + 2 * mu * de[ZZ][l]);
-      sd[XY] = rate * mu * de[XY][l];
-      sd[YZ] = rate * mu * de[YZ][l];
-      sd[ZX] = rate * mu * de[ZX][l];
-      Real pd = 0;
+      V d[6];
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k) d[k] = loadv<V>(de[k] + l);
+      const V tr = d[XX] + d[YY] + d[ZZ];
+      V sd[6];
+      sd[XX] = rate * (lam * tr + 2 * mu * d[XX]);
+      sd[YY] = rate * (lam * tr + 2 * mu * d[YY]);
+      sd[ZZ] = rate * (lam * tr + 2 * mu * d[ZZ]);
+      sd[XY] = rate * mu * d[XY];
+      sd[YZ] = rate * mu * d[YZ];
+      sd[ZX] = rate * mu * d[ZX];
+      V pd = zero;
+#pragma GCC unroll 6
       for (int k = 0; k < 6; ++k) {
-        pd += sd[k] * de[k][l];
+        pd += sd[k] * d[k];
         s[k] += sd[k];
       }
-      if (p.dtLast > 0) wDamp += pd * V * (p.dt / p.dtLast);
+      storev(wd + l, loadv<V>(wd + l) + (on ? pd * vol * dtRatio : zero));
     }
-    const Real* __restrict b = &b_[24 * e];
+    const V sij[3][3] = {{s[XX], s[XY], s[ZX]}, {s[XY], s[YY], s[YZ]}, {s[ZX], s[YZ], s[ZZ]}};
+    V Q[3][4];
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i)
+#pragma GCC unroll 4
+      for (int a = 0; a < 4; ++a) Q[i][a] = loadv<V>(Qg[4 * i + a] + l);
+    V P[3][3];
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i)
+#pragma GCC unroll 3
+      for (int j = 0; j < 3; ++j)
+        P[i][j] = vol * sij[i][j] - 0.125 * (Q[i][0] * geov<V>(G, kGHx + j, l) + Q[i][1] * geov<V>(G, kGHx + 3 + j, l) +
+                                           Q[i][2] * geov<V>(G, kGHx + 6 + j, l) + Q[i][3] * geov<V>(G, kGHx + 9 + j, l));
+#pragma GCC unroll 8
     for (int k = 0; k < 8; ++k) {
-      const Real bx = b[k] * V, by = b[8 + k] * V, bz = b[16 + k] * V;
-      fe[3 * k + 0] += bx * s[XX] + by * s[XY] + bz * s[ZX];
-      fe[3 * k + 1] += bx * s[XY] + by * s[YY] + bz * s[YZ];
-      fe[3 * k + 2] += bx * s[ZX] + by * s[YZ] + bz * s[ZZ];
+      const V bx = geov<V>(G, kGB + k, l), by = geov<V>(G, kGB + 8 + k, l), bz = geov<V>(G, kGB + 16 + k, l);
+#pragma GCC unroll 3
+      for (int i = 0; i < 3; ++i) {
+        const V hg = 0.125 * (hex8::kH[0][k] * Q[i][0] + hex8::kH[1][k] * Q[i][1] + hex8::kH[2][k] * Q[i][2] +
+                               hex8::kH[3][k] * Q[i][3]);
+        storev(F[3 * k + i] + l, on ? bx * P[i][0] + by * P[i][1] + bz * P[i][2] + hg : zero);
+      }
     }
+  }
+  // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free).
+  for (Index l = 0; l < n; ++l) {
+    if (!cv.act[l]) continue;
+    for (int k = 0; k < 8; ++k) {
+      Real* fn = f + 3 * size_t(cn[8 * l + k]);
+      fn[0] += F[3 * k][l];
+      fn[1] += F[3 * k + 1][l];
+      fn[2] += F[3 * k + 2][l];
+    }
+  }
+  Real wStress = 0, eHg = 0, wDamp = 0;  // lane order: independent of the vector width
+  for (Index l = 0; l < n; ++l) {
+    wStress += ws[l];
+    eHg += eh[l];
+    if constexpr (kDamp) wDamp += wd[l];
   }
   en.stressWork = wStress;
   en.storedEnergy = eHg;
   en.dampingWork = wDamp;
 }
 
-void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict corner,
+template <bool kDamp>
+void onePointGeneric(const ElementBlock::ChunkView& cv, const Real* u, const Real* v, Real* f,
+                     BlockEnergy& en) {
+  onePointBody<kDamp, V2>(cv, u, v, f, en);
+}
+
+template <bool kDamp>
+__attribute__((target("avx2,fma"))) void onePointAvx2(const ElementBlock::ChunkView& cv, const Real* u,
+                                                      const Real* v, Real* f, BlockEnergy& en) {
+  onePointBody<kDamp, V4>(cv, u, v, f, en);
+}
+
+}  // namespace
+
+bool ElementBlock::avx2Available() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+bool ElementBlock::defaultUseAvx2() {
+  const char* env = std::getenv("TQ_SOLID_SIMD");
+  if (env && std::string(env) == "generic") return false;
+  return avx2Available();
+}
+
+template <bool kDamp>
+void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* __restrict v,
+                                 const ElementStepParams& p, Real* __restrict f, BlockEnergy& en) {
+  const Index e0 = c * kChunk;
+  ChunkView cv;
+  cv.G = &geo_[size_t(c) * kGeo * kChunk];
+  cv.conn = &conn_[8 * size_t(e0)];
+  cv.act = &active_[size_t(e0)];
+  for (int k = 0; k < 6; ++k) {
+    cv.strain[k] = strain_[k].data() + e0;
+    cv.stress[k] = stress_[k].data() + e0;
+  }
+  Real* hp[16];
+  const size_t nh = std::min<size_t>(historyPtr_.size(), 16);
+  for (size_t h = 0; h < nh; ++h) hp[h] = historyPtr_[h] + e0;
+  cv.history = hp;
+  cv.material = material_.get();
+  cv.n = std::min(kChunk, nElems_ - e0);
+  cv.hm = HourglassModuli{mod_.lambda, mod_.mu, mod_.pModulus(), nuBar_, hgScale_};
+  cv.beta = p.beta;
+  cv.dt = p.dt;
+  cv.dtLast = p.dtLast;
+  if (avx2_)
+    onePointAvx2<kDamp>(cv, u, v, f, en);
+  else
+    onePointGeneric<kDamp>(cv, u, v, f, en);
+}
+
+void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict f,
                                         BlockEnergy& en) {
   const Index e0 = c * kChunk, n = std::min(kChunk, nElems_ - e0);
   const Real lam = mod_.lambda, mu = mod_.mu;
   Real energy = 0;
   for (Index l = 0; l < n; ++l) {
     const size_t e = size_t(e0 + l);
-    Real* fe = corner + 24 * e;
-    for (int k = 0; k < 24; ++k) fe[k] = 0;
     if (!active_[e]) continue;
+    Real fe[24] = {};
     Real ue[3][8];
     for (int k = 0; k < 8; ++k)
       for (int i = 0; i < 3; ++i) ue[i][k] = u[3 * size_t(conn_[8 * e + k]) + i];
@@ -396,6 +596,8 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
       stress_[k][e] = savg[k] / vol_[e];
       strain_[k][e] = eavg[k] / vol_[e];
     }
+    for (int k = 0; k < 8; ++k)
+      for (int i = 0; i < 3; ++i) f[3 * size_t(conn_[8 * e + k]) + i] += fe[3 * k + i];
   }
   en.stressWork = 0;
   en.storedEnergy = energy;
@@ -403,7 +605,7 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
 }
 
 BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const ElementStepParams& p,
-                                                Real* corner) {
+                                                Real* f) {
   const Real* u = state.uData();
   const Real* v = state.vData();
   const Index nChunks = static_cast<Index>(chunkEnergy_.size());
@@ -411,18 +613,26 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   if (full && p.beta > 0)
     throw InputError("block '" + name_ + "': full_integration does not support stiffness-proportional damping");
   const bool damp = p.beta > 0;
-  // Small blocks run serially: a parallel region costs more than a few chunks of work, and
-  // oversubscribed machines make its barrier expensive. Chunks are fixed, so results are the
-  // same either way.
-#pragma omp parallel for schedule(static) if (nChunks >= 8)
-  for (Index c = 0; c < nChunks; ++c) {
-    BlockEnergy& en = chunkEnergy_[size_t(c)];
-    if (full)
-      fullIntegrationChunk(c, u, corner, en);
-    else if (damp)
-      onePointChunk<true>(c, u, v, p, corner, en);
-    else
-      onePointChunk<false>(c, u, v, p, corner, en);
+  const Index nSlabs = (nChunks + slabChunks_ - 1) / slabChunks_;
+  // Even slabs first, then odd ones: slabs of one parity share no node, so each scatters into f
+  // directly; a node's contributions arrive in an order fixed by the mesh (its elements in slab
+  // order within each parity), whatever the thread count. Small blocks run serially: a parallel
+  // region costs more than a few chunks of work, and oversubscribed machines make its barrier
+  // expensive.
+  for (Index parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(static) if (nSlabs >= 2 + parity && nChunks >= 8)
+    for (Index s = parity; s < nSlabs; s += 2) {
+      const Index c1 = std::min(nChunks, (s + 1) * slabChunks_);
+      for (Index c = s * slabChunks_; c < c1; ++c) {
+        BlockEnergy& en = chunkEnergy_[size_t(c)];
+        if (full)
+          fullIntegrationChunk(c, u, f, en);
+        else if (damp)
+          onePointChunk<true>(c, u, v, p, f, en);
+        else
+          onePointChunk<false>(c, u, v, p, f, en);
+      }
+    }
   }
   BlockEnergy total;  // fixed summation order: independent of the thread count
   for (const auto& en : chunkEnergy_) {

@@ -10,6 +10,69 @@ namespace tq {
 namespace {
 constexpr Index kNodeChunk = 1024;
 constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof (as Real)
+
+struct LeapfrogArgs {
+  Real *u, *v, *a;
+  const Real *fi, *fe, *cb, *fr;
+  Real* fprev;
+  const Real* md;  // mass per dof
+  Index nd;
+  Real dt, dtl, alpha, vlim;
+};
+struct LeapfrogSums {
+  Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Index nBad = 0;
+};
+
+// Central-difference update of a range of dofs, one SIMD loop; compiled for AVX2 + FMA and for
+// generic x86-64, chosen like the element kernel (ElementBlock::defaultUseAvx2: the results of
+// the two differ in the last bits, never with the thread count). A dof of a node of no active
+// element (excavated, not yet installed; m = 0) stays at rest.
+inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogArgs& q) {
+  Real* __restrict u = q.u;
+  Real* __restrict v = q.v;
+  Real* __restrict a = q.a;
+  Real* __restrict fprev = q.fprev;
+  const Real* __restrict fi = q.fi;
+  const Real* __restrict fe = q.fe;
+  const Real* __restrict cb = q.cb;
+  const Real* __restrict fr = q.fr;
+  const Real* __restrict md = q.md;
+  const Real dt = q.dt, rdt = 1 / q.dt, dtl = q.dtl, alpha = q.alpha, vlim = q.vlim;
+  Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Index nBad = 0;
+#pragma omp simd reduction(+ : ke, ext, damp, bdry)
+  for (Index i = 0; i < q.nd; ++i) {
+    // Every value is loaded and computed unconditionally (selects, no branches: SIMD).
+    const Real mn = md[i], vo = v[i], fei = fe[i], fii = fi[i], cd = cb[i], fri = fr[i], fpi = fprev[i];
+    const bool has = mn > 0;
+    const Real f = fei - fii;
+    const Real cm = alpha * mn;
+    // Dashpots (α M and boundary) with the mean of the half-step velocities:
+    // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
+    const Real mdt = mn * rdt, ch = 0.5 * (cm + cd);
+    const Real den = has ? mdt + ch : 1.0;
+    const Real vfree = fri * ((mdt - ch) * vo + f) / den;
+    const Real vn = has ? vfree : 0.0;
+    const Real vb = 0.5 * (vo + vn);
+    // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
+    const Real wExt = 0.5 * (fei + fpi) * dtl * vo, wKin = 0.5 * mn * vo * vn;
+    const Real wDamp = cm * vb * vb * dt, wBdry = cd * vb * vb * dt;
+    ext += has ? wExt : 0.0;
+    ke += has ? wKin : 0.0;
+    damp += has ? wDamp : 0.0;
+    bdry += has ? wBdry : 0.0;
+    const Real acc = (vn - vo) * rdt, du = dt * vn;
+    a[i] = has ? acc : 0.0;
+    u[i] += has ? du : 0.0;
+    v[i] = vn;
+    fprev[i] = fei;
+  }
+  for (Index i = 0; i < q.nd; ++i) nBad += std::abs(v[i]) <= vlim ? 0 : 1;  // also catches NaN
+  return {ke, ext, damp, bdry, nBad};
+}
+LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) { return leapfrogBody(q); }
+__attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) { return leapfrogBody(q); }
 }  // namespace
 
 Integrator parseIntegrator(const std::string& n) {
@@ -76,6 +139,7 @@ std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
 
 Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt)
     : mesh_(mesh), blocks_(std::move(blocks)), opt_(opt) {
+  avx2_ = ElementBlock::defaultUseAvx2();
   if (!(opt_.safety > 0 && opt_.safety <= 1))
     throw InputError("time step safety factor " + std::to_string(opt_.safety) + " must lie in (0, 1]");
   const Index N = mesh.numNodes();
@@ -84,13 +148,6 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
     for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[3 * size_t(n) + d]);
   free_.assign(3 * size_t(N), 1.0);
   fExtPrev_.assign(3 * size_t(N), 0.0);
-  vHalfPrev_.assign(3 * size_t(N), 0.0);
-  Index total = 0;
-  for (auto& b : blocks_) {
-    blockOffset_.push_back(total);
-    total += b->numElems();
-  }
-  corner_.assign(24 * size_t(total), 0.0);
   nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
   if (mesh.slice)  // plane strain along y: u_y = 0 everywhere
     for (Index n = 0; n < N; ++n) fix(n, 1);
@@ -119,20 +176,6 @@ void Solver::rebuild() {
   std::vector<Real> m(static_cast<size_t>(N));
   for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
   for (Index n = 0; n < N; ++n) state_.addMass(n, m[size_t(n)] - state_.mass(n));
-  // Node -> corner CSR, corners in increasing global order (deterministic sums).
-  nodeCornerStart_.assign(size_t(N) + 1, 0);
-  for (size_t bi = 0; bi < blocks_.size(); ++bi)
-    for (Index e = 0; e < blocks_[bi]->numElems(); ++e)
-      for (int k = 0; k < 8; ++k) ++nodeCornerStart_[size_t(blocks_[bi]->node(e, k)) + 1];
-  for (Index n = 0; n < N; ++n) nodeCornerStart_[size_t(n) + 1] += nodeCornerStart_[size_t(n)];
-  nodeCorner_.assign(size_t(nodeCornerStart_.back()), 0);
-  std::vector<Index> fill(nodeCornerStart_.begin(), nodeCornerStart_.end() - 1);
-  for (size_t bi = 0; bi < blocks_.size(); ++bi)
-    for (Index e = 0; e < blocks_[bi]->numElems(); ++e)
-      for (int k = 0; k < 8; ++k) {
-        const Index n = blocks_[bi]->node(e, k);
-        nodeCorner_[size_t(fill[size_t(n)]++)] = 8 * (blockOffset_[bi] + e) + k;
-      }
 }
 
 StableStep Solver::stableStep() const {
@@ -190,8 +233,12 @@ void Solver::computeInternalForces() {
   p.dtLast = dtLast_;
   p.beta = alphaRelax_ >= 0 ? 0.0 : opt_.damping.beta;
   Real work = 0, stored = 0, damp = 0;
-  for (size_t bi = 0; bi < blocks_.size(); ++bi) {
-    const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, corner_.data() + 24 * size_t(blockOffset_[bi]));
+  const Index N = state_.numNodes();
+  Real* __restrict f = state_.fIntData();
+#pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
+  for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
+    const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, f);
     work += en.stressWork;
     stored += en.storedEnergy;
     damp += en.dampingWork;
@@ -199,27 +246,6 @@ void Solver::computeInternalForces() {
   stressWork_ += work;
   storedEnergy_ = stored;
   dampWork_ += damp;
-}
-
-void Solver::assembleForcesForNodes() {
-  const Index N = state_.numNodes();
-  Real* __restrict f = state_.fIntData();
-  const Real* __restrict c = corner_.data();
-  const Index* start = nodeCornerStart_.data();
-  const Index* list = nodeCorner_.data();
-#pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
-  for (Index n = 0; n < N; ++n) {
-    Real fx = 0, fy = 0, fz = 0;
-    for (Index j = start[n]; j < start[n + 1]; ++j) {
-      const Real* cf = c + 3 * size_t(list[j]);
-      fx += cf[0];
-      fy += cf[1];
-      fz += cf[2];
-    }
-    f[3 * size_t(n)] = fx;
-    f[3 * size_t(n) + 1] = fy;
-    f[3 * size_t(n) + 2] = fz;
-  }
 }
 
 void Solver::computeExternalForces() {
@@ -256,7 +282,6 @@ void Solver::updateNodes() {
   const Real* __restrict cb = state_.dashpotData();
   const Real* __restrict fr = free_.data();
   Real* __restrict fprev = fExtPrev_.data();
-  Real* __restrict vprev = vHalfPrev_.data();
   const Real dt = dt_, dtl = dtLast_;
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
   const Real vlim = opt_.velocityLimit;
@@ -265,55 +290,49 @@ void Solver::updateNodes() {
 #pragma omp parallel for schedule(static) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
+    const Index i0 = 3 * n0, nd = 3 * (n1 - n0);
     Real ke = 0, ext = 0, damp = 0, bdry = 0;
     Index bad = -1;
-    for (Index n = n0; n < n1; ++n) {
-      const Real mn = m[n];
-      if (!(mn > 0)) {  // node of no active element (excavated, not yet installed): at rest
+    if (leapfrog) {
+      // One SIMD loop over the chunk's dofs (the node's mass repeated per direction).
+      alignas(64) Real md[3 * kNodeChunk];
+      for (Index n = n0; n < n1; ++n) md[3 * (n - n0)] = md[3 * (n - n0) + 1] = md[3 * (n - n0) + 2] = m[n];
+      LeapfrogArgs la{u + i0, v + i0, a + i0, fi + i0, fe + i0, cb + i0, fr + i0, fprev + i0, md, nd, dt, dtl, alpha, vlim};
+      const LeapfrogSums ls = avx2_ ? leapfrogAvx2(la) : leapfrogGeneric(la);
+      ke = ls.ke;
+      ext = ls.ext;
+      damp = ls.damp;
+      bdry = ls.bdry;
+      if (ls.nBad > 0)
+        for (Index j = 0; j < nd && bad < 0; ++j)
+          if (!(std::abs(v[i0 + j]) <= vlim)) bad = i0 + j;
+    } else {
+      for (Index n = n0; n < n1; ++n) {
+        const Real mn = m[n];
         for (int d = 0; d < 3; ++d) {
           const size_t i = 3 * size_t(n) + d;
-          v[i] = a[i] = 0;
-          vprev[i] = 0;
-          fprev[i] = fe[i];
-        }
-        continue;
-      }
-      for (int d = 0; d < 3; ++d) {
-        const size_t i = 3 * size_t(n) + d;
-        const Real f = fe[i] - fi[i];
-        const Real vo = v[i];
-        const Real cm = alpha * mn, cd = cb[i];
-        Real vn, du;
-        if (leapfrog) {
-          // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
-          ext += 0.5 * (fe[i] + fprev[i]) * dtl * vo;
-          // Dashpots (α M and boundary) with the mean of the half-step velocities:
-          // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
-          const Real mdt = mn / dt, ch = 0.5 * (cm + cd);
-          vn = fr[i] * ((mdt - ch) * vo + f) / (mdt + ch);
-          a[i] = (vn - vo) / dt;
-          du = dt * vn;
-          ke += 0.5 * mn * vo * vn;
-          const Real vb = 0.5 * (vo + vn);
-          damp += cm * vb * vb * dt;
-          bdry += cd * vb * vb * dt;
-          vprev[i] = vo;
-        } else {
+          if (!(mn > 0)) {  // node of no active element: at rest
+            v[i] = a[i] = 0;
+            fprev[i] = fe[i];
+            continue;
+          }
           // Paper eqs. (3)-(4): explicit damping with the full-step velocity.
+          const Real f = fe[i] - fi[i];
+          const Real vo = v[i];
+          const Real cm = alpha * mn, cd = cb[i];
           const Real acc = fr[i] * (f - (cm + cd) * vo) / mn;
-          du = dt * vo + 0.5 * dt * dt * acc;
-          vn = fr[i] * (2 * du / dt - vo);
+          const Real du = dt * vo + 0.5 * dt * dt * acc;
+          const Real vn = fr[i] * (2 * du / dt - vo);
           a[i] = acc;
           ke += 0.5 * mn * vo * vo;
           ext += fe[i] * du;
           damp += cm * vo * vo * dt;
           bdry += cd * vo * vo * dt;
-          vprev[i] = vo;
+          v[i] = vn;
+          u[i] += du;
+          fprev[i] = fe[i];
+          if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
         }
-        v[i] = vn;
-        u[i] += du;
-        fprev[i] = fe[i];
-        if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
       }
     }
     Real* s = sums + kSums * size_t(c);
@@ -405,7 +424,6 @@ void Solver::reportInstability(Index dof, Real value) {
 
 void Solver::step() {
   computeInternalForces();
-  assembleForcesForNodes();
   computeExternalForces();
   updateNodes();
   dtLast_ = dt_;
@@ -459,7 +477,6 @@ void Solver::computeForces(bool withContributors) {
   const Real saved = alphaRelax_;
   alphaRelax_ = 0;  // no stiffness-proportional damping force: the state is taken at rest
   computeInternalForces();
-  assembleForcesForNodes();
   std::vector<std::shared_ptr<NodalForceContributor>> none;
   if (!withContributors) none.swap(contributors_);
   computeExternalForces();
@@ -505,8 +522,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
     // Underwood (1983): lowest active frequency from the Rayleigh quotient of the last
     // increment, ω² = Δu·Δf_int / Δu·M·Δu; critical mass damping c = 2ω.
     computeInternalForces();
-    assembleForcesForNodes();
-    if (s > 0) {
+      if (s > 0) {
       Real num = 0, den = 0;
       const Real* f = state_.fIntData();
       const Real* v = state_.vData();
@@ -553,7 +569,6 @@ void Solver::resetMotion() {
       state_.v(n, d) = 0;
       state_.a(n, d) = 0;
     }
-  std::fill(vHalfPrev_.begin(), vHalfPrev_.end(), 0.0);
   stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
   stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
   interface0_ = plastic0_ = boundary0_ = 0;

@@ -1,10 +1,11 @@
 /// @file element_block.hpp
 /// @brief A group of hex8 elements of one formulation and one material. Element state is held per
 ///        block, one contiguous array per stress/strain component and per history variable.
-///        The force kernel works in fixed-size chunks: gather -> strain -> material update on the
-///        chunk -> stress divergence + hourglass forces -> per-corner force buffer (no atomics;
-///        the node assembly sums the corners in a fixed order, so results are bitwise identical
-///        for any number of OpenMP threads).
+///        The force kernel works in fixed-size chunks, vectorised across the chunk's elements:
+///        gather -> strain -> hourglass forces -> material update on the chunk -> stress
+///        divergence -> scatter into the nodal forces. Chunks form slabs wider than the mesh's
+///        node bandwidth, so even slabs scatter concurrently, then odd ones: no atomics, and every
+///        node's sum order is fixed by the mesh alone (bitwise identical for any thread count).
 #pragma once
 
 #include <memory>
@@ -89,21 +90,36 @@ public:
   /// Largest element frequency estimate ω = 2 c_p / L_e (rad/s); *where receives the element.
   Real maxFrequency(Index* where = nullptr) const;
 
-  /// Internal + stiffness-damping forces of every element into corner buffers
-  /// corner[(e*8 + k)*3 + d] (this block's slice), and the block's energy terms.
-  BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p,
-                                    Real* corner);
+  /// Add the internal + stiffness-damping forces of every element to the nodal forces f [3N]
+  /// (the caller zeroes f first), and return the block's energy terms.
+  BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f);
+  /// Elements per slab of the deterministic parallel scatter (a multiple of kChunk, larger than
+  /// the largest element-index distance between two elements sharing a node).
+  Index slabElems() const { return slabChunks_ * kChunk; }
+
+  /// True when this CPU has AVX2 and FMA (the kernel's fast path).
+  static bool avx2Available();
+  /// The kernel path a new block takes: AVX2 when available, unless the environment variable
+  /// TQ_SOLID_SIMD=generic asks for the generic x86-64 (SSE2) path.
+  static bool defaultUseAvx2();
+  /// Choose the kernel path (AVX2 only if available); results differ between the two in the
+  /// last bits (fused multiply-add), never with the thread count.
+  void setUseAvx2(bool on) { avx2_ = on && avx2Available(); }
+  bool usesAvx2() const { return avx2_; }
+
+  struct ChunkView;  // raw view of one chunk for the kernel (element_block.cpp)
 
   /// Element index of the first non-finite or exploding stress (|σ| > limit) or -1.
   Index findBadStress(Real limit) const;
 
 private:
   template <bool kDamp>
-  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p,
-                     Real* corner, BlockEnergy& en);
-  void fullIntegrationChunk(Index c, const Real* u, Real* corner, BlockEnergy& en);
-  void hourglassStiffness(Index e, const Real qh[3][4], Real Qh[3][4]) const;
+  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f,
+                     BlockEnergy& en);
+  void fullIntegrationChunk(Index c, const Real* u, Real* f, BlockEnergy& en);
   void strainFromDisplacement(Index e, const NodalState& state);
+  /// Geometry value `comp` (see element_block.cpp, kG*) of element e.
+  Real geo(Index e, int comp) const;
 
   std::string name_;
   std::shared_ptr<const Material> material_;
@@ -111,8 +127,10 @@ private:
   Index nElems_ = 0;
   std::vector<Index> meshElems_, conn_;
   std::vector<std::uint8_t> active_;
-  // Geometry (fixed: small strain), per element contiguous.
-  std::vector<Real> vol_, charLen_, b_ /*24*/, gamma_ /*32*/, rot_ /*9*/, invHalf_ /*3*/;
+  // Geometry (fixed: small strain). One-point element: per chunk, per component, one value per
+  // lane ([chunk][49][kChunk]: b 24, h_α·x_j 12, rotation 9, inverse half lengths 3, volume 1),
+  // so the kernel loads whole vectors of elements.
+  std::vector<Real> vol_, charLen_, geo_;
   std::vector<Real> bg_ /*8*24, full integration*/, wdet_ /*8*/;
   // State.
   std::vector<Real> stress_[6], strain_[6];
@@ -122,6 +140,8 @@ private:
   ElasticModuli mod_;
   Real nuBar_ = 0, hgScale_ = 1;
   std::vector<BlockEnergy> chunkEnergy_;
+  Index slabChunks_ = 1;  // chunks per slab of the parallel scatter
+  bool avx2_ = false;     // kernel path
 };
 
 }  // namespace tq

@@ -199,7 +199,6 @@ public:
 
 private:
   void computeInternalForces();
-  void assembleForcesForNodes();
   void computeExternalForces();
   void updateNodes();
   [[noreturn]] void reportInstability(Index dof, Real value);
@@ -209,10 +208,7 @@ private:
   SolverOptions opt_;
   NodalState state_;
   std::vector<Real> free_;          // [3N] 1 free, 0 fixed
-  std::vector<Real> corner_;        // [24 E_total] per-corner element forces
-  std::vector<Index> blockOffset_;  // first global element of each block
-  std::vector<Index> nodeCornerStart_, nodeCorner_;  // CSR node -> corner ids (sorted)
-  std::vector<Real> fExtPrev_, vHalfPrev_, uRef_;  // for the trapezoidal work and velocityAt
+  std::vector<Real> fExtPrev_, uRef_;  // for the trapezoidal work; the seismic reference
   std::vector<NodalLoad> loads_;
   std::vector<std::shared_ptr<NodalForceContributor>> contributors_;
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
@@ -225,6 +221,7 @@ private:
   Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
   std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
   bool balanceSet_ = false;
+  bool avx2_ = false;  // node update path (ElementBlock::defaultUseAvx2)
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
 };
 
