@@ -1,0 +1,79 @@
+"""Coupled verification: free n = 2 ovaling of a thin ring, empty and water-filled, through the real
+chain tq-solid + coupler + OpenFOAM (libtqFoam) (issue 6 item 3; tests/verification/coupled_ring).
+
+Reference: VERIFICATION.md "Coupled" (thin ring, plane strain, E 30 GPa, ν 0.2, ρs 2500, h 0.3 m,
+R 3 m): vacuum ω² = D n²(n²−1)²/(R⁴ m(n²+1)) = (2π 14.53 Hz)²; with incompressible water of radius
+a the added mass per wall area is ρf a²/(R n) (energy argument; the table's ρf R n takes a = R, an
+O(h/R) choice: 9.01 Hz; with the water's true radius a = R − h/2: 9.29 Hz) —
+`references.ring_ovaling_frequency(..., fluid_radius=a)`.
+
+Tolerances (the issue's): 2 % empty, 3 % filled. Discretisation error measured by refinement
+(tests/verification/coupled_ring/README.md): the converged hex8 ring is −0.4 % from the thin-ring
+formula (thick-ring effects); 64 × 1 elements is +0.2 % from it, 32 × 1 (the coupled tests, for
+time) +1.6 %; the coupled refinement is in the README.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "scripts"))
+pytest.importorskip("h5py")
+pytest.importorskip("scipy")
+from tunnelquake import paths  # noqa: E402
+from tunnelquake.references import ring_ovaling_frequency  # noqa: E402
+from tunnelquake.verification.ring import Ring, run_ring  # noqa: E402
+
+solid = pytest.mark.skipif(paths.solid_executable() is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
+water = pytest.mark.skipif(paths.openfoam_library() is None or not Path("/usr/share/openfoam").is_dir(),
+                           reason="libtqFoam.so or OpenFOAM v1912 missing")
+
+#: the verification ring (VERIFICATION.md "Coupled"); one element through the wall (the step doubles,
+#: the frequency moves 0.2 %: README), 64 around for the solid alone, 32 around for the coupled runs
+BASE = Ring(n_around=64, n_through=1, length=0.5, periods=3.0)
+COUPLED = Ring(n_around=32, n_through=1, length=0.5, periods=3.0, scheme="implicit", acceleration="iqn-ils")
+EMPTY_TOL, FILLED_TOL = 0.02, 0.03
+
+
+def _report(res):
+    print(f"\n{res.ring['mode']} water={res.ring['water']}: f = {res.frequency:.4f} Hz vs {res.expected:.4f} Hz "
+          f"({100 * res.error():+.2f} %), growth {res.growth:.3f}, fit rms {res.fit_rms:.2e}, passes {res.passes}, "
+          f"{res.wall_s:.1f} s")
+
+
+def test_references_of_the_ring():
+    """The closed forms used below: 14.53 Hz empty, 9.01 Hz with ρf R n (VERIFICATION.md)."""
+    assert ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0) == pytest.approx(14.53, abs=0.005)
+    assert ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0, 1000) == pytest.approx(9.01, abs=0.005)
+    assert BASE.expected_frequency() == pytest.approx(
+        ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0, 1000, fluid_radius=2.85), rel=1e-12)
+
+
+@solid
+def test_empty_ring_n2_frequency(tmp_path):
+    """(a) No water: tq-solid alone, free vibration after the pulse; 2 % of the vacuum formula."""
+    res = run_ring(Ring(**{**BASE.__dict__, "water": False}), tmp_path / "empty")
+    _report(res)
+    assert res.status == "completed", res.reason
+    assert res.fit_rms < 0.05  # a clean single-mode signal
+    assert abs(res.frequency / ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0) - 1) < EMPTY_TOL
+
+
+@solid
+@water
+@pytest.mark.parametrize("mode", ["slice", "3d"])
+def test_water_filled_ring_n2_frequency(tmp_path, mode):
+    """(b) 2D slice (water ends `empty`) and (c) 3D prism of 2 elements (ring ends u_y = 0, water ends
+    symmetry planes): compressible water (K 2.2 GPa), implicit coupling with IQN-ILS every solid
+    step (the explicit scheme is unstable here and the paper's predictor-corrector 12 % low:
+    docs/stability.md); 3 % of the filled-ring formula with the water's radius."""
+    ring = Ring(**{**COUPLED.__dict__, "mode": mode, "n_axial": 1 if mode == "slice" else 2,
+                   "length": 0.5 if mode == "slice" else 1.0})
+    res = run_ring(ring, tmp_path / mode)
+    _report(res)
+    assert res.status == "completed", res.reason
+    assert res.fit_rms < 0.05
+    assert abs(res.error()) < FILLED_TOL
