@@ -1,7 +1,10 @@
-"""Post-processing of condition results: monitors as CSV, the paper's figures, the comparison table.
+"""Post-processing of condition results: monitors as CSV, the paper's figures (3, 5–10), ParaView
+files (XDMF), and the comparison with the paper's §3.3 numbers and findings.
 
 Works on whatever a run left: a results file cut off by a crash is read up to its last written
-row (rows are appended and flushed as the solver goes), and its status attribute is reported.
+row (rows are appended and flushed as the solver goes; rows whose time does not advance are the
+fill of an extension that was never written and are dropped), snapshots missing their `time`
+attribute (written last) are skipped, and the status attribute and the planned end are reported.
 """
 from __future__ import annotations
 
@@ -14,11 +17,17 @@ import numpy as np
 CONDITION_LABELS = {"no_water": "(1) no water", "static_water": "(2) static water",
                     "dynamic_water": "(3) dynamic water"}
 MONITORS = ("top_arch", "haunch", "bottom_arch")
+#: /interface attr `states`, in the order of the integer codes of /snapshots/<k>/interface/state
+CONTACT_STATES = ("bonded", "separated", "slipping", "stuck", "inactive")
 
 #: The paper's §3.3 numbers (Liu, Zhang & Xiao 2021). Displacements in m, stresses/pressures in Pa.
 PAPER = {
     "hydrodynamic_pressure_peak": {"top_arch": 0.256e6, "haunch": 0.466e6, "bottom_arch": 0.326e6},
     "hydrodynamic_pressure_peak_time": 5.2,
+    "displacement_peak_time": 14.9,
+    "tension_growth_end": 7.0,  # "at time 0~7 s ... increases rapidly to the maximum value"
+    "lining_tensile_strength": 1.27e6,
+    "initial_tension_with_water": 0.76e6,  # conditions 2 and 3: "about 0.76 MPa at time 0 s"
     "max_ux": {
         "no_water": {"top_arch": 0.0600, "haunch": 0.0619, "bottom_arch": 0.0588},
         "static_water": {"top_arch": 0.0600 - 0.0033, "haunch": 0.0619 - 0.0031, "bottom_arch": 0.0588 - 0.0027},
@@ -35,6 +44,8 @@ PAPER = {
         "dynamic_water": {"top_arch": 1.27e6, "haunch": 1.27e6, "bottom_arch": 1.27e6},
     },
 }
+#: A value is "reproduced" when ours is within this relative distance of the paper's.
+TOLERANCE = 0.20
 
 
 @dataclass
@@ -42,7 +53,8 @@ class Monitor:
     time: np.ndarray
     u: np.ndarray  # [T, 3] m
     principal: np.ndarray  # [T, 3] Pa, sigma1 <= sigma2 <= sigma3
-    extra: dict = field(default_factory=dict)  # damage, pressure, ... when present
+    extra: dict = field(default_factory=dict)  # damage [T], water_pressure [T] (Pa) when present
+    attrs: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -51,10 +63,26 @@ class ConditionResult:
     path: Path
     status: str
     monitors: dict[str, Monitor]
+    attrs: dict = field(default_factory=dict)
+    planned_end: float | None = None  # t_end of the solid input, when it can be read
+    snapshots: list[tuple[str, float]] = field(default_factory=list)  # complete ones, by time
+    incomplete_snapshots: list[str] = field(default_factory=list)
+    mesh: dict | None = None  # coordinates [N, 3], connectivity [E, 8], region [E], regions
+    interface: dict | None = None  # pairs [P, 2], normal, area, states, history [T, 7]
+    input_attrs: dict = field(default_factory=dict)  # /materials/lining attrs of the solid input
+    coupling: dict = field(default_factory=dict)  # /coupling attrs (condition 3: scheme, windows, ...)
 
     @property
     def complete(self) -> bool:
         return self.status == "completed"
+
+    @property
+    def t_end(self) -> float:
+        return max((float(m.time[-1]) for m in self.monitors.values() if m.time.size), default=0.0)
+
+    @property
+    def samples(self) -> int:
+        return min((m.time.size for m in self.monitors.values()), default=0)
 
 
 def _rows(ds) -> np.ndarray:
@@ -62,52 +90,197 @@ def _rows(ds) -> np.ndarray:
     return a.reshape(a.shape[0], -1) if a.ndim > 1 else a.reshape(-1, 1)
 
 
+def _advancing(t: np.ndarray) -> int:
+    """Rows up to the first whose time does not advance (fill of an unwritten extension)."""
+    if t.size < 2:
+        return t.size
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    return int(bad[0]) + 1 if bad.size else t.size
+
+
+def _text(v) -> str:
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def _planned_end(input_path) -> float | None:
+    import h5py
+
+    try:
+        with h5py.File(input_path, "r") as f:
+            return float(f["solver"].attrs["t_end"])
+    except (OSError, KeyError, TypeError, ValueError):
+        return None
+
+
 def read_condition(path: Path, condition: str) -> ConditionResult:
     """Read a condition's results.h5; monitor arrays are cut to the rows all of them share."""
     import h5py
 
     with h5py.File(path, "r") as f:
-        status = str(f.attrs.get("status", "unknown"))
+        status = _text(f.attrs.get("status", "unknown"))
+        attrs = {k: (_text(v) if isinstance(v, (str, bytes)) else v) for k, v in f.attrs.items()}
         mons: dict[str, Monitor] = {}
         for name, g in f.get("monitors", {}).items():
             t = _rows(g["time"])[:, 0]
             u = _rows(g["u"])
             pr = _rows(g["principal"]) if "principal" in g else np.zeros((t.size, 3))
-            n = min(t.size, u.shape[0], pr.shape[0])
-            extra = {k: _rows(g[k])[:n] for k in ("damage", "pressure") if k in g}
-            mons[name] = Monitor(time=t[:n], u=u[:n], principal=pr[:n], extra=extra)
-    return ConditionResult(condition, path, status, mons)
+            n = min(_advancing(t), u.shape[0], pr.shape[0])
+            extra = {}
+            if "damage" in g:
+                d = _rows(g["damage"])[:, 0]
+                n = min(n, d.size)
+                extra["damage"] = d
+            if "water_pressure" in g:  # [T, 2] = (time, p): its own time column
+                w = _rows(g["water_pressure"])
+                k = _advancing(w[:, 0])
+                extra["water_pressure_time"], extra["water_pressure"] = w[:k, 0], w[:k, 1]
+            extra = {k: (v[:n] if k in ("damage",) else v) for k, v in extra.items()}
+            mons[name] = Monitor(time=t[:n], u=u[:n], principal=pr[:n], extra=extra, attrs=dict(g.attrs))
+        # the rows all monitors share: the last step written everywhere
+        common = min((mo.time.size for mo in mons.values()), default=0)
+        for mo in mons.values():
+            mo.time, mo.u, mo.principal = mo.time[:common], mo.u[:common], mo.principal[:common]
+            if "damage" in mo.extra:
+                mo.extra["damage"] = mo.extra["damage"][:common]
+        snaps, broken = [], []
+        for key, g in f.get("snapshots", {}).items():
+            if "time" in g.attrs and "u" in g:
+                snaps.append((key, float(g.attrs["time"])))
+            else:
+                broken.append(key)
+        snaps.sort(key=lambda s: s[1])
+        mesh = None
+        if "mesh/coordinates" in f and "mesh/connectivity" in f:
+            mesh = {"coordinates": f["mesh/coordinates"][...], "connectivity": f["mesh/connectivity"][...],
+                    "region": f["mesh/region"][...] if "mesh/region" in f else None,
+                    "regions": [_text(r) for r in f["mesh"].attrs.get("regions", [])]}
+        coupling = {k: (_text(v) if isinstance(v, (str, bytes)) else v)
+                    for k, v in f["coupling"].attrs.items()} if "coupling" in f else {}
+        iface = None
+        if "interface/pairs" in f:
+            g = f["interface"]
+            iface = {"pairs": g["pairs"][...], "states": [_text(s) for s in g.attrs.get("states", CONTACT_STATES)]}
+            for k in ("normal", "area"):
+                if k in g:
+                    iface[k] = g[k][...]
+            if "history" in g:
+                h = _rows(g["history"])
+                iface["history"] = h[:_advancing(h[:, 0])]
+                iface["history_columns"] = [_text(c) for c in g.attrs.get("history_columns", [])]
+    input_path = Path(str(attrs.get("input", "")))
+    if not input_path.is_absolute():
+        input_path = path.parent / input_path
+    planned, mat = None, {}
+    if input_path.is_file():
+        planned = _planned_end(input_path)
+        try:
+            with h5py.File(input_path, "r") as f:
+                if "materials/lining" in f:
+                    mat = dict(f["materials/lining"].attrs)
+        except OSError:
+            pass
+    return ConditionResult(condition, path, status, mons, attrs=attrs, planned_end=planned, snapshots=snaps,
+                           incomplete_snapshots=broken, mesh=mesh, interface=iface, input_attrs=mat,
+                           coupling=coupling)
+
+
+def read_snapshot(res: ConditionResult, key: str) -> dict:
+    """The fields of /snapshots/<key>: u, v [N, 3]; stress [E, 6]; damage [E] and
+    interface/{state, failed, opening, slip, ...} [P] when written."""
+    import h5py
+
+    out: dict = {}
+    with h5py.File(res.path, "r") as f:
+        g = f[f"snapshots/{key}"]
+        out["time"] = float(g.attrs["time"])
+        for k in ("u", "v", "stress", "damage", "plastic_strain"):
+            if k in g:
+                out[k] = g[k][...]
+        if "interface" in g:
+            out["interface"] = {k: g["interface"][k][...] for k in g["interface"]}
+    return out
+
+
+def principal_stresses(stress: np.ndarray) -> np.ndarray:
+    """[E, 6] (xx, yy, zz, xy, yz, zx) -> [E, 3] ascending (sigma1 most compressive), as tq-solid."""
+    s = np.asarray(stress, float)
+    m = np.empty((s.shape[0], 3, 3))
+    m[:, 0, 0], m[:, 1, 1], m[:, 2, 2] = s[:, 0], s[:, 1], s[:, 2]
+    m[:, 0, 1] = m[:, 1, 0] = s[:, 3]
+    m[:, 1, 2] = m[:, 2, 1] = s[:, 4]
+    m[:, 0, 2] = m[:, 2, 0] = s[:, 5]
+    return np.linalg.eigvalsh(m)
 
 
 def monitors_csv(res: ConditionResult, out: Path) -> Path:
-    """One CSV per condition: time and, per monitor, ux, uy, uz (m) and sigma1..3 (Pa)."""
+    """One CSV per condition: time and, per monitor, ux, uy, uz (m), sigma1..3 (Pa), and damage D
+    and the hydrodynamic water pressure (Pa) where the file has them."""
     names = sorted(res.monitors)
-    n = min((res.monitors[m].time.size for m in names), default=0)
+    n = res.samples
     header = ["time_s"]
+    cols = []
     for m in names:
+        mo = res.monitors[m]
         header += [f"{m}_ux_m", f"{m}_uy_m", f"{m}_uz_m", f"{m}_s1_Pa", f"{m}_s2_Pa", f"{m}_s3_Pa"]
+        extra = []
+        if "damage" in mo.extra:
+            header.append(f"{m}_damage")
+            extra.append(mo.extra["damage"])
+        if "water_pressure" in mo.extra:
+            header.append(f"{m}_hydrodynamic_pressure_Pa")
+            extra.append(_on_monitor_time(mo, mo.extra["water_pressure_time"], mo.extra["water_pressure"]))
+        cols.append((mo, extra))
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for i in range(n):
             row = [f"{res.monitors[names[0]].time[i]:.6g}"]
-            for m in names:
-                mo = res.monitors[m]
+            for mo, extra in cols:
                 row += [f"{v:.6e}" for v in (*mo.u[i], *mo.principal[i])]
+                row += [f"{e[i]:.6e}" if i < e.size else "" for e in extra]
             w.writerow(row)
     return out
 
 
-def peaks(res: ConditionResult) -> dict[str, dict[str, float]]:
-    """Per monitor: max |ux|, max |uz| (m) and max tension = max sigma3 (Pa)."""
+def _on_monitor_time(mo: Monitor, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """A series with its own time column put on the monitor's rows (same sampling in tq-solid)."""
+    n = min(t.size, mo.time.size)
+    if n and np.allclose(t[:n], mo.time[:n], rtol=0, atol=1e-9):
+        return v[:n]
+    return np.interp(mo.time, t, v, left=np.nan, right=np.nan) if t.size else np.full(mo.time.size, np.nan)
+
+
+def peaks(res: ConditionResult, t_max: float | None = None) -> dict[str, dict[str, float]]:
+    """Per monitor: max |ux|, max |uz| (m), max tension = max sigma3 (Pa), max damage D, and the
+    peak |hydrodynamic pressure| (Pa) with its time where recorded; over t <= t_max when given
+    (to compare conditions over the window they share)."""
     out = {}
     for m, mo in res.monitors.items():
-        out[m] = {
+        if t_max is not None:
+            k = int(np.searchsorted(mo.time, t_max + 1e-9, side="right"))
+            ex = dict(mo.extra)
+            if "damage" in ex:
+                ex["damage"] = ex["damage"][:k]
+            if "water_pressure" in ex:
+                kw = int(np.searchsorted(ex["water_pressure_time"], t_max + 1e-9, side="right"))
+                ex["water_pressure"], ex["water_pressure_time"] = ex["water_pressure"][:kw], ex["water_pressure_time"][:kw]
+            mo = Monitor(time=mo.time[:k], u=mo.u[:k], principal=mo.principal[:k], extra=ex, attrs=mo.attrs)
+        pk = {
             "max_ux": float(np.max(np.abs(mo.u[:, 0]))) if mo.u.size else float("nan"),
             "max_uz": float(np.max(np.abs(mo.u[:, 2]))) if mo.u.size else float("nan"),
             "max_tension": float(np.max(mo.principal[:, 2])) if mo.principal.size else float("nan"),
+            "t_max_ux": float(mo.time[np.argmax(np.abs(mo.u[:, 0]))]) if mo.u.size else float("nan"),
+            "t_max_uz": float(mo.time[np.argmax(np.abs(mo.u[:, 2]))]) if mo.u.size else float("nan"),
         }
+        d = mo.extra.get("damage")
+        pk["max_damage"] = float(np.max(d)) if d is not None and d.size else float("nan")
+        p = mo.extra.get("water_pressure")
+        if p is not None and p.size:
+            k = int(np.argmax(np.abs(p)))
+            pk["hydrodynamic_pressure_peak"] = float(abs(p[k]))
+            pk["hydrodynamic_pressure_peak_time"] = float(mo.extra["water_pressure_time"][k])
+        out[m] = pk
     return out
 
 
@@ -153,6 +326,7 @@ def fig_principal_stress(results: list[ConditionResult], out: Path) -> Path:
             if m in res.monitors:
                 mo = res.monitors[m]
                 ax.plot(mo.time, mo.principal[:, 2] / 1e6, lw=0.8, label=m.replace("_", " "))
+        ax.axhline(PAPER["lining_tensile_strength"] / 1e6, color="k", ls=":", lw=0.8, label="tensile strength")
         ax.set_title(CONDITION_LABELS[res.condition])
         ax.set_xlabel("time (s)")
         ax.set_ylabel("max principal stress (MPa)")
@@ -164,8 +338,320 @@ def fig_principal_stress(results: list[ConditionResult], out: Path) -> Path:
     return out
 
 
+def read_fluid_interface(fluid_dir: Path) -> dict | None:
+    """The water side's own record of the interface (OpenFOAM function object tqInterface,
+    postProcessing/<name>/<start>/interface.dat): time and area-mean wall pressure pMean (Pa) of
+    the accepted steps (rolled-back attempts left out), over all start times, sorted. None if absent."""
+    rows = []
+    for f in sorted(Path(fluid_dir).glob("postProcessing/*/*/interface.dat")):
+        cols = None
+        with open(f) as fh:
+            for line in fh:
+                if line.startswith("#"):
+                    head = line[1:].split()
+                    if "pMean" in head and "accepted" in head:
+                        cols = (head.index("t"), head.index("accepted"), head.index("pMean"))
+                    continue
+                v = line.split()
+                if cols is None or len(v) <= max(cols):
+                    continue
+                try:
+                    if float(v[cols[1]]) == 1:
+                        rows.append((float(v[cols[0]]), float(v[cols[2]])))
+                except ValueError:
+                    continue  # a line cut off by a crash
+    if not rows:
+        return None
+    a = np.array(sorted(dict(rows).items()))
+    return {"time": a[:, 0], "p_mean": a[:, 1]}
+
+
+def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | None = None) -> Path | None:
+    """Paper Fig. 5: hydrodynamic pressure histories at the monitors (condition 3), with the paper's
+    peaks at 5.2 s marked, and, when given, the water side's area-mean wall pressure of the accepted
+    steps as a cross-check. None when the file has no water pressure."""
+    series = {m: mo for m, mo in res.monitors.items() if "water_pressure" in mo.extra}
+    if not series:
+        return None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    for k, m in enumerate(MONITORS):
+        if m not in series:
+            continue
+        mo = series[m]
+        line, = ax.plot(mo.extra["water_pressure_time"], mo.extra["water_pressure"] / 1e6, lw=0.8,
+                        label=m.replace("_", " "))
+        ax.plot([PAPER["hydrodynamic_pressure_peak_time"]], [PAPER["hydrodynamic_pressure_peak"][m] / 1e6],
+                marker="o^s"[k], ls="none", mfc="none", color=line.get_color(), label=f"{m.replace('_', ' ')} paper peak")
+    if fluid is not None:
+        ax.plot(fluid["time"], fluid["p_mean"] / 1e6, "k--", lw=0.7, label="water side: mean wall pressure")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("hydrodynamic pressure (MPa)")
+    ax.set_title(f"{CONDITION_LABELS[res.condition]}: water pressure on the lining minus hydrostatic")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def fig_damage_histories(results: list[ConditionResult], out: Path) -> Path | None:
+    """Paper Fig. 8: damage coefficient histories at the monitors, one panel per condition."""
+    have = [r for r in results if any("damage" in mo.extra for mo in r.monitors.values())]
+    if not have:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(have), figsize=(4.2 * len(have), 3.4), squeeze=False)
+    for ax, res in zip(axes[0], have, strict=True):
+        for m in MONITORS:
+            mo = res.monitors.get(m)
+            if mo is not None and "damage" in mo.extra:
+                ax.plot(mo.time, mo.extra["damage"], lw=0.9, label=m.replace("_", " "))
+        ax.set_title(CONDITION_LABELS[res.condition])
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("damage coefficient D")
+        top = max(float(np.nanmax(mo.extra["damage"])) if mo.extra.get("damage", np.zeros(0)).size else 0.0
+                  for mo in res.monitors.values())
+        ax.set_ylim(-0.02, max(0.1, 1.1 * top))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+# ---- the lining's middle section -------------------------------------------------------------
+
+def _section_y(res: ConditionResult) -> float:
+    ys = [float(mo.attrs["y"]) for mo in res.monitors.values() if "y" in mo.attrs]
+    if ys:
+        return float(np.mean(ys))
+    c = res.mesh["coordinates"]
+    return 0.5 * float(c[:, 1].min() + c[:, 1].max())
+
+
+def tunnel_centre(res: ConditionResult) -> tuple[float, float]:
+    """(x, z) of the tunnel axis: the mean of the lining's nodes (a full ring)."""
+    c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
+    lin = lining_elements(res)
+    nodes = np.unique(conn[lin]) if lin.size else np.arange(c.shape[0])
+    return float(c[nodes, 0].mean()), float(c[nodes, 2].mean())
+
+
+def lining_elements(res: ConditionResult) -> np.ndarray:
+    regions = res.mesh.get("regions") or []
+    if "lining" not in regions or res.mesh.get("region") is None:
+        return np.zeros(0, int)
+    return np.nonzero(res.mesh["region"] == regions.index("lining"))[0]
+
+
+def damage_section(res: ConditionResult, snap: dict) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The lining elements of the middle section (centroid y nearest the monitors' y): their
+    outlines in the x–z plane [k, 2], their damage D from the snapshot, and their element indices."""
+    c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
+    lin = lining_elements(res)
+    if lin.size == 0 or "damage" not in snap:
+        return [], np.zeros(0), np.zeros(0, int)
+    yc = c[conn[lin], 1].mean(axis=1)
+    y0 = _section_y(res)
+    dist = np.abs(yc - y0)
+    tol = 1e-6 * max(1.0, float(np.ptp(c[:, 1])))
+    sel = lin[dist <= dist.min() + tol]
+    polys = []
+    for e in sel:
+        p = c[conn[e]][:, [0, 2]]
+        q = np.unique(np.round(p, 9), axis=0)  # an element extruded along y projects to 4 points
+        ctr = q.mean(axis=0)
+        q = q[np.argsort(np.arctan2(q[:, 1] - ctr[1], q[:, 0] - ctr[0]))]
+        polys.append(q)
+    return polys, np.asarray(snap["damage"])[sel], sel
+
+
+def fig_damage_section(results: list[ConditionResult], out: Path) -> Path | None:
+    """Paper Fig. 9: damage D over the lining's middle section at the last snapshot, per condition."""
+    from matplotlib.collections import PolyCollection
+
+    items = []
+    for res in results:
+        if res.mesh is None or not res.snapshots:
+            continue
+        snap = read_snapshot(res, res.snapshots[-1][0])
+        polys, d, _ = damage_section(res, snap)
+        if polys:
+            items.append((res, snap["time"], polys, d))
+    if not items:
+        return None
+    plt = _plt()
+    vmax = max(0.05, max(float(d.max()) for *_, d in items))
+    fig, axes = plt.subplots(1, len(items), figsize=(4.0 * len(items) + 0.8, 4.0), squeeze=False)
+    for ax, (res, t, polys, d) in zip(axes[0], items, strict=True):
+        pc = PolyCollection(polys, array=d, cmap="inferno_r", edgecolors="0.6", linewidths=0.2)
+        pc.set_clim(0.0, vmax)
+        ax.add_collection(pc)
+        ax.autoscale_view()
+        ax.set_aspect("equal")
+        ax.set_title(f"{CONDITION_LABELS[res.condition]}\nt = {t:.2f} s, max D = {d.max():.3g}", fontsize=9)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("z (m)")
+    fig.colorbar(pc, ax=axes[0].tolist(), label="damage coefficient D", shrink=0.8)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def interface_section(res: ConditionResult, snap: dict) -> dict | None:
+    """The rock–lining pairs of the middle section with their angle around the tunnel axis
+    (degrees from the crown towards +x: top arch 0, haunch 90, bottom arch 180), final state
+    (index into CONTACT_STATES) and `failed` (the bond broken at some time: the envelope)."""
+    if res.interface is None or "interface" not in snap or res.mesh is None:
+        return None
+    c = res.mesh["coordinates"]
+    pairs = res.interface["pairs"]
+    pos = c[pairs[:, 1]]
+    # the node plane nearest the section (of two at the same distance, as in a slice, the first)
+    y_pick = pos[int(np.argmin(np.abs(pos[:, 1] - _section_y(res)))), 1]
+    sel = np.nonzero(np.abs(pos[:, 1] - y_pick) <= 1e-6 * max(1.0, float(np.ptp(c[:, 1]))))[0]
+    xc, zc = tunnel_centre(res)
+    ang = np.degrees(np.arctan2(pos[sel, 0] - xc, pos[sel, 2] - zc))
+    st = snap["interface"]
+    return {"index": sel, "angle": ang, "x": pos[sel, 0], "z": pos[sel, 2],
+            "state": np.asarray(st["state"])[sel],
+            "failed": np.asarray(st.get("failed", np.zeros(pairs.shape[0])))[sel].astype(bool),
+            "opening": np.asarray(st["opening"])[sel] if "opening" in st else None,
+            "slip": np.asarray(st["slip"])[sel] if "slip" in st else None}
+
+
+def fig_interface_zones(results: list[ConditionResult], out: Path) -> Path | None:
+    """Paper Fig. 10: per rock–lining pair of the middle section, the state at the last snapshot
+    (outer ring) and whether its bond failed at any time (inner ring: the envelope)."""
+    items = []
+    for res in results:
+        if not res.snapshots:
+            continue
+        snap = read_snapshot(res, res.snapshots[-1][0])
+        sec = interface_section(res, snap)
+        if sec is not None and sec["index"].size:
+            items.append((res, snap["time"], sec))
+    if not items:
+        return None
+    plt = _plt()
+    colours = {"bonded": "tab:green", "separated": "tab:red", "slipping": "tab:orange", "stuck": "tab:blue",
+               "inactive": "0.6"}
+    fig, axes = plt.subplots(1, len(items), figsize=(4.2 * len(items), 4.4), squeeze=False)
+    for ax, (res, t, sec) in zip(axes[0], items, strict=True):
+        xc, zc = tunnel_centre(res)
+        r = np.hypot(sec["x"] - xc, sec["z"] - zc)
+        th = np.radians(sec["angle"])
+        for code, name in enumerate(CONTACT_STATES):
+            k = sec["state"] == code
+            ax.scatter(xc + 1.08 * r[k] * np.sin(th[k]), zc + 1.08 * r[k] * np.cos(th[k]), s=22,
+                       color=colours[name], label=f"{name} ({int(k.sum())})")
+        f = sec["failed"]
+        ax.scatter(xc + 0.92 * r * np.sin(th), zc + 0.92 * r * np.cos(th), s=10, marker="s",
+                   c=np.where(f, "k", "white"), edgecolors="k", linewidths=0.4)
+        ax.scatter([], [], s=10, marker="s", c="k", label=f"bond failed at some time ({int(f.sum())})")
+        ax.set_aspect("equal")
+        ax.set_title(f"{CONDITION_LABELS[res.condition]}, t = {t:.2f} s", fontsize=9)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("z (m)")
+        ax.legend(fontsize=6, loc="center")
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+# ---- ParaView ---------------------------------------------------------------------------------
+
+def write_xdmf(res: ConditionResult, out_xdmf: Path) -> Path | None:
+    """XDMF 3 (+ HDF5 heavy data beside it, `<name>.h5`) of the solid mesh with the snapshot fields
+    over time: displacement and velocity (nodes), stress, principal stresses, damage (cells), and
+    the region. None when the file has no mesh or no complete snapshot. Both files are written
+    under temporary names and moved into place."""
+    import os
+
+    import h5py
+
+    if res.mesh is None or not res.snapshots:
+        return None
+    out_xdmf = Path(out_xdmf)
+    out_xdmf.parent.mkdir(parents=True, exist_ok=True)
+    heavy = out_xdmf.with_suffix(".h5")
+    tmp_h5 = heavy.with_name(f".{heavy.name}.part")
+    tmp_x = out_xdmf.with_name(f".{out_xdmf.name}.part")
+    c = np.asarray(res.mesh["coordinates"], float)
+    conn = np.asarray(res.mesh["connectivity"], np.int64)
+    N, E = c.shape[0], conn.shape[0]
+    hn = heavy.name
+
+    def item(path, shape, kind="Float"):
+        dims = " ".join(str(s) for s in shape)
+        prec = 8
+        return (f'<DataItem Dimensions="{dims}" NumberType="{kind}" Precision="{prec}" Format="HDF">'
+                f"{hn}:{path}</DataItem>")
+
+    def attr(name, centre, path, shape):
+        typ = {1: "Scalar", 3: "Vector", 6: "Tensor6"}[1 if len(shape) == 1 else shape[1]]
+        return (f'<Attribute Name="{name}" AttributeType="{typ}" Center="{centre}">'
+                f"{item(path, shape)}</Attribute>")
+
+    grids = []
+    try:
+        with h5py.File(tmp_h5, "w") as h:
+            h["mesh/coordinates"] = c
+            h["mesh/connectivity"] = conn
+            region = res.mesh.get("region")
+            if region is not None:
+                h["mesh/region"] = np.asarray(region, float)
+            for k, (key, t) in enumerate(res.snapshots):
+                s = read_snapshot(res, key)
+                g = h.create_group(f"step{k}")
+                g.attrs["time"] = t
+                fields = []
+                g["displacement"] = s["u"]
+                fields.append(attr("displacement", "Node", f"/step{k}/displacement", (N, 3)))
+                if "v" in s:
+                    g["velocity"] = s["v"]
+                    fields.append(attr("velocity", "Node", f"/step{k}/velocity", (N, 3)))
+                if "stress" in s:
+                    g["stress"] = s["stress"]
+                    g["principal_stress"] = principal_stresses(s["stress"])
+                    g["max_principal_stress"] = g["principal_stress"][:, 2]
+                    fields.append(attr("stress", "Cell", f"/step{k}/stress", (E, 6)))
+                    fields.append(attr("principal_stress", "Cell", f"/step{k}/principal_stress", (E, 3)))
+                    fields.append(attr("max_principal_stress", "Cell", f"/step{k}/max_principal_stress", (E,)))
+                if "damage" in s:
+                    g["damage"] = s["damage"]
+                    fields.append(attr("damage", "Cell", f"/step{k}/damage", (E,)))
+                if region is not None:
+                    fields.append(attr("region", "Cell", "/mesh/region", (E,)))
+                grids.append(
+                    f'      <Grid Name="t{k}" GridType="Uniform">\n'
+                    f'        <Time Value="{t:.9g}"/>\n'
+                    f'        <Topology TopologyType="Hexahedron" NumberOfElements="{E}">'
+                    f'{item("/mesh/connectivity", (E, 8), "Int")}</Topology>\n'
+                    f'        <Geometry GeometryType="XYZ">{item("/mesh/coordinates", (N, 3))}</Geometry>\n'
+                    + "".join(f"        {a}\n" for a in fields)
+                    + "      </Grid>\n")
+        xml = ('<?xml version="1.0"?>\n<Xdmf Version="3.0">\n  <Domain>\n'
+               f'    <Grid Name="{res.condition}" GridType="Collection" CollectionType="Temporal">\n'
+               + "".join(grids) + "    </Grid>\n  </Domain>\n</Xdmf>\n")
+        tmp_x.write_text(xml)
+        os.replace(tmp_h5, heavy)
+        os.replace(tmp_x, out_xdmf)
+    finally:
+        for p in (tmp_h5, tmp_x):
+            if p.exists():
+                p.unlink()
+    return out_xdmf
+
+
+# ---- the comparison with the paper -----------------------------------------------------------
+
 def comparison_table(results: list[ConditionResult]) -> list[str]:
-    """Markdown rows: the paper's §3.3 value beside ours, value by value."""
+    """Markdown rows: the paper's §3.3 value beside ours, value by value (kept for the summary)."""
     lines = ["| quantity | condition | monitor | paper | ours | ours / paper |", "|---|---|---|---|---|---|"]
     units = {"max_ux": ("cm", 100), "max_uz": ("cm", 100), "max_tension": ("MPa", 1e-6)}
     for res in results:

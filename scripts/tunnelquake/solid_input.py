@@ -81,7 +81,7 @@ def _motion(motion_h5: Path) -> dict:
         }
 
 
-#: Coupling schemes tq-solid's adapter runs (the case also offers added_mass, not built yet).
+#: Coupling schemes tq-solid's adapter runs (the case schema offers the same).
 COUPLING_SCHEMES = ("explicit", "paper", "implicit")
 
 
@@ -233,7 +233,19 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             mg["points"] = pts
         o = f.create_group("output")
         o.attrs["monitor_dt"] = float(d["output"]["history_interval"])
-        if d["output"]["snapshot_times"]:
-            o["snapshot_times"] = np.asarray(d["output"]["snapshot_times"], float)
+        o["snapshot_times"] = snapshot_times(d["output"]["snapshot_times"], t_end)
     os.replace(tmp, out)
     return out
+
+
+#: Seconds between the default field snapshots (`output.snapshot_times` empty).
+SNAPSHOT_INTERVAL = 1.0
+
+
+def snapshot_times(given, t_end: float) -> np.ndarray:
+    """The field snapshot times: those given, else every SNAPSHOT_INTERVAL s of the seismic stage
+    and its end (the end state is what the paper's Figs. 9 and 10 show; post's XDMF animates the rest)."""
+    if given:
+        return np.asarray(given, float)
+    t = np.arange(SNAPSHOT_INTERVAL, t_end, SNAPSHOT_INTERVAL)
+    return np.append(t[t < t_end - 1e-9], float(t_end))

@@ -147,6 +147,12 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       s.addContributor(coupling);
       in.tEnd = coupling->endTime();  // whole windows
       results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
+      results.addSeries("/energy/fluid_received_work", [c = coupling.get()] { return c->fluidReceivedWork(); },
+                        "fluid_received_work");
+      results.addSeries("/energy/coupling_energy", [c = coupling.get()] { return c->couplingEnergy(); },
+                        "coupling_energy");
+      results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
+                               [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
       out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
           << " windows)" << std::endl;
     } catch (const InputError& e) {
@@ -165,7 +171,16 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
     const FluidCouplingStats cs = coupling->stats();
     results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
                                      {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
-                                     {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()}},
+                                     {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
+                                     {"fluid_received_work", coupling->fluidReceivedWork()},
+                                     {"coupling_energy", coupling->couplingEnergy()},
+                                     // cost split over the stepping (docs/coupler.md "Exchange cost")
+                                     {"coupled_wall_s", cs.secondsCoupled},
+                                     {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                                     {"coupler_s", cs.secondsInCoupler},
+                                     {"exchange_wait_s", cs.secondsWaiting},
+                                     {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
+                                     {"mapping_s", cs.secondsMapping}},
                        {{"scheme", in.staged.coupling.scheme}});
   };
   results.sample(s);

@@ -3,6 +3,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -142,6 +143,63 @@ void ResultsWriter::addSeries(const std::string& path, std::function<Real()> val
   h5::Handle ds(H5Dopen2(I.file, path.c_str(), H5P_DEFAULT), H5Dclose);
   h5::writeStringListAttr(ds, "columns", {"time", unit});
   flush();
+}
+
+void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, const std::vector<MonitorInput>& monitors,
+                                     const std::vector<Index>& nodes,
+                                     std::function<const std::vector<Real>&()> force) {
+  // Tributary area vectors of the face nodes: a quarter of each quad's area vector (the quads are
+  // counter-clockwise seen from outside the solid, so the vector points into the water). A is the
+  // length of the summed vector, so a uniform pressure p, whose nodal forces are −p × this vector,
+  // is recovered exactly.
+  std::vector<Real> areaVec(3 * nodes.size(), 0.0);
+  const auto& quads = m.faces.at(face);
+  auto local = [&](Index n) { return size_t(std::lower_bound(nodes.begin(), nodes.end(), n) - nodes.begin()); };
+  auto x = [&](Index n, int d) { return m.coords[3 * size_t(n) + d]; };
+  for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+    Real d1[3], d2[3], s[3];
+    for (int d = 0; d < 3; ++d) {
+      d1[d] = x(quads[q + 2], d) - x(quads[q], d);
+      d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
+    }
+    s[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
+    s[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);
+    s[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
+    for (int k = 0; k < 4; ++k) {
+      const size_t j = local(quads[q + size_t(k)]);
+      if (j >= nodes.size() || nodes[j] != quads[q + size_t(k)]) continue;
+      for (int d = 0; d < 3; ++d) areaVec[3 * j + size_t(d)] += 0.25 * s[d];
+    }
+  }
+  for (const auto& mi : monitors) {
+    size_t best = 0;
+    Real bestD2 = std::numeric_limits<Real>::max();
+    for (size_t j = 0; j < nodes.size(); ++j) {
+      Real d2 = 0;
+      for (int d = 0; d < 3; ++d) d2 += std::pow(x(nodes[j], d) - mi.point[d], 2);
+      if (d2 < bestD2) { bestD2 = d2; best = j; }
+    }
+    const Real len = nodes.empty() ? 0.0
+                                   : std::sqrt(std::pow(areaVec[3 * best], 2) + std::pow(areaVec[3 * best + 1], 2) +
+                                               std::pow(areaVec[3 * best + 2], 2));
+    if (len <= 0) continue;
+    const std::array<Real, 3> n = {areaVec[3 * best] / len, areaVec[3 * best + 1] / len, areaVec[3 * best + 2] / len};
+    const std::string g = "/monitors/" + mi.name;
+    {
+      auto gg = h5::ensureGroup(impl_->file, g);
+      h5::writeIntAttr(gg, "water_node", nodes[best]);
+      h5::writeDoubleAttr(gg, "water_area", len);
+      h5::writeDoubleAttr(gg, "water_nx", n[0]);
+      h5::writeDoubleAttr(gg, "water_ny", n[1]);
+      h5::writeDoubleAttr(gg, "water_nz", n[2]);
+    }
+    addSeries(g + "/water_pressure",
+              [force, n, j = best, A = len] {
+                const auto& F = force();
+                return -(F[3 * j] * n[0] + F[3 * j + 1] * n[1] + F[3 * j + 2] * n[2]) / A;
+              },
+              "water_pressure");
+  }
 }
 
 void ResultsWriter::writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,

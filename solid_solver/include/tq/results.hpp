@@ -37,6 +37,16 @@ public:
   /// An extra time series sampled with every sample(): dataset `path` [rows, 2] = (time, value()),
   /// e.g. /energy/fluid_work (the water coupling).
   void addSeries(const std::string& path, std::function<Real()> value, const std::string& unit);
+  /// The water pressure on the lining at the monitors (paper Fig. 5), sampled with every sample():
+  /// for each monitor, the node of face group `face` nearest to it, its tributary area A (a quarter
+  /// of each adjacent quad's area vector, summed; A its length) and unit normal n (its direction,
+  /// out of the solid into the water).
+  /// Adds /monitors/<name>/water_pressure [T, 2] = (time, −F·n / A) with F = force()[3k..3k+2] the
+  /// interface force on that node (`nodes` ascending, as FluidCoupling::nodes()), and the attrs
+  /// water_node, water_area, water_nx, water_ny, water_nz on /monitors/<name>. The water coupling transfers the
+  /// hydrodynamic force only (the hydrostatic part is a static load), so this is the hydrodynamic pressure.
+  void addWaterPressure(const Mesh& mesh, const std::string& face, const std::vector<MonitorInput>& monitors,
+                        const std::vector<Index>& nodes, std::function<const std::vector<Real>&()> force);
   /// Attributes on a group (created if missing), e.g. the coupling's summary.
   void writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,
                   const std::map<std::string, std::string>& texts = {});
