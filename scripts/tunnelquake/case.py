@@ -93,6 +93,20 @@ def _check_damping(d, path, raw, ctx):
                   "give [f1, f2] with f1 < f2, e.g. [1.5, 10] Hz", raw.key_lines.get("frequencies"))
 
 
+def _check_coupling(c, path, raw, ctx):
+    if c["window"] > 1 and c["scheme"] != "explicit":
+        ctx.error(f"{path}.window", c["window"], f"a window of several solid steps needs scheme explicit (the "
+                  f"{c['scheme']} scheme repeats each window, which tq-solid does for windows of one step only)",
+                  "use scheme: explicit with this window, or window: 1", raw.key_lines.get("window"))
+
+
+def _check_parallel(p, path, raw, ctx):
+    if p["fluid_ranks"] > 1:
+        ctx.error(f"{path}.fluid_ranks", p["fluid_ranks"], "a decomposed water case (several OpenFOAM ranks) is not "
+                  "run by `tunnelquake run` yet", "use fluid_ranks: 1 (the water of the slice and of the 3D paper "
+                  "mesh runs on one rank, docs/benchmarks.md)", raw.key_lines.get("fluid_ranks"))
+
+
 def _check_stages(s, path, raw, ctx):
     seq = s["sequence"]
     order = [STAGES.index(x) for x in seq]
@@ -226,9 +240,12 @@ def schema() -> Section:
         }),
         "conditions": ListOf(item=Choice(choices=CONDITIONS), min_length=1, unique=True,
                              default=list(CONDITIONS), doc="which of the paper's conditions to run"),
-        "coupling": Section(fields={
-            "scheme": Choice(choices=("paper", "implicit", "added_mass"), default="implicit"),
-            "window": Number(integer=True, min=1, default=1, doc="solid steps per coupling step"),
+        "coupling": Section(checks=[_check_coupling], fields={
+            "scheme": Choice(choices=("explicit", "paper", "implicit"), default="implicit",
+                             doc="explicit: one exchange a window (staggered); paper: the paper's predictor-"
+                                 "corrector, two passes; implicit: iterated to the tolerance (docs/coupler.md)"),
+            "window": Number(integer=True, min=1, default=1,
+                             doc="solid steps per coupling window (one water step); k > 1 needs scheme explicit"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
             "max_iterations": Number(integer=True, min=1, default=20),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
@@ -256,9 +273,11 @@ def schema() -> Section:
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
         }),
-        "parallel": Section(fields={
+        "parallel": Section(checks=[_check_parallel], fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
-            "fluid_ranks": Number(integer=True, min=1, default=1, doc="MPI ranks of the OpenFOAM side"),
+            "fluid_ranks": Number(integer=True, min=1, default=1,
+                                  doc="MPI ranks of the OpenFOAM side (1: a decomposed water case is not run by "
+                                      "`tunnelquake run` yet)"),
         }),
     })
 

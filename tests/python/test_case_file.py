@@ -89,6 +89,11 @@ BAD_INPUTS = [
      "conditions[1]", "use one of"),
     ("duplicated key", ("  ends: open\n", "  ends: open\n  ends: open\n"),
      "<yaml>", "appears twice"),
+    ("coupling window of several steps with the implicit scheme",
+     ("  scheme: implicit\n", "  scheme: implicit\n  window: 4\n"),
+     "coupling.window", "needs scheme explicit"),
+    ("several OpenFOAM ranks", ("stages:\n", "parallel:\n  fluid_ranks: 2\n\nstages:\n"),
+     "parallel.fluid_ranks", "not run by `tunnelquake run` yet"),
 ]
 
 

@@ -53,11 +53,40 @@ def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
     inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
     res = case.output_dir / f"results_{cond}.h5"
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res)]
-    threads = case.data["parallel"]["threads"]
-    if threads:
-        cmd += ["--threads", str(threads)]
+    cmd += ["--threads", str(solid_threads(case, mesh_dir(case) / "mesh.h5"))]
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
-    return subprocess.run(cmd).returncode, res
+    return subprocess.run(cmd, env=solid_env()).returncode, res
+
+
+#: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
+#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one (docs/benchmarks.md).
+SMALL_MESH_ELEMENTS = 20000
+
+
+def solid_threads(case, mesh_h5) -> int:
+    """OpenMP threads for tq-solid: the case's `parallel.threads`, or for 0 one thread on a small
+    mesh (SMALL_MESH_ELEMENTS) and every core otherwise."""
+    import os
+
+    import h5py
+
+    threads = int(case.data["parallel"]["threads"])
+    if threads:
+        return threads
+    with h5py.File(mesh_h5, "r") as f:
+        elements = f["elements/connectivity"].shape[0]
+    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)))
+
+
+def solid_env() -> dict:
+    """tq-solid's environment: OpenMP threads sleep instead of spinning while they wait (a spinning
+    team took the cores from the water solver and from the other runs of a loaded machine: 4 steps
+    a second instead of ~2,800 on the slice), unless the user set a policy."""
+    import os
+
+    env = dict(os.environ)
+    env.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    return env
 
 
 def _solid_step(exe, solid_input) -> float:
@@ -181,17 +210,14 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         f"({settings['scheme']}, {settings['acceleration']}); water: {fluid.solver} ({fluid.model}, {fluid.mode}) "
         f"in {fluid.path}")
 
-    import os
 
     env[fc.TOKEN_ENV] = token
-    solid_env = dict(os.environ)
+    solid_env_ = solid_env()
     solid_cmd = [str(exe), str(inp), "-o", str(res)]
-    threads = case.data["parallel"]["threads"]
-    if threads:
-        solid_cmd += ["--threads", str(threads)]
+    solid_cmd += ["--threads", str(solid_threads(case, mesh_h5))]
     t0 = _time.perf_counter()
     say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
-    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env, lambda line: True)
+    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: True)
     fluid_side = None
     timeout = settings["timeout"]
     # the solid publishes its address after its static stages (relaxation: no time limit known)
