@@ -115,6 +115,11 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
     if solver_status()["fluid"] is not None:
         return  # no OpenFOAM side here: conditions 1 and 2 are what can be checked
     assert "dynamic_water (solid + fluid): completed" in out, out[-3000:]
+    from tunnelquake.cli.run import concurrent_conditions
+
+    if concurrent_conditions() > 1:  # the coupled condition ran beside the solid-only ones
+        assert "running dynamic_water beside no_water, static_water" in out
+        assert "[no_water] tq-solid: completed" in out
     assert (res / "dynamic_water" / "fluid.log").read_text().rstrip().endswith("End")
     with h5py.File(res / "results_dynamic_water.h5", "r") as f, \
             h5py.File(res / "results_static_water.h5", "r") as g:

@@ -40,7 +40,7 @@ def _solid_capabilities(exe) -> set[str]:
     return set(out.stdout.split()) if out.returncode == 0 else set()
 
 
-def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
+def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> tuple[int, object]:
     """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
     report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
     the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence)."""
@@ -55,7 +55,14 @@ def run_solid_condition(case, cond: str, motion_file) -> tuple[int, object]:
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res)]
     cmd += ["--threads", str(solid_threads(case, mesh_dir(case) / "mesh.h5"))]
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
-    return subprocess.run(cmd, env=solid_env()).returncode, res
+    if not prefix:
+        return subprocess.run(cmd, env=solid_env()).returncode, res
+    # beside another condition: each line of tq-solid's progress says which condition it is
+    with subprocess.Popen(cmd, env=solid_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          bufsize=1) as proc:
+        for line in proc.stdout:
+            say(f"[{cond}] {line.rstrip()}")
+    return proc.returncode, res
 
 
 #: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
@@ -76,6 +83,17 @@ def solid_threads(case, mesh_h5) -> int:
     with h5py.File(mesh_h5, "r") as f:
         elements = f["elements/connectivity"].shape[0]
     return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)))
+
+
+def concurrent_conditions() -> int:
+    """How many conditions may run at once: the cores this process may use (TQ_CONDITIONS_AT_ONCE
+    overrides, e.g. 1 to run them one after the other)."""
+    import os
+
+    env = os.environ.get("TQ_CONDITIONS_AT_ONCE")
+    if env:
+        return max(1, int(env))
+    return len(os.sched_getaffinity(0))
 
 
 def solid_env() -> dict:
@@ -304,26 +322,54 @@ def main(argv: list[str]) -> int:
     done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
 
     status = solver_status()
+    runnable: list[tuple[str, tuple]] = []
     for cond, parts in plan(case):
         missing = [status[p] for p in parts if status[p] is not None]
         runs = " + ".join(parts)
         if missing:
             say(f"condition {cond}: would run {runs}; not run: {'; '.join(missing)}")
             skipped.append(f"{cond} ({runs}): {'; '.join(missing)}")
-            continue
-        if "fluid" in parts:
-            rc, res, why = run_coupled_condition(case, cond, motion_file)
-            if rc == 0:
-                done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
-            else:
-                failed.append(f"{cond} ({runs}): {why}")
-            continue
-        rc, res = run_solid_condition(case, cond, motion_file)
+        else:
+            runnable.append((cond, parts))
+
+    def coupled(cond, parts):
+        runs = " + ".join(parts)
+        rc, res, why = run_coupled_condition(case, cond, motion_file)
         if rc == 0:
-            done.append(f"{cond} ({runs}): completed -> {res.name}")
+            done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
+        else:
+            failed.append(f"{cond} ({runs}): {why}")
+
+    def solid_only(cond, parts, prefix):
+        runs = " + ".join(parts)
+        t1 = time.perf_counter()
+        rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix)
+        if rc == 0:
+            done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         else:
             failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
                           f"what was written is in {res.name}")
+
+    # The coupled condition (solid and water take turns: about one core) runs beside the solid-only
+    # ones (one core) when the machine has two cores or more; otherwise one after the other.
+    water = [(c, p) for c, p in runnable if "fluid" in p]
+    alone = [(c, p) for c, p in runnable if "fluid" not in p]
+    side_by_side = bool(water) and bool(alone) and concurrent_conditions() > 1
+    thread = None
+    if side_by_side:
+        import threading
+
+        say(f"running {', '.join(c for c, _ in water)} beside {', '.join(c for c, _ in alone)} "
+            f"({concurrent_conditions()} cores)")
+        thread = threading.Thread(target=lambda: [coupled(c, p) for c, p in water], daemon=True)
+        thread.start()
+    else:
+        for c, p in water:
+            coupled(c, p)
+    for c, p in alone:
+        solid_only(c, p, side_by_side)
+    if thread is not None:
+        thread.join()
 
     if not args.no_post:
         from .post import post_case
