@@ -17,49 +17,15 @@
 #include <ostream>
 #include <sstream>
 
-#include "staged_helpers.hpp"
+#include "wave_cases.hpp"
 
 using namespace tq;
 using tqtest::GaussPulse;
 using tqtest::StagedRun;
 
+using namespace tqcases;
+
 namespace {
-
-// Half-space rock of the column tests: cs = 1000 m/s, ν = 0.25 (cp = √3 cs), ρ = 2000 kg/m³.
-constexpr Real kRho = 2000, kCs = 1000, kNu = 0.25;
-const Real kG = kRho * kCs * kCs, kE = 2 * kG * (1 + kNu);
-const Real kCp = kCs * std::sqrt(2 * (1 - kNu) / (1 - 2 * kNu));
-
-/// One-element-wide hex column (w × w × H, n elements) with every node level tied (periodic
-/// sides: a 1D field), viscoelastic base, sequence "seismic" only.
-struct ColumnRun : StagedRun {
-  std::shared_ptr<TiedNodeGroups> tie;
-  void setUp(Real H, Index n, std::vector<std::pair<std::string, ElasticParams>> mats, Real zSplit,
-             const MotionInput& motion, BottomBoundaryInput bottom) {
-    const BoxSpec box{1, 1, n, 0, 0, 0, 1.0, 1.0, H, mats[0].first};
-    mesh = mats.size() == 1 ? makeBoxMesh(box) : tqtest::twoLayerBox(box, zSplit, mats[0].first, mats[1].first);
-    in.materials = std::move(mats);
-    in.staged.present = true;
-    in.staged.stages.sequence = {"seismic"};
-    bottom.present = true;
-    bottom.columnFace = "xmin";
-    in.staged.bottom = bottom;
-    in.staged.motion = motion;
-    build();
-    std::ostringstream log;
-    stages->runStatics(log);
-    stages->switchToDynamics(log);
-    tie = std::make_shared<TiedNodeGroups>("periodic column", tqtest::levelGroups(mesh));
-    tie->install(*solver);
-    solver->addContributor(tie);
-  }
-  Index topNode() const {
-    Index best = 0;
-    for (Index k = 0; k < mesh.numNodes(); ++k)
-      if (mesh.coords[3 * size_t(k) + 2] > mesh.coords[3 * size_t(best) + 2]) best = k;
-    return best;
-  }
-};
 
 struct PulseCase {
   const char* name;
@@ -80,39 +46,14 @@ TEST_P(WaveColumn, SurfaceIsTwiceIncidentAndNothingComesBack) {
   const PulseCase pc = GetParam();
   const Real H = 100;
   const Real c = pc.dir == 0 ? kCs : kCp;
-  GaussPulse pulse;
-  MotionInput m;
-  m.present = true;
-  pulse.sample(1.0, 1e-4, m.time, pc.dir == 0 ? m.ax : m.az);
-  BottomBoundaryInput b;
-  b.distance = 50;
-  ColumnRun run;
-  run.setUp(H, 100, {{"rock", {kE, kNu, kRho}}}, 0, m, b);
-  Solver& s = *run.solver;
-  const Index top = run.topNode();
-  const IncidentMotion& inc = run.stages->seismic()->motion();
-  const Real tEnd = pulse.t0 + 4 * pulse.tau + 2 * H / c + 0.1;
-  Real peak = 0, peakRef = 0, e2 = 0, r2 = 0, eMax = 0;
-  while (s.time() < tEnd) {
-    s.step();
-    const Real t = s.time();
-    const Real u = s.relativeDisplacement(top, pc.dir);
-    const Real ref = 2 * inc.displacement(pc.dir, t - H / c);
-    peak = std::max(peak, std::abs(u));
-    peakRef = std::max(peakRef, std::abs(ref));
-    e2 += (u - ref) * (u - ref);
-    r2 += ref * ref;
-    eMax = std::max(eMax, s.energy().kinetic + s.energy().internal);
-  }
-  const Real eTail = s.energy().kinetic + s.energy().internal;
-  const Real peakErr = peak / peakRef - 1, l2 = std::sqrt(e2 / r2);
+  const tqcases::WaveColumnResult r = tqcases::waveColumn(pc.dir, 100, 0, H);
   std::printf("wave column %s: peak error %+.3f %%, L2 error %.3f %%, tail energy %.2e of the pulse's (t = %.3f s, "
               "2H/c = %.3f s), energy balance error %.1e\n",
-              pc.name, 100 * peakErr, 100 * l2, eTail / eMax, s.time(), 2 * H / c, s.energy().error);
-  EXPECT_LT(std::abs(peakErr), 0.02);
-  EXPECT_LT(l2, 0.02);
-  EXPECT_LT(eTail / eMax, 0.01);
-  EXPECT_LT(s.energy().error, 0.01);  // kinetic + internal + boundary − external (input) closes
+              pc.name, 100 * r.peakErr, 100 * r.l2, r.tailEnergy, r.tEnd, 2 * H / c, r.balance);
+  EXPECT_LT(std::abs(r.peakErr), 0.02);
+  EXPECT_LT(r.l2, 0.02);
+  EXPECT_LT(r.tailEnergy, 0.01);
+  EXPECT_LT(r.balance, 0.01);  // kinetic + internal + boundary − external (input) closes
 }
 
 INSTANTIATE_TEST_SUITE_P(VerticalIncidence, WaveColumn,

@@ -5,12 +5,13 @@
     tunnelquake motion case.yaml    ground motion -> motion.h5 + input figure
     tunnelquake run    case.yaml    mesh, motion, then each condition with only the solvers it needs
     tunnelquake post   case.yaml    results -> CSV monitors, figures, report
+    tunnelquake bench  FOLDER       error against wall time of the verification cases (benchmark)
 """
 from __future__ import annotations
 
 import sys
 
-COMMANDS = ("check", "mesh", "motion", "run", "post")
+COMMANDS = ("check", "mesh", "motion", "run", "post", "bench")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,168 @@
+// The tunnel's static verification cases (issue 3, tests 4 and 5) as functions, shared by
+// test_tunnel_statics.cpp and the convergence ladder of `tunnelquake bench` (tq-verification-ladder,
+// issue 8): the quarter plate with a hole (and lining), polar stresses, and the Kirsch excavation.
+#pragma once
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "staged_helpers.hpp"
+#include "tq/hex8.hpp"
+
+namespace tqcases {
+
+using namespace tq;
+
+
+struct QuarterSpec {
+  Real b = 5.25;        // hole radius (m)
+  Real L = 105;         // outer square half-side (m)
+  Index nTheta = 12;    // elements around the quarter
+  Real liningT = 0;     // lining thickness (m); 0: no lining
+  Index nLining = 3;    // elements through the lining
+  Real width = 0.5;     // slice thickness along y (m)
+};
+
+/// Quarter plate with a hole (and optionally a lining ring with duplicated interface nodes).
+/// Faces: bottom (z = 0), xmin (x = 0), xmax (x = L), top (z = L), ymin, ymax, rock_hole,
+/// lining_inner, lining_outer; regions rock (0), lining (1).
+inline Mesh quarterPlate(const QuarterSpec& q) {
+  Mesh m;
+  m.slice = true;
+  m.source = "<quarter plate>";
+  m.regionNames = {"rock", "lining"};
+  const Index nt = q.nTheta;
+  const Real dth = M_PI / 2 / nt;
+  const Index nr = std::max<Index>(1, Index(std::lround(std::log(q.L / q.b) / dth)));
+  auto addNode = [&](Real x, Real y, Real z) {
+    m.coords.insert(m.coords.end(), {x, y, z});
+    return m.numNodes() - 1;
+  };
+  // Node grids id[i][j][k]: i hoop, j radial, k = 0, 1 along y.
+  auto grid = [&](Index nj, auto radius) {
+    std::vector<Index> id(size_t((nt + 1) * (nj + 1) * 2));
+    for (Index k = 0; k < 2; ++k)
+      for (Index j = 0; j <= nj; ++j)
+        for (Index i = 0; i <= nt; ++i) {
+          const Real th = i * dth, r = radius(th, j);
+          id[size_t((k * (nj + 1) + j) * (nt + 1) + i)] = addNode(r * std::cos(th), k * q.width, r * std::sin(th));
+        }
+    return id;
+  };
+  auto at = [&](const std::vector<Index>& id, Index nj, Index i, Index j, Index k) {
+    return id[size_t((k * (nj + 1) + j) * (nt + 1) + i)];
+  };
+  auto addBlock = [&](const std::vector<Index>& id, Index nj, Index region, const std::string& inner,
+                      const std::string& outer, bool splitOuter) {
+    for (Index j = 0; j < nj; ++j)
+      for (Index i = 0; i < nt; ++i) {
+        const Index c[8] = {at(id, nj, i, j, 0),     at(id, nj, i + 1, j, 0),     at(id, nj, i + 1, j + 1, 0),
+                            at(id, nj, i, j + 1, 0), at(id, nj, i, j, 1),         at(id, nj, i + 1, j, 1),
+                            at(id, nj, i + 1, j + 1, 1), at(id, nj, i, j + 1, 1)};
+        m.connectivity.insert(m.connectivity.end(), c, c + 8);
+        m.region.push_back(region);
+        auto face = [&](const std::string& name, int f) {
+          for (int v = 0; v < 4; ++v) m.faces[name].push_back(c[hex8::kFaces[f][v]]);
+        };
+        face("ymin", 0);
+        face("ymax", 1);
+        if (j == 0) face(inner, 2);
+        if (j == nj - 1) face(splitOuter ? ((i + 0.5) * dth < M_PI / 4 ? "xmax" : "top") : outer, 4);
+        if (i == 0) face("bottom", 5);
+        if (i == nt - 1) face("xmin", 3);
+      }
+  };
+  const Real b = q.b, L = q.L;
+  const auto rock = grid(nr, [&](Real th, Index j) {
+    const Real rsq = L / std::max(std::cos(th), std::sin(th));
+    return b * std::pow(rsq / b, Real(j) / nr);
+  });
+  addBlock(rock, nr, 0, "rock_hole", "", true);
+  if (q.liningT > 0) {
+    const Real a = b - q.liningT;
+    const auto lin = grid(q.nLining, [&](Real, Index j) { return a + (b - a) * Real(j) / q.nLining; });
+    addBlock(lin, q.nLining, 1, "lining_inner", "lining_outer", false);
+    for (Index k = 0; k < 2; ++k)
+      for (Index i = 0; i <= nt; ++i) {
+        m.rockLiningPairs.push_back(at(rock, nr, i, 0, k));
+        m.rockLiningPairs.push_back(at(lin, q.nLining, i, q.nLining, k));
+      }
+  }
+  checkMesh(m);
+  return m;
+}
+
+/// Hoop and radial stress (tension positive) of an element from its Cartesian stress, at the
+/// centroid angle; returns the centroid radius.
+inline Real polarStress(const Mesh& m, const ElementBlock& blk, Index e, Real* hoop, Real* radial, Real* theta) {
+  Real x = 0, z = 0;
+  for (int k = 0; k < 8; ++k) {
+    x += 0.125 * m.coords[3 * size_t(blk.node(e, k))];
+    z += 0.125 * m.coords[3 * size_t(blk.node(e, k)) + 2];
+  }
+  const Real th = std::atan2(z, x), c = std::cos(th), s = std::sin(th);
+  const Real sxx = blk.stress(e, XX), szz = blk.stress(e, ZZ), sxz = blk.stress(e, ZX);
+  *hoop = sxx * s * s + szz * c * c - 2 * sxz * s * c;
+  *radial = sxx * c * c + szz * s * s + 2 * sxz * s * c;
+  *theta = th;
+  return std::hypot(x, z);
+}
+
+constexpr Real kEr = 8e9, kNur = 0.27, kRhor = 2700;   // rock (paper Table 1)
+constexpr Real kEl = 28e9, kNul = 0.17, kRhol = 2500;  // lining, C25
+
+struct KirschResult {
+  Real errSide = 0, errCrown = 0;  // relative errors of the wall hoop stress
+  Index steps = 0, elems = 0;
+};
+
+inline KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
+  tqtest::StagedRun run;
+  QuarterSpec qs;
+  qs.nTheta = nTheta;
+  qs.L = Lfactor * qs.b;
+  run.mesh = quarterPlate(qs);
+  run.in.materials = {{"rock", {kEr, kNur, kRhor}}};
+  run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
+  StagedInput& S = run.in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "excavation"};
+  S.stages.tolerance = 1e-4;  // of the released tractions: far below the discretisation error
+  S.stages.maxSteps = 200000;
+  S.inSitu.present = true;
+  S.inSitu.kx = k;
+  S.inSitu.ky = 0.5 * (1 + k);
+  S.inSitu.kz = 1;
+  S.inSitu.surcharge = p;  // uniform σv = −p (gravity off)
+  run.build();
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  const ElementBlock& blk = *run.solver->blocks()[0];
+  // Wall hoop stress at the first and last element columns (θ_c = Δθ/2 and π/2 − Δθ/2): linear
+  // extrapolation in r of the two innermost elements to r = b, against Kirsch at (b, θ_c).
+  const Real dth = M_PI / 2 / nTheta;
+  auto wall = [&](Index column) {
+    Real r[2], h[2], th = 0;
+    for (Index j = 0; j < 2; ++j) {
+      Real rad;
+      r[j] = polarStress(run.mesh, blk, j * nTheta + column, &h[j], &rad, &th);
+    }
+    const Real hw = h[0] + (h[1] - h[0]) * (qs.b - r[0]) / (r[1] - r[0]);
+    const Real ref = -p * ((1 + k) + 2 * (1 - k) * std::cos(2 * th));  // tension positive
+    return hw / ref - 1;
+  };
+  KirschResult res;
+  res.errSide = wall(0);
+  res.errCrown = wall(nTheta - 1);
+  res.steps = run.stages->reports().back().steps;
+  res.elems = run.mesh.numElems();
+  std::printf("Kirsch k = %.2f, %d around the quarter (%d elements): sidewall %+.2f %%, crown %+.2f %% (θ_c = "
+              "%.2f°), %d relaxation steps\n",
+              k, nTheta, res.elems, 100 * res.errSide, 100 * res.errCrown, 90 - 0.5 * dth * 180 / M_PI, res.steps);
+  (void)dth;
+  return res;
+}
+
+
+}  // namespace tqcases

@@ -1,0 +1,40 @@
+"""`tunnelquake bench` (issue 8): the observed order and the docs section it rewrites.
+
+The benchmark's figures are not tests; what is tested here is the arithmetic the table reports
+(observed order of a known power law, exact) and that --update-docs touches only its section.
+"""
+from __future__ import annotations
+
+import math
+
+from tunnelquake.cli.bench import BEGIN, END, observed_orders, update_docs
+
+
+def test_observed_order_of_a_power_law_is_its_exponent():
+    # e = C s^p with s halving: log(e_i/e_{i+1}) / log(s_i/s_{i+1}) = p exactly (round-off).
+    for p in (1.0, 2.0, 1.7):
+        s = [0.4, 0.2, 0.1, 0.05]
+        e = [3.0 * x**p for x in s]
+        orders = observed_orders(s, e)
+        assert orders[0] is None
+        for o in orders[1:]:
+            assert math.isclose(o, p, rel_tol=1e-12)
+    # Negative errors: the order of their magnitude; a sign change has no asymptotic order.
+    assert math.isclose(observed_orders([2.0, 1.0], [-0.04, -0.01])[1], 2.0, rel_tol=1e-12)
+    assert observed_orders([2.0, 1.0], [0.04, -0.01])[1] is None
+    assert observed_orders([2.0, 1.0], [0.04, 0.0])[1] is None
+
+
+def test_update_docs_replaces_only_the_marked_section_or_appends_it():
+    new = f"{BEGIN}\nnew table\n{END}"
+    doc = f"# Benchmarks\n\nbefore\n\n{BEGIN}\nold table\n{END}\n\nafter\n"
+    out = update_docs(doc, new)
+    assert out == f"# Benchmarks\n\nbefore\n\n{new}\n\nafter\n"
+    assert "old table" not in out
+    # Idempotent: a second update with the same section changes nothing.
+    assert update_docs(out, new) == out
+    # Absent markers: appended once at the end, the rest untouched.
+    plain = "# Benchmarks\n\ntext\n"
+    appended = update_docs(plain, new)
+    assert appended == f"# Benchmarks\n\ntext\n\n{new}\n"
+    assert update_docs(appended, new) == appended
