@@ -153,6 +153,26 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         "coupling_energy");
       results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
                                [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
+      // The wetted face as a whole (issue 6 check 4, docs/verification.md): the total interface
+      // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
+      // (m/s²), both of the same step, per direction.
+      for (int d = 0; d < 3; ++d) {
+        const std::string axis(1, "xyz"[d]);
+        results.addSeries("/coupling/force_" + axis, [c = coupling.get(), d] {
+          Real sum = 0;
+          const auto& F = c->force();
+          for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+          return sum;
+        }, "force_" + axis);
+        results.addSeries("/coupling/acceleration_" + axis, [c = coupling.get(), &s, d] {
+          Real ma = 0, m = 0;
+          for (Index n : c->nodes()) {
+            ma += s.state().mass(n) * s.state().a(n, d);
+            m += s.state().mass(n);
+          }
+          return m > 0 ? ma / m : Real(0);
+        }, "acceleration_" + axis);
+      }
       out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
           << " windows)" << std::endl;
     } catch (const InputError& e) {

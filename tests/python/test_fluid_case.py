@@ -71,3 +71,18 @@ def test_absolute_tolerances_reach_both_sides(tmp_path):
     pga, tol = case.data["ground_motion"]["pga"], s["tolerance"]
     assert solid["absolute_tolerance_velocity"] == pytest.approx(tol * pga * 6.3006e-05, rel=1e-12)
     assert solid["absolute_tolerance_displacement"] == pytest.approx(tol * pga * 6.3006e-05**2, rel=1e-12)
+
+
+def test_force_floor_uses_a_wetted_nodes_tributary_area(tmp_path):
+    """The force floor is tolerance x rho_w a_ref r_in x A, A a wetted node's tributary area: in the
+    example's slice (48 around, 80 m / 44 thick, two node planes) A = (2 pi 4.5 / 48) x (80 / 44) / 2 =
+    0.5355 m^2, the area tq-solid itself reports for the monitors' wetted nodes (post: 0.534-0.535)."""
+    import math
+
+    from tunnelquake.coupling_scales import wetted_node_area
+
+    case, s = _settings(tmp_path)
+    area = 2 * math.pi * 4.5 / 48 * (80 / 44) / 2
+    assert wetted_node_area(case) == pytest.approx(area, rel=1e-12)
+    pga, tol = case.data["ground_motion"]["pga"], s["tolerance"]
+    assert s["absolute_tolerance"]["force"] == pytest.approx(tol * 1000 * pga * 4.5 * area, rel=1e-12)

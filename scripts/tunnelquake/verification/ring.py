@@ -354,10 +354,11 @@ def _fake_case(ring: Ring) -> SimpleNamespace:
         "water": {"model": ring.model, "ends": "closed" if ring.model == "compressible" else "open",
                   "density": ring.rho_f, "viscosity": ring.viscosity, "bulk_modulus": ring.bulk_modulus,
                   "head": 0.0},
-        # coupling_scales.absolute_tolerances: r_in and the wall element size; a_ref 1 m/s²
+        # coupling_scales.absolute_tolerances: r_in and a wetted node's area; a_ref 1 m/s²
         "geometry": {"tunnel_centre_z": 0.0, "excavated_radius": ring.R + 0.5 * ring.h,
-                     "lining_thickness": ring.h},
-        "mesh": {"max_element_size": 2 * math.pi * ring.r_inner / ring.n_around},
+                     "lining_thickness": ring.h, "y_range": [0.0, ring.length]},
+        "mesh": {"mode": ring.mode, "lining_elements_around": ring.n_around, "elements_along_axis": ring.n_axial,
+                 "slice_thickness": ring.length if ring.mode == "slice" else None},
         "ground_motion": {"pga": None},
         "coupling": {"scheme": ring.scheme, "window": ring.window, "tolerance": ring.tolerance,
                      "max_iterations": ring.max_iterations, "acceleration": ring.acceleration,
