@@ -200,7 +200,9 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                      {"coupler_s", cs.secondsInCoupler},
                                      {"exchange_wait_s", cs.secondsWaiting},
                                      {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
-                                     {"mapping_s", cs.secondsMapping}},
+                                     {"mapping_s", cs.secondsMapping},
+                                     {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
+                                     {"coupler_cpu_s", cs.cpuInCoupler}},
                        {{"scheme", in.staged.coupling.scheme}});
   };
   results.sample(s);

@@ -24,6 +24,7 @@ License
 
 #include <chrono>
 #include <cstdlib>
+#include <time.h>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
@@ -45,6 +46,13 @@ namespace
 std::string str(const Foam::string& s)
 {
     return std::string(s.c_str());
+}
+
+double threadCpu()
+{
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9*double(ts.tv_nsec);
 }
 
 double wallNow()
@@ -79,6 +87,7 @@ void Foam::tq::couplerExchange::enterCall()
     const double now = wallNow();
     secondsSolver_ += now - clockLast_;
     clockLast_ = now;
+    cpuCallStart_ = threadCpu();
 }
 
 
@@ -87,6 +96,7 @@ void Foam::tq::couplerExchange::leaveCall()
     const double now = wallNow();
     secondsInside_ += now - clockLast_;
     clockLast_ = now;
+    cpuInside_ += threadCpu() - cpuCallStart_;
 }
 
 
@@ -106,7 +116,8 @@ void Foam::tq::couplerExchange::reportCost() const
         << " s, of which waiting for the solid " << wait
         << " s; exchange work " << work << " s (" << work*per
         << " ms a pass; mapping " << xs.secondsMapping - mappingAtStart_
-        << " s)" << endl;
+        << " s); CPU in the exchange calls " << cpuInside_ << " s ("
+        << cpuInside_*per << " ms a pass)" << endl;
 }
 
 
@@ -196,6 +207,8 @@ Foam::tq::couplerExchange::couplerExchange
     clockLast_(0),
     secondsSolver_(0),
     secondsInside_(0),
+    cpuInside_(0),
+    cpuCallStart_(0),
     waitAtStart_(0),
     mappingAtStart_(0),
     passes_(0)

@@ -46,6 +46,8 @@ struct FluidCouplingStats {
   double secondsInCoupler = 0;  ///< wall inside addForces' coupler part (predict, write, advance, read)
   double secondsWaiting = 0;    ///< of which receives were blocked until the fluid's message began
   double secondsMapping = 0;    ///< of which the interface maps were applied
+  double cpuCoupled = 0;        ///< CPU seconds of the calling thread over the same span as secondsCoupled
+  double cpuInCoupler = 0;      ///< of which inside the coupler part (a blocked receive costs no CPU)
 };
 
 class FluidCoupling final : public NodalForceContributor {
