@@ -311,6 +311,12 @@ struct ElementBlock::ChunkView {
   Index n;                    // elements in the chunk
   HourglassModuli hm;
   Real beta, dt, dtLast;
+  // The next chunk's streams, prefetched into L2 while this one computes (null for the last):
+  // geometry, strain and stress, connectivity.
+  const Real* nextG;
+  const Real* nextStrain[6];
+  const Real* nextStress[6];
+  const Index* nextConn;
 };
 
 namespace {
@@ -358,6 +364,10 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
+    if (cv.nextG) {  // the next chunk's geometry, spread over this loop (kGeo * W / 8 lines)
+      constexpr Index kLines = kGeo * W / 8;
+      for (Index j = l * kLines / W; j < (l + kLanes) * kLines / W; ++j) __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
+    }
     V L[3][3];
     gradient(ug, G, l, L);
     const V eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
@@ -428,6 +438,15 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
+    if (cv.nextG) {  // the next chunk's strain, stress (one line per 8 lanes) and connectivity
+      if (l % 8 == 0)
+        for (int k = 0; k < 6; ++k) {
+          __builtin_prefetch(cv.nextStrain[k] + l, 0, 2);
+          __builtin_prefetch(cv.nextStress[k] + l, 0, 2);
+        }
+      __builtin_prefetch(cv.nextConn + 8 * l, 0, 2);
+      __builtin_prefetch(cv.nextConn + 8 * l + 16, 0, 2);
+    }
     V s[6];
     V w2 = zero;
 #pragma GCC unroll 6
@@ -550,6 +569,16 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   cv.beta = p.beta;
   cv.dt = p.dt;
   cv.dtLast = p.dtLast;
+  // Prefetch the next chunk only for blocks whose streams exceed the caches (> 16,384 elements:
+  // about 10 MB of element data): measured 15-25 % faster on a 64,000-element box, but about
+  // 10 % slower on 4,096 elements, where the data come from L3 anyway.
+  const Index e1 = nElems_ > 16384 ? e0 + kChunk : nElems_;
+  cv.nextG = e1 < nElems_ ? &geo_[size_t(c + 1) * kGeo * kChunk] : nullptr;
+  cv.nextConn = e1 < nElems_ ? &conn_[8 * size_t(e1)] : nullptr;
+  for (int k = 0; k < 6; ++k) {
+    cv.nextStrain[k] = e1 < nElems_ ? strain_[k].data() + e1 : nullptr;
+    cv.nextStress[k] = e1 < nElems_ ? stress_[k].data() + e1 : nullptr;
+  }
   if (avx2_)
     onePointAvx2<kDamp>(cv, u, v, f, en);
   else

@@ -13,7 +13,8 @@ constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof
 
 struct LeapfrogArgs {
   Real *u, *v, *a;
-  const Real *fi, *fe, *cb, *fr;
+  const Real *fi, *fe, *cb;
+  const std::uint8_t* fr;  // 1 free, 0 fixed
   Real* fprev;
   const Real* md;  // mass per dof
   Index nd;
@@ -36,15 +37,14 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
   const Real* __restrict fi = q.fi;
   const Real* __restrict fe = q.fe;
   const Real* __restrict cb = q.cb;
-  const Real* __restrict fr = q.fr;
+  const std::uint8_t* __restrict fr = q.fr;
   const Real* __restrict md = q.md;
   const Real dt = q.dt, rdt = 1 / q.dt, dtl = q.dtl, alpha = q.alpha, vlim = q.vlim;
-  Real ke = 0, ext = 0, damp = 0, bdry = 0;
-  Index nBad = 0;
-#pragma omp simd reduction(+ : ke, ext, damp, bdry)
+  Real ke = 0, ext = 0, damp = 0, bdry = 0, bad = 0;
+#pragma omp simd reduction(+ : ke, ext, damp, bdry, bad)
   for (Index i = 0; i < q.nd; ++i) {
     // Every value is loaded and computed unconditionally (selects, no branches: SIMD).
-    const Real mn = md[i], vo = v[i], fei = fe[i], fii = fi[i], cd = cb[i], fri = fr[i], fpi = fprev[i];
+    const Real mn = md[i], vo = v[i], fei = fe[i], fii = fi[i], cd = cb[i], fri = Real(fr[i]), fpi = fprev[i];
     const bool has = mn > 0;
     const Real f = fei - fii;
     const Real cm = alpha * mn;
@@ -67,9 +67,9 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
     u[i] += has ? du : 0.0;
     v[i] = vn;
     fprev[i] = fei;
+    bad += std::abs(vn) <= vlim ? 0.0 : 1.0;  // also catches NaN
   }
-  for (Index i = 0; i < q.nd; ++i) nBad += std::abs(v[i]) <= vlim ? 0 : 1;  // also catches NaN
-  return {ke, ext, damp, bdry, nBad};
+  return {ke, ext, damp, bdry, Index(bad)};
 }
 LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) { return leapfrogBody(q); }
 __attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) { return leapfrogBody(q); }
@@ -146,7 +146,7 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
   state_.resize(N);
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[3 * size_t(n) + d]);
-  free_.assign(3 * size_t(N), 1.0);
+  free_.assign(3 * size_t(N), 1);
   fExtPrev_.assign(3 * size_t(N), 0.0);
   nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
   if (mesh.slice)  // plane strain along y: u_y = 0 everywhere
@@ -155,7 +155,7 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
   setTimeStep(opt_.dt);
 }
 
-void Solver::fix(Index node, int d) { free_[3 * size_t(node) + d] = 0.0; }
+void Solver::fix(Index node, int d) { free_[3 * size_t(node) + d] = 0; }
 
 void Solver::fixFaceGroup(const std::string& group, const std::string& dirs) {
   const auto nodes = mesh_.faceNodes(group);
@@ -280,7 +280,7 @@ void Solver::updateNodes() {
   const Real* __restrict fe = state_.fExtData();
   const Real* __restrict m = state_.massData();
   const Real* __restrict cb = state_.dashpotData();
-  const Real* __restrict fr = free_.data();
+  const std::uint8_t* __restrict fr = free_.data();
   Real* __restrict fprev = fExtPrev_.data();
   const Real dt = dt_, dtl = dtLast_;
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
@@ -320,9 +320,9 @@ void Solver::updateNodes() {
           const Real f = fe[i] - fi[i];
           const Real vo = v[i];
           const Real cm = alpha * mn, cd = cb[i];
-          const Real acc = fr[i] * (f - (cm + cd) * vo) / mn;
+          const Real acc = Real(fr[i]) * (f - (cm + cd) * vo) / mn;
           const Real du = dt * vo + 0.5 * dt * dt * acc;
-          const Real vn = fr[i] * (2 * du / dt - vo);
+          const Real vn = Real(fr[i]) * (2 * du / dt - vo);
           a[i] = acc;
           ke += 0.5 * mn * vo * vo;
           ext += fe[i] * du;

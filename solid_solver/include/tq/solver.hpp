@@ -140,7 +140,7 @@ public:
   /// Fix direction d (0 x, 1 y, 2 z) of a node (zero displacement increment).
   void fix(Index node, int d);
   /// Free a fixed direction again (a static support replaced by a dynamic boundary).
-  void release(Index node, int d) { free_[3 * size_t(node) + d] = 1.0; }
+  void release(Index node, int d) { free_[3 * size_t(node) + d] = 1; }
   /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
   void fixFaceGroup(const std::string& group, const std::string& dirs);
   void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
@@ -182,7 +182,7 @@ public:
   Real dt() const { return dt_; }
   Index stepCount() const { return step_; }
   const EnergyBalance& energy() const { return energy_; }
-  bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0.0; }
+  bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0; }
   /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
   Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
   /// The nodal force contributors, in the order they were added.
@@ -207,7 +207,7 @@ private:
   std::vector<std::unique_ptr<ElementBlock>> blocks_;
   SolverOptions opt_;
   NodalState state_;
-  std::vector<Real> free_;          // [3N] 1 free, 0 fixed
+  std::vector<std::uint8_t> free_;  // [3N] 1 free, 0 fixed (one byte per dof: streamed every step)
   std::vector<Real> fExtPrev_, uRef_;  // for the trapezoidal work; the seismic reference
   std::vector<NodalLoad> loads_;
   std::vector<std::shared_ptr<NodalForceContributor>> contributors_;
