@@ -338,7 +338,7 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
   const ElementBlock& b = *s.blocks()[0];
   Real Dprev = 0, maxError = 0, worstSurface = 0;
   Real hist0 = 0;
-  int plasticSteps = 0;
+  int plasticSteps = 0, plasticBeforeFull = 0;
   while (s.time() < 2.25 * period) {
     s.step();
     maxError = std::max(maxError, s.energy().error);
@@ -355,6 +355,7 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
     const Real h = b.history(mc_history::kDissipation, 0);
     if (h > hist0) {  // a plastic step: on the surface of its damage
       ++plasticSteps;
+      if (D < 1.0) ++plasticBeforeFull;
       Real pr[3];
       tqtest::principal(sig, pr);
       const MohrCoulombSurface surf = mat->surface(D);
@@ -365,11 +366,15 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
   }
   const EnergyBalance& E = s.energy();
   const Real stored = E.internal - E.plastic;
-  std::printf("heavy damage: D = %.6f after %d plastic steps; worst |F|/scale %.1e; actuator work %.4e J, plastic "
+  std::printf("heavy damage: %d plastic steps before D = 1; D = %.6f after %d plastic steps; worst |F|/scale %.1e; actuator work %.4e J, plastic "
               "%.4e J, stored %.3e J, kinetic %.3e J; max balance error %.1e\n",
-              Dprev, plasticSteps, worstSurface, act->work(), E.plastic, stored, E.kinetic, maxError);
+              plasticBeforeFull, Dprev, plasticSteps, worstSurface, act->work(), E.plastic, stored, E.kinetic,
+              maxError);
   EXPECT_EQ(Dprev, 1.0);
-  EXPECT_GT(plasticSteps, 100);
+  // The damage evolves through many plastic states on the surface before D = 1 (23 on both kernel
+  // paths, AVX2 and generic). After D = 1 the element carries round-off stresses, and how many of
+  // those steps still book a tiny dissipation depends on the last bits (5 vs 270): not counted.
+  EXPECT_GE(plasticBeforeFull, 20);
   EXPECT_LT(worstSurface, 1e-8);
   EXPECT_NEAR(act->work(), E.plastic + stored + E.kinetic, 0.01 * act->work());
   EXPECT_LT(maxError, 0.01);
