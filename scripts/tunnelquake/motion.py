@@ -233,6 +233,13 @@ def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.nda
     if cutoff >= nyq:
         return acc.copy()
     sos = butter(order, cutoff / nyq, btype="low", output="sos")
+    # sosfiltfilt pads each end with 3 x (2 sections + 1) samples (its default) and needs more
+    padlen = 3 * (2 * len(sos) + 1)
+    if len(acc) <= padlen:
+        raise MotionError(f"ground_motion: the record keeps {len(acc)} samples (dt = {dt:g} s), too few for the "
+                          f"{cutoff:g} Hz zero-phase low-pass, which needs more than {padlen}. Fix: set "
+                          f"ground_motion.duration to at least {(padlen + 1) * dt:g} s (a shorter simulation: "
+                          "time.end_time)")
     return sosfiltfilt(sos, acc)
 
 

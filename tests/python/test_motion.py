@@ -131,3 +131,14 @@ def test_processing_scales_pga_and_splits_outcrop():
     m2 = process(rec, duration=None, cutoff=20.0, baseline=False, pga=1.0, vertical_ratio=0.5,
                  convention="incident")
     assert np.max(np.abs(m2.ax)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_too_short_a_record_for_the_lowpass_is_refused_with_the_fix():
+    """sosfiltfilt needs more samples than its pad (3 x (2 sections + 1) = 15 for order 4): a
+    shorter record is refused naming ground_motion.duration and the shortest one that works."""
+    from tunnelquake.motion import MotionError, lowpass
+
+    with pytest.raises(MotionError, match=r"ground_motion.duration to at least 0.32 s"):
+        lowpass(np.ones(2), 0.02, 20.0)
+    out = lowpass(np.ones(16), 0.02, 5.0)  # 16 > 15 samples: filtered; a constant stays constant
+    np.testing.assert_allclose(out, 1.0, rtol=1e-9)
