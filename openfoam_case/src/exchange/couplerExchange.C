@@ -200,8 +200,6 @@ Foam::tq::couplerExchange::couplerExchange
     pointToGlobal_(),
     nGlobal_(0),
     windowStart_(runTime.value()),
-    readCheckpoint_(false),
-    writeCheckpoint_(false),
     ongoing_(false),
     finalized_(false),
     clockLast_(0),

@@ -37,7 +37,9 @@ Foam::tq::interfaceExchange::interfaceExchange
 )
 :
     time_(runTime),
-    dict_(dict)
+    dict_(dict),
+    readCheckpoint_(false),
+    writeCheckpoint_(false)
 {}
 
 

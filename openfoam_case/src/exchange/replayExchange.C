@@ -177,9 +177,7 @@ Foam::tq::replayExchange::replayExchange
     predictorScale_(dict.lookupOrDefault<scalar>("predictorScale", 1.0)),
     rollbackFromStep_(dict.lookupOrDefault<label>("rollbackFromStep", 1)),
     attempt_(0),
-    nAccepted_(0),
-    readCheckpoint_(false),
-    writeCheckpoint_(false)
+    nAccepted_(0)
 {
     if (mag(axisDirection_) < SMALL)
     {
