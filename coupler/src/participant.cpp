@@ -318,19 +318,7 @@ void Participant::runAcceptor(Deadline deadline) {
             refused.push_back("'" + h.participant + "' with a different run token");
             continue;
         }
-        const std::string problems = checkPartner(h);
-        if (!problems.empty()) {
-            const std::string text = "participant '" + name_ + "' cannot couple with '" +
-                                     h.participant + "': the configurations differ:" + problems;
-            reject(ReasonCode::ConfigMismatch, text);
-            throw HandshakeError(text);
-        }
-        try {
-            buildMaps(h);
-        } catch (const MapError& e) {
-            reject(ReasonCode::MeshMismatch, e.what());
-            throw HandshakeError(e.what());
-        }
+        acceptPartner(h, reject);
         ep->send(MessageType::Welcome, encodeHello(makeHello()), deadline, "handshake");
         const Message r = ep->receive(deadline, "READY (handshake)");
         if (r.header.type == MessageType::Reject) {
@@ -344,6 +332,23 @@ void Participant::runAcceptor(Deadline deadline) {
                                     "', got " + wire::typeName(std::uint16_t(r.header.type)));
         link_ = std::move(ep);
         return;
+    }
+}
+
+void Participant::acceptPartner(const Hello& h,
+                                const std::function<void(ReasonCode, const std::string&)>& reject) {
+    const std::string problems = checkPartner(h);
+    if (!problems.empty()) {
+        const std::string text = "participant '" + name_ + "' cannot couple with '" +
+                                 h.participant + "': the configurations differ:" + problems;
+        reject(ReasonCode::ConfigMismatch, text);
+        throw HandshakeError(text);
+    }
+    try {
+        buildMaps(h);
+    } catch (const MapError& e) {
+        reject(ReasonCode::MeshMismatch, e.what());
+        throw HandshakeError(e.what());
     }
 }
 
@@ -389,19 +394,7 @@ void Participant::runConnector(Deadline deadline) {
         reject(ReasonCode::WrongToken, text);
         throw HandshakeError(text);
     }
-    const std::string problems = checkPartner(h);
-    if (!problems.empty()) {
-        const std::string text = "participant '" + name_ + "' cannot couple with '" +
-                                 h.participant + "': the configurations differ:" + problems;
-        reject(ReasonCode::ConfigMismatch, text);
-        throw HandshakeError(text);
-    }
-    try {
-        buildMaps(h);
-    } catch (const MapError& e) {
-        reject(ReasonCode::MeshMismatch, e.what());
-        throw HandshakeError(e.what());
-    }
+    acceptPartner(h, reject);
     link_->send(MessageType::Ready, {}, deadline, "handshake");
 }
 

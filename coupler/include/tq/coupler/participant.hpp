@@ -22,6 +22,7 @@
 /// stops too instead of waiting for its timeout.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -124,6 +125,9 @@ class Participant : private ExchangePort {
     /// All the reasons the partner's record is unacceptable ("" if none).
     std::string checkPartner(const Hello& theirs) const;
     void buildMaps(const Hello& theirs);
+    /// Handshake, both roles: the partner's record is checked and the maps built; on a mismatch
+    /// `reject` tells the partner why and HandshakeError is thrown.
+    void acceptPartner(const Hello& theirs, const std::function<void(ReasonCode, const std::string&)>& reject);
     void runAcceptor(Deadline deadline);
     void runConnector(Deadline deadline);
     std::string where() const;
