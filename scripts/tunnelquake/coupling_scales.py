@@ -40,11 +40,11 @@ def wetted_node_area(case) -> float:
     """Tributary area of one wetted lining node (m^2), from the case's mesh parameters."""
     import math
 
-    from .meshing.params import MESH_DEFAULTS
+    from .meshing.params import merged_mesh_params
 
     d = case.data
     g = d["geometry"]
-    m = {**MESH_DEFAULTS, **(d.get("mesh") or {})}
+    m = merged_mesh_params(d.get("mesh"))
     r_in = float(g["excavated_radius"]) - float(g["lining_thickness"])
     k = int(m["refinement_factor"])
     arc = 2 * math.pi * r_in / (int(m["lining_elements_around"]) * k)

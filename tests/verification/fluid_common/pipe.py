@@ -345,6 +345,13 @@ boundaryField
         )
     if transpiration:
         return motion
+    write_point_displacement(case, end_d)
+    return motion
+
+
+def write_point_displacement(case: Path, end_condition: str) -> None:
+    """0/pointDisplacement of a moving-mesh case: the interface moved by tqInterface (held at 0
+    here), the axial ends with `end_condition`."""
     fc.write(
         case,
         "0/pointDisplacement",
@@ -354,12 +361,11 @@ internalField uniform (0 0 0);
 boundaryField
 {{
     interface {{ type fixedValue; value uniform (0 0 0); }}
-    "end_y(min|max)" {{ {end_d} }}
+    "end_y(min|max)" {{ {end_condition} }}
 }}
 """,
         cls="pointVectorField",
     )
-    return motion
 
 
 def thermophysical_properties(bulk_modulus: float = K_WATER) -> str:

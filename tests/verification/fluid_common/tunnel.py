@@ -259,20 +259,7 @@ boundaryField
         cls="volScalarField",
     )
     if moving:
-        fc.write(
-            case,
-            "0/pointDisplacement",
-            f"""
-dimensions [0 1 0 0 0 0 0];
-internalField uniform (0 0 0);
-boundaryField
-{{
-    interface {{ type fixedValue; value uniform (0 0 0); }}
-    "end_y(min|max)" {{ {end_d} }}
-}}
-""",
-            cls="pointVectorField",
-        )
+        pipe.write_point_displacement(case, end_d)
     return motion
 
 
