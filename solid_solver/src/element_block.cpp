@@ -67,8 +67,9 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   } else {
     geo_.assign(nChunks * kGeo * kChunk, 0.0);  // padding lanes: zero geometry
   }
+  total_ = !full && material_->isLinearElastic();
   for (auto& s : stress_) s.assign(nChunks * kChunk, 0.0);  // padded to whole chunks
-  for (auto& s : strain_) s.assign(nChunks * kChunk, 0.0);
+  for (auto& s : total_ ? offset_ : strain_) s.assign(nChunks * kChunk, 0.0);
   for (size_t h = 0; h < material_->historyNames().size(); ++h) history_.emplace_back(E, 0.0);
   for (auto& h : history_) historyPtr_.push_back(h.data());
   for (size_t e = 0; e < E; ++e) {
@@ -122,7 +123,47 @@ Real ElementBlock::geo(Index e, int comp) const {
   return geo_[(size_t(e) / kChunk * kGeo + comp) * kChunk + size_t(e) % kChunk];
 }
 
+namespace {
+// Complementary energy density ½ σ:C⁻¹:σ of an isotropic material (Voigt stress, J/m³).
+template <class T>
+inline __attribute__((always_inline)) T complementaryEnergy(const T s[6], Real lam, Real mu) {
+  const Real kc = lam / (3 * lam + 2 * mu);
+  const T tr = s[0] + s[1] + s[2];
+  return (0.25 / mu) * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] - kc * tr * tr) +
+         (0.5 / mu) * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+}
+}  // namespace
+
+void ElementBlock::setStress(Index e, int comp, Real value) {
+  if (total_) {  // σ_off moves with the stress; the energy stays continuous (no work is done)
+    Real sig[6];
+    for (int k = 0; k < 6; ++k) sig[k] = stress_[k][e];
+    const Real w0 = complementaryEnergy(sig, mod_.lambda, mod_.mu);
+    sig[comp] = value;
+    if (active_[e]) energyShift_ -= vol_[e] * (complementaryEnergy(sig, mod_.lambda, mod_.mu) - w0);
+    offset_[comp][e] += value - stress_[comp][e];
+    hasOffset_ = true;
+  }
+  stress_[comp][e] = value;
+}
+
+Real ElementBlock::strain(Index e, int comp) const {
+  if (!total_) return strain_[comp][e];
+  // ε = C⁻¹:(σ − σ_off) of the last evaluation (engineering shear).
+  const Real lam = mod_.lambda, mu = mod_.mu;
+  Real d[6];
+  for (int k = 0; k < 6; ++k) d[k] = stress_[k][e] - offset_[k][e];
+  if (comp >= 3) return d[comp] / mu;
+  const Real tr = d[0] + d[1] + d[2];
+  return (d[comp] - lam / (3 * lam + 2 * mu) * tr) / (2 * mu);
+}
+
 void ElementBlock::setActive(Index e, bool on, const NodalState& state) {
+  if (total_ && active_[e]) {  // its energy leaves the block's sum; keep the total continuous
+    Real sig[6];
+    for (int k = 0; k < 6; ++k) sig[k] = stress_[k][e];
+    energyShift_ += vol_[e] * complementaryEnergy(sig, mod_.lambda, mod_.mu);
+  }
   active_[e] = on ? 1 : 0;
   for (int c = 0; c < 6; ++c) stress_[c][e] = 0;
   for (auto& h : history_) h[e] = 0;
@@ -143,12 +184,15 @@ void ElementBlock::strainFromDisplacement(Index e, const NodalState& state) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) L[i][j] += state.u(n, i) * geo(e, kGB + 8 * j + k);
   }
-  strain_[XX][e] = L[0][0];
-  strain_[YY][e] = L[1][1];
-  strain_[ZZ][e] = L[2][2];
-  strain_[XY][e] = L[0][1] + L[1][0];
-  strain_[YZ][e] = L[1][2] + L[2][1];
-  strain_[ZX][e] = L[2][0] + L[0][2];
+  const Real eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
+  if (total_) {  // σ(u now) = the current stress: σ_off = σ − C:ε(u)
+    const Real lam = mod_.lambda, mu = mod_.mu, tr = eps[0] + eps[1] + eps[2];
+    for (int k = 0; k < 6; ++k)
+      offset_[k][e] = stress_[k][e] - (k < 3 ? lam * tr + 2 * mu * eps[k] : mu * eps[k]);
+    hasOffset_ = true;
+    return;
+  }
+  for (int k = 0; k < 6; ++k) strain_[k][e] = eps[k];
 }
 
 void ElementBlock::lumpMassInto(NodalState& state) const {
@@ -304,8 +348,10 @@ struct ElementBlock::ChunkView {
   const Real* G;              // geometry [kGeo][kChunk]
   const Index* conn;          // [8 n]
   const std::uint8_t* act;    // [kChunk] (padding lanes inactive)
-  Real* strain[6];            // [kChunk] each
+  Real* strain[6];            // [kChunk] each (stored form)
   Real* stress[6];
+  const Real* offset[6];      // total form: σ_off, or null when the block has none
+  bool allActive;             // no inactive element in the chunk
   Real* const* history;       // [count] per history variable
   const Material* material;
   Index n;                    // elements in the chunk
@@ -314,7 +360,7 @@ struct ElementBlock::ChunkView {
   // The next chunk's streams, prefetched into L2 while this one computes (null for the last):
   // geometry, strain and stress, connectivity.
   const Real* nextG;
-  const Real* nextStrain[6];
+  const Real* nextStrain[6];  // stored form: strain; total form: σ_off (null when none)
   const Real* nextStress[6];
   const Index* nextConn;
 };
@@ -322,7 +368,8 @@ struct ElementBlock::ChunkView {
 namespace {
 
 // The kernel body for one chunk; instantiated for the generic and the AVX2 target.
-template <bool kDamp, class V>
+// kTotal: linear elastic total form σ = C:ε(u) + σ_off (no strain record, no material call).
+template <bool kDamp, bool kTotal, class V>
 inline __attribute__((always_inline)) void onePointBody(const ElementBlock::ChunkView& cv,
                                                         const Real* __restrict u,
                                                         const Real* __restrict v, Real* __restrict f,
@@ -371,19 +418,33 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     V L[3][3];
     gradient(ug, G, l, L);
     const V eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
-    V w = zero;
+    const V vol = geov<V>(G, kGVol, l);
+    V wel = zero;  // total form: complementary energy of the new stress (J)
+    if constexpr (kTotal) {
+      const V tr = eps[XX] + eps[YY] + eps[ZZ];
+      V sg[6] = {hm.lam * tr + 2 * hm.mu * eps[XX], hm.lam * tr + 2 * hm.mu * eps[YY],
+                 hm.lam * tr + 2 * hm.mu * eps[ZZ], hm.mu * eps[XY], hm.mu * eps[YZ], hm.mu * eps[ZX]};
+      if (cv.offset[0])
 #pragma GCC unroll 6
-    for (int k = 0; k < 6; ++k) {
-      const V old = loadv<V>(cv.strain[k] + l);
-      const V d = on ? eps[k] - old : zero;
-      storev(de[k] + l, d);
-      storev(cv.strain[k] + l, on ? eps[k] : old);
-      w += loadv<V>(cv.stress[k] + l) * d;
+        for (int k = 0; k < 6; ++k) sg[k] += loadv<V>(cv.offset[k] + l);
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k)  // an inactive element keeps its stress
+        storev(cv.stress[k] + l, cv.allActive ? sg[k] : on ? sg[k] : loadv<V>(cv.stress[k] + l));
+      wel = vol * complementaryEnergy(sg, hm.lam, hm.mu);
+    } else {
+      V w = zero;
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k) {
+        const V old = loadv<V>(cv.strain[k] + l);
+        const V d = on ? eps[k] - old : zero;
+        storev(de[k] + l, d);
+        storev(cv.strain[k] + l, on ? eps[k] : old);
+        w += loadv<V>(cv.stress[k] + l) * d;
+      }
+      storev(ws + l, w);  // σ^n : Δε for now
     }
-    storev(ws + l, w);  // σ^n : Δε for now
     V qh[3][4], Qh[3][4];
     hourglassModes(ug, G, l, L, qh);
-    const V vol = geov<V>(G, kGVol, l);
     const V ia[3] = {geov<V>(G, kGIa, l), geov<V>(G, kGIa + 1, l), geov<V>(G, kGIa + 2, l)};
     hourglassStiffness(hm, vol, ia, qh, Qh);
     V ehg = zero;
@@ -391,12 +452,17 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (int k = 0; k < 3; ++k)
 #pragma GCC unroll 4
       for (int a = 0; a < 4; ++a) ehg += qh[k][a] * Qh[k][a];
-    storev(eh + l, on ? 0.5 * ehg : zero);
+    storev(eh + l, on ? 0.5 * ehg + wel : zero);
     if constexpr (kDamp) {
       // Stiffness-proportional damping on the hourglass modes: β K_hg q̇ with the lagged
       // velocity v^{n-1/2}.
       V Lv[3][3], qdh[3][4], Qdh[3][4];
       gradient(vg, G, l, Lv);
+      if constexpr (kTotal) {  // the total form has no Δε: the lagged strain rate sym ∇v^{n-1/2}
+        const V er[6] = {Lv[0][0], Lv[1][1], Lv[2][2], Lv[0][1] + Lv[1][0], Lv[1][2] + Lv[2][1], Lv[2][0] + Lv[0][2]};
+#pragma GCC unroll 6
+        for (int k = 0; k < 6; ++k) storev(de[k] + l, on ? er[k] : zero);
+      }
       hourglassModes(vg, G, l, Lv, qdh);
       hourglassStiffness(hm, vol, ia, qdh, Qdh);
       V pd = zero;
@@ -417,45 +483,57 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
                                       geov<V>(G, kGRot + 3 * i + 1, l) * Qh[1][a] +
                                       geov<V>(G, kGRot + 3 * i + 2, l) * Qh[2][a]);
   }
-  // 3. Material update of the whole chunk.
-  MaterialChunk mc;
-  mc.count = n;
-  mc.dt = cv.dtLast;
-  for (int k = 0; k < 6; ++k) {
-    mc.dstrain[k] = de[k];
-    mc.stress[k] = cv.stress[k];
+  // 3. Material update of the whole chunk (stored form).
+  if constexpr (!kTotal) {
+    MaterialChunk mc;
+    mc.count = n;
+    mc.dt = cv.dtLast;
+    for (int k = 0; k < 6; ++k) {
+      mc.dstrain[k] = de[k];
+      mc.stress[k] = cv.stress[k];
+    }
+    mc.history = cv.history;
+    cv.material->updateStressForElems(mc);
   }
-  mc.history = cv.history;
-  cv.material->updateStressForElems(mc);
   // 4. Nodal forces f_iI = Σ_j b_jI P_ij + Σ_α Q_iα h_αI / 8 with P = V(σ + σ_d) − Σ_α Q_α (h_α·x)ᵀ / 8
   //    (stress divergence and hourglass forces Q_iα γ_αI in one pass).
   const Real lam = hm.lam, mu = hm.mu;
-  const Real rate = (kDamp && cv.dtLast > 0) ? cv.beta / cv.dtLast : 0;
-  const Real dtRatio = cv.dtLast > 0 ? cv.dt / cv.dtLast : 0;
+  // Damping stress rate factor and work factor: stored form de = Δε (rate β/Δt_last, work
+  // × Δt/Δt_last), total form de = ε̇ (rate β, work × Δt); none on the first step (Δt_last = 0).
+  const Real rate = (kDamp && cv.dtLast > 0) ? (kTotal ? cv.beta : cv.beta / cv.dtLast) : 0;
+  const Real dtRatio = cv.dtLast > 0 ? (kTotal ? cv.dt : cv.dt / cv.dtLast) : 0;
   alignas(64) Real F[24][W];
   for (Index l = 0; l < nv; l += kLanes) {
     V actv;
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
-    if (cv.nextG) {  // the next chunk's strain, stress (one line per 8 lanes) and connectivity
+    if (cv.nextG) {  // the next chunk's strain or σ_off, stress (one line per 8 lanes), connectivity
       if (l % 8 == 0)
         for (int k = 0; k < 6; ++k) {
-          __builtin_prefetch(cv.nextStrain[k] + l, 0, 2);
-          __builtin_prefetch(cv.nextStress[k] + l, 0, 2);
+          if (cv.nextStrain[k]) __builtin_prefetch(cv.nextStrain[k] + l, 0, 2);
+          if constexpr (kTotal)
+            __builtin_prefetch(cv.nextStress[k] + l, 1, 2);  // written only
+          else
+            __builtin_prefetch(cv.nextStress[k] + l, 0, 2);
         }
       __builtin_prefetch(cv.nextConn + 8 * l, 0, 2);
       __builtin_prefetch(cv.nextConn + 8 * l + 16, 0, 2);
     }
     V s[6];
-    V w2 = zero;
-#pragma GCC unroll 6
-    for (int k = 0; k < 6; ++k) {
-      s[k] = loadv<V>(cv.stress[k] + l);
-      w2 += s[k] * loadv<V>(de[k] + l);
-    }
     const V vol = geov<V>(G, kGVol, l);
-    storev(ws + l, on ? 0.5 * (loadv<V>(ws + l) + w2) * vol : zero);
+    if constexpr (kTotal) {
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k) s[k] = loadv<V>(cv.stress[k] + l);
+    } else {
+      V w2 = zero;
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k) {
+        s[k] = loadv<V>(cv.stress[k] + l);
+        w2 += s[k] * loadv<V>(de[k] + l);
+      }
+      storev(ws + l, on ? 0.5 * (loadv<V>(ws + l) + w2) * vol : zero);
+    }
     if constexpr (kDamp) {
       // σ_d = β C : ε̇ with ε̇ = Δε/Δt_last = sym ∇v^{n-1/2} (lagged velocity).
       V d[6];
@@ -513,7 +591,7 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   }
   Real wStress = 0, eHg = 0, wDamp = 0;  // lane order: independent of the vector width
   for (Index l = 0; l < n; ++l) {
-    wStress += ws[l];
+    if constexpr (!kTotal) wStress += ws[l];
     eHg += eh[l];
     if constexpr (kDamp) wDamp += wd[l];
   }
@@ -522,16 +600,16 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   en.dampingWork = wDamp;
 }
 
-template <bool kDamp>
+template <bool kDamp, bool kTotal>
 void onePointGeneric(const ElementBlock::ChunkView& cv, const Real* u, const Real* v, Real* f,
                      BlockEnergy& en) {
-  onePointBody<kDamp, V2>(cv, u, v, f, en);
+  onePointBody<kDamp, kTotal, V2>(cv, u, v, f, en);
 }
 
-template <bool kDamp>
+template <bool kDamp, bool kTotal>
 __attribute__((target("avx2,fma"))) void onePointAvx2(const ElementBlock::ChunkView& cv, const Real* u,
                                                       const Real* v, Real* f, BlockEnergy& en) {
-  onePointBody<kDamp, V4>(cv, u, v, f, en);
+  onePointBody<kDamp, kTotal, V4>(cv, u, v, f, en);
 }
 
 }  // namespace
@@ -547,7 +625,7 @@ bool ElementBlock::defaultUseAvx2() {
   return avx2Available();
 }
 
-template <bool kDamp>
+template <bool kDamp, bool kTotal>
 void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* __restrict v,
                                  const ElementStepParams& p, Real* __restrict f, BlockEnergy& en) {
   const Index e0 = c * kChunk;
@@ -556,9 +634,11 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   cv.conn = &conn_[8 * size_t(e0)];
   cv.act = &active_[size_t(e0)];
   for (int k = 0; k < 6; ++k) {
-    cv.strain[k] = strain_[k].data() + e0;
+    cv.strain[k] = kTotal ? nullptr : strain_[k].data() + e0;
     cv.stress[k] = stress_[k].data() + e0;
+    cv.offset[k] = kTotal && hasOffset_ ? offset_[k].data() + e0 : nullptr;
   }
+  cv.allActive = std::all_of(cv.act, cv.act + kChunk, [](std::uint8_t a) { return a != 0; });
   Real* hp[16];
   const size_t nh = std::min<size_t>(historyPtr_.size(), 16);
   for (size_t h = 0; h < nh; ++h) hp[h] = historyPtr_[h] + e0;
@@ -576,13 +656,14 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   cv.nextG = e1 < nElems_ ? &geo_[size_t(c + 1) * kGeo * kChunk] : nullptr;
   cv.nextConn = e1 < nElems_ ? &conn_[8 * size_t(e1)] : nullptr;
   for (int k = 0; k < 6; ++k) {
-    cv.nextStrain[k] = e1 < nElems_ ? strain_[k].data() + e1 : nullptr;
-    cv.nextStress[k] = e1 < nElems_ ? stress_[k].data() + e1 : nullptr;
+    const bool next = e1 < nElems_;
+    cv.nextStrain[k] = !next ? nullptr : !kTotal ? strain_[k].data() + e1 : hasOffset_ ? offset_[k].data() + e1 : nullptr;
+    cv.nextStress[k] = next ? stress_[k].data() + e1 : nullptr;
   }
   if (avx2_)
-    onePointAvx2<kDamp>(cv, u, v, f, en);
+    onePointAvx2<kDamp, kTotal>(cv, u, v, f, en);
   else
-    onePointGeneric<kDamp>(cv, u, v, f, en);
+    onePointGeneric<kDamp, kTotal>(cv, u, v, f, en);
 }
 
 void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict f,
@@ -656,14 +737,15 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
         BlockEnergy& en = chunkEnergy_[size_t(c)];
         if (full)
           fullIntegrationChunk(c, u, f, en);
-        else if (damp)
-          onePointChunk<true>(c, u, v, p, f, en);
+        else if (total_)
+          damp ? onePointChunk<true, true>(c, u, v, p, f, en) : onePointChunk<false, true>(c, u, v, p, f, en);
         else
-          onePointChunk<false>(c, u, v, p, f, en);
+          damp ? onePointChunk<true, false>(c, u, v, p, f, en) : onePointChunk<false, false>(c, u, v, p, f, en);
       }
     }
   }
   BlockEnergy total;  // fixed summation order: independent of the thread count
+  total.storedEnergy = energyShift_;
   for (const auto& en : chunkEnergy_) {
     total.stressWork += en.stressWork;
     total.storedEnergy += en.storedEnergy;

@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <sstream>
+
+// The node update's vector helpers are always inlined: the AVX ABI note does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace tq {
 
@@ -13,11 +18,11 @@ constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof
 
 struct LeapfrogArgs {
   Real *u, *v, *a;
-  const Real *fi, *fe, *cb;
-  const std::uint8_t* fr;  // 1 free, 0 fixed
-  Real* fprev;
-  const Real* md;  // mass per dof
-  Index nd;
+  const Real *fi, *fe, *cb;  // cb: dashpots (null when the model has none)
+  const std::uint8_t* fr;    // 1 free, 0 fixed
+  const Real* fprev;         // f_ext of the previous step
+  const Real* m;             // mass per node (the chunk's first node)
+  Index nn;                  // nodes in the chunk
   Real dt, dtl, alpha, vlim;
 };
 struct LeapfrogSums {
@@ -25,54 +30,149 @@ struct LeapfrogSums {
   Index nBad = 0;
 };
 
-// Central-difference update of a range of dofs, one SIMD loop; compiled for AVX2 + FMA and for
-// generic x86-64, chosen like the element kernel (ElementBlock::defaultUseAvx2: the results of
-// the two differ in the last bits, never with the thread count). A dof of a node of no active
-// element (excavated, not yet installed; m = 0) stays at rest.
+typedef Real LV2 __attribute__((vector_size(16)));
+typedef Real LV4 __attribute__((vector_size(32)));
+typedef long long LI2 __attribute__((vector_size(16)));
+typedef long long LI4 __attribute__((vector_size(32)));
+
+template <class T>
+inline __attribute__((always_inline)) T ldv(const Real* p) {
+  T x;
+  std::memcpy(&x, p, sizeof x);
+  return x;
+}
+template <class T>
+inline __attribute__((always_inline)) void stv(Real* p, T x) {
+  std::memcpy(p, &x, sizeof x);
+}
+
+// The masses of 4 nodes spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...).
+inline __attribute__((always_inline)) void dofMasses(const Real* m, LV4 out[3]) {
+  const LV4 mv = ldv<LV4>(m);
+  out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
+  out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
+  out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
+}
+inline __attribute__((always_inline)) void dofMasses(const Real* m, LV2 out[6]) {
+  const LV2 a = ldv<LV2>(m), b = ldv<LV2>(m + 2);
+  out[0] = __builtin_shuffle(a, LI2{0, 0});
+  out[1] = a;
+  out[2] = __builtin_shuffle(a, LI2{1, 1});
+  out[3] = __builtin_shuffle(b, LI2{0, 0});
+  out[4] = b;
+  out[5] = __builtin_shuffle(b, LI2{1, 1});
+}
+// The free mask (bytes 0/1) of 4 or 2 dofs as 0.0/1.0 lanes, through a table indexed by the bits
+// (GCC 12 converts byte vectors to doubles one lane at a time).
+struct FreeLut {
+  LV4 v4[16];
+  LV2 v2[4];
+  FreeLut() {
+    for (int i = 0; i < 16; ++i)
+      for (int l = 0; l < 4; ++l) v4[i][l] = Real((i >> l) & 1);
+    for (int i = 0; i < 4; ++i)
+      for (int l = 0; l < 2; ++l) v2[i][l] = Real((i >> l) & 1);
+  }
+};
+const FreeLut kFreeLut;
+inline __attribute__((always_inline)) LV4 freeLanes(const std::uint8_t* fr, LV4) {
+  std::uint32_t w;
+  std::memcpy(&w, fr, 4);
+  return kFreeLut.v4[((w * 0x01020408u) >> 24) & 15];  // byte k (0 or 1) -> bit k
+}
+inline __attribute__((always_inline)) LV2 freeLanes(const std::uint8_t* fr, LV2) {
+  std::uint16_t w;
+  std::memcpy(&w, fr, 2);
+  return kFreeLut.v2[((std::uint32_t(w) * 0x0102u) >> 8) & 3];
+}
+
+// Central-difference update of one dof or one vector of dofs T (Real or a vector type): every
+// value is computed unconditionally (selects, no branches). A dof of a node of no active element
+// (excavated, not yet installed; m = 0) stays at rest.
+template <class T>
+inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real* __restrict u, Real* __restrict v,
+                                                        Real* __restrict a, const Real* __restrict fi,
+                                                        const Real* __restrict fe, const Real* __restrict fprev,
+                                                        const LeapfrogArgs& q, T& ke, T& ext, T& damp, T& bdry,
+                                                        T& bad) {
+  const T zero = T{} * 0.0, one = zero + 1.0;
+  const T vo = ldv<T>(v), fei = ldv<T>(fe), fii = ldv<T>(fi), fpi = ldv<T>(fprev);
+  const Real dt = q.dt, rdt = 1 / q.dt;
+  const auto has = mn > 0;
+  const T f = fei - fii;
+  const T cm = q.alpha * mn;
+  // Dashpots (α M and boundary) with the mean of the half-step velocities:
+  // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
+  const T mdt = mn * rdt, ch = 0.5 * (cm + cd);
+  const T den = has ? mdt + ch : one;
+  const T vfree = fri * ((mdt - ch) * vo + f) / den;
+  const T vn = has ? vfree : zero;
+  const T vb = 0.5 * (vo + vn);
+  // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
+  const T wExt = 0.5 * (fei + fpi) * q.dtl * vo, wKin = 0.5 * mn * vo * vn;
+  const T wDamp = cm * vb * vb * dt, wBdry = cd * vb * vb * dt;
+  ext += has ? wExt : zero;
+  ke += has ? wKin : zero;
+  damp += has ? wDamp : zero;
+  bdry += has ? wBdry : zero;
+  const T acc = (vn - vo) * rdt, du = dt * vn;
+  stv(a, has ? acc : zero);
+  stv(u, ldv<T>(u) + (has ? du : zero));
+  stv(v, vn);
+  const T av = vn < 0 ? -vn : vn;
+  bad += av <= q.vlim ? zero : one;  // also catches NaN
+}
+
+// One SIMD loop over a node chunk, 4 nodes (12 dofs) at a time: V = 2 lanes (generic x86-64) or
+// 4 lanes (AVX2 + FMA), chosen like the element kernel (ElementBlock::defaultUseAvx2; the results
+// of the two differ in the last bits, never with the thread count). kDash: the model has dashpots.
+template <class V, bool kDash>
 inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogArgs& q) {
+  constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
   Real* __restrict u = q.u;
   Real* __restrict v = q.v;
   Real* __restrict a = q.a;
-  Real* __restrict fprev = q.fprev;
   const Real* __restrict fi = q.fi;
   const Real* __restrict fe = q.fe;
   const Real* __restrict cb = q.cb;
+  const Real* __restrict fp = q.fprev;
   const std::uint8_t* __restrict fr = q.fr;
-  const Real* __restrict md = q.md;
-  const Real dt = q.dt, rdt = 1 / q.dt, dtl = q.dtl, alpha = q.alpha, vlim = q.vlim;
-  Real ke = 0, ext = 0, damp = 0, bdry = 0, bad = 0;
-#pragma omp simd reduction(+ : ke, ext, damp, bdry, bad)
-  for (Index i = 0; i < q.nd; ++i) {
-    // Every value is loaded and computed unconditionally (selects, no branches: SIMD).
-    const Real mn = md[i], vo = v[i], fei = fe[i], fii = fi[i], cd = cb[i], fri = Real(fr[i]), fpi = fprev[i];
-    const bool has = mn > 0;
-    const Real f = fei - fii;
-    const Real cm = alpha * mn;
-    // Dashpots (α M and boundary) with the mean of the half-step velocities:
-    // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
-    const Real mdt = mn * rdt, ch = 0.5 * (cm + cd);
-    const Real den = has ? mdt + ch : 1.0;
-    const Real vfree = fri * ((mdt - ch) * vo + f) / den;
-    const Real vn = has ? vfree : 0.0;
-    const Real vb = 0.5 * (vo + vn);
-    // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
-    const Real wExt = 0.5 * (fei + fpi) * dtl * vo, wKin = 0.5 * mn * vo * vn;
-    const Real wDamp = cm * vb * vb * dt, wBdry = cd * vb * vb * dt;
-    ext += has ? wExt : 0.0;
-    ke += has ? wKin : 0.0;
-    damp += has ? wDamp : 0.0;
-    bdry += has ? wBdry : 0.0;
-    const Real acc = (vn - vo) * rdt, du = dt * vn;
-    a[i] = has ? acc : 0.0;
-    u[i] += has ? du : 0.0;
-    v[i] = vn;
-    fprev[i] = fei;
-    bad += std::abs(vn) <= vlim ? 0.0 : 1.0;  // also catches NaN
+  V ke{}, ext{}, damp{}, bdry{}, bad{};
+  const Index n4 = q.nn / 4 * 4;
+  for (Index n = 0; n < n4; n += 4) {
+    V mv[K];
+    dofMasses(q.m + n, mv);
+#pragma GCC unroll 6
+    for (int k = 0; k < K; ++k) {
+      const size_t i = 3 * size_t(n) + size_t(k) * L;
+      const V cd = kDash ? ldv<V>(cb + i) : V{};
+      leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext,
+                      damp, bdry, bad);
+    }
   }
-  return {ke, ext, damp, bdry, Index(bad)};
+  LeapfrogSums r;
+  for (int l = 0; l < L; ++l) {  // lane order: fixed
+    r.ke += ke[l];
+    r.ext += ext[l];
+    r.damp += damp[l];
+    r.bdry += bdry[l];
+  }
+  Real bads = 0;
+  for (int l = 0; l < L; ++l) bads += bad[l];
+  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
+    const Real cd = kDash ? cb[i] : 0.0;
+    leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
+                       r.damp, r.bdry, bads);
+  }
+  r.nBad = Index(bads);
+  return r;
 }
-LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) { return leapfrogBody(q); }
-__attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) { return leapfrogBody(q); }
+LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) {
+  return q.cb ? leapfrogBody<LV2, true>(q) : leapfrogBody<LV2, false>(q);
+}
+__attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) {
+  return q.cb ? leapfrogBody<LV4, true>(q) : leapfrogBody<LV4, false>(q);
+}
 }  // namespace
 
 Integrator parseIntegrator(const std::string& n) {
@@ -279,9 +379,9 @@ void Solver::updateNodes() {
   const Real* __restrict fi = state_.fIntData();
   const Real* __restrict fe = state_.fExtData();
   const Real* __restrict m = state_.massData();
-  const Real* __restrict cb = state_.dashpotData();
+  const Real* __restrict cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
   const std::uint8_t* __restrict fr = free_.data();
-  Real* __restrict fprev = fExtPrev_.data();
+  const Real* __restrict fprev = fExtPrev_.data();
   const Real dt = dt_, dtl = dtLast_;
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
   const Real vlim = opt_.velocityLimit;
@@ -294,10 +394,8 @@ void Solver::updateNodes() {
     Real ke = 0, ext = 0, damp = 0, bdry = 0;
     Index bad = -1;
     if (leapfrog) {
-      // One SIMD loop over the chunk's dofs (the node's mass repeated per direction).
-      alignas(64) Real md[3 * kNodeChunk];
-      for (Index n = n0; n < n1; ++n) md[3 * (n - n0)] = md[3 * (n - n0) + 1] = md[3 * (n - n0) + 2] = m[n];
-      LeapfrogArgs la{u + i0, v + i0, a + i0, fi + i0, fe + i0, cb + i0, fr + i0, fprev + i0, md, nd, dt, dtl, alpha, vlim};
+      LeapfrogArgs la{u + i0, v + i0, a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, fr + i0, fprev + i0, m + n0,
+                      n1 - n0, dt, dtl, alpha, vlim};
       const LeapfrogSums ls = avx2_ ? leapfrogAvx2(la) : leapfrogGeneric(la);
       ke = ls.ke;
       ext = ls.ext;
@@ -313,13 +411,12 @@ void Solver::updateNodes() {
           const size_t i = 3 * size_t(n) + d;
           if (!(mn > 0)) {  // node of no active element: at rest
             v[i] = a[i] = 0;
-            fprev[i] = fe[i];
             continue;
           }
           // Paper eqs. (3)-(4): explicit damping with the full-step velocity.
           const Real f = fe[i] - fi[i];
           const Real vo = v[i];
-          const Real cm = alpha * mn, cd = cb[i];
+          const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
           const Real acc = Real(fr[i]) * (f - (cm + cd) * vo) / mn;
           const Real du = dt * vo + 0.5 * dt * dt * acc;
           const Real vn = Real(fr[i]) * (2 * du / dt - vo);
@@ -330,7 +427,6 @@ void Solver::updateNodes() {
           bdry += cd * vo * vo * dt;
           v[i] = vn;
           u[i] += du;
-          fprev[i] = fe[i];
           if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
         }
       }
@@ -424,6 +520,7 @@ void Solver::reportInstability(Index dof, Real value) {
 
 void Solver::step() {
   computeInternalForces();
+  state_.swapFExt(fExtPrev_);  // f_ext of the step just taken becomes the previous one
   computeExternalForces();
   updateNodes();
   dtLast_ = dt_;
@@ -537,6 +634,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
     }
     std::copy(state_.fIntData(), state_.fIntData() + 3 * size_t(N), fPrev.begin());
     alphaRelax_ = 2 * omega;
+    state_.swapFExt(fExtPrev_);
     computeExternalForces();
     updateNodes();
     dtLast_ = dt_;

@@ -67,11 +67,16 @@ public:
   Index node(Index e, int k) const { return conn_[8 * size_t(e) + k]; }
   Real volume(Index e) const { return vol_[e]; }
   Real charLength(Index e) const { return charLen_[e]; }
-  /// Stress component (Pa), Voigt order xx, yy, zz, xy, yz, zx.
+  /// Stress component (Pa), Voigt order xx, yy, zz, xy, yz, zx, as last evaluated.
   Real stress(Index e, int comp) const { return stress_[comp][e]; }
-  void setStress(Index e, int comp, Real value) { stress_[comp][e] = value; }
+  /// Set a stress component of the last evaluated state (in-situ stress); the next evaluation
+  /// adds C:(ε − ε_last) to it, like any other stress.
+  void setStress(Index e, int comp, Real value);
   /// Total small strain of the element (engineering shear), as last evaluated.
-  Real strain(Index e, int comp) const { return strain_[comp][e]; }
+  Real strain(Index e, int comp) const;
+  /// True when the block evaluates σ = C:ε(u) + σ_off in total form (linear elastic material,
+  /// one-point element): no strain record, the stress is written but never read back.
+  bool totalForm() const { return total_; }
   /// History variable h of element e.
   Real history(int h, Index e) const { return history_[h][e]; }
   /// Energy dissipated by the material so far (plasticity, damage; J): Σ_e V_e h_diss(e) with the
@@ -113,7 +118,7 @@ public:
   Index findBadStress(Real limit) const;
 
 private:
-  template <bool kDamp>
+  template <bool kDamp, bool kTotal>
   void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f,
                      BlockEnergy& en);
   void fullIntegrationChunk(Index c, const Real* u, Real* f, BlockEnergy& en);
@@ -132,13 +137,20 @@ private:
   // so the kernel loads whole vectors of elements.
   std::vector<Real> vol_, charLen_, geo_;
   std::vector<Real> bg_ /*8*24, full integration*/, wdet_ /*8*/;
-  // State.
-  std::vector<Real> stress_[6], strain_[6];
+  // State. Stored form (any material): stress and the strain record, read and written each step.
+  // Total form (linear elastic, one-point): σ = C:ε(u) + σ_off; stress_ is written each step for
+  // the outputs, strain_ is empty, offset_ holds σ_off (read only when hasOffset_).
+  std::vector<Real> stress_[6], strain_[6], offset_[6];
   std::vector<std::vector<Real>> history_;
   std::vector<Real*> historyPtr_;
   // Constants.
   ElasticModuli mod_;
   Real nuBar_ = 0, hgScale_ = 1;
+  bool total_ = false, hasOffset_ = false;
+  // Total form: the internal energy is the complementary energy ½ σ:C⁻¹:σ V of the current
+  // stress (equal to the stress work for a linear material); energyShift_ keeps it continuous when
+  // setStress/setActive change a stress without work (as the stored form's stress work does).
+  Real energyShift_ = 0;
   std::vector<BlockEnergy> chunkEnergy_;
   Index slabChunks_ = 1;  // chunks per slab of the parallel scatter
   bool avx2_ = false;     // kernel path

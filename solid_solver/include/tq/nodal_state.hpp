@@ -42,7 +42,15 @@ public:
 
   void setX0(Index n, int d, Real value) { x0_[3 * size_t(n) + d] = value; }
   void addMass(Index n, Real value) { m_[n] += value; }
-  void addDashpot(Index n, int d, Real value) { c_[3 * size_t(n) + d] += value; }
+  void addDashpot(Index n, int d, Real value) {
+    c_[3 * size_t(n) + d] += value;
+    if (value != 0) hasDashpots_ = true;
+  }
+  /// False while no dashpot was ever added (the node update then skips the dashpot stream).
+  bool hasDashpots() const { return hasDashpots_; }
+  /// Exchange the external-force array with `other` (same size): the solver keeps the previous
+  /// step's f_ext by swapping buffers instead of copying it.
+  void swapFExt(std::vector<Real>& other) { fExt_.swap(other); }
 
   // Raw arrays for the kernels ([3N] unless noted).
   const Real* x0Data() const { return x0_.data(); }
@@ -61,6 +69,7 @@ public:
 private:
   Index n_ = 0;
   std::vector<Real> x0_, u_, v_, a_, fInt_, fExt_, m_, c_;
+  bool hasDashpots_ = false;
 };
 
 }  // namespace tq

@@ -208,7 +208,8 @@ private:
   SolverOptions opt_;
   NodalState state_;
   std::vector<std::uint8_t> free_;  // [3N] 1 free, 0 fixed (one byte per dof: streamed every step)
-  std::vector<Real> fExtPrev_, uRef_;  // for the trapezoidal work; the seismic reference
+  std::vector<Real> fExtPrev_, uRef_;  // f_ext of the previous step (swapped with the state's each step, for
+                                       // the trapezoidal work); the seismic reference
   std::vector<NodalLoad> loads_;
   std::vector<std::shared_ptr<NodalForceContributor>> contributors_;
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
