@@ -23,6 +23,8 @@ License
 #include "Map.H"
 #include "wordRes.H"
 
+#include <cmath>
+
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
 namespace Foam
@@ -328,6 +330,189 @@ const
 }
 
 
+void Foam::tqInterpolatedDisplacementMotionSolver::subVolumes
+(
+    const pointField& points,
+    scalarField& own,
+    scalarField& nei,
+    scalarField& vol
+) const
+{
+    const polyMesh& mesh = this->mesh();
+    const faceList& faces = mesh.faces();
+    const labelList& owner = mesh.faceOwner();
+    const labelList& neighbour = mesh.faceNeighbour();
+
+    vectorField fc(faces.size());
+    vectorField Sf(faces.size());
+    forAll(faces, facei)
+    {
+        fc[facei] = faces[facei].centre(points);
+        Sf[facei] = faces[facei].areaNormal(points);
+    }
+
+    // Apex of the cell's pyramids: the mean of its face centres (inside any
+    // convex cell; the same construction for the reference and new points)
+    vectorField cc(mesh.nCells(), Zero);
+    labelList nFaces(mesh.nCells(), 0);
+    forAll(owner, facei)
+    {
+        cc[owner[facei]] += fc[facei];
+        ++nFaces[owner[facei]];
+    }
+    forAll(neighbour, facei)
+    {
+        cc[neighbour[facei]] += fc[facei];
+        ++nFaces[neighbour[facei]];
+    }
+    forAll(cc, celli)
+    {
+        cc[celli] /= max(nFaces[celli], 1);
+    }
+
+    own.setSize(faces.size());
+    nei.setSize(neighbour.size());
+    vol.setSize(mesh.nCells());
+    vol = 0;
+    forAll(owner, facei)
+    {
+        own[facei] = (Sf[facei] & (fc[facei] - cc[owner[facei]]))/3;
+        vol[owner[facei]] += own[facei];
+    }
+    forAll(neighbour, facei)
+    {
+        nei[facei] = (Sf[facei] & (cc[neighbour[facei]] - fc[facei]))/3;
+        vol[neighbour[facei]] += nei[facei];
+    }
+}
+
+
+void Foam::tqInterpolatedDisplacementMotionSolver::checkVolumes
+(
+    const pointField& newPoints
+) const
+{
+    if (minVolumeRatio_ <= 0)
+    {
+        return;
+    }
+    scalarField own, nei, vol;
+    subVolumes(newPoints, own, nei, vol);
+
+    // Smallest sub-volume ratio of each cell; a non-finite value counts as
+    // -GREAT (a displacement that is not a number)
+    const labelList& owner = mesh().faceOwner();
+    const labelList& neighbour = mesh().faceNeighbour();
+    scalarField cellRatio(mesh().nCells(), GREAT);
+    auto account = [&](const label celli, const scalar v, const scalar v0)
+    {
+        if (!(v0 > 0))
+        {
+            return;  // a degenerate reference pyramid: nothing to compare
+        }
+        const scalar r = std::isfinite(v) ? v/v0 : -GREAT;
+        cellRatio[celli] = min(cellRatio[celli], r);
+    };
+    forAll(owner, facei)
+    {
+        account(owner[facei], own[facei], pyr0Own_[facei]);
+    }
+    forAll(neighbour, facei)
+    {
+        account(neighbour[facei], nei[facei], pyr0Nei_[facei]);
+    }
+
+    label worst = -1;
+    label nBelow = 0;
+    forAll(cellRatio, celli)
+    {
+        if (cellRatio[celli] < minVolumeRatio_)
+        {
+            ++nBelow;
+        }
+        if (worst < 0 || cellRatio[celli] < cellRatio[worst])
+        {
+            worst = celli;
+        }
+    }
+    const scalar localMin = worst >= 0 ? cellRatio[worst] : GREAT;
+    const scalar globalMin = returnReduce(localMin, minOp<scalar>());
+    if (globalMin >= minVolumeRatio_)
+    {
+        return;
+    }
+    reduce(nBelow, sumOp<label>());
+
+    // Details of the worst cell, from the rank that has it:
+    // (ratio, cell, V/V0, x, y, z, rank)
+    FixedList<scalar, 7> info(scalar(0));
+    info[0] = GREAT;
+    if (worst >= 0 && localMin == globalMin)
+    {
+        const point c = mesh().cellCentres()[worst];
+        info[0] = localMin;
+        info[1] = worst;
+        info[2] = vol0_[worst] > 0 ? vol[worst]/vol0_[worst] : 0;
+        info[3] = c.x();
+        info[4] = c.y();
+        info[5] = c.z();
+        info[6] = Pstream::myProcNo();
+    }
+    List<FixedList<scalar, 7>> all(Pstream::nProcs());
+    all[Pstream::myProcNo()] = info;
+    Pstream::gatherList(all);
+    Pstream::scatterList(all);
+    for (const FixedList<scalar, 7>& a : all)
+    {
+        if (a[0] < info[0])
+        {
+            info = a;
+        }
+    }
+
+    // The largest wall displacement of the step
+    scalar uWall = 0;
+    for (const label pointi : interfacePoints_)
+    {
+        uWall = max(uWall, mag(pointDisplacement_.primitiveField()[pointi]));
+    }
+    reduce(uWall, maxOp<scalar>());
+
+    const bool finite = globalMin > -GREAT;
+    const string ratioText
+    (
+        finite
+      ? Foam::name(info[0])
+      : string("not finite (the displacement is not a number)")
+    );
+    const string rankText
+    (
+        Pstream::parRun() ? " of rank " + Foam::name(label(info[6])) : ""
+    );
+    FatalErrorInFunction
+        << type() << ": the mesh motion at t = " << mesh().time().value()
+        << " s would shrink " << nBelow << " cell(s) below minVolumeRatio "
+        << minVolumeRatio_ << " of their reference volume: smallest"
+        << " sub-volume ratio " << ratioText.c_str()
+        << " in cell " << label(info[1]) << rankText.c_str()
+        << " (centre (" << info[3] << ' ' << info[4] << ' ' << info[5]
+        << ") in the current mesh, volume ratio V/V0 = " << info[2] << ")."
+        << " The mesh was not moved; a ratio of 0 is a degenerate cell, below"
+        << " 0 an inverted one." << nl
+        << "Likely cause: the wall displacement (up to " << uWall << " m) is"
+        << " no longer small against the cells next to the wall: the motion"
+        << " is interpolated, not solved, and large or uneven wall motion"
+        << " folds the cells (or the solid has diverged)." << nl
+        << "Fix: check that the wall motion is physical (an earthquake moves"
+        << " the lining by centimetres relative to the rock around it), use a"
+        << " smaller wall motion, use 'interfaceMotion transpiration;' on a"
+        << " static mesh for small motion, or use a finer/better mesh near the"
+        << " wall (or decay cubic / a larger decayDistance to spread the"
+        << " motion).  minVolumeRatio in tqInterpolatedDisplacementCoeffs sets"
+        << " the limit (0: off)." << exit(FatalError);
+}
+
+
 // * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
 
 Foam::tqInterpolatedDisplacementMotionSolver::
@@ -339,9 +524,19 @@ tqInterpolatedDisplacementMotionSolver
 :
     displacementMotionSolver(mesh, dict, typeName),
     globalOffset_(0),
-    nGlobal_(0)
+    nGlobal_(0),
+    minVolumeRatio_(coeffDict().lookupOrDefault<scalar>("minVolumeRatio", 0.1))
 {
+    if (!(minVolumeRatio_ >= 0 && minVolumeRatio_ < 1))
+    {
+        FatalIOErrorInFunction(coeffDict())
+            << "minVolumeRatio " << minVolumeRatio_ << " must be in [0, 1)"
+            << " (the smallest accepted ratio of a cell's sub-volume to its"
+            << " reference; default 0.1, 0 turns the check off)."
+            << exit(FatalIOError);
+    }
     calcWeights();
+    subVolumes(points0(), pyr0Own_, pyr0Nei_, vol0_);
 }
 
 
@@ -355,6 +550,7 @@ Foam::tqInterpolatedDisplacementMotionSolver::curPoints() const
         points0() + pointDisplacement_.primitiveField()
     );
     twoDCorrectPoints(tcurPoints.ref());
+    checkVolumes(tcurPoints());
     return tcurPoints;
 }
 

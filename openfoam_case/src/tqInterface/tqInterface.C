@@ -24,6 +24,7 @@ License
 #include "OFstream.H"
 #include "addToRunTimeSelectionTable.H"
 
+#include <cmath>
 #include <malloc.h>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
@@ -415,8 +416,108 @@ void Foam::functionObjects::tqInterface::receiveMotion()
             << nPoints << " interface points of patch " << patchName_
             << exit(FatalError);
     }
+    if (interfaceMotion_ == interfaceMotionType::transpiration)
+    {
+        checkTranspirationDisplacement();
+    }
     checkVolumeChange();
     applyMotion();
+}
+
+
+void Foam::functionObjects::tqInterface::checkTranspirationDisplacement()
+const
+{
+    // The transpiration interface keeps the faces fixed and puts the wall
+    // motion back through first-order terms (flux of the displaced face,
+    // p_w + u.grad p at the displaced centre): Taylor steps from the face
+    // into its wall cell, whose pressure and gradient they use.  A wall
+    // displaced beyond that cell would need values the terms ignore, and
+    // the neglected second-order terms are no longer small: refuse the
+    // motion rather than give wrong loads.
+    const faceList& lf = mesh_.boundaryMesh()[patchi_].localFaces();
+    scalar worst = -1;
+    label worstFace = -1;
+    scalar worstU = 0;
+    bool finite = true;
+    forAll(lf, facei)
+    {
+        scalar uMax = 0;
+        for (const label pointi : lf[facei])
+        {
+            const scalar u = mag(displacement_[pointi]);
+            if (!std::isfinite(u))
+            {
+                finite = false;
+            }
+            uMax = max(uMax, u);
+        }
+        const scalar ratio = uMax/max(wallCellThickness_[facei], VSMALL);
+        if (!std::isfinite(uMax) || ratio > worst)
+        {
+            worst = std::isfinite(uMax) ? ratio : GREAT;
+            worstFace = facei;
+            worstU = uMax;
+        }
+    }
+    const scalar globalWorst = returnReduce(worst, maxOp<scalar>());
+    const bool globalFinite = returnReduce(finite, andOp<bool>());
+    if (globalFinite && globalWorst <= transpirationLimit_)
+    {
+        return;
+    }
+
+    // Details of the worst face (from the rank that has it)
+    FixedList<scalar, 6> info(scalar(0));
+    if (worstFace >= 0 && worst == globalWorst)
+    {
+        // (z, face, |u|, h_w, x, y)
+        const point& c = mesh_.boundary()[patchi_].Cf()[worstFace];
+        info[0] = c.z();
+        info[1] = worstFace;
+        info[2] = worstU;
+        info[3] = wallCellThickness_[worstFace];
+        info[4] = c.x();
+        info[5] = c.y();
+    }
+    {
+        List<FixedList<scalar, 6>> all(Pstream::nProcs());
+        all[Pstream::myProcNo()] = info;
+        Pstream::gatherList(all);
+        Pstream::scatterList(all);
+        for (const FixedList<scalar, 6>& a : all)
+        {
+            if (a[2] != 0 || a[3] != 0)
+            {
+                info = a;
+                break;
+            }
+        }
+    }
+    const scalar tNext = time().value() + time().deltaTValue();
+    FatalErrorInFunction
+        << "interfaceMotion transpiration: the received wall displacement"
+        << " at t = " << tNext << " s is too large for the transpiration"
+        << " interface's linearisation: |u| = " << info[2] << " m at face "
+        << label(info[1]) << " of patch " << patchName_ << " (centre ("
+        << info[4] << ' ' << info[5] << ' ' << info[0] << ")), whose wall"
+        << " cell is h_w = " << info[3] << " m thick: |u|/h_w = "
+        << (globalFinite ? globalWorst : GREAT) << " > transpirationLimit "
+        << transpirationLimit_
+        << (globalFinite ? "" : " (the displacement is not finite)") << "."
+        << nl
+        << "Transpiration keeps the mesh fixed and moves the wall by"
+        << " first-order terms from the face into its wall cell; a wall"
+        << " displaced out of that cell would get wrong loads and fluxes."
+        << nl
+        << "Likely cause: a wall motion far larger than an earthquake's"
+        << " (centimetres), e.g. absolute instead of relative displacements,"
+        << " or a diverging solid." << nl
+        << "Fix: use 'interfaceMotion meshMotion;' with the"
+        << " tqInterpolatedDisplacement motion solver for large motion, or a"
+        << " mesh with thicker wall cells, or (if the motion is right and the"
+        << " accuracy acceptable) raise transpirationLimit in the " << name()
+        << " dictionary." << exit(FatalError);
 }
 
 
@@ -580,6 +681,8 @@ Foam::functionObjects::tqInterface::tqInterface
     wallPressure_(wallPressureType::extrapolated),
     interfaceMotion_(interfaceMotionType::meshMotion),
     geometricCorrection_(true),
+    transpirationLimit_(1),
+    wallCellThickness_(),
     hydrostatic_(false),
     g_(Zero),
     freeSurfaceLevel_(0),
@@ -624,6 +727,11 @@ Foam::functionObjects::tqInterface::tqInterface
 
     const polyPatch& pp = mesh_.boundaryMesh()[patchi_];
     points0_ = pp.localPoints();
+    {
+        const fvPatch& fvp = mesh_.boundary()[patchi_];
+        wallCellThickness_ =
+            2*mag(fvp.nf() & (fvp.Cf() - fvp.Cn()));
+    }
     displacement_.setSize(pp.nPoints(), Zero);
     velocity_.setSize(pp.nPoints(), Zero);
 
@@ -740,6 +848,15 @@ bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
     );
     geometricCorrection_ =
         dict.lookupOrDefault<bool>("geometricCorrection", true);
+    transpirationLimit_ =
+        dict.lookupOrDefault<scalar>("transpirationLimit", 1);
+    if (!(transpirationLimit_ > 0))
+    {
+        FatalIOErrorInFunction(dict)
+            << "transpirationLimit " << transpirationLimit_ << " must be"
+            << " positive (a fraction of the wall-cell thickness; default"
+            << " 1)." << exit(FatalIOError);
+    }
 
     hydrostatic_ = dict.found("hydrostatic");
     if (hydrostatic_)

@@ -156,6 +156,8 @@ def make_pipe_case(
     water: str = "incompressible",
     bulk_modulus: float = K_WATER,
     hydrostatic: tuple[float, float] | None = None,
+    laminar_model: str | None = None,
+    nu: float = NU,
 ) -> Path:
     """Write the case; returns the path of the motion table to fill with write_motion().
 
@@ -164,11 +166,15 @@ def make_pipe_case(
     water: 'incompressible' (pimpleFoam, kinematic p) or 'compressible' (rhoPimpleFoam, p in
     Pa, linear equation of state rho = rho0 + p/K_rho with K = bulk_modulus; see
     compressible_files()).  hydrostatic (g, free-surface level): tqInterface reports the
-    hydrostatic resultant with gravity (0 0 -g)."""
+    hydrostatic resultant with gravity (0 0 -g).  laminar_model: 'tqNewtonian' (libtqFoam, the
+    default for incompressible water) or the stock 'Stokes' (the default for compressible water);
+    nu: kinematic viscosity [m^2/s] (incompressible water)."""
     transpiration = interface_motion == "transpiration"
     compressible = water == "compressible"
     if water not in ("incompressible", "compressible"):
         raise ValueError(water)
+    if laminar_model is None:
+        laminar_model = "Stokes" if compressible else "tqNewtonian"
     case = Path(case)
     ends = "empty" if two_d else ("patch" if open_ends else "wall")
     fc.write(case, "system/blockMeshDict", _blockmesh(R, L, nq, nr, ny, two_d, ends, grading))
@@ -258,10 +264,10 @@ PIMPLE
 }}
 """,
     )
-    fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {NU};\n")
+    fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {nu!r};\n")
     if compressible:
         fc.write(case, "constant/thermophysicalProperties", thermophysical_properties(bulk_modulus))
-    fc.write(case, "constant/turbulenceProperties", "simulationType laminar;\n")
+    fc.write(case, "constant/turbulenceProperties", turbulence_properties(laminar_model))
     if transpiration:
         msolver = ""
     elif motion_solver == "tqInterpolated":
@@ -347,6 +353,15 @@ boundaryField
         return motion
     write_point_displacement(case, end_d)
     return motion
+
+
+def turbulence_properties(laminar_model: str = "tqNewtonian") -> str:
+    """constant/turbulenceProperties of laminar water: 'tqNewtonian' (libtqFoam.so, incompressible
+    with uniform nu: the viscous term is laplacian(nuEff,U) alone, docs/water.md §10) or the stock
+    'Stokes' (also the explicit div(nuEff dev2(T(grad U))); the model of compressible water)."""
+    if laminar_model not in ("tqNewtonian", "Stokes"):
+        raise ValueError(f"laminar_model {laminar_model!r}: use 'tqNewtonian' or 'Stokes'")
+    return f"simulationType laminar;\nlaminar {{ laminarModel {laminar_model}; }}\n"
 
 
 def write_point_displacement(case: Path, end_condition: str) -> None:

@@ -49,6 +49,9 @@ SETTINGS: dict = {
     # correction built from a second full grad(U) every step; water's viscous term is tiny
     "laplacianU": "Gauss linear uncorrected",
     "laplacianP": "Gauss linear corrected",
+    # laminar stress model (constant/turbulenceProperties): 'tqNewtonian' (libtqFoam: only
+    # laplacian(nuEff,U)) or the stock 'Stokes' (adds the explicit div(nuEff dev2(T(grad U))))
+    "laminarModel": "tqNewtonian",
     "nOuterCorrectors": 1,
     "nCorrectors": 1,
     "nNonOrthogonalCorrectors": 0,
@@ -199,7 +202,7 @@ PIMPLE
 """,
     )
     fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {pipe.NU};\n")
-    fc.write(case, "constant/turbulenceProperties", "simulationType laminar;\n")
+    fc.write(case, "constant/turbulenceProperties", pipe.turbulence_properties(s["laminarModel"]))
     if not moving:
         dyn = "dynamicFvMesh staticFvMesh;\n"
     elif s["motion_solver"] == "tqInterpolated":
