@@ -26,6 +26,18 @@ const char* accelerationName(AccelerationKind k) {
     }
     return "?";
 }
+const char* predictorName(PredictorKind k) {
+    switch (k) {
+        case PredictorKind::Constant: return "constant";
+        case PredictorKind::Linear: return "linear";
+    }
+    return "?";
+}
+PredictorKind parsePredictor(const std::string& s) {
+    for (auto k : {PredictorKind::Constant, PredictorKind::Linear})
+        if (s == predictorName(k)) return k;
+    throw ConfigError("unknown predictor '" + s + "': use constant or linear");
+}
 const char* mapKindName(MapKind k) {
     switch (k) {
         case MapKind::Coincident: return "coincident";
@@ -60,6 +72,9 @@ void CouplingConfig::validate() const {
     if (scheme == SchemeKind::Implicit) {
         if (maxIterations < 2) bad("implicit scheme needs max iterations >= 2");
         if (!(tolerance > 0)) bad("implicit scheme needs a positive tolerance");
+    } else if (predictor != PredictorKind::Constant) {
+        bad(std::string("predictor ") + predictorName(predictor) + " needs the implicit scheme (the " +
+            schemeName(scheme) + " scheme has no iterations to start); use predictor constant");
     }
     if (!(initialRelaxation > 0 && initialRelaxation <= 1))
         bad("initial relaxation must be in (0, 1], got " + std::to_string(initialRelaxation));
@@ -125,6 +140,7 @@ std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b
     diff("acceleration", std::string(accelerationName(a.acceleration)),
          std::string(accelerationName(b.acceleration)));
     diff("initial relaxation", a.initialRelaxation, b.initialRelaxation);
+    diff("predictor", std::string(predictorName(a.predictor)), std::string(predictorName(b.predictor)));
     diff("number of meshes", a.meshes.size(), b.meshes.size());
     for (std::size_t i = 0; i < std::min(a.meshes.size(), b.meshes.size()); ++i) {
         const auto &x = a.meshes[i], &y = b.meshes[i];

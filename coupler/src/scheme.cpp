@@ -73,6 +73,7 @@ void SerialImplicit::initialize(ExchangePort& port) {
         port.receiveData(0, 0);
         prevReceived_ = port.receivedValues();
         lastSent_ = port.writtenValues();  // what the first participant used: the initial values
+        prevConverged_ = lastSent_;        // x_{−1} of the linear predictor
         acc_->startWindow();
     }
 }
@@ -107,17 +108,25 @@ void SerialImplicit::endWindow(ExchangePort& port) {
         const double resRead = k >= 1
                                    ? convergenceMeasure(d, prevReceived_, port.receivedSlices(), tol)
                                    : std::numeric_limits<double>::infinity();
-        state_.residual = std::max(resWrite, resRead);
+        // Pass 0 with the linear predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides (the
+        // read data has no earlier pass to compare with; the motion is a function of x⁰).
+        const bool linear = config_.predictor == PredictorKind::Linear;
+        state_.residual = k == 0 && linear ? resWrite : std::max(resWrite, resRead);
         if (!std::isfinite(resWrite) && k >= 1)
             throw DivergenceError("interface residual is not finite in window " +
                                   std::to_string(w) + ", pass " + std::to_string(k));
-        const bool converged = test_ && k >= 1 && state_.residual < config_.tolerance;
+        const bool converged = test_ && (k >= 1 || linear) && state_.residual < config_.tolerance;
         complete = converged || int(k) + 1 >= maxPasses_;
         if (complete) {
             if (test_ && !converged) ++state_.unconvergedWindows;
             port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0),
                           state_.residual);
             lastSent_ = xt;
+            if (linear) {  // the next window's x⁰ = 2 x_w − x_{w−1}; the first participant starts there too
+                for (std::size_t i = 0; i < xt.size() && i < prevConverged_.size(); ++i)
+                    lastSent_[i] = 2.0 * xt[i] - prevConverged_[i];
+                prevConverged_ = xt;
+            }
         } else {
             acc_->next(lastSent_, xt, next_);
             port.writtenValues() = next_;

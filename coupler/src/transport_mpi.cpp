@@ -4,11 +4,15 @@
 // world rank). The two leaders exchange the same framed byte stream as over TCP, on a duplicate
 // of MPI_COMM_WORLD so that no solver message can be confused with a coupler message.
 // MPI cannot tell that a partner died: a silent partner is detected by the receive timeout
-// (Open MPI's mpirun also ends the whole job when one process dies).
+// (Open MPI's mpirun also ends the whole job when one process dies: it sends SIGTERM to the
+// others, which stopOnTerminationSignals() turns into a PartnerLostError of the blocked call).
 #include <mpi.h>
+#include <signal.h>
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <thread>
@@ -34,6 +38,26 @@ MpiState& state() {
     return s;
 }
 
+/// The termination signal that arrived (0 none): written by the handler only.
+volatile std::sig_atomic_t g_signal = 0;
+
+void onTerminationSignal(int sig) { g_signal = sig; }
+
+const char* signalName(int sig) {
+    return sig == SIGTERM ? "SIGTERM" : sig == SIGINT ? "SIGINT" : "a termination signal";
+}
+
+/// Throws when a termination signal arrived: the job is being ended (under mpirun: another
+/// process of it stopped), so no message of the partner will come.
+void checkSignal(const char* doing) {
+    const int sig = g_signal;
+    if (sig == 0) return;
+    throw PartnerLostError(std::string(signalName(sig)) + " arrived while " + doing +
+                           ": mpirun is ending the job, because another process of it stopped "
+                           "(most likely the partner died: mpirun's message names the process "
+                           "and its exit) or the job was interrupted");
+}
+
 int colourOf(const std::string& name) {
     std::uint32_t h = 2166136261u;  // FNV-1a, 32 bit
     for (unsigned char c : name) {
@@ -49,6 +73,7 @@ class MpiChannel final : public Channel {
 
     void send(const std::uint8_t* p, std::size_t n, Deadline d) override {
         if (n > std::size_t(INT32_MAX)) throw TransportError("MPI message above 2 GiB");
+        checkSignal("sending to the partner");
         MPI_Request req;
         if (MPI_Isend(p, int(n), MPI_BYTE, peer_, kTag, comm_, &req) != MPI_SUCCESS)
             throw TransportError("MPI_Isend to world rank " + std::to_string(peer_) + " failed");
@@ -69,6 +94,7 @@ class MpiChannel final : public Channel {
             int flag = 0, spins = 0;
             MPI_Status st;
             for (;;) {
+                checkSignal("waiting for the partner");
                 MPI_Iprobe(peer_, kTag, comm_, &flag, &st);
                 if (flag) break;
                 if (d.remaining() <= 0)
@@ -96,6 +122,7 @@ class MpiChannel final : public Channel {
         for (;;) {
             MPI_Test(&req, &flag, MPI_STATUS_IGNORE);
             if (flag) return;
+            checkSignal("sending to the partner");
             if (d.remaining() <= 0) throw TimeoutError(timeoutText);
             if (++spins > 2000) std::this_thread::sleep_for(std::chrono::microseconds(200));
         }
@@ -150,7 +177,8 @@ void initialize(int* argc, char*** argv) {
     int init = 0;
     MPI_Initialized(&init);
     if (!init) {
-        MPI_Init(argc, argv);
+        int provided = 0;
+        MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
         g_weInitialized = true;
     }
 }
@@ -159,6 +187,19 @@ void finalize() {
     MPI_Finalized(&fin);
     if (g_weInitialized && !fin) MPI_Finalize();
 }
+void abortJob(int code) {
+    MPI_Abort(MPI_COMM_WORLD, code);
+    std::_Exit(code);  // MPI_Abort does not return; in case an MPI library lets it
+}
+void stopOnTerminationSignals() {
+    struct sigaction sa {};
+    sa.sa_handler = onTerminationSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND | SA_RESTART;  // a second signal kills as usual
+    sigaction(SIGTERM, &sa, nullptr);
+    sigaction(SIGINT, &sa, nullptr);
+}
+int terminationSignal() { return g_signal; }
 
 int splitWorld(const std::string& me, const std::string& partner) {
     int init = 0;
@@ -191,6 +232,11 @@ int splitWorld(const std::string& me, const std::string& partner) {
 }
 
 int appRank() { return state().appRank; }
+int appSize() {
+    int n = 1;
+    if (state().app != MPI_COMM_NULL) MPI_Comm_size(state().app, &n);
+    return n;
+}
 
 }  // namespace mpi
 

@@ -1,4 +1,6 @@
 // Stand-ins when the library is built without MPI: every MPI request is a clear error.
+#include <cstdlib>
+
 #include "transport_detail.hpp"
 #include "tq/coupler/errors.hpp"
 
@@ -14,7 +16,11 @@ namespace mpi {
 void initialize(int*, char***) { noMpi(); }
 void finalize() {}
 int splitWorld(const std::string&, const std::string&) { noMpi(); }
+void abortJob(int code) { std::_Exit(code); }
+void stopOnTerminationSignals() {}
+int terminationSignal() { return 0; }
 int appRank() { return 0; }
+int appSize() { return 1; }
 }  // namespace mpi
 namespace detail {
 std::unique_ptr<Listener> makeMpiListener(const TransportOptions&, const std::string&,

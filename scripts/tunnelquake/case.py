@@ -93,18 +93,23 @@ def _check_damping(d, path, raw, ctx):
                   "give [f1, f2] with f1 < f2, e.g. [1.5, 10] Hz", raw.key_lines.get("frequencies"))
 
 
+def coupling_predictor(c: dict) -> str:
+    """The predictor a coupling section asks for, with `auto` resolved (linear for implicit)."""
+    p = c.get("predictor", "auto")
+    if p == "auto":
+        return "linear" if c["scheme"] == "implicit" else "constant"
+    return p
+
+
 def _check_coupling(c, path, raw, ctx):
+    if c.get("predictor") == "linear" and c["scheme"] != "implicit":
+        ctx.error(f"{path}.predictor", c["predictor"], f"the linear predictor starts the iterations of the implicit "
+                  f"scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
+                  raw.key_lines.get("predictor"))
     if c["window"] > 1 and c["scheme"] != "explicit":
         ctx.error(f"{path}.window", c["window"], f"a window of several solid steps needs scheme explicit (the "
                   f"{c['scheme']} scheme repeats each window, which tq-solid does for windows of one step only)",
                   "use scheme: explicit with this window, or window: 1", raw.key_lines.get("window"))
-
-
-def _check_parallel(p, path, raw, ctx):
-    if p["fluid_ranks"] > 1:
-        ctx.error(f"{path}.fluid_ranks", p["fluid_ranks"], "a decomposed water case (several OpenFOAM ranks) is not "
-                  "run by `tunnelquake run` yet", "use fluid_ranks: 1 (the water of the slice and of the 3D paper "
-                  "mesh runs on one rank, docs/benchmarks.md)", raw.key_lines.get("fluid_ranks"))
 
 
 def _check_stages(s, path, raw, ctx):
@@ -249,7 +254,16 @@ def schema() -> Section:
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
             "max_iterations": Number(integer=True, min=1, default=20),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
-            "transport": Choice(choices=("tcp", "mpi"), default="tcp"),
+            "predictor": Choice(choices=("auto", "constant", "linear"), default="auto",
+                                doc="implicit scheme: the force a window starts from — constant: the last "
+                                    "window's; linear: 2 R_w - R_(w-1), so a window whose first answer agrees "
+                                    "needs one water pass (docs/coupler.md \"Predictor\"); auto: linear for "
+                                    "implicit, constant otherwise"),
+            "transport": Choice(choices=("tcp", "mpi"), default="tcp",
+                                doc="tcp: the two processes `tunnelquake run` starts; mpi: tq-solid as one "
+                                    "application of an MPMD mpirun job with an MPI-speaking fluid, started by "
+                                    "hand (docs/coupler.md \"tq-solid under mpirun\"); OpenFOAM couples over tcp "
+                                    "only, so dynamic_water needs tcp"),
             "timeout": _positive(U.TIME, "s; a silent partner for longer stops the run", default=120.0),
         }),
         "damping": Section(checks=[_check_damping], fields={
@@ -273,11 +287,13 @@ def schema() -> Section:
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
         }),
-        "parallel": Section(checks=[_check_parallel], fields={
+        "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
-                                  doc="MPI ranks of the OpenFOAM side (1: a decomposed water case is not run by "
-                                      "`tunnelquake run` yet)"),
+                                  doc="MPI ranks of the water (OpenFOAM) in dynamic_water; above 1 the water "
+                                      "case is decomposed (method simple, cut across the tunnel's axis in 3D) "
+                                      "and run under mpirun, then reconstructed; at least 20 water cells a "
+                                      "rank (docs/coupler.md)"),
         }),
     })
 
@@ -316,6 +332,25 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     if any(c in conds for c in ("static_water", "dynamic_water")) and water["head"] == 0.0:
         warnings.append("water.head is 0: the static and dynamic water conditions carry no hydrostatic load "
                         "(paper: 123 m)")
+    if "dynamic_water" in conds and d["coupling"]["transport"] == "mpi":
+        issues.append(Issue("coupling.transport", "mpi",
+                            "`tunnelquake run` couples OpenFOAM, which cannot be one application of an MPMD mpirun "
+                            "job (its Pstream takes all of MPI_COMM_WORLD: docs/coupler.md \"OpenFOAM in an MPMD "
+                            "job\")", "use transport: tcp (the water may still run on several ranks: "
+                            "parallel.fluid_ranks)",
+                            raw["coupling"].key_lines.get("transport") if "coupling" in raw else None))
+    ranks = d["parallel"]["fluid_ranks"]
+    if ranks > 1:
+        import os
+
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        if "dynamic_water" not in conds:
+            warnings.append(f"parallel.fluid_ranks {ranks} has no effect: no dynamic_water condition runs the "
+                            "water; remove it or add dynamic_water to conditions")
+        elif ranks > cores:
+            warnings.append(f"parallel.fluid_ranks {ranks} exceeds the {cores} cores this run may use: the ranks "
+                            f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
+                            f"use fluid_ranks <= {cores}")
     g = d["geometry"]
     (x0, x1), (y0, y1), (z0, z1) = g["x_range"], g["y_range"], g["z_range"]
     for name, p in (d["output"]["monitors"] or {}).items():

@@ -14,8 +14,10 @@ size and the number of windows are pinned on both sides (none is left to a side'
 
 Water models (case `water` section):
 
-    compressible     rhoPimpleFoam, perfectFluid with R T0 = K / rho0 (K = water.bulk_modulus), p in Pa
-    incompressible   pimpleFoam, nu = viscosity / density, p kinematic
+    compressible     rhoPimpleFoam, perfectFluid with R T0 = K / rho0 (K = water.bulk_modulus), p in Pa,
+                     the stock laminar model Stokes
+    incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the template's laminar model
+                     tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 
 Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed (compressible
 water only: the case check refuses a closed incompressible slice). 3D: incompressible water with
@@ -37,6 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
+from .case import coupling_predictor
 from .coupling_scales import absolute_tolerances
 
 TEMPLATE = paths.ROOT / "openfoam_case" / "template"
@@ -86,6 +89,7 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "max_iterations": int(cs["max_iterations"]),
         "acceleration": cs["acceleration"],
         "initial_relaxation": 0.5,
+        "predictor": coupling_predictor(cs),
         "transport": cs["transport"],
         "address_file": str(address_file),
         "token": token,
@@ -108,6 +112,8 @@ def solid_coupling_attrs(s: dict) -> dict:
                              "timeout", "connect_timeout", "face", "mesh", "map", "map_tolerance",
                              "participant", "partner")}
     out["write_fields"] = ",".join(s["write_fields"])
+    if s.get("predictor", "constant") != "constant":  # absent = constant (inputs made before the predictor)
+        out["predictor"] = s["predictor"]
     out.update({f"absolute_tolerance_{k}": float(v) for k, v in s["absolute_tolerance"].items()})
     return out
 
@@ -140,6 +146,7 @@ def exchange_dict(s: dict) -> str:
             tolerance       {s['tolerance']!r};
             acceleration    {s['acceleration']};
             initialRelaxation {s['initial_relaxation']!r};
+            predictor       {s['predictor']};
             absoluteTolerance {{ {atol} }}
             mesh            {s['mesh']};
             map             {s['map']};
@@ -275,6 +282,9 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
                f"equationOfState {{ R {float(water['bulk_modulus']) / (rho * T0)!r}; rho0 {rho!r}; }}", t)
     t = re.sub(r"transport\s+\{ mu [^;]*;", f"transport       {{ mu {mu!r};", t)
     th.write_text(t)
+    if model == "compressible":  # the template's tqNewtonian is for incompressible water only
+        tu = folder / "constant" / "turbulenceProperties"
+        tu.write_text(_set_entry(tu.read_text(), "laminarModel", "Stokes"))
 
     # system: solver settings
     fs = folder / "system" / "fvSolution"
@@ -301,3 +311,158 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     t = _replace_block(t, "exchange", exchange_dict(settings))
     cd.write_text(t)
     return FluidCase(folder, solver, mode, model, end_time, dt)
+
+
+# ----------------------------------------------------------------------------------------------
+# Decomposed water (parallel.fluid_ranks > 1): decomposePar, mpirun, reconstructPar
+# ----------------------------------------------------------------------------------------------
+#: The key every decomposition error names.
+RANKS_KEY = "parallel.fluid_ranks"
+#: Below this many water cells a rank parallel.fluid_ranks is refused: a slab of a few cells is
+#: mostly processor faces, and a rank of the simple split could get none.
+MIN_CELLS_PER_RANK = 20
+
+
+def water_cells(folder: Path) -> int:
+    """The number of cells of the water case's mesh (the `nCells:` note gmshToFoam writes in the
+    header of constant/polyMesh/owner, ASCII or binary)."""
+    owner = Path(folder) / "constant" / "polyMesh" / "owner"
+    with open(owner, "rb") as f:
+        head = f.read(4096).decode("latin-1")
+    m = re.search(r"nCells:\s*(\d+)", head)
+    if not m:
+        raise FluidCaseError(f"no 'nCells' note in {owner}: cannot size the decomposition of {RANKS_KEY}")
+    return int(m.group(1))
+
+
+def _factor_triples(n: int):
+    for a in range(1, n + 1):
+        if n % a:
+            continue
+        for b in range(1, n // a + 1):
+            if (n // a) % b == 0:
+                yield a, b, n // (a * b)
+
+
+def simple_split(ranks: int, extents: tuple[float, float, float], slice_mode: bool) -> tuple[int, int, int]:
+    """Subdomains along (x, y, z) for the `simple` method: the product is `ranks` and the cut area
+    is least, the water taken as the box of its `extents` (a cut normal to x costs Ly Lz, ...).
+
+    Slice: never along y (one cell thick, `empty` ends); the section is cut in x and z, x first on
+    a tie. 3D: the tunnel's axis y is cut first as long as a cross-section (4 R^2 for the box) is
+    smaller than an axial cut (2 R L): for the paper's 80 m tunnel, (1 N 1). Measured with
+    decomposePar on 2 ranks: the 3D paper water (14,784 cells) has 336 processor faces cut along y
+    against 880 cut along x; the slice (336 cells) 20 either way (docs/coupler.md)."""
+    lx, ly, lz = (max(float(v), 1e-12) for v in extents)
+    best = None
+    for nx, ny, nz in _factor_triples(ranks):
+        if slice_mode and ny != 1:
+            continue
+        cut = (nx - 1) * ly * lz + (ny - 1) * lx * lz + (nz - 1) * lx * ly
+        # tie-break: fewer slabs in the direction listed later (x before z, y before x)
+        key = (round(cut, 9), nz, nx)
+        if best is None or key < best[0]:
+            best = (key, (nx, ny, nz))
+    return best[1]
+
+
+def write_decompose_dict(folder: Path, ranks: int, split: tuple[int, int, int]) -> Path:
+    """system/decomposeParDict: `ranks` subdomains, method simple with n = split. (scotch would
+    need the real libscotchDecomp: Debian's openfoam v1912 ships only its stub, and on these
+    structured cylinders the simple cut along the axis is already the least.)"""
+    nx, ny, nz = split
+    path = Path(folder) / "system" / "decomposeParDict"
+    path.write_text(f"""FoamFile
+{{
+    version     2.0;
+    format      ascii;
+    class       dictionary;
+    object      decomposeParDict;
+}}
+// written by tunnelquake ({RANKS_KEY}: {ranks})
+numberOfSubdomains {ranks};
+method          simple;
+coeffs
+{{
+    n           ({nx} {ny} {nz});
+    delta       0.001;
+}}
+""")
+    return path
+
+
+def decompose(folder: Path, ranks: int, extents: tuple[float, float, float], slice_mode: bool) -> dict:
+    """Split the water case into `ranks` processor folders (decomposeParDict + decomposePar, its log
+    in log.decomposePar). Returns {'split': (nx, ny, nz), 'cells': [per rank], 'processor_faces': n}.
+    Errors name parallel.fluid_ranks and the fix."""
+    folder = Path(folder)
+    cells = water_cells(folder)
+    if cells < MIN_CELLS_PER_RANK * ranks:
+        raise FluidCaseError(f"{RANKS_KEY} = {ranks} gives the water's {cells} cells fewer than "
+                             f"{MIN_CELLS_PER_RANK} a rank; use fluid_ranks: 1 (at most "
+                             f"{max(1, cells // MIN_CELLS_PER_RANK)} for this mesh)")
+    split = simple_split(ranks, extents, slice_mode)
+    write_decompose_dict(folder, ranks, split)
+    for old in folder.glob("processor*"):
+        shutil.rmtree(old)
+    try:
+        _foam(folder, "decomposePar", "-force", log="decomposePar")
+    except FluidCaseError as e:
+        raise FluidCaseError(f"{RANKS_KEY} = {ranks}: {e}; use fluid_ranks: 1, or fewer ranks") from None
+    log = (folder / "log.decomposePar").read_text()
+    per = [int(x) for x in re.findall(r"^Processor \d+\s*\n\s*Number of cells = (\d+)", log, flags=re.M)]
+    if len(per) != ranks or min(per) < 1:
+        raise FluidCaseError(f"{RANKS_KEY} = {ranks}: decomposePar gave cells per rank {per} (split n = "
+                             f"{split}); a rank without water cells cannot run: use fewer ranks "
+                             f"(see {folder / 'log.decomposePar'})")
+    m = re.search(r"^Number of processor faces = (\d+)", log, flags=re.M)
+    return {"split": split, "cells": per, "processor_faces": int(m.group(1)) if m else None}
+
+
+
+def mpirun_executable() -> str:
+    exe = shutil.which("mpirun")
+    if exe is None:
+        raise FluidCaseError(f"{RANKS_KEY} > 1 needs mpirun (Debian package openmpi-bin, which "
+                             "scripts/bootstrap.sh installs); install it or use fluid_ranks: 1")
+    return exe
+
+
+def mpirun_command(ranks: int, solver: str, folder: Path, env: dict) -> list[str]:
+    """`mpirun -np N ... <solver> -parallel -case <folder>` with the environment the ranks need
+    (-x) and the ranks yielding the core while they wait (mpi_yield_when_idle: OpenMPI 4.1 spins in
+    MPI_Recv otherwise; the ranks wait for rank 0, which waits for the solid on TCP). Not bound to
+    cores (--bind-to none): tq-solid and the ranks take turns on the same cores."""
+    cmd = [mpirun_executable(), "-np", str(ranks)]
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        cmd.append("--allow-run-as-root")
+    cmd += ["--oversubscribe", "--bind-to", "none", "--mca", "mpi_yield_when_idle", "1"]
+    for var in (TOKEN_ENV, "LD_LIBRARY_PATH", "WM_PROJECT_DIR", "FOAM_SIGFPE", "PATH"):
+        if var in env:
+            cmd += ["-x", var]
+    return cmd + [solver, "-parallel", "-case", str(folder)]
+
+
+def reconstruct(folder: Path) -> str:
+    """reconstructPar of every time a processor folder holds (log in log.reconstructPar); the
+    processor folders stay. Returns what happened, in words (never raises: the run's results do
+    not depend on it)."""
+    folder = Path(folder)
+    times = [p.name for p in (folder / "processor0").iterdir() if p.is_dir() and _is_time(p.name)] \
+        if (folder / "processor0").is_dir() else []
+    if not [t for t in times if float(t) > 0]:
+        return f"no water time written beyond 0 (processor folders in {folder})"
+    try:
+        _foam(folder, "reconstructPar", "-newTimes", log="reconstructPar")
+    except FluidCaseError as e:
+        return f"reconstructPar failed ({e}); the water's fields are in {folder}/processor*/"
+    return (f"water fields reconstructed into {folder} (times {', '.join(sorted(times, key=float))}; log "
+            f"{folder / 'log.reconstructPar'}; the processor folders stay)")
+
+
+def _is_time(name: str) -> bool:
+    try:
+        float(name)
+    except ValueError:
+        return False
+    return True

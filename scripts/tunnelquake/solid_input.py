@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .case import coupling_predictor
+
 FORMAT = "tunnelquake-solid-input"
 VERSION = 2
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
@@ -216,6 +218,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             c.attrs["tolerance"] = float(cs["tolerance"])
             c.attrs["max_iterations"] = int(cs["max_iterations"])
             c.attrs["acceleration"] = cs["acceleration"]
+            if coupling_predictor(cs) != "constant":  # absent = constant
+                c.attrs["predictor"] = coupling_predictor(cs)
             c.attrs["transport"] = cs["transport"]
             c.attrs["timeout"] = float(cs["timeout"])
             c.attrs["address_file"] = str(coupling_address)

@@ -29,7 +29,9 @@ const char* kUsage =
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
     "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
-    "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n";
+    "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
+    "  With /coupling transport mpi it is one application of an MPMD job (docs/coupler.md\n"
+    "  \"tq-solid under mpirun\"): mpirun --bind-to none -np 1 tq-solid solid_input.h5 : -np N <fluid> ...\n";
 
 // What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
 const char* kCapabilities =
@@ -46,7 +48,12 @@ std::string hms(double s) {
 }
 }  // namespace
 
-int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+namespace {
+
+/// The whole run; `mpi` is set when /coupling transport is mpi (tq-solid under mpirun), and
+/// runSolid ends MPI after this returns (results.h5 closed by then).
+int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+                 std::unique_ptr<CouplingMpi>& mpi) {
   std::string input, output = "results.h5";
   bool check = false;
   for (size_t i = 0; i < args.size(); ++i) {
@@ -108,6 +115,21 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
     out << "tq-solid: input and mesh are valid\n";
     return 0;
   }
+  // MPI only for the coupling's MPI transport (docs/coupler.md "tq-solid under mpirun"); started by
+  // mpirun with transport tcp, tq-solid stays a plain process and couples over TCP.
+  const CouplingInput& ci = in.staged.coupling;
+  if (ci.present && ci.transport == "mpi") {
+    mpi = std::make_unique<CouplingMpi>(ci);
+    if (!mpi->problem().empty()) {
+      err << "tq-solid: " << mpi->problem() << "\n";
+      return 4;
+    }
+    out << "tq-solid: " << mpi->describe() << "\n";
+    if (const std::string w = mpi->bindingWarning(); !w.empty()) out << "tq-solid: warning: " << w << "\n";
+  } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
+    out << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
+        << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
+  }
   // 4. Time loop (the "engine").
   ResultsWriter results(output, in, s);
   if (stages) {  // 4a. Static stages (dynamic relaxation), then the switch to the seismic stage.
@@ -139,6 +161,14 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   // 4b. The water coupling (dynamic_water): connects to the fluid after the static stages, so the
   //     displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
   std::shared_ptr<FluidCoupling> coupling;
+  // Under mpirun, how the coupling ended decides how MPI ends: noted on every way out of here.
+  struct NoteForMpi {
+    CouplingMpi* mpi;
+    const std::shared_ptr<FluidCoupling>& c;
+    ~NoteForMpi() {
+      if (mpi && c) mpi->note(*c);
+    }
+  } noteForMpi{mpi.get(), coupling};
   if (in.staged.coupling.present) {
     try {
       coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
@@ -281,6 +311,22 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
       << (steps > 0 ? 1e6 * wall / (double(steps) * nElems) : 0.0) << " µs per element-step), energy error "
       << s.energy().error << "\n  results: " << output << "\n";
   return 0;
+}
+
+}  // namespace
+
+int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  std::unique_ptr<CouplingMpi> mpi;
+  int rc = 0;
+  try {
+    rc = runSolidBody(args, out, err, mpi);
+  } catch (const std::exception& e) {
+    if (!mpi) throw;
+    err << "tq-solid: error: " << e.what() << "\n";  // under mpirun: say it, then end MPI below
+    rc = 1;
+  }
+  if (mpi) rc = mpi->finish(rc, err);
+  return rc;
 }
 
 }  // namespace tq

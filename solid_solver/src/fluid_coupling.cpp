@@ -2,13 +2,17 @@
 // The only solid source that includes the coupler's headers.
 #include "tq/fluid_coupling.hpp"
 
+#include <omp.h>
+#include <sched.h>
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <sstream>
-
-#include <time.h>
+#include <thread>
 
 #include "tq/coupler/errors.hpp"
 #include "tq/coupler/participant.hpp"
@@ -66,6 +70,7 @@ struct FluidCoupling::Impl {
   std::vector<Real> force, prev;     // [3n] force added this step / last step (N)
   std::vector<Real> received;        // [3n] latest force read from the fluid
   std::vector<Real> trial;           // [3n] force used in the current prediction
+  std::vector<Real> receivedPrev;    // [3n] predictor linear: the fluid's final force one window earlier
   std::vector<Real> disp, vel;       // [3n] predicted motion written
   std::vector<Real> dispStart;       // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
@@ -80,6 +85,8 @@ struct FluidCoupling::Impl {
   std::vector<Real> recvPrev;      // [3n] final force of the last window
   Real fluidReceived = 0;
   FluidCouplingStats stats;
+  // How the link ended (CouplingMpi::finish): the handshake took place; the fluid fell silent.
+  bool linked = false, silent = false;
   // Timers of the cost split: start of the stepping, and the coupler's own tallies then.
   std::chrono::steady_clock::time_point steppingStart;
   double waitAtStart = 0, mappingAtStart = 0, cpuStart = 0;
@@ -88,6 +95,8 @@ struct FluidCoupling::Impl {
   explicit Impl(Solver& s) : solver(s) {}
 
   [[noreturn]] void fail(const std::string& what, const std::exception& e) {
+    if (dynamic_cast<const cp::TimeoutError*>(&e)) silent = true;
+    if (dynamic_cast<const cp::HandshakeError*>(&e)) linked = true;  // refused: both sides know
     std::ostringstream os;
     os << "water coupling: " << what << " at t = " << solver.time() << " s (solid step " << solver.stepCount()
        << "): " << e.what() << " " << fixFor(e, in);
@@ -180,6 +189,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.prev.assign(n3, 0.0);
   I.received.assign(n3, 0.0);
   I.trial.assign(n3, 0.0);
+  I.receivedPrev.assign(n3, 0.0);
   I.disp.assign(n3, 0.0);
   I.vel.assign(n3, 0.0);
   I.dispStart.assign(n3, 0.0);
@@ -207,6 +217,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   try {
     c.scheme = cp::parseScheme(in.scheme);
     c.acceleration = cp::parseAcceleration(in.acceleration);
+    c.predictor = cp::parsePredictor(in.predictor);
     c.meshes.push_back({in.mesh, cp::parseMapKind(in.map), in.participant, in.mapTolerance});
     for (const auto& f : in.writeFields)
       c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent,
@@ -252,6 +263,7 @@ void FluidCoupling::initialize() {
   try {
     I.p->initialize();
     I.p->readData(I.in.mesh, "force", I.received);
+    I.receivedPrev = I.received;  // R_{−1} of the linear predictor: window 0 starts from the initial force
   } catch (const cp::CouplerError& e) {
     I.fail("could not start the coupling with '" + I.in.partner + "'", e);
   }
@@ -262,6 +274,7 @@ void FluidCoupling::initialize() {
   I.steppingStart = std::chrono::steady_clock::now();
   I.cpuStart = threadCpu();
   I.initialized = true;
+  I.linked = true;
 }
 
 void FluidCoupling::finalize() {
@@ -301,9 +314,16 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       I.stepInWindow = 0;
       // Pass 0 force: the paper's predictor and the explicit scheme predict without the fluid;
       // the implicit scheme starts from the last converged force.
-      if (I.scheme == cp::SchemeKind::Implicit)
+      // With the linear predictor both sides start from 2 R_w − R_{w−1} (the fluid's final forces of
+      // the last two windows; the initial force before the first): a window whose first answer
+      // already agrees with it to the tolerance needs one pass (docs/coupler.md "Predictor").
+      if (I.scheme == cp::SchemeKind::Implicit) {
         I.trial = I.received;
-      else
+        if (I.in.predictor == "linear") {
+          for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.received[j] - I.receivedPrev[j];
+          I.receivedPrev = I.received;
+        }
+      } else
         std::fill(I.trial.begin(), I.trial.end(), 0.0);
       long long passes = 0;
       for (;;) {
@@ -376,6 +396,8 @@ FluidCouplingStats FluidCoupling::stats() const {
 const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
 const std::vector<Real>& FluidCoupling::force() const { return impl_->force; }
 
+bool FluidCoupling::partnerReleased() const { return impl_->linked && !impl_->silent; }
+
 std::string FluidCoupling::describe() const {
   const Impl& I = *impl_;
   std::ostringstream os;
@@ -388,8 +410,83 @@ std::string FluidCoupling::describe() const {
   if (I.in.transport == "tcp") os << " (address file " << I.in.addressFile << ")";
   os << ", timeout " << I.in.timeout << " s";
   if (I.scheme == cp::SchemeKind::Implicit)
-    os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration;
+    os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration << ", predictor " << I.in.predictor;
   return os.str();
+}
+
+// ------------------------------------------------------------------ tq-solid under mpirun
+CouplingMpi::CouplingMpi(const CouplingInput& in) : partner_(in.partner) {
+  cp::mpi::initialize(nullptr, nullptr);
+  cp::mpi::stopOnTerminationSignals();
+  const std::string n = launchedByMpirun();
+  worldSize_ = n.empty() ? 1 : std::atoi(n.c_str());
+  try {
+    cp::mpi::splitWorld(in.participant, in.partner);
+  } catch (const cp::CouplerError& e) {
+    problem_ = std::string("water coupling over MPI (/coupling transport mpi): ") + e.what() +
+               ". Fix: start tq-solid and the fluid under one mpirun, e.g. mpirun -np 1 tq-solid solid_input.h5 : "
+               "-np 1 <fluid> (docs/coupler.md \"tq-solid under mpirun\"), or set /coupling transport tcp to run "
+               "the two as separate processes.";
+    return;
+  }
+  partnerInJob_ = true;
+  if (const int k = cp::mpi::appSize(); k > 1)
+    problem_ = "water coupling over MPI: " + std::to_string(k) + " processes of tq-solid in the job; tq-solid runs "
+               "as one MPI process (it is threaded with OpenMP: --threads). Fix: mpirun -np 1 tq-solid ... : "
+               "-np N <fluid> ... (docs/coupler.md \"tq-solid under mpirun\")";
+}
+
+CouplingMpi::~CouplingMpi() {
+  if (!finished_) {
+    std::ostringstream sink;
+    finish(1, sink);
+  }
+}
+
+std::string CouplingMpi::launchedByMpirun() {
+  for (const char* var : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
+    if (const char* v = std::getenv(var); v && *v) return std::string(v) + " processes";
+  return "";
+}
+
+std::string CouplingMpi::describe() const {
+  std::ostringstream os;
+  os << "MPI: one application of an MPMD job of " << worldSize_ << " process(es), coupled with '" << partner_
+     << "' over MPI; " << omp_get_max_threads() << " OpenMP thread(s)";
+  return os.str();
+}
+
+std::string CouplingMpi::bindingWarning() const {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0) return "";
+  const unsigned mine = unsigned(CPU_COUNT(&set)), all = std::thread::hardware_concurrency();
+  if (all == 0 || mine >= all) return "";
+  std::ostringstream os;
+  os << "this process is bound to " << mine << " of the machine's " << all << " cores (mpirun binds each process "
+     << "to a core by default), so its " << omp_get_max_threads() << " OpenMP thread(s) share "
+     << (mine == 1 ? "it" : "them") << ". Fix: mpirun --bind-to none -np 1 tq-solid ... (docs/coupler.md \"tq-solid "
+     << "under mpirun\")";
+  return os.str();
+}
+
+void CouplingMpi::note(const FluidCoupling& c) {
+  noted_ = true;
+  released_ = c.partnerReleased();
+}
+
+int CouplingMpi::finish(int exitCode, std::ostream& err) {
+  if (finished_) return exitCode;
+  finished_ = true;
+  if (cp::mpi::terminationSignal() != 0) return exitCode;  // mpirun is ending the job (a process died)
+  if (exitCode == 0 || !partnerInJob_ || (noted_ && released_)) {
+    cp::mpi::finalize();
+    return exitCode;
+  }
+  err << "tq-solid: ending the MPI job (MPI_Abort, code " << exitCode << "): '" << partner_ << "' "
+      << (noted_ && !released_ && partnerInJob_ ? "does not answer" : "was never reached")
+      << ", so it would not end by itself" << std::endl;
+  cp::mpi::abortJob(exitCode);
 }
 
 }  // namespace tq

@@ -263,7 +263,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     auto g = h5::openGroup(f, "/coupling");
     const std::string w = "/coupling";
     onlyKeys(c, g, w, {"scheme", "window", "window_size", "windows", "tolerance", "max_iterations", "acceleration",
-                       "initial_relaxation", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
+                       "initial_relaxation", "predictor", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
                        "absolute_tolerance_force"});
@@ -286,6 +286,12 @@ void readStagedInput(hid_t f, SolidInput& in) {
         C.acceleration != "iqn-ils")
       c.fail(w, "acceleration '" + C.acceleration + "' is not one of none, constant, aitken, iqn-ils");
     C.initialRelaxation = number(c, g, w, "initial_relaxation", C.initialRelaxation, 0);
+    C.predictor = text(c, g, w, "predictor", C.predictor);
+    if (C.predictor != "constant" && C.predictor != "linear")
+      c.fail(w, "predictor '" + C.predictor + "' is not one of constant, linear");
+    else if (C.predictor != "constant" && C.scheme != "implicit")
+      c.fail(w, "predictor " + C.predictor + " needs scheme implicit (the " + C.scheme +
+                    " scheme has no iterations to start); use predictor constant");
     C.transport = text(c, g, w, "transport", C.transport);
     if (C.transport != "tcp" && C.transport != "mpi") c.fail(w, "transport '" + C.transport + "' is not tcp or mpi");
     C.addressFile = text(c, g, w, "address_file", "");
@@ -391,6 +397,7 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeIntAttr(g, "max_iterations", C.maxIterations);
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
+    h5::writeStringAttr(g, "predictor", C.predictor);
     h5::writeStringAttr(g, "transport", C.transport);
     h5::writeStringAttr(g, "address_file", C.addressFile);
     h5::writeStringAttr(g, "token", C.token);

@@ -92,8 +92,12 @@ BAD_INPUTS = [
     ("coupling window of several steps with the implicit scheme",
      ("  scheme: implicit\n", "  scheme: implicit\n  window: 4\n"),
      "coupling.window", "needs scheme explicit"),
-    ("several OpenFOAM ranks", ("stages:\n", "parallel:\n  fluid_ranks: 2\n\nstages:\n"),
-     "parallel.fluid_ranks", "not run by `tunnelquake run` yet"),
+    ("MPI transport with OpenFOAM", ("  scheme: implicit\n", "  scheme: implicit\n  transport: mpi\n"),
+     "coupling.transport", "cannot be one application of an MPMD mpirun job"),
+    ("no OpenFOAM rank", ("stages:\n", "parallel:\n  fluid_ranks: 0\n\nstages:\n"),
+     "parallel.fluid_ranks", "must be >= 1"),
+    ("a fraction of an OpenFOAM rank", ("stages:\n", "parallel:\n  fluid_ranks: 1.5\n\nstages:\n"),
+     "parallel.fluid_ranks", "whole number"),
 ]
 
 
@@ -152,3 +156,23 @@ def test_user_guide_key_table_matches_the_schema():
     doc = (ROOT / "docs" / "user_guide.md").read_text()
     current = doc[doc.index(BEGIN) + len(BEGIN):doc.index(END)].strip()
     assert current == table().strip(), "run: python -m tunnelquake.docgen --write"
+
+
+def test_water_ranks_are_accepted_and_too_many_warned(example_text, write_case):
+    """parallel.fluid_ranks N > 1 runs the water decomposed (tests/python/test_fluid_ranks.py); more
+    ranks than this process's cores is a warning naming the key and the fix, as is a value that
+    no condition uses."""
+    import os
+
+    cores = len(os.sched_getaffinity(0))
+    two = load_case(write_case(example_text.replace("stages:\n", "parallel:\n  fluid_ranks: 2\n\nstages:\n")))
+    assert two["parallel"]["fluid_ranks"] == 2
+    assert not any("fluid_ranks" in w for w in two.warnings) or cores < 2
+    many = load_case(write_case(example_text.replace("stages:\n", f"parallel:\n  fluid_ranks: {cores + 1}\n\n"
+                                                                     "stages:\n")))
+    msg = [w for w in many.warnings if "parallel.fluid_ranks" in w]
+    assert msg and f"use fluid_ranks <= {cores}" in msg[0], many.warnings
+    dry = load_case(write_case(example_text.replace("stages:\n", "parallel:\n  fluid_ranks: 2\n\nstages:\n")
+                               .replace("conditions: [no_water, static_water, dynamic_water]",
+                                        "conditions: [no_water, static_water]")))
+    assert any("has no effect" in w for w in dry.warnings), dry.warnings

@@ -321,6 +321,10 @@ void Foam::tq::couplerExchange::initialize
             (
                 dict_.lookupOrDefault<word>("acceleration", "aitken")
             );
+            c.predictor = ::tq::coupler::parsePredictor
+            (
+                dict_.lookupOrDefault<word>("predictor", "constant")
+            );
             ::tq::coupler::MeshSpec m;
             m.name = meshName_;
             m.mapping = ::tq::coupler::parseMapKind

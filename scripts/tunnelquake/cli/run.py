@@ -117,8 +117,11 @@ def _solid_step(exe, solid_input) -> float:
     m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
     if out.returncode != 0 or not m:
         raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
-    # printed to 6 digits: round *down* to 5 so that the pinned step is never above the limit
-    dt = float(m.group(1))
+    # printed to 6 significant digits, i.e. possibly rounded *up* by up to 5e-6 relative (9.30806e-05
+    # can print as 9.3081e-05): step back by 1e-5 relative, then round down to 5 digits, so that the
+    # pinned step is never above the limit (a 5-digit value such as 9.3081e-05 was refused as above
+    # a limit of 9.30806e-05)
+    dt = float(m.group(1)) * (1.0 - 1e-5)
     q = 10.0 ** (math.floor(math.log10(dt)) - 4)
     return math.floor(dt / q) * q
 
@@ -166,6 +169,8 @@ def _fluid_echo():
             return False
         if "FATAL" in line or "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
             return True
+        if "MPI_ABORT" in line or line.startswith(("mpirun", "Primary job", "nProcs")):  # parallel runs, mpirun
+            return True
         if line.startswith("Time = ") and _time.monotonic() - last[0] > 5.0:
             last[0] = _time.monotonic()
             return True
@@ -176,21 +181,48 @@ def _fluid_echo():
 
 def _stop(side: _Side, grace: float) -> None:
     """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
-    after its coupling timeout), then kill it."""
+    after its coupling timeout), then end it: SIGTERM first (mpirun passes it on to its ranks,
+    which a SIGKILL of mpirun would orphan), SIGKILL 10 s later."""
     import subprocess
 
     try:
         side.proc.wait(timeout=grace)
     except subprocess.TimeoutExpired:
-        say(f"  {side.name} did not stop within {grace:.0f} s: killing it (pid {side.proc.pid})")
-        side.proc.kill()
-        side.proc.wait(timeout=30)
+        say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
+        side.proc.terminate()
+        try:
+            side.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            side.proc.kill()
+            side.proc.wait(timeout=30)
+
+
+def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
+    """The water's box (x, y, z extents, m): the lining's inner diameter across, the mesh's length
+    along the axis y (the slice's thickness in slice mode)."""
+    import h5py
+
+    g = case.data["geometry"]
+    d = 2.0 * (float(g["excavated_radius"]) - float(g["lining_thickness"]))
+    with h5py.File(mesh_h5, "r") as f:
+        y = f["nodes/coordinates"][:, 1]
+    return d, float(y.max() - y.min()), d
+
+
+#: Below this many water cells a rank `tunnelquake run` says that the ranks will not pay
+#: (measured, docs/coupler.md "Water on several MPI ranks").
+RANK_CELLS_WORTH_IT = 10000
 
 
 def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, str]:
     """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
     by the coupler over TCP. Returns (exit code, results path, what happened). Exit code: 0 both
-    completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1)."""
+    completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
+
+    parallel.fluid_ranks N > 1: the water case is decomposed (fluid_case.decompose: decomposePar,
+    method simple) and the water runs as `mpirun -np N <solver> -parallel` (rank 0 holds the
+    coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
+    (reconstructPar; the processor folders stay in <fluid>/processor*)."""
     import secrets
     import time as _time
 
@@ -221,6 +253,19 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
             f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
         env = fc.fluid_env()
+        env[fc.TOKEN_ENV] = token
+        ranks = int(case.data["parallel"]["fluid_ranks"])
+        fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
+        if ranks > 1:
+            dec = fc.decompose(fluid.path, ranks, _water_extents(case, mesh_h5), slice_mode)
+            fluid_cmd = fc.mpirun_command(ranks, fluid.solver, fluid.path, env)
+            say(f"condition {cond}: water decomposed on {ranks} ranks (simple, n = {dec['split']}): cells "
+                f"{', '.join(map(str, dec['cells']))}, {dec['processor_faces']} processor faces; log "
+                f"{fluid.path / 'log.decomposePar'}")
+            if min(dec["cells"]) < RANK_CELLS_WORTH_IT:
+                say(f"condition {cond}: note: {min(dec['cells'])} water cells a rank is below "
+                    f"{RANK_CELLS_WORTH_IT}: the exchange and the ranks' communication outweigh the split "
+                    f"solve, expect no speed-up over parallel.fluid_ranks: 1 (docs/coupler.md)")
     except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
         say(f"condition {cond}: cannot set up the coupled run: {e}")
         return 2, res, f"not started: {e}"
@@ -228,8 +273,6 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         f"({settings['scheme']}, {settings['acceleration']}); water: {fluid.solver} ({fluid.model}, {fluid.mode}) "
         f"in {fluid.path}")
 
-
-    env[fc.TOKEN_ENV] = token
     solid_env_ = solid_env()
     solid_cmd = [str(exe), str(inp), "-o", str(res)]
     solid_cmd += ["--threads", str(solid_threads(case, mesh_h5))]
@@ -241,7 +284,6 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     # the solid publishes its address after its static stages (relaxation: no time limit known)
     while fluid_side is None:
         if addr.exists():
-            fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
             say(f"condition {cond}: solid listening; running the water ({' '.join(fluid_cmd)}); "
                 f"log {work / 'fluid.log'}")
             fluid_side = _Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
@@ -281,13 +323,18 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         failed = solid
     solid.close()
     wall = _time.perf_counter() - t0
+    on = ""
+    if ranks > 1:
+        on = f" on {ranks} ranks"
+        if fluid_side is not None:
+            say(f"condition {cond}: {fc.reconstruct(fluid.path)}")
     if failed is not None:
         rc = failed.proc.returncode or 1
-        side = "tq-solid (solid)" if failed is solid else f"{fluid.solver} (water)"
+        side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
         say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
         return (rc if failed is solid else 1), res, (f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
                                                      f"; what the solid wrote is in {res.name}")
-    return 0, res, f"coupled with {fluid.solver} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
+    return 0, res, f"coupled with {fluid.solver}{on} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
 
 
 def main(argv: list[str]) -> int:

@@ -154,7 +154,7 @@ def pressure_to_force(pressure: np.ndarray, area_vectors: np.ndarray) -> np.ndar
 
 # ----------------------------------------------------------------------------- fakes
 def ring_config(scheme="implicit", windows=10, window_size=1e-3, acceleration="aitken", max_iterations=20,
-                tolerance=1e-8, mapping="coincident") -> CouplingConfig:
+                tolerance=1e-8, mapping="coincident", predictor="constant") -> CouplingConfig:
     """The configuration tq-coupler-dummy builds from the same options."""
     return CouplingConfig(
         first="solid", second="fluid", window_size=window_size, max_windows=windows, scheme=scheme,
@@ -162,6 +162,7 @@ def ring_config(scheme="implicit", windows=10, window_size=1e-3, acceleration="a
         meshes=[MeshSpec("wall", mapping, "solid", 1e-6)],
         fields=[FieldSpec("wall", "velocity", 3, "solid", "consistent"),
                 FieldSpec("wall", "force", 3, "fluid", "conservative")],
+        predictor=predictor,
     )
 
 
@@ -227,6 +228,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bind", default="127.0.0.1")
     ap.add_argument("--scheme", default="implicit")
     ap.add_argument("--acceleration", default="aitken")
+    ap.add_argument("--predictor", default="constant", choices=("constant", "linear"))
     ap.add_argument("--windows", type=int, default=10)
     ap.add_argument("--window-size", type=float, default=1e-3)
     ap.add_argument("--max-iterations", type=int, default=20)
@@ -243,7 +245,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
 
     ring = RingScenario(a.n_theta, a.n_layers)
-    cfg = ring_config(a.scheme, a.windows, a.window_size, a.acceleration, a.max_iterations, a.tolerance, a.map)
+    cfg = ring_config(a.scheme, a.windows, a.window_size, a.acceleration, a.max_iterations, a.tolerance, a.map,
+                      a.predictor)
     listen = True if a.listen else False if a.connect else None
     report: dict[str, str] = {}
     solid = a.role == "solid"

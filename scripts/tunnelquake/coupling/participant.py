@@ -280,7 +280,7 @@ class Participant:
             out.append(f"it expects to couple with '{h.partner}', this is '{self.name}'")
         a, b = self.config, h.config
         for key in ("units", "first", "second", "scheme", "window_size", "max_windows", "max_iterations",
-                    "tolerance", "acceleration", "initial_relaxation"):
+                    "tolerance", "acceleration", "initial_relaxation", "predictor"):
             if getattr(a, key) != getattr(b, key):
                 out.append(f"{key.replace('_', ' ')}: here {getattr(a, key)!r}, '{self.partner}' has {getattr(b, key)!r}")
         if len(a.meshes) != len(b.meshes):
@@ -569,6 +569,7 @@ class Participant:
             self._receive(0, 0)
             self._prev_received = self._received()
             self._last_sent = self._written()
+            self._prev_converged = self._last_sent.copy()  # x_(-1) of the linear predictor
             self.acc.start_window()
 
     def _end_window(self) -> None:
@@ -597,14 +598,19 @@ class Participant:
             d = self._received()
             res_w = convergence_measure(xt, self._last_sent, self._slices(True), c.tolerance)
             res_r = convergence_measure(d, self._prev_received, self._slices(False), c.tolerance) if k >= 1 else math.inf
-            st.residual = max(res_w, res_r)
-            converged = self.test_convergence and k >= 1 and st.residual < c.tolerance
+            # pass 0 with the linear predictor: the fixed-point residual alone decides (as in C++)
+            linear = c.predictor == "linear"
+            st.residual = res_w if (k == 0 and linear) else max(res_w, res_r)
+            converged = self.test_convergence and (k >= 1 or linear) and st.residual < c.tolerance
             complete = converged or k + 1 >= self.max_passes
             if complete:
                 if self.test_convergence and not converged:
                     st.unconverged_windows += 1
                 self._send(w, k, FLAG_CONVERGED | (FLAG_LAST_WINDOW if last_window else 0), st.residual)
                 self._last_sent = xt
+                if linear:  # the next window starts from 2 x_w - x_(w-1); the first participant does too
+                    self._last_sent = 2.0 * xt - self._prev_converged
+                    self._prev_converged = xt.copy()
             else:
                 nxt = self.acc.next(self._last_sent, xt)
                 self._set_written(nxt)

@@ -1,11 +1,11 @@
-"""The coupler's wire protocol, version 1: a pure-Python twin of coupler/src/wire.cpp and
+"""The coupler's wire protocol, version 2: a pure-Python twin of coupler/src/wire.cpp and
 messages.cpp (docs/coupler.md is the normative description).
 
 Every message is a 32-byte header and a payload, little-endian, floats IEEE-754 binary64::
 
     offset size field
      0     4   magic b"TQCP"
-     4     2   protocol version (u16) = 1
+     4     2   protocol version (u16) = 2
      6     2   message type (u16)
      8     8   sequence number (u64): per direction, 0 first, +1 per message
     16     8   payload length (u64)
@@ -13,7 +13,7 @@ Every message is a 32-byte header and a payload, little-endian, floats IEEE-754 
     28     4   CRC-32 of header bytes 0..27
 
 Byte compatibility with the C++ library is checked by both test suites against the shared
-vectors in tests/data/coupler/vectors_v1.txt (made by :func:`write_test_vectors`).
+vectors in tests/data/coupler/vectors_v2.txt (made by :func:`write_test_vectors`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 MAGIC = b"TQCP"
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 HEADER_SIZE = 32
 MAX_HANDSHAKE_PAYLOAD = 1 << 30
 MAX_STRING = 1 << 16
@@ -62,6 +62,7 @@ FLAG_LAST_WINDOW = 2
 
 SCHEMES = ("explicit", "paper", "implicit")
 ACCELERATIONS = ("none", "constant", "aitken", "iqn-ils")
+PREDICTORS = ("constant", "linear")
 MAP_KINDS = ("coincident", "projection")
 CONSTRAINTS = ("consistent", "conservative")
 
@@ -319,6 +320,7 @@ class CouplingConfig:
     initial_relaxation: float = 0.5
     meshes: list[MeshSpec] = field(default_factory=list)
     fields: list[FieldSpec] = field(default_factory=list)
+    predictor: str = "constant"  # implicit: first iterate of a window, constant | linear (version 2)
 
     def mapping_side_of(self, m: MeshSpec) -> str:
         return m.mapping_side or self.first
@@ -350,6 +352,11 @@ class CouplingConfig:
             bad("implicit scheme needs max iterations >= 2 and a positive tolerance")
         if not (0 < self.initial_relaxation <= 1):
             bad(f"initial relaxation must be in (0, 1], got {self.initial_relaxation}")
+        if self.predictor not in PREDICTORS:
+            bad(f"unknown predictor '{self.predictor}': use constant or linear")
+        if self.predictor != "constant" and self.scheme != "implicit":
+            bad(f"predictor {self.predictor} needs the implicit scheme (the {self.scheme} scheme has no iterations "
+                "to start); use predictor constant")
         names = set()
         for m in self.meshes:
             if m.name in names:
@@ -434,6 +441,7 @@ def _encode_config(w: Writer, c: CouplingConfig) -> None:
     w.f64(c.tolerance)
     w.u8(ACCELERATIONS.index(c.acceleration))
     w.f64(c.initial_relaxation)
+    w.u8(PREDICTORS.index(c.predictor))
     w.u32(len(c.meshes))
     for m in c.meshes:
         w.str(m.name)
@@ -456,6 +464,7 @@ def _decode_config(r: Reader) -> CouplingConfig:
     window, maxw, maxit, tol = r.f64(), r.u64(), r.u32(), r.f64()
     acc = r.enum(ACCELERATIONS, "acceleration")
     relax = r.f64()
+    pred = r.enum(PREDICTORS, "predictor")
     nm = r.u32()
     if nm > 1024:
         r.fail(f"mesh count {nm} above the limit 1024")
@@ -465,7 +474,7 @@ def _decode_config(r: Reader) -> CouplingConfig:
         r.fail(f"field count {nf} above the limit 4096")
     fields = [FieldSpec(r.str(), r.str(), r.u32(), r.str(), r.enum(CONSTRAINTS, "map constraint"), r.f64())
               for _ in range(nf)]
-    return CouplingConfig(first, second, window, maxw, units, scheme, maxit, tol, acc, relax, meshes, fields)
+    return CouplingConfig(first, second, window, maxw, units, scheme, maxit, tol, acc, relax, meshes, fields, pred)
 
 
 def encode_hello(h: Hello) -> bytes:
@@ -578,7 +587,7 @@ def decode_message(msg: bytes):
 
 
 # ----------------------------------------------------------------------------- test vectors
-VECTOR_FILE = "vectors_v1.txt"
+VECTOR_FILE = "vectors_v2.txt"
 
 
 def sample_config() -> CouplingConfig:
@@ -592,6 +601,7 @@ def sample_config() -> CouplingConfig:
         tolerance=1e-4,
         acceleration="aitken",
         initial_relaxation=0.5,
+        predictor="linear",
         meshes=[MeshSpec("wall", "coincident", "solid", 1e-6)],
         fields=[
             FieldSpec("wall", "velocity", 3, "solid", "consistent", 1e-9),
@@ -657,7 +667,7 @@ def malformed_messages() -> list[tuple[str, str, bytes]]:
     return [
         ("foreign_http", "bad_magic", b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n"),
         ("bad_magic", "bad_magic", b"TQCX" + data[4:]),
-        ("bad_version", "bad_version", _reheader(data, version=2)),
+        ("bad_version", "bad_version", _reheader(data, version=PROTOCOL_VERSION + 1)),
         ("bad_header_crc", "bad_header_crc", bytes(flipped_seq)),
         ("unknown_type", "unknown_type", _reheader(data, mtype=99)),
         ("truncated", "bad_length", data[:-8]),
@@ -672,10 +682,10 @@ def malformed_messages() -> list[tuple[str, str, bytes]]:
 
 
 def write_test_vectors(directory: str | Path) -> Path:
-    """Writes tests/data/coupler/vectors_v1.txt: `name expect hex` lines."""
+    """Writes tests/data/coupler/vectors_v2.txt: `name expect hex` lines."""
     out = Path(directory) / VECTOR_FILE
     lines = [
-        "# TunnelQuake coupler protocol v1 test vectors: name, expected outcome (ok or the fault), message hex.",
+        f"# TunnelQuake coupler protocol v{PROTOCOL_VERSION} test vectors: name, expected outcome (ok or the fault), message hex.",
         "# Generated by tunnelquake.coupling.protocol.write_test_vectors; read by",
         "# tests/cpp/coupler/test_wire.cpp and tests/python/test_coupling_protocol.py.",
     ]

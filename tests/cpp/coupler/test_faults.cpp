@@ -213,12 +213,15 @@ TEST(Faults, OtherProtocolVersionIsRefusedWithBothVersionsNamed) {
         [&] {
             RawPeer peer(dir, "fluid");
             Hello h{"tok-ver", "fluid", "solid", c, {{"wall", r.fluidIds(), r.fluidCoordinates(), {}}}};
-            peer.sendRaw(withHeaderVersion(frame(wire::MessageType::Hello, 0, encodeHello(h)), 2));
+            peer.sendRaw(withHeaderVersion(frame(wire::MessageType::Hello, 0, encodeHello(h)),
+                                            std::uint16_t(wire::kProtocolVersion + 1)));
             answer = peer.receive();
         });
     rethrowIf(ef);
     const std::string m = messageOf<HandshakeError>(es);
-    EXPECT_TRUE(contains(m, "version 2 received, this build speaks version 1")) << m;
+    EXPECT_TRUE(contains(m, "version " + std::to_string(wire::kProtocolVersion + 1) +
+                               " received, this build speaks version " +
+                               std::to_string(wire::kProtocolVersion))) << m;
     ASSERT_EQ(answer.header.type, wire::MessageType::Reject);
     EXPECT_EQ(decodeReason(answer.payload.data(), answer.payload.size()).code, ReasonCode::WrongVersion);
 }
@@ -262,13 +265,13 @@ TEST_P(MalformedData, IsRefusedAndThePeerIsTold) {
             auto m = frame(wire::MessageType::Data, peer.seq++, encodeData(d));
             const std::string n = k.name;
             if (n == "payload_crc") m[40] ^= 0x10;
-            if (n == "sequence") m[8] = 7, m = withHeaderVersion(m, 1);
+            if (n == "sequence") m[8] = 7, m = withHeaderVersion(m, wire::kProtocolVersion);
             if (n == "huge_length") {
                 m[16 + 5] = 0x40;  // announce ~1 TB of payload
-                m = withHeaderVersion(m, 1);
+                m = withHeaderVersion(m, wire::kProtocolVersion);
             }
             if (n == "foreign") std::memcpy(m.data(), "HTTP", 4);
-            if (n == "unknown_type") m[6] = 77, m = withHeaderVersion(m, 1);
+            if (n == "unknown_type") m[6] = 77, m = withHeaderVersion(m, wire::kProtocolVersion);
             peer.sendRaw(m);
             told = peer.receive();
         });

@@ -270,17 +270,22 @@ struct OscOptions {
     double atolVelocity = 0.0, atolForce = 0.0;
     double damping = 0.0;
     double forceAmplitude = 0.0, forceOmega = 0.0;
+    /// Implicit: the linear predictor (both sides start a window from 2 R_w − R_{w−1}).
+    bool linearPredictor = false;
+    double dt = 1e-3;          ///< window = solid step, s
+    double tolerance = 1e-10;  ///< implicit: relative residual
 };
 
 OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int windows,
                     const OscOptions& o = {}) {
     const auto dir = freshDir();
-    auto c = ringConfig(scheme, std::uint64_t(windows), 1e-3);
+    auto c = ringConfig(scheme, std::uint64_t(windows), o.dt);
     c.acceleration = acc;
-    c.tolerance = 1e-10;
+    c.tolerance = o.tolerance;
     c.maxIterations = 40;
     c.fields[0].absoluteTolerance = o.atolVelocity;
     c.fields[1].absoluteTolerance = o.atolForce;
+    if (o.linearPredictor) c.predictor = PredictorKind::Linear;
     scenario::Ring r;
     r.nTheta = 8;
     r.nLayers = 1;
@@ -293,12 +298,19 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
             Participant p("solid", c, tcp(dir), "tok-osc");
             setRing(p, r, true);
             p.initialize();
-            std::vector<double> x(n), v(n, 0.0), xs, vs, f, vel(3 * std::size_t(n), 0.0);
+            std::vector<double> x(n), v(n, 0.0), xs, vs, f, vel(3 * std::size_t(n), 0.0), fPrev, fRead;
+            p.readData("wall", "force", fPrev);  // R_{−1}: the initial force
             for (int i = 0; i < n; ++i) x[std::size_t(i)] = o.x0 * std::cos(r.theta(i));
             int inWindow = 0;
             while (p.isCouplingOngoing()) {
-                if (p.requiresWritingCheckpoint()) xs = x, vs = v;
+                const bool windowStart = p.requiresWritingCheckpoint();
+                if (windowStart) xs = x, vs = v;
                 p.readData("wall", "force", f);
+                if (o.linearPredictor && windowStart) {  // the first participant's half of the contract
+                    fRead = f;
+                    for (std::size_t i = 0; i < f.size(); ++i) f[i] = 2.0 * fRead[i] - fPrev[i];
+                    fPrev = fRead;
+                }
                 const double t = p.windowStartTime();
                 ++inWindow;
                 for (int i = 0; i < n; ++i) {
@@ -356,8 +368,8 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
 }
 
 /// The monolithic reference: the same integrator with mass m + m_a.
-std::vector<double> monolithic(double ratio, int windows) {
-    const double m = 1.0 + ratio, k = 4 * M_PI * M_PI * 25.0 * m, dt = 1e-3;
+std::vector<double> monolithic(double ratio, int windows, double dt = 1e-3) {
+    const double m = 1.0 + ratio, k = 4 * M_PI * M_PI * 25.0 * m;
     double x = 0.01, v = 0;
     std::vector<double> out;
     for (int i = 0; i < windows; ++i) {
@@ -495,5 +507,70 @@ TEST(AddedMass, AbsoluteToleranceEndsWindowsAtRestInTwoPasses) {
                   << " m), at rest " << double(two.passes) / 20.0 << " (m_a/m = 0.5) and "
                   << double(with.passes) / 20.0 << " (m_a/m = 5, largest |x| " << with.maxAbs
                   << " m); without the floor " << double(without.passes) / 20.0 << "\n";
+    }
+}
+
+TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
+    // The linear predictor starts each implicit window from 2 R_w − R_{w−1} on both sides and lets a
+    // window end after one pass when that first answer already agrees (the fixed-point residual
+    // ‖H(x⁰) − x⁰‖ below the tolerance). The model problem at the example's resolution: 5 Hz with
+    // 2,000 windows a period (the paper slice has ~3,000 at 5 Hz), m_a/m = 5, tolerance 1e-4 (the
+    // example's). Extrapolation errs by ~(ωΔt)² ≈ 1e-5 of the force, below the tolerance, so most
+    // windows need one pass; the answer must stay as close to the monolithic oscillator as the
+    // constant predictor's.
+    const int windows = 400;  // a fifth of a period
+    const auto ref = monolithic(5.0, windows, 1e-4);
+    auto maxError = [&](const OscResult& r) {
+        double e = 0;
+        for (std::size_t i = 0; i < ref.size() && i < r.x0.size(); ++i) e = std::max(e, std::abs(r.x0[i] - ref[i]));
+        return e;
+    };
+    for (auto acc : {AccelerationKind::Aitken, AccelerationKind::IqnIls}) {
+        OscOptions cst;  // with the absolute floors `tunnelquake run` derives (tolerance x the problem's scales)
+        cst.dt = 1e-4;
+        cst.tolerance = 1e-4;
+        cst.atolVelocity = 1e-4 * 0.01 * 2 * M_PI * 5;
+        cst.atolForce = 1e-4 * 5.0 * 0.01 * std::pow(2 * M_PI * 5, 2);
+        OscOptions lin = cst;
+        lin.linearPredictor = true;
+        const auto a = oscillate(SchemeKind::Implicit, acc, 5.0, windows, cst);
+        const auto b = oscillate(SchemeKind::Implicit, acc, 5.0, windows, lin);
+        rethrowIf(a.solidError);
+        rethrowIf(a.fluidError);
+        rethrowIf(b.solidError);
+        rethrowIf(b.fluidError);
+        ASSERT_EQ(b.x0.size(), ref.size());
+        const double ea = maxError(a), eb = maxError(b);
+        // Both within the tolerance's reach of the monolithic answer (amplitude 0.01 m).
+        EXPECT_LT(ea, 1e-4 * 0.01) << accelerationName(acc);
+        EXPECT_LT(eb, 1e-4 * 0.01) << accelerationName(acc);
+        // Constant: at least 2 passes a window. Linear: fewer — not one everywhere, since the force
+        // (a difference quotient of the accepted motion) carries the accepted residuals, which the
+        // extrapolation amplifies ~2.5x to the tolerance's size (measured 2.27 vs 3.0 here; on the
+        // paper slice 1.76 vs 2.91, docs/coupler.md "Predictor").
+        EXPECT_GE(a.passes, 2u * windows) << accelerationName(acc);
+        EXPECT_LT(double(b.passes), 0.85 * double(a.passes)) << accelerationName(acc);
+        // At rest (solver noise 1e-12 N, floors from the problem's scale as in the test above): one
+        // pass a window, now and then a second when the noise accepted in a single pass has built
+        // up to the floor; the motion stays at the noise's scale.
+        const double tol = 1e-10;
+        OscOptions rest;
+        rest.linearPredictor = true;
+        rest.x0 = 0.0;
+        rest.noise = 1e-12;
+        rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
+        rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
+        const auto one = oscillate(SchemeKind::Implicit, acc, 0.5, 20, rest);
+        rethrowIf(one.solidError);
+        rethrowIf(one.fluidError);
+        ASSERT_EQ(one.passesPerWindow.size(), 20u);
+        for (std::size_t w = 0; w < one.passesPerWindow.size(); ++w)
+            EXPECT_LE(one.passesPerWindow[w], 2) << accelerationName(acc) << ", window " << w + 1;
+        EXPECT_LE(double(one.passes) / 20.0, 1.1) << accelerationName(acc);
+        EXPECT_LT(one.maxAbs, 1e-12) << accelerationName(acc);
+        std::cout << "[ info ] m_a/m = 5, tolerance 1e-4, " << accelerationName(acc) << ": constant predictor "
+                  << double(a.passes) / windows << " passes a window (error " << ea << " m), linear "
+                  << double(b.passes) / windows << " (error " << eb << " m); at rest "
+                  << double(one.passes) / 20.0 << "\n";
     }
 }

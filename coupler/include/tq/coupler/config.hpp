@@ -32,7 +32,20 @@ enum class AccelerationKind : std::uint8_t {
     IqnIls = 3,    ///< interface quasi-Newton, inverse least squares (Degroote et al. 2009)
 };
 
+/// First iterate of an implicit window (the data the second participant writes, normally the
+/// fluid force). Both participants must start the window's pass 0 from the same value.
+enum class PredictorKind : std::uint8_t {
+    /// x⁰_{w+1} = x_w: the last window's converged value; a window needs at least 2 passes.
+    Constant = 0,
+    /// x⁰_{w+1} = 2 x_w − x_{w−1} (x_{−1} = the initial values): linear extrapolation of the
+    /// converged values; a window whose pass-0 fixed-point residual ‖H(x⁰) − x⁰‖ is already below
+    /// the tolerance completes after that single pass (docs/coupler.md "Predictor").
+    Linear = 1,
+};
+
 const char* schemeName(SchemeKind k);
+const char* predictorName(PredictorKind k);
+PredictorKind parsePredictor(const std::string& s);
 const char* accelerationName(AccelerationKind k);
 const char* mapKindName(MapKind k);
 SchemeKind parseScheme(const std::string& s);
@@ -75,6 +88,7 @@ struct CouplingConfig {
     double tolerance = 1e-4;     ///< implicit: relative residual of every exchanged field
     AccelerationKind acceleration = AccelerationKind::Aitken;
     double initialRelaxation = 0.5;
+    PredictorKind predictor = PredictorKind::Constant;  ///< implicit only
     std::vector<MeshSpec> meshes;
     std::vector<FieldSpec> fields;
 

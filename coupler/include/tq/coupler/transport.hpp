@@ -93,10 +93,26 @@ bool parseTcpAddressLine(const std::string& line, std::string& host, int& port);
 bool haveMpi();
 
 namespace mpi {
-/// MPI_Init (if not yet initialized) for programs that have no other MPI use.
+/// MPI_Init (if not yet initialized) for programs that have no other MPI use. Asks for
+/// MPI_THREAD_FUNNELED: the program may run threads (tq-solid's OpenMP), only the one that
+/// called this makes MPI calls.
 void initialize(int* argc, char*** argv);
 /// MPI_Finalize if this library initialized MPI.
 void finalize();
+/// MPI_Abort(MPI_COMM_WORLD, code): ends every process of the job (for a partner that does not
+/// answer and so would never reach MPI_Finalize). Does not return.
+[[noreturn]] void abortJob(int code);
+/// Makes SIGTERM and SIGINT end a blocked MPI send or receive of the coupler with a
+/// PartnerLostError instead of killing the process at once: Open MPI's mpirun sends SIGTERM to
+/// every process of the job when one of them dies (SIGKILL follows after
+/// odls_base_sigkill_timeout, 1 s by default), so the solver can still say why and close its
+/// results. The handler only records the signal (and is reset, so a second one kills); the
+/// coupler's MPI channel looks at it. Call after initialize().
+void stopOnTerminationSignals();
+/// The signal that arrived (SIGTERM, SIGINT), or 0.
+int terminationSignal();
+/// Number of processes in this application's communicator (valid after splitWorld).
+int appSize();
 /// MPMD start-up under mpirun: every process of both applications calls this once, after
 /// MPI_Init, with its participant name (a collective over MPI_COMM_WORLD). It splits the world
 /// by application (colour = participant) and finds the partner's leader. Returns the Fortran
