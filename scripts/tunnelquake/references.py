@@ -173,3 +173,45 @@ def open_pipe_contraction(rho: float, R: float, L: float, w: float, w_dot: float
     u = -s * (y - L / 2.0)
     Q = -math.pi * R * L * w
     return p, u, Q
+
+
+def _bessel_ratio(n: int, x: np.ndarray) -> np.ndarray:
+    """I_n(x) / (x I_n'(x)) with I_n' = (I_{n−1} + I_{n+1})/2 (exponentially scaled Bessel functions)."""
+    from scipy.special import ive
+
+    return ive(n, x) / (x * 0.5 * (ive(n - 1, x) + ive(n + 1, x)))
+
+
+def open_tube_added_mass(n: int, a: float, L: float, y: float | None = None, terms: int = 20000) -> float:
+    """Added mass per wall area, over its 2D value ρf a/n, of incompressible inviscid water in a
+    tube of radius a and length L with open ends (p = 0 at y = 0 and L) whose wall moves radially
+    as W cos nθ, uniformly along the axis (n ≥ 1).
+
+    Potential flow (Laplace in the cylinder; ∂φ/∂r = Ẇ cos nθ at r = a, φ = 0 at the ends):
+    1 = Σ_{k odd} c_k sin(κ_k y), c_k = 4/(kπ), κ_k = kπ/L, and each term is
+    φ_k ∝ I_n(κ_k r) cos nθ sin(κ_k y), so the wall pressure is p = −ρf (a/n) Ẅ cos nθ m(y) with
+        m(y) = Σ_{k odd} c_k g_n(κ_k a) sin(κ_k y),   g_n(x) = n I_n(x) / (x I_n'(x))  (→ 1 as x → 0).
+    y given: the local value m(y) (m(L/2) → 1 for L ≫ a: the 2D ring's added mass at mid-length).
+    y None: the value for a uniform mode shape (Rayleigh, the water's kinetic energy over the 2D
+    one): m̄ = Σ_{k odd} (c_k²/2) g_n(κ_k a) (→ 1 for L ≫ a, since Σ_{k odd} 8/(kπ)² = 1)."""
+    if n < 1:
+        raise ValueError(f"n = {n}: the added mass of an open tube is defined here for n >= 1 (n = 0: open_tube_mu_max)")
+    k = np.arange(1, 2 * terms, 2, dtype=float)
+    c = 4.0 / (k * np.pi)
+    g = n * _bessel_ratio(n, k * np.pi * a / L)
+    if y is None:
+        return float(np.sum(0.5 * c * c * g))
+    return float(np.sum(c * g * np.sin(k * np.pi * y / L)))
+
+
+def open_tube_mu_max(a: float, L: float) -> float:
+    """Largest eigenvalue μ_max (m) of the added-mass operator of water in a tube of radius a and
+    length L with open ends: wall pressure −ρf μ Ẅ for a wall motion that is an eigenmode
+    cos nθ sin(κ y), κ = kπ/L, with μ = a I_n(κa) / (κa I_n'(κa)).  For n ≥ 1, μ ≤ a/n; the
+    breathing mode n = 0 pushes the water out of the ends, μ = a I_0(x)/(x I_1(x)) ≥ 2a/x², largest
+    at k = 1 (x = πa/L): μ_max ≈ 2L²/(π² a) for L ≫ a (the 1D plug flow of open_pipe_contraction).
+    The closed circle (no reference pressure) has μ_max = a (n = 1) instead."""
+    from scipy.special import ive
+
+    x = math.pi * a / L
+    return float(a * ive(0, x) / (x * ive(1, x)))

@@ -14,6 +14,7 @@ time) +1.6 %; the coupled refinement is in the README.
 """
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -24,7 +25,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 pytest.importorskip("h5py")
 pytest.importorskip("scipy")
 from tunnelquake import paths  # noqa: E402
-from tunnelquake.references import ring_ovaling_frequency  # noqa: E402
+from tunnelquake.references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency  # noqa: E402
 from tunnelquake.verification.ring import Ring, run_ring  # noqa: E402
 
 solid = pytest.mark.skipif(paths.solid_executable() is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
@@ -50,6 +51,29 @@ def test_references_of_the_ring():
     assert ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0, 1000) == pytest.approx(9.01, abs=0.005)
     assert BASE.expected_frequency() == pytest.approx(
         ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0, 1000, fluid_radius=2.85), rel=1e-12)
+
+
+def test_open_tube_added_mass_limits():
+    """The open tube of the incompressible stability map (docs/stability.md; references.open_tube_*)
+    against its limits. Mid-length of a long tube and the uniform-mode (Rayleigh) value for L ≫ a:
+    the 2D ring's added mass ρf a/n (VERIFICATION.md "Coupled"); the end zones (length ~ a/n,
+    p = 0) take 1 − O(a/L) off the mean. Breathing mode: the 1D plug flow (continuity
+    πa² ∂u/∂y = −2πa ẇ sin(πy/L), momentum ρ ∂u/∂t = −∂p/∂y) gives μ = 2L²/(π² a) for L ≫ a,
+    corrections O((πa/L)²) (1D plug flow, as references.open_pipe_contraction); every n ≥ 1 mode
+    has μ ≤ a/n (so the closed circle's μ_max = a is exceeded by the open tube's breathing)."""
+    a = 2.85
+    assert open_tube_added_mass(2, a, 100 * a, y=50 * a) == pytest.approx(1.0, abs=1e-6)
+    assert open_tube_added_mass(2, a, 1000 * a) == pytest.approx(1.0, abs=2e-3)
+    assert 0 < open_tube_added_mass(2, a, 4 * a) < open_tube_added_mass(2, a, 8 * a) < 1
+    assert open_tube_added_mass(2, a, 4 * a, y=2 * a) == pytest.approx(1.0, abs=5e-3)  # the map's tube, mid-length
+    L = 20 * a
+    assert open_tube_mu_max(a, L) == pytest.approx(2 * L * L / (math.pi**2 * a), rel=1e-2)
+    assert open_tube_mu_max(a, 2 * a) > a
+    # the ring driver: the tube's n = 2 frequency between the 2D filled ring's and the vacuum's
+    tube = Ring(mode="3d", ends="open", length=4 * a, n_axial=6)
+    assert ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0, 1000, fluid_radius=a) < tube.expected_frequency() \
+        < ring_ovaling_frequency(2, 30e9, 0.2, 2500, 0.3, 3.0)
+    assert tube.meshed_length == pytest.approx(2 * a) and tube.monitor_layer == 0
 
 
 @solid

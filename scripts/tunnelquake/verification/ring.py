@@ -5,7 +5,10 @@ The ring: plane strain, E 30 GPa, ν 0.2, ρs 2500 kg/m³, wall h 0.3 m, mid rad
 with hex8 (`n_through` elements through the wall, `n_around` around), either a slice one element
 thick (mesh attribute slice = 1: u_y = 0 everywhere, water ends `empty`) or a prism of `n_axial`
 elements along y (the ring's ends held u_y = 0, the water's ends symmetry planes: still plane
-strain). The water fills the ring, its mesh an O-grid (a square core and `water_layers` layers out
+strain), or (ends open) a tube of that length whose water ends are open (p = 0: the pressure
+reference a closed incompressible section lacks), modelled by its half with the mid-length
+symmetry plane at y = 0 (docs/stability.md "Incompressible water (open tube)"). The water fills
+the ring, its mesh an O-grid (a square core and `water_layers` layers out
 to the wall) whose wall points are the lining's `lining_inner` nodes bit for bit.
 
 Mode n = 2 is excited by a short triangular pulse of four radial point loads (outward at θ = 0°
@@ -22,6 +25,8 @@ rhoPimpleFoam/pimpleFoam with libtqFoam.so, both run and watched as `cli.run` do
 
     python -m tunnelquake.verification.ring run --water --mode slice --scheme implicit
     python -m tunnelquake.verification.ring map --out docs/stability_runs.json
+    python -m tunnelquake.verification.ring map --models incompressible --ends open --length 11.4 \
+        --n-axial 6 --out /tmp/tube.jsonl
 
 Needs tq-solid and libtqFoam.so (TQ_BUILD_DIR) and OpenFOAM v1912 for the water.
 """
@@ -44,7 +49,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import paths
-from ..references import ring_ovaling_frequency
+from ..references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency
 
 SCHEMES = ("explicit", "paper", "implicit")
 ANGLES = (0, 90, 180, 270)  # load and monitor positions (degrees)
@@ -69,6 +74,9 @@ class Ring:
     mode: str = "slice"  # slice | 3d
     length: float = 0.5  # axial length (m): the slice thickness or the prism's length
     n_axial: int = 1  # elements along the axis (3d)
+    # the water's axial ends in 3d: symmetry (plane strain) | open (p = 0: a tube of `length`, modelled
+    # by its half 0 ≤ y ≤ length/2, y = 0 its mid-length symmetry plane, the monitors there)
+    ends: str = "symmetry"
     # the water
     water: bool = True
     rho_f: float = 1000.0
@@ -98,6 +106,10 @@ class Ring:
             raise RingError(f"mode {self.mode!r} is not slice or 3d")
         if self.mode == "slice" and self.n_axial != 1:
             raise RingError("a slice has one element along the axis (n_axial = 1)")
+        if self.ends not in ("symmetry", "open"):
+            raise RingError(f"ends {self.ends!r} is not symmetry or open")
+        if self.ends == "open" and self.mode != "3d":
+            raise RingError("open water ends (a tube) need mode 3d; a slice's ends are empty")
         if self.model not in ("compressible", "incompressible"):
             raise RingError(f"water model {self.model!r} is not compressible or incompressible")
         if self.scheme not in SCHEMES:
@@ -109,9 +121,32 @@ class Ring:
     def r_inner(self) -> float:
         return self.R - 0.5 * self.h
 
+    @property
+    def meshed_length(self) -> float:
+        """Axial length of the mesh: the prism or slice, or half the open tube."""
+        return 0.5 * self.length if self.ends == "open" else self.length
+
+    @property
+    def monitor_layer(self) -> int:
+        """Node layer of the monitors: mid-length of the prism, the symmetry plane (y = 0) of a tube."""
+        return 0 if self.ends == "open" else self.n_axial // 2
+
+    def added_mass_factor(self) -> float:
+        """The n = 2 added mass over the 2D ring's: 1 (slice, prism with symmetry ends), or for a
+        tube with open ends the value for a uniform mode shape (references.open_tube_added_mass)."""
+        return open_tube_added_mass(2, self.r_inner, self.length) if self.ends == "open" else 1.0
+
+    def mu_max(self) -> float:
+        """Largest eigenvalue (m) of the water's added-mass operator (VERIFICATION.md "Coupled"):
+        the circle's n = 1 mode, a, when the section is closed (slice, symmetry ends; n = 0 has no
+        motion without a reference pressure); the breathing mode pushing water out of the ends of
+        an open tube (references.open_tube_mu_max)."""
+        return open_tube_mu_max(self.r_inner, self.length) if self.ends == "open" else self.r_inner
+
     def expected_frequency(self) -> float:
-        """Thin-ring n = 2 frequency (Hz): vacuum, or with incompressible water of radius r_inner."""
-        rho_f = self.rho_f if self.water else 0.0
+        """Thin-ring n = 2 frequency (Hz): vacuum, or with incompressible water of radius r_inner
+        (times added_mass_factor for an open tube: Rayleigh quotient of the uniform mode)."""
+        rho_f = self.rho_f * self.added_mass_factor() if self.water else 0.0
         return ring_ovaling_frequency(2, self.E, self.nu, self.rho_s, self.h, self.R, rho_f, self.r_inner)
 
     def duration(self) -> float:
@@ -137,6 +172,7 @@ class RingResult:
     t_reached: float = 0.0
     expected: float = float("nan")
     added_mass_ratio: float = float("nan")  # ρf R_in/2 / (ρs h): n = 2 added mass over the wall mass
+    mu_max_ratio: float = float("nan")  # ρf μ_max / (ρs h): the staggered-coupling bound (unstable > 1)
     impedance_ratio: float = float("nan")  # ρf cf Δt_c / m_Γ
     folder: str = ""
     extra: dict = field(default_factory=dict)
@@ -158,7 +194,7 @@ def _node_at(angle_deg: int, n: int) -> int:
 
 
 def _y_layers(ring: Ring) -> np.ndarray:
-    return ring.length * np.arange(ring.n_axial + 1) / ring.n_axial
+    return ring.meshed_length * np.arange(ring.n_axial + 1) / ring.n_axial
 
 
 def write_meshes(ring: Ring, folder: Path) -> dict:
@@ -224,7 +260,7 @@ def write_meshes(ring: Ring, folder: Path) -> dict:
             f.create_dataset(f"node_sets/{name}", data=ids.astype(np.int32))
     info = {"solid_nodes": len(xyz), "solid_elements": len(conn),
             "interface_nodes": int(np.unique(faces[groups["lining_inner"]]).size),
-            "monitors": {f"wall_{a:03d}": xyz[sid(_node_at(a, n), 0, na // 2)].tolist() for a in ANGLES}}
+            "monitors": {f"wall_{a:03d}": xyz[sid(_node_at(a, n), 0, ring.monitor_layer)].tolist() for a in ANGLES}}
     if ring.water:
         info.update(_write_water(ring, folder / "water.msh", th, ys))
     return info
@@ -322,7 +358,7 @@ def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupli
         # four radial point loads per metre of ring, P(t) a triangle; node-set shares are equal,
         # so the end layers of a prism get their half share from a set of their own
         tf = np.array([0.0, 0.5 * ring.pulse, ring.pulse]), np.array([0.0, 1.0, 0.0])
-        total = ring.load * ring.length
+        total = ring.load * ring.meshed_length
         for ang, (d, sign) in {0: ("x", 1), 90: ("z", -1), 180: ("x", -1), 270: ("z", 1)}.items():
             for part, share in (("end", 1.0 / na), ("mid", (na - 1) / na)):
                 name = f"p{ang:03d}_{part}"
@@ -333,7 +369,7 @@ def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupli
                 lg.attrs["force"] = sign * total * share
                 lg["time"], lg["value"] = tf
         names = [f"wall_{a:03d}" for a in ANGLES]
-        pts = np.array([xyz[(_node_at(a, n)) + n * (ring.n_through + 1) * (na // 2)] for a in ANGLES])
+        pts = np.array([xyz[(_node_at(a, n)) + n * (ring.n_through + 1) * ring.monitor_layer] for a in ANGLES])
         mo = f.create_group("monitors")
         mo["names"] = np.array(names, dtype=h5py.string_dtype())
         mo["points"] = pts
@@ -351,12 +387,13 @@ def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupli
 def _fake_case(ring: Ring) -> SimpleNamespace:
     """The parts of a validated case that fluid_case reads."""
     return SimpleNamespace(data={
-        "water": {"model": ring.model, "ends": "closed" if ring.model == "compressible" else "open",
+        "water": {"model": ring.model,
+                  "ends": "open" if ring.ends == "open" or ring.model == "incompressible" else "closed",
                   "density": ring.rho_f, "viscosity": ring.viscosity, "bulk_modulus": ring.bulk_modulus,
                   "head": 0.0},
         # coupling_scales.absolute_tolerances: r_in and a wetted node's area; a_ref 1 m/s²
         "geometry": {"tunnel_centre_z": 0.0, "excavated_radius": ring.R + 0.5 * ring.h,
-                     "lining_thickness": ring.h, "y_range": [0.0, ring.length]},
+                     "lining_thickness": ring.h, "y_range": [0.0, ring.meshed_length]},
         "mesh": {"mode": ring.mode, "lining_elements_around": ring.n_around, "elements_along_axis": ring.n_axial,
                  "slice_thickness": ring.length if ring.mode == "slice" else None},
         "ground_motion": {"pga": None},
@@ -367,18 +404,27 @@ def _fake_case(ring: Ring) -> SimpleNamespace:
     })
 
 
-def _symmetry_ends(folder: Path, closed_incompressible: bool) -> None:
-    """Turn the water's axial ends into symmetry planes (slip walls: plane strain in a prism)."""
+def _symmetry_ends(folder: Path, closed_incompressible: bool, ends=("end_ymin", "end_ymax")) -> None:
+    """Turn the water's axial ends (or those named) into symmetry planes (slip walls: plane strain
+    in a prism; the mid-length plane of a half tube)."""
     from .. import fluid_case as fc
 
-    for end in ("end_ymin", "end_ymax"):
+    for end in ends:
         fc._foam(folder, "foamDictionary", str(folder / "constant/polyMesh/boundary"), "-entry",
                  f"entry0/{end}/type", "-set", "symmetryPlane", log=f"foamDictionary.sym.{end}", case=False)
+    both = set(ends) == {"end_ymin", "end_ymax"}
     for name in ("U", "p", "T"):
         f = folder / "0" / name
         if f.is_file():
-            f.write_text(re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type symmetryPlane; }", f.read_text(),
-                                flags=re.M))
+            if both:
+                text = re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type symmetryPlane; }", f.read_text(),
+                              flags=re.M)
+            else:  # a named entry before the regex one (OpenFOAM takes the exact name first)
+                text, n = re.subn(r'^(\s*)("end_y\(min\|max\)")', "".join(
+                    rf"\1{e} {{ type symmetryPlane; }}\n" for e in ends) + r"\1\2", f.read_text(), count=1, flags=re.M)
+                if n != 1:
+                    raise RingError(f"{f}: the entry \"end_y(min|max)\" was not found")
+            f.write_text(text)
     if closed_incompressible:  # closed domain: p to an absolute tolerance, as fluid_case does
         fs = folder / "system" / "fvSolution"
         fs.write_text(re.sub(r"(p(?:Final)?\s+\{ solver GAMG; smoother GaussSeidel;) tolerance 0; relTol 0\.1;",
@@ -417,7 +463,9 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
     # the fluid takes one step per coupling window (deltaT = window_size)
     fluid = fc.build_fluid_case(case, work / "water.msh", work / "fluid", settings,
                                 ring.mode == "slice" and ring.model == "compressible")
-    if ring.mode == "3d" or ring.model == "incompressible":
+    if ring.ends == "open":  # a half tube: y = 0 is the tube's mid-length symmetry plane, y = L/2 open
+        _symmetry_ends(fluid.path, False, ("end_ymin",))
+    elif ring.mode == "3d" or ring.model == "incompressible":
         _symmetry_ends(fluid.path, ring.model == "incompressible")
     env = fc.fluid_env()
     env[fc.TOKEN_ENV] = token
@@ -521,7 +569,8 @@ def run_ring(ring: Ring, folder: Path, keep: bool = True) -> RingResult:
     result = RingResult(ring=asdict(ring), status="failed", expected=f_exp, folder=str(work),
                         extra={k: v for k, v in info.items() if k != "monitors"})
     m_wall = ring.rho_s * ring.h
-    result.added_mass_ratio = ring.rho_f * ring.r_inner / 2 / m_wall if ring.water else 0.0
+    result.added_mass_ratio = ring.rho_f * ring.r_inner / 2 * ring.added_mass_factor() / m_wall if ring.water else 0.0
+    result.mu_max_ratio = ring.rho_f * ring.mu_max() / m_wall if ring.water else 0.0
     t0 = time.perf_counter()
     if ring.water:
         rc, why, cinfo = _run_coupled(ring, work, work / "mesh.h5", t_end, exe, res)
@@ -585,6 +634,11 @@ MAP_RATIOS = (0.1, 0.4, 1.0, 2.0)  # ρf / ρs
 MAP_MODELS = ("compressible", "incompressible")
 
 
+def _scheme_name(scheme: tuple[str, str]) -> str:
+    """explicit, paper, implicit-aitken, implicit-iqn-ils: the map's scheme names on the command line."""
+    return scheme[0] if scheme[1] == "none" else f"{scheme[0]}-{scheme[1]}"
+
+
 def map_runs(base: Ring, ratios=MAP_RATIOS, windows=MAP_WINDOWS, models=MAP_MODELS, schemes=MAP_SCHEMES):
     """The rings of the stability map (windows > 1 for the explicit scheme only)."""
     for model in models:
@@ -593,7 +647,7 @@ def map_runs(base: Ring, ratios=MAP_RATIOS, windows=MAP_WINDOWS, models=MAP_MODE
                 for ratio in ratios:
                     yield replace(base, model=model, scheme=scheme, acceleration=acc if acc != "none" else "aitken",
                                   window=k, rho_f=ratio * base.rho_s,
-                                  mode="slice" if model == "compressible" else "3d")
+                                  mode="slice" if model == "compressible" and base.ends == "symmetry" else "3d")
 
 
 def _row(r: RingResult) -> dict:
@@ -620,6 +674,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--water", action="store_true", help="fill the ring with water (coupled run)")
     r.add_argument("--mode", choices=("slice", "3d"), default="slice")
     r.add_argument("--n-axial", type=int, default=1)
+    r.add_argument("--ends", choices=("symmetry", "open"), default="symmetry",
+                   help="the water's axial ends in 3d: symmetry planes (plane strain) or open (p = 0: a tube)")
     r.add_argument("--model", choices=("compressible", "incompressible"), default="compressible")
     r.add_argument("--rho-f", type=float, default=1000.0)
     r.add_argument("--scheme", choices=SCHEMES, default="explicit")
@@ -635,6 +691,12 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--ratios", type=float, nargs="+", default=list(MAP_RATIOS))
     m.add_argument("--windows", type=int, nargs="+", default=list(MAP_WINDOWS))
     m.add_argument("--models", nargs="+", default=list(MAP_MODELS), choices=MAP_MODELS)
+    m.add_argument("--schemes", nargs="+", default=[_scheme_name(s) for s in MAP_SCHEMES],
+                   choices=[_scheme_name(s) for s in MAP_SCHEMES], help="the map's schemes to run (default all)")
+    m.add_argument("--ends", choices=("symmetry", "open"), default="symmetry",
+                   help="water ends: symmetry (slice / one-element prism, default) or open (a tube of "
+                        "--length with --n-axial elements, p = 0 at the ends)")
+    m.add_argument("--n-axial", type=int, default=1, help="elements along the axis (with --ends open)")
     m.add_argument("--out", type=Path, required=True, help="JSON lines, one row per run (appended)")
     m.set_defaults(n_around=32, periods=1.5)  # the coarse ring of docs/stability.md
     tb = sub.add_parser("table", help="the map's JSON lines as the markdown table of docs/stability.md")
@@ -646,7 +708,7 @@ def main(argv: list[str] | None = None) -> int:
 
     base = Ring(n_around=a.n_around, n_through=a.n_through, length=a.length, periods=a.periods, timeout=a.timeout)
     if a.cmd == "run":
-        ring = replace(base, water=a.water, mode=a.mode, n_axial=a.n_axial, model=a.model, rho_f=a.rho_f,
+        ring = replace(base, water=a.water, mode=a.mode, n_axial=a.n_axial, ends=a.ends, model=a.model, rho_f=a.rho_f,
                        scheme=a.scheme, acceleration=a.acceleration, window=a.window, tolerance=a.tolerance,
                        max_iterations=a.max_iterations, t_end=a.t_end)
         res = run_ring(ring, a.folder)
@@ -654,8 +716,13 @@ def main(argv: list[str] | None = None) -> int:
         if a.json:
             a.json.write_text(json.dumps(_row(res), indent=1, default=float))
         return 0 if res.status == "completed" else 1
+    if a.ends == "open":
+        base = replace(base, ends="open", mode="3d", n_axial=a.n_axial)
+    elif a.n_axial != 1:
+        raise RingError("--n-axial is for --ends open (the symmetry-end prism has one element)")
     a.out.parent.mkdir(parents=True, exist_ok=True)
-    for ring in map_runs(base, a.ratios, a.windows, a.models):
+    schemes = tuple(s for s in MAP_SCHEMES if _scheme_name(s) in a.schemes)
+    for ring in map_runs(base, a.ratios, a.windows, a.models, schemes):
         res = run_ring(ring, a.folder, keep=False)
         print(_summary(res), flush=True)
         with open(a.out, "a") as fh:
@@ -665,13 +732,14 @@ def main(argv: list[str] | None = None) -> int:
 
 def map_table(rows: list[dict]) -> str:
     """Markdown table of map rows: one line per run."""
-    out = ["| water | scheme | k | ρf/ρs | added mass ρf a/(ρs h) | ρf cf Δt_c/m_Γ | result | f (Hz) vs thin ring | "
+    out = ["| water | scheme | k | ρf/ρs | added mass ρf μ_max/(ρs h) | ρf cf Δt_c/m_Γ | result | f (Hz) vs theory | "
            "passes/window (max) | wall s |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         g = r["ring"]
         scheme = g["scheme"] + (f" {g['acceleration']}" if g["scheme"] == "implicit" else "")
         ratio = g["rho_f"] / g["rho_s"]
-        am = g["rho_f"] * (g["R"] - 0.5 * g["h"]) / (g["rho_s"] * g["h"])
+        am = r.get("mu_max_ratio", g["rho_f"] * (g["R"] - 0.5 * g["h"]) / (g["rho_s"] * g["h"]))  # older rows: μ_max = a
+        water = f"{g['model']} {g['mode']}" + (f" open tube L {g['length']:g} m" if g.get("ends") == "open" else "")
         imp = r["impedance_ratio"]
         if r["status"] == "completed":
             res = f"stable (growth {r['growth']:.2f})"
@@ -681,7 +749,7 @@ def map_table(rows: list[dict]) -> str:
                    g["pulse"] + g["periods"] / r["expected"] * 0.999 else f"**{r['status']}** (growth {r['growth']:.2f})")
             freq = "–"
         ppw = f"{r['passes'] / r['windows']:.2f} ({r['max_passes']})" if r["windows"] else "–"
-        out.append(f"| {g['model']} {g['mode']} | {scheme} | {g['window']} | {ratio:g} | {am:.2f} | "
+        out.append(f"| {water} | {scheme} | {g['window']} | {ratio:g} | {am:.2f} | "
                    f"{'–' if not math.isfinite(imp) else f'{imp:.2f}'} | {res} | {freq} | {ppw} | {r['wall_s']:.1f} |")
     return "\n".join(out)
 
@@ -695,7 +763,7 @@ def _summary(r: RingResult) -> str:
          f"growth {r.growth:.3g}, dt {r.dt:.4g} s")
     if g["water"]:
         s += (f", windows {r.windows}, passes {r.passes} (max {r.max_passes}), added mass ratio "
-              f"{r.added_mass_ratio:.3g}, rho c dt/m {r.impedance_ratio:.3g}")
+              f"{r.added_mass_ratio:.3g}, rho_f mu_max/(rho_s h) {r.mu_max_ratio:.3g}, rho c dt/m {r.impedance_ratio:.3g}")
     s += f", {r.wall_s:.1f} s wall"
     return s + (f" [{r.reason}]" if r.reason else "")
 
