@@ -49,89 +49,14 @@ TEST(Kirsch, WallHoopStressConvergesAtSecondOrder) {
   EXPECT_GT(crown1, 1.2);
 }
 
-namespace {
-
-struct LinedResult {
-  Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
-};
-
-LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0) {
-  tqtest::StagedRun run;
-  QuarterSpec qs;
-  qs.nTheta = nTheta;
-  qs.liningT = 0.75;
-  qs.nLining = nThrough;
-  run.mesh = quarterPlate(qs);
-  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
-  run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ", "excavation", "lining", "hydrostatic"};
-  S.stages.tolerance = 1e-6;
-  S.stages.maxSteps = 200000;
-  S.inSitu.present = true;
-  S.inSitu.kx = 1.1;  // paper
-  S.inSitu.ky = 0.8;
-  S.inSitu.kz = 1.0;
-  S.inSitu.surcharge = p0;  // the rock's prestress: the lining, installed after, must not feel it
-  S.hydrostatic.present = true;
-  S.hydrostatic.pressureAtAxis = pi;
-  S.hydrostatic.unitWeight = 0;  // uniform: the closed form is for a uniform internal pressure
-  run.build();
-  std::ostringstream log;
-  run.stages->runStatics(log);
-  const ElementBlock* lin = nullptr;
-  for (const auto& b : run.solver->blocks())
-    if (b->name() == "lining") lin = b.get();
-  // Lamé form in the ring: σθθ = A + B/r², σrr = A − B/r² (exact for an axisymmetric ring):
-  // least squares over every lining element.
-  Real s11 = 0, s12 = 0, s22 = 0, r1 = 0, r2 = 0;
-  for (Index e = 0; e < lin->numElems(); ++e) {
-    Real h, rad, th;
-    const Real r = polarStress(run.mesh, *lin, e, &h, &rad, &th);
-    const Real q = 1 / (r * r);
-    // rows [1, q] -> h and [1, −q] -> rad
-    s11 += 2;
-    s12 += q - q;
-    s22 += 2 * q * q;
-    r1 += h + rad;
-    r2 += q * h - q * rad;
-  }
-  const Real det = s11 * s22 - s12 * s12;
-  const Real A = (r1 * s22 - r2 * s12) / det, B = (s11 * r2 - s12 * r1) / det;
-  const Real a = qs.b - qs.liningT, b = qs.b;
-  LinedResult res;
-  res.hoopIn = A + B / (a * a);
-  res.hoopOut = A + B / (b * b);
-  res.pc = -(A - B / (b * b));
-  // The contact pressure from the interface forces on the lining nodes (rock -> lining), over the
-  // polygonal interface's area.
-  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
-  Real fr = 0;
-  for (Index g = 0; g < tie->numGroups(); ++g) {
-    const Index ln = tie->begin(g)[1];
-    const Real* f = tie->force(tie->memberIndex(g, 1));
-    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2], r = std::hypot(x, z);
-    fr += (f[0] * x + f[2] * z) / r;
-  }
-  const Real dth = M_PI / 2 / nTheta;
-  res.pcTie = -fr / (nTheta * 2 * b * std::sin(dth / 2) * qs.width);
-  return res;
-}
-
-}  // namespace
 
 // The paper's lining (3 elements through 0.75 m, 48 around) and rock, 1.207 MPa (123 m of water):
 // contact pressure and inner/outer hoop within 3 % of the closed form, with the rock prestressed
 // (p0 = 5 MPa, kx 1.1) before the lining goes in.
 TEST(LinedTunnel, InternalPressureMatchesClosedForm) {
-  const Real pi = 1000 * 9.81 * 123, p0 = 5e6;
-  const Real a = 4.5, b = 5.25;
-  const Real Gl = kEl / (2 * (1 + kNul)), Gm = kEr / (2 * (1 + kNur));
-  const Real den = Gl * (b * b - a * a) + Gm * ((1 - 2 * kNul) * b * b + a * a);
-  const Real pcRef = pi * 2 * Gm * (1 - kNul) * a * a / den;
-  const Real hinRef = pi * (Gl * (a * a + b * b) + Gm * ((1 - 2 * kNul) * b * b - a * a)) / den;
-  const Real houtRef = pi * 2 * a * a * (Gl - Gm * kNul) / den;
+  const Real pi = kLinedPi, p0 = 5e6;
+  const LinedReference ref = linedReference(pi);
+  const Real pcRef = ref.pc, hinRef = ref.hoopIn, houtRef = ref.hoopOut;
   for (Index n : {12, 24}) {
     const LinedResult r = linedTunnel(n, n / 4, pi, p0);
     std::printf("lined tunnel, %d around the quarter, %d through: contact pressure %+.2f %% (interface forces "

@@ -1,6 +1,7 @@
 // The tunnel's static verification cases (issue 3, tests 4 and 5) as functions, shared by
-// test_tunnel_statics.cpp and the convergence ladder of `tunnelquake bench` (tq-verification-ladder,
-// issue 8): the quarter plate with a hole (and lining), polar stresses, and the Kirsch excavation.
+// test_tunnel_statics.cpp and the convergence ladders of `tunnelquake bench` (tq-verification-ladder,
+// issue 8): the quarter plate with a hole (and lining), polar stresses, the Kirsch excavation and
+// the lined tunnel under internal water pressure.
 #pragma once
 
 #include <cmath>
@@ -163,6 +164,100 @@ inline KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
   (void)dth;
   return res;
 }
+
+
+// Lined tunnel (issue 3, test 5; tests/verification/solid_lined_tunnel): the paper's lining
+// a = 4.5 m to b = 5.25 m installed stress-free after the excavation, bonded to the rock, then a
+// uniform internal pressure p_i. Closed form of a lining bonded in an infinite elastic medium
+// (VERIFICATION.md; tunnelquake.references.lined_tunnel_internal_pressure).
+constexpr Real kLinedPi = 1000 * 9.81 * 123;  // 123 m of water (Pa)
+
+struct LinedReference {
+  Real pc = 0, hoopIn = 0, hoopOut = 0;  // contact pressure, inner and outer hoop stress (tension +)
+};
+
+inline LinedReference linedReference(Real pi, Real a = 4.5, Real b = 5.25) {
+  const Real Gl = kEl / (2 * (1 + kNul)), Gm = kEr / (2 * (1 + kNur));
+  const Real den = Gl * (b * b - a * a) + Gm * ((1 - 2 * kNul) * b * b + a * a);
+  LinedReference r;
+  r.pc = pi * 2 * Gm * (1 - kNul) * a * a / den;
+  r.hoopIn = pi * (Gl * (a * a + b * b) + Gm * ((1 - 2 * kNul) * b * b - a * a)) / den;
+  r.hoopOut = pi * 2 * a * a * (Gl - Gm * kNul) / den;
+  return r;
+}
+
+struct LinedResult {
+  Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
+  Index steps = 0, elems = 0;  // relaxation steps of all four stages, elements
+};
+
+inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, Real Lfactor = 20) {
+  tqtest::StagedRun run;
+  QuarterSpec qs;
+  qs.nTheta = nTheta;
+  qs.liningT = 0.75;
+  qs.L = Lfactor * qs.b;
+  qs.nLining = nThrough;
+  run.mesh = quarterPlate(qs);
+  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+  run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
+  StagedInput& S = run.in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "excavation", "lining", "hydrostatic"};
+  S.stages.tolerance = 1e-6;
+  S.stages.maxSteps = 200000;
+  S.inSitu.present = true;
+  S.inSitu.kx = 1.1;  // paper
+  S.inSitu.ky = 0.8;
+  S.inSitu.kz = 1.0;
+  S.inSitu.surcharge = p0;  // the rock's prestress: the lining, installed after, must not feel it
+  S.hydrostatic.present = true;
+  S.hydrostatic.pressureAtAxis = pi;
+  S.hydrostatic.unitWeight = 0;  // uniform: the closed form is for a uniform internal pressure
+  run.build();
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  const ElementBlock* lin = nullptr;
+  for (const auto& b : run.solver->blocks())
+    if (b->name() == "lining") lin = b.get();
+  // Lamé form in the ring: σθθ = A + B/r², σrr = A − B/r² (exact for an axisymmetric ring):
+  // least squares over every lining element.
+  Real s11 = 0, s12 = 0, s22 = 0, r1 = 0, r2 = 0;
+  for (Index e = 0; e < lin->numElems(); ++e) {
+    Real h, rad, th;
+    const Real r = polarStress(run.mesh, *lin, e, &h, &rad, &th);
+    const Real q = 1 / (r * r);
+    // rows [1, q] -> h and [1, −q] -> rad
+    s11 += 2;
+    s12 += q - q;
+    s22 += 2 * q * q;
+    r1 += h + rad;
+    r2 += q * h - q * rad;
+  }
+  const Real det = s11 * s22 - s12 * s12;
+  const Real A = (r1 * s22 - r2 * s12) / det, B = (s11 * r2 - s12 * r1) / det;
+  const Real a = qs.b - qs.liningT, b = qs.b;
+  LinedResult res;
+  for (const auto& rep : run.stages->reports()) res.steps += rep.steps;
+  res.elems = run.mesh.numElems();
+  res.hoopIn = A + B / (a * a);
+  res.hoopOut = A + B / (b * b);
+  res.pc = -(A - B / (b * b));
+  // The contact pressure from the interface forces on the lining nodes (rock -> lining), over the
+  // polygonal interface's area.
+  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
+  Real fr = 0;
+  for (Index g = 0; g < tie->numGroups(); ++g) {
+    const Index ln = tie->begin(g)[1];
+    const Real* f = tie->force(tie->memberIndex(g, 1));
+    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2], r = std::hypot(x, z);
+    fr += (f[0] * x + f[2] * z) / r;
+  }
+  const Real dth = M_PI / 2 / nTheta;
+  res.pcTie = -fr / (nTheta * 2 * b * std::sin(dth / 2) * qs.width);
+  return res;
+}
+
 
 
 }  // namespace tqcases

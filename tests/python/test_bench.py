@@ -38,3 +38,21 @@ def test_update_docs_replaces_only_the_marked_section_or_appends_it():
     appended = update_docs(plain, new)
     assert appended == f"# Benchmarks\n\ntext\n\n{new}\n"
     assert update_docs(appended, new) == appended
+
+
+def test_peer_part_of_the_section_gives_the_ratio_or_the_reason_it_was_skipped():
+    from tunnelquake.bench_calculix import PeerResult
+    from tunnelquake.cli.bench import section
+
+    reason = "ccx (CalculiX) not found on PATH: install Debian's calculix-ccx"
+    text = section("T", "P", "tunnelquake bench x --peer", "today", "here", "f.png", reason)
+    assert f"skipped: {reason}" in text
+    assert "not run: add `--peer`" in section("T", "P", "tunnelquake bench x", "today", "here", "f.png")
+    # Ratio of medians and answer difference, exact arithmetic on made-up figures.
+    r = PeerResult(n=10, steps=20, dt=1e-4, pressure=1e6, ccx_version="2.20", tq_us=[0.2, 0.1, 0.3],
+                   tq_generic_us=[0.4], ccx_us=[3.0, 2.0, 4.0], ccx_whole_s=[1.0], tq_uz=-1.01e-3,
+                   tq_generic_uz=-1.01e-3, ccx_uz=-1.0e-3)
+    assert math.isclose(r.ratio(), 15.0) and math.isclose(r.ratio(generic=True), 7.5)
+    assert math.isclose(r.answer_difference, 0.01)
+    peer_text = section("T", "P", "c", "w", "m", "f.png", r)
+    assert "Ratio CalculiX / tq-solid: 15.0×" in peer_text and "= 1.00 %" in peer_text

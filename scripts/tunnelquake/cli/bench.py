@@ -13,6 +13,13 @@ Ladders (solid):
   wave column SH  step: 100 elements, Δt = 0.9, 0.45, 0.225, 0.1125 of the critical step
   wave column P   mesh: 25, 50, 100, 200 elements, automatic step
   Kirsch k = 0.5  mesh: 8, 16, 32, 64 elements per quarter (--full: and 128)
+  lined tunnel    mesh: 8, 16, 32 elements per quarter, n/4 through the lining (--full: and 64),
+                  internal water pressure 1.207 MPa on the prestressed rock's lining, outer at 80 b
+
+--peer adds CalculiX (explicit dynamics) on the same deck in the same session
+(tunnelquake.bench_calculix: a 40³ box, 100 increments, alternating 3 times): the ratio of µs per
+element-increment and the answer difference go into the generated section; without ccx on PATH
+the section says so and why.
 
 --update-docs replaces the part of docs/benchmarks.md between `<!-- bench:solid -->` and
 `<!-- /bench:solid -->` (appended if absent) and copies the figure to docs/bench/solid.png.
@@ -26,6 +33,7 @@ Benchmarks, not tests: wall times are the machine's of the day; the errors are r
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime as _dt
 import json
 import math
@@ -38,6 +46,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .. import bench_calculix
 from ..paths import ROOT, build_dir
 
 BEGIN, END = "<!-- bench:solid -->", "<!-- /bench:solid -->"
@@ -106,6 +115,7 @@ def machine() -> str:
 def ladders(full: bool) -> list[tuple[Ladder, list[list[str]]]]:
     ns = [25, 50, 100, 200]
     kirsch_n = [8, 16, 32, 64] + ([128] if full else [])
+    lined_n = [8, 16, 32] + ([64] if full else [])
     return [
         (Ladder("wave column SH, mesh", "h", ("peak_error", "l2_error")),
          [["wave", "--dir", "sh", "--n", str(n)] for n in ns]),
@@ -115,6 +125,8 @@ def ladders(full: bool) -> list[tuple[Ladder, list[list[str]]]]:
          [["wave", "--dir", "p", "--n", str(n)] for n in ns]),
         (Ladder("Kirsch k = 0.5, mesh", "n", ("sidewall_error", "crown_error")),
          [["kirsch", "--n", str(n)] for n in kirsch_n]),
+        (Ladder("lined tunnel p_i = 1.207 MPa, mesh", "n", ("contact_error", "inner_hoop_error")),
+         [["lined", "--n", str(n)] for n in lined_n]),
     ]
 
 
@@ -128,6 +140,8 @@ def setting_text(ladder: Ladder, run: dict) -> str:
         return f"h = {run['h']:g} m ({run['n']} el.), Δt = {run['dt']:.3g} s"
     if ladder.setting == "dt":
         return f"Δt = {run['dt_factor']:g} Δt_crit = {run['dt']:.3g} s"
+    if "through" in run:
+        return f"{run['n']} per quarter, {run['through']} through ({run['elements']} el.)"
     return f"{run['n']} per quarter ({run['elements']} el.)"
 
 
@@ -184,7 +198,23 @@ def plot(done: list[Ladder], path: Path) -> None:
     plt.close(fig)
 
 
-def section(md_table: str, md_pick: str, command: str, when: str, where: str, figure: str) -> str:
+def peer_text(peer: bench_calculix.PeerResult | str | None) -> str:
+    """The CalculiX part of the section: the side-by-side table, or why it was not run."""
+    head = "**Side by side with CalculiX** (explicit dynamics, same deck, same session; "
+    if peer is None:
+        return head + "not run: add `--peer`; the last figures are in \"Side by side with CalculiX\" above)."
+    if isinstance(peer, str):
+        return head + f"skipped: {peer})."
+    return (head + "`tunnelquake.bench_calculix`: the P column on a box of 1 m hex8, the deck written by "
+            "`tq-solid-bench --write-ccx`; CalculiX's cost per increment from the difference of an N- and an "
+            "N/10-increment run):\n\n" + bench_calculix.markdown(peer)
+            + "\n\nOn a loaded machine the rounds' ratios scatter: tq-solid's 100 increments take seconds and "
+            "CalculiX's run minutes, so the two codes do not see the same load even within a round; compare "
+            "with the quiet-machine figures of \"Side by side with CalculiX\" above.")
+
+
+def section(md_table: str, md_pick: str, command: str, when: str, where: str, figure: str,
+            peer: bench_calculix.PeerResult | str | None = None) -> str:
     return f"""{BEGIN}
 ## Solid verification: error against wall time (issue 8)
 
@@ -192,9 +222,13 @@ def section(md_table: str, md_pick: str, command: str, when: str, where: str, fi
 verification case's own function (`tests/cpp/wave_cases.hpp`, `tunnel_cases.hpp`, the same code as
 `WaveColumn.*` and `Kirsch.*`) by `tq-verification-ladder`; errors against the closed forms
 (wave column: surface = 2 u0(t − H/c), peak and L2 over the run; Kirsch: wall hoop stress at the
-first and last element column, extrapolated to r = b). Observed order: log(e_i/e_(i+1)) / log(s_i/s_(i+1))
-with s = h, Δt or 1/n. Wall times include building the model (and, for Kirsch, the in-situ and
-excavation relaxations).
+first and last element column, extrapolated to r = b; lined tunnel, `LinedTunnel.*`: the lining
+bonded in rock under a uniform internal pressure of 123 m of water, contact pressure and inner
+hoop stress of the Lamé fit over the lining elements against the closed form of VERIFICATION.md,
+outer boundary at 80 b). Observed order: log(e_i/e_(i+1)) / log(s_i/s_(i+1)) with s = h, Δt or 1/n.
+Wall times include building the model (and, for Kirsch, the in-situ and excavation relaxations; for
+the lined tunnel the in-situ, excavation, lining and water-pressure relaxations, whose steps the
+steps column counts).
 
 {md_table}
 
@@ -209,7 +243,13 @@ Reading it: the wave column's error is set by the mesh (elements per wavelength 
 highest frequency) and falls at second order; at a fixed mesh a smaller step does not make it
 more accurate (lumped mass and the central difference err in opposite directions, and the errors
 cancel best near the stable limit: the L2 error grows slightly as Δt falls), it only costs time.
-Kirsch's wall stress converges at about second order in the element size around the hole.
+Kirsch's wall stress converges at about second order in the element size around the hole. So
+does the lined tunnel's (contact pressure and inner hoop stress: the Lamé fit over centroid
+stresses and the polygonal interface are O(h²)); the outer boundary is at 80 b so that the
+domain's O((b/L)²) error ((b/L)² = 1.6e-4, against 2.5e-3 at the verification test's 20 b) stays
+below the mesh's.
+
+{peer_text(peer)}
 {END}"""
 
 
@@ -286,12 +326,22 @@ def run_stress(args: argparse.Namespace, argv: list[str]) -> int:
 
 
 def main(argv: list[str]) -> int:
+    if "--paper" in argv:  # the paper case's settings (issue 8): scripts/tunnelquake/bench_paper.py
+        from ..bench_paper import main as paper_main
+
+        return paper_main([a for a in argv if a != "--paper"])
+    if "--fluid" in argv:  # water and coupled ladders, stock pimpleFoam ratio: scripts/tunnelquake/bench_fluid.py
+        from ..bench_fluid import main as fluid_main
+
+        return fluid_main([a for a in argv if a != "--fluid"])
     p = argparse.ArgumentParser(prog="tunnelquake bench", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("folder", type=Path, help="where solid.md, solid.png and solid.json are written")
     p.add_argument("--full", action="store_true", help="add the long runs (Kirsch 128 per quarter)")
     p.add_argument("--update-docs", action="store_true",
                    help="replace the <!-- bench:solid --> section of docs/benchmarks.md with this run's")
+    p.add_argument("--peer", action="store_true",
+                   help="also run CalculiX on the same deck (a 40^3 box) and put the ratio into the section")
     p.add_argument("--stress", action="store_true",
                    help="run the solid stress tests instead and write their figures (docs/stability.md section)")
     args = p.parse_args(argv)
@@ -310,23 +360,42 @@ def main(argv: list[str]) -> int:
     except (FileNotFoundError, RuntimeError) as e:
         print(f"tunnelquake bench: {e}", file=sys.stderr)
         return 1
+    peer: bench_calculix.PeerResult | str | None = None
+    if args.peer:
+        peer = bench_calculix.missing_reason(build_dir())
+        if peer is None:
+            print("  CalculiX side by side (40^3 box, 3 alternating repeats) ...", flush=True)
+            try:
+                peer = bench_calculix.compare(build_dir(), workdir=args.folder / "calculix")
+            except bench_calculix.PeerError as e:
+                print(f"tunnelquake bench: {e}", file=sys.stderr)
+                return 1
+        else:
+            print(f"  CalculiX side by side skipped: {peer}", flush=True)
     when = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     where = machine()
     command = "tunnelquake bench " + " ".join(shlex.quote(a) for a in argv)
     md = table(done)
     md_pick = pick(done)
     plot(done, args.folder / "solid.png")
+    peer_json = dataclasses.asdict(peer) if isinstance(peer, bench_calculix.PeerResult) else peer
     (args.folder / "solid.json").write_text(json.dumps({"date": when, "machine": where, "command": command,
-                                                        "ladders": [{"name": d.name, "runs": d.runs} for d in done]},
-                                                       indent=1))
-    (args.folder / "solid.md").write_text(section(md, md_pick, command, when, where, "solid.png") + "\n")
+                                                        "ladders": [{"name": d.name, "runs": d.runs} for d in done],
+                                                        "peer_calculix": peer_json}, indent=1))
+    (args.folder / "solid.md").write_text(section(md, md_pick, command, when, where, "solid.png", peer) + "\n")
     print(md)
     print(md_pick)
+    if args.peer:
+        print(peer_text(peer))
     if args.update_docs:
         docs = ROOT / "docs"
         (docs / "bench").mkdir(exist_ok=True)
         shutil.copyfile(args.folder / "solid.png", docs / "bench" / "solid.png")
         target = docs / "benchmarks.md"
-        target.write_text(update_docs(target.read_text(), section(md, md_pick, command, when, where, "bench/solid.png")))
+        target.write_text(update_docs(target.read_text(),
+                                      section(md, md_pick, command, when, where, "bench/solid.png", peer)))
         print(f"updated {target} and {docs / 'bench' / 'solid.png'}")
+    if isinstance(peer, bench_calculix.PeerResult) and not peer.agree:
+        print("tunnelquake bench: tq-solid and CalculiX DISAGREE on the same deck (see the table)", file=sys.stderr)
+        return 1
     return 0

@@ -16,11 +16,12 @@ space); each code's top-centre u_z after N increments is compared with that and 
 code. Tolerance 2 % (the discrete wave front rings about the continuous one; both codes see
 the same ringing to the extent that their time integrators agree).
 
-Timing: tq-solid-bench's own clock over the N steps (median of --repeat runs, µs per
-element-step). CalculiX's wall time includes reading the deck and building the model, so it is
-run with N and with N/10 increments and the difference is divided by the element-increments in
-between (median of --repeat pairs). Both on 1 thread (OMP_NUM_THREADS=1, and CalculiX's own
-CCX_NPROC_* / NUMBER_OF_CPUS variables set to 1).
+Timing: tq-solid-bench's own clock over the N steps (µs per element-step). CalculiX's wall time
+includes reading the deck and building the model, so it is run with N and with N/10 increments
+and the difference is divided by the element-increments in between. The codes alternate
+(--repeat rounds), medians. Both on 1 thread (OMP_NUM_THREADS=1, and CalculiX's own CCX_NPROC_* /
+NUMBER_OF_CPUS variables set to 1). The comparison itself is tunnelquake.bench_calculix, which
+`tunnelquake bench --peer` also runs (into docs/benchmarks.md's generated solid section).
 
 Usage (from the repository root):
   TQ_BUILD_DIR=/tmp/build-perf .venv/bin/python tests/verification/solid_benchmark/calculix_compare.py \
@@ -31,61 +32,14 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import math
 import os
 import platform
-import re
-import shutil
-import statistics
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
-E, NU, RHO = 8e9, 0.27, 2700.0  # tq-solid-bench's material
-
-
-def p_wave_speed() -> float:
-    lam = E * NU / ((1 + NU) * (1 - 2 * NU))
-    mu = E / (2 * (1 + NU))
-    return math.sqrt((lam + 2 * mu) / RHO)
-
-
-def one_thread_env() -> dict[str, str]:
-    env = dict(os.environ)
-    for k in ("OMP_NUM_THREADS", "CCX_NPROC_RESULTS", "CCX_NPROC_EQUATION_SOLVER", "NUMBER_OF_CPUS"):
-        env[k] = "1"
-    return env
-
-
-def run_tq(bench: Path, args: argparse.Namespace, steps: int, deck: Path | None, repeat: int,
-           generic: bool = False) -> tuple[float, float]:
-    cmd = [str(bench), "--n", str(args.n), "--steps", str(steps), "--repeat", str(repeat), "--threads", "1",
-           "--column", repr(args.pressure), "--dt", repr(args.dt)]
-    if deck is not None:
-        cmd += ["--write-ccx", str(deck)]
-    if generic:
-        cmd.append("--generic")
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=one_thread_env()).stdout
-    us = float(re.search(r"median ([0-9.eE+-]+) us per element-step", out).group(1))
-    uz = float(re.search(r"u_z = ([0-9.eE+-]+) m", out).group(1))
-    return us, uz
-
-
-def run_ccx(ccx: str, deck: Path) -> tuple[float, float]:
-    """Wall time (s) of one CalculiX run and the monitor node's final u_z (m)."""
-    job = deck.with_suffix("")
-    t0 = time.perf_counter()
-    res = subprocess.run([ccx, "-i", job.name], cwd=deck.parent, capture_output=True, text=True, env=one_thread_env())
-    wall = time.perf_counter() - t0
-    if res.returncode != 0 or "*ERROR" in res.stdout:
-        sys.exit(f"CalculiX failed on {deck}:\n{res.stdout[-2000:]}\n{res.stderr[-2000:]}")
-    dat = job.with_suffix(".dat").read_text().split("\n")
-    rows = [ln.split() for ln in dat if re.match(r"^\s*\d+\s+[-0-9.E+]+\s+[-0-9.E+]+\s+[-0-9.E+]+\s*$", ln)]
-    if not rows:
-        sys.exit(f"no displacement in {job.with_suffix('.dat')}")
-    return wall, float(rows[-1][3])
+sys.path.insert(0, str(ROOT / "scripts"))
+from tunnelquake.bench_calculix import PeerError, compare, markdown  # noqa: E402
 
 
 def main() -> None:
@@ -99,54 +53,15 @@ def main() -> None:
     args = ap.parse_args()
 
     build = Path(os.environ.get("TQ_BUILD_DIR", ROOT / "build"))
-    bench = build / "solid_solver" / "tq-solid-bench"
-    ccx = shutil.which("ccx")
-    if not bench.exists():
-        sys.exit(f"{bench} not found: build it (cmake --build {build} --target tq-solid-bench) or set TQ_BUILD_DIR")
-    if ccx is None:
-        sys.exit("ccx not found: install Debian's calculix-ccx (scripts/bootstrap.sh installs it)")
-    cp = p_wave_speed()
-    height = float(args.n)
-    t_end = args.steps * args.dt
-    if t_end >= 2 * height / cp:
-        sys.exit(f"t = {t_end:.4g} s reaches the reflected wave (2H/c_p = {2 * height / cp:.4g} s): use fewer steps")
-    args.workdir.mkdir(parents=True, exist_ok=True)
-    short = max(1, args.steps // 10)
-    deck_long, deck_short = args.workdir / "box_long.inp", args.workdir / "box_short.inp"
-    run_tq(bench, args, short, deck_short, 1)
-    tq_us, tq_uz = run_tq(bench, args, args.steps, deck_long, args.repeat)
-    tq_gen_us, tq_gen_uz = run_tq(bench, args, args.steps, None, args.repeat, generic=True)
-    elems = args.n**3
-    ccx_us, ccx_uz = [], 0.0
-    for _ in range(args.repeat):
-        w_long, ccx_uz = run_ccx(ccx, deck_long)
-        w_short, _ = run_ccx(ccx, deck_short)
-        ccx_us.append(1e6 * (w_long - w_short) / (elems * (args.steps - short)))
-        ccx_total = w_long
-    ccx_med = statistics.median(ccx_us)
-    exact = -args.pressure * t_end / (RHO * cp)
-    ver = subprocess.run(["dpkg-query", "-W", "-f=${Version}", "calculix-ccx"], capture_output=True, text=True).stdout
-
-    def rel(a: float, b: float) -> float:
-        return abs(a - b) / abs(b)
-
+    try:
+        r = compare(build, n=args.n, steps=args.steps, dt=args.dt, pressure=args.pressure, repeat=args.repeat,
+                    workdir=args.workdir)
+    except PeerError as e:
+        sys.exit(str(e))
     print(f"date {datetime.date.today()}, machine {platform.node()} ({platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores), calculix-ccx {ver or '?'}, 1 thread each")
-    print(f"box {args.n}^3 = {elems} hex8, {args.steps} increments of {args.dt:g} s, step pressure "
-          f"{args.pressure:g} Pa, c_p {cp:.2f} m/s\n")
-    print("| code | element | µs per element-increment (median) | top-centre u_z after N (m) | vs 1D exact |")
-    print("|---|---|---:|---:|---:|")
-    print(f"| tq-solid (AVX2 path) | one-point hex8, assumed-strain hourglass | {tq_us:.3f} | {tq_uz:.6e} | "
-          f"{100 * (tq_uz - exact) / abs(exact):+.2f} % |")
-    print(f"| tq-solid (generic x86-64 path) | same | {tq_gen_us:.3f} | {tq_gen_uz:.6e} | "
-          f"{100 * (tq_gen_uz - exact) / abs(exact):+.2f} % |")
-    print(f"| CalculiX {ver} | C3D8R, *DYNAMIC, EXPLICIT | {ccx_med:.3f} (whole run {ccx_total:.1f} s) | "
-          f"{ccx_uz:.6e} | {100 * (ccx_uz - exact) / abs(exact):+.2f} % |")
-    print(f"\nratio CalculiX / tq-solid: {ccx_med / tq_us:.1f}x (generic path {ccx_med / tq_gen_us:.1f}x); "
-          f"1D exact u_z = -P t/(rho c_p) = {exact:.6e} m; tq vs CalculiX {100 * rel(tq_uz, ccx_uz):.2f} %")
-    ok = rel(tq_uz, exact) < 0.02 and rel(ccx_uz, exact) < 0.02 and rel(tq_uz, ccx_uz) < 0.02
-    print("physics cross-check (2 %):", "agree" if ok else "DISAGREE")
-    if not ok:
+          f"{os.cpu_count()} cores), calculix-ccx {r.ccx_version}, 1 thread each\n")
+    print(markdown(r))
+    if not r.agree:
         sys.exit(1)
 
 
