@@ -73,7 +73,7 @@ void SerialImplicit::initialize(ExchangePort& port) {
         port.receiveData(0, 0);
         prevReceived_ = port.receivedValues();
         lastSent_ = port.writtenValues();  // what the first participant used: the initial values
-        prevConverged_ = lastSent_;        // x_{−1} of the linear predictor
+        prevConverged_ = lastSent_;        // x_{−1} of the linear predictor (the initial values)
         acc_->startWindow();
     }
 }
@@ -121,11 +121,17 @@ void SerialImplicit::endWindow(ExchangePort& port) {
             if (test_ && !converged) ++state_.unconvergedWindows;
             port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0),
                           state_.residual);
-            lastSent_ = xt;
-            if (linear) {  // the next window's x⁰ = 2 x_w − x_{w−1}; the first participant starts there too
-                for (std::size_t i = 0; i < xt.size() && i < prevConverged_.size(); ++i)
-                    lastSent_[i] = 2.0 * xt[i] - prevConverged_[i];
-                prevConverged_ = xt;
+            if (linear) {
+                // The next window's x⁰ = 2 x_w − x_{w−1}, x_w the value the first participant applied in
+                // this window's last pass (lastSent_), not the answer x̃: extrapolating the answers would
+                // multiply each accepted error by the added-mass feedback (a growing period-two mode that
+                // a relative residual does not see); the applied values carry the accepted errors once.
+                const std::vector<double> applied = lastSent_;
+                for (std::size_t i = 0; i < applied.size() && i < prevConverged_.size(); ++i)
+                    lastSent_[i] = 2.0 * applied[i] - prevConverged_[i];
+                prevConverged_ = applied;
+            } else {
+                lastSent_ = xt;
             }
         } else {
             acc_->next(lastSent_, xt, next_);

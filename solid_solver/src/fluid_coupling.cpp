@@ -70,7 +70,7 @@ struct FluidCoupling::Impl {
   std::vector<Real> force, prev;     // [3n] force added this step / last step (N)
   std::vector<Real> received;        // [3n] latest force read from the fluid
   std::vector<Real> trial;           // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;    // [3n] predictor linear: the fluid's final force one window earlier
+  std::vector<Real> receivedPrev;    // [3n] predictor linear: the force applied one window earlier
   std::vector<Real> disp, vel;       // [3n] predicted motion written
   std::vector<Real> dispStart;       // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
@@ -314,14 +314,17 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       I.stepInWindow = 0;
       // Pass 0 force: the paper's predictor and the explicit scheme predict without the fluid;
       // the implicit scheme starts from the last converged force.
-      // With the linear predictor both sides start from 2 R_w − R_{w−1} (the fluid's final forces of
-      // the last two windows; the initial force before the first): a window whose first answer
-      // already agrees with it to the tolerance needs one pass (docs/coupler.md "Predictor").
+      // With the linear predictor both sides start from 2 F_w − F_{w−1}, F the force applied in a
+      // window (its last pass's trial; the initial force before the first): a window whose first
+      // answer already agrees with it to the tolerance needs one pass (docs/coupler.md "Predictor").
       if (I.scheme == cp::SchemeKind::Implicit) {
         I.trial = I.received;
         if (I.in.predictor == "linear") {
-          for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.received[j] - I.receivedPrev[j];
-          I.receivedPrev = I.received;
+          if (I.stats.windows > 0)  // window 0 starts from the initial force (= receivedPrev)
+            for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.force[j] - I.receivedPrev[j];
+          else
+            I.trial = I.receivedPrev;
+          I.receivedPrev = I.stats.windows > 0 ? I.force : I.receivedPrev;
         }
       } else
         std::fill(I.trial.begin(), I.trial.end(), 0.0);

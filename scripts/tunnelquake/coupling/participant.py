@@ -607,10 +607,14 @@ class Participant:
                 if self.test_convergence and not converged:
                     st.unconverged_windows += 1
                 self._send(w, k, FLAG_CONVERGED | (FLAG_LAST_WINDOW if last_window else 0), st.residual)
-                self._last_sent = xt
-                if linear:  # the next window starts from 2 x_w - x_(w-1); the first participant does too
-                    self._last_sent = 2.0 * xt - self._prev_converged
-                    self._prev_converged = xt.copy()
+                if linear:  # the next window starts from 2 x_w - x_(w-1), x_w the value the first participant
+                    # applied in this window's last pass (as in C++: not the answer xt, whose accepted errors
+                    # the added-mass feedback would multiply); the first participant starts there too
+                    applied = self._last_sent.copy()
+                    self._last_sent = 2.0 * applied - self._prev_converged
+                    self._prev_converged = applied
+                else:
+                    self._last_sent = xt
             else:
                 nxt = self.acc.next(self._last_sent, xt)
                 self._set_written(nxt)

@@ -38,7 +38,7 @@ enum class PredictorKind : std::uint8_t {
     /// x⁰_{w+1} = x_w: the last window's converged value; a window needs at least 2 passes.
     Constant = 0,
     /// x⁰_{w+1} = 2 x_w − x_{w−1} (x_{−1} = the initial values): linear extrapolation of the
-    /// converged values; a window whose pass-0 fixed-point residual ‖H(x⁰) − x⁰‖ is already below
+    /// values the first participant applied in the last pass of each window; a window whose pass-0 fixed-point residual ‖H(x⁰) − x⁰‖ is already below
     /// the tolerance completes after that single pass (docs/coupler.md "Predictor").
     Linear = 1,
 };
