@@ -176,16 +176,9 @@ def ladder_table(done: list[Ladder]) -> str:
 
 def pick(done: list[Ladder], targets: tuple[float, ...] = (0.05, 0.02, 0.01, 0.005, 0.001)) -> str:
     """For each ladder and target, the cheapest run (wall time) whose errors are all within it."""
-    rows = ["| ladder | " + " | ".join(f"≤ {100 * t:g} %" for t in targets) + " |",
-            "|---|" + "---|" * len(targets)]
-    for lad in done:
-        cells = []
-        for t in targets:
-            ok = [r for r in lad.runs if all(abs(r[k]) <= t for k in lad.error_keys)]
-            best = min(ok, key=lambda r: r["wall_s"]) if ok else None
-            cells.append(f"{best['setting']}, {best['wall_s']:.2f} s" if best else "not reached")
-        rows.append(f"| {lad.name} | " + " | ".join(cells) + " |")
-    return "\n".join(rows)
+    from .cli.bench import cheapest_table
+
+    return cheapest_table(done, lambda _lad, r: r["setting"], "ladder", targets)
 
 
 def ratio_table(pairs: list[dict]) -> str:

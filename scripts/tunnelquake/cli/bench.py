@@ -162,18 +162,28 @@ def table(done: list[Ladder]) -> str:
     return "\n".join(rows)
 
 
-def pick(done: list[Ladder], targets: tuple[float, ...] = (0.05, 0.02, 0.01, 0.005, 0.001)) -> str:
-    """For each ladder and target accuracy, the cheapest run (wall time) whose errors are all within it."""
-    rows = ["| case | " + " | ".join(f"≤ {100 * t:g} %" for t in targets) + " |",
+TARGETS = (0.05, 0.02, 0.01, 0.005, 0.001)
+
+
+def cheapest_table(ladders, setting, first_column: str = "case", targets: tuple[float, ...] = TARGETS) -> str:
+    """For each ladder (.name, .runs, .error_keys) and target accuracy, the cheapest run (wall time)
+    whose errors are all within it; setting(ladder, run) names the run. Shared by the solid and the
+    water/coupled ladders (bench_fluid.py)."""
+    rows = [f"| {first_column} | " + " | ".join(f"≤ {100 * t:g} %" for t in targets) + " |",
             "|---|" + "---|" * len(targets)]
-    for lad in done:
+    for lad in ladders:
         cells = []
         for t in targets:
             ok = [r for r in lad.runs if all(abs(r[k]) <= t for k in lad.error_keys)]
             best = min(ok, key=lambda r: r["wall_s"]) if ok else None
-            cells.append(f"{setting_text(lad, best)}, {best['wall_s']:.2f} s" if best else "not reached")
+            cells.append(f"{setting(lad, best)}, {best['wall_s']:.2f} s" if best else "not reached")
         rows.append(f"| {lad.name} | " + " | ".join(cells) + " |")
     return "\n".join(rows)
+
+
+def pick(done: list[Ladder], targets: tuple[float, ...] = TARGETS) -> str:
+    """For each solid ladder and target accuracy, the cheapest run whose errors are all within it."""
+    return cheapest_table(done, setting_text, "case", targets)
 
 
 def plot(done: list[Ladder], path: Path) -> None:
