@@ -89,6 +89,9 @@ void SerialImplicit::endWindow(ExchangePort& port) {
         const auto got = port.receiveData(w, k);
         state_.residual = got.residual;
         complete = (got.flags & flags::kConverged) != 0;
+        // A window the partner ended at the pass limit with its residual above the tolerance: counted
+        // here too, so that the first participant (the solid, which writes the results) can report it.
+        if (complete && test_ && !(got.residual < config_.tolerance)) ++state_.unconvergedWindows;
         if (!complete && int(k) + 1 >= maxPasses_)
             throw ProtocolError(ProtocolFault::BadPayload,
                                 "the partner asked for pass " + std::to_string(k + 2) +

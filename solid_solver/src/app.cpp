@@ -221,6 +221,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     const FluidCouplingStats cs = coupling->stats();
     results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
                                      {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
+                                     {"unconverged_windows", double(cs.unconvergedWindows)},
                                      {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
                                      {"fluid_received_work", coupling->fluidReceivedWork()},
                                      {"coupling_energy", coupling->couplingEnergy()},
@@ -301,6 +302,14 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       return 4;
     }
     couplingSummary();
+    const FluidCouplingStats cs = coupling->stats();
+    if (cs.unconvergedWindows > 0)
+      err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
+          << " coupling windows ended at the pass limit (coupling.max_iterations = " << in.staged.coupling.maxIterations
+          << ") with the interface residual above the tolerance " << in.staged.coupling.tolerance
+          << ": the water and the lining disagree there by more than asked. Raise coupling.max_iterations, or check "
+             "the added-mass ratio (`tunnelquake check`, docs/coupler.md); /coupling unconverged_windows in the "
+             "results counts them.\n";
   }
   // 5. Timings and status.
   const double wall = elapsed();

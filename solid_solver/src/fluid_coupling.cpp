@@ -393,6 +393,7 @@ FluidCouplingStats FluidCoupling::stats() const {
     const cp::ExchangeStats xs = impl_->p->stats();
     s.secondsWaiting = xs.secondsWaiting - impl_->waitAtStart;
     s.secondsMapping = xs.secondsMapping - impl_->mappingAtStart;
+    s.unconvergedWindows = (long long)impl_->p->state().unconvergedWindows;
   }
   return s;
 }

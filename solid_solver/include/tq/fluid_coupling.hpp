@@ -41,6 +41,7 @@ struct FluidCouplingStats {
   long long windows = 0;        ///< completed coupling windows
   long long passes = 0;         ///< exchanges (a paper window has 2, an implicit one ≥ 2)
   long long maxPasses = 0;      ///< most passes in one window
+  long long unconvergedWindows = 0;  ///< implicit: windows ended at max_iterations above the tolerance
   double secondsExchanging = 0; ///< wall time inside the coupler (waiting for the fluid included)
   // Cost split (docs/coupler.md "Exchange cost"), all over the stepping only (start-up excluded):
   double secondsCoupled = 0;    ///< wall from the end of initialize() to the end of the last addForces()
