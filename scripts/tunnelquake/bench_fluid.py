@@ -39,17 +39,17 @@ import functools
 import importlib.util
 import json
 import math
-import re
 import shlex
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .cli import bench as _bench
+from .cli.bench import observed_orders
 from .paths import ROOT
 
 FLUID_BEGIN, FLUID_END = "<!-- bench:fluid -->", "<!-- /bench:fluid -->"
@@ -90,19 +90,6 @@ class Ladder:
 # ------------------------------------------------------------------------------------------------
 # Arithmetic of the tables (tests/python/test_bench_fluid.py)
 # ------------------------------------------------------------------------------------------------
-def observed_orders(sizes: list[float], errors: list[float]) -> list[float | None]:
-    """Order against the reference between successive runs: log(e_i/e_(i+1)) / log(s_i/s_(i+1));
-    None for the first run or where an error is zero or changes sign."""
-    orders: list[float | None] = [None]
-    for i in range(1, len(sizes)):
-        e0, e1 = errors[i - 1], errors[i]
-        if e0 == 0 or e1 == 0 or (e0 > 0) != (e1 > 0) or sizes[i - 1] == sizes[i]:
-            orders.append(None)
-        else:
-            orders.append(math.log(abs(e0 / e1)) / math.log(sizes[i - 1] / sizes[i]))
-    return orders
-
-
 def difference_orders(sizes: list[float], values: list[float]) -> list[float | None]:
     """Reference-free order from three successive runs with a constant refinement ratio r:
     p = log(|v_(i−2) − v_(i−1)| / |v_(i−1) − v_i|) / log r (Richardson). None for the first two
@@ -176,9 +163,7 @@ def ladder_table(done: list[Ladder]) -> str:
 
 def pick(done: list[Ladder], targets: tuple[float, ...] = (0.05, 0.02, 0.01, 0.005, 0.001)) -> str:
     """For each ladder and target, the cheapest run (wall time) whose errors are all within it."""
-    from .cli.bench import cheapest_table
-
-    return cheapest_table(done, lambda _lad, r: r["setting"], "ladder", targets)
+    return _bench.cheapest_table(done, lambda _lad, r: r["setting"], "ladder", targets)
 
 
 def ratio_table(pairs: list[dict]) -> str:
@@ -195,12 +180,9 @@ def ratio_table(pairs: list[dict]) -> str:
 
 
 def update_docs(text: str, new_section: str, begin: str = FLUID_BEGIN, end: str = FLUID_END) -> str:
-    """Replace the marked section of a page, or append it when the markers are absent."""
-    if begin in text and end in text:
-        a = text.index(begin)
-        b = text.index(end) + len(end)
-        return text[:a] + new_section + text[b:]
-    return text.rstrip("\n") + "\n\n" + new_section + "\n"
+    """Replace the fluid section of a page, or append it when the markers are absent (the harness's
+    own marker replacement, with this section's markers)."""
+    return _bench.update_docs(text, new_section, begin, end)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -231,13 +213,13 @@ def _fluid_modules():
         model = "Stokes"
     ours["laminarModel"] = model
     settings = {"stock": dict(vs[0][2], laminarModel="Stokes"), "ours": ours}
-    return foamcase, pipe, tunnel, settings
+    return foamcase, pipe, tunnel, settings, fb
 
 
 def pipe_mesh(root: Path, n_faces: int) -> tuple[Path, int]:
     """blockMesh O-grid of the rigid-pipe test (pipe.make_pipe_case) with n_faces wall faces (nq =
     N/4 per block side, nr = 3nq/4 layers): its polyMesh folder and cell count."""
-    fc, pipe, _, _ = _fluid_modules()
+    fc, pipe, _, _, _ = _fluid_modules()
     if n_faces % 4:
         raise BenchError(f"pipe faces around N = {n_faces} must be a multiple of 4 (four O-grid blocks)")
     nq = n_faces // 4
@@ -250,32 +232,13 @@ def pipe_mesh(root: Path, n_faces: int) -> tuple[Path, int]:
     return poly, nq * nq + 4 * nq * nr
 
 
-def _run_timed(cmd: list[str], env: dict, log: Path) -> tuple[list[float], list[float]]:
-    """Run the solver; the perf_counter at each ExecutionTime line and its CPU seconds."""
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
-    wall, cpu, lines = [], [], []
-    pat = re.compile(r"ExecutionTime = ([0-9.eE+-]+) s")
-    for line in proc.stdout:
-        lines.append(line)
-        m = pat.search(line)
-        if m:
-            wall.append(time.perf_counter())
-            cpu.append(float(m.group(1)))
-    proc.wait()
-    text = "".join(lines)
-    log.write_text(text)
-    if proc.returncode != 0 or "FOAM FATAL" in text:
-        raise BenchError(f"{' '.join(cmd)} failed (exit {proc.returncode}); log {log}:\n{text[-2000:]}")
-    return wall, cpu
-
-
 def run_pipe(root: Path, poly: Path, variant: str, n_faces: int, steps_per_period: int) -> dict:
     """One rigid-pipe run (one period + one step from rest, a = a0 cos ωt) with `variant` ('stock'
     or 'ours'); its errors, wall time and ms per step (wall clock between the solver's step lines,
     steps PIPE_SKIP on; CPU from ExecutionTime, 10 ms resolution)."""
     import numpy as np
 
-    fc, pipe, tunnel, settings = _fluid_modules()
+    fc, pipe, tunnel, settings, fb = _fluid_modules()
     if variant not in settings:
         raise BenchError(f"pipe variant {variant!r} is not one of {', '.join(settings)}")
     omega = 2 * math.pi * PIPE_FREQ
@@ -288,7 +251,10 @@ def run_pipe(root: Path, poly: Path, variant: str, n_faces: int, steps_per_perio
     u, v = pipe.harmonic_lateral(t, PIPE_A0, omega)
     pipe.write_motion(motion, t, u, v)
     t0 = time.perf_counter()
-    wall, cpu = _run_timed([s.get("solver", "pimpleFoam"), "-case", str(case)], fc.env(), case / "log.solver")
+    try:  # the water benchmark's own timed run (log.<solver> in the case)
+        wall, cpu, _ = fb.run_timed(case, s.get("solver", "pimpleFoam"), 1)
+    except RuntimeError as e:
+        raise BenchError(str(e)) from None
     wall_s = time.perf_counter() - t0
     if len(wall) < PIPE_SKIP + 3:
         raise BenchError(f"{case}: {len(wall)} steps reported, expected {steps}")
@@ -539,7 +505,6 @@ def main(argv: list[str]) -> int:
     if args.repeat < 1:
         print(f"tunnelquake bench --fluid: --repeat {args.repeat}: needs at least 1", file=sys.stderr)
         return 2
-    from .cli.bench import machine
     from .paths import openfoam_library, solid_executable
 
     missing = [what for what, ok in (("libtqFoam.so", openfoam_library()), ("tq-solid", solid_executable()),
@@ -562,7 +527,7 @@ def main(argv: list[str]) -> int:
     except BenchError as e:
         print(f"tunnelquake bench --fluid: {e}", file=sys.stderr)
         return 1
-    data = {"date": _dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "machine": machine(), "note": args.note,
+    data = {"date": _dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "machine": _bench.machine(), "note": args.note,
             "command": "tunnelquake bench " + " ".join(shlex.quote(a) for a in argv[:1] + ["--fluid"] + argv[1:]),
             "pairs": pairs, "ladders": [{"name": d.name, "error_keys": d.error_keys, "labels": d.labels,
                                          "value_key": d.value_key, "runs": d.runs} for d in done]}
