@@ -387,6 +387,13 @@ std::vector<double> monolithic(double ratio, int windows, double dt = 1e-3) {
     return out;
 }
 
+/// Largest |x_0 − reference| over the windows both have (m).
+double largestDeviation(const OscResult& r, const std::vector<double>& ref) {
+    double e = 0;
+    for (std::size_t i = 0; i < ref.size() && i < r.x0.size(); ++i) e = std::max(e, std::abs(r.x0[i] - ref[i]));
+    return e;
+}
+
 }  // namespace
 
 TEST(AddedMass, ImplicitCouplingMatchesTheMonolithicOscillatorAtRatioFive) {
@@ -396,8 +403,7 @@ TEST(AddedMass, ImplicitCouplingMatchesTheMonolithicOscillatorAtRatioFive) {
         rethrowIf(res.fluidError);
         const auto ref = monolithic(5.0, 100);
         ASSERT_EQ(res.x0.size(), ref.size());
-        double err = 0;
-        for (std::size_t i = 0; i < ref.size(); ++i) err = std::max(err, std::abs(res.x0[i] - ref[i]));
+        const double err = largestDeviation(res, ref);
         EXPECT_LT(err, 1e-8 * 0.01) << accelerationName(acc);  // amplitude 0.01 m
         EXPECT_LT(res.passes, 100u * 8) << accelerationName(acc) << ": too many passes";
         std::cout << "[ info ] added-mass ratio 5, " << accelerationName(acc) << ": "
@@ -506,8 +512,7 @@ TEST(AddedMass, AbsoluteToleranceEndsWindowsAtRestInTwoPasses) {
         rethrowIf(res.fluidError);
         const auto ref = monolithic(5.0, 100);
         ASSERT_EQ(res.x0.size(), ref.size());
-        double err = 0;
-        for (std::size_t i = 0; i < ref.size(); ++i) err = std::max(err, std::abs(res.x0[i] - ref[i]));
+        const double err = largestDeviation(res, ref);
         EXPECT_LT(err, 1e-8 * 0.01) << accelerationName(acc);
         std::cout << "[ info ] with the absolute floor, " << accelerationName(acc) << ": "
                   << double(res.passes) / 100.0 << " passes per window moving (error " << err
@@ -527,11 +532,6 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     // constant predictor's.
     const int windows = 400;  // a fifth of a period
     const auto ref = monolithic(5.0, windows, 1e-4);
-    auto maxError = [&](const OscResult& r) {
-        double e = 0;
-        for (std::size_t i = 0; i < ref.size() && i < r.x0.size(); ++i) e = std::max(e, std::abs(r.x0[i] - ref[i]));
-        return e;
-    };
     for (auto acc : {AccelerationKind::Aitken, AccelerationKind::IqnIls}) {
         OscOptions cst;  // with the absolute floors `tunnelquake run` derives (tolerance x the problem's scales)
         cst.dt = 1e-4;
@@ -547,7 +547,7 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
         rethrowIf(b.solidError);
         rethrowIf(b.fluidError);
         ASSERT_EQ(b.x0.size(), ref.size());
-        const double ea = maxError(a), eb = maxError(b);
+        const double ea = largestDeviation(a, ref), eb = largestDeviation(b, ref);
         // Both within the tolerance's reach of the monolithic answer (amplitude 0.01 m).
         EXPECT_LT(ea, 1e-4 * 0.01) << accelerationName(acc);
         EXPECT_LT(eb, 1e-4 * 0.01) << accelerationName(acc);
@@ -587,9 +587,7 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
         rethrowIf(period.solidError);
         rethrowIf(period.fluidError);
         ASSERT_EQ(period.windows, 2000u);
-        const auto refPeriod = monolithic(5.0, 2000, 1e-4);
-        double ep = 0;
-        for (std::size_t i = 0; i < refPeriod.size(); ++i) ep = std::max(ep, std::abs(period.x0[i] - refPeriod[i]));
+        const double ep = largestDeviation(period, monolithic(5.0, 2000, 1e-4));
         EXPECT_LT(ep, 1e-3 * 0.01) << accelerationName(acc);
         std::cout << "[ info ] tolerance 1e-3, one period: " << double(period.passes) / 2000.0
                   << " passes a window, error " << ep << " m\n";
