@@ -11,6 +11,8 @@
 // The kernel's 4-wide vector helpers are always inlined: the AVX ABI note does not apply.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
+#include "simd_util.hpp"
+
 namespace tq {
 
 Hex8Formulation parseFormulation(const std::string& n) {
@@ -237,19 +239,7 @@ namespace {
 // The one-point kernel is written on short vectors of elements (GCC vector extensions): 2 lanes
 // (SSE2) for the generic x86-64 build, 4 lanes for the AVX2 path, chosen at run time when the CPU
 // has AVX2 and FMA (TQ_SOLID_SIMD=generic forces the generic one).
-typedef Real V2 __attribute__((vector_size(16)));
-typedef Real V4 __attribute__((vector_size(32)));
-
-template <class V>
-inline __attribute__((always_inline)) V loadv(const Real* p) {
-  V v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-template <class V>
-inline __attribute__((always_inline)) void storev(Real* p, V v) {
-  std::memcpy(p, &v, sizeof v);
-}
+// V2, V4, loadv, storev: simd_util.hpp.
 
 /// Block constants of the assumed-strain hourglass stiffness.
 struct HourglassModuli {

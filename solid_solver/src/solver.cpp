@@ -10,6 +10,8 @@
 // The node update's vector helpers are always inlined: the AVX ABI note does not apply.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
+#include "simd_util.hpp"
+
 namespace tq {
 
 namespace {
@@ -30,31 +32,19 @@ struct LeapfrogSums {
   Index nBad = 0;
 };
 
-typedef Real LV2 __attribute__((vector_size(16)));
-typedef Real LV4 __attribute__((vector_size(32)));
 typedef long long LI2 __attribute__((vector_size(16)));
 typedef long long LI4 __attribute__((vector_size(32)));
 
-template <class T>
-inline __attribute__((always_inline)) T ldv(const Real* p) {
-  T x;
-  std::memcpy(&x, p, sizeof x);
-  return x;
-}
-template <class T>
-inline __attribute__((always_inline)) void stv(Real* p, T x) {
-  std::memcpy(p, &x, sizeof x);
-}
 
 // The masses of 4 nodes spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...).
-inline __attribute__((always_inline)) void dofMasses(const Real* m, LV4 out[3]) {
-  const LV4 mv = ldv<LV4>(m);
+inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) {
+  const V4 mv = loadv<V4>(m);
   out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
   out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
   out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
 }
-inline __attribute__((always_inline)) void dofMasses(const Real* m, LV2 out[6]) {
-  const LV2 a = ldv<LV2>(m), b = ldv<LV2>(m + 2);
+inline __attribute__((always_inline)) void dofMasses(const Real* m, V2 out[6]) {
+  const V2 a = loadv<V2>(m), b = loadv<V2>(m + 2);
   out[0] = __builtin_shuffle(a, LI2{0, 0});
   out[1] = a;
   out[2] = __builtin_shuffle(a, LI2{1, 1});
@@ -65,8 +55,8 @@ inline __attribute__((always_inline)) void dofMasses(const Real* m, LV2 out[6]) 
 // The free mask (bytes 0/1) of 4 or 2 dofs as 0.0/1.0 lanes, through a table indexed by the bits
 // (GCC 12 converts byte vectors to doubles one lane at a time).
 struct FreeLut {
-  LV4 v4[16];
-  LV2 v2[4];
+  V4 v4[16];
+  V2 v2[4];
   FreeLut() {
     for (int i = 0; i < 16; ++i)
       for (int l = 0; l < 4; ++l) v4[i][l] = Real((i >> l) & 1);
@@ -75,12 +65,12 @@ struct FreeLut {
   }
 };
 const FreeLut kFreeLut;
-inline __attribute__((always_inline)) LV4 freeLanes(const std::uint8_t* fr, LV4) {
+inline __attribute__((always_inline)) V4 freeLanes(const std::uint8_t* fr, V4) {
   std::uint32_t w;
   std::memcpy(&w, fr, 4);
   return kFreeLut.v4[((w * 0x01020408u) >> 24) & 15];  // byte k (0 or 1) -> bit k
 }
-inline __attribute__((always_inline)) LV2 freeLanes(const std::uint8_t* fr, LV2) {
+inline __attribute__((always_inline)) V2 freeLanes(const std::uint8_t* fr, V2) {
   std::uint16_t w;
   std::memcpy(&w, fr, 2);
   return kFreeLut.v2[((std::uint32_t(w) * 0x0102u) >> 8) & 3];
@@ -96,7 +86,7 @@ inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real*
                                                         const LeapfrogArgs& q, T& ke, T& ext, T& damp, T& bdry,
                                                         T& bad) {
   const T zero = T{} * 0.0, one = zero + 1.0;
-  const T vo = ldv<T>(v), fei = ldv<T>(fe), fii = ldv<T>(fi), fpi = ldv<T>(fprev);
+  const T vo = loadv<T>(v), fei = loadv<T>(fe), fii = loadv<T>(fi), fpi = loadv<T>(fprev);
   const Real dt = q.dt, rdt = 1 / q.dt;
   const auto has = mn > 0;
   const T f = fei - fii;
@@ -116,9 +106,9 @@ inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real*
   damp += has ? wDamp : zero;
   bdry += has ? wBdry : zero;
   const T acc = (vn - vo) * rdt, du = dt * vn;
-  stv(a, has ? acc : zero);
-  stv(u, ldv<T>(u) + (has ? du : zero));
-  stv(v, vn);
+  storev(a, has ? acc : zero);
+  storev(u, loadv<T>(u) + (has ? du : zero));
+  storev(v, vn);
   const T av = vn < 0 ? -vn : vn;
   bad += av <= q.vlim ? zero : one;  // also catches NaN
 }
@@ -145,7 +135,7 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
 #pragma GCC unroll 6
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
-      const V cd = kDash ? ldv<V>(cb + i) : V{};
+      const V cd = kDash ? loadv<V>(cb + i) : V{};
       leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext,
                       damp, bdry, bad);
     }
@@ -168,10 +158,10 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
   return r;
 }
 LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) {
-  return q.cb ? leapfrogBody<LV2, true>(q) : leapfrogBody<LV2, false>(q);
+  return q.cb ? leapfrogBody<V2, true>(q) : leapfrogBody<V2, false>(q);
 }
 __attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) {
-  return q.cb ? leapfrogBody<LV4, true>(q) : leapfrogBody<LV4, false>(q);
+  return q.cb ? leapfrogBody<V4, true>(q) : leapfrogBody<V4, false>(q);
 }
 }  // namespace
 
