@@ -2,26 +2,10 @@
 
 Not a test (CI does not run it); prints a markdown table for docs/benchmarks.md.
 
-Problem (written by ``tq-solid-bench --column P --dt DT --write-ccx deck.inp``, so both codes get
-the same nodes, elements, loads and step): an n x n x n box of 1 m hex8 elements, E = 8 GPa,
-nu = 0.27, rho = 2700 kg/m^3; base on rollers (u_z = 0), sides on rollers (u_x = 0 on the x
-faces, u_y = 0 on the y faces), a step pressure P on the top as nodal forces P A/4 per quad
-corner, starting from rest, a fixed step DT for N increments. tq-solid runs its one-point
-assumed-strain hex8; CalculiX 2.20 (Debian's calculix-ccx) runs C3D8R under
-``*DYNAMIC, EXPLICIT, DIRECT`` with minimum = maximum increment = DT.
-
-Physics cross-check: the model is a constrained 1D column, so before the wave reflected at the
-base returns (t < 2 H / c_p) the top moves as u_z = -P t / (rho c_p) (a step load on a half
-space); each code's top-centre u_z after N increments is compared with that and with the other
-code. Tolerance 2 % (the discrete wave front rings about the continuous one; both codes see
-the same ringing to the extent that their time integrators agree).
-
-Timing: tq-solid-bench's own clock over the N steps (µs per element-step). CalculiX's wall time
-includes reading the deck and building the model, so it is run with N and with N/10 increments
-and the difference is divided by the element-increments in between. The codes alternate
-(--repeat rounds), medians. Both on 1 thread (OMP_NUM_THREADS=1, and CalculiX's own CCX_NPROC_* /
-NUMBER_OF_CPUS variables set to 1). The comparison itself is tunnelquake.bench_calculix, which
-`tunnelquake bench --peer` also runs (into docs/benchmarks.md's generated solid section).
+The problem (the same deck for both codes, written by ``tq-solid-bench --write-ccx``), the physics
+cross-check (u_z = -P t / (rho c_p) before the reflection, tolerance 2 %) and the timing method are
+described in, and run by, tunnelquake.bench_calculix, which `tunnelquake bench --peer` also runs
+(into docs/benchmarks.md's generated solid section).
 
 Usage (from the repository root):
   TQ_BUILD_DIR=/tmp/build-perf .venv/bin/python tests/verification/solid_benchmark/calculix_compare.py \
