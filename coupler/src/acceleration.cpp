@@ -65,13 +65,20 @@ void Aitken::next(const std::vector<double>& x, const std::vector<double>& xt,
     rPrev_ = std::move(r);
 }
 
-IqnIls::IqnIls(double w0, double eps) : omega0_(w0), eps_(eps) {
+IqnIls::IqnIls(double w0, double eps, int reuse) : omega0_(w0), eps_(eps), reuse_(reuse) {
     if (!(w0 > 0 && w0 <= 1)) throw ConfigError("IQN-ILS initial relaxation must be in (0, 1]");
+    if (reuse < 0) throw ConfigError("IQN-ILS reuse must be >= 0 windows");
+}
+void IqnIls::dropOldest() {
+    dr_.erase(dr_.begin());
+    dxt_.erase(dxt_.begin());
+    colWindow_.erase(colWindow_.begin());
 }
 void IqnIls::startWindow() {
     first_ = true;
-    dr_.clear();
-    dxt_.clear();
+    ++window_;
+    // Keep the columns of the last reuse_ windows (none: a fresh start each window).
+    while (!dr_.empty() && colWindow_.front() + std::uint64_t(reuse_) < window_) dropOldest();
 }
 void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
                   std::vector<double>& out) {
@@ -88,15 +95,14 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
         }
         dr_.push_back(std::move(a));
         dxt_.push_back(std::move(b));
-        if (dr_.size() > n) {  // never more columns than unknowns
-            dr_.erase(dr_.begin());
-            dxt_.erase(dxt_.begin());
-        }
+        colWindow_.push_back(window_);
+        if (dr_.size() > n) dropOldest();  // never more columns than unknowns
     }
     rPrev_ = r;
     xtPrev_ = xt;
-    if (first_ || dr_.empty()) {
-        first_ = false;
+    const bool fresh = first_ && reuse_ == 0;
+    first_ = false;
+    if (fresh || dr_.empty()) {
         for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
         return;
     }
@@ -114,8 +120,7 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
         for (Eigen::Index j = 0; ok && j < m; ++j)
             if (std::abs(R(j, j)) < eps_ * scale) ok = false;
         if (!ok) {
-            dr_.erase(dr_.begin());
-            dxt_.erase(dxt_.begin());
+            dropOldest();
             if (dr_.empty()) {
                 for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
                 return;
@@ -132,12 +137,12 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
     }
 }
 
-std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind k, double w0) {
+std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind k, double w0, int reuse) {
     switch (k) {
         case AccelerationKind::None: return std::make_unique<NoAcceleration>();
         case AccelerationKind::Constant: return std::make_unique<ConstantRelaxation>(w0);
         case AccelerationKind::Aitken: return std::make_unique<Aitken>(w0);
-        case AccelerationKind::IqnIls: return std::make_unique<IqnIls>(w0);
+        case AccelerationKind::IqnIls: return std::make_unique<IqnIls>(w0, 1e-10, reuse);
     }
     throw ConfigError("unknown acceleration");
 }

@@ -78,6 +78,10 @@ void CouplingConfig::validate() const {
     }
     if (!(initialRelaxation > 0 && initialRelaxation <= 1))
         bad("initial relaxation must be in (0, 1], got " + std::to_string(initialRelaxation));
+    if (reuse < 0 || reuse > 1000) bad("reuse must be 0 to 1000 windows, got " + std::to_string(reuse));
+    if (reuse > 0 && (scheme != SchemeKind::Implicit || acceleration != AccelerationKind::IqnIls))
+        bad("reuse " + std::to_string(reuse) + " keeps IQN-ILS columns: it needs scheme implicit and "
+            "acceleration iqn-ils; use reuse 0");
     std::set<std::string> names;
     for (const auto& m : meshes) {
         if (m.name.empty()) bad("a mesh without a name");
@@ -141,6 +145,7 @@ std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b
          std::string(accelerationName(b.acceleration)));
     diff("initial relaxation", a.initialRelaxation, b.initialRelaxation);
     diff("predictor", std::string(predictorName(a.predictor)), std::string(predictorName(b.predictor)));
+    diff("reuse (windows)", a.reuse, b.reuse);
     diff("number of meshes", a.meshes.size(), b.meshes.size());
     for (std::size_t i = 0; i < std::min(a.meshes.size(), b.meshes.size()); ++i) {
         const auto &x = a.meshes[i], &y = b.meshes[i];

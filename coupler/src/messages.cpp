@@ -22,6 +22,7 @@ void encodeConfig(Writer& w, const CouplingConfig& c) {
     w.u8(std::uint8_t(c.acceleration));
     w.f64(c.initialRelaxation);
     w.u8(std::uint8_t(c.predictor));
+    w.u32(std::uint32_t(c.reuse));
     w.u32(std::uint32_t(c.meshes.size()));
     for (const auto& m : c.meshes) {
         w.str(m.name);
@@ -59,6 +60,9 @@ CouplingConfig decodeConfig(Reader& r) {
     c.acceleration = AccelerationKind(enumValue(r, 3, "acceleration"));
     c.initialRelaxation = r.f64();
     c.predictor = PredictorKind(enumValue(r, 1, "predictor"));
+    const std::uint32_t reuse = r.u32();
+    if (reuse > 1000) r.fail("reuse " + std::to_string(reuse) + " above the limit 1000");
+    c.reuse = int(reuse);
     const std::uint32_t nm = r.u32();
     if (nm > 1024) r.fail("mesh count " + std::to_string(nm) + " above the limit 1024");
     for (std::uint32_t i = 0; i < nm; ++i) {

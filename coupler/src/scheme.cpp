@@ -178,7 +178,7 @@ std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::s
         case SchemeKind::Implicit:
             return std::make_unique<SerialImplicit>(
                 c, amFirst, c.maxIterations, true,
-                makeAcceleration(c.acceleration, c.initialRelaxation));
+                makeAcceleration(c.acceleration, c.initialRelaxation, c.reuse));
     }
     throw ConfigError("unknown coupling scheme");
 }

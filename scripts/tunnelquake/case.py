@@ -106,10 +106,13 @@ def _check_coupling(c, path, raw, ctx):
         ctx.error(f"{path}.predictor", c["predictor"], f"the linear predictor starts the iterations of the implicit "
                   f"scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
                   raw.key_lines.get("predictor"))
-    if c["window"] > 1 and c["scheme"] != "explicit":
-        ctx.error(f"{path}.window", c["window"], f"a window of several solid steps needs scheme explicit (the "
-                  f"{c['scheme']} scheme repeats each window, which tq-solid does for windows of one step only)",
-                  "use scheme: explicit with this window, or window: 1", raw.key_lines.get("window"))
+    if c.get("reuse", 0) and (c["scheme"] != "implicit" or c["acceleration"] != "iqn-ils"):
+        ctx.error(f"{path}.reuse", c["reuse"], "reuse keeps IQN-ILS columns from earlier windows",
+                  "use scheme: implicit with acceleration: iqn-ils, or reuse: 0", raw.key_lines.get("reuse"))
+    if c["window"] > 1 and c["scheme"] == "paper":
+        ctx.error(f"{path}.window", c["window"], "a window of several solid steps needs scheme explicit or implicit "
+                  "(the paper scheme's two passes are made for one-step windows)",
+                  "use scheme: implicit with this window, or window: 1", raw.key_lines.get("window"))
 
 
 def _check_stages(s, path, raw, ctx):
@@ -250,10 +253,15 @@ def schema() -> Section:
                              doc="explicit: one exchange a window (staggered); paper: the paper's predictor-"
                                  "corrector, two passes; implicit: iterated to the tolerance (docs/coupler.md)"),
             "window": Number(integer=True, min=1, default=1,
-                             doc="solid steps per coupling window (one water step); k > 1 needs scheme explicit"),
+                             doc="solid steps per coupling window (one water step); implicit: the window is stepped "
+                                 "again whole until the water agrees; k > 1 is refused for scheme paper"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
             "max_iterations": Number(integer=True, min=1, default=20),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
+            "reuse": Number(integer=True, min=0, max=1000, default=0,
+                            doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "
+                                "a window's first correction is a quasi-Newton step (docs/coupler.md "
+                                "\"Windows of several steps\"); 0: each window starts afresh"),
             "predictor": Choice(choices=("auto", "constant", "linear"), default="auto",
                                 doc="implicit scheme: the force a window starts from — constant: the last "
                                     "window's; linear: 2 R_w - R_(w-1), so a window whose first answer agrees "

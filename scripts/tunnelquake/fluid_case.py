@@ -90,6 +90,7 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "acceleration": cs["acceleration"],
         "initial_relaxation": 0.5,
         "predictor": coupling_predictor(cs),
+        "reuse": int(cs.get("reuse", 0)),
         "transport": cs["transport"],
         "address_file": str(address_file),
         "token": token,
@@ -114,6 +115,8 @@ def solid_coupling_attrs(s: dict) -> dict:
     out["write_fields"] = ",".join(s["write_fields"])
     if s.get("predictor", "constant") != "constant":  # absent = constant (inputs made before the predictor)
         out["predictor"] = s["predictor"]
+    if s.get("reuse", 0):  # absent = 0
+        out["reuse"] = int(s["reuse"])
     out.update({f"absolute_tolerance_{k}": float(v) for k, v in s["absolute_tolerance"].items()})
     return out
 
@@ -124,9 +127,9 @@ def exchange_dict(s: dict) -> str:
     if s["transport"] != "tcp":
         raise FluidCaseError(f"coupling.transport {s['transport']!r}: the OpenFOAM side speaks tcp only "
                              "(docs/water.md §11); use transport: tcp")
-    if s["window"] != 1 and s["scheme"] != "explicit":
-        raise FluidCaseError(f"coupling.window = {s['window']} solid steps needs scheme explicit (the "
-                             f"{s['scheme']} scheme repeats windows of one solid step); use window: 1")
+    if s["window"] != 1 and s["scheme"] == "paper":
+        raise FluidCaseError(f"coupling.window = {s['window']} solid steps needs scheme explicit or implicit (the "
+                             "paper scheme's two passes are made for one-step windows); use window: 1")
     reads = " ".join(s["write_fields"])
     atol = " ".join(f"{k} {v!r};" for k, v in s["absolute_tolerance"].items())
     return f"""exchange
@@ -147,6 +150,7 @@ def exchange_dict(s: dict) -> str:
             acceleration    {s['acceleration']};
             initialRelaxation {s['initial_relaxation']!r};
             predictor       {s['predictor']};
+            reuse           {s.get('reuse', 0)};
             absoluteTolerance {{ {atol} }}
             mesh            {s['mesh']};
             map             {s['map']};

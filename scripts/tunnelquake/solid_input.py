@@ -209,9 +209,10 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             if cs["scheme"] not in COUPLING_SCHEMES:
                 raise SolidInputError(f"coupling.scheme {cs['scheme']!r} is not available in tq-solid's adapter "
                                       f"(it runs {', '.join(COUPLING_SCHEMES)}); choose implicit or paper")
-            if int(cs["window"]) > 1 and cs["scheme"] != "explicit":
-                raise SolidInputError(f"coupling.window = {cs['window']} solid steps needs scheme explicit (the "
-                                      f"{cs['scheme']} scheme repeats windows of one solid step); use window: 1")
+            if int(cs["window"]) > 1 and cs["scheme"] == "paper":
+                raise SolidInputError(f"coupling.window = {cs['window']} solid steps needs scheme explicit or "
+                                      "implicit (the paper scheme's two passes are made for one-step windows); "
+                                      "use window: 1")
             c = f.create_group("coupling")
             c.attrs["scheme"] = cs["scheme"]
             c.attrs["window"] = int(cs["window"])
@@ -220,6 +221,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             c.attrs["acceleration"] = cs["acceleration"]
             if coupling_predictor(cs) != "constant":  # absent = constant
                 c.attrs["predictor"] = coupling_predictor(cs)
+            if int(cs.get("reuse", 0)):  # absent = 0
+                c.attrs["reuse"] = int(cs["reuse"])
             c.attrs["transport"] = cs["transport"]
             c.attrs["timeout"] = float(cs["timeout"])
             c.attrs["address_file"] = str(coupling_address)

@@ -744,4 +744,12 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   return total;
 }
 
+void ElementBlock::checkpoint(StateArchive& a) {
+  for (auto& s : stress_) a.io(s);
+  for (auto& s : strain_) a.io(s);
+  for (auto& h : history_) a.io(h);  // same size back: historyPtr_ stays valid
+  a.io(energyShift_);
+  a.io(chunkEnergy_);
+}
+
 }  // namespace tq

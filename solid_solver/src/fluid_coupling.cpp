@@ -78,11 +78,18 @@ struct FluidCoupling::Impl {
   Real window = 0, dtPrev = 0;
   long long windows = 0;
   Index stepInWindow = 0;
+  // Implicit windows of k > 1 steps (repeated whole): the force at the window's start F_w, the
+  // pass being stepped, and the repeat request for the time loop.
+  bool repeats = false;
+  std::vector<Real> forceStart;      // [3n]
+  long long pass = 0;
+  bool repeat = false;
   Real work = 0;
   // Work the fluid received from the wall, from the exchanged data (issue 6 item 3): the final
   // force of each window (the fluid's own last answer) on the motion the fluid was sent.
   std::vector<Real> sent1, sent2;  // [3n] displacement sent one / two windows ago
   std::vector<Real> recvPrev;      // [3n] final force of the last window
+  std::vector<Real> lagPrev;       // [3n] u − u0 one step before the last window's end (windows of k steps)
   Real fluidReceived = 0;
   FluidCouplingStats stats;
   // How the link ended (CouplingMpi::finish): the handshake took place; the fluid fell silent.
@@ -168,6 +175,26 @@ struct FluidCoupling::Impl {
     sent1 = disp;
   }
 
+  /// The same for an implicit window of k steps, paired as the solver pairs its own booking: the
+  /// solver books ½(F^n + F^{n−1})·(u^n − u^{n−1}) with F^n the force of the step n → n+1, i.e. the
+  /// water's force at t_{n+1} against the motion one step earlier. Pairing the window's forces with
+  /// the window-end motion instead would leave a drift ∝ (k − 1) steps × ∫ R·a (the added mass
+  /// m_a ∫a² dt) that is an artefact of the bookkeeping, not of the exchange. `st` holds u^n of the
+  /// window's last step (one step before its end); for k = 1 this is bookReceivedWork().
+  void bookReceivedWorkWindow(const NodalState& st) {
+    const Real* u = st.uData();
+    Real wf = 0;
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        const Real lag = u[3 * size_t(nodes[k]) + size_t(d)] - u0[j];
+        wf -= 0.5 * (received[j] + recvPrev[j]) * (lag - lagPrev[j]);
+        lagPrev[j] = lag;
+      }
+    fluidReceived += wf;
+    recvPrev = received;
+  }
+
   void write() {
     for (const auto& name : in.writeFields)
       p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
@@ -193,9 +220,11 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.disp.assign(n3, 0.0);
   I.vel.assign(n3, 0.0);
   I.dispStart.assign(n3, 0.0);
+  I.forceStart.assign(n3, 0.0);
   I.sent1.assign(n3, 0.0);
   I.sent2.assign(n3, 0.0);
   I.recvPrev.assign(n3, 0.0);
+  I.lagPrev.assign(n3, 0.0);
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
 
@@ -213,6 +242,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   c.maxIterations = int(in.maxIterations);
   c.tolerance = in.tolerance;
   c.initialRelaxation = in.initialRelaxation;
+  c.reuse = int(in.reuse);
   cp::TransportOptions t;
   try {
     c.scheme = cp::parseScheme(in.scheme);
@@ -228,6 +258,11 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
     throw InputError(std::string("/coupling: ") + e.what());
   }
   I.scheme = c.scheme;
+  I.repeats = in.windowSteps > 1 && c.scheme == cp::SchemeKind::Implicit;
+  if (in.windowSteps > 1 && c.scheme == cp::SchemeKind::Paper)
+    throw InputError("/coupling: a window of " + std::to_string(in.windowSteps) +
+                     " solid steps needs scheme explicit or implicit (the paper scheme's two passes are "
+                     "made for one-step windows); use window 1");
   t.kind = in.transport == "mpi" ? cp::TransportKind::Mpi : cp::TransportKind::Tcp;
   t.addressFile = in.addressFile;
   t.receiveTimeout = in.timeout;
@@ -264,6 +299,7 @@ void FluidCoupling::initialize() {
     I.p->initialize();
     I.p->readData(I.in.mesh, "force", I.received);
     I.receivedPrev = I.received;  // R_{−1} of the linear predictor: window 0 starts from the initial force
+    I.recvPrev = I.received;      // R_0 of the work booking (its first increment is zero for k = 1)
   } catch (const cp::CouplerError& e) {
     I.fail("could not start the coupling with '" + I.in.partner + "'", e);
   }
@@ -305,7 +341,52 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = threadCpu();
   try {
-    if (++I.stepInWindow < I.in.windowSteps) {
+    if (I.repeats) {
+      // Implicit window of k steps, repeated whole until the water and the solid agree. Step j
+      // applies F_w + (j/k)(F̃ − F_w): F_w the force at the window's start, F̃ the window-end force
+      // of this pass (the predictor's, then the water's answers); the last step predicts the
+      // interface's motion with F̃ and exchanges (docs/coupler.md "Windows of several steps").
+      const Index k = I.in.windowSteps;
+      if (++I.stepInWindow == 1) {
+        I.markWindowStart(st);
+        I.repeat = false;
+        if (I.pass == 0) {  // a new window: F_w, and the pass-0 force as for one-step windows
+          I.forceStart = I.stats.windows > 0 ? I.force : I.receivedPrev;
+          I.trial = I.received;
+          if (I.in.predictor == "linear") {
+            if (I.stats.windows > 0)
+              for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.force[j] - I.receivedPrev[j];
+            else
+              I.trial = I.receivedPrev;
+            I.receivedPrev = I.stats.windows > 0 ? I.force : I.receivedPrev;
+          }
+        }
+      }
+      if (I.stepInWindow < k) {
+        const Real w = Real(I.stepInWindow) / Real(k);
+        for (size_t j = 0; j < n3; ++j) I.force[j] = I.forceStart[j] + w * (I.trial[j] - I.forceStart[j]);
+        I.p->advance(dt);
+      } else {
+        I.stepInWindow = 0;
+        I.predict(dt, st, I.trial);
+        I.windowMeanVelocity();
+        I.write();
+        I.p->advance(dt);
+        ++I.pass;
+        I.p->readData(I.in.mesh, "force", I.received);
+        I.force = I.trial;  // this step's force (the motion the water was sent)
+        if (I.p->requiresReadingCheckpoint()) {
+          I.trial = I.received;  // the next pass steps the window again with the water's answer
+          I.repeat = true;
+        } else {
+          I.bookReceivedWorkWindow(st);
+          ++I.stats.windows;
+          I.stats.passes += I.pass;
+          I.stats.maxPasses = std::max(I.stats.maxPasses, I.pass);
+          I.pass = 0;
+        }
+      }
+    } else if (++I.stepInWindow < I.in.windowSteps) {
       // Inside a window of k steps (explicit scheme): the last force is held; time moves on.
       if (I.stepInWindow == 1) I.markWindowStart(st);
       I.force = I.received;
@@ -378,6 +459,23 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.work += w;
   I.prev = I.force;
   I.dtPrev = dt;
+}
+
+void FluidCoupling::checkpoint(StateArchive& a) {
+  Impl& I = *impl_;
+  a.io(I.force);
+  a.io(I.prev);
+  a.io(I.work);
+  a.io(I.dtPrev);
+  a.io(I.stepInWindow);
+}
+
+bool FluidCoupling::repeatsWindows() const { return impl_->repeats; }
+bool FluidCoupling::windowOpen() const { return impl_->stepInWindow != 0; }
+bool FluidCoupling::takeRepeat() {
+  const bool r = impl_->repeat;
+  impl_->repeat = false;
+  return r;
 }
 
 bool FluidCoupling::ongoing() const { return impl_->p && impl_->initialized && impl_->p->isCouplingOngoing(); }

@@ -263,7 +263,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     auto g = h5::openGroup(f, "/coupling");
     const std::string w = "/coupling";
     onlyKeys(c, g, w, {"scheme", "window", "window_size", "windows", "tolerance", "max_iterations", "acceleration",
-                       "initial_relaxation", "predictor", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
+                       "initial_relaxation", "predictor", "reuse", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
                        "absolute_tolerance_force"});
@@ -292,6 +292,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     else if (C.predictor != "constant" && C.scheme != "implicit")
       c.fail(w, "predictor " + C.predictor + " needs scheme implicit (the " + C.scheme +
                     " scheme has no iterations to start); use predictor constant");
+    C.reuse = Index(number(c, g, w, "reuse", 0, 0));
+    if (C.reuse > 0 && (C.scheme != "implicit" || C.acceleration != "iqn-ils"))
+      c.fail(w, "reuse " + std::to_string(C.reuse) + " keeps IQN-ILS columns: it needs scheme implicit and "
+                "acceleration iqn-ils; use reuse 0");
     C.transport = text(c, g, w, "transport", C.transport);
     if (C.transport != "tcp" && C.transport != "mpi") c.fail(w, "transport '" + C.transport + "' is not tcp or mpi");
     C.addressFile = text(c, g, w, "address_file", "");
@@ -315,9 +319,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     if (C.writeFields.empty()) c.fail(w, "write_fields is empty (give velocity, displacement or both)");
     C.participant = text(c, g, w, "participant", C.participant);
     C.partner = text(c, g, w, "partner", C.partner);
-    if (C.windowSteps > 1 && C.scheme != "explicit")
-      c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit (the " + C.scheme +
-                    " scheme repeats a window, which the solid can only do for a window of one step); use window 1");
+    if (C.windowSteps > 1 && C.scheme == "paper")
+      c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
+                "paper scheme's two passes are made for one-step windows); use window 1");
     if (!S.stages.has("seismic"))
       c.fail(w, "the coupling runs in the seismic stage, which /stages sequence does not have");
     in.requiredFaces.push_back(C.face);
@@ -398,6 +402,7 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
     h5::writeStringAttr(g, "predictor", C.predictor);
+    if (C.reuse > 0) h5::writeIntAttr(g, "reuse", C.reuse);
     h5::writeStringAttr(g, "transport", C.transport);
     h5::writeStringAttr(g, "address_file", C.addressFile);
     h5::writeStringAttr(g, "token", C.token);

@@ -518,6 +518,28 @@ void Solver::step() {
   ++step_;
 }
 
+void Solver::checkpoint(StateArchive& a) {
+  state_.checkpoint(a);
+  a.io(fExtPrev_);
+  a.io(t_);
+  a.io(dtLast_);
+  a.io(step_);
+  a.io(energy_);
+  a.io(stressWork_);
+  a.io(storedEnergy_);
+  a.io(dampWork_);
+  a.io(bdryWork_);
+  a.io(extWork_);
+  a.io(balance0_);
+  a.io(balanceSet_);
+  a.io(interface0_);
+  a.io(plastic0_);
+  a.io(boundary0_);
+  a.io(alphaRelax_);
+  for (auto& b : blocks_) b->checkpoint(a);
+  for (auto& c : contributors_) c->checkpoint(a);
+}
+
 void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
   while (t_ < tEnd - 1e-9 * dt_) {
     step();

@@ -56,7 +56,7 @@ def test_crc_and_header_layout():
     assert P.crc32(b"123456789") == 0xCBF43926
     m = P.frame(P.MessageType.DATA, 0x0102030405060708, b"\x01\x02\x03\x04\x05")
     assert m[:4] == b"TQCP" and len(m) == 37
-    assert struct.unpack_from("<HHQQ", m, 4) == (2, 10, 0x0102030405060708, 5)
+    assert struct.unpack_from("<HHQQ", m, 4) == (3, 10, 0x0102030405060708, 5)
 
 
 def test_every_truncation_of_a_hello_is_refused():

@@ -309,6 +309,7 @@ void Foam::tq::couplerExchange::initialize
         c.tolerance = dict_.lookupOrDefault<scalar>("tolerance", 1e-4);
         c.initialRelaxation =
             dict_.lookupOrDefault<scalar>("initialRelaxation", 0.5);
+        c.reuse = dict_.lookupOrDefault<label>("reuse", 0);
 
         ::tq::coupler::TransportOptions t;
         try

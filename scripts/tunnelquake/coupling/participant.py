@@ -99,13 +99,26 @@ class Aitken(Acceleration):
 
 
 class IqnIls(Acceleration):
-    def __init__(self, omega0: float, eps: float = 1e-10):
-        self.omega0, self.eps = omega0, eps
-        self.start_window()
+    """IQN-ILS; with reuse > 0 the columns of the last `reuse` windows are kept (IQN-ILS(reuse)), as in
+    coupler/src/acceleration.cpp."""
 
-    def start_window(self):
+    def __init__(self, omega0: float, eps: float = 1e-10, reuse: int = 0):
+        self.omega0, self.eps, self.reuse = omega0, eps, reuse
         self.dr: list[np.ndarray] = []
         self.dxt: list[np.ndarray] = []
+        self.col_window: list[int] = []
+        self.window = 0
+        self.start_window()
+
+    def _drop_oldest(self):
+        self.dr.pop(0)
+        self.dxt.pop(0)
+        self.col_window.pop(0)
+
+    def start_window(self):
+        self.window += 1
+        while self.dr and self.col_window[0] + self.reuse < self.window:
+            self._drop_oldest()
         self.r_prev = None
         self.xt_prev = None
 
@@ -114,24 +127,25 @@ class IqnIls(Acceleration):
         if self.r_prev is not None:
             self.dr.append(r - self.r_prev)
             self.dxt.append(xt - self.xt_prev)
+            self.col_window.append(self.window)
             if len(self.dr) > len(x):
-                self.dr.pop(0)
-                self.dxt.pop(0)
-        first = self.r_prev is None
+                self._drop_oldest()
+        fresh = self.r_prev is None and self.reuse == 0
         self.r_prev, self.xt_prev = r, xt.copy()
-        while not first and self.dr:
+        while not fresh and self.dr:
             V = np.column_stack(self.dr)
             q, R = np.linalg.qr(V)
             if np.all(np.abs(np.diag(R)) >= self.eps * np.linalg.norm(V)) and np.linalg.norm(V) > 0:
                 alpha = np.linalg.solve(R, -(q.T @ r))
                 return xt + np.column_stack(self.dxt) @ alpha
-            self.dr.pop(0)
-            self.dxt.pop(0)
+            self._drop_oldest()
         return x + self.omega0 * r
 
 
-def make_acceleration(kind: str, omega0: float) -> Acceleration:
-    return {"none": NoAcceleration, "constant": ConstantRelaxation, "aitken": Aitken, "iqn-ils": IqnIls}[kind](
+def make_acceleration(kind: str, omega0: float, reuse: int = 0) -> Acceleration:
+    if kind == "iqn-ils":
+        return IqnIls(omega0, reuse=reuse)
+    return {"none": NoAcceleration, "constant": ConstantRelaxation, "aitken": Aitken}[kind](
         *(() if kind == "none" else (omega0,))
     )
 
@@ -256,7 +270,7 @@ class Participant:
         self.exchanges = 0
         self._mpi_world = None
         acc = config.acceleration if config.scheme == "implicit" else "none"
-        self.acc = make_acceleration(acc, config.initial_relaxation)
+        self.acc = make_acceleration(acc, config.initial_relaxation, config.reuse)
         self.max_passes = {"explicit": 1, "paper": 2, "implicit": config.max_iterations}[config.scheme]
         self.test_convergence = config.scheme == "implicit"
 
@@ -280,7 +294,7 @@ class Participant:
             out.append(f"it expects to couple with '{h.partner}', this is '{self.name}'")
         a, b = self.config, h.config
         for key in ("units", "first", "second", "scheme", "window_size", "max_windows", "max_iterations",
-                    "tolerance", "acceleration", "initial_relaxation", "predictor"):
+                    "tolerance", "acceleration", "initial_relaxation", "predictor", "reuse"):
             if getattr(a, key) != getattr(b, key):
                 out.append(f"{key.replace('_', ' ')}: here {getattr(a, key)!r}, '{self.partner}' has {getattr(b, key)!r}")
         if len(a.meshes) != len(b.meshes):

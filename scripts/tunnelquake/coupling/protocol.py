@@ -13,7 +13,7 @@ Every message is a 32-byte header and a payload, little-endian, floats IEEE-754 
     28     4   CRC-32 of header bytes 0..27
 
 Byte compatibility with the C++ library is checked by both test suites against the shared
-vectors in tests/data/coupler/vectors_v2.txt (made by :func:`write_test_vectors`).
+vectors in tests/data/coupler/vectors_v3.txt (made by :func:`write_test_vectors`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 MAGIC = b"TQCP"
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 HEADER_SIZE = 32
 MAX_HANDSHAKE_PAYLOAD = 1 << 30
 MAX_STRING = 1 << 16
@@ -321,6 +321,7 @@ class CouplingConfig:
     meshes: list[MeshSpec] = field(default_factory=list)
     fields: list[FieldSpec] = field(default_factory=list)
     predictor: str = "constant"  # implicit: first iterate of a window, constant | linear (version 2)
+    reuse: int = 0  # IQN-ILS: windows whose secant columns are kept (version 3)
 
     def mapping_side_of(self, m: MeshSpec) -> str:
         return m.mapping_side or self.first
@@ -357,6 +358,11 @@ class CouplingConfig:
         if self.predictor != "constant" and self.scheme != "implicit":
             bad(f"predictor {self.predictor} needs the implicit scheme (the {self.scheme} scheme has no iterations "
                 "to start); use predictor constant")
+        if not (0 <= self.reuse <= 1000):
+            bad(f"reuse must be 0 to 1000 windows, got {self.reuse}")
+        if self.reuse > 0 and (self.scheme != "implicit" or self.acceleration != "iqn-ils"):
+            bad(f"reuse {self.reuse} keeps IQN-ILS columns: it needs scheme implicit and acceleration iqn-ils; "
+                "use reuse 0")
         names = set()
         for m in self.meshes:
             if m.name in names:
@@ -442,6 +448,7 @@ def _encode_config(w: Writer, c: CouplingConfig) -> None:
     w.u8(ACCELERATIONS.index(c.acceleration))
     w.f64(c.initial_relaxation)
     w.u8(PREDICTORS.index(c.predictor))
+    w.u32(c.reuse)
     w.u32(len(c.meshes))
     for m in c.meshes:
         w.str(m.name)
@@ -465,6 +472,9 @@ def _decode_config(r: Reader) -> CouplingConfig:
     acc = r.enum(ACCELERATIONS, "acceleration")
     relax = r.f64()
     pred = r.enum(PREDICTORS, "predictor")
+    reuse = r.u32()
+    if reuse > 1000:
+        r.fail(f"reuse {reuse} above the limit 1000")
     nm = r.u32()
     if nm > 1024:
         r.fail(f"mesh count {nm} above the limit 1024")
@@ -474,7 +484,8 @@ def _decode_config(r: Reader) -> CouplingConfig:
         r.fail(f"field count {nf} above the limit 4096")
     fields = [FieldSpec(r.str(), r.str(), r.u32(), r.str(), r.enum(CONSTRAINTS, "map constraint"), r.f64())
               for _ in range(nf)]
-    return CouplingConfig(first, second, window, maxw, units, scheme, maxit, tol, acc, relax, meshes, fields, pred)
+    return CouplingConfig(first, second, window, maxw, units, scheme, maxit, tol, acc, relax, meshes, fields, pred,
+                          int(reuse))
 
 
 def encode_hello(h: Hello) -> bytes:
@@ -587,7 +598,7 @@ def decode_message(msg: bytes):
 
 
 # ----------------------------------------------------------------------------- test vectors
-VECTOR_FILE = "vectors_v2.txt"
+VECTOR_FILE = "vectors_v3.txt"
 
 
 def sample_config() -> CouplingConfig:
@@ -599,9 +610,10 @@ def sample_config() -> CouplingConfig:
         scheme="implicit",
         max_iterations=20,
         tolerance=1e-4,
-        acceleration="aitken",
+        acceleration="iqn-ils",
         initial_relaxation=0.5,
         predictor="linear",
+        reuse=8,
         meshes=[MeshSpec("wall", "coincident", "solid", 1e-6)],
         fields=[
             FieldSpec("wall", "velocity", 3, "solid", "consistent", 1e-9),
@@ -682,7 +694,7 @@ def malformed_messages() -> list[tuple[str, str, bytes]]:
 
 
 def write_test_vectors(directory: str | Path) -> Path:
-    """Writes tests/data/coupler/vectors_v2.txt: `name expect hex` lines."""
+    """Writes tests/data/coupler/vectors_v3.txt: `name expect hex` lines."""
     out = Path(directory) / VECTOR_FILE
     lines = [
         f"# TunnelQuake coupler protocol v{PROTOCOL_VERSION} test vectors: name, expected outcome (ok or the fault), message hex.",

@@ -86,8 +86,9 @@ class Ring:
     water_layers: int = 0  # cell layers from the core square to the wall (0: n_around / 8)
     # the coupling (case section `coupling`)
     scheme: str = "explicit"
-    window: int = 1  # solid steps per coupling window (k > 1: explicit only)
+    window: int = 1  # solid steps per coupling window (k > 1: explicit, or implicit: the window is repeated whole)
     acceleration: str = "iqn-ils"
+    reuse: int = 0  # implicit iqn-ils: earlier windows whose secant columns are kept (case coupling.reuse)
     tolerance: float = 1e-4
     max_iterations: int = 20
     timeout: float = 60.0
@@ -114,8 +115,12 @@ class Ring:
             raise RingError(f"water model {self.model!r} is not compressible or incompressible")
         if self.scheme not in SCHEMES:
             raise RingError(f"scheme {self.scheme!r} is not one of {', '.join(SCHEMES)}")
-        if self.window > 1 and self.scheme != "explicit":
-            raise RingError(f"a window of {self.window} solid steps needs scheme explicit (docs/coupler.md)")
+        if self.window > 1 and self.scheme == "paper":
+            raise RingError(f"a window of {self.window} solid steps needs scheme explicit or implicit "
+                            "(docs/coupler.md)")
+        if self.reuse < 0 or (self.reuse > 0 and (self.scheme != "implicit" or self.acceleration != "iqn-ils")):
+            raise RingError(f"reuse {self.reuse} keeps IQN-ILS columns of earlier windows: it needs scheme implicit "
+                            "and acceleration iqn-ils (and is >= 0); use reuse 0")
 
     @property
     def r_inner(self) -> float:
@@ -399,7 +404,7 @@ def _fake_case(ring: Ring) -> SimpleNamespace:
         "ground_motion": {"pga": None},
         "coupling": {"scheme": ring.scheme, "window": ring.window, "tolerance": ring.tolerance,
                      "max_iterations": ring.max_iterations, "acceleration": ring.acceleration,
-                     "transport": "tcp", "timeout": ring.timeout},
+                     "reuse": ring.reuse, "transport": "tcp", "timeout": ring.timeout},
         "time": {"end_time": None},
     })
 
@@ -681,6 +686,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--scheme", choices=SCHEMES, default="explicit")
     r.add_argument("--acceleration", default="iqn-ils", choices=("none", "constant", "aitken", "iqn-ils"))
     r.add_argument("--window", type=int, default=1)
+    r.add_argument("--reuse", type=int, default=0, help="implicit iqn-ils: windows whose secant columns are kept")
     r.add_argument("--tolerance", type=float, default=Ring.tolerance)
     r.add_argument("--max-iterations", type=int, default=Ring.max_iterations)
     r.add_argument("--t-end", type=float, default=0.0)
@@ -709,7 +715,8 @@ def main(argv: list[str] | None = None) -> int:
     base = Ring(n_around=a.n_around, n_through=a.n_through, length=a.length, periods=a.periods, timeout=a.timeout)
     if a.cmd == "run":
         ring = replace(base, water=a.water, mode=a.mode, n_axial=a.n_axial, ends=a.ends, model=a.model, rho_f=a.rho_f,
-                       scheme=a.scheme, acceleration=a.acceleration, window=a.window, tolerance=a.tolerance,
+                       scheme=a.scheme, acceleration=a.acceleration, window=a.window, reuse=a.reuse,
+                       tolerance=a.tolerance,
                        max_iterations=a.max_iterations, t_end=a.t_end)
         res = run_ring(ring, a.folder)
         print(_summary(res))

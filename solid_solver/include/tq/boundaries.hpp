@@ -86,6 +86,13 @@ public:
   void install(NodalState& state);
   void addForces(Real t, Real dt, NodalState& state) override;
   Real boundaryEnergy() const override { return -springWork_; }
+  void checkpoint(StateArchive& a) override {
+    for (auto& c : columns_) c.checkpoint(a);
+    a.io(uPrev_);
+    a.io(fPrev_);
+    a.io(first_);
+    a.io(springWork_);
+  }
   /// The columns (one per free-field face, then the base column if it is not one of them).
   const std::vector<FreeFieldColumn>& columns() const { return columns_; }
   const FreeFieldColumn& baseColumn() const { return columns_[size_t(baseColumn_)]; }

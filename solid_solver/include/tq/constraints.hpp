@@ -36,6 +36,7 @@ public:
   void addForces(Real t, Real dt, NodalState& state) override;
   /// After every other force of the step.
   bool runsLast() const override { return true; }
+  void checkpoint(StateArchive& a) override { a.io(force_); }
 
   Index numGroups() const { return Index(start_.size()) - 1; }
   /// Members of group g: nodes [begin, end).

@@ -92,6 +92,17 @@ public:
   void addForces(Real t, Real dt, NodalState& state) override;
   bool runsLast() const override { return true; }
   Real dissipatedEnergy() const override { return -work_; }
+  void checkpoint(StateArchive& a) override {
+    a.io(state_);
+    a.io(failed_);
+    a.io(cohesive_);
+    a.io(r0_);
+    a.io(force_);
+    a.io(relPrev_);
+    a.io(fn_);
+    a.io(ft_);
+    a.io(work_);
+  }
 
   const ContactPairs& pairs() const { return pairs_; }
   const ContactParams& params() const { return params_; }

@@ -14,6 +14,7 @@
 
 #include "tq/material.hpp"
 #include "tq/mesh.hpp"
+#include "tq/state_archive.hpp"
 #include "tq/nodal_state.hpp"
 
 namespace tq {
@@ -111,6 +112,9 @@ public:
   /// last bits (fused multiply-add), never with the thread count.
   void setUseAvx2(bool on) { avx2_ = on && avx2Available(); }
   bool usesAvx2() const { return avx2_; }
+  /// Save or restore the state a step changes: stresses, strains, history, energies (not the
+  /// geometry or the active set, which no step changes).
+  void checkpoint(StateArchive& a);
 
   struct ChunkView;  // raw view of one chunk for the kernel (element_block.cpp)
 

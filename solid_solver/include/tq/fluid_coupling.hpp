@@ -73,6 +73,20 @@ public:
   /// One solid step: predict, write, advance (exchange at the end of a window), read R3, add it.
   void addForces(Real t, Real dt, NodalState& state) override;
   bool runsLast() const override { return true; }
+  /// The adapter's own step state (the force of the window's steps, its work booking); not the
+  /// iteration's data (the force being iterated and the pass count), which survive a restore.
+  void checkpoint(StateArchive& archive) override;
+
+  /// Windows of several solid steps with the implicit scheme: the time loop saves the solver's
+  /// state at each window start and restores it when takeRepeat() says the window must be
+  /// repeated (docs/coupler.md "Windows of several steps"). False for one-step windows (their
+  /// passes repeat only the interface nodes' update, inside addForces) and the explicit scheme.
+  bool repeatsWindows() const;
+  /// True between the first and the last step of a window (results are sampled at window ends).
+  bool windowOpen() const;
+  /// True once after the last step of a window the water did not accept: restore the state
+  /// saved at the window start and step the window again (with the water's new force).
+  bool takeRepeat();
 
   /// False once the last window has been exchanged (the time loop stops there).
   bool ongoing() const;

@@ -80,6 +80,17 @@ public:
   void interpolation(Real z, Index* k, Real* w) const;
   /// Kinetic + strain energy per unit area (J/m²) at the last state (for tests).
   Real energyPerArea() const;
+  /// Save or restore the column's motion and stresses (StateArchive).
+  void checkpoint(StateArchive& a) {
+    a.io(u_);
+    a.io(v_);
+    a.io(un_);
+    a.io(vbar_);
+    a.io(eps_);
+    a.io(sig_);
+    a.io(sTot_);
+    a.io(dtLast_);
+  }
 
 private:
   std::vector<Real> z_;

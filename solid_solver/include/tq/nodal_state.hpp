@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "tq/state_archive.hpp"
 #include "tq/types.hpp"
 
 namespace tq {
@@ -51,6 +52,15 @@ public:
   /// Exchange the external-force array with `other` (same size): the solver keeps the previous
   /// step's f_ext by swapping buffers instead of copying it.
   void swapFExt(std::vector<Real>& other) { fExt_.swap(other); }
+  /// Save or restore what a step changes (u, v, a, f_int, f_ext); masses and dashpots change only
+  /// between stages, never inside a coupling window.
+  void checkpoint(StateArchive& ar) {
+    ar.io(u_);
+    ar.io(v_);
+    ar.io(a_);
+    ar.io(fInt_);
+    ar.io(fExt_);
+  }
 
   // Raw arrays for the kernels ([3N] unless noted).
   const Real* x0Data() const { return x0_.data(); }

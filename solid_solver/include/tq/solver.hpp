@@ -71,6 +71,9 @@ public:
   /// forces, booked by the solver's trapezoid rule (the viscoelastic base). The solver reports it
   /// in the balance term `boundary` (with the dashpots) instead of as external work. Default 0.
   virtual Real boundaryEnergy() const { return 0; }
+  /// Save or restore everything addForces changes (StateArchive: a coupling window of several
+  /// steps is repeated from its start). A contributor with state must list it here.
+  virtual void checkpoint(StateArchive& /*archive*/) {}
 };
 
 /// The stable time step and what limits it.
@@ -168,6 +171,10 @@ public:
   /// Evaluate f_int and f_ext (gravity, loads and, if asked, the contributors) at the current
   /// displacement without stepping and without damping forces (support reactions at rest).
   void computeForces(bool withContributors);
+  /// Save (archive.beginSave()) or restore (beginRestore()) the whole mutable state: nodes,
+  /// element stresses and history, energies, clock and every contributor's state. A restored
+  /// solver continues bitwise as the saved one did.
+  void checkpoint(StateArchive& archive);
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
 

@@ -102,6 +102,7 @@ struct CouplingInput {
   Index maxIterations = 20;               ///< implicit: passes per window at most
   std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
+  Index reuse = 0;                        ///< IQN-ILS: windows whose secant columns are kept
   std::string predictor = "constant";     ///< implicit: first force of a window, constant | linear
   std::string transport = "tcp";          ///< tcp | mpi
   std::string addressFile;                ///< tcp: where the listener publishes its port

@@ -51,9 +51,10 @@ CouplingConfig sampleConfig() {
     c.scheme = SchemeKind::Implicit;
     c.maxIterations = 20;
     c.tolerance = 1e-4;
-    c.acceleration = AccelerationKind::Aitken;
+    c.acceleration = AccelerationKind::IqnIls;
     c.initialRelaxation = 0.5;
     c.predictor = PredictorKind::Linear;
+    c.reuse = 8;
     c.meshes.push_back({"wall", MapKind::Coincident, "solid", 1e-6});
     c.fields.push_back({"wall", "velocity", 3, "solid", MapConstraint::Consistent, 1e-9});
     c.fields.push_back({"wall", "force", 3, "fluid", MapConstraint::Conservative, 0.25});
@@ -128,7 +129,7 @@ TEST(Wire, HeaderRoundTripAndLayout) {
     const auto m = frame(wire::MessageType::Data, 0x0102030405060708ull, payload);
     ASSERT_EQ(m.size(), 37u);
     EXPECT_EQ(std::string(m.begin(), m.begin() + 4), "TQCP");
-    EXPECT_EQ(m[4], 2);   // version, little-endian
+    EXPECT_EQ(m[4], 3);   // version, little-endian
     EXPECT_EQ(m[6], 10);  // DATA
     EXPECT_EQ(m[8], 0x08);
     EXPECT_EQ(m[15], 0x01);  // sequence little-endian

@@ -4,6 +4,7 @@
 /// participant writes, H: one pass of first then second participant). Abstract base +
 /// variants + factory.
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -67,7 +68,9 @@ class Aitken final : public Acceleration {
 /// that make V nearly rank-deficient are dropped (oldest first).
 class IqnIls final : public Acceleration {
   public:
-    explicit IqnIls(double initialOmega, double filterEps = 1e-10);
+    /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
+    /// window starts from a relaxation step.
+    explicit IqnIls(double initialOmega, double filterEps = 1e-10, int reuse = 0);
     void startWindow() override;
     void next(const std::vector<double>& x, const std::vector<double>& xTilde,
               std::vector<double>& xNext) override;
@@ -76,11 +79,16 @@ class IqnIls final : public Acceleration {
 
   private:
     double omega0_, eps_;
+    int reuse_ = 0;
+    std::uint64_t window_ = 0;
     std::vector<double> rPrev_, xtPrev_;
     std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
+    std::vector<std::uint64_t> colWindow_;       ///< the window each column was made in
+    void dropOldest();
     bool first_ = true;
 };
 
-std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind kind, double initialRelaxation);
+/// reuse: IQN-ILS only, the windows whose columns are kept (CouplingConfig::reuse).
+std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind kind, double initialRelaxation, int reuse = 0);
 
 }  // namespace tq::coupler

@@ -89,6 +89,9 @@ struct CouplingConfig {
     AccelerationKind acceleration = AccelerationKind::Aitken;
     double initialRelaxation = 0.5;
     PredictorKind predictor = PredictorKind::Constant;  ///< implicit only
+    /// IQN-ILS: the secant columns of this many earlier windows are kept (IQN-ILS(reuse)), so a
+    /// window's first correction is already a quasi-Newton step; 0 = each window starts afresh.
+    int reuse = 0;
     std::vector<MeshSpec> meshes;
     std::vector<FieldSpec> fields;
 

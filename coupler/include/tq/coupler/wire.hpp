@@ -27,7 +27,7 @@
 namespace tq::coupler::wire {
 
 constexpr std::array<std::uint8_t, 4> kMagic{'T', 'Q', 'C', 'P'};
-constexpr std::uint16_t kProtocolVersion = 2;
+constexpr std::uint16_t kProtocolVersion = 3;
 constexpr std::size_t kHeaderSize = 32;
 /// Largest payload accepted before the handshake has fixed the exact sizes (HELLO carries the
 /// interface coordinates: 1 GiB allows ~30 million nodes).
