@@ -270,7 +270,9 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       const Real t = s.time();
       if (t >= nextSample - 1e-9 * s.dt()) {
         results.sample(s);
-        nextSample += in.monitorDt;
+        // past every sample time this step (or window) covered: a window longer than monitor_dt
+        // samples once per window end instead of falling further behind
+        while (t >= nextSample - 1e-9 * s.dt()) nextSample += in.monitorDt;
       }
       while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
         results.snapshot(s);

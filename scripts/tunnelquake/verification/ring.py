@@ -764,7 +764,8 @@ def map_table(rows: list[dict]) -> str:
 def _summary(r: RingResult) -> str:
     g = r.ring
     what = (f"{g['model']} {g['mode']} rho_f/rho_s {g['rho_f'] / g['rho_s']:.3g} {g['scheme']}"
-            f"{'/' + g['acceleration'] if g['scheme'] == 'implicit' else ''} k={g['window']}" if g["water"]
+            f"{'/' + g['acceleration'] if g['scheme'] == 'implicit' else ''} k={g['window']}"
+            f"{' reuse ' + str(g['reuse']) if g.get('reuse') else ''}" if g["water"]
             else f"empty ring {g['mode']}")
     s = (f"{what}: {r.status}; f = {r.frequency:.4f} Hz (expected {r.expected:.4f}, {100 * r.error():+.2f} %), "
          f"growth {r.growth:.3g}, dt {r.dt:.4g} s")
