@@ -90,7 +90,7 @@ BAD_INPUTS = [
     ("duplicated key", ("  ends: open\n", "  ends: open\n  ends: open\n"),
      "<yaml>", "appears twice"),
     ("coupling window of several steps with the paper scheme",
-     ("  scheme: implicit\n", "  scheme: paper\n  window: 4\n"),
+     ("  scheme: implicit\n", "  scheme: paper\n"),
      "coupling.window", "needs scheme explicit or implicit"),
     ("MPI transport with OpenFOAM", ("  scheme: implicit\n", "  scheme: implicit\n  transport: mpi\n"),
      "coupling.transport", "cannot be one application of an MPMD mpirun job"),

@@ -47,20 +47,25 @@ def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
     and 2250 (n = 2) kg/m^2: ratios 14.4 and 7.2 > 1, so a staggered scheme (explicit, paper)
     diverges (measured: docs/stability.md), compressible or not; compressible water
     (c = sqrt(2.2e9 / 1000) = 1483 m/s) with the solid step 0.9 x 0.25 m / c_p(lining) also gives the
-    impedance ratio rho_w c dt / m_G ~ 0.31. The implicit scheme (the example's) is stable."""
+    impedance ratio rho_w c dt_c / m_G ~ 0.31 per solid step of the window dt_c (the example's windows
+    of 16 steps: 4.9). The implicit scheme (the example's) is stable."""
     import math
 
     from tunnelquake.scene import added_mass_diagnostic
 
-    am = added_mass_diagnostic(_case(write_case))
+    case = _case(write_case)
+    am = added_mass_diagnostic(case)
     assert am.interface_mass == pytest.approx(312.5, rel=1e-12)
     cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
-    assert am.ratios["impedance"] == pytest.approx(1000 * math.sqrt(2.2e6) * 0.9 * 0.25 / cp / 312.5, rel=1e-12)
+    k = case.data["coupling"]["window"]
+    assert k == 16
+    assert am.ratios["impedance"] == pytest.approx(1000 * math.sqrt(2.2e6) * k * 0.9 * 0.25 / cp / 312.5, rel=1e-12)
     assert am.ratios["mode 1"] == pytest.approx(1000 * 4.5 / 312.5, rel=1e-12)
     assert am.ratios["mode 2"] == pytest.approx(1000 * 4.5 / 2 / 312.5, rel=1e-12)
-    assert 0.25 < am.ratios["impedance"] < 0.4
+    assert 0.25 < am.ratios["impedance"] / k < 0.4
     assert am.stable and "implicit" in am.message  # the example
     for model in ("compressible", "incompressible"):
         paper = added_mass_diagnostic(_case(write_case, m=("  model: compressible\n", f"  model: {model}\n"),
-                                            s=("  scheme: implicit\n", "  scheme: paper\n")))
+                                            s=("  scheme: implicit\n", "  scheme: paper\n"),
+                                            w=("  window: 16\n", "  window: 1\n"), r=("  reuse: 16\n", "")))
         assert not paper.stable and "diverge" in paper.message and "added-mass ratio 14.4" in paper.message
