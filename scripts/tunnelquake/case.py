@@ -29,6 +29,8 @@ from .schema import (
 
 STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
+#: s of simulated time between the water's printed passes (water.log: brief)
+WATER_LOG_INTERVAL = 0.01
 
 
 def _num(dim=U.DIMENSIONLESS, doc="", **kw) -> Number:
@@ -216,6 +218,13 @@ def schema() -> Section:
             "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
             "ends": Choice(choices=("open", "closed"), default="open",
                            doc="axial ends of the water column: open (pressure) or closed (walls)"),
+            "log": Choice(choices=("brief", "verbose"), default="brief",
+                          doc="dynamic_water's fluid.log: brief: OpenFOAM's lines and the loads on the lining "
+                              "once every log_interval of simulated time (and the run's first and last pass); "
+                              "verbose: every water pass, rolled-back ones and the solver residuals included "
+                              "(about 1 kB a pass, for debugging; docs/water.md §2 \"Log\")"),
+            "log_interval": _positive(U.TIME, "simulated time between the water's printed passes with log: brief, "
+                                      "s", default=WATER_LOG_INTERVAL),
         }),
         "ground_motion": Section(required=True, checks=[_check_ground_motion], fields={
             "source": Choice(choices=("file", "synthetic"), required=True, doc="'file' (a record) or 'synthetic'"),

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
-from .case import coupling_predictor
+from .case import WATER_LOG_INTERVAL, coupling_predictor
 from .coupling_scales import absolute_tolerances
 
 TEMPLATE = paths.ROOT / "openfoam_case" / "template"
@@ -313,6 +313,10 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     t = t.replace("freeSurfaceLevel 123;",
                   f"freeSurfaceLevel {float(d['geometry']['tunnel_centre_z']) + float(water['head'])!r};")
     t = _replace_block(t, "exchange", exchange_dict(settings))
+    if water.get("log", "brief") == "brief":  # the template's defaults print every pass (verbose)
+        t = _set_entry(t, "SolverPerformance", "0")
+        t = _set_entry(t, "logInterval", f"{float(water.get('log_interval', WATER_LOG_INTERVAL))!r}")
+        t = _set_entry(t, "quietSolver", "yes")
     cd.write_text(t)
     return FluidCase(folder, solver, mode, model, end_time, dt)
 

@@ -16,6 +16,8 @@ License
 #include "pointFields.H"
 #include "valuePointPatchField.H"
 
+#include <algorithm>
+
 // * * * * * * * * * * * * * * * Local Functions * * * * * * * * * * * * * * //
 
 namespace Foam
@@ -66,20 +68,35 @@ public:
     explicit savedGeoField(const GeoField& fld)
     :
         name_(fld.name()),
-        internal_(fld.primitiveField()),
-        patches_(fld.boundaryField().size()),
-        hasPatch_(fld.boundaryField().size(), false)
+        internal_(),
+        patches_(),
+        hasPatch_()
     {
+        copy(fld);
+    }
+
+    //- Take the current values of fld (the same field, or a new one of the
+    //  same name); storage of unchanged size is reused, not reallocated
+    void copy(const GeoField& fld)
+    {
+        internal_ = fld.primitiveField();
+
         // Read the boundary without triggering the old-time bookkeeping
         GeoField& f = const_cast<GeoField&>(fld);
         auto& bf = f.boundaryFieldRef(false);
+        patches_.setSize(bf.size());
+        hasPatch_.setSize(bf.size());
         forAll(bf, patchi)
         {
             const Field<Type>* s = patchStorage(bf[patchi]);
+            hasPatch_[patchi] = bool(s);
             if (s)
             {
                 patches_[patchi] = *s;
-                hasPatch_[patchi] = true;
+            }
+            else
+            {
+                patches_[patchi].clear();
             }
         }
     }
@@ -133,14 +150,41 @@ namespace tq
 // * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
 
 template<class GeoField>
-void Foam::tq::fieldCheckpoint::storeFields()
+bool Foam::tq::fieldCheckpoint::storeField
+(
+    const regIOobject& obj,
+    std::vector<bool>& seen
+)
 {
-    const wordList names(mesh_.sortedNames<GeoField>());
-    for (const word& name : names)
+    const GeoField* fldPtr = dynamic_cast<const GeoField*>(&obj);
+    if (!fldPtr)
     {
-        const GeoField& fld = mesh_.lookupObject<GeoField>(name);
-        fields_.append(new savedGeoField<GeoField>(fld));
+        return false;
     }
+
+    // Saved before under this name and type: copy into that storage
+    const auto iter = slots_.cfind(obj.name());
+    if (iter.found())
+    {
+        savedGeoField<GeoField>* s =
+            dynamic_cast<savedGeoField<GeoField>*>(&fields_[*iter]);
+        if (s)
+        {
+            s->copy(*fldPtr);
+            seen[*iter] = true;
+            return true;
+        }
+        fields_.set(*iter, new savedGeoField<GeoField>(*fldPtr));
+        seen[*iter] = true;
+        return true;
+    }
+
+    const label slot = fields_.size();
+    fields_.append(new savedGeoField<GeoField>(*fldPtr));
+    slots_.set(obj.name(), slot);
+    seen.resize(slot + 1, false);
+    seen[slot] = true;
+    return true;
 }
 
 
@@ -154,6 +198,7 @@ Foam::tq::fieldCheckpoint::fieldCheckpoint(const fvMesh& mesh)
     deltaT_(0),
     timeIndex_(-1),
     fields_(),
+    slots_(),
     moving_(false)
 {}
 
@@ -167,17 +212,46 @@ void Foam::tq::fieldCheckpoint::store()
     deltaT_ = runTime.deltaTValue();
     timeIndex_ = runTime.timeIndex();
 
-    fields_.clear();
-    storeFields<volScalarField>();
-    storeFields<volVectorField>();
-    storeFields<volSymmTensorField>();
-    storeFields<volTensorField>();
-    storeFields<surfaceScalarField>();
-    storeFields<surfaceVectorField>();
-    storeFields<surfaceSymmTensorField>();
-    storeFields<surfaceTensorField>();
-    storeFields<pointScalarField>();
-    storeFields<pointVectorField>();
+    // Every registered field of the saved types, in one pass over the
+    // registry.  A field saved at the previous store is copied into its
+    // storage (a coupled run stores every window: allocating and looking up
+    // each field by type anew cost 0.1 ms a window on the 336-cell slice);
+    // fields that no longer exist are dropped, new ones added.
+    std::vector<bool> seen(fields_.size(), false);
+    forAllConstIters(mesh_.thisDb(), iter)
+    {
+        const regIOobject& obj = *iter.val();
+        storeField<volScalarField>(obj, seen)
+     || storeField<volVectorField>(obj, seen)
+     || storeField<volSymmTensorField>(obj, seen)
+     || storeField<volTensorField>(obj, seen)
+     || storeField<surfaceScalarField>(obj, seen)
+     || storeField<surfaceVectorField>(obj, seen)
+     || storeField<surfaceSymmTensorField>(obj, seen)
+     || storeField<surfaceTensorField>(obj, seen)
+     || storeField<pointScalarField>(obj, seen)
+     || storeField<pointVectorField>(obj, seen);
+    }
+    if (std::find(seen.begin(), seen.end(), false) != seen.end())
+    {
+        PtrList<savedObject> kept(fields_.size());
+        slots_.clear();
+        label n = 0;
+        forAll(fields_, i)
+        {
+            if (seen[i])
+            {
+                slots_.set(fields_[i].name(), n);
+                kept.set
+                (
+                    n++,
+                    fields_.set(i, static_cast<savedObject*>(nullptr))
+                );
+            }
+        }
+        kept.setSize(n);
+        fields_.transfer(kept);
+    }
 
     // Mesh motion state.  V0 and meshPhi exist once the mesh has moved.
     points_ = mesh_.points();

@@ -578,13 +578,25 @@ void Foam::functionObjects::tqInterface::writeRow
     const bool accepted
 )
 {
-    Log << type() << " " << name() << ": t = " << t
-        << (accepted ? "" : " (rolled back)") << nl
-        << "    force on lining [N] " << (totalP_ + totalV_)
-        << " (pressure " << totalP_ << ", viscous " << totalV_ << ")" << nl;
-    if (hydrostatic_)
+    const bool print = logInterval_ <= 0 || (accepted && logDue(t));
+    if (print)
     {
-        Log << "    hydrostatic resultant [N] " << totalHs_ << nl;
+        Log << type() << " " << name() << ": t = " << t
+            << (accepted ? "" : " (rolled back)") << nl
+            << "    force on lining [N] " << (totalP_ + totalV_)
+            << " (pressure " << totalP_ << ", viscous " << totalV_ << ")"
+            << nl;
+        if (hydrostatic_)
+        {
+            Log << "    hydrostatic resultant [N] " << totalHs_ << nl;
+        }
+    }
+    if (print && accepted && logInterval_ > 0)
+    {
+        // The next multiple of the interval after t
+        const scalar dt = time().deltaTValue();
+        nextLogTime_ =
+            (std::floor((t + 0.5*dt)/logInterval_) + 1)*logInterval_;
     }
 
     if (!filePtr_.valid())
@@ -598,7 +610,34 @@ void Foam::functionObjects::tqInterface::writeRow
     {
         os  << ' ' << v.x() << ' ' << v.y() << ' ' << v.z();
     }
-    os  << ' ' << pMean_ << ' ' << nRollbacks_ << endl;
+    // One write a printed pass, not one a pass (the stream's buffer holds
+    // the rows in between; the file is complete when the run ends)
+    os  << ' ' << pMean_ << ' ' << nRollbacks_ << nl;
+    if (print)
+    {
+        os.flush();
+    }
+}
+
+
+bool Foam::functionObjects::tqInterface::logDue(const scalar t) const
+{
+    const scalar dt = time().deltaTValue();
+    return
+        logInterval_ <= 0
+     || t >= nextLogTime_ - 0.5*dt
+     || t >= endTime_ - 0.5*dt;
+}
+
+
+void Foam::functionObjects::tqInterface::setSolverOutput()
+{
+    if (!quietSolver_ || logInterval_ <= 0)
+    {
+        return;
+    }
+    const scalar tNext = time().value() + time().deltaTValue();
+    messageStream::level = logDue(tNext) ? infoLevel_ : 0;
 }
 
 
@@ -695,7 +734,12 @@ Foam::functionObjects::tqInterface::tqInterface
     totalPoint_(Zero),
     pMean_(0),
     nRollbacks_(0),
-    rewriteTime_(-1)
+    rewriteTime_(-1),
+    filePtr_(),
+    logInterval_(0),
+    quietSolver_(false),
+    nextLogTime_(runTime.value()),
+    infoLevel_(messageStream::level)
 {
     // A wrong coupling set-up must end the run: while constructing function
     // objects OpenFOAM turns FatalError into a warning and would go on
@@ -800,6 +844,14 @@ Foam::functionObjects::tqInterface::tqInterface
 }
 
 
+// * * * * * * * * * * * * * * * * Destructor  * * * * * * * * * * * * * * * //
+
+Foam::functionObjects::tqInterface::~tqInterface()
+{
+    messageStream::level = infoLevel_;
+}
+
+
 // * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
 
 bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
@@ -858,6 +910,18 @@ bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
             << " 1)." << exit(FatalIOError);
     }
 
+    logInterval_ = dict.lookupOrDefault<scalar>("logInterval", 0);
+    quietSolver_ = dict.lookupOrDefault<bool>("quietSolver", false);
+    if (quietSolver_ && !(logInterval_ > 0))
+    {
+        FatalIOErrorInFunction(dict)
+            << "quietSolver yes needs a positive logInterval (s of"
+            << " simulated time between printed passes), got logInterval "
+            << logInterval_ << "." << nl
+            << "Fix: give e.g. 'logInterval 0.01;', or 'quietSolver no;'."
+            << exit(FatalIOError);
+    }
+
     hydrostatic_ = dict.found("hydrostatic");
     if (hydrostatic_)
     {
@@ -877,6 +941,9 @@ bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
 
 bool Foam::functionObjects::tqInterface::execute()
 {
+    // What this function object and the exchange print is never silenced
+    messageStream::level = infoLevel_;
+
     calcLoads();
 
     const scalar t = time().value();
@@ -939,6 +1006,7 @@ bool Foam::functionObjects::tqInterface::execute()
         receiveMotion();
     }
 
+    setSolverOutput();
     return true;
 }
 
@@ -951,6 +1019,11 @@ bool Foam::functionObjects::tqInterface::write()
 
 bool Foam::functionObjects::tqInterface::end()
 {
+    messageStream::level = infoLevel_;
+    if (filePtr_.valid())
+    {
+        filePtr_().flush();
+    }
     if (exchange_.valid())
     {
         exchange_->finalize();

@@ -129,11 +129,16 @@ def _solid_step(exe, solid_input) -> float:
 class _Side:
     """One participant's process, its log streamed to a file and echoed (filtered) to the terminal."""
 
+    #: s between flushes of the log file (a flush per line cost the water's verbose log, ~20 lines a
+    #: pass, a write call each on the cores the solvers share)
+    FLUSH_S = 1.0
+
     def __init__(self, name: str, cmd: list[str], log, env, echo):
+        import collections
         import subprocess
         import threading
 
-        self.name, self.log, self.lines = name, log, []
+        self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
         self.fh = open(log, "w")
         self.proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                      bufsize=1)
@@ -141,20 +146,27 @@ class _Side:
         self.thread.start()
 
     def _pump(self, echo) -> None:
+        import time as _time
+
+        flushed = _time.monotonic()
         for line in self.proc.stdout:
             self.fh.write(line)
-            self.fh.flush()
-            self.lines.append(line.rstrip())
-            del self.lines[:-40]
+            self.lines.append(line)
             if echo(line):
+                self.fh.flush()
                 say(f"  [{self.name}] {line.rstrip()}")
+                flushed = _time.monotonic()
+            elif _time.monotonic() - flushed > self.FLUSH_S:
+                self.fh.flush()
+                flushed = _time.monotonic()
+        self.fh.flush()
 
     def close(self) -> None:
         self.thread.join(timeout=10)
         self.fh.close()
 
     def tail(self, n: int = 6) -> str:
-        return "\n".join(f"      {x}" for x in self.lines[-n:])
+        return "\n".join(f"      {x.rstrip()}" for x in list(self.lines)[-n:])
 
 
 def _fluid_echo():
