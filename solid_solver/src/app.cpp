@@ -245,28 +245,10 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   // Implicit coupling windows of several steps: the state at each window start is kept, and a
   // window the water did not accept is stepped again from it; results are sampled at window ends.
-  const bool windowed = coupling && coupling->repeatsWindows();
-  StateArchive windowStart;
-  bool saveWindowStart = true;
+  WindowedStepper stepper(s, coupling.get());
   try {
     while (s.time() < in.tEnd - 1e-9 * s.dt() && (!coupling || coupling->ongoing())) {
-      if (windowed && saveWindowStart) {
-        windowStart.beginSave();
-        s.checkpoint(windowStart);
-        windowStart.end();
-        saveWindowStart = false;
-      }
-      s.step();
-      if (windowed) {
-        if (coupling->takeRepeat()) {
-          windowStart.beginRestore();
-          s.checkpoint(windowStart);
-          windowStart.end();
-          continue;
-        }
-        if (coupling->windowOpen()) continue;
-        saveWindowStart = true;
-      }
+      if (!stepper.step()) continue;
       const Real t = s.time();
       if (t >= nextSample - 1e-9 * s.dt()) {
         results.sample(s);

@@ -331,40 +331,26 @@ struct WindowLog {
   long long steps = 0;       ///< solid steps taken, repeated ones included
 };
 
-/// Step `s` until the coupling ends, as tq-solid's time loop does (src/app.cpp, "windowed"): with
-/// implicit windows of several steps (repeatsWindows) the state is saved at each window start and
-/// restored when takeRepeat() says the water did not accept the window.
+/// Step `s` until the coupling ends with tq-solid's own time-loop step (WindowedStepper: with
+/// implicit windows of several steps the state is saved at each window start and restored when the
+/// water did not accept the window).
 WindowLog stepCoupled(Solver& s, FluidCoupling& ad) {
   WindowLog log;
-  const bool windowed = ad.repeatsWindows();
-  StateArchive windowStart;
-  bool saveWindowStart = true;
-  long long passes = 1;
+  WindowedStepper stepper(s, &ad);
+  long long passes = 1, restores = 0;
   while (ad.ongoing()) {
-    if (windowed && saveWindowStart) {
-      windowStart.beginSave();
-      s.checkpoint(windowStart);
-      windowStart.end();
-      saveWindowStart = false;
-    }
-    s.step();
+    const bool final = stepper.step();
     ++log.steps;
-    if (windowed) {
-      if (ad.takeRepeat()) {
-        windowStart.beginRestore();
-        s.checkpoint(windowStart);
-        windowStart.end();
-        ++log.restores;
-        ++passes;
-        continue;
-      }
-      if (ad.windowOpen()) continue;
-      saveWindowStart = true;
+    if (stepper.restores() > restores) {  // the window was taken back: one more pass of it
+      restores = stepper.restores();
+      ++passes;
     }
+    if (!final) continue;
     log.minPasses = log.windows == 0 ? passes : std::min(log.minPasses, passes);
     ++log.windows;
     passes = 1;
   }
+  log.restores = stepper.restores();
   return log;
 }
 

@@ -119,6 +119,50 @@ private:
   std::unique_ptr<Impl> impl_;
 };
 
+/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): with
+/// implicit windows of several steps it saves the solver's state at each window start and restores
+/// it when the water did not accept the window (docs/coupler.md "Windows of several steps");
+/// otherwise it is Solver::step().
+class WindowedStepper {
+public:
+  /// `coupling` may be null (no water): then every step is final.
+  WindowedStepper(Solver& solver, FluidCoupling* coupling)
+      : solver_(solver), coupling_(coupling), windowed_(coupling && coupling->repeatsWindows()) {}
+  /// One solid step. True when the state is final (results may be sampled): always without
+  /// repeated windows, else at the end of an accepted window. False inside a window and after a
+  /// window was taken back (the state is then the window's start again).
+  bool step() {
+    if (windowed_ && saveNext_) {
+      archive_.beginSave();
+      solver_.checkpoint(archive_);
+      archive_.end();
+      saveNext_ = false;
+    }
+    solver_.step();
+    if (!windowed_) return true;
+    if (coupling_->takeRepeat()) {
+      archive_.beginRestore();
+      solver_.checkpoint(archive_);
+      archive_.end();
+      ++restores_;
+      return false;
+    }
+    if (coupling_->windowOpen()) return false;
+    saveNext_ = true;
+    return true;
+  }
+  /// Windows stepped again from their saved start so far.
+  long long restores() const { return restores_; }
+
+private:
+  Solver& solver_;
+  FluidCoupling* coupling_;
+  bool windowed_;
+  bool saveNext_ = true;
+  long long restores_ = 0;
+  StateArchive archive_;
+};
+
 /// tq-solid as one application of an MPMD mpirun job (/coupling transport mpi; docs/coupler.md
 /// "tq-solid under mpirun"): `mpirun -np 1 tq-solid ... : -np N fluid ...`. MPI is initialised
 /// only here, with MPI_THREAD_FUNNELED (the solid's OpenMP threads make no MPI calls), and the
