@@ -95,3 +95,82 @@ def test_update_docs_replaces_only_the_fluid_section():
     assert appended == f"# Benchmarks\n\n{solid}\n\n{new}\n"
     sec = bf.section([_ladder()], [], "tunnelquake bench X --fluid", "2026-01-01 00:00", "here", "fluid.png")
     assert sec.startswith(bf.FLUID_BEGIN) and sec.endswith(bf.FLUID_END) and sec.count(bf.FLUID_BEGIN) == 1
+
+
+# ------------------------------------------------------------------------------------------------
+# The 3D rung: closed pipe, its mesh sizes, its docs block
+# ------------------------------------------------------------------------------------------------
+def test_pipe3d_mesh_refines_by_two_in_all_three_directions():
+    sizes = [bf.pipe_cells(n, bf.pipe3d_axial(n)) for n in bf.PIPE3D_N]
+    assert [bf.pipe3d_axial(n) for n in bf.PIPE3D_N] == [3, 6, 12]
+    assert sizes[0] == (4, 3, (16 + 48) * 3)
+    for (q0, r0, c0), (q1, r1, c1) in zip(sizes, sizes[1:], strict=False):
+        assert (q1, r1, c1) == (2 * q0, 2 * r0, 8 * c0)  # so the mesh ladder has a constant ratio 2
+    assert bf.pipe_cells(64) == (16, 12, 16 * 16 + 4 * 16 * 12)  # the 2D slice: one cell thick
+    with pytest.raises(bf.BenchError, match="multiple of 16"):
+        bf.pipe3d_axial(40)
+    with pytest.raises(bf.BenchError, match="N = 30"):
+        bf.pipe_cells(30)
+
+
+def test_closed_ends_are_recognised_from_the_polymesh_boundary():
+    import sys
+
+    sys.path.insert(0, str(bf.ROOT / "tests" / "verification"))
+    from fluid_common.tunnel import ends_are_walls
+
+    def boundary(kind_min, kind_max):
+        return (f"3\n(\n    interface\n    {{\n        type            wall;\n        nFaces 32;\n    }}\n"
+                f"    end_ymin\n    {{\n        type            {kind_min};\n        inGroups 1(x);\n    }}\n"
+                f"    end_ymax\n    {{\n        type            {kind_max};\n    }}\n)\n")
+
+    assert ends_are_walls(boundary("wall", "wall"))
+    assert not ends_are_walls(boundary("patch", "patch"))  # gmshToFoam's open ends
+    assert not ends_are_walls(boundary("wall", "patch"))
+    assert not ends_are_walls("1\n(\n    interface { type wall; }\n)\n")
+
+
+def test_summarise_rounds_keeps_the_errors_and_takes_medians_of_times_and_ratios():
+    def run(ms, cpu, f):
+        return {"force_error": f, "pressure_error": -f, "wall_s": ms / 10, "ms_per_step": ms,
+                "cpu_ms_per_step": cpu, "dt": 0.005, "steps": 201}
+
+    rounds = {"stock": [run(10.0, 9.0, 0.02), run(30.0, 27.0, 0.02), run(12.0, 12.0, 0.02)],
+              "ours": [run(2.0, 2.0, -0.01), run(3.0, 3.0, -0.01), run(4.0, 4.0, -0.01)]}
+    runs, pair = bf.summarise_rounds(rounds, "mesh3d", "N = 16", 192, 1 / 16)
+    assert runs["stock"]["ms_per_step"] == 12.0 and runs["ours"]["ms_per_step"] == 3.0
+    assert runs["ours"]["size"] == 1 / 16 and runs["ours"]["cells"] == 192
+    assert bf.summarise_rounds(rounds, "step", "s", 1, None)[0]["ours"]["size"] == 0.005  # the step
+    assert pair["ratios"] == [5.0, 10.0, 3.0] and pair["ratio"] == 5.0
+    assert pair["cpu_ratios"] == [4.5, 9.0, 3.0] and pair["cpu_ratio"] == 4.5
+    assert (pair["stock_force_error"], pair["ours_pressure_error"]) == (0.02, 0.01)
+
+
+def test_pipe3d_block_goes_right_after_the_fluid_section_and_only_it_is_replaced():
+    fluid = f"{bf.FLUID_BEGIN}\n2D figures\n{bf.FLUID_END}"
+    paper = "<!-- bench:paper -->\npaper\n<!-- /bench:paper -->"
+    doc = f"# Benchmarks\n\n{fluid}\n\n{paper}\n"
+    block = f"{bf.PIPE3D_BEGIN}\n3D v1\n{bf.PIPE3D_END}"
+    out = bf.update_docs_pipe3d(doc, block)
+    assert out == f"# Benchmarks\n\n{fluid}\n\n{block}\n\n{paper}\n"
+    block2 = f"{bf.PIPE3D_BEGIN}\n3D v2\n{bf.PIPE3D_END}"
+    assert bf.update_docs_pipe3d(out, block2) == f"# Benchmarks\n\n{fluid}\n\n{block2}\n\n{paper}\n"
+    # a new 2D section leaves the 3D block where it is
+    again = bf.update_docs(out, f"{bf.FLUID_BEGIN}\nnew 2D\n{bf.FLUID_END}")
+    assert again == f"# Benchmarks\n\n{bf.FLUID_BEGIN}\nnew 2D\n{bf.FLUID_END}\n\n{block}\n\n{paper}\n"
+    # no fluid section: appended
+    assert bf.update_docs_pipe3d("# B\n", block) == f"# B\n\n{block}\n"
+
+
+def test_a_pipe3d_only_json_renders_only_its_block(tmp_path, monkeypatch):
+    import argparse
+
+    lad = _ladder()
+    data = {"date": "2026-01-01 00:00", "machine": "here", "note": "", "command": "tunnelquake bench X --fluid",
+            "pairs": [], "ladders": [{"name": "rigid pipe 3D, mesh, ours", "runs": lad.runs}]}
+    args = argparse.Namespace(folder=tmp_path, from_json=None, update_docs=False)
+    assert bf._render(args, data) == 0
+    text = (tmp_path / "fluid.md").read_text()
+    assert text.startswith(bf.PIPE3D_BEGIN) and bf.FLUID_BEGIN not in text and "{reading3d}" not in text
+    assert not (tmp_path / "fluid.png").exists()  # the 2D figure (docs/bench/fluid.png) is not redrawn
+    assert bf.is_pipe3d("rigid pipe 3D, mesh, stock") and not bf.is_pipe3d("rigid pipe 2D, mesh, stock")

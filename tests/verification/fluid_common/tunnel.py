@@ -7,7 +7,8 @@ empty); returns the constant/polyMesh folder, reused by every case of that mesh.
 
 make_case(case, polymesh, settings): a complete pimpleFoam case with libtqFoam.so, written
 from a settings dict (defaults: SETTINGS, "ours"), with the fake solid ('replay') reading
-constant/wallMotion.dat.  The settings cover the whole of what the benchmark compares:
+constant/wallMotion.dat.  Axial ends from the mesh: 'empty' (slice), 'wall' (a closed pipe:
+end plates moving with it, ends_are_walls) or open (p fixed, the tunnel's 3D mesh).  The settings cover the whole of what the benchmark compares:
 mesh motion (stock displacementLaplacian, tqInterpolatedDisplacement, transpiration), wall
 conditions (stock movingWallVelocity + fixedFluxPressure, or ours), linear solvers and PIMPLE
 controls, logging.
@@ -16,6 +17,7 @@ controls, logging.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -99,6 +101,13 @@ def prepare_mesh(mode: str, dest: Path) -> Path:
     return poly
 
 
+def ends_are_walls(boundary: str) -> bool:
+    """Whether a polyMesh boundary file's axial ends (end_ymin, end_ymax) are both of type wall:
+    a closed pipe (pipe.make_pipe_case, open_ends False); gmshToFoam's open ends are 'patch'."""
+    types = {m.group(1): m.group(2) for m in re.finditer(r"\b(end_y(?:min|max))\s*\{[^}]*?\btype\s+(\w+)\s*;", boundary)}
+    return len(types) == 2 and all(t == "wall" for t in types.values())
+
+
 def _solver_entry(name: str, body: str) -> str:
     return f"    {name} {{ {body} }}\n"
 
@@ -113,6 +122,7 @@ def make_case(case: Path, polymesh: Path, settings: dict | None = None) -> Path:
     shutil.copytree(polymesh, case / "constant" / "polyMesh")
     boundary = (case / "constant" / "polyMesh" / "boundary").read_text()
     slice_mode = "empty" in boundary
+    closed_ends = not slice_mode and ends_are_walls(boundary)
     moving = s["interface_motion"] == "meshMotion"
     motion = case / "constant" / "wallMotion.dat"
     steps, dt = s["steps"], s["dt"]
@@ -227,6 +237,18 @@ displacementLaplacianCoeffs {{ diffusivity {s["laplacian_diffusivity"]}; }}
         wall_p = "type fixedFluxExtrapolatedPressure; value uniform 0;"
     if slice_mode:
         end_u = end_p = end_d = "type empty;"
+    elif closed_ends:
+        # closed 3D pipe (ends of type wall, e.g. pipe.make_pipe_case's blockMesh): the end plates
+        # move with the pipe. Stock: the moving mesh carries them (movingWallVelocity); ours on a
+        # moving mesh the same through tqInterfaceVelocity; ours with transpiration (static mesh)
+        # sees only their in-plane motion for a lateral shake: slip (no flux, no shear) is exact
+        # for a rigid translation, whose water moves uniformly with the pipe
+        if s["wall"] == "stock":
+            end_u, end_p = "type movingWallVelocity; value uniform (0 0 0);", "type fixedFluxPressure; value uniform 0;"
+        else:
+            end_u = "type slip;" if not moving else "type tqInterfaceVelocity; value uniform (0 0 0);"
+            end_p = "type fixedFluxExtrapolatedPressure; value uniform 0;"
+        end_d = "type slip;" if s["motion_solver"] == "laplacian" else "type calculated; value uniform (0 0 0);"
     else:
         end_u = "type pressureInletOutletVelocity; value uniform (0 0 0);"
         end_p = "type fixedValue; value uniform 0;"
