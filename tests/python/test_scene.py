@@ -77,3 +77,18 @@ def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
                                             s=("  scheme: implicit\n", "  scheme: paper\n"),
                                             w=("  window: 16\n", "  window: 1\n"), r=("  reuse: 16\n", "")))
         assert not paper.stable and "diverge" in paper.message and "added-mass ratio 14.4" in paper.message
+
+
+def test_incompressible_water_with_long_windows_is_warned(write_case):
+    """Measured on the paper case in 3D (docs/stability.md "The paper case in 3D with incompressible
+    water"): at added-mass ratio 14.4 incompressible water with windows of 16 steps diverged (the
+    divergence detection stopped it at 0.053 s) and one-step windows needed 12.4 passes a step, so
+    check warns for windows of several steps and says what to expect for one-step windows."""
+    from tunnelquake.scene import added_mass_diagnostic
+
+    edits = dict(m=("  mode: slice ", "  mode: 3d "), w=("  model: compressible\n", "  model: incompressible\n"))
+    am = added_mass_diagnostic(_case(write_case, **edits))
+    assert not am.stable and "windows of several steps diverged" in am.message and "14.4" in am.message
+    am = added_mass_diagnostic(_case(write_case, k=("  window: 16\n", "  window: 1\n"), **edits))
+    assert am.stable and "expect many passes" in am.message
+    assert added_mass_diagnostic(_case(write_case)).stable  # the example: compressible water
