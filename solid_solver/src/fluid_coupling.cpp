@@ -148,6 +148,19 @@ struct FluidCoupling::Impl {
     }
   }
 
+  /// The implicit scheme's pass-0 window-end force `trial`, at the start of a window: the last
+  /// converged force, or with the linear predictor 2 F_w − F_{w−1} (F the force applied in a window,
+  /// the initial force before the first; receivedPrev moves on to F_w).
+  void implicitPassZeroForce() {
+    trial = received;
+    if (in.predictor != "linear") return;
+    if (stats.windows > 0)  // window 0 starts from the initial force (= receivedPrev)
+      for (size_t j = 0; j < trial.size(); ++j) trial[j] = 2.0 * force[j] - receivedPrev[j];
+    else
+      trial = receivedPrev;
+    if (stats.windows > 0) receivedPrev = force;
+  }
+
   /// Window of k > 1 steps: the velocity written is the window's mean, (u_end − u_start)/window,
   /// so that the water's wall flux over its one step of length `window` sweeps exactly the volume
   /// the solid's wall swept (a transpiration interface integrates the velocity, not the position).
@@ -352,14 +365,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
         I.repeat = false;
         if (I.pass == 0) {  // a new window: F_w, and the pass-0 force as for one-step windows
           I.forceStart = I.stats.windows > 0 ? I.force : I.receivedPrev;
-          I.trial = I.received;
-          if (I.in.predictor == "linear") {
-            if (I.stats.windows > 0)
-              for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.force[j] - I.receivedPrev[j];
-            else
-              I.trial = I.receivedPrev;
-            I.receivedPrev = I.stats.windows > 0 ? I.force : I.receivedPrev;
-          }
+          I.implicitPassZeroForce();
         }
       }
       if (I.stepInWindow < k) {
@@ -398,16 +404,9 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       // With the linear predictor both sides start from 2 F_w − F_{w−1}, F the force applied in a
       // window (its last pass's trial; the initial force before the first): a window whose first
       // answer already agrees with it to the tolerance needs one pass (docs/coupler.md "Predictor").
-      if (I.scheme == cp::SchemeKind::Implicit) {
-        I.trial = I.received;
-        if (I.in.predictor == "linear") {
-          if (I.stats.windows > 0)  // window 0 starts from the initial force (= receivedPrev)
-            for (size_t j = 0; j < n3; ++j) I.trial[j] = 2.0 * I.force[j] - I.receivedPrev[j];
-          else
-            I.trial = I.receivedPrev;
-          I.receivedPrev = I.stats.windows > 0 ? I.force : I.receivedPrev;
-        }
-      } else
+      if (I.scheme == cp::SchemeKind::Implicit)
+        I.implicitPassZeroForce();
+      else
         std::fill(I.trial.begin(), I.trial.end(), 0.0);
       long long passes = 0;
       for (;;) {
