@@ -295,6 +295,10 @@ def schema() -> Section:
         "time": Section(fields={
             "dt": Number(dim=U.TIME, min=0.0, min_open=True, doc="solid step, s (default: the stable step x safety)"),
             "safety_factor": Number(min=0.0, max=1.0, min_open=True, default=0.9),
+            "subcycling": Number(integer=True, min=0, max=8, default=0,
+                                 doc="multi-time-step solid: an element steps up to 2^n times the finest step where "
+                                     "its own stable step allows (0 = one step for all; docs/solid_solver.md "
+                                     "\"Subcycling\")"),
             "end_time": _positive(U.TIME, "s (default: the motion's duration)"),
         }),
         "output": Section(fields={

@@ -129,6 +129,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         s.attrs["t_end"] = float(t_end)
         s.attrs["dt"] = float(d["time"]["dt"] or 0.0)
         s.attrs["safety"] = float(d["time"]["safety_factor"])
+        if d["time"]["subcycling"]:
+            s.attrs["subcycling_levels"] = float(d["time"]["subcycling"])
 
         damp = d["damping"]
         if damp["ratio"] > 0:

@@ -236,6 +236,33 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                                      {"coupler_cpu_s", cs.cpuInCoupler}},
                        {{"scheme", in.staged.coupling.scheme}});
   };
+  if (in.options.subcyclingLevels > 0) {  // after every contributor is in: they mark their fine nodes
+    try {
+      const SubcyclingInfo sc = s.enableSubcycling(in.options.subcyclingLevels);
+      std::ostringstream os;
+      os << "tq-solid: subcycling: steps of 1";
+      for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
+      os << " x dt for";
+      for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
+      os << " elements (";
+      for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
+      os << " nodes): " << std::setprecision(3) << sc.costFraction
+         << " of the element evaluations of one step for all\n";
+      out << os.str();
+      std::map<std::string, double> attrs{{"levels", double(sc.levels)},
+                                                        {"cost_fraction", sc.costFraction}};
+      for (size_t l = 0; l < sc.elements.size(); ++l) {
+        attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
+        attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
+      }
+      results.writeAttrs("/subcycling", attrs, {});
+    } catch (const InputError& e) {
+      if (coupling) coupling->abort(e.what());
+      results.setStatus(std::string("stopped: ") + e.what());
+      err << "tq-solid: input error: " << e.what() << "\n";
+      return 2;
+    }
+  }
   results.sample(s);
   size_t nextSnap = 0;
   Real nextSample = in.monitorDt;

@@ -101,13 +101,21 @@ SolidInput readSolidInput(const std::string& path) {
   {
     auto g = h5::openGroup(f, "/solver");
     const std::string w = "/solver";
-    checkKeys(c, g, w, {"t_end", "dt", "safety", "integrator", "formulation", "velocity_limit", "gravity_z"});
+    checkKeys(c, g, w, {"t_end", "dt", "safety", "integrator", "formulation", "velocity_limit", "gravity_z",
+                        "subcycling_levels"});
     in.tEnd = num(c, g, w, "t_end", 0, true);
     if (!(in.tEnd > 0)) c.fail(w, "t_end = " + std::to_string(in.tEnd) + " must be > 0 (s)");
     in.options.dt = num(c, g, w, "dt", 0);
     in.options.safety = num(c, g, w, "safety", 0.9);
     in.options.velocityLimit = num(c, g, w, "velocity_limit", 1e3);
     in.options.gravity[2] = num(c, g, w, "gravity_z", 0);
+    {
+      const Real lv = num(c, g, w, "subcycling_levels", 0);
+      if (!(lv >= 0 && lv <= 8 && lv == std::floor(lv)))
+        c.fail(w, "subcycling_levels = " + std::to_string(lv) +
+                      " must be a whole number 0..8 (0 = off; n: elements step up to 2^n times the finest step)");
+      in.options.subcyclingLevels = int(lv);
+    }
     try {
       in.options.integrator = parseIntegrator(str(c, g, w, "integrator", "central_difference"));
       in.formulation = parseFormulation(str(c, g, w, "formulation", "one_point_assumed_strain"));
@@ -264,6 +272,7 @@ void writeSolidInput(const SolidInput& in, const std::string& path, const std::s
     h5::writeDoubleAttr(g, "safety", in.options.safety);
     h5::writeDoubleAttr(g, "velocity_limit", in.options.velocityLimit);
     h5::writeDoubleAttr(g, "gravity_z", in.options.gravity[2]);
+    if (in.options.subcyclingLevels > 0) h5::writeDoubleAttr(g, "subcycling_levels", in.options.subcyclingLevels);
     h5::writeStringAttr(g, "integrator", integratorName(in.options.integrator));
     h5::writeStringAttr(g, "formulation", formulationName(in.formulation));
   }

@@ -37,6 +37,18 @@ public:
   /// After every other force of the step.
   bool runsLast() const override { return true; }
   void checkpoint(StateArchive& a) override { a.io(force_); }
+  /// Subcycling: the members of a group share its finest level (the common acceleration needs
+  /// every member's complete force at the same steps).
+  bool constrainLevels(std::vector<std::uint8_t>& level) const override {
+    bool lowered = false;
+    for (Index g = 0; g < numGroups(); ++g) {
+      std::uint8_t lo = 255;
+      for (const Index* n = begin(g); n != end(g); ++n) lo = std::min(lo, level[size_t(*n)]);
+      for (const Index* n = begin(g); n != end(g); ++n)
+        if (level[size_t(*n)] != lo) level[size_t(*n)] = lo, lowered = true;
+    }
+    return lowered;
+  }
 
   Index numGroups() const { return Index(start_.size()) - 1; }
   /// Members of group g: nodes [begin, end).

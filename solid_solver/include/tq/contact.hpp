@@ -92,6 +92,14 @@ public:
   void addForces(Real t, Real dt, NodalState& state) override;
   bool runsLast() const override { return true; }
   Real dissipatedEnergy() const override { return -work_; }
+  /// Subcycling: the pairs step every fine step (their force is predicted from each step's motion).
+  bool constrainLevels(std::vector<std::uint8_t>& level) const override {
+    bool lowered = false;
+    for (const auto* nodes : {&pairs_.node1, &pairs_.node2})
+      for (Index n : *nodes)
+        if (level[size_t(n)] != 0) level[size_t(n)] = 0, lowered = true;
+    return lowered;
+  }
   void checkpoint(StateArchive& a) override {
     a.io(state_);
     a.io(failed_);

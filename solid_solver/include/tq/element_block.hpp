@@ -49,6 +49,9 @@ struct ElementStepParams {
   Real dt = 0;          ///< step about to be taken (s)
   Real dtLast = 0;      ///< step that produced the current displacement increment (0 at start)
   Real beta = 0;        ///< stiffness-proportional Rayleigh coefficient β (s)
+  /// Subcycling (Solver::enableSubcycling): evaluate only the chunks whose level is at most this
+  /// (the chunks due at this fine step); 255 = every chunk.
+  int activeLevel = 255;
 };
 
 class ElementBlock {
@@ -95,6 +98,16 @@ public:
   void lumpMassInto(NodalState& state) const;
   /// Largest element frequency estimate ω = 2 c_p / L_e (rad/s); *where receives the element.
   Real maxFrequency(Index* where = nullptr) const;
+  /// Frequency estimate ω = 2 c_p / L_e of element e (rad/s).
+  Real frequency(Index e) const;
+
+  /// Subcycling: give each chunk the level min over its active elements' nodes of nodeLevel
+  /// (a chunk is evaluated at the fine steps where the node of the finest level among its
+  /// elements is updated: every 2^level fine steps). An empty array clears the levels.
+  void setChunkLevels(const std::vector<std::uint8_t>& nodeLevel);
+  /// Level of chunk c (0 without subcycling).
+  int chunkLevel(Index c) const { return chunkLevel_.empty() ? 0 : chunkLevel_[size_t(c)]; }
+  Index numChunks() const { return Index(chunkEnergy_.size()); }
 
   /// Add the internal + stiffness-damping forces of every element to the nodal forces f [3N]
   /// (the caller zeroes f first), and return the block's energy terms.
@@ -156,6 +169,9 @@ private:
   // setStress/setActive change a stress without work (as the stored form's stress work does).
   Real energyShift_ = 0;
   std::vector<BlockEnergy> chunkEnergy_;
+  std::vector<std::uint8_t> chunkLevel_;  // subcycling: [chunk] level (empty: every chunk every step)
+  std::vector<std::uint8_t> slabLevel_;   // subcycling: [slab] finest level of its chunks
+  std::vector<Index> dueSlabs_;           // subcycling: slabs of one parity due at this step (scratch)
   Index slabChunks_ = 1;  // chunks per slab of the parallel scatter
   bool avx2_ = false;     // kernel path
 };

@@ -74,6 +74,11 @@ public:
   /// Save or restore everything addForces changes (StateArchive: a coupling window of several
   /// steps is repeated from its start). A contributor with state must list it here.
   virtual void checkpoint(StateArchive& /*archive*/) {}
+  /// Subcycling: lower the levels (Solver::enableSubcycling) of the nodes this contributor needs
+  /// at a finer step: 0 for nodes whose force it computes from their motion within each step
+  /// (contact pairs, the coupled wall), one common level for nodes it moves together (ties).
+  /// Nodes it only loads (boundaries, surface pressures) need nothing. Return true if it lowered one.
+  virtual bool constrainLevels(std::vector<std::uint8_t>& /*level*/) const { return false; }
 };
 
 /// The stable time step and what limits it.
@@ -109,6 +114,17 @@ struct SolverOptions {
   bool allowUnstableStep = false;  ///< testing only: accept dt above the stable limit
   Real velocityLimit = 1.0e3;   ///< |v| above this (m/s) counts as exploding
   Real gravity[3] = {0, 0, 0};  ///< body acceleration (m/s^2), e.g. {0, 0, -9.81}
+  /// Subcycling during the time loop (Solver::enableSubcycling): an element may step up to
+  /// 2^subcyclingLevels times the finest step where its own stable step allows; 0 = off.
+  int subcyclingLevels = 0;
+};
+
+/// What enableSubcycling set up.
+struct SubcyclingInfo {
+  int levels = 0;                 ///< the coarsest level in use (steps of 2^levels fine steps)
+  std::vector<Index> nodes;       ///< nodes per level
+  std::vector<Index> elements;    ///< active elements per level (their chunk's level)
+  Real costFraction = 1;          ///< element evaluations per fine step / active elements
 };
 
 /// Dynamic relaxation to static equilibrium (explicit steps with adaptive critical mass damping,
@@ -175,6 +191,19 @@ public:
   /// element stresses and history, energies, clock and every contributor's state. A restored
   /// solver continues bitwise as the saved one did.
   void checkpoint(StateArchive& archive);
+  /// Subcycling (multi-time-step explicit integration, nodal partition with linear interpolation,
+  /// Belytschko, Yen & Mullen 1979; docs/solid_solver.md "Subcycling"). Each node gets the level
+  /// ℓ = min over its active elements of floor(log2(Δt_e / Δt)) (at most maxLevel; Δt_e = safety ×
+  /// the element's own critical step), lowered where the contributors ask (constrainLevels) and so
+  /// that the nodes of one element differ by at most one level.
+  /// A node of level ℓ updates its velocity every 2^ℓ fine steps with the step 2^ℓ Δt and moves
+  /// with it linearly in between; an element chunk is evaluated every 2^ℓ fine steps, ℓ the
+  /// finest level of its nodes. Needs the central difference and no stiffness damping (β = 0).
+  /// Throws InputError otherwise. maxLevel = 0 turns it off.
+  SubcyclingInfo enableSubcycling(int maxLevel);
+  bool subcycling() const { return !nodeLevel_.empty(); }
+  /// Subcycling level of node n (0 without subcycling).
+  int nodeLevel(Index n) const { return nodeLevel_.empty() ? 0 : nodeLevel_[size_t(n)]; }
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
 
@@ -205,9 +234,11 @@ public:
   Real residualNorm() const;
 
 private:
-  void computeInternalForces();
+  void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
   void updateNodes();
+  void updateNodesSubcycled(int activeLevel);
+  void finishEnergy();  // the balance terms from the accumulated works (after a node update)
   [[noreturn]] void reportInstability(Index dof, Real value);
 
   const Mesh& mesh_;
@@ -231,6 +262,11 @@ private:
   bool balanceSet_ = false;
   bool avx2_ = false;  // node update path (ElementBlock::defaultUseAvx2)
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
+  // Subcycling: node levels, f_ext at each node's last velocity update and the step that update
+  // took (the trapezoidal work over its next step), fine steps since enableSubcycling.
+  std::vector<std::uint8_t> nodeLevel_;
+  std::vector<Real> fSync_, dtPrevNode_;
+  Index cycle_ = 0;
 };
 
 /// One block per mesh region, each with the material given for that region name.
