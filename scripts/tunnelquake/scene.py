@@ -61,6 +61,12 @@ def assess_slice(case) -> SliceAssessment:
             advice.append("the scene is uniform along the tunnel axis: mesh.mode: slice gives the same answer for "
                           f"about 1/{d['mesh'].get('elements_along_axis', 44)} of the solid's cost (paper case: "
                           "every monitored peak within 0.05 % of the 3D run)")
+        if not d["time"].get("subcycling"):
+            # Measured on the paper mesh (docs/benchmarks.md "Subcycling"): the lining's 0.25 m layers set
+            # the step; the rock may take up to 8 times it.
+            advice.append("time.subcycling: 3 lets the rock step up to 8 times the lining's step (paper mesh in 3D: "
+                          "0.32 of the element evaluations, about 1.9x fewer solid seconds a step; "
+                          "docs/solid_solver.md \"Subcycling\")")
     return SliceAssessment(valid=not reasons, reasons=reasons, advice=advice)
 
 

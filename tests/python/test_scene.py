@@ -50,6 +50,16 @@ def test_3d_case_is_offered_the_slice(write_case):
     assert "mesh.mode: slice" in a.advice[0]  # no moving water: the ends do not matter
 
 
+def test_3d_case_is_offered_subcycling(write_case):
+    """A 3D case stepping everything at the lining's step is offered subcycling (paper mesh: 0.32 of
+    the element evaluations; docs/solid_solver.md "Subcycling"); one that has it, and the slice, are not."""
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d ")))
+    assert any("time.subcycling: 3" in x for x in a.advice)
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "), s=("  subcycling: 0", "  subcycling: 3")))
+    assert not any("subcycling" in x for x in a.advice)
+    assert not any("subcycling" in x for x in assess_slice(_case(write_case)).advice)
+
+
 def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
     """ARCHITECTURE.md §5: m_G = 2500 x 0.25 / 2 = 312.5 kg/m^2; water adds rho_w R / n = 4500 (n = 1)
     and 2250 (n = 2) kg/m^2: ratios 14.4 and 7.2 > 1, so a staggered scheme (explicit, paper)
