@@ -346,18 +346,33 @@ void Solver::computeExternalForces() {
   // Gravity acts on the true masses, also while relax() runs with scaled ones.
   const Real* m = gravityMass_.empty() ? state_.massData() : gravityMass_.data();
   const Real g0 = opt_.gravity[0], g1 = opt_.gravity[1], g2 = opt_.gravity[2];
+  // Constant contributors (held reactions, static pressures) are added in this pass, in their order.
+  const Real* cf[4] = {nullptr, nullptr, nullptr, nullptr};
+  int nc = 0;
+  const NodalForceContributor* folded[4] = {nullptr, nullptr, nullptr, nullptr};
+  for (const auto& c : contributors_) {
+    const std::vector<Real>* v = c->constantForces();
+    if (nc < 4 && v && v->size() == 3 * size_t(N) && !c->runsLast()) {
+      folded[nc] = c.get();
+      cf[nc++] = v->data();
+    }
+  }
 #pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
   for (Index n = 0; n < N; ++n) {
-    fe[3 * size_t(n)] = m[n] * g0;
-    fe[3 * size_t(n) + 1] = m[n] * g1;
-    fe[3 * size_t(n) + 2] = m[n] * g2;
+    const size_t i = 3 * size_t(n);
+    Real f[3] = {m[n] * g0, m[n] * g1, m[n] * g2};
+    for (int k = 0; k < nc; ++k)
+      for (int d = 0; d < 3; ++d) f[d] += cf[k][i + size_t(d)];
+    fe[i] = f[0];
+    fe[i + 1] = f[1];
+    fe[i + 2] = f[2];
   }
   for (const auto& l : loads_) {
     const Real f = l.forcePerNode * l.function(t_);
     for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
   }
   for (auto& c : contributors_)
-    if (!c->runsLast()) c->addForces(t_, dt_, state_);
+    if (!c->runsLast() && std::find(folded, folded + nc, c.get()) == folded + nc) c->addForces(t_, dt_, state_);
   for (auto& c : contributors_)  // e.g. the dynamic contact force: predicts from all other forces
     if (c->runsLast()) c->addForces(t_, dt_, state_);
 }

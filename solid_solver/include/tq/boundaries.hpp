@@ -44,6 +44,7 @@ public:
   ConstantNodalForces(std::string name, std::vector<Real> forces) : name_(std::move(name)), f_(std::move(forces)) {}
   std::string name() const override { return name_; }
   void addForces(Real t, Real dt, NodalState& state) override;
+  const std::vector<Real>* constantForces() const override { return &f_; }
   const std::vector<Real>& forces() const { return f_; }
 
 private:

@@ -79,6 +79,9 @@ public:
   /// (contact pairs, the coupled wall), one common level for nodes it moves together (ties).
   /// Nodes it only loads (boundaries, surface pressures) need nothing. Return true if it lowered one.
   virtual bool constrainLevels(std::vector<std::uint8_t>& /*level*/) const { return false; }
+  /// A contributor whose [3N] force never changes may return it here: the solver then adds it in
+  /// its own parallel pass with gravity instead of calling addForces (one serial pass fewer).
+  virtual const std::vector<Real>* constantForces() const { return nullptr; }
 };
 
 /// The stable time step and what limits it.
