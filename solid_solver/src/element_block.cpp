@@ -834,6 +834,15 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   const bool damp = p.beta > 0;
   const Index nSlabs = (nChunks + slabChunks_ - 1) / slabChunks_;
   const std::vector<std::uint8_t>& levels = chunkLevel_;
+  auto chunk = [&](Index c) {
+    BlockEnergy& en = chunkEnergy_[size_t(c)];
+    if (full)
+      fullIntegrationChunk(c, u, f, en);
+    else if (total_)
+      damp ? onePointChunk<true, true>(c, u, v, p, f, en) : onePointChunk<false, true>(c, u, v, p, f, en);
+    else
+      damp ? onePointChunk<true, false>(c, u, v, p, f, en) : onePointChunk<false, false>(c, u, v, p, f, en);
+  };
   // Even slabs first, then odd ones: slabs of one parity share no node, so each scatters into f
   // directly; a node's contributions arrive in an order fixed by the mesh (its elements in slab
   // order within each parity), whatever the thread count. Small blocks run serially: a parallel
@@ -855,13 +864,7 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
         const Index c1 = std::min(nChunks, (s + 1) * slabChunks_);
         for (Index c = s * slabChunks_; c < c1; ++c) {
           if (levels[size_t(c)] > p.activeLevel) continue;  // not due at this fine step
-          BlockEnergy& en = chunkEnergy_[size_t(c)];
-          if (full)
-            fullIntegrationChunk(c, u, f, en);
-          else if (total_)
-            damp ? onePointChunk<true, true>(c, u, v, p, f, en) : onePointChunk<false, true>(c, u, v, p, f, en);
-          else
-            damp ? onePointChunk<true, false>(c, u, v, p, f, en) : onePointChunk<false, false>(c, u, v, p, f, en);
+          chunk(c);
         }
       }
       continue;
@@ -870,13 +873,7 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
     for (Index s = parity; s < nSlabs; s += 2) {
       const Index c1 = std::min(nChunks, (s + 1) * slabChunks_);
       for (Index c = s * slabChunks_; c < c1; ++c) {
-        BlockEnergy& en = chunkEnergy_[size_t(c)];
-        if (full)
-          fullIntegrationChunk(c, u, f, en);
-        else if (total_)
-          damp ? onePointChunk<true, true>(c, u, v, p, f, en) : onePointChunk<false, true>(c, u, v, p, f, en);
-        else
-          damp ? onePointChunk<true, false>(c, u, v, p, f, en) : onePointChunk<false, false>(c, u, v, p, f, en);
+        chunk(c);
       }
     }
   }

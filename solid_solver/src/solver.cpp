@@ -445,17 +445,22 @@ void Solver::updateNodes() {
     s[3] = bdry;
     s[4] = Real(bad);
   }
+  bookNodeChunks(nChunks);
+}
+
+void Solver::bookNodeChunks(Index nChunks) {
+  // The node chunks' sums in a fixed order (any thread count), the first bad dof, the balance.
   Real ke = 0, ext = 0, damp = 0, bdry = 0;
   Index bad = -1;
   for (Index c = 0; c < nChunks; ++c) {
-    const Real* s = sums + kSums * size_t(c);
+    const Real* s = nodeChunkSums_.data() + kSums * size_t(c);
     ke += s[0];
     ext += s[1];
     damp += s[2];
     bdry += s[3];
     if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
   }
-  if (bad >= 0) reportInstability(bad, v[bad]);
+  if (bad >= 0) reportInstability(bad, state_.vData()[bad]);
   extWork_ += ext;
   dampWork_ += damp;
   bdryWork_ += bdry;
@@ -557,22 +562,7 @@ void Solver::updateNodesSubcycled(int active) {
     s[3] = bdry;
     s[4] = Real(bad);
   }
-  Real ke = 0, ext = 0, damp = 0, bdry = 0;
-  Index bad = -1;
-  for (Index c = 0; c < nChunks; ++c) {
-    const Real* s = sums + kSums * size_t(c);
-    ke += s[0];
-    ext += s[1];
-    damp += s[2];
-    bdry += s[3];
-    if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
-  }
-  if (bad >= 0) reportInstability(bad, v[bad]);
-  extWork_ += ext;
-  dampWork_ += damp;
-  bdryWork_ += bdry;
-  energy_.kinetic = ke;
-  finishEnergy();
+  bookNodeChunks(nChunks);
 }
 
 SubcyclingInfo Solver::enableSubcycling(int maxLevel) {

@@ -15,9 +15,8 @@
 #include <cstdio>
 #include <sstream>
 
-#include "staged_helpers.hpp"
-#include "tq/constraints.hpp"
 #include "tq/state_archive.hpp"
+#include "wave_cases.hpp"
 
 using namespace tq;
 using tqtest::GaussPulse;
@@ -29,48 +28,32 @@ constexpr Real kH = 50, kHFine = 0.25, kHCoarse = 1.0, kCsS = 500, kRhoS = 1900,
 constexpr Real kCsR = 1500, kRhoR = 2500, kNuR = 0.25;
 
 /// The layer of H = 50 m (cs 500 m/s) on the rock's viscoelastic base, meshed with 100 elements of
-/// 0.25 m below z = 25 m and 25 of 1 m above, every node level tied (a 1D column), undamped.
-struct GradedColumn : StagedRun {
-  std::shared_ptr<TiedNodeGroups> tie;
+/// 0.25 m below z = 25 m and 25 of 1 m above (cross-section 1 m), every node level tied (a 1D
+/// column), undamped: tests/cpp/wave_cases.hpp's column with its nodes moved.
+struct GradedColumn : tqcases::ColumnRun {
   void setUp(Real tEndMotion) {
     const Index nFine = Index(0.5 * kH / kHFine), nCoarse = Index(0.5 * kH / kHCoarse);
-    const BoxSpec box{1, 1, nFine + nCoarse, 0, 0, 0, kHCoarse, kHCoarse, Real(nFine + nCoarse), "soil"};
-    mesh = makeBoxMesh(box);
-    for (Index n = 0; n < mesh.numNodes(); ++n) {  // layer j at z = j h_fine, then j h_coarse steps
-      Real& z = mesh.coords[3 * size_t(n) + 2];
-      const Real j = std::round(z);
-      z = j <= Real(nFine) ? j * kHFine : 0.5 * kH + (j - Real(nFine)) * kHCoarse;
-    }
+    width = kHCoarse;
+    reshape = [nFine](Mesh& m) {  // layer j (at z = j m) to j h_fine, then h_coarse steps
+      for (Index n = 0; n < m.numNodes(); ++n) {
+        Real& z = m.coords[3 * size_t(n) + 2];
+        const Real j = std::round(z);
+        z = j <= Real(nFine) ? j * kHFine : 0.5 * kH + (j - Real(nFine)) * kHCoarse;
+      }
+    };
     const Real GS = kRhoS * kCsS * kCsS;
-    in.materials = {{"soil", {2 * GS * (1 + kNuS), kNuS, kRhoS}}};
-    in.staged.present = true;
-    in.staged.stages.sequence = {"seismic"};
     BottomBoundaryInput b;
-    b.present = true;
-    b.columnFace = "xmin";
     b.distance = 25;
     b.rho = kRhoR;
     b.cs = kCsR;
     b.cp = kCsR * std::sqrt(2 * (1 - kNuR) / (1 - 2 * kNuR));
-    in.staged.bottom = b;
     GaussPulse pulse;
     pulse.t0 = 0.02;
     pulse.tau = 0.003;
-    in.staged.motion.present = true;
-    pulse.sample(tEndMotion, 1e-4, in.staged.motion.time, in.staged.motion.ax);
-    build();
-    std::ostringstream log;
-    stages->runStatics(log);
-    stages->switchToDynamics(log);
-    tie = std::make_shared<TiedNodeGroups>("periodic column", tqtest::levelGroups(mesh));
-    tie->install(*solver);
-    solver->addContributor(tie);
-  }
-  Index topNode() const {
-    Index best = 0;
-    for (Index k = 0; k < mesh.numNodes(); ++k)
-      if (mesh.coords[3 * size_t(k) + 2] > mesh.coords[3 * size_t(best) + 2]) best = k;
-    return best;
+    MotionInput m;
+    m.present = true;
+    pulse.sample(tEndMotion, 1e-4, m.time, m.ax);
+    ColumnRun::setUp(Real(nFine + nCoarse), nFine + nCoarse, {{"soil", {2 * GS * (1 + kNuS), kNuS, kRhoS}}}, 0, m, b);
   }
 };
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <sstream>
 
 #include "staged_helpers.hpp"
@@ -26,10 +27,12 @@ const Real kCp = kCs * std::sqrt(2 * (1 - kNu) / (1 - 2 * kNu));
 struct ColumnRun : StagedRun {
   std::shared_ptr<TiedNodeGroups> tie;
   Real width = 1.0;  ///< the column's cross-section side (m)
+  std::function<void(Mesh&)> reshape;  ///< if set: moves the nodes before the build (graded columns)
   void setUp(Real H, Index n, std::vector<std::pair<std::string, ElasticParams>> mats, Real zSplit,
              const MotionInput& motion, BottomBoundaryInput bottom) {
     const BoxSpec box{1, 1, n, 0, 0, 0, width, width, H, mats[0].first};
     mesh = mats.size() == 1 ? makeBoxMesh(box) : tqtest::twoLayerBox(box, zSplit, mats[0].first, mats[1].first);
+    if (reshape) reshape(mesh);
     in.materials = std::move(mats);
     in.staged.present = true;
     in.staged.stages.sequence = {"seismic"};

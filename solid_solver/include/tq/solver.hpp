@@ -241,6 +241,7 @@ private:
   void computeExternalForces();
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
+  void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
   void finishEnergy();  // the balance terms from the accumulated works (after a node update)
   [[noreturn]] void reportInstability(Index dof, Real value);
 
