@@ -33,6 +33,14 @@ struct LeapfrogSums {
   Index nBad = 0;
 };
 
+inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Index bad) {
+  s[0] = ke;
+  s[1] = ext;
+  s[2] = damp;
+  s[3] = bdry;
+  s[4] = Real(bad);
+}
+
 typedef long long LI2 __attribute__((vector_size(16)));
 typedef long long LI4 __attribute__((vector_size(32)));
 
@@ -438,12 +446,7 @@ void Solver::updateNodes() {
         }
       }
     }
-    Real* s = sums + kSums * size_t(c);
-    s[0] = ke;
-    s[1] = ext;
-    s[2] = damp;
-    s[3] = bdry;
-    s[4] = Real(bad);
+    storeChunkSums(sums + kSums * size_t(c), ke, ext, damp, bdry, bad);
   }
   bookNodeChunks(nChunks);
 }
@@ -555,12 +558,7 @@ void Solver::updateNodesSubcycled(int active) {
         }
       }
     }
-    Real* s = sums + kSums * size_t(c);
-    s[0] = ke;
-    s[1] = ext;
-    s[2] = damp;
-    s[3] = bdry;
-    s[4] = Real(bad);
+    storeChunkSums(sums + kSums * size_t(c), ke, ext, damp, bdry, bad);
   }
   bookNodeChunks(nChunks);
 }
