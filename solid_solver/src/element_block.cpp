@@ -1,8 +1,6 @@
 #include "tq/element_block.hpp"
 
 #include <algorithm>
-#include <cstdlib>
-#include <limits>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -113,20 +111,9 @@ std::vector<Index> scatterOrder(const Mesh& mesh, std::vector<Index> elems) {
   const Index span = scatterSpan(mesh, elems);
   if (span < Index(elems.size()) / 16) return elems;
   std::vector<Real> edge(elems.size());
-  static const int kEdge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
-                                   {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
   for (size_t i = 0; i < elems.size(); ++i) {
-    Real h = std::numeric_limits<Real>::max();
-    for (const auto& ab : kEdge) {
-      Real d2 = 0;
-      for (int d = 0; d < 3; ++d) {
-        const Real dx = mesh.coords[3 * size_t(mesh.connectivity[8 * size_t(elems[i]) + ab[0]]) + d] -
-                        mesh.coords[3 * size_t(mesh.connectivity[8 * size_t(elems[i]) + ab[1]]) + d];
-        d2 += dx * dx;
-      }
-      h = std::min(h, d2);
-    }
-    edge[i] = std::sqrt(h);
+    Real longest = 0;
+    hex8::edgeLengthRange(mesh.coords.data(), &mesh.connectivity[8 * size_t(elems[i])], edge[i], longest);
   }
   const Real hMin = *std::min_element(edge.begin(), edge.end());
   std::vector<Index> sources;
@@ -206,16 +193,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   chunkEnergy_.resize(nChunks);
   // Slabs for the scatter: wider than the largest distance between two elements sharing a node,
   // so a node is touched by at most two consecutive slabs (depends on the mesh only).
-  Index span = 0;
-  {
-    std::vector<Index> first(size_t(mesh.numNodes()), -1);
-    for (Index e = 0; e < nElems_; ++e)
-      for (int k = 0; k < 8; ++k) {
-        Index& f = first[size_t(conn_[8 * size_t(e) + k])];
-        if (f < 0) f = e;
-        span = std::max(span, e - f);
-      }
-  }
+  const Index span = scatterSpan(mesh, meshElems_);
   slabChunks_ = std::max<Index>(4, (span + kChunk) / kChunk);  // (span + 1) elements, rounded up
 }
 
@@ -313,12 +291,11 @@ Real ElementBlock::dissipatedEnergy() const {
 }
 
 Real ElementBlock::maxFrequency(Index* where) const {
-  const Real cp = std::sqrt(mod_.pModulus() / material_->density());
   Real wmax = 0;
   Index at = -1;
   for (Index e = 0; e < nElems_; ++e) {
     if (!active_[e]) continue;
-    const Real w = 2 * cp / charLen_[e];
+    const Real w = frequency(e);
     if (w > wmax) { wmax = w; at = e; }
   }
   if (where) *where = at;

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tq::hex8 {
 
@@ -31,6 +32,21 @@ Real jacobian(const Real x[3][8], Real xi, Real eta, Real zeta, Real J[3][3]) {
       J[i][k] = s;
     }
   return det3(J);
+}
+
+void edgeLengthRange(const Real* coords, const Index* nodes, Real& shortest, Real& longest) {
+  Real lo2 = std::numeric_limits<Real>::max(), hi2 = 0;
+  for (const auto& ed : kEdges) {
+    Real d2 = 0;
+    for (int i = 0; i < 3; ++i) {
+      const Real dx = coords[3 * size_t(nodes[ed[0]]) + i] - coords[3 * size_t(nodes[ed[1]]) + i];
+      d2 += dx * dx;
+    }
+    lo2 = std::min(lo2, d2);
+    hi2 = std::max(hi2, d2);
+  }
+  shortest = std::sqrt(lo2);
+  longest = std::sqrt(hi2);
 }
 
 Real minJacobian(const Real x[3][8], int* where) {

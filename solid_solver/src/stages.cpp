@@ -2,6 +2,7 @@
 #include "tq/stages.hpp"
 
 #include "tq/contact.hpp"
+#include "tq/hex8.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -361,8 +362,6 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
 std::string elementSizeWarning(const Solver& solver, Real f) {
   if (!(f > 0)) return "";
   const Mesh& m = solver.mesh();
-  static constexpr int kEdges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
-                                        {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
   Index count = 0, total = 0, worstElem = -1;
   Real worst = 0, worstH = 0, worstCs = 0;
   std::string worstBlock;
@@ -370,15 +369,8 @@ std::string elementSizeWarning(const Solver& solver, Real f) {
     const Real cs = std::sqrt(b->material().elasticModuli().mu / b->material().density());
     const Real limit = cs / (8 * f);
     for (Index e = 0; e < b->numElems(); ++e) {
-      Real h = 0;
-      for (const auto& ed : kEdges) {
-        Real d2 = 0;
-        for (int i = 0; i < 3; ++i) {
-          const Real dx = m.coords[3 * size_t(b->node(e, ed[0])) + i] - m.coords[3 * size_t(b->node(e, ed[1])) + i];
-          d2 += dx * dx;
-        }
-        h = std::max(h, std::sqrt(d2));
-      }
+      Real shortest = 0, h = 0;
+      hex8::edgeLengthRange(m.coords.data(), &m.connectivity[8 * size_t(b->meshElem(e))], shortest, h);
       ++total;
       if (h > limit) {
         ++count;

@@ -94,11 +94,8 @@ public:
   Real dissipatedEnergy() const override { return -work_; }
   /// Subcycling: the pairs step every fine step (their force is predicted from each step's motion).
   bool constrainLevels(std::vector<std::uint8_t>& level) const override {
-    bool lowered = false;
-    for (const auto* nodes : {&pairs_.node1, &pairs_.node2})
-      for (Index n : *nodes)
-        if (level[size_t(n)] != 0) level[size_t(n)] = 0, lowered = true;
-    return lowered;
+    const bool rock = lowerToFinestLevel(level, pairs_.node1);
+    return lowerToFinestLevel(level, pairs_.node2) || rock;
   }
   void checkpoint(StateArchive& a) override {
     a.io(state_);

@@ -108,12 +108,7 @@ public:
   const std::vector<Index>& nodes() const;
   const std::vector<Real>& force() const;
   /// Subcycling: the wet nodes step every fine step (the water force is set per step).
-  bool constrainLevels(std::vector<std::uint8_t>& level) const override {
-    bool lowered = false;
-    for (Index n : nodes())
-      if (level[size_t(n)] != 0) level[size_t(n)] = 0, lowered = true;
-    return lowered;
-  }
+  bool constrainLevels(std::vector<std::uint8_t>& level) const override { return lowerToFinestLevel(level, nodes()); }
   /// One line describing the coupling (scheme, window, transport, interface size).
   std::string describe() const;
   /// True when the fluid is known to end by itself: the handshake took place (or was refused,

@@ -23,6 +23,14 @@ inline constexpr Real kH[4][8] = {
 inline constexpr int kFaces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
                                      {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
 
+/// The 12 edges as local node pairs.
+inline constexpr int kEdges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                                      {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+
+/// Shortest and longest edge (m) of the element with nodes `nodes[8]` in the node-major
+/// coordinate array `coords` [3N].
+void edgeLengthRange(const Real* coords, const Index* nodes, Real& shortest, Real& longest);
+
 /// Shape function derivatives dN[k][I] = ∂N_I/∂ξ_k at (ξ, η, ζ).
 void shapeDerivatives(Real xi, Real eta, Real zeta, Real dN[3][8]);
 

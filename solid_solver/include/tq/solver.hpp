@@ -84,6 +84,14 @@ public:
   virtual const std::vector<Real>* constantForces() const { return nullptr; }
 };
 
+/// Subcycling: set the listed nodes to level 0 (the finest step); true if one was coarser.
+inline bool lowerToFinestLevel(std::vector<std::uint8_t>& level, const std::vector<Index>& nodes) {
+  bool lowered = false;
+  for (Index n : nodes)
+    if (level[size_t(n)] != 0) level[size_t(n)] = 0, lowered = true;
+  return lowered;
+}
+
 /// The stable time step and what limits it.
 struct StableStep {
   Real dtCritical = 0;  ///< (2/ω_max)(√(1+ξ²) - ξ) (s)
@@ -204,9 +212,6 @@ public:
   /// finest level of its nodes. Needs the central difference and no stiffness damping (β = 0).
   /// Throws InputError otherwise. maxLevel = 0 turns it off.
   SubcyclingInfo enableSubcycling(int maxLevel);
-  bool subcycling() const { return !nodeLevel_.empty(); }
-  /// Subcycling level of node n (0 without subcycling).
-  int nodeLevel(Index n) const { return nodeLevel_.empty() ? 0 : nodeLevel_[size_t(n)]; }
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
 
