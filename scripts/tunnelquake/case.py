@@ -266,6 +266,10 @@ def schema() -> Section:
                                  "again whole until the water agrees; k > 1 is refused for scheme paper"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
             "max_iterations": Number(integer=True, min=1, default=20),
+            "energy_limit": Number(min=0.0, default=0.05,
+                                   doc="stop the run when the energy the coupling created exceeds this fraction "
+                                       "of the largest interface work so far (docs/coupler.md \"Energy guard\"); "
+                                       "0: no stop"),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
             "reuse": Number(integer=True, min=0, max=1000, default=0,
                             doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "

@@ -225,6 +225,9 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                                      {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
                                      {"fluid_received_work", coupling->fluidReceivedWork()},
                                      {"coupling_energy", coupling->couplingEnergy()},
+                                     {"interface_work_peak", coupling->interfaceWorkPeak()},
+                                     {"energy_floor", coupling->energyFloor()},
+                                     {"energy_limit", in.staged.coupling.energyLimit},
                                      // cost split over the stepping (docs/coupler.md "Exchange cost")
                                      {"coupled_wall_s", cs.secondsCoupled},
                                      {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
@@ -276,6 +279,10 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   try {
     while (s.time() < in.tEnd - 1e-9 * s.dt() && (!coupling || coupling->ongoing())) {
       if (!stepper.step()) continue;
+      if (coupling) {
+        const std::string note = coupling->takeNote();
+        if (!note.empty()) out << "tq-solid: " << note << std::endl;
+      }
       const Real t = s.time();
       if (t >= nextSample - 1e-9 * s.dt()) {
         results.sample(s);

@@ -91,6 +91,11 @@ struct FluidCoupling::Impl {
   std::vector<Real> recvPrev;      // [3n] final force of the last window
   std::vector<Real> lagPrev;       // [3n] u − u0 one step before the last window's end (windows of k steps)
   Real fluidReceived = 0;
+  // Energy guard (docs/coupler.md "Energy guard"): the largest |interface work| of either side so
+  // far, the floor of the reference, a note to print once when a fifth of the limit is reached.
+  Real workPeak = 0, energyFloor = 0;
+  bool energyWarned = false;
+  std::string note;
   FluidCouplingStats stats;
   // How the link ended (CouplingMpi::finish): the handshake took place; the fluid fell silent.
   bool linked = false, silent = false;
@@ -208,6 +213,44 @@ struct FluidCoupling::Impl {
     recvPrev = received;
   }
 
+  /// At each window's end: the energy the coupling created, E_c = work + fluidReceived, against the
+  /// largest interface work of either side so far (at least energyFloor). An exchange converged to
+  /// the tolerance keeps E_c of the order of the tolerance times that work; E_c growing past
+  /// energy_limit of it means the accepted errors feed a mode of the water and the wall, which then
+  /// grows on energy the scheme makes (the 3D paper case with 16-step windows at 1e-3 did so from
+  /// 13.5 s, slowly and without the sign alternation the divergence detection looks for).
+  void guardEnergy() {
+    workPeak = std::max({workPeak, std::abs(work), std::abs(fluidReceived)});
+    if (!(in.energyLimit > 0)) return;
+    const Real ref = std::max(workPeak, energyFloor), ec = work + fluidReceived;
+    if (!(ref > 0)) return;
+    const Real ratio = ec / ref;
+    auto where = [&] {
+      std::ostringstream os;
+      os << "t = " << solver.time() << " s (window " << stats.windows << ")";
+      return os.str();
+    };
+    if (!(ratio <= in.energyLimit)) {
+      std::ostringstream os;
+      os << "the water coupling created energy: " << ec << " J at " << where() << ", " << 100 * ratio
+         << " % of the largest interface work so far (" << ref << " J), above coupling.energy_limit = "
+         << in.energyLimit << ". The scheme (" << in.scheme << ", windows of " << in.windowSteps
+         << " step(s), tolerance " << in.tolerance
+         << ") accepts errors that feed a weakly damped mode of the water and the lining; the results past "
+            "the point where /energy/coupling_energy left zero are not trustworthy. Lower coupling.tolerance "
+            "(e.g. ten times) or shorten coupling.window (docs/coupler.md \"Energy guard\")";
+      throw InstabilityError(os.str());
+    }
+    if (!energyWarned && ratio > 0.2 * in.energyLimit) {
+      energyWarned = true;
+      std::ostringstream os;
+      os << "warning: the water coupling has created " << ec << " J at " << where() << ", " << 100 * ratio
+         << " % of the largest interface work so far; the run stops at " << 100 * in.energyLimit
+         << " % (coupling.energy_limit)";
+      note = os.str();
+    }
+  }
+
   void write() {
     for (const auto& name : in.writeFields)
       p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
@@ -240,6 +283,16 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.lagPrev.assign(n3, 0.0);
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
+
+  // The energy guard's floor: the work of the scale forces on the scale motion of one window over
+  // every wetted node (coupling_scales.py: force ρ a r A, displacement a window², the absolute
+  // tolerances divided by the relative one); 13 J on the 3D paper case. Below it E_c is round-off
+  // against round-off (at rest, before the wave arrives).
+  if (in.energyFloor > 0)
+    I.energyFloor = in.energyFloor;
+  else if (in.absoluteTolForce > 0 && in.absoluteTolDisplacement > 0 && in.tolerance > 0)
+    I.energyFloor = Real(I.nodes.size()) * (in.absoluteTolForce / in.tolerance) *
+                    (in.absoluteTolDisplacement / in.tolerance);
 
   // Step and window: window = k solid steps.
   if (in.windowSize > 0) solver.setTimeStep(in.windowSize / Real(in.windowSteps));  // InputError if unstable
@@ -351,6 +404,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
     throw CouplingError("water coupling: the solid stepped past the last coupling window (t_end = " +
                         std::to_string(endTime()) + " s); stop the time loop when ongoing() is false");
   const size_t n3 = I.force.size();
+  bool windowEnded = false;  // the guard then looks at the energy once this step's work is booked
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = threadCpu();
   try {
@@ -390,6 +444,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
           I.stats.passes += I.pass;
           I.stats.maxPasses = std::max(I.stats.maxPasses, I.pass);
           I.pass = 0;
+          windowEnded = true;
         }
       }
     } else if (++I.stepInWindow < I.in.windowSteps) {
@@ -431,6 +486,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       ++I.stats.windows;
       I.stats.passes += passes;
       I.stats.maxPasses = std::max(I.stats.maxPasses, passes);
+      windowEnded = true;
     }
   } catch (const cp::CouplerError& e) {
     I.fail("exchange with '" + I.in.partner + "' failed", e);
@@ -458,6 +514,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.work += w;
   I.prev = I.force;
   I.dtPrev = dt;
+  if (windowEnded) I.guardEnergy();
 }
 
 void FluidCoupling::checkpoint(StateArchive& a) {
@@ -484,6 +541,13 @@ long long FluidCoupling::windowCount() const { return impl_->windows; }
 Real FluidCoupling::fluidWork() const { return impl_->work; }
 Real FluidCoupling::fluidReceivedWork() const { return impl_->fluidReceived; }
 Real FluidCoupling::couplingEnergy() const { return impl_->work + impl_->fluidReceived; }
+Real FluidCoupling::interfaceWorkPeak() const { return impl_->workPeak; }
+Real FluidCoupling::energyFloor() const { return impl_->energyFloor; }
+std::string FluidCoupling::takeNote() {
+  std::string n;
+  n.swap(impl_->note);
+  return n;
+}
 FluidCouplingStats FluidCoupling::stats() const {
   FluidCouplingStats s = impl_->stats;
   if (impl_->p && impl_->initialized) {

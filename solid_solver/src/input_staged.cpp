@@ -266,7 +266,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
                        "initial_relaxation", "predictor", "reuse", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
-                       "absolute_tolerance_force"});
+                       "absolute_tolerance_force", "energy_limit", "energy_floor"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -281,6 +281,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.absoluteTolDisplacement = number(c, g, w, "absolute_tolerance_displacement", 0, 0);
     C.absoluteTolForce = number(c, g, w, "absolute_tolerance_force", 0, 0);
     C.maxIterations = Index(number(c, g, w, "max_iterations", Real(C.maxIterations), 1));
+    C.energyLimit = number(c, g, w, "energy_limit", 0, 0);
+    C.energyFloor = number(c, g, w, "energy_floor", 0, 0);
     C.acceleration = text(c, g, w, "acceleration", C.acceleration);
     if (C.acceleration != "none" && C.acceleration != "constant" && C.acceleration != "aitken" &&
         C.acceleration != "iqn-ils")
@@ -399,6 +401,8 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeDoubleAttr(g, "absolute_tolerance_displacement", C.absoluteTolDisplacement);
     h5::writeDoubleAttr(g, "absolute_tolerance_force", C.absoluteTolForce);
     h5::writeIntAttr(g, "max_iterations", C.maxIterations);
+    if (C.energyLimit > 0) h5::writeDoubleAttr(g, "energy_limit", C.energyLimit);
+    if (C.energyFloor > 0) h5::writeDoubleAttr(g, "energy_floor", C.energyFloor);
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
     h5::writeStringAttr(g, "predictor", C.predictor);

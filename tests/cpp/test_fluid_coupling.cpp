@@ -640,3 +640,137 @@ TEST(SolidCoupling, ImplicitWindowsBookTheFluidWorkWithoutDrift) {
   }
   EXPECT_NEAR(created[1], created[0], 1e-12 * std::max(work[0], work[1]));
 }
+
+// (g) The energy guard (docs/coupler.md "Energy guard"). The water is a Winkler spring on every
+// wetted node, R = −k u_s (u_s the displacement the fluid was sent): a conservative partner, so any
+// energy the exchange shows is the scheme's. Converged implicit windows make none (|E_c| ~ round-off
+// of the work), and the guard stays silent even at a limit of 1e-6. The explicit scheme applies
+// each answer one window late, R^n = −k u^{n−1} = −k u^n + k Δt v: a negative damper k Δt, so the
+// exchange creates energy (E_c > 0, still rising at the end; the ring's own damping keeps it at ≈ 2 %
+// of the work here instead of running away). With energy_limit L the run stops with InstabilityError
+// at the first window end where E_c > L × max(largest interface work so far, floor) — found here from
+// the unguarded run's own series — naming the key and the window.
+namespace {
+
+class SpringFluid {
+public:
+  SpringFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes, Real k)
+      : thread_([=, &mesh] {
+          try {
+            cp::TransportOptions t;
+            t.addressFile = in.addressFile;
+            t.connectTimeout = t.receiveTimeout = in.timeout;
+            cp::Participant p(in.partner, configOf(in, window), t, in.token);
+            const size_t n = solidNodes.size();
+            std::vector<std::int64_t> ids(n);
+            std::vector<double> xyz(3 * n);
+            for (size_t j = 0; j < n; ++j) {
+              ids[j] = 700000 + std::int64_t(j);
+              for (int d = 0; d < 3; ++d) xyz[3 * j + d] = mesh.coords[3 * size_t(solidNodes[j]) + d];
+            }
+            p.setMeshVertices(in.mesh, ids, xyz);
+            p.initialize();
+            std::vector<double> u(3 * n), f(3 * n);
+            while (p.isCouplingOngoing()) {
+              p.readData(in.mesh, "displacement", u);
+              for (size_t i = 0; i < f.size(); ++i) f[i] = -k * u[i];
+              p.writeData(in.mesh, "force", f);
+              p.advance(p.getMaxTimeStepSize());
+            }
+            p.finalize();
+          } catch (const cp::PartnerLostError&) {  // the solid stopped (the guard): allowed here
+          } catch (const std::exception& e) {
+            error_ = e.what();
+          }
+        }) {}
+  ~SpringFluid() {
+    if (thread_.joinable()) thread_.join();
+  }
+  void join() { thread_.join(); }
+  const std::string& error() const { return error_; }
+
+private:
+  std::string error_;
+  std::thread thread_;
+};
+
+struct GuardRun {
+  std::vector<Real> ratio;  ///< E_c / max(peak |work|) at each window end (this test's own bookkeeping)
+  Real couplingEnergy = 0, peak = 0;
+  long long windows = 0;
+  std::string stopped;  ///< the InstabilityError's message, empty if the run completed
+};
+
+GuardRun springRun(const std::string& scheme, Real limit, Index windows, Real k = 2e9) {
+  const Mesh mesh = linedRing(24);
+  auto s = buildSolver(ringInput(2.0, 1e-5), mesh);
+  NodalLoad pulse;  // a short push on the crown of the lining's outside
+  for (Index n = 0; n < mesh.numNodes(); ++n)
+    if (std::abs(mesh.coords[3 * size_t(n)] - kB) < 1e-9 && std::abs(mesh.coords[3 * size_t(n) + 2]) < 1e-9)
+      pulse.nodes.push_back(n);
+  pulse.direction = 0;
+  pulse.forcePerNode = -2e6;
+  pulse.function = {{0, 0.002, 0.004}, {0, 1, 0}};
+  s->addLoad(pulse);
+  const auto dir = freshDir("guard_" + scheme);
+  CouplingInput ci = couplingInput(dir, scheme, windows);
+  ci.writeFields = {"displacement"};
+  ci.energyLimit = limit;
+  ci.energyFloor = 1.0;  // J, 1/300 of the run's interface work: the start (E_c ≈ work ≈ 0) is not judged
+  auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
+  SpringFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), k);
+  ad->initialize();
+  s->addContributor(ad);
+  GuardRun out;
+  WindowedStepper stepper(*s, ad.get());
+  Real peak = 0;
+  try {
+    while (ad->ongoing()) {
+      if (!stepper.step()) continue;
+      peak = std::max({peak, std::abs(ad->fluidWork()), std::abs(ad->fluidReceivedWork())});
+      out.ratio.push_back(ad->couplingEnergy() / std::max(peak, ci.energyFloor));
+    }
+    ad->finalize();
+  } catch (const InstabilityError& e) {
+    out.stopped = e.what();
+    ad->abort("test: the guard stopped the solid");
+  }
+  fluid.join();
+  EXPECT_EQ(fluid.error(), "") << scheme;
+  out.couplingEnergy = ad->couplingEnergy();
+  out.peak = ad->interfaceWorkPeak();
+  out.windows = ad->stats().windows;
+  return out;
+}
+
+}  // namespace
+
+TEST(SolidCoupling, EnergyGuardStopsAnExchangeThatCreatesEnergyAndOnlyThat) {
+  const Index windows = 1500;
+  const GuardRun implicit = springRun("implicit", 1e-6, windows);
+  std::printf("implicit, spring water: %lld windows, E_c %.3e J of peak work %.6e J, stopped: '%s'\n",
+              implicit.windows, implicit.couplingEnergy, implicit.peak, implicit.stopped.c_str());
+  EXPECT_EQ(implicit.stopped, "");
+  EXPECT_EQ(implicit.windows, windows);
+  EXPECT_GT(implicit.peak, 0.0);
+  EXPECT_LT(std::abs(implicit.couplingEnergy), 1e-6 * implicit.peak);
+
+  const GuardRun free = springRun("explicit", 0, windows);
+  ASSERT_EQ(free.stopped, "");
+  ASSERT_EQ(free.ratio.size(), size_t(windows));
+  const Real maxRatio = *std::max_element(free.ratio.begin(), free.ratio.end());
+  std::printf("explicit, spring water, no limit: E_c %.6e J of peak work %.6e J (ratio at the end %.4f, largest %.4f)\n",
+              free.couplingEnergy, free.peak, free.ratio.back(), maxRatio);
+  EXPECT_GT(free.couplingEnergy, 0.0);  // the lag is a negative damper: energy is created
+  EXPECT_GT(free.ratio.back(), free.ratio[free.ratio.size() / 2]);  // and keeps rising
+  const Real limit = 0.5 * maxRatio;
+  const auto first = size_t(std::find_if(free.ratio.begin(), free.ratio.end(), [&](Real r) { return r > limit; }) -
+                            free.ratio.begin());
+  ASSERT_LT(first, free.ratio.size());
+  const GuardRun guarded = springRun("explicit", limit, windows);
+  std::printf("explicit with energy_limit %.4f: stopped after %lld windows (first window above it in the free run: "
+              "%zu): %s\n", limit, guarded.windows, first, guarded.stopped.c_str());
+  EXPECT_EQ(guarded.windows, (long long)first + 1);
+  EXPECT_NE(guarded.stopped.find("coupling.energy_limit"), std::string::npos);
+  EXPECT_NE(guarded.stopped.find("window " + std::to_string(first + 1)), std::string::npos);
+}

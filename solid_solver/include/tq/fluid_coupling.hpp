@@ -103,6 +103,14 @@ public:
   /// fluidWork() + fluidReceivedWork(): the energy the coupling scheme created (> 0) or
   /// destroyed (< 0) at the interface (J); zero for an exchange converged to round-off.
   Real couplingEnergy() const;
+  /// The energy guard's reference: the largest |fluidWork()| or |fluidReceivedWork()| at a window's
+  /// end so far (J), and its floor (J; 0 when neither /coupling energy_floor nor the absolute
+  /// tolerances give one). The run stops (InstabilityError) when couplingEnergy() exceeds
+  /// energy_limit × max(peak, floor) at a window's end.
+  Real interfaceWorkPeak() const;
+  Real energyFloor() const;
+  /// A warning to print once (the coupling energy passed a fifth of the limit); empty otherwise.
+  std::string takeNote();
   FluidCouplingStats stats() const;
   /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N).
   const std::vector<Index>& nodes() const;

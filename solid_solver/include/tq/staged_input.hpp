@@ -100,6 +100,11 @@ struct CouplingInput {
   /// units (0 = none; `tunnelquake run` derives them from the problem scale, docs/coupler.md)
   Real absoluteTolVelocity = 0, absoluteTolDisplacement = 0, absoluteTolForce = 0;
   Index maxIterations = 20;               ///< implicit: passes per window at most
+  /// Stop when the energy the coupling created (couplingEnergy() > 0) exceeds this fraction of the
+  /// largest interface work so far (0 = no stop; docs/coupler.md "Energy guard").
+  Real energyLimit = 0;
+  /// J: the least reference work of that ratio (0 = from the absolute tolerances, see the guard).
+  Real energyFloor = 0;
   std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
   Index reuse = 0;                        ///< IQN-ILS: windows whose secant columns are kept
