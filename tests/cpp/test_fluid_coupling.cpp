@@ -135,11 +135,16 @@ cp::CouplingConfig configOf(const CouplingInput& in, Real window) {
 
 /// A fake fluid in a thread: its vertices are the solid's interface nodes in reverse order with
 /// other ids (the coincident map must find the permutation); every window it sends the nodal
-/// forces `force(t_end of window)` given on the solid's interface nodes ([3n], solid order).
+/// forces `force(t_end of window)` given on the solid's interface nodes ([3n], solid order), or,
+/// with `respond`, `respond(t_end, u_s)` of the displacement u_s the solid sent ([3n], solid order).
 class FakeFluid {
 public:
+  using Force = std::function<std::vector<Real>(Real)>;
+  using Response = std::function<std::vector<Real>(Real, const std::vector<Real>&)>;
+  FakeFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes, Force force)
+      : FakeFluid(in, window, mesh, solidNodes, [force](Real t, const std::vector<Real>&) { return force(t); }, false) {}
   FakeFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes,
-            std::function<std::vector<Real>(Real)> force)
+            Response respond, bool readsMotion = true)
       : thread_([=, &mesh] {
           try {
             cp::TransportOptions t;
@@ -156,9 +161,15 @@ public:
             }
             p.setMeshVertices(in.mesh, ids, xyz);
             p.initialize();
-            std::vector<double> f(3 * n);
+            std::vector<double> f(3 * n), uf(3 * n);
+            std::vector<Real> us(3 * n);
             while (p.isCouplingOngoing()) {
-              const std::vector<Real> fs = force((double(p.state().window) + 1) * window);
+              if (readsMotion) {
+                p.readData(in.mesh, "displacement", uf);
+                for (size_t k = 0; k < n; ++k)
+                  for (int d = 0; d < 3; ++d) us[3 * (n - 1 - k) + d] = uf[3 * k + d];
+              }
+              const std::vector<Real> fs = respond((double(p.state().window) + 1) * window, us);
               for (size_t k = 0; k < n; ++k)
                 for (int d = 0; d < 3; ++d) f[3 * k + d] = fs[3 * (n - 1 - k) + d];
               p.writeData(in.mesh, "force", f);
@@ -390,11 +401,8 @@ struct DynResult {
   Real residual = 0;  ///< |f_ext − f_int|₂ over the free dofs at the end (N)
 };
 
-DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
-                     std::function<std::vector<Real>(Real)> fluidForce, const std::vector<Real>& ownForce, Index steps,
-                     bool withPulse = true, Index window = 1, Real alpha = 2.0, Index ownRamp = 0) {
-  SolidInput in = ringInput(alpha, 1e-5);
-  auto s = buildSolver(in, mesh);
+/// A short inward push (2 MN a node over 4 ms, triangular) on the crown of the lining's outside.
+NodalLoad crownPulse(const Mesh& mesh) {
   NodalLoad pulse;
   for (Index n = 0; n < mesh.numNodes(); ++n)
     if (std::abs(mesh.coords[3 * size_t(n)] - kB) < 1e-9 && std::abs(mesh.coords[3 * size_t(n) + 2]) < 1e-9)
@@ -402,7 +410,15 @@ DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
   pulse.direction = 0;
   pulse.forcePerNode = -2e6;
   pulse.function = {{0, 0.002, 0.004}, {0, 1, 0}};
-  if (withPulse) s->addLoad(pulse);
+  return pulse;
+}
+
+DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
+                     std::function<std::vector<Real>(Real)> fluidForce, const std::vector<Real>& ownForce, Index steps,
+                     bool withPulse = true, Index window = 1, Real alpha = 2.0, Index ownRamp = 0) {
+  SolidInput in = ringInput(alpha, 1e-5);
+  auto s = buildSolver(in, mesh);
+  if (withPulse) s->addLoad(crownPulse(mesh));
   if (!ownForce.empty()) {
     if (ownRamp > 0)
       s->addContributor(std::make_shared<RampedForces>(ownForce, ownRamp));
@@ -652,48 +668,6 @@ TEST(SolidCoupling, ImplicitWindowsBookTheFluidWorkWithoutDrift) {
 // the unguarded run's own series — naming the key and the window.
 namespace {
 
-class SpringFluid {
-public:
-  SpringFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes, Real k)
-      : thread_([=, &mesh] {
-          try {
-            cp::TransportOptions t;
-            t.addressFile = in.addressFile;
-            t.connectTimeout = t.receiveTimeout = in.timeout;
-            cp::Participant p(in.partner, configOf(in, window), t, in.token);
-            const size_t n = solidNodes.size();
-            std::vector<std::int64_t> ids(n);
-            std::vector<double> xyz(3 * n);
-            for (size_t j = 0; j < n; ++j) {
-              ids[j] = 700000 + std::int64_t(j);
-              for (int d = 0; d < 3; ++d) xyz[3 * j + d] = mesh.coords[3 * size_t(solidNodes[j]) + d];
-            }
-            p.setMeshVertices(in.mesh, ids, xyz);
-            p.initialize();
-            std::vector<double> u(3 * n), f(3 * n);
-            while (p.isCouplingOngoing()) {
-              p.readData(in.mesh, "displacement", u);
-              for (size_t i = 0; i < f.size(); ++i) f[i] = -k * u[i];
-              p.writeData(in.mesh, "force", f);
-              p.advance(p.getMaxTimeStepSize());
-            }
-            p.finalize();
-          } catch (const cp::PartnerLostError&) {  // the solid stopped (the guard): allowed here
-          } catch (const std::exception& e) {
-            error_ = e.what();
-          }
-        }) {}
-  ~SpringFluid() {
-    if (thread_.joinable()) thread_.join();
-  }
-  void join() { thread_.join(); }
-  const std::string& error() const { return error_; }
-
-private:
-  std::string error_;
-  std::thread thread_;
-};
-
 struct GuardRun {
   std::vector<Real> ratio;  ///< E_c / max(peak |work|) at each window end (this test's own bookkeeping)
   Real couplingEnergy = 0, peak = 0;
@@ -704,21 +678,18 @@ struct GuardRun {
 GuardRun springRun(const std::string& scheme, Real limit, Index windows, Real k = 2e9) {
   const Mesh mesh = linedRing(24);
   auto s = buildSolver(ringInput(2.0, 1e-5), mesh);
-  NodalLoad pulse;  // a short push on the crown of the lining's outside
-  for (Index n = 0; n < mesh.numNodes(); ++n)
-    if (std::abs(mesh.coords[3 * size_t(n)] - kB) < 1e-9 && std::abs(mesh.coords[3 * size_t(n) + 2]) < 1e-9)
-      pulse.nodes.push_back(n);
-  pulse.direction = 0;
-  pulse.forcePerNode = -2e6;
-  pulse.function = {{0, 0.002, 0.004}, {0, 1, 0}};
-  s->addLoad(pulse);
+  s->addLoad(crownPulse(mesh));
   const auto dir = freshDir("guard_" + scheme);
   CouplingInput ci = couplingInput(dir, scheme, windows);
   ci.writeFields = {"displacement"};
   ci.energyLimit = limit;
   ci.energyFloor = 1.0;  // J, 1/300 of the run's interface work: the start (E_c ≈ work ≈ 0) is not judged
   auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
-  SpringFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), k);
+  FakeFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), [k](Real, const std::vector<Real>& u) {
+    std::vector<Real> f(u.size());
+    for (size_t i = 0; i < u.size(); ++i) f[i] = -k * u[i];
+    return f;
+  });
   ad->initialize();
   s->addContributor(ad);
   GuardRun out;
