@@ -270,6 +270,11 @@ def schema() -> Section:
                                    doc="stop the run when the energy the coupling created exceeds this fraction "
                                        "of the largest interface work so far (docs/coupler.md \"Energy guard\"); "
                                        "0: no stop"),
+            "window_force_weight": Number(min=0.5, max=1.0, default=0.5,
+                                          doc="implicit windows of several steps: weight of the window-end force "
+                                              "in the force the solid's steps apply; 0.5: linear ramp from the "
+                                              "window's start force, 1: the end force held (damps the period-two "
+                                              "added-mass mode; docs/coupler.md \"Window force weight\")"),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
             "reuse": Number(integer=True, min=0, max=1000, default=0,
                             doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "

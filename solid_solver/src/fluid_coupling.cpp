@@ -286,7 +286,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
 
   // The energy guard's floor: the work of the scale forces on the scale motion of one window over
   // every wetted node (coupling_scales.py: force ρ a r A, displacement a window², the absolute
-  // tolerances divided by the relative one); 13 J on the 3D paper case. Below it E_c is round-off
+  // tolerances divided by the relative one); 26 J on the 3D paper case. Below it E_c is round-off
   // against round-off (at rest, before the wave arrives).
   if (in.energyFloor > 0)
     I.energyFloor = in.energyFloor;
@@ -423,7 +423,9 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
         }
       }
       if (I.stepInWindow < k) {
-        const Real w = Real(I.stepInWindow) / Real(k);
+        // β = 1/2: the linear ramp j/k; β > 1/2 leans toward the window-end force (docs/coupler.md
+        // "Window force weight"): w_j = 1 − (1 − j/k) · 2(1 − β), the window's mean weight ≈ β.
+        const Real w = 1 - (1 - Real(I.stepInWindow) / Real(k)) * 2 * (1 - I.in.windowForceWeight);
         for (size_t j = 0; j < n3; ++j) I.force[j] = I.forceStart[j] + w * (I.trial[j] - I.forceStart[j]);
         I.p->advance(dt);
       } else {

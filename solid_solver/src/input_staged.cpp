@@ -266,7 +266,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
                        "initial_relaxation", "predictor", "reuse", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
-                       "absolute_tolerance_force", "energy_limit", "energy_floor"});
+                       "absolute_tolerance_force", "energy_limit", "energy_floor", "window_force_weight"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -283,6 +283,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.maxIterations = Index(number(c, g, w, "max_iterations", Real(C.maxIterations), 1));
     C.energyLimit = number(c, g, w, "energy_limit", 0, 0);
     C.energyFloor = number(c, g, w, "energy_floor", 0, 0);
+    C.windowForceWeight = number(c, g, w, "window_force_weight", C.windowForceWeight, 0.5);
+    if (C.windowForceWeight > 1)
+      c.fail(w, "window_force_weight " + std::to_string(C.windowForceWeight) +
+                    " is above 1 (0.5: linear ramp to the window-end force, 1: the end force held)");
     C.acceleration = text(c, g, w, "acceleration", C.acceleration);
     if (C.acceleration != "none" && C.acceleration != "constant" && C.acceleration != "aitken" &&
         C.acceleration != "iqn-ils")
@@ -403,6 +407,7 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeIntAttr(g, "max_iterations", C.maxIterations);
     if (C.energyLimit > 0) h5::writeDoubleAttr(g, "energy_limit", C.energyLimit);
     if (C.energyFloor > 0) h5::writeDoubleAttr(g, "energy_floor", C.energyFloor);
+    if (C.windowForceWeight != 0.5) h5::writeDoubleAttr(g, "window_force_weight", C.windowForceWeight);
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
     h5::writeStringAttr(g, "predictor", C.predictor);

@@ -61,6 +61,21 @@ def test_3d_case_is_offered_subcycling(write_case):
     assert not any("subcycling" in x for x in assess_slice(_case(write_case)).advice)
 
 
+def test_3d_water_is_offered_the_robust_window_settings(write_case):
+    """A 3D case with dynamic water in implicit windows of several steps is offered the window force
+    weight 0.75 and tolerance 1e-4 (docs/coupler.md "Window force weight", "Energy guard": the paper case
+    in 3D ran into a period-two mode with the linear ramp and into energy-creating drift at 1e-3); the
+    slice (stable and validated with the ramp and 1e-3) is not."""
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d ")))
+    assert any("window_force_weight: 0.75" in x for x in a.advice)
+    assert any("coupling.tolerance: 1e-4" in x for x in a.advice)
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "), t=("  tolerance: 1e-3\n", "  tolerance: 1e-4\n"),
+                           w=("  reuse: 16\n", "  reuse: 16\n  window_force_weight: 0.75\n")))
+    assert not any("window_force_weight" in x or "coupling.tolerance" in x for x in a.advice)
+    a = assess_slice(_case(write_case))
+    assert not any("window_force_weight" in x or "coupling.tolerance" in x for x in a.advice)
+
+
 def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
     """ARCHITECTURE.md §5: m_G = 2500 x 0.25 / 2 = 312.5 kg/m^2; water adds rho_w R / n = 4500 (n = 1)
     and 2250 (n = 2) kg/m^2: ratios 14.4 and 7.2 > 1, so a staggered scheme (explicit, paper)

@@ -184,15 +184,19 @@ def test_damping_models_give_the_ratio_where_asked(prepared, tmp_path, model):
         assert a["alpha"] / (2 * 2 * np.pi * 10.0) == pytest.approx(0.05 * 1.5 / 10, rel=1e-12)
 
 
-def test_energy_guard_limit_reaches_the_solid(prepared, tmp_path):
+def test_energy_guard_and_window_force_weight_reach_the_solid(prepared, tmp_path):
     """coupling.energy_limit (default 0.05) becomes /coupling energy_limit; 0 leaves the key out, which
-    tq-solid reads as no guard (docs/coupler.md "Energy guard")."""
+    tq-solid reads as no guard (docs/coupler.md "Energy guard"). coupling.window_force_weight is written
+    when not the default 0.5 (the linear ramp; docs/coupler.md "Window force weight")."""
     case = _case(tmp_path)
     kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
     inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5", **kw)
     with h5py.File(inp) as f:
         assert f["coupling"].attrs["energy_limit"] == 0.05
+        assert "window_force_weight" not in f["coupling"].attrs
     case.data["coupling"]["energy_limit"] = 0.0
+    case.data["coupling"]["window_force_weight"] = 0.75
     inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "b.h5", **kw)
     with h5py.File(inp) as f:
         assert "energy_limit" not in f["coupling"].attrs
+        assert f["coupling"].attrs["window_force_weight"] == 0.75
