@@ -69,7 +69,8 @@ def assess_slice(case) -> SliceAssessment:
             if float(cs.get("window_force_weight", 0.5)) < 0.75:
                 advice.append("coupling.window_force_weight: 0.75 damps the period-two mode of the water's added "
                               "mass that the linear ramp (0.5) lets grow in 3D even in converged windows (paper case: "
-                              "stopped at 0.066 s incompressible, at 4.8 s compressible with closed ends; "
+                              "stopped at 0.066 s incompressible, at 4.8 s compressible with closed ends; with 0.75 "
+                              "and tolerance 1e-4 the 20 s record ran through, within 0.17 % of the slice; "
                               "docs/coupler.md \"Window force weight\")")
             if float(cs["tolerance"]) > 1e-4:
                 advice.append(f"coupling.tolerance: 1e-4 (here {float(cs['tolerance']):g}): the relative residual is of "
