@@ -676,7 +676,8 @@ struct GuardRun {
   std::string stopped;  ///< the InstabilityError's message, empty if the run completed
 };
 
-GuardRun springRun(const std::string& scheme, Real limit, Index windows, Real k = 2e9) {
+GuardRun springRun(const std::string& scheme, Real limit, Index windows) {
+  const Real k = 2e9;  // N/m per node and component
   const Mesh mesh = linedRing(24);
   auto s = buildSolver(ringInput(2.0, 1e-5), mesh);
   s->addLoad(crownPulse(mesh));
@@ -753,15 +754,15 @@ namespace {
 /// the window-end acceleration of the motion the fluid was sent (u_w, u_{w−1}: the last two accepted
 /// window-end displacements), as an incompressible water's pressure answers a wall accelerating.
 struct AddedMassRun {
-  std::vector<Real> u;
   std::vector<Real> crown;  ///< u_x of the inner crown node (node 0) at each window end
   std::string stopped;
   long long windows = 0, passes = 0;
   Real nodeMass = 0;  ///< lumped mass of the inner crown node (kg)
 };
 
-AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps, Real tol = 1e-8, Index reuse = 0,
-                          const std::string& predictor = "constant") {
+/// Fully converged windows (tolerance 1e-10, no reuse, constant predictor): what remains is the
+/// coupled time discretization, not the iteration.
+AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps) {
   const Mesh mesh = linedRing(24);
   auto s = buildSolver(ringInput(2.0, 1e-5), mesh);
   s->addLoad(crownPulse(mesh, 0.04));
@@ -770,9 +771,7 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps, Real tol = 1
   ci.windowSteps = k;
   ci.windowForceWeight = beta;
   ci.acceleration = "iqn-ils";
-  ci.tolerance = tol;
-  ci.reuse = reuse;
-  ci.predictor = predictor;
+  ci.tolerance = 1e-10;
   ci.maxIterations = 30;
   auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
   const Real window = ad->windowSize();
@@ -808,7 +807,6 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps, Real tol = 1
     ad->abort("test: stopped");
   }
   fluid.join();
-  out.u.assign(s->state().uData(), s->state().uData() + 3 * size_t(mesh.numNodes()));
   out.windows = ad->stats().windows;
   out.passes = ad->stats().passes;
   out.nodeMass = s->state().mass(0);
@@ -831,11 +829,11 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps, Real tol = 1
 TEST(SolidCoupling, WindowForceWeightDampsThePeriodTwoAddedMassMode) {
   const Real ma = 20000;
   const Index steps = 3200, k = 16;
-  const AddedMassRun ref = addedMassRun(ma, 1, 0.5, steps, 1e-10, 0, "constant");
+  const AddedMassRun ref = addedMassRun(ma, 1, 0.5, steps);
   ASSERT_EQ(ref.stopped, "");
   ASSERT_EQ(ref.crown.size(), size_t(steps));
-  const AddedMassRun ramp = addedMassRun(ma, k, 0.5, steps, 1e-10, 0, "constant");
-  const AddedMassRun lean = addedMassRun(ma, k, 0.75, steps, 1e-10, 0, "constant");
+  const AddedMassRun ramp = addedMassRun(ma, k, 0.5, steps);
+  const AddedMassRun lean = addedMassRun(ma, k, 0.75, steps);
   Real d = 0, m = 0;
   for (size_t w = 0; w < lean.crown.size(); ++w) {
     const Real r = ref.crown[(w + 1) * size_t(k) - 1];

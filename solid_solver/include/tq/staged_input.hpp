@@ -103,12 +103,12 @@ struct CouplingInput {
   /// Stop when the energy the coupling created (couplingEnergy() > 0) exceeds this fraction of the
   /// largest interface work so far (0 = no stop; docs/coupler.md "Energy guard").
   Real energyLimit = 0;
+  /// J: the least reference work of that ratio (0 = from the absolute tolerances, see the guard).
+  Real energyFloor = 0;
   /// Implicit windows of k > 1 steps: weight β of the window-end force in the force the solid's steps
   /// apply (step j: F_w + w_j (F̃ − F_w), w_j = 1 − (1 − j/k)·2(1 − β)); 0.5 = the linear ramp,
   /// 1 = the end force held over the window (docs/coupler.md "Window force weight").
   Real windowForceWeight = 0.5;
-  /// J: the least reference work of that ratio (0 = from the absolute tolerances, see the guard).
-  Real energyFloor = 0;
   std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
   Index reuse = 0;                        ///< IQN-ILS: windows whose secant columns are kept
