@@ -111,6 +111,13 @@ def _check_coupling(c, path, raw, ctx):
     if c.get("reuse", 0) and (c["scheme"] != "implicit" or c["acceleration"] != "iqn-ils"):
         ctx.error(f"{path}.reuse", c["reuse"], "reuse keeps IQN-ILS columns from earlier windows",
                   "use scheme: implicit with acceleration: iqn-ils, or reuse: 0", raw.key_lines.get("reuse"))
+    if c.get("window_force_weight", 0.5) != 0.5 and (c["scheme"] != "implicit" or c["window"] == 1):
+        why = (f"the {c['scheme']} scheme applies each answer of the water as it comes" if c["scheme"] != "implicit"
+               else "a window of one step applies the window-end force alone")
+        ctx.error(f"{path}.window_force_weight", c["window_force_weight"],
+                  f"weights the force across the steps of an implicit window of several steps; {why}, so it "
+                  f"would have no effect", "use scheme: implicit with window > 1, or leave window_force_weight out",
+                  raw.key_lines.get("window_force_weight"))
     if c["window"] > 1 and c["scheme"] == "paper":
         ctx.error(f"{path}.window", c["window"], "a window of several solid steps needs scheme explicit or implicit "
                   "(the paper scheme's two passes are made for one-step windows)",

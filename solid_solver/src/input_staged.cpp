@@ -325,6 +325,12 @@ void readStagedInput(hid_t f, SolidInput& in) {
     if (C.writeFields.empty()) c.fail(w, "write_fields is empty (give velocity, displacement or both)");
     C.participant = text(c, g, w, "participant", C.participant);
     C.partner = text(c, g, w, "partner", C.partner);
+    if (C.windowForceWeight != 0.5 && (C.scheme != "implicit" || C.windowSteps == 1))
+      c.fail(w, "window_force_weight " + std::to_string(C.windowForceWeight) +
+                    " weights the force across the steps of an implicit window of several steps; with scheme " +
+                    C.scheme + " and " + std::to_string(C.windowSteps) +
+                    "-step windows it would have no effect; leave it out (0.5) or use scheme implicit with "
+                    "window > 1");
     if (C.windowSteps > 1 && C.scheme == "paper")
       c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
                 "paper scheme's two passes are made for one-step windows); use window 1");

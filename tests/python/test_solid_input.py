@@ -200,3 +200,24 @@ def test_energy_guard_and_window_force_weight_reach_the_solid(prepared, tmp_path
     with h5py.File(inp) as f:
         assert "energy_limit" not in f["coupling"].attrs
         assert f["coupling"].attrs["window_force_weight"] == 0.75
+
+
+@pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
+def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, tmp_path):
+    """The weight shapes the force over the steps of an implicit window of several steps; with the
+    explicit scheme or one-step windows it would be ignored, so tq-solid refuses it (exit 2, the
+    attribute named) rather than run something other than what the input says (the case file's
+    check refuses the same: test_case_file.py)."""
+    exe = _solid_with_stages()
+    case = _case(tmp_path)
+    kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
+    case.data["coupling"]["window_force_weight"] = 0.75
+    for change in ({"scheme": "explicit"}, {"window": 1}):
+        c = dict(case.data["coupling"])
+        case.data["coupling"].update(change)
+        inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water",
+                                tmp_path / "w.h5", **kw)
+        run = subprocess.run([str(exe), str(inp), "--check"], capture_output=True, text=True, timeout=60)
+        assert run.returncode == 2, run.stdout + run.stderr
+        assert "window_force_weight" in run.stderr and "no effect" in run.stderr, run.stderr
+        case.data["coupling"] = c
