@@ -220,8 +220,8 @@ void Foam::functionObjects::tqInterface::calcLoads()
     faceForce_ = faceForceP_ + faceForceV_;
 
     // Point forces (conservative map), on the loaded geometry
-    const List<scalarList> w(tq::medianDualWeights(lf, xLoaded));
-    pointForce_ = tq::distributeToPoints(lf, w, pp.nPoints(), faceForce_);
+    pointForce_ =
+        tq::distributeMedianDual(lf, xLoaded, pp.nPoints(), faceForce_);
 
     totalP_ = returnReduce(sum(faceForceP_), sumOp<vector>());
     totalV_ = returnReduce(sum(faceForceV_), sumOp<vector>());

@@ -96,8 +96,10 @@ STEPS: list[tuple[str, str, dict]] = [
     ("+log off", "no per-step solver/function-object lines, runTimeModifiable no",
      dict(log=False, runTimeModifiable=False)),
     ("+heap tuning", "tqInterface heapTuning: freed memory stays in the heap", dict(heapTuning=True)),
-    ("+tqNewtonian = ours", "laminarModel tqNewtonian: laplacian(nuEff,U) without the stock explicit "
+    ("+tqNewtonian", "laminarModel tqNewtonian: laplacian(nuEff,U) without the stock explicit "
      "div(nuEff dev2(T(grad U)))", dict(laminarModel="tqNewtonian")),
+    ("+GAMG mergeLevels 2 = ours", "p and pFinal: GAMG merges two agglomeration levels into one (fewer, "
+     "coarser levels)", dict(p_append="mergeLevels 2;")),
 ]
 
 #: name of the last step (ours): the one 'stock' is compared with on 1 and 2 ranks
@@ -124,10 +126,17 @@ REJECTED: list[tuple[str, str, dict]] = [
      dict(p="solver PCG; preconditioner DIC; tolerance 0; relTol 0.1;",
           pFinal="solver PCG; preconditioner DIC; tolerance 0; relTol 0.1;")),
     ("ours, p GAMG relTol 0.1", "p: GAMG, relTol 0.1", dict(p=GAMG.format(0.1), pFinal=GAMG.format(0.1))),
+    ("ours, p GAMG without mergeLevels", "p: GAMG, relTol 0.1, one agglomeration level per level (the step before)",
+     dict(p=GAMG.format(0.1), pFinal=GAMG.format(0.1))),
     ("ours, p GAMG 1e-6", "p: GAMG, absolute tolerance 1e-6", dict(p=GAMG_CLOSED, pFinal=GAMG_CLOSED)),
     ("ours, p GAMG relTol 0.01", "p: GAMG, relTol 0.01", dict(p=GAMG.format(0.01), pFinal=GAMG.format(0.01))),
     ("ours, p GAMG relTol 0.05", "p: GAMG, relTol 0.05", dict(p=GAMG.format(0.05), pFinal=GAMG.format(0.05))),
-    _gamg("mergeLevels 2", "mergeLevels 2;"),
+    _gamg("interpolateCorrection", "interpolateCorrection yes;"),
+    _gamg("scaleCorrection no", "scaleCorrection no;"),
+    _gamg("nCellsInCoarsestLevel 4", "nCellsInCoarsestLevel 4;"),
+    ("ours, p GAMG symGaussSeidel", "p: GAMG with the symGaussSeidel smoother",
+     dict(p="solver GAMG; smoother symGaussSeidel; tolerance 0; relTol 0.1;",
+          pFinal="solver GAMG; smoother symGaussSeidel; tolerance 0; relTol 0.1;")),
     _gamg("nCellsInCoarsestLevel 100", "nCellsInCoarsestLevel 100;"),
     _gamg("nCellsInCoarsestLevel 100 direct", "nCellsInCoarsestLevel 100; directSolveCoarsest yes;"),
     _gamg("directSolveCoarsest", "directSolveCoarsest yes;"),
@@ -173,7 +182,11 @@ def variants(closed: bool = False) -> list[tuple[str, str, dict]]:
             name, what, over = ("+p GAMG 1e-6", "p and pFinal: GAMG, absolute tolerance 1e-6 (closed domain)",
                                 dict(p=GAMG_CLOSED, pFinal=GAMG_CLOSED))
         cur = dict(cur)
+        over = dict(over)
+        append = over.pop("p_append", None)
         cur.update(over)
+        if append:
+            cur["p"], cur["pFinal"] = f"{cur['p']} {append}", f"{cur['pFinal']} {append}"
         out.append((name, what, cur))
     ours = cur
     for name, what, over in REJECTED:

@@ -42,8 +42,8 @@ SETTINGS: dict = {
     # 'stock' (movingWallVelocity + fixedFluxPressure)
     "wall": "ours",
     # linear solvers (OpenFOAM dictionary bodies)
-    "p": "solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0.1;",
-    "pFinal": "solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0.1;",
+    "p": "solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0.1; mergeLevels 2;",
+    "pFinal": "solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0.1; mergeLevels 2;",
     "U": "solver smoothSolver; smoother symGaussSeidel; tolerance 1e-8; relTol 0;",
     "pcorr": "solver PCG; preconditioner DIC; tolerance 1e-2; relTol 0;",
     # PIMPLE
