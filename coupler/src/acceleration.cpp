@@ -69,16 +69,16 @@ IqnIls::IqnIls(double w0, double eps, int reuse) : omega0_(w0), eps_(eps), reuse
     if (!(w0 > 0 && w0 <= 1)) throw ConfigError("IQN-ILS initial relaxation must be in (0, 1]");
     if (reuse < 0) throw ConfigError("IQN-ILS reuse must be >= 0 windows");
 }
-void IqnIls::dropOldest() {
-    dr_.erase(dr_.begin());
-    dxt_.erase(dxt_.begin());
-    colWindow_.erase(colWindow_.begin());
+void IqnIls::dropColumn(std::size_t j) {
+    dr_.erase(dr_.begin() + std::ptrdiff_t(j));
+    dxt_.erase(dxt_.begin() + std::ptrdiff_t(j));
+    colWindow_.erase(colWindow_.begin() + std::ptrdiff_t(j));
 }
 void IqnIls::startWindow() {
     first_ = true;
     ++window_;
     // Keep the columns of the last reuse_ windows (none: a fresh start each window).
-    while (!dr_.empty() && colWindow_.front() + std::uint64_t(reuse_) < window_) dropOldest();
+    while (!dr_.empty() && colWindow_.front() + std::uint64_t(reuse_) < window_) dropColumn(0);
 }
 void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
                   std::vector<double>& out) {
@@ -96,7 +96,7 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
         dr_.push_back(std::move(a));
         dxt_.push_back(std::move(b));
         colWindow_.push_back(window_);
-        if (dr_.size() > n) dropOldest();  // never more columns than unknowns
+        if (dr_.size() > n) dropColumn(0);  // never more columns than unknowns
     }
     rPrev_ = r;
     xtPrev_ = xt;
@@ -106,21 +106,25 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
         for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
         return;
     }
-    // Least squares min ‖V α + r‖ by QR; drop the oldest columns while R is nearly singular.
     Eigen::VectorXd rv = Eigen::Map<const Eigen::VectorXd>(r.data(), Eigen::Index(n));
+    // Least squares min ‖V α + r‖ by QR with the QR2 filter (Haelterman et al. 2016): the columns
+    // newest first, a column whose part orthogonal to the newer ones is below eps × its own norm
+    // carries no new information (only round-off, or a Jacobian that has since changed) and is
+    // dropped, one at a time, until R is well conditioned.
     for (;;) {
         const Eigen::Index m = Eigen::Index(dr_.size());
         Eigen::MatrixXd V(Eigen::Index(n), m);
-        for (Eigen::Index j = 0; j < m; ++j)
-            V.col(j) = Eigen::Map<const Eigen::VectorXd>(dr_[std::size_t(j)].data(), Eigen::Index(n));
+        for (Eigen::Index j = 0; j < m; ++j)  // column j = dr_[m − 1 − j]: newest first
+            V.col(j) = Eigen::Map<const Eigen::VectorXd>(dr_[std::size_t(m - 1 - j)].data(), Eigen::Index(n));
         Eigen::HouseholderQR<Eigen::MatrixXd> qr(V);
         const Eigen::MatrixXd R = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
-        const double scale = V.norm();
-        bool ok = scale > 0;
-        for (Eigen::Index j = 0; ok && j < m; ++j)
-            if (std::abs(R(j, j)) < eps_ * scale) ok = false;
-        if (!ok) {
-            dropOldest();
+        Eigen::Index bad = -1;
+        for (Eigen::Index j = 0; j < m && bad < 0; ++j) {
+            const double norm = V.col(j).norm();
+            if (!(norm > 0) || std::abs(R(j, j)) < eps_ * norm) bad = j;
+        }
+        if (bad >= 0) {
+            dropColumn(std::size_t(m - 1 - bad));
             if (dr_.empty()) {
                 for (std::size_t i = 0; i < n; ++i) out[i] = x[i] + omega0_ * r[i];
                 return;
@@ -130,7 +134,7 @@ void IqnIls::next(const std::vector<double>& x, const std::vector<double>& xt,
         const Eigen::VectorXd alpha = qr.solve(Eigen::VectorXd(-rv));
         for (std::size_t i = 0; i < n; ++i) {
             double s = xt[i];
-            for (Eigen::Index j = 0; j < m; ++j) s += dxt_[std::size_t(j)][i] * alpha(j);
+            for (Eigen::Index j = 0; j < m; ++j) s += dxt_[std::size_t(m - 1 - j)][i] * alpha(j);
             out[i] = s;
         }
         return;
@@ -142,7 +146,7 @@ std::unique_ptr<Acceleration> makeAcceleration(AccelerationKind k, double w0, in
         case AccelerationKind::None: return std::make_unique<NoAcceleration>();
         case AccelerationKind::Constant: return std::make_unique<ConstantRelaxation>(w0);
         case AccelerationKind::Aitken: return std::make_unique<Aitken>(w0);
-        case AccelerationKind::IqnIls: return std::make_unique<IqnIls>(w0, 1e-10, reuse);
+        case AccelerationKind::IqnIls: return std::make_unique<IqnIls>(w0, kIqnIlsFilter, reuse);
     }
     throw ConfigError("unknown acceleration");
 }

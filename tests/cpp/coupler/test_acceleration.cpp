@@ -111,3 +111,31 @@ TEST(Acceleration, ConstantRelaxationConvergesWhenTheFactorIsSmallEnough) {
     ConstantRelaxation tooLarge(0.5);  // |1 − 0.5·8| = 3: diverges
     EXPECT_EQ(iterate(tooLarge, H, 40, 1e-12, x), -1);
 }
+
+TEST(Acceleration, IqnIlsDropsANearDuplicateSecantColumnInsteadOfLeapingAway) {
+    // A pass whose residual change nearly repeats the previous one (Δr₂ = Δr₁ + 1e-7 e_y) while
+    // the answer differs (Δx̃₂ ≠ Δx̃₁: an inexactly solved, nonlinear partner) makes V nearly rank
+    // one; the least squares then puts coefficients of order 1/1e-7 on two inconsistent columns.
+    // The QR2 filter (docs/coupler.md "IQN-ILS filter") drops the older column and the step stays
+    // of the size of the residual (|r| = 2.2); a filter relative to ‖V‖ at 1e-10 keeps both and
+    // throws the iterate 5e6 away.
+    auto step = [](double eps, std::size_t& columns) {
+        IqnIls q(0.5, eps, 0);
+        q.startWindow();
+        std::vector<double> out;
+        auto pass = [&](std::vector<double> r, std::vector<double> xt) {
+            std::vector<double> x{xt[0] - r[0], xt[1] - r[1]};
+            q.next(x, xt, out);
+        };
+        pass({1, 0}, {1, 0});                // the window's relaxed first step
+        pass({0, 1}, {1, 1});                // column Δr = (−1, 1), Δx̃ = (0, 1)
+        pass({-1, 2 + 1e-7}, {1, 1.5});      // Δr = (−1, 1 + 1e-7), Δx̃ = (0, 0.5)
+        columns = q.columns();
+        return std::hypot(out[0] - 1.0, out[1] - 1.5);
+    };
+    std::size_t cols = 0;
+    EXPECT_LT(step(kIqnIlsFilter, cols), 10.0);
+    EXPECT_EQ(cols, 1u);
+    EXPECT_GT(step(1e-10, cols), 1e5);  // why the filter: the unfiltered least squares leaps
+    EXPECT_EQ(cols, 2u);
+}

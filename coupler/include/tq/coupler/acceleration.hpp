@@ -64,13 +64,17 @@ class Aitken final : public Acceleration {
 
 /// Interface quasi-Newton with an inverse Jacobian from least squares (IQN-ILS, Degroote,
 /// Bathe & Vierendeels 2009): V = [Δr], W = [Δx̃] of this window; α = argmin‖Vα + r_k‖;
-/// x_{k+1} = x̃_k + Wα. The first iteration of a window is relaxed by the initial ω. Columns
-/// that make V nearly rank-deficient are dropped (oldest first).
+/// x_{k+1} = x̃_k + Wα. The first iteration of a window is relaxed by the initial ω. QR2 filter
+/// (Haelterman et al. 2016): with the columns newest first, a column whose part orthogonal to the
+/// newer ones is below filterEps × its norm is dropped (docs/coupler.md "IQN-ILS filter").
+/// QR2 filter threshold of IQN-ILS (relative to each column's norm).
+inline constexpr double kIqnIlsFilter = 1e-3;
+
 class IqnIls final : public Acceleration {
   public:
     /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
     /// window starts from a relaxation step.
-    explicit IqnIls(double initialOmega, double filterEps = 1e-10, int reuse = 0);
+    explicit IqnIls(double initialOmega, double filterEps = kIqnIlsFilter, int reuse = 0);
     void startWindow() override;
     void next(const std::vector<double>& x, const std::vector<double>& xTilde,
               std::vector<double>& xNext) override;
@@ -84,7 +88,7 @@ class IqnIls final : public Acceleration {
     std::vector<double> rPrev_, xtPrev_;
     std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
     std::vector<std::uint64_t> colWindow_;       ///< the window each column was made in
-    void dropOldest();
+    void dropColumn(std::size_t j);  ///< j: index in dr_ (0 = oldest)
     bool first_ = true;
 };
 
