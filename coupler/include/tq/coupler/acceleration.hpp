@@ -62,14 +62,14 @@ class Aitken final : public Acceleration {
     bool first_ = true;
 };
 
+/// QR2 filter threshold of IQN-ILS (relative to each column's norm).
+inline constexpr double kIqnIlsFilter = 1e-3;
+
 /// Interface quasi-Newton with an inverse Jacobian from least squares (IQN-ILS, Degroote,
 /// Bathe & Vierendeels 2009): V = [Δr], W = [Δx̃] of this window; α = argmin‖Vα + r_k‖;
 /// x_{k+1} = x̃_k + Wα. The first iteration of a window is relaxed by the initial ω. QR2 filter
 /// (Haelterman et al. 2016): with the columns newest first, a column whose part orthogonal to the
 /// newer ones is below filterEps × its norm is dropped (docs/coupler.md "IQN-ILS filter").
-/// QR2 filter threshold of IQN-ILS (relative to each column's norm).
-inline constexpr double kIqnIlsFilter = 1e-3;
-
 class IqnIls final : public Acceleration {
   public:
     /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
