@@ -99,7 +99,7 @@ STEPS: list[tuple[str, str, dict]] = [
     ("+tqNewtonian", "laminarModel tqNewtonian: laplacian(nuEff,U) without the stock explicit "
      "div(nuEff dev2(T(grad U)))", dict(laminarModel="tqNewtonian")),
     ("+GAMG mergeLevels 2 = ours", "p and pFinal: GAMG merges two agglomeration levels into one (fewer, "
-     "coarser levels)", dict(p_append="mergeLevels 2;")),
+     "coarser levels)", dict(p_extra="mergeLevels 2;")),
 ]
 
 #: name of the last step (ours): the one 'stock' is compared with on 1 and 2 ranks
@@ -111,6 +111,23 @@ def _gamg(name: str, extra: str) -> tuple[str, str, dict]:
     """A GAMG option of the pressure tried on top of ours (issue 5): `extra` is appended to ours'
     p and pFinal (relTol 0.1 in 3D, absolute 1e-6 on the closed slice)."""
     return (f"ours, p GAMG {name}", f"p and pFinal as ours plus {extra}", dict(p_extra=extra))
+
+
+def _smoother(name: str, smoother: str) -> tuple[str, str, dict]:
+    """The pressure's GAMG with another smoother (relTol 0.1, the other options GAMG's defaults)."""
+    body = f"solver GAMG; smoother {smoother}; tolerance 0; relTol 0.1;"
+    return (name, f"p: GAMG with the {smoother} smoother", dict(p=body, pFinal=body))
+
+
+def _apply(base: dict, over: dict) -> dict:
+    """base updated by over; over's 'p_extra' is appended to the p and pFinal bodies instead."""
+    v = dict(base)
+    over = dict(over)
+    extra = over.pop("p_extra", None)
+    v.update(over)
+    if extra:
+        v["p"], v["pFinal"] = f"{v['p']} {extra}", f"{v['pFinal']} {extra}"
+    return v
 
 
 #: measured and rejected: (name, what, overrides of 'ours' or, for 'stock, ...', of the stock)
@@ -133,9 +150,7 @@ REJECTED: list[tuple[str, str, dict]] = [
     _gamg("interpolateCorrection", "interpolateCorrection yes;"),
     _gamg("scaleCorrection no", "scaleCorrection no;"),
     _gamg("nCellsInCoarsestLevel 4", "nCellsInCoarsestLevel 4;"),
-    ("ours, p GAMG symGaussSeidel", "p: GAMG with the symGaussSeidel smoother",
-     dict(p="solver GAMG; smoother symGaussSeidel; tolerance 0; relTol 0.1;",
-          pFinal="solver GAMG; smoother symGaussSeidel; tolerance 0; relTol 0.1;")),
+    _smoother("ours, p GAMG symGaussSeidel", "symGaussSeidel"),
     _gamg("nCellsInCoarsestLevel 100", "nCellsInCoarsestLevel 100;"),
     _gamg("nCellsInCoarsestLevel 100 direct", "nCellsInCoarsestLevel 100; directSolveCoarsest yes;"),
     _gamg("directSolveCoarsest", "directSolveCoarsest yes;"),
@@ -145,9 +160,7 @@ REJECTED: list[tuple[str, str, dict]] = [
     ("ours, p GAMG 1 V-cycle", "p: GAMG, maxIter 1",
      dict(p="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;",
           pFinal="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;")),
-    ("ours, p DIC smoother", "p: GAMG with the DIC smoother",
-     dict(p="solver GAMG; smoother DIC; tolerance 0; relTol 0.1;",
-          pFinal="solver GAMG; smoother DIC; tolerance 0; relTol 0.1;")),
+    _smoother("ours, p DIC smoother", "DIC"),
     ("ours, uncorrected p Laplacian", "all Laplacians uncorrected (mesh non-orthogonality up to 27 deg)",
      dict(laplacianP="Gauss linear uncorrected")),
     ("ours, moving mesh", "tqInterpolatedDisplacement instead of transpiration",
@@ -180,21 +193,11 @@ def variants(closed: bool = False) -> list[tuple[str, str, dict]]:
         if closed and name.startswith("+p GAMG"):
             name, what, over = ("+p GAMG 1e-6", "p and pFinal: GAMG, absolute tolerance 1e-6 (closed domain)",
                                 dict(p=GAMG_CLOSED, pFinal=GAMG_CLOSED))
-        cur = dict(cur)
-        over = dict(over)
-        append = over.pop("p_append", None)
-        cur.update(over)
-        if append:
-            cur["p"], cur["pFinal"] = f"{cur['p']} {append}", f"{cur['pFinal']} {append}"
+        cur = _apply(cur, over)
         out.append((name, what, cur))
     ours = cur
     for name, what, over in REJECTED:
-        v = dict(ours if not name.startswith("stock") else {})
-        v.update(over)
-        extra = v.pop("p_extra", None)
-        if extra:
-            v["p"], v["pFinal"] = f"{ours['p']} {extra}", f"{ours['pFinal']} {extra}"
-        out.append((name, what, v))
+        out.append((name, what, _apply(ours if not name.startswith("stock") else {}, over)))
     return out
 
 
