@@ -329,6 +329,98 @@ TEST(MohrCoulombDamage, StiffnessEffectScalesTheUnloadingModulus) {
   }
 }
 
+// The chunk update decides most elements elastic by a cheap screen (an inscribed cone, then the
+// closed-form principal range with a margin of 1e-6 of the stress scale) before the exact
+// decomposition. At the surface's edge a screen that errs shows: stress states 1e-5 (relative)
+// inside the surface must come back unchanged, 1e-5 outside must return onto it. Lode angles
+// include the triaxial edges (two principal stresses equal, where a closed-form eigenvalue loses
+// half its digits), tension and shear parts of the surface, damaged and undamaged, both damage
+// effects; the inside/outside reference is Eigen's eigen-solver (mc_helpers.hpp).
+TEST(MohrCoulombDamage, ChunkScreenKeepsStatesJustInsideAndReturnsStatesJustOutside) {
+  for (auto effect : {DamageEffect::Cohesion, DamageEffect::CohesionAndStiffness})
+    for (const auto& params : {paperRock(), paperLining()})
+      for (Real D : {0.0, 0.3}) {
+        auto p = params;
+        p.damageEffect = effect;
+        auto mat = std::make_shared<MohrCoulombDamageMaterial>(p);
+        // surface(D) is the surface of the nominal stress for both effects (its cohesion and, for
+        // cohesion_and_stiffness, its tensile strength scaled by 1 − D).
+        const MohrCoulombSurface surf = mat->surface(D);
+        auto f = [&](const Real s[6]) {  // largest plane value of the nominal stress s
+          Real pr[3];
+          principal(s, pr);
+          return std::max(surf.shear(pr), surf.tensile(pr));
+        };
+        std::mt19937 rng(11);
+        std::normal_distribution<Real> G(0, 1);
+        constexpr int kN = 64;  // one chunk, half just inside, half just outside
+        std::vector<std::array<Real, 6>> in(kN);
+        for (int e = 0; e < kN; ++e) {
+          // Principal values p0 + r (cos of three Lode angles), every 4th on a triaxial edge.
+          const Real lode = e % 4 == 0 ? 0.0 : e % 4 == 1 ? M_PI / 3 : std::uniform_real_distribution<Real>(0, M_PI / 3)(rng);
+          const Real p0 = (e % 8 < 4 ? -3e6 : 0.2e6) * std::abs(1 + 0.3 * G(rng));
+          Real dev[3] = {std::cos(lode), std::cos(lode - 2 * M_PI / 3), std::cos(lode + 2 * M_PI / 3)};
+          Eigen::Matrix3d R = Eigen::Quaterniond(G(rng), G(rng), G(rng), G(rng)).normalized().toRotationMatrix();
+          auto stressAt = [&](Real r, Real s[6]) {
+            Eigen::Matrix3d m = R * Eigen::Vector3d(p0 + r * dev[0], p0 + r * dev[1], p0 + r * dev[2]).asDiagonal() *
+                                R.transpose();
+            s[XX] = m(0, 0), s[YY] = m(1, 1), s[ZZ] = m(2, 2), s[XY] = m(0, 1), s[YZ] = m(1, 2), s[ZX] = m(2, 0);
+          };
+          Real lo = 0, hi = 1e8, s[6];  // the deviator's size on the surface, by bisection
+          stressAt(lo, s);
+          if (f(s) >= 0) {  // the mean stress alone is beyond the tension apex: shift it back
+            e--;
+            continue;
+          }
+          for (int it = 0; it < 200; ++it) {
+            const Real mid = 0.5 * (lo + hi);
+            stressAt(mid, s);
+            (f(s) < 0 ? lo : hi) = mid;
+          }
+          const Real rs = 0.5 * (lo + hi), shift = (e % 2 == 0 ? -1e-5 : 1e-5) * (std::abs(p0) + rs);
+          stressAt(rs + shift, s);
+          std::copy(s, s + 6, in[size_t(e)].begin());
+        }
+        // The chunk: every element at its state with no strain increment (trial = state).
+        std::vector<Real> de(6 * kN, 0.0), st(6 * kN);
+        std::vector<std::vector<Real>> hist(mat->historyNames().size(), std::vector<Real>(kN, 0.0));
+        for (auto& x : hist[mc_history::kDamage]) x = D;
+        std::vector<Real*> hp;
+        for (auto& h : hist) hp.push_back(h.data());
+        MaterialChunk c;
+        c.count = kN;
+        for (int k = 0; k < 6; ++k) {
+          for (int e = 0; e < kN; ++e) st[size_t(k * kN + e)] = in[size_t(e)][size_t(k)];
+          c.dstrain[k] = &de[size_t(k * kN)];
+          c.stress[k] = &st[size_t(k * kN)];
+        }
+        c.history = hp.data();
+        mat->updateStressForElems(c);
+        for (int e = 0; e < kN; ++e) {
+          Real out[6];
+          for (int k = 0; k < 6; ++k) out[k] = st[size_t(k * kN + e)];
+          const Real* s0 = in[size_t(e)].data();
+          Real pr[3];
+          principal(s0, pr);
+          const Real scale = std::abs(pr[0]) + std::abs(pr[2]) + p.cohesion;
+          const std::string what = damageEffectName(effect) + ", D " + std::to_string(D) + ", element " +
+                                   std::to_string(e);
+          if (e % 2 == 0) {  // inside: unchanged, no history
+            ASSERT_LT(f(s0), 0) << what;
+            for (int k = 0; k < 6; ++k) ASSERT_EQ(out[k], s0[k]) << what << ", component " << k;
+          } else {  // outside: back onto the surface of the (possibly grown) damage
+            ASSERT_GT(f(s0), 0) << what;
+            const MohrCoulombSurface s1 = mat->surface(hist[mc_history::kDamage][size_t(e)]);
+            Real po[3];
+            principal(out, po);
+            ASSERT_NEAR(std::max(s1.shear(po), s1.tensile(po)) / scale, 0.0, 1e-8) << what;
+            ASSERT_GT(hist[mc_history::kKappa1][size_t(e)] + hist[mc_history::kKappa2][size_t(e)] +
+                          hist[mc_history::kKappa3][size_t(e)], 0.0) << what;
+          }
+        }
+      }
+}
+
 TEST(MohrCoulombDamage, BadParametersAreRejectedWithTheFix) {
   auto p = paperRock();
   p.dilationAngle = 45;
