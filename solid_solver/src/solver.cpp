@@ -166,6 +166,118 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
   r.nBad = Index(bads);
   return r;
 }
+struct SubcycleArgs {
+  Real *u, *v, *a, *fs, *dtp;  // fs: f_ext at each node's last update; dtp: its last step
+  const Real *fi, *fe, *cb, *m;
+  const std::uint8_t *fr, *lev;
+  Index nn;  // nodes in the chunk
+  Real dt, alpha, vlim;
+  int active;
+  Real rdt[9];  // 1 / (2^level Δt), level 0..8
+};
+
+// Subcycled update of one dof or one vector of dofs (see Solver::updateNodesSubcycled): a due
+// node (upd) takes the central-difference step dtn = 2^level Δt; every node of an active element
+// moves by Δt v. Branch-free like leapfrogDofs.
+template <class T>
+inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rdt, T dtl, T fri, T cd, size_t i,
+                                                        const SubcycleArgs& q, T& ke, T& ext, T& damp, T& bdry,
+                                                        T& bad) {
+  const T zero = T{} * 0.0, one = zero + 1.0;
+  const T vo = loadv<T>(q.v + i), fei = loadv<T>(q.fe + i), fii = loadv<T>(q.fi + i), fsi = loadv<T>(q.fs + i);
+  const auto has = mn > 0;
+  const auto upd = has & (due > 0);
+  const T cm = q.alpha * mn, mdt = mn * rdt, ch = 0.5 * (cm + cd);
+  const T den = has ? mdt + ch : one;
+  const T vnew = fri * ((mdt - ch) * vo + fei - fii) / den;
+  const T vn = upd ? vnew : has ? vo : zero;
+  const T vb = 0.5 * (vo + vn);
+  ext += upd ? 0.5 * (fei + fsi) * dtl * vo : zero;  // over this node's previous step
+  ke += has ? 0.5 * mn * vo * vn : zero;
+  damp += upd ? cm * vb * vb * dtn : zero;
+  bdry += upd ? cd * vb * vb * dtn : zero;
+  storev(q.fs + i, upd ? fei : fsi);
+  storev(q.a + i, upd ? (vn - vo) * rdt : has ? loadv<T>(q.a + i) : zero);
+  storev(q.v + i, vn);
+  storev(q.u + i, loadv<T>(q.u + i) + q.dt * vn);  // + 0 for a node of no active element
+  const T av = vn < 0 ? -vn : vn;
+  bad += av <= q.vlim ? zero : one;  // also catches NaN
+}
+
+// One chunk of the subcycled update, 4 nodes (12 dofs) at a time, the node values spread over
+// their dofs as the masses are (dofMasses).
+template <class V, bool kDash>
+inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleArgs& q) {
+  constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
+  V ke{}, ext{}, damp{}, bdry{}, bad{};
+  const Index n4 = q.nn / 4 * 4;
+  for (Index n = 0; n < n4; n += 4) {
+    V mv[K];
+    dofMasses(q.m + n, mv);
+    bool quiet = true;  // none of the 4 due, all of active elements: most groups at most fine steps
+    for (int j = 0; j < 4; ++j) quiet = quiet && q.lev[n + j] > q.active && q.m[n + j] > 0;
+    if (quiet) {  // move on with v (what subcycleDofs does for them, without its division)
+#pragma GCC unroll 6
+      for (int k = 0; k < K; ++k) {
+        const size_t i = 3 * size_t(n) + size_t(k) * L;
+        const V vo = loadv<V>(q.v + i);
+        ke += 0.5 * mv[k] * vo * vo;
+        storev(q.u + i, loadv<V>(q.u + i) + q.dt * vo);
+      }
+      continue;
+    }
+    alignas(32) Real due4[4], dtn4[4], rdt4[4], dtl4[4];
+    for (int j = 0; j < 4; ++j) {
+      const int l = q.lev[n + j];
+      due4[j] = l <= q.active ? 1.0 : 0.0;
+      dtn4[j] = q.dt * Real(1u << l);
+      rdt4[j] = q.rdt[l];
+      dtl4[j] = q.dtp[n + j];
+    }
+    V dv[K], tv[K], rv[K], lv[K];
+    dofMasses(due4, dv);
+    dofMasses(dtn4, tv);
+    dofMasses(rdt4, rv);
+    dofMasses(dtl4, lv);
+#pragma GCC unroll 6
+    for (int k = 0; k < K; ++k) {
+      const size_t i = 3 * size_t(n) + size_t(k) * L;
+      const V cd = kDash ? loadv<V>(q.cb + i) : V{};
+      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry,
+                      bad);
+    }
+    for (int j = 0; j < 4; ++j)
+      if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
+  }
+  LeapfrogSums r;
+  for (int l = 0; l < L; ++l) {  // lane order: fixed
+    r.ke += ke[l];
+    r.ext += ext[l];
+    r.damp += damp[l];
+    r.bdry += bdry[l];
+  }
+  Real bads = 0;
+  for (int l = 0; l < L; ++l) bads += bad[l];
+  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
+    const bool d = q.lev[n] <= q.active;
+    const Real dtn = q.dt * Real(1u << q.lev[n]);
+    for (int c = 0; c < 3; ++c) {
+      const size_t i = 3 * size_t(n) + size_t(c);
+      subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0,
+                         i, q, r.ke, r.ext, r.damp, r.bdry, bads);
+    }
+    if (q.m[n] > 0 && d) q.dtp[n] = dtn;
+  }
+  r.nBad = Index(bads);
+  return r;
+}
+LeapfrogSums subcycleGeneric(const SubcycleArgs& q) {
+  return q.cb ? subcycleBody<V2, true>(q) : subcycleBody<V2, false>(q);
+}
+__attribute__((target("avx2,fma"))) LeapfrogSums subcycleAvx2(const SubcycleArgs& q) {
+  return q.cb ? subcycleBody<V4, true>(q) : subcycleBody<V4, false>(q);
+}
+
 LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) {
   return q.cb ? leapfrogBody<V2, true>(q) : leapfrogBody<V2, false>(q);
 }
@@ -471,21 +583,30 @@ void Solver::bookNodeChunks(Index nChunks) {
   finishEnergy();
 }
 
+const EnergyBalance& Solver::energy() const {
+  if (plasticStale_) {
+    Real plastic = 0;
+    for (const auto& b : blocks_) plastic += b->dissipatedEnergy();
+    energy_.plastic = plastic - plastic0_;
+    plasticStale_ = false;
+  }
+  return energy_;
+}
+
 void Solver::finishEnergy() {
   // Contributors that dissipate (interface friction) or store/absorb (boundary springs) book their
   // own work W_c = -E_c; the solver's external work includes it, so it is moved out of `external`
   // into `interface` / `boundary`: balance = interface + kinetic + internal + damping + boundary
   // - external stays constant.
-  Real dissContrib = 0, bdryContrib = 0, plastic = 0;
+  Real dissContrib = 0, bdryContrib = 0;
   for (const auto& c : contributors_) dissContrib += c->dissipatedEnergy();
   for (const auto& c : contributors_) bdryContrib += c->boundaryEnergy();
-  for (const auto& b : blocks_) plastic += b->dissipatedEnergy();
   const Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
   energy_.internal = stressWork_ + storedEnergy_;
   energy_.damping = dampWork_;
   energy_.boundary = bdryWork_ + bE;
   energy_.interface = diss;
-  energy_.plastic = plastic - plastic0_;
+  plasticStale_ = true;  // energy_.plastic: by energy() when asked (not in the balance)
   energy_.external = extWork_ + diss + bE;
   const Real bal = energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary -
                    energy_.external;
@@ -521,44 +642,16 @@ void Solver::updateNodesSubcycled(int active) {
 #pragma omp parallel for schedule(dynamic, 2) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
-    Real ke = 0, ext = 0, damp = 0, bdry = 0;
+    const size_t i0 = 3 * size_t(n0);
+    SubcycleArgs q{u + i0, v + i0, a + i0, fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, m + n0,
+                   fr + i0, lev + n0, n1 - n0, dt, alpha, vlim, active, {}};
+    for (int l = 0; l < 9; ++l) q.rdt[l] = 1 / (dt * Real(1u << l));
+    const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
     Index bad = -1;
-    for (Index n = n0; n < n1; ++n) {
-      const Real mn = m[n];
-      const size_t i0 = 3 * size_t(n);
-      if (!(mn > 0)) {  // node of no active element: at rest
-        for (int d = 0; d < 3; ++d) v[i0 + d] = a[i0 + d] = 0;
-        continue;
-      }
-      if (lev[n] <= active) {
-        const Real dtn = dt * Real(1u << lev[n]), rdt = 1 / dtn, dtl = dtp[n];
-        const Real cm = alpha * mn, mdt = mn * rdt;
-        for (int d = 0; d < 3; ++d) {
-          const size_t i = i0 + size_t(d);
-          const Real cd = cb ? cb[i] : 0.0, ch = 0.5 * (cm + cd);
-          const Real vo = v[i];
-          const Real vn = Real(fr[i]) * ((mdt - ch) * vo + fe[i] - fi[i]) / (mdt + ch);
-          const Real vb = 0.5 * (vo + vn);
-          ext += 0.5 * (fe[i] + fs[i]) * dtl * vo;  // over this node's previous step
-          ke += 0.5 * mn * vo * vn;
-          damp += cm * vb * vb * dtn;
-          bdry += cd * vb * vb * dtn;
-          fs[i] = fe[i];
-          a[i] = (vn - vo) * rdt;
-          v[i] = vn;
-          u[i] += dt * vn;
-          if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
-        }
-        dtp[n] = dtn;
-      } else {
-        for (int d = 0; d < 3; ++d) {
-          const size_t i = i0 + size_t(d);
-          ke += 0.5 * mn * v[i] * v[i];
-          u[i] += dt * v[i];
-        }
-      }
-    }
-    storeChunkSums(sums + kSums * size_t(c), ke, ext, damp, bdry, bad);
+    if (ls.nBad > 0)
+      for (size_t j = i0; j < 3 * size_t(n1) && bad < 0; ++j)
+        if (!(std::abs(v[j]) <= vlim)) bad = Index(j);
+    storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad);
   }
   bookNodeChunks(nChunks);
 }
@@ -706,6 +799,7 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(dtLast_);
   a.io(step_);
   a.io(energy_);
+  plasticStale_ = true;  // a restored history: sum again when asked
   a.io(stressWork_);
   a.io(storedEnergy_);
   a.io(dampWork_);
@@ -868,6 +962,7 @@ void Solver::resetMotion() {
   interface0_ = plastic0_ = boundary0_ = 0;
   for (const auto& c : contributors_) interface0_ += c->dissipatedEnergy();
   for (const auto& b : blocks_) plastic0_ += b->dissipatedEnergy();
+  plasticStale_ = true;
   for (const auto& c : contributors_) boundary0_ += c->boundaryEnergy();
   balanceSet_ = false;
 }

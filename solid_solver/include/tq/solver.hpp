@@ -225,7 +225,9 @@ public:
   Real time() const { return t_; }
   Real dt() const { return dt_; }
   Index stepCount() const { return step_; }
-  const EnergyBalance& energy() const { return energy_; }
+  /// The energy balance after the last step (the plastic dissipation, a sum over every element,
+  /// is summed here on demand rather than every step).
+  const EnergyBalance& energy() const;
   bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0; }
   /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
   Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
@@ -262,7 +264,8 @@ private:
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
   Real alphaRelax_ = -1;  // >= 0 while relaxing: replaces α
-  EnergyBalance energy_;
+  mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
+  mutable bool plasticStale_ = true;
   Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
   Real balance0_ = 0;
   Real interface0_ = 0, plastic0_ = 0;  // dissipation totals at the last resetMotion()
