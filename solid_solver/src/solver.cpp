@@ -122,6 +122,21 @@ inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real*
   bad += av <= q.vlim ? zero : one;  // also catches NaN
 }
 
+// The lanes' sums of the node loops, in lane order (fixed: independent of the vector width).
+template <class V>
+inline __attribute__((always_inline)) LeapfrogSums laneSums(V ke, V ext, V damp, V bdry, V bad, Real& bads) {
+  constexpr int L = sizeof(V) / sizeof(Real);
+  LeapfrogSums r;
+  for (int l = 0; l < L; ++l) {
+    r.ke += ke[l];
+    r.ext += ext[l];
+    r.damp += damp[l];
+    r.bdry += bdry[l];
+    bads += bad[l];
+  }
+  return r;
+}
+
 // One SIMD loop over a node chunk, 4 nodes (12 dofs) at a time: V = 2 lanes (generic x86-64) or
 // 4 lanes (AVX2 + FMA), chosen like the element kernel (ElementBlock::defaultUseAvx2; the results
 // of the two differ in the last bits, never with the thread count). kDash: the model has dashpots.
@@ -149,15 +164,8 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
                       damp, bdry, bad);
     }
   }
-  LeapfrogSums r;
-  for (int l = 0; l < L; ++l) {  // lane order: fixed
-    r.ke += ke[l];
-    r.ext += ext[l];
-    r.damp += damp[l];
-    r.bdry += bdry[l];
-  }
   Real bads = 0;
-  for (int l = 0; l < L; ++l) bads += bad[l];
+  LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
   for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
     const Real cd = kDash ? cb[i] : 0.0;
     leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
@@ -249,15 +257,8 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     for (int j = 0; j < 4; ++j)
       if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
   }
-  LeapfrogSums r;
-  for (int l = 0; l < L; ++l) {  // lane order: fixed
-    r.ke += ke[l];
-    r.ext += ext[l];
-    r.damp += damp[l];
-    r.bdry += bdry[l];
-  }
   Real bads = 0;
-  for (int l = 0; l < L; ++l) bads += bad[l];
+  LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
   for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
     const bool d = q.lev[n] <= q.active;
     const Real dtn = q.dt * Real(1u << q.lev[n]);
