@@ -96,14 +96,25 @@ def concurrent_conditions() -> int:
     return len(os.sched_getaffinity(0))
 
 
+#: spins of an idle OpenMP thread before it sleeps (GNU libgomp's GOMP_SPINCOUNT; its default is
+#: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE)
+SOLID_SPINCOUNT = "10000"
+
+
 def solid_env() -> dict:
-    """tq-solid's environment: OpenMP threads sleep instead of spinning while they wait (a spinning
-    team took the cores from the water solver and from the other runs of a loaded machine: 4 steps
-    a second instead of ~2,800 on the slice), unless the user set a policy."""
+    """tq-solid's environment: an idle OpenMP thread spins briefly, then sleeps, unless the user set
+    OMP_WAIT_POLICY or GOMP_SPINCOUNT. Spinning without end (a team's default on a loaded machine)
+    took the cores from the water solver and the machine's other runs: 4 steps a second instead of
+    ~2,800 on the slice. Sleeping at once (OMP_WAIT_POLICY=PASSIVE, used until 2026-11-22) costs a
+    wake-up at each of the step's parallel loops: on the 3D paper mesh with 2 threads, 17.8-21.7 s
+    for 3,968 subcycled steps against 12.3-16.0 s with 2,000-200,000 spins (docs/benchmarks.md
+    "Solid subcycling and element order"); a few thousand spins bridge the gaps between the loops
+    of one step and are spent long before the water's pass ends."""
     import os
 
     env = dict(os.environ)
-    env.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    if "OMP_WAIT_POLICY" not in env and "GOMP_SPINCOUNT" not in env:
+        env["GOMP_SPINCOUNT"] = SOLID_SPINCOUNT
     return env
 
 
