@@ -404,13 +404,12 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
       {
         const Index l = suspect[k];
         const Real t[6] = {tr[XX][l], tr[YY][l], tr[ZZ][l], tr[XY][l], tr[YZ][l], tr[ZX][l]};
-        const Real D = dmg[e];
-        Real s1, s3, size;
-        principalRange(t, s1, s3, size);
-        const Real kc = (1 - D) * kc0;
-        const Real tension = std::min((1 - stiffF * D) * st0, (1 - D) * c0 * cotPhi);
-        const Real margin = 1e-6 * std::max({size, kc, std::abs(tension)});
-        if (Np * s3 - s1 - kc < -(Np + 1) * margin && s3 - tension < -margin) continue;
+        const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
+        Real range[3], size;  // smallest, (unused), largest
+        principalRange(t, range[0], range[2], size);
+        range[1] = range[0];
+        const Real margin = 1e-6 * std::max({size, sD.cohesionTerm, std::abs(sD.tension)});
+        if (sD.shear(range) < -(Np + 1) * margin && sD.tensile(range) < -margin) continue;
       }
       Real sig[6], de[6];
       for (int q = 0; q < 6; ++q) {

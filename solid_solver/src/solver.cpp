@@ -33,6 +33,14 @@ struct LeapfrogSums {
   Index nBad = 0;
 };
 
+// First dof in [i0, i1) whose |v| is above the limit or not finite (-1 if none): where a node
+// loop that counted a bad lane reports it.
+inline Index firstBadDof(const Real* v, size_t i0, size_t i1, Real vlim) {
+  for (size_t j = i0; j < i1; ++j)
+    if (!(std::abs(v[j]) <= vlim)) return Index(j);
+  return -1;
+}
+
 inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Index bad) {
   s[0] = ke;
   s[1] = ext;
@@ -529,9 +537,7 @@ void Solver::updateNodes() {
       ext = ls.ext;
       damp = ls.damp;
       bdry = ls.bdry;
-      if (ls.nBad > 0)
-        for (Index j = 0; j < nd && bad < 0; ++j)
-          if (!(std::abs(v[i0 + j]) <= vlim)) bad = i0 + j;
+      if (ls.nBad > 0) bad = firstBadDof(v, size_t(i0), size_t(i0 + nd), vlim);
     } else {
       for (Index n = n0; n < n1; ++n) {
         const Real mn = m[n];
@@ -639,6 +645,8 @@ void Solver::updateNodesSubcycled(int active) {
   Real* __restrict fs = fSync_.data();
   Real* __restrict dtp = dtPrevNode_.data();
   const Real dt = dt_, alpha = opt_.damping.alpha, vlim = opt_.velocityLimit;
+  Real rdt[9];  // 1 / (2^level Δt)
+  for (int l = 0; l < 9; ++l) rdt[l] = 1 / (dt * Real(1u << l));
   Real* sums = nodeChunkSums_.data();
 #pragma omp parallel for schedule(dynamic, 2) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
@@ -646,12 +654,9 @@ void Solver::updateNodesSubcycled(int active) {
     const size_t i0 = 3 * size_t(n0);
     SubcycleArgs q{u + i0, v + i0, a + i0, fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, m + n0,
                    fr + i0, lev + n0, n1 - n0, dt, alpha, vlim, active, {}};
-    for (int l = 0; l < 9; ++l) q.rdt[l] = 1 / (dt * Real(1u << l));
+    std::copy(rdt, rdt + 9, q.rdt);
     const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
-    Index bad = -1;
-    if (ls.nBad > 0)
-      for (size_t j = i0; j < 3 * size_t(n1) && bad < 0; ++j)
-        if (!(std::abs(v[j]) <= vlim)) bad = Index(j);
+    const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
     storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad);
   }
   bookNodeChunks(nChunks);
