@@ -65,6 +65,30 @@ void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, d
   f << "*NODE PRINT, NSET=NMON, FREQUENCY=" << steps << "\nU\n*END STEP\n";
 }
 
+// One line naming the processor, so that figures from different machines are not compared as if
+// they came from one: the model name, family and model (the model name alone is often just
+// "AMD EPYC" on a VM), the cores this process may use and the widest vector extension.
+std::string machineLine() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line, name = "unknown processor", family = "?", model = "?", flags;
+  auto value = [](const std::string& l) {
+    const auto c = l.find(':');
+    return c == std::string::npos ? std::string() : l.substr(c + 1 + (c + 1 < l.size() && l[c + 1] == ' '));
+  };
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0) name = value(line);
+    else if (line.rfind("cpu family", 0) == 0) family = value(line);
+    else if (line.rfind("model\t", 0) == 0 || line.rfind("model ", 0) == 0) model = value(line);
+    else if (line.rfind("flags", 0) == 0) flags = " " + value(line) + " ";
+    if (line.empty() && !flags.empty()) break;  // the first processor is enough
+  }
+  const char* vec = flags.find(" avx512f ") != std::string::npos ? "AVX-512"
+                    : flags.find(" avx2 ") != std::string::npos  ? "AVX2"
+                                                                 : "SSE";
+  return name + " (family " + family + ", model " + model + "), " + std::to_string(omp_get_num_procs()) +
+         " core(s), " + vec;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -135,6 +159,7 @@ int main(int argc, char** argv) {
       elems = mesh.numElems();
     }
     std::sort(us.begin(), us.end());
+    std::printf("tq-solid-bench: machine: %s\n", machineLine().c_str());
     std::printf("tq-solid-bench --column: %d elements, %d steps of dt %.6g s, pressure %.6g Pa, %d thread(s), %s kernel\n",
                 elems, steps, fixedDt, columnP, omp_get_max_threads(), generic ? "generic" : "default");
     std::printf("  median %.4f us per element-step (min %.4f, max %.4f) over %d runs\n", us[us.size() / 2], us.front(),
@@ -158,6 +183,7 @@ int main(int argc, char** argv) {
   }
   std::sort(us.begin(), us.end());
   const double med = us[us.size() / 2];
+  std::printf("tq-solid-bench: machine: %s\n", machineLine().c_str());
   std::printf("tq-solid-bench: %d elements (%d^3 box), %d nodes, elastic hex8 one_point_assumed_strain, "
               "damping %s, %d thread(s), %s kernel\n",
               mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads(),

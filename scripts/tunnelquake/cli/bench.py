@@ -98,14 +98,25 @@ def observed_orders(sizes: list[float], errors: list[float]) -> list[float | Non
 
 
 def machine() -> str:
+    """The host, its processor and load, for the heading of generated benchmark tables.
+
+    The model name alone is often just "AMD EPYC" on a VM, so the family and model numbers and
+    the widest vector extension are added: figures from two different machines are then not
+    read as one machine's."""
     cpu = platform.processor() or platform.machine()
+    fields: dict[str, str] = {}
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
+            if not line.strip():
+                break  # the first processor is enough
+            key, _, value = line.partition(":")
+            fields.setdefault(key.strip(), value.strip())
     except OSError:
         pass
+    if "model name" in fields:
+        flags = set(fields.get("flags", "").split())
+        vec = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "SSE"
+        cpu = f"{fields['model name']} (family {fields.get('cpu family', '?')}, model {fields.get('model', '?')}, {vec})"
     load = ""
     if hasattr(os, "getloadavg"):
         load = f", load {os.getloadavg()[0]:.1f} at the end"

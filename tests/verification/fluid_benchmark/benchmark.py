@@ -35,7 +35,6 @@ Usage (from the repository root):
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import shutil
 import statistics
@@ -50,6 +49,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from fluid_common import foamcase as fc  # noqa: E402
 from fluid_common import tunnel  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
+from tunnelquake.cli.bench import machine  # noqa: E402
 
 STOCK = dict(
     interface_motion="meshMotion",
@@ -161,6 +163,17 @@ REJECTED: list[tuple[str, str, dict]] = [
      dict(p="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;",
           pFinal="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;")),
     _smoother("ours, p DIC smoother", "DIC"),
+    ("ours, p PCG/GAMG", "p: PCG preconditioned by one GAMG V-cycle (GaussSeidel, mergeLevels 2), relTol 0.1",
+     dict(p="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 1; } "
+            "tolerance 0; relTol 0.1;",
+          pFinal="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 1; } "
+                 "tolerance 0; relTol 0.1;")),
+    ("ours, p PCG/GAMG 2 V-cycles", "p: PCG preconditioned by two GAMG V-cycles (GaussSeidel, mergeLevels 2), "
+     "relTol 0.1",
+     dict(p="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 2; } "
+            "tolerance 0; relTol 0.1;",
+          pFinal="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 2; } "
+                 "tolerance 0; relTol 0.1;")),
     ("ours, uncorrected p Laplacian", "all Laplacians uncorrected (mesh non-orthogonality up to 27 deg)",
      dict(laplacianP="Gauss linear uncorrected")),
     ("ours, moving mesh", "tqInterpolatedDisplacement instead of transpiration",
@@ -310,8 +323,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     root = Path(a.workdir or tempfile.mkdtemp(prefix="tq-water-bench-"))
     root.mkdir(parents=True, exist_ok=True)
-    print(f"# {time.strftime('%Y-%m-%d %H:%M')}, {os.uname().nodename}, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.1f}, best of {a.repeat}, work dir {root}")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}, {machine()}, best of {a.repeat}, work dir {root}")
     print("| mesh | cells | variant | ranks | ms/step CPU | ms/step wall | motion its/step "
           "| ΔF/F_max | Δp_w/p_max |")
     print("|---|---:|---|---:|---:|---:|---:|---:|---:|")

@@ -17,13 +17,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "scripts"))
 from tunnelquake.bench_calculix import PeerError, compare, markdown  # noqa: E402
+from tunnelquake.cli.bench import machine  # noqa: E402
 
 
 def main() -> None:
@@ -42,8 +42,7 @@ def main() -> None:
                     workdir=args.workdir)
     except PeerError as e:
         sys.exit(str(e))
-    print(f"date {datetime.date.today()}, machine {platform.node()} ({platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores), calculix-ccx {r.ccx_version}, 1 thread each\n")
+    print(f"date {datetime.date.today()}, machine {machine()}, calculix-ccx {r.ccx_version}, 1 thread each\n")
     print(markdown(r))
     if not r.agree:
         sys.exit(1)
