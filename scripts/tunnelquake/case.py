@@ -342,6 +342,8 @@ class Case:
     path: Path
     data: dict
     warnings: list[str] = field(default_factory=list)
+    #: the name of the `variants:` entry laid over the file, or None
+    variant: str | None = None
 
     @property
     def dir(self) -> Path:
@@ -429,8 +431,51 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     return issues, warnings
 
 
-def load_case(path: str | Path) -> Case:
-    """Read and validate a case file. Raises CaseError listing every problem found."""
+def _merge(base, over):
+    """`base` with `over` laid on it: mappings merge key by key (recursively), anything else in
+    `over` replaces. YAML line numbers follow the value that wins, so an error in a variant names
+    the variant's line."""
+    if not (isinstance(base, dict) and isinstance(over, dict)):
+        return over
+    out = LineDict()
+    out.line = getattr(over, "line", 0) or getattr(base, "line", 0)
+    out.key_lines = dict(getattr(base, "key_lines", {}))
+    for k, v in base.items():
+        out[k] = v
+    for k, v in over.items():
+        out[k] = _merge(base[k], v) if k in base else v
+        if k in getattr(over, "key_lines", {}):
+            out.key_lines[k] = over.key_lines[k]
+    return out
+
+
+def _variants(raw: LineDict, name: str) -> dict:
+    """Take the case file's `variants:` section out of `raw` and check its shape: a mapping of
+    variant names to mappings of case keys (each laid over the rest of the file)."""
+    line = raw.key_lines.get("variants")
+    v = raw.pop("variants", None)
+    if v is None:
+        return {}
+    if not isinstance(v, dict):
+        raise CaseError(name, [Issue("variants", v, "must be a mapping of variant names to case keys",
+                                     "write e.g. 'variants: {3d: {mesh: {mode: 3d}}}'", line)])
+    bad = [Issue(f"variants.{k}", body, "must be a mapping of case sections",
+                 f"write the sections the variant changes under 'variants: {k}:', e.g. 'mesh: {{mode: 3d}}'",
+                 v.key_lines.get(k, line))
+           for k, body in v.items() if not isinstance(body, dict) or "variants" in body]
+    if bad:
+        raise CaseError(name, bad)
+    return dict(v)
+
+
+def load_case(path: str | Path, variant: str | None = None) -> Case:
+    """Read and validate a case file. Raises CaseError listing every problem found.
+
+    `variant`: the name of an entry of the file's `variants:` section, whose keys are laid over
+    the rest of the file (docs/user_guide.md "Variants"). Every variant is validated either way,
+    so a typo in one is found before any run. A variant that does not set `output.directory`
+    writes to the base directory with `_<variant>` appended, so it never overwrites the base
+    case's results."""
     path = Path(path).resolve()
     name = str(path)
     if not path.is_file():
@@ -449,8 +494,28 @@ def load_case(path: str | Path) -> Case:
     if not isinstance(raw, dict):
         raise CaseError(name, [Issue("<top>", raw, "the case file must be a mapping of sections",
                                      "start with 'name:', 'geometry:', ... (see cases/example)", 1)])
+    variants = _variants(raw, name)
+    if variant is not None and variant not in variants:
+        have = ", ".join(sorted(map(str, variants))) or "none"
+        raise CaseError(name, [Issue("--variant", variant, f"no such variant in the case file (it has: {have})",
+                                     "give one of the names under 'variants:', or add the variant there")])
+    # the file as written first (its problems are named as the file's), then every variant
     data = validate(schema(), raw, name)
     issues, warnings = _whole_case_checks(data, raw, name)
     if issues:
         raise CaseError(name, issues)
-    return Case(path=path, data=data, warnings=warnings)
+    chosen = None
+    for vname, body in variants.items():
+        vfile = f"{name} (variant {vname})"
+        vraw = _merge(raw, body)
+        vdata = validate(schema(), vraw, vfile)
+        vissues, vwarnings = _whole_case_checks(vdata, vraw, vfile)
+        if vissues:
+            raise CaseError(vfile, vissues)
+        if vname == variant:
+            chosen = vdata, vwarnings
+            if "directory" not in (body.get("output") or {}):
+                vdata["output"]["directory"] = f"{vdata['output']['directory']}_{variant}"
+    if chosen is not None:
+        data, warnings = chosen
+    return Case(path=path, data=data, warnings=warnings, variant=variant)

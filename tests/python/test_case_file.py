@@ -182,3 +182,51 @@ def test_water_ranks_are_accepted_and_too_many_warned(example_text, write_case):
                                .replace("conditions: [no_water, static_water, dynamic_water]",
                                         "conditions: [no_water, static_water]")))
     assert any("has no effect" in w for w in dry.warnings), dry.warnings
+
+
+def test_the_example_3d_variant_is_the_measured_3d_run_and_leaves_the_slice_alone():
+    """`--variant 3d` lays the case file's `variants: 3d:` keys over the example: the settings of the
+    full 3D run measured over the whole record (docs/benchmarks.md "The full 3D run on the
+    2026-11-22 10:10 machine"), its results beside the slice's, never over them."""
+    base, v = load_case(EXAMPLE), load_case(EXAMPLE, "3d")
+    assert base.variant is None and v.variant == "3d"
+    assert base["mesh"]["mode"] == "slice" and v["mesh"]["mode"] == "3d"
+    # keys the variant does not name keep the file's values (a merge, not a replacement)
+    assert v["mesh"]["max_element_size"] == base["mesh"]["max_element_size"] == pytest.approx(6.75)
+    assert v["water"]["bulk_modulus"] == base["water"]["bulk_modulus"]
+    assert v["water"]["ends"] == "closed" and base["water"]["ends"] == "open"
+    assert v["time"]["subcycling"] == 3 and base["time"]["subcycling"] == 0
+    assert v["coupling"]["tolerance"] == pytest.approx(1e-4) and base["coupling"]["tolerance"] == pytest.approx(1e-3)
+    assert v["coupling"]["window_force_weight"] == pytest.approx(0.75)
+    assert v["coupling"]["window"] == base["coupling"]["window"] == 16
+    assert v["conditions"] == ["dynamic_water"]
+    assert v.output_dir == base.output_dir.with_name(base.output_dir.name + "_3d")
+
+
+def test_a_bad_key_in_any_variant_is_reported_before_a_run(example_text, write_case):
+    """Every variant is validated when the file is read, selected or not, and the message names
+    the variant, the key and its line."""
+    text = example_text.replace("    coupling: {tolerance: 1e-4, window_force_weight: 0.75}",
+                                "    coupling: {tolerence: 1e-4, window_force_weight: 0.75}")
+    path = write_case(text)
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    msg = str(err.value)
+    assert "(variant 3d)" in msg and "coupling.tolerence" in msg and "did you mean 'tolerance'" in msg, msg
+    assert re.search(r"\(variant 3d\):\d+: ", msg), msg
+
+
+def test_an_unknown_variant_names_the_ones_there(write_case, example_text):
+    path = write_case(example_text)
+    with pytest.raises(CaseError) as err:
+        load_case(path, "2d")
+    msg = str(err.value)
+    assert "--variant" in msg and "'2d'" in msg and "it has: 3d" in msg, msg
+
+
+def test_a_variant_may_choose_its_own_results_folder_and_must_be_a_mapping(example_text, write_case):
+    text = example_text + "  mine:\n    output: {directory: elsewhere}\n"
+    case = load_case(write_case(text), "mine")
+    assert case.output_dir.name == "elsewhere"
+    with pytest.raises(CaseError, match="variants.broken.*must be a mapping of case sections"):
+        load_case(write_case(example_text + "  broken: 3\n"))

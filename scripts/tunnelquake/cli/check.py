@@ -6,14 +6,15 @@ from .common import load_or_report, parser, say
 
 def main(argv: list[str]) -> int:
     args = parser("check", __doc__).parse_args(argv)
-    case = load_or_report(args.case)
+    case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
     d = case.data
     g = d["geometry"]
     gm = d["ground_motion"]
     src = gm["file"] if gm["source"] == "file" else f"synthetic (seed {gm['synthetic']['seed']})"
-    say(f"case '{d['name']}' is valid ({case.path})")
+    which = f", variant {case.variant}" if case.variant else ""
+    say(f"case '{d['name']}' is valid ({case.path}{which}); results go to {case.output_dir}")
     say(f"  block x {g['x_range']} y {g['y_range']} z {g['z_range']} m; tunnel r={g['excavated_radius']:g} m "
         f"at z={g['tunnel_centre_z']:g} m, lining {g['lining_thickness']:g} m; mesh mode {d['mesh']['mode']}")
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")

@@ -14,6 +14,10 @@ from ..case import Case, CaseError, load_case
 def parser(prog: str, description: str) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=f"tunnelquake {prog}", description=description)
     p.add_argument("case", type=Path, help="the case file (case.yaml) or the folder holding it")
+    p.add_argument("--variant", metavar="NAME", default=None,
+                   help="lay the case file's 'variants: NAME:' keys over the rest of it (e.g. 3d in "
+                        "cases/paper_tunnel); its results go to '<output.directory>_NAME' unless it sets "
+                        "output.directory")
     return p
 
 
@@ -21,10 +25,11 @@ def case_path(p: Path) -> Path:
     return p / "case.yaml" if p.is_dir() else p
 
 
-def load_or_report(path: Path) -> Case | None:
-    """Load and validate a case; on problems print them all (stderr) and return None."""
+def load_or_report(path: Path, variant: str | None = None) -> Case | None:
+    """Load and validate a case (with `variant` laid over it, if given); on problems print them
+    all (stderr) and return None."""
     try:
-        case = load_case(case_path(path))
+        case = load_case(case_path(path), variant)
     except CaseError as e:
         print(f"error: {e}", file=sys.stderr)
         return None

@@ -43,7 +43,7 @@ def main(argv: list[str]) -> int:
     p = parser("mesh", __doc__)
     p.add_argument("--force", action="store_true", help="rebuild even when up to date")
     args = p.parse_args(argv)
-    case = load_or_report(args.case)
+    case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
     make_mesh(case, force=args.force)

@@ -63,7 +63,7 @@ def make_motion(case) -> tuple[ProcessedMotion, Path]:
 
 def main(argv: list[str]) -> int:
     args = parser("motion", __doc__).parse_args(argv)
-    case = load_or_report(args.case)
+    case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
     try:

@@ -130,7 +130,7 @@ def post_case(case) -> Path:
 
 def main(argv: list[str]) -> int:
     args = parser("post", __doc__).parse_args(argv)
-    case = load_or_report(args.case)
+    case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
     post_case(case)

@@ -365,10 +365,11 @@ def main(argv: list[str]) -> int:
     p.add_argument("--no-post", action="store_true", help="skip post-processing")
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    case = load_or_report(args.case)
+    case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    say(f"case '{case.data['name']}' valid; results go to {case.output_dir}")
+    which = f" (variant {case.variant})" if case.variant else ""
+    say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []
     failed: list[str] = []
