@@ -203,17 +203,30 @@ def test_the_example_3d_variant_is_the_measured_3d_run_and_leaves_the_slice_alon
     assert v.output_dir == base.output_dir.with_name(base.output_dir.name + "_3d")
 
 
-def test_a_bad_key_in_any_variant_is_reported_before_a_run(example_text, write_case):
-    """Every variant is validated when the file is read, selected or not, and the message names
-    the variant, the key and its line."""
+def test_a_bad_key_in_any_variant_is_said_before_a_run(example_text, write_case):
+    """A variant not chosen is checked against the schema on every read: its problems are warnings
+    naming the variant, the key and its line; choosing it makes them errors."""
     text = example_text.replace("    coupling: {tolerance: 1e-4, window_force_weight: 0.75}",
                                 "    coupling: {tolerence: 1e-4, window_force_weight: 0.75}")
     path = write_case(text)
+    warned = [w for w in load_case(path).warnings if w.startswith("variant 3d would not run")]
+    assert len(warned) == 1 and "coupling.tolerence" in warned[0], warned
+    assert re.search(r"\(variant 3d\):\d+: ", warned[0]), warned
     with pytest.raises(CaseError) as err:
-        load_case(path)
+        load_case(path, "3d")
     msg = str(err.value)
     assert "(variant 3d)" in msg and "coupling.tolerence" in msg and "did you mean 'tolerance'" in msg, msg
-    assert re.search(r"\(variant 3d\):\d+: ", msg), msg
+
+
+def test_the_checks_across_sections_stop_only_the_variant_they_concern(example_text, write_case):
+    """Incompressible water in the base file is valid with its open ends; the 3d variant closes the
+    ends, which is ill-posed for incompressible water: only a run of that variant is refused."""
+    path = write_case(example_text.replace("  model: compressible\n", "  model: incompressible\n"))
+    assert load_case(path)["water"]["model"] == "incompressible"
+    with pytest.raises(CaseError) as err:
+        load_case(path, "3d")
+    msg = str(err.value)
+    assert "(variant 3d)" in msg and "water.ends" in msg and "ends: open" in msg, msg
 
 
 def test_an_unknown_variant_names_the_ones_there(write_case, example_text):
