@@ -163,6 +163,10 @@ REJECTED: list[tuple[str, str, dict]] = [
      dict(p="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;",
           pFinal="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;")),
     _smoother("ours, p DIC smoother", "DIC"),
+    ("ours, p GAMG mergeLevels 3", "p and pFinal: GAMG as ours with mergeLevels 3 instead of 2",
+     dict(p=GAMG.format(0.1) + " mergeLevels 3;", pFinal=GAMG.format(0.1) + " mergeLevels 3;")),
+    ("ours, p GAMG mergeLevels 4", "p and pFinal: GAMG as ours with mergeLevels 4 instead of 2",
+     dict(p=GAMG.format(0.1) + " mergeLevels 4;", pFinal=GAMG.format(0.1) + " mergeLevels 4;")),
     ("ours, p PCG/GAMG", "p: PCG preconditioned by one GAMG V-cycle (GaussSeidel, mergeLevels 2), relTol 0.1",
      dict(p="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 1; } "
             "tolerance 0; relTol 0.1;",
@@ -318,6 +322,9 @@ def main(argv=None) -> int:
     ap.add_argument("--pair", type=int, default=0,
                     help="instead of the table: N alternating runs of ours and each of --variants "
                          "(default: stock), 1 rank, per mesh; min and median of each and their ratio to ours")
+    ap.add_argument("--pause", type=float, default=0.0,
+                    help="seconds of idle before each timed run (--pair), so that no run starts right "
+                         "after another's load")
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--keep", action="store_true")
     a = ap.parse_args(argv)
@@ -342,6 +349,7 @@ def main(argv=None) -> int:
             for _ in range(a.pair):
                 for name in names:
                     tag = re.sub(r"[^A-Za-z0-9]+", "_", name)
+                    time.sleep(a.pause)
                     runs[name].append(measure(root, poly, mode, f"pair-{tag}", settings[name], steps))
             out = {}
             for name, rs in runs.items():
