@@ -59,6 +59,39 @@ Index scatterSpan(const Mesh& mesh, const std::vector<Index>& elems) {
   return span;
 }
 
+// Slabs of the deterministic parallel scatter, as chunk boundaries (size: slabs + 1). Slab s + 2
+// starts past every element that an element of slab s shares a node with, so slabs of one parity
+// share no node and scatter concurrently without a race. Each slab is as narrow as that allows
+// (at least kMinChunks): where the element order's local span is small (the rings next to the
+// tunnel, numbered first) the slabs are narrow, so the work there is shared among the threads
+// instead of landing in one wide slab.
+std::vector<Index> scatterSlabs(const Mesh& mesh, const std::vector<Index>& elems, Index chunk) {
+  constexpr Index kMinChunks = 4;
+  const Index E = Index(elems.size()), nChunks = (E + chunk - 1) / chunk;
+  std::vector<Index> last(size_t(mesh.numNodes()), -1);
+  for (Index i = 0; i < E; ++i)
+    for (int k = 0; k < 8; ++k) {
+      Index& l = last[size_t(mesh.connectivity[8 * size_t(elems[size_t(i)]) + k])];
+      l = std::max(l, i);
+    }
+  std::vector<Index> reach(size_t(nChunks), 0);  // [chunk] last chunk holding a node neighbour
+  for (Index i = 0; i < E; ++i)
+    for (int k = 0; k < 8; ++k) {
+      Index& r = reach[size_t(i / chunk)];
+      r = std::max(r, last[size_t(mesh.connectivity[8 * size_t(elems[size_t(i)]) + k])] / chunk);
+    }
+  std::vector<Index> start{0};
+  if (nChunks == 0) return {0, 0};
+  start.push_back(std::min(nChunks, kMinChunks));
+  while (start.back() < nChunks) {
+    const Index a = start[start.size() - 2], b = start.back();
+    Index far = 0;  // the furthest chunk the previous slab [a, b) reaches
+    for (Index c = a; c < b; ++c) far = std::max(far, reach[size_t(c)]);
+    start.push_back(std::min(nChunks, std::max(b + kMinChunks, far + 1)));
+  }
+  return start;
+}
+
 // Breadth-first order of the elements through shared nodes, from the sources (list positions).
 std::vector<Index> breadthFirst(const Mesh& mesh, const std::vector<Index>& elems, const std::vector<Index>& sources) {
   const size_t E = elems.size();
@@ -191,10 +224,8 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
     }
   }
   chunkEnergy_.resize(nChunks);
-  // Slabs for the scatter: wider than the largest distance between two elements sharing a node,
-  // so a node is touched by at most two consecutive slabs (depends on the mesh only).
-  const Index span = scatterSpan(mesh, meshElems_);
-  slabChunks_ = std::max<Index>(4, (span + kChunk) / kChunk);  // (span + 1) elements, rounded up
+  // Slabs for the scatter: slabs of one parity share no node (depends on the mesh only).
+  slabStart_ = scatterSlabs(mesh, meshElems_, kChunk);
 }
 
 Real ElementBlock::geo(Index e, int comp) const {
@@ -316,11 +347,9 @@ void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel) {
     std::uint8_t& l = chunkLevel_[size_t(e / kChunk)];
     for (int k = 0; k < 8; ++k) l = std::min(l, nodeLevel[size_t(conn_[8 * size_t(e) + k])]);
   }
-  slabLevel_.assign(size_t((nChunks + slabChunks_ - 1) / slabChunks_), 255);
-  for (Index c = 0; c < nChunks; ++c) {
-    std::uint8_t& l = slabLevel_[size_t(c / slabChunks_)];
-    l = std::min(l, chunkLevel_[size_t(c)]);
-  }
+  slabLevel_.assign(slabStart_.size() - 1, 255);
+  for (size_t s = 0; s + 1 < slabStart_.size(); ++s)
+    for (Index c = slabStart_[s]; c < slabStart_[s + 1]; ++c) slabLevel_[s] = std::min(slabLevel_[s], chunkLevel_[size_t(c)]);
 }
 
 Index ElementBlock::findBadStress(Real limit) const {
@@ -809,7 +838,7 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   if (full && p.beta > 0)
     throw InputError("block '" + name_ + "': full_integration does not support stiffness-proportional damping");
   const bool damp = p.beta > 0;
-  const Index nSlabs = (nChunks + slabChunks_ - 1) / slabChunks_;
+  const Index nSlabs = Index(slabStart_.size()) - 1;
   const std::vector<std::uint8_t>& levels = chunkLevel_;
   auto chunk = [&](Index c) {
     BlockEnergy& en = chunkEnergy_[size_t(c)];
@@ -838,18 +867,17 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
 #pragma omp parallel for schedule(dynamic, 1) if (nDue >= 2)
       for (Index j = 0; j < nDue; ++j) {
         const Index s = due[size_t(j)];
-        const Index c1 = std::min(nChunks, (s + 1) * slabChunks_);
-        for (Index c = s * slabChunks_; c < c1; ++c) {
+        for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
           if (levels[size_t(c)] > p.activeLevel) continue;  // not due at this fine step
           chunk(c);
         }
       }
       continue;
     }
-#pragma omp parallel for schedule(static) if (nSlabs >= 2 + parity && nChunks >= 8)
+    // slabs differ in width (narrow where the element order's span is small): handed out one at a time
+#pragma omp parallel for schedule(dynamic, 1) if (nSlabs >= 2 + parity && nChunks >= 8)
     for (Index s = parity; s < nSlabs; s += 2) {
-      const Index c1 = std::min(nChunks, (s + 1) * slabChunks_);
-      for (Index c = s * slabChunks_; c < c1; ++c) {
+      for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
         chunk(c);
       }
     }

@@ -112,9 +112,9 @@ public:
   /// Add the internal + stiffness-damping forces of every element to the nodal forces f [3N]
   /// (the caller zeroes f first), and return the block's energy terms.
   BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f);
-  /// Elements per slab of the deterministic parallel scatter (a multiple of kChunk, larger than
-  /// the largest element-index distance between two elements sharing a node).
-  Index slabElems() const { return slabChunks_ * kChunk; }
+  /// Slabs of the deterministic parallel scatter: chunk boundaries, size slabs + 1 (slabs of one
+  /// parity share no node).
+  const std::vector<Index>& slabStarts() const { return slabStart_; }
 
   /// True when this CPU has AVX2 and FMA (the kernel's fast path).
   static bool avx2Available();
@@ -172,7 +172,7 @@ private:
   std::vector<std::uint8_t> chunkLevel_;  // subcycling: [chunk] level (empty: every chunk every step)
   std::vector<std::uint8_t> slabLevel_;   // subcycling: [slab] finest level of its chunks
   std::vector<Index> dueSlabs_;           // subcycling: slabs of one parity due at this step (scratch)
-  Index slabChunks_ = 1;  // chunks per slab of the parallel scatter
+  std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
   bool avx2_ = false;     // kernel path
 };
 
