@@ -474,9 +474,9 @@ def load_case(path: str | Path, variant: str | None = None) -> Case:
     `variant`: the name of an entry of the file's `variants:` section, whose keys are laid over
     the rest of the file (docs/user_guide.md "Variants"). Without `variant`, each variant is also
     checked against the schema and its problems are warnings (a typo in one is said before any
-    run, but does not stop the base case); the chosen variant's problems are errors. A variant that does not set `output.directory`
-    writes to the base directory with `_<variant>` appended, so it never overwrites the base
-    case's results."""
+    run, but does not stop the base case); the chosen variant's problems are errors. A variant
+    that does not set `output.directory` writes to the base directory with `_<variant>` appended,
+    so it never overwrites the base case's results."""
     path = Path(path).resolve()
     name = str(path)
     if not path.is_file():

@@ -68,6 +68,7 @@ Index scatterSpan(const Mesh& mesh, const std::vector<Index>& elems) {
 std::vector<Index> scatterSlabs(const Mesh& mesh, const std::vector<Index>& elems, Index chunk) {
   constexpr Index kMinChunks = 4;
   const Index E = Index(elems.size()), nChunks = (E + chunk - 1) / chunk;
+  if (nChunks == 0) return {0, 0};
   std::vector<Index> last(size_t(mesh.numNodes()), -1);
   for (Index i = 0; i < E; ++i)
     for (int k = 0; k < 8; ++k) {
@@ -80,9 +81,7 @@ std::vector<Index> scatterSlabs(const Mesh& mesh, const std::vector<Index>& elem
       Index& r = reach[size_t(i / chunk)];
       r = std::max(r, last[size_t(mesh.connectivity[8 * size_t(elems[size_t(i)]) + k])] / chunk);
     }
-  std::vector<Index> start{0};
-  if (nChunks == 0) return {0, 0};
-  start.push_back(std::min(nChunks, kMinChunks));
+  std::vector<Index> start{0, std::min(nChunks, kMinChunks)};
   while (start.back() < nChunks) {
     const Index a = start[start.size() - 2], b = start.back();
     Index far = 0;  // the furthest chunk the previous slab [a, b) reaches

@@ -121,6 +121,19 @@ def _smoother(name: str, smoother: str) -> tuple[str, str, dict]:
     return (name, f"p: GAMG with the {smoother} smoother", dict(p=body, pFinal=body))
 
 
+def _p_body(name: str, what: str, body: str) -> tuple[str, str, dict]:
+    """A pressure solver tried instead of ours: `body` for both p and pFinal."""
+    return (name, what, dict(p=body, pFinal=body))
+
+
+def _pcg_gamg(name: str, vcycles: int) -> tuple[str, str, dict]:
+    """p by PCG preconditioned by `vcycles` GAMG V-cycles (GaussSeidel, mergeLevels 2), relTol 0.1."""
+    return _p_body(name, f"p: PCG preconditioned by {vcycles} GAMG V-cycle(s) (GaussSeidel, mergeLevels 2), "
+                         "relTol 0.1",
+                   "solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; "
+                   f"nVcycles {vcycles}; }} tolerance 0; relTol 0.1;")
+
+
 def _apply(base: dict, over: dict) -> dict:
     """base updated by over; over's 'p_extra' is appended to the p and pFinal bodies instead."""
     v = dict(base)
@@ -163,21 +176,12 @@ REJECTED: list[tuple[str, str, dict]] = [
      dict(p="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;",
           pFinal="solver GAMG; smoother GaussSeidel; tolerance 0; relTol 0; maxIter 1;")),
     _smoother("ours, p DIC smoother", "DIC"),
-    ("ours, p GAMG mergeLevels 3", "p and pFinal: GAMG as ours with mergeLevels 3 instead of 2",
-     dict(p=GAMG.format(0.1) + " mergeLevels 3;", pFinal=GAMG.format(0.1) + " mergeLevels 3;")),
-    ("ours, p GAMG mergeLevels 4", "p and pFinal: GAMG as ours with mergeLevels 4 instead of 2",
-     dict(p=GAMG.format(0.1) + " mergeLevels 4;", pFinal=GAMG.format(0.1) + " mergeLevels 4;")),
-    ("ours, p PCG/GAMG", "p: PCG preconditioned by one GAMG V-cycle (GaussSeidel, mergeLevels 2), relTol 0.1",
-     dict(p="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 1; } "
-            "tolerance 0; relTol 0.1;",
-          pFinal="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 1; } "
-                 "tolerance 0; relTol 0.1;")),
-    ("ours, p PCG/GAMG 2 V-cycles", "p: PCG preconditioned by two GAMG V-cycles (GaussSeidel, mergeLevels 2), "
-     "relTol 0.1",
-     dict(p="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 2; } "
-            "tolerance 0; relTol 0.1;",
-          pFinal="solver PCG; preconditioner { preconditioner GAMG; smoother GaussSeidel; mergeLevels 2; nVcycles 2; } "
-                 "tolerance 0; relTol 0.1;")),
+    _p_body("ours, p GAMG mergeLevels 3", "p and pFinal: GAMG as ours with mergeLevels 3 instead of 2",
+            GAMG.format(0.1) + " mergeLevels 3;"),
+    _p_body("ours, p GAMG mergeLevels 4", "p and pFinal: GAMG as ours with mergeLevels 4 instead of 2",
+            GAMG.format(0.1) + " mergeLevels 4;"),
+    _pcg_gamg("ours, p PCG/GAMG", 1),
+    _pcg_gamg("ours, p PCG/GAMG 2 V-cycles", 2),
     ("ours, uncorrected p Laplacian", "all Laplacians uncorrected (mesh non-orthogonality up to 27 deg)",
      dict(laplacianP="Gauss linear uncorrected")),
     ("ours, moving mesh", "tqInterpolatedDisplacement instead of transpiration",
