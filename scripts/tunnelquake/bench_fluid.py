@@ -14,7 +14,7 @@ Ladders:
   period from rest; references p(θ) = −ρ a R cos θ and F = ρπR²L a0), on blockMesh O-grids of
   N = 32, 64, 128 (--full: and 256) faces around (N²/4 cells), 200 steps a period; and N = 64 at 25,
   50, 100, 200, 400 steps a period. Each setting runs with our water settings (the template's:
-  transpiration, tuned PIMPLE/GAMG) and with the stock set-up of
+  transpiration, tuned PIMPLE, p by tqProjected + GAMG) and with the stock set-up of
   tests/verification/fluid_benchmark/benchmark.py (pimpleFoam + displacementLaplacian,
   inverseDistance, movingWallVelocity + fixedFluxPressure, movingCone solvers), alternately,
   --repeat times: errors (deterministic) of both and the per-step time ratio (median of the
@@ -501,8 +501,8 @@ are relative, against the closed forms. **Rigid pipe** (tests/verification/fluid
 slice, R 4.5 m, a = a0 cos ωt at {PIPE_FREQ:g} Hz from rest, one period): F = amplitude of the
 harmonic fit of the resultant against ρπR²L a0; p = the cos θ coefficient of the wall pressure at
 the last step against −ρ a R. blockMesh O-grids with N faces around. **ours**: the template's
-water settings (transpiration, tuned PIMPLE/GAMG, p to 1e-6 in the closed slice{laminar}); **stock**: the
-tutorial-like set-up of docs/water.md §10 (pimpleFoam + displacementLaplacian inverseDistance,
+water settings (transpiration, tuned PIMPLE, p by tqProjected + GAMG to 1e-6 in the closed
+slice{laminar}); **stock**: the tutorial-like set-up of docs/water.md §10 (pimpleFoam + displacementLaplacian inverseDistance,
 movingWallVelocity + fixedFluxPressure, movingCone solvers), both from
 `tests/verification/fluid_benchmark/benchmark.py`, run alternately on the same mesh and step;
 times are medians of the rounds, ms/step the wall clock between the solver's step lines (steps

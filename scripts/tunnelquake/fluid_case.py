@@ -161,6 +161,22 @@ def exchange_dict(s: dict) -> str:
         }}"""
 
 
+#: the template's p and pFinal controls: the tolerance and relTol of an open domain
+_P_TOLERANCES = re.compile(r"(\b(?:p|pFinal)\s+\{ solver \w+;[^{}]*?) tolerance 0; relTol [0-9.]+;")
+
+
+def closed_pressure_tolerance(text: str, where: Path | str = "system/fvSolution") -> str:
+    """fvSolution text with p and pFinal to an absolute 1e-6 (tolerance 1e-6; relTol 0), as the
+    template's Allrun sets for a closed domain: there the error of an unconverged incompressible
+    pressure cannot leave through an open end and accumulates.  Raises ValueError when the two
+    entries are not as the template writes them."""
+    out, n = _P_TOLERANCES.subn(r"\1 tolerance 1e-6; relTol 0;", text)
+    if n != 2:
+        raise ValueError(f"{where}: expected the template's p and pFinal entries "
+                         f"('tolerance 0; relTol ...;'), found {n}")
+    return out
+
+
 def _set_entry(text: str, key: str, value: str) -> str:
     """Replace the value of a top-level-style `key value;` line (first occurrence)."""
     new, n = re.subn(rf"^(\s*){re.escape(key)}(\s+)[^;\n]*;", rf"\g<1>{key}\g<2>{value};", text, count=1,
@@ -294,8 +310,7 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     fs = folder / "system" / "fvSolution"
     t = _set_entry(fs.read_text(), "nNonOrthogonalCorrectors", "0")
     if closed_ends:  # closed domain: p to an absolute tolerance (as the template's Allrun)
-        t = re.sub(r"(p(?:Final)?\s+\{ solver GAMG; smoother GaussSeidel;) tolerance 0; relTol 0\.1;",
-                   r"\1 tolerance 1e-6; relTol 0;", t)
+        t = closed_pressure_tolerance(t, fs)
     fs.write_text(t)
 
     solver = "rhoPimpleFoam" if model == "compressible" else "pimpleFoam"

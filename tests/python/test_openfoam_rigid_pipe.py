@@ -2,7 +2,7 @@
 
 Reference, case and tolerances: tests/verification/fluid_rigid_pipe/README.md.
 p(theta) = p0 - rho a R cos(theta) within 2 % of rho a R; resultant rho pi R^2 L a within 1 %;
-2D slice and 3D, 1 and 10 Hz.
+2D slice and 3D, 1 and 10 Hz; also with the production pressure solver (tqProjected).
 """
 
 from __future__ import annotations
@@ -28,6 +28,12 @@ CASES = {
     "2d-10Hz": dict(freq=10.0, geom=dict(two_d=True, L=1.0, nq=16, nr=12)),
     "3d-1Hz": dict(freq=1.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8)),
     "3d-10Hz": dict(freq=10.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8)),
+    # the production pressure controls (the template's tqProjected + GAMG, closed domain:
+    # absolute 1e-6) instead of PCG to 1e-10: the same tolerances
+    "2d-10Hz-tqProjected": dict(freq=10.0, geom=dict(two_d=True, L=1.0, nq=16, nr=12,
+                                                     p_controls=fc.template_p_controls(closed=True))),
+    "3d-1Hz-tqProjected": dict(freq=1.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8,
+                                                   p_controls=fc.template_p_controls(closed=True))),
 }
 
 
@@ -62,7 +68,11 @@ def test_rigid_pipe(tmp_path, name):
     assert abs(err) < 0.01, f"resultant amplitude error {err:+.3%}"
     assert abs(lag - omega * dt) < 0.05 * omega * dt, (lag, omega * dt)
     assert abs(mean) < 0.01 * f_ref
-    assert np.abs(rows.Fz).max() < 1e-6 * f_ref and np.abs(rows.Fy).max() < 1e-6 * f_ref
+    # cross force: symmetry to the pressure solve's tolerance (PCG 1e-10: 1e-6 of the resultant;
+    # the production controls solve to an absolute 1e-6, which leaves 1.7e-6 with tqProjected and
+    # 2.3e-6 with GAMG alone, measured: bounded at 1e-5)
+    cross = 1e-5 if "p_controls" in geom else 1e-6
+    assert np.abs(rows.Fz).max() < cross * f_ref and np.abs(rows.Fy).max() < cross * f_ref
 
     # Wall pressure at the last step, which follows a(T) = A0
     times = sorted(

@@ -15,6 +15,7 @@ License
 #include "surfaceFields.H"
 #include "pointFields.H"
 #include "valuePointPatchField.H"
+#include "tqProjected.H"
 
 #include <algorithm>
 
@@ -131,6 +132,49 @@ public:
     }
 };
 
+
+//- A saved projection basis of the tqProjected linear solver
+class savedProjection
+:
+    public savedObject
+{
+    word name_;
+    scalar sign_;
+    std::vector<scalarField> q_;
+
+public:
+
+    explicit savedProjection(const projectionHistory& h)
+    :
+        name_(h.name())
+    {
+        copy(h);
+    }
+
+    void copy(const projectionHistory& h)
+    {
+        sign_ = h.sign;
+        q_ = h.q;
+    }
+
+    virtual const word& name() const
+    {
+        return name_;
+    }
+
+    virtual bool restore(const objectRegistry& obr) const
+    {
+        projectionHistory* h = obr.getObjectPtr<projectionHistory>(name_);
+        if (!h)
+        {
+            return false;
+        }
+        h->sign = sign_;
+        h->q = q_;
+        return true;
+    }
+};
+
 } // End anonymous namespace
 } // End namespace tq
 } // End namespace Foam
@@ -149,14 +193,14 @@ namespace tq
 
 // * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
 
-template<class GeoField>
-bool Foam::tq::fieldCheckpoint::storeField
+template<class Object, class Saved>
+bool Foam::tq::fieldCheckpoint::storeObject
 (
     const regIOobject& obj,
     std::vector<bool>& seen
 )
 {
-    const GeoField* fldPtr = dynamic_cast<const GeoField*>(&obj);
+    const Object* fldPtr = dynamic_cast<const Object*>(&obj);
     if (!fldPtr)
     {
         return false;
@@ -166,25 +210,35 @@ bool Foam::tq::fieldCheckpoint::storeField
     const auto iter = slots_.cfind(obj.name());
     if (iter.found())
     {
-        savedGeoField<GeoField>* s =
-            dynamic_cast<savedGeoField<GeoField>*>(&fields_[*iter]);
+        Saved* s = dynamic_cast<Saved*>(&fields_[*iter]);
         if (s)
         {
             s->copy(*fldPtr);
             seen[*iter] = true;
             return true;
         }
-        fields_.set(*iter, new savedGeoField<GeoField>(*fldPtr));
+        fields_.set(*iter, new Saved(*fldPtr));
         seen[*iter] = true;
         return true;
     }
 
     const label slot = fields_.size();
-    fields_.append(new savedGeoField<GeoField>(*fldPtr));
+    fields_.append(new Saved(*fldPtr));
     slots_.set(obj.name(), slot);
     seen.resize(slot + 1, false);
     seen[slot] = true;
     return true;
+}
+
+
+template<class GeoField>
+bool Foam::tq::fieldCheckpoint::storeField
+(
+    const regIOobject& obj,
+    std::vector<bool>& seen
+)
+{
+    return storeObject<GeoField, savedGeoField<GeoField>>(obj, seen);
 }
 
 
@@ -230,7 +284,8 @@ void Foam::tq::fieldCheckpoint::store()
      || storeField<surfaceSymmTensorField>(obj, seen)
      || storeField<surfaceTensorField>(obj, seen)
      || storeField<pointScalarField>(obj, seen)
-     || storeField<pointVectorField>(obj, seen);
+     || storeField<pointVectorField>(obj, seen)
+     || storeObject<projectionHistory, savedProjection>(obj, seen);
     }
     if (std::find(seen.begin(), seen.end(), false) != seen.end())
     {

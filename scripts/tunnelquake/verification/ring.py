@@ -432,8 +432,7 @@ def _symmetry_ends(folder: Path, closed_incompressible: bool, ends=("end_ymin", 
             f.write_text(text)
     if closed_incompressible:  # closed domain: p to an absolute tolerance, as fluid_case does
         fs = folder / "system" / "fvSolution"
-        fs.write_text(re.sub(r"(p(?:Final)?\s+\{ solver GAMG; smoother GaussSeidel;) tolerance 0; relTol 0\.1;",
-                             r"\1 tolerance 1e-6; relTol 0;", fs.read_text()))
+        fs.write_text(fc.closed_pressure_tolerance(fs.read_text(), fs))
         # The n = 2 motion keeps the volume only to O(1e-3) of the wall flux (the hex ring's faceted
         # wall and the point loads' local bending): tqInterface's closed-domain check refuses
         # above 1e-3 (docs/water.md §7); allow 5e-2 and let adjustPhi remove the imbalance.

@@ -41,6 +41,29 @@ def env() -> dict:
     return e
 
 
+TEMPLATE_FVSOLUTION = REPO / "openfoam_case" / "template" / "system" / "fvSolution"
+
+
+def template_p_controls(closed: bool) -> str:
+    """Body of the template's `p` solver entry (the production pressure controls: tqProjected
+    with GAMG inside), for a closed domain as its Allrun and fluid_case set it (tolerance 1e-6;
+    relTol 0) or as written (open ends)."""
+    text = TEMPLATE_FVSOLUTION.read_text()
+    m = re.search(r"^\s*p\s+\{", text, flags=re.M)
+    if not m:
+        raise ValueError(f"{TEMPLATE_FVSOLUTION}: no 'p' solver entry")
+    depth, i = 1, m.end()
+    while depth:
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        i += 1
+    body = " ".join(text[m.end():i - 1].split())
+    if closed:
+        body, n = re.subn(r"tolerance 0; relTol [0-9.]+;", "tolerance 1e-6; relTol 0;", body)
+        if n != 1:
+            raise ValueError(f"{TEMPLATE_FVSOLUTION}: p has no 'tolerance 0; relTol ...;' to set")
+    return body
+
+
 HEADER = """FoamFile
 {{
     version     2.0;

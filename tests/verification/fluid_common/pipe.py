@@ -150,6 +150,7 @@ def make_pipe_case(
     grading: float = 1.0,
     ddt: str = "Euler",
     p_tol: float = 1e-10,
+    p_controls: str | None = None,
     extra_functions: str = "",
     open_ends: bool = False,
     interface_motion: str = "meshMotion",
@@ -168,7 +169,8 @@ def make_pipe_case(
     compressible_files()).  hydrostatic (g, free-surface level): tqInterface reports the
     hydrostatic resultant with gravity (0 0 -g).  laminar_model: 'tqNewtonian' (libtqFoam, the
     default for incompressible water) or the stock 'Stokes' (the default for compressible water);
-    nu: kinematic viscosity [m^2/s] (incompressible water)."""
+    nu: kinematic viscosity [m^2/s] (incompressible water).  p_controls: the pressure solver's
+    dictionary body instead of PCG/DIC to p_tol (e.g. foamcase.template_p_controls())."""
     transpiration = interface_motion == "transpiration"
     compressible = water == "compressible"
     if water not in ("incompressible", "compressible"):
@@ -246,7 +248,7 @@ snGradSchemes {{ default corrected; }}
         f"""
 solvers
 {{
-    "p(Final)?" {{ solver PCG; preconditioner DIC; tolerance {p_tol}; relTol 0; }}
+    "p(Final)?" {{ {p_controls or f"solver PCG; preconditioner DIC; tolerance {p_tol}; relTol 0;"} }}
     "U(Final)?" {{ solver smoothSolver; smoother symGaussSeidel; tolerance 1e-10; relTol 0; }}
     // energy (compressible water): T stays at T0 (no pressure work), h barely moves
     "(e|h)(Final)?" {{ solver smoothSolver; smoother symGaussSeidel; tolerance 1e-4; relTol 0; maxIter 10; }}
