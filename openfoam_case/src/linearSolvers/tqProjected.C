@@ -198,6 +198,27 @@ Foam::scalar Foam::tq::tqProjected::dot
 }
 
 
+Foam::scalar Foam::tq::tqProjected::removeSpan
+(
+    const projectionHistory& h,
+    const scalarField& v,
+    const scalar f,
+    scalarField& w
+) const
+{
+    if (!h.size())
+    {
+        return 0;
+    }
+    scalarField c;
+    localDots(h.q, v, c);
+    reduce(c, sumOp<scalarField>(), Pstream::msgType(), matrix_.mesh().comm());
+    c *= f;
+    subtractCombination(h.q, c, w);
+    return sumSqr(c);
+}
+
+
 void Foam::tq::tqProjected::extend
 (
     projectionHistory& h,
@@ -206,8 +227,6 @@ void Foam::tq::tqProjected::extend
     const direction cmpt
 ) const
 {
-    const label comm = matrix_.mesh().comm();
-
     const scalar dAd = dot(d, Ad);
     if (h.sign == 0)
     {
@@ -232,27 +251,12 @@ void Foam::tq::tqProjected::extend
     // are nearly dependent, and the projection goes wrong (seen on the
     // closed slice); it takes A w afresh.
     scalarField w(d);
-    scalar norm = norm0;
-    if (h.size())
+    scalar norm = norm0 - removeSpan(h, Ad, s, w);
+    if (h.size() && !(norm > 0.5*norm0))
     {
-        scalarField beta;
-        localDots(h.q, Ad, beta);
-        reduce(beta, sumOp<scalarField>(), Pstream::msgType(), comm);
-        beta *= s;
-        subtractCombination(h.q, beta, w);
-        norm = norm0 - sumSqr(beta);
-
-        if (!(norm > 0.5*norm0))
-        {
-            scalarField Aw(w.size());
-            matrix_.Amul(Aw, tmp<scalarField>(w), interfaceBouCoeffs_, interfaces_, cmpt);
-            const scalar norm1 = s*dot(w, Aw);
-            localDots(h.q, Aw, beta);
-            reduce(beta, sumOp<scalarField>(), Pstream::msgType(), comm);
-            beta *= s;
-            subtractCombination(h.q, beta, w);
-            norm = norm1 - sumSqr(beta);
-        }
+        scalarField Aw(w.size());
+        matrix_.Amul(Aw, tmp<scalarField>(w), interfaceBouCoeffs_, interfaces_, cmpt);
+        norm = s*dot(w, Aw) - removeSpan(h, Aw, s, w);
     }
     if (!(norm > 1e-10*norm0))
     {
@@ -314,12 +318,8 @@ Foam::solverPerformance Foam::tq::tqProjected::solve
     bool inSpan = false;  // whether psi - psi0 lies in the span
     if (nUsed)
     {
-        scalarField gamma;
-        localDots(h->q, r, gamma);
-        reduce(gamma, sumOp<scalarField>(), Pstream::msgType(), comm);
-        gamma *= -h->sign;  // subtractCombination subtracts
         scalarField x0(psi);
-        subtractCombination(h->q, gamma, x0);
+        removeSpan(*h, r, -h->sign, x0);
         scalarField Ax0(n);
         matrix_.Amul(Ax0, tmp<scalarField>(x0), interfaceBouCoeffs_, interfaces_, cmpt);
         const scalar r0 = gSumMag((source - Ax0)(), comm);
