@@ -91,6 +91,70 @@ std::vector<Index> scatterSlabs(const Mesh& mesh, const std::vector<Index>& elem
   return start;
 }
 
+// Slab boundaries (positions, size: slabs + 1) over the chunks `chunks` in that order, by the
+// rule of scatterSlabs: a slab starts past every position the slab two before shares a node with
+// (reach looks both ways, so this holds in any order), at least minChunks wide.
+std::vector<Index> slabsInOrder(const std::vector<Index>& conn, Index numElems, Index numNodes, Index chunk,
+                                const std::vector<Index>& chunks, Index minChunks) {
+  const Index n = Index(chunks.size());
+  if (n == 0) return {0, 0};
+  auto elems = [&](Index pos, Index& a, Index& b) {
+    a = chunks[size_t(pos)] * chunk;
+    b = std::min(numElems, a + chunk);
+  };
+  std::vector<Index> last(size_t(numNodes), -1);  // [node] last position of a chunk holding it
+  for (Index pos = 0; pos < n; ++pos) {
+    Index a, b;
+    elems(pos, a, b);
+    for (Index e = a; e < b; ++e)
+      for (int k = 0; k < 8; ++k) last[size_t(conn[8 * size_t(e) + k])] = pos;
+  }
+  std::vector<Index> reach(size_t(n), 0);  // [position] last position holding a node neighbour
+  for (Index pos = 0; pos < n; ++pos) {
+    Index a, b;
+    elems(pos, a, b);
+    for (Index e = a; e < b; ++e)
+      for (int k = 0; k < 8; ++k) reach[size_t(pos)] = std::max(reach[size_t(pos)], last[size_t(conn[8 * size_t(e) + k])]);
+  }
+  std::vector<Index> start{0, std::min(n, minChunks)};
+  while (start.back() < n) {
+    const Index a = start[start.size() - 2], b = start.back();
+    Index far = 0;
+    for (Index c = a; c < b; ++c) far = std::max(far, reach[size_t(c)]);
+    start.push_back(std::min(n, std::max(b + minChunks, far + 1)));
+  }
+  return start;
+}
+
+// Slabs over the chunks due at a subcycled step (`chunks`, reordered in place; returns the slab
+// boundaries as positions in it). The due chunks cluster near the tunnel, in one or two of the
+// block's slabs (fronts of the element order: whole rings of the tunnel's length), so they get a
+// partition of their own: in their index order or in the order of their centres along x, y or z,
+// whichever gives the narrowest widest slab (along the tunnel's axis a ring's chunks follow one
+// another with their neighbours close). Depends on the mesh only.
+std::vector<Index> subsetSlabs(const std::vector<Index>& conn, Index numElems, Index numNodes, Index chunk,
+                               const std::vector<Real>& centre, std::vector<Index>& chunks, Index minChunks) {
+  auto widest = [](const std::vector<Index>& st) {
+    Index w = 0;
+    for (size_t t = 0; t + 1 < st.size(); ++t) w = std::max(w, st[t + 1] - st[t]);
+    return w;
+  };
+  std::vector<Index> bestOrder = chunks, best = slabsInOrder(conn, numElems, numNodes, chunk, chunks, minChunks);
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<Index> order = chunks;
+    std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) {
+      return centre[3 * size_t(a) + size_t(axis)] < centre[3 * size_t(b) + size_t(axis)];
+    });
+    std::vector<Index> st = slabsInOrder(conn, numElems, numNodes, chunk, order, minChunks);
+    if (widest(st) < widest(best)) {
+      best.swap(st);
+      bestOrder.swap(order);
+    }
+  }
+  chunks.swap(bestOrder);
+  return best;
+}
+
 // Breadth-first order of the elements through shared nodes, from the sources (list positions).
 std::vector<Index> breadthFirst(const Mesh& mesh, const std::vector<Index>& elems, const std::vector<Index>& sources) {
   const size_t E = elems.size();
@@ -223,6 +287,14 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
     }
   }
   chunkEnergy_.resize(nChunks);
+  chunkCentre_.assign(3 * nChunks, 0.0);  // mean of its elements' nodes (subcycling's slabs)
+  for (size_t c = 0; c < nChunks; ++c) {
+    const size_t a = c * kChunk, b = std::min(E, a + kChunk);
+    for (size_t e = a; e < b; ++e)
+      for (int k = 0; k < 8; ++k)
+        for (int d = 0; d < 3; ++d)
+          chunkCentre_[3 * c + size_t(d)] += mesh.coords[3 * size_t(conn_[8 * e + k]) + size_t(d)] / Real(8 * (b - a));
+  }
   // Slabs for the scatter: slabs of one parity share no node (depends on the mesh only).
   slabStart_ = scatterSlabs(mesh, meshElems_, kChunk);
 }
@@ -338,6 +410,8 @@ Real ElementBlock::frequency(Index e) const {
 
 void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel) {
   chunkLevel_.clear();
+  levelChunks_.clear();
+  levelSlabStart_.clear();
   if (nodeLevel.empty()) return;
   const Index nChunks = numChunks();
   chunkLevel_.assign(size_t(nChunks), 255);
@@ -346,9 +420,19 @@ void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel) {
     std::uint8_t& l = chunkLevel_[size_t(e / kChunk)];
     for (int k = 0; k < 8; ++k) l = std::min(l, nodeLevel[size_t(conn_[8 * size_t(e) + k])]);
   }
-  slabLevel_.assign(slabStart_.size() - 1, 255);
-  for (size_t s = 0; s + 1 < slabStart_.size(); ++s)
-    for (Index c = slabStart_[s]; c < slabStart_[s + 1]; ++c) slabLevel_[s] = std::min(slabLevel_[s], chunkLevel_[size_t(c)]);
+  // For each level L up to the coarsest one: the chunks due at a step of level L and their slabs
+  int top = -1;
+  for (std::uint8_t l : chunkLevel_)
+    if (l != 255) top = std::max(top, int(l));
+  // (the coarsest level's steps evaluate every chunk: they use the block's slabs)
+  levelChunks_.assign(size_t(std::max(top, 0)), {});
+  levelSlabStart_.assign(size_t(std::max(top, 0)), {});
+  for (int L = 0; L < top; ++L) {
+    for (Index c = 0; c < nChunks; ++c)
+      if (chunkLevel_[size_t(c)] <= L) levelChunks_[size_t(L)].push_back(c);
+    levelSlabStart_[size_t(L)] =
+        subsetSlabs(conn_, nElems_, Index(nodeLevel.size()), kChunk, chunkCentre_, levelChunks_[size_t(L)], 2);
+  }
 }
 
 Index ElementBlock::findBadStress(Real limit) const {
@@ -853,31 +937,29 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   // order within each parity), whatever the thread count. Small blocks run serially: a parallel
   // region costs more than a few chunks of work, and oversubscribed machines make its barrier
   // expensive.
-  // Subcycling: only the slabs holding a chunk due at this step, handed out one at a time (the due
-  // chunks cluster near the tunnel; a static split left one thread idle for 40 % of the step on the
-  // paper mesh). Which thread takes a slab changes no sum: slabs of one parity share no node.
-  std::vector<Index>& due = dueSlabs_;
-  for (Index parity = 0; parity < 2; ++parity) {
-    if (!levels.empty()) {
-      due.clear();
-      for (Index s = parity; s < nSlabs; s += 2)
-        if (slabLevel_[size_t(s)] <= p.activeLevel) due.push_back(s);
-      const Index nDue = Index(due.size());
-#pragma omp parallel for schedule(dynamic, 1) if (nDue >= 2)
-      for (Index j = 0; j < nDue; ++j) {
-        const Index s = due[size_t(j)];
+  // Subcycling, a step of a level L below the coarsest: the chunks due at it, in their own slabs
+  // (built for each level by setChunkLevels: the due chunks cluster near the tunnel, where this
+  // block's slabs are wide), handed out one at a time. The sums are as fixed as the block's slabs:
+  // at a level-L step, a node's contributions arrive in the order of that level's slabs.
+  if (!levels.empty() && size_t(p.activeLevel) < levelChunks_.size()) {
+    const size_t L = size_t(p.activeLevel);
+    const std::vector<Index>& cs = levelChunks_[L];
+    const std::vector<Index>& st = levelSlabStart_[L];
+    const Index nS = Index(st.size()) - 1;
+    for (Index parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(dynamic, 1) if (nS >= 2 + parity)
+      for (Index s = parity; s < nS; s += 2)
+        for (Index k = st[size_t(s)]; k < st[size_t(s) + 1]; ++k) chunk(cs[size_t(k)]);
+    }
+  } else {
+    for (Index parity = 0; parity < 2; ++parity) {
+      // slabs differ in width (narrow where the element order's span is small): handed out one at a time
+#pragma omp parallel for schedule(dynamic, 1) if (nSlabs >= 2 + parity && nChunks >= 8)
+      for (Index s = parity; s < nSlabs; s += 2) {
         for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
-          if (levels[size_t(c)] > p.activeLevel) continue;  // not due at this fine step
+          if (!levels.empty() && levels[size_t(c)] > p.activeLevel) continue;  // not due (no active element)
           chunk(c);
         }
-      }
-      continue;
-    }
-    // slabs differ in width (narrow where the element order's span is small): handed out one at a time
-#pragma omp parallel for schedule(dynamic, 1) if (nSlabs >= 2 + parity && nChunks >= 8)
-    for (Index s = parity; s < nSlabs; s += 2) {
-      for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
-        chunk(c);
       }
     }
   }

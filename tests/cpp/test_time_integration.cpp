@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -239,6 +240,72 @@ TEST(Determinism, SlabsOfOneParityShareNoNodeAndCoverEveryChunkOnce) {
           o = Index(t);
         }
   }
+}
+
+// Subcycling: the chunks due at a step of level L get slabs of their own, in the order of their
+// centres along the set's longest extent (the block's slabs are fronts of the element order, and
+// the fine chunks sit in one or two of them). For every level: the list holds exactly the chunks
+// of level <= L, each once, its slabs of one parity share no node, the finest level's chunks are
+// spread over several slabs, and 1 and 2 threads give the same answer bit for bit. A box graded along z, the slowest index of its
+// element order (layer widths (2i + 1)/24 m: the finest layer is 16 chunks, one level), gives
+// four levels.
+TEST(Determinism, LevelSlabsShareNoNodeCoverTheDueChunksAndAreBitwise) {
+  BoxSpec spec{32, 32, 24, 0, 0, 0, 32, 32, 24};
+  Mesh m = makeBoxMesh(spec);
+  for (Index n = 0; n < m.numNodes(); ++n) {
+    Real& z = m.coords[3 * size_t(n) + 2];
+    z = z * z / 24;
+  }
+  auto make = [&] {
+    auto s = std::make_unique<Solver>(m, makeBlocksByRegion(m, {{"rock", elastic(kE, kNu, kRho)}}), SolverOptions{});
+    s->enableSubcycling(3);
+    return s;
+  };
+  {
+    auto s = make();
+    const ElementBlock& b = *s->blocks()[0];
+    ASSERT_GE(b.numLevels(), 2) << "the graded box must give several levels";
+    const Index K = ElementBlock::kChunk;
+    for (int L = 0; L < b.numLevels(); ++L) {
+      const std::vector<Index>& cs = b.levelChunks(L);
+      std::vector<Index> want, got(cs);
+      for (Index c = 0; c < b.numChunks(); ++c)
+        if (b.chunkLevel(c) <= L) want.push_back(c);
+      std::sort(got.begin(), got.end());
+      EXPECT_EQ(got, want) << "level " << L;
+      const std::vector<Index>& st = b.levelSlabStarts(L);
+      ASSERT_GE(st.size(), 2u);
+      EXPECT_EQ(st.front(), 0);
+      EXPECT_EQ(st.back(), Index(cs.size()));
+      for (size_t t = 0; t + 1 < st.size(); ++t) EXPECT_LT(st[t], st[t + 1]) << "level " << L << " empty slab " << t;
+      if (L == 0) EXPECT_GE(st.size(), 5u) << "the finest chunks must be spread over several slabs: " << cs.size() << " chunks, " << st.size() - 1 << " slabs, first chunk " << cs.front();
+      for (int parity = 0; parity < 2; ++parity) {
+        std::vector<Index> owner(size_t(m.numNodes()), -1);
+        for (size_t t = size_t(parity); t + 1 < st.size(); t += 2)
+          for (Index k = st[t]; k < st[t + 1]; ++k)
+            for (Index e = cs[size_t(k)] * K; e < std::min(b.numElems(), (cs[size_t(k)] + 1) * K); ++e)
+              for (int j = 0; j < 8; ++j) {
+                Index& o = owner[size_t(b.node(e, j))];
+                ASSERT_TRUE(o < 0 || o == Index(t)) << "level " << L << ": node " << b.node(e, j) << " in slabs "
+                                                    << o << " and " << t;
+                o = Index(t);
+              }
+      }
+    }
+  }
+  auto run = [&](int threads) {
+    omp_set_num_threads(threads);
+    auto s = make();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<Real> U(-1e-2, 1e-2);
+    for (Index n = 0; n < m.numNodes(); ++n)
+      for (int d = 0; d < 3; ++d) s->state().v(n, d) = U(rng);
+    for (int i = 0; i < 40; ++i) s->step();
+    return std::vector<Real>(s->state().uData(), s->state().uData() + 3 * m.numNodes());
+  };
+  const std::vector<Real> a = run(1), b2 = run(2);
+  omp_set_num_threads(omp_get_num_procs());
+  EXPECT_EQ(a, b2) << "1 vs 2 threads";
 }
 
 TEST(Determinism, OneAndTwoThreadsGiveBitwiseIdenticalResults) {

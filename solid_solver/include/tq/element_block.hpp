@@ -115,6 +115,13 @@ public:
   /// Slabs of the deterministic parallel scatter: chunk boundaries, size slabs + 1 (slabs of one
   /// parity share no node).
   const std::vector<Index>& slabStarts() const { return slabStart_; }
+  /// Subcycling: for a level L below the coarsest, the chunks due at a step of level L, in the
+  /// order that gives them the narrowest slabs (index or centres along x, y or z), and the slabs
+  /// they are scattered in, as positions in that list (slabs of one parity share no node);
+  /// numLevels() = the coarsest level (0 without subcycling; its steps use the block's slabs).
+  const std::vector<Index>& levelChunks(int L) const { return levelChunks_[size_t(L)]; }
+  const std::vector<Index>& levelSlabStarts(int L) const { return levelSlabStart_[size_t(L)]; }
+  int numLevels() const { return int(levelChunks_.size()); }
 
   /// True when this CPU has AVX2 and FMA (the kernel's fast path).
   static bool avx2Available();
@@ -170,8 +177,10 @@ private:
   Real energyShift_ = 0;
   std::vector<BlockEnergy> chunkEnergy_;
   std::vector<std::uint8_t> chunkLevel_;  // subcycling: [chunk] level (empty: every chunk every step)
-  std::vector<std::uint8_t> slabLevel_;   // subcycling: [slab] finest level of its chunks
-  std::vector<Index> dueSlabs_;           // subcycling: slabs of one parity due at this step (scratch)
+  // subcycling: [level L below the coarsest] the chunks due at a step of level L, and their slabs
+  // (positions in that list; slabs of one parity share no node)
+  std::vector<std::vector<Index>> levelChunks_, levelSlabStart_;
+  std::vector<Real> chunkCentre_;  // [3 chunk + d] centre of a chunk's elements
   std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
   bool avx2_ = false;     // kernel path
 };
