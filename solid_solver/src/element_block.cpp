@@ -59,41 +59,13 @@ Index scatterSpan(const Mesh& mesh, const std::vector<Index>& elems) {
   return span;
 }
 
-// Slabs of the deterministic parallel scatter, as chunk boundaries (size: slabs + 1). Slab s + 2
-// starts past every element that an element of slab s shares a node with, so slabs of one parity
-// share no node and scatter concurrently without a race. Each slab is as narrow as that allows
-// (at least kMinChunks): where the element order's local span is small (the rings next to the
-// tunnel, numbered first) the slabs are narrow, so the work there is shared among the threads
-// instead of landing in one wide slab.
-std::vector<Index> scatterSlabs(const Mesh& mesh, const std::vector<Index>& elems, Index chunk) {
-  constexpr Index kMinChunks = 4;
-  const Index E = Index(elems.size()), nChunks = (E + chunk - 1) / chunk;
-  if (nChunks == 0) return {0, 0};
-  std::vector<Index> last(size_t(mesh.numNodes()), -1);
-  for (Index i = 0; i < E; ++i)
-    for (int k = 0; k < 8; ++k) {
-      Index& l = last[size_t(mesh.connectivity[8 * size_t(elems[size_t(i)]) + k])];
-      l = std::max(l, i);
-    }
-  std::vector<Index> reach(size_t(nChunks), 0);  // [chunk] last chunk holding a node neighbour
-  for (Index i = 0; i < E; ++i)
-    for (int k = 0; k < 8; ++k) {
-      Index& r = reach[size_t(i / chunk)];
-      r = std::max(r, last[size_t(mesh.connectivity[8 * size_t(elems[size_t(i)]) + k])] / chunk);
-    }
-  std::vector<Index> start{0, std::min(nChunks, kMinChunks)};
-  while (start.back() < nChunks) {
-    const Index a = start[start.size() - 2], b = start.back();
-    Index far = 0;  // the furthest chunk the previous slab [a, b) reaches
-    for (Index c = a; c < b; ++c) far = std::max(far, reach[size_t(c)]);
-    start.push_back(std::min(nChunks, std::max(b + kMinChunks, far + 1)));
-  }
-  return start;
-}
-
-// Slab boundaries (positions, size: slabs + 1) over the chunks `chunks` in that order, by the
-// rule of scatterSlabs: a slab starts past every position the slab two before shares a node with
-// (reach looks both ways, so this holds in any order), at least minChunks wide.
+// Slabs of the deterministic parallel scatter over the chunks `chunks` (a block's connectivity
+// conn, 8 nodes an element), as boundaries of positions in that list (size: slabs + 1). Slab s + 2
+// starts past every position that a chunk of slab s shares a node with (reach looks both ways, so
+// this holds in any order), so slabs of one parity share no node and scatter concurrently without
+// a race. Each slab is as narrow as that allows (at least minChunks): where the order's local span
+// is small (the rings next to the tunnel, numbered first) the slabs are narrow, so the work there
+// is shared among the threads instead of landing in one wide slab.
 std::vector<Index> slabsInOrder(const std::vector<Index>& conn, Index numElems, Index numNodes, Index chunk,
                                 const std::vector<Index>& chunks, Index minChunks) {
   const Index n = Index(chunks.size());
@@ -295,8 +267,10 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
         for (int d = 0; d < 3; ++d)
           chunkCentre_[3 * c + size_t(d)] += mesh.coords[3 * size_t(conn_[8 * e + k]) + size_t(d)] / Real(8 * (b - a));
   }
-  // Slabs for the scatter: slabs of one parity share no node (depends on the mesh only).
-  slabStart_ = scatterSlabs(mesh, meshElems_, kChunk);
+  // Slabs for the scatter over all chunks in order (depends on the mesh only)
+  std::vector<Index> all(nChunks);
+  for (size_t c = 0; c < nChunks; ++c) all[c] = Index(c);
+  slabStart_ = slabsInOrder(conn_, nElems_, mesh.numNodes(), kChunk, all, 4);
 }
 
 Real ElementBlock::geo(Index e, int comp) const {

@@ -55,18 +55,10 @@ void localDots
     scalarField& out
 )
 {
-    const label n = b.size();
-    const scalar* __restrict__ bp = b.cdata();
     out.setSize(label(a.size()));
     for (size_t j = 0; j < a.size(); ++j)
     {
-        const scalar* __restrict__ ap = a[j].cdata();
-        scalar s = 0;
-        for (label i = 0; i < n; ++i)
-        {
-            s += ap[i]*bp[i];
-        }
-        out[label(j)] = s;
+        out[label(j)] = Foam::sumProd(a[j], b);
     }
 }
 
@@ -306,10 +298,15 @@ Foam::solverPerformance Foam::tq::tqProjected::solve
     }
     const label nUsed = h ? h->size() : 0;
 
-    // The incoming field and its product: this step's increment is
-    // measured from them
-    const scalarField psi0(psi);
-    const scalarField Apsi0(Ax);
+    // The incoming field and its product, kept when the basis is full: it
+    // then restarts from this step's whole increment
+    scalarField psi0;
+    scalarField Apsi0;
+    if (nUsed >= nVectors_)
+    {
+        psi0 = psi;
+        Apsi0 = Ax;
+    }
 
     // Start: psi corrected within the span of the earlier increments,
     // x0 = psi + sum_j (s q_j . r) q_j (the A-norm best start in psi + span),
@@ -375,8 +372,11 @@ Foam::solverPerformance Foam::tq::tqProjected::solve
 
     // The basis takes this step's increment: what lies outside the span,
     // the inner solver's correction (the projected start is in the span;
-    // the correction alone leaves less to cancel than the whole increment);
-    // a full basis restarts from the whole increment
+    // the correction alone leaves less to cancel than the whole increment;
+    // without a usable span the inner solver started from the incoming
+    // field, so the correction is the whole increment); a full basis
+    // restarts from the whole increment.  Not in the span means the inner
+    // solver ran.
     if (h && !inSpan)
     {
         if (h->size() >= nVectors_)
@@ -384,13 +384,9 @@ Foam::solverPerformance Foam::tq::tqProjected::solve
             h->q.clear();
             extend(*h, (psi - psi0)(), (Ax - Apsi0)(), cmpt);
         }
-        else if (nUsed && h->size())
-        {
-            extend(*h, (psi - xStart)(), (Ax - AxStart)(), cmpt);
-        }
         else
         {
-            extend(*h, (psi - psi0)(), (Ax - Apsi0)(), cmpt);
+            extend(*h, (psi - xStart)(), (Ax - AxStart)(), cmpt);
         }
     }
 

@@ -80,10 +80,14 @@ GAMG = "solver GAMG; smoother GaussSeidel; tolerance 0; relTol {};"
 #: leave through an open end and accumulates; an absolute tolerance keeps it at the floor
 GAMG_CLOSED = "solver GAMG; smoother GaussSeidel; tolerance 1e-6; relTol 0;"
 
-#: p by tqProjected (libtqFoam): the projection onto the last steps' solutions as the start, GAMG
-#: as in the step before it finishing
-TQPROJECTED = ("solver tqProjected; vectors 32; tolerance {tol}; relTol {rel}; "
-               "inner {{ solver GAMG; smoother GaussSeidel; mergeLevels 2; }}")
+
+
+def tqprojected(tol: float, rel: float, vectors: int = 32, extra: str = "") -> str:
+    """p by tqProjected (libtqFoam): the incoming p corrected by its projection onto the last
+    `vectors` steps' increments as the start, GAMG as in the step before it finishing."""
+    return (f"solver tqProjected; vectors {vectors};{' ' + extra if extra else ''} tolerance {tol}; "
+            f"relTol {rel}; inner {{ solver GAMG; smoother GaussSeidel; mergeLevels 2; }}")
+
 
 #: (name, what, overrides of the previous variant): the accepted changes, one at a time
 STEPS: list[tuple[str, str, dict]] = [
@@ -109,7 +113,7 @@ STEPS: list[tuple[str, str, dict]] = [
      "coarser levels)", dict(p_extra="mergeLevels 2;")),
     ("+p tqProjected = ours", "p and pFinal: tqProjected (libtqFoam): started from the projection onto the "
      "last 32 steps' increments, GAMG as before finishing to relTol 0.05",
-     dict(p=TQPROJECTED.format(tol=0, rel=0.05), pFinal=TQPROJECTED.format(tol=0, rel=0.05))),
+     dict(p=tqprojected(0, 0.05), pFinal=tqprojected(0, 0.05))),
 ]
 
 #: name of the last step (ours): the one 'stock' is compared with on 1 and 2 ranks
@@ -144,8 +148,7 @@ def _pcg_gamg(name: str, vcycles: int) -> tuple[str, str, dict]:
 
 def _tqp(name: str, what: str, vectors: int = 32, rel: float = 0.05, extra: str = "") -> tuple[str, str, dict]:
     """ours' tqProjected pressure with other controls."""
-    body = TQPROJECTED.format(tol=0, rel=rel).replace("vectors 32;", f"vectors {vectors};{' ' + extra if extra else ''}")
-    return (f"ours, tqProjected {name}", what, dict(p=body, pFinal=body))
+    return _p_body(f"ours, tqProjected {name}", what, tqprojected(0, rel, vectors, extra))
 
 
 def _apply(base: dict, over: dict) -> dict:
@@ -237,8 +240,7 @@ def variants(closed: bool = False) -> list[tuple[str, str, dict]]:
             name, what, over = ("+p GAMG 1e-6", "p and pFinal: GAMG, absolute tolerance 1e-6 (closed domain)",
                                 dict(p=GAMG_CLOSED, pFinal=GAMG_CLOSED))
         elif closed and name.startswith("+p tqProjected"):
-            body = TQPROJECTED.format(tol=1e-6, rel=0)
-            over = dict(p=body, pFinal=body)
+            over = dict(p=tqprojected(1e-6, 0), pFinal=tqprojected(1e-6, 0))
         cur = _apply(cur, over)
         out.append((name, what, cur))
         if name == "+GAMG mergeLevels 2":
@@ -332,12 +334,12 @@ def compare(case: Path, ref: Path, skip: int = 10, closed: bool = False) -> tupl
     df = np.abs(fa - fb).max() / np.abs(fb).max()
     dt = float(b.t[1] - b.t[0]) if len(b.t) > 1 else 0.0
 
-    def times(c: Path) -> dict[str, float]:
-        return {p.name: float(p.name) for p in (c / "postProcessing" / "interface").iterdir()
+    def times(c: Path) -> set[str]:
+        return {p.name for p in (c / "postProcessing" / "interface").iterdir()
                 if p.name != "0" and float(p.name) > skip * dt * (1 + 1e-9)}
 
     ta, tb = times(case), times(ref)
-    shared = sorted(set(ta) & set(tb), key=float)
+    shared = sorted(ta & tb, key=float)
     if not shared:
         shared = [max(tb, key=float)]
     order = None
@@ -369,7 +371,7 @@ def _match(xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
     coordinates instead pairs different faces where two centres nearly tie)."""
     from scipy.spatial import cKDTree
 
-    dist, idx = cKDTree(xa).query(xb)
+    _, idx = cKDTree(xa).query(xb)
     if len(set(idx.tolist())) != len(xb):
         raise RuntimeError("wall faces of the two runs do not match one to one")
     return idx
