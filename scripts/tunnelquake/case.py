@@ -468,6 +468,16 @@ def _variants(raw: LineDict, name: str) -> dict:
     return dict(v)
 
 
+def _checked(raw: LineDict, filename: str) -> tuple[dict, list[str]]:
+    """The validated data of `raw` and the whole-case warnings; raises CaseError listing every
+    problem of either kind."""
+    data = validate(schema(), raw, filename)
+    issues, warnings = _whole_case_checks(data, raw, filename)
+    if issues:
+        raise CaseError(filename, issues)
+    return data, warnings
+
+
 def load_case(path: str | Path, variant: str | None = None) -> Case:
     """Read and validate a case file. Raises CaseError listing every problem found.
 
@@ -501,18 +511,10 @@ def load_case(path: str | Path, variant: str | None = None) -> Case:
         raise CaseError(name, [Issue("--variant", variant, f"no such variant in the case file (it has: {have})",
                                      "give one of the names under 'variants:', or add the variant there")])
     # the file as written first (its problems are named as the file's), then every variant
-    data = validate(schema(), raw, name)
-    issues, warnings = _whole_case_checks(data, raw, name)
-    if issues:
-        raise CaseError(name, issues)
+    data, warnings = _checked(raw, name)
     if variant is not None:
-        vfile = f"{name} (variant {variant})"
         body = variants[variant]
-        vraw = _merge(raw, body)
-        data = validate(schema(), vraw, vfile)
-        issues, warnings = _whole_case_checks(data, vraw, vfile)
-        if issues:
-            raise CaseError(vfile, issues)
+        data, warnings = _checked(_merge(raw, body), f"{name} (variant {variant})")
         if "directory" not in (body.get("output") or {}):
             data["output"]["directory"] = f"{data['output']['directory']}_{variant}"
     else:
