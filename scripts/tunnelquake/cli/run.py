@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 
-from .. import paths
+from .. import children, paths
 from ..motion import MotionError
 from ..scene import plan
 from .common import load_or_report, parser, say
@@ -34,7 +34,7 @@ def _solid_capabilities(exe) -> set[str]:
     import subprocess
 
     try:
-        out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
+        out = children.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.TimeoutExpired):
         return set()
     return set(out.stdout.split()) if out.returncode == 0 else set()
@@ -50,16 +50,17 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> t
     from .mesh import mesh_dir
 
     work = case.output_dir / cond
-    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
+        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+        threads = solid_threads(case, mesh_dir(case) / "mesh.h5")
     res = case.output_dir / f"results_{cond}.h5"
-    cmd = [str(paths.solid_executable()), str(inp), "-o", str(res)]
-    cmd += ["--threads", str(solid_threads(case, mesh_dir(case) / "mesh.h5"))]
+    cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     if not prefix:
-        return subprocess.run(cmd, env=solid_env()).returncode, res
+        return children.run(cmd, env=solid_env()).returncode, res
     # beside another condition: each line of tq-solid's progress says which condition it is
-    with subprocess.Popen(cmd, env=solid_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                          bufsize=1) as proc:
+    with children.popen(cmd, env=solid_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                        bufsize=1) as proc:
         for line in proc.stdout:
             say(f"[{cond}] {line.rstrip()}")
     return proc.returncode, res
@@ -122,9 +123,8 @@ def _solid_step(exe, solid_input) -> float:
     """The solid step tq-solid will take (its --check: safety x the stable step, or the case's dt)."""
     import math
     import re
-    import subprocess
 
-    out = subprocess.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
+    out = children.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
     m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
     if out.returncode != 0 or not m:
         raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
@@ -151,8 +151,8 @@ class _Side:
 
         self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
         self.fh = open(log, "w")
-        self.proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     bufsize=1)
+        self.proc = children.popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                   bufsize=1)
         self.thread = threading.Thread(target=self._pump, args=(echo,), daemon=True)
         self.thread.start()
 
@@ -263,6 +263,9 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     addr = work / "wall.addr"
     addr.unlink(missing_ok=True)
     mesh_h5 = mesh_dir(case) / "mesh.h5"
+    # The whole set-up holds FORK_LOCK: it writes and reads back HDF5 files and starts children
+    # (tq-solid --check, OpenFOAM's utilities) while other conditions may be starting theirs.
+    children.FORK_LOCK.acquire()
     try:
         inp = write_solid_input(case, mesh_h5, motion_file, cond, work / "solid_input.h5",
                                 coupling_address=addr, coupling_token=token)
@@ -292,6 +295,8 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
         say(f"condition {cond}: cannot set up the coupled run: {e}")
         return 2, res, f"not started: {e}"
+    finally:
+        children.FORK_LOCK.release()
     say(f"condition {cond}: {settings['windows']} coupling windows of {settings['window_size']:.6g} s "
         f"({settings['scheme']}, {settings['acceleration']}); water: {fluid.solver} ({fluid.model}, {fluid.mode}) "
         f"in {fluid.path}")
@@ -350,7 +355,8 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     if ranks > 1:
         on = f" on {ranks} ranks"
         if fluid_side is not None:
-            say(f"condition {cond}: {fc.reconstruct(fluid.path)}")
+            with children.FORK_LOCK:  # reconstructPar is a child too
+                say(f"condition {cond}: {fc.reconstruct(fluid.path)}")
     if failed is not None:
         rc = failed.proc.returncode or 1
         side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
