@@ -5,6 +5,8 @@ Works on whatever a run left: a results file cut off by a crash is read up to it
 row (rows are appended and flushed as the solver goes; rows whose time does not advance are the
 fill of an extension that was never written and are dropped), snapshots missing their `time`
 attribute (written last) are skipped, and the status attribute and the planned end are reported.
+A file with no monitor row (a run stopped before the shaking) reads as such, with the static
+stages it completed and the one it stopped in.
 """
 from __future__ import annotations
 
@@ -71,6 +73,9 @@ class ConditionResult:
     interface: dict | None = None  # pairs [P, 2], normal, area, states, history [T, 7]
     input_attrs: dict = field(default_factory=dict)  # /materials/lining attrs of the solid input
     coupling: dict = field(default_factory=dict)  # /coupling attrs (condition 3: scheme, windows, ...)
+    stages_done: list[str] = field(default_factory=list)  # /stages/<k>_<name> converged, in order
+    stages_failed: list[str] = field(default_factory=list)  # /stages/<k>_<name> not converged
+    stages_planned: list[str] = field(default_factory=list)  # /stages `sequence` of the solid input
 
     @property
     def complete(self) -> bool:
@@ -84,10 +89,30 @@ class ConditionResult:
     def samples(self) -> int:
         return min((m.time.size for m in self.monitors.values()), default=0)
 
+    def stage_state(self) -> str:
+        """Where the run got to, in words, for a file without a monitor sample (empty once the
+        shaking has written samples). tq-solid records its static stages together once they have
+        all ended (or one failed), so a file with none recorded stopped inside them."""
+        if self.samples:
+            return ""
+        planned = f"planned: {', '.join(self.stages_planned)}" if self.stages_planned else "stages unknown"
+        if not self.stages_done and not self.stages_failed:
+            return f"in the static stages, none recorded as finished; {planned}"
+        done = [s for s in self.stages_done if s != "switch"]
+        text = f"static stages finished: {', '.join(done)}" if done else "no static stage finished"
+        if self.stages_failed:
+            return text + f"; stage {self.stages_failed[0]} did not converge; {planned}"
+        if "switch" in self.stages_done:
+            return text + "; stopped at the start of the seismic stage, before its first sample"
+        return text + f"; {planned}"
+
 
 def _rows(ds) -> np.ndarray:
+    """A dataset as rows [T, k]; T may be 0 (nothing appended yet)."""
     a = np.asarray(ds[...])
-    return a.reshape(a.shape[0], -1) if a.ndim > 1 else a.reshape(-1, 1)
+    if a.ndim > 1:
+        return a.reshape(a.shape[0], int(np.prod(a.shape[1:])))
+    return a.reshape(-1, 1)
 
 
 def _advancing(t: np.ndarray) -> int:
@@ -110,6 +135,12 @@ def _planned_end(input_path) -> float | None:
             return float(f["solver"].attrs["t_end"])
     except (OSError, KeyError, TypeError, ValueError):
         return None
+
+
+def _stage_name(key: str) -> str:
+    """/stages/<k>_<name> -> name."""
+    head, _, name = key.partition("_")
+    return name if head.isdigit() and name else key
 
 
 def read_condition(path: Path, condition: str) -> ConditionResult:
@@ -156,6 +187,9 @@ def read_condition(path: Path, condition: str) -> ConditionResult:
                     "regions": [_text(r) for r in f["mesh"].attrs.get("regions", [])]}
         coupling = {k: (_text(v) if isinstance(v, (str, bytes)) else v)
                     for k, v in f["coupling"].attrs.items()} if "coupling" in f else {}
+        stage_keys = sorted(f.get("stages", {}), key=lambda k: int(k.partition("_")[0]) if k[:1].isdigit() else 0)
+        stages_done = [_stage_name(k) for k in stage_keys if int(f["stages"][k].attrs.get("converged", 1))]
+        stages_failed = [_stage_name(k) for k in stage_keys if not int(f["stages"][k].attrs.get("converged", 1))]
         iface = None
         if "interface/pairs" in f:
             g = f["interface"]
@@ -170,18 +204,21 @@ def read_condition(path: Path, condition: str) -> ConditionResult:
     input_path = Path(str(attrs.get("input", "")))
     if not input_path.is_absolute():
         input_path = path.parent / input_path
-    planned, mat = None, {}
+    planned, mat, sequence = None, {}, []
     if input_path.is_file():
         planned = _planned_end(input_path)
         try:
             with h5py.File(input_path, "r") as f:
                 if "materials/lining" in f:
                     mat = dict(f["materials/lining"].attrs)
+                if "stages" in f:
+                    sequence = [s for s in _text(f["stages"].attrs.get("sequence", "")).split(",") if s]
         except OSError:
             pass
     return ConditionResult(condition, path, status, mons, attrs=attrs, planned_end=planned, snapshots=snaps,
                            incomplete_snapshots=broken, mesh=mesh, interface=iface, input_attrs=mat,
-                           coupling=coupling)
+                           coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
+                           stages_planned=sequence)
 
 
 def read_snapshot(res: ConditionResult, key: str) -> dict:

@@ -121,3 +121,79 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
     failed = [o for o in outcomes if "set-up of the solid side done" not in o]
     assert not failed, f"{len(failed)} of {len(outcomes)} coupled set-ups failed: {failed[0]}"
     assert len(outcomes) >= 10 and spawned >= 10, (len(outcomes), spawned)
+
+
+def _killed_in_stage(case_yaml, cond: str, stage_line: str):
+    """Run tq-solid on `cond` of the case and SIGKILL it as soon as it prints `stage_line`:
+    a results file left by a run stopped there (status still 'running'); "never printed" lets
+    it complete."""
+    import subprocess
+
+    from tunnelquake import paths
+    from tunnelquake.case import load_case
+    from tunnelquake.solid_input import write_solid_input
+
+    case = load_case(case_yaml)
+    out = case.output_dir
+    inp = write_solid_input(case, out / "mesh" / "mesh.h5", out / "motion.h5", cond, out / cond / "solid_input.h5")
+    res = out / f"results_{cond}.h5"
+    with subprocess.Popen([str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", "1"],
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as proc:
+        for line in proc.stdout:
+            if line.startswith(stage_line):
+                proc.kill()
+                break
+        proc.wait(timeout=30)
+    if stage_line != "never printed":
+        assert proc.returncode == -9, "tq-solid ended before the stage to stop in"
+    return res
+
+
+def test_post_on_a_run_stopped_before_shaking_reports_the_stage_and_the_missing_conditions(prepared, tmp_path,
+                                                                                         capsys):
+    """tq-solid killed inside the static stages, and a run stopped at the start of the seismic
+    stage: their results files have monitors with no row (which `_rows` could not reshape).
+    `post` exits 0 and reports where each stopped, and the condition with no results file."""
+    import h5py
+
+    p = _copy(prepared, tmp_path)
+    _killed_in_stage(p, "static_water", "tq-solid: stage excavation")
+    # tq-solid records its stages once all have ended and then appends rows as it shakes, with no
+    # line printed in between to stop it at: the state "stages recorded, no row yet" is made from
+    # a completed file with its rows cut and its status put back
+    res = _killed_in_stage(p, "no_water", "never printed")
+    with h5py.File(res, "a") as f:
+        f.attrs["status"] = "running"
+        for g in f["monitors"].values():
+            for ds in g.values():
+                ds.resize(0, axis=0)
+        assert f["monitors/top_arch/time"].shape[0] == 0 and "stages/3_switch" in f
+    assert main(["post", str(p)]) == 0
+    out = capsys.readouterr().out
+    report = (p.parent / "results" / "report.md").read_text()
+    assert ("(1) no water: status **running**, no monitor sample: the run stopped before the shaking (static "
+            "stages finished: in_situ, excavation, lining; stopped at the start of the seismic stage, before its "
+            "first sample)") in report
+    assert ("(2) static water: status **running**, no monitor sample: the run stopped before the shaking (in the "
+            "static stages, none recorded as finished; planned: in_situ, excavation, lining, hydrostatic, seismic)"
+            ) in report
+    assert "(3) dynamic water: no results (`results_dynamic_water.h5` was not written" in report
+    assert "No condition has monitor samples yet" in report
+    assert "no_water: status 'running', no monitor sample: stopped before the shaking (static stages" in out
+    assert "dynamic_water: no results file (results_dynamic_water.h5)" in out
+    csv_rows = (p.parent / "results" / "monitors_no_water.csv").read_text().splitlines()
+    assert len(csv_rows) == 1 and csv_rows[0].startswith("time_s,")
+
+
+def test_post_on_an_unreadable_results_file_names_it_and_reports_the_rest(prepared, tmp_path, capsys):
+    """A results file that is not HDF5 (a crash before its superblock, a foreign file): named as
+    unreadable in the report and on the terminal; the other conditions are still reported."""
+    p = _copy(prepared, tmp_path)
+    _killed_in_stage(p, "no_water", "tq-solid: stage excavation")
+    (p.parent / "results" / "results_static_water.h5").write_bytes(b"not an HDF5 file\n" * 10)
+    assert main(["post", str(p)]) == 0
+    out = capsys.readouterr().out
+    report = (p.parent / "results" / "report.md").read_text()
+    assert "(2) static water: `results_static_water.h5` cannot be read (" in report
+    assert "static_water: results_static_water.h5 cannot be read (" in out
+    assert "(1) no water: status **running**, no monitor sample" in report

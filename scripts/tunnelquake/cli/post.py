@@ -1,9 +1,12 @@
 """tunnelquake post: turn what a run left in the results folder into figures, CSV, ParaView files and
-report.md. Needs no solver; works on whatever results exist, a results file cut off mid-run included."""
+report.md. Needs no solver; works on whatever results exist: a results file cut off mid-run, one
+stopped before the shaking (no monitor sample), an unreadable one, a condition never run. Each is
+reported as found; a figure that cannot be drawn is named with the reason, never a traceback."""
 from __future__ import annotations
 
 from pathlib import Path
 
+from ..scene import plan
 from .common import atomic_path, load_or_report, parser, say
 
 
@@ -31,6 +34,10 @@ def _context(case, results) -> dict:
 
 
 def _run_state(P, res, csv_name: str) -> str:
+    if not res.samples:
+        return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, no monitor sample: the run "
+                f"stopped before the shaking ({res.stage_state()}); nothing of this condition is in the figures "
+                f"and the comparison below")
     line = (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, {res.samples} monitor samples to "
             f"t = {res.t_end:.2f} s")
     if res.planned_end is not None:
@@ -64,39 +71,56 @@ def post_case(case) -> Path:
 
     lines += ["## Conditions", ""]
     results = []
+    planned = [c for c, _ in plan(case)]
     for cond in P.CONDITION_LABELS:
         f = out / f"results_{cond}.h5"
         if not f.is_file():
+            if cond in planned:
+                lines.append(f"- {P.CONDITION_LABELS[cond]}: no results (`{f.name}` was not written: the condition "
+                             "was not run, or stopped before its solver started)")
+                say(f"{cond}: no results file ({f.name})")
             continue
         try:
             res = P.read_condition(f, cond)
-        except (OSError, KeyError) as e:  # unreadable file: say so, keep going with the others
-            lines.append(f"- {cond}: `{f.name}` cannot be read ({e})")
+        except (OSError, KeyError, ValueError, TypeError) as e:  # unreadable: say so, go on with the others
+            lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
+            say(f"{cond}: {f.name} cannot be read ({e})")
             continue
-        results.append(res)
         csv_file = P.monitors_csv(res, out / f"monitors_{cond}.csv")
         lines.append(_run_state(P, res, csv_file.name))
+        if not res.samples:
+            say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
+            continue
+        results.append(res)
         if not res.complete:
             say(f"{cond}: status '{res.status}': post-processed up to the last written step, t = {res.t_end:.4g} s")
     if not results:
-        lines += ["No condition results yet: run `tunnelquake run` first. This report lists only what exists.", ""]
+        lines += ["", "No condition has monitor samples yet: nothing to draw or compare. This report lists only "
+                  "what exists.", ""]
     else:
         figs.mkdir(parents=True, exist_ok=True)
         made: dict[str, str] = {}
+        failed: dict[str, str] = {}
 
-        def keep(key, path):
+        def keep(key, draw, *args):
+            try:
+                path = draw(*args)
+            except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
+                failed[key] = f"{type(e).__name__}: {e}"
+                say(f"{key}: not drawn ({failed[key]})")
+                return
             if path is not None:
                 made[key] = f"figures/{Path(path).name}"
 
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
-            keep("fig05", P.fig_hydrodynamic_pressure(dyn, figs / "fig05_hydrodynamic_pressure.png", fluid))
-        keep("fig06", P.fig_max_displacements(results, figs / "fig06_max_displacements.png"))
-        keep("fig07", P.fig_principal_stress(results, figs / "fig07_max_principal_stress.png"))
-        keep("fig08", P.fig_damage_histories(results, figs / "fig08_damage_histories.png"))
-        keep("fig09", P.fig_damage_section(results, figs / "fig09_damage_section.png"))
-        keep("fig10", P.fig_interface_zones(results, figs / "fig10_interface_zones.png"))
+            keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / "fig05_hydrodynamic_pressure.png", fluid)
+        keep("fig06", P.fig_max_displacements, results, figs / "fig06_max_displacements.png")
+        keep("fig07", P.fig_principal_stress, results, figs / "fig07_max_principal_stress.png")
+        keep("fig08", P.fig_damage_histories, results, figs / "fig08_damage_histories.png")
+        keep("fig09", P.fig_damage_section, results, figs / "fig09_damage_section.png")
+        keep("fig10", P.fig_interface_zones, results, figs / "fig10_interface_zones.png")
         titles = {"fig05": "Fig. 5: hydrodynamic pressure at the monitors, condition 3",
                   "fig06": "Fig. 6: maximum displacements", "fig07": "Fig. 7: maximum principal stress",
                   "fig08": "Fig. 8: damage at the monitors",
@@ -106,12 +130,22 @@ def post_case(case) -> Path:
         for key, title in titles.items():
             if key in made:
                 lines += [f"![{title}]({made[key]})", ""]
+            elif key in failed:
+                lines += [f"- {title}: not drawn ({failed[key]})", ""]
             else:
                 why = ("no water pressure recorded (condition 3 not run, or run by a tq-solid without the "
                        "monitors' water_pressure)" if key == "fig05" else "no field snapshot in the results")
                 lines += [f"- {title}: not drawn ({why})", ""]
-        xdmfs = [P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf") for r in results]
-        xdmfs = [x for x in xdmfs if x is not None]
+        xdmfs = []
+        for r in results:
+            try:
+                x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
+            except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
+                lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
+                say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
+                continue
+            if x is not None:
+                xdmfs.append(x)
         if xdmfs:
             lines += ["ParaView (open the .xdmf; the heavy data are the .h5 beside it): "
                       + ", ".join(f"`{x.relative_to(out)}`" for x in xdmfs), ""]
@@ -120,7 +154,12 @@ def post_case(case) -> Path:
         ctx = _context(case, results)
         if fluid is not None:
             ctx["fluid_interface"] = fluid
-        lines += comparison_sections(results, made, ctx)
+        try:
+            lines += comparison_sections(results, made, ctx)
+        except Exception as e:  # noqa: BLE001 - reported; the report keeps what was found above
+            lines += ["## The paper's §3.3 numbers against ours", "",
+                      f"Not made: {type(e).__name__}: {e}", ""]
+            say(f"comparison with the paper not made ({type(e).__name__}: {e})")
     report = out / "report.md"
     with atomic_path(report) as tmp:
         tmp.write_text("\n".join(lines) + "\n")

@@ -451,8 +451,12 @@ def main(argv: list[str]) -> int:
     if not args.no_post:
         from .post import post_case
 
-        report = post_case(case)
-        done.append(f"post: {report}")
+        try:
+            report = post_case(case)
+        except Exception as e:  # noqa: BLE001 - the conditions' results stay; say why the report is missing
+            failed.append(f"post: {type(e).__name__}: {e} (the results files are kept; `tunnelquake post` retries)")
+        else:
+            done.append(f"post: {report}")
 
     say(f"finished in {time.perf_counter() - t0:.1f} s")
     say("done:")
