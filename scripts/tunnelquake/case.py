@@ -282,6 +282,13 @@ def schema() -> Section:
                                               "in the force the solid's steps apply; 0.5: linear ramp from the "
                                               "window's start force, 1: the end force held (damps the period-two "
                                               "added-mass mode; docs/coupler.md \"Window force weight\")"),
+            "volume_law": Choice(choices=("solid", "water"), default="solid",
+                                 doc="closed sections (a slice, or 3D with closed ends): who carries the "
+                                     "uniform pressure of the enclosed water. solid: tq-solid, implicitly each "
+                                     "step (p = -K dV/V, or the volume held for incompressible water), OpenFOAM "
+                                     "sending the rest; stable for any bulk modulus. water: OpenFOAM's whole "
+                                     "pressure (compressible water only; docs/coupler.md \"Volume law in the "
+                                     "solid\")"),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
             "reuse": Number(integer=True, min=0, max=1000, default=0,
                             doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "
@@ -363,11 +370,20 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     warnings: list[str] = []
     lines = raw.key_lines
     water, conds = d["water"], d["conditions"]
-    if "dynamic_water" in conds and water["model"] == "incompressible" and water["ends"] == "closed":
-        issues.append(Issue("water.ends", "closed",
-                            "an incompressible fluid in a closed tunnel cannot change volume, so a lining that "
-                            "contracts makes the problem ill-posed", "use ends: open, or model: compressible",
-                            raw["water"].key_lines.get("ends") if "water" in raw else None))
+    closed_section = d["mesh"]["mode"] == "slice" or water["ends"] == "closed"
+    if "dynamic_water" in conds and water["model"] == "incompressible" and closed_section:
+        if d["mesh"]["mode"] == "3d":
+            issues.append(Issue("water.ends", "closed",
+                                "incompressible water with closed ends in 3D: the water's axial flow between the "
+                                "tunnel's parts is not yet solved incompressibly",
+                                "use ends: open, model: compressible, or mesh.mode: slice",
+                                raw["water"].key_lines.get("ends") if "water" in raw else None))
+        elif d["coupling"]["volume_law"] == "water":
+            issues.append(Issue("coupling.volume_law", "water",
+                                "incompressible water in a closed section cannot change its volume by itself: the "
+                                "solid must hold the enclosed volume (the constraint's multiplier is the uniform "
+                                "pressure)", "use volume_law: solid (the default), or water.model: compressible",
+                                raw["coupling"].key_lines.get("volume_law") if "coupling" in raw else None))
     if any(c in conds for c in ("static_water", "dynamic_water")) and water["head"] == 0.0:
         warnings.append("water.head is 0: the static and dynamic water conditions carry no hydrostatic load "
                         "(paper: 123 m)")

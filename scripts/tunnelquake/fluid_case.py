@@ -19,9 +19,17 @@ Water models (case `water` section):
     incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the template's laminar model
                      tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 
-Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed (compressible
-water only: the case check refuses a closed incompressible slice). 3D: incompressible water with
-open ends (p = 0); compressible water with `ends: closed` (walls) or `ends: open` (p = 0).
+Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D:
+incompressible water with open ends (p = 0); compressible water with `ends: closed` (walls) or
+`ends: open` (p = 0).
+
+Closed sections (a slice, or 3D with closed ends) carry the water's volume law in the solid
+(`volume_law()`, docs/coupler.md "Volume law in the solid"): tq-solid sets the uniform pressure of
+the enclosed water implicitly each step (p = -K dV/V, or the enclosed volume held for incompressible
+water), and OpenFOAM sends its wall pressure less its area mean (tqInterface `subtractMeanPressure`):
+the inertial remainder. Incompressible water in a closed slice is solved by rhoPimpleFoam with
+REMAINDER_BULK_MODULUS, whose only role is to make the closed domain's pressure well posed (its
+uniform part is replaced by the solid's constraint).
 Interface: transpiration (the template's default). nNonOrthogonalCorrectors 0: the meshes of
 tunnelquake.meshing are structured all-hex (docs/water.md §10).
 
@@ -47,6 +55,26 @@ T0 = 293.15  # K, the template's 0.compressible/T
 TOKEN_ENV = "TQ_COUPLING_TOKEN"
 #: what the solid writes by default (tq-solid's CouplingInput::writeFields), in order
 SOLID_WRITE_FIELDS = ("velocity", "displacement")
+
+
+#: Pa: the bulk modulus of the water OpenFOAM solves for the inertial remainder of incompressible water
+#: in a closed slice (the uniform pressure is the solid's constraint)
+REMAINDER_BULK_MODULUS = 2.2e9
+
+
+def volume_law(case) -> tuple[str, float]:
+    """Who carries the uniform (volumetric) part of the water pressure: ("compressible", K) or
+    ("incompressible", 0) when the solid does (a closed section: a slice, or 3D with closed ends,
+    unless coupling.volume_law is `water`), ("none", 0) when the water solver sends its whole pressure
+    (open ends, where the mean pressure is not set by the enclosed volume alone)."""
+    d = case.data
+    water = d["water"]
+    closed = d["mesh"]["mode"] == "slice" or water["ends"] == "closed"
+    if not closed or d["coupling"].get("volume_law", "solid") == "water":
+        return "none", 0.0
+    if water["model"] == "incompressible":
+        return "incompressible", 0.0
+    return "compressible", float(water["bulk_modulus"])
 
 
 class FluidCaseError(RuntimeError):
@@ -103,6 +131,8 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "write_fields": list(SOLID_WRITE_FIELDS),
         "participant": "solid",
         "partner": "fluid",
+        "volume_law": volume_law(case)[0],
+        "bulk_modulus": volume_law(case)[1],
     }
 
 
@@ -118,6 +148,9 @@ def solid_coupling_attrs(s: dict) -> dict:
     if s.get("reuse", 0):  # absent = 0
         out["reuse"] = int(s["reuse"])
     out.update({f"absolute_tolerance_{k}": float(v) for k, v in s["absolute_tolerance"].items()})
+    if s.get("volume_law", "none") != "none":  # absent = none: the water sends its whole pressure
+        out["volume_law"] = s["volume_law"]
+        out["bulk_modulus"] = float(s["bulk_modulus"])
     return out
 
 
@@ -250,11 +283,25 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     water = d["water"]
     model = water["model"]
     mode = "slice" if slice_mode else "3d"
-    if mode == "slice" and model == "incompressible":
-        raise FluidCaseError("incompressible water in a slice cannot change its cross-section (closed domain); "
-                             "use water.model: compressible, or mesh.mode: 3d with open ends (docs/water.md §7)")
+    law = settings.get("volume_law", "none")
+    if model == "incompressible" and mode == "slice" and law != "incompressible":
+        raise FluidCaseError("incompressible water in a closed slice needs the volume law in the solid "
+                             "(coupling.volume_law: solid, the default); the water alone cannot change its "
+                             "cross-section (docs/coupler.md \"Volume law in the solid\")")
     if mode == "3d" and model == "incompressible" and water["ends"] == "closed":
-        raise FluidCaseError("incompressible water with closed ends cannot change volume; use water.ends: open")
+        raise FluidCaseError("incompressible water with closed ends in 3D: the water's axial flow between the "
+                             "tunnel's parts is not yet solved incompressibly; use water.ends: open, "
+                             "water.model: compressible, or mesh.mode: slice")
+    # Incompressible water of a closed section: OpenFOAM solves the inertial remainder with
+    # compressible water (the uniform part is the solid's constraint, docs/coupler.md).
+    bulk = float(water["bulk_modulus"])
+    if law == "incompressible":
+        model, bulk = "compressible", REMAINDER_BULK_MODULUS
+    elif law == "compressible":
+        # The remainder hardly depends on K (it is the water's inertia), but OpenFOAM's own uniform
+        # pressure, subtracted from it, grows with K and brings its solver noise along
+        # (docs/coupler.md "Volume law in the solid": K = 2200 GPa in OpenFOAM stopped at 1.2 s).
+        bulk = min(bulk, REMAINDER_BULK_MODULUS)
     water_msh = Path(water_msh)
     if not water_msh.is_file():
         raise FluidCaseError(f"water mesh {water_msh} not found; run `tunnelquake mesh`")
@@ -299,7 +346,7 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     th = folder / "constant" / "thermophysicalProperties"
     t = th.read_text()
     t = re.sub(r"equationOfState \{ R [^;]*; rho0 [^;]*; \}",
-               f"equationOfState {{ R {float(water['bulk_modulus']) / (rho * T0)!r}; rho0 {rho!r}; }}", t)
+               f"equationOfState {{ R {bulk / (rho * T0)!r}; rho0 {rho!r}; }}", t)
     t = re.sub(r"transport\s+\{ mu [^;]*;", f"transport       {{ mu {mu!r};", t)
     th.write_text(t)
     if model == "compressible":  # the template's tqNewtonian is for incompressible water only
@@ -328,6 +375,11 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     t = t.replace("freeSurfaceLevel 123;",
                   f"freeSurfaceLevel {float(d['geometry']['tunnel_centre_z']) + float(water['head'])!r};")
     t = _replace_block(t, "exchange", exchange_dict(settings))
+    if law != "none":  # the solid carries the uniform pressure: send the remainder
+        t, n = re.subn(r"(\n(\s*)interfaceMotion\s+\w+;)", r"\1\n\2subtractMeanPressure yes;", t, count=1)
+        if n != 1:
+            raise FluidCaseError(f"{cd}: no interfaceMotion entry in the tqInterface function object to put "
+                                 "subtractMeanPressure beside")
     if water.get("log", "brief") == "brief":  # the template's defaults print every pass (verbose)
         t = _set_entry(t, "SolverPerformance", "0")
         t = _set_entry(t, "logInterval", f"{float(water.get('log_interval', WATER_LOG_INTERVAL))!r}")

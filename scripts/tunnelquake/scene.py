@@ -43,11 +43,6 @@ def assess_slice(case) -> SliceAssessment:
     advice: list[str] = []
     dynamic = "dynamic_water" in d["conditions"]
     water = d["water"]
-    if dynamic and water["model"] == "incompressible":
-        reasons.append(
-            "dynamic_water with incompressible water: in a slice the water cannot flow along the axis, so "
-            "the vertical P wave's change of the lining's cross-section meets water that cannot leave "
-            "(ill-posed); use water.model: compressible (the long-tunnel limit), or mesh.mode: 3d with open ends")
     if d["mesh"]["mode"] == "3d" and not reasons:
         if dynamic and water.get("ends", "open") == "open":
             # Measured on the paper case (docs/benchmarks.md "Slice against 3D"): open ends let the water

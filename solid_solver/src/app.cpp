@@ -181,6 +181,9 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                         "fluid_received_work");
       results.addSeries("/energy/coupling_energy", [c = coupling.get()] { return c->couplingEnergy(); },
                         "coupling_energy");
+      if (coupling->hasVolumeLaw())
+        results.addSeries("/coupling/volume_pressure", [c = coupling.get()] { return c->volumePressure(); },
+                          "volume_pressure");
       results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
                                [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
       // The wetted face as a whole (issue 6 check 4, docs/verification.md): the total interface
@@ -225,6 +228,8 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                                      {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
                                      {"fluid_received_work", coupling->fluidReceivedWork()},
                                      {"coupling_energy", coupling->couplingEnergy()},
+                                     {"volume_law_work", coupling->volumeLawWork()},
+                                     {"enclosed_volume", coupling->enclosedVolume()},
                                      {"interface_work_peak", coupling->interfaceWorkPeak()},
                                      {"energy_floor", coupling->energyFloor()},
                                      {"energy_limit", in.staged.coupling.energyLimit},

@@ -104,7 +104,88 @@ struct FluidCoupling::Impl {
   double waitAtStart = 0, mappingAtStart = 0, cpuStart = 0;
   bool initialized = false, finalized = false;
 
+  // The water's volume law, carried here (docs/coupler.md "Volume law in the solid"): the uniform
+  // pressure p_v of the enclosed water acts on the wet nodes as p_v g, g the nodes' area vectors
+  // out of the water, and is set implicitly each step from the volume change the step makes,
+  // s^{n+1} = g·(u^{n+1} − u0): p_v = −κ s^{n+1} (κ = K/V), or s^{n+1} = 0 (incompressible).
+  bool volumeLaw = false, incompressible = false;
+  Real kappa = 0, volume = 0;
+  std::vector<Real> g;                 // [3n] m²
+  std::vector<Real> respU, respV;      // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
+  std::vector<Real> scratchU, scratchV, sent;
+  Real gg = 0;                         // g·g (m⁴)
+  Real pv = 0, pvPrev = 0, volumeWork = 0;
+  std::vector<Real> total;             // [3n] force added this step: the water's answer + p_v g
+
   explicit Impl(Solver& s) : solver(s) {}
+
+  /// g and V from the wetted face's quads: each quad's area vector (half the cross product of its
+  /// diagonals) oriented away from the wetted section's centroid, a quarter to each corner; V is
+  /// ½ Σ S_q·(x_q − c)⊥ (the divergence of the in-section position is 2: the section's area times
+  /// the length along the axis y).
+  void buildVolumeLaw(const Mesh& mesh) {
+    const size_t n = nodes.size();
+    g.assign(3 * n, 0.0);
+    auto x = [&](Index node, int d) { return mesh.coords[3 * size_t(node) + size_t(d)]; };
+    Real c[3] = {0, 0, 0};
+    for (Index node : nodes)
+      for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
+    const auto& quads = mesh.faces.at(in.face);
+    volume = 0;
+    for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+      Real d1[3], d2[3], sq[3], xq[3] = {0, 0, 0};
+      for (int d = 0; d < 3; ++d) {
+        d1[d] = x(quads[q + 2], d) - x(quads[q], d);
+        d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
+        for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
+      }
+      sq[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
+      sq[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);
+      sq[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
+      const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);  // (x − c)⊥, axis y
+      const Real sign = radial < 0 ? -1.0 : 1.0;
+      volume += 0.5 * sign * radial;
+      for (int k = 0; k < 4; ++k) {
+        const size_t j = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
+        for (int d = 0; d < 3; ++d) g[3 * j + size_t(d)] += 0.25 * sign * sq[d];
+      }
+    }
+    if (!(volume > 0))
+      throw InputError("/coupling volume_law: the face '" + in.face + "' encloses no volume about the axis y (" +
+                       std::to_string(volume) + " m³); the volume law needs the wetted face of a closed section");
+    kappa = incompressible ? 0.0 : in.bulkModulus / volume;
+    gg = 0;
+    for (Real x : g) gg += x * x;
+    respU.assign(3 * n, 0.0);
+    respV.assign(3 * n, 0.0);
+    scratchU.assign(3 * n, 0.0);
+    scratchV.assign(3 * n, 0.0);
+  }
+
+  /// The volume law on a prediction (predict() just made `du`, `dv` = u^{n+1} − u0 and v^{n+½} with
+  /// the other forces): the uniform pressure p_v the step's volume change calls for, and the
+  /// prediction corrected by it (the update is linear in the force: u += respU p_v g). Returns p_v.
+  Real applyVolumeLaw(std::vector<Real>& du, std::vector<Real>& dv) const {
+    Real s = 0, cc = 0;
+    for (size_t j = 0; j < g.size(); ++j) {
+      s += g[j] * du[j];
+      cc += g[j] * g[j] * respU[j];
+    }
+    if (!(cc > 0)) return 0;
+    // s^{n+1} = s + cc p_v; compressible p_v = −κ s^{n+1}; incompressible s^{n+1} = 0.
+    const Real p = incompressible ? -s / cc : -kappa * s / (1 + kappa * cc);
+    for (size_t j = 0; j < g.size(); ++j) {
+      du[j] += respU[j] * g[j] * p;
+      dv[j] += respV[j] * g[j] * p;
+    }
+    return p;
+  }
+
+  /// predict() with the volume law: `disp`/`vel` hold the motion of the force F plus p_v g.
+  void predictWithLaw(Real dt, const NodalState& st, const std::vector<Real>& F) {
+    predict(dt, st, F, disp, vel);
+    if (volumeLaw) applyVolumeLaw(disp, vel);
+  }
 
   [[noreturn]] void fail(const std::string& what, const std::exception& e) {
     if (dynamic_cast<const cp::TimeoutError*>(&e)) silent = true;
@@ -117,7 +198,8 @@ struct FluidCoupling::Impl {
 
   /// Predicted u^{n+1} − u0 and v^{n+½} of the interface nodes with the extra force F, by the
   /// solver's own update (Solver::updateNodes).
-  void predict(Real dt, const NodalState& st, const std::vector<Real>& F) {
+  void predict(Real dt, const NodalState& st, const std::vector<Real>& F, std::vector<Real>& disp,
+               std::vector<Real>& vel) {
     const bool leapfrog = solver.options().integrator == Integrator::CentralDifference;
     const Real alpha = solver.massDampingCoefficient();
     const Real* u = st.uData();
@@ -133,6 +215,7 @@ struct FluidCoupling::Impl {
         if (!(mn > 0)) {  // node of no active element: the solver holds it at rest
           disp[j] = u[i] - u0[j];
           vel[j] = 0;
+          if (volumeLaw) respU[j] = respV[j] = 0;
           continue;
         }
         const Real fr = solver.isFixed(n, d) ? 0.0 : 1.0;
@@ -142,10 +225,12 @@ struct FluidCoupling::Impl {
           const Real mdt = mn / dt, ch = 0.5 * (cm + cb[i]);
           vn = fr * ((mdt - ch) * v[i] + f) / (mdt + ch);
           du = dt * vn;
+          if (volumeLaw) respV[j] = fr / (mdt + ch), respU[j] = dt * respV[j];
         } else {
           const Real acc = fr * (f - (cm + cb[i]) * v[i]) / mn;
           du = dt * v[i] + 0.5 * dt * dt * acc;
           vn = fr * (2 * du / dt - v[i]);
+          if (volumeLaw) respU[j] = fr * 0.5 * dt * dt / mn, respV[j] = fr * dt / mn;
         }
         disp[j] = (u[i] + du) - u0[j];
         vel[j] = vn;
@@ -251,9 +336,32 @@ struct FluidCoupling::Impl {
     }
   }
 
+  /// With the volume law the exchange leaves the volume mode to the solid: x − g (g·x)/(g·g), the
+  /// part of a motion that changes no volume, or of a force that does no work on a volume change.
+  void removeVolumeMode(std::vector<Real>& x) const {
+    Real gx = 0;
+    for (size_t j = 0; j < g.size(); ++j) gx += g[j] * x[j];
+    const Real c = gx / gg;
+    for (size_t j = 0; j < g.size(); ++j) x[j] -= c * g[j];
+  }
+
   void write() {
-    for (const auto& name : in.writeFields)
-      p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
+    for (const auto& name : in.writeFields) {
+      if (!volumeLaw) {
+        p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
+        continue;
+      }
+      // The water sees the wall's motion less its volume change (the solid carries that mode).
+      sent = name == "velocity" ? vel : disp;
+      removeVolumeMode(sent);
+      p->writeData(in.mesh, name, sent);
+    }
+  }
+
+  /// The water's answer; with the volume law, less its part along g (the solid's mode).
+  void read() {
+    p->readData(in.mesh, "force", received);
+    if (volumeLaw) removeVolumeMode(received);
   }
 };
 
@@ -283,6 +391,10 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.lagPrev.assign(n3, 0.0);
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
+  I.total.assign(n3, 0.0);
+  I.volumeLaw = in.volumeLaw != "none";
+  I.incompressible = in.volumeLaw == "incompressible";
+  if (I.volumeLaw) I.buildVolumeLaw(mesh);
 
   // The energy guard's floor: the work of the scale forces on the scale motion of one window over
   // every wetted node (coupling_scales.py: force ρ a r A, displacement a window², the absolute
@@ -363,7 +475,7 @@ void FluidCoupling::initialize() {
   const auto t0 = std::chrono::steady_clock::now();
   try {
     I.p->initialize();
-    I.p->readData(I.in.mesh, "force", I.received);
+    I.read();
     I.receivedPrev = I.received;  // R_{−1} of the linear predictor: window 0 starts from the initial force
     I.recvPrev = I.received;      // R_0 of the work booking (its first increment is zero for k = 1)
   } catch (const cp::CouplerError& e) {
@@ -430,12 +542,12 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
         I.p->advance(dt);
       } else {
         I.stepInWindow = 0;
-        I.predict(dt, st, I.trial);
+        I.predictWithLaw(dt, st, I.trial);
         I.windowMeanVelocity();
         I.write();
         I.p->advance(dt);
         ++I.pass;
-        I.p->readData(I.in.mesh, "force", I.received);
+        I.read();
         I.force = I.trial;  // this step's force (the motion the water was sent)
         if (I.p->requiresReadingCheckpoint()) {
           I.trial = I.received;  // the next pass steps the window again with the water's answer
@@ -467,12 +579,12 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
         std::fill(I.trial.begin(), I.trial.end(), 0.0);
       long long passes = 0;
       for (;;) {
-        I.predict(dt, st, I.trial);
+        I.predictWithLaw(dt, st, I.trial);
         if (I.in.windowSteps > 1) I.windowMeanVelocity();
         I.write();
         I.p->advance(dt);
         ++passes;
-        I.p->readData(I.in.mesh, "force", I.received);
+        I.read();
         if (!I.p->requiresReadingCheckpoint()) break;  // window complete
         I.trial = I.received;  // repeat: the solid's answer to the new force is the local update
       }
@@ -501,20 +613,35 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   const double c1 = threadCpu();
   I.stats.cpuInCoupler += c1 - c0;
   I.stats.cpuCoupled = c1 - I.cpuStart;
-  // Add R3 and book its work over u^{n−1} → u^n exactly as the solver books f_ext (trapezoid).
+  // The volume law's pressure for the force this step applies (the window's ramp, or the
+  // exchanged force), implicit in this step's motion.
+  if (I.volumeLaw) {
+    I.predict(dt, st, I.force, I.scratchU, I.scratchV);
+    I.pv = I.applyVolumeLaw(I.scratchU, I.scratchV);
+  }
+  // Add R3 (+ p_v g) and book the work of each over u^{n−1} → u^n exactly as the solver books f_ext
+  // (trapezoid).
   Real* fe = st.fExtData();
   const Real* v = st.vData();
-  Real w = 0;
+  Real w = 0, wv = 0;
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) {
       const size_t i = 3 * size_t(I.nodes[k]) + size_t(d), j = 3 * k + size_t(d);
+      I.total[j] = I.force[j];
       if (!(st.mass(I.nodes[k]) > 0)) continue;
       fe[i] += I.force[j];
       w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+      if (I.volumeLaw) {
+        fe[i] += I.pv * I.g[j];
+        I.total[j] += I.pv * I.g[j];
+        wv += 0.5 * (I.pv + I.pvPrev) * I.g[j] * I.dtPrev * v[i];
+      }
     }
   (void)n3;
   I.work += w;
+  I.volumeWork += wv;
   I.prev = I.force;
+  I.pvPrev = I.pv;
   I.dtPrev = dt;
   if (windowEnded) I.guardEnergy();
 }
@@ -526,6 +653,10 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   a.io(I.work);
   a.io(I.dtPrev);
   a.io(I.stepInWindow);
+  a.io(I.pv);
+  a.io(I.pvPrev);
+  a.io(I.volumeWork);
+  a.io(I.total);
 }
 
 bool FluidCoupling::repeatsWindows() const { return impl_->repeats; }
@@ -561,7 +692,11 @@ FluidCouplingStats FluidCoupling::stats() const {
   return s;
 }
 const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
-const std::vector<Real>& FluidCoupling::force() const { return impl_->force; }
+const std::vector<Real>& FluidCoupling::force() const { return impl_->total; }
+bool FluidCoupling::hasVolumeLaw() const { return impl_->volumeLaw; }
+Real FluidCoupling::volumePressure() const { return impl_->pv; }
+Real FluidCoupling::volumeLawWork() const { return impl_->volumeWork; }
+Real FluidCoupling::enclosedVolume() const { return impl_->volume; }
 
 bool FluidCoupling::partnerReleased() const { return impl_->linked && !impl_->silent; }
 
@@ -578,6 +713,10 @@ std::string FluidCoupling::describe() const {
   os << ", timeout " << I.in.timeout << " s";
   if (I.scheme == cp::SchemeKind::Implicit)
     os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration << ", predictor " << I.in.predictor;
+  if (I.volumeLaw) {
+    os << "; volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
+    if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
+  }
   return os.str();
 }
 

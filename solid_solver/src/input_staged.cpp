@@ -266,7 +266,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
                        "initial_relaxation", "predictor", "reuse", "transport", "address_file", "token", "timeout", "connect_timeout", "face",
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
-                       "absolute_tolerance_force", "energy_limit", "energy_floor", "window_force_weight"});
+                       "absolute_tolerance_force", "energy_limit", "energy_floor", "window_force_weight",
+                       "volume_law", "bulk_modulus"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -331,6 +332,12 @@ void readStagedInput(hid_t f, SolidInput& in) {
                     C.scheme + " and " + std::to_string(C.windowSteps) +
                     "-step windows it would have no effect; leave it out (0.5) or use scheme implicit with "
                     "window > 1");
+    C.volumeLaw = text(c, g, w, "volume_law", C.volumeLaw);
+    if (C.volumeLaw != "none" && C.volumeLaw != "compressible" && C.volumeLaw != "incompressible")
+      c.fail(w, "volume_law '" + C.volumeLaw + "' is not one of none, compressible, incompressible");
+    C.bulkModulus = number(c, g, w, "bulk_modulus", 0, 0);
+    if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))
+      c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
     if (C.windowSteps > 1 && C.scheme == "paper")
       c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
                 "paper scheme's two passes are made for one-step windows); use window 1");
@@ -414,6 +421,10 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     if (C.energyLimit > 0) h5::writeDoubleAttr(g, "energy_limit", C.energyLimit);
     if (C.energyFloor > 0) h5::writeDoubleAttr(g, "energy_floor", C.energyFloor);
     if (C.windowForceWeight != 0.5) h5::writeDoubleAttr(g, "window_force_weight", C.windowForceWeight);
+    if (C.volumeLaw != "none") {
+      h5::writeStringAttr(g, "volume_law", C.volumeLaw);
+      h5::writeDoubleAttr(g, "bulk_modulus", C.bulkModulus);
+    }
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);
     h5::writeStringAttr(g, "predictor", C.predictor);

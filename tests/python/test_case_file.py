@@ -38,9 +38,12 @@ def test_unit_conversions():
         U.parse_quantity("8 m", U.PRESSURE)
 
 
-def _mutate(text: str, old: str, new: str) -> str:
-    assert old in text, old
-    return text.replace(old, new, 1)
+def _mutate(text: str, *pairs: str) -> str:
+    """Replace each (old, new) pair of `pairs` once."""
+    for old, new in zip(pairs[::2], pairs[1::2], strict=True):
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return text
 
 
 # Each bad input: (description, edit of the example, key that the message must name, words it must contain)
@@ -74,10 +77,16 @@ BAD_INPUTS = [
     ("stages out of order", ("[in_situ, excavation, lining, hydrostatic, seismic]",
                              "[in_situ, lining, excavation, hydrostatic, seismic]"),
      "stages.sequence", "out of order"),
-    ("incompressible water with closed ends",
+    ("incompressible water in a closed slice left to the water solver",
      ("  model: compressible\n  bulk_modulus: 2.2 GPa\n  ends: open\n",
-      "  model: incompressible\n  bulk_modulus: 2.2 GPa\n  ends: closed\n"),
-     "water.ends", "cannot change volume"),
+      "  model: incompressible\n  bulk_modulus: 2.2 GPa\n  ends: open\n",
+      "  scheme: implicit\n", "  scheme: implicit\n  volume_law: water\n"),
+     "coupling.volume_law", "cannot change its volume"),
+    ("incompressible water with closed ends in 3D",
+     ("  model: compressible\n  bulk_modulus: 2.2 GPa\n  ends: open\n",
+      "  model: incompressible\n  bulk_modulus: 2.2 GPa\n  ends: closed\n",
+      "  mode: slice ", "  mode: 3d "),
+     "water.ends", "not yet solved incompressibly"),
     ("monitor outside", ("    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 500.0]"),
      "output.monitors.top_arch", "outside the model"),
     ("friction angle of 90 degrees", ("    friction_angle: 37 deg\n", "    friction_angle: 90 deg\n"),

@@ -189,6 +189,18 @@ void Foam::functionObjects::tqInterface::calcLoads()
     }
     pWall_ = pToPa*(pW - pRef_);
     pCell_ = pToPa*(pCell_ - pRef_);
+    const scalarField magSf(mag(Sf));
+    const scalar area = returnReduce(sum(magSf), sumOp<scalar>());
+    pMean_ =
+        returnReduce(sum(pWall_*magSf), sumOp<scalar>())
+       /max(area, VSMALL);
+    if (subtractMeanPressure_)
+    {
+        // The uniform part is the solid's volume law: only the remainder
+        // (the water's inertia) is sent
+        pWall_ -= pMean_;
+        pCell_ -= pMean_;
+    }
 
     // Pressure part: p_w S_f (S_f points out of the water, into the lining)
     faceForceP_ = pWall_*Sf;
@@ -226,11 +238,6 @@ void Foam::functionObjects::tqInterface::calcLoads()
     totalP_ = returnReduce(sum(faceForceP_), sumOp<vector>());
     totalV_ = returnReduce(sum(faceForceV_), sumOp<vector>());
     totalPoint_ = returnReduce(sum(pointForce_), sumOp<vector>());
-    const scalarField magSf(mag(Sf));
-    const scalar area = returnReduce(sum(magSf), sumOp<scalar>());
-    pMean_ =
-        returnReduce(sum(pWall_*magSf), sumOp<scalar>())
-       /max(area, VSMALL);
 
     totalHs_ = Zero;
     if (hydrostatic_)
@@ -733,6 +740,7 @@ Foam::functionObjects::tqInterface::tqInterface
     totalHs_(Zero),
     totalPoint_(Zero),
     pMean_(0),
+    subtractMeanPressure_(false),
     nRollbacks_(0),
     rewriteTime_(-1),
     filePtr_(),
@@ -912,6 +920,8 @@ bool Foam::functionObjects::tqInterface::read(const dictionary& dict)
 
     logInterval_ = dict.lookupOrDefault<scalar>("logInterval", 0);
     quietSolver_ = dict.lookupOrDefault<bool>("quietSolver", false);
+    subtractMeanPressure_ =
+        dict.lookupOrDefault<bool>("subtractMeanPressure", false);
     if (quietSolver_ && !(logInterval_ > 0))
     {
         FatalIOErrorInFunction(dict)

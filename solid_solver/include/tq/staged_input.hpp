@@ -124,6 +124,13 @@ struct CouplingInput {
   Real mapTolerance = 1e-6;               ///< m
   std::vector<std::string> writeFields = {"velocity", "displacement"};  ///< solid → fluid, in order
   std::string participant = "solid", partner = "fluid";
+  /// The water's volume law, carried by the solid (docs/coupler.md "Volume law in the solid"):
+  /// "none" (the water side sends its whole pressure), "compressible" (uniform pressure
+  /// p = −K ΔV/V of the enclosed water, implicit in the solid's step) or "incompressible" (the
+  /// enclosed volume held: the uniform pressure is the constraint's multiplier). With a law the
+  /// water side sends its pressure less its wall mean. The tunnel's axis is y (mesh.h5's frame).
+  std::string volumeLaw = "none";
+  Real bulkModulus = 0;                   ///< Pa: the law's K (compressible)
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
