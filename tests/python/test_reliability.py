@@ -2,6 +2,7 @@
 each test is named after the fault, forces it, and asserts the clean outcome."""
 from __future__ import annotations
 
+import re
 import shutil
 import threading
 import time
@@ -197,3 +198,160 @@ def test_post_on_an_unreadable_results_file_names_it_and_reports_the_rest(prepar
     assert "(2) static water: `results_static_water.h5` cannot be read (" in report
     assert "static_water: results_static_water.h5 cannot be read (" in out
     assert "(1) no water: status **running**, no monitor sample" in report
+
+
+def _start_run(case_yaml, *extra):
+    """`tunnelquake run` as a user starts it: its own process group, as a terminal's job."""
+    import subprocess
+    import sys
+
+    return subprocess.Popen([sys.executable, "-m", "tunnelquake", "run", str(case_yaml), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+
+
+def _read_until(proc, marker: str, timeout: float = 60.0) -> list[str]:
+    """Lines of `proc` up to the first holding `marker` (fails if it ends or times out first)."""
+    import selectors
+
+    lines: list[str] = []
+    sel = selectors.DefaultSelector()
+    sel.register(proc.stdout, selectors.EVENT_READ)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if sel.select(timeout=max(0.0, deadline - time.monotonic())):
+            line = proc.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            if marker in line:
+                return lines
+    raise AssertionError(f"no line with {marker!r}; last lines:\n{''.join(lines[-15:])}")
+
+
+def _processes_naming(folder) -> list[str]:
+    """Processes whose command line names `folder` (the solvers of a run get its paths)."""
+    import os
+
+    found = []
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/cmdline", "rb") as fh:
+                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace")
+            with open(f"/proc/{name}/stat") as fh:
+                state = fh.read().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if str(folder) in cmd and state != "Z":
+            found.append(f"{name}: {cmd[:200]}")
+    return found
+
+
+def _longer(prepared, tmp_path, end_time: str = "2 s"):
+    p = _copy(prepared, tmp_path)
+    p.write_text(p.read_text().replace("end_time: 0.02 s", f"end_time: {end_time}"))
+    return p
+
+
+@pytest.mark.parametrize("signame, to_group, code", [("SIGINT", True, 130), ("SIGTERM", False, 143)])
+def test_signal_stops_every_child_marks_the_conditions_interrupted_and_prints_one_line(prepared, tmp_path,
+                                                                                     signame, to_group, code):
+    """SIGINT as a terminal's Ctrl-C sends it (to the whole process group), SIGTERM as `kill`
+    sends it (to tunnelquake only), while the conditions run side by side (coupled: tq-solid and
+    the water). Within the stated bound (children.STOP_GRACE_S + KILL_WAIT_S +
+    run.JOB_WIND_DOWN_S = 10 s) the command exits 128 + the signal number, its last line says
+    what was stopped at which simulated time, no traceback, no process of the run is left, each
+    running condition's results file reads status 'interrupted', the folder's lock is released,
+    and `post` reports the interrupted conditions."""
+    import os
+    import signal
+
+    import h5py
+
+    from tunnelquake import runlock
+    from tunnelquake.cli.run import JOB_WIND_DOWN_S, solver_status
+
+    p = _longer(prepared, tmp_path)
+    res = p.parent / "results"
+    coupled = solver_status()["fluid"] is None
+    proc = _start_run(p, "--no-post")
+    try:
+        before = _read_until(proc, "running the water" if coupled else "[no_water] tq-solid: stage")
+        time.sleep(1.5)
+        t_sig = time.monotonic()
+        sig = getattr(signal, signame)
+        if to_group:
+            os.killpg(proc.pid, sig)
+        else:
+            os.kill(proc.pid, sig)
+        rest, _ = proc.communicate(timeout=30)
+        took = time.monotonic() - t_sig
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    from tunnelquake import children
+
+    assert proc.returncode == code, rest[-2000:]
+    assert took < children.STOP_GRACE_S + children.KILL_WAIT_S + JOB_WIND_DOWN_S, took
+    out = "".join(before) + rest
+    assert "Traceback" not in out and "KeyboardInterrupt" not in out, out[-3000:]
+    last = rest.strip().splitlines()[-1]
+    assert last.startswith(f"tunnelquake run: interrupted by {signame} after "), last
+    assert "every child process ended" in last and "(`tunnelquake post " in last, last
+    assert _processes_naming(p.parent) == []
+    assert runlock.holder(res) is None
+    marked = ["no_water", "dynamic_water"] if coupled else ["no_water"]
+    labels = {"no_water": "(1) no water", "dynamic_water": "(3) dynamic water"}
+    assert main(["post", str(p)]) == 0
+    report = (res / "report.md").read_text()
+    for cond in marked:
+        # the simulated time where tq-solid's rows or progress lines give it
+        assert re.search(rf"(stopped|,) {cond} (at t = [0-9.e+-]+ s of 2 s|in the shaking, no row written yet)", last), last
+        with h5py.File(res / f"results_{cond}.h5", "r") as f:
+            assert f.attrs["status"] == "interrupted", cond
+            assert f.attrs["interrupted_by"] == f"{signame} to tunnelquake run (pid {proc.pid})"
+        assert f"{labels[cond]}: status **interrupted**" in report
+
+
+def test_second_run_of_the_same_case_folder_refuses_naming_the_first(prepared, tmp_path, capsys):
+    """A second `tunnelquake run` of a case folder while one runs exits 1 before touching
+    anything, naming the first run's PID and start time; the first goes on undisturbed."""
+    import os
+    import signal
+
+    p = _longer(prepared, tmp_path)
+    first = _start_run(p, "--no-post")
+    try:
+        _read_until(first, "condition no_water: running the solid")
+        assert main(["run", str(p)]) == 1
+        err = capsys.readouterr().err
+        assert f"error: another `tunnelquake run` is using {p.parent / 'results'} (pid {first.pid}, started 20" in err
+        assert f"wait for it to end, or stop it (kill {first.pid}), then run again" in err
+        assert first.poll() is None, "the first run must go on"
+    finally:
+        os.kill(first.pid, signal.SIGTERM)
+        first.communicate(timeout=30)
+    assert first.returncode == 143
+
+
+def test_stale_lock_of_a_dead_run_is_taken_over_saying_so(prepared, tmp_path, capsys):
+    """The lock file still names a run that died (SIGKILL leaves its record): the next run takes
+    the folder over, says so naming the dead PID, runs, and clears the record at its end."""
+    import json
+    import subprocess
+
+    from tunnelquake import runlock
+
+    p = _copy(prepared, tmp_path)
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    lock = p.parent / "results" / runlock.LOCK_NAME
+    lock.write_text(json.dumps({"pid": dead.pid, "started": "2026-01-02T03:04:05+00:00", "host": "h",
+                                "command": "tunnelquake run case.yaml"}))
+    assert main(["run", str(p), "--no-post"]) == 0
+    out = capsys.readouterr().out
+    assert (f"note: taking over the lock of an earlier run (pid {dead.pid}, started 2026-01-02T03:04:05+00:00, "
+            f"on h, command `tunnelquake run case.yaml`): pid {dead.pid} is no longer running") in out
+    assert lock.read_text() == "" and runlock.holder(lock.parent) is None

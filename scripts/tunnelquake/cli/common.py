@@ -6,6 +6,7 @@ import contextlib
 import os
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 from ..case import Case, CaseError, load_case
@@ -54,5 +55,12 @@ def atomic_path(target: Path):
             os.unlink(tmp)
 
 
+#: set while a run is being stopped by a signal: its threads' progress lines are dropped, so that
+#: the one line saying what was stopped is the last thing printed
+QUIET = threading.Event()
+
+
 def say(msg: str) -> None:
+    if QUIET.is_set():
+        return
     print(f"[tunnelquake] {msg}", flush=True)

@@ -7,6 +7,7 @@ condition with only the solvers it needs, and post-processes.
 """
 from __future__ import annotations
 
+import re
 import time
 
 from .. import children, paths
@@ -55,6 +56,7 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> t
         threads = solid_threads(case, mesh_dir(case) / "mesh.h5")
     res = case.output_dir / f"results_{cond}.h5"
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
+    _running(cond, res)
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     if not prefix:
         return children.run(cmd, env=solid_env()).returncode, res
@@ -62,8 +64,41 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> t
     with children.popen(cmd, env=solid_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                         bufsize=1) as proc:
         for line in proc.stdout:
+            _progress(cond, line)
             say(f"[{cond}] {line.rstrip()}")
     return proc.returncode, res
+
+
+#: The conditions whose solver was started in this process: condition -> (results file, the
+#: file's (inode, mtime, size) before the start or None), for the status written when a signal
+#: stops the run (a results file the solver never rewrote is left alone).
+STARTED: dict[str, tuple] = {}
+
+
+def _signature(path):
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+def _running(cond: str, res) -> None:
+    STARTED[cond] = (res, _signature(res))
+    PROGRESS.pop(cond, None)
+
+
+#: condition -> the simulated time of tq-solid's last progress line seen (`  t = 0.5 s / 2 s ...`);
+#: its results file may lag by up to its flush interval (2 s of wall time)
+PROGRESS: dict[str, float] = {}
+_PROGRESS_LINE = re.compile(r"^\s*t = ([0-9.eE+-]+) s / ")
+
+
+def _progress(cond: str, line: str) -> bool:
+    m = _PROGRESS_LINE.match(line)
+    if m:
+        PROGRESS[cond] = float(m.group(1))
+    return True
 
 
 #: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
@@ -211,6 +246,8 @@ def _stop(side: _Side, grace: float) -> None:
     try:
         side.proc.wait(timeout=grace)
     except subprocess.TimeoutExpired:
+        if children.stopping.is_set():
+            return  # stop_all ends it
         say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
         side.proc.terminate()
         try:
@@ -302,11 +339,13 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         f"in {fluid.path}")
 
     solid_env_ = solid_env()
-    solid_cmd = [str(exe), str(inp), "-o", str(res)]
-    solid_cmd += ["--threads", str(solid_threads(case, mesh_h5))]
+    with children.FORK_LOCK:
+        threads = solid_threads(case, mesh_h5)
+    solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
+    _running(cond, res)
     t0 = _time.perf_counter()
     say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
-    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: True)
+    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: _progress(cond, line))
     fluid_side = None
     timeout = settings["timeout"]
     # the solid publishes its address after its static stages (relaxation: no time limit known)
@@ -316,7 +355,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
                 f"log {work / 'fluid.log'}")
             fluid_side = _Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
             break
-        if solid.proc.poll() is not None:
+        if solid.proc.poll() is not None or children.stopping.is_set():
             break
         _time.sleep(0.05)
 
@@ -351,6 +390,8 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         failed = solid
     solid.close()
     wall = _time.perf_counter() - t0
+    if children.stopping.is_set():  # stopped by a signal: the supervisor says what and why
+        return 130, res, "interrupted"
     on = ""
     if ranks > 1:
         on = f" on {ranks} ranks"
@@ -367,13 +408,185 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
 
 
 def main(argv: list[str]) -> int:
+    """Validate, take the results folder (one run at a time), then do the job under a supervisor
+    that turns SIGINT, SIGTERM and SIGHUP into an orderly stop."""
+    import contextlib
+    import sys
+
+    from ..runlock import RunLockBusy, run_lock
+
     p = parser("run", __doc__)
     p.add_argument("--no-post", action="store_true", help="skip post-processing")
     args = p.parse_args(argv)
-    t0 = time.perf_counter()
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
+    with contextlib.ExitStack() as stack:
+        try:
+            note = stack.enter_context(run_lock(case.output_dir, "tunnelquake run " + " ".join(map(str, argv))))
+        except RunLockBusy as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+        if note:
+            say(f"note: {note}")
+        return _supervised(case, args)
+
+
+#: s the supervisor waits, after the children have ended, for the job's thread to wind down before
+#: it writes the statuses (a thread inside gmsh or the post-processing is left to the exit)
+JOB_WIND_DOWN_S = 3.0
+
+SIGNAL_NAMES = {2: "SIGINT", 15: "SIGTERM", 1: "SIGHUP"}
+
+
+class _Signalled(BaseException):
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+#: the phase the job is in, for the line printed when a signal stops it
+PHASE = ["starting"]
+
+
+def _supervised(case, args) -> int:
+    """Run the job in a thread while this (main) thread waits for it and for signals. On SIGINT,
+    SIGTERM or SIGHUP: stop every child (children.stop_all), mark each condition whose solver was
+    running as interrupted in its results file, print one line, return 128 + the signal number."""
+    import signal
+    import sys
+    import threading
+
+    from .common import QUIET
+
+    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
+        return _job(case, args)
+    box: dict = {}
+
+    def body() -> None:
+        try:
+            box["rc"] = _job(case, args)
+        except children.Interrupted:
+            box["rc"] = None
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread, raised there
+            box["exc"] = e
+
+    def on_signal(signum, frame):
+        for sig in SIGNAL_NAMES:  # a second signal while stopping changes nothing
+            signal.signal(sig, lambda *_: None)
+        raise _Signalled(signum)
+
+    t0 = time.monotonic()
+    before = {sig: signal.getsignal(sig) for sig in SIGNAL_NAMES}
+    children.stopping.clear()
+    QUIET.clear()
+    STARTED.clear()
+    PHASE[0] = "starting"
+    worker = threading.Thread(target=body, name="tunnelquake-run", daemon=True)
+    try:
+        for sig in SIGNAL_NAMES:
+            signal.signal(sig, on_signal)
+        worker.start()
+        while worker.is_alive():
+            worker.join(0.2)
+    except _Signalled as e:
+        QUIET.set()
+        stopped = children.stop_all()
+        worker.join(JOB_WIND_DOWN_S)
+        name = SIGNAL_NAMES[e.signum]
+        print(_interrupted_line(name, PHASE[0], _mark_interrupted(name), stopped, time.monotonic() - t0, case),
+              file=sys.stderr, flush=True)
+        return 128 + e.signum
+    finally:
+        for sig, handler in before.items():
+            signal.signal(sig, handler)
+        QUIET.clear()
+    if "exc" in box:
+        raise box["exc"]
+    return box["rc"] if box.get("rc") is not None else 1
+
+
+def _simulated_time(f) -> float | None:
+    """The last time all monitors of an open results file reached (None without a row)."""
+    from ..post import _advancing
+
+    ends = []
+    for g in f.get("monitors", {}).values():
+        if "time" not in g:
+            continue
+        t = g["time"][...].reshape(-1)
+        n = _advancing(t)
+        if n == 0:
+            return None
+        ends.append(float(t[n - 1]))
+    return min(ends) if ends else None
+
+
+def _mark_interrupted(signame: str) -> list[str]:
+    """Write status 'interrupted' into the results file of each condition whose solver this run
+    started and that did not finish; return "<condition> at t = <s> s" for each."""
+    import os
+
+    import h5py
+
+    from ..post import _planned_end
+
+    out = []
+    for cond, (res, before) in STARTED.items():
+        sig = _signature(res)
+        if sig is None or sig == before:
+            out.append(f"{cond} (its solver had not written {res.name} yet)")
+            continue
+        got = children.FORK_LOCK.acquire(timeout=2.0)
+        try:
+            with h5py.File(res, "a") as f:
+                status = f.attrs.get("status", b"")
+                status = status.decode() if isinstance(status, bytes) else str(status)
+                if status != "running":
+                    continue  # it ended by itself (completed, or stopped with its own reason)
+                rows_to = _simulated_time(f)
+                stages = len(f.get("stages", {}))
+                known = [x for x in (rows_to, PROGRESS.get(cond)) if x is not None]
+                t = max(known) if known else None
+                f.attrs["status"] = "interrupted"
+                f.attrs["interrupted_by"] = f"{signame} to tunnelquake run (pid {os.getpid()})"
+                if t is not None:
+                    f.attrs["interrupted_at"] = t
+        except (OSError, KeyError, ValueError) as e:
+            out.append(f"{cond} ({res.name} not marked: {e})")
+            continue
+        finally:
+            if got:
+                children.FORK_LOCK.release()
+        inp = res.parent / cond / "solid_input.h5"
+        planned = _planned_end(inp) if inp.is_file() else None
+        of = f" of {planned:g} s" if planned is not None else ""
+        if t is None:
+            out.append(f"{cond} {'in the shaking, no row written yet' if stages else 'in its static stages'}")
+        elif rows_to is None or rows_to < t:
+            rows = f"rows written to t = {rows_to:.4g} s" if rows_to is not None else "no row written yet"
+            out.append(f"{cond} at t = {t:.4g} s{of} ({rows})")
+        else:
+            out.append(f"{cond} at t = {t:.4g} s{of}")
+    return out
+
+
+def _interrupted_line(signame: str, phase: str, conds: list[str], stopped: dict, wall: float, case) -> str:
+    what = f"stopped {', '.join(conds)}" if conds else f"stopped while {phase}"
+    procs = ("every child process ended" if not stopped["left"] else
+             f"process group(s) {', '.join(map(str, stopped['left']))} still there after SIGKILL")
+    if stopped["killed"]:
+        procs += f" ({stopped['killed']} needed SIGKILL)"
+    variant = f" --variant {case.variant}" if case.variant else ""
+    kept = (f"; results so far kept with status 'interrupted' (`tunnelquake post {case.path}{variant}` reports them)"
+            if any(" at t = " in c or c.endswith((" no row written yet", " static stages")) for c in conds) else "")
+    return f"tunnelquake run: interrupted by {signame} after {wall:.1f} s: {what}; {procs}{kept}"
+
+
+def _job(case, args) -> int:
+    """The run itself: mesh, motion, the conditions, post. Raises children.Interrupted when a
+    signal stops it between steps."""
+    t0 = time.perf_counter()
     which = f" (variant {case.variant})" if case.variant else ""
     say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
@@ -382,6 +595,7 @@ def main(argv: list[str]) -> int:
 
     from .mesh import make_mesh
 
+    PHASE[0] = "meshing"
     summary = make_mesh(case)
     c = summary["counts"]
     done.append(f"mesh: {c['rock']} rock, {c['lining']} lining, {c['water']} water hexahedra "
@@ -389,6 +603,8 @@ def main(argv: list[str]) -> int:
 
     from .motion import make_motion, plot_motion
 
+    children.check()
+    PHASE[0] = "preparing the motion"
     try:
         motion, motion_file = make_motion(case)
     except MotionError as e:
@@ -398,6 +614,8 @@ def main(argv: list[str]) -> int:
     plot_motion(motion, fig)
     done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
 
+    children.check()
+    PHASE[0] = "running the conditions"
     status = solver_status()
     runnable: list[tuple[str, tuple]] = []
     for cond, parts in plan(case):
@@ -412,6 +630,8 @@ def main(argv: list[str]) -> int:
     def coupled(cond, parts):
         runs = " + ".join(parts)
         rc, res, why = run_coupled_condition(case, cond, motion_file)
+        if children.stopping.is_set():
+            return
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
         else:
@@ -421,6 +641,7 @@ def main(argv: list[str]) -> int:
         runs = " + ".join(parts)
         t1 = time.perf_counter()
         rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix)
+        children.check()
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         else:
@@ -438,7 +659,14 @@ def main(argv: list[str]) -> int:
 
         say(f"running {', '.join(c for c, _ in water)} beside {', '.join(c for c, _ in alone)} "
             f"({concurrent_conditions()} cores)")
-        thread = threading.Thread(target=lambda: [coupled(c, p) for c, p in water], daemon=True)
+        def beside():
+            try:
+                for c, p in water:
+                    coupled(c, p)
+            except children.Interrupted:
+                pass
+
+        thread = threading.Thread(target=beside, daemon=True)
         thread.start()
     else:
         for c, p in water:
@@ -448,6 +676,8 @@ def main(argv: list[str]) -> int:
     if thread is not None:
         thread.join()
 
+    children.check()
+    PHASE[0] = "post-processing"
     if not args.no_post:
         from .post import post_case
 
