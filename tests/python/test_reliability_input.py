@@ -1,0 +1,46 @@
+"""Case files that cannot be read as YAML text: `check` (and every subcommand, through the same
+loader) names the file, the problem and the fix, exits 1, and raises no traceback."""
+from __future__ import annotations
+
+import time
+
+from tunnelquake.cli import main
+
+
+def test_folder_named_case_yaml_is_said_to_be_a_folder(tmp_path, capsys):
+    (tmp_path / "case.yaml").mkdir()
+    for given in (tmp_path, tmp_path / "case.yaml"):
+        assert main(["check", str(given)]) == 1
+        err = capsys.readouterr().err
+        assert (f"error: {tmp_path / 'case.yaml'} is a folder, not a case file. Fix: give the case file itself, "
+                "or the folder holding it") in err
+
+
+def test_non_utf8_case_file_names_the_line_column_and_byte(tmp_path, capsys):
+    p = tmp_path / "case.yaml"
+    p.write_bytes(b"name: tunnel\ndescription: caf\xe9 au lait\n")
+    assert main(["check", str(p)]) == 1
+    err = capsys.readouterr().err
+    assert f"error: {p}: line 2, column 17: byte 0xe9 is not UTF-8 text. Fix: save the case file as UTF-8" in err
+
+
+def test_yaml_alias_bomb_is_refused_at_once(tmp_path, capsys):
+    """Nine levels of nine aliases stand for 9^9 (387 million) strings; refused before any
+    expansion, in well under a second."""
+    lines = ['a0: &a0 ["x","x","x","x","x","x","x","x","x"]']
+    lines += [f"a{k}: &a{k} [{','.join([f'*a{k - 1}'] * 9)}]" for k in range(1, 9)]
+    p = tmp_path / "case.yaml"
+    p.write_text("\n".join(lines) + "\n")
+    t0 = time.monotonic()
+    assert main(["check", str(p)]) == 1
+    assert time.monotonic() - t0 < 5.0
+    err = capsys.readouterr().err
+    assert (f"error: {p}: its YAML aliases (*name) expand to more than 100,000 values, or refer to themselves. "
+            "Fix: write the values out instead of nesting aliases") in err
+
+
+def test_self_referring_yaml_alias_is_refused(tmp_path, capsys):
+    p = tmp_path / "case.yaml"
+    p.write_text("loop: &loop [1, *loop]\n")
+    assert main(["check", str(p)]) == 1
+    assert "expand to more than 100,000 values, or refer to themselves" in capsys.readouterr().err
