@@ -103,6 +103,16 @@ def coupling_predictor(c: dict) -> str:
     return p
 
 
+def coupling_window_force_weight(c: dict) -> float:
+    """The window force weight a coupling section asks for; absent: 0.75 for implicit windows of several
+    steps (damps the period-two mode of the water's added mass; docs/coupler.md "Window force weight"),
+    0.5 otherwise (where a weight has no effect)."""
+    w = c.get("window_force_weight")
+    if w is None:
+        return 0.75 if c["scheme"] == "implicit" and int(c["window"]) > 1 else 0.5
+    return float(w)
+
+
 def _check_coupling(c, path, raw, ctx):
     if c.get("predictor") == "linear" and c["scheme"] != "implicit":
         ctx.error(f"{path}.predictor", c["predictor"], f"the linear predictor starts the iterations of the implicit "
@@ -111,7 +121,7 @@ def _check_coupling(c, path, raw, ctx):
     if c.get("reuse", 0) and (c["scheme"] != "implicit" or c["acceleration"] != "iqn-ils"):
         ctx.error(f"{path}.reuse", c["reuse"], "reuse keeps IQN-ILS columns from earlier windows",
                   "use scheme: implicit with acceleration: iqn-ils, or reuse: 0", raw.key_lines.get("reuse"))
-    if c.get("window_force_weight", 0.5) != 0.5 and (c["scheme"] != "implicit" or c["window"] == 1):
+    if c.get("window_force_weight") not in (None, 0.5) and (c["scheme"] != "implicit" or c["window"] == 1):
         why = (f"the {c['scheme']} scheme applies each answer of the water as it comes" if c["scheme"] != "implicit"
                else "a window of one step applies the window-end force alone")
         ctx.error(f"{path}.window_force_weight", c["window_force_weight"],
@@ -277,11 +287,13 @@ def schema() -> Section:
                                    doc="stop the run when the energy the coupling created exceeds this fraction "
                                        "of the largest interface work so far (docs/coupler.md \"Energy guard\"); "
                                        "0: no stop"),
-            "window_force_weight": Number(min=0.5, max=1.0, default=0.5,
+            "window_force_weight": Number(min=0.5, max=1.0, default=None,
                                           doc="implicit windows of several steps: weight of the window-end force "
                                               "in the force the solid's steps apply; 0.5: linear ramp from the "
-                                              "window's start force, 1: the end force held (damps the period-two "
-                                              "added-mass mode; docs/coupler.md \"Window force weight\")"),
+                                              "window's start force, 1: the end force held; default 0.75 for "
+                                              "implicit windows of several steps (damps the period-two mode of "
+                                              "the water's added mass; docs/coupler.md \"Window force weight\"), "
+                                              "0.5 otherwise"),
             "volume_law": Choice(choices=("solid", "water"), default="solid",
                                  doc="closed sections (a slice, or 3D with closed ends): who carries the "
                                      "uniform pressure of the enclosed water. solid: tq-solid, implicitly each "

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .case import coupling_window_force_weight
+
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
     "static_water": ("solid",),  # hydrostatic pressure as a static load: still no fluid process
@@ -61,7 +63,7 @@ def assess_slice(case) -> SliceAssessment:
             # Measured on the paper case in 3D (docs/stability.md "The paper case in 3D"): the linear ramp of
             # the window's force lets a period-two mode grow even in converged windows; 1e-3 let the closed
             # water column's axial breathing mode grow on energy the coupling created from 13.5 s.
-            if float(cs.get("window_force_weight", 0.5)) < 0.75:
+            if coupling_window_force_weight(cs) < 0.75:
                 advice.append("coupling.window_force_weight: 0.75 damps the period-two mode of the water's added "
                               "mass that the linear ramp (0.5) lets grow in 3D even in converged windows (paper case: "
                               "stopped at 0.066 s incompressible, at 4.8 s compressible with closed ends; with 0.75 "
@@ -118,10 +120,28 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
         dt_c = d["coupling"]["window"] * d["time"]["safety_factor"] * h1 / cp
         c_w = math.sqrt(w["bulk_modulus"] / w["density"])
         ratios["impedance"] = w["density"] * c_w * dt_c / m_g
+    # The enclosed water's volumetric stiffness 2K/R per wall area (p = -K dA/A, dA/A = 2u/R) against
+    # the wet nodes' mass: exchanged once a window it is a spring integrated with the window's step,
+    # stable while omega_v dt_c < 2 (measured on the example slice: K 2.2 GPa, 1.84, ran the record; 22 GPa,
+    # 5.8, stopped at 3.3 s; 220 GPa diverged at 0.08 s). The volume law in the solid takes it out of the
+    # exchange (docs/coupler.md "Volume law in the solid").
+    from .fluid_case import volume_law
+    law = volume_law(case)[0]
+    closed = d["mesh"]["mode"] == "slice" or w["ends"] == "closed"
+    if law == "none" and closed and w["model"] == "compressible" and "impedance" in ratios:
+        ratios["volume stiffness"] = math.sqrt(2 * w["bulk_modulus"] / (R * m_g)) * dt_c
     worst = ratios["mode 1"]
     staggered_ok = worst < 1 and ratios.get("impedance", 0.0) < 2
     stable = scheme == "implicit" or staggered_ok
-    if scheme == "implicit" and w["model"] == "incompressible" and worst >= 1:
+    if ratios.get("volume stiffness", 0.0) >= 2:
+        verdict = (f"the water's volumetric stiffness exchanged once a window (omega_v dt_c = "
+                   f"{ratios['volume stiffness']:.1f} >= 2) will make the coupling create energy or diverge: use "
+                   "coupling.volume_law: solid (the default), which carries it inside the solid's step")
+        stable = False
+    elif law != "none" and scheme == "implicit":
+        verdict = (f"the water's volume law is in the solid ({law}, any bulk modulus); the 'implicit' scheme "
+                   "iterates the remaining added mass each window: stable")
+    elif scheme == "implicit" and w["model"] == "incompressible" and worst >= 1:
         # measured on the paper case in 3D (docs/stability.md "The paper case in 3D with incompressible water")
         verdict = (f"the 'implicit' scheme iterates each window, but with incompressible water at added-mass "
                    f"ratio {worst:.1f} expect many passes (the paper case: 12 a step with one-step windows, and "

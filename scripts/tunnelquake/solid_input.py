@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .case import coupling_predictor
+from .case import coupling_predictor, coupling_window_force_weight
 
 FORMAT = "tunnelquake-solid-input"
 VERSION = 2
@@ -220,8 +220,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             c.attrs["window"] = int(cs["window"])
             c.attrs["tolerance"] = float(cs["tolerance"])
             c.attrs["max_iterations"] = int(cs["max_iterations"])
-            if float(cs.get("window_force_weight", 0.5)) != 0.5:  # absent = 0.5, the linear ramp
-                c.attrs["window_force_weight"] = float(cs["window_force_weight"])
+            if coupling_window_force_weight(cs) != 0.5:  # absent in the solid input = 0.5, the linear ramp
+                c.attrs["window_force_weight"] = coupling_window_force_weight(cs)
             if float(cs.get("energy_limit", 0)) > 0:  # absent = no energy guard
                 c.attrs["energy_limit"] = float(cs["energy_limit"])
             c.attrs["acceleration"] = cs["acceleration"]

@@ -284,14 +284,21 @@ struct FluidCoupling::Impl {
   /// the window-end motion instead would leave a drift ∝ (k − 1) steps × ∫ R·a (the added mass
   /// m_a ∫a² dt) that is an artefact of the bookkeeping, not of the exchange. `st` holds u^n of the
   /// window's last step (one step before its end); for k = 1 this is bookReceivedWork().
+  /// The window's two forces are weighted as the solid's steps weight them: step j applies
+  /// F_w + w_j (F̃ − F_w) and books ½(F_j + F_{j−1}) on its increment, so over a window whose motion is
+  /// even the solid's work is [(1 − β̄) F_w + β̄ F̃]·Δu with β̄ = ((k − 1) β + ½)/k (β the
+  /// window_force_weight; ½ for the linear ramp: the trapezoid). Booking the water's side with the same
+  /// β̄ keeps E_c a measure of the exchange's own inconsistency; with the trapezoid a weight β > ½ would
+  /// show up as energy created, (β̄ − ½) Σ ΔF·Δu, although the water and the solid agree.
   void bookReceivedWorkWindow(const NodalState& st) {
     const Real* u = st.uData();
+    const Real k = Real(in.windowSteps), bbar = ((k - 1) * in.windowForceWeight + 0.5) / k;
     Real wf = 0;
-    for (size_t k = 0; k < nodes.size(); ++k)
+    for (size_t k3 = 0; k3 < nodes.size(); ++k3)
       for (int d = 0; d < 3; ++d) {
-        const size_t j = 3 * k + size_t(d);
-        const Real lag = u[3 * size_t(nodes[k]) + size_t(d)] - u0[j];
-        wf -= 0.5 * (received[j] + recvPrev[j]) * (lag - lagPrev[j]);
+        const size_t j = 3 * k3 + size_t(d);
+        const Real lag = u[3 * size_t(nodes[k3]) + size_t(d)] - u0[j];
+        wf -= (bbar * received[j] + (1 - bbar) * recvPrev[j]) * (lag - lagPrev[j]);
         lagPrev[j] = lag;
       }
     fluidReceived += wf;
