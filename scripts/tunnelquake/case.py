@@ -301,6 +301,13 @@ def schema() -> Section:
                                      "sending the rest; stable for any bulk modulus. water: OpenFOAM's whole "
                                      "pressure (compressible water only; docs/coupler.md \"Volume law in the "
                                      "solid\")"),
+            "water_translation": Choice(choices=("solid", "water"), default="solid",
+                                        doc="with the volume law in the solid: who carries the water's rigid "
+                                            "translation in the section's plane (its whole mass moving with the "
+                                            "section's mean motion). solid: tq-solid, implicitly, so the water "
+                                            "solver sees only the lining's deformation (any ground displacement); "
+                                            "water: the water solver (docs/coupler.md \"Volume law in the "
+                                            "solid\")"),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
             "reuse": Number(integer=True, min=0, max=1000, default=0,
                             doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "

@@ -133,6 +133,8 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "partner": "fluid",
         "volume_law": volume_law(case)[0],
         "bulk_modulus": volume_law(case)[1],
+        "water_density": (float(d["water"]["density"]) if volume_law(case)[0] != "none"
+                          and cs.get("water_translation", "solid") == "solid" else 0.0),
     }
 
 
@@ -151,6 +153,8 @@ def solid_coupling_attrs(s: dict) -> dict:
     if s.get("volume_law", "none") != "none":  # absent = none: the water sends its whole pressure
         out["volume_law"] = s["volume_law"]
         out["bulk_modulus"] = float(s["bulk_modulus"])
+        if s.get("water_density", 0.0) > 0:  # absent: the exchange carries the water's translation
+            out["water_density"] = float(s["water_density"])
     return out
 
 

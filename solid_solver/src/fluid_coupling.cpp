@@ -115,6 +115,20 @@ struct FluidCoupling::Impl {
   std::vector<Real> scratchU, scratchV, sent;
   Real gg = 0;                         // g·g (m⁴)
   Real pv = 0, pvPrev = 0, volumeWork = 0;
+  // The water's rigid translation in the section's plane (x, z), carried here too when
+  // /coupling water_density is given: the water's mean displacement is ū = T u = (1/V) Σ r_i (g_i·u_i)
+  // (r_i = x_i − c, c the water's centroid; exact for incompressible water, ∫u dV = ∮ (x − c) u·n dA),
+  // and its force on the wall is the pressure p = r·λ/V with resultant λ = −ρ_w V ā, ā = T a, implicit
+  // in the step like p_v. The exchange then carries neither the volume change nor the translation.
+  bool translation = false;
+  Real rhoW = 0;
+  std::vector<Real> r;                 // [2n] (x − c, z − c) of each wet node
+  Real lam[2] = {0, 0}, lamPrev[2] = {0, 0};  // N: the water's in-plane resultant −ρ V ā this step
+  // The oblique projection the exchange sees: P u = u − B C⁻¹ Aᵀu removes the carried modes from a
+  // motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u and T u), Pᵀ F = F −
+  // A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
+  int modes = 0;
+  Real Cinv[3][3] = {};
   std::vector<Real> total;             // [3n] force added this step: the water's answer + p_v g
 
   explicit Impl(Solver& s) : solver(s) {}
@@ -156,35 +170,154 @@ struct FluidCoupling::Impl {
     kappa = incompressible ? 0.0 : in.bulkModulus / volume;
     gg = 0;
     for (Real x : g) gg += x * x;
+    translation = in.waterDensity > 0;
+    rhoW = in.waterDensity;
+    r.assign(2 * n, 0.0);
+    if (translation) {
+      // the water's centroid: ∫x_k dA = ⅓ ∮ x_k (x − o)⊥·n (o any point; the section's plane)
+      Real cw[3] = {0, 0, 0};
+      for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+        Real d1[3], d2[3], sq[3], xq[3] = {0, 0, 0};
+        for (int d = 0; d < 3; ++d) {
+          d1[d] = x(quads[q + 2], d) - x(quads[q], d);
+          d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
+          for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
+        }
+        sq[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
+        sq[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
+        const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);
+        const Real sign = radial < 0 ? -1.0 : 1.0;
+        for (int d : {0, 2}) cw[d] += sign * (xq[d] - c[d]) * radial / 3;
+      }
+      for (int d : {0, 2}) cw[d] = c[d] + cw[d] / volume;
+      for (size_t k = 0; k < n; ++k) {
+        r[2 * k] = x(nodes[k], 0) - cw[0];
+        r[2 * k + 1] = x(nodes[k], 2) - cw[2];
+      }
+    }
+    buildProjection();
     respU.assign(3 * n, 0.0);
     respV.assign(3 * n, 0.0);
     scratchU.assign(3 * n, 0.0);
     scratchV.assign(3 * n, 0.0);
   }
 
-  /// The volume law on a prediction (predict() just made `du`, `dv` = u^{n+1} − u0 and v^{n+½} with
-  /// the other forces): the uniform pressure p_v the step's volume change calls for, and the
-  /// prediction corrected by it (the update is linear in the force: u += respU p_v g). Returns p_v.
-  Real applyVolumeLaw(std::vector<Real>& du, std::vector<Real>& dv) const {
-    Real s = 0, cc = 0;
-    for (size_t j = 0; j < g.size(); ++j) {
-      s += g[j] * du[j];
-      cc += g[j] * g[j] * respU[j];
+  /// The carried laws on a prediction (predict() just made `du`, `dv` = u^{n+1} − u0 and v^{n+½} with
+  /// the other forces; `v` = v^{n−½}): the correction is the pressure field p_c(x) = p_v + r·λ/V on the
+  /// wet nodes (force g_i p_c(x_i), response respU/respV: the update is linear in the force), with
+  ///   volume:       p_v = −κ s^{n+1} (incompressible: s^{n+1} = 0),  s^{n+1} = g·du after the correction;
+  ///   translation:  λ = −ρ V ā,  ā = T (v^{n+½} − v^{n−½})/Δt after the correction;
+  /// three linear equations in (p_v, λ_x, λ_z) (one without the translation). Returns p_v, sets λ.
+  Real applyCarriedLaws(Real dt, const Real* v, std::vector<Real>& du, std::vector<Real>& dv, Real* lamOut) const {
+    Real sstar = 0, SU = 0, SUr[2] = {0, 0}, SVr[2] = {0, 0}, SVrr[2][2] = {{0, 0}, {0, 0}}, a0[2] = {0, 0};
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      Real qU = 0, qV = 0, gdv = 0;
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        sstar += g[j] * du[j];
+        qU += g[j] * g[j] * respU[j];
+        qV += g[j] * g[j] * respV[j];
+        gdv += g[j] * (dv[j] - v[3 * size_t(nodes[k]) + size_t(d)]);
+      }
+      SU += qU;
+      if (!translation) continue;
+      for (int a = 0; a < 2; ++a) {
+        const Real ra = r[2 * k + size_t(a)];
+        SUr[a] += qU * ra;
+        SVr[a] += qV * ra;
+        a0[a] += ra * gdv / volume;
+        for (int b = 0; b < 2; ++b) SVrr[a][b] += qV * ra * r[2 * k + size_t(b)];
+      }
     }
-    if (!(cc > 0)) return 0;
-    // s^{n+1} = s + cc p_v; compressible p_v = −κ s^{n+1}; incompressible s^{n+1} = 0.
-    const Real p = incompressible ? -s / cc : -kappa * s / (1 + kappa * cc);
-    for (size_t j = 0; j < g.size(); ++j) {
-      du[j] += respU[j] * g[j] * p;
-      dv[j] += respV[j] * g[j] * p;
+    if (!(SU > 0)) return 0;
+    Real p = 0, lx = 0, lz = 0;
+    if (!translation) {
+      // s^{n+1} = s* + SU p_v
+      p = incompressible ? -sstar / SU : -kappa * sstar / (1 + kappa * SU);
+    } else {
+      Real M[3][4] = {};
+      if (incompressible) {
+        M[0][0] = SU, M[0][1] = SUr[0] / volume, M[0][2] = SUr[1] / volume, M[0][3] = -sstar;
+      } else {
+        M[0][0] = 1 + kappa * SU, M[0][1] = kappa * SUr[0] / volume, M[0][2] = kappa * SUr[1] / volume;
+        M[0][3] = -kappa * sstar;
+      }
+      const Real f = rhoW / dt;
+      for (int a = 0; a < 2; ++a) {
+        M[1 + a][0] = f * SVr[a];
+        for (int b = 0; b < 2; ++b) M[1 + a][1 + b] = (a == b ? 1.0 : 0.0) + f * SVrr[a][b] / volume;
+        M[1 + a][3] = -f * volume * a0[a];
+      }
+      solve3(M);
+      p = M[0][3], lx = M[1][3], lz = M[2][3];
     }
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Real pc = translation ? p + (r[2 * k] * lx + r[2 * k + 1] * lz) / volume : p;
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        du[j] += respU[j] * g[j] * pc;
+        dv[j] += respV[j] * g[j] * pc;
+      }
+    }
+    if (lamOut) lamOut[0] = lx, lamOut[1] = lz;
     return p;
+  }
+
+  /// Gauss–Jordan with partial pivoting on a 3 × 4 augmented matrix; the solution ends in column 3.
+  static void solve3(Real M[3][4]) {
+    for (int c = 0; c < 3; ++c) {
+      int piv = c;
+      for (int q = c + 1; q < 3; ++q)
+        if (std::abs(M[q][c]) > std::abs(M[piv][c])) piv = q;
+      for (int k = 0; k < 4; ++k) std::swap(M[c][k], M[piv][k]);
+      for (int q = 0; q < 3; ++q)
+        if (q != c) {
+          const Real f = M[q][c] / M[c][c];
+          for (int k = c; k < 4; ++k) M[q][k] -= f * M[c][k];
+        }
+    }
+    for (int q = 0; q < 3; ++q) M[q][3] /= M[q][q];
+  }
+
+  /// C = AᵀB of the carried modes and its inverse (see `Cinv`).
+  void buildProjection() {
+    modes = translation ? 3 : 1;
+    Real C[3][3] = {};
+    // columns of B: g, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z
+    auto Bcol = [&](int m, size_t k, int d) -> Real {
+      if (m == 0) return g[3 * k + size_t(d)];
+      return (m == 1 && d == 0) || (m == 2 && d == 2) ? 1.0 : 0.0;
+    };
+    auto Arow = [&](int m, size_t k, int d) -> Real {
+      if (m == 0) return g[3 * k + size_t(d)];
+      return r[2 * k + size_t(m - 1)] * g[3 * k + size_t(d)] / volume;
+    };
+    for (int a = 0; a < modes; ++a)
+      for (int b = 0; b < modes; ++b)
+        for (size_t k = 0; k < nodes.size(); ++k)
+          for (int d = 0; d < 3; ++d) C[a][b] += Arow(a, k, d) * Bcol(b, k, d);
+    for (int a = 0; a < modes; ++a) {  // invert by solving C x = e_b
+      for (int b = 0; b < modes; ++b) Cinv[a][b] = 0;
+    }
+    if (modes == 1) {
+      Cinv[0][0] = 1 / C[0][0];
+      return;
+    }
+    for (int b = 0; b < 3; ++b) {
+      Real M[3][4];
+      for (int a = 0; a < 3; ++a) {
+        for (int c2 = 0; c2 < 3; ++c2) M[a][c2] = C[a][c2];
+        M[a][3] = a == b ? 1.0 : 0.0;
+      }
+      solve3(M);
+      for (int a = 0; a < 3; ++a) Cinv[a][b] = M[a][3];
+    }
   }
 
   /// predict() with the volume law: `disp`/`vel` hold the motion of the force F plus p_v g.
   void predictWithLaw(Real dt, const NodalState& st, const std::vector<Real>& F) {
     predict(dt, st, F, disp, vel);
-    if (volumeLaw) applyVolumeLaw(disp, vel);
+    if (volumeLaw) applyCarriedLaws(dt, st.vData(), disp, vel, nullptr);
   }
 
   [[noreturn]] void fail(const std::string& what, const std::exception& e) {
@@ -312,7 +445,9 @@ struct FluidCoupling::Impl {
   /// grows on energy the scheme makes (the 3D paper case with 16-step windows at 1e-3 did so from
   /// 13.5 s, slowly and without the sign alternation the divergence detection looks for).
   void guardEnergy() {
-    workPeak = std::max({workPeak, std::abs(work), std::abs(fluidReceived)});
+    // the interface work: the exchanged force's, on either side, or all the water's force on the wall
+    // (the exchanged part plus what the solid carries: the volume law and the translation)
+    workPeak = std::max({workPeak, std::abs(work), std::abs(fluidReceived), std::abs(work + volumeWork)});
     if (!(in.energyLimit > 0)) return;
     const Real ref = std::max(workPeak, energyFloor), ec = work + fluidReceived;
     if (!(ref > 0)) return;
@@ -343,13 +478,36 @@ struct FluidCoupling::Impl {
     }
   }
 
-  /// With the volume law the exchange leaves the volume mode to the solid: x − g (g·x)/(g·g), the
-  /// part of a motion that changes no volume, or of a force that does no work on a volume change.
-  void removeVolumeMode(std::vector<Real>& x) const {
-    Real gx = 0;
-    for (size_t j = 0; j < g.size(); ++j) gx += g[j] * x[j];
-    const Real c = gx / gg;
-    for (size_t j = 0; j < g.size(); ++j) x[j] -= c * g[j];
+  /// With the volume law the exchange leaves the carried modes to the solid: a motion sent loses them
+  /// (P u: no volume change, and no translation of the water), a force read loses what would work on
+  /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
+  void projectMotion(std::vector<Real>& x) const {
+    Real m[3] = {0, 0, 0}, c[3] = {0, 0, 0};
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int d = 0; d < 3; ++d) {
+        const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
+        m[0] += gv * xv;
+        if (modes == 3) m[1] += r[2 * k] * gv * xv / volume, m[2] += r[2 * k + 1] * gv * xv / volume;
+      }
+    for (int a = 0; a < modes; ++a)
+      for (int b = 0; b < modes; ++b) c[a] += Cinv[a][b] * m[b];
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
+      if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
+    }
+  }
+  void projectForce(std::vector<Real>& f) const {
+    Real m[3] = {0, 0, 0}, c[3] = {0, 0, 0};
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      for (int d = 0; d < 3; ++d) m[0] += g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
+      if (modes == 3) m[1] += f[3 * k], m[2] += f[3 * k + 2];
+    }
+    for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
+      for (int b = 0; b < modes; ++b) c[a] += Cinv[b][a] * m[b];
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Real pc = c[0] + (modes == 3 ? (c[1] * r[2 * k] + c[2] * r[2 * k + 1]) / volume : 0.0);
+      for (int d = 0; d < 3; ++d) f[3 * k + size_t(d)] -= pc * g[3 * k + size_t(d)];
+    }
   }
 
   void write() {
@@ -360,7 +518,7 @@ struct FluidCoupling::Impl {
       }
       // The water sees the wall's motion less its volume change (the solid carries that mode).
       sent = name == "velocity" ? vel : disp;
-      removeVolumeMode(sent);
+      projectMotion(sent);
       p->writeData(in.mesh, name, sent);
     }
   }
@@ -368,7 +526,7 @@ struct FluidCoupling::Impl {
   /// The water's answer; with the volume law, less its part along g (the solid's mode).
   void read() {
     p->readData(in.mesh, "force", received);
-    if (volumeLaw) removeVolumeMode(received);
+    if (volumeLaw) projectForce(received);
   }
 };
 
@@ -624,7 +782,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   // exchanged force), implicit in this step's motion.
   if (I.volumeLaw) {
     I.predict(dt, st, I.force, I.scratchU, I.scratchV);
-    I.pv = I.applyVolumeLaw(I.scratchU, I.scratchV);
+    I.pv = I.applyCarriedLaws(dt, st.vData(), I.scratchU, I.scratchV, I.lam);
   }
   // Add R3 (+ p_v g) and book the work of each over u^{n−1} → u^n exactly as the solver books f_ext
   // (trapezoid).
@@ -639,9 +797,12 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       fe[i] += I.force[j];
       w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
       if (I.volumeLaw) {
-        fe[i] += I.pv * I.g[j];
-        I.total[j] += I.pv * I.g[j];
-        wv += 0.5 * (I.pv + I.pvPrev) * I.g[j] * I.dtPrev * v[i];
+        const Real* rk = I.translation ? &I.r[2 * k] : nullptr;
+        const Real pc = I.pv + (rk ? (rk[0] * I.lam[0] + rk[1] * I.lam[1]) / I.volume : 0.0);
+        const Real pcPrev = I.pvPrev + (rk ? (rk[0] * I.lamPrev[0] + rk[1] * I.lamPrev[1]) / I.volume : 0.0);
+        fe[i] += pc * I.g[j];
+        I.total[j] += pc * I.g[j];
+        wv += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
       }
     }
   (void)n3;
@@ -649,6 +810,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.volumeWork += wv;
   I.prev = I.force;
   I.pvPrev = I.pv;
+  I.lamPrev[0] = I.lam[0], I.lamPrev[1] = I.lam[1];
   I.dtPrev = dt;
   if (windowEnded) I.guardEnergy();
 }
@@ -662,6 +824,10 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   a.io(I.stepInWindow);
   a.io(I.pv);
   a.io(I.pvPrev);
+  a.io(I.lam[0]);
+  a.io(I.lam[1]);
+  a.io(I.lamPrev[0]);
+  a.io(I.lamPrev[1]);
   a.io(I.volumeWork);
   a.io(I.total);
 }
@@ -723,6 +889,7 @@ std::string FluidCoupling::describe() const {
   if (I.volumeLaw) {
     os << "; volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
     if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
+    if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
   }
   return os.str();
 }

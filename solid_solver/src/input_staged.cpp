@@ -267,7 +267,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
                        "absolute_tolerance_force", "energy_limit", "energy_floor", "window_force_weight",
-                       "volume_law", "bulk_modulus"});
+                       "volume_law", "bulk_modulus", "water_density"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -338,6 +338,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.bulkModulus = number(c, g, w, "bulk_modulus", 0, 0);
     if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))
       c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
+    C.waterDensity = number(c, g, w, "water_density", 0, 0);
+    if (C.waterDensity > 0 && C.volumeLaw == "none")
+      c.fail(w, "water_density (the water's translation carried by the solid) needs a volume_law (a closed "
+                "section); leave it out");
     if (C.windowSteps > 1 && C.scheme == "paper")
       c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
                 "paper scheme's two passes are made for one-step windows); use window 1");
@@ -424,6 +428,7 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     if (C.volumeLaw != "none") {
       h5::writeStringAttr(g, "volume_law", C.volumeLaw);
       h5::writeDoubleAttr(g, "bulk_modulus", C.bulkModulus);
+      if (C.waterDensity > 0) h5::writeDoubleAttr(g, "water_density", C.waterDensity);
     }
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);

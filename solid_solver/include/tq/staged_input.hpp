@@ -131,6 +131,9 @@ struct CouplingInput {
   /// water side sends its pressure less its wall mean. The tunnel's axis is y (mesh.h5's frame).
   std::string volumeLaw = "none";
   Real bulkModulus = 0;                   ///< Pa: the law's K (compressible)
+  /// kg/m³: with a volume law, the water's in-plane rigid translation is carried by the solid too (its
+  /// mass ρ_w V, implicit; the exchange carries neither mode); 0 = the exchange carries it.
+  Real waterDensity = 0;
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
