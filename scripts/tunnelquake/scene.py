@@ -139,7 +139,9 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
                    "coupling.volume_law: solid (the default), which carries it inside the solid's step")
         stable = False
     elif law != "none" and scheme == "implicit":
-        verdict = (f"the water's volume law is in the solid ({law}, any bulk modulus); the 'implicit' scheme "
+        carried = ("volume law and its translation (mode 1) are" if d["coupling"]["water_translation"] == "solid"
+                   else "volume law is")
+        verdict = (f"the water's {carried} in the solid ({law}, any bulk modulus); the 'implicit' scheme "
                    "iterates the remaining added mass each window: stable")
     elif scheme == "implicit" and w["model"] == "incompressible" and worst >= 1:
         # measured on the paper case in 3D (docs/stability.md "The paper case in 3D with incompressible water")

@@ -113,7 +113,6 @@ struct FluidCoupling::Impl {
   std::vector<Real> g;                 // [3n] m²
   std::vector<Real> respU, respV;      // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
   std::vector<Real> scratchU, scratchV, sent;
-  Real gg = 0;                         // g·g (m⁴)
   Real pv = 0, pvPrev = 0, volumeWork = 0;
   // The water's rigid translation in the section's plane (x, z), carried here too when
   // /coupling water_density is given: the water's mean displacement is ū = T u = (1/V) Σ r_i (g_i·u_i)
@@ -136,7 +135,7 @@ struct FluidCoupling::Impl {
   /// g and V from the wetted face's quads: each quad's area vector (half the cross product of its
   /// diagonals) oriented away from the wetted section's centroid, a quarter to each corner; V is
   /// ½ Σ S_q·(x_q − c)⊥ (the divergence of the in-section position is 2: the section's area times
-  /// the length along the axis y).
+  /// the length along the axis y), and the water's centroid c_w from ∫(x − c)_k dV = ⅓ ∮ (x − c)_k (x − c)⊥·n.
   void buildVolumeLaw(const Mesh& mesh) {
     const size_t n = nodes.size();
     g.assign(3 * n, 0.0);
@@ -146,6 +145,7 @@ struct FluidCoupling::Impl {
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
     const auto& quads = mesh.faces.at(in.face);
     volume = 0;
+    Real cw[3] = {0, 0, 0};
     for (size_t q = 0; q + 3 < quads.size(); q += 4) {
       Real d1[3], d2[3], sq[3], xq[3] = {0, 0, 0};
       for (int d = 0; d < 3; ++d) {
@@ -159,6 +159,7 @@ struct FluidCoupling::Impl {
       const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);  // (x − c)⊥, axis y
       const Real sign = radial < 0 ? -1.0 : 1.0;
       volume += 0.5 * sign * radial;
+      for (int d : {0, 2}) cw[d] += sign * (xq[d] - c[d]) * radial / 3;
       for (int k = 0; k < 4; ++k) {
         const size_t j = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
         for (int d = 0; d < 3; ++d) g[3 * j + size_t(d)] += 0.25 * sign * sq[d];
@@ -168,32 +169,13 @@ struct FluidCoupling::Impl {
       throw InputError("/coupling volume_law: the face '" + in.face + "' encloses no volume about the axis y (" +
                        std::to_string(volume) + " m³); the volume law needs the wetted face of a closed section");
     kappa = incompressible ? 0.0 : in.bulkModulus / volume;
-    gg = 0;
-    for (Real x : g) gg += x * x;
     translation = in.waterDensity > 0;
     rhoW = in.waterDensity;
     r.assign(2 * n, 0.0);
-    if (translation) {
-      // the water's centroid: ∫x_k dA = ⅓ ∮ x_k (x − o)⊥·n (o any point; the section's plane)
-      Real cw[3] = {0, 0, 0};
-      for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-        Real d1[3], d2[3], sq[3], xq[3] = {0, 0, 0};
-        for (int d = 0; d < 3; ++d) {
-          d1[d] = x(quads[q + 2], d) - x(quads[q], d);
-          d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
-          for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
-        }
-        sq[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
-        sq[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
-        const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);
-        const Real sign = radial < 0 ? -1.0 : 1.0;
-        for (int d : {0, 2}) cw[d] += sign * (xq[d] - c[d]) * radial / 3;
-      }
-      for (int d : {0, 2}) cw[d] = c[d] + cw[d] / volume;
-      for (size_t k = 0; k < n; ++k) {
-        r[2 * k] = x(nodes[k], 0) - cw[0];
-        r[2 * k + 1] = x(nodes[k], 2) - cw[2];
-      }
+    for (int d : {0, 2}) cw[d] = c[d] + cw[d] / volume;
+    for (size_t k = 0; k < n; ++k) {
+      r[2 * k] = x(nodes[k], 0) - cw[0];
+      r[2 * k + 1] = x(nodes[k], 2) - cw[2];
     }
     buildProjection();
     respU.assign(3 * n, 0.0);
