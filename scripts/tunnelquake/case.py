@@ -443,27 +443,46 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
         if h is not None and h > cs / (8 * f):
             warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}/(8*{f:g}) "
                             f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
-    # The ground-motion record must exist and parse (unless the case allows the synthetic fallback).
-    gm = d["ground_motion"]
-    if gm["source"] == "file":
-        from .motion import MotionError, read_record, resolve_path
+    issues += _record_checks(d["ground_motion"], raw, filename, warnings)
+    return issues, warnings
 
+
+def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:
+    """The ground-motion record must exist (unless the case allows the synthetic fallback), parse
+    with finite values and a header that agrees with its data, and last the window
+    `ground_motion.duration`: everything `tunnelquake motion` would refuse, or use without a word."""
+    from .motion import MotionError, check_covers, read_record, resolve_path
+
+    section = raw.get("ground_motion") if isinstance(raw.get("ground_motion"), LineDict) else None
+    key_lines = section.key_lines if section is not None else {}
+    gm_line = key_lines.get("file")
+    record = None
+    if gm["source"] == "file":
         path = resolve_path(gm["file"], Path(filename).parent)
-        gm_line = raw["ground_motion"].key_lines.get("file") if "ground_motion" in raw else None
         if not path.is_file():
             if gm["if_missing"] == "synthetic":
                 warnings.append(f"ground_motion.file {path} is not here: the synthetic motion will be used")
             else:
-                issues.append(Issue("ground_motion.file", gm["file"], f"file not found ({path})",
-                                    "give the record's path relative to the case file, or set "
-                                    "if_missing: synthetic", gm_line))
+                return [Issue("ground_motion.file", gm["file"], f"file not found ({path})",
+                              "give the record's path relative to the case file, or set if_missing: synthetic",
+                              gm_line)]
         else:
             try:
-                read_record(path, gm["format"], gm["units"])
+                record = read_record(path, gm["format"], gm["units"])
             except MotionError as e:
-                issues.append(Issue("ground_motion.file", gm["file"], f"cannot be read: {e}",
-                                    "check the format and units keys, or the file itself", gm_line))
-    return issues, warnings
+                return [Issue("ground_motion.file", gm["file"], f"cannot be read: {e.problem}",
+                              e.fix or "check the format and units keys, or the file itself", gm_line)]
+    if record is None:  # the synthetic motion: its length, without generating it
+        syn = gm["synthetic"]
+        npts, dt, source = int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic"
+    else:
+        npts, dt, source = record.npts, record.dt, record.source
+    try:
+        check_covers(npts, dt, gm["duration"], source)
+    except MotionError as e:
+        return [Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
+                      key_lines.get("duration") or gm_line)]
+    return []
 
 
 def _merge(base, over):

@@ -28,6 +28,7 @@ Processing (in this order, as the paper: 20 s window, > 20 Hz removed, PGA 1.575
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,7 +39,13 @@ from .units import STANDARD_GRAVITY
 
 
 class MotionError(ValueError):
-    """A record that cannot be read; the message names the file, the line and the problem."""
+    """A record that cannot be read; the message names the file, the line and the problem, and
+    `fix` (when given) what to do about it."""
+
+    def __init__(self, problem: str, fix: str | None = None):
+        super().__init__(problem if fix is None else f"{problem}. Fix: {fix}")
+        self.problem = problem
+        self.fix = fix
 
 
 @dataclass
@@ -79,6 +86,36 @@ def _units_from_header(header: list[str]) -> str | None:
     return None
 
 
+#: Other places an AT2 file states its step or its point count: the header's words
+#: ("1559 points at equal spacing of 0.02 sec") and a PEER-style file name ("..._dt0.02.AT2").
+_SPACING_WORDS = re.compile(r"(?:spacing|interval|time step|step)\s+(?:of\s+)?(\d*\.?\d+(?:[Ee][-+]?\d+)?)\s*"
+                            r"(?:s|sec|secs|seconds)\b", re.I)
+_POINTS_WORDS = re.compile(r"\b(\d+)\s+(?:points|values|samples)\b", re.I)
+_DT_IN_NAME = re.compile(r"(?:^|[_\-.])dt[_=]?(\d*\.?\d+)(?=[_\-.]|$)", re.I)
+
+
+def _check_header_step(path: Path, header: list[str], npts: int, dt: float) -> None:
+    """Refuse an AT2 file whose 'NPTS=..., DT=...' line disagrees with what the rest of its header,
+    or its name, says about the step or the number of points."""
+    for k, ln in enumerate(header[:3], start=1):
+        if _NPTS_DT.search(ln) or _NPTS_DT_NGA.search(ln):
+            continue
+        m = _SPACING_WORDS.search(ln)
+        if m and not math.isclose(float(m.group(1)), dt, rel_tol=1e-6):
+            raise MotionError(f"{path}:4: header says DT={dt:g} s, but line {k} says {m.group(0).strip()!r}: the "
+                              "values would be played at the wrong speed",
+                              "make DT on line 4 the record's true sampling step")
+        m = _POINTS_WORDS.search(ln)
+        if m and int(m.group(1)) != npts:
+            raise MotionError(f"{path}:4: header says NPTS={npts}, but line {k} says {m.group(0).strip()!r}",
+                              "make NPTS on line 4 the record's true number of values")
+    m = _DT_IN_NAME.search(path.stem)
+    if m and not math.isclose(float(m.group(1)), dt, rel_tol=1e-6):
+        raise MotionError(f"{path}:4: header says DT={dt:g} s, but the file name says dt {m.group(1)} s: the values "
+                          "would be played at the wrong speed",
+                          "make DT on line 4 the record's true sampling step (and the file name agree with it)")
+
+
 def read_at2(path: str | Path, units: str | None = None) -> Record:
     """Read a PEER AT2 acceleration record. ``units`` overrides what the header says."""
     path = Path(path)
@@ -103,23 +140,44 @@ def read_at2(path: str | Path, units: str | None = None) -> Record:
         raise MotionError(f"{path}: the header does not state the units; give them (ground_motion.units)")
     if unit not in _UNIT_FACTORS:
         raise MotionError(f"{path}: unknown units '{unit}' (use one of {', '.join(_UNIT_FACTORS)})")
+    _check_header_step(path, header, npts, dt)
     values: list[float] = []
+    value_lines: list[int] = []  # the file line of each value, for messages
+    per_line = 0  # values on the last full data line (fixed-width files pad the last one with zeros)
     for k, ln in enumerate(lines[4:], start=5):
         if not ln.strip():
             continue
         try:
-            values.extend(float(v) for v in ln.split())
+            row = [float(v) for v in ln.split()]
         except ValueError:
             # fixed-width columns that run together (e.g. 8F10.5 with large negative values)
             try:
-                values.extend(float(ln[i:i + 10]) for i in range(0, len(ln.rstrip()), 10))
+                row = [float(ln[i:i + 10]) for i in range(0, len(ln.rstrip()), 10)]
             except ValueError as e:
                 raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+        if len(values) < npts:
+            per_line = len(row)
+        values.extend(row)
+        value_lines.extend([k] * len(row))
+    length = npts * dt
     if len(values) < npts:
-        raise MotionError(f"{path}: header says NPTS={npts} but the file holds {len(values)} values")
+        raise MotionError(f"{path}: header says NPTS={npts}, DT={dt:g} s (a record of {length:g} s) but the file "
+                          f"holds {len(values)} values ({len(values) * dt:g} s at that DT)",
+                          "correct NPTS in the header (line 4) or restore the missing values")
+    extra = values[npts:]
+    if extra and not (len(extra) < max(per_line, 2) and all(v == 0.0 for v in extra)):
+        raise MotionError(f"{path}:{value_lines[npts]}: header says NPTS={npts}, DT={dt:g} s (a record of "
+                          f"{length:g} s) but the file holds {len(values)} values ({len(values) * dt:g} s at that "
+                          f"DT); the values from line {value_lines[npts]} on would be dropped",
+                          f"correct NPTS (and DT) in the header (line 4) to {len(values)} values, or remove the "
+                          "values past NPTS")
     acc = np.asarray(values[:npts]) * _UNIT_FACTORS[unit]
-    if not np.all(np.isfinite(acc)):
-        raise MotionError(f"{path}: the record contains non-finite values")
+    bad = np.flatnonzero(~np.isfinite(acc))
+    if bad.size:
+        i = int(bad[0])
+        raise MotionError(f"{path}:{value_lines[i]}: value {i + 1} of the record is {values[i]!r}, not a finite "
+                          f"number ({bad.size} such value{'s' if bad.size > 1 else ''} in the record)",
+                          f"correct or fill in the value on line {value_lines[i]} of the record")
     # Old-style files name the record on line 1; PEER's own files on line 2.
     name = (header[1] if header[0].upper().startswith("PEER") else header[0]).strip() or path.stem
     return Record(dt=dt, acc=acc, name=name, units_note=unit, source=str(path))
@@ -146,6 +204,11 @@ def read_two_column(path: str | Path, units: str = "g") -> Record:
             a.append(float(s[1]))
         except ValueError as e:
             raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+        if not (math.isfinite(t[-1]) and math.isfinite(a[-1])):
+            what = "time" if not math.isfinite(t[-1]) else "acceleration"
+            raise MotionError(f"{path}:{k}: the {what} on row {len(t)} is {s[0 if what == 'time' else 1]!r}, not a "
+                              "finite number", f"correct or fill in line {k} of the record (or remove that row and "
+                              "resample the record to a uniform step)")
     if len(t) < 2:
         raise MotionError(f"{path}: needs at least two rows of (time, acceleration)")
     tt = np.asarray(t)
@@ -277,8 +340,28 @@ class ProcessedMotion:
         return np.arange(self.ax.size) * self.dt
 
 
+def check_covers(npts: int, dt: float, duration: float | None, source: str) -> None:
+    """Refuse a record of `npts` points at `dt` that ends before the window `duration` (s) the case
+    asks for: a run would shake for the record's length only. A record lasts NPTS x DT (its last
+    sample holds for one step), so one of exactly the window's length passes. `source`: the file,
+    or 'synthetic' for the generated motion."""
+    if duration is None:
+        return
+    length = npts * dt
+    if duration > length * (1 + 1e-9):
+        synthetic = source == "synthetic"
+        fix = (f"set ground_motion.synthetic.duration to at least {duration:g} s, or ground_motion.duration to "
+               f"{length:g} s or less" if synthetic else
+               f"set ground_motion.duration to {length:g} s or less, or give a record at least {duration:g} s long")
+        raise MotionError(f"{'the synthetic record' if synthetic else source} lasts {length:g} s ({npts} points at "
+                          f"dt = {dt:g} s) but ground_motion.duration is {duration:g} s: the run would shake for "
+                          f"{length:g} s only", fix)
+
+
 def process(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
             pga: float | None, vertical_ratio: float, convention: str) -> ProcessedMotion:
+    check_covers(record.npts, record.dt, duration,
+                 "synthetic" if record.source.startswith("synthetic(") else record.source)
     steps: list[str] = []
     acc = record.acc.astype(float)
     if duration is not None and duration < record.time[-1]:

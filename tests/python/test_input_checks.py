@@ -1,0 +1,140 @@
+"""Case values that would pass `check` and then fail later, or be used without a word: `check`
+refuses each (or warns where the value is usable), naming the key or file, the value and the fix,
+before anything is meshed, generated or run."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from conftest import EXAMPLE
+from tunnelquake.cli import main
+
+RECORD_KEY = "  file: ../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2\n"
+
+
+def _case(tmp_path, *edits: str, record: str | None = None) -> str:
+    """The example case in `tmp_path`, with each (old, new) pair of `edits` replaced once and, if
+    given, `record` (a file name in tmp_path) as its ground-motion record (if_missing: error)."""
+    text = EXAMPLE.read_text()
+    if record is not None:
+        edits = (RECORD_KEY, f"  file: {record}\n", "  if_missing: synthetic ", "  if_missing: error ", *edits)
+    for old, new in zip(edits[::2], edits[1::2], strict=True):
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    p = tmp_path / "case.yaml"
+    p.write_text(text)
+    return str(p)
+
+
+def _check(capsys, path: str) -> tuple[int, str]:
+    rc = main(["check", path])
+    out = capsys.readouterr()
+    assert "Traceback" not in out.out + out.err
+    return rc, out.err
+
+
+def _two_column(path, t, a):
+    path.write_text("# time (s)  acceleration (g)\n" + "".join(f"{x:.4f} {float(y)!r}\n" for x, y in zip(t, a, strict=True)))
+
+
+def test_nan_in_a_two_column_record_is_refused_naming_the_file_and_line(tmp_path, capsys):
+    t = np.arange(0.0, 20.0 + 1e-9, 0.01)
+    a = list(0.1 * np.sin(2 * np.pi * t))
+    a[500] = float("nan")  # row 501, file line 502 (after the comment line)
+    _two_column(tmp_path / "rec.txt", t, a)
+    rc, err = _check(capsys, _case(tmp_path, record="rec.txt"))
+    assert rc == 1
+    assert (f"ground_motion.file = 'rec.txt': cannot be read: {tmp_path / 'rec.txt'}:502: the acceleration on "
+            "row 501 is 'nan', not a finite number. Fix: correct or fill in line 502 of the record") in err
+
+
+def test_inf_time_in_a_two_column_record_is_refused(tmp_path, capsys):
+    (tmp_path / "rec.txt").write_text("0 0.1\n0.01 0.2\ninf 0.3\n")
+    rc, err = _check(capsys, _case(tmp_path, record="rec.txt"))
+    assert rc == 1
+    assert f"{tmp_path / 'rec.txt'}:3: the time on row 3 is 'inf', not a finite number" in err
+
+
+def test_record_shorter_than_duration_is_refused_naming_both_lengths(tmp_path, capsys):
+    t = np.arange(0.0, 12.0, 0.01)  # 1200 points: lasts 12 s
+    _two_column(tmp_path / "short.txt", t, 0.1 * np.sin(2 * np.pi * t))
+    rc, err = _check(capsys, _case(tmp_path, record="short.txt"))
+    assert rc == 1
+    assert (f"ground_motion.duration = 20.0: {tmp_path / 'short.txt'} lasts 12 s (1200 points at dt = 0.01 s) "
+            "but ground_motion.duration is 20 s: the run would shake for 12 s only. Fix: set "
+            "ground_motion.duration to 12 s or less, or give a record at least 20 s long") in err
+    # the same record with the window it covers passes
+    rc, _ = _check(capsys, _case(tmp_path, "  duration: 20 s\n", "  duration: 12 s\n", record="short.txt"))
+    assert rc == 0
+
+
+def test_synthetic_record_shorter_than_duration_is_refused(tmp_path, capsys):
+    rc, err = _check(capsys, _case(tmp_path, "  source: file\n", "  source: synthetic\n  synthetic: {duration: 8 s}\n"))
+    assert rc == 1
+    assert ("ground_motion.duration = 20.0: the synthetic record lasts 8.01 s (801 points at dt = 0.01 s) but "
+            "ground_motion.duration is 20 s") in err
+    assert "Fix: set ground_motion.synthetic.duration to at least 20 s" in err
+
+
+AT2_HEAD = ("Data for a test record\n{n} points at equal spacing of {dt2} sec\nThe units are (g)\n"
+            "NPTS=  {npts}, DT= {dt} SEC\n")
+
+
+def _at2(path, npts, dt, n_values, dt2=None, n_words=None):
+    vals = 0.01 * np.sin(np.arange(n_values) * 0.1)
+    rows = ["".join(f"{v:10.5f}" for v in vals[i:i + 8]) for i in range(0, n_values, 8)]
+    path.write_text(AT2_HEAD.format(n=n_words or npts, dt2=dt2 or dt, npts=npts, dt=dt) + "\n".join(rows) + "\n")
+
+
+def test_at2_with_more_values_than_its_header_is_refused_naming_both(tmp_path, capsys):
+    _at2(tmp_path / "rec.AT2", 2000, 0.01, 4000)  # header: 20 s; data: 40 s at that DT
+    rc, err = _check(capsys, _case(tmp_path, record="rec.AT2"))
+    assert rc == 1
+    assert (f"{tmp_path / 'rec.AT2'}:255: header says NPTS=2000, DT=0.01 s (a record of 20 s) but the file holds "
+            "4000 values (40 s at that DT); the values from line 255 on would be dropped. Fix: correct NPTS (and "
+            "DT) in the header (line 4) to 4000 values, or remove the values past NPTS") in err
+
+
+def test_at2_with_fewer_values_than_its_header_is_refused_naming_both(tmp_path, capsys):
+    _at2(tmp_path / "rec.AT2", 4000, 0.01, 2500)
+    rc, err = _check(capsys, _case(tmp_path, record="rec.AT2"))
+    assert rc == 1
+    assert ("header says NPTS=4000, DT=0.01 s (a record of 40 s) but the file holds 2500 values (25 s at that DT). "
+            "Fix: correct NPTS in the header (line 4) or restore the missing values") in err
+
+
+def test_at2_whose_dt_disagrees_with_its_header_text_is_refused(tmp_path, capsys):
+    _at2(tmp_path / "rec.AT2", 2500, 0.01, 2500, dt2="0.02")
+    rc, err = _check(capsys, _case(tmp_path, record="rec.AT2"))
+    assert rc == 1
+    assert (f"{tmp_path / 'rec.AT2'}:4: header says DT=0.01 s, but line 2 says 'spacing of 0.02 sec': the values "
+            "would be played at the wrong speed. Fix: make DT on line 4 the record's true sampling step") in err
+
+
+def test_at2_whose_dt_disagrees_with_its_file_name_is_refused(tmp_path, capsys):
+    _at2(tmp_path / "elcentro_dt0.02.AT2", 2500, 0.01, 2500)
+    (tmp_path / "elcentro_dt0.02.AT2").write_text(
+        re.sub(r"^.*points at equal spacing.*$", "Processed record", (tmp_path / "elcentro_dt0.02.AT2").read_text(),
+               count=1, flags=re.M))
+    rc, err = _check(capsys, _case(tmp_path, record="elcentro_dt0.02.AT2"))
+    assert rc == 1
+    assert "header says DT=0.01 s, but the file name says dt 0.02 s: the values would be played at the wrong speed" in err
+
+
+def test_at2_whose_npts_disagrees_with_its_header_text_is_refused(tmp_path, capsys):
+    _at2(tmp_path / "rec.AT2", 2500, 0.01, 2500, n_words=3000)
+    rc, err = _check(capsys, _case(tmp_path, record="rec.AT2"))
+    assert rc == 1
+    assert "header says NPTS=2500, but line 2 says '3000 points'" in err
+
+
+def test_nan_in_an_at2_record_is_refused_naming_the_line(tmp_path, capsys):
+    _at2(tmp_path / "rec.AT2", 2500, 0.01, 2500)
+    lines = (tmp_path / "rec.AT2").read_text().splitlines()
+    lines[9] = "       nan" + lines[9][10:]  # the first value of data line 6 (file line 10): value 41
+    (tmp_path / "rec.AT2").write_text("\n".join(lines) + "\n")
+    rc, err = _check(capsys, _case(tmp_path, record="rec.AT2"))
+    assert rc == 1
+    assert (f"{tmp_path / 'rec.AT2'}:10: value 41 of the record is nan, not a finite number (1 such value in the "
+            "record). Fix: correct or fill in the value on line 10 of the record") in err
