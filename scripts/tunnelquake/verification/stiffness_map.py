@@ -8,8 +8,9 @@ seconds, and these keys laid over it:
     water.model / water.bulk_modulus   the stiffness (K in GPa, or incompressible)
     water.density                      the density ratio to the lining
     coupling.scheme / volume_law       implicit with the volume law in the solid (the default),
-                                       implicit with the whole pressure exchanged (volume_law water),
-                                       explicit with the volume law in the solid
+                                       implicit with the whole pressure exchanged and the linear
+                                       ramp (volume_law water, window_force_weight 0.5: the former
+                                       computation), explicit with the volume law in the solid
 
 A run is *stable* when `tunnelquake run` completes the requested duration (no energy-guard stop,
 no divergence stop, no solver failure) and its coupling energy is below 1 % of the interface work;
@@ -60,6 +61,8 @@ def variant(base: dict, case_dir: Path, stiffness: str, density: float, scheme: 
     c = d["coupling"]
     c["scheme"] = scheme
     c["volume_law"] = law
+    if law == "water":  # the whole pressure exchanged, with the linear ramp: the former computation
+        c["window_force_weight"] = 0.5
     if scheme != "implicit":  # the explicit scheme: one-step windows, no iterations to start or reuse
         for k in ("window", "reuse", "predictor", "tolerance", "window_force_weight"):
             c.pop(k, None)
