@@ -443,8 +443,104 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
         if h is not None and h > cs / (8 * f):
             warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}/(8*{f:g}) "
                             f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
+    issues += _monitor_checks(d, raw, warnings)
+    issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     return issues, warnings
+
+
+def _section_lines(raw: LineDict, *keys: str) -> dict:
+    """The key -> line map of the raw section at `keys` (empty when it is not written out)."""
+    node = raw
+    for k in keys:
+        node = node.get(k) if isinstance(node, dict) else None
+    return getattr(node, "key_lines", {}) if isinstance(node, dict) else {}
+
+
+def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
+    """Where each monitor is against the lining, the annulus a <= r <= b around the tunnel axis
+    (a = excavated_radius - lining_thickness, b = excavated_radius, r measured in the x-z plane
+    from (tunnel_centre_x, tunnel_centre_z)). tq-solid records a monitor at the solid mesh's node
+    nearest to it and the element whose centroid is nearest (rock or lining alike), and its water
+    pressure at the nearest wetted lining node. So a point in the rock records the rock; a point
+    in the water (no solid element there) records the lining's inner surface. The report reads
+    top_arch, haunch and bottom_arch as the lining's points beside the paper's values, so any of
+    those in the rock is an error; other monitors in the rock or the water are warnings."""
+    from .post import MONITORS
+
+    g = d["geometry"]
+    cx, cz, b = g["tunnel_centre_x"], g["tunnel_centre_z"], g["excavated_radius"]
+    a = b - g["lining_thickness"]
+    (x0, x1), (y0, y1), (z0, z1) = g["x_range"], g["y_range"], g["z_range"]
+    tol = 1e-6 * max(x1 - x0, z1 - z0)
+    lines = _section_lines(raw, "output", "monitors")
+    issues: list[Issue] = []
+    for name, p in (d["output"]["monitors"] or {}).items():
+        if p is None or not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1 and z0 <= p[2] <= z1):
+            continue  # outside the block: said above
+        dx, dz = p[0] - cx, p[2] - cz
+        r = math.hypot(dx, dz)
+        if a - tol <= r <= b + tol:
+            continue
+        ux, uz = (dx / r, dz / r) if r > tol else (0.0, 1.0)
+        near = [round(cx + a * ux, 4), p[1], round(cz + a * uz, 4)]
+        where = (f"lies {r:.4g} m from the tunnel axis (x = {cx:g}, z = {cz:g} m in the x-z plane); the lining is "
+                 f"{a:g} m <= r <= {b:g} m")
+        key = f"output.monitors.{name}"
+        if r > b:
+            what = (f"{where}, so this point is in the rock: tq-solid records the solid's node and element nearest "
+                    "to it, the rock's (the lining's only within about half an element of its outer surface)")
+            if name in MONITORS:
+                issues.append(Issue(key, p, f"{what}, and the report compares {name} with the paper's lining values",
+                                    f"move it into the lining, e.g. {near} on its inner surface in the same "
+                                    f"direction, or give the rock point another name (the report reads "
+                                    f"{', '.join(MONITORS)} as the lining's)", lines.get(name)))
+            else:
+                warnings.append(f"{key} {p}: {what}. If it is meant to monitor the lining, move it there, e.g. "
+                                f"{near} on its inner surface in the same direction")
+        elif r > tol:
+            warnings.append(f"{key} {p}: {where}, so this point is in the water, {a - r:.4g} m inside the lining: "
+                            f"the solid has no element there, and tq-solid records the lining's inner surface "
+                            f"nearest to it (about {near}). Fix: give that point, to record what is meant")
+        else:
+            warnings.append(f"{key} {p}: {where}, so this point is on the tunnel's axis, in the water: the whole "
+                            "inner surface of the lining is equally near, and tq-solid records whichever of its "
+                            f"nodes comes first. Fix: give a point on the lining, e.g. {near} (its crown)")
+    return issues
+
+
+def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
+    """The mesher's own rules (meshing.params.resolve: multiples of 4 around, element sizes the
+    structured blocks can meet, gradings, the near-field box inside the block), said against
+    the case file's lines instead of a traceback when meshing starts; then the mesh's size and the
+    memory it needs, estimated from the division counts alone, against the machine's memory."""
+    from .meshing.params import MeshInputError, element_counts, machine_memory, memory_estimate, resolve
+
+    try:
+        plan = resolve(d["geometry"], d["mesh"])
+    except MeshInputError as e:
+        key = e.key or "mesh"
+        section, _, leaf = key.partition(".")
+        line = _section_lines(raw, section).get(leaf) or raw.key_lines.get(section)
+        value = e.value if e.key else d["mesh"]
+        fix = (e.fix or "see docs/meshing.md").rstrip(".")
+        fix = fix[:1].lower() + fix[1:]
+        return [Issue(key, value, e.problem or str(e), fix, line)]
+    counts = element_counts(plan)
+    need = memory_estimate(counts, d["conditions"])
+    have = machine_memory()
+    if have is not None and max(need.values()) > have["total"]:
+        gib = 2.0**30
+        n = counts["rock"] + counts["lining"] + counts["water"]
+        short = " and ".join(w for w in ("meshing", "the run") if need["run" if w == "the run" else w] > have["total"])
+        warnings.append(
+            f"mesh: about {n:,} hexahedra (rock {counts['rock']:,}, lining {counts['lining']:,}, water "
+            f"{counts['water']:,}) need about {need['meshing'] / gib:.1f} GiB to mesh and {need['run'] / gib:.1f} GiB "
+            f"to run, more than this machine's {have['total'] / gib:.1f} GiB of memory ({have['available'] / gib:.1f} "
+            f"GiB available now): {short} would run out of memory. Fix: lower mesh.refinement_factor "
+            f"({d['mesh']['refinement_factor']}), raise mesh.max_element_size or use fewer divisions, or mesh.mode: "
+            "slice")
+    return []
 
 
 def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:

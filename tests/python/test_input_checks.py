@@ -138,3 +138,101 @@ def test_nan_in_an_at2_record_is_refused_naming_the_line(tmp_path, capsys):
     assert rc == 1
     assert (f"{tmp_path / 'rec.AT2'}:10: value 41 of the record is nan, not a finite number (1 such value in the "
             "record). Fix: correct or fill in the value on line 10 of the record") in err
+
+
+# ---------------------------------------------------------------------------------------------
+# Monitors against the lining
+# ---------------------------------------------------------------------------------------------
+def test_monitor_named_after_the_lining_but_in_the_rock_is_refused(tmp_path, capsys):
+    rc, err = _check(capsys, _case(tmp_path, "    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 39.0]"))
+    assert rc == 1
+    assert (":119: output.monitors.top_arch = [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis (x = 0, z = 32 m "
+            "in the x-z plane); the lining is 4.5 m <= r <= 5.25 m, so this point is in the rock: tq-solid records "
+            "the solid's node and element nearest to it, the rock's (the lining's only within about half an element "
+            "of its outer surface), and the report compares top_arch with the paper's lining values. Fix: move it "
+            "into the lining, e.g. [0.0, 40.0, 36.5] on its inner surface in the same direction, or give the rock "
+            "point another name (the report reads top_arch, haunch, bottom_arch as the lining's)") in err
+
+
+def test_monitors_in_the_rock_or_the_water_are_warned_naming_each(tmp_path, capsys):
+    path = _case(tmp_path, "    haunch:      [4.5, 40.0, 32.0]\n",
+                 "    haunch:      [4.5, 40.0, 32.0]\n    rock_9m: [-9.0, 40.0, 32.0]\n"
+                 "    in_water: [0.0, 40.0, 28.5]\n    axis: [0.0, 40.0, 32.0]\n    outer_face: [0.0, 40.0, 37.25]\n")
+    rc, err = _check(capsys, path)
+    assert rc == 0
+    assert ("warning: output.monitors.rock_9m [-9.0, 40.0, 32.0]: lies 9 m from the tunnel axis (x = 0, z = 32 m in "
+            "the x-z plane); the lining is 4.5 m <= r <= 5.25 m, so this point is in the rock") in err
+    assert "If it is meant to monitor the lining, move it there, e.g. [-4.5, 40.0, 32.0]" in err
+    assert ("warning: output.monitors.in_water [0.0, 40.0, 28.5]: lies 3.5 m from the tunnel axis") in err
+    assert ("so this point is in the water, 1 m inside the lining: the solid has no element there, and tq-solid "
+            "records the lining's inner surface nearest to it (about [0.0, 40.0, 27.5])") in err
+    assert "output.monitors.axis [0.0, 40.0, 32.0]: lies 0 m from the tunnel axis" in err
+    assert "the whole inner surface of the lining is equally near" in err
+    # the example's three monitors (on the inner surface) and one on the outer surface are in the lining
+    assert not re.search(r"monitors\.(top_arch|haunch|bottom_arch|outer_face)", err), err
+
+
+# ---------------------------------------------------------------------------------------------
+# The mesher's own rules, said by check
+# ---------------------------------------------------------------------------------------------
+def test_lining_elements_around_not_a_multiple_of_4_is_refused_by_check(tmp_path, capsys):
+    rc, err = _check(capsys, _case(tmp_path, "  max_element_size: 6.75 m", "  lining_elements_around: 50\n"
+                                                                         "  max_element_size: 6.75 m"))
+    assert rc == 1
+    assert (":21: mesh.lining_elements_around = 50: must be a multiple of 4 (one O-grid block per quarter). Fix: "
+            "use 48") in err
+
+
+def test_max_element_size_below_what_the_blocks_meet_is_refused_by_check(tmp_path, capsys):
+    rc, err = _check(capsys, _case(tmp_path, "  max_element_size: 6.75 m", "  max_element_size: 0.01 m"))
+    assert rc == 1
+    assert (":21: mesh.max_element_size = 0.01: the near-field box side spacing is 2.333 m > max_element_size "
+            "0.01 m. Fix: change near_field_half_width / lining_elements_around, or raise max_element_size to "
+            "2.333 m or more") in err
+
+
+def test_mesh_rules_refuse_before_meshing_in_mesh_too(tmp_path, capsys):
+    """`tunnelquake mesh` loads the case through the same checks: the message, no traceback, no mesh."""
+    path = _case(tmp_path, "  max_element_size: 6.75 m", "  lining_elements_around: 50\n  max_element_size: 6.75 m")
+    assert main(["mesh", path]) == 1
+    err = capsys.readouterr().err
+    assert "mesh.lining_elements_around = 50: must be a multiple of 4" in err
+    assert not (tmp_path / "results" / "mesh").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# A mesh too large for the machine
+# ---------------------------------------------------------------------------------------------
+def test_huge_3d_mesh_is_estimated_and_warned_above_the_machine_memory(tmp_path, capsys, monkeypatch):
+    from tunnelquake.meshing import params
+
+    meminfo = tmp_path / "meminfo"
+    meminfo.write_text("MemTotal:       25165824 kB\nMemFree:         1000000 kB\nMemAvailable:   20971520 kB\n")
+    monkeypatch.setattr(params, "MEMINFO", str(meminfo))
+    path = _case(tmp_path, "  mode: slice ", "  refinement_factor: 8\n  mode: 3d ")
+    rc = main(["check", path])
+    out = capsys.readouterr()
+    assert rc == 0 and "Traceback" not in out.err
+    assert ("warning: mesh: about 40,550,400 hexahedra (rock 29,736,960, lining 3,244,032, water 7,569,408) need "
+            "about 86.9 GiB to mesh and 99.3 GiB to run, more than this machine's 24.0 GiB of memory (20.0 GiB "
+            "available now): meshing and the run would run out of memory. Fix: lower mesh.refinement_factor (8), "
+            "raise mesh.max_element_size or use fewer divisions, or mesh.mode: slice") in out.err
+    assert "mesh: 29,736,960 rock + 3,244,032 lining + 7,569,408 water hexahedra" in out.out
+    # the example's slice is far below: no warning
+    assert main(["check", str(EXAMPLE)]) == 0
+    out = capsys.readouterr()
+    assert "need about" not in out.err
+    assert "mesh: 1,320 rock + 144 lining + 336 water hexahedra" in out.out
+
+
+def test_element_counts_are_those_the_mesher_builds(tmp_path):
+    """The estimate is exact: the counts from the division numbers equal a real build's."""
+    from tunnelquake.meshing import PAPER_GEOMETRY, build_tunnel_mesh
+    from tunnelquake.meshing.params import element_counts, resolve
+
+    for mesh in ({"mode": "slice", "refinement_factor": 2, "outer_growth": 1.3, "near_field_growth": 1.2},
+                 {"mode": "3d", "elements_along_axis": 12}):
+        built = build_tunnel_mesh(PAPER_GEOMETRY, mesh, tmp_path / mesh["mode"])["counts"]
+        est = element_counts(resolve(PAPER_GEOMETRY, mesh))
+        assert est == {k: built[k] for k in est}, (mesh, est, built)
+    assert element_counts(resolve(PAPER_GEOMETRY, {}))["rock"] == 58080  # the paper's 3D mesh

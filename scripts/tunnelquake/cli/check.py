@@ -4,6 +4,20 @@ from __future__ import annotations
 from .common import load_or_report, parser, say
 
 
+def mesh_estimate(d: dict) -> str:
+    """One line: the hexahedra the mesh will have and the memory meshing and the run need
+    (estimated from the division counts; the case's checks warn when that exceeds the machine's)."""
+    from ..meshing.params import element_counts, machine_memory, memory_estimate, resolve
+
+    counts = element_counts(resolve(d["geometry"], d["mesh"]))
+    need = memory_estimate(counts, d["conditions"])
+    have = machine_memory()
+    mib = 2.0**20
+    machine = f" (machine: {have['total'] / mib:,.0f} MiB)" if have else ""
+    return (f"mesh: {counts['rock']:,} rock + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
+            f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{machine}")
+
+
 def main(argv: list[str]) -> int:
     args = parser("check", __doc__).parse_args(argv)
     case = load_or_report(args.case, args.variant)
@@ -20,6 +34,7 @@ def main(argv: list[str]) -> int:
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
     say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
         f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
+    say(f"  {mesh_estimate(d)}")
     from ..scene import added_mass_diagnostic, assess_slice, plan
 
     for cond, parts in plan(case):

@@ -83,7 +83,15 @@ PAPER_GEOMETRY: dict = {
 
 
 class MeshInputError(ValueError):
-    """A geometry or mesh parameter is invalid; the message names the key, value and fix."""
+    """A geometry or mesh parameter is invalid; the message names the key, value and fix.
+
+    `key` (dotted, e.g. 'mesh.lining_elements_around'), `value`, `problem` and `fix` hold the
+    parts of the message, so that `tunnelquake check` can say it against the case file's line."""
+
+    def __init__(self, message: str, key: str | None = None, value=None, problem: str | None = None,
+                 fix: str | None = None):
+        super().__init__(message)
+        self.key, self.value, self.problem, self.fix = key, value, problem, fix
 
 
 @dataclass(frozen=True)
@@ -129,7 +137,7 @@ class MeshPlan:
 
 
 def _fail(where: str, key: str, value, why: str, fix: str):
-    raise MeshInputError(f"{where} '{key}' = {value!r}: {why}. {fix}")
+    raise MeshInputError(f"{where} '{key}' = {value!r}: {why}. {fix}", f"{where}.{key}", value, why, fix)
 
 
 def _number(where, d, key, positive=True):
@@ -176,11 +184,10 @@ def graded_count(length: float, max_size: float, growth: float, key: str = "oute
     limit = length * (g - 1.0) / g
     if limit >= max_size:
         g_max = 1.0 / (1.0 - max_size / length)
-        raise MeshInputError(
-            f"mesh '{key}' = {growth!r}: a geometric grading over {length:.4g} m keeps its largest "
-            f"element above {limit:.4g} m > max_element_size {max_size} m whatever the count. "
-            f"Use a ratio below {g_max:.4f} (or 1 for uniform)."
-        )
+        why = (f"a geometric grading over {length:.4g} m keeps its largest element above {limit:.4g} m > "
+               f"max_element_size {max_size} m whatever the count")
+        fix = f"Use a ratio below {g_max:.4f} (or 1 for uniform)."
+        raise MeshInputError(f"mesh '{key}' = {growth!r}: {why}. {fix}", f"mesh.{key}", growth, why, fix)
     n = 1
     while length * (g - 1.0) / (g - g ** (1 - n)) > max_size * (1.0 + 1e-9):
         n += 1
@@ -198,7 +205,9 @@ def outer_band(length: float, h0: float, max_size: float, growth: float):
     if abs(growth - 1.0) < 1e-12 or h0 * growth > max_size:
         return [(length, Divisions(graded_count(length, max_size, 1.0)))]
     if growth < 1.0:
-        raise MeshInputError(f"mesh 'outer_growth' = {growth!r}: must be >= 1 (elements grow away from the tunnel)")
+        why = "must be >= 1 (elements grow away from the tunnel)"
+        raise MeshInputError(f"mesh 'outer_growth' = {growth!r}: {why}", "mesh.outer_growth", growth, why,
+                             "Use a ratio of 1 (uniform) or more.")
     m = int(math.floor(math.log(max_size / h0) / math.log(growth) + 1e-9))
     while m > 0:
         t = h0 * growth * (growth**m - 1.0) / (growth - 1.0)
@@ -375,7 +384,9 @@ def _check_sizes(p: MeshPlan) -> None:
     ]
     for keys, size, what in checks:
         if size > h * (1 + 1e-9):
-            raise MeshInputError(f"mesh: {what} is {size:.4g} m > max_element_size {h} m. Change {keys}.")
+            why = f"{what} is {size:.4g} m > max_element_size {h} m"
+            raise MeshInputError(f"mesh: {why}. Change {keys}.", "mesh.max_element_size", h, why,
+                                 f"Change {keys}, or raise max_element_size to {size:.4g} m or more.")
 
 
 def check_element_size(max_size: float, shear_velocity: float, cutoff_hz: float) -> str | None:
@@ -398,3 +409,87 @@ def check_element_size(max_size: float, shear_velocity: float, cutoff_hz: float)
             f"to {limit:.3f} m or lower the cut-off frequency."
         )
     return None
+
+
+def element_counts(p: MeshPlan) -> dict:
+    """Hexahedra and nodes the builder will make from plan `p`, counted from its divisions alone
+    (nothing is meshed): the cross-section's blocks times the axial layers.
+
+    Cross-section, with q elements per quarter: the water core q x q and its ring 4 q n_water; the
+    lining 4 q n_lining; the rock ring 4 q n_near and the outer tensor grid (nx x nz blocks' worth
+    of elements less the near-field box's q x q). Nodes: a structured quad mesh of the plane has
+    as many nodes as quads plus one per ring around the tunnel (the O-grid's rings close on
+    themselves) plus one per outer grid line; the solid duplicates the rock-lining ring."""
+    q = p.quarter.count
+    nx = q + sum(d.count for _, d in p.left) + sum(d.count for _, d in p.right)
+    nz = q + sum(d.count for _, d in p.bottom) + sum(d.count for _, d in p.top)
+    water2 = q * q + 4 * q * p.water_ring.count
+    lining2 = 4 * q * p.lining.count
+    rock2 = 4 * q * p.near_field.count + nx * nz - q * q
+    layers = p.axial.count
+    # plane nodes: the outer grid's (nx + 1)(nz + 1) less those inside the near-field box
+    # ((q - 1)^2), plus the O-grid rings inside its edge (4 q nodes each: one per radial division
+    # of the rock ring and of the lining, and the lining's own copy of the rock-lining ring)
+    solid_nodes2 = (nx + 1) * (nz + 1) - (q - 1) ** 2 + 4 * q * (p.near_field.count + p.lining.count + 1)
+    water_nodes2 = (q + 1) ** 2 + 4 * q * p.water_ring.count
+    return {
+        "rock": rock2 * layers,
+        "lining": lining2 * layers,
+        "water": water2 * layers,
+        "solid_nodes": solid_nodes2 * (layers + 1),
+        "water_nodes": water_nodes2 * (layers + 1),
+    }
+
+
+#: Bytes of memory per hexahedron while meshing (gmsh's model and the Python arrays that build
+#: mesh.h5 and water.msh), measured as the peak RSS of build_tunnel_mesh: 2.1 kB on the paper's 3D
+#: mesh (79,200 hexahedra), 2.0 kB at refinement_factor 2 (633,600), 2.3 kB on the slice at 8.
+MESHING_BYTES_PER_HEX = 2300
+#: Bytes per element of tq-solid (docs/benchmarks.md: 1.4 kB per element with its node, peak RSS
+#: from 10k to 512k elements), with room for the Mohr-Coulomb state.
+SOLID_BYTES_PER_ELEMENT = 1500
+#: Bytes per water cell of OpenFOAM (its usual figure of about 1 GB per million cells; not
+#: measured here).
+WATER_BYTES_PER_CELL = 1000
+#: What the mesher holds before any mesh (Python with numpy, h5py and gmsh: 55 MB measured), bytes.
+MESHING_BASE_BYTES = 60e6
+#: What the run's solvers hold before any mesh (tq-solid, OpenFOAM's libraries), bytes.
+RUN_BASE_BYTES = 100e6
+
+
+def memory_estimate(counts: dict, conditions=("dynamic_water",)) -> dict:
+    """Peak memory in bytes, from element_counts: 'meshing' (build_tunnel_mesh) and 'run' (the
+    conditions' solvers: `tunnelquake run` runs the coupled condition beside one solid-only one,
+    so up to two tq-solid processes and OpenFOAM at once)."""
+    solid = counts["rock"] + counts["lining"]
+    hexes = solid + counts["water"]
+    conds = list(conditions)
+    solids = 2 if "dynamic_water" in conds and len(conds) > 1 else 1
+    water = counts["water"] * WATER_BYTES_PER_CELL if "dynamic_water" in conds else 0.0
+    return {
+        "meshing": MESHING_BASE_BYTES + hexes * MESHING_BYTES_PER_HEX,
+        "run": RUN_BASE_BYTES + solids * solid * SOLID_BYTES_PER_ELEMENT + water,
+    }
+
+
+#: Where machine_memory reads the machine's memory (tests point it at a file of their own).
+MEMINFO = "/proc/meminfo"
+
+
+def machine_memory() -> dict | None:
+    """{'total', 'available'} bytes from /proc/meminfo (MemTotal, MemAvailable), or None where it
+    cannot be read."""
+    try:
+        with open(MEMINFO) as f:
+            text = f.read()
+    except OSError:
+        return None
+    kb = {}
+    for line in text.splitlines():
+        key, _, rest = line.partition(":")
+        parts = rest.split()
+        if parts and parts[0].isdigit():
+            kb[key.strip()] = int(parts[0])
+    if "MemTotal" not in kb:
+        return None
+    return {"total": kb["MemTotal"] * 1024.0, "available": kb.get("MemAvailable", kb["MemTotal"]) * 1024.0}
