@@ -90,7 +90,8 @@ def _units_from_header(header: list[str]) -> str | None:
 #: ("1559 points at equal spacing of 0.02 sec") and a PEER-style file name ("..._dt0.02.AT2").
 _SPACING_WORDS = re.compile(r"(?:spacing|interval|time step|step)\s+(?:of\s+)?(\d*\.?\d+(?:[Ee][-+]?\d+)?)\s*"
                             r"(?:s|sec|secs|seconds)\b", re.I)
-_POINTS_WORDS = re.compile(r"\b(\d+)\s+(?:points|values|samples)\b", re.I)
+# a total ("1559 points at ..."), not a row's ("8 points across in a row")
+_POINTS_WORDS = re.compile(r"\b(\d+)\s+(?:points|values|samples)\s+(?:at|with|sampled|spaced)\b", re.I)
 _DT_IN_NAME = re.compile(r"(?:^|[_\-.])dt[_=]?(\d*\.?\d+)(?=[_\-.]|$)", re.I)
 
 
@@ -107,7 +108,7 @@ def _check_header_step(path: Path, header: list[str], npts: int, dt: float) -> N
                               "make DT on line 4 the record's true sampling step")
         m = _POINTS_WORDS.search(ln)
         if m and int(m.group(1)) != npts:
-            raise MotionError(f"{path}:4: header says NPTS={npts}, but line {k} says {m.group(0).strip()!r}",
+            raise MotionError(f"{path}:4: header says NPTS={npts}, but line {k} says {m.group(1)} points",
                               "make NPTS on line 4 the record's true number of values")
     m = _DT_IN_NAME.search(path.stem)
     if m and not math.isclose(float(m.group(1)), dt, rel_tol=1e-6):
