@@ -108,7 +108,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     auto g = h5::openGroup(f, "/stages");
     const std::string w = "/stages";
     onlyKeys(c, g, w, {"sequence", "relaxation_tolerance", "relaxation_max_steps", "mass_scaling",
-                       "equilibrium_correction", "lining_region"});
+                       "equilibrium_correction", "lining_region", "release_fraction"});
     onlyMembers(c, g, w, {});
     if (!h5::hasAttr(g, "sequence")) c.fail(w, "attribute 'sequence' is required");
     S.stages.sequence = names(c, g, w, "sequence");
@@ -129,6 +129,17 @@ void readStagedInput(hid_t f, SolidInput& in) {
     S.stages.massScaling = flag(c, g, w, "mass_scaling", true);
     S.stages.equilibriumCorrection = flag(c, g, w, "equilibrium_correction", true);
     S.stages.liningRegion = text(c, g, w, "lining_region", "lining");
+    S.stages.releaseFraction = number(c, g, w, "release_fraction", 1);
+    if (!(S.stages.releaseFraction >= 0 && S.stages.releaseFraction <= 1)) {
+      std::ostringstream os;
+      os << "release_fraction = " << S.stages.releaseFraction
+         << " must lie in [0, 1] (the fraction of the excavation load released before the lining is active; "
+            "case: stages.release_fraction)";
+      c.fail(w, os.str());
+    }
+    if (S.stages.releaseFraction < 1 && !(S.stages.has("excavation") && S.stages.has("lining")))
+      c.fail(w, "release_fraction < 1 holds part of the excavation load until the lining stage: the sequence needs "
+                "both 'excavation' and 'lining' (or set release_fraction to 1)");
   }
   // /in_situ
   if (h5::exists(f, "/in_situ")) {
@@ -364,6 +375,7 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
     h5::writeIntAttr(g, "mass_scaling", S.stages.massScaling ? 1 : 0);
     h5::writeIntAttr(g, "equilibrium_correction", S.stages.equilibriumCorrection ? 1 : 0);
     h5::writeStringAttr(g, "lining_region", S.stages.liningRegion);
+    h5::writeDoubleAttr(g, "release_fraction", S.stages.releaseFraction);
   }
   if (S.inSitu.present) {
     auto g = h5::ensureGroup(f, "/in_situ");

@@ -35,10 +35,24 @@ Real zBottomOf(const Mesh& m) {
 
 }  // namespace
 
+void HeldExcavationLoad::addForces(Real, Real, NodalState& state) {
+  if (released_) return;
+  Real* fe = state.fExtData();
+  const size_t n = std::min(f_.size(), 3 * size_t(state.numNodes()));
+  for (size_t i = 0; i < n; ++i) fe[i] += f_[i];
+}
+
 StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver)
     : in_(in), mesh_(mesh), solver_(solver) {
   const StagedInput& S = in.staged;
   if (!S.present) throw InputError("solid input '" + in.path + "': no stages (version 1 input)");
+  const Real lambda = S.stages.releaseFraction;
+  if (!(lambda >= 0 && lambda <= 1))
+    throw InputError("solid input '" + in.path + "', /stages: release_fraction = " + std::to_string(lambda) +
+                     " must lie in [0, 1]");
+  if (lambda < 1 && !(S.stages.has("excavation") && S.stages.has("lining")))
+    throw InputError("solid input '" + in.path + "', /stages: release_fraction < 1 holds part of the excavation "
+                     "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
   for (auto& b : solver_.blocks())
     if (b->name() == S.stages.liningRegion) lining_ = b.get();
   const bool liningStage = S.stages.has("lining");
@@ -164,6 +178,35 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
   rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tie->numGroups()) + ")";
 }
 
+void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
+  // The excavation load is the out-of-balance force the stage starts from: f_int − f_ext of the
+  // in-situ stress on a mesh without the tunnel core (the released core tractions). Adding
+  // (1 − λ) of it to the external forces leaves λ of it for the excavation stage to relax.
+  const Real keep = 1 - in_.staged.stages.releaseFraction;
+  NodalState& s = solver_.state();
+  solver_.computeForces(true);
+  std::vector<Real> f(3 * size_t(s.numNodes()), 0.0);
+  Real f2 = 0;
+  for (Index n = 0; n < s.numNodes(); ++n) {
+    if (!(s.mass(n) > 0)) continue;  // inactive (the lining's nodes): no force on them
+    for (int d = 0; d < 3; ++d) {
+      if (solver_.isFixed(n, d)) continue;  // the support takes its share; no force to hold
+      const size_t i = 3 * size_t(n) + d;
+      f[i] = keep * (s.fIntData()[i] - s.fExtData()[i]);
+      f2 += f[i] * f[i];
+    }
+  }
+  unreleased_ = std::make_shared<HeldExcavationLoad>(std::move(f));
+  solver_.addContributor(unreleased_);
+  std::ostringstream os;
+  os.precision(4);
+  os << "release fraction " << in_.staged.stages.releaseFraction << ": " << 100 * in_.staged.stages.releaseFraction
+     << " % of the excavation load released with the rock alone; the rest, |f| = " << std::sqrt(f2)
+     << " N, held until the lining is active";
+  rep.note = os.str();
+  log << "  stage excavation: " << rep.note << std::endl;
+}
+
 void StagedAnalysis::activateLining(std::ostream& log, StageReport& rep) {
   // Installed stress-free into the displaced rock: the lining's own nodes never moved (no mass
   // while inactive), so its displacement reference is the state at activation; the tie keeps
@@ -215,10 +258,29 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
         reports_.push_back(relaxStage(name, log, progressSeconds));
       }
     } else if (name == "excavation") {
-      reports_.push_back(relaxStage(name, log, progressSeconds));
+      if (S.stages.releaseFraction < 1) {
+        StageReport note;
+        holdUnreleasedLoad(log, note);
+        StageReport rep = relaxStage(name, log, progressSeconds);
+        rep.note = note.note;
+        reports_.push_back(rep);
+      } else {
+        reports_.push_back(relaxStage(name, log, progressSeconds));
+      }
     } else if (name == "lining") {
       StageReport note;
       activateLining(log, note);
+      if (unreleased_ && !unreleased_->released()) {
+        // The rest of the excavation load, released on rock and lining together.
+        unreleased_->release();
+        std::ostringstream os;
+        os.precision(4);
+        os << "; the held " << 100 * (1 - S.stages.releaseFraction)
+           << " % of the excavation load released with rock and lining together";
+        note.note += os.str();
+        log << "  stage lining: the held " << 100 * (1 - S.stages.releaseFraction)
+            << " % of the excavation load released with rock and lining together" << std::endl;
+      }
       StageReport rep = relaxStage(name, log, progressSeconds);
       rep.note = note.note;
       reports_.push_back(rep);

@@ -25,6 +25,11 @@ struct StagesInput {
   bool massScaling = true;            ///< relax with element masses scaled to one common step (statics only)
   bool equilibriumCorrection = true;  ///< at the switch, hold the residual out-of-balance force constant
   std::string liningRegion = "lining";  ///< region activated by the `lining` stage
+  /// Fraction λ ∈ [0, 1] of the excavation load (the out-of-balance force the in-situ stress leaves
+  /// on the hole: the released core tractions) relaxed by the excavation stage with the rock alone;
+  /// the rest, (1 − λ), is held as constant forces and released in the lining stage with rock and
+  /// lining together (β-method, convergence–confinement). 1: full release before the lining.
+  Real releaseFraction = 1;
   bool has(const std::string& s) const {
     for (const auto& x : sequence)
       if (x == s) return true;

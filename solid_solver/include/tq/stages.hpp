@@ -17,6 +17,8 @@
 
 namespace tq {
 
+class HeldExcavationLoad;
+
 /// What one stage did.
 struct StageReport {
   std::string name;
@@ -51,12 +53,16 @@ public:
   const std::shared_ptr<SeismicBoundaries>& seismic() const { return seismic_; }
   const std::shared_ptr<NodalForceContributor>& rockLiningInterface() const { return interface_; }
   const std::shared_ptr<ConstantNodalForces>& heldForces() const { return held_; }
+  /// The part (1 − λ) of the excavation load held from the excavation stage to the lining stage
+  /// (/stages release_fraction λ < 1; null otherwise). Released, it adds no force.
+  const std::shared_ptr<HeldExcavationLoad>& heldExcavationLoad() const { return unreleased_; }
 
 private:
   void setInSituStress();
   StageReport relaxStage(const std::string& name, std::ostream& log, double progressSeconds);
   void activateLining(std::ostream& log, StageReport& rep);
   void installInterface(std::ostream& log, StageReport& rep);
+  void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
 
   const SolidInput& in_;
   const Mesh& mesh_;
@@ -66,7 +72,25 @@ private:
   std::shared_ptr<NodalForceContributor> interface_;
   std::shared_ptr<ConstantNodalForces> pressure_, held_;
   std::shared_ptr<SeismicBoundaries> seismic_;
+  std::shared_ptr<HeldExcavationLoad> unreleased_;
   Real correctionRatio_ = 0;
+};
+
+/// Constant nodal forces that hold back the unreleased part of the excavation load until the
+/// lining is active; release() removes them (the solver then relaxes their release on the
+/// composite rock and lining).
+class HeldExcavationLoad final : public NodalForceContributor {
+public:
+  explicit HeldExcavationLoad(std::vector<Real> forces) : f_(std::move(forces)) {}
+  std::string name() const override { return "held excavation load"; }
+  void addForces(Real t, Real dt, NodalState& state) override;
+  void release() { released_ = true; }
+  bool released() const { return released_; }
+  const std::vector<Real>& forces() const { return f_; }
+
+private:
+  std::vector<Real> f_;  // [3N]
+  bool released_ = false;
 };
 
 /// λ_min/8 check (Kuhlemeyer & Lysmer 1973): elements whose longest edge exceeds c_s/(8 f) for
