@@ -146,6 +146,11 @@ def _check_stages(s, path, raw, ctx):
     if "lining" in seq and "excavation" not in seq:
         ctx.error(f"{path}.sequence", seq, "activates the lining without an excavation",
                   "add 'excavation' before 'lining'", raw.key_lines.get("sequence"))
+    if s["release_fraction"] < 1 and not ("excavation" in seq and "lining" in seq):
+        ctx.error(f"{path}.release_fraction", s["release_fraction"],
+                  "holds part of the excavation load until the lining stage, which the sequence does not have",
+                  "add 'excavation' and 'lining' to stages.sequence, or set release_fraction to 1",
+                  raw.key_lines.get("release_fraction"))
 
 
 def _mesh_section() -> Section:
@@ -271,6 +276,13 @@ def schema() -> Section:
             "relaxation_tolerance": Number(min=0.0, min_open=True, max=1.0, default=1e-4,
                                            doc="dynamic relaxation stops when |unbalanced| / |applied| is below"),
             "relaxation_max_steps": Number(integer=True, min=1, default=50000),
+            "release_fraction": Number(min=0.0, max=1.0, default=1.0,
+                                       doc="fraction, in [0, 1], of the excavation load (the released core tractions) "
+                                           "relaxed with the rock alone before the lining is active; the rest is "
+                                           "released in the lining stage on rock and lining together (beta-method, "
+                                           "convergence-confinement, PLAXIS Mstage). 1: the lining is installed "
+                                           "after full release and takes no excavation load; 0: it takes all of "
+                                           "it (docs/theory.md §2)"),
         }),
         "conditions": ListOf(item=Choice(choices=CONDITIONS), min_length=1, unique=True,
                              default=list(CONDITIONS), doc="which of the paper's conditions to run"),

@@ -164,6 +164,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         st.attrs["sequence"] = ",".join(sequence)
         st.attrs["relaxation_tolerance"] = float(stages["relaxation_tolerance"])
         st.attrs["relaxation_max_steps"] = int(stages["relaxation_max_steps"])
+        # Fraction of the excavation load released with the rock alone before the lining is active.
+        st.attrs["release_fraction"] = float(stages["release_fraction"])
 
         if "in_situ" in sequence:
             i = f.create_group("in_situ")

@@ -252,3 +252,26 @@ def test_a_variant_may_choose_its_own_results_folder_and_must_be_a_mapping(examp
     assert case.output_dir.name == "elsewhere"
     with pytest.raises(CaseError, match="variants.broken.*must be a mapping of case sections"):
         load_case(write_case(example_text + "  broken: 3\n"))
+
+
+@pytest.mark.parametrize("value", ["1.5", "-0.2"])
+def test_check_refuses_a_release_fraction_outside_0_1(example_text, write_case, capsys, value):
+    """stages.release_fraction is a fraction of the excavation load: `tunnelquake check` refuses a
+    value outside [0, 1], naming the key and its line."""
+    from tunnelquake.cli import main
+
+    text = _mutate(example_text, "stages:\n", f"stages:\n  release_fraction: {value}\n")
+    path = write_case(text)
+    assert main(["check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert f"stages.release_fraction = {value}" in err, err
+    assert "must lie in [0, 1]" in err and "Fix:" in err, err
+    assert re.search(rf"{re.escape(str(path))}:\d+: ", err), err
+
+
+def test_release_fraction_needs_the_lining_stage(example_text, write_case):
+    text = _mutate(example_text, "[in_situ, excavation, lining, hydrostatic, seismic]",
+                   "[in_situ, excavation, hydrostatic, seismic]\n  release_fraction: 0.5")
+    with pytest.raises(CaseError) as err:
+        load_case(write_case(text))
+    assert "stages.release_fraction" in str(err.value) and "lining" in str(err.value)

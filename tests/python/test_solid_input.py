@@ -221,3 +221,18 @@ def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, 
         assert run.returncode == 2, run.stdout + run.stderr
         assert "window_force_weight" in run.stderr and "no effect" in run.stderr, run.stderr
         case.data["coupling"] = c
+
+
+def test_release_fraction_reaches_the_solid(prepared, tmp_path):
+    """stages.release_fraction (default 1: the lining installed after full release) becomes /stages
+    release_fraction; tq-solid (when built) reads it back without complaint (docs/theory.md §2)."""
+    case = _case(tmp_path)
+    assert case.data["stages"]["release_fraction"] == 1.0
+    case.data["stages"]["release_fraction"] = 0.4
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "no_water", tmp_path / "r.h5")
+    with h5py.File(inp) as f:
+        assert f["stages"].attrs["release_fraction"] == 0.4
+    exe = _solid_with_stages()
+    if exe is not None:
+        run = subprocess.run([str(exe), str(inp), "--check"], capture_output=True, text=True, timeout=60)
+        assert run.returncode == 0, run.stdout + run.stderr
