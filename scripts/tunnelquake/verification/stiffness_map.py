@@ -125,11 +125,19 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
 
     if a.cmd == "table":
+        from ..case import CaseError, load_case
+        from ..scene import added_mass_diagnostic
         print("| K | ρw/ρl | scheme | volume law | check predicts | run | ends at (s) | E_c / interface work | "
               "passes/window | agree |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         for line in a.jsonl.read_text().splitlines():
             row = json.loads(line)
+            cf = Path(row.get("case_file", ""))
+            if cf.is_file():  # the prediction of today's check for the run's own case file
+                try:
+                    row["predicted"] = added_mass_diagnostic(load_case(cf)).stable
+                except CaseError:
+                    row["predicted"] = False
             ok = stable(row)
             ratio = (f"{row['coupling_energy'] / row['interface_work_peak']:+.2e}"
                      if row.get("interface_work_peak") else "–")
@@ -163,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
                 except Exception as e:  # the case check refused the combination: part of the map
                     predicted, row = False, {"exit": 1, "wall_s": 0.0, "status": f"refused by check: {e}",
                                              "t_end": 0.0}
-                row.update(name=name, stiffness=k, density_ratio=rho / lining_density, scheme=scheme,
+                row.update(name=name, case_file=str(cf.resolve()), stiffness=k, density_ratio=rho / lining_density, scheme=scheme,
                            volume_law=law, predicted=predicted, duration=a.duration)
                 with a.out.open("a") as f:
                     f.write(json.dumps(row) + "\n")
