@@ -325,7 +325,13 @@ class Comparison:
                  "damage constant R: not given by the paper",
             "water": f"water model: {c.get('water_model', 'unknown')} "
                      f"({'slice: no axial flow, so the pressure follows the cross-section change (the 3D model with closed water ends gives the same peaks to 0.05 %; with open ends at 80 m the mid-length pressure is 4x lower: docs/benchmarks.md)' if c.get('mode') == 'slice' else '3D'})"
-                     "; the paper's water is incompressible in 3D and its end conditions are not given",
+                     "; the paper's water is incompressible in 3D and its end conditions are not given"
+                     + ("; measured on this example (Peknold record, whole 20 s): the paper's incompressible "
+                        "water gives 0.457 / 0.458 / 0.461 MPa at the top arch, haunch and bottom arch against "
+                        "0.167 / 0.168 / 0.171 MPa with K = 2.2 GPa, the peaks rising monotonically with K "
+                        "(docs/stability.md \"Water stiffness\")"
+                        if str(c.get("water_model", "")).startswith("compressible") and c.get("mode") == "slice"
+                        else ""),
             "hydrostatic": self._hydrostatic_cause(),
             "slice": f"geometry: {c.get('mode', 'unknown')} model (plane strain) against the paper's 3D block"
             if c.get("mode") == "slice" else f"geometry: {c.get('mode', 'unknown')} model",
