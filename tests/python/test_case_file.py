@@ -215,8 +215,8 @@ def test_the_example_3d_variant_is_the_measured_3d_run_and_leaves_the_slice_alon
 def test_a_bad_key_in_any_variant_is_said_before_a_run(example_text, write_case):
     """A variant not chosen is checked against the schema on every read: its problems are warnings
     naming the variant, the key and its line; choosing it makes them errors."""
-    text = example_text.replace("    coupling: {tolerance: 1e-4, window_force_weight: 0.75}",
-                                "    coupling: {tolerence: 1e-4, window_force_weight: 0.75}")
+    text = example_text.replace("    coupling: {tolerance: 1e-4, window_force_weight: 0.75, volume_law: water}",
+                                "    coupling: {tolerence: 1e-4, window_force_weight: 0.75, volume_law: water}")
     path = write_case(text)
     warned = [w for w in load_case(path).warnings if w.startswith("variant 3d would not run")]
     assert len(warned) == 1 and "coupling.tolerence" in warned[0], warned
