@@ -249,6 +249,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         o = f.create_group("output")
         o.attrs["monitor_dt"] = float(d["output"]["history_interval"])
         o["snapshot_times"] = snapshot_times(d["output"]["snapshot_times"], t_end)
+    if coupling_token:  # the run's coupling secret: readable by its owner only
+        os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
 

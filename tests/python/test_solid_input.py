@@ -236,3 +236,22 @@ def test_release_fraction_reaches_the_solid(prepared, tmp_path):
     if exe is not None:
         run = subprocess.run([str(exe), str(inp), "--check"], capture_output=True, text=True, timeout=60)
         assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_the_coupling_token_is_private(prepared, tmp_path):
+    """solid_input.h5 holds the run's coupling secret when it has a /coupling group: the file is
+    readable and writable by its owner only (0600); an input without a token keeps the umask's mode."""
+    import stat
+
+    case = _case(tmp_path)
+    kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "secret"}
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5", **kw)
+    assert stat.S_IMODE(inp.stat().st_mode) == 0o600
+    with h5py.File(inp) as f:
+        assert f["coupling"].attrs["token"] == "secret"
+    import os
+
+    umask = os.umask(0)
+    os.umask(umask)
+    plain = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "no_water", tmp_path / "d.h5")
+    assert stat.S_IMODE(plain.stat().st_mode) == 0o666 & ~umask  # no secret: the umask's mode
