@@ -80,16 +80,8 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
   std::vector<Real> area(size_t(N), 0.0), nsum(3 * size_t(N), 0.0);
   const auto& q = mesh.faces.at(face);
   for (size_t f = 0; f < q.size() / 4; ++f) {
-    const Real* x[4];
-    for (int k = 0; k < 4; ++k) x[k] = &mesh.coords[3 * size_t(q[4 * f + k])];
-    Real d1[3], d2[3];
-    for (int i = 0; i < 3; ++i) {
-      d1[i] = x[2][i] - x[0][i];
-      d2[i] = x[3][i] - x[1][i];
-    }
-    // ½ d1 × d2: the quad's area vector (outward for counter-clockwise nodes seen from outside).
-    const Real av[3] = {0.5 * (d1[1] * d2[2] - d1[2] * d2[1]), 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]),
-                        0.5 * (d1[0] * d2[1] - d1[1] * d2[0])};
+    Real av[3];  // the quad's area vector (outward for counter-clockwise nodes seen from outside)
+    quadAreaVector(mesh, &q[4 * f], av);
     const Real a = std::sqrt(av[0] * av[0] + av[1] * av[1] + av[2] * av[2]);
     for (int k = 0; k < 4; ++k) {
       const size_t n = size_t(q[4 * f + k]);

@@ -133,7 +133,7 @@ struct FluidCoupling::Impl {
   // A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
   int modes = 0;
   Real Cinv[3][3] = {};
-  std::vector<Real> total;             // [3n] force added this step: the water's answer + p_v g
+  std::vector<Real> total;             // [3n] force added this step: the water's answer + the carried pressure
 
   explicit Impl(Solver& s) : solver(s) {}
 
@@ -152,15 +152,10 @@ struct FluidCoupling::Impl {
     volume = 0;
     Real cw[3] = {0, 0, 0};
     for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-      Real d1[3], d2[3], sq[3], xq[3] = {0, 0, 0};
-      for (int d = 0; d < 3; ++d) {
-        d1[d] = x(quads[q + 2], d) - x(quads[q], d);
-        d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
+      Real sq[3], xq[3] = {0, 0, 0};
+      quadAreaVector(mesh, &quads[q], sq);
+      for (int d = 0; d < 3; ++d)
         for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
-      }
-      sq[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
-      sq[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);
-      sq[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
       const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);  // (x − c)⊥, axis y
       const Real sign = radial < 0 ? -1.0 : 1.0;
       volume += 0.5 * sign * radial;
@@ -283,14 +278,11 @@ struct FluidCoupling::Impl {
       for (int b = 0; b < modes; ++b)
         for (size_t k = 0; k < nodes.size(); ++k)
           for (int d = 0; d < 3; ++d) C[a][b] += Arow(a, k, d) * Bcol(b, k, d);
-    for (int a = 0; a < modes; ++a) {  // invert by solving C x = e_b
-      for (int b = 0; b < modes; ++b) Cinv[a][b] = 0;
-    }
     if (modes == 1) {
       Cinv[0][0] = 1 / C[0][0];
       return;
     }
-    for (int b = 0; b < 3; ++b) {
+    for (int b = 0; b < 3; ++b) {  // column b of C⁻¹: the solution of C x = e_b
       Real M[3][4];
       for (int a = 0; a < 3; ++a) {
         for (int c2 = 0; c2 < 3; ++c2) M[a][c2] = C[a][c2];
@@ -301,7 +293,7 @@ struct FluidCoupling::Impl {
     }
   }
 
-  /// predict() with the volume law: `disp`/`vel` hold the motion of the force F plus p_v g.
+  /// predict() with the carried laws: `disp`/`vel` hold the motion of the force F plus the carried pressure.
   void predictWithLaw(Real dt, const NodalState& st, const std::vector<Real>& F) {
     predict(dt, st, F, disp, vel);
     if (volumeLaw) applyCarriedLaws(dt, st.vData(), disp, vel, nullptr);
@@ -511,14 +503,14 @@ struct FluidCoupling::Impl {
         p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
         continue;
       }
-      // The water sees the wall's motion less its volume change (the solid carries that mode).
+      // The water sees the wall's motion less the carried modes (volume change, translation).
       sent = name == "velocity" ? vel : disp;
       projectMotion(sent);
       p->writeData(in.mesh, name, sent);
     }
   }
 
-  /// The water's answer; with the volume law, less its part along g (the solid's mode).
+  /// The water's answer; with the volume law, less what would work on the carried modes.
   void read() {
     p->readData(in.mesh, "force", received);
     if (volumeLaw) projectForce(received);
@@ -773,14 +765,14 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   const double c1 = threadCpu();
   I.stats.cpuInCoupler += c1 - c0;
   I.stats.cpuCoupled = c1 - I.cpuStart;
-  // The volume law's pressure for the force this step applies (the window's ramp, or the
-  // exchanged force), implicit in this step's motion.
+  // The carried laws' pressure (p_v and the translation's λ) for the force this step applies (the
+  // window's ramp, or the exchanged force), implicit in this step's motion.
   if (I.volumeLaw) {
     I.predict(dt, st, I.force, I.scratchU, I.scratchV);
     I.pv = I.applyCarriedLaws(dt, st.vData(), I.scratchU, I.scratchV, I.lam);
   }
-  // Add R3 (+ p_v g) and book the work of each over u^{n−1} → u^n exactly as the solver books f_ext
-  // (trapezoid).
+  // Add R3 and the carried pressure, and book the work of each over u^{n−1} → u^n exactly as the
+  // solver books f_ext (trapezoid).
   Real* fe = st.fExtData();
   const Real* v = st.vData();
   Real w = 0, wv = 0;

@@ -20,6 +20,17 @@ std::vector<Index> Mesh::faceNodes(const std::string& group) const {
   return n;
 }
 
+void quadAreaVector(const Mesh& mesh, const Index* quad, Real s[3]) {
+  Real d1[3], d2[3];
+  for (int d = 0; d < 3; ++d) {
+    d1[d] = mesh.coords[3 * size_t(quad[2]) + size_t(d)] - mesh.coords[3 * size_t(quad[0]) + size_t(d)];
+    d2[d] = mesh.coords[3 * size_t(quad[3]) + size_t(d)] - mesh.coords[3 * size_t(quad[1]) + size_t(d)];
+  }
+  s[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
+  s[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);
+  s[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
+}
+
 Index Mesh::regionIndex(const std::string& name) const {
   for (size_t r = 0; r < regionNames.size(); ++r)
     if (regionNames[r] == name) return static_cast<Index>(r);

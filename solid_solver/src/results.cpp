@@ -157,14 +157,8 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
   auto local = [&](Index n) { return size_t(std::lower_bound(nodes.begin(), nodes.end(), n) - nodes.begin()); };
   auto x = [&](Index n, int d) { return m.coords[3 * size_t(n) + d]; };
   for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-    Real d1[3], d2[3], s[3];
-    for (int d = 0; d < 3; ++d) {
-      d1[d] = x(quads[q + 2], d) - x(quads[q], d);
-      d2[d] = x(quads[q + 3], d) - x(quads[q + 1], d);
-    }
-    s[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
-    s[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);
-    s[2] = 0.5 * (d1[0] * d2[1] - d1[1] * d2[0]);
+    Real s[3];
+    quadAreaVector(m, &quads[q], s);
     for (int k = 0; k < 4; ++k) {
       const size_t j = local(quads[q + size_t(k)]);
       if (j >= nodes.size() || nodes[j] != quads[q + size_t(k)]) continue;

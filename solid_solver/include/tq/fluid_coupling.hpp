@@ -113,13 +113,13 @@ public:
   std::string takeNote();
   FluidCouplingStats stats() const;
   /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N).
-  /// The force includes the volume law's p_v g where there is one.
+  /// The force includes the pressure the solid carries (volume law and translation) where there is one.
   const std::vector<Index>& nodes() const;
   const std::vector<Real>& force() const;
   /// The water's volume law carried by the solid (/coupling volume_law, docs/coupler.md "Volume
   /// law in the solid"): whether there is one, its uniform pressure this step (Pa), the work of
-  /// its forces on the solid so far (J, part of the balance's `external` term, not of
-  /// couplingEnergy()), and the enclosed volume (m³).
+  /// the carried forces (volume law and translation) on the solid so far (J, part of the balance's
+  /// `external` term, not of couplingEnergy()), and the enclosed volume (m³).
   bool hasVolumeLaw() const;
   Real volumePressure() const;
   Real volumeLawWork() const;

@@ -32,6 +32,11 @@ struct Mesh {
   Index regionIndex(const std::string& name) const;
 };
 
+/// The area vector of a face quad (its four mesh node indices, in order): ½ d1 × d2 of its diagonals
+/// d1 = x2 − x0, d2 = x3 − x1, exact for a planar quad; outward for nodes counter-clockwise seen from
+/// outside.
+void quadAreaVector(const Mesh& mesh, const Index* quad, Real s[3]);
+
 /// What checkMesh requires beyond well-formed arrays.
 struct MeshRequirements {
   std::vector<std::string> faceGroups;  ///< face groups that must be present (e.g. "bottom")
