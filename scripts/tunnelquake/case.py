@@ -103,6 +103,11 @@ def coupling_predictor(c: dict) -> str:
     return p
 
 
+def closed_section(d: dict) -> bool:
+    """Whether the case's water section is closed: a slice (no axial flow), or 3D with closed ends."""
+    return d["mesh"]["mode"] == "slice" or d["water"]["ends"] == "closed"
+
+
 def coupling_window_force_weight(c: dict) -> float:
     """The window force weight a coupling section asks for; absent: 0.75 for implicit windows of several
     steps (damps the period-two mode of the water's added mass; docs/coupler.md "Window force weight"),
@@ -401,8 +406,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     warnings: list[str] = []
     lines = raw.key_lines
     water, conds = d["water"], d["conditions"]
-    closed_section = d["mesh"]["mode"] == "slice" or water["ends"] == "closed"
-    if "dynamic_water" in conds and water["model"] == "incompressible" and closed_section:
+    if "dynamic_water" in conds and water["model"] == "incompressible" and closed_section(d):
         if d["mesh"]["mode"] == "3d":
             issues.append(Issue("water.ends", "closed",
                                 "incompressible water with closed ends in 3D: the water's axial flow between the "

@@ -26,8 +26,9 @@ incompressible water with open ends (p = 0); compressible water with `ends: clos
 Closed sections (a slice, or 3D with closed ends) carry the water's volume law in the solid
 (`volume_law()`, docs/coupler.md "Volume law in the solid"): tq-solid sets the uniform pressure of
 the enclosed water implicitly each step (p = -K dV/V, or the enclosed volume held for incompressible
-water), and OpenFOAM sends its wall pressure less its area mean (tqInterface `subtractMeanPressure`):
-the inertial remainder. Incompressible water in a closed slice is solved by rhoPimpleFoam with
+water), and by default the water's rigid translation too (`water_density` in the settings); OpenFOAM
+gets the wall motion less those modes and sends its wall pressure less its area mean (tqInterface
+`subtractMeanPressure`): its answer to the lining's deformation. Incompressible water in a closed slice is solved by rhoPimpleFoam with
 REMAINDER_BULK_MODULUS, whose only role is to make the closed domain's pressure well posed (its
 uniform part is replaced by the solid's constraint).
 Interface: transpiration (the template's default). nNonOrthogonalCorrectors 0: the meshes of
@@ -47,7 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
-from .case import WATER_LOG_INTERVAL, coupling_predictor
+from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor
 from .coupling_scales import absolute_tolerances
 
 TEMPLATE = paths.ROOT / "openfoam_case" / "template"
@@ -69,8 +70,7 @@ def volume_law(case) -> tuple[str, float]:
     (open ends, where the mean pressure is not set by the enclosed volume alone)."""
     d = case.data
     water = d["water"]
-    closed = d["mesh"]["mode"] == "slice" or water["ends"] == "closed"
-    if not closed or d["coupling"].get("volume_law", "solid") == "water":
+    if not closed_section(d) or d["coupling"].get("volume_law", "solid") == "water":
         return "none", 0.0
     if water["model"] == "incompressible":
         return "incompressible", 0.0
@@ -106,6 +106,7 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
     if not window_size > 0:
         raise FluidCaseError(f"coupling window size {window_size!r} s is not positive")
     windows = max(1, math.ceil(t_end / window_size - 1e-9))
+    law, bulk = volume_law(case)
     return {
         "scheme": cs["scheme"],
         "window": int(cs["window"]),
@@ -131,9 +132,9 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "write_fields": list(SOLID_WRITE_FIELDS),
         "participant": "solid",
         "partner": "fluid",
-        "volume_law": volume_law(case)[0],
-        "bulk_modulus": volume_law(case)[1],
-        "water_density": (float(d["water"]["density"]) if volume_law(case)[0] != "none"
+        "volume_law": law,
+        "bulk_modulus": bulk,
+        "water_density": (float(d["water"]["density"]) if law != "none"
                           and cs.get("water_translation", "solid") == "solid" else 0.0),
     }
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .case import coupling_window_force_weight
+from .case import closed_section, coupling_window_force_weight
 
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
@@ -133,8 +133,7 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
     # takes it out of the exchange (docs/coupler.md "Volume law in the solid").
     from .fluid_case import volume_law
     law = volume_law(case)[0]
-    closed = d["mesh"]["mode"] == "slice" or w["ends"] == "closed"
-    if law == "none" and closed and w["model"] == "compressible" and "impedance" in ratios:
+    if law == "none" and closed_section(d) and w["model"] == "compressible" and "impedance" in ratios:
         ratios["volume stiffness"] = math.sqrt(2 * w["bulk_modulus"] / (R * m_g)) * dt_c
     # with the water's translation carried by the solid, the exchange keeps the modes from n = 2 on
     worst = ratios["mode 2" if law != "none" and d["coupling"]["water_translation"] == "solid" else "mode 1"]
