@@ -118,6 +118,15 @@ def _pid_alive(pid: int) -> bool:
     return stat[stat.rfind(")") + 2:][:1] != "Z"
 
 
+def _send(groups, pids, sig) -> None:
+    """`sig` to each process group in `groups` and each process in `pids`; gone ones are skipped."""
+    for target, kill in [(g, os.killpg) for g in groups] + [(p, os.kill) for p in pids]:
+        try:
+            kill(target, sig)
+        except ProcessLookupError:
+            pass
+
+
 def stop_all(grace: float = STOP_GRACE_S) -> dict:
     """Stop every child: SIGTERM to the process group of each recorded child (its own, so that
     mpirun's ranks get it too) and to any other direct child, SIGKILL to what is left after
@@ -126,16 +135,7 @@ def stop_all(grace: float = STOP_GRACE_S) -> dict:
     with FORK_LOCK:  # no child is half-created while the list is read
         groups = {p.pid for p in _started if p.poll() is None}
     others = [pid for pid in _direct_children() if pid not in groups]
-    for pgid in groups:
-        try:
-            os.killpg(pgid, signal.SIGTERM)
-        except ProcessLookupError:
-            pass
-    for pid in others:
-        try:
-            os.kill(pid, signal.SIGTERM)
-        except ProcessLookupError:
-            pass
+    _send(groups, others, signal.SIGTERM)
 
     def reap() -> None:
         for p in _started:
@@ -151,16 +151,7 @@ def stop_all(grace: float = STOP_GRACE_S) -> dict:
         time.sleep(0.02)
         left_groups, left_others = alive()
     killed = len(left_groups) + len(left_others)
-    for pgid in left_groups:
-        try:
-            os.killpg(pgid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    for pid in left_others:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+    _send(left_groups, left_others, signal.SIGKILL)
     deadline = time.monotonic() + KILL_WAIT_S
     while (left_groups or left_others) and time.monotonic() < deadline:
         time.sleep(0.02)
