@@ -88,23 +88,12 @@ ReleaseResult stagedRelease(Real p0, Real lambda, Index nTheta, Index nThrough, 
   const ElementBlock* lin = nullptr;
   for (const auto& blk : run.solver->blocks())
     if (blk->name() == "lining") lin = blk.get();
-  // The ring's stresses in Lamé form, σθθ = A + B/r², σrr = A − B/r², fitted by least squares
-  // over every lining element (exact for an axisymmetric ring).
-  Real s11 = 0, s22 = 0, r1 = 0, r2 = 0;
-  for (Index e = 0; e < lin->numElems(); ++e) {
-    Real h, rad, th;
-    const Real q = 1 / std::pow(polarStress(run.mesh, *lin, e, &h, &rad, &th), 2);
-    s11 += 2;
-    s22 += 2 * q * q;
-    r1 += h + rad;
-    r2 += q * (h - rad);
-  }
-  const Real A = r1 / s11, B = r2 / s22;
+  const LameFit L = lameFit(run.mesh, *lin);
   const Real a = qs.b - qs.liningT, b = qs.b;
   ReleaseResult res;
-  res.hoopIn = A + B / (a * a);
-  res.hoopOut = A + B / (b * b);
-  res.pcLame = -(A - B / (b * b));
+  res.hoopIn = L.hoop(a);
+  res.hoopOut = L.hoop(b);
+  res.pcLame = L.contactPressure(b);
   for (const auto& rep : run.stages->reports()) {
     res.steps += rep.steps;
     if (!rep.note.empty()) res.notes += rep.name + ": " + rep.note + "\n";
@@ -113,18 +102,7 @@ ReleaseResult stagedRelease(Real p0, Real lambda, Index nTheta, Index nThrough, 
     for (Index p = 0; p < dc->numPairs(); ++p) res.failedPairs += dc->failed(p) ? 1 : 0;
     return res;
   }
-  // The contact pressure from the tie's forces on the lining's nodes (rock → lining), over the
-  // polygonal interface's area.
-  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
-  Real fr = 0;
-  for (Index g = 0; g < tie->numGroups(); ++g) {
-    const Index ln = tie->begin(g)[1];
-    const Real* f = tie->force(tie->memberIndex(g, 1));
-    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2];
-    fr += (f[0] * x + f[2] * z) / std::hypot(x, z);
-  }
-  const Real dth = M_PI / 2 / nTheta;
-  res.pcTie = -fr / (nTheta * 2 * b * std::sin(dth / 2) * qs.width);
+  res.pcTie = tieContactPressure(run, qs, nTheta);
   return res;
 }
 

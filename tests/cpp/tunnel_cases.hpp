@@ -186,6 +186,45 @@ inline LinedReference linedReference(Real pi, Real a = 4.5, Real b = 5.25) {
   return r;
 }
 
+/// The lining ring's stresses in Lamé form, σθθ = A + B/r², σrr = A − B/r² (exact for an
+/// axisymmetric ring), fitted by least squares over every element of the block (rows [1, 1/r²] → hoop,
+/// [1, −1/r²] → radial: the normal equations are diagonal).
+struct LameFit {
+  Real A = 0, B = 0;
+  Real hoop(Real r) const { return A + B / (r * r); }
+  /// −σrr at radius r: the contact pressure at the ring's outer face, compression positive.
+  Real contactPressure(Real r) const { return -(A - B / (r * r)); }
+};
+inline LameFit lameFit(const Mesh& m, const ElementBlock& lin) {
+  Real s11 = 0, s22 = 0, r1 = 0, r2 = 0;
+  for (Index e = 0; e < lin.numElems(); ++e) {
+    Real h, rad, th;
+    const Real r = polarStress(m, lin, e, &h, &rad, &th);
+    const Real q = 1 / (r * r);
+    s11 += 2;
+    s22 += 2 * q * q;
+    r1 += h + rad;
+    r2 += q * h - q * rad;
+  }
+  return {r1 / s11, r2 / s22};
+}
+
+/// The contact pressure from the tie's forces on the lining's nodes (rock → lining) of a quarter
+/// model with nTheta elements around, over the polygonal interface's area (compression positive).
+template <class Run, class Spec>
+Real tieContactPressure(const Run& run, const Spec& qs, Index nTheta) {
+  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
+  Real fr = 0;
+  for (Index g = 0; g < tie->numGroups(); ++g) {
+    const Index ln = tie->begin(g)[1];
+    const Real* f = tie->force(tie->memberIndex(g, 1));
+    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2], r = std::hypot(x, z);
+    fr += (f[0] * x + f[2] * z) / r;
+  }
+  const Real dth = M_PI / 2 / nTheta;
+  return -fr / (nTheta * 2 * qs.b * std::sin(dth / 2) * qs.width);
+}
+
 struct LinedResult {
   Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
   Index steps = 0, elems = 0;  // relaxation steps of all four stages, elements
@@ -220,41 +259,15 @@ inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, R
   const ElementBlock* lin = nullptr;
   for (const auto& b : run.solver->blocks())
     if (b->name() == "lining") lin = b.get();
-  // Lamé form in the ring: σθθ = A + B/r², σrr = A − B/r² (exact for an axisymmetric ring):
-  // least squares over every lining element.
-  Real s11 = 0, s12 = 0, s22 = 0, r1 = 0, r2 = 0;
-  for (Index e = 0; e < lin->numElems(); ++e) {
-    Real h, rad, th;
-    const Real r = polarStress(run.mesh, *lin, e, &h, &rad, &th);
-    const Real q = 1 / (r * r);
-    // rows [1, q] -> h and [1, −q] -> rad
-    s11 += 2;
-    s12 += q - q;
-    s22 += 2 * q * q;
-    r1 += h + rad;
-    r2 += q * h - q * rad;
-  }
-  const Real det = s11 * s22 - s12 * s12;
-  const Real A = (r1 * s22 - r2 * s12) / det, B = (s11 * r2 - s12 * r1) / det;
+  const LameFit L = lameFit(run.mesh, *lin);
   const Real a = qs.b - qs.liningT, b = qs.b;
   LinedResult res;
   for (const auto& rep : run.stages->reports()) res.steps += rep.steps;
   res.elems = run.mesh.numElems();
-  res.hoopIn = A + B / (a * a);
-  res.hoopOut = A + B / (b * b);
-  res.pc = -(A - B / (b * b));
-  // The contact pressure from the interface forces on the lining nodes (rock -> lining), over the
-  // polygonal interface's area.
-  const auto* tie = dynamic_cast<const TiedNodeGroups*>(run.stages->rockLiningInterface().get());
-  Real fr = 0;
-  for (Index g = 0; g < tie->numGroups(); ++g) {
-    const Index ln = tie->begin(g)[1];
-    const Real* f = tie->force(tie->memberIndex(g, 1));
-    const Real x = run.mesh.coords[3 * size_t(ln)], z = run.mesh.coords[3 * size_t(ln) + 2], r = std::hypot(x, z);
-    fr += (f[0] * x + f[2] * z) / r;
-  }
-  const Real dth = M_PI / 2 / nTheta;
-  res.pcTie = -fr / (nTheta * 2 * b * std::sin(dth / 2) * qs.width);
+  res.hoopIn = L.hoop(a);
+  res.hoopOut = L.hoop(b);
+  res.pc = L.contactPressure(b);
+  res.pcTie = tieContactPressure(run, qs, nTheta);
   return res;
 }
 
