@@ -1,4 +1,5 @@
-"""One `tunnelquake run` at a time per results folder.
+"""One tunnelquake command that writes a results folder at a time (run, and mesh, motion and post
+run by hand).
 
 The lock is an flock on `<results folder>/.tunnelquake-run.lock`, which also holds who took it
 (PID, start time, command). The kernel drops an flock when its holder dies however it dies, so a
@@ -87,7 +88,9 @@ def run_lock(folder: Path, command: str | None = None):
     except BlockingIOError:
         info = _read(fd)
         os.close(fd)
-        raise RunLockBusy(f"another `tunnelquake run` is using {folder} ({_describe(info or {'pid': '?'})}); "
+        words = str(info.get("command", "")).split()
+        who = " ".join(words[:2]) if words[:1] == ["tunnelquake"] and len(words) > 1 else "tunnelquake command"
+        raise RunLockBusy(f"another `{who}` is using {folder} ({_describe(info or {'pid': '?'})}); "
                           f"wait for it to end, or stop it (kill {info.get('pid', '<pid>')}), then run again") from None
     try:
         previous = _read(fd)

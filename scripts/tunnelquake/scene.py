@@ -179,3 +179,75 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
     return AddedMassDiagnostic(m_g, ratios, stable,
                                f"added mass: wetted lining nodes {m_g:.0f} kg/m^2; {w['model']} water: {detail}; "
                                f"{verdict}")
+
+
+#: CPU seconds of tq-solid per element and solid step (Mohr-Coulomb damage and contact included),
+#: and of OpenFOAM per water pass and per water cell and pass: measured on the example's coupled
+#: runs on a 2-core AMD EPYC Zen 3 (docs/benchmarks.md "Water of any stiffness": the slice's 20 s
+#: record, 181 s coupled, 1.415 passes a window; the 3D variant's first second, 236 s, 2.57 passes).
+SOLID_S_PER_ELEMENT_STEP = 0.17e-6
+WATER_S_PER_PASS = 1.5e-3
+WATER_S_PER_CELL_PASS = 2.4e-6
+#: water passes a window: the implicit scheme's measured mean (1.4-1.8 on the example); explicit 1,
+#: the paper's predictor-corrector 2
+PASSES_PER_WINDOW = {"implicit": 1.5, "explicit": 1.0, "paper": 2.0}
+#: the share of the rock's element-steps with time.subcycling (the paper mesh in 3D: 0.32)
+SUBCYCLED_SHARE = 0.32
+
+
+@dataclass
+class RuntimeEstimate:
+    dt: float  # the solid's step, s (estimated from the lining's first element layer)
+    steps: int  # solid steps of the shaking
+    seconds: dict[str, float]  # condition -> CPU s of its shaking
+    wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others)
+
+    def line(self) -> str:
+        per = ", ".join(f"{c} {_minutes(s)}" for c, s in self.seconds.items())
+        return (f"run time: about {_minutes(self.wall)} of shaking ({per}; {self.steps:,} solid steps of "
+                f"{self.dt:.2g} s), within about 2x on a 2-core Zen 3 like this project's benchmarks; the static "
+                "stages come on top")
+
+
+def _minutes(s: float) -> str:
+    return f"{s:.0f} s" if s < 120 else f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.1f} h"
+
+
+def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
+    """The CPU time of each condition's shaking from the element and cell counts, the stable step
+    and the coupling scheme, with the constants above. The step is the lining's first element layer's
+    h / c_p times the safety factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s
+    tq-solid's own), cut by stiffness-proportional damping as tq-solid cuts it."""
+    import math
+
+    from .meshing.params import element_counts, resolve
+
+    d = case.data
+    counts = counts or element_counts(resolve(d["geometry"], d["mesh"]))
+    g, lin = d["geometry"], d["materials"]["lining"]
+    h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+    E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]
+    dt_crit = h1 / math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+    dmp = d["damping"]
+    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
+        beta = 2 * dmp["ratio"] / sum(2 * math.pi * f for f in dmp["frequencies"])
+        xi = beta / dt_crit
+        dt_crit *= math.sqrt(1 + xi * xi) - xi
+    dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit
+    duration = d["time"].get("end_time") or d["ground_motion"]["duration"]
+    steps = int(math.ceil(duration / dt))
+    rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
+    solid = (rock + counts["lining"]) * steps * SOLID_S_PER_ELEMENT_STEP
+    seconds = {}
+    for cond, parts in plan(case):
+        if "fluid" not in parts:
+            seconds[cond] = solid
+            continue
+        c = d["coupling"]
+        passes = PASSES_PER_WINDOW[c["scheme"]] * steps / c["window"]
+        seconds[cond] = (solid * PASSES_PER_WINDOW[c["scheme"]]
+                         + passes * (WATER_S_PER_PASS + counts["water"] * WATER_S_PER_CELL_PASS))
+    coupled = [s for c, s in seconds.items() if c == "dynamic_water"]
+    alone = [s for c, s in seconds.items() if c != "dynamic_water"]
+    wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(seconds.values())
+    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall)

@@ -329,6 +329,13 @@ def test_second_run_of_the_same_case_folder_refuses_naming_the_first(prepared, t
         err = capsys.readouterr().err
         assert f"error: another `tunnelquake run` is using {p.parent / 'results'} (pid {first.pid}, started 20" in err
         assert f"wait for it to end, or stop it (kill {first.pid}), then run again" in err
+        # the subcommands that write the same folder by hand refuse the same way, touching nothing
+        mesh_stamp = (p.parent / "results" / "mesh" / "fingerprint.json").stat().st_mtime_ns
+        for sub in ("mesh", "motion", "post"):
+            assert main([sub, str(p)]) == 1, sub
+            err = capsys.readouterr().err
+            assert f"error: another `tunnelquake run` is using {p.parent / 'results'} (pid {first.pid}" in err, sub
+        assert (p.parent / "results" / "mesh" / "fingerprint.json").stat().st_mtime_ns == mesh_stamp
         assert first.poll() is None, "the first run must go on"
     finally:
         os.kill(first.pid, signal.SIGTERM)
@@ -355,3 +362,21 @@ def test_stale_lock_of_a_dead_run_is_taken_over_saying_so(prepared, tmp_path, ca
     assert (f"note: taking over the lock of an earlier run (pid {dead.pid}, started 2026-01-02T03:04:05+00:00, "
             f"on h, command `tunnelquake run case.yaml`): pid {dead.pid} is no longer running") in out
     assert lock.read_text() == "" and runlock.holder(lock.parent) is None
+
+
+def test_summary_of_a_stopped_condition_names_only_a_results_file_that_was_written(tmp_path):
+    """The run's summary names a stopped condition's results file only when it exists and opens,
+    with the status the solver recorded."""
+    import h5py
+
+    from tunnelquake.cli.run import what_was_written
+
+    res = tmp_path / "results_no_water.h5"
+    assert what_was_written(res) == "no results file was written (results_no_water.h5 does not exist)"
+    res.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 40)  # a signature and nothing after it
+    assert what_was_written(res) == ("results_no_water.h5 is there but does not open as HDF5 (the solver stopped "
+                                     "while writing it)")
+    res.unlink()
+    with h5py.File(res, "w") as f:
+        f.attrs["status"] = "failed"
+    assert what_was_written(res) == "what the solid wrote is in results_no_water.h5 (status failed)"

@@ -35,7 +35,9 @@ def main(argv: list[str]) -> int:
     say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
         f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
     say(f"  {mesh_estimate(d)}")
-    from ..scene import added_mass_diagnostic, assess_slice, plan
+    from ..scene import added_mass_diagnostic, assess_slice, plan, runtime_estimate
+
+    say(f"  {runtime_estimate(case).line()}")
 
     for cond, parts in plan(case):
         say(f"  condition {cond}: runs {' + '.join(parts)}")

@@ -122,6 +122,20 @@ def atomic_path(target: Path):
             os.unlink(tmp)
 
 
+@contextlib.contextmanager
+def folder_held(case: Case, command: str):
+    """Hold the case's results folder for a command that writes into it (mesh, motion, post by
+    hand): yields True, or prints who holds it and yields False. `run` holds it for its whole run."""
+    from ..runlock import RunLockBusy, run_lock
+
+    try:
+        with run_lock(case.output_dir, command):
+            yield True
+    except RunLockBusy as e:
+        print(f"error: {e}", file=sys.stderr)
+        yield False
+
+
 #: set while a run is being stopped by a signal: its threads' progress lines are dropped, so that
 #: the one line saying what was stopped is the last thing printed
 QUIET = threading.Event()

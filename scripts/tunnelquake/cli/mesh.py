@@ -5,7 +5,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from .common import load_or_report, parser, say
+from .common import folder_held, load_or_report, parser, say
 
 
 def mesh_dir(case) -> Path:
@@ -46,5 +46,8 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    make_mesh(case, force=args.force)
+    with folder_held(case, "tunnelquake mesh " + " ".join(map(str, argv))) as held:
+        if not held:
+            return 1
+        make_mesh(case, force=args.force)
     return 0

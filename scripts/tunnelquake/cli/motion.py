@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..motion import MotionError, ProcessedMotion, from_case
-from .common import atomic_path, load_or_report, parser, say
+from .common import atomic_path, folder_held, load_or_report, parser, say
 
 
 def write_motion(motion: ProcessedMotion, path: Path) -> None:
@@ -66,12 +66,15 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    try:
-        motion, out = make_motion(case)
-    except MotionError as e:
-        print(f"error: {e}")
-        return 1
-    fig = case.output_dir / "figures" / "fig03_input_motion.png"
-    plot_motion(motion, fig)
-    say(f"figure: {fig}")
+    with folder_held(case, "tunnelquake motion " + " ".join(map(str, argv))) as held:
+        if not held:
+            return 1
+        try:
+            motion, out = make_motion(case)
+        except MotionError as e:
+            print(f"error: {e}")
+            return 1
+        fig = case.output_dir / "figures" / "fig03_input_motion.png"
+        plot_motion(motion, fig)
+        say(f"figure: {fig}")
     return 0

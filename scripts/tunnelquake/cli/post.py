@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..scene import plan
-from .common import atomic_path, load_or_report, parser, say
+from .common import atomic_path, folder_held, load_or_report, parser, say
 
 
 def _context(case, results) -> dict:
@@ -172,5 +172,8 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    post_case(case)
+    with folder_held(case, "tunnelquake post " + " ".join(map(str, argv))) as held:
+        if not held:
+            return 1
+        post_case(case)
     return 0

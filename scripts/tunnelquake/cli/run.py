@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 import time
+from pathlib import Path
 
 from .. import children, paths
 from ..motion import MotionError
@@ -403,8 +404,23 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
         say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
         return (rc if failed is solid else 1), res, (f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
-                                                     f"; what the solid wrote is in {res.name}")
+                                                     f"; {what_was_written(res)}")
     return 0, res, f"coupled with {fluid.solver}{on} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
+
+
+def what_was_written(res: Path) -> str:
+    """Where a stopped condition's results are, said only of a file that exists and opens."""
+    if not res.is_file():
+        return f"no results file was written ({res.name} does not exist)"
+    try:
+        import h5py
+
+        with h5py.File(res, "r") as f:
+            status = f.attrs.get("status", "unknown")
+            status = status.decode() if isinstance(status, bytes) else str(status)
+    except OSError:
+        return f"{res.name} is there but does not open as HDF5 (the solver stopped while writing it)"
+    return f"what the solid wrote is in {res.name} (status {status})"
 
 
 def main(argv: list[str]) -> int:
@@ -646,7 +662,7 @@ def _job(case, args) -> int:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         else:
             failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
-                          f"what was written is in {res.name}")
+                          f"{what_was_written(res)}")
 
     # The coupled condition (solid and water take turns: about one core) runs beside the solid-only
     # ones (one core) when the machine has two cores or more; otherwise one after the other.
