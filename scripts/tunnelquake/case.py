@@ -118,7 +118,16 @@ def coupling_window_force_weight(c: dict) -> float:
     return float(w)
 
 
+#: the implicit scheme's default window and IQN-ILS reuse (steps, windows): the example slice's
+#: measured setting (3.7x cheaper than one step a window: docs/benchmarks.md "The paper case's shortcuts")
+IMPLICIT_WINDOW = 16
+
+
 def _check_coupling(c, path, raw, ctx):
+    if c.get("window") is None:
+        c["window"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" else 1
+    if c.get("reuse") is None:
+        c["reuse"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" and c["acceleration"] == "iqn-ils" else 0
     if c.get("predictor") == "linear" and c["scheme"] != "implicit":
         ctx.error(f"{path}.predictor", c["predictor"], f"the linear predictor starts the iterations of the implicit "
                   f"scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
@@ -241,7 +250,9 @@ def schema() -> Section:
             "viscosity": _positive(U.DYNAMIC_VISCOSITY, "dynamic viscosity, Pa s", default=1.308e-3),
             "head": Number(dim=U.LENGTH, min=0.0, default=0.0,
                            doc="pressure head at the tunnel axis, m of water: p = rho_w g (head - (z - z_axis))"),
-            "model": Choice(choices=("incompressible", "compressible"), default="incompressible"),
+            "model": Choice(choices=("incompressible", "compressible"), default="compressible",
+                            doc="compressible: real water of bulk modulus K (the default); incompressible: the "
+                                "limit K -> infinity (closed sections: the enclosed volume held by the solid)"),
             "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
             "ends": Choice(choices=("open", "closed"), default="open",
                            doc="axial ends of the water column: open (pressure) or closed (walls)"),
@@ -295,9 +306,11 @@ def schema() -> Section:
             "scheme": Choice(choices=("explicit", "paper", "implicit"), default="implicit",
                              doc="explicit: one exchange a window (staggered); paper: the paper's predictor-"
                                  "corrector, two passes; implicit: iterated to the tolerance (docs/coupler.md)"),
-            "window": Number(integer=True, min=1, default=1,
+            "window": Number(integer=True, min=1, default=None,
                              doc="solid steps per coupling window (one water step); implicit: the window is stepped "
-                                 "again whole until the water agrees; k > 1 is refused for scheme paper"),
+                                 "again whole until the water agrees; k > 1 is refused for scheme paper. Default: "
+                                 f"{IMPLICIT_WINDOW} for the implicit scheme (the example's measured setting), 1 "
+                                 "otherwise"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
             "max_iterations": Number(integer=True, min=1, default=20),
             "energy_limit": Number(min=0.0, default=0.05,
@@ -326,10 +339,11 @@ def schema() -> Section:
                                             "water: the water solver (docs/coupler.md \"Volume law in the "
                                             "solid\")"),
             "acceleration": Choice(choices=("none", "aitken", "iqn-ils"), default="iqn-ils"),
-            "reuse": Number(integer=True, min=0, max=1000, default=0,
+            "reuse": Number(integer=True, min=0, max=1000, default=None,
                             doc="implicit iqn-ils: keep the secant columns of this many earlier windows, so "
                                 "a window's first correction is a quasi-Newton step (docs/coupler.md "
-                                "\"Windows of several steps\"); 0: each window starts afresh"),
+                                "\"Windows of several steps\"); 0: each window starts afresh. Default: "
+                                f"{IMPLICIT_WINDOW} for implicit iqn-ils, 0 otherwise"),
             "predictor": Choice(choices=("auto", "constant", "linear"), default="auto",
                                 doc="implicit scheme: the force a window starts from — constant: the last "
                                     "window's; linear: 2 R_w - R_(w-1), so a window whose first answer agrees "
@@ -343,7 +357,7 @@ def schema() -> Section:
             "timeout": _positive(U.TIME, "s; a silent partner for longer stops the run", default=120.0),
         }),
         "damping": Section(checks=[_check_damping], fields={
-            "model": Choice(choices=("rayleigh", "mass_proportional"), default="rayleigh",
+            "model": Choice(choices=("rayleigh", "mass_proportional"), default="mass_proportional",
                             doc="rayleigh: alpha M + beta K with the ratio at both frequencies; mass_proportional: "
                                 "alpha M only, the ratio at the first frequency (no stiffness term, so no cut in the "
                                 "stable step: see docs/theory.md §1)"),
@@ -361,7 +375,11 @@ def schema() -> Section:
             "end_time": _positive(U.TIME, "s (default: the motion's duration)"),
         }),
         "output": Section(fields={
-            "directory": Text(default="results", doc="relative to the case file"),
+            "directory": Text(default="results",
+                              doc="relative to the case file, inside its folder unless allow_outside is true"),
+            "allow_outside": Bool(default=False,
+                                  doc="let output.directory lie outside the case file's folder (an absolute path "
+                                      "or one through ..)"),
             "monitors": MapOf(item=Tuple(item=_length(), length=3), default={},
                               doc="name: [x, y, z] points whose histories are written"),
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
@@ -441,6 +459,22 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             warnings.append(f"parallel.fluid_ranks {ranks} exceeds the {cores} cores this run may use: the ranks "
                             f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
                             f"use fluid_ranks <= {cores}")
+    for name in d["materials"]:
+        if name not in ("rock", "lining"):
+            issues.append(Issue(f"materials.{name}", name,
+                                "is not a region of the mesh: the mesh has one rock region and the lining, so this "
+                                "material would never be used",
+                                "remove it, or give its properties to materials.rock",
+                                _section_lines(raw, "materials").get(name)))
+    warnings += _slow_setting_warnings(d)
+    out = d["output"]
+    here = Path(filename).parent.resolve()
+    where = (here / out["directory"]).resolve()
+    if not out["allow_outside"] and not where.is_relative_to(here):
+        issues.append(Issue("output.directory", out["directory"],
+                            f"resolves to {where}, outside the case file's folder {here}",
+                            "give a folder inside the case's folder (e.g. results), or set output.allow_outside: "
+                            "true to write there on purpose", _section_lines(raw, "output").get("directory")))
     g = d["geometry"]
     (x0, x1), (y0, y1), (z0, z1) = g["x_range"], g["y_range"], g["z_range"]
     for name, p in (d["output"]["monitors"] or {}).items():
@@ -463,6 +497,36 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     return issues, warnings
+
+
+#: warn when a setting makes the run this many times slower than the alternative named
+SLOW_FACTOR = 2.0
+
+
+def _slow_setting_warnings(d: dict) -> list[str]:
+    """Settings that make the run much slower than a measured alternative, each with its factor."""
+    out = []
+    dmp = d["damping"]
+    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0 and d["time"].get("dt") is None:
+        # The stiffness term beta K limits the central-difference step to (2/w)(sqrt(1 + xi^2) - xi)
+        # at the highest frequency w = 2/dt0, with xi = beta w / 2 (Belytschko, Liu & Moran, §6.2).
+        g, lin = d["geometry"], d["materials"]["lining"]
+        h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+        E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]
+        dt0 = h1 / math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))  # 2 / w_max, the lining's layer
+        w1, w2 = (2 * math.pi * f for f in dmp["frequencies"])
+        xi = (2 * dmp["ratio"] / (w1 + w2)) / dt0
+        factor = 1.0 / (math.sqrt(1 + xi * xi) - xi)
+        if factor > SLOW_FACTOR:
+            out.append(f"damping.model rayleigh: its stiffness term cuts the solid's stable step about {factor:.0f}x "
+                       f"(to about {d['time']['safety_factor'] * dt0 / factor:.2g} s), so the run takes about {factor:.0f}x longer; "
+                       "damping.model: mass_proportional (the default) keeps the step")
+    c = d["coupling"]
+    if "dynamic_water" in d["conditions"] and c["scheme"] == "implicit" and c["window"] == 1:
+        out.append("coupling.window 1: every solid step exchanges with the water; over the example slice's first "
+                   f"second one-step windows took 3.7x the CPU time of windows of {IMPLICIT_WINDOW} (the default) "
+                   "at the same accuracy (docs/benchmarks.md \"The paper case's shortcuts\")")
+    return out
 
 
 def _section_lines(raw: LineDict, *keys: str) -> dict:

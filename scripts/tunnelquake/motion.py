@@ -133,7 +133,8 @@ def read_at2(path: str | Path, units: str | None = None) -> Record:
         if m:
             npts, dt = int(m.group(1)), float(m.group(2))
     if npts is None:
-        raise MotionError(f"{path}:4: no 'NPTS=..., DT=...' in the AT2 header (line 4 is {header[3]!r})")
+        raise MotionError(f"{path}:4: no 'NPTS=..., DT=...' in the first four lines, the AT2 header: is this an AT2 "
+                          "record? (set ground_motion.format: two_column for a file of time and acceleration rows)")
     if not dt > 0:
         raise MotionError(f"{path}:4: time step DT={dt} must be positive")
     unit = units or _units_from_header(header)
@@ -155,7 +156,7 @@ def read_at2(path: str | Path, units: str | None = None) -> Record:
             try:
                 row = [float(ln[i:i + 10]) for i in range(0, len(ln.rstrip()), 10)]
             except ValueError as e:
-                raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+                raise MotionError(f"{path}:{k}: {_not_a_number(ln)}") from e
         if len(values) < npts:
             per_line = len(row)
         values.extend(row)
@@ -184,7 +185,19 @@ def read_at2(path: str | Path, units: str | None = None) -> Record:
     return Record(dt=dt, acc=acc, name=name, units_note=unit, source=str(path))
 
 
-def read_two_column(path: str | Path, units: str = "g") -> Record:
+def _not_a_number(line: str) -> str:
+    """Where a data line stops being numbers, without echoing the line (the file may not be a
+    record at all, and its text is not the message's to show)."""
+    for i, token in enumerate(line.split("#", 1)[0].replace(",", " ").split(), start=1):
+        try:
+            float(token)
+        except ValueError:
+            return (f"field {i} of this line is not a number ({len(token)} characters): is this file a "
+                    "ground-motion record?")
+    return "this line does not read as numbers: is this file a ground-motion record?"
+
+
+def read_two_column(path: str | Path, units: str) -> Record:
     """Read 'time acceleration' rows (uniform time step required)."""
     path = Path(path)
     if units not in _UNIT_FACTORS:
@@ -204,7 +217,7 @@ def read_two_column(path: str | Path, units: str = "g") -> Record:
             t.append(float(s[0]))
             a.append(float(s[1]))
         except ValueError as e:
-            raise MotionError(f"{path}:{k}: cannot read a number in {ln.strip()!r}") from e
+            raise MotionError(f"{path}:{k}: {_not_a_number(ln)}") from e
         if not (math.isfinite(t[-1]) and math.isfinite(a[-1])):
             what = "time" if not math.isfinite(t[-1]) else "acceleration"
             raise MotionError(f"{path}:{k}: the {what} on row {len(t)} is {s[0 if what == 'time' else 1]!r}, not a "
@@ -233,7 +246,10 @@ def read_record(path: str | Path, fmt: str = "auto", units: str | None = None) -
     if fmt == "at2":
         return read_at2(path, units)
     if fmt == "two_column":
-        return read_two_column(path, units or "g")
+        if units is None:
+            raise MotionError(f"{path}: a two-column record states no units, and none are given",
+                              "give them: ground_motion.units: g, m/s^2, cm/s^2 or gal")
+        return read_two_column(path, units)
     raise MotionError(f"unknown record format '{fmt}' (use auto, at2 or two_column)")
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
+import pytest
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
@@ -18,7 +19,8 @@ def _case(tmp_path, *edits: str, record: str | None = None) -> str:
     given, `record` (a file name in tmp_path) as its ground-motion record (if_missing: error)."""
     text = EXAMPLE.read_text()
     if record is not None:
-        edits = (RECORD_KEY, f"  file: {record}\n", "  if_missing: synthetic ", "  if_missing: error ", *edits)
+        units = "" if record.lower().endswith(".at2") else "  units: g\n"
+        edits = (RECORD_KEY, f"  file: {record}\n{units}", "  if_missing: synthetic ", "  if_missing: error ", *edits)
     for old, new in zip(edits[::2], edits[1::2], strict=True):
         assert old in text, old
         text = text.replace(old, new, 1)
@@ -236,3 +238,81 @@ def test_element_counts_are_those_the_mesher_builds(tmp_path):
         est = element_counts(resolve(PAPER_GEOMETRY, mesh))
         assert est == {k: built[k] for k in est}, (mesh, est, built)
     assert element_counts(resolve(PAPER_GEOMETRY, {}))["rock"] == 58080  # the paper's 3D mesh
+
+
+def _without_sections(text: str, *names: str) -> str:
+    """`text` with the top-level sections `names` (their key line and indented body) removed."""
+    out, skip = [], False
+    for line in text.splitlines(keepends=True):
+        if line and not line[0].isspace() and not line.startswith("#"):
+            skip = line.split(":", 1)[0] in names
+        if not skip:
+            out.append(line)
+    return "".join(out)
+
+
+def test_a_material_the_mesh_has_no_region_for_is_refused_naming_it(tmp_path, capsys):
+    """A second rock material (a weathered layer) would never be meshed: refused, not ignored."""
+    rc, err = _check(capsys, _case(tmp_path, "  lining:\n", "  weathered:\n    youngs_modulus: 2 GPa\n"
+                                   "    poisson_ratio: 0.3\n    density: 2200 kg/m^3\n    model: elastic\n  lining:\n"))
+    assert rc == 1
+    assert ("materials.weathered = 'weathered': is not a region of the mesh: the mesh has one rock region and the "
+            "lining, so this material would never be used. Fix: remove it, or give its properties to "
+            "materials.rock") in err
+
+
+def test_a_two_column_record_without_units_is_refused_naming_the_key(tmp_path, capsys):
+    t = np.arange(0.0, 20.0 + 1e-9, 0.01)
+    (tmp_path / "rec.txt").write_text("".join(f"{x:.4f} {0.1 * np.sin(x):.6f}\n" for x in t))
+    text = EXAMPLE.read_text().replace(RECORD_KEY, "  file: rec.txt\n").replace("if_missing: synthetic ", "if_missing: error ")
+    (tmp_path / "case.yaml").write_text(text)
+    rc, err = _check(capsys, str(tmp_path / "case.yaml"))
+    assert rc == 1
+    assert ("a two-column record states no units, and none are given. Fix: give them: ground_motion.units: g, "
+            "m/s^2, cm/s^2 or gal") in err
+
+
+def test_defaults_are_the_settings_the_example_measured(tmp_path, capsys):
+    """A case that leaves damping, coupling and the water model out gets the example's measured
+    settings (mass-proportional damping: no cut in the stable step; windows of 16 steps with IQN-ILS
+    reuse 16, weight 0.75; compressible water), and no warning about its speed."""
+    from tunnelquake.case import coupling_window_force_weight, load_case
+
+    text = _without_sections(EXAMPLE.read_text(), "damping", "coupling", "variants")
+    text = text.replace("  model: compressible\n", "").replace(RECORD_KEY, "  file: x.AT2\n")
+    (tmp_path / "case.yaml").write_text(text)
+    case = load_case(tmp_path / "case.yaml")
+    d = case.data
+    assert d["damping"]["model"] == "mass_proportional"
+    assert d["water"]["model"] == "compressible"
+    assert (d["coupling"]["scheme"], d["coupling"]["window"], d["coupling"]["reuse"]) == ("implicit", 16, 16)
+    assert coupling_window_force_weight(d["coupling"]) == 0.75
+    assert not [w for w in case.warnings if "slower" in w or "longer" in w or "CPU" in w]
+    # the other schemes keep one-step windows and no reuse
+    (tmp_path / "case.yaml").write_text(text + "coupling:\n  scheme: explicit\n")
+    c = load_case(tmp_path / "case.yaml").data["coupling"]
+    assert (c["window"], c["reuse"]) == (1, 0)
+
+
+def test_rayleigh_damping_warns_with_the_factor_it_slows_the_run(tmp_path, capsys):
+    """Stiffness-proportional damping cuts the central-difference step to (2/w)(sqrt(1+xi^2) - xi),
+    xi = beta w / 2 at the highest frequency w = 2 c_p / h (Belytschko, Liu & Moran §6.3; tq-solid's
+    stableStep): for the example's lining layer (h = 0.25 m, c_p = 3,470 m/s) and 5 % at 1.5 and 10 Hz,
+    xi = 19.2 and the step is cut 38.4x (tq-solid's own hex8 frequency bound, 2/7.0e-5 s, gives 39.6x)."""
+    import math
+
+    rc, err = _check(capsys, _case(tmp_path, "  model: mass_proportional", "  model: rayleigh"))
+    assert rc == 0
+    cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
+    xi = 2 * 0.05 / (2 * math.pi * 11.5) * cp / 0.25
+    factor = 1 / (math.sqrt(1 + xi * xi) - xi)
+    assert factor == pytest.approx(38.44, abs=0.01)
+    assert f"damping.model rayleigh: its stiffness term cuts the solid's stable step about {factor:.0f}x" in err
+    assert f"so the run takes about {factor:.0f}x longer; damping.model: mass_proportional (the default)" in err
+
+
+def test_one_step_implicit_windows_warn_with_the_measured_factor(tmp_path, capsys):
+    rc, err = _check(capsys, _case(tmp_path, "  window: 16", "  window: 1", "  reuse: 16", "  reuse: 0"))
+    assert rc == 0
+    assert ("warning: coupling.window 1: every solid step exchanges with the water; over the example slice's first "
+            "second one-step windows took 3.7x the CPU time of windows of 16 (the default)") in err

@@ -56,7 +56,7 @@ def test_two_column_rejects_non_uniform_time(tmp_path):
     p = tmp_path / "m.txt"
     p.write_text("0 0\n0.01 1\n0.03 0\n")
     with pytest.raises(MotionError, match="not uniform"):
-        read_two_column(p)
+        read_two_column(p, units="g")
 
 
 def test_lowpass_removes_content_above_cutoff():

@@ -187,19 +187,25 @@ def test_damping_models_give_the_ratio_where_asked(prepared, tmp_path, model):
 def test_energy_guard_and_window_force_weight_reach_the_solid(prepared, tmp_path):
     """coupling.energy_limit (default 0.05) becomes /coupling energy_limit; 0 leaves the key out, which
     tq-solid reads as no guard (docs/coupler.md "Energy guard"). coupling.window_force_weight is written
-    when not the default 0.5 (the linear ramp; docs/coupler.md "Window force weight")."""
+    when not 0.5 (the linear ramp; docs/coupler.md "Window force weight"): by default 0.75 for the
+    implicit scheme's default windows of 16 steps, nothing for one-step windows."""
     case = _case(tmp_path)
     kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
     inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5", **kw)
     with h5py.File(inp) as f:
         assert f["coupling"].attrs["energy_limit"] == 0.05
-        assert "window_force_weight" not in f["coupling"].attrs
+        assert f["coupling"].attrs["window"] == 16
+        assert f["coupling"].attrs["window_force_weight"] == 0.75
     case.data["coupling"]["energy_limit"] = 0.0
-    case.data["coupling"]["window_force_weight"] = 0.75
+    case.data["coupling"]["window_force_weight"] = 0.9
     inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "b.h5", **kw)
     with h5py.File(inp) as f:
         assert "energy_limit" not in f["coupling"].attrs
-        assert f["coupling"].attrs["window_force_weight"] == 0.75
+        assert f["coupling"].attrs["window_force_weight"] == 0.9
+    case.data["coupling"].update(window=1, window_force_weight=None)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5", **kw)
+    with h5py.File(inp) as f:
+        assert "window_force_weight" not in f["coupling"].attrs
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
@@ -212,7 +218,7 @@ def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, 
     case = _case(tmp_path)
     kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
     case.data["coupling"]["window_force_weight"] = 0.75
-    for change in ({"scheme": "explicit"}, {"window": 1}):
+    for change in ({"scheme": "explicit", "reuse": 0}, {"window": 1}):
         c = dict(case.data["coupling"])
         case.data["coupling"].update(change)
         inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water",
