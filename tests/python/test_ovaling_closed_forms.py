@@ -112,12 +112,11 @@ def test_rigid_lining_is_the_rigid_inclusion(nu):
     np.testing.assert_allclose(srr, tau * (1 + 1 / kappa) * np.cos(2 * THETA), atol=1e-9 * tau)
     T_bonded = abs(ring_thrust_amplitude(srr[0], -tau * (1 + 1 / kappa), a))
     assert T_bonded == pytest.approx(tau * a * (1 + 1 / kappa), rel=1e-12)
-    # Wang's no-slip K2 at F = C = 0 is exact for incompressible ground only; otherwise it is low
-    # by (1 − 2ν)² / (16 (1 − ν)) of the exact value (an approximation of Einstein & Schwartz's
-    # no-slip solution: 2.1 % at ν = 0.25, 6.25 % at ν = 0)
+    # Wang's no-slip K2 at F = C = 0 (a lining rigid in bending and in compression) is the bonded
+    # rigid inclusion's 1 + 1/κ exactly: 1 + 2/(6 − 8ν)
     K2_exact = 1 + 1 / kappa
-    assert ov.wang_k2(0.0, 0.0, nu) == pytest.approx(K2_exact * (1 - (1 - 2 * nu) ** 2 / (16 * (1 - nu))), rel=1e-12)
-    assert ov.wang_k2(0.0, 0.0, 0.5) == pytest.approx(2.0, rel=1e-15)  # κ = 1: exact
+    assert ov.wang_k2(0.0, 0.0, nu) == pytest.approx(K2_exact, rel=1e-12)
+    assert ov.wang_k2(0.0, 0.0, 0.5) == pytest.approx(2.0, rel=1e-15)  # κ = 1
 
 
 @pytest.mark.parametrize("nu", NU_CASES)
@@ -165,9 +164,9 @@ def test_penzien_no_slip_and_its_known_thrust_deficit():
     assert pn.thrust == pytest.approx(2 * pn.moment / 3.25, rel=1e-12) == pn.shear
     assert pn.ratio < pf.ratio
     assert pn.thrust / wn.thrust < 0.15  # 0.092 here
-    # Wang no slip at F = 27.04, C = 0.8, ν = 0.3: K2 = 1 + (27.04 * (0.4 − 0.32) − 0.08 + 2)
-    # / (27.04 * (2.4 + 0.32) + 0.8 * (2.5 − 2.4 + 0.54) + 6 − 2.4) = 1 + 4.0832 / 77.6608 = 1.052577
-    assert wn.ratio == pytest.approx(1 + 4.0832 / 77.6608, rel=1e-12)
+    # Wang no slip at F = 27.04, C = 0.8, ν = 0.3: K2 = 1 + (27.04 * (0.4 − 0.32) − 0.5 * 0.16 * 0.8 + 2)
+    # / (27.04 * (2.4 + 0.32) + 0.8 * (2.5 − 2.4 + 0.54) + 6 − 2.4) = 1 + 4.0992 / 77.6608 = 1.052783
+    assert wn.ratio == pytest.approx(1 + 4.0992 / 77.6608, rel=1e-12)
 
 
 def test_distribution_around_the_ring():

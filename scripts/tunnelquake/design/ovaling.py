@@ -23,7 +23,7 @@ tunnel": use the mid-surface radius of the ring), d = 2r; I = t³/12 (m⁴/m); G
 - Wang, full slip: K1 = 12 (1 − ν_m) / (2F + 5 − 6ν_m)
       T_max = K1 E_m r γ_max / (6 (1 + ν_m)),  M_max = r T_max,  ΔD/D = ± K1 F γ_max / 3
 - Wang, no slip: T_max = K2 τ_max r,
-      K2 = 1 + {F[(1 − 2ν_m) − (1 − 2ν_m) C] − ½(1 − 2ν_m)² + 2}
+      K2 = 1 + {F[(1 − 2ν_m) − (1 − 2ν_m) C] − ½(1 − 2ν_m)² C + 2}
                / {F[(3 − 2ν_m) + (1 − 2ν_m) C] + C[5/2 − 8ν_m + 6ν_m²] + 6 − 8ν_m};
       the moment and ΔD of full slip (Wang's recommendation: conservative).
 - Penzien: Δ_ff = γ_max d / 2 (the free-field change of a diameter at 45°),
@@ -92,7 +92,7 @@ def wang_k1(F: float, nu_m: float) -> float:
 def wang_k2(F: float, C: float, nu_m: float) -> float:
     """No-slip thrust coefficient K2 (Wang 1993; as printed in Hashash et al. 2001)."""
     a = 1 - 2 * nu_m
-    num = F * (a - a * C) - 0.5 * a * a + 2
+    num = F * (a - a * C) - 0.5 * a * a * C + 2
     den = F * ((3 - 2 * nu_m) + a * C) + C * (2.5 - 8 * nu_m + 6 * nu_m**2) + 6 - 8 * nu_m
     return 1 + num / den
 
