@@ -82,6 +82,23 @@ def _check_interface(i, path, raw, ctx):
                   "use dynamic <= static friction (paper: both 0.6)", raw.key_lines.get("dynamic_friction"))
 
 
+def _check_layer(layer, path, raw, ctx):
+    if (layer["bottom"] is None) == (layer["thickness"] is None):
+        ctx.error(f"{path}.bottom", layer["bottom"], "give the layer's bottom elevation or its thickness, one of the two",
+                  "write 'bottom: <z> m' or 'thickness: <t> m'", raw.line)
+
+
+def ground_layers(d: dict) -> list[tuple[str, float]]:
+    """The case's ground layers from the surface down as [(material, z of the layer's bottom)]
+    (a thickness counted down from the bottom of the layer above, the first from the ground
+    surface geometry.z_range[1]); what the mesher takes (meshing.params.resolve)."""
+    out, z = [], d["geometry"]["z_range"][1]
+    for layer in d.get("layers") or []:
+        z = layer["bottom"] if layer["bottom"] is not None else z - layer["thickness"]
+        out.append((layer["material"], float(z)))
+    return out
+
+
 def _check_ground_motion(gm, path, raw, ctx):
     if gm["source"] == "file" and gm["file"] is None:
         ctx.error(f"{path}.file", None, "is required when source is 'file'",
@@ -235,7 +252,17 @@ def schema() -> Section:
         }),
         "mesh": _mesh_section(),
         "materials": MapOf(item=material, required_keys=("rock", "lining"), required=True,
-                           doc="one entry per mesh region (rock, lining)"),
+                           doc="one entry per mesh region: rock (the ground below any layers), lining, and "
+                               "one per ground layer, named by layers[].material"),
+        "layers": ListOf(item=Section(checks=[_check_layer], fields={
+            "material": Text(required=True, doc="the layer's material: a name in materials other than rock and "
+                                                "lining; also its region in the mesh"),
+            "bottom": _length("elevation of the layer's bottom, m (or give thickness)"),
+            "thickness": _positive(U.LENGTH, "m, counted down from the layer above (the first from the ground "
+                                             "surface z_range[1]); or give bottom"),
+        }), default=[], doc="horizontal ground layers from the surface down, each its own mesh region; below the "
+                            "last the ground is materials.rock, which holds the tunnel and its near-field box "
+                            "(docs/solid_solver.md \"Layered ground\")"),
         "interface": Section(checks=[_check_interface], fields={
             "model": Choice(choices=("dynamic_contact", "bonded"), default="dynamic_contact",
                             doc="rock-lining interface: the paper's dynamic contact force method, or always bonded"),
@@ -459,13 +486,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             warnings.append(f"parallel.fluid_ranks {ranks} exceeds the {cores} cores this run may use: the ranks "
                             f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
                             f"use fluid_ranks <= {cores}")
-    for name in d["materials"]:
-        if name not in ("rock", "lining"):
-            issues.append(Issue(f"materials.{name}", name,
-                                "is not a region of the mesh: the mesh has one rock region and the lining, so this "
-                                "material would never be used",
-                                "remove it, or give its properties to materials.rock",
-                                _section_lines(raw, "materials").get(name)))
+    issues += _layer_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     out = d["output"]
     here = Path(filename).parent.resolve()
@@ -484,14 +505,19 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue(f"output.monitors.{name}", p, "lies outside the model block",
                                 "give a point inside the block", lines.get("output")))
     # Mesh resolution for the cut-off frequency (Kuhlemeyer & Lysmer 1973: h <= lambda_min / 8).
-    rock = d["materials"].get("rock")
-    if rock:
-        G = rock["youngs_modulus"] / (2 * (1 + rock["poisson_ratio"]))
-        cs = math.sqrt(G / rock["density"])
+    # The slowest ground material (rock or a layer) sets the shortest wavelength.
+    ground = [n for n in ["rock"] + [m for m, _ in ground_layers(d)] if n in d["materials"]]
+    if ground:
+        def shear_speed(m):
+            return math.sqrt(m["youngs_modulus"] / (2 * (1 + m["poisson_ratio"])) / m["density"])
+
+        slow = min(ground, key=lambda n: shear_speed(d["materials"][n]))
+        cs = shear_speed(d["materials"][slow])
         f = d["ground_motion"]["cutoff_frequency"]
         h = d["mesh"].get("max_element_size")
         if h is not None and h > cs / (8 * f):
-            warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}/(8*{f:g}) "
+            of = "" if slow == "rock" else f" (of layer {slow})"
+            warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}{of}/(8*{f:g}) "
                             f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
     issues += _monitor_checks(d, raw, warnings)
     issues += _mesh_checks(d, raw, warnings)
@@ -589,6 +615,40 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     return issues
 
 
+def _layer_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Every layer names a material of its own; every material is a region of the mesh (rock,
+    lining, or a layer's). The geometry of the layers (order, thickness, the near-field box below
+    them) is the mesher's rule, said by _mesh_checks."""
+    issues = []
+    mats = d["materials"]
+    layers = d.get("layers") or []
+    raw_layers = raw.get("layers") if isinstance(raw.get("layers"), list) else []
+    seen = set()
+    for i, layer in enumerate(layers):
+        name = layer["material"]
+        line = getattr(raw_layers[i], "line", None) if i < len(raw_layers) else raw.key_lines.get("layers")
+        if name in ("rock", "lining"):
+            issues.append(Issue(f"layers[{i}].material", name,
+                                f"is the region {'below the layers' if name == 'rock' else 'of the lining'}, not a "
+                                "layer's", "give the layer a material of its own (e.g. materials.weathered)", line))
+        elif name not in mats:
+            issues.append(Issue(f"layers[{i}].material", name, "is not a material of the case",
+                                f"add materials.{name} (youngs_modulus, poisson_ratio, density, ...)", line))
+        elif name in seen:
+            issues.append(Issue(f"layers[{i}].material", name, "names the material of another layer: each layer is "
+                                "its own mesh region", "merge the two layers, or copy the material under another "
+                                "name", line))
+        seen.add(name)
+    for name in mats:
+        if name not in ("rock", "lining") and name not in seen:
+            issues.append(Issue(f"materials.{name}", name,
+                                "is not a region of the mesh: no entry of layers names it, so this material would "
+                                "never be used",
+                                f"add a layer with 'material: {name}' (layers: [{{material: {name}, thickness: ...}}]), "
+                                "or remove it", _section_lines(raw, "materials").get(name)))
+    return issues
+
+
 def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     """The mesher's own rules (meshing.params.resolve: multiples of 4 around, element sizes the
     structured blocks can meet, gradings, the near-field box inside the block), said against
@@ -597,11 +657,20 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     from .meshing.params import MeshInputError, element_counts, machine_memory, memory_estimate, resolve
 
     try:
-        plan = resolve(d["geometry"], d["mesh"])
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d))
     except MeshInputError as e:
         key = e.key or "mesh"
         section, _, leaf = key.partition(".")
         line = _section_lines(raw, section).get(leaf) or raw.key_lines.get(section)
+        if key.startswith("layers["):
+            # layers[i].bottom: the entry's line; a thickness is said as the bottom it makes.
+            i = int(key[len("layers["):key.index("]")])
+            entry = raw.get("layers")[i] if isinstance(raw.get("layers"), list) else None
+            line = getattr(entry, "line", None) or raw.key_lines.get("layers")
+            if d["layers"][i]["bottom"] is None:
+                key = f"layers[{i}].thickness"
+                return [Issue(key, d["layers"][i]["thickness"], f"its bottom at z = {e.value:g} m {e.problem}",
+                              (e.fix or "").rstrip(".")[:1].lower() + (e.fix or "").rstrip(".")[1:], line)]
         value = e.value if e.key else d["mesh"]
         fix = (e.fix or "see docs/meshing.md").rstrip(".")
         fix = fix[:1].lower() + fix[1:]

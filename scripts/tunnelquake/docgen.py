@@ -53,6 +53,9 @@ def rows(spec: Section, prefix: str = ""):
                 yield from rows(sub.item, path + ".<name>.")
             else:
                 yield f"| `{path}.<name>` | {_kind(sub.item)} | | |"
+        elif isinstance(sub, ListOf) and isinstance(sub.item, Section):
+            yield f"| `{path}` | list | {_default(sub)} | {sub.doc} |"
+            yield from rows(sub.item, path + "[].")
         else:
             yield f"| `{path}` | {_kind(sub)} | {_default(sub)} | {sub.doc} |"
 

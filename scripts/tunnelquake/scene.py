@@ -220,10 +220,11 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     tq-solid's own), cut by stiffness-proportional damping as tq-solid cuts it."""
     import math
 
+    from .case import ground_layers
     from .meshing.params import element_counts, resolve
 
     d = case.data
-    counts = counts or element_counts(resolve(d["geometry"], d["mesh"]))
+    counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
     g, lin = d["geometry"], d["materials"]["lining"]
     h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
     E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]

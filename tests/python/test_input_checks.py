@@ -256,9 +256,8 @@ def test_a_material_the_mesh_has_no_region_for_is_refused_naming_it(tmp_path, ca
     rc, err = _check(capsys, _case(tmp_path, "  lining:\n", "  weathered:\n    youngs_modulus: 2 GPa\n"
                                    "    poisson_ratio: 0.3\n    density: 2200 kg/m^3\n    model: elastic\n  lining:\n"))
     assert rc == 1
-    assert ("materials.weathered = 'weathered': is not a region of the mesh: the mesh has one rock region and the "
-            "lining, so this material would never be used. Fix: remove it, or give its properties to "
-            "materials.rock") in err
+    assert ("materials.weathered = 'weathered': is not a region of the mesh: no entry of layers names it, so this "
+            "material would never be used. Fix: add a layer with 'material: weathered'") in err
 
 
 def test_a_two_column_record_without_units_is_refused_naming_the_key(tmp_path, capsys):

@@ -7,14 +7,16 @@ from .common import load_or_report, parser, say
 def mesh_estimate(d: dict) -> str:
     """One line: the hexahedra the mesh will have and the memory meshing and the run need
     (estimated from the division counts; the case's checks warn when that exceeds the machine's)."""
+    from ..case import ground_layers
     from ..meshing.params import element_counts, machine_memory, memory_estimate, resolve
 
-    counts = element_counts(resolve(d["geometry"], d["mesh"]))
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
     need = memory_estimate(counts, d["conditions"])
     have = machine_memory()
     mib = 2.0**20
     machine = f" (machine: {have['total'] / mib:,.0f} MiB)" if have else ""
-    return (f"mesh: {counts['rock']:,} rock + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
+    ground = "" if len(counts["regions"]) < 2 else " (" + ", ".join(f"{k} {v:,}" for k, v in counts["regions"].items()) + ")"
+    return (f"mesh: {counts['rock']:,} rock{ground} + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
             f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{machine}")
 
 

@@ -13,7 +13,11 @@ def mesh_dir(case) -> Path:
 
 
 def _fingerprint(case) -> str:
+    from ..case import ground_layers
+
     d = {"geometry": case.data["geometry"], "mesh": case.data["mesh"]}
+    if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
+        d["layers"] = ground_layers(case.data)
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -31,7 +35,9 @@ def make_mesh(case, force: bool = False) -> dict:
             return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
-    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out)
+    from ..case import ground_layers
+
+    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data))
     summary = json.loads(json.dumps(summary, default=str))
     stamp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
     for line in format_summary(summary).splitlines():

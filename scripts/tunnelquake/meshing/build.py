@@ -21,7 +21,7 @@ import numpy as np
 
 from . import hexmesh
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import MeshInputError, MeshPlan, resolve
+from .params import MeshInputError, MeshPlan, layer_of, resolve
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
@@ -30,16 +30,22 @@ WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
 PAPER_COUNTS = {"rock": 58080, "lining": 6336, "water": 14256}
 
 
-def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict:
+def region_names(plan: MeshPlan) -> list[str]:
+    """The solid's regions in mesh.h5 order: rock, lining, then the ground layers from the top."""
+    return [ROCK, LINING] + [name for name, _ in plan.layers]
+
+
+def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None) -> dict:
     """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
 
     geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
     excavated_radius, lining_thickness (m). mesh: MESH_DEFAULTS keys (missing ones take the
-    default; unknown ones are rejected). Returns a summary dict (see format_summary).
+    default; unknown ones are rejected). layers: the ground's horizontal layers from the surface
+    down, [(region name, z of its bottom)] (params.resolve). Returns a summary dict (see format_summary).
     Raises MeshInputError for bad input, RuntimeError if a quality check fails.
     """
     t0 = time.perf_counter()
-    plan = resolve(geometry, mesh)
+    plan = resolve(geometry, mesh, layers)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5", "water": out_dir / "water.msh"}
@@ -65,7 +71,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict
             gmsh.model.remove()
 
     solid = _solid_mesh(plan, coords, hexes)
-    _write_solid(files["solid"], solid, plan.slice)
+    _write_solid(files["solid"], solid, plan.slice, region_names(plan))
     water = _water_mesh(plan, coords, hexes[WATER])
     _write_gmsh22(files["water"], water)
 
@@ -78,7 +84,9 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path) -> dict
     return {
         "mode": "slice" if plan.slice else "3d",
         "counts": {
-            ROCK: int((solid["region"] == 0).sum()),
+            ROCK: int((solid["region"] != 1).sum()),
+            "regions": {name: int((solid["region"] == i).sum())
+                        for i, name in enumerate(region_names(plan)) if name != LINING},
             LINING: int((solid["region"] == 1).sum()),
             WATER: len(water["hexes"]),
             "solid_nodes": len(solid["coords"]),
@@ -111,6 +119,8 @@ def format_summary(s: dict) -> str:
         paper = s["paper_counts"][region]
         note = "" if s["mode"] != "3d" else f"  (paper {paper}, {100 * (c[region] / paper - 1):+.1f} %)"
         lines.append(f"  {region:7s} hexahedra: {c[region]:7d}{note}")
+    if len(c.get("regions", {})) > 1:
+        lines.append("  ground regions: " + ", ".join(f"{k} {v}" for k, v in c["regions"].items()))
     lines += [
         f"  solid nodes {c['solid_nodes']}, water nodes {c['water_nodes']}",
         f"  rock-lining node pairs: {s['interface_pairs']}",
@@ -199,7 +209,10 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     lining_c = np.where(dup[lining] >= 0, dup[lining], index[lining])
     conn = np.concatenate([rock_c, lining_c])
     conn = hexmesh.orient_positive(conn, coords)
-    region = np.concatenate([np.zeros(len(rock), np.int32), np.ones(len(lining), np.int32)])
+    # The ground's elements take the region of the layer their centre lies in (each lies wholly
+    # between two layer bottoms: those are grid lines of the outer rock).
+    ground = layer_of(plan, gcoords[rock][:, :, 2].mean(axis=1)) if plan.layers else np.zeros(len(rock), np.int32)
+    region = np.concatenate([ground.astype(np.int32), np.ones(len(lining), np.int32)])
     pairs = np.stack([index[shared], dup[shared]], axis=1)
 
     nr = len(rock)
@@ -243,7 +256,7 @@ def _classify_solid_faces(plan, coords, faces, owner_region) -> dict:
     on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
     masks["lining_inner"] = on_a & (owner_region == 1)
     masks["lining_outer"] = on_b & (owner_region == 1)
-    masks["rock_hole"] = on_b & (owner_region == 0)
+    masks["rock_hole"] = on_b & (owner_region != 1)
     hits = np.sum([m for m in masks.values()], axis=0)
     if (hits != 1).any():
         raise RuntimeError(
@@ -282,7 +295,7 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
     }
 
 
-def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool) -> None:
+def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool, regions: list[str]) -> None:
     """mesh.h5 exactly as docs/formats.md describes."""
     with h5py.File(path, "w") as f:
         f.attrs["format"] = "tunnelquake-solid-mesh"
@@ -292,7 +305,7 @@ def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool) -> None:
         el = f.create_group("elements")
         el.create_dataset("connectivity", data=s["conn"].astype(np.int32))
         el.create_dataset("region", data=s["region"].astype(np.int32))
-        el.attrs["regions"] = np.array([ROCK, LINING], dtype=h5py.string_dtype())
+        el.attrs["regions"] = np.array(regions, dtype=h5py.string_dtype())
         for name in SOLID_FACE_NAMES:
             f.create_dataset(f"faces/{name}", data=s["faces"][name].astype(np.int32).reshape(-1, 4))
         f.create_dataset("interfaces/rock_lining", data=s["pairs"].astype(np.int32))

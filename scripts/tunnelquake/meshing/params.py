@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 #: Every mesh parameter with its default. The defaults reproduce the paper's mesh (Liu, Zhang &
 #: Xiao 2021, §3.1): 58,080 rock and 6,336 lining hexahedra exactly, 14,784 water hexahedra
 #: (paper 14,256: a conforming water mesh with 48 cells around cannot reach 324 cells a layer).
@@ -134,6 +136,10 @@ class MeshPlan:
     bottom: tuple[tuple[float, Divisions], ...]
     top: tuple[tuple[float, Divisions], ...]
     axial: Divisions
+    # Ground layers above the near-field box, from the surface down: (region name, z of the
+    # layer's bottom in m). The top band has a grid line at every bottom; below the last one the
+    # ground is the region 'rock'.
+    layers: tuple[tuple[str, float], ...] = ()
 
 
 def _fail(where: str, key: str, value, why: str, fix: str):
@@ -239,8 +245,13 @@ def merged_mesh_params(mesh: dict | None) -> dict:
     return out
 
 
-def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
-    """Validate ``geometry`` and ``mesh`` (MESH_DEFAULTS keys) and derive the block divisions."""
+def resolve(geometry: dict, mesh: dict | None, layers=None) -> MeshPlan:
+    """Validate ``geometry`` and ``mesh`` (MESH_DEFAULTS keys) and derive the block divisions.
+
+    ``layers``: the ground's horizontal layers from the surface down, [(region name, z of its
+    bottom in m)], the ground below the last being 'rock'. Each bottom becomes a grid line of the
+    outer rock's top band; the near-field box must lie below them all (in 'rock'), and a layer
+    must be at least one near-field element (2 near_field_half_width / (around / 4)) thick."""
     _check_keys("geometry", geometry, GEOMETRY_KEYS)
     missing = [k for k in GEOMETRY_KEYS if k not in geometry]
     if missing:
@@ -333,6 +344,9 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
         segs = outer_band(length, h_box, hmax, float(m["outer_growth"]))
         return tuple((d, Divisions(div.count * k, div.growth ** (1.0 / k))) for d, div in segs)
 
+    layers = tuple((str(n), float(z)) for n, z in (layers or ()))
+    top = _layered_band(layers, zc + L, zmax, h_box, hmax, float(m["outer_growth"]), k) if layers else outer(zmax - zc - L)
+
     plan = MeshPlan(
         xmin=xmin,
         xmax=xmax,
@@ -355,11 +369,57 @@ def resolve(geometry: dict, mesh: dict | None) -> MeshPlan:
         left=outer(xc - L - xmin),
         right=outer(xmax - xc - L),
         bottom=outer(zc - L - zmin),
-        top=outer(zmax - zc - L),
+        top=top,
         axial=axial,
+        layers=layers,
     )
     _check_sizes(plan)
     return plan
+
+
+def _layered_band(layers, z_box, zmax, h_box, hmax, growth, k):
+    """The top band's segments (from the box up) with a grid line at every layer bottom: each
+    stretch between two bottoms is an outer band of its own, starting from the size the stretch
+    below it ended with (so the grading carries on across the interfaces)."""
+    def _fail_layer(i, z, why, fix):
+        key = f"layers[{i}].bottom"
+        raise MeshInputError(f"{key} = {z!r}: {why}. {fix}", key, z, why, fix)
+
+    z_prev = zmax
+    for i, (name, z) in enumerate(layers):
+        if not z < z_prev:
+            what = "the ground surface (geometry.z_range[1])" if i == 0 else f"the bottom of layer {i - 1}"
+            _fail_layer(i, z, f"must lie below {what} at z = {z_prev:g} m (layers go from the surface down)",
+                  "Order the layers from the surface down, each bottom lower than the one above.")
+        if z < z_box - 1e-9:
+            _fail_layer(i, z, f"reaches below the top of the near-field box around the tunnel at z = {z_box:g} m "
+                  "(the tunnel, its lining and the rock ring lie in materials.rock, below every layer)",
+                  "Raise the layer's bottom to that height or above, or reduce mesh.near_field_half_width.")
+        if z_prev - z < h_box * (1 - 1e-9):
+            _fail_layer(i, z, f"makes layer {i} ({name}) {z_prev - z:.4g} m thick, thinner than one element of "
+                  f"the near-field box ({h_box:.4g} m)",
+                  "Merge it with its neighbour, or make it thicker.")
+        z_prev = z
+    if 1e-9 < z_prev - z_box < h_box * (1 - 1e-9):
+        i = len(layers) - 1
+        _fail_layer(i, z_prev, f"leaves {z_prev - z_box:.4g} m of materials.rock above the near-field "
+              f"box (top at z = {z_box:g} m), thinner than one of its elements ({h_box:.4g} m)",
+              "Put the bottom at the box's top or at least one element above it.")
+    cuts = [z_box] + [z for _, z in reversed(layers) if z > z_box + 1e-9] + [zmax]
+    segs, h0 = [], h_box
+    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+        band = outer_band(hi - lo, h0, hmax, growth)
+        segs += band
+        h0 = graded_sizes(*band[-1])[-1]
+    return tuple((d, Divisions(div.count * k, div.growth ** (1.0 / k))) for d, div in segs)
+
+
+def layer_of(plan: MeshPlan, z: np.ndarray) -> np.ndarray:
+    """Ground region index of heights z: 0 for 'rock', 2 + i for layer i (1 is the lining)."""
+    out = np.zeros(np.shape(z), dtype=np.int32)
+    for i, (_, bottom) in enumerate(reversed(plan.layers)):
+        out[np.asarray(z) > bottom] = 2 + len(plan.layers) - 1 - i
+    return out
 
 
 def _check_sizes(p: MeshPlan) -> None:
@@ -419,7 +479,10 @@ def element_counts(p: MeshPlan) -> dict:
     lining 4 q n_lining; the rock ring 4 q n_near and the outer tensor grid (nx x nz blocks' worth
     of elements less the near-field box's q x q). Nodes: a structured quad mesh of the plane has
     as many nodes as quads plus one per ring around the tunnel (the O-grid's rings close on
-    themselves) plus one per outer grid line; the solid duplicates the rock-lining ring."""
+    themselves) plus one per outer grid line; the solid duplicates the rock-lining ring.
+
+    'rock' counts the whole ground (its layers included); 'regions' splits it into the mesh's
+    ground regions ('rock' below the layers, then each layer)."""
     q = p.quarter.count
     nx = q + sum(d.count for _, d in p.left) + sum(d.count for _, d in p.right)
     nz = q + sum(d.count for _, d in p.bottom) + sum(d.count for _, d in p.top)
@@ -432,8 +495,21 @@ def element_counts(p: MeshPlan) -> dict:
     # of the rock ring and of the lining, and the lining's own copy of the rock-lining ring)
     solid_nodes2 = (nx + 1) * (nz + 1) - (q - 1) ** 2 + 4 * q * (p.near_field.count + p.lining.count + 1)
     water_nodes2 = (q + 1) ** 2 + 4 * q * p.water_ring.count
+    # The ground's regions: every layer is nx x (its rows of the top band) of the outer grid.
+    regions, rows = {}, 0
+    if p.layers:
+        zs = np.cumsum([p.zc + p.box_half_width] + [d for d, _ in p.top])
+        top_rows = [div.count for _, div in p.top]
+        zmid = zs[:-1] + 0.5 * np.diff(zs)
+        region = layer_of(p, zmid)
+        for i, (name, _) in enumerate(p.layers):
+            n = sum(c for c, r in zip(top_rows, region, strict=True) if r == 2 + i)
+            regions[name] = nx * n * layers
+            rows += n
+    regions = {"rock": (rock2 - nx * rows) * layers, **regions}
     return {
         "rock": rock2 * layers,
+        "regions": regions,
         "lining": lining2 * layers,
         "water": water2 * layers,
         "solid_nodes": solid_nodes2 * (layers + 1),
