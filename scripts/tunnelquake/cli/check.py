@@ -15,8 +15,9 @@ def mesh_estimate(d: dict) -> str:
     have = machine_memory()
     mib = 2.0**20
     machine = f" (machine: {have['total'] / mib:,.0f} MiB)" if have else ""
-    ground = "" if len(counts["regions"]) < 2 else " (" + ", ".join(f"{k} {v:,}" for k, v in counts["regions"].items()) + ")"
-    return (f"mesh: {counts['rock']:,} rock{ground} + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
+    ground = "rock" if len(counts["regions"]) < 2 else (
+        "ground (" + ", ".join(f"{k} {v:,}" for k, v in counts["regions"].items()) + ")")
+    return (f"mesh: {counts['rock']:,} {ground} + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
             f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{machine}")
 
 
@@ -34,6 +35,11 @@ def main(argv: list[str]) -> int:
     say(f"  block x {g['x_range']} y {g['y_range']} z {g['z_range']} m; tunnel r={g['excavated_radius']:g} m "
         f"at z={g['tunnel_centre_z']:g} m, lining {g['lining_thickness']:g} m; mesh mode {d['mesh']['mode']}")
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
+    from ..case import ground_layers
+
+    if ground_layers(d):
+        say("  ground layers from the surface: " + ", ".join(f"{m} down to z = {z:g} m" for m, z in ground_layers(d))
+            + "; below: rock")
     say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
         f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
     say(f"  {mesh_estimate(d)}")
