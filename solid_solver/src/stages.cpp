@@ -72,17 +72,105 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
   }
 }
 
+namespace {
+
+/// The ground's density profile for the overburden: each region outside the lining occupies the
+/// heights of its elements, and where regions share a height they must have the same density
+/// (horizontal layers do; a region beside another of another density has no single overburden).
+/// The overburden at z is then q + g ∫_z^{z_top} ρ(ζ) dζ, the highest region's density carried up
+/// to z_top when the ground surface lies above the mesh, and a gap between regions taking the
+/// density of the region above it.
+struct OverburdenProfile {
+  struct Band {
+    Real lo, hi, rho;
+    std::string region;
+  };
+  std::vector<Band> bands;  // disjoint, sorted from the top down
+
+  Real integral(Real z, Real zTop) const {
+    Real s = 0, above = zTop;
+    for (size_t i = 0; i < bands.size() && above > z; ++i) {
+      const Band& b = bands[i];
+      // From `above` down to this band's top: above the mesh (the top band's density) or a gap
+      // (the density of the band above it).
+      const Real fill = i == 0 ? b.rho : bands[i - 1].rho;
+      if (above > b.hi) s += fill * (above - std::max(b.hi, z));
+      const Real hi = std::min(b.hi, above);
+      if (hi > z) s += b.rho * (hi - std::max(b.lo, z));
+      above = std::min(above, b.lo);
+    }
+    if (above > z && !bands.empty()) s += bands.back().rho * (above - z);
+    return s;
+  }
+};
+
+OverburdenProfile overburdenProfile(const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                                    const ElementBlock* lining, const Mesh& mesh) {
+  struct Range {
+    Real lo, hi, rho;
+    std::string name;
+  };
+  std::vector<Range> ranges;
+  Real span = 0;
+  for (const auto& b : blocks) {
+    if (b.get() == lining || b->numElems() == 0) continue;
+    Range r{std::numeric_limits<Real>::max(), -std::numeric_limits<Real>::max(), b->material().density(), b->name()};
+    for (Index e = 0; e < b->numElems(); ++e)
+      for (int k = 0; k < 8; ++k) {
+        const Real z = mesh.coords[3 * size_t(b->node(e, k)) + 2];
+        r.lo = std::min(r.lo, z);
+        r.hi = std::max(r.hi, z);
+      }
+    span = std::max(span, r.hi - r.lo);
+    ranges.push_back(r);
+  }
+  const Real tol = 1e-9 * std::max(1.0, span);
+  // Cut the heights at every region's ends; each piece takes the density of the regions over it.
+  std::vector<Real> cuts;
+  for (const Range& r : ranges) {
+    cuts.push_back(r.lo);
+    cuts.push_back(r.hi);
+  }
+  std::sort(cuts.begin(), cuts.end(), std::greater<Real>());
+  OverburdenProfile p;
+  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const Real hi = cuts[i], lo = cuts[i + 1];
+    if (hi - lo <= tol) continue;
+    const Real mid = 0.5 * (hi + lo);
+    const Range* have = nullptr;
+    for (const Range& r : ranges) {
+      if (!(r.lo < mid && mid < r.hi)) continue;
+      if (have && std::abs(have->rho - r.rho) > 1e-9 * have->rho) {
+        std::ostringstream os;
+        os << "in-situ stress: regions '" << have->name << "' (density " << have->rho << " kg/m³) and '" << r.name
+           << "' (" << r.rho << " kg/m³) share the heights around z = " << mid
+           << " m, so the overburden is not one number there: the ground's regions must be horizontal layers, "
+              "or give one overburden density (/in_situ density)";
+        throw InputError(os.str());
+      }
+      have = &r;
+    }
+    if (have) p.bands.push_back({lo, hi, have->rho, have->name});
+  }
+  return p;
+}
+
+}  // namespace
+
 void StagedAnalysis::setInSituStress() {
   const InSituInput& I = in_.staged.inSitu;
   const Real zTop = std::isfinite(I.zTop) ? I.zTop : zTopOf(mesh_);
+  // One overburden density for all (/in_situ density), or the layered profile of the regions.
+  OverburdenProfile profile;
+  if (!(I.density > 0)) profile = overburdenProfile(solver_.blocks(), lining_, mesh_);
   for (auto& b : solver_.blocks()) {
     if (b.get() == lining_) continue;
-    const Real rho = I.density > 0 ? I.density : b->material().density();
     for (Index e = 0; e < b->numElems(); ++e) {
       Real zc = 0;
       for (int k = 0; k < 8; ++k) zc += 0.125 * mesh_.coords[3 * size_t(b->node(e, k)) + 2];
-      // Overburden, tension positive: σv = −(q + ρ g (z_top − z)).
-      const Real sv = -(I.surcharge + rho * I.gravity * (zTop - zc));
+      // Overburden, tension positive: σv = −(q + g ∫_z^{z_top} ρ dζ).
+      const Real load = I.density > 0 ? I.density * (zTop - zc) : profile.integral(zc, zTop);
+      const Real sv = -(I.surcharge + I.gravity * load);
       b->setStress(e, XX, I.kx * sv);
       b->setStress(e, YY, I.ky * sv);
       b->setStress(e, ZZ, I.kz * sv);
