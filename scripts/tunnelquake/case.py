@@ -594,8 +594,12 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
                  f"{a:g} m <= r <= {b:g} m")
         key = f"output.monitors.{name}"
         if r > b:
-            what = (f"{where}, so this point is in the rock: tq-solid records the solid's node and element nearest "
-                    "to it, the rock's (the lining's only within about half an element of its outer surface)")
+            # The ground's region at that height: the layer whose bottom lies below it, else rock.
+            ground = next((m for m, zb in ground_layers(d) if p[2] > zb), "rock")
+            rock = "the rock" if ground == "rock" else f"the ground (layer {ground})"
+            what = (f"{where}, so this point is in {rock}: tq-solid records the solid's node and element nearest "
+                    f"to it, {'the rock' if ground == 'rock' else 'the layer'}'s (the lining's only within about half "
+                    "an element of its outer surface)")
             if name in MONITORS:
                 issues.append(Issue(key, p, f"{what}, and the report compares {name} with the paper's lining values",
                                     f"move it into the lining, e.g. {near} on its inner surface in the same "
