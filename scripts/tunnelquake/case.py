@@ -82,10 +82,42 @@ def _check_interface(i, path, raw, ctx):
                   "use dynamic <= static friction (paper: both 0.6)", raw.key_lines.get("dynamic_friction"))
 
 
+def _component_section(what: str) -> Section:
+    """A further component of the ground motion: a record file, scaled with the horizontal record's
+    factor (the recorded ratio kept) unless it gives a PGA of its own."""
+    return Section(fields={
+        "file": Text(doc=f"{what}: record path, relative to the case file"),
+        "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
+        "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
+                        doc="units of the record's values (AT2: read from the header)"),
+        "pga": _positive(U.ACCELERATION, "its own peak after processing, m/s^2 (default: scaled by the horizontal "
+                                         "record's factor)"),
+    })
+
+
 def _check_ground_motion(gm, path, raw, ctx):
     if gm["source"] == "file" and gm["file"] is None:
         ctx.error(f"{path}.file", None, "is required when source is 'file'",
                   "add 'file: <path to the record>' or use source: synthetic", raw.line)
+    lines = raw.key_lines
+    sub = gm["vertical"]
+    if {k for k, v in sub.items() if v not in (None, "auto")} and sub["file"] is None:
+        ctx.error(f"{path}.vertical.file", None, "is required when vertical is given",
+                  "add 'file: <path to the record>' under vertical, or remove vertical", lines.get("vertical", raw.line))
+    if gm["vertical"]["file"] is not None and "vertical_ratio" in lines:
+        ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"], "is given together with a vertical record",
+                  "keep one: the vertical record (vertical.file) or the ratio", lines.get("vertical_ratio"))
+    if gm["source"] == "none":
+        if gm["file"] is not None:
+            ctx.error(f"{path}.file", gm["file"], "a horizontal record is given but source is 'none'",
+                      "use source: file, or remove it", lines.get("file", raw.line))
+        if gm["vertical"]["file"] is None:
+            ctx.error(f"{path}.vertical", None, "source 'none' leaves no motion at all",
+                      "give the vertical record (vertical: {file: ..., units: ...}), or a horizontal source",
+                      lines.get("source", raw.line))
+        if gm["pga"] is not None:
+            ctx.error(f"{path}.pga", gm["pga"], "scales the horizontal record, and source 'none' has none",
+                      "give the vertical record's own peak as vertical.pga", lines.get("pga"))
 
 
 def _check_damping(d, path, raw, ctx):
@@ -265,7 +297,9 @@ def schema() -> Section:
                                       "s", default=WATER_LOG_INTERVAL),
         }),
         "ground_motion": Section(required=True, checks=[_check_ground_motion], fields={
-            "source": Choice(choices=("file", "synthetic"), required=True, doc="'file' (a record) or 'synthetic'"),
+            "source": Choice(choices=("file", "synthetic", "none"), required=True,
+                             doc="the horizontal motion: 'file' (a record), 'synthetic', or 'none' (no horizontal "
+                                 "motion: a vertical-only motion given under vertical)"),
             "file": Text(doc="record path, relative to the case file"),
             "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
             "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
@@ -274,7 +308,10 @@ def schema() -> Section:
                                  doc="what to do when the record file is absent"),
             "duration": _positive(U.TIME, "window kept from the start of the record, s"),
             "pga": _positive(U.ACCELERATION, "peak ground acceleration of x after processing, m/s^2"),
-            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0, doc="z = ratio * x (paper: 2/3)"),
+            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0,
+                                     doc="vertical = ratio x the horizontal record (paper: 2/3), unless vertical "
+                                         "gives a record of its own"),
+            "vertical": _component_section("a vertical record of its own (instead of vertical_ratio)"),
             "cutoff_frequency": _positive(U.FREQUENCY, "content above is removed, Hz", default=20.0),
             "baseline_correction": Bool(default=True),
             "convention": Choice(choices=("outcrop", "incident"), default="outcrop",
@@ -624,42 +661,49 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
 
 
 def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:
-    """The ground-motion record must exist (unless the case allows the synthetic fallback), parse
-    with finite values and a header that agrees with its data, and last the window
+    """Each ground-motion record (the horizontal one, and the transverse and vertical ones when given)
+    must exist (unless the case allows the synthetic fallback for the horizontal one), parse with
+    finite values and a header that agrees with its data, and last the window
     `ground_motion.duration`: everything `tunnelquake motion` would refuse, or use without a word."""
     from .motion import MotionError, check_covers, read_record, resolve_path
 
     section = raw.get("ground_motion") if isinstance(raw.get("ground_motion"), LineDict) else None
     key_lines = section.key_lines if section is not None else {}
-    gm_line = key_lines.get("file")
-    record = None
-    if gm["source"] == "file":
-        path = resolve_path(gm["file"], Path(filename).parent)
+    issues: list[Issue] = []
+    components = [("ground_motion", gm, key_lines.get("file"))] if gm["source"] == "file" else []
+    if gm["vertical"]["file"] is not None:
+        sub_lines = getattr(section.get("vertical") if section is not None else None, "key_lines", {})
+        components.append(("ground_motion.vertical", gm["vertical"], sub_lines.get("file", key_lines.get("vertical"))))
+    lengths = []
+    synthetic = gm["source"] == "synthetic"
+    for where, spec, line in components:
+        path = resolve_path(spec["file"], Path(filename).parent)
         if not path.is_file():
-            if gm["if_missing"] == "synthetic":
+            if where == "ground_motion" and gm["if_missing"] == "synthetic":
                 warnings.append(f"ground_motion.file {path} is not here: the synthetic motion will be used")
-            else:
-                return [Issue("ground_motion.file", gm["file"], f"file not found ({path})",
-                              "give the record's path relative to the case file, or set if_missing: synthetic",
-                              gm_line)]
-        else:
-            try:
-                record = read_record(path, gm["format"], gm["units"])
-            except MotionError as e:
-                return [Issue("ground_motion.file", gm["file"], f"cannot be read: {e.problem}",
-                              e.fix or "check the format and units keys, or the file itself", gm_line)]
-    if record is None:  # the synthetic motion: its length, without generating it
-        syn = gm["synthetic"]
-        npts, dt, source = int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic"
-    else:
-        npts, dt, source = record.npts, record.dt, record.source
-    try:
-        check_covers(npts, dt, gm["duration"], source)
-    except MotionError as e:
-        return [Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
-                      key_lines.get("duration") or gm_line)]
-    return []
-
+                synthetic = True
+                continue
+            issues.append(Issue(f"{where}.file", spec["file"], f"file not found ({path})",
+                                "give the record's path relative to the case file"
+                                + (", or set if_missing: synthetic" if where == "ground_motion" else ""), line))
+            continue
+        try:
+            record = read_record(path, spec["format"], spec["units"])
+        except MotionError as e:
+            issues.append(Issue(f"{where}.file", spec["file"], f"cannot be read: {e.problem}",
+                                e.fix or "check the format and units keys, or the file itself", line))
+            continue
+        lengths.append((record.npts, record.dt, record.source, line))
+    if synthetic:
+        syn = gm["synthetic"]  # the synthetic motion: its length, without generating it
+        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None))
+    for npts, dt, source, line in lengths:
+        try:
+            check_covers(npts, dt, gm["duration"], source)
+        except MotionError as e:
+            issues.append(Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
+                                key_lines.get("duration") or line))
+    return issues
 
 def _merge(base, over):
     """`base` with `over` laid on it: mappings merge key by key (recursively), anything else in
