@@ -462,13 +462,12 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     lines = raw.key_lines
     water, conds = d["water"], d["conditions"]
     if "dynamic_water" in conds and water["model"] == "incompressible" and closed_section(d):
-        if d["mesh"]["mode"] == "3d":
-            issues.append(Issue("water.ends", "closed",
-                                "incompressible water with closed ends in 3D: the water's axial flow between the "
-                                "tunnel's parts is not yet solved incompressibly",
-                                "use ends: open, model: compressible, or mesh.mode: slice",
-                                raw["water"].key_lines.get("ends") if "water" in raw else None))
-        elif d["coupling"]["volume_law"] == "water":
+        if d["mesh"]["mode"] == "3d" and d["coupling"]["volume_law"] == "solid":
+            warnings.append("water.model incompressible with closed ends in 3D: the solid holds the whole enclosed "
+                            "volume; the water solver's remainder (volume moved along the axis between the "
+                            "tunnel's parts) is solved with K = 2.2 GPa, not incompressibly (docs/stability.md "
+                            "\"Water stiffness\")")
+        if d["coupling"]["volume_law"] == "water":
             issues.append(Issue("coupling.volume_law", "water",
                                 "incompressible water in a closed section cannot change its volume by itself: the "
                                 "solid must hold the enclosed volume (the constraint's multiplier is the uniform "

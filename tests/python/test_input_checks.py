@@ -316,3 +316,14 @@ def test_one_step_implicit_windows_warn_with_the_measured_factor(tmp_path, capsy
     assert rc == 0
     assert ("warning: coupling.window 1: every solid step exchanges with the water; over the example slice's first "
             "second one-step windows took 3.7x the CPU time of windows of 16 (the default)") in err
+
+
+def test_incompressible_water_with_closed_ends_in_3d_runs_with_its_approximation_stated(tmp_path, capsys):
+    """Accepted (the solid holds the whole enclosed volume), with a warning that the water solver's
+    remainder, the volume moved along the axis, meets K = 2.2 GPa rather than an infinite stiffness."""
+    rc, err = _check(capsys, _case(tmp_path, "  model: compressible\n", "  model: incompressible\n",
+                                   "  ends: open\n", "  ends: closed\n", "  mode: slice ", "  mode: 3d "))
+    assert rc == 0
+    assert ("warning: water.model incompressible with closed ends in 3D: the solid holds the whole enclosed volume; "
+            "the water solver's remainder (volume moved along the axis between the tunnel's parts) is solved with "
+            "K = 2.2 GPa, not incompressibly") in err
