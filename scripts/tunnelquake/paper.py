@@ -23,6 +23,8 @@ PAPER_DOC = ("compare the run with a published one in report.md and the figures:
              "lining); absent: the report of the case alone")
 #: What the figures' legends call the paper's values.
 LABEL = "paper"
+#: The unit of the paper's displacement figure (its Fig. 6).
+DISPLACEMENT_UNIT = "cm"
 #: The paper's monitors, from crown to invert, in its figures' order.
 MONITORS = ("top_arch", "haunch", "bottom_arch")
 #: The paper's figure numbers of the report's figures.

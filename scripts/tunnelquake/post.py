@@ -331,10 +331,12 @@ def _label(m: str) -> str:
 
 
 def fig_max_displacements(results: list[ConditionResult], out: Path, order: list[str] | None = None,
-                          reference=None, reference_label: str = "reference") -> Path:
-    """Maximum x and z displacements of the monitors, a bar per condition; `reference(condition,
-    key)` -> {monitor: m} draws a published run's bars beside each (key max_ux or max_uz)."""
+                          reference=None, reference_label: str = "reference", unit: str = "mm") -> Path:
+    """Maximum x and z displacements of the monitors, a bar per condition, in `unit` (mm or cm);
+    `reference(condition, key)` -> {monitor: m} draws a published run's bars beside each (key max_ux
+    or max_uz)."""
     plt = _plt()
+    scale = {"mm": 1e3, "cm": 1e2, "m": 1.0}[unit]
     names = monitor_order(results, order)
     fig, axes = plt.subplots(1, 2, figsize=(max(10, 1.6 * len(names) + 5), 3.8))
     per = 2 if reference is not None else 1
@@ -343,15 +345,15 @@ def fig_max_displacements(results: list[ConditionResult], out: Path, order: list
         xs = np.arange(len(names))
         for k, res in enumerate(results):
             pk = peaks(res)
-            ours = [100 * pk.get(m, {}).get(key, np.nan) for m in names]
+            ours = [scale * pk.get(m, {}).get(key, np.nan) for m in names]
             ax.bar(xs + (per * k) * width, ours, width,
                    label=f"{CONDITION_LABELS[res.condition]}" + (" ours" if reference is not None else ""))
             if reference is not None:
                 ref = reference(res.condition, key)
-                ax.bar(xs + (per * k + 1) * width, [100 * ref.get(m, np.nan) for m in names], width, alpha=0.45,
+                ax.bar(xs + (per * k + 1) * width, [scale * ref.get(m, np.nan) for m in names], width, alpha=0.45,
                        label=f"{CONDITION_LABELS[res.condition]} {reference_label}")
         ax.set_xticks(xs + width * (per * len(results) - 1) / 2, [_label(m) for m in names])
-        ax.set_ylabel("max displacement (cm)")
+        ax.set_ylabel(f"max displacement ({unit})")
         ax.set_title(title)
         ax.grid(alpha=0.3, axis="y")
     axes[1].legend(fontsize=7)

@@ -112,7 +112,10 @@ def post_case(case) -> Path:
         lines += R.differences_section(results, order)
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
-        lines += R.water_side_check(dyn, fluid)
+        if dyn is not None:
+            from ..fluid_case import volume_law
+
+            lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
         lines += R.lining_forces_section(R.design_quantities(case, results))
         lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out)
         if ref is not None:
@@ -157,7 +160,7 @@ def _figures(P, ref, results, dyn, fluid, figs, order, strength, out) -> list[st
         keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / name["fig05"], fluid, order=order,
              **({"marks": ref.pressure_marks(), "mark_label": f"{ref.LABEL} peak"} if ref is not None else {}))
     keep("fig06", P.fig_max_displacements, results, figs / name["fig06"], order=order,
-         **({"reference": ref.displacement_bars, "reference_label": ref.LABEL} if ref is not None else {}))
+         **({"reference": ref.displacement_bars, "reference_label": ref.LABEL, "unit": ref.DISPLACEMENT_UNIT} if ref is not None else {}))
     keep("fig07", P.fig_principal_stress, results, figs / name["fig07"], order=order, strength=strength)
     keep("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
     keep("fig09", P.fig_damage_section, results, figs / name["fig09"])
