@@ -1,6 +1,7 @@
-"""The comparison with the paper the example case reproduces (Liu, Zhang & Xiao 2021, "Seismic
-response of a hydraulic tunnel ...", §3.3): its numbers, its monitors, its record and its findings,
-and the report sections and figure marks that compare a run with them.
+"""The comparison with the paper the example case reproduces (Liu, Zhang & Xiao 2021, *Numerical
+Simulation Analysis of Combined Seismic Response for Rock-Lining-Water in Hydraulic Tunnel*, Shock
+and Vibration, §3.3): its numbers, its monitors, its record and its findings, and the report
+sections and figure marks that compare a run with them.
 
 Everything specific to the paper lives here. The report and the figures of any other case name
 none of it; a case asks for this comparison with `reference: {paper: liu2021}` (case.py), and

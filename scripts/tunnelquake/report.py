@@ -224,6 +224,9 @@ def peaks_section(results: list[ConditionResult], stopped: list[ConditionResult]
         res = by.get(cond)
         if res is None:
             continue
+        if not res.monitors:
+            lines += [f"### {CONDITION_LABELS[cond]}", "", "No monitor: output.monitors is empty.", ""]
+            continue
         if not res.samples:
             lines += [f"### {CONDITION_LABELS[cond]}", "",
                       f"No sample: the run stopped before the shaking ({res.stage_state()}).", ""]

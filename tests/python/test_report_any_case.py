@@ -308,3 +308,21 @@ def test_reference_needs_the_papers_monitors_and_only_then_refuses_them_in_the_r
     assert "warning: output.monitors.top_arch [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis" in err
     (tmp_path / "c.yaml").write_text(no_haunch.replace("reference:\n  paper: liu2021", "reference: {}"))
     assert main(["check", str(tmp_path / "c.yaml")]) == 0
+
+
+def test_lining_forces_section_waits_for_the_design_quantities(own_case):
+    """The report's place for the lining forces: nothing while the runs carry no design quantities;
+    a design-quantities object's own lines under its heading once they do."""
+    from tunnelquake import report as R
+    from tunnelquake.case import load_case
+
+    assert R.design_quantities(load_case(own_case / "case.yaml"), []) is None
+    assert R.lining_forces_section(None) == []
+    assert "Lining forces" not in (own_case / "results" / "report.md").read_text()
+
+    class Design:
+        def report_lines(self):
+            return ["| section | N (kN/m) |", "|---|---|", "| 0° | -812 |"]
+
+    assert R.lining_forces_section(Design()) == ["## Lining forces", "", "| section | N (kN/m) |", "|---|---|",
+                                                 "| 0° | -812 |", ""]

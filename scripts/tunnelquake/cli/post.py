@@ -32,6 +32,9 @@ def _context(case, results, motion: dict | None) -> dict:
 
 
 def _run_state(P, res, csv_name: str) -> str:
+    if not res.monitors:
+        return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**; no monitor (output.monitors is "
+                f"empty), so no histories; {len(res.snapshots)} field snapshot(s)")
     if not res.samples:
         return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, no monitor sample: the run "
                 f"stopped before the shaking ({res.stage_state()}); nothing of this condition is in the figures "
