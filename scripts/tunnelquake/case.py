@@ -223,6 +223,8 @@ def _mesh_section() -> Section:
 
 
 def schema() -> Section:
+    from .paper import PAPER_DOC, PAPERS
+
     material = Section(
         fields={
             "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
@@ -422,6 +424,9 @@ def schema() -> Section:
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
         }),
+        "reference": Section(doc="a published run this case reproduces, compared with in the report", fields={
+            "paper": Choice(choices=PAPERS, default=None, doc=PAPER_DOC),
+        }),
         "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
@@ -530,6 +535,9 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}/(8*{f:g}) "
                             f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
     issues += _monitor_checks(d, raw, warnings)
+    from . import paper
+
+    issues += paper.case_issues(d, raw.key_lines.get("reference"))
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     return issues, warnings
@@ -579,10 +587,10 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     from (tunnel_centre_x, tunnel_centre_z)). tq-solid records a monitor at the solid mesh's node
     nearest to it and the element whose centroid is nearest (rock or lining alike), and its water
     pressure at the nearest wetted lining node. So a point in the rock records the rock; a point
-    in the water (no solid element there) records the lining's inner surface. The report reads
-    top_arch, haunch and bottom_arch as the lining's points beside the paper's values, so any of
-    those in the rock is an error; other monitors in the rock or the water are warnings."""
-    from .post import MONITORS
+    in the water (no solid element there) records the lining's inner surface. Such points are
+    warnings, except a monitor that a paper comparison (`reference`) reads as the lining's, which
+    is an error (paper.py)."""
+    from . import paper
 
     g = d["geometry"]
     cx, cz, b = g["tunnel_centre_x"], g["tunnel_centre_z"], g["excavated_radius"]
@@ -606,11 +614,9 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
         if r > b:
             what = (f"{where}, so this point is in the rock: tq-solid records the solid's node and element nearest "
                     "to it, the rock's (the lining's only within about half an element of its outer surface)")
-            if name in MONITORS:
-                issues.append(Issue(key, p, f"{what}, and the report compares {name} with the paper's lining values",
-                                    f"move it into the lining, e.g. {near} on its inner surface in the same "
-                                    f"direction, or give the rock point another name (the report reads "
-                                    f"{', '.join(MONITORS)} as the lining's)", lines.get(name)))
+            issue = paper.monitor_in_rock_issue(d, name, p, what, near, lines.get(name))
+            if issue is not None:
+                issues.append(issue)
             else:
                 warnings.append(f"{key} {p}: {what}. If it is meant to monitor the lining, move it there, e.g. "
                                 f"{near} on its inner surface in the same direction")
