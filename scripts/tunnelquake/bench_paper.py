@@ -49,7 +49,6 @@ from .paths import ROOT
 
 BEGIN, END = "<!-- bench:paper -->", "<!-- /bench:paper -->"
 DEFAULT_CASE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
-MONITORS = ("top_arch", "haunch", "bottom_arch")
 #: (question, key in post.peaks, how the error is measured)
 QUANTITIES = (
     ("pressure", "hydrodynamic_pressure_peak", "relative"),

@@ -99,10 +99,42 @@ def ground_layers(d: dict) -> list[tuple[str, float]]:
     return out
 
 
+def _component_section(what: str) -> Section:
+    """A further component of the ground motion: a record file, scaled with the horizontal record's
+    factor (the recorded ratio kept) unless it gives a PGA of its own."""
+    return Section(fields={
+        "file": Text(doc=f"{what}: record path, relative to the case file"),
+        "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
+        "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
+                        doc="units of the record's values (AT2: read from the header)"),
+        "pga": _positive(U.ACCELERATION, "its own peak after processing, m/s^2 (default: scaled by the horizontal "
+                                         "record's factor)"),
+    })
+
+
 def _check_ground_motion(gm, path, raw, ctx):
     if gm["source"] == "file" and gm["file"] is None:
         ctx.error(f"{path}.file", None, "is required when source is 'file'",
                   "add 'file: <path to the record>' or use source: synthetic", raw.line)
+    lines = raw.key_lines
+    sub = gm["vertical"]
+    if {k for k, v in sub.items() if v not in (None, "auto")} and sub["file"] is None:
+        ctx.error(f"{path}.vertical.file", None, "is required when vertical is given",
+                  "add 'file: <path to the record>' under vertical, or remove vertical", lines.get("vertical", raw.line))
+    if gm["vertical"]["file"] is not None and "vertical_ratio" in lines:
+        ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"], "is given together with a vertical record",
+                  "keep one: the vertical record (vertical.file) or the ratio", lines.get("vertical_ratio"))
+    if gm["source"] == "none":
+        if gm["file"] is not None:
+            ctx.error(f"{path}.file", gm["file"], "a horizontal record is given but source is 'none'",
+                      "use source: file, or remove it", lines.get("file", raw.line))
+        if gm["vertical"]["file"] is None:
+            ctx.error(f"{path}.vertical", None, "source 'none' leaves no motion at all",
+                      "give the vertical record (vertical: {file: ..., units: ...}), or a horizontal source",
+                      lines.get("source", raw.line))
+        if gm["pga"] is not None:
+            ctx.error(f"{path}.pga", gm["pga"], "scales the horizontal record, and source 'none' has none",
+                      "give the vertical record's own peak as vertical.pga", lines.get("pga"))
 
 
 def _check_damping(d, path, raw, ctx):
@@ -208,6 +240,8 @@ def _mesh_section() -> Section:
 
 
 def schema() -> Section:
+    from .paper import PAPER_DOC, PAPERS
+
     material = Section(
         fields={
             "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
@@ -292,7 +326,9 @@ def schema() -> Section:
                                       "s", default=WATER_LOG_INTERVAL),
         }),
         "ground_motion": Section(required=True, checks=[_check_ground_motion], fields={
-            "source": Choice(choices=("file", "synthetic"), required=True, doc="'file' (a record) or 'synthetic'"),
+            "source": Choice(choices=("file", "synthetic", "none"), required=True,
+                             doc="the horizontal motion: 'file' (a record), 'synthetic', or 'none' (no horizontal "
+                                 "motion: a vertical-only motion given under vertical)"),
             "file": Text(doc="record path, relative to the case file"),
             "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
             "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
@@ -301,7 +337,10 @@ def schema() -> Section:
                                  doc="what to do when the record file is absent"),
             "duration": _positive(U.TIME, "window kept from the start of the record, s"),
             "pga": _positive(U.ACCELERATION, "peak ground acceleration of x after processing, m/s^2"),
-            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0, doc="z = ratio * x (paper: 2/3)"),
+            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0,
+                                     doc="vertical = ratio x the horizontal record (paper: 2/3), unless vertical "
+                                         "gives a record of its own"),
+            "vertical": _component_section("a vertical record of its own (instead of vertical_ratio)"),
             "cutoff_frequency": _positive(U.FREQUENCY, "content above is removed, Hz", default=20.0),
             "baseline_correction": Bool(default=True),
             "convention": Choice(choices=("outcrop", "incident"), default="outcrop",
@@ -412,6 +451,9 @@ def schema() -> Section:
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
         }),
+        "reference": Section(doc="a published run this case reproduces, compared with in the report", fields={
+            "paper": Choice(choices=PAPERS, default=None, doc=PAPER_DOC),
+        }),
         "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
@@ -452,13 +494,12 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     lines = raw.key_lines
     water, conds = d["water"], d["conditions"]
     if "dynamic_water" in conds and water["model"] == "incompressible" and closed_section(d):
-        if d["mesh"]["mode"] == "3d":
-            issues.append(Issue("water.ends", "closed",
-                                "incompressible water with closed ends in 3D: the water's axial flow between the "
-                                "tunnel's parts is not yet solved incompressibly",
-                                "use ends: open, model: compressible, or mesh.mode: slice",
-                                raw["water"].key_lines.get("ends") if "water" in raw else None))
-        elif d["coupling"]["volume_law"] == "water":
+        if d["mesh"]["mode"] == "3d" and d["coupling"]["volume_law"] == "solid":
+            warnings.append("water.model incompressible with closed ends in 3D: the solid holds the whole enclosed "
+                            "volume; the water solver's remainder (volume moved along the axis between the "
+                            "tunnel's parts) is solved with K = 2.2 GPa, not incompressibly (docs/stability.md "
+                            "\"Water stiffness\")")
+        if d["coupling"]["volume_law"] == "water":
             issues.append(Issue("coupling.volume_law", "water",
                                 "incompressible water in a closed section cannot change its volume by itself: the "
                                 "solid must hold the enclosed volume (the constraint's multiplier is the uniform "
@@ -520,6 +561,9 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             warnings.append(f"mesh.max_element_size {h:g} m exceeds lambda_min/8 = cs/(8 f) = {cs:.0f}{of}/(8*{f:g}) "
                             f"= {cs / (8 * f):.2f} m: waves near {f:g} Hz will be under-resolved")
     issues += _monitor_checks(d, raw, warnings)
+    from . import paper
+
+    issues += paper.case_issues(d, raw.key_lines.get("reference"))
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     return issues, warnings
@@ -569,10 +613,10 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     from (tunnel_centre_x, tunnel_centre_z)). tq-solid records a monitor at the solid mesh's node
     nearest to it and the element whose centroid is nearest (rock or lining alike), and its water
     pressure at the nearest wetted lining node. So a point in the rock records the rock; a point
-    in the water (no solid element there) records the lining's inner surface. The report reads
-    top_arch, haunch and bottom_arch as the lining's points beside the paper's values, so any of
-    those in the rock is an error; other monitors in the rock or the water are warnings."""
-    from .post import MONITORS
+    in the water (no solid element there) records the lining's inner surface. Such points are
+    warnings, except a monitor that a paper comparison (`reference`) reads as the lining's, which
+    is an error (paper.py)."""
+    from . import paper
 
     g = d["geometry"]
     cx, cz, b = g["tunnel_centre_x"], g["tunnel_centre_z"], g["excavated_radius"]
@@ -600,11 +644,9 @@ def _monitor_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
             what = (f"{where}, so this point is in {rock}: tq-solid records the solid's node and element nearest "
                     f"to it, {'the rock' if ground == 'rock' else 'the layer'}'s (the lining's only within about half "
                     "an element of its outer surface)")
-            if name in MONITORS:
-                issues.append(Issue(key, p, f"{what}, and the report compares {name} with the paper's lining values",
-                                    f"move it into the lining, e.g. {near} on its inner surface in the same "
-                                    f"direction, or give the rock point another name (the report reads "
-                                    f"{', '.join(MONITORS)} as the lining's)", lines.get(name)))
+            issue = paper.monitor_in_rock_issue(d, name, p, what, near, lines.get(name))
+            if issue is not None:
+                issues.append(issue)
             else:
                 warnings.append(f"{key} {p}: {what}. If it is meant to monitor the lining, move it there, e.g. "
                                 f"{near} on its inner surface in the same direction")
@@ -697,42 +739,49 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
 
 
 def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:
-    """The ground-motion record must exist (unless the case allows the synthetic fallback), parse
-    with finite values and a header that agrees with its data, and last the window
+    """Each ground-motion record (the horizontal one, and the transverse and vertical ones when given)
+    must exist (unless the case allows the synthetic fallback for the horizontal one), parse with
+    finite values and a header that agrees with its data, and last the window
     `ground_motion.duration`: everything `tunnelquake motion` would refuse, or use without a word."""
     from .motion import MotionError, check_covers, read_record, resolve_path
 
     section = raw.get("ground_motion") if isinstance(raw.get("ground_motion"), LineDict) else None
     key_lines = section.key_lines if section is not None else {}
-    gm_line = key_lines.get("file")
-    record = None
-    if gm["source"] == "file":
-        path = resolve_path(gm["file"], Path(filename).parent)
+    issues: list[Issue] = []
+    components = [("ground_motion", gm, key_lines.get("file"))] if gm["source"] == "file" else []
+    if gm["vertical"]["file"] is not None:
+        sub_lines = getattr(section.get("vertical") if section is not None else None, "key_lines", {})
+        components.append(("ground_motion.vertical", gm["vertical"], sub_lines.get("file", key_lines.get("vertical"))))
+    lengths = []
+    synthetic = gm["source"] == "synthetic"
+    for where, spec, line in components:
+        path = resolve_path(spec["file"], Path(filename).parent)
         if not path.is_file():
-            if gm["if_missing"] == "synthetic":
+            if where == "ground_motion" and gm["if_missing"] == "synthetic":
                 warnings.append(f"ground_motion.file {path} is not here: the synthetic motion will be used")
-            else:
-                return [Issue("ground_motion.file", gm["file"], f"file not found ({path})",
-                              "give the record's path relative to the case file, or set if_missing: synthetic",
-                              gm_line)]
-        else:
-            try:
-                record = read_record(path, gm["format"], gm["units"])
-            except MotionError as e:
-                return [Issue("ground_motion.file", gm["file"], f"cannot be read: {e.problem}",
-                              e.fix or "check the format and units keys, or the file itself", gm_line)]
-    if record is None:  # the synthetic motion: its length, without generating it
-        syn = gm["synthetic"]
-        npts, dt, source = int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic"
-    else:
-        npts, dt, source = record.npts, record.dt, record.source
-    try:
-        check_covers(npts, dt, gm["duration"], source)
-    except MotionError as e:
-        return [Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
-                      key_lines.get("duration") or gm_line)]
-    return []
-
+                synthetic = True
+                continue
+            issues.append(Issue(f"{where}.file", spec["file"], f"file not found ({path})",
+                                "give the record's path relative to the case file"
+                                + (", or set if_missing: synthetic" if where == "ground_motion" else ""), line))
+            continue
+        try:
+            record = read_record(path, spec["format"], spec["units"])
+        except MotionError as e:
+            issues.append(Issue(f"{where}.file", spec["file"], f"cannot be read: {e.problem}",
+                                e.fix or "check the format and units keys, or the file itself", line))
+            continue
+        lengths.append((record.npts, record.dt, record.source, line))
+    if synthetic:
+        syn = gm["synthetic"]  # the synthetic motion: its length, without generating it
+        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None))
+    for npts, dt, source, line in lengths:
+        try:
+            check_covers(npts, dt, gm["duration"], source)
+        except MotionError as e:
+            issues.append(Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
+                                key_lines.get("duration") or line))
+    return issues
 
 def _merge(base, over):
     """`base` with `over` laid on it: mappings merge key by key (recursively), anything else in

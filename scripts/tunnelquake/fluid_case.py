@@ -28,7 +28,7 @@ Closed sections (a slice, or 3D with closed ends) carry the water's volume law i
 the enclosed water implicitly each step (p = -K dV/V, or the enclosed volume held for incompressible
 water), and by default the water's rigid translation too (`water_density` in the settings); OpenFOAM
 gets the wall motion less those modes and sends its wall pressure less its area mean (tqInterface
-`subtractMeanPressure`): its answer to the lining's deformation. Incompressible water in a closed slice is solved by rhoPimpleFoam with
+`subtractMeanPressure`): its answer to the lining's deformation. Incompressible water in a closed section is solved by rhoPimpleFoam with
 REMAINDER_BULK_MODULUS, whose only role is to make the closed domain's pressure well posed (its
 uniform part is replaced by the solid's constraint).
 Interface: transpiration (the template's default). nNonOrthogonalCorrectors 0: the meshes of
@@ -59,7 +59,8 @@ SOLID_WRITE_FIELDS = ("velocity", "displacement")
 
 
 #: Pa: the bulk modulus of the water OpenFOAM solves for the inertial remainder of incompressible water
-#: in a closed slice (the uniform pressure is the solid's constraint)
+#: in a closed section (the uniform pressure is the solid's constraint; in 3D the remainder's
+#: redistribution of volume along the axis meets this stiffness, not an infinite one)
 REMAINDER_BULK_MODULUS = 2.2e9
 
 
@@ -293,10 +294,6 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
         raise FluidCaseError("incompressible water in a closed slice needs the volume law in the solid "
                              "(coupling.volume_law: solid, the default); the water alone cannot change its "
                              "cross-section (docs/coupler.md \"Volume law in the solid\")")
-    if mode == "3d" and model == "incompressible" and water["ends"] == "closed":
-        raise FluidCaseError("incompressible water with closed ends in 3D: the water's axial flow between the "
-                             "tunnel's parts is not yet solved incompressibly; use water.ends: open, "
-                             "water.model: compressible, or mesh.mode: slice")
     # Incompressible water of a closed section: OpenFOAM solves the inertial remainder with
     # compressible water (the uniform part is the solid's constraint, docs/coupler.md).
     bulk = float(water["bulk_modulus"])

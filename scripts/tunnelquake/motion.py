@@ -375,49 +375,83 @@ def check_covers(npts: int, dt: float, duration: float | None, source: str) -> N
                           f"{length:g} s only", fix)
 
 
-def process(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
-            pga: float | None, vertical_ratio: float, convention: str) -> ProcessedMotion:
+def condition(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
+              label: str = "") -> tuple[np.ndarray, list[str]]:
+    """One record cut to the window, low-passed and baseline-corrected (its own step kept);
+    returns the acceleration and what was done."""
     check_covers(record.npts, record.dt, duration,
                  "synthetic" if record.source.startswith("synthetic(") else record.source)
     steps: list[str] = []
+    pre = f"{label}: " if label else ""
     acc = record.acc.astype(float)
     if duration is not None and duration < record.time[-1]:
         acc = acc[: int(np.floor(duration / record.dt + 1e-9)) + 1]
-        steps.append(f"truncated to the first {duration:g} s ({acc.size} points)")
+        steps.append(f"{pre}truncated to the first {duration:g} s ({acc.size} points)")
     if cutoff < 0.5 / record.dt:
         acc = lowpass(acc, record.dt, cutoff)
-        steps.append(f"low-pass 4th-order zero-phase Butterworth at {cutoff:g} Hz")
+        steps.append(f"{pre}low-pass 4th-order zero-phase Butterworth at {cutoff:g} Hz")
     else:
-        steps.append(f"no filtering needed: the record has no content above its Nyquist "
+        steps.append(f"{pre}no filtering needed: the record has no content above its Nyquist "
                      f"{0.5 / record.dt:g} Hz <= cut-off {cutoff:g} Hz")
     if baseline:
         acc = baseline_correct(acc, record.dt)
-        steps.append("baseline corrected (pre-event mean, quadratic+cubic displacement drift)")
+        steps.append(f"{pre}baseline corrected (pre-event mean, quadratic+cubic displacement drift)")
+    return acc, steps
+
+
+def _peak_factor(acc: np.ndarray, pga: float, source: str) -> float:
+    peak = np.max(np.abs(acc))
+    if peak <= 0:
+        raise MotionError(f"{source}: the record is all zeros; it cannot be scaled to a PGA")
+    return pga / peak
+
+
+def _incident(acc: np.ndarray, convention: str) -> np.ndarray:
+    if convention == "outcrop":
+        return 0.5 * acc
+    if convention == "incident":
+        return acc
+    raise MotionError(f"unknown convention '{convention}' (use outcrop or incident)")
+
+
+def _convention_step(convention: str) -> str:
+    return ("outcrop record: incident wave = half the record" if convention == "outcrop"
+            else "record taken as the incident (up-going) wave")
+
+
+def process(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
+            pga: float | None, vertical_ratio: float, convention: str) -> ProcessedMotion:
+    """One horizontal record along x, the vertical `vertical_ratio` times it."""
+    acc, steps = condition(record, duration=duration, cutoff=cutoff, baseline=baseline)
     if pga is not None:
-        peak = np.max(np.abs(acc))
-        if peak <= 0:
-            raise MotionError(f"{record.source}: the record is all zeros; it cannot be scaled to a PGA")
-        acc = acc * (pga / peak)
-        steps.append(f"scaled by {pga / peak:.5f} to PGA {pga:g} m/s^2")
+        k = _peak_factor(acc, pga, record.source)
+        acc = acc * k
+        steps.append(f"scaled by {k:.5f} to PGA {pga:g} m/s^2")
     az = vertical_ratio * acc
     steps.append(f"vertical = {vertical_ratio:.4g} x horizontal")
-    if convention == "outcrop":
-        ax_in, az_in = 0.5 * acc, 0.5 * az
-        steps.append("outcrop record: incident wave = half the record")
-    elif convention == "incident":
-        ax_in, az_in = acc, az
-        steps.append("record taken as the incident (up-going) wave")
-    else:
-        raise MotionError(f"unknown convention '{convention}' (use outcrop or incident)")
-    return ProcessedMotion(dt=record.dt, ax=ax_in, az=az_in, record=record, steps=steps, convention=convention)
+    steps.append(_convention_step(convention))
+    return ProcessedMotion(dt=record.dt, ax=_incident(acc, convention), az=_incident(az, convention),
+                           record=record, steps=steps, convention=convention)
+
+
+def _on_clock(acc: np.ndarray, dt: float, dt_to: float, n: int) -> np.ndarray:
+    """`acc` sampled at dt, on the clock k dt_to (k < n): linear interpolation, zero past its end."""
+    if dt == dt_to and acc.size >= n:
+        return acc[:n]
+    return np.interp(np.arange(n) * dt_to, np.arange(acc.size) * dt, acc, right=0.0)
 
 
 def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     """Build the processed input motion from the case's validated `ground_motion` section.
 
-    Returns the motion and notes for the user (e.g. that the synthetic fallback was used).
-    """
+    The horizontal record (file or synthetic; none for a vertical-only motion) acts along x, across
+    the tunnel. The vertical is a record of its own (`vertical`) or vertical_ratio x the horizontal
+    one. `pga` scales the horizontal record, and the same factor scales a vertical record (the
+    recorded ratio kept) unless it gives a PGA of its own. A vertical record is put on the horizontal
+    record's clock. Returns the motion and notes for the user (e.g. that the synthetic fallback was
+    used)."""
     notes: list[str] = []
+    opts = {"duration": gm["duration"], "cutoff": gm["cutoff_frequency"], "baseline": gm["baseline_correction"]}
     record = None
     if gm["source"] == "file":
         path = resolve_path(gm["file"], case_dir)
@@ -428,15 +462,41 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
                          f"(Kanai-Tajimi, seed {gm['synthetic']['seed']}) instead, as the case allows")
         else:
             raise MotionError(f"{path}: file not found")
-    if record is None:
+    if record is None and gm["source"] != "none":
         syn = gm["synthetic"]
         record = SyntheticModel(seed=syn["seed"], duration=syn["duration"], dt=syn["dt"],
                                 ground_frequency=syn["ground_frequency"],
                                 ground_damping=syn["ground_damping"]).generate()
-    motion = process(record, duration=gm["duration"], cutoff=gm["cutoff_frequency"],
-                     baseline=gm["baseline_correction"], pga=gm["pga"],
-                     vertical_ratio=gm["vertical_ratio"], convention=gm["convention"])
-    return motion, notes
+    vspec = gm["vertical"]
+    if vspec["file"] is None:  # one record along x, the vertical a ratio of it
+        return process(record, pga=gm["pga"], vertical_ratio=gm["vertical_ratio"], convention=gm["convention"],
+                       **opts), notes
+    vrec = read_record(resolve_path(vspec["file"], case_dir), vspec["format"], vspec["units"])
+    steps: list[str] = []
+    factor = 1.0
+    if record is not None:
+        h, st = condition(record, label="horizontal", **opts)
+        steps += st
+        if gm["pga"] is not None:
+            factor = _peak_factor(h, gm["pga"], record.source)
+            h = h * factor
+            steps.append(f"horizontal: scaled by {factor:.5f} to PGA {gm['pga']:g} m/s^2")
+    v, st = condition(vrec, label="vertical", **opts)
+    steps += st
+    k = _peak_factor(v, vspec["pga"], vrec.source) if vspec["pga"] is not None else factor
+    v = v * k
+    steps.append(f"vertical: scaled by {k:.5f}" + (f" to PGA {vspec['pga']:g} m/s^2" if vspec["pga"] is not None
+                                                  else " (the horizontal record's factor)"))
+    lead = record if record is not None else vrec
+    if record is None:
+        h = np.zeros(v.size)
+        steps.append("no horizontal motion (a vertical-only motion)")
+    elif vrec.dt != record.dt:
+        steps.append(f"vertical: resampled from dt {vrec.dt:g} s to {record.dt:g} s (linear)")
+    v = _on_clock(v, vrec.dt, lead.dt, h.size)
+    steps.append(_convention_step(gm["convention"]))
+    return ProcessedMotion(dt=lead.dt, ax=_incident(h, gm["convention"]), az=_incident(v, gm["convention"]),
+                           record=lead, steps=steps, convention=gm["convention"]), notes
 
 
 def resolve_path(p: str, case_dir: Path) -> Path:

@@ -1,5 +1,8 @@
-"""Post-processing of condition results: monitors as CSV, the paper's figures (3, 5–10), ParaView
-files (XDMF), and the comparison with the paper's §3.3 numbers and findings.
+"""Post-processing of condition results: monitors as CSV, peaks with their times, the figures
+(input motion, water pressure, peak displacements, principal stress, damage histories, damage over
+the section, interface states), and ParaView files (XDMF). Everything here works on the case's own
+monitors; a comparison with a published run adds its marks through the figures' optional
+reference arguments (paper.py).
 
 Works on whatever a run left: a results file cut off by a crash is read up to its last written
 row (rows are appended and flushed as the solver goes; rows whose time does not advance are the
@@ -18,37 +21,8 @@ import numpy as np
 
 CONDITION_LABELS = {"no_water": "(1) no water", "static_water": "(2) static water",
                     "dynamic_water": "(3) dynamic water"}
-MONITORS = ("top_arch", "haunch", "bottom_arch")
 #: /interface attr `states`, in the order of the integer codes of /snapshots/<k>/interface/state
 CONTACT_STATES = ("bonded", "separated", "slipping", "stuck", "inactive")
-
-#: The paper's §3.3 numbers (Liu, Zhang & Xiao 2021). Displacements in m, stresses/pressures in Pa.
-PAPER = {
-    "hydrodynamic_pressure_peak": {"top_arch": 0.256e6, "haunch": 0.466e6, "bottom_arch": 0.326e6},
-    "hydrodynamic_pressure_peak_time": 5.2,
-    "displacement_peak_time": 14.9,
-    "tension_growth_end": 7.0,  # "at time 0~7 s ... increases rapidly to the maximum value"
-    "lining_tensile_strength": 1.27e6,
-    "initial_tension_with_water": 0.76e6,  # conditions 2 and 3: "about 0.76 MPa at time 0 s"
-    "max_ux": {
-        "no_water": {"top_arch": 0.0600, "haunch": 0.0619, "bottom_arch": 0.0588},
-        "static_water": {"top_arch": 0.0600 - 0.0033, "haunch": 0.0619 - 0.0031, "bottom_arch": 0.0588 - 0.0027},
-        "dynamic_water": {"top_arch": 0.0600 + 0.0031, "haunch": 0.0619 + 0.0060, "bottom_arch": 0.0588 + 0.0039},
-    },
-    "max_uz": {
-        "no_water": {"top_arch": 0.0355, "haunch": 0.0374, "bottom_arch": 0.0386},
-        "static_water": {"top_arch": 0.0355 - 0.0015, "haunch": 0.0374 - 0.0019, "bottom_arch": 0.0386 - 0.0017},
-        "dynamic_water": {"top_arch": 0.0355 + 0.0019, "haunch": 0.0374 + 0.0024, "bottom_arch": 0.0386 + 0.0038},
-    },
-    "max_tension": {
-        "no_water": {"top_arch": 0.65e6, "haunch": 1.09e6, "bottom_arch": 0.92e6},
-        "static_water": {"top_arch": 0.80e6, "haunch": 0.88e6, "bottom_arch": 0.79e6},
-        "dynamic_water": {"top_arch": 1.27e6, "haunch": 1.27e6, "bottom_arch": 1.27e6},
-    },
-}
-#: A value is "reproduced" when ours is within this relative distance of the paper's.
-TOLERANCE = 0.20
-
 
 @dataclass
 class Monitor:
@@ -288,10 +262,16 @@ def _on_monitor_time(mo: Monitor, t: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.interp(mo.time, t, v, left=np.nan, right=np.nan) if t.size else np.full(mo.time.size, np.nan)
 
 
+def _argmax_first(a: np.ndarray) -> int:
+    """Index of the first occurrence of the largest value."""
+    return int(np.argmax(a))
+
+
 def peaks(res: ConditionResult, t_max: float | None = None) -> dict[str, dict[str, float]]:
-    """Per monitor: max |ux|, max |uz| (m), max tension = max sigma3 (Pa), max damage D, and the
-    peak |hydrodynamic pressure| (Pa) with its time where recorded; over t <= t_max when given
-    (to compare conditions over the window they share)."""
+    """Per monitor: max |ux|, |uy|, |uz| (m), max tension = max sigma3 (Pa), the most compressive
+    min sigma1 (Pa), max damage D, and the peak |hydrodynamic pressure| (Pa), each with the time of
+    its first occurrence (`t_<key>`; the pressure's `hydrodynamic_pressure_peak_time`), where
+    recorded; over t <= t_max when given (to compare conditions over the window they share)."""
     out = {}
     for m, mo in res.monitors.items():
         if t_max is not None:
@@ -303,18 +283,27 @@ def peaks(res: ConditionResult, t_max: float | None = None) -> dict[str, dict[st
                 kw = int(np.searchsorted(ex["water_pressure_time"], t_max + 1e-9, side="right"))
                 ex["water_pressure"], ex["water_pressure_time"] = ex["water_pressure"][:kw], ex["water_pressure_time"][:kw]
             mo = Monitor(time=mo.time[:k], u=mo.u[:k], principal=mo.principal[:k], extra=ex, attrs=mo.attrs)
-        pk = {
-            "max_ux": float(np.max(np.abs(mo.u[:, 0]))) if mo.u.size else float("nan"),
-            "max_uz": float(np.max(np.abs(mo.u[:, 2]))) if mo.u.size else float("nan"),
-            "max_tension": float(np.max(mo.principal[:, 2])) if mo.principal.size else float("nan"),
-            "t_max_ux": float(mo.time[np.argmax(np.abs(mo.u[:, 0]))]) if mo.u.size else float("nan"),
-            "t_max_uz": float(mo.time[np.argmax(np.abs(mo.u[:, 2]))]) if mo.u.size else float("nan"),
-        }
+        pk: dict[str, float] = {}
+        if mo.u.size:
+            for c, name in ((0, "max_ux"), (1, "max_uy"), (2, "max_uz")):
+                k = _argmax_first(np.abs(mo.u[:, c]))
+                pk[name], pk[f"t_{name}"] = float(abs(mo.u[k, c])), float(mo.time[k])
+        else:
+            pk.update(max_ux=float("nan"), max_uz=float("nan"))
+        if mo.principal.size:
+            k = _argmax_first(mo.principal[:, 2])
+            pk["max_tension"], pk["t_max_tension"] = float(mo.principal[k, 2]), float(mo.time[k])
+            k = _argmax_first(-mo.principal[:, 0])
+            pk["min_sigma1"], pk["t_min_sigma1"] = float(mo.principal[k, 0]), float(mo.time[k])
+        else:
+            pk["max_tension"] = float("nan")
         d = mo.extra.get("damage")
         pk["max_damage"] = float(np.max(d)) if d is not None and d.size else float("nan")
+        if d is not None and d.size:
+            pk["t_max_damage"] = float(mo.time[_argmax_first(d)])
         p = mo.extra.get("water_pressure")
         if p is not None and p.size:
-            k = int(np.argmax(np.abs(p)))
+            k = _argmax_first(np.abs(p))
             pk["hydrodynamic_pressure_peak"] = float(abs(p[k]))
             pk["hydrodynamic_pressure_peak_time"] = float(mo.extra["water_pressure_time"][k])
         out[m] = pk
@@ -330,21 +319,41 @@ def _plt():
     return plt
 
 
-def fig_max_displacements(results: list[ConditionResult], out: Path) -> Path:
-    """Paper Fig. 6: maximum x and z displacements of the monitors per condition, ours beside the paper's."""
+def monitor_order(results: list[ConditionResult], order: list[str] | None = None) -> list[str]:
+    """The monitors of `results` in the order given (the case file's), then any others by name."""
+    have = sorted({m for r in results for m in r.monitors})
+    first = [m for m in (order or []) if m in have]
+    return first + [m for m in have if m not in first]
+
+
+def _label(m: str) -> str:
+    return m.replace("_", " ")
+
+
+def fig_max_displacements(results: list[ConditionResult], out: Path, order: list[str] | None = None,
+                          reference=None, reference_label: str = "reference", unit: str = "mm") -> Path:
+    """Maximum x and z displacements of the monitors, a bar per condition, in `unit` (mm or cm);
+    `reference(condition, key)` -> {monitor: m} draws a published run's bars beside each (key max_ux
+    or max_uz)."""
     plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    width = 0.8 / max(1, 2 * len(results))
+    scale = {"mm": 1e3, "cm": 1e2, "m": 1.0}[unit]
+    names = monitor_order(results, order)
+    fig, axes = plt.subplots(1, 2, figsize=(max(10, 1.6 * len(names) + 5), 3.8))
+    per = 2 if reference is not None else 1
+    width = 0.8 / max(1, per * len(results))
     for ax, key, title in ((axes[0], "max_ux", "x-direction"), (axes[1], "max_uz", "z-direction")):
-        xs = np.arange(len(MONITORS))
+        xs = np.arange(len(names))
         for k, res in enumerate(results):
             pk = peaks(res)
-            ours = [100 * pk.get(m, {}).get(key, np.nan) for m in MONITORS]
-            paper = [100 * PAPER[key][res.condition][m] for m in MONITORS]
-            ax.bar(xs + (2 * k) * width, ours, width, label=f"{CONDITION_LABELS[res.condition]} ours")
-            ax.bar(xs + (2 * k + 1) * width, paper, width, alpha=0.45, label=f"{CONDITION_LABELS[res.condition]} paper")
-        ax.set_xticks(xs + width * (len(results) - 0.5), [m.replace("_", " ") for m in MONITORS])
-        ax.set_ylabel("max displacement (cm)")
+            ours = [scale * pk.get(m, {}).get(key, np.nan) for m in names]
+            ax.bar(xs + (per * k) * width, ours, width,
+                   label=f"{CONDITION_LABELS[res.condition]}" + (" ours" if reference is not None else ""))
+            if reference is not None:
+                ref = reference(res.condition, key)
+                ax.bar(xs + (per * k + 1) * width, [scale * ref.get(m, np.nan) for m in names], width, alpha=0.45,
+                       label=f"{CONDITION_LABELS[res.condition]} {reference_label}")
+        ax.set_xticks(xs + width * (per * len(results) - 1) / 2, [_label(m) for m in names])
+        ax.set_ylabel(f"max displacement ({unit})")
         ax.set_title(title)
         ax.grid(alpha=0.3, axis="y")
     axes[1].legend(fontsize=7)
@@ -354,16 +363,21 @@ def fig_max_displacements(results: list[ConditionResult], out: Path) -> Path:
     return out
 
 
-def fig_principal_stress(results: list[ConditionResult], out: Path) -> Path:
-    """Paper Fig. 7: maximum principal (most tensile) stress histories per condition."""
+def fig_principal_stress(results: list[ConditionResult], out: Path, order: list[str] | None = None,
+                         strength: float | None = None) -> Path:
+    """Maximum principal (most tensile) stress histories at the monitors, a panel per condition,
+    with the lining's tensile strength (Pa) as a line when given."""
     plt = _plt()
+    names = monitor_order(results, order)
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
     for ax, res in zip(axes[0], results, strict=True):
-        for m in MONITORS:
+        for m in names:
             if m in res.monitors:
                 mo = res.monitors[m]
-                ax.plot(mo.time, mo.principal[:, 2] / 1e6, lw=0.8, label=m.replace("_", " "))
-        ax.axhline(PAPER["lining_tensile_strength"] / 1e6, color="k", ls=":", lw=0.8, label="tensile strength")
+                ax.plot(mo.time, mo.principal[:, 2] / 1e6, lw=0.8, label=_label(m))
+        if strength is not None:
+            ax.axhline(strength / 1e6, color="k", ls=":", lw=0.8,
+                       label=f"lining tensile strength {strength / 1e6:.3g} MPa")
         ax.set_title(CONDITION_LABELS[res.condition])
         ax.set_xlabel("time (s)")
         ax.set_ylabel("max principal stress (MPa)")
@@ -403,23 +417,27 @@ def read_fluid_interface(fluid_dir: Path) -> dict | None:
     return {"time": a[:, 0], "p_mean": a[:, 1]}
 
 
-def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | None = None) -> Path | None:
-    """Paper Fig. 5: hydrodynamic pressure histories at the monitors (condition 3), with the paper's
-    peaks at 5.2 s marked, and, when given, the water side's area-mean wall pressure of the accepted
-    steps as a cross-check. None when the file has no water pressure."""
+def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | None = None,
+                              order: list[str] | None = None, marks: dict | None = None,
+                              mark_label: str = "reference peak") -> Path | None:
+    """Hydrodynamic pressure histories at the monitors (the dynamic-water condition), and, when
+    given, the water side's area-mean wall pressure of the accepted steps as a cross-check and
+    `marks` {monitor: (time s, pressure Pa)} of a published run. None when the file has no water
+    pressure."""
     series = {m: mo for m, mo in res.monitors.items() if "water_pressure" in mo.extra}
     if not series:
         return None
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 3.6))
-    for k, m in enumerate(MONITORS):
+    for k, m in enumerate(monitor_order([res], order)):
         if m not in series:
             continue
         mo = series[m]
-        line, = ax.plot(mo.extra["water_pressure_time"], mo.extra["water_pressure"] / 1e6, lw=0.8,
-                        label=m.replace("_", " "))
-        ax.plot([PAPER["hydrodynamic_pressure_peak_time"]], [PAPER["hydrodynamic_pressure_peak"][m] / 1e6],
-                marker="o^s"[k], ls="none", mfc="none", color=line.get_color(), label=f"{m.replace('_', ' ')} paper peak")
+        line, = ax.plot(mo.extra["water_pressure_time"], mo.extra["water_pressure"] / 1e6, lw=0.8, label=_label(m))
+        if marks and m in marks:
+            t, p = marks[m]
+            ax.plot([t], [p / 1e6], marker="o^sDvp"[k % 6], ls="none", mfc="none", color=line.get_color(),
+                    label=f"{_label(m)} {mark_label}")
     if fluid is not None:
         ax.plot(fluid["time"], fluid["p_mean"] / 1e6, "k--", lw=0.7, label="water side: mean wall pressure")
     ax.set_xlabel("time (s)")
@@ -433,18 +451,19 @@ def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | Non
     return out
 
 
-def fig_damage_histories(results: list[ConditionResult], out: Path) -> Path | None:
-    """Paper Fig. 8: damage coefficient histories at the monitors, one panel per condition."""
+def fig_damage_histories(results: list[ConditionResult], out: Path, order: list[str] | None = None) -> Path | None:
+    """Damage coefficient histories at the monitors, one panel per condition."""
     have = [r for r in results if any("damage" in mo.extra for mo in r.monitors.values())]
     if not have:
         return None
     plt = _plt()
+    names = monitor_order(have, order)
     fig, axes = plt.subplots(1, len(have), figsize=(4.2 * len(have), 3.4), squeeze=False)
     for ax, res in zip(axes[0], have, strict=True):
-        for m in MONITORS:
+        for m in names:
             mo = res.monitors.get(m)
             if mo is not None and "damage" in mo.extra:
-                ax.plot(mo.time, mo.extra["damage"], lw=0.9, label=m.replace("_", " "))
+                ax.plot(mo.time, mo.extra["damage"], lw=0.9, label=_label(m))
         ax.set_title(CONDITION_LABELS[res.condition])
         ax.set_xlabel("time (s)")
         ax.set_ylabel("damage coefficient D")
@@ -507,7 +526,7 @@ def damage_section(res: ConditionResult, snap: dict) -> tuple[list[np.ndarray], 
 
 
 def fig_damage_section(results: list[ConditionResult], out: Path) -> Path | None:
-    """Paper Fig. 9: damage D over the lining's middle section at the last snapshot, per condition."""
+    """Damage D over the lining's middle section at the last snapshot, per condition."""
     from matplotlib.collections import PolyCollection
 
     items = []
@@ -540,7 +559,7 @@ def fig_damage_section(results: list[ConditionResult], out: Path) -> Path | None
 
 def interface_section(res: ConditionResult, snap: dict) -> dict | None:
     """The rock–lining pairs of the middle section with their angle around the tunnel axis
-    (degrees from the crown towards +x: top arch 0, haunch 90, bottom arch 180), final state
+    (degrees from the crown towards +x: crown 0, springline 90, invert 180), final state
     (index into CONTACT_STATES) and `failed` (the bond broken at some time: the envelope)."""
     if res.interface is None or "interface" not in snap or res.mesh is None:
         return None
@@ -561,7 +580,7 @@ def interface_section(res: ConditionResult, snap: dict) -> dict | None:
 
 
 def fig_interface_zones(results: list[ConditionResult], out: Path) -> Path | None:
-    """Paper Fig. 10: per rock–lining pair of the middle section, the state at the last snapshot
+    """Per rock–lining pair of the middle section, the state at the last snapshot
     (outer ring) and whether its bond failed at any time (inner ring: the envelope)."""
     items = []
     for res in results:
@@ -683,20 +702,3 @@ def write_xdmf(res: ConditionResult, out_xdmf: Path) -> Path | None:
             if p.exists():
                 p.unlink()
     return out_xdmf
-
-
-# ---- the comparison with the paper -----------------------------------------------------------
-
-def comparison_table(results: list[ConditionResult]) -> list[str]:
-    """Markdown rows: the paper's §3.3 value beside ours, value by value (kept for the summary)."""
-    lines = ["| quantity | condition | monitor | paper | ours | ours / paper |", "|---|---|---|---|---|---|"]
-    units = {"max_ux": ("cm", 100), "max_uz": ("cm", 100), "max_tension": ("MPa", 1e-6)}
-    for res in results:
-        pk = peaks(res)
-        for key, (unit, scale) in units.items():
-            for m in MONITORS:
-                p = PAPER[key][res.condition][m] * scale
-                o = pk.get(m, {}).get(key, float("nan")) * scale
-                ratio = o / p if p else float("nan")
-                lines.append(f"| {key} ({unit}) | {res.condition} | {m} | {p:.3g} | {o:.3g} | {ratio:.2f} |")
-    return lines

@@ -1,471 +1,278 @@
-"""The comparison with the paper for report.md: the §3.3 numbers value by value, the qualitative
-findings, each marked reproduced / not reproduced / not computed, and a discussion of each
-difference written from the measured numbers (nothing here is fixed text about the outcome)."""
+"""The report of any case (report.md): the case as run (geometry, materials, water, monitors), the
+input motion and its PGA, per condition a table of the monitors' peaks with their times, the
+differences between conditions, the water side's cross-check, and the place of the lining forces.
+
+Everything is read from the case and from what the runs wrote (results_<condition>.h5, motion.h5):
+a quantity a condition does not have (the water pressure without water) is left out, never shown
+as a blank number. A comparison with a published run is paper.py's, added after these sections
+when the case asks for it.
+"""
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from .post import CONDITION_LABELS, CONTACT_STATES, MONITORS, PAPER, TOLERANCE, ConditionResult, peaks
+from .post import CONDITION_LABELS, ConditionResult, peaks
 
-REPRODUCED, NOT_REPRODUCED, NOT_COMPUTED = "reproduced", "**not reproduced**", "not computed"
-#: Sectors of the ring, degrees from the crown: the top and bottom arches and the haunches between.
-CROWN_DEG, INVERT_DEG = 30.0, 150.0
-#: D below this counts as no damage.
-NO_DAMAGE = 1e-6
-
-_QUANTITIES = {  # key: (label, unit, scale, paper time of the peak, figure)
-    "hydrodynamic_pressure_peak": ("hydrodynamic pressure peak", "MPa", 1e-6,
-                                   PAPER["hydrodynamic_pressure_peak_time"], "fig05"),
-    "max_ux": ("max_ux", "cm", 100.0, PAPER["displacement_peak_time"], "fig06"),
-    "max_uz": ("max_uz", "cm", 100.0, PAPER["displacement_peak_time"], "fig06"),
-    "max_tension": ("max_tension", "MPa", 1e-6, PAPER["tension_growth_end"], "fig07"),
-}
+#: Standard gravity, m/s^2, to state accelerations in g as well.
+G = 9.80665
 
 
-def verdict(ours: float, paper: float, t_end: float, t_paper: float) -> str:
-    """reproduced within TOLERANCE; a peak already above the band stays above it (peaks only grow);
-    otherwise a run that ended before the paper's peak time cannot tell yet."""
-    if ours is None or not np.isfinite(ours):
-        return NOT_COMPUTED
-    r = ours / paper
-    if r > 1 + TOLERANCE:
-        return NOT_REPRODUCED
-    if t_end < t_paper:
-        return f"{NOT_COMPUTED} (run ends at {t_end:.2f} s, before the paper's {t_paper:g} s)"
-    return REPRODUCED if abs(r - 1) <= TOLERANCE else NOT_REPRODUCED
+@dataclass(frozen=True)
+class Quantity:
+    key: str  # key in post.peaks
+    label: str
+    unit: str
+    scale: float  # SI value x scale = shown value
+    time_key: str  # key in post.peaks of the time of the peak
 
 
-class Comparison:
-    """Collects rows and discussion items while the report is built."""
+#: The quantities of the peak tables, in their order. Displacements are relative to the state at
+#: the start of the shaking (tq-solid's monitors), the water pressure is its dynamic part (the
+#: hydrostatic pressure is a static load of the solid).
+QUANTITIES = (
+    Quantity("max_ux", "max \\|u_x\\|", "mm", 1e3, "t_max_ux"),
+    Quantity("max_uy", "max \\|u_y\\|", "mm", 1e3, "t_max_uy"),
+    Quantity("max_uz", "max \\|u_z\\|", "mm", 1e3, "t_max_uz"),
+    Quantity("max_tension", "max principal stress σ3", "MPa", 1e-6, "t_max_tension"),
+    Quantity("min_sigma1", "min principal stress σ1", "MPa", 1e-6, "t_min_sigma1"),
+    Quantity("max_damage", "max damage D", "", 1.0, "t_max_damage"),
+    Quantity("hydrodynamic_pressure_peak", "peak \\|dynamic water pressure\\|", "MPa", 1e-6,
+             "hydrodynamic_pressure_peak_time"),
+)
+#: Pairs of conditions whose peaks the report subtracts (later − earlier): what the static water
+#: changes, what the water's motion changes, and both.
+DIFFERENCES = (("static_water", "no_water"), ("dynamic_water", "static_water"), ("dynamic_water", "no_water"))
 
-    def __init__(self, results: list[ConditionResult], figures: dict[str, str], context: dict):
-        self.by = {r.condition: r for r in results}
-        self.pk = {r.condition: peaks(r) for r in results}
-        self.figures = figures  # key (fig05, ...) -> relative path, for the evidence column
-        self.ctx = context
-        self.rows: list[str] = []
-        self.misses: dict[tuple[str, str], list[tuple[str, float, float]]] = {}
-        self._sections: dict[str, dict] = {}
 
-    def fig(self, key: str) -> str:
-        p = self.figures.get(key)
-        return f"[{key}]({p})" if p else "—"
+def fmt(v: float, digits: int = 4) -> str:
+    """A value as the report shows it (`digits` significant digits)."""
+    return f"{v:.{digits}g}"
 
-    def figs(self, *keys: str) -> str:
-        return ", ".join(self.fig(k) for k in keys if k in self.figures) or "—"
 
-    # -- numbers --------------------------------------------------------------------------------
-    def value_rows(self) -> list[str]:
-        lines = ["| quantity | condition | monitor | paper | ours | ours / paper | verdict | evidence |",
-                 "|---|---|---|---|---|---|---|---|"]
-        for key, (label, unit, scale, t_paper, fig) in _QUANTITIES.items():
-            conds = ["dynamic_water"] if key == "hydrodynamic_pressure_peak" else list(CONDITION_LABELS)
-            for cond in conds:
-                for m in MONITORS:
-                    p = (PAPER[key][m] if key == "hydrodynamic_pressure_peak" else PAPER[key][cond][m])
-                    res = self.by.get(cond)
-                    o = self.pk.get(cond, {}).get(m, {}).get(key) if res else None
-                    if res is None:
-                        v = f"{NOT_COMPUTED} (no results_{cond}.h5)"
-                    elif o is None:
-                        v = f"{NOT_COMPUTED} (not recorded in results_{cond}.h5)"
-                    else:
-                        v = verdict(o, p, res.t_end, t_paper)
-                    os_ = "—" if o is None else f"{o * scale:.3g}"
-                    ratio = "—" if o is None else f"{o / p:.2f}"
-                    lines.append(f"| {label} ({unit}) | {cond} | {m} | {p * scale:.3g} | {os_} | {ratio} | {v} | "
-                                 f"{self.fig(fig)} |")
-                    if o is not None and v == NOT_REPRODUCED:
-                        self.misses.setdefault((key, cond), []).append((m, o, p))
-            if key == "hydrodynamic_pressure_peak":
-                lines += self._peak_time_rows()
-        return lines
+def fmt_time(t: float) -> str:
+    """A time as the report shows it, s."""
+    return f"{t:.3f}"
 
-    def _peak_time_rows(self) -> list[str]:
-        out = []
-        res = self.by.get("dynamic_water")
-        tp = PAPER["hydrodynamic_pressure_peak_time"]
-        for m in MONITORS:
-            t = self.pk.get("dynamic_water", {}).get(m, {}).get("hydrodynamic_pressure_peak_time")
-            if res is None or t is None:
-                v, ts = NOT_COMPUTED, "—"
-            elif res.t_end < tp:
-                v, ts = f"{NOT_COMPUTED} (run ends at {res.t_end:.2f} s)", f"{t:.2f}"
-            else:
-                v, ts = (REPRODUCED if abs(t - tp) <= 0.5 else NOT_REPRODUCED), f"{t:.2f}"
-            out.append(f"| time of the pressure peak (s, ±0.5) | dynamic_water | {m} | {tp:g} | {ts} | — | {v} | "
-                       f"{self.fig('fig05')} |")
-        return out
 
-    # -- damage and the interface ---------------------------------------------------------------
-    def last_section(self, cond: str) -> dict | None:
-        """Damage and interface state of the middle section at the last snapshot (cached)."""
-        if cond in self._sections:
-            return self._sections[cond]
-        from .post import damage_section, interface_section, read_snapshot
+def difference(x: float, y: float, scale: float) -> tuple[str, str]:
+    """y − x as shown (scaled) and in % of |x|; "0" where the two agree to round-off (1e-9 of the
+    larger), "—" for the % of a zero x."""
+    d = y - x
+    if abs(d) <= 1e-9 * max(abs(x), abs(y)):
+        return "0", "0" if x != 0 else "—"
+    return f"{d * scale:+.4g}", (f"{100 * d / abs(x):+.2f}" if x != 0 else "—")
 
-        res = self.by.get(cond)
-        out = None
-        if res is not None and res.snapshots and res.mesh is not None:
-            snap = read_snapshot(res, res.snapshots[-1][0])
-            polys, d, elems = damage_section(res, snap)
-            out = {"time": snap["time"], "damage": d, "elements": elems,
-                   "interface": interface_section(res, snap)}
-            if len(elems):
-                out["radial"] = self._radial_damage(res, elems, d)
-        self._sections[cond] = out
-        return out
 
-    @staticmethod
-    def _radial_damage(res, elems, d):
-        from .post import tunnel_centre
+def _head(q: Quantity) -> str:
+    return f"{q.label} ({q.unit})" if q.unit else q.label
 
-        c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
-        xc, zc = tunnel_centre(res)
-        cen = c[conn[elems]].mean(axis=1)
-        r = np.hypot(cen[:, 0] - xc, cen[:, 2] - zc)
-        mid = 0.5 * (r.min() + r.max())
-        inner, outer = d[r < mid], d[r >= mid]
-        return (float(inner.mean()) if inner.size else float("nan"),
-                float(outer.mean()) if outer.size else float("nan"))
 
-    def max_damage(self, cond: str) -> tuple[float | None, str]:
-        """Largest D of the lining: over the middle section at the last snapshot when there is one
-        (damage does not heal), else over the monitors' histories."""
-        sec = self.last_section(cond)
-        if sec is not None and len(sec["damage"]):
-            return float(np.max(sec["damage"])), f"middle section at t = {sec['time']:.2f} s"
-        pk = self.pk.get(cond, {})
-        vals = [v["max_damage"] for v in pk.values() if np.isfinite(v.get("max_damage", np.nan))]
-        return (max(vals), "monitor histories") if vals else (None, "")
+# ---- the case ---------------------------------------------------------------------------------
 
-    def damage_rows(self) -> list[str]:
-        lines = ["| where | paper | ours | verdict | evidence |", "|---|---|---|---|---|"]
-        for cond in CONDITION_LABELS:
-            res = self.by.get(cond)
-            dmax, where = self.max_damage(cond) if res else (None, "")
-            wet = cond == "dynamic_water"
-            paper = "tensile damage in the lining" if wet else "no damage in the lining"
-            if dmax is None:
-                lines.append(f"| damage, {cond} | {paper} | — | {NOT_COMPUTED} | — |")
-                continue
-            has = dmax > NO_DAMAGE
-            v = REPRODUCED if has == wet else NOT_REPRODUCED
-            if not has and wet and res.t_end < 3.0:
-                v = f"{NOT_COMPUTED} (run ends at {res.t_end:.2f} s; the paper's damage starts after 3 s)"
-            d0 = [float(mo.extra["damage"][0]) for mo in res.monitors.values()
-                  if mo.extra.get("damage") is not None and mo.extra["damage"].size]
-            start = f"; at the seismic start the monitors have D ≤ {max(d0):.3g} (static stages)" if d0 else ""
-            lines.append(f"| damage, {cond} | {paper} | max D = {dmax:.3g} ({where}){start} | {v} | "
-                         f"{self.figs('fig08', 'fig09')} |")
-            if v == NOT_REPRODUCED:
-                self.misses.setdefault(("damage", cond), []).append(("lining", dmax, 0.0))
-        pk = self.pk.get("dynamic_water", {})
-        dm = {m: pk.get(m, {}).get("max_damage", np.nan) for m in MONITORS}
-        if all(np.isfinite(list(dm.values()))) and max(dm.values()) > NO_DAMAGE:
-            top = max(dm, key=dm.get)
-            v = REPRODUCED if top == "haunch" else NOT_REPRODUCED
-            ours = ", ".join(f"{m} {dm[m]:.3g}" for m in MONITORS)
-        else:
-            v, ours = NOT_COMPUTED + " (no damage at the monitors)" if all(np.isfinite(list(dm.values()))) \
-                else NOT_COMPUTED, "—"
-        lines.append(f"| damage at the monitors, dynamic_water | the haunch's the largest | {ours} | {v} | "
-                     f"{self.fig('fig08')} |")
-        sec = self.last_section("dynamic_water")
-        if sec is not None and "radial" in sec and np.max(sec["damage"]) > NO_DAMAGE:
-            di, do = sec["radial"]
-            v = REPRODUCED if di > do else NOT_REPRODUCED
-            lines.append(f"| damage across the lining, dynamic_water | larger at the water side than at the rock | "
-                         f"mean D inner half {di:.3g}, outer half {do:.3g} | {v} | {self.fig('fig09')} |")
-        else:
-            lines.append("| damage across the lining, dynamic_water | larger at the water side than at the rock | — "
-                         f"| {NOT_COMPUTED} (no damaged section snapshot) | {self.fig('fig09')} |")
-        return lines
+def motion_summary(path: Path) -> dict | None:
+    """What motion.h5 says of the input: source, record name, points, dt, convention, processing
+    steps, and the peaks of the record as processed (the outcrop's, twice the incident wave, for
+    an outcrop record): `pga` (x) and, per component written, `peak_<c>` in m/s^2."""
+    if not Path(path).is_file():
+        return None
+    import h5py
 
-    def interface_zone(self, cond: str) -> dict | None:
-        sec = self.last_section(cond)
-        if sec is None or sec["interface"] is None:
-            return None
-        it = sec["interface"]
-        a = np.abs(it["angle"])
-        opened = it["failed"] | np.isin(it["state"], [CONTACT_STATES.index("separated"),
-                                                       CONTACT_STATES.index("slipping")])
-        haunch = (a >= CROWN_DEG) & (a <= INVERT_DEG)
-        return {"time": sec["time"], "n": int(a.size), "opened": int(opened.sum()),
-                "in_haunch": int((opened & haunch).sum()), "crown_invert_opened": int((opened & ~haunch).sum()),
-                "crown_invert": int((~haunch).sum()),
-                "angles": np.sort(it["angle"][opened])}
+    with h5py.File(path, "r") as f:
+        a = dict(f.attrs)
+        conv = str(a.get("convention", "outcrop"))
+        factor = 2.0 if conv == "outcrop" else 1.0
+        out = {"source": str(a.get("source", "unknown")), "record_name": str(a.get("record_name", "")),
+               "dt": float(a.get("dt", float("nan"))), "points": int(f["time"].size) if "time" in f else 0,
+               "convention": conv, "processing": [s for s in str(a.get("processing", "")).splitlines() if s]}
+        for c in "xyz":
+            if f"incident_a{c}" in f and f[f"incident_a{c}"].size:
+                out[f"peak_{c}"] = factor * float(np.max(np.abs(f[f"incident_a{c}"][...])))
+        out["pga"] = out.get("peak_x")
+    return out
 
-    def slip_rows(self) -> list[str]:
-        lines = [f"| where | paper | ours (pairs of the middle section; haunch = {CROWN_DEG:g}°–{INVERT_DEG:g}° "
-                 "from the crown) | verdict | evidence |", "|---|---|---|---|---|"]
-        for cond in CONDITION_LABELS:
-            z = self.interface_zone(cond)
-            paper = ("separation and slip mainly at the haunches and their sides; top and bottom arches bonded"
-                     if cond == "dynamic_water" else "(not given)")
-            if z is None:
-                lines.append(f"| separation/slip, {cond} | {paper} | — | {NOT_COMPUTED} | — |")
-                continue
-            ours = (f"{z['opened']} of {z['n']} pairs separated, slipping or with a failed bond at t = "
-                    f"{z['time']:.2f} s; {z['in_haunch']} in the haunch sectors, {z['crown_invert_opened']} of "
-                    f"{z['crown_invert']} at the top/bottom arches")
-            if cond != "dynamic_water":
-                v = "— (paper silent)"
-            elif z["opened"] == 0:
-                res = self.by[cond]
-                v = (f"{NOT_COMPUTED} (run ends at {res.t_end:.2f} s)" if res.t_end < PAPER["tension_growth_end"]
-                     else NOT_REPRODUCED)
-            else:
-                v = REPRODUCED if z["in_haunch"] >= 0.75 * z["opened"] else NOT_REPRODUCED
-            if v == NOT_REPRODUCED:
-                self.misses.setdefault(("slip", cond), []).append(("interface", z["opened"], z["n"]))
-            lines.append(f"| separation/slip, {cond} | {paper} | {ours} | {v} | {self.fig('fig10')} |")
-        return lines
 
-    # -- findings -------------------------------------------------------------------------------
-    def window(self, a: str, b: str) -> float:
-        return min(self.by[a].t_end, self.by[b].t_end)
+def motion_section(motion: dict | None, figure: str | None) -> list[str]:
+    if motion is None:
+        return ["## Input motion", "", "No motion.h5 in the results folder (run `tunnelquake motion`).", ""]
+    lines = ["## Input motion", "", f"- source: `{motion['source']}`"]
+    if motion["record_name"]:
+        lines.append(f"- record: {motion['record_name']}")
+    lines.append(f"- {motion['points']} points at dt = {motion['dt']:g} s")
+    where = "at the outcrop (the incident wave is half of it)" if motion["convention"] == "outcrop" else \
+        "of the incident wave"
+    for c, name in (("x", "PGA (x, horizontal)"), ("y", "peak (y, horizontal)"), ("z", "peak (z, vertical)")):
+        v = motion.get(f"peak_{c}")
+        if v is not None and (c == "x" or v > 0):
+            lines.append(f"- {name} {where}: {v:.4g} m/s² = {v / G:.4g} g")
+    lines += [""] + [f"- {s}" for s in motion["processing"]] + [""]
+    if figure:
+        lines += [f"![input motion]({figure})", ""]
+    return lines
 
-    def _compare(self, a: str, b: str, key: str) -> tuple[int, int, list[str], list[str]] | None:
-        """Monitors where condition b's peak exceeds condition a's, over the time both runs cover:
-        (count, of, details, monitors where b exceeds a)."""
-        if a not in self.by or b not in self.by:
-            return None
-        w = self.window(a, b)
-        pa, pb = peaks(self.by[a], w), peaks(self.by[b], w)
-        n, det, up = 0, [], []
-        for m in MONITORS:
-            x, y = pa.get(m, {}).get(key), pb.get(m, {}).get(key)
-            if x is None or y is None:
-                return None
-            if y > x:
-                n += 1
-                up.append(m)
-            _, unit, scale, *_ = _QUANTITIES[key]
-            det.append(f"{m} {x * scale:.3g} → {y * scale:.3g} {unit}")
-        return n, len(MONITORS), det, up
 
-    def findings_rows(self) -> list[str]:
-        lines = ["| finding (paper §3.3, §4) | ours | verdict | evidence |", "|---|---|---|---|"]
-        # 1. hydrostatic pressure restrains: condition 2 below condition 1 (paper: displacements at
-        #    all monitors, tension "most of which decrease"); 2. hydrodynamic pressure increases the
-        #    response: condition 3 above condition 1 everywhere.
-        for name, b, text in (("hydrostatic", "static_water", "hydrostatic pressure restrains the lining: "
-                               "condition (2) below (1)"),
-                              ("hydrodynamic", "dynamic_water", "hydrodynamic pressure increases the response: "
-                               "condition (3) above (1)")):
-            parts, ok, computed, wrong = [], True, True, []
-            for key in ("max_ux", "max_uz", "max_tension"):
-                c = self._compare("no_water", b, key)
-                if c is None:
-                    computed = False
-                    continue
-                larger, of, det, up = c
-                if name == "hydrostatic":
-                    need = of if key != "max_tension" else 2
-                    ok &= (of - larger) >= need
-                    wrong += [f"{key} at {m}" for m in up]
-                    parts.append(f"{key}: smaller at {of - larger} of {of} ({'; '.join(det)})")
-                else:
-                    ok &= larger == of
-                    wrong += [f"{key} at {m}" for m in MONITORS if m not in up]
-                    parts.append(f"{key}: larger at {larger} of {of} ({'; '.join(det)})")
-            v = NOT_COMPUTED if not computed else (REPRODUCED if ok else NOT_REPRODUCED)
-            note = f" (peaks over the {self.window('no_water', b):.2f} s both runs cover)" if computed else ""
-            lines.append(f"| {text}{note} | {'<br>'.join(parts) or '—'} | {v} | {self.figs('fig06', 'fig07')} |")
-            if v == NOT_REPRODUCED:
-                self.misses[("finding", name)] = [(x, 0.0, 0.0) for x in wrong]
-        # 3. the haunch is the weak part
-        claims = []
-        pk3 = self.pk.get("dynamic_water", {})
-        hp = {m: pk3.get(m, {}).get("hydrodynamic_pressure_peak") for m in MONITORS}
-        if all(v_ is not None for v_ in hp.values()):
-            claims.append(("largest hydrodynamic pressure", max(hp, key=hp.get) == "haunch",
-                           ", ".join(f"{m} {hp[m] / 1e6:.3g} MPa" for m in MONITORS)))
-        for cond in CONDITION_LABELS:
-            if cond in self.pk:
-                t = {m: self.pk[cond].get(m, {}).get("max_tension", np.nan) for m in MONITORS}
-                claims.append((f"largest tension, {cond}", max(t, key=t.get) == "haunch",
-                               ", ".join(f"{m} {t[m] / 1e6:.3g} MPa" for m in MONITORS)))
-        dm = {m: pk3.get(m, {}).get("max_damage", np.nan) for m in MONITORS}
-        if pk3 and max(dm.values()) > NO_DAMAGE:
-            claims.append(("largest damage", max(dm, key=dm.get) == "haunch",
-                           ", ".join(f"{m} {dm[m]:.3g}" for m in MONITORS)))
-        z = self.interface_zone("dynamic_water")
-        if z is not None and z["opened"]:
-            claims.append(("separation/slip at the haunches", z["in_haunch"] >= 0.75 * z["opened"],
-                           f"{z['in_haunch']} of {z['opened']} opened pairs"))
-        if claims:
-            v = REPRODUCED if all(c[1] for c in claims) else NOT_REPRODUCED
-            ours = "<br>".join(f"{name}: {'yes' if good else 'no'} ({det})" for name, good, det in claims)
-        else:
-            v, ours = NOT_COMPUTED, "—"
-        lines.append(f"| the haunch is the weak part | {ours} | {v} | {self.figs('fig05', 'fig07', 'fig08', 'fig10')} |")
-        if v == NOT_REPRODUCED:
-            self.misses[("finding", "haunch")] = [(n, float(g), 0.0) for n, g, _ in claims]
-        return lines
+def lining_radii(case) -> tuple[float, float]:
+    """Inner and outer radius of the lining, m."""
+    g = case.data["geometry"]
+    return g["excavated_radius"] - g["lining_thickness"], g["excavated_radius"]
 
-    # -- discussion -----------------------------------------------------------------------------
-    def discussion(self) -> list[str]:
-        if not self.misses:
-            return ["Every computed value is within the stated band of the paper's; nothing to discuss."]
-        c = self.ctx
-        alpha, beta = c.get("rayleigh_alpha"), c.get("rayleigh_beta")
-        damping = "unknown"
-        if alpha is not None:
-            damping = (f"α = {alpha:.3g} 1/s, β = {beta:.3g} s: ξ = {100 * alpha / (4 * np.pi * 1.5):.2g} % at 1.5 Hz, "
-                       f"{100 * (alpha / (4 * np.pi * 10) + (beta or 0) * np.pi * 10):.2g} % at 10 Hz")
-        R = c.get("damage_constant")
-        causes = {
-            "record": f"input: {c.get('motion_source', 'unknown')} scaled to PGA 1.575 m/s²; the paper's "
-                      "'Imperial-Valley wave' version, filtering and baseline correction are not given, and "
-                      "displacement peaks follow the record's long-period content",
-            "damping": f"damping: the paper gives none; ours {damping}",
-            "R": f"damage constant R = {R:g} (the paper does not give it)" if R is not None else
-                 "damage constant R: not given by the paper",
-            "water": f"water model: {c.get('water_model', 'unknown')} "
-                     f"({'slice: no axial flow, so the pressure follows the cross-section change (the 3D model with closed water ends gives the same peaks to 0.05 %; with open ends at 80 m the mid-length pressure is 4x lower: docs/benchmarks.md)' if c.get('mode') == 'slice' else '3D'})"
-                     "; the paper's water is incompressible in 3D and its end conditions are not given"
-                     + ("; measured on this example (Peknold record, whole 20 s): the paper's incompressible "
-                        "water gives 0.457 / 0.458 / 0.461 MPa at the top arch, haunch and bottom arch against "
-                        "0.167 / 0.168 / 0.171 MPa with K = 2.2 GPa, the peaks rising monotonically with K "
-                        "(docs/stability.md \"Water stiffness\")"
-                        if str(c.get("water_model", "")).startswith("compressible") and c.get("mode") == "slice"
-                        else ""),
-            "hydrostatic": self._hydrostatic_cause(),
-            "slice": f"geometry: {c.get('mode', 'unknown')} model (plane strain) against the paper's 3D block"
-            if c.get("mode") == "slice" else f"geometry: {c.get('mode', 'unknown')} model",
-        }
-        out = []
-        for (key, cond), items in self.misses.items():
-            out += self._discuss(key, cond, items, causes)
-        return out
 
-    def _hydrostatic_cause(self) -> str:
-        """The lining's tension at the seismic start with the water's static pressure, ours against
-        the paper's "about 0.76 MPa at time 0 s" (conditions 2 and 3)."""
-        vals = {c: max(float(mo.principal[0, 2]) for mo in self.by[c].monitors.values() if mo.principal.size)
-                for c in ("static_water", "dynamic_water") if c in self.by and self.by[c].samples}
-        p0 = PAPER["initial_tension_with_water"]
-        if not vals:
-            return "hydrostatic pressure: a static load on the lining's inner face applied after the lining stage"
-        txt = ", ".join(f"{c} {v / 1e6:.3g} MPa ({v / p0:.2f}× the paper's)" for c, v in vals.items())
-        return (f"hydrostatic pressure (a static load on the lining's inner face, applied after the lining stage): "
-                f"the monitors' largest σ3 at the seismic start is {txt}, against the paper's about "
-                f"{p0 / 1e6:.2f} MPa")
+def monitor_place(case, point) -> tuple[float, float, str]:
+    """(r from the tunnel axis in the x–z plane, angle from the crown towards +x in degrees, and
+    lining / rock / water) of a monitor point."""
+    g = case.data["geometry"]
+    dx, dz = point[0] - g["tunnel_centre_x"], point[2] - g["tunnel_centre_z"]
+    r = math.hypot(dx, dz)
+    a, b = lining_radii(case)
+    tol = 1e-6 * max(np.ptp(g["x_range"]), np.ptp(g["z_range"]))
+    where = "lining" if a - tol <= r <= b + tol else ("rock" if r > b else "water")
+    return r, math.degrees(math.atan2(dx, dz)), where
 
-    def _short(self, cond: str, t_paper: float | None) -> list[str]:
-        """Says so when this condition's run stopped early or before the paper's peak time."""
-        res = self.by.get(cond)
+
+def _mpa(v) -> str:
+    return "—" if v is None else f"{v / 1e6:.4g}"
+
+
+def case_section(case) -> list[str]:
+    """Geometry, materials, water and monitors of the case as it ran."""
+    d = case.data
+    g = d["geometry"]
+    a, b = lining_radii(case)
+    lines = ["## The case", "",
+             f"- tunnel: excavated radius {b:g} m (diameter {2 * b:g} m), lining {g['lining_thickness']:g} m thick "
+             f"(inner radius {a:g} m), axis at x = {g['tunnel_centre_x']:g} m, z = {g['tunnel_centre_z']:g} m",
+             f"- block: x {g['x_range'][0]:g} … {g['x_range'][1]:g} m, y {g['y_range'][0]:g} … {g['y_range'][1]:g} m, "
+             f"z {g['z_range'][0]:g} … {g['z_range'][1]:g} m; mesh mode {d['mesh']['mode']}"]
+    w = d.get("water") or {}
+    wet = [c for c in d["conditions"] if c != "no_water"]
+    if wet:
+        model = w.get("model", "")
+        if model == "compressible":
+            model += f", K = {w['bulk_modulus'] / 1e9:.3g} GPa"
+        lines.append(f"- water ({', '.join(wet)}): head {w.get('head', 0):g} m at the axis, "
+                     f"{w.get('density', 1000):g} kg/m³, {model}")
+    lines += ["", "| material | model | E (GPa) | ν | ρ (kg/m³) | c (MPa) | φ (°) | σt (MPa) | σc (MPa) |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for name, m in d["materials"].items():
+        phi = "—" if m.get("friction_angle") is None else f"{m['friction_angle']:g}"
+        lines.append(f"| {name} | {m['model']} | {m['youngs_modulus'] / 1e9:.4g} | {m['poisson_ratio']:g} | "
+                     f"{m['density']:g} | {_mpa(m.get('cohesion'))} | {phi} | {_mpa(m.get('tensile_strength'))} | "
+                     f"{_mpa(m.get('compressive_strength'))} |")
+    lines += ["", "| monitor | x (m) | y (m) | z (m) | r from the axis (m) | angle from the crown (°) | in |",
+              "|---|---|---|---|---|---|---|"]
+    for name, p in (d["output"]["monitors"] or {}).items():
+        r, ang, where = monitor_place(case, p)
+        lines.append(f"| {name} | {p[0]:g} | {p[1]:g} | {p[2]:g} | {r:.4g} | {ang:.1f} | {where} |")
+    if not d["output"]["monitors"]:
+        lines.append("| (none: output.monitors is empty) | | | | | | |")
+    return lines + [""]
+
+
+def lining_tensile_strength(case) -> float | None:
+    """The lining's tension cut-off σt (Pa), None when its model has none."""
+    return (case.data["materials"].get("lining") or {}).get("tensile_strength")
+
+
+# ---- peaks per condition ----------------------------------------------------------------------
+
+def peak_table(res: ConditionResult, order: list[str], strength: float | None = None,
+               places: dict[str, str] | None = None) -> list[str]:
+    """The monitors' peaks of one condition with the time of each, a column pair per quantity the
+    condition has (a quantity no monitor recorded is left out); with the lining's tensile strength,
+    σ3 / σt for the monitors in the lining."""
+    pk = peaks(res)
+    names = [m for m in order if m in pk] + sorted(m for m in pk if m not in order)
+    qs = [q for q in QUANTITIES if any(np.isfinite(pk[m].get(q.key, np.nan)) for m in names)]
+    if "max_uy" in pk.get(names[0], {}) and all(pk[m].get("max_uy", 0.0) == 0.0 for m in names):
+        qs = [q for q in qs if q.key != "max_uy"]  # a plane run: no y motion to show
+    head = ["monitor"]
+    for q in qs:
+        head += [_head(q), "at t (s)"]
+        if q.key == "max_tension" and strength:
+            head.append("σ3 / σt (lining)")
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for m in names:
+        row = [m]
+        for q in qs:
+            v, t = pk[m].get(q.key, np.nan), pk[m].get(q.time_key, np.nan)
+            if not np.isfinite(v):
+                row += ["—", "—"]
+            else:  # an undamaged monitor has no time of its damage
+                row += [fmt(v * q.scale), fmt_time(t) if q.key != "max_damage" or v > 0 else "—"]
+            if q.key == "max_tension" and strength:
+                inside = places is None or places.get(m) == "lining"
+                row.append(f"{v / strength:.3f}" if np.isfinite(v) and inside else "—")
+        lines.append("| " + " | ".join(row) + " |")
+    return lines
+
+
+def peaks_section(results: list[ConditionResult], stopped: list[ConditionResult], order: list[str],
+                  strength: float | None, places: dict[str, str] | None) -> list[str]:
+    """Per condition: the peak table over the run's samples, or "no sample" for a run that stopped
+    before the shaking."""
+    lines = ["## Peaks at the monitors", "",
+             "Per condition, the largest value of each monitor's history and the time it is first reached. "
+             "Displacements are relative to the start of the shaking; σ3 is the most tensile principal stress, "
+             "σ1 the most compressive (tension positive); the water pressure is the dynamic part acting on "
+             "the lining (the hydrostatic part is a static load)."
+             + (f" σt = {strength / 1e6:.4g} MPa is the lining's tensile strength." if strength else ""), ""]
+    by = {r.condition: r for r in results + stopped}
+    for cond in CONDITION_LABELS:
+        res = by.get(cond)
         if res is None:
-            return []
-        if res.planned_end and res.t_end < res.planned_end - 1e-6:
-            return [f"the {cond} run stops at {res.t_end:.2f} s of the planned {res.planned_end:g} s (status "
-                    f"'{res.status}')" + (f"; the paper's value is at {t_paper:g} s" if t_paper else "")]
-        if t_paper and res.t_end < t_paper:
-            return [f"the {cond} run's computed window ends at {res.t_end:.2f} s, before the paper's {t_paper:g} s"]
+            continue
+        if not res.monitors:
+            lines += [f"### {CONDITION_LABELS[cond]}", "", "No monitor: output.monitors is empty.", ""]
+            continue
+        if not res.samples:
+            lines += [f"### {CONDITION_LABELS[cond]}", "",
+                      f"No sample: the run stopped before the shaking ({res.stage_state()}).", ""]
+            continue
+        t0 = float(min(mo.time[0] for mo in res.monitors.values()))
+        lines += [f"### {CONDITION_LABELS[cond]}: {res.samples} samples, t = {fmt_time(t0)} … "
+                  f"{fmt_time(res.t_end)} s", ""]
+        lines += peak_table(res, order, strength, places) + [""]
+    return lines
+
+
+def differences_section(results: list[ConditionResult], order: list[str]) -> list[str]:
+    """For each pair of DIFFERENCES both run, the change of every peak both conditions have, over
+    the time both runs cover: the two values, their difference, and the difference in % of the
+    first condition's value."""
+    by = {r.condition: r for r in results}
+    pairs = [(b, a) for b, a in DIFFERENCES if a in by and b in by]
+    if not pairs:
         return []
-
-    def _discuss(self, key, cond, items, causes) -> list[str]:
-        t_paper = _QUANTITIES[key][3] if key in _QUANTITIES else PAPER["tension_growth_end"]
-        if key == "finding":
-            short = sorted({s for c in CONDITION_LABELS for s in self._short(c, None)})
-        else:
-            short = self._short(cond, t_paper)
-        if key in _QUANTITIES:
-            label, unit, scale, t_paper, _ = _QUANTITIES[key]
-            ratios = np.array([o / p for _, o, p in items])
-            lo, hi = float(ratios.min()), float(ratios.max())
-            side = "below" if hi < 1 else ("above" if lo > 1 else "on both sides of")
-            head = (f"### {label}, {CONDITION_LABELS.get(cond, cond)}\n\n"
-                    f"Ours / paper = {lo:.2f}–{hi:.2f} at {', '.join(m for m, *_ in items)}: {side} the paper's "
-                    f"values (band ±{100 * TOLERANCE:.0f} %). ")
-            if key in ("max_ux", "max_uz"):
-                times = [self.pk[cond][m][f"t_{key}"] for m, *_ in items]
-                head += (f"Our peaks are at t = {min(times):.2f}–{max(times):.2f} s, the paper's at "
-                         f"{PAPER['displacement_peak_time']:g} s. ")
-            st = PAPER["lining_tensile_strength"]
-            capped = key == "max_tension" and all(o >= 0.99 * st for _, o, _ in items)
-            if capped:
-                head += (f"Ours sit at the lining's tensile strength σt = {st / 1e6:.3g} MPa (the Mohr–Coulomb "
-                         "tension cut-off caps σ3 there), so the ratio is σt over the paper's value. ")
-            elif len(items) > 1:
-                head += ("The ratio is about the same at every monitor (max/min "
-                         f"{hi / lo:.2f}), which points to what loads the whole section alike — the input record "
-                         "and the damping — more than to the lining's local model. " if hi / lo < 1.3 else
-                         f"The ratio differs between monitors (max/min {hi / lo:.2f}), so the distribution "
-                         "round the ring differs as well, not only the overall level. ")
-            if key == "max_tension":
-                res = self.by.get(cond)
-                smax = max(o for _, o, _ in items)
-                st = PAPER["lining_tensile_strength"]
-                if not capped:
-                    head += (f"Our largest tension here is {smax / 1e6:.3g} MPa = {smax / st:.2f} of the lining's "
-                             f"tensile strength {st / 1e6:.3g} MPa; "
-                             + ("tensile yielding, and with it damage, can start. " if smax >= 0.999 * st else
-                                "below it no tensile yielding and no tensile damage can start. "))
-                why = [causes["record"], causes["damping"], causes["slice"]]
-                if cond != "no_water":
-                    why.insert(0, causes["hydrostatic"])
-                if cond == "dynamic_water":
-                    why.append(causes["water"])
-                if res is not None and cond == "dynamic_water":
-                    why.append(causes["R"])
-            elif key == "hydrodynamic_pressure_peak":
-                why = [causes["water"], causes["record"], causes["slice"]]
-            else:
-                why = [causes["record"], causes["damping"], causes["slice"]]
-                if cond != "no_water":
-                    why.append(causes["hydrostatic"])
-                if cond == "dynamic_water":
-                    why.append(causes["water"])
-            return [head, ""] + [f"- {w}" for w in short + why] + [""]
-        if key == "damage":
-            _, dmax, _ = items[0]
-            s = f"### damage, {CONDITION_LABELS.get(cond, cond)}\n\n"
-            tens = [self.pk.get(cond, {}).get(m, {}).get("max_tension", np.nan) for m in MONITORS]
-            tmax = float(np.nanmax(tens)) if np.isfinite(tens).any() else float("nan")
-            st = PAPER["lining_tensile_strength"]
-            if dmax > NO_DAMAGE:
-                s += (f"The paper has no damage in this condition; ours reaches D = {dmax:.3g}, with the monitors' "
-                      f"largest tension {tmax / 1e6:.3g} MPa ({tmax / st:.2f} of σt). ")
-            else:
-                s += (f"The paper has tensile damage here; ours has none: the monitors' largest tension is "
-                      f"{tmax / 1e6:.3g} MPa = {tmax / st:.2f} of the tensile strength "
-                      f"{st / 1e6:.3g} MPa. ")
-            why = [causes["R"], causes["record"], causes["damping"]]
-            if cond != "no_water":
-                why.append(causes["hydrostatic"])
-            if cond == "dynamic_water":
-                why.append(causes["water"])
-            return [s, ""] + [f"- {w}" for w in short + why] + [""]
-        if key == "slip":
-            _, opened, n = items[0]
-            s = (f"### separation and slip, {CONDITION_LABELS.get(cond, cond)}\n\n"
-                 f"{opened} of {n} pairs of the middle section opened, slipped or lost their bond. ")
-            z = self.interface_zone(cond)
-            if z and z["opened"]:
-                s += (f"Of these {z['in_haunch']} lie in the haunch sectors (angles "
-                      f"{', '.join(f'{a:.0f}°' for a in z['angles'][:12])}{' …' if len(z['angles']) > 12 else ''}). ")
-            return [s, ""] + [f"- {w}" for w in short + [causes["record"], causes["water"], causes["slice"]]] + [""]
-        if key == "finding":
-            s = f"### finding: {cond}\n\n"
-            if cond == "haunch":
-                failed = [n for n, good, _ in items if not good]
-                s += f"The haunch is not the most loaded point for: {', '.join(failed)} (see the table above). "
-            else:
-                against = "rises" if cond == "hydrostatic" else "does not rise"
-                s += (f"Against the paper, the peak {against} from condition (1) for "
-                      f"{', '.join(n for n, *_ in items)} (numbers in the table above). ")
-            why = ([causes["hydrostatic"]] if cond == "hydrostatic" else
-                   [causes["water"]] if cond == "hydrodynamic" else [causes["water"], causes["hydrostatic"]])
-            return [s, ""] + [f"- {w}" for w in short + why + [causes["record"], causes["slice"]]] + [""]
-        return []
+    lines = ["## Differences between conditions", ""]
+    for b, a in pairs:
+        w = min(by[a].t_end, by[b].t_end)
+        pa, pb = peaks(by[a], w), peaks(by[b], w)
+        names = [m for m in order if m in pa and m in pb] + sorted(m for m in pa if m in pb and m not in order)
+        lines += [f"### {CONDITION_LABELS[b]} − {CONDITION_LABELS[a]} (peaks over t ≤ {fmt_time(w)} s)", "",
+                  f"| quantity | monitor | {a} | {b} | {b} − {a} | change (%) |", "|---|---|---|---|---|---|"]
+        for q in QUANTITIES:
+            for m in names:
+                x, y = pa[m].get(q.key, np.nan), pb[m].get(q.key, np.nan)
+                if not (np.isfinite(x) and np.isfinite(y)):
+                    continue
+                if q.key == "max_uy" and x == 0.0 and y == 0.0:
+                    continue
+                diff, pct = difference(x, y, q.scale)
+                lines.append(f"| {_head(q)} | {m} | {fmt(x * q.scale)} | {fmt(y * q.scale)} | {diff} | {pct} |")
+        lines.append("")
+    return lines
 
 
-def water_side_check(res: ConditionResult | None, fluid: dict | None) -> list[str]:
+# ---- the water side ---------------------------------------------------------------------------
+
+def water_side_check(res: ConditionResult | None, fluid: dict | None, carried: bool = False) -> list[str]:
     """The pressure the lining is loaded with (the coupling's force at the monitors) against the
-    water's own accepted area-mean wall pressure, over the time both cover."""
+    water's own accepted area-mean wall pressure, over the time both cover. `carried`: tq-solid
+    carries the enclosed water's uniform pressure (fluid_case.volume_law), so the water's own
+    pressure is only the rest and the two are stated, not compared."""
     if res is None or fluid is None:
         return []
     mons = [mo for mo in res.monitors.values() if "water_pressure" in mo.extra]
@@ -476,6 +283,15 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None) -> list[st
                 for mo in mons)
     water = float(np.max(np.abs(fluid["p_mean"][fluid["time"] <= t_end])))
     scheme = res.coupling.get("scheme", "unknown")
+    if carried:
+        return ["## Water side cross-check", "",
+                "tq-solid carries the enclosed water's uniform pressure (and, by default, its rigid translation) "
+                "itself (coupling.volume_law: solid), and the monitors' hydrodynamic pressure includes that part; "
+                "the water's own area-mean wall pressure (`dynamic_water/fluid/postProcessing/*/*/interface.dat`) "
+                "is only what the water solver adds to it. Up to t = "
+                f"{t_end:.2f} s the largest of the first at the monitors is {solid / 1e6:.4g} MPa, of the second "
+                f"{water / 1e6:.4g} MPa (coupling scheme `{scheme}`): two different quantities, so their ratio is "
+                "not a check of the coupling.", ""]
     out = ["## Water side cross-check", "",
            f"Up to t = {t_end:.2f} s the largest |hydrodynamic pressure| the coupling applies at the monitors is "
            f"{solid / 1e6:.4g} MPa; the water's own largest |area-mean wall pressure| over its accepted steps "
@@ -487,21 +303,28 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None) -> list[st
                 "the mean, but a ratio this large means the force the solid applies is not the water's answer "
                 "to the accepted motion" + (" (with the `paper` scheme the solid applies the R3 of the "
                                             "predictor pass, docs/coupler.md)" if scheme == "paper" else "")
-                + ". Fig. 5 shows both.", ""]
+                + ". The hydrodynamic pressure figure shows both.", ""]
     return out
 
 
-def comparison_sections(results: list[ConditionResult], figures: dict[str, str], context: dict) -> list[str]:
-    """The report's comparison part: values, damage and slip, findings, discussion."""
-    c = Comparison(results, figures, context)
-    lines = ["## The paper's §3.3 numbers against ours", "",
-             f"Verdicts: *reproduced* when ours is within ±{100 * TOLERANCE:.0f} % of the paper's value; *not "
-             "computed* when the condition was not run or the run ended before the paper's peak time without "
-             "already exceeding the band.", ""]
-    lines += c.value_rows() + ["", "## Where damage and slip appear", ""]
-    lines += c.damage_rows() + [""] + c.slip_rows() + ["", "## The paper's findings", ""]
-    lines += c.findings_rows() + [""]
-    lines += water_side_check(c.by.get("dynamic_water"), context.get("fluid_interface"))
-    lines += ["## Discussion of the differences", ""]
-    lines += c.discussion()
-    return lines
+# ---- lining forces: the place of the designer's section ----------------------------------------
+#
+# The section a designer reads first: per condition, the thrust N, moment M and shear V around the
+# ring (envelopes per ring section), the ovaling, and the capacity utilisation of the section. The
+# solver writes the ring forces and a reader (ring_forces.py) and a capacity check (design/) turn
+# them into a design-quantities object; `design_quantities` returns it, `lining_forces_section`
+# writes it. Until they exist the first returns None and the report has no such section.
+
+def design_quantities(case, results: list[ConditionResult]):
+    """The design quantities of the runs (ring forces, envelopes, ovaling, capacity), or None while
+    the results carry none."""
+    return None
+
+
+def lining_forces_section(design=None) -> list[str]:
+    """The report's "Lining forces" section from a design-quantities object; nothing when None.
+    The object gives its own markdown lines (`report_lines()`), so the reader and the capacity
+    check decide what they show."""
+    if design is None:
+        return []
+    return ["## Lining forces", "", *design.report_lines(), ""]

@@ -82,11 +82,11 @@ BAD_INPUTS = [
       "  model: incompressible\n  bulk_modulus: 2.2 GPa\n  ends: open\n",
       "  scheme: implicit\n", "  scheme: implicit\n  volume_law: water\n"),
      "coupling.volume_law", "cannot change its volume"),
-    ("incompressible water with closed ends in 3D",
+    ("incompressible water with closed ends in 3D left to the water solver",
      ("  model: compressible\n  bulk_modulus: 2.2 GPa\n  ends: open\n",
       "  model: incompressible\n  bulk_modulus: 2.2 GPa\n  ends: closed\n",
-      "  mode: slice ", "  mode: 3d "),
-     "water.ends", "not yet solved incompressibly"),
+      "  mode: slice ", "  mode: 3d ", "  scheme: implicit\n", "  scheme: implicit\n  volume_law: water\n"),
+     "coupling.volume_law", "cannot change its volume"),
     ("monitor outside", ("    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 500.0]"),
      "output.monitors.top_arch", "outside the model"),
     ("friction angle of 90 degrees", ("    friction_angle: 37 deg\n", "    friction_angle: 90 deg\n"),
@@ -228,14 +228,15 @@ def test_a_bad_key_in_any_variant_is_said_before_a_run(example_text, write_case)
 
 
 def test_the_checks_across_sections_stop_only_the_variant_they_concern(example_text, write_case):
-    """Incompressible water in the base file is valid with its open ends; the 3d variant closes the
-    ends, which is ill-posed for incompressible water: only a run of that variant is refused."""
+    """Incompressible water in the base file (a slice) is valid; the 3d variant leaves the volume law
+    to the water solver (volume_law: water), which incompressible water cannot have: only a run of
+    that variant is refused."""
     path = write_case(example_text.replace("  model: compressible\n", "  model: incompressible\n"))
     assert load_case(path)["water"]["model"] == "incompressible"
     with pytest.raises(CaseError) as err:
         load_case(path, "3d")
     msg = str(err.value)
-    assert "(variant 3d)" in msg and "water.ends" in msg and "ends: open" in msg, msg
+    assert "(variant 3d)" in msg and "coupling.volume_law" in msg and "use volume_law: solid" in msg, msg
 
 
 def test_an_unknown_variant_names_the_ones_there(write_case, example_text):

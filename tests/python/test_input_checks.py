@@ -148,7 +148,7 @@ def test_nan_in_an_at2_record_is_refused_naming_the_line(tmp_path, capsys):
 def test_monitor_named_after_the_lining_but_in_the_rock_is_refused(tmp_path, capsys):
     rc, err = _check(capsys, _case(tmp_path, "    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 39.0]"))
     assert rc == 1
-    assert (":119: output.monitors.top_arch = [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis (x = 0, z = 32 m "
+    assert (":122: output.monitors.top_arch = [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis (x = 0, z = 32 m "
             "in the x-z plane); the lining is 4.5 m <= r <= 5.25 m, so this point is in the rock: tq-solid records "
             "the solid's node and element nearest to it, the rock's (the lining's only within about half an element "
             "of its outer surface), and the report compares top_arch with the paper's lining values. Fix: move it "
@@ -315,3 +315,14 @@ def test_one_step_implicit_windows_warn_with_the_measured_factor(tmp_path, capsy
     assert rc == 0
     assert ("warning: coupling.window 1: every solid step exchanges with the water; over the example slice's first "
             "second one-step windows took 3.7x the CPU time of windows of 16 (the default)") in err
+
+
+def test_incompressible_water_with_closed_ends_in_3d_runs_with_its_approximation_stated(tmp_path, capsys):
+    """Accepted (the solid holds the whole enclosed volume), with a warning that the water solver's
+    remainder, the volume moved along the axis, meets K = 2.2 GPa rather than an infinite stiffness."""
+    rc, err = _check(capsys, _case(tmp_path, "  model: compressible\n", "  model: incompressible\n",
+                                   "  ends: open\n", "  ends: closed\n", "  mode: slice ", "  mode: 3d "))
+    assert rc == 0
+    assert ("warning: water.model incompressible with closed ends in 3D: the solid holds the whole enclosed volume; "
+            "the water solver's remainder (volume moved along the axis between the tunnel's parts) is solved with "
+            "K = 2.2 GPa, not incompressibly") in err

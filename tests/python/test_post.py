@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLE
+from tunnelquake import paper
 from tunnelquake import post as P
 from tunnelquake.cli import main
 
@@ -22,7 +23,7 @@ def _write_partial_results(path, n_rows=(400, 390, 395), amp_x=0.05, amp_s=1.1e6
     with h5py.File(path, "w") as f:
         f.attrs["format"] = "tunnelquake-solid-results"
         f.attrs["status"] = "running"
-        for name, n in zip(P.MONITORS, n_rows, strict=True):
+        for name, n in zip(paper.MONITORS, n_rows, strict=True):
             t = np.arange(n) * 0.005
             g = f.create_group(f"monitors/{name}")
             g["time"] = t[:, None]
@@ -175,7 +176,7 @@ def test_hydrodynamic_pressure_fig5_and_the_report_rows(tmp_path):
         assert pk[m]["hydrodynamic_pressure_peak"] == pytest.approx(amp, rel=1e-12)
         assert pk[m]["hydrodynamic_pressure_peak_time"] == pytest.approx(5.0, abs=1e-9)
     assert P.fig_hydrodynamic_pressure(res, tmp_path / "fig05.png").stat().st_size > 10_000
-    from tunnelquake.report import comparison_sections
+    from tunnelquake.paper import comparison_sections
 
     text = "\n".join(comparison_sections([res], {"fig05": "figures/fig05.png"}, {}))
     # 0.466 MPa at the haunch equals the paper's; 0.2 MPa at the top arch is 0.78 of 0.256: outside ±20 %
@@ -210,7 +211,7 @@ def test_damage_section_and_fig9_show_the_files_values(tmp_path):
     i = int(np.argmin(np.abs(sec["x"] - R_OUT)))  # the pair at +x: the haunch
     assert sec["angle"][i] == pytest.approx(90.0, abs=1e-9)
     assert P.fig_interface_zones([res], tmp_path / "fig10.png").stat().st_size > 10_000
-    from tunnelquake.report import comparison_sections
+    from tunnelquake.paper import comparison_sections
 
     text = "\n".join(comparison_sections([res], {}, {}))
     # 16 pairs per plane; those within 30° of the two haunches: 90 ± 22.5 and ± 0 -> 3 per side

@@ -53,9 +53,9 @@ def make_motion(case) -> tuple[ProcessedMotion, Path]:
         say(f"NOTE: {n}")
     out = case.output_dir / "motion.h5"
     write_motion(motion, out)
-    peak = float(np.max(np.abs(motion.ax)))
+    peaks = ", ".join(f"{c} {float(np.max(np.abs(a))):.4g}" for c, a in (("x", motion.ax), ("z", motion.az)))
     say(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
-        f"incident peak x {peak:.4g} m/s^2 -> {out}")
+        f"incident peaks {peaks} m/s^2 -> {out}")
     for s in motion.steps:
         say(f"  - {s}")
     return motion, out

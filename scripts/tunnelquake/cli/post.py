@@ -10,20 +10,18 @@ from ..scene import plan
 from .common import atomic_path, folder_held, load_or_report, parser, say
 
 
-def _context(case, results) -> dict:
-    """What the discussion of the differences quotes: the record, damping, R, water model, mode."""
+def _context(case, results, motion: dict | None) -> dict:
+    """What the discussion of a comparison quotes: the record and its PGA, damping, R, water model,
+    mode."""
     ctx = {"mode": case.data["mesh"]["mode"]}
     w = case.data.get("water") or {}
     model = w.get("model", "unknown")
     if model == "compressible" and w.get("bulk_modulus"):
         model += f" (K = {float(w['bulk_modulus']) / 1e9:.3g} GPa)"
     ctx["water_model"] = model
-    motion_file = case.output_dir / "motion.h5"
-    if motion_file.is_file():
-        import h5py
-
-        with h5py.File(motion_file, "r") as f:
-            ctx["motion_source"] = str(f.attrs.get("source", "unknown"))
+    if motion is not None:
+        ctx["motion_source"] = motion["source"]
+        ctx["pga"] = motion.get("pga")
     for r in results:
         if "rayleigh_alpha" in r.attrs:
             ctx["rayleigh_alpha"] = float(r.attrs["rayleigh_alpha"])
@@ -34,10 +32,13 @@ def _context(case, results) -> dict:
 
 
 def _run_state(P, res, csv_name: str) -> str:
+    if not res.monitors:
+        return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**; no monitor (output.monitors is "
+                f"empty), so no histories; {len(res.snapshots)} field snapshot(s)")
     if not res.samples:
         return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, no monitor sample: the run "
                 f"stopped before the shaking ({res.stage_state()}); nothing of this condition is in the figures "
-                f"and the comparison below")
+                f"and the tables below")
     line = (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, {res.samples} monitor samples to "
             f"t = {res.t_end:.2f} s")
     if res.planned_end is not None:
@@ -51,26 +52,35 @@ def _run_state(P, res, csv_name: str) -> str:
     return line
 
 
+#: The report's figures: key, file name, caption.
+FIGURES = (
+    ("fig05", "fig05_hydrodynamic_pressure.png", "hydrodynamic pressure at the monitors, dynamic water"),
+    ("fig06", "fig06_max_displacements.png", "maximum displacements"),
+    ("fig07", "fig07_max_principal_stress.png", "maximum principal stress"),
+    ("fig08", "fig08_damage_histories.png", "damage at the monitors"),
+    ("fig09", "fig09_damage_section.png", "damage over the lining's middle section at the last snapshot"),
+    ("fig10", "fig10_interface_zones.png", "rock–lining interface state at the last snapshot"),
+)
+
+
 def post_case(case) -> Path:
-    out = case.output_dir
-    lines = [f"# TunnelQuake report: {case.data['name']}", ""]
-    motion_file = out / "motion.h5"
-    figs = out / "figures"
-    if motion_file.is_file():
-        import h5py
-
-        with h5py.File(motion_file, "r") as f:
-            src, proc = f.attrs["source"], f.attrs["processing"]
-            n, dt = f["time"].size, float(f.attrs["dt"])
-        lines += ["## Input motion", "", f"- source: `{src}`", f"- {n} points at dt = {dt:g} s", ""]
-        lines += [f"- {s}" for s in str(proc).splitlines()] + [""]
-        fig = figs / "fig03_input_motion.png"
-        if fig.is_file():
-            lines += [f"![input motion](figures/{fig.name})", ""]
+    from .. import paper
     from .. import post as P
+    from .. import report as R
 
+    out = case.output_dir
+    figs = out / "figures"
+    ref = paper if paper.applies(case.data) else None
+    order = list(case.data["output"]["monitors"] or {})
+    places = {m: R.monitor_place(case, p)[2] for m, p in (case.data["output"]["monitors"] or {}).items()}
+    strength = R.lining_tensile_strength(case)
+    motion = R.motion_summary(out / "motion.h5")
+    fig03 = figs / "fig03_input_motion.png"
+    lines = [f"# TunnelQuake report: {case.data['name']}", ""]
+    lines += R.motion_section(motion, f"figures/{fig03.name}" if fig03.is_file() else None)
+    lines += R.case_section(case)
     lines += ["## Conditions", ""]
-    results = []
+    results, stopped = [], []
     planned = [c for c, _ in plan(case)]
     for cond in P.CONDITION_LABELS:
         f = out / f"results_{cond}.h5"
@@ -90,81 +100,102 @@ def post_case(case) -> Path:
         lines.append(_run_state(P, res, csv_file.name))
         if not res.samples:
             say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
+            stopped.append(res)
             continue
         results.append(res)
         if not res.complete:
             say(f"{cond}: status '{res.status}': post-processed up to the last written step, t = {res.t_end:.4g} s")
+    lines.append("")
+    if stopped or results:
+        lines += R.peaks_section(results, stopped, order, strength, places)
     if not results:
-        lines += ["", "No condition has monitor samples yet: nothing to draw or compare. This report lists only "
+        lines += ["No condition has monitor samples yet: nothing to draw or compare. This report lists only "
                   "what exists.", ""]
     else:
-        figs.mkdir(parents=True, exist_ok=True)
-        made: dict[str, str] = {}
-        failed: dict[str, str] = {}
-
-        def keep(key, draw, *args):
-            try:
-                path = draw(*args)
-            except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
-                failed[key] = f"{type(e).__name__}: {e}"
-                say(f"{key}: not drawn ({failed[key]})")
-                return
-            if path is not None:
-                made[key] = f"figures/{Path(path).name}"
-
+        lines += R.differences_section(results, order)
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
-            keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / "fig05_hydrodynamic_pressure.png", fluid)
-        keep("fig06", P.fig_max_displacements, results, figs / "fig06_max_displacements.png")
-        keep("fig07", P.fig_principal_stress, results, figs / "fig07_max_principal_stress.png")
-        keep("fig08", P.fig_damage_histories, results, figs / "fig08_damage_histories.png")
-        keep("fig09", P.fig_damage_section, results, figs / "fig09_damage_section.png")
-        keep("fig10", P.fig_interface_zones, results, figs / "fig10_interface_zones.png")
-        titles = {"fig05": "Fig. 5: hydrodynamic pressure at the monitors, condition 3",
-                  "fig06": "Fig. 6: maximum displacements", "fig07": "Fig. 7: maximum principal stress",
-                  "fig08": "Fig. 8: damage at the monitors",
-                  "fig09": "Fig. 9: damage over the lining's middle section at the last snapshot",
-                  "fig10": "Fig. 10: rock–lining interface state at the last snapshot"}
-        lines += ["", "## Figures", ""]
-        for key, title in titles.items():
-            if key in made:
-                lines += [f"![{title}]({made[key]})", ""]
-            elif key in failed:
-                lines += [f"- {title}: not drawn ({failed[key]})", ""]
-            else:
-                why = ("no water pressure recorded (condition 3 not run, or run by a tq-solid without the "
-                       "monitors' water_pressure)" if key == "fig05" else "no field snapshot in the results")
-                lines += [f"- {title}: not drawn ({why})", ""]
-        xdmfs = []
-        for r in results:
-            try:
-                x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
-            except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
-                lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
-                say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
-                continue
-            if x is not None:
-                xdmfs.append(x)
-        if xdmfs:
-            lines += ["ParaView (open the .xdmf; the heavy data are the .h5 beside it): "
-                      + ", ".join(f"`{x.relative_to(out)}`" for x in xdmfs), ""]
-        from ..report import comparison_sections
+            from ..fluid_case import volume_law
 
-        ctx = _context(case, results)
-        if fluid is not None:
-            ctx["fluid_interface"] = fluid
-        try:
-            lines += comparison_sections(results, made, ctx)
-        except Exception as e:  # noqa: BLE001 - reported; the report keeps what was found above
-            lines += ["## The paper's §3.3 numbers against ours", "",
-                      f"Not made: {type(e).__name__}: {e}", ""]
-            say(f"comparison with the paper not made ({type(e).__name__}: {e})")
+            lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
+        lines += R.lining_forces_section(R.design_quantities(case, results))
+        lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out)
+        if ref is not None:
+            ctx = _context(case, results, motion)
+            if fluid is not None:
+                ctx["fluid_interface"] = fluid
+            made = {k: f"figures/{name}" for k, name, _ in FIGURES if (figs / name).is_file()}
+            try:
+                lines += ref.comparison_sections(results, made, ctx)
+            except Exception as e:  # noqa: BLE001 - reported; the report keeps what was found above
+                lines += [f"## Comparison with the {ref.LABEL}", "", f"Not made: {type(e).__name__}: {e}", ""]
+                say(f"comparison with the {ref.LABEL} not made ({type(e).__name__}: {e})")
     report = out / "report.md"
     with atomic_path(report) as tmp:
-        tmp.write_text("\n".join(lines) + "\n")
+        tmp.write_text("\n".join(lines).rstrip("\n") + "\n")
     say(f"report: {report}")
     return report
+
+
+def _figures(P, ref, results, dyn, fluid, figs, order, strength, out) -> list[str]:
+    """Draw the figures (each one that fails is named with the reason) and the ParaView files;
+    the report's lines for them. `ref`: the paper module when the case compares with it (its
+    marks and bars in the figures, its figure numbers in the captions)."""
+    figs.mkdir(parents=True, exist_ok=True)
+    for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
+        (figs / fname).unlink(missing_ok=True)
+    made: dict[str, str] = {}
+    failed: dict[str, str] = {}
+
+    def keep(key, draw, *args, **kw):
+        try:
+            path = draw(*args, **kw)
+        except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
+            failed[key] = f"{type(e).__name__}: {e}"
+            say(f"{key}: not drawn ({failed[key]})")
+            return
+        if path is not None:
+            made[key] = f"figures/{Path(path).name}"
+
+    name = {k: n for k, n, _ in FIGURES}
+    if dyn is not None:
+        keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / name["fig05"], fluid, order=order,
+             **({"marks": ref.pressure_marks(), "mark_label": f"{ref.LABEL} peak"} if ref is not None else {}))
+    keep("fig06", P.fig_max_displacements, results, figs / name["fig06"], order=order,
+         **({"reference": ref.displacement_bars, "reference_label": ref.LABEL, "unit": ref.DISPLACEMENT_UNIT} if ref is not None else {}))
+    keep("fig07", P.fig_principal_stress, results, figs / name["fig07"], order=order, strength=strength)
+    keep("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
+    keep("fig09", P.fig_damage_section, results, figs / name["fig09"])
+    keep("fig10", P.fig_interface_zones, results, figs / name["fig10"])
+    lines = ["## Figures", ""]
+    for key, _, caption in FIGURES:
+        title = ref.figure_caption(key, caption) if ref is not None else caption[:1].upper() + caption[1:]
+        if key in made:
+            lines += [f"![{title}]({made[key]})", ""]
+        elif key in failed:
+            lines += [f"- {title}: not drawn ({failed[key]})", ""]
+        elif key == "fig05" and dyn is None:
+            continue  # no dynamic-water condition: no water pressure to draw
+        else:
+            why = ("no water pressure recorded (run by a tq-solid without the monitors' water_pressure)"
+                   if key == "fig05" else "no damage recorded at the monitors" if key == "fig08"
+                   else "no field snapshot in the results")
+            lines += [f"- {title}: not drawn ({why})", ""]
+    xdmfs = []
+    for r in results:
+        try:
+            x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
+        except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
+            lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
+            say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
+            continue
+        if x is not None:
+            xdmfs.append(x)
+    if xdmfs:
+        lines += ["ParaView (open the .xdmf; the heavy data are the .h5 beside it): "
+                  + ", ".join(f"`{x.relative_to(out)}`" for x in xdmfs), ""]
+    return lines
 
 
 def main(argv: list[str]) -> int:
