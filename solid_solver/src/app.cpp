@@ -380,12 +380,15 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     if (!writer) {  // the file could not even be started: nothing of it is worth keeping
       std::remove(output.c_str());
       err << "  no results written (" << output << " removed); free space on its file system and run again\n";
-    } else if (writer->stopAfterOutputError(std::string("stopped: ") + e.what())) {
+    } else if (!writer->stopAfterOutputError(std::string("stopped: ") + e.what())) {
+      err << "  " << output << " holds the samples up to its last flush; its status could not be written\n";
+    } else if (writer->samples() == 0) {
+      err << "  no monitor sample written yet; " << output << " holds the run's set-up with status 'stopped: ...'; "
+          << "free space on its file system and run again\n";
+    } else {
       err << "  results up to t = " << writer->lastSampleTime() << " s (" << writer->samples()
           << " samples) are in " << output << " with status 'stopped: ...'; free space on its file system and run "
           << "again\n";
-    } else {
-      err << "  " << output << " holds the samples up to its last flush; its status could not be written\n";
     }
     return 5;
   }
