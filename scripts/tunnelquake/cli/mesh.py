@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 from pathlib import Path
 
-from .common import load_or_report, parser, say
+from .common import DiskFull, atomic_path, load_or_report, parser, say
 
 
 def mesh_dir(case) -> Path:
@@ -31,9 +32,11 @@ def make_mesh(case, force: bool = False) -> dict:
             return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
+    stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
     summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out)
     summary = json.loads(json.dumps(summary, default=str))
-    stamp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
+    with atomic_path(stamp) as tmp:
+        tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
     for line in format_summary(summary).splitlines():
         say(line)
     return summary
@@ -46,5 +49,9 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    make_mesh(case, force=args.force)
+    try:
+        make_mesh(case, force=args.force)
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     return 0
