@@ -1,13 +1,34 @@
 """tunnelquake post: turn what a run left in the results folder into figures, CSV, ParaView files and
 report.md. Needs no solver; works on whatever results exist: a results file cut off mid-run, one
 stopped before the shaking (no monitor sample), an unreadable one, a condition never run. Each is
-reported as found; a figure that cannot be drawn is named with the reason, never a traceback."""
+reported as found; a figure that cannot be drawn is named with the reason, never a traceback.
+On a full disk every output that fits is still written (each in place only once complete), the
+state of each condition is said on the terminal, and post ends with one line naming what was not
+written and the space free, exit code 1."""
 from __future__ import annotations
 
+import errno
+import sys
 from pathlib import Path
 
 from ..scene import plan
-from .common import atomic_path, load_or_report, parser, say
+from .common import DiskFull, atomic_path, is_no_space, load_or_report, parser, say
+
+
+class OutputsNotWritten(OSError):
+    """Outputs of post the disk had no room for (a DiskFull each); the results files are untouched."""
+
+    def __init__(self, failures: list[DiskFull]):
+        self.failures = failures
+        names = ", ".join(f.path.name for f in failures)
+        super().__init__(errno.ENOSPC, f"{failures[0]} (not written: {names}; the results files are unchanged)")
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
+def _disk_full(e: OSError, path) -> DiskFull:
+    return e if isinstance(e, DiskFull) else DiskFull(path)
 
 
 def _context(case, results) -> dict:
@@ -70,6 +91,7 @@ def post_case(case) -> Path:
     from .. import post as P
 
     lines += ["## Conditions", ""]
+    unwritten: list[DiskFull] = []
     results = []
     planned = [c for c, _ in plan(case)]
     for cond in P.CONDITION_LABELS:
@@ -86,7 +108,13 @@ def post_case(case) -> Path:
             lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
             say(f"{cond}: {f.name} cannot be read ({e})")
             continue
-        csv_file = P.monitors_csv(res, out / f"monitors_{cond}.csv")
+        csv_file = out / f"monitors_{cond}.csv"
+        try:
+            P.monitors_csv(res, csv_file)
+        except OSError as e:
+            if not is_no_space(e):
+                raise
+            unwritten.append(_disk_full(e, csv_file))
         lines.append(_run_state(P, res, csv_file.name))
         if not res.samples:
             say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
@@ -106,6 +134,8 @@ def post_case(case) -> Path:
             try:
                 path = draw(*args)
             except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
+                if is_no_space(e):
+                    unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
                 failed[key] = f"{type(e).__name__}: {e}"
                 say(f"{key}: not drawn ({failed[key]})")
                 return
@@ -141,6 +171,8 @@ def post_case(case) -> Path:
             try:
                 x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
             except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
+                if is_no_space(e):
+                    unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
                 lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
                 say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
                 continue
@@ -161,9 +193,16 @@ def post_case(case) -> Path:
                       f"Not made: {type(e).__name__}: {e}", ""]
             say(f"comparison with the paper not made ({type(e).__name__}: {e})")
     report = out / "report.md"
-    with atomic_path(report) as tmp:
-        tmp.write_text("\n".join(lines) + "\n")
-    say(f"report: {report}")
+    text = "\n".join(lines) + "\n"
+    try:
+        with atomic_path(report, len(text.encode())) as tmp:
+            tmp.write_text(text)
+    except DiskFull as e:
+        unwritten.append(e)
+    else:
+        say(f"report: {report}")
+    if unwritten:
+        raise OutputsNotWritten(unwritten)
     return report
 
 
@@ -172,5 +211,9 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    post_case(case)
+    try:
+        post_case(case)
+    except OutputsNotWritten as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     return 0
