@@ -134,10 +134,11 @@ def post_case(case) -> Path:
             try:
                 path = draw(*args)
             except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
-                if is_no_space(e):
-                    unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
                 failed[key] = f"{type(e).__name__}: {e}"
-                say(f"{key}: not drawn ({failed[key]})")
+                if is_no_space(e):  # named in post's last line with the other outputs that did not fit
+                    unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
+                else:
+                    say(f"{key}: not drawn ({failed[key]})")
                 return
             if path is not None:
                 made[key] = f"figures/{Path(path).name}"
