@@ -172,10 +172,11 @@ def post_case(case) -> Path:
             try:
                 x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
             except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
-                if is_no_space(e):
-                    unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
                 lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
-                say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
+                if is_no_space(e):  # named in post's last line
+                    unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
+                else:
+                    say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
                 continue
             if x is not None:
                 xdmfs.append(x)

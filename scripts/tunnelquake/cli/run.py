@@ -450,7 +450,8 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
             note = _disk_full_note(case.output_dir)
             say(f"condition {cond}: stopped by a full disk: {note}")
             why = f"stopped by a full disk after {wall:.1f} s ({side} first, exit {rc}): {note}"
-        return (rc if failed is solid else 1), res, f"{why}; what the solid wrote is in {res.name}"
+        kept = f"what the solid wrote is in {res.name}" if res.is_file() else f"{res.name} was not written"
+        return (rc if failed is solid else 1), res, f"{why}; {kept}"
     return 0, res, f"coupled with {fluid.solver}{on} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
 
 
@@ -699,9 +700,12 @@ def _job(case, args) -> int:
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         elif rc == SOLID_OUTPUT_ERROR:
-            failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}); "
-                          f"{_disk_full_note(case.output_dir) if _ran_out_of_space(case.output_dir, []) else 'see its message above'}"
-                          f"; what was written is in {res.name}")
+            from ..files import free_bytes, human_bytes
+
+            kept = f"what was written is in {res.name}" if res.is_file() else f"{res.name} was not started"
+            failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}; its message above says "
+                          f"why; {human_bytes(free_bytes(case.output_dir))} free now on the disk holding "
+                          f"{case.output_dir}); {kept}")
         else:
             failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
                           f"what was written is in {res.name}")
