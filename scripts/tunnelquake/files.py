@@ -8,8 +8,8 @@ synced. When the block fails the temporary file is removed and the target keeps 
 content. A failure for lack of space (ENOSPC, EDQUOT) becomes `DiskFull`, whose text names the
 file, the space needed (the caller's estimate, or at least what was written) and the space free.
 
-`atomic_h5(target)` does the same for an HDF5 file, which it builds in memory: HDF5 never writes to
-the disk itself. A write HDF5 cannot finish leaves its library unable to close the file, and the
+`atomic_h5(target)` does the same for an HDF5 file, which it builds in memory, and
+`atomic_h5_update(path)` for a change to a small one: HDF5 never writes to the disk itself. A write HDF5 cannot finish leaves its library unable to close the file, and the
 process then crashes at exit; a plain write of the finished image fails cleanly instead.
 """
 from __future__ import annotations
@@ -140,3 +140,21 @@ def atomic_h5(target, needed: int | None = None, mode: int | None = None):
     """h5_in_memory put in place through atomic_path (`needed`, `mode` as there)."""
     with atomic_path(target, needed, mode=mode) as tmp, h5_in_memory(tmp) as f:
         yield f
+
+
+@contextlib.contextmanager
+def atomic_h5_update(path):
+    """Yield an existing (small) HDF5 file opened for changes in memory; once the block succeeds,
+    put the changed file in place through atomic_path, with the file's permissions kept."""
+    import io
+    import stat
+
+    import h5py
+
+    path = Path(path)
+    mode = stat.S_IMODE(path.stat().st_mode)
+    buf = io.BytesIO(path.read_bytes())
+    with h5py.File(buf, "r+") as f:
+        yield f
+    with atomic_path(path, mode=mode) as tmp, open(tmp, "wb") as fh:
+        fh.write(buf.getbuffer())

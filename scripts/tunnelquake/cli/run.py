@@ -330,6 +330,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     import h5py
 
     from .. import fluid_case as fc
+    from ..files import atomic_h5_update
     from ..solid_input import write_solid_input
     from .mesh import mesh_dir
 
@@ -353,7 +354,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
             slice_mode = int(f.attrs.get("slice", 0)) == 1
         k = int(case.data["coupling"]["window"])
         settings = fc.coupling_settings(case, k * _solid_step(exe, inp), addr, token, t_end=t_end)
-        with h5py.File(inp, "a") as f:  # pin every item of the handshake on the solid side too
+        with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
             f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
         env = fc.fluid_env()
