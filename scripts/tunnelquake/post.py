@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import atomic_path, h5_in_memory
+
 CONDITION_LABELS = {"no_water": "(1) no water", "static_water": "(2) static water",
                     "dynamic_water": "(3) dynamic water"}
 #: /interface attr `states`, in the order of the integer codes of /snapshots/<k>/interface/state
@@ -241,8 +243,7 @@ def monitors_csv(res: ConditionResult, out: Path) -> Path:
             header.append(f"{m}_hydrodynamic_pressure_Pa")
             extra.append(_on_monitor_time(mo, mo.extra["water_pressure_time"], mo.extra["water_pressure"]))
         cols.append((mo, extra))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with open(out, "w", newline="") as fh:
+    with atomic_path(out, 14 * len(header) * (n + 1)) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for i in range(n):
@@ -310,6 +311,16 @@ def peaks(res: ConditionResult, t_max: float | None = None) -> dict[str, dict[st
     return out
 
 
+def _save(fig, out: Path) -> None:
+    """A figure as PNG, put in place only once complete (a full disk leaves no partial image)."""
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=120, format="png")
+    except BaseException:
+        _plt().close(fig)
+        raise
+
+
 def _plt():
     import matplotlib
 
@@ -358,7 +369,7 @@ def fig_max_displacements(results: list[ConditionResult], out: Path, order: list
         ax.grid(alpha=0.3, axis="y")
     axes[1].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -384,7 +395,7 @@ def fig_principal_stress(results: list[ConditionResult], out: Path, order: list[
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -446,7 +457,7 @@ def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | Non
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -473,7 +484,7 @@ def fig_damage_histories(results: list[ConditionResult], out: Path, order: list[
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -552,7 +563,7 @@ def fig_damage_section(results: list[ConditionResult], out: Path) -> Path | None
         ax.set_xlabel("x (m)")
         ax.set_ylabel("z (m)")
     fig.colorbar(pc, ax=axes[0].tolist(), label="damage coefficient D", shrink=0.8)
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -614,7 +625,7 @@ def fig_interface_zones(results: list[ConditionResult], out: Path) -> Path | Non
         ax.set_ylabel("z (m)")
         ax.legend(fontsize=6, loc="center")
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    _save(fig, out)
     plt.close(fig)
     return out
 
@@ -628,7 +639,6 @@ def write_xdmf(res: ConditionResult, out_xdmf: Path) -> Path | None:
     under temporary names and moved into place."""
     import os
 
-    import h5py
 
     if res.mesh is None or not res.snapshots:
         return None
@@ -655,7 +665,7 @@ def write_xdmf(res: ConditionResult, out_xdmf: Path) -> Path | None:
 
     grids = []
     try:
-        with h5py.File(tmp_h5, "w") as h:
+        with h5_in_memory(tmp_h5) as h:  # HDF5 never meets a full disk (files.h5_in_memory)
             h["mesh/coordinates"] = c
             h["mesh/connectivity"] = conn
             region = res.mesh.get("region")

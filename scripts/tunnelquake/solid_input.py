@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import coupling_predictor, coupling_window_force_weight
+from .files import h5_in_memory
 
 FORMAT = "tunnelquake-solid-input"
 VERSION = 2
@@ -119,7 +120,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.part")
-    with h5py.File(tmp, "w") as f:
+    # built in memory: HDF5 never meets a full disk (files.h5_in_memory); the token's file is 0600 from the start
+    with h5_in_memory(tmp, 0o600 if coupling_token else 0o666) as f:
         f.attrs["format"] = FORMAT
         f.attrs["version"] = VERSION
         f.attrs["mesh"] = os.path.relpath(mesh_h5.resolve(), out.parent.resolve())

@@ -7,10 +7,12 @@
 // 5. write timings and the final status.
 #include "tq/app.hpp"
 
+#include <hdf5.h>
 #include <omp.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -130,119 +132,123 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     out << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
         << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
   }
-  // 4. Time loop (the "engine").
-  ResultsWriter results(output, in, s);
-  if (stages) {  // 4a. Static stages (dynamic relaxation), then the switch to the seismic stage.
-    auto writeStages = [&] {
-      for (const auto& r : stages->reports())
-        results.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
-    };
-    try {
-      stages->runStatics(out, in.progressSeconds);
-      if (stages->hasSeismic()) stages->switchToDynamics(out);
-    } catch (const InstabilityError& e) {
-      writeStages();
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-      return 3;
-    } catch (const InputError& e) {
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: input error: " << e.what() << "\n";
-      return 2;
-    }
-    writeStages();
-    if (!stages->hasSeismic()) {  // statics only: the equilibrium state is the result
-      results.snapshot(s);
-      results.setStatus("completed");
-      out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << output << "\n";
-      return 0;
-    }
-  }
-  // 4b. The water coupling (dynamic_water): connects to the fluid after the static stages, so the
-  //     displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
+  // 4. Time loop (the "engine"), in `engine` below. A write the file system refuses (a full disk,
+  //    a quota, an I/O error) ends it from anywhere with an OutputError: the water is told to
+  //    stop, the status is written into the samples already there, and tq-solid exits 5.
+  std::unique_ptr<ResultsWriter> writer;
   std::shared_ptr<FluidCoupling> coupling;
-  // Under mpirun, how the coupling ended decides how MPI ends: noted on every way out of here.
-  struct NoteForMpi {
-    CouplingMpi* mpi;
-    const std::shared_ptr<FluidCoupling>& c;
-    ~NoteForMpi() {
-      if (mpi && c) mpi->note(*c);
-    }
-  } noteForMpi{mpi.get(), coupling};
-  if (in.staged.coupling.present) {
-    try {
-      coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
-      out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
-      coupling->initialize();
-      s.addContributor(coupling);
-      in.tEnd = coupling->endTime();  // whole windows
-      results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
-      results.addSeries("/energy/fluid_received_work", [c = coupling.get()] { return c->fluidReceivedWork(); },
-                        "fluid_received_work");
-      results.addSeries("/energy/coupling_energy", [c = coupling.get()] { return c->couplingEnergy(); },
-                        "coupling_energy");
-      if (coupling->hasVolumeLaw())
-        results.addSeries("/coupling/volume_pressure", [c = coupling.get()] { return c->volumePressure(); },
-                          "volume_pressure");
-      results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
-                               [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
-      // The wetted face as a whole (issue 6 check 4, docs/verification.md): the total interface
-      // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
-      // (m/s²), both of the same step, per direction.
-      for (int d = 0; d < 3; ++d) {
-        const std::string axis(1, "xyz"[d]);
-        results.addSeries("/coupling/force_" + axis, [c = coupling.get(), d] {
-          Real sum = 0;
-          const auto& F = c->force();
-          for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
-          return sum;
-        }, "force_" + axis);
-        results.addSeries("/coupling/acceleration_" + axis, [c = coupling.get(), &s, d] {
-          Real ma = 0, m = 0;
-          for (Index n : c->nodes()) {
-            ma += s.state().mass(n) * s.state().a(n, d);
-            m += s.state().mass(n);
-          }
-          return m > 0 ? ma / m : Real(0);
-        }, "acceleration_" + axis);
+  auto engine = [&]() -> int {
+    ResultsWriter& results = *writer;
+    if (stages) {  // 4a. Static stages (dynamic relaxation), then the switch to the seismic stage.
+      auto writeStages = [&] {
+        for (const auto& r : stages->reports())
+          results.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+      };
+      try {
+        stages->runStatics(out, in.progressSeconds);
+        if (stages->hasSeismic()) stages->switchToDynamics(out);
+      } catch (const InstabilityError& e) {
+        writeStages();
+        results.setStatus(std::string("stopped: ") + e.what());
+        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+        return 3;
+      } catch (const InputError& e) {
+        results.setStatus(std::string("stopped: ") + e.what());
+        err << "tq-solid: input error: " << e.what() << "\n";
+        return 2;
       }
-      out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
-          << " windows)" << std::endl;
-    } catch (const InputError& e) {
-      if (coupling) coupling->abort(e.what());
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: input error: " << e.what() << "\n";
-      return 2;
-    } catch (const CouplingError& e) {
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-      return 4;
+      writeStages();
+      if (!stages->hasSeismic()) {  // statics only: the equilibrium state is the result
+        results.snapshot(s);
+        results.setStatus("completed");
+        out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << output << "\n";
+        return 0;
+      }
     }
-  }
-  auto couplingSummary = [&] {
-    if (!coupling) return;
-    const FluidCouplingStats cs = coupling->stats();
-    results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
-                                     {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
-                                     {"unconverged_windows", double(cs.unconvergedWindows)},
-                                     {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
-                                     {"fluid_received_work", coupling->fluidReceivedWork()},
-                                     {"coupling_energy", coupling->couplingEnergy()},
-                                     {"volume_law_work", coupling->volumeLawWork()},
-                                     {"enclosed_volume", coupling->enclosedVolume()},
-                                     {"interface_work_peak", coupling->interfaceWorkPeak()},
-                                     {"energy_floor", coupling->energyFloor()},
-                                     {"energy_limit", in.staged.coupling.energyLimit},
-                                     // cost split over the stepping (docs/coupler.md "Exchange cost")
-                                     {"coupled_wall_s", cs.secondsCoupled},
-                                     {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
-                                     {"coupler_s", cs.secondsInCoupler},
-                                     {"exchange_wait_s", cs.secondsWaiting},
-                                     {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
-                                     {"mapping_s", cs.secondsMapping},
-                                     {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
-                                     {"coupler_cpu_s", cs.cpuInCoupler}},
-                       {{"scheme", in.staged.coupling.scheme}});
+    // 4b. The water coupling (dynamic_water): connects to the fluid after the static stages, so the
+    //     displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
+    // Under mpirun, how the coupling ended decides how MPI ends: noted on every way out of here.
+    struct NoteForMpi {
+      CouplingMpi* mpi;
+      const std::shared_ptr<FluidCoupling>& c;
+      ~NoteForMpi() {
+        if (mpi && c) mpi->note(*c);
+      }
+    } noteForMpi{mpi.get(), coupling};
+    if (in.staged.coupling.present) {
+      try {
+        coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
+        out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
+        coupling->initialize();
+        s.addContributor(coupling);
+        in.tEnd = coupling->endTime();  // whole windows
+        results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
+        results.addSeries("/energy/fluid_received_work", [c = coupling.get()] { return c->fluidReceivedWork(); },
+                          "fluid_received_work");
+        results.addSeries("/energy/coupling_energy", [c = coupling.get()] { return c->couplingEnergy(); },
+                          "coupling_energy");
+        if (coupling->hasVolumeLaw())
+          results.addSeries("/coupling/volume_pressure", [c = coupling.get()] { return c->volumePressure(); },
+                            "volume_pressure");
+        results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
+                                 [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
+        // The wetted face as a whole (issue 6 check 4, docs/verification.md): the total interface
+        // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
+        // (m/s²), both of the same step, per direction.
+        for (int d = 0; d < 3; ++d) {
+          const std::string axis(1, "xyz"[d]);
+          results.addSeries("/coupling/force_" + axis, [c = coupling.get(), d] {
+            Real sum = 0;
+            const auto& F = c->force();
+            for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+            return sum;
+          }, "force_" + axis);
+          results.addSeries("/coupling/acceleration_" + axis, [c = coupling.get(), &s, d] {
+            Real ma = 0, m = 0;
+            for (Index n : c->nodes()) {
+              ma += s.state().mass(n) * s.state().a(n, d);
+              m += s.state().mass(n);
+            }
+            return m > 0 ? ma / m : Real(0);
+          }, "acceleration_" + axis);
+        }
+        out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
+            << " windows)" << std::endl;
+      } catch (const InputError& e) {
+        if (coupling) coupling->abort(e.what());
+        results.setStatus(std::string("stopped: ") + e.what());
+        err << "tq-solid: input error: " << e.what() << "\n";
+        return 2;
+      } catch (const CouplingError& e) {
+        results.setStatus(std::string("stopped: ") + e.what());
+        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+        return 4;
+      }
+    }
+    auto couplingSummary = [&] {
+      if (!coupling) return;
+      const FluidCouplingStats cs = coupling->stats();
+      results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
+                                       {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
+                                       {"unconverged_windows", double(cs.unconvergedWindows)},
+                                       {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
+                                       {"fluid_received_work", coupling->fluidReceivedWork()},
+                                       {"coupling_energy", coupling->couplingEnergy()},
+                                       {"volume_law_work", coupling->volumeLawWork()},
+                                       {"enclosed_volume", coupling->enclosedVolume()},
+                                       {"interface_work_peak", coupling->interfaceWorkPeak()},
+                                       {"energy_floor", coupling->energyFloor()},
+                                       {"energy_limit", in.staged.coupling.energyLimit},
+                                       // cost split over the stepping (docs/coupler.md "Exchange cost")
+                                       {"coupled_wall_s", cs.secondsCoupled},
+                                       {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                                       {"coupler_s", cs.secondsInCoupler},
+                                       {"exchange_wait_s", cs.secondsWaiting},
+                                       {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
+                                       {"mapping_s", cs.secondsMapping},
+                                       {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
+                                       {"coupler_cpu_s", cs.cpuInCoupler}},
+                         {{"scheme", in.staged.coupling.scheme}});
   };
   if (in.options.subcyclingLevels > 0) {  // after every contributor is in: they mark their fine nodes
     try {
@@ -364,11 +370,36 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       << (steps > 0 ? 1e6 * wall / (double(steps) * nElems) : 0.0) << " µs per element-step), energy error "
       << s.energy().error << "\n  results: " << output << "\n";
   return 0;
+  };
+  try {
+    writer = std::make_unique<ResultsWriter>(output, in, s);
+    return engine();
+  } catch (const OutputError& e) {
+    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
+    err << "tq-solid: " << e.what() << "\n";
+    if (!writer) {  // the file could not even be started: nothing of it is worth keeping
+      std::remove(output.c_str());
+      err << "  no results written (" << output << " removed); free space on its file system and run again\n";
+    } else if (!writer->stopAfterOutputError(std::string("stopped: ") + e.what())) {
+      err << "  " << output << " holds the samples up to its last flush; its status could not be written\n";
+    } else if (writer->samples() == 0) {
+      err << "  no monitor sample written yet; " << output << " holds the run's set-up with status 'stopped: ...'; "
+          << "free space on its file system and run again\n";
+    } else {
+      err << "  results up to t = " << writer->lastSampleTime() << " s (" << writer->samples()
+          << " samples) are in " << output << " with status 'stopped: ...'; free space on its file system and run "
+          << "again\n";
+    }
+    return 5;
+  }
 }
 
 }  // namespace
 
 int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  // HDF5 closes what is still open at exit; a file whose flush failed then crashes it
+  // (H5F__close_cb). Every file here is closed by its owner, so that pass is left out.
+  H5dont_atexit();
   std::unique_ptr<CouplingMpi> mpi;
   int rc = 0;
   try {

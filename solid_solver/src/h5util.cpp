@@ -1,5 +1,13 @@
 #include "h5util.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 
@@ -11,6 +19,49 @@ static void check(bool ok, const std::string& what) {
   if (!ok) throw InputError("HDF5: " + what);
 }
 
+namespace {
+struct StackText {
+  int errnum = 0;
+  std::string innermost;
+};
+// HDF5's file drivers put "errno = N, error message = '...'" into the description of the error
+// they push; the innermost record comes first walking downward.
+herr_t readStack(unsigned n, const H5E_error2_t* e, void* data) {
+  auto* out = static_cast<StackText*>(data);
+  if (!e->desc) return 0;
+  if (n == 0) out->innermost = e->desc;
+  if (out->errnum == 0)
+    if (const char* p = std::strstr(e->desc, "errno = ")) out->errnum = std::atoi(p + 8);
+  return 0;
+}
+}  // namespace
+
+std::string writeFailure(hid_t loc) {
+  StackText st;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, readStack, &st);  // before any call that clears it
+  const int saved = errno;
+  std::string file = "?";
+  if (loc >= 0) {
+    const ssize_t n = H5Fget_name(loc, nullptr, 0);
+    if (n > 0) {
+      std::string buf(size_t(n) + 1, '\0');
+      H5Fget_name(loc, buf.data(), buf.size());
+      file = buf.c_str();
+    }
+  }
+  std::string why = st.errnum ? std::strerror(st.errnum)
+                    : !st.innermost.empty() ? st.innermost
+                    : saved ? std::strerror(saved) : "HDF5 reported a write error";
+  return "'" + file + "': " + why;
+}
+
+static void checkWrite(bool ok, hid_t loc, const std::string& what) {
+  if (!ok) {
+    const std::string where = writeFailure(loc);
+    throw OutputError("cannot write " + what + " to " + where);
+  }
+}
+
 Handle openFile(const std::string& path, bool write) {
   quiet();
   hid_t f = H5Fopen(path.c_str(), write ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -20,8 +71,15 @@ Handle openFile(const std::string& path, bool write) {
 
 Handle createFile(const std::string& path) {
   quiet();
+  errno = 0;
   hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (f < 0) throw InputError("cannot create HDF5 file '" + path + "' (check the folder exists and is writable)");
+  if (f < 0) {
+    StackText st;
+    H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, readStack, &st);
+    const int e = st.errnum ? st.errnum : errno;
+    throw OutputError("cannot create HDF5 file '" + path + "'" + (e ? std::string(": ") + std::strerror(e) : "") +
+                      " (check the folder exists and is writable)");
+  }
   return Handle(f, H5Fclose);
 }
 
@@ -59,7 +117,7 @@ Handle ensureGroup(hid_t loc, const std::string& path) {
       cur += "/" + part;
       if (H5Lexists(loc, cur.c_str(), H5P_DEFAULT) <= 0) {
         hid_t g = H5Gcreate2(loc, cur.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-        check(g >= 0, "cannot create group '" + cur + "'");
+        checkWrite(g >= 0, loc, "group '" + cur + "'");
         H5Gclose(g);
       }
     }
@@ -193,7 +251,7 @@ static Handle vlenStringType() {
 }
 
 static void replaceAttr(hid_t obj, const std::string& name) {
-  if (H5Aexists(obj, name.c_str()) > 0) H5Adelete(obj, name.c_str());
+  if (H5Aexists(obj, name.c_str()) > 0) checkWrite(H5Adelete(obj, name.c_str()) >= 0, obj, "attribute '" + name + "'");
 }
 
 void writeStringAttr(hid_t obj, const std::string& name, const std::string& value) {
@@ -202,7 +260,7 @@ void writeStringAttr(hid_t obj, const std::string& name, const std::string& valu
   Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
   Handle a(H5Acreate2(obj, name.c_str(), t, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   const char* p = value.c_str();
-  check(a.valid() && H5Awrite(a, t, &p) >= 0, "cannot write attribute '" + name + "'");
+  checkWrite(a.valid() && H5Awrite(a, t, &p) >= 0, obj, "attribute '" + name + "'");
 }
 
 void writeStringListAttr(hid_t obj, const std::string& name, const std::vector<std::string>& v) {
@@ -213,21 +271,21 @@ void writeStringListAttr(hid_t obj, const std::string& name, const std::vector<s
   Handle a(H5Acreate2(obj, name.c_str(), t, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   std::vector<const char*> p;
   for (auto& s : v) p.push_back(s.c_str());
-  check(a.valid() && H5Awrite(a, t, p.data()) >= 0, "cannot write attribute '" + name + "'");
+  checkWrite(a.valid() && H5Awrite(a, t, p.data()) >= 0, obj, "attribute '" + name + "'");
 }
 
 void writeDoubleAttr(hid_t obj, const std::string& name, double value) {
   replaceAttr(obj, name);
   Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
   Handle a(H5Acreate2(obj, name.c_str(), H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  check(a.valid() && H5Awrite(a, H5T_NATIVE_DOUBLE, &value) >= 0, "cannot write attribute '" + name + "'");
+  checkWrite(a.valid() && H5Awrite(a, H5T_NATIVE_DOUBLE, &value) >= 0, obj, "attribute '" + name + "'");
 }
 
 void writeIntAttr(hid_t obj, const std::string& name, long long value) {
   replaceAttr(obj, name);
   Handle sp(H5Screate(H5S_SCALAR), H5Sclose);
   Handle a(H5Acreate2(obj, name.c_str(), H5T_STD_I64LE, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  check(a.valid() && H5Awrite(a, H5T_NATIVE_LLONG, &value) >= 0, "cannot write attribute '" + name + "'");
+  checkWrite(a.valid() && H5Awrite(a, H5T_NATIVE_LLONG, &value) >= 0, obj, "attribute '" + name + "'");
 }
 
 static void writeNumeric(hid_t loc, const std::string& path, const void* data,
@@ -236,9 +294,8 @@ static void writeNumeric(hid_t loc, const std::string& path, const void* data,
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl, 1);
   Handle ds(H5Dcreate2(loc, path.c_str(), fileType, sp, lcpl, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
-  check(ds.valid(), "cannot create dataset '" + path + "'");
-  check(H5Dwrite(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0,
-        "cannot write dataset '" + path + "'");
+  checkWrite(ds.valid(), loc, "dataset '" + path + "'");
+  checkWrite(H5Dwrite(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0, loc, "dataset '" + path + "'");
 }
 
 void writeDoubles(hid_t loc, const std::string& path, const double* data, const std::vector<hsize_t>& dims) {
@@ -256,12 +313,13 @@ void writeStrings(hid_t loc, const std::string& path, const std::vector<std::str
   Handle ds(H5Dcreate2(loc, path.c_str(), t, sp, lcpl, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
   std::vector<const char*> p;
   for (auto& s : v) p.push_back(s.c_str());
-  check(ds.valid() && H5Dwrite(ds, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) >= 0,
-        "cannot write dataset '" + path + "'");
+  checkWrite(ds.valid() && H5Dwrite(ds, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, p.data()) >= 0, loc,
+             "dataset '" + path + "'");
 }
 
-RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize_t chunkRows)
-    : cols_(cols) {
+RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger,
+                         hsize_t chunkRows)
+    : cols_(cols), chunkRows_(chunkRows), ledger_(ledger) {
   hsize_t dims[2] = {0, cols}, maxd[2] = {H5S_UNLIMITED, cols}, chunk[2] = {chunkRows, cols};
   Handle sp(H5Screate_simple(2, dims, maxd), H5Sclose);
   Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
@@ -269,18 +327,117 @@ RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl, 1);
   ds_ = Handle(H5Dcreate2(loc, path.c_str(), H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT), H5Dclose);
-  check(ds_.valid(), "cannot create dataset '" + path + "'");
+  checkWrite(ds_.valid(), loc, "dataset '" + path + "'");
+  if (ledger_) ledger_->nextRow += chunkRows_ * cols_ * sizeof(double);
 }
 
 void RowAppender::append(const double* row) {
   hsize_t newDims[2] = {rows_ + 1, cols_};
-  check(H5Dset_extent(ds_, newDims) >= 0, "cannot extend a history dataset");
+  checkWrite(H5Dset_extent(ds_, newDims) >= 0, ds_, "a history row");
   Handle fs(H5Dget_space(ds_), H5Sclose);
   hsize_t start[2] = {rows_, 0}, count[2] = {1, cols_};
   H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr);
   Handle ms(H5Screate_simple(2, count, nullptr), H5Sclose);
-  check(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, "cannot write a history row");
+  checkWrite(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, ds_, "a history row");
   ++rows_;
+  if (ledger_) {
+    const hsize_t chunk = chunkRows_ * cols_ * sizeof(double);
+    if ((rows_ - 1) % chunkRows_ == 0) {  // this row started a chunk
+      ledger_->pending += chunk;
+      ledger_->nextRow -= chunk;
+    }
+    if (rows_ % chunkRows_ == 0) ledger_->nextRow += chunk;  // the next row starts one
+  }
+}
+
+std::string bytesText(unsigned long long b) {
+  char buf[32];
+  if (b >= 1000000ULL) std::snprintf(buf, sizeof buf, "%.1f MB", double(b) / 1e6);
+  else if (b >= 1000ULL) std::snprintf(buf, sizeof buf, "%.0f kB", double(b) / 1e3);
+  else std::snprintf(buf, sizeof buf, "%llu B", b);
+  return buf;
+}
+
+unsigned long long freeBytes(const std::string& path) {
+  struct statvfs v {};
+  if (statvfs(path.c_str(), &v) != 0) return 0;
+  return static_cast<unsigned long long>(v.f_bavail) * v.f_frsize;
+}
+
+static bool noRoom(int e) { return e == ENOSPC || e == EDQUOT || e == EFBIG; }
+
+static std::string folderOf(const std::string& path) {
+  const size_t k = path.find_last_of('/');
+  return k == std::string::npos ? "." : k == 0 ? "/" : path.substr(0, k);
+}
+
+SpaceGuard::SpaceGuard(hid_t file, const std::string& path, hsize_t stopReserve) : file_(file), path_(path) {
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) < 0 || !handle) return;  // not a POSIX file: unguarded
+  fd_ = *static_cast<int*>(handle);
+  const std::string dir = folderOf(path);
+  reserveFd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+  if (reserveFd_ < 0) {  // a file system without O_TMPFILE: a named file, unlinked at once
+    std::string tmpl = dir + "/.tq-solid-reserve.XXXXXX";
+    reserveFd_ = ::mkstemp(tmpl.data());
+    if (reserveFd_ >= 0) {
+      ::unlink(tmpl.c_str());
+      ::fcntl(reserveFd_, F_SETFD, FD_CLOEXEC);
+    }
+  }
+  if (reserveFd_ >= 0) {
+    const int r = posix_fallocate(reserveFd_, 0, off_t(stopReserve));
+    if (noRoom(r)) {
+      ::close(reserveFd_);
+      reserveFd_ = -1;
+      throw OutputError("cannot write '" + path + "': " + std::strerror(r) + " (" + bytesText(stopReserve) +
+                        " needed to start, " + bytesText(freeBytes(dir)) + " free on its file system)");
+    }
+  }
+  active_ = true;
+}
+
+SpaceGuard::~SpaceGuard() {
+  if (reserveFd_ >= 0) ::close(reserveFd_);
+}
+
+void SpaceGuard::reserve(hsize_t bytes) {
+  if (!active_) return;
+  haddr_t eoa = 0;
+  if (H5Fget_eoa(file_, &eoa) < 0) return;
+  const hsize_t target = hsize_t(eoa) + bytes;
+  if (target <= allocated_) return;
+  const int r = posix_fallocate(fd_, off_t(allocated_), off_t(target - allocated_));
+  if (r == 0) {
+    allocated_ = target;
+  } else if (noRoom(r)) {
+    throw OutputError("cannot write '" + path_ + "': " + std::strerror(r) + " (the next results need " +
+                      bytesText(target - allocated_) + ", " + bytesText(freeBytes(folderOf(path_))) +
+                      " free on its file system)");
+  } else {
+    active_ = false;  // cannot allocate ahead here: HDF5's own write errors still stop the run
+  }
+}
+
+void SpaceGuard::flushed() {
+  haddr_t eoa = 0;
+  if (H5Fget_eoa(file_, &eoa) >= 0) lastEoa_ = hsize_t(eoa);
+  struct stat st {};
+  if (fd_ >= 0 && ::fstat(fd_, &st) == 0) allocated_ = std::min(allocated_, hsize_t(st.st_size));
+}
+
+void SpaceGuard::release() {
+  active_ = false;
+  if (reserveFd_ >= 0) ::close(reserveFd_);
+  reserveFd_ = -1;
+}
+
+void SpaceGuard::trimClosed() const {
+  struct stat st {};
+  if (fd_ < 0 || lastEoa_ == 0 || ::stat(path_.c_str(), &st) != 0) return;
+  if (hsize_t(st.st_size) > lastEoa_) {
+    if (::truncate(path_.c_str(), off_t(lastEoa_)) != 0) return;  // only unused allocation is cut
+  }
 }
 
 }  // namespace tq::h5

@@ -1,5 +1,7 @@
 // Thin RAII helpers over the HDF5 C API, private to tqsolid. Strings are read whether h5py wrote
 // them variable-length (its default) or fixed-length; numbers are converted by HDF5 on read.
+// Read failures throw InputError; write failures throw OutputError naming the file and the
+// system's reason (e.g. "No space left on device").
 #pragma once
 
 #include <hdf5.h>
@@ -44,7 +46,7 @@ private:
 void quiet();
 
 Handle openFile(const std::string& path, bool write = false);  // throws InputError
-Handle createFile(const std::string& path);                     // truncates
+Handle createFile(const std::string& path);                     // truncates; throws OutputError
 Handle openGroup(hid_t loc, const std::string& path);
 Handle ensureGroup(hid_t loc, const std::string& path);          // creates missing levels
 bool exists(hid_t loc, const std::string& path);                 // link path exists
@@ -70,17 +72,68 @@ void writeDoubles(hid_t loc, const std::string& path, const double* data, const 
 void writeInts(hid_t loc, const std::string& path, const Index* data, const std::vector<hsize_t>& dims);
 void writeStrings(hid_t loc, const std::string& path, const std::vector<std::string>& v);
 
+/// The file name of an open object and why the HDF5 call just made failed: the system's reason
+/// (strerror of the errno its file driver recorded) or HDF5's innermost message.
+std::string writeFailure(hid_t loc);
+
+/// File space that appended rows will take: HDF5 allocates a chunk in the file when it first
+/// writes it out (at a flush), so every chunk started since the last flush is still to come.
+struct SpaceLedger {
+  hsize_t pending = 0;  ///< bytes of the chunks started since the last flush
+  hsize_t nextRow = 0;  ///< bytes of the chunks the appenders' next rows start
+};
+
 /// A 2-D float64 dataset [rows, cols] that grows by rows (chunked, unlimited first dimension).
 class RowAppender {
 public:
   RowAppender() = default;
-  RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize_t chunkRows = 256);
+  RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger = nullptr,
+              hsize_t chunkRows = 256);
   void append(const double* row);  ///< one row of `cols` values
   hsize_t rows() const { return rows_; }
 
 private:
   Handle ds_;
-  hsize_t cols_ = 0, rows_ = 0;
+  hsize_t cols_ = 0, rows_ = 0, chunkRows_ = 256;
+  SpaceLedger* ledger_ = nullptr;
 };
+
+/// Keeps the file space of the next writes allocated on disk before HDF5 makes them, so that a
+/// full disk is met here, between complete samples, and never inside HDF5 (a write HDF5 cannot
+/// finish leaves the file unreadable). It allocates the file past HDF5's end of allocation (EOA)
+/// with posix_fallocate; H5Fflush truncates the file to its EOA, giving that back, so the next
+/// reserve() allocates again. A small reserve held beside the file (an unlinked file) is freed by
+/// release() for the writes that close the run (status, timings, the last flush).
+class SpaceGuard {
+public:
+  SpaceGuard() = default;
+  /// Throws OutputError when the stop reserve itself does not fit.
+  SpaceGuard(hid_t file, const std::string& path, hsize_t stopReserve);
+  SpaceGuard(const SpaceGuard&) = delete;
+  SpaceGuard& operator=(const SpaceGuard&) = delete;
+  ~SpaceGuard();
+  /// Make sure [0, EOA + bytes) of the file is allocated. Throws OutputError naming the file, the
+  /// reason, the space needed and the space free when the file system has no room.
+  void reserve(hsize_t bytes);
+  /// To call after every H5Fflush.
+  void flushed();
+  /// Free the stop reserve; reserve() does nothing from then on.
+  void release();
+  /// Cut the file (closed by then) back to the EOA of its last flush.
+  void trimClosed() const;
+  bool active() const { return active_; }
+
+private:
+  hid_t file_ = -1;
+  std::string path_;
+  int fd_ = -1, reserveFd_ = -1;
+  hsize_t allocated_ = 0, lastEoa_ = 0;
+  bool active_ = false;
+};
+
+/// "1.2 MB", "48 kB", "512 B".
+std::string bytesText(unsigned long long bytes);
+/// Bytes a non-root user may still write on the file system holding `path` (0 if unknown).
+unsigned long long freeBytes(const std::string& path);
 
 }  // namespace tq::h5

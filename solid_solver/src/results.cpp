@@ -12,6 +12,13 @@
 
 namespace tq {
 
+namespace {
+// File space held beyond each write's own data: new object headers, heap and index nodes.
+constexpr hsize_t kMetadataMargin = 64 * 1024;
+// Held beside the file and freed for the writes that end a run stopped by a full disk.
+constexpr hsize_t kStopReserve = 128 * 1024;
+}  // namespace
+
 void principalStresses(const Real s[6], Real p[3]) {
   Eigen::Matrix3d m;
   m << s[XX], s[XY], s[ZX], s[XY], s[YY], s[YZ], s[ZX], s[YZ], s[ZZ];
@@ -27,6 +34,11 @@ struct ResultsWriter::Impl {
     h5::RowAppender time, u, v, a, stress, principal;
   };
   h5::Handle file;
+  std::string path;
+  h5::SpaceLedger ledger;
+  std::unique_ptr<h5::SpaceGuard> guard;
+  Real lastSample = -1;
+  long long samples = 0;
   std::vector<Monitor> monitors;
   h5::RowAppender energy;
   int snapshots = 0;
@@ -38,8 +50,13 @@ struct ResultsWriter::Impl {
 ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, const Solver& s)
     : impl_(std::make_unique<Impl>()) {
   auto& I = *impl_;
+  I.path = path;
   I.file = h5::createFile(path);
   hid_t f = I.file;
+  const Mesh& m = s.mesh();
+  I.guard = std::make_unique<h5::SpaceGuard>(f, path, kStopReserve);
+  I.nl.ledger = &I.ledger;
+  I.guard->reserve(24 * hsize_t(m.numNodes()) + 36 * hsize_t(m.numElems()) + 2 * kMetadataMargin);
   h5::writeStringAttr(f, "format", "tunnelquake-solid-results");
   h5::writeIntAttr(f, "version", 1);
   h5::writeStringAttr(f, "status", "running");
@@ -52,7 +69,6 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
   h5::writeDoubleAttr(f, "dt_critical", st.dtCritical);
   h5::writeDoubleAttr(f, "rayleigh_alpha", s.options().damping.alpha);
   h5::writeDoubleAttr(f, "rayleigh_beta", s.options().damping.beta);
-  const Mesh& m = s.mesh();
   h5::writeDoubles(f, "/mesh/coordinates", m.coords.data(), {m.coords.size() / 3, 3});
   h5::writeInts(f, "/mesh/connectivity", m.connectivity.data(), {m.connectivity.size() / 8, 8});
   h5::writeInts(f, "/mesh/region", m.region.data(), {m.region.size()});
@@ -82,12 +98,12 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
         if (d2 < best) { best = d2; mon.block = Index(b); mon.elem = e; }
       }
     const std::string g = "/monitors/" + mi.name;
-    mon.time = h5::RowAppender(f, g + "/time", 1);
-    mon.u = h5::RowAppender(f, g + "/u", 3);
-    mon.v = h5::RowAppender(f, g + "/v", 3);
-    mon.a = h5::RowAppender(f, g + "/a", 3);
-    mon.stress = h5::RowAppender(f, g + "/stress", 6);
-    mon.principal = h5::RowAppender(f, g + "/principal", 3);
+    mon.time = h5::RowAppender(f, g + "/time", 1, &I.ledger);
+    mon.u = h5::RowAppender(f, g + "/u", 3, &I.ledger);
+    mon.v = h5::RowAppender(f, g + "/v", 3, &I.ledger);
+    mon.a = h5::RowAppender(f, g + "/a", 3, &I.ledger);
+    mon.stress = h5::RowAppender(f, g + "/stress", 6, &I.ledger);
+    mon.principal = h5::RowAppender(f, g + "/principal", 3, &I.ledger);
     auto gg = h5::openGroup(f, g);
     h5::writeIntAttr(gg, "node", mon.node);
     h5::writeIntAttr(gg, "element", blocks[size_t(mon.block)]->meshElem(mon.elem));
@@ -98,18 +114,39 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     I.monElems.emplace_back(mon.block, mon.elem);
     I.monitors.push_back(std::move(mon));
   }
-  I.energy = h5::RowAppender(f, "/energy/history", 7);
+  I.energy = h5::RowAppender(f, "/energy/history", 7, &I.ledger);
   auto eg = h5::openGroup(f, "/energy");
   h5::writeStringListAttr(eg, "columns", {"time", "kinetic", "internal", "damping", "boundary", "external", "error"});
   nlout::addEnergy(f, I.nl);
   flush();
 }
 
-ResultsWriter::~ResultsWriter() = default;
+ResultsWriter::~ResultsWriter() {
+  auto& I = *impl_;
+  bool flushed = false;  // the file ends at the EOA of this flush: what is past it was only held
+  try {
+    flush();
+    flushed = true;
+  } catch (const OutputError&) {
+  }
+  // every dataset closed before the file, so that closing the file closes it on disk
+  I.series.clear();
+  I.monitors.clear();
+  I.energy = {};
+  I.nl = {};
+  I.file.reset();
+  if (flushed && I.guard) I.guard->trimClosed();
+}
+
+void ResultsWriter::reserve(unsigned long long bytes) {
+  auto& I = *impl_;
+  if (I.guard) I.guard->reserve(I.ledger.pending + bytes + kMetadataMargin);
+}
 
 void ResultsWriter::sample(const Solver& s) {
   auto& I = *impl_;
   const Real t = s.time();
+  reserve(I.ledger.nextRow);
   for (auto& mon : I.monitors) {
     Real u[3], v[3], a[3], st[6], p[3];
     for (int d = 0; d < 3; ++d) {
@@ -135,11 +172,14 @@ void ResultsWriter::sample(const Solver& s) {
     rows.append(r);
   }
   nlout::sample(I.file, s, I.monElems, I.nl);
+  I.lastSample = t;
+  ++I.samples;
 }
 
 void ResultsWriter::addSeries(const std::string& path, std::function<Real()> value, const std::string& unit) {
   auto& I = *impl_;
-  I.series.emplace_back(h5::RowAppender(I.file, path, 2), std::move(value));
+  reserve(0);
+  I.series.emplace_back(h5::RowAppender(I.file, path, 2, &I.ledger), std::move(value));
   h5::Handle ds(H5Dopen2(I.file, path.c_str(), H5P_DEFAULT), H5Dclose);
   h5::writeStringListAttr(ds, "columns", {"time", unit});
   flush();
@@ -180,6 +220,7 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
     const std::array<Real, 3> n = {areaVec[3 * best] / len, areaVec[3 * best + 1] / len, areaVec[3 * best + 2] / len};
     const std::string g = "/monitors/" + mi.name;
     {
+      reserve(0);
       auto gg = h5::ensureGroup(impl_->file, g);
       h5::writeIntAttr(gg, "water_node", nodes[best]);
       h5::writeDoubleAttr(gg, "water_area", len);
@@ -198,6 +239,7 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
 
 void ResultsWriter::writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,
                                const std::map<std::string, std::string>& texts) {
+  reserve(0);
   auto g = h5::ensureGroup(impl_->file, group);
   for (const auto& [k, v] : numbers) h5::writeDoubleAttr(g, k, v);
   for (const auto& [k, v] : texts) h5::writeStringAttr(g, k, v);
@@ -209,6 +251,10 @@ void ResultsWriter::snapshot(const Solver& s) {
   const std::string g = "/snapshots/" + std::to_string(I.snapshots++);
   const Mesh& m = s.mesh();
   const Index N = m.numNodes(), E = m.numElems();
+  // u, v [N, 3], stress [E, 6]; damage, dissipation [E], plastic strain [E, 6]; 6 values a contact pair
+  const auto* contact = nlout::findContact(s);
+  reserve(I.ledger.nextRow + 48 * hsize_t(N) + 112 * hsize_t(E) + 48 * hsize_t(contact ? contact->numPairs() : 0) +
+          kMetadataMargin);
   std::vector<Real> u(3 * size_t(N)), v(3 * size_t(N)), st(6 * size_t(E), 0.0);
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3; ++d) {
@@ -228,11 +274,28 @@ void ResultsWriter::snapshot(const Solver& s) {
 }
 
 void ResultsWriter::setStatus(const std::string& status) {
+  reserve(0);
   h5::writeStringAttr(impl_->file, "status", status);
   flush();
 }
 
+bool ResultsWriter::stopAfterOutputError(const std::string& status) {
+  auto& I = *impl_;
+  if (I.guard) I.guard->release();
+  try {
+    h5::writeStringAttr(I.file, "status", status);
+    flush();
+  } catch (const OutputError&) {
+    return false;
+  }
+  return true;
+}
+
+double ResultsWriter::lastSampleTime() const { return impl_->lastSample; }
+long long ResultsWriter::samples() const { return impl_->samples; }
+
 void ResultsWriter::writeTimings(double wall, long long steps, long long elementSteps, int threads) {
+  reserve(0);
   auto g = h5::ensureGroup(impl_->file, "/timings");
   h5::writeDoubleAttr(g, "wall_s", wall);
   h5::writeIntAttr(g, "steps", steps);
@@ -244,6 +307,7 @@ void ResultsWriter::writeTimings(double wall, long long steps, long long element
 
 void ResultsWriter::writeStage(const std::string& name, long long steps, double ratio, bool converged,
                                double wallSeconds, const std::string& note) {
+  reserve(0);
   auto root = h5::ensureGroup(impl_->file, "/stages");
   const std::string path = "/stages/" + std::to_string(h5::members(root).size()) + "_" + name;
   auto g = h5::ensureGroup(impl_->file, path);
@@ -255,6 +319,13 @@ void ResultsWriter::writeStage(const std::string& name, long long steps, double 
   flush();
 }
 
-void ResultsWriter::flush() { H5Fflush(impl_->file, H5F_SCOPE_GLOBAL); }
+void ResultsWriter::flush() {
+  auto& I = *impl_;
+  if (I.guard) I.guard->reserve(I.ledger.pending + kMetadataMargin);
+  if (H5Fflush(I.file, H5F_SCOPE_GLOBAL) < 0)
+    throw OutputError("cannot flush the results to " + h5::writeFailure(I.file));
+  I.ledger.pending = 0;
+  if (I.guard) I.guard->flushed();
+}
 
 }  // namespace tq

@@ -34,7 +34,7 @@ void writeInterfaceHeader(hid_t file, const DynamicContact& c, State& st) {
   h5::writeDoubleAttr(g, "cohesion", cp.cohesion);
   h5::writeStringAttr(g, "after_failure", afterFailureName(cp.afterFailure));
   h5::writeStringListAttr(g, "states", {"bonded", "separated", "slipping", "stuck", "inactive"});
-  st.interfaceHistory = h5::RowAppender(file, "/interface/history", 7);
+  st.interfaceHistory = h5::RowAppender(file, "/interface/history", 7, st.ledger);
   h5::writeStringListAttr(g, "history_columns",
                           {"time", "bonded", "separated", "slipping", "stuck", "inactive", "dissipated"});
 }
@@ -62,13 +62,13 @@ Real elementDamage(const Solver& s, Index block, Index elem) {
 }
 
 void addEnergy(hid_t file, State& st) {
-  st.dissipation = h5::RowAppender(file, "/energy/dissipation", 3);
+  st.dissipation = h5::RowAppender(file, "/energy/dissipation", 3, st.ledger);
   auto g = h5::openGroup(file, "/energy");
   h5::writeStringListAttr(g, "dissipation_columns", {"time", "plastic", "interface"});
 }
 
 void addMonitor(hid_t file, const std::string& g, State& st) {
-  st.monitorDamage.emplace_back(file, g + "/damage", 1);
+  st.monitorDamage.emplace_back(file, g + "/damage", 1, st.ledger);
 }
 
 void sample(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st) {

@@ -1,4 +1,4 @@
-// results.h5 output of the nonlinear parts (issue 4; layout in docs/solid_solver.md "Nonlinear
+// results.h5 output of the nonlinear parts (layout in docs/solid_solver.md "Nonlinear
 // output"): damage, plastic strain and dissipation of Mohr–Coulomb damage elements, and the
 // per-pair state of the rock–lining dynamic contact. Private to tqsolid; called by results.cpp.
 #pragma once
@@ -18,6 +18,7 @@ struct State {
   const DynamicContact* contact = nullptr;     ///< found among the solver's contributors
   h5::RowAppender interfaceHistory;            ///< /interface/history [T, 7]
   h5::RowAppender dissipation;                 ///< /energy/dissipation [T, 3]
+  h5::SpaceLedger* ledger = nullptr;           ///< the results file's, for the appenders above
 };
 
 /// The rock–lining contact among the solver's contributors, or nullptr.

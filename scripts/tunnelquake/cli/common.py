@@ -1,15 +1,15 @@
-"""Shared pieces of the subcommands: argument parsing, case loading with clear errors, atomic writes."""
+"""Shared pieces of the subcommands: argument parsing, case loading with clear errors, atomic writes
+(tunnelquake.files)."""
 from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import sys
-import tempfile
 import threading
 from pathlib import Path
 
 from ..case import Case, CaseError, load_case
+from ..files import DiskFull, atomic_path, is_no_space  # noqa: F401 - the subcommands' imports
 
 
 def parser(prog: str, description: str) -> argparse.ArgumentParser:
@@ -104,22 +104,6 @@ def load_or_report(path: Path, variant: str | None = None) -> Case | None:
     for w in case.warnings:
         print(f"warning: {w}", file=sys.stderr)
     return case
-
-
-@contextlib.contextmanager
-def atomic_path(target: Path):
-    """Yield a temporary path beside `target`; move it into place only if the block succeeds,
-    so a crash never leaves a half-written file under the final name."""
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, target)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 @contextlib.contextmanager

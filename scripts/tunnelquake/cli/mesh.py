@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 from pathlib import Path
 
-from .common import folder_held, load_or_report, parser, say
+from .common import DiskFull, atomic_path, folder_held, load_or_report, parser, say
 
 
 def mesh_dir(case) -> Path:
@@ -37,9 +38,11 @@ def make_mesh(case, force: bool = False) -> dict:
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
     from ..case import ground_layers
 
+    stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
     summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data))
     summary = json.loads(json.dumps(summary, default=str))
-    stamp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
+    with atomic_path(stamp) as tmp:
+        tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
     for line in format_summary(summary).splitlines():
         say(line)
     return summary
@@ -55,5 +58,9 @@ def main(argv: list[str]) -> int:
     with folder_held(case, "tunnelquake mesh " + " ".join(map(str, argv))) as held:
         if not held:
             return 1
-        make_mesh(case, force=args.force)
+        try:
+            make_mesh(case, force=args.force)
+        except DiskFull as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
     return 0

@@ -1,18 +1,18 @@
 """tunnelquake motion: read or synthesise the ground motion, process it, write motion.h5 and a figure."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from ..files import atomic_h5
 from ..motion import MotionError, ProcessedMotion, from_case
-from .common import atomic_path, folder_held, load_or_report, parser, say
+from .common import DiskFull, atomic_path, folder_held, load_or_report, parser, say
 
 
 def write_motion(motion: ProcessedMotion, path: Path) -> None:
-    import h5py
-
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_h5(path) as f:
         f.attrs["format"] = "tunnelquake-motion"
         f.attrs["version"] = 1
         f.attrs["dt"] = motion.dt
@@ -71,10 +71,13 @@ def main(argv: list[str]) -> int:
             return 1
         try:
             motion, out = make_motion(case)
+            fig = case.output_dir / "figures" / "fig03_input_motion.png"
+            plot_motion(motion, fig)
         except MotionError as e:
             print(f"error: {e}")
             return 1
-        fig = case.output_dir / "figures" / "fig03_input_motion.png"
-        plot_motion(motion, fig)
+        except DiskFull as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
         say(f"figure: {fig}")
     return 0

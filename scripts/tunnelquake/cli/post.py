@@ -1,13 +1,34 @@
 """tunnelquake post: turn what a run left in the results folder into figures, CSV, ParaView files and
 report.md. Needs no solver; works on whatever results exist: a results file cut off mid-run, one
 stopped before the shaking (no monitor sample), an unreadable one, a condition never run. Each is
-reported as found; a figure that cannot be drawn is named with the reason, never a traceback."""
+reported as found; a figure that cannot be drawn is named with the reason, never a traceback.
+On a full disk every output that fits is still written (each in place only once complete), the
+state of each condition is said on the terminal, and post ends with one line naming what was not
+written and the space free, exit code 1."""
 from __future__ import annotations
 
+import errno
+import sys
 from pathlib import Path
 
 from ..scene import plan
-from .common import atomic_path, folder_held, load_or_report, parser, say
+from .common import DiskFull, atomic_path, folder_held, is_no_space, load_or_report, parser, say
+
+
+class OutputsNotWritten(OSError):
+    """Outputs of post the disk had no room for (a DiskFull each); the results files are untouched."""
+
+    def __init__(self, failures: list[DiskFull]):
+        self.failures = failures
+        names = ", ".join(f.path.name for f in failures)
+        super().__init__(errno.ENOSPC, f"{failures[0]} (not written: {names}; the results files are unchanged)")
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
+def _disk_full(e: OSError, path) -> DiskFull:
+    return e if isinstance(e, DiskFull) else DiskFull(path)
 
 
 def _context(case, results, motion: dict | None) -> dict:
@@ -81,6 +102,7 @@ def post_case(case) -> Path:
     lines += R.case_section(case)
     lines += ["## Conditions", ""]
     results, stopped = [], []
+    unwritten: list[DiskFull] = []
     planned = [c for c, _ in plan(case)]
     for cond in P.CONDITION_LABELS:
         f = out / f"results_{cond}.h5"
@@ -96,7 +118,13 @@ def post_case(case) -> Path:
             lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
             say(f"{cond}: {f.name} cannot be read ({e})")
             continue
-        csv_file = P.monitors_csv(res, out / f"monitors_{cond}.csv")
+        csv_file = out / f"monitors_{cond}.csv"
+        try:
+            P.monitors_csv(res, csv_file)
+        except OSError as e:
+            if not is_no_space(e):
+                raise
+            unwritten.append(_disk_full(e, csv_file))
         lines.append(_run_state(P, res, csv_file.name))
         if not res.samples:
             say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
@@ -120,7 +148,7 @@ def post_case(case) -> Path:
 
             lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
         lines += R.lining_forces_section(R.design_quantities(case, results))
-        lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out)
+        lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
         if ref is not None:
             ctx = _context(case, results, motion)
             if fluid is not None:
@@ -132,15 +160,22 @@ def post_case(case) -> Path:
                 lines += [f"## Comparison with the {ref.LABEL}", "", f"Not made: {type(e).__name__}: {e}", ""]
                 say(f"comparison with the {ref.LABEL} not made ({type(e).__name__}: {e})")
     report = out / "report.md"
-    with atomic_path(report) as tmp:
-        tmp.write_text("\n".join(lines).rstrip("\n") + "\n")
-    say(f"report: {report}")
+    text = "\n".join(lines).rstrip("\n") + "\n"
+    try:
+        with atomic_path(report, len(text.encode())) as tmp:
+            tmp.write_text(text)
+    except DiskFull as e:
+        unwritten.append(e)
+    else:
+        say(f"report: {report}")
+    if unwritten:
+        raise OutputsNotWritten(unwritten)
     return report
 
 
-def _figures(P, ref, results, dyn, fluid, figs, order, strength, out) -> list[str]:
-    """Draw the figures (each one that fails is named with the reason) and the ParaView files;
-    the report's lines for them. `ref`: the paper module when the case compares with it (its
+def _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten: list) -> list[str]:
+    """Draw the figures (each one that fails is named with the reason; one the disk had no room
+    for is added to `unwritten`) and the ParaView files; the report's lines for them. `ref`: the paper module when the case compares with it (its
     marks and bars in the figures, its figure numbers in the captions)."""
     figs.mkdir(parents=True, exist_ok=True)
     for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
@@ -153,7 +188,10 @@ def _figures(P, ref, results, dyn, fluid, figs, order, strength, out) -> list[st
             path = draw(*args, **kw)
         except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
             failed[key] = f"{type(e).__name__}: {e}"
-            say(f"{key}: not drawn ({failed[key]})")
+            if is_no_space(e):  # named in post's last line with the other outputs that did not fit
+                unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
+            else:
+                say(f"{key}: not drawn ({failed[key]})")
             return
         if path is not None:
             made[key] = f"figures/{Path(path).name}"
@@ -188,7 +226,10 @@ def _figures(P, ref, results, dyn, fluid, figs, order, strength, out) -> list[st
             x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
         except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
             lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
-            say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
+            if is_no_space(e):  # named in post's last line
+                unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
+            else:
+                say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
             continue
         if x is not None:
             xdmfs.append(x)
@@ -206,5 +247,9 @@ def main(argv: list[str]) -> int:
     with folder_held(case, "tunnelquake post " + " ".join(map(str, argv))) as held:
         if not held:
             return 1
-        post_case(case)
+        try:
+            post_case(case)
+        except OutputsNotWritten as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
     return 0

@@ -8,13 +8,14 @@ condition with only the solvers it needs, and post-processes.
 from __future__ import annotations
 
 import re
+import sys
 import time
 from pathlib import Path
 
 from .. import children, paths
 from ..motion import MotionError
 from ..scene import plan
-from .common import load_or_report, parser, say
+from .common import DiskFull, is_no_space, load_or_report, parser, say
 
 
 def solver_status() -> dict[str, str | None]:
@@ -186,6 +187,7 @@ class _Side:
         import threading
 
         self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
+        self.log_error: OSError | None = None
         self.fh = open(log, "w")
         self.proc = children.popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                    bufsize=1)
@@ -193,24 +195,39 @@ class _Side:
         self.thread.start()
 
     def _pump(self, echo) -> None:
+        """Copy the child's output to its log and the terminal until it ends. A log the disk has no
+        room for stops being written (said once); the output is still read, so the child never
+        blocks on a full pipe, and its last lines still reach the terminal."""
         import time as _time
 
         flushed = _time.monotonic()
+
+        def logged(write, *args) -> None:
+            if self.log_error is None:
+                try:
+                    write(*args)
+                except OSError as e:
+                    self.log_error = e
+                    say(f"  [{self.name}] its log {self.log} is cut here: {e.strerror or e}")
+
         for line in self.proc.stdout:
-            self.fh.write(line)
+            logged(self.fh.write, line)
             self.lines.append(line)
             if echo(line):
-                self.fh.flush()
+                logged(self.fh.flush)
                 say(f"  [{self.name}] {line.rstrip()}")
                 flushed = _time.monotonic()
             elif _time.monotonic() - flushed > self.FLUSH_S:
-                self.fh.flush()
+                logged(self.fh.flush)
                 flushed = _time.monotonic()
-        self.fh.flush()
+        logged(self.fh.flush)
 
     def close(self) -> None:
+        import contextlib
+
         self.thread.join(timeout=10)
-        self.fh.close()
+        with contextlib.suppress(OSError):  # a log the disk had no room for: said by _pump
+            self.fh.close()
 
     def tail(self, n: int = 6) -> str:
         return "\n".join(f"      {x.rstrip()}" for x in list(self.lines)[-n:])
@@ -275,6 +292,30 @@ def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
 RANK_CELLS_WORTH_IT = 10000
 
 
+#: tq-solid's exit code when the file system refused its results (a full disk, a quota, an I/O error)
+SOLID_OUTPUT_ERROR = 5
+
+
+def _ran_out_of_space(folder, sides) -> bool:
+    """Whether a failed condition met a full disk: tq-solid said so (exit 5 with the reason), a
+    solver's last lines or its log's writing met ENOSPC, or the disk holding `folder` is full now."""
+    from ..files import free_bytes
+
+    for side in sides:
+        if side.log_error is not None and is_no_space(side.log_error):
+            return True
+        if any("No space left on device" in line for line in side.lines):
+            return True
+    return free_bytes(folder) < 65536
+
+
+def _disk_full_note(folder) -> str:
+    from ..files import free_bytes, human_bytes
+
+    return (f"no space left on the disk holding {folder} ({human_bytes(free_bytes(folder))} free). Fix: free space "
+            f"there, or set output.directory to a disk with room, and run again")
+
+
 def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, str]:
     """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
     by the coupler over TCP. Returns (exit code, results path, what happened). Exit code: 0 both
@@ -290,6 +331,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     import h5py
 
     from .. import fluid_case as fc
+    from ..files import atomic_h5_update
     from ..solid_input import write_solid_input
     from .mesh import mesh_dir
 
@@ -313,7 +355,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
             slice_mode = int(f.attrs.get("slice", 0)) == 1
         k = int(case.data["coupling"]["window"])
         settings = fc.coupling_settings(case, k * _solid_step(exe, inp), addr, token, t_end=t_end)
-        with h5py.File(inp, "a") as f:  # pin every item of the handshake on the solid side too
+        with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
             f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
         env = fc.fluid_env()
@@ -331,6 +373,8 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
                     f"{RANK_CELLS_WORTH_IT}: the exchange and the ranks' communication outweigh the split "
                     f"solve, expect no speed-up over parallel.fluid_ranks: 1 (docs/coupler.md)")
     except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
+        if is_no_space(e):
+            e = f"{e}; {_disk_full_note(case.output_dir)}"
         say(f"condition {cond}: cannot set up the coupled run: {e}")
         return 2, res, f"not started: {e}"
     finally:
@@ -403,8 +447,12 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         rc = failed.proc.returncode or 1
         side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
         say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
-        return (rc if failed is solid else 1), res, (f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
-                                                     f"; {what_was_written(res)}")
+        why = f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
+        if _ran_out_of_space(case.output_dir, [x for x in (solid, fluid_side) if x is not None]):
+            note = _disk_full_note(case.output_dir)
+            say(f"condition {cond}: stopped by a full disk: {note}")
+            why = f"stopped by a full disk after {wall:.1f} s ({side} first, exit {rc}): {note}"
+        return (rc if failed is solid else 1), res, f"{why}; {what_was_written(res)}"
     return 0, res, f"coupled with {fluid.solver}{on} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
 
 
@@ -612,7 +660,11 @@ def _job(case, args) -> int:
     from .mesh import make_mesh
 
     PHASE[0] = "meshing"
-    summary = make_mesh(case)
+    try:
+        summary = make_mesh(case)
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     c = summary["counts"]
     done.append(f"mesh: {c['rock']} rock, {c['lining']} lining, {c['water']} water hexahedra "
                 f"({summary['mode']})")
@@ -621,13 +673,16 @@ def _job(case, args) -> int:
 
     children.check()
     PHASE[0] = "preparing the motion"
+    fig = case.output_dir / "figures" / "fig03_input_motion.png"
     try:
         motion, motion_file = make_motion(case)
+        plot_motion(motion, fig)
     except MotionError as e:
         print(f"error: {e}")
         return 1
-    fig = case.output_dir / "figures" / "fig03_input_motion.png"
-    plot_motion(motion, fig)
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
 
     children.check()
@@ -660,6 +715,13 @@ def _job(case, args) -> int:
         children.check()
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
+        elif rc == SOLID_OUTPUT_ERROR:
+            from ..files import free_bytes, human_bytes
+
+            kept = f"what was written is in {res.name}" if res.is_file() else f"{res.name} was not started"
+            failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}; its message above says "
+                          f"why; {human_bytes(free_bytes(case.output_dir))} free now on the disk holding "
+                          f"{case.output_dir}); {kept}")
         else:
             failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
                           f"{what_was_written(res)}")
@@ -695,10 +757,12 @@ def _job(case, args) -> int:
     children.check()
     PHASE[0] = "post-processing"
     if not args.no_post:
-        from .post import post_case
+        from .post import OutputsNotWritten, post_case
 
         try:
             report = post_case(case)
+        except OutputsNotWritten as e:
+            failed.append(f"post: {e}")
         except Exception as e:  # noqa: BLE001 - the conditions' results stay; say why the report is missing
             failed.append(f"post: {type(e).__name__}: {e} (the results files are kept; `tunnelquake post` retries)")
         else:

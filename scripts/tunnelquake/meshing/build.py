@@ -8,17 +8,30 @@ Steps:
      (docs/formats.md);
   4. water: its hexes and wall/end quads written as gmsh 2.2 ASCII for gmshToFoam;
   5. quality checks (corner Jacobians > 0, longest edge <= max_element_size) and a summary.
+
+The three files are written to temporary files beside them and put in place together once all are
+complete and the checks pass (tunnelquake.files.atomic_path): a failure, a kill or a full disk
+leaves the previous files, never a partial one under a final name. A full disk raises
+tunnelquake.files.DiskFull naming the file and the space the three need.
+
+gmsh's FLTK, linked into it, rewrites its preference files (~/.fltk/..., /etc/fltk/...) when gmsh
+starts; `_gmsh_session` points it at a private folder instead.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import pathlib
+import shutil
+import tempfile
 import time
 
 import gmsh
 import h5py
 import numpy as np
 
+from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .gmsh_model import LINING, ROCK, WATER, build_model
 from .params import MeshInputError, MeshPlan, layer_of, resolve
@@ -49,38 +62,44 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5", "water": out_dir / "water.msh"}
-
-    own_session = not gmsh.isInitialized()
-    if own_session:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    needed = None
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        model = build_model(plan, name="tunnelquake")
-        t_gmsh = time.perf_counter() - t0
-        gmsh.option.setNumber("Mesh.SaveAll", 0)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(files["model"]))
-        coords, hexes = _extract(model["volumes"])
-        _snap_layers(plan, coords)
-    finally:
-        if own_session:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
+        with contextlib.ExitStack() as placed:  # each temporary file goes in place when all is done
+            tmp = {k: placed.enter_context(atomic_path(p, suffix=".msh" if p.suffix == ".msh" else ".part"))
+                   for k, p in files.items()}
+            own_session = not gmsh.isInitialized()
+            with _gmsh_session() if own_session else contextlib.nullcontext():
+                try:
+                    gmsh.option.setNumber("General.Terminal", 0)
+                    gmsh.option.setNumber("General.NumThreads", 1)
+                    model = build_model(plan, name="tunnelquake")
+                    t_gmsh = time.perf_counter() - t0
+                    coords, hexes = _extract(model["volumes"])
+                    needed = _bytes_needed(coords, hexes)
+                    gmsh.option.setNumber("Mesh.SaveAll", 0)
+                    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+                    gmsh.option.setNumber("Mesh.Binary", 0)
+                    _write_model(tmp["model"])
+                    _snap_layers(plan, coords)
+                finally:
+                    if not own_session:
+                        gmsh.model.remove()
 
-    solid = _solid_mesh(plan, coords, hexes)
-    _write_solid(files["solid"], solid, plan.slice, region_names(plan))
-    water = _water_mesh(plan, coords, hexes[WATER])
-    _write_gmsh22(files["water"], water)
+            solid = _solid_mesh(plan, coords, hexes)
+            _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
+            water = _water_mesh(plan, coords, hexes[WATER])
+            _write_gmsh22(tmp["water"], water)
 
-    h = max(solid["max_edge"], water["max_edge"])
-    if h > plan.max_element_size * (1 + 1e-9):
-        raise RuntimeError(
-            f"longest element edge {h:.4f} m > max_element_size {plan.max_element_size} m; "
-            "refine the mesh (more divisions) or raise max_element_size"
-        )
+            h = max(solid["max_edge"], water["max_edge"])
+            if h > plan.max_element_size * (1 + 1e-9):
+                raise RuntimeError(
+                    f"longest element edge {h:.4f} m > max_element_size {plan.max_element_size} m; "
+                    "refine the mesh (more divisions) or raise max_element_size"
+                )
+    except DiskFull as e:
+        if needed is None:
+            raise
+        raise DiskFull(e.path, needed) from None
     return {
         "mode": "slice" if plan.slice else "3d",
         "counts": {
@@ -109,6 +128,69 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
         "files": {k: str(v) for k, v in files.items()},
         "time_s": {"gmsh": t_gmsh, "total": time.perf_counter() - t0},
     }
+
+
+@contextlib.contextmanager
+def _gmsh_session():
+    """gmsh.initialize ... gmsh.finalize with FLTK's preference files kept out of the home folder
+    and /etc: HOME is a private folder (removed after) while gmsh starts, and a root process
+    starts it with the file-system uid of nobody (this thread only), so that /etc/fltk, which
+    FLTK writes as root, is refused to it; reading is unchanged."""
+    home = tempfile.mkdtemp(prefix="tunnelquake-gmsh-home-")
+    old_home = os.environ.get("HOME")
+    os.environ["HOME"] = home
+    fsuid = _drop_fsuid() if os.geteuid() == 0 else None
+    try:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    finally:
+        if fsuid is not None:
+            fsuid(0)
+        if old_home is None:
+            os.environ.pop("HOME", None)
+        else:
+            os.environ["HOME"] = old_home
+        shutil.rmtree(home, ignore_errors=True)
+    try:
+        yield
+    finally:
+        gmsh.finalize()
+
+
+def _drop_fsuid():
+    """Set this thread's file-system uid to nobody (65534); returns setfsuid, None if unavailable."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.setfsuid(65534)
+    except (OSError, AttributeError):
+        return None
+    return libc.setfsuid
+
+
+def _bytes_needed(coords: np.ndarray, hexes: dict) -> int:
+    """Disk space of model.msh, mesh.h5 and water.msh (measured on the example slice: about 230 B,
+    135 B and 220 B a hexahedron), with a margin."""
+    n = sum(len(h) for h in hexes.values())
+    return int(1.2 * (230 * n + 135 * (n - len(hexes[WATER])) + 220 * len(hexes[WATER]))) + 65536
+
+
+def _write_model(path: pathlib.Path) -> None:
+    """gmsh.write, which does not report a failed write: a file that does not end with the last
+    section's end line was cut short (a full disk)."""
+    gmsh.write(str(path))
+    with open(path, "rb") as fh:
+        fh.seek(max(0, path.stat().st_size - 64))
+        complete = fh.read().rstrip().endswith(b"$EndElements")
+    if not complete:
+        import errno
+
+        from ..files import free_bytes
+
+        # gmsh stops writing silently when a write fails; with no room left that is the cause
+        code = errno.ENOSPC if free_bytes(path) < 65536 else errno.EIO
+        raise OSError(code, f"gmsh could not write all of {path}: {os.strerror(code)}")
 
 
 def format_summary(s: dict) -> str:
@@ -296,8 +378,9 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
 
 
 def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool, regions: list[str]) -> None:
-    """mesh.h5 exactly as docs/formats.md describes."""
-    with h5py.File(path, "w") as f:
+    """mesh.h5 exactly as docs/formats.md describes, built in memory (files.h5_in_memory: HDF5
+    never meets a full disk), then written to `path`."""
+    with h5_in_memory(path) as f:
         f.attrs["format"] = "tunnelquake-solid-mesh"
         f.attrs["version"] = np.int64(1)
         f.attrs["slice"] = np.int64(1 if slice_mode else 0)

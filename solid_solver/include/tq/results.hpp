@@ -1,7 +1,9 @@
 /// @file results.hpp
 /// @brief results.h5 writer: monitor histories, energy balance, field snapshots, timings, and the
 ///        run status. Rows are appended as the run goes and the file is flushed regularly, so it
-///        stays readable (h5py) after a stop at any point.
+///        stays readable (h5py) after a stop at any point. The file space of each write is
+///        allocated before HDF5 writes, so a full disk stops the run between samples with an
+///        OutputError and the file stays whole (h5util.hpp, SpaceGuard).
 #pragma once
 
 #include <functional>
@@ -33,7 +35,14 @@ public:
   /// One static stage's report: /stages/<k>_<name> attrs steps, unbalanced_ratio, converged, wall_s, note.
   void writeStage(const std::string& name, long long steps, double ratio, bool converged, double wallSeconds,
                   const std::string& note);
+  /// Flush to disk; throws OutputError when the file system refuses.
   void flush();
+  /// After an OutputError: free the space held back for this, write `status` and flush, so the
+  /// file holds every sample written so far. False if even that could not be written.
+  bool stopAfterOutputError(const std::string& status);
+  /// Time of the last monitor sample written (−1 before the first), and how many were written.
+  double lastSampleTime() const;
+  long long samples() const;
   /// An extra time series sampled with every sample(): dataset `path` [rows, 2] = (time, value()),
   /// e.g. /energy/fluid_work (the water coupling).
   void addSeries(const std::string& path, std::function<Real()> value, const std::string& unit);
@@ -52,6 +61,9 @@ public:
                   const std::map<std::string, std::string>& texts = {});
 
 private:
+  /// Hold `bytes` of file space (plus what pending rows and metadata need) before writing them:
+  /// a full disk throws OutputError here, before HDF5 starts a write it could not finish.
+  void reserve(unsigned long long bytes);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -27,4 +27,12 @@ public:
   explicit InstabilityError(const std::string& what) : std::runtime_error(what) {}
 };
 
+/// Results that cannot be written: the file system refused a write (full, over quota, read-only,
+/// an I/O error). The message names the file and the system's reason; for a full disk also the
+/// space the next write needed and the space left.
+class OutputError : public std::runtime_error {
+public:
+  explicit OutputError(const std::string& what) : std::runtime_error(what) {}
+};
+
 }  // namespace tq
