@@ -260,7 +260,17 @@ void writeStrings(hid_t loc, const std::string& path, const std::vector<std::str
         "cannot write dataset '" + path + "'");
 }
 
-RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize_t chunkRows)
+void replaceDoubles(hid_t loc, const std::string& path, const double* data, const std::vector<hsize_t>& dims) {
+  if (!exists(loc, path)) {
+    writeDoubles(loc, path, data, dims);
+    return;
+  }
+  Handle ds(H5Dopen2(loc, path.c_str(), H5P_DEFAULT), H5Dclose);
+  check(ds.valid() && H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0,
+        "cannot write dataset '" + path + "'");
+}
+
+RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize_t chunkRows, bool float32)
     : cols_(cols) {
   hsize_t dims[2] = {0, cols}, maxd[2] = {H5S_UNLIMITED, cols}, chunk[2] = {chunkRows, cols};
   Handle sp(H5Screate_simple(2, dims, maxd), H5Sclose);
@@ -268,7 +278,8 @@ RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize
   H5Pset_chunk(dcpl, 2, chunk);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl, 1);
-  ds_ = Handle(H5Dcreate2(loc, path.c_str(), H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT), H5Dclose);
+  ds_ = Handle(H5Dcreate2(loc, path.c_str(), float32 ? H5T_IEEE_F32LE : H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT),
+               H5Dclose);
   check(ds_.valid(), "cannot create dataset '" + path + "'");
 }
 
