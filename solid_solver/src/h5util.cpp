@@ -317,18 +317,29 @@ void writeStrings(hid_t loc, const std::string& path, const std::vector<std::str
              "dataset '" + path + "'");
 }
 
+void replaceDoubles(hid_t loc, const std::string& path, const double* data, const std::vector<hsize_t>& dims) {
+  if (!exists(loc, path)) {
+    writeDoubles(loc, path, data, dims);
+    return;
+  }
+  Handle ds(H5Dopen2(loc, path.c_str(), H5P_DEFAULT), H5Dclose);
+  checkWrite(ds.valid() && H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0, loc,
+             "dataset '" + path + "'");
+}
+
 RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger,
-                         hsize_t chunkRows)
-    : cols_(cols), chunkRows_(chunkRows), ledger_(ledger) {
+                         hsize_t chunkRows, bool float32)
+    : cols_(cols), chunkRows_(chunkRows), valueBytes_(float32 ? sizeof(float) : sizeof(double)), ledger_(ledger) {
   hsize_t dims[2] = {0, cols}, maxd[2] = {H5S_UNLIMITED, cols}, chunk[2] = {chunkRows, cols};
   Handle sp(H5Screate_simple(2, dims, maxd), H5Sclose);
   Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   H5Pset_chunk(dcpl, 2, chunk);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl, 1);
-  ds_ = Handle(H5Dcreate2(loc, path.c_str(), H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT), H5Dclose);
+  ds_ = Handle(H5Dcreate2(loc, path.c_str(), float32 ? H5T_IEEE_F32LE : H5T_IEEE_F64LE, sp, lcpl, dcpl, H5P_DEFAULT),
+               H5Dclose);
   checkWrite(ds_.valid(), loc, "dataset '" + path + "'");
-  if (ledger_) ledger_->nextRow += chunkRows_ * cols_ * sizeof(double);
+  if (ledger_) ledger_->nextRow += chunkRows_ * cols_ * valueBytes_;
 }
 
 void RowAppender::append(const double* row) {
@@ -341,7 +352,7 @@ void RowAppender::append(const double* row) {
   checkWrite(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, ds_, "a history row");
   ++rows_;
   if (ledger_) {
-    const hsize_t chunk = chunkRows_ * cols_ * sizeof(double);
+    const hsize_t chunk = chunkRows_ * cols_ * valueBytes_;
     if ((rows_ - 1) % chunkRows_ == 0) {  // this row started a chunk
       ledger_->pending += chunk;
       ledger_->nextRow -= chunk;

@@ -83,18 +83,23 @@ struct SpaceLedger {
   hsize_t nextRow = 0;  ///< bytes of the chunks the appenders' next rows start
 };
 
-/// A 2-D float64 dataset [rows, cols] that grows by rows (chunked, unlimited first dimension).
+/// Write a whole float64 dataset, creating it or overwriting the existing one of the same shape
+/// (values that change during the run, e.g. envelopes).
+void replaceDoubles(hid_t loc, const std::string& path, const double* data, const std::vector<hsize_t>& dims);
+
+/// A 2-D dataset [rows, cols] that grows by rows (chunked, unlimited first dimension), float64 or,
+/// with float32 = true, stored as float32 (rows are given as doubles; HDF5 rounds them).
 class RowAppender {
 public:
   RowAppender() = default;
   RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger = nullptr,
-              hsize_t chunkRows = 256);
+              hsize_t chunkRows = 256, bool float32 = false);
   void append(const double* row);  ///< one row of `cols` values
   hsize_t rows() const { return rows_; }
 
 private:
   Handle ds_;
-  hsize_t cols_ = 0, rows_ = 0, chunkRows_ = 256;
+  hsize_t cols_ = 0, rows_ = 0, chunkRows_ = 256, valueBytes_ = sizeof(double);
   SpaceLedger* ledger_ = nullptr;
 };
 

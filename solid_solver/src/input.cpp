@@ -248,10 +248,13 @@ SolidInput readSolidInput(const std::string& path) {
   if (h5::exists(f, "/output")) {
     auto g = h5::openGroup(f, "/output");
     const std::string w = "/output";
-    checkKeys(c, g, w, {"monitor_dt", "progress_s"});
+    checkKeys(c, g, w, {"monitor_dt", "progress_s", "ring_forces"});
     checkMembers(c, g, w, {"snapshot_times"});
     in.monitorDt = num(c, g, w, "monitor_dt", 0.005);
     in.progressSeconds = num(c, g, w, "progress_s", 5);
+    const Real ring = num(c, g, w, "ring_forces", 1);
+    if (ring != 0 && ring != 1) c.fail(w, "ring_forces must be 0 or 1");
+    in.ringForces = ring != 0;
     if (!(in.monitorDt > 0)) c.fail(w, "monitor_dt must be > 0 (s)");
     if (h5::exists(g, "snapshot_times")) in.snapshotTimes = h5::readDoubles(g, "snapshot_times");
     std::sort(in.snapshotTimes.begin(), in.snapshotTimes.end());
@@ -323,6 +326,7 @@ void writeSolidInput(const SolidInput& in, const std::string& path, const std::s
   auto g = h5::ensureGroup(f, "/output");
   h5::writeDoubleAttr(g, "monitor_dt", in.monitorDt);
   h5::writeDoubleAttr(g, "progress_s", in.progressSeconds);
+  if (!in.ringForces) h5::writeIntAttr(g, "ring_forces", 0);
   if (!in.snapshotTimes.empty())
     h5::writeDoubles(g, "snapshot_times", in.snapshotTimes.data(), {in.snapshotTimes.size()});
   if (in.staged.present) writeStagedInput(f, in);

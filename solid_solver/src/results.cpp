@@ -4,11 +4,13 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
 #include "h5util.hpp"
 #include "results_nonlinear.hpp"
+#include "tq/ring_forces.hpp"
 
 namespace tq {
 
@@ -45,7 +47,51 @@ struct ResultsWriter::Impl {
   nlout::State nl;                                // damage and interface output (issue 4)
   std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
   std::vector<std::pair<h5::RowAppender, std::function<Real()>>> series;  // addSeries
+  // Lining section forces (tq/ring_forces.hpp): per ring its histories and, per section and
+  // quantity (N, M, V, diameter change), the envelope max, time of max, min, time of min.
+  struct RingOut {
+    std::string group;
+    h5::RowAppender time, q[4];
+    std::vector<Real> env[4];
+    size_t count[4] = {0, 0, 0, 0};
+  };
+  std::unique_ptr<RingForces> ring;
+  std::vector<RingOut> ringOut;
+  double ringSeconds = 0;  // wall time spent on the ring forces
+  void writeRingEnvelopes();
 };
+
+namespace {
+const char* const kRingNames[4] = {"N", "M", "V", "diameter_change"};
+}
+
+void ResultsWriter::Impl::writeRingEnvelopes() {
+  for (auto& R : ringOut) {
+    if (R.time.rows() == 0) continue;
+    for (int q = 0; q < 4; ++q)
+      if (R.count[q] > 0) h5::replaceDoubles(file, R.group + "/envelope/" + kRingNames[q], R.env[q].data(), {R.count[q], 4});
+    if (R.count[3] > 0) {  // ovaling: the largest elongation and shortening of a diameter so far
+      const auto& e = R.env[3];
+      size_t imax = 0, imin = 0;
+      for (size_t k = 1; k < R.count[3]; ++k) {
+        if (e[4 * k] > e[4 * imax]) imax = k;
+        if (e[4 * k + 2] < e[4 * imin + 2]) imin = k;
+      }
+      const auto angles = h5::readDoubles(file, R.group + "/diameter_angle");
+      auto g = h5::openGroup(file, R.group);
+      h5::writeDoubleAttr(g, "ovaling_elongation", e[4 * imax]);
+      h5::writeDoubleAttr(g, "ovaling_elongation_angle", angles[imax]);
+      h5::writeDoubleAttr(g, "ovaling_elongation_time", e[4 * imax + 1]);
+      h5::writeDoubleAttr(g, "ovaling_shortening", e[4 * imin + 2]);
+      h5::writeDoubleAttr(g, "ovaling_shortening_angle", angles[imin]);
+      h5::writeDoubleAttr(g, "ovaling_shortening_time", e[4 * imin + 3]);
+    }
+  }
+  if (ring) {
+    auto g = h5::openGroup(file, "/ring_forces");
+    h5::writeDoubleAttr(g, "wall_s", ringSeconds);
+  }
+}
 
 ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, const Solver& s)
     : impl_(std::make_unique<Impl>()) {
@@ -114,6 +160,54 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     I.monElems.emplace_back(mon.block, mon.elem);
     I.monitors.push_back(std::move(mon));
   }
+  // Lining section forces: one ring per axial element layer of the lining at the monitors.
+  const std::string liningName = in.staged.stages.liningRegion;
+  const ElementBlock* lining = nullptr;
+  for (const auto& b : s.blocks())
+    if (b->name() == liningName) lining = b.get();
+  if (in.ringForces && lining) {
+    std::vector<Real> ys;
+    for (const auto& mi : in.monitors) ys.push_back(mi.point[1]);
+    I.ring = std::make_unique<RingForces>(m, *lining, ys);
+    auto g = h5::ensureGroup(f, "/ring_forces");
+    h5::writeStringAttr(g, "lining_region", liningName);
+    h5::writeIntAttr(g, "rings", (long long)I.ring->rings().size());
+    if (!I.ring->note().empty()) h5::writeStringAttr(g, "note", I.ring->note());
+    h5::writeStringAttr(g, "convention",
+                        "per unit length of tunnel; N = integral of s_tt dr (tension +), M = integral of s_tt (r_mid - r) dr "
+                        "(+ = tension at the inner face), V = integral of s_rt dr; angle from +x towards +z about the "
+                        "ring centre; diameter_change: elongation + (m), relative to the seismic start");
+    for (size_t r = 0; r < I.ring->rings().size(); ++r) {
+      const LiningRing& R = I.ring->rings()[r];
+      Impl::RingOut o;
+      o.group = "/ring_forces/" + std::to_string(r);
+      auto rg = h5::ensureGroup(f, o.group);
+      h5::writeDoubleAttr(rg, "y_min", R.yMin);
+      h5::writeDoubleAttr(rg, "y_max", R.yMax);
+      h5::writeDoubleAttr(rg, "centre_x", R.xc);
+      h5::writeDoubleAttr(rg, "centre_z", R.zc);
+      h5::writeDoubleAttr(rg, "r_inner", R.rInner);
+      h5::writeDoubleAttr(rg, "r_outer", R.rOuter);
+      h5::writeDoubleAttr(rg, "r_mid", R.rMid);
+      h5::writeIntAttr(rg, "closed", R.closed ? 1 : 0);
+      h5::writeDoubles(f, o.group + "/angle", R.angle.data(), {R.angle.size()});
+      if (!R.diameters.empty())
+        h5::writeDoubles(f, o.group + "/diameter_angle", R.diameterAngle.data(), {R.diameterAngle.size()});
+      o.time = h5::RowAppender(f, o.group + "/time", 1, &I.ledger);
+      const size_t S = R.angle.size(), D = R.diameters.size();
+      for (int q = 0; q < 4; ++q) {
+        o.count[q] = q < 3 ? S : D;
+        if (o.count[q] == 0) continue;
+        o.q[q] = h5::RowAppender(f, o.group + "/" + kRingNames[q], o.count[q], &I.ledger, 256, true);
+        o.env[q].assign(4 * o.count[q], 0.0);
+        for (size_t k = 0; k < o.count[q]; ++k) {
+          o.env[q][4 * k] = -std::numeric_limits<Real>::infinity();
+          o.env[q][4 * k + 2] = std::numeric_limits<Real>::infinity();
+        }
+      }
+      I.ringOut.push_back(std::move(o));
+    }
+  }
   I.energy = h5::RowAppender(f, "/energy/history", 7, &I.ledger);
   auto eg = h5::openGroup(f, "/energy");
   h5::writeStringListAttr(eg, "columns", {"time", "kinetic", "internal", "damping", "boundary", "external", "error"});
@@ -172,6 +266,27 @@ void ResultsWriter::sample(const Solver& s) {
     rows.append(r);
   }
   nlout::sample(I.file, s, I.monElems, I.nl);
+  if (I.ring) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<Real> q[4];
+    for (size_t r = 0; r < I.ringOut.size(); ++r) {
+      auto& o = I.ringOut[r];
+      for (int k = 0; k < 4; ++k) q[k].assign(o.count[k], 0.0);
+      I.ring->sectionForces(r, q[0].data(), q[1].data(), q[2].data());
+      I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, q[3].data());
+      o.time.append(&t);
+      for (int k = 0; k < 4; ++k) {
+        if (o.count[k] == 0) continue;
+        o.q[k].append(q[k].data());
+        Real* env = o.env[k].data();
+        for (size_t j = 0; j < o.count[k]; ++j) {
+          if (q[k][j] > env[4 * j]) { env[4 * j] = q[k][j]; env[4 * j + 1] = t; }
+          if (q[k][j] < env[4 * j + 2]) { env[4 * j + 2] = q[k][j]; env[4 * j + 3] = t; }
+        }
+      }
+    }
+    I.ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   I.lastSample = t;
   ++I.samples;
 }
@@ -321,6 +436,7 @@ void ResultsWriter::writeStage(const std::string& name, long long steps, double 
 
 void ResultsWriter::flush() {
   auto& I = *impl_;
+  I.writeRingEnvelopes();
   if (I.guard) I.guard->reserve(I.ledger.pending + kMetadataMargin);
   if (H5Fflush(I.file, H5F_SCOPE_GLOBAL) < 0)
     throw OutputError("cannot flush the results to " + h5::writeFailure(I.file));

@@ -230,9 +230,10 @@ struct LinedResult {
   Index steps = 0, elems = 0;  // relaxation steps of all four stages, elements
 };
 
-inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, Real Lfactor = 20) {
-  tqtest::StagedRun run;
-  QuarterSpec qs;
+/// The lined tunnel's quarter model (lining a = 4.5 m to b = 5.25 m, bonded) in `run`, relaxed
+/// through in_situ → excavation → lining → hydrostatic (uniform internal pressure pi).
+inline void runLinedTunnel(tqtest::StagedRun& run, QuarterSpec& qs, Index nTheta, Index nThrough, Real pi, Real p0,
+                           Real Lfactor = 20) {
   qs.nTheta = nTheta;
   qs.liningT = 0.75;
   qs.L = Lfactor * qs.b;
@@ -256,6 +257,12 @@ inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, R
   run.build();
   std::ostringstream log;
   run.stages->runStatics(log);
+}
+
+inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, Real Lfactor = 20) {
+  tqtest::StagedRun run;
+  QuarterSpec qs;
+  runLinedTunnel(run, qs, nTheta, nThrough, pi, p0, Lfactor);
   const ElementBlock* lin = nullptr;
   for (const auto& b : run.solver->blocks())
     if (b->name() == "lining") lin = b.get();

@@ -43,6 +43,7 @@ struct SolidInput {
   std::vector<LoadInput> loads;
   std::vector<MonitorInput> monitors;
   Real monitorDt = 0.005;  ///< monitor and energy sampling interval (s)
+  bool ringForces = true;  ///< lining section forces and diameter changes at every sample (tq/ring_forces.hpp)
   std::vector<Real> snapshotTimes;  ///< field snapshot times (s)
   Real progressSeconds = 5;         ///< wall time between progress lines (s)
   std::vector<std::string> requiredFaces;  ///< face groups the run needs (checked on the mesh)

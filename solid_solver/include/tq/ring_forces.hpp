@@ -1,0 +1,91 @@
+/// @file ring_forces.hpp
+/// @brief Lining section forces around the ring: thrust N, moment M and shear V per unit length of
+///        tunnel at every radial line of lining nodes (a "section"), from the internal forces of the
+///        lining elements on either side of it, and the change of the inner diameters (ovaling).
+///        Conventions and method: docs/theory.md "Lining section forces".
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "tq/element_block.hpp"
+#include "tq/mesh.hpp"
+
+namespace tq {
+
+class Solver;
+
+/// One ring: the lining elements of one axial element layer, each between two radial lines of
+/// nodes. A section is the mid-plane of an element column (the elements between two neighbouring
+/// lines, one per layer through the thickness), where the one-point element samples its stress.
+struct LiningRing {
+  Real yMin = 0, yMax = 0;         ///< axial extent of the layer (m)
+  Real xc = 0, zc = 0;             ///< ring centre in the x–z plane (m)
+  Real rInner = 0, rOuter = 0;     ///< mean inner and outer radius (m)
+  Real rMid = 0;                   ///< mid-surface radius ½(rInner + rOuter): the moments' reference
+  bool closed = false;             ///< a whole ring (otherwise a sector)
+  std::vector<Real> angle;         ///< section angles θ (rad, from +x towards +z, in (−π, π]), ascending
+  std::vector<Real> lineAngle;     ///< angles of the radial node lines, ascending
+  std::vector<Real> diameterAngle; ///< direction of each diameter, in [0, π) (closed rings)
+  /// Per section, its elements through the thickness, inner to outer: block element, middle of
+  /// its radial extent and that extent (m).
+  struct Layer {
+    Index elem;
+    Real r, h;
+  };
+  std::vector<std::vector<Layer>> column;
+  std::vector<std::vector<Index>> inner;  ///< per node line: its inner-face nodes (smallest radius)
+  std::vector<std::array<int, 2>> diameters;  ///< node lines at either end of each diameter
+};
+
+/// Finds the rings and evaluates their section forces. The lining block's mesh must be a polar
+/// grid in the ring's plane (each element between two radial node lines); otherwise there is no
+/// ring and note() says why.
+class RingForces {
+public:
+  /// @param axial y of the rings wanted: one ring per axial element layer that contains one of
+  ///        them (a slice has one layer); none given: the middle layer.
+  RingForces(const Mesh& mesh, const ElementBlock& lining, const std::vector<Real>& axial);
+  const std::vector<LiningRing>& rings() const { return rings_; }
+  const std::string& note() const { return note_; }
+  const ElementBlock& block() const { return *lining_; }
+
+  /// Section forces of ring r per unit length of tunnel from the lining's stresses as last
+  /// evaluated: N = ∫σθθ dr (N/m, tension positive), M = ∫σθθ (r_mid − r) dr (N·m/m, positive with
+  /// tension at the inner face), V = ∫σrθ dr (N/m, positive when the θ+ side pushes the θ− side
+  /// outwards), σ in the polar axes of the section. N and V: each element's stress over its radial
+  /// extent; M: σθθ(r) fitted by a straight line through the elements' values at the middles of
+  /// their radial extents (least squares, weights the extents): exact for a stress linear through the thickness. A section
+  /// of one element through the thickness has no such line: M is NaN.
+  void sectionForces(size_t r, Real* N, Real* M, Real* V) const;
+  /// Change of each inner diameter of ring r (m, elongation positive) for the displacements
+  /// rel(node, d) (e.g. relative to the seismic start).
+  template <class Rel>
+  void diameterChanges(size_t r, const Rel& rel, Real* dd) const {
+    const LiningRing& R = rings_[r];
+    for (size_t k = 0; k < R.diameters.size(); ++k) {
+      Real ua[3] = {0, 0, 0}, xa[3] = {0, 0, 0};
+      for (int side = 0; side < 2; ++side) {
+        const auto& nodes = R.inner[size_t(R.diameters[k][side])];
+        const Real sgn = side == 0 ? 1.0 : -1.0, w = sgn / Real(nodes.size());
+        for (Index n : nodes)
+          for (int d = 0; d < 3; ++d) {
+            ua[d] += w * rel(n, d);
+            xa[d] += w * mesh_.coords[3 * size_t(n) + d];
+          }
+      }
+      const Real len = std::sqrt(xa[0] * xa[0] + xa[2] * xa[2]);
+      dd[k] = (ua[0] * xa[0] + ua[2] * xa[2]) / len;
+    }
+  }
+
+private:
+  const Mesh& mesh_;
+  const ElementBlock* lining_;
+  std::vector<LiningRing> rings_;
+  std::string note_;
+};
+
+}  // namespace tq
