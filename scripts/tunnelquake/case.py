@@ -112,6 +112,36 @@ def _component_section(what: str) -> Section:
     })
 
 
+def design_mapping(d: dict) -> dict | None:
+    """The `design:` block as the capacity check reads it (design.capacity.DesignParameters
+    .from_mapping), or None when the case gives no concrete strength (the lining's are used)."""
+    des = d.get("design") or {}
+    if not (des.get("concrete") or {}).get("fck"):
+        return None
+    out = {k: v for k, v in des.items() if k not in ("concrete", "reinforcement")}
+    out["concrete"] = {k: v for k, v in des["concrete"].items() if v is not None}
+    reinf = {k: v for k, v in (des.get("reinforcement") or {}).items() if v is not None}
+    if reinf.get("As_inner", 0) + reinf.get("As_outer", 0) > 0:
+        out["reinforcement"] = reinf
+    return out
+
+
+def _check_design(des, path, raw, ctx):
+    given = getattr(raw, "key_lines", {})
+    if not given:
+        return
+    if not (des.get("concrete") or {}).get("fck"):
+        ctx.error(f"{path}.concrete.fck", None, "is required with a design block",
+                  "add design: {concrete: {fck: 30 MPa}} (the concrete's characteristic strength)", raw.line)
+        return
+    from .design.capacity import DesignParameters
+
+    try:
+        DesignParameters.from_mapping(design_mapping({"design": des}), path)
+    except ValueError as e:
+        ctx.error(path, None, str(e), "correct the value (docs/design_checks.md)", raw.line)
+
+
 def _check_ground_motion(gm, path, raw, ctx):
     if gm["source"] == "file" and gm["file"] is None:
         ctx.error(f"{path}.file", None, "is required when source is 'file'",
@@ -453,6 +483,34 @@ def schema() -> Section:
         }),
         "reference": Section(doc="a published run this case reproduces, compared with in the report", fields={
             "paper": Choice(choices=PAPERS, default=None, doc=PAPER_DOC),
+        }),
+        "design": Section(checks=[_check_design], fields={
+            "code": Choice(choices=("EN1992-1-1",), default="EN1992-1-1",
+                           doc="the code of the lining's capacity check (docs/design_checks.md)"),
+            "gamma_c": Number(min=0.0, min_open=True, default=1.5, doc="partial factor of concrete"),
+            "gamma_s": Number(min=0.0, min_open=True, default=1.15, doc="partial factor of reinforcement"),
+            "alpha_cc": Number(min=0.0, min_open=True, default=1.0, doc="long-term factor on fcd, reinforced"),
+            "alpha_cc_plain": Number(min=0.0, min_open=True, default=0.8, doc="alpha_cc,pl of plain concrete"),
+            "alpha_ct_plain": Number(min=0.0, min_open=True, default=0.8, doc="alpha_ct,pl of plain concrete"),
+            "stress_block": Choice(choices=("parabola_rectangle", "rectangular"), default="parabola_rectangle"),
+            "cracking_strength": Choice(choices=("fctm", "fctk_005", "fctm_fl", "fctd_pl"), default="fctm",
+                                        doc="the tensile strength the cracking check uses"),
+            "utilisation": Choice(choices=("radial", "constant_N"), default="radial",
+                                  doc="of a reinforced section: along the ray from the origin, or at constant N"),
+            "concrete": Section(fields={
+                "fck": _positive(U.PRESSURE, "characteristic cylinder strength, Pa (default: the lining's "
+                                             "compressive_strength)"),
+                "fctm": _positive(U.PRESSURE, "mean tensile strength, Pa (default: from fck, EN 1992-1-1 "
+                                              "Table 3.1; without a design block the lining's tensile_strength)"),
+            }),
+            "reinforcement": Section(fields={
+                "fyk": _positive(U.PRESSURE, "characteristic yield strength, Pa", default=500e6),
+                "Es": _positive(U.PRESSURE, "Young's modulus of the steel, Pa", default=200e9),
+                "eps_ud": Number(min=0.0, min_open=True, doc="steel strain limit (none: no limit)"),
+                "As_inner": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the inner face, m^2/m"),
+                "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the outer face, m^2/m"),
+                "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
+            }),
         }),
         "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),

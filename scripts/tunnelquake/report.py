@@ -307,18 +307,18 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None, carried: b
     return out
 
 
-# ---- lining forces: the place of the designer's section ----------------------------------------
+# ---- lining forces: the designer's section ------------------------------------------------------
 #
-# The section a designer reads first: per condition, the thrust N, moment M and shear V around the
-# ring (envelopes per ring section), the ovaling, and the capacity utilisation of the section. The
-# solver writes the ring forces and a reader (ring_forces.py) and a capacity check (design/) turn
-# them into a design-quantities object; `design_quantities` returns it, `lining_forces_section`
-# writes it. Until they exist the first returns None and the report has no such section.
+# Per condition, the thrust N, moment M and shear V around the ring (envelopes), the ovaling, the
+# capacity utilisation of the section and the closed-form ovaling (design/lining.py, from the ring
+# forces tq-solid writes: ring_forces.py).
 
 def design_quantities(case, results: list[ConditionResult]):
-    """The design quantities of the runs (ring forces, envelopes, ovaling, capacity), or None while
-    the results carry none."""
-    return None
+    """The design quantities of the runs (ring forces, envelopes, ovaling, capacity, the closed-form
+    ovaling), or None when no results file carries lining section forces."""
+    from .design.lining import lining_design
+
+    return lining_design(case, results)
 
 
 def lining_forces_section(design=None) -> list[str]:
