@@ -29,7 +29,9 @@ def main(argv: list[str]) -> int:
     d = case.data
     g = d["geometry"]
     gm = d["ground_motion"]
-    src = gm["file"] if gm["source"] == "file" else f"synthetic (seed {gm['synthetic']['seed']})"
+    src = {"file": gm["file"], "none": "no horizontal motion"}.get(gm["source"], f"synthetic (seed {gm['synthetic']['seed']})")
+    if gm["vertical"]["file"] is not None:
+        src += f"; vertical record {gm['vertical']['file']}"
     which = f", variant {case.variant}" if case.variant else ""
     say(f"case '{d['name']}' is valid ({case.path}{which}); results go to {case.output_dir}")
     say(f"  block x {g['x_range']} y {g['y_range']} z {g['z_range']} m; tunnel r={g['excavated_radius']:g} m "
