@@ -114,9 +114,6 @@ def test_pipe3d_mesh_refines_by_two_in_all_three_directions():
 
 
 def test_closed_ends_are_recognised_from_the_polymesh_boundary():
-    import sys
-
-    sys.path.insert(0, str(bf.ROOT / "tests" / "verification"))
     from fluid_common.tunnel import ends_are_walls
 
     def boundary(kind_min, kind_max):

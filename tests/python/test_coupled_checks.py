@@ -26,14 +26,12 @@ The mesh is the example's coarsened for time (`COARSE`: 24 × 1 lining elements,
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
 h5py = pytest.importorskip("h5py")
 yaml = pytest.importorskip("yaml")
 from tunnelquake import paths  # noqa: E402

@@ -15,13 +15,11 @@ time) +1.6 %; the coupled refinement is in the README.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
 pytest.importorskip("h5py")
 pytest.importorskip("scipy")
 from tunnelquake import paths  # noqa: E402

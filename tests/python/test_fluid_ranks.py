@@ -23,14 +23,12 @@ within 0.02 s; END_S of shaking (about 330 coupling windows).
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
 h5py = pytest.importorskip("h5py")
 yaml = pytest.importorskip("yaml")
 from tunnelquake import paths  # noqa: E402

@@ -18,20 +18,17 @@ from __future__ import annotations
 import math
 import shutil
 import subprocess
-import sys
 import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
+from fluid_common import foamcase as fc
+from fluid_common import pipe
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe  # noqa: E402
-
-from tunnelquake.coupling.fakes import FakeSolid  # noqa: E402
-from tunnelquake.coupling.participant import Participant  # noqa: E402
-from tunnelquake.coupling.protocol import CouplingConfig, FieldSpec, MeshSpec  # noqa: E402
+from tunnelquake.coupling.fakes import FakeSolid
+from tunnelquake.coupling.participant import Participant
+from tunnelquake.coupling.protocol import CouplingConfig, FieldSpec, MeshSpec
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

@@ -27,15 +27,12 @@ implicit laplacian(nuEff, U) (docs/water.md §10).  References and tolerances:
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe, tunnel  # noqa: E402
+from fluid_common import foamcase as fc
+from fluid_common import pipe, tunnel
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

@@ -24,14 +24,11 @@ References:
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
+from fluid_common import foamcase as fc
 
 RHO = 1000.0
 NU = 1.308e-6

@@ -20,17 +20,13 @@ and the moving mesh.  Case description: tests/verification/fluid_open_contractio
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from fluid_common import foamcase as fc
+from fluid_common import pipe, tunnel
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe, tunnel  # noqa: E402
-
-from tunnelquake.references import open_pipe_contraction  # noqa: E402
+from tunnelquake.references import open_pipe_contraction
 
 pytest.importorskip("gmsh")
 _reason = fc.openfoam_missing_reason()

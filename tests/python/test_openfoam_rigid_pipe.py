@@ -7,15 +7,12 @@ p(theta) = p0 - rho a R cos(theta) within 2 % of rho a R; resultant rho pi R^2 L
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe  # noqa: E402
+from fluid_common import foamcase as fc
+from fluid_common import pipe
 
 R = 4.5
 A0 = 1.0  # m/s^2

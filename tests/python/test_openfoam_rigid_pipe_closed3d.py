@@ -16,15 +16,12 @@ N = 48 faces around (9 cells along the 9 m pipe), 50 steps a period at 1 Hz: a f
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 import pytest
+from fluid_common import foamcase as fc
 
 from tunnelquake import bench_fluid as bf
-
-sys.path.insert(0, str(bf.ROOT / "tests" / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

@@ -21,15 +21,12 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe  # noqa: E402
+from fluid_common import foamcase as fc
+from fluid_common import pipe
 
 gmsh = pytest.importorskip("gmsh")
 _reason = fc.openfoam_missing_reason()

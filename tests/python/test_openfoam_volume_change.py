@@ -9,15 +9,12 @@ preserved) must run: the check does not fire on round-off.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "verification"))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe  # noqa: E402
+from fluid_common import foamcase as fc
+from fluid_common import pipe
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

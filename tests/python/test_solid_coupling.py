@@ -26,7 +26,6 @@ import pytest
 h5py = pytest.importorskip("h5py")
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
 from tunnelquake.coupling.fakes import RingScenario  # noqa: E402
 from tunnelquake.paths import solid_executable  # noqa: E402
 

@@ -39,7 +39,6 @@ import pytest
 
 h5py = pytest.importorskip("h5py")
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 import test_solid_coupling as base  # noqa: E402  (the ring, its input and the results reader)
 
 ROOT = base.ROOT
