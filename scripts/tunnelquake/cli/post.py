@@ -172,5 +172,12 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
+    if case.data["suite"]["records"] is not None:
+        from ..suite import plan_members, write_report
+        from .suite_run import read_state
+
+        members = plan_members(case)
+        say(f"suite report: {write_report(case, members, {m.name: read_state(m.folder) for m in members})}")
+        return 0
     post_case(case)
     return 0
