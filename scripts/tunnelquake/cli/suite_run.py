@@ -29,6 +29,8 @@ PROGRESS_S = float(os.environ.get("TQ_SUITE_PROGRESS_S", "30"))
 #: children.STOP_GRACE_S + KILL_WAIT_S, then run.JOB_WIND_DOWN_S) before their workers are killed
 STOP_BOUND_S = 15.0
 STATE = "member.json"
+#: written in the suite's folder when it is being stopped: a member handed out does not start
+STOP_FILE = ".suite-stop"
 
 
 def add_arguments(p) -> None:
@@ -65,13 +67,16 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run_member(case_file: str) -> dict:
+def run_member(case_file: str, no_post: bool = False, stop_file: str | None = None) -> dict:
     """Run one member (`tunnelquake run <member case>`) in this process, its output to run.log
-    beside it; returns {name, rc, status, wall_s}."""
+    beside it; returns {name, rc, status, wall_s}. A member whose turn comes once `stop_file`
+    exists (the suite is being stopped; a pool may have handed it out already) does not start."""
     import traceback
 
     folder = Path(case_file).parent
     name = folder.name
+    if stop_file is not None and Path(stop_file).exists():
+        return {"name": name, "rc": None, "status": "not started", "wall_s": 0.0}
     t0 = time.time()
     state = {"name": name, "status": "running", "pid": os.getpid(), "host": os.uname().nodename, "started": t0}
     _write_state(folder, state)
@@ -85,7 +90,7 @@ def run_member(case_file: str) -> dict:
         try:
             from .run import main as run_main
 
-            rc = run_main([case_file])
+            rc = run_main([case_file, *(["--no-post"] if no_post else [])])
         except BaseException:  # noqa: BLE001 - a member's crash is its own; the suite goes on
             traceback.print_exc()
             rc = 1
@@ -329,6 +334,8 @@ def main(case, args, argv) -> int:
 def _run_pool(case, args, members, todo, need, results) -> int | None:
     from concurrent.futures import FIRST_COMPLETED, wait
 
+    from ..suite import suite_dir
+
     kind = args.executor or ("mpi" if _under_mpi4py_futures() else "local")
     cores = len(os.sched_getaffinity(0))
     workers = args.workers or int(case.data["suite"]["workers"]) or max(1, cores // max(need, 1))
@@ -343,13 +350,15 @@ def _run_pool(case, args, members, todo, need, results) -> int | None:
     before = {sig: signal.getsignal(sig) for sig in names.values()}
     t0 = time.time()
     pool = None
+    stop_file = suite_dir(case) / STOP_FILE
     try:
         for sig in names.values():
             signal.signal(sig, on_signal)
         pool, workers = _executor(kind, workers)
         say(f"suite: running {len(todo)} member(s) on {workers} {'MPI worker(s)' if kind == 'mpi' else 'worker(s)'}"
             f" ({need} core(s) a member, {cores} core(s) here); logs in members/<name>/run.log")
-        futures = {pool.submit(run_member, str(m.case_file)): m for m in todo}
+        stop_file.unlink(missing_ok=True)
+        futures = {pool.submit(run_member, str(m.case_file), args.no_post, str(stop_file)): m for m in todo}
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=PROGRESS_S, return_when=FIRST_COMPLETED)
@@ -373,6 +382,7 @@ def _run_pool(case, args, members, todo, need, results) -> int | None:
 
         QUIET.set()
         signame = {v: k for k, v in names.items()}[e.signum]
+        stop_file.touch()
         for f in list(locals().get("futures", {})):
             f.cancel()
         stopped = _stop_members(todo, pool) if pool is not None else {"killed": []}
