@@ -299,17 +299,19 @@ def main(case, args, argv) -> int:
             say(f"suite: finished earlier, kept: {', '.join(m.name for m in finished)}")
         if args.resume:
             say(f"suite: resuming: {len(todo)} member(s) left: {', '.join(m.name for m in todo) or 'none'}")
-        summary = make_mesh(case)
+        make_mesh(case)  # once for all members: each gets a copy
         for m in todo:
             write_member(m)
             shutil.copytree(mesh_dir(case), m.folder / "mesh", dirs_exist_ok=True)
         need = member_need(case, mesh_dir(case) / "mesh.h5")
         if args.slurm:
-            script = write_slurm(case, todo or members, need, str(args.case))
+            if not todo:
+                say("suite: every member finished: no job array to submit")
+                return 0
+            script = write_slurm(case, todo, need, str(args.case))
             say(f"suite: Slurm job array of {len(todo)} member(s) written: {script} (sbatch {script}); then "
                 f"`tunnelquake post {args.case}` writes the suite report")
             return 0
-        del summary
         results: dict[str, dict] = {}
         rc = 0
         if todo:
