@@ -267,13 +267,9 @@ def write_slurm(case, members, need: int, argv_case: str) -> Path:
 
 
 def main(case, args, argv) -> int:
-    """Run the suite of `case` (the parsed `tunnelquake run` arguments `args`)."""
-    import shutil
-
-    from ..motion import MotionError
+    """Run the suite of `case` (the parsed `tunnelquake run` arguments `args`) holding its folder."""
     from ..runlock import RunLockBusy, run_lock
-    from ..suite import member_conditions, member_finished, plan_members, suite_dir, write_member, write_report
-    from .mesh import make_mesh, mesh_dir
+    from ..suite import suite_dir
 
     folder = suite_dir(case)
     try:
@@ -283,54 +279,68 @@ def main(case, args, argv) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 1
     try:
-        if note:
-            say(f"note: {note}")
-        try:
-            members = plan_members(case)
-        except (MotionError, ValueError) as e:
-            print(f"error: suite: {e}", file=sys.stderr)
-            return 1
-        conds = member_conditions(case)
-        say(f"suite '{case.data['name']}': {len(members)} members x {len(conds)} condition(s) "
-            f"({', '.join(conds)}); results in {folder}")
-        finished = [m for m in members if member_finished(m, conds)]
-        todo = [m for m in members if m not in finished]
-        if finished:
-            say(f"suite: finished earlier, kept: {', '.join(m.name for m in finished)}")
-        if args.resume:
-            say(f"suite: resuming: {len(todo)} member(s) left: {', '.join(m.name for m in todo) or 'none'}")
-        make_mesh(case)  # once for all members: each gets a copy
-        for m in todo:
-            write_member(m)
-            shutil.copytree(mesh_dir(case), m.folder / "mesh", dirs_exist_ok=True)
-        need = member_need(case, mesh_dir(case) / "mesh.h5")
-        if args.slurm:
-            if not todo:
-                say("suite: every member finished: no job array to submit")
-                return 0
-            script = write_slurm(case, todo, need, str(args.case))
-            say(f"suite: Slurm job array of {len(todo)} member(s) written: {script} (sbatch {script}); then "
-                f"`tunnelquake post {args.case}` writes the suite report")
-            return 0
-        results: dict[str, dict] = {}
-        rc = 0
-        if todo:
-            rc = _run_pool(case, args, members, todo, need, results)
-            if rc is not None and rc > 128:
-                return rc
-        states = {m.name: read_state(m.folder) for m in members}
-        failed = [r for r in results.values() if r["status"] != "completed"]
-        if args.no_post:
-            say("suite: report skipped (--no-post); `tunnelquake post` writes it")
-        else:
-            report = write_report(case, members, states)
-            say(f"suite: report {report}")
-        for r in failed:
-            say(f"suite: member {r['name']} FAILED (exit {r['rc']}); its log: "
-                f"{folder / 'members' / r['name'] / 'run.log'}")
-        return 1 if failed else 0
+        return _suite(case, args, argv, note)
+    except KeyboardInterrupt:  # before the members start (planning, meshing): nothing to stop
+        print("tunnelquake run: suite interrupted by SIGINT before any member started", file=sys.stderr)
+        return 130
     finally:
         lock.__exit__(None, None, None)
+
+
+def _suite(case, args, argv, note) -> int:
+    import shutil
+
+    from ..motion import MotionError
+    from ..suite import member_conditions, member_finished, plan_members, suite_dir, write_member, write_report
+    from .mesh import make_mesh, mesh_dir
+
+    folder = suite_dir(case)
+    if note:
+        say(f"note: {note}")
+    try:
+        members = plan_members(case)
+    except (MotionError, ValueError) as e:
+        print(f"error: suite: {e}", file=sys.stderr)
+        return 1
+    conds = member_conditions(case)
+    say(f"suite '{case.data['name']}': {len(members)} members x {len(conds)} condition(s) "
+        f"({', '.join(conds)}); results in {folder}")
+    finished = [m for m in members if member_finished(m, conds)]
+    todo = [m for m in members if m not in finished]
+    if finished:
+        say(f"suite: finished earlier, kept: {', '.join(m.name for m in finished)}")
+    if args.resume:
+        say(f"suite: resuming: {len(todo)} member(s) left: {', '.join(m.name for m in todo) or 'none'}")
+    make_mesh(case)  # once for all members: each gets a copy
+    for m in todo:
+        write_member(m)
+        shutil.copytree(mesh_dir(case), m.folder / "mesh", dirs_exist_ok=True)
+    need = member_need(case, mesh_dir(case) / "mesh.h5")
+    if args.slurm:
+        if not todo:
+            say("suite: every member finished: no job array to submit")
+            return 0
+        script = write_slurm(case, todo, need, str(args.case))
+        say(f"suite: Slurm job array of {len(todo)} member(s) written: {script} (sbatch {script}); then "
+            f"`tunnelquake post {args.case}` writes the suite report")
+        return 0
+    results: dict[str, dict] = {}
+    rc = 0
+    if todo:
+        rc = _run_pool(case, args, members, todo, need, results)
+        if rc is not None and rc > 128:
+            return rc
+    states = {m.name: read_state(m.folder) for m in members}
+    failed = [r for r in results.values() if r["status"] != "completed"]
+    if args.no_post:
+        say("suite: report skipped (--no-post); `tunnelquake post` writes it")
+    else:
+        report = write_report(case, members, states)
+        say(f"suite: report {report}")
+    for r in failed:
+        say(f"suite: member {r['name']} FAILED (exit {r['rc']}); its log: "
+            f"{folder / 'members' / r['name'] / 'run.log'}")
+    return 1 if failed else 0
 
 
 def _run_pool(case, args, members, todo, need, results) -> int | None:
