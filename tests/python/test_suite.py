@@ -422,3 +422,27 @@ def test_ctrl_c_stops_every_member_in_bounded_time_and_resume_runs_only_the_rest
     assert after == first
     assert all(_state(tmp_path, m) == "completed" for m in ("r0", "r1", "third"))
     assert (res / "suite_report.md").read_text().count("| completed |") == 3
+
+
+def test_progress_line_counts_members_and_estimates_from_the_solver_progress(tmp_path):
+    """Before any member ends, the ETA comes from the running members' simulated time (their
+    run.log's tq-solid progress lines); after, from the finished members' wall times."""
+    from tunnelquake.cli import suite_run as R
+
+    t0 = time.time() - 100
+    ms = []
+    for k in range(4):
+        folder = tmp_path / f"m{k}"
+        folder.mkdir()
+        ms.append(type("M", (), {"name": f"m{k}", "folder": folder})())
+    for m in ms[:2]:  # running for 100 s, the first of two conditions complete, the second at 5 of 20 s
+        R._write_state(m.folder, {"status": "running", "started": t0})
+        (m.folder / "run.log").write_text("tq-solid: completed 10 steps\n  t = 5 s / 20 s (25 %), step 9\n")
+    assert R.member_fraction(ms[0].folder, 2) == pytest.approx(0.625)
+    assert R.member_fraction(ms[2].folder, 2) is None
+    line = R._progress(ms, ms, {}, 2, t0, 2)
+    # each member 160 s in all: 60 s left for the two running, then 160 s for the two left on 2 workers
+    assert line.startswith("suite: 0 done, 2 running, 2 left of 4; 0 failed;"), line
+    assert line.endswith("ETA 3.7 min"), line  # (2 x 160 + 2 x 60) / 2 = 220 s
+    done = {"m0": {"name": "m0", "status": "completed", "wall_s": 100.0, "rc": 0}}
+    assert R._progress(ms, ms, done, 2, t0, 2).startswith("suite: 1 done, 1 running, 2 left of 4")

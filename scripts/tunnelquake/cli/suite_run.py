@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import sys
 import time
@@ -124,10 +125,29 @@ def member_need(case, mesh_h5) -> int:
     return max(threads, ranks) + (threads if len(conds) > 1 else 0)
 
 
-def _progress(members, todo, results: dict, workers: int, t0: float) -> str:
+_SIMULATED = re.compile(r"t = ([0-9.eE+-]+) s / ([0-9.eE+-]+) s")
+
+
+def member_fraction(folder: Path, conditions: int) -> float | None:
+    """How far a running member is, from its run.log: the conditions whose solver completed and the
+    simulated time of the last progress line of tq-solid (`t = 8.9 s / 20 s ...`); None before one."""
+    try:
+        text = (Path(folder) / "run.log").read_text(errors="replace")
+    except OSError:
+        return None
+    done = text.count("tq-solid: completed")
+    matches = list(_SIMULATED.finditer(text[-4096:]))
+    last = matches[-1] if matches else None
+    if last is None and not done:
+        return None
+    part = float(last.group(1)) / float(last.group(2)) if last is not None and float(last.group(2)) > 0 else 0.0
+    return min(1.0, (done + (part if done < conditions else 0.0)) / max(conditions, 1))
+
+
+def _progress(members, todo, results: dict, workers: int, t0: float, conditions: int = 1) -> str:
     now = time.time()
     done = [n for n in results]
-    running, elapsed = [], []
+    running, elapsed, totals = [], [], []
     for m in todo:
         if m.name in results:
             continue
@@ -135,15 +155,18 @@ def _progress(members, todo, results: dict, workers: int, t0: float) -> str:
         if st.get("status") == "running" and st.get("started", 0) >= t0 - 1:
             running.append(m.name)
             elapsed.append(now - st["started"])
+            f = member_fraction(m.folder, conditions)
+            if f is not None and f > 0.02:
+                totals.append(elapsed[-1] / f)
     left = len(todo) - len(done) - len(running)
     failed = sum(1 for r in results.values() if r["status"] != "completed")
-    walls = [r["wall_s"] for r in results.values() if r["status"] == "completed"]
+    walls = [r["wall_s"] for r in results.values() if r["status"] == "completed"] or totals
     if walls:
         mean = sum(walls) / len(walls)
         eta_s = (left * mean + sum(max(mean - e, 0.0) for e in elapsed)) / max(workers, 1)
         eta = f"ETA {_dur(eta_s)}"
     else:
-        eta = "ETA after the first member"
+        eta = "ETA once a member has started shaking"
     kept = len(members) - len(todo)
     return (f"suite: {len(done) + kept} done{f' ({kept} earlier)' if kept else ''}, {len(running)} running, "
             f"{left} left of {len(members)}; {failed} failed; {_dur(now - t0)} elapsed, {eta}")
@@ -346,7 +369,7 @@ def _suite(case, args, argv, note) -> int:
 def _run_pool(case, args, members, todo, need, results) -> int | None:
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    from ..suite import suite_dir
+    from ..suite import member_conditions, suite_dir
 
     kind = args.executor or ("mpi" if _under_mpi4py_futures() else "local")
     cores = len(os.sched_getaffinity(0))
@@ -386,7 +409,7 @@ def _run_pool(case, args, members, todo, need, results) -> int | None:
                 if what == "failed":
                     what = f"FAILED (exit {r['rc']}{', ' + r['error'] if 'error' in r else ''})"
                 say(f"suite: member {m.name} {what} in {r['wall_s']:.1f} s")
-            say(_progress(members, todo, results, workers, t0))
+            say(_progress(members, todo, results, workers, t0, len(member_conditions(case))))
         pool.shutdown(wait=True)
         return 0
     except _Signalled as e:
