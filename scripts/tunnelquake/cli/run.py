@@ -428,7 +428,7 @@ def main(argv: list[str]) -> int:
         return suite_run.main(case, args, argv)
     used = [f"--{k}" for k in ("workers", "executor", "resume", "slurm") if getattr(args, k) not in (None, False)]
     if used:
-        print(f"error: {', '.join(used)} apply to a case with a suite: section (docs/user_guide.md \"Record "
+        print(f"error: {', '.join(used)}: only for a case with a suite: section (docs/user_guide.md \"Record "
               "suites\")", file=sys.stderr)
         return 1
     with contextlib.ExitStack() as stack:
