@@ -269,6 +269,13 @@ def _mesh_section() -> Section:
     return Section(fields=fields, doc="mesh controls")
 
 
+def _suite_section() -> Section:
+    """The `suite:` keys (a set of records run as one job); their meaning is in suite.py."""
+    from .suite import suite_section
+
+    return suite_section()
+
+
 def schema() -> Section:
     from .paper import PAPER_DOC, PAPERS
 
@@ -512,6 +519,7 @@ def schema() -> Section:
                 "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
             }),
         }),
+        "suite": _suite_section(),
         "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
@@ -624,6 +632,10 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += paper.case_issues(d, raw.key_lines.get("reference"))
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
+    if d["suite"]["records"] is not None:
+        from .suite import suite_checks
+
+        issues += suite_checks(d, raw, filename, warnings)
     return issues, warnings
 
 

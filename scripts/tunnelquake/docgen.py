@@ -47,6 +47,9 @@ def rows(spec: Section, prefix: str = ""):
         if isinstance(sub, Section):
             yield f"| `{path}` | section | {'**required**' if sub.required else ''} | {sub.doc} |"
             yield from rows(sub, path + ".")
+        elif isinstance(sub, ListOf) and isinstance(sub.item, Section):
+            yield f"| `{path}[]` | list | {_default(sub)} | {sub.doc} |"
+            yield from rows(sub.item, path + "[].")
         elif isinstance(sub, MapOf):
             yield f"| `{path}.<name>` | mapping | {'**required**' if sub.required else ''} | {sub.doc} |"
             if isinstance(sub.item, Section):

@@ -4,6 +4,7 @@
     tunnelquake mesh   case.yaml    gmsh mesh -> mesh.h5 (solid) + water.msh
     tunnelquake motion case.yaml    ground motion -> motion.h5 + input figure
     tunnelquake run    case.yaml    mesh, motion, then each condition with only the solvers it needs
+                                    (a case with suite: every member x condition, suite_report.md)
     tunnelquake post   case.yaml    results -> CSV monitors, figures, report
     tunnelquake bench  FOLDER       error against wall time of the verification cases (benchmark)
 """

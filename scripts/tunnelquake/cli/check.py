@@ -63,6 +63,16 @@ def main(argv: list[str]) -> int:
             print(f"warning: slice mode is not equivalent to the 3D model here: {r}")
     for a in sl.advice:
         say(f"  advice: {a}")
+    if d["suite"]["records"] is not None:
+        from ..suite import combination_rule, plan_members
+
+        members = plan_members(case)
+        rule = combination_rule(d["suite"]["combine"], len(members))
+        say(f"  suite: {len(members)} members (scaling {d['suite']['scaling']}, combined by {rule}), each in "
+            f"{case.output_dir / 'members'}/<name>:")
+        for m in members:
+            say(f"    {m.name}: {m.record.path} ({m.record.units}, {m.record.direction}) x {m.factor:.5g}, "
+                f"PGA {m.pga:.4g} m/s^2")
     if case.warnings:
         say(f"  {len(case.warnings)} warning(s) above")
     return 0

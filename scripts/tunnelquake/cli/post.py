@@ -247,6 +247,13 @@ def main(argv: list[str]) -> int:
     with folder_held(case, "tunnelquake post " + " ".join(map(str, argv))) as held:
         if not held:
             return 1
+        if case.data["suite"]["records"] is not None:
+            from ..suite import plan_members, write_report
+            from .suite_run import read_state
+
+            members = plan_members(case)
+            say(f"suite report: {write_report(case, members, {m.name: read_state(m.folder) for m in members})}")
+            return 0
         try:
             post_case(case)
         except OutputsNotWritten as e:

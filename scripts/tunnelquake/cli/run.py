@@ -481,9 +481,19 @@ def main(argv: list[str]) -> int:
 
     p = parser("run", __doc__)
     p.add_argument("--no-post", action="store_true", help="skip post-processing")
+    from . import suite_run
+
+    suite_run.add_arguments(p)
     args = p.parse_args(argv)
     case = load_or_report(args.case, args.variant)
     if case is None:
+        return 1
+    if case.data["suite"]["records"] is not None:
+        return suite_run.main(case, args, argv)
+    used = [f"--{k}" for k in ("workers", "executor", "resume", "slurm") if getattr(args, k) not in (None, False)]
+    if used:
+        print(f"error: {', '.join(used)}: only for a case with a suite: section (docs/user_guide.md \"Record "
+              "suites\")", file=sys.stderr)
         return 1
     with contextlib.ExitStack() as stack:
         try:

@@ -1,0 +1,709 @@
+"""Record suites: one case run under a set of ground-motion records, and the design value combined
+from the members' peaks.
+
+The case file's `suite:` section lists the records (files, or folder globs, each with its units),
+how each is scaled, and the rule that combines the members' results. Each record makes one
+*member*: a case of its own, written as `<results>/members/<name>/case.yaml`, that is the suite's
+case with `ground_motion.file` set to the record and `ground_motion.pga` set to the scaled record's
+peak, so the single-run machinery (`tunnelquake run`) runs each member unchanged.
+
+Scaling (amplitude only: the record's shape is kept)
+  pga        each processed record (window, low-pass, baseline as `ground_motion` says) is scaled to
+             the PGA `suite.pga` (or the record's own `pga`, or `ground_motion.pga`).
+  spectrum   two steps (ASCE 7-16 C16.2.3): each record is first scaled by f_i, the geometric mean
+             of target / Sa_i over the period grid of [T1, T2] (its best log-fit to the target);
+             then the whole set by one factor c so that the mean of the scaled spectra, at its
+             lowest against the target over [T1, T2], is `fraction` x the target: the mean lies on or
+             above fraction x target over the range and touches it.
+  none       the records as processed.
+The target is a table of (T, Sa) points (linear between them) or the EN 1998-1 type 1 elastic
+spectrum (§3.2.2.2, Table 3.2: ground types A-E, 5 % damping, eta = 1) for a design ground
+acceleration ag on type A ground (ag = gamma_I agR).
+
+Spectra are 5 %-damped pseudo-accelerations Sa = w^2 max|u| of the linear SDOF
+u'' + 2 zeta w u' + w^2 u = -a_g(t), integrated exactly for an excitation linear between samples
+(Nigam & Jennings 1969; Chopra, Dynamics of Structures, §5.2), the step of the record itself.
+
+Combination (`combine`)
+  EN 1998-1:2004 §4.3.3.4.3(3): with at least 7 time-history analyses the mean of each response
+  quantity is the design value; with fewer, the most unfavourable (the maximum of the peaks). ASCE
+  7-10 §16.1.4 has the same threshold; ASCE 7-16 §16.2.2 asks 11 records and uses their mean.
+  `auto` applies the 7-record rule; `mean` and `max` force one.
+"""
+from __future__ import annotations
+
+import glob as _glob
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import units as U
+from .schema import Choice, ListOf, Number, Section, Text, Tuple
+
+#: members needed for the mean (EN 1998-1 §4.3.3.4.3(3), ASCE 7-10 §16.1.4)
+MEAN_FROM = 7
+#: damping ratio of the spectra
+DAMPING = 0.05
+#: periods (s) of the spectra figure and of the scaling grid
+SCALING_POINTS = 60
+UNITS = ("g", "m/s^2", "cm/s^2", "gal")
+#: EN 1998-1 Table 3.2, type 1 spectrum: S, T_B, T_C, T_D (s)
+EC8_TYPE1 = {"A": (1.0, 0.15, 0.4, 2.0), "B": (1.2, 0.15, 0.5, 2.0), "C": (1.15, 0.20, 0.6, 2.0),
+             "D": (1.35, 0.20, 0.8, 2.0), "E": (1.4, 0.15, 0.5, 2.0)}
+
+
+# ----------------------------------------------------------------------------------------------
+# The case file's keys
+# ----------------------------------------------------------------------------------------------
+def _check_record(r, path, raw, ctx):
+    if (r["file"] is None) == (r["glob"] is None):
+        ctx.error(path, dict(raw), "needs exactly one of 'file' and 'glob'",
+                  "write 'file: <record>' for one record or 'glob: <folder>/*.AT2' for every match", raw.line)
+
+
+def _check_suite(s, path, raw, ctx):
+    lines = getattr(raw, "key_lines", {})
+    if s["records"] is None:
+        if raw:
+            ctx.error(f"{path}.records", None, "is missing: a suite needs its records",
+                      "add 'records:' with '- {file: <record>, units: g}' entries", raw.line)
+        return
+    if s["scaling"] == "spectrum":
+        if s["periods"] is None:
+            ctx.error(f"{path}.periods", None, "is required by scaling: spectrum",
+                      "add 'periods: [T1, T2]', the structure's period range in s", lines.get("scaling"))
+            return
+        t1, t2 = s["periods"]
+        if s["target"] == "ec8_type1" and s["ec8"]["ag"] is None:
+            ctx.error(f"{path}.ec8.ag", None, "is required by target: ec8_type1",
+                      "add 'ec8: {ag: 0.25 g, ground_type: B}' (ag = importance factor x reference PGA on rock)",
+                      lines.get("target") or lines.get("scaling"))
+        if s["target"] == "table":
+            tp, sa = s["table"]["periods"], s["table"]["sa"]
+            tl = lines.get("table") or lines.get("target")
+            if tp is None or sa is None or len(tp) != len(sa) or len(tp) < 2:
+                ctx.error(f"{path}.table", None, "needs 'periods' and 'sa' lists of the same length (2 or more)",
+                          "write 'table: {periods: [0.1 s, 0.5 s, 2 s], sa: [0.6 g, 0.6 g, 0.15 g]}'", tl)
+            elif any(b <= a for a, b in zip(tp, tp[1:], strict=False)):
+                ctx.error(f"{path}.table.periods", tp, "must be increasing", "list the periods from short to long",
+                          tl)
+            elif t1 < tp[0] or t2 > tp[-1]:
+                ctx.error(f"{path}.periods", s["periods"],
+                          f"reaches outside the target table ({tp[0]:g} s to {tp[-1]:g} s)",
+                          "extend the table or narrow the period range", lines.get("periods"))
+
+
+def suite_section() -> Section:
+    record = Section(checks=[_check_record], fields={
+        "file": Text(doc="a record file, relative to the case file"),
+        "glob": Text(doc="a folder glob relative to the case file (e.g. records/*.AT2): one member per matching "
+                         "file, in name order"),
+        "units": Choice(choices=UNITS, required=True, doc="units of the record's values (for every file of a glob)"),
+        "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
+        "name": Text(doc="the member's name (its results subfolder); default: the file's name without its "
+                         "extension (not with glob)"),
+        "direction": Choice(choices=("x", "-x"), default="x",
+                            doc="the record's horizontal motion along +x, or reversed (-x); the vertical follows "
+                                "as ground_motion.vertical_ratio x the horizontal"),
+        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
+                      doc="scaling pga: this member's PGA (default suite.pga), m/s^2"),
+    })
+    return Section(doc="a set of records run as one job, one member per record (docs/user_guide.md \"Record "
+                       "suites\")", checks=[_check_suite], fields={
+        "records": ListOf(item=record, min_length=1,
+                          doc="the records: entries '{file: ..., units: g}' or '{glob: 'dir/*.AT2', units: g}'"),
+        "scaling": Choice(choices=("pga", "spectrum", "none"), default="pga",
+                          doc="pga: each record to a PGA; spectrum: amplitude scaling of the set to the target "
+                              "spectrum over [T1, T2]; none: as processed"),
+        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
+                      doc="scaling pga: the PGA of every record, m/s^2 (default ground_motion.pga)"),
+        "periods": Tuple(item=Number(dim=U.TIME, min=0.0, min_open=True), increasing=True,
+                         doc="scaling spectrum: [T1, T2], the period range the mean spectrum must cover, s "
+                             "(EN 1998-1: 0.2 T1 to 2 T1)"),
+        "target": Choice(choices=("ec8_type1", "table"), default="ec8_type1",
+                         doc="the target spectrum: EN 1998-1 type 1 elastic spectrum (suite.ec8) or a table "
+                             "(suite.table)"),
+        "ec8": Section(fields={
+            "ag": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
+                         doc="design ground acceleration on type A ground, ag = gamma_I agR, m/s^2"),
+            "ground_type": Choice(choices=tuple(EC8_TYPE1), default="B", doc="EN 1998-1 Table 3.2 ground type"),
+        }),
+        "table": Section(fields={
+            "periods": ListOf(item=Number(dim=U.TIME, min=0.0), doc="periods of the target's points, s"),
+            "sa": ListOf(item=Number(dim=U.ACCELERATION, min=0.0),
+                         doc="the target's 5 %-damped pseudo-accelerations at those periods, m/s^2"),
+        }),
+        "fraction": Number(min=0.0, min_open=True, max=1.0, default=1.0,
+                           doc="scaling spectrum: the mean spectrum's lowest ratio to the target over [T1, T2] "
+                               "(1: ASCE 7-10 §16.1.3.1; 0.9: EN 1998-1 §3.2.3.1.2(4), ASCE 7-16 §16.2.3.1)"),
+        "combine": Choice(choices=("auto", "mean", "max"), default="auto",
+                          doc="design value from the members' peaks: auto = mean with 7 members or more, else "
+                              "the maximum (EN 1998-1 §4.3.3.4.3(3))"),
+        "workers": Number(integer=True, min=0, default=0,
+                          doc="members run at once by `tunnelquake run` (--workers overrides); 0: the cores "
+                              "// the cores one member uses"),
+    })
+
+
+# ----------------------------------------------------------------------------------------------
+# Records and members
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class MemberRecord:
+    """One member's record before scaling: where it is and how to read and turn it."""
+
+    name: str
+    path: Path
+    units: str
+    format: str
+    direction: str
+    pga: float | None
+    key: str  # the case-file key it comes from, e.g. suite.records[2]
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "record"
+
+
+def expand_records(suite: dict, case_dir: Path) -> tuple[list[MemberRecord], list[tuple[str, str, str]]]:
+    """The suite's members, in order, and the problems found (key, value, problem): a file not
+    there, a glob that matches nothing, two members of one name."""
+    from .motion import resolve_path
+
+    out: list[MemberRecord] = []
+    problems: list[tuple[str, str, str]] = []
+    for i, r in enumerate(suite["records"]):
+        key = f"suite.records[{i}]"
+        if r["file"] is not None:
+            p = resolve_path(r["file"], case_dir)
+            if not p.is_file():
+                problems.append((f"{key}.file", r["file"], f"file not found ({p})"))
+                continue
+            paths = [p]
+        else:
+            pattern = str(resolve_path(r["glob"], case_dir))
+            paths = sorted(Path(x) for x in _glob.glob(pattern) if Path(x).is_file())
+            if not paths:
+                problems.append((f"{key}.glob", r["glob"], f"matches no file ({pattern})"))
+                continue
+        for p in paths:
+            name = _safe(r["name"] if r["name"] and len(paths) == 1 else p.stem)
+            out.append(MemberRecord(name, p, r["units"], r["format"], r["direction"], r["pga"], key))
+    seen: dict[str, str] = {}
+    for m in out:
+        if m.name in seen:
+            problems.append((f"{m.key}.name", m.name, f"two members are named '{m.name}' ({seen[m.name]} and "
+                                                      f"{m.path})"))
+        seen.setdefault(m.name, str(m.path))
+    return out, problems
+
+
+def processed(rec, gm: dict, pga: float | None = None) -> np.ndarray:
+    """The record as the case processes it (window, low-pass, baseline; scaled to `pga` when given),
+    as recorded at the surface (before the outcrop convention halves it), with its polarity."""
+    from .motion import process
+
+    m = process(rec, duration=gm["duration"], cutoff=gm["cutoff_frequency"], baseline=gm["baseline_correction"],
+                pga=pga, vertical_ratio=gm["vertical_ratio"], convention=gm["convention"])
+    return m.ax * (2.0 if m.convention == "outcrop" else 1.0)
+
+
+def read_member(m: MemberRecord):
+    from .motion import read_record
+
+    rec = read_record(m.path, m.format, m.units)
+    if m.direction == "-x":
+        rec.acc = -rec.acc
+    return rec
+
+
+def suite_checks(d: dict, raw, filename: str, warnings: list[str]) -> list:
+    """What `tunnelquake check` says about a suite beyond its keys: every record there, readable
+    in its units and long enough for ground_motion.duration, a PGA for scaling pga."""
+    from .motion import MotionError, check_covers
+    from .schema import Issue
+
+    section = raw.get("suite") if isinstance(raw.get("suite"), dict) else {}
+    recs = section.get("records") if isinstance(section, dict) else None
+
+    def line(key: str):
+        m = re.match(r"suite\.records\[(\d+)\]\.?(\w*)", key)
+        if m and isinstance(recs, list) and int(m.group(1)) < len(recs):
+            r = recs[int(m.group(1))]
+            return getattr(r, "key_lines", {}).get(m.group(2)) or getattr(r, "line", None)
+        return getattr(section, "key_lines", {}).get(key.split(".")[1]) if "." in key else None
+
+    issues = []
+    members, problems = expand_records(d["suite"], Path(filename.split(" (variant")[0]).parent)
+    fixes = {"file": "give the record's path relative to the case file",
+             "glob": "give a glob relative to the case file that matches the records, e.g. records/*.AT2",
+             "name": "give each record its own name ('name:') or rename the files"}
+    for key, value, problem in problems:
+        issues.append(Issue(key, value, problem, fixes[key.rsplit(".", 1)[1]], line(key)))
+    s = d["suite"]
+    gm = d["ground_motion"]
+    for m in members:
+        try:
+            rec = read_member(m)
+            check_covers(rec.npts, rec.dt, gm["duration"], str(m.path))
+        except MotionError as e:
+            index = int(re.search(r"\[(\d+)\]", m.key).group(1))
+            k = f"{m.key}.{'file' if s['records'][index]['file'] is not None else 'glob'}"
+            issues.append(Issue(k, str(m.path), f"cannot be used: {e.problem}",
+                                (e.fix or "check the record and its units").rstrip("."), line(k)))
+        if s["scaling"] == "pga" and m.pga is None and s["pga"] is None and gm["pga"] is None:
+            issues.append(Issue("suite.pga", None, "scaling pga needs a PGA",
+                                "add 'pga: <value>' to suite (or to the record), or set ground_motion.pga",
+                                line("suite.scaling")))
+            break
+    if s["scaling"] != "pga" and gm["pga"] is not None:
+        warnings.append(f"ground_motion.pga {gm['pga']:g} m/s^2 is not used: suite.scaling is {s['scaling']}, and "
+                        "each member's PGA follows from it")
+    if len(members) < MEAN_FROM and s["combine"] == "mean":
+        warnings.append(f"suite.combine: mean with {len(members)} members: EN 1998-1 §4.3.3.4.3 takes the mean "
+                        f"only from {MEAN_FROM} records on (the maximum with fewer)")
+    return issues
+
+
+# ----------------------------------------------------------------------------------------------
+# Spectra, target and scaling
+# ----------------------------------------------------------------------------------------------
+def response_spectrum(acc, dt: float, periods, damping: float = DAMPING) -> np.ndarray:
+    """Pseudo-acceleration spectrum Sa(T) = w^2 max|u| of u'' + 2 zeta w u' + w^2 u = -acc(t), from
+    rest, with acc linear between its samples: the exact recurrence of Nigam & Jennings (Chopra
+    Table 5.2.1), evaluated for all periods at once. T = 0 gives the peak |acc|."""
+    acc = np.asarray(acc, float)
+    T = np.atleast_1d(np.asarray(periods, float))
+    out = np.empty(T.size)
+    rigid = T <= 0
+    out[rigid] = np.max(np.abs(acc)) if acc.size else 0.0
+    if rigid.all():
+        return out
+    z = damping
+    w = 2.0 * np.pi / T[~rigid]
+    r = math.sqrt(1.0 - z * z)
+    wd = w * r
+    e, s, c = np.exp(-z * w * dt), np.sin(wd * dt), np.cos(wd * dt)
+    k = w * w
+    q = z / r
+    a11 = e * (q * s + c)
+    a12 = e * s / wd
+    b1 = (2 * z / (w * dt) + e * (((1 - 2 * z * z) / (wd * dt) - q) * s - (1 + 2 * z / (w * dt)) * c)) / k
+    b2 = (1 - 2 * z / (w * dt) + e * ((2 * z * z - 1) / (wd * dt) * s + 2 * z / (w * dt) * c)) / k
+    a21 = -e * (w / r) * s
+    a22 = e * (c - q * s)
+    c1 = (-1 / dt + e * ((w / r + z / (dt * r)) * s + c / dt)) / k
+    c2 = (1 - e * (q * s + c)) / (k * dt)
+    u = np.zeros_like(w)
+    v = np.zeros_like(w)
+    umax = np.zeros_like(w)
+    p = -acc
+    for i in range(acc.size - 1):
+        u, v = a11 * u + a12 * v + b1 * p[i] + b2 * p[i + 1], a21 * u + a22 * v + c1 * p[i] + c2 * p[i + 1]
+        np.maximum(umax, np.abs(u), out=umax)
+    out[~rigid] = k * umax
+    return out
+
+
+def ec8_type1(periods, ag: float, ground_type: str) -> np.ndarray:
+    """EN 1998-1 §3.2.2.2 horizontal elastic spectrum, type 1, 5 % damping (eta = 1), m/s^2."""
+    S, tb, tc, td = EC8_TYPE1[ground_type]
+    T = np.asarray(periods, float)
+    base = ag * S * 2.5
+    return np.where(T <= tb, ag * S * (1 + T / tb * 1.5),
+                    np.where(T <= tc, base, np.where(T <= td, base * tc / np.maximum(T, 1e-12),
+                                                     base * tc * td / np.maximum(T, 1e-12) ** 2)))
+
+
+def target_spectrum(suite: dict, periods) -> np.ndarray | None:
+    """The target Sa at `periods` (m/s^2), or None when the suite has no target."""
+    if suite["target"] == "table" and suite["table"]["periods"] is not None:
+        return np.interp(periods, suite["table"]["periods"], suite["table"]["sa"])
+    if suite["target"] == "ec8_type1" and suite["ec8"]["ag"] is not None:
+        return ec8_type1(periods, suite["ec8"]["ag"], suite["ec8"]["ground_type"])
+    return None
+
+
+def scaling_periods(suite: dict) -> np.ndarray:
+    """The grid over [T1, T2] on which the scaled mean is held at or above the target."""
+    t1, t2 = suite["periods"]
+    return np.geomspace(t1, t2, SCALING_POINTS)
+
+
+def plot_periods(suite: dict) -> np.ndarray:
+    top = max(4.0, 2.0 * suite["periods"][1]) if suite["periods"] else 4.0
+    return np.concatenate([[0.0], np.geomspace(0.02, top, 120)])
+
+
+def spectrum_factors(spectra: np.ndarray, target: np.ndarray, fraction: float = 1.0) -> np.ndarray:
+    """Amplitude factors for records whose spectra on the grid are the rows of `spectra`: each
+    record's best log-fit to `target`, then one factor for the set so that min(mean / target) over
+    the grid is `fraction`."""
+    f = np.exp(np.mean(np.log(target[None, :] / spectra), axis=1))
+    mean = np.mean(f[:, None] * spectra, axis=0)
+    return f * (fraction * np.max(target / mean))
+
+
+def scale_factors(members: list[MemberRecord], d: dict) -> tuple[list[float], list[float]]:
+    """(factor, PGA of the scaled processed record) of each member."""
+    s, gm = d["suite"], d["ground_motion"]
+    accs = [processed(read_member(m), gm) for m in members]
+    peaks = [float(np.max(np.abs(a))) for a in accs]
+    if s["scaling"] == "pga":
+        factors = [(m.pga or s["pga"] or gm["pga"]) / p for m, p in zip(members, peaks, strict=True)]
+    elif s["scaling"] == "spectrum":
+        T = scaling_periods(s)
+        dts = [read_member(m).dt for m in members]
+        spectra = np.array([response_spectrum(a, dt, T) for a, dt in zip(accs, dts, strict=True)])
+        factors = list(spectrum_factors(spectra, target_spectrum(s, T), s["fraction"]))
+    else:
+        factors = [1.0] * len(members)
+    factors = [float(f) for f in factors]
+    return factors, [f * p for f, p in zip(factors, peaks, strict=True)]
+
+
+# ----------------------------------------------------------------------------------------------
+# Member cases
+# ----------------------------------------------------------------------------------------------
+def _plain(x):
+    """A YAML tree of LineDicts and LineLists as plain dicts and lists (for yaml.safe_dump)."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_plain(v) for v in x]
+    return x
+
+
+def raw_case(path: Path, variant: str | None):
+    """The case file as written, with the variant's keys laid over it, without `variants:`."""
+    from .case import _merge, _variants
+    from .schema import load_yaml
+
+    raw = load_yaml(Path(path).read_text())
+    variants = _variants(raw, str(path))
+    return _merge(raw, variants[variant]) if variant else raw
+
+
+@dataclass
+class Member:
+    name: str
+    record: MemberRecord
+    factor: float
+    pga: float
+    case_file: Path
+    case_text: str
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def folder(self) -> Path:
+        return self.case_file.parent
+
+
+def suite_dir(case) -> Path:
+    return case.output_dir
+
+
+def members_dir(case) -> Path:
+    return suite_dir(case) / "members"
+
+
+def plan_members(case) -> list[Member]:
+    """The members of the suite of `case` and the text of each member's case file (not written)."""
+    import yaml
+
+    d = case.data
+    records, problems = expand_records(d["suite"], case.dir)
+    if problems:
+        raise ValueError("; ".join(f"{k} = {v!r}: {p}" for k, v, p in problems))
+    factors, pgas = scale_factors(records, d)
+    base = _plain(raw_case(case.path, case.variant))
+    base.pop("suite", None)
+    out = []
+    for rec, f, pga in zip(records, factors, pgas, strict=True):
+        body = dict(base)
+        body["name"] = f"{d['name']}/{rec.name}"
+        gm = dict(body.get("ground_motion") or {})
+        gm.update({"source": "file", "file": str(rec.path), "format": rec.format, "units": rec.units,
+                   "if_missing": "error", "pga": float(pga)})
+        output = dict(body.get("output") or {})
+        output["directory"] = "."
+        body["ground_motion"], body["output"] = gm, output
+        folder = members_dir(case) / rec.name
+        head = (f"# Member '{rec.name}' of the record suite of {case.path}"
+                f"{f' (variant {case.variant})' if case.variant else ''}, written by `tunnelquake run`.\n"
+                f"# Record {rec.path} ({rec.units}, direction {rec.direction}), scaled by {f:.6g}.\n")
+        if rec.direction == "-x":
+            flipped = folder / "record_reversed.txt"
+            gm.update({"file": flipped.name, "format": "two_column", "units": "m/s^2"})
+        text = head + yaml.safe_dump(body, sort_keys=False, default_flow_style=False, width=100)
+        out.append(Member(rec.name, rec, f, pga, folder / "case.yaml", text))
+    return out
+
+
+def write_member(m: Member) -> None:
+    """Write the member's case file (and, for direction -x, its reversed record) unless identical."""
+    m.folder.mkdir(parents=True, exist_ok=True)
+    if m.record.direction == "-x":
+        rec = read_member(m.record)
+        rows = "\n".join(f"{i * rec.dt!r} {float(a)!r}" for i, a in enumerate(rec.acc))
+        text = f"# {m.record.path} reversed (-x), m/s^2\n{rows}\n"
+        target = m.folder / "record_reversed.txt"
+        if not target.is_file() or target.read_text() != text:
+            target.write_text(text)
+    if not m.case_file.is_file() or m.case_file.read_text() != m.case_text:
+        m.case_file.write_text(m.case_text)
+
+
+def member_conditions(case) -> list[str]:
+    from .scene import plan
+
+    return [c for c, _ in plan(case)]
+
+
+def member_finished(m: Member, conditions: list[str]) -> bool:
+    """Whether the member ran to the end from this very case file: its case file unchanged and
+    each condition's results file with status 'completed'."""
+    import h5py
+
+    if not m.case_file.is_file() or m.case_file.read_text() != m.case_text:
+        return False
+    for cond in conditions:
+        res = m.folder / f"results_{cond}.h5"
+        try:
+            with h5py.File(res, "r") as f:
+                status = f.attrs.get("status", b"")
+        except OSError:
+            return False
+        if (status.decode() if isinstance(status, bytes) else str(status)) != "completed":
+            return False
+    return True
+
+
+# ----------------------------------------------------------------------------------------------
+# Combination and report
+# ----------------------------------------------------------------------------------------------
+def combination_rule(rule: str, n: int) -> str:
+    """'mean' or 'max' for `n` members under `rule` (auto: mean from MEAN_FROM members on)."""
+    if rule == "auto":
+        return "mean" if n >= MEAN_FROM else "max"
+    return rule
+
+
+def combine(values, rule: str) -> float:
+    """The design value of one quantity from the members' peaks, under the resolved rule."""
+    v = np.asarray(values, float)
+    return float(np.mean(v)) if rule == "mean" else float(np.max(v))
+
+
+def _quantities(pk: dict) -> list[str]:
+    """The design quantities of a peak table: every value except the times of the peaks."""
+    return [q for q in pk if not q.startswith("t_") and not q.endswith("_time")]
+
+
+def member_peaks(folder: Path, conditions: list[str]) -> dict:
+    """{condition: {monitor: {quantity: peak}}} of a member's completed conditions."""
+    from . import post as P
+
+    out = {}
+    for cond in conditions:
+        res_file = folder / f"results_{cond}.h5"
+        if not res_file.is_file():
+            continue
+        res = P.read_condition(res_file, cond)
+        if not res.complete:
+            continue
+        out[cond] = {mon: {q: pk[q] for q in _quantities(pk)} for mon, pk in P.peaks(res).items()}
+    return out
+
+
+def combined_table(peaks: dict[str, dict], rule: str) -> tuple[dict, str, int]:
+    """From {member: {cond: {monitor: {q: v}}}} the combined {cond: {monitor: {q: v}}} over the
+    members that have each value, the rule applied and the number of members combined."""
+    members = [m for m in peaks if peaks[m]]
+    used = combination_rule(rule, len(members))
+    out: dict = {}
+    for m in members:
+        for cond, mons in peaks[m].items():
+            for mon, qs in mons.items():
+                for q in qs:
+                    out.setdefault(cond, {}).setdefault(mon, {}).setdefault(q, None)
+    for cond, mons in out.items():
+        for mon, qs in mons.items():
+            for q in qs:
+                vals = [peaks[m][cond][mon][q] for m in members
+                        if cond in peaks[m] and mon in peaks[m][cond] and q in peaks[m][cond][mon]]
+                vals = [v for v in vals if v == v]
+                qs[q] = combine(vals, used) if vals else float("nan")
+    return out, used, len(members)
+
+
+def _fmt(v: float) -> str:
+    return "n/a" if v != v else f"{v:.6g}"
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def fig_spectra(members: list[Member], case, out: Path) -> tuple[Path, dict]:
+    """The scaled records' 5 %-damped spectra, their mean and the target; returns the figure and
+    the spectra {T, members: {name: Sa}, mean, target}."""
+    from .case import load_case
+    from .motion import from_case
+
+    s = case.data["suite"]
+    T = plot_periods(s)
+    spectra, on_range = {}, []
+    for m in members:
+        mc = load_case(m.case_file)
+        motion, _ = from_case(mc.data["ground_motion"], mc.dir)
+        acc = motion.ax * (2.0 if motion.convention == "outcrop" else 1.0)
+        spectra[m.name] = response_spectrum(acc, motion.dt, T)
+        if s["periods"]:
+            on_range.append(response_spectrum(acc, motion.dt, scaling_periods(s)))
+    mean = np.mean(list(spectra.values()), axis=0)
+    target = target_spectrum(s, T)
+    range_mean = np.mean(on_range, axis=0) if on_range else None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for name, sa in spectra.items():
+        ax.plot(T[1:], sa[1:], lw=0.8, alpha=0.7, label=name)
+    ax.plot(T[1:], mean[1:], lw=2.2, color="k", label=f"mean of {len(spectra)}")
+    if target is not None:
+        ax.plot(T[1:], target[1:], lw=1.8, ls="--", color="tab:red", label="target")
+        if s["scaling"] == "spectrum" and s["fraction"] < 1:
+            ax.plot(T[1:], s["fraction"] * target[1:], lw=1.0, ls=":", color="tab:red",
+                    label=f"{s['fraction']:g} x target")
+    if s["periods"]:
+        ax.axvspan(*s["periods"], color="0.9", zorder=0, label="[T1, T2]")
+    ax.set_xscale("log")
+    ax.set_xlabel("period T (s)")
+    ax.set_ylabel("Sa, 5 % damped (m/s$^2$)")
+    ax.set_title("Scaled records' pseudo-acceleration spectra")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out, {"T": T, "members": spectra, "mean": mean, "target": target, "range_mean": range_mean}
+
+
+def fig_spread(peaks: dict, combined: dict, rule: str, out: Path) -> Path | None:
+    """Each member's peak of every (monitor, quantity) divided by the combined value, one panel a
+    condition: the spread of the suite around its design value."""
+    conds = list(combined)
+    if not conds:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(len(conds), 1, figsize=(9, 3.2 * len(conds)), squeeze=False)
+    names = list(peaks)
+    for ax, cond in zip(axes[:, 0], conds, strict=True):
+        labels = []
+        for mon, qs in combined[cond].items():
+            for q, v in qs.items():
+                if not v or v != v:
+                    continue
+                x = len(labels)
+                labels.append(f"{mon}\n{q}")
+                for j, m in enumerate(names):
+                    val = peaks[m].get(cond, {}).get(mon, {}).get(q)
+                    if val is not None and val == val:
+                        ax.plot(x + 0.06 * (j - (len(names) - 1) / 2), val / v, "o", ms=4,
+                                color=f"C{j % 10}", label=m if x == 0 else None)
+        ax.axhline(1.0, color="k", lw=1)
+        ax.set_xticks(range(len(labels)))
+        ax.set_xticklabels(labels, fontsize=6, rotation=60, ha="right")
+        ax.set_ylabel(f"peak / {rule}")
+        ax.set_title(f"{cond}: members' peaks against the combined value ({rule})", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6, ncol=4)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def write_report(case, members: list[Member], states: dict[str, dict] | None = None) -> Path:
+    """suite_report.md (and suite_peaks.csv, figures/suite_spectra.png, figures/suite_spread.png)
+    in the suite's results folder, from what the members' results hold."""
+    import csv
+
+    s = case.data["suite"]
+    conds = member_conditions(case)
+    folder = suite_dir(case)
+    figs = folder / "figures"
+    states = states or {}
+    peaks = {m.name: member_peaks(m.folder, conds) for m in members}
+    full = {n: p for n, p in peaks.items() if all(c in p for c in conds)}
+    combined, rule, n_used = combined_table(full, s["combine"])
+    lines = [f"# Record suite: {case.data['name']}", ""]
+    lines.append(f"- {len(members)} members x {len(conds)} condition(s) ({', '.join(conds)}); members' results in "
+                 f"`members/<name>/`")
+    what = {"pga": "each processed record scaled to its PGA",
+            "spectrum": (f"amplitude scaling to the target over T = {s['periods'][0]:g}-{s['periods'][1]:g} s: "
+                         f"each record's log-fit, then one factor for the set so the mean is at least "
+                         f"{s['fraction']:g} x the target over the range and touches it") if s["periods"] else "",
+            "none": "none (the records as processed)"}[s["scaling"]]
+    lines.append(f"- scaling: {what}")
+    why = (f"{'at least' if n_used >= MEAN_FROM else 'fewer than'} {MEAN_FROM} members (EN 1998-1 §4.3.3.4.3(3))"
+           if s["combine"] == "auto" else "set by suite.combine")
+    lines.append(f"- combination: **{rule}** over the {n_used} member(s) with every condition completed ({why})")
+    missing = [m.name for m in members if m.name not in full]
+    if missing:
+        lines.append(f"- **not combined** (a condition not completed): {', '.join(missing)}")
+    lines += ["", "## Members", "", "| member | record | direction | scale factor | PGA (m/s^2) | status | wall (s) |",
+              "|---|---|---|---|---|---|---|"]
+    for m in members:
+        st = states.get(m.name, {})
+        status = "completed" if m.name in full else st.get("status", "not run")
+        wall = st.get("wall_s")
+        lines.append(f"| {m.name} | `{m.record.path.name}` | {m.record.direction} | {m.factor:.6g} | {m.pga:.6g} | "
+                     f"{status} | {'' if wall is None else f'{wall:.1f}'} |")
+    rows = []
+    for cond in combined:
+        lines += ["", f"## Peaks: {cond}", ""]
+        for mon, qs in combined[cond].items():
+            qn = list(qs)
+            lines += [f"### {mon}", "", "| member | " + " | ".join(qn) + " |", "|---" * (len(qn) + 1) + "|"]
+            for name in full:
+                vals = [full[name][cond].get(mon, {}).get(q, float("nan")) for q in qn]
+                lines.append(f"| {name} | " + " | ".join(_fmt(v) for v in vals) + " |")
+                rows += [(name, cond, mon, q, v) for q, v in zip(qn, vals, strict=True)]
+            lines.append(f"| **{rule}** | " + " | ".join(f"**{_fmt(qs[q])}**" for q in qn) + " |")
+            rows += [(f"combined_{rule}", cond, mon, q, qs[q]) for q in qn]
+            lines.append("")
+    lines.append("Quantities as in each member's report.md: max_ux, max_uz (m), max_tension (Pa, largest sigma3), "
+                 "max_damage, hydrodynamic_pressure_peak (Pa) where recorded. All values: `suite_peaks.csv`.")
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / "suite_peaks.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["member", "condition", "monitor", "quantity", "value"])
+        w.writerows([(a, b, c, q, repr(v)) for a, b, c, q, v in rows])
+    lines += ["", "## Spectra", ""]
+    try:
+        fig, sp = fig_spectra(members, case, figs / "suite_spectra.png")
+    except Exception as e:  # noqa: BLE001 - the tables stand without the figure
+        lines.append(f"(not drawn: {type(e).__name__}: {e})")
+    else:
+        lines.append(f"![spectra](figures/{fig.name})")
+        if sp["target"] is not None and s["periods"]:
+            T = scaling_periods(s)
+            ratio = sp["range_mean"] / target_spectrum(s, T)
+            lines += ["", f"Mean over the target on [{s['periods'][0]:g}, {s['periods'][1]:g}] s: lowest "
+                      f"{ratio.min():.3f}, highest {ratio.max():.3f} (5 % damping)."]
+    spread = fig_spread(full, combined, rule, figs / "suite_spread.png")
+    if spread is not None:
+        lines += ["", "## Spread", "", f"![spread](figures/{spread.name})"]
+    out = folder / "suite_report.md"
+    out.write_text("\n".join(lines) + "\n")
+    return out
