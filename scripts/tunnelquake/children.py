@@ -80,7 +80,12 @@ def run(cmd, *, timeout: float | None = None, capture_output: bool = False, text
 
 def _direct_children() -> list[int]:
     """PIDs whose parent is this process (also those started by other modules' subprocess calls)."""
-    me, out = os.getpid(), []
+    return children_of(os.getpid())
+
+
+def children_of(parent: int) -> list[int]:
+    """The live (not zombie) processes whose parent is `parent`, from /proc."""
+    me, out = parent, []
     try:
         names = os.listdir("/proc")
     except OSError:

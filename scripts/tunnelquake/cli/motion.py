@@ -61,6 +61,21 @@ def make_motion(case) -> tuple[ProcessedMotion, Path]:
     return motion, out
 
 
+def motion_and_figure(case) -> tuple[ProcessedMotion, Path, Path] | None:
+    """motion.h5 and its figure; None after printing why (a record refused, a full disk)."""
+    fig = case.output_dir / "figures" / "fig03_input_motion.png"
+    try:
+        motion, out = make_motion(case)
+        plot_motion(motion, fig)
+    except MotionError as e:
+        print(f"error: {e}")
+        return None
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return None
+    return motion, out, fig
+
+
 def main(argv: list[str]) -> int:
     args = parser("motion", __doc__).parse_args(argv)
     case = load_or_report(args.case, args.variant)
@@ -69,15 +84,8 @@ def main(argv: list[str]) -> int:
     with folder_held(case, "tunnelquake motion " + " ".join(map(str, argv))) as held:
         if not held:
             return 1
-        try:
-            motion, out = make_motion(case)
-            fig = case.output_dir / "figures" / "fig03_input_motion.png"
-            plot_motion(motion, fig)
-        except MotionError as e:
-            print(f"error: {e}")
+        made = motion_and_figure(case)
+        if made is None:
             return 1
-        except DiskFull as e:
-            print(f"error: {e}", file=sys.stderr)
-            return 1
-        say(f"figure: {fig}")
+        say(f"figure: {made[2]}")
     return 0

@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 from .. import children, paths
-from ..motion import MotionError
 from ..scene import plan
 from .common import DiskFull, is_no_space, load_or_report, parser, say
 
@@ -679,20 +678,14 @@ def _job(case, args) -> int:
     done.append(f"mesh: {c['rock']} rock, {c['lining']} lining, {c['water']} water hexahedra "
                 f"({summary['mode']})")
 
-    from .motion import make_motion, plot_motion
+    from .motion import motion_and_figure
 
     children.check()
     PHASE[0] = "preparing the motion"
-    fig = case.output_dir / "figures" / "fig03_input_motion.png"
-    try:
-        motion, motion_file = make_motion(case)
-        plot_motion(motion, fig)
-    except MotionError as e:
-        print(f"error: {e}")
+    made = motion_and_figure(case)
+    if made is None:
         return 1
-    except DiskFull as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+    motion, motion_file, fig = made
     done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
 
     children.check()

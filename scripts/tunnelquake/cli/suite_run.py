@@ -232,7 +232,7 @@ def _stop_members(todo, pool) -> dict:
         pid = int(st.get("pid", 0))
         if st.get("host") != host or not pid:
             continue
-        for child in _descendants(pid):
+        for child in children.children_of(pid):
             try:
                 os.killpg(child, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
@@ -245,23 +245,6 @@ def _stop_members(todo, pool) -> dict:
         _write_state(m.folder, st)
         killed.append(m.name)
     return {"killed": killed}
-
-
-def _descendants(pid: int) -> list[int]:
-    """The direct children of `pid` (each leads its own session: its group holds what it started)."""
-    out = []
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat") as fh:
-                stat = fh.read()
-        except OSError:
-            continue
-        fields = stat[stat.rfind(")") + 2:].split()
-        if len(fields) > 1 and int(fields[1]) == pid:
-            out.append(int(name))
-    return out
 
 
 def write_slurm(case, members, need: int, argv_case: str) -> Path:
