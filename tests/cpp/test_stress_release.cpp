@@ -20,23 +20,6 @@ using namespace tqcases;
 
 namespace {
 
-/// The lining's excavation load in closed form (tension positive): hydrostatic in-situ stress p0
-/// (compression), release fraction λ before the lining a ≤ r ≤ b is bonded in the rock; the lining
-/// takes the release of the remaining (1 − λ) p0 at r = b on the composite (plane strain).
-struct ReleaseReference {
-  Real pc = 0, hoopIn = 0, hoopOut = 0;  // contact pressure (compression +), hoop at r = a and r = b
-};
-
-ReleaseReference releaseReference(Real p0, Real lambda, Real a, Real b) {
-  const Real Gl = kEl / (2 * (1 + kNul)), Gr = kEr / (2 * (1 + kNur));
-  const Real d = b * b - a * a;
-  ReleaseReference r;
-  r.pc = (1 - lambda) * p0 * Gl * d / (Gl * d + Gr * ((1 - 2 * kNul) * b * b + a * a));
-  r.hoopIn = -2 * r.pc * b * b / d;
-  r.hoopOut = -r.pc * (a * a + b * b) / d;
-  return r;
-}
-
 /// Einstein & Schwartz (1979), no slip, K = 1: thin ring of radius R (the lining's mid-surface)
 /// and thickness t; contact pressure P (1 − a0*), hoop stress −P R (1 − a0*) / t.
 ReleaseReference einsteinSchwartz(Real p0, Real lambda, Real a, Real b) {

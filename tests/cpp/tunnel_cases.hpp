@@ -225,6 +225,23 @@ Real tieContactPressure(const Run& run, const Spec& qs, Index nTheta) {
   return -fr / (nTheta * 2 * qs.b * std::sin(dth / 2) * qs.width);
 }
 
+/// The lining's excavation load in closed form (tension positive): hydrostatic in-situ stress p0
+/// (compression), release fraction λ before the lining a ≤ r ≤ b is bonded in the rock; the lining
+/// takes the release of the remaining (1 − λ) p0 at r = b on the composite (plane strain).
+struct ReleaseReference {
+  Real pc = 0, hoopIn = 0, hoopOut = 0;  // contact pressure (compression +), hoop at r = a and r = b
+};
+
+inline ReleaseReference releaseReference(Real p0, Real lambda, Real a, Real b) {
+  const Real Gl = kEl / (2 * (1 + kNul)), Gr = kEr / (2 * (1 + kNur));
+  const Real d = b * b - a * a;
+  ReleaseReference r;
+  r.pc = (1 - lambda) * p0 * Gl * d / (Gl * d + Gr * ((1 - 2 * kNul) * b * b + a * a));
+  r.hoopIn = -2 * r.pc * b * b / d;
+  r.hoopOut = -r.pc * (a * a + b * b) / d;
+  return r;
+}
+
 struct LinedResult {
   Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
   Index steps = 0, elems = 0;  // relaxation steps of all four stages, elements
