@@ -283,15 +283,18 @@ RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, hsize
   check(ds_.valid(), "cannot create dataset '" + path + "'");
 }
 
-void RowAppender::append(const double* row) {
-  hsize_t newDims[2] = {rows_ + 1, cols_};
+void RowAppender::append(const double* row) { append(row, 1); }
+
+void RowAppender::append(const double* rows, hsize_t n) {
+  if (n == 0) return;
+  hsize_t newDims[2] = {rows_ + n, cols_};
   check(H5Dset_extent(ds_, newDims) >= 0, "cannot extend a history dataset");
   Handle fs(H5Dget_space(ds_), H5Sclose);
-  hsize_t start[2] = {rows_, 0}, count[2] = {1, cols_};
+  hsize_t start[2] = {rows_, 0}, count[2] = {n, cols_};
   H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr);
   Handle ms(H5Screate_simple(2, count, nullptr), H5Sclose);
-  check(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, "cannot write a history row");
-  ++rows_;
+  check(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, rows) >= 0, "cannot write a history row");
+  rows_ += n;
 }
 
 }  // namespace tq::h5
