@@ -342,23 +342,28 @@ RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, Space
   if (ledger_) ledger_->nextRow += chunkRows_ * cols_ * valueBytes_;
 }
 
-void RowAppender::append(const double* row) {
-  hsize_t newDims[2] = {rows_ + 1, cols_};
+void RowAppender::append(const double* row) { append(row, 1); }
+
+void RowAppender::append(const double* rows, hsize_t n) {
+  if (n == 0) return;
+  hsize_t newDims[2] = {rows_ + n, cols_};
   checkWrite(H5Dset_extent(ds_, newDims) >= 0, ds_, "a history row");
   Handle fs(H5Dget_space(ds_), H5Sclose);
-  hsize_t start[2] = {rows_, 0}, count[2] = {1, cols_};
+  hsize_t start[2] = {rows_, 0}, count[2] = {n, cols_};
   H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr);
   Handle ms(H5Screate_simple(2, count, nullptr), H5Sclose);
-  checkWrite(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, row) >= 0, ds_, "a history row");
-  ++rows_;
+  checkWrite(H5Dwrite(ds_, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, rows) >= 0, ds_, "a history row");
   if (ledger_) {
     const hsize_t chunk = chunkRows_ * cols_ * valueBytes_;
-    if ((rows_ - 1) % chunkRows_ == 0) {  // this row started a chunk
-      ledger_->pending += chunk;
-      ledger_->nextRow -= chunk;
+    for (hsize_t k = rows_; k < rows_ + n; ++k) {
+      if (k % chunkRows_ == 0) {  // row k starts a chunk
+        ledger_->pending += chunk;
+        ledger_->nextRow -= chunk;
+      }
+      if ((k + 1) % chunkRows_ == 0) ledger_->nextRow += chunk;  // the row after it starts one
     }
-    if (rows_ % chunkRows_ == 0) ledger_->nextRow += chunk;  // the next row starts one
   }
+  rows_ += n;
 }
 
 std::string bytesText(unsigned long long b) {

@@ -95,6 +95,7 @@ public:
   RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger = nullptr,
               hsize_t chunkRows = 256, bool float32 = false);
   void append(const double* row);  ///< one row of `cols` values
+  void append(const double* rows, hsize_t n);  ///< n rows of `cols` values, row after row
   hsize_t rows() const { return rows_; }
 
 private:

@@ -54,10 +54,14 @@ struct ResultsWriter::Impl {
     h5::RowAppender time, q[4];
     std::vector<Real> env[4];
     size_t count[4] = {0, 0, 0, 0};
+    // Rows since the last flush (written at each flush: one HDF5 write per dataset instead of one
+    // per sample, which was most of the ring forces' cost).
+    std::vector<Real> pendingTime, pending[4];
+    size_t samples = 0;
   };
   std::unique_ptr<RingForces> ring;
   std::vector<RingOut> ringOut;
-  double ringSeconds = 0;  // wall time spent on the ring forces
+  double ringSeconds = 0;  // wall time spent on the ring forces (evaluation, envelopes, writes)
   void writeRingEnvelopes();
 };
 
@@ -66,8 +70,14 @@ const char* const kRingNames[4] = {"N", "M", "V", "diameter_change"};
 }
 
 void ResultsWriter::Impl::writeRingEnvelopes() {
+  const auto t0 = std::chrono::steady_clock::now();
   for (auto& R : ringOut) {
-    if (R.time.rows() == 0) continue;
+    R.time.append(R.pendingTime.data(), R.pendingTime.size());
+    for (int q = 0; q < 4; ++q)
+      if (R.count[q] > 0) R.q[q].append(R.pending[q].data(), R.pendingTime.size());
+    R.pendingTime.clear();
+    for (auto& p : R.pending) p.clear();
+    if (R.samples == 0) continue;
     for (int q = 0; q < 4; ++q)
       if (R.count[q] > 0) h5::replaceDoubles(file, R.group + "/envelope/" + kRingNames[q], R.env[q].data(), {R.count[q], 4});
     if (R.count[3] > 0) {  // ovaling: the largest elongation and shortening of a diameter so far
@@ -88,6 +98,7 @@ void ResultsWriter::Impl::writeRingEnvelopes() {
     }
   }
   if (ring) {
+    ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     auto g = h5::openGroup(file, "/ring_forces");
     h5::writeDoubleAttr(g, "wall_s", ringSeconds);
   }
@@ -274,10 +285,11 @@ void ResultsWriter::sample(const Solver& s) {
       for (int k = 0; k < 4; ++k) q[k].assign(o.count[k], 0.0);
       I.ring->sectionForces(r, q[0].data(), q[1].data(), q[2].data());
       I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, q[3].data());
-      o.time.append(&t);
+      o.pendingTime.push_back(t);
+      ++o.samples;
       for (int k = 0; k < 4; ++k) {
         if (o.count[k] == 0) continue;
-        o.q[k].append(q[k].data());
+        o.pending[k].insert(o.pending[k].end(), q[k].begin(), q[k].end());
         Real* env = o.env[k].data();
         for (size_t j = 0; j < o.count[k]; ++j) {
           if (q[k][j] > env[4 * j]) { env[4 * j] = q[k][j]; env[4 * j + 1] = t; }
