@@ -278,10 +278,15 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None, carried: b
     mons = [mo for mo in res.monitors.values() if "water_pressure" in mo.extra]
     if not mons:
         return []
+    if not (len(mons[0].extra["water_pressure_time"]) and len(fluid["time"])):
+        return []  # a run stopped before either side wrote a sample: nothing to set side by side
     t_end = min(float(mons[0].extra["water_pressure_time"][-1]), float(fluid["time"][-1]))
-    solid = max(float(np.max(np.abs(mo.extra["water_pressure"][mo.extra["water_pressure_time"] <= t_end])))
-                for mo in mons)
-    water = float(np.max(np.abs(fluid["p_mean"][fluid["time"] <= t_end])))
+    both = [mo.extra["water_pressure"][mo.extra["water_pressure_time"] <= t_end] for mo in mons]
+    mine = fluid["p_mean"][fluid["time"] <= t_end]
+    if not (mine.size and all(b.size for b in both)):
+        return []  # the two cover no common time
+    solid = max(float(np.max(np.abs(b))) for b in both)
+    water = float(np.max(np.abs(mine)))
     scheme = res.coupling.get("scheme", "unknown")
     if carried:
         return ["## Water side cross-check", "",

@@ -101,8 +101,11 @@ def run_lock(folder: Path, command: str | None = None):
                     f"{why}, it ended without releasing the folder")
         record = {"pid": os.getpid(), "started": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
                   "host": os.uname().nodename, "command": command or " ".join(sys.argv)}
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, (json.dumps(record) + "\n").encode(), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, (json.dumps(record) + "\n").encode(), 0)
+        except OSError:  # a full disk: the flock still holds the folder; only its record is missing
+            pass
         yield note
     finally:
         with contextlib.suppress(OSError):

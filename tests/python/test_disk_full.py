@@ -14,6 +14,7 @@ import pytest
 from test_reliability import _case_text, _processes_naming
 
 from conftest import ROOT
+from tunnelquake import runlock
 from tunnelquake.cli import main
 
 
@@ -120,6 +121,13 @@ def test_tq_solid_on_a_full_disk_stops_between_samples_with_exit_5_and_a_whole_r
     shutil.rmtree(out / "figures")
     (out / "mesh" / "model.msh").unlink()
     inp = write_solid_input(case, out / "mesh" / "mesh.h5", out / "motion.h5", "no_water", out / "no_water" / "in.h5")
+    # The rooms below are sized on the monitors' and energy histories; the lining's ring forces
+    # (written through the same space ledger, and on in the coupled test below) are left out here
+    # so that a sample still fits in them.
+    import h5py
+
+    with h5py.File(inp, "a") as f:
+        f["output"].attrs["ring_forces"] = 0
     res = out / "results_no_water.h5"
     base = disk.used()
     for room, stops in ((100_000, "start"), (500_000, "run"), (650_000, "run")):
@@ -231,7 +239,7 @@ def test_mesh_and_motion_rebuilt_on_a_full_disk_keep_the_previous_complete_files
     for f, data in before.items():
         assert f.read_bytes() == data, f
     assert not (results / "mesh" / "fingerprint.json").exists()
-    assert [f.name for f in results.rglob(".*") if f.is_file()] == []
+    assert [f.name for f in results.rglob(".*") if f.is_file() and f.name != runlock.LOCK_NAME] == []
 
 
 def test_mesh_build_writes_no_gmsh_or_fltk_preferences_outside_the_case(tmp_path):

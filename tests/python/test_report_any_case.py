@@ -310,15 +310,21 @@ def test_reference_needs_the_papers_monitors_and_only_then_refuses_them_in_the_r
     assert main(["check", str(tmp_path / "c.yaml")]) == 0
 
 
-def test_lining_forces_section_waits_for_the_design_quantities(own_case):
-    """The report's place for the lining forces: nothing while the runs carry no design quantities;
-    a design-quantities object's own lines under its heading once they do."""
+def test_lining_forces_section_comes_with_the_design_quantities(own_case):
+    """The report's lining forces: nothing without runs that carry them; with them (tq-solid writes
+    them by default) the section under its heading, with the thrust extremes of the results file;
+    a design-quantities object's own lines under the heading."""
     from tunnelquake import report as R
     from tunnelquake.case import load_case
+    from tunnelquake.ring_forces import read_ring_forces
 
     assert R.design_quantities(load_case(own_case / "case.yaml"), []) is None
     assert R.lining_forces_section(None) == []
-    assert "Lining forces" not in (own_case / "results" / "report.md").read_text()
+    report = (own_case / "results" / "report.md").read_text()
+    assert "## Lining forces" in report
+    ring = read_ring_forces(own_case / "results" / "results_no_water.h5")[0]
+    row = re.search(r"\*\*no_water\*\* \(ring.*?\| N \(kN/m\) \| (\S+) \|", report, re.S)
+    assert row and float(row.group(1)) == pytest.approx(float(np.max(ring.N)) / 1e3, rel=1e-3)
 
     class Design:
         def report_lines(self):
