@@ -18,8 +18,8 @@ import subprocess
 
 import h5py
 import pytest
+from test_solid_input import _solid_with_stages
 
-from tunnelquake import paths
 from tunnelquake.case import ground_layers, load_case
 from tunnelquake.cli import main
 from tunnelquake.cli.motion import write_motion
@@ -159,12 +159,6 @@ def test_the_layer_is_a_mesh_region_between_grid_lines(layered_mesh):
     assert est == {k: summary["counts"][k] for k in est}
 
 
-def _solid_with_stages():
-    exe = paths.solid_executable()
-    if exe is None:
-        return None
-    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
-    return exe if out.returncode == 0 and "staged-seismic" in out.stdout else None
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")

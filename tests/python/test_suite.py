@@ -20,6 +20,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from test_reliability import _processes_naming
 
 from conftest import EXAMPLE
 from tunnelquake import post as P
@@ -351,21 +352,6 @@ def test_suite_under_mpi4py_futures_is_bitwise_equal_to_the_local_pool(local_sui
                 assert a[k].tobytes() == b[k].tobytes(), f"{m} {cond} {k} differs"
 
 
-def _processes_naming(folder) -> list[str]:
-    found = []
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/cmdline", "rb") as fh:
-                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace")
-            with open(f"/proc/{name}/stat") as fh:
-                state = fh.read().rsplit(")", 1)[1].split()[0]
-        except OSError:
-            continue
-        if str(folder) in cmd and state != "Z":
-            found.append(f"{name}: {cmd[:200]}")
-    return found
 
 
 def _state(folder: Path, member: str) -> str:
