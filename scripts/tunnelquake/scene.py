@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .case import closed_section, coupling_window_force_weight
+from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut
 
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
@@ -114,15 +114,13 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
 
     d = case.data
     g, w, lin = d["geometry"], d["water"], d["materials"]["lining"]
-    h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+    h1, dt_crit = lining_layer_step(d)
     m_g = lin["density"] * h1 / 2
     R = g["excavated_radius"] - g["lining_thickness"]
     scheme = d["coupling"]["scheme"]
     ratios = {f"mode {n}": w["density"] * R / (n * m_g) for n in (1, 2)}
     if w["model"] == "compressible":
-        E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]
-        cp = math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
-        dt_c = d["coupling"]["window"] * d["time"]["safety_factor"] * h1 / cp
+        dt_c = d["coupling"]["window"] * d["time"]["safety_factor"] * dt_crit
         c_w = math.sqrt(w["bulk_modulus"] / w["density"])
         ratios["impedance"] = w["density"] * c_w * dt_c / m_g
     # The enclosed water's volumetric stiffness 2K/R per wall area (p = -K dA/A, dA/A = 2u/R) against
@@ -225,16 +223,8 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
 
     d = case.data
     counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
-    g, lin = d["geometry"], d["materials"]["lining"]
-    h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
-    E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]
-    dt_crit = h1 / math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
-    dmp = d["damping"]
-    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
-        beta = 2 * dmp["ratio"] / sum(2 * math.pi * f for f in dmp["frequencies"])
-        xi = beta / dt_crit
-        dt_crit *= math.sqrt(1 + xi * xi) - xi
-    dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit
+    dt_crit = lining_layer_step(d)[1]
+    dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
     duration = d["time"].get("end_time") or d["ground_motion"]["duration"]
     steps = int(math.ceil(duration / dt))
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)

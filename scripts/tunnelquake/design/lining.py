@@ -152,8 +152,9 @@ def free_field_shear_strain(case, motion_file: Path) -> tuple[float, float, floa
     with h5py.File(motion_file, "r") as f:
         dt = float(f.attrs["dt"])
         ax = np.asarray(f["incident_ax"][...], float)
-    v = np.concatenate([[0.0], np.cumsum(0.5 * dt * (ax[1:] + ax[:-1]))])
-    pgv = 2.0 * float(np.max(np.abs(v)))
+    from ..motion import integrate
+
+    pgv = 2.0 * float(np.max(np.abs(integrate(ax, dt)[0])))
     return pgv / cs, pgv, cs
 
 
