@@ -529,12 +529,16 @@ class DesignParameters:
                          d_top=self.axis_distance, d_bottom=self.axis_distance, gamma_c=self.gamma_c,
                          gamma_s=self.gamma_s, alpha_cc=self.alpha_cc, stress_block=self.stress_block)
 
+    def concrete_checks(self, N, M, h: float) -> dict:
+        """The checks of the concrete section alone: 'cracking' and 'plain' (EN 1992-1-1 §12)."""
+        return {"cracking": cracking_check(N, M, h, self.fct(h)),
+                "plain": plain_resistance(N, M, h, self.fcd_pl(), eta=self.concrete.eta)}
+
     def check(self, N, M, h: float) -> dict:
         """Every check for (N, M) pairs (arrays broadcast) of a lining of thickness h:
         'cracking' (CrackingCheck), 'plain' (PlainCheck, EN 1992-1-1 §12) and, when reinforced,
         'reinforced' (utilisation against the M–N curve by the chosen method)."""
-        out = {"cracking": cracking_check(N, M, h, self.fct(h)),
-               "plain": plain_resistance(N, M, h, self.fcd_pl(), eta=self.concrete.eta)}
+        out = self.concrete_checks(N, M, h)
         if self.reinforced:
             sec = self.section(h)
             out["reinforced"] = (sec.utilisation_radial(N, M) if self.utilisation == "radial"

@@ -122,7 +122,7 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
         ovl = (_extreme(r.diameter_change, r.diameter_angle, r.time, True),
                _extreme(r.diameter_change, r.diameter_angle, r.time, False))
     Nc, Mc = -r.N, r.M  # the capacity check's signs: compression positive, the inner face at the bottom
-    checks = params.check(Nc, Mc, h)
+    checks = params.concrete_checks(Nc, Mc, h)  # every pair; the reinforced check on the hull below
     util = {"cracking": _extreme(checks["cracking"].utilisation, r.angle, r.time, True)}
     plain = np.where(np.isfinite(checks["plain"].utilisation), checks["plain"].utilisation, np.inf)
     util["plain concrete (EN 1992-1-1 §12.6.1)"] = _extreme(plain, r.angle, r.time, True)
