@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import math
 
-from tunnelquake.cli.bench import BEGIN, END, observed_orders, update_docs
+from benchmarks.common import observed_orders
+from benchmarks.solid import BEGIN, END, update_docs
 
 
 def test_observed_order_of_a_power_law_is_its_exponent():
@@ -41,8 +42,8 @@ def test_update_docs_replaces_only_the_marked_section_or_appends_it():
 
 
 def test_peer_part_of_the_section_gives_the_ratio_or_the_reason_it_was_skipped():
-    from tunnelquake.bench_calculix import PeerResult
-    from tunnelquake.cli.bench import section
+    from benchmarks.calculix import PeerResult
+    from benchmarks.solid import section
 
     reason = "ccx (CalculiX) not found on PATH: install Debian's calculix-ccx"
     text = section("T", "P", "tunnelquake bench x --peer", "today", "here", "f.png", reason)

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from tunnelquake import bench_fluid as bf
-from tunnelquake.cli.bench import BEGIN as SOLID_BEGIN
-from tunnelquake.cli.bench import END as SOLID_END
+from benchmarks import fluid as bf
+from benchmarks.solid import BEGIN as SOLID_BEGIN
+from benchmarks.solid import END as SOLID_END
 
 
 def test_difference_order_of_a_power_law_is_its_exponent_without_the_limit():
@@ -114,7 +114,7 @@ def test_pipe3d_mesh_refines_by_two_in_all_three_directions():
 
 
 def test_closed_ends_are_recognised_from_the_polymesh_boundary():
-    from fluid_common.tunnel import ends_are_walls
+    from benchmarks.fluid_common.tunnel import ends_are_walls
 
     def boundary(kind_min, kind_max):
         return (f"3\n(\n    interface\n    {{\n        type            wall;\n        nFaces 32;\n    }}\n"

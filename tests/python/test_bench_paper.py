@@ -12,8 +12,8 @@ import math
 import pytest
 import yaml
 
-from conftest import EXAMPLE
-from tunnelquake.bench_paper import (
+from benchmarks.common import update_docs
+from benchmarks.paper import (
     BEGIN,
     END,
     Variant,
@@ -25,8 +25,8 @@ from tunnelquake.bench_paper import (
     set_key,
     write_variant,
 )
+from conftest import EXAMPLE
 from tunnelquake.case import load_case
-from tunnelquake.cli.bench import update_docs
 
 
 def _peaks(p, ux, uz, s, d):

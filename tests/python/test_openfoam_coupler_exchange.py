@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
-from fluid_common import pipe
 
+from benchmarks.fluid_common import foamcase as fc
+from benchmarks.fluid_common import pipe
 from tunnelquake.coupling.fakes import FakeSolid
 from tunnelquake.coupling.participant import Participant
 from tunnelquake.coupling.protocol import CouplingConfig, FieldSpec, MeshSpec

@@ -31,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
-from fluid_common import pipe, tunnel
+
+from benchmarks.fluid_common import foamcase as fc
+from benchmarks.fluid_common import pipe, tunnel
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
+
+from benchmarks.fluid_common import foamcase as fc
 
 RHO = 1000.0
 NU = 1.308e-6

@@ -23,9 +23,9 @@ import math
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
-from fluid_common import pipe, tunnel
 
+from benchmarks.fluid_common import foamcase as fc
+from benchmarks.fluid_common import pipe, tunnel
 from tunnelquake.references import open_pipe_contraction
 
 pytest.importorskip("gmsh")

@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
-from fluid_common import pipe
+
+from benchmarks.fluid_common import foamcase as fc
+from benchmarks.fluid_common import pipe
 
 R = 4.5
 A0 = 1.0  # m/s^2

@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
 
-from tunnelquake import bench_fluid as bf
+from benchmarks import fluid as bf
+from benchmarks.fluid_common import foamcase as fc
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

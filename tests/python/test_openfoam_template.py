@@ -25,8 +25,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fluid_common import foamcase as fc
-from fluid_common import pipe
+
+from benchmarks.fluid_common import foamcase as fc
+from benchmarks.fluid_common import pipe
 
 gmsh = pytest.importorskip("gmsh")
 _reason = fc.openfoam_missing_reason()

@@ -6,7 +6,7 @@
     tunnelquake run    case.yaml    mesh, motion, then each condition with only the solvers it needs
                                     (a case with suite: every member x condition, suite_report.md)
     tunnelquake post   case.yaml    results -> CSV monitors, figures, report
-    tunnelquake bench  FOLDER       error against wall time of the verification cases (benchmark)
+    tunnelquake bench  FOLDER       the benchmarks (benchmarks/ of the repository: python -m benchmarks)
 """
 from __future__ import annotations
 

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import pipe  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
+from benchmarks.fluid_common import foamcase as fc  # noqa: E402
+from benchmarks.fluid_common import pipe  # noqa: E402
 
 
 def ms_per_step(log: str, skip: int = 5) -> float:

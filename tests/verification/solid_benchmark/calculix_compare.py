@@ -4,7 +4,7 @@ Not a test (CI does not run it); prints a markdown table for docs/benchmarks.md.
 
 The problem (the same deck for both codes, written by ``tq-solid-bench --write-ccx``), the physics
 cross-check (u_z = -P t / (rho c_p) before the reflection, tolerance 2 %) and the timing method are
-described in, and run by, tunnelquake.bench_calculix, which `tunnelquake bench --peer` also runs
+described in, and run by, benchmarks/calculix.py, which `tunnelquake bench --peer` also runs
 (into docs/benchmarks.md's generated solid section).
 
 Usage (from the repository root):
@@ -21,9 +21,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT / "scripts"))
-from tunnelquake.bench_calculix import PeerError, compare, markdown  # noqa: E402
-from tunnelquake.cli.bench import machine  # noqa: E402
+sys.path.insert(0, str(ROOT))
+from benchmarks.calculix import PeerError, compare, markdown  # noqa: E402
+from benchmarks.common import machine  # noqa: E402
 
 
 def main() -> None:

@@ -15,7 +15,7 @@ Ladders:
   N = 32, 64, 128 (--full: and 256) faces around (N²/4 cells), 200 steps a period; and N = 64 at 25,
   50, 100, 200, 400 steps a period. Each setting runs with our water settings (the template's:
   transpiration, tuned PIMPLE, p by tqProjected + GAMG) and with the stock set-up of
-  tests/verification/fluid_benchmark/benchmark.py (pimpleFoam + displacementLaplacian,
+  benchmarks/water_step/benchmark.py (pimpleFoam + displacementLaplacian,
   inverseDistance, movingWallVelocity + fixedFluxPressure, movingCone solvers), alternately,
   --repeat times: errors (deterministic) of both and the per-step time ratio (median of the
   per-round ratios).
@@ -42,7 +42,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import functools
-import importlib.util
 import json
 import math
 import shlex
@@ -54,9 +53,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .cli import bench as _bench
-from .cli.bench import observed_orders
-from .paths import ROOT
+from tunnelquake.paths import ROOT
+
+from . import common
+from .common import observed_orders
 
 FLUID_BEGIN, FLUID_END = "<!-- bench:fluid -->", "<!-- /bench:fluid -->"
 #: the 3D rigid pipe's own block, right after the fluid section (written by --parts pipe3d alone too)
@@ -176,7 +176,7 @@ def ladder_table(done: list[Ladder]) -> str:
 
 def pick(done: list[Ladder], targets: tuple[float, ...] = (0.05, 0.02, 0.01, 0.005, 0.001)) -> str:
     """For each ladder and target, the cheapest run (wall time) whose errors are all within it."""
-    return _bench.cheapest_table(done, lambda _lad, r: r["setting"], "ladder", targets)
+    return common.cheapest_table(done, lambda _lad, r: r["setting"], "ladder", targets)
 
 
 def ratio_table(pairs: list[dict]) -> str:
@@ -195,7 +195,7 @@ def ratio_table(pairs: list[dict]) -> str:
 def update_docs(text: str, new_section: str, begin: str = FLUID_BEGIN, end: str = FLUID_END) -> str:
     """Replace the fluid section of a page, or append it when the markers are absent (the harness's
     own marker replacement, with this section's markers)."""
-    return _bench.update_docs(text, new_section, begin, end)
+    return common.update_docs(text, new_section, begin, end)
 
 
 def update_docs_pipe3d(text: str, new_block: str) -> str:
@@ -217,20 +217,12 @@ def is_pipe3d(name: str) -> bool:
 # ------------------------------------------------------------------------------------------------
 @functools.lru_cache(maxsize=1)
 def _fluid_modules():
-    """The water test helpers (tests/verification/fluid_common) and the stock/ours settings of the
-    water benchmark (tests/verification/fluid_benchmark/benchmark.py): the same set-ups as
-    docs/water.md §10, not a copy."""
-    tv = ROOT / "tests" / "verification"
-    bench_py = tv / "fluid_benchmark" / "benchmark.py"
-    if not bench_py.is_file():
-        raise BenchError(f"{bench_py} not found: the fluid benchmark needs the repository's tests/verification")
-    if str(tv) not in sys.path:
-        sys.path.insert(0, str(tv))
-    from fluid_common import foamcase, pipe, tunnel
+    """The water case helpers (benchmarks/fluid_common, shared with the verification tests) and the
+    stock/ours settings of the water step benchmark (benchmarks/water_step/benchmark.py): the same
+    set-ups as docs/water.md §10, not a copy."""
+    from .fluid_common import foamcase, pipe, tunnel
+    from .water_step import benchmark as fb
 
-    spec = importlib.util.spec_from_file_location("tq_fluid_benchmark", bench_py)
-    fb = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fb)
     vs = fb.variants(closed=True)  # the slice is a closed domain
     # the stock set-up keeps OpenFOAM's own laminar model (Stokes); ours takes the template's when
     # the built libtqFoam.so has it (tqNewtonian), else Stokes (the model is named in the output)
@@ -414,7 +406,7 @@ def pipe3d_ladders(root: Path, repeat: int, log=print) -> tuple[list[Ladder], li
 # The ring: water-filled (coupled) and empty
 # ------------------------------------------------------------------------------------------------
 def _ring_run(ring, folder: Path, setting: str, size: float) -> dict:
-    from .verification.ring import run_ring
+    from tunnelquake.verification.ring import run_ring
 
     res = run_ring(ring, folder, keep=False)
     if res.status != "completed":
@@ -428,7 +420,7 @@ def _ring_run(ring, folder: Path, setting: str, size: float) -> dict:
 
 
 def ring_ladders(root: Path, log=print) -> list[Ladder]:
-    from .verification.ring import Ring
+    from tunnelquake.verification.ring import Ring
 
     base = Ring(n_through=1, length=0.5, periods=3.0, mode="slice", scheme="implicit", acceleration="iqn-ils")
     filled = Ladder("water-filled ring, n around (implicit IQN-ILS, tol 1e-4)", ("frequency_error",), ("f",),
@@ -504,7 +496,7 @@ the last step against −ρ a R. blockMesh O-grids with N faces around. **ours**
 water settings (transpiration, tuned PIMPLE, p by tqProjected + GAMG to 1e-6 in the closed
 slice{laminar}); **stock**: the tutorial-like set-up of docs/water.md §10 (pimpleFoam + displacementLaplacian inverseDistance,
 movingWallVelocity + fixedFluxPressure, movingCone solvers), both from
-`tests/verification/fluid_benchmark/benchmark.py`, run alternately on the same mesh and step;
+`benchmarks/water_step/benchmark.py`, run alternately on the same mesh and step;
 times are medians of the rounds, ms/step the wall clock between the solver's step lines (steps
 {PIPE_SKIP} on). **Ring** (`tunnelquake.verification.ring`, the coupled chain tq-solid + coupler +
 rhoPimpleFoam, slice, implicit IQN-ILS): the n = 2 frequency after a pulse against the thin-ring
@@ -642,7 +634,7 @@ def main(argv: list[str]) -> int:
     if args.repeat < 1:
         print(f"tunnelquake bench --fluid: --repeat {args.repeat}: needs at least 1", file=sys.stderr)
         return 2
-    from .paths import openfoam_library, solid_executable
+    from tunnelquake.paths import openfoam_library, solid_executable
 
     missing = [what for what, ok in (("libtqFoam.so", openfoam_library()), ("tq-solid", solid_executable()),
                                      ("pimpleFoam (OpenFOAM v1912)", shutil.which("pimpleFoam"))) if not ok]
@@ -668,7 +660,7 @@ def main(argv: list[str]) -> int:
     except BenchError as e:
         print(f"tunnelquake bench --fluid: {e}", file=sys.stderr)
         return 1
-    data = {"date": _dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "machine": _bench.machine(), "note": args.note,
+    data = {"date": _dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "machine": common.machine(), "note": args.note,
             "command": "tunnelquake bench " + " ".join(shlex.quote(a) for a in argv[:1] + ["--fluid"] + argv[1:]),
             "pairs": pairs, "ladders": [{"name": d.name, "error_keys": d.error_keys, "labels": d.labels,
                                          "value_key": d.value_key, "runs": d.runs} for d in done]}

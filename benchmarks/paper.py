@@ -45,7 +45,9 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from .paths import ROOT
+from tunnelquake.paths import ROOT
+
+from . import common
 
 BEGIN, END = "<!-- bench:paper -->", "<!-- /bench:paper -->"
 DEFAULT_CASE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
@@ -228,7 +230,7 @@ def run_variant(v: Variant, case_dir: Path, limit: float | None = None, duration
     """Run one variant and return its record: wall time, status, the solver's own timings, peaks.
     A run longer than `limit` s is stopped (its whole process group: tunnelquake, tq-solid, the
     water) and recorded as such."""
-    from .post import peaks, read_condition
+    from tunnelquake.post import peaks, read_condition
 
     env = dict(os.environ)
     env["TQ_CONDITIONS_AT_ONCE"] = "1"
@@ -609,22 +611,18 @@ def render(data: dict, folder: Path, update_docs: bool, notes: str = "") -> str:
     text = section(body, commands, data["machine"], [p.name for p in figs], notes)
     (folder / "paper.md").write_text(text + "\n")
     if update_docs:
-        from .cli.bench import update_docs as _replace
-
         docs = ROOT / "docs"
         (docs / "bench").mkdir(exist_ok=True)
         for p in figs:
             shutil.copyfile(p, docs / "bench" / p.name)
         text_docs = section(body, commands, data["machine"], [f"bench/{p.name}" for p in figs], notes)
         target = docs / "benchmarks.md"
-        target.write_text(_replace(target.read_text(), text_docs, BEGIN, END))
+        target.write_text(common.update_docs(target.read_text(), text_docs, BEGIN, END))
         print(f"updated {target} and docs/bench/paper_*.png")
     return text
 
 
 def main(argv: list[str]) -> int:
-    from .cli.bench import machine
-
     p = argparse.ArgumentParser(prog="tunnelquake bench --paper", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("folder", type=Path, help="where the variants, paper.json, paper.md and the figures go")
@@ -665,7 +663,7 @@ def main(argv: list[str]) -> int:
             data["runs"].append(rec)
             print(f"[bench --paper]   {rec['status']}, wall {rec['wall_s']:.1f} s, load {rec['load'][0]:.1f}"
                   f"-{rec['load'][1]:.1f}", flush=True)
-            data["machine"] = machine()
+            data["machine"] = common.machine()
             store.write_text(json.dumps(data, indent=1, default=_jsonable))
         order = {(v.condition, v.name): i for i, v in enumerate(variants(args.end_3d))}
         data["runs"].sort(key=lambda r: order.get((r["condition"], r["name"]), 1e9))

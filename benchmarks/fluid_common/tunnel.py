@@ -1,5 +1,5 @@
 """Water cases on the tunnel's own water mesh (tunnelquake.meshing.build_tunnel_mesh), for the
-benchmark (tests/verification/fluid_benchmark) and the verification tests.
+benchmark (benchmarks/water_step) and the verification tests.
 
 prepare_mesh(mode, dest): builds the paper's mesh (PAPER_GEOMETRY, mode '3d' or 'slice'),
 converts water.msh with gmshToFoam and sets the patch types (interface: wall; slice ends:

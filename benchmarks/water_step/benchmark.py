@@ -26,7 +26,7 @@ value, and of the wall pressure at the last step, relative to the largest wall p
 closed, its pressure level is a convention: means removed).
 
 Usage (from the repository root):
-  TQ_BUILD_DIR=/tmp/build-water .venv/bin/python tests/verification/fluid_benchmark/benchmark.py \
+  TQ_BUILD_DIR=/tmp/build-water .venv/bin/python -m benchmarks.water_step.benchmark \
       [--mesh 3d slice] [--variants NAME ...] [--ranks 1 2] [--steps3d 100] [--steps2d 1000] [--repeat 3]
   ... benchmark.py --pair 5 [--variants NAME ...]: ours and each named variant (default: stock)
       alternately, 5 runs each; min and median of each and the ratios to ours.
@@ -39,19 +39,15 @@ import re
 import shutil
 import statistics
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fluid_common import foamcase as fc  # noqa: E402
-from fluid_common import tunnel  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "scripts"))
-from tunnelquake.cli.bench import machine  # noqa: E402
+from ..common import machine
+from ..fluid_common import foamcase as fc
+from ..fluid_common import tunnel
 
 STOCK = dict(
     interface_motion="meshMotion",

@@ -1,6 +1,6 @@
 """Wall time of a record suite on 1 and on 2 workers (docs/benchmarks.md "Record suites").
 
-    python -m tunnelquake.bench_suite [--members 4] [--end-time 8] [--repeats 3] [--folder DIR]
+    python -m benchmarks.suite [--members 4] [--end-time 8] [--repeats 3] [--folder DIR]
 
 The suite: the example slice (cases/paper_tunnel), condition no_water only, `--members` seeded
 synthetic Kanai-Tajimi records (20 s at 0.01 s, tunnelquake.motion.SyntheticModel, seeds 1, 2, ...)
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .motion import SyntheticModel
-from .paths import ROOT
+from tunnelquake.motion import SyntheticModel
+from tunnelquake.paths import ROOT
 
 
 def _case(folder: Path, members: int, end_time: float) -> Path:
@@ -55,7 +55,7 @@ def _load() -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m tunnelquake.bench_suite", description=__doc__,
+    p = argparse.ArgumentParser(prog="python -m benchmarks.suite", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--members", type=int, default=4)
     p.add_argument("--end-time", type=float, default=8.0, help="s of shaking a member")

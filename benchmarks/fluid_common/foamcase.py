@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("TQ_BUILD_DIR", REPO / "build"))
 LIBRARY = BUILD / "openfoam_case" / "libtqFoam.so"
 # Debian's OpenFOAM binaries need WM_PROJECT_DIR pointing at the package's share folder.
