@@ -62,7 +62,7 @@ if ((CHECK_ONLY)); then
   of_src=${TQ_OPENFOAM_SRC:-$CACHE/openfoam-1912/src}
   if [[ -f $of_src/finiteVolume/lnInclude/fvCFD.H ]]; then say "ok: OpenFOAM v1912 headers in $of_src"
   else say "MISSING OpenFOAM headers in $of_src"; status=1; fi
-  if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml" 2>/dev/null
+  if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml, importlinter" 2>/dev/null
   then say "ok: Python environment $VENV"
   else say "MISSING Python environment or one of its packages in $VENV"; status=1; fi
   for exe in "$BUILD/openfoam_case/libtqFoam.so" "$BUILD/solid_solver/tq-solid"; do

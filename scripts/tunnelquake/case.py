@@ -112,20 +112,6 @@ def _component_section(what: str) -> Section:
     })
 
 
-def design_mapping(d: dict) -> dict | None:
-    """The `design:` block as the capacity check reads it (design.capacity.DesignParameters
-    .from_mapping), or None when the case gives no concrete strength (the lining's are used)."""
-    des = d.get("design") or {}
-    if not (des.get("concrete") or {}).get("fck"):
-        return None
-    out = {k: v for k, v in des.items() if k not in ("concrete", "reinforcement")}
-    out["concrete"] = {k: v for k, v in des["concrete"].items() if v is not None}
-    reinf = {k: v for k, v in (des.get("reinforcement") or {}).items() if v is not None}
-    if reinf.get("As_inner", 0) + reinf.get("As_outer", 0) > 0:
-        out["reinforcement"] = reinf
-    return out
-
-
 def _check_design(des, path, raw, ctx):
     given = getattr(raw, "key_lines", {})
     if not given:
@@ -134,7 +120,7 @@ def _check_design(des, path, raw, ctx):
         ctx.error(f"{path}.concrete.fck", None, "is required with a design block",
                   "add design: {concrete: {fck: 30 MPa}} (the concrete's characteristic strength)", raw.line)
         return
-    from .design.capacity import DesignParameters
+    from .design.capacity import DesignParameters, design_mapping
 
     try:
         DesignParameters.from_mapping(design_mapping({"design": des}), path)

@@ -162,3 +162,93 @@ def stop_all(grace: float = STOP_GRACE_S) -> dict:
         time.sleep(0.02)
         left_groups, left_others = alive()
     return {"terminated": len(groups) + len(others) - killed, "killed": killed, "left": left_groups + left_others}
+
+
+#: set while a run is being stopped by a signal: its threads' progress lines are dropped, so that
+#: the one line saying what was stopped is the last thing printed
+QUIET = threading.Event()
+
+
+def say(msg: str) -> None:
+    if QUIET.is_set():
+        return
+    print(f"[tunnelquake] {msg}", flush=True)
+
+
+class Side:
+    """One participant's process, its log streamed to a file and echoed (filtered) to the terminal."""
+
+    #: s between flushes of the log file (a flush per line cost the water's verbose log, ~20 lines a
+    #: pass, a write call each on the cores the solvers share)
+    FLUSH_S = 1.0
+
+    def __init__(self, name: str, cmd: list[str], log, env, echo):
+        import collections
+        import subprocess
+        import threading
+
+        self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
+        self.log_error: OSError | None = None
+        self.fh = open(log, "w")
+        self.proc = popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                   bufsize=1)
+        self.thread = threading.Thread(target=self._pump, args=(echo,), daemon=True)
+        self.thread.start()
+
+    def _pump(self, echo) -> None:
+        """Copy the child's output to its log and the terminal until it ends. A log the disk has no
+        room for stops being written (said once); the output is still read, so the child never
+        blocks on a full pipe, and its last lines still reach the terminal."""
+        import time as _time
+
+        flushed = _time.monotonic()
+
+        def logged(write, *args) -> None:
+            if self.log_error is None:
+                try:
+                    write(*args)
+                except OSError as e:
+                    self.log_error = e
+                    say(f"  [{self.name}] its log {self.log} is cut here: {e.strerror or e}")
+
+        for line in self.proc.stdout:
+            logged(self.fh.write, line)
+            self.lines.append(line)
+            if echo(line):
+                logged(self.fh.flush)
+                say(f"  [{self.name}] {line.rstrip()}")
+                flushed = _time.monotonic()
+            elif _time.monotonic() - flushed > self.FLUSH_S:
+                logged(self.fh.flush)
+                flushed = _time.monotonic()
+        logged(self.fh.flush)
+
+    def close(self) -> None:
+        import contextlib
+
+        self.thread.join(timeout=10)
+        with contextlib.suppress(OSError):  # a log the disk had no room for: said by _pump
+            self.fh.close()
+
+    def tail(self, n: int = 6) -> str:
+        return "\n".join(f"      {x.rstrip()}" for x in list(self.lines)[-n:])
+
+
+def stop_side(side: Side, grace: float) -> None:
+    """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
+    after its coupling timeout), then end it: SIGTERM first (mpirun passes it on to its ranks,
+    which a SIGKILL of mpirun would orphan), SIGKILL 10 s later."""
+    import subprocess
+
+    try:
+        side.proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        if stopping.is_set():
+            return  # stop_all ends it
+        say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
+        side.proc.terminate()
+        try:
+            side.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            side.proc.kill()
+            side.proc.wait(timeout=30)

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import children
 from .case import coupling_predictor, coupling_window_force_weight
 from .files import h5_in_memory
 
@@ -268,3 +269,41 @@ def snapshot_times(given, t_end: float) -> np.ndarray:
         return np.asarray(given, float)
     t = np.arange(SNAPSHOT_INTERVAL, t_end, SNAPSHOT_INTERVAL)
     return np.append(t[t < t_end - 1e-9], float(t_end))
+
+
+def solid_step(exe, solid_input) -> float:
+    """The solid step tq-solid will take (its --check: safety x the stable step, or the case's dt)."""
+    import math
+    import re
+
+    out = children.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
+    m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
+    if out.returncode != 0 or not m:
+        raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
+    # printed to 6 significant digits, i.e. possibly rounded *up* by up to 5e-6 relative (9.30806e-05
+    # can print as 9.3081e-05): step back by 1e-5 relative, then round down to 5 digits, so that the
+    # pinned step is never above the limit (a 5-digit value such as 9.3081e-05 was refused as above
+    # a limit of 9.30806e-05)
+    dt = float(m.group(1)) * (1.0 - 1e-5)
+    q = 10.0 ** (math.floor(math.log10(dt)) - 4)
+    return math.floor(dt / q) * q
+
+
+#: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
+#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one (docs/benchmarks.md).
+SMALL_MESH_ELEMENTS = 20000
+
+
+def solid_threads(case, mesh_h5) -> int:
+    """OpenMP threads for tq-solid: the case's `parallel.threads`, or for 0 one thread on a small
+    mesh (SMALL_MESH_ELEMENTS) and every core otherwise."""
+    import os
+
+    import h5py
+
+    threads = int(case.data["parallel"]["threads"])
+    if threads:
+        return threads
+    with h5py.File(mesh_h5, "r") as f:
+        elements = f["elements/connectivity"].shape[0]
+    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)))

@@ -25,6 +25,7 @@ from test_reliability import _processes_naming
 from conftest import EXAMPLE
 from tunnelquake import post as P
 from tunnelquake import suite as S
+from tunnelquake import suite_members as SM
 from tunnelquake.cli import main
 
 RECORD_DT = 0.01
@@ -127,8 +128,8 @@ def test_combination_rule_on_stored_member_results(tmp_path, n, rule, expect):
         folder = tmp_path / f"m{k}"
         folder.mkdir()
         _stored_results(folder / "results_no_water.h5", a)
-        peaks[f"m{k}"] = S.member_peaks(folder, ["no_water"])
-    combined, used, count = S.combined_table(peaks, rule)
+        peaks[f"m{k}"] = SM.member_peaks(folder, ["no_water"])
+    combined, used, count = SM.combined_table(peaks, rule)
     assert (used, count) == (expect, n)
     want = np.mean(amps) if expect == "mean" else max(amps)
     for mon in STORED_MONITORS:
@@ -143,8 +144,8 @@ def test_a_member_not_completed_is_left_out_of_the_combination(tmp_path):
     for k, (a, status) in enumerate([(0.01, "completed"), (0.05, "interrupted"), (0.02, "completed")]):
         (tmp_path / f"m{k}").mkdir()
         _stored_results(tmp_path / f"m{k}" / "results_no_water.h5", a, status)
-    peaks = {f"m{k}": S.member_peaks(tmp_path / f"m{k}", ["no_water"]) for k in range(3)}
-    combined, used, count = S.combined_table({n: p for n, p in peaks.items() if p}, "auto")
+    peaks = {f"m{k}": SM.member_peaks(tmp_path / f"m{k}", ["no_water"]) for k in range(3)}
+    combined, used, count = SM.combined_table({n: p for n, p in peaks.items() if p}, "auto")
     assert (used, count) == ("max", 2)
     assert combined["no_water"]["haunch"]["max_ux"] == pytest.approx(0.02, rel=1e-12)
 
@@ -306,7 +307,7 @@ def test_suite_of_3_records_x_2_conditions_runs_as_one_command(local_suite):
                     assert rows[(m, cond, mon, q)] == v  # repr in the CSV: the same float
                 assert rows[("combined_max", cond, mon, q)] == max(vals)
             section = report.split(f"## Peaks: {cond}")[1].split(f"### {mon}")[1].split("###")[0]
-            assert f"| **max** | **{S._fmt(max(own[m][mon]['max_ux'] for m in members))}** |" in section
+            assert f"| **max** | **{SM._fmt(max(own[m][mon]['max_ux'] for m in members))}** |" in section
     # the members ran with their scaled records: a PGA of 1.5 m/s^2 each, the third reversed
     for m in members:
         with h5py.File(res / "members" / m / "motion.h5", "r") as f:

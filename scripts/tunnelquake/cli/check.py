@@ -64,7 +64,7 @@ def main(argv: list[str]) -> int:
     for a in sl.advice:
         say(f"  advice: {a}")
     if d["suite"]["records"] is not None:
-        from ..suite import combination_rule, plan_members
+        from ..suite_members import combination_rule, plan_members
 
         members = plan_members(case)
         rule = combination_rule(d["suite"]["combine"], len(members))

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-import threading
 from pathlib import Path
 
 from ..case import Case, CaseError, load_case
+from ..children import QUIET, say  # noqa: F401 - the subcommands' imports
 from ..files import DiskFull, atomic_path, is_no_space  # noqa: F401 - the subcommands' imports
 
 
@@ -118,14 +118,3 @@ def folder_held(case: Case, command: str):
     except RunLockBusy as e:
         print(f"error: {e}", file=sys.stderr)
         yield False
-
-
-#: set while a run is being stopped by a signal: its threads' progress lines are dropped, so that
-#: the one line saying what was stopped is the last thing printed
-QUIET = threading.Event()
-
-
-def say(msg: str) -> None:
-    if QUIET.is_set():
-        return
-    print(f"[tunnelquake] {msg}", flush=True)

@@ -248,8 +248,7 @@ def main(argv: list[str]) -> int:
         if not held:
             return 1
         if case.data["suite"]["records"] is not None:
-            from ..suite import plan_members, write_report
-            from .suite_run import read_state
+            from ..suite_members import plan_members, read_state, write_report
 
             members = plan_members(case)
             say(f"suite report: {write_report(case, members, {m.name: read_state(m.folder) for m in members})}")

@@ -13,7 +13,9 @@ import time
 from pathlib import Path
 
 from .. import children, paths
+from ..children import Side, stop_side
 from ..scene import plan
+from ..solid_input import solid_threads
 from .common import DiskFull, is_no_space, load_or_report, parser, say
 
 
@@ -102,26 +104,6 @@ def _progress(cond: str, line: str) -> bool:
     return True
 
 
-#: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
-#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one (docs/benchmarks.md).
-SMALL_MESH_ELEMENTS = 20000
-
-
-def solid_threads(case, mesh_h5) -> int:
-    """OpenMP threads for tq-solid: the case's `parallel.threads`, or for 0 one thread on a small
-    mesh (SMALL_MESH_ELEMENTS) and every core otherwise."""
-    import os
-
-    import h5py
-
-    threads = int(case.data["parallel"]["threads"])
-    if threads:
-        return threads
-    with h5py.File(mesh_h5, "r") as f:
-        elements = f["elements/connectivity"].shape[0]
-    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)))
-
-
 def concurrent_conditions() -> int:
     """How many conditions may run at once: the cores this process may use (TQ_CONDITIONS_AT_ONCE
     overrides, e.g. 1 to run them one after the other)."""
@@ -155,83 +137,6 @@ def solid_env() -> dict:
     return env
 
 
-def _solid_step(exe, solid_input) -> float:
-    """The solid step tq-solid will take (its --check: safety x the stable step, or the case's dt)."""
-    import math
-    import re
-
-    out = children.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
-    m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
-    if out.returncode != 0 or not m:
-        raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
-    # printed to 6 significant digits, i.e. possibly rounded *up* by up to 5e-6 relative (9.30806e-05
-    # can print as 9.3081e-05): step back by 1e-5 relative, then round down to 5 digits, so that the
-    # pinned step is never above the limit (a 5-digit value such as 9.3081e-05 was refused as above
-    # a limit of 9.30806e-05)
-    dt = float(m.group(1)) * (1.0 - 1e-5)
-    q = 10.0 ** (math.floor(math.log10(dt)) - 4)
-    return math.floor(dt / q) * q
-
-
-class _Side:
-    """One participant's process, its log streamed to a file and echoed (filtered) to the terminal."""
-
-    #: s between flushes of the log file (a flush per line cost the water's verbose log, ~20 lines a
-    #: pass, a write call each on the cores the solvers share)
-    FLUSH_S = 1.0
-
-    def __init__(self, name: str, cmd: list[str], log, env, echo):
-        import collections
-        import subprocess
-        import threading
-
-        self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
-        self.log_error: OSError | None = None
-        self.fh = open(log, "w")
-        self.proc = children.popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                   bufsize=1)
-        self.thread = threading.Thread(target=self._pump, args=(echo,), daemon=True)
-        self.thread.start()
-
-    def _pump(self, echo) -> None:
-        """Copy the child's output to its log and the terminal until it ends. A log the disk has no
-        room for stops being written (said once); the output is still read, so the child never
-        blocks on a full pipe, and its last lines still reach the terminal."""
-        import time as _time
-
-        flushed = _time.monotonic()
-
-        def logged(write, *args) -> None:
-            if self.log_error is None:
-                try:
-                    write(*args)
-                except OSError as e:
-                    self.log_error = e
-                    say(f"  [{self.name}] its log {self.log} is cut here: {e.strerror or e}")
-
-        for line in self.proc.stdout:
-            logged(self.fh.write, line)
-            self.lines.append(line)
-            if echo(line):
-                logged(self.fh.flush)
-                say(f"  [{self.name}] {line.rstrip()}")
-                flushed = _time.monotonic()
-            elif _time.monotonic() - flushed > self.FLUSH_S:
-                logged(self.fh.flush)
-                flushed = _time.monotonic()
-        logged(self.fh.flush)
-
-    def close(self) -> None:
-        import contextlib
-
-        self.thread.join(timeout=10)
-        with contextlib.suppress(OSError):  # a log the disk had no room for: said by _pump
-            self.fh.close()
-
-    def tail(self, n: int = 6) -> str:
-        return "\n".join(f"      {x.rstrip()}" for x in list(self.lines)[-n:])
-
-
 def _fluid_echo():
     """Which OpenFOAM lines reach the terminal: errors, the library's messages, the end, and the
     simulated time every 5 s of wall time."""
@@ -252,26 +157,6 @@ def _fluid_echo():
         return False
 
     return echo
-
-
-def _stop(side: _Side, grace: float) -> None:
-    """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
-    after its coupling timeout), then end it: SIGTERM first (mpirun passes it on to its ranks,
-    which a SIGKILL of mpirun would orphan), SIGKILL 10 s later."""
-    import subprocess
-
-    try:
-        side.proc.wait(timeout=grace)
-    except subprocess.TimeoutExpired:
-        if children.stopping.is_set():
-            return  # stop_all ends it
-        say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
-        side.proc.terminate()
-        try:
-            side.proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            side.proc.kill()
-            side.proc.wait(timeout=30)
 
 
 def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
@@ -331,7 +216,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
 
     from .. import fluid_case as fc
     from ..files import atomic_h5_update
-    from ..solid_input import write_solid_input
+    from ..solid_input import solid_step, write_solid_input
     from .mesh import mesh_dir
 
     work = case.output_dir / cond
@@ -353,7 +238,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         with h5py.File(mesh_h5, "r") as f:
             slice_mode = int(f.attrs.get("slice", 0)) == 1
         k = int(case.data["coupling"]["window"])
-        settings = fc.coupling_settings(case, k * _solid_step(exe, inp), addr, token, t_end=t_end)
+        settings = fc.coupling_settings(case, k * solid_step(exe, inp), addr, token, t_end=t_end)
         with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
             f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
@@ -389,7 +274,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
     _running(cond, res)
     t0 = _time.perf_counter()
     say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
-    solid = _Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: _progress(cond, line))
+    solid = Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: _progress(cond, line))
     fluid_side = None
     timeout = settings["timeout"]
     # the solid publishes its address after its static stages (relaxation: no time limit known)
@@ -397,7 +282,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
         if addr.exists():
             say(f"condition {cond}: solid listening; running the water ({' '.join(fluid_cmd)}); "
                 f"log {work / 'fluid.log'}")
-            fluid_side = _Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
+            fluid_side = Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
             break
         if solid.proc.poll() is not None or children.stopping.is_set():
             break
@@ -409,11 +294,11 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
             rs, rf = solid.proc.poll(), fluid_side.proc.poll()
             if rs is not None and rs != 0:
                 failed = solid
-                _stop(fluid_side, timeout)
+                stop_side(fluid_side, timeout)
                 break
             if rf is not None and rf != 0:
                 failed = fluid_side
-                _stop(solid, timeout)
+                stop_side(solid, timeout)
                 break
             if rs == 0 and rf == 0:
                 break
@@ -422,7 +307,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
                 try:
                     other.proc.wait(timeout=timeout)
                 except Exception:  # noqa: BLE001 - a hung partner after BYE
-                    _stop(other, 0)
+                    stop_side(other, 0)
                 if other.proc.returncode != 0:
                     failed = other
                 break

@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from .. import children
+from ..suite_members import STATE, read_state
 from .common import say
 
 #: s between progress lines while no member ends
@@ -29,7 +30,6 @@ PROGRESS_S = float(os.environ.get("TQ_SUITE_PROGRESS_S", "30"))
 #: s the running members have, after the stop signal, to end by themselves (their own bound is
 #: children.STOP_GRACE_S + KILL_WAIT_S, then run.JOB_WIND_DOWN_S) before their workers are killed
 STOP_BOUND_S = 15.0
-STATE = "member.json"
 #: written in the suite's folder when it is being stopped: a member handed out does not start
 STOP_FILE = ".suite-stop"
 
@@ -53,13 +53,6 @@ def _write_state(folder: Path, state: dict) -> None:
     tmp = folder / f".{STATE}.{os.getpid()}"
     tmp.write_text(json.dumps(state, indent=1) + "\n")
     os.replace(tmp, folder / STATE)
-
-
-def read_state(folder: Path) -> dict:
-    try:
-        return json.loads((Path(folder) / STATE).read_text())
-    except (OSError, ValueError):
-        return {}
 
 
 def _ignore_sigint() -> None:
@@ -89,9 +82,9 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
         try:
-            from .run import main as run_main
+            from . import main as tunnelquake_main  # `tunnelquake run <member case>`
 
-            rc = run_main([case_file, *(["--no-post"] if no_post else [])])
+            rc = tunnelquake_main(["run", case_file, *(["--no-post"] if no_post else [])])
         except BaseException:  # noqa: BLE001 - a member's crash is its own; the suite goes on
             traceback.print_exc()
             rc = 1
@@ -114,8 +107,8 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
 def member_need(case, mesh_h5) -> int:
     """Cores one member uses: its solid's threads, and the water's ranks beside them for
     dynamic_water."""
-    from ..suite import member_conditions
-    from .run import solid_threads
+    from ..solid_input import solid_threads
+    from ..suite_members import member_conditions
 
     threads = solid_threads(case, mesh_h5)
     conds = member_conditions(case)
@@ -249,7 +242,7 @@ def _stop_members(todo, pool) -> dict:
 
 def write_slurm(case, members, need: int, argv_case: str) -> Path:
     """A Slurm job array of the members (one task each), and the report's command to run after it."""
-    from ..suite import suite_dir
+    from ..suite_members import suite_dir
 
     folder = suite_dir(case)
     names = " ".join(m.name for m in members)
@@ -275,7 +268,7 @@ def write_slurm(case, members, need: int, argv_case: str) -> Path:
 def main(case, args, argv) -> int:
     """Run the suite of `case` (the parsed `tunnelquake run` arguments `args`) holding its folder."""
     from ..runlock import RunLockBusy, run_lock
-    from ..suite import suite_dir
+    from ..suite_members import suite_dir
 
     folder = suite_dir(case)
     try:
@@ -297,7 +290,7 @@ def _suite(case, args, argv, note) -> int:
     import shutil
 
     from ..motion import MotionError
-    from ..suite import member_conditions, member_finished, plan_members, suite_dir, write_member, write_report
+    from ..suite_members import member_conditions, member_finished, plan_members, suite_dir, write_member, write_report
     from .mesh import make_mesh, mesh_dir
 
     folder = suite_dir(case)
@@ -352,7 +345,7 @@ def _suite(case, args, argv, note) -> int:
 def _run_pool(case, args, members, todo, need, results) -> int | None:
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    from ..suite import member_conditions, suite_dir
+    from ..suite_members import member_conditions, suite_dir
 
     kind = args.executor or ("mpi" if _under_mpi4py_futures() else "local")
     cores = len(os.sched_getaffinity(0))

@@ -586,3 +586,17 @@ class DesignParameters:
             kwargs.update(geo, reinforcement=Reinforcement(**r))
         names = {f.name for f in fields(cls)}
         return cls(**{k: v for k, v in kwargs.items() if k in names})
+
+
+def design_mapping(d: dict) -> dict | None:
+    """The case's `design:` block as the capacity check reads it (DesignParameters.from_mapping),
+    or None when it gives no concrete strength (the lining's are used)."""
+    des = d.get("design") or {}
+    if not (des.get("concrete") or {}).get("fck"):
+        return None
+    out = {k: v for k, v in des.items() if k not in ("concrete", "reinforcement")}
+    out["concrete"] = {k: v for k, v in des["concrete"].items() if v is not None}
+    reinf = {k: v for k, v in (des.get("reinforcement") or {}).items() if v is not None}
+    if reinf.get("As_inner", 0) + reinf.get("As_outer", 0) > 0:
+        out["reinforcement"] = reinf
+    return out

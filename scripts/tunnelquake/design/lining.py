@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from . import ovaling as ov
-from .capacity import Concrete, DesignParameters
+from .capacity import Concrete, DesignParameters, design_mapping
 
 #: bins of N for the constant-N utilisation's candidates (besides the hull vertices)
 N_BINS = 64
@@ -37,8 +37,6 @@ def design_parameters(case) -> tuple[DesignParameters, str]:
     """The case's `design:` block, or, without one, the lining material's strengths taken as the
     characteristic values (fck = compressive_strength, fctm = tensile_strength) with EN 1992-1-1's
     recommended factors; and a sentence saying which."""
-    from ..case import design_mapping
-
     raw = design_mapping(case.data)
     if raw is not None:
         return DesignParameters.from_mapping(raw), "the case's design block"

@@ -454,14 +454,15 @@ def _run_solid_alone(exe: Path, inp: Path, res: Path, work: Path) -> tuple[int, 
 def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path, res: Path) -> tuple[int, str, dict]:
     """tq-solid + OpenFOAM through the coupler, as cli.run.run_coupled_condition does."""
     from .. import fluid_case as fc
-    from ..cli.run import _Side, _solid_step, _stop
+    from ..children import Side, stop_side
+    from ..solid_input import solid_step
 
     case = _fake_case(ring)
     token = secrets.token_hex(16)
     addr = work / "wall.addr"
     addr.unlink(missing_ok=True)
     inp = write_solid_input(ring, mesh_h5, work / "solid_input.h5", t_end)
-    dt = _solid_step(exe, inp)
+    dt = solid_step(exe, inp)
     settings = fc.coupling_settings(case, ring.window * dt, addr, token, t_end=t_end)
     write_solid_input(ring, mesh_h5, inp, t_end, coupling=fc.solid_coupling_attrs(settings))
     # the fluid takes one step per coupling window (deltaT = window_size)
@@ -475,11 +476,11 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
     env[fc.TOKEN_ENV] = token
     senv = {**os.environ, "OMP_NUM_THREADS": "1"}
     quiet = lambda line: False  # noqa: E731 - logs go to files
-    solid = _Side("solid", [str(exe), str(inp), "-o", str(res)], work / "solid.log", senv, quiet)
+    solid = Side("solid", [str(exe), str(inp), "-o", str(res)], work / "solid.log", senv, quiet)
     side = None
     while side is None:
         if addr.exists():
-            side = _Side("water", [fluid.solver, "-case", str(fluid.path)], work / "fluid.log", env, quiet)
+            side = Side("water", [fluid.solver, "-case", str(fluid.path)], work / "fluid.log", env, quiet)
         elif solid.proc.poll() is not None:
             break
         else:
@@ -490,17 +491,17 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
             rs, rf = solid.proc.poll(), side.proc.poll()
             if rs is not None and rs != 0:
                 failed = solid
-                _stop(side, ring.timeout)
+                stop_side(side, ring.timeout)
                 break
             if rf is not None and rf != 0:
                 failed = side
-                _stop(solid, ring.timeout)
+                stop_side(solid, ring.timeout)
                 break
             if rs == 0 and rf == 0:
                 break
             if rs == 0 or rf == 0:
                 other = side if rs == 0 else solid
-                _stop(other, ring.timeout)
+                stop_side(other, ring.timeout)
                 if other.proc.returncode != 0:
                     failed = other
                 break
