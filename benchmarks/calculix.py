@@ -1,4 +1,4 @@
-"""tq-solid against CalculiX explicit dynamics on the same deck (issue 3; the peer of issue 8).
+"""tq-solid against CalculiX explicit dynamics on the same deck (the peer run of `tunnelquake bench --peer`).
 
 Used by `tunnelquake bench --peer` (the ratio goes into the generated solid section of
 docs/benchmarks.md) and by tests/verification/solid_benchmark/calculix_compare.py.

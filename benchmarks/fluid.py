@@ -1,5 +1,5 @@
 """tunnelquake bench --fluid: run time against error for the water and coupled verification cases
-(issue 8), side by side with the stock pimpleFoam set-up.
+side by side with the stock pimpleFoam set-up.
 
     tunnelquake bench FOLDER --fluid [--parts pipe pipe3d ring] [--repeat 3] [--update-docs]
 
@@ -486,7 +486,7 @@ def section(done: list[Ladder], pairs: list[dict], command: str, when: str, wher
     models = sorted({r.get("laminar_model", "Stokes") for d in done for r in d.runs if r.get("variant") == "ours"})
     laminar = f"; laminar model {', '.join(models)}" if models else ""
     parts = [f"""{FLUID_BEGIN}
-## Water and coupled verification: error against wall time, stock pimpleFoam ratio (issue 8)
+## Water and coupled verification: error against wall time, stock pimpleFoam ratio
 
 `{command}`, {when}, {where}; `OMP_WAIT_POLICY=PASSIVE`, one thread / one rank per side. Errors
 are relative, against the closed forms. **Rigid pipe** (tests/verification/fluid_rigid_pipe, 2D
@@ -556,7 +556,7 @@ default). Wall times here are a loaded machine's: the CPU figures and ratios are
 def section_pipe3d(done: list[Ladder], pairs: list[dict], command: str, when: str, where: str) -> str:
     """The 3D pipe's block: its mesh ladder (ours, stock), the stock/ours ratios, the reading."""
     return f"""{PIPE3D_BEGIN}
-### Rigid pipe in 3D (ours vs stock) (issue 8)
+### Rigid pipe in 3D (ours vs stock)
 
 `{command}`, {when}, {where}; `OMP_WAIT_POLICY=PASSIVE`, one thread. The 2D rung's closed form
 on a **closed 3D pipe** (R {PIPE_R:g} m, L {PIPE3D_L:g} m: the water test's 3D pipe,

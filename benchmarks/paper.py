@@ -1,4 +1,4 @@
-"""tunnelquake bench FOLDER --paper: the paper case's shortcuts, error against wall time (issue 8).
+"""tunnelquake bench FOLDER --paper: the paper case's shortcuts, error against wall time.
 
 Each setting a user can change in `cases/paper_tunnel/case.yaml` is one *variant*: a copy of the
 case with one case-file key changed (or a few, for "finer" and "coarser" meshes), a shortened
@@ -578,7 +578,7 @@ def plot(cond: str, a: dict, path: Path) -> None:
 def section(body: str, commands: list[str], where: str, figures: list[str], notes: str = "") -> str:
     figs = "\n".join(f"![{Path(f).stem}]({f})" for f in figures)
     return f"""{BEGIN}
-## The paper case's shortcuts: error against wall time (issue 8)
+## The paper case's shortcuts: error against wall time
 
 {"; ".join(commands)}; {where}. Every variant is `cases/paper_tunnel/case.yaml` with the keys named
 changed, the El Centro record's first seconds (`ground_motion.duration`, per ladder below; the

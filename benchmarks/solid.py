@@ -1,4 +1,4 @@
-"""tunnelquake bench: run time against error for the solid verification cases (issue 8).
+"""tunnelquake bench: run time against error for the solid verification cases.
 
 Runs ladders of settings of the verification cases that have a closed form, each run by
 `tq-verification-ladder` (built with the tests; the same case functions as the GoogleTest
@@ -179,7 +179,7 @@ def peer_text(peer: calculix.PeerResult | str | None) -> str:
 def section(md_table: str, md_pick: str, command: str, when: str, where: str, figure: str,
             peer: calculix.PeerResult | str | None = None) -> str:
     return f"""{BEGIN}
-## Solid verification: error against wall time (issue 8)
+## Solid verification: error against wall time
 
 `{command}`, {when}, {where}; one thread, `OMP_WAIT_POLICY=PASSIVE`. Each row is one run of the
 verification case's own function (`tests/cpp/wave_cases.hpp`, `tunnel_cases.hpp`, the same code as
@@ -251,7 +251,7 @@ def stress_section(tests: list[dict], command: str, when: str, where: str) -> st
         rows.append(f"| `{t['name']}` | {t['result']} | {ms} | {figures} |")
     body = "\n".join(rows)
     return f"""{STRESS_BEGIN}
-## Solid stress tests (issue 8): last results
+## Solid stress tests: last results
 
 `{command}`, {when}, {where}. The tests are `tests/cpp/test_stability_stress.cpp`
 (`tq_solid_stress_tests`, in CI with the other C++ tests: each under a minute); their references

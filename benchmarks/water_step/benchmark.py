@@ -118,7 +118,7 @@ OURS = STEPS[-1][0]
 
 
 def _gamg(name: str, extra: str) -> tuple[str, str, dict]:
-    """A GAMG option of the pressure tried on top of ours (issue 5): `extra` is appended to ours'
+    """A GAMG option of the pressure tried on top of ours: `extra` is appended to ours'
     p and pFinal (relTol 0.1 in 3D, absolute 1e-6 on the closed slice)."""
     return (f"ours, p GAMG {name}", f"p and pFinal as ours plus {extra}", dict(p_extra=extra))
 

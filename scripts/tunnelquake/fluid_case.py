@@ -114,7 +114,7 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "window_size": float(window_size),
         "windows": int(windows),
         "tolerance": float(cs["tolerance"]),
-        # absolute floors per field (coupling_scales.py; issue 6 item 1)
+        # absolute floors per field (coupling_scales.py)
         "absolute_tolerance": absolute_tolerances(case, window_size, float(cs["tolerance"])),
         "max_iterations": int(cs["max_iterations"]),
         "acceleration": cs["acceleration"],

@@ -140,7 +140,7 @@ def added_mass_ratio(rho_f: float, R: float, n: int, rho_s: float, h_node: float
 
 def open_pipe_contraction(rho: float, R: float, L: float, w: float, w_dot: float, y, r=None):
     """Incompressible water in a pipe with open ends whose wall moves radially, uniformly along
-    the axis: 1D (plug-flow) solution, issue 5 check 3.
+    the axis: 1D (plug-flow) solution (tests/verification/fluid_open_contraction).
 
     Pipe 0 ≤ y ≤ L, radius R, radial wall velocity w(t) (> 0 outwards) and its rate ẇ; both
     ends open at p = 0 (hydrodynamic pressure); inviscid; the radius change itself is neglected

@@ -24,7 +24,7 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
   symmetry planes, and their layers are not horizontal where the tunnel crosses them;
 * the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
 * materials: the elastic constants plus the case's ``model`` and the Mohr-Coulomb damage
-  parameters as attributes (tq-solid builds the nonlinear material of issue 4 from them when
+  parameters as attributes (tq-solid builds the Mohr-Coulomb damage material from them when
   ``model`` is ``mohr_coulomb_damage``);
 * in slice mode (mesh attribute slice = 1) the monitors' y is moved into the slice's mid-plane.
 """
@@ -42,7 +42,7 @@ from .files import h5_in_memory
 FORMAT = "tunnelquake-solid-input"
 VERSION = 2
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
-#: Mohr-Coulomb damage parameters passed through to tq-solid (issue 4's material reads them).
+#: Mohr-Coulomb damage parameters passed through to tq-solid (its damage material reads them).
 MOHR_COULOMB_KEYS = ("model", "cohesion", "friction_angle", "dilation_angle", "tensile_strength",
                      "damage_constant", "damage_effect")
 
@@ -152,7 +152,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             mg.attrs["nu"] = float(m["poisson_ratio"])
             mg.attrs["rho"] = float(m["density"])
             # `model` is the case's choice (elastic or mohr_coulomb_damage); the Mohr-Coulomb damage
-            # parameters go along (issue 4's material reads them; an elastic material ignores them).
+            # parameters go along (the Mohr-Coulomb damage material reads them; an elastic material ignores them).
             for key in MOHR_COULOMB_KEYS:
                 if m.get(key) is not None:
                     mg.attrs[key] = m[key] if isinstance(m[key], str) else float(m[key])

@@ -1,4 +1,4 @@
-// tq-solid-bench-nl: cost of the nonlinear parts of tq-solid (issue 4), not a test.
+// tq-solid-bench-nl: cost of the nonlinear parts of tq-solid (damage material, dynamic contact), not a test.
 //
 //   tq-solid-bench-nl [--n 30] [--steps 100] [--repeat 5] [--threads N]
 //

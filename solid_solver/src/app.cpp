@@ -192,7 +192,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                             "volume_pressure");
         results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
                                  [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
-        // The wetted face as a whole (issue 6 check 4, docs/verification.md): the total interface
+        // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
         // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
         // (m/s²), both of the same step, per direction.
         for (int d = 0; d < 3; ++d) {

@@ -90,7 +90,7 @@ struct FluidCoupling::Impl {
   long long pass = 0;
   bool repeat = false;
   Real work = 0;
-  // Work the fluid received from the wall, from the exchanged data (issue 6 item 3): the final
+  // Work the fluid received from the wall, from the exchanged data: the final
   // force of each window (the fluid's own last answer) on the motion the fluid was sent.
   std::vector<Real> sent1, sent2;  // [3n] displacement sent one / two windows ago
   std::vector<Real> recvPrev;      // [3n] final force of the last window

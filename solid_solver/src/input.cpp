@@ -149,14 +149,14 @@ SolidInput readSolidInput(const std::string& path) {
     for (const auto& region : h5::members(g)) {
       auto mg = h5::openGroup(g, region);
       const std::string w = "/materials/" + region;
-      // `model` (issue 4); `type` is version 1's name for the same choice.
+      // `model`; `type` is version 1's name for the same choice.
       const std::string type = str(c, mg, w, "type", "elastic"), model = str(c, mg, w, "model", type);
       if (model != "elastic" && model != "mohr_coulomb_damage")
         c.fail(w, "model '" + model + "' is unknown; use elastic or mohr_coulomb_damage");
       if (h5::hasAttr(mg, "type") && h5::hasAttr(mg, "model") && type != model)
         c.fail(w, "attributes type = '" + type + "' and model = '" + model + "' disagree; give model only");
       std::set<std::string> keys = {"type", "E", "nu", "rho"};
-      keys.insert(std::begin(kMohrCoulombAttrs), std::end(kMohrCoulombAttrs));  // for issue 4's material
+      keys.insert(std::begin(kMohrCoulombAttrs), std::end(kMohrCoulombAttrs));  // for the Mohr-Coulomb damage material
       checkKeys(c, mg, w, keys);
       ElasticParams p{num(c, mg, w, "E", 0, true), num(c, mg, w, "nu", 0, true), num(c, mg, w, "rho", 0, true)};
       try {

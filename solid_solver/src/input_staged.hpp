@@ -12,7 +12,7 @@ namespace tq {
 /// Root members and attributes a version 2 file may have besides version 1's.
 inline const char* const kStagedRootGroups[] = {"stages", "in_situ", "hydrostatic", "interfaces", "boundaries",
                                                 "motion", "coupling"};
-/// Material attributes passed through for the Mohr-Coulomb damage model (issue 4) and ignored
+/// Material attributes passed through for the Mohr-Coulomb damage model and ignored
 /// by the elastic material.
 inline const char* const kMohrCoulombAttrs[] = {"model", "cohesion", "friction_angle", "dilation_angle",
                                                 "tensile_strength", "damage_constant", "damage_effect"};

@@ -44,7 +44,7 @@ struct ResultsWriter::Impl {
   std::vector<Monitor> monitors;
   h5::RowAppender energy;
   int snapshots = 0;
-  nlout::State nl;                                // damage and interface output (issue 4)
+  nlout::State nl;                                // damage and interface output
   std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
   std::vector<std::pair<h5::RowAppender, std::function<Real()>>> series;  // addSeries
   // Lining section forces (tq/ring_forces.hpp): per ring its histories and, per section and

@@ -1,4 +1,4 @@
-// results.h5 output of the Mohr–Coulomb damage material and the rock–lining contact (issue 4).
+// results.h5 output of the Mohr–Coulomb damage material and the rock–lining contact.
 #include "results_nonlinear.hpp"
 
 #include "tq/material_mc.hpp"

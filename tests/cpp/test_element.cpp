@@ -1,6 +1,6 @@
 // Element-level verification of the one-point hex8 with assumed-strain hourglass control.
-//  - Patch test (VERIFICATION.md "Patch test and a single element under uniform strain", issue 3
-//    test 1): a linear displacement field on a mesh of distorted hexahedra must give the exact
+//  - Patch test (VERIFICATION.md "Patch test and a single element under uniform strain"):
+//    a linear displacement field on a mesh of distorted hexahedra must give the exact
 //    uniform stress σ = C:ε in every element and zero force at every interior node (MacNeal &
 //    Harder 1985). Tolerance: round-off (1e-10 relative).
 //  - Single element under uniform strain: σ = C:ε exactly and nodal forces = traction resultants.

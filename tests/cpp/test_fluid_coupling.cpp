@@ -1,4 +1,4 @@
-// The solid side of the water coupling (issue 6, items 2 and 7, solid half; docs/coupler.md
+// The solid side of the water coupling (solid half; docs/coupler.md
 // "Solid adapter"): tq::FluidCoupling in a real Solver against a fake fluid participant (a second
 // tq::coupler::Participant in a thread, over loopback TCP) that replays a prescribed force.
 //
@@ -11,7 +11,7 @@
 //      bitwise, for the explicit, paper and implicit schemes.
 //  (d) A prescribed force through the coupler gives the uncoupled run with that force as its own
 //      load bitwise, and the work booked as /energy/fluid_work equals the solver's external work.
-//  (f) Implicit windows of k = 4 solid steps (issue 6/7: the time loop saves the solver's state at
+//  (f) Implicit windows of k = 4 solid steps (the time loop saves the solver's state at
 //      each window start and steps a window the water did not accept again from it, as tq-solid's
 //      loop in app.cpp does): a zero fluid force leaves the run bitwise unchanged although every
 //      window is stepped at least twice; a uniform pressure through the coupler relaxed by damping
@@ -592,7 +592,7 @@ TEST(SolidCoupling, PrescribedForceMatchesOwnLoadAndItsWorkIsBooked) {
   EXPECT_NEAR(c.fluidWork, c.external, 1e-12 * std::abs(c.external));  // the only external force
 }
 
-// (e) Interface energy (issue 6 item 3): the work the fluid receives, from the exchanged data, is
+// (e) Interface energy: the work the fluid receives, from the exchanged data, is
 // the opposite of the work on the solid when the exchange is converged (implicit: the force applied
 // is the fluid's answer to the motion sent), so the energy the scheme creates vanishes; the
 // explicit scheme sends a prediction without the force and applies the force to another motion.

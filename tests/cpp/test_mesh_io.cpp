@@ -1,4 +1,4 @@
-// mesh.h5 input (docs/formats.md) and its checks (issue 3 test 8: bad input stops with a clear
+// mesh.h5 input (docs/formats.md) and its checks (bad input stops with a clear
 // message). Meshes are built in memory, written with writeMeshH5 and read back.
 #include <gtest/gtest.h>
 

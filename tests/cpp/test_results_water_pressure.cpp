@@ -1,4 +1,4 @@
-// results.h5 water pressure at the monitors (issue 7, paper Fig. 5): ResultsWriter::addWaterPressure
+// results.h5 water pressure at the monitors (paper Fig. 5): ResultsWriter::addWaterPressure
 // turns the interface force the water coupling adds into the pressure at the wetted node nearest
 // each monitor. Reference: a uniform pressure p on the inner face of a ring slice, applied as the
 // consistent nodal forces F = −p Σ S_q/4 (S_q the quads' area vectors, out of the solid), must be

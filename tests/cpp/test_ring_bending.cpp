@@ -1,4 +1,4 @@
-// Ring bending (issue 3 test 6; VERIFICATION.md "Thin ring bending"): a free lining ring meshed as
+// Ring bending (VERIFICATION.md "Thin ring bending"): a free lining ring meshed as
 // the tunnel lining (3 elements through the 0.75 m thickness, 48 around, plane-strain slice one
 // element thick with u_y = 0) under a diametral pair of line loads P (N/m), solved to static
 // equilibrium by dynamic relaxation with the explicit solver.
@@ -6,7 +6,7 @@
 // (Roark's Formulas for Stress and Strain, 7th ed., Table 9.2 case 1). For h/R = 0.133 the
 // same table's thick-ring factors (hoop extension α = I/(A R²), transverse shear
 // β = F E' I/(G A R²), F = 1.2) give ΔD = [K1 π/4 - 2 k2²/π] P R³/(E' I), K1 = 1 - α + β,
-// k2 = 1 - α: 2.7 % more flexible than the thin-ring value. Tolerance 3 % against both (issue 3).
+// k2 = 1 - α: 2.7 % more flexible than the thin-ring value. Tolerance 3 % against both.
 // Symmetry supports remove the rigid-body modes without restraining the ring: u_x = 0 on the
 // vertical diameter (x = 0), u_z = 0 on the horizontal one (z = 0).
 #include <gtest/gtest.h>

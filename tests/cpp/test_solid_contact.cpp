@@ -1,5 +1,5 @@
 // The rock–lining dynamic contact force (paper eqs. 9–13). References (VERIFICATION.md "Coulomb
-// interface with cohesion"; issue 4 test 3):
+// interface with cohesion"):
 //  - a bonded pair moves as one node would: a mesh whose interface nodes are duplicated and
 //    bonded must reproduce the mesh with merged nodes (masses added) to round-off (issue: 1e-6
 //    relative; the pair force is exactly the one that makes both end the step together);

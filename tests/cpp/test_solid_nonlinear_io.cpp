@@ -1,4 +1,4 @@
-// solid_input.h5 and results.h5 for the nonlinear parts (issue 4): Mohr–Coulomb material
+// solid_input.h5 and results.h5 for the nonlinear parts: Mohr–Coulomb material
 // attributes read back as written and bad ones rejected with their path; tq-solid runs a column
 // whose rock yields and writes damage, plastic strain and the dissipation term, and closes its
 // energy balance (1 %); the contact's per-pair state, opening and slip reach results.h5.

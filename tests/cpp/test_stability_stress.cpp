@@ -1,10 +1,10 @@
-// Stability stress tests (issue 8): the solid solver pushed to its limits must end either in a
+// Stability stress tests: the solid solver pushed to its limits must end either in a
 // correct result or in a clean, explained stop — never with a non-finite value.
 //
 //  1. Time step from 0.5 to 1.2 of the stable limit, on a damped two-layer column with the
 //     viscoelastic base and free-field sides (seismic stage, Gaussian SH + P pulse):
-//     - 0.5, 0.8, 0.95 × Δt_crit complete; the energy balance closes within 1 % (issue 3's
-//       balance tolerance) and the surface peak agrees with a 0.25 × Δt_crit run within 1 %
+//     - 0.5, 0.8, 0.95 × Δt_crit complete; the energy balance closes within 1 % (the solid
+//       verification's balance tolerance) and the surface peak agrees with a 0.25 × Δt_crit run within 1 %
 //       (reference: the same model at a step where the central difference's period error
 //       (ωΔt)²/24 is < 1e-5 at the pulse's frequencies; a priori the error at 0.95 × Δt_crit is
 //       below 1e-3 for those frequencies, so 1 % is a loose, physical bound).

@@ -1,6 +1,6 @@
-// The staged analysis' parts one by one (issue 3): incident-motion integration, tied nodes,
+// The staged analysis' parts one by one: incident-motion integration, tied nodes,
 // in-situ stress against gravity, mass-scaled relaxation, lining activation, the version 2 input
-// through tq-solid end to end, and bad input (issue 3 test 8).
+// through tq-solid end to end, and bad input.
 #include <gtest/gtest.h>
 
 #include <cmath>

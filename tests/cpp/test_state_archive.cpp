@@ -1,5 +1,5 @@
 // Save and restore of the solid's whole mutable state (tq/state_archive.hpp, Solver::checkpoint;
-// issue 6/7: implicit coupling windows of several solid steps are repeated from their start, so a
+// implicit coupling windows of several solid steps are repeated from their start, so a
 // restored solver must continue exactly as the saved one did).
 //
 // Reference: the solver's own run. The time step is deterministic (fixed sum orders, bitwise

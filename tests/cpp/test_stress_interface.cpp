@@ -1,4 +1,4 @@
-// Stability stress test (issue 8): a nearly singular rock–lining interface — very soft rock and
+// Stability stress test: a nearly singular rock–lining interface — very soft rock and
 // a pull-off load that separates every pair, so that the lining becomes a free body held by
 // nothing, then is pushed back onto the (still vibrating) soft rock and lands on it.
 //
@@ -32,7 +32,7 @@
 //  - the separation starts at the edge pairs (soft rock with free sides loads them above their
 //    area share) below f_c ΣA and peels through all pairs within a few steps (printed);
 //  - the energy balance (kinetic + strain + interface dissipation − external work) closes within
-//    1 % over the whole run (issue 3's balance tolerance), and every value stays finite.
+//    1 % over the whole run (the solid verification's balance tolerance), and every value stays finite.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Time integration (issue 3: eqs. 3-5, stable step, Rayleigh damping, energy, bad input).
+// Time integration (eqs. 3-5, stable step, Rayleigh damping, energy, bad input).
 //
 // 1-dof oscillator: one hex8 element with a single free dof is u'' = -ω² u exactly. For a linear
 // two-step recurrence u_n = |c| r^n cos(nθ + φ) the quantity D_n = u_n² - u_{n+1} u_{n-1}

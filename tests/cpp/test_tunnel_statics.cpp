@@ -1,4 +1,4 @@
-// Static stages around the tunnel (issue 3, tests 4 and 5; tests/verification/solid_kirsch,
+// Static stages around the tunnel (tests/verification/solid_kirsch,
 // solid_lined_tunnel), through the stage driver exactly as tq-solid runs them.
 //
 //  - Kirsch (Brady & Brown, Rock Mechanics for Underground Mining, ch. 7; VERIFICATION.md): a

@@ -1,4 +1,4 @@
-// Seismic boundaries (issue 3, tests 2 and 3; tests/verification/solid_wave_column,
+// Seismic boundaries (tests/verification/solid_wave_column,
 // solid_free_field_block): the viscoelastic base with the incident wave as equivalent nodal
 // forces, the free-field columns, the switch from static supports to dynamic boundaries.
 //

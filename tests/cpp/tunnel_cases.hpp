@@ -1,6 +1,6 @@
-// The tunnel's static verification cases (issue 3, tests 4 and 5) as functions, shared by
-// test_tunnel_statics.cpp and the convergence ladders of `tunnelquake bench` (tq-verification-ladder,
-// issue 8): the quarter plate with a hole (and lining), polar stresses, the Kirsch excavation and
+// The tunnel's static verification cases as functions, shared by
+// test_tunnel_statics.cpp and the convergence ladders of `tunnelquake bench` (tq-verification-ladder):
+// the quarter plate with a hole (and lining), polar stresses, the Kirsch excavation and
 // the lined tunnel under internal water pressure.
 #pragma once
 
@@ -166,7 +166,7 @@ inline KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
 }
 
 
-// Lined tunnel (issue 3, test 5; tests/verification/solid_lined_tunnel): the paper's lining
+// Lined tunnel (tests/verification/solid_lined_tunnel): the paper's lining
 // a = 4.5 m to b = 5.25 m installed stress-free after the excavation, bonded to the rock, then a
 // uniform internal pressure p_i. Closed form of a lining bonded in an infinite elastic medium
 // (VERIFICATION.md; tunnelquake.references.lined_tunnel_internal_pressure).

@@ -1,5 +1,5 @@
 // tq-verification-ladder: one run of a solid verification case at given settings, for the
-// error-against-wall-time ladders of `tunnelquake bench` (issue 8). Not a test: it prints the
+// error-against-wall-time ladders of `tunnelquake bench`. Not a test: it prints the
 // case's errors against its closed form and the wall time as one line
 //   RESULT {"case": ..., "wall_s": ..., ...}
 // which the Python driver parses. The cases are the functions the verification tests use

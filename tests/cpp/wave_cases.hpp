@@ -1,6 +1,6 @@
-// The 1D wave column of tests/verification/solid_wave_column (issue 3, test 2) as a function,
+// The 1D wave column of tests/verification/solid_wave_column as a function,
 // shared by test_waves.cpp and the convergence ladder of `tunnelquake bench`
-// (tq-verification-ladder, issue 8).
+// (tq-verification-ladder).
 #pragma once
 
 #include <algorithm>

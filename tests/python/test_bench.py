@@ -1,4 +1,4 @@
-"""`tunnelquake bench` (issue 8): the observed order and the docs section it rewrites.
+"""`tunnelquake bench`: the observed order and the docs section it rewrites.
 
 The benchmark's figures are not tests; what is tested here is the arithmetic the table reports
 (observed order of a known power law, exact) and that --update-docs touches only its section.

@@ -1,4 +1,4 @@
-"""`tunnelquake bench --fluid` (issue 8): the arithmetic of its tables, not the heavy runs.
+"""`tunnelquake bench --fluid`: the arithmetic of its tables, not the heavy runs.
 
 The benchmark's figures are not tests. Tested here: the reference-free (Richardson) order of a
 known power law (exact), the rigid-pipe error measures on the closed form itself

@@ -1,4 +1,4 @@
-"""`tunnelquake bench --paper` (issue 8): the arithmetic of the error table and the Pareto front.
+"""`tunnelquake bench --paper`: the arithmetic of the error table and the Pareto front.
 
 The benchmark's figures are not tests (docs/benchmarks.md, "The paper case's shortcuts"); what is
 tested here, with hand-made numbers whose answers are worked out by hand in the comments, is the

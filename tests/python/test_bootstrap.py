@@ -1,4 +1,4 @@
-"""The bootstrap finds everything (issue 2), and a second run is a quick no-op that changes nothing."""
+"""The bootstrap finds everything, and a second run is a quick no-op that changes nothing."""
 from __future__ import annotations
 
 import os
@@ -28,7 +28,7 @@ def test_second_bootstrap_is_a_quick_no_op():
     out = subprocess.run(["bash", str(BOOTSTRAP)], capture_output=True, text=True, timeout=300)
     elapsed = time.perf_counter() - t0
     assert out.returncode == 0, out.stdout + out.stderr
-    assert elapsed < 60.0, f"second bootstrap took {elapsed:.1f} s (issue 2 asks for under a minute)"
+    assert elapsed < 60.0, f"second bootstrap took {elapsed:.1f} s (the bootstrap's goal is under a minute)"
     assert "Debian packages: all present" in out.stdout
     assert "Python environment: up to date" in out.stdout
     assert "native build: up to date" in out.stdout

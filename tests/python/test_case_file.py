@@ -1,5 +1,5 @@
 """The case file: the example validates, and bad inputs are rejected with a message naming the key,
-the value, the line and a fix (issue 2)."""
+the value, the line and a fix."""
 from __future__ import annotations
 
 import math

@@ -139,7 +139,7 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
         # The incident wave enters at the base (z = -28 m) and needs 54.75 m / c_p(rock) = 54.75 / 1924
         # = 0.028 s to reach the lining, after these 0.02 s: the water must hold the lining's
         # hydrostatic equilibrium. So its work is nil (measured 3e-11 J against 1.85e3 J external),
-        # the lining does not move more than the solid's own relaxation residual (issue 6, check 5:
+        # the lining does not move more than the solid's own relaxation residual (docs/verification.md, hydrostatic equilibrium:
         # spurious lining velocity < 1e-6 m/s) and the monitors follow static_water's to 1e-9 m
         # (their motion is ~1e-10 m; measured difference 2e-11 m).
         assert np.all(np.isfinite(fw)) and np.max(np.abs(fw)) <= 1e-9 * np.max(np.abs(ext))

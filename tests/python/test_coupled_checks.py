@@ -1,4 +1,4 @@
-"""Coupled verification on the example's geometry (issue 6, checks 4 and 5): the paper's lined
+"""Coupled verification on the example's geometry: the paper's lined
 tunnel in rock (slice, compressible water, dynamic contact, viscoelastic base and free-field sides,
 the full staged initial state) run by `tunnelquake run` as tq-solid + rhoPimpleFoam through the
 coupler, implicit IQN-ILS every solid step.

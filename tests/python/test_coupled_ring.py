@@ -1,5 +1,5 @@
 """Coupled verification: free n = 2 ovaling of a thin ring, empty and water-filled, through the real
-chain tq-solid + coupler + OpenFOAM (libtqFoam) (issue 6 item 3; tests/verification/coupled_ring).
+chain tq-solid + coupler + OpenFOAM (libtqFoam) (tests/verification/coupled_ring).
 
 Reference: VERIFICATION.md "Coupled" (thin ring, plane strain, E 30 GPa, ν 0.2, ρs 2500, h 0.3 m,
 R 3 m): vacuum ω² = D n²(n²−1)²/(R⁴ m(n²+1)) = (2π 14.53 Hz)²; with incompressible water of radius
@@ -104,7 +104,7 @@ def test_water_filled_ring_n2_frequency(tmp_path, mode):
 @solid
 @water
 def test_water_filled_ring_implicit_windows_of_8_steps(tmp_path):
-    """Implicit windows of k = 8 solid steps (issue 6/7: tq-solid saves its state at each window start
+    """Implicit windows of k = 8 solid steps (tq-solid saves its state at each window start
     and steps a window the water did not accept again from it; libtqFoam takes one water step a
     window) with IQN-ILS keeping the secant columns of 8 earlier windows (coupling.reuse 8): the
     slice of (b) against the same reference and tolerance, the filled-ring formula with the water's

@@ -1,4 +1,4 @@
-"""Issue 6 item 1 in the Python twin: the per-field convergence measure with absolute floors, the
+"""In the Python twin: the per-field convergence measure with absolute floors, the
 same rule as the C++ convergenceMeasure (scheme.hpp), and the floors on the wire."""
 from __future__ import annotations
 

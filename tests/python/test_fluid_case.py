@@ -62,7 +62,7 @@ def test_refusals_name_the_fix(tmp_path):
 
 
 def test_absolute_tolerances_reach_both_sides(tmp_path):
-    """Issue 6 item 1: the absolute convergence floors (coupling_scales.py) go to both sides alike."""
+    """The absolute convergence floors (coupling_scales.py) go to both sides alike."""
     case, s = _settings(tmp_path)
     solid = fc.solid_coupling_attrs(s)
     fluid = fc.exchange_dict(s)

@@ -1,4 +1,4 @@
-"""`parallel.fluid_ranks: 2` (issue 6): `tunnelquake run` decomposes the water and runs it under
+"""`parallel.fluid_ranks: 2`: `tunnelquake run` decomposes the water and runs it under
 mpirun, and the coupled answer is the 1-rank answer.
 
 The same short coupled run (condition dynamic_water: tq-solid + rhoPimpleFoam through the coupler,

@@ -1,5 +1,5 @@
 """Weakly compressible water in a closed pipe under a slow uniform radial contraction
-(issue 5, check 2; VERIFICATION.md, Water).
+(VERIFICATION.md, Water).
 
 Reference: p = -K dV/V (quasi-static, bulk modulus K = 2.2 GPa), dV/V = (1 + u_r/R)^2 - 1 for
 a uniform radial wall displacement u_r of a pipe of fixed length (exact for the faceted

@@ -1,5 +1,5 @@
-"""OpenFOAM against the Python FakeSolid over the coupler's TCP transport (issue 5, item 4;
-issue 6, check 2 for the fluid side).
+"""OpenFOAM against the Python FakeSolid over the coupler's TCP transport (the exchange
+over the coupler, fluid side).
 
 The 2D rigid pipe (R 4.5 m, 1024 cells) is shaken laterally, v(t) = a0/w sin(w t), twice:
   1. 'replay' exchange: the wall motion from a table (t, u, v) with u_k = sum_j v_j dt;

@@ -1,4 +1,4 @@
-"""Hydrostatic and hydrodynamic parts of the water load (issue 5, 'both parts reported').
+"""Hydrostatic and hydrodynamic parts of the water load (both parts reported).
 
 OpenFOAM solves the hydrodynamic pressure only (no gravity in the solver); the forces sent to
 the solid (F, point forces) are hydrodynamic, and tqInterface reports the hydrostatic resultant

@@ -1,4 +1,4 @@
-"""laminarModel tqNewtonian (libtqFoam.so) against the stock Stokes model (issue 5).
+"""laminarModel tqNewtonian (libtqFoam.so) against the stock Stokes model.
 
 The stock laminar model (linearViscousStress) assembles the viscous term as
     div(nu dev2(T(grad U))) + laplacian(nu, U).

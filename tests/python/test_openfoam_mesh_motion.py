@@ -1,4 +1,4 @@
-"""Mesh quality under large wall motion with tqInterpolatedDisplacement (issue 5, check 4).
+"""Mesh quality under large wall motion with tqInterpolatedDisplacement.
 
 The wall of a water-filled pipe (R 4.5 m, L 9 m, open ends) is moved by 10 cm sideways
 and contracted by 10 cm radially (more than an earthquake gives, cm).  Reference:

@@ -1,4 +1,4 @@
-"""Stress test (issue 8): a fluid mesh pushed toward inversion stops cleanly, before any NaN.
+"""Stress test: a fluid mesh pushed toward inversion stops cleanly, before any NaN.
 
 The fake solid (replay exchange) drives the wall of a water-filled open pipe (R 4.5 m, L 1 m,
 blockMesh O-grid, pimpleFoam) with the inextensional ovaling mode n = 2 growing at 5 m/s:
@@ -14,7 +14,7 @@ itself reaches the axis: the mesh cannot survive that).
   than transpirationLimit (1) times the wall-cell thickness h_w = 2 n.(C_f − C_cell); the stop
   must come at the step where uo first exceeds h_w of a wall face (within one step; h_w of this
   mesh's wall faces computed here from the blockMesh points).
-- Earthquake-size motion is still accepted: issue 5 check 4's 10 cm sideways plus 10 cm radial
+- Earthquake-size motion is still accepted: the mesh-motion check's 10 cm sideways plus 10 cm radial
   contraction runs to the end with both interface motions (the moving-mesh quality for it is
   asserted in test_openfoam_mesh_motion.py).
 """
@@ -193,7 +193,7 @@ def test_transpiration_refuses_a_wall_displacement_beyond_its_wall_cell(tmp_path
 
 @pytest.mark.parametrize("interface_motion", ["meshMotion", "transpiration"])
 def test_ten_cm_motion_is_accepted_by_both_interface_motions(tmp_path, interface_motion):
-    """Issue 5 check 4's motion (10 cm sideways + 10 cm radial contraction, ramped over 10 steps)."""
+    """The mesh-motion check's motion (10 cm sideways + 10 cm radial contraction, ramped over 10 steps)."""
     assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
     case = tmp_path / "case"
     n = 10

@@ -1,9 +1,9 @@
-"""Incompressible water, open ends, uniform radial contraction of the wall (issue 5, check 3).
+"""Incompressible water, open ends, uniform radial contraction of the wall.
 
 Reference: tunnelquake.references.open_pipe_contraction, the 1D (plug-flow) solution derived in
 its docstring: wall pressure p_w(y) = -(rho/2)(s' - s^2) y (L - y) - rho (s'/4 + s^2/8) R^2/2
 (s = 2w/R; the last term is the radial variation of the exact potential flow, 0.6 % here) and
-end outflow Q = -pi R L w per end.  Tolerance 3 % (issue 5) of the largest mid-length pressure
+end outflow Q = -pi R L w per end.  Tolerance 3 % of the largest mid-length pressure
 for the wall pressure at every wall face away from the ends (|y - L/2| <= L/2 - 2R: the
 open-end condition p = 0 on a whole end section perturbs about R near each end), and 3 % of
 the largest outflow for the outflow at every step.

@@ -1,4 +1,4 @@
-"""Rigid pipe under harmonic lateral acceleration: wall pressure and resultant (issue 5, check 1).
+"""Rigid pipe under harmonic lateral acceleration: wall pressure and resultant.
 
 Reference, case and tolerances: tests/verification/fluid_rigid_pipe/README.md.
 p(theta) = p0 - rho a R cos(theta) within 2 % of rho a R; resultant rho pi R^2 L a within 1 %;

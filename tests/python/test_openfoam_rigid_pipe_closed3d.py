@@ -1,4 +1,4 @@
-"""Closed 3D rigid pipe of `tunnelquake bench --fluid` (issue 8): stock and ours on the same mesh.
+"""Closed 3D rigid pipe of `tunnelquake bench --fluid`: stock and ours on the same mesh.
 
 Reference (tests/verification/fluid_rigid_pipe/README.md; Batchelor 1967 §6.4): water in a closed
 rigid pipe shaken along x has p = p0 − ρ a R cos θ at every axial position and the resultant

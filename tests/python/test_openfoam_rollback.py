@@ -1,4 +1,4 @@
-"""Checkpoint/rollback of the water state (issue 5, check 5).
+"""Checkpoint/rollback of the water state.
 
 The fake solid (replay exchange) asks for each step to be solved again: the first
 attempt uses a wrong wall motion (predictorScale 1.5, like a predictor), then

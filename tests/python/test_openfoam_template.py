@@ -1,4 +1,4 @@
-"""The water case template runs on a gmsh mesh (openfoam_case/template, issue 5).
+"""The water case template runs on a gmsh mesh (openfoam_case/template).
 
 A 2D slice of the tunnel water (R 4.5 m, 1 m thick, unstructured quads extruded one
 layer) is meshed with gmsh, written as gmsh 2.2 with the physical groups the meshing

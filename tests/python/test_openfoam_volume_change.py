@@ -1,4 +1,4 @@
-"""Incompressible water in a closed pipe cannot change volume (issue 5, check 3, refusal part).
+"""Incompressible water in a closed pipe cannot change volume (the refusal).
 
 A uniform radial contraction of the closed 2D slice asks the incompressible water to
 change volume: the problem has no solution (ARCHITECTURE.md section 4).  tqInterface

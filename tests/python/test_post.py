@@ -1,4 +1,4 @@
-"""Post-processing (issue 7): needs no solver, survives a results file cut off mid-run, draws the
+"""Post-processing: needs no solver, survives a results file cut off mid-run, draws the
 paper's Figs. 5, 8, 9 and 10 from what results.h5 holds, writes ParaView XDMF, and compares with the
 paper's §3.3 numbers in report.md. The results files here are small synthetic ones written in
 tq-solid's layout (docs/solid_solver.md "Input and output") with known signals."""

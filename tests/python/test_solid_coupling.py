@@ -1,4 +1,4 @@
-"""tq-solid coupled to the Python fake fluid over TCP (issue 6, items 2 and 7, solid half;
+"""tq-solid coupled to the Python fake fluid over TCP (solid half;
 docs/coupler.md "Solid adapter").
 
 The solid is a lining ring slice (radius 4.5 m, 0.3 m thick, 1 m wide, outer face fixed) whose

@@ -1,5 +1,5 @@
 """tq-solid as one application of an MPMD mpirun job, coupled over MPI to the Python fake fluid
-(issue 6: "TCP on loopback by default, MPI when launched under mpirun"; docs/coupler.md
+("TCP on loopback by default, MPI when launched under mpirun"; docs/coupler.md
 "tq-solid under mpirun").
 
 The solid is the lining ring slice of test_solid_coupling.py (a = 4.5 m, b = 4.8 m, outer face

@@ -26,7 +26,7 @@ def solver_status() -> dict[str, str | None]:
     caps = _solid_capabilities(solid) if solid else set()
     return {
         "solid": None if "staged-seismic" in caps else
-        "the solid solver does not run staged seismic cases yet (issue 3: tq-solid)",
+        "the solid solver does not run staged seismic cases yet (rebuild tq-solid)",
         "fluid": None if fluid and "water-coupling" in caps else
         ("the OpenFOAM-side library is not built (run scripts/bootstrap.sh)" if not fluid else
          "tq-solid does not report the water-coupling capability (rebuild it)"),

@@ -1,1 +1,1 @@
-"""Verification drivers that run the real solvers on closed-form problems (issue 6: coupled ring)."""
+"""Verification drivers that run the real solvers on closed-form problems (the coupled ring)."""

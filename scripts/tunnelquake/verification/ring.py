@@ -1,5 +1,5 @@
 """Free vibration of a thin ring, empty or filled with water, through the real coupled chain
-(issue 6 items 3 and 6; VERIFICATION.md "Coupled"; docs/verification.md, docs/stability.md).
+(VERIFICATION.md "Coupled"; docs/verification.md, docs/stability.md).
 
 The ring: plane strain, E 30 GPa, ν 0.2, ρs 2500 kg/m³, wall h 0.3 m, mid radius R 3 m, meshed
 with hex8 (`n_through` elements through the wall, `n_around` around), either a slice one element

@@ -1,6 +1,6 @@
 /// @file constraints.hpp
 /// @brief Kinematic ties as nodal forces: groups of nodes forced to move together (the bonded
-///        rock–lining interface until issue 4's dynamic contact replaces it; periodic columns
+///        rock–lining interface where the dynamic contact is not used; periodic columns
 ///        in tests).
 #pragma once
 

@@ -1,5 +1,5 @@
 /// @file fluid_coupling.hpp
-/// @brief The solid side of the rock–lining–water coupling (paper §2.2.2–2.2.3; issue 6;
+/// @brief The solid side of the rock–lining–water coupling (paper §2.2.2–2.2.3;
 ///        docs/coupler.md "Solid adapter"): a NodalForceContributor that exchanges the motion of
 ///        the lining's wetted face (`lining_inner`) for the water's interface force R3 through the
 ///        coupler library (tqcoupler).

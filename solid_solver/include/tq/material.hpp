@@ -1,7 +1,7 @@
 /// @file material.hpp
 /// @brief Constitutive models. A material updates the stress of a chunk of elements of one block
 ///        from their strain increments; the loop calls it once per chunk (no virtual call per
-///        element), so a nonlinear model (Mohr-Coulomb with damage, issue 4) plugs in as another
+///        element), so a nonlinear model (Mohr-Coulomb with damage) plugs in as another
 ///        subclass with its own parameter struct and history variables.
 #pragma once
 

@@ -61,7 +61,7 @@ struct HydrostaticInput {
 /// /interfaces/rock_lining: the rock-lining node pairs of mesh.h5 and how they interact.
 struct InterfaceInput {
   bool present = false;
-  std::string model = "bonded";  ///< "bonded" (tied); "dynamic_contact" is issue 4's contact
+  std::string model = "bonded";  ///< "bonded" (tied); "dynamic_contact" is the dynamic contact force
   Real staticFriction = 0.6, dynamicFriction = 0.6;  ///< μs, μd (contact only)
   Real cohesion = 0;                                 ///< f_c (Pa) (contact only)
   std::string afterFailure = "cohesion_lost";        ///< contact only

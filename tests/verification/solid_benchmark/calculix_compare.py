@@ -1,4 +1,4 @@
-"""Benchmark: tq-solid against CalculiX explicit dynamics on the same elastic box (issue 3).
+"""Benchmark: tq-solid against CalculiX explicit dynamics on the same elastic box.
 
 Not a test (CI does not run it); prints a markdown table for docs/benchmarks.md.
 
