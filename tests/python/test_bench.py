@@ -57,3 +57,21 @@ def test_peer_part_of_the_section_gives_the_ratio_or_the_reason_it_was_skipped()
     assert math.isclose(r.answer_difference, 0.01)
     peer_text = section("T", "P", "c", "w", "m", "f.png", r)
     assert "Ratio CalculiX / tq-solid: 15.0×" in peer_text and "= 1.00 %" in peer_text
+
+
+def test_tunnelquake_bench_reaches_the_benchmarks_outside_the_package(tmp_path):
+    """`tunnelquake bench` runs benchmarks/ (not in the installed package) from any folder, with the
+    arguments it was given: a build without the stress-test executable gets the benchmark's own
+    message naming the missing file, and its exit status 1."""
+    import os
+    import subprocess
+    import sys
+
+    from tunnelquake.paths import ROOT
+
+    env = dict(os.environ, TQ_BUILD_DIR=str(tmp_path / "no-build"), PYTHONPATH=str(ROOT / "scripts"))
+    out = subprocess.run([sys.executable, "-m", "tunnelquake", "bench", "out", "--stress"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 1, out.stdout + out.stderr
+    assert f"{tmp_path / 'no-build'}/tests/cpp/tq_solid_stress_tests not found" in out.stderr
+    assert (tmp_path / "out").is_dir()  # the folder argument is read relative to the caller's folder
