@@ -414,12 +414,14 @@ def schema() -> Section:
                                               "the water's added mass; docs/coupler.md \"Window force weight\"), "
                                               "0.5 otherwise"),
             "volume_law": Choice(choices=("solid", "water"), default="solid",
-                                 doc="closed sections (a slice, or 3D with closed ends): who carries the "
-                                     "uniform pressure of the enclosed water. solid: tq-solid, implicitly each "
-                                     "step (p = -K dV/V, or the volume held for incompressible water), OpenFOAM "
-                                     "sending the rest; stable for any bulk modulus. water: OpenFOAM's whole "
-                                     "pressure (compressible water only; docs/coupler.md \"Volume law in the "
-                                     "solid\")"),
+                                 doc="who carries the volumetric part of the water pressure. solid: tq-solid, "
+                                     "implicitly each step (p = -K dV/V, or the volume held for incompressible "
+                                     "water): in a closed section (a slice, or 3D with closed ends) one uniform "
+                                     "pressure; with open ends one per plane of wet nodes along the axis, joined "
+                                     "by the water's axial flow, p = 0 at the ends (docs/coupler.md \"Open "
+                                     "ends\"); OpenFOAM sends the rest; stable for any bulk modulus. water: "
+                                     "OpenFOAM's whole pressure (compressible water, or open ends; docs/coupler.md "
+                                     "\"Volume law in the solid\")"),
             "water_translation": Choice(choices=("solid", "water"), default="solid",
                                         doc="with the volume law in the solid: who carries the water's rigid "
                                             "translation in the section's plane (its whole mass moving with the "

@@ -65,13 +65,14 @@ REMAINDER_BULK_MODULUS = 2.2e9
 
 
 def volume_law(case) -> tuple[str, float]:
-    """Who carries the uniform (volumetric) part of the water pressure: ("compressible", K) or
-    ("incompressible", 0) when the solid does (a closed section: a slice, or 3D with closed ends,
-    unless coupling.volume_law is `water`), ("none", 0) when the water solver sends its whole pressure
-    (open ends, where the mean pressure is not set by the enclosed volume alone)."""
+    """Who carries the volumetric part of the water pressure: ("compressible", K) or ("incompressible", 0)
+    when the solid does (the default, coupling.volume_law `solid`: in a closed section, a slice or 3D
+    with closed ends, one uniform pressure; with open ends one pressure per plane of wet nodes along the
+    axis, joined by the water's axial flow, p = 0 at the ends), ("none", 0) when the water solver sends
+    its whole pressure (coupling.volume_law `water`)."""
     d = case.data
     water = d["water"]
-    if not closed_section(d) or d["coupling"].get("volume_law", "solid") == "water":
+    if d["coupling"].get("volume_law", "solid") == "water":
         return "none", 0.0
     if water["model"] == "incompressible":
         return "incompressible", 0.0
@@ -137,6 +138,8 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "bulk_modulus": bulk,
         "water_density": (float(d["water"]["density"]) if law != "none"
                           and cs.get("water_translation", "solid") == "solid" else 0.0),
+        "water_ends": "closed" if closed_section(d) else "open",
+        "axial_density": float(d["water"]["density"]),
     }
 
 
@@ -157,6 +160,9 @@ def solid_coupling_attrs(s: dict) -> dict:
         out["bulk_modulus"] = float(s["bulk_modulus"])
         if s.get("water_density", 0.0) > 0:  # absent: the exchange carries the water's translation
             out["water_density"] = float(s["water_density"])
+        if s.get("water_ends", "closed") == "open":  # absent = closed: one uniform pressure
+            out["water_ends"] = "open"
+            out["axial_density"] = float(s["axial_density"])
     return out
 
 
@@ -297,7 +303,7 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     # Incompressible water of a closed section: OpenFOAM solves the inertial remainder with
     # compressible water (the uniform part is the solid's constraint, docs/coupler.md).
     bulk = float(water["bulk_modulus"])
-    if law == "incompressible":
+    if law == "incompressible" and closed_section(d):
         model, bulk = "compressible", REMAINDER_BULK_MODULUS
     elif law == "compressible":
         # The remainder hardly depends on K (it is the water's inertia), but OpenFOAM's own uniform
@@ -377,7 +383,7 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     t = t.replace("freeSurfaceLevel 123;",
                   f"freeSurfaceLevel {float(d['geometry']['tunnel_centre_z']) + float(water['head'])!r};")
     t = _replace_block(t, "exchange", exchange_dict(settings))
-    if law != "none":  # the solid carries the uniform pressure: send the remainder
+    if law != "none" and closed_section(d):  # the solid carries the uniform pressure: send the remainder
         t, n = re.subn(r"(\n(\s*)interfaceMotion\s+\w+;)", r"\1\n\2subtractMeanPressure yes;", t, count=1)
         if n != 1:
             raise FluidCaseError(f"{cd}: no interfaceMotion entry in the tqInterface function object to put "

@@ -156,7 +156,9 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
     elif law != "none" and scheme == "implicit":
         carried = ("volume law and its translation (mode 1) are" if d["coupling"]["water_translation"] == "solid"
                    else "volume law is")
-        verdict = (f"the water's {carried} in the solid ({law}, any bulk modulus); the 'implicit' scheme "
+        where = "" if closed_section(d) else (", per plane of wet nodes along the axis, joined by the water's "
+                                              "axial flow to the open ends")
+        verdict = (f"the water's {carried} in the solid ({law}, any bulk modulus{where}); the 'implicit' scheme "
                    "iterates the remaining added mass each window: stable")
     elif scheme == "implicit" and w["model"] == "incompressible" and worst >= 1:
         # measured on the paper case in 3D (docs/stability.md "The paper case in 3D with incompressible water")

@@ -109,38 +109,79 @@ struct FluidCoupling::Impl {
   double waitAtStart = 0, mappingAtStart = 0, cpuStart = 0;
   bool initialized = false, finalized = false;
 
-  // The water's volume law, carried here (docs/coupler.md "Volume law in the solid"): the uniform
-  // pressure p_v of the enclosed water acts on the wet nodes as p_v g, g the nodes' area vectors
-  // out of the water, and is set implicitly each step from the volume change the step makes,
-  // s^{n+1} = g·(u^{n+1} − u0): p_v = −κ s^{n+1} (κ = K/V), or s^{n+1} = 0 (incompressible).
+  // The water's volume law, carried here (docs/coupler.md "Volume law in the solid"): the pressure
+  // p_j of station j acts on its wet nodes as p_j g_i, g the nodes' area vectors out of the water, and
+  // is set implicitly each step from the volume change the step makes, s_j^{n+1} = Σ_{i∈j} g_i·(u_i^{n+1}
+  // − u0_i). A closed section is one station: p = −κ s^{n+1} (κ = K/V), or s^{n+1} = 0
+  // (incompressible). With open ends each plane of wet nodes normal to the axis y is a station, the
+  // volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes
+  // (docs/coupler.md "Open ends"): p_j = −κ_j (s_j + W_j), or s_j + W_j = 0.
   bool volumeLaw = false, incompressible = false;
-  Real kappa = 0, volume = 0;
+  Real volume = 0;                     // m³: all the enclosed water
   std::vector<Real> g;                 // [3n] m²
   std::vector<Real> respU, respV;      // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
   std::vector<Real> scratchU, scratchV, sent;
-  Real pv = 0, pvPrev = 0, volumeWork = 0;
+  Real volumeWork = 0;
+  bool openEnds = false;
+  size_t S = 1;                        // stations
+  std::vector<size_t> station;         // [n] the station of each wet node
+  std::vector<Real> Vs, compliance;    // [S] m³, and V_j/K (0: incompressible) in m³/Pa
+  // Open ends: segment j joins stations j and j+1, Q̇_j = cAx_j (p_j − p_{j+1}) with cAx = A/(ρ h);
+  // Q [S−1] the axial flux at t^{n−½} (m³/s), W [S] the volume that has left each station (m³).
+  std::vector<Real> cAx, Q, W;
+  std::vector<Real> ps, psPrev;        // [S] Pa: the stations' pressure this step and the last
   // The water's rigid translation in the section's plane (x, z), carried here too when
-  // /coupling water_density is given: the water's mean displacement is ū = T u = (1/V) Σ r_i (g_i·u_i)
-  // (r_i = x_i − c, c the water's centroid; exact for incompressible water, ∫u dV = ∮ (x − c) u·n dA),
-  // and its force on the wall is the pressure p = r·λ/V with resultant λ = −ρ_w V ā, ā = T a, implicit
-  // in the step like p_v. The exchange then carries neither the volume change nor the translation.
+  // /coupling water_density is given: a station's mean displacement is ū_j = T_j u = (1/V_j) Σ_{i∈j}
+  // r_i (g_i·u_i) (r_i = x_i − c_j, c_j the station's water centroid; exact for incompressible water,
+  // ∫u dV = ∮ (x − c) u·n dA), and its force on the wall is the pressure p = r·λ_j/V_j with resultant
+  // λ_j = −ρ_w V_j ā_j, ā_j = T_j a, implicit in the step like p_j. The exchange then carries neither
+  // the volume change nor the translation.
   bool translation = false;
   Real rhoW = 0;
-  std::vector<Real> r;                 // [2n] (x − c, z − c) of each wet node
-  Real lam[2] = {0, 0}, lamPrev[2] = {0, 0};  // N: the water's in-plane resultant −ρ V ā this step
-  // The oblique projection the exchange sees: P u = u − B C⁻¹ Aᵀu removes the carried modes from a
-  // motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u and T u), Pᵀ F = F −
-  // A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
+  std::vector<Real> r;                 // [2n] (x − c_j, z − c_j) of each wet node
+  std::vector<Real> lam, lamPrev;      // [2S] N: the water's in-plane resultant −ρ V_j ā_j this step
+  // The oblique projection the exchange sees, station by station: P u = u − B C⁻¹ Aᵀu removes the
+  // carried modes from a motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u
+  // and T u), Pᵀ F = F − A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
   int modes = 0;
-  Real Cinv[3][3] = {};
+  std::vector<Real> Cinv;              // [9 S] row-major 3 × 3 per station
   std::vector<Real> total;             // [3n] force added this step: the water's answer + the carried pressure
+  // Work space of the laws (per station).
+  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri;
 
   explicit Impl(Solver& s) : solver(s) {}
 
-  /// g and V from the wetted face's quads: each quad's area vector (half the cross product of its
-  /// diagonals) oriented away from the wetted section's centroid, a quarter to each corner; V is
-  /// ½ Σ S_q·(x_q − c)⊥ (the divergence of the in-section position is 2: the section's area times
-  /// the length along the axis y), and the water's centroid c_w from ∫(x − c)_k dV = ⅓ ∮ (x − c)_k (x − c)⊥·n.
+  /// The stations: one for a closed section; with open ends, the planes of wet nodes along y.
+  void buildStations(const Mesh& mesh) {
+    const size_t n = nodes.size();
+    station.assign(n, 0);
+    S = 1;
+    if (!openEnds) return;
+    std::vector<Real> ys(n);
+    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[3 * size_t(nodes[k]) + 1];
+    std::vector<Real> planes = ys;
+    std::sort(planes.begin(), planes.end());
+    const Real tol = 1e-9 * std::max<Real>(1, planes.back() - planes.front());
+    planes.erase(std::unique(planes.begin(), planes.end(), [&](Real a, Real b) { return b - a <= tol; }),
+                 planes.end());
+    S = planes.size();
+    if (S < 3)
+      throw InputError("/coupling water_ends open: the wetted face '" + in.face + "' has " + std::to_string(S) +
+                       " plane(s) of nodes along the axis y; the open-ends law needs at least 3 (two elements "
+                       "along the axis). Use water_ends closed for a slice");
+    for (size_t k = 0; k < n; ++k) {
+      const auto it = std::lower_bound(planes.begin(), planes.end(), ys[k] - tol);
+      station[k] = size_t(it - planes.begin());
+    }
+    cAx.assign(S - 1, 0.0);
+    for (size_t j = 0; j + 1 < S; ++j) cAx[j] = planes[j + 1] - planes[j];  // h_j until buildVolumeLaw
+  }
+
+  /// g and the stations' volumes V_j from the wetted face's quads: each quad's area vector (half the
+  /// cross product of its diagonals) oriented away from the wetted section's centroid, a quarter to
+  /// each corner; a quad's volume is ½ S_q·(x_q − c)⊥ (the divergence of the in-section position is 2:
+  /// the section's area times the length along the axis y), a quarter to each corner's station, and
+  /// the water's centroid c_j from ∫(x − c)_k dV = ⅓ ∮ (x − c)_k (x − c)⊥·n.
   void buildVolumeLaw(const Mesh& mesh) {
     const size_t n = nodes.size();
     g.assign(3 * n, 0.0);
@@ -148,9 +189,10 @@ struct FluidCoupling::Impl {
     Real c[3] = {0, 0, 0};
     for (Index node : nodes)
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
+    buildStations(mesh);
     const auto& quads = mesh.faces.at(in.face);
-    volume = 0;
-    Real cw[3] = {0, 0, 0};
+    Vs.assign(S, 0.0);
+    std::vector<Real> cw(2 * S, 0.0), Vseg(S > 1 ? S - 1 : 0, 0.0);
     for (size_t q = 0; q + 3 < quads.size(); q += 4) {
       Real sq[3], xq[3] = {0, 0, 0};
       quadAreaVector(mesh, &quads[q], sq);
@@ -158,91 +200,167 @@ struct FluidCoupling::Impl {
         for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
       const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);  // (x − c)⊥, axis y
       const Real sign = radial < 0 ? -1.0 : 1.0;
-      volume += 0.5 * sign * radial;
-      for (int d : {0, 2}) cw[d] += sign * (xq[d] - c[d]) * radial / 3;
+      size_t jmin = S, jmax = 0;
       for (int k = 0; k < 4; ++k) {
-        const size_t j = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
-        for (int d = 0; d < 3; ++d) g[3 * j + size_t(d)] += 0.25 * sign * sq[d];
+        const size_t i = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
+        const size_t j = station[i];
+        jmin = std::min(jmin, j), jmax = std::max(jmax, j);
+        Vs[j] += 0.125 * sign * radial;
+        cw[2 * j] += 0.25 * sign * (xq[0] - c[0]) * radial / 3;
+        cw[2 * j + 1] += 0.25 * sign * (xq[2] - c[2]) * radial / 3;
+        for (int d = 0; d < 3; ++d) g[3 * i + size_t(d)] += 0.25 * sign * sq[d];
+      }
+      if (openEnds) {
+        if (jmax != jmin + 1)
+          throw InputError("/coupling water_ends open: a quad of the wetted face '" + in.face +
+                           "' does not join two neighbouring planes of nodes along the axis y; the open-ends law "
+                           "needs the wetted face built of layers along the axis (an extruded mesh)");
+        Vseg[jmin] += 0.5 * sign * radial;
       }
     }
-    if (!(volume > 0))
-      throw InputError("/coupling volume_law: the face '" + in.face + "' encloses no volume about the axis y (" +
-                       std::to_string(volume) + " m³); the volume law needs the wetted face of a closed section");
-    kappa = incompressible ? 0.0 : in.bulkModulus / volume;
+    volume = 0;
+    for (size_t j = 0; j < S; ++j) {
+      volume += Vs[j];
+      if (!(Vs[j] > 0))
+        throw InputError("/coupling volume_law: the face '" + in.face + "' encloses no volume about the axis y (" +
+                         std::to_string(Vs[j]) + " m³" + (S > 1 ? " at station " + std::to_string(j) : "") +
+                         "); the volume law needs the wetted face of a closed section, or of a tube");
+    }
+    compliance.assign(S, 0.0);
+    for (size_t j = 0; j < S; ++j) compliance[j] = incompressible ? 0.0 : Vs[j] / in.bulkModulus;
+    // the plug flow's A/(ρ h) of each segment: A = V_seg / h
+    for (size_t j = 0; j + 1 < S; ++j) cAx[j] = Vseg[j] / (in.axialDensity * cAx[j] * cAx[j]);
+    Q.assign(S > 1 ? S - 1 : 0, 0.0);
+    W.assign(S, 0.0);
+    ps.assign(S, 0.0);
+    psPrev.assign(S, 0.0);
+    lam.assign(2 * S, 0.0);
+    lamPrev.assign(2 * S, 0.0);
     translation = in.waterDensity > 0;
     rhoW = in.waterDensity;
     r.assign(2 * n, 0.0);
-    for (int d : {0, 2}) cw[d] = c[d] + cw[d] / volume;
     for (size_t k = 0; k < n; ++k) {
-      r[2 * k] = x(nodes[k], 0) - cw[0];
-      r[2 * k + 1] = x(nodes[k], 2) - cw[2];
+      const size_t j = station[k];
+      r[2 * k] = x(nodes[k], 0) - (c[0] + cw[2 * j] / Vs[j]);
+      r[2 * k + 1] = x(nodes[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
     }
     buildProjection();
     respU.assign(3 * n, 0.0);
     respV.assign(3 * n, 0.0);
     scratchU.assign(3 * n, 0.0);
     scratchV.assign(3 * n, 0.0);
+    sums.assign(12 * S, 0.0);
+    alpha.assign(2 * S, 0.0);
+    beta.assign(2 * S, 0.0);
+    sPrime.assign(S, 0.0);
+    suPrime.assign(S, 0.0);
+    pScratch.assign(S, 0.0);
+    lamScratch.assign(2 * S, 0.0);
+    tri.assign(2 * S, 0.0);
   }
 
   /// The carried laws on a prediction (predict() just made `du`, `dv` = u^{n+1} − u0 and v^{n+½} with
-  /// the other forces; `v` = v^{n−½}): the correction is the pressure field p_c(x) = p_v + r·λ/V on the
-  /// wet nodes (force g_i p_c(x_i), response respU/respV: the update is linear in the force), with
-  ///   volume:       p_v = −κ s^{n+1} (incompressible: s^{n+1} = 0),  s^{n+1} = g·du after the correction;
-  ///   translation:  λ = −ρ V ā,  ā = T (v^{n+½} − v^{n−½})/Δt after the correction;
-  /// three linear equations in (p_v, λ_x, λ_z) (one without the translation). Returns p_v, sets λ.
-  Real applyCarriedLaws(Real dt, const Real* v, std::vector<Real>& du, std::vector<Real>& dv, Real* lamOut) const {
-    Real sstar = 0, SU = 0, SUr[2] = {0, 0}, SVr[2] = {0, 0}, SVrr[2][2] = {{0, 0}, {0, 0}}, a0[2] = {0, 0};
+  /// the other forces; `v` = v^{n−½}): the correction is the pressure field p_c(x) = p_j + r·λ_j/V_j on
+  /// station j's wet nodes (force g_i p_c(x_i), response respU/respV: the update is linear in the
+  /// force), with
+  ///   volume:       p_j = −κ_j (s_j^{n+1} + W_j^{n+1}) (incompressible: s_j^{n+1} + W_j^{n+1} = 0),
+  ///                 s_j^{n+1} = g·du after the correction, W = 0 for a closed section; open ends:
+  ///                 W_j^{n+1} = W_j^n + Δt (Q_j − Q_{j−1})^{n+½}, Q_j^{n+½} = Q_j^{n−½} + Δt cAx_j (p_j − p_{j+1}),
+  ///                 p = 0 at the end planes;
+  ///   translation:  λ_j = −ρ V_j ā_j,  ā_j = T_j (v^{n+½} − v^{n−½})/Δt after the correction.
+  /// Each station's translation is eliminated first (λ_j = α_j + β_j p_j), which leaves one equation in
+  /// p for a closed section, and a tridiagonal system in the interior stations' p for open ends.
+  /// Writes p [S] and λ [2S] (the work space when null).
+  void applyCarriedLaws(Real dt, const Real* v, std::vector<Real>& du, std::vector<Real>& dv, Real* pOut,
+                        Real* lamOut) const {
+    if (!pOut) pOut = pScratch.data();
+    if (!lamOut) lamOut = lamScratch.data();
+    std::fill(sums.begin(), sums.end(), 0.0);
+    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0
+    Real SUall = 0;
     for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* s = &sums[12 * station[k]];
       Real qU = 0, qV = 0, gdv = 0;
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * k + size_t(d);
-        sstar += g[j] * du[j];
+        s[0] += g[j] * du[j];
         qU += g[j] * g[j] * respU[j];
         qV += g[j] * g[j] * respV[j];
         gdv += g[j] * (dv[j] - v[3 * size_t(nodes[k]) + size_t(d)]);
       }
-      SU += qU;
+      s[1] += qU;
+      SUall += qU;
       if (!translation) continue;
       for (int a = 0; a < 2; ++a) {
         const Real ra = r[2 * k + size_t(a)];
-        SUr[a] += qU * ra;
-        SVr[a] += qV * ra;
-        a0[a] += ra * gdv / volume;
-        for (int b = 0; b < 2; ++b) SVrr[a][b] += qV * ra * r[2 * k + size_t(b)];
+        s[2 + a] += qU * ra;
+        s[4 + a] += qV * ra;
+        s[10 + a] += ra * gdv;
+        for (int b = 0; b < 2; ++b) s[6 + 2 * a + b] += qV * ra * r[2 * k + size_t(b)];
       }
     }
-    if (!(SU > 0)) return 0;
-    Real p = 0, lx = 0, lz = 0;
-    if (!translation) {
-      // s^{n+1} = s* + SU p_v
-      p = incompressible ? -sstar / SU : -kappa * sstar / (1 + kappa * SU);
+    if (!(SUall > 0)) {
+      std::fill(pOut, pOut + S, 0.0);
+      std::fill(lamOut, lamOut + 2 * S, 0.0);
+      return;
+    }
+    // each station's translation: (I + f SVrr/V) λ = −f V a0 − f SVr p, f = ρ/Δt, a0 = (1/V) Σ r g·Δv
+    for (size_t j = 0; j < S; ++j) {
+      const Real* s = &sums[12 * j];
+      sPrime[j] = s[0], suPrime[j] = s[1];
+      if (!translation) continue;
+      const Real V = Vs[j], f = rhoW / dt;
+      const Real b00 = 1 + f * s[6] / V, b01 = f * s[7] / V, b10 = f * s[8] / V, b11 = 1 + f * s[9] / V;
+      const Real det = b00 * b11 - b01 * b10;
+      const Real ra0 = -f * s[10], ra1 = -f * s[11], rb0 = -f * s[4], rb1 = -f * s[5];
+      alpha[2 * j] = (b11 * ra0 - b01 * ra1) / det, alpha[2 * j + 1] = (b00 * ra1 - b10 * ra0) / det;
+      beta[2 * j] = (b11 * rb0 - b01 * rb1) / det, beta[2 * j + 1] = (b00 * rb1 - b10 * rb0) / det;
+      sPrime[j] += (s[2] * alpha[2 * j] + s[3] * alpha[2 * j + 1]) / V;
+      suPrime[j] += (s[2] * beta[2 * j] + s[3] * beta[2 * j + 1]) / V;
+    }
+    if (!openEnds) {
+      pOut[0] = -sPrime[0] / (suPrime[0] + compliance[0]);
     } else {
-      Real M[3][4] = {};
-      if (incompressible) {
-        M[0][0] = SU, M[0][1] = SUr[0] / volume, M[0][2] = SUr[1] / volume, M[0][3] = -sstar;
-      } else {
-        M[0][0] = 1 + kappa * SU, M[0][1] = kappa * SUr[0] / volume, M[0][2] = kappa * SUr[1] / volume;
-        M[0][3] = -kappa * sstar;
+      // interior stations 1 … S−2 (Thomas): −dt² c_{j−1} p_{j−1} + D_j p_j − dt² c_j p_{j+1} = rhs_j
+      pOut[0] = pOut[S - 1] = 0;
+      const Real dt2 = dt * dt;
+      Real* cp = tri.data();   // modified super-diagonal
+      Real* dp = cp + S;       // modified right-hand side
+      for (size_t j = 1; j + 1 < S; ++j) {
+        const Real sub = j > 1 ? -dt2 * cAx[j - 1] : 0.0, sup = -dt2 * cAx[j];
+        const Real D = suPrime[j] + compliance[j] + dt2 * (cAx[j - 1] + cAx[j]);
+        const Real rhs = -(sPrime[j] + W[j] + dt * (Q[j] - Q[j - 1]));
+        const Real den = D - (j > 1 ? sub * cp[j - 1] : 0.0);
+        cp[j] = sup / den;
+        dp[j] = (rhs - (j > 1 ? sub * dp[j - 1] : 0.0)) / den;
       }
-      const Real f = rhoW / dt;
-      for (int a = 0; a < 2; ++a) {
-        M[1 + a][0] = f * SVr[a];
-        for (int b = 0; b < 2; ++b) M[1 + a][1 + b] = (a == b ? 1.0 : 0.0) + f * SVrr[a][b] / volume;
-        M[1 + a][3] = -f * volume * a0[a];
-      }
-      solve3(M);
-      p = M[0][3], lx = M[1][3], lz = M[2][3];
+      for (size_t j = S - 2; j >= 1; --j) pOut[j] = dp[j] - (j + 2 < S ? cp[j] * pOut[j + 1] : 0.0);
+    }
+    for (size_t j = 0; j < S; ++j) {
+      lamOut[2 * j] = translation ? alpha[2 * j] + beta[2 * j] * pOut[j] : 0.0;
+      lamOut[2 * j + 1] = translation ? alpha[2 * j + 1] + beta[2 * j + 1] * pOut[j] : 0.0;
     }
     for (size_t k = 0; k < nodes.size(); ++k) {
-      const Real pc = translation ? p + (r[2 * k] * lx + r[2 * k + 1] * lz) / volume : p;
+      const Real pc = carried(k, pOut, lamOut);
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * k + size_t(d);
         du[j] += respU[j] * g[j] * pc;
         dv[j] += respV[j] * g[j] * pc;
       }
     }
-    if (lamOut) lamOut[0] = lx, lamOut[1] = lz;
-    return p;
+  }
+
+  /// The carried pressure at wet node k for station pressures p and resultants λ.
+  Real carried(size_t k, const Real* p, const Real* l) const {
+    const size_t j = station[k];
+    return translation ? p[j] + (r[2 * k] * l[2 * j] + r[2 * k + 1] * l[2 * j + 1]) / Vs[j] : p[j];
+  }
+
+  /// Open ends: the axial plug flow moves on with this step's station pressures.
+  void advanceAxialFlow(Real dt) {
+    if (!openEnds) return;
+    for (size_t j = 0; j + 1 < S; ++j) Q[j] += dt * cAx[j] * (ps[j] - ps[j + 1]);
+    for (size_t j = 1; j + 1 < S; ++j) W[j] += dt * (Q[j] - Q[j - 1]);
   }
 
   /// Gauss–Jordan with partial pivoting on a 3 × 4 augmented matrix; the solution ends in column 3.
@@ -261,42 +379,45 @@ struct FluidCoupling::Impl {
     for (int q = 0; q < 3; ++q) M[q][3] /= M[q][q];
   }
 
-  /// C = AᵀB of the carried modes and its inverse (see `Cinv`).
+  /// C_j = A_jᵀB_j of each station's carried modes and its inverse (see `Cinv`).
   void buildProjection() {
     modes = translation ? 3 : 1;
-    Real C[3][3] = {};
-    // columns of B: g, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z
+    Cinv.assign(9 * S, 0.0);
+    // columns of B: g, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z (on the station's nodes)
     auto Bcol = [&](int m, size_t k, int d) -> Real {
       if (m == 0) return g[3 * k + size_t(d)];
       return (m == 1 && d == 0) || (m == 2 && d == 2) ? 1.0 : 0.0;
     };
     auto Arow = [&](int m, size_t k, int d) -> Real {
       if (m == 0) return g[3 * k + size_t(d)];
-      return r[2 * k + size_t(m - 1)] * g[3 * k + size_t(d)] / volume;
+      return r[2 * k + size_t(m - 1)] * g[3 * k + size_t(d)] / Vs[station[k]];
     };
-    for (int a = 0; a < modes; ++a)
-      for (int b = 0; b < modes; ++b)
-        for (size_t k = 0; k < nodes.size(); ++k)
-          for (int d = 0; d < 3; ++d) C[a][b] += Arow(a, k, d) * Bcol(b, k, d);
-    if (modes == 1) {
-      Cinv[0][0] = 1 / C[0][0];
-      return;
-    }
-    for (int b = 0; b < 3; ++b) {  // column b of C⁻¹: the solution of C x = e_b
-      Real M[3][4];
-      for (int a = 0; a < 3; ++a) {
-        for (int c2 = 0; c2 < 3; ++c2) M[a][c2] = C[a][c2];
-        M[a][3] = a == b ? 1.0 : 0.0;
+    std::vector<Real> C(9 * S, 0.0);
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int a = 0; a < modes; ++a)
+        for (int b = 0; b < modes; ++b)
+          for (int d = 0; d < 3; ++d) C[9 * station[k] + size_t(3 * a + b)] += Arow(a, k, d) * Bcol(b, k, d);
+    for (size_t j = 0; j < S; ++j) {
+      if (modes == 1) {
+        Cinv[9 * j] = 1 / C[9 * j];
+        continue;
       }
-      solve3(M);
-      for (int a = 0; a < 3; ++a) Cinv[a][b] = M[a][3];
+      for (int b = 0; b < 3; ++b) {  // column b of C⁻¹: the solution of C x = e_b
+        Real M[3][4];
+        for (int a = 0; a < 3; ++a) {
+          for (int c2 = 0; c2 < 3; ++c2) M[a][c2] = C[9 * j + size_t(3 * a + c2)];
+          M[a][3] = a == b ? 1.0 : 0.0;
+        }
+        solve3(M);
+        for (int a = 0; a < 3; ++a) Cinv[9 * j + size_t(3 * a + b)] = M[a][3];
+      }
     }
   }
 
   /// predict() with the carried laws: `disp`/`vel` hold the motion of the force F plus the carried pressure.
   void predictWithLaw(Real dt, const NodalState& st, const std::vector<Real>& F) {
     predict(dt, st, F, disp, vel);
-    if (volumeLaw) applyCarriedLaws(dt, st.vData(), disp, vel, nullptr);
+    if (volumeLaw) applyCarriedLaws(dt, st.vData(), disp, vel, nullptr, nullptr);
   }
 
   [[noreturn]] void fail(const std::string& what, const std::exception& e) {
@@ -469,30 +590,38 @@ struct FluidCoupling::Impl {
   /// (P u: no volume change, and no translation of the water), a force read loses what would work on
   /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
   void projectMotion(std::vector<Real>& x) const {
-    Real m[3] = {0, 0, 0}, c[3] = {0, 0, 0};
-    for (size_t k = 0; k < nodes.size(); ++k)
+    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* m = &sums[3 * station[k]];
       for (int d = 0; d < 3; ++d) {
         const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
         m[0] += gv * xv;
-        if (modes == 3) m[1] += r[2 * k] * gv * xv / volume, m[2] += r[2 * k + 1] * gv * xv / volume;
+        if (modes == 3) m[1] += r[2 * k] * gv * xv / Vs[station[k]], m[2] += r[2 * k + 1] * gv * xv / Vs[station[k]];
       }
-    for (int a = 0; a < modes; ++a)
-      for (int b = 0; b < modes; ++b) c[a] += Cinv[a][b] * m[b];
+    }
+    for (size_t j = 0; j < S; ++j)
+      for (int a = 0; a < modes; ++a)
+        for (int b = 0; b < modes; ++b) sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
     for (size_t k = 0; k < nodes.size(); ++k) {
+      const Real* c = &sums[3 * (S + station[k])];
       for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
       if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
     }
   }
   void projectForce(std::vector<Real>& f) const {
-    Real m[3] = {0, 0, 0}, c[3] = {0, 0, 0};
+    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);
     for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* m = &sums[3 * station[k]];
       for (int d = 0; d < 3; ++d) m[0] += g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
       if (modes == 3) m[1] += f[3 * k], m[2] += f[3 * k + 2];
     }
-    for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
-      for (int b = 0; b < modes; ++b) c[a] += Cinv[b][a] * m[b];
+    for (size_t j = 0; j < S; ++j)
+      for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
+        for (int b = 0; b < modes; ++b) sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * b + a)] * sums[3 * j + size_t(b)];
     for (size_t k = 0; k < nodes.size(); ++k) {
-      const Real pc = c[0] + (modes == 3 ? (c[1] * r[2 * k] + c[2] * r[2 * k + 1]) / volume : 0.0);
+      const size_t j = station[k];
+      const Real* c = &sums[3 * (S + j)];
+      const Real pc = c[0] + (modes == 3 ? (c[1] * r[2 * k] + c[2] * r[2 * k + 1]) / Vs[j] : 0.0);
       for (int d = 0; d < 3; ++d) f[3 * k + size_t(d)] -= pc * g[3 * k + size_t(d)];
     }
   }
@@ -546,6 +675,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   I.total.assign(n3, 0.0);
   I.volumeLaw = in.volumeLaw != "none";
   I.incompressible = in.volumeLaw == "incompressible";
+  I.openEnds = in.waterEnds == "open";
   if (I.volumeLaw) I.buildVolumeLaw(mesh);
 
   // The energy guard's floor: the work of the scale forces on the scale motion of one window over
@@ -769,7 +899,8 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   // window's ramp, or the exchanged force), implicit in this step's motion.
   if (I.volumeLaw) {
     I.predict(dt, st, I.force, I.scratchU, I.scratchV);
-    I.pv = I.applyCarriedLaws(dt, st.vData(), I.scratchU, I.scratchV, I.lam);
+    I.applyCarriedLaws(dt, st.vData(), I.scratchU, I.scratchV, I.ps.data(), I.lam.data());
+    I.advanceAxialFlow(dt);
   }
   // Add R3 and the carried pressure, and book the work of each over u^{n−1} → u^n exactly as the
   // solver books f_ext (trapezoid).
@@ -784,9 +915,8 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       fe[i] += I.force[j];
       w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
       if (I.volumeLaw) {
-        const Real* rk = I.translation ? &I.r[2 * k] : nullptr;
-        const Real pc = I.pv + (rk ? (rk[0] * I.lam[0] + rk[1] * I.lam[1]) / I.volume : 0.0);
-        const Real pcPrev = I.pvPrev + (rk ? (rk[0] * I.lamPrev[0] + rk[1] * I.lamPrev[1]) / I.volume : 0.0);
+        const Real pc = I.carried(k, I.ps.data(), I.lam.data());
+        const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
         fe[i] += pc * I.g[j];
         I.total[j] += pc * I.g[j];
         wv += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
@@ -796,8 +926,8 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.work += w;
   I.volumeWork += wv;
   I.prev = I.force;
-  I.pvPrev = I.pv;
-  I.lamPrev[0] = I.lam[0], I.lamPrev[1] = I.lam[1];
+  I.psPrev = I.ps;
+  I.lamPrev = I.lam;
   I.dtPrev = dt;
   if (windowEnded) I.guardEnergy();
 }
@@ -809,12 +939,12 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   a.io(I.work);
   a.io(I.dtPrev);
   a.io(I.stepInWindow);
-  a.io(I.pv);
-  a.io(I.pvPrev);
-  a.io(I.lam[0]);
-  a.io(I.lam[1]);
-  a.io(I.lamPrev[0]);
-  a.io(I.lamPrev[1]);
+  a.io(I.ps);
+  a.io(I.psPrev);
+  a.io(I.lam);
+  a.io(I.lamPrev);
+  a.io(I.Q);
+  a.io(I.W);
   a.io(I.volumeWork);
   a.io(I.total);
 }
@@ -854,7 +984,14 @@ FluidCouplingStats FluidCoupling::stats() const {
 const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
 const std::vector<Real>& FluidCoupling::force() const { return impl_->total; }
 bool FluidCoupling::hasVolumeLaw() const { return impl_->volumeLaw; }
-Real FluidCoupling::volumePressure() const { return impl_->pv; }
+Real FluidCoupling::volumePressure() const {
+  const Impl& I = *impl_;
+  if (I.S == 1) return I.ps.empty() ? 0.0 : I.ps[0];
+  Real pV = 0;
+  for (size_t j = 0; j < I.S; ++j) pV += I.ps[j] * I.Vs[j];
+  return pV / I.volume;
+}
+std::vector<Real> FluidCoupling::stationPressures() const { return impl_->ps; }
 Real FluidCoupling::volumeLawWork() const { return impl_->volumeWork; }
 Real FluidCoupling::enclosedVolume() const { return impl_->volume; }
 
@@ -875,6 +1012,7 @@ std::string FluidCoupling::describe() const {
     os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration << ", predictor " << I.in.predictor;
   if (I.volumeLaw) {
     os << "; volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
+    if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
     if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
     if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
   }

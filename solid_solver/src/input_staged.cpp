@@ -278,7 +278,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
                        "mesh", "map", "map_tolerance", "write_fields", "participant", "partner",
                        "absolute_tolerance_velocity", "absolute_tolerance_displacement",
                        "absolute_tolerance_force", "energy_limit", "energy_floor", "window_force_weight",
-                       "volume_law", "bulk_modulus", "water_density"});
+                       "volume_law", "bulk_modulus", "water_density", "water_ends", "axial_density"});
     onlyMembers(c, g, w, {});
     CouplingInput& C = S.coupling;
     C.present = true;
@@ -353,6 +353,13 @@ void readStagedInput(hid_t f, SolidInput& in) {
     if (C.waterDensity > 0 && C.volumeLaw == "none")
       c.fail(w, "water_density (the water's translation carried by the solid) needs a volume_law (a closed "
                 "section); leave it out");
+    C.waterEnds = text(c, g, w, "water_ends", C.waterEnds);
+    if (C.waterEnds != "closed" && C.waterEnds != "open")
+      c.fail(w, "water_ends '" + C.waterEnds + "' is not one of closed, open");
+    C.axialDensity = number(c, g, w, "axial_density", 0, 0);
+    if (C.waterEnds == "open" && C.volumeLaw != "none" && !(C.axialDensity > 0))
+      c.fail(w, "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
+                "the axial flow between the planes of the wetted face carries)");
     if (C.windowSteps > 1 && C.scheme == "paper")
       c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
                 "paper scheme's two passes are made for one-step windows); use window 1");
@@ -441,6 +448,10 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
       h5::writeStringAttr(g, "volume_law", C.volumeLaw);
       h5::writeDoubleAttr(g, "bulk_modulus", C.bulkModulus);
       if (C.waterDensity > 0) h5::writeDoubleAttr(g, "water_density", C.waterDensity);
+      if (C.waterEnds != "closed") {
+        h5::writeStringAttr(g, "water_ends", C.waterEnds);
+        h5::writeDoubleAttr(g, "axial_density", C.axialDensity);
+      }
     }
     h5::writeStringAttr(g, "acceleration", C.acceleration);
     h5::writeDoubleAttr(g, "initial_relaxation", C.initialRelaxation);

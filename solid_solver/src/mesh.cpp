@@ -147,37 +147,39 @@ Mesh makeBoxMesh(const BoxSpec& s) {
 
 Mesh makeRingSliceMesh(const RingSpec& s) {
   Mesh m;
-  m.source = "<ring " + std::to_string(s.nRadial) + "x" + std::to_string(s.nAround) + ">";
-  m.slice = true;
-  const Index NR = s.nRadial + 1, NT = s.nAround;  // the hoop direction closes on itself
+  m.source = "<ring " + std::to_string(s.nRadial) + "x" + std::to_string(s.nAround) +
+             (s.nAxial > 1 ? "x" + std::to_string(s.nAxial) : "") + ">";
+  m.slice = s.nAxial == 1;
+  const Index NR = s.nRadial + 1, NT = s.nAround, NY = s.nAxial + 1;  // the hoop direction closes on itself
   auto nid = [&](Index t, Index r, Index y) { return (t % NT) + NT * (r + NR * y); };
-  m.coords.resize(3 * size_t(NT) * NR * 2);
+  m.coords.resize(3 * size_t(NT) * NR * NY);
   const Real pi = std::acos(-1.0);
-  for (Index y = 0; y < 2; ++y)
+  for (Index y = 0; y < NY; ++y)
     for (Index r = 0; r < NR; ++r)
       for (Index t = 0; t < NT; ++t) {
         const Real rad = s.rInner + (s.rOuter - s.rInner) * r / s.nRadial;
         const Real th = 2 * pi * t / s.nAround;
         const Index n = nid(t, r, y);
         m.coords[3 * n + 0] = rad * std::cos(th);
-        m.coords[3 * n + 1] = y * s.width;
+        m.coords[3 * n + 1] = s.width * y / s.nAxial;
         m.coords[3 * n + 2] = rad * std::sin(th);
       }
   m.regionNames = {s.region};
   // ξ along the hoop (θ increasing), η radially outwards, ζ along +y: (e_θ, e_r, e_y) is
   // right-handed in the x-z plane with θ measured from +x towards +z.
-  for (Index r = 0; r < s.nRadial; ++r)
-    for (Index t = 0; t < NT; ++t) {
-      const Index c[8] = {nid(t, r, 0),     nid(t + 1, r, 0),     nid(t + 1, r + 1, 0),
-                          nid(t, r + 1, 0), nid(t, r, 1),         nid(t + 1, r, 1),
-                          nid(t + 1, r + 1, 1), nid(t, r + 1, 1)};
-      m.connectivity.insert(m.connectivity.end(), c, c + 8);
-      m.region.push_back(0);
-      if (r == 0) addFace(m, "inner", c, 2);
-      if (r == s.nRadial - 1) addFace(m, "outer", c, 4);
-      addFace(m, "ymin", c, 0);
-      addFace(m, "ymax", c, 1);
-    }
+  for (Index y = 0; y < s.nAxial; ++y)
+    for (Index r = 0; r < s.nRadial; ++r)
+      for (Index t = 0; t < NT; ++t) {
+        const Index c[8] = {nid(t, r, y),         nid(t + 1, r, y),         nid(t + 1, r + 1, y),
+                            nid(t, r + 1, y),     nid(t, r, y + 1),         nid(t + 1, r, y + 1),
+                            nid(t + 1, r + 1, y + 1), nid(t, r + 1, y + 1)};
+        m.connectivity.insert(m.connectivity.end(), c, c + 8);
+        m.region.push_back(0);
+        if (r == 0) addFace(m, "inner", c, 2);
+        if (r == s.nRadial - 1) addFace(m, "outer", c, 4);
+        if (y == 0) addFace(m, "ymin", c, 0);
+        if (y == s.nAxial - 1) addFace(m, "ymax", c, 1);
+      }
   return m;
 }
 

@@ -117,11 +117,14 @@ public:
   const std::vector<Index>& nodes() const;
   const std::vector<Real>& force() const;
   /// The water's volume law carried by the solid (/coupling volume_law, docs/coupler.md "Volume
-  /// law in the solid"): whether there is one, its uniform pressure this step (Pa), the work of
-  /// the carried forces (volume law and translation) on the solid so far (J, part of the balance's
-  /// `external` term, not of couplingEnergy()), and the enclosed volume (m³).
+  /// law in the solid"): whether there is one, its pressure this step (Pa: the uniform pressure of a
+  /// closed section; with open ends the stations' volume-weighted mean), each station's pressure (one
+  /// for a closed section; with open ends one per plane of wet nodes along the axis, in order of y),
+  /// the work of the carried forces (volume law and translation) on the solid so far (J, part of the
+  /// balance's `external` term, not of couplingEnergy()), and the enclosed volume (m³).
   bool hasVolumeLaw() const;
   Real volumePressure() const;
+  std::vector<Real> stationPressures() const;
   Real volumeLawWork() const;
   Real enclosedVolume() const;
   /// Subcycling: the wet nodes step every fine step (the water force is set per step).

@@ -139,6 +139,12 @@ struct CouplingInput {
   /// kg/m³: with a volume law, the water's in-plane rigid translation is carried by the solid too (its
   /// mass ρ_w V, implicit; the exchange carries neither mode); 0 = the exchange carries it.
   Real waterDensity = 0;
+  /// The water section's ends along the axis y: "closed" (the law holds the whole enclosed volume:
+  /// one uniform pressure) or "open" (p = 0 at both ends: the law holds the volume of each plane of
+  /// wet nodes, joined by the water's axial plug flow of density axialDensity; docs/coupler.md
+  /// "Open ends").
+  std::string waterEnds = "closed";
+  Real axialDensity = 0;                  ///< kg/m³: the axial flow's density (open ends)
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
