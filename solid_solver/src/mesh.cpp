@@ -1,6 +1,7 @@
 #include "tq/mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -111,6 +112,14 @@ void addFace(Mesh& m, const std::string& name, const Index* elemNodes, int local
 }
 }  // namespace
 
+/// The 8 corners of the structured hexahedron (a, b, c) of a grid numbered by nid(a, b, c), in the
+/// hex8 order: the face c first, counter-clockwise about +c, then the face c + 1.
+template <class Nid>
+std::array<Index, 8> structuredHex(const Nid& nid, Index a, Index b, Index c) {
+  return {nid(a, b, c),     nid(a + 1, b, c),     nid(a + 1, b + 1, c),     nid(a, b + 1, c),
+          nid(a, b, c + 1), nid(a + 1, b, c + 1), nid(a + 1, b + 1, c + 1), nid(a, b + 1, c + 1)};
+}
+
 Mesh makeBoxMesh(const BoxSpec& s) {
   Mesh m;
   m.source = "<box " + std::to_string(s.nx) + "x" + std::to_string(s.ny) + "x" +
@@ -130,17 +139,15 @@ Mesh makeBoxMesh(const BoxSpec& s) {
   for (Index k = 0; k < s.nz; ++k)
     for (Index j = 0; j < s.ny; ++j)
       for (Index i = 0; i < s.nx; ++i) {
-        const Index c[8] = {nid(i, j, k),         nid(i + 1, j, k),     nid(i + 1, j + 1, k),
-                            nid(i, j + 1, k),     nid(i, j, k + 1),     nid(i + 1, j, k + 1),
-                            nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)};
-        m.connectivity.insert(m.connectivity.end(), c, c + 8);
+        const auto c = structuredHex(nid, i, j, k);
+        m.connectivity.insert(m.connectivity.end(), c.begin(), c.end());
         m.region.push_back(0);
-        if (k == 0) addFace(m, "bottom", c, 0);
-        if (k == s.nz - 1) addFace(m, "top", c, 1);
-        if (j == 0) addFace(m, "ymin", c, 2);
-        if (i == s.nx - 1) addFace(m, "xmax", c, 3);
-        if (j == s.ny - 1) addFace(m, "ymax", c, 4);
-        if (i == 0) addFace(m, "xmin", c, 5);
+        if (k == 0) addFace(m, "bottom", c.data(), 0);
+        if (k == s.nz - 1) addFace(m, "top", c.data(), 1);
+        if (j == 0) addFace(m, "ymin", c.data(), 2);
+        if (i == s.nx - 1) addFace(m, "xmax", c.data(), 3);
+        if (j == s.ny - 1) addFace(m, "ymax", c.data(), 4);
+        if (i == 0) addFace(m, "xmin", c.data(), 5);
       }
   return m;
 }
@@ -170,15 +177,13 @@ Mesh makeRingSliceMesh(const RingSpec& s) {
   for (Index y = 0; y < s.nAxial; ++y)
     for (Index r = 0; r < s.nRadial; ++r)
       for (Index t = 0; t < NT; ++t) {
-        const Index c[8] = {nid(t, r, y),         nid(t + 1, r, y),         nid(t + 1, r + 1, y),
-                            nid(t, r + 1, y),     nid(t, r, y + 1),         nid(t + 1, r, y + 1),
-                            nid(t + 1, r + 1, y + 1), nid(t, r + 1, y + 1)};
-        m.connectivity.insert(m.connectivity.end(), c, c + 8);
+        const auto c = structuredHex(nid, t, r, y);
+        m.connectivity.insert(m.connectivity.end(), c.begin(), c.end());
         m.region.push_back(0);
-        if (r == 0) addFace(m, "inner", c, 2);
-        if (r == s.nRadial - 1) addFace(m, "outer", c, 4);
-        if (y == 0) addFace(m, "ymin", c, 0);
-        if (y == s.nAxial - 1) addFace(m, "ymax", c, 1);
+        if (r == 0) addFace(m, "inner", c.data(), 2);
+        if (r == s.nRadial - 1) addFace(m, "outer", c.data(), 4);
+        if (y == 0) addFace(m, "ymin", c.data(), 0);
+        if (y == s.nAxial - 1) addFace(m, "ymax", c.data(), 1);
       }
   return m;
 }
