@@ -383,7 +383,9 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         results.snapshot(s);
         ++nextSnap;
       }
-      if (checkpoints && in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt()) {
+      // (none at the end: the results are then whole)
+      if (checkpoints && in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt() &&
+          t < in.tEnd - 1e-9 * s.dt()) {
         const auto c0 = std::chrono::steady_clock::now();
         while (t >= nextCheckpoint - 1e-9 * s.dt()) nextCheckpoint += in.checkpointInterval;
         ++checkpointSeq;
