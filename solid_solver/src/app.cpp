@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -52,16 +53,19 @@ std::string hms(double s) {
   os << int(std::fmod(s, 60)) << " s";
   return os.str();
 }
-/// What a restart checkpoint belongs to: the mesh, the step, the end, the output times and the
-/// number of state items (a build or a case with other parts has another).
-std::string runFingerprint(const SolidInput& in, const Solver& s, size_t items) {
-  const Mesh& m = s.mesh();
-  std::uint64_t h = fnv1a(m.coords.data(), m.coords.size() * sizeof(m.coords[0]));
-  h = fnv1a(m.connectivity.data(), m.connectivity.size() * sizeof(m.connectivity[0]), h);
-  const Real numbers[4] = {s.dt(), in.tEnd, in.monitorDt, Real(items)};
-  h = fnv1a(numbers, sizeof numbers, h);
-  h = fnv1a(in.snapshotTimes.data(), in.snapshotTimes.size() * sizeof(Real), h);
-  return hex64(h);
+/// What a restart checkpoint belongs to: the bytes of the input and mesh files (every setting,
+/// the motion, the mesh), the step and the end (a build whose parts save other state is caught by
+/// the archive's own checks on restore).
+std::string runFingerprint(const SolidInput& in, const Solver& s) {
+  std::uint64_t h = fnv1a(nullptr, 0);
+  for (const std::string& path : {in.path, in.meshPath}) {
+    std::ifstream is(path, std::ios::binary);
+    std::vector<char> buf(1 << 16);
+    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+      h = fnv1a(buf.data(), size_t(is.gcount()), h);
+  }
+  const Real numbers[2] = {s.dt(), in.tEnd};
+  return hex64(fnv1a(numbers, sizeof numbers, h));
 }
 }  // namespace
 
@@ -150,6 +154,38 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
     out << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
         << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
+  }
+  // Restart checkpoints (tq/restart.hpp): what they belong to, and with --resume the one to continue
+  // from, checked before anything is written (a refused resume leaves the results file as it was).
+  std::unique_ptr<RestartCheckpoints> checkpoints;
+  CheckpointManifest resumeFrom;
+  const std::string fingerprint = runFingerprint(in, s);
+  if (!checkpointDir.empty() && ci.present) {
+    out << "tq-solid: no restart checkpoints for a run coupled with the water (the solid's alone would not "
+           "restart the pair)\n";
+    if (resume) {
+      err << "tq-solid: cannot resume: a run coupled with the water has no restart checkpoints\n";
+      return 2;
+    }
+  } else if (!checkpointDir.empty()) {
+    try {
+      checkpoints = std::make_unique<RestartCheckpoints>(checkpointDir);
+    } catch (const OutputError& e) {
+      err << "tq-solid: " << e.what() << "\n";
+      return 5;
+    }
+    std::string why;
+    if (resume && !checkpoints->last(resumeFrom, why)) {
+      err << "tq-solid: cannot resume: " << why << "\n";
+      return 2;
+    }
+    if (resume && resumeFrom.fingerprint != fingerprint) {
+      err << "tq-solid: cannot resume from " << checkpoints->dir() << ": its checkpoint (t = " << resumeFrom.time
+          << " s) was written for another input (the case, its mesh or its motion changed since, or this is "
+             "another build of tq-solid: fingerprint "
+          << resumeFrom.fingerprint << ", this run " << fingerprint << "); run without --resume to start again\n";
+      return 2;
+    }
   }
   // 4. Time loop (the "engine"), in `engine` below. A write the file system refuses (a full disk,
   //    a quota, an I/O error) ends it from anywhere with an OutputError: the water is told to
@@ -311,44 +347,17 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     a.io(nextCheckpoint);
     a.io(checkpointSeq);
   };
-  std::unique_ptr<RestartCheckpoints> checkpoints;
   StateArchive checkpointArchive;
-  std::string fingerprint;
-  if (!checkpointDir.empty() && coupling) {
-    out << "tq-solid: no restart checkpoints for a run coupled with the water (the solid's alone would not "
-           "restart the pair)\n";
-    if (resume) {
-      err << "tq-solid: cannot resume: a run coupled with the water has no restart checkpoints\n";
-      coupling->abort("the solid cannot resume a coupled run");
-      return 2;
-    }
-  } else if (!checkpointDir.empty()) {
-    checkpoints = std::make_unique<RestartCheckpoints>(checkpointDir);
-    checkpointArchive.beginSave();
-    runState(checkpointArchive);
-    checkpointArchive.end();
-    fingerprint = runFingerprint(in, s, checkpointArchive.layout().size());
-  }
   if (resume) {
-    CheckpointManifest m;
-    std::string why;
-    if (!checkpoints->last(m, why)) {
-      err << "tq-solid: cannot resume: " << why << "\n";
-      return 2;
-    }
-    if (m.fingerprint != fingerprint) {
-      err << "tq-solid: cannot resume from " << checkpoints->dir() << ": its checkpoint (t = " << m.time
-          << " s) belongs to another case, mesh or build (fingerprint " << m.fingerprint << ", this run "
-          << fingerprint << "); run without --resume to start again\n";
-      return 2;
-    }
-    try {
+    const CheckpointManifest& m = resumeFrom;
+    try {  // a build whose parts list other state: the archive's own checks (tq/state_archive.hpp)
       checkpoints->read(m, checkpointArchive);
       checkpointArchive.beginRestore();
       runState(checkpointArchive);
       checkpointArchive.end();
-    } catch (const std::logic_error& e) {
-      err << "tq-solid: cannot resume from " << checkpoints->file(m.solid) << ": " << e.what() << "\n";
+    } catch (const std::exception& e) {
+      err << "tq-solid: cannot resume from " << checkpoints->file(m.solid) << ": " << e.what()
+          << "; run without --resume to start again\n";
       return 2;
     }
     results.resumeFrom(checkpoints->file(m.results), s);

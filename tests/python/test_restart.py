@@ -229,3 +229,23 @@ def test_resume_of_a_finished_run_or_of_a_folder_without_checkpoint_says_so(refe
     assert "nothing to resume in " in err and "no condition has a restart checkpoint" in err, err
     assert "without --resume to start" in err, err
     assert not (p.parent / "results" / "results_no_water.h5").exists()
+
+
+def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_path):
+    """A checkpoint belongs to the solid input it was written for: after an edit of the case that
+    reaches it (here the lining's cohesion), tq-solid refuses to resume, saying why and what to do,
+    and the results of the interrupted run are left as they were."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "2:solid"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
+    text = p.read_text()
+    assert text.count("cohesion: 1.80 MPa") == 1
+    p.write_text(text.replace("cohesion: 1.80 MPa", "cohesion: 1.90 MPa"))
+    again = _start(p, "--resume")
+    out, _ = again.communicate(timeout=180)
+    assert again.returncode == 1, out[-2000:]
+    assert "resume: no_water continues from its checkpoint at t = 0.15" in out, out[-2000:]
+    assert "tq-solid: cannot resume from " in out and "was written for another input" in out, out[-2000:]
+    assert "run without --resume to start again" in out, out[-2000:]
+    assert "tq-solid stopped (exit 2)" in out, out[-2000:]
