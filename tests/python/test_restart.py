@@ -249,3 +249,21 @@ def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_
     assert "tq-solid: cannot resume from " in out and "was written for another input" in out, out[-2000:]
     assert "run without --resume to start again" in out, out[-2000:]
     assert "tq-solid stopped (exit 2)" in out, out[-2000:]
+
+
+def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path):
+    """A record suite's `--resume` runs a member that did not finish with `run --resume` when it
+    left a restart checkpoint (suite_run.run_member): here a member killed inside its third
+    checkpoint continues from its second and ends bitwise equal to the uninterrupted run."""
+    from tunnelquake.cli.suite_run import run_member
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "3:solid"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
+    got = run_member(str(p), no_post=True, resume=True)
+    log = (p.parent / "run.log").read_text()
+    assert got["status"] == "completed", log[-2000:]
+    assert f"tq-solid: resumed from checkpoint 2 at t = {2 * INTERVAL:g} s" in log, log[-2000:]
+    assert _differences(reference / "results" / "results_no_water.h5",
+                        p.parent / "results" / "results_no_water.h5") == []
