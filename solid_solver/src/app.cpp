@@ -173,6 +173,9 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     } catch (const OutputError& e) {
       err << "tq-solid: " << e.what() << "\n";
       return 5;
+    } catch (const InputError& e) {
+      err << "tq-solid: " << e.what() << "\n";
+      return 2;
     }
     std::string why;
     if (resume && !checkpoints->last(resumeFrom, why)) {

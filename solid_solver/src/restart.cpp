@@ -3,6 +3,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -145,6 +146,24 @@ std::string hex64(std::uint64_t h) {
 
 RestartCheckpoints::RestartCheckpoints(std::string dir) : dir_(std::move(dir)) {
   if (::mkdir(dir_.c_str(), 0755) != 0 && errno != EEXIST) throw OutputError(sysError("create the folder", dir_));
+  const std::string path = file("lock");
+  lock_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_ < 0) throw OutputError(sysError("create", path));
+  if (::flock(lock_, LOCK_EX | LOCK_NB) != 0) {
+    char holder[32] = {0};
+    const ssize_t n = ::pread(lock_, holder, sizeof holder - 1, 0);
+    ::close(lock_);
+    lock_ = -1;
+    throw InputError("another tq-solid (pid " + std::string(n > 0 ? holder : "?") + ") is running with the checkpoints in " +
+                     dir_ + " (its supervisor may have been stopped); wait for it to end, or stop it, then run again");
+  }
+  const std::string pid = std::to_string(::getpid());
+  if (::ftruncate(lock_, 0) != 0 || ::pwrite(lock_, pid.data(), pid.size(), 0) != ssize_t(pid.size()))
+    throw OutputError(sysError("write", path));
+}
+
+RestartCheckpoints::~RestartCheckpoints() {
+  if (lock_ >= 0) ::close(lock_);
 }
 
 void RestartCheckpoints::clear() const {

@@ -267,3 +267,37 @@ def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path)
     assert f"tq-solid: resumed from checkpoint 2 at t = {2 * INTERVAL:g} s" in log, log[-2000:]
     assert _differences(reference / "results" / "results_no_water.h5",
                         p.parent / "results" / "results_no_water.h5") == []
+
+
+def test_resume_while_the_solver_of_a_killed_supervisor_still_runs_is_refused(reference, tmp_path, capsys):
+    """SIGKILL of `tunnelquake` alone: its tq-solid (a session of its own) runs on. A `--resume`
+    meanwhile must not start a second solver on the same files: tq-solid finds the checkpoints
+    locked, names the running one's PID and exits 2 before touching anything. Once the first has
+    finished, `--resume` finds the condition completed, and its results are those of the
+    uninterrupted run. (The running solver is held with SIGSTOP so that the refusal is tested
+    whatever the machine's speed.)"""
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    solid = None
+    try:
+        _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
+        solid = _solid_pid(p.parent)
+        os.kill(solid, signal.SIGSTOP)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        again = _start(p, "--resume")
+        out, _ = again.communicate(timeout=180)
+        assert again.returncode == 1, out[-2000:]
+        assert f"another tq-solid (pid {solid}) is running with the checkpoints in " in out, out[-2000:]
+        assert "tq-solid stopped (exit 2)" in out, out[-2000:]
+    finally:
+        if solid is not None:
+            os.kill(solid, signal.SIGCONT)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        rest, _ = proc.communicate(timeout=180)  # ends when the orphaned solver closes the pipe
+    assert "tq-solid: completed" in rest, rest[-2000:]
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    assert "nothing to resume: every condition in " in capsys.readouterr().out
+    assert _differences(reference / "results" / "results_no_water.h5",
+                        p.parent / "results" / "results_no_water.h5") == []

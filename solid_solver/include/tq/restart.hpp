@@ -26,8 +26,13 @@ struct CheckpointManifest {
 
 class RestartCheckpoints {
 public:
-  /// `dir` is created if missing.
+  /// `dir` is created if missing, and locked for this process (flock on DIR/lock, released when
+  /// the process ends however it ends): a second tq-solid on the same checkpoints, e.g. a resume
+  /// while the solver of a run whose supervisor was killed still runs, is an InputError naming it.
   explicit RestartCheckpoints(std::string dir);
+  ~RestartCheckpoints();
+  RestartCheckpoints(const RestartCheckpoints&) = delete;
+  RestartCheckpoints& operator=(const RestartCheckpoints&) = delete;
   const std::string& dir() const { return dir_; }
   /// A fresh start: remove the checkpoint files an earlier run of this folder left.
   void clear() const;
@@ -44,6 +49,7 @@ public:
 
 private:
   std::string dir_;
+  int lock_ = -1;
 };
 
 /// FNV-1a (64 bit) of bytes, chained: a fingerprint of what a checkpoint belongs to.
