@@ -399,6 +399,55 @@ void Participant::runConnector(Deadline deadline) {
 }
 
 double Participant::initialize() {
+    connect();
+    guarded("initialize", [&] { scheme_->initialize(*this); });
+    return getMaxTimeStepSize();
+}
+
+namespace {
+constexpr std::uint32_t kStateMagic = 0x54515253;  // "TQRS": a participant's restart state, version 1
+}
+
+void Participant::checkpoint(StateIo& io) {
+    std::uint32_t magic = kStateMagic;
+    io.io(magic);
+    if (magic != kStateMagic) throw ConfigError("participant '" + name_ + "': not a coupler restart state");
+    io.io(timeInWindow_);
+    io.io(written_);
+    io.io(received_);
+    for (auto& f : fields_) {
+        io.io(f->own);
+        io.io(f->wire);
+    }
+    io.io(exchanges_);
+    scheme_->checkpoint(io);
+    if (monitor_) monitor_->checkpoint(io);
+}
+
+std::vector<unsigned char> Participant::saveState() const {
+    if (!initialized_ || finalized_ || !scheme_->state().windowComplete)
+        throw ConfigError("participant '" + name_ + "': saveState() only right after a completed window (" +
+                          where() + ")");
+    std::vector<unsigned char> bytes;
+    StateIo io = StateIo::saver(bytes);
+    const_cast<Participant*>(this)->checkpoint(io);  // saving changes nothing
+    return bytes;
+}
+
+double Participant::initializeResumed(const std::vector<unsigned char>& state) {
+    connect();
+    guarded("resume", [&] {
+        StateIo io = StateIo::loader(state);
+        checkpoint(io);
+        if (!io.exhausted())
+            throw ConfigError("participant '" + name_ + "': the restart state is longer than this configuration's "
+                              "(another interface or scheme)");
+        scheme_->resume(*this);
+    });
+    return getMaxTimeStepSize();
+}
+
+double Participant::connect() {
     if (initialized_) throw ConfigError("participant '" + name_ + "': initialize() called twice");
     for (const auto& m : config_.meshes)
         if (meshes_.at(m.name)->own.size() == 0)
@@ -415,8 +464,7 @@ double Participant::initialize() {
     scheme_ = makeScheme(config_, name_);
     if (amFirst_) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
     initialized_ = true;
-    guarded("initialize", [&] { scheme_->initialize(*this); });
-    return getMaxTimeStepSize();
+    return 0.0;
 }
 
 Participant::Field& Participant::field(const std::string& mesh, const std::string& name,

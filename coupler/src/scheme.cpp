@@ -60,6 +60,10 @@ void SerialExplicit::endWindow(ExchangePort& port) {
     if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
 }
 
+void SerialExplicit::resume(ExchangePort& port) {
+    if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
+}
+
 // ---------------------------------------------------------------- implicit
 SerialImplicit::SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses,
                                bool testConvergence, std::unique_ptr<Acceleration> acc)
@@ -165,6 +169,22 @@ void SerialImplicit::endWindow(ExchangePort& port) {
             prevReceived_ = port.receivedValues();
             port.receiveData(w, k + 1);
         }
+    }
+}
+
+void SerialImplicit::checkpoint(StateIo& io) {
+    CouplingScheme::checkpoint(io);
+    io.io(prevReceived_);
+    io.io(lastSent_);
+    io.io(next_);
+    io.io(prevConverged_);
+    acc_->checkpoint(io);
+}
+
+void SerialImplicit::resume(ExchangePort& port) {
+    if (!first_ && state_.ongoing) {
+        port.receiveData(state_.window, 0);
+        prevReceived_ = port.receivedValues();
     }
 }
 

@@ -31,6 +31,9 @@ STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
 #: s of simulated time between the water's printed passes (water.log: brief)
 WATER_LOG_INTERVAL = 0.01
+#: s of simulated time between restart checkpoints (output.checkpoint_interval): the cost of one
+#: is measured in docs/benchmarks.md "Restart checkpoints"
+CHECKPOINT_INTERVAL = 1.0
 
 
 def _num(dim=U.DIMENSIONLESS, doc="", **kw) -> Number:
@@ -475,6 +478,10 @@ def schema() -> Section:
                               doc="name: [x, y, z] points whose histories are written"),
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
+            "checkpoint_interval": Number(dim=U.TIME, min=0.0, default=CHECKPOINT_INTERVAL,
+                                          doc="s of simulated time between restart checkpoints, which `tunnelquake "
+                                              "run --resume` continues from (0 = none; docs/user_guide.md "
+                                              "\"Resuming a run\")"),
         }),
         "reference": Section(doc="a published run this case reproduces, compared with in the report", fields={
             "paper": Choice(choices=PAPERS, default=None, doc=PAPER_DOC),

@@ -251,6 +251,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             mg["points"] = pts
         o = f.create_group("output")
         o.attrs["monitor_dt"] = float(d["output"]["history_interval"])
+        if float(d["output"]["checkpoint_interval"]) > 0:  # written when tq-solid gets --checkpoint-dir
+            o.attrs["checkpoint_interval"] = float(d["output"]["checkpoint_interval"])
         o["snapshot_times"] = snapshot_times(d["output"]["snapshot_times"], t_end)
     if coupling_token:  # the run's coupling secret: readable by its owner only
         os.chmod(tmp, 0o600)

@@ -13,12 +13,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
 #include "tq/fluid_coupling.hpp"
 #include "tq/input.hpp"
+#include "tq/restart.hpp"
 #include "tq/results.hpp"
 #include "tq/stages.hpp"
 
@@ -26,12 +28,15 @@ namespace tq {
 
 namespace {
 const char* kUsage =
-    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]\n"
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume]]\n"
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
     "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
     "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
+    "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
+    "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
+    "  --resume     continue from the last checkpoint in DIR; the results end as if never stopped\n"
     "  With /coupling transport mpi it is one application of an MPMD job (docs/coupler.md\n"
     "  \"tq-solid under mpirun\"): mpirun --bind-to none -np 1 tq-solid solid_input.h5 : -np N <fluid> ...\n";
 
@@ -39,7 +44,7 @@ const char* kUsage =
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
     "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
-    "mohr-coulomb-damage dynamic-contact water-coupling";
+    "mohr-coulomb-damage dynamic-contact water-coupling restart";
 
 std::string hms(double s) {
   std::ostringstream os;
@@ -47,6 +52,20 @@ std::string hms(double s) {
   if (s >= 60) os << int(std::fmod(s, 3600) / 60) << " min ";
   os << int(std::fmod(s, 60)) << " s";
   return os.str();
+}
+/// What a restart checkpoint belongs to: the bytes of the input and mesh files (every setting,
+/// the motion, the mesh), the step and the end (a build whose parts save other state is caught by
+/// the archive's own checks on restore).
+std::string runFingerprint(const SolidInput& in, const Solver& s) {
+  std::uint64_t h = fnv1a(nullptr, 0);
+  for (const std::string& path : {in.path, in.meshPath}) {
+    std::ifstream is(path, std::ios::binary);
+    std::vector<char> buf(1 << 16);
+    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+      h = fnv1a(buf.data(), size_t(is.gcount()), h);
+  }
+  const Real numbers[2] = {s.dt(), in.tEnd};
+  return hex64(fnv1a(numbers, sizeof numbers, h));
 }
 }  // namespace
 
@@ -56,8 +75,8 @@ namespace {
 /// runSolid ends MPI after this returns (results.h5 closed by then).
 int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
                  std::unique_ptr<CouplingMpi>& mpi) {
-  std::string input, output = "results.h5";
-  bool check = false;
+  std::string input, output = "results.h5", checkpointDir;
+  bool check = false, resume = false;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") {
@@ -70,6 +89,10 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       return 0;
     } else if (a == "--check") {
       check = true;
+    } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
+      checkpointDir = args[++i];
+    } else if (a == "--resume") {
+      resume = true;
     } else if (a == "--threads" && i + 1 < args.size()) {
       omp_set_num_threads(std::stoi(args[++i]));
     } else if (!a.empty() && a[0] != '-' && input.empty()) {
@@ -79,8 +102,8 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       return 1;
     }
   }
-  if (input.empty()) {
-    err << kUsage;
+  if (input.empty() || (resume && checkpointDir.empty())) {
+    err << (input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n") << kUsage;
     return 1;
   }
   // 1-3. Input, mesh, solver, time step (the "starter").
@@ -131,6 +154,41 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
     out << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
         << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
+  }
+  // Restart checkpoints (tq/restart.hpp): what they belong to, and with --resume the one to continue
+  // from, checked before anything is written (a refused resume leaves the results file as it was).
+  std::unique_ptr<RestartCheckpoints> checkpoints;
+  CheckpointManifest resumeFrom;
+  const std::string fingerprint = runFingerprint(in, s);
+  if (!checkpointDir.empty() && ci.present) {
+    out << "tq-solid: no restart checkpoints for a run coupled with the water (the solid's alone would not "
+           "restart the pair)\n";
+    if (resume) {
+      err << "tq-solid: cannot resume: a run coupled with the water has no restart checkpoints\n";
+      return 2;
+    }
+  } else if (!checkpointDir.empty()) {
+    try {
+      checkpoints = std::make_unique<RestartCheckpoints>(checkpointDir);
+    } catch (const OutputError& e) {
+      err << "tq-solid: " << e.what() << "\n";
+      return 5;
+    } catch (const InputError& e) {
+      err << "tq-solid: " << e.what() << "\n";
+      return 2;
+    }
+    std::string why;
+    if (resume && !checkpoints->last(resumeFrom, why)) {
+      err << "tq-solid: cannot resume: " << why << "\n";
+      return 2;
+    }
+    if (resume && resumeFrom.fingerprint != fingerprint) {
+      err << "tq-solid: cannot resume from " << checkpoints->dir() << ": its checkpoint (t = " << resumeFrom.time
+          << " s) was written for another input (the case, its mesh or its motion changed since, or this is "
+             "another build of tq-solid: fingerprint "
+          << resumeFrom.fingerprint << ", this run " << fingerprint << "); run without --resume to start again\n";
+      return 2;
+    }
   }
   // 4. Time loop (the "engine"), in `engine` below. A write the file system refuses (a full disk,
   //    a quota, an I/O error) ends it from anywhere with an OutputError: the water is told to
@@ -277,9 +335,41 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       return 2;
     }
   }
-  results.sample(s);
+  // Restart checkpoints (tq/restart.hpp): every checkpoint_interval s of simulated time, at the end
+  // of a step (coupled: of an accepted window), the whole state below; --resume restores the last.
   size_t nextSnap = 0;
   Real nextSample = in.monitorDt;
+  Real nextCheckpoint = in.checkpointInterval;
+  long long checkpointSeq = 0, checkpointsWritten = 0;
+  double checkpointSeconds = 0;
+  auto runState = [&](StateArchive& a) {
+    s.checkpoint(a);
+    results.checkpoint(a);
+    a.io(nextSample);
+    a.io(nextSnap);
+    a.io(nextCheckpoint);
+    a.io(checkpointSeq);
+  };
+  StateArchive checkpointArchive;
+  if (resume) {
+    const CheckpointManifest& m = resumeFrom;
+    try {  // a build whose parts list other state: the archive's own checks (tq/state_archive.hpp)
+      checkpoints->read(m, checkpointArchive);
+      checkpointArchive.beginRestore();
+      runState(checkpointArchive);
+      checkpointArchive.end();
+    } catch (const std::exception& e) {
+      err << "tq-solid: cannot resume from " << checkpoints->file(m.solid) << ": " << e.what()
+          << "; run without --resume to start again\n";
+      return 2;
+    }
+    results.resumeFrom(checkpoints->file(m.results), s);
+    out << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step
+        << ", " << m.samples << " samples)" << std::endl;
+  } else {
+    if (checkpoints) checkpoints->clear();
+    results.sample(s);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   auto lastReport = t0, lastFlush = t0;
   const Index step0 = s.stepCount();
@@ -304,6 +394,27 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
         results.snapshot(s);
         ++nextSnap;
+      }
+      // (none at the end: the results are then whole)
+      if (checkpoints && in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt() &&
+          t < in.tEnd - 1e-9 * s.dt()) {
+        const auto c0 = std::chrono::steady_clock::now();
+        while (t >= nextCheckpoint - 1e-9 * s.dt()) nextCheckpoint += in.checkpointInterval;
+        ++checkpointSeq;
+        results.flush();
+        lastFlush = c0;
+        checkpointArchive.beginSave();
+        runState(checkpointArchive);
+        checkpointArchive.end();
+        CheckpointManifest m;
+        m.sequence = checkpointSeq;
+        m.time = t;
+        m.step = s.stepCount();
+        m.samples = results.samples();
+        m.fingerprint = fingerprint;
+        checkpoints->write(m, checkpointArchive, results.path());
+        ++checkpointsWritten;
+        checkpointSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
       }
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
@@ -365,7 +476,12 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   const double wall = elapsed();
   const long long steps = s.stepCount() - step0;
   results.writeTimings(wall, steps, steps * nElems, omp_get_max_threads());
+  if (checkpoints) {
+    results.writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten)}, {"checkpoint_s", checkpointSeconds},
+                                    {"checkpoint_interval", in.checkpointInterval}});
+  }
   results.setStatus("completed");
+  if (checkpoints) checkpoints->clear();  // the results are whole: nothing left to resume
   out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
       << (steps > 0 ? 1e6 * wall / (double(steps) * nElems) : 0.0) << " µs per element-step), energy error "
       << s.energy().error << "\n  results: " << output << "\n";

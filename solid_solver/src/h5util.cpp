@@ -366,6 +366,21 @@ void RowAppender::append(const double* rows, hsize_t n) {
   rows_ += n;
 }
 
+std::string RowAppender::path() const {
+  const ssize_t n = H5Iget_name(ds_, nullptr, 0);
+  std::string name(size_t(n > 0 ? n : 0), '\0');
+  if (n > 0) H5Iget_name(ds_, name.data(), size_t(n) + 1);
+  return name;
+}
+
+void RowAppender::appendFrom(hid_t src) {
+  std::vector<hsize_t> dims;
+  const std::vector<double> rows = readDoubles(src, path(), &dims);
+  if (dims.size() != 2 || dims[1] != cols_)
+    throw InputError("dataset '" + path() + "' of the checkpoint's results has another shape");
+  append(rows.data(), dims[0]);
+}
+
 std::string bytesText(unsigned long long b) {
   char buf[32];
   if (b >= 1000000ULL) std::snprintf(buf, sizeof buf, "%.1f MB", double(b) / 1e6);

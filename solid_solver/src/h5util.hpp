@@ -97,6 +97,12 @@ public:
   void append(const double* row);  ///< one row of `cols` values
   void append(const double* rows, hsize_t n);  ///< n rows of `cols` values, row after row
   hsize_t rows() const { return rows_; }
+  bool valid() const { return ds_.valid(); }
+  /// The dataset's path in its file.
+  std::string path() const;
+  /// Append the rows of the dataset at the same path in `src` (another results file: a restart
+  /// checkpoint's copy), bit for bit.
+  void appendFrom(hid_t src);
 
 private:
   Handle ds_;

@@ -248,7 +248,7 @@ SolidInput readSolidInput(const std::string& path) {
   if (h5::exists(f, "/output")) {
     auto g = h5::openGroup(f, "/output");
     const std::string w = "/output";
-    checkKeys(c, g, w, {"monitor_dt", "progress_s", "ring_forces"});
+    checkKeys(c, g, w, {"monitor_dt", "progress_s", "ring_forces", "checkpoint_interval"});
     checkMembers(c, g, w, {"snapshot_times"});
     in.monitorDt = num(c, g, w, "monitor_dt", 0.005);
     in.progressSeconds = num(c, g, w, "progress_s", 5);
@@ -256,6 +256,8 @@ SolidInput readSolidInput(const std::string& path) {
     if (ring != 0 && ring != 1) c.fail(w, "ring_forces must be 0 or 1");
     in.ringForces = ring != 0;
     if (!(in.monitorDt > 0)) c.fail(w, "monitor_dt must be > 0 (s)");
+    in.checkpointInterval = num(c, g, w, "checkpoint_interval", 0);
+    if (!(in.checkpointInterval >= 0)) c.fail(w, "checkpoint_interval must be >= 0 (s; 0 = no restart checkpoints)");
     if (h5::exists(g, "snapshot_times")) in.snapshotTimes = h5::readDoubles(g, "snapshot_times");
     std::sort(in.snapshotTimes.begin(), in.snapshotTimes.end());
   }
@@ -327,6 +329,7 @@ void writeSolidInput(const SolidInput& in, const std::string& path, const std::s
   h5::writeDoubleAttr(g, "monitor_dt", in.monitorDt);
   h5::writeDoubleAttr(g, "progress_s", in.progressSeconds);
   if (!in.ringForces) h5::writeIntAttr(g, "ring_forces", 0);
+  if (in.checkpointInterval > 0) h5::writeDoubleAttr(g, "checkpoint_interval", in.checkpointInterval);
   if (!in.snapshotTimes.empty())
     h5::writeDoubles(g, "snapshot_times", in.snapshotTimes.data(), {in.snapshotTimes.size()});
   if (in.staged.present) writeStagedInput(f, in);

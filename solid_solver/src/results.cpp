@@ -457,3 +457,47 @@ void ResultsWriter::flush() {
 }
 
 }  // namespace tq
+
+namespace tq {
+
+const std::string& ResultsWriter::path() const { return impl_->path; }
+
+void ResultsWriter::checkpoint(StateArchive& a) {
+  auto& I = *impl_;
+  a.io(I.samples);
+  a.io(I.lastSample);
+  a.io(I.snapshots);
+  for (auto& R : I.ringOut) {
+    a.io(R.samples);
+    for (auto& e : R.env) a.io(e);
+  }
+}
+
+void ResultsWriter::resumeFrom(const std::string& copy, const Solver& solver) {
+  auto& I = *impl_;
+  const h5::Handle src = h5::openFile(copy);
+  nlout::prepare(I.file, solver, I.nl);
+  std::vector<h5::RowAppender*> rows{&I.energy, &I.nl.interfaceHistory, &I.nl.dissipation};
+  for (auto& m : I.monitors)
+    for (auto* r : {&m.time, &m.u, &m.v, &m.a, &m.stress, &m.principal}) rows.push_back(r);
+  for (auto& [r, value] : I.series) rows.push_back(&r);
+  for (auto& d : I.nl.monitorDamage) rows.push_back(&d);
+  for (auto& R : I.ringOut) {
+    rows.push_back(&R.time);
+    for (auto& q : R.q) rows.push_back(&q);
+  }
+  for (auto* r : rows) {
+    if (!r->valid()) continue;
+    reserve(0);
+    r->appendFrom(src);
+  }
+  for (int k = 0; k < I.snapshots; ++k) {
+    const std::string g = "/snapshots/" + std::to_string(k);
+    h5::ensureGroup(I.file, "/snapshots");
+    if (H5Ocopy(src, g.c_str(), I.file, g.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+      throw OutputError("cannot copy snapshot " + g + " from " + copy + ": " + h5::writeFailure(I.file));
+  }
+  flush();
+}
+
+}  // namespace tq

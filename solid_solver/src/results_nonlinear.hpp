@@ -27,6 +27,10 @@ const DynamicContact* findContact(const Solver& s);
 /// Damage D of element e of block b (0 for a material without damage).
 Real elementDamage(const Solver& s, Index block, Index elem);
 
+/// What the first sample() sets up (the interface's header and history, once the contact exists),
+/// without a row: a restart appends the rows written before it.
+void prepare(hid_t file, const Solver& s, State& st);
+
 /// Create /energy/dissipation [T, 3]: time, plastic (part of `internal`), interface (a balance
 /// term of its own: kinetic + internal + damping + boundary + interface − external = const).
 void addEnergy(hid_t file, State& st);

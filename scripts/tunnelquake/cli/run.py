@@ -44,10 +44,28 @@ def _solid_capabilities(exe) -> set[str]:
     return set(out.stdout.split()) if out.returncode == 0 else set()
 
 
-def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> tuple[int, object]:
+def checkpoint_dir(case, cond: str) -> Path:
+    """Where tq-solid writes the condition's restart checkpoints (docs/formats.md "Restart checkpoints")."""
+    return case.output_dir / cond / "checkpoint"
+
+
+def checkpoint_manifest(case, cond: str) -> dict | None:
+    """The condition's last complete restart checkpoint (its checkpoint.json), or None."""
+    import json
+
+    try:
+        m = json.loads((checkpoint_dir(case, cond) / "checkpoint.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return m if isinstance(m, dict) and m.get("format") == "tunnelquake-checkpoint" else None
+
+
+def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
+                        resume: bool = False) -> tuple[int, object]:
     """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
     report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
-    the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence)."""
+    the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence).
+    With `resume`, tq-solid continues from the condition's last restart checkpoint."""
     import subprocess
 
     from ..solid_input import write_solid_input
@@ -59,6 +77,10 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False) -> t
         threads = solid_threads(case, mesh_dir(case) / "mesh.h5")
     res = case.output_dir / f"results_{cond}.h5"
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
+    if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
+        cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
+    if resume:
+        cmd.append("--resume")
     _running(cond, res)
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     if not prefix:
@@ -374,7 +396,7 @@ def main(argv: list[str]) -> int:
         return 1
     if case.data["suite"]["records"] is not None:
         return suite_run.main(case, args, argv)
-    used = [f"--{k}" for k in ("workers", "executor", "resume", "slurm") if getattr(args, k) not in (None, False)]
+    used = [f"--{k}" for k in ("workers", "executor", "slurm") if getattr(args, k) not in (None, False)]
     if used:
         print(f"error: {', '.join(used)}: only for a case with a suite: section (docs/user_guide.md \"Record "
               "suites\")", file=sys.stderr)
@@ -541,11 +563,69 @@ def _interrupted_line(signame: str, phase: str, conds: list[str], stopped: dict,
     return f"tunnelquake run: interrupted by {signame} after {wall:.1f} s: {what}; {procs}{kept}"
 
 
+def _results_status(res: Path) -> str | None:
+    """The status attribute of a results file (None when there is no readable file)."""
+    import h5py
+
+    try:
+        with children.FORK_LOCK, h5py.File(res, "r") as f:
+            status = f.attrs.get("status", "")
+    except OSError:
+        return None
+    return status.decode() if isinstance(status, bytes) else str(status)
+
+
+def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
+    """What `run --resume` does with each planned condition: 'completed' (kept as it is),
+    'checkpoint' (tq-solid continues from its last restart checkpoint) or 'start' (no checkpoint:
+    from the beginning); then why there is nothing to resume (None when there is) and whether
+    that is an error (no checkpoint anywhere) rather than a finished run."""
+    what: dict[str, str] = {}
+    for cond, parts in plan(case):
+        if _results_status(case.output_dir / f"results_{cond}.h5") == "completed":
+            what[cond] = "completed"
+        elif "fluid" not in parts and checkpoint_manifest(case, cond) is not None:
+            what[cond] = "checkpoint"
+        else:
+            what[cond] = "start"
+    variant = f" --variant {case.variant}" if case.variant else ""
+    if what and all(v == "completed" for v in what.values()):
+        return what, (f"nothing to resume: every condition in {case.output_dir} completed ({', '.join(what)}); "
+                      f"the results are kept as they are (`tunnelquake post {case.path}{variant}` reports them, "
+                      f"`tunnelquake run {case.path}{variant}` without --resume runs them again)"), False
+    if "checkpoint" not in what.values() and "completed" not in what.values():
+        interval = float(case.data["output"]["checkpoint_interval"])
+        why = ("output.checkpoint_interval is 0: no checkpoint is written" if interval <= 0 else
+               f"a run writes its first after output.checkpoint_interval = {interval:g} s of shaking")
+        return what, (f"nothing to resume in {case.output_dir}: no condition has a restart checkpoint ({why}) and "
+                      f"none completed; run `tunnelquake run {case.path}{variant}` without --resume to start"), True
+    return what, None, False
+
+
 def _job(case, args) -> int:
     """The run itself: mesh, motion, the conditions, post. Raises children.Interrupted when a
     signal stops it between steps."""
     t0 = time.perf_counter()
     which = f" (variant {case.variant})" if case.variant else ""
+    resuming: dict[str, str] = {}
+    if getattr(args, "resume", False):
+        resuming, nothing, error = resume_plan(case)
+        if nothing is not None:
+            if error:
+                print(f"error: {nothing}", file=sys.stderr)
+                return 1
+            say(nothing)
+            return 0
+        for cond, what in resuming.items():
+            if what == "checkpoint":
+                m = checkpoint_manifest(case, cond)
+                say(f"resume: {cond} continues from its checkpoint at t = {float(m['time']):.6g} s")
+            elif what == "completed":
+                say(f"resume: {cond} completed earlier: kept")
+            else:
+                coupled = "fluid" in dict(plan(case))[cond]
+                say(f"resume: {cond} has no restart checkpoint"
+                    f"{' (a condition coupled with the water writes none)' if coupled else ''}: it runs from the start")
     say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []
@@ -578,6 +658,9 @@ def _job(case, args) -> int:
     status = solver_status()
     runnable: list[tuple[str, tuple]] = []
     for cond, parts in plan(case):
+        if resuming.get(cond) == "completed":
+            done.append(f"{cond} ({' + '.join(parts)}): completed earlier, kept")
+            continue
         missing = [status[p] for p in parts if status[p] is not None]
         runs = " + ".join(parts)
         if missing:
@@ -599,7 +682,8 @@ def _job(case, args) -> int:
     def solid_only(cond, parts, prefix):
         runs = " + ".join(parts)
         t1 = time.perf_counter()
-        rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix)
+        rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix,
+                                      resume=resuming.get(cond) == "checkpoint")
         children.check()
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")

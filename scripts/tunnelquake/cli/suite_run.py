@@ -61,10 +61,24 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run_member(case_file: str, no_post: bool = False, stop_file: str | None = None) -> dict:
+def _has_checkpoint(case_file: str) -> bool:
+    """Whether a condition of this member left a restart checkpoint (docs/user_guide.md "Resuming a run")."""
+    from ..case import load_case
+    from ..scene import plan
+    from .run import checkpoint_manifest
+
+    try:
+        case = load_case(Path(case_file))
+    except Exception:  # noqa: BLE001 - the member's own run reports a case it cannot read
+        return False
+    return any(checkpoint_manifest(case, cond) is not None for cond, _ in plan(case))
+
+
+def run_member(case_file: str, no_post: bool = False, stop_file: str | None = None, resume: bool = False) -> dict:
     """Run one member (`tunnelquake run <member case>`) in this process, its output to run.log
     beside it; returns {name, rc, status, wall_s}. A member whose turn comes once `stop_file`
-    exists (the suite is being stopped; a pool may have handed it out already) does not start."""
+    exists (the suite is being stopped; a pool may have handed it out already) does not start.
+    With `resume`, a member that left a restart checkpoint continues from it (`run --resume`)."""
     import traceback
 
     folder = Path(case_file).parent
@@ -84,7 +98,8 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
         try:
             from . import main as tunnelquake_main  # `tunnelquake run <member case>`
 
-            rc = tunnelquake_main(["run", case_file, *(["--no-post"] if no_post else [])])
+            again = ["--resume"] if resume and _has_checkpoint(case_file) else []
+            rc = tunnelquake_main(["run", case_file, *(["--no-post"] if no_post else []), *again])
         except BaseException:  # noqa: BLE001 - a member's crash is its own; the suite goes on
             traceback.print_exc()
             rc = 1
@@ -369,7 +384,8 @@ def _run_pool(case, args, members, todo, need, results) -> int | None:
         say(f"suite: running {len(todo)} member(s) on {workers} {'MPI worker(s)' if kind == 'mpi' else 'worker(s)'}"
             f" ({need} core(s) a member, {cores} core(s) here); logs in members/<name>/run.log")
         stop_file.unlink(missing_ok=True)
-        futures = {pool.submit(run_member, str(m.case_file), args.no_post, str(stop_file)): m for m in todo}
+        futures = {pool.submit(run_member, str(m.case_file), args.no_post, str(stop_file), args.resume): m
+                   for m in todo}
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=PROGRESS_S, return_when=FIRST_COMPLETED)

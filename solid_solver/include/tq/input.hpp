@@ -46,6 +46,9 @@ struct SolidInput {
   bool ringForces = true;  ///< lining section forces and diameter changes at every sample (tq/ring_forces.hpp)
   std::vector<Real> snapshotTimes;  ///< field snapshot times (s)
   Real progressSeconds = 5;         ///< wall time between progress lines (s)
+  /// simulated time between restart checkpoints (s; 0 = none), written when tq-solid is given
+  /// --checkpoint-dir (tq/restart.hpp)
+  Real checkpointInterval = 0;
   std::vector<std::string> requiredFaces;  ///< face groups the run needs (checked on the mesh)
   StagedInput staged;      ///< version 2: stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
 };

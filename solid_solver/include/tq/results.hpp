@@ -14,6 +14,7 @@
 
 #include "tq/input.hpp"
 #include "tq/solver.hpp"
+#include "tq/state_archive.hpp"
 
 namespace tq {
 
@@ -59,6 +60,15 @@ public:
   /// Attributes on a group (created if missing), e.g. the coupling's summary.
   void writeAttrs(const std::string& group, const std::map<std::string, double>& numbers,
                   const std::map<std::string, std::string>& texts = {});
+
+  /// The file's path.
+  const std::string& path() const;
+  /// What a restart needs beyond the rows in the file: the sample and snapshot counts and the
+  /// lining envelopes (saved and restored alike, tq/state_archive.hpp). Call flush() before a save.
+  void checkpoint(StateArchive& archive);
+  /// After a restore by checkpoint(): append the rows and copy the snapshots of `copy` (the
+  /// results file as the checkpoint saved it) into this freshly started file.
+  void resumeFrom(const std::string& copy, const Solver& solver);
 
 private:
   /// Hold `bytes` of file space (plus what pending rows and metadata need) before writing them:

@@ -10,6 +10,8 @@
 /// Storage is reused from one save to the next: after the first window no allocation happens.
 #include <cstddef>
 #include <cstring>
+#include <istream>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -49,6 +51,41 @@ public:
     std::size_t b = 0;
     for (std::size_t i = 0; i < count_; ++i) b += slots_[i].size();
     return b;
+  }
+
+  /// Item sizes of the last save, in order: two archives of the same build and case have the same.
+  std::vector<std::size_t> layout() const {
+    std::vector<std::size_t> l(count_);
+    for (std::size_t i = 0; i < count_; ++i) l[i] = slots_[i].size();
+    return l;
+  }
+  /// The last save as bytes (a file of a restart checkpoint): the item count, then each item's
+  /// size and bytes, sizes as 64-bit little-endian integers (this machine's byte order).
+  void write(std::ostream& os) const {
+    const auto put = [&os](unsigned long long n) { os.write(reinterpret_cast<const char*>(&n), sizeof n); };
+    put(count_);
+    for (std::size_t i = 0; i < count_; ++i) {
+      put(slots_[i].size());
+      os.write(reinterpret_cast<const char*>(slots_[i].data()), std::streamsize(slots_[i].size()));
+    }
+  }
+  /// Replace the copy held by one that write() wrote; false if the bytes end early.
+  bool read(std::istream& is) {
+    unsigned long long n = 0;
+    const auto get = [&is](unsigned long long& v) { return bool(is.read(reinterpret_cast<char*>(&v), sizeof v)); };
+    if (!get(n)) return false;
+    std::vector<std::vector<unsigned char>> slots(n);
+    for (auto& s : slots) {
+      unsigned long long size = 0;
+      if (!get(size) || size > (1ULL << 40)) return false;
+      s.resize(size);
+      if (size && !is.read(reinterpret_cast<char*>(s.data()), std::streamsize(size))) return false;
+    }
+    slots_ = std::move(slots);
+    count_ = slots_.size();
+    pos_ = 0;
+    saved_ = true;
+    return true;
   }
 
   /// A vector of trivially copyable values; restored to the same size.

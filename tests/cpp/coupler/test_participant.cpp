@@ -2,6 +2,8 @@
 // handshake refusals, and the added-mass model problem that separates explicit from implicit
 // coupling.
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 
 #include "coupler_test_util.hpp"
 
@@ -250,6 +252,14 @@ namespace {
 /// the "fluid" is incompressible added mass: f = −m_a (v_{n+1} − v_n)/Δt. Converged coupling
 /// is the monolithic oscillator of mass m + m_a. Returns the solid's x history of node 0 and
 /// the largest |x| seen.
+/// Both sides' state at a completed window (restart checkpoints): the participants' bytes and
+/// the model's own variables.
+struct OscSaved {
+    std::vector<unsigned char> solid, fluid;
+    std::vector<double> x, v, fPrev, fApplied, vOld;
+    std::uint64_t windows = 0, seed = 0;
+};
+
 struct OscResult {
     std::vector<double> x0;
     double maxAbs = 0;
@@ -259,6 +269,7 @@ struct OscResult {
     std::uint64_t unconvergedSolid = 0, unconvergedFluid = 0;  ///< each side's count of windows ended unconverged
     bool allFinite = true;
     std::exception_ptr solidError, fluidError;
+    OscSaved saved;  ///< OscOptions::saveAt
 };
 
 /// Model-problem options beyond the scheme: start amplitude, the fluid's pressure-solver noise
@@ -276,6 +287,11 @@ struct OscOptions {
     double dt = 1e-3;          ///< window = solid step, s
     double tolerance = 1e-10;  ///< implicit: relative residual
     int maxIterations = 40;    ///< implicit: passes a window at most
+    int reuse = 0;             ///< IQN-ILS: windows whose columns are kept
+    /// Restart: both sides save their state once this many windows are complete (−1: never) ...
+    int saveAt = -1;
+    /// ... or start from such a state instead of window 0.
+    const OscSaved* resume = nullptr;
 };
 
 OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int windows,
@@ -288,6 +304,7 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
     c.fields[0].absoluteTolerance = o.atolVelocity;
     c.fields[1].absoluteTolerance = o.atolForce;
     if (o.linearPredictor) c.predictor = PredictorKind::Linear;
+    c.reuse = o.reuse;
     scenario::Ring r;
     r.nTheta = 8;
     r.nLayers = 1;
@@ -299,11 +316,17 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
         [&] {
             Participant p("solid", c, tcp(dir), "tok-osc");
             setRing(p, r, true);
-            p.initialize();
             std::vector<double> x(n), v(n, 0.0), xs, vs, f, vel(3 * std::size_t(n), 0.0), fPrev, fApplied;
-            p.readData("wall", "force", fPrev);  // F_{−1}: the initial force
-            fApplied = fPrev;
-            for (int i = 0; i < n; ++i) x[std::size_t(i)] = o.x0 * std::cos(r.theta(i));
+            if (o.resume) {
+                p.initializeResumed(o.resume->solid);
+                x = o.resume->x, v = o.resume->v, fPrev = o.resume->fPrev, fApplied = o.resume->fApplied;
+                out.windows = o.resume->windows;
+            } else {
+                p.initialize();
+                p.readData("wall", "force", fPrev);  // F_{−1}: the initial force
+                fApplied = fPrev;
+                for (int i = 0; i < n; ++i) x[std::size_t(i)] = o.x0 * std::cos(r.theta(i));
+            }
             int inWindow = 0;
             while (p.isCouplingOngoing()) {
                 const bool windowStart = p.requiresWritingCheckpoint();
@@ -336,6 +359,11 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
                     out.passesPerWindow.push_back(inWindow);
                     inWindow = 0;
                     out.x0.push_back(x[0]);
+                    if (int(out.windows) == o.saveAt) {
+                        out.saved.solid = p.saveState();
+                        out.saved.x = x, out.saved.v = v, out.saved.fPrev = fPrev, out.saved.fApplied = fApplied;
+                        out.saved.windows = out.windows;
+                    }
                     for (double xi : x) out.maxAbs = std::max(out.maxAbs, std::abs(xi));
                     if (!std::isfinite(out.maxAbs) || out.maxAbs > 1e6) {
                         p.abort("diverged");
@@ -349,9 +377,14 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
         [&] {
             Participant p("fluid", c, tcp(dir), "tok-osc");
             setRing(p, r, false);
-            p.initialize();
             std::vector<double> vOld(3 * std::size_t(n), 0.0), vs, vNew, f(3 * std::size_t(n));
             std::uint64_t seed = 12345;
+            if (o.resume) {
+                p.initializeResumed(o.resume->fluid);
+                vOld = o.resume->vOld, seed = o.resume->seed;
+            } else {
+                p.initialize();
+            }
             auto noise = [&] {  // uniform in [−√3, √3) σ: RMS σ
                 seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
                 return o.noise * std::sqrt(3.0) * (2.0 * double(seed >> 11) / 9007199254740992.0 - 1.0);
@@ -367,6 +400,10 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
                     vOld = vs;
                 else
                     vOld = vNew;
+                if (p.isTimeWindowComplete() && int(p.state().window) == o.saveAt) {
+                    out.saved.fluid = p.saveState();
+                    out.saved.vOld = vOld, out.saved.seed = seed;
+                }
             }
             out.unconvergedFluid = p.state().unconvergedWindows;
             p.finalize();
@@ -619,4 +656,77 @@ TEST(AddedMass, WindowsEndedAtThePassLimitAreCountedOnBothSides) {
     EXPECT_EQ(full.unconvergedSolid, 0u);
     EXPECT_EQ(full.unconvergedFluid, 0u);
     std::cout << "[ info ] at rest, at most 3 passes: " << res.unconvergedSolid << " of 30 windows unconverged (both sides)\n";
+}
+
+// Restart (docs/coupler.md "Restart"): both participants save their state at a completed window
+// (saveState) and run on; a new pair started from those states (initializeResumed, over a new
+// connection) must repeat the rest of the run bitwise (tolerance 0: the same arithmetic on the same
+// values). Reference: the uninterrupted run's windows after the save. The model problem at
+// m_a/m = 5 with pressure-solver noise, the linear predictor, IQN-ILS keeping the columns of 4
+// earlier windows (state carried across windows: the columns, the predictor's history, the
+// divergence monitor's) and Aitken, whose relaxation factor restarts each window.
+TEST(Restart, ResumedPairRepeatsTheRestOfTheRunBitwise) {
+    for (auto acc : {AccelerationKind::IqnIls, AccelerationKind::Aitken}) {
+        SCOPED_TRACE(acc == AccelerationKind::IqnIls ? "IQN-ILS, reuse 4" : "Aitken");
+        OscOptions o;
+        o.linearPredictor = true;
+        o.noise = 1e-9;
+        o.tolerance = 1e-6;
+        o.reuse = acc == AccelerationKind::IqnIls ? 4 : 0;
+        o.saveAt = 60;
+        const int windows = 120;
+        const OscResult full = oscillate(SchemeKind::Implicit, acc, 5.0, windows, o);
+        rethrowIf(full.solidError);
+        rethrowIf(full.fluidError);
+        ASSERT_EQ(full.x0.size(), std::size_t(windows));
+        ASSERT_FALSE(full.saved.solid.empty());
+        ASSERT_FALSE(full.saved.fluid.empty());
+        // the saved windows carry state into the rest: more than one pass a window on average
+        const double passes = double(full.passes) / windows;
+        EXPECT_GT(passes, 1.5);
+
+        OscOptions r = o;
+        r.saveAt = -1;
+        r.resume = &full.saved;
+        const OscResult resumed = oscillate(SchemeKind::Implicit, acc, 5.0, windows, r);
+        rethrowIf(resumed.solidError);
+        rethrowIf(resumed.fluidError);
+        ASSERT_EQ(resumed.x0.size(), std::size_t(windows - o.saveAt));
+        size_t diffs = 0;
+        for (std::size_t i = 0; i < resumed.x0.size(); ++i)
+            diffs += std::memcmp(&resumed.x0[i], &full.x0[std::size_t(o.saveAt) + i], sizeof(double)) != 0;
+        EXPECT_EQ(diffs, 0u);
+        EXPECT_EQ(std::vector<int>(full.passesPerWindow.begin() + o.saveAt, full.passesPerWindow.end()),
+                  resumed.passesPerWindow);
+        EXPECT_EQ(resumed.unconvergedSolid, full.unconvergedSolid);
+        EXPECT_EQ(resumed.unconvergedFluid, full.unconvergedFluid);
+        std::printf("restart at window %d of %d: %.2f passes a window, %zu of %zu later windows' x0 differ\n",
+                    o.saveAt, windows, passes, diffs, resumed.x0.size());
+    }
+}
+
+// A state that does not fit: another configuration's bytes, or bytes cut short, are refused with
+// a ConfigError before any exchange, and saveState() in the middle of a window is refused.
+TEST(Restart, StateOfAnotherConfigurationOrCutShortIsRefused) {
+    OscOptions o;
+    o.saveAt = 3;
+    const OscResult full = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 6, o);
+    rethrowIf(full.solidError);
+    rethrowIf(full.fluidError);
+    OscSaved cut = full.saved;
+    cut.fluid.resize(cut.fluid.size() / 2);
+    OscOptions r;
+    r.resume = &cut;
+    const OscResult bad = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 6, r);
+    ASSERT_TRUE(bad.fluidError);
+    try {
+        std::rethrow_exception(bad.fluidError);
+    } catch (const ConfigError& e) {
+        EXPECT_TRUE(contains(e.what(), "restart state")) << e.what();
+    }
+    OscSaved swapped = full.saved;
+    std::swap(swapped.solid, swapped.fluid);  // each side given the other's state
+    r.resume = &swapped;
+    const OscResult wrong = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 6, r);
+    EXPECT_TRUE(wrong.solidError || wrong.fluidError);
 }

@@ -8,6 +8,8 @@
 #include <memory>
 #include <vector>
 
+#include "tq/coupler/state_io.hpp"
+
 #include "tq/coupler/config.hpp"
 
 namespace tq::coupler {
@@ -22,6 +24,8 @@ class Acceleration {
                       std::vector<double>& xNext) = 0;
     /// Relaxation factor used in the last step (1 for none; IQN-ILS: the first-step factor).
     virtual double lastRelaxation() const = 0;
+    /// Save or restore what the iterations of later windows depend on (restart checkpoints).
+    virtual void checkpoint(StateIo& /*io*/) {}
 };
 
 /// x_{k+1} = x̃_k.
@@ -55,6 +59,11 @@ class Aitken final : public Acceleration {
     void next(const std::vector<double>& x, const std::vector<double>& xTilde,
               std::vector<double>& xNext) override;
     double lastRelaxation() const override { return omega_; }
+    void checkpoint(StateIo& io) override {
+        io.io(omega_);
+        io.io(rPrev_);
+        io.io(first_);
+    }
 
   private:
     double omega0_, omega_;
@@ -80,6 +89,15 @@ class IqnIls final : public Acceleration {
               std::vector<double>& xNext) override;
     double lastRelaxation() const override { return omega0_; }
     std::size_t columns() const { return dr_.size(); }
+    void checkpoint(StateIo& io) override {
+        io.io(window_);
+        io.io(rPrev_);
+        io.io(xtPrev_);
+        io.io(dr_);
+        io.io(dxt_);
+        io.io(colWindow_);
+        io.io(first_);
+    }
 
   private:
     double omega0_, eps_;

@@ -48,6 +48,25 @@ class DivergenceMonitor {
                     double residual);
     /// Estimated amplification per window of the alternating mode (0 when none seen).
     double lastAmplification() const { return lastAmp_; }
+    /// Restart checkpoints: save or restore the windows' history.
+    void checkpoint(StateIo& io) {
+        std::uint64_t n = tracks_.size();
+        io.io(n);
+        if (!io.saving()) tracks_.resize(std::size_t(n));
+        for (auto& t : tracks_) {
+            io.io(t.prev);
+            io.io(t.prevDelta);
+            io.io(t.prevChange);
+            io.io(t.peak);
+            io.io(t.run);
+            io.io(t.runStartChange);
+            io.io(t.hasPrev);
+            io.io(t.hasDelta);
+        }
+        io.io(unconvergedRun_);
+        io.io(unconvergedResiduals_);
+        io.io(lastAmp_);
+    }
 
   private:
     struct Track {

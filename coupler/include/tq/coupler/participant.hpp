@@ -68,6 +68,17 @@ class Participant : private ExchangePort {
     /// receives the first window's data. Returns the largest allowed step.
     double initialize();
 
+    /// Restart checkpoints (docs/coupler.md "Restart"): the coupling state at a completed window
+    /// (the scheme's counters, the acceleration's secant columns, the predictor's history, the
+    /// divergence monitor's, the last values exchanged), as bytes. Call right after an advance()
+    /// that completed a window (isTimeWindowComplete()), before the next readData/writeData.
+    std::vector<unsigned char> saveState() const;
+    /// initialize() for a run resumed from saveState() bytes of this side, the partner resumed
+    /// from its own of the same window: connects and shakes hands as initialize() does, then
+    /// carries on from that window instead of window 0. Throws ConfigError when the bytes do not
+    /// fit this configuration.
+    double initializeResumed(const std::vector<unsigned char>& state);
+
     /// Stores this side's values of a field it writes (node-major, my node order).
     void writeData(const std::string& mesh, const std::string& field, const double* values,
                    std::size_t count);
@@ -121,6 +132,8 @@ class Participant : private ExchangePort {
     const std::vector<FieldSlice>& writtenSlices() const override { return writtenSlices_; }
     const std::vector<FieldSlice>& receivedSlices() const override { return receivedSlices_; }
 
+    double connect();
+    void checkpoint(StateIo& io);
     Hello makeHello() const;
     /// All the reasons the partner's record is unacceptable ("" if none).
     std::string checkPartner(const Hello& theirs) const;

@@ -12,6 +12,7 @@
 
 #include "tq/coupler/acceleration.hpp"
 #include "tq/coupler/config.hpp"
+#include "tq/coupler/state_io.hpp"
 
 namespace tq::coupler {
 
@@ -66,6 +67,12 @@ class CouplingScheme {
     /// At the end of a window (the participant has advanced through windowSize): exchange,
     /// decide whether the window is repeated, update the state.
     virtual void endWindow(ExchangePort& port) = 0;
+    /// Restart checkpoints: save or restore the scheme's state at a completed window.
+    virtual void checkpoint(StateIo& io) { io.io(state_); }
+    /// Instead of initialize(), after checkpoint() restored a completed window: the second
+    /// participant receives the first's data of the next window again (its checkpoint was taken
+    /// after that data arrived, the first's before it was sent; the values are the same).
+    virtual void resume(ExchangePort& port) = 0;
     const SchemeState& state() const { return state_; }
     /// Called by the participant when a step did not complete the window.
     void clearFlags() {
@@ -85,6 +92,7 @@ class SerialExplicit final : public CouplingScheme {
     using CouplingScheme::CouplingScheme;
     void initialize(ExchangePort& port) override;
     void endWindow(ExchangePort& port) override;
+    void resume(ExchangePort& port) override;
 };
 
 /// Serial implicit: passes repeated with checkpoint/rollback until converged (the second
@@ -99,6 +107,8 @@ class SerialImplicit final : public CouplingScheme {
                    std::unique_ptr<Acceleration> acceleration);
     void initialize(ExchangePort& port) override;
     void endWindow(ExchangePort& port) override;
+    void checkpoint(StateIo& io) override;
+    void resume(ExchangePort& port) override;
 
   private:
     int maxPasses_;

@@ -1,0 +1,303 @@
+"""Restart of a single run (docs/user_guide.md "Resuming a run", docs/reliability.md "Restart"):
+a run stopped in any way after a restart checkpoint and continued with `tunnelquake run --resume`
+ends with results bitwise equal to those of a run that was never stopped.
+
+Reference: the same case run without interruption, with the same checkpoint interval and thread
+count. Every dataset of the results file (monitor histories, energy balance, lining section
+forces and envelopes, damage, snapshots) and every attribute except wall-clock figures must be
+equal byte for byte (tolerance 0): the solid's time step is deterministic, so any state the
+checkpoint misses shows up as a difference."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import EXAMPLE
+from tunnelquake.cli import main
+
+RECORD = "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2"
+
+#: shaking simulated, s; a checkpoint every INTERVAL s of it
+END, INTERVAL = 0.6, 0.15
+
+
+def _case_text() -> str:
+    """The example's solid-only condition with its record path made absolute, END s of shaking and
+    a checkpoint every INTERVAL s."""
+    rec = (EXAMPLE.parent / RECORD).resolve()
+    text = EXAMPLE.read_text().replace(RECORD, str(rec))
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("conditions:"):
+            line = "conditions: [no_water]"
+        lines.append(line)
+        if line.startswith("output:"):
+            lines.append(f"  checkpoint_interval: {INTERVAL} s")
+    return "\n".join(lines) + f"\ntime:\n  end_time: {END} s\n"
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The case meshed, its motion written, and run once without interruption."""
+    folder = tmp_path_factory.mktemp("reference")
+    (folder / "case.yaml").write_text(_case_text())
+    assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
+    return folder
+
+
+def _copy(reference, tmp_path):
+    """A fresh folder with the reference's mesh and motion (not its results)."""
+    import shutil
+
+    dst = tmp_path / "case"
+    (dst / "results").mkdir(parents=True)
+    shutil.copy(reference / "case.yaml", dst / "case.yaml")
+    shutil.copytree(reference / "results" / "mesh", dst / "results" / "mesh")
+    shutil.copy(reference / "results" / "motion.h5", dst / "results" / "motion.h5")
+    return dst / "case.yaml"
+
+
+#: attributes that hold wall-clock figures or the run's own paths (not results)
+def _not_a_result(name: str) -> bool:
+    return name.endswith("_s") or name in ("input", "mesh")
+
+
+def _bytes(v) -> bytes:
+    """A value as bytes: numbers as stored, strings by their text (not their object pointers)."""
+    a = np.asarray(v)
+    if a.dtype.kind == "O":
+        return repr([x.decode() if isinstance(x, bytes) else str(x) for x in a.reshape(-1)]).encode()
+    return a.tobytes()
+
+
+def _differences(a_path, b_path) -> list[str]:
+    """Every dataset and attribute that differs between two results files (bytes compared);
+    /timings (wall times, steps of this process) left out."""
+    out: list[str] = []
+    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+        def attrs(name, x, y):
+            for k in sorted(set(x.attrs) | set(y.attrs)):
+                if _not_a_result(k):
+                    continue
+                if k not in x.attrs or k not in y.attrs:
+                    out.append(f"{name} attr {k}: only in one")
+                elif _bytes(x.attrs[k]) != _bytes(y.attrs[k]):
+                    out.append(f"{name} attr {k}: {x.attrs[k]!r} != {y.attrs[k]!r}")
+
+        names_a, names_b = [], []
+        a.visit(names_a.append)
+        b.visit(names_b.append)
+        keep = [n for n in names_a if not n.startswith("timings")]
+        if sorted(keep) != sorted(n for n in names_b if not n.startswith("timings")):
+            out.append(f"objects differ: {sorted(set(names_a) ^ set(names_b))[:10]}")
+        attrs("/", a, b)
+        for n in keep:
+            if n not in b:
+                continue
+            x, y = a[n], b[n]
+            attrs(n, x, y)
+            if isinstance(x, h5py.Dataset):
+                if x.shape != y.shape or x.dtype != y.dtype:
+                    out.append(f"{n}: shape {x.shape} {x.dtype} != {y.shape} {y.dtype}")
+                elif _bytes(x[()]) != _bytes(y[()]):
+                    out.append(f"{n}: values differ")
+    return out
+
+
+def _start(case_yaml, *extra, env=None):
+    """`tunnelquake run` as a user starts it: its own process group, as a terminal's job."""
+    return subprocess.Popen([sys.executable, "-m", "tunnelquake", "run", str(case_yaml), "--no-post", *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            env={**os.environ, **(env or {})})
+
+
+def _wait_for_checkpoint(case_yaml, proc, at_least: float, timeout: float = 120.0) -> float:
+    """Wait until the condition's last checkpoint is at `at_least` s or later; its time."""
+    manifest = case_yaml.parent / "results" / "no_water" / "checkpoint" / "checkpoint.json"
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            t = float(json.loads(manifest.read_text())["time"])
+            if t >= at_least:
+                return t
+        except (OSError, ValueError, KeyError):
+            pass
+        assert proc.poll() is None, proc.communicate()[0][-3000:]
+        time.sleep(0.02)
+    raise AssertionError(f"no checkpoint at t >= {at_least} s within {timeout} s")
+
+
+def _solid_pid(folder) -> int:
+    """The PID of the tq-solid working in `folder`."""
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                with open(f"/proc/{name}/cmdline", "rb") as fh:
+                    cmd = fh.read().split(b"\0")
+            except OSError:
+                continue
+            if cmd and cmd[0].endswith(b"tq-solid") and any(str(folder).encode() in c for c in cmd):
+                return int(name)
+    raise AssertionError(f"no tq-solid running in {folder}")
+
+
+def _resume_and_compare(case_yaml, reference, capsys):
+    assert main(["run", str(case_yaml), "--resume", "--no-post"]) == 0
+    out = capsys.readouterr().out
+    assert "resume: no_water continues from its checkpoint at t = " in out, out[-2000:]
+    res = case_yaml.parent / "results" / "results_no_water.h5"
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] == "completed"
+        assert f["monitors/top_arch/time"][-1, 0] == pytest.approx(END, abs=1e-4)
+    assert _differences(reference / "results" / "results_no_water.h5", res) == []
+    # a completed run leaves no checkpoint behind
+    assert not (case_yaml.parent / "results" / "no_water" / "checkpoint" / "checkpoint.json").exists()
+    return out
+
+
+@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL tq-solid", "SIGKILL all"])
+def test_run_stopped_after_a_checkpoint_resumes_bitwise_equal_to_an_uninterrupted_run(reference, tmp_path,
+                                                                                    capsys, how):
+    """Stopped after its second checkpoint: by Ctrl-C (SIGINT to the process group: tunnelquake
+    stops tq-solid and exits 130), by SIGKILL of tq-solid alone (a crash: tunnelquake reports the
+    failure and ends), or by SIGKILL of tunnelquake and tq-solid together (a lost node). The resumed
+    run continues from the checkpoint and ends bitwise equal to the uninterrupted one."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    try:
+        t_ck = _wait_for_checkpoint(p, proc, 2 * INTERVAL - 1e-9)
+        if how == "SIGINT":
+            os.killpg(proc.pid, signal.SIGINT)
+        elif how == "SIGKILL tq-solid":
+            os.kill(_solid_pid(p.parent), signal.SIGKILL)
+        else:
+            solid = _solid_pid(p.parent)
+            os.kill(proc.pid, signal.SIGKILL)
+            os.kill(solid, signal.SIGKILL)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
+    assert t_ck < END - 1e-6  # stopped before the end
+    with h5py.File(p.parent / "results" / "results_no_water.h5", "r") as f:
+        assert f.attrs["status"] != "completed"
+    _resume_and_compare(p, reference, capsys)
+
+
+@pytest.mark.parametrize("part", ["solid", "results"])
+def test_crash_while_writing_a_checkpoint_leaves_the_previous_one(reference, tmp_path, capsys, part):
+    """tq-solid killed (SIGKILL) while it writes its third checkpoint, after the state file
+    (`solid`) or also the results copy (`results`) but before the manifest
+    (TQ_CHECKPOINT_FAULT): the manifest still names the second, whose files are whole, and the
+    resumed run ends bitwise equal to the uninterrupted one."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": f"3:{part}"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1, out[-2000:]
+    assert "tq-solid stopped (exit -9)" in out, out[-2000:]
+    folder = p.parent / "results" / "no_water" / "checkpoint"
+    manifest = json.loads((folder / "checkpoint.json").read_text())
+    assert manifest["sequence"] == 2 and manifest["time"] == pytest.approx(2 * INTERVAL, abs=1e-3)
+    assert (folder / "solid-000003.bin").is_file()  # the interrupted write was under way
+    resumed = _resume_and_compare(p, reference, capsys)
+    assert f"at t = {manifest['time']:.6g} s" in resumed
+
+
+def test_resume_of_a_finished_run_or_of_a_folder_without_checkpoint_says_so(reference, tmp_path, capsys):
+    """--resume of a run that completed changes nothing and says so (exit 0); of a folder where no
+    run wrote a checkpoint it is an error naming the fix (exit 1)."""
+    res = reference / "results" / "results_no_water.h5"
+    before = res.stat().st_mtime_ns
+    assert main(["run", str(reference / "case.yaml"), "--resume", "--no-post"]) == 0
+    out = capsys.readouterr().out
+    assert "nothing to resume: every condition in " in out and "completed (no_water)" in out, out
+    assert res.stat().st_mtime_ns == before
+
+    p = _copy(reference, tmp_path)
+    assert main(["run", str(p), "--resume", "--no-post"]) == 1
+    err = capsys.readouterr().err
+    assert "nothing to resume in " in err and "no condition has a restart checkpoint" in err, err
+    assert "without --resume to start" in err, err
+    assert not (p.parent / "results" / "results_no_water.h5").exists()
+
+
+def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_path):
+    """A checkpoint belongs to the solid input it was written for: after an edit of the case that
+    reaches it (here the lining's cohesion), tq-solid refuses to resume, saying why and what to do,
+    and the results of the interrupted run are left as they were."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "2:solid"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
+    text = p.read_text()
+    assert text.count("cohesion: 1.80 MPa") == 1
+    p.write_text(text.replace("cohesion: 1.80 MPa", "cohesion: 1.90 MPa"))
+    again = _start(p, "--resume")
+    out, _ = again.communicate(timeout=180)
+    assert again.returncode == 1, out[-2000:]
+    assert "resume: no_water continues from its checkpoint at t = 0.15" in out, out[-2000:]
+    assert "tq-solid: cannot resume from " in out and "was written for another input" in out, out[-2000:]
+    assert "run without --resume to start again" in out, out[-2000:]
+    assert "tq-solid stopped (exit 2)" in out, out[-2000:]
+
+
+def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path):
+    """A record suite's `--resume` runs a member that did not finish with `run --resume` when it
+    left a restart checkpoint (suite_run.run_member): here a member killed inside its third
+    checkpoint continues from its second and ends bitwise equal to the uninterrupted run."""
+    from tunnelquake.cli.suite_run import run_member
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "3:solid"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
+    got = run_member(str(p), no_post=True, resume=True)
+    log = (p.parent / "run.log").read_text()
+    assert got["status"] == "completed", log[-2000:]
+    assert f"tq-solid: resumed from checkpoint 2 at t = {2 * INTERVAL:g} s" in log, log[-2000:]
+    assert _differences(reference / "results" / "results_no_water.h5",
+                        p.parent / "results" / "results_no_water.h5") == []
+
+
+def test_resume_while_the_solver_of_a_killed_supervisor_still_runs_is_refused(reference, tmp_path, capsys):
+    """SIGKILL of `tunnelquake` alone: its tq-solid (a session of its own) runs on. A `--resume`
+    meanwhile must not start a second solver on the same files: tq-solid finds the checkpoints
+    locked, names the running one's PID and exits 2 before touching anything. Once the first has
+    finished, `--resume` finds the condition completed, and its results are those of the
+    uninterrupted run. (The running solver is held with SIGSTOP so that the refusal is tested
+    whatever the machine's speed.)"""
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    solid = None
+    try:
+        _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
+        solid = _solid_pid(p.parent)
+        os.kill(solid, signal.SIGSTOP)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        again = _start(p, "--resume")
+        out, _ = again.communicate(timeout=180)
+        assert again.returncode == 1, out[-2000:]
+        assert f"another tq-solid (pid {solid}) is running with the checkpoints in " in out, out[-2000:]
+        assert "tq-solid stopped (exit 2)" in out, out[-2000:]
+    finally:
+        if solid is not None:
+            os.kill(solid, signal.SIGCONT)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        rest, _ = proc.communicate(timeout=180)  # ends when the orphaned solver closes the pipe
+    assert "tq-solid: completed" in rest, rest[-2000:]
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    assert "nothing to resume: every condition in " in capsys.readouterr().out
+    assert _differences(reference / "results" / "results_no_water.h5",
+                        p.parent / "results" / "results_no_water.h5") == []
