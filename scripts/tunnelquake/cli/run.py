@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import children, paths
 from ..children import Side, stop_side
+from ..restart import checkpoint_dir, checkpoint_manifest
 from ..scene import plan
 from ..solid_input import solid_threads
 from .common import DiskFull, is_no_space, load_or_report, parser, say
@@ -42,22 +43,6 @@ def _solid_capabilities(exe) -> set[str]:
     except (OSError, subprocess.TimeoutExpired):
         return set()
     return set(out.stdout.split()) if out.returncode == 0 else set()
-
-
-def checkpoint_dir(case, cond: str) -> Path:
-    """Where tq-solid writes the condition's restart checkpoints (docs/formats.md "Restart checkpoints")."""
-    return case.output_dir / cond / "checkpoint"
-
-
-def checkpoint_manifest(case, cond: str) -> dict | None:
-    """The condition's last complete restart checkpoint (its checkpoint.json), or None."""
-    import json
-
-    try:
-        m = json.loads((checkpoint_dir(case, cond) / "checkpoint.json").read_text())
-    except (OSError, ValueError):
-        return None
-    return m if isinstance(m, dict) and m.get("format") == "tunnelquake-checkpoint" else None
 
 
 def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,

@@ -64,8 +64,8 @@ def _ignore_sigint() -> None:
 def _has_checkpoint(case_file: str) -> bool:
     """Whether a condition of this member left a restart checkpoint (docs/user_guide.md "Resuming a run")."""
     from ..case import load_case
+    from ..restart import checkpoint_manifest
     from ..scene import plan
-    from .run import checkpoint_manifest
 
     try:
         case = load_case(Path(case_file))
