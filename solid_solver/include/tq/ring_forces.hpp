@@ -1,8 +1,9 @@
 /// @file ring_forces.hpp
 /// @brief Lining section forces around the ring: thrust N, moment M and shear V per unit length of
-///        tunnel at every radial line of lining nodes (a "section"), from the internal forces of the
-///        lining elements on either side of it, and the change of the inner diameters (ovaling).
-///        Conventions and method: docs/theory.md "Lining section forces".
+///        tunnel at the mid-plane of every element column (a "section"), from the stresses of its
+///        elements (the design forces) or from their nodal forces (the discrete ring's free-body
+///        forces, in equilibrium to round-off), and the change of the inner diameters (ovaling).
+///        Conventions and method: docs/theory.md §7 "Lining section forces and ovaling".
 #pragma once
 
 #include <array>
