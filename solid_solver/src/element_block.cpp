@@ -513,6 +513,42 @@ inline __attribute__((always_inline)) void hourglassModes(const Real (*g)[8][Ele
                  geov<V>(G, kGRot + 6 + k, l) * q[2][a];
 }
 
+/// Generalised hourglass forces in the global frame, Q_iα = Σ_k R_ik Q̂_kα.
+template <class V>
+inline __attribute__((always_inline)) void hourglassToGlobal(const Real* G, Index l, const V Qh[3][4], V Q[3][4]) {
+#pragma GCC unroll 3
+  for (int i = 0; i < 3; ++i)
+#pragma GCC unroll 4
+    for (int a = 0; a < 4; ++a)
+      Q[i][a] = geov<V>(G, kGRot + 3 * i, l) * Qh[0][a] + geov<V>(G, kGRot + 3 * i + 1, l) * Qh[1][a] +
+                geov<V>(G, kGRot + 3 * i + 2, l) * Qh[2][a];
+}
+
+/// Nodal forces f_iI = Σ_j b_jI P_ij + Σ_α Q_iα h_αI / 8 with P = V σ − Σ_α Q_α (h_α·x)ᵀ / 8 (stress
+/// divergence and hourglass forces Q_iα γ_αI in one pass); F[3 I + i].
+template <class V>
+inline __attribute__((always_inline)) void cornerForces(const Real* G, Index l, V vol, const V s[6], const V Q[3][4],
+                                                        V F[24]) {
+  const V sij[3][3] = {{s[XX], s[XY], s[ZX]}, {s[XY], s[YY], s[YZ]}, {s[ZX], s[YZ], s[ZZ]}};
+  V P[3][3];
+#pragma GCC unroll 3
+  for (int i = 0; i < 3; ++i)
+#pragma GCC unroll 3
+    for (int j = 0; j < 3; ++j)
+      P[i][j] = vol * sij[i][j] - 0.125 * (Q[i][0] * geov<V>(G, kGHx + j, l) + Q[i][1] * geov<V>(G, kGHx + 3 + j, l) +
+                                         Q[i][2] * geov<V>(G, kGHx + 6 + j, l) + Q[i][3] * geov<V>(G, kGHx + 9 + j, l));
+#pragma GCC unroll 8
+  for (int k = 0; k < 8; ++k) {
+    const V bx = geov<V>(G, kGB + k, l), by = geov<V>(G, kGB + 8 + k, l), bz = geov<V>(G, kGB + 16 + k, l);
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      const V hg = 0.125 * (hex8::kH[0][k] * Q[i][0] + hex8::kH[1][k] * Q[i][1] + hex8::kH[2][k] * Q[i][2] +
+                             hex8::kH[3][k] * Q[i][3]);
+      F[3 * k + i] = bx * P[i][0] + by * P[i][1] + bz * P[i][2] + hg;
+    }
+  }
+}
+
 }  // namespace
 
 /// Raw view of one chunk for the kernel (pointers at the chunk's first element).
@@ -647,13 +683,12 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
         }
       storev(wd + l, on ? cv.beta * pd * cv.dt : zero);
     }
+    V Q[3][4];
+    hourglassToGlobal(G, l, Qh, Q);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i)
 #pragma GCC unroll 4
-      for (int a = 0; a < 4; ++a)
-        storev(Qg[4 * i + a] + l, geov<V>(G, kGRot + 3 * i, l) * Qh[0][a] +
-                                      geov<V>(G, kGRot + 3 * i + 1, l) * Qh[1][a] +
-                                      geov<V>(G, kGRot + 3 * i + 2, l) * Qh[2][a]);
+      for (int a = 0; a < 4; ++a) storev(Qg[4 * i + a] + l, Q[i][a]);
   }
   // 3. Material update of the whole chunk (stored form).
   if constexpr (!kTotal) {
@@ -667,8 +702,7 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     mc.history = cv.history;
     cv.material->updateStressForElems(mc);
   }
-  // 4. Nodal forces f_iI = Σ_j b_jI P_ij + Σ_α Q_iα h_αI / 8 with P = V(σ + σ_d) − Σ_α Q_α (h_α·x)ᵀ / 8
-  //    (stress divergence and hourglass forces Q_iα γ_αI in one pass).
+  // 4. Nodal forces of the stress σ + σ_d and the hourglass forces (cornerForces).
   const Real lam = hm.lam, mu = hm.mu;
   // Damping stress rate factor and work factor: stored form de = Δε (rate β/Δt_last, work
   // × Δt/Δt_last), total form de = ε̇ (rate β, work × Δt); none on the first step (Δt_last = 0).
@@ -727,29 +761,15 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
       }
       storev(wd + l, loadv<V>(wd + l) + (on ? pd * vol * dtRatio : zero));
     }
-    const V sij[3][3] = {{s[XX], s[XY], s[ZX]}, {s[XY], s[YY], s[YZ]}, {s[ZX], s[YZ], s[ZZ]}};
     V Q[3][4];
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i)
 #pragma GCC unroll 4
       for (int a = 0; a < 4; ++a) Q[i][a] = loadv<V>(Qg[4 * i + a] + l);
-    V P[3][3];
-#pragma GCC unroll 3
-    for (int i = 0; i < 3; ++i)
-#pragma GCC unroll 3
-      for (int j = 0; j < 3; ++j)
-        P[i][j] = vol * sij[i][j] - 0.125 * (Q[i][0] * geov<V>(G, kGHx + j, l) + Q[i][1] * geov<V>(G, kGHx + 3 + j, l) +
-                                           Q[i][2] * geov<V>(G, kGHx + 6 + j, l) + Q[i][3] * geov<V>(G, kGHx + 9 + j, l));
-#pragma GCC unroll 8
-    for (int k = 0; k < 8; ++k) {
-      const V bx = geov<V>(G, kGB + k, l), by = geov<V>(G, kGB + 8 + k, l), bz = geov<V>(G, kGB + 16 + k, l);
-#pragma GCC unroll 3
-      for (int i = 0; i < 3; ++i) {
-        const V hg = 0.125 * (hex8::kH[0][k] * Q[i][0] + hex8::kH[1][k] * Q[i][1] + hex8::kH[2][k] * Q[i][2] +
-                               hex8::kH[3][k] * Q[i][3]);
-        storev(F[3 * k + i] + l, on ? bx * P[i][0] + by * P[i][1] + bz * P[i][2] + hg : zero);
-      }
-    }
+    V Fk[24];
+    cornerForces(G, l, vol, s, Q, Fk);
+#pragma GCC unroll 24
+    for (int k = 0; k < 24; ++k) storev(F[k] + l, on ? Fk[k] : zero);
   }
   // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free).
   for (Index l = 0; l < n; ++l) {
@@ -947,6 +967,43 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
     total.dampingWork += en.dampingWork;
   }
   return total;
+}
+
+void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {
+  std::fill(f, f + 24, 0.0);
+  if (formulation_ == Hex8Formulation::FullIntegration)
+    throw InputError("block '" + name_ + "': element forces need the one-point element");
+  if (!active_[size_t(e)]) return;
+  // The kernel's helpers on a pair of lanes of the element's chunk (V2), element e in one of them.
+  const Index le = e % kChunk, l = le & ~Index(1), lane = le - l;
+  const Real* G = &geo_[size_t(e / kChunk) * kGeo * kChunk];
+  alignas(64) Real ug[3][8][kChunk];
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 8; ++k) {
+      ug[i][k][l] = ug[i][k][l + 1] = 0;
+      ug[i][k][le] = u[3 * size_t(conn_[8 * size_t(e) + k]) + i];
+    }
+  V2 L[3][3];
+  gradient(ug, G, l, L);
+  const Real eps[6] = {L[0][0][lane], L[1][1][lane], L[2][2][lane], L[0][1][lane] + L[1][0][lane],
+                       L[1][2][lane] + L[2][1][lane], L[2][0][lane] + L[0][2][lane]};
+  // σ(u): total form C:ε(u) + σ_off; stored form the last stress plus the elastic increment C:(ε(u) − ε).
+  Real d[6];
+  for (int k = 0; k < 6; ++k) d[k] = total_ ? eps[k] : eps[k] - strain_[k][size_t(e)];
+  const Real lam = mod_.lambda, mu = mod_.mu, tr = d[XX] + d[YY] + d[ZZ];
+  V2 s[6];
+  for (int k = 0; k < 6; ++k) {
+    const Real base = total_ ? (hasOffset_ ? offset_[k][size_t(e)] : 0.0) : stress_[k][size_t(e)];
+    s[k] = V2{} + (base + (k < 3 ? lam * tr + 2 * mu * d[k] : mu * d[k]));
+  }
+  V2 qh[3][4], Qh[3][4], Q[3][4], F[24];
+  hourglassModes(ug, G, l, L, qh);
+  const V2 ia[3] = {geov<V2>(G, kGIa, l), geov<V2>(G, kGIa + 1, l), geov<V2>(G, kGIa + 2, l)};
+  const V2 vol = geov<V2>(G, kGVol, l);
+  hourglassStiffness(HourglassModuli{lam, mu, mod_.pModulus(), nuBar_, hgScale_}, vol, ia, qh, Qh);
+  hourglassToGlobal(G, l, Qh, Q);
+  cornerForces(G, l, vol, s, Q, F);
+  for (int k = 0; k < 24; ++k) f[k] = F[k][lane];
 }
 
 void ElementBlock::checkpoint(StateArchive& a) {

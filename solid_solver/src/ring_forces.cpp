@@ -10,6 +10,7 @@
 #include <numeric>
 #include <set>
 #include <sstream>
+#include <cstdint>
 
 namespace tq {
 
@@ -153,17 +154,20 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
     R.closed = int(cols.size()) == S;
     R.lineAngle = lineAngle;
     R.column.assign(cols.size(), {});
+    R.ref.assign(cols.size(), {0.0, 0.0});
     for (size_t i = 0; i < elems.size(); ++i) {
       // The element's stress stands for its radial extent [r_min, r_max] on the section (the
       // mean of its corners lies inside the arc, at ½(r_min + r_max) cos(Δθ/2)).
       Real rmin = 1e300, rmax = 0;
+      std::uint8_t upper = 0;
       for (int k = 0; k < 8; ++k) {
         const Index n = lining.node(elems[i], k);
         const Real rn = std::hypot(X(n, 0) - R.xc, X(n, 2) - R.zc);
         rmin = std::min(rmin, rn);
         rmax = std::max(rmax, rn);
+        if (lineOf[n] != lowerLine[i]) upper |= std::uint8_t(1u << k);
       }
-      R.column[size_t(column[size_t(lowerLine[i])])].push_back({elems[i], 0.5 * (rmin + rmax), rmax - rmin});
+      R.column[size_t(column[size_t(lowerLine[i])])].push_back({elems[i], 0.5 * (rmin + rmax), rmax - rmin, upper});
     }
     for (auto& col : R.column) {
       std::sort(col.begin(), col.end(), [](const auto& a, const auto& b) { return a.r < b.r; });
@@ -182,11 +186,38 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
     R.rInner = ri;
     R.rOuter = ro;
     R.rMid = 0.5 * (ri + ro);
+    std::vector<std::array<Real, 4>> faceMean;  // per line: mean x, z of its inner-face and outer-face nodes
     for (auto& v : onLine) {
       std::vector<Index> in;
-      for (const auto& [r, n] : v)
-        if (r - v.front().first < 1e-6 * (ro - ri)) in.push_back(n);
+      std::array<Real, 4> fm = {0, 0, 0, 0};
+      int nin = 0, nout = 0;
+      for (const auto& [r, n] : v) {
+        if (r - v.front().first < 1e-6 * (ro - ri)) {
+          in.push_back(n);
+          fm[0] += X(n, 0);
+          fm[1] += X(n, 2);
+          ++nin;
+        }
+        if (v.back().first - r < 1e-6 * (ro - ri)) {
+          fm[2] += X(n, 0);
+          fm[3] += X(n, 2);
+          ++nout;
+        }
+      }
+      faceMean.push_back({fm[0] / nin, fm[1] / nin, fm[2] / nout, fm[3] / nout});
       R.inner.push_back(in);
+    }
+    // Moment reference of each section: the middle of the section's radial segment between the
+    // straight inner and outer faces of its column (at ½(r_inner + r_outer) cos(Δθ/2) from the
+    // centre on a polar grid), the mid-surface of the discrete ring.
+    for (size_t c = 0; c < cols.size(); ++c) {
+      const auto& lo = faceMean[size_t(cols[c].second)];
+      const auto& hi = faceMean[size_t((cols[c].second + 1) % S)];
+      const Real er[2] = {std::cos(R.angle[c]), std::sin(R.angle[c])};
+      Real rho = 0;
+      for (int f = 0; f < 2; ++f)
+        rho += 0.5 * ((0.5 * (lo[2 * f] + hi[2 * f]) - R.xc) * er[0] + (0.5 * (lo[2 * f + 1] + hi[2 * f + 1]) - R.zc) * er[1]);
+      R.ref[c] = {R.xc + rho * er[0], R.zc + rho * er[1]};
     }
     // Diameters: pairs of node lines half a turn apart (whole rings).
     if (R.closed)
@@ -200,6 +231,33 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
   }
   if (rings_.empty()) note_ = "no ring forces: " + why.str();
   else if (!why.str().empty()) note_ += (note_.empty() ? "" : "; ") + ("some rings missing: " + why.str());
+}
+
+void RingForces::freeBodyForces(size_t r, const Real* u, Real* N, Real* M, Real* V) const {
+  const LiningRing& R = rings_[r];
+  const ElementBlock& b = *lining_;
+  const Real L = R.yMax - R.yMin;
+  Real f[24];
+  for (size_t s = 0; s < R.angle.size(); ++s) {
+    // T: the force of the column's θ+ corners on it, i.e. of the θ+ side on the θ− side; m: its
+    // moment about the section's reference point (y component, + with tension at the inner face).
+    Real Tx = 0, Tz = 0, m = 0;
+    for (const auto& E : R.column[s]) {
+      b.elementForces(E.elem, u, f);
+      for (int k = 0; k < 8; ++k) {
+        if (!(E.upper >> k & 1u)) continue;
+        const Index n = b.node(E.elem, k);
+        const Real fx = f[3 * k], fz = f[3 * k + 2];
+        Tx += fx;
+        Tz += fz;
+        m += (mesh_.coords[3 * size_t(n) + 2] - R.ref[s][1]) * fx - (mesh_.coords[3 * size_t(n)] - R.ref[s][0]) * fz;
+      }
+    }
+    const Real c = std::cos(R.angle[s]), sn = std::sin(R.angle[s]);
+    N[s] = (-sn * Tx + c * Tz) / L;
+    V[s] = (c * Tx + sn * Tz) / L;
+    M[s] = m / L;
+  }
 }
 
 void RingForces::sectionForces(size_t r, Real* N, Real* M, Real* V) const {

@@ -1,5 +1,6 @@
 // Lining section forces (tq/ring_forces.hpp) against exact plane-strain elasticity solutions of a
-// thick lining bonded in an infinite elastic rock, and the equilibrium of every ring segment.
+// thick lining in an infinite elastic rock (bonded and in full slip) with their order of convergence,
+// and the equilibrium of the ring between its sections.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -107,6 +108,7 @@ struct PureShearLined {
   }
 };
 
+
 /// Outer boundary of the quarter models at kOuter × the excavated radius: the closed forms are for
 /// an infinite rock; at 20 b (the other lined-tunnel tests) the boundary leaves about 0.7 % in V and
 /// N, which would hide the orders of the discretisation error.
@@ -127,33 +129,43 @@ struct Errors {
   Real N = 0, M = 0, V = 0;
 };
 
-Errors compare(const tqtest::StagedRun& run, const ExactForces& ex, bool withV, const char* what, Index nTheta,
-               Index nThrough) {
+/// The quarter's section forces (RingForces::sectionForces, what tq-solid writes).
+struct Sections {
+  std::vector<Real> angle, N, M, V;
+};
+
+Sections sections(const tqtest::StagedRun& run, Index nTheta) {
   const RingForces rf(run.mesh, liningOf(run), {});
   EXPECT_EQ(rf.rings().size(), 1u) << rf.note();
   const LiningRing& R = rf.rings().at(0);
   const size_t S = R.angle.size();
   EXPECT_EQ(S, size_t(nTheta));  // the quarter's element columns
   EXPECT_FALSE(R.closed);
-  std::vector<Real> N(S), M(S), V(S), Ne(S), Me(S), Ve(S);
-  rf.sectionForces(0, N.data(), M.data(), V.data());
+  Sections s{R.angle, std::vector<Real>(S), std::vector<Real>(S), std::vector<Real>(S)};
+  rf.sectionForces(0, s.N.data(), s.M.data(), s.V.data());
+  return s;
+}
+
+Errors compare(const Sections& fe, const ExactForces& ex, bool withV, const char* what, Index nTheta, Index nThrough) {
+  const size_t S = fe.angle.size();
+  std::vector<Real> Ne(S), Me(S), Ve(S);
   for (size_t k = 0; k < S; ++k) {
-    Ne[k] = ex.N(R.angle[k]);
-    Me[k] = ex.M(R.angle[k]);
-    Ve[k] = withV ? ex.V(R.angle[k]) : 0;
+    Ne[k] = ex.N(fe.angle[k]);
+    Me[k] = ex.M(fe.angle[k]);
+    Ve[k] = withV ? ex.V(fe.angle[k]) : 0;
   }
-  Errors e{relError(N, Ne), relError(M, Me), withV ? relError(V, Ve) : 0};
+  Errors e{relError(fe.N, Ne), relError(fe.M, Me), withV ? relError(fe.V, Ve) : 0};
   Real vmax = 0;
-  for (Real v : V) vmax = std::max(vmax, std::abs(v));
+  for (Real v : fe.V) vmax = std::max(vmax, std::abs(v));
   std::printf("%s, %d x %d lining elements per quarter: N %.3f %%, M %.3f %%, %s %.3f %% (first section, "
               "FE / exact: N %.6g / %.6g N/m, M %.6g / %.6g Nm/m, V %.6g / %.6g N/m)\n",
               what, int(nTheta), int(nThrough), 100 * e.N, 100 * e.M, withV ? "V" : "max|V|/max|N|",
-              withV ? 100 * e.V : 100 * vmax / std::abs(Ne[0]), N[0], Ne[0], M[0], Me[0], V[0], Ve[0]);
+              withV ? 100 * e.V : 100 * vmax / std::abs(Ne[0]), fe.N[0], Ne[0], fe.M[0], Me[0], fe.V[0], Ve[0]);
   return e;
 }
 
-/// The pure-shear quarter model: in-situ σx = +S, σz = −S (kx = −1, surcharge S), the lining
-/// installed before any release (release fraction 0), bonded; optionally water inside.
+/// The pure-shear quarter model: in-situ σx = −p0 + S, σz = −p0 − S (surcharge p0 + S), the lining
+/// installed before any release (release fraction 0), bonded or smooth; optionally water inside.
 void runPureShear(tqtest::StagedRun& run, Index nTheta, Index nThrough, Real S, Real pi = 0, Real gammaW = 0,
                   Real Lfactor = 20, Real p0 = 0, bool slip = false) {
   QuarterSpec qs;
@@ -172,13 +184,12 @@ void runPureShear(tqtest::StagedRun& run, Index nTheta, Index nThrough, Real S, 
   G.stages.maxSteps = 400000;
   G.stages.releaseFraction = 0;
   G.inSitu.present = true;
-  // σx = −p0 + S, σz = −p0 − S: σv = −(p0 + S), kx = (p0 − S)/(p0 + S) (−1 for the pure shear).
+  // σv = −(p0 + S), kx = (p0 − S)/(p0 + S) (−1 for the pure shear).
   G.inSitu.kx = (p0 - S) / (p0 + S);
   G.inSitu.ky = 0;
   G.inSitu.kz = 1;
   G.inSitu.surcharge = p0 + S;
-  if (slip) {  // smooth: no friction, no cohesion; the sliding contact relaxes to 1e-3 only
-    G.stages.tolerance = 5e-4;
+  if (slip) {  // smooth: no friction, no cohesion
     G.rockLining.present = true;
     G.rockLining.model = "dynamic_contact";
     G.rockLining.cohesion = 0;
@@ -196,35 +207,21 @@ void runPureShear(tqtest::StagedRun& run, Index nTheta, Index nThrough, Real S, 
   run.stages->runStatics(log);
 }
 
-}  // namespace
-
-// A check of the pure-shear closed form itself: with a lining of vanishing stiffness the rock
-// sees a traction-free hole of radius b, Kirsch's wall stress σθθ(b) = −4 S cos 2θ, σrθ = 0.
-TEST(RingForces, PureShearClosedFormIsKirschForASoftLining) {
-  const Real S = 1e6, b = 5.25;
-  for (bool slip : {false, true}) {
-    const PureShearLined p(S, 4.5, b, 1e-6 * kEr, kNul, kEr, kNur, slip);
-    for (Real th : {0.0, 0.3, 1.0}) {
-      EXPECT_NEAR(p.rockHoop(b, th), -4 * S * std::cos(2 * th), 1e-5 * S);
-      EXPECT_NEAR(p.rockShear(b, th), 0.0, 1e-5 * S);
-    }
-  }
-}
-
-namespace {
-
 using MeshList = std::vector<std::array<Index, 2>>;  // (elements per quarter around, through)
 
-/// The orders of convergence between consecutive meshes (h ∝ 1 / elements around).
-void printOrders(const char* what, const MeshList& meshes, const std::vector<Errors>& e, bool withV) {
+/// The observed orders of convergence between consecutive meshes (h ∝ 1 / elements around).
+std::vector<Errors> orders(const char* what, const MeshList& meshes, const std::vector<Errors>& e, bool withV) {
+  std::vector<Errors> p;
   for (size_t i = 0; i + 1 < meshes.size(); ++i) {
     const Real h = std::log(Real(meshes[i + 1][0]) / meshes[i][0]);
-    auto p = [&](Real a, Real b) { return std::log(std::abs(a) / std::abs(b)) / h; };
+    auto q = [&](Real a, Real b) { return std::log(std::abs(a) / std::abs(b)) / h; };
+    p.push_back({q(e[i].N, e[i + 1].N), q(e[i].M, e[i + 1].M), withV ? q(e[i].V, e[i + 1].V) : 0});
     std::printf("%s, order %d -> %d per quarter: N %.2f, M %.2f", what, int(meshes[i][0]), int(meshes[i + 1][0]),
-                p(e[i].N, e[i + 1].N), p(e[i].M, e[i + 1].M));
-    if (withV) std::printf(", V %.2f", p(e[i].V, e[i + 1].V));
+                p.back().N, p.back().M);
+    if (withV) std::printf(", V %.2f", p.back().V);
     std::printf("\n");
   }
+  return p;
 }
 
 /// (a) Thick lining bonded in elastic rock under a uniform internal pressure (the lined tunnel of
@@ -245,9 +242,8 @@ std::vector<Errors> internalPressure(const MeshList& meshes) {
     tqtest::StagedRun run;
     QuarterSpec qs;
     runLinedTunnel(run, qs, m[0], m[1], pi, 2e6, kOuter);
-    e.push_back(compare(run, ex, false, "internal pressure", m[0], m[1]));
+    e.push_back(compare(sections(run, m[0]), ex, false, "internal pressure", m[0], m[1]));
   }
-  printOrders("internal pressure", meshes, e, false);
   return e;
 }
 
@@ -264,165 +260,271 @@ std::vector<Errors> pureShear(const MeshList& meshes) {
   for (const auto& m : meshes) {
     tqtest::StagedRun run;
     runPureShear(run, m[0], m[1], S, 0, 0, kOuter);
-    e.push_back(compare(run, ex, true, "pure shear", m[0], m[1]));
+    e.push_back(compare(sections(run, m[0]), ex, true, "pure shear", m[0], m[1]));
   }
-  printOrders("pure shear", meshes, e, true);
   return e;
 }
 
 /// (b, smooth) The lining in full slip: the interface without friction or cohesion (the dynamic
-/// contact), a hydrostatic p0 = 5 MPa with the pure shear S = 0.5 MPa so that the interface stays
-/// in compression everywhere (no separation, as the closed form assumes). Exact: the axisymmetric
-/// part (slip plays no role: releaseReference, Lamé in the lining) plus the full-slip Michell solution.
-std::vector<Errors> pureShearSmooth(const MeshList& meshes) {
+/// contact). The contact must stay closed, as the closed form assumes, so the shear S = 0.5 MPa
+/// comes with a hydrostatic p0 = 5 MPa; the response to the shear is the run under p0 + S minus
+/// the run under p0 alone (the problem is linear while every pair stays closed and slides freely).
+/// Exact: the full-slip Michell solution. The run under p0 + S is also compared with the exact
+/// axisymmetric part (releaseReference, Lamé in the lining) plus the shear part: its V also holds
+/// the discretisation error of the p0 run's V, which is 0 exactly but not on the quarter's rock
+/// mesh (graded towards a square boundary, not polar): 2.5 % of the shear's V amplitude at the
+/// example's mesh, largest at the diagonal, from a ten times larger load (printed, not asserted).
+struct SmoothErrors {
+  std::vector<Errors> shear, combined;
+};
+SmoothErrors pureShearSmooth(const MeshList& meshes) {
   const Real S = 0.5e6, p0 = 5e6, a = 4.5, b = 5.25;
   const PureShearLined p(S, a, b, kEl, kNul, kEr, kNur, true);
   const Real pc = releaseReference(p0, 0, a, b).pc, d = b * b - a * a;
   const LameFit axi{-pc * b * b / d, -pc * a * a * b * b / d};
   EXPECT_LT(-pc + std::abs(p.rockRadial(b, 0.0)), -0.2 * pc);  // the contact stays closed everywhere
-  ExactForces ex;
-  ex.hoop = [&](Real r, Real th) { return axi.hoop(r) + p.hoop(r, th); };
-  ex.shear = [&](Real r, Real th) { return p.shear(r, th); };
-  std::vector<Errors> e;
+  ExactForces shear, both;
+  shear.hoop = [&](Real r, Real th) { return p.hoop(r, th); };
+  shear.shear = [&](Real r, Real th) { return p.shear(r, th); };
+  both.hoop = [&](Real r, Real th) { return axi.hoop(r) + p.hoop(r, th); };
+  both.shear = shear.shear;
+  SmoothErrors e;
   for (const auto& m : meshes) {
-    tqtest::StagedRun run;
+    tqtest::StagedRun run, run0;
     runPureShear(run, m[0], m[1], S, 0, 0, kOuter, p0, true);
-    e.push_back(compare(run, ex, true, "pure shear, full slip", m[0], m[1]));
+    runPureShear(run0, m[0], m[1], 0, 0, 0, kOuter, p0, true);
+    const Sections s = sections(run, m[0]), s0 = sections(run0, m[0]);
+    Sections ds = s;
+    Real v0 = 0;
+    for (size_t k = 0; k < s.angle.size(); ++k) {
+      ds.N[k] -= s0.N[k];
+      ds.M[k] -= s0.M[k];
+      ds.V[k] -= s0.V[k];
+      v0 = std::max(v0, std::abs(s0.V[k]));
+    }
+    e.shear.push_back(compare(ds, shear, true, "pure shear, full slip (shear response)", m[0], m[1]));
+    e.combined.push_back(compare(s, both, true, "pure shear + hydrostatic, full slip", m[0], m[1]));
+    std::printf("  hydrostatic p0 alone: max|V| %.4g N/m (exact 0), %.2f %% of the shear's max|V|\n", v0,
+                100 * v0 / std::abs(shear.V(M_PI / 4)));
   }
-  printOrders("pure shear, full slip", meshes, e, true);
   return e;
 }
 
-// The example's lining mesh is 48 elements around (12 per quarter) and 3 through.
-const MeshList kExampleAndCoarser = {{8, 2}, {12, 3}};
-const MeshList kLadder = {{8, 2}, {12, 3}, {24, 6}};
+// The example's lining mesh is 48 elements around (12 per quarter) and 3 through; the ladder
+// refines it once, at the same aspect ratio (a third rung, 24 x 6, takes minutes:
+// `tq_solid_ring_tests --gtest_also_run_disabled_tests --gtest_filter='*Ladder*'`).
+const MeshList kLadder = {{12, 3}, {16, 4}};
+const MeshList kLongLadder = {{12, 3}, {16, 4}, {24, 6}};
+
+/// Expected order of the errors: 2. The one-point element's stress is the mid-plane value of its
+/// column to O(h²), the polygon ring differs from the circle by O(Δθ²) (cos(Δθ/2) of the forces
+/// across the straight faces) and N, M, V are integrals of a constant per element through the
+/// thickness, exact for a linear stress. Asserted: the order from the example's mesh to the finest
+/// is at least 2 − kOrderMargin for the quantities whose error at the example's mesh is above
+/// kFloor (below it the boundary at 80 b and the relaxation's tolerance take over).
+constexpr Real kOrderMargin = 0.5, kFloor = 1e-3;
+
+void expectOrders(const char* what, const MeshList& meshes, const std::vector<Errors>& e, bool withV) {
+  const Real h = std::log(Real(meshes.back()[0]) / meshes.front()[0]);
+  auto order = [&](Real a, Real b) { return std::log(std::abs(a) / std::abs(b)) / h; };
+  const Errors& c = e.front();
+  const Errors& f = e.back();
+  std::printf("%s, order %d -> %d per quarter: N %.2f, M %.2f, V %.2f\n", what, int(meshes.front()[0]),
+              int(meshes.back()[0]), order(c.N, f.N), order(c.M, f.M), withV ? order(c.V, f.V) : 0.0);
+  if (std::abs(c.N) > kFloor) EXPECT_GT(order(c.N, f.N), 2 - kOrderMargin) << what << ": N";
+  if (std::abs(c.M) > kFloor) EXPECT_GT(order(c.M, f.M), 2 - kOrderMargin) << what << ": M";
+  if (withV && std::abs(c.V) > kFloor) EXPECT_GT(order(c.V, f.V), 2 - kOrderMargin) << what << ": V";
+}
 
 }  // namespace
 
+// A check of the pure-shear closed form itself: with a lining of vanishing stiffness the rock
+// sees a traction-free hole of radius b, Kirsch's wall stress σθθ(b) = −4 S cos 2θ, σrθ = 0.
+TEST(RingForces, PureShearClosedFormIsKirschForASoftLining) {
+  const Real S = 1e6, b = 5.25;
+  for (bool slip : {false, true}) {
+    const PureShearLined p(S, 4.5, b, 1e-6 * kEr, kNul, kEr, kNur, slip);
+    for (Real th : {0.0, 0.3, 1.0}) {
+      EXPECT_NEAR(p.rockHoop(b, th), -4 * S * std::cos(2 * th), 1e-5 * S);
+      EXPECT_NEAR(p.rockShear(b, th), 0.0, 1e-5 * S);
+    }
+  }
+}
+
 // (a) Tolerance 3 % of N and of M at the example's lining mesh (errors relative to the largest
-// exact value over the sections); the order from the coarser mesh is printed (measured
-// 2026-11-25: N 0.29 %, M 0.46 %, orders 1.9 and 2.0; docs/verification.md).
+// exact value over the sections); the order from the example's mesh to the finest (measured: see
+// docs/verification.md).
 TEST(RingForces, ThickRingUnderInternalPressure) {
-  const auto e = internalPressure(kExampleAndCoarser);
-  EXPECT_LT(std::abs(e[1].N), 0.03);
-  EXPECT_LT(std::abs(e[1].M), 0.03);
+  const auto e = internalPressure(kLadder);
+
+  EXPECT_LT(std::abs(e[0].N), 0.03);
+  EXPECT_LT(std::abs(e[0].M), 0.03);
+  expectOrders("internal pressure", kLadder, e, false);
 }
 
-// (b) Tolerance 3 % of the amplitudes of N, M and V at the example's lining mesh; orders printed.
+// (b) Tolerance 3 % of the amplitudes of N, M and V at the example's lining mesh; orders.
 TEST(RingForces, ThickRingUnderFarFieldPureShear) {
-  const auto e = pureShear(kExampleAndCoarser);
-  EXPECT_LT(e[1].N, 0.03);
-  EXPECT_LT(e[1].M, 0.03);
-  EXPECT_LT(e[1].V, 0.03);
+  const auto e = pureShear(kLadder);
+
+  EXPECT_LT(e[0].N, 0.03);
+  EXPECT_LT(e[0].M, 0.03);
+  EXPECT_LT(e[0].V, 0.03);
+  expectOrders("pure shear", kLadder, e, true);
 }
 
-// (b, smooth) Tolerance 3 % of the amplitudes of N and M at the example's lining mesh. V, small in
-// full slip (no interface shear: a sixth of the bonded V for the same shear), misses the 3 % goal: 3.5 %,
-// converging at order 1.5 from the coarser mesh (largest near the symmetry planes, where the
-// frictionless pairs meet the supports); held at 5 %.
+// (b, smooth) Tolerance 3 % of the amplitudes of M and V of the shear response and of N and M
+// under p0 + S at the example's lining mesh; orders of the shear response's N and M. Not asserted:
+// the shear response's N, whose amplitude in full slip (20 kN/m) is 1/40 of the shear's bending
+// stress scale 6 max|M| / h: its error, 11 % of that amplitude at the example's mesh (0.6 % of
+// the bending scale), converges at order 2; and the order of its V, which meets the floor of the
+// boundary at 80 b (with the boundary at 1000 b its error at the example's mesh is 0.55 %
+// instead of 0.92 %).
 TEST(RingForces, ThickRingUnderFarFieldPureShearInFullSlip) {
-  const auto e = pureShearSmooth(kExampleAndCoarser);
-  EXPECT_LT(e[1].N, 0.03);
-  EXPECT_LT(e[1].M, 0.03);
-  EXPECT_LT(e[1].V, 0.05);
-}
-
-// The three-mesh ladder of (a) and (b) with the 24 x 6 mesh (minutes; not run by CTest:
-// tq_solid_ring_tests --gtest_also_run_disabled_tests --gtest_filter='*Ladder*').
-TEST(RingForces, DISABLED_ConvergenceLadder) {
-  const auto a = internalPressure(kLadder);
-  const auto b = pureShear(kLadder);
-  const auto c = pureShearSmooth(kLadder);
-  EXPECT_LT(std::abs(a[2].M), std::abs(a[1].M));
-  EXPECT_LT(b[2].M, b[1].M);
-  EXPECT_LT(c[2].V, c[1].V);
+  const auto e = pureShearSmooth(kLadder);
+  orders("pure shear + hydrostatic, full slip", kLadder, e.combined, true);
+  EXPECT_LT(e.shear[0].M, 0.03);
+  EXPECT_LT(e.shear[0].V, 0.03);
+  EXPECT_LT(e.combined[0].N, 0.03);
+  EXPECT_LT(e.combined[0].M, 0.03);
+  expectOrders("pure shear, full slip (shear response)", kLadder, e.shear, false);
 }
 
 namespace {
 
 struct Residual {
-  Real force = 0, moment = 0, residualOnly = 0;
+  Real force = 0, moment = 0, outOfBalance = 0;      // round-off check, and the relaxation's share
+  Real dN = 0, dV = 0, dM = 0, dMcouple = 0;          // design forces against the free-body forces
 };
 
-/// Largest equilibrium residual over every segment between two sections i < j of the ring under
-/// its end forces and the loads on the nodes between them: force L (T_j − T_i) + Σ f relative to
-/// L max|N|, moment about the origin relative to L max|N| r_mid. Loads: f_ext (interface ties and
-/// water), or f_int = f_ext + the relaxation's out-of-balance force (residualOnly: that part).
+/// The equilibrium of the ring's free-body section forces (RingForces::freeBodyForces) between
+/// every pair of sections i < j (neighbours included): the part of the ring between them under the
+/// section forces at its ends (the θ+ side's force L (N e_θ + V e_r) and moment L M at section j,
+/// their opposites at section i) and the nodal forces of the lining nodes between them, which
+/// are the interface (tie or contact) and water loads f_ext plus the relaxation's out-of-balance
+/// force f_int − f_ext (the inertia force of a dynamic step). Residual of the sum: force relative
+/// to L max|N|, moment about the ring's centre relative to L max|N| r_mid. Also the design forces
+/// (sectionForces) against the free-body ones.
 Residual segmentEquilibrium(const tqtest::StagedRun& run) {
-  run.solver->computeForces(true);  // f_int, f_ext (ties, water) at the relaxed displacement
-  const RingForces rf(run.mesh, liningOf(run), {});
+  run.solver->computeForces(true);  // f_int, f_ext (ties or contact, water) at the relaxed displacement
+  const ElementBlock& lin = liningOf(run);
+  const RingForces rf(run.mesh, lin, {});
   const LiningRing& R = rf.rings().at(0);
   const size_t S = R.angle.size();
-  std::vector<Real> N(S), M(S), V(S);
-  rf.sectionForces(0, N.data(), M.data(), V.data());
+  std::vector<Real> N(S), M(S), V(S), Nd(S), Md(S), Vd(S);
+  rf.freeBodyForces(0, run.solver->state().uData(), N.data(), M.data(), V.data());
+  rf.sectionForces(0, Nd.data(), Md.data(), Vd.data());
   const Real L = R.yMax - R.yMin;
   const auto& st = run.solver->state();
   std::vector<char> isLining(size_t(run.mesh.numNodes()), 0);
-  const ElementBlock& lin = liningOf(run);
   for (Index e = 0; e < lin.numElems(); ++e)
     for (int k = 0; k < 8; ++k) isLining[size_t(lin.node(e, k))] = 1;
-  Real nmax = 0;
-  for (Real x : N) nmax = std::max(nmax, std::abs(x));
+  Real nmax = 0, vmax = 0, mmax = 0;
+  for (size_t s = 0; s < S; ++s) {
+    nmax = std::max(nmax, std::abs(N[s]));
+    vmax = std::max(vmax, std::abs(Vd[s]));
+    mmax = std::max(mmax, std::abs(Md[s]));
+  }
   const Real Fref = L * nmax, Mref = Fref * R.rMid;
   Residual res;
   for (size_t i = 0; i < S; ++i)
     for (size_t j = i + 1; j < S; ++j) {
-      Real f[3] = {0, 0, 0}, g[3] = {0, 0, 0};  // x, z force and y moment: with f_ext, f_int − f_ext
+      Real f[3] = {0, 0, 0}, g[3] = {0, 0, 0};  // x, z force and moment: the sum; the out-of-balance part
       for (auto [s, sign] : {std::pair<size_t, Real>{j, 1}, {i, -1}}) {
         const Real c = std::cos(R.angle[s]), sn = std::sin(R.angle[s]);
         const Real Fx = L * (N[s] * -sn + V[s] * c), Fz = L * (N[s] * c + V[s] * sn);
-        const Real px = R.xc + R.rMid * c, pz = R.zc + R.rMid * sn;
+        // moment about the centre: L M about the reference point plus that of the force there
+        const Real mo = L * M[s] + (R.ref[s][1] - R.zc) * Fx - (R.ref[s][0] - R.xc) * Fz;
         f[0] += sign * Fx;
         f[1] += sign * Fz;
-        f[2] += sign * (L * M[s] + pz * Fx - px * Fz);  // y moment about the origin (M about p)
+        f[2] += sign * mo;
       }
       for (Index n = 0; n < run.mesh.numNodes(); ++n) {
-        const Real x = run.mesh.coords[3 * size_t(n)], z = run.mesh.coords[3 * size_t(n) + 2];
-        const Real th = std::atan2(z - R.zc, x - R.xc);
+        const Real x = run.mesh.coords[3 * size_t(n)] - R.xc, z = run.mesh.coords[3 * size_t(n) + 2] - R.zc;
+        const Real th = std::atan2(z, x);
         if (!isLining[size_t(n)] || !(th > R.angle[i] && th < R.angle[j])) continue;
-        const Real fe[2] = {st.fExt(n, 0), st.fExt(n, 2)}, fr[2] = {st.fInt(n, 0) - fe[0], st.fInt(n, 2) - fe[1]};
-        f[0] += fe[0];
-        f[1] += fe[1];
-        f[2] += z * fe[0] - x * fe[1];
-        g[0] += fr[0];
-        g[1] += fr[1];
-        g[2] += z * fr[0] - x * fr[1];
+        const Real fi[2] = {st.fInt(n, 0), st.fInt(n, 2)}, fe[2] = {st.fExt(n, 0), st.fExt(n, 2)};
+        f[0] += fi[0];
+        f[1] += fi[1];
+        f[2] += z * fi[0] - x * fi[1];
+        g[0] += fi[0] - fe[0];
+        g[1] += fi[1] - fe[1];
+        g[2] += z * (fi[0] - fe[0]) - x * (fi[1] - fe[1]);
       }
       res.force = std::max({res.force, std::abs(f[0]) / Fref, std::abs(f[1]) / Fref});
       res.moment = std::max(res.moment, std::abs(f[2]) / Mref);
-      res.residualOnly = std::max({res.residualOnly, std::abs(g[0]) / Fref, std::abs(g[1]) / Fref, std::abs(g[2]) / Mref});
+      res.outOfBalance =
+          std::max({res.outOfBalance, std::abs(g[0]) / Fref, std::abs(g[1]) / Fref, std::abs(g[2]) / Mref});
     }
+  // Design forces against the free-body ones; M also less the radial-stress couple that the
+  // column's node lines, ±Δθ/2 from the section, see: sin²(Δθ/2) Σ σrr,e r_e h_e.
+  for (size_t s = 0; s < S; ++s) {
+    const Real c = std::cos(R.angle[s]), sn = std::sin(R.angle[s]);
+    const Real dth = R.lineAngle[1] - R.lineAngle[0], s2 = std::pow(std::sin(dth / 2), 2);
+    Real couple = 0;
+    for (const auto& E : R.column[s]) {
+      const Real srr = c * c * lin.stress(E.elem, XX) + 2 * sn * c * lin.stress(E.elem, ZX) +
+                       sn * sn * lin.stress(E.elem, ZZ);
+      couple += s2 * srr * E.r * E.h;
+    }
+    res.dN = std::max(res.dN, std::abs(Nd[s] - N[s]) / nmax);
+    res.dV = std::max(res.dV, std::abs(Vd[s] - V[s]) / vmax);
+    res.dM = std::max(res.dM, std::abs(Md[s] - M[s]) / mmax);
+    res.dMcouple = std::max(res.dMcouple, std::abs(Md[s] - (M[s] - couple)) / mmax);
+  }
   return res;
 }
 
 }  // namespace
 
-// (c) Equilibrium: the part of the ring between any two sections i < j under the section forces at
-// its ends and the interface and water loads on the nodes between them (pure shear plus water with
-// a hydrostatic gradient: every section carries N, M and V), for every pair of the quarter's
-// sections. The stress resultants balance the discrete loads to the discretisation error, O(Δθ²):
-// the one-point element's Cartesian stress is the section's polar stress at its mid-plane only
-// (force cos(Δθ/2)), and the loads act on straight chords. Tolerance 1 % of L max|N| (force) and
-// of L max|N| r_mid (moment about the origin) at the example's lining mesh, order printed.
-// The out-of-balance force the relaxation leaves (printed) is below 1e-6 of those.
-TEST(RingForces, SegmentsAreInEquilibriumWithInterfaceAndWaterLoads) {
-  const Index meshes[3][2] = {{8, 2}, {12, 3}, {16, 4}};
-  Residual r[3];
-  for (int i = 0; i < 3; ++i) {
-    tqtest::StagedRun run;
-    runPureShear(run, meshes[i][0], meshes[i][1], 1e6, 1.2e6, 9810);
-    r[i] = segmentEquilibrium(run);
-    std::printf("equilibrium, %d x %d lining elements per quarter, %d segments: force %.2e of L max|N|, moment %.2e of "
-                "L max|N| r_mid (the relaxation's out-of-balance force: %.1e)\n",
-                int(meshes[i][0]), int(meshes[i][1]), int(meshes[i][0] * (meshes[i][0] - 1) / 2), r[i].force,
-                r[i].moment, r[i].residualOnly);
-    EXPECT_LT(r[i].residualOnly, 1e-6);
+// (c) Equilibrium to round-off: the free-body section forces of the ring between every two of the
+// quarter's sections (neighbours: the change of N, V, M from one section to the next) balance the
+// interface and water loads on the lining nodes between them with the relaxation's out-of-balance
+// force, to 1e-10 of L max|N| (force) and of L max|N| r_mid (moment about the centre): pure shear
+// and water with its gradient (every section carries N, M and V), bonded; pure shear with a
+// hydrostatic 5 MPa (to keep the contact closed) in full slip. The out-of-balance force is below 1e-5 of
+// those (the relaxation's tolerance is 1e-6 of its load). The design forces (sectionForces) differ
+// from the free-body ones by O(Δθ²) (docs/theory.md §7): the difference of N, of V and of M less
+// the radial-stress couple sin²(Δθ/2) Σ σrr,e r_e h_e converges at order 2 − 0.5 or faster.
+TEST(RingForces, SectionsAreInEquilibriumWithInterfaceAndWaterLoads) {
+  for (bool slip : {false, true}) {
+    std::vector<Residual> rs;
+    for (const auto& m : kLadder) {
+      tqtest::StagedRun run;
+      // full slip without water: with it the contact's relaxation stalls near 1e-3 of the load
+      runPureShear(run, m[0], m[1], slip ? 0.5e6 : 1e6, slip ? 0 : 1.2e6, 9810, 20, slip ? 5e6 : 0, slip);
+      const Residual r = segmentEquilibrium(run);
+      std::printf("equilibrium, %s, %d x %d lining elements per quarter, %d segments: force %.1e of L max|N|, "
+                  "moment %.1e of L max|N| r_mid (the out-of-balance force: %.1e); design - free body: N %.3f %%, "
+                  "V %.3f %%, M %.2f %% (%.3f %% less the radial-stress couple)\n",
+                  slip ? "full slip" : "bonded", int(m[0]), int(m[1]), int(m[0] * (m[0] - 1) / 2), r.force, r.moment,
+                  r.outOfBalance, 100 * r.dN, 100 * r.dV, 100 * r.dM, 100 * r.dMcouple);
+      EXPECT_LT(r.force, 1e-10);
+      EXPECT_LT(r.moment, 1e-10);
+      EXPECT_LT(r.outOfBalance, 1e-5);
+      rs.push_back(r);
+    }
+    // The design forces converge to the free-body ones (M less the couple) at order 2 (margin 0.5).
+    const Real h = std::log(Real(kLadder.back()[0]) / kLadder.front()[0]);
+    auto order = [&](Real a, Real b) { return std::log(a / b) / h; };
+    const Residual &c = rs.front(), &f = rs.back();
+    std::printf("design - free body, %s, order %d -> %d per quarter: N %.2f, V %.2f, M less the couple %.2f\n",
+                slip ? "full slip" : "bonded", int(kLadder.front()[0]), int(kLadder.back()[0]), order(c.dN, f.dN),
+                order(c.dV, f.dV), order(c.dMcouple, f.dMcouple));
+    EXPECT_GT(order(c.dN, f.dN), 2 - kOrderMargin);
+    EXPECT_GT(order(c.dV, f.dV), 2 - kOrderMargin);
+    EXPECT_GT(order(c.dMcouple, f.dMcouple), 2 - kOrderMargin);
   }
-  for (int i = 0; i + 1 < 3; ++i) {
-    const Real h = std::log(Real(meshes[i + 1][0]) / meshes[i][0]);
-    std::printf("equilibrium, order %d -> %d per quarter: force %.2f, moment %.2f\n", int(meshes[i][0]),
-                int(meshes[i + 1][0]), std::log(r[i].force / r[i + 1].force) / h, std::log(r[i].moment / r[i + 1].moment) / h);
-  }
-  EXPECT_LT(r[1].force, 0.01);
-  EXPECT_LT(r[1].moment, 0.01);
+}
+
+// The three-rung ladder (minutes; not run by CTest): the orders from the example's mesh to 24 x 6.
+TEST(RingForces, DISABLED_ConvergenceLadder) {
+  const auto a = internalPressure(kLongLadder);
+  orders("internal pressure", kLongLadder, a, false);
+  expectOrders("internal pressure", kLongLadder, a, false);
+  const auto b = pureShear(kLongLadder);
+  orders("pure shear", kLongLadder, b, true);
+  expectOrders("pure shear", kLongLadder, b, true);
+  const auto c = pureShearSmooth(kLongLadder);
+  orders("pure shear, full slip (shear response)", kLongLadder, c.shear, true);
+  expectOrders("pure shear, full slip (shear response)", kLongLadder, c.shear, false);
 }

@@ -112,6 +112,12 @@ public:
   /// Add the internal + stiffness-damping forces of every element to the nodal forces f [3N]
   /// (the caller zeroes f first), and return the block's energy terms.
   BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f);
+  /// Internal nodal forces of element e at the displacement u [3N] (one-point formulations): its
+  /// stress at u (the stress as last evaluated plus the elastic increment C:(ε(u) − ε) since; in
+  /// total form C:ε(u) + σ_off) and the hourglass forces at u, without damping forces; zero for an
+  /// inactive element. f[3 k + i]: corner k, component i, the force on the element (they sum to
+  /// zero and have no moment).
+  void elementForces(Index e, const Real* u, Real f[24]) const;
   /// Slabs of the deterministic parallel scatter: chunk boundaries, size slabs + 1 (slabs of one
   /// parity share no node).
   const std::vector<Index>& slabStarts() const { return slabStart_; }

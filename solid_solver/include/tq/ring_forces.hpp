@@ -1,12 +1,14 @@
 /// @file ring_forces.hpp
 /// @brief Lining section forces around the ring: thrust N, moment M and shear V per unit length of
-///        tunnel at every radial line of lining nodes (a "section"), from the internal forces of the
-///        lining elements on either side of it, and the change of the inner diameters (ovaling).
-///        Conventions and method: docs/theory.md "Lining section forces".
+///        tunnel at the mid-plane of every element column (a "section"), from the stresses of its
+///        elements (the design forces) or from their nodal forces (the discrete ring's free-body
+///        forces, in equilibrium to round-off), and the change of the inner diameters (ovaling).
+///        Conventions and method: docs/theory.md §7 "Lining section forces and ovaling".
 #pragma once
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -34,8 +36,10 @@ struct LiningRing {
   struct Layer {
     Index elem;
     Real r, h;
+    std::uint8_t upper;  ///< bit k: corner k lies on the column's θ+ node line
   };
   std::vector<std::vector<Layer>> column;
+  std::vector<std::array<Real, 2>> ref;  ///< per section: the moment reference point (x, z)
   std::vector<std::vector<Index>> inner;  ///< per node line: its inner-face nodes (smallest radius)
   std::vector<std::array<int, 2>> diameters;  ///< node lines at either end of each diameter
 };
@@ -60,6 +64,17 @@ public:
   /// their radial extents (least squares, weights the extents): exact for a stress linear through the thickness. A section
   /// of one element through the thickness has no such line: M is NaN.
   void sectionForces(size_t r, Real* N, Real* M, Real* V) const;
+  /// The section forces of the discrete ring (same sections, conventions and units): the force and
+  /// moment that each element column transmits, from its elements' internal nodal forces at the
+  /// displacement u [3N] (ElementBlock::elementForces) on its θ+ node line, i.e. of the θ+ side on
+  /// the θ− side; M about the middle of the section's radial segment between the column's straight
+  /// inner and outer faces (½(r_inner + r_outer) cos(Δθ/2) from the centre). A column is in
+  /// equilibrium under its corner forces, so between two sections these change by exactly the
+  /// nodal forces of the lining nodes between them (in a slice: the interface, water and inertia
+  /// forces, or a relaxation's out-of-balance force), to round-off. They differ from sectionForces
+  /// by O(Δθ²): the one-point element's constant Cartesian stress on the column's node lines, which
+  /// lie ±Δθ/2 from the section, adds sin²(Δθ/2) ∫σrr r dr to M (docs/theory.md §7).
+  void freeBodyForces(size_t r, const Real* u, Real* N, Real* M, Real* V) const;
   /// Change of each inner diameter of ring r (m, elongation positive) for the displacements
   /// rel(node, d) (e.g. relative to the seismic start).
   template <class Rel>
