@@ -69,8 +69,8 @@ struct RingSpec {
   Real rInner = 5.25, rOuter = 6.0;  ///< radii (m)
   Index nRadial = 3, nAround = 48;   ///< elements through the thickness and around
   Real width = 0.25;                 ///< slice thickness along y (m); a tube's length
-  Index nAxial = 1;                  ///< elements along y (1: a plane-strain slice; more: a tube)
   std::string region = "lining";
+  Index nAxial = 1;                  ///< elements along y (1: a plane-strain slice; more: a tube)
 };
 Mesh makeRingSliceMesh(const RingSpec& spec);
 
