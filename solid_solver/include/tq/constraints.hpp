@@ -28,6 +28,15 @@ public:
   TiedNodeGroups(std::string name, std::vector<std::vector<Index>> groups);
   /// Pairs (a, b) as groups of two, e.g. mesh.rockLiningPairs.
   static std::vector<std::vector<Index>> pairs(const std::vector<Index>& flatPairs);
+  /// Periodic pairs of two opposite, axis-aligned face groups: each node of `from` with the node
+  /// of `to` at the same two in-plane coordinates (within 1e-6 of the block's extent). Throws
+  /// InputError naming the faces when they are not opposite, or a node has no partner.
+  static std::vector<std::vector<Index>> periodicPairs(const Mesh& mesh, const std::string& from,
+                                                       const std::string& to);
+  /// Check that every group's members carry the same mass and nodal dashpots (to 1e-9): the tie
+  /// then keeps them moving together exactly (see the class note). Throws InputError naming the
+  /// first group that differs.
+  void checkUniformMembers(const NodalState& state) const;
 
   std::string name() const override { return name_; }
   /// Check the supports (a direction must be fixed for all members or none; throws InputError
