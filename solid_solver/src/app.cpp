@@ -279,7 +279,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   }
   results.sample(s);
   size_t nextSnap = 0;
-  Real nextSample = in.monitorDt;
+  Real tFinal = s.time(), gap = 0;  // the last final state's time, and the span to it from the one before
   const auto t0 = std::chrono::steady_clock::now();
   auto lastReport = t0, lastFlush = t0;
   const Index step0 = s.stepCount();
@@ -295,12 +295,12 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         if (!note.empty()) out << "tq-solid: " << note << std::endl;
       }
       const Real t = s.time();
-      if (t >= nextSample - 1e-9 * s.dt()) {
-        results.sample(s);
-        // past every sample time this step (or window) covered: a window longer than monitor_dt
-        // samples once per window end instead of falling further behind
-        while (t >= nextSample - 1e-9 * s.dt()) nextSample += in.monitorDt;
-      }
+      gap = t - tFinal;
+      tFinal = t;
+      // The histories are written at k x monitor_dt, interpolated between the final states on
+      // either side: observe this state when a requested time falls before the next final state
+      // (expected one step, or window, on).
+      if (t + gap >= results.nextSampleTime() - 1e-9 * gap) results.sample(s);
       while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
         results.snapshot(s);
         ++nextSnap;
