@@ -391,7 +391,7 @@ void ClockedRows::write(double t, double w) {
   out_.resize(cols_);
   for (hsize_t c = 0; c < cols_; ++c) {
     const bool near = c < nearest_.size() && nearest_[c];
-    out_[c] = near ? (w < 0.5 ? prev_[c] : cur_[c]) : (1 - w) * prev_[c] + w * cur_[c];
+    out_[c] = near ? (w < 0.5 ? prev_[c] : cur_[c]) : prev_[c] + w * (cur_[c] - prev_[c]);  // exact where equal
   }
   if (timeCol_ >= 0) out_[size_t(timeCol_)] = t;
   rows_.append(out_.data());

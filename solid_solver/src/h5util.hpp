@@ -108,7 +108,9 @@ private:
 /// The even clock of the histories: rows are written at the times k·interval (k = 0, 1, ...),
 /// not at the solver's steps. Each solver state that is sampled is observed (observe(t)); the
 /// requested times in (t_previous, t] are then due, each written as the linear interpolation
-/// between the previous observed state (weight 1 − w) and this one (weight w).
+/// between the previous observed state (weight 1 − w) and this one (weight w). An interval of 0
+/// (in-memory inputs only; the file's monitor_dt must be > 0) writes one row per observed state,
+/// at its own time.
 class OutputClock {
 public:
   explicit OutputClock(double interval = 0) : dt_(interval) {}

@@ -309,7 +309,7 @@ void ResultsWriter::sample(const Solver& s) {
       for (int k = 0; k < 4; ++k) {
         Real* env = o.env[k].data();
         for (size_t j = 0; j < o.count[k]; ++j) {
-          const Real q = (1 - w) * o.prev[k][j] + w * o.cur[k][j];
+          const Real q = o.prev[k][j] + w * (o.cur[k][j] - o.prev[k][j]);
           o.pending[k].push_back(q);
           if (q > env[4 * j]) { env[4 * j] = q; env[4 * j + 1] = tk; }
           if (q < env[4 * j + 2]) { env[4 * j + 2] = q; env[4 * j + 3] = tk; }
