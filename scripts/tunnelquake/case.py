@@ -163,6 +163,10 @@ def _check_ground_motion(gm, path, raw, ctx):
             ctx.error(f"{path}.vertical", None, "source 'none' leaves no motion at all",
                       "give the vertical record (vertical: {file: ..., units: ...}), or a horizontal source",
                       lines.get("source", raw.line))
+        if "azimuth" in lines and gm["second_horizontal"]["file"] is None:
+            ctx.error(f"{path}.azimuth", gm["azimuth"], "turns the horizontal records, and source 'none' with no "
+                      "second_horizontal leaves none", "remove azimuth, or give a horizontal record",
+                      lines.get("azimuth"))
         if "vertical_ratio" in lines:
             ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"],
                       "scales the horizontal record, and source 'none' has none",

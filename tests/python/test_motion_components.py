@@ -186,6 +186,16 @@ def test_three_records_of_their_own_with_their_own_peaks(tmp_path):
     np.testing.assert_allclose(m.az / np.max(np.abs(m.az)), v / np.max(np.abs(v)), atol=1e-12)
 
 
+def test_a_motion_along_the_axis_only(tmp_path):
+    """source: none with a second horizontal record (azimuth 0): the ground moves along the axis
+    only, x and z exactly zero, y the record at its own PGA."""
+    _, h2 = _horizontal_pair(tmp_path)
+    case = load_case(_case(tmp_path, "  source: none\n  second_horizontal: {file: h2.txt, units: g, pga: 0.2 g}"))
+    m, _ = from_case(case.data["ground_motion"], tmp_path)
+    assert not np.any(m.ax) and not np.any(m.az)
+    np.testing.assert_allclose(m.ay, 0.5 * 0.2 * G * h2 / np.max(np.abs(h2)), rtol=1e-12, atol=1e-15)
+
+
 @pytest.mark.parametrize("motion, key, problem", [
     ("  source: file\n  file: h.txt\n  units: g\n  second_horizontal: {units: g}", "ground_motion.second_horizontal.file",
      "is required when second_horizontal is given"),
@@ -194,6 +204,8 @@ def test_three_records_of_their_own_with_their_own_peaks(tmp_path):
     ("  source: none\n  vertical_ratio: 0.5\n  vertical: {file: v.txt, units: g}", "ground_motion.vertical_ratio",
      "source 'none' has none"),
     ("  source: file\n  file: h.txt\n  units: g\n  azimuth: 400", "ground_motion.azimuth", ""),
+    ("  source: none\n  azimuth: 30\n  vertical: {file: v.txt, units: g}", "ground_motion.azimuth",
+     "source 'none' with no second_horizontal leaves none"),
 ])
 def test_misused_component_keys_are_refused_naming_the_key(tmp_path, motion, key, problem):
     _horizontal_pair(tmp_path)
