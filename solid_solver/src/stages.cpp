@@ -515,11 +515,13 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }
-  // 5. Periodic faces: tied after every other contributor (the interface's tie or contact comes
-  //    first, so each pair sums complete forces).
+  // 5. Periodic faces: tied after every other contributor, the last-running ones included (the
+  //    interface's tie or contact, the water coupling added later), so each pair shares every
+  //    force its members get and stays one to round-off.
   if (S.periodic.present) {
     auto tie = std::make_shared<TiedNodeGroups>("periodic faces " + S.periodic.faces[0] + "-" + S.periodic.faces[1],
                                                 periodicPairs);
+    tie->setRunsAfterAll(true);
     tie->checkUniformMembers(st);
     tie->install(solver_);
     solver_.addContributor(tie);

@@ -45,6 +45,10 @@ public:
   void addForces(Real t, Real dt, NodalState& state) override;
   /// After every other force of the step.
   bool runsLast() const override { return true; }
+  /// After the other runsLast contributors too (the water coupling's force, the contact's), when
+  /// set (periodic faces: a pair shares every force its members get).
+  bool runsAfterAll() const override { return afterAll_; }
+  void setRunsAfterAll(bool on) { afterAll_ = on; }
   void checkpoint(StateArchive& a) override { a.io(force_); }
   /// Subcycling: the members of a group share its finest level (the common acceleration needs
   /// every member's complete force at the same steps).
@@ -71,6 +75,7 @@ private:
   std::string name_;
   std::vector<Index> start_, node_;  // CSR
   std::vector<Real> force_;          // [3 members]
+  bool afterAll_ = false;
 };
 
 }  // namespace tq
