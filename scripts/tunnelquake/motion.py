@@ -549,7 +549,9 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     else:
         v = gm["vertical_ratio"] * h1
         steps.append(f"vertical = {gm['vertical_ratio']:.4g} x horizontal")
-    if s != 0.0 or "second_horizontal" in on_clock:
+    if (c, s) == (1.0, 0.0) and "second_horizontal" in on_clock:
+        steps.append("horizontal record along x (across the tunnel), the second horizontal along y (the axis)")
+    elif s != 0.0 or "second_horizontal" in on_clock:
         steps.append(f"horizontal record at azimuth {gm['azimuth']:g} deg from x towards y, the second at 90 deg "
                      f"to it: x = {c:.4g} h1 - {s:.4g} h2, y = {s:.4g} h1 + {c:.4g} h2")
     ax, ay = c * h1 - s * h2, s * h1 + c * h2

@@ -292,6 +292,10 @@ void ResultsWriter::sample(const Solver& s) {
     for (int k = 0; k < 4; ++k)
       if (o.prev[k].empty()) o.prev[k] = o.cur[k];
   }
+  auto ringTime = [&I](std::chrono::steady_clock::time_point from) {
+    if (I.ring) I.ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
+  };
+  ringTime(t0);
   // 2. Write the rows of the requested times this state completes, each interpolated between the
   //    previous observed state and this one.
   I.clock.observe(t);
@@ -302,6 +306,7 @@ void ResultsWriter::sample(const Solver& s) {
     I.energy.write(tk, w);
     for (auto& sr : I.series) sr.first.write(tk, w);
     nlout::write(tk, w, I.nl);
+    const auto t1 = std::chrono::steady_clock::now();
     for (size_t r = 0; I.ring && r < I.ringOut.size(); ++r) {
       auto& o = I.ringOut[r];
       o.pendingTime.push_back(tk);
@@ -316,10 +321,10 @@ void ResultsWriter::sample(const Solver& s) {
         }
       }
     }
+    ringTime(t1);
     I.lastSample = tk;
     ++I.samples;
   }
-  if (I.ring) I.ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 Real ResultsWriter::nextSampleTime() const { return impl_->clock.next(); }
