@@ -254,7 +254,9 @@ void ResultsWriter::reserve(unsigned long long bytes) {
 void ResultsWriter::sample(const Solver& s) {
   auto& I = *impl_;
   const Real t = s.time();
-  // 1. Observe this state: every history's row at t, kept beside the previous state's.
+  // 1. Observe this state: every history's row at t, kept beside the previous state's (the first
+  //    observation with the contact writes its header: room for it first).
+  reserve(0);
   for (auto& mon : I.monitors) {
     Real u[3], v[3], a[3], st[6], p[3];
     for (int d = 0; d < 3; ++d) {
