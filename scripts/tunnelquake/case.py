@@ -136,10 +136,11 @@ def _check_ground_motion(gm, path, raw, ctx):
         ctx.error(f"{path}.file", None, "is required when source is 'file'",
                   "add 'file: <path to the record>' or use source: synthetic", raw.line)
     lines = raw.key_lines
-    sub = gm["vertical"]
-    if {k for k, v in sub.items() if v not in (None, "auto")} and sub["file"] is None:
-        ctx.error(f"{path}.vertical.file", None, "is required when vertical is given",
-                  "add 'file: <path to the record>' under vertical, or remove vertical", lines.get("vertical", raw.line))
+    for key in ("second_horizontal", "vertical"):
+        sub = gm[key]
+        if {k for k, v in sub.items() if v not in (None, "auto")} and sub["file"] is None:
+            ctx.error(f"{path}.{key}.file", None, f"is required when {key} is given",
+                      f"add 'file: <path to the record>' under {key}, or remove {key}", lines.get(key, raw.line))
     if gm["vertical"]["file"] is not None and "vertical_ratio" in lines:
         ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"], "is given together with a vertical record",
                   "keep one: the vertical record (vertical.file) or the ratio", lines.get("vertical_ratio"))
@@ -147,10 +148,19 @@ def _check_ground_motion(gm, path, raw, ctx):
         if gm["file"] is not None:
             ctx.error(f"{path}.file", gm["file"], "a horizontal record is given but source is 'none'",
                       "use source: file, or remove it", lines.get("file", raw.line))
-        if gm["vertical"]["file"] is None:
+        if gm["vertical"]["file"] is None and gm["second_horizontal"]["file"] is None:
             ctx.error(f"{path}.vertical", None, "source 'none' leaves no motion at all",
                       "give the vertical record (vertical: {file: ..., units: ...}), or a horizontal source",
                       lines.get("source", raw.line))
+        if "azimuth" in lines and gm["second_horizontal"]["file"] is None:
+            ctx.error(f"{path}.azimuth", gm["azimuth"], "turns the horizontal records, and source 'none' with no "
+                      "second_horizontal leaves none", "remove azimuth, or give a horizontal record",
+                      lines.get("azimuth"))
+        if "vertical_ratio" in lines:
+            ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"],
+                      "scales the horizontal record, and source 'none' has none",
+                      "give the vertical motion as a record (vertical.file), or remove vertical_ratio",
+                      lines.get("vertical_ratio"))
         if gm["pga"] is not None:
             ctx.error(f"{path}.pga", gm["pga"], "scales the horizontal record, and source 'none' has none",
                       "give the vertical record's own peak as vertical.pga", lines.get("pga"))
@@ -362,7 +372,13 @@ def schema() -> Section:
             "if_missing": Choice(choices=("error", "synthetic"), default="error",
                                  doc="what to do when the record file is absent"),
             "duration": _positive(U.TIME, "window kept from the start of the record, s"),
-            "pga": _positive(U.ACCELERATION, "peak ground acceleration of x after processing, m/s^2"),
+            "pga": _positive(U.ACCELERATION, "peak ground acceleration of the horizontal record after processing, "
+                                             "m/s^2"),
+            "azimuth": Number(min=-360.0, max=360.0, default=0.0,
+                              doc="direction of the horizontal record, degrees from x (across the tunnel) towards y "
+                                  "(along its axis): x = cos(azimuth) h, y = sin(azimuth) h; 0: across the tunnel"),
+            "second_horizontal": _component_section("a second horizontal record, at azimuth + 90 deg (with azimuth 0: "
+                                                    "along the tunnel's axis, y)"),
             "vertical_ratio": Number(min=0.0, default=2.0 / 3.0,
                                      doc="vertical = ratio x the horizontal record (paper: 2/3), unless vertical "
                                          "gives a record of its own"),
@@ -627,11 +643,32 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += paper.case_issues(d, raw.key_lines.get("reference"))
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
+    issues += _axial_motion_checks(d, raw)
     if d["suite"]["records"] is not None:
         from .suite import suite_checks
 
         issues += suite_checks(d, raw, filename, warnings)
     return issues, warnings
+
+
+def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """A motion along the tunnel's axis (y) shears the ground antiplane; tq-solid runs it in a
+    slice, whose y faces it ties periodic. A 3D model keeps its y faces on rollers (u_y = 0), which
+    would hold that motion back: refused there, naming the key that gives it."""
+    from .motion import along_axis
+
+    gm = d["ground_motion"]
+    if d["mesh"]["mode"] == "slice" or not along_axis(gm):
+        return []
+    lines = _section_lines(raw, "ground_motion")
+    key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
+    value = gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"]
+    return [Issue(f"ground_motion.{key}", value,
+                  "gives a motion along the tunnel's axis (y), which a 3D model cannot take: its y faces are on "
+                  "rollers (u_y = 0)",
+                  "use mesh.mode: slice (its y faces are tied periodic, so the ground shears along the axis), or a "
+                  "motion across the tunnel and vertical only (azimuth 0 or 180, no second_horizontal)",
+                  lines.get(key))]
 
 
 #: warn when a setting makes the run this many times slower than the alternative named
@@ -827,9 +864,10 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
     key_lines = section.key_lines if section is not None else {}
     issues: list[Issue] = []
     components = [("ground_motion", gm, key_lines.get("file"))] if gm["source"] == "file" else []
-    if gm["vertical"]["file"] is not None:
-        sub_lines = getattr(section.get("vertical") if section is not None else None, "key_lines", {})
-        components.append(("ground_motion.vertical", gm["vertical"], sub_lines.get("file", key_lines.get("vertical"))))
+    for key in ("second_horizontal", "vertical"):
+        if gm[key]["file"] is not None:
+            sub_lines = getattr(section.get(key) if section is not None else None, "key_lines", {})
+            components.append((f"ground_motion.{key}", gm[key], sub_lines.get("file", key_lines.get(key))))
     lengths = []
     synthetic = gm["source"] == "synthetic"
     for where, spec, line in components:

@@ -21,7 +21,10 @@ Processing (in this order, as the paper: 20 s window, > 20 Hz removed, PGA 1.575
      of the least-squares polynomial a2 t² + a3 t³ fitted to the integrated displacement, so the
      corrected record ends with near-zero velocity and no drift (Boore 2005 style, initial
      conditions kept at rest);
-  4. scale x to the target PGA; z = vertical_ratio × x (paper: 2/3);
+  4. scale the horizontal record to the target PGA; z = vertical_ratio × it (paper: 2/3), or a
+     vertical record of its own; a second horizontal record at 90° to the first; the horizontal
+     record acts at the azimuth θ from x (across the tunnel) towards y (along its axis):
+     x = cos θ h1 − sin θ h2, y = sin θ h1 + cos θ h2;
   5. convention: an 'outcrop' record is twice the incident wave at the base of a half-space, so
      the incident (up-going) motion is half of it; 'incident' takes the record as the incident
      wave itself.
@@ -346,11 +349,16 @@ class ProcessedMotion:
     """The input motion as the solver takes it: incident (up-going) accelerations at the base."""
 
     dt: float
-    ax: np.ndarray  # m/s^2, horizontal (x, across the tunnel)
+    ax: np.ndarray  # m/s^2, horizontal across the tunnel (x)
     az: np.ndarray  # m/s^2, vertical
     record: Record
     steps: list[str] = field(default_factory=list)  # what was done, for the log and the report
     convention: str = "outcrop"
+    ay: np.ndarray | None = None  # m/s^2, horizontal along the tunnel's axis (y); None: zero
+
+    def __post_init__(self):
+        if self.ay is None:
+            self.ay = np.zeros_like(self.ax)
 
     @property
     def time(self) -> np.ndarray:
@@ -441,15 +449,39 @@ def _on_clock(acc: np.ndarray, dt: float, dt_to: float, n: int) -> np.ndarray:
     return np.interp(np.arange(n) * dt_to, np.arange(acc.size) * dt, acc, right=0.0)
 
 
+def azimuth_cos_sin(degrees: float) -> tuple[float, float]:
+    """cos and sin of an azimuth in degrees, exact at multiples of 90 degrees (so that 0 and 90
+    give a motion along one axis only, without a 1e-17 share on the other)."""
+    q, r = divmod(float(degrees), 90.0)
+    if r == 0.0:
+        return ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))[int(q) % 4]
+    t = math.radians(degrees)
+    return math.cos(t), math.sin(t)
+
+
+def along_axis(gm: dict) -> bool:
+    """Whether the case's motion has a component along the tunnel's axis (y): a second horizontal
+    record, or the horizontal record at an azimuth off the x axis."""
+    return gm["second_horizontal"]["file"] is not None or (gm["source"] != "none"
+                                                          and azimuth_cos_sin(gm["azimuth"])[1] != 0.0)
+
+
+#: The further records of a motion: (key, label).
+_OTHER_COMPONENTS = (("second_horizontal", "second horizontal"), ("vertical", "vertical"))
+
+
 def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     """Build the processed input motion from the case's validated `ground_motion` section.
 
-    The horizontal record (file or synthetic; none for a vertical-only motion) acts along x, across
-    the tunnel. The vertical is a record of its own (`vertical`) or vertical_ratio x the horizontal
-    one. `pga` scales the horizontal record, and the same factor scales a vertical record (the
-    recorded ratio kept) unless it gives a PGA of its own. A vertical record is put on the horizontal
-    record's clock. Returns the motion and notes for the user (e.g. that the synthetic fallback was
-    used)."""
+    Three components, each from a record of its own or a rule:
+      * the horizontal record h1 (file or synthetic; none for a motion without it) acts at the
+        azimuth theta, from x (across the tunnel) towards y (along its axis);
+      * a second horizontal record h2 (`second_horizontal`) at theta + 90 degrees;
+      * the vertical: a record of its own (`vertical`) or vertical_ratio x h1.
+    x = cos theta h1 - sin theta h2, y = sin theta h1 + cos theta h2. `pga` scales h1, and the same
+    factor scales a further record (the recorded ratio kept) unless it gives a PGA of its own.
+    Further records are put on the clock of h1 (or of the first one given). Returns the motion and
+    notes for the user (e.g. that the synthetic fallback was used)."""
     notes: list[str] = []
     opts = {"duration": gm["duration"], "cutoff": gm["cutoff_frequency"], "baseline": gm["baseline_correction"]}
     record = None
@@ -467,36 +499,66 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
         record = SyntheticModel(seed=syn["seed"], duration=syn["duration"], dt=syn["dt"],
                                 ground_frequency=syn["ground_frequency"],
                                 ground_damping=syn["ground_damping"]).generate()
-    vspec = gm["vertical"]
-    if vspec["file"] is None:  # one record along x, the vertical a ratio of it
-        return process(record, pga=gm["pga"], vertical_ratio=gm["vertical_ratio"], convention=gm["convention"],
-                       **opts), notes
-    vrec = read_record(resolve_path(vspec["file"], case_dir), vspec["format"], vspec["units"])
+    c, s = azimuth_cos_sin(gm["azimuth"])
+    if all(gm[key]["file"] is None for key, _ in _OTHER_COMPONENTS):  # one record, the vertical a ratio of it
+        m = process(record, pga=gm["pga"], vertical_ratio=gm["vertical_ratio"], convention=gm["convention"], **opts)
+        if s != 0.0:
+            h = m.ax
+            m.ax, m.ay = c * h, s * h
+            m.steps.insert(-1, f"horizontal record at azimuth {gm['azimuth']:g} deg from x towards y: "
+                               f"x = {c:.4g} h, y = {s:.4g} h")
+        return m, notes
     steps: list[str] = []
     factor = 1.0
+    h1 = None
     if record is not None:
-        h, st = condition(record, label="horizontal", **opts)
+        h1, st = condition(record, label="horizontal", **opts)
         steps += st
         if gm["pga"] is not None:
-            factor = _peak_factor(h, gm["pga"], record.source)
-            h = h * factor
+            factor = _peak_factor(h1, gm["pga"], record.source)
+            h1 = h1 * factor
             steps.append(f"horizontal: scaled by {factor:.5f} to PGA {gm['pga']:g} m/s^2")
-    v, st = condition(vrec, label="vertical", **opts)
-    steps += st
-    k = _peak_factor(v, vspec["pga"], vrec.source) if vspec["pga"] is not None else factor
-    v = v * k
-    steps.append(f"vertical: scaled by {k:.5f}" + (f" to PGA {vspec['pga']:g} m/s^2" if vspec["pga"] is not None
-                                                  else " (the horizontal record's factor)"))
-    lead = record if record is not None else vrec
-    if record is None:
-        h = np.zeros(v.size)
-        steps.append("no horizontal motion (a vertical-only motion)")
-    elif vrec.dt != record.dt:
-        steps.append(f"vertical: resampled from dt {vrec.dt:g} s to {record.dt:g} s (linear)")
-    v = _on_clock(v, vrec.dt, lead.dt, h.size)
+    others: dict[str, tuple[Record, np.ndarray]] = {}
+    for key, label in _OTHER_COMPONENTS:
+        spec = gm[key]
+        if spec["file"] is None:
+            continue
+        rec = read_record(resolve_path(spec["file"], case_dir), spec["format"], spec["units"])
+        acc, st = condition(rec, label=label, **opts)
+        steps += st
+        k = _peak_factor(acc, spec["pga"], rec.source) if spec["pga"] is not None else factor
+        steps.append(f"{label}: scaled by {k:.5f}" + (f" to PGA {spec['pga']:g} m/s^2" if spec["pga"] is not None
+                                                      else " (the horizontal record's factor)"))
+        others[key] = (rec, acc * k)
+    lead = record if record is not None else next(iter(others.values()))[0]
+    n = h1.size if h1 is not None else next(iter(others.values()))[1].size
+    if h1 is None:
+        h1 = np.zeros(n)
+        steps.append("no horizontal record (source: none)")
+    on_clock = {}
+    for key, label in _OTHER_COMPONENTS:
+        if key not in others:
+            continue
+        rec, acc = others[key]
+        if rec.dt != lead.dt:
+            steps.append(f"{label}: resampled from dt {rec.dt:g} s to {lead.dt:g} s (linear)")
+        on_clock[key] = _on_clock(acc, rec.dt, lead.dt, n)
+    h2 = on_clock.get("second_horizontal", np.zeros(n))
+    if "vertical" in on_clock:
+        v = on_clock["vertical"]
+    else:
+        v = gm["vertical_ratio"] * h1
+        steps.append(f"vertical = {gm['vertical_ratio']:.4g} x horizontal")
+    if (c, s) == (1.0, 0.0) and "second_horizontal" in on_clock:
+        steps.append("horizontal record along x (across the tunnel), the second horizontal along y (the axis)")
+    elif s != 0.0 or "second_horizontal" in on_clock:
+        steps.append(f"horizontal record at azimuth {gm['azimuth']:g} deg from x towards y, the second at 90 deg "
+                     f"to it: x = {c:.4g} h1 - {s:.4g} h2, y = {s:.4g} h1 + {c:.4g} h2")
+    ax, ay = c * h1 - s * h2, s * h1 + c * h2
     steps.append(_convention_step(gm["convention"]))
-    return ProcessedMotion(dt=lead.dt, ax=_incident(h, gm["convention"]), az=_incident(v, gm["convention"]),
-                           record=lead, steps=steps, convention=gm["convention"]), notes
+    conv = gm["convention"]
+    return ProcessedMotion(dt=lead.dt, ax=_incident(ax, conv), az=_incident(v, conv), record=lead, steps=steps,
+                           convention=conv, ay=_incident(ay, conv)), notes
 
 
 def resolve_path(p: str, case_dir: Path) -> Path:

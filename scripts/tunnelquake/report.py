@@ -104,7 +104,8 @@ def motion_section(motion: dict | None, figure: str | None) -> list[str]:
     lines.append(f"- {motion['points']} points at dt = {motion['dt']:g} s")
     where = "at the outcrop (the incident wave is half of it)" if motion["convention"] == "outcrop" else \
         "of the incident wave"
-    for c, name in (("x", "PGA (x, horizontal)"), ("y", "peak (y, horizontal)"), ("z", "peak (z, vertical)")):
+    for c, name in (("x", "PGA (x, horizontal)"), ("y", "peak (y, horizontal along the axis)"),
+                    ("z", "peak (z, vertical)")):
         v = motion.get(f"peak_{c}")
         if v is not None and (c == "x" or v > 0):
             lines.append(f"- {name} {where}: {v:.4g} m/s² = {v / G:.4g} g")

@@ -21,7 +21,10 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
   direction fixed); at the seismic stage the base becomes the viscoelastic boundary and xmin/xmax
   the free-field boundaries, each support replaced by its reaction. The ymin/ymax faces stay on
   rollers (u_y = 0): for a vertically incident x/z wave along a long tunnel the y-faces are
-  symmetry planes, and their layers are not horizontal where the tunnel crosses them;
+  symmetry planes, and their layers are not horizontal where the tunnel crosses them. A motion
+  with a component along the axis (y, an SH wave shearing the ground antiplane) needs u_y free:
+  in a slice the ymin/ymax faces are then tied periodic (/boundaries/periodic: u equal on both,
+  all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model refuses it;
 * the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
 * materials: the elastic constants plus the case's ``model`` and the Mohr-Coulomb damage
   parameters as attributes (tq-solid builds the Mohr-Coulomb damage material from them when
@@ -81,6 +84,7 @@ def _motion(motion_h5: Path) -> dict:
             "time": np.asarray(f["time"][...], float),
             "ax": np.asarray(f["incident_ax"][...], float),
             "az": np.asarray(f["incident_az"][...], float),
+            "ay": np.asarray(f["incident_ay"][...], float) if "incident_ay" in f else None,
             "convention": conv.decode() if isinstance(conv, bytes) else str(conv),
         }
 
@@ -197,9 +201,17 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             b.attrs["type"] = "viscoelastic"
             b.attrs["distance"] = float(geo["tunnel_centre_z"] - geo["z_range"][0])
             f.create_group("boundaries/free_field").attrs["faces"] = "xmin,xmax"
+            axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
+            if axial:
+                if not mesh["slice"]:
+                    raise SolidInputError("the motion has a component along the tunnel's axis (y), which a 3D "
+                                          "model's y faces (rollers) would hold back; use mesh.mode: slice")
+                f.create_group("boundaries/periodic").attrs["faces"] = "ymin,ymax"
             mo = f.create_group("motion")
             mo["time"] = motion["time"]
             mo["ax"] = motion["ax"]
+            if axial:
+                mo["ay"] = motion["ay"]
             mo["az"] = motion["az"]
             mo.attrs["cutoff_frequency"] = float(d["ground_motion"]["cutoff_frequency"])
             if motion["convention"]:

@@ -241,6 +241,13 @@ def suite_checks(d: dict, raw, filename: str, warnings: list[str]) -> list:
         issues.append(Issue(key, value, problem, fixes[key.rsplit(".", 1)[1]], line(key)))
     s = d["suite"]
     gm = d["ground_motion"]
+    for key in ("second_horizontal", "vertical"):
+        if gm[key]["file"] is not None:
+            issues.append(Issue(f"ground_motion.{key}.file", gm[key]["file"],
+                                "a record suite runs one horizontal record per member; this record would be paired "
+                                "with every member alike",
+                                "remove it (the vertical follows each member as ground_motion.vertical_ratio x it)",
+                                getattr(raw.get("ground_motion"), "key_lines", {}).get(key)))
     for m in members:
         try:
             rec = read_member(m)

@@ -338,14 +338,15 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   // Restart checkpoints (tq/restart.hpp): every checkpoint_interval s of simulated time, at the end
   // of a step (coupled: of an accepted window), the whole state below; --resume restores the last.
   size_t nextSnap = 0;
-  Real nextSample = in.monitorDt;
+  Real tFinal = s.time(), gap = 0;  // the last final state's time, and the span to it from the one before
   Real nextCheckpoint = in.checkpointInterval;
   long long checkpointSeq = 0, checkpointsWritten = 0;
   double checkpointSeconds = 0;
   auto runState = [&](StateArchive& a) {
     s.checkpoint(a);
     results.checkpoint(a);
-    a.io(nextSample);
+    a.io(tFinal);
+    a.io(gap);
     a.io(nextSnap);
     a.io(nextCheckpoint);
     a.io(checkpointSeq);
@@ -385,12 +386,12 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         if (!note.empty()) out << "tq-solid: " << note << std::endl;
       }
       const Real t = s.time();
-      if (t >= nextSample - 1e-9 * s.dt()) {
-        results.sample(s);
-        // past every sample time this step (or window) covered: a window longer than monitor_dt
-        // samples once per window end instead of falling further behind
-        while (t >= nextSample - 1e-9 * s.dt()) nextSample += in.monitorDt;
-      }
+      gap = t - tFinal;
+      tFinal = t;
+      // The histories are written at k x monitor_dt, interpolated between the final states on
+      // either side: observe this state when a requested time falls before the next final state
+      // (expected one step, or window, on).
+      if (t + gap >= results.nextSampleTime() - 1e-9 * gap) results.sample(s);
       while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
         results.snapshot(s);
         ++nextSnap;

@@ -1,7 +1,12 @@
 // Tied node groups (tq/constraints.hpp).
 #include "tq/constraints.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <sstream>
+#include <tuple>
+
+#include "tq/boundaries.hpp"
 
 namespace tq {
 
@@ -20,6 +25,73 @@ std::vector<std::vector<Index>> TiedNodeGroups::pairs(const std::vector<Index>& 
   std::vector<std::vector<Index>> g;
   for (size_t i = 0; i + 1 < flat.size(); i += 2) g.push_back({flat[i], flat[i + 1]});
   return g;
+}
+
+std::vector<std::vector<Index>> TiedNodeGroups::periodicPairs(const Mesh& mesh, const std::string& from,
+                                                              const std::string& to) {
+  const AxisFace a = axisFace(mesh, from), b = axisFace(mesh, to);
+  const std::string what = "periodic faces '" + from + "' and '" + to + "'";
+  if (a.axis != b.axis || a.sign == b.sign)
+    throw InputError(what + " are not opposite faces of the block (their outward normals must be -e and +e of one "
+                     "axis, e.g. ymin and ymax)");
+  if (a.nodes.size() != b.nodes.size())
+    throw InputError(what + " have " + std::to_string(a.nodes.size()) + " and " + std::to_string(b.nodes.size()) +
+                     " nodes: a periodic model needs the same node layout on both (an extruded mesh)");
+  const int i = (a.axis + 1) % 3, j = (a.axis + 2) % 3;
+  auto at = [&](Index n, int d) { return mesh.coords[3 * size_t(n) + d]; };
+  Real ext = 0;
+  for (int d = 0; d < 3; ++d) {
+    Real lo = 1e300, hi = -1e300;
+    for (Index n : a.nodes) lo = std::min(lo, at(n, d)), hi = std::max(hi, at(n, d));
+    ext = std::max(ext, hi - lo);
+  }
+  const Real tol = 1e-6 * std::max(ext, Real(1e-12));
+  std::vector<std::tuple<Real, Real, Index>> other;
+  for (Index n : b.nodes) other.emplace_back(at(n, i), at(n, j), n);
+  std::sort(other.begin(), other.end());
+  std::vector<std::vector<Index>> g;
+  std::vector<char> used(other.size(), 0);
+  for (Index n : a.nodes) {
+    const Real ci = at(n, i), cj = at(n, j);
+    auto k = size_t(std::lower_bound(other.begin(), other.end(), std::make_tuple(ci - tol, -1e300, Index(-1))) -
+                    other.begin());
+    Index partner = -1;
+    for (; k < other.size() && std::get<0>(other[k]) <= ci + tol; ++k)
+      if (!used[k] && std::abs(std::get<1>(other[k]) - cj) <= tol) {
+        partner = std::get<2>(other[k]);
+        used[k] = 1;
+        break;
+      }
+    if (partner < 0) {
+      std::ostringstream os;
+      os << what << ": node " << n << " of '" << from << "' at " << "xyz"[i] << " = " << ci << ", " << "xyz"[j]
+         << " = " << cj << " m has no node of '" << to << "' opposite it; a periodic model needs the same node "
+         << "layout on both faces (an extruded mesh)";
+      throw InputError(os.str());
+    }
+    g.push_back({n, partner});
+  }
+  return g;
+}
+
+void TiedNodeGroups::checkUniformMembers(const NodalState& s) const {
+  for (Index g = 0; g < numGroups(); ++g) {
+    const Index n0 = *begin(g);
+    for (const Index* n = begin(g) + 1; n != end(g); ++n) {
+      bool same = std::abs(s.mass(*n) - s.mass(n0)) <= 1e-9 * std::max(s.mass(*n), s.mass(n0));
+      for (int d = 0; d < 3 && same; ++d)
+        same = std::abs(s.dashpot(*n, d) - s.dashpot(n0, d)) <= 1e-9 * std::max(std::abs(s.dashpot(*n, d)),
+                                                                                std::abs(s.dashpot(n0, d))) +
+                                                                   1e-300;
+      if (!same) {
+        std::ostringstream os;
+        os << name_ << ": node " << *n << " and node " << n0 << " are tied but carry different masses ("
+           << s.mass(*n) << ", " << s.mass(n0) << " kg) or boundary dashpots; the tie needs mirror-equal members "
+           << "(an extruded mesh with the same boundaries on both faces)";
+        throw InputError(os.str());
+      }
+    }
+  }
 }
 
 void TiedNodeGroups::install(Solver& solver) {

@@ -117,6 +117,7 @@ struct FluidCoupling::Impl {
   // volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes
   // (docs/coupler.md "Open ends"): p_j = −κ_j (s_j + W_j), or s_j + W_j = 0.
   bool volumeLaw = false, incompressible = false;
+  bool planar = false;  // a slice: the water is sent the wall's in-plane motion only (write())
   Real volume = 0;                     // m³: all the enclosed water
   std::vector<Real> g;                 // [3n] m²
   std::vector<Real> respU, respV;      // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
@@ -628,13 +629,18 @@ struct FluidCoupling::Impl {
 
   void write() {
     for (const auto& name : in.writeFields) {
-      if (!volumeLaw) {
+      if (!volumeLaw && !planar) {
         p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
         continue;
       }
-      // The water sees the wall's motion less the carried modes (volume change, translation).
       sent = name == "velocity" ? vel : disp;
-      projectMotion(sent);
+      // A slice's water is planar: the wall's motion along the axis (a ground motion along y) would
+      // only shift its one-cell mesh along y, which the water's point forces do not follow alike on
+      // its two faces; it is sent the in-plane motion.
+      if (planar)
+        for (size_t k = 0; k < nodes.size(); ++k) sent[3 * k + 1] = 0;
+      // The water sees the wall's motion less the carried modes (volume change, translation).
+      if (volumeLaw) projectMotion(sent);
       p->writeData(in.mesh, name, sent);
     }
   }
@@ -673,6 +679,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) I.u0[3 * k + d] = solver.state().u(I.nodes[k], d);
   I.total.assign(n3, 0.0);
+  I.planar = mesh.slice;
   I.volumeLaw = in.volumeLaw != "none";
   I.incompressible = in.volumeLaw == "incompressible";
   I.openEnds = in.waterEnds == "open";

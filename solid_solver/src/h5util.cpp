@@ -381,6 +381,37 @@ void RowAppender::appendFrom(hid_t src) {
   append(rows.data(), dims[0]);
 }
 
+void OutputClock::observe(double t) {
+  due_.clear();
+  const double tol = 1e-9 * dt_;
+  for (double tk = next(); tk <= t + tol; tk = next()) {
+    double w = 1;
+    if (observed_ && t > tObs_) w = std::min(1.0, std::max(0.0, (tk - tObs_) / (t - tObs_)));
+    due_.emplace_back(tk, w);
+    ++k_;
+    if (!(dt_ > 0)) break;  // no clock: one row per observation, at its own time
+  }
+  if (!(dt_ > 0)) due_.assign(1, {t, 1.0});
+  tObs_ = t;
+  observed_ = true;
+}
+
+void ClockedRows::observe(const double* row) {
+  prev_.swap(cur_);
+  cur_.assign(row, row + cols_);
+  if (prev_.empty()) prev_ = cur_;  // the first state: nothing before it to interpolate from
+}
+
+void ClockedRows::write(double t, double w) {
+  out_.resize(cols_);
+  for (hsize_t c = 0; c < cols_; ++c) {
+    const bool near = c < nearest_.size() && nearest_[c];
+    out_[c] = near ? (w < 0.5 ? prev_[c] : cur_[c]) : prev_[c] + w * (cur_[c] - prev_[c]);  // exact where equal
+  }
+  if (timeCol_ >= 0) out_[size_t(timeCol_)] = t;
+  rows_.append(out_.data());
+}
+
 std::string bytesText(unsigned long long b) {
   char buf[32];
   if (b >= 1000000ULL) std::snprintf(buf, sizeof buf, "%.1f MB", double(b) / 1e6);

@@ -7,6 +7,7 @@
 #include <hdf5.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tq/types.hpp"
@@ -108,6 +109,65 @@ private:
   Handle ds_;
   hsize_t cols_ = 0, rows_ = 0, chunkRows_ = 256, valueBytes_ = sizeof(double);
   SpaceLedger* ledger_ = nullptr;
+};
+
+/// The even clock of the histories: rows are written at the times k·interval (k = 0, 1, ...),
+/// not at the solver's steps. Each solver state that is sampled is observed (observe(t)); the
+/// requested times in (t_previous, t] are then due, each written as the linear interpolation
+/// between the previous observed state (weight 1 − w) and this one (weight w). An interval of 0
+/// (in-memory inputs only; the file's monitor_dt must be > 0) writes one row per observed state,
+/// at its own time.
+class OutputClock {
+public:
+  explicit OutputClock(double interval = 0) : dt_(interval) {}
+  /// A state at time t is observed: sets due().
+  void observe(double t);
+  /// (t_k, w) of the rows this observation completes, in order.
+  const std::vector<std::pair<double, double>>& due() const { return due_; }
+  /// The next requested time not written yet.
+  double next() const { return double(k_) * dt_; }
+  /// The clock's state (restart checkpoints: tq/state_archive.hpp); `Archive` has io(x).
+  template <class Archive>
+  void checkpoint(Archive& a) {
+    a.io(k_);
+    a.io(tObs_);
+    a.io(observed_);
+  }
+
+private:
+  double dt_;
+  long long k_ = 0;
+  double tObs_ = 0;
+  bool observed_ = false;
+  std::vector<std::pair<double, double>> due_;
+};
+
+/// A RowAppender whose rows are written on an OutputClock: observe() keeps a state's row, write()
+/// appends the row at a due time, interpolated between the previous kept row and the last. The
+/// column `timeCol` (if ≥ 0) is written as t_k exactly; the columns flagged in `nearest` (counts)
+/// take the value of the nearer of the two states instead.
+class ClockedRows {
+public:
+  ClockedRows() = default;
+  ClockedRows(RowAppender rows, hsize_t cols, int timeCol, std::vector<char> nearest = {})
+      : rows_(std::move(rows)), cols_(cols), timeCol_(timeCol), nearest_(std::move(nearest)) {}
+  void observe(const double* row);
+  void write(double t, double w);
+  hsize_t rows() const { return rows_.rows(); }
+  RowAppender& appender() { return rows_; }
+  /// The two kept states the next rows are interpolated between (restart checkpoints).
+  template <class Archive>
+  void checkpoint(Archive& a) {
+    a.io(prev_);
+    a.io(cur_);
+  }
+
+private:
+  RowAppender rows_;
+  hsize_t cols_ = 0;
+  int timeCol_ = -1;
+  std::vector<char> nearest_;
+  std::vector<double> prev_, cur_, out_;
 };
 
 /// Keeps the file space of the next writes allocated on disk before HDF5 makes them, so that a

@@ -205,7 +205,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
   // /boundaries
   if (h5::exists(f, "/boundaries")) {
     auto g = h5::openGroup(f, "/boundaries");
-    onlyMembers(c, g, "/boundaries", {"bottom", "free_field"});
+    onlyMembers(c, g, "/boundaries", {"bottom", "free_field", "periodic"});
     onlyKeys(c, g, "/boundaries", {});
     if (h5::exists(g, "bottom")) {
       auto gg = h5::openGroup(g, "bottom");
@@ -239,6 +239,18 @@ void readStagedInput(hid_t f, SolidInput& in) {
       if (!h5::hasAttr(gg, "faces")) c.fail(w, "attribute 'faces' is required (e.g. \"xmin,xmax\")");
       S.freeField.faces = names(c, gg, w, "faces");
       for (const auto& face : S.freeField.faces) in.requiredFaces.push_back(face);
+    }
+    if (h5::exists(g, "periodic")) {
+      auto gg = h5::openGroup(g, "periodic");
+      const std::string w = "/boundaries/periodic";
+      onlyKeys(c, gg, w, {"faces"});
+      onlyMembers(c, gg, w, {});
+      S.periodic.present = true;
+      if (!h5::hasAttr(gg, "faces")) c.fail(w, "attribute 'faces' is required (two opposite faces, e.g. \"ymin,ymax\")");
+      S.periodic.faces = names(c, gg, w, "faces");
+      if (S.periodic.faces.size() != 2 || S.periodic.faces[0] == S.periodic.faces[1])
+        c.fail(w, "faces must name two different face groups (e.g. \"ymin,ymax\")");
+      for (const auto& face : S.periodic.faces) in.requiredFaces.push_back(face);
     }
   }
   // /motion
@@ -428,6 +440,10 @@ void writeStagedInput(hid_t f, const SolidInput& in) {
   if (S.freeField.present) {
     auto g = h5::ensureGroup(f, "/boundaries/free_field");
     h5::writeStringListAttr(g, "faces", S.freeField.faces);
+  }
+  if (S.periodic.present) {
+    auto g = h5::ensureGroup(f, "/boundaries/periodic");
+    h5::writeStringListAttr(g, "faces", S.periodic.faces);
   }
   if (S.coupling.present) {
     auto g = h5::ensureGroup(f, "/coupling");

@@ -33,7 +33,7 @@ struct ResultsWriter::Impl {
   struct Monitor {
     std::string name;
     Index node = -1, block = -1, elem = -1;
-    h5::RowAppender time, u, v, a, stress, principal;
+    h5::ClockedRows time, u, v, a, stress, principal;
   };
   h5::Handle file;
   std::string path;
@@ -41,12 +41,13 @@ struct ResultsWriter::Impl {
   std::unique_ptr<h5::SpaceGuard> guard;
   Real lastSample = -1;
   long long samples = 0;
+  h5::OutputClock clock;  // the histories' times: k x monitor_dt (h5util.hpp)
   std::vector<Monitor> monitors;
-  h5::RowAppender energy;
+  h5::ClockedRows energy;
   int snapshots = 0;
   nlout::State nl;                                // damage and interface output
   std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
-  std::vector<std::pair<h5::RowAppender, std::function<Real()>>> series;  // addSeries
+  std::vector<std::pair<h5::ClockedRows, std::function<Real()>>> series;  // addSeries
   // Lining section forces (tq/ring_forces.hpp): per ring its histories and, per section and
   // quantity (N, M, V, diameter change), the envelope max, time of max, min, time of min.
   struct RingOut {
@@ -57,12 +58,22 @@ struct ResultsWriter::Impl {
     // Rows since the last flush (written at each flush: one HDF5 write per dataset instead of one
     // per sample, which was most of the ring forces' cost).
     std::vector<Real> pendingTime, pending[4];
+    std::vector<Real> prev[4], cur[4];  // the last two observed states' values (interpolated at the due times)
     size_t samples = 0;
   };
   std::unique_ptr<RingForces> ring;
   std::vector<RingOut> ringOut;
   double ringSeconds = 0;  // wall time spent on the ring forces (evaluation, envelopes, writes)
   void writeRingEnvelopes();
+  /// Every history written on the clock, in one order (restart checkpoints).
+  std::vector<h5::ClockedRows*> clockedRows() {
+    std::vector<h5::ClockedRows*> rows{&energy, &nl.interfaceHistory, &nl.dissipation};
+    for (auto& m : monitors)
+      for (auto* r : {&m.time, &m.u, &m.v, &m.a, &m.stress, &m.principal}) rows.push_back(r);
+    for (auto& [r, value] : series) rows.push_back(&r);
+    for (auto& d : nl.monitorDamage) rows.push_back(&d);
+    return rows;
+  }
 };
 
 namespace {
@@ -108,6 +119,7 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     : impl_(std::make_unique<Impl>()) {
   auto& I = *impl_;
   I.path = path;
+  I.clock = h5::OutputClock(in.monitorDt);
   I.file = h5::createFile(path);
   hid_t f = I.file;
   const Mesh& m = s.mesh();
@@ -155,12 +167,12 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
         if (d2 < best) { best = d2; mon.block = Index(b); mon.elem = e; }
       }
     const std::string g = "/monitors/" + mi.name;
-    mon.time = h5::RowAppender(f, g + "/time", 1, &I.ledger);
-    mon.u = h5::RowAppender(f, g + "/u", 3, &I.ledger);
-    mon.v = h5::RowAppender(f, g + "/v", 3, &I.ledger);
-    mon.a = h5::RowAppender(f, g + "/a", 3, &I.ledger);
-    mon.stress = h5::RowAppender(f, g + "/stress", 6, &I.ledger);
-    mon.principal = h5::RowAppender(f, g + "/principal", 3, &I.ledger);
+    mon.time = h5::ClockedRows(h5::RowAppender(f, g + "/time", 1, &I.ledger), 1, 0);
+    mon.u = h5::ClockedRows(h5::RowAppender(f, g + "/u", 3, &I.ledger), 3, -1);
+    mon.v = h5::ClockedRows(h5::RowAppender(f, g + "/v", 3, &I.ledger), 3, -1);
+    mon.a = h5::ClockedRows(h5::RowAppender(f, g + "/a", 3, &I.ledger), 3, -1);
+    mon.stress = h5::ClockedRows(h5::RowAppender(f, g + "/stress", 6, &I.ledger), 6, -1);
+    mon.principal = h5::ClockedRows(h5::RowAppender(f, g + "/principal", 3, &I.ledger), 3, -1);
     auto gg = h5::openGroup(f, g);
     h5::writeIntAttr(gg, "node", mon.node);
     h5::writeIntAttr(gg, "element", blocks[size_t(mon.block)]->meshElem(mon.elem));
@@ -219,7 +231,7 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
       I.ringOut.push_back(std::move(o));
     }
   }
-  I.energy = h5::RowAppender(f, "/energy/history", 7, &I.ledger);
+  I.energy = h5::ClockedRows(h5::RowAppender(f, "/energy/history", 7, &I.ledger), 7, 0);
   auto eg = h5::openGroup(f, "/energy");
   h5::writeStringListAttr(eg, "columns", {"time", "kinetic", "internal", "damping", "boundary", "external", "error"});
   nlout::addEnergy(f, I.nl);
@@ -251,7 +263,9 @@ void ResultsWriter::reserve(unsigned long long bytes) {
 void ResultsWriter::sample(const Solver& s) {
   auto& I = *impl_;
   const Real t = s.time();
-  reserve(I.ledger.nextRow);
+  // 1. Observe this state: every history's row at t, kept beside the previous state's (the first
+  //    observation with the contact writes its header: room for it first).
+  reserve(0);
   for (auto& mon : I.monitors) {
     Real u[3], v[3], a[3], st[6], p[3];
     for (int d = 0; d < 3; ++d) {
@@ -262,51 +276,74 @@ void ResultsWriter::sample(const Solver& s) {
     const auto& b = *s.blocks()[size_t(mon.block)];
     for (int c = 0; c < 6; ++c) st[c] = b.stress(mon.elem, c);
     principalStresses(st, p);
-    mon.time.append(&t);
-    mon.u.append(u);
-    mon.v.append(v);
-    mon.a.append(a);
-    mon.stress.append(st);
-    mon.principal.append(p);
+    mon.time.observe(&t);
+    mon.u.observe(u);
+    mon.v.observe(v);
+    mon.a.observe(a);
+    mon.stress.observe(st);
+    mon.principal.observe(p);
   }
   const EnergyBalance& e = s.energy();
   const Real row[7] = {t, e.kinetic, e.internal, e.damping, e.boundary, e.external, e.error};
-  I.energy.append(row);
+  I.energy.observe(row);
   for (auto& [rows, value] : I.series) {
     const Real r[2] = {t, value()};
-    rows.append(r);
+    rows.observe(r);
   }
-  nlout::sample(I.file, s, I.monElems, I.nl);
-  if (I.ring) {
-    const auto t0 = std::chrono::steady_clock::now();
-    std::vector<Real> q[4];
-    for (size_t r = 0; r < I.ringOut.size(); ++r) {
+  nlout::observe(I.file, s, I.monElems, I.nl);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (size_t r = 0; I.ring && r < I.ringOut.size(); ++r) {
+    auto& o = I.ringOut[r];
+    for (int k = 0; k < 4; ++k) {
+      o.prev[k].swap(o.cur[k]);
+      o.cur[k].assign(o.count[k], 0.0);
+    }
+    I.ring->sectionForces(r, o.cur[0].data(), o.cur[1].data(), o.cur[2].data());
+    I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, o.cur[3].data());
+    for (int k = 0; k < 4; ++k)
+      if (o.prev[k].empty()) o.prev[k] = o.cur[k];
+  }
+  auto ringTime = [&I](std::chrono::steady_clock::time_point from) {
+    if (I.ring) I.ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
+  };
+  ringTime(t0);
+  // 2. Write the rows of the requested times this state completes, each interpolated between the
+  //    previous observed state and this one.
+  I.clock.observe(t);
+  for (const auto& [tk, w] : I.clock.due()) {
+    reserve(I.ledger.nextRow);
+    for (auto& mon : I.monitors)
+      for (auto* rows : {&mon.time, &mon.u, &mon.v, &mon.a, &mon.stress, &mon.principal}) rows->write(tk, w);
+    I.energy.write(tk, w);
+    for (auto& sr : I.series) sr.first.write(tk, w);
+    nlout::write(tk, w, I.nl);
+    const auto t1 = std::chrono::steady_clock::now();
+    for (size_t r = 0; I.ring && r < I.ringOut.size(); ++r) {
       auto& o = I.ringOut[r];
-      for (int k = 0; k < 4; ++k) q[k].assign(o.count[k], 0.0);
-      I.ring->sectionForces(r, q[0].data(), q[1].data(), q[2].data());
-      I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, q[3].data());
-      o.pendingTime.push_back(t);
+      o.pendingTime.push_back(tk);
       ++o.samples;
       for (int k = 0; k < 4; ++k) {
-        if (o.count[k] == 0) continue;
-        o.pending[k].insert(o.pending[k].end(), q[k].begin(), q[k].end());
         Real* env = o.env[k].data();
         for (size_t j = 0; j < o.count[k]; ++j) {
-          if (q[k][j] > env[4 * j]) { env[4 * j] = q[k][j]; env[4 * j + 1] = t; }
-          if (q[k][j] < env[4 * j + 2]) { env[4 * j + 2] = q[k][j]; env[4 * j + 3] = t; }
+          const Real q = o.prev[k][j] + w * (o.cur[k][j] - o.prev[k][j]);
+          o.pending[k].push_back(q);
+          if (q > env[4 * j]) { env[4 * j] = q; env[4 * j + 1] = tk; }
+          if (q < env[4 * j + 2]) { env[4 * j + 2] = q; env[4 * j + 3] = tk; }
         }
       }
     }
-    I.ringSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ringTime(t1);
+    I.lastSample = tk;
+    ++I.samples;
   }
-  I.lastSample = t;
-  ++I.samples;
 }
+
+Real ResultsWriter::nextSampleTime() const { return impl_->clock.next(); }
 
 void ResultsWriter::addSeries(const std::string& path, std::function<Real()> value, const std::string& unit) {
   auto& I = *impl_;
   reserve(0);
-  I.series.emplace_back(h5::RowAppender(I.file, path, 2, &I.ledger), std::move(value));
+  I.series.emplace_back(h5::ClockedRows(h5::RowAppender(I.file, path, 2, &I.ledger), 2, 0), std::move(value));
   h5::Handle ds(H5Dopen2(I.file, path.c_str(), H5P_DEFAULT), H5Dclose);
   h5::writeStringListAttr(ds, "columns", {"time", unit});
   flush();
@@ -467,9 +504,16 @@ void ResultsWriter::checkpoint(StateArchive& a) {
   a.io(I.samples);
   a.io(I.lastSample);
   a.io(I.snapshots);
+  // the even clock: where it stands and the two states the next rows are interpolated between
+  I.clock.checkpoint(a);
+  for (auto* r : I.clockedRows()) r->checkpoint(a);
   for (auto& R : I.ringOut) {
     a.io(R.samples);
     for (auto& e : R.env) a.io(e);
+    for (int q = 0; q < 4; ++q) {
+      a.io(R.prev[q]);
+      a.io(R.cur[q]);
+    }
   }
 }
 
@@ -477,11 +521,8 @@ void ResultsWriter::resumeFrom(const std::string& copy, const Solver& solver) {
   auto& I = *impl_;
   const h5::Handle src = h5::openFile(copy);
   nlout::prepare(I.file, solver, I.nl);
-  std::vector<h5::RowAppender*> rows{&I.energy, &I.nl.interfaceHistory, &I.nl.dissipation};
-  for (auto& m : I.monitors)
-    for (auto* r : {&m.time, &m.u, &m.v, &m.a, &m.stress, &m.principal}) rows.push_back(r);
-  for (auto& [r, value] : I.series) rows.push_back(&r);
-  for (auto& d : I.nl.monitorDamage) rows.push_back(&d);
+  std::vector<h5::RowAppender*> rows;
+  for (auto* r : I.clockedRows()) rows.push_back(&r->appender());
   for (auto& R : I.ringOut) {
     rows.push_back(&R.time);
     for (auto& q : R.q) rows.push_back(&q);

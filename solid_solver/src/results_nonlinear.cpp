@@ -34,7 +34,9 @@ void writeInterfaceHeader(hid_t file, const DynamicContact& c, State& st) {
   h5::writeDoubleAttr(g, "cohesion", cp.cohesion);
   h5::writeStringAttr(g, "after_failure", afterFailureName(cp.afterFailure));
   h5::writeStringListAttr(g, "states", {"bonded", "separated", "slipping", "stuck", "inactive"});
-  st.interfaceHistory = h5::RowAppender(file, "/interface/history", 7, st.ledger);
+  // the pair counts are taken from the nearer state, the dissipated energy interpolated
+  st.interfaceHistory = h5::ClockedRows(h5::RowAppender(file, "/interface/history", 7, st.ledger), 7, 0,
+                                        {0, 1, 1, 1, 1, 1, 0});
   h5::writeStringListAttr(g, "history_columns",
                           {"time", "bonded", "separated", "slipping", "stuck", "inactive", "dissipated"});
 }
@@ -64,22 +66,22 @@ Real elementDamage(const Solver& s, Index block, Index elem) {
 }
 
 void addEnergy(hid_t file, State& st) {
-  st.dissipation = h5::RowAppender(file, "/energy/dissipation", 3, st.ledger);
+  st.dissipation = h5::ClockedRows(h5::RowAppender(file, "/energy/dissipation", 3, st.ledger), 3, 0);
   auto g = h5::openGroup(file, "/energy");
   h5::writeStringListAttr(g, "dissipation_columns", {"time", "plastic", "interface"});
 }
 
 void addMonitor(hid_t file, const std::string& g, State& st) {
-  st.monitorDamage.emplace_back(file, g + "/damage", 1, st.ledger);
+  st.monitorDamage.emplace_back(h5::RowAppender(file, g + "/damage", 1, st.ledger), 1, -1);
 }
 
-void sample(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st) {
+void observe(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st) {
   for (size_t m = 0; m < monitorElems.size() && m < st.monitorDamage.size(); ++m) {
     const Real D = elementDamage(s, monitorElems[m].first, monitorElems[m].second);
-    st.monitorDamage[m].append(&D);
+    st.monitorDamage[m].observe(&D);
   }
   const Real diss[3] = {s.time(), s.energy().plastic, s.energy().interface};
-  st.dissipation.append(diss);
+  st.dissipation.observe(diss);
   if (updateContact(file, s, st)) {
     const DynamicContact& c = *st.contact;
     const Real row[7] = {s.time(),
@@ -89,8 +91,14 @@ void sample(hid_t file, const Solver& s, const std::vector<std::pair<Index, Inde
                          Real(c.count(PairState::Stuck)),
                          Real(c.count(PairState::Inactive)),
                          c.dissipatedEnergy()};
-    st.interfaceHistory.append(row);
+    st.interfaceHistory.observe(row);
   }
+}
+
+void write(double t, double w, State& st) {
+  for (auto& m : st.monitorDamage) m.write(t, w);
+  st.dissipation.write(t, w);
+  if (st.contact) st.interfaceHistory.write(t, w);
 }
 
 void snapshot(hid_t file, const std::string& g, const Solver& s, State& st) {

@@ -14,10 +14,10 @@ namespace tq::nlout {
 
 /// What the writer keeps between calls.
 struct State {
-  std::vector<h5::RowAppender> monitorDamage;  ///< /monitors/<name>/damage [T, 1], one per monitor
+  std::vector<h5::ClockedRows> monitorDamage;  ///< /monitors/<name>/damage [T, 1], one per monitor
   const DynamicContact* contact = nullptr;     ///< found among the solver's contributors
-  h5::RowAppender interfaceHistory;            ///< /interface/history [T, 7]
-  h5::RowAppender dissipation;                 ///< /energy/dissipation [T, 3]
+  h5::ClockedRows interfaceHistory;            ///< /interface/history [T, 7]
+  h5::ClockedRows dissipation;                 ///< /energy/dissipation [T, 3]
   h5::SpaceLedger* ledger = nullptr;           ///< the results file's, for the appenders above
 };
 
@@ -38,8 +38,11 @@ void addEnergy(hid_t file, State& st);
 /// Create /monitors/<name>/damage for one monitor (call once per monitor, in order).
 void addMonitor(hid_t file, const std::string& monitorGroup, State& st);
 
-/// One row per monitor (damage of its element), of /energy/dissipation and of the interface history.
-void sample(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st);
+/// Observe the solver's state: one row per monitor (damage of its element), of /energy/dissipation
+/// and of the interface history, kept for write().
+void observe(hid_t file, const Solver& s, const std::vector<std::pair<Index, Index>>& monitorElems, State& st);
+/// Write the rows at a due time t_k of the output clock (weight w of the last observed state).
+void write(double t, double w, State& st);
 
 /// Field snapshot additions under `group`: damage [E], plastic_strain [E, 6], dissipation [E]
 /// when a block has a Mohr–Coulomb damage material; interface/{state, opening, slip,

@@ -481,7 +481,7 @@ void Solver::computeExternalForces() {
   const NodalForceContributor* folded[4] = {nullptr, nullptr, nullptr, nullptr};
   for (const auto& c : contributors_) {
     const std::vector<Real>* v = c->constantForces();
-    if (nc < 4 && v && v->size() == 3 * size_t(N) && !c->runsLast()) {
+    if (nc < 4 && v && v->size() == 3 * size_t(N) && !c->runsLast() && !c->runsAfterAll()) {
       folded[nc] = c.get();
       cf[nc++] = v->data();
     }
@@ -501,9 +501,12 @@ void Solver::computeExternalForces() {
     for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
   }
   for (auto& c : contributors_)
-    if (!c->runsLast() && std::find(folded, folded + nc, c.get()) == folded + nc) c->addForces(t_, dt_, state_);
+    if (!c->runsLast() && !c->runsAfterAll() && std::find(folded, folded + nc, c.get()) == folded + nc)
+      c->addForces(t_, dt_, state_);
   for (auto& c : contributors_)  // e.g. the dynamic contact force: predicts from all other forces
-    if (c->runsLast()) c->addForces(t_, dt_, state_);
+    if (c->runsLast() && !c->runsAfterAll()) c->addForces(t_, dt_, state_);
+  for (auto& c : contributors_)  // periodic ties: over the complete force, the last-running ones' included
+    if (c->runsAfterAll()) c->addForces(t_, dt_, state_);
 }
 
 void Solver::updateNodes() {

@@ -413,7 +413,17 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
   std::set<std::string> replaced;
   if (S.bottom.present) replaced.insert(S.bottom.face);
   for (const auto& f : S.freeField.faces) replaced.insert(f);
+  for (const auto& f : S.periodic.faces) replaced.insert(f);
   std::vector<char> keep(3 * size_t(N), 0), byReplaced(3 * size_t(N), 0);
+  // Periodic faces: their nodes' supports along the faces' normal give way to the tie (in a slice
+  // the plane-strain u_y = 0 of every node, all of which lie on the two faces).
+  std::vector<std::vector<Index>> periodicPairs;
+  if (S.periodic.present) {
+    periodicPairs = TiedNodeGroups::periodicPairs(mesh_, S.periodic.faces[0], S.periodic.faces[1]);
+    const int axis = axisFace(mesh_, S.periodic.faces[0]).axis;
+    for (const auto& p : periodicPairs)
+      for (Index n : p) byReplaced[3 * size_t(n) + size_t(axis)] = 1;
+  }
   for (const auto& [group, dirs] : in_.fixed) {
     const auto nodes = mesh_.faceNodes(group);
     for (char c : dirs) {
@@ -421,7 +431,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[3 * size_t(n) + d] = 1;
     }
   }
-  if (mesh_.slice)
+  if (mesh_.slice && !S.periodic.present)
     for (Index n = 0; n < N; ++n) keep[3 * size_t(n) + 1] = 1;  // plane strain stays
   std::vector<Real> held(3 * size_t(N), 0.0);
   Real react2 = 0, corr2 = 0;
@@ -502,6 +512,22 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers()
          << " layers)";
     }
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // 5. Periodic faces: tied after every other contributor, the last-running ones included (the
+  //    interface's tie or contact, the water coupling added later), so each pair shares every
+  //    force its members get and stays one to round-off.
+  if (S.periodic.present) {
+    auto tie = std::make_shared<TiedNodeGroups>("periodic faces " + S.periodic.faces[0] + "-" + S.periodic.faces[1],
+                                                periodicPairs);
+    tie->setRunsAfterAll(true);
+    tie->checkUniformMembers(st);
+    tie->install(solver_);
+    solver_.addContributor(tie);
+    std::ostringstream os;
+    os << "periodic faces " << S.periodic.faces[0] << ", " << S.periodic.faces[1] << ": " << tie->numGroups()
+       << " node pairs tied in x, y, z";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }

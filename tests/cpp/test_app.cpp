@@ -4,11 +4,18 @@
 //    Solids, §1.3): the top moves at p/(ρ c) until the reflection returns at t = 2H/c, so the peak
 //    top displacement is 2 p H / M (twice the static value). Tolerance 2 % (dispersion of the
 //    discrete wave front, 20 elements over H).
+//  - Histories on an even clock: with a monitor interval that is not a multiple of the solver's
+//    step, every history row is written at k·monitor_dt exactly (to round-off), and the free
+//    vibration of the column after the step load (a fixed-free bar: fundamental f1 = c / 4H,
+//    Graff §1.3) peaks in the discrete Fourier transform taken on that axis within one bin 1/T
+//    of f1 (rows taken at the first step at or after each k·monitor_dt stand up to one step,
+//    here 36 % of monitor_dt, off that axis).
 //  - The literal paper integrator (paper_eq3_4) must blow up; the run stops with the step and
 //    node, results.h5 keeps status "stopped: ..." and only finite rows.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <filesystem>
 #include <unistd.h>
@@ -82,6 +89,51 @@ TEST(App, ConfinedColumnStepLoadPeaksAtTwiceTheStaticDisplacement) {
   EXPECT_LT(e[7 * (d[0] - 1) + 6], 1e-2);  // energy balance closes (step load: work = p Δu)
   EXPECT_TRUE(h5::exists(r, "/snapshots/0/u"));
   EXPECT_TRUE(h5::exists(r, "/timings"));
+}
+
+TEST(App, HistoriesAreWrittenOnAnEvenClockAndKeepTheirFrequency) {
+  Files f;
+  SolidInput in = columnInput(f);
+  const auto mod = ElasticModuli::fromYoungPoisson(kE, kNu);
+  const Real c = std::sqrt(mod.pModulus() / kRho), f1 = c / (4 * kH);
+  in.tEnd = 20 / f1;  // 20 periods: bins of f1 / 20
+  in.monitorDt = 1.3e-3;
+  in.snapshotTimes = {};
+  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  std::ostringstream out, err;
+  ASSERT_EQ(runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err), 0) << err.str();
+  auto r = h5::openFile(f / "results.h5");
+  const Real dt = h5::readDoubleAttr(r, "dt");
+  const Real steps = in.monitorDt / dt;
+  ASSERT_GT(std::abs(steps - std::round(steps)), 0.1) << "the interval must not be a multiple of the step";
+  std::vector<hsize_t> d;
+  const auto t = h5::readDoubles(r, "/monitors/top/time", &d);
+  const size_t T = d[0];
+  const auto u = h5::readDoubles(r, "/monitors/top/u", &d);
+  const auto e = h5::readDoubles(r, "/energy/history", &d);
+  ASSERT_EQ(d[0], T);
+  Real worst = 0;
+  for (size_t k = 0; k < T; ++k) {
+    worst = std::max(worst, std::abs(t[k] - Real(k) * in.monitorDt));
+    EXPECT_EQ(e[7 * k], t[k]);
+  }
+  EXPECT_LT(worst, 1e-12 * in.tEnd);
+  EXPECT_GE(Real(T - 1) * in.monitorDt, in.tEnd - in.monitorDt - 1e-9);
+  // |DFT| of the top displacement (mean removed) on the bins j / (T monitor_dt)
+  Real mean = 0;
+  for (size_t k = 0; k < T; ++k) mean += u[3 * k + 2] / Real(T);
+  const Real span = Real(T) * in.monitorDt;
+  Real best = 0, fPeak = 0;
+  for (int j = 1; j < int(T / 2); ++j) {
+    const Real fj = j / span;
+    std::complex<Real> s = 0;
+    for (size_t k = 0; k < T; ++k) s += (u[3 * k + 2] - mean) * std::exp(std::complex<Real>(0, -2 * M_PI * fj * t[k]));
+    if (std::abs(s) > best) best = std::abs(s), fPeak = fj;
+  }
+  std::printf("even clock: %zu rows at %.4g s (solver step %.4g s, %.2f steps a row), worst |t_k - k dt_out| %.1e s; "
+              "spectral peak %.4f Hz against f1 = c/4H = %.4f Hz (bin %.4f Hz)\n",
+              T, in.monitorDt, dt, steps, worst, fPeak, f1, 1 / span);
+  EXPECT_LE(std::abs(fPeak - f1), 1 / span);
 }
 
 TEST(App, PaperLiteralIntegratorStopsWithLocationAndReadableResults) {

@@ -15,6 +15,11 @@
 //    Tolerance: 2 % from 0.5 to 15 Hz on a column of λ/27 elements at 15 Hz (the linear
 //    element's dispersion shifts the layers' phase k h by about k h (k Δz)²/24; it is the only
 //    error, and it falls as Δz², which the coarser column shows).
+//  - The same layers in a slice of the ground (one element thick along y, plane strain) with
+//    free-field x faces, the viscoelastic base and its y faces tied periodic, driven by an SH wave
+//    polarised along y (the tunnel's axis): antiplane shear, which the plane-strain u_y = 0
+//    forbids and the periodic tie allows. Its ground surface against the same closed form, within
+//    the same 2 %, and every node against the 1D free-field column within 1 % of its peak.
 //  - In-situ stress: σ_z(z) = −g ∫_z^{z_top} ρ dζ over the layers above (hand value, to
 //    round-off), and the stage starts in equilibrium (nothing moves).
 #include <gtest/gtest.h>
@@ -26,6 +31,7 @@
 #include <vector>
 
 #include "staged_helpers.hpp"
+#include "tq/constraints.hpp"
 #include "tq/free_field.hpp"
 #include "tq/mesh.hpp"
 
@@ -169,6 +175,113 @@ TEST(LayeredColumn, TransferFunctionErrorFallsAsTheElementHeightSquared) {
               fine.fWorst, 100 * coarse.worst, coarse.fWorst, coarse.worst / fine.worst);
   EXPECT_GT(coarse.worst / fine.worst, 3.0);
   EXPECT_LT(coarse.worst / fine.worst, 5.0);
+}
+
+// The slice is 1 m thick, 20 m wide (4 elements) and 60 m high in 1 m element layers: the column
+// test's 20 m of weathered rock over 40 m of rock, on its half-space (given on /boundaries/bottom).
+TEST(LayeredSlice, AxialShWaveThroughAPeriodicSliceMatchesTheClosedForm) {
+  const Layer& soil = kLayers[0];
+  const Layer& rock = kLayers[1];
+  auto young = [](const Layer& L) { return 2 * L.rho * L.cs * L.cs * (1 + L.nu); };
+  tqtest::StagedRun run;
+  run.mesh = tqtest::twoLayerBox({4, 1, 60, -10, 0, 0, 20, 1, 60}, rock.thickness, "rock", "soil");
+  run.mesh.slice = true;
+  run.in.materials = {{"rock", {young(rock), rock.nu, rock.rho}}, {"soil", {young(soil), soil.nu, soil.rho}}};
+  run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}};
+  const Real alpha = 2 * 0.05 * 2 * M_PI * 1.5;  // the default mass-proportional damping
+  run.in.options.damping.alpha = alpha;
+  StagedInput& S = run.in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "seismic"};
+  S.stages.tolerance = 1e-8;
+  S.inSitu.present = true;
+  S.inSitu.kx = 1.1;
+  S.inSitu.ky = 0.8;
+  S.inSitu.gravity = 9.81;
+  run.in.options.gravity[2] = -9.81;
+  S.bottom.present = true;
+  S.bottom.distance = 30;
+  S.bottom.rho = kRhoR;
+  S.bottom.cs = kCsR;
+  S.bottom.cp = kCsR * std::sqrt(2 * (1 - kNuR) / (1 - 2 * kNuR));
+  S.freeField.present = true;
+  S.freeField.faces = {"xmin", "xmax"};
+  S.periodic.present = true;
+  S.periodic.faces = {"ymin", "ymax"};
+  // The incident velocity pulse of the column test, polarised along y.
+  const Real t0 = 0.1, tau = 0.015;
+  S.motion.present = true;
+  for (Real t = 0; t <= 0.3; t += 1e-4) {
+    const Real q = (t - t0) / tau;
+    S.motion.time.push_back(t);
+    S.motion.ay.push_back(-2 * q / tau * std::exp(-q * q));
+  }
+  const IncidentMotion incident(S.motion.time, {}, S.motion.ay, {});
+  run.build();
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  run.stages->switchToDynamics(log);
+  Solver& s = *run.solver;
+  const FreeFieldColumn& col = run.stages->seismic()->columns()[0];
+  Index top = -1;
+  std::vector<Index> level(size_t(run.mesh.numNodes()));
+  for (Index n = 0; n < run.mesh.numNodes(); ++n) {
+    const Real z = run.mesh.coords[3 * size_t(n) + 2];
+    if (z > 60 - 1e-9 && top < 0) top = n;
+    Index k;
+    Real w;
+    col.interpolation(z, &k, &w);
+    level[size_t(n)] = w > 0.5 ? k + 1 : k;
+  }
+  ASSERT_GE(top, 0);
+  if (std::getenv("TQ_PRINT_LOG")) std::printf("%s", log.str().c_str());
+  std::vector<Real> ts, vs, vi, uPrev(size_t(run.mesh.numNodes()), 0.0);
+  Real worstCol = 0, peakCol = 0, inPlane = 0;
+  while (s.time() < 8.0) {
+    s.step();
+    const Real t = s.time();
+    ts.push_back(t);
+    vs.push_back(s.velocityAt(top, 1));
+    vi.push_back(incident.velocity(1, t));
+    for (Index k = 0; k < col.numLevels(); ++k) peakCol = std::max(peakCol, std::abs(col.u(k, 1)));
+    for (Index n = 0; n < run.mesh.numNodes(); ++n) {
+      // the column's u() is u^n of the step just taken: the model's value before this step
+      worstCol = std::max(worstCol, std::abs(uPrev[size_t(n)] - col.u(level[size_t(n)], 1)));
+      uPrev[size_t(n)] = s.relativeDisplacement(n, 1);
+      inPlane = std::max({inPlane, std::abs(s.relativeDisplacement(n, 0)), std::abs(s.relativeDisplacement(n, 2))});
+    }
+  }
+  Real worst = 0, fWorst = 0;
+  for (Real f = 0.5; f <= 15 + 1e-9; f += 0.02) {
+    const Real model = std::abs(tqtest::dft(ts, vs, f)) / std::abs(tqtest::dft(ts, vi, f));
+    const Real exact = closedForm(kLayers, kRhoR, kCsR, alpha, f);
+    if (std::abs(model / exact - 1) > worst) worst = std::abs(model / exact - 1), fWorst = f;
+  }
+  std::printf("periodic slice, SH along y: worst |T| error %.2f %% at %.2f Hz (0.5-15 Hz); max |u_y - u_column| / "
+              "column peak %.2e (peak %.3e m); largest in-plane |u| %.1e m; %s\n",
+              100 * worst, fWorst, worstCol / peakCol, peakCol, inPlane, run.stages->reports().back().note.c_str());
+  EXPECT_LT(worst, 0.02);
+  EXPECT_LT(worstCol / peakCol, 0.01);
+  EXPECT_LT(inPlane, 1e-6 * peakCol);  // an SH wave along y moves nothing in the x-z plane
+}
+
+// Periodic faces must face each other with the same node layout: a slice's y faces pair; an x
+// face with a y face is refused naming both.
+TEST(LayeredSlice, PeriodicFacesThatDoNotFaceEachOtherAreRefused) {
+  const Mesh m = makeBoxMesh({3, 1, 4, 0, 0, 0, 3, 1, 4});
+  EXPECT_EQ(TiedNodeGroups::periodicPairs(m, "ymin", "ymax").size(), size_t(4 * 5));
+  for (const auto& p : TiedNodeGroups::periodicPairs(m, "ymin", "ymax")) {
+    EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0])], m.coords[3 * size_t(p[1])]);
+    EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0]) + 2], m.coords[3 * size_t(p[1]) + 2]);
+  }
+  try {
+    TiedNodeGroups::periodicPairs(m, "xmin", "ymax");
+    FAIL() << "expected an x face and a y face to be refused";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("'xmin' and 'ymax'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("not opposite"), std::string::npos) << msg;
+  }
 }
 
 // A block of two layers (lower 'rock' ρ 2600, upper 'weathered' ρ 2000, interface 20 m below the

@@ -50,6 +50,7 @@ TEST(ResultsWaterPressure, UniformPressureOnARingIsReadBackAtEveryMonitor) {
     force[3 * j + 2] -= tangential * x / r;
   }
   SolidInput in;
+  in.monitorDt = 0;  // a row per sample() call, at its own time
   in.monitors = {{"top_arch", {0.0, 0.1, 4.6}}, {"haunch", {4.6, 0.1, 0.0}}, {"bottom_arch", {0.0, 0.1, -4.6}}};
   const auto dir = std::filesystem::temp_directory_path() / ("tq_wp_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);

@@ -30,6 +30,10 @@ def main(argv: list[str]) -> int:
     g = d["geometry"]
     gm = d["ground_motion"]
     src = {"file": gm["file"], "none": "no horizontal motion"}.get(gm["source"], f"synthetic (seed {gm['synthetic']['seed']})")
+    if gm["azimuth"]:
+        src += f" at azimuth {gm['azimuth']:g} deg from x towards y"
+    if gm["second_horizontal"]["file"] is not None:
+        src += f"; second horizontal record {gm['second_horizontal']['file']} at 90 deg to it"
     if gm["vertical"]["file"] is not None:
         src += f"; vertical record {gm['vertical']['file']}"
     which = f", variant {case.variant}" if case.variant else ""

@@ -21,8 +21,9 @@ def write_motion(motion: ProcessedMotion, path: Path) -> None:
         f.attrs["record_name"] = motion.record.name
         f.attrs["processing"] = "\n".join(motion.steps)
         f["time"] = motion.time
-        f["incident_ax"] = motion.ax  # m/s^2, incident (up-going) wave at the base
-        f["incident_az"] = motion.az
+        f["incident_ax"] = motion.ax  # m/s^2, incident (up-going) wave at the base: across the tunnel
+        f["incident_ay"] = motion.ay  # along the tunnel's axis
+        f["incident_az"] = motion.az  # vertical
         f["record_acc"] = motion.record.acc
 
 
@@ -34,7 +35,9 @@ def plot_motion(motion: ProcessedMotion, path: Path) -> None:
 
     factor = 2.0 if motion.convention == "outcrop" else 1.0
     fig, ax = plt.subplots(figsize=(8, 3.2))
-    ax.plot(motion.time, factor * motion.ax, lw=0.8, label="x (horizontal)")
+    ax.plot(motion.time, factor * motion.ax, lw=0.8, label="x (across the tunnel)")
+    if np.any(motion.ay):
+        ax.plot(motion.time, factor * motion.ay, lw=0.8, label="y (along the axis)", alpha=0.8)
     ax.plot(motion.time, factor * motion.az, lw=0.8, label="z (vertical)", alpha=0.8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("acceleration (m/s$^2$)")
@@ -53,7 +56,7 @@ def make_motion(case) -> tuple[ProcessedMotion, Path]:
         say(f"NOTE: {n}")
     out = case.output_dir / "motion.h5"
     write_motion(motion, out)
-    peaks = ", ".join(f"{c} {float(np.max(np.abs(a))):.4g}" for c, a in (("x", motion.ax), ("z", motion.az)))
+    peaks = ", ".join(f"{c} {float(np.max(np.abs(a))):.4g}" for c, a in (("x", motion.ax), ("y", motion.ay), ("z", motion.az)))
     say(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
         f"incident peaks {peaks} m/s^2 -> {out}")
     for s in motion.steps:

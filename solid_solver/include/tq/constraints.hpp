@@ -28,6 +28,15 @@ public:
   TiedNodeGroups(std::string name, std::vector<std::vector<Index>> groups);
   /// Pairs (a, b) as groups of two, e.g. mesh.rockLiningPairs.
   static std::vector<std::vector<Index>> pairs(const std::vector<Index>& flatPairs);
+  /// Periodic pairs of two opposite, axis-aligned face groups: each node of `from` with the node
+  /// of `to` at the same two in-plane coordinates (within 1e-6 of the block's extent). Throws
+  /// InputError naming the faces when they are not opposite, or a node has no partner.
+  static std::vector<std::vector<Index>> periodicPairs(const Mesh& mesh, const std::string& from,
+                                                       const std::string& to);
+  /// Check that every group's members carry the same mass and nodal dashpots (to 1e-9): the tie
+  /// then keeps them moving together exactly (see the class note). Throws InputError naming the
+  /// first group that differs.
+  void checkUniformMembers(const NodalState& state) const;
 
   std::string name() const override { return name_; }
   /// Check the supports (a direction must be fixed for all members or none; throws InputError
@@ -36,6 +45,10 @@ public:
   void addForces(Real t, Real dt, NodalState& state) override;
   /// After every other force of the step.
   bool runsLast() const override { return true; }
+  /// After the other runsLast contributors too (the water coupling's force, the contact's), when
+  /// set (periodic faces: a pair shares every force its members get).
+  bool runsAfterAll() const override { return afterAll_; }
+  void setRunsAfterAll(bool on) { afterAll_ = on; }
   void checkpoint(StateArchive& a) override { a.io(force_); }
   /// Subcycling: the members of a group share its finest level (the common acceleration needs
   /// every member's complete force at the same steps).
@@ -62,6 +75,7 @@ private:
   std::string name_;
   std::vector<Index> start_, node_;  // CSR
   std::vector<Real> force_;          // [3 members]
+  bool afterAll_ = false;
 };
 
 }  // namespace tq

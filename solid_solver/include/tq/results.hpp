@@ -26,8 +26,14 @@ class ResultsWriter {
 public:
   ResultsWriter(const std::string& path, const SolidInput& in, const Solver& solver);
   ~ResultsWriter();
-  /// Append one monitor + energy row at the solver's current time.
+  /// Observe the solver's current state for the histories (monitors, energy, series, ring
+  /// forces), which are written at the times k·monitor_dt: each requested time in (t_previous, t]
+  /// gets a row interpolated linearly between the previous observed state and this one. Call it
+  /// at the states on either side of every requested time (nextSampleTime()); between them it
+  /// may be skipped.
   void sample(const Solver& solver);
+  /// The next requested history time not written yet, s.
+  Real nextSampleTime() const;
   /// Write a field snapshot (u, v, stress) at the solver's current time.
   void snapshot(const Solver& solver);
   /// Set the status attribute ("running", "completed", "stopped: ...") and flush.

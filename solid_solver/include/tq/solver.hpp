@@ -63,6 +63,10 @@ public:
   /// True for a contributor that must see every other force of the step first (the dynamic
   /// contact force predicts the nodes' motion from the complete force): called after the others.
   virtual bool runsLast() const { return false; }
+  /// True for a kinematic tie that must see the complete force of the step, that of the other
+  /// runsLast contributors included (periodic faces: the water's force on a tied pair is shared
+  /// by the pair): called after them. Implies runsLast().
+  virtual bool runsAfterAll() const { return false; }
   /// Energy this contributor has dissipated so far (J) = minus the work of its own forces, booked
   /// by the solver's trapezoid rule (e.g. friction at an interface). The solver reports it as the
   /// balance term `interface` instead of as external work. Default 0: its work is external work.

@@ -83,6 +83,15 @@ struct FreeFieldInput {
   std::vector<std::string> faces;  ///< e.g. xmin, xmax (and ymin, ymax in 3D)
 };
 
+/// /boundaries/periodic: two opposite faces whose nodes move alike (u on `faces[1]` equals u on
+/// `faces[0]`, all three directions) from the seismic stage on: a model that repeats along the
+/// axis normal to them. Needed by a motion along the tunnel axis (y): an SH wave polarised along
+/// y shears the slice antiplane, which rollers on the y faces (u_y = 0) would forbid.
+struct PeriodicInput {
+  bool present = false;
+  std::vector<std::string> faces;  ///< two face groups, e.g. ymin, ymax
+};
+
 /// /motion: incident (up-going) accelerations at the base, vertically incident
 /// (x, y: SH waves, z: P wave); piecewise linear in time, integrated exactly.
 struct MotionInput {
@@ -156,6 +165,7 @@ struct StagedInput {
   InterfaceInput rockLining;
   BottomBoundaryInput bottom;
   FreeFieldInput freeField;
+  PeriodicInput periodic;
   MotionInput motion;
   std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
   CouplingInput coupling;  ///< /coupling (dynamic_water)
