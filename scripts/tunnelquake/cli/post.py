@@ -113,7 +113,7 @@ def post_case(case) -> Path:
                 say(f"{cond}: no results file ({f.name})")
             continue
         try:
-            res = P.read_condition(f, cond)
+            res = P.read_condition(f, cond, case.data["output"]["displacement_reference"])
         except (OSError, KeyError, ValueError, TypeError) as e:  # unreadable: say so, go on with the others
             lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
             say(f"{cond}: {f.name} cannot be read ({e})")
