@@ -222,6 +222,18 @@ def read_condition(path: Path, condition: str, reference: str = "absolute") -> C
                            stages_planned=sequence, references=refs, displacement_reference=reference)
 
 
+def displacement_against(res: ConditionResult, monitor: str, reference: str) -> np.ndarray | None:
+    """A monitor's displacement history [T, 3] against another reference than the one it was read
+    with (DISPLACEMENT_REFERENCES); None when the results lack a reference history it needs."""
+    u = res.monitors[monitor].u
+    if res.displacement_reference != "absolute":
+        u = u + res.references[res.displacement_reference].u[:u.shape[0]]
+    if reference == "absolute":
+        return u
+    ref = res.references.get(reference)
+    return None if ref is None else u - ref.u[:u.shape[0]]
+
+
 def read_snapshot(res: ConditionResult, key: str) -> dict:
     """The fields of /snapshots/<key>: u, v [N, 3]; stress [E, 6]; damage [E] and
     interface/{state, failed, opening, slip, ...} [P] when written."""

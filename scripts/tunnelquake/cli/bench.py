@@ -351,6 +351,10 @@ def main(argv: list[str]) -> int:
         from ..bench_paper import main as paper_main
 
         return paper_main([a for a in argv if a != "--paper"])
+    if "--identify" in argv:  # the paper's open choices, one at a time: scripts/tunnelquake/paper_study.py
+        from ..paper_study import main as identify_main
+
+        return identify_main([a for a in argv if a != "--identify"])
     if "--fluid" in argv:  # water and coupled ladders, stock pimpleFoam ratio: scripts/tunnelquake/bench_fluid.py
         from ..bench_fluid import main as fluid_main
 

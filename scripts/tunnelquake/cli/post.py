@@ -34,7 +34,7 @@ def _disk_full(e: OSError, path) -> DiskFull:
 def _context(case, results, motion: dict | None) -> dict:
     """What the discussion of a comparison quotes: the record and its PGA, damping, R, water model,
     mode."""
-    ctx = {"mode": case.data["mesh"]["mode"]}
+    ctx = {"mode": case.data["mesh"]["mode"], "variant": case.variant, "case_dir": str(case.path.parent)}
     w = case.data.get("water") or {}
     model = w.get("model", "unknown")
     if model == "compressible" and w.get("bulk_modulus"):
