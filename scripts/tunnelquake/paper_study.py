@@ -29,7 +29,6 @@ import argparse
 import copy
 import datetime as _dt
 import json
-import math
 import os
 import shlex
 import subprocess
@@ -42,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .paper import misfit, paper_numbers, within
+from .paper import misfit, number_label, paper_numbers, within
 from .paths import ROOT
 
 CASE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
@@ -279,22 +278,7 @@ def main(argv: list[str]) -> int:
 # ----------------------------------------------------------------------------------------------
 # tables
 
-#: (key prefix, label, unit, scale) of the table's rows
-ROWS = (("pressure", "hydrodynamic pressure peak", "MPa", 1e-6), ("pressure_time", "time of the pressure peak", "s", 1.0),
-        ("max_ux", "max u_x", "cm", 100.0), ("max_uz", "max u_z", "cm", 100.0), ("max_tension", "max σ3", "MPa", 1e-6))
 SHORT = {"no_water": "(1)", "static_water": "(2)", "dynamic_water": "(3)"}
-
-
-def label(key: str) -> tuple[str, str, float]:
-    """A number's key -> (row label, unit, scale)."""
-    parts = key.split("/")
-    for prefix, text, unit, scale in ROWS:
-        if parts[0] == prefix:
-            where = " ".join(SHORT.get(p, p.replace("_", " ")) for p in parts[1:])
-            return f"{text} {where}", unit, scale
-    if parts[0] == "sigma3_start":
-        return f"σ3 at the seismic start {SHORT[parts[1]]} {parts[2].replace('_', ' ')}", "MPa", 1e-6
-    return key, "", 1.0
 
 
 def fmt(v, scale=1.0) -> str:
@@ -341,7 +325,7 @@ def table(nums: dict[str, dict], columns: list[str], heads: list[str]) -> list[s
     head = "| number | paper | " + " | ".join(heads) + " |"
     lines = [head, "|---|---:|" + "---:|" * len(columns)]
     for k in keys:
-        text, unit, scale = label(k)
+        text, unit, scale = number_label(k)
         lines.append(f"| {text} ({unit}) | {fmt(target[k], scale)} | "
                      + " | ".join(cell(nums[c].get(k), target[k], scale) for c in columns) + " |")
     lines.append("| **within ±20 % of the paper** (of 33) | | "
@@ -382,43 +366,6 @@ def overrides_of(levels: dict[str, str | None]) -> dict:
 def identified_results() -> dict[str, str]:
     folder = CASE.parent / "results_paper_identified"
     return {cond: str(folder / f"results_{cond}.h5") for cond in ALL if (folder / f"results_{cond}.h5").is_file()}
-
-
-def reference_rows(example_results: dict) -> list[str]:
-    """The example's displacement numbers under the three references against the paper's."""
-    from .post import DISPLACEMENT_REFERENCES, REFERENCE_WORDS
-
-    target = paper_numbers()
-    keys = [k for k in list(paper_numbers()) if k.startswith(("max_ux", "max_uz"))]
-    lines = ["| displacement reference | " + " | ".join(label(k)[0] for k in keys[:3]) + " | … | within ±20 % (of 18) | "
-             "misfit (18 numbers) |", "|---|---:|---:|---:|---|---:|---:|"]
-    best = None
-    for ref in DISPLACEMENT_REFERENCES:
-        n = numbers(example_results, ref)
-        f = misfit(n, keys)
-        if best is None or f < best[1]:
-            best = (ref, f)
-        lines.append(f"| {REFERENCE_WORDS[ref]} | " + " | ".join(f"{fmt(n.get(k), 100)} cm" for k in keys[:3])
-                     + f" | | {within(n, keys)} | {f:.2f} |")
-    lines.append("| paper | " + " | ".join(f"{fmt(target[k], 100)} cm" for k in keys[:3]) + " | | | |")
-    return lines + ["", f"The paper's displacements match the **{best[0]}** reference (the smallest misfit)."]
-
-
-def deltas(nums: dict[str, dict], key: str, scale: float, unit: str, least: float = 0.05) -> list[str]:
-    """The measured effect of each choice on one number: "with X instead of Y, a → b", the
-    largest first, those that move it by at least `least` (relative)."""
-    ex = nums.get(choices(CASE.parent)[0].name, {})
-    a = ex.get(key)
-    out = []
-    for c in choices(CASE.parent)[1:]:
-        b = nums.get(c.name, {}).get(key)
-        if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)) or a == 0:
-            continue
-        if abs(b / a - 1) >= least:
-            out.append((abs(math.log(abs(b / a))) if b else 9.0,
-                        f"with {c.dimension} {c.level} instead of {EXAMPLE_LEVELS[c.dimension]}, "
-                        f"{fmt(a, scale)} → {fmt(b, scale)} {unit}"))
-    return [t for _, t in sorted(out, reverse=True)]
 
 
 def tabulate(folder: Path, command: str, confirm: bool, update_docs: bool) -> int:
@@ -482,8 +429,11 @@ def document(r: dict, data: dict) -> str:
     heads = [c.name.replace("example: as cases/paper_tunnel", "example") for c in cs]
     lines += table(nums, [c.name for c in cs], heads)
     lines += ["", "## Which displacement reference the paper's numbers match", ""]
-    ex_res = results_of(data, ex)
-    lines += reference_rows(ex_res)
+    from . import paper
+    from . import post as P
+
+    ex_runs = [P.read_condition(Path(f), cond) for cond, f in results_of(data, ex).items() if f and Path(f).is_file()]
+    lines += paper.Comparison([r for r in ex_runs if r.samples], {}, {}).reference_rows()
     lines += ["", "## The identified set", "",
               "Coordinate descent over the dimensions on the one-at-a-time results (each level's numbers taken as the "
               "example's times its measured ratio), minimising the misfit:", ""]
@@ -509,7 +459,7 @@ def document(r: dict, data: dict) -> str:
         vals = [(v[k], n) for n, v in allruns.items() if v.get(k) is not None and np.isfinite(v[k])]
         if not vals or any(abs(x / target[k] - 1) <= 0.20 for x, _ in vals):
             continue
-        text, unit, scale = label(k)
+        text, unit, scale = number_label(k)
         lo, hi = min(vals), max(vals)
         lines.append(f"- {text}: paper {fmt(target[k], scale)} {unit}; the study spans {fmt(lo[0], scale)} ({lo[1]}) "
                      f"… {fmt(hi[0], scale)} {unit} ({hi[1]})")
