@@ -80,12 +80,11 @@ def choices(case_dir: Path) -> list[Choice]:
         Choice("record", "Peknold version", {"ground_motion.file": peknold}),
         Choice("water", "incompressible", {"water.model": "incompressible"}, DYN),
         Choice("water", "K = 22 GPa", {"water.bulk_modulus": "22 GPa"}, DYN),
-        Choice("release fraction", "0.3", {"stages.release_fraction": 0.3}),
         Choice("release fraction", "0.7", {"stages.release_fraction": 0.7}),
+        Choice("release fraction", "0.8", {"stages.release_fraction": 0.8}),
         Choice("damping", "mass-proportional 2 %", {"damping.ratio": 0.02}),
         Choice("interface", "bonded throughout", {"interface.model": "bonded"}),
         Choice("interface", "no bond (cohesion 0)", {"interface.cohesion": 0.0}),
-        Choice("damage constant R", "10", both("damage_constant", 10.0)),
         Choice("damage constant R", "1000", both("damage_constant", 1000.0)),
     ]
 
@@ -210,6 +209,25 @@ def _store(path: Path, data: dict) -> None:
     os.replace(tmp, path)
 
 
+def _completed(job_dir: Path, cond: str) -> float | None:
+    """The wall seconds `tunnelquake run` reported for a job whose results file is complete, else
+    None."""
+    import re
+
+    from .post import read_condition
+
+    res = job_dir / "results" / f"results_{cond}.h5"
+    if not res.is_file():
+        return None
+    try:
+        if not read_condition(res, cond).complete:
+            return None
+        found = re.findall(r"finished in ([0-9.]+) s", (job_dir / "run.log").read_text())
+    except (OSError, KeyError, ValueError):
+        return None
+    return float(found[-1]) if found else None
+
+
 def run_study(folder: Path, case_file: Path, jobs: int, only: list[str]) -> dict:
     """Run every choice's conditions not yet in FOLDER/study.json (or those named in `only`),
     `jobs` at a time; the store is rewritten after each run."""
@@ -222,6 +240,12 @@ def run_study(folder: Path, case_file: Path, jobs: int, only: list[str]) -> dict
             key = f"{c.slug}/{cond}"
             done = data["runs"].get(key, {})
             if (only and c.slug not in only and key not in only) or (not only and done.get("results")):
+                continue
+            adopted = _completed(folder / c.slug / cond, cond)
+            if adopted and not only:  # run before (its record lost with an interrupted study): kept
+                data["runs"][key] = {"rc": 0, "wall_s": adopted, "results": str(folder / c.slug / cond / "results"
+                                                                                / f"results_{cond}.h5"),
+                                     "choice": c.name, "slug": c.slug, "condition": cond, "adopted": True}
                 continue
             todo.append((c, cond, write_job(c, cond, base, folder)))
     lock = threading.Lock()
