@@ -675,6 +675,32 @@ class Comparison:
         return (f"over the study's runs it holds in {len(held)} of {len(held) + len(failed)}"
                 + (f" ({', '.join(held)})" if held else "") + (f"; fails in {', '.join(failed)}" if failed and held else ""))
 
+    def free_field_bound(self, key: str) -> str:
+        """What water can change in an absolute displacement peak: the tunnel's displacement
+        relative to the free field at its depth (all a lining's load can move), against the
+        paper's change from condition (1) to (2) and (3)."""
+        from .post import displacement_against
+
+        c = 0 if key == "max_ux" else 2
+        rel, absolute = [], []
+        for r in self.by.values():
+            for m in MONITORS:
+                if r.samples and m in r.monitors:
+                    u = displacement_against(r, m, "free_field")
+                    if u is not None:
+                        rel.append(float(np.abs(u[:, c]).max()))
+                        absolute.append(float(np.abs(displacement_against(r, m, "absolute")[:, c]).max()))
+        if not rel:
+            return ""
+        change = [abs(PAPER[key][cond][m] - PAPER[key]["no_water"][m]) for cond in ("static_water", "dynamic_water")
+                  for m in MONITORS]
+        return (f"what the water can move: the lining's displacement relative to the free field at its depth peaks at "
+                f"{100 * min(rel):.3g}–{100 * max(rel):.3g} cm in these runs ({100 * max(rel) / min(absolute):.2g} % of "
+                f"the absolute {100 * min(absolute):.3g}–{100 * max(absolute):.3g} cm: the tunnel moves with the ground). "
+                f"The paper's water changes the absolute {key} by {100 * min(change):.2g}–{100 * max(change):.2g} cm from "
+                f"condition (1), {min(change) / max(rel):.1f}–{max(change) / max(rel):.0f}× the whole of our relative "
+                "displacement; a load on the lining's inner face cannot move the rock mass around it by that much")
+
     # -- discussion -----------------------------------------------------------------------------
     def discussion(self) -> list[str]:
         if not self.misses:
@@ -742,6 +768,8 @@ class Comparison:
             why = self.measured([f"{nkey}/{m}" for m, *_ in items])
             if key == "max_tension" and cond != "no_water":
                 why.insert(0, self._hydrostatic_cause())
+            if key in ("max_ux", "max_uz") and cond != "no_water" and self.free_field_bound(key):
+                why.append(self.free_field_bound(key))
             return [head, ""] + [f"- {w}" for w in short + why] + [""]
         if key == "damage":
             _, dmax, _ = items[0]
@@ -781,7 +809,8 @@ class Comparison:
             held = self.finding_in_study(cond)
             if held:
                 s += f"The finding, {held}. "
-            return [s, ""] + [f"- {w}" for w in short] + [""]
+            why = [self.free_field_bound(k) for k in ("max_ux", "max_uz")] if cond != "haunch" else []
+            return [s, ""] + [f"- {w}" for w in short + [w for w in why if w]] + [""]
         return []
 
 
