@@ -452,6 +452,24 @@ def document(r: dict, data: dict) -> str:
               "## Every §3.3 number against every choice", ""]
     heads = [c.name.replace("example: as cases/paper_tunnel", "example") for c in cs]
     lines += table(nums, [c.name for c in cs], heads)
+    lines += ["", "## What each choice moves (measured)", "",
+              "Per choice, the numbers it moves most from the example's (the §3.3 numbers, condition (2)'s σ3 at the "
+              "start, the section's largest D and the opened interface pairs), largest change first:", ""]
+    ex_nums = nums[ex.name]
+    extra = [f"sigma3_start/static_water/{m}" for m in ("top_arch", "haunch", "bottom_arch")] + \
+        [f"{k}/{c}" for k in ("max_damage", "opened") for c in ALL]
+    for c in cs[1:]:
+        moves = []
+        for k in keys + extra:
+            a, b = ex_nums.get(k), nums[c.name].get(k)
+            if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)) or a == b:
+                continue
+            size = abs(b - a) / max(abs(a), abs(b))
+            text, unit, scale = number_label(k)
+            moves.append((size, f"{text} {fmt(a, scale)} → {fmt(b, scale)}{' ' + unit if unit else ''}"))
+        top = [t for _, t in sorted(moves, reverse=True)[:6]]
+        lines.append(f"- with {c.dimension} {c.level} instead of {EXAMPLE_LEVELS[c.dimension]}: "
+                     + ("; ".join(top) if top else "no number moves"))
     lines += ["", "## Which displacement reference the paper's numbers match", ""]
     from . import paper
     from . import post as P
