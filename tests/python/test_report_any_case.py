@@ -105,11 +105,16 @@ def _table(report: str, heading: str) -> tuple[list[str], dict[str, list[str]]]:
 
 
 def _histories(res_file) -> dict[str, dict[str, np.ndarray]]:
-    """Each monitor's histories straight from results.h5 (rows all monitors have)."""
+    """Each monitor's histories straight from results.h5 (rows all monitors have), less the two
+    displacement references tq-solid records beside them (post.REFERENCES)."""
+    from tunnelquake.post import REFERENCES
+
     out = {}
     with h5py.File(res_file, "r") as f:
         n = min(f[f"monitors/{m}/time"].shape[0] for m in f["monitors"])
         for m, g in f["monitors"].items():
+            if m in REFERENCES.values():
+                continue
             h = {"t": g["time"][:n, 0], "u": g["u"][:n], "s": g["principal"][:n], "d": g["damage"][:n, 0]}
             if "water_pressure" in g:
                 h["wt"], h["p"] = g["water_pressure"][:, 0], g["water_pressure"][:, 1]
