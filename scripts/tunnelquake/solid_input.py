@@ -243,7 +243,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
 
         monitors = dict(d["output"]["monitors"] or {})
         if monitors:
-            monitors.update(reference_points(geo, mesh["lo"], mesh["hi"]))
+            monitors.update(reference_points(geo, mesh["lo"], next(iter(monitors.values()))[1]))
             names = list(monitors)
             pts = np.array([monitors[n] for n in names], float)
             if mesh["slice"]:
@@ -260,14 +260,15 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
     return out
 
 
-def reference_points(geo: dict, lo, hi) -> dict[str, list[float]]:
+def reference_points(geo: dict, lo, y: float) -> dict[str, list[float]]:
     """The points whose displacement histories are the references of
     `output.displacement_reference` (post.REFERENCES), written with the case's monitors: the base
     under the tunnel axis, and the free field at the axis' depth, the node of the xmin side
-    (a free-field boundary in the shaking, which follows the 1D column there)."""
+    (a free-field boundary in the shaking, which follows the 1D column there); both at `y`, a
+    monitor's (tq-solid's lining rings are taken at the monitors' y: no ring of their own)."""
     from .post import REFERENCES
 
-    y = 0.5 * (float(lo[1]) + float(hi[1]))
+    y = float(y)
     x_c, z_c = float(geo["tunnel_centre_x"]), float(geo["tunnel_centre_z"])
     return {REFERENCES["base"]: [x_c, y, float(lo[2])], REFERENCES["free_field"]: [float(lo[0]), y, z_c]}
 
