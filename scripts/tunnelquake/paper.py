@@ -701,6 +701,29 @@ class Comparison:
                 f"condition (1), {min(change) / max(rel):.1f}–{max(change) / max(rel):.0f}× the whole of our relative "
                 "displacement; a load on the lining's inner face cannot move the rock mass around it by that much")
 
+    def pressure_spread(self) -> str:
+        """How much the pressure peak varies round the ring: ours (this run and every study run)
+        against the paper's."""
+        p = PAPER["hydrodynamic_pressure_peak"]
+        spread = lambda v: max(v) / min(v) if v and min(v) > 0 else math.nan  # noqa: E731
+        mine = [self.pk.get("dynamic_water", {}).get(m, {}).get("hydrodynamic_pressure_peak") for m in MONITORS]
+        text = (f"the pressure round the ring: the paper's peaks differ by max/min {spread(list(p.values())):.2f} (the "
+                f"haunch's the largest)")
+        if all(v is not None for v in mine):
+            text += f", ours by {spread(mine):.3f}"
+        runs = [[v.get(f"pressure/{m}") for m in MONITORS] for v in self.study_runs().values()]
+        runs = [r for r in runs if all(x is not None and np.isfinite(x) for x in r)]
+        if runs:
+            s_ = [spread(r) for r in runs]
+            text += (f" and by {min(s_):.3f}–{max(s_):.3f} in the study's {len(runs)} runs with water (the slice's "
+                     "pressure is the water's breathing mode, nearly uniform round the ring)")
+        lo, hi = max(p.values()) / (1 + TOLERANCE), min(p.values()) * (1 + TOLERANCE)
+        if lo > hi:
+            text += (f"; a uniform pressure within ±{100 * TOLERANCE:.0f} % of the paper's largest peak is at least "
+                     f"{lo / 1e6:.3g} MPa, above {1 + TOLERANCE:g}× its smallest ({hi / 1e6:.3g} MPa): no uniform level "
+                     "reaches all three")
+        return text
+
     # -- discussion -----------------------------------------------------------------------------
     def discussion(self) -> list[str]:
         if not self.misses:
@@ -768,6 +791,8 @@ class Comparison:
             why = self.measured([f"{nkey}/{m}" for m, *_ in items])
             if key == "max_tension" and cond != "no_water":
                 why.insert(0, self._hydrostatic_cause())
+            if key == "hydrodynamic_pressure_peak":
+                why.append(self.pressure_spread())
             if key in ("max_ux", "max_uz") and cond != "no_water" and self.free_field_bound(key):
                 why.append(self.free_field_bound(key))
             return [head, ""] + [f"- {w}" for w in short + why] + [""]
