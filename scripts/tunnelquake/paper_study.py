@@ -11,8 +11,9 @@ model only changes condition 3: its conditions 1 and 2 are the example's), each 
 u_x, 9 max u_z, 9 max σ3) is read from each run, with condition 2's σ3 at the seismic start (the
 paper's ≈ 0.76 MPa), the lining's largest damage and the interface pairs that opened.
 
-Identification: the effects are taken as multiplicative and independent (one-at-a-time), so a set
-of levels predicts each number as the example's times each chosen level's ratio to the example;
+Identification: the effects are taken as independent (one-at-a-time): a set of levels predicts
+each stress as the example's plus each chosen level's change (static states add; at most the
+lining's tensile strength) and each other number as the example's times each level's ratio;
 coordinate descent over the dimensions picks the set with the smallest sum of squared log ratios
 to the paper's numbers. The set is then run whole (`variants: paper_identified` of the example,
 `--confirm` runs it, or its results are read from cases/paper_tunnel/results_paper_identified) and
@@ -156,19 +157,34 @@ def numbers(results: dict[str, Path], reference: str = "absolute") -> dict:
     return paper.Comparison([r for r in runs if r.samples], {}, {}).numbers()
 
 
+#: Numbers whose changes add (a stress: the static state a choice adds or removes, capped at the
+#: lining's tensile strength); the others (displacements, pressures, times) scale.
+ADDITIVE = ("max_tension", "sigma3_start")
+
+
 def predict(example: dict, levels: dict[str, dict], keys: list[str]) -> dict:
-    """A set of levels' numbers predicted from the one-at-a-time runs: the example's times the
-    chosen levels' ratios to it (`levels`: dimension -> that level's numbers; None = the example's)."""
+    """A set of levels' numbers predicted from the one-at-a-time runs (`levels`: dimension -> that
+    level's numbers; None = the example's): a stress is the example's plus each chosen level's
+    change from it, at most the lining's tensile strength; any other number is the example's
+    times each chosen level's ratio to it."""
+    from .paper import PAPER
+
     out = {}
     for k in keys:
         v = example.get(k)
         if v is None or not np.isfinite(v):
             out[k] = v
             continue
+        add = k.startswith(ADDITIVE)
         for nums in levels.values():
-            if nums is not None and nums.get(k) is not None and np.isfinite(nums[k]) and v != 0:
-                v *= nums[k] / example[k]
-        out[k] = v
+            x = None if nums is None else nums.get(k)
+            if x is None or not np.isfinite(x):
+                continue
+            if add:
+                v += x - example[k]
+            elif example[k] != 0:
+                v *= x / example[k]
+        out[k] = min(v, PAPER["lining_tensile_strength"]) if add else v
     return out
 
 
@@ -477,8 +493,9 @@ def document(r: dict, data: dict) -> str:
     ex_runs = [P.read_condition(Path(f), cond) for cond, f in results_of(data, ex).items() if f and Path(f).is_file()]
     lines += paper.Comparison([r for r in ex_runs if r.samples], {}, {}).reference_rows()
     lines += ["", "## The identified set", "",
-              "Coordinate descent over the dimensions on the one-at-a-time results (each level's numbers taken as the "
-              "example's times its measured ratio), minimising the misfit:", ""]
+              "Coordinate descent over the dimensions on the one-at-a-time results (a set's stresses predicted as the "
+              "example's plus each chosen level's measured change, capped at σt; its other numbers as the example's "
+              "times each level's measured ratio), minimising the misfit:", ""]
     lines += [f"- {s}" for s in r["sweeps"]] or ["- no dimension improves on the example"]
     lines += ["", "| dimension | the example | identified |", "|---|---|---|"]
     for d, lv in r["levels"].items():

@@ -30,15 +30,23 @@ def test_misfit_and_within_count_the_33_numbers():
     assert paper.misfit(missing) == pytest.approx(4.0, rel=1e-12)
 
 
-def test_a_set_is_predicted_as_the_product_of_its_ratios():
-    """Two dimensions, each scaling every displacement: the prediction multiplies the ratios."""
+def test_a_set_is_predicted_from_its_levels_ratios_and_stress_changes():
+    """Displacements scale: the prediction multiplies the levels' ratios. Stresses add: the
+    levels' changes are summed onto the example's, capped at the lining's tensile strength."""
     keys = list(paper.paper_numbers())
-    example = _scaled(lambda k: 2.0)
-    a = _scaled(lambda k: 1.0 if k.startswith("max_u") else 2.0)  # halves the displacements
-    b = _scaled(lambda k: 1.5 if k.startswith("max_u") else 2.0)  # 0.75x the displacements
+    sig = lambda k: k.startswith("max_tension")  # noqa: E731
+    example = _scaled(lambda k: 0.5 if sig(k) else 2.0)
+    a = {k: (v / 2 if k.startswith("max_u") else v + 0.2e6 if sig(k) else v) for k, v in example.items()}
+    b = {k: (v * 0.75 if k.startswith("max_u") else v - 0.5e6 if sig(k) else v) for k, v in example.items()}
     pred = S.predict(example, {"A": a, "B": b}, keys)
     assert pred["max_ux/no_water/haunch"] == pytest.approx(2.0 * 0.5 * 0.75 * paper.PAPER["max_ux"]["no_water"]["haunch"])
-    assert pred["max_tension/no_water/haunch"] == pytest.approx(example["max_tension/no_water/haunch"])
+    # 0.5 × 1.09 MPa + 0.2 − 0.5 MPa
+    assert pred["max_tension/no_water/haunch"] == pytest.approx(0.545e6 - 0.3e6)
+    assert pred["pressure/haunch"] == pytest.approx(example["pressure/haunch"])
+    # a change past the tensile strength stops there: 0.5 × 1.27 + 2 × 0.5 MPa
+    up = {k: (v + 0.5e6 if sig(k) else v) for k, v in example.items()}
+    capped = S.predict(example, {"A": up, "B": up}, keys)
+    assert capped["max_tension/dynamic_water/haunch"] == paper.PAPER["lining_tensile_strength"]
     assert S.predict(example, {"A": None, "B": None}, keys) == example
 
 
