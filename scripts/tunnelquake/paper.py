@@ -528,21 +528,10 @@ class Comparison:
         return runs
 
     def reach(self, key: str, tol=None, paper: float | None = None) -> str:
-        """For a number outside the band: the study run closest to the paper's within the band, or
-        **unreachable** with the span the study measured."""
-        runs = self.study_runs()
+        """For a number outside the band: what the study's runs say of it (reach_text)."""
         p = paper if paper is not None else paper_numbers()[key]
-        close = tol or (lambda v: abs(v / p - 1) <= TOLERANCE)
-        vals = [(float(v[key]), n) for n, v in runs.items() if v.get(key) is not None and np.isfinite(v[key])]
-        if not vals:
-            return ""
-        _, unit, scale = number_label(key)
-        ok = sorted((abs(v - p), v, n) for v, n in vals if close(v))
-        if ok:
-            return f" (within the band with {ok[0][2]}: {ok[0][1] * scale:.3g} {unit})"
-        lo, hi = min(vals), max(vals)
-        return (f" — **unreachable** in the study: {len(vals)} runs span {lo[0] * scale:.3g} ({lo[1]}) … "
-                f"{hi[0] * scale:.3g} {unit} ({hi[1]})")
+        text = reach_text(key, self.study_runs(), p, tol)
+        return f" — {text}" if text else ""
 
     def measured(self, keys: list[str], least: float = 0.02) -> list[str]:
         """The study's measured effect of each choice on these numbers, the largest first: "with X
@@ -837,6 +826,30 @@ class Comparison:
             why = [self.free_field_bound(k) for k in ("max_ux", "max_uz")] if cond != "haunch" else []
             return [s, ""] + [f"- {w}" for w in short + [w for w in why if w]] + [""]
         return []
+
+
+def reach_text(key: str, runs: dict[str, dict], p: float, close=None) -> str:
+    """What the study's runs (name -> numbers) say of a number against the paper's p: the run that
+    brings it within the band (closest first); else, when runs lie on both sides of p, the two
+    that bracket it (a level between theirs passes through it: not reached, not unreachable);
+    else **unreachable**, with the span of every run."""
+    close = close or (lambda v: abs(v / p - 1) <= TOLERANCE)
+    vals = [(float(v[key]), n) for n, v in runs.items() if v.get(key) is not None and np.isfinite(v[key])]
+    if not vals:
+        return ""
+    _, unit, scale = number_label(key)
+    ok = sorted((abs(v - p), v, n) for v, n in vals if close(v))
+    if ok:
+        return f"within the band with {ok[0][2]}: {ok[0][1] * scale:.3g} {unit}"
+    below = [(v, n) for v, n in vals if v < p]
+    above = [(v, n) for v, n in vals if v > p]
+    if below and above:
+        (b, nb), (a, na) = max(below), min(above)
+        return (f"not reached by a level of the study, which brackets it: {b * scale:.3g} ({nb}) … {a * scale:.3g} "
+                f"{unit} ({na}); a level between these two passes through it")
+    lo, hi = min(vals), max(vals)
+    return (f"**unreachable** in the study: its {len(vals)} runs span {lo[0] * scale:.3g} ({lo[1]}) … "
+            f"{hi[0] * scale:.3g} {unit} ({hi[1]}), all {'below' if hi[0] < p else 'above'} the paper's")
 
 
 def number_label(key: str) -> tuple[str, str, float]:

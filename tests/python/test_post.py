@@ -362,4 +362,10 @@ def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
     study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.18e6
     (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
     text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
-    assert "**unreachable** in the study: 2 runs span 0.18 (water: incompressible) … 0.2 MPa (example" in text
+    assert "**unreachable** in the study: its 2 runs span 0.18 (water: incompressible) … 0.2 MPa (example" in text
+    # runs on both sides of the paper's 0.256 bracket it: not reached, but not unreachable
+    study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.35e6
+    (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
+    text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
+    assert ("not reached by a level of the study, which brackets it: 0.2 (example: as cases/paper_tunnel) … 0.35 MPa "
+            "(water: incompressible)") in text
