@@ -851,7 +851,14 @@ def reach_text(key: str, runs: dict[str, dict], p: float, close=None) -> str:
     below = [(v, n) for v, n in vals if v < p]
     above = [(v, n) for v, n in vals if v > p]
     if below and above:
-        (b, nb), (a, na) = max(below), min(above)
+        # the nearest on each side; among runs within SAME of it, the example's (the reference of
+        # every one-at-a-time change)
+        def nearest(side, pick):
+            v0 = pick(v for v, _ in side)
+            near = [(v, n) for v, n in side if abs(v - v0) <= SAME * abs(v0)]
+            return next(((v, n) for v, n in near if n == EXAMPLE_RUN), pick(near))
+
+        (b, nb), (a, na) = nearest(below, max), nearest(above, min)
         return (f"not reached by a level of the study, which brackets it: {b * scale:.3g} ({nb}) … {a * scale:.3g} "
                 f"{unit} ({na}); a level between these two passes through it")
     lo, hi = min(vals), max(vals)
