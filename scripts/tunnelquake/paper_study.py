@@ -422,6 +422,9 @@ def tabulate(folder: Path, command: str, confirm: bool, update_docs: bool) -> in
         print("[identify] the confirming run: tunnelquake run cases/paper_tunnel --variant paper_identified", flush=True)
         subprocess.call(["nice", "-n", "5", sys.executable, "-m", "tunnelquake", "run", str(CASE.parent),
                          "--variant", "paper_identified"])
+        data.setdefault("commands", []).append(
+            f"`{command}` (the confirming run, ended {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC)")
+        _store(folder / "study.json", data)
     confirmed = numbers(identified_results()) if identified_results() else None
     when = f"{_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC"
     result = {"date": when, "machine": machine(), "commands": data.get("commands", []) + [f"`{command}` ({when})"],
