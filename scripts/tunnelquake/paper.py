@@ -830,7 +830,8 @@ class Comparison:
             held = self.finding_in_study(cond)
             if held:
                 s += f"The finding, {held}. "
-            why = [self.free_field_bound(k) for k in ("max_ux", "max_uz")] if cond != "haunch" else []
+            why = ([self.free_field_bound(k) for k in ("max_ux", "max_uz")] if cond != "haunch"
+                   else [self.pressure_spread()] if "dynamic_water" in self.pk else [])
             return [s, ""] + [f"- {w}" for w in short + [w for w in why if w]] + [""]
         return []
 
