@@ -292,7 +292,14 @@ def test_the_example_case_keeps_its_paper_comparison(tmp_path):
     assert "| max_ux (cm) | no_water | haunch | 6.19 | 2 | 0.32 | **not reproduced** |" in report
     assert "| max_tension (MPa) | no_water | haunch | 1.09 | 0.2 | 0.18 | **not reproduced** |" in report
     assert "## The paper's findings" in report and "## Discussion of the differences" in report
-    assert "scaled to PGA 1.575 m/s²; the paper's 'Imperial-Valley wave' version" in report
+    # the discussion cites the study beside the case file (its measured one-at-a-time effects), and
+    # without the study it says there is none rather than listing suspects
+    assert "no study of the paper's open choices beside the case file" in report
+    shutil.copy(EXAMPLE.parent / "identified.json", tmp_path / "identified.json")
+    assert main(["post", str(case)]) == 0
+    report = (res / "report.md").read_text()
+    assert "no study of the paper's open choices" not in report
+    assert re.search(r"\n- with [^\n]+ instead of [^\n]+: top arch [-\d.]+ → [-\d.]+ cm", report)
     assert "![Fig. 6: maximum displacements](figures/fig06_max_displacements.png)" in report
 
 
