@@ -82,6 +82,7 @@ def choices(case_dir: Path) -> list[Choice]:
         Choice("water", "K = 22 GPa", {"water.bulk_modulus": "22 GPa"}, DYN),
         Choice("release fraction", "0.7", {"stages.release_fraction": 0.7}),
         Choice("release fraction", "0.8", {"stages.release_fraction": 0.8}),
+        Choice("release fraction", "0.9", {"stages.release_fraction": 0.9}),
         Choice("damping", "mass-proportional 2 %", {"damping.ratio": 0.02}),
         Choice("interface", "bonded throughout", {"interface.model": "bonded"}),
         Choice("interface", "no bond (cohesion 0)", {"interface.cohesion": 0.0}),
