@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import units as U
+from .post import DISPLACEMENT_REFERENCES
 from .schema import (
     Bool,
     CaseError,
@@ -493,6 +494,12 @@ def schema() -> Section:
             "monitors": MapOf(item=Tuple(item=_length(), length=3), default={},
                               doc="name: [x, y, z] points whose histories are written"),
             "history_interval": _positive(U.TIME, "s between monitor samples", default=0.005),
+            "displacement_reference": Choice(
+                choices=DISPLACEMENT_REFERENCES, default="absolute",
+                doc="what the monitors' displacements in the report, the figures and monitors_<condition>.csv are "
+                    "measured against: absolute (the fixed frame), base (the model's base under the tunnel axis) or "
+                    "free_field (the free field at the tunnel axis' depth, on the xmin side); each from the start "
+                    "of the shaking"),
             "snapshot_times": ListOf(item=Number(dim=U.TIME, min=0.0), default=[]),
             "checkpoint_interval": Number(dim=U.TIME, min=0.0, default=CHECKPOINT_INTERVAL,
                                           doc="s of simulated time between restart checkpoints, which `tunnelquake "

@@ -25,6 +25,15 @@ CONDITION_LABELS = {"no_water": "(1) no water", "static_water": "(2) static wate
                     "dynamic_water": "(3) dynamic water"}
 #: /interface attr `states`, in the order of the integer codes of /snapshots/<k>/interface/state
 CONTACT_STATES = ("bonded", "separated", "slipping", "stuck", "inactive")
+#: `output.displacement_reference`: what the monitors' displacements are measured against.
+#: absolute: the fixed frame (each history from its value at the start of the shaking); base: the
+#: model's base under the tunnel axis; free_field: the free field at the tunnel axis' depth (the
+#: xmin side, a free-field boundary). The two references are histories tq-solid writes beside the
+#: case's monitors, under these names (solid_input.reference_points).
+DISPLACEMENT_REFERENCES = ("absolute", "base", "free_field")
+REFERENCES = {"base": "@base", "free_field": "@free_field"}
+REFERENCE_WORDS = {"absolute": "absolute (the fixed frame)", "base": "relative to the base under the tunnel axis",
+                   "free_field": "relative to the free field at the tunnel axis' depth"}
 
 @dataclass
 class Monitor:
@@ -52,6 +61,8 @@ class ConditionResult:
     stages_done: list[str] = field(default_factory=list)  # /stages/<k>_<name> converged, in order
     stages_failed: list[str] = field(default_factory=list)  # /stages/<k>_<name> not converged
     stages_planned: list[str] = field(default_factory=list)  # /stages `sequence` of the solid input
+    references: dict[str, Monitor] = field(default_factory=dict)  # base / free_field histories (absolute)
+    displacement_reference: str = "absolute"  # what the monitors' u are relative to
 
     @property
     def complete(self) -> bool:
@@ -119,8 +130,11 @@ def _stage_name(key: str) -> str:
     return name if head.isdigit() and name else key
 
 
-def read_condition(path: Path, condition: str) -> ConditionResult:
-    """Read a condition's results.h5; monitor arrays are cut to the rows all of them share."""
+def read_condition(path: Path, condition: str, reference: str = "absolute") -> ConditionResult:
+    """Read a condition's results.h5; monitor arrays are cut to the rows all of them share. The
+    reference histories (REFERENCES) go to `references`, not `monitors`; with `reference` base or
+    free_field every monitor's u becomes its displacement relative to that reference (a file
+    without the reference's history is a ValueError naming it)."""
     import h5py
 
     with h5py.File(path, "r") as f:
@@ -177,6 +191,17 @@ def read_condition(path: Path, condition: str) -> ConditionResult:
                 h = _rows(g["history"])
                 iface["history"] = h[:_advancing(h[:, 0])]
                 iface["history_columns"] = [_text(c) for c in g.attrs.get("history_columns", [])]
+    refs = {key: mons.pop(name) for key, name in REFERENCES.items() if name in mons}
+    if reference not in DISPLACEMENT_REFERENCES:
+        raise ValueError(f"displacement reference {reference!r}: expected one of {', '.join(DISPLACEMENT_REFERENCES)}")
+    if reference != "absolute":
+        ref = refs.get(reference)
+        if ref is None:
+            raise ValueError(f"{path.name} has no {reference} history ({REFERENCES[reference]}), which "
+                             f"output.displacement_reference: {reference} needs; run the condition again to "
+                             "record it, or set output.displacement_reference: absolute")
+        for mo in mons.values():
+            mo.u = mo.u - ref.u[:mo.u.shape[0]]
     input_path = Path(str(attrs.get("input", "")))
     if not input_path.is_absolute():
         input_path = path.parent / input_path
@@ -194,7 +219,19 @@ def read_condition(path: Path, condition: str) -> ConditionResult:
     return ConditionResult(condition, path, status, mons, attrs=attrs, planned_end=planned, snapshots=snaps,
                            incomplete_snapshots=broken, mesh=mesh, interface=iface, input_attrs=mat,
                            coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
-                           stages_planned=sequence)
+                           stages_planned=sequence, references=refs, displacement_reference=reference)
+
+
+def displacement_against(res: ConditionResult, monitor: str, reference: str) -> np.ndarray | None:
+    """A monitor's displacement history [T, 3] against another reference than the one it was read
+    with (DISPLACEMENT_REFERENCES); None when the results lack a reference history it needs."""
+    u = res.monitors[monitor].u
+    if res.displacement_reference != "absolute":
+        u = u + res.references[res.displacement_reference].u[:u.shape[0]]
+    if reference == "absolute":
+        return u
+    ref = res.references.get(reference)
+    return None if ref is None else u - ref.u[:u.shape[0]]
 
 
 def read_snapshot(res: ConditionResult, key: str) -> dict:

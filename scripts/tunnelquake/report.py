@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .post import CONDITION_LABELS, ConditionResult, peaks
+from .post import CONDITION_LABELS, REFERENCE_WORDS, ConditionResult, peaks
 
 #: Standard gravity, m/s^2, to state accelerations in g as well.
 G = 9.80665
@@ -214,9 +214,11 @@ def peaks_section(results: list[ConditionResult], stopped: list[ConditionResult]
                   strength: float | None, places: dict[str, str] | None) -> list[str]:
     """Per condition: the peak table over the run's samples, or "no sample" for a run that stopped
     before the shaking."""
+    ref = next((r.displacement_reference for r in results + stopped), "absolute")
     lines = ["## Peaks at the monitors", "",
              "Per condition, the largest value of each monitor's history and the time it is first reached. "
-             "Displacements are relative to the start of the shaking; σ3 is the most tensile principal stress, "
+             f"Displacements are {REFERENCE_WORDS[ref]} (output.displacement_reference: {ref}), from the start of "
+             "the shaking; σ3 is the most tensile principal stress, "
              "σ1 the most compressive (tension positive); the water pressure is the dynamic part acting on "
              "the lining (the hydrostatic part is a static load)."
              + (f" σt = {strength / 1e6:.4g} MPa is the lining's tensile strength." if strength else ""), ""]

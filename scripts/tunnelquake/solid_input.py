@@ -29,7 +29,9 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
 * materials: the elastic constants plus the case's ``model`` and the Mohr-Coulomb damage
   parameters as attributes (tq-solid builds the Mohr-Coulomb damage material from them when
   ``model`` is ``mohr_coulomb_damage``);
-* in slice mode (mesh attribute slice = 1) the monitors' y is moved into the slice's mid-plane.
+* in slice mode (mesh attribute slice = 1) the monitors' y is moved into the slice's mid-plane;
+* with the case's monitors go the two reference points of `output.displacement_reference`
+  (`reference_points`): the base under the tunnel axis and the free field at the axis' depth.
 """
 from __future__ import annotations
 
@@ -252,8 +254,9 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             c.attrs["token"] = str(coupling_token)
             c.attrs["face"] = "lining_inner"
 
-        monitors = d["output"]["monitors"] or {}
+        monitors = dict(d["output"]["monitors"] or {})
         if monitors:
+            monitors.update(reference_points(geo, mesh["lo"], next(iter(monitors.values()))[1]))
             names = list(monitors)
             pts = np.array([monitors[n] for n in names], float)
             if mesh["slice"]:
@@ -270,6 +273,19 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
+
+
+def reference_points(geo: dict, lo, y: float) -> dict[str, list[float]]:
+    """The points whose displacement histories are the references of
+    `output.displacement_reference` (post.REFERENCES), written with the case's monitors: the base
+    under the tunnel axis, and the free field at the axis' depth, the node of the xmin side
+    (a free-field boundary in the shaking, which follows the 1D column there); both at `y`, a
+    monitor's (tq-solid's lining rings are taken at the monitors' y: no ring of their own)."""
+    from .post import REFERENCES
+
+    y = float(y)
+    x_c, z_c = float(geo["tunnel_centre_x"]), float(geo["tunnel_centre_z"])
+    return {REFERENCES["base"]: [x_c, y, float(lo[2])], REFERENCES["free_field"]: [float(lo[0]), y, z_c]}
 
 
 #: Seconds between the default field snapshots (`output.snapshot_times` empty).

@@ -120,7 +120,7 @@ BAD_INPUTS = [
 def test_bad_input_is_rejected_naming_the_key(example_text, write_case, desc, edit, key, words):
     text = _mutate(example_text, *edit)
     if desc == "record file missing":
-        text = text.replace("elCentro_1940_NS_Peknold_dt0.02.AT2", "no_such_record.AT2")
+        text = text.replace("IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2", "no_such_record.AT2")
     path = write_case(text)
     with pytest.raises(CaseError) as err:
         load_case(path)
@@ -144,7 +144,7 @@ def test_all_problems_reported_at_once(example_text, write_case):
 def test_record_that_does_not_parse(example_text, write_case, tmp_path):
     bad = tmp_path / "broken.AT2"
     bad.write_text("header\nheader\nunits g\nno counts here\n 0.1 0.2\n")
-    text = example_text.replace("../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2",
+    text = example_text.replace("../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2",
                                 str(bad)).replace("if_missing: synthetic", "if_missing: error")
     with pytest.raises(CaseError) as err:
         load_case(write_case(text))
@@ -152,7 +152,7 @@ def test_record_that_does_not_parse(example_text, write_case, tmp_path):
 
 
 def test_synthetic_fallback_is_a_warning(example_text, write_case):
-    text = example_text.replace("elCentro_1940_NS_Peknold_dt0.02.AT2", "absent.AT2")
+    text = example_text.replace("IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2", "absent.AT2")
     case = load_case(write_case(text))
     assert any("synthetic" in w for w in case.warnings)
 

@@ -14,8 +14,8 @@ from tunnelquake.cli import main
 
 def _local_case(tmp_path, text: str):
     """The example case in a temporary folder, its record path made absolute (if present)."""
-    rec = (EXAMPLE.parent / "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2").resolve()
-    text = text.replace("../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2", str(rec))
+    rec = (EXAMPLE.parent / "../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2").resolve()
+    text = text.replace("../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2", str(rec))
     p = tmp_path / "case.yaml"
     p.write_text(text)
     return p

@@ -11,7 +11,7 @@ import pytest
 from conftest import EXAMPLE
 from tunnelquake.cli import main
 
-RECORD_KEY = "  file: ../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2\n"
+RECORD_KEY = "  file: ../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2\n"
 
 
 def _case(tmp_path, *edits: str, record: str | None = None) -> str:
@@ -148,7 +148,7 @@ def test_nan_in_an_at2_record_is_refused_naming_the_line(tmp_path, capsys):
 def test_monitor_named_after_the_lining_but_in_the_rock_is_refused(tmp_path, capsys):
     rc, err = _check(capsys, _case(tmp_path, "    top_arch:    [0.0, 40.0, 36.5]", "    top_arch:    [0.0, 40.0, 39.0]"))
     assert rc == 1
-    assert (":122: output.monitors.top_arch = [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis (x = 0, z = 32 m "
+    assert (":127: output.monitors.top_arch = [0.0, 40.0, 39.0]: lies 7 m from the tunnel axis (x = 0, z = 32 m "
             "in the x-z plane); the lining is 4.5 m <= r <= 5.25 m, so this point is in the rock: tq-solid records "
             "the solid's node and element nearest to it, the rock's (the lining's only within about half an element "
             "of its outer surface), and the report compares top_arch with the paper's lining values. Fix: move it "

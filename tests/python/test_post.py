@@ -331,3 +331,41 @@ def test_water_side_record_keeps_the_accepted_steps(tmp_path):
     np.testing.assert_array_equal(w["time"], [0.1, 0.2, 0.3])
     np.testing.assert_array_equal(w["p_mean"], [-1.3e4, 2e3, 4e3])
     assert P.read_fluid_interface(tmp_path / "nothing") is None
+
+
+def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
+    """With a study beside the case file (paper.STUDY_FILE), a number outside the band is followed by
+    each choice's measured effect on it ("with X instead of Y: a → b"), and its verdict names the run
+    that brings it within the band or marks it unreachable with the span of the study's runs."""
+    import json
+
+    from tunnelquake import paper
+
+    path = _write_results(tmp_path / "results_dynamic_water.h5", t_end=10.0, dt=0.05, hydro=HYDRO, snaps=(10.0,))
+    res = P.read_condition(path, "dynamic_water")
+    ex = {f"pressure/{m}": p for m, p in HYDRO.items()}
+    study = {"levels": {"water": "incompressible"}, "overrides": {"water.model": "incompressible"},
+             "example_levels": {"water": "compressible, K = 2.2 GPa"}, "confirmed": None,
+             "choices": {paper.EXAMPLE_RUN: ex,
+                         # the top arch reaches the band (0.25 of 0.256); the bottom arch never does
+                         "water: incompressible": {"pressure/top_arch": 0.25e6, "pressure/haunch": 0.5e6,
+                                                   "pressure/bottom_arch": 0.2e6}}}
+    (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
+    text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
+    assert ("with water incompressible instead of compressible, K = 2.2 GPa: hydrodynamic pressure peak top arch "
+            "0.2 → 0.25 MPa") in text
+    row = next(line for line in text.splitlines() if line.startswith("| hydrodynamic pressure peak (MPa) | "
+                                                                        "dynamic_water | top_arch"))
+    assert "within the band with water: incompressible: 0.25 MPa" in row
+    # 0.3 MPa at the bottom arch is inside ±20 % of 0.326 already; the haunch equals the paper's
+    assert "**unreachable** in the study" not in text
+    study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.18e6
+    (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
+    text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
+    assert "**unreachable** in the study: its 2 runs span 0.18 (water: incompressible) … 0.2 MPa (example" in text
+    # runs on both sides of the paper's 0.256 bracket it: not reached, but not unreachable
+    study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.35e6
+    (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
+    text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
+    assert ("not reached by a level of the study, which brackets it: 0.2 (example: as cases/paper_tunnel) … 0.35 MPa "
+            "(water: incompressible)") in text

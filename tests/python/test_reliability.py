@@ -12,7 +12,7 @@ import pytest
 from conftest import EXAMPLE
 from tunnelquake.cli import main
 
-RECORD = "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2"
+RECORD = "../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2"
 
 
 def _case_text(end_time: str = "0.02 s") -> str:

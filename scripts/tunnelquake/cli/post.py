@@ -34,7 +34,7 @@ def _disk_full(e: OSError, path) -> DiskFull:
 def _context(case, results, motion: dict | None) -> dict:
     """What the discussion of a comparison quotes: the record and its PGA, damping, R, water model,
     mode."""
-    ctx = {"mode": case.data["mesh"]["mode"]}
+    ctx = {"mode": case.data["mesh"]["mode"], "variant": case.variant, "case_dir": str(case.path.parent)}
     w = case.data.get("water") or {}
     model = w.get("model", "unknown")
     if model == "compressible" and w.get("bulk_modulus"):
@@ -113,7 +113,7 @@ def post_case(case) -> Path:
                 say(f"{cond}: no results file ({f.name})")
             continue
         try:
-            res = P.read_condition(f, cond)
+            res = P.read_condition(f, cond, case.data["output"]["displacement_reference"])
         except (OSError, KeyError, ValueError, TypeError) as e:  # unreadable: say so, go on with the others
             lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
             say(f"{cond}: {f.name} cannot be read ({e})")

@@ -1,0 +1,106 @@
+"""The identification study's logic (benchmarks/paper_study.py), on hand-made numbers
+whose answer is known: the prediction of a set of levels from one-at-a-time runs, the coordinate
+descent against an exhaustive search, and the findings read from a run's numbers."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+
+from benchmarks import paper_study as S
+from tunnelquake import paper
+
+
+def _scaled(factor_of) -> dict:
+    """The paper's numbers, each times factor_of(key)."""
+    return {k: v * factor_of(k) for k, v in paper.paper_numbers().items()}
+
+
+def test_misfit_and_within_count_the_33_numbers():
+    p = paper.paper_numbers()
+    assert len(p) == 33
+    assert paper.misfit(p) == 0.0 and paper.within(p) == 33
+    # every number 1.25x: ln²(1.25) each, none within ±20 %
+    assert paper.misfit(_scaled(lambda k: 1.25)) == pytest.approx(33 * math.log(1.25) ** 2, rel=1e-12)
+    assert paper.within(_scaled(lambda k: 1.25)) == 0
+    # a missing number counts as a factor e² (4), the others exact
+    missing = dict(p)
+    del missing["pressure/haunch"]
+    assert paper.misfit(missing) == pytest.approx(4.0, rel=1e-12)
+
+
+def test_a_set_is_predicted_from_its_levels_ratios_and_stress_changes():
+    """Displacements scale: the prediction multiplies the levels' ratios. Stresses add: the
+    levels' changes are summed onto the example's, capped at the lining's tensile strength."""
+    keys = list(paper.paper_numbers())
+    sig = lambda k: k.startswith("max_tension")  # noqa: E731
+    example = _scaled(lambda k: 0.5 if sig(k) else 2.0)
+    a = {k: (v / 2 if k.startswith("max_u") else v + 0.2e6 if sig(k) else v) for k, v in example.items()}
+    b = {k: (v * 0.75 if k.startswith("max_u") else v - 0.5e6 if sig(k) else v) for k, v in example.items()}
+    pred = S.predict(example, {"A": a, "B": b}, keys)
+    assert pred["max_ux/no_water/haunch"] == pytest.approx(2.0 * 0.5 * 0.75 * paper.PAPER["max_ux"]["no_water"]["haunch"])
+    # 0.5 × 1.09 MPa + 0.2 − 0.5 MPa
+    assert pred["max_tension/no_water/haunch"] == pytest.approx(0.545e6 - 0.3e6)
+    assert pred["pressure/haunch"] == pytest.approx(example["pressure/haunch"])
+    # a change past the tensile strength stops there: 0.5 × 1.27 + 2 × 0.5 MPa
+    up = {k: (v + 0.5e6 if sig(k) else v) for k, v in example.items()}
+    capped = S.predict(example, {"A": up, "B": up}, keys)
+    assert capped["max_tension/dynamic_water/haunch"] == paper.PAPER["lining_tensile_strength"]
+    assert S.predict(example, {"A": None, "B": None}, keys) == example
+
+
+def test_coordinate_descent_finds_the_exhaustive_optimum():
+    """Three dimensions acting on different groups of numbers (separable in log space): the
+    descent's set equals the best of all 4 x 3 x 3 combinations, and its predicted misfit is that
+    combination's."""
+    keys = list(paper.paper_numbers())
+    example = _scaled(lambda k: 1.6 if k.startswith("max_u") else 0.5 if k.startswith("pressure/") else 1.3)
+    group = {"disp": lambda k: k.startswith("max_u"), "press": lambda k: k.startswith("pressure/"),
+             "rest": lambda k: not k.startswith(("max_u", "pressure/"))}
+    by_dim = {
+        "disp": {"x0.9": 0.9, "x0.62": 0.62, "x0.4": 0.4},
+        "press": {"x1.5": 1.5, "x2.1": 2.1},
+        "rest": {"x0.8": 0.8, "x0.5": 0.5},
+    }
+    nums = {d: {lv: {k: v * (f if group[d](k) else 1.0) for k, v in example.items()} for lv, f in levels.items()}
+            for d, levels in by_dim.items()}
+    chosen, pred, _ = S.identify(example, nums, keys)
+    best = min(itertools.product(*[[None, *by_dim[d]] for d in by_dim]),
+               key=lambda combo: paper.misfit(S.predict(example, {d: (nums[d][lv] if lv else None)
+                                                                  for d, lv in zip(by_dim, combo, strict=True)},
+                                                        keys), keys))
+    assert tuple(chosen[d] for d in by_dim) == best == ("x0.62", "x2.1", "x0.8")
+    assert paper.misfit(pred, keys) == pytest.approx(
+        paper.misfit(S.predict(example, {d: nums[d][lv] for d, lv in chosen.items()}, keys), keys))
+
+
+def test_the_findings_read_from_numbers():
+    """hydrostatic: (2) below (1) in every displacement and in σ3 at 2 of 3; hydrodynamic: (3)
+    above (1) everywhere; haunch: the largest pressure and σ3 in each condition."""
+    p = paper.paper_numbers()
+    # the paper's own numbers: (2) = (1) - x and (3) = (1) + x; its σ3 (2) is below (1) at the haunch
+    # and the bottom arch (0.88 < 1.09, 0.79 < 0.92), above at the top arch (0.80 > 0.65): 2 of 3
+    assert paper.finding_holds(p, "hydrodynamic") is True
+    assert paper.finding_holds(p, "hydrostatic") is True
+    q = dict(p)
+    q["max_tension/static_water/haunch"] = 1.2e6  # now 1 of 3
+    assert paper.finding_holds(q, "hydrostatic") is False
+    q = dict(p)
+    q["max_uz/static_water/haunch"] = 0.04  # above (1)'s 0.0374: a displacement must fall everywhere
+    assert paper.finding_holds(q, "hydrostatic") is False
+    assert paper.finding_holds(p, "haunch") is True
+    q = dict(p)
+    q["pressure/top_arch"] = 0.5e6  # above the haunch's 0.466
+    assert paper.finding_holds(q, "haunch") is False
+    del q["pressure/top_arch"]
+    assert paper.finding_holds(q, "haunch") is None
+
+
+def test_the_choices_run_the_conditions_they_can_change():
+    cs = S.choices(S.CASE.parent)
+    assert cs[0].name == paper.EXAMPLE_RUN and not cs[0].overrides
+    assert len({c.slug for c in cs}) == len(cs)
+    for c in cs:
+        assert c.conditions == (S.DYN if c.dimension == "water" else S.ALL)
+        assert c.dimension == "example" or c.dimension in S.EXAMPLE_LEVELS
