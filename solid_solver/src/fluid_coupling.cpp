@@ -152,12 +152,13 @@ struct FluidCoupling::Impl {
 
   explicit Impl(Solver& s) : solver(s) {}
 
-  /// The stations: one for a closed section; with open ends, the planes of wet nodes along y.
-  void buildStations(const Mesh& mesh) {
+  /// The stations: one for a closed section; with open ends, the planes of wet nodes along y, whose
+  /// positions (ascending) it returns.
+  std::vector<Real> buildStations(const Mesh& mesh) {
     const size_t n = nodes.size();
     station.assign(n, 0);
     S = 1;
-    if (!openEnds) return;
+    if (!openEnds) return {};
     std::vector<Real> ys(n);
     for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[3 * size_t(nodes[k]) + 1];
     std::vector<Real> planes = ys;
@@ -174,8 +175,7 @@ struct FluidCoupling::Impl {
       const auto it = std::lower_bound(planes.begin(), planes.end(), ys[k] - tol);
       station[k] = size_t(it - planes.begin());
     }
-    cAx.assign(S - 1, 0.0);
-    for (size_t j = 0; j + 1 < S; ++j) cAx[j] = planes[j + 1] - planes[j];  // h_j until buildVolumeLaw
+    return planes;
   }
 
   /// g and the stations' volumes V_j from the wetted face's quads: each quad's area vector (half the
@@ -190,7 +190,7 @@ struct FluidCoupling::Impl {
     Real c[3] = {0, 0, 0};
     for (Index node : nodes)
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
-    buildStations(mesh);
+    const std::vector<Real> planes = buildStations(mesh);
     const auto& quads = mesh.faces.at(in.face);
     Vs.assign(S, 0.0);
     std::vector<Real> cw(2 * S, 0.0), Vseg(S > 1 ? S - 1 : 0, 0.0);
@@ -230,7 +230,11 @@ struct FluidCoupling::Impl {
     compliance.assign(S, 0.0);
     for (size_t j = 0; j < S; ++j) compliance[j] = incompressible ? 0.0 : Vs[j] / in.bulkModulus;
     // the plug flow's A/(ρ h) of each segment: A = V_seg / h
-    for (size_t j = 0; j + 1 < S; ++j) cAx[j] = Vseg[j] / (in.axialDensity * cAx[j] * cAx[j]);
+    cAx.assign(S > 1 ? S - 1 : 0, 0.0);
+    for (size_t j = 0; j + 1 < S; ++j) {
+      const Real h = planes[j + 1] - planes[j];
+      cAx[j] = Vseg[j] / (in.axialDensity * h * h);
+    }
     Q.assign(S > 1 ? S - 1 : 0, 0.0);
     W.assign(S, 0.0);
     ps.assign(S, 0.0);
