@@ -211,6 +211,7 @@ class Comparison:
         self.misses: dict[tuple[str, str], list[tuple[str, float, float]]] = {}
         self._sections: dict[str, dict] = {}
         self.study = load_study(context.get("case_dir"))
+        self._numbers: dict | None = None  # numbers(), for the joint reach of the numbers outside the band
 
     def numbers(self) -> dict:
         """This run's §3.3 numbers under paper_numbers()' keys, with per condition its status and
@@ -533,7 +534,9 @@ class Comparison:
     def reach(self, key: str, tol=None, paper: float | None = None) -> str:
         """For a number outside the band: what the study's runs say of it (reach_text)."""
         p = paper if paper is not None else paper_numbers()[key]
-        text = reach_text(key, self.study_runs(), p, tol)
+        if self._numbers is None:
+            self._numbers = self.numbers()
+        text = reach_text(key, self.study_runs(), p, tol, self._numbers)
         return f" — {text}" if text else ""
 
     def measured(self, keys: list[str], least: float = 0.02) -> list[str]:
@@ -836,11 +839,70 @@ class Comparison:
         return []
 
 
-def reach_text(key: str, runs: dict[str, dict], p: float, close=None) -> str:
+def siblings(key: str) -> list[tuple[str, str]]:
+    """The numbers a number can be matched against jointly, with how the two relate in a run:
+    the same quantity of the same condition at the other monitors ('pressure/haunch' ->
+    'pressure/top_arch', ...: their ratio), and for a lining stress the same monitor in the other
+    conditions ('max_tension/static_water/haunch' -> 'max_tension/dynamic_water/haunch', ...: their
+    difference, as a stress adds)."""
+    head, _, m = key.rpartition("/")
+    if m not in MONITORS:
+        return []
+    out = [(f"{head}/{o}", "ratio") for o in MONITORS if o != m]
+    q, _, cond = head.partition("/")
+    if q == "max_tension":
+        out += [(f"{q}/{c}/{m}", "difference") for c in PAPER[q] if c != cond]
+    return out
+
+
+def joint_text(key: str, runs: dict[str, dict], current: dict, target: dict[str, float]) -> str:
+    """For a number outside the band: a sibling (siblings()) within the band in `current` that it
+    cannot join there, because their relation (ratio k/j, or difference k − j) lies outside what
+    both bands allow in every run of the study: the two move together under every choice studied,
+    so no level of the study (nor any level between two of its levels) brings both within the band
+    at once. '' when there is none."""
+    lo, hi = 1 - TOLERANCE, 1 + TOLERANCE
+
+    def where(k: str) -> str:
+        parts = k.split("/")[1:]
+        return " ".join(CONDITION_LABELS.get(p, p).split(" ", 1)[0] if p in CONDITION_LABELS else p.replace("_", " ")
+                        for p in parts)
+
+    pk = target.get(key)
+    for j, how in siblings(key):
+        cj, pj = current.get(j), target.get(j)
+        if pk is None or pj is None or cj is None or not np.isfinite(cj) or not abs(cj / pj - 1) <= TOLERANCE:
+            continue
+        pairs = [(float(v[key]), float(v[j])) for v in runs.values()
+                 if v.get(key) is not None and v.get(j) is not None and np.isfinite(v[key]) and np.isfinite(v[j])]
+        if how == "ratio":
+            if pk <= 0 or pj <= 0 or any(y <= 0 for _, y in pairs):
+                continue
+            rel, paper_rel, op, unit, scale = [x / y for x, y in pairs], pk / pj, "/", "", 1.0
+            allowed = (lo * pk / (hi * pj), hi * pk / (lo * pj))
+        else:
+            _, unit, scale = number_label(key)
+            rel, paper_rel, op = [x - y for x, y in pairs], pk - pj, "−"
+            allowed = (min(lo * pk, hi * pk) - max(lo * pj, hi * pj), max(lo * pk, hi * pk) - min(lo * pj, hi * pj))
+        if len(rel) < 2 or not (max(rel) < allowed[0] or min(rel) > allowed[1]):
+            continue
+
+        def f(x: float) -> str:
+            return f"{x * scale:.3g}{' ' + unit if unit else ''}"
+
+        return (f"**unreachable** together with {where(j)}, within the band here: {where(key)} {op} {where(j)} is "
+                f"{f(paper_rel)} in the paper, {f(min(rel))} … {f(max(rel))} in all {len(rel)} runs of the study "
+                f"(both within ±{TOLERANCE:.0%} needs {f(allowed[0])} … {f(allowed[1])})")
+    return ""
+
+
+def reach_text(key: str, runs: dict[str, dict], p: float, close=None, current: dict | None = None) -> str:
     """What the study's runs (name -> numbers) say of a number against the paper's p: the run that
-    brings it within the band (closest first); else, when runs lie on both sides of p, the two
-    that bracket it (a level between theirs passes through it: not reached, not unreachable);
-    else **unreachable**, with the span of every run."""
+    brings it within the band (closest first); else, when `current` (the reported run's numbers)
+    holds a sibling within the band that it cannot join in any run, **unreachable** together with
+    it (joint_text); else, when runs lie on both sides of p, the two that bracket it (a level
+    between theirs passes through it: not reached, not unreachable); else **unreachable**, with
+    the span of every run."""
     close = close or (lambda v: abs(v / p - 1) <= TOLERANCE)
     vals = [(float(v[key]), n) for n, v in runs.items() if v.get(key) is not None and np.isfinite(v[key])]
     if not vals:
@@ -849,6 +911,9 @@ def reach_text(key: str, runs: dict[str, dict], p: float, close=None) -> str:
     ok = sorted((abs(v - p), v, n) for v, n in vals if close(v))
     if ok:
         return f"within the band with {ok[0][2]}: {ok[0][1] * scale:.3g} {unit}"
+    joint = joint_text(key, runs, current, paper_numbers()) if current and key in paper_numbers() else ""
+    if joint:
+        return joint
     below = [(v, n) for v, n in vals if v < p]
     above = [(v, n) for v, n in vals if v > p]
     if below and above:

@@ -369,3 +369,42 @@ def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
     text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
     assert ("not reached by a level of the study, which brackets it: 0.2 (example: as cases/paper_tunnel) … 0.35 MPa "
             "(water: incompressible)") in text
+
+
+def test_a_number_that_moves_with_a_sibling_in_every_run_is_unreachable_together_with_it():
+    """Two monitors of one quantity that keep their ratio under every choice studied cannot both
+    come within ±20 % of paper values whose ratio the two bands exclude: with the haunch within the
+    band, the top arch is **unreachable** together with it (not "bracketed"), and the verdict gives
+    the paper's ratio, the runs' span and the interval both bands allow. A run whose ratio falls in
+    that interval leaves it bracketed. Lining stresses pair across conditions by their difference."""
+    from tunnelquake import paper
+
+    target = paper.paper_numbers()
+    top, hau = target["pressure/top_arch"], target["pressure/haunch"]
+    # a closed section's pressure peaks: the same at every monitor (ratio 0.99-1.01) in every run
+    runs = {f"run {i}": {"pressure/top_arch": v * 0.99, "pressure/haunch": v, "pressure/bottom_arch": v * 1.01}
+            for i, v in enumerate((0.19e6, 0.40e6, 0.44e6))}
+    current = runs["run 2"]
+    assert abs(current["pressure/haunch"] / hau - 1) <= paper.TOLERANCE
+    text = paper.reach_text("pressure/top_arch", runs, top, None, current)
+    lo, hi = 0.8 * top / (1.2 * hau), 1.2 * top / (0.8 * hau)
+    assert text.startswith("**unreachable** together with haunch"), text
+    assert f"top arch / haunch is {top / hau:.3g} in the paper, 0.99 … 0.99 in all 3 runs" in text
+    assert f"needs {lo:.3g} … {hi:.3g})" in text
+    # without the reported run's numbers the same runs only bracket it
+    assert paper.reach_text("pressure/top_arch", runs, top).startswith("not reached by a level of the study")
+    # one run whose top arch/haunch ratio lies inside what both bands allow: a level may reach both
+    runs["run 3"] = {"pressure/top_arch": 0.26e6 * 0.6, "pressure/haunch": 0.26e6}
+    assert "together with" not in paper.reach_text("pressure/top_arch", runs, top, None, current)
+
+    # condition (2)'s lining tension against condition (3)'s at the same monitor: the paper's (3) is
+    # 0.47 MPa above its (2); in every run (3) is within 0.01 MPa of (2) or below it
+    k2, k3 = "max_tension/static_water/top_arch", "max_tension/dynamic_water/top_arch"
+    p2, p3 = target[k2], target[k3]
+    runs = {"capped": {k2: 1.26e6, k3: 1.26e6}, "released": {k2: 0.28e6, k3: 0.17e6}}
+    text = paper.reach_text(k2, runs, p2, None, runs["capped"])
+    need = (0.8 * p2 - 1.2 * p3) / 1e6, (1.2 * p2 - 0.8 * p3) / 1e6
+    assert text.startswith("**unreachable** together with (3) top arch"), text
+    assert f"(2) top arch − (3) top arch is {(p2 - p3) / 1e6:.3g} MPa in the paper, 0 MPa … 0.11 MPa" in text
+    assert f"needs {need[0]:.3g} MPa … {need[1]:.3g} MPa" in text
+    assert need[1] < 0  # both runs' differences (0, +0.11) lie above the interval both bands allow
