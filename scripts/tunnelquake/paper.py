@@ -887,7 +887,7 @@ def joint_text(key: str, runs: dict[str, dict], current: dict, target: dict[str,
         if len(rel) < 2 or not (max(rel) < allowed[0] or min(rel) > allowed[1]):
             continue
 
-        def f(x: float) -> str:
+        def f(x: float, scale: float = scale, unit: str = unit) -> str:
             return f"{x * scale:.3g}{' ' + unit if unit else ''}"
 
         return (f"**unreachable** together with {where(j)}, within the band here: {where(key)} {op} {where(j)} is "
