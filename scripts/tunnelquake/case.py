@@ -539,7 +539,7 @@ def schema() -> Section:
         }),
         "suite": _suite_section(),
         "parallel": Section(fields={
-            "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = all cores"),
+            "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = the cores divided among the conditions running at once (one on a small mesh)"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
                                   doc="MPI ranks of the water (OpenFOAM) in dynamic_water; above 1 the water "
                                       "case is decomposed (method simple, cut across the tunnel's axis in 3D) "

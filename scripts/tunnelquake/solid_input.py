@@ -324,9 +324,13 @@ def solid_step(exe, solid_input) -> float:
 SMALL_MESH_ELEMENTS = 20000
 
 
-def solid_threads(case, mesh_h5) -> int:
+def solid_threads(case, mesh_h5, share: int = 1) -> int:
     """OpenMP threads for tq-solid: the case's `parallel.threads`, or for 0 one thread on a small
-    mesh (SMALL_MESH_ELEMENTS) and every core otherwise."""
+    mesh (SMALL_MESH_ELEMENTS) and otherwise the cores divided among the `share` solvers that run
+    at once (conditions side by side): a team of threads on cores it shares with another solver
+    waits at each parallel loop for a thread that is not running (three 3D runs side by side on 2
+    cores: 1 thread each 1.8x the steps a second of 2 threads each, docs/benchmarks.md "Threads of
+    solvers side by side")."""
     import os
 
     import h5py
@@ -336,4 +340,4 @@ def solid_threads(case, mesh_h5) -> int:
         return threads
     with h5py.File(mesh_h5, "r") as f:
         elements = f["elements/connectivity"].shape[0]
-    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)))
+    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)) // max(1, share))

@@ -59,7 +59,7 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     work = case.output_dir / cond
     with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
         inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
-        threads = solid_threads(case, mesh_dir(case) / "mesh.h5")
+        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
     res = case.output_dir / f"results_{cond}.h5"
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
@@ -207,9 +207,9 @@ def _disk_full_note(folder) -> str:
             f"there, or set output.directory to a disk with room, and run again")
 
 
-def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, str]:
+def run_coupled_condition(case, cond: str, motion_file, share: int = 1) -> tuple[int, object, str]:
     """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
-    by the coupler over TCP. Returns (exit code, results path, what happened). Exit code: 0 both
+    by the coupler over TCP; `share`: the solvers running at once (solid_threads). Returns (exit code, results path, what happened). Exit code: 0 both
     completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
 
     parallel.fluid_ranks N > 1: the water case is decomposed (fluid_case.decompose: decomposePar,
@@ -276,7 +276,7 @@ def run_coupled_condition(case, cond: str, motion_file) -> tuple[int, object, st
 
     solid_env_ = solid_env()
     with children.FORK_LOCK:
-        threads = solid_threads(case, mesh_h5)
+        threads = solid_threads(case, mesh_h5, share)
     solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
     _running(cond, res)
     t0 = _time.perf_counter()
@@ -654,9 +654,9 @@ def _job(case, args) -> int:
         else:
             runnable.append((cond, parts))
 
-    def coupled(cond, parts):
+    def coupled(cond, parts, share=1):
         runs = " + ".join(parts)
-        rc, res, why = run_coupled_condition(case, cond, motion_file)
+        rc, res, why = run_coupled_condition(case, cond, motion_file, share)
         if children.stopping.is_set():
             return
         if rc == 0:
@@ -697,7 +697,7 @@ def _job(case, args) -> int:
         def beside():
             try:
                 for c, p in water:
-                    coupled(c, p)
+                    coupled(c, p, 2)
             except children.Interrupted:
                 pass
 
