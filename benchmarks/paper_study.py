@@ -80,6 +80,7 @@ def choices(case_dir: Path) -> list[Choice]:
         Choice("record", "Peknold version", {"ground_motion.file": peknold}),
         Choice("water", "incompressible", {"water.model": "incompressible"}, DYN),
         Choice("water", "K = 22 GPa", {"water.bulk_modulus": "22 GPa"}, DYN),
+        Choice("water", "K = 10 GPa", {"water.bulk_modulus": "10 GPa"}, DYN),
         Choice("release fraction", "0.7", {"stages.release_fraction": 0.7}),
         Choice("release fraction", "0.8", {"stages.release_fraction": 0.8}),
         Choice("release fraction", "0.9", {"stages.release_fraction": 0.9}),
