@@ -428,6 +428,13 @@ def tabulate(folder: Path, command: str, confirm: bool, update_docs: bool) -> in
             f"`{command}` (the confirming run, ended {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC)")
         _store(folder / "study.json", data)
     confirmed = numbers(identified_results()) if identified_results() else None
+    same = [c for c in choices(CASE.parent)[1:] if {c.dimension: c.level} == {d: v for d, v in levels.items() if v}]
+    if confirmed is None and same and same[0].name in nums:
+        # the identified set is one of the study's choices: its case file is that choice's, so
+        # that choice's runs (and the example's for the conditions it does not change) are its runs
+        confirmed = nums[same[0].name]
+        data.setdefault("commands", []).append(f"(the identified set is the study's choice '{same[0].name}': its runs "
+                                               "confirm it)")
     if confirmed is None and IDENTIFIED_JSON.is_file():
         # the confirming run's folder is gone (a fresh checkout): its numbers stay those recorded
         # beside the case file, when they are of the same set

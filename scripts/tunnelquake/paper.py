@@ -896,6 +896,37 @@ def joint_text(key: str, runs: dict[str, dict], current: dict, target: dict[str,
     return ""
 
 
+def trade_text(key: str, runs: dict[str, dict], reaching: list[str], current: dict) -> str:
+    """For a number outside the band in `current` that the runs `reaching` bring within it: when
+    each of those runs takes out of the band numbers that `current` holds within it, what each
+    costs ("**unreachable** beside ..."): the reported set keeps more numbers within the band than
+    any of those runs. '' when one of them costs nothing."""
+    target = paper_numbers()
+
+    def inside(k: str, v) -> bool:
+        if v is None or not np.isfinite(v):
+            return False
+        if k.startswith("pressure_time"):
+            return abs(v - target[k]) <= 0.5
+        return abs(v / target[k] - 1) <= TOLERANCE
+
+    kept = [k for k in target if k != key and inside(k, current.get(k))]
+    costs = []
+    for n in reaching:
+        lost = [k for k in kept if runs[n].get(k) is not None and not inside(k, runs[n][k])]
+        if not lost:
+            return ""
+        words = []
+        for k in lost[:3]:
+            label, unit, scale = number_label(k)
+            words.append(f"{label} {current[k] * scale:.3g} → {runs[n][k] * scale:.3g}{' ' + unit if unit else ''}")
+        more = f" and {len(lost) - 3} more" if len(lost) > 3 else ""
+        _, unit, scale = number_label(key)
+        costs.append(f"{n} ({runs[n][key] * scale:.3g} {unit}): {len(lost)} leave the band ({'; '.join(words)}{more})")
+    return ("**unreachable** beside the numbers this set keeps within the band: the runs that bring it within take "
+            "others out — " + "; ".join(costs))
+
+
 def reach_text(key: str, runs: dict[str, dict], p: float, close=None, current: dict | None = None) -> str:
     """What the study's runs (name -> numbers) say of a number against the paper's p: the run that
     brings it within the band (closest first); else, when `current` (the reported run's numbers)
@@ -910,7 +941,8 @@ def reach_text(key: str, runs: dict[str, dict], p: float, close=None, current: d
     _, unit, scale = number_label(key)
     ok = sorted((abs(v - p), v, n) for v, n in vals if close(v))
     if ok:
-        return f"within the band with {ok[0][2]}: {ok[0][1] * scale:.3g} {unit}"
+        traded = trade_text(key, runs, [n for _, _, n in ok], current) if current else ""
+        return traded or f"within the band with {ok[0][2]}: {ok[0][1] * scale:.3g} {unit}"
     joint = joint_text(key, runs, current, paper_numbers()) if current and key in paper_numbers() else ""
     if joint:
         return joint
