@@ -75,8 +75,8 @@ def assess_slice(case) -> SliceAssessment:
                               "hydrodynamic force; in 3D they fed the closed water column's axial breathing mode (paper "
                               "case: energy created from 13.5 s, the run wrong by 16 s; docs/coupler.md \"Energy guard\")")
         if not d["time"].get("subcycling"):
-            # Measured on the paper mesh (docs/benchmarks.md "Subcycling"): the lining's 0.25 m layers set
-            # the step; the rock may take up to 8 times it.
+            # Measured on the paper mesh (docs/benchmarks.md "Solid subcycling and element order"): the
+            # lining's 0.25 m layers set the step; the rock may take up to 8 times it.
             advice.append("time.subcycling: 3 lets the rock step up to 8 times the lining's step (paper mesh in 3D: "
                           "0.32 of the element evaluations, about 1.9x fewer solid seconds a step; "
                           "docs/solid_solver.md \"Subcycling\")")
