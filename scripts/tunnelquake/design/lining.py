@@ -215,8 +215,8 @@ class LiningDesign:
                 out += [f"Equilibrium: over the run these design forces (stress resultants) differ from the ring's "
                         f"free-body forces, which balance its loads to round-off, by at most "
                         f"{100 * d['N'] / d['max|N|']:.2g} % (N) and {100 * d['V'] / d['max|N|']:.2g} % (V) of "
-                        f"max|N| and {m}: the mesh's O(Δθ²), in M mostly the radial-stress couple "
-                        "(docs/theory.md §7).", ""]
+                        f"max|N| and {m}: the mesh's O(Δθ²) (in M mostly the radial-stress couple) and, in the "
+                        "shaking, the one time step between them (docs/theory.md §7).", ""]
         if self.gamma is not None and self.closed_forms:
             g, pgv, cs = self.gamma
             out += [f"Closed-form ovaling for the free-field shear strain γ_max = PGV / c_s = {pgv:.3g} / {cs:.4g} = "
