@@ -1,6 +1,7 @@
 // Lining section forces (tq/ring_forces.hpp) against exact plane-strain elasticity solutions of a
 // thick lining in an infinite elastic rock (bonded and in full slip) with their order of convergence,
-// and the equilibrium of the ring between its sections.
+// the equilibrium of the ring between its sections, and that of the free-body forces tq-solid
+// writes to results.h5, read back.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
