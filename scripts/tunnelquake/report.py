@@ -318,8 +318,9 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None, carried: b
 # ---- lining forces: the designer's section ------------------------------------------------------
 #
 # Per condition, the thrust N, moment M and shear V around the ring (envelopes), the ovaling, the
-# capacity utilisation of the section and the closed-form ovaling (design/lining.py, from the ring
-# forces tq-solid writes: ring_forces.py).
+# capacity utilisation of the section, the largest difference of the design forces from the ring's
+# free-body (equilibrium) forces and the closed-form ovaling (design/lining.py, from the ring forces
+# tq-solid writes: ring_forces.py).
 
 def design_quantities(case, results: list[ConditionResult]):
     """The design quantities of the runs (ring forces, envelopes, ovaling, capacity, the closed-form

@@ -4,7 +4,9 @@ Layout, conventions and method: docs/formats.md ("Lining section forces") and do
 ("Lining section forces"). Per ring (an axial element layer of the lining): thrust N, moment M
 and shear V per unit length of tunnel at every section (the mid-plane of each element column)
 and every monitor sample, the change of each inner diameter, and per section the envelope
-(max, time of max, min, time of min) of each.
+(max, time of max, min, time of min) of each. Beside these design forces (stress resultants), the
+discrete ring's free-body section forces, which balance the lining's nodal loads to round-off
+(docs/theory.md §7 "Equilibrium"), where the file has them.
 """
 from __future__ import annotations
 
@@ -30,6 +32,16 @@ class Envelope:
 
 
 @dataclass
+class FreeBody:
+    """The discrete ring's section forces [T, S] (same units and signs as the design forces): from
+    the elements' nodal forces, in equilibrium with the lining's nodal loads to round-off."""
+
+    N: np.ndarray
+    M: np.ndarray
+    V: np.ndarray
+
+
+@dataclass
 class Ring:
     """One ring's histories and envelopes; angles in rad from +x towards +z about the centre."""
 
@@ -50,6 +62,7 @@ class Ring:
     diameter_change: np.ndarray  # [T, D] m, elongation positive, relative to the seismic start
     envelopes: dict[str, Envelope] = field(default_factory=dict)
     ovaling: dict[str, float] = field(default_factory=dict)  # the largest elongation and shortening
+    free_body: FreeBody | None = None  # None in files without /ring_forces/<k>/free_body
 
 
 def read_ring_forces(results: str | Path) -> list[Ring]:
@@ -66,7 +79,8 @@ def read_ring_forces(results: str | Path) -> list[Ring]:
             a = r.attrs
             time = r["time"][:, 0] if "time" in r else np.zeros(0)
             hist = {q: r[q][...].astype(np.float64) if q in r else np.zeros((0, 0)) for q in QUANTITIES}
-            rows = min([len(time)] + [len(h) for q, h in hist.items() if q in r])
+            fb = {q: r[f"free_body/{q}"][...] for q in ("N", "M", "V")} if "free_body/N" in r else None
+            rows = min([len(time)] + [len(h) for q, h in hist.items() if q in r] + [len(h) for h in (fb or {}).values()])
             time = time[:rows]
             hist = {q: h[:rows] for q, h in hist.items()}
             env = {}
@@ -82,7 +96,8 @@ def read_ring_forces(results: str | Path) -> list[Ring]:
                 r_outer=float(a["r_outer"]), r_mid=float(a["r_mid"]), closed=bool(a["closed"]),
                 angle=r["angle"][...], time=time, N=hist["N"], M=hist["M"], V=hist["V"],
                 diameter_angle=r["diameter_angle"][...] if "diameter_angle" in r else np.zeros(0),
-                diameter_change=hist["diameter_change"], envelopes=env, ovaling=ovaling))
+                diameter_change=hist["diameter_change"], envelopes=env, ovaling=ovaling,
+                free_body=FreeBody(**{q: h[:rows] for q, h in fb.items()}) if fb is not None else None))
     return rings
 
 

@@ -19,6 +19,11 @@ namespace {
 constexpr hsize_t kMetadataMargin = 64 * 1024;
 // Held beside the file and freed for the writes that end a run stopped by a full disk.
 constexpr hsize_t kStopReserve = 128 * 1024;
+// The datasets of a ring's histories: the design forces and diameter changes (float32, with
+// envelopes: the first kEnveloped), then the free-body forces (float64: their equilibrium holds to
+// round-off, which float32's 7 digits would hide).
+constexpr int kRingQ = 7, kEnveloped = 4;
+const char* const kRingNames[kRingQ] = {"N", "M", "V", "diameter_change", "free_body/N", "free_body/M", "free_body/V"};
 }  // namespace
 
 void principalStresses(const Real s[6], Real p[3]) {
@@ -48,17 +53,18 @@ struct ResultsWriter::Impl {
   nlout::State nl;                                // damage and interface output
   std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
   std::vector<std::pair<h5::ClockedRows, std::function<Real()>>> series;  // addSeries
-  // Lining section forces (tq/ring_forces.hpp): per ring its histories and, per section and
-  // quantity (N, M, V, diameter change), the envelope max, time of max, min, time of min.
+  // Lining section forces (tq/ring_forces.hpp): per ring its histories (the design N, M, V, the
+  // diameter changes, the free-body N, M, V: kRingNames) and, per section and quantity of the first
+  // kEnveloped, the envelope max, time of max, min, time of min.
   struct RingOut {
     std::string group;
-    h5::RowAppender time, q[4];
-    std::vector<Real> env[4];
-    size_t count[4] = {0, 0, 0, 0};
+    h5::RowAppender time, q[kRingQ];
+    std::vector<Real> env[kEnveloped];
+    size_t count[kRingQ] = {};
     // Rows since the last flush (written at each flush: one HDF5 write per dataset instead of one
     // per sample, which was most of the ring forces' cost).
-    std::vector<Real> pendingTime, pending[4];
-    std::vector<Real> prev[4], cur[4];  // the last two observed states' values (interpolated at the due times)
+    std::vector<Real> pendingTime, pending[kRingQ];
+    std::vector<Real> prev[kRingQ], cur[kRingQ];  // the last two observed states' values (interpolated at the due times)
     size_t samples = 0;
   };
   std::unique_ptr<RingForces> ring;
@@ -76,20 +82,16 @@ struct ResultsWriter::Impl {
   }
 };
 
-namespace {
-const char* const kRingNames[4] = {"N", "M", "V", "diameter_change"};
-}
-
 void ResultsWriter::Impl::writeRingEnvelopes() {
   const auto t0 = std::chrono::steady_clock::now();
   for (auto& R : ringOut) {
     R.time.append(R.pendingTime.data(), R.pendingTime.size());
-    for (int q = 0; q < 4; ++q)
+    for (int q = 0; q < kRingQ; ++q)
       if (R.count[q] > 0) R.q[q].append(R.pending[q].data(), R.pendingTime.size());
     R.pendingTime.clear();
     for (auto& p : R.pending) p.clear();
     if (R.samples == 0) continue;
-    for (int q = 0; q < 4; ++q)
+    for (int q = 0; q < kEnveloped; ++q)
       if (R.count[q] > 0) h5::replaceDoubles(file, R.group + "/envelope/" + kRingNames[q], R.env[q].data(), {R.count[q], 4});
     if (R.count[3] > 0) {  // ovaling: the largest elongation and shortening of a diameter so far
       const auto& e = R.env[3];
@@ -218,16 +220,26 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
         h5::writeDoubles(f, o.group + "/diameter_angle", R.diameterAngle.data(), {R.diameterAngle.size()});
       o.time = h5::RowAppender(f, o.group + "/time", 1, &I.ledger);
       const size_t S = R.angle.size(), D = R.diameters.size();
-      for (int q = 0; q < 4; ++q) {
-        o.count[q] = q < 3 ? S : D;
+      for (int q = 0; q < kRingQ; ++q) {
+        o.count[q] = q == 3 ? D : S;
         if (o.count[q] == 0) continue;
-        o.q[q] = h5::RowAppender(f, o.group + "/" + kRingNames[q], o.count[q], &I.ledger, 256, true);
+        const bool enveloped = q < kEnveloped;
+        o.q[q] = h5::RowAppender(f, o.group + "/" + kRingNames[q], o.count[q], &I.ledger, 256, enveloped);
+        if (!enveloped) continue;
         o.env[q].assign(4 * o.count[q], 0.0);
         for (size_t k = 0; k < o.count[q]; ++k) {
           o.env[q][4 * k] = -std::numeric_limits<Real>::infinity();
           o.env[q][4 * k + 2] = std::numeric_limits<Real>::infinity();
         }
       }
+      auto fb = h5::ensureGroup(f, o.group + "/free_body");
+      h5::writeStringAttr(fb, "meaning",
+                          "the discrete ring's section forces (N, M, V as above; M about the middle of the section's "
+                          "straight radial segment): the force and moment each element column transmits, from its "
+                          "elements' internal nodal forces at the displacement of the observed state; between any two "
+                          "sections they balance the nodal loads of the lining nodes between them (interface, water, "
+                          "inertia) to round-off. The design forces N, M, V (stress resultants) differ from them by "
+                          "O(dtheta^2): docs/theory.md section 7");
       I.ringOut.push_back(std::move(o));
     }
   }
@@ -294,13 +306,14 @@ void ResultsWriter::sample(const Solver& s) {
   const auto t0 = std::chrono::steady_clock::now();
   for (size_t r = 0; I.ring && r < I.ringOut.size(); ++r) {
     auto& o = I.ringOut[r];
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < kRingQ; ++k) {
       o.prev[k].swap(o.cur[k]);
       o.cur[k].assign(o.count[k], 0.0);
     }
     I.ring->sectionForces(r, o.cur[0].data(), o.cur[1].data(), o.cur[2].data());
     I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, o.cur[3].data());
-    for (int k = 0; k < 4; ++k)
+    I.ring->freeBodyForces(r, s.state().uData(), o.cur[4].data(), o.cur[5].data(), o.cur[6].data());
+    for (int k = 0; k < kRingQ; ++k)
       if (o.prev[k].empty()) o.prev[k] = o.cur[k];
   }
   auto ringTime = [&I](std::chrono::steady_clock::time_point from) {
@@ -322,11 +335,12 @@ void ResultsWriter::sample(const Solver& s) {
       auto& o = I.ringOut[r];
       o.pendingTime.push_back(tk);
       ++o.samples;
-      for (int k = 0; k < 4; ++k) {
-        Real* env = o.env[k].data();
+      for (int k = 0; k < kRingQ; ++k) {
+        Real* env = k < kEnveloped ? o.env[k].data() : nullptr;
         for (size_t j = 0; j < o.count[k]; ++j) {
           const Real q = o.prev[k][j] + w * (o.cur[k][j] - o.prev[k][j]);
           o.pending[k].push_back(q);
+          if (!env) continue;
           if (q > env[4 * j]) { env[4 * j] = q; env[4 * j + 1] = tk; }
           if (q < env[4 * j + 2]) { env[4 * j + 2] = q; env[4 * j + 3] = tk; }
         }
@@ -510,7 +524,7 @@ void ResultsWriter::checkpoint(StateArchive& a) {
   for (auto& R : I.ringOut) {
     a.io(R.samples);
     for (auto& e : R.env) a.io(e);
-    for (int q = 0; q < 4; ++q) {
+    for (int q = 0; q < kRingQ; ++q) {
       a.io(R.prev[q]);
       a.io(R.cur[q]);
     }

@@ -15,8 +15,9 @@ from tunnelquake.design.capacity import Concrete, DesignParameters, Reinforcemen
 H, R_IN = 0.5, 3.0  # lining thickness and inner radius, m
 
 
-def _results(path, N, M, V, dD, t):
-    """A results.h5 holding one ring with the given histories [T, S] (and diameters [T, D])."""
+def _results(path, N, M, V, dD, t, free_body=None):
+    """A results.h5 holding one ring with the given histories [T, S] (and diameters [T, D]); with
+    `free_body` ({"N": ..., "M": ..., "V": ...}) also its free-body forces (float64, as tq-solid writes them)."""
     S, D = N.shape[1], dD.shape[1]
     with h5py.File(path, "w") as f:
         g = f.create_group("ring_forces/0")
@@ -28,6 +29,8 @@ def _results(path, N, M, V, dD, t):
         g["time"] = t[:, None]
         for name, a in (("N", N), ("M", M), ("V", V), ("diameter_change", dD)):
             g[name] = a.astype(np.float32)
+        for name, a in (free_body or {}).items():
+            g[f"free_body/{name}"] = a
     return path
 
 
@@ -104,3 +107,35 @@ def test_without_a_design_block_the_linings_own_strengths_are_used():
     assert p.concrete.fck == 25e6 and p.concrete.fctm_value == 1.8e6 and not p.reinforced
     assert "compressive strength 25 MPa as fck" in said and "tensile strength 1.8 MPa as fctm" in said
     assert math.isclose(p.gamma_c, 1.5)
+
+
+def test_the_difference_between_design_and_free_body_forces_is_reported_from_the_file(tmp_path):
+    """The free-body forces are read back as written (float64); the largest |design - free-body| of
+    N, M, V over the sections and samples equals the hand value from the file's data, and the report
+    gives N and V as % of max|N| and M in kN m/m and % of max|M|. A file without them: free_body
+    None, no such sentence."""
+    from tunnelquake.ring_forces import read_ring_forces
+
+    t, N, M, V, dD = _histories()
+    rng = np.random.default_rng(5)
+    fb = {"N": N + 3e3 * rng.standard_normal(N.shape), "M": 0.9 * M, "V": V - 2e3 * np.cos(t)[:, None]}
+    path = _results(tmp_path / "r.h5", N, M, V, dD, t, free_body=fb)
+    (ring,) = read_ring_forces(path)
+    for q, a in fb.items():
+        np.testing.assert_array_equal(getattr(ring.free_body, q), a)
+    p = DesignParameters(concrete=Concrete(fck=30e6, fctm=2.9e6))
+    c = lining.condition_design(path, "no_water", {}, p)
+    design = {q: a.astype(np.float32).astype(float) for q, a in (("N", N), ("M", M), ("V", V))}
+    d = {q: float(np.max(np.abs(design[q] - a))) for q, a in fb.items()}
+    nmax, mmax = np.max(np.abs(design["N"])), np.max(np.abs(design["M"]))
+    for q in ("N", "M", "V"):
+        assert c.free_body_difference[q] == pytest.approx(d[q], rel=1e-12)
+    (line,) = [x for x in lining.LiningDesign([c], p, "test").report_lines() if x.startswith("Equilibrium:")]
+    assert f"{100 * d['N'] / nmax:.2g} % (N) and {100 * d['V'] / nmax:.2g} % (V) of max|N|" in line, line
+    assert f"{d['M'] / 1e3:.3g} kN m/m in M ({100 * d['M'] / mmax:.2g} % of max|M|)" in line, line
+    assert "docs/theory.md §7" in line
+
+    path = _results(tmp_path / "old.h5", N, M, V, dD, t)
+    assert read_ring_forces(path)[0].free_body is None
+    c = lining.condition_design(path, "no_water", {}, p)
+    assert not any(x.startswith("Equilibrium:") for x in lining.LiningDesign([c], p, "test").report_lines())

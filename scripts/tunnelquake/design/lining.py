@@ -68,6 +68,9 @@ class ConditionDesign:
     ovaling: tuple[Extreme, Extreme] | None  # largest elongation, largest shortening (m)
     utilisation: dict[str, Extreme]  # check -> the largest utilisation, where and when
     increments: dict[str, float] = field(default_factory=dict)  # max |N - N0|, |M - M0|, |V - V0|
+    # The largest |design - free-body| of N, M, V over the sections and samples, and max |N|, max |M|
+    # of the design forces (their scales); empty when the file has no free-body forces.
+    free_body_difference: dict[str, float] = field(default_factory=dict)
 
 
 def _pick_ring(rings, monitors: dict):
@@ -135,7 +138,19 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
         util[f"reinforced M–N ({params.utilisation})"] = Extreme(float(np.max(u)), math.degrees(float(r.angle[j])),
                                                                 float(r.time[i]))
     inc = {q: float(np.max(np.abs(getattr(r, q) - getattr(r, q)[0]))) for q in ("N", "M", "V")}
-    return ConditionDesign(condition, r.index, h, r.r_mid, ext, ovl, util, inc)
+    return ConditionDesign(condition, r.index, h, r.r_mid, ext, ovl, util, inc, free_body_difference(r))
+
+
+def free_body_difference(ring) -> dict[str, float]:
+    """The largest |design - free-body| of N, M and V over the ring's sections and samples (keys N, M, V)
+    with the design forces' max |N| and max |M| (keys max|N|, max|M|); empty without free-body forces.
+    M is NaN with one element through the thickness."""
+    fb = ring.free_body
+    if fb is None or fb.N.shape != ring.N.shape or ring.N.size == 0:
+        return {}
+    out = {q: float(np.max(np.abs(getattr(ring, q) - getattr(fb, q)))) for q in ("N", "M", "V")}
+    out["max|N|"], out["max|M|"] = float(np.max(np.abs(ring.N))), float(np.max(np.abs(ring.M)))
+    return out
 
 
 def free_field_shear_strain(case, motion_file: Path) -> tuple[float, float, float]:
@@ -193,6 +208,15 @@ class LiningDesign:
                 val = "no resistance" if not math.isfinite(e.value) else f"{e.value:.3g}"
                 out.append(f"| {name} | {val} | {e.angle:.0f}° | {e.time:.3f} | {verdict} |")
             out.append("")
+            d = c.free_body_difference
+            if d and d["max|N|"] > 0:
+                m = (f"{d['M'] / 1e3:.3g} kN m/m in M ({100 * d['M'] / d['max|M|']:.2g} % of max|M|)"
+                     if math.isfinite(d["M"]) and d["max|M|"] > 0 else "M not compared (no moments)")
+                out += [f"Equilibrium: over the run these design forces (stress resultants) differ from the ring's "
+                        f"free-body forces, which balance its loads to round-off, by at most "
+                        f"{100 * d['N'] / d['max|N|']:.2g} % (N) and {100 * d['V'] / d['max|N|']:.2g} % (V) of "
+                        f"max|N| and {m}: the mesh's O(Δθ²) (in M mostly the radial-stress couple) and, in the "
+                        "shaking, the one time step between them (docs/theory.md §7).", ""]
         if self.gamma is not None and self.closed_forms:
             g, pgv, cs = self.gamma
             out += [f"Closed-form ovaling for the free-field shear strain γ_max = PGV / c_s = {pgv:.3g} / {cs:.4g} = "
