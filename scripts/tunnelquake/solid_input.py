@@ -329,7 +329,7 @@ def solid_threads(case, mesh_h5, share: int = 1) -> int:
     mesh (SMALL_MESH_ELEMENTS) and otherwise the cores divided among the `share` solvers that run
     at once (conditions side by side): a team of threads on cores it shares with another solver
     waits at each parallel loop for a thread that is not running (three 3D runs side by side on 2
-    cores: 1 thread each 1.8x the steps a second of 2 threads each, docs/benchmarks.md "Threads of
+    cores: 1 thread each 1.3-1.45x the steps a second of 2 threads each, docs/benchmarks.md "Threads of
     solvers side by side")."""
     import os
 
