@@ -34,7 +34,7 @@ What is checked (EN 1992-1-1)
   Utilisation of (N, M): radial from the origin by default, u = |(N, M)| / |(N_R, M_R)| with
   (N_R, M_R) the diagram's point on the same ray; or at constant N, u = M / M_Rd(N).
 
-Case keys (proposed; SI numbers or "<number> <unit>" strings, see ``DesignParameters.from_mapping``)
+Case keys (`design:`; SI numbers or "<number> <unit>" strings, see ``DesignParameters.from_mapping``)
 ---------------------------------------------------------------------------------------------------
 ::
 
