@@ -13,7 +13,7 @@ Ladders:
   rigid pipe, 2D slice (tests/verification/fluid_rigid_pipe: R 4.5 m, a = a0 cos ωt, 1 Hz, one
   period from rest; references p(θ) = −ρ a R cos θ and F = ρπR²L a0), on blockMesh O-grids of
   N = 32, 64, 128 (--full: and 256) faces around (N²/4 cells), 200 steps a period; and N = 64 at 25,
-  50, 100, 200, 400 steps a period. Each setting runs with our water settings (the template's:
+  50, 100, 200, 400 steps a period. Each setting runs with our water settings (tunnelquake.water_case's:
   transpiration, tuned PIMPLE, p by tqProjected + GAMG) and with the stock set-up of
   benchmarks/water_step/benchmark.py (pimpleFoam + displacementLaplacian,
   inverseDistance, movingWallVelocity + fixedFluxPressure, movingCone solvers), alternately,
@@ -224,7 +224,7 @@ def _fluid_modules():
     from .water_step import benchmark as fb
 
     vs = fb.variants(closed=True)  # the slice is a closed domain
-    # the stock set-up keeps OpenFOAM's own laminar model (Stokes); ours takes the template's when
+    # the stock set-up keeps OpenFOAM's own laminar model (Stokes); ours takes the water case's when
     # the built libtqFoam.so has it (tqNewtonian), else Stokes (the model is named in the output)
     ours = dict(vs[len(fb.STEPS) - 1][2])
     model = ours.get("laminarModel", tunnel.SETTINGS.get("laminarModel", "Stokes"))
@@ -492,8 +492,8 @@ def section(done: list[Ladder], pairs: list[dict], command: str, when: str, wher
 are relative, against the closed forms. **Rigid pipe** (tests/verification/fluid_rigid_pipe, 2D
 slice, R 4.5 m, a = a0 cos ωt at {PIPE_FREQ:g} Hz from rest, one period): F = amplitude of the
 harmonic fit of the resultant against ρπR²L a0; p = the cos θ coefficient of the wall pressure at
-the last step against −ρ a R. blockMesh O-grids with N faces around. **ours**: the template's
-water settings (transpiration, tuned PIMPLE, p by tqProjected + GAMG to 1e-6 in the closed
+the last step against −ρ a R. blockMesh O-grids with N faces around. **ours**: the water case's
+settings (transpiration, tuned PIMPLE, p by tqProjected + GAMG to 1e-6 in the closed
 slice{laminar}); **stock**: the tutorial-like set-up of docs/water.md §10 (pimpleFoam + displacementLaplacian inverseDistance,
 movingWallVelocity + fixedFluxPressure, movingCone solvers), both from
 `benchmarks/water_step/benchmark.py`, run alternately on the same mesh and step;

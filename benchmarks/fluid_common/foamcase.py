@@ -41,26 +41,14 @@ def env() -> dict:
     return e
 
 
-TEMPLATE_FVSOLUTION = REPO / "openfoam_case" / "template" / "system" / "fvSolution"
+def water_p_controls(closed: bool) -> str:
+    """Body of the water case's `p` solver entry (the production pressure controls, tqProjected with
+    GAMG inside: tunnelquake.water_case.pressure_solver), for a closed domain (tolerance 1e-6;
+    relTol 0) or an open one."""
+    from tunnelquake.foam_dict import inline
+    from tunnelquake.water_case import pressure_solver
 
-
-def template_p_controls(closed: bool) -> str:
-    """Body of the template's `p` solver entry (the production pressure controls: tqProjected
-    with GAMG inside), for a closed domain as fluid_case sets it (closed_pressure_tolerance:
-    tolerance 1e-6; relTol 0) or as written (open ends)."""
-    from tunnelquake.fluid_case import closed_pressure_tolerance
-
-    text = TEMPLATE_FVSOLUTION.read_text()
-    if closed:
-        text = closed_pressure_tolerance(text, TEMPLATE_FVSOLUTION)
-    m = re.search(r"^\s*p\s+\{", text, flags=re.M)
-    if not m:
-        raise ValueError(f"{TEMPLATE_FVSOLUTION}: no 'p' solver entry")
-    depth, i = 1, m.end()
-    while depth:
-        depth += {"{": 1, "}": -1}.get(text[i], 0)
-        i += 1
-    return " ".join(text[m.end():i - 1].split())
+    return inline(pressure_solver(closed))
 
 
 HEADER = """FoamFile

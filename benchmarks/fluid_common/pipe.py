@@ -170,7 +170,7 @@ def make_pipe_case(
     hydrostatic resultant with gravity (0 0 -g).  laminar_model: 'tqNewtonian' (libtqFoam, the
     default for incompressible water) or the stock 'Stokes' (the default for compressible water);
     nu: kinematic viscosity [m^2/s] (incompressible water).  p_controls: the pressure solver's
-    dictionary body instead of PCG/DIC to p_tol (e.g. foamcase.template_p_controls())."""
+    dictionary body instead of PCG/DIC to p_tol (e.g. foamcase.water_p_controls())."""
     transpiration = interface_motion == "transpiration"
     compressible = water == "compressible"
     if water not in ("incompressible", "compressible"):

@@ -42,9 +42,9 @@ SETTINGS: dict = {
     # 'stock' (movingWallVelocity + fixedFluxPressure)
     "wall": "ours",
     # linear solvers (OpenFOAM dictionary bodies)
-    # the template's (tqProjected, GAMG inside; open ends: relative tolerance)
-    "p": fc.template_p_controls(closed=False),
-    "pFinal": fc.template_p_controls(closed=False),
+    # the water case's (tqProjected, GAMG inside; open ends: relative tolerance)
+    "p": fc.water_p_controls(closed=False),
+    "pFinal": fc.water_p_controls(closed=False),
     "U": "solver smoothSolver; smoother symGaussSeidel; tolerance 1e-8; relTol 0;",
     "pcorr": "solver PCG; preconditioner DIC; tolerance 1e-2; relTol 0;",
     # PIMPLE

@@ -1,11 +1,13 @@
-"""The OpenFOAM case of condition dynamic_water, built from openfoam_case/template and the case's
-water mesh (results/mesh/water.msh), coupled to tq-solid through the coupler (docs/water.md §8,
-docs/coupler.md "Running condition 3").
+"""The OpenFOAM case of condition dynamic_water, written from the case (tunnelquake.water_case: every
+dictionary generated from one description) on the case's water mesh (results/mesh/water.msh),
+coupled to tq-solid through the coupler (docs/water.md §8, docs/coupler.md "Running condition 3").
 
     settings = coupling_settings(case, window_size, address_file, token)   # one source of truth
     solid_coupling_attrs(settings)   -> the /coupling attributes of solid_input.h5
-    exchange_dict(settings)          -> the fluid's `exchange { type coupler; ... }` dictionary
-    build_fluid_case(case, water_msh, folder, settings) -> FluidCase
+    exchange_dict(settings)          -> the fluid's `exchange { type coupler; ... }` dictionary (data)
+    water_case(case, settings, slice_mode) -> water_case.WaterCase, the description of the case
+    write_water_case(water, water_msh, folder) -> FluidCase: dictionaries, mesh converted and checked
+    build_fluid_case(case, water_msh, folder, settings, slice_mode) -> FluidCase (the two above)
 
 The two sides' coupling configurations are compared item by item in the coupler's handshake, so
 both are written from the same `settings`: mesh name, participants, scheme, tolerance,
@@ -16,7 +18,7 @@ Water models (case `water` section):
 
     compressible     rhoPimpleFoam, perfectFluid with R T0 = K / rho0 (K = water.bulk_modulus), p in Pa,
                      the stock laminar model Stokes
-    incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the template's laminar model
+    incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the laminar model
                      tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 
 Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D:
@@ -31,7 +33,7 @@ gets the wall motion less those modes and sends its wall pressure less its area 
 `subtractMeanPressure`): its answer to the lining's deformation. Incompressible water in a closed section is solved by rhoPimpleFoam with
 REMAINDER_BULK_MODULUS, whose only role is to make the closed domain's pressure well posed (its
 uniform part is replaced by the solid's constraint).
-Interface: transpiration (the template's default). nNonOrthogonalCorrectors 0: the meshes of
+Interface: transpiration. nNonOrthogonalCorrectors 0: the meshes of
 tunnelquake.meshing are structured all-hex (docs/water.md §10).
 
 The token is not written into the case: the fluid reads it from the environment variable
@@ -50,9 +52,10 @@ from pathlib import Path
 from . import paths
 from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor
 from .coupling_scales import absolute_tolerances
+from .foam_dict import Quoted, foam_file
+from .water_case import WaterCase, patch_types
+from .water_case import write as write_dictionaries
 
-TEMPLATE = paths.ROOT / "openfoam_case" / "template"
-T0 = 293.15  # K, the template's 0.compressible/T
 TOKEN_ENV = "TQ_COUPLING_TOKEN"
 #: what the solid writes by default (tq-solid's CouplingInput::writeFields), in order
 SOLID_WRITE_FIELDS = ("velocity", "displacement")
@@ -166,7 +169,7 @@ def solid_coupling_attrs(s: dict) -> dict:
     return out
 
 
-def exchange_dict(s: dict) -> str:
+def exchange_dict(s: dict) -> dict:
     """The fluid's `exchange` dictionary (couplerExchange, docs/water.md §2) for these settings.
     The fluid is the second participant; the solid (first) maps, so mappingSide is the solid."""
     if s["transport"] != "tcp":
@@ -175,82 +178,36 @@ def exchange_dict(s: dict) -> str:
     if s["window"] != 1 and s["scheme"] == "paper":
         raise FluidCaseError(f"coupling.window = {s['window']} solid steps needs scheme explicit or implicit (the "
                              "paper scheme's two passes are made for one-step windows); use window: 1")
-    reads = " ".join(s["write_fields"])
-    atol = " ".join(f"{k} {v!r};" for k, v in s["absolute_tolerance"].items())
-    return f"""exchange
-        {{
-            type            coupler;
-            participant     {s['partner']};
-            partner         {s['participant']};
-            tokenEnv        {TOKEN_ENV};
-            addressFile     "{s['address_file']}";
-            transport       {s['transport']};
-            timeout         {s['timeout']!r};
-            connectTimeout  {s['connect_timeout']!r};
-            scheme          {s['scheme']};
-            windowSize      {s['window_size']!r};
-            windows         {s['windows']};
-            maxIterations   {s['max_iterations']};
-            tolerance       {s['tolerance']!r};
-            acceleration    {s['acceleration']};
-            initialRelaxation {s['initial_relaxation']!r};
-            predictor       {s['predictor']};
-            reuse           {s.get('reuse', 0)};
-            absoluteTolerance {{ {atol} }}
-            mesh            {s['mesh']};
-            map             {s['map']};
-            mapTolerance    {s['map_tolerance']!r};
-            mappingSide     "{s['participant']}";
-            readFields      ({reads});
-            writeFields     (force);
-        }}"""
-
-
-#: the template's p and pFinal controls: the tolerance and relTol of an open domain
-_P_TOLERANCES = re.compile(r"(\b(?:p|pFinal)\s+\{ solver \w+;[^{}]*?) tolerance 0; relTol [0-9.]+;")
-
-
-def closed_pressure_tolerance(text: str, where: Path | str = "system/fvSolution") -> str:
-    """fvSolution text with p and pFinal to an absolute 1e-6 (tolerance 1e-6; relTol 0), as the
-    template's Allrun sets for a closed domain: there the error of an unconverged incompressible
-    pressure cannot leave through an open end and accumulates.  Raises ValueError when the two
-    entries are not as the template writes them."""
-    out, n = _P_TOLERANCES.subn(r"\1 tolerance 1e-6; relTol 0;", text)
-    if n != 2:
-        raise ValueError(f"{where}: expected the template's p and pFinal entries "
-                         f"('tolerance 0; relTol ...;'), found {n}")
-    return out
-
-
-def _set_entry(text: str, key: str, value: str) -> str:
-    """Replace the value of a top-level-style `key value;` line (first occurrence)."""
-    new, n = re.subn(rf"^(\s*){re.escape(key)}(\s+)[^;\n]*;", rf"\g<1>{key}\g<2>{value};", text, count=1,
-                     flags=re.M)
-    if n != 1:
-        raise FluidCaseError(f"template entry '{key}' not found; the template and fluid_case.py disagree")
-    return new
-
-
-def _replace_block(text: str, name: str, block: str) -> str:
-    """Replace `name { ... }` (balanced braces, first occurrence) by `block`."""
-    m = re.search(rf"^\s*{re.escape(name)}\s*\n\s*\{{", text, flags=re.M)
-    if not m:
-        raise FluidCaseError(f"template block '{name}' not found in the controlDict")
-    start = text.index(name, m.start())
-    depth, i = 0, text.index("{", start)
-    while True:
-        if text[i] == "{":
-            depth += 1
-        elif text[i] == "}":
-            depth -= 1
-            if depth == 0:
-                break
-        i += 1
-    return text[:start] + block + text[i + 1:]
+    return {
+        "type": "coupler",
+        "participant": s["partner"],
+        "partner": s["participant"],
+        "tokenEnv": TOKEN_ENV,
+        "addressFile": Quoted(s["address_file"]),
+        "transport": s["transport"],
+        "timeout": s["timeout"],
+        "connectTimeout": s["connect_timeout"],
+        "scheme": s["scheme"],
+        "windowSize": s["window_size"],
+        "windows": s["windows"],
+        "maxIterations": s["max_iterations"],
+        "tolerance": s["tolerance"],
+        "acceleration": s["acceleration"],
+        "initialRelaxation": s["initial_relaxation"],
+        "predictor": s["predictor"],
+        "reuse": s.get("reuse", 0),
+        "absoluteTolerance": dict(s["absolute_tolerance"]),
+        "mesh": s["mesh"],
+        "map": s["map"],
+        "mapTolerance": s["map_tolerance"],
+        "mappingSide": Quoted(s["participant"]),
+        "readFields": list(s["write_fields"]),
+        "writeFields": ["force"],
+    }
 
 
 def _boundary_types(folder: Path, types: dict[str, str]) -> None:
-    """Set the patch types gmshToFoam left as 'patch' (as the template's Allrun does)."""
+    """Set the patch types gmshToFoam left as 'patch'."""
     boundary = folder / "constant" / "polyMesh" / "boundary"
     for patch, typ in types.items():
         if typ == "patch":
@@ -288,15 +245,14 @@ def _foam(folder: Path, *cmd: str, log: str, case: bool = True) -> None:
         raise FluidCaseError(f"{cmd[0]} failed on the water case; see {folder / f'log.{log}'}")
 
 
-def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_mode: bool,
-                     write_interval: float | None = None) -> FluidCase:
-    """Make `folder` an OpenFOAM case of the water of `case`, ready to run coupled (not run)."""
+def water_case(case, settings: dict, slice_mode: bool, write_interval: float | None = None) -> WaterCase:
+    """The water case of condition dynamic_water (water_case.WaterCase) for `case` and the coupling
+    `settings`: one water step a coupling window."""
     d = case.data
     water = d["water"]
     model = water["model"]
-    mode = "slice" if slice_mode else "3d"
     law = settings.get("volume_law", "none")
-    if model == "incompressible" and mode == "slice" and law != "incompressible":
+    if model == "incompressible" and slice_mode and law != "incompressible":
         raise FluidCaseError("incompressible water in a closed slice needs the volume law in the solid "
                              "(coupling.volume_law: solid, the default); the water alone cannot change its "
                              "cross-section (docs/coupler.md \"Volume law in the solid\")")
@@ -310,90 +266,47 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
         # pressure, subtracted from it, grows with K and brings its solver noise along
         # (docs/coupler.md "Volume law in the solid": K = 2200 GPa in OpenFOAM stopped at 1.2 s).
         bulk = min(bulk, REMAINDER_BULK_MODULUS)
+    if slice_mode:
+        ends = "empty"
+    else:
+        ends = "wall" if model == "compressible" and water["ends"] == "closed" else "open"
+    dt = settings["window_size"]
+    end_time = settings["windows"] * dt
+    brief = water.get("log", "brief") == "brief"
+    return WaterCase(
+        model=model, ends=(ends, ends), density=float(water["density"]), viscosity=float(water["viscosity"]),
+        bulk_modulus=bulk, delta_t=dt, end_time=end_time,
+        write_interval=write_interval if write_interval else max(end_time, 0.1),
+        free_surface_level=float(d["geometry"]["tunnel_centre_z"]) + float(water["head"]),
+        exchange=exchange_dict(settings),
+        # the solid carries the uniform pressure: send the remainder
+        subtract_mean_pressure=law != "none" and closed_section(d),
+        log_interval=float(water.get("log_interval", WATER_LOG_INTERVAL)) if brief else None)
+
+
+def write_water_case(w: WaterCase, water_msh: Path, folder: Path) -> FluidCase:
+    """Make `folder` (emptied first) the OpenFOAM case `w` on the gmsh 2.2 mesh `water_msh` (physical
+    groups water, interface, end_ymin, end_ymax): the dictionaries, the mesh converted (gmshToFoam,
+    the patch types of water_case.patch_types) and checked (checkMesh). Not run."""
     water_msh = Path(water_msh)
     if not water_msh.is_file():
         raise FluidCaseError(f"water mesh {water_msh} not found; run `tunnelquake mesh`")
-    rho, mu = float(water["density"]), float(water["viscosity"])
-    nu = mu / rho
-    dt = settings["window_size"]
-    end_time = settings["windows"] * dt
-
     folder = Path(folder)
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    for sub in ("constant", "system"):
-        shutil.copytree(TEMPLATE / sub, folder / sub)
+    write_dictionaries(w, folder)
     shutil.copy(water_msh, folder / "water.msh")
     _foam(folder, "gmshToFoam", str(folder / "water.msh"), log="gmshToFoam")
-    closed_ends = mode == "slice" or (model == "compressible" and water["ends"] == "closed")
-    ends = "empty" if mode == "slice" else ("wall" if closed_ends else "patch")
-    _boundary_types(folder, {"interface": "wall", "end_ymin": ends, "end_ymax": ends})
+    _boundary_types(folder, patch_types(w))
     _foam(folder, "checkMesh", log="checkMesh")
+    return FluidCase(folder, w.solver, w.mode, w.model, w.end_time, w.delta_t)
 
-    # initial fields
-    zero = folder / "0"
-    shutil.copytree(TEMPLATE / ("0.2d" if mode == "slice" else "0.3d"), zero)
-    if model == "compressible":
-        for name in ("p", "T"):
-            shutil.copy(TEMPLATE / "0.compressible" / name, zero / name)
-        if mode == "slice":
-            for name in ("p", "T"):
-                f = zero / name
-                f.write_text(re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type empty; }",
-                                    f.read_text(), flags=re.M))
-        elif closed_ends:
-            shutil.copy(TEMPLATE / "0.compressible" / "U", zero / "U")
-        else:  # open ends: hydrodynamic p = 0 there, the 3D template's U
-            f = zero / "p"
-            f.write_text(re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type fixedValue; value uniform 0; }",
-                                f.read_text(), flags=re.M))
-    # constant: the case's water
-    tp = folder / "constant" / "transportProperties"
-    tp.write_text(_set_entry(tp.read_text(), "nu", f"{nu!r}"))
-    th = folder / "constant" / "thermophysicalProperties"
-    t = th.read_text()
-    t = re.sub(r"equationOfState \{ R [^;]*; rho0 [^;]*; \}",
-               f"equationOfState {{ R {bulk / (rho * T0)!r}; rho0 {rho!r}; }}", t)
-    t = re.sub(r"transport\s+\{ mu [^;]*;", f"transport       {{ mu {mu!r};", t)
-    th.write_text(t)
-    if model == "compressible":  # the template's tqNewtonian is for incompressible water only
-        tu = folder / "constant" / "turbulenceProperties"
-        tu.write_text(_set_entry(tu.read_text(), "laminarModel", "Stokes"))
 
-    # system: solver settings
-    fs = folder / "system" / "fvSolution"
-    t = _set_entry(fs.read_text(), "nNonOrthogonalCorrectors", "0")
-    if closed_ends:  # closed domain: p to an absolute tolerance (as the template's Allrun)
-        t = closed_pressure_tolerance(t, fs)
-    fs.write_text(t)
-
-    solver = "rhoPimpleFoam" if model == "compressible" else "pimpleFoam"
-    cd = folder / "system" / "controlDict"
-    t = cd.read_text()
-    t = _set_entry(t, "application", solver)
-    t = _set_entry(t, "endTime", f"{end_time!r}")
-    t = _set_entry(t, "deltaT", f"{dt!r}")
-    t = _set_entry(t, "writeInterval", f"{write_interval if write_interval else max(end_time, 0.1)!r}")
-    t = _set_entry(t, "timePrecision", "12")
-    t = _set_entry(t, "rhoInf", f"{rho!r}")
-    if model == "compressible":
-        t = _set_entry(t, "rho", "rho")
-        t = t.replace(f"rhoInf          {rho!r};", f"rhoInf          {rho!r};\n        nu              {nu!r};")
-    t = t.replace("freeSurfaceLevel 123;",
-                  f"freeSurfaceLevel {float(d['geometry']['tunnel_centre_z']) + float(water['head'])!r};")
-    t = _replace_block(t, "exchange", exchange_dict(settings))
-    if law != "none" and closed_section(d):  # the solid carries the uniform pressure: send the remainder
-        t, n = re.subn(r"(\n(\s*)interfaceMotion\s+\w+;)", r"\1\n\2subtractMeanPressure yes;", t, count=1)
-        if n != 1:
-            raise FluidCaseError(f"{cd}: no interfaceMotion entry in the tqInterface function object to put "
-                                 "subtractMeanPressure beside")
-    if water.get("log", "brief") == "brief":  # the template's defaults print every pass (verbose)
-        t = _set_entry(t, "SolverPerformance", "0")
-        t = _set_entry(t, "logInterval", f"{float(water.get('log_interval', WATER_LOG_INTERVAL))!r}")
-        t = _set_entry(t, "quietSolver", "yes")
-    cd.write_text(t)
-    return FluidCase(folder, solver, mode, model, end_time, dt)
+def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_mode: bool,
+                     write_interval: float | None = None) -> FluidCase:
+    """Make `folder` an OpenFOAM case of the water of `case`, ready to run coupled (not run)."""
+    return write_water_case(water_case(case, settings, slice_mode, write_interval), water_msh, folder)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -453,24 +366,10 @@ def write_decompose_dict(folder: Path, ranks: int, split: tuple[int, int, int]) 
     """system/decomposeParDict: `ranks` subdomains, method simple with n = split. (scotch would
     need the real libscotchDecomp: Debian's openfoam v1912 ships only its stub, and on these
     structured cylinders the simple cut along the axis is already the least.)"""
-    nx, ny, nz = split
     path = Path(folder) / "system" / "decomposeParDict"
-    path.write_text(f"""FoamFile
-{{
-    version     2.0;
-    format      ascii;
-    class       dictionary;
-    object      decomposeParDict;
-}}
-// written by tunnelquake ({RANKS_KEY}: {ranks})
-numberOfSubdomains {ranks};
-method          simple;
-coeffs
-{{
-    n           ({nx} {ny} {nz});
-    delta       0.001;
-}}
-""")
+    path.write_text(foam_file({"numberOfSubdomains": ranks, "method": "simple",
+                               "coeffs": {"n": list(split), "delta": 0.001}},
+                              "decomposeParDict", note=f"written by tunnelquake ({RANKS_KEY}: {ranks})"))
     return path
 
 

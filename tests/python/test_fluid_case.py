@@ -2,14 +2,15 @@
 coupler's handshake compares every item), and the water model chosen from the case."""
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import pytest
 
 from conftest import EXAMPLE
 from tunnelquake import fluid_case as fc
+from tunnelquake import water_case
 from tunnelquake.case import load_case
+from tunnelquake.foam_dict import parse
 
 
 def _settings(tmp_path, **kw):
@@ -17,39 +18,40 @@ def _settings(tmp_path, **kw):
     return case, fc.coupling_settings(case, 6.3006e-05, tmp_path / "wall.addr", "ab" * 16, t_end=0.02, **kw)
 
 
-def _entry(text: str, key: str) -> str:
-    m = re.search(rf"^\s*{key}\s+(.*?);\s*$", text, flags=re.M)
-    assert m, key
-    return m.group(1).strip().strip('"')
+def _written_exchange(case, s) -> dict:
+    """The `exchange` dictionary of the water case's system/controlDict, as written and read back."""
+    text = water_case.dictionaries(fc.water_case(case, s, slice_mode=True))["system/controlDict"]
+    return parse(text)["functions"]["interface"]["exchange"]
 
 
 def test_both_sides_get_the_same_configuration(tmp_path):
     case, s = _settings(tmp_path)
     solid = fc.solid_coupling_attrs(s)
-    fluid = fc.exchange_dict(s)
+    # the exchange as the fluid reads it: written into its controlDict and read back
+    fluid = _written_exchange(case, s)
     # windows: ceil(0.02 / 6.3006e-5) = 318, the rule tq-solid applies, pinned on both sides
-    assert solid["windows"] == 318 and int(_entry(fluid, "windows")) == 318
-    assert float(_entry(fluid, "windowSize")) == solid["window_size"] == 6.3006e-05
+    assert solid["windows"] == 318 and fluid["windows"] == 318
+    assert fluid["windowSize"] == solid["window_size"] == 6.3006e-05
     pairs = {"scheme": "scheme", "tolerance": "tolerance", "max_iterations": "maxIterations",
              "acceleration": "acceleration", "initial_relaxation": "initialRelaxation",
              "predictor": "predictor", "mesh": "mesh",
              "map": "map", "map_tolerance": "mapTolerance", "timeout": "timeout", "address_file": "addressFile"}
     for k, f in pairs.items():
-        assert str(_entry(fluid, f)) == str(solid[k]), k
+        assert fluid[f] == solid[k], k
     # the fluid is the second participant, the solid maps, and the fluid reads what the solid writes,
     # in the solid's order
-    assert _entry(fluid, "participant") == solid["partner"] == "fluid"
-    assert _entry(fluid, "partner") == solid["participant"] == "solid"
-    assert _entry(fluid, "mappingSide") == "solid"
-    assert _entry(fluid, "readFields") == "(" + solid["write_fields"].replace(",", " ") + ")"
+    assert fluid["participant"] == solid["partner"] == "fluid"
+    assert fluid["partner"] == solid["participant"] == "solid"
+    assert fluid["mappingSide"] == "solid"
+    assert fluid["readFields"] == solid["write_fields"].split(",")
     assert solid["write_fields"] == "velocity,displacement"
     # the case's choices went through (the example: the implicit scheme with iqn-ils)
     assert solid["scheme"] == case.data["coupling"]["scheme"] == "implicit"
     assert solid["acceleration"] == "iqn-ils"
     # predictor auto -> linear for the implicit scheme, on both sides
-    assert solid["predictor"] == "linear" and _entry(fluid, "predictor") == "linear"
+    assert solid["predictor"] == "linear" and fluid["predictor"] == "linear"
     # the secret is not written into the OpenFOAM case
-    assert "ab" * 16 not in fluid and _entry(fluid, "tokenEnv") == fc.TOKEN_ENV
+    assert "ab" * 16 not in str(fluid) and fluid["tokenEnv"] == fc.TOKEN_ENV
 
 
 def test_refusals_name_the_fix(tmp_path):
@@ -65,10 +67,7 @@ def test_absolute_tolerances_reach_both_sides(tmp_path):
     """The absolute convergence floors (coupling_scales.py) go to both sides alike."""
     case, s = _settings(tmp_path)
     solid = fc.solid_coupling_attrs(s)
-    fluid = fc.exchange_dict(s)
-    block = re.search(r"absoluteTolerance\s*\{([^}]*)\}", fluid)
-    assert block, "absoluteTolerance block missing from the exchange dictionary"
-    theirs = {k: float(v) for k, v in re.findall(r"(\w+)\s+([^;\s]+);", block.group(1))}
+    theirs = _written_exchange(case, s)["absoluteTolerance"]
     for name in ("velocity", "displacement", "force"):
         assert theirs[name] == solid[f"absolute_tolerance_{name}"] > 0, name
     # the scale rule: tolerance x PGA x window (m/s), x window again (m)

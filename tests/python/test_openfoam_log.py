@@ -5,7 +5,7 @@ rolled-back passes included): 18 MB a simulated second through a pipe to `tunnel
 With `logInterval` and `quietSolver yes` (what `water.log: brief` writes) only the passes that
 reach a multiple of the interval, the first and the last are printed, never a rolled-back one.
 
-Reference: the same run printing every pass (the template's defaults). The log is output only,
+Reference: the same run printing every pass (what `water.log: verbose` writes). The log is output only,
 so interface.dat (every attempt, rolled back ones included) must be bit-identical, and the
 printed loads must be those of the accepted rows at the expected times. Case: the compressible
 transpiration pipe of test_openfoam_rollback.py, each step solved twice (the first attempt

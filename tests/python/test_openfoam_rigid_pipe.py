@@ -26,12 +26,12 @@ CASES = {
     "2d-10Hz": dict(freq=10.0, geom=dict(two_d=True, L=1.0, nq=16, nr=12)),
     "3d-1Hz": dict(freq=1.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8)),
     "3d-10Hz": dict(freq=10.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8)),
-    # the production pressure controls (the template's tqProjected + GAMG, closed domain:
+    # the production pressure controls (the water case's tqProjected + GAMG, closed domain:
     # absolute 1e-6) instead of PCG to 1e-10: the same tolerances
     "2d-10Hz-tqProjected": dict(freq=10.0, geom=dict(two_d=True, L=1.0, nq=16, nr=12,
-                                                     p_controls=fc.template_p_controls(closed=True))),
+                                                     p_controls=fc.water_p_controls(closed=True))),
     "3d-1Hz-tqProjected": dict(freq=1.0, geom=dict(two_d=False, L=9.0, ny=10, nq=12, nr=8,
-                                                   p_controls=fc.template_p_controls(closed=True))),
+                                                   p_controls=fc.water_p_controls(closed=True))),
 }
 
 

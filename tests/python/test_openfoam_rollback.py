@@ -51,7 +51,7 @@ VARIANTS = {
     # solver tolerance, 1e-6, not round-off)
     "3d-transpiration-tqProjected": dict(
         geom=dict(two_d=False, L=9.0, ny=6, nq=8, nr=6, interface_motion="transpiration",
-                  p_controls=fc.template_p_controls(closed=True)),
+                  p_controls=fc.water_p_controls(closed=True)),
         rollbacks=1,
         rollback_from=2,
     ),

@@ -19,7 +19,8 @@ n = 0 and n = 4 cancel) gives the frequency by a least-squares damped sinusoid.
 
 The runs use the code paths of `tunnelquake run` (condition dynamic_water): the /coupling group
 of solid_input.h5 and the fluid's `exchange` dictionary come from the same
-`fluid_case.coupling_settings`, the OpenFOAM case from `fluid_case.build_fluid_case` on a
+`fluid_case.coupling_settings`, the OpenFOAM case from `fluid_case.water_case` (its ends made
+symmetry planes, `build_water_case`) written by `fluid_case.write_water_case` on a
 `water.msh` written by the meshing package's gmsh writer, tq-solid first (listener), then
 rhoPimpleFoam/pimpleFoam with libtqFoam.so, both run and watched as `cli.run` does.
 
@@ -36,7 +37,6 @@ import argparse
 import json
 import math
 import os
-import re
 import secrets
 import shutil
 import subprocess
@@ -409,39 +409,23 @@ def _fake_case(ring: Ring) -> SimpleNamespace:
     })
 
 
-def _symmetry_ends(folder: Path, closed_incompressible: bool, ends=("end_ymin", "end_ymax")) -> None:
-    """Turn the water's axial ends (or those named) into symmetry planes (slip walls: plane strain
-    in a prism; the mid-length plane of a half tube)."""
+def build_water_case(ring: Ring, case: SimpleNamespace, settings: dict, work: Path):
+    """The ring's OpenFOAM case in work/fluid (fluid_case.water_case on work/water.msh), its axial ends
+    symmetry planes (slip walls: plane strain in a prism), or for the open tube (a half tube) end_ymin
+    the tube's mid-length symmetry plane and end_ymax open. Returns fluid_case.FluidCase."""
     from .. import fluid_case as fc
 
-    for end in ends:
-        fc._foam(folder, "foamDictionary", str(folder / "constant/polyMesh/boundary"), "-entry",
-                 f"entry0/{end}/type", "-set", "symmetryPlane", log=f"foamDictionary.sym.{end}", case=False)
-    both = set(ends) == {"end_ymin", "end_ymax"}
-    for name in ("U", "p", "T"):
-        f = folder / "0" / name
-        if f.is_file():
-            if both:
-                text = re.sub(r'^(\s*"end_y\(min\|max\)")[^\n]*', r"\1 { type symmetryPlane; }", f.read_text(),
-                              flags=re.M)
-            else:  # a named entry before the regex one (OpenFOAM takes the exact name first)
-                text, n = re.subn(r'^(\s*)("end_y\(min\|max\)")', "".join(
-                    rf"\1{e} {{ type symmetryPlane; }}\n" for e in ends) + r"\1\2", f.read_text(), count=1, flags=re.M)
-                if n != 1:
-                    raise RingError(f"{f}: the entry \"end_y(min|max)\" was not found")
-            f.write_text(text)
-    if closed_incompressible:  # closed domain: p to an absolute tolerance, as fluid_case does
-        fs = folder / "system" / "fvSolution"
-        fs.write_text(fc.closed_pressure_tolerance(fs.read_text(), fs))
-        # The n = 2 motion keeps the volume only to O(1e-3) of the wall flux (the hex ring's faceted
-        # wall and the point loads' local bending): tqInterface's closed-domain check refuses
-        # above 1e-3 (docs/water.md §7); allow 5e-2 and let adjustPhi remove the imbalance.
-        cd = folder / "system" / "controlDict"
-        text, n = re.subn(r"^(\s*)patch(\s+)interface;", r"\g<0>\n\1volumeChangeTolerance 5e-2;", cd.read_text(),
-                          count=1, flags=re.M)
-        if n != 1:
-            raise RingError("controlDict: the tqInterface entry 'patch interface;' was not found")
-        cd.write_text(text)
+    w = fc.water_case(case, settings, ring.mode == "slice" and ring.model == "compressible")
+    if ring.ends == "open":
+        w = replace(w, ends=("symmetry", w.ends[1]))
+    elif ring.mode == "3d" or ring.model == "incompressible":
+        w = replace(w, ends=("symmetry", "symmetry"))
+        if ring.model == "incompressible":
+            # The n = 2 motion keeps the volume only to O(1e-3) of the wall flux (the hex ring's faceted
+            # wall and the point loads' local bending): tqInterface's closed-domain check refuses
+            # above 1e-3 (docs/water.md §7); allow 5e-2 and let adjustPhi remove the imbalance.
+            w = replace(w, volume_change_tolerance=5e-2)
+    return fc.write_water_case(w, work / "water.msh", work / "fluid")
 
 
 def _run_solid_alone(exe: Path, inp: Path, res: Path, work: Path) -> tuple[int, str]:
@@ -466,12 +450,7 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
     settings = fc.coupling_settings(case, ring.window * dt, addr, token, t_end=t_end)
     write_solid_input(ring, mesh_h5, inp, t_end, coupling=fc.solid_coupling_attrs(settings))
     # the fluid takes one step per coupling window (deltaT = window_size)
-    fluid = fc.build_fluid_case(case, work / "water.msh", work / "fluid", settings,
-                                ring.mode == "slice" and ring.model == "compressible")
-    if ring.ends == "open":  # a half tube: y = 0 is the tube's mid-length symmetry plane, y = L/2 open
-        _symmetry_ends(fluid.path, False, ("end_ymin",))
-    elif ring.mode == "3d" or ring.model == "incompressible":
-        _symmetry_ends(fluid.path, ring.model == "incompressible")
+    fluid = build_water_case(ring, case, settings, work)
     env = fc.fluid_env()
     env[fc.TOKEN_ENV] = token
     senv = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -1,0 +1,357 @@
+"""The dictionaries of the water's OpenFOAM case (OpenFOAM v1912 + libtqFoam.so), written from
+one description, `WaterCase` (docs/water.md):
+
+    files = dictionaries(WaterCase(...))   # {"system/controlDict": text, "0/p": text, ...}
+    write(WaterCase(...), folder)
+
+`fluid_case.water_case` makes the description of condition dynamic_water from the case file and
+the coupling settings; the water tests write their own. The mesh (constant/polyMesh) is
+converted by `fluid_case.write_water_case`, which sets its patch types from `patch_types`.
+
+Patches: `interface` (the lining's inner face, a wall moved by the coupling) and the axial ends
+`end_ymin`, `end_ymax`, each of one kind:
+
+    empty      a slice one cell thick: no axial flow, the section closed
+    wall       closed ends at rest (compressible water)
+    open       p = 0 (hydrodynamic), inflow and outflow (pressureInletOutletVelocity)
+    symmetry   a symmetry plane (slip wall)
+
+The domain is closed unless an end is open. A closed domain solves p to an absolute 1e-6
+(tolerance 1e-6; relTol 0): there the error of an unconverged pressure cannot leave through an
+end and accumulates; an open one to 5 % of the incoming residual each step (`pressure_solver`).
+
+Water models:
+
+    incompressible   pimpleFoam, p kinematic (Pa / rho), laminar model tqNewtonian (libtqFoam.so:
+                     laplacian(nuEff,U) alone, docs/water.md §10)
+    compressible     rhoPimpleFoam, perfectFluid rho = rho0 + p/(R T) with R T0 = K/rho0, p in Pa,
+                     the stock laminar model Stokes
+
+Interface: transpiration (static mesh, the wall velocity imposed on the fixed faces; docs/water.md
+§6.2). The numerics are those of the Benchmark in docs/water.md ("ours"): one PISO corrector, no
+momentum predictor, p by tqProjected + GAMG, Euler in time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .foam_dict import Dimensions, Quoted, Uniform, foam_file
+
+#: K: the water's temperature (rhoPimpleFoam's T stays there: no pressure work, dpdt no)
+T0 = 293.15
+#: m/s^2: the gravity of tqInterface's hydrostatic report
+GRAVITY = 9.81
+END_PATCHES = ("end_ymin", "end_ymax")
+END_KINDS = ("empty", "wall", "open", "symmetry")
+MODELS = ("incompressible", "compressible")
+LIBRARY = "libtqFoam.so"
+#: the note under each file's header
+NOTE = "written by tunnelquake.water_case"
+
+
+class WaterCaseError(ValueError):
+    """The description cannot be written as a water case; the message says which entry and why."""
+
+
+@dataclass(frozen=True)
+class WaterCase:
+    """One water case. SI units; `exchange`: tqInterface's `exchange` dictionary (none: the water
+    alone; replay: a fake solid from a motion table; coupler: fluid_case.exchange_dict)."""
+
+    model: str  # incompressible | compressible
+    ends: tuple[str, str]  # the kinds of end_ymin, end_ymax
+    density: float  # kg/m^3
+    viscosity: float  # Pa s (dynamic)
+    bulk_modulus: float  # Pa: the compressible water's K (R = K / (rho0 T0)); unused by pimpleFoam
+    delta_t: float  # s: the water's step
+    end_time: float  # s
+    write_interval: float  # s between written fields
+    free_surface_level: float  # m: z of the free surface (tqInterface's hydrostatic report)
+    exchange: dict = field(default_factory=lambda: {"type": "none"})
+    # tqInterface sends its wall pressure less its area mean (the solid carries the uniform part)
+    subtract_mean_pressure: bool = False
+    # printed passes: None prints every pass, rolled-back ones too, with the linear solvers'
+    # residual lines (water.log: verbose); a number prints the passes that reach a multiple of
+    # it, the solver's own lines only there (water.log: brief; docs/water.md §2 "Log")
+    log_interval: float | None = None
+    # 0 for the structured all-hex meshes of tunnelquake.meshing (accurate with 0: force within
+    # 2.5e-4 of the reference, 28 % cheaper a step); 1 for an unstructured gmsh mesh (a slice
+    # needs it: spurious cross force 0.7 % with 0); docs/water.md, Benchmark
+    non_orthogonal_correctors: int = 0
+    # tqInterface's closed-domain check on the volume balance of the wall motion (its default 1e-3
+    # when None; docs/water.md §7)
+    volume_change_tolerance: float | None = None
+
+    def __post_init__(self):
+        if self.model not in MODELS:
+            raise WaterCaseError(f"water model {self.model!r} is not one of {', '.join(MODELS)}")
+        if len(self.ends) != 2 or any(e not in END_KINDS for e in self.ends):
+            raise WaterCaseError(f"ends {self.ends!r}: two of {', '.join(END_KINDS)} (end_ymin, end_ymax)")
+        if ("empty" in self.ends) and self.ends != ("empty", "empty"):
+            raise WaterCaseError(f"ends {self.ends!r}: a slice has both ends empty")
+
+    @property
+    def compressible(self) -> bool:
+        return self.model == "compressible"
+
+    @property
+    def mode(self) -> str:
+        """slice (one cell thick, empty ends) or 3d."""
+        return "slice" if self.ends[0] == "empty" else "3d"
+
+    @property
+    def closed(self) -> bool:
+        """No open end: the domain's pressure level is not fixed by a boundary."""
+        return "open" not in self.ends
+
+    @property
+    def solver(self) -> str:
+        return "rhoPimpleFoam" if self.compressible else "pimpleFoam"
+
+    @property
+    def kinematic_viscosity(self) -> float:
+        return self.viscosity / self.density
+
+
+# ------------------------------------------------------------------------------------------------
+# system/
+# ------------------------------------------------------------------------------------------------
+def control_dict(w: WaterCase) -> dict:
+    interface = {
+        "type": "tqInterface",
+        "libs": [Quoted(LIBRARY)],
+        "patch": "interface",
+    }
+    if w.volume_change_tolerance is not None:
+        interface["volumeChangeTolerance"] = w.volume_change_tolerance
+    # the density of the loads: rhoPimpleFoam's field rho, pimpleFoam's rhoInf (p kinematic)
+    interface["rho"] = "rho" if w.compressible else "rhoInf"
+    interface["rhoInf"] = w.density
+    if w.compressible:  # the kinematic viscosity of the wall shear (mu / rho)
+        interface["nu"] = w.kinematic_viscosity
+    interface["wallPressure"] = "extrapolated"
+    interface["logInterval"] = 0 if w.log_interval is None else w.log_interval
+    interface["quietSolver"] = w.log_interval is not None
+    # transpiration: static mesh (constant/dynamicMeshDict staticFvMesh), wall velocity on the
+    # fixed faces, loads and wall flux on the displaced wall (docs/water.md)
+    interface["interfaceMotion"] = "transpiration"
+    if w.subtract_mean_pressure:
+        interface["subtractMeanPressure"] = True
+    interface["geometricCorrection"] = True
+    # reported only: the hydrostatic part is the solid's static load
+    interface["hydrostatic"] = {"g": [0, 0, -GRAVITY], "freeSurfaceLevel": w.free_surface_level}
+    interface["exchange"] = w.exchange
+    return {
+        "application": w.solver,
+        "startFrom": "startTime",
+        "startTime": 0,
+        "stopAt": "endTime",
+        "endTime": w.end_time,
+        "deltaT": w.delta_t,
+        # runTime control: with rollbacks the step index runs ahead of time (docs/water.md)
+        "writeControl": "runTime",
+        "writeInterval": w.write_interval,
+        "purgeWrite": 0,
+        "writeFormat": "binary",
+        "writePrecision": 12,
+        "timePrecision": 12,
+        "runTimeModifiable": False,
+        "libs": [Quoted(LIBRARY)],
+        # the linear solvers' residual lines ("Solving for p, ..."), one per solve
+        "DebugSwitches": {"SolverPerformance": 1 if w.log_interval is None else 0},
+        "functions": {"interface": interface},
+    }
+
+
+def pressure_solver(closed: bool) -> dict:
+    """The p (and pFinal) controls. tqProjected (libtqFoam, docs/water.md §10): each step starts
+    from the incoming p corrected by the best combination (A-norm) of the last 32 steps'
+    increments, and GAMG finishes when that is not enough: 1.23-1.25x cheaper a 3D step than GAMG
+    alone after the first 100 steps, 1.5x a slice step, forces and wall pressures as close to the
+    reference. Inner GAMG mergeLevels 2: two agglomeration levels merged into one, 5 % cheaper a
+    step in 3D. Closed domain: an absolute 1e-6; open: 5 % of the incoming residual."""
+    return {"solver": "tqProjected", "vectors": 32,
+            "tolerance": 1e-6 if closed else 0, "relTol": 0 if closed else 0.05,
+            "inner": {"solver": "GAMG", "smoother": "GaussSeidel", "mergeLevels": 2}}
+
+
+def fv_solution(w: WaterCase) -> dict:
+    p = pressure_solver(w.closed)
+    return {
+        "solvers": {
+            "p": p,
+            "pFinal": dict(p),
+            Quoted("U(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1e-9,
+                                  "relTol": 0},
+            # compressible water: T stays at T0, h barely moves: one sweep. Its residual is round-off
+            # (0.005 before, 0.01 after 10 sweeps on the paper slice) and the coupled slice's answers
+            # are bit-identical with 1 or 10 sweeps (docs/benchmarks.md "Water: cost of a pass on the slice")
+            Quoted("(e|h)(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1e-4,
+                                      "relTol": 0, "maxIter": 1},
+            Quoted("rho(Final)?"): {"solver": "diagonal"},
+        },
+        "PIMPLE": {
+            "nOuterCorrectors": 1,
+            "nCorrectors": 1,
+            "momentumPredictor": False,
+            "nNonOrthogonalCorrectors": w.non_orthogonal_correctors,
+            # tqInterfaceVelocity needs it off (a moving mesh keeps the geometric conservation
+            # through the swept-volume fluxes anyway)
+            "correctPhi": False,
+            "transonic": False,  # rhoPimpleFoam
+            # a closed domain's pressure level (ignored when an end fixes p)
+            "pRefCell": 0,
+            "pRefValue": 0,
+        },
+    }
+
+
+def fv_schemes() -> dict:
+    return {
+        # Euler: with the solid's central difference the wall velocity is the mid-step one, and
+        # Euler reproduces a rigidly accelerating container exactly (docs/water.md)
+        "ddtSchemes": {"default": "Euler"},
+        "gradSchemes": {"default": "Gauss linear"},
+        "divSchemes": {
+            "default": "none",
+            "div(phi,U)": "Gauss linear",
+            # the explicit term of the stock Stokes model (unused by tqNewtonian)
+            "div((nuEff*dev2(T(grad(U)))))": "Gauss linear",
+            # compressible water (rhoPimpleFoam, laminar model Stokes)
+            "div(((rho*nuEff)*dev2(T(grad(U)))))": "Gauss linear",
+            "div(phi,h)": "Gauss linear",
+            "div(phi,K)": "Gauss linear",
+        },
+        "laplacianSchemes": {
+            "default": "Gauss linear corrected",
+            # the water's viscous term is tiny: its non-orthogonal correction (a second full
+            # grad(U) every step) is not worth its cost (docs/water.md, Benchmark)
+            "laplacian(nuEff,U)": "Gauss linear uncorrected",
+            "laplacian((rho*nuEff),U)": "Gauss linear uncorrected",
+        },
+        "interpolationSchemes": {"default": "linear"},
+        "snGradSchemes": {"default": "corrected"},
+    }
+
+
+# ------------------------------------------------------------------------------------------------
+# constant/
+# ------------------------------------------------------------------------------------------------
+def thermophysical_properties(w: WaterCase) -> dict:
+    """rho = rho0 + p/(R T) with R T0 = K/rho0, so that dp/drho = K/rho0 at the hydrodynamic p = 0
+    of water at rest; no pressure work (dpdt no): T stays T0, psi = 1/(R T) constant. Written for
+    either model (pimpleFoam does not read it)."""
+    return {
+        "thermoType": {"type": "heRhoThermo", "mixture": "pureMixture", "transport": "const", "thermo": "hConst",
+                       "equationOfState": "perfectFluid", "specie": "specie", "energy": "sensibleEnthalpy"},
+        "mixture": {
+            "specie": {"molWeight": 18.015},
+            "equationOfState": {"R": w.bulk_modulus / (w.density * T0), "rho0": w.density},
+            "thermodynamics": {"Cp": 4181, "Hf": 0},
+            "transport": {"mu": w.viscosity, "Pr": 7},
+        },
+        "dpdt": False,
+    }
+
+
+def transport_properties(w: WaterCase) -> dict:
+    return {"transportModel": "Newtonian", "nu": w.kinematic_viscosity}
+
+
+def turbulence_properties(w: WaterCase) -> dict:
+    # tqNewtonian (libtqFoam.so, docs/water.md §10): the stock Stokes stress without its explicit
+    # div(nuEff dev2(T(grad U))), zero for incompressible water (uniform nu, div U = 0): the viscous
+    # term is laplacian(nuEff,U) alone. The compressible water takes the stock Stokes.
+    return {"simulationType": "laminar", "laminar": {"laminarModel": "Stokes" if w.compressible else "tqNewtonian"}}
+
+
+def dynamic_mesh_dict() -> dict:
+    # Transpiration: the mesh stays. (A moving mesh instead, tqInterface interfaceMotion
+    # meshMotion, incompressible water only: dynamicMotionSolverFvMesh with motionSolverLibs
+    # ("libtqFoam.so"), motionSolver tqInterpolatedDisplacement, patches (interface), decay linear.)
+    return {"dynamicFvMesh": "staticFvMesh"}
+
+
+# ------------------------------------------------------------------------------------------------
+# 0/: the initial fields (the water at rest) and their boundary conditions
+# ------------------------------------------------------------------------------------------------
+ZERO = Uniform(0)
+ZERO_VECTOR = Uniform([0, 0, 0])
+#: each field: its class, dimensions, internal value, the interface's condition and the ends' by kind
+FIELDS = {
+    # velocity: the interface moves with the lining (no slip); closed ends are walls at rest
+    "U": ("volVectorField", Dimensions([0, 1, -1, 0, 0, 0, 0]), ZERO_VECTOR,
+          {"type": "tqInterfaceVelocity", "value": ZERO_VECTOR},
+          {"wall": {"type": "tqInterfaceVelocity", "value": ZERO_VECTOR},
+           "open": {"type": "pressureInletOutletVelocity", "value": ZERO_VECTOR}}),
+    # hydrodynamic pressure (the hydrostatic part is the solid's static load): kinematic for
+    # incompressible water (dimensions replaced below), Pa for compressible; open ends p = 0
+    "p": ("volScalarField", Dimensions([1, -1, -2, 0, 0, 0, 0]), ZERO,
+          {"type": "fixedFluxExtrapolatedPressure", "value": ZERO},
+          {"wall": {"type": "fixedFluxExtrapolatedPressure", "value": ZERO},
+           "open": {"type": "fixedValue", "value": ZERO}}),
+    # temperature (compressible water): T0, insulated walls
+    "T": ("volScalarField", Dimensions([0, 0, 0, 1, 0, 0, 0]), Uniform(T0),
+          {"type": "zeroGradient"},
+          {"wall": {"type": "zeroGradient"}, "open": {"type": "zeroGradient"}}),
+    # mesh displacement: on the interface the received lining displacement (meshMotion)
+    "pointDisplacement": ("pointVectorField", Dimensions([0, 1, 0, 0, 0, 0, 0]), ZERO_VECTOR,
+                          {"type": "fixedValue", "value": ZERO_VECTOR},
+                          {"wall": {"type": "calculated", "value": ZERO_VECTOR},
+                           "open": {"type": "calculated", "value": ZERO_VECTOR},
+                           "symmetry": {"type": "calculated", "value": ZERO_VECTOR}}),
+}
+_KINEMATIC_PRESSURE = Dimensions([0, 2, -2, 0, 0, 0, 0])
+#: the condition of every field on an end of this kind unless the field says otherwise
+_END_DEFAULT = {"empty": {"type": "empty"}, "symmetry": {"type": "symmetryPlane"}}
+
+
+def field_dict(w: WaterCase, name: str) -> dict:
+    cls, dims, internal, interface, by_kind = FIELDS[name]
+    if name == "p" and not w.compressible:
+        dims = _KINEMATIC_PRESSURE
+    ends = [by_kind.get(kind, _END_DEFAULT.get(kind)) for kind in w.ends]
+    boundary = {"interface": interface}
+    if ends[0] == ends[1]:
+        boundary[Quoted("end_y(min|max)")] = ends[0]
+    else:
+        boundary.update(zip(END_PATCHES, ends, strict=True))
+    return {"dimensions": dims, "internalField": internal, "boundaryField": boundary}
+
+
+def patch_types(w: WaterCase) -> dict[str, str]:
+    """The types of the mesh's patches (constant/polyMesh/boundary)."""
+    kinds = {"empty": "empty", "wall": "wall", "open": "patch", "symmetry": "symmetryPlane"}
+    return {"interface": "wall", **{p: kinds[k] for p, k in zip(END_PATCHES, w.ends, strict=True)}}
+
+
+# ------------------------------------------------------------------------------------------------
+# the files
+# ------------------------------------------------------------------------------------------------
+def dictionaries(w: WaterCase) -> dict[str, str]:
+    """Every file of the case but the mesh: {path relative to the case: text}."""
+    data = {
+        "system/controlDict": control_dict(w),
+        "system/fvSolution": fv_solution(w),
+        "system/fvSchemes": fv_schemes(),
+        "constant/thermophysicalProperties": thermophysical_properties(w),
+        "constant/transportProperties": transport_properties(w),
+        "constant/turbulenceProperties": turbulence_properties(w),
+        "constant/dynamicMeshDict": dynamic_mesh_dict(),
+    }
+    out = {path: foam_file(d, path.split("/")[1], note=NOTE) for path, d in data.items()}
+    for name in ("U", "p", "pointDisplacement") + (("T",) if w.compressible else ()):
+        out[f"0/{name}"] = foam_file(field_dict(w, name), name, cls=FIELDS[name][0], note=NOTE)
+    return out
+
+
+def write(w: WaterCase, folder: Path) -> list[Path]:
+    """Write every file of `dictionaries(w)` into `folder`; returns their paths."""
+    out = []
+    for rel, text in dictionaries(w).items():
+        path = Path(folder) / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        out.append(path)
+    return out
