@@ -571,8 +571,8 @@ void Foam::functionObjects::tqInterface::checkVolumeChange() const
             << " is closed (no fixed-value pressure boundary): the problem"
             << " has no solution." << nl
             << "Fix: open the axial ends (p fixedValue on end_ymin/end_ymax,"
-            << " see openfoam_case/template), or use the weakly compressible"
-            << " water model (rhoPimpleFoam), or set volumeChangeTolerance"
+            << " as tunnelquake.water_case writes open ends), or use the weakly"
+            << " compressible water model (rhoPimpleFoam), or set volumeChangeTolerance"
             << " in the " << name() << " dictionary if this is a round-off"
             << " effect." << exit(FatalError);
     }
