@@ -1,0 +1,116 @@
+"""Restart of the condition coupled with the water (docs/user_guide.md "Resuming a run",
+docs/reliability.md §10): a `dynamic_water` run stopped after a restart checkpoint and continued
+with `tunnelquake run --resume` ends with results bitwise equal to those of a run never stopped.
+
+Reference: the same case run without interruption, with the same checkpoint interval. Every
+dataset and attribute of results_dynamic_water.h5 except wall-clock figures must be equal byte
+for byte (tolerance 0): the solid's step, the water's step and the coupling's iterations are
+deterministic, so any state either side's checkpoint misses (the water's fields and old-time
+levels, its solver's projection basis, the coupler's secant columns, the adapter's predictor and
+energy bookkeeping) shows up as a difference."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import h5py
+import pytest
+from test_restart import RECORD, _copy, _differences, _solid_pid, _start
+
+from conftest import EXAMPLE
+from tunnelquake.cli import main
+
+#: shaking simulated, s; a checkpoint every INTERVAL s of it (100 coupling windows of 1 ms)
+END, INTERVAL = 0.3, 0.1
+
+
+def _case_text() -> str:
+    rec = (EXAMPLE.parent / RECORD).resolve()
+    text = EXAMPLE.read_text().replace(RECORD, str(rec))
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("conditions:"):
+            line = "conditions: [dynamic_water]"
+        lines.append(line)
+        if line.startswith("output:"):
+            lines.append(f"  checkpoint_interval: {INTERVAL} s")
+    return "\n".join(lines) + f"\ntime:\n  end_time: {END} s\n"
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("reference")
+    (folder / "case.yaml").write_text(_case_text())
+    assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
+    return folder
+
+
+def _fluid_pids(folder) -> list[int]:
+    """The water solvers working in `folder`."""
+    out = []
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                with open(f"/proc/{name}/cmdline", "rb") as fh:
+                    cmd = fh.read().split(b"\0")
+            except OSError:
+                continue
+            if cmd and cmd[0].endswith(b"PimpleFoam") and any(str(folder).encode() in c for c in cmd):
+                out.append(int(name))
+    return out
+
+
+def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> dict:
+    """Wait until both sides have written checkpoint `sequence` or a later one."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    case = load_case(case_yaml)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        m = coupled_resume_point(case, "dynamic_water")
+        if m is not None and int(m["sequence"]) >= sequence:
+            return m
+        assert proc.poll() is None, proc.communicate()[0][-3000:]
+        time.sleep(0.02)
+    raise AssertionError(f"no checkpoint pair {sequence} or later within {timeout} s")
+
+
+@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL all"])
+def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference, tmp_path, capsys, how):
+    """Stopped after both sides wrote their second checkpoint: by Ctrl-C (SIGINT to
+    the process group, exit 130) or by SIGKILL of tunnelquake, tq-solid and the water together (a
+    lost node). `--resume` starts both from the last window both wrote and ends bitwise equal to
+    the uninterrupted run."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    try:
+        m = _wait_for_pair(p, proc, 2)
+        if how == "SIGINT":
+            os.killpg(proc.pid, signal.SIGINT)
+        else:
+            pids = [_solid_pid(p.parent), *_fluid_pids(p.parent)]
+            os.kill(proc.pid, signal.SIGKILL)
+            for pid in pids:
+                os.kill(pid, signal.SIGKILL)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == {"SIGINT": 130, "SIGKILL all": -9}[how], out[-2000:]
+    res = p.parent / "results" / "results_dynamic_water.h5"
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] != "completed"
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert "resume: dynamic_water continues from its checkpoint at t = " in said, said[-2000:]
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] == "completed"
+        assert f["monitors/top_arch/time"][-1, 0] == pytest.approx(END, abs=1e-4)
+        windows = int(f["coupling"].attrs["windows"])
+        every = round(INTERVAL / float(f["coupling"].attrs["window_size"]))
+    assert int(m["window"]) == 2 * every < windows  # the second of the checkpoints every INTERVAL
+    assert _differences(reference / "results" / "results_dynamic_water.h5", res) == []
+    assert not list((p.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
