@@ -77,11 +77,12 @@ def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> di
     raise AssertionError(f"no checkpoint pair {sequence} or later within {timeout} s")
 
 
-@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL all"])
+@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL tq-solid", "SIGKILL all"])
 def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference, tmp_path, capsys, how):
     """Stopped after both sides wrote their second checkpoint: by Ctrl-C (SIGINT to
-    the process group, exit 130) or by SIGKILL of tunnelquake, tq-solid and the water together (a
-    lost node). `--resume` starts both from the last window both wrote and ends bitwise equal to
+    the process group, exit 130), by SIGKILL of tq-solid alone (a crash: tunnelquake stops the
+    water and reports the failure, exit 1) or by SIGKILL of tunnelquake, tq-solid and the water
+    together (a lost node). `--resume` starts both from the last window both wrote and ends bitwise equal to
     the uninterrupted run."""
     p = _copy(reference, tmp_path)
     proc = _start(p)
@@ -89,6 +90,8 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
         m = _wait_for_pair(p, proc, 2)
         if how == "SIGINT":
             os.killpg(proc.pid, signal.SIGINT)
+        elif how == "SIGKILL tq-solid":
+            os.kill(_solid_pid(p.parent), signal.SIGKILL)
         else:
             pids = [_solid_pid(p.parent), *_fluid_pids(p.parent)]
             os.kill(proc.pid, signal.SIGKILL)
@@ -99,7 +102,7 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-    assert proc.returncode == {"SIGINT": 130, "SIGKILL all": -9}[how], out[-2000:]
+    assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
     res = p.parent / "results" / "results_dynamic_water.h5"
     with h5py.File(res, "r") as f:
         assert f.attrs["status"] != "completed"
