@@ -10,55 +10,24 @@ levels, its solver's projection basis, the coupler's secant columns, the adapter
 energy bookkeeping) shows up as a difference."""
 from __future__ import annotations
 
-import os
-import signal
 import time
 
 import h5py
 import pytest
-from test_restart import RECORD, _copy, _differences, _solid_pid, _start
+from test_restart import _case_text, _copy, _differences, _start, _stop
 
-from conftest import EXAMPLE
 from tunnelquake.cli import main
 
-#: shaking simulated, s; a checkpoint every INTERVAL s of it (100 coupling windows of 1 ms)
+#: shaking simulated, s; a checkpoint every INTERVAL s of it (every 99 coupling windows of 1.008 ms)
 END, INTERVAL = 0.3, 0.1
-
-
-def _case_text() -> str:
-    rec = (EXAMPLE.parent / RECORD).resolve()
-    text = EXAMPLE.read_text().replace(RECORD, str(rec))
-    lines = []
-    for line in text.splitlines():
-        if line.startswith("conditions:"):
-            line = "conditions: [dynamic_water]"
-        lines.append(line)
-        if line.startswith("output:"):
-            lines.append(f"  checkpoint_interval: {INTERVAL} s")
-    return "\n".join(lines) + f"\ntime:\n  end_time: {END} s\n"
 
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     folder = tmp_path_factory.mktemp("reference")
-    (folder / "case.yaml").write_text(_case_text())
+    (folder / "case.yaml").write_text(_case_text("dynamic_water", END, INTERVAL))
     assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
     return folder
-
-
-def _fluid_pids(folder) -> list[int]:
-    """The water solvers working in `folder`."""
-    out = []
-    for name in os.listdir("/proc"):
-        if name.isdigit():
-            try:
-                with open(f"/proc/{name}/cmdline", "rb") as fh:
-                    cmd = fh.read().split(b"\0")
-            except OSError:
-                continue
-            if cmd and cmd[0].endswith(b"PimpleFoam") and any(str(folder).encode() in c for c in cmd):
-                out.append(int(name))
-    return out
 
 
 def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> dict:
@@ -88,20 +57,8 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
     proc = _start(p)
     try:
         m = _wait_for_pair(p, proc, 2)
-        if how == "SIGINT":
-            os.killpg(proc.pid, signal.SIGINT)
-        elif how == "SIGKILL tq-solid":
-            os.kill(_solid_pid(p.parent), signal.SIGKILL)
-        else:
-            pids = [_solid_pid(p.parent), *_fluid_pids(p.parent)]
-            os.kill(proc.pid, signal.SIGKILL)
-            for pid in pids:
-                os.kill(pid, signal.SIGKILL)
-        out, _ = proc.communicate(timeout=60)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        out = _stop(proc, p.parent, how, (b"tq-solid", b"PimpleFoam"))
     assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
     res = p.parent / "results" / "results_dynamic_water.h5"
     with h5py.File(res, "r") as f:

@@ -332,25 +332,8 @@ public:
 
     virtual bool create(const objectRegistry& obr) const
     {
-        if (!obr.foundObject<projectionHistory>(name_))
-        {
-            // as tqProjected makes it at its first solve
-            regIOobject::store
-            (
-                new projectionHistory
-                (
-                    IOobject
-                    (
-                        name_,
-                        obr.time().timeName(),
-                        obr,
-                        IOobject::NO_READ,
-                        IOobject::NO_WRITE,
-                        true
-                    )
-                )
-            );
-        }
+        // as tqProjected makes it at its first solve
+        projectionHistory::lookupOrStore(obr, name_);
         return true;
     }
 
