@@ -73,4 +73,10 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
         every = round(INTERVAL / float(f["coupling"].attrs["window_size"]))
     assert int(m["window"]) == 2 * every < windows  # the second of the checkpoints every INTERVAL
     assert _differences(reference / "results" / "results_dynamic_water.h5", res) == []
+    # the monitors as `tunnelquake post` writes them (monitors_dynamic_water.csv), byte for byte
+    from tunnelquake import post as P
+
+    csv = [P.monitors_csv(P.read_condition(f, "dynamic_water"), tmp_path / f"monitors_{k}.csv").read_bytes()
+           for k, f in (("reference", reference / "results" / "results_dynamic_water.h5"), ("resumed", res))]
+    assert len(csv[0]) > 0 and csv[0] == csv[1]
     assert not list((p.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
