@@ -60,6 +60,30 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
     finally:
         out = _stop(proc, p.parent, how, (b"tq-solid", b"PimpleFoam"))
     assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
+    _resume_and_compare(p, reference, tmp_path, capsys, m)
+
+
+@pytest.mark.parametrize("part", ["solid", "results"])
+def test_coupled_crash_inside_a_checkpoint_resumes_from_the_one_before(reference, tmp_path, capsys, part):
+    """tq-solid killed (SIGKILL) inside its third checkpoint, after its state file (`solid`) or also
+    its results copy (`results`), before its manifest (TQ_CHECKPOINT_FAULT): tunnelquake stops the
+    water, which has not written a third; `--resume` continues both from the second and ends
+    bitwise equal to the uninterrupted run."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": f"3:{part}"})
+    out, _ = proc.communicate(timeout=240)
+    assert proc.returncode == 1 and "tq-solid (solid) failed with exit code -9" in out, out[-2000:]
+    m = coupled_resume_point(load_case(p), "dynamic_water")
+    assert m is not None and int(m["sequence"]) == 2, m
+    _resume_and_compare(p, reference, tmp_path, capsys, m)
+
+
+def _resume_and_compare(p, reference, tmp_path, capsys, m):
+    """`--resume` of the stopped run in `p` (whose checkpoint pair `m` is the second) ends completed
+    and bitwise equal to the uninterrupted `reference`, its checkpoints removed."""
     res = p.parent / "results" / "results_dynamic_water.h5"
     with h5py.File(res, "r") as f:
         assert f.attrs["status"] != "completed"
