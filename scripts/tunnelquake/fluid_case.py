@@ -309,6 +309,23 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
     return write_water_case(water_case(case, settings, slice_mode, write_interval), water_msh, folder)
 
 
+def set_restart(folder: Path, directory: Path, windows: int, resume_from: Path | None = None) -> None:
+    """Restart checkpoints of the water (docs/formats.md "Restart checkpoints"): the tqInterface
+    function object writes one every `windows` completed coupling windows into `directory`, and with
+    `resume_from` starts from that one."""
+    cd = Path(folder) / "system" / "controlDict"
+    entries = f'restartDir      "{directory}";\n{{indent}}restartWindows  {int(windows)};'
+    if resume_from is not None:
+        entries += f'\n{{indent}}restartFrom     "{resume_from}";'
+    t, n = re.subn(r"(\n(\s*)interfaceMotion\s+\w+;)",
+                   lambda m: f"{m.group(1)}\n{m.group(2)}" + entries.replace("{indent}", m.group(2)),
+                   cd.read_text(), count=1)
+    if n != 1:
+        raise FluidCaseError(f"{cd}: no interfaceMotion entry in the tqInterface function object to put the "
+                             "restart entries beside")
+    cd.write_text(t)
+
+
 # ----------------------------------------------------------------------------------------------
 # Decomposed water (parallel.fluid_ranks > 1): decomposePar, mpirun, reconstructPar
 # ----------------------------------------------------------------------------------------------

@@ -28,7 +28,7 @@ namespace tq {
 
 namespace {
 const char* kUsage =
-    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume]]\n"
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume [--resume-sequence N]]]\n"
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
@@ -37,6 +37,8 @@ const char* kUsage =
     "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
     "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
     "  --resume     continue from the last checkpoint in DIR; the results end as if never stopped\n"
+    "  --resume-sequence N  continue from checkpoint N (coupled with the water: the last window both\n"
+    "               sides wrote, the last checkpoint or the one before)\n"
     "  With /coupling transport mpi it is one application of an MPMD job (docs/coupler.md\n"
     "  \"tq-solid under mpirun\"): mpirun --bind-to none -np 1 tq-solid solid_input.h5 : -np N <fluid> ...\n";
 
@@ -77,6 +79,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
                  std::unique_ptr<CouplingMpi>& mpi) {
   std::string input, output = "results.h5", checkpointDir;
   bool check = false, resume = false;
+  long long resumeSequence = 0;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") {
@@ -93,6 +96,8 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       checkpointDir = args[++i];
     } else if (a == "--resume") {
       resume = true;
+    } else if (a == "--resume-sequence" && i + 1 < args.size()) {
+      resumeSequence = std::stoll(args[++i]);
     } else if (a == "--threads" && i + 1 < args.size()) {
       omp_set_num_threads(std::stoi(args[++i]));
     } else if (!a.empty() && a[0] != '-' && input.empty()) {
@@ -160,16 +165,10 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
   std::unique_ptr<RestartCheckpoints> checkpoints;
   CheckpointManifest resumeFrom;
   const std::string fingerprint = runFingerprint(in, s);
-  if (!checkpointDir.empty() && ci.present) {
-    out << "tq-solid: no restart checkpoints for a run coupled with the water (the solid's alone would not "
-           "restart the pair)\n";
-    if (resume) {
-      err << "tq-solid: cannot resume: a run coupled with the water has no restart checkpoints\n";
-      return 2;
-    }
-  } else if (!checkpointDir.empty()) {
+  if (!checkpointDir.empty()) {
     try {
       checkpoints = std::make_unique<RestartCheckpoints>(checkpointDir);
+      if (ci.present) checkpoints->setKeep(2);  // the water's checkpoint of a window comes after the solid's
     } catch (const OutputError& e) {
       err << "tq-solid: " << e.what() << "\n";
       return 5;
@@ -178,7 +177,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       return 2;
     }
     std::string why;
-    if (resume && !checkpoints->last(resumeFrom, why)) {
+    if (resume && !checkpoints->last(resumeFrom, why, resumeSequence)) {
       err << "tq-solid: cannot resume: " << why << "\n";
       return 2;
     }
@@ -237,7 +236,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
       try {
         coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
         out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
-        coupling->initialize();
+        if (!resume) coupling->initialize();  // resumed: once its state is restored (below)
         s.addContributor(coupling);
         in.tEnd = coupling->endTime();  // whole windows
         results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
@@ -350,7 +349,14 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     a.io(nextSnap);
     a.io(nextCheckpoint);
     a.io(checkpointSeq);
+    if (coupling) coupling->restartState(a);
   };
+  // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
+  // windows, at least 1), a rule the water applies to its own window count too.
+  const long long checkpointWindows =
+      coupling && in.checkpointInterval > 0
+          ? std::max(1LL, (long long)std::llround(in.checkpointInterval / coupling->windowSize()))
+          : 0;
   StateArchive checkpointArchive;
   if (resume) {
     const CheckpointManifest& m = resumeFrom;
@@ -366,7 +372,17 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
     }
     results.resumeFrom(checkpoints->file(m.results), s);
     out << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step
-        << ", " << m.samples << " samples)" << std::endl;
+        << ", " << m.samples << " samples" << (m.window >= 0 ? ", coupling window " + std::to_string(m.window) : "")
+        << ")" << std::endl;
+    if (coupling) {
+      try {
+        coupling->initializeResumed();
+      } catch (const CouplingError& e) {
+        results.setStatus(std::string("stopped: ") + e.what());
+        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
+        return 4;
+      }
+    }
   } else {
     if (checkpoints) checkpoints->clear();
     results.sample(s);
@@ -397,8 +413,11 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         ++nextSnap;
       }
       // (none at the end: the results are then whole)
-      if (checkpoints && in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt() &&
-          t < in.tEnd - 1e-9 * s.dt()) {
+      const bool checkpointDue =
+          coupling ? checkpointWindows > 0 && !coupling->windowOpen() && coupling->windowsDone() % checkpointWindows == 0 &&
+                         coupling->windowsDone() < coupling->windowCount()
+                   : in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt() && t < in.tEnd - 1e-9 * s.dt();
+      if (checkpoints && checkpointDue) {
         const auto c0 = std::chrono::steady_clock::now();
         while (t >= nextCheckpoint - 1e-9 * s.dt()) nextCheckpoint += in.checkpointInterval;
         ++checkpointSeq;
@@ -412,6 +431,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         m.time = t;
         m.step = s.stepCount();
         m.samples = results.samples();
+        m.window = coupling ? coupling->windowsDone() : -1;
         m.fingerprint = fingerprint;
         checkpoints->write(m, checkpointArchive, results.path());
         ++checkpointsWritten;

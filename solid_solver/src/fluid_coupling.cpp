@@ -108,6 +108,7 @@ struct FluidCoupling::Impl {
   std::chrono::steady_clock::time_point steppingStart;
   double waitAtStart = 0, mappingAtStart = 0, cpuStart = 0;
   bool initialized = false, finalized = false;
+  std::vector<unsigned char> resumeBytes;  // the participant's state of a restart checkpoint
 
   // The water's volume law, carried here (docs/coupler.md "Volume law in the solid"): the pressure
   // p_j of station j acts on its wet nodes as p_j g_i, g the nodes' area vectors out of the water, and
@@ -151,6 +152,18 @@ struct FluidCoupling::Impl {
   mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri;
 
   explicit Impl(Solver& s) : solver(s) {}
+
+  /// The end of initialize() or initializeResumed(): the stepping's timers start.
+  void started(std::chrono::steady_clock::time_point t0) {
+    stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const cp::ExchangeStats xs = p->stats();
+    waitAtStart = xs.secondsWaiting;
+    mappingAtStart = xs.secondsMapping;
+    steppingStart = std::chrono::steady_clock::now();
+    cpuStart = threadCpu();
+    initialized = true;
+    linked = true;
+  }
 
   /// The stations: one for a closed section; with open ends, the planes of wet nodes along y, whose
   /// positions (ascending) it returns.
@@ -774,15 +787,40 @@ void FluidCoupling::initialize() {
   } catch (const cp::CouplerError& e) {
     I.fail("could not start the coupling with '" + I.in.partner + "'", e);
   }
-  I.stats.secondsExchanging += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const cp::ExchangeStats xs = I.p->stats();
-  I.waitAtStart = xs.secondsWaiting;
-  I.mappingAtStart = xs.secondsMapping;
-  I.steppingStart = std::chrono::steady_clock::now();
-  I.cpuStart = threadCpu();
-  I.initialized = true;
-  I.linked = true;
+  I.started(t0);
 }
+
+void FluidCoupling::initializeResumed() {
+  Impl& I = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (I.resumeBytes.empty()) throw CouplingError("water coupling: resume without a restored coupling state");
+  try {
+    I.p->initializeResumed(I.resumeBytes);
+  } catch (const cp::CouplerError& e) {
+    I.fail("could not resume the coupling with '" + I.in.partner + "'", e);
+  }
+  I.started(t0);
+}
+
+void FluidCoupling::restartState(StateArchive& a) {
+  Impl& I = *impl_;
+  if (a.saving()) I.resumeBytes = I.p->saveState();
+  a.io(I.resumeBytes);
+  for (std::vector<Real>* v : {&I.u0, &I.received, &I.trial, &I.receivedPrev, &I.disp, &I.vel, &I.dispStart,
+                               &I.forceStart, &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev})
+    a.io(*v);
+  a.io(I.pass);
+  a.io(I.repeat);
+  a.io(I.fluidReceived);
+  a.io(I.workPeak);
+  a.io(I.energyWarned);
+  a.io(I.stats.windows);
+  a.io(I.stats.passes);
+  a.io(I.stats.maxPasses);
+  a.io(I.stats.secondsExchanging);
+}
+
+long long FluidCoupling::windowsDone() const { return impl_->stats.windows; }
 
 void FluidCoupling::finalize() {
   Impl& I = *impl_;

@@ -130,6 +130,20 @@ bool jsonValue(const std::string& text, const std::string& key, std::string& val
   return !value.empty();
 }
 
+/// The sequence number of a checkpoint file "<prefix>-<n>.<ext>" (solid, results, checkpoint), or -1.
+long long fileSequence(const std::string& n) {
+  for (const char* prefix : {"solid-", "results-", "checkpoint-"}) {
+    const std::string p = prefix;
+    if (n.rfind(p, 0) != 0) continue;
+    const size_t dot = n.find('.', p.size());
+    if (dot == std::string::npos || dot == p.size()) return -1;
+    const std::string digits = n.substr(p.size(), dot - p.size());
+    if (digits.find_first_not_of("0123456789") != std::string::npos) return -1;
+    return std::stoll(digits);
+  }
+  return -1;
+}
+
 }  // namespace
 
 std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h) {
@@ -173,16 +187,17 @@ void RestartCheckpoints::clear() const {
   std::vector<std::string> names;
   while (const dirent* e = ::readdir(d)) {
     const std::string n = e->d_name;
-    if (n.rfind("solid-", 0) == 0 || n.rfind("results-", 0) == 0) names.push_back(n);
+    if (fileSequence(n) >= 0 || n.rfind("fluid-", 0) == 0) names.push_back(n);
   }
   ::closedir(d);
   for (const auto& n : names) std::remove(file(n).c_str());
 }
 
-bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why) const {
-  std::ifstream is(file(kManifest));
+bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long sequence) const {
+  const std::string manifest = sequence > 0 ? seqName("checkpoint", sequence, ".json") : kManifest;
+  std::ifstream is(file(manifest));
   if (!is) {
-    why = "no checkpoint in " + dir_ + " (" + kManifest + " is not there)";
+    why = "no checkpoint in " + dir_ + " (" + manifest + " is not there)";
     return false;
   }
   std::stringstream ss;
@@ -200,9 +215,10 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why) const {
       !num("solid_bytes", solidBytes) || !num("results_bytes", resultsBytes) ||
       !jsonValue(text, "fingerprint", m.fingerprint) || !jsonValue(text, "solid", m.solid) ||
       !jsonValue(text, "results", m.results)) {
-    why = file(kManifest) + " is not a checkpoint manifest";
+    why = file(manifest) + " is not a checkpoint manifest";
     return false;
   }
+  if (!num("window", m.window)) m.window = -1;
   for (const auto& [name, bytes] : {std::pair{m.solid, solidBytes}, std::pair{m.results, resultsBytes}}) {
     const long long got = fileSize(file(name));
     if (got != bytes) {
@@ -234,7 +250,14 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
      << ",\n\"time\": " << t << ",\n\"step\": " << m.step << ",\n\"samples\": " << m.samples
      << ",\n\"fingerprint\": \"" << m.fingerprint << "\",\n\"solid\": \"" << m.solid
      << "\",\n\"solid_bytes\": " << state.size() << ",\n\"results\": \"" << m.results
-     << "\",\n\"results_bytes\": " << fileSize(file(m.results)) << "\n}\n";
+     << "\",\n\"results_bytes\": " << fileSize(file(m.results));
+  if (m.window >= 0) js << ",\n\"window\": " << m.window;
+  js << "\n}\n";
+  if (keep_ > 1) {  // each kept checkpoint's own manifest, for a resume from the one before the last
+    const std::string own = seqName("checkpoint", m.sequence, ".json");
+    writeFile(file(own + ".tmp"), js.str());
+    renameOrThrow(file(own + ".tmp"), file(own));
+  }
   writeFile(file(std::string(kManifest) + ".tmp"), js.str());
   renameOrThrow(file(std::string(kManifest) + ".tmp"), file(kManifest));
   fsyncPath(dir_);
@@ -244,7 +267,8 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
   std::vector<std::string> old;
   while (const dirent* e = ::readdir(d)) {
     const std::string n = e->d_name;
-    if ((n.rfind("solid-", 0) == 0 || n.rfind("results-", 0) == 0) && n != m.solid && n != m.results) old.push_back(n);
+    const long long seq = fileSequence(n);
+    if (seq >= 0 && (seq > m.sequence || seq <= m.sequence - keep_)) old.push_back(n);
   }
   ::closedir(d);
   for (const auto& n : old) std::remove(file(n).c_str());

@@ -534,7 +534,16 @@ void ResultsWriter::checkpoint(StateArchive& a) {
 void ResultsWriter::resumeFrom(const std::string& copy, const Solver& solver) {
   auto& I = *impl_;
   const h5::Handle src = h5::openFile(copy);
+  // prepare() makes the interface history's rows when it first meets the contact: the two states
+  // restored into them from the checkpoint are carried over
+  StateArchive kept;
+  kept.beginSave();
+  I.nl.interfaceHistory.checkpoint(kept);
+  kept.end();
   nlout::prepare(I.file, solver, I.nl);
+  kept.beginRestore();
+  I.nl.interfaceHistory.checkpoint(kept);
+  kept.end();
   std::vector<h5::RowAppender*> rows;
   for (auto* r : I.clockedRows()) rows.push_back(&r->appender());
   for (auto& R : I.ringOut) {

@@ -29,19 +29,19 @@ RECORD = "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT
 END, INTERVAL = 0.6, 0.15
 
 
-def _case_text() -> str:
-    """The example's solid-only condition with its record path made absolute, END s of shaking and
-    a checkpoint every INTERVAL s."""
+def _case_text(condition: str = "no_water", end: float = END, interval: float = INTERVAL) -> str:
+    """The example with one condition, its record path made absolute, `end` s of shaking and a
+    checkpoint every `interval` s."""
     rec = (EXAMPLE.parent / RECORD).resolve()
     text = EXAMPLE.read_text().replace(RECORD, str(rec))
     lines = []
     for line in text.splitlines():
         if line.startswith("conditions:"):
-            line = "conditions: [no_water]"
+            line = f"conditions: [{condition}]"
         lines.append(line)
         if line.startswith("output:"):
-            lines.append(f"  checkpoint_interval: {INTERVAL} s")
-    return "\n".join(lines) + f"\ntime:\n  end_time: {END} s\n"
+            lines.append(f"  checkpoint_interval: {interval} s")
+    return "\n".join(lines) + f"\ntime:\n  end_time: {end} s\n"
 
 
 @pytest.fixture(scope="module")
@@ -135,8 +135,9 @@ def _wait_for_checkpoint(case_yaml, proc, at_least: float, timeout: float = 120.
     raise AssertionError(f"no checkpoint at t >= {at_least} s within {timeout} s")
 
 
-def _solid_pid(folder) -> int:
-    """The PID of the tq-solid working in `folder`."""
+def _pids(folder, program: bytes) -> list[int]:
+    """The PIDs of the processes whose executable name ends with `program` working in `folder`."""
+    out = []
     for name in os.listdir("/proc"):
         if name.isdigit():
             try:
@@ -144,9 +145,41 @@ def _solid_pid(folder) -> int:
                     cmd = fh.read().split(b"\0")
             except OSError:
                 continue
-            if cmd and cmd[0].endswith(b"tq-solid") and any(str(folder).encode() in c for c in cmd):
-                return int(name)
-    raise AssertionError(f"no tq-solid running in {folder}")
+            if cmd and cmd[0].endswith(program) and any(str(folder).encode() in c for c in cmd):
+                out.append(int(name))
+    return out
+
+
+def _solid_pid(folder) -> int:
+    """The PID of the tq-solid working in `folder`."""
+    pids = _pids(folder, b"tq-solid")
+    assert pids, f"no tq-solid running in {folder}"
+    return pids[0]
+
+
+def _stop(proc, folder, how: str, programs: tuple[bytes, ...] = (b"tq-solid",)) -> str:
+    """Stop a running `tunnelquake run` (`_start`) in `folder` as `how` says: "SIGINT" to its
+    process group (Ctrl-C), "SIGKILL tq-solid" alone (a crash), or "SIGKILL all": tunnelquake and
+    the solvers named by `programs` together (a lost node). Whatever happens, nothing of it is
+    left running; returns its output."""
+    out = ""
+    try:
+        if proc.poll() is None:
+            if how == "SIGINT":
+                os.killpg(proc.pid, signal.SIGINT)
+            elif how == "SIGKILL tq-solid":
+                os.kill(_solid_pid(folder), signal.SIGKILL)
+            else:
+                pids = [pid for program in programs for pid in _pids(folder, program)]
+                os.kill(proc.pid, signal.SIGKILL)
+                for pid in pids:
+                    os.kill(pid, signal.SIGKILL)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    return out
 
 
 def _resume_and_compare(case_yaml, reference, capsys):
@@ -174,19 +207,8 @@ def test_run_stopped_after_a_checkpoint_resumes_bitwise_equal_to_an_uninterrupte
     proc = _start(p)
     try:
         t_ck = _wait_for_checkpoint(p, proc, 2 * INTERVAL - 1e-9)
-        if how == "SIGINT":
-            os.killpg(proc.pid, signal.SIGINT)
-        elif how == "SIGKILL tq-solid":
-            os.kill(_solid_pid(p.parent), signal.SIGKILL)
-        else:
-            solid = _solid_pid(p.parent)
-            os.kill(proc.pid, signal.SIGKILL)
-            os.kill(solid, signal.SIGKILL)
-        out, _ = proc.communicate(timeout=60)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        out = _stop(proc, p.parent, how)
     assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
     assert t_ck < END - 1e-6  # stopped before the end
     with h5py.File(p.parent / "results" / "results_no_water.h5", "r") as f:

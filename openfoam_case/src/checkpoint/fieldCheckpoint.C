@@ -11,6 +11,10 @@ License
 \*---------------------------------------------------------------------------*/
 
 #include "fieldCheckpoint.H"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include "volFields.H"
 #include "surfaceFields.H"
 #include "pointFields.H"
@@ -48,6 +52,91 @@ template<class Type>
 Field<Type>* patchStorage(pointPatchField<Type>& pf)
 {
     return dynamic_cast<valuePointPatchField<Type>*>(&pf);
+}
+
+
+// Raw values of a restart file (this machine's byte order)
+
+template<class T>
+void put(std::ostream& os, const T& v)
+{
+    os.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+template<class T>
+void get(std::istream& is, T& v)
+{
+    if (!is.read(reinterpret_cast<char*>(&v), sizeof(T)))
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint ends early (a damaged file)."
+            << exit(FatalError);
+    }
+}
+
+void putWord(std::ostream& os, const std::string& w)
+{
+    put<std::int64_t>(os, std::int64_t(w.size()));
+    os.write(w.data(), std::streamsize(w.size()));
+}
+
+word getWord(std::istream& is)
+{
+    std::int64_t n = 0;
+    get(is, n);
+    if (n < 0 || n > 4096)
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint is damaged (a name of " << n
+            << " characters)." << exit(FatalError);
+    }
+    std::string w(size_t(n), ' ');
+    if (n && !is.read(&w[0], std::streamsize(n)))
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint ends early (a damaged file)."
+            << exit(FatalError);
+    }
+    return word(w, false);
+}
+
+template<class Type>
+void putField(std::ostream& os, const Field<Type>& f)
+{
+    put<std::int64_t>(os, std::int64_t(f.size()));
+    os.write
+    (
+        reinterpret_cast<const char*>(f.cdata()),
+        std::streamsize(f.size()*sizeof(Type))
+    );
+}
+
+template<class Type>
+void getField(std::istream& is, Field<Type>& f)
+{
+    std::int64_t n = 0;
+    get(is, n);
+    if (n < 0 || n > (std::int64_t(1) << 34))
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint is damaged (a field of " << n
+            << " values)." << exit(FatalError);
+    }
+    f.setSize(label(n));
+    if
+    (
+        n
+     && !is.read
+        (
+            reinterpret_cast<char*>(f.data()),
+            std::streamsize(n*sizeof(Type))
+        )
+    )
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint ends early (a damaged file)."
+            << exit(FatalError);
+    }
 }
 
 
@@ -102,9 +191,64 @@ public:
         }
     }
 
+    //- Read back what write() wrote after the type tag
+    savedGeoField(const word& name, std::istream& is)
+    :
+        name_(name)
+    {
+        getField(is, internal_);
+        std::int64_t n = 0;
+        get(is, n);
+        patches_.setSize(label(n));
+        hasPatch_.setSize(label(n));
+        forAll(patches_, patchi)
+        {
+            std::uint8_t has = 0;
+            get(is, has);
+            hasPatch_[patchi] = has;
+            getField(is, patches_[patchi]);
+        }
+    }
+
     virtual const word& name() const
     {
         return name_;
+    }
+
+    virtual bool create(const objectRegistry& obr) const
+    {
+        if (obr.foundObject<GeoField>(name_))
+        {
+            return true;
+        }
+        // An old-time level: made by its field's oldTime(), as the run
+        // that saved it made it
+        const std::string n(name_);
+        if (n.size() < 3 || n.compare(n.size() - 2, 2, "_0") != 0)
+        {
+            return false;
+        }
+        const GeoField* base =
+            obr.getObjectPtr<GeoField>(word(n.substr(0, n.size() - 2)));
+        if (!base)
+        {
+            return false;
+        }
+        base->oldTime();
+        return obr.foundObject<GeoField>(name_);
+    }
+
+    virtual void write(std::ostream& os) const
+    {
+        putWord(os, GeoField::typeName);
+        putWord(os, name_);
+        putField(os, internal_);
+        put<std::int64_t>(os, patches_.size());
+        forAll(patches_, patchi)
+        {
+            put<std::uint8_t>(os, hasPatch_[patchi] ? 1 : 0);
+            putField(os, patches_[patchi]);
+        }
     }
 
     virtual bool restore(const objectRegistry& obr) const
@@ -115,6 +259,14 @@ public:
             return false;
         }
         GeoField& fld = *fldPtr;
+        if (fld.primitiveField().size() != internal_.size())
+        {
+            FatalErrorInFunction
+                << "Field " << name_ << " has " << fld.primitiveField().size()
+                << " values, its checkpoint " << internal_.size()
+                << ": the checkpoint belongs to another mesh."
+                << exit(FatalError);
+        }
 
         // Raw copies: 'false' keeps OpenFOAM from storing old-time levels
         // at this (unchanged) time index.
@@ -151,6 +303,22 @@ public:
         copy(h);
     }
 
+    //- Read back what write() wrote after the type tag
+    savedProjection(const word& name, std::istream& is)
+    :
+        name_(name),
+        sign_(0)
+    {
+        get(is, sign_);
+        std::int64_t n = 0;
+        get(is, n);
+        q_.resize(size_t(n));
+        for (scalarField& q : q_)
+        {
+            getField(is, q);
+        }
+    }
+
     void copy(const projectionHistory& h)
     {
         sign_ = h.sign;
@@ -160,6 +328,25 @@ public:
     virtual const word& name() const
     {
         return name_;
+    }
+
+    virtual bool create(const objectRegistry& obr) const
+    {
+        // as tqProjected makes it at its first solve
+        projectionHistory::lookupOrStore(obr, name_);
+        return true;
+    }
+
+    virtual void write(std::ostream& os) const
+    {
+        putWord(os, projectionHistory::typeName);
+        putWord(os, name_);
+        put(os, sign_);
+        put<std::int64_t>(os, std::int64_t(q_.size()));
+        for (const scalarField& q : q_)
+        {
+            putField(os, q);
+        }
     }
 
     virtual bool restore(const objectRegistry& obr) const
@@ -174,6 +361,36 @@ public:
         return true;
     }
 };
+
+//- A saved object of type `type` named `name`, read from a restart file
+savedObject* readSaved(const word& type, const word& name, std::istream& is)
+{
+    #define tqReadSaved(GeoField)                                              \
+        if (type == GeoField::typeName)                                        \
+        {                                                                      \
+            return new savedGeoField<GeoField>(name, is);                      \
+        }
+    tqReadSaved(volScalarField)
+    tqReadSaved(volVectorField)
+    tqReadSaved(volSymmTensorField)
+    tqReadSaved(volTensorField)
+    tqReadSaved(surfaceScalarField)
+    tqReadSaved(surfaceVectorField)
+    tqReadSaved(surfaceSymmTensorField)
+    tqReadSaved(surfaceTensorField)
+    tqReadSaved(pointScalarField)
+    tqReadSaved(pointVectorField)
+    #undef tqReadSaved
+    if (type == projectionHistory::typeName)
+    {
+        return new savedProjection(name, is);
+    }
+    FatalErrorInFunction
+        << "The water's restart checkpoint holds an object " << name
+        << " of unknown type " << type << " (written by another build)."
+        << exit(FatalError);
+    return nullptr;
+}
 
 } // End anonymous namespace
 } // End namespace tq
@@ -422,6 +639,108 @@ void Foam::tq::fieldCheckpoint::restore() const
             << " fields to time " << time_ << " (saved at index "
             << timeIndex_ << ")" << endl;
     }
+}
+
+
+namespace
+{
+const char fieldCheckpointMagic[8] = {'T', 'Q', 'F', 'C', 'K', 'P', 'T', '1'};
+}
+
+
+void Foam::tq::fieldCheckpoint::write(std::ostream& os) const
+{
+    if (!valid_)
+    {
+        FatalErrorInFunction
+            << "No state held to write." << exit(FatalError);
+    }
+    if (mesh_.moving())
+    {
+        FatalErrorInFunction
+            << "A restart checkpoint of a moving mesh is not supported (the"
+            << " mesh motion state is not written)." << nl
+            << "Fix: interfaceMotion transpiration (a static mesh)."
+            << exit(FatalError);
+    }
+    os.write(fieldCheckpointMagic, sizeof fieldCheckpointMagic);
+    put(os, time_);
+    put(os, deltaT_);
+    put<std::int64_t>(os, timeIndex_);
+    put<std::int64_t>(os, fields_.size());
+    forAll(fields_, i)
+    {
+        fields_[i].write(os);
+    }
+}
+
+
+void Foam::tq::fieldCheckpoint::readAndRestore(std::istream& is)
+{
+    char magic[sizeof fieldCheckpointMagic];
+    if
+    (
+        !is.read(magic, sizeof magic)
+     || std::memcmp(magic, fieldCheckpointMagic, sizeof magic) != 0
+    )
+    {
+        FatalErrorInFunction
+            << "Not a water field checkpoint (or a damaged one)."
+            << exit(FatalError);
+    }
+    get(is, time_);
+    get(is, deltaT_);
+    std::int64_t index = 0, n = 0;
+    get(is, index);
+    timeIndex_ = label(index);
+    get(is, n);
+    fields_.clear();
+    slots_.clear();
+    fields_.setSize(label(n));
+    for (label i = 0; i < label(n); ++i)
+    {
+        const word type(getWord(is));
+        const word name(getWord(is));
+        fields_.set(i, readSaved(type, name, is));
+        slots_.set(name, i);
+    }
+    moving_ = false;
+    points_ = mesh_.points();
+    valid_ = true;
+
+    // Old-time levels before the levels of those levels (U_0 before U_0_0)
+    labelList order(fields_.size());
+    forAll(order, i)
+    {
+        order[i] = i;
+    }
+    std::stable_sort
+    (
+        order.begin(),
+        order.end(),
+        [&](label a, label b)
+        {
+            return fields_[a].name().size() < fields_[b].name().size();
+        }
+    );
+    wordList missing;
+    for (const label i : order)
+    {
+        if (!fields_[i].create(mesh_))
+        {
+            missing.append(fields_[i].name());
+        }
+    }
+    if (missing.size())
+    {
+        FatalErrorInFunction
+            << "The water's restart checkpoint holds fields this run does not"
+            << " have and cannot make: " << missing << nl
+            << "Fix: resume with the same solver and case as the run that"
+            << " wrote it, or run again without --resume."
+            << exit(FatalError);
+    }
+    restore();
 }
 
 

@@ -23,6 +23,10 @@ License
 #include "OSspecific.H"
 
 #include <chrono>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
 #include <cstdlib>
 #include <time.h>
 
@@ -209,7 +213,9 @@ Foam::tq::couplerExchange::couplerExchange
     cpuCallStart_(0),
     waitAtStart_(0),
     mappingAtStart_(0),
-    passes_(0)
+    passes_(0),
+    windowsDone_(0),
+    resumeState_()
 {
     if (!readFields_.found("velocity"))
     {
@@ -444,7 +450,21 @@ void Foam::tq::couplerExchange::initialize
                 new ::tq::coupler::Participant(name_, c, t, token)
             );
             participant_->setMeshVertices(meshName_, ids, xyz);
-            participant_->initialize();
+            if (resumeState_.empty())
+            {
+                participant_->initialize();
+            }
+            else
+            {
+                participant_->initializeResumed
+                (
+                    std::vector<unsigned char>
+                    (
+                        resumeState_.begin(),
+                        resumeState_.end()
+                    )
+                );
+            }
         }
         catch (const ::tq::coupler::CouplerError& e)
         {
@@ -534,6 +554,7 @@ void Foam::tq::couplerExchange::advance(const scalar dt)
 
     if (complete)
     {
+        ++windowsDone_;
         // The window is accepted: the next one starts from here
         windowDisplacement_ = lastDisplacement_;
         windowStart_ = windowStart;
@@ -585,6 +606,126 @@ void Foam::tq::couplerExchange::finalize()
         }
     }
     ongoing_ = false;
+}
+
+
+namespace
+{
+
+template<class T>
+void putRaw(std::string& s, const T& v)
+{
+    s.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+template<class T>
+bool getRaw(const std::string& s, size_t& pos, T& v)
+{
+    if (pos + sizeof(T) > s.size())
+    {
+        return false;
+    }
+    std::memcpy(&v, s.data() + pos, sizeof(T));
+    pos += sizeof(T);
+    return true;
+}
+
+void putVectors(std::string& s, const Foam::vectorField& f)
+{
+    putRaw<std::int64_t>(s, f.size());
+    s.append
+    (
+        reinterpret_cast<const char*>(f.cdata()),
+        f.size()*sizeof(Foam::vector)
+    );
+}
+
+bool getVectors(const std::string& s, size_t& pos, Foam::vectorField& f)
+{
+    std::int64_t n = 0;
+    if (!getRaw(s, pos, n) || n < 0 || pos + n*sizeof(Foam::vector) > s.size())
+    {
+        return false;
+    }
+    f.setSize(Foam::label(n));
+    if (n)
+    {
+        std::memcpy(f.data(), s.data() + pos, n*sizeof(Foam::vector));
+    }
+    pos += n*sizeof(Foam::vector);
+    return true;
+}
+
+} // End anonymous namespace
+
+
+std::string Foam::tq::couplerExchange::saveState() const
+{
+    if (Pstream::parRun())
+    {
+        FatalErrorInFunction
+            << "Restart checkpoints of a decomposed water are not supported."
+            << nl << "Fix: parallel.fluid_ranks 1, or output.checkpoint_interval"
+            << " 0." << exit(FatalError);
+    }
+    std::string s;
+    putRaw<std::int64_t>(s, windowsDone_);
+    putRaw(s, windowStart_);
+    putRaw<std::int64_t>(s, passes_);
+    putVectors(s, windowDisplacement_);
+    putVectors(s, lastDisplacement_);
+    std::vector<unsigned char> bytes;
+    try
+    {
+        bytes = participant_->saveState();
+    }
+    catch (const ::tq::coupler::CouplerError& e)
+    {
+        fail("saveState", e.what());
+    }
+    putRaw<std::int64_t>(s, std::int64_t(bytes.size()));
+    s.append(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    return s;
+}
+
+
+void Foam::tq::couplerExchange::initializeResumed
+(
+    const polyPatch& patch,
+    const pointField& points0,
+    const scalarField& pointAreas,
+    const std::string& state
+)
+{
+    size_t pos = 0;
+    std::int64_t windows = 0, passes = 0, n = 0;
+    scalar windowStart = 0;
+    vectorField windowDisplacement, lastDisplacement;
+    if
+    (
+        !getRaw(state, pos, windows)
+     || !getRaw(state, pos, windowStart)
+     || !getRaw(state, pos, passes)
+     || !getVectors(state, pos, windowDisplacement)
+     || !getVectors(state, pos, lastDisplacement)
+     || !getRaw(state, pos, n)
+     || n < 0
+     || pos + size_t(n) != state.size()
+     || windowDisplacement.size() != points0.size()
+    )
+    {
+        FatalErrorInFunction
+            << "The exchange's restart state is damaged or belongs to"
+            << " another interface." << exit(FatalError);
+    }
+    resumeState_ = state.substr(pos);
+    initialize(patch, points0, pointAreas);
+    resumeState_.clear();
+    windowsDone_ = label(windows);
+    windowStart_ = windowStart;
+    passes_ = label(passes);
+    windowDisplacement_ = windowDisplacement;
+    lastDisplacement_ = lastDisplacement;
 }
 
 

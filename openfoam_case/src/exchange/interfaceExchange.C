@@ -69,4 +69,35 @@ Foam::autoPtr<Foam::tq::interfaceExchange> Foam::tq::interfaceExchange::New
 }
 
 
+Foam::label Foam::tq::interfaceExchange::windowsCompleted() const
+{
+    return -1;
+}
+
+
+std::string Foam::tq::interfaceExchange::saveState() const
+{
+    FatalErrorInFunction
+        << "The exchange '" << dict_.lookupOrDefault<word>("type", "none")
+        << "' writes no restart checkpoints (only the coupler does)."
+        << exit(FatalError);
+    return std::string();
+}
+
+
+void Foam::tq::interfaceExchange::initializeResumed
+(
+    const polyPatch&,
+    const pointField&,
+    const scalarField&,
+    const std::string&
+)
+{
+    FatalErrorInFunction
+        << "The exchange '" << dict_.lookupOrDefault<word>("type", "none")
+        << "' cannot resume from a restart checkpoint (only the coupler"
+        << " can)." << exit(FatalError);
+}
+
+
 // ************************************************************************* //

@@ -96,6 +96,35 @@ Foam::tq::projectionHistory::projectionHistory(const IOobject& io)
 {}
 
 
+Foam::tq::projectionHistory& Foam::tq::projectionHistory::lookupOrStore
+(
+    const objectRegistry& db,
+    const word& name
+)
+{
+    projectionHistory* h = db.getObjectPtr<projectionHistory>(name);
+    if (h)
+    {
+        return *h;
+    }
+    return regIOobject::store
+    (
+        new projectionHistory
+        (
+            IOobject
+            (
+                name,
+                db.time().timeName(),
+                db,
+                IOobject::NO_READ,
+                IOobject::NO_WRITE,
+                true
+            )
+        )
+    );
+}
+
+
 Foam::tq::tqProjected::tqProjected
 (
     const word& fieldName,
@@ -155,28 +184,11 @@ Foam::tq::projectionHistory* Foam::tq::tqProjected::history() const
     {
         return nullptr;
     }
-    const objectRegistry& db = m.thisDb();
-    const word name("tqProjected(" + fieldName_ + ')');
-    projectionHistory* h = db.getObjectPtr<projectionHistory>(name);
-    if (!h)
-    {
-        h = &regIOobject::store
-        (
-            new projectionHistory
-            (
-                IOobject
-                (
-                    name,
-                    db.time().timeName(),
-                    db,
-                    IOobject::NO_READ,
-                    IOobject::NO_WRITE,
-                    true
-                )
-            )
-        );
-    }
-    return h;
+    return &projectionHistory::lookupOrStore
+    (
+        m.thisDb(),
+        word("tqProjected(" + fieldName_ + ')')
+    );
 }
 
 

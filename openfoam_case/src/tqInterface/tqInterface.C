@@ -22,10 +22,19 @@ License
 #include "fvcDdt.H"
 #include "IOdictionary.H"
 #include "OFstream.H"
+#include "OSspecific.H"
 #include "addToRunTimeSelectionTable.H"
 
 #include <cmath>
 #include <malloc.h>
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fcntl.h>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
@@ -747,7 +756,11 @@ Foam::functionObjects::tqInterface::tqInterface
     logInterval_(0),
     quietSolver_(false),
     nextLogTime_(runTime.value()),
-    infoLevel_(messageStream::level)
+    infoLevel_(messageStream::level),
+    restartDir_(),
+    restartWindows_(0),
+    lastRestartWindow_(-1),
+    prevRestartWindow_(-1)
 {
     // A wrong coupling set-up must end the run: while constructing function
     // objects OpenFOAM turns FatalError into a warning and would go on
@@ -808,7 +821,25 @@ Foam::functionObjects::tqInterface::tqInterface
     {
         exchange_.reset(new tq::noneExchange(runTime, dictionary()));
     }
-    exchange_->initialize(pp, points0_, pointArea);
+    restartDir_ = dict.lookupOrDefault<fileName>("restartDir", fileName::null);
+    restartDir_.expand();
+    restartWindows_ = dict.lookupOrDefault<label>("restartWindows", 0);
+    fileName restartFrom
+    (
+        dict.lookupOrDefault<fileName>("restartFrom", fileName::null)
+    );
+    restartFrom.expand();
+    std::string resumedRows;
+    bool resumed = false;
+    if (restartFrom.empty())
+    {
+        exchange_->initialize(pp, points0_, pointArea);
+    }
+    else
+    {
+        resumedRows = readRestart(restartFrom, pp, pointArea);
+        resumed = true;
+    }
 
     if (exchange_->isCouplingOngoing())
     {
@@ -821,7 +852,7 @@ Foam::functionObjects::tqInterface::tqInterface
             endTime_ + 10*runTime.deltaTValue()
         );
 
-        if (exchange_->requiresWritingCheckpoint())
+        if (!resumed && exchange_->requiresWritingCheckpoint())
         {
             checkpoint_.store();
         }
@@ -832,7 +863,17 @@ Foam::functionObjects::tqInterface::tqInterface
     FatalIOError.throwExceptions(throwingIO);
 
     filePtr_ = createFile("interface");
-    if (filePtr_.valid())
+    if (filePtr_.valid() && resumed)
+    {
+        // interface.dat as it was at the checkpoint, rows go on from there
+        filePtr_().stdStream().write
+        (
+            resumedRows.data(),
+            std::streamsize(resumedRows.size())
+        );
+        filePtr_().precision(15);
+    }
+    else if (filePtr_.valid())
     {
         OFstream& os = filePtr_();
         os.precision(15);
@@ -1013,6 +1054,14 @@ bool Foam::functionObjects::tqInterface::execute()
         {
             checkpoint_.store();
         }
+        if (restartWindows_ > 0)
+        {
+            const label n = exchange_->windowsCompleted();
+            if (n > lastRestartWindow_ && n % restartWindows_ == 0)
+            {
+                writeRestart(n);
+            }
+        }
         receiveMotion();
     }
 
@@ -1039,6 +1088,179 @@ bool Foam::functionObjects::tqInterface::end()
         exchange_->finalize();
     }
     return true;
+}
+
+
+namespace
+{
+
+const char fluidRestartMagic[8] = {'T', 'Q', 'F', 'L', 'U', 'I', 'D', '1'};
+const char fluidRestartEnd[8] = {'T', 'Q', 'F', 'L', 'E', 'N', 'D', '1'};
+
+void putString(std::ostream& os, const std::string& s)
+{
+    const std::int64_t n = std::int64_t(s.size());
+    os.write(reinterpret_cast<const char*>(&n), sizeof n);
+    os.write(s.data(), std::streamsize(s.size()));
+}
+
+template<class T>
+bool getValue(std::istream& is, T& v)
+{
+    return bool(is.read(reinterpret_cast<char*>(&v), sizeof(T)));
+}
+
+bool getString(std::istream& is, std::string& s)
+{
+    std::int64_t n = 0;
+    if (!getValue(is, n) || n < 0 || n > (std::int64_t(1) << 36))
+    {
+        return false;
+    }
+    s.resize(size_t(n));
+    return n == 0 || bool(is.read(&s[0], std::streamsize(n)));
+}
+
+Foam::word restartName(const Foam::label n)
+{
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "fluid-%09ld.bin", long(n));
+    return buf;
+}
+
+} // End anonymous namespace
+
+
+void Foam::functionObjects::tqInterface::writeRestart(const label n)
+{
+    if (restartDir_.empty())
+    {
+        FatalErrorInFunction
+            << "restartWindows " << restartWindows_ << " needs restartDir"
+            << " (the folder of the restart checkpoints)." << exit(FatalError);
+    }
+    std::string rows;
+    if (filePtr_.valid())
+    {
+        filePtr_().flush();
+        std::ifstream in(filePtr_().name(), std::ios::binary);
+        std::ostringstream all;
+        all << in.rdbuf();
+        rows = all.str();
+    }
+    std::ostringstream os;
+    os.write(fluidRestartMagic, sizeof fluidRestartMagic);
+    const std::int64_t window = n, rollbacks = nRollbacks_;
+    os.write(reinterpret_cast<const char*>(&window), sizeof window);
+    os.write(reinterpret_cast<const char*>(&rollbacks), sizeof rollbacks);
+    os.write(reinterpret_cast<const char*>(&rewriteTime_), sizeof rewriteTime_);
+    os.write(reinterpret_cast<const char*>(&nextLogTime_), sizeof nextLogTime_);
+    putString(os, exchange_->saveState());
+    putString(os, rows);
+    checkpoint_.write(os);
+    os.write(fluidRestartEnd, sizeof fluidRestartEnd);
+    const std::string bytes(os.str());
+
+    mkDir(restartDir_);
+    const std::string path(restartDir_/restartName(n));
+    const std::string tmp(path + ".tmp");
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    bool ok = fd >= 0;
+    size_t done = 0;
+    while (ok && done < bytes.size())
+    {
+        const ssize_t w = ::write(fd, bytes.data() + done, bytes.size() - done);
+        if (w < 0 && errno == EINTR)
+        {
+            continue;
+        }
+        ok = w > 0;
+        done += ok ? size_t(w) : 0;
+    }
+    ok = ok && ::fsync(fd) == 0;
+    if (fd >= 0)
+    {
+        ::close(fd);
+    }
+    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0)
+    {
+        FatalErrorInFunction
+            << "Cannot write the restart checkpoint " << path << ": "
+            << std::strerror(errno) << exit(FatalError);
+    }
+    // The last two are kept: the solid's last checkpoint may be one ahead
+    prevRestartWindow_ = lastRestartWindow_;
+    lastRestartWindow_ = n;
+    for (const fileName& f : readDir(restartDir_, fileName::FILE))
+    {
+        const std::string name(f);
+        if
+        (
+            name.rfind("fluid-", 0) == 0
+         && name != restartName(n)
+         && (prevRestartWindow_ < 0 || name != restartName(prevRestartWindow_))
+        )
+        {
+            Foam::rm(restartDir_/f);
+        }
+    }
+}
+
+
+std::string Foam::functionObjects::tqInterface::readRestart
+(
+    const fileName& file,
+    const polyPatch& pp,
+    const scalarField& pointArea
+)
+{
+    if (Pstream::parRun())
+    {
+        FatalErrorInFunction
+            << "Resuming a decomposed water is not supported." << exit(FatalError);
+    }
+    std::ifstream is(file, std::ios::binary);
+    char magic[sizeof fluidRestartMagic];
+    std::int64_t window = 0, rollbacks = 0;
+    std::string exchangeState, rows;
+    if
+    (
+        !is
+     || !is.read(magic, sizeof magic)
+     || std::memcmp(magic, fluidRestartMagic, sizeof magic) != 0
+     || !getValue(is, window)
+     || !getValue(is, rollbacks)
+     || !getValue(is, rewriteTime_)
+     || !getValue(is, nextLogTime_)
+     || !getString(is, exchangeState)
+     || !getString(is, rows)
+    )
+    {
+        FatalErrorInFunction
+            << "Cannot resume from " << file << ": missing, or not a restart"
+            << " checkpoint of the water (or a damaged one)." << nl
+            << "Fix: run again without --resume." << exit(FatalError);
+    }
+    nRollbacks_ = label(rollbacks);
+    exchange_->initializeResumed(pp, points0_, pointArea, exchangeState);
+    checkpoint_.readAndRestore(is);
+    char last[sizeof fluidRestartEnd];
+    if
+    (
+        !is.read(last, sizeof last)
+     || std::memcmp(last, fluidRestartEnd, sizeof last) != 0
+    )
+    {
+        FatalErrorInFunction
+            << "Cannot resume from " << file << ": it does not end as a"
+            << " restart checkpoint of the water does (a damaged file)." << nl
+            << "Fix: run again without --resume." << exit(FatalError);
+    }
+    lastRestartWindow_ = label(window);
+    Info<< type() << " " << name() << ": resumed from " << file
+        << " at t = " << time().value() << " s (coupling window " << window
+        << ")" << endl;
+    return rows;
 }
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .. import children, paths
 from ..children import Side, stop_side
-from ..restart import checkpoint_dir, checkpoint_manifest
+from ..restart import checkpoint_dir, checkpoint_manifest, checkpoint_windows, coupled_resume_point
 from ..scene import plan
 from ..solid_input import solid_threads
 from .common import DiskFull, is_no_space, load_or_report, parser, say
@@ -207,7 +207,8 @@ def _disk_full_note(folder) -> str:
             f"there, or set output.directory to a disk with room, and run again")
 
 
-def run_coupled_condition(case, cond: str, motion_file, share: int = 1) -> tuple[int, object, str]:
+def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
+                          resume: bool = False) -> tuple[int, object, str]:
     """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
     by the coupler over TCP; `share`: the solvers running at once (solid_threads). Returns (exit code, results path, what happened). Exit code: 0 both
     completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
@@ -215,7 +216,12 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1) -> tuple
     parallel.fluid_ranks N > 1: the water case is decomposed (fluid_case.decompose: decomposePar,
     method simple) and the water runs as `mpirun -np N <solver> -parallel` (rank 0 holds the
     coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
-    (reconstructPar; the processor folders stay in <fluid>/processor*)."""
+    (reconstructPar; the processor folders stay in <fluid>/processor*).
+
+    Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
+    theirs into <condition>/checkpoint at every K-th completed window (restart.checkpoint_windows);
+    with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
+    the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
     import secrets
     import time as _time
 
@@ -231,6 +237,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1) -> tuple
     res = case.output_dir / f"results_{cond}.h5"
     exe = paths.solid_executable()
     token = secrets.token_hex(16)
+    point = coupled_resume_point(case, cond) if resume else None
+    if point is not None:
+        with h5py.File(work / "solid_input.h5", "r") as f:
+            token = str(f["coupling"].attrs["token"])
     addr = work / "wall.addr"
     addr.unlink(missing_ok=True)
     mesh_h5 = mesh_dir(case) / "mesh.h5"
@@ -278,6 +288,15 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1) -> tuple
     with children.FORK_LOCK:
         threads = solid_threads(case, mesh_h5, share)
     solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
+    every = checkpoint_windows(float(case.data["output"]["checkpoint_interval"]), float(settings["window_size"]))
+    if every > 0 and ranks == 1:
+        folder = checkpoint_dir(case, cond)
+        solid_cmd += ["--checkpoint-dir", str(folder)]
+        fc.set_restart(fluid.path, folder, every, Path(point["fluid"]) if point is not None else None)
+        if point is not None:
+            solid_cmd += ["--resume", "--resume-sequence", str(int(point["sequence"]))]
+    elif every > 0:
+        say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
     _running(cond, res)
     t0 = _time.perf_counter()
     say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
@@ -569,7 +588,8 @@ def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
     for cond, parts in plan(case):
         if _results_status(case.output_dir / f"results_{cond}.h5") == "completed":
             what[cond] = "completed"
-        elif "fluid" not in parts and checkpoint_manifest(case, cond) is not None:
+        elif ("fluid" not in parts and checkpoint_manifest(case, cond) is not None) or (
+                "fluid" in parts and coupled_resume_point(case, cond) is not None):
             what[cond] = "checkpoint"
         else:
             what[cond] = "start"
@@ -603,14 +623,13 @@ def _job(case, args) -> int:
             return 0
         for cond, what in resuming.items():
             if what == "checkpoint":
-                m = checkpoint_manifest(case, cond)
+                coupled_ = "fluid" in dict(plan(case))[cond]
+                m = coupled_resume_point(case, cond) if coupled_ else checkpoint_manifest(case, cond)
                 say(f"resume: {cond} continues from its checkpoint at t = {float(m['time']):.6g} s")
             elif what == "completed":
                 say(f"resume: {cond} completed earlier: kept")
             else:
-                coupled = "fluid" in dict(plan(case))[cond]
-                say(f"resume: {cond} has no restart checkpoint"
-                    f"{' (a condition coupled with the water writes none)' if coupled else ''}: it runs from the start")
+                say(f"resume: {cond} has no restart checkpoint: it runs from the start")
     say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []
@@ -656,7 +675,8 @@ def _job(case, args) -> int:
 
     def coupled(cond, parts, share=1):
         runs = " + ".join(parts)
-        rc, res, why = run_coupled_condition(case, cond, motion_file, share)
+        rc, res, why = run_coupled_condition(case, cond, motion_file, share,
+                                             resume=resuming.get(cond) == "checkpoint")
         if children.stopping.is_set():
             return
         if rc == 0:

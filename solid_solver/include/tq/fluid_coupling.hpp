@@ -76,6 +76,16 @@ public:
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
   void checkpoint(StateArchive& archive) override;
+  /// Restart checkpoints (tq/restart.hpp): at a window's end, the adapter's state across windows
+  /// (the last windows' forces and motions, the predictor's history, the energy bookkeeping, the
+  /// counters) and the coupler participant's bytes (Participant::saveState); restored before
+  /// initializeResumed().
+  void restartState(StateArchive& archive);
+  /// initialize() for a run restored by restartState(): connects, shakes hands and carries on from
+  /// the saved window (Participant::initializeResumed). Throws CouplingError.
+  void initializeResumed();
+  /// Completed coupling windows so far.
+  long long windowsDone() const;
 
   /// Windows of several solid steps with the implicit scheme: the time loop saves the solver's
   /// state at each window start and restores it when takeRepeat() says the window must be

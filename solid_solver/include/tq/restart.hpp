@@ -20,6 +20,7 @@ struct CheckpointManifest {
   double time = 0;         ///< simulated time, s
   long long step = 0;      ///< solid steps taken
   long long samples = 0;   ///< monitor rows in the results copy
+  long long window = -1;   ///< coupled with the water: completed coupling windows (-1: not coupled)
   std::string fingerprint;  ///< of the case and the state's layout: a resume of another case is refused
   std::string solid, results;  ///< file names: the state, the results copy
 };
@@ -34,11 +35,18 @@ public:
   RestartCheckpoints(const RestartCheckpoints&) = delete;
   RestartCheckpoints& operator=(const RestartCheckpoints&) = delete;
   const std::string& dir() const { return dir_; }
-  /// A fresh start: remove the checkpoint files an earlier run of this folder left.
+  /// Keep the files of the last `n` checkpoints (default 1). A run coupled with the water keeps 2,
+  /// each with its own manifest checkpoint-<n>.json beside checkpoint.json: the water writes its
+  /// checkpoint of a window after the solid's, so the last window both sides wrote is the solid's
+  /// last or the one before.
+  void setKeep(int n) { keep_ = n < 1 ? 1 : n; }
+  /// A fresh start: remove the checkpoint files an earlier run of this folder left (the water's
+  /// fluid-*.bin included).
   void clear() const;
-  /// The last complete checkpoint. False with `why` set when there is none or it cannot be used
-  /// (a file missing or of another size than the manifest says).
-  bool last(CheckpointManifest& m, std::string& why) const;
+  /// The last complete checkpoint, or with `sequence` > 0 that one (kept by setKeep(2)). False
+  /// with `why` set when there is none or it cannot be used (a file missing or of another size
+  /// than the manifest says).
+  bool last(CheckpointManifest& m, std::string& why, long long sequence = 0) const;
   /// Write checkpoint `m.sequence` (the state `a` as last saved, and a copy of the flushed results
   /// file `results`), then the manifest, then remove the earlier checkpoint's files. Throws
   /// OutputError when the file system refuses (the previous checkpoint stays the valid one).
@@ -50,6 +58,7 @@ public:
 private:
   std::string dir_;
   int lock_ = -1;
+  int keep_ = 1;
 };
 
 /// FNV-1a (64 bit) of bytes, chained: a fingerprint of what a checkpoint belongs to.

@@ -1,0 +1,106 @@
+"""Restart of the condition coupled with the water (docs/user_guide.md "Resuming a run",
+docs/reliability.md §10): a `dynamic_water` run stopped after a restart checkpoint and continued
+with `tunnelquake run --resume` ends with results bitwise equal to those of a run never stopped.
+
+Reference: the same case run without interruption, with the same checkpoint interval. Every
+dataset and attribute of results_dynamic_water.h5 except wall-clock figures must be equal byte
+for byte (tolerance 0): the solid's step, the water's step and the coupling's iterations are
+deterministic, so any state either side's checkpoint misses (the water's fields and old-time
+levels, its solver's projection basis, the coupler's secant columns, the adapter's predictor and
+energy bookkeeping) shows up as a difference."""
+from __future__ import annotations
+
+import time
+
+import h5py
+import pytest
+from test_restart import _case_text, _copy, _differences, _start, _stop
+
+from tunnelquake.cli import main
+
+#: shaking simulated, s; a checkpoint every INTERVAL s of it (every 99 coupling windows of 1.008 ms)
+END, INTERVAL = 0.3, 0.1
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("reference")
+    (folder / "case.yaml").write_text(_case_text("dynamic_water", END, INTERVAL))
+    assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
+    return folder
+
+
+def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> dict:
+    """Wait until both sides have written checkpoint `sequence` or a later one."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    case = load_case(case_yaml)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        m = coupled_resume_point(case, "dynamic_water")
+        if m is not None and int(m["sequence"]) >= sequence:
+            return m
+        assert proc.poll() is None, proc.communicate()[0][-3000:]
+        time.sleep(0.02)
+    raise AssertionError(f"no checkpoint pair {sequence} or later within {timeout} s")
+
+
+@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL tq-solid", "SIGKILL all"])
+def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference, tmp_path, capsys, how):
+    """Stopped after both sides wrote their second checkpoint: by Ctrl-C (SIGINT to
+    the process group, exit 130), by SIGKILL of tq-solid alone (a crash: tunnelquake stops the
+    water and reports the failure, exit 1) or by SIGKILL of tunnelquake, tq-solid and the water
+    together (a lost node). `--resume` starts both from the last window both wrote and ends bitwise equal to
+    the uninterrupted run."""
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    try:
+        m = _wait_for_pair(p, proc, 2)
+    finally:
+        out = _stop(proc, p.parent, how, (b"tq-solid", b"PimpleFoam"))
+    assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
+    _resume_and_compare(p, reference, tmp_path, capsys, m)
+
+
+@pytest.mark.parametrize("part", ["solid", "results"])
+def test_coupled_crash_inside_a_checkpoint_resumes_from_the_one_before(reference, tmp_path, capsys, part):
+    """tq-solid killed (SIGKILL) inside its third checkpoint, after its state file (`solid`) or also
+    its results copy (`results`), before its manifest (TQ_CHECKPOINT_FAULT): tunnelquake stops the
+    water, which has not written a third; `--resume` continues both from the second and ends
+    bitwise equal to the uninterrupted run."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": f"3:{part}"})
+    out, _ = proc.communicate(timeout=240)
+    assert proc.returncode == 1 and "tq-solid (solid) failed with exit code -9" in out, out[-2000:]
+    m = coupled_resume_point(load_case(p), "dynamic_water")
+    assert m is not None and int(m["sequence"]) == 2, m
+    _resume_and_compare(p, reference, tmp_path, capsys, m)
+
+
+def _resume_and_compare(p, reference, tmp_path, capsys, m):
+    """`--resume` of the stopped run in `p` (whose checkpoint pair `m` is the second) ends completed
+    and bitwise equal to the uninterrupted `reference`, its checkpoints removed."""
+    res = p.parent / "results" / "results_dynamic_water.h5"
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] != "completed"
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert "resume: dynamic_water continues from its checkpoint at t = " in said, said[-2000:]
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] == "completed"
+        assert f["monitors/top_arch/time"][-1, 0] == pytest.approx(END, abs=1e-4)
+        windows = int(f["coupling"].attrs["windows"])
+        every = round(INTERVAL / float(f["coupling"].attrs["window_size"]))
+    assert int(m["window"]) == 2 * every < windows  # the second of the checkpoints every INTERVAL
+    assert _differences(reference / "results" / "results_dynamic_water.h5", res) == []
+    # the monitors as `tunnelquake post` writes them (monitors_dynamic_water.csv), byte for byte
+    from tunnelquake import post as P
+
+    csv = [P.monitors_csv(P.read_condition(f, "dynamic_water"), tmp_path / f"monitors_{k}.csv").read_bytes()
+           for k, f in (("reference", reference / "results" / "results_dynamic_water.h5"), ("resumed", res))]
+    assert len(csv[0]) > 0 and csv[0] == csv[1]
+    assert not list((p.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
