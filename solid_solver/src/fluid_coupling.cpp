@@ -809,6 +809,11 @@ void FluidCoupling::restartState(StateArchive& a) {
   for (std::vector<Real>* v : {&I.u0, &I.received, &I.trial, &I.receivedPrev, &I.disp, &I.vel, &I.dispStart,
                                &I.forceStart, &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev})
     a.io(*v);
+  // The volume law's state across steps: the stations' pressures and the water's resultants of the
+  // last two steps, the work they did, and with open ends the axial flux and the volume that left
+  // each station (the plug flow's integrators).
+  for (std::vector<Real>* v : {&I.ps, &I.psPrev, &I.lam, &I.lamPrev, &I.Q, &I.W}) a.io(*v);
+  a.io(I.volumeWork);
   a.io(I.pass);
   a.io(I.repeat);
   a.io(I.fluidReceived);
