@@ -159,7 +159,8 @@ def _solid_pid(folder) -> int:
 
 def _stop(proc, folder, how: str, programs: tuple[bytes, ...] = (b"tq-solid",)) -> str:
     """Stop a running `tunnelquake run` (`_start`) in `folder` as `how` says: "SIGINT" to its
-    process group (Ctrl-C), "SIGKILL tq-solid" alone (a crash), or "SIGKILL all": tunnelquake and
+    process group (Ctrl-C), "SIGKILL tq-solid" or "SIGKILL water" (OpenFOAM's solver) alone (a
+    crash), or "SIGKILL all": tunnelquake and
     the solvers named by `programs` together (a lost node). Whatever happens, nothing of it is
     left running; returns its output."""
     out = ""
@@ -169,6 +170,9 @@ def _stop(proc, folder, how: str, programs: tuple[bytes, ...] = (b"tq-solid",)) 
                 os.killpg(proc.pid, signal.SIGINT)
             elif how == "SIGKILL tq-solid":
                 os.kill(_solid_pid(folder), signal.SIGKILL)
+            elif how == "SIGKILL water":
+                for pid in _pids(folder, b"PimpleFoam"):
+                    os.kill(pid, signal.SIGKILL)
             else:
                 pids = [pid for program in programs for pid in _pids(folder, program)]
                 os.kill(proc.pid, signal.SIGKILL)

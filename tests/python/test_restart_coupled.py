@@ -46,11 +46,11 @@ def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> di
     raise AssertionError(f"no checkpoint pair {sequence} or later within {timeout} s")
 
 
-@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL tq-solid", "SIGKILL all"])
+@pytest.mark.parametrize("how", ["SIGINT", "SIGKILL tq-solid", "SIGKILL water", "SIGKILL all"])
 def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference, tmp_path, capsys, how):
     """Stopped after both sides wrote their second checkpoint: by Ctrl-C (SIGINT to
-    the process group, exit 130), by SIGKILL of tq-solid alone (a crash: tunnelquake stops the
-    water and reports the failure, exit 1) or by SIGKILL of tunnelquake, tq-solid and the water
+    the process group, exit 130), by SIGKILL of tq-solid alone or of the water alone (a crash:
+    tunnelquake stops the other side and reports the failure, exit 1) or by SIGKILL of tunnelquake, tq-solid and the water
     together (a lost node). `--resume` starts both from the last window both wrote and ends bitwise equal to
     the uninterrupted run."""
     p = _copy(reference, tmp_path)
@@ -59,7 +59,8 @@ def test_coupled_run_stopped_after_a_checkpoint_resumes_bitwise_equal(reference,
         m = _wait_for_pair(p, proc, 2)
     finally:
         out = _stop(proc, p.parent, how, (b"tq-solid", b"PimpleFoam"))
-    assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL all": -9}[how], out[-2000:]
+    assert proc.returncode == {"SIGINT": 130, "SIGKILL tq-solid": 1, "SIGKILL water": 1, "SIGKILL all": -9}[how], \
+        out[-2000:]
     _resume_and_compare(p, reference, tmp_path, capsys, m)
 
 
