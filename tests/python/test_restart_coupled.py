@@ -105,3 +105,43 @@ def _resume_and_compare(p, reference, tmp_path, capsys, m):
            for k, f in (("reference", reference / "results" / "results_dynamic_water.h5"), ("resumed", res))]
     assert len(csv[0]) > 0 and csv[0] == csv[1]
     assert not list((p.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
+
+
+def test_coupled_resume_while_the_solvers_of_a_killed_supervisor_still_run_is_refused(reference, tmp_path, capsys):
+    """SIGKILL of `tunnelquake` alone: its tq-solid and its water, coupled to each other, outlive it.
+    A `--resume` meanwhile must not start a second pair on the same files: tq-solid finds the
+    checkpoints locked and names the running one's PID. Once the orphans have ended (at the end of
+    the run, or when their output to the dead supervisor fails), `--resume` ends with the results
+    of the uninterrupted run. (The running solid is held with SIGSTOP so that the refusal is tested
+    whatever the machine's speed.)"""
+    import os
+    import signal
+
+    from test_restart import _solid_pid
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p)
+    solid = None
+    try:
+        _wait_for_pair(p, proc, 1)
+        solid = _solid_pid(p.parent)
+        os.kill(solid, signal.SIGSTOP)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        again = _start(p, "--resume")
+        out, _ = again.communicate(timeout=180)
+        assert again.returncode == 1, out[-2000:]
+        assert f"another tq-solid (pid {solid}) is running with the checkpoints in " in out, out[-2000:]
+    finally:
+        if solid is not None:
+            os.kill(solid, signal.SIGCONT)
+        deadline = time.monotonic() + 240
+        while solid is not None and os.path.exists(f"/proc/{solid}") and time.monotonic() < deadline:
+            time.sleep(0.1)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate(timeout=60)
+    assert not os.path.exists(f"/proc/{solid}"), "the orphaned tq-solid did not end"
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    assert _differences(reference / "results" / "results_dynamic_water.h5",
+                        p.parent / "results" / "results_dynamic_water.h5") == []
