@@ -102,5 +102,21 @@ def test_the_choices_run_the_conditions_they_can_change():
     assert cs[0].name == paper.EXAMPLE_RUN and not cs[0].overrides
     assert len({c.slug for c in cs}) == len(cs)
     for c in cs:
-        assert c.conditions == (S.DYN if c.dimension == "water" else S.ALL)
+        # the water changes condition (3) only; a choice cut short (too slow over the whole record)
+        # runs the solid-only conditions, beside the example cut alike
+        cut = "time.end_time" in c.overrides
+        assert c.conditions == (S.DYN if c.dimension == "water" else S.SOLID if cut else S.ALL)
         assert c.dimension == "example" or c.dimension in S.EXAMPLE_LEVELS
+
+
+def test_a_run_cut_short_is_never_identified_nor_matched_with_the_paper():
+    """A choice run over the record's first seconds only (Rayleigh damping) has peaks that are not the
+    whole record's: it is left out of the identification (by_dimension) and of the runs a paper number
+    is matched against (whole_record), and kept for its own comparison with the example cut alike."""
+    cut = [c for c in S.choices(S.CASE.parent) if "time.end_time" in c.overrides]
+    assert cut and all(c.overrides["time.end_time"] == S.SHORT_END for c in cut)
+    nums = {c.name: {"max_ux/no_water/top_arch": 0.03} for c in S.choices(S.CASE.parent)}
+    assert not set(S.whole_record(nums)) & {c.name for c in cut}
+    assert len(S.whole_record(nums)) + len(cut) == len(nums)
+    dims = S.by_dimension(nums)
+    assert all(c.level not in dims.get(c.dimension, {}) for c in cut)
