@@ -295,6 +295,26 @@ def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path)
                         p.parent / "results" / "results_no_water.h5") == []
 
 
+def _resume_beside_the_orphaned_solver(case_yaml, proc, wait) -> tuple[int, int, str]:
+    """Once `wait()` returns: tq-solid of the running `proc` held with SIGSTOP (so that what follows
+    does not depend on the machine's speed), `tunnelquake` alone killed (SIGKILL), and a
+    `--resume` of the same case run while the orphaned solver lives; the solver is let go on
+    (SIGCONT) whatever happens. Returns the solver's PID, the resume's exit code and output."""
+    solid = None
+    try:
+        wait()
+        solid = _solid_pid(case_yaml.parent)
+        os.kill(solid, signal.SIGSTOP)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        again = _start(case_yaml, "--resume")
+        out, _ = again.communicate(timeout=180)
+        return solid, again.returncode, out
+    finally:
+        if solid is not None:
+            os.kill(solid, signal.SIGCONT)
+
+
 def test_resume_while_the_solver_of_a_killed_supervisor_still_runs_is_refused(reference, tmp_path, capsys):
     """SIGKILL of `tunnelquake` alone: its tq-solid (a session of its own) runs on. A `--resume`
     meanwhile must not start a second solver on the same files: tq-solid finds the checkpoints
@@ -304,21 +324,13 @@ def test_resume_while_the_solver_of_a_killed_supervisor_still_runs_is_refused(re
     whatever the machine's speed.)"""
     p = _copy(reference, tmp_path)
     proc = _start(p)
-    solid = None
     try:
-        _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
-        solid = _solid_pid(p.parent)
-        os.kill(solid, signal.SIGSTOP)
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-        again = _start(p, "--resume")
-        out, _ = again.communicate(timeout=180)
-        assert again.returncode == 1, out[-2000:]
+        solid, rc, out = _resume_beside_the_orphaned_solver(p, proc, lambda: _wait_for_checkpoint(
+            p, proc, INTERVAL - 1e-9))
+        assert rc == 1, out[-2000:]
         assert f"another tq-solid (pid {solid}) is running with the checkpoints in " in out, out[-2000:]
         assert "tq-solid stopped (exit 2)" in out, out[-2000:]
     finally:
-        if solid is not None:
-            os.kill(solid, signal.SIGCONT)
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
         rest, _ = proc.communicate(timeout=180)  # ends when the orphaned solver closes the pipe

@@ -117,24 +117,16 @@ def test_coupled_resume_while_the_solvers_of_a_killed_supervisor_still_run_is_re
     import os
     import signal
 
-    from test_restart import _solid_pid
+    from test_restart import _resume_beside_the_orphaned_solver
 
     p = _copy(reference, tmp_path)
     proc = _start(p)
     solid = None
     try:
-        _wait_for_pair(p, proc, 1)
-        solid = _solid_pid(p.parent)
-        os.kill(solid, signal.SIGSTOP)
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=30)
-        again = _start(p, "--resume")
-        out, _ = again.communicate(timeout=180)
-        assert again.returncode == 1, out[-2000:]
+        solid, rc, out = _resume_beside_the_orphaned_solver(p, proc, lambda: _wait_for_pair(p, proc, 1))
+        assert rc == 1, out[-2000:]
         assert f"another tq-solid (pid {solid}) is running with the checkpoints in " in out, out[-2000:]
     finally:
-        if solid is not None:
-            os.kill(solid, signal.SIGCONT)
         deadline = time.monotonic() + 240
         while solid is not None and os.path.exists(f"/proc/{solid}") and time.monotonic() < deadline:
             time.sleep(0.1)
