@@ -17,11 +17,11 @@ import sys
 import time
 
 import h5py
-import numpy as np
 import pytest
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
+from tunnelquake.compare import results_differences as _differences
 
 RECORD = "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2"
 
@@ -63,53 +63,6 @@ def _copy(reference, tmp_path):
     shutil.copytree(reference / "results" / "mesh", dst / "results" / "mesh")
     shutil.copy(reference / "results" / "motion.h5", dst / "results" / "motion.h5")
     return dst / "case.yaml"
-
-
-#: attributes that hold wall-clock figures or the run's own paths (not results)
-def _not_a_result(name: str) -> bool:
-    return name.endswith("_s") or name in ("input", "mesh")
-
-
-def _bytes(v) -> bytes:
-    """A value as bytes: numbers as stored, strings by their text (not their object pointers)."""
-    a = np.asarray(v)
-    if a.dtype.kind == "O":
-        return repr([x.decode() if isinstance(x, bytes) else str(x) for x in a.reshape(-1)]).encode()
-    return a.tobytes()
-
-
-def _differences(a_path, b_path) -> list[str]:
-    """Every dataset and attribute that differs between two results files (bytes compared);
-    /timings (wall times, steps of this process) left out."""
-    out: list[str] = []
-    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
-        def attrs(name, x, y):
-            for k in sorted(set(x.attrs) | set(y.attrs)):
-                if _not_a_result(k):
-                    continue
-                if k not in x.attrs or k not in y.attrs:
-                    out.append(f"{name} attr {k}: only in one")
-                elif _bytes(x.attrs[k]) != _bytes(y.attrs[k]):
-                    out.append(f"{name} attr {k}: {x.attrs[k]!r} != {y.attrs[k]!r}")
-
-        names_a, names_b = [], []
-        a.visit(names_a.append)
-        b.visit(names_b.append)
-        keep = [n for n in names_a if not n.startswith("timings")]
-        if sorted(keep) != sorted(n for n in names_b if not n.startswith("timings")):
-            out.append(f"objects differ: {sorted(set(names_a) ^ set(names_b))[:10]}")
-        attrs("/", a, b)
-        for n in keep:
-            if n not in b:
-                continue
-            x, y = a[n], b[n]
-            attrs(n, x, y)
-            if isinstance(x, h5py.Dataset):
-                if x.shape != y.shape or x.dtype != y.dtype:
-                    out.append(f"{n}: shape {x.shape} {x.dtype} != {y.shape} {y.dtype}")
-                elif _bytes(x[()]) != _bytes(y[()]):
-                    out.append(f"{n}: values differ")
-    return out
 
 
 def _start(case_yaml, *extra, env=None):

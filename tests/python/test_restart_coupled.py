@@ -14,9 +14,10 @@ import time
 
 import h5py
 import pytest
-from test_restart import _case_text, _copy, _differences, _start, _stop
+from test_restart import _case_text, _copy, _start, _stop
 
 from tunnelquake.cli import main
+from tunnelquake.compare import results_differences as _differences
 
 #: shaking simulated, s; a checkpoint every INTERVAL s of it (every 99 coupling windows of 1.008 ms)
 END, INTERVAL = 0.3, 0.1

@@ -6,13 +6,14 @@
     tunnelquake run    case.yaml    mesh, motion, then each condition with only the solvers it needs
                                     (a case with suite: every member x condition, suite_report.md)
     tunnelquake post   case.yaml    results -> CSV monitors, figures, report
+    tunnelquake compare A B         whether two runs' results are equal, byte for byte
     tunnelquake bench  FOLDER       the benchmarks (benchmarks/ of the repository: python -m benchmarks)
 """
 from __future__ import annotations
 
 import sys
 
-COMMANDS = ("check", "mesh", "motion", "run", "post", "bench")
+COMMANDS = ("check", "mesh", "motion", "run", "post", "compare", "bench")
 
 
 def main(argv: list[str] | None = None) -> int:

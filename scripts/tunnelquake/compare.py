@@ -1,0 +1,133 @@
+"""Two runs of a case compared: what differs between their results, byte for byte.
+
+`tunnelquake compare A B` (A and B: results folders, or the case files whose results they hold)
+compares every results_<condition>.h5 dataset and attribute (the bytes as stored), the monitors' CSV
+files and the report, leaving out what is not a result: the /timings group, attributes that hold
+wall-clock seconds (names ending in `_s`) or the run's own paths (`input`, `mesh`), and report lines
+that quote wall-clock figures or the folder's own path.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: report lines that carry wall-clock time or where the run was made (not results)
+_REPORT_NOT_RESULTS = re.compile(r"wall|elapsed|took|run time|steps/s|\bETA\b|generated|/tmp/|/work/|/home/",
+                                 re.IGNORECASE)
+
+
+def _not_a_result(name: str) -> bool:
+    """Attributes that hold wall-clock figures or the run's own paths."""
+    return name.endswith("_s") or name in ("input", "mesh")
+
+
+def _bytes(v) -> bytes:
+    """A value as bytes: numbers as stored, strings by their text (not their object pointers)."""
+    a = np.asarray(v)
+    if a.dtype.kind == "O":
+        return repr([x.decode() if isinstance(x, bytes) else str(x) for x in a.reshape(-1)]).encode()
+    return a.tobytes()
+
+
+def results_differences(a_path: Path, b_path: Path) -> list[str]:
+    """Every dataset and attribute that differs between two results files (bytes compared); /timings
+    (wall times, steps of this process) left out. Empty when they are equal."""
+    import h5py
+
+    out: list[str] = []
+    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+        def attrs(name, x, y):
+            for k in sorted(set(x.attrs) | set(y.attrs)):
+                if _not_a_result(k):
+                    continue
+                if k not in x.attrs or k not in y.attrs:
+                    out.append(f"{name} attr {k}: only in one")
+                elif _bytes(x.attrs[k]) != _bytes(y.attrs[k]):
+                    out.append(f"{name} attr {k}: {x.attrs[k]!r} != {y.attrs[k]!r}")
+
+        names_a, names_b = [], []
+        a.visit(names_a.append)
+        b.visit(names_b.append)
+        keep = [n for n in names_a if not n.startswith("timings")]
+        if sorted(keep) != sorted(n for n in names_b if not n.startswith("timings")):
+            out.append(f"objects differ: {sorted(set(names_a) ^ set(names_b))[:10]}")
+        attrs("/", a, b)
+        for n in keep:
+            if n not in b:
+                continue
+            x, y = a[n], b[n]
+            attrs(n, x, y)
+            if isinstance(x, h5py.Dataset):
+                if x.shape != y.shape or x.dtype != y.dtype:
+                    out.append(f"{n}: shape {x.shape} {x.dtype} != {y.shape} {y.dtype}")
+                elif _bytes(x[()]) != _bytes(y[()]):
+                    out.append(f"{n}: values differ (largest difference {_largest_difference(x[()], y[()])})")
+    return out
+
+
+def _largest_difference(x, y) -> str:
+    """The largest absolute difference of two numeric arrays, and its share of the first's largest |value|."""
+    try:
+        fx, fy = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    except (TypeError, ValueError):
+        return "not numbers"
+    d = float(np.nanmax(np.abs(fx - fy), initial=0.0))
+    scale = float(np.nanmax(np.abs(fx), initial=0.0))
+    return f"{d:.3g}, {d / scale:.3g} of the largest |value|" if scale > 0 else f"{d:.3g}"
+
+
+def _report_lines(path: Path) -> list[str]:
+    return [ln for ln in path.read_text(encoding="utf-8").splitlines() if not _REPORT_NOT_RESULTS.search(ln)]
+
+
+@dataclass
+class Comparison:
+    """The outcome: the files compared and, per file, what differs."""
+    compared: list[str] = field(default_factory=list)
+    differences: dict[str, list[str]] = field(default_factory=dict)
+    only_in_one: list[str] = field(default_factory=list)
+
+    @property
+    def equal(self) -> bool:
+        return bool(self.compared) and not self.differences and not self.only_in_one
+
+
+def results_folder(p: Path) -> Path:
+    """A results folder given itself or the case file (or case folder) whose results it holds."""
+    p = Path(p)
+    if p.is_dir() and any(p.glob("results_*.h5")):
+        return p
+    case = p / "case.yaml" if p.is_dir() else p
+    if case.is_file():
+        from .case import load_case
+
+        return load_case(case).output_dir
+    raise FileNotFoundError(f"{p}: neither a results folder (results_<condition>.h5) nor a case file")
+
+
+def compare_runs(a: Path, b: Path) -> Comparison:
+    """Compare two results folders: results files, monitors' CSV files and the report."""
+    a, b = results_folder(a), results_folder(b)
+    c = Comparison()
+    patterns = ("results_*.h5", "monitors_*.csv", "report.md")
+    for pattern in patterns:
+        names_a = {p.name for p in a.glob(pattern)}
+        names_b = {p.name for p in b.glob(pattern)}
+        c.only_in_one += sorted(names_a ^ names_b)
+        for name in sorted(names_a & names_b):
+            c.compared.append(name)
+            if name.endswith(".h5"):
+                diff = results_differences(a / name, b / name)
+            elif name.endswith(".csv"):
+                diff = [] if (a / name).read_bytes() == (b / name).read_bytes() else ["bytes differ"]
+            else:
+                la, lb = _report_lines(a / name), _report_lines(b / name)
+                diff = [f"line '{x}' != '{y}'" for x, y in zip(la, lb, strict=False) if x != y][:10]
+                if len(la) != len(lb):
+                    diff.append(f"{len(la)} against {len(lb)} lines")
+            if diff:
+                c.differences[name] = diff
+    return c
