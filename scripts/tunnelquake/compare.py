@@ -124,10 +124,12 @@ def compare_runs(a: Path, b: Path) -> Comparison:
             elif name.endswith(".csv"):
                 diff = [] if (a / name).read_bytes() == (b / name).read_bytes() else ["bytes differ"]
             else:
+                import difflib
+
                 la, lb = _report_lines(a / name), _report_lines(b / name)
-                diff = [f"line '{x}' != '{y}'" for x, y in zip(la, lb, strict=False) if x != y][:10]
-                if len(la) != len(lb):
-                    diff.append(f"{len(la)} against {len(lb)} lines")
+                changed = [ln for ln in difflib.unified_diff(la, lb, lineterm="", n=0)
+                           if ln[:1] in "+-" and not ln.startswith(("+++", "---"))]
+                diff = changed[:20] + ([f"... {len(changed) - 20} more changed lines"] if len(changed) > 20 else [])
             if diff:
                 c.differences[name] = diff
     return c
