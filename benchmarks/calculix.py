@@ -1,7 +1,7 @@
 """tq-solid against CalculiX explicit dynamics on the same deck (the peer run of `tunnelquake bench --peer`).
 
 Used by `tunnelquake bench --peer` (the ratio goes into the generated solid section of
-docs/benchmarks.md) and by tests/verification/solid_benchmark/calculix_compare.py.
+docs/benchmarks.md) and by benchmarks/calculix_compare.py.
 
 Problem (written by ``tq-solid-bench --column P --dt DT --write-ccx deck.inp``, so both codes get
 the same nodes, elements, loads and step): an n x n x n box of 1 m hex8 elements, E = 8 GPa,

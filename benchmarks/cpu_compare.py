@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compare tq-solid-bench binaries by CPU time per element-step (a benchmark, not a test).
 
-usage: cpu_compare.py ROUNDS N STEPS THREADS BENCH1 BENCH2 ...   (EXTRA="--damping" adds options)
+usage: python -m benchmarks.cpu_compare ROUNDS N STEPS THREADS BENCH1 BENCH2 ...   (EXTRA="--damping" adds options)
 
 For each binary in turn (alternating within every round) it runs `BENCH --n N --steps STEPS
 --repeat 1 --threads THREADS` and the same with `--steps 0`, and divides the CPU-time difference

@@ -10,7 +10,7 @@ contraction, open ends so the water can leave), for:
 and prints ms per step (mean of the steps after the first five, from pimpleFoam's
 ExecutionTime) and the cellDisplacement iterations per step.
 
-Usage: python benchmark.py [--cells3d 15000] [--steps 40]
+Usage (from the repository root): .venv/bin/python -m benchmarks.mesh_motion [--cells3d 15000] [--steps 40]
 Figures go to docs/water.md by hand (with the machine and date).
 """
 
@@ -19,15 +19,13 @@ from __future__ import annotations
 import argparse
 import re
 import shutil
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
-from benchmarks.fluid_common import foamcase as fc  # noqa: E402
-from benchmarks.fluid_common import pipe  # noqa: E402
+from .fluid_common import foamcase as fc
+from .fluid_common import pipe
 
 
 def ms_per_step(log: str, skip: int = 5) -> float:

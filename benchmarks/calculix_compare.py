@@ -8,7 +8,7 @@ described in, and run by, benchmarks/calculix.py, which `tunnelquake bench --pee
 (into docs/benchmarks.md's generated solid section).
 
 Usage (from the repository root):
-  TQ_BUILD_DIR=/tmp/build-perf .venv/bin/python tests/verification/solid_benchmark/calculix_compare.py \
+  TQ_BUILD_DIR=/tmp/build-perf .venv/bin/python -m benchmarks.calculix_compare \
       [--n 40] [--steps 100] [--dt 1.5e-4] [--pressure 1e6] [--repeat 3] [--workdir /tmp/tq-ccx]
 """
 
@@ -20,10 +20,10 @@ import os
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT))
-from benchmarks.calculix import PeerError, compare, markdown  # noqa: E402
-from benchmarks.common import machine  # noqa: E402
+from .calculix import PeerError, compare, markdown
+from .common import machine
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
