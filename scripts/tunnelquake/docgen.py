@@ -42,23 +42,24 @@ def _default(spec) -> str:
 
 
 def rows(spec: Section, prefix: str = ""):
+    """One row a key; a section gets a row of its own only where it says something (required, or a
+    meaning): its keys' paths name it already."""
     for key, sub in spec.fields.items():
         path = f"{prefix}{key}"
         if isinstance(sub, Section):
-            yield f"| `{path}` | section | {'**required**' if sub.required else ''} | {sub.doc} |"
+            if sub.required or sub.doc:
+                yield f"| `{path}` | section | {'**required**' if sub.required else ''} | {sub.doc} |"
             yield from rows(sub, path + ".")
         elif isinstance(sub, ListOf) and isinstance(sub.item, Section):
             yield f"| `{path}[]` | list | {_default(sub)} | {sub.doc} |"
             yield from rows(sub.item, path + "[].")
         elif isinstance(sub, MapOf):
-            yield f"| `{path}.<name>` | mapping | {'**required**' if sub.required else ''} | {sub.doc} |"
+            req = "**required**" if sub.required else ""
             if isinstance(sub.item, Section):
+                yield f"| `{path}.<name>` | mapping | {req} | {sub.doc} |"
                 yield from rows(sub.item, path + ".<name>.")
             else:
-                yield f"| `{path}.<name>` | {_kind(sub.item)} | | |"
-        elif isinstance(sub, ListOf) and isinstance(sub.item, Section):
-            yield f"| `{path}` | list | {_default(sub)} | {sub.doc} |"
-            yield from rows(sub.item, path + "[].")
+                yield f"| `{path}.<name>` | mapping of {_kind(sub.item)} | {req} | {sub.doc} |"
         else:
             yield f"| `{path}` | {_kind(sub)} | {_default(sub)} | {sub.doc} |"
 
