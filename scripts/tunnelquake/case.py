@@ -129,7 +129,7 @@ def _check_design(des, path, raw, ctx):
     try:
         DesignParameters.from_mapping(design_mapping({"design": des}), path)
     except ValueError as e:
-        ctx.error(path, None, str(e), "correct the value (docs/design_checks.md)", raw.line)
+        ctx.error(path, None, str(e), 'correct the value (docs/user_guide.md "Lining design checks")', raw.line)
 
 
 def _check_ground_motion(gm, path, raw, ctx):
@@ -511,7 +511,7 @@ def schema() -> Section:
         }),
         "design": Section(checks=[_check_design], fields={
             "code": Choice(choices=("EN1992-1-1",), default="EN1992-1-1",
-                           doc="the code of the lining's capacity check (docs/design_checks.md)"),
+                           doc="the code of the lining's capacity check (docs/user_guide.md \"Lining design checks\")"),
             "gamma_c": Number(min=0.0, min_open=True, default=1.5, doc="partial factor of concrete"),
             "gamma_s": Number(min=0.0, min_open=True, default=1.15, doc="partial factor of reinforcement"),
             "alpha_cc": Number(min=0.0, min_open=True, default=1.0, doc="long-term factor on fcd, reinforced"),
