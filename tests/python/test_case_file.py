@@ -195,8 +195,8 @@ def test_water_ranks_are_accepted_and_too_many_warned(example_text, write_case):
 
 def test_the_example_3d_variant_is_the_measured_3d_run_and_leaves_the_slice_alone():
     """`--variant 3d` lays the case file's `variants: 3d:` keys over the example: the settings of the
-    full 3D run measured over the whole record (docs/benchmarks.md "The full 3D run on the
-    2026-11-22 10:10 machine"), its results beside the slice's, never over them."""
+    full 3D run measured over the whole record (docs/benchmarks.md "The full 3D run"), its
+    results beside the slice's, never over them."""
     base, v = load_case(EXAMPLE), load_case(EXAMPLE, "3d")
     assert base.variant is None and v.variant == "3d"
     assert base["mesh"]["mode"] == "slice" and v["mesh"]["mode"] == "3d"
