@@ -1,5 +1,5 @@
-// results.h5 output of the nonlinear parts (layout in docs/solid_solver.md "Nonlinear
-// output"): damage, plastic strain and dissipation of Mohr–Coulomb damage elements, and the
+// results.h5 output of the nonlinear parts (layout in docs/solid_solver.md "Output:
+// `results.h5`"): damage, plastic strain and dissipation of Mohr–Coulomb damage elements, and the
 // per-pair state of the rock–lining dynamic contact. Private to tqsolid; called by results.cpp.
 #pragma once
 

@@ -1,5 +1,5 @@
 """Restart of the condition coupled with the water (docs/user_guide.md "Resuming a run",
-docs/reliability.md §10): a `dynamic_water` run stopped after a restart checkpoint and continued
+docs/reliability.md "Restart"): a `dynamic_water` run stopped after a restart checkpoint and continued
 with `tunnelquake run --resume` ends with results bitwise equal to those of a run never stopped.
 
 Reference: the same case run without interruption, with the same checkpoint interval. Every
