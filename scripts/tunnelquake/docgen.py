@@ -41,12 +41,22 @@ def _default(spec) -> str:
     return f"`{spec.default!r}`" if not isinstance(spec.default, float) else f"`{spec.default:g}`"
 
 
+def _leaves_only(spec: Section) -> bool:
+    return all(not isinstance(sub, (Section, ListOf, MapOf)) or
+               (isinstance(sub, ListOf) and not isinstance(sub.item, Section)) for sub in spec.fields.values())
+
+
 def rows(spec: Section, prefix: str = ""):
-    """One row a key; a section gets a row of its own only where it says something (required, or a
-    meaning): its keys' paths name it already."""
+    """One row a key. A section gets a row of its own only where it says something (required, or a
+    meaning): its keys' paths name it already; a nested section of plain keys is one row listing them."""
     for key, sub in spec.fields.items():
         path = f"{prefix}{key}"
-        if isinstance(sub, Section):
+        if isinstance(sub, Section) and prefix and _leaves_only(sub):
+            keys = "; ".join(f"`{k}` ({_kind(v)}{', ' + _default(v) if _default(v) else ''})"
+                             f"{': ' + v.doc if v.doc else ''}" for k, v in sub.fields.items())
+            yield f"| `{path}` | section | {'**required**' if sub.required else ''} | " \
+                  f"{sub.doc + ' ' if sub.doc else ''}{keys} |"
+        elif isinstance(sub, Section):
             if sub.required or sub.doc:
                 yield f"| `{path}` | section | {'**required**' if sub.required else ''} | {sub.doc} |"
             yield from rows(sub, path + ".")
