@@ -7,8 +7,9 @@
 #   2. OpenFOAM v1912 headers from Debian's own source package (Debian ships none): deb-src is
 #      derived from this machine's own apt source entries, the source is unpacked once into a
 #      cache and lnInclude folders are made the way wmakeLnInclude makes them.
-#   3. A Python virtual environment (.venv) with the `tunnelquake` package and its dependencies.
-#   4. The CMake build of all native code (build/).
+#   3. A Python virtual environment (.venv) with the `tunnelquake` package and its dependencies
+#      (pybind11 among them: step 4 builds the coupler's Python module with it).
+#   4. The CMake build of all native code (build/), the coupler's Python module included.
 #
 # Every step checks first and does nothing when its result is already there, so a second run is a
 # quick no-op. Environment knobs:
@@ -62,12 +63,14 @@ if ((CHECK_ONLY)); then
   of_src=${TQ_OPENFOAM_SRC:-$CACHE/openfoam-1912/src}
   if [[ -f $of_src/finiteVolume/lnInclude/fvCFD.H ]]; then say "ok: OpenFOAM v1912 headers in $of_src"
   else say "MISSING OpenFOAM headers in $of_src"; status=1; fi
-  if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml, importlinter" 2>/dev/null
+  if [[ -x $VENV/bin/tunnelquake ]] && "$VENV/bin/python" -c "import gmsh, meshio, h5py, mpi4py, numpy, scipy, matplotlib, yaml, importlinter, pybind11" 2>/dev/null
   then say "ok: Python environment $VENV"
   else say "MISSING Python environment or one of its packages in $VENV"; status=1; fi
   for exe in "$BUILD/openfoam_case/libtqFoam.so" "$BUILD/solid_solver/tq-solid"; do
     if [[ -e $exe ]]; then say "ok: built $(basename "$exe")"; else say "MISSING build output $exe"; status=1; fi
   done
+  if compgen -G "$BUILD/coupler/_coupler.*.so" >/dev/null; then say "ok: built the coupler's Python module"
+  else say "MISSING build output $BUILD/coupler/_coupler.*.so"; status=1; fi
   exit $status
 fi
 
@@ -210,7 +213,7 @@ fi
 if [[ ! -f $BUILD/CMakeCache.txt ]]; then
   say "configuring CMake ($BUILD_TYPE)"
   cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE="$BUILD_TYPE" \
-    -DTQ_OPENFOAM_SRC="$OF_SRC" >"$BUILD.configure.log" 2>&1 \
+    -DTQ_OPENFOAM_SRC="$OF_SRC" -DPython_EXECUTABLE="$VENV/bin/python" >"$BUILD.configure.log" 2>&1 \
     || { cat "$BUILD.configure.log"; die "CMake configure failed"; }
 fi
 say "building native code"

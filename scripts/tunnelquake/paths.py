@@ -21,6 +21,17 @@ def openfoam_library() -> Path | None:
     return p if p.is_file() else None
 
 
+def coupler_module() -> Path | None:
+    """The coupler's compiled Python module (_coupler, built by the CMake target tqcoupler_py)."""
+    from importlib.machinery import EXTENSION_SUFFIXES
+
+    for suffix in EXTENSION_SUFFIXES:
+        p = build_dir() / "coupler" / f"_coupler{suffix}"
+        if p.is_file():
+            return p
+    return None
+
+
 def shared_dir() -> Path:
     """The shared/ folder beside the checkout (reference paper, data); may be absent."""
     return Path(os.environ.get("TQ_SHARED_DIR", ROOT.parent / "shared"))

@@ -1,10 +1,10 @@
-"""OpenFOAM against the Python FakeSolid over the coupler's TCP transport (the exchange
+"""OpenFOAM against the fake solid (FakeSolid) over the coupler's TCP transport (the exchange
 over the coupler, fluid side).
 
 The 2D rigid pipe (R 4.5 m, 1024 cells) is shaken laterally, v(t) = a0/w sin(w t), twice:
   1. 'replay' exchange: the wall motion from a table (t, u, v) with u_k = sum_j v_j dt;
   2. 'coupler' exchange (couplerExchange, tq::coupler::Participant in libtqFoam.so) against
-     tunnelquake.coupling.fakes.FakeSolid (Python, TCP loopback, explicit scheme, window = dt,
+     tunnelquake.coupling.fakes.FakeSolid (in Python on the coupler's module, TCP loopback, explicit scheme, window = dt,
      coincident map), which sends v((w+1) dt) in window w; OpenFOAM integrates u += v dt.
 Both runs see the same wall motion, so the interface forces must agree to round-off
 (tolerance 1e-9 of the largest force; the displacement sums are formed in the same order).
@@ -26,9 +26,8 @@ import pytest
 
 from benchmarks.fluid_common import foamcase as fc
 from benchmarks.fluid_common import pipe
+from tunnelquake.coupling import CouplingConfig, FieldSpec, MeshSpec, Participant
 from tunnelquake.coupling.fakes import FakeSolid
-from tunnelquake.coupling.participant import Participant
-from tunnelquake.coupling.protocol import CouplingConfig, FieldSpec, MeshSpec
 
 _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))

@@ -1,4 +1,4 @@
-"""tq-solid coupled to the Python fake fluid over TCP (solid half;
+"""tq-solid coupled to the fake fluid (tunnelquake.coupling.fakes) over TCP (solid half;
 docs/coupler.md "Solid adapter").
 
 The solid is a lining ring slice (radius 4.5 m, 0.3 m thick, 1 m wide, outer face fixed) whose
@@ -26,7 +26,7 @@ import pytest
 h5py = pytest.importorskip("h5py")
 
 ROOT = Path(__file__).resolve().parents[2]
-from tunnelquake.coupling.fakes import RingScenario  # noqa: E402
+from tunnelquake.coupling import RingScenario  # noqa: E402
 from tunnelquake.paths import solid_executable  # noqa: E402
 
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "scripts") + os.pathsep + os.environ.get("PYTHONPATH", ""),

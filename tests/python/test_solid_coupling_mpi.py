@@ -1,4 +1,4 @@
-"""tq-solid as one application of an MPMD mpirun job, coupled over MPI to the Python fake fluid
+"""tq-solid as one application of an MPMD mpirun job, coupled over MPI to the fake fluid
 ("TCP on loopback by default, MPI when launched under mpirun"; docs/coupler.md
 "tq-solid under mpirun").
 
@@ -42,20 +42,15 @@ h5py = pytest.importorskip("h5py")
 import test_solid_coupling as base  # noqa: E402  (the ring, its input and the results reader)
 
 ROOT = base.ROOT
-from tunnelquake.coupling.fakes import RingScenario  # noqa: E402
+from tunnelquake.coupling import RingScenario, have_mpi  # noqa: E402
 from tunnelquake.references import lined_tunnel_internal_pressure  # noqa: E402
 
 MPIRUN = shutil.which("mpirun")
-try:
-    import mpi4py  # noqa: F401  (the fake fluid's MPI transport)
-    HAVE_MPI4PY = True
-except ImportError:
-    HAVE_MPI4PY = False
 
 pytestmark = [
     pytest.mark.skipif(base.EXE is None, reason="tq-solid is not built (set TQ_BUILD_DIR)"),
     pytest.mark.skipif(MPIRUN is None, reason="no mpirun on PATH (Open MPI: apt-get install openmpi-bin)"),
-    pytest.mark.skipif(not HAVE_MPI4PY, reason="mpi4py is not installed (the fake fluid's MPI transport)"),
+    pytest.mark.skipif(not have_mpi(), reason="the coupler was built without MPI (the fake fluid's MPI transport)"),
 ]
 
 P = 1e6          # Pa, internal pressure

@@ -1,17 +1,16 @@
-"""Fake participants ("solver dummies") that drive the coupling API alone, for tests and for
-debugging one real solver against a fake partner:
+"""Fake participants ("solver dummies") that drive the coupler (its Python module, see
+__init__.py) alone, for tests and for debugging one real solver against a fake partner:
 
 - :class:`FakeSolid` replays a prescribed interface motion (wall velocity) and records the
   forces it receives;
 - :class:`FakeFluid` replays a prescribed force history (or a pressure history turned into nodal
   forces) and records the motion it receives.
 
-A prescription is any callable ``t -> array[nodes, 3]``: :class:`RingScenario` is the analytic
-one the C++ ``tq-coupler-dummy`` also uses (coupler/include/tq/coupler/ring_scenario.hpp: both
-compute the same numbers), :class:`History` replays a sampled history (HDF5 or .npz) with
-linear interpolation in time.
+A prescription is any callable ``t -> array[nodes, 3]``: the analytic ring of the C++
+``tq-coupler-dummy`` (:class:`RingScenario`, coupler/include/tq/coupler/ring_scenario.hpp), or
+:class:`History`, a sampled history (HDF5 or .npz) replayed with linear interpolation in time.
 
-Command line (the same options as tq-coupler-dummy)::
+Command line (the options of tq-coupler-dummy, and --history)::
 
     python -m tunnelquake.coupling.fakes --role fluid --token T --address-file run/wall.addr
 """
@@ -19,93 +18,30 @@ Command line (the same options as tq-coupler-dummy)::
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .participant import Participant
-from .protocol import CouplerError, CouplingConfig, FieldSpec, MeshSpec
+from . import (
+    CouplerError,
+    CouplingConfig,
+    FieldSpec,
+    MeshSpec,
+    Participant,
+    RingScenario,
+    mpi_finalize,
+    mpi_initialize,
+    mpi_split_world,
+)
 
 Prescription = Callable[[float], np.ndarray]
 
 
 # ----------------------------------------------------------------------------- prescriptions
-@dataclass
-class RingScenario:
-    """Cylindrical interface of radius R: n_theta nodes around, n_layers rings along y.
-    Solid node k: ring j = k // n_theta, θ = 2π (k % n_theta)/n_theta; fluid nodes are the same
-    points in reverse order (so a coincident map must find the permutation)."""
-
-    n_theta: int = 64
-    n_layers: int = 2
-    radius: float = 4.5
-    length: float = 1.0
-
-    @property
-    def nodes(self) -> int:
-        return self.n_theta * self.n_layers
-
-    def theta(self, k) -> np.ndarray:
-        return 2.0 * np.pi * (np.asarray(k) % self.n_theta) / self.n_theta
-
-    def solid_coordinates(self) -> np.ndarray:
-        k = np.arange(self.nodes)
-        th = self.theta(k)
-        y = self.length * (k // self.n_theta) / (self.n_layers - 1) if self.n_layers > 1 else np.zeros(self.nodes)
-        return np.column_stack([self.radius * np.cos(th), y, self.radius * np.sin(th)])
-
-    def solid_ids(self) -> np.ndarray:
-        return 1000 + np.arange(self.nodes, dtype=np.int64)
-
-    def solid_triangles(self) -> np.ndarray:
-        t = []
-        for j in range(self.n_layers - 1):
-            for i in range(self.n_theta):
-                a, b = j * self.n_theta + i, j * self.n_theta + (i + 1) % self.n_theta
-                c, d = b + self.n_theta, a + self.n_theta
-                t += [[a, b, c], [a, c, d]]
-        return np.array(t, dtype=np.int32).reshape(-1, 3)
-
-    def solid_index_of_fluid(self, k) -> np.ndarray:
-        return self.nodes - 1 - np.asarray(k)
-
-    def fluid_coordinates(self) -> np.ndarray:
-        return self.solid_coordinates()[self.solid_index_of_fluid(np.arange(self.nodes))]
-
-    def fluid_ids(self) -> np.ndarray:
-        return 500000 + self.solid_index_of_fluid(np.arange(self.nodes)).astype(np.int64)
-
-    def fluid_triangles(self) -> np.ndarray:
-        return self.solid_index_of_fluid(self.solid_triangles()).astype(np.int32)
-
-    def _theta_on(self, on_solid: bool) -> np.ndarray:
-        k = np.arange(self.nodes)
-        return self.theta(k if on_solid else self.solid_index_of_fluid(k))
-
-    def velocity(self, t: float, on_solid: bool = True) -> np.ndarray:
-        """v = (0.01 cos 2π·2t + 0.001 cos 2θ, 0, 0.005 sin 2π·2t), m/s."""
-        th = self._theta_on(on_solid)
-        v = np.zeros((self.nodes, 3))
-        v[:, 0] = 0.01 * math.cos(2 * math.pi * 2 * t) + 0.001 * np.cos(2 * th)
-        v[:, 2] = 0.005 * math.sin(2 * math.pi * 2 * t)
-        return v
-
-    def force(self, t: float, on_solid: bool = False) -> np.ndarray:
-        """f = (1e3 cos θ sin 2π·3t, 0, 1e3 sin θ sin 2π·3t + 10), N per node."""
-        th = self._theta_on(on_solid)
-        s = math.sin(2 * math.pi * 3 * t)
-        f = np.zeros((self.nodes, 3))
-        f[:, 0] = 1e3 * np.cos(th) * s
-        f[:, 2] = 1e3 * np.sin(th) * s + 10.0
-        return f
-
-
 class History:
     """A sampled history values[k] at times[k] (shape [samples, nodes, components]) on nodes
     (ids, coordinates), replayed with linear interpolation in time (held constant outside).
@@ -185,7 +121,7 @@ class _Fake:
         """Runs the coupling to its end; returns what was read. Coupler errors propagate."""
         p = self.p
         p.initialize()
-        c = p.config
+        window_size = p.config.window_size
         while p.is_coupling_ongoing():
             w, k = p.state.window, p.state.iteration
             if w == self.die_at:
@@ -195,7 +131,7 @@ class _Fake:
                 print(f"fake {self.role}: hanging at window {w}", file=sys.stderr, flush=True)
                 time.sleep(3600)
             self.received.append((w, k, p.read_data(self.mesh, self.reads)))
-            p.write_data(self.mesh, self.writes, self.prescription((w + 1) * c.window_size))
+            p.write_data(self.mesh, self.writes, self.prescription((w + 1) * window_size))
             p.advance(p.get_max_time_step_size())
             self.passes += 1
         self.received.append((p.state.window, 0, p.read_data(self.mesh, self.reads)))
@@ -251,7 +187,11 @@ def main(argv=None) -> int:
     report: dict[str, str] = {}
     solid = a.role == "solid"
     rc = 0
+    mpi = a.transport == "mpi"
     try:
+        if mpi:  # one application of an MPMD mpirun job beside the partner's
+            mpi_initialize()
+            mpi_split_world(a.role, "fluid" if solid else "solid")
         p = Participant(a.role, cfg, a.token, transport=a.transport, address_file=a.address_file, listen=listen,
                         bind=a.bind, connect_port=a.port, connect_timeout=a.connect_timeout,
                         receive_timeout=a.timeout)
@@ -278,16 +218,18 @@ def main(argv=None) -> int:
                 want = ring.force(w * a.window_size, True) if solid else ring.velocity((w + 1) * a.window_size, False)
                 err = max(err, float(np.max(np.abs(got - want) / np.maximum(1.0, np.abs(want)))))
         report.update(windows=str(p.state.window), passes=str(fake.passes), max_error=repr(err))
-        print(f"fake {a.role} (python): {p.state.window} windows, {fake.passes} passes, "
+        print(f"fake {a.role}: {p.state.window} windows, {fake.passes} passes, "
               f"max relative error of received data {err:g}")
         rc = 0 if err <= 1e-12 else 3
     except CouplerError as e:
-        print(f"fake {a.role} (python): {type(e).__name__}: {e}", file=sys.stderr)
+        print(f"fake {a.role}: {type(e).__name__}: {e}", file=sys.stderr)
         report["error_kind"] = type(e).__name__
         rc = 2
     report["exit"] = str(rc)
     if a.report:
         Path(a.report).write_text("".join(f"{k} {v}\n" for k, v in report.items()))
+    if mpi:
+        mpi_finalize()
     return rc
 
 
