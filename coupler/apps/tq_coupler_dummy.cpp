@@ -2,8 +2,8 @@
 //
 // It plays the solid (writes the prescribed wall velocity of ring_scenario.hpp, reads the
 // force) or the fluid (writes the prescribed force, reads the velocity), checks that every
-// value it reads equals the partner's prescription, and reports. Used by the cross-language
-// tests against the Python fakes, and to debug a real solver against a fake partner.
+// value it reads equals the partner's prescription, and reports. Used by the MPI tests
+// (ctest coupler.mpi.*), and to debug a real solver against a fake partner.
 //
 //   tq-coupler-dummy --role solid --token T --address-file run/wall.addr --windows 20
 //   tq-coupler-dummy --role fluid --token T --address-file run/wall.addr --windows 20

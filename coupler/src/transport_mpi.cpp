@@ -1,6 +1,6 @@
 // MPI transport (MPMD under mpirun): the only file besides transport_tcp.cpp that includes
 // MPI. splitWorld() splits MPI_COMM_WORLD by application (colour = FNV-1a hash of the
-// participant name, the same in the Python twin) and finds the partner's leader (its lowest
+// participant name) and finds the partner's leader (its lowest
 // world rank). The two leaders exchange the same framed byte stream as over TCP, on a duplicate
 // of MPI_COMM_WORLD so that no solver message can be confused with a coupler message.
 // MPI cannot tell that a partner died: a silent partner is detected by the receive timeout

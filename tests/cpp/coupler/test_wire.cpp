@@ -1,9 +1,13 @@
-// Wire format v1: CRC, header validation, payload codecs, and the shared test vectors that the
-// Python twin (tunnelquake.coupling.protocol) must decode and encode identically.
+// Wire format: CRC, header validation, payload codecs, and the committed test vectors
+// (tests/data/coupler/vectors_v3.txt) that pin the bytes: the well-formed messages must encode
+// to them exactly and every malformed one must be refused with its fault. After a change of the
+// protocol, write a new file with `TQ_COUPLER_WRITE_VECTORS=<dir> tq_coupler_tests`.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <sstream>
 
@@ -41,7 +45,6 @@ std::vector<Vector> readVectors() {
     return out;
 }
 
-/// Mirrors tunnelquake.coupling.protocol.sample_config / sample_messages.
 CouplingConfig sampleConfig() {
     CouplingConfig c;
     c.first = "solid";
@@ -61,7 +64,11 @@ CouplingConfig sampleConfig() {
     return c;
 }
 
-std::map<std::string, std::vector<std::uint8_t>> sampleMessages() {
+using Bytes = std::vector<std::uint8_t>;
+using Named = std::vector<std::pair<std::string, Bytes>>;
+
+/// The well-formed messages of the vectors, in file order.
+Named sampleMessageList() {
     const std::vector<double> xyz = {4.5, 0, 0, 0, 0, 4.5, -4.5, 0, 0};
     const std::vector<double> rev = {-4.5, 0, 0, 0, 0, 4.5, 4.5, 0, 0};
     Hello hello{"run-7f3a", "solid", "fluid", sampleConfig(),
@@ -77,7 +84,7 @@ std::map<std::string, std::vector<std::uint8_t>> sampleMessages() {
     d.fields.push_back(
         {0, 3, {0.1, -0.2, 0.3, 1e-300, -0.0, 12345.678, -1.5e10, std::ldexp(1.0, -20), 7.0}});
     using T = wire::MessageType;
-    return {
+    return Named{
         {"hello", frame(T::Hello, 0, encodeHello(hello))},
         {"welcome", frame(T::Welcome, 0, encodeHello(welcome))},
         {"ready", frame(T::Ready, 1, {})},
@@ -87,6 +94,90 @@ std::map<std::string, std::vector<std::uint8_t>> sampleMessages() {
         {"abort", frame(T::Abort, 9,
                         encodeReason({ReasonCode::SolverError, "solid stopped: diverged \xc3\xbc"}))},
     };
+}
+
+std::map<std::string, Bytes> sampleMessages() {
+    const auto list = sampleMessageList();
+    return {list.begin(), list.end()};
+}
+
+/// The message with header fields changed and the header CRC made valid again.
+Bytes reheader(Bytes m, int version, int type) {
+    if (version >= 0) m[4] = std::uint8_t(version), m[5] = std::uint8_t(version >> 8);
+    if (type >= 0) m[6] = std::uint8_t(type), m[7] = std::uint8_t(type >> 8);
+    const std::uint32_t crc = wire::crc32(m.data(), 28);
+    for (int i = 0; i < 4; ++i) m[std::size_t(28 + i)] = std::uint8_t(crc >> (8 * i));
+    return m;
+}
+
+/// The message with another payload and a consistent header (length, CRCs).
+Bytes repayload(const Bytes& m, const Bytes& payload) {
+    const auto h = wire::decodeHeader(m.data());
+    return frame(h.type, h.sequence, payload);
+}
+
+struct Malformed {
+    std::string name, fault;
+    Bytes bytes;
+};
+
+/// Messages every receiver must refuse, each with its fault.
+std::vector<Malformed> malformedMessages() {
+    const auto good = sampleMessages();
+    const Bytes& data = good.at("data");
+    const Bytes payload(data.begin() + 32, data.end());
+    const std::string http = "GET / HTTP/1.1\r\nHost: localhost\r\n\r\n";
+    Bytes badMagic = data;
+    badMagic[3] = 'X';
+    Bytes flippedSeq = data, flippedPayload = data;
+    flippedSeq[9] ^= 0x01;
+    flippedPayload[40] ^= 0x80;
+    Bytes trailing = payload;
+    trailing.insert(trailing.end(), 4, 0);
+    Bytes huge(payload.begin(), payload.begin() + 36);  // the block's field index, components, count
+    wire::Writer w(huge);
+    w.u32(0);
+    w.u32(3);
+    w.u64(std::uint64_t(1) << 60);
+    // HELLO with scheme code 7: the scheme follows token, participant, partner, units, first, second
+    Bytes hello(good.at("hello").begin() + 32, good.at("hello").end());
+    wire::Reader r(hello.data(), hello.size(), "HELLO");
+    for (int i = 0; i < 6; ++i) r.str();
+    hello[r.offset()] = 7;
+    return {
+        {"foreign_http", "bad_magic", Bytes(http.begin(), http.end())},
+        {"bad_magic", "bad_magic", badMagic},
+        {"bad_version", "bad_version", reheader(data, wire::kProtocolVersion + 1, -1)},
+        {"bad_header_crc", "bad_header_crc", flippedSeq},
+        {"unknown_type", "unknown_type", reheader(data, -1, 99)},
+        {"truncated", "bad_length", Bytes(data.begin(), data.end() - 8)},
+        {"short_header", "bad_length", Bytes(data.begin(), data.begin() + 20)},
+        {"bad_payload_crc", "bad_payload_crc", flippedPayload},
+        {"truncated_payload", "bad_payload", repayload(data, Bytes(payload.begin(), payload.end() - 8))},
+        {"trailing_bytes", "bad_payload", repayload(data, trailing)},
+        {"huge_count", "bad_payload", repayload(data, huge)},
+        {"bad_enum", "bad_payload", repayload(good.at("hello"), hello)},
+        {"ready_with_payload", "bad_payload", frame(wire::MessageType::Ready, 1, {'x'})},
+    };
+}
+
+std::string hex(const Bytes& b) {
+    std::ostringstream s;
+    for (auto c : b) s << std::hex << std::setw(2) << std::setfill('0') << int(c);
+    return s.str();
+}
+
+/// The text of the vectors file.
+std::string vectorFileText() {
+    std::ostringstream s;
+    s << "# TunnelQuake coupler protocol v" << wire::kProtocolVersion
+      << " test vectors: name, expected outcome (ok or the fault), message hex.\n"
+         "# Written by tests/cpp/coupler/test_wire.cpp (TQ_COUPLER_WRITE_VECTORS=<dir> "
+         "tq_coupler_tests), which\n"
+         "# checks the coupler against it: ok rows encoded byte for byte, the others refused.\n";
+    for (const auto& [name, bytes] : sampleMessageList()) s << name << " ok " << hex(bytes) << "\n";
+    for (const auto& m : malformedMessages()) s << m.name << " " << m.fault << " " << hex(m.bytes) << "\n";
+    return s.str();
 }
 
 /// Unframes and decodes by type, as a receiver does; throws ProtocolError.
@@ -170,7 +261,7 @@ TEST(Wire, SharedTestVectorsDecodeAndEncodeIdentically) {
             ASSERT_TRUE(mine.count(v.name)) << "unknown ok vector " << v.name;
             EXPECT_NO_THROW(decodeAny(v.bytes)) << v.name;
             EXPECT_EQ(mine.at(v.name), v.bytes)
-                << v.name << ": C++ encoding differs from the Python twin's bytes";
+                << v.name << ": the encoding differs from the committed bytes";
             ++ok;
         } else {
             try {
@@ -185,6 +276,19 @@ TEST(Wire, SharedTestVectorsDecodeAndEncodeIdentically) {
     }
     EXPECT_EQ(ok, mine.size());
     EXPECT_GE(bad, 10u);
+}
+
+TEST(Wire, VectorFileIsWhatTheGeneratorWrites) {
+    // The malformed rows are derived from the well-formed ones; a protocol change writes a new
+    // file (TQ_COUPLER_WRITE_VECTORS=<dir>) under a new version's name.
+    if (const char* dir = std::getenv("TQ_COUPLER_WRITE_VECTORS")) {
+        std::ofstream(std::string(dir) + "/vectors_v" + std::to_string(wire::kProtocolVersion) + ".txt")
+            << vectorFileText();
+    }
+    std::ifstream f(TQ_COUPLER_VECTORS);
+    std::stringstream committed;
+    committed << f.rdbuf();
+    EXPECT_EQ(committed.str(), vectorFileText());
 }
 
 TEST(Wire, ForeignBytesAreNamedInTheError) {

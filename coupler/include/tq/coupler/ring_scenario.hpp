@@ -1,7 +1,7 @@
 #pragma once
 /// @file ring_scenario.hpp
-/// The analytic scenario the fake participants replay (C++ tq-coupler-dummy and the Python
-/// twin tunnelquake.coupling.fakes compute exactly the same numbers): a cylindrical interface of
+/// The analytic scenario the fake participants replay (tq-coupler-dummy, and the Python fakes
+/// of tunnelquake.coupling.fakes through the coupler's Python module): a cylindrical interface of
 /// radius R (the lining's wetted face), nTheta nodes around and nLayers rings along y.
 ///
 /// - solid node k: ring j = k / nTheta, i = k % nTheta, θ = 2π i / nTheta,
