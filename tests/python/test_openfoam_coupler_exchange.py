@@ -193,7 +193,10 @@ def test_coupler_exchange_two_ranks(tmp_path):
     th = threading.Thread(target=solid, daemon=True)
     th.start()
     try:
-        proc = subprocess.run(["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2", "pimpleFoam",
+        # ranks unbound and yielding while they wait: a rank that spins in a receive starves its
+        # partner and the fake solid on a small, shared machine
+        proc = subprocess.run(["mpirun", "--allow-run-as-root", "--oversubscribe", "--bind-to", "none",
+                               "--mca", "mpi_yield_when_idle", "1", "-np", "2", "pimpleFoam",
                                "-parallel", "-case", str(coupled)], env=fc.env(), capture_output=True, text=True,
                               timeout=120)
     finally:
