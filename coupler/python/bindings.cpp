@@ -50,8 +50,9 @@ class PyParticipant {
   public:
     PyParticipant(const std::string& name, const CouplingConfig& config, const std::string& token,
                   const std::string& transport, const std::string& addressFile,
-                  std::optional<bool> listen, const std::string& bind, const std::string& connectHost,
-                  int connectPort, double connectTimeout, double receiveTimeout) {
+                  std::optional<bool> listen, const std::string& bind,
+                  const std::string& connectHost, int connectPort, double connectTimeout,
+                  double receiveTimeout) {
         TransportOptions t;
         if (transport == "tcp")
             t.kind = TransportKind::Tcp;
@@ -181,8 +182,12 @@ PYBIND11_MODULE(_coupler, m) {
     py::class_<FieldSpec>(m, "FieldSpec")
         .def(py::init([](std::string mesh, std::string name, int components, std::string writer,
                          const std::string& constraint, double absoluteTolerance) {
-                 return FieldSpec{std::move(mesh), std::move(name), components, std::move(writer),
-                                  parseConstraint(constraint), absoluteTolerance};
+                 return FieldSpec{std::move(mesh),
+                                  std::move(name),
+                                  components,
+                                  std::move(writer),
+                                  parseConstraint(constraint),
+                                  absoluteTolerance};
              }),
              py::arg("mesh"), py::arg("name"), py::arg("components") = 3, py::arg("writer"),
              py::arg("constraint") = "consistent", py::arg("absolute_tolerance") = 0.0)
@@ -191,7 +196,8 @@ PYBIND11_MODULE(_coupler, m) {
         .def_readwrite("components", &FieldSpec::components)
         .def_readwrite("writer", &FieldSpec::writer)
         .def_property(
-            "constraint", [](const FieldSpec& s) { return std::string(constraintName(s.constraint)); },
+            "constraint",
+            [](const FieldSpec& s) { return std::string(constraintName(s.constraint)); },
             [](FieldSpec& s, const std::string& v) { s.constraint = parseConstraint(v); })
         .def_readwrite("absolute_tolerance", &FieldSpec::absoluteTolerance);
 
@@ -237,7 +243,8 @@ PYBIND11_MODULE(_coupler, m) {
             [](CouplingConfig& c, const std::string& v) { c.acceleration = parseAcceleration(v); })
         .def_readwrite("initial_relaxation", &CouplingConfig::initialRelaxation)
         .def_property(
-            "predictor", [](const CouplingConfig& c) { return std::string(predictorName(c.predictor)); },
+            "predictor",
+            [](const CouplingConfig& c) { return std::string(predictorName(c.predictor)); },
             [](CouplingConfig& c, const std::string& v) { c.predictor = parsePredictor(v); })
         .def_readwrite("reuse", &CouplingConfig::reuse)
         .def_readwrite("meshes", &CouplingConfig::meshes)
@@ -255,41 +262,53 @@ PYBIND11_MODULE(_coupler, m) {
 
     using Release = py::call_guard<py::gil_scoped_release>;
     py::class_<PyParticipant>(m, "Participant")
-        .def(py::init<const std::string&, const CouplingConfig&, const std::string&, const std::string&,
-                      const std::string&, std::optional<bool>, const std::string&, const std::string&,
-                      int, double, double>(),
-             py::arg("name"), py::arg("config"), py::arg("token"), py::kw_only(),
-             py::arg("transport") = "tcp", py::arg("address_file") = "", py::arg("listen") = py::none(),
-             py::arg("bind") = "127.0.0.1", py::arg("connect_host") = "127.0.0.1",
-             py::arg("connect_port") = 0, py::arg("connect_timeout") = 120.0,
-             py::arg("receive_timeout") = 120.0,
-             "A coupling participant; `listen` None: the configuration's first participant listens.")
+        .def(
+            py::init<const std::string&, const CouplingConfig&, const std::string&,
+                     const std::string&, const std::string&, std::optional<bool>,
+                     const std::string&, const std::string&, int, double, double>(),
+            py::arg("name"), py::arg("config"), py::arg("token"), py::kw_only(),
+            py::arg("transport") = "tcp", py::arg("address_file") = "",
+            py::arg("listen") = py::none(), py::arg("bind") = "127.0.0.1",
+            py::arg("connect_host") = "127.0.0.1", py::arg("connect_port") = 0,
+            py::arg("connect_timeout") = 120.0, py::arg("receive_timeout") = 120.0,
+            "A coupling participant; `listen` None: the configuration's first participant listens.")
         .def("set_mesh_vertices", &PyParticipant::setMeshVertices, py::arg("mesh"), py::arg("ids"),
              py::arg("coordinates"), py::arg("triangles") = py::none())
-        .def("initialize", [](PyParticipant& s) { return s.p().initialize(); }, Release())
+        .def(
+            "initialize", [](PyParticipant& s) { return s.p().initialize(); }, Release())
         .def("initialize_resumed", &PyParticipant::initializeResumed, py::arg("state"))
         .def("save_state", &PyParticipant::saveState)
-        .def("write_data", &PyParticipant::writeData, py::arg("mesh"), py::arg("field"), py::arg("values"))
+        .def("write_data", &PyParticipant::writeData, py::arg("mesh"), py::arg("field"),
+             py::arg("values"))
         .def("read_data", &PyParticipant::readData, py::arg("mesh"), py::arg("field"))
-        .def("advance", [](PyParticipant& s, double dt) { return s.p().advance(dt); }, py::arg("dt"),
-             Release())
-        .def("is_coupling_ongoing", [](const PyParticipant& s) { return s.p().isCouplingOngoing(); })
-        .def("is_time_window_complete", [](const PyParticipant& s) { return s.p().isTimeWindowComplete(); })
+        .def(
+            "advance", [](PyParticipant& s, double dt) { return s.p().advance(dt); }, py::arg("dt"),
+            Release())
+        .def("is_coupling_ongoing",
+             [](const PyParticipant& s) { return s.p().isCouplingOngoing(); })
+        .def("is_time_window_complete",
+             [](const PyParticipant& s) { return s.p().isTimeWindowComplete(); })
         .def("requires_writing_checkpoint",
              [](const PyParticipant& s) { return s.p().requiresWritingCheckpoint(); })
         .def("requires_reading_checkpoint",
              [](const PyParticipant& s) { return s.p().requiresReadingCheckpoint(); })
-        .def("get_max_time_step_size", [](const PyParticipant& s) { return s.p().getMaxTimeStepSize(); })
-        .def("finalize", [](PyParticipant& s) { s.p().finalize(); }, Release())
-        .def("abort", [](PyParticipant& s, const std::string& reason) { s.p().abort(reason); },
-             py::arg("reason"), Release())
+        .def("get_max_time_step_size",
+             [](const PyParticipant& s) { return s.p().getMaxTimeStepSize(); })
+        .def(
+            "finalize", [](PyParticipant& s) { s.p().finalize(); }, Release())
+        .def(
+            "abort", [](PyParticipant& s, const std::string& reason) { s.p().abort(reason); },
+            py::arg("reason"), Release())
         .def_property_readonly("name", [](const PyParticipant& s) { return s.p().name(); })
         .def_property_readonly("partner", [](const PyParticipant& s) { return s.p().partner(); })
         .def_property_readonly("config", [](const PyParticipant& s) { return s.p().config(); })
         .def_property_readonly("state", [](const PyParticipant& s) { return s.p().state(); })
-        .def_property_readonly("window_start_time", [](const PyParticipant& s) { return s.p().windowStartTime(); })
+        .def_property_readonly("window_start_time",
+                               [](const PyParticipant& s) { return s.p().windowStartTime(); })
         .def("partner_vertex_count",
-             [](const PyParticipant& s, const std::string& mesh) { return s.p().partnerVertexCount(mesh); })
+             [](const PyParticipant& s, const std::string& mesh) {
+                 return s.p().partnerVertexCount(mesh);
+             })
         .def("stats", [](const PyParticipant& s) {
             const ExchangeStats x = s.p().stats();
             py::dict d;
@@ -303,8 +322,9 @@ PYBIND11_MODULE(_coupler, m) {
         });
 
     m.def("have_mpi", &haveMpi, "True when the coupler was built with MPI");
-    m.def("mpi_initialize", [] { mpi::initialize(nullptr, nullptr); },
-          "MPI_Init (thread level funneled) unless MPI is initialized already");
+    m.def(
+        "mpi_initialize", [] { mpi::initialize(nullptr, nullptr); },
+        "MPI_Init (thread level funneled) unless MPI is initialized already");
     m.def("mpi_split_world", &mpi::splitWorld, py::arg("participant"), py::arg("partner"),
           "MPMD start-up: every process of both applications calls it once (collective); returns "
           "the Fortran handle of this application's communicator");
@@ -312,7 +332,8 @@ PYBIND11_MODULE(_coupler, m) {
 
     m.def(
         "convergence_measure",
-        [](const F64Array& a, const F64Array& b, const std::vector<std::tuple<std::size_t, std::size_t, double>>& slices,
+        [](const F64Array& a, const F64Array& b,
+           const std::vector<std::tuple<std::size_t, std::size_t, double>>& slices,
            double tolerance) {
             std::vector<FieldSlice> s;
             for (const auto& [offset, size, floor] : slices) s.push_back({"", offset, size, floor});
@@ -334,28 +355,40 @@ PYBIND11_MODULE(_coupler, m) {
         .def_readonly("length", &scenario::Ring::length)
         .def_property_readonly("nodes", &scenario::Ring::nodes)
         .def("theta", &ringTheta, py::arg("k"), "θ of solid node(s) k")
-        .def("solid_ids", [](const scenario::Ring& r) { const auto v = r.solidIds();
-            return py::array_t<std::int64_t>(v.size(), v.data()); })
-        .def("solid_coordinates", [](const scenario::Ring& r) { return toArray(r.solidCoordinates(), 3); })
-        .def("solid_triangles", [](const scenario::Ring& r) {
-            const auto t = r.solidTriangles();
-            return py::array_t<std::int32_t>({t.size() / 3, std::size_t(3)}, t.data());
-        })
-        .def("fluid_ids", [](const scenario::Ring& r) { const auto v = r.fluidIds();
-            return py::array_t<std::int64_t>(v.size(), v.data()); })
-        .def("fluid_coordinates", [](const scenario::Ring& r) { return toArray(r.fluidCoordinates(), 3); })
-        .def("fluid_triangles", [](const scenario::Ring& r) {
-            const auto t = r.fluidTriangles();
-            return py::array_t<std::int32_t>({t.size() / 3, std::size_t(3)}, t.data());
-        })
-        .def("velocity",
-             [](const scenario::Ring& r, double t, bool onSolid) {
-                 return toArray(scenario::field(r, onSolid, true, t), 3);
-             },
-             py::arg("t"), py::arg("on_solid") = true, "prescribed wall velocity (m/s) at time t")
-        .def("force",
-             [](const scenario::Ring& r, double t, bool onSolid) {
-                 return toArray(scenario::field(r, onSolid, false, t), 3);
-             },
-             py::arg("t"), py::arg("on_solid") = false, "prescribed force (N per node) at time t");
+        .def("solid_ids",
+             [](const scenario::Ring& r) {
+                 const auto v = r.solidIds();
+                 return py::array_t<std::int64_t>(v.size(), v.data());
+             })
+        .def("solid_coordinates",
+             [](const scenario::Ring& r) { return toArray(r.solidCoordinates(), 3); })
+        .def("solid_triangles",
+             [](const scenario::Ring& r) {
+                 const auto t = r.solidTriangles();
+                 return py::array_t<std::int32_t>({t.size() / 3, std::size_t(3)}, t.data());
+             })
+        .def("fluid_ids",
+             [](const scenario::Ring& r) {
+                 const auto v = r.fluidIds();
+                 return py::array_t<std::int64_t>(v.size(), v.data());
+             })
+        .def("fluid_coordinates",
+             [](const scenario::Ring& r) { return toArray(r.fluidCoordinates(), 3); })
+        .def("fluid_triangles",
+             [](const scenario::Ring& r) {
+                 const auto t = r.fluidTriangles();
+                 return py::array_t<std::int32_t>({t.size() / 3, std::size_t(3)}, t.data());
+             })
+        .def(
+            "velocity",
+            [](const scenario::Ring& r, double t, bool onSolid) {
+                return toArray(scenario::field(r, onSolid, true, t), 3);
+            },
+            py::arg("t"), py::arg("on_solid") = true, "prescribed wall velocity (m/s) at time t")
+        .def(
+            "force",
+            [](const scenario::Ring& r, double t, bool onSolid) {
+                return toArray(scenario::field(r, onSolid, false, t), 3);
+            },
+            py::arg("t"), py::arg("on_solid") = false, "prescribed force (N per node) at time t");
 }

@@ -134,12 +134,13 @@ std::vector<Malformed> malformedMessages() {
     flippedPayload[40] ^= 0x80;
     Bytes trailing = payload;
     trailing.insert(trailing.end(), 4, 0);
-    Bytes huge(payload.begin(), payload.begin() + 36);  // the block's field index, components, count
+    // the data block's field index, component count and a value count far beyond the payload
+    Bytes huge(payload.begin(), payload.begin() + 36);
     wire::Writer w(huge);
     w.u32(0);
     w.u32(3);
     w.u64(std::uint64_t(1) << 60);
-    // HELLO with scheme code 7: the scheme follows token, participant, partner, units, first, second
+    // HELLO with scheme code 7 (after token, participant, partner, units, first, second)
     Bytes hello(good.at("hello").begin() + 32, good.at("hello").end());
     wire::Reader r(hello.data(), hello.size(), "HELLO");
     for (int i = 0; i < 6; ++i) r.str();
@@ -153,7 +154,8 @@ std::vector<Malformed> malformedMessages() {
         {"truncated", "bad_length", Bytes(data.begin(), data.end() - 8)},
         {"short_header", "bad_length", Bytes(data.begin(), data.begin() + 20)},
         {"bad_payload_crc", "bad_payload_crc", flippedPayload},
-        {"truncated_payload", "bad_payload", repayload(data, Bytes(payload.begin(), payload.end() - 8))},
+        {"truncated_payload", "bad_payload",
+         repayload(data, Bytes(payload.begin(), payload.end() - 8))},
         {"trailing_bytes", "bad_payload", repayload(data, trailing)},
         {"huge_count", "bad_payload", repayload(data, huge)},
         {"bad_enum", "bad_payload", repayload(good.at("hello"), hello)},
@@ -176,7 +178,8 @@ std::string vectorFileText() {
          "tq_coupler_tests), which\n"
          "# checks the coupler against it: ok rows encoded byte for byte, the others refused.\n";
     for (const auto& [name, bytes] : sampleMessageList()) s << name << " ok " << hex(bytes) << "\n";
-    for (const auto& m : malformedMessages()) s << m.name << " " << m.fault << " " << hex(m.bytes) << "\n";
+    for (const auto& m : malformedMessages())
+        s << m.name << " " << m.fault << " " << hex(m.bytes) << "\n";
     return s.str();
 }
 
@@ -282,8 +285,8 @@ TEST(Wire, VectorFileIsWhatTheGeneratorWrites) {
     // The malformed rows are derived from the well-formed ones; a protocol change writes a new
     // file (TQ_COUPLER_WRITE_VECTORS=<dir>) under a new version's name.
     if (const char* dir = std::getenv("TQ_COUPLER_WRITE_VECTORS")) {
-        std::ofstream(std::string(dir) + "/vectors_v" + std::to_string(wire::kProtocolVersion) + ".txt")
-            << vectorFileText();
+        const std::string name = "/vectors_v" + std::to_string(wire::kProtocolVersion) + ".txt";
+        std::ofstream(std::string(dir) + name) << vectorFileText();
     }
     std::ifstream f(TQ_COUPLER_VECTORS);
     std::stringstream committed;
