@@ -190,3 +190,56 @@ def test_hung_partner_times_out_with_a_clear_message(tmp_path):
     assert "waiting for DATA of window 3 of 50" in str(e.value) and "within the timeout of 1 s" in str(e.value)
     assert 0.9 < time.monotonic() - t0 < 10.0
 
+
+
+def _drive(p, writes, reads, prescription, save_at=-1, saved=None):
+    """A fake's loop that saves the coupling state (save_state) once window `save_at` starts;
+    returns (window, pass, values read) of every pass."""
+    rx = []
+    dt = p.config.window_size
+    while p.is_coupling_ongoing():
+        w, k = p.state.window, p.state.iteration
+        rx.append((w, k, p.read_data("wall", reads)))
+        p.write_data("wall", writes, prescription((w + 1) * dt))
+        p.advance(p.get_max_time_step_size())
+        if p.is_time_window_complete() and p.state.window == save_at:
+            saved[p.name] = p.save_state()
+    p.finalize()
+    return rx
+
+
+def test_resumed_pair_reads_what_the_uninterrupted_pair_read(tmp_path):
+    """Restart (docs/coupler.md "Restart"): both sides save their state when window 3 of 6
+    starts; a new pair resumed from those bytes reads, pass for pass, exactly what the
+    uninterrupted pair read from window 3 on (implicit scheme, Aitken: the fluid relaxes its
+    writes, so the passes carry state)."""
+    ring = RingScenario(16, 2)
+    cfg = ring_config("implicit", windows=6, tolerance=1e-10)
+
+    def pair(tag, saved, resume=None):
+        s = participant("solid", cfg, tmp_path / tag)
+        f = participant("fluid", cfg, tmp_path / tag)
+        s.set_mesh_vertices("wall", ring.solid_ids(), ring.solid_coordinates(), ring.solid_triangles())
+        f.set_mesh_vertices("wall", ring.fluid_ids(), ring.fluid_coordinates())
+        rx = {}
+
+        def side(p, writes, reads, prescription):
+            p.initialize_resumed(resume[p.name]) if resume else p.initialize()
+            rx[p.name] = _drive(p, writes, reads, prescription, -1 if resume else 3, saved)
+
+        err = run_pair(lambda: side(s, "velocity", "force", lambda t: ring.velocity(t, True)),
+                       lambda: side(f, "force", "velocity", lambda t: ring.force(t, False)))
+        assert err == [None, None], err
+        return rx
+
+    (tmp_path / "full").mkdir()
+    (tmp_path / "resumed").mkdir()
+    saved = {}
+    full = pair("full", saved)
+    assert set(saved) == {"solid", "fluid"}
+    resumed = pair("resumed", {}, saved)
+    for name in ("solid", "fluid"):
+        later = [r for r in full[name] if r[0] >= 3]
+        assert [r[:2] for r in resumed[name]] == [r[:2] for r in later]
+        for a, b in zip(resumed[name], later, strict=True):
+            np.testing.assert_array_equal(a[2], b[2])
