@@ -5,6 +5,7 @@ refusals, a killed or hung partner (the fake's command line in another process).
 from __future__ import annotations
 
 import os
+import socket
 import subprocess
 import sys
 import threading
@@ -20,6 +21,7 @@ from tunnelquake.coupling import (
     HandshakeError,
     Participant,
     PartnerLostError,
+    ProtocolError,
     RingScenario,
 )
 from tunnelquake.coupling.fakes import FakeFluid, FakeSolid, History, pressure_to_force, ring_config
@@ -138,6 +140,33 @@ def test_handshake_refuses_a_different_interface_size(tmp_path):
     ea, eb = run_pair(a.initialize, b.initialize)
     assert "has 16 nodes here and 15 on 'fluid'" in str(ea)
     assert isinstance(eb, HandshakeError) and "15 on 'fluid'" in str(eb)
+
+
+def test_foreign_listener_is_refused_with_the_fault_named(tmp_path):
+    """A connector that finds a foreign server at the published address (here one answering
+    HTTP) stops with ProtocolError, fault bad_magic, the foreign bytes quoted; it does not wait
+    for its timeout."""
+    server = socket.create_server(("127.0.0.1", 0))
+    (tmp_path / "wall.addr").write_text(f"tqcp 1 tcp 127.0.0.1 {server.getsockname()[1]}\n")
+
+    def foreign():
+        conn, _ = server.accept()
+        with conn:
+            conn.recv(65536)
+            conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+            conn.recv(65536)  # the connector's REJECT, or its close
+
+    ring = RingScenario(16, 1)
+    p = participant("fluid", ring_config("explicit", windows=2), tmp_path, timeout=20.0)
+    p.set_mesh_vertices("wall", ring.fluid_ids(), ring.fluid_coordinates())
+    t0 = time.monotonic()
+    with server:
+        errors = run_pair(foreign, p.initialize)
+    assert errors[0] is None, errors[0]
+    e = errors[1]
+    assert isinstance(e, ProtocolError) and e.fault == "bad_magic", e
+    assert "'HTTP'" in str(e), str(e)
+    assert time.monotonic() - t0 < 5.0  # far below the 20 s timeout
 
 
 def _spawn(cmd):
