@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "h5util.hpp"
 #include "input_schema.hpp"
@@ -97,8 +96,6 @@ void readStagedInput(hid_t f, SolidInput& in) {
       InterfaceInput& R = S.rockLining;
       R.present = true;
       R.model = c.text(gg, w, K::interfaces_rock_lining::model);
-      if (R.model != "bonded" && R.model != "dynamic_contact")
-        c.fail(w, "model '" + R.model + "' is not one of bonded, dynamic_contact");
       R.staticFriction = c.number(gg, w, K::interfaces_rock_lining::static_friction);
       R.dynamicFriction = c.number(gg, w, K::interfaces_rock_lining::dynamic_friction);
       R.cohesion = c.number(gg, w, K::interfaces_rock_lining::cohesion);
@@ -116,8 +113,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
       BottomBoundaryInput& B = S.bottom;
       B.present = true;
       B.face = c.text(gg, w, K::boundaries_bottom::face);
-      const std::string type = c.text(gg, w, K::boundaries_bottom::type);
-      if (type != "viscoelastic") c.fail(w, "type '" + type + "' is not available (this tq-solid has: viscoelastic)");
+      c.text(gg, w, K::boundaries_bottom::type);  // its choices: the bases this tq-solid has
       B.distance = c.number(gg, w, K::boundaries_bottom::distance);
       B.alphaN = c.number(gg, w, K::boundaries_bottom::alpha_n);
       B.alphaT = c.number(gg, w, K::boundaries_bottom::alpha_t);
@@ -185,8 +181,6 @@ void readStagedInput(hid_t f, SolidInput& in) {
     CouplingInput& C = S.coupling;
     C.present = true;
     C.scheme = c.text(g, w, K::coupling::scheme);
-    if (C.scheme != "explicit" && C.scheme != "paper" && C.scheme != "implicit")
-      c.fail(w, "scheme '" + C.scheme + "' is not one of explicit, paper, implicit");
     C.windowSteps = Index(c.number(g, w, K::coupling::window));
     C.windowSize = c.number(g, w, K::coupling::window_size);
     C.windows = Index(c.number(g, w, K::coupling::windows));
@@ -198,18 +192,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.energyLimit = c.number(g, w, K::coupling::energy_limit);
     C.energyFloor = c.number(g, w, K::coupling::energy_floor);
     C.windowForceWeight = c.number(g, w, K::coupling::window_force_weight);
-    if (C.windowForceWeight > 1)
-      c.fail(w, "window_force_weight " + std::to_string(C.windowForceWeight) +
-                    " is above 1 (0.5: linear ramp to the window-end force, 1: the end force held)");
     C.acceleration = c.text(g, w, K::coupling::acceleration);
-    if (C.acceleration != "none" && C.acceleration != "constant" && C.acceleration != "aitken" &&
-        C.acceleration != "iqn-ils")
-      c.fail(w, "acceleration '" + C.acceleration + "' is not one of none, constant, aitken, iqn-ils");
     C.initialRelaxation = c.number(g, w, K::coupling::initial_relaxation);
     C.predictor = c.text(g, w, K::coupling::predictor);
-    if (C.predictor != "constant" && C.predictor != "linear")
-      c.fail(w, "predictor '" + C.predictor + "' is not one of constant, linear");
-    else if (C.predictor != "constant" && C.scheme != "implicit")
+    if (C.predictor != "constant" && C.scheme != "implicit")
       c.fail(w, "predictor " + C.predictor + " needs scheme implicit (the " + C.scheme +
                     " scheme has no iterations to start); use predictor constant");
     C.reuse = Index(c.number(g, w, K::coupling::reuse));
@@ -217,7 +203,6 @@ void readStagedInput(hid_t f, SolidInput& in) {
       c.fail(w, "reuse " + std::to_string(C.reuse) + " keeps IQN-ILS columns: it needs scheme implicit and "
                 "acceleration iqn-ils; use reuse 0");
     C.transport = c.text(g, w, K::coupling::transport);
-    if (C.transport != "tcp" && C.transport != "mpi") c.fail(w, "transport '" + C.transport + "' is not tcp or mpi");
     C.addressFile = c.text(g, w, K::coupling::address_file);
     if (C.transport == "tcp" && C.addressFile.empty())
       c.fail(w, "attribute 'address_file' is required with transport tcp (the file where tq-solid publishes its "
@@ -225,12 +210,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.token = c.text(g, w, K::coupling::token);
     if (C.token.empty()) c.fail(w, "attribute 'token' is required (the per-run secret given to both sides)");
     C.timeout = c.number(g, w, K::coupling::timeout);
-    if (!(C.timeout > 0)) c.fail(w, "timeout must be > 0 s");
     C.connectTimeout = c.number(g, w, K::coupling::connect_timeout);
     C.face = c.text(g, w, K::coupling::face);
     C.mesh = c.text(g, w, K::coupling::mesh);
     C.map = c.text(g, w, K::coupling::map);
-    if (C.map != "coincident" && C.map != "projection") c.fail(w, "map '" + C.map + "' is not coincident or projection");
     C.mapTolerance = c.number(g, w, K::coupling::map_tolerance);
     C.writeFields = c.names(g, w, K::coupling::write_fields);
     for (const auto& fld : C.writeFields)
@@ -246,8 +229,6 @@ void readStagedInput(hid_t f, SolidInput& in) {
                     "-step windows it would have no effect; leave it out (0.5) or use scheme implicit with "
                     "window > 1");
     C.volumeLaw = c.text(g, w, K::coupling::volume_law);
-    if (C.volumeLaw != "none" && C.volumeLaw != "compressible" && C.volumeLaw != "incompressible")
-      c.fail(w, "volume_law '" + C.volumeLaw + "' is not one of none, compressible, incompressible");
     C.bulkModulus = c.number(g, w, K::coupling::bulk_modulus);
     if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))
       c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
@@ -256,8 +237,6 @@ void readStagedInput(hid_t f, SolidInput& in) {
       c.fail(w, "water_density (the water's translation carried by the solid) needs a volume_law (a closed "
                 "section); leave it out");
     C.waterEnds = c.text(g, w, K::coupling::water_ends);
-    if (C.waterEnds != "closed" && C.waterEnds != "open")
-      c.fail(w, "water_ends '" + C.waterEnds + "' is not one of closed, open");
     C.axialDensity = c.number(g, w, K::coupling::axial_density);
     if (C.waterEnds == "open" && C.volumeLaw != "none" && !(C.axialDensity > 0))
       c.fail(w, "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
