@@ -76,7 +76,7 @@ GROUPS = (
     Group("/", ("solver", "damping", "materials", "boundary", "loads", "monitors", "output", "stages", "in_situ",
                 "hydrostatic", "interfaces", "boundaries", "motion", "coupling", "schema")),
     Group("/schema", doc="the material rows of this table and the hash of the others (written by the writer)"),
-    Group("/solver", required=True),
+    Group("/solver", required=True, doc="at least attribute t_end"),
     Group("/damping"),
     Group("/materials", ("*",), required=True, doc="one subgroup per mesh region"),
     Group(MATERIALS),
@@ -371,7 +371,7 @@ def schema_hash(table: list[Entry] | None = None) -> str:
 
 #: the fields of a material row in /schema material_parameters, in order, joined by "|"
 MATERIAL_ROW_FIELDS = ("name", "kind", "unit", "default", "lo", "hi", "lo_open", "hi_open", "required",
-                       "choices", "models", "required_by")
+                       "choices", "models", "required_by", "case")
 
 
 def _field_text(v) -> str:
@@ -483,7 +483,8 @@ def cpp_table(table: list[Entry] | None = None) -> str:
            "inline constexpr Group kGroups[] = {"]
     for g in GROUPS:
         members = [m for m in g.members] + [e.name for e in table if e.group == g.path and e.kind == "data"]
-        out.append(f"    {{{_c_str(g.path)}, {_c_str(','.join(members))}, {'true' if g.required else 'false'}}},")
+        out.append(f"    {{{_c_str(g.path)}, {_c_str(','.join(members))}, {'true' if g.required else 'false'}, "
+                   f"{_c_str(g.doc)}}},")
     out += ["};", "", "inline constexpr Attr kAttrs[] = {"]
     for e in table:
         d = e.default

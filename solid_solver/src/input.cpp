@@ -72,7 +72,6 @@ std::vector<S::Row> materialRows(const S::Reader& R, hid_t f) {
 }
 
 void readMaterials(const S::Reader& R, hid_t f, SolidInput& in) {
-  R.requireGroup(f, "/materials", "one subgroup per mesh region");
   const std::vector<S::Row> rows = materialRows(R, f);
   const S::Row* modelRow = nullptr;
   for (const auto& r : rows)
@@ -89,6 +88,9 @@ void readMaterials(const S::Reader& R, hid_t f, SolidInput& in) {
     for (const auto& r : rows) {
       if (&r == modelRow) continue;
       const bool required = r.requiredFor(v.model);
+      if (required && !R.has(mg, r))
+        R.fail(w, "attribute '" + r.name + "' is required by model " + v.model +
+                      (r.caseKey.empty() ? "" : " (case key " + r.caseKey + ")"));
       if (!R.has(mg, r) && !(r.hasDefault && r.readBy(v.model)) && !required) continue;
       if (r.kind == S::Kind::Text)
         v.texts[r.name] = R.text(mg, w, r, required);
@@ -124,6 +126,7 @@ SolidInput readSolidInput(const std::string& path) {
   in.path = path;
   auto f = h5::openFile(path);
   R.checkGroup(f, "root", "/");
+  R.requireGroups(f);
   R.text(f, "root", K::root::format, true);
   R.number(f, "root", K::root::version, true);
   const std::string mesh = R.text(f, "root", K::root::mesh, true);
@@ -131,7 +134,6 @@ SolidInput readSolidInput(const std::string& path) {
   in.meshPath = std::filesystem::path(mesh).is_absolute() ? mesh : (dir / mesh).string();
 
   // /solver
-  R.requireGroup(f, "/solver", "at least attribute t_end");
   {
     auto g = h5::openGroup(f, "/solver");
     const std::string w = "/solver";

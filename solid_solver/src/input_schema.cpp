@@ -84,10 +84,10 @@ Row parseMaterialRow(const std::string& text) {
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, '|')) f.push_back(item);
-  while (f.size() < 12) f.emplace_back();
-  if (f.size() != 12 || f[0].empty())
-    throw InputError("material row '" + text + "' does not have the 12 fields name|kind|unit|default|lo|hi|"
-                     "lo_open|hi_open|required|choices|models|required_by");
+  while (f.size() < 13) f.emplace_back();  // getline drops empty trailing fields
+  if (f.size() != 13 || f[0].empty())
+    throw InputError("material row '" + text + "' does not have the 13 fields name|kind|unit|default|lo|hi|"
+                     "lo_open|hi_open|required|choices|models|required_by|case");
   Row r;
   r.group = kMaterials;
   r.name = f[0];
@@ -115,6 +115,7 @@ Row parseMaterialRow(const std::string& text) {
   r.choices = splitList(f[9]);
   r.models = splitList(f[10]);
   r.requiredBy = splitList(f[11]);
+  r.caseKey = f[12];
   return r;
 }
 
@@ -143,8 +144,9 @@ void Reader::checkGroup(hid_t obj, const std::string& where, const std::string& 
       fail(where, "unknown entry '" + m + "' (allowed: " + (members.empty() ? "none" : joined(members, " ")) + ")");
 }
 
-void Reader::requireGroup(hid_t file, const std::string& path, const std::string& why) const {
-  if (!h5::exists(file, path)) fail(path, "group is required" + (why.empty() ? "" : " (" + why + ")"));
+void Reader::requireGroups(hid_t file) const {
+  for (const Group& g : kGroups)
+    if (g.required && !h5::exists(file, g.path)) fail(g.path, std::string("group is required (") + g.doc + ")");
 }
 
 bool Reader::has(hid_t obj, const Row& r) const {

@@ -43,6 +43,7 @@ struct Group {
   const char* path;
   const char* members;
   bool required;
+  const char* doc;
 };
 
 #include "input_schema.inc"
@@ -83,8 +84,8 @@ class Reader {
   void checkGroup(hid_t obj, const std::string& where, const std::string& group) const {
     checkGroup(obj, where, group, rowsOf(group));
   }
-  /// Whether a group of the table must be there (and fail naming it if it is not).
-  void requireGroup(hid_t file, const std::string& path, const std::string& why) const;
+  /// Refuse a file without a group the table marks required.
+  void requireGroups(hid_t file) const;
   /// A number: the row's default when absent (required: refused), finite, within the row's bounds;
   /// Int and Whole are whole numbers, Flag 0 or 1.
   Real number(hid_t obj, const std::string& where, const Row& r, bool required = false) const;
