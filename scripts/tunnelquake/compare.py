@@ -3,8 +3,8 @@
 `tunnelquake compare A B` (A and B: results folders, or the case files whose results they hold)
 compares every results_<condition>.h5 dataset and attribute (the bytes as stored), the monitors' CSV
 files and the report, leaving out what is not a result: the /timings group, attributes that hold
-wall-clock seconds (names ending in `_s`) or the run's own paths (`input`, `mesh`), and report lines
-that quote wall-clock figures or the folder's own path.
+wall-clock seconds (names ending in `_s`) or the run's own paths (`input`, `mesh`), report lines that
+quote wall-clock figures, and the results folder's own path where the report names it.
 """
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-#: report lines that carry wall-clock time or where the run was made (not results)
-_REPORT_NOT_RESULTS = re.compile(r"wall|elapsed|took|run time|steps/s|\bETA\b|generated|/tmp/|/work/|/home/",
+#: report lines that carry wall-clock time (not results)
+_REPORT_NOT_RESULTS = re.compile(r"wall[- ]clock|wall time|coupled wall|elapsed|run time|steps/s|\bETA\b",
                                  re.IGNORECASE)
 
 
@@ -80,7 +80,10 @@ def _largest_difference(x, y) -> str:
 
 
 def _report_lines(path: Path) -> list[str]:
-    return [ln for ln in path.read_text(encoding="utf-8").splitlines() if not _REPORT_NOT_RESULTS.search(ln)]
+    """The report's lines that are results: the run's own folder written as <run>, wall-clock lines left out."""
+    folder = str(path.parent.resolve())
+    return [ln.replace(folder, "<run>") for ln in path.read_text(encoding="utf-8").splitlines()
+            if not _REPORT_NOT_RESULTS.search(ln)]
 
 
 @dataclass

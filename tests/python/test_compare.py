@@ -20,7 +20,8 @@ def _run(folder, value=1.0, wall=3.0, report_wall="12 s"):
         g["u"] = np.array([0.0, 1e-3, value * 2e-3])
         f.create_group("timings").attrs["loop_s"] = wall
     (folder / "monitors_no_water.csv").write_text("t,u\n0,0\n")
-    (folder / "report.md").write_text(f"# report\npeak 2.0 mm\ncoupled wall time {report_wall}\n")
+    (folder / "report.md").write_text(f"# report\npeak 2.0 mm\ncoupled wall time {report_wall}\n"
+                                      f"results in {folder.resolve()}/results_no_water.h5\n")
     return folder
 
 
@@ -30,6 +31,14 @@ def test_runs_that_differ_only_in_wall_clock_figures_and_paths_are_equal(tmp_pat
     c = compare_runs(a, b)
     assert c.equal and c.compared == ["results_no_water.h5", "monitors_no_water.csv", "report.md"]
     assert main(["compare", str(a), str(b)]) == 0
+
+
+def test_a_report_line_with_another_result_is_a_difference(tmp_path):
+    a = _run(tmp_path / "a")
+    b = _run(tmp_path / "b")
+    (b / "report.md").write_text((b / "report.md").read_text().replace("peak 2.0 mm", "peak 2.1 mm"))
+    c = compare_runs(a, b)
+    assert c.differences == {"report.md": ["-peak 2.0 mm", "+peak 2.1 mm"]}
 
 
 def test_one_value_one_ulp_apart_is_a_difference(tmp_path, capsys):
