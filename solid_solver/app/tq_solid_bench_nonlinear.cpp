@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include "tq/contact.hpp"
-#include "tq/material_mc.hpp"
-#include "tq/solver.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/materials/material_mc.hpp"
+#include "tq/core/solver.hpp"
 
 using namespace tq;
 

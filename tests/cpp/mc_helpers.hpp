@@ -7,8 +7,8 @@
 #include <memory>
 #include <vector>
 
-#include "tq/material_mc.hpp"
-#include "tq/solver.hpp"
+#include "tq/materials/material_mc.hpp"
+#include "tq/core/solver.hpp"
 #include <functional>
 
 namespace tqtest {

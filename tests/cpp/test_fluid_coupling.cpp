@@ -30,12 +30,12 @@
 #include <functional>
 #include <thread>
 
-#include "tq/boundaries.hpp"
+#include "tq/boundaries/boundaries.hpp"
 #include "tq/coupler/participant.hpp"
-#include "tq/fluid_coupling.hpp"
-#include "tq/input.hpp"
-#include "tq/mesh.hpp"
-#include "tq/state_archive.hpp"
+#include "tq/coupling/fluid_coupling.hpp"
+#include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
+#include "tq/core/state_archive.hpp"
 
 using namespace tq;
 namespace cp = tq::coupler;

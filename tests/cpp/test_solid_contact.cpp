@@ -15,7 +15,7 @@
 
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/contact.hpp"
+#include "tq/contact/contact.hpp"
 
 using namespace tq;
 using namespace tqtest;

@@ -9,14 +9,14 @@
 #include <filesystem>
 #include <sstream>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/app.hpp"
-#include "tq/contact.hpp"
-#include "tq/input.hpp"
-#include "tq/results.hpp"
-#include "tq/staged_input.hpp"
+#include "tq/app/app.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/io/input.hpp"
+#include "tq/io/results.hpp"
+#include "tq/io/staged_input.hpp"
 
 using namespace tq;
 using namespace tqtest;

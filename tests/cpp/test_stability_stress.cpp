@@ -37,11 +37,11 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/results.hpp"
+#include "tq/io/results.hpp"
 
 using namespace tq;
 using tqtest::GaussPulse;

@@ -9,9 +9,9 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "staged_helpers.hpp"
-#include "tq/app.hpp"
+#include "tq/app/app.hpp"
 #include "test_helpers.hpp"
 
 using namespace tq;

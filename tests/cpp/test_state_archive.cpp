@@ -1,4 +1,4 @@
-// Save and restore of the solid's whole mutable state (tq/state_archive.hpp, Solver::checkpoint;
+// Save and restore of the solid's whole mutable state (tq/core/state_archive.hpp, Solver::checkpoint;
 // implicit coupling windows of several solid steps are repeated from their start, so a
 // restored solver must continue exactly as the saved one did).
 //
@@ -29,10 +29,10 @@
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/boundaries.hpp"
-#include "tq/constraints.hpp"
-#include "tq/contact.hpp"
-#include "tq/state_archive.hpp"
+#include "tq/boundaries/boundaries.hpp"
+#include "tq/core/constraints.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/core/state_archive.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -400,7 +400,7 @@ TEST(StateArchive, RestoreBeforeSaveAndMismatchedListsThrow) {
   EXPECT_THROW(ar.io(wrong), std::logic_error);
 }
 
-// A restart in another process (tq/restart.hpp): the archive written as bytes and read back into
+// A restart in another process (tq/io/restart.hpp): the archive written as bytes and read back into
 // a solver built anew from the same input, which then steps on. Reference: the original solver's
 // own continuation; every recorded value must be bitwise equal (tolerance 0). A part whose state is
 // set by the run's history but missing from checkpoint() would leave the fresh solver elsewhere.

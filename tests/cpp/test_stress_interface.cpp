@@ -41,7 +41,7 @@
 #include <map>
 
 #include "test_helpers.hpp"
-#include "tq/contact.hpp"
+#include "tq/contact/contact.hpp"
 
 using namespace tq;
 using namespace tqtest;
