@@ -210,7 +210,7 @@ int main(int argc, char** argv) {
       s->fixFaceGroup("bottom", "xyz");
       if (withContact) {
         c = std::make_shared<DynamicContact>(*s, rockLiningPairs(m), ContactParams{});
-        s->addContributor(c);
+        s->addContributor(ForcePhase::Interface, c);
       }
       std::mt19937 rng(1);
       std::uniform_real_distribution<Real> U(-1e-3, 1e-3);

@@ -173,7 +173,7 @@ TEST(SolidNonlinearResults, ContactStateOpeningAndSlipReachResults) {
   s.addLoad({bottom, 0, 1.5e6, TimeFunction::constant(1.0)});  // 6 MN > μs N + c A = 2.4 + 2 MN
   ContactParams cp;
   auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), cp);
-  s.addContributor(contact);
+  s.addContributor(ForcePhase::Interface, contact);
   SolidInput in;
   in.path = "<memory>";
   in.monitorDt = 0;  // a row per sample() call, at its own time

@@ -108,7 +108,7 @@ TEST(TiedNodes, TiedBarsMoveLikeOneBar) {
     if (split) {
       tie = std::make_shared<TiedNodeGroups>("tie", TiedNodeGroups::pairs(m.rockLiningPairs));
       tie->install(s);
-      s.addContributor(tie);
+      s.addContributor(ForcePhase::Interface, tie);
     }
     for (int k = 0; k < 300; ++k) {
       s.step();

@@ -144,17 +144,17 @@ std::unique_ptr<Run> build() {
   pulse.sample(0.2, 2.5e-4, t2, az, 0.5);
   run->seismic = std::make_shared<SeismicBoundaries>(m, s.blocks(), spec, IncidentMotion(t, ax, {}, az), false);
   run->seismic->install(s.state());
-  s.addContributor(run->seismic);
+  s.addContributor(ForcePhase::Boundaries, run->seismic);
   // The two lining slabs tied, the lining on the rock by the dynamic contact.
   run->tie = std::make_shared<TiedNodeGroups>("slabs", TiedNodeGroups::pairs(run->model.tiePairs));
   run->tie->install(s);
-  s.addContributor(run->tie);
+  s.addContributor(ForcePhase::Interface, run->tie);
   ContactParams cp;
   cp.staticFriction = 0.6;
   cp.dynamicFriction = 0.5;
   cp.cohesion = 5e3;
   run->contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), cp);
-  s.addContributor(run->contact);
+  s.addContributor(ForcePhase::Interface, run->contact);
   // A rocking and shearing load on the lining top (50 Hz): pulls up the x < 4 m half while pushing
   // down the other, and shears along x: pairs separate at one end and slip.
   for (Index n : m.faceNodes("top")) {

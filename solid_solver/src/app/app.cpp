@@ -237,7 +237,7 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
         coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
         out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
         if (!resume) coupling->initialize();  // resumed: once its state is restored (below)
-        s.addContributor(coupling);
+        s.addContributor(ForcePhase::Water, coupling);
         in.tEnd = coupling->endTime();  // whole windows
         results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
         results.addSeries("/energy/fluid_received_work", [c = coupling.get()] { return c->fluidReceivedWork(); },

@@ -252,7 +252,7 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
     // The paper's dynamic contact force method (eqs. 9-13, tq/contact/contact.hpp): each pair bonds in
     // its current configuration once both sides have mass, then separates or slips.
     auto c = std::make_shared<DynamicContact>(solver_, rockLiningPairs(mesh_), contactParamsFrom(R));
-    solver_.addContributor(c);
+    solver_.addContributor(ForcePhase::Interface, c);
     interface_ = c;
     rep.note = "rock-lining interface: dynamic contact (" + std::to_string(c->numPairs()) + " pairs)";
     log << "  " << rep.note << std::endl;
@@ -262,7 +262,7 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
                                               TiedNodeGroups::pairs(mesh_.rockLiningPairs));
   tie->install(solver_);
   interface_ = tie;
-  solver_.addContributor(tie);
+  solver_.addContributor(ForcePhase::Interface, tie);
   rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tie->numGroups()) + ")";
 }
 
@@ -285,7 +285,7 @@ void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
     }
   }
   unreleased_ = std::make_shared<HeldExcavationLoad>(std::move(f));
-  solver_.addContributor(unreleased_);
+  solver_.addContributor(ForcePhase::Loads, unreleased_);
   std::ostringstream os;
   os.precision(4);
   os << "release fraction " << in_.staged.stages.releaseFraction << ": " << 100 * in_.staged.stages.releaseFraction
@@ -378,7 +378,7 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
           "hydrostatic pressure", pressureNodalForces(mesh_, H.face, [&H](const Real x[3]) {
             return std::max<Real>(0, H.pressureAtAxis - H.unitWeight * (x[2] - H.zAxis));
           }));
-      solver_.addContributor(pressure_);
+      solver_.addContributor(ForcePhase::Loads, pressure_);
       StageReport rep = relaxStage(name, log, progressSeconds);
       std::ostringstream os;
       os << "p = " << H.pressureAtAxis << " Pa at z = " << H.zAxis << " m, gradient " << H.unitWeight
@@ -453,7 +453,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     }
   correctionRatio_ = ref > 0 ? std::sqrt(corr2) / ref : 0;
   held_ = std::make_shared<ConstantNodalForces>("held support reactions", held);
-  solver_.addContributor(held_);
+  solver_.addContributor(ForcePhase::Loads, held_);
   StageReport rep;
   rep.name = "switch";
   {
@@ -497,7 +497,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     IncidentMotion motion = M.present ? IncidentMotion(M.time, M.ax, M.ay, M.az) : IncidentMotion();
     seismic_ = std::make_shared<SeismicBoundaries>(mesh_, solver_.blocks(), spec, std::move(motion), mesh_.slice);
     seismic_->install(st);
-    solver_.addContributor(seismic_);
+    solver_.addContributor(ForcePhase::Boundaries, seismic_);
     std::ostringstream os;
     os.precision(4);
     if (spec.bottom) {
@@ -515,16 +515,15 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }
-  // 5. Periodic faces: tied after every other contributor, the last-running ones included (the
-  //    interface's tie or contact, the water coupling added later), so each pair shares every
-  //    force its members get and stays one to round-off.
+  // 5. Periodic faces: tied in the last phase (ForcePhase::Ties), after the interface's tie or
+  //    contact and the water coupling added later, so each pair shares every force its members
+  //    get and stays one to round-off.
   if (S.periodic.present) {
     auto tie = std::make_shared<TiedNodeGroups>("periodic faces " + S.periodic.faces[0] + "-" + S.periodic.faces[1],
                                                 periodicPairs);
-    tie->setRunsAfterAll(true);
     tie->checkUniformMembers(st);
     tie->install(solver_);
-    solver_.addContributor(tie);
+    solver_.addContributor(ForcePhase::Ties, tie);
     std::ostringstream os;
     os << "periodic faces " << S.periodic.faces[0] << ", " << S.periodic.faces[1] << ": " << tie->numGroups()
        << " node pairs tied in x, y, z";

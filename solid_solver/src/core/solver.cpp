@@ -469,23 +469,42 @@ void Solver::computeInternalForces(int activeLevel) {
   dampWork_ += damp;
 }
 
+void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContributor> c) {
+  // The fast path of constant loads (held reactions, static pressures): decided here, once.
+  int folded = 0;
+  for (const auto& e : contributors_) folded += e.foldedIntoGravity;
+  const std::vector<Real>* f = c->constantForces();
+  const bool fold = phase == ForcePhase::Loads && folded < kMaxFoldedLoads && f &&
+                    f->size() == 3 * size_t(state_.numNodes());
+  contributors_.push_back({phase, fold, std::move(c)});
+}
+
+// The step's external force, phase by phase (ForcePhase): the Loads phase starts with gravity and
+// the constant loads folded into its pass, then the NodalLoads, then the phase's other
+// contributors; then Boundaries, Interface, Water, Ties.
 void Solver::computeExternalForces() {
+  addGravityAndFoldedLoads();
+  Real* fe = state_.fExtData();
+  for (const auto& l : loads_) {
+    const Real f = l.forcePerNode * l.function(t_);
+    for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
+  }
+  for (const ForcePhase phase : kForcePhases)
+    for (auto& e : contributors_)
+      if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
+}
+
+void Solver::addGravityAndFoldedLoads() {
   const Index N = state_.numNodes();
   Real* fe = state_.fExtData();
   // Gravity acts on the true masses, also while relax() runs with scaled ones.
   const Real* m = gravityMass_.empty() ? state_.massData() : gravityMass_.data();
   const Real g0 = opt_.gravity[0], g1 = opt_.gravity[1], g2 = opt_.gravity[2];
-  // Constant contributors (held reactions, static pressures) are added in this pass, in their order.
-  const Real* cf[4] = {nullptr, nullptr, nullptr, nullptr};
+  // The folded constant loads, added in the order they were added.
+  const Real* cf[kMaxFoldedLoads] = {};
   int nc = 0;
-  const NodalForceContributor* folded[4] = {nullptr, nullptr, nullptr, nullptr};
-  for (const auto& c : contributors_) {
-    const std::vector<Real>* v = c->constantForces();
-    if (nc < 4 && v && v->size() == 3 * size_t(N) && !c->runsLast() && !c->runsAfterAll()) {
-      folded[nc] = c.get();
-      cf[nc++] = v->data();
-    }
-  }
+  for (const auto& e : contributors_)
+    if (e.foldedIntoGravity) cf[nc++] = e.contributor->constantForces()->data();
 #pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
   for (Index n = 0; n < N; ++n) {
     const size_t i = 3 * size_t(n);
@@ -496,17 +515,6 @@ void Solver::computeExternalForces() {
     fe[i + 1] = f[1];
     fe[i + 2] = f[2];
   }
-  for (const auto& l : loads_) {
-    const Real f = l.forcePerNode * l.function(t_);
-    for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
-  }
-  for (auto& c : contributors_)
-    if (!c->runsLast() && !c->runsAfterAll() && std::find(folded, folded + nc, c.get()) == folded + nc)
-      c->addForces(t_, dt_, state_);
-  for (auto& c : contributors_)  // e.g. the dynamic contact force: predicts from all other forces
-    if (c->runsLast() && !c->runsAfterAll()) c->addForces(t_, dt_, state_);
-  for (auto& c : contributors_)  // periodic ties: over the complete force, the last-running ones' included
-    if (c->runsAfterAll()) c->addForces(t_, dt_, state_);
 }
 
 void Solver::updateNodes() {
@@ -609,8 +617,8 @@ void Solver::finishEnergy() {
   // into `interface` / `boundary`: balance = interface + kinetic + internal + damping + boundary
   // - external stays constant.
   Real dissContrib = 0, bdryContrib = 0;
-  for (const auto& c : contributors_) dissContrib += c->dissipatedEnergy();
-  for (const auto& c : contributors_) bdryContrib += c->boundaryEnergy();
+  for (const auto& e : contributors_) dissContrib += e.contributor->dissipatedEnergy();
+  for (const auto& e : contributors_) bdryContrib += e.contributor->boundaryEnergy();
   const Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
   energy_.internal = stressWork_ + storedEnergy_;
   energy_.damping = dampWork_;
@@ -702,7 +710,7 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   // energy error), until neither lowers a level.
   for (bool changed = true; changed;) {
     changed = false;
-    for (const auto& c : contributors_) changed = c->constrainLevels(level) || changed;
+    for (const auto& e : contributors_) changed = e.contributor->constrainLevels(level) || changed;
     for (const auto& b : blocks_)
       for (Index e = 0; e < b->numElems(); ++e) {
         if (!b->active(e)) continue;
@@ -824,7 +832,7 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(dtPrevNode_);
   a.io(cycle_);
   for (auto& b : blocks_) b->checkpoint(a);
-  for (auto& c : contributors_) c->checkpoint(a);
+  for (auto& e : contributors_) e.contributor->checkpoint(a);
 }
 
 void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
@@ -873,7 +881,7 @@ void Solver::computeForces(bool withContributors) {
   const Real saved = alphaRelax_;
   alphaRelax_ = 0;  // no stiffness-proportional damping force: the state is taken at rest
   computeInternalForces();
-  std::vector<std::shared_ptr<NodalForceContributor>> none;
+  std::vector<AddedContributor> none;
   if (!withContributors) none.swap(contributors_);
   computeExternalForces();
   if (!withContributors) none.swap(contributors_);
@@ -969,10 +977,10 @@ void Solver::resetMotion() {
   stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
   stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
   interface0_ = plastic0_ = boundary0_ = 0;
-  for (const auto& c : contributors_) interface0_ += c->dissipatedEnergy();
+  for (const auto& e : contributors_) interface0_ += e.contributor->dissipatedEnergy();
   for (const auto& b : blocks_) plastic0_ += b->dissipatedEnergy();
   plasticStale_ = true;
-  for (const auto& c : contributors_) boundary0_ += c->boundaryEnergy();
+  for (const auto& e : contributors_) boundary0_ += e.contributor->boundaryEnergy();
   balanceSet_ = false;
 }
 

@@ -54,8 +54,8 @@ bool updateContact(hid_t file, const Solver& s, State& st) {
 void prepare(hid_t file, const Solver& s, State& st) { updateContact(file, s, st); }
 
 const DynamicContact* findContact(const Solver& s) {
-  for (const auto& c : s.contributors())
-    if (auto* d = dynamic_cast<const DynamicContact*>(c.get())) return d;
+  for (const auto& e : s.contributors())
+    if (auto* d = dynamic_cast<const DynamicContact*>(e.contributor.get())) return d;
   return nullptr;
 }
 

@@ -3,7 +3,7 @@
 ///        ARCHITECTURE.md §3; docs/theory.md §4) between coincident, duplicated node pairs
 ///        (rock node 1, lining node 2).
 ///
-/// Each step, after every other force is known (runsLast), both nodes of a pair are predicted
+/// Each step, after every force of the earlier phases is known (ForcePhase::Interface), both nodes of a pair are predicted
 /// without the contact force by the solver's own update formula; the contact force R1 = −R2
 /// (eq. 9) that makes the pair end the step together is
 ///     R1 = K ∘ Δ,  K_d = 1 / (w1_d + w2_d),  w_d = Δu per unit force of the node in direction d
@@ -83,14 +83,13 @@ enum class PairState : int {
   Inactive = 4,   ///< a node of the pair has no mass yet (e.g. lining not yet installed)
 };
 
-/// The dynamic contact force between the pairs; add it to the solver with addContributor.
+/// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
 class DynamicContact final : public NodalForceContributor {
 public:
   /// The solver supplies the masses, supports and damping of the prediction; it must outlive this.
   DynamicContact(const Solver& solver, ContactPairs pairs, ContactParams params);
   std::string name() const override { return "rock-lining dynamic contact"; }
   void addForces(Real t, Real dt, NodalState& state) override;
-  bool runsLast() const override { return true; }
   Real dissipatedEnergy() const override { return -work_; }
   /// Subcycling: the pairs step every fine step (their force is predicted from each step's motion).
   bool constrainLevels(std::vector<std::uint8_t>& level) const override {

@@ -16,7 +16,8 @@ namespace tq {
 /// f_c,i = m_i a − f_i that sum to zero (Newton's third law; they do no net work because the
 /// members' increments are equal). This is the mass-weighted merge of the nodes, written as a
 /// force so that it sits behind the same interface as the contact model that will replace it.
-/// It runs after the other contributors (runsLast): it needs every other force of the step.
+/// It needs every force of the phases before its own (ForcePhase::Interface for the rock–lining
+/// interface, ForcePhase::Ties for periodic faces, which share the water's force too).
 ///
 /// The members keep their own displacement reference: a node tied when its partner already
 /// carries a displacement keeps the difference (the lining is installed stress-free into the
@@ -43,12 +44,6 @@ public:
   /// naming the group) and set the members' velocities to their mass-weighted mean.
   void install(Solver& solver);
   void addForces(Real t, Real dt, NodalState& state) override;
-  /// After every other force of the step.
-  bool runsLast() const override { return true; }
-  /// After the other runsLast contributors too (the water coupling's force, the contact's), when
-  /// set (periodic faces: a pair shares every force its members get).
-  bool runsAfterAll() const override { return afterAll_; }
-  void setRunsAfterAll(bool on) { afterAll_ = on; }
   void checkpoint(StateArchive& a) override { a.io(force_); }
   /// Subcycling: the members of a group share its finest level (the common acceleration needs
   /// every member's complete force at the same steps).
@@ -75,7 +70,6 @@ private:
   std::string name_;
   std::vector<Index> start_, node_;  // CSR
   std::vector<Real> force_;          // [3 members]
-  bool afterAll_ = false;
 };
 
 }  // namespace tq

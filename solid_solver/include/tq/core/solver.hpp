@@ -52,21 +52,30 @@ struct NodalLoad {
   TimeFunction function = TimeFunction::constant(1.0);
 };
 
+/// The phases of a step's external force, in the order Solver::step sums them into state.fExt.
+/// Each phase sees the complete force of the phases before it; within a phase the contributors
+/// run in the order they were added (Solver::addContributor names each one's phase).
+enum class ForcePhase : std::uint8_t {
+  Loads,       ///< gravity, NodalLoads, constant and held forces (reactions, pressures, excavation load)
+  Boundaries,  ///< seismic boundaries: viscoelastic base, free-field columns, incident motion
+  Interface,   ///< the rock–lining interface (dynamic contact, or a bonded tie) and any force
+               ///< predicted from every force above (e.g. a prescribed motion)
+  Water,       ///< the water's force on the lining (FluidCoupling)
+  Ties,        ///< ties that share every force of their members, the water's included (periodic faces)
+};
+/// Every phase, in the order they run.
+inline constexpr ForcePhase kForcePhases[] = {ForcePhase::Loads, ForcePhase::Boundaries, ForcePhase::Interface,
+                                              ForcePhase::Water, ForcePhase::Ties};
+
 /// Something that adds nodal forces each step (absorbing boundaries, input waves, contact,
-/// fluid loads): the solver calls it after the element forces are assembled, before the update.
+/// fluid loads): the solver calls it after the element forces are assembled, before the update,
+/// in the phase it was added to (ForcePhase).
 class NodalForceContributor {
 public:
   virtual ~NodalForceContributor() = default;
   virtual std::string name() const = 0;
   /// Add forces to state.fExt at time t (the state holds u^n, v, f_int^n).
   virtual void addForces(Real t, Real dt, NodalState& state) = 0;
-  /// True for a contributor that must see every other force of the step first (the dynamic
-  /// contact force predicts the nodes' motion from the complete force): called after the others.
-  virtual bool runsLast() const { return false; }
-  /// True for a kinematic tie that must see the complete force of the step, that of the other
-  /// runsLast contributors included (periodic faces: the water's force on a tied pair is shared
-  /// by the pair): called after them. Implies runsLast().
-  virtual bool runsAfterAll() const { return false; }
   /// Energy this contributor has dissipated so far (J) = minus the work of its own forces, booked
   /// by the solver's trapezoid rule (e.g. friction at an interface). The solver reports it as the
   /// balance term `interface` instead of as external work. Default 0: its work is external work.
@@ -83,9 +92,18 @@ public:
   /// (contact pairs, the coupled wall), one common level for nodes it moves together (ties).
   /// Nodes it only loads (boundaries, surface pressures) need nothing. Return true if it lowered one.
   virtual bool constrainLevels(std::vector<std::uint8_t>& /*level*/) const { return false; }
-  /// A contributor whose [3N] force never changes may return it here: the solver then adds it in
-  /// its own parallel pass with gravity instead of calling addForces (one serial pass fewer).
+  /// A contributor whose [3N] force never changes may return it here: added to the Loads phase,
+  /// the solver then adds it in gravity's parallel pass instead of calling addForces (one serial
+  /// pass fewer; Solver::addContributor decides).
   virtual const std::vector<Real>* constantForces() const { return nullptr; }
+};
+
+/// A contributor as the solver holds it: its phase, and whether its constant force is added in
+/// gravity's pass (foldedIntoGravity: then addForces is never called).
+struct AddedContributor {
+  ForcePhase phase;
+  bool foldedIntoGravity;
+  std::shared_ptr<NodalForceContributor> contributor;
 };
 
 /// Subcycling: set the listed nodes to level 0 (the finest step); true if one was coarser.
@@ -178,7 +196,11 @@ public:
   /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
   void fixFaceGroup(const std::string& group, const std::string& dirs);
   void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
-  void addContributor(std::shared_ptr<NodalForceContributor> c) { contributors_.push_back(std::move(c)); }
+  /// Add a contributor to a phase of the external force (after those added to it before). A
+  /// constant force (constantForces()) added to the Loads phase is folded into gravity's parallel
+  /// pass, up to kMaxFoldedLoads of them; any more run as the other Loads contributors do.
+  void addContributor(ForcePhase phase, std::shared_ptr<NodalForceContributor> c);
+  static constexpr int kMaxFoldedLoads = 4;
   /// Recompute lumped masses and the node->corner map (after (de)activating elements).
   void rebuild();
   /// The stable step for the current mesh, materials and damping.
@@ -188,7 +210,8 @@ public:
   void setTimeStep(Real dt);
 
   // ---- time stepping ------------------------------------------------------------------------
-  /// One explicit step: element forces -> assembly -> external forces -> update -> check.
+  /// One explicit step: element forces -> assembly -> external forces (gravity and the
+  /// contributors, phase by phase in ForcePhase order) -> update -> check.
   void step();
   /// Steps until time >= tEnd (calls `each` after every step if given).
   void runUntil(Real tEnd, const std::function<void()>& each = {});
@@ -235,8 +258,8 @@ public:
   bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0; }
   /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
   Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
-  /// The nodal force contributors, in the order they were added.
-  const std::vector<std::shared_ptr<NodalForceContributor>>& contributors() const { return contributors_; }
+  /// The nodal force contributors with their phases, in the order they were added.
+  const std::vector<AddedContributor>& contributors() const { return contributors_; }
   /// Latest velocity: v^{n+½} after a central-difference step to t_{n+1} (half a step behind the
   /// displacement), v^{n+1} for paper_eq3_4.
   Real velocityAt(Index node, int d) const;
@@ -250,6 +273,7 @@ public:
 private:
   void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
+  void addGravityAndFoldedLoads();  // the Loads phase's parallel pass
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
@@ -264,7 +288,7 @@ private:
   std::vector<Real> fExtPrev_, uRef_;  // f_ext of the previous step (swapped with the state's each step, for
                                        // the trapezoidal work); the seismic reference
   std::vector<NodalLoad> loads_;
-  std::vector<std::shared_ptr<NodalForceContributor>> contributors_;
+  std::vector<AddedContributor> contributors_;  // in the order added
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
   Real alphaRelax_ = -1;  // >= 0 while relaxing: replaces α

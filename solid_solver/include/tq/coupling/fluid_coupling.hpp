@@ -4,7 +4,7 @@
 ///        the lining's wetted face (`lining_inner`) for the water's interface force R3 through the
 ///        coupler library (tqcoupler).
 ///
-/// Each solid step, after every other force of the step is known (runsLast), the interface nodes
+/// Each solid step, after the forces of the earlier phases are known (ForcePhase::Water), the interface nodes
 /// are predicted at t + Δt by the solver's own update (leapfrog with α M and the boundary dashpots,
 /// fixed dofs held): v^{n+½} = [(m/Δt − c/2) v^{n−½} + f] / (m/Δt + c/2), u^{n+1} = u^n + Δt v^{n+½}.
 /// The prediction (displacement relative to the seismic start, and velocity) is written to the
@@ -72,7 +72,6 @@ public:
   std::string name() const override;
   /// One solid step: predict, write, advance (exchange at the end of a window), read R3, add it.
   void addForces(Real t, Real dt, NodalState& state) override;
-  bool runsLast() const override { return true; }
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
   void checkpoint(StateArchive& archive) override;
