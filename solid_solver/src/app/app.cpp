@@ -2,9 +2,12 @@
 //
 //   tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]
 //
-// Steps: 1. read and check the input and the mesh; 2. build blocks, supports and loads; 3. pick
-// and check the time step; 4. integrate to t_end writing monitors, energies and snapshots;
-// 5. write timings and the final status.
+// A run is a starter and an engine. The starter reads and checks the input and the mesh and
+// builds the model (element blocks and materials, supports, loads, the time step, the stages). The
+// engine runs it: the static stages and the switch to the seismic stage, the water coupling, the
+// time loop with its results, snapshots and restart checkpoints, then the timings and the status.
+// Every error leaves through one exit (SolidRun::stop): the water is told, the results file gets
+// the status, stderr the message, and the exit code says which kind (tq/app/app.hpp).
 #include "tq/app/app.hpp"
 
 #include <hdf5.h>
@@ -73,462 +76,554 @@ std::string runFingerprint(const SolidInput& in, const Solver& s) {
 
 namespace {
 
-/// The whole run; `mpi` is set when /coupling transport is mpi (tq-solid under mpirun), and
-/// runSolid ends MPI after this returns (results.h5 closed by then).
-int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
-                 std::unique_ptr<CouplingMpi>& mpi) {
+/// The command line.
+struct CommandLine {
   std::string input, output = "results.h5", checkpointDir;
   bool check = false, resume = false;
   long long resumeSequence = 0;
+};
+
+/// Reads the command line into `cl`. Returns the exit code when the command line alone ends the
+/// run (help, capabilities: 0; a wrong argument: 1), else -1.
+int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, std::ostream& err, CommandLine& cl) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") {
       out << kUsage;
       return 0;
     } else if (a == "-o" && i + 1 < args.size()) {
-      output = args[++i];
+      cl.output = args[++i];
     } else if (a == "--capabilities") {
       out << "tq-solid capabilities: " << kCapabilities << "\n";
       return 0;
     } else if (a == "--check") {
-      check = true;
+      cl.check = true;
     } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
-      checkpointDir = args[++i];
+      cl.checkpointDir = args[++i];
     } else if (a == "--resume") {
-      resume = true;
+      cl.resume = true;
     } else if (a == "--resume-sequence" && i + 1 < args.size()) {
-      resumeSequence = std::stoll(args[++i]);
+      cl.resumeSequence = std::stoll(args[++i]);
     } else if (a == "--threads" && i + 1 < args.size()) {
       omp_set_num_threads(std::stoi(args[++i]));
-    } else if (!a.empty() && a[0] != '-' && input.empty()) {
-      input = a;
+    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
+      cl.input = a;
     } else {
       err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
       return 1;
     }
   }
-  if (input.empty() || (resume && checkpointDir.empty())) {
-    err << (input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n") << kUsage;
+  if (cl.input.empty() || (cl.resume && cl.checkpointDir.empty())) {
+    err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n") << kUsage;
     return 1;
   }
-  // 1-3. Input, mesh, solver, time step (the "starter").
+  return -1;
+}
+
+// ---- The starter: reads, checks and builds the model ------------------------------------------
+
+/// What the starter builds and the engine runs. Filled in place and never moved: the solver and
+/// the stages refer to the input and the mesh.
+struct Model {
   SolidInput in;
   Mesh mesh;
   std::unique_ptr<Solver> solver;
   std::unique_ptr<StagedAnalysis> stages;  // version 2: the staged analysis (stages.cpp)
-  try {
-    in = readSolidInput(input);
-    mesh = readMeshH5(in.meshPath, {in.requiredFaces});
-    solver = buildSolver(in, mesh);
-    if (in.staged.present) stages = std::make_unique<StagedAnalysis>(in, mesh, *solver);
-  } catch (const InputError& e) {
-    err << "tq-solid: input error: " << e.what() << "\n";
-    return 2;
-  }
-  Solver& s = *solver;
-  const StableStep st = s.stableStep();
   Index nElems = 0;
-  for (const auto& b : s.blocks()) nElems += b->numElems();
-  out << "tq-solid: " << mesh.numNodes() << " nodes, " << nElems << " elements in " << s.blocks().size()
-      << " block(s), " << integratorName(s.options().integrator) << ", " << formulationName(in.formulation)
+};
+
+/// Reads and checks the input and the mesh, builds the solver (element blocks and materials,
+/// supports, loads, the time step) and the stages. Throws InputError.
+void startModel(const std::string& input, Model& m) {
+  m.in = readSolidInput(input);
+  m.mesh = readMeshH5(m.in.meshPath, {m.in.requiredFaces});
+  m.solver = buildSolver(m.in, m.mesh);
+  if (m.in.staged.present) m.stages = std::make_unique<StagedAnalysis>(m.in, m.mesh, *m.solver);
+  for (const auto& b : m.solver->blocks()) m.nElems += b->numElems();
+}
+
+/// The model in a few lines: its size, the integrator, the time step, the stages.
+void describeModel(const Model& m, std::ostream& out) {
+  const Solver& s = *m.solver;
+  const StableStep st = s.stableStep();
+  out << "tq-solid: " << m.mesh.numNodes() << " nodes, " << m.nElems << " elements in " << s.blocks().size()
+      << " block(s), " << integratorName(s.options().integrator) << ", " << formulationName(m.in.formulation)
       << "\n  stable step " << st.dtCritical << " s (element " << st.element << " of '" << st.block
-      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = "
-      << in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
-  if (stages) {
+      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(m.in.tEnd / s.dt())) << " steps to t_end = "
+      << m.in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
+  if (m.stages) {
     out << "  stages:";
-    for (const auto& n : in.staged.stages.sequence) out << " " << n;
-    out << (in.staged.condition.empty() ? "" : " (condition " + in.staged.condition + ")") << "\n";
-    const std::string w = elementSizeWarning(s, in.staged.motion.cutoffFrequency);
+    for (const auto& n : m.in.staged.stages.sequence) out << " " << n;
+    out << (m.in.staged.condition.empty() ? "" : " (condition " + m.in.staged.condition + ")") << "\n";
+    const std::string w = elementSizeWarning(s, m.in.staged.motion.cutoffFrequency);
     if (!w.empty()) out << "tq-solid: " << w << "\n";
   }
-  if (check) {
-    out << "tq-solid: input and mesh are valid\n";
-    return 0;
+}
+
+// ---- The engine: runs the model ---------------------------------------------------------------
+
+/// The checkpoint folder refuses the run (another tq-solid holds it, or it has no checkpoint of
+/// this run to resume from): exit 2 with the message as it is.
+class CheckpointRefusal : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Exit codes (tq/app/app.hpp).
+enum Exit : int { kInputError = 2, kInstability = 3, kCouplingStopped = 4, kOutputError = 5 };
+
+/// One run of tq-solid: the starter, then the engine's parts in the order they run (exec).
+class SolidRun {
+public:
+  SolidRun(CommandLine cl, std::ostream& out, std::ostream& err, std::unique_ptr<CouplingMpi>& mpi)
+      : cl_(std::move(cl)), out_(out), err_(err), mpi_(mpi) {}
+  SolidRun(const SolidRun&) = delete;
+  SolidRun& operator=(const SolidRun&) = delete;
+  /// Under mpirun, how the coupling ended decides how MPI ends (runSolid ends it after this).
+  ~SolidRun() {
+    if (mpi_ && coupling_) mpi_->note(*coupling_);
   }
-  // MPI only for the coupling's MPI transport (docs/coupler.md "tq-solid under mpirun"); started by
-  // mpirun with transport tcp, tq-solid stays a plain process and couples over TCP.
-  const CouplingInput& ci = in.staged.coupling;
-  if (ci.present && ci.transport == "mpi") {
-    mpi = std::make_unique<CouplingMpi>(ci);
-    if (!mpi->problem().empty()) {
-      err << "tq-solid: " << mpi->problem() << "\n";
-      return 4;
-    }
-    out << "tq-solid: " << mpi->describe() << "\n";
-    if (const std::string w = mpi->bindingWarning(); !w.empty()) out << "tq-solid: warning: " << w << "\n";
-  } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
-    out << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
-        << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
-  }
-  // Restart checkpoints (tq/io/restart.hpp): what they belong to, and with --resume the one to continue
-  // from, checked before anything is written (a refused resume leaves the results file as it was).
-  std::unique_ptr<RestartCheckpoints> checkpoints;
-  CheckpointManifest resumeFrom;
-  const std::string fingerprint = runFingerprint(in, s);
-  if (!checkpointDir.empty()) {
+  int exec();
+
+private:
+  // The engine, in the order exec runs it.
+  void startMpi();
+  void openCheckpoints();
+  bool runStatics();  // false: statics only, and the run is complete
+  void connectWater();
+  void addCouplingSeries();
+  void enableSubcycling();
+  void restoreOrStart();
+  void stepToEnd();
+  void finish();
+  // Its parts.
+  void runState(StateArchive& a);
+  void writeCheckpoint(Real t);
+  void flushAndReport(Real t);
+  void writeStages();
+  void writeCouplingSummary();
+  void writeTimings(double wall);
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+  /// The one way out of a run that stops on an error.
+  int stop(Exit code, const std::string& message, const char* label = "");
+
+  const CommandLine cl_;
+  std::ostream& out_;
+  std::ostream& err_;
+  std::unique_ptr<CouplingMpi>& mpi_;  // set when /coupling transport is mpi
+  Model m_;
+  // Restart checkpoints (tq/io/restart.hpp): every checkpoint_interval s of simulated time, at the
+  // end of a step (coupled: of an accepted window), the whole state (runState); --resume restores
+  // the last.
+  std::unique_ptr<RestartCheckpoints> checkpoints_;
+  CheckpointManifest resumeFrom_;
+  std::string fingerprint_;
+  StateArchive checkpointArchive_;
+  long long checkpointWindows_ = 0;
+  long long checkpointSeq_ = 0, checkpointsWritten_ = 0;
+  Real nextCheckpoint_ = 0;
+  double checkpointSeconds_ = 0;
+  bool writerStarted_ = false;
+  std::unique_ptr<ResultsWriter> writer_;
+  std::shared_ptr<FluidCoupling> coupling_;
+  bool stagesWritten_ = false, stepping_ = false;
+  size_t nextSnap_ = 0;
+  Real tFinal_ = 0, gap_ = 0;  // the last final state's time, and the span to it from the one before
+  std::chrono::steady_clock::time_point t0_, lastReport_, lastFlush_;
+  Index step0_ = 0;
+};
+
+int SolidRun::exec() {
+  try {
     try {
-      checkpoints = std::make_unique<RestartCheckpoints>(checkpointDir);
-      if (ci.present) checkpoints->setKeep(2);  // the water's checkpoint of a window comes after the solid's
-    } catch (const OutputError& e) {
-      err << "tq-solid: " << e.what() << "\n";
-      return 5;
-    } catch (const InputError& e) {
-      err << "tq-solid: " << e.what() << "\n";
-      return 2;
-    }
-    std::string why;
-    if (resume && !checkpoints->last(resumeFrom, why, resumeSequence)) {
-      err << "tq-solid: cannot resume: " << why << "\n";
-      return 2;
-    }
-    if (resume && resumeFrom.fingerprint != fingerprint) {
-      err << "tq-solid: cannot resume from " << checkpoints->dir() << ": its checkpoint (t = " << resumeFrom.time
-          << " s) was written for another input (the case, its mesh or its motion changed since, or this is "
-             "another build of tq-solid: fingerprint "
-          << resumeFrom.fingerprint << ", this run " << fingerprint << "); run without --resume to start again\n";
-      return 2;
-    }
-  }
-  // 4. Time loop (the "engine"), in `engine` below. A write the file system refuses (a full disk,
-  //    a quota, an I/O error) ends it from anywhere with an OutputError: the water is told to
-  //    stop, the status is written into the samples already there, and tq-solid exits 5.
-  std::unique_ptr<ResultsWriter> writer;
-  std::shared_ptr<FluidCoupling> coupling;
-  auto engine = [&]() -> int {
-    ResultsWriter& results = *writer;
-    if (stages) {  // 4a. Static stages (dynamic relaxation), then the switch to the seismic stage.
-      auto writeStages = [&] {
-        for (const auto& r : stages->reports())
-          results.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
-      };
-      try {
-        stages->runStatics(out, in.progressSeconds);
-        if (stages->hasSeismic()) stages->switchToDynamics(out);
-      } catch (const InstabilityError& e) {
-        writeStages();
-        results.setStatus(std::string("stopped: ") + e.what());
-        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-        return 3;
-      } catch (const InputError& e) {
-        results.setStatus(std::string("stopped: ") + e.what());
-        err << "tq-solid: input error: " << e.what() << "\n";
-        return 2;
-      }
-      writeStages();
-      if (!stages->hasSeismic()) {  // statics only: the equilibrium state is the result
-        results.snapshot(s);
-        results.setStatus("completed");
-        out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << output << "\n";
+      startModel(cl_.input, m_);  // the starter
+      describeModel(m_, out_);
+      if (cl_.check) {
+        out_ << "tq-solid: input and mesh are valid\n";
         return 0;
       }
-    }
-    // 4b. The water coupling (dynamic_water): connects to the fluid after the static stages, so the
-    //     displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
-    // Under mpirun, how the coupling ended decides how MPI ends: noted on every way out of here.
-    struct NoteForMpi {
-      CouplingMpi* mpi;
-      const std::shared_ptr<FluidCoupling>& c;
-      ~NoteForMpi() {
-        if (mpi && c) mpi->note(*c);
-      }
-    } noteForMpi{mpi.get(), coupling};
-    if (in.staged.coupling.present) {
-      try {
-        coupling = std::make_shared<FluidCoupling>(s, in.staged.coupling, in.tEnd);
-        out << "tq-solid: " << coupling->describe() << "; waiting for the fluid" << std::endl;
-        if (!resume) coupling->initialize();  // resumed: once its state is restored (below)
-        s.addContributor(ForcePhase::Water, coupling);
-        in.tEnd = coupling->endTime();  // whole windows
-        results.addSeries("/energy/fluid_work", [c = coupling.get()] { return c->fluidWork(); }, "fluid_work");
-        results.addSeries("/energy/fluid_received_work", [c = coupling.get()] { return c->fluidReceivedWork(); },
-                          "fluid_received_work");
-        results.addSeries("/energy/coupling_energy", [c = coupling.get()] { return c->couplingEnergy(); },
-                          "coupling_energy");
-        if (coupling->hasVolumeLaw())
-          results.addSeries("/coupling/volume_pressure", [c = coupling.get()] { return c->volumePressure(); },
-                            "volume_pressure");
-        results.addWaterPressure(s.mesh(), in.staged.coupling.face, in.monitors, coupling->nodes(),
-                                 [c = coupling.get()]() -> const std::vector<Real>& { return c->force(); });
-        // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
-        // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
-        // (m/s²), both of the same step, per direction.
-        for (int d = 0; d < 3; ++d) {
-          const std::string axis(1, "xyz"[d]);
-          results.addSeries("/coupling/force_" + axis, [c = coupling.get(), d] {
-            Real sum = 0;
-            const auto& F = c->force();
-            for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
-            return sum;
-          }, "force_" + axis);
-          results.addSeries("/coupling/acceleration_" + axis, [c = coupling.get(), &s, d] {
-            Real ma = 0, m = 0;
-            for (Index n : c->nodes()) {
-              ma += s.state().mass(n) * s.state().a(n, d);
-              m += s.state().mass(n);
-            }
-            return m > 0 ? ma / m : Real(0);
-          }, "acceleration_" + axis);
-        }
-        out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << coupling->windowCount()
-            << " windows)" << std::endl;
-      } catch (const InputError& e) {
-        if (coupling) coupling->abort(e.what());
-        results.setStatus(std::string("stopped: ") + e.what());
-        err << "tq-solid: input error: " << e.what() << "\n";
-        return 2;
-      } catch (const CouplingError& e) {
-        results.setStatus(std::string("stopped: ") + e.what());
-        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-        return 4;
-      }
-    }
-    auto couplingSummary = [&] {
-      if (!coupling) return;
-      const FluidCouplingStats cs = coupling->stats();
-      results.writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
-                                       {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
-                                       {"unconverged_windows", double(cs.unconvergedWindows)},
-                                       {"window_size", coupling->windowSize()}, {"fluid_work", coupling->fluidWork()},
-                                       {"fluid_received_work", coupling->fluidReceivedWork()},
-                                       {"coupling_energy", coupling->couplingEnergy()},
-                                       {"volume_law_work", coupling->volumeLawWork()},
-                                       {"enclosed_volume", coupling->enclosedVolume()},
-                                       {"interface_work_peak", coupling->interfaceWorkPeak()},
-                                       {"energy_floor", coupling->energyFloor()},
-                                       {"energy_limit", in.staged.coupling.energyLimit},
-                                       // cost split over the stepping (docs/coupler.md "Exchange cost")
-                                       {"coupled_wall_s", cs.secondsCoupled},
-                                       {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
-                                       {"coupler_s", cs.secondsInCoupler},
-                                       {"exchange_wait_s", cs.secondsWaiting},
-                                       {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
-                                       {"mapping_s", cs.secondsMapping},
-                                       {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
-                                       {"coupler_cpu_s", cs.cpuInCoupler}},
-                         {{"scheme", in.staged.coupling.scheme}});
-  };
-  if (in.options.subcyclingLevels > 0) {  // after every contributor is in: they mark their fine nodes
-    try {
-      const SubcyclingInfo sc = s.enableSubcycling(in.options.subcyclingLevels);
-      std::ostringstream os;
-      os << "tq-solid: subcycling: steps of 1";
-      for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
-      os << " x dt for";
-      for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
-      os << " elements (";
-      for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
-      os << " nodes): " << std::setprecision(3) << sc.costFraction
-         << " of the element evaluations of one step for all\n";
-      out << os.str();
-      std::map<std::string, double> attrs{{"levels", double(sc.levels)},
-                                                        {"cost_fraction", sc.costFraction}};
-      for (size_t l = 0; l < sc.elements.size(); ++l) {
-        attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
-        attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
-      }
-      results.writeAttrs("/subcycling", attrs, {});
+      startMpi();
+      openCheckpoints();
+      writerStarted_ = true;
+      writer_ = std::make_unique<ResultsWriter>(cl_.output, m_.in, *m_.solver);
+      if (m_.stages && !runStatics()) return 0;
+      connectWater();
+      enableSubcycling();
+      restoreOrStart();
+      stepToEnd();
+      finish();
+      return 0;
     } catch (const InputError& e) {
-      if (coupling) coupling->abort(e.what());
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: input error: " << e.what() << "\n";
-      return 2;
+      return stop(kInputError, e.what(), "input error: ");
+    } catch (const CheckpointRefusal& e) {
+      return stop(kInputError, e.what());
+    } catch (const InstabilityError& e) {
+      return stop(kInstability, e.what());
+    } catch (const CouplingError& e) {  // the fluid is lost, silent or refused: stop with its cause
+      return stop(kCouplingStopped, e.what());
     }
+  } catch (const OutputError& e) {  // the file system refused a write, also one of stop's
+    return stop(kOutputError, e.what());
   }
-  // Restart checkpoints (tq/io/restart.hpp): every checkpoint_interval s of simulated time, at the end
-  // of a step (coupled: of an accepted window), the whole state below; --resume restores the last.
-  size_t nextSnap = 0;
-  Real tFinal = s.time(), gap = 0;  // the last final state's time, and the span to it from the one before
-  Real nextCheckpoint = in.checkpointInterval;
-  long long checkpointSeq = 0, checkpointsWritten = 0;
-  double checkpointSeconds = 0;
-  auto runState = [&](StateArchive& a) {
-    s.checkpoint(a);
-    results.checkpoint(a);
-    a.io(tFinal);
-    a.io(gap);
-    a.io(nextSnap);
-    a.io(nextCheckpoint);
-    a.io(checkpointSeq);
-    if (coupling) coupling->restartState(a);
-  };
+}
+
+int SolidRun::stop(Exit code, const std::string& message, const char* label) {
+  if (coupling_ && code != kCouplingStopped) coupling_->abort("the solid stopped: " + message);
+  const std::string status = "stopped: " + message;
+  err_ << "tq-solid: " << label << message << "\n";
+  if (code == kOutputError) {  // a full disk, a quota, an I/O error
+    if (!writerStarted_) return code;  // the checkpoint folder, before the results file
+    if (!writer_) {  // the file could not even be started: nothing of it is worth keeping
+      std::remove(cl_.output.c_str());
+      err_ << "  no results written (" << cl_.output << " removed); free space on its file system and run again\n";
+    } else if (!writer_->stopAfterOutputError(status)) {
+      err_ << "  " << cl_.output << " holds the samples up to its last flush; its status could not be written\n";
+    } else if (writer_->samples() == 0) {
+      err_ << "  no monitor sample written yet; " << cl_.output << " holds the run's set-up with status 'stopped: ...'; "
+           << "free space on its file system and run again\n";
+    } else {
+      err_ << "  results up to t = " << writer_->lastSampleTime() << " s (" << writer_->samples()
+           << " samples) are in " << cl_.output << " with status 'stopped: ...'; free space on its file system and "
+           << "run again\n";
+    }
+    return code;
+  }
+  if (!writer_) return code;
+  if (m_.stages && !stagesWritten_) writeStages();
+  if (stepping_) writeCouplingSummary();
+  writer_->setStatus(status);
+  if (stepping_) writeTimings(elapsed());
+  if (code == kInstability || code == kCouplingStopped) err_ << "  results so far are in " << cl_.output << "\n";
+  return code;
+}
+
+// MPI only for the coupling's MPI transport (docs/coupler.md "tq-solid under mpirun"); started by
+// mpirun with transport tcp, tq-solid stays a plain process and couples over TCP.
+void SolidRun::startMpi() {
+  const CouplingInput& ci = m_.in.staged.coupling;
+  if (ci.present && ci.transport == "mpi") {
+    mpi_ = std::make_unique<CouplingMpi>(ci);
+    if (!mpi_->problem().empty()) throw CouplingError(mpi_->problem());
+    out_ << "tq-solid: " << mpi_->describe() << "\n";
+    if (const std::string w = mpi_->bindingWarning(); !w.empty()) out_ << "tq-solid: warning: " << w << "\n";
+  } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
+    out_ << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
+         << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
+  }
+}
+
+// What the checkpoints belong to, and with --resume the one to continue from, checked before
+// anything is written (a refused resume leaves the results file as it was).
+void SolidRun::openCheckpoints() {
+  if (cl_.checkpointDir.empty()) return;
+  fingerprint_ = runFingerprint(m_.in, *m_.solver);
+  try {
+    checkpoints_ = std::make_unique<RestartCheckpoints>(cl_.checkpointDir);
+  } catch (const InputError& e) {
+    throw CheckpointRefusal(e.what());
+  }
+  if (m_.in.staged.coupling.present) checkpoints_->setKeep(2);  // the water's checkpoint of a window comes after the solid's
+  if (!cl_.resume) return;
+  std::string why;
+  if (!checkpoints_->last(resumeFrom_, why, cl_.resumeSequence)) throw CheckpointRefusal("cannot resume: " + why);
+  if (resumeFrom_.fingerprint != fingerprint_) {
+    std::ostringstream os;
+    os << "cannot resume from " << checkpoints_->dir() << ": its checkpoint (t = " << resumeFrom_.time
+       << " s) was written for another input (the case, its mesh or its motion changed since, or this is "
+          "another build of tq-solid: fingerprint "
+       << resumeFrom_.fingerprint << ", this run " << fingerprint_ << "); run without --resume to start again";
+    throw CheckpointRefusal(os.str());
+  }
+}
+
+// Static stages (dynamic relaxation), then the switch to the seismic stage.
+bool SolidRun::runStatics() {
+  m_.stages->runStatics(out_, m_.in.progressSeconds);
+  if (m_.stages->hasSeismic()) m_.stages->switchToDynamics(out_);
+  writeStages();
+  if (m_.stages->hasSeismic()) return true;
+  writer_->snapshot(*m_.solver);  // statics only: the equilibrium state is the result
+  writer_->setStatus("completed");
+  out_ << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl_.output << "\n";
+  return false;
+}
+
+void SolidRun::writeStages() {
+  for (const auto& r : m_.stages->reports())
+    writer_->writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+  stagesWritten_ = true;
+}
+
+// The water coupling (dynamic_water): connects to the fluid after the static stages, so the
+// displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
+void SolidRun::connectWater() {
+  const CouplingInput& ci = m_.in.staged.coupling;
+  if (!ci.present) return;
+  Solver& s = *m_.solver;
+  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd);
+  out_ << "tq-solid: " << coupling_->describe() << "; waiting for the fluid" << std::endl;
+  if (!cl_.resume) coupling_->initialize();  // resumed: once its state is restored (restoreOrStart)
+  s.addContributor(ForcePhase::Water, coupling_);
+  m_.in.tEnd = coupling_->endTime();  // whole windows
+  addCouplingSeries();
+  out_ << "tq-solid: coupled with the fluid; t_end = " << m_.in.tEnd << " s (" << coupling_->windowCount()
+       << " windows)" << std::endl;
+}
+
+// The coupling's histories in the results: its works, the volume law's pressure, the water
+// pressure at the monitors, the wetted face's total force and mean acceleration.
+void SolidRun::addCouplingSeries() {
+  const Solver& s = *m_.solver;
+  ResultsWriter& results = *writer_;
+  FluidCoupling* c = coupling_.get();
+  results.addSeries("/energy/fluid_work", [c] { return c->fluidWork(); }, "fluid_work");
+  results.addSeries("/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
+  results.addSeries("/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
+  if (c->hasVolumeLaw())
+    results.addSeries("/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
+  results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
+                           [c]() -> const std::vector<Real>& { return c->force(); });
+  // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
+  // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
+  // (m/s²), both of the same step, per direction.
+  for (int d = 0; d < 3; ++d) {
+    const std::string axis(1, "xyz"[d]);
+    results.addSeries("/coupling/force_" + axis, [c, d] {
+      Real sum = 0;
+      const auto& F = c->force();
+      for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+      return sum;
+    }, "force_" + axis);
+    results.addSeries("/coupling/acceleration_" + axis, [c, &st = s.state(), d] {
+      Real ma = 0, m = 0;
+      for (Index n : c->nodes()) {
+        ma += st.mass(n) * st.a(n, d);
+        m += st.mass(n);
+      }
+      return m > 0 ? ma / m : Real(0);
+    }, "acceleration_" + axis);
+  }
+}
+
+// After every contributor is in: they mark their fine nodes.
+void SolidRun::enableSubcycling() {
+  if (m_.in.options.subcyclingLevels <= 0) return;
+  const SubcyclingInfo sc = m_.solver->enableSubcycling(m_.in.options.subcyclingLevels);
+  std::ostringstream os;
+  os << "tq-solid: subcycling: steps of 1";
+  for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
+  os << " x dt for";
+  for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
+  os << " elements (";
+  for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
+  os << " nodes): " << std::setprecision(3) << sc.costFraction << " of the element evaluations of one step for all\n";
+  out_ << os.str();
+  std::map<std::string, double> attrs{{"levels", double(sc.levels)}, {"cost_fraction", sc.costFraction}};
+  for (size_t l = 0; l < sc.elements.size(); ++l) {
+    attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
+    attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
+  }
+  writer_->writeAttrs("/subcycling", attrs, {});
+}
+
+// Everything a checkpoint holds, in this order (saved and restored alike).
+void SolidRun::runState(StateArchive& a) {
+  m_.solver->checkpoint(a);
+  writer_->checkpoint(a);
+  a.io(tFinal_);
+  a.io(gap_);
+  a.io(nextSnap_);
+  a.io(nextCheckpoint_);
+  a.io(checkpointSeq_);
+  if (coupling_) coupling_->restartState(a);
+}
+
+// The start of the seismic record: from the checkpoint with --resume, else the first sample.
+void SolidRun::restoreOrStart() {
+  Solver& s = *m_.solver;
+  tFinal_ = s.time();
+  nextCheckpoint_ = m_.in.checkpointInterval;
   // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
   // windows, at least 1), a rule the water applies to its own window count too.
-  const long long checkpointWindows =
-      coupling && in.checkpointInterval > 0
-          ? std::max(1LL, (long long)std::llround(in.checkpointInterval / coupling->windowSize()))
+  checkpointWindows_ =
+      coupling_ && m_.in.checkpointInterval > 0
+          ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
           : 0;
-  StateArchive checkpointArchive;
-  if (resume) {
-    const CheckpointManifest& m = resumeFrom;
-    try {  // a build whose parts list other state: the archive's own checks (tq/core/state_archive.hpp)
-      checkpoints->read(m, checkpointArchive);
-      checkpointArchive.beginRestore();
-      runState(checkpointArchive);
-      checkpointArchive.end();
-    } catch (const std::exception& e) {
-      err << "tq-solid: cannot resume from " << checkpoints->file(m.solid) << ": " << e.what()
-          << "; run without --resume to start again\n";
-      return 2;
-    }
-    results.resumeFrom(checkpoints->file(m.results), s);
-    out << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step
-        << ", " << m.samples << " samples" << (m.window >= 0 ? ", coupling window " + std::to_string(m.window) : "")
-        << ")" << std::endl;
-    if (coupling) {
-      try {
-        coupling->initializeResumed();
-      } catch (const CouplingError& e) {
-        results.setStatus(std::string("stopped: ") + e.what());
-        err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-        return 4;
-      }
-    }
-  } else {
-    if (checkpoints) checkpoints->clear();
-    results.sample(s);
+  if (!cl_.resume) {
+    if (checkpoints_) checkpoints_->clear();
+    writer_->sample(s);
+    return;
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  auto lastReport = t0, lastFlush = t0;
-  const Index step0 = s.stepCount();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  // Implicit coupling windows of several steps: the state at each window start is kept, and a
-  // window the water did not accept is stepped again from it; results are sampled at window ends.
-  WindowedStepper stepper(s, coupling.get());
+  const CheckpointManifest& m = resumeFrom_;
+  try {  // a build whose parts list other state: the archive's own checks (tq/core/state_archive.hpp)
+    checkpoints_->read(m, checkpointArchive_);
+    checkpointArchive_.beginRestore();
+    runState(checkpointArchive_);
+    checkpointArchive_.end();
+  } catch (const std::exception& e) {
+    throw CheckpointRefusal("cannot resume from " + checkpoints_->file(m.solid) + ": " + e.what() +
+                            "; run without --resume to start again");
+  }
+  writer_->resumeFrom(checkpoints_->file(m.results), s);
+  out_ << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step << ", "
+       << m.samples << " samples" << (m.window >= 0 ? ", coupling window " + std::to_string(m.window) : "") << ")"
+       << std::endl;
+  if (coupling_) coupling_->initializeResumed();
+}
+
+// The time loop. Implicit coupling windows of several steps: the state at each window start is
+// kept, and a window the water did not accept is stepped again from it; results are sampled at
+// window ends.
+void SolidRun::stepToEnd() {
+  Solver& s = *m_.solver;
+  ResultsWriter& results = *writer_;
+  t0_ = lastReport_ = lastFlush_ = std::chrono::steady_clock::now();
+  step0_ = s.stepCount();
+  WindowedStepper stepper(s, coupling_.get());
+  stepping_ = true;
   try {
-    while (s.time() < in.tEnd - 1e-9 * s.dt() && (!coupling || coupling->ongoing())) {
+    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) {
       if (!stepper.step()) continue;
-      if (coupling) {
-        const std::string note = coupling->takeNote();
-        if (!note.empty()) out << "tq-solid: " << note << std::endl;
+      if (coupling_) {
+        const std::string note = coupling_->takeNote();
+        if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
       }
       const Real t = s.time();
-      gap = t - tFinal;
-      tFinal = t;
+      gap_ = t - tFinal_;
+      tFinal_ = t;
       // The histories are written at k x monitor_dt, interpolated between the final states on
       // either side: observe this state when a requested time falls before the next final state
       // (expected one step, or window, on).
-      if (t + gap >= results.nextSampleTime() - 1e-9 * gap) results.sample(s);
-      while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
+      if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
+      while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
         results.snapshot(s);
-        ++nextSnap;
+        ++nextSnap_;
       }
-      // (none at the end: the results are then whole)
-      const bool checkpointDue =
-          coupling ? checkpointWindows > 0 && !coupling->windowOpen() && coupling->windowsDone() % checkpointWindows == 0 &&
-                         coupling->windowsDone() < coupling->windowCount()
-                   : in.checkpointInterval > 0 && t >= nextCheckpoint - 1e-9 * s.dt() && t < in.tEnd - 1e-9 * s.dt();
-      if (checkpoints && checkpointDue) {
-        const auto c0 = std::chrono::steady_clock::now();
-        while (t >= nextCheckpoint - 1e-9 * s.dt()) nextCheckpoint += in.checkpointInterval;
-        ++checkpointSeq;
-        results.flush();
-        lastFlush = c0;
-        checkpointArchive.beginSave();
-        runState(checkpointArchive);
-        checkpointArchive.end();
-        CheckpointManifest m;
-        m.sequence = checkpointSeq;
-        m.time = t;
-        m.step = s.stepCount();
-        m.samples = results.samples();
-        m.window = coupling ? coupling->windowsDone() : -1;
-        m.fingerprint = fingerprint;
-        checkpoints->write(m, checkpointArchive, results.path());
-        ++checkpointsWritten;
-        checkpointSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
-      }
-      const auto now = std::chrono::steady_clock::now();
-      if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
-        results.flush();
-        lastFlush = now;
-      }
-      if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
-        const double wall = elapsed(), rate = double(s.stepCount() - step0) / wall;
-        const double left = (in.tEnd - t) / s.dt() / rate;
-        out << "  t = " << std::setprecision(5) << t << " s / " << in.tEnd << " s (" << std::setprecision(3)
-            << 100 * t / in.tEnd << " %), step " << s.stepCount() << ", " << std::setprecision(4) << rate
-            << " steps/s, energy error " << std::setprecision(2) << s.energy().error << ", ETA " << hms(left)
-            << std::endl;
-        lastReport = now;
-      }
+      writeCheckpoint(t);
+      flushAndReport(t);
     }
-  } catch (const InstabilityError& e) {
-    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
-    couplingSummary();
-    results.setStatus(std::string("stopped: ") + e.what());
-    results.writeTimings(elapsed(), s.stepCount() - step0, (long long)(s.stepCount() - step0) * nElems,
-                         omp_get_max_threads());
-    err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-    return 3;
-  } catch (const InputError& e) {
-    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
-    results.setStatus(std::string("stopped: ") + e.what());
-    err << "tq-solid: input error: " << e.what() << "\n";
-    return 2;
-  } catch (const CouplingError& e) {  // the fluid is lost, silent or refused: stop with its cause
+  } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample
     results.sample(s);
-    couplingSummary();
-    results.setStatus(std::string("stopped: ") + e.what());
-    results.writeTimings(elapsed(), s.stepCount() - step0, (long long)(s.stepCount() - step0) * nElems,
-                         omp_get_max_threads());
-    err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-    return 4;
+    throw;
   }
-  if (coupling) {
-    try {
-      coupling->finalize();
-    } catch (const CouplingError& e) {
-      couplingSummary();
-      results.setStatus(std::string("stopped: ") + e.what());
-      err << "tq-solid: " << e.what() << "\n  results so far are in " << output << "\n";
-      return 4;
-    }
-    couplingSummary();
-    const FluidCouplingStats cs = coupling->stats();
+}
+
+// A restart checkpoint when one is due (none at the end: the results are then whole).
+void SolidRun::writeCheckpoint(Real t) {
+  const Solver& s = *m_.solver;
+  const Real tEnd = m_.in.tEnd;
+  const bool due = coupling_ ? checkpointWindows_ > 0 && !coupling_->windowOpen() &&
+                                   coupling_->windowsDone() % checkpointWindows_ == 0 &&
+                                   coupling_->windowsDone() < coupling_->windowCount()
+                             : m_.in.checkpointInterval > 0 && t >= nextCheckpoint_ - 1e-9 * s.dt() &&
+                                   t < tEnd - 1e-9 * s.dt();
+  if (!checkpoints_ || !due) return;
+  const auto c0 = std::chrono::steady_clock::now();
+  while (t >= nextCheckpoint_ - 1e-9 * s.dt()) nextCheckpoint_ += m_.in.checkpointInterval;
+  ++checkpointSeq_;
+  writer_->flush();
+  lastFlush_ = c0;
+  checkpointArchive_.beginSave();
+  runState(checkpointArchive_);
+  checkpointArchive_.end();
+  CheckpointManifest m;
+  m.sequence = checkpointSeq_;
+  m.time = t;
+  m.step = s.stepCount();
+  m.samples = writer_->samples();
+  m.window = coupling_ ? coupling_->windowsDone() : -1;
+  m.fingerprint = fingerprint_;
+  checkpoints_->write(m, checkpointArchive_, writer_->path());
+  ++checkpointsWritten_;
+  checkpointSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+}
+
+// The results flushed every 2 s of wall time; progress every progress_seconds.
+void SolidRun::flushAndReport(Real t) {
+  const Solver& s = *m_.solver;
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - lastFlush_).count() > 2.0) {
+    writer_->flush();
+    lastFlush_ = now;
+  }
+  if (std::chrono::duration<double>(now - lastReport_).count() < m_.in.progressSeconds) return;
+  const double wall = elapsed(), rate = double(s.stepCount() - step0_) / wall;
+  const double left = (m_.in.tEnd - t) / s.dt() / rate;
+  out_ << "  t = " << std::setprecision(5) << t << " s / " << m_.in.tEnd << " s (" << std::setprecision(3)
+       << 100 * t / m_.in.tEnd << " %), step " << s.stepCount() << ", " << std::setprecision(4) << rate
+       << " steps/s, energy error " << std::setprecision(2) << s.energy().error << ", ETA " << hms(left) << std::endl;
+  lastReport_ = now;
+}
+
+void SolidRun::writeCouplingSummary() {
+  if (!coupling_) return;
+  const FluidCouplingStats cs = coupling_->stats();
+  const FluidCoupling& c = *coupling_;
+  writer_->writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
+                                    {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
+                                    {"unconverged_windows", double(cs.unconvergedWindows)},
+                                    {"window_size", c.windowSize()}, {"fluid_work", c.fluidWork()},
+                                    {"fluid_received_work", c.fluidReceivedWork()},
+                                    {"coupling_energy", c.couplingEnergy()},
+                                    {"volume_law_work", c.volumeLawWork()},
+                                    {"enclosed_volume", c.enclosedVolume()},
+                                    {"interface_work_peak", c.interfaceWorkPeak()},
+                                    {"energy_floor", c.energyFloor()},
+                                    {"energy_limit", m_.in.staged.coupling.energyLimit},
+                                    // cost split over the stepping (docs/coupler.md "Exchange cost")
+                                    {"coupled_wall_s", cs.secondsCoupled},
+                                    {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                                    {"coupler_s", cs.secondsInCoupler},
+                                    {"exchange_wait_s", cs.secondsWaiting},
+                                    {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
+                                    {"mapping_s", cs.secondsMapping},
+                                    {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
+                                    {"coupler_cpu_s", cs.cpuInCoupler}},
+                      {{"scheme", m_.in.staged.coupling.scheme}});
+}
+
+void SolidRun::writeTimings(double wall) {
+  const long long steps = m_.solver->stepCount() - step0_;
+  writer_->writeTimings(wall, steps, steps * m_.nElems, omp_get_max_threads());
+}
+
+// The end of a complete run: the water's last window, the timings and the status.
+void SolidRun::finish() {
+  if (coupling_) {
+    coupling_->finalize();
+    writeCouplingSummary();
+    const FluidCouplingStats cs = coupling_->stats();
     if (cs.unconvergedWindows > 0)
-      err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
-          << " coupling windows ended at the pass limit (coupling.max_iterations = " << in.staged.coupling.maxIterations
-          << ") with the interface residual above the tolerance " << in.staged.coupling.tolerance
-          << ": the water and the lining disagree there by more than asked. Raise coupling.max_iterations, or check "
-             "the added-mass ratio (`tunnelquake check`, docs/coupler.md); /coupling unconverged_windows in the "
-             "results counts them.\n";
+      err_ << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
+           << " coupling windows ended at the pass limit (coupling.max_iterations = "
+           << m_.in.staged.coupling.maxIterations << ") with the interface residual above the tolerance "
+           << m_.in.staged.coupling.tolerance
+           << ": the water and the lining disagree there by more than asked. Raise coupling.max_iterations, or "
+              "check the added-mass ratio (`tunnelquake check`, docs/coupler.md); /coupling unconverged_windows in "
+              "the results counts them.\n";
   }
-  // 5. Timings and status.
   const double wall = elapsed();
-  const long long steps = s.stepCount() - step0;
-  results.writeTimings(wall, steps, steps * nElems, omp_get_max_threads());
-  if (checkpoints) {
-    results.writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten)}, {"checkpoint_s", checkpointSeconds},
-                                    {"checkpoint_interval", in.checkpointInterval}});
+  const long long steps = m_.solver->stepCount() - step0_;
+  writeTimings(wall);
+  if (checkpoints_) {
+    writer_->writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten_)}, {"checkpoint_s", checkpointSeconds_},
+                                     {"checkpoint_interval", m_.in.checkpointInterval}});
   }
-  results.setStatus("completed");
-  if (checkpoints) checkpoints->clear();  // the results are whole: nothing left to resume
-  out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
-      << (steps > 0 ? 1e6 * wall / (double(steps) * nElems) : 0.0) << " µs per element-step), energy error "
-      << s.energy().error << "\n  results: " << output << "\n";
-  return 0;
-  };
-  try {
-    writer = std::make_unique<ResultsWriter>(output, in, s);
-    return engine();
-  } catch (const OutputError& e) {
-    if (coupling) coupling->abort(std::string("the solid stopped: ") + e.what());
-    err << "tq-solid: " << e.what() << "\n";
-    if (!writer) {  // the file could not even be started: nothing of it is worth keeping
-      std::remove(output.c_str());
-      err << "  no results written (" << output << " removed); free space on its file system and run again\n";
-    } else if (!writer->stopAfterOutputError(std::string("stopped: ") + e.what())) {
-      err << "  " << output << " holds the samples up to its last flush; its status could not be written\n";
-    } else if (writer->samples() == 0) {
-      err << "  no monitor sample written yet; " << output << " holds the run's set-up with status 'stopped: ...'; "
-          << "free space on its file system and run again\n";
-    } else {
-      err << "  results up to t = " << writer->lastSampleTime() << " s (" << writer->samples()
-          << " samples) are in " << output << " with status 'stopped: ...'; free space on its file system and run "
-          << "again\n";
-    }
-    return 5;
-  }
+  writer_->setStatus("completed");
+  if (checkpoints_) checkpoints_->clear();  // the results are whole: nothing left to resume
+  out_ << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
+       << (steps > 0 ? 1e6 * wall / (double(steps) * m_.nElems) : 0.0) << " µs per element-step), energy error "
+       << m_.solver->energy().error << "\n  results: " << cl_.output << "\n";
+}
+
+/// The whole run; `mpi` is set when /coupling transport is mpi (tq-solid under mpirun), and
+/// runSolid ends MPI after this returns (results.h5 closed by then).
+int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+                 std::unique_ptr<CouplingMpi>& mpi) {
+  CommandLine cl;
+  if (const int rc = parseCommandLine(args, out, err, cl); rc >= 0) return rc;
+  SolidRun run(std::move(cl), out, err, mpi);
+  return run.exec();
 }
 
 }  // namespace
