@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "tq/contact/contact.hpp"
-#include "tq/materials/material_mc.hpp"
 #include "tq/core/solver.hpp"
+#include "tq/materials/material_mc.hpp"
 
 using namespace tq;
 

@@ -7,8 +7,8 @@
 #include <memory>
 #include <vector>
 
-#include "tq/materials/material_mc.hpp"
 #include "tq/core/solver.hpp"
+#include "tq/materials/material_mc.hpp"
 #include <functional>
 
 namespace tqtest {

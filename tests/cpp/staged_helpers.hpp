@@ -6,8 +6,8 @@
 #include <memory>
 #include <vector>
 
-#include "tq/io/input.hpp"
 #include "tq/app/stages.hpp"
+#include "tq/io/input.hpp"
 
 namespace tqtest {
 

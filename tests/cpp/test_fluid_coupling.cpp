@@ -31,11 +31,11 @@
 #include <thread>
 
 #include "tq/boundaries/boundaries.hpp"
+#include "tq/core/state_archive.hpp"
 #include "tq/coupler/participant.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/mesh.hpp"
-#include "tq/core/state_archive.hpp"
 
 using namespace tq;
 namespace cp = tq::coupler;

@@ -31,8 +31,8 @@
 #include <vector>
 
 #include "staged_helpers.hpp"
-#include "tq/core/constraints.hpp"
 #include "tq/boundaries/free_field.hpp"
+#include "tq/core/constraints.hpp"
 #include "tq/io/mesh.hpp"
 
 using namespace tq;

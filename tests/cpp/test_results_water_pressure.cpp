@@ -12,8 +12,8 @@
 
 #include "io/h5util.hpp"
 #include "test_helpers.hpp"
-#include "tq/io/results.hpp"
 #include "tq/core/solver.hpp"
+#include "tq/io/results.hpp"
 
 using namespace tq;
 

@@ -11,8 +11,8 @@
 
 #include "io/h5util.hpp"
 #include "staged_helpers.hpp"
-#include "tq/app/app.hpp"
 #include "test_helpers.hpp"
+#include "tq/app/app.hpp"
 
 using namespace tq;
 

@@ -30,8 +30,8 @@
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
 #include "tq/boundaries/boundaries.hpp"
-#include "tq/core/constraints.hpp"
 #include "tq/contact/contact.hpp"
+#include "tq/core/constraints.hpp"
 #include "tq/core/state_archive.hpp"
 
 using namespace tq;

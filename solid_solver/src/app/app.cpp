@@ -21,11 +21,11 @@
 #include <iostream>
 #include <sstream>
 
+#include "tq/app/stages.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
-#include "tq/app/stages.hpp"
 
 namespace tq {
 

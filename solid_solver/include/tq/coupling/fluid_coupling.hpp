@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "tq/io/mesh.hpp"
 #include "tq/core/solver.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/io/staged_input.hpp"
 
 namespace tq {

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "tq/io/input.hpp"
 #include "tq/core/solver.hpp"
 #include "tq/core/state_archive.hpp"
+#include "tq/io/input.hpp"
 
 namespace tq {
 
