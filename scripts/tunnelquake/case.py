@@ -68,11 +68,12 @@ def _check_geometry(g, path, raw: LineDict, ctx):
 
 
 def _check_material(m, path, raw, ctx):
-    if m["model"] == "mohr_coulomb_damage":
-        for key in ("cohesion", "friction_angle", "tensile_strength"):
-            if m[key] is None:
-                ctx.error(f"{path}.{key}", None, "is required by model mohr_coulomb_damage",
-                          f"add '{key}:' or set model: elastic", raw.line)
+    from .solver_input_schema import required_by
+
+    for key in required_by(m["model"]):  # the solver's table says what the model needs
+        if m[key] is None:
+            ctx.error(f"{path}.{key}", None, f"is required by model {m['model']}",
+                      f"add '{key}:' or set model: elastic", raw.line)
     if m["dilation_angle"] is not None and m["friction_angle"] is not None and m["dilation_angle"] > m["friction_angle"]:
         ctx.error(f"{path}.dilation_angle", m["dilation_angle"],
                   f"exceeds the friction angle {m['friction_angle']:g} deg (non-physical dilatancy)",

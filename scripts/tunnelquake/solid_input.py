@@ -1,7 +1,9 @@
 """solid_input.h5 (version 2) for tq-solid, from a validated case, its mesh.h5 and motion.h5.
 
-The layout is docs/formats.md "## solid_input.h5"; tq-solid rejects any group or attribute it does
-not know, so this writer and that table change together.
+Every attribute and dataset goes through `solver_input_schema.put`, which takes its type and bounds
+from the one table of the file's layout (scripts/tunnelquake/solver_input_schema.py; docs/formats.md
+"## solid_input.h5" and tq-solid's reader are generated from it). Values come from the case; what is
+derived (mesh facts, the motion, the stages run) is computed here.
 
     write_solid_input(case, mesh_h5, motion_h5, condition, out,
                       coupling_address=None, coupling_token=None) -> Path
@@ -26,9 +28,8 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
   in a slice the ymin/ymax faces are then tied periodic (/boundaries/periodic: u equal on both,
   all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model refuses it;
 * the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
-* materials: the elastic constants plus the case's ``model`` and the Mohr-Coulomb damage
-  parameters as attributes (tq-solid builds the Mohr-Coulomb damage material from them when
-  ``model`` is ``mohr_coulomb_damage``);
+* materials: every material row of the table, from the case key it is linked to (else its default),
+  given or not by the model (tq-solid builds the material the ``model`` names from the ones it reads);
 * in slice mode (mesh attribute slice = 1) the monitors' y is moved into the slice's mid-plane;
 * with the case's monitors go the two reference points of `output.displacement_reference`
   (`reference_points`): the base under the tunnel axis and the free field at the axis' depth.
@@ -41,15 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from . import children
-from .case import coupling_predictor, coupling_window_force_weight
+from .case import CONDITIONS, coupling_predictor, coupling_window_force_weight
 from .files import h5_in_memory
-
-FORMAT = "tunnelquake-solid-input"
-VERSION = 2
-CONDITIONS = ("no_water", "static_water", "dynamic_water")
-#: Mohr-Coulomb damage parameters passed through to tq-solid (its damage material reads them).
-MOHR_COULOMB_KEYS = ("model", "cohesion", "friction_angle", "dilation_angle", "tensile_strength",
-                     "damage_constant", "damage_effect")
+from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, linked, lookup, put, write_schema
 
 
 class SolidInputError(ValueError):
@@ -92,7 +87,27 @@ def _motion(motion_h5: Path) -> dict:
 
 
 #: Coupling schemes tq-solid's adapter runs (the case schema offers the same).
-COUPLING_SCHEMES = ("explicit", "paper", "implicit")
+COUPLING_SCHEMES = lookup("/coupling", "scheme").choices
+
+
+def _from_case(obj, group: str, section: dict, table) -> None:
+    """Write a group's rows that are linked to a case key from that key's case section."""
+    for e in linked(group, table):
+        put(obj, group, e.name, section[e.case.rsplit(".", 1)[1]], table)
+
+
+def _material_values(m: dict, table) -> dict:
+    """A region's material attributes: each material row of the table from its case key (else its
+    default); rows whose value is neither given nor defaulted are left out."""
+    out = {}
+    for e in table:
+        if e.group != MATERIALS:
+            continue
+        v = m.get(e.case.rsplit(".", 1)[1]) if e.case else None
+        v = e.default if v is None else v
+        if v is not None:
+            out[e.name] = v
+    return out
 
 
 def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out: Path,
@@ -103,6 +118,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
     group is written from the case's ``coupling`` section (the fluid must be given the same)."""
     import h5py
 
+    table = entries()
     if condition not in CONDITIONS:
         raise SolidInputError(f"condition {condition!r} is not one of {', '.join(CONDITIONS)}")
     d = case.data
@@ -129,95 +145,83 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
     tmp = out.with_name(f".{out.name}.part")
     # built in memory: HDF5 never meets a full disk (files.h5_in_memory); the token's file is 0600 from the start
     with h5_in_memory(tmp, 0o600 if coupling_token else 0o666) as f:
-        f.attrs["format"] = FORMAT
-        f.attrs["version"] = VERSION
-        f.attrs["mesh"] = os.path.relpath(mesh_h5.resolve(), out.parent.resolve())
-        f.attrs["condition"] = condition
+        def w(obj, group, name, value):  # every value through the table
+            put(obj, group, name, value, table)
+
+        w(f, "/", "format", FORMAT)
+        w(f, "/", "version", VERSION)
+        w(f, "/", "mesh", os.path.relpath(mesh_h5.resolve(), out.parent.resolve()))
+        w(f, "/", "condition", condition)
 
         s = f.create_group("solver")
-        s.attrs["t_end"] = float(t_end)
-        s.attrs["dt"] = float(d["time"]["dt"] or 0.0)
-        s.attrs["safety"] = float(d["time"]["safety_factor"])
+        w(s, "/solver", "t_end", t_end)
+        w(s, "/solver", "dt", d["time"]["dt"] or 0.0)
+        w(s, "/solver", "safety", d["time"]["safety_factor"])
         if d["time"]["subcycling"]:
-            s.attrs["subcycling_levels"] = float(d["time"]["subcycling"])
+            w(s, "/solver", "subcycling_levels", d["time"]["subcycling"])
 
         damp = d["damping"]
         if damp["ratio"] > 0:
             dm = f.create_group("damping")
             if damp["model"] == "rayleigh":
-                dm.attrs["ratio"] = float(damp["ratio"])
-                dm.attrs["f1"], dm.attrs["f2"] = (float(x) for x in damp["frequencies"])
+                w(dm, "/damping", "ratio", damp["ratio"])
+                w(dm, "/damping", "f1", damp["frequencies"][0])
+                w(dm, "/damping", "f2", damp["frequencies"][1])
             else:  # mass-proportional only: the ratio at f1, falling as f1/f above it
-                dm.attrs["alpha"] = 2 * float(damp["ratio"]) * 2 * np.pi * float(damp["frequencies"][0])
-                dm.attrs["beta"] = 0.0
+                w(dm, "/damping", "alpha", 2 * float(damp["ratio"]) * 2 * np.pi * float(damp["frequencies"][0]))
+                w(dm, "/damping", "beta", 0.0)
 
         for region in mesh["regions"]:
-            m = d["materials"][region]
             mg = f.create_group(f"materials/{region}")
-            mg.attrs["E"] = float(m["youngs_modulus"])
-            mg.attrs["nu"] = float(m["poisson_ratio"])
-            mg.attrs["rho"] = float(m["density"])
-            # `model` is the case's choice (elastic or mohr_coulomb_damage); the Mohr-Coulomb damage
-            # parameters go along (the Mohr-Coulomb damage material reads them; an elastic material ignores them).
-            for key in MOHR_COULOMB_KEYS:
-                if m.get(key) is not None:
-                    mg.attrs[key] = m[key] if isinstance(m[key], str) else float(m[key])
+            for name, value in _material_values(d["materials"][region], table).items():
+                w(mg, MATERIALS, name, value)
 
         supports = {"bottom": "xyz", "xmin": "x", "xmax": "x"}
         if not mesh["slice"]:
             supports.update({"ymin": "y", "ymax": "y"})
         for face, dirs in supports.items():
-            f.create_group(f"boundary/fixed/{face}").attrs["directions"] = dirs
+            w(f.create_group(f"boundary/fixed/{face}"), "/boundary/fixed/*", "directions", dirs)
 
         st = f.create_group("stages")
-        st.attrs["sequence"] = ",".join(sequence)
-        st.attrs["relaxation_tolerance"] = float(stages["relaxation_tolerance"])
-        st.attrs["relaxation_max_steps"] = int(stages["relaxation_max_steps"])
-        # Fraction of the excavation load released with the rock alone before the lining is active.
-        st.attrs["release_fraction"] = float(stages["release_fraction"])
+        w(st, "/stages", "sequence", ",".join(sequence))
+        _from_case(st, "/stages", stages, table)
 
         if "in_situ" in sequence:
             i = f.create_group("in_situ")
-            for k in ("kx", "ky", "kz"):
-                i.attrs[k] = float(ins[k])
-            i.attrs["gravity"] = float(g)
-            i.attrs["z_top"] = float(geo["z_range"][1])
+            _from_case(i, "/in_situ", ins, table)
+            w(i, "/in_situ", "z_top", geo["z_range"][1])
         if hydrostatic:
             h = f.create_group("hydrostatic")
-            h.attrs["face"] = "lining_inner"
-            h.attrs["unit_weight"] = float(water["density"] * g)
-            h.attrs["pressure_at_axis"] = float(water["density"] * g * water["head"])
-            h.attrs["z_axis"] = float(geo["tunnel_centre_z"])
+            w(h, "/hydrostatic", "face", "lining_inner")
+            w(h, "/hydrostatic", "unit_weight", water["density"] * g)
+            w(h, "/hydrostatic", "pressure_at_axis", water["density"] * g * water["head"])
+            w(h, "/hydrostatic", "z_axis", geo["tunnel_centre_z"])
         if mesh["pairs"]:
             it = d["interface"]
             r = f.create_group("interfaces/rock_lining")
-            r.attrs["model"] = it["model"]
-            r.attrs["static_friction"] = float(it["static_friction"])
-            r.attrs["dynamic_friction"] = float(it["dynamic_friction"])
-            r.attrs["cohesion"] = float(it["cohesion"])
-            r.attrs["after_failure"] = it["after_failure"]
+            _from_case(r, "/interfaces/rock_lining", it, table)
 
         if "seismic" in sequence:
             b = f.create_group("boundaries/bottom")
-            b.attrs["face"] = "bottom"
-            b.attrs["type"] = "viscoelastic"
-            b.attrs["distance"] = float(geo["tunnel_centre_z"] - geo["z_range"][0])
-            f.create_group("boundaries/free_field").attrs["faces"] = "xmin,xmax"
+            w(b, "/boundaries/bottom", "face", "bottom")
+            w(b, "/boundaries/bottom", "type", "viscoelastic")
+            w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
+            w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", "xmin,xmax")
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
                     raise SolidInputError("the motion has a component along the tunnel's axis (y), which a 3D "
                                           "model's y faces (rollers) would hold back; use mesh.mode: slice")
-                f.create_group("boundaries/periodic").attrs["faces"] = "ymin,ymax"
+                w(f.create_group("boundaries/periodic"), "/boundaries/periodic", "faces", "ymin,ymax")
             mo = f.create_group("motion")
-            mo["time"] = motion["time"]
-            mo["ax"] = motion["ax"]
+            w(mo, "/motion", "time", motion["time"])
+            w(mo, "/motion", "ax", motion["ax"])
             if axial:
-                mo["ay"] = motion["ay"]
-            mo["az"] = motion["az"]
-            mo.attrs["cutoff_frequency"] = float(d["ground_motion"]["cutoff_frequency"])
+                w(mo, "/motion", "ay", motion["ay"])
+            w(mo, "/motion", "az", motion["az"])
+            w(mo, "/motion", "cutoff_frequency", d["ground_motion"]["cutoff_frequency"])
             if motion["convention"]:
-                mo.attrs["convention"] = motion["convention"]
+                w(mo, "/motion", "convention", motion["convention"])
 
         if condition == "dynamic_water" and (coupling_address is not None or coupling_token is not None):
             if coupling_address is None or not coupling_token:
@@ -235,24 +239,22 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
                                       "implicit (the paper scheme's two passes are made for one-step windows); "
                                       "use window: 1")
             c = f.create_group("coupling")
-            c.attrs["scheme"] = cs["scheme"]
-            c.attrs["window"] = int(cs["window"])
-            c.attrs["tolerance"] = float(cs["tolerance"])
-            c.attrs["max_iterations"] = int(cs["max_iterations"])
-            if coupling_window_force_weight(cs) != 0.5:  # absent in the solid input = 0.5, the linear ramp
-                c.attrs["window_force_weight"] = coupling_window_force_weight(cs)
-            if float(cs.get("energy_limit", 0)) > 0:  # absent = no energy guard
-                c.attrs["energy_limit"] = float(cs["energy_limit"])
-            c.attrs["acceleration"] = cs["acceleration"]
-            if coupling_predictor(cs) != "constant":  # absent = constant
-                c.attrs["predictor"] = coupling_predictor(cs)
-            if int(cs.get("reuse", 0)):  # absent = 0
-                c.attrs["reuse"] = int(cs["reuse"])
-            c.attrs["transport"] = cs["transport"]
-            c.attrs["timeout"] = float(cs["timeout"])
-            c.attrs["address_file"] = str(coupling_address)
-            c.attrs["token"] = str(coupling_token)
-            c.attrs["face"] = "lining_inner"
+            values = {"scheme": cs["scheme"], "window": cs["window"], "tolerance": cs["tolerance"],
+                      "max_iterations": cs["max_iterations"]}
+            # absent in the solid input: 0.5 (the linear ramp), no energy guard, constant predictor, no reuse
+            if coupling_window_force_weight(cs) != 0.5:
+                values["window_force_weight"] = coupling_window_force_weight(cs)
+            if float(cs.get("energy_limit", 0)) > 0:
+                values["energy_limit"] = cs["energy_limit"]
+            values["acceleration"] = cs["acceleration"]
+            if coupling_predictor(cs) != "constant":
+                values["predictor"] = coupling_predictor(cs)
+            if int(cs.get("reuse", 0)):
+                values["reuse"] = cs["reuse"]
+            values.update(transport=cs["transport"], timeout=cs["timeout"], address_file=str(coupling_address),
+                          token=str(coupling_token), face="lining_inner")
+            for key, value in values.items():
+                w(c, "/coupling", key, value)
 
         monitors = dict(d["output"]["monitors"] or {})
         if monitors:
@@ -262,13 +264,14 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             if mesh["slice"]:
                 pts[:, 1] = 0.5 * (mesh["lo"][1] + mesh["hi"][1])
             mg = f.create_group("monitors")
-            mg["names"] = np.array(names, dtype=h5py.string_dtype())
-            mg["points"] = pts
+            w(mg, "/monitors", "names", np.array(names, dtype=h5py.string_dtype()))
+            w(mg, "/monitors", "points", pts)
         o = f.create_group("output")
-        o.attrs["monitor_dt"] = float(d["output"]["history_interval"])
+        w(o, "/output", "monitor_dt", d["output"]["history_interval"])
         if float(d["output"]["checkpoint_interval"]) > 0:  # written when tq-solid gets --checkpoint-dir
-            o.attrs["checkpoint_interval"] = float(d["output"]["checkpoint_interval"])
-        o["snapshot_times"] = snapshot_times(d["output"]["snapshot_times"], t_end)
+            w(o, "/output", "checkpoint_interval", d["output"]["checkpoint_interval"])
+        w(o, "/output", "snapshot_times", snapshot_times(d["output"]["snapshot_times"], t_end))
+        write_schema(f, table)
     if coupling_token:  # the run's coupling secret: readable by its owner only
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)

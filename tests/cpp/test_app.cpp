@@ -24,6 +24,7 @@
 #include "io/h5util.hpp"
 #include "tq/app/app.hpp"
 #include "tq/io/input.hpp"
+#include "input_fixture.hpp"
 
 using namespace tq;
 
@@ -69,7 +70,7 @@ SolidInput columnInput(const Files& f) {
 TEST(App, ConfinedColumnStepLoadPeaksAtTwiceTheStaticDisplacement) {
   Files f;
   SolidInput in = columnInput(f);
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   const int rc = runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err);
   ASSERT_EQ(rc, 0) << err.str();
@@ -99,7 +100,7 @@ TEST(App, HistoriesAreWrittenOnAnEvenClockAndKeepTheirFrequency) {
   in.tEnd = 20 / f1;  // 20 periods: bins of f1 / 20
   in.monitorDt = 1.3e-3;
   in.snapshotTimes = {};
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   ASSERT_EQ(runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err), 0) << err.str();
   auto r = h5::openFile(f / "results.h5");
@@ -141,7 +142,7 @@ TEST(App, PaperLiteralIntegratorStopsWithLocationAndReadableResults) {
   SolidInput in = columnInput(f);
   in.options.integrator = Integrator::PaperEq34;
   in.tEnd *= 20;
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   const int rc = runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err);
   EXPECT_EQ(rc, 3) << out.str() << err.str();
@@ -159,13 +160,13 @@ TEST(App, BadInputIsReportedWithPathAndFix) {
   Files f;
   SolidInput in = columnInput(f);
   in.options.dt = 1.0;  // far above the stable step
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   EXPECT_EQ(runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err), 2);
   EXPECT_NE(err.str().find("above the stable limit"), std::string::npos) << err.str();
   // Unknown attribute is rejected with its location.
   in.options.dt = 0;
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   {
     auto h = h5::openFile(f / "solid_input.h5", true);
     auto g = h5::openGroup(h, "/solver");

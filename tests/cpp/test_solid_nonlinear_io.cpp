@@ -17,6 +17,7 @@
 #include "tq/io/input.hpp"
 #include "tq/io/results.hpp"
 #include "tq/io/staged_input.hpp"
+#include "input_fixture.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -68,7 +69,7 @@ TEST(SolidNonlinearInput, MohrCoulombAttributesRoundTripAndBadOnesAreRejected) {
   SolidInput in = weakColumn(f);
   in.mohrCoulomb["rock"].dilationAngle = 5;
   in.mohrCoulomb["rock"].damageEffect = DamageEffect::CohesionAndStiffness;
-  writeSolidInput(in, f / "in.h5", "mesh.h5");
+  test::writeInputFile(in, f / "in.h5", "mesh.h5");
   const SolidInput back = readSolidInput(f / "in.h5");
   ASSERT_EQ(back.mohrCoulomb.count("rock"), 1u);
   const auto& q = back.mohrCoulomb.at("rock");
@@ -113,7 +114,7 @@ TEST(SolidNonlinearInput, MohrCoulombAttributesRoundTripAndBadOnesAreRejected) {
 TEST(SolidNonlinearApp, YieldingColumnWritesDamageAndDissipationAndClosesTheBalance) {
   Files f;
   const SolidInput in = weakColumn(f);
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   ASSERT_EQ(runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err), 0) << out.str() << err.str();
   auto r = h5::openFile(f / "results.h5");

@@ -12,7 +12,7 @@
 #include "io/h5util.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/app/app.hpp"
+#include "input_fixture.hpp"
 
 using namespace tq;
 
@@ -258,7 +258,7 @@ TEST(StagedApp, BlockUnderPulseThroughFiles) {
   S.motion.cutoffFrequency = 20;
   tqtest::GaussPulse p;
   p.sample(0.5, 1e-3, S.motion.time, S.motion.ax);
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   ASSERT_EQ(runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err), 0) << out.str() << err.str();
   EXPECT_NE(out.str().find("stage in_situ"), std::string::npos) << out.str();
@@ -301,7 +301,7 @@ TEST(StagedApp, WarnsWhenElementsExceedAnEighthOfTheShortestWavelength) {
   in.staged.motion.cutoffFrequency = 20;
   in.staged.motion.time = {0, 1};
   in.staged.motion.ax = {0, 0};
-  writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   std::ostringstream out, err;
   EXPECT_EQ(runSolid({f / "solid_input.h5", "--check"}, out, err), 0) << err.str();
   EXPECT_NE(out.str().find("8 of 8 elements are larger than λ_min/8"), std::string::npos) << out.str();
@@ -323,7 +323,7 @@ TEST(StagedApp, BadInputIsReportedClearly) {
   };
   auto run = [&](const SolidInput& in, const Mesh& m) {
     writeMeshH5(m, f / "mesh.h5");
-    writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+    test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
     std::ostringstream out, err;
     const int rc = runSolid({f / "solid_input.h5", "-o", f / "results.h5"}, out, err);
     return std::make_pair(rc, err.str());
@@ -375,7 +375,7 @@ TEST(StagedApp, BadInputIsReportedClearly) {
   {
     SolidInput in = base();
     writeMeshH5(makeBoxMesh({1, 1, 2, 0, 0, 0, 1, 1, 2}), f / "mesh.h5");
-    writeSolidInput(in, f / "solid_input.h5", "mesh.h5");
+    test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
     {
       auto h = h5::openFile(f / "solid_input.h5", true);
       auto g = h5::openGroup(h, "/boundaries/bottom");

@@ -14,6 +14,7 @@
 #include "tq/app/app.hpp"
 #include "tq/contact/contact.hpp"
 #include "tunnel_cases.hpp"
+#include "input_fixture.hpp"
 
 using namespace tq;
 using namespace tqcases;
@@ -173,7 +174,7 @@ TEST(StressRelease, ReleaseFractionInput) {
     in.staged.stages.releaseFraction = lambda;
     in.staged.inSitu.present = true;
     in.staged.inSitu.surcharge = 1e6;
-    writeSolidInput(in, (dir / "solid_input.h5").string(), "mesh.h5");
+    test::writeInputFile(in, (dir / "solid_input.h5").string(), "mesh.h5");
     std::ostringstream out, err;
     const int rc = runSolid({(dir / "solid_input.h5").string(), "--check"}, out, err);
     return std::make_pair(rc, err.str());

@@ -17,6 +17,7 @@ from ..children import Side, stop_side
 from ..restart import checkpoint_dir, checkpoint_manifest, checkpoint_windows, coupled_resume_point
 from ..scene import plan
 from ..solid_input import solid_threads
+from ..solver_input_schema import put
 from .common import DiskFull, is_no_space, load_or_report, parser, say
 
 
@@ -257,7 +258,8 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         k = int(case.data["coupling"]["window"])
         settings = fc.coupling_settings(case, k * solid_step(exe, inp), addr, token, t_end=t_end)
         with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
-            f["coupling"].attrs.update(fc.solid_coupling_attrs(settings))
+            for key, value in fc.solid_coupling_attrs(settings).items():
+                put(f["coupling"], "/coupling", key, value)
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
         env = fc.fluid_env()
         env[fc.TOKEN_ENV] = token

@@ -50,6 +50,7 @@ import numpy as np
 
 from .. import paths
 from ..references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency
+from ..solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
 SCHEMES = ("explicit", "paper", "implicit")
 ANGLES = (0, 90, 180, 270)  # load and monitor positions (degrees)
@@ -333,7 +334,7 @@ def _write_water(ring: Ring, path: Path, th: np.ndarray, ys: np.ndarray) -> dict
 # Solid input
 # ------------------------------------------------------------------------------------------------
 def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupling: dict | None = None) -> Path:
-    """solid_input.h5 (version 2, docs/formats.md) of the free ring: the seismic stage only (no
+    """solid_input.h5 (docs/formats.md; every value through solver_input_schema.put) of the free ring: the seismic stage only (no
     static stages, no base, no motion), the four pulse loads, the wall monitors, and with
     `coupling` (fluid_case.solid_coupling_attrs) the /coupling group of condition dynamic_water."""
     import h5py
@@ -345,21 +346,23 @@ def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupli
         xyz = f["nodes/coordinates"][...]
         sets = {k: f[f"node_sets/{k}"][...] for k in f["node_sets"]}
     with h5py.File(out, "w") as f:
-        f.attrs["format"] = "tunnelquake-solid-input"
-        f.attrs["version"] = 2
-        f.attrs["mesh"] = os.path.relpath(Path(mesh_h5).resolve(), out.parent.resolve())
-        f.attrs["condition"] = "dynamic_water" if coupling else "no_water"
+        put(f, "/", "format", FORMAT)
+        put(f, "/", "version", VERSION)
+        put(f, "/", "mesh", os.path.relpath(Path(mesh_h5).resolve(), out.parent.resolve()))
+        put(f, "/", "condition", "dynamic_water" if coupling else "no_water")
         s = f.create_group("solver")
-        s.attrs["t_end"] = float(t_end)
-        s.attrs["dt"] = 0.0
-        s.attrs["safety"] = 0.9
-        s.attrs["velocity_limit"] = float(ring.velocity_limit)
+        put(s, "/solver", "t_end", t_end)
+        put(s, "/solver", "dt", 0.0)
+        put(s, "/solver", "safety", 0.9)
+        put(s, "/solver", "velocity_limit", ring.velocity_limit)
         mg = f.create_group("materials/lining")
-        mg.attrs["E"], mg.attrs["nu"], mg.attrs["rho"] = float(ring.E), float(ring.nu), float(ring.rho_s)
+        put(mg, MATERIALS, "E", ring.E)
+        put(mg, MATERIALS, "nu", ring.nu)
+        put(mg, MATERIALS, "rho", ring.rho_s)
         if ring.mode == "3d":  # plane strain: the ends held u_y = 0 (a slice gets it everywhere)
             for face in ("ymin", "ymax"):
-                f.create_group(f"boundary/fixed/{face}").attrs["directions"] = "y"
-        f.create_group("stages").attrs["sequence"] = "seismic"
+                put(f.create_group(f"boundary/fixed/{face}"), "/boundary/fixed/*", "directions", "y")
+        put(f.create_group("stages"), "/stages", "sequence", "seismic")
         # four radial point loads per metre of ring, P(t) a triangle; node-set shares are equal,
         # so the end layers of a prism get their half share from a set of their own
         tf = np.array([0.0, 0.5 * ring.pulse, ring.pulse]), np.array([0.0, 1.0, 0.0])
@@ -370,19 +373,24 @@ def write_solid_input(ring: Ring, mesh_h5: Path, out: Path, t_end: float, coupli
                 if name not in sets or share == 0:
                     continue
                 lg = f.create_group(f"loads/{name}")
-                lg.attrs["target"], lg.attrs["direction"] = name, d
-                lg.attrs["force"] = sign * total * share
-                lg["time"], lg["value"] = tf
+                put(lg, "/loads/*", "target", name)
+                put(lg, "/loads/*", "direction", d)
+                put(lg, "/loads/*", "force", sign * total * share)
+                put(lg, "/loads/*", "time", tf[0])
+                put(lg, "/loads/*", "value", tf[1])
         names = [f"wall_{a:03d}" for a in ANGLES]
         pts = np.array([xyz[(_node_at(a, n)) + n * (ring.n_through + 1) * ring.monitor_layer] for a in ANGLES])
         mo = f.create_group("monitors")
-        mo["names"] = np.array(names, dtype=h5py.string_dtype())
-        mo["points"] = pts
+        put(mo, "/monitors", "names", np.array(names, dtype=h5py.string_dtype()))
+        put(mo, "/monitors", "points", pts)
         o = f.create_group("output")
-        o.attrs["monitor_dt"] = float(ring.monitor_dt)
-        o.attrs["progress_s"] = 1e9
+        put(o, "/output", "monitor_dt", ring.monitor_dt)
+        put(o, "/output", "progress_s", 1e9)
         if coupling:
-            f.create_group("coupling").attrs.update(coupling)
+            c = f.create_group("coupling")
+            for key, value in coupling.items():
+                put(c, "/coupling", key, value)
+        write_schema(f)
     return out
 
 

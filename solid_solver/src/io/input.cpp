@@ -1,201 +1,191 @@
-// solid_input.h5 reader/writer (docs/formats.md "## solid_input.h5").
+// solid_input.h5 reader (docs/formats.md "## solid_input.h5"): every group, attribute, default and
+// bound from the generated table (input_schema.hpp), the stages and boundaries in input_staged.cpp.
 #include "tq/io/input.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <set>
+#include <sstream>
 
 #include "h5util.hpp"
+#include "input_schema.hpp"
 #include "input_staged.hpp"
 
 namespace tq {
 
+namespace S = input_schema;
+namespace K = input_schema::key;
+
 namespace {
 
-struct Ctx {
-  std::string file;
-  [[noreturn]] void fail(const std::string& where, const std::string& what) const {
-    throw InputError("solid input '" + file + "', " + where + ": " + what);
-  }
+/// Material models: the name `model` gives, and what adds a region's material built from its
+/// parameter map (the parameters a model reads are the table's rows naming it).
+struct MaterialModel {
+  const char* name;
+  void (*add)(const std::string& region, const MaterialValues& v, SolidInput& in);
 };
 
-void checkKeys(const Ctx& c, hid_t obj, const std::string& where, const std::set<std::string>& allowed) {
-  for (const auto& a : h5::attrNames(obj))
-    if (!allowed.count(a)) {
-      std::string list;
-      for (const auto& k : allowed) list += " " + k;
-      c.fail(where, "unknown attribute '" + a + "' (allowed:" + list + ")");
-    }
-}
+const MaterialModel kMaterialModels[] = {
+    {"elastic",
+     [](const std::string& region, const MaterialValues& v, SolidInput& in) {
+       const ElasticParams p = elasticParams(v);
+       ElasticMaterial check(p);
+       in.materials.emplace_back(region, p);
+     }},
+    {"mohr_coulomb_damage",
+     [](const std::string& region, const MaterialValues& v, SolidInput& in) {
+       const MohrCoulombDamageParams p = mohrCoulombDamageParams(v);
+       MohrCoulombDamageMaterial check(p);
+       in.materials.emplace_back(region, p.elastic);
+       in.mohrCoulomb[region] = p;
+     }},
+};
 
-void checkMembers(const Ctx& c, hid_t grp, const std::string& where, const std::set<std::string>& allowed) {
-  for (const auto& m : h5::members(grp))
-    if (!allowed.count(m)) {
-      std::string list;
-      for (const auto& k : allowed) list += " " + k;
-      c.fail(where, "unknown entry '" + m + "' (allowed:" + list + ")");
-    }
-}
-
-Real num(const Ctx& c, hid_t obj, const std::string& where, const std::string& key, Real def, bool required = false) {
-  if (!h5::hasAttr(obj, key)) {
-    if (required) c.fail(where, "attribute '" + key + "' is required");
-    return def;
-  }
+/// The material rows the file is read against: its own /schema rows when it has them (each row
+/// this tq-solid was built with must be there, declared the same; rows it does not know are
+/// parameters added to the table since, read into the regions' maps), else the compiled ones.
+std::vector<S::Row> materialRows(const S::Reader& R, hid_t f) {
+  std::vector<S::Row> compiled = S::rowsOf(S::kMaterials);
+  if (!h5::exists(f, "/schema")) return compiled;
+  auto g = h5::openGroup(f, "/schema");
+  R.checkGroup(g, "/schema", "/schema");
+  const std::string hash = R.text(g, "/schema", K::schema::hash, true);
+  if (hash != S::kHash)
+    R.fail("/schema", "hash " + hash + " is not this tq-solid's " + S::kHash + ": the file was written from another "
+           "version of the table (scripts/tunnelquake/solver_input_schema.py); rebuild tq-solid or rewrite the input");
+  if (!R.has(g, K::schema::material_parameters)) return compiled;
+  std::vector<S::Row> rows;
   try {
-    const Real v = h5::readDoubleAttr(obj, key);
-    if (!std::isfinite(v)) c.fail(where, "attribute '" + key + "' is not finite");
-    return v;
+    for (const auto& text : h5::readStrings(g, K::schema::material_parameters.name))
+      rows.push_back(S::parseMaterialRow(text));
   } catch (const InputError& e) {
-    c.fail(where, e.what());
+    R.fail("/schema", e.what());
+  }
+  for (const auto& c : compiled) {
+    const auto it = std::find_if(rows.begin(), rows.end(), [&](const S::Row& r) { return r.name == c.name; });
+    if (it == rows.end() || !(*it == c))
+      R.fail("/schema", "material parameter '" + c.name + "' is " + (it == rows.end() ? "missing" : "declared differently") +
+             " in this file's material_parameters (this tq-solid was built from another version of the table); "
+             "rebuild tq-solid or rewrite the input");
+  }
+  return rows;
+}
+
+void readMaterials(const S::Reader& R, hid_t f, SolidInput& in) {
+  const std::vector<S::Row> rows = materialRows(R, f);
+  const S::Row* modelRow = nullptr;
+  for (const auto& r : rows)
+    if (r.name == K::materials::model.name) modelRow = &r;
+  if (!modelRow) R.fail("/schema", "material_parameters has no row 'model'");
+  auto g = h5::openGroup(f, "/materials");
+  R.checkGroup(g, "/materials", "/materials");
+  for (const auto& region : h5::members(g)) {
+    auto mg = h5::openGroup(g, region);
+    const std::string w = "/materials/" + region;
+    R.checkGroup(mg, w, S::kMaterials, rows);
+    MaterialValues v;
+    v.model = R.text(mg, w, *modelRow);
+    for (const auto& r : rows) {
+      if (&r == modelRow) continue;
+      const bool required = r.requiredFor(v.model);
+      if (required && !R.has(mg, r))
+        R.fail(w, "attribute '" + r.name + "' is required by model " + v.model +
+                      (r.caseKey.empty() ? "" : " (case key " + r.caseKey + ")"));
+      if (!R.has(mg, r) && !(r.hasDefault && r.readBy(v.model)) && !required) continue;
+      if (r.kind == S::Kind::Text)
+        v.texts[r.name] = R.text(mg, w, r, required);
+      else
+        v.numbers[r.name] = R.number(mg, w, r, required);
+    }
+    const auto* model = std::find_if(std::begin(kMaterialModels), std::end(kMaterialModels),
+                                     [&](const MaterialModel& m) { return v.model == m.name; });
+    if (model == std::end(kMaterialModels)) R.fail(w, "model '" + v.model + "' has no material in this tq-solid");
+    try {
+      model->add(region, v, in);
+    } catch (const InputError& e) {
+      R.fail(w, e.what());
+    }
+    in.materialValues[region] = v;
   }
 }
 
-std::string str(const Ctx& c, hid_t obj, const std::string& where, const std::string& key, const std::string& def,
-                bool required = false) {
-  if (!h5::hasAttr(obj, key)) {
-    if (required) c.fail(where, "attribute '" + key + "' is required");
-    return def;
+std::string jsonString(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    out += ch;
   }
-  try {
-    return h5::readStringAttr(obj, key);
-  } catch (const InputError& e) {
-    c.fail(where, e.what());
-  }
-}
-
-int direction(const Ctx& c, const std::string& where, const std::string& d) {
-  if (d == "x") return 0;
-  if (d == "y") return 1;
-  if (d == "z") return 2;
-  c.fail(where, "direction '" + d + "' must be one of x, y, z");
+  return out + "\"";
 }
 
 }  // namespace
 
 SolidInput readSolidInput(const std::string& path) {
-  Ctx c{path};
+  const S::Reader R(path);
   SolidInput in;
   in.path = path;
   auto f = h5::openFile(path);
-  checkKeys(c, f, "root", {"format", "version", "mesh", "condition"});
-  const std::string fmt = str(c, f, "root", "format", "", true);
-  if (fmt != "tunnelquake-solid-input")
-    c.fail("root", "format is '" + fmt + "', expected 'tunnelquake-solid-input'");
-  const Real ver = num(c, f, "root", "version", 0, true);
-  if (ver != 1 && ver != 2)
-    c.fail("root", "version " + std::to_string(int(ver)) + " is not supported (this tq-solid reads 1 and 2)");
-  const std::string mesh = str(c, f, "root", "mesh", "", true);
+  R.checkGroup(f, "root", "/");
+  R.requireGroups(f);
+  R.text(f, "root", K::root::format, true);
+  R.number(f, "root", K::root::version, true);
+  const std::string mesh = R.text(f, "root", K::root::mesh, true);
   const auto dir = std::filesystem::path(path).parent_path();
   in.meshPath = std::filesystem::path(mesh).is_absolute() ? mesh : (dir / mesh).string();
-  {
-    std::set<std::string> rootGroups = {"solver", "damping", "materials", "boundary", "loads", "monitors", "output"};
-    if (ver == 2) rootGroups.insert(std::begin(kStagedRootGroups), std::end(kStagedRootGroups));
-    checkMembers(c, f, "root", rootGroups);
-    if (ver == 1 && h5::hasAttr(f, "condition")) c.fail("root", "attribute 'condition' needs version 2");
-  }
 
   // /solver
-  if (!h5::exists(f, "/solver")) c.fail("/solver", "group is required (at least attribute t_end)");
   {
     auto g = h5::openGroup(f, "/solver");
     const std::string w = "/solver";
-    checkKeys(c, g, w, {"t_end", "dt", "safety", "integrator", "formulation", "velocity_limit", "gravity_z",
-                        "subcycling_levels"});
-    in.tEnd = num(c, g, w, "t_end", 0, true);
-    if (!(in.tEnd > 0)) c.fail(w, "t_end = " + std::to_string(in.tEnd) + " must be > 0 (s)");
-    in.options.dt = num(c, g, w, "dt", 0);
-    in.options.safety = num(c, g, w, "safety", 0.9);
-    in.options.velocityLimit = num(c, g, w, "velocity_limit", 1e3);
-    in.options.gravity[2] = num(c, g, w, "gravity_z", 0);
-    {
-      const Real lv = num(c, g, w, "subcycling_levels", 0);
-      if (!(lv >= 0 && lv <= 8 && lv == std::floor(lv)))
-        c.fail(w, "subcycling_levels = " + std::to_string(lv) +
-                      " must be a whole number 0..8 (0 = off; n: elements step up to 2^n times the finest step)");
-      in.options.subcyclingLevels = int(lv);
-    }
+    R.checkGroup(g, w, w);
+    in.tEnd = R.number(g, w, K::solver::t_end);
+    in.options.dt = R.number(g, w, K::solver::dt);
+    in.options.safety = R.number(g, w, K::solver::safety);
+    in.options.velocityLimit = R.number(g, w, K::solver::velocity_limit);
+    in.options.gravity[2] = R.number(g, w, K::solver::gravity_z);
+    in.options.subcyclingLevels = int(R.number(g, w, K::solver::subcycling_levels));
     try {
-      in.options.integrator = parseIntegrator(str(c, g, w, "integrator", "central_difference"));
-      in.formulation = parseFormulation(str(c, g, w, "formulation", "one_point_assumed_strain"));
+      in.options.integrator = parseIntegrator(R.text(g, w, K::solver::integrator));
+      in.formulation = parseFormulation(R.text(g, w, K::solver::formulation));
     } catch (const InputError& e) {
-      c.fail(w, e.what());
+      R.fail(w, e.what());
     }
   }
   // /damping
   if (h5::exists(f, "/damping")) {
     auto g = h5::openGroup(f, "/damping");
     const std::string w = "/damping";
-    checkKeys(c, g, w, {"ratio", "f1", "f2", "alpha", "beta"});
-    const bool byRatio = h5::hasAttr(g, "ratio");
-    const bool byCoef = h5::hasAttr(g, "alpha") || h5::hasAttr(g, "beta");
-    if (byRatio && byCoef) c.fail(w, "give either ratio/f1/f2 or alpha/beta, not both");
+    R.checkGroup(g, w, w);
+    const bool byRatio = R.has(g, K::damping::ratio);
+    const bool byCoef = R.has(g, K::damping::alpha) || R.has(g, K::damping::beta);
+    if (byRatio && byCoef) R.fail(w, "give either ratio/f1/f2 or alpha/beta, not both");
     try {
       if (byRatio)
-        in.options.damping = RayleighDamping::fromRatio(num(c, g, w, "ratio", 0), num(c, g, w, "f1", 0, true),
-                                                        num(c, g, w, "f2", 0, true));
+        in.options.damping = RayleighDamping::fromRatio(R.number(g, w, K::damping::ratio),
+                                                        R.number(g, w, K::damping::f1, true),
+                                                        R.number(g, w, K::damping::f2, true));
       else
-        in.options.damping = {num(c, g, w, "alpha", 0), num(c, g, w, "beta", 0)};
+        in.options.damping = {R.number(g, w, K::damping::alpha), R.number(g, w, K::damping::beta)};
     } catch (const InputError& e) {
-      c.fail(w, e.what());
+      R.fail(w, e.what());
     }
-    if (in.options.damping.alpha < 0 || in.options.damping.beta < 0) c.fail(w, "alpha and beta must be >= 0");
+    if (in.options.damping.alpha < 0 || in.options.damping.beta < 0) R.fail(w, "alpha and beta must be >= 0");
   }
-  // /materials/<region>
-  if (!h5::exists(f, "/materials")) c.fail("/materials", "group is required: one subgroup per mesh region");
-  {
-    auto g = h5::openGroup(f, "/materials");
-    for (const auto& region : h5::members(g)) {
-      auto mg = h5::openGroup(g, region);
-      const std::string w = "/materials/" + region;
-      // `model`; `type` is version 1's name for the same choice.
-      const std::string type = str(c, mg, w, "type", "elastic"), model = str(c, mg, w, "model", type);
-      if (model != "elastic" && model != "mohr_coulomb_damage")
-        c.fail(w, "model '" + model + "' is unknown; use elastic or mohr_coulomb_damage");
-      if (h5::hasAttr(mg, "type") && h5::hasAttr(mg, "model") && type != model)
-        c.fail(w, "attributes type = '" + type + "' and model = '" + model + "' disagree; give model only");
-      std::set<std::string> keys = {"type", "E", "nu", "rho"};
-      keys.insert(std::begin(kMohrCoulombAttrs), std::end(kMohrCoulombAttrs));  // for the Mohr-Coulomb damage material
-      checkKeys(c, mg, w, keys);
-      ElasticParams p{num(c, mg, w, "E", 0, true), num(c, mg, w, "nu", 0, true), num(c, mg, w, "rho", 0, true)};
-      try {
-        ElasticMaterial check(p);
-      } catch (const InputError& e) {
-        c.fail(w, e.what());
-      }
-      in.materials.emplace_back(region, p);
-      if (model == "mohr_coulomb_damage") {  // eqs. 16-18; the other attributes are ignored for elastic
-        MohrCoulombDamageParams mp;
-        mp.elastic = p;
-        mp.cohesion = num(c, mg, w, "cohesion", 0, true);
-        mp.frictionAngle = num(c, mg, w, "friction_angle", 0, true);
-        mp.dilationAngle = num(c, mg, w, "dilation_angle", 0);
-        mp.tensileStrength = num(c, mg, w, "tensile_strength", 0, true);
-        mp.damageConstant = num(c, mg, w, "damage_constant", 100);
-        try {
-          mp.damageEffect = parseDamageEffect(str(c, mg, w, "damage_effect", "cohesion"));
-          MohrCoulombDamageMaterial check(mp);
-        } catch (const InputError& e) {
-          c.fail(w, e.what());
-        }
-        in.mohrCoulomb[region] = mp;
-      }
-    }
-  }
+  readMaterials(R, f, in);
   // /boundary/fixed/<face group>
   if (h5::exists(f, "/boundary")) {
     auto g = h5::openGroup(f, "/boundary");
-    checkMembers(c, g, "/boundary", {"fixed"});
+    R.checkGroup(g, "/boundary", "/boundary");
     if (h5::exists(g, "fixed")) {
       auto fg = h5::openGroup(g, "fixed");
+      R.checkGroup(fg, "/boundary/fixed", "/boundary/fixed");
       for (const auto& group : h5::members(fg)) {
         auto gg = h5::openGroup(fg, group);
         const std::string w = "/boundary/fixed/" + group;
-        checkKeys(c, gg, w, {"directions"});
-        const std::string dirs = str(c, gg, w, "directions", "", true);
+        R.checkGroup(gg, w, "/boundary/fixed/*");
+        const std::string dirs = R.text(gg, w, K::boundary_fixed::directions);
         if (dirs.empty() || dirs.find_first_not_of("xyz") != std::string::npos)
-          c.fail(w, "directions '" + dirs + "' must be letters from x, y, z (e.g. \"xyz\")");
+          R.fail(w, "directions '" + dirs + "' must be letters from x, y, z (e.g. \"xyz\")");
         in.fixed[group] = dirs;
         in.requiredFaces.push_back(group);
       }
@@ -204,24 +194,25 @@ SolidInput readSolidInput(const std::string& path) {
   // /loads/<name>
   if (h5::exists(f, "/loads")) {
     auto g = h5::openGroup(f, "/loads");
+    R.checkGroup(g, "/loads", "/loads");
     for (const auto& name : h5::members(g)) {
       auto lg = h5::openGroup(g, name);
       const std::string w = "/loads/" + name;
-      checkKeys(c, lg, w, {"target", "direction", "force"});
-      checkMembers(c, lg, w, {"time", "value"});
+      R.checkGroup(lg, w, "/loads/*");
       LoadInput l;
       l.name = name;
-      l.target = str(c, lg, w, "target", "", true);
-      l.direction = direction(c, w, str(c, lg, w, "direction", "", true));
-      l.force = num(c, lg, w, "force", 0, true);
-      if (h5::exists(lg, "time") != h5::exists(lg, "value")) c.fail(w, "give both datasets time and value, or neither");
-      if (h5::exists(lg, "time")) {
-        l.function.t = h5::readDoubles(lg, "time");
-        l.function.value = h5::readDoubles(lg, "value");
+      l.target = R.text(lg, w, K::loads::target);
+      l.direction = R.text(lg, w, K::loads::direction)[0] - 'x';
+      l.force = R.number(lg, w, K::loads::force);
+      if (R.has(lg, K::loads::time) != R.has(lg, K::loads::value))
+        R.fail(w, "give both datasets time and value, or neither");
+      if (R.has(lg, K::loads::time)) {
+        l.function.t = h5::readDoubles(lg, K::loads::time.name);
+        l.function.value = h5::readDoubles(lg, K::loads::value.name);
         if (l.function.t.size() != l.function.value.size() || l.function.t.empty())
-          c.fail(w, "time and value must have the same non-zero length");
+          R.fail(w, "time and value must have the same non-zero length");
         for (size_t i = 1; i < l.function.t.size(); ++i)
-          if (!(l.function.t[i] > l.function.t[i - 1])) c.fail(w, "time must be strictly increasing");
+          if (!(l.function.t[i] > l.function.t[i - 1])) R.fail(w, "time must be strictly increasing");
       }
       in.loads.push_back(l);
     }
@@ -229,18 +220,18 @@ SolidInput readSolidInput(const std::string& path) {
   // /monitors
   if (h5::exists(f, "/monitors")) {
     auto g = h5::openGroup(f, "/monitors");
-    checkMembers(c, g, "/monitors", {"names", "points"});
-    const auto names = h5::readStrings(g, "names");
+    R.checkGroup(g, "/monitors", "/monitors");
+    const auto names = h5::readStrings(g, K::monitors::names.name);
     std::vector<hsize_t> d;
-    const auto pts = h5::readDoubles(g, "points", &d);
+    const auto pts = h5::readDoubles(g, K::monitors::points.name, &d);
     if (d.size() != 2 || d[1] != 3 || d[0] != names.size())
-      c.fail("/monitors", "points must have shape [M, 3] with M = number of names");
+      R.fail("/monitors", "points must have shape [M, 3] with M = number of names");
     for (size_t i = 0; i < names.size(); ++i) {
       MonitorInput m;
       m.name = names[i];
       for (int k = 0; k < 3; ++k) m.point[k] = pts[3 * i + k];
       if (m.name.empty() || m.name.find('/') != std::string::npos)
-        c.fail("/monitors", "monitor name '" + m.name + "' must be non-empty without '/'");
+        R.fail("/monitors", "monitor name '" + m.name + "' must be non-empty without '/'");
       in.monitors.push_back(m);
     }
   }
@@ -248,91 +239,32 @@ SolidInput readSolidInput(const std::string& path) {
   if (h5::exists(f, "/output")) {
     auto g = h5::openGroup(f, "/output");
     const std::string w = "/output";
-    checkKeys(c, g, w, {"monitor_dt", "progress_s", "ring_forces", "checkpoint_interval"});
-    checkMembers(c, g, w, {"snapshot_times"});
-    in.monitorDt = num(c, g, w, "monitor_dt", 0.005);
-    in.progressSeconds = num(c, g, w, "progress_s", 5);
-    const Real ring = num(c, g, w, "ring_forces", 1);
-    if (ring != 0 && ring != 1) c.fail(w, "ring_forces must be 0 or 1");
-    in.ringForces = ring != 0;
-    if (!(in.monitorDt > 0)) c.fail(w, "monitor_dt must be > 0 (s)");
-    in.checkpointInterval = num(c, g, w, "checkpoint_interval", 0);
-    if (!(in.checkpointInterval >= 0)) c.fail(w, "checkpoint_interval must be >= 0 (s; 0 = no restart checkpoints)");
-    if (h5::exists(g, "snapshot_times")) in.snapshotTimes = h5::readDoubles(g, "snapshot_times");
+    R.checkGroup(g, w, w);
+    in.monitorDt = R.number(g, w, K::output::monitor_dt);
+    in.progressSeconds = R.number(g, w, K::output::progress_s);
+    in.ringForces = R.flag(g, w, K::output::ring_forces);
+    in.checkpointInterval = R.number(g, w, K::output::checkpoint_interval);
+    if (R.has(g, K::output::snapshot_times)) in.snapshotTimes = h5::readDoubles(g, K::output::snapshot_times.name);
     std::sort(in.snapshotTimes.begin(), in.snapshotTimes.end());
   }
-  if (ver == 2) readStagedInput(f, in);  // stages, in-situ, boundaries, motion (input_staged.cpp)
+  readStagedInput(f, in);  // stages, in-situ stress, boundaries, motion, coupling (input_staged.cpp)
   return in;
 }
 
-void writeSolidInput(const SolidInput& in, const std::string& path, const std::string& meshAttr) {
-  auto f = h5::createFile(path);
-  h5::writeStringAttr(f, "format", "tunnelquake-solid-input");
-  h5::writeIntAttr(f, "version", in.staged.present ? 2 : 1);
-  h5::writeStringAttr(f, "mesh", meshAttr);
-  {
-    auto g = h5::ensureGroup(f, "/solver");
-    h5::writeDoubleAttr(g, "t_end", in.tEnd);
-    h5::writeDoubleAttr(g, "dt", in.options.dt);
-    h5::writeDoubleAttr(g, "safety", in.options.safety);
-    h5::writeDoubleAttr(g, "velocity_limit", in.options.velocityLimit);
-    h5::writeDoubleAttr(g, "gravity_z", in.options.gravity[2]);
-    if (in.options.subcyclingLevels > 0) h5::writeDoubleAttr(g, "subcycling_levels", in.options.subcyclingLevels);
-    h5::writeStringAttr(g, "integrator", integratorName(in.options.integrator));
-    h5::writeStringAttr(g, "formulation", formulationName(in.formulation));
+std::string inputJson(const SolidInput& in) {
+  std::ostringstream os;
+  os.precision(17);
+  os << "{\"path\": " << jsonString(in.path) << ", \"schema\": " << jsonString(S::kHash) << ", \"materials\": {";
+  bool firstRegion = true;
+  for (const auto& [region, v] : in.materialValues) {
+    os << (firstRegion ? "" : ", ") << jsonString(region) << ": {\"model\": " << jsonString(v.model);
+    for (const auto& [k, x] : v.numbers) os << ", " << jsonString(k) << ": " << x;
+    for (const auto& [k, t] : v.texts) os << ", " << jsonString(k) << ": " << jsonString(t);
+    os << "}";
+    firstRegion = false;
   }
-  {
-    auto g = h5::ensureGroup(f, "/damping");
-    h5::writeDoubleAttr(g, "alpha", in.options.damping.alpha);
-    h5::writeDoubleAttr(g, "beta", in.options.damping.beta);
-  }
-  for (const auto& [region, p] : in.materials) {
-    auto g = h5::ensureGroup(f, "/materials/" + region);
-    h5::writeDoubleAttr(g, "E", p.youngsModulus);
-    h5::writeDoubleAttr(g, "nu", p.poissonRatio);
-    h5::writeDoubleAttr(g, "rho", p.density);
-    const auto mc = in.mohrCoulomb.find(region);
-    h5::writeStringAttr(g, "model", mc == in.mohrCoulomb.end() ? "elastic" : "mohr_coulomb_damage");
-    if (mc != in.mohrCoulomb.end()) {
-      const MohrCoulombDamageParams& q = mc->second;
-      h5::writeDoubleAttr(g, "cohesion", q.cohesion);
-      h5::writeDoubleAttr(g, "friction_angle", q.frictionAngle);
-      h5::writeDoubleAttr(g, "dilation_angle", q.dilationAngle);
-      h5::writeDoubleAttr(g, "tensile_strength", q.tensileStrength);
-      h5::writeDoubleAttr(g, "damage_constant", q.damageConstant);
-      h5::writeStringAttr(g, "damage_effect", damageEffectName(q.damageEffect));
-    }
-  }
-  for (const auto& [group, dirs] : in.fixed) {
-    auto g = h5::ensureGroup(f, "/boundary/fixed/" + group);
-    h5::writeStringAttr(g, "directions", dirs);
-  }
-  for (const auto& l : in.loads) {
-    auto g = h5::ensureGroup(f, "/loads/" + l.name);
-    h5::writeStringAttr(g, "target", l.target);
-    h5::writeStringAttr(g, "direction", std::string(1, "xyz"[l.direction]));
-    h5::writeDoubleAttr(g, "force", l.force);
-    h5::writeDoubles(g, "time", l.function.t.data(), {l.function.t.size()});
-    h5::writeDoubles(g, "value", l.function.value.data(), {l.function.value.size()});
-  }
-  if (!in.monitors.empty()) {
-    std::vector<std::string> names;
-    std::vector<Real> pts;
-    for (const auto& m : in.monitors) {
-      names.push_back(m.name);
-      pts.insert(pts.end(), m.point, m.point + 3);
-    }
-    h5::writeStrings(f, "/monitors/names", names);
-    h5::writeDoubles(f, "/monitors/points", pts.data(), {names.size(), 3});
-  }
-  auto g = h5::ensureGroup(f, "/output");
-  h5::writeDoubleAttr(g, "monitor_dt", in.monitorDt);
-  h5::writeDoubleAttr(g, "progress_s", in.progressSeconds);
-  if (!in.ringForces) h5::writeIntAttr(g, "ring_forces", 0);
-  if (in.checkpointInterval > 0) h5::writeDoubleAttr(g, "checkpoint_interval", in.checkpointInterval);
-  if (!in.snapshotTimes.empty())
-    h5::writeDoubles(g, "snapshot_times", in.snapshotTimes.data(), {in.snapshotTimes.size()});
-  if (in.staged.present) writeStagedInput(f, in);
+  os << "}, \"t_end\": " << in.tEnd << ", \"stages\": " << (in.staged.present ? "true" : "false") << "}";
+  return os.str();
 }
 
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {

@@ -3,7 +3,26 @@
 #include <cmath>
 #include <sstream>
 
+#include "io/input_schema.hpp"
+
 namespace tq {
+
+Real MaterialValues::number(const std::string& name) const {
+  const auto it = numbers.find(name);
+  if (it == numbers.end()) throw InputError("material " + model + ": parameter '" + name + "' is not given");
+  return it->second;
+}
+
+const std::string& MaterialValues::text(const std::string& name) const {
+  const auto it = texts.find(name);
+  if (it == texts.end()) throw InputError("material " + model + ": parameter '" + name + "' is not given");
+  return it->second;
+}
+
+ElasticParams elasticParams(const MaterialValues& v) {
+  namespace M = input_schema::key::materials;
+  return {v.number(M::E.name), v.number(M::nu.name), v.number(M::rho.name)};
+}
 
 ElasticModuli ElasticModuli::fromYoungPoisson(Real E, Real nu) {
   ElasticModuli m;

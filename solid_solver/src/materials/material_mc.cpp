@@ -7,7 +7,23 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/input_schema.hpp"
+
 namespace tq {
+
+MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v) {
+  namespace M = input_schema::key::materials;
+  MohrCoulombDamageParams p;
+  p.elastic = elasticParams(v);
+  p.cohesion = v.number(M::cohesion.name);
+  p.frictionAngle = v.number(M::friction_angle.name);
+  p.dilationAngle = v.number(M::dilation_angle.name);
+  p.tensileStrength = v.number(M::tensile_strength.name);
+  p.damageConstant = v.number(M::damage_constant.name);
+  p.damageEffect = parseDamageEffect(v.text(M::damage_effect.name));
+  return p;
+}
+
 
 DamageEffect parseDamageEffect(const std::string& n) {
   if (n == "cohesion") return DamageEffect::Cohesion;

@@ -29,7 +29,7 @@ struct MonitorInput {
   Real point[3] = {0, 0, 0};
 };
 
-/// Everything in solid_input.h5 (version 1).
+/// Everything in solid_input.h5.
 struct SolidInput {
   std::string path;        ///< the input file itself
   std::string meshPath;    ///< resolved mesh.h5 path
@@ -39,6 +39,9 @@ struct SolidInput {
   std::vector<std::pair<std::string, ElasticParams>> materials;  ///< region -> elastic params
   /// Regions whose model is mohr_coulomb_damage -> its parameters (elastic part = `materials`).
   std::map<std::string, MohrCoulombDamageParams> mohrCoulomb;
+  /// Region -> its material as read (model and parameters by name, those of no model included);
+  /// `materials` and `mohrCoulomb` are built from it by the model's factory.
+  std::map<std::string, MaterialValues> materialValues;
   std::map<std::string, std::string> fixed;   ///< face group -> directions ("xyz", "z", ...)
   std::vector<LoadInput> loads;
   std::vector<MonitorInput> monitors;
@@ -50,14 +53,17 @@ struct SolidInput {
   /// --checkpoint-dir (tq/restart.hpp)
   Real checkpointInterval = 0;
   std::vector<std::string> requiredFaces;  ///< face groups the run needs (checked on the mesh)
-  StagedInput staged;      ///< version 2: stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
+  StagedInput staged;      ///< stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
 };
 
-/// Read and validate solid_input.h5. Unknown groups and attributes are rejected with their path.
+/// Read and validate solid_input.h5 against its table (solid_solver/src/input_schema.inc, generated
+/// from scripts/tunnelquake/solver_input_schema.py). Unknown groups and attributes are rejected with
+/// their path and the allowed names.
 SolidInput readSolidInput(const std::string& path);
 
-/// Write solid_input.h5 (tests and tools; the Python side writes the real ones).
-void writeSolidInput(const SolidInput& in, const std::string& path, const std::string& meshAttr);
+/// What was read, as JSON: the path, the table's hash, each region's model and parameters
+/// (`tq-solid --print-input`).
+std::string inputJson(const SolidInput& in);
 
 /// Build the solver (blocks per region, supports, loads) for an input and its mesh.
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh);

@@ -5,6 +5,7 @@
 ///        subclass with its own parameter struct and history variables.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -33,6 +34,20 @@ struct ElasticParams {
   Real poissonRatio = 0;   ///< ν (-), -1 < ν < 0.5
   Real density = 0;        ///< ρ (kg/m^3), > 0
 };
+
+/// A region's material as solid_input.h5 gives it: the model's name and its parameters by name
+/// (the table's material rows; docs/formats.md "## solid_input.h5"). A model's parameters are
+/// taken from it by name; parameters a model does not read stay in the map.
+struct MaterialValues {
+  std::string model;
+  std::map<std::string, Real> numbers;
+  std::map<std::string, std::string> texts;
+  Real number(const std::string& name) const;       ///< throws InputError when absent
+  const std::string& text(const std::string& name) const;
+};
+
+/// The elastic parameters (E, nu, rho) of a region's parameter map.
+ElasticParams elasticParams(const MaterialValues& v);
 
 /// One chunk of elements handed to a material: strain increments in, stresses updated in place.
 struct MaterialChunk {

@@ -44,6 +44,9 @@ struct MohrCoulombDamageParams {
   DamageEffect damageEffect = DamageEffect::Cohesion;
 };
 
+/// The Mohr-Coulomb damage parameters of a region's parameter map (docs/formats.md "## solid_input.h5").
+MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v);
+
 /// Names of the history variables, in order (one array each in the element block).
 namespace mc_history {
 enum : int {

@@ -1,0 +1,146 @@
+// Test fixture: solid_input.h5 from an in-memory SolidInput, every attribute named by the generated
+// table's constants (solid_solver/src/input_schema.inc), so no list of keys of its own. The Python
+// writer (tunnelquake.solid_input) writes the real ones.
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include "io/h5util.hpp"
+#include "io/input_schema.hpp"
+#include "tq/io/input.hpp"
+
+namespace tq::test {
+
+namespace K = input_schema::key;
+
+inline void writeStagedGroups(hid_t f, const SolidInput& in) {
+  const StagedInput& S = in.staged;
+  if (!S.condition.empty()) h5::writeStringAttr(f, K::root::condition.name, S.condition);
+  {
+    auto g = h5::ensureGroup(f, "/stages");
+    std::string seq;
+    for (const auto& s : S.stages.sequence) seq += (seq.empty() ? "" : ",") + s;
+    h5::writeStringAttr(g, K::stages::sequence.name, seq);
+    h5::writeDoubleAttr(g, K::stages::relaxation_tolerance.name, S.stages.tolerance);
+    h5::writeIntAttr(g, K::stages::relaxation_max_steps.name, S.stages.maxSteps);
+    h5::writeIntAttr(g, K::stages::mass_scaling.name, S.stages.massScaling ? 1 : 0);
+    h5::writeIntAttr(g, K::stages::equilibrium_correction.name, S.stages.equilibriumCorrection ? 1 : 0);
+    h5::writeStringAttr(g, K::stages::lining_region.name, S.stages.liningRegion);
+    h5::writeDoubleAttr(g, K::stages::release_fraction.name, S.stages.releaseFraction);
+  }
+  if (S.inSitu.present) {
+    auto g = h5::ensureGroup(f, "/in_situ");
+    const InSituInput& I = S.inSitu;
+    h5::writeDoubleAttr(g, K::in_situ::kx.name, I.kx);
+    h5::writeDoubleAttr(g, K::in_situ::ky.name, I.ky);
+    h5::writeDoubleAttr(g, K::in_situ::kz.name, I.kz);
+    h5::writeDoubleAttr(g, K::in_situ::gravity.name, I.gravity);
+    h5::writeDoubleAttr(g, K::in_situ::density.name, I.density);
+    if (std::isfinite(I.zTop)) h5::writeDoubleAttr(g, K::in_situ::z_top.name, I.zTop);
+    h5::writeDoubleAttr(g, K::in_situ::surcharge.name, I.surcharge);
+  }
+  if (S.bottom.present) {
+    auto g = h5::ensureGroup(f, "/boundaries/bottom");
+    const BottomBoundaryInput& B = S.bottom;
+    h5::writeStringAttr(g, K::boundaries_bottom::face.name, B.face);
+    h5::writeStringAttr(g, K::boundaries_bottom::type.name, "viscoelastic");
+    if (B.distance > 0) h5::writeDoubleAttr(g, K::boundaries_bottom::distance.name, B.distance);
+    if (B.alphaN > 0) h5::writeDoubleAttr(g, K::boundaries_bottom::alpha_n.name, B.alphaN);
+    if (B.alphaT > 0) h5::writeDoubleAttr(g, K::boundaries_bottom::alpha_t.name, B.alphaT);
+    if (B.rho > 0) {
+      h5::writeDoubleAttr(g, K::boundaries_bottom::rho.name, B.rho);
+      h5::writeDoubleAttr(g, K::boundaries_bottom::cp.name, B.cp);
+      h5::writeDoubleAttr(g, K::boundaries_bottom::cs.name, B.cs);
+    }
+    if (!B.columnFace.empty()) h5::writeStringAttr(g, K::boundaries_bottom::column_face.name, B.columnFace);
+  }
+  if (S.freeField.present) {
+    auto g = h5::ensureGroup(f, "/boundaries/free_field");
+    h5::writeStringListAttr(g, K::boundaries_free_field::faces.name, S.freeField.faces);
+  }
+  if (S.motion.present) {
+    auto g = h5::ensureGroup(f, "/motion");
+    const MotionInput& M = S.motion;
+    h5::writeDoubles(g, K::motion::time.name, M.time.data(), {M.time.size()});
+    if (!M.ax.empty()) h5::writeDoubles(g, K::motion::ax.name, M.ax.data(), {M.ax.size()});
+    if (!M.ay.empty()) h5::writeDoubles(g, K::motion::ay.name, M.ay.data(), {M.ay.size()});
+    if (!M.az.empty()) h5::writeDoubles(g, K::motion::az.name, M.az.data(), {M.az.size()});
+    if (M.cutoffFrequency > 0) h5::writeDoubleAttr(g, K::motion::cutoff_frequency.name, M.cutoffFrequency);
+    if (!M.convention.empty()) h5::writeStringAttr(g, K::motion::convention.name, M.convention);
+  }
+}
+
+
+inline void writeInputFile(const SolidInput& in, const std::string& path, const std::string& meshAttr) {
+  auto f = h5::createFile(path);
+  h5::writeStringAttr(f, K::root::format.name, input_schema::kFormat);
+  h5::writeIntAttr(f, K::root::version.name, input_schema::kVersion);
+  h5::writeStringAttr(f, K::root::mesh.name, meshAttr);
+  {
+    auto g = h5::ensureGroup(f, "/solver");
+    h5::writeDoubleAttr(g, K::solver::t_end.name, in.tEnd);
+    h5::writeDoubleAttr(g, K::solver::dt.name, in.options.dt);
+    h5::writeDoubleAttr(g, K::solver::safety.name, in.options.safety);
+    h5::writeDoubleAttr(g, K::solver::velocity_limit.name, in.options.velocityLimit);
+    h5::writeDoubleAttr(g, K::solver::gravity_z.name, in.options.gravity[2]);
+    if (in.options.subcyclingLevels > 0) h5::writeDoubleAttr(g, K::solver::subcycling_levels.name, in.options.subcyclingLevels);
+    h5::writeStringAttr(g, K::solver::integrator.name, integratorName(in.options.integrator));
+    h5::writeStringAttr(g, K::solver::formulation.name, formulationName(in.formulation));
+  }
+  {
+    auto g = h5::ensureGroup(f, "/damping");
+    h5::writeDoubleAttr(g, K::damping::alpha.name, in.options.damping.alpha);
+    h5::writeDoubleAttr(g, K::damping::beta.name, in.options.damping.beta);
+  }
+  for (const auto& [region, p] : in.materials) {
+    auto g = h5::ensureGroup(f, "/materials/" + region);
+    h5::writeDoubleAttr(g, K::materials::E.name, p.youngsModulus);
+    h5::writeDoubleAttr(g, K::materials::nu.name, p.poissonRatio);
+    h5::writeDoubleAttr(g, K::materials::rho.name, p.density);
+    const auto mc = in.mohrCoulomb.find(region);
+    h5::writeStringAttr(g, K::materials::model.name, mc == in.mohrCoulomb.end() ? "elastic" : "mohr_coulomb_damage");
+    if (mc != in.mohrCoulomb.end()) {
+      const MohrCoulombDamageParams& q = mc->second;
+      h5::writeDoubleAttr(g, K::materials::cohesion.name, q.cohesion);
+      h5::writeDoubleAttr(g, K::materials::friction_angle.name, q.frictionAngle);
+      h5::writeDoubleAttr(g, K::materials::dilation_angle.name, q.dilationAngle);
+      h5::writeDoubleAttr(g, K::materials::tensile_strength.name, q.tensileStrength);
+      h5::writeDoubleAttr(g, K::materials::damage_constant.name, q.damageConstant);
+      h5::writeStringAttr(g, K::materials::damage_effect.name, damageEffectName(q.damageEffect));
+    }
+  }
+  for (const auto& [group, dirs] : in.fixed) {
+    auto g = h5::ensureGroup(f, "/boundary/fixed/" + group);
+    h5::writeStringAttr(g, K::boundary_fixed::directions.name, dirs);
+  }
+  for (const auto& l : in.loads) {
+    auto g = h5::ensureGroup(f, "/loads/" + l.name);
+    h5::writeStringAttr(g, K::loads::target.name, l.target);
+    h5::writeStringAttr(g, K::loads::direction.name, std::string(1, "xyz"[l.direction]));
+    h5::writeDoubleAttr(g, K::loads::force.name, l.force);
+    h5::writeDoubles(g, K::loads::time.name, l.function.t.data(), {l.function.t.size()});
+    h5::writeDoubles(g, K::loads::value.name, l.function.value.data(), {l.function.value.size()});
+  }
+  if (!in.monitors.empty()) {
+    std::vector<std::string> names;
+    std::vector<Real> pts;
+    for (const auto& m : in.monitors) {
+      names.push_back(m.name);
+      pts.insert(pts.end(), m.point, m.point + 3);
+    }
+    h5::writeStrings(h5::ensureGroup(f, "/monitors"), K::monitors::names.name, names);
+    h5::writeDoubles(h5::ensureGroup(f, "/monitors"), K::monitors::points.name, pts.data(), {names.size(), 3});
+  }
+  auto g = h5::ensureGroup(f, "/output");
+  h5::writeDoubleAttr(g, K::output::monitor_dt.name, in.monitorDt);
+  h5::writeDoubleAttr(g, K::output::progress_s.name, in.progressSeconds);
+  if (!in.ringForces) h5::writeIntAttr(g, K::output::ring_forces.name, 0);
+  if (in.checkpointInterval > 0) h5::writeDoubleAttr(g, K::output::checkpoint_interval.name, in.checkpointInterval);
+  if (!in.snapshotTimes.empty())
+    h5::writeDoubles(g, K::output::snapshot_times.name, in.snapshotTimes.data(), {in.snapshotTimes.size()});
+  if (in.staged.present) writeStagedGroups(f, in);
+}
+
+
+}  // namespace tq::test
