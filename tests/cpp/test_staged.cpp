@@ -12,6 +12,7 @@
 #include "io/h5util.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
+#include "tq/app/app.hpp"
 #include "input_fixture.hpp"
 
 using namespace tq;
