@@ -1,8 +1,8 @@
-// tq-solid command line entry (the driver lives in the library: src/app.cpp).
+// tq-solid command line entry (the driver lives in the library: src/app/app.cpp).
 #include <iostream>
 
-#include "tq/app.hpp"
-#include "tq/input.hpp"
+#include "tq/app/app.hpp"
+#include "tq/io/input.hpp"
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);

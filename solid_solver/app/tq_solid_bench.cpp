@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "tq/solver.hpp"
+#include "tq/core/solver.hpp"
 
 namespace {
 

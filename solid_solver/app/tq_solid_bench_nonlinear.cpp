@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include "tq/contact.hpp"
-#include "tq/material_mc.hpp"
-#include "tq/solver.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/core/solver.hpp"
+#include "tq/materials/material_mc.hpp"
 
 using namespace tq;
 
@@ -210,7 +210,7 @@ int main(int argc, char** argv) {
       s->fixFaceGroup("bottom", "xyz");
       if (withContact) {
         c = std::make_shared<DynamicContact>(*s, rockLiningPairs(m), ContactParams{});
-        s->addContributor(c);
+        s->addContributor(ForcePhase::Interface, c);
       }
       std::mt19937 rng(1);
       std::uniform_real_distribution<Real> U(-1e-3, 1e-3);

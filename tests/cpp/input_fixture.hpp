@@ -6,9 +6,9 @@
 #include <cmath>
 #include <string>
 
-#include "h5util.hpp"
-#include "input_schema.hpp"
-#include "tq/input.hpp"
+#include "io/h5util.hpp"
+#include "io/input_schema.hpp"
+#include "tq/io/input.hpp"
 
 namespace tq::test {
 

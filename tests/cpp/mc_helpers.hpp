@@ -7,8 +7,8 @@
 #include <memory>
 #include <vector>
 
-#include "tq/material_mc.hpp"
-#include "tq/solver.hpp"
+#include "tq/core/solver.hpp"
+#include "tq/materials/material_mc.hpp"
 #include <functional>
 
 namespace tqtest {
@@ -128,7 +128,6 @@ public:
       : nodes_(std::move(nodes)), dir_(dir), target_(std::move(target)), fPrev_(nodes_.size(), 0.0),
         uPrev_(nodes_.size(), 0.0) {}
   std::string name() const override { return "test actuator"; }
-  bool runsLast() const override { return true; }
   void addForces(Real t, Real dt, tq::NodalState& s) override {
     force_ = 0;
     for (size_t k = 0; k < nodes_.size(); ++k) {

@@ -6,8 +6,8 @@
 #include <memory>
 #include <vector>
 
-#include "tq/input.hpp"
-#include "tq/stages.hpp"
+#include "tq/app/stages.hpp"
+#include "tq/io/input.hpp"
 
 namespace tqtest {
 

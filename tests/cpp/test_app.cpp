@@ -21,9 +21,9 @@
 #include <unistd.h>
 #include <sstream>
 
-#include "h5util.hpp"
-#include "tq/app.hpp"
-#include "tq/input.hpp"
+#include "io/h5util.hpp"
+#include "tq/app/app.hpp"
+#include "tq/io/input.hpp"
 #include "input_fixture.hpp"
 
 using namespace tq;

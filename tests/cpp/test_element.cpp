@@ -12,7 +12,7 @@
 #include <cmath>
 
 #include "test_helpers.hpp"
-#include "tq/hex8.hpp"
+#include "tq/elements/hex8.hpp"
 
 using namespace tq;
 using tqtest::elastic;

@@ -30,12 +30,12 @@
 #include <functional>
 #include <thread>
 
-#include "tq/boundaries.hpp"
+#include "tq/boundaries/boundaries.hpp"
+#include "tq/core/state_archive.hpp"
 #include "tq/coupler/participant.hpp"
-#include "tq/fluid_coupling.hpp"
-#include "tq/input.hpp"
-#include "tq/mesh.hpp"
-#include "tq/state_archive.hpp"
+#include "tq/coupling/fluid_coupling.hpp"
+#include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 
 using namespace tq;
 namespace cp = tq::coupler;
@@ -285,7 +285,7 @@ TEST(SolidCoupling, FakeFluidPressureGivesTheLinedTunnelClosedForm) {
   {
     SolidInput in = ringInput();
     auto s = buildSolver(in, mesh);
-    s->addContributor(std::make_shared<ConstantNodalForces>("internal pressure", fAll));
+    s->addContributor(ForcePhase::Loads, std::make_shared<ConstantNodalForces>("internal pressure", fAll));
     const RelaxResult r = s->relax(relaxParams(norm(fAll)));
     ASSERT_TRUE(r.converged) << r.ratio;
     ref = lameFit(*s);
@@ -303,7 +303,7 @@ TEST(SolidCoupling, FakeFluidPressureGivesTheLinedTunnelClosedForm) {
     auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
     FakeFluid fluid(ci, ad->windowSize(), mesh, nodes, [&](Real) { return fIf; });
     ad->initialize();
-    s->addContributor(ad);
+    s->addContributor(ForcePhase::Water, ad);
     const RelaxResult r = s->relax(relaxParams(norm(fAll)));
     exchanged = ad->stats().passes;
     seconds = ad->stats().secondsExchanging;
@@ -374,13 +374,12 @@ WindowLog stepCoupled(Solver& s, FluidCoupling& ad) {
 }
 
 /// The windowed coupling's force in window 0, as the solid's own load: step j of the first k applies
-/// (j/k) F (the window ramps from the initial force, zero here, to the water's answer F, computed as
+/// (j/k) F, added in ForcePhase::Water where the adapter adds its force (the window ramps from the initial force, zero here, to the water's answer F, computed as
 /// the adapter computes it: F_w + (j/k)(F − F_w) with F_w = 0), then F.
 class RampedForces final : public NodalForceContributor {
 public:
   RampedForces(std::vector<Real> f, Index k) : f_(std::move(f)), k_(k) {}
   std::string name() const override { return "ramped own load"; }
-  bool runsLast() const override { return true; }  // where the adapter adds its force
   void addForces(Real, Real, NodalState& st) override {
     ++j_;
     const Real w = Real(j_) / Real(k_);
@@ -429,9 +428,9 @@ DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
   if (withPulse) s->addLoad(crownPulse(mesh));
   if (!ownForce.empty()) {
     if (ownRamp > 0)
-      s->addContributor(std::make_shared<RampedForces>(ownForce, ownRamp));
+      s->addContributor(ForcePhase::Water, std::make_shared<RampedForces>(ownForce, ownRamp));
     else
-      s->addContributor(std::make_shared<ConstantNodalForces>("own", ownForce));
+      s->addContributor(ForcePhase::Loads, std::make_shared<ConstantNodalForces>("own", ownForce));
   }
   DynResult out;
   if (coupled) {
@@ -441,7 +440,7 @@ DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
     auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
     FakeFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), fluidForce);
     ad->initialize();
-    s->addContributor(ad);
+    s->addContributor(ForcePhase::Water, ad);
     out.windows = stepCoupled(*s, *ad);
     EXPECT_FALSE(ad->ongoing());
     ad->finalize();
@@ -634,7 +633,7 @@ TEST(SolidCoupling, ImplicitWindowsBookTheFluidWorkWithoutDrift) {
   Real mismatch = 0;
   {
     auto s = buildSolver(ringInput(2.0, 1e-5), mesh);
-    s->addContributor(std::make_shared<RampedForces>(fAll, k));
+    s->addContributor(ForcePhase::Water, std::make_shared<RampedForces>(fAll, k));
     std::vector<std::vector<Real>> u(1, std::vector<Real>(s->state().uData(), s->state().uData() + fAll.size()));
     for (Index j = 0; j < k; ++j) {
       s->step();
@@ -700,7 +699,7 @@ GuardRun springRun(const std::string& scheme, Real limit, Index windows) {
     return f;
   });
   ad->initialize();
-  s->addContributor(ad);
+  s->addContributor(ForcePhase::Water, ad);
   GuardRun out;
   WindowedStepper stepper(*s, ad.get());
   Real peak = 0;
@@ -803,7 +802,7 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps) {
     return f;
   });
   ad->initialize();
-  s->addContributor(ad);
+  s->addContributor(ForcePhase::Water, ad);
   AddedMassRun out;
   try {
     WindowedStepper stepper(*s, ad.get());
@@ -951,7 +950,7 @@ CavityRun cavityUnderPWave(const Mesh& mesh, const RingGeometry& G, const std::s
   auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
   FakeFluid fluid(ci, ad->windowSize(), mesh, nodes, [&](Real) { return std::vector<Real>(3 * nodes.size(), 0.0); });
   ad->initialize();
-  s->addContributor(ad);
+  s->addContributor(ForcePhase::Water, ad);
   for (Index n : mesh.faceNodes("outer")) s->state().u(n, 2) = eps * mesh.coords[3 * size_t(n) + 2];
   // reference force: the far-field stress on the outer circle's area
   const Real ref = G.Er * eps * 2 * M_PI * 20 * G.b;
@@ -1053,7 +1052,7 @@ TubeRun breathingOpenTube(const std::string& law, Real K, Real L, Index nAxial) 
   auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
   FakeFluid fluid(ci, ad->windowSize(), mesh, nodes, [&](Real) { return std::vector<Real>(3 * nodes.size(), 0.0); });
   ad->initialize();
-  s->addContributor(ad);
+  s->addContributor(ForcePhase::Water, ad);
   const auto outer = mesh.faceNodes("outer");
   auto meanRadial = [&] {
     Real sum = 0;

@@ -5,7 +5,7 @@
 #include <memory>
 #include <random>
 
-#include "tq/solver.hpp"
+#include "tq/core/solver.hpp"
 
 namespace tqtest {
 

@@ -31,9 +31,9 @@
 #include <vector>
 
 #include "staged_helpers.hpp"
-#include "tq/constraints.hpp"
-#include "tq/free_field.hpp"
-#include "tq/mesh.hpp"
+#include "tq/boundaries/free_field.hpp"
+#include "tq/core/constraints.hpp"
+#include "tq/io/mesh.hpp"
 
 using namespace tq;
 

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <unistd.h>
 
-#include "tq/mesh.hpp"
+#include "tq/io/mesh.hpp"
 
 using namespace tq;
 

@@ -10,10 +10,10 @@
 #include <cmath>
 #include <filesystem>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "test_helpers.hpp"
-#include "tq/results.hpp"
-#include "tq/solver.hpp"
+#include "tq/core/solver.hpp"
+#include "tq/io/results.hpp"
 
 using namespace tq;
 

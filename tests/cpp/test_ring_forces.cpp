@@ -1,4 +1,4 @@
-// Lining section forces (tq/ring_forces.hpp) against exact plane-strain elasticity solutions of a
+// Lining section forces (tq/io/ring_forces.hpp) against exact plane-strain elasticity solutions of a
 // thick lining in an infinite elastic rock (bonded and in full slip) with their order of convergence,
 // the equilibrium of the ring between its sections, and that of the free-body forces tq-solid
 // writes to results.h5, read back.
@@ -13,9 +13,9 @@
 #include <functional>
 #include <sstream>
 
-#include "h5util.hpp"
-#include "tq/results.hpp"
-#include "tq/ring_forces.hpp"
+#include "io/h5util.hpp"
+#include "tq/io/results.hpp"
+#include "tq/io/ring_forces.hpp"
 #include "tunnel_cases.hpp"
 
 using namespace tq;

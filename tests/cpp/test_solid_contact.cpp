@@ -15,7 +15,7 @@
 
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/contact.hpp"
+#include "tq/contact/contact.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -106,7 +106,7 @@ TEST(SolidContact, BondedPairMovesAsOneNodeOfAMergedMesh) {
     cp.model = model;
     cp.cohesion = 1e12;  // never fails here: this is the bonded state
     auto contact = std::make_shared<DynamicContact>(*a, rockLiningPairs(split), cp);
-    a->addContributor(contact);
+    a->addContributor(ForcePhase::Interface, contact);
     ASSERT_EQ(a->dt(), b->dt());
     for (int i = 0; i < 400; ++i) {
       a->step();
@@ -163,7 +163,7 @@ struct BlockOnBase {
     solver->addLoad({bottom, 0, 0.25, std::move(T)});
     solver->addLoad({bottom, 2, fzScale / 4, std::move(fz)});
     contact = std::make_shared<DynamicContact>(*solver, rockLiningPairs(mesh), cp);
-    solver->addContributor(contact);
+    solver->addContributor(ForcePhase::Interface, contact);
   }
   Real momentum(int d) const {
     Real p = 0;

@@ -44,7 +44,7 @@ CycleResult cyclicShear(const Mesh& mesh, std::shared_ptr<const Material> mat, R
   auto act = std::make_shared<DisplacementActuator>(faceNodes(mesh, "top"), 0, [=](Real t) {
     return gammaA * h * std::sin(2 * M_PI * t / period);
   });
-  s.addContributor(act);
+  s.addContributor(ForcePhase::Interface, act);  // a prescribed motion: after the loads
   CycleResult r;
   Real w1 = 0, p1 = 0, e1 = 0, k1 = 0;
   bool marked = false;

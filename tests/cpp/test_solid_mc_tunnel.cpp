@@ -17,7 +17,7 @@
 
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/contact.hpp"
+#include "tq/contact/contact.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -54,7 +54,7 @@ TEST(SolidMcTunnel, OverloadedLiningDamagesFromTheInnerFaceAndStaysStable) {
   Solver s(m, makeBlocksByRegion(m, {{"rock", elastic(8e9, 0.27, 2700)}, {"lining", lining}}), opt);
   s.fixFaceGroup("rock_outer", "xyz");
   auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), ContactParams{});
-  s.addContributor(contact);
+  s.addContributor(ForcePhase::Interface, contact);
   // Internal pressure p on lining_inner: nodal forces p × (quad area vector)/4, pushing outwards.
   const Real p = 0.8e6, tRamp = 0.1, tEnd = 0.16;
   std::map<Index, std::array<Real, 3>> f;

@@ -9,14 +9,14 @@
 #include <filesystem>
 #include <sstream>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/app.hpp"
-#include "tq/contact.hpp"
-#include "tq/input.hpp"
-#include "tq/results.hpp"
-#include "tq/staged_input.hpp"
+#include "tq/app/app.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/io/input.hpp"
+#include "tq/io/results.hpp"
+#include "tq/io/staged_input.hpp"
 #include "input_fixture.hpp"
 
 using namespace tq;
@@ -174,7 +174,7 @@ TEST(SolidNonlinearResults, ContactStateOpeningAndSlipReachResults) {
   s.addLoad({bottom, 0, 1.5e6, TimeFunction::constant(1.0)});  // 6 MN > μs N + c A = 2.4 + 2 MN
   ContactParams cp;
   auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), cp);
-  s.addContributor(contact);
+  s.addContributor(ForcePhase::Interface, contact);
   SolidInput in;
   in.path = "<memory>";
   in.monitorDt = 0;  // a row per sample() call, at its own time

@@ -37,11 +37,11 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/results.hpp"
+#include "tq/io/results.hpp"
 
 using namespace tq;
 using tqtest::GaussPulse;
@@ -334,7 +334,7 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
   auto act = std::make_shared<tqtest::DisplacementActuator>(m.faceNodes("top"), 0, [=](Real t) {
     return gammaA * std::sin(2 * M_PI * t / period);
   });
-  s.addContributor(act);
+  s.addContributor(ForcePhase::Interface, act);  // a prescribed motion: after the loads
   const ElementBlock& b = *s.blocks()[0];
   Real Dprev = 0, maxError = 0, worstSurface = 0;
   Real hist0 = 0;

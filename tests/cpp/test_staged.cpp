@@ -9,10 +9,10 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "h5util.hpp"
+#include "io/h5util.hpp"
 #include "staged_helpers.hpp"
-#include "tq/app.hpp"
 #include "test_helpers.hpp"
+#include "tq/app/app.hpp"
 #include "input_fixture.hpp"
 
 using namespace tq;
@@ -109,7 +109,7 @@ TEST(TiedNodes, TiedBarsMoveLikeOneBar) {
     if (split) {
       tie = std::make_shared<TiedNodeGroups>("tie", TiedNodeGroups::pairs(m.rockLiningPairs));
       tie->install(s);
-      s.addContributor(tie);
+      s.addContributor(ForcePhase::Interface, tie);
     }
     for (int k = 0; k < 300; ++k) {
       s.step();

@@ -1,4 +1,4 @@
-// Save and restore of the solid's whole mutable state (tq/state_archive.hpp, Solver::checkpoint;
+// Save and restore of the solid's whole mutable state (tq/core/state_archive.hpp, Solver::checkpoint;
 // implicit coupling windows of several solid steps are repeated from their start, so a
 // restored solver must continue exactly as the saved one did).
 //
@@ -29,10 +29,10 @@
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
-#include "tq/boundaries.hpp"
-#include "tq/constraints.hpp"
-#include "tq/contact.hpp"
-#include "tq/state_archive.hpp"
+#include "tq/boundaries/boundaries.hpp"
+#include "tq/contact/contact.hpp"
+#include "tq/core/constraints.hpp"
+#include "tq/core/state_archive.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -144,17 +144,17 @@ std::unique_ptr<Run> build() {
   pulse.sample(0.2, 2.5e-4, t2, az, 0.5);
   run->seismic = std::make_shared<SeismicBoundaries>(m, s.blocks(), spec, IncidentMotion(t, ax, {}, az), false);
   run->seismic->install(s.state());
-  s.addContributor(run->seismic);
+  s.addContributor(ForcePhase::Boundaries, run->seismic);
   // The two lining slabs tied, the lining on the rock by the dynamic contact.
   run->tie = std::make_shared<TiedNodeGroups>("slabs", TiedNodeGroups::pairs(run->model.tiePairs));
   run->tie->install(s);
-  s.addContributor(run->tie);
+  s.addContributor(ForcePhase::Interface, run->tie);
   ContactParams cp;
   cp.staticFriction = 0.6;
   cp.dynamicFriction = 0.5;
   cp.cohesion = 5e3;
   run->contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), cp);
-  s.addContributor(run->contact);
+  s.addContributor(ForcePhase::Interface, run->contact);
   // A rocking and shearing load on the lining top (50 Hz): pulls up the x < 4 m half while pushing
   // down the other, and shears along x: pairs separate at one end and slip.
   for (Index n : m.faceNodes("top")) {
@@ -400,7 +400,7 @@ TEST(StateArchive, RestoreBeforeSaveAndMismatchedListsThrow) {
   EXPECT_THROW(ar.io(wrong), std::logic_error);
 }
 
-// A restart in another process (tq/restart.hpp): the archive written as bytes and read back into
+// A restart in another process (tq/io/restart.hpp): the archive written as bytes and read back into
 // a solver built anew from the same input, which then steps on. Reference: the original solver's
 // own continuation; every recorded value must be bitwise equal (tolerance 0). A part whose state is
 // set by the run's history but missing from checkpoint() would leave the fresh solver elsewhere.

@@ -41,7 +41,7 @@
 #include <map>
 
 #include "test_helpers.hpp"
-#include "tq/contact.hpp"
+#include "tq/contact/contact.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -111,7 +111,7 @@ TEST(NearlySingularInterface, SoftRockPullOffSeparatesEveryPairObeysTheContactLa
              opt);
     s.fixFaceGroup("bottom", "xyz");
     auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), cp);
-    s.addContributor(contact);
+    s.addContributor(ForcePhase::Interface, contact);
     const Index P = contact->numPairs();
     ASSERT_EQ(P, 16);
     Real areaTotal = 0;

@@ -11,8 +11,8 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "tq/app.hpp"
-#include "tq/contact.hpp"
+#include "tq/app/app.hpp"
+#include "tq/contact/contact.hpp"
 #include "tunnel_cases.hpp"
 #include "input_fixture.hpp"
 

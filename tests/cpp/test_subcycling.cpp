@@ -15,7 +15,7 @@
 #include <cstdio>
 #include <sstream>
 
-#include "tq/state_archive.hpp"
+#include "tq/core/state_archive.hpp"
 #include "wave_cases.hpp"
 
 using namespace tq;

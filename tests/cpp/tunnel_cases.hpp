@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "staged_helpers.hpp"
-#include "tq/hex8.hpp"
+#include "tq/elements/hex8.hpp"
 
 namespace tqcases {
 

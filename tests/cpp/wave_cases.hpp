@@ -46,7 +46,7 @@ struct ColumnRun : StagedRun {
     stages->switchToDynamics(log);
     tie = std::make_shared<TiedNodeGroups>("periodic column", tqtest::levelGroups(mesh));
     tie->install(*solver);
-    solver->addContributor(tie);
+    solver->addContributor(ForcePhase::Ties, tie);
   }
   Index topNode() const {
     Index best = 0;

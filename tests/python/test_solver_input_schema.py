@@ -1,7 +1,7 @@
 """solid_input.h5 has one table (tunnelquake.solver_input_schema) that the writer, tq-solid's reader and
 docs/formats.md are made from.
 
-1. The generated files (solid_solver/src/input_schema.inc, docs/formats.md "## solid_input.h5") are
+1. The generated files (solid_solver/src/io/input_schema.inc, docs/formats.md "## solid_input.h5") are
    what the table gives now, byte for byte.
 2. A material parameter added to the table alone (a test fixture: `test_parameter` for every model,
    default 2.5, >= 0) is written by the one writer and reaches tq-solid's per-region parameter map

@@ -1,0 +1,100 @@
+/// @file stages.hpp
+/// @brief The staged analysis (paper §3.2; ARCHITECTURE.md §2; docs/theory.md §2): in-situ
+///        stress, excavation, lining activation with the rock–lining interface, hydrostatic
+///        internal pressure, static equilibrium by dynamic relaxation after each change, and the
+///        switch to the seismic stage (displacements zeroed, supports replaced by their reactions
+///        plus the viscoelastic base and free-field sides, so nothing jumps).
+#pragma once
+
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/boundaries/boundaries.hpp"
+#include "tq/core/constraints.hpp"
+#include "tq/io/input.hpp"
+
+namespace tq {
+
+class HeldExcavationLoad;
+
+/// What one stage did.
+struct StageReport {
+  std::string name;
+  Index steps = 0;         ///< dynamic relaxation steps (0: no relaxation in this stage)
+  Real ratio = 0;          ///< final |unbalanced| / max(the stage's initial out-of-balance force, 1e-6 × force scale)
+  bool converged = true;
+  double wallSeconds = 0;
+  std::string note;        ///< e.g. the interface model used, the reactions held at the switch
+};
+
+/// Drives the stages of a version 2 input on a built solver. The solver must outlive it.
+class StagedAnalysis {
+public:
+  /// Checks the stage prerequisites against the mesh (lining region, interface pairs, faces).
+  /// Throws InputError.
+  StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver);
+
+  /// Run the static stages (in_situ … hydrostatic) in order; a `lining` stage first deactivates
+  /// the lining (installed stress-free in its stage). Progress lines go to `log` every
+  /// `progressSeconds` of wall time. Throws InstabilityError if a stage does not reach the
+  /// relaxation tolerance within relaxation_max_steps.
+  void runStatics(std::ostream& log, double progressSeconds = 5);
+  /// Start the seismic stage: zero the motion record (resetMotion), hold the support reactions of
+  /// the released supports (and, with equilibrium_correction, the residual out-of-balance force)
+  /// as constant forces, install the seismic boundaries, restart the clock at t = 0.
+  void switchToDynamics(std::ostream& log);
+
+  bool hasSeismic() const { return in_.staged.stages.has("seismic"); }
+  const std::vector<StageReport>& reports() const { return reports_; }
+  /// Residual out-of-balance force held at the switch, relative to the force norms (0 if none).
+  Real correctionRatio() const { return correctionRatio_; }
+  const std::shared_ptr<SeismicBoundaries>& seismic() const { return seismic_; }
+  const std::shared_ptr<NodalForceContributor>& rockLiningInterface() const { return interface_; }
+  const std::shared_ptr<ConstantNodalForces>& heldForces() const { return held_; }
+  /// The part (1 − λ) of the excavation load held from the excavation stage to the lining stage
+  /// (/stages release_fraction λ < 1; null otherwise). Released, it adds no force.
+  const std::shared_ptr<HeldExcavationLoad>& heldExcavationLoad() const { return unreleased_; }
+
+private:
+  void setInSituStress();
+  StageReport relaxStage(const std::string& name, std::ostream& log, double progressSeconds);
+  void activateLining(std::ostream& log, StageReport& rep);
+  void installInterface(std::ostream& log, StageReport& rep);
+  void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
+
+  const SolidInput& in_;
+  const Mesh& mesh_;
+  Solver& solver_;
+  ElementBlock* lining_ = nullptr;
+  std::vector<StageReport> reports_;
+  std::shared_ptr<NodalForceContributor> interface_;
+  std::shared_ptr<ConstantNodalForces> pressure_, held_;
+  std::shared_ptr<SeismicBoundaries> seismic_;
+  std::shared_ptr<HeldExcavationLoad> unreleased_;
+  Real correctionRatio_ = 0;
+};
+
+/// Constant nodal forces that hold back the unreleased part of the excavation load until the
+/// lining is active; release() removes them (the solver then relaxes their release on the
+/// composite rock and lining).
+class HeldExcavationLoad final : public NodalForceContributor {
+public:
+  explicit HeldExcavationLoad(std::vector<Real> forces) : f_(std::move(forces)) {}
+  std::string name() const override { return "held excavation load"; }
+  void addForces(Real t, Real dt, NodalState& state) override;
+  void release() { released_ = true; }
+  bool released() const { return released_; }
+  const std::vector<Real>& forces() const { return f_; }
+
+private:
+  std::vector<Real> f_;  // [3N]
+  bool released_ = false;
+};
+
+/// λ_min/8 check (Kuhlemeyer & Lysmer 1973): elements whose longest edge exceeds c_s/(8 f) for
+/// the cut-off frequency f (Hz). Returns a warning line, or "" when every element is small enough.
+std::string elementSizeWarning(const Solver& solver, Real cutoffFrequency);
+
+}  // namespace tq

@@ -1,0 +1,136 @@
+/// @file boundaries.hpp
+/// @brief Nodal force contributors for the staged analysis: constant nodal forces (support
+///        reactions held at the switch to dynamics, static surface pressures), the consistent
+///        nodal forces of a surface pressure, and the seismic boundaries — a viscoelastic base
+///        with the incident wave as equivalent nodal forces and free-field lateral boundaries
+///        driven by 1D free-field columns (docs/solid_solver.md "Seismic boundaries").
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/boundaries/free_field.hpp"
+#include "tq/core/solver.hpp"
+#include "tq/io/mesh.hpp"
+
+namespace tq {
+
+/// The nodes of a planar face group whose outward normal is a coordinate axis, each with its
+/// tributary area ∫N_I dA (exact for bilinear quads, 2×2 Gauss).
+struct AxisFace {
+  std::string name;
+  int axis = 0;  ///< 0 x, 1 y, 2 z: the normal's direction
+  int sign = 1;  ///< +1 or −1: outward normal = sign · e_axis
+  std::vector<Index> nodes;
+  std::vector<Real> area;  ///< m², per node
+  std::vector<Index> quads;  ///< [4F] the face's quads (for per-face loads)
+};
+/// Throws InputError naming the group if it is missing or not planar and axis-aligned.
+AxisFace axisFace(const Mesh& mesh, const std::string& group);
+
+/// Consistent nodal forces f_I = −∫ N_I p(x) n dA of a pressure p (Pa, pushing against the
+/// face's outward normal n) over a face group, by 2×2 Gauss points per bilinear quad.
+/// Returns [3N] forces (N).
+std::vector<Real> pressureNodalForces(const Mesh& mesh, const std::string& group,
+                                      const std::function<Real(const Real x[3])>& pressure);
+
+/// Constant forces on nodes (N), e.g. the support reactions that replace the static supports at
+/// the start of the earthquake, or a static surface pressure.
+class ConstantNodalForces final : public NodalForceContributor {
+public:
+  ConstantNodalForces(std::string name, std::vector<Real> forces) : name_(std::move(name)), f_(std::move(forces)) {}
+  std::string name() const override { return name_; }
+  void addForces(Real t, Real dt, NodalState& state) override;
+  const std::vector<Real>* constantForces() const override { return &f_; }
+  const std::vector<Real>& forces() const { return f_; }
+
+private:
+  std::string name_;
+  std::vector<Real> f_;  // [3N]
+};
+
+/// Parameters of the seismic boundaries (from /boundaries and /motion, resolved by the stage driver).
+struct SeismicBoundarySpec {
+  bool bottom = false;
+  std::string bottomFace = "bottom";
+  Real distance = 0;            ///< R (m) of the springs K = αG/R
+  Real alphaN = 4.0 / 3, alphaT = 2.0 / 3;
+  BaseHalfSpace halfSpace;      ///< ρ, cp, cs below the base (dashpots, springs, input)
+  std::vector<std::string> freeFieldFaces;
+  std::string columnFace;       ///< face whose layers define the base column
+  RayleighDamping damping;      ///< the model's Rayleigh damping (the columns use the same)
+};
+
+/// Viscoelastic base + free-field sides, all driven by the incident motion.
+///
+/// Base node (tributary area A, normal e_z): spring −A K (u − u_0), dashpot −A C v (as a nodal
+/// dashpot, integrated with the mean of the half-step velocities), and the equivalent input
+/// force A[K u_ff + C v̄_ff + σ_ff·n] = A[K u_col + 2ρc v_in], where (u_col, v̄_ff, σ_ff) is the
+/// base column's motion and its traction from the half-space (σ_ff·n = 2ρc v_in − C v̄_col).
+/// K_N = α_N G/R, C_N = ρ cp (z); K_T = α_T G/R, C_T = ρ cs (x, y).
+///
+/// Side node (free-field face, outward normal n = ±e_a): dashpots C_N (along a), C_T (across)
+/// on v − v_ff, i.e. −A C v (nodal dashpot) + A C v̄_ff, plus the free-field traction σ_ff·n
+/// integrated over each side quad from the column layer that quad spans.
+///
+/// The spring's work is booked as boundary energy (boundaryWork), the input forces as external
+/// work, the dashpots as boundary dissipation (by the solver).
+class SeismicBoundaries final : public NodalForceContributor {
+public:
+  SeismicBoundaries(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                    const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice);
+  std::string name() const override { return "seismic boundaries"; }
+  /// Register the nodal dashpots and the displacement reference u_0 (the state at the switch).
+  void install(NodalState& state);
+  void addForces(Real t, Real dt, NodalState& state) override;
+  Real boundaryEnergy() const override { return -springWork_; }
+  void checkpoint(StateArchive& a) override {
+    for (auto& c : columns_) c.checkpoint(a);
+    a.io(uPrev_);
+    a.io(fPrev_);
+    a.io(first_);
+    a.io(springWork_);
+  }
+  /// The columns (one per free-field face, then the base column if it is not one of them).
+  const std::vector<FreeFieldColumn>& columns() const { return columns_; }
+  const FreeFieldColumn& baseColumn() const { return columns_[size_t(baseColumn_)]; }
+  const IncidentMotion& motion() const { return motion_; }
+  /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction.
+  const std::vector<Index>& baseNodes() const { return base_.nodes; }
+  std::array<Real, 3> springPerArea() const { return kArea_; }
+  std::array<Real, 3> dashpotPerArea() const { return cArea_; }
+
+private:
+  FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                              const std::string& face) const;
+  struct SideNode {
+    Index node;
+    Index column;
+    Index level;  // interpolation between level and level + 1 with weight w
+    Real w;
+    Real c[3];    // dashpot coefficient A·C per direction (N s/m)
+  };
+  struct SideQuadLoad {
+    Index column, layer;
+    int axis, sign;
+    Index node[4];
+    Real share[4];  // ∫N_I dA (m²)
+  };
+  SeismicBoundarySpec spec_;
+  IncidentMotion motion_;
+  std::vector<FreeFieldColumn> columns_;
+  Index baseColumn_ = 0;
+  AxisFace base_;
+  std::array<Real, 3> kArea_{}, cArea_{};
+  std::vector<SideNode> side_;
+  std::vector<SideQuadLoad> sideQuads_;
+  std::vector<Real> u0_;         // [3 base nodes] displacement at the switch
+  std::vector<Real> uPrev_, fPrev_;  // spring work by the trapezoid rule, as the solver books work
+  bool first_ = true;
+  Real springWork_ = 0;
+};
+
+}  // namespace tq

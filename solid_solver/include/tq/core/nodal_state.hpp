@@ -1,0 +1,85 @@
+/// @file nodal_state.hpp
+/// @brief The one owner of the nodal data layout. Every nodal vector (x0, u, v, a, f_int, f_ext)
+///        is one array of 3N values, node-major (x, y, z of node n at 3n, 3n+1, 3n+2), like
+///        OpenRadioss' X(3, NUMNOD): one cache line per node in the element gathers. Kernels use
+///        the raw pointers; everything else goes through the accessors, so a change of layout
+///        touches this file only.
+#pragma once
+
+#include <vector>
+
+#include "tq/core/state_archive.hpp"
+#include "tq/core/types.hpp"
+
+namespace tq {
+
+class NodalState {
+public:
+  NodalState() = default;
+  explicit NodalState(Index numNodes) { resize(numNodes); }
+  void resize(Index numNodes);
+  Index numNodes() const { return n_; }
+
+  /// Reference position (m).
+  Real x0(Index n, int d) const { return x0_[3 * size_t(n) + d]; }
+  /// Displacement u^n (m).
+  Real& u(Index n, int d) { return u_[3 * size_t(n) + d]; }
+  Real u(Index n, int d) const { return u_[3 * size_t(n) + d]; }
+  /// Velocity (m/s): v^{n-1/2} for the central difference (leapfrog), v^n for paper_eq3_4.
+  Real& v(Index n, int d) { return v_[3 * size_t(n) + d]; }
+  Real v(Index n, int d) const { return v_[3 * size_t(n) + d]; }
+  /// Acceleration a^n of the last step (m/s^2).
+  Real& a(Index n, int d) { return a_[3 * size_t(n) + d]; }
+  Real a(Index n, int d) const { return a_[3 * size_t(n) + d]; }
+  /// Internal (element) force including the stiffness-proportional damping force (N).
+  Real fInt(Index n, int d) const { return fInt_[3 * size_t(n) + d]; }
+  /// External force of the current step (N).
+  Real& fExt(Index n, int d) { return fExt_[3 * size_t(n) + d]; }
+  Real fExt(Index n, int d) const { return fExt_[3 * size_t(n) + d]; }
+  /// Lumped mass (kg).
+  Real mass(Index n) const { return m_[n]; }
+  /// Nodal dashpot coefficient per direction from absorbing boundaries (N s/m).
+  Real dashpot(Index n, int d) const { return c_[3 * size_t(n) + d]; }
+
+  void setX0(Index n, int d, Real value) { x0_[3 * size_t(n) + d] = value; }
+  void addMass(Index n, Real value) { m_[n] += value; }
+  void addDashpot(Index n, int d, Real value) {
+    c_[3 * size_t(n) + d] += value;
+    if (value != 0) hasDashpots_ = true;
+  }
+  /// False while no dashpot was ever added (the node update then skips the dashpot stream).
+  bool hasDashpots() const { return hasDashpots_; }
+  /// Exchange the external-force array with `other` (same size): the solver keeps the previous
+  /// step's f_ext by swapping buffers instead of copying it.
+  void swapFExt(std::vector<Real>& other) { fExt_.swap(other); }
+  /// Save or restore what a step changes (u, v, a, f_int, f_ext); masses and dashpots change only
+  /// between stages, never inside a coupling window.
+  void checkpoint(StateArchive& ar) {
+    ar.io(u_);
+    ar.io(v_);
+    ar.io(a_);
+    ar.io(fInt_);
+    ar.io(fExt_);
+  }
+
+  // Raw arrays for the kernels ([3N] unless noted).
+  const Real* x0Data() const { return x0_.data(); }
+  Real* uData() { return u_.data(); }
+  const Real* uData() const { return u_.data(); }
+  Real* vData() { return v_.data(); }
+  const Real* vData() const { return v_.data(); }
+  Real* aData() { return a_.data(); }
+  Real* fIntData() { return fInt_.data(); }
+  const Real* fIntData() const { return fInt_.data(); }
+  Real* fExtData() { return fExt_.data(); }
+  const Real* fExtData() const { return fExt_.data(); }
+  const Real* massData() const { return m_.data(); }  ///< [N]
+  const Real* dashpotData() const { return c_.data(); }
+
+private:
+  Index n_ = 0;
+  std::vector<Real> x0_, u_, v_, a_, fInt_, fExt_, m_, c_;
+  bool hasDashpots_ = false;
+};
+
+}  // namespace tq

@@ -1,0 +1,317 @@
+/// @file solver.hpp
+/// @brief Explicit time integration of M ü + C u̇ + f_int(u) = f_ext (paper eq. 2) for rock and
+///        lining: lumped mass, Rayleigh damping, stable step from the element CFL, the energy
+///        balance, and a check for non-finite or exploding values every step.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tq/core/element_block.hpp"
+#include "tq/core/nodal_state.hpp"
+#include "tq/io/mesh.hpp"
+
+namespace tq {
+
+/// Time integrator.
+enum class Integrator {
+  /// Default. Central difference in half-step (leapfrog) velocity form: Newmark β = 0, γ = ½.
+  /// v^{n+½} = v^{n-½} + Δt M⁻¹(f_ext^n - f_int^n - C v); u^{n+1} = u^n + Δt v^{n+½}.
+  /// Its displacement update coincides with the paper's eq. (3); conditionally stable.
+  CentralDifference,
+  /// The paper's eqs. (3)-(4) taken literally: u^{n+1} = u^n + Δt v^n + Δt²/2 a^n and
+  /// v^{n+1} = 2(u^{n+1}-u^n)/Δt - v^n = v^n + Δt a^n. Its amplification matrix for ü = -ω²u
+  /// has determinant 1 + (ωΔt)²/2 > 1: unstable for any step without damping. For study only.
+  PaperEq34,
+};
+Integrator parseIntegrator(const std::string& name);  // "central_difference" | "paper_eq3_4"
+std::string integratorName(Integrator i);
+
+/// Rayleigh damping C = α M + β K.
+struct RayleighDamping {
+  Real alpha = 0;  ///< mass-proportional coefficient α (1/s)
+  Real beta = 0;   ///< stiffness-proportional coefficient β (s)
+  /// Damping ratio ξ at the two frequencies f1, f2 (Hz): α = 2ξω1ω2/(ω1+ω2), β = 2ξ/(ω1+ω2).
+  static RayleighDamping fromRatio(Real xi, Real f1, Real f2);
+};
+
+/// Piecewise-linear function of time; holds the end values outside the table.
+struct TimeFunction {
+  std::vector<Real> t, value;
+  Real operator()(Real time) const;
+  static TimeFunction constant(Real v) { return {{0.0}, {v}}; }
+};
+
+/// Force on a set of nodes in one direction: F(t) = forcePerNode * f(t) on each node (N).
+struct NodalLoad {
+  std::vector<Index> nodes;
+  int direction = 0;
+  Real forcePerNode = 0;
+  TimeFunction function = TimeFunction::constant(1.0);
+};
+
+/// The phases of a step's external force, in the order Solver::step sums them into state.fExt.
+/// Each phase sees the complete force of the phases before it; within a phase the contributors
+/// run in the order they were added (Solver::addContributor names each one's phase).
+enum class ForcePhase : std::uint8_t {
+  Loads,       ///< gravity, NodalLoads, constant and held forces (reactions, pressures, excavation load)
+  Boundaries,  ///< seismic boundaries: viscoelastic base, free-field columns, incident motion
+  Interface,   ///< the rock–lining interface (dynamic contact, or a bonded tie) and any force
+               ///< predicted from every force above (e.g. a prescribed motion)
+  Water,       ///< the water's force on the lining (FluidCoupling)
+  Ties,        ///< ties that share every force of their members, the water's included (periodic faces)
+};
+/// Every phase, in the order they run.
+inline constexpr ForcePhase kForcePhases[] = {ForcePhase::Loads, ForcePhase::Boundaries, ForcePhase::Interface,
+                                              ForcePhase::Water, ForcePhase::Ties};
+
+/// Something that adds nodal forces each step (absorbing boundaries, input waves, contact,
+/// fluid loads): the solver calls it after the element forces are assembled, before the update,
+/// in the phase it was added to (ForcePhase).
+class NodalForceContributor {
+public:
+  virtual ~NodalForceContributor() = default;
+  virtual std::string name() const = 0;
+  /// Add forces to state.fExt at time t (the state holds u^n, v, f_int^n).
+  virtual void addForces(Real t, Real dt, NodalState& state) = 0;
+  /// Energy this contributor has dissipated so far (J) = minus the work of its own forces, booked
+  /// by the solver's trapezoid rule (e.g. friction at an interface). The solver reports it as the
+  /// balance term `interface` instead of as external work. Default 0: its work is external work.
+  virtual Real dissipatedEnergy() const { return 0; }
+  /// Energy held or absorbed by this contributor's boundary springs (J) = minus the work of those
+  /// forces, booked by the solver's trapezoid rule (the viscoelastic base). The solver reports it
+  /// in the balance term `boundary` (with the dashpots) instead of as external work. Default 0.
+  virtual Real boundaryEnergy() const { return 0; }
+  /// Save or restore everything addForces changes (StateArchive: a coupling window of several
+  /// steps is repeated from its start). A contributor with state must list it here.
+  virtual void checkpoint(StateArchive& /*archive*/) {}
+  /// Subcycling: lower the levels (Solver::enableSubcycling) of the nodes this contributor needs
+  /// at a finer step: 0 for nodes whose force it computes from their motion within each step
+  /// (contact pairs, the coupled wall), one common level for nodes it moves together (ties).
+  /// Nodes it only loads (boundaries, surface pressures) need nothing. Return true if it lowered one.
+  virtual bool constrainLevels(std::vector<std::uint8_t>& /*level*/) const { return false; }
+  /// A contributor whose [3N] force never changes may return it here: added to the Loads phase,
+  /// the solver then adds it in gravity's parallel pass instead of calling addForces (one serial
+  /// pass fewer; Solver::addContributor decides).
+  virtual const std::vector<Real>* constantForces() const { return nullptr; }
+};
+
+/// A contributor as the solver holds it: its phase, and whether its constant force is added in
+/// gravity's pass (foldedIntoGravity: then addForces is never called).
+struct AddedContributor {
+  ForcePhase phase;
+  bool foldedIntoGravity;
+  std::shared_ptr<NodalForceContributor> contributor;
+};
+
+/// Subcycling: set the listed nodes to level 0 (the finest step); true if one was coarser.
+inline bool lowerToFinestLevel(std::vector<std::uint8_t>& level, const std::vector<Index>& nodes) {
+  bool lowered = false;
+  for (Index n : nodes)
+    if (level[size_t(n)] != 0) level[size_t(n)] = 0, lowered = true;
+  return lowered;
+}
+
+/// The stable time step and what limits it.
+struct StableStep {
+  Real dtCritical = 0;  ///< (2/ω_max)(√(1+ξ²) - ξ) (s)
+  Real dtSafe = 0;      ///< safety * dtCritical (s)
+  Real omegaMax = 0;    ///< max element frequency 2 c_p / L_e (rad/s)
+  Real xiMax = 0;       ///< damping ratio at ω_max from β (and α for paper_eq3_4)
+  std::string block;    ///< block of the limiting element
+  Index element = -1;   ///< mesh index of the limiting element
+  Real charLength = 0;  ///< its V / A_max (m)
+  Real waveSpeed = 0;   ///< its c_p (m/s)
+};
+
+/// Energy balance (J). balance = kinetic + internal + damping + boundary - external stays
+/// constant; `error` is its drift relative to the largest of the terms.
+struct EnergyBalance {
+  Real kinetic = 0;   ///< ½ m v^{n-½}·v^{n+½} (central difference; exact invariant when undamped)
+  Real internal = 0;  ///< strain energy incl. hourglass (= work of the stresses)
+  Real damping = 0;   ///< dissipated by Rayleigh damping
+  Real boundary = 0;  ///< absorbed by boundary dashpots
+  Real external = 0;  ///< work of the external forces
+  Real interface = 0; ///< dissipated by contributors (interface friction); not part of `external`
+  Real plastic = 0;   ///< dissipated by plasticity and damage (already part of `internal`)
+  Real error = 0;     ///< |balance - balance_0| / max(terms)
+};
+
+struct SolverOptions {
+  Integrator integrator = Integrator::CentralDifference;
+  RayleighDamping damping;
+  Real safety = 0.9;            ///< stable-step safety factor
+  Real dt = 0;                  ///< user step (s); 0 = safety * critical
+  bool allowUnstableStep = false;  ///< testing only: accept dt above the stable limit
+  Real velocityLimit = 1.0e3;   ///< |v| above this (m/s) counts as exploding
+  Real gravity[3] = {0, 0, 0};  ///< body acceleration (m/s^2), e.g. {0, 0, -9.81}
+  /// Subcycling during the time loop (Solver::enableSubcycling): an element may step up to
+  /// 2^subcyclingLevels times the finest step where its own stable step allows; 0 = off.
+  int subcyclingLevels = 0;
+};
+
+/// What enableSubcycling set up.
+struct SubcyclingInfo {
+  int levels = 0;                 ///< the coarsest level in use (steps of 2^levels fine steps)
+  std::vector<Index> nodes;       ///< nodes per level
+  std::vector<Index> elements;    ///< active elements per level (their chunk's level)
+  Real costFraction = 1;          ///< element evaluations per fine step / active elements
+};
+
+/// Dynamic relaxation to static equilibrium (explicit steps with adaptive critical mass damping,
+/// Underwood's Rayleigh-quotient estimate of the lowest active frequency).
+struct RelaxResult;
+struct RelaxParams {
+  Real tolerance = 1e-6;   ///< stop when |f_ext - f_int| / |f_ext| on free dofs is below this
+  Index maxSteps = 200000;
+  Index checkEvery = 10;   ///< steps between residual checks
+  /// Scale each element's mass so that all share the largest element's critical step (statics
+  /// only: the equilibrium does not depend on the mass; gravity keeps the true mass). Turns the
+  /// step count from (largest/smallest element) × (elements across) into (elements across).
+  bool massScaling = false;
+  /// If > 0: the ratio is |f_ext − f_int|₂ (free dofs) / referenceForce instead, e.g. the
+  /// out-of-balance force a stage starts from (its load), so the tolerance means "this stage's
+  /// load equilibrated to that fraction" whatever else the model carries.
+  Real referenceForce = 0;
+  /// Called at every check with the result so far (progress lines).
+  std::function<void(const RelaxResult&)> onCheck;
+};
+struct RelaxResult {
+  Index steps = 0;
+  Real ratio = 0;          ///< final unbalanced-force ratio
+  bool converged = false;
+};
+
+class Solver {
+public:
+  Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt);
+
+  // ---- set-up -------------------------------------------------------------------------------
+  /// Fix direction d (0 x, 1 y, 2 z) of a node (zero displacement increment).
+  void fix(Index node, int d);
+  /// Free a fixed direction again (a static support replaced by a dynamic boundary).
+  void release(Index node, int d) { free_[3 * size_t(node) + d] = 1; }
+  /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
+  void fixFaceGroup(const std::string& group, const std::string& dirs);
+  void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
+  /// Add a contributor to a phase of the external force (after those added to it before). A
+  /// constant force (constantForces()) added to the Loads phase is folded into gravity's parallel
+  /// pass, up to kMaxFoldedLoads of them; any more run as the other Loads contributors do.
+  void addContributor(ForcePhase phase, std::shared_ptr<NodalForceContributor> c);
+  static constexpr int kMaxFoldedLoads = 4;
+  /// Recompute lumped masses and the node->corner map (after (de)activating elements).
+  void rebuild();
+  /// The stable step for the current mesh, materials and damping.
+  StableStep stableStep() const;
+  /// Set the step; throws InputError (with the limiting element) when above the stable one
+  /// unless options.allowUnstableStep. dt = 0 picks safety * critical.
+  void setTimeStep(Real dt);
+
+  // ---- time stepping ------------------------------------------------------------------------
+  /// One explicit step: element forces -> assembly -> external forces (gravity and the
+  /// contributors, phase by phase in ForcePhase order) -> update -> check.
+  void step();
+  /// Steps until time >= tEnd (calls `each` after every step if given).
+  void runUntil(Real tEnd, const std::function<void()>& each = {});
+  /// Dynamic relaxation to static equilibrium (Rayleigh damping is suspended meanwhile).
+  RelaxResult relax(const RelaxParams& p);
+  /// Start the seismic record: velocities zeroed, displacements from here on reported relative
+  /// to the current (equilibrium) state by relativeDisplacement(), energies restart at 0.
+  void resetMotion();
+  /// Displacement relative to the state at the last resetMotion() (m).
+  Real relativeDisplacement(Index node, int d) const;
+  /// Evaluate f_int and f_ext (gravity, loads and, if asked, the contributors) at the current
+  /// displacement without stepping and without damping forces (support reactions at rest).
+  void computeForces(bool withContributors);
+  /// Save (archive.beginSave()) or restore (beginRestore()) the whole mutable state: nodes,
+  /// element stresses and history, energies, clock and every contributor's state. A restored
+  /// solver continues bitwise as the saved one did.
+  void checkpoint(StateArchive& archive);
+  /// Subcycling (multi-time-step explicit integration, nodal partition with linear interpolation,
+  /// Belytschko, Yen & Mullen 1979; docs/solid_solver.md "Subcycling"). Each node gets the level
+  /// ℓ = min over its active elements of floor(log2(Δt_e / Δt)) (at most maxLevel; Δt_e = safety ×
+  /// the element's own critical step), lowered where the contributors ask (constrainLevels) and so
+  /// that the nodes of one element differ by at most one level.
+  /// A node of level ℓ updates its velocity every 2^ℓ fine steps with the step 2^ℓ Δt and moves
+  /// with it linearly in between; an element chunk is evaluated every 2^ℓ fine steps, ℓ the
+  /// finest level of its nodes. Needs the central difference and no stiffness damping (β = 0).
+  /// Throws InputError otherwise. maxLevel = 0 turns it off.
+  SubcyclingInfo enableSubcycling(int maxLevel);
+  /// Set the clock (the seismic stage restarts it at 0 after the static stages).
+  void setTime(Real t) { t_ = t; }
+
+  // ---- access -------------------------------------------------------------------------------
+  NodalState& state() { return state_; }
+  const NodalState& state() const { return state_; }
+  const Mesh& mesh() const { return mesh_; }
+  std::vector<std::unique_ptr<ElementBlock>>& blocks() { return blocks_; }
+  const std::vector<std::unique_ptr<ElementBlock>>& blocks() const { return blocks_; }
+  const SolverOptions& options() const { return opt_; }
+  Real time() const { return t_; }
+  Real dt() const { return dt_; }
+  Index stepCount() const { return step_; }
+  /// The energy balance after the last step (the plastic dissipation, a sum over every element,
+  /// is summed here on demand rather than every step).
+  const EnergyBalance& energy() const;
+  bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0; }
+  /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
+  Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
+  /// The nodal force contributors with their phases, in the order they were added.
+  const std::vector<AddedContributor>& contributors() const { return contributors_; }
+  /// Latest velocity: v^{n+½} after a central-difference step to t_{n+1} (half a step behind the
+  /// displacement), v^{n+1} for paper_eq3_4.
+  Real velocityAt(Index node, int d) const;
+  /// Residual |f_ext - f_int| / max(|f_ext|, |f_int|) over free dofs (2-norms).
+  Real unbalancedRatio() const;
+  /// Same, with the reference norms over all dofs (supports included) when allDofsReference.
+  Real unbalancedRatio(bool allDofsReference) const;
+  /// |f_ext − f_int|₂ over the free dofs (N).
+  Real residualNorm() const;
+
+private:
+  void computeInternalForces(int activeLevel = 255);
+  void computeExternalForces();
+  void addGravityAndFoldedLoads();  // the Loads phase's parallel pass
+  void updateNodes();
+  void updateNodesSubcycled(int activeLevel);
+  void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
+  void finishEnergy();  // the balance terms from the accumulated works (after a node update)
+  [[noreturn]] void reportInstability(Index dof, Real value);
+
+  const Mesh& mesh_;
+  std::vector<std::unique_ptr<ElementBlock>> blocks_;
+  SolverOptions opt_;
+  NodalState state_;
+  std::vector<std::uint8_t> free_;  // [3N] 1 free, 0 fixed (one byte per dof: streamed every step)
+  std::vector<Real> fExtPrev_, uRef_;  // f_ext of the previous step (swapped with the state's each step, for
+                                       // the trapezoidal work); the seismic reference
+  std::vector<NodalLoad> loads_;
+  std::vector<AddedContributor> contributors_;  // in the order added
+  Real t_ = 0, dt_ = 0, dtLast_ = 0;
+  Index step_ = 0;
+  Real alphaRelax_ = -1;  // >= 0 while relaxing: replaces α
+  mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
+  mutable bool plasticStale_ = true;
+  Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
+  Real balance0_ = 0;
+  Real interface0_ = 0, plastic0_ = 0;  // dissipation totals at the last resetMotion()
+  Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
+  std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
+  bool balanceSet_ = false;
+  bool avx2_ = false;  // node update path (ElementBlock::defaultUseAvx2)
+  std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
+  // Subcycling: node levels, f_ext at each node's last velocity update and the step that update
+  // took (the trapezoidal work over its next step), fine steps since enableSubcycling.
+  std::vector<std::uint8_t> nodeLevel_;
+  std::vector<Real> fSync_, dtPrevNode_;
+  Index cycle_ = 0;
+};
+
+/// One block per mesh region, each with the material given for that region name.
+std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
+    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
+    Hex8Formulation formulation = Hex8Formulation::OnePointAssumedStrain);
+
+}  // namespace tq

@@ -1,0 +1,120 @@
+/// @file material_mc.hpp
+/// @brief Mohr–Coulomb elastoplastic material with tension cut-off and damage (paper eqs. 16–18;
+///        docs/theory.md §3). Small strain, rate form, stresses tension positive; principal
+///        stresses sorted σ1 ≤ σ2 ≤ σ3 (σ1 the most compressive, the paper's convention).
+///
+///  Yield (violated when > 0), with the damaged cohesion c_D = (1 − D) c:
+///    shear    F_s = Nφ σ3 − σ1 − 2 c_D √Nφ          (= −f^s of eq. 16)
+///    tension  F_t = σ3 − σt_eff,  σt_eff = min(σt, c_D cot φ)   (f^t of eq. 16; the cut-off
+///             cannot lie beyond the Mohr–Coulomb apex c_D cot φ)
+///  Flow: shear potential g_s = Nψ σ3 − σ1 (dilation angle ψ, default 0), tension associated.
+///  Return: exact closest-point-type return in principal space (planes, edges, corners, apex
+///  found by the active set that satisfies all Kuhn–Tucker conditions; σ^{n+1} = σ^tr − C:Δε^p).
+///  Damage: κ_i = Σ |Δe^p_i| (cumulative plastic deviatoric strain along principal direction i),
+///  D_i = 1 − exp(−R κ_i), D = min(1, √(D1² + D2² + D3²)); implicit in D (the returned stress
+///  lies on the surface of the damaged cohesion of the end of the step); irreversible.
+#pragma once
+
+#include "tq/materials/material.hpp"
+
+namespace tq {
+
+/// What damage reduces (docs/theory.md §3).
+enum class DamageEffect {
+  /// Default, eq. (16) as written: the cohesion only, c_D = (1 − D) c. Stiffness, friction and
+  /// σt are kept; the tensile capacity still falls once c_D cot φ < σt (the apex caps σt).
+  Cohesion,
+  /// Effective-stress damage (Lemaitre): σ = (1 − D) C : (ε − ε^p). Eq. (16) holds in the
+  /// nominal stress with c_D = (1 − D) c, and the cut-off becomes (1 − D) σt; the stiffness is
+  /// (1 − D) C. Plasticity runs on the effective stress σ/(1 − D) with the undamaged strengths.
+  CohesionAndStiffness,
+};
+/// Parse "cohesion" | "cohesion_and_stiffness" (throws InputError).
+DamageEffect parseDamageEffect(const std::string& name);
+std::string damageEffectName(DamageEffect e);
+
+/// Parameters of the Mohr–Coulomb damage material (all SI; angles in degrees as in the input).
+struct MohrCoulombDamageParams {
+  ElasticParams elastic;          ///< E (Pa), ν (-), ρ (kg/m^3)
+  Real cohesion = 0;              ///< c (Pa), ≥ 0
+  Real frictionAngle = 0;         ///< φ (degrees), 0 ≤ φ < 90
+  Real dilationAngle = 0;         ///< ψ (degrees), 0 ≤ ψ ≤ φ; default 0 (no plastic volume change)
+  Real tensileStrength = 0;       ///< σt (Pa), ≥ 0; capped at the apex c cot φ
+  Real damageConstant = 100;      ///< R in eq. (18) (-); 0 switches damage off (perfect plasticity)
+  DamageEffect damageEffect = DamageEffect::Cohesion;
+};
+
+/// The Mohr-Coulomb damage parameters of a region's parameter map (docs/formats.md "## solid_input.h5").
+MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v);
+
+/// Names of the history variables, in order (one array each in the element block).
+namespace mc_history {
+enum : int {
+  kPlasticXX = 0,  ///< plastic strain ε^p_xx (-)
+  kPlasticYY,      ///< ε^p_yy
+  kPlasticZZ,      ///< ε^p_zz
+  kPlasticXY,      ///< engineering γ^p_xy = 2 ε^p_xy
+  kPlasticYZ,      ///< γ^p_yz
+  kPlasticZX,      ///< γ^p_zx
+  kKappa1,         ///< κ1: cumulative plastic deviatoric strain along σ1 (most compressive) (-)
+  kKappa2,         ///< κ2 along σ2
+  kKappa3,         ///< κ3 along σ3 (most tensile)
+  kDamage,         ///< D ∈ [0, 1]
+  kDissipation,    ///< energy dissipated by plasticity and damage per unit volume (J/m^3)
+  kCount
+};
+}  // namespace mc_history
+
+/// Result of a return in principal space (exposed for tests).
+struct PrincipalReturn {
+  Real sigma[3] = {0, 0, 0};   ///< returned principal stresses, ascending (Pa)
+  Real plastic[3] = {0, 0, 0}; ///< plastic strain increment along the same directions (-)
+  int activeSet = -1;          ///< -1 elastic; otherwise the candidate index (docs)
+};
+
+/// Mohr–Coulomb surface with fixed strengths (one step, one element): the pure geometry of the
+/// return, separated from damage so that it can be tested on its own.
+struct MohrCoulombSurface {
+  Real lambda = 0, mu = 0;  ///< elastic Lamé constants of the return (Pa)
+  Real nPhi = 1;            ///< Nφ = (1 + sin φ)/(1 − sin φ)
+  Real nPsi = 1;            ///< Nψ = (1 + sin ψ)/(1 − sin ψ)
+  Real cohesionTerm = 0;    ///< 2 c √Nφ (Pa)
+  Real tension = 0;         ///< σt_eff = min(σt, apex) (Pa)
+  /// F_s and F_t at sorted principal stresses (Pa).
+  Real shear(const Real s[3]) const { return nPhi * s[2] - s[0] - cohesionTerm; }
+  Real tensile(const Real s[3]) const { return s[2] - tension; }
+  /// Return sorted trial principal stresses to the surface (no-op if inside). `hint`: an active
+  /// set to try first (the previous result of a nearby return). Throws std::runtime_error only if
+  /// no candidate solves at all (degenerate parameters).
+  PrincipalReturn returnMap(const Real trial[3], int hint = -1) const;
+};
+
+/// Mohr–Coulomb elastoplastic damage material (eqs. 16–18).
+class MohrCoulombDamageMaterial final : public Material {
+public:
+  explicit MohrCoulombDamageMaterial(const MohrCoulombDamageParams& p);  // throws InputError
+  std::string typeName() const override { return "mohr_coulomb_damage"; }
+  Real density() const override { return params_.elastic.density; }
+  ElasticModuli elasticModuli() const override { return moduli_; }
+  std::vector<std::string> historyNames() const override;
+  int dissipationHistory() const override { return mc_history::kDissipation; }
+  void updateStressForElems(const MaterialChunk& chunk) const override;
+
+  const MohrCoulombDamageParams& params() const { return params_; }
+  /// The surface for damage D (cohesion and cut-off reduced as the damage effect says; for
+  /// cohesion_and_stiffness this is the surface of the nominal stress).
+  MohrCoulombSurface surface(Real damage) const;
+  /// D from the cumulative plastic deviatoric strains κ (eqs. 17–18), clamped to [0, 1].
+  Real damageFrom(const Real kappa[3]) const;
+
+private:
+  /// Full update of one element whose trial stress may lie outside the surface.
+  void plasticUpdate(Real stressOld[6], const Real dstrain[6], Real* const* hist, Index e) const;
+
+  MohrCoulombDamageParams params_;
+  ElasticModuli moduli_;
+  Real nPhi_ = 1, nPsi_ = 1, sqrtNPhi_ = 1, cotPhi_ = 0;
+  Real dpSlope_ = 0;  // √(1 + Nφ² − (Nφ−1)²/3): inscribed-cone bound of the shear function
+};
+
+}  // namespace tq

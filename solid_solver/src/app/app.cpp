@@ -1,0 +1,648 @@
+// tq-solid: explicit dynamics of rock and lining (see docs/solid_solver.md).
+//
+//   tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]
+//
+// A run is a starter and an engine. The starter reads and checks the input and the mesh and
+// builds the model (element blocks and materials, supports, loads, the time step, the stages). The
+// engine runs it: the static stages and the switch to the seismic stage, the water coupling, the
+// time loop with its results, snapshots and restart checkpoints, then the timings and the status.
+// Every error leaves through one exit (SolidRun::stop): the water is told, the results file gets
+// the status, stderr the message, and the exit code says which kind (tq/app/app.hpp).
+#include "tq/app/app.hpp"
+
+#include <hdf5.h>
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "tq/app/stages.hpp"
+#include "tq/coupling/fluid_coupling.hpp"
+#include "tq/io/input.hpp"
+#include "tq/io/restart.hpp"
+#include "tq/io/results.hpp"
+
+namespace tq {
+
+namespace {
+const char* kUsage =
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume [--resume-sequence N]]]\n"
+    "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
+    "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
+    "  --check      validate input and mesh, print the stable step, do not run\n"
+    "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+    "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
+    "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
+    "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
+    "  --resume     continue from the last checkpoint in DIR; the results end as if never stopped\n"
+    "  --resume-sequence N  continue from checkpoint N (coupled with the water: the last window both\n"
+    "               sides wrote, the last checkpoint or the one before)\n"
+    "  With /coupling transport mpi it is one application of an MPMD job (docs/coupler.md\n"
+    "  \"tq-solid under mpirun\"): mpirun --bind-to none -np 1 tq-solid solid_input.h5 : -np N <fluid> ...\n";
+
+// What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
+const char* kCapabilities =
+    "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
+    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
+    "mohr-coulomb-damage dynamic-contact water-coupling restart";
+
+std::string hms(double s) {
+  std::ostringstream os;
+  if (s >= 3600) os << int(s / 3600) << " h ";
+  if (s >= 60) os << int(std::fmod(s, 3600) / 60) << " min ";
+  os << int(std::fmod(s, 60)) << " s";
+  return os.str();
+}
+/// What a restart checkpoint belongs to: the bytes of the input and mesh files (every setting,
+/// the motion, the mesh), the step and the end (a build whose parts save other state is caught by
+/// the archive's own checks on restore).
+std::string runFingerprint(const SolidInput& in, const Solver& s) {
+  std::uint64_t h = fnv1a(nullptr, 0);
+  for (const std::string& path : {in.path, in.meshPath}) {
+    std::ifstream is(path, std::ios::binary);
+    std::vector<char> buf(1 << 16);
+    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+      h = fnv1a(buf.data(), size_t(is.gcount()), h);
+  }
+  const Real numbers[2] = {s.dt(), in.tEnd};
+  return hex64(fnv1a(numbers, sizeof numbers, h));
+}
+}  // namespace
+
+namespace {
+
+/// The command line.
+struct CommandLine {
+  std::string input, output = "results.h5", checkpointDir;
+  bool check = false, resume = false;
+  long long resumeSequence = 0;
+};
+
+/// Reads the command line into `cl`. Returns the exit code when the command line alone ends the
+/// run (help, capabilities: 0; a wrong argument: 1), else -1.
+int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, std::ostream& err, CommandLine& cl) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      out << kUsage;
+      return 0;
+    } else if (a == "-o" && i + 1 < args.size()) {
+      cl.output = args[++i];
+    } else if (a == "--capabilities") {
+      out << "tq-solid capabilities: " << kCapabilities << "\n";
+      return 0;
+    } else if (a == "--check") {
+      cl.check = true;
+    } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
+      cl.checkpointDir = args[++i];
+    } else if (a == "--resume") {
+      cl.resume = true;
+    } else if (a == "--resume-sequence" && i + 1 < args.size()) {
+      cl.resumeSequence = std::stoll(args[++i]);
+    } else if (a == "--threads" && i + 1 < args.size()) {
+      omp_set_num_threads(std::stoi(args[++i]));
+    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
+      cl.input = a;
+    } else {
+      err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
+      return 1;
+    }
+  }
+  if (cl.input.empty() || (cl.resume && cl.checkpointDir.empty())) {
+    err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n") << kUsage;
+    return 1;
+  }
+  return -1;
+}
+
+// ---- The starter: reads, checks and builds the model ------------------------------------------
+
+/// What the starter builds and the engine runs. Filled in place and never moved: the solver and
+/// the stages refer to the input and the mesh.
+struct Model {
+  SolidInput in;
+  Mesh mesh;
+  std::unique_ptr<Solver> solver;
+  std::unique_ptr<StagedAnalysis> stages;  // version 2: the staged analysis (stages.cpp)
+  Index nElems = 0;
+};
+
+/// Reads and checks the input and the mesh, builds the solver (element blocks and materials,
+/// supports, loads, the time step) and the stages. Throws InputError.
+void startModel(const std::string& input, Model& m) {
+  m.in = readSolidInput(input);
+  m.mesh = readMeshH5(m.in.meshPath, {m.in.requiredFaces});
+  m.solver = buildSolver(m.in, m.mesh);
+  if (m.in.staged.present) m.stages = std::make_unique<StagedAnalysis>(m.in, m.mesh, *m.solver);
+  for (const auto& b : m.solver->blocks()) m.nElems += b->numElems();
+}
+
+/// The model in a few lines: its size, the integrator, the time step, the stages.
+void describeModel(const Model& m, std::ostream& out) {
+  const Solver& s = *m.solver;
+  const StableStep st = s.stableStep();
+  out << "tq-solid: " << m.mesh.numNodes() << " nodes, " << m.nElems << " elements in " << s.blocks().size()
+      << " block(s), " << integratorName(s.options().integrator) << ", " << formulationName(m.in.formulation)
+      << "\n  stable step " << st.dtCritical << " s (element " << st.element << " of '" << st.block
+      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(m.in.tEnd / s.dt())) << " steps to t_end = "
+      << m.in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
+  if (m.stages) {
+    out << "  stages:";
+    for (const auto& n : m.in.staged.stages.sequence) out << " " << n;
+    out << (m.in.staged.condition.empty() ? "" : " (condition " + m.in.staged.condition + ")") << "\n";
+    const std::string w = elementSizeWarning(s, m.in.staged.motion.cutoffFrequency);
+    if (!w.empty()) out << "tq-solid: " << w << "\n";
+  }
+}
+
+// ---- The engine: runs the model ---------------------------------------------------------------
+
+/// The checkpoint folder refuses the run (another tq-solid holds it, or it has no checkpoint of
+/// this run to resume from): exit 2 with the message as it is.
+class CheckpointRefusal : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Exit codes (tq/app/app.hpp).
+enum Exit : int { kInputError = 2, kInstability = 3, kCouplingStopped = 4, kOutputError = 5 };
+
+/// One run of tq-solid: the starter, then the engine's parts in the order they run (exec).
+class SolidRun {
+public:
+  SolidRun(CommandLine cl, std::ostream& out, std::ostream& err, std::unique_ptr<CouplingMpi>& mpi)
+      : cl_(std::move(cl)), out_(out), err_(err), mpi_(mpi) {}
+  SolidRun(const SolidRun&) = delete;
+  SolidRun& operator=(const SolidRun&) = delete;
+  /// Under mpirun, how the coupling ended decides how MPI ends (runSolid ends it after this).
+  ~SolidRun() {
+    if (mpi_ && coupling_) mpi_->note(*coupling_);
+  }
+  int exec();
+
+private:
+  // The engine, in the order exec runs it.
+  void startMpi();
+  void openCheckpoints();
+  bool runStatics();  // false: statics only, and the run is complete
+  void connectWater();
+  void addCouplingSeries();
+  void enableSubcycling();
+  void restoreOrStart();
+  void stepToEnd();
+  void finish();
+  // Its parts.
+  void runState(StateArchive& a);
+  void writeCheckpoint(Real t);
+  void flushAndReport(Real t);
+  void writeStages();
+  void writeCouplingSummary();
+  void writeTimings(double wall);
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+  /// The one way out of a run that stops on an error.
+  int stop(Exit code, const std::string& message, const char* label = "");
+
+  const CommandLine cl_;
+  std::ostream& out_;
+  std::ostream& err_;
+  std::unique_ptr<CouplingMpi>& mpi_;  // set when /coupling transport is mpi
+  Model m_;
+  // Restart checkpoints (tq/io/restart.hpp): every checkpoint_interval s of simulated time, at the
+  // end of a step (coupled: of an accepted window), the whole state (runState); --resume restores
+  // the last.
+  std::unique_ptr<RestartCheckpoints> checkpoints_;
+  CheckpointManifest resumeFrom_;
+  std::string fingerprint_;
+  StateArchive checkpointArchive_;
+  long long checkpointWindows_ = 0;
+  long long checkpointSeq_ = 0, checkpointsWritten_ = 0;
+  Real nextCheckpoint_ = 0;
+  double checkpointSeconds_ = 0;
+  bool writerStarted_ = false;
+  std::unique_ptr<ResultsWriter> writer_;
+  std::shared_ptr<FluidCoupling> coupling_;
+  bool stagesWritten_ = false, stepping_ = false;
+  size_t nextSnap_ = 0;
+  Real tFinal_ = 0, gap_ = 0;  // the last final state's time, and the span to it from the one before
+  std::chrono::steady_clock::time_point t0_, lastReport_, lastFlush_;
+  Index step0_ = 0;
+};
+
+int SolidRun::exec() {
+  try {
+    try {
+      startModel(cl_.input, m_);  // the starter
+      describeModel(m_, out_);
+      if (cl_.check) {
+        out_ << "tq-solid: input and mesh are valid\n";
+        return 0;
+      }
+      startMpi();
+      openCheckpoints();
+      writerStarted_ = true;
+      writer_ = std::make_unique<ResultsWriter>(cl_.output, m_.in, *m_.solver);
+      if (m_.stages && !runStatics()) return 0;
+      connectWater();
+      enableSubcycling();
+      restoreOrStart();
+      stepToEnd();
+      finish();
+      return 0;
+    } catch (const InputError& e) {
+      return stop(kInputError, e.what(), "input error: ");
+    } catch (const CheckpointRefusal& e) {
+      return stop(kInputError, e.what());
+    } catch (const InstabilityError& e) {
+      return stop(kInstability, e.what());
+    } catch (const CouplingError& e) {  // the fluid is lost, silent or refused: stop with its cause
+      return stop(kCouplingStopped, e.what());
+    }
+  } catch (const OutputError& e) {  // the file system refused a write, also one of stop's
+    return stop(kOutputError, e.what());
+  }
+}
+
+int SolidRun::stop(Exit code, const std::string& message, const char* label) {
+  if (coupling_ && code != kCouplingStopped) coupling_->abort("the solid stopped: " + message);
+  const std::string status = "stopped: " + message;
+  err_ << "tq-solid: " << label << message << "\n";
+  if (code == kOutputError) {  // a full disk, a quota, an I/O error
+    if (!writerStarted_) return code;  // the checkpoint folder, before the results file
+    if (!writer_) {  // the file could not even be started: nothing of it is worth keeping
+      std::remove(cl_.output.c_str());
+      err_ << "  no results written (" << cl_.output << " removed); free space on its file system and run again\n";
+    } else if (!writer_->stopAfterOutputError(status)) {
+      err_ << "  " << cl_.output << " holds the samples up to its last flush; its status could not be written\n";
+    } else if (writer_->samples() == 0) {
+      err_ << "  no monitor sample written yet; " << cl_.output << " holds the run's set-up with status 'stopped: ...'; "
+           << "free space on its file system and run again\n";
+    } else {
+      err_ << "  results up to t = " << writer_->lastSampleTime() << " s (" << writer_->samples()
+           << " samples) are in " << cl_.output << " with status 'stopped: ...'; free space on its file system and "
+           << "run again\n";
+    }
+    return code;
+  }
+  if (!writer_) return code;
+  if (m_.stages && !stagesWritten_) writeStages();
+  if (stepping_) writeCouplingSummary();
+  writer_->setStatus(status);
+  if (stepping_) writeTimings(elapsed());
+  if (code == kInstability || code == kCouplingStopped) err_ << "  results so far are in " << cl_.output << "\n";
+  return code;
+}
+
+// MPI only for the coupling's MPI transport (docs/coupler.md "tq-solid under mpirun"); started by
+// mpirun with transport tcp, tq-solid stays a plain process and couples over TCP.
+void SolidRun::startMpi() {
+  const CouplingInput& ci = m_.in.staged.coupling;
+  if (ci.present && ci.transport == "mpi") {
+    mpi_ = std::make_unique<CouplingMpi>(ci);
+    if (!mpi_->problem().empty()) throw CouplingError(mpi_->problem());
+    out_ << "tq-solid: " << mpi_->describe() << "\n";
+    if (const std::string w = mpi_->bindingWarning(); !w.empty()) out_ << "tq-solid: warning: " << w << "\n";
+  } else if (const std::string n = CouplingMpi::launchedByMpirun(); ci.present && !n.empty()) {
+    out_ << "tq-solid: started by mpirun (" << n << ") but /coupling transport is tcp: coupling over TCP through '"
+         << ci.addressFile << "', without MPI (set transport mpi to couple over MPI: docs/coupler.md)\n";
+  }
+}
+
+// What the checkpoints belong to, and with --resume the one to continue from, checked before
+// anything is written (a refused resume leaves the results file as it was).
+void SolidRun::openCheckpoints() {
+  if (cl_.checkpointDir.empty()) return;
+  fingerprint_ = runFingerprint(m_.in, *m_.solver);
+  try {
+    checkpoints_ = std::make_unique<RestartCheckpoints>(cl_.checkpointDir);
+  } catch (const InputError& e) {
+    throw CheckpointRefusal(e.what());
+  }
+  if (m_.in.staged.coupling.present) checkpoints_->setKeep(2);  // the water's checkpoint of a window comes after the solid's
+  if (!cl_.resume) return;
+  std::string why;
+  if (!checkpoints_->last(resumeFrom_, why, cl_.resumeSequence)) throw CheckpointRefusal("cannot resume: " + why);
+  if (resumeFrom_.fingerprint != fingerprint_) {
+    std::ostringstream os;
+    os << "cannot resume from " << checkpoints_->dir() << ": its checkpoint (t = " << resumeFrom_.time
+       << " s) was written for another input (the case, its mesh or its motion changed since, or this is "
+          "another build of tq-solid: fingerprint "
+       << resumeFrom_.fingerprint << ", this run " << fingerprint_ << "); run without --resume to start again";
+    throw CheckpointRefusal(os.str());
+  }
+}
+
+// Static stages (dynamic relaxation), then the switch to the seismic stage.
+bool SolidRun::runStatics() {
+  m_.stages->runStatics(out_, m_.in.progressSeconds);
+  if (m_.stages->hasSeismic()) m_.stages->switchToDynamics(out_);
+  writeStages();
+  if (m_.stages->hasSeismic()) return true;
+  writer_->snapshot(*m_.solver);  // statics only: the equilibrium state is the result
+  writer_->setStatus("completed");
+  out_ << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl_.output << "\n";
+  return false;
+}
+
+void SolidRun::writeStages() {
+  for (const auto& r : m_.stages->reports())
+    writer_->writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+  stagesWritten_ = true;
+}
+
+// The water coupling (dynamic_water): connects to the fluid after the static stages, so the
+// displacement it writes is relative to the seismic start (docs/coupler.md "Solid adapter").
+void SolidRun::connectWater() {
+  const CouplingInput& ci = m_.in.staged.coupling;
+  if (!ci.present) return;
+  Solver& s = *m_.solver;
+  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd);
+  out_ << "tq-solid: " << coupling_->describe() << "; waiting for the fluid" << std::endl;
+  if (!cl_.resume) coupling_->initialize();  // resumed: once its state is restored (restoreOrStart)
+  s.addContributor(ForcePhase::Water, coupling_);
+  m_.in.tEnd = coupling_->endTime();  // whole windows
+  addCouplingSeries();
+  out_ << "tq-solid: coupled with the fluid; t_end = " << m_.in.tEnd << " s (" << coupling_->windowCount()
+       << " windows)" << std::endl;
+}
+
+// The coupling's histories in the results: its works, the volume law's pressure, the water
+// pressure at the monitors, the wetted face's total force and mean acceleration.
+void SolidRun::addCouplingSeries() {
+  const Solver& s = *m_.solver;
+  ResultsWriter& results = *writer_;
+  FluidCoupling* c = coupling_.get();
+  results.addSeries("/energy/fluid_work", [c] { return c->fluidWork(); }, "fluid_work");
+  results.addSeries("/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
+  results.addSeries("/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
+  if (c->hasVolumeLaw())
+    results.addSeries("/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
+  results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
+                           [c]() -> const std::vector<Real>& { return c->force(); });
+  // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
+  // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
+  // (m/s²), both of the same step, per direction.
+  for (int d = 0; d < 3; ++d) {
+    const std::string axis(1, "xyz"[d]);
+    results.addSeries("/coupling/force_" + axis, [c, d] {
+      Real sum = 0;
+      const auto& F = c->force();
+      for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+      return sum;
+    }, "force_" + axis);
+    results.addSeries("/coupling/acceleration_" + axis, [c, &st = s.state(), d] {
+      Real ma = 0, m = 0;
+      for (Index n : c->nodes()) {
+        ma += st.mass(n) * st.a(n, d);
+        m += st.mass(n);
+      }
+      return m > 0 ? ma / m : Real(0);
+    }, "acceleration_" + axis);
+  }
+}
+
+// After every contributor is in: they mark their fine nodes.
+void SolidRun::enableSubcycling() {
+  if (m_.in.options.subcyclingLevels <= 0) return;
+  const SubcyclingInfo sc = m_.solver->enableSubcycling(m_.in.options.subcyclingLevels);
+  std::ostringstream os;
+  os << "tq-solid: subcycling: steps of 1";
+  for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
+  os << " x dt for";
+  for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
+  os << " elements (";
+  for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
+  os << " nodes): " << std::setprecision(3) << sc.costFraction << " of the element evaluations of one step for all\n";
+  out_ << os.str();
+  std::map<std::string, double> attrs{{"levels", double(sc.levels)}, {"cost_fraction", sc.costFraction}};
+  for (size_t l = 0; l < sc.elements.size(); ++l) {
+    attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
+    attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
+  }
+  writer_->writeAttrs("/subcycling", attrs, {});
+}
+
+// Everything a checkpoint holds, in this order (saved and restored alike).
+void SolidRun::runState(StateArchive& a) {
+  m_.solver->checkpoint(a);
+  writer_->checkpoint(a);
+  a.io(tFinal_);
+  a.io(gap_);
+  a.io(nextSnap_);
+  a.io(nextCheckpoint_);
+  a.io(checkpointSeq_);
+  if (coupling_) coupling_->restartState(a);
+}
+
+// The start of the seismic record: from the checkpoint with --resume, else the first sample.
+void SolidRun::restoreOrStart() {
+  Solver& s = *m_.solver;
+  tFinal_ = s.time();
+  nextCheckpoint_ = m_.in.checkpointInterval;
+  // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
+  // windows, at least 1), a rule the water applies to its own window count too.
+  checkpointWindows_ =
+      coupling_ && m_.in.checkpointInterval > 0
+          ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
+          : 0;
+  if (!cl_.resume) {
+    if (checkpoints_) checkpoints_->clear();
+    writer_->sample(s);
+    return;
+  }
+  const CheckpointManifest& m = resumeFrom_;
+  try {  // a build whose parts list other state: the archive's own checks (tq/core/state_archive.hpp)
+    checkpoints_->read(m, checkpointArchive_);
+    checkpointArchive_.beginRestore();
+    runState(checkpointArchive_);
+    checkpointArchive_.end();
+  } catch (const std::exception& e) {
+    throw CheckpointRefusal("cannot resume from " + checkpoints_->file(m.solid) + ": " + e.what() +
+                            "; run without --resume to start again");
+  }
+  writer_->resumeFrom(checkpoints_->file(m.results), s);
+  out_ << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step << ", "
+       << m.samples << " samples" << (m.window >= 0 ? ", coupling window " + std::to_string(m.window) : "") << ")"
+       << std::endl;
+  if (coupling_) coupling_->initializeResumed();
+}
+
+// The time loop. Implicit coupling windows of several steps: the state at each window start is
+// kept, and a window the water did not accept is stepped again from it; results are sampled at
+// window ends.
+void SolidRun::stepToEnd() {
+  Solver& s = *m_.solver;
+  ResultsWriter& results = *writer_;
+  t0_ = lastReport_ = lastFlush_ = std::chrono::steady_clock::now();
+  step0_ = s.stepCount();
+  WindowedStepper stepper(s, coupling_.get());
+  stepping_ = true;
+  try {
+    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) {
+      if (!stepper.step()) continue;
+      if (coupling_) {
+        const std::string note = coupling_->takeNote();
+        if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
+      }
+      const Real t = s.time();
+      gap_ = t - tFinal_;
+      tFinal_ = t;
+      // The histories are written at k x monitor_dt, interpolated between the final states on
+      // either side: observe this state when a requested time falls before the next final state
+      // (expected one step, or window, on).
+      if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
+      while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
+        results.snapshot(s);
+        ++nextSnap_;
+      }
+      writeCheckpoint(t);
+      flushAndReport(t);
+    }
+  } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample
+    results.sample(s);
+    throw;
+  }
+}
+
+// A restart checkpoint when one is due (none at the end: the results are then whole).
+void SolidRun::writeCheckpoint(Real t) {
+  const Solver& s = *m_.solver;
+  const Real tEnd = m_.in.tEnd;
+  const bool due = coupling_ ? checkpointWindows_ > 0 && !coupling_->windowOpen() &&
+                                   coupling_->windowsDone() % checkpointWindows_ == 0 &&
+                                   coupling_->windowsDone() < coupling_->windowCount()
+                             : m_.in.checkpointInterval > 0 && t >= nextCheckpoint_ - 1e-9 * s.dt() &&
+                                   t < tEnd - 1e-9 * s.dt();
+  if (!checkpoints_ || !due) return;
+  const auto c0 = std::chrono::steady_clock::now();
+  while (t >= nextCheckpoint_ - 1e-9 * s.dt()) nextCheckpoint_ += m_.in.checkpointInterval;
+  ++checkpointSeq_;
+  writer_->flush();
+  lastFlush_ = c0;
+  checkpointArchive_.beginSave();
+  runState(checkpointArchive_);
+  checkpointArchive_.end();
+  CheckpointManifest m;
+  m.sequence = checkpointSeq_;
+  m.time = t;
+  m.step = s.stepCount();
+  m.samples = writer_->samples();
+  m.window = coupling_ ? coupling_->windowsDone() : -1;
+  m.fingerprint = fingerprint_;
+  checkpoints_->write(m, checkpointArchive_, writer_->path());
+  ++checkpointsWritten_;
+  checkpointSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+}
+
+// The results flushed every 2 s of wall time; progress every progress_seconds.
+void SolidRun::flushAndReport(Real t) {
+  const Solver& s = *m_.solver;
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - lastFlush_).count() > 2.0) {
+    writer_->flush();
+    lastFlush_ = now;
+  }
+  if (std::chrono::duration<double>(now - lastReport_).count() < m_.in.progressSeconds) return;
+  const double wall = elapsed(), rate = double(s.stepCount() - step0_) / wall;
+  const double left = (m_.in.tEnd - t) / s.dt() / rate;
+  out_ << "  t = " << std::setprecision(5) << t << " s / " << m_.in.tEnd << " s (" << std::setprecision(3)
+       << 100 * t / m_.in.tEnd << " %), step " << s.stepCount() << ", " << std::setprecision(4) << rate
+       << " steps/s, energy error " << std::setprecision(2) << s.energy().error << ", ETA " << hms(left) << std::endl;
+  lastReport_ = now;
+}
+
+void SolidRun::writeCouplingSummary() {
+  if (!coupling_) return;
+  const FluidCouplingStats cs = coupling_->stats();
+  const FluidCoupling& c = *coupling_;
+  writer_->writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
+                                    {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
+                                    {"unconverged_windows", double(cs.unconvergedWindows)},
+                                    {"window_size", c.windowSize()}, {"fluid_work", c.fluidWork()},
+                                    {"fluid_received_work", c.fluidReceivedWork()},
+                                    {"coupling_energy", c.couplingEnergy()},
+                                    {"volume_law_work", c.volumeLawWork()},
+                                    {"enclosed_volume", c.enclosedVolume()},
+                                    {"interface_work_peak", c.interfaceWorkPeak()},
+                                    {"energy_floor", c.energyFloor()},
+                                    {"energy_limit", m_.in.staged.coupling.energyLimit},
+                                    // cost split over the stepping (docs/coupler.md "Exchange cost")
+                                    {"coupled_wall_s", cs.secondsCoupled},
+                                    {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                                    {"coupler_s", cs.secondsInCoupler},
+                                    {"exchange_wait_s", cs.secondsWaiting},
+                                    {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
+                                    {"mapping_s", cs.secondsMapping},
+                                    {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
+                                    {"coupler_cpu_s", cs.cpuInCoupler}},
+                      {{"scheme", m_.in.staged.coupling.scheme}});
+}
+
+void SolidRun::writeTimings(double wall) {
+  const long long steps = m_.solver->stepCount() - step0_;
+  writer_->writeTimings(wall, steps, steps * m_.nElems, omp_get_max_threads());
+}
+
+// The end of a complete run: the water's last window, the timings and the status.
+void SolidRun::finish() {
+  if (coupling_) {
+    coupling_->finalize();
+    writeCouplingSummary();
+    const FluidCouplingStats cs = coupling_->stats();
+    if (cs.unconvergedWindows > 0)
+      err_ << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
+           << " coupling windows ended at the pass limit (coupling.max_iterations = "
+           << m_.in.staged.coupling.maxIterations << ") with the interface residual above the tolerance "
+           << m_.in.staged.coupling.tolerance
+           << ": the water and the lining disagree there by more than asked. Raise coupling.max_iterations, or "
+              "check the added-mass ratio (`tunnelquake check`, docs/coupler.md); /coupling unconverged_windows in "
+              "the results counts them.\n";
+  }
+  const double wall = elapsed();
+  const long long steps = m_.solver->stepCount() - step0_;
+  writeTimings(wall);
+  if (checkpoints_) {
+    writer_->writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten_)}, {"checkpoint_s", checkpointSeconds_},
+                                     {"checkpoint_interval", m_.in.checkpointInterval}});
+  }
+  writer_->setStatus("completed");
+  if (checkpoints_) checkpoints_->clear();  // the results are whole: nothing left to resume
+  out_ << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
+       << (steps > 0 ? 1e6 * wall / (double(steps) * m_.nElems) : 0.0) << " µs per element-step), energy error "
+       << m_.solver->energy().error << "\n  results: " << cl_.output << "\n";
+}
+
+/// The whole run; `mpi` is set when /coupling transport is mpi (tq-solid under mpirun), and
+/// runSolid ends MPI after this returns (results.h5 closed by then).
+int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+                 std::unique_ptr<CouplingMpi>& mpi) {
+  CommandLine cl;
+  if (const int rc = parseCommandLine(args, out, err, cl); rc >= 0) return rc;
+  SolidRun run(std::move(cl), out, err, mpi);
+  return run.exec();
+}
+
+}  // namespace
+
+int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  // HDF5 closes what is still open at exit; a file whose flush failed then crashes it
+  // (H5F__close_cb). Every file here is closed by its owner, so that pass is left out.
+  H5dont_atexit();
+  std::unique_ptr<CouplingMpi> mpi;
+  int rc = 0;
+  try {
+    rc = runSolidBody(args, out, err, mpi);
+  } catch (const std::exception& e) {
+    if (!mpi) throw;
+    err << "tq-solid: error: " << e.what() << "\n";  // under mpirun: say it, then end MPI below
+    rc = 1;
+  }
+  if (mpi) rc = mpi->finish(rc, err);
+  return rc;
+}
+
+}  // namespace tq

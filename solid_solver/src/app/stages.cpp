@@ -1,0 +1,573 @@
+// The staged analysis (tq/app/stages.hpp; docs/solid_solver.md "Staged initial state").
+#include "tq/app/stages.hpp"
+
+#include "tq/contact/contact.hpp"
+#include "tq/elements/hex8.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <ostream>
+#include <set>
+#include <sstream>
+
+namespace tq {
+
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+Real zTopOf(const Mesh& m) {
+  Real z = -std::numeric_limits<Real>::max();
+  for (Index n = 0; n < m.numNodes(); ++n) z = std::max(z, m.coords[3 * size_t(n) + 2]);
+  return z;
+}
+
+Real zBottomOf(const Mesh& m) {
+  Real z = std::numeric_limits<Real>::max();
+  for (Index n = 0; n < m.numNodes(); ++n) z = std::min(z, m.coords[3 * size_t(n) + 2]);
+  return z;
+}
+
+}  // namespace
+
+void HeldExcavationLoad::addForces(Real, Real, NodalState& state) {
+  if (released_) return;
+  Real* fe = state.fExtData();
+  const size_t n = std::min(f_.size(), 3 * size_t(state.numNodes()));
+  for (size_t i = 0; i < n; ++i) fe[i] += f_[i];
+}
+
+StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver)
+    : in_(in), mesh_(mesh), solver_(solver) {
+  const StagedInput& S = in.staged;
+  if (!S.present) throw InputError("solid input '" + in.path + "': no stages (version 1 input)");
+  const Real lambda = S.stages.releaseFraction;
+  if (!(lambda >= 0 && lambda <= 1))
+    throw InputError("solid input '" + in.path + "', /stages: release_fraction = " + std::to_string(lambda) +
+                     " must lie in [0, 1]");
+  if (lambda < 1 && !(S.stages.has("excavation") && S.stages.has("lining")))
+    throw InputError("solid input '" + in.path + "', /stages: release_fraction < 1 holds part of the excavation "
+                     "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
+  for (auto& b : solver_.blocks())
+    if (b->name() == S.stages.liningRegion) lining_ = b.get();
+  const bool liningStage = S.stages.has("lining");
+  if (liningStage) {
+    if (!lining_)
+      throw InputError("solid input '" + in.path + "', /stages: the lining stage needs region '" +
+                       S.stages.liningRegion + "' in mesh " + mesh.source + " (set lining_region or remove the stage)");
+    if (mesh.rockLiningPairs.empty())
+      throw InputError("mesh " + mesh.source + " has no /interfaces/rock_lining node pairs, which the lining "
+                       "stage needs to join the lining to the rock");
+  }
+  if (S.stages.has("hydrostatic") && !mesh.faces.count(S.hydrostatic.face))
+    mesh.faceNodes(S.hydrostatic.face);  // throws the missing-group message
+  if (S.stages.has("seismic")) {
+    if (S.bottom.present) axisFace(mesh, S.bottom.face);  // throws if missing or not a plane
+    for (const auto& f : S.freeField.faces) axisFace(mesh, f);
+  }
+}
+
+namespace {
+
+/// The ground's density profile for the overburden: each region outside the lining occupies the
+/// heights of its elements, and where regions share a height they must have the same density
+/// (horizontal layers do; a region beside another of another density has no single overburden).
+/// The overburden at z is then q + g ∫_z^{z_top} ρ(ζ) dζ, the highest region's density carried up
+/// to z_top when the ground surface lies above the mesh, and a gap between regions taking the
+/// density of the region above it.
+struct OverburdenProfile {
+  struct Band {
+    Real lo, hi, rho;
+    std::string region;
+  };
+  std::vector<Band> bands;  // disjoint, sorted from the top down
+
+  Real integral(Real z, Real zTop) const {
+    Real s = 0, above = zTop;
+    for (size_t i = 0; i < bands.size() && above > z; ++i) {
+      const Band& b = bands[i];
+      // From `above` down to this band's top: above the mesh (the top band's density) or a gap
+      // (the density of the band above it).
+      const Real fill = i == 0 ? b.rho : bands[i - 1].rho;
+      if (above > b.hi) s += fill * (above - std::max(b.hi, z));
+      const Real hi = std::min(b.hi, above);
+      if (hi > z) s += b.rho * (hi - std::max(b.lo, z));
+      above = std::min(above, b.lo);
+    }
+    if (above > z && !bands.empty()) s += bands.back().rho * (above - z);
+    return s;
+  }
+};
+
+OverburdenProfile overburdenProfile(const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                                    const ElementBlock* lining, const Mesh& mesh) {
+  struct Range {
+    Real lo, hi, rho;
+    std::string name;
+  };
+  std::vector<Range> ranges;
+  Real span = 0;
+  for (const auto& b : blocks) {
+    if (b.get() == lining || b->numElems() == 0) continue;
+    Range r{std::numeric_limits<Real>::max(), -std::numeric_limits<Real>::max(), b->material().density(), b->name()};
+    for (Index e = 0; e < b->numElems(); ++e)
+      for (int k = 0; k < 8; ++k) {
+        const Real z = mesh.coords[3 * size_t(b->node(e, k)) + 2];
+        r.lo = std::min(r.lo, z);
+        r.hi = std::max(r.hi, z);
+      }
+    span = std::max(span, r.hi - r.lo);
+    ranges.push_back(r);
+  }
+  const Real tol = 1e-9 * std::max(1.0, span);
+  // Cut the heights at every region's ends; each piece takes the density of the regions over it.
+  std::vector<Real> cuts;
+  for (const Range& r : ranges) {
+    cuts.push_back(r.lo);
+    cuts.push_back(r.hi);
+  }
+  std::sort(cuts.begin(), cuts.end(), std::greater<Real>());
+  OverburdenProfile p;
+  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const Real hi = cuts[i], lo = cuts[i + 1];
+    if (hi - lo <= tol) continue;
+    const Real mid = 0.5 * (hi + lo);
+    const Range* have = nullptr;
+    for (const Range& r : ranges) {
+      if (!(r.lo < mid && mid < r.hi)) continue;
+      if (have && std::abs(have->rho - r.rho) > 1e-9 * have->rho) {
+        std::ostringstream os;
+        os << "in-situ stress: regions '" << have->name << "' (density " << have->rho << " kg/m³) and '" << r.name
+           << "' (" << r.rho << " kg/m³) share the heights around z = " << mid
+           << " m, so the overburden is not one number there: the ground's regions must be horizontal layers, "
+              "or give one overburden density (/in_situ density)";
+        throw InputError(os.str());
+      }
+      have = &r;
+    }
+    if (have) p.bands.push_back({lo, hi, have->rho, have->name});
+  }
+  return p;
+}
+
+}  // namespace
+
+void StagedAnalysis::setInSituStress() {
+  const InSituInput& I = in_.staged.inSitu;
+  const Real zTop = std::isfinite(I.zTop) ? I.zTop : zTopOf(mesh_);
+  // One overburden density for all (/in_situ density), or the layered profile of the regions.
+  OverburdenProfile profile;
+  if (!(I.density > 0)) profile = overburdenProfile(solver_.blocks(), lining_, mesh_);
+  for (auto& b : solver_.blocks()) {
+    if (b.get() == lining_) continue;
+    for (Index e = 0; e < b->numElems(); ++e) {
+      Real zc = 0;
+      for (int k = 0; k < 8; ++k) zc += 0.125 * mesh_.coords[3 * size_t(b->node(e, k)) + 2];
+      // Overburden, tension positive: σv = −(q + g ∫_z^{z_top} ρ dζ).
+      const Real load = I.density > 0 ? I.density * (zTop - zc) : profile.integral(zc, zTop);
+      const Real sv = -(I.surcharge + I.gravity * load);
+      b->setStress(e, XX, I.kx * sv);
+      b->setStress(e, YY, I.ky * sv);
+      b->setStress(e, ZZ, I.kz * sv);
+      b->setStress(e, XY, 0);
+      b->setStress(e, YZ, 0);
+      b->setStress(e, ZX, 0);
+    }
+  }
+}
+
+StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& log, double progressSeconds) {
+  const StagesInput& st = in_.staged.stages;
+  StageReport rep;
+  rep.name = name;
+  const double t0 = now();
+  double last = t0;
+  Index lastSteps = 0;
+  Real lastRatio = 0;
+  RelaxParams rp;
+  rp.tolerance = st.tolerance;
+  rp.maxSteps = st.maxSteps;
+  rp.massScaling = st.massScaling;
+  rp.onCheck = [&](const RelaxResult& r) {
+    const double t = now();
+    if (t - last < progressSeconds || r.converged) return;
+    // ETA from the recent convergence rate of log(ratio) per step.
+    std::ostringstream eta;
+    if (lastRatio > 0 && r.ratio < lastRatio && r.ratio > 0) {
+      const double perStep = std::log(lastRatio / r.ratio) / double(r.steps - lastSteps);
+      const double stepsLeft = std::log(r.ratio / st.tolerance) / perStep;
+      const double rate = double(r.steps - lastSteps) / (t - last);
+      eta << ", ETA " << std::setprecision(2) << stepsLeft / rate << " s";
+    }
+    log << "  stage " << name << ": step " << r.steps << ", unbalanced ratio " << std::setprecision(3) << r.ratio
+        << " (tolerance " << st.tolerance << "), " << std::setprecision(4) << double(r.steps - lastSteps) / (t - last)
+        << " steps/s" << eta.str() << std::endl;
+    last = t;
+    lastSteps = r.steps;
+    lastRatio = r.ratio;
+  };
+  // Start each stage from rest: the previous relaxation leaves velocities of the order of its
+  // residual.
+  NodalState& s = solver_.state();
+  for (Index n = 0; n < s.numNodes(); ++n)
+    for (int d = 0; d < 3; ++d) s.v(n, d) = 0;
+  // The reference of the ratio: the out-of-balance force this stage starts from (its load: the
+  // released core tractions, the lining's weight, the water pressure), but at least 1e-6 of the
+  // model's force scale (so a stage that adds no load does not chase round-off).
+  solver_.computeForces(true);
+  Real fi2 = 0, fe2 = 0;
+  for (Index i = 0; i < 3 * s.numNodes(); ++i) {
+    fi2 += s.fIntData()[i] * s.fIntData()[i];
+    fe2 += s.fExtData()[i] * s.fExtData()[i];
+  }
+  const Real r0 = solver_.residualNorm(), scale = std::sqrt(std::max(fi2, fe2));
+  rp.referenceForce = std::max({r0, 1e-6 * scale, std::numeric_limits<Real>::min()});
+  const RelaxResult r = solver_.relax(rp);
+  rep.steps = r.steps;
+  rep.ratio = r.ratio;
+  rep.converged = r.converged;
+  rep.wallSeconds = now() - t0;
+  log << "  stage " << name << ": equilibrium " << (r.converged ? "reached" : "NOT reached") << " after " << r.steps
+      << " relaxation steps, unbalanced-force ratio " << std::setprecision(3) << r.ratio << " (tolerance "
+      << st.tolerance << "), " << std::setprecision(3) << rep.wallSeconds << " s" << std::endl;
+  if (!r.converged) {
+    std::ostringstream os;
+    os << "stage '" << name << "' did not reach static equilibrium: unbalanced-force ratio " << r.ratio
+       << " after " << r.steps << " dynamic relaxation steps (tolerance " << st.tolerance
+       << "). Raise /stages relaxation_max_steps (case: stages.relaxation_max_steps) or the tolerance, or check "
+          "the supports (a part free to move as a rigid body never settles).";
+    throw InstabilityError(os.str());
+  }
+  return rep;
+}
+
+void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
+  const InterfaceInput& R = in_.staged.rockLining;
+  if (R.present && R.model == "dynamic_contact") {
+    // The paper's dynamic contact force method (eqs. 9-13, tq/contact/contact.hpp): each pair bonds in
+    // its current configuration once both sides have mass, then separates or slips.
+    auto c = std::make_shared<DynamicContact>(solver_, rockLiningPairs(mesh_), contactParamsFrom(R));
+    solver_.addContributor(ForcePhase::Interface, c);
+    interface_ = c;
+    rep.note = "rock-lining interface: dynamic contact (" + std::to_string(c->numPairs()) + " pairs)";
+    log << "  " << rep.note << std::endl;
+    return;
+  }
+  auto tie = std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)",
+                                              TiedNodeGroups::pairs(mesh_.rockLiningPairs));
+  tie->install(solver_);
+  interface_ = tie;
+  solver_.addContributor(ForcePhase::Interface, tie);
+  rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tie->numGroups()) + ")";
+}
+
+void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
+  // The excavation load is the out-of-balance force the stage starts from: f_int − f_ext of the
+  // in-situ stress on a mesh without the tunnel core (the released core tractions). Adding
+  // (1 − λ) of it to the external forces leaves λ of it for the excavation stage to relax.
+  const Real keep = 1 - in_.staged.stages.releaseFraction;
+  NodalState& s = solver_.state();
+  solver_.computeForces(true);
+  std::vector<Real> f(3 * size_t(s.numNodes()), 0.0);
+  Real f2 = 0;
+  for (Index n = 0; n < s.numNodes(); ++n) {
+    if (!(s.mass(n) > 0)) continue;  // inactive (the lining's nodes): no force on them
+    for (int d = 0; d < 3; ++d) {
+      if (solver_.isFixed(n, d)) continue;  // the support takes its share; no force to hold
+      const size_t i = 3 * size_t(n) + d;
+      f[i] = keep * (s.fIntData()[i] - s.fExtData()[i]);
+      f2 += f[i] * f[i];
+    }
+  }
+  unreleased_ = std::make_shared<HeldExcavationLoad>(std::move(f));
+  solver_.addContributor(ForcePhase::Loads, unreleased_);
+  std::ostringstream os;
+  os.precision(4);
+  os << "release fraction " << in_.staged.stages.releaseFraction << ": " << 100 * in_.staged.stages.releaseFraction
+     << " % of the excavation load released with the rock alone; the rest, |f| = " << std::sqrt(f2)
+     << " N, held until the lining is active";
+  rep.note = os.str();
+  log << "  stage excavation: " << rep.note << std::endl;
+}
+
+void StagedAnalysis::activateLining(std::ostream& log, StageReport& rep) {
+  // Installed stress-free into the displaced rock: the lining's own nodes never moved (no mass
+  // while inactive), so its displacement reference is the state at activation; the tie keeps
+  // the pairs' increments equal from here on.
+  for (Index e = 0; e < lining_->numElems(); ++e) lining_->setActive(e, true, solver_.state());
+  solver_.rebuild();
+  installInterface(log, rep);
+}
+
+void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
+  const StagedInput& S = in_.staged;
+  const auto& seq = S.stages.sequence;
+  if (S.stages.has("lining")) {
+    // Not installed yet: no mass, no stiffness; its nodes stay at rest until the lining stage.
+    // (The time step stays the one of the complete model.)
+    for (Index e = 0; e < lining_->numElems(); ++e) lining_->setActive(e, false, solver_.state());
+    solver_.rebuild();
+  }
+  if (!S.stages.has("lining") && lining_ == nullptr) {
+    for (auto& b : solver_.blocks())
+      if (b->name() == S.stages.liningRegion) lining_ = b.get();
+  }
+  if (!S.stages.has("lining") && lining_ && !mesh_.rockLiningPairs.empty() && !interface_) {
+    StageReport rep;
+    rep.name = "interface";
+    installInterface(log, rep);  // lining present from the start: tie it now
+    reports_.push_back(rep);
+  }
+  for (size_t i = 0; i < seq.size(); ++i) {
+    const std::string& name = seq[i];
+    if (name == "seismic") break;
+    const bool excavationNext = i + 1 < seq.size() && seq[i + 1] == "excavation";
+    log << "tq-solid: stage " << name << std::endl;
+    if (name == "in_situ") {
+      setInSituStress();
+      if (excavationNext) {
+        // The mesh has no tunnel core: the in-situ stress leaves the released core tractions on
+        // the hole; the excavation stage relaxes them.
+        StageReport rep;
+        rep.name = name;
+        solver_.computeForces(true);
+        rep.ratio = solver_.unbalancedRatio(true);
+        rep.note = "in-situ stress set; unbalanced ratio before excavation " + std::to_string(rep.ratio);
+        log << "  stage in_situ: stresses set (kx " << S.inSitu.kx << ", ky " << S.inSitu.ky << ", kz "
+            << S.inSitu.kz << ", g " << S.inSitu.gravity << " m/s²); unbalanced ratio " << rep.ratio
+            << " (released core tractions)" << std::endl;
+        reports_.push_back(rep);
+      } else {
+        reports_.push_back(relaxStage(name, log, progressSeconds));
+      }
+    } else if (name == "excavation") {
+      if (S.stages.releaseFraction < 1) {
+        StageReport note;
+        holdUnreleasedLoad(log, note);
+        StageReport rep = relaxStage(name, log, progressSeconds);
+        rep.note = note.note;
+        reports_.push_back(rep);
+      } else {
+        reports_.push_back(relaxStage(name, log, progressSeconds));
+      }
+    } else if (name == "lining") {
+      StageReport note;
+      activateLining(log, note);
+      if (unreleased_ && !unreleased_->released()) {
+        // The rest of the excavation load, released on rock and lining together.
+        unreleased_->release();
+        std::ostringstream os;
+        os.precision(4);
+        os << "; the held " << 100 * (1 - S.stages.releaseFraction)
+           << " % of the excavation load released with rock and lining together";
+        note.note += os.str();
+        log << "  stage lining: the held " << 100 * (1 - S.stages.releaseFraction)
+            << " % of the excavation load released with rock and lining together" << std::endl;
+      }
+      StageReport rep = relaxStage(name, log, progressSeconds);
+      rep.note = note.note;
+      reports_.push_back(rep);
+    } else if (name == "hydrostatic") {
+      const HydrostaticInput& H = S.hydrostatic;
+      pressure_ = std::make_shared<ConstantNodalForces>(
+          "hydrostatic pressure", pressureNodalForces(mesh_, H.face, [&H](const Real x[3]) {
+            return std::max<Real>(0, H.pressureAtAxis - H.unitWeight * (x[2] - H.zAxis));
+          }));
+      solver_.addContributor(ForcePhase::Loads, pressure_);
+      StageReport rep = relaxStage(name, log, progressSeconds);
+      std::ostringstream os;
+      os << "p = " << H.pressureAtAxis << " Pa at z = " << H.zAxis << " m, gradient " << H.unitWeight
+         << " N/m^3 on '" << H.face << "'";
+      rep.note = os.str();
+      reports_.push_back(rep);
+    }
+  }
+}
+
+void StagedAnalysis::switchToDynamics(std::ostream& log) {
+  const StagedInput& S = in_.staged;
+  NodalState& st = solver_.state();
+  const Index N = st.numNodes();
+  // 1. Forces at the equilibrium state, at rest (also brings every element's strain record to the
+  //    current displacement, so the first seismic step starts from a zero increment).
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) st.v(n, d) = 0;
+  solver_.computeForces(true);
+  std::vector<Real> r(3 * size_t(N));
+  Real fi2 = 0, fe2 = 0;
+  for (size_t i = 0; i < r.size(); ++i) {
+    r[i] = st.fIntData()[i] - st.fExtData()[i];
+    fi2 += st.fIntData()[i] * st.fIntData()[i];
+    fe2 += st.fExtData()[i] * st.fExtData()[i];
+  }
+  const Real ref = std::sqrt(std::max(fi2, fe2));
+  // 2. The seismic record starts here: velocities 0, displacements relative to this state.
+  solver_.resetMotion();
+  // 3. Supports replaced by dynamic boundaries: a dof is released when every support group that
+  //    fixes it is replaced.
+  std::set<std::string> replaced;
+  if (S.bottom.present) replaced.insert(S.bottom.face);
+  for (const auto& f : S.freeField.faces) replaced.insert(f);
+  for (const auto& f : S.periodic.faces) replaced.insert(f);
+  std::vector<char> keep(3 * size_t(N), 0), byReplaced(3 * size_t(N), 0);
+  // Periodic faces: their nodes' supports along the faces' normal give way to the tie (in a slice
+  // the plane-strain u_y = 0 of every node, all of which lie on the two faces).
+  std::vector<std::vector<Index>> periodicPairs;
+  if (S.periodic.present) {
+    periodicPairs = TiedNodeGroups::periodicPairs(mesh_, S.periodic.faces[0], S.periodic.faces[1]);
+    const int axis = axisFace(mesh_, S.periodic.faces[0]).axis;
+    for (const auto& p : periodicPairs)
+      for (Index n : p) byReplaced[3 * size_t(n) + size_t(axis)] = 1;
+  }
+  for (const auto& [group, dirs] : in_.fixed) {
+    const auto nodes = mesh_.faceNodes(group);
+    for (char c : dirs) {
+      const int d = c == 'x' ? 0 : c == 'y' ? 1 : 2;
+      for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[3 * size_t(n) + d] = 1;
+    }
+  }
+  if (mesh_.slice && !S.periodic.present)
+    for (Index n = 0; n < N; ++n) keep[3 * size_t(n) + 1] = 1;  // plane strain stays
+  std::vector<Real> held(3 * size_t(N), 0.0);
+  Real react2 = 0, corr2 = 0;
+  Index released = 0;
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + d;
+      if (solver_.isFixed(n, d)) {
+        if (byReplaced[i] && !keep[i]) {
+          solver_.release(n, d);
+          held[i] = r[i];  // the reaction the support gave
+          react2 += r[i] * r[i];
+          ++released;
+        }
+      } else if (S.stages.equilibriumCorrection && st.mass(n) > 0) {
+        held[i] = r[i];  // residual out-of-balance of the relaxation, held constant
+        corr2 += r[i] * r[i];
+      }
+    }
+  correctionRatio_ = ref > 0 ? std::sqrt(corr2) / ref : 0;
+  held_ = std::make_shared<ConstantNodalForces>("held support reactions", held);
+  solver_.addContributor(ForcePhase::Loads, held_);
+  StageReport rep;
+  rep.name = "switch";
+  {
+    std::ostringstream os;
+    os.precision(3);
+    os << released << " support dofs released, reactions |R| = " << std::sqrt(react2)
+       << " N held as forces; residual held (equilibrium correction) |r|/|f| = " << correctionRatio_;
+    rep.note = os.str();
+    log << "tq-solid: switch to the seismic stage: " << rep.note << std::endl;
+  }
+  // 4. Seismic boundaries.
+  if (S.bottom.present || S.freeField.present) {
+    SeismicBoundarySpec spec;
+    spec.bottom = S.bottom.present;
+    spec.bottomFace = S.bottom.face;
+    spec.alphaN = S.bottom.alphaN > 0 ? S.bottom.alphaN : (mesh_.slice ? 1.0 : 4.0 / 3.0);
+    spec.alphaT = S.bottom.alphaT > 0 ? S.bottom.alphaT : (mesh_.slice ? 0.5 : 2.0 / 3.0);
+    spec.halfSpace = {S.bottom.rho, S.bottom.cp, S.bottom.cs};
+    spec.freeFieldFaces = S.freeField.faces;
+    spec.columnFace = S.bottom.columnFace;
+    spec.damping = solver_.options().damping;
+    spec.distance = S.bottom.distance;
+    if (!(spec.distance > 0)) {
+      // Default R: from the tunnel axis to the base, else the model height.
+      const Real zb = zBottomOf(mesh_);
+      Real zAxis = std::numeric_limits<Real>::quiet_NaN();
+      if (S.hydrostatic.present && S.hydrostatic.unitWeight > 0) zAxis = S.hydrostatic.zAxis;
+      for (const char* g : {"lining_inner", "rock_hole"})
+        if (!std::isfinite(zAxis) && mesh_.faces.count(g)) {
+          const auto nodes = mesh_.faceNodes(g);
+          Real lo = 1e300, hi = -1e300;
+          for (Index n : nodes) {
+            lo = std::min(lo, mesh_.coords[3 * size_t(n) + 2]);
+            hi = std::max(hi, mesh_.coords[3 * size_t(n) + 2]);
+          }
+          zAxis = 0.5 * (lo + hi);
+        }
+      spec.distance = std::isfinite(zAxis) ? zAxis - zb : zTopOf(mesh_) - zb;
+    }
+    const MotionInput& M = S.motion;
+    IncidentMotion motion = M.present ? IncidentMotion(M.time, M.ax, M.ay, M.az) : IncidentMotion();
+    seismic_ = std::make_shared<SeismicBoundaries>(mesh_, solver_.blocks(), spec, std::move(motion), mesh_.slice);
+    seismic_->install(st);
+    solver_.addContributor(ForcePhase::Boundaries, seismic_);
+    std::ostringstream os;
+    os.precision(4);
+    if (spec.bottom) {
+      const auto k = seismic_->springPerArea();
+      const auto c = seismic_->dashpotPerArea();
+      os << "viscoelastic base '" << spec.bottomFace << "': R = " << spec.distance << " m, K_T " << k[0] << ", K_N "
+         << k[2] << " N/m^3, C_T " << c[0] << ", C_N " << c[2] << " N s/m^3";
+    }
+    if (!spec.freeFieldFaces.empty()) {
+      os << (spec.bottom ? "; " : "") << "free-field sides:";
+      for (const auto& f : spec.freeFieldFaces) os << " " << f;
+      os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers()
+         << " layers)";
+    }
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // 5. Periodic faces: tied in the last phase (ForcePhase::Ties), after the interface's tie or
+  //    contact and the water coupling added later, so each pair shares every force its members
+  //    get and stays one to round-off.
+  if (S.periodic.present) {
+    auto tie = std::make_shared<TiedNodeGroups>("periodic faces " + S.periodic.faces[0] + "-" + S.periodic.faces[1],
+                                                periodicPairs);
+    tie->checkUniformMembers(st);
+    tie->install(solver_);
+    solver_.addContributor(ForcePhase::Ties, tie);
+    std::ostringstream os;
+    os << "periodic faces " << S.periodic.faces[0] << ", " << S.periodic.faces[1] << ": " << tie->numGroups()
+       << " node pairs tied in x, y, z";
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  reports_.push_back(rep);
+  solver_.setTime(0);
+}
+
+std::string elementSizeWarning(const Solver& solver, Real f) {
+  if (!(f > 0)) return "";
+  const Mesh& m = solver.mesh();
+  Index count = 0, total = 0, worstElem = -1;
+  Real worst = 0, worstH = 0, worstCs = 0;
+  std::string worstBlock;
+  for (const auto& b : solver.blocks()) {
+    const Real cs = std::sqrt(b->material().elasticModuli().mu / b->material().density());
+    const Real limit = cs / (8 * f);
+    for (Index e = 0; e < b->numElems(); ++e) {
+      Real shortest = 0, h = 0;
+      hex8::edgeLengthRange(m.coords.data(), &m.connectivity[8 * size_t(b->meshElem(e))], shortest, h);
+      ++total;
+      if (h > limit) {
+        ++count;
+        if (h / limit > worst) {
+          worst = h / limit;
+          worstElem = b->meshElem(e);
+          worstBlock = b->name();
+          worstH = h;
+          worstCs = cs;
+        }
+      }
+    }
+  }
+  if (count == 0) return "";
+  std::ostringstream os;
+  os.precision(4);
+  os << "warning: " << count << " of " << total << " elements are larger than λ_min/8 = c_s/(8 f) for the motion's "
+     << "cut-off f = " << f << " Hz (Kuhlemeyer & Lysmer 1973); worst: element " << worstElem << " of '" << worstBlock
+     << "', longest edge " << worstH << " m > " << worstCs / (8 * f) << " m (c_s = " << worstCs << " m/s), "
+     << worst << " times the limit. Waves near " << f << " Hz are under-resolved there: refine the mesh "
+     << "(mesh.max_element_size) or lower the cut-off.";
+  return os.str();
+}
+
+}  // namespace tq

@@ -1,0 +1,398 @@
+// Constant nodal forces, surface pressure, viscoelastic base and free-field sides
+// (tq/boundaries/boundaries.hpp; docs/solid_solver.md "Seismic boundaries").
+#include "tq/boundaries/boundaries.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace tq {
+
+namespace {
+
+constexpr Real kXi4[4] = {-1, 1, 1, -1}, kEta4[4] = {-1, -1, 1, 1};
+
+/// Bilinear quad at (ξ, η): shape functions N and the tangents ∂x/∂ξ, ∂x/∂η.
+void quadAt(const Real x[4][3], Real xi, Real eta, Real N[4], Real* pos, Real axi[3], Real aeta[3]) {
+  for (int k = 0; k < 4; ++k) N[k] = 0.25 * (1 + kXi4[k] * xi) * (1 + kEta4[k] * eta);
+  for (int i = 0; i < 3; ++i) {
+    axi[i] = aeta[i] = 0;
+    if (pos) pos[i] = 0;
+    for (int k = 0; k < 4; ++k) {
+      axi[i] += 0.25 * kXi4[k] * (1 + kEta4[k] * eta) * x[k][i];
+      aeta[i] += 0.25 * kEta4[k] * (1 + kXi4[k] * xi) * x[k][i];
+      if (pos) pos[i] += N[k] * x[k][i];
+    }
+  }
+}
+
+void cross(const Real a[3], const Real b[3], Real c[3]) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/// 2×2 Gauss loop over one quad: fn(N, position, n dA) with the oriented area element.
+template <class Fn>
+void gaussQuad(const Mesh& mesh, const Index* q, Fn fn) {
+  Real x[4][3];
+  for (int k = 0; k < 4; ++k)
+    for (int i = 0; i < 3; ++i) x[k][i] = mesh.coords[3 * size_t(q[k]) + i];
+  const Real g = 1 / std::sqrt(3.0);
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      Real N[4], pos[3], axi[3], aeta[3], ndA[3];
+      quadAt(x, a ? g : -g, b ? g : -g, N, pos, axi, aeta);
+      cross(axi, aeta, ndA);  // weight 1 per Gauss point
+      fn(N, pos, ndA);
+    }
+}
+
+std::string mshort(const Mesh& m) { return "mesh " + m.source; }
+
+}  // namespace
+
+AxisFace axisFace(const Mesh& mesh, const std::string& group) {
+  auto it = mesh.faces.find(group);
+  if (it == mesh.faces.end()) {
+    mesh.faceNodes(group);  // throws the standard "missing group" message
+    throw InputError(mshort(mesh) + ": face group '" + group + "' is missing");
+  }
+  const auto& q = it->second;
+  if (q.empty()) throw InputError(mshort(mesh) + ": face group '" + group + "' is empty");
+  AxisFace f;
+  f.name = group;
+  f.quads = q;
+  Real n[3] = {0, 0, 0};
+  std::map<Index, Real> area;
+  for (size_t k = 0; k < q.size() / 4; ++k)
+    gaussQuad(mesh, &q[4 * k], [&](const Real N[4], const Real*, const Real ndA[3]) {
+      const Real dA = std::sqrt(ndA[0] * ndA[0] + ndA[1] * ndA[1] + ndA[2] * ndA[2]);
+      for (int i = 0; i < 3; ++i) n[i] += ndA[i];
+      for (int c = 0; c < 4; ++c) area[q[4 * k + c]] += N[c] * dA;
+    });
+  const Real len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  f.axis = int(std::max_element(n, n + 3, [](Real a, Real b) { return std::abs(a) < std::abs(b); }) - n);
+  f.sign = n[f.axis] > 0 ? 1 : -1;
+  // Planar and axis-aligned: every node on the same coordinate plane.
+  Real lo = 1e300, hi = -1e300, ext = 0;
+  for (const auto& [node, a] : area) {
+    const Real c = mesh.coords[3 * size_t(node) + f.axis];
+    lo = std::min(lo, c);
+    hi = std::max(hi, c);
+  }
+  for (int i = 0; i < 3; ++i) {
+    Real a = 1e300, b = -1e300;
+    for (const auto& [node, ar] : area) {
+      a = std::min(a, mesh.coords[3 * size_t(node) + i]);
+      b = std::max(b, mesh.coords[3 * size_t(node) + i]);
+    }
+    ext = std::max(ext, b - a);
+  }
+  if (!(len > 0) || std::abs(n[f.axis]) < (1 - 1e-9) * len || hi - lo > 1e-9 * ext) {
+    std::ostringstream os;
+    os << mshort(mesh) << ": face group '" << group
+       << "' must be a plane perpendicular to x, y or z for this boundary (its nodes span "
+       << hi - lo << " m along " << "xyz"[f.axis] << "); use an axis-aligned block boundary";
+    throw InputError(os.str());
+  }
+  for (const auto& [node, a] : area) {
+    f.nodes.push_back(node);
+    f.area.push_back(a);
+  }
+  return f;
+}
+
+std::vector<Real> pressureNodalForces(const Mesh& mesh, const std::string& group,
+                                      const std::function<Real(const Real x[3])>& pressure) {
+  auto it = mesh.faces.find(group);
+  if (it == mesh.faces.end()) {
+    mesh.faceNodes(group);  // throws the standard "missing group" message
+    throw InputError(mshort(mesh) + ": face group '" + group + "' is missing");
+  }
+  const auto& q = it->second;
+  std::vector<Real> f(3 * size_t(mesh.numNodes()), 0.0);
+  for (size_t k = 0; k < q.size() / 4; ++k)
+    gaussQuad(mesh, &q[4 * k], [&](const Real N[4], const Real pos[3], const Real ndA[3]) {
+      const Real p = pressure(pos);
+      for (int c = 0; c < 4; ++c)
+        for (int i = 0; i < 3; ++i) f[3 * size_t(q[4 * k + c]) + i] -= N[c] * p * ndA[i];
+    });
+  return f;
+}
+
+void ConstantNodalForces::addForces(Real, Real, NodalState& state) {
+  Real* fe = state.fExtData();
+  const size_t n = std::min(f_.size(), 3 * size_t(state.numNodes()));
+  for (size_t i = 0; i < n; ++i) fe[i] += f_[i];
+}
+
+// ---- seismic boundaries ----------------------------------------------------------------------
+
+namespace {
+
+/// Element (block b, element e) that owns a boundary quad (all four nodes), or {-1, -1}.
+struct Owner {
+  Index block = -1, elem = -1;
+};
+
+class QuadOwners {
+public:
+  explicit QuadOwners(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks) : blocks_(blocks) {
+    const Index N = mesh.numNodes();
+    start_.assign(size_t(N) + 1, 0);
+    for (const auto& b : blocks)
+      for (Index e = 0; e < b->numElems(); ++e)
+        for (int k = 0; k < 8; ++k) ++start_[size_t(b->node(e, k)) + 1];
+    for (Index n = 0; n < N; ++n) start_[size_t(n) + 1] += start_[size_t(n)];
+    list_.resize(size_t(start_.back()));
+    std::vector<Index> fill(start_.begin(), start_.end() - 1);
+    for (size_t bi = 0; bi < blocks.size(); ++bi)
+      for (Index e = 0; e < blocks[bi]->numElems(); ++e)
+        for (int k = 0; k < 8; ++k) list_[size_t(fill[size_t(blocks[bi]->node(e, k))]++)] = {Index(bi), e};
+  }
+  Owner find(const Index* q) const {
+    for (Index j = start_[size_t(q[0])]; j < start_[size_t(q[0]) + 1]; ++j) {
+      const Owner o = list_[size_t(j)];
+      int hits = 0;
+      for (int c = 1; c < 4; ++c)
+        for (int k = 0; k < 8; ++k)
+          if (blocks_[size_t(o.block)]->node(o.elem, k) == q[c]) {
+            ++hits;
+            break;
+          }
+      if (hits == 3) return o;
+    }
+    return {};
+  }
+
+private:
+  const std::vector<std::unique_ptr<ElementBlock>>& blocks_;
+  std::vector<Index> start_;
+  std::vector<Owner> list_;
+};
+
+}  // namespace
+
+FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
+                                               const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                                               const std::string& group) const {
+  const AxisFace f = axisFace(mesh, group);
+  if (f.axis == 2)
+    throw InputError(mshort(mesh) + ": face group '" + group +
+                     "' is horizontal; a free-field column needs a vertical side face (xmin, xmax, ymin, ymax)");
+  // Levels: the distinct heights of the face's nodes.
+  std::vector<Real> z;
+  Real zmin = 1e300, zmax = -1e300;
+  for (Index n : f.nodes) {
+    z.push_back(mesh.coords[3 * size_t(n) + 2]);
+    zmin = std::min(zmin, z.back());
+    zmax = std::max(zmax, z.back());
+  }
+  const Real tol = 1e-9 * std::max(1.0, zmax - zmin);
+  std::sort(z.begin(), z.end());
+  std::vector<Real> levels;
+  for (Real v : z)
+    if (levels.empty() || v - levels.back() > tol) levels.push_back(v);
+  if (levels.size() < 2) throw InputError(mshort(mesh) + ": face group '" + group + "' has no height");
+  auto levelOf = [&](Real v) {
+    const auto it = std::lower_bound(levels.begin(), levels.end(), v - tol);
+    return Index(it - levels.begin());
+  };
+  // One material per layer, from the elements that own the face's quads.
+  std::vector<ColumnLayer> layers(levels.size() - 1);
+  std::vector<bool> seen(layers.size(), false);
+  const QuadOwners owners(mesh, blocks);
+  for (size_t k = 0; k < f.quads.size() / 4; ++k) {
+    const Index* q = &f.quads[4 * k];
+    Real lo = 1e300, hi = -1e300;
+    for (int c = 0; c < 4; ++c) {
+      lo = std::min(lo, mesh.coords[3 * size_t(q[c]) + 2]);
+      hi = std::max(hi, mesh.coords[3 * size_t(q[c]) + 2]);
+    }
+    const Index l0 = levelOf(lo), l1 = levelOf(hi);
+    if (l1 != l0 + 1) {
+      std::ostringstream os;
+      os << mshort(mesh) << ": face group '" << group << "' is not horizontally layered: quad " << k
+         << " spans z = " << lo << " .. " << hi
+         << " m, across several node levels of that face; free-field columns need side faces whose "
+            "quads are stacked in horizontal rows (use rollers there instead)";
+      throw InputError(os.str());
+    }
+    const Owner o = owners.find(q);
+    if (o.block < 0)
+      throw InputError(mshort(mesh) + ": quad " + std::to_string(k) + " of face group '" + group +
+                       "' belongs to no element");
+    const Material& mat = blocks[size_t(o.block)]->material();
+    const ElasticModuli em = mat.elasticModuli();
+    ColumnLayer L{mat.density(), em.lambda, em.mu};
+    ColumnLayer& have = layers[size_t(l0)];
+    if (!seen[size_t(l0)]) {
+      have = L;
+      seen[size_t(l0)] = true;
+    } else if (std::abs(have.rho - L.rho) > 1e-9 * have.rho || std::abs(have.mu - L.mu) > 1e-9 * have.mu ||
+               std::abs(have.lambda - L.lambda) > 1e-9 * std::abs(have.mu)) {
+      std::ostringstream os;
+      os << mshort(mesh) << ": face group '" << group << "' has two materials in the layer z = " << levels[size_t(l0)]
+         << " .. " << levels[size_t(l0) + 1]
+         << " m (block '" << blocks[size_t(o.block)]->name()
+         << "' differs); a free-field column needs one material per horizontal layer (use rollers on that face)";
+      throw InputError(os.str());
+    }
+  }
+  for (size_t l = 0; l < layers.size(); ++l)
+    if (!seen[l])
+      throw InputError(mshort(mesh) + ": face group '" + group + "' has a gap between z = " +
+                       std::to_string(levels[l]) + " and " + std::to_string(levels[l + 1]) + " m");
+  BaseHalfSpace hs = spec_.halfSpace;
+  if (!(hs.rho > 0)) {
+    const ColumnLayer& b = layers.front();
+    hs = {b.rho, std::sqrt((b.lambda + 2 * b.mu) / b.rho), std::sqrt(b.mu / b.rho)};
+  }
+  return FreeFieldColumn(levels, layers, hs, spec_.damping);
+}
+
+SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                                     const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice)
+    : spec_(spec), motion_(std::move(motion)) {
+  (void)slice;
+  // Columns: one per free-field face, plus the base column if it is another face.
+  for (const auto& face : spec_.freeFieldFaces) columns_.push_back(buildColumn(mesh, blocks, face));
+  std::string colFace = spec_.columnFace;
+  if (colFace.empty()) colFace = spec_.freeFieldFaces.empty() ? "xmin" : spec_.freeFieldFaces.front();
+  baseColumn_ = -1;
+  for (size_t i = 0; i < spec_.freeFieldFaces.size(); ++i)
+    if (spec_.freeFieldFaces[i] == colFace) baseColumn_ = Index(i);
+  if (spec_.bottom && baseColumn_ < 0) {
+    columns_.push_back(buildColumn(mesh, blocks, colFace));
+    baseColumn_ = Index(columns_.size()) - 1;
+  }
+  if (baseColumn_ < 0) baseColumn_ = 0;
+  // Base.
+  if (spec_.bottom) {
+    base_ = axisFace(mesh, spec_.bottomFace);
+    if (base_.axis != 2 || base_.sign != -1)
+      throw InputError(mshort(mesh) + ": face group '" + spec_.bottomFace +
+                       "' is not a horizontal base facing down (outward normal −z); the viscoelastic "
+                       "boundary belongs on the bottom of the model");
+    const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
+    if (std::abs(col.level(0) - mesh.coords[3 * size_t(base_.nodes[0]) + 2]) >
+        1e-9 * std::max(1.0, col.level(col.numLevels() - 1) - col.level(0)))
+      throw InputError(mshort(mesh) + ": the base column's bottom (face '" + colFace +
+                       "') is not at the height of face group '" + spec_.bottomFace + "'");
+    const BaseHalfSpace& hs = col.base();
+    const Real G = hs.rho * hs.cs * hs.cs;
+    if (!(spec_.distance > 0))
+      throw InputError("viscoelastic base: distance R must be > 0 m (got " + std::to_string(spec_.distance) + ")");
+    kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance,
+              spec_.alphaN * G / spec_.distance};
+    cArea_ = {hs.rho * hs.cs, hs.rho * hs.cs, hs.rho * hs.cp};
+  }
+  // Free-field sides: per node dashpots and column interpolation, per quad the traction loads.
+  for (size_t fi = 0; fi < spec_.freeFieldFaces.size(); ++fi) {
+    const AxisFace f = axisFace(mesh, spec_.freeFieldFaces[fi]);
+    const FreeFieldColumn& col = columns_[fi];
+    std::map<Index, size_t> at;
+    for (size_t k = 0; k < f.quads.size() / 4; ++k) {
+      const Index* q = &f.quads[4 * k];
+      Real zc = 0;
+      for (int c = 0; c < 4; ++c) zc += 0.25 * mesh.coords[3 * size_t(q[c]) + 2];
+      SideQuadLoad L;
+      L.column = Index(fi);
+      L.layer = col.layerAt(zc);
+      L.axis = f.axis;
+      L.sign = f.sign;
+      for (int c = 0; c < 4; ++c) {
+        L.node[c] = q[c];
+        L.share[c] = 0;
+      }
+      gaussQuad(mesh, q, [&](const Real N[4], const Real*, const Real ndA[3]) {
+        const Real dA = std::sqrt(ndA[0] * ndA[0] + ndA[1] * ndA[1] + ndA[2] * ndA[2]);
+        for (int c = 0; c < 4; ++c) L.share[c] += N[c] * dA;
+      });
+      sideQuads_.push_back(L);
+      const ColumnLayer& m = col.layer(L.layer);
+      const Real cp = std::sqrt((m.lambda + 2 * m.mu) / m.rho), cs = std::sqrt(m.mu / m.rho);
+      for (int c = 0; c < 4; ++c) {
+        auto [it, fresh] = at.try_emplace(q[c], side_.size());
+        if (fresh) {
+          SideNode s;
+          s.node = q[c];
+          s.column = Index(fi);
+          col.interpolation(mesh.coords[3 * size_t(q[c]) + 2], &s.level, &s.w);
+          s.c[0] = s.c[1] = s.c[2] = 0;
+          side_.push_back(s);
+        }
+        SideNode& s = side_[it->second];
+        for (int d = 0; d < 3; ++d) s.c[d] += L.share[c] * m.rho * (d == f.axis ? cp : cs);
+      }
+    }
+  }
+}
+
+void SeismicBoundaries::install(NodalState& state) {
+  for (const auto& s : side_)
+    for (int d = 0; d < 3; ++d) state.addDashpot(s.node, d, s.c[d]);
+  u0_.assign(3 * base_.nodes.size(), 0.0);
+  for (size_t i = 0; i < base_.nodes.size(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      state.addDashpot(base_.nodes[i], d, base_.area[i] * cArea_[size_t(d)]);
+      u0_[3 * i + d] = state.u(base_.nodes[i], d);
+    }
+  uPrev_ = u0_;
+  fPrev_.assign(u0_.size(), 0.0);
+  first_ = true;
+  springWork_ = 0;
+}
+
+void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
+  for (auto& c : columns_) c.advance(t, dt, motion_);
+  Real* fe = state.fExtData();
+  // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot).
+  if (spec_.bottom) {
+    const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
+    const BaseHalfSpace& hs = col.base();
+    const Real cin[3] = {2 * hs.rho * hs.cs, 2 * hs.rho * hs.cs, 2 * hs.rho * hs.cp};
+    Real vin[3], ucol[3];
+    for (int d = 0; d < 3; ++d) {
+      vin[d] = motion_.velocity(d, t);
+      ucol[d] = col.u(0, d);
+    }
+    Real work = 0;
+    for (size_t i = 0; i < base_.nodes.size(); ++i) {
+      const Index n = base_.nodes[i];
+      const Real A = base_.area[i];
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * i + d;
+        const Real u = state.u(n, d);
+        const Real fs = -A * kArea_[size_t(d)] * (u - u0_[j]);
+        fe[3 * size_t(n) + d] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
+        if (!first_) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
+        fPrev_[j] = fs;
+        uPrev_[j] = u;
+      }
+    }
+    springWork_ += work;
+    first_ = false;
+  }
+  // Sides: A C v̄_ff through the dashpots, and σ_ff · n over each quad.
+  for (const auto& s : side_) {
+    const FreeFieldColumn& col = columns_[size_t(s.column)];
+    const Index k1 = std::min<Index>(s.level + 1, col.numLevels() - 1);
+    for (int d = 0; d < 3; ++d) {
+      const Real vff = (1 - s.w) * col.vMean(s.level, d) + s.w * col.vMean(k1, d);
+      fe[3 * size_t(s.node) + d] += s.c[d] * vff;
+    }
+  }
+  static constexpr int kVoigt[3][3] = {{XX, XY, ZX}, {XY, YY, YZ}, {ZX, YZ, ZZ}};
+  for (const auto& L : sideQuads_) {
+    const Real* sig = columns_[size_t(L.column)].stress(L.layer);
+    Real t3[3];
+    for (int i = 0; i < 3; ++i) t3[i] = L.sign * sig[kVoigt[i][L.axis]];
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) fe[3 * size_t(L.node[c]) + i] += L.share[c] * t3[i];
+  }
+}
+
+}  // namespace tq

@@ -1,0 +1,992 @@
+#include "tq/core/solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <sstream>
+
+// The node update's vector helpers are always inlined: the AVX ABI note does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+#include "simd_util.hpp"
+
+namespace tq {
+
+namespace {
+constexpr Index kNodeChunk = 1024;
+constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof (as Real)
+
+struct LeapfrogArgs {
+  Real *u, *v, *a;
+  const Real *fi, *fe, *cb;  // cb: dashpots (null when the model has none)
+  const std::uint8_t* fr;    // 1 free, 0 fixed
+  const Real* fprev;         // f_ext of the previous step
+  const Real* m;             // mass per node (the chunk's first node)
+  Index nn;                  // nodes in the chunk
+  Real dt, dtl, alpha, vlim;
+};
+struct LeapfrogSums {
+  Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Index nBad = 0;
+};
+
+// First dof in [i0, i1) whose |v| is above the limit or not finite (-1 if none): where a node
+// loop that counted a bad lane reports it.
+inline Index firstBadDof(const Real* v, size_t i0, size_t i1, Real vlim) {
+  for (size_t j = i0; j < i1; ++j)
+    if (!(std::abs(v[j]) <= vlim)) return Index(j);
+  return -1;
+}
+
+inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Index bad) {
+  s[0] = ke;
+  s[1] = ext;
+  s[2] = damp;
+  s[3] = bdry;
+  s[4] = Real(bad);
+}
+
+typedef long long LI2 __attribute__((vector_size(16)));
+typedef long long LI4 __attribute__((vector_size(32)));
+
+
+// The masses of 4 nodes spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...).
+inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) {
+  const V4 mv = loadv<V4>(m);
+  out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
+  out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
+  out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
+}
+inline __attribute__((always_inline)) void dofMasses(const Real* m, V2 out[6]) {
+  const V2 a = loadv<V2>(m), b = loadv<V2>(m + 2);
+  out[0] = __builtin_shuffle(a, LI2{0, 0});
+  out[1] = a;
+  out[2] = __builtin_shuffle(a, LI2{1, 1});
+  out[3] = __builtin_shuffle(b, LI2{0, 0});
+  out[4] = b;
+  out[5] = __builtin_shuffle(b, LI2{1, 1});
+}
+// The free mask (bytes 0/1) of 4 or 2 dofs as 0.0/1.0 lanes, through a table indexed by the bits
+// (GCC 12 converts byte vectors to doubles one lane at a time).
+struct FreeLut {
+  V4 v4[16];
+  V2 v2[4];
+  FreeLut() {
+    for (int i = 0; i < 16; ++i)
+      for (int l = 0; l < 4; ++l) v4[i][l] = Real((i >> l) & 1);
+    for (int i = 0; i < 4; ++i)
+      for (int l = 0; l < 2; ++l) v2[i][l] = Real((i >> l) & 1);
+  }
+};
+const FreeLut kFreeLut;
+inline __attribute__((always_inline)) V4 freeLanes(const std::uint8_t* fr, V4) {
+  std::uint32_t w;
+  std::memcpy(&w, fr, 4);
+  return kFreeLut.v4[((w * 0x01020408u) >> 24) & 15];  // byte k (0 or 1) -> bit k
+}
+inline __attribute__((always_inline)) V2 freeLanes(const std::uint8_t* fr, V2) {
+  std::uint16_t w;
+  std::memcpy(&w, fr, 2);
+  return kFreeLut.v2[((std::uint32_t(w) * 0x0102u) >> 8) & 3];
+}
+
+// Central-difference update of one dof or one vector of dofs T (Real or a vector type): every
+// value is computed unconditionally (selects, no branches). A dof of a node of no active element
+// (excavated, not yet installed; m = 0) stays at rest.
+template <class T>
+inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real* __restrict u, Real* __restrict v,
+                                                        Real* __restrict a, const Real* __restrict fi,
+                                                        const Real* __restrict fe, const Real* __restrict fprev,
+                                                        const LeapfrogArgs& q, T& ke, T& ext, T& damp, T& bdry,
+                                                        T& bad) {
+  const T zero = T{} * 0.0, one = zero + 1.0;
+  const T vo = loadv<T>(v), fei = loadv<T>(fe), fii = loadv<T>(fi), fpi = loadv<T>(fprev);
+  const Real dt = q.dt, rdt = 1 / q.dt;
+  const auto has = mn > 0;
+  const T f = fei - fii;
+  const T cm = q.alpha * mn;
+  // Dashpots (α M and boundary) with the mean of the half-step velocities:
+  // v^{n+½} = [(m/Δt - c/2) v^{n-½} + f] / (m/Δt + c/2): stable for any c.
+  const T mdt = mn * rdt, ch = 0.5 * (cm + cd);
+  const T den = has ? mdt + ch : one;
+  const T vfree = fri * ((mdt - ch) * vo + f) / den;
+  const T vn = has ? vfree : zero;
+  const T vb = 0.5 * (vo + vn);
+  // Work of the external force over u^{n-1} -> u^n (trapezoid; exact balance).
+  const T wExt = 0.5 * (fei + fpi) * q.dtl * vo, wKin = 0.5 * mn * vo * vn;
+  const T wDamp = cm * vb * vb * dt, wBdry = cd * vb * vb * dt;
+  ext += has ? wExt : zero;
+  ke += has ? wKin : zero;
+  damp += has ? wDamp : zero;
+  bdry += has ? wBdry : zero;
+  const T acc = (vn - vo) * rdt, du = dt * vn;
+  storev(a, has ? acc : zero);
+  storev(u, loadv<T>(u) + (has ? du : zero));
+  storev(v, vn);
+  const T av = vn < 0 ? -vn : vn;
+  bad += av <= q.vlim ? zero : one;  // also catches NaN
+}
+
+// The lanes' sums of the node loops, in lane order (fixed: independent of the vector width).
+template <class V>
+inline __attribute__((always_inline)) LeapfrogSums laneSums(V ke, V ext, V damp, V bdry, V bad, Real& bads) {
+  constexpr int L = sizeof(V) / sizeof(Real);
+  LeapfrogSums r;
+  for (int l = 0; l < L; ++l) {
+    r.ke += ke[l];
+    r.ext += ext[l];
+    r.damp += damp[l];
+    r.bdry += bdry[l];
+    bads += bad[l];
+  }
+  return r;
+}
+
+// One SIMD loop over a node chunk, 4 nodes (12 dofs) at a time: V = 2 lanes (generic x86-64) or
+// 4 lanes (AVX2 + FMA), chosen like the element kernel (ElementBlock::defaultUseAvx2; the results
+// of the two differ in the last bits, never with the thread count). kDash: the model has dashpots.
+template <class V, bool kDash>
+inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogArgs& q) {
+  constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
+  Real* __restrict u = q.u;
+  Real* __restrict v = q.v;
+  Real* __restrict a = q.a;
+  const Real* __restrict fi = q.fi;
+  const Real* __restrict fe = q.fe;
+  const Real* __restrict cb = q.cb;
+  const Real* __restrict fp = q.fprev;
+  const std::uint8_t* __restrict fr = q.fr;
+  V ke{}, ext{}, damp{}, bdry{}, bad{};
+  const Index n4 = q.nn / 4 * 4;
+  for (Index n = 0; n < n4; n += 4) {
+    V mv[K];
+    dofMasses(q.m + n, mv);
+#pragma GCC unroll 6
+    for (int k = 0; k < K; ++k) {
+      const size_t i = 3 * size_t(n) + size_t(k) * L;
+      const V cd = kDash ? loadv<V>(cb + i) : V{};
+      leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext,
+                      damp, bdry, bad);
+    }
+  }
+  Real bads = 0;
+  LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
+  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
+    const Real cd = kDash ? cb[i] : 0.0;
+    leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
+                       r.damp, r.bdry, bads);
+  }
+  r.nBad = Index(bads);
+  return r;
+}
+struct SubcycleArgs {
+  Real *u, *v, *a, *fs, *dtp;  // fs: f_ext at each node's last update; dtp: its last step
+  const Real *fi, *fe, *cb, *m;
+  const std::uint8_t *fr, *lev;
+  Index nn;  // nodes in the chunk
+  Real dt, alpha, vlim;
+  int active;
+  Real rdt[9];  // 1 / (2^level Δt), level 0..8
+};
+
+// Subcycled update of one dof or one vector of dofs (see Solver::updateNodesSubcycled): a due
+// node (upd) takes the central-difference step dtn = 2^level Δt; every node of an active element
+// moves by Δt v. Branch-free like leapfrogDofs.
+template <class T>
+inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rdt, T dtl, T fri, T cd, size_t i,
+                                                        const SubcycleArgs& q, T& ke, T& ext, T& damp, T& bdry,
+                                                        T& bad) {
+  const T zero = T{} * 0.0, one = zero + 1.0;
+  const T vo = loadv<T>(q.v + i), fei = loadv<T>(q.fe + i), fii = loadv<T>(q.fi + i), fsi = loadv<T>(q.fs + i);
+  const auto has = mn > 0;
+  const auto upd = has & (due > 0);
+  const T cm = q.alpha * mn, mdt = mn * rdt, ch = 0.5 * (cm + cd);
+  const T den = has ? mdt + ch : one;
+  const T vnew = fri * ((mdt - ch) * vo + fei - fii) / den;
+  const T vn = upd ? vnew : has ? vo : zero;
+  const T vb = 0.5 * (vo + vn);
+  ext += upd ? 0.5 * (fei + fsi) * dtl * vo : zero;  // over this node's previous step
+  ke += has ? 0.5 * mn * vo * vn : zero;
+  damp += upd ? cm * vb * vb * dtn : zero;
+  bdry += upd ? cd * vb * vb * dtn : zero;
+  storev(q.fs + i, upd ? fei : fsi);
+  storev(q.a + i, upd ? (vn - vo) * rdt : has ? loadv<T>(q.a + i) : zero);
+  storev(q.v + i, vn);
+  storev(q.u + i, loadv<T>(q.u + i) + q.dt * vn);  // + 0 for a node of no active element
+  const T av = vn < 0 ? -vn : vn;
+  bad += av <= q.vlim ? zero : one;  // also catches NaN
+}
+
+// One chunk of the subcycled update, 4 nodes (12 dofs) at a time, the node values spread over
+// their dofs as the masses are (dofMasses).
+template <class V, bool kDash>
+inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleArgs& q) {
+  constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
+  V ke{}, ext{}, damp{}, bdry{}, bad{};
+  const Index n4 = q.nn / 4 * 4;
+  for (Index n = 0; n < n4; n += 4) {
+    V mv[K];
+    dofMasses(q.m + n, mv);
+    bool quiet = true;  // none of the 4 due, all of active elements: most groups at most fine steps
+    for (int j = 0; j < 4; ++j) quiet = quiet && q.lev[n + j] > q.active && q.m[n + j] > 0;
+    if (quiet) {  // move on with v (what subcycleDofs does for them, without its division)
+#pragma GCC unroll 6
+      for (int k = 0; k < K; ++k) {
+        const size_t i = 3 * size_t(n) + size_t(k) * L;
+        const V vo = loadv<V>(q.v + i);
+        ke += 0.5 * mv[k] * vo * vo;
+        storev(q.u + i, loadv<V>(q.u + i) + q.dt * vo);
+      }
+      continue;
+    }
+    alignas(32) Real due4[4], dtn4[4], rdt4[4], dtl4[4];
+    for (int j = 0; j < 4; ++j) {
+      const int l = q.lev[n + j];
+      due4[j] = l <= q.active ? 1.0 : 0.0;
+      dtn4[j] = q.dt * Real(1u << l);
+      rdt4[j] = q.rdt[l];
+      dtl4[j] = q.dtp[n + j];
+    }
+    V dv[K], tv[K], rv[K], lv[K];
+    dofMasses(due4, dv);
+    dofMasses(dtn4, tv);
+    dofMasses(rdt4, rv);
+    dofMasses(dtl4, lv);
+#pragma GCC unroll 6
+    for (int k = 0; k < K; ++k) {
+      const size_t i = 3 * size_t(n) + size_t(k) * L;
+      const V cd = kDash ? loadv<V>(q.cb + i) : V{};
+      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry,
+                      bad);
+    }
+    for (int j = 0; j < 4; ++j)
+      if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
+  }
+  Real bads = 0;
+  LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
+  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
+    const bool d = q.lev[n] <= q.active;
+    const Real dtn = q.dt * Real(1u << q.lev[n]);
+    for (int c = 0; c < 3; ++c) {
+      const size_t i = 3 * size_t(n) + size_t(c);
+      subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0,
+                         i, q, r.ke, r.ext, r.damp, r.bdry, bads);
+    }
+    if (q.m[n] > 0 && d) q.dtp[n] = dtn;
+  }
+  r.nBad = Index(bads);
+  return r;
+}
+LeapfrogSums subcycleGeneric(const SubcycleArgs& q) {
+  return q.cb ? subcycleBody<V2, true>(q) : subcycleBody<V2, false>(q);
+}
+__attribute__((target("avx2,fma"))) LeapfrogSums subcycleAvx2(const SubcycleArgs& q) {
+  return q.cb ? subcycleBody<V4, true>(q) : subcycleBody<V4, false>(q);
+}
+
+LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) {
+  return q.cb ? leapfrogBody<V2, true>(q) : leapfrogBody<V2, false>(q);
+}
+__attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) {
+  return q.cb ? leapfrogBody<V4, true>(q) : leapfrogBody<V4, false>(q);
+}
+}  // namespace
+
+Integrator parseIntegrator(const std::string& n) {
+  if (n == "central_difference") return Integrator::CentralDifference;
+  if (n == "paper_eq3_4") return Integrator::PaperEq34;
+  throw InputError("unknown integrator '" + n +
+                   "'; use central_difference (default) or paper_eq3_4 (the paper's eqs. 3-4 taken "
+                   "literally, unstable without damping: for study only)");
+}
+
+std::string integratorName(Integrator i) {
+  return i == Integrator::CentralDifference ? "central_difference" : "paper_eq3_4";
+}
+
+RayleighDamping RayleighDamping::fromRatio(Real xi, Real f1, Real f2) {
+  if (!(xi >= 0 && xi < 1))
+    throw InputError("damping ratio " + std::to_string(xi) + " is outside [0, 1); give e.g. 0.05 for 5 %");
+  if (xi == 0) return {};
+  if (!(f1 > 0 && f2 > 0))
+    throw InputError("Rayleigh damping needs two frequencies f1, f2 > 0 Hz (got " +
+                     std::to_string(f1) + ", " + std::to_string(f2) + ")");
+  const Real w1 = 2 * M_PI * f1, w2 = 2 * M_PI * f2;
+  return {2 * xi * w1 * w2 / (w1 + w2), 2 * xi / (w1 + w2)};
+}
+
+Real TimeFunction::operator()(Real time) const {
+  if (t.empty()) return 0;
+  if (time <= t.front()) return value.front();
+  if (time >= t.back()) return value.back();
+  const auto it = std::upper_bound(t.begin(), t.end(), time);
+  const size_t i = size_t(it - t.begin());
+  const Real w = (time - t[i - 1]) / (t[i] - t[i - 1]);
+  return value[i - 1] + w * (value[i] - value[i - 1]);
+}
+
+std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
+    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
+    Hex8Formulation formulation) {
+  std::vector<std::unique_ptr<ElementBlock>> blocks;
+  std::vector<bool> covered(mesh.regionNames.size(), false);
+  for (const auto& [name, mat] : materials) {
+    const Index r = mesh.regionIndex(name);
+    if (r < 0) {
+      std::string have;
+      for (auto& n : mesh.regionNames) have += " '" + n + "'";
+      throw InputError("material for region '" + name + "' but the mesh " + mesh.source +
+                       " has no such region (it has:" + have + ")");
+    }
+    covered[size_t(r)] = true;
+    std::vector<Index> elems;
+    for (Index e = 0; e < mesh.numElems(); ++e)
+      if (mesh.region[e] == r) elems.push_back(e);
+    if (!elems.empty())
+      blocks.push_back(std::make_unique<ElementBlock>(name, mat, formulation, mesh, std::move(elems)));
+  }
+  for (size_t r = 0; r < covered.size(); ++r)
+    if (!covered[r])
+      for (Index e = 0; e < mesh.numElems(); ++e)
+        if (mesh.region[e] == Index(r))
+          throw InputError("region '" + mesh.regionNames[r] + "' of mesh " + mesh.source +
+                           " has elements but no material; add /materials/" + mesh.regionNames[r]);
+  return blocks;
+}
+
+Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt)
+    : mesh_(mesh), blocks_(std::move(blocks)), opt_(opt) {
+  avx2_ = ElementBlock::defaultUseAvx2();
+  if (!(opt_.safety > 0 && opt_.safety <= 1))
+    throw InputError("time step safety factor " + std::to_string(opt_.safety) + " must lie in (0, 1]");
+  const Index N = mesh.numNodes();
+  state_.resize(N);
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[3 * size_t(n) + d]);
+  free_.assign(3 * size_t(N), 1);
+  fExtPrev_.assign(3 * size_t(N), 0.0);
+  nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
+  if (mesh.slice)  // plane strain along y: u_y = 0 everywhere
+    for (Index n = 0; n < N; ++n) fix(n, 1);
+  rebuild();
+  setTimeStep(opt_.dt);
+}
+
+void Solver::fix(Index node, int d) { free_[3 * size_t(node) + d] = 0; }
+
+void Solver::fixFaceGroup(const std::string& group, const std::string& dirs) {
+  const auto nodes = mesh_.faceNodes(group);
+  for (char c : dirs) {
+    const int d = c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : -1;
+    if (d < 0)
+      throw InputError("fixed directions '" + dirs + "' for face group '" + group +
+                       "': use letters x, y, z (e.g. \"xyz\" or \"z\")");
+    for (Index n : nodes) fix(n, d);
+  }
+}
+
+void Solver::rebuild() {
+  const Index N = state_.numNodes();
+  // Lumped masses: re-sum from active elements.
+  NodalState fresh(N);
+  for (auto& b : blocks_) b->lumpMassInto(fresh);
+  std::vector<Real> m(static_cast<size_t>(N));
+  for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
+  for (Index n = 0; n < N; ++n) state_.addMass(n, m[size_t(n)] - state_.mass(n));
+}
+
+StableStep Solver::stableStep() const {
+  StableStep s;
+  for (const auto& b : blocks_) {
+    Index e = -1;
+    const Real w = b->maxFrequency(&e);
+    if (w > s.omegaMax) {
+      s.omegaMax = w;
+      s.block = b->name();
+      s.element = e >= 0 ? b->meshElem(e) : -1;
+      s.charLength = e >= 0 ? b->charLength(e) : 0;
+      s.waveSpeed = 0.5 * w * s.charLength;
+    }
+  }
+  if (s.omegaMax <= 0) throw InputError("no active elements: nothing to integrate");
+  // Stiffness-proportional damping with the lagged velocity (Belytschko et al., Nonlinear FE,
+  // §6.3): Δt ≤ (2/ω_max)(√(1+ξ²) - ξ), ξ = β ω_max / 2. The central difference treats α M with
+  // the mean of the half-step velocities (unconditionally stable); the literal paper form treats it
+  // explicitly, so α/(2ω_max) is added there.
+  s.xiMax = 0.5 * opt_.damping.beta * s.omegaMax;
+  if (opt_.integrator == Integrator::PaperEq34) s.xiMax += opt_.damping.alpha / (2 * s.omegaMax);
+  s.dtCritical = (2 / s.omegaMax) * (std::sqrt(1 + s.xiMax * s.xiMax) - s.xiMax);
+  s.dtSafe = opt_.safety * s.dtCritical;
+  return s;
+}
+
+void Solver::setTimeStep(Real dt) {
+  const StableStep s = stableStep();
+  if (dt == 0) {
+    dt_ = s.dtSafe;
+    return;
+  }
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw InputError("time step dt = " + std::to_string(dt) + " s is invalid; give dt > 0 or 0 for automatic");
+  if (dt > s.dtSafe && !opt_.allowUnstableStep) {
+    std::ostringstream os;
+    os.precision(4);
+    os << "time step dt = " << dt << " s is above the stable limit " << s.dtSafe << " s (= safety "
+       << opt_.safety << " x critical " << s.dtCritical << " s). The limit comes from element "
+       << s.element << " of block '" << s.block << "': characteristic length " << s.charLength
+       << " m, P-wave speed " << s.waveSpeed << " m/s, ω_max = 2 c_p / L = " << s.omegaMax
+       << " rad/s, damping ratio at ω_max ξ = " << s.xiMax
+       << " (Δt ≤ (2/ω_max)(√(1+ξ²) - ξ)). Fix: use dt ≤ " << s.dtSafe
+       << " s or dt = 0 for automatic; or coarsen/regularise the smallest elements; or lower the "
+          "stiffness-proportional damping (its β shortens the step).";
+    throw InputError(os.str());
+  }
+  dt_ = dt;
+}
+
+void Solver::computeInternalForces(int activeLevel) {
+  ElementStepParams p;
+  p.dt = dt_;
+  p.dtLast = dtLast_;
+  p.activeLevel = activeLevel;
+  p.beta = alphaRelax_ >= 0 ? 0.0 : opt_.damping.beta;
+  Real work = 0, stored = 0, damp = 0;
+  const Index N = state_.numNodes();
+  Real* __restrict f = state_.fIntData();
+#pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
+  for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
+    const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, f);
+    work += en.stressWork;
+    stored += en.storedEnergy;
+    damp += en.dampingWork;
+  }
+  stressWork_ += work;
+  storedEnergy_ = stored;
+  dampWork_ += damp;
+}
+
+void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContributor> c) {
+  // The fast path of constant loads (held reactions, static pressures): decided here, once.
+  int folded = 0;
+  for (const auto& e : contributors_) folded += e.foldedIntoGravity;
+  const std::vector<Real>* f = c->constantForces();
+  const bool fold = phase == ForcePhase::Loads && folded < kMaxFoldedLoads && f &&
+                    f->size() == 3 * size_t(state_.numNodes());
+  contributors_.push_back({phase, fold, std::move(c)});
+}
+
+// The step's external force, phase by phase (ForcePhase): the Loads phase starts with gravity and
+// the constant loads folded into its pass, then the NodalLoads, then the phase's other
+// contributors; then Boundaries, Interface, Water, Ties.
+void Solver::computeExternalForces() {
+  addGravityAndFoldedLoads();
+  Real* fe = state_.fExtData();
+  for (const auto& l : loads_) {
+    const Real f = l.forcePerNode * l.function(t_);
+    for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
+  }
+  for (const ForcePhase phase : kForcePhases)
+    for (auto& e : contributors_)
+      if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
+}
+
+void Solver::addGravityAndFoldedLoads() {
+  const Index N = state_.numNodes();
+  Real* fe = state_.fExtData();
+  // Gravity acts on the true masses, also while relax() runs with scaled ones.
+  const Real* m = gravityMass_.empty() ? state_.massData() : gravityMass_.data();
+  const Real g0 = opt_.gravity[0], g1 = opt_.gravity[1], g2 = opt_.gravity[2];
+  // The folded constant loads, added in the order they were added.
+  const Real* cf[kMaxFoldedLoads] = {};
+  int nc = 0;
+  for (const auto& e : contributors_)
+    if (e.foldedIntoGravity) cf[nc++] = e.contributor->constantForces()->data();
+#pragma omp parallel for schedule(static) if (N >= 2 * kNodeChunk)
+  for (Index n = 0; n < N; ++n) {
+    const size_t i = 3 * size_t(n);
+    Real f[3] = {m[n] * g0, m[n] * g1, m[n] * g2};
+    for (int k = 0; k < nc; ++k)
+      for (int d = 0; d < 3; ++d) f[d] += cf[k][i + size_t(d)];
+    fe[i] = f[0];
+    fe[i + 1] = f[1];
+    fe[i + 2] = f[2];
+  }
+}
+
+void Solver::updateNodes() {
+  const Index N = state_.numNodes();
+  const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
+  Real* __restrict u = state_.uData();
+  Real* __restrict v = state_.vData();
+  Real* __restrict a = state_.aData();
+  const Real* __restrict fi = state_.fIntData();
+  const Real* __restrict fe = state_.fExtData();
+  const Real* __restrict m = state_.massData();
+  const Real* __restrict cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
+  const std::uint8_t* __restrict fr = free_.data();
+  const Real* __restrict fprev = fExtPrev_.data();
+  const Real dt = dt_, dtl = dtLast_;
+  const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
+  const Real vlim = opt_.velocityLimit;
+  const bool leapfrog = opt_.integrator == Integrator::CentralDifference;
+  Real* sums = nodeChunkSums_.data();
+#pragma omp parallel for schedule(static) if (nChunks >= 2)
+  for (Index c = 0; c < nChunks; ++c) {
+    const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
+    const Index i0 = 3 * n0, nd = 3 * (n1 - n0);
+    Real ke = 0, ext = 0, damp = 0, bdry = 0;
+    Index bad = -1;
+    if (leapfrog) {
+      LeapfrogArgs la{u + i0, v + i0, a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, fr + i0, fprev + i0, m + n0,
+                      n1 - n0, dt, dtl, alpha, vlim};
+      const LeapfrogSums ls = avx2_ ? leapfrogAvx2(la) : leapfrogGeneric(la);
+      ke = ls.ke;
+      ext = ls.ext;
+      damp = ls.damp;
+      bdry = ls.bdry;
+      if (ls.nBad > 0) bad = firstBadDof(v, size_t(i0), size_t(i0 + nd), vlim);
+    } else {
+      for (Index n = n0; n < n1; ++n) {
+        const Real mn = m[n];
+        for (int d = 0; d < 3; ++d) {
+          const size_t i = 3 * size_t(n) + d;
+          if (!(mn > 0)) {  // node of no active element: at rest
+            v[i] = a[i] = 0;
+            continue;
+          }
+          // Paper eqs. (3)-(4): explicit damping with the full-step velocity.
+          const Real f = fe[i] - fi[i];
+          const Real vo = v[i];
+          const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
+          const Real acc = Real(fr[i]) * (f - (cm + cd) * vo) / mn;
+          const Real du = dt * vo + 0.5 * dt * dt * acc;
+          const Real vn = Real(fr[i]) * (2 * du / dt - vo);
+          a[i] = acc;
+          ke += 0.5 * mn * vo * vo;
+          ext += fe[i] * du;
+          damp += cm * vo * vo * dt;
+          bdry += cd * vo * vo * dt;
+          v[i] = vn;
+          u[i] += du;
+          if (!(std::abs(vn) <= vlim) && bad < 0) bad = Index(i);
+        }
+      }
+    }
+    storeChunkSums(sums + kSums * size_t(c), ke, ext, damp, bdry, bad);
+  }
+  bookNodeChunks(nChunks);
+}
+
+void Solver::bookNodeChunks(Index nChunks) {
+  // The node chunks' sums in a fixed order (any thread count), the first bad dof, the balance.
+  Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Index bad = -1;
+  for (Index c = 0; c < nChunks; ++c) {
+    const Real* s = nodeChunkSums_.data() + kSums * size_t(c);
+    ke += s[0];
+    ext += s[1];
+    damp += s[2];
+    bdry += s[3];
+    if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
+  }
+  if (bad >= 0) reportInstability(bad, state_.vData()[bad]);
+  extWork_ += ext;
+  dampWork_ += damp;
+  bdryWork_ += bdry;
+  energy_.kinetic = ke;
+  finishEnergy();
+}
+
+const EnergyBalance& Solver::energy() const {
+  if (plasticStale_) {
+    Real plastic = 0;
+    for (const auto& b : blocks_) plastic += b->dissipatedEnergy();
+    energy_.plastic = plastic - plastic0_;
+    plasticStale_ = false;
+  }
+  return energy_;
+}
+
+void Solver::finishEnergy() {
+  // Contributors that dissipate (interface friction) or store/absorb (boundary springs) book their
+  // own work W_c = -E_c; the solver's external work includes it, so it is moved out of `external`
+  // into `interface` / `boundary`: balance = interface + kinetic + internal + damping + boundary
+  // - external stays constant.
+  Real dissContrib = 0, bdryContrib = 0;
+  for (const auto& e : contributors_) dissContrib += e.contributor->dissipatedEnergy();
+  for (const auto& e : contributors_) bdryContrib += e.contributor->boundaryEnergy();
+  const Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
+  energy_.internal = stressWork_ + storedEnergy_;
+  energy_.damping = dampWork_;
+  energy_.boundary = bdryWork_ + bE;
+  energy_.interface = diss;
+  plasticStale_ = true;  // energy_.plastic: by energy() when asked (not in the balance)
+  energy_.external = extWork_ + diss + bE;
+  const Real bal = energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary -
+                   energy_.external;
+  if (!balanceSet_) {
+    balance0_ = bal;
+    balanceSet_ = true;
+  }
+  const Real scale = std::max({std::abs(energy_.kinetic) + std::abs(energy_.internal), std::abs(energy_.external),
+                               std::abs(energy_.damping) + std::abs(energy_.boundary) + std::abs(energy_.interface),
+                               std::numeric_limits<Real>::min()});
+  energy_.error = std::abs(bal - balance0_) / scale;
+}
+
+void Solver::updateNodesSubcycled(int active) {
+  // Nodes due at this fine step (level <= active) take a central-difference velocity update with
+  // their own step 2^level Δt; every node then moves by Δt v, so a coarse node's displacement is
+  // linear in time between its updates (the fine elements next to it see it interpolated).
+  const Index N = state_.numNodes();
+  const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
+  Real* __restrict u = state_.uData();
+  Real* __restrict v = state_.vData();
+  Real* __restrict a = state_.aData();
+  const Real* __restrict fi = state_.fIntData();
+  const Real* __restrict fe = state_.fExtData();
+  const Real* __restrict m = state_.massData();
+  const Real* __restrict cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
+  const std::uint8_t* __restrict fr = free_.data();
+  const std::uint8_t* __restrict lev = nodeLevel_.data();
+  Real* __restrict fs = fSync_.data();
+  Real* __restrict dtp = dtPrevNode_.data();
+  const Real dt = dt_, alpha = opt_.damping.alpha, vlim = opt_.velocityLimit;
+  Real rdt[9];  // 1 / (2^level Δt)
+  for (int l = 0; l < 9; ++l) rdt[l] = 1 / (dt * Real(1u << l));
+  Real* sums = nodeChunkSums_.data();
+#pragma omp parallel for schedule(dynamic, 2) if (nChunks >= 2)
+  for (Index c = 0; c < nChunks; ++c) {
+    const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
+    const size_t i0 = 3 * size_t(n0);
+    SubcycleArgs q{u + i0, v + i0, a + i0, fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, m + n0,
+                   fr + i0, lev + n0, n1 - n0, dt, alpha, vlim, active, {}};
+    std::copy(rdt, rdt + 9, q.rdt);
+    const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
+    const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
+    storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad);
+  }
+  bookNodeChunks(nChunks);
+}
+
+SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
+  SubcyclingInfo info;
+  nodeLevel_.clear();
+  fSync_.clear();
+  dtPrevNode_.clear();
+  for (auto& b : blocks_) b->setChunkLevels({});
+  if (maxLevel <= 0) return info;
+  if (maxLevel > 8)
+    throw InputError("subcycling levels = " + std::to_string(maxLevel) +
+                     ": at most 8 (steps up to 256 times the finest); 3 or 4 is usual");
+  if (opt_.integrator != Integrator::CentralDifference)
+    throw InputError("subcycling needs the central-difference integrator (integrator " +
+                     integratorName(opt_.integrator) + " given); set subcycling levels to 0");
+  if (opt_.damping.beta > 0)
+    throw InputError("subcycling needs damping without the stiffness term (β = " + std::to_string(opt_.damping.beta) +
+                     " s given): use mass-proportional damping, or set subcycling levels to 0");
+  if (!(dt_ > 0)) throw InputError("subcycling: set the time step first");
+  const Index N = state_.numNodes();
+  // Each node: the coarsest level all its active elements allow (their own safety × critical step).
+  std::vector<std::uint8_t> level(size_t(N), static_cast<std::uint8_t>(maxLevel));
+  for (const auto& b : blocks_)
+    for (Index e = 0; e < b->numElems(); ++e) {
+      if (!b->active(e)) continue;
+      const Real dte = opt_.safety * 2 / b->frequency(e);
+      int l = 0;
+      while (l < maxLevel && dte >= dt_ * Real(2u << l)) ++l;
+      for (int k = 0; k < 8; ++k) {
+        std::uint8_t& nl = level[size_t(b->node(e, k))];
+        nl = std::min(nl, std::uint8_t(l));
+      }
+    }
+  // The contributors' constraints and the grading (the nodes of one element differ by at most
+  // one level: a fine element next to nodes stepping 8 times its step made the lining's stresses
+  // oscillate and grow on the paper slice within 3 s; graded, the run stays within the reference's
+  // energy error), until neither lowers a level.
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const auto& e : contributors_) changed = e.contributor->constrainLevels(level) || changed;
+    for (const auto& b : blocks_)
+      for (Index e = 0; e < b->numElems(); ++e) {
+        if (!b->active(e)) continue;
+        std::uint8_t lo = 255;
+        for (int k = 0; k < 8; ++k) lo = std::min(lo, level[size_t(b->node(e, k))]);
+        for (int k = 0; k < 8; ++k) {
+          std::uint8_t& nl = level[size_t(b->node(e, k))];
+          if (nl > lo + 1) {
+            nl = std::uint8_t(lo + 1);
+            changed = true;
+          }
+        }
+      }
+  }
+  nodeLevel_ = std::move(level);
+  fSync_.assign(state_.fExtData(), state_.fExtData() + 3 * size_t(N));  // f_ext of the step just taken
+  dtPrevNode_.assign(size_t(N), dtLast_);
+  cycle_ = 0;
+  info.nodes.assign(size_t(maxLevel) + 1, 0);
+  info.elements.assign(size_t(maxLevel) + 1, 0);
+  for (Index n = 0; n < N; ++n)
+    if (state_.mass(n) > 0) {
+      ++info.nodes[nodeLevel_[size_t(n)]];
+      info.levels = std::max<int>(info.levels, nodeLevel_[size_t(n)]);
+    }
+  Real evals = 0, active = 0;
+  for (auto& b : blocks_) {
+    b->setChunkLevels(nodeLevel_);
+    for (Index e = 0; e < b->numElems(); ++e) {
+      if (!b->active(e)) continue;
+      const int l = b->chunkLevel(e / ElementBlock::kChunk);
+      ++info.elements[size_t(l)];
+      evals += 1.0 / Real(1u << l);
+      active += 1;
+    }
+  }
+  info.elements.resize(size_t(info.levels) + 1);
+  info.nodes.resize(size_t(info.levels) + 1);
+  info.costFraction = active > 0 ? evals / active : 1;
+  return info;
+}
+
+void Solver::reportInstability(Index dof, Real value) {
+  const Index node = dof / 3;
+  const int d = int(dof % 3);
+  const StableStep s = stableStep();
+  std::ostringstream os;
+  os.precision(6);
+  os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_" << "xyz"[d] << " = "
+     << value << " m/s at node " << node << " (x, y, z = " << state_.x0(node, 0) << ", "
+     << state_.x0(node, 1) << ", " << state_.x0(node, 2) << " m) is "
+     << (std::isfinite(value) ? "exploding (|v| above the limit " : "not finite (limit ")
+     << opt_.velocityLimit << " m/s)"
+     << ". Likely cause: ";
+  Index badElem = -1;
+  std::string badBlock;
+  for (const auto& b : blocks_) {
+    const Index e = b->findBadStress(1e300);
+    if (e >= 0) {
+      badElem = b->meshElem(e);
+      badBlock = b->name();
+      break;
+    }
+  }
+  if (dt_ > s.dtCritical)
+    os << "the time step " << dt_ << " s is above the critical step " << s.dtCritical
+       << " s (limited by element " << s.element << " of block '" << s.block
+       << "'); use dt = 0 (automatic) or dt <= " << s.dtSafe << " s.";
+  else if (opt_.integrator == Integrator::PaperEq34)
+    os << "integrator paper_eq3_4 is unstable for any step without enough damping (growth "
+          "factor √(1+(ωΔt)²/2) per step); use central_difference.";
+  else if (badElem >= 0)
+    os << "element " << badElem << " of block '" << badBlock
+       << "' has a non-finite stress; check its material parameters.";
+  else
+    os << "the motion grows without bound: check loads, boundary conditions (an unsupported model "
+          "under gravity accelerates freely), and material parameters.";
+  throw InstabilityError(os.str());
+}
+
+void Solver::step() {
+  // Subcycling: the chunks and nodes due at this fine step are those of level <= the number of
+  // trailing zero bits of the fine-step count (all of them at count 0).
+  const int active = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
+  computeInternalForces(active);
+  state_.swapFExt(fExtPrev_);  // f_ext of the step just taken becomes the previous one
+  computeExternalForces();
+  if (nodeLevel_.empty()) {
+    updateNodes();
+  } else {
+    updateNodesSubcycled(active);
+    ++cycle_;
+  }
+  dtLast_ = dt_;
+  t_ += dt_;
+  ++step_;
+}
+
+void Solver::checkpoint(StateArchive& a) {
+  state_.checkpoint(a);
+  a.io(fExtPrev_);
+  a.io(t_);
+  a.io(dtLast_);
+  a.io(step_);
+  a.io(energy_);
+  plasticStale_ = true;  // a restored history: sum again when asked
+  a.io(stressWork_);
+  a.io(storedEnergy_);
+  a.io(dampWork_);
+  a.io(bdryWork_);
+  a.io(extWork_);
+  a.io(balance0_);
+  a.io(balanceSet_);
+  a.io(interface0_);
+  a.io(plastic0_);
+  a.io(boundary0_);
+  a.io(alphaRelax_);
+  a.io(fSync_);
+  a.io(dtPrevNode_);
+  a.io(cycle_);
+  for (auto& b : blocks_) b->checkpoint(a);
+  for (auto& e : contributors_) e.contributor->checkpoint(a);
+}
+
+void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
+  while (t_ < tEnd - 1e-9 * dt_) {
+    step();
+    if (each) each();
+  }
+}
+
+Real Solver::velocityAt(Index node, int d) const { return state_.vData()[3 * size_t(node) + d]; }
+
+Real Solver::unbalancedRatio() const { return unbalancedRatio(false); }
+
+Real Solver::unbalancedRatio(bool allDofsReference) const {
+  const Index N = state_.numNodes();
+  Real r2 = 0, fe2 = 0, fi2 = 0;
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + d;
+      const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
+      const bool isFree = free_[i] != 0;
+      if (isFree) r2 += (fe - fi) * (fe - fi);
+      if (isFree || allDofsReference) {
+        fe2 += fe * fe;
+        fi2 += fi * fi;
+      }
+    }
+  const Real ref = std::sqrt(std::max(fe2, fi2));
+  return ref > 0 ? std::sqrt(r2) / ref : 0;
+}
+
+Real Solver::residualNorm() const {
+  const Index N = state_.numNodes();
+  Real r2 = 0;
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + d;
+      if (free_[i] == 0) continue;
+      const Real r = state_.fExtData()[i] - state_.fIntData()[i];
+      r2 += r * r;
+    }
+  return std::sqrt(r2);
+}
+
+void Solver::computeForces(bool withContributors) {
+  const Real saved = alphaRelax_;
+  alphaRelax_ = 0;  // no stiffness-proportional damping force: the state is taken at rest
+  computeInternalForces();
+  std::vector<AddedContributor> none;
+  if (!withContributors) none.swap(contributors_);
+  computeExternalForces();
+  if (!withContributors) none.swap(contributors_);
+  alphaRelax_ = saved;
+}
+
+RelaxResult Solver::relax(const RelaxParams& p) {
+  RelaxResult r;
+  const Index N = state_.numNodes();
+  std::vector<Real> fPrev(3 * size_t(N), 0.0);
+  Real wmax = stableStep().omegaMax;
+  const Real dtDynamic = dt_;
+  if (p.massScaling) {
+    // Statics only: every element's mass is scaled by (ω_e / ω_ref)² so that its frequency
+    // 2 c_p / L_e becomes the lowest one, ω_ref; the step grows to safety × 2 / ω_ref. Gravity
+    // keeps the true masses (gravityMass_).
+    Real wref = std::numeric_limits<Real>::max();
+    for (const auto& b : blocks_) {
+      const Real cp = std::sqrt(b->material().elasticModuli().pModulus() / b->material().density());
+      for (Index e = 0; e < b->numElems(); ++e)
+        if (b->active(e)) wref = std::min(wref, 2 * cp / b->charLength(e));
+    }
+    gravityMass_.assign(state_.massData(), state_.massData() + N);
+    std::vector<Real> scaled(size_t(N), 0.0);
+    for (const auto& b : blocks_) {
+      const Real rho = b->material().density();
+      const Real cp = std::sqrt(b->material().elasticModuli().pModulus() / rho);
+      for (Index e = 0; e < b->numElems(); ++e) {
+        if (!b->active(e)) continue;
+        const Real we = 2 * cp / b->charLength(e), f = (we / wref) * (we / wref);
+        const Real m = f * rho * b->volume(e) / 8;
+        for (int k = 0; k < 8; ++k) scaled[size_t(b->node(e, k))] += m;
+      }
+    }
+    for (Index n = 0; n < N; ++n) state_.addMass(n, scaled[size_t(n)] - state_.mass(n));
+    wmax = wref;
+    dt_ = opt_.safety * 2 / wref;
+  }
+  Real omega = 0;
+  alphaRelax_ = 0;
+  for (Index s = 0; s < p.maxSteps; ++s) {
+    // Underwood (1983): lowest active frequency from the Rayleigh quotient of the last
+    // increment, ω² = Δu·Δf_int / Δu·M·Δu; critical mass damping c = 2ω.
+    computeInternalForces();
+      if (s > 0) {
+      Real num = 0, den = 0;
+      const Real* f = state_.fIntData();
+      const Real* v = state_.vData();
+      for (Index n = 0; n < N; ++n)
+        for (int d = 0; d < 3; ++d) {
+          const size_t i = 3 * size_t(n) + d;
+          const Real du = dtLast_ * v[i];
+          num += du * (f[i] - fPrev[i]);
+          den += du * du * state_.mass(n);
+        }
+      if (den > 0 && num > 0) omega = std::min(std::sqrt(num / den), wmax);
+    }
+    std::copy(state_.fIntData(), state_.fIntData() + 3 * size_t(N), fPrev.begin());
+    alphaRelax_ = 2 * omega;
+    state_.swapFExt(fExtPrev_);
+    computeExternalForces();
+    updateNodes();
+    dtLast_ = dt_;
+    t_ += dt_;
+    ++step_;
+    r.steps = s + 1;
+    if ((s + 1) % p.checkEvery == 0) {
+      r.ratio = p.referenceForce > 0 ? residualNorm() / p.referenceForce : unbalancedRatio();
+      if (r.ratio < p.tolerance) r.converged = true;
+      if (p.onCheck) p.onCheck(r);
+      if (r.converged) break;
+    }
+  }
+  alphaRelax_ = -1;
+  if (p.massScaling) {  // back to the true masses and the dynamic step
+    for (Index n = 0; n < N; ++n) state_.addMass(n, gravityMass_[size_t(n)] - state_.mass(n));
+    gravityMass_.clear();
+    dt_ = dtDynamic;
+  }
+  return r;
+}
+
+void Solver::resetMotion() {
+  // The displacement itself is kept (the hourglass forces and strains are functions of the total
+  // displacement, so zeroing it would make the model jump); results are reported relative to it.
+  const Index N = state_.numNodes();
+  uRef_.assign(state_.uData(), state_.uData() + 3 * size_t(N));
+  for (Index n = 0; n < N; ++n)
+    for (int d = 0; d < 3; ++d) {
+      state_.v(n, d) = 0;
+      state_.a(n, d) = 0;
+    }
+  stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
+  stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
+  interface0_ = plastic0_ = boundary0_ = 0;
+  for (const auto& e : contributors_) interface0_ += e.contributor->dissipatedEnergy();
+  for (const auto& b : blocks_) plastic0_ += b->dissipatedEnergy();
+  plasticStale_ = true;
+  for (const auto& e : contributors_) boundary0_ += e.contributor->boundaryEnergy();
+  balanceSet_ = false;
+}
+
+Real Solver::relativeDisplacement(Index node, int d) const {
+  const size_t i = 3 * size_t(node) + d;
+  return state_.uData()[i] - (uRef_.empty() ? 0.0 : uRef_[i]);
+}
+
+}  // namespace tq

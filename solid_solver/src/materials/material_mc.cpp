@@ -1,0 +1,545 @@
+// Mohr–Coulomb elastoplastic damage material (paper eqs. 16–18; docs/theory.md §3).
+#include "tq/materials/material_mc.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "io/input_schema.hpp"
+
+namespace tq {
+
+MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v) {
+  namespace M = input_schema::key::materials;
+  MohrCoulombDamageParams p;
+  p.elastic = elasticParams(v);
+  p.cohesion = v.number(M::cohesion.name);
+  p.frictionAngle = v.number(M::friction_angle.name);
+  p.dilationAngle = v.number(M::dilation_angle.name);
+  p.tensileStrength = v.number(M::tensile_strength.name);
+  p.damageConstant = v.number(M::damage_constant.name);
+  p.damageEffect = parseDamageEffect(v.text(M::damage_effect.name));
+  return p;
+}
+
+
+DamageEffect parseDamageEffect(const std::string& n) {
+  if (n == "cohesion") return DamageEffect::Cohesion;
+  if (n == "cohesion_and_stiffness") return DamageEffect::CohesionAndStiffness;
+  throw InputError("damage_effect '" + n +
+                   "' is unknown; use cohesion (default: eq. 16, damage reduces the cohesion only) or "
+                   "cohesion_and_stiffness (effective-stress damage: stiffness, cohesion and tensile "
+                   "strength all scaled by 1 - D)");
+}
+
+std::string damageEffectName(DamageEffect e) {
+  return e == DamageEffect::Cohesion ? "cohesion" : "cohesion_and_stiffness";
+}
+
+namespace {
+
+constexpr Real kDeg = M_PI / 180.0;
+
+Real flowFactor(Real angleDeg) {
+  const Real s = std::sin(angleDeg * kDeg);
+  return (1 + s) / (1 - s);
+}
+
+// ---- the yield planes in sorted principal space (σ1 ≤ σ2 ≤ σ3, tension positive) -----------
+// F_j(σ) = a_j·σ − k_j (violated when > 0), plastic potential gradient b_j.
+enum Plane : int { S13 = 0, S12, S23, T3, T2, T1, kPlanes };
+
+struct Planes {
+  Real a[kPlanes][3], b[kPlanes][3], k[kPlanes];
+  Real Db[kPlanes][3];  // elastic return direction C : b_j (principal)
+};
+
+Planes makePlanes(const MohrCoulombSurface& s) {
+  Planes p{};
+  auto set = [&](int j, Real a0, Real a1, Real a2, Real b0, Real b1, Real b2, Real k) {
+    p.a[j][0] = a0, p.a[j][1] = a1, p.a[j][2] = a2;
+    p.b[j][0] = b0, p.b[j][1] = b1, p.b[j][2] = b2;
+    p.k[j] = k;
+    const Real tr = b0 + b1 + b2;
+    for (int i = 0; i < 3; ++i) p.Db[j][i] = s.lambda * tr + 2 * s.mu * p.b[j][i];
+  };
+  const Real Np = s.nPhi, Nq = s.nPsi, kc = s.cohesionTerm, st = s.tension;
+  set(S13, -1, 0, Np, -1, 0, Nq, kc);  // main shear plane (σ1, σ3)
+  set(S12, -1, Np, 0, -1, Nq, 0, kc);  // its partner on the edge σ2 = σ3
+  set(S23, 0, -1, Np, 0, -1, Nq, kc);  // its partner on the edge σ1 = σ2
+  set(T3, 0, 0, 1, 0, 0, 1, st);       // tension cut-off on σ3 (associated)
+  set(T2, 0, 1, 0, 0, 1, 0, st);       // ... on σ2 (edge σ2 = σ3 = σt)
+  set(T1, 1, 0, 0, 1, 0, 0, st);       // ... on σ1 (apex σ1 = σ2 = σ3 = σt)
+  return p;
+}
+
+// Active sets tried in order; the first that satisfies the Kuhn–Tucker conditions (multipliers
+// ≥ 0, the result inside all planes and still sorted) is the return. Planes meeting at one corner
+// in more than three ways (σ2 = σ3 = σt with σ1 on the shear plane: S13, S12, T3, T2) are covered
+// by every three-plane subset, whose cones triangulate the corner's cone of return directions.
+struct ActiveSet {
+  int n;
+  int j[3];
+};
+constexpr ActiveSet kSets[] = {
+    {1, {S13, 0, 0}},     {1, {T3, 0, 0}},       {2, {S13, S12, 0}},   {2, {S13, S23, 0}},
+    {2, {S13, T3, 0}},    {2, {T3, T2, 0}},      {3, {S13, S23, T3}},  {3, {S13, S12, T3}},
+    {3, {S12, T3, T2}},   {3, {S13, T3, T2}},    {3, {S13, S12, T2}},  {3, {T3, T2, T1}},
+};
+constexpr int kNumSets = int(sizeof(kSets) / sizeof(kSets[0]));
+
+// Solve the n×n system G x = r (n ≤ 3) by Gaussian elimination with partial pivoting.
+bool solveSmall(int n, Real G[3][3], Real r[3], Real x[3]) {
+  int idx[3] = {0, 1, 2};
+  Real scale = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) scale = std::max(scale, std::abs(G[i][j]));
+  if (!(scale > 0)) return false;
+  for (int c = 0; c < n; ++c) {
+    int piv = c;
+    for (int i = c + 1; i < n; ++i)
+      if (std::abs(G[idx[i]][c]) > std::abs(G[idx[piv]][c])) piv = i;
+    std::swap(idx[c], idx[piv]);
+    const Real d = G[idx[c]][c];
+    if (std::abs(d) <= 1e-13 * scale) return false;  // degenerate active set
+    for (int i = c + 1; i < n; ++i) {
+      const Real f = G[idx[i]][c] / d;
+      for (int j = c; j < n; ++j) G[idx[i]][j] -= f * G[idx[c]][j];
+      r[idx[i]] -= f * r[idx[c]];
+    }
+  }
+  for (int c = n - 1; c >= 0; --c) {
+    Real s = r[idx[c]];
+    for (int j = c + 1; j < n; ++j) s -= G[idx[c]][j] * x[j];
+    x[c] = s / G[idx[c]][c];
+  }
+  return true;
+}
+
+// Cyclic Jacobi eigen-decomposition of a symmetric 3x3 matrix (accurate also for close or
+// repeated eigenvalues; each rotation in the cheap form of Rutishauser, with τ = s/(1 + c)).
+// On exit eval ascending and evec[:, i] (column i) its unit eigenvector.
+void eigenSym3(const Real s[6], Real eval[3], Real evec[3][3]) {
+  Real A[3][3] = {{s[XX], s[XY], s[ZX]}, {s[XY], s[YY], s[YZ]}, {s[ZX], s[YZ], s[ZZ]}};
+  Real V[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  auto rotate = [&](int p, int q, int r) {
+    const Real apq = A[p][q];
+    if (apq == 0) return;
+    const Real theta = (A[q][q] - A[p][p]) / (2 * apq);
+    const Real t = (theta >= 0 ? 1 : -1) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+    const Real c = 1 / std::sqrt(t * t + 1), sn = t * c, tau = sn / (1 + c);
+    A[p][p] -= t * apq;
+    A[q][q] += t * apq;
+    A[p][q] = A[q][p] = 0;
+    const Real arp = A[r][p], arq = A[r][q];
+    A[r][p] = A[p][r] = arp - sn * (arq + tau * arp);
+    A[r][q] = A[q][r] = arq + sn * (arp - tau * arq);
+    for (int k = 0; k < 3; ++k) {
+      const Real vkp = V[k][p], vkq = V[k][q];
+      V[k][p] = vkp - sn * (vkq + tau * vkp);
+      V[k][q] = vkq + sn * (vkp - tau * vkq);
+    }
+  };
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    const Real off = A[0][1] * A[0][1] + A[0][2] * A[0][2] + A[1][2] * A[1][2];
+    const Real diag = A[0][0] * A[0][0] + A[1][1] * A[1][1] + A[2][2] * A[2][2];
+    if (off <= 1e-34 * diag || off == 0) break;
+    rotate(0, 1, 2);
+    rotate(0, 2, 1);
+    rotate(1, 2, 0);
+  }
+  int o[3] = {0, 1, 2};
+  if (A[o[1]][o[1]] < A[o[0]][o[0]]) std::swap(o[0], o[1]);
+  if (A[o[2]][o[2]] < A[o[1]][o[1]]) std::swap(o[1], o[2]);
+  if (A[o[1]][o[1]] < A[o[0]][o[0]]) std::swap(o[0], o[1]);
+  for (int i = 0; i < 3; ++i) {
+    eval[i] = A[o[i]][o[i]];
+    for (int k = 0; k < 3; ++k) evec[k][i] = V[k][o[i]];
+  }
+}
+
+// Smallest and largest principal value of a symmetric 3x3 (Voigt) in closed form: the
+// deviator's invariants J2, J3 and the Lode angle, σ = p + 2√(J2/3) cos(α − 2πk/3) with
+// α = ⅓ acos(J3 / (2 (J2/3)^{3/2})). Where two principal values nearly coincide, acos loses half
+// the digits (relative error up to ≈ 1e-8 of the deviator's size), so a caller compares with a
+// margin well above that.
+void principalRange(const Real s[6], Real& smin, Real& smax, Real& size) {
+  const Real p = (s[XX] + s[YY] + s[ZZ]) * (1.0 / 3);
+  const Real dx = s[XX] - p, dy = s[YY] - p, dz = s[ZZ] - p;
+  const Real j2 = 0.5 * (dx * dx + dy * dy + dz * dz) + s[XY] * s[XY] + s[YZ] * s[YZ] + s[ZX] * s[ZX];
+  const Real r = std::sqrt(j2 * (1.0 / 3));
+  size = std::abs(p) + 2 * r;
+  if (!(r > 0)) {
+    smin = smax = p;
+    return;
+  }
+  const Real j3 = dx * (dy * dz - s[YZ] * s[YZ]) - s[XY] * (s[XY] * dz - s[YZ] * s[ZX]) +
+                  s[ZX] * (s[XY] * s[YZ] - dy * s[ZX]);
+  const Real x = std::clamp(j3 / (2 * r * r * r), Real(-1), Real(1));
+  const Real a = std::acos(x) * (1.0 / 3);
+  smax = p + 2 * r * std::cos(a);
+  smin = p + 2 * r * std::cos(a + 2 * M_PI / 3);
+}
+
+// Σ_i d_i v_i v_iᵀ in Voigt form (engineering shear when `engineering`).
+void spectralToVoigt(const Real d[3], const Real v[3][3], bool engineering, Real out[6]) {
+  const Real g = engineering ? 2.0 : 1.0;
+  for (int k = 0; k < 6; ++k) out[k] = 0;
+  for (int i = 0; i < 3; ++i) {
+    const Real x = v[0][i], y = v[1][i], z = v[2][i];
+    out[XX] += d[i] * x * x;
+    out[YY] += d[i] * y * y;
+    out[ZZ] += d[i] * z * z;
+    out[XY] += g * d[i] * x * y;
+    out[YZ] += g * d[i] * y * z;
+    out[ZX] += g * d[i] * z * x;
+  }
+}
+
+}  // namespace
+
+// ---- return mapping in principal space ------------------------------------------------------
+
+PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
+  PrincipalReturn r;
+  for (int i = 0; i < 3; ++i) r.sigma[i] = t[i];
+  const Real fs = shear(t), ft = tensile(t);
+  if (fs <= 0 && ft <= 0) return r;
+  const Planes P = makePlanes(*this);
+  const Real scale = std::max({std::abs(t[0]), std::abs(t[1]), std::abs(t[2]), cohesionTerm, std::abs(tension),
+                               std::numeric_limits<Real>::min()});
+  const Real tolF = 1e-11 * scale * nPhi;  // Pa
+  int best = -1;
+  Real bestViolation = std::numeric_limits<Real>::infinity(), bestSig[3] = {0, 0, 0};
+  for (int q = -1; q < kNumSets; ++q) {
+    if (q == hint) continue;  // already tried first
+    const int s = q < 0 ? hint : q;
+    if (s < 0) continue;
+    const ActiveSet& A = kSets[s];
+    Real G[3][3], rhs[3], x[3] = {0, 0, 0};
+    for (int i = 0; i < A.n; ++i) {
+      const int pi = A.j[i];
+      rhs[i] = P.a[pi][0] * t[0] + P.a[pi][1] * t[1] + P.a[pi][2] * t[2] - P.k[pi];
+      for (int j = 0; j < A.n; ++j) {
+        const int pj = A.j[j];
+        G[i][j] = P.a[pi][0] * P.Db[pj][0] + P.a[pi][1] * P.Db[pj][1] + P.a[pi][2] * P.Db[pj][2];
+      }
+    }
+    if (!solveSmall(A.n, G, rhs, x)) continue;
+    Real sig[3] = {t[0], t[1], t[2]};
+    Real xmax = 0;
+    for (int j = 0; j < A.n; ++j) {
+      xmax = std::max(xmax, std::abs(x[j]));
+      for (int i = 0; i < 3; ++i) sig[i] -= x[j] * P.Db[A.j[j]][i];
+    }
+    // Kuhn–Tucker: multipliers ≥ 0, inside every plane, principal order kept.
+    Real violation = 0;
+    for (int j = 0; j < A.n; ++j) violation = std::max(violation, -x[j] / std::max(xmax, 1e-300) * scale);
+    violation = std::max(violation, shear(sig));
+    violation = std::max(violation, tensile(sig));
+    violation = std::max(violation, sig[0] - sig[1]);
+    violation = std::max(violation, sig[1] - sig[2]);
+    if (violation <= tolF) {
+      best = s;
+      for (int i = 0; i < 3; ++i) bestSig[i] = sig[i];
+      break;
+    }
+    if (violation < bestViolation) {  // kept only as a fallback for round-off at region borders
+      bestViolation = violation;
+      best = s;
+      for (int i = 0; i < 3; ++i) bestSig[i] = sig[i];
+    }
+  }
+  if (best < 0)
+    throw std::runtime_error("Mohr-Coulomb return: no active set solved (degenerate parameters)");
+  for (int i = 0; i < 3; ++i) r.sigma[i] = bestSig[i];
+  r.activeSet = best;
+  // Plastic strain increment Δε^p = C⁻¹ (σ^tr − σ) in principal form (unique even where the
+  // multipliers of a corner are not).
+  const Real E = mu * (3 * lambda + 2 * mu) / (lambda + mu), nu = lambda / (2 * (lambda + mu));
+  const Real d[3] = {t[0] - r.sigma[0], t[1] - r.sigma[1], t[2] - r.sigma[2]};
+  for (int i = 0; i < 3; ++i) r.plastic[i] = (d[i] - nu * (d[(i + 1) % 3] + d[(i + 2) % 3])) / E;
+  return r;
+}
+
+// ---- the material -----------------------------------------------------------------------------
+
+MohrCoulombDamageMaterial::MohrCoulombDamageMaterial(const MohrCoulombDamageParams& p) : params_(p) {
+  auto bad = [](const std::string& what, Real v, const std::string& fix) {
+    std::ostringstream os;
+    os << "mohr_coulomb_damage material: " << what << " = " << v << " is invalid; " << fix;
+    throw InputError(os.str());
+  };
+  ElasticMaterial check(p.elastic);  // E, ν, ρ checks with their messages
+  if (!(p.cohesion >= 0) || !std::isfinite(p.cohesion))
+    bad("cohesion", p.cohesion, "give c in Pa (>= 0), e.g. 0.55e6 for the paper's rock");
+  if (!(p.frictionAngle >= 0 && p.frictionAngle < 90))
+    bad("friction_angle", p.frictionAngle, "give φ in degrees in [0, 90), e.g. 37");
+  if (!(p.dilationAngle >= 0 && p.dilationAngle <= p.frictionAngle))
+    bad("dilation_angle", p.dilationAngle, "give ψ in degrees between 0 and the friction angle (default 0)");
+  if (!(p.tensileStrength >= 0) || !std::isfinite(p.tensileStrength))
+    bad("tensile_strength", p.tensileStrength, "give σt in Pa (>= 0), e.g. 1.27e6 for the paper's lining");
+  if (!(p.damageConstant >= 0) || !std::isfinite(p.damageConstant))
+    bad("damage_constant", p.damageConstant, "give R >= 0 (0 switches damage off; default 100)");
+  moduli_ = ElasticModuli::fromYoungPoisson(p.elastic.youngsModulus, p.elastic.poissonRatio);
+  nPhi_ = flowFactor(p.frictionAngle);
+  nPsi_ = flowFactor(p.dilationAngle);
+  sqrtNPhi_ = std::sqrt(nPhi_);
+  // φ = 0 (Tresca): no apex; a large finite value keeps 0 × cot φ = 0 for c = 0.
+  cotPhi_ = p.frictionAngle > 0 ? 1 / std::tan(p.frictionAngle * kDeg) : std::numeric_limits<Real>::max();
+  dpSlope_ = std::sqrt(1 + nPhi_ * nPhi_ - (nPhi_ - 1) * (nPhi_ - 1) / 3);
+}
+
+std::vector<std::string> MohrCoulombDamageMaterial::historyNames() const {
+  return {"plastic_strain_xx", "plastic_strain_yy", "plastic_strain_zz", "plastic_strain_xy",
+          "plastic_strain_yz", "plastic_strain_zx", "kappa_1",         "kappa_2",
+          "kappa_3",           "damage",            "dissipation"};
+}
+
+MohrCoulombSurface MohrCoulombDamageMaterial::surface(Real D) const {
+  MohrCoulombSurface s;
+  const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
+  s.lambda = moduli_.lambda;
+  s.mu = moduli_.mu;
+  if (stiff) {  // nominal stiffness (1 - D) C
+    s.lambda *= 1 - D;
+    s.mu *= 1 - D;
+  }
+  s.nPhi = nPhi_;
+  s.nPsi = nPsi_;
+  const Real c = (1 - D) * params_.cohesion;
+  s.cohesionTerm = 2 * c * sqrtNPhi_;
+  const Real st = stiff ? (1 - D) * params_.tensileStrength : params_.tensileStrength;
+  s.tension = std::min(st, c * cotPhi_);  // the cut-off cannot lie beyond the apex c cot φ
+  return s;
+}
+
+Real MohrCoulombDamageMaterial::damageFrom(const Real kappa[3]) const {
+  const Real R = params_.damageConstant;
+  Real sum = 0;
+  for (int i = 0; i < 3; ++i) {
+    const Real Di = -std::expm1(-R * kappa[i]);  // 1 - exp(-R κ_i), accurate for small R κ
+    sum += Di * Di;
+  }
+  return std::min(Real(1), std::sqrt(sum));
+}
+
+void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) const {
+  using namespace mc_history;
+  const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
+  const Real lam = moduli_.lambda, mu = moduli_.mu;
+  const Real Np = nPhi_, kc0 = 2 * params_.cohesion * sqrtNPhi_, st0 = params_.tensileStrength;
+  const Real cotPhi = cotPhi_, slope = dpSlope_, c0 = params_.cohesion;
+  const Real sqrt23 = std::sqrt(2.0 / 3.0);
+  const Real* __restrict dmg = c.history[kDamage];
+  // 1. Elastic trial for every element, and a cheap test against an inscribed cone: the largest
+  //    principal stress is at most p + √(2/3)|s| and Nφσ3 − σ1 at most (Nφ−1)p + slope |s|.
+  //    Elements that pass stay elastic (the common case costs a few flops more than Hooke, in
+  //    a loop the compiler vectorises); the others are decomposed and returned if outside.
+  constexpr Index kBlock = 64;
+  const Real stiffF = stiff ? 1.0 : 0.0;
+  const Real* __restrict exxP = c.dstrain[XX];
+  const Real* __restrict eyyP = c.dstrain[YY];
+  const Real* __restrict ezzP = c.dstrain[ZZ];
+  const Real* __restrict gxyP = c.dstrain[XY];
+  const Real* __restrict gyzP = c.dstrain[YZ];
+  const Real* __restrict gzxP = c.dstrain[ZX];
+  const Real* __restrict sxxP = c.stress[XX];
+  const Real* __restrict syyP = c.stress[YY];
+  const Real* __restrict szzP = c.stress[ZZ];
+  const Real* __restrict sxyP = c.stress[XY];
+  const Real* __restrict syzP = c.stress[YZ];
+  const Real* __restrict szxP = c.stress[ZX];
+  alignas(64) Real tr[6][kBlock];
+  alignas(64) Real inside[kBlock];
+  Real old[6][kBlock];
+  Index suspect[kBlock];
+  for (Index e0 = 0; e0 < c.count; e0 += kBlock) {
+    const Index n = std::min<Index>(kBlock, c.count - e0);
+    const Real* __restrict Dp = dmg + e0;
+    const Real* __restrict ex = exxP + e0;
+    const Real* __restrict ey = eyyP + e0;
+    const Real* __restrict ez = ezzP + e0;
+    const Real* __restrict gxy = gxyP + e0;
+    const Real* __restrict gyz = gyzP + e0;
+    const Real* __restrict gzx = gzxP + e0;
+    const Real* __restrict s0x = sxxP + e0;
+    const Real* __restrict s0y = syyP + e0;
+    const Real* __restrict s0z = szzP + e0;
+    const Real* __restrict s0xy = sxyP + e0;
+    const Real* __restrict s0yz = syzP + e0;
+    const Real* __restrict s0zx = szxP + e0;
+#pragma omp simd
+    for (Index l = 0; l < n; ++l) {
+      const Real D = Dp[l];
+      const Real f = 1 - stiffF * D;
+      const Real exx = ex[l], eyy = ey[l], ezz = ez[l];
+      const Real t = exx + eyy + ezz;
+      const Real sxx = s0x[l] + f * (lam * t + 2 * mu * exx);
+      const Real syy = s0y[l] + f * (lam * t + 2 * mu * eyy);
+      const Real szz = s0z[l] + f * (lam * t + 2 * mu * ezz);
+      const Real sxy = s0xy[l] + f * mu * gxy[l];
+      const Real syz = s0yz[l] + f * mu * gyz[l];
+      const Real szx = s0zx[l] + f * mu * gzx[l];
+      const Real p = (sxx + syy + szz) * (1.0 / 3);
+      const Real dx = sxx - p, dy = syy - p, dz = szz - p;
+      const Real sn = std::sqrt(dx * dx + dy * dy + dz * dz + 2 * (sxy * sxy + syz * syz + szx * szx));
+      const Real cD = (1 - D) * c0;
+      const Real tCut = (1 - stiffF * D) * st0, tApex = cD * cotPhi;
+      const Real tension = tCut < tApex ? tCut : tApex;
+      const bool okShear = (Np - 1) * p + slope * sn <= (1 - D) * kc0;
+      const bool okTension = p + sqrt23 * sn <= tension;
+      inside[l] = (okShear && okTension) ? 1.0 : 0.0;
+      tr[XX][l] = sxx;
+      tr[YY][l] = syy;
+      tr[ZZ][l] = szz;
+      tr[XY][l] = sxy;
+      tr[YZ][l] = syz;
+      tr[ZX][l] = szx;
+    }
+    Index nSuspect = 0;
+    for (Index l = 0; l < n; ++l)
+      if (inside[l] == 0) {
+        for (int q = 0; q < 6; ++q) old[q][nSuspect] = c.stress[q][e0 + l];
+        suspect[nSuspect++] = l;
+      }
+    for (int q = 0; q < 6; ++q) {
+      Real* __restrict out = c.stress[q] + e0;
+      const Real* __restrict in = tr[q];
+#pragma omp simd
+      for (Index l = 0; l < n; ++l) out[l] = in[l];
+    }
+    // 2. The others: most are still inside (the cone is a loose bound near the surface's
+    //    corners): the closed-form principal range decides those, with a margin of 1e-6 of the
+    //    stress scale (far above its round-off); the rest get the exact eigen-decomposition and
+    //    the return mapping. The trial written above is their answer when inside.
+    for (Index k = 0; k < nSuspect; ++k) {
+      const Index e = e0 + suspect[k];
+      {
+        const Index l = suspect[k];
+        const Real t[6] = {tr[XX][l], tr[YY][l], tr[ZZ][l], tr[XY][l], tr[YZ][l], tr[ZX][l]};
+        const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
+        Real range[3], size;  // smallest, (unused), largest
+        principalRange(t, range[0], range[2], size);
+        range[1] = range[0];
+        const Real margin = 1e-6 * std::max({size, sD.cohesionTerm, std::abs(sD.tension)});
+        if (sD.shear(range) < -(Np + 1) * margin && sD.tensile(range) < -margin) continue;
+      }
+      Real sig[6], de[6];
+      for (int q = 0; q < 6; ++q) {
+        sig[q] = old[q][k];
+        de[q] = c.dstrain[q][e];
+      }
+      plasticUpdate(sig, de, c.history, e);
+      for (int q = 0; q < 6; ++q) c.stress[q][e] = sig[q];
+    }
+  }
+}
+
+void MohrCoulombDamageMaterial::plasticUpdate(Real s[6], const Real de[6], Real* const* h, Index e) const {
+  using namespace mc_history;
+  const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
+  const Real lam = moduli_.lambda, mu = moduli_.mu, E = params_.elastic.youngsModulus,
+             nu = params_.elastic.poissonRatio;
+  const Real Dn = h[kDamage][e];
+  // Elastic energy density ½ σ : C⁻¹ : σ / (1 − D) of a nominal stress (0 when fully damaged).
+  auto energy = [&](const Real x[6], Real D) {
+    if (D >= 1) return Real(0);
+    const Real exx = (x[XX] - nu * (x[YY] + x[ZZ])) / E, eyy = (x[YY] - nu * (x[ZZ] + x[XX])) / E,
+               ezz = (x[ZZ] - nu * (x[XX] + x[YY])) / E;
+    return 0.5 * (x[XX] * exx + x[YY] * eyy + x[ZZ] * ezz + (x[XY] * x[XY] + x[YZ] * x[YZ] + x[ZX] * x[ZX]) / mu) /
+           (stiff ? 1 - D : 1);
+  };
+  Real old[6];
+  for (int q = 0; q < 6; ++q) old[q] = s[q];
+  // Trial stress: nominal for `cohesion`, effective σ/(1 − D) for `cohesion_and_stiffness`
+  // (plasticity then runs on the undamaged surface).
+  const Real tr = de[XX] + de[YY] + de[ZZ];
+  Real trial[6];
+  if (stiff && Dn >= 1) {  // fully damaged: no stiffness, no stress
+    for (int q = 0; q < 6; ++q) s[q] = 0;
+    return;
+  }
+  const Real toEff = stiff ? 1 / (1 - Dn) : 1;
+  for (int q = 0; q < 3; ++q) trial[q] = s[q] * toEff + lam * tr + 2 * mu * de[q];
+  for (int q = 3; q < 6; ++q) trial[q] = s[q] * toEff + mu * de[q];
+  Real ev[3], V[3][3];
+  eigenSym3(trial, ev, V);
+  const Real kappaOld[3] = {h[kKappa1][e], h[kKappa2][e], h[kKappa3][e]};
+  Real kappa[3] = {kappaOld[0], kappaOld[1], kappaOld[2]};
+  auto kappaAfter = [&](const PrincipalReturn& r, Real out[3]) {
+    const Real m = (r.plastic[0] + r.plastic[1] + r.plastic[2]) / 3;
+    for (int i = 0; i < 3; ++i) out[i] = kappaOld[i] + std::abs(r.plastic[i] - m);
+  };
+  const bool damageOn = params_.damageConstant > 0;
+  PrincipalReturn ret;
+  Real Dnew = Dn;
+  if (stiff) {
+    ret = surface(0).returnMap(ev);  // undamaged surface in effective stress
+    if (ret.activeSet < 0) {         // inside after all: elastic
+      for (int q = 0; q < 6; ++q) s[q] = trial[q] / toEff;
+      return;
+    }
+    kappaAfter(ret, kappa);
+    if (damageOn) Dnew = std::max(Dn, damageFrom(kappa));
+  } else {
+    ret = surface(Dn).returnMap(ev);
+    if (ret.activeSet < 0) {
+      for (int q = 0; q < 6; ++q) s[q] = trial[q];
+      return;
+    }
+    kappaAfter(ret, kappa);
+    if (damageOn) {
+      // Implicit damage: D = G(D), G(D) = damage after a return on the surface of cohesion
+      // (1 − D) c. G is continuous with G(D_n) ≥ D_n and G(1) ≤ 1, so h(D) = G(D) − D has a root
+      // in [D_n, 1]: one fixed-point step, then secant steps kept inside the bracket [lo, hi]
+      // (h(lo) ≥ 0 ≥ h(hi)), bisection when a secant step would leave it.
+      auto G = [&](Real D, PrincipalReturn& r, Real kap[3]) {
+        r = surface(D).returnMap(ev, r.activeSet);
+        kappaAfter(r, kap);
+        return std::max(Dn, damageFrom(kap));
+      };
+      const Real tol = 1e-14;
+      Real g = std::max(Dn, damageFrom(kappa));
+      Real D0 = Dn, h0 = g - Dn, lo = Dn, hi = 1;
+      if (h0 > tol) {
+        Real D1 = g;
+        g = G(D1, ret, kappa);
+        Real h1 = g - D1;
+        (h1 >= 0 ? lo : hi) = D1;
+        for (int it = 0; it < 100 && std::abs(h1) > tol && hi - lo > tol; ++it) {
+          Real D2 = h1 != h0 ? D1 - h1 * (D1 - D0) / (h1 - h0) : 0.5 * (lo + hi);
+          if (!(D2 > lo && D2 < hi)) D2 = 0.5 * (lo + hi);
+          D0 = D1;
+          h0 = h1;
+          D1 = D2;
+          g = G(D1, ret, kappa);
+          h1 = g - D1;
+          (h1 >= 0 ? lo : hi) = D1;
+        }
+      }
+      Dnew = g;
+    }
+  }
+  // σ^{n+1} = σ^tr + Σ_i (σ_i − σ_i^tr) v_i v_iᵀ (the increment form keeps the unchanged part of
+  // the trial exactly); Δε^p = Σ_i Δε^p_i v_i v_iᵀ.
+  Real dsig[3] = {ret.sigma[0] - ev[0], ret.sigma[1] - ev[1], ret.sigma[2] - ev[2]}, dS[6], dEp[6];
+  spectralToVoigt(dsig, V, false, dS);
+  spectralToVoigt(ret.plastic, V, true, dEp);
+  const Real toNominal = stiff ? 1 - Dnew : 1;
+  for (int q = 0; q < 6; ++q) s[q] = (trial[q] + dS[q]) * toNominal;
+  for (int q = 0; q < 6; ++q) h[kPlasticXX + q][e] += dEp[q];
+  h[kKappa1][e] = kappa[0];
+  h[kKappa2][e] = kappa[1];
+  h[kKappa3][e] = kappa[2];
+  h[kDamage][e] = Dnew;
+  // Dissipated energy density: stress work of the step minus the change of the elastic energy
+  // (exactly what the element's stress work books beyond the stored energy).
+  Real work = 0;
+  for (int q = 0; q < 6; ++q) work += 0.5 * (old[q] + s[q]) * de[q];
+  h[kDissipation][e] += work - (energy(s, Dnew) - energy(old, Dn));
+}
+
+}  // namespace tq
