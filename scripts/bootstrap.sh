@@ -43,7 +43,7 @@ APT_PACKAGES=(
   libeigen3-dev libhdf5-dev hdf5-tools       # solid solver: linear algebra, results files
   openmpi-bin libopenmpi-dev                 # MPI transport, decomposed OpenFOAM runs
   build-essential cmake ninja-build pkg-config libgtest-dev googletest
-  python3-venv python3-dev dpkg-dev xz-utils shellcheck
+  python3-venv python3-dev dpkg-dev xz-utils shellcheck clang-format   # clang-format: ./Alltest's C++ layout check
   calculix-ccx                               # CalculiX: the solid benchmark's side-by-side run
   libglu1-mesa libxrender1 libxcursor1 libxft2 libxinerama1 libgl1   # gmsh wheel runtime
 )

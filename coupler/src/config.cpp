@@ -10,166 +10,170 @@
 namespace tq::coupler {
 
 const char* schemeName(SchemeKind k) {
-    switch (k) {
-        case SchemeKind::Explicit: return "explicit";
-        case SchemeKind::Paper: return "paper";
-        case SchemeKind::Implicit: return "implicit";
-    }
-    return "?";
+  switch (k) {
+    case SchemeKind::Explicit:
+      return "explicit";
+    case SchemeKind::Paper:
+      return "paper";
+    case SchemeKind::Implicit:
+      return "implicit";
+  }
+  return "?";
 }
 const char* accelerationName(AccelerationKind k) {
-    switch (k) {
-        case AccelerationKind::None: return "none";
-        case AccelerationKind::Constant: return "constant";
-        case AccelerationKind::Aitken: return "aitken";
-        case AccelerationKind::IqnIls: return "iqn-ils";
-    }
-    return "?";
+  switch (k) {
+    case AccelerationKind::None:
+      return "none";
+    case AccelerationKind::Constant:
+      return "constant";
+    case AccelerationKind::Aitken:
+      return "aitken";
+    case AccelerationKind::IqnIls:
+      return "iqn-ils";
+  }
+  return "?";
 }
 const char* predictorName(PredictorKind k) {
-    switch (k) {
-        case PredictorKind::Constant: return "constant";
-        case PredictorKind::Linear: return "linear";
-    }
-    return "?";
+  switch (k) {
+    case PredictorKind::Constant:
+      return "constant";
+    case PredictorKind::Linear:
+      return "linear";
+  }
+  return "?";
 }
 PredictorKind parsePredictor(const std::string& s) {
-    for (auto k : {PredictorKind::Constant, PredictorKind::Linear})
-        if (s == predictorName(k)) return k;
-    throw ConfigError("unknown predictor '" + s + "': use constant or linear");
+  for (auto k : {PredictorKind::Constant, PredictorKind::Linear})
+    if (s == predictorName(k)) return k;
+  throw ConfigError("unknown predictor '" + s + "': use constant or linear");
 }
 const char* mapKindName(MapKind k) {
-    switch (k) {
-        case MapKind::Coincident: return "coincident";
-        case MapKind::Projection: return "projection";
-    }
-    return "?";
+  switch (k) {
+    case MapKind::Coincident:
+      return "coincident";
+    case MapKind::Projection:
+      return "projection";
+  }
+  return "?";
 }
 SchemeKind parseScheme(const std::string& s) {
-    for (auto k : {SchemeKind::Explicit, SchemeKind::Paper, SchemeKind::Implicit})
-        if (s == schemeName(k)) return k;
-    throw ConfigError("unknown coupling scheme '" + s + "': use explicit, paper or implicit");
+  for (auto k : {SchemeKind::Explicit, SchemeKind::Paper, SchemeKind::Implicit})
+    if (s == schemeName(k)) return k;
+  throw ConfigError("unknown coupling scheme '" + s + "': use explicit, paper or implicit");
 }
 AccelerationKind parseAcceleration(const std::string& s) {
-    for (auto k : {AccelerationKind::None, AccelerationKind::Constant, AccelerationKind::Aitken,
-                   AccelerationKind::IqnIls})
-        if (s == accelerationName(k)) return k;
-    throw ConfigError("unknown acceleration '" + s +
-                      "': use none, constant, aitken or iqn-ils");
+  for (auto k :
+       {AccelerationKind::None, AccelerationKind::Constant, AccelerationKind::Aitken, AccelerationKind::IqnIls})
+    if (s == accelerationName(k)) return k;
+  throw ConfigError("unknown acceleration '" + s + "': use none, constant, aitken or iqn-ils");
 }
 MapKind parseMapKind(const std::string& s) {
-    for (auto k : {MapKind::Coincident, MapKind::Projection})
-        if (s == mapKindName(k)) return k;
-    throw ConfigError("unknown interface map '" + s + "': use coincident or projection");
+  for (auto k : {MapKind::Coincident, MapKind::Projection})
+    if (s == mapKindName(k)) return k;
+  throw ConfigError("unknown interface map '" + s + "': use coincident or projection");
 }
 
 void CouplingConfig::validate() const {
-    auto bad = [](const std::string& m) { throw ConfigError("coupling configuration: " + m); };
-    if (first.empty() || second.empty()) bad("both participant names (first, second) are needed");
-    if (first == second) bad("the two participants have the same name '" + first + "'");
-    if (!(windowSize > 0) || !std::isfinite(windowSize))
-        bad("window size must be a positive time in s, got " + std::to_string(windowSize));
-    if (scheme == SchemeKind::Implicit) {
-        if (maxIterations < 2) bad("implicit scheme needs max iterations >= 2");
-        if (!(tolerance > 0)) bad("implicit scheme needs a positive tolerance");
-    } else if (predictor != PredictorKind::Constant) {
-        bad(std::string("predictor ") + predictorName(predictor) + " needs the implicit scheme (the " +
-            schemeName(scheme) + " scheme has no iterations to start); use predictor constant");
-    }
-    if (!(initialRelaxation > 0 && initialRelaxation <= 1))
-        bad("initial relaxation must be in (0, 1], got " + std::to_string(initialRelaxation));
-    if (reuse < 0 || reuse > 1000) bad("reuse must be 0 to 1000 windows, got " + std::to_string(reuse));
-    if (reuse > 0 && (scheme != SchemeKind::Implicit || acceleration != AccelerationKind::IqnIls))
-        bad("reuse " + std::to_string(reuse) + " keeps IQN-ILS columns: it needs scheme implicit and "
-            "acceleration iqn-ils; use reuse 0");
-    std::set<std::string> names;
-    for (const auto& m : meshes) {
-        if (m.name.empty()) bad("a mesh without a name");
-        if (!names.insert(m.name).second) bad("mesh '" + m.name + "' declared twice");
-        if (!m.mappingSide.empty() && m.mappingSide != first && m.mappingSide != second)
-            bad("mesh '" + m.name + "': mapping side '" + m.mappingSide +
-                "' is not a participant");
-        if (!(m.tolerance > 0)) bad("mesh '" + m.name + "': tolerance must be positive");
-    }
-    std::set<std::pair<std::string, std::string>> fnames;
-    for (const auto& f : fields) {
-        if (!names.count(f.mesh)) bad("field '" + f.name + "' on unknown mesh '" + f.mesh + "'");
-        if (!fnames.insert({f.mesh, f.name}).second)
-            bad("field '" + f.name + "' on mesh '" + f.mesh + "' declared twice");
-        if (f.components < 1 || f.components > 9)
-            bad("field '" + f.name + "': components must be 1..9");
-        if (f.writer != first && f.writer != second)
-            bad("field '" + f.name + "': writer '" + f.writer + "' is not a participant");
-        if (!(f.absoluteTolerance >= 0) || !std::isfinite(f.absoluteTolerance))
-            bad("field '" + f.name + "': absolute tolerance must be >= 0 and finite, got " +
-                std::to_string(f.absoluteTolerance));
-    }
+  auto bad = [](const std::string& m) { throw ConfigError("coupling configuration: " + m); };
+  if (first.empty() || second.empty()) bad("both participant names (first, second) are needed");
+  if (first == second) bad("the two participants have the same name '" + first + "'");
+  if (!(windowSize > 0) || !std::isfinite(windowSize))
+    bad("window size must be a positive time in s, got " + std::to_string(windowSize));
+  if (scheme == SchemeKind::Implicit) {
+    if (maxIterations < 2) bad("implicit scheme needs max iterations >= 2");
+    if (!(tolerance > 0)) bad("implicit scheme needs a positive tolerance");
+  } else if (predictor != PredictorKind::Constant) {
+    bad(std::string("predictor ") + predictorName(predictor) + " needs the implicit scheme (the " + schemeName(scheme) +
+        " scheme has no iterations to start); use predictor constant");
+  }
+  if (!(initialRelaxation > 0 && initialRelaxation <= 1))
+    bad("initial relaxation must be in (0, 1], got " + std::to_string(initialRelaxation));
+  if (reuse < 0 || reuse > 1000) bad("reuse must be 0 to 1000 windows, got " + std::to_string(reuse));
+  if (reuse > 0 && (scheme != SchemeKind::Implicit || acceleration != AccelerationKind::IqnIls))
+    bad("reuse " + std::to_string(reuse) +
+        " keeps IQN-ILS columns: it needs scheme implicit and "
+        "acceleration iqn-ils; use reuse 0");
+  std::set<std::string> names;
+  for (const auto& m : meshes) {
+    if (m.name.empty()) bad("a mesh without a name");
+    if (!names.insert(m.name).second) bad("mesh '" + m.name + "' declared twice");
+    if (!m.mappingSide.empty() && m.mappingSide != first && m.mappingSide != second)
+      bad("mesh '" + m.name + "': mapping side '" + m.mappingSide + "' is not a participant");
+    if (!(m.tolerance > 0)) bad("mesh '" + m.name + "': tolerance must be positive");
+  }
+  std::set<std::pair<std::string, std::string>> fnames;
+  for (const auto& f : fields) {
+    if (!names.count(f.mesh)) bad("field '" + f.name + "' on unknown mesh '" + f.mesh + "'");
+    if (!fnames.insert({f.mesh, f.name}).second) bad("field '" + f.name + "' on mesh '" + f.mesh + "' declared twice");
+    if (f.components < 1 || f.components > 9) bad("field '" + f.name + "': components must be 1..9");
+    if (f.writer != first && f.writer != second)
+      bad("field '" + f.name + "': writer '" + f.writer + "' is not a participant");
+    if (!(f.absoluteTolerance >= 0) || !std::isfinite(f.absoluteTolerance))
+      bad("field '" + f.name + "': absolute tolerance must be >= 0 and finite, got " +
+          std::to_string(f.absoluteTolerance));
+  }
 }
 
 const MeshSpec& CouplingConfig::mesh(const std::string& name) const {
-    for (const auto& m : meshes)
-        if (m.name == name) return m;
-    throw ConfigError("unknown interface mesh '" + name + "'");
+  for (const auto& m : meshes)
+    if (m.name == name) return m;
+  throw ConfigError("unknown interface mesh '" + name + "'");
 }
 
 int CouplingConfig::fieldIndex(const std::string& m, const std::string& n) const {
-    for (std::size_t i = 0; i < fields.size(); ++i)
-        if (fields[i].mesh == m && fields[i].name == n) return int(i);
-    return -1;
+  for (std::size_t i = 0; i < fields.size(); ++i)
+    if (fields[i].mesh == m && fields[i].name == n) return int(i);
+  return -1;
 }
 
 std::string CouplingConfig::partnerOf(const std::string& p) const {
-    if (p == first) return second;
-    if (p == second) return first;
-    throw ConfigError("participant '" + p + "' is not in the coupling configuration (which has '" +
-                      first + "' and '" + second + "')");
+  if (p == first) return second;
+  if (p == second) return first;
+  throw ConfigError("participant '" + p + "' is not in the coupling configuration (which has '" + first + "' and '" +
+                    second + "')");
 }
 
-std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b,
-                                const std::string& partner) {
-    std::ostringstream s;
-    s.precision(17);
-    auto diff = [&](const std::string& what, const auto& mine, const auto& theirs) {
-        if (!(mine == theirs)) s << "\n  - " << what << ": here " << mine << ", " << partner
-                                 << " has " << theirs;
-    };
-    diff("units", a.units, b.units);
-    diff("first participant", a.first, b.first);
-    diff("second participant", a.second, b.second);
-    diff("scheme", std::string(schemeName(a.scheme)), std::string(schemeName(b.scheme)));
-    diff("window size (s)", a.windowSize, b.windowSize);
-    diff("number of windows", a.maxWindows, b.maxWindows);
-    diff("max iterations", a.maxIterations, b.maxIterations);
-    diff("tolerance", a.tolerance, b.tolerance);
-    diff("acceleration", std::string(accelerationName(a.acceleration)),
-         std::string(accelerationName(b.acceleration)));
-    diff("initial relaxation", a.initialRelaxation, b.initialRelaxation);
-    diff("predictor", std::string(predictorName(a.predictor)), std::string(predictorName(b.predictor)));
-    diff("reuse (windows)", a.reuse, b.reuse);
-    diff("number of meshes", a.meshes.size(), b.meshes.size());
-    for (std::size_t i = 0; i < std::min(a.meshes.size(), b.meshes.size()); ++i) {
-        const auto &x = a.meshes[i], &y = b.meshes[i];
-        const std::string p = "mesh #" + std::to_string(i) + " ";
-        diff(p + "name", x.name, y.name);
-        diff(p + "'" + x.name + "' map", std::string(mapKindName(x.mapping)),
-             std::string(mapKindName(y.mapping)));
-        diff(p + "'" + x.name + "' mapping side", a.mappingSideOf(x), b.mappingSideOf(y));
-        diff(p + "'" + x.name + "' tolerance (m)", x.tolerance, y.tolerance);
-    }
-    diff("number of fields", a.fields.size(), b.fields.size());
-    for (std::size_t i = 0; i < std::min(a.fields.size(), b.fields.size()); ++i) {
-        const auto &x = a.fields[i], &y = b.fields[i];
-        const std::string p = "field #" + std::to_string(i) + " ";
-        diff(p + "mesh", x.mesh, y.mesh);
-        diff(p + "name", x.name, y.name);
-        diff(p + "'" + x.name + "' components", x.components, y.components);
-        diff(p + "'" + x.name + "' writer", x.writer, y.writer);
-        diff(p + "'" + x.name + "' constraint",
-             std::string(x.constraint == MapConstraint::Consistent ? "consistent" : "conservative"),
-             std::string(y.constraint == MapConstraint::Consistent ? "consistent" : "conservative"));
-        diff(p + "'" + x.name + "' absolute tolerance", x.absoluteTolerance, y.absoluteTolerance);
-    }
-    return s.str();
+std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b, const std::string& partner) {
+  std::ostringstream s;
+  s.precision(17);
+  auto diff = [&](const std::string& what, const auto& mine, const auto& theirs) {
+    if (!(mine == theirs)) s << "\n  - " << what << ": here " << mine << ", " << partner << " has " << theirs;
+  };
+  diff("units", a.units, b.units);
+  diff("first participant", a.first, b.first);
+  diff("second participant", a.second, b.second);
+  diff("scheme", std::string(schemeName(a.scheme)), std::string(schemeName(b.scheme)));
+  diff("window size (s)", a.windowSize, b.windowSize);
+  diff("number of windows", a.maxWindows, b.maxWindows);
+  diff("max iterations", a.maxIterations, b.maxIterations);
+  diff("tolerance", a.tolerance, b.tolerance);
+  diff("acceleration", std::string(accelerationName(a.acceleration)), std::string(accelerationName(b.acceleration)));
+  diff("initial relaxation", a.initialRelaxation, b.initialRelaxation);
+  diff("predictor", std::string(predictorName(a.predictor)), std::string(predictorName(b.predictor)));
+  diff("reuse (windows)", a.reuse, b.reuse);
+  diff("number of meshes", a.meshes.size(), b.meshes.size());
+  for (std::size_t i = 0; i < std::min(a.meshes.size(), b.meshes.size()); ++i) {
+    const auto &x = a.meshes[i], &y = b.meshes[i];
+    const std::string p = "mesh #" + std::to_string(i) + " ";
+    diff(p + "name", x.name, y.name);
+    diff(p + "'" + x.name + "' map", std::string(mapKindName(x.mapping)), std::string(mapKindName(y.mapping)));
+    diff(p + "'" + x.name + "' mapping side", a.mappingSideOf(x), b.mappingSideOf(y));
+    diff(p + "'" + x.name + "' tolerance (m)", x.tolerance, y.tolerance);
+  }
+  diff("number of fields", a.fields.size(), b.fields.size());
+  for (std::size_t i = 0; i < std::min(a.fields.size(), b.fields.size()); ++i) {
+    const auto &x = a.fields[i], &y = b.fields[i];
+    const std::string p = "field #" + std::to_string(i) + " ";
+    diff(p + "mesh", x.mesh, y.mesh);
+    diff(p + "name", x.name, y.name);
+    diff(p + "'" + x.name + "' components", x.components, y.components);
+    diff(p + "'" + x.name + "' writer", x.writer, y.writer);
+    diff(p + "'" + x.name + "' constraint",
+         std::string(x.constraint == MapConstraint::Consistent ? "consistent" : "conservative"),
+         std::string(y.constraint == MapConstraint::Consistent ? "consistent" : "conservative"));
+    diff(p + "'" + x.name + "' absolute tolerance", x.absoluteTolerance, y.absoluteTolerance);
+  }
+  return s.str();
 }
 
 }  // namespace tq::coupler

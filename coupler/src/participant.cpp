@@ -12,396 +12,373 @@ namespace tq::coupler {
 using wire::MessageType;
 
 struct Participant::MeshState {
-    MeshVertices own;
-    MeshVertices partner;
-    bool iMap = false;
-    std::unique_ptr<ConsistentMap> mineToPartner;  ///< targets: partner nodes
-    std::unique_ptr<ConsistentMap> partnerToMine;  ///< targets: my nodes
-    std::unique_ptr<ConservativeMap> mineToPartnerT, partnerToMineT;
+  MeshVertices own;
+  MeshVertices partner;
+  bool iMap = false;
+  std::unique_ptr<ConsistentMap> mineToPartner;  ///< targets: partner nodes
+  std::unique_ptr<ConsistentMap> partnerToMine;  ///< targets: my nodes
+  std::unique_ptr<ConservativeMap> mineToPartnerT, partnerToMineT;
 };
 
 struct Participant::Field {
-    FieldSpec spec;
-    int index = 0;
-    bool write = false;
-    int comps = 3;
-    std::size_t ownNodes = 0, wireNodes = 0;
-    std::size_t offset = 0;  ///< written: into written_ (own layout); read: into received_ (wire)
-    const ConsistentMap* consistent = nullptr;      ///< applied when not null
-    const ConservativeMap* conservative = nullptr;  ///< applied when not null
-    std::vector<double> own;   ///< read fields: values on my nodes
-    std::vector<double> wire;  ///< written fields: values as sent
+  FieldSpec spec;
+  int index = 0;
+  bool write = false;
+  int comps = 3;
+  std::size_t ownNodes = 0, wireNodes = 0;
+  std::size_t offset = 0;                         ///< written: into written_ (own layout); read: into received_ (wire)
+  const ConsistentMap* consistent = nullptr;      ///< applied when not null
+  const ConservativeMap* conservative = nullptr;  ///< applied when not null
+  std::vector<double> own;                        ///< read fields: values on my nodes
+  std::vector<double> wire;                       ///< written fields: values as sent
 };
 
-Participant::Participant(std::string name, CouplingConfig config, TransportOptions transport,
-                         std::string token)
-    : name_(std::move(name)), config_(std::move(config)), transport_(std::move(transport)),
-      token_(std::move(token)) {
-    config_.validate();
-    partner_ = config_.partnerOf(name_);
-    amFirst_ = name_ == config_.first;
-    if (token_.empty())
-        throw ConfigError("participant '" + name_ + "': an empty run token is not allowed; the "
-                          "launcher must give both sides the same per-run token");
-    if (!(transport_.connectTimeout > 0) || !(transport_.receiveTimeout > 0))
-        throw ConfigError("participant '" + name_ + "': timeouts must be positive");
-    for (const auto& m : config_.meshes) {
-        auto st = std::make_unique<MeshState>();
-        st->own.name = m.name;
-        st->iMap = config_.mappingSideOf(m) == name_;
-        meshes_[m.name] = std::move(st);
-    }
+Participant::Participant(std::string name, CouplingConfig config, TransportOptions transport, std::string token)
+    : name_(std::move(name)), config_(std::move(config)), transport_(std::move(transport)), token_(std::move(token)) {
+  config_.validate();
+  partner_ = config_.partnerOf(name_);
+  amFirst_ = name_ == config_.first;
+  if (token_.empty())
+    throw ConfigError("participant '" + name_ +
+                      "': an empty run token is not allowed; the "
+                      "launcher must give both sides the same per-run token");
+  if (!(transport_.connectTimeout > 0) || !(transport_.receiveTimeout > 0))
+    throw ConfigError("participant '" + name_ + "': timeouts must be positive");
+  for (const auto& m : config_.meshes) {
+    auto st = std::make_unique<MeshState>();
+    st->own.name = m.name;
+    st->iMap = config_.mappingSideOf(m) == name_;
+    meshes_[m.name] = std::move(st);
+  }
 }
 
 Participant::~Participant() {
-    if (link_ && link_->open() && !finalized_)
-        abort("participant '" + name_ + "' was destroyed before finalize() (its solver stopped "
-              "on an error)");
+  if (link_ && link_->open() && !finalized_)
+    abort("participant '" + name_ +
+          "' was destroyed before finalize() (its solver stopped "
+          "on an error)");
 }
 
-void Participant::setMeshVertices(const std::string& mesh, std::vector<std::int64_t> ids,
-                                  std::vector<double> xyz, std::vector<std::int32_t> tri) {
-    auto it = meshes_.find(mesh);
-    if (it == meshes_.end())
-        throw ConfigError("participant '" + name_ + "': mesh '" + mesh +
-                          "' is not in the coupling configuration");
-    if (initialized_)
-        throw ConfigError("participant '" + name_ + "': setMeshVertices after initialize()");
-    if (xyz.size() != 3 * ids.size())
-        throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': " +
-                          std::to_string(ids.size()) + " ids but " + std::to_string(xyz.size()) +
-                          " coordinates (3 per node expected)");
-    if (tri.size() % 3)
-        throw ConfigError("participant '" + name_ + "', mesh '" + mesh +
-                          "': triangle list length is not a multiple of 3");
-    for (auto t : tri)
-        if (t < 0 || std::size_t(t) >= ids.size())
-            throw ConfigError("participant '" + name_ + "', mesh '" + mesh +
-                              "': triangle refers to node " + std::to_string(t) + " of " +
-                              std::to_string(ids.size()));
-    std::vector<std::int64_t> sorted = ids;
-    std::sort(sorted.begin(), sorted.end());
-    const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
-    if (dup != sorted.end())
-        throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': node id " +
-                          std::to_string(*dup) + " appears more than once");
-    for (double v : xyz)
-        if (!std::isfinite(v))
-            throw ConfigError("participant '" + name_ + "', mesh '" + mesh +
-                              "': non-finite coordinate");
-    auto& own = it->second->own;
-    own.ids = std::move(ids);
-    own.coordinates = std::move(xyz);
-    own.triangles = std::move(tri);
+void Participant::setMeshVertices(const std::string& mesh, std::vector<std::int64_t> ids, std::vector<double> xyz,
+                                  std::vector<std::int32_t> tri) {
+  auto it = meshes_.find(mesh);
+  if (it == meshes_.end())
+    throw ConfigError("participant '" + name_ + "': mesh '" + mesh + "' is not in the coupling configuration");
+  if (initialized_) throw ConfigError("participant '" + name_ + "': setMeshVertices after initialize()");
+  if (xyz.size() != 3 * ids.size())
+    throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': " + std::to_string(ids.size()) + " ids but " +
+                      std::to_string(xyz.size()) + " coordinates (3 per node expected)");
+  if (tri.size() % 3)
+    throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': triangle list length is not a multiple of 3");
+  for (auto t : tri)
+    if (t < 0 || std::size_t(t) >= ids.size())
+      throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': triangle refers to node " +
+                        std::to_string(t) + " of " + std::to_string(ids.size()));
+  std::vector<std::int64_t> sorted = ids;
+  std::sort(sorted.begin(), sorted.end());
+  const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+  if (dup != sorted.end())
+    throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': node id " + std::to_string(*dup) +
+                      " appears more than once");
+  for (double v : xyz)
+    if (!std::isfinite(v)) throw ConfigError("participant '" + name_ + "', mesh '" + mesh + "': non-finite coordinate");
+  auto& own = it->second->own;
+  own.ids = std::move(ids);
+  own.coordinates = std::move(xyz);
+  own.triangles = std::move(tri);
 }
 
 std::string Participant::where() const {
-    std::ostringstream s;
-    const auto& st = scheme_->state();
-    s << "window " << st.window + 1 << " of " << config_.maxWindows << ", pass "
-      << st.iteration + 1 << " (t = " << double(st.window + 1) * config_.windowSize << " s)";
-    return s.str();
+  std::ostringstream s;
+  const auto& st = scheme_->state();
+  s << "window " << st.window + 1 << " of " << config_.maxWindows << ", pass " << st.iteration + 1
+    << " (t = " << double(st.window + 1) * config_.windowSize << " s)";
+  return s.str();
 }
 
 template <class F>
 auto Participant::guarded(const char* what, F&& f) -> decltype(f()) {
-    try {
-        return f();
-    } catch (const PartnerLostError&) {
-        if (link_) link_->close();  // the partner is gone or already stopping: nothing to tell
-        finalized_ = true;
-        throw;
-    } catch (const CouplerError& e) {
-        abort(std::string(what) + ": " + e.what());
-        throw;
-    }
+  try {
+    return f();
+  } catch (const PartnerLostError&) {
+    if (link_) link_->close();  // the partner is gone or already stopping: nothing to tell
+    finalized_ = true;
+    throw;
+  } catch (const CouplerError& e) {
+    abort(std::string(what) + ": " + e.what());
+    throw;
+  }
 }
 
 Hello Participant::makeHello() const {
-    Hello h;
-    h.token = token_;
-    h.participant = name_;
-    h.partner = partner_;
-    h.config = config_;
-    for (const auto& m : config_.meshes) h.meshes.push_back(meshes_.at(m.name)->own);
-    return h;
+  Hello h;
+  h.token = token_;
+  h.participant = name_;
+  h.partner = partner_;
+  h.config = config_;
+  for (const auto& m : config_.meshes) h.meshes.push_back(meshes_.at(m.name)->own);
+  return h;
 }
 
 std::string Participant::checkPartner(const Hello& theirs) const {
-    std::ostringstream s;
-    if (theirs.participant != partner_)
-        s << "\n  - it is participant '" << theirs.participant << "', expected '" << partner_
-          << "'";
-    if (theirs.partner != name_)
-        s << "\n  - it expects to couple with '" << theirs.partner << "', this is '" << name_
-          << "'";
-    s << describeDifferences(config_, theirs.config, "'" + partner_ + "'");
-    for (const auto& m : config_.meshes) {
-        const MeshVertices* pm = nullptr;
-        for (const auto& x : theirs.meshes)
-            if (x.name == m.name) pm = &x;
-        if (!pm) {
-            s << "\n  - it sent no vertices for interface mesh '" << m.name << "'";
-            continue;
-        }
-        const auto& own = meshes_.at(m.name)->own;
-        if (m.mapping == MapKind::Coincident && pm->size() != own.size())
-            s << "\n  - interface mesh '" << m.name << "' has " << own.size()
-              << " nodes here and " << pm->size() << " on '" << partner_
-              << "'; a coincident (1:1) map needs equal counts (use the projection map for "
-                 "non-matching meshes)";
+  std::ostringstream s;
+  if (theirs.participant != partner_)
+    s << "\n  - it is participant '" << theirs.participant << "', expected '" << partner_ << "'";
+  if (theirs.partner != name_)
+    s << "\n  - it expects to couple with '" << theirs.partner << "', this is '" << name_ << "'";
+  s << describeDifferences(config_, theirs.config, "'" + partner_ + "'");
+  for (const auto& m : config_.meshes) {
+    const MeshVertices* pm = nullptr;
+    for (const auto& x : theirs.meshes)
+      if (x.name == m.name) pm = &x;
+    if (!pm) {
+      s << "\n  - it sent no vertices for interface mesh '" << m.name << "'";
+      continue;
     }
-    for (const auto& x : theirs.meshes) {
-        bool known = false;
-        for (const auto& m : config_.meshes) known |= m.name == x.name;
-        if (!known) s << "\n  - it sent vertices for unknown mesh '" << x.name << "'";
-    }
-    return s.str();
+    const auto& own = meshes_.at(m.name)->own;
+    if (m.mapping == MapKind::Coincident && pm->size() != own.size())
+      s << "\n  - interface mesh '" << m.name << "' has " << own.size() << " nodes here and " << pm->size() << " on '"
+        << partner_
+        << "'; a coincident (1:1) map needs equal counts (use the projection map for "
+           "non-matching meshes)";
+  }
+  for (const auto& x : theirs.meshes) {
+    bool known = false;
+    for (const auto& m : config_.meshes) known |= m.name == x.name;
+    if (!known) s << "\n  - it sent vertices for unknown mesh '" << x.name << "'";
+  }
+  return s.str();
 }
 
 void Participant::buildMaps(const Hello& theirs) {
-    for (const auto& m : config_.meshes) {
-        auto& st = *meshes_.at(m.name);
-        for (const auto& x : theirs.meshes)
-            if (x.name == m.name) st.partner = x;
-        if (!st.iMap) continue;
-        bool needM2P = false, needP2M = false;
-        for (const auto& f : config_.fields) {
-            if (f.mesh != m.name) continue;
-            const bool iWrite = f.writer == name_;
-            const bool consistent = f.constraint == MapConstraint::Consistent;
-            (iWrite == consistent ? needM2P : needP2M) = true;
-        }
-        const auto builder = makeMapBuilder(m.mapping, m.tolerance);
-        auto view = [](const MeshVertices& v) {
-            SurfaceView s;
-            s.coordinates = v.coordinates.data();
-            s.nodes = v.size();
-            s.triangles = v.triangles.data();
-            s.numTriangles = v.triangles.size() / 3;
-            s.ids = v.ids.data();
-            return s;
-        };
-        try {
-            if (needM2P) {
-                st.mineToPartner = std::make_unique<ConsistentMap>(
-                    builder->build(view(st.own), view(st.partner)));
-                st.mineToPartnerT =
-                    std::make_unique<ConservativeMap>(st.mineToPartner->transpose());
-            }
-            if (needP2M) {
-                if (builder->needsSourceTriangles() && st.partner.triangles.empty())
-                    throw MapError("the fields read consistently (or written conservatively) "
-                                   "need the surface triangles of '" + partner_ + "', which it "
-                                   "did not send");
-                st.partnerToMine = std::make_unique<ConsistentMap>(
-                    builder->build(view(st.partner), view(st.own)));
-                st.partnerToMineT =
-                    std::make_unique<ConservativeMap>(st.partnerToMine->transpose());
-            }
-        } catch (const MapError& e) {
-            throw MapError("interface mesh '" + m.name + "' between '" + name_ + "' (" +
-                           std::to_string(st.own.size()) + " nodes) and '" + partner_ + "' (" +
-                           std::to_string(st.partner.size()) + " nodes): " + e.what());
-        }
+  for (const auto& m : config_.meshes) {
+    auto& st = *meshes_.at(m.name);
+    for (const auto& x : theirs.meshes)
+      if (x.name == m.name) st.partner = x;
+    if (!st.iMap) continue;
+    bool needM2P = false, needP2M = false;
+    for (const auto& f : config_.fields) {
+      if (f.mesh != m.name) continue;
+      const bool iWrite = f.writer == name_;
+      const bool consistent = f.constraint == MapConstraint::Consistent;
+      (iWrite == consistent ? needM2P : needP2M) = true;
     }
-    // Field buffers.
-    fields_.clear();
-    std::size_t wOff = 0, rOff = 0;
-    std::vector<std::uint64_t> partnerBlocks;
-    for (std::size_t i = 0; i < config_.fields.size(); ++i) {
-        const auto& spec = config_.fields[i];
-        auto f = std::make_unique<Field>();
-        f->spec = spec;
-        f->index = int(i);
-        f->write = spec.writer == name_;
-        f->comps = spec.components;
-        const auto& st = *meshes_.at(spec.mesh);
-        f->ownNodes = st.own.size();
-        f->wireNodes = st.iMap ? st.partner.size() : st.own.size();
-        if (st.iMap) {
-            const bool consistent = spec.constraint == MapConstraint::Consistent;
-            if (f->write)
-                consistent ? void(f->consistent = st.mineToPartner.get())
-                           : void(f->conservative = st.partnerToMineT.get());
-            else
-                consistent ? void(f->consistent = st.partnerToMine.get())
-                           : void(f->conservative = st.mineToPartnerT.get());
-        }
-        const std::size_t ownVals = f->ownNodes * std::size_t(f->comps);
-        const std::size_t wireVals = f->wireNodes * std::size_t(f->comps);
-        if (f->write) {
-            f->offset = wOff;
-            wOff += ownVals;
-            f->wire.assign(wireVals, 0.0);
-        } else {
-            f->offset = rOff;
-            rOff += wireVals;
-            f->own.assign(ownVals, 0.0);
-            partnerBlocks.push_back(wireVals);
-        }
-        fields_.push_back(std::move(f));
+    const auto builder = makeMapBuilder(m.mapping, m.tolerance);
+    auto view = [](const MeshVertices& v) {
+      SurfaceView s;
+      s.coordinates = v.coordinates.data();
+      s.nodes = v.size();
+      s.triangles = v.triangles.data();
+      s.numTriangles = v.triangles.size() / 3;
+      s.ids = v.ids.data();
+      return s;
+    };
+    try {
+      if (needM2P) {
+        st.mineToPartner = std::make_unique<ConsistentMap>(builder->build(view(st.own), view(st.partner)));
+        st.mineToPartnerT = std::make_unique<ConservativeMap>(st.mineToPartner->transpose());
+      }
+      if (needP2M) {
+        if (builder->needsSourceTriangles() && st.partner.triangles.empty())
+          throw MapError(
+              "the fields read consistently (or written conservatively) "
+              "need the surface triangles of '" +
+              partner_ +
+              "', which it "
+              "did not send");
+        st.partnerToMine = std::make_unique<ConsistentMap>(builder->build(view(st.partner), view(st.own)));
+        st.partnerToMineT = std::make_unique<ConservativeMap>(st.partnerToMine->transpose());
+      }
+    } catch (const MapError& e) {
+      throw MapError("interface mesh '" + m.name + "' between '" + name_ + "' (" + std::to_string(st.own.size()) +
+                     " nodes) and '" + partner_ + "' (" + std::to_string(st.partner.size()) + " nodes): " + e.what());
     }
-    writtenSlices_.clear();
-    receivedSlices_.clear();
-    for (const auto& f : fields_) {
-        const std::size_t n = (f->write ? f->ownNodes : f->wireNodes) * std::size_t(f->comps);
-        (f->write ? writtenSlices_ : receivedSlices_)
-            .push_back({f->spec.name, f->offset, n, f->spec.absoluteTolerance});
+  }
+  // Field buffers.
+  fields_.clear();
+  std::size_t wOff = 0, rOff = 0;
+  std::vector<std::uint64_t> partnerBlocks;
+  for (std::size_t i = 0; i < config_.fields.size(); ++i) {
+    const auto& spec = config_.fields[i];
+    auto f = std::make_unique<Field>();
+    f->spec = spec;
+    f->index = int(i);
+    f->write = spec.writer == name_;
+    f->comps = spec.components;
+    const auto& st = *meshes_.at(spec.mesh);
+    f->ownNodes = st.own.size();
+    f->wireNodes = st.iMap ? st.partner.size() : st.own.size();
+    if (st.iMap) {
+      const bool consistent = spec.constraint == MapConstraint::Consistent;
+      if (f->write)
+        consistent ? void(f->consistent = st.mineToPartner.get()) : void(f->conservative = st.partnerToMineT.get());
+      else
+        consistent ? void(f->consistent = st.partnerToMine.get()) : void(f->conservative = st.mineToPartnerT.get());
     }
-    written_.assign(wOff, 0.0);
-    received_.assign(rOff, 0.0);
-    partnerDataBytes_ = dataPayloadSize(partnerBlocks);
+    const std::size_t ownVals = f->ownNodes * std::size_t(f->comps);
+    const std::size_t wireVals = f->wireNodes * std::size_t(f->comps);
+    if (f->write) {
+      f->offset = wOff;
+      wOff += ownVals;
+      f->wire.assign(wireVals, 0.0);
+    } else {
+      f->offset = rOff;
+      rOff += wireVals;
+      f->own.assign(ownVals, 0.0);
+      partnerBlocks.push_back(wireVals);
+    }
+    fields_.push_back(std::move(f));
+  }
+  writtenSlices_.clear();
+  receivedSlices_.clear();
+  for (const auto& f : fields_) {
+    const std::size_t n = (f->write ? f->ownNodes : f->wireNodes) * std::size_t(f->comps);
+    (f->write ? writtenSlices_ : receivedSlices_).push_back({f->spec.name, f->offset, n, f->spec.absoluteTolerance});
+  }
+  written_.assign(wOff, 0.0);
+  received_.assign(rOff, 0.0);
+  partnerDataBytes_ = dataPayloadSize(partnerBlocks);
 }
 
 void Participant::runAcceptor(Deadline deadline) {
-    auto listener = makeListener(transport_, name_, partner_);
-    std::vector<std::string> refused;
-    auto refusedText = [&] {
-        std::string s;
-        for (const auto& r : refused) s += "\n  - refused: " + r;
-        return s;
-    };
-    for (;;) {
-        std::unique_ptr<Channel> ch;
-        try {
-            ch = listener->accept(deadline);
-        } catch (const TimeoutError& e) {
-            throw TimeoutError(std::string(e.what()) + " (connect timeout " +
-                               std::to_string(deadline.seconds) + " s)" + refusedText());
-        }
-        auto ep = std::make_unique<Endpoint>(std::move(ch), name_, partner_);
-        auto reject = [&](ReasonCode code, const std::string& text) {
-            try {
-                ep->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0),
-                         "handshake");
-            } catch (const CouplerError&) {
-            }
-        };
-        Message m;
-        Hello h;
-        // A connection that says nothing must not hold the port until the connect timeout: a
-        // real partner sends HELLO right after connecting, so it gets at most 10 s.
-        Deadline helloBy = Deadline::in(std::min(10.0, std::max(0.0, deadline.remaining())));
-        const bool ownDeadline = helloBy.at < deadline.at;
-        if (!ownDeadline) helloBy = deadline;
-        try {
-            m = ep->receive(helloBy, "HELLO (handshake)");
-            if (m.header.type != MessageType::Hello)
-                throw ProtocolError(ProtocolFault::UnexpectedType,
-                                    "a " + wire::typeName(std::uint16_t(m.header.type)) +
-                                        " message arrived where HELLO starts the handshake");
-            h = decodeHello(m.payload.data(), m.payload.size());
-        } catch (const ProtocolError& e) {
-            if (e.fault() == ProtocolFault::BadVersion) {
-                reject(ReasonCode::WrongVersion, e.what());
-                throw HandshakeError(e.what());
-            }
-            if (!listener->canAcceptAgain()) throw;
-            reject(ReasonCode::ProtocolViolation, e.what());
-            refused.push_back(std::string("a foreign or malformed connection (") + e.what() + ")");
-            continue;
-        } catch (const TransportError& e) {
-            const bool timedOut = dynamic_cast<const TimeoutError*>(&e) != nullptr;
-            if (!listener->canAcceptAgain() || (timedOut && !ownDeadline)) throw;
-            refused.push_back(std::string("a connection that closed before its HELLO (") +
-                              e.what() + ")");
-            continue;
-        }
-        if (h.token != token_) {
-            const std::string text =
-                "participant '" + name_ + "' refused the connection of '" + h.participant +
-                "': its run token differs (it belongs to another run, or the two sides were "
-                "given different tokens)";
-            reject(ReasonCode::WrongToken, text);
-            if (!listener->canAcceptAgain()) throw HandshakeError(text);
-            refused.push_back("'" + h.participant + "' with a different run token");
-            continue;
-        }
-        acceptPartner(h, reject);
-        ep->send(MessageType::Welcome, encodeHello(makeHello()), deadline, "handshake");
-        const Message r = ep->receive(deadline, "READY (handshake)");
-        if (r.header.type == MessageType::Reject) {
-            const Reason why = decodeReason(r.payload.data(), r.payload.size());
-            throw HandshakeError("participant '" + name_ + "' was refused by its partner: " +
-                                 why.message);
-        }
-        if (r.header.type != MessageType::Ready)
-            throw ProtocolError(ProtocolFault::UnexpectedType,
-                                "participant '" + name_ + "' expected READY from '" + partner_ +
-                                    "', got " + wire::typeName(std::uint16_t(r.header.type)));
-        link_ = std::move(ep);
-        return;
+  auto listener = makeListener(transport_, name_, partner_);
+  std::vector<std::string> refused;
+  auto refusedText = [&] {
+    std::string s;
+    for (const auto& r : refused) s += "\n  - refused: " + r;
+    return s;
+  };
+  for (;;) {
+    std::unique_ptr<Channel> ch;
+    try {
+      ch = listener->accept(deadline);
+    } catch (const TimeoutError& e) {
+      throw TimeoutError(std::string(e.what()) + " (connect timeout " + std::to_string(deadline.seconds) + " s)" +
+                         refusedText());
     }
+    auto ep = std::make_unique<Endpoint>(std::move(ch), name_, partner_);
+    auto reject = [&](ReasonCode code, const std::string& text) {
+      try {
+        ep->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
+      } catch (const CouplerError&) {
+      }
+    };
+    Message m;
+    Hello h;
+    // A connection that says nothing must not hold the port until the connect timeout: a
+    // real partner sends HELLO right after connecting, so it gets at most 10 s.
+    Deadline helloBy = Deadline::in(std::min(10.0, std::max(0.0, deadline.remaining())));
+    const bool ownDeadline = helloBy.at < deadline.at;
+    if (!ownDeadline) helloBy = deadline;
+    try {
+      m = ep->receive(helloBy, "HELLO (handshake)");
+      if (m.header.type != MessageType::Hello)
+        throw ProtocolError(ProtocolFault::UnexpectedType, "a " + wire::typeName(std::uint16_t(m.header.type)) +
+                                                               " message arrived where HELLO starts the handshake");
+      h = decodeHello(m.payload.data(), m.payload.size());
+    } catch (const ProtocolError& e) {
+      if (e.fault() == ProtocolFault::BadVersion) {
+        reject(ReasonCode::WrongVersion, e.what());
+        throw HandshakeError(e.what());
+      }
+      if (!listener->canAcceptAgain()) throw;
+      reject(ReasonCode::ProtocolViolation, e.what());
+      refused.push_back(std::string("a foreign or malformed connection (") + e.what() + ")");
+      continue;
+    } catch (const TransportError& e) {
+      const bool timedOut = dynamic_cast<const TimeoutError*>(&e) != nullptr;
+      if (!listener->canAcceptAgain() || (timedOut && !ownDeadline)) throw;
+      refused.push_back(std::string("a connection that closed before its HELLO (") + e.what() + ")");
+      continue;
+    }
+    if (h.token != token_) {
+      const std::string text = "participant '" + name_ + "' refused the connection of '" + h.participant +
+                               "': its run token differs (it belongs to another run, or the two sides were "
+                               "given different tokens)";
+      reject(ReasonCode::WrongToken, text);
+      if (!listener->canAcceptAgain()) throw HandshakeError(text);
+      refused.push_back("'" + h.participant + "' with a different run token");
+      continue;
+    }
+    acceptPartner(h, reject);
+    ep->send(MessageType::Welcome, encodeHello(makeHello()), deadline, "handshake");
+    const Message r = ep->receive(deadline, "READY (handshake)");
+    if (r.header.type == MessageType::Reject) {
+      const Reason why = decodeReason(r.payload.data(), r.payload.size());
+      throw HandshakeError("participant '" + name_ + "' was refused by its partner: " + why.message);
+    }
+    if (r.header.type != MessageType::Ready)
+      throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' expected READY from '" +
+                                                             partner_ + "', got " +
+                                                             wire::typeName(std::uint16_t(r.header.type)));
+    link_ = std::move(ep);
+    return;
+  }
 }
 
-void Participant::acceptPartner(const Hello& h,
-                                const std::function<void(ReasonCode, const std::string&)>& reject) {
-    const std::string problems = checkPartner(h);
-    if (!problems.empty()) {
-        const std::string text = "participant '" + name_ + "' cannot couple with '" +
-                                 h.participant + "': the configurations differ:" + problems;
-        reject(ReasonCode::ConfigMismatch, text);
-        throw HandshakeError(text);
-    }
-    try {
-        buildMaps(h);
-    } catch (const MapError& e) {
-        reject(ReasonCode::MeshMismatch, e.what());
-        throw HandshakeError(e.what());
-    }
+void Participant::acceptPartner(const Hello& h, const std::function<void(ReasonCode, const std::string&)>& reject) {
+  const std::string problems = checkPartner(h);
+  if (!problems.empty()) {
+    const std::string text =
+        "participant '" + name_ + "' cannot couple with '" + h.participant + "': the configurations differ:" + problems;
+    reject(ReasonCode::ConfigMismatch, text);
+    throw HandshakeError(text);
+  }
+  try {
+    buildMaps(h);
+  } catch (const MapError& e) {
+    reject(ReasonCode::MeshMismatch, e.what());
+    throw HandshakeError(e.what());
+  }
 }
 
 void Participant::runConnector(Deadline deadline) {
-    link_ = std::make_unique<Endpoint>(connectTo(transport_, name_, partner_, deadline), name_,
-                                       partner_);
-    auto reject = [&](ReasonCode code, const std::string& text) {
-        try {
-            link_->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0),
-                        "handshake");
-        } catch (const CouplerError&) {
-        }
-        link_->close();
-    };
-    link_->send(MessageType::Hello, encodeHello(makeHello()), deadline, "handshake");
-    Message m;
+  link_ = std::make_unique<Endpoint>(connectTo(transport_, name_, partner_, deadline), name_, partner_);
+  auto reject = [&](ReasonCode code, const std::string& text) {
     try {
-        m = link_->receive(deadline, "WELCOME (handshake answer)");
-    } catch (const ProtocolError& e) {
-        if (e.fault() == ProtocolFault::BadVersion) {
-            reject(ReasonCode::WrongVersion, e.what());
-            throw HandshakeError(e.what());
-        }
-        reject(ReasonCode::ProtocolViolation, e.what());
-        throw;
+      link_->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
+    } catch (const CouplerError&) {
     }
-    if (m.header.type == MessageType::Reject) {
-        const Reason why = decodeReason(m.payload.data(), m.payload.size());
-        link_->close();
-        throw HandshakeError("participant '" + name_ + "' was refused by its partner: " +
-                             why.message);
+    link_->close();
+  };
+  link_->send(MessageType::Hello, encodeHello(makeHello()), deadline, "handshake");
+  Message m;
+  try {
+    m = link_->receive(deadline, "WELCOME (handshake answer)");
+  } catch (const ProtocolError& e) {
+    if (e.fault() == ProtocolFault::BadVersion) {
+      reject(ReasonCode::WrongVersion, e.what());
+      throw HandshakeError(e.what());
     }
-    if (m.header.type != MessageType::Welcome) {
-        const std::string text = "participant '" + name_ + "' expected WELCOME or REJECT, got " +
-                                 wire::typeName(std::uint16_t(m.header.type));
-        reject(ReasonCode::ProtocolViolation, text);
-        throw ProtocolError(ProtocolFault::UnexpectedType, text);
-    }
-    const Hello h = decodeHello(m.payload.data(), m.payload.size());
-    if (h.token != token_) {
-        const std::string text = "participant '" + name_ + "' refused '" + h.participant +
-                                 "': its run token differs (another run's participant)";
-        reject(ReasonCode::WrongToken, text);
-        throw HandshakeError(text);
-    }
-    acceptPartner(h, reject);
-    link_->send(MessageType::Ready, {}, deadline, "handshake");
+    reject(ReasonCode::ProtocolViolation, e.what());
+    throw;
+  }
+  if (m.header.type == MessageType::Reject) {
+    const Reason why = decodeReason(m.payload.data(), m.payload.size());
+    link_->close();
+    throw HandshakeError("participant '" + name_ + "' was refused by its partner: " + why.message);
+  }
+  if (m.header.type != MessageType::Welcome) {
+    const std::string text =
+        "participant '" + name_ + "' expected WELCOME or REJECT, got " + wire::typeName(std::uint16_t(m.header.type));
+    reject(ReasonCode::ProtocolViolation, text);
+    throw ProtocolError(ProtocolFault::UnexpectedType, text);
+  }
+  const Hello h = decodeHello(m.payload.data(), m.payload.size());
+  if (h.token != token_) {
+    const std::string text = "participant '" + name_ + "' refused '" + h.participant +
+                             "': its run token differs (another run's participant)";
+    reject(ReasonCode::WrongToken, text);
+    throw HandshakeError(text);
+  }
+  acceptPartner(h, reject);
+  link_->send(MessageType::Ready, {}, deadline, "handshake");
 }
 
 double Participant::initialize() {
-    connect();
-    guarded("initialize", [&] { scheme_->initialize(*this); });
-    return getMaxTimeStepSize();
+  connect();
+  guarded("initialize", [&] { scheme_->initialize(*this); });
+  return getMaxTimeStepSize();
 }
 
 namespace {
@@ -409,314 +386,284 @@ constexpr std::uint32_t kStateMagic = 0x54515253;  // "TQRS": a participant's re
 }
 
 void Participant::checkpoint(StateIo& io) {
-    std::uint32_t magic = kStateMagic;
-    io.io(magic);
-    if (magic != kStateMagic) throw ConfigError("participant '" + name_ + "': not a coupler restart state");
-    io.io(timeInWindow_);
-    io.io(written_);
-    io.io(received_);
-    for (auto& f : fields_) {
-        io.io(f->own);
-        io.io(f->wire);
-    }
-    io.io(exchanges_);
-    scheme_->checkpoint(io);
-    if (monitor_) monitor_->checkpoint(io);
+  std::uint32_t magic = kStateMagic;
+  io.io(magic);
+  if (magic != kStateMagic) throw ConfigError("participant '" + name_ + "': not a coupler restart state");
+  io.io(timeInWindow_);
+  io.io(written_);
+  io.io(received_);
+  for (auto& f : fields_) {
+    io.io(f->own);
+    io.io(f->wire);
+  }
+  io.io(exchanges_);
+  scheme_->checkpoint(io);
+  if (monitor_) monitor_->checkpoint(io);
 }
 
 std::vector<unsigned char> Participant::saveState() const {
-    if (!initialized_ || finalized_ || !scheme_->state().windowComplete)
-        throw ConfigError("participant '" + name_ + "': saveState() only right after a completed window (" +
-                          where() + ")");
-    std::vector<unsigned char> bytes;
-    StateIo io = StateIo::saver(bytes);
-    const_cast<Participant*>(this)->checkpoint(io);  // saving changes nothing
-    return bytes;
+  if (!initialized_ || finalized_ || !scheme_->state().windowComplete)
+    throw ConfigError("participant '" + name_ + "': saveState() only right after a completed window (" + where() + ")");
+  std::vector<unsigned char> bytes;
+  StateIo io = StateIo::saver(bytes);
+  const_cast<Participant*>(this)->checkpoint(io);  // saving changes nothing
+  return bytes;
 }
 
 double Participant::initializeResumed(const std::vector<unsigned char>& state) {
-    connect();
-    guarded("resume", [&] {
-        StateIo io = StateIo::loader(state);
-        checkpoint(io);
-        if (!io.exhausted())
-            throw ConfigError("participant '" + name_ + "': the restart state is longer than this configuration's "
-                              "(another interface or scheme)");
-        scheme_->resume(*this);
-    });
-    return getMaxTimeStepSize();
+  connect();
+  guarded("resume", [&] {
+    StateIo io = StateIo::loader(state);
+    checkpoint(io);
+    if (!io.exhausted())
+      throw ConfigError("participant '" + name_ +
+                        "': the restart state is longer than this configuration's "
+                        "(another interface or scheme)");
+    scheme_->resume(*this);
+  });
+  return getMaxTimeStepSize();
 }
 
 double Participant::connect() {
-    if (initialized_) throw ConfigError("participant '" + name_ + "': initialize() called twice");
-    for (const auto& m : config_.meshes)
-        if (meshes_.at(m.name)->own.size() == 0)
-            throw ConfigError("participant '" + name_ + "': interface mesh '" + m.name +
-                              "' has no vertices; call setMeshVertices() before initialize()");
-    const bool listen = transport_.role == ConnectRole::Listen ||
-                        (transport_.role == ConnectRole::Auto && amFirst_);
-    const Deadline deadline = Deadline::in(transport_.connectTimeout);
-    if (listen)
-        runAcceptor(deadline);
-    else
-        runConnector(deadline);
-    link_->setExpectedDataSize(partnerDataBytes_);
-    scheme_ = makeScheme(config_, name_);
-    if (amFirst_) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
-    initialized_ = true;
-    return 0.0;
+  if (initialized_) throw ConfigError("participant '" + name_ + "': initialize() called twice");
+  for (const auto& m : config_.meshes)
+    if (meshes_.at(m.name)->own.size() == 0)
+      throw ConfigError("participant '" + name_ + "': interface mesh '" + m.name +
+                        "' has no vertices; call setMeshVertices() before initialize()");
+  const bool listen = transport_.role == ConnectRole::Listen || (transport_.role == ConnectRole::Auto && amFirst_);
+  const Deadline deadline = Deadline::in(transport_.connectTimeout);
+  if (listen)
+    runAcceptor(deadline);
+  else
+    runConnector(deadline);
+  link_->setExpectedDataSize(partnerDataBytes_);
+  scheme_ = makeScheme(config_, name_);
+  if (amFirst_) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
+  initialized_ = true;
+  return 0.0;
 }
 
-Participant::Field& Participant::field(const std::string& mesh, const std::string& name,
-                                       bool write, const char* caller) {
-    return const_cast<Field&>(std::as_const(*this).field(mesh, name, write, caller));
+Participant::Field& Participant::field(const std::string& mesh, const std::string& name, bool write,
+                                       const char* caller) {
+  return const_cast<Field&>(std::as_const(*this).field(mesh, name, write, caller));
 }
 
-const Participant::Field& Participant::field(const std::string& mesh, const std::string& name,
-                                             bool write, const char* caller) const {
-    if (!initialized_)
-        throw ConfigError("participant '" + name_ + "': " + caller + " before initialize()");
-    const int i = config_.fieldIndex(mesh, name);
-    if (i < 0)
-        throw ConfigError("participant '" + name_ + "': " + caller + " of unknown field '" + name +
-                          "' on mesh '" + mesh + "'");
-    const Field& f = *fields_[std::size_t(i)];
-    if (f.write != write)
-        throw ConfigError("participant '" + name_ + "': " + caller + " of field '" + name +
-                          "', which is " + (f.write ? "written" : "read") + " by this side");
-    return f;
+const Participant::Field& Participant::field(const std::string& mesh, const std::string& name, bool write,
+                                             const char* caller) const {
+  if (!initialized_) throw ConfigError("participant '" + name_ + "': " + caller + " before initialize()");
+  const int i = config_.fieldIndex(mesh, name);
+  if (i < 0)
+    throw ConfigError("participant '" + name_ + "': " + caller + " of unknown field '" + name + "' on mesh '" + mesh +
+                      "'");
+  const Field& f = *fields_[std::size_t(i)];
+  if (f.write != write)
+    throw ConfigError("participant '" + name_ + "': " + caller + " of field '" + name + "', which is " +
+                      (f.write ? "written" : "read") + " by this side");
+  return f;
 }
 
-void Participant::writeData(const std::string& mesh, const std::string& name, const double* v,
-                            std::size_t n) {
-    Field& f = field(mesh, name, true, "writeData");
-    const std::size_t want = f.ownNodes * std::size_t(f.comps);
-    if (n != want)
-        throw ConfigError("participant '" + name_ + "': writeData of '" + name + "' with " +
-                          std::to_string(n) + " values, expected " + std::to_string(want) +
-                          " (" + std::to_string(f.ownNodes) + " nodes x " +
-                          std::to_string(f.comps) + ")");
-    for (std::size_t i = 0; i < n; ++i)
-        if (!std::isfinite(v[i])) {
-            const std::string text = "participant '" + name_ + "' wrote a non-finite value of '" +
-                                     name + "' (node " + std::to_string(i / f.comps) + ") in " +
-                                     where() + ": the solution has blown up";
-            abort(text);
-            throw DivergenceError(text);
-        }
-    std::copy(v, v + n, written_.begin() + std::ptrdiff_t(f.offset));
-}
-
-void Participant::readData(const std::string& mesh, const std::string& name, double* v,
-                           std::size_t n) const {
-    const Field& f = field(mesh, name, false, "readData");
-    if (n != f.own.size())
-        throw ConfigError("participant '" + name_ + "': readData of '" + name + "' into " +
-                          std::to_string(n) + " values, expected " + std::to_string(f.own.size()));
-    std::copy(f.own.begin(), f.own.end(), v);
-}
-
-void Participant::readData(const std::string& mesh, const std::string& name,
-                           std::vector<double>& v) const {
-    const Field& f = field(mesh, name, false, "readData");
-    v = f.own;
-}
-
-void Participant::sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t fl,
-                           double residual) {
-    DataMessage d;
-    d.window = window;
-    d.iteration = iteration;
-    d.flags = fl;
-    d.time = double(window + 1) * config_.windowSize;
-    d.residual = residual;
-    const auto t0 = Clock::now();
-    for (auto& f : fields_) {
-        if (!f->write) continue;
-        const double* src = written_.data() + f->offset;
-        if (f->consistent)
-            f->consistent->apply(src, f->comps, f->wire.data());
-        else if (f->conservative)
-            f->conservative->apply(src, f->comps, f->wire.data());
-        else
-            std::copy(src, src + f->wire.size(), f->wire.begin());
-        d.fields.push_back({std::uint32_t(f->index), std::uint32_t(f->comps), f->wire});
+void Participant::writeData(const std::string& mesh, const std::string& name, const double* v, std::size_t n) {
+  Field& f = field(mesh, name, true, "writeData");
+  const std::size_t want = f.ownNodes * std::size_t(f.comps);
+  if (n != want)
+    throw ConfigError("participant '" + name_ + "': writeData of '" + name + "' with " + std::to_string(n) +
+                      " values, expected " + std::to_string(want) + " (" + std::to_string(f.ownNodes) + " nodes x " +
+                      std::to_string(f.comps) + ")");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) {
+      const std::string text = "participant '" + name_ + "' wrote a non-finite value of '" + name + "' (node " +
+                               std::to_string(i / f.comps) + ") in " + where() + ": the solution has blown up";
+      abort(text);
+      throw DivergenceError(text);
     }
-    secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
-    std::ostringstream ctx;
-    ctx << "window " << window + 1 << ", pass " << iteration + 1;
-    link_->send(MessageType::Data, encodeData(d), Deadline::in(transport_.receiveTimeout),
-                ctx.str());
+  std::copy(v, v + n, written_.begin() + std::ptrdiff_t(f.offset));
+}
+
+void Participant::readData(const std::string& mesh, const std::string& name, double* v, std::size_t n) const {
+  const Field& f = field(mesh, name, false, "readData");
+  if (n != f.own.size())
+    throw ConfigError("participant '" + name_ + "': readData of '" + name + "' into " + std::to_string(n) +
+                      " values, expected " + std::to_string(f.own.size()));
+  std::copy(f.own.begin(), f.own.end(), v);
+}
+
+void Participant::readData(const std::string& mesh, const std::string& name, std::vector<double>& v) const {
+  const Field& f = field(mesh, name, false, "readData");
+  v = f.own;
+}
+
+void Participant::sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t fl, double residual) {
+  DataMessage d;
+  d.window = window;
+  d.iteration = iteration;
+  d.flags = fl;
+  d.time = double(window + 1) * config_.windowSize;
+  d.residual = residual;
+  const auto t0 = Clock::now();
+  for (auto& f : fields_) {
+    if (!f->write) continue;
+    const double* src = written_.data() + f->offset;
+    if (f->consistent)
+      f->consistent->apply(src, f->comps, f->wire.data());
+    else if (f->conservative)
+      f->conservative->apply(src, f->comps, f->wire.data());
+    else
+      std::copy(src, src + f->wire.size(), f->wire.begin());
+    d.fields.push_back({std::uint32_t(f->index), std::uint32_t(f->comps), f->wire});
+  }
+  secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  std::ostringstream ctx;
+  ctx << "window " << window + 1 << ", pass " << iteration + 1;
+  link_->send(MessageType::Data, encodeData(d), Deadline::in(transport_.receiveTimeout), ctx.str());
 }
 
 ExchangePort::Received Participant::receiveData(std::uint64_t window, std::uint32_t iteration) {
-    std::ostringstream what;
-    what << "DATA of window " << window + 1 << " of " << config_.maxWindows << ", pass "
-         << iteration + 1 << " (t = " << double(window + 1) * config_.windowSize << " s)";
-    const Message m = link_->receive(Deadline::in(transport_.receiveTimeout), what.str());
-    if (m.header.type == MessageType::Bye)
-        throw PartnerLostError("'" + partner_ + "' ended the coupling (BYE) while '" + name_ +
-                               "' was waiting for " + what.str());
-    if (m.header.type != MessageType::Data)
-        throw ProtocolError(ProtocolFault::UnexpectedType,
-                            "participant '" + name_ + "' got " +
-                                wire::typeName(std::uint16_t(m.header.type)) + " from '" +
-                                partner_ + "' while waiting for " + what.str());
-    const DataMessage d = decodeData(m.payload.data(), m.payload.size());
-    if (d.window != window || d.iteration != iteration) {
-        std::ostringstream s;
-        s << "participant '" << name_ << "' and '" << partner_ << "' are out of step: it sent "
-          << "window " << d.window + 1 << ", pass " << d.iteration + 1 << " while " << what.str()
-          << " was due";
-        throw ProtocolError(ProtocolFault::BadPayload, s.str());
-    }
-    std::size_t b = 0;
-    for (auto& f : fields_) {
-        if (f->write) continue;
-        if (b >= d.fields.size() || d.fields[b].field != std::uint32_t(f->index) ||
-            d.fields[b].components != std::uint32_t(f->comps) ||
-            d.fields[b].values.size() != f->wireNodes * std::size_t(f->comps))
-            throw ProtocolError(ProtocolFault::BadPayload,
-                                "participant '" + name_ + "': DATA from '" + partner_ +
-                                    "' does not carry field '" + f->spec.name +
-                                    "' as agreed in the handshake (block " + std::to_string(b) +
-                                    ")");
-        for (double v : d.fields[b].values)
-            if (!std::isfinite(v))
-                throw DivergenceError("'" + partner_ + "' sent non-finite values of '" +
-                                      f->spec.name + "' in " + what.str() +
-                                      ": the partner's solution has blown up");
-        std::copy(d.fields[b].values.begin(), d.fields[b].values.end(),
-                  received_.begin() + std::ptrdiff_t(f->offset));
-        ++b;
-    }
-    if (b != d.fields.size())
-        throw ProtocolError(ProtocolFault::BadPayload,
-                            "participant '" + name_ + "': DATA from '" + partner_ +
-                                "' carries more field blocks than agreed");
-    const auto t0 = Clock::now();
-    for (auto& f : fields_) {
-        if (f->write) continue;
-        const double* src = received_.data() + f->offset;
-        if (f->consistent)
-            f->consistent->apply(src, f->comps, f->own.data());
-        else if (f->conservative)
-            f->conservative->apply(src, f->comps, f->own.data());
-        else
-            std::copy(src, src + f->own.size(), f->own.begin());
-    }
-    secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
-    ++exchanges_;
-    return {d.flags, d.residual};
+  std::ostringstream what;
+  what << "DATA of window " << window + 1 << " of " << config_.maxWindows << ", pass " << iteration + 1
+       << " (t = " << double(window + 1) * config_.windowSize << " s)";
+  const Message m = link_->receive(Deadline::in(transport_.receiveTimeout), what.str());
+  if (m.header.type == MessageType::Bye)
+    throw PartnerLostError("'" + partner_ + "' ended the coupling (BYE) while '" + name_ + "' was waiting for " +
+                           what.str());
+  if (m.header.type != MessageType::Data)
+    throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' got " +
+                                                           wire::typeName(std::uint16_t(m.header.type)) + " from '" +
+                                                           partner_ + "' while waiting for " + what.str());
+  const DataMessage d = decodeData(m.payload.data(), m.payload.size());
+  if (d.window != window || d.iteration != iteration) {
+    std::ostringstream s;
+    s << "participant '" << name_ << "' and '" << partner_ << "' are out of step: it sent "
+      << "window " << d.window + 1 << ", pass " << d.iteration + 1 << " while " << what.str() << " was due";
+    throw ProtocolError(ProtocolFault::BadPayload, s.str());
+  }
+  std::size_t b = 0;
+  for (auto& f : fields_) {
+    if (f->write) continue;
+    if (b >= d.fields.size() || d.fields[b].field != std::uint32_t(f->index) ||
+        d.fields[b].components != std::uint32_t(f->comps) ||
+        d.fields[b].values.size() != f->wireNodes * std::size_t(f->comps))
+      throw ProtocolError(ProtocolFault::BadPayload,
+                          "participant '" + name_ + "': DATA from '" + partner_ + "' does not carry field '" +
+                              f->spec.name + "' as agreed in the handshake (block " + std::to_string(b) + ")");
+    for (double v : d.fields[b].values)
+      if (!std::isfinite(v))
+        throw DivergenceError("'" + partner_ + "' sent non-finite values of '" + f->spec.name + "' in " + what.str() +
+                              ": the partner's solution has blown up");
+    std::copy(d.fields[b].values.begin(), d.fields[b].values.end(), received_.begin() + std::ptrdiff_t(f->offset));
+    ++b;
+  }
+  if (b != d.fields.size())
+    throw ProtocolError(ProtocolFault::BadPayload, "participant '" + name_ + "': DATA from '" + partner_ +
+                                                       "' carries more field blocks than agreed");
+  const auto t0 = Clock::now();
+  for (auto& f : fields_) {
+    if (f->write) continue;
+    const double* src = received_.data() + f->offset;
+    if (f->consistent)
+      f->consistent->apply(src, f->comps, f->own.data());
+    else if (f->conservative)
+      f->conservative->apply(src, f->comps, f->own.data());
+    else
+      std::copy(src, src + f->own.size(), f->own.begin());
+  }
+  secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  ++exchanges_;
+  return {d.flags, d.residual};
 }
 
 std::vector<double>& Participant::writtenValues() { return written_; }
 const std::vector<double>& Participant::receivedValues() const { return received_; }
 
 double Participant::advance(double dt) {
-    if (!initialized_) throw ConfigError("participant '" + name_ + "': advance before initialize()");
-    if (!isCouplingOngoing())
-        throw ConfigError("participant '" + name_ + "': advance after the coupling has ended");
-    const double remaining = config_.windowSize - timeInWindow_;
-    if (!(dt > 0) || dt > remaining * (1 + 1e-9) + 1e-15)
-        throw ConfigError("participant '" + name_ + "': advance(" + std::to_string(dt) +
-                          " s) but " + std::to_string(remaining) +
-                          " s are left in the coupling window: use getMaxTimeStepSize()");
-    timeInWindow_ += dt;
-    if (timeInWindow_ < config_.windowSize * (1 - 1e-9)) {
-        scheme_->clearFlags();
-        return getMaxTimeStepSize();
-    }
-    timeInWindow_ = 0.0;
-    guarded("advance", [&] {
-        scheme_->endWindow(*this);
-        const SchemeState& st = scheme_->state();
-        if (monitor_ && st.windowComplete) {
-            const bool unconverged =
-                config_.scheme == SchemeKind::Implicit && !(st.residual < config_.tolerance);
-            monitor_->windowDone(st.window - 1, received_, unconverged, st.residual);
-        }
-    });
+  if (!initialized_) throw ConfigError("participant '" + name_ + "': advance before initialize()");
+  if (!isCouplingOngoing()) throw ConfigError("participant '" + name_ + "': advance after the coupling has ended");
+  const double remaining = config_.windowSize - timeInWindow_;
+  if (!(dt > 0) || dt > remaining * (1 + 1e-9) + 1e-15)
+    throw ConfigError("participant '" + name_ + "': advance(" + std::to_string(dt) + " s) but " +
+                      std::to_string(remaining) + " s are left in the coupling window: use getMaxTimeStepSize()");
+  timeInWindow_ += dt;
+  if (timeInWindow_ < config_.windowSize * (1 - 1e-9)) {
+    scheme_->clearFlags();
     return getMaxTimeStepSize();
+  }
+  timeInWindow_ = 0.0;
+  guarded("advance", [&] {
+    scheme_->endWindow(*this);
+    const SchemeState& st = scheme_->state();
+    if (monitor_ && st.windowComplete) {
+      const bool unconverged = config_.scheme == SchemeKind::Implicit && !(st.residual < config_.tolerance);
+      monitor_->windowDone(st.window - 1, received_, unconverged, st.residual);
+    }
+  });
+  return getMaxTimeStepSize();
 }
 
-bool Participant::isCouplingOngoing() const {
-    return initialized_ && !finalized_ && scheme_->state().ongoing;
-}
-bool Participant::isTimeWindowComplete() const {
-    return initialized_ && scheme_->state().windowComplete;
-}
-bool Participant::requiresWritingCheckpoint() const {
-    return initialized_ && scheme_->state().writeCheckpoint;
-}
-bool Participant::requiresReadingCheckpoint() const {
-    return initialized_ && scheme_->state().readCheckpoint;
-}
+bool Participant::isCouplingOngoing() const { return initialized_ && !finalized_ && scheme_->state().ongoing; }
+bool Participant::isTimeWindowComplete() const { return initialized_ && scheme_->state().windowComplete; }
+bool Participant::requiresWritingCheckpoint() const { return initialized_ && scheme_->state().writeCheckpoint; }
+bool Participant::requiresReadingCheckpoint() const { return initialized_ && scheme_->state().readCheckpoint; }
 double Participant::getMaxTimeStepSize() const { return config_.windowSize - timeInWindow_; }
 
 const SchemeState& Participant::state() const {
-    if (!scheme_) throw ConfigError("participant '" + name_ + "': state() before initialize()");
-    return scheme_->state();
+  if (!scheme_) throw ConfigError("participant '" + name_ + "': state() before initialize()");
+  return scheme_->state();
 }
 
 double Participant::windowStartTime() const {
-    return scheme_ ? double(scheme_->state().window) * config_.windowSize : 0.0;
+  return scheme_ ? double(scheme_->state().window) * config_.windowSize : 0.0;
 }
 
 std::size_t Participant::partnerVertexCount(const std::string& mesh) const {
-    auto it = meshes_.find(mesh);
-    if (it == meshes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");
-    return it->second->partner.size();
+  auto it = meshes_.find(mesh);
+  if (it == meshes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");
+  return it->second->partner.size();
 }
 
 ExchangeStats Participant::stats() const {
-    ExchangeStats s;
-    s.exchanges = exchanges_;
-    s.secondsMapping = secondsMapping_;
-    if (link_) {
-        s.secondsInTransport = link_->secondsInTransport();
-        s.secondsWaiting = link_->secondsWaiting();
-        s.bytesSent = link_->bytesSent();
-        s.bytesReceived = link_->bytesReceived();
-    }
-    return s;
+  ExchangeStats s;
+  s.exchanges = exchanges_;
+  s.secondsMapping = secondsMapping_;
+  if (link_) {
+    s.secondsInTransport = link_->secondsInTransport();
+    s.secondsWaiting = link_->secondsWaiting();
+    s.bytesSent = link_->bytesSent();
+    s.bytesReceived = link_->bytesReceived();
+  }
+  return s;
 }
 
 void Participant::finalize() {
-    if (finalized_) return;
-    if (!initialized_ || !link_ || !link_->open()) {
-        finalized_ = true;
-        if (link_) link_->close();
-        return;
-    }
-    if (scheme_->state().ongoing) {
-        abort("participant '" + name_ + "' finalized before the end of the coupling, in " +
-              where());
-        return;
-    }
-    guarded("finalize", [&] {
-        link_->send(MessageType::Bye, encodeReason({ReasonCode::SolverError, ""}),
-                    Deadline::in(transport_.receiveTimeout), "end of coupling");
-        const Message m = link_->receive(Deadline::in(transport_.receiveTimeout),
-                                         "BYE (end of coupling)");
-        if (m.header.type != MessageType::Bye)
-            throw ProtocolError(ProtocolFault::UnexpectedType,
-                                "participant '" + name_ + "' expected BYE from '" + partner_ +
-                                    "', got " + wire::typeName(std::uint16_t(m.header.type)));
-    });
-    link_->close();
+  if (finalized_) return;
+  if (!initialized_ || !link_ || !link_->open()) {
     finalized_ = true;
+    if (link_) link_->close();
+    return;
+  }
+  if (scheme_->state().ongoing) {
+    abort("participant '" + name_ + "' finalized before the end of the coupling, in " + where());
+    return;
+  }
+  guarded("finalize", [&] {
+    link_->send(MessageType::Bye, encodeReason({ReasonCode::SolverError, ""}), Deadline::in(transport_.receiveTimeout),
+                "end of coupling");
+    const Message m = link_->receive(Deadline::in(transport_.receiveTimeout), "BYE (end of coupling)");
+    if (m.header.type != MessageType::Bye)
+      throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' expected BYE from '" + partner_ +
+                                                             "', got " + wire::typeName(std::uint16_t(m.header.type)));
+  });
+  link_->close();
+  finalized_ = true;
 }
 
 void Participant::abort(const std::string& reason) noexcept {
-    try {
-        if (link_ && link_->open())
-            link_->send(MessageType::Abort, encodeReason({ReasonCode::SolverError, reason}),
-                        Deadline::in(std::min(2.0, transport_.receiveTimeout)), "abort");
-    } catch (...) {
-    }
-    if (link_) link_->close();
-    finalized_ = true;
+  try {
+    if (link_ && link_->open())
+      link_->send(MessageType::Abort, encodeReason({ReasonCode::SolverError, reason}),
+                  Deadline::in(std::min(2.0, transport_.receiveTimeout)), "abort");
+  } catch (...) {
+  }
+  if (link_) link_->close();
+  finalized_ = true;
 }
 
 }  // namespace tq::coupler

@@ -9,198 +9,193 @@
 namespace tq::coupler {
 
 double relativeDifference(const std::vector<double>& a, const std::vector<double>& b) {
-    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-    double d = 0, n = 0;
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        d += (a[i] - b[i]) * (a[i] - b[i]);
-        n += a[i] * a[i];
-    }
-    if (n == 0) return d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
-    return std::sqrt(d / n);
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  double d = 0, n = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    d += (a[i] - b[i]) * (a[i] - b[i]);
+    n += a[i] * a[i];
+  }
+  if (n == 0) return d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
+  return std::sqrt(d / n);
 }
 
 double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
                           const std::vector<FieldSlice>& slices, double tolerance) {
-    if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-    double worst = 0;
-    for (const auto& f : slices) {
-        double d = 0, n = 0;
-        for (std::size_t i = f.offset; i < f.offset + f.size; ++i) {
-            d += (a[i] - b[i]) * (a[i] - b[i]);
-            n += a[i] * a[i];
-        }
-        double m = n > 0 ? std::sqrt(d / n) : d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
-        if (f.absoluteTolerance > 0 && f.size > 0)
-            m = std::min(m, tolerance * std::sqrt(d / double(f.size)) / f.absoluteTolerance);
-        worst = std::max(worst, m);
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  double worst = 0;
+  for (const auto& f : slices) {
+    double d = 0, n = 0;
+    for (std::size_t i = f.offset; i < f.offset + f.size; ++i) {
+      d += (a[i] - b[i]) * (a[i] - b[i]);
+      n += a[i] * a[i];
     }
-    return worst;
+    double m = n > 0 ? std::sqrt(d / n) : d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
+    if (f.absoluteTolerance > 0 && f.size > 0)
+      m = std::min(m, tolerance * std::sqrt(d / double(f.size)) / f.absoluteTolerance);
+    worst = std::max(worst, m);
+  }
+  return worst;
 }
 
 // ---------------------------------------------------------------- explicit
 void SerialExplicit::initialize(ExchangePort& port) {
-    state_.ongoing = config_.maxWindows > 0;
-    if (!first_ && state_.ongoing) port.receiveData(0, 0);
+  state_.ongoing = config_.maxWindows > 0;
+  if (!first_ && state_.ongoing) port.receiveData(0, 0);
 }
 
 void SerialExplicit::endWindow(ExchangePort& port) {
-    const std::uint64_t w = state_.window;
-    const bool last = w + 1 >= config_.maxWindows;
-    if (first_) {
-        port.sendData(w, 0, last ? flags::kLastWindow : 0, std::nan(""));
-        port.receiveData(w, 0);
-    } else {
-        port.sendData(w, 0, flags::kConverged | (last ? flags::kLastWindow : 0), std::nan(""));
-    }
-    ++state_.totalIterations;
-    state_.window = w + 1;
-    state_.iteration = 0;
-    state_.ongoing = !last;
-    state_.windowComplete = true;
-    if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
+  const std::uint64_t w = state_.window;
+  const bool last = w + 1 >= config_.maxWindows;
+  if (first_) {
+    port.sendData(w, 0, last ? flags::kLastWindow : 0, std::nan(""));
+    port.receiveData(w, 0);
+  } else {
+    port.sendData(w, 0, flags::kConverged | (last ? flags::kLastWindow : 0), std::nan(""));
+  }
+  ++state_.totalIterations;
+  state_.window = w + 1;
+  state_.iteration = 0;
+  state_.ongoing = !last;
+  state_.windowComplete = true;
+  if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
 }
 
 void SerialExplicit::resume(ExchangePort& port) {
-    if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
+  if (!first_ && state_.ongoing) port.receiveData(state_.window, 0);
 }
 
 // ---------------------------------------------------------------- implicit
-SerialImplicit::SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses,
-                               bool testConvergence, std::unique_ptr<Acceleration> acc)
-    : CouplingScheme(c, amFirst), maxPasses_(maxPasses), test_(testConvergence),
-      acc_(std::move(acc)) {}
+SerialImplicit::SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses, bool testConvergence,
+                               std::unique_ptr<Acceleration> acc)
+    : CouplingScheme(c, amFirst), maxPasses_(maxPasses), test_(testConvergence), acc_(std::move(acc)) {}
 
 void SerialImplicit::initialize(ExchangePort& port) {
-    state_.ongoing = config_.maxWindows > 0;
-    state_.writeCheckpoint = state_.ongoing;
-    if (!first_ && state_.ongoing) {
-        port.receiveData(0, 0);
-        prevReceived_ = port.receivedValues();
-        lastSent_ = port.writtenValues();  // what the first participant used: the initial values
-        prevConverged_ = lastSent_;        // x_{−1} of the linear predictor (the initial values)
-        acc_->startWindow();
-    }
+  state_.ongoing = config_.maxWindows > 0;
+  state_.writeCheckpoint = state_.ongoing;
+  if (!first_ && state_.ongoing) {
+    port.receiveData(0, 0);
+    prevReceived_ = port.receivedValues();
+    lastSent_ = port.writtenValues();  // what the first participant used: the initial values
+    prevConverged_ = lastSent_;        // x_{−1} of the linear predictor (the initial values)
+    acc_->startWindow();
+  }
 }
 
 void SerialImplicit::endWindow(ExchangePort& port) {
-    const std::uint64_t w = state_.window;
-    const std::uint32_t k = state_.iteration;
-    const bool lastWindow = w + 1 >= config_.maxWindows;
-    ++state_.totalIterations;
-    bool complete = false;
-    if (first_) {
-        port.sendData(w, k, 0, std::nan(""));
-        const auto got = port.receiveData(w, k);
-        state_.residual = got.residual;
-        complete = (got.flags & flags::kConverged) != 0;
-        // A window the partner ended at the pass limit with its residual above the tolerance: counted
-        // here too, so that the first participant (the solid, which writes the results) can report it.
-        if (complete && test_ && !(got.residual < config_.tolerance)) ++state_.unconvergedWindows;
-        if (!complete && int(k) + 1 >= maxPasses_)
-            throw ProtocolError(ProtocolFault::BadPayload,
-                                "the partner asked for pass " + std::to_string(k + 2) +
-                                    " of window " + std::to_string(w) + " but at most " +
-                                    std::to_string(maxPasses_) + " are configured");
-    } else {
-        const std::vector<double> xt = port.writtenValues();  // x̃_k = H(x_k)
-        for (double v : xt)
-            if (!std::isfinite(v))
-                throw DivergenceError("non-finite interface values written in window " +
-                                      std::to_string(w) + ", pass " + std::to_string(k) +
-                                      ": the coupled iteration diverged (see docs/coupler.md, "
-                                      "added-mass instability)");
-        const std::vector<double>& d = port.receivedValues();
-        const double tol = config_.tolerance;
-        const double resWrite = convergenceMeasure(xt, lastSent_, port.writtenSlices(), tol);
-        const double resRead = k >= 1
-                                   ? convergenceMeasure(d, prevReceived_, port.receivedSlices(), tol)
-                                   : std::numeric_limits<double>::infinity();
-        // Pass 0 with the linear predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides (the
-        // read data has no earlier pass to compare with; the motion is a function of x⁰).
-        const bool linear = config_.predictor == PredictorKind::Linear;
-        state_.residual = k == 0 && linear ? resWrite : std::max(resWrite, resRead);
-        if (!std::isfinite(resWrite) && k >= 1)
-            throw DivergenceError("interface residual is not finite in window " +
-                                  std::to_string(w) + ", pass " + std::to_string(k));
-        const bool converged = test_ && (k >= 1 || linear) && state_.residual < config_.tolerance;
-        complete = converged || int(k) + 1 >= maxPasses_;
-        if (complete) {
-            if (test_ && !converged) ++state_.unconvergedWindows;
-            port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0),
-                          state_.residual);
-            if (linear) {
-                // The next window's x⁰ = 2 x_w − x_{w−1}, x_w the value the first participant applied in
-                // this window's last pass (lastSent_), not the answer x̃: extrapolating the answers would
-                // multiply each accepted error by the added-mass feedback (a growing period-two mode that
-                // a relative residual does not see); the applied values carry the accepted errors once.
-                const std::vector<double> applied = lastSent_;
-                for (std::size_t i = 0; i < applied.size() && i < prevConverged_.size(); ++i)
-                    lastSent_[i] = 2.0 * applied[i] - prevConverged_[i];
-                prevConverged_ = applied;
-            } else {
-                lastSent_ = xt;
-            }
-        } else {
-            acc_->next(lastSent_, xt, next_);
-            port.writtenValues() = next_;
-            port.sendData(w, k, 0, state_.residual);
-            lastSent_ = next_;
-        }
-    }
-    state_.windowComplete = complete;
+  const std::uint64_t w = state_.window;
+  const std::uint32_t k = state_.iteration;
+  const bool lastWindow = w + 1 >= config_.maxWindows;
+  ++state_.totalIterations;
+  bool complete = false;
+  if (first_) {
+    port.sendData(w, k, 0, std::nan(""));
+    const auto got = port.receiveData(w, k);
+    state_.residual = got.residual;
+    complete = (got.flags & flags::kConverged) != 0;
+    // A window the partner ended at the pass limit with its residual above the tolerance: counted
+    // here too, so that the first participant (the solid, which writes the results) can report it.
+    if (complete && test_ && !(got.residual < config_.tolerance)) ++state_.unconvergedWindows;
+    if (!complete && int(k) + 1 >= maxPasses_)
+      throw ProtocolError(ProtocolFault::BadPayload, "the partner asked for pass " + std::to_string(k + 2) +
+                                                         " of window " + std::to_string(w) + " but at most " +
+                                                         std::to_string(maxPasses_) + " are configured");
+  } else {
+    const std::vector<double> xt = port.writtenValues();  // x̃_k = H(x_k)
+    for (double v : xt)
+      if (!std::isfinite(v))
+        throw DivergenceError("non-finite interface values written in window " + std::to_string(w) + ", pass " +
+                              std::to_string(k) +
+                              ": the coupled iteration diverged (see docs/coupler.md, "
+                              "added-mass instability)");
+    const std::vector<double>& d = port.receivedValues();
+    const double tol = config_.tolerance;
+    const double resWrite = convergenceMeasure(xt, lastSent_, port.writtenSlices(), tol);
+    const double resRead = k >= 1 ? convergenceMeasure(d, prevReceived_, port.receivedSlices(), tol)
+                                  : std::numeric_limits<double>::infinity();
+    // Pass 0 with the linear predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides (the
+    // read data has no earlier pass to compare with; the motion is a function of x⁰).
+    const bool linear = config_.predictor == PredictorKind::Linear;
+    state_.residual = k == 0 && linear ? resWrite : std::max(resWrite, resRead);
+    if (!std::isfinite(resWrite) && k >= 1)
+      throw DivergenceError("interface residual is not finite in window " + std::to_string(w) + ", pass " +
+                            std::to_string(k));
+    const bool converged = test_ && (k >= 1 || linear) && state_.residual < config_.tolerance;
+    complete = converged || int(k) + 1 >= maxPasses_;
     if (complete) {
-        state_.window = w + 1;
-        state_.iteration = 0;
-        state_.ongoing = !lastWindow;
-        state_.writeCheckpoint = state_.ongoing;
-        state_.readCheckpoint = false;
-        if (!first_) {
-            acc_->startWindow();
-            if (state_.ongoing) {
-                port.receiveData(state_.window, 0);
-                prevReceived_ = port.receivedValues();
-            }
-        }
+      if (test_ && !converged) ++state_.unconvergedWindows;
+      port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0), state_.residual);
+      if (linear) {
+        // The next window's x⁰ = 2 x_w − x_{w−1}, x_w the value the first participant applied in
+        // this window's last pass (lastSent_), not the answer x̃: extrapolating the answers would
+        // multiply each accepted error by the added-mass feedback (a growing period-two mode that
+        // a relative residual does not see); the applied values carry the accepted errors once.
+        const std::vector<double> applied = lastSent_;
+        for (std::size_t i = 0; i < applied.size() && i < prevConverged_.size(); ++i)
+          lastSent_[i] = 2.0 * applied[i] - prevConverged_[i];
+        prevConverged_ = applied;
+      } else {
+        lastSent_ = xt;
+      }
     } else {
-        state_.iteration = k + 1;
-        state_.readCheckpoint = true;
-        state_.writeCheckpoint = false;
-        if (!first_) {
-            prevReceived_ = port.receivedValues();
-            port.receiveData(w, k + 1);
-        }
+      acc_->next(lastSent_, xt, next_);
+      port.writtenValues() = next_;
+      port.sendData(w, k, 0, state_.residual);
+      lastSent_ = next_;
     }
+  }
+  state_.windowComplete = complete;
+  if (complete) {
+    state_.window = w + 1;
+    state_.iteration = 0;
+    state_.ongoing = !lastWindow;
+    state_.writeCheckpoint = state_.ongoing;
+    state_.readCheckpoint = false;
+    if (!first_) {
+      acc_->startWindow();
+      if (state_.ongoing) {
+        port.receiveData(state_.window, 0);
+        prevReceived_ = port.receivedValues();
+      }
+    }
+  } else {
+    state_.iteration = k + 1;
+    state_.readCheckpoint = true;
+    state_.writeCheckpoint = false;
+    if (!first_) {
+      prevReceived_ = port.receivedValues();
+      port.receiveData(w, k + 1);
+    }
+  }
 }
 
 void SerialImplicit::checkpoint(StateIo& io) {
-    CouplingScheme::checkpoint(io);
-    io.io(prevReceived_);
-    io.io(lastSent_);
-    io.io(next_);
-    io.io(prevConverged_);
-    acc_->checkpoint(io);
+  CouplingScheme::checkpoint(io);
+  io.io(prevReceived_);
+  io.io(lastSent_);
+  io.io(next_);
+  io.io(prevConverged_);
+  acc_->checkpoint(io);
 }
 
 void SerialImplicit::resume(ExchangePort& port) {
-    if (!first_ && state_.ongoing) {
-        port.receiveData(state_.window, 0);
-        prevReceived_ = port.receivedValues();
-    }
+  if (!first_ && state_.ongoing) {
+    port.receiveData(state_.window, 0);
+    prevReceived_ = port.receivedValues();
+  }
 }
 
 std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::string& me) {
-    const bool amFirst = me == c.first;
-    switch (c.scheme) {
-        case SchemeKind::Explicit: return std::make_unique<SerialExplicit>(c, amFirst);
-        case SchemeKind::Paper:
-            return std::make_unique<SerialImplicit>(c, amFirst, 2, false,
-                                                    std::make_unique<NoAcceleration>());
-        case SchemeKind::Implicit:
-            return std::make_unique<SerialImplicit>(
-                c, amFirst, c.maxIterations, true,
-                makeAcceleration(c.acceleration, c.initialRelaxation, c.reuse));
-    }
-    throw ConfigError("unknown coupling scheme");
+  const bool amFirst = me == c.first;
+  switch (c.scheme) {
+    case SchemeKind::Explicit:
+      return std::make_unique<SerialExplicit>(c, amFirst);
+    case SchemeKind::Paper:
+      return std::make_unique<SerialImplicit>(c, amFirst, 2, false, std::make_unique<NoAcceleration>());
+    case SchemeKind::Implicit:
+      return std::make_unique<SerialImplicit>(c, amFirst, c.maxIterations, true,
+                                              makeAcceleration(c.acceleration, c.initialRelaxation, c.reuse));
+  }
+  throw ConfigError("unknown coupling scheme");
 }
 
 }  // namespace tq::coupler

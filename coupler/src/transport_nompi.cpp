@@ -1,14 +1,15 @@
 // Stand-ins when the library is built without MPI: every MPI request is a clear error.
 #include <cstdlib>
 
-#include "transport_detail.hpp"
 #include "tq/coupler/errors.hpp"
+#include "transport_detail.hpp"
 
 namespace tq::coupler {
 namespace {
 [[noreturn]] void noMpi() {
-    throw ConfigError("this TunnelQuake coupler was built without MPI: use the TCP transport, "
-                      "or install an MPI library and rebuild");
+  throw ConfigError(
+      "this TunnelQuake coupler was built without MPI: use the TCP transport, "
+      "or install an MPI library and rebuild");
 }
 }  // namespace
 bool haveMpi() { return false; }
@@ -23,13 +24,9 @@ int appRank() { return 0; }
 int appSize() { return 1; }
 }  // namespace mpi
 namespace detail {
-std::unique_ptr<Listener> makeMpiListener(const TransportOptions&, const std::string&,
-                                          const std::string&) {
-    noMpi();
-}
-std::unique_ptr<Channel> connectMpi(const TransportOptions&, const std::string&,
-                                    const std::string&, Deadline) {
-    noMpi();
+std::unique_ptr<Listener> makeMpiListener(const TransportOptions&, const std::string&, const std::string&) { noMpi(); }
+std::unique_ptr<Channel> connectMpi(const TransportOptions&, const std::string&, const std::string&, Deadline) {
+  noMpi();
 }
 }  // namespace detail
 }  // namespace tq::coupler

@@ -35,7 +35,8 @@ void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, d
   f.precision(17);
   f << "** tq-solid-bench --column: elastic box, rollers on base and sides, step load on top\n*NODE, NSET=NALL\n";
   for (tq::Index n = 0; n < mesh.numNodes(); ++n)
-    f << n + 1 << ", " << mesh.coords[3 * n] << ", " << mesh.coords[3 * n + 1] << ", " << mesh.coords[3 * n + 2] << "\n";
+    f << n + 1 << ", " << mesh.coords[3 * n] << ", " << mesh.coords[3 * n + 1] << ", " << mesh.coords[3 * n + 2]
+      << "\n";
   f << "*ELEMENT, TYPE=C3D8R, ELSET=EALL\n";
   for (tq::Index e = 0; e < mesh.numElems(); ++e) {
     f << e + 1;
@@ -44,7 +45,8 @@ void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, d
   }
   auto nset = [&](const char* name, const std::vector<tq::Index>& nodes) {
     f << "*NSET, NSET=" << name << "\n";
-    for (size_t i = 0; i < nodes.size(); ++i) f << nodes[i] + 1 << ((i % 8 == 7 || i + 1 == nodes.size()) ? "\n" : ", ");
+    for (size_t i = 0; i < nodes.size(); ++i)
+      f << nodes[i] + 1 << ((i % 8 == 7 || i + 1 == nodes.size()) ? "\n" : ", ");
   };
   nset("NBOT", mesh.faceNodes("bottom"));
   std::vector<tq::Index> xs = mesh.faceNodes("xmin"), ys = mesh.faceNodes("ymin");
@@ -53,13 +55,15 @@ void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, d
   nset("NXS", xs);
   nset("NYS", ys);
   nset("NMON", {monitor});
-  f << "*MATERIAL, NAME=ROCK\n*ELASTIC\n" << mat.youngsModulus << ", " << mat.poissonRatio << "\n*DENSITY\n"
+  f << "*MATERIAL, NAME=ROCK\n*ELASTIC\n"
+    << mat.youngsModulus << ", " << mat.poissonRatio << "\n*DENSITY\n"
     << mat.density << "\n*SOLID SECTION, ELSET=EALL, MATERIAL=ROCK\n";
   f << "*BOUNDARY\nNBOT, 3, 3\nNXS, 1, 1\nNYS, 2, 2\n";
   f << "*AMPLITUDE, NAME=STEPLOAD\n0., 1., 1.e6, 1.\n";
   // initial, period, minimum, maximum increment: the fixed step (CalculiX takes the maximum when
   // its own Courant estimate is larger)
-  f << "*STEP, INC=" << steps + 10 << "\n*DYNAMIC, EXPLICIT, DIRECT\n" << dt << ", " << dt * steps << ", " << dt << ", " << dt << "\n";
+  f << "*STEP, INC=" << steps + 10 << "\n*DYNAMIC, EXPLICIT, DIRECT\n"
+    << dt << ", " << dt * steps << ", " << dt << ", " << dt << "\n";
   f << "*CLOAD, AMPLITUDE=STEPLOAD\n";
   for (const auto& [n, F] : topForces) f << n + 1 << ", 3, " << F << "\n";
   f << "*NODE PRINT, NSET=NMON, FREQUENCY=" << steps << "\nU\n*END STEP\n";
@@ -76,17 +80,21 @@ std::string machineLine() {
     return c == std::string::npos ? std::string() : l.substr(c + 1 + (c + 1 < l.size() && l[c + 1] == ' '));
   };
   while (std::getline(f, line)) {
-    if (line.rfind("model name", 0) == 0) name = value(line);
-    else if (line.rfind("cpu family", 0) == 0) family = value(line);
-    else if (line.rfind("model\t", 0) == 0 || line.rfind("model ", 0) == 0) model = value(line);
-    else if (line.rfind("flags", 0) == 0) flags = " " + value(line) + " ";
+    if (line.rfind("model name", 0) == 0)
+      name = value(line);
+    else if (line.rfind("cpu family", 0) == 0)
+      family = value(line);
+    else if (line.rfind("model\t", 0) == 0 || line.rfind("model ", 0) == 0)
+      model = value(line);
+    else if (line.rfind("flags", 0) == 0)
+      flags = " " + value(line) + " ";
     if (line.empty() && !flags.empty()) break;  // the first processor is enough
   }
   const char* vec = flags.find(" avx512f ") != std::string::npos ? "AVX-512"
                     : flags.find(" avx2 ") != std::string::npos  ? "AVX2"
                                                                  : "SSE";
-  return name + " (family " + family + ", model " + model + "), " + std::to_string(omp_get_num_procs()) +
-         " core(s), " + vec;
+  return name + " (family " + family + ", model " + model + "), " + std::to_string(omp_get_num_procs()) + " core(s), " +
+         vec;
 }
 
 }  // namespace
@@ -99,18 +107,28 @@ int main(int argc, char** argv) {
   std::string ccxDeck;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--n" && i + 1 < argc) n = std::stoi(argv[++i]);
-    else if (a == "--steps" && i + 1 < argc) steps = std::stoi(argv[++i]);
-    else if (a == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc) omp_set_num_threads(std::stoi(argv[++i]));
-    else if (a == "--damping") damping = true;
-    else if (a == "--generic") generic = true;
-    else if (a == "--column" && i + 1 < argc) columnP = std::stod(argv[++i]);
-    else if (a == "--dt" && i + 1 < argc) fixedDt = std::stod(argv[++i]);
-    else if (a == "--write-ccx" && i + 1 < argc) ccxDeck = argv[++i];
+    if (a == "--n" && i + 1 < argc)
+      n = std::stoi(argv[++i]);
+    else if (a == "--steps" && i + 1 < argc)
+      steps = std::stoi(argv[++i]);
+    else if (a == "--repeat" && i + 1 < argc)
+      repeat = std::stoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc)
+      omp_set_num_threads(std::stoi(argv[++i]));
+    else if (a == "--damping")
+      damping = true;
+    else if (a == "--generic")
+      generic = true;
+    else if (a == "--column" && i + 1 < argc)
+      columnP = std::stod(argv[++i]);
+    else if (a == "--dt" && i + 1 < argc)
+      fixedDt = std::stod(argv[++i]);
+    else if (a == "--write-ccx" && i + 1 < argc)
+      ccxDeck = argv[++i];
     else {
-      std::fprintf(stderr, "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] "
-                           "[--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
+      std::fprintf(stderr,
+                   "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] "
+                   "[--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
       return 1;
     }
   }
@@ -160,8 +178,9 @@ int main(int argc, char** argv) {
     }
     std::sort(us.begin(), us.end());
     std::printf("tq-solid-bench: machine: %s\n", machineLine().c_str());
-    std::printf("tq-solid-bench --column: %d elements, %d steps of dt %.6g s, pressure %.6g Pa, %d thread(s), %s kernel\n",
-                elems, steps, fixedDt, columnP, omp_get_max_threads(), generic ? "generic" : "default");
+    std::printf(
+        "tq-solid-bench --column: %d elements, %d steps of dt %.6g s, pressure %.6g Pa, %d thread(s), %s kernel\n",
+        elems, steps, fixedDt, columnP, omp_get_max_threads(), generic ? "generic" : "default");
     std::printf("  median %.4f us per element-step (min %.4f, max %.4f) over %d runs\n", us[us.size() / 2], us.front(),
                 us.back(), repeat);
     std::printf("  top centre node %d: u_z = %.12e m\n", monitor + 1, uz);
@@ -184,12 +203,14 @@ int main(int argc, char** argv) {
   std::sort(us.begin(), us.end());
   const double med = us[us.size() / 2];
   std::printf("tq-solid-bench: machine: %s\n", machineLine().c_str());
-  std::printf("tq-solid-bench: %d elements (%d^3 box), %d nodes, elastic hex8 one_point_assumed_strain, "
-              "damping %s, %d thread(s), %s kernel\n",
-              mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads(),
-              s.blocks()[0]->usesAvx2() ? "AVX2" : "generic");
-  std::printf("  %d x %d steps: median %.4f us per element-step (min %.4f, max %.4f); "
-              "%.3g element-steps/s; energy error %.2e\n",
-              repeat, steps, med, us.front(), us.back(), 1.0 / med * 1e6, s.energy().error);
+  std::printf(
+      "tq-solid-bench: %d elements (%d^3 box), %d nodes, elastic hex8 one_point_assumed_strain, "
+      "damping %s, %d thread(s), %s kernel\n",
+      mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads(),
+      s.blocks()[0]->usesAvx2() ? "AVX2" : "generic");
+  std::printf(
+      "  %d x %d steps: median %.4f us per element-step (min %.4f, max %.4f); "
+      "%.3g element-steps/s; energy error %.2e\n",
+      repeat, steps, med, us.front(), us.back(), 1.0 / med * 1e6, s.energy().error);
   return 0;
 }

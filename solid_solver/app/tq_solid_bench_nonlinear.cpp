@@ -133,10 +133,14 @@ int main(int argc, char** argv) {
   int n = 30, steps = 100, repeat = 5;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--n" && i + 1 < argc) n = std::stoi(argv[++i]);
-    else if (a == "--steps" && i + 1 < argc) steps = std::stoi(argv[++i]);
-    else if (a == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc) omp_set_num_threads(std::stoi(argv[++i]));
+    if (a == "--n" && i + 1 < argc)
+      n = std::stoi(argv[++i]);
+    else if (a == "--steps" && i + 1 < argc)
+      steps = std::stoi(argv[++i]);
+    else if (a == "--repeat" && i + 1 < argc)
+      repeat = std::stoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc)
+      omp_set_num_threads(std::stoi(argv[++i]));
     else {
       std::fprintf(stderr, "usage: tq-solid-bench-nl [--n 30] [--steps 100] [--repeat 5] [--threads N]\n");
       return 1;
@@ -153,9 +157,11 @@ int main(int argc, char** argv) {
     const double tMcEl = materialNs(*mc, E, 20, 1e-7, 1e5, repeat, &share);
     const double shareEl = share;
     const double tMcY = materialNs(*mc, E, 20, 2e-4, 1e6, repeat, &share);
-    std::printf("material update, ns per element (best of %d): elastic %.2f; mohr_coulomb_damage elastic state %.2f (%.2fx, %.0f %% "
-                "yielding); yielding state %.2f (%.2fx, %.0f %% yielding)\n",
-                repeat, tEl, tMcEl, tMcEl / tEl, 100 * shareEl, tMcY, tMcY / tEl, 100 * share);
+    std::printf(
+        "material update, ns per element (best of %d): elastic %.2f; mohr_coulomb_damage elastic state %.2f (%.2fx, "
+        "%.0f %% "
+        "yielding); yielding state %.2f (%.2fx, %.0f %% yielding)\n",
+        repeat, tEl, tMcEl, tMcEl / tEl, 100 * shareEl, tMcY, tMcY / tEl, 100 * share);
   }
   // 2. Whole step: the three solvers are timed in turn (interleaved), so that a busy machine
   //    slows them alike; median and best of `repeat`.
@@ -177,11 +183,12 @@ int main(int argc, char** argv) {
                        (double(steps) * mesh.numElems()));
     const double shareEl = yieldingShare(*S[1]), shareY = yieldingShare(*S[2]);
     const Timing a = summarize(t[0]), b = summarize(t[1]), c = summarize(t[2]);
-    std::printf("whole step, %d^3 box (%d elements), us per element-step (median / best): elastic %.4f / %.4f; "
-                "mohr_coulomb_damage elastic state %.4f / %.4f (%.3fx / %.3fx, %.1f %% yielding per step); "
-                "yielding %.4f / %.4f (%.2fx / %.2fx, %.0f %% yielding per step)\n",
-                n, mesh.numElems(), a.median, a.best, b.median, b.best, b.median / a.median, b.best / a.best,
-                100 * shareEl, c.median, c.best, c.median / a.median, c.best / a.best, 100 * shareY);
+    std::printf(
+        "whole step, %d^3 box (%d elements), us per element-step (median / best): elastic %.4f / %.4f; "
+        "mohr_coulomb_damage elastic state %.4f / %.4f (%.3fx / %.3fx, %.1f %% yielding per step); "
+        "yielding %.4f / %.4f (%.2fx / %.2fx, %.0f %% yielding per step)\n",
+        n, mesh.numElems(), a.median, a.best, b.median, b.best, b.median / a.median, b.best / a.best, 100 * shareEl,
+        c.median, c.best, c.median / a.median, c.best / a.best, 100 * shareY);
   }
   // 3. Contact.
   {
@@ -204,8 +211,9 @@ int main(int argc, char** argv) {
     }
     auto build = [&](bool withContact, std::shared_ptr<DynamicContact>& c) {
       auto s = std::make_unique<Solver>(
-          m, makeBlocksByRegion(m, {{"rock", std::make_shared<ElasticMaterial>(ElasticParams{8e9, 0.27, 2700})},
-                                    {"lining", std::make_shared<ElasticMaterial>(ElasticParams{28e9, 0.17, 2500})}}),
+          m,
+          makeBlocksByRegion(m, {{"rock", std::make_shared<ElasticMaterial>(ElasticParams{8e9, 0.27, 2700})},
+                                 {"lining", std::make_shared<ElasticMaterial>(ElasticParams{28e9, 0.17, 2500})}}),
           SolverOptions{});
       s->fixFaceGroup("bottom", "xyz");
       if (withContact) {
@@ -237,9 +245,10 @@ int main(int argc, char** argv) {
                    (double(steps) * c->numPairs()));
     }
     const Timing a = summarize(t0), b = summarize(t1), pc = summarize(tc);
-    std::printf("contact: %d pairs (all bonded) on a %d-element model; addForces %.4f / %.4f us per pair-step "
-                "(median / best); whole step %.1f / %.1f us without, %.1f / %.1f us with contact\n",
-                perLayer, m.numElems(), pc.median, pc.best, a.median, a.best, b.median, b.best);
+    std::printf(
+        "contact: %d pairs (all bonded) on a %d-element model; addForces %.4f / %.4f us per pair-step "
+        "(median / best); whole step %.1f / %.1f us without, %.1f / %.1f us with contact\n",
+        perLayer, m.numElems(), pc.median, pc.best, a.median, a.best, b.median, b.best);
   }
   return 0;
 }

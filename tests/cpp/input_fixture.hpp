@@ -71,7 +71,6 @@ inline void writeStagedGroups(hid_t f, const SolidInput& in) {
   }
 }
 
-
 inline void writeInputFile(const SolidInput& in, const std::string& path, const std::string& meshAttr) {
   auto f = h5::createFile(path);
   h5::writeStringAttr(f, K::root::format.name, input_schema::kFormat);
@@ -84,7 +83,8 @@ inline void writeInputFile(const SolidInput& in, const std::string& path, const 
     h5::writeDoubleAttr(g, K::solver::safety.name, in.options.safety);
     h5::writeDoubleAttr(g, K::solver::velocity_limit.name, in.options.velocityLimit);
     h5::writeDoubleAttr(g, K::solver::gravity_z.name, in.options.gravity[2]);
-    if (in.options.subcyclingLevels > 0) h5::writeDoubleAttr(g, K::solver::subcycling_levels.name, in.options.subcyclingLevels);
+    if (in.options.subcyclingLevels > 0)
+      h5::writeDoubleAttr(g, K::solver::subcycling_levels.name, in.options.subcyclingLevels);
     h5::writeStringAttr(g, K::solver::integrator.name, integratorName(in.options.integrator));
     h5::writeStringAttr(g, K::solver::formulation.name, formulationName(in.formulation));
   }
@@ -141,6 +141,5 @@ inline void writeInputFile(const SolidInput& in, const std::string& path, const 
     h5::writeDoubles(g, K::output::snapshot_times.name, in.snapshotTimes.data(), {in.snapshotTimes.size()});
   if (in.staged.present) writeStagedGroups(f, in);
 }
-
 
 }  // namespace tq::test

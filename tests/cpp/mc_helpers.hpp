@@ -7,9 +7,9 @@
 #include <memory>
 #include <vector>
 
+#include <functional>
 #include "tq/core/solver.hpp"
 #include "tq/materials/material_mc.hpp"
-#include <functional>
 
 namespace tqtest {
 
@@ -123,9 +123,12 @@ struct MaterialPoint {
 /// dynamic contact force does for a pair), and books that force's work by the solver's trapezoid
 /// rule. Its work is the loop area ∮F du of a cyclic test.
 class DisplacementActuator final : public tq::NodalForceContributor {
-public:
+ public:
   DisplacementActuator(std::vector<Index> nodes, int dir, std::function<Real(Real)> target)
-      : nodes_(std::move(nodes)), dir_(dir), target_(std::move(target)), fPrev_(nodes_.size(), 0.0),
+      : nodes_(std::move(nodes)),
+        dir_(dir),
+        target_(std::move(target)),
+        fPrev_(nodes_.size(), 0.0),
         uPrev_(nodes_.size(), 0.0) {}
   std::string name() const override { return "test actuator"; }
   void addForces(Real t, Real dt, tq::NodalState& s) override {
@@ -146,7 +149,7 @@ public:
   Real work() const { return work_; }    ///< work of the actuator forces so far (J)
   Real force() const { return force_; }  ///< total actuator force of the last step (N)
 
-private:
+ private:
   std::vector<Index> nodes_;
   int dir_;
   std::function<Real(Real)> target_;

@@ -14,17 +14,17 @@
 //    node, results.h5 keeps status "stopped: ..." and only finite rows.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <complex>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
 #include <sstream>
 
+#include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "tq/app/app.hpp"
 #include "tq/io/input.hpp"
-#include "input_fixture.hpp"
 
 using namespace tq;
 
@@ -131,9 +131,10 @@ TEST(App, HistoriesAreWrittenOnAnEvenClockAndKeepTheirFrequency) {
     for (size_t k = 0; k < T; ++k) s += (u[3 * k + 2] - mean) * std::exp(std::complex<Real>(0, -2 * M_PI * fj * t[k]));
     if (std::abs(s) > best) best = std::abs(s), fPeak = fj;
   }
-  std::printf("even clock: %zu rows at %.4g s (solver step %.4g s, %.2f steps a row), worst |t_k - k dt_out| %.1e s; "
-              "spectral peak %.4f Hz against f1 = c/4H = %.4f Hz (bin %.4f Hz)\n",
-              T, in.monitorDt, dt, steps, worst, fPeak, f1, 1 / span);
+  std::printf(
+      "even clock: %zu rows at %.4g s (solver step %.4g s, %.2f steps a row), worst |t_k - k dt_out| %.1e s; "
+      "spectral peak %.4f Hz against f1 = c/4H = %.4f Hz (bin %.4f Hz)\n",
+      T, in.monitorDt, dt, steps, worst, fPeak, f1, 1 / span);
   EXPECT_LE(std::abs(fPeak - f1), 1 / span);
 }
 

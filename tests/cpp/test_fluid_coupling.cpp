@@ -52,9 +52,9 @@ constexpr Real kA = 4.5, kB = 5.25;
 
 /// A lined ring's radii and materials (default: the paper's lining and rock).
 struct RingGeometry {
-  Real a = kA, b = kB;            ///< the lining's inner and outer radius (m)
-  Real El = kEl, nul = kNul;      ///< lining
-  Real Er = kEr, nur = kNur;      ///< rock
+  Real a = kA, b = kB;        ///< the lining's inner and outer radius (m)
+  Real El = kEl, nul = kNul;  ///< lining
+  Real Er = kEr, nur = kNur;  ///< rock
 };
 
 /// Full ring slice a ≤ r ≤ 20 b: 3 lining elements to b, then rock with square-ish elements growing
@@ -136,7 +136,8 @@ cp::CouplingConfig configOf(const CouplingInput& in, Real window) {
   c.scheme = cp::parseScheme(in.scheme);
   c.acceleration = cp::parseAcceleration(in.acceleration);
   c.meshes.push_back({in.mesh, cp::MapKind::Coincident, in.participant, in.mapTolerance});
-  for (const auto& f : in.writeFields) c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent});
+  for (const auto& f : in.writeFields)
+    c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent});
   c.fields.push_back({in.mesh, "force", 3, in.partner, cp::MapConstraint::Conservative});
   return c;
 }
@@ -146,11 +147,12 @@ cp::CouplingConfig configOf(const CouplingInput& in, Real window) {
 /// forces `force(t_end of window)` given on the solid's interface nodes ([3n], solid order), or,
 /// with `respond`, `respond(t_end, u_s)` of the displacement u_s the solid sent ([3n], solid order).
 class FakeFluid {
-public:
+ public:
   using Force = std::function<std::vector<Real>(Real)>;
   using Response = std::function<std::vector<Real>(Real, const std::vector<Real>&)>;
   FakeFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes, Force force)
-      : FakeFluid(in, window, mesh, solidNodes, [force](Real t, const std::vector<Real>&) { return force(t); }, false) {}
+      : FakeFluid(
+            in, window, mesh, solidNodes, [force](Real t, const std::vector<Real>&) { return force(t); }, false) {}
   FakeFluid(const CouplingInput& in, Real window, const Mesh& mesh, const std::vector<Index>& solidNodes,
             Response respond, bool readsMotion = true)
       : thread_([=, &mesh] {
@@ -198,7 +200,7 @@ public:
   const std::string& error() const { return error_; }
   long long passes() const { return passes_; }
 
-private:
+ private:
   std::string error_, partnerLost_;
   std::atomic<long long> passes_{0};
   std::thread thread_;
@@ -326,12 +328,13 @@ TEST(SolidCoupling, FakeFluidPressureGivesTheLinedTunnelClosedForm) {
     du = std::max(du, std::abs(cpl.u[i] - ref.u[i]));
     umax = std::max(umax, std::abs(ref.u[i]));
   }
-  std::printf("lined ring, pressure %.4g MPa through the coupler (%lld exchanges, %.3f s exchanging, %lld relaxation "
-              "steps; own load %lld steps): contact pressure %+.2f %%, inner hoop %+.2f %%, outer hoop %+.2f %% vs "
-              "closed form (p_c %.4g, hoop %.4g / %.4g MPa); max |u_coupled - u_own| / max |u| = %.3g\n",
-              pi / 1e6, exchanged, seconds, (long long)cpl.steps, (long long)ref.steps, 100 * (cpl.pc / pcRef - 1),
-              100 * (cpl.hoopIn / hinRef - 1), 100 * (cpl.hoopOut / houtRef - 1), pcRef / 1e6, hinRef / 1e6,
-              houtRef / 1e6, du / umax);
+  std::printf(
+      "lined ring, pressure %.4g MPa through the coupler (%lld exchanges, %.3f s exchanging, %lld relaxation "
+      "steps; own load %lld steps): contact pressure %+.2f %%, inner hoop %+.2f %%, outer hoop %+.2f %% vs "
+      "closed form (p_c %.4g, hoop %.4g / %.4g MPa); max |u_coupled - u_own| / max |u| = %.3g\n",
+      pi / 1e6, exchanged, seconds, (long long)cpl.steps, (long long)ref.steps, 100 * (cpl.pc / pcRef - 1),
+      100 * (cpl.hoopIn / hinRef - 1), 100 * (cpl.hoopOut / houtRef - 1), pcRef / 1e6, hinRef / 1e6, houtRef / 1e6,
+      du / umax);
   EXPECT_NEAR(cpl.pc / pcRef, 1, 0.03);
   EXPECT_NEAR(cpl.hoopIn / hinRef, 1, 0.03);
   EXPECT_NEAR(cpl.hoopOut / houtRef, 1, 0.03);
@@ -344,10 +347,10 @@ namespace {
 
 /// How the windows of a coupled run went, seen from the time loop.
 struct WindowLog {
-  long long windows = 0;     ///< windows completed
-  long long restores = 0;    ///< windows stepped again from their saved start
-  long long minPasses = 0;   ///< fewest passes of one window (1 + its restores)
-  long long steps = 0;       ///< solid steps taken, repeated ones included
+  long long windows = 0;    ///< windows completed
+  long long restores = 0;   ///< windows stepped again from their saved start
+  long long minPasses = 0;  ///< fewest passes of one window (1 + its restores)
+  long long steps = 0;      ///< solid steps taken, repeated ones included
 };
 
 /// Step `s` until the coupling ends with tq-solid's own time-loop step (WindowedStepper: with
@@ -374,10 +377,10 @@ WindowLog stepCoupled(Solver& s, FluidCoupling& ad) {
 }
 
 /// The windowed coupling's force in window 0, as the solid's own load: step j of the first k applies
-/// (j/k) F, added in ForcePhase::Water where the adapter adds its force (the window ramps from the initial force, zero here, to the water's answer F, computed as
-/// the adapter computes it: F_w + (j/k)(F − F_w) with F_w = 0), then F.
+/// (j/k) F, added in ForcePhase::Water where the adapter adds its force (the window ramps from the initial force, zero
+/// here, to the water's answer F, computed as the adapter computes it: F_w + (j/k)(F − F_w) with F_w = 0), then F.
 class RampedForces final : public NodalForceContributor {
-public:
+ public:
   RampedForces(std::vector<Real> f, Index k) : f_(std::move(f)), k_(k) {}
   std::string name() const override { return "ramped own load"; }
   void addForces(Real, Real, NodalState& st) override {
@@ -388,7 +391,7 @@ public:
       if (f_[i] != 0) fe[i] += j_ < k_ ? 0.0 + w * (f_[i] - 0.0) : f_[i];
   }
 
-private:
+ private:
   std::vector<Real> f_;
   Index k_;
   Index j_ = 0;
@@ -477,8 +480,8 @@ TEST(SolidCoupling, ZeroFluidForceLeavesTheRunBitwiseUnchanged) {
   for (Real x : ref.u) umax = std::max(umax, std::abs(x));
   ASSERT_GT(umax, 1e-7);  // the pulse moved the ring
   for (const char* scheme : {"explicit", "paper", "implicit"}) {
-    const DynResult c =
-        dynamicRun(mesh, scheme, true, [n3](Real) { return std::vector<Real>(n3, 0.0); }, {}, steps);
+    const DynResult c = dynamicRun(
+        mesh, scheme, true, [n3](Real) { return std::vector<Real>(n3, 0.0); }, {}, steps);
     size_t diff = 0;
     for (size_t i = 0; i < ref.u.size(); ++i) diff += (c.u[i] != ref.u[i]) + (c.v[i] != ref.v[i]);
     std::printf("zero fluid force, scheme %s: %zu of %zu values differ, %lld passes in %lld windows (max %lld)\n",
@@ -501,20 +504,21 @@ TEST(SolidCoupling, ImplicitWindowsOfSeveralStepsRepeatFromTheirStartBitwise) {
   Real umax = 0;
   for (Real x : ref.u) umax = std::max(umax, std::abs(x));
   ASSERT_GT(umax, 1e-7);  // the pulse moved the ring
-  const DynResult c = dynamicRun(mesh, "implicit", true, [n3](Real) { return std::vector<Real>(n3, 0.0); }, {}, steps,
-                                 true, k);
+  const DynResult c = dynamicRun(
+      mesh, "implicit", true, [n3](Real) { return std::vector<Real>(n3, 0.0); }, {}, steps, true, k);
   size_t diff = 0;
   for (size_t i = 0; i < ref.u.size(); ++i) diff += (c.u[i] != ref.u[i]) + (c.v[i] != ref.v[i]);
-  std::printf("zero fluid force, implicit windows of %ld steps: %zu of %zu values differ; %lld windows, %lld passes "
-              "(min %lld, max %lld a window), %lld restores, %lld solid steps taken for %ld\n",
-              long(k), diff, 2 * ref.u.size(), c.windows.windows, c.passes, c.windows.minPasses, c.maxPasses,
-              c.windows.restores, c.windows.steps, long(steps));
+  std::printf(
+      "zero fluid force, implicit windows of %ld steps: %zu of %zu values differ; %lld windows, %lld passes "
+      "(min %lld, max %lld a window), %lld restores, %lld solid steps taken for %ld\n",
+      long(k), diff, 2 * ref.u.size(), c.windows.windows, c.passes, c.windows.minPasses, c.maxPasses,
+      c.windows.restores, c.windows.steps, long(steps));
   EXPECT_EQ(diff, 0u);
   EXPECT_EQ(c.fluidWork, 0.0);
   EXPECT_EQ(c.windows.windows, steps / k);
-  EXPECT_GE(c.windows.minPasses, 2);  // every window was stepped again from its checkpoint
+  EXPECT_GE(c.windows.minPasses, 2);                            // every window was stepped again from its checkpoint
   EXPECT_EQ(c.passes, c.windows.windows + c.windows.restores);  // one exchange per pass
-  EXPECT_EQ(c.windows.steps, k * c.passes);                      // each pass steps the whole window
+  EXPECT_EQ(c.windows.steps, k * c.passes);                     // each pass steps the whole window
 }
 
 // (f, b) The lined tunnel's closed form through implicit windows of 4 steps: the uniform pressure of
@@ -538,7 +542,8 @@ TEST(SolidCoupling, ImplicitWindowsOfSeveralStepsGiveTheLinedTunnelClosedForm) {
   const Real alpha = 60;
   const DynResult own = dynamicRun(mesh, "implicit", false, {}, fAll, steps, false, 1, alpha, k);
   const DynResult flat = dynamicRun(mesh, "implicit", false, {}, fAll, steps, false, 1, alpha, 0);
-  const DynResult c = dynamicRun(mesh, "implicit", true, [&](Real) { return fIf; }, {}, steps, false, k, alpha);
+  const DynResult c = dynamicRun(
+      mesh, "implicit", true, [&](Real) { return fIf; }, {}, steps, false, k, alpha);
   const Real Gl = kEl / (2 * (1 + kNul)), Gm = kEr / (2 * (1 + kNur)), a = kA, b = kB;
   const Real den = Gl * (b * b - a * a) + Gm * ((1 - 2 * kNul) * b * b + a * a);
   const Real pcRef = pi * 2 * Gm * (1 - kNul) * a * a / den;
@@ -552,13 +557,14 @@ TEST(SolidCoupling, ImplicitWindowsOfSeveralStepsGiveTheLinedTunnelClosedForm) {
     dFlat = std::max(dFlat, std::abs(flat.u[i] - c.u[i]));
   }
   const Real ratio = c.residual / norm(fAll);
-  std::printf("lined ring, pressure %.4g MPa through implicit windows of %ld steps, damped to rest (%ld steps, %lld "
-              "windows, %lld passes, max %lld a window, min %lld; residual %.2e of the load): contact pressure "
-              "%+.2f %%, inner hoop %+.2f %%, outer hoop %+.2f %% vs closed form; %zu values differ from the "
-              "own-load run ramped over window 0; max |u - u(load constant from step 1)| / max |u| = %.2e\n",
-              pi / 1e6, long(k), long(steps), c.windows.windows, c.passes, c.maxPasses, c.windows.minPasses, ratio,
-              100 * (c.statics.pc / pcRef - 1), 100 * (c.statics.hoopIn / hinRef - 1),
-              100 * (c.statics.hoopOut / houtRef - 1), diff, dFlat / umax);
+  std::printf(
+      "lined ring, pressure %.4g MPa through implicit windows of %ld steps, damped to rest (%ld steps, %lld "
+      "windows, %lld passes, max %lld a window, min %lld; residual %.2e of the load): contact pressure "
+      "%+.2f %%, inner hoop %+.2f %%, outer hoop %+.2f %% vs closed form; %zu values differ from the "
+      "own-load run ramped over window 0; max |u - u(load constant from step 1)| / max |u| = %.2e\n",
+      pi / 1e6, long(k), long(steps), c.windows.windows, c.passes, c.maxPasses, c.windows.minPasses, ratio,
+      100 * (c.statics.pc / pcRef - 1), 100 * (c.statics.hoopIn / hinRef - 1), 100 * (c.statics.hoopOut / houtRef - 1),
+      diff, dFlat / umax);
   ASSERT_LT(ratio, 1e-6) << "not at rest yet";
   EXPECT_NEAR(c.statics.pc / pcRef, 1, 0.03);
   EXPECT_NEAR(c.statics.hoopIn / hinRef, 1, 0.03);
@@ -579,12 +585,14 @@ TEST(SolidCoupling, PrescribedForceMatchesOwnLoadAndItsWorkIsBooked) {
   const std::vector<Real> fIf = onNodes(fAll, nodes);
   const Index steps = 200;
   const DynResult ref = dynamicRun(mesh, "explicit", false, {}, fAll, steps, false);
-  const DynResult c = dynamicRun(mesh, "explicit", true, [&](Real) { return fIf; }, {}, steps, false);
+  const DynResult c = dynamicRun(
+      mesh, "explicit", true, [&](Real) { return fIf; }, {}, steps, false);
   size_t diff = 0;
   for (size_t i = 0; i < ref.u.size(); ++i) diff += (c.u[i] != ref.u[i]) + (c.v[i] != ref.v[i]);
-  std::printf("prescribed pressure %.3g Pa through the coupler: %zu values differ from the own-load run; fluid work "
-              "%.6e J, solver external work %.6e J (own-load run %.6e J)\n",
-              p, diff, c.fluidWork, c.external, ref.external);
+  std::printf(
+      "prescribed pressure %.3g Pa through the coupler: %zu values differ from the own-load run; fluid work "
+      "%.6e J, solver external work %.6e J (own-load run %.6e J)\n",
+      p, diff, c.fluidWork, c.external, ref.external);
   EXPECT_EQ(diff, 0u);
   EXPECT_GT(c.fluidWork, 0.0);
   EXPECT_NEAR(c.external, ref.external, 1e-12 * std::abs(ref.external));
@@ -602,7 +610,8 @@ TEST(SolidCoupling, ConvergedExchangeCreatesNoInterfaceEnergy) {
   const std::vector<Real> fIf = onNodes(fAll, nodes);
   const Index steps = 200;
   for (const char* scheme : {"implicit", "explicit"}) {
-    const DynResult c = dynamicRun(mesh, scheme, true, [&](Real) { return fIf; }, {}, steps, false);
+    const DynResult c = dynamicRun(
+        mesh, scheme, true, [&](Real) { return fIf; }, {}, steps, false);
     std::printf("scheme %s: work on the solid %.9e J, received by the fluid %.9e J, created by the scheme %.3e J\n",
                 scheme, c.fluidWork, c.fluidReceived, c.couplingEnergy);
     EXPECT_GT(c.fluidWork, 0.0) << scheme;
@@ -650,12 +659,14 @@ TEST(SolidCoupling, ImplicitWindowsBookTheFluidWorkWithoutDrift) {
   Real created[2], work[2];
   for (int r = 0; r < 2; ++r) {
     const Index steps = 200 * (r + 1);
-    const DynResult c = dynamicRun(mesh, "implicit", true, [&](Real) { return fIf; }, {}, steps, false, k);
+    const DynResult c = dynamicRun(
+        mesh, "implicit", true, [&](Real) { return fIf; }, {}, steps, false, k);
     const DynResult own = dynamicRun(mesh, "implicit", false, {}, fAll, steps, false, 1, 2.0, k);
-    std::printf("implicit windows of %ld steps, constant force, %ld steps: work on the solid %.9e J (own-load run's "
-                "external work %.9e J), received by the fluid %.9e J, created %.6e J; window 0's ramp mismatch "
-                "%.6e J\n",
-                long(k), long(steps), c.fluidWork, own.external, c.fluidReceived, c.couplingEnergy, mismatch);
+    std::printf(
+        "implicit windows of %ld steps, constant force, %ld steps: work on the solid %.9e J (own-load run's "
+        "external work %.9e J), received by the fluid %.9e J, created %.6e J; window 0's ramp mismatch "
+        "%.6e J\n",
+        long(k), long(steps), c.fluidWork, own.external, c.fluidReceived, c.couplingEnergy, mismatch);
     EXPECT_NEAR(c.fluidWork, own.external, 1e-12 * std::abs(own.external));
     EXPECT_NEAR(c.couplingEnergy, mismatch, 1e-9 * std::abs(c.fluidWork));
     created[r] = c.couplingEnergy;
@@ -727,8 +738,8 @@ GuardRun springRun(const std::string& scheme, Real limit, Index windows) {
 TEST(SolidCoupling, EnergyGuardStopsAnExchangeThatCreatesEnergyAndOnlyThat) {
   const Index windows = 1500;
   const GuardRun implicit = springRun("implicit", 1e-6, windows);
-  std::printf("implicit, spring water: %lld windows, E_c %.3e J of peak work %.6e J, stopped: '%s'\n",
-              implicit.windows, implicit.couplingEnergy, implicit.peak, implicit.stopped.c_str());
+  std::printf("implicit, spring water: %lld windows, E_c %.3e J of peak work %.6e J, stopped: '%s'\n", implicit.windows,
+              implicit.couplingEnergy, implicit.peak, implicit.stopped.c_str());
   EXPECT_EQ(implicit.stopped, "");
   EXPECT_EQ(implicit.windows, windows);
   EXPECT_GT(implicit.peak, 0.0);
@@ -738,17 +749,20 @@ TEST(SolidCoupling, EnergyGuardStopsAnExchangeThatCreatesEnergyAndOnlyThat) {
   ASSERT_EQ(free.stopped, "");
   ASSERT_EQ(free.ratio.size(), size_t(windows));
   const Real maxRatio = *std::max_element(free.ratio.begin(), free.ratio.end());
-  std::printf("explicit, spring water, no limit: E_c %.6e J of peak work %.6e J (ratio at the end %.4f, largest %.4f)\n",
-              free.couplingEnergy, free.peak, free.ratio.back(), maxRatio);
-  EXPECT_GT(free.couplingEnergy, 0.0);  // the lag is a negative damper: energy is created
+  std::printf(
+      "explicit, spring water, no limit: E_c %.6e J of peak work %.6e J (ratio at the end %.4f, largest %.4f)\n",
+      free.couplingEnergy, free.peak, free.ratio.back(), maxRatio);
+  EXPECT_GT(free.couplingEnergy, 0.0);                              // the lag is a negative damper: energy is created
   EXPECT_GT(free.ratio.back(), free.ratio[free.ratio.size() / 2]);  // and keeps rising
   const Real limit = 0.5 * maxRatio;
   const auto first = size_t(std::find_if(free.ratio.begin(), free.ratio.end(), [&](Real r) { return r > limit; }) -
                             free.ratio.begin());
   ASSERT_LT(first, free.ratio.size());
   const GuardRun guarded = springRun("explicit", limit, windows);
-  std::printf("explicit with energy_limit %.4f: stopped after %lld windows (first window above it in the free run: "
-              "%zu): %s\n", limit, guarded.windows, first, guarded.stopped.c_str());
+  std::printf(
+      "explicit with energy_limit %.4f: stopped after %lld windows (first window above it in the free run: "
+      "%zu): %s\n",
+      limit, guarded.windows, first, guarded.stopped.c_str());
   EXPECT_EQ(guarded.windows, (long long)first + 1);
   EXPECT_NE(guarded.stopped.find("coupling.energy_limit"), std::string::npos);
   EXPECT_NE(guarded.stopped.find("window " + std::to_string(first + 1)), std::string::npos);
@@ -763,7 +777,7 @@ struct AddedMassRun {
   std::vector<Real> crown;  ///< u_x of the inner crown node (node 0) at each window end
   std::string stopped;
   long long windows = 0, passes = 0;
-  Real nodeMass = 0;  ///< lumped mass of the inner crown node (kg)
+  Real nodeMass = 0;                      ///< lumped mass of the inner crown node (kg)
   Real couplingEnergy = 0, workPeak = 0;  ///< E_c and the largest interface work (J) at the end
 };
 
@@ -849,11 +863,12 @@ TEST(SolidCoupling, WindowForceWeightDampsThePeriodTwoAddedMassMode) {
     d = std::max(d, std::abs(lean.crown[w] - r));
     m = std::max(m, std::abs(r));
   }
-  std::printf("added mass %g kg a node (%.1f x the crown node's %.1f kg): one-step windows %lld passes; windows of %ld "
-              "steps, beta 1/2: %lld windows, stopped: %s; beta 3/4: %lld windows, %lld passes, crown u_x within %.2f %% "
-              "of the one-step run's peak %.4g mm\n",
-              ma, ma / ref.nodeMass, ref.nodeMass, ref.passes, long(k), ramp.windows, ramp.stopped.substr(0, 120).c_str(),
-              lean.windows, lean.passes, 100 * d / m, 1e3 * m);
+  std::printf(
+      "added mass %g kg a node (%.1f x the crown node's %.1f kg): one-step windows %lld passes; windows of %ld "
+      "steps, beta 1/2: %lld windows, stopped: %s; beta 3/4: %lld windows, %lld passes, crown u_x within %.2f %% "
+      "of the one-step run's peak %.4g mm\n",
+      ma, ma / ref.nodeMass, ref.nodeMass, ref.passes, long(k), ramp.windows, ramp.stopped.substr(0, 120).c_str(),
+      lean.windows, lean.passes, 100 * d / m, 1e3 * m);
   EXPECT_NE(ramp.stopped.find("exploding"), std::string::npos);
   EXPECT_LT(ramp.windows, steps / k);
   ASSERT_EQ(lean.stopped, "");
@@ -877,8 +892,10 @@ TEST(SolidCoupling, FluidWorkIsBookedWithTheWindowForceWeight) {
   for (const Real beta : {0.5, 0.75}) {
     const AddedMassRun r = addedMassRun(ma, k, beta, steps);
     ASSERT_EQ(r.stopped, "");
-    std::printf("added mass %g kg a node, windows of %ld steps, beta %.2f: E_c %.3e J of the largest interface work "
-                "%.4e J (%.2e)\n", ma, long(k), beta, r.couplingEnergy, r.workPeak, r.couplingEnergy / r.workPeak);
+    std::printf(
+        "added mass %g kg a node, windows of %ld steps, beta %.2f: E_c %.3e J of the largest interface work "
+        "%.4e J (%.2e)\n",
+        ma, long(k), beta, r.couplingEnergy, r.workPeak, r.couplingEnergy / r.workPeak);
     ASSERT_GT(r.workPeak, 0);
     ratio[i++] = r.couplingEnergy / r.workPeak;
   }
@@ -999,15 +1016,16 @@ TEST(SolidCoupling, VolumeLawGivesTheWaterPressureOfALinedCavityUnderASlowPWave)
       const Real K = law == "compressible" ? 2.2e9 : std::numeric_limits<Real>::infinity();
       const CavityRun run = cavityUnderPWave(mesh, G, law, law == "compressible" ? K : 0.0, eps);
       const Real pRef = cavityWaterPressure(eps / 2, K, G.El, G.nul, G.Er, G.nur, G.a, G.b, rOut);
-      const Real pInf = cavityWaterPressure(eps / 2, K, G.El, G.nul, G.Er, G.nur, G.a, G.b,
-                                            std::numeric_limits<Real>::infinity());
+      const Real pInf =
+          cavityWaterPressure(eps / 2, K, G.El, G.nul, G.Er, G.nur, G.a, G.b, std::numeric_limits<Real>::infinity());
       // The faceted 48-gon's area against the circle's: V = ½ N r² sin(2π/N) × width 1 m.
       const Real vPoly = 0.5 * 48 * G.a * G.a * std::sin(2 * M_PI / 48);
-      std::printf("cavity a = %.2f m, b = %.2f m under a slow P wave (eps_zz %.1e), %s water: p_v %.5g Pa, crown "
-                  "%.5g Pa; closed form %.5g Pa (outer radius %.1f m; infinite rock %.5g Pa): %+.3f %%; volume %.4f "
-                  "m^3 (48-gon %.4f); %lld relaxation steps\n",
-                  G.a, G.b, eps, law.c_str(), run.pv, run.pMonitor, pRef, rOut, pInf, 100 * (run.pv / pRef - 1),
-                  run.volume, vPoly, (long long)run.steps);
+      std::printf(
+          "cavity a = %.2f m, b = %.2f m under a slow P wave (eps_zz %.1e), %s water: p_v %.5g Pa, crown "
+          "%.5g Pa; closed form %.5g Pa (outer radius %.1f m; infinite rock %.5g Pa): %+.3f %%; volume %.4f "
+          "m^3 (48-gon %.4f); %lld relaxation steps\n",
+          G.a, G.b, eps, law.c_str(), run.pv, run.pMonitor, pRef, rOut, pInf, 100 * (run.pv / pRef - 1), run.volume,
+          vPoly, (long long)run.steps);
       EXPECT_NEAR(run.pv / pRef, 1, 0.02);
       EXPECT_NEAR(run.pMonitor / pRef, 1, 0.02);
       EXPECT_NEAR(run.volume / vPoly, 1, 1e-9);
@@ -1018,10 +1036,10 @@ TEST(SolidCoupling, VolumeLawGivesTheWaterPressureOfALinedCavityUnderASlowPWave)
 namespace {
 
 struct TubeRun {
-  std::vector<Real> p;   ///< station pressures at the sample (Pa), in order of y
-  Real aRadial = 0;      ///< the inner wall's mean radial acceleration there (m/s²)
-  Real area = 0;         ///< the water's cross-section (m²)
-  Real omega = 0;        ///< rad/s: the drive's ω
+  std::vector<Real> p;  ///< station pressures at the sample (Pa), in order of y
+  Real aRadial = 0;     ///< the inner wall's mean radial acceleration there (m/s²)
+  Real area = 0;        ///< the water's cross-section (m²)
+  Real omega = 0;       ///< rad/s: the drive's ω
 };
 
 /// A lining tube a = 3 m, b = 3.6 m, length L along y in nAxial layers, open at both ends, its outer
@@ -1115,11 +1133,12 @@ TEST(SolidCoupling, OpenEndsVolumeLawGivesThePlugFlowPressureOfABreathingTube) {
       Real worst = 0;
       for (size_t j = 0; j < run.p.size(); ++j)
         worst = std::max(worst, std::abs(run.p[j] - closedForm(L * Real(j) / Real(nAx))) / std::abs(refMid));
-      std::printf("open tube L = %.0f m (%lld layers), %s water: mid-length p %.5g Pa, closed form %.5g Pa (%+.3f %%; "
-                  "the incompressible parabola %.5g Pa); worst station %.3f %% of the mid value; wall acceleration "
-                  "%.4g m/s^2\n",
-                  L, (long long)nAx, law.c_str(), mid, refMid, 100 * (mid / refMid - 1),
-                  -rho * Add * L * L / (8 * run.area), 100 * worst, run.aRadial);
+      std::printf(
+          "open tube L = %.0f m (%lld layers), %s water: mid-length p %.5g Pa, closed form %.5g Pa (%+.3f %%; "
+          "the incompressible parabola %.5g Pa); worst station %.3f %% of the mid value; wall acceleration "
+          "%.4g m/s^2\n",
+          L, (long long)nAx, law.c_str(), mid, refMid, 100 * (mid / refMid - 1), -rho * Add * L * L / (8 * run.area),
+          100 * worst, run.aRadial);
       EXPECT_NEAR(mid / refMid, 1, 0.02);
       EXPECT_LT(worst, 0.02);
       EXPECT_EQ(run.p.front(), 0.0);

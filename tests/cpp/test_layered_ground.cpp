@@ -160,9 +160,10 @@ TEST(LayeredColumn, TwoLayersOnRockMatchTheClosedFormTransferFunction) {
   for (Real alpha : {0.0, alpha5})
     for (Real courant : {0.9, 0.3}) {
       const Result r = runColumn(kLayers, kRhoR, kCsR, kNuR, alpha, 1, courant);
-      std::printf("two layers on rock, alpha %.3f /s, Courant %.1f: worst |T| error %.2f %% at %.2f Hz "
-                  "(0.5-15 Hz, peak |T| %.2f)\n",
-                  alpha, courant, 100 * r.worst, r.fWorst, r.peak);
+      std::printf(
+          "two layers on rock, alpha %.3f /s, Courant %.1f: worst |T| error %.2f %% at %.2f Hz "
+          "(0.5-15 Hz, peak |T| %.2f)\n",
+          alpha, courant, 100 * r.worst, r.fWorst, r.peak);
       EXPECT_LT(r.worst, 0.02) << "alpha " << alpha << ", Courant " << courant;
     }
 }
@@ -257,9 +258,10 @@ TEST(LayeredSlice, AxialShWaveThroughAPeriodicSliceMatchesTheClosedForm) {
     const Real exact = closedForm(kLayers, kRhoR, kCsR, alpha, f);
     if (std::abs(model / exact - 1) > worst) worst = std::abs(model / exact - 1), fWorst = f;
   }
-  std::printf("periodic slice, SH along y: worst |T| error %.2f %% at %.2f Hz (0.5-15 Hz); max |u_y - u_column| / "
-              "column peak %.2e (peak %.3e m); largest in-plane |u| %.1e m; %s\n",
-              100 * worst, fWorst, worstCol / peakCol, peakCol, inPlane, run.stages->reports().back().note.c_str());
+  std::printf(
+      "periodic slice, SH along y: worst |T| error %.2f %% at %.2f Hz (0.5-15 Hz); max |u_y - u_column| / "
+      "column peak %.2e (peak %.3e m); largest in-plane |u| %.1e m; %s\n",
+      100 * worst, fWorst, worstCol / peakCol, peakCol, inPlane, run.stages->reports().back().note.c_str());
   EXPECT_LT(worst, 0.02);
   EXPECT_LT(worstCol / peakCol, 0.01);
   EXPECT_LT(inPlane, 1e-6 * peakCol);  // an SH wave along y moves nothing in the x-z plane
@@ -319,8 +321,7 @@ TEST(InSitu, OverburdenOfHorizontalLayersIsTheIntegralOfTheirDensities) {
   Real umax = 0;
   for (Index n = 0; n < run.mesh.numNodes(); ++n)
     for (int d = 0; d < 3; ++d) umax = std::max(umax, std::abs(run.solver->state().u(n, d)));
-  std::printf("layered overburden: worst relative error of sigma_z %.1e, largest displacement %.1e m\n", worst,
-              umax);
+  std::printf("layered overburden: worst relative error of sigma_z %.1e, largest displacement %.1e m\n", worst, umax);
   EXPECT_LT(worst, 1e-9);
   EXPECT_LT(umax, 1e-9);
 }

@@ -105,9 +105,9 @@ TEST(MohrCoulombReturn, RandomTrialsLandOnTheSurfaceAndSatisfyKuhnTucker) {
           if (act.size() >= 3) ++corners;
           const Real res[3] = {t[0] - r.sigma[0], t[1] - r.sigma[1], t[2] - r.sigma[2]};
           ASSERT_TRUE(inCone(act, s, res, 1e-9 * std::sqrt(res[0] * res[0] + res[1] * res[1] + res[2] * res[2])))
-              << "return direction not in the cone of the active planes: trial " << t[0] << " " << t[1] << " "
-              << t[2] << " -> " << r.sigma[0] << " " << r.sigma[1] << " " << r.sigma[2] << " (set " << r.activeSet
-              << ", psi " << psi << ", D " << D << ")";
+              << "return direction not in the cone of the active planes: trial " << t[0] << " " << t[1] << " " << t[2]
+              << " -> " << r.sigma[0] << " " << r.sigma[1] << " " << r.sigma[2] << " (set " << r.activeSet << ", psi "
+              << psi << ", D " << D << ")";
         }
       }
   EXPECT_GT(returned, 30000);
@@ -149,7 +149,8 @@ TEST(MohrCoulombReturn, AssociatedReturnIsTheClosestPointInTheEnergyNorm) {
     const PrincipalReturn r = s.returnMap(t);
     if (r.activeSet < 0) continue;
     const Real dr = dist(t, r.sigma);
-    for (const auto& b : bnd) ASSERT_GE(dist(t, b.data()), dr * (1 - 1e-9)) << "trial " << t[0] << " " << t[1] << " " << t[2];
+    for (const auto& b : bnd)
+      ASSERT_GE(dist(t, b.data()), dr * (1 - 1e-9)) << "trial " << t[0] << " " << t[1] << " " << t[2];
   }
 }
 
@@ -224,8 +225,9 @@ TEST(MohrCoulombDamage, UniaxialTensionCapsAtTheTensileStrength) {
       // The lining's cut-off does not depend on D until the apex (1 − D) c cot φ drops below σt;
       // the rock's Mohr–Coulomb cap already carries the damage of the first plastic step.
       const Real capD = which == 0 ? cap : 2 * (1 - Dpeak) * p.cohesion / std::sqrt(Np);
-      std::printf("uniaxial tension %s R %.0f: peak %.6f MPa, cap %.6f MPa (%+.2e; with the damage at the peak %+.2e)\n",
-                  which == 0 ? "lining" : "rock", R, peak / 1e6, cap / 1e6, peak / cap - 1, peak / capD - 1);
+      std::printf(
+          "uniaxial tension %s R %.0f: peak %.6f MPa, cap %.6f MPa (%+.2e; with the damage at the peak %+.2e)\n",
+          which == 0 ? "lining" : "rock", R, peak / 1e6, cap / 1e6, peak / cap - 1, peak / capD - 1);
       EXPECT_NEAR(peak / capD, 1.0, 1e-8) << (which == 0 ? "lining" : "rock") << " R " << R;
       EXPECT_NEAR(peak / cap, 1.0, 1e-4);
       if (R == 0) EXPECT_NEAR(mp.stress[ZZ] / cap, 1.0, 1e-10);  // no damage: holds the cap
@@ -357,13 +359,15 @@ TEST(MohrCoulombDamage, ChunkScreenKeepsStatesJustInsideAndReturnsStatesJustOuts
         std::vector<std::array<Real, 6>> in(kN);
         for (int e = 0; e < kN; ++e) {
           // Principal values p0 + r (cos of three Lode angles), every 4th on a triaxial edge.
-          const Real lode = e % 4 == 0 ? 0.0 : e % 4 == 1 ? M_PI / 3 : std::uniform_real_distribution<Real>(0, M_PI / 3)(rng);
+          const Real lode = e % 4 == 0   ? 0.0
+                            : e % 4 == 1 ? M_PI / 3
+                                         : std::uniform_real_distribution<Real>(0, M_PI / 3)(rng);
           const Real p0 = (e % 8 < 4 ? -3e6 : 0.2e6) * std::abs(1 + 0.3 * G(rng));
           Real dev[3] = {std::cos(lode), std::cos(lode - 2 * M_PI / 3), std::cos(lode + 2 * M_PI / 3)};
           Eigen::Matrix3d R = Eigen::Quaterniond(G(rng), G(rng), G(rng), G(rng)).normalized().toRotationMatrix();
           auto stressAt = [&](Real r, Real s[6]) {
-            Eigen::Matrix3d m = R * Eigen::Vector3d(p0 + r * dev[0], p0 + r * dev[1], p0 + r * dev[2]).asDiagonal() *
-                                R.transpose();
+            Eigen::Matrix3d m =
+                R * Eigen::Vector3d(p0 + r * dev[0], p0 + r * dev[1], p0 + r * dev[2]).asDiagonal() * R.transpose();
             s[XX] = m(0, 0), s[YY] = m(1, 1), s[ZZ] = m(2, 2), s[XY] = m(0, 1), s[YZ] = m(1, 2), s[ZX] = m(2, 0);
           };
           Real lo = 0, hi = 1e8, s[6];  // the deviator's size on the surface, by bisection
@@ -403,8 +407,8 @@ TEST(MohrCoulombDamage, ChunkScreenKeepsStatesJustInsideAndReturnsStatesJustOuts
           Real pr[3];
           principal(s0, pr);
           const Real scale = std::abs(pr[0]) + std::abs(pr[2]) + p.cohesion;
-          const std::string what = damageEffectName(effect) + ", D " + std::to_string(D) + ", element " +
-                                   std::to_string(e);
+          const std::string what =
+              damageEffectName(effect) + ", D " + std::to_string(D) + ", element " + std::to_string(e);
           if (e % 2 == 0) {  // inside: unchanged, no history
             ASSERT_LT(f(s0), 0) << what;
             for (int k = 0; k < 6; ++k) ASSERT_EQ(out[k], s0[k]) << what << ", component " << k;
@@ -415,7 +419,9 @@ TEST(MohrCoulombDamage, ChunkScreenKeepsStatesJustInsideAndReturnsStatesJustOuts
             principal(out, po);
             ASSERT_NEAR(std::max(s1.shear(po), s1.tensile(po)) / scale, 0.0, 1e-8) << what;
             ASSERT_GT(hist[mc_history::kKappa1][size_t(e)] + hist[mc_history::kKappa2][size_t(e)] +
-                          hist[mc_history::kKappa3][size_t(e)], 0.0) << what;
+                          hist[mc_history::kKappa3][size_t(e)],
+                      0.0)
+                << what;
           }
         }
       }

@@ -2,9 +2,9 @@
 // message). Meshes are built in memory, written with writeMeshH5 and read back.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
 
 #include "tq/io/mesh.hpp"
 

@@ -21,8 +21,8 @@ using namespace tq;
 namespace {
 
 struct RingResult {
-  Real dD = 0;      // change of the loaded diameter (m), negative = shortening
-  Real ratio = 0;   // unbalanced-force ratio reached
+  Real dD = 0;     // change of the loaded diameter (m), negative = shortening
+  Real ratio = 0;  // unbalanced-force ratio reached
   Index steps = 0;
 };
 
@@ -90,9 +90,10 @@ TEST(RingBending, OnePointAssumedStrainWithin3PercentOnLiningMesh) {
   const RingResult r = solveRing(Hex8Formulation::OnePointAssumedStrain, 3, 48);
   ASSERT_LT(r.ratio, 1e-7) << "dynamic relaxation did not converge in " << r.steps << " steps";
   const Real dD = -r.dD;  // shortening of the loaded diameter
-  std::printf("ring 3x48 one_point_assumed_strain: dD = %.6e m, thin %.6e (err %+.2f %%), "
-              "thick %.6e (err %+.2f %%), %d DR steps\n",
-              dD, ref.thin, 100 * (dD / ref.thin - 1), ref.thick, 100 * (dD / ref.thick - 1), int(r.steps));
+  std::printf(
+      "ring 3x48 one_point_assumed_strain: dD = %.6e m, thin %.6e (err %+.2f %%), "
+      "thick %.6e (err %+.2f %%), %d DR steps\n",
+      dD, ref.thin, 100 * (dD / ref.thin - 1), ref.thick, 100 * (dD / ref.thick - 1), int(r.steps));
   EXPECT_NEAR(dD / ref.thick, 1.0, 0.03);
   EXPECT_NEAR(dD / ref.thin, 1.0, 0.03);
 }

@@ -44,12 +44,16 @@ Real integrate(const std::function<Real(Real)>& f, Real a, Real b) {
 struct ExactForces {
   std::function<Real(Real, Real)> hoop, shear;  // σθθ(r, θ), σrθ(r, θ) in the lining (tension +)
   Real a = 4.5, b = 5.25;
-  Real N(Real th) const { return integrate([&](Real r) { return hoop(r, th); }, a, b); }
+  Real N(Real th) const {
+    return integrate([&](Real r) { return hoop(r, th); }, a, b);
+  }
   Real M(Real th) const {
     const Real rm = 0.5 * (a + b);
     return integrate([&](Real r) { return hoop(r, th) * (rm - r); }, a, b);
   }
-  Real V(Real th) const { return integrate([&](Real r) { return shear(r, th); }, a, b); }
+  Real V(Real th) const {
+    return integrate([&](Real r) { return shear(r, th); }, a, b);
+  }
 };
 
 /// Lined hole under a far-field pure shear σx = S, σz = −S (plane strain), the lining a ≤ r ≤ b
@@ -72,20 +76,20 @@ struct PureShearLined {
     Eigen::Matrix<Real, 6, 6> K = Eigen::Matrix<Real, 6, 6>::Zero();
     Eigen::Matrix<Real, 6, 1> f = Eigen::Matrix<Real, 6, 1>::Zero();
     const Real a2 = a * a, a4 = a2 * a2, b2 = b * b, b4 = b2 * b2, b3 = b2 * b;
-    K.row(0) << -2, 0, -6 / a4, -4 / a2, 0, 0;                       // σrr(a) = 0
-    K.row(1) << 2, 6 * a2, -6 / a4, -2 / a2, 0, 0;                    // σrθ(a) = 0
-    K.row(2) << -2, 0, -6 / b4, -4 / b2, 6 / b4, 4 / b2;             // σrr continuous at b
+    K.row(0) << -2, 0, -6 / a4, -4 / a2, 0, 0;            // σrr(a) = 0
+    K.row(1) << 2, 6 * a2, -6 / a4, -2 / a2, 0, 0;        // σrθ(a) = 0
+    K.row(2) << -2, 0, -6 / b4, -4 / b2, 6 / b4, 4 / b2;  // σrr continuous at b
     f(2) = -2 * AR;
-    K.row(3) << 2, 6 * b2, -6 / b4, -2 / b2, 6 / b4, 2 / b2;          // σrθ continuous at b
+    K.row(3) << 2, 6 * b2, -6 / b4, -2 / b2, 6 / b4, 2 / b2;  // σrθ continuous at b
     f(3) = 2 * AR;
     K.row(4) << -2 * b / (2 * mul), (kl - 3) * b3 / (2 * mul), 2 / b3 / (2 * mul), (kl + 1) / b / (2 * mul),
-        -2 / b3 / (2 * mur), -(kr + 1) / b / (2 * mur);                // u_r continuous at b
+        -2 / b3 / (2 * mur), -(kr + 1) / b / (2 * mur);  // u_r continuous at b
     K.row(5) << 2 * b / (2 * mul), (kl + 3) * b3 / (2 * mul), 2 / b3 / (2 * mul), -(kl - 1) / b / (2 * mul),
-        -2 / b3 / (2 * mur), (kr - 1) / b / (2 * mur);                 // u_θ continuous at b
+        -2 / b3 / (2 * mur), (kr - 1) / b / (2 * mur);  // u_θ continuous at b
     if (slip) {
-      K.row(3) << 2, 6 * b2, -6 / b4, -2 / b2, 0, 0;                  // σrθ = 0 on the lining at b
+      K.row(3) << 2, 6 * b2, -6 / b4, -2 / b2, 0, 0;  // σrθ = 0 on the lining at b
       f(3) = 0;
-      K.row(5) << 0, 0, 0, 0, -6 / b4, -2 / b2;                       // σrθ = 0 on the rock at b
+      K.row(5) << 0, 0, 0, 0, -6 / b4, -2 / b2;  // σrθ = 0 on the rock at b
       f(5) = -2 * AR;
     }
     // Scale the columns (they span r⁻⁴ … r³) before solving.
@@ -112,7 +116,6 @@ struct PureShearLined {
     return (2 * AL + 6 * BL * r * r - 6 * CL / std::pow(r, 4) - 2 * DL / (r * r)) * std::sin(2 * th);
   }
 };
-
 
 /// Outer boundary of the quarter models at kOuter × the excavated radius: the closed forms are for
 /// an infinite rock; at 20 b (the other lined-tunnel tests) the boundary leaves about 0.7 % in V and
@@ -162,10 +165,11 @@ Errors compare(const Sections& fe, const ExactForces& ex, bool withV, const char
   Errors e{relError(fe.N, Ne), relError(fe.M, Me), withV ? relError(fe.V, Ve) : 0};
   Real vmax = 0;
   for (Real v : fe.V) vmax = std::max(vmax, std::abs(v));
-  std::printf("%s, %d x %d lining elements per quarter: N %.3f %%, M %.3f %%, %s %.3f %% (first section, "
-              "FE / exact: N %.6g / %.6g N/m, M %.6g / %.6g Nm/m, V %.6g / %.6g N/m)\n",
-              what, int(nTheta), int(nThrough), 100 * e.N, 100 * e.M, withV ? "V" : "max|V|/max|N|",
-              withV ? 100 * e.V : 100 * vmax / std::abs(Ne[0]), fe.N[0], Ne[0], fe.M[0], Me[0], fe.V[0], Ve[0]);
+  std::printf(
+      "%s, %d x %d lining elements per quarter: N %.3f %%, M %.3f %%, %s %.3f %% (first section, "
+      "FE / exact: N %.6g / %.6g N/m, M %.6g / %.6g Nm/m, V %.6g / %.6g N/m)\n",
+      what, int(nTheta), int(nThrough), 100 * e.N, 100 * e.M, withV ? "V" : "max|V|/max|N|",
+      withV ? 100 * e.V : 100 * vmax / std::abs(Ne[0]), fe.N[0], Ne[0], fe.M[0], Me[0], fe.V[0], Ve[0]);
   return e;
 }
 
@@ -397,9 +401,9 @@ TEST(RingForces, ThickRingUnderFarFieldPureShearInFullSlip) {
 namespace {
 
 struct Residual {
-  Real force = 0, moment = 0, outOfBalance = 0;      // round-off check, and the relaxation's share
-  Real dN = 0, dV = 0, dM = 0, dMcouple = 0;          // design forces against the free-body forces
-  Real dVofN = 0;                                     // the V difference relative to max|N|
+  Real force = 0, moment = 0, outOfBalance = 0;  // round-off check, and the relaxation's share
+  Real dN = 0, dV = 0, dM = 0, dMcouple = 0;     // design forces against the free-body forces
+  Real dVofN = 0;                                // the V difference relative to max|N|
 };
 
 /// N, M, V at the sections of ring 0 (free-body or design forces).
@@ -475,8 +479,8 @@ Residual segmentEquilibrium(const tqtest::StagedRun& run, const RingValues& free
     const Real dth = R.lineAngle[1] - R.lineAngle[0], s2 = std::pow(std::sin(dth / 2), 2);
     Real couple = 0;
     for (const auto& E : R.column[s]) {
-      const Real srr = c * c * lin.stress(E.elem, XX) + 2 * sn * c * lin.stress(E.elem, ZX) +
-                       sn * sn * lin.stress(E.elem, ZZ);
+      const Real srr =
+          c * c * lin.stress(E.elem, XX) + 2 * sn * c * lin.stress(E.elem, ZX) + sn * sn * lin.stress(E.elem, ZZ);
       couple += s2 * srr * E.r * E.h;
     }
     res.dN = std::max(res.dN, std::abs(Nd[s] - N[s]) / nmax);
@@ -524,11 +528,12 @@ TEST(RingForces, SectionsAreInEquilibriumWithInterfaceAndWaterLoads) {
       // full slip without water: with it the contact's relaxation stalls near 1e-3 of the load
       runPureShear(run, m[0], m[1], slip ? 0.5e6 : 1e6, slip ? 0 : 1.2e6, 9810, 20, slip ? 5e6 : 0, slip);
       const Residual r = segmentEquilibrium(run);
-      std::printf("equilibrium, %s, %d x %d lining elements per quarter, %d segments: force %.1e of L max|N|, "
-                  "moment %.1e of L max|N| r_mid (the out-of-balance force: %.1e); design - free body: N %.3f %%, "
-                  "V %.3f %%, M %.2f %% (%.3f %% less the radial-stress couple)\n",
-                  slip ? "full slip" : "bonded", int(m[0]), int(m[1]), int(m[0] * (m[0] - 1) / 2), r.force, r.moment,
-                  r.outOfBalance, 100 * r.dN, 100 * r.dV, 100 * r.dM, 100 * r.dMcouple);
+      std::printf(
+          "equilibrium, %s, %d x %d lining elements per quarter, %d segments: force %.1e of L max|N|, "
+          "moment %.1e of L max|N| r_mid (the out-of-balance force: %.1e); design - free body: N %.3f %%, "
+          "V %.3f %%, M %.2f %% (%.3f %% less the radial-stress couple)\n",
+          slip ? "full slip" : "bonded", int(m[0]), int(m[1]), int(m[0] * (m[0] - 1) / 2), r.force, r.moment,
+          r.outOfBalance, 100 * r.dN, 100 * r.dV, 100 * r.dM, 100 * r.dMcouple);
       EXPECT_LT(r.force, 1e-10);
       EXPECT_LT(r.moment, 1e-10);
       EXPECT_LT(r.outOfBalance, 1e-5);
@@ -598,11 +603,11 @@ TEST(RingForces, WrittenFreeBodyForcesBalanceTheLoads) {
   for (auto* v : {&f32.N, &f32.M, &f32.V})
     for (Real& x : *v) x = Real(float(x));
   const Residual r32 = segmentEquilibrium(run, f32, file[1]);
-  std::printf("written, bonded with water, %d x %d lining elements per quarter: force %.1e of L max|N|, moment %.1e "
-              "of L max|N| r_mid (rounded to float32: %.1e, %.1e); design - free body read back: N %.3f %%, V %.3f %% "
-              "of max|N|, M %.2f %% of max|M|\n",
-              int(mesh[0]), int(mesh[1]), r.force, r.moment, r32.force, r32.moment, 100 * r.dN, 100 * r.dVofN,
-              100 * r.dM);
+  std::printf(
+      "written, bonded with water, %d x %d lining elements per quarter: force %.1e of L max|N|, moment %.1e "
+      "of L max|N| r_mid (rounded to float32: %.1e, %.1e); design - free body read back: N %.3f %%, V %.3f %% "
+      "of max|N|, M %.2f %% of max|M|\n",
+      int(mesh[0]), int(mesh[1]), r.force, r.moment, r32.force, r32.moment, 100 * r.dN, 100 * r.dVofN, 100 * r.dM);
   EXPECT_LT(r.force, 1e-10);
   EXPECT_LT(r.moment, 1e-10);
   EXPECT_LT(r.dN, 0.005);

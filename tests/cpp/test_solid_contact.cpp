@@ -152,8 +152,8 @@ struct BlockOnBase {
     SolverOptions opt;
     opt.damping.alpha = alpha;  // mass damping: lets a block that hit the base come to rest
     opt.safety = 0.75;
-    solver = std::make_unique<Solver>(mesh, makeBlocksByRegion(mesh, {{"rock", rockMat()}, {"lining", liningMat()}}),
-                                      opt);
+    solver =
+        std::make_unique<Solver>(mesh, makeBlocksByRegion(mesh, {{"rock", rockMat()}, {"lining", liningMat()}}), opt);
     for (Index n = 0; n < 8; ++n)
       for (int d = 0; d < 3; ++d) solver->fix(n, d);  // the base: rock nodes 0-7
     for (Index n = 8; n < 16; ++n) blockNodes.push_back(n);
@@ -249,9 +249,10 @@ TEST(SolidContact, PulledApartPairSeparatesAtCohesionAndRecontactsWithoutPenetra
     ASSERT_GT(tSep, 0);
     ASSERT_GT(tClose, 0) << "the pushed-back block never closed the gap";
     const Real Fsep = fz(tSep) * cA;
-    std::printf("pull (%s): separation at tension %.6e N (c A = %.6e N, %.3f %%), re-contact at t = %.4f s, "
-                "min opening %.2e m\n",
-                afterFailureName(after).c_str(), Fsep, cA, 100 * (Fsep / cA - 1), tClose, minOpening);
+    std::printf(
+        "pull (%s): separation at tension %.6e N (c A = %.6e N, %.3f %%), re-contact at t = %.4f s, "
+        "min opening %.2e m\n",
+        afterFailureName(after).c_str(), Fsep, cA, 100 * (Fsep / cA - 1), tClose, minOpening);
     EXPECT_NEAR(Fsep / cA, 1.0, 0.01);
     EXPECT_GE(minOpening, -1e-12);  // no interpenetration
     // After re-contact the block rests on the base: all pairs closed, sticking.

@@ -30,7 +30,7 @@ struct CycleResult {
   Real plastic = 0;       // plastic dissipation over the same cycle (J)
   Real storedChange = 0;  // change of internal − plastic (elastic incl. hourglass) (J)
   Real kineticChange = 0;
-  Real maxError = 0;      // largest energy-balance error over the run
+  Real maxError = 0;  // largest energy-balance error over the run
   Real gammaPeak = 0;
 };
 
@@ -41,9 +41,8 @@ CycleResult cyclicShear(const Mesh& mesh, std::shared_ptr<const Material> mat, R
   Solver s(mesh, makeBlocksByRegion(mesh, {{"rock", mat}}), {});
   s.fixFaceGroup("bottom", "xyz");
   if (!topFixed.empty()) s.fixFaceGroup("top", topFixed);
-  auto act = std::make_shared<DisplacementActuator>(faceNodes(mesh, "top"), 0, [=](Real t) {
-    return gammaA * h * std::sin(2 * M_PI * t / period);
-  });
+  auto act = std::make_shared<DisplacementActuator>(
+      faceNodes(mesh, "top"), 0, [=](Real t) { return gammaA * h * std::sin(2 * M_PI * t / period); });
   s.addContributor(ForcePhase::Interface, act);  // a prescribed motion: after the loads
   CycleResult r;
   Real w1 = 0, p1 = 0, e1 = 0, k1 = 0;
@@ -78,9 +77,10 @@ TEST(SolidMcCyclicShear, OneElementLoopMatchesAnalyticAndEnergyBalance) {
   // thousand steps; the loading period is 300 times the element's period (quasi-static).
   const CycleResult r = cyclicShear(m, mat, 1.0, gammaA, 0.5, "yz");
   const Real analytic = 4 * tauY * (gammaA - gammaY) * 1.0;
-  std::printf("one element: loop %.6e J, plastic %.6e J, analytic %.6e J, stored change %.3e, kinetic change %.3e, "
-              "max balance error %.2e\n",
-              r.loopArea, r.plastic, analytic, r.storedChange, r.kineticChange, r.maxError);
+  std::printf(
+      "one element: loop %.6e J, plastic %.6e J, analytic %.6e J, stored change %.3e, kinetic change %.3e, "
+      "max balance error %.2e\n",
+      r.loopArea, r.plastic, analytic, r.storedChange, r.kineticChange, r.maxError);
   EXPECT_NEAR(r.plastic / analytic, 1.0, 0.01);
   EXPECT_NEAR(r.loopArea / analytic, 1.0, 0.01);
   EXPECT_NEAR(r.loopArea, r.plastic + r.storedChange + r.kineticChange, 0.01 * r.loopArea);
@@ -112,9 +112,10 @@ TEST(SolidMcCyclicShear, SmallMeshLoopEqualsBookedDissipation) {
     auto mat = std::make_shared<MohrCoulombDamageMaterial>(p);
     const Real G = mat->elasticModuli().mu, tauY = p.cohesion * std::cos(p.frictionAngle * M_PI / 180);
     const CycleResult r = cyclicShear(m, mat, 3.0, 6 * tauY / G, 0.5, "z");
-    std::printf("3x3x3 mesh, R %.0f: loop %.6e J, plastic %.6e J, stored change %.3e, kinetic change %.3e, "
-                "max balance error %.2e\n",
-                R, r.loopArea, r.plastic, r.storedChange, r.kineticChange, r.maxError);
+    std::printf(
+        "3x3x3 mesh, R %.0f: loop %.6e J, plastic %.6e J, stored change %.3e, kinetic change %.3e, "
+        "max balance error %.2e\n",
+        R, r.loopArea, r.plastic, r.storedChange, r.kineticChange, r.maxError);
     EXPECT_GT(r.plastic, 0.5 * r.loopArea);  // the loop is mostly plastic dissipation
     EXPECT_NEAR(r.loopArea, r.plastic + r.storedChange + r.kineticChange, 0.01 * r.loopArea);
     EXPECT_LT(r.maxError, 0.01);

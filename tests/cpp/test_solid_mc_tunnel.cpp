@@ -103,13 +103,14 @@ TEST(SolidMcTunnel, OverloadedLiningDamagesFromTheInnerFaceAndStaysStable) {
       hoopInner += shoop / nAround;
     }
   }
-  std::printf("overloaded lining: mean damage per layer (inner → outer) %.3e %.3e %.3e, max %.3e in layer %d; "
-              "inner-layer hoop stress %.4f MPa (σt 1.27); plastic dissipation %.4e J; max balance error %.2e; "
-              "pairs bonded %d of %d\n",
-              Dlayer[0], Dlayer[1], Dlayer[2], Dmax, int(layerOfMax), hoopInner / 1e6, s.energy().plastic, maxErr,
-              int(contact->count(PairState::Bonded)), int(contact->numPairs()));
+  std::printf(
+      "overloaded lining: mean damage per layer (inner → outer) %.3e %.3e %.3e, max %.3e in layer %d; "
+      "inner-layer hoop stress %.4f MPa (σt 1.27); plastic dissipation %.4e J; max balance error %.2e; "
+      "pairs bonded %d of %d\n",
+      Dlayer[0], Dlayer[1], Dlayer[2], Dmax, int(layerOfMax), hoopInner / 1e6, s.energy().plastic, maxErr,
+      int(contact->count(PairState::Bonded)), int(contact->numPairs()));
   EXPECT_GT(Dlayer[0], 0.0);
-  EXPECT_EQ(layerOfMax, 0);             // damage is largest where the hoop tension is largest
+  EXPECT_EQ(layerOfMax, 0);  // damage is largest where the hoop tension is largest
   EXPECT_GT(Dlayer[0], Dlayer[2]);
   EXPECT_LE(hoopInner, 1.27e6 * (1 + 1e-6));  // capped by the cut-off
   EXPECT_GT(hoopInner, 0.9 * 1.27e6);

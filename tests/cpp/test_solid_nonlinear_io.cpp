@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "test_helpers.hpp"
@@ -17,7 +18,6 @@
 #include "tq/io/input.hpp"
 #include "tq/io/results.hpp"
 #include "tq/io/staged_input.hpp"
-#include "input_fixture.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -135,9 +135,10 @@ TEST(SolidNonlinearApp, YieldingColumnWritesDamageAndDissipationAndClosesTheBala
   const Real plastic = diss[3 * (d[0] - 1) + 1];
   const auto e = h5::readDoubles(r, "/energy/history", &d);
   const Real error = e[7 * (d[0] - 1) + 6], external = e[7 * (d[0] - 1) + 5];
-  std::printf("yielding column: max damage %.3e, plastic dissipation %.4e J of external work %.4e J, "
-              "balance error %.2e\n",
-              dmax, plastic, external, error);
+  std::printf(
+      "yielding column: max damage %.3e, plastic dissipation %.4e J of external work %.4e J, "
+      "balance error %.2e\n",
+      dmax, plastic, external, error);
   EXPECT_GT(plastic, 0.01 * external);
   EXPECT_LT(error, 0.01);
   const auto md = h5::readDoubles(r, "/monitors/top/damage", &d);
@@ -165,8 +166,7 @@ TEST(SolidNonlinearResults, ContactStateOpeningAndSlipReachResults) {
   }
   SolverOptions opt;
   opt.safety = 0.75;
-  Solver s(m, makeBlocksByRegion(m, {{"rock", elastic(8e9, 0.27, 2700)}, {"lining", elastic(28e9, 0.17, 2500)}}),
-           opt);
+  Solver s(m, makeBlocksByRegion(m, {{"rock", elastic(8e9, 0.27, 2700)}, {"lining", elastic(28e9, 0.17, 2500)}}), opt);
   for (Index n = 0; n < 8; ++n)
     for (int dd = 0; dd < 3; ++dd) s.fix(n, dd);
   const std::vector<Index> bottom = {8, 9, 10, 11};

@@ -30,12 +30,12 @@
 //     element at input: MeshIO.InvertedElementIsRejectedWithIndexAndCoordinates (test_mesh_io).
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <random>
 #include <sstream>
-#include <unistd.h>
 
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
@@ -150,9 +150,10 @@ TEST(StepLadder, BelowTheCriticalStepRunsCompleteAndAgree) {
   EXPECT_GT(ref.peak, 0.015);  // the surface roughly doubles the 1 cm incident pulse
   for (Real f : {0.5, 0.8, 0.95}) {
     const LadderResult r = ladderRun(f);
-    std::printf("step ladder: %.2f x dt_crit (dt %.3e s, %lld steps): peak vs reference %+.2e, max balance error "
-                "%.1e\n",
-                f, r.dt, (long long)r.steps, r.peak / ref.peak - 1, r.maxError);
+    std::printf(
+        "step ladder: %.2f x dt_crit (dt %.3e s, %lld steps): peak vs reference %+.2e, max balance error "
+        "%.1e\n",
+        f, r.dt, (long long)r.steps, r.peak / ref.peak - 1, r.maxError);
     EXPECT_NEAR(r.peak / ref.peak, 1.0, 0.01) << f;
     EXPECT_LT(r.maxError, 0.01) << f;
   }
@@ -170,8 +171,7 @@ TEST(StepLadder, AboveTheCriticalStepIsRefusedAndAForcedRunStopsCleanly) {
       } catch (const InputError& e) {
         const std::string msg = e.what();
         EXPECT_NE(msg.find("above the stable limit"), std::string::npos) << msg;
-        EXPECT_NE(msg.find("element " + std::to_string(st.element) + " of block '" + st.block + "'"),
-                  std::string::npos)
+        EXPECT_NE(msg.find("element " + std::to_string(st.element) + " of block '" + st.block + "'"), std::string::npos)
             << msg;
         EXPECT_NE(msg.find("Fix:"), std::string::npos) << msg;
       }
@@ -311,11 +311,12 @@ TEST(StrongMotion, OneGRecordIntoAYieldingLayerClosesTheEnergyBalance) {
       peakV = std::max(peakV, std::abs(s.state().v(n, d)));
     }
   const EnergyBalance& E = s.energy();
-  std::printf("1 g, 60 s: %lld steps, balance drift %.2e of the largest term (%.2e of damping + plastic); external "
-              "%.3e J, damping %.3e J, boundary %.3e J, plastic %.3e J, kinetic %.3e J, max D %.3f, final max |v| %.3e "
-              "m/s\n",
-              (long long)s.stepCount(), maxError, bal.drift / (E.damping + E.plastic), E.external, E.damping,
-              E.boundary, E.plastic, E.kinetic, dMax, peakV);
+  std::printf(
+      "1 g, 60 s: %lld steps, balance drift %.2e of the largest term (%.2e of damping + plastic); external "
+      "%.3e J, damping %.3e J, boundary %.3e J, plastic %.3e J, kinetic %.3e J, max D %.3f, final max |v| %.3e "
+      "m/s\n",
+      (long long)s.stepCount(), maxError, bal.drift / (E.damping + E.plastic), E.external, E.damping, E.boundary,
+      E.plastic, E.kinetic, dMax, peakV);
   EXPECT_LT(maxError, 0.01);
   EXPECT_GT(E.plastic, 0.05 * E.damping);  // the layer does yield: this is a nonlinear run
   EXPECT_GT(dMax, 0.0);
@@ -331,9 +332,8 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
   Solver s(m, makeBlocksByRegion(m, {{"rock", mat}}), {});
   s.fixFaceGroup("bottom", "xyz");
   s.fixFaceGroup("top", "yz");
-  auto act = std::make_shared<tqtest::DisplacementActuator>(m.faceNodes("top"), 0, [=](Real t) {
-    return gammaA * std::sin(2 * M_PI * t / period);
-  });
+  auto act = std::make_shared<tqtest::DisplacementActuator>(
+      m.faceNodes("top"), 0, [=](Real t) { return gammaA * std::sin(2 * M_PI * t / period); });
   s.addContributor(ForcePhase::Interface, act);  // a prescribed motion: after the loads
   const ElementBlock& b = *s.blocks()[0];
   Real Dprev = 0, maxError = 0, worstSurface = 0;
@@ -366,10 +366,11 @@ TEST(HeavyDamage, CyclicShearToFullDamageStaysOnTheSurfaceAndBooksTheEnergy) {
   }
   const EnergyBalance& E = s.energy();
   const Real stored = E.internal - E.plastic;
-  std::printf("heavy damage: %d plastic steps before D = 1; D = %.6f after %d plastic steps; worst |F|/scale %.1e; actuator work %.4e J, plastic "
-              "%.4e J, stored %.3e J, kinetic %.3e J; max balance error %.1e\n",
-              plasticBeforeFull, Dprev, plasticSteps, worstSurface, act->work(), E.plastic, stored, E.kinetic,
-              maxError);
+  std::printf(
+      "heavy damage: %d plastic steps before D = 1; D = %.6f after %d plastic steps; worst |F|/scale %.1e; actuator "
+      "work %.4e J, plastic "
+      "%.4e J, stored %.3e J, kinetic %.3e J; max balance error %.1e\n",
+      plasticBeforeFull, Dprev, plasticSteps, worstSurface, act->work(), E.plastic, stored, E.kinetic, maxError);
   EXPECT_EQ(Dprev, 1.0);
   // The damage evolves through many plastic states on the surface before D = 1 (23 on both kernel
   // paths, AVX2 and generic). After D = 1 the element carries round-off stresses, and how many of
@@ -405,9 +406,10 @@ TEST(DistortedElements, SkewedAndElongatedElementsAreStableAtTheAutomaticStep) {
       for (Index n = 0; n < m.numNodes(); ++n)
         for (int d = 0; d < 3; ++d) u = std::max(u, std::abs(s.state().u(n, d)));
     }
-    std::printf("%s: dt %.3e s (limiting element %lld, L = %.3f m), energy drift over 5000 steps %.1e, max |u| "
-                "late/early %.2f\n",
-                sh.name, s.dt(), (long long)s.stableStep().element, s.stableStep().charLength, maxErr, uMax / uMax0);
+    std::printf(
+        "%s: dt %.3e s (limiting element %lld, L = %.3f m), energy drift over 5000 steps %.1e, max |u| "
+        "late/early %.2f\n",
+        sh.name, s.dt(), (long long)s.stableStep().element, s.stableStep().charLength, maxErr, uMax / uMax0);
     EXPECT_LT(maxErr, 1e-9) << sh.name;
     EXPECT_LT(uMax / uMax0, 2.0) << sh.name;
   }

@@ -3,17 +3,17 @@
 // through tq-solid end to end, and bad input.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
-#include <unistd.h>
 
+#include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
 #include "tq/app/app.hpp"
-#include "input_fixture.hpp"
 
 using namespace tq;
 
@@ -60,8 +60,8 @@ TEST(IncidentMotion, IntegratesPiecewiseLinearAccelerationExactly) {
   EXPECT_LT(worstU, 1e-12);
   EXPECT_NEAR(m.velocity(0, 0.55), m.velocity(0, 0.4), 1e-15);  // held after the record
   EXPECT_NEAR(m.displacement(0, 0.55), m.displacement(0, 0.4) + 0.15 * m.velocity(0, 0.4), 1e-15);
-  EXPECT_EQ(m.velocity(2, 0.2), 0.0);           // empty component
-  EXPECT_EQ(m.acceleration(0, 0.45), 0.0);      // after the record
+  EXPECT_EQ(m.velocity(2, 0.2), 0.0);       // empty component
+  EXPECT_EQ(m.acceleration(0, 0.45), 0.0);  // after the record
   EXPECT_NEAR(m.acceleration(0, 0.175), 0.5, 1e-14);
 }
 
@@ -85,7 +85,8 @@ TEST(TiedNodes, TiedBarsMoveLikeOneBar) {
         if (std::abs(m.coords[3 * size_t(n) + 2] - 2) > 1e-12) continue;
         if (dup[size_t(n)] < 0) {
           dup[size_t(n)] = m.numNodes();
-          m.coords.insert(m.coords.end(), {m.coords[3 * size_t(n)], m.coords[3 * size_t(n) + 1], m.coords[3 * size_t(n) + 2]});
+          m.coords.insert(m.coords.end(),
+                          {m.coords[3 * size_t(n)], m.coords[3 * size_t(n) + 1], m.coords[3 * size_t(n) + 2]});
           m.rockLiningPairs.insert(m.rockLiningPairs.end(), {n, dup[size_t(n)]});
         }
         n = dup[size_t(n)];

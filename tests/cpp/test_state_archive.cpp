@@ -39,10 +39,10 @@ using namespace tqtest;
 
 namespace {
 
-constexpr Index kNx = 4;            // columns along x (2 m each)
+constexpr Index kNx = 4;             // columns along x (2 m each)
 constexpr Real kW = 2.0, kLy = 2.0;  // column width, slice thickness (m)
-constexpr Real kHr = 8.0;           // rock depth (m), 4 layers
-constexpr Real kHl = 0.5;           // each lining slab (m)
+constexpr Real kHr = 8.0;            // rock depth (m), 4 layers
+constexpr Real kHl = 0.5;            // each lining slab (m)
 
 /// Append box `b` to `m` (new nodes), returning the node offset.
 Index append(Mesh& m, const Mesh& b, Index region) {
@@ -123,8 +123,8 @@ std::unique_ptr<Run> build() {
   opt.damping = RayleighDamping::fromRatio(0.02, 5.0, 50.0);
   run->solver = std::make_unique<Solver>(
       m,
-      makeBlocksByRegion(m, {{"rock", weakRock()},
-                             {"lining", std::make_shared<MohrCoulombDamageMaterial>(paperLining(100))}}),
+      makeBlocksByRegion(
+          m, {{"rock", weakRock()}, {"lining", std::make_shared<MohrCoulombDamageMaterial>(paperLining(100))}}),
       opt);
   Solver& s = *run->solver;
   for (Index n = 0; n < m.numNodes(); ++n) s.fix(n, 1);  // plane strain along y
@@ -190,7 +190,8 @@ std::vector<Real> observe(const Run& run) {
   for (Index n = 0; n < st.numNodes(); ++n)
     for (int d = 0; d < 3; ++d) o.push_back(s.velocityAt(n, d));
   const EnergyBalance& e = s.energy();
-  for (Real x : {e.kinetic, e.internal, e.damping, e.boundary, e.external, e.interface, e.plastic, e.error}) o.push_back(x);
+  for (Real x : {e.kinetic, e.internal, e.damping, e.boundary, e.external, e.interface, e.plastic, e.error})
+    o.push_back(x);
   for (const auto& b : s.blocks()) {
     const Index nh = Index(b->material().historyNames().size());
     for (Index el = 0; el < b->numElems(); ++el) {
@@ -300,15 +301,15 @@ TEST(StateArchive, RestoredSolverRepeatsEveryStepBitwise) {
     Real tieForce = 0;
     for (Index j = 0; j < Index(run->model.tiePairs.size()); ++j)
       tieForce = std::max(tieForce, std::abs(run->tie->force(j)[0]));
-    std::printf("state archive, save after step %ld (t %.4f s): %zu bytes; over the %ld recorded steps %ld of %ld rock "
-                "elements damaged further (max D %.3f), %ld yielded further, plastic dissipation %.4e -> %.4e J; "
-                "pairs failed %ld -> %ld of %ld, %ld carrying force at the save, %ld state changes (%ld pair-steps "
-                "slipping, %ld separated), interface dissipation %.4e -> %.4e J; free-field max |u_x| %.3e m; "
-                "%zu values recorded per step\n",
-                long(n), s.time() - m * s.dt(), ar.bytes(), long(m), long(damaged), long(rock.numElems()), dMax,
-                long(yielded), plastic0, s.energy().plastic, long(failed0), long(failed), long(P), long(loaded0),
-                long(stateChanges), long(slipping), long(separated), interface0, s.energy().interface, colU,
-                first.back().size());
+    std::printf(
+        "state archive, save after step %ld (t %.4f s): %zu bytes; over the %ld recorded steps %ld of %ld rock "
+        "elements damaged further (max D %.3f), %ld yielded further, plastic dissipation %.4e -> %.4e J; "
+        "pairs failed %ld -> %ld of %ld, %ld carrying force at the save, %ld state changes (%ld pair-steps "
+        "slipping, %ld separated), interface dissipation %.4e -> %.4e J; free-field max |u_x| %.3e m; "
+        "%zu values recorded per step\n",
+        long(n), s.time() - m * s.dt(), ar.bytes(), long(m), long(damaged), long(rock.numElems()), dMax, long(yielded),
+        plastic0, s.energy().plastic, long(failed0), long(failed), long(P), long(loaded0), long(stateChanges),
+        long(slipping), long(separated), interface0, s.energy().interface, colU, first.back().size());
     // The recorded steps exercise every part (else equality would prove nothing).
     ASSERT_GT(stateChanges, 0);
     ASSERT_GT(slipping, 0);

@@ -48,10 +48,10 @@ using namespace tqtest;
 
 namespace {
 
-constexpr Real kW = 1.0;    // column width (m)
-constexpr Index kN = 3;     // columns per side
-constexpr Real kHr = 2.0;   // rock depth (m), 4 elements
-constexpr Real kHl = 0.5;   // lining thickness (m), 1 element
+constexpr Real kW = 1.0;   // column width (m)
+constexpr Index kN = 3;    // columns per side
+constexpr Real kHr = 2.0;  // rock depth (m), 4 elements
+constexpr Real kHl = 0.5;  // lining thickness (m), 1 element
 constexpr Real kRhoLining = 2500;
 
 /// Rock block z ∈ [−kHr, 0] under a lining slab z ∈ [0, kHl], interface nodes duplicated (rock
@@ -217,17 +217,18 @@ TEST(NearlySingularInterface, SoftRockPullOffSeparatesEveryPairObeysTheContactLa
     }
     Real finalOpening = 0;
     for (Index p = 0; p < P; ++p) finalOpening = std::max(finalOpening, contact->opening(p, s.state()));
-    std::printf("soft rock E/%.0e (E_r %.1e Pa, f_c %.0f Pa, dt %.3e s, %ld steps): first separation at F = %.4f f_c "
-                "SumA (t %.4f s), all %d pairs at %.4f f_c SumA (%.1f ms later); free flight %.3f s: dp %.6e N s vs "
-                "impulse (rel. %.1e); max opening %.3e m; first landing t %.3f s, %ld landings; min opening %.2e m; "
-                "worst law excess %.1e f_c A (%ld violations); interface dissipation %.4e J (min over the run "
-                "%.1e of the scale); max balance error %.2e; final opening %.2e m, states bonded %d separated %d slipping %d "
-                "stuck %d\n",
-                soften, Er, cp.cohesion, s.dt(), long(s.stepCount()), fFirst / cA, tFirst, int(P), fAll / cA,
-                1e3 * (tAll - tFirst), bestFlight, flightDp, flightRelErr, maxOpening, tLand, long(landings),
-                minOpening, worstLaw, long(lawViolations), s.energy().interface, minDiss, maxErr, finalOpening,
-                int(contact->count(PairState::Bonded)), int(contact->count(PairState::Separated)),
-                int(contact->count(PairState::Slipping)), int(contact->count(PairState::Stuck)));
+    std::printf(
+        "soft rock E/%.0e (E_r %.1e Pa, f_c %.0f Pa, dt %.3e s, %ld steps): first separation at F = %.4f f_c "
+        "SumA (t %.4f s), all %d pairs at %.4f f_c SumA (%.1f ms later); free flight %.3f s: dp %.6e N s vs "
+        "impulse (rel. %.1e); max opening %.3e m; first landing t %.3f s, %ld landings; min opening %.2e m; "
+        "worst law excess %.1e f_c A (%ld violations); interface dissipation %.4e J (min over the run "
+        "%.1e of the scale); max balance error %.2e; final opening %.2e m, states bonded %d separated %d slipping %d "
+        "stuck %d\n",
+        soften, Er, cp.cohesion, s.dt(), long(s.stepCount()), fFirst / cA, tFirst, int(P), fAll / cA,
+        1e3 * (tAll - tFirst), bestFlight, flightDp, flightRelErr, maxOpening, tLand, long(landings), minOpening,
+        worstLaw, long(lawViolations), s.energy().interface, minDiss, maxErr, finalOpening,
+        int(contact->count(PairState::Bonded)), int(contact->count(PairState::Separated)),
+        int(contact->count(PairState::Slipping)), int(contact->count(PairState::Stuck)));
     EXPECT_TRUE(finite);
     EXPECT_EQ(lawViolations, 0);
     EXPECT_GE(minOpening, -1e-12);  // no interpenetration

@@ -5,16 +5,16 @@
 // relative-stiffness solution printed as a second reference.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
-#include <unistd.h>
 
+#include "input_fixture.hpp"
 #include "tq/app/app.hpp"
 #include "tq/contact/contact.hpp"
 #include "tunnel_cases.hpp"
-#include "input_fixture.hpp"
 
 using namespace tq;
 using namespace tqcases;
@@ -26,7 +26,7 @@ namespace {
 ReleaseReference einsteinSchwartz(Real p0, Real lambda, Real a, Real b) {
   const Real t = b - a, R = 0.5 * (a + b), P = (1 - lambda) * p0;
   const Real soil = kEr / (1 - kNur * kNur), liner = kEl / (1 - kNul * kNul);
-  const Real C = soil * R / (liner * t);                  // compressibility ratio C*
+  const Real C = soil * R / (liner * t);                       // compressibility ratio C*
   const Real F = soil * R * R * R / (liner * t * t * t / 12);  // flexibility ratio F*
   const Real a0 = C * F * (1 - kNur) / (C + F + C * F * (1 - kNur));
   ReleaseReference r;
@@ -102,21 +102,23 @@ TEST(StressRelease, LinedTunnelMatchesClosedForm) {
     const ReleaseReference ref = releaseReference(p0, lambda, a, b);
     const ReleaseReference es = einsteinSchwartz(p0, lambda, a, b);
     const ReleaseResult r = stagedRelease(p0, lambda, 12, 3);
-    std::printf("stress release λ = %.2f, p0 = %.3g MPa (%d relaxation steps):\n"
-                "  inner hoop %.4f MPa (closed form %.4f), outer hoop %.4f MPa (closed form %.4f),\n"
-                "  contact pressure %.4f MPa from the interface forces, %.4f MPa from the ring's stresses "
-                "(closed form %.4f)\n"
-                "  Einstein-Schwartz (no slip, thin ring at the mid-surface): contact pressure %.4f MPa, hoop "
-                "%.4f MPa\n",
-                lambda, p0 / 1e6, r.steps, r.hoopIn / 1e6, ref.hoopIn / 1e6, r.hoopOut / 1e6, ref.hoopOut / 1e6,
-                r.pcTie / 1e6, r.pcLame / 1e6, ref.pc / 1e6, es.pc / 1e6, es.hoopIn / 1e6);
+    std::printf(
+        "stress release λ = %.2f, p0 = %.3g MPa (%d relaxation steps):\n"
+        "  inner hoop %.4f MPa (closed form %.4f), outer hoop %.4f MPa (closed form %.4f),\n"
+        "  contact pressure %.4f MPa from the interface forces, %.4f MPa from the ring's stresses "
+        "(closed form %.4f)\n"
+        "  Einstein-Schwartz (no slip, thin ring at the mid-surface): contact pressure %.4f MPa, hoop "
+        "%.4f MPa\n",
+        lambda, p0 / 1e6, r.steps, r.hoopIn / 1e6, ref.hoopIn / 1e6, r.hoopOut / 1e6, ref.hoopOut / 1e6, r.pcTie / 1e6,
+        r.pcLame / 1e6, ref.pc / 1e6, es.pc / 1e6, es.hoopIn / 1e6);
     if (lambda < 1) {
-      std::printf("  relative to the closed form: inner hoop %+.2f %%, outer hoop %+.2f %%, contact pressure %+.2f %% "
-                  "(interface forces) / %+.2f %% (ring); Einstein-Schwartz vs closed form: contact pressure %+.2f %%,"
-                  " hoop %+.2f %% of the inner, %+.2f %% of the outer\n",
-                  100 * (r.hoopIn / ref.hoopIn - 1), 100 * (r.hoopOut / ref.hoopOut - 1),
-                  100 * (r.pcTie / ref.pc - 1), 100 * (r.pcLame / ref.pc - 1), 100 * (es.pc / ref.pc - 1),
-                  100 * (es.hoopIn / ref.hoopIn - 1), 100 * (es.hoopOut / ref.hoopOut - 1));
+      std::printf(
+          "  relative to the closed form: inner hoop %+.2f %%, outer hoop %+.2f %%, contact pressure %+.2f %% "
+          "(interface forces) / %+.2f %% (ring); Einstein-Schwartz vs closed form: contact pressure %+.2f %%,"
+          " hoop %+.2f %% of the inner, %+.2f %% of the outer\n",
+          100 * (r.hoopIn / ref.hoopIn - 1), 100 * (r.hoopOut / ref.hoopOut - 1), 100 * (r.pcTie / ref.pc - 1),
+          100 * (r.pcLame / ref.pc - 1), 100 * (es.pc / ref.pc - 1), 100 * (es.hoopIn / ref.hoopIn - 1),
+          100 * (es.hoopOut / ref.hoopOut - 1));
       EXPECT_NEAR(r.hoopIn / ref.hoopIn, 1, 0.02);
       EXPECT_NEAR(r.hoopOut / ref.hoopOut, 1, 0.02);
       EXPECT_NEAR(r.pcTie / ref.pc, 1, 0.02);
@@ -141,11 +143,12 @@ TEST(StressRelease, ThroughTheDynamicContact) {
   const Real p0 = 5e6, a = 4.5, b = 5.25, lambda = 0.5;
   const ReleaseReference ref = releaseReference(p0, lambda, a, b);
   const ReleaseResult r = stagedRelease(p0, lambda, 12, 3, true);
-  std::printf("stress release λ = %.2f through the dynamic contact (%d relaxation steps, %d failed pairs): inner "
-              "hoop %.4f MPa (%+.2f %%), outer hoop %.4f MPa (%+.2f %%), contact pressure from the ring's stresses "
-              "%.4f MPa (%+.2f %%)\n",
-              lambda, r.steps, r.failedPairs, r.hoopIn / 1e6, 100 * (r.hoopIn / ref.hoopIn - 1), r.hoopOut / 1e6,
-              100 * (r.hoopOut / ref.hoopOut - 1), r.pcLame / 1e6, 100 * (r.pcLame / ref.pc - 1));
+  std::printf(
+      "stress release λ = %.2f through the dynamic contact (%d relaxation steps, %d failed pairs): inner "
+      "hoop %.4f MPa (%+.2f %%), outer hoop %.4f MPa (%+.2f %%), contact pressure from the ring's stresses "
+      "%.4f MPa (%+.2f %%)\n",
+      lambda, r.steps, r.failedPairs, r.hoopIn / 1e6, 100 * (r.hoopIn / ref.hoopIn - 1), r.hoopOut / 1e6,
+      100 * (r.hoopOut / ref.hoopOut - 1), r.pcLame / 1e6, 100 * (r.pcLame / ref.pc - 1));
   EXPECT_EQ(r.failedPairs, 0);
   EXPECT_NEAR(r.hoopIn / ref.hoopIn, 1, 0.02);
   EXPECT_NEAR(r.hoopOut / ref.hoopOut, 1, 0.02);

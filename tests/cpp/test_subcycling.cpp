@@ -103,9 +103,10 @@ TEST(Subcycling, GradedLayerOnRockMatchesKramerAndTheSingleStepRun) {
     if (std::abs(as / F2 - 1) > worstSub) worstSub = std::abs(as / F2 - 1), fSub = f;
     if (std::abs(as / a1 - 1) > worstDiff) worstDiff = std::abs(as / a1 - 1), fDiff = f;
   }
-  std::printf("graded layer on rock, 0.5 .. 12.5 Hz: one step vs F2 worst %.2f %%; subcycled (levels %d, %.2f of "
-              "the evaluations) vs F2 worst %.2f %% at %.2f Hz, vs one step worst %.3f %% at %.2f Hz\n",
-              100 * worstOne, sub.info.levels, sub.info.costFraction, 100 * worstSub, fSub, 100 * worstDiff, fDiff);
+  std::printf(
+      "graded layer on rock, 0.5 .. 12.5 Hz: one step vs F2 worst %.2f %%; subcycled (levels %d, %.2f of "
+      "the evaluations) vs F2 worst %.2f %% at %.2f Hz, vs one step worst %.3f %% at %.2f Hz\n",
+      100 * worstOne, sub.info.levels, sub.info.costFraction, 100 * worstSub, fSub, 100 * worstDiff, fDiff);
   EXPECT_LT(worstOne, 0.03);
   EXPECT_LT(worstSub, 0.03);
   EXPECT_LT(worstDiff, 0.01);

@@ -246,9 +246,8 @@ TEST(Determinism, SlabsOfOneParityShareNoNodeAndCoverEveryChunkOnce) {
 // centres along the set's longest extent (the block's slabs are fronts of the element order, and
 // the fine chunks sit in one or two of them). For every level: the list holds exactly the chunks
 // of level <= L, each once, its slabs of one parity share no node, the finest level's chunks are
-// spread over several slabs, and 1 and 2 threads give the same answer bit for bit. A box graded along z, the slowest index of its
-// element order (layer widths (2i + 1)/24 m: the finest layer is 16 chunks, one level), gives
-// four levels.
+// spread over several slabs, and 1 and 2 threads give the same answer bit for bit. A box graded along z, the slowest
+// index of its element order (layer widths (2i + 1)/24 m: the finest layer is 16 chunks, one level), gives four levels.
 TEST(Determinism, LevelSlabsShareNoNodeCoverTheDueChunksAndAreBitwise) {
   BoxSpec spec{32, 32, 24, 0, 0, 0, 32, 32, 24};
   Mesh m = makeBoxMesh(spec);
@@ -278,7 +277,9 @@ TEST(Determinism, LevelSlabsShareNoNodeCoverTheDueChunksAndAreBitwise) {
       EXPECT_EQ(st.front(), 0);
       EXPECT_EQ(st.back(), Index(cs.size()));
       for (size_t t = 0; t + 1 < st.size(); ++t) EXPECT_LT(st[t], st[t + 1]) << "level " << L << " empty slab " << t;
-      if (L == 0) EXPECT_GE(st.size(), 5u) << "the finest chunks must be spread over several slabs: " << cs.size() << " chunks, " << st.size() - 1 << " slabs, first chunk " << cs.front();
+      if (L == 0)
+        EXPECT_GE(st.size(), 5u) << "the finest chunks must be spread over several slabs: " << cs.size() << " chunks, "
+                                 << st.size() - 1 << " slabs, first chunk " << cs.front();
       for (int parity = 0; parity < 2; ++parity) {
         std::vector<Index> owner(size_t(m.numNodes()), -1);
         for (size_t t = size_t(parity); t + 1 < st.size(); t += 2)
@@ -286,8 +287,8 @@ TEST(Determinism, LevelSlabsShareNoNodeCoverTheDueChunksAndAreBitwise) {
             for (Index e = cs[size_t(k)] * K; e < std::min(b.numElems(), (cs[size_t(k)] + 1) * K); ++e)
               for (int j = 0; j < 8; ++j) {
                 Index& o = owner[size_t(b.node(e, j))];
-                ASSERT_TRUE(o < 0 || o == Index(t)) << "level " << L << ": node " << b.node(e, j) << " in slabs "
-                                                    << o << " and " << t;
+                ASSERT_TRUE(o < 0 || o == Index(t))
+                    << "level " << L << ": node " << b.node(e, j) << " in slabs " << o << " and " << t;
                 o = Index(t);
               }
       }

@@ -49,7 +49,6 @@ TEST(Kirsch, WallHoopStressConvergesAtSecondOrder) {
   EXPECT_GT(crown1, 1.2);
 }
 
-
 // The paper's lining (3 elements through 0.75 m, 48 around) and rock, 1.207 MPa (123 m of water):
 // contact pressure and inner/outer hoop within 3 % of the closed form, with the rock prestressed
 // (p0 = 5 MPa, kx 1.1) before the lining goes in.
@@ -59,10 +58,11 @@ TEST(LinedTunnel, InternalPressureMatchesClosedForm) {
   const Real pcRef = ref.pc, hinRef = ref.hoopIn, houtRef = ref.hoopOut;
   for (Index n : {12, 24}) {
     const LinedResult r = linedTunnel(n, n / 4, pi, p0);
-    std::printf("lined tunnel, %d around the quarter, %d through: contact pressure %+.2f %% (interface forces "
-                "%+.2f %%), inner hoop %+.2f %%, outer hoop %+.2f %% (reference p_c %.4g, hoop %.4g / %.4g MPa)\n",
-                n, n / 4, 100 * (r.pc / pcRef - 1), 100 * (r.pcTie / pcRef - 1), 100 * (r.hoopIn / hinRef - 1),
-                100 * (r.hoopOut / houtRef - 1), pcRef / 1e6, hinRef / 1e6, houtRef / 1e6);
+    std::printf(
+        "lined tunnel, %d around the quarter, %d through: contact pressure %+.2f %% (interface forces "
+        "%+.2f %%), inner hoop %+.2f %%, outer hoop %+.2f %% (reference p_c %.4g, hoop %.4g / %.4g MPa)\n",
+        n, n / 4, 100 * (r.pc / pcRef - 1), 100 * (r.pcTie / pcRef - 1), 100 * (r.hoopIn / hinRef - 1),
+        100 * (r.hoopOut / houtRef - 1), pcRef / 1e6, hinRef / 1e6, houtRef / 1e6);
     if (n == 12) {  // the paper's mesh
       EXPECT_NEAR(r.pc / pcRef, 1, 0.03);
       EXPECT_NEAR(r.pcTie / pcRef, 1, 0.03);

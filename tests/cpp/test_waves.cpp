@@ -47,17 +47,17 @@ TEST_P(WaveColumn, SurfaceIsTwiceIncidentAndNothingComesBack) {
   const Real H = 100;
   const Real c = pc.dir == 0 ? kCs : kCp;
   const tqcases::WaveColumnResult r = tqcases::waveColumn(pc.dir, 100, 0, H);
-  std::printf("wave column %s: peak error %+.3f %%, L2 error %.3f %%, tail energy %.2e of the pulse's (t = %.3f s, "
-              "2H/c = %.3f s), energy balance error %.1e\n",
-              pc.name, 100 * r.peakErr, 100 * r.l2, r.tailEnergy, r.tEnd, 2 * H / c, r.balance);
+  std::printf(
+      "wave column %s: peak error %+.3f %%, L2 error %.3f %%, tail energy %.2e of the pulse's (t = %.3f s, "
+      "2H/c = %.3f s), energy balance error %.1e\n",
+      pc.name, 100 * r.peakErr, 100 * r.l2, r.tailEnergy, r.tEnd, 2 * H / c, r.balance);
   EXPECT_LT(std::abs(r.peakErr), 0.02);
   EXPECT_LT(r.l2, 0.02);
   EXPECT_LT(r.tailEnergy, 0.01);
   EXPECT_LT(r.balance, 0.01);  // kinetic + internal + boundary − external (input) closes
 }
 
-INSTANTIATE_TEST_SUITE_P(VerticalIncidence, WaveColumn,
-                         ::testing::Values(PulseCase{"SH", 0}, PulseCase{"P", 2}),
+INSTANTIATE_TEST_SUITE_P(VerticalIncidence, WaveColumn, ::testing::Values(PulseCase{"SH", 0}, PulseCase{"P", 2}),
                          [](const auto& i) { return std::string(i.param.name); });
 
 // Layer (soil, cs 500 m/s, ρ 1900) of H = 50 m on elastic rock (cs 1500 m/s, ρ 2500: the base's
@@ -120,9 +120,10 @@ TEST(WaveColumnLayer, TransferFunctionOfLayerOnRockMatchesKramer) {
     if (std::getenv("TQ_PRINT_TF"))
       std::printf("  f %6.2f  |model| %.4f  |F2| %.4f  |F2_h| %.4f\n", f, std::abs(model), F2, Fh);
   }
-  std::printf("layer on rock: vs Kramer F2 worst %.2f %% at %.2f Hz (0.5 .. %.0f Hz); vs the discrete model's exact "
-              "transfer function worst %.1e at %.2f Hz (0.5 .. %.0f Hz); peaks 1/alpha = %.2f\n",
-              100 * worstA, fA, csS / (40 * h), worstB, fB, csS / (8 * h), 1 / alpha);
+  std::printf(
+      "layer on rock: vs Kramer F2 worst %.2f %% at %.2f Hz (0.5 .. %.0f Hz); vs the discrete model's exact "
+      "transfer function worst %.1e at %.2f Hz (0.5 .. %.0f Hz); peaks 1/alpha = %.2f\n",
+      100 * worstA, fA, csS / (40 * h), worstB, fB, csS / (8 * h), 1 / alpha);
   EXPECT_LT(worstA, 0.03);
   EXPECT_LT(worstB, 0.01);
 }
@@ -197,10 +198,11 @@ TEST(FreeField, BlockFollowsTheColumnAtEveryHeight) {
         uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
       }
   }
-  std::printf("free-field block: max |u_node - u_column| / column peak: x %.2e, z %.2e (peaks %.3e, %.3e m); "
-              "energy balance error %.2e; %s\n",
-              worst[0] / peak[0], worst[2] / peak[2], peak[0], peak[2], s.energy().error,
-              run.stages->reports().back().note.c_str());
+  std::printf(
+      "free-field block: max |u_node - u_column| / column peak: x %.2e, z %.2e (peaks %.3e, %.3e m); "
+      "energy balance error %.2e; %s\n",
+      worst[0] / peak[0], worst[2] / peak[2], peak[0], peak[2], s.energy().error,
+      run.stages->reports().back().note.c_str());
   EXPECT_LT(worst[0] / peak[0], 0.01);
   EXPECT_LT(worst[2] / peak[2], 0.01);
   EXPECT_GT(peak[0], 0.015);  // the surface doubles the 0.01 m incident pulse

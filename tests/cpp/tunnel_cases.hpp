@@ -15,14 +15,13 @@ namespace tqcases {
 
 using namespace tq;
 
-
 struct QuarterSpec {
-  Real b = 5.25;        // hole radius (m)
-  Real L = 105;         // outer square half-side (m)
-  Index nTheta = 12;    // elements around the quarter
-  Real liningT = 0;     // lining thickness (m); 0: no lining
-  Index nLining = 3;    // elements through the lining
-  Real width = 0.5;     // slice thickness along y (m)
+  Real b = 5.25;      // hole radius (m)
+  Real L = 105;       // outer square half-side (m)
+  Index nTheta = 12;  // elements around the quarter
+  Real liningT = 0;   // lining thickness (m); 0: no lining
+  Index nLining = 3;  // elements through the lining
+  Real width = 0.5;   // slice thickness along y (m)
 };
 
 /// Quarter plate with a hole (and optionally a lining ring with duplicated interface nodes).
@@ -58,8 +57,8 @@ inline Mesh quarterPlate(const QuarterSpec& q) {
                       const std::string& outer, bool splitOuter) {
     for (Index j = 0; j < nj; ++j)
       for (Index i = 0; i < nt; ++i) {
-        const Index c[8] = {at(id, nj, i, j, 0),     at(id, nj, i + 1, j, 0),     at(id, nj, i + 1, j + 1, 0),
-                            at(id, nj, i, j + 1, 0), at(id, nj, i, j, 1),         at(id, nj, i + 1, j, 1),
+        const Index c[8] = {at(id, nj, i, j, 0),         at(id, nj, i + 1, j, 0), at(id, nj, i + 1, j + 1, 0),
+                            at(id, nj, i, j + 1, 0),     at(id, nj, i, j, 1),     at(id, nj, i + 1, j, 1),
                             at(id, nj, i + 1, j + 1, 1), at(id, nj, i, j + 1, 1)};
         m.connectivity.insert(m.connectivity.end(), c, c + 8);
         m.region.push_back(region);
@@ -158,13 +157,13 @@ inline KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
   res.errCrown = wall(nTheta - 1);
   res.steps = run.stages->reports().back().steps;
   res.elems = run.mesh.numElems();
-  std::printf("Kirsch k = %.2f, %d around the quarter (%d elements): sidewall %+.2f %%, crown %+.2f %% (θ_c = "
-              "%.2f°), %d relaxation steps\n",
-              k, nTheta, res.elems, 100 * res.errSide, 100 * res.errCrown, 90 - 0.5 * dth * 180 / M_PI, res.steps);
+  std::printf(
+      "Kirsch k = %.2f, %d around the quarter (%d elements): sidewall %+.2f %%, crown %+.2f %% (θ_c = "
+      "%.2f°), %d relaxation steps\n",
+      k, nTheta, res.elems, 100 * res.errSide, 100 * res.errCrown, 90 - 0.5 * dth * 180 / M_PI, res.steps);
   (void)dth;
   return res;
 }
-
 
 // Lined tunnel (tests/verification/solid_lined_tunnel): the paper's lining
 // a = 4.5 m to b = 5.25 m installed stress-free after the excavation, bonded to the rock, then a
@@ -244,7 +243,7 @@ inline ReleaseReference releaseReference(Real p0, Real lambda, Real a, Real b) {
 
 struct LinedResult {
   Real hoopIn = 0, hoopOut = 0, pc = 0, pcTie = 0;  // lining stresses (tension positive), contact pressure
-  Index steps = 0, elems = 0;  // relaxation steps of all four stages, elements
+  Index steps = 0, elems = 0;                       // relaxation steps of all four stages, elements
 };
 
 /// The lined tunnel's quarter model (lining a = 4.5 m to b = 5.25 m, bonded) in `run`, relaxed
@@ -294,7 +293,5 @@ inline LinedResult linedTunnel(Index nTheta, Index nThrough, Real pi, Real p0, R
   res.pcTie = tieContactPressure(run, qs, nTheta);
   return res;
 }
-
-
 
 }  // namespace tqcases

@@ -26,7 +26,7 @@ const Real kCp = kCs * std::sqrt(2 * (1 - kNu) / (1 - 2 * kNu));
 /// sides: a 1D field), viscoelastic base, sequence "seismic" only.
 struct ColumnRun : StagedRun {
   std::shared_ptr<TiedNodeGroups> tie;
-  Real width = 1.0;  ///< the column's cross-section side (m)
+  Real width = 1.0;                    ///< the column's cross-section side (m)
   std::function<void(Mesh&)> reshape;  ///< if set: moves the nodes before the build (graded columns)
   void setUp(Real H, Index n, std::vector<std::pair<std::string, ElasticParams>> mats, Real zSplit,
              const MotionInput& motion, BottomBoundaryInput bottom) {

@@ -31,7 +31,8 @@ namespace tq {
 
 namespace {
 const char* kUsage =
-    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume [--resume-sequence N]]]\n"
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume "
+    "[--resume-sequence N]]]\n"
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
@@ -114,7 +115,8 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
     }
   }
   if (cl.input.empty() || (cl.resume && cl.checkpointDir.empty())) {
-    err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n") << kUsage;
+    err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n")
+        << kUsage;
     return 1;
   }
   return -1;
@@ -149,8 +151,8 @@ void describeModel(const Model& m, std::ostream& out) {
   out << "tq-solid: " << m.mesh.numNodes() << " nodes, " << m.nElems << " elements in " << s.blocks().size()
       << " block(s), " << integratorName(s.options().integrator) << ", " << formulationName(m.in.formulation)
       << "\n  stable step " << st.dtCritical << " s (element " << st.element << " of '" << st.block
-      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(m.in.tEnd / s.dt())) << " steps to t_end = "
-      << m.in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
+      << "'), dt = " << s.dt() << " s, " << std::llround(std::ceil(m.in.tEnd / s.dt()))
+      << " steps to t_end = " << m.in.tEnd << " s, " << omp_get_max_threads() << " thread(s)\n";
   if (m.stages) {
     out << "  stages:";
     for (const auto& n : m.in.staged.stages.sequence) out << " " << n;
@@ -165,7 +167,7 @@ void describeModel(const Model& m, std::ostream& out) {
 /// The checkpoint folder refuses the run (another tq-solid holds it, or it has no checkpoint of
 /// this run to resume from): exit 2 with the message as it is.
 class CheckpointRefusal : public std::runtime_error {
-public:
+ public:
   using std::runtime_error::runtime_error;
 };
 
@@ -174,7 +176,7 @@ enum Exit : int { kInputError = 2, kInstability = 3, kCouplingStopped = 4, kOutp
 
 /// One run of tq-solid: the starter, then the engine's parts in the order they run (exec).
 class SolidRun {
-public:
+ public:
   SolidRun(CommandLine cl, std::ostream& out, std::ostream& err, std::unique_ptr<CouplingMpi>& mpi)
       : cl_(std::move(cl)), out_(out), err_(err), mpi_(mpi) {}
   SolidRun(const SolidRun&) = delete;
@@ -185,7 +187,7 @@ public:
   }
   int exec();
 
-private:
+ private:
   // The engine, in the order exec runs it.
   void startMpi();
   void openCheckpoints();
@@ -271,19 +273,20 @@ int SolidRun::stop(Exit code, const std::string& message, const char* label) {
   if (coupling_ && code != kCouplingStopped) coupling_->abort("the solid stopped: " + message);
   const std::string status = "stopped: " + message;
   err_ << "tq-solid: " << label << message << "\n";
-  if (code == kOutputError) {  // a full disk, a quota, an I/O error
+  if (code == kOutputError) {          // a full disk, a quota, an I/O error
     if (!writerStarted_) return code;  // the checkpoint folder, before the results file
-    if (!writer_) {  // the file could not even be started: nothing of it is worth keeping
+    if (!writer_) {                    // the file could not even be started: nothing of it is worth keeping
       std::remove(cl_.output.c_str());
       err_ << "  no results written (" << cl_.output << " removed); free space on its file system and run again\n";
     } else if (!writer_->stopAfterOutputError(status)) {
       err_ << "  " << cl_.output << " holds the samples up to its last flush; its status could not be written\n";
     } else if (writer_->samples() == 0) {
-      err_ << "  no monitor sample written yet; " << cl_.output << " holds the run's set-up with status 'stopped: ...'; "
+      err_ << "  no monitor sample written yet; " << cl_.output
+           << " holds the run's set-up with status 'stopped: ...'; "
            << "free space on its file system and run again\n";
     } else {
-      err_ << "  results up to t = " << writer_->lastSampleTime() << " s (" << writer_->samples()
-           << " samples) are in " << cl_.output << " with status 'stopped: ...'; free space on its file system and "
+      err_ << "  results up to t = " << writer_->lastSampleTime() << " s (" << writer_->samples() << " samples) are in "
+           << cl_.output << " with status 'stopped: ...'; free space on its file system and "
            << "run again\n";
     }
     return code;
@@ -322,7 +325,8 @@ void SolidRun::openCheckpoints() {
   } catch (const InputError& e) {
     throw CheckpointRefusal(e.what());
   }
-  if (m_.in.staged.coupling.present) checkpoints_->setKeep(2);  // the water's checkpoint of a window comes after the solid's
+  if (m_.in.staged.coupling.present)
+    checkpoints_->setKeep(2);  // the water's checkpoint of a window comes after the solid's
   if (!cl_.resume) return;
   std::string why;
   if (!checkpoints_->last(resumeFrom_, why, cl_.resumeSequence)) throw CheckpointRefusal("cannot resume: " + why);
@@ -376,11 +380,15 @@ void SolidRun::addCouplingSeries() {
   const Solver& s = *m_.solver;
   ResultsWriter& results = *writer_;
   FluidCoupling* c = coupling_.get();
-  results.addSeries("/energy/fluid_work", [c] { return c->fluidWork(); }, "fluid_work");
-  results.addSeries("/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
-  results.addSeries("/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
+  results.addSeries(
+      "/energy/fluid_work", [c] { return c->fluidWork(); }, "fluid_work");
+  results.addSeries(
+      "/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
+  results.addSeries(
+      "/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
   if (c->hasVolumeLaw())
-    results.addSeries("/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
+    results.addSeries(
+        "/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
   results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
                            [c]() -> const std::vector<Real>& { return c->force(); });
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
@@ -388,20 +396,26 @@ void SolidRun::addCouplingSeries() {
   // (m/s²), both of the same step, per direction.
   for (int d = 0; d < 3; ++d) {
     const std::string axis(1, "xyz"[d]);
-    results.addSeries("/coupling/force_" + axis, [c, d] {
-      Real sum = 0;
-      const auto& F = c->force();
-      for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
-      return sum;
-    }, "force_" + axis);
-    results.addSeries("/coupling/acceleration_" + axis, [c, &st = s.state(), d] {
-      Real ma = 0, m = 0;
-      for (Index n : c->nodes()) {
-        ma += st.mass(n) * st.a(n, d);
-        m += st.mass(n);
-      }
-      return m > 0 ? ma / m : Real(0);
-    }, "acceleration_" + axis);
+    results.addSeries(
+        "/coupling/force_" + axis,
+        [c, d] {
+          Real sum = 0;
+          const auto& F = c->force();
+          for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+          return sum;
+        },
+        "force_" + axis);
+    results.addSeries(
+        "/coupling/acceleration_" + axis,
+        [c, &st = s.state(), d] {
+          Real ma = 0, m = 0;
+          for (Index n : c->nodes()) {
+            ma += st.mass(n) * st.a(n, d);
+            m += st.mass(n);
+          }
+          return m > 0 ? ma / m : Real(0);
+        },
+        "acceleration_" + axis);
   }
 }
 
@@ -445,10 +459,9 @@ void SolidRun::restoreOrStart() {
   nextCheckpoint_ = m_.in.checkpointInterval;
   // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
   // windows, at least 1), a rule the water applies to its own window count too.
-  checkpointWindows_ =
-      coupling_ && m_.in.checkpointInterval > 0
-          ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
-          : 0;
+  checkpointWindows_ = coupling_ && m_.in.checkpointInterval > 0
+                           ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
+                           : 0;
   if (!cl_.resume) {
     if (checkpoints_) checkpoints_->clear();
     writer_->sample(s);
@@ -512,11 +525,11 @@ void SolidRun::stepToEnd() {
 void SolidRun::writeCheckpoint(Real t) {
   const Solver& s = *m_.solver;
   const Real tEnd = m_.in.tEnd;
-  const bool due = coupling_ ? checkpointWindows_ > 0 && !coupling_->windowOpen() &&
-                                   coupling_->windowsDone() % checkpointWindows_ == 0 &&
-                                   coupling_->windowsDone() < coupling_->windowCount()
-                             : m_.in.checkpointInterval > 0 && t >= nextCheckpoint_ - 1e-9 * s.dt() &&
-                                   t < tEnd - 1e-9 * s.dt();
+  const bool due =
+      coupling_
+          ? checkpointWindows_ > 0 && !coupling_->windowOpen() && coupling_->windowsDone() % checkpointWindows_ == 0 &&
+                coupling_->windowsDone() < coupling_->windowCount()
+          : m_.in.checkpointInterval > 0 && t >= nextCheckpoint_ - 1e-9 * s.dt() && t < tEnd - 1e-9 * s.dt();
   if (!checkpoints_ || !due) return;
   const auto c0 = std::chrono::steady_clock::now();
   while (t >= nextCheckpoint_ - 1e-9 * s.dt()) nextCheckpoint_ += m_.in.checkpointInterval;
@@ -559,26 +572,30 @@ void SolidRun::writeCouplingSummary() {
   if (!coupling_) return;
   const FluidCouplingStats cs = coupling_->stats();
   const FluidCoupling& c = *coupling_;
-  writer_->writeAttrs("/coupling", {{"windows", double(cs.windows)}, {"passes", double(cs.passes)},
-                                    {"max_passes", double(cs.maxPasses)}, {"exchange_s", cs.secondsExchanging},
-                                    {"unconverged_windows", double(cs.unconvergedWindows)},
-                                    {"window_size", c.windowSize()}, {"fluid_work", c.fluidWork()},
-                                    {"fluid_received_work", c.fluidReceivedWork()},
-                                    {"coupling_energy", c.couplingEnergy()},
-                                    {"volume_law_work", c.volumeLawWork()},
-                                    {"enclosed_volume", c.enclosedVolume()},
-                                    {"interface_work_peak", c.interfaceWorkPeak()},
-                                    {"energy_floor", c.energyFloor()},
-                                    {"energy_limit", m_.in.staged.coupling.energyLimit},
-                                    // cost split over the stepping (docs/coupler.md "Exchange cost")
-                                    {"coupled_wall_s", cs.secondsCoupled},
-                                    {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
-                                    {"coupler_s", cs.secondsInCoupler},
-                                    {"exchange_wait_s", cs.secondsWaiting},
-                                    {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
-                                    {"mapping_s", cs.secondsMapping},
-                                    {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
-                                    {"coupler_cpu_s", cs.cpuInCoupler}},
+  writer_->writeAttrs("/coupling",
+                      {{"windows", double(cs.windows)},
+                       {"passes", double(cs.passes)},
+                       {"max_passes", double(cs.maxPasses)},
+                       {"exchange_s", cs.secondsExchanging},
+                       {"unconverged_windows", double(cs.unconvergedWindows)},
+                       {"window_size", c.windowSize()},
+                       {"fluid_work", c.fluidWork()},
+                       {"fluid_received_work", c.fluidReceivedWork()},
+                       {"coupling_energy", c.couplingEnergy()},
+                       {"volume_law_work", c.volumeLawWork()},
+                       {"enclosed_volume", c.enclosedVolume()},
+                       {"interface_work_peak", c.interfaceWorkPeak()},
+                       {"energy_floor", c.energyFloor()},
+                       {"energy_limit", m_.in.staged.coupling.energyLimit},
+                       // cost split over the stepping (docs/coupler.md "Exchange cost")
+                       {"coupled_wall_s", cs.secondsCoupled},
+                       {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                       {"coupler_s", cs.secondsInCoupler},
+                       {"exchange_wait_s", cs.secondsWaiting},
+                       {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
+                       {"mapping_s", cs.secondsMapping},
+                       {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
+                       {"coupler_cpu_s", cs.cpuInCoupler}},
                       {{"scheme", m_.in.staged.coupling.scheme}});
 }
 
@@ -606,7 +623,8 @@ void SolidRun::finish() {
   const long long steps = m_.solver->stepCount() - step0_;
   writeTimings(wall);
   if (checkpoints_) {
-    writer_->writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten_)}, {"checkpoint_s", checkpointSeconds_},
+    writer_->writeAttrs("/timings", {{"checkpoints", double(checkpointsWritten_)},
+                                     {"checkpoint_s", checkpointSeconds_},
                                      {"checkpoint_interval", m_.in.checkpointInterval}});
   }
   writer_->setStatus("completed");

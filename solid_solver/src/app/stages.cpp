@@ -17,9 +17,7 @@ namespace tq {
 
 namespace {
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 Real zTopOf(const Mesh& m) {
   Real z = -std::numeric_limits<Real>::max();
@@ -51,7 +49,8 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
     throw InputError("solid input '" + in.path + "', /stages: release_fraction = " + std::to_string(lambda) +
                      " must lie in [0, 1]");
   if (lambda < 1 && !(S.stages.has("excavation") && S.stages.has("lining")))
-    throw InputError("solid input '" + in.path + "', /stages: release_fraction < 1 holds part of the excavation "
+    throw InputError("solid input '" + in.path +
+                     "', /stages: release_fraction < 1 holds part of the excavation "
                      "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
   for (auto& b : solver_.blocks())
     if (b->name() == S.stages.liningRegion) lining_ = b.get();
@@ -61,7 +60,8 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
       throw InputError("solid input '" + in.path + "', /stages: the lining stage needs region '" +
                        S.stages.liningRegion + "' in mesh " + mesh.source + " (set lining_region or remove the stage)");
     if (mesh.rockLiningPairs.empty())
-      throw InputError("mesh " + mesh.source + " has no /interfaces/rock_lining node pairs, which the lining "
+      throw InputError("mesh " + mesh.source +
+                       " has no /interfaces/rock_lining node pairs, which the lining "
                        "stage needs to join the lining to the rock");
   }
   if (S.stages.has("hydrostatic") && !mesh.faces.count(S.hydrostatic.face))
@@ -237,8 +237,8 @@ StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& lo
       << st.tolerance << "), " << std::setprecision(3) << rep.wallSeconds << " s" << std::endl;
   if (!r.converged) {
     std::ostringstream os;
-    os << "stage '" << name << "' did not reach static equilibrium: unbalanced-force ratio " << r.ratio
-       << " after " << r.steps << " dynamic relaxation steps (tolerance " << st.tolerance
+    os << "stage '" << name << "' did not reach static equilibrium: unbalanced-force ratio " << r.ratio << " after "
+       << r.steps << " dynamic relaxation steps (tolerance " << st.tolerance
        << "). Raise /stages relaxation_max_steps (case: stages.relaxation_max_steps) or the tolerance, or check "
           "the supports (a part free to move as a rigid body never settles).";
     throw InstabilityError(os.str());
@@ -258,8 +258,8 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
     log << "  " << rep.note << std::endl;
     return;
   }
-  auto tie = std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)",
-                                              TiedNodeGroups::pairs(mesh_.rockLiningPairs));
+  auto tie =
+      std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)", TiedNodeGroups::pairs(mesh_.rockLiningPairs));
   tie->install(solver_);
   interface_ = tie;
   solver_.addContributor(ForcePhase::Interface, tie);
@@ -338,9 +338,9 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
         solver_.computeForces(true);
         rep.ratio = solver_.unbalancedRatio(true);
         rep.note = "in-situ stress set; unbalanced ratio before excavation " + std::to_string(rep.ratio);
-        log << "  stage in_situ: stresses set (kx " << S.inSitu.kx << ", ky " << S.inSitu.ky << ", kz "
-            << S.inSitu.kz << ", g " << S.inSitu.gravity << " m/s²); unbalanced ratio " << rep.ratio
-            << " (released core tractions)" << std::endl;
+        log << "  stage in_situ: stresses set (kx " << S.inSitu.kx << ", ky " << S.inSitu.ky << ", kz " << S.inSitu.kz
+            << ", g " << S.inSitu.gravity << " m/s²); unbalanced ratio " << rep.ratio << " (released core tractions)"
+            << std::endl;
         reports_.push_back(rep);
       } else {
         reports_.push_back(relaxStage(name, log, progressSeconds));
@@ -381,8 +381,8 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
       solver_.addContributor(ForcePhase::Loads, pressure_);
       StageReport rep = relaxStage(name, log, progressSeconds);
       std::ostringstream os;
-      os << "p = " << H.pressureAtAxis << " Pa at z = " << H.zAxis << " m, gradient " << H.unitWeight
-         << " N/m^3 on '" << H.face << "'";
+      os << "p = " << H.pressureAtAxis << " Pa at z = " << H.zAxis << " m, gradient " << H.unitWeight << " N/m^3 on '"
+         << H.face << "'";
       rep.note = os.str();
       reports_.push_back(rep);
     }
@@ -509,8 +509,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     if (!spec.freeFieldFaces.empty()) {
       os << (spec.bottom ? "; " : "") << "free-field sides:";
       for (const auto& f : spec.freeFieldFaces) os << " " << f;
-      os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers()
-         << " layers)";
+      os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers() << " layers)";
     }
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
@@ -564,8 +563,8 @@ std::string elementSizeWarning(const Solver& solver, Real f) {
   os.precision(4);
   os << "warning: " << count << " of " << total << " elements are larger than λ_min/8 = c_s/(8 f) for the motion's "
      << "cut-off f = " << f << " Hz (Kuhlemeyer & Lysmer 1973); worst: element " << worstElem << " of '" << worstBlock
-     << "', longest edge " << worstH << " m > " << worstCs / (8 * f) << " m (c_s = " << worstCs << " m/s), "
-     << worst << " times the limit. Waves near " << f << " Hz are under-resolved there: refine the mesh "
+     << "', longest edge " << worstH << " m > " << worstCs / (8 * f) << " m (c_s = " << worstCs << " m/s), " << worst
+     << " times the limit. Waves near " << f << " Hz are under-resolved there: refine the mesh "
      << "(mesh.max_element_size) or lower the cut-off.";
   return os.str();
 }

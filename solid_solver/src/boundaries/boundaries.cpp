@@ -93,8 +93,8 @@ AxisFace axisFace(const Mesh& mesh, const std::string& group) {
   if (!(len > 0) || std::abs(n[f.axis]) < (1 - 1e-9) * len || hi - lo > 1e-9 * ext) {
     std::ostringstream os;
     os << mshort(mesh) << ": face group '" << group
-       << "' must be a plane perpendicular to x, y or z for this boundary (its nodes span "
-       << hi - lo << " m along " << "xyz"[f.axis] << "); use an axis-aligned block boundary";
+       << "' must be a plane perpendicular to x, y or z for this boundary (its nodes span " << hi - lo << " m along "
+       << "xyz"[f.axis] << "); use an axis-aligned block boundary";
     throw InputError(os.str());
   }
   for (const auto& [node, a] : area) {
@@ -138,7 +138,7 @@ struct Owner {
 };
 
 class QuadOwners {
-public:
+ public:
   explicit QuadOwners(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks) : blocks_(blocks) {
     const Index N = mesh.numNodes();
     start_.assign(size_t(N) + 1, 0);
@@ -167,7 +167,7 @@ public:
     return {};
   }
 
-private:
+ private:
   const std::vector<std::unique_ptr<ElementBlock>>& blocks_;
   std::vector<Index> start_;
   std::vector<Owner> list_;
@@ -235,8 +235,7 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
                std::abs(have.lambda - L.lambda) > 1e-9 * std::abs(have.mu)) {
       std::ostringstream os;
       os << mshort(mesh) << ": face group '" << group << "' has two materials in the layer z = " << levels[size_t(l0)]
-         << " .. " << levels[size_t(l0) + 1]
-         << " m (block '" << blocks[size_t(o.block)]->name()
+         << " .. " << levels[size_t(l0) + 1] << " m (block '" << blocks[size_t(o.block)]->name()
          << "' differs); a free-field column needs one material per horizontal layer (use rollers on that face)";
       throw InputError(os.str());
     }
@@ -285,8 +284,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
     const Real G = hs.rho * hs.cs * hs.cs;
     if (!(spec_.distance > 0))
       throw InputError("viscoelastic base: distance R must be > 0 m (got " + std::to_string(spec_.distance) + ")");
-    kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance,
-              spec_.alphaN * G / spec_.distance};
+    kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance, spec_.alphaN * G / spec_.distance};
     cArea_ = {hs.rho * hs.cs, hs.rho * hs.cs, hs.rho * hs.cp};
   }
   // Free-field sides: per node dashpots and column interpolation, per quad the traction loads.

@@ -7,8 +7,7 @@
 
 namespace tq {
 
-IncidentMotion::IncidentMotion(std::vector<Real> t, std::vector<Real> ax, std::vector<Real> ay,
-                               std::vector<Real> az)
+IncidentMotion::IncidentMotion(std::vector<Real> t, std::vector<Real> ax, std::vector<Real> ay, std::vector<Real> az)
     : t_(std::move(t)) {
   const size_t n = t_.size();
   std::array<std::vector<Real>*, 3> in = {&ax, &ay, &az};
@@ -23,8 +22,8 @@ IncidentMotion::IncidentMotion(std::vector<Real> t, std::vector<Real> ax, std::v
     // the same as tunnelquake.motion.integrate).
     for (size_t k = 0; k + 1 < n; ++k) {
       const Real h = t_[k + 1] - t_[k];
-      if (!(h > 0)) throw InputError("incident motion: time must be strictly increasing (sample " +
-                                     std::to_string(k + 1) + ")");
+      if (!(h > 0))
+        throw InputError("incident motion: time must be strictly increasing (sample " + std::to_string(k + 1) + ")");
       v_[d][k + 1] = v_[d][k] + 0.5 * h * (a_[d][k] + a_[d][k + 1]);
       u_[d][k + 1] = u_[d][k] + h * v_[d][k] + h * h * (a_[d][k] / 3 + a_[d][k + 1] / 6);
     }
@@ -59,12 +58,12 @@ Real IncidentMotion::displacement(int d, Real t) const {
   return u_[d][k] + v_[d][k] * s + 0.5 * a_[d][k] * s * s + j * s * s * s / 6;
 }
 
-FreeFieldColumn::FreeFieldColumn(std::vector<Real> levels, std::vector<ColumnLayer> layers,
-                                 BaseHalfSpace base, RayleighDamping damping)
+FreeFieldColumn::FreeFieldColumn(std::vector<Real> levels, std::vector<ColumnLayer> layers, BaseHalfSpace base,
+                                 RayleighDamping damping)
     : z_(std::move(levels)), layers_(std::move(layers)), base_(base), damping_(damping) {
   if (z_.size() < 2 || layers_.size() + 1 != z_.size())
-    throw InputError("free-field column: needs n + 1 levels for n >= 1 layers (got " +
-                     std::to_string(z_.size()) + " levels, " + std::to_string(layers_.size()) + " layers)");
+    throw InputError("free-field column: needs n + 1 levels for n >= 1 layers (got " + std::to_string(z_.size()) +
+                     " levels, " + std::to_string(layers_.size()) + " layers)");
   for (size_t k = 0; k + 1 < z_.size(); ++k)
     if (!(z_[k + 1] > z_[k])) throw InputError("free-field column: levels must increase upwards");
   if (!(base_.rho > 0 && base_.cp > 0 && base_.cs > 0))

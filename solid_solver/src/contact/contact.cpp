@@ -42,8 +42,7 @@ void ContactParams::check() const {
     bad("static_friction", staticFriction, "give μs >= 0 (paper: 0.6)");
   if (!(dynamicFriction >= 0) || !(dynamicFriction <= staticFriction))
     bad("dynamic_friction", dynamicFriction, "give 0 <= μd <= μs (paper: both 0.6)");
-  if (!(cohesion >= 0) || !std::isfinite(cohesion))
-    bad("cohesion", cohesion, "give f_c in Pa (>= 0; paper: 0.5e6)");
+  if (!(cohesion >= 0) || !std::isfinite(cohesion)) bad("cohesion", cohesion, "give f_c in Pa (>= 0; paper: 0.5e6)");
 }
 
 ContactParams contactParamsFrom(const InterfaceInput& in) {
@@ -61,8 +60,9 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
   const size_t P = mesh.rockLiningPairs.size() / 2;
   const std::string where = "rock-lining interface of mesh " + mesh.source;
   if (P == 0)
-    throw InputError(where + ": the mesh has no node pairs (/interfaces/rock_lining); re-mesh with the "
-                             "interface pairs or use a model without the interface");
+    throw InputError(where +
+                     ": the mesh has no node pairs (/interfaces/rock_lining); re-mesh with the "
+                     "interface pairs or use a model without the interface");
   std::string face;
   Real sign = 1;
   bool onLining = true;
@@ -73,8 +73,9 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
     sign = -1;  // rock_hole's outward normal points into the hole, i.e. from rock to lining
     onLining = false;
   } else {
-    throw InputError(where + ": needs the face group lining_outer (or rock_hole) for the pairs' normals and "
-                             "tributary areas; it must be a physical group written to /faces/<name>");
+    throw InputError(where +
+                     ": needs the face group lining_outer (or rock_hole) for the pairs' normals and "
+                     "tributary areas; it must be a physical group written to /faces/<name>");
   }
   const Index N = mesh.numNodes();
   std::vector<Real> area(size_t(N), 0.0), nsum(3 * size_t(N), 0.0);
@@ -114,7 +115,8 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
       throw InputError(os.str());
     }
     const size_t n = size_t(onLining ? b : a);
-    const Real len = std::sqrt(nsum[3 * n] * nsum[3 * n] + nsum[3 * n + 1] * nsum[3 * n + 1] + nsum[3 * n + 2] * nsum[3 * n + 2]);
+    const Real len =
+        std::sqrt(nsum[3 * n] * nsum[3 * n] + nsum[3 * n + 1] * nsum[3 * n + 1] + nsum[3 * n + 2] * nsum[3 * n + 2]);
     if (!(area[n] > 0) || !(len > 0)) {
       std::ostringstream os;
       os << where << ": pair " << p << " node " << n << " lies on no quad of face group " << face

@@ -10,8 +10,7 @@
 
 namespace tq {
 
-TiedNodeGroups::TiedNodeGroups(std::string name, std::vector<std::vector<Index>> groups)
-    : name_(std::move(name)) {
+TiedNodeGroups::TiedNodeGroups(std::string name, std::vector<std::vector<Index>> groups) : name_(std::move(name)) {
   start_.push_back(0);
   for (const auto& g : groups) {
     if (g.size() < 2) throw InputError(name_ + ": a tied group needs at least two nodes");
@@ -32,7 +31,8 @@ std::vector<std::vector<Index>> TiedNodeGroups::periodicPairs(const Mesh& mesh, 
   const AxisFace a = axisFace(mesh, from), b = axisFace(mesh, to);
   const std::string what = "periodic faces '" + from + "' and '" + to + "'";
   if (a.axis != b.axis || a.sign == b.sign)
-    throw InputError(what + " are not opposite faces of the block (their outward normals must be -e and +e of one "
+    throw InputError(what +
+                     " are not opposite faces of the block (their outward normals must be -e and +e of one "
                      "axis, e.g. ymin and ymax)");
   if (a.nodes.size() != b.nodes.size())
     throw InputError(what + " have " + std::to_string(a.nodes.size()) + " and " + std::to_string(b.nodes.size()) +
@@ -64,8 +64,10 @@ std::vector<std::vector<Index>> TiedNodeGroups::periodicPairs(const Mesh& mesh, 
       }
     if (partner < 0) {
       std::ostringstream os;
-      os << what << ": node " << n << " of '" << from << "' at " << "xyz"[i] << " = " << ci << ", " << "xyz"[j]
-         << " = " << cj << " m has no node of '" << to << "' opposite it; a periodic model needs the same node "
+      os << what << ": node " << n << " of '" << from << "' at "
+         << "xyz"[i] << " = " << ci << ", "
+         << "xyz"[j] << " = " << cj << " m has no node of '" << to
+         << "' opposite it; a periodic model needs the same node "
          << "layout on both faces (an extruded mesh)";
       throw InputError(os.str());
     }
@@ -80,13 +82,12 @@ void TiedNodeGroups::checkUniformMembers(const NodalState& s) const {
     for (const Index* n = begin(g) + 1; n != end(g); ++n) {
       bool same = std::abs(s.mass(*n) - s.mass(n0)) <= 1e-9 * std::max(s.mass(*n), s.mass(n0));
       for (int d = 0; d < 3 && same; ++d)
-        same = std::abs(s.dashpot(*n, d) - s.dashpot(n0, d)) <= 1e-9 * std::max(std::abs(s.dashpot(*n, d)),
-                                                                                std::abs(s.dashpot(n0, d))) +
-                                                                   1e-300;
+        same = std::abs(s.dashpot(*n, d) - s.dashpot(n0, d)) <=
+               1e-9 * std::max(std::abs(s.dashpot(*n, d)), std::abs(s.dashpot(n0, d))) + 1e-300;
       if (!same) {
         std::ostringstream os;
-        os << name_ << ": node " << *n << " and node " << n0 << " are tied but carry different masses ("
-           << s.mass(*n) << ", " << s.mass(n0) << " kg) or boundary dashpots; the tie needs mirror-equal members "
+        os << name_ << ": node " << *n << " and node " << n0 << " are tied but carry different masses (" << s.mass(*n)
+           << ", " << s.mass(n0) << " kg) or boundary dashpots; the tie needs mirror-equal members "
            << "(an extruded mesh with the same boundaries on both faces)";
         throw InputError(os.str());
       }

@@ -26,9 +26,12 @@ Hex8Formulation parseFormulation(const std::string& n) {
 
 std::string formulationName(Hex8Formulation f) {
   switch (f) {
-    case Hex8Formulation::OnePointAssumedStrain: return "one_point_assumed_strain";
-    case Hex8Formulation::OnePointAssumedStrainNoPoisson: return "one_point_assumed_strain_no_poisson";
-    case Hex8Formulation::FullIntegration: return "full_integration";
+    case Hex8Formulation::OnePointAssumedStrain:
+      return "one_point_assumed_strain";
+    case Hex8Formulation::OnePointAssumedStrainNoPoisson:
+      return "one_point_assumed_strain_no_poisson";
+    case Hex8Formulation::FullIntegration:
+      return "full_integration";
   }
   return "?";
 }
@@ -86,7 +89,8 @@ std::vector<Index> slabsInOrder(const std::vector<Index>& conn, Index numElems, 
     Index a, b;
     elems(pos, a, b);
     for (Index e = a; e < b; ++e)
-      for (int k = 0; k < 8; ++k) reach[size_t(pos)] = std::max(reach[size_t(pos)], last[size_t(conn[8 * size_t(e) + k])]);
+      for (int k = 0; k < 8; ++k)
+        reach[size_t(pos)] = std::max(reach[size_t(pos)], last[size_t(conn[8 * size_t(e) + k])]);
   }
   std::vector<Index> start{0, std::min(n, minChunks)};
   while (start.back() < n) {
@@ -197,15 +201,20 @@ std::vector<Index> scatterOrder(const Mesh& mesh, std::vector<Index> elems) {
 
 }  // namespace
 
-ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> material,
-                           Hex8Formulation formulation, const Mesh& mesh,
-                           std::vector<Index> meshElems, Real hourglassScale)
-    : name_(std::move(name)), material_(std::move(material)), formulation_(formulation),
-      nElems_(static_cast<Index>(meshElems.size())), meshElems_(scatterOrder(mesh, std::move(meshElems))),
-      hgScale_(hourglassScale), avx2_(defaultUseAvx2()) {
+ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> material, Hex8Formulation formulation,
+                           const Mesh& mesh, std::vector<Index> meshElems, Real hourglassScale)
+    : name_(std::move(name)),
+      material_(std::move(material)),
+      formulation_(formulation),
+      nElems_(static_cast<Index>(meshElems.size())),
+      meshElems_(scatterOrder(mesh, std::move(meshElems))),
+      hgScale_(hourglassScale),
+      avx2_(defaultUseAvx2()) {
   if (formulation_ == Hex8Formulation::FullIntegration && !material_->isLinearElastic())
-    throw InputError("block '" + name_ + "': full_integration is a linear elastic reference "
-                     "formulation; material '" + material_->typeName() + "' needs one_point_assumed_strain");
+    throw InputError("block '" + name_ +
+                     "': full_integration is a linear elastic reference "
+                     "formulation; material '" +
+                     material_->typeName() + "' needs one_point_assumed_strain");
   mod_ = material_->elasticModuli();
   nuBar_ = formulation_ == Hex8Formulation::OnePointAssumedStrain ? mod_.lambda / mod_.pModulus() : 0.0;
   const size_t E = size_t(nElems_);
@@ -341,8 +350,7 @@ void ElementBlock::strainFromDisplacement(Index e, const NodalState& state) {
   const Real eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
   if (total_) {  // σ(u now) = the current stress: σ_off = σ − C:ε(u)
     const Real lam = mod_.lambda, mu = mod_.mu, tr = eps[0] + eps[1] + eps[2];
-    for (int k = 0; k < 6; ++k)
-      offset_[k][e] = stress_[k][e] - (k < 3 ? lam * tr + 2 * mu * eps[k] : mu * eps[k]);
+    for (int k = 0; k < 6; ++k) offset_[k][e] = stress_[k][e] - (k < 3 ? lam * tr + 2 * mu * eps[k] : mu * eps[k]);
     hasOffset_ = true;
     return;
   }
@@ -372,7 +380,10 @@ Real ElementBlock::maxFrequency(Index* where) const {
   for (Index e = 0; e < nElems_; ++e) {
     if (!active_[e]) continue;
     const Real w = frequency(e);
-    if (w > wmax) { wmax = w; at = e; }
+    if (w > wmax) {
+      wmax = w;
+      at = e;
+    }
   }
   if (where) *where = at;
   return wmax;
@@ -432,9 +443,8 @@ struct HourglassModuli {
 // docs/solid_solver.md). qh[k][α]: local component k of hourglass mode α (H_0 = ηζ, H_1 = ζξ,
 // H_2 = ξη, H_3 = ξηζ); Qh: generalised hourglass forces, U = ½ Σ Qh·qh.
 template <class V>
-inline __attribute__((always_inline)) void hourglassStiffness(const HourglassModuli& hm, V vol,
-                                                              const V ia[3], const V qh[3][4],
-                                                              V Qh[3][4]) {
+inline __attribute__((always_inline)) void hourglassStiffness(const HourglassModuli& hm, V vol, const V ia[3],
+                                                              const V qh[3][4], V Qh[3][4]) {
   const Real lam = hm.lam, mu = hm.mu, lp2m = hm.lp2m, nuBar = hm.nuBar;
   const V V3 = hm.scale * vol / 3, V9 = hm.scale * vol / 9;
   // Twist/warping modes (component k of mode k): shear strains 2ε_12 ∝ ξ0, 2ε_20 ∝ ξ1, 2ε_01 ∝ ξ2.
@@ -473,8 +483,8 @@ inline __attribute__((always_inline)) V geov(const Real* G, int comp, Index l) {
 
 /// L_ij = Σ_I b_jI g_iI for gathered nodal values g[i][I][lane] (displacement or velocity).
 template <class V>
-inline __attribute__((always_inline)) void gradient(const Real (*g)[8][ElementBlock::kChunk],
-                                                    const Real* G, Index l, V L[3][3]) {
+inline __attribute__((always_inline)) void gradient(const Real (*g)[8][ElementBlock::kChunk], const Real* G, Index l,
+                                                    V L[3][3]) {
 #pragma GCC unroll 3
   for (int j = 0; j < 3; ++j)
 #pragma GCC unroll 3
@@ -490,9 +500,8 @@ inline __attribute__((always_inline)) void gradient(const Real (*g)[8][ElementBl
 /// q_iα = γ_α·g_i = (h_α·g_i − Σ_j (h_α·x_j) L_ij) / 8 (Flanagan & Belytschko's form of
 /// γ_α = (h_α − Σ_j (h_α·x_j) b_j) / 8: γ is not stored).
 template <class V>
-inline __attribute__((always_inline)) void hourglassModes(const Real (*g)[8][ElementBlock::kChunk],
-                                                          const Real* G, Index l, const V L[3][3],
-                                                          V qh[3][4]) {
+inline __attribute__((always_inline)) void hourglassModes(const Real (*g)[8][ElementBlock::kChunk], const Real* G,
+                                                          Index l, const V L[3][3], V qh[3][4]) {
   V q[3][4];
 #pragma GCC unroll 4
   for (int a = 0; a < 4; ++a)
@@ -502,7 +511,7 @@ inline __attribute__((always_inline)) void hourglassModes(const Real (*g)[8][Ele
 #pragma GCC unroll 8
       for (int k = 1; k < 8; ++k) hu += hex8::kH[a][k] * loadv<V>(&g[i][k][l]);
       const V hl = geov<V>(G, kGHx + 3 * a, l) * L[i][0] + geov<V>(G, kGHx + 3 * a + 1, l) * L[i][1] +
-                    geov<V>(G, kGHx + 3 * a + 2, l) * L[i][2];
+                   geov<V>(G, kGHx + 3 * a + 2, l) * L[i][2];
       q[i][a] = 0.125 * (hu - hl);
     }
 #pragma GCC unroll 3
@@ -535,15 +544,16 @@ inline __attribute__((always_inline)) void cornerForces(const Real* G, Index l, 
   for (int i = 0; i < 3; ++i)
 #pragma GCC unroll 3
     for (int j = 0; j < 3; ++j)
-      P[i][j] = vol * sij[i][j] - 0.125 * (Q[i][0] * geov<V>(G, kGHx + j, l) + Q[i][1] * geov<V>(G, kGHx + 3 + j, l) +
-                                         Q[i][2] * geov<V>(G, kGHx + 6 + j, l) + Q[i][3] * geov<V>(G, kGHx + 9 + j, l));
+      P[i][j] =
+          vol * sij[i][j] - 0.125 * (Q[i][0] * geov<V>(G, kGHx + j, l) + Q[i][1] * geov<V>(G, kGHx + 3 + j, l) +
+                                     Q[i][2] * geov<V>(G, kGHx + 6 + j, l) + Q[i][3] * geov<V>(G, kGHx + 9 + j, l));
 #pragma GCC unroll 8
   for (int k = 0; k < 8; ++k) {
     const V bx = geov<V>(G, kGB + k, l), by = geov<V>(G, kGB + 8 + k, l), bz = geov<V>(G, kGB + 16 + k, l);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
       const V hg = 0.125 * (hex8::kH[0][k] * Q[i][0] + hex8::kH[1][k] * Q[i][1] + hex8::kH[2][k] * Q[i][2] +
-                             hex8::kH[3][k] * Q[i][3]);
+                            hex8::kH[3][k] * Q[i][3]);
       F[3 * k + i] = bx * P[i][0] + by * P[i][1] + bz * P[i][2] + hg;
     }
   }
@@ -553,16 +563,16 @@ inline __attribute__((always_inline)) void cornerForces(const Real* G, Index l, 
 
 /// Raw view of one chunk for the kernel (pointers at the chunk's first element).
 struct ElementBlock::ChunkView {
-  const Real* G;              // geometry [kGeo][kChunk]
-  const Index* conn;          // [8 n]
-  const std::uint8_t* act;    // [kChunk] (padding lanes inactive)
-  Real* strain[6];            // [kChunk] each (stored form)
+  const Real* G;            // geometry [kGeo][kChunk]
+  const Index* conn;        // [8 n]
+  const std::uint8_t* act;  // [kChunk] (padding lanes inactive)
+  Real* strain[6];          // [kChunk] each (stored form)
   Real* stress[6];
-  const Real* offset[6];      // total form: σ_off, or null when the block has none
-  bool allActive;             // no inactive element in the chunk
-  Real* const* history;       // [count] per history variable
+  const Real* offset[6];  // total form: σ_off, or null when the block has none
+  bool allActive;         // no inactive element in the chunk
+  Real* const* history;   // [count] per history variable
   const Material* material;
-  Index n;                    // elements in the chunk
+  Index n;  // elements in the chunk
   HourglassModuli hm;
   Real beta, dt, dtLast;
   // The next chunk's streams, prefetched into L2 while this one computes (null for the last):
@@ -578,10 +588,8 @@ namespace {
 // The kernel body for one chunk; instantiated for the generic and the AVX2 target.
 // kTotal: linear elastic total form σ = C:ε(u) + σ_off (no strain record, no material call).
 template <bool kDamp, bool kTotal, class V>
-inline __attribute__((always_inline)) void onePointBody(const ElementBlock::ChunkView& cv,
-                                                        const Real* __restrict u,
-                                                        const Real* __restrict v, Real* __restrict f,
-                                                        BlockEnergy& en) {
+inline __attribute__((always_inline)) void onePointBody(const ElementBlock::ChunkView& cv, const Real* __restrict u,
+                                                        const Real* __restrict v, Real* __restrict f, BlockEnergy& en) {
   constexpr Index W = ElementBlock::kChunk, kLanes = sizeof(V) / sizeof(Real);
   using M = decltype(V{} != V{});
   const Real* __restrict G = cv.G;
@@ -630,8 +638,12 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     V wel = zero;  // total form: complementary energy of the new stress (J)
     if constexpr (kTotal) {
       const V tr = eps[XX] + eps[YY] + eps[ZZ];
-      V sg[6] = {hm.lam * tr + 2 * hm.mu * eps[XX], hm.lam * tr + 2 * hm.mu * eps[YY],
-                 hm.lam * tr + 2 * hm.mu * eps[ZZ], hm.mu * eps[XY], hm.mu * eps[YZ], hm.mu * eps[ZX]};
+      V sg[6] = {hm.lam * tr + 2 * hm.mu * eps[XX],
+                 hm.lam * tr + 2 * hm.mu * eps[YY],
+                 hm.lam * tr + 2 * hm.mu * eps[ZZ],
+                 hm.mu * eps[XY],
+                 hm.mu * eps[YZ],
+                 hm.mu * eps[ZX]};
       if (cv.offset[0])
 #pragma GCC unroll 6
         for (int k = 0; k < 6; ++k) sg[k] += loadv<V>(cv.offset[k] + l);
@@ -793,14 +805,13 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
 }
 
 template <bool kDamp, bool kTotal>
-void onePointGeneric(const ElementBlock::ChunkView& cv, const Real* u, const Real* v, Real* f,
-                     BlockEnergy& en) {
+void onePointGeneric(const ElementBlock::ChunkView& cv, const Real* u, const Real* v, Real* f, BlockEnergy& en) {
   onePointBody<kDamp, kTotal, V2>(cv, u, v, f, en);
 }
 
 template <bool kDamp, bool kTotal>
-__attribute__((target("avx2,fma"))) void onePointAvx2(const ElementBlock::ChunkView& cv, const Real* u,
-                                                      const Real* v, Real* f, BlockEnergy& en) {
+__attribute__((target("avx2,fma"))) void onePointAvx2(const ElementBlock::ChunkView& cv, const Real* u, const Real* v,
+                                                      Real* f, BlockEnergy& en) {
   onePointBody<kDamp, kTotal, V4>(cv, u, v, f, en);
 }
 
@@ -849,7 +860,10 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   cv.nextConn = e1 < nElems_ ? &conn_[8 * size_t(e1)] : nullptr;
   for (int k = 0; k < 6; ++k) {
     const bool next = e1 < nElems_;
-    cv.nextStrain[k] = !next ? nullptr : !kTotal ? strain_[k].data() + e1 : hasOffset_ ? offset_[k].data() + e1 : nullptr;
+    cv.nextStrain[k] = !next        ? nullptr
+                       : !kTotal    ? strain_[k].data() + e1
+                       : hasOffset_ ? offset_[k].data() + e1
+                                    : nullptr;
     cv.nextStress[k] = next ? stress_[k].data() + e1 : nullptr;
   }
   if (avx2_)
@@ -858,8 +872,7 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
     onePointGeneric<kDamp, kTotal>(cv, u, v, f, en);
 }
 
-void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict f,
-                                        BlockEnergy& en) {
+void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict f, BlockEnergy& en) {
   const Index e0 = c * kChunk, n = std::min(kChunk, nElems_ - e0);
   const Real lam = mod_.lambda, mu = mod_.mu;
   Real energy = 0;
@@ -880,8 +893,12 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
           for (int k = 0; k < 8; ++k) L[i][j] += ue[i][k] * bg[8 * j + k];
       const Real eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
       const Real tr = eps[0] + eps[1] + eps[2];
-      const Real s[6] = {lam * tr + 2 * mu * eps[0], lam * tr + 2 * mu * eps[1], lam * tr + 2 * mu * eps[2],
-                         mu * eps[3], mu * eps[4], mu * eps[5]};
+      const Real s[6] = {lam * tr + 2 * mu * eps[0],
+                         lam * tr + 2 * mu * eps[1],
+                         lam * tr + 2 * mu * eps[2],
+                         mu * eps[3],
+                         mu * eps[4],
+                         mu * eps[5]};
       for (int k = 0; k < 6; ++k) {
         savg[k] += s[k] * w;
         eavg[k] += eps[k] * w;
@@ -906,8 +923,7 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
   en.dampingWork = 0;
 }
 
-BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const ElementStepParams& p,
-                                                Real* f) {
+BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f) {
   const Real* u = state.uData();
   const Real* v = state.vData();
   const Index nChunks = static_cast<Index>(chunkEnergy_.size());
@@ -985,8 +1001,12 @@ void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {
     }
   V2 L[3][3];
   gradient(ug, G, l, L);
-  const Real eps[6] = {L[0][0][lane], L[1][1][lane], L[2][2][lane], L[0][1][lane] + L[1][0][lane],
-                       L[1][2][lane] + L[2][1][lane], L[2][0][lane] + L[0][2][lane]};
+  const Real eps[6] = {L[0][0][lane],
+                       L[1][1][lane],
+                       L[2][2][lane],
+                       L[0][1][lane] + L[1][0][lane],
+                       L[1][2][lane] + L[2][1][lane],
+                       L[2][0][lane] + L[0][2][lane]};
   // σ(u): total form C:ε(u) + σ_off; stored form the last stress plus the elastic increment C:(ε(u) − ε).
   Real d[6];
   for (int k = 0; k < 6; ++k) d[k] = total_ ? eps[k] : eps[k] - strain_[k][size_t(e)];

@@ -52,7 +52,6 @@ inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Ind
 typedef long long LI2 __attribute__((vector_size(16)));
 typedef long long LI4 __attribute__((vector_size(32)));
 
-
 // The masses of 4 nodes spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...).
 inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) {
   const V4 mv = loadv<V4>(m);
@@ -168,16 +167,16 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
       const V cd = kDash ? loadv<V>(cb + i) : V{};
-      leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext,
-                      damp, bdry, bad);
+      leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext, damp,
+                      bdry, bad);
     }
   }
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
   for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
     const Real cd = kDash ? cb[i] : 0.0;
-    leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
-                       r.damp, r.bdry, bads);
+    leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext, r.damp,
+                       r.bdry, bads);
   }
   r.nBad = Index(bads);
   return r;
@@ -259,8 +258,7 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
       const V cd = kDash ? loadv<V>(q.cb + i) : V{};
-      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry,
-                      bad);
+      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry, bad);
     }
     for (int j = 0; j < 4; ++j)
       if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
@@ -272,8 +270,8 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     const Real dtn = q.dt * Real(1u << q.lev[n]);
     for (int c = 0; c < 3; ++c) {
       const size_t i = 3 * size_t(n) + size_t(c);
-      subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0,
-                         i, q, r.ke, r.ext, r.damp, r.bdry, bads);
+      subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0, i,
+                         q, r.ke, r.ext, r.damp, r.bdry, bads);
     }
     if (q.m[n] > 0 && d) q.dtp[n] = dtn;
   }
@@ -312,8 +310,8 @@ RayleighDamping RayleighDamping::fromRatio(Real xi, Real f1, Real f2) {
     throw InputError("damping ratio " + std::to_string(xi) + " is outside [0, 1); give e.g. 0.05 for 5 %");
   if (xi == 0) return {};
   if (!(f1 > 0 && f2 > 0))
-    throw InputError("Rayleigh damping needs two frequencies f1, f2 > 0 Hz (got " +
-                     std::to_string(f1) + ", " + std::to_string(f2) + ")");
+    throw InputError("Rayleigh damping needs two frequencies f1, f2 > 0 Hz (got " + std::to_string(f1) + ", " +
+                     std::to_string(f2) + ")");
   const Real w1 = 2 * M_PI * f1, w2 = 2 * M_PI * f2;
   return {2 * xi * w1 * w2 / (w1 + w2), 2 * xi / (w1 + w2)};
 }
@@ -434,11 +432,10 @@ void Solver::setTimeStep(Real dt) {
   if (dt > s.dtSafe && !opt_.allowUnstableStep) {
     std::ostringstream os;
     os.precision(4);
-    os << "time step dt = " << dt << " s is above the stable limit " << s.dtSafe << " s (= safety "
-       << opt_.safety << " x critical " << s.dtCritical << " s). The limit comes from element "
-       << s.element << " of block '" << s.block << "': characteristic length " << s.charLength
-       << " m, P-wave speed " << s.waveSpeed << " m/s, ω_max = 2 c_p / L = " << s.omegaMax
-       << " rad/s, damping ratio at ω_max ξ = " << s.xiMax
+    os << "time step dt = " << dt << " s is above the stable limit " << s.dtSafe << " s (= safety " << opt_.safety
+       << " x critical " << s.dtCritical << " s). The limit comes from element " << s.element << " of block '"
+       << s.block << "': characteristic length " << s.charLength << " m, P-wave speed " << s.waveSpeed
+       << " m/s, ω_max = 2 c_p / L = " << s.omegaMax << " rad/s, damping ratio at ω_max ξ = " << s.xiMax
        << " (Δt ≤ (2/ω_max)(√(1+ξ²) - ξ)). Fix: use dt ≤ " << s.dtSafe
        << " s or dt = 0 for automatic; or coarsen/regularise the smallest elements; or lower the "
           "stiffness-proportional damping (its β shortens the step).";
@@ -474,8 +471,8 @@ void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContribu
   int folded = 0;
   for (const auto& e : contributors_) folded += e.foldedIntoGravity;
   const std::vector<Real>* f = c->constantForces();
-  const bool fold = phase == ForcePhase::Loads && folded < kMaxFoldedLoads && f &&
-                    f->size() == 3 * size_t(state_.numNodes());
+  const bool fold =
+      phase == ForcePhase::Loads && folded < kMaxFoldedLoads && f && f->size() == 3 * size_t(state_.numNodes());
   contributors_.push_back({phase, fold, std::move(c)});
 }
 
@@ -541,8 +538,8 @@ void Solver::updateNodes() {
     Real ke = 0, ext = 0, damp = 0, bdry = 0;
     Index bad = -1;
     if (leapfrog) {
-      LeapfrogArgs la{u + i0, v + i0, a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, fr + i0, fprev + i0, m + n0,
-                      n1 - n0, dt, dtl, alpha, vlim};
+      LeapfrogArgs la{u + i0,  v + i0, a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, fr + i0, fprev + i0, m + n0,
+                      n1 - n0, dt,     dtl,    alpha,   vlim};
       const LeapfrogSums ls = avx2_ ? leapfrogAvx2(la) : leapfrogGeneric(la);
       ke = ls.ke;
       ext = ls.ext;
@@ -626,8 +623,8 @@ void Solver::finishEnergy() {
   energy_.interface = diss;
   plasticStale_ = true;  // energy_.plastic: by energy() when asked (not in the balance)
   energy_.external = extWork_ + diss + bE;
-  const Real bal = energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary -
-                   energy_.external;
+  const Real bal =
+      energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary - energy_.external;
   if (!balanceSet_) {
     balance0_ = bal;
     balanceSet_ = true;
@@ -663,8 +660,9 @@ void Solver::updateNodesSubcycled(int active) {
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
     const size_t i0 = 3 * size_t(n0);
-    SubcycleArgs q{u + i0, v + i0, a + i0, fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, m + n0,
-                   fr + i0, lev + n0, n1 - n0, dt, alpha, vlim, active, {}};
+    SubcycleArgs q{u + i0, v + i0,  a + i0,   fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
+                   m + n0, fr + i0, lev + n0, n1 - n0, dt,       alpha,   vlim,    active,
+                   {}};
     std::copy(rdt, rdt + 9, q.rdt);
     const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
     const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
@@ -759,11 +757,11 @@ void Solver::reportInstability(Index dof, Real value) {
   const StableStep s = stableStep();
   std::ostringstream os;
   os.precision(6);
-  os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_" << "xyz"[d] << " = "
-     << value << " m/s at node " << node << " (x, y, z = " << state_.x0(node, 0) << ", "
+  os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_"
+     << "xyz"[d] << " = " << value << " m/s at node " << node << " (x, y, z = " << state_.x0(node, 0) << ", "
      << state_.x0(node, 1) << ", " << state_.x0(node, 2) << " m) is "
-     << (std::isfinite(value) ? "exploding (|v| above the limit " : "not finite (limit ")
-     << opt_.velocityLimit << " m/s)"
+     << (std::isfinite(value) ? "exploding (|v| above the limit " : "not finite (limit ") << opt_.velocityLimit
+     << " m/s)"
      << ". Likely cause: ";
   Index badElem = -1;
   std::string badBlock;
@@ -776,9 +774,8 @@ void Solver::reportInstability(Index dof, Real value) {
     }
   }
   if (dt_ > s.dtCritical)
-    os << "the time step " << dt_ << " s is above the critical step " << s.dtCritical
-       << " s (limited by element " << s.element << " of block '" << s.block
-       << "'); use dt = 0 (automatic) or dt <= " << s.dtSafe << " s.";
+    os << "the time step " << dt_ << " s is above the critical step " << s.dtCritical << " s (limited by element "
+       << s.element << " of block '" << s.block << "'); use dt = 0 (automatic) or dt <= " << s.dtSafe << " s.";
   else if (opt_.integrator == Integrator::PaperEq34)
     os << "integrator paper_eq3_4 is unstable for any step without enough damping (growth "
           "factor √(1+(ωΔt)²/2) per step); use central_difference.";
@@ -926,7 +923,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
     // Underwood (1983): lowest active frequency from the Rayleigh quotient of the last
     // increment, ω² = Δu·Δf_int / Δu·M·Δu; critical mass damping c = 2ω.
     computeInternalForces();
-      if (s > 0) {
+    if (s > 0) {
       Real num = 0, den = 0;
       const Real* f = state_.fIntData();
       const Real* v = state_.vData();

@@ -46,10 +46,10 @@ std::string fixFor(const std::exception& e, const CouplingInput& in) {
       os << " With windows of several steps a mode of period two windows is damped by leaning the steps' force "
             "toward the window's end: raise coupling.window_force_weight toward 1 (here "
          << in.windowForceWeight << "; docs/coupler.md \"Window force weight\").";
-  }
-  else if (dynamic_cast<const cp::MapError*>(&e))
+  } else if (dynamic_cast<const cp::MapError*>(&e))
     os << "The interface meshes do not match. Fix: regenerate the water mesh from the same geometry as mesh.h5 "
-          "(its interface points must coincide with the solid's '" << in.face << "' nodes), or use map projection.";
+          "(its interface points must coincide with the solid's '"
+       << in.face << "' nodes), or use map projection.";
   else if (dynamic_cast<const cp::TransportError*>(&e))
     os << "The connection to the water solver failed. Fix: check the address file '" << in.addressFile
        << "' and that both sides run on this machine (or set transport mpi under mpirun).";
@@ -70,14 +70,14 @@ double threadCpu() {
 struct FluidCoupling::Impl {
   Solver& solver;
   CouplingInput in;
-  std::vector<Index> nodes;          // interface nodes (mesh indices, ascending)
-  std::vector<Real> u0;              // [3n] displacement at the seismic start (reference)
-  std::vector<Real> force, prev;     // [3n] force added this step / last step (N)
-  std::vector<Real> received;        // [3n] latest force read from the fluid
-  std::vector<Real> trial;           // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;    // [3n] predictor linear: the force applied one window earlier
-  std::vector<Real> disp, vel;       // [3n] predicted motion written
-  std::vector<Real> dispStart;       // [3n] u − u0 at the start of the current window (k > 1)
+  std::vector<Index> nodes;        // interface nodes (mesh indices, ascending)
+  std::vector<Real> u0;            // [3n] displacement at the seismic start (reference)
+  std::vector<Real> force, prev;   // [3n] force added this step / last step (N)
+  std::vector<Real> received;      // [3n] latest force read from the fluid
+  std::vector<Real> trial;         // [3n] force used in the current prediction
+  std::vector<Real> receivedPrev;  // [3n] predictor linear: the force applied one window earlier
+  std::vector<Real> disp, vel;     // [3n] predicted motion written
+  std::vector<Real> dispStart;     // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   Real window = 0, dtPrev = 0;
@@ -86,7 +86,7 @@ struct FluidCoupling::Impl {
   // Implicit windows of k > 1 steps (repeated whole): the force at the window's start F_w, the
   // pass being stepped, and the repeat request for the time loop.
   bool repeats = false;
-  std::vector<Real> forceStart;      // [3n]
+  std::vector<Real> forceStart;  // [3n]
   long long pass = 0;
   bool repeat = false;
   Real work = 0;
@@ -118,20 +118,20 @@ struct FluidCoupling::Impl {
   // volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes
   // (docs/coupler.md "Open ends"): p_j = −κ_j (s_j + W_j), or s_j + W_j = 0.
   bool volumeLaw = false, incompressible = false;
-  bool planar = false;  // a slice: the water is sent the wall's in-plane motion only (write())
-  Real volume = 0;                     // m³: all the enclosed water
-  std::vector<Real> g;                 // [3n] m²
-  std::vector<Real> respU, respV;      // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
+  bool planar = false;             // a slice: the water is sent the wall's in-plane motion only (write())
+  Real volume = 0;                 // m³: all the enclosed water
+  std::vector<Real> g;             // [3n] m²
+  std::vector<Real> respU, respV;  // [3n] ∂u^{n+1}/∂f and ∂v^{n+½}/∂f of the last prediction
   std::vector<Real> scratchU, scratchV, sent;
   Real volumeWork = 0;
   bool openEnds = false;
-  size_t S = 1;                        // stations
-  std::vector<size_t> station;         // [n] the station of each wet node
-  std::vector<Real> Vs, compliance;    // [S] m³, and V_j/K (0: incompressible) in m³/Pa
+  size_t S = 1;                      // stations
+  std::vector<size_t> station;       // [n] the station of each wet node
+  std::vector<Real> Vs, compliance;  // [S] m³, and V_j/K (0: incompressible) in m³/Pa
   // Open ends: segment j joins stations j and j+1, Q̇_j = cAx_j (p_j − p_{j+1}) with cAx = A/(ρ h);
   // Q [S−1] the axial flux at t^{n−½} (m³/s), W [S] the volume that has left each station (m³).
   std::vector<Real> cAx, Q, W;
-  std::vector<Real> ps, psPrev;        // [S] Pa: the stations' pressure this step and the last
+  std::vector<Real> ps, psPrev;  // [S] Pa: the stations' pressure this step and the last
   // The water's rigid translation in the section's plane (x, z), carried here too when
   // /coupling water_density is given: a station's mean displacement is ū_j = T_j u = (1/V_j) Σ_{i∈j}
   // r_i (g_i·u_i) (r_i = x_i − c_j, c_j the station's water centroid; exact for incompressible water,
@@ -140,14 +140,14 @@ struct FluidCoupling::Impl {
   // the volume change nor the translation.
   bool translation = false;
   Real rhoW = 0;
-  std::vector<Real> r;                 // [2n] (x − c_j, z − c_j) of each wet node
-  std::vector<Real> lam, lamPrev;      // [2S] N: the water's in-plane resultant −ρ V_j ā_j this step
+  std::vector<Real> r;             // [2n] (x − c_j, z − c_j) of each wet node
+  std::vector<Real> lam, lamPrev;  // [2S] N: the water's in-plane resultant −ρ V_j ā_j this step
   // The oblique projection the exchange sees, station by station: P u = u − B C⁻¹ Aᵀu removes the
   // carried modes from a motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u
   // and T u), Pᵀ F = F − A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
   int modes = 0;
-  std::vector<Real> Cinv;              // [9 S] row-major 3 × 3 per station
-  std::vector<Real> total;             // [3n] force added this step: the water's answer + the carried pressure
+  std::vector<Real> Cinv;   // [9 S] row-major 3 × 3 per station
+  std::vector<Real> total;  // [3n] force added this step: the water's answer + the carried pressure
   // Work space of the laws (per station).
   mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri;
 
@@ -177,8 +177,7 @@ struct FluidCoupling::Impl {
     std::vector<Real> planes = ys;
     std::sort(planes.begin(), planes.end());
     const Real tol = 1e-9 * std::max<Real>(1, planes.back() - planes.front());
-    planes.erase(std::unique(planes.begin(), planes.end(), [&](Real a, Real b) { return b - a <= tol; }),
-                 planes.end());
+    planes.erase(std::unique(planes.begin(), planes.end(), [&](Real a, Real b) { return b - a <= tol; }), planes.end());
     S = planes.size();
     if (S < 3)
       throw InputError("/coupling water_ends open: the wetted face '" + in.face + "' has " + std::to_string(S) +
@@ -342,8 +341,8 @@ struct FluidCoupling::Impl {
       // interior stations 1 … S−2 (Thomas): −dt² c_{j−1} p_{j−1} + D_j p_j − dt² c_j p_{j+1} = rhs_j
       pOut[0] = pOut[S - 1] = 0;
       const Real dt2 = dt * dt;
-      Real* cp = tri.data();   // modified super-diagonal
-      Real* dp = cp + S;       // modified right-hand side
+      Real* cp = tri.data();  // modified super-diagonal
+      Real* dp = cp + S;      // modified right-hand side
       for (size_t j = 1; j + 1 < S; ++j) {
         const Real sub = j > 1 ? -dt2 * cAx[j - 1] : 0.0, sup = -dt2 * cAx[j];
         const Real D = suPrime[j] + compliance[j] + dt2 * (cAx[j - 1] + cAx[j]);
@@ -578,9 +577,9 @@ struct FluidCoupling::Impl {
     if (!(ratio <= in.energyLimit)) {
       std::ostringstream os;
       os << "the water coupling created energy: " << ec << " J at " << where() << ", " << 100 * ratio
-         << " % of the largest interface work so far (" << ref << " J), above coupling.energy_limit = "
-         << in.energyLimit << ". The scheme (" << in.scheme << ", windows of " << in.windowSteps
-         << " step(s), tolerance " << in.tolerance
+         << " % of the largest interface work so far (" << ref
+         << " J), above coupling.energy_limit = " << in.energyLimit << ". The scheme (" << in.scheme << ", windows of "
+         << in.windowSteps << " step(s), tolerance " << in.tolerance
          << ") accepts errors that feed a weakly damped mode of the water and the lining; the results past "
             "the point where /energy/coupling_energy left zero are not trustworthy. ";
       if (!volumeLaw)
@@ -619,7 +618,8 @@ struct FluidCoupling::Impl {
     }
     for (size_t j = 0; j < S; ++j)
       for (int a = 0; a < modes; ++a)
-        for (int b = 0; b < modes; ++b) sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
+        for (int b = 0; b < modes; ++b)
+          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
     for (size_t k = 0; k < nodes.size(); ++k) {
       const Real* c = &sums[3 * (S + station[k])];
       for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
@@ -635,7 +635,8 @@ struct FluidCoupling::Impl {
     }
     for (size_t j = 0; j < S; ++j)
       for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
-        for (int b = 0; b < modes; ++b) sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * b + a)] * sums[3 * j + size_t(b)];
+        for (int b = 0; b < modes; ++b)
+          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * b + a)] * sums[3 * j + size_t(b)];
     for (size_t k = 0; k < nodes.size(); ++k) {
       const size_t j = station[k];
       const Real* c = &sums[3 * (S + j)];
@@ -709,8 +710,8 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd)
   if (in.energyFloor > 0)
     I.energyFloor = in.energyFloor;
   else if (in.absoluteTolForce > 0 && in.absoluteTolDisplacement > 0 && in.tolerance > 0)
-    I.energyFloor = Real(I.nodes.size()) * (in.absoluteTolForce / in.tolerance) *
-                    (in.absoluteTolDisplacement / in.tolerance);
+    I.energyFloor =
+        Real(I.nodes.size()) * (in.absoluteTolForce / in.tolerance) * (in.absoluteTolDisplacement / in.tolerance);
 
   // Step and window: window = k solid steps.
   if (in.windowSize > 0) solver.setTimeStep(in.windowSize / Real(in.windowSteps));  // InputError if unstable
@@ -1063,7 +1064,8 @@ std::string FluidCoupling::describe() const {
   if (I.in.transport == "tcp") os << " (address file " << I.in.addressFile << ")";
   os << ", timeout " << I.in.timeout << " s";
   if (I.scheme == cp::SchemeKind::Implicit)
-    os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration << ", predictor " << I.in.predictor;
+    os << ", tolerance " << I.in.tolerance << ", at most " << I.in.maxIterations << " passes, " << I.in.acceleration
+       << ", predictor " << I.in.predictor;
   if (I.volumeLaw) {
     os << "; volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
     if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
@@ -1090,7 +1092,8 @@ CouplingMpi::CouplingMpi(const CouplingInput& in) : partner_(in.partner) {
   }
   partnerInJob_ = true;
   if (const int k = cp::mpi::appSize(); k > 1)
-    problem_ = "water coupling over MPI: " + std::to_string(k) + " processes of tq-solid in the job; tq-solid runs "
+    problem_ = "water coupling over MPI: " + std::to_string(k) +
+               " processes of tq-solid in the job; tq-solid runs "
                "as one MPI process (it is threaded with OpenMP: --threads). Fix: mpirun -np 1 tq-solid ... : "
                "-np N <fluid> ... (docs/coupler.md \"tq-solid under mpirun\")";
 }

@@ -17,8 +17,7 @@ void shapeDerivatives(Real xi, Real eta, Real zeta, Real dN[3][8]) {
 }
 
 static Real det3(const Real J[3][3]) {
-  return J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1]) -
-         J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0]) +
+  return J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1]) - J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0]) +
          J[0][2] * (J[1][0] * J[2][1] - J[1][1] * J[2][0]);
 }
 
@@ -55,7 +54,10 @@ Real minJacobian(const Real x[3][8], int* where) {
   int at = 8;
   for (int I = 0; I < 8; ++I) {
     const Real d = jacobian(x, kXi[I], kEta[I], kZeta[I], J);
-    if (d < dmin) { dmin = d; at = I; }
+    if (d < dmin) {
+      dmin = d;
+      at = I;
+    }
   }
   if (where) *where = at;
   return dmin;
@@ -83,8 +85,7 @@ void gaussGradients(const Real x[3][8], Real bg[8][3][8], Real wdet[8]) {
     inverse3(J, det, Ji);
     // ∂N/∂x_j = Σ_k ∂N/∂ξ_k ∂ξ_k/∂x_j, ∂ξ/∂x = J^{-1}
     for (int j = 0; j < 3; ++j)
-      for (int I = 0; I < 8; ++I)
-        bg[gp][j][I] = dN[0][I] * Ji[0][j] + dN[1][I] * Ji[1][j] + dN[2][I] * Ji[2][j];
+      for (int I = 0; I < 8; ++I) bg[gp][j][I] = dN[0][I] * Ji[0][j] + dN[1][I] * Ji[1][j] + dN[2][I] * Ji[2][j];
     wdet[gp] = det;  // Gauss weights are 1 for the 2-point rule
   }
 }

@@ -49,9 +49,10 @@ std::string writeFailure(hid_t loc) {
       file = buf.c_str();
     }
   }
-  std::string why = st.errnum ? std::strerror(st.errnum)
+  std::string why = st.errnum               ? std::strerror(st.errnum)
                     : !st.innermost.empty() ? st.innermost
-                    : saved ? std::strerror(saved) : "HDF5 reported a write error";
+                    : saved                 ? std::strerror(saved)
+                                            : "HDF5 reported a write error";
   return "'" + file + "': " + why;
 }
 
@@ -160,16 +161,14 @@ static std::vector<std::string> readStringsFrom(hid_t obj, bool isAttr, const st
     H5Tset_size(mem, H5T_VARIABLE);
     H5Tset_cset(mem, H5Tget_cset(type));
     std::vector<char*> buf(static_cast<size_t>(n), nullptr);
-    herr_t st = isAttr ? H5Aread(obj, mem, buf.data())
-                       : H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
+    herr_t st = isAttr ? H5Aread(obj, mem, buf.data()) : H5Dread(obj, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
     check(st >= 0, "cannot read " + what);
     for (auto* p : buf) out.emplace_back(p ? p : "");
     H5Dvlen_reclaim(mem, space, H5P_DEFAULT, buf.data());
   } else {
     const size_t len = H5Tget_size(type);
     std::vector<char> buf(len * static_cast<size_t>(n) + 1, 0);
-    herr_t st = isAttr ? H5Aread(obj, type, buf.data())
-                       : H5Dread(obj, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
+    herr_t st = isAttr ? H5Aread(obj, type, buf.data()) : H5Dread(obj, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data());
     check(st >= 0, "cannot read " + what);
     for (hssize_t i = 0; i < n; ++i) {
       std::string s(buf.data() + i * len, len);
@@ -215,8 +214,7 @@ long long readIntAttr(hid_t obj, const std::string& name) {
 }
 
 template <class T>
-static std::vector<T> readNumeric(hid_t loc, const std::string& path, hid_t memType,
-                                  std::vector<hsize_t>* dims) {
+static std::vector<T> readNumeric(hid_t loc, const std::string& path, hid_t memType, std::vector<hsize_t>* dims) {
   Handle ds(H5Dopen2(loc, path.c_str(), H5P_DEFAULT), H5Dclose);
   if (!ds.valid()) throw InputError("dataset '" + path + "' is missing");
   Handle space(H5Dget_space(ds), H5Sclose);
@@ -225,8 +223,9 @@ static std::vector<T> readNumeric(hid_t loc, const std::string& path, hid_t memT
   H5Sget_simple_extent_dims(space, d.data(), nullptr);
   const hssize_t n = H5Sget_simple_extent_npoints(space);
   std::vector<T> out(static_cast<size_t>(n));
-  if (n > 0) check(H5Dread(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0,
-                   "cannot read dataset '" + path + "' as numbers");
+  if (n > 0)
+    check(H5Dread(ds, memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0,
+          "cannot read dataset '" + path + "' as numbers");
   if (dims) *dims = d;
   return out;
 }
@@ -288,8 +287,8 @@ void writeIntAttr(hid_t obj, const std::string& name, long long value) {
   checkWrite(a.valid() && H5Awrite(a, H5T_NATIVE_LLONG, &value) >= 0, obj, "attribute '" + name + "'");
 }
 
-static void writeNumeric(hid_t loc, const std::string& path, const void* data,
-                         const std::vector<hsize_t>& dims, hid_t fileType, hid_t memType) {
+static void writeNumeric(hid_t loc, const std::string& path, const void* data, const std::vector<hsize_t>& dims,
+                         hid_t fileType, hid_t memType) {
   Handle sp(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
   H5Pset_create_intermediate_group(lcpl, 1);
@@ -327,8 +326,8 @@ void replaceDoubles(hid_t loc, const std::string& path, const double* data, cons
              "dataset '" + path + "'");
 }
 
-RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger,
-                         hsize_t chunkRows, bool float32)
+RowAppender::RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger, hsize_t chunkRows,
+                         bool float32)
     : cols_(cols), chunkRows_(chunkRows), valueBytes_(float32 ? sizeof(float) : sizeof(double)), ledger_(ledger) {
   hsize_t dims[2] = {0, cols}, maxd[2] = {H5S_UNLIMITED, cols}, chunk[2] = {chunkRows, cols};
   Handle sp(H5Screate_simple(2, dims, maxd), H5Sclose);
@@ -414,9 +413,12 @@ void ClockedRows::write(double t, double w) {
 
 std::string bytesText(unsigned long long b) {
   char buf[32];
-  if (b >= 1000000ULL) std::snprintf(buf, sizeof buf, "%.1f MB", double(b) / 1e6);
-  else if (b >= 1000ULL) std::snprintf(buf, sizeof buf, "%.0f kB", double(b) / 1e3);
-  else std::snprintf(buf, sizeof buf, "%llu B", b);
+  if (b >= 1000000ULL)
+    std::snprintf(buf, sizeof buf, "%.1f MB", double(b) / 1e6);
+  else if (b >= 1000ULL)
+    std::snprintf(buf, sizeof buf, "%.0f kB", double(b) / 1e3);
+  else
+    std::snprintf(buf, sizeof buf, "%llu B", b);
   return buf;
 }
 

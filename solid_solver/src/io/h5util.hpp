@@ -16,7 +16,7 @@ namespace tq::h5 {
 
 /// Owns one hid_t and closes it with the right H5*close.
 class Handle {
-public:
+ public:
   Handle() = default;
   Handle(hid_t id, herr_t (*closer)(hid_t)) : id_(id), close_(closer) {}
   Handle(const Handle&) = delete;
@@ -38,7 +38,7 @@ public:
   operator hid_t() const { return id_; }
   bool valid() const { return id_ >= 0; }
 
-private:
+ private:
   hid_t id_ = -1;
   herr_t (*close_)(hid_t) = nullptr;
 };
@@ -47,10 +47,10 @@ private:
 void quiet();
 
 Handle openFile(const std::string& path, bool write = false);  // throws InputError
-Handle createFile(const std::string& path);                     // truncates; throws OutputError
+Handle createFile(const std::string& path);                    // truncates; throws OutputError
 Handle openGroup(hid_t loc, const std::string& path);
-Handle ensureGroup(hid_t loc, const std::string& path);          // creates missing levels
-bool exists(hid_t loc, const std::string& path);                 // link path exists
+Handle ensureGroup(hid_t loc, const std::string& path);  // creates missing levels
+bool exists(hid_t loc, const std::string& path);         // link path exists
 bool hasAttr(hid_t obj, const std::string& name);
 std::vector<std::string> attrNames(hid_t obj);
 std::vector<std::string> members(hid_t group);
@@ -91,11 +91,11 @@ void replaceDoubles(hid_t loc, const std::string& path, const double* data, cons
 /// A 2-D dataset [rows, cols] that grows by rows (chunked, unlimited first dimension), float64 or,
 /// with float32 = true, stored as float32 (rows are given as doubles; HDF5 rounds them).
 class RowAppender {
-public:
+ public:
   RowAppender() = default;
-  RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger = nullptr,
-              hsize_t chunkRows = 256, bool float32 = false);
-  void append(const double* row);  ///< one row of `cols` values
+  RowAppender(hid_t loc, const std::string& path, hsize_t cols, SpaceLedger* ledger = nullptr, hsize_t chunkRows = 256,
+              bool float32 = false);
+  void append(const double* row);              ///< one row of `cols` values
   void append(const double* rows, hsize_t n);  ///< n rows of `cols` values, row after row
   hsize_t rows() const { return rows_; }
   bool valid() const { return ds_.valid(); }
@@ -105,7 +105,7 @@ public:
   /// checkpoint's copy), bit for bit.
   void appendFrom(hid_t src);
 
-private:
+ private:
   Handle ds_;
   hsize_t cols_ = 0, rows_ = 0, chunkRows_ = 256, valueBytes_ = sizeof(double);
   SpaceLedger* ledger_ = nullptr;
@@ -118,7 +118,7 @@ private:
 /// (in-memory inputs only; the file's monitor_dt must be > 0) writes one row per observed state,
 /// at its own time.
 class OutputClock {
-public:
+ public:
   explicit OutputClock(double interval = 0) : dt_(interval) {}
   /// A state at time t is observed: sets due().
   void observe(double t);
@@ -134,7 +134,7 @@ public:
     a.io(observed_);
   }
 
-private:
+ private:
   double dt_;
   long long k_ = 0;
   double tObs_ = 0;
@@ -147,7 +147,7 @@ private:
 /// column `timeCol` (if ≥ 0) is written as t_k exactly; the columns flagged in `nearest` (counts)
 /// take the value of the nearer of the two states instead.
 class ClockedRows {
-public:
+ public:
   ClockedRows() = default;
   ClockedRows(RowAppender rows, hsize_t cols, int timeCol, std::vector<char> nearest = {})
       : rows_(std::move(rows)), cols_(cols), timeCol_(timeCol), nearest_(std::move(nearest)) {}
@@ -162,7 +162,7 @@ public:
     a.io(cur_);
   }
 
-private:
+ private:
   RowAppender rows_;
   hsize_t cols_ = 0;
   int timeCol_ = -1;
@@ -177,7 +177,7 @@ private:
 /// reserve() allocates again. A small reserve held beside the file (an unlinked file) is freed by
 /// release() for the writes that close the run (status, timings, the last flush).
 class SpaceGuard {
-public:
+ public:
   SpaceGuard() = default;
   /// Throws OutputError when the stop reserve itself does not fit.
   SpaceGuard(hid_t file, const std::string& path, hsize_t stopReserve);
@@ -195,7 +195,7 @@ public:
   void trimClosed() const;
   bool active() const { return active_; }
 
-private:
+ private:
   hid_t file_ = -1;
   std::string path_;
   int fd_ = -1, reserveFd_ = -1;

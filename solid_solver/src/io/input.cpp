@@ -51,8 +51,11 @@ std::vector<S::Row> materialRows(const S::Reader& R, hid_t f) {
   R.checkGroup(g, "/schema", "/schema");
   const std::string hash = R.text(g, "/schema", K::schema::hash, true);
   if (hash != S::kHash)
-    R.fail("/schema", "hash " + hash + " is not this tq-solid's " + S::kHash + ": the file was written from another "
-           "version of the table (scripts/tunnelquake/solver_input_schema.py); rebuild tq-solid or rewrite the input");
+    R.fail(
+        "/schema",
+        "hash " + hash + " is not this tq-solid's " + S::kHash +
+            ": the file was written from another "
+            "version of the table (scripts/tunnelquake/solver_input_schema.py); rebuild tq-solid or rewrite the input");
   if (!R.has(g, K::schema::material_parameters)) return compiled;
   std::vector<S::Row> rows;
   try {
@@ -64,9 +67,10 @@ std::vector<S::Row> materialRows(const S::Reader& R, hid_t f) {
   for (const auto& c : compiled) {
     const auto it = std::find_if(rows.begin(), rows.end(), [&](const S::Row& r) { return r.name == c.name; });
     if (it == rows.end() || !(*it == c))
-      R.fail("/schema", "material parameter '" + c.name + "' is " + (it == rows.end() ? "missing" : "declared differently") +
-             " in this file's material_parameters (this tq-solid was built from another version of the table); "
-             "rebuild tq-solid or rewrite the input");
+      R.fail("/schema",
+             "material parameter '" + c.name + "' is " + (it == rows.end() ? "missing" : "declared differently") +
+                 " in this file's material_parameters (this tq-solid was built from another version of the table); "
+                 "rebuild tq-solid or rewrite the input");
   }
   return rows;
 }
@@ -161,9 +165,9 @@ SolidInput readSolidInput(const std::string& path) {
     if (byRatio && byCoef) R.fail(w, "give either ratio/f1/f2 or alpha/beta, not both");
     try {
       if (byRatio)
-        in.options.damping = RayleighDamping::fromRatio(R.number(g, w, K::damping::ratio),
-                                                        R.number(g, w, K::damping::f1, true),
-                                                        R.number(g, w, K::damping::f2, true));
+        in.options.damping =
+            RayleighDamping::fromRatio(R.number(g, w, K::damping::ratio), R.number(g, w, K::damping::f1, true),
+                                       R.number(g, w, K::damping::f2, true));
       else
         in.options.damping = {R.number(g, w, K::damping::alpha), R.number(g, w, K::damping::beta)};
     } catch (const InputError& e) {
@@ -293,9 +297,9 @@ std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {
           d1[i] = x[2][i] - x[0][i];
           d2[i] = x[3][i] - x[1][i];
         }
-        const Real area = 0.5 * std::sqrt(std::pow(d1[1] * d2[2] - d1[2] * d2[1], 2) +
-                                          std::pow(d1[2] * d2[0] - d1[0] * d2[2], 2) +
-                                          std::pow(d1[0] * d2[1] - d1[1] * d2[0], 2));
+        const Real area =
+            0.5 * std::sqrt(std::pow(d1[1] * d2[2] - d1[2] * d2[1], 2) + std::pow(d1[2] * d2[0] - d1[0] * d2[2], 2) +
+                            std::pow(d1[0] * d2[1] - d1[1] * d2[0], 2));
         for (int k = 0; k < 4; ++k) share[q[4 * f + k]] += 0.25 * area;
         total += area;
       }

@@ -55,10 +55,24 @@ std::string caseHint(const Row& r) { return r.caseKey.empty() ? "" : " (case key
 }  // namespace
 
 Row::Row(const Attr& a)
-    : group(a.group), name(a.name), kind(a.kind), unit(a.unit), hasDefault(a.hasDefault), def(a.def),
-      defText(a.defText), hasLo(a.hasLo), loOpen(a.loOpen), hasHi(a.hasHi), hiOpen(a.hiOpen), required(a.required),
-      lo(a.lo), hi(a.hi), choices(splitList(a.choices)), models(splitList(a.models)),
-      requiredBy(splitList(a.requiredBy)), caseKey(a.caseKey) {}
+    : group(a.group),
+      name(a.name),
+      kind(a.kind),
+      unit(a.unit),
+      hasDefault(a.hasDefault),
+      def(a.def),
+      defText(a.defText),
+      hasLo(a.hasLo),
+      loOpen(a.loOpen),
+      hasHi(a.hasHi),
+      hiOpen(a.hiOpen),
+      required(a.required),
+      lo(a.lo),
+      hi(a.hi),
+      choices(splitList(a.choices)),
+      models(splitList(a.models)),
+      requiredBy(splitList(a.requiredBy)),
+      caseKey(a.caseKey) {}
 
 bool Row::readBy(const std::string& model) const { return models.empty() || contains(models, model); }
 bool Row::requiredFor(const std::string& model) const { return required || contains(requiredBy, model); }
@@ -86,7 +100,8 @@ Row parseMaterialRow(const std::string& text) {
   while (std::getline(ss, item, '|')) f.push_back(item);
   while (f.size() < 13) f.emplace_back();  // getline drops empty trailing fields
   if (f.size() != 13 || f[0].empty())
-    throw InputError("material row '" + text + "' does not have the 13 fields name|kind|unit|default|lo|hi|"
+    throw InputError("material row '" + text +
+                     "' does not have the 13 fields name|kind|unit|default|lo|hi|"
                      "lo_open|hi_open|required|choices|models|required_by|case");
   Row r;
   r.group = kMaterials;

@@ -30,10 +30,13 @@ void readStagedInput(hid_t f, SolidInput& in) {
     for (const auto& s : S.stages.sequence) {
       const auto it = std::find(kStageOrder.begin(), kStageOrder.end(), s);
       if (it == kStageOrder.end())
-        c.fail(w, "unknown stage '" + s + "' (stages, in this order: in_situ, excavation, lining, hydrostatic, seismic)");
+        c.fail(w,
+               "unknown stage '" + s + "' (stages, in this order: in_situ, excavation, lining, hydrostatic, seismic)");
       const size_t k = size_t(it - kStageOrder.begin());
-      if (k < at) c.fail(w, "stage '" + s + "' is out of order or repeated (the order is in_situ, excavation, "
-                            "lining, hydrostatic, seismic)");
+      if (k < at)
+        c.fail(w, "stage '" + s +
+                      "' is out of order or repeated (the order is in_situ, excavation, "
+                      "lining, hydrostatic, seismic)");
       at = k + 1;
     }
     if (S.stages.sequence.empty()) c.fail(w, "sequence is empty");
@@ -44,8 +47,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     S.stages.liningRegion = c.text(g, w, K::stages::lining_region);
     S.stages.releaseFraction = c.number(g, w, K::stages::release_fraction);
     if (S.stages.releaseFraction < 1 && !(S.stages.has("excavation") && S.stages.has("lining")))
-      c.fail(w, "release_fraction < 1 holds part of the excavation load until the lining stage: the sequence needs "
-                "both 'excavation' and 'lining' (or set release_fraction to 1)");
+      c.fail(w,
+             "release_fraction < 1 holds part of the excavation load until the lining stage: the sequence needs "
+             "both 'excavation' and 'lining' (or set release_fraction to 1)");
   }
   // /in_situ
   if (h5::exists(f, "/in_situ")) {
@@ -63,8 +67,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     I.surcharge = c.number(g, w, K::in_situ::surcharge);
     if (I.gravity > 0) {
       if (in.options.gravity[2] != 0 && in.options.gravity[2] != -I.gravity)
-        c.fail(w, "gravity is given twice (/solver gravity_z and /in_situ gravity) with different values; "
-                  "give it once, in /in_situ");
+        c.fail(w,
+               "gravity is given twice (/solver gravity_z and /in_situ gravity) with different values; "
+               "give it once, in /in_situ");
       in.options.gravity[2] = -I.gravity;
     }
   }
@@ -168,7 +173,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
       if (!std::isfinite(M.time[i]) || (i > 0 && !(M.time[i] > M.time[i - 1])))
         c.fail(w, "time must be finite and strictly increasing (sample " + std::to_string(i) + ")");
       for (const auto* v : {&M.ax, &M.ay, &M.az})
-        if (!v->empty() && !std::isfinite((*v)[i])) c.fail(w, "a non-finite acceleration at sample " + std::to_string(i));
+        if (!v->empty() && !std::isfinite((*v)[i]))
+          c.fail(w, "a non-finite acceleration at sample " + std::to_string(i));
     }
   }
   if (S.stages.has("seismic") && !S.bottom.present && !S.freeField.present && S.motion.present)
@@ -200,13 +206,15 @@ void readStagedInput(hid_t f, SolidInput& in) {
                     " scheme has no iterations to start); use predictor constant");
     C.reuse = Index(c.number(g, w, K::coupling::reuse));
     if (C.reuse > 0 && (C.scheme != "implicit" || C.acceleration != "iqn-ils"))
-      c.fail(w, "reuse " + std::to_string(C.reuse) + " keeps IQN-ILS columns: it needs scheme implicit and "
-                "acceleration iqn-ils; use reuse 0");
+      c.fail(w, "reuse " + std::to_string(C.reuse) +
+                    " keeps IQN-ILS columns: it needs scheme implicit and "
+                    "acceleration iqn-ils; use reuse 0");
     C.transport = c.text(g, w, K::coupling::transport);
     C.addressFile = c.text(g, w, K::coupling::address_file);
     if (C.transport == "tcp" && C.addressFile.empty())
-      c.fail(w, "attribute 'address_file' is required with transport tcp (the file where tq-solid publishes its "
-                "port for the fluid)");
+      c.fail(w,
+             "attribute 'address_file' is required with transport tcp (the file where tq-solid publishes its "
+             "port for the fluid)");
     C.token = c.text(g, w, K::coupling::token);
     if (C.token.empty()) c.fail(w, "attribute 'token' is required (the per-run secret given to both sides)");
     C.timeout = c.number(g, w, K::coupling::timeout);
@@ -234,25 +242,29 @@ void readStagedInput(hid_t f, SolidInput& in) {
       c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
     C.waterDensity = c.number(g, w, K::coupling::water_density);
     if (C.waterDensity > 0 && C.volumeLaw == "none")
-      c.fail(w, "water_density (the water's translation carried by the solid) needs a volume_law (a closed "
-                "section); leave it out");
+      c.fail(w,
+             "water_density (the water's translation carried by the solid) needs a volume_law (a closed "
+             "section); leave it out");
     C.waterEnds = c.text(g, w, K::coupling::water_ends);
     C.axialDensity = c.number(g, w, K::coupling::axial_density);
     if (C.waterEnds == "open" && C.volumeLaw != "none" && !(C.axialDensity > 0))
-      c.fail(w, "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
-                "the axial flow between the planes of the wetted face carries)");
+      c.fail(w,
+             "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
+             "the axial flow between the planes of the wetted face carries)");
     if (C.windowSteps > 1 && C.scheme == "paper")
-      c.fail(w, "a window of " + std::to_string(C.windowSteps) + " solid steps needs scheme explicit or implicit (the "
-                "paper scheme's two passes are made for one-step windows); use window 1");
+      c.fail(w, "a window of " + std::to_string(C.windowSteps) +
+                    " solid steps needs scheme explicit or implicit (the "
+                    "paper scheme's two passes are made for one-step windows); use window 1");
     if (!S.stages.has("seismic"))
       c.fail(w, "the coupling runs in the seismic stage, which /stages sequence does not have");
     in.requiredFaces.push_back(C.face);
   }
   if (!staged) {
-    if (S.inSitu.present || S.hydrostatic.present || S.rockLining.present || S.bottom.present ||
-        S.freeField.present || S.periodic.present || S.motion.present || S.coupling.present)
-      c.fail("/stages", "group is required with the staged groups (attribute sequence, e.g. \"in_situ,excavation,"
-                        "lining,hydrostatic,seismic\")");
+    if (S.inSitu.present || S.hydrostatic.present || S.rockLining.present || S.bottom.present || S.freeField.present ||
+        S.periodic.present || S.motion.present || S.coupling.present)
+      c.fail("/stages",
+             "group is required with the staged groups (attribute sequence, e.g. \"in_situ,excavation,"
+             "lining,hydrostatic,seismic\")");
     S.present = false;
   }
 }

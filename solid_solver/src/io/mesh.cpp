@@ -48,19 +48,19 @@ void checkMesh(const Mesh& mesh, const MeshRequirements& req) {
   for (Real c : mesh.coords)
     if (!std::isfinite(c)) throw InputError(where + ": a node coordinate is not finite");
   if (static_cast<Index>(mesh.region.size()) != E)
-    throw InputError(where + ": /elements/region has " + std::to_string(mesh.region.size()) +
-                     " entries for " + std::to_string(E) + " elements");
+    throw InputError(where + ": /elements/region has " + std::to_string(mesh.region.size()) + " entries for " +
+                     std::to_string(E) + " elements");
   for (Index e = 0; e < E; ++e) {
     const Index r = mesh.region[e];
     if (r < 0 || r >= static_cast<Index>(mesh.regionNames.size()))
-      throw InputError(where + ": element " + std::to_string(e) + " has region index " +
-                       std::to_string(r) + " but only " + std::to_string(mesh.regionNames.size()) +
+      throw InputError(where + ": element " + std::to_string(e) + " has region index " + std::to_string(r) +
+                       " but only " + std::to_string(mesh.regionNames.size()) +
                        " region names are given (attribute /elements regions)");
     for (int k = 0; k < 8; ++k) {
       const Index n = mesh.connectivity[8 * e + k];
       if (n < 0 || n >= N)
-        throw InputError(where + ": element " + std::to_string(e) + " refers to node " +
-                         std::to_string(n) + ", outside 0.." + std::to_string(N - 1));
+        throw InputError(where + ": element " + std::to_string(e) + " refers to node " + std::to_string(n) +
+                         ", outside 0.." + std::to_string(N - 1));
     }
     Real x[3][8];
     for (int k = 0; k < 8; ++k)
@@ -72,13 +72,11 @@ void checkMesh(const Mesh& mesh, const MeshRequirements& req) {
     if (!(dmin > 1e-12 * std::abs(d0))) {
       std::ostringstream os;
       os.precision(9);
-      os << where << ": element " << e << " (region '" << mesh.regionNames[mesh.region[e]]
-         << "') is " << (d0 <= 0 ? "inverted" : "degenerate") << ": Jacobian determinant "
-         << dmin << " at " << (at == 8 ? std::string("its centre") : "corner " + std::to_string(at))
-         << ". Its nodes (index: x y z):";
+      os << where << ": element " << e << " (region '" << mesh.regionNames[mesh.region[e]] << "') is "
+         << (d0 <= 0 ? "inverted" : "degenerate") << ": Jacobian determinant " << dmin << " at "
+         << (at == 8 ? std::string("its centre") : "corner " + std::to_string(at)) << ". Its nodes (index: x y z):";
       for (int k = 0; k < 8; ++k)
-        os << "\n  " << mesh.connectivity[8 * e + k] << ": " << x[0][k] << ' ' << x[1][k] << ' '
-           << x[2][k];
+        os << "\n  " << mesh.connectivity[8 * e + k] << ": " << x[0][k] << ' ' << x[1][k] << ' ' << x[2][k];
       os << "\nExpected VTK hex8 order: nodes 0-3 counter-clockwise seen from above the face they "
             "span, nodes 4-7 above them; a mirrored order (e.g. 0 3 2 1 4 7 6 5) inverts the "
             "element. Fix the node order or the geometry.";
@@ -86,22 +84,21 @@ void checkMesh(const Mesh& mesh, const MeshRequirements& req) {
     }
   }
   for (const auto& [name, quads] : mesh.faces) {
-    if (quads.size() % 4 != 0)
-      throw InputError(where + ": /faces/" + name + " must be an [F, 4] array");
+    if (quads.size() % 4 != 0) throw InputError(where + ": /faces/" + name + " must be an [F, 4] array");
     for (Index n : quads)
       if (n < 0 || n >= N)
-        throw InputError(where + ": /faces/" + name + " refers to node " + std::to_string(n) +
-                         ", outside 0.." + std::to_string(N - 1));
+        throw InputError(where + ": /faces/" + name + " refers to node " + std::to_string(n) + ", outside 0.." +
+                         std::to_string(N - 1));
   }
   for (const auto& [name, nodes] : mesh.nodeSets)
     for (Index n : nodes)
       if (n < 0 || n >= N)
-        throw InputError(where + ": /node_sets/" + name + " refers to node " + std::to_string(n) +
-                         ", outside 0.." + std::to_string(N - 1));
+        throw InputError(where + ": /node_sets/" + name + " refers to node " + std::to_string(n) + ", outside 0.." +
+                         std::to_string(N - 1));
   for (Index n : mesh.rockLiningPairs)
     if (n < 0 || n >= N)
-      throw InputError(where + ": /interfaces/rock_lining refers to node " + std::to_string(n) +
-                       ", outside 0.." + std::to_string(N - 1));
+      throw InputError(where + ": /interfaces/rock_lining refers to node " + std::to_string(n) + ", outside 0.." +
+                       std::to_string(N - 1));
   for (const auto& g : req.faceGroups) mesh.faceNodes(g);  // throws with the fix if absent
 }
 
@@ -122,8 +119,7 @@ std::array<Index, 8> structuredHex(const Nid& nid, Index a, Index b, Index c) {
 
 Mesh makeBoxMesh(const BoxSpec& s) {
   Mesh m;
-  m.source = "<box " + std::to_string(s.nx) + "x" + std::to_string(s.ny) + "x" +
-             std::to_string(s.nz) + ">";
+  m.source = "<box " + std::to_string(s.nx) + "x" + std::to_string(s.ny) + "x" + std::to_string(s.nz) + ">";
   const Index NX = s.nx + 1, NY = s.ny + 1, NZ = s.nz + 1;
   auto nid = [&](Index i, Index j, Index k) { return i + NX * (j + NY * k); };
   m.coords.resize(3 * size_t(NX) * NY * NZ);

@@ -22,8 +22,7 @@ Mesh readMeshH5(const std::string& path, const MeshRequirements& req) {
 
     std::vector<hsize_t> d;
     m.coords = h5::readDoubles(f, "/nodes/coordinates", &d);
-    if (d.size() != 2 || d[1] != 3)
-      throw InputError(where + ": /nodes/coordinates must have shape [N, 3]");
+    if (d.size() != 2 || d[1] != 3) throw InputError(where + ": /nodes/coordinates must have shape [N, 3]");
     m.connectivity = h5::readInts(f, "/elements/connectivity", &d);
     if (d.size() != 2 || d[1] != 8)
       throw InputError(where + ": /elements/connectivity must have shape [E, 8] (hex8 only)");
@@ -34,8 +33,7 @@ Mesh readMeshH5(const std::string& path, const MeshRequirements& req) {
       auto fg = h5::openGroup(f, "/faces");
       for (const auto& name : h5::members(fg)) {
         m.faces[name] = h5::readInts(fg, name, &d);
-        if (d.size() != 2 || d[1] != 4)
-          throw InputError(where + ": /faces/" + name + " must have shape [F, 4]");
+        if (d.size() != 2 || d[1] != 4) throw InputError(where + ": /faces/" + name + " must have shape [F, 4]");
       }
     }
     if (h5::exists(f, "/node_sets")) {
@@ -44,8 +42,7 @@ Mesh readMeshH5(const std::string& path, const MeshRequirements& req) {
     }
     if (h5::exists(f, "/interfaces/rock_lining")) {
       m.rockLiningPairs = h5::readInts(f, "/interfaces/rock_lining", &d);
-      if (d.size() != 2 || d[1] != 2)
-        throw InputError(where + ": /interfaces/rock_lining must have shape [P, 2]");
+      if (d.size() != 2 || d[1] != 2) throw InputError(where + ": /interfaces/rock_lining must have shape [P, 2]");
     }
   } catch (const InputError& e) {
     const std::string msg = e.what();

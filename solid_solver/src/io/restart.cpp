@@ -70,13 +70,19 @@ void copyFile(const std::string& from, const std::string& to) {
   for (;;) {
     const ssize_t r = ::read(in, buf.data(), buf.size());
     if (r < 0 && errno == EINTR) continue;
-    if (r < 0) { problem = sysError("read", from); break; }
+    if (r < 0) {
+      problem = sysError("read", from);
+      break;
+    }
     if (r == 0) break;
     ssize_t done = 0;
     while (done < r) {
       const ssize_t w = ::write(out, buf.data() + done, size_t(r - done));
       if (w < 0 && errno == EINTR) continue;
-      if (w <= 0) { problem = sysError("write", to); break; }
+      if (w <= 0) {
+        problem = sysError("write", to);
+        break;
+      }
       done += w;
     }
     if (!problem.empty()) break;
@@ -168,8 +174,9 @@ RestartCheckpoints::RestartCheckpoints(std::string dir) : dir_(std::move(dir)) {
     const ssize_t n = ::pread(lock_, holder, sizeof holder - 1, 0);
     ::close(lock_);
     lock_ = -1;
-    throw InputError("another tq-solid (pid " + std::string(n > 0 ? holder : "?") + ") is running with the checkpoints in " +
-                     dir_ + " (its supervisor may have been stopped); wait for it to end, or stop it, then run again");
+    throw InputError("another tq-solid (pid " + std::string(n > 0 ? holder : "?") +
+                     ") is running with the checkpoints in " + dir_ +
+                     " (its supervisor may have been stopped); wait for it to end, or stop it, then run again");
   }
   const std::string pid = std::to_string(::getpid());
   if (::ftruncate(lock_, 0) != 0 || ::pwrite(lock_, pid.data(), pid.size(), 0) != ssize_t(pid.size()))
@@ -223,7 +230,8 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
     const long long got = fileSize(file(name));
     if (got != bytes) {
       why = "checkpoint " + std::to_string(m.sequence) + " names " + file(name) +
-            (got < 0 ? ", which is missing" : ", of " + std::to_string(got) + " bytes instead of " + std::to_string(bytes));
+            (got < 0 ? ", which is missing"
+                     : ", of " + std::to_string(got) + " bytes instead of " + std::to_string(bytes));
       return false;
     }
   }
@@ -247,10 +255,9 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
   std::snprintf(t, sizeof t, "%.17g", m.time);
   std::ostringstream js;
   js << "{\n\"format\": \"tunnelquake-checkpoint\",\n\"version\": 1,\n\"sequence\": " << m.sequence
-     << ",\n\"time\": " << t << ",\n\"step\": " << m.step << ",\n\"samples\": " << m.samples
-     << ",\n\"fingerprint\": \"" << m.fingerprint << "\",\n\"solid\": \"" << m.solid
-     << "\",\n\"solid_bytes\": " << state.size() << ",\n\"results\": \"" << m.results
-     << "\",\n\"results_bytes\": " << fileSize(file(m.results));
+     << ",\n\"time\": " << t << ",\n\"step\": " << m.step << ",\n\"samples\": " << m.samples << ",\n\"fingerprint\": \""
+     << m.fingerprint << "\",\n\"solid\": \"" << m.solid << "\",\n\"solid_bytes\": " << state.size()
+     << ",\n\"results\": \"" << m.results << "\",\n\"results_bytes\": " << fileSize(file(m.results));
   if (m.window >= 0) js << ",\n\"window\": " << m.window;
   js << "\n}\n";
   if (keep_ > 1) {  // each kept checkpoint's own manifest, for a resume from the one before the last

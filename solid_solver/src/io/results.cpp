@@ -50,8 +50,8 @@ struct ResultsWriter::Impl {
   std::vector<Monitor> monitors;
   h5::ClockedRows energy;
   int snapshots = 0;
-  nlout::State nl;                                // damage and interface output
-  std::vector<std::pair<Index, Index>> monElems;  // (block, element) of each monitor
+  nlout::State nl;                                                        // damage and interface output
+  std::vector<std::pair<Index, Index>> monElems;                          // (block, element) of each monitor
   std::vector<std::pair<h5::ClockedRows, std::function<Real()>>> series;  // addSeries
   // Lining section forces (tq/io/ring_forces.hpp): per ring its histories (the design N, M, V, the
   // diameter changes, the free-body N, M, V: kRingNames) and, per section and quantity of the first
@@ -64,7 +64,8 @@ struct ResultsWriter::Impl {
     // Rows since the last flush (written at each flush: one HDF5 write per dataset instead of one
     // per sample, which was most of the ring forces' cost).
     std::vector<Real> pendingTime, pending[kRingQ];
-    std::vector<Real> prev[kRingQ], cur[kRingQ];  // the last two observed states' values (interpolated at the due times)
+    std::vector<Real> prev[kRingQ],
+        cur[kRingQ];  // the last two observed states' values (interpolated at the due times)
     size_t samples = 0;
   };
   std::unique_ptr<RingForces> ring;
@@ -92,7 +93,8 @@ void ResultsWriter::Impl::writeRingEnvelopes() {
     for (auto& p : R.pending) p.clear();
     if (R.samples == 0) continue;
     for (int q = 0; q < kEnveloped; ++q)
-      if (R.count[q] > 0) h5::replaceDoubles(file, R.group + "/envelope/" + kRingNames[q], R.env[q].data(), {R.count[q], 4});
+      if (R.count[q] > 0)
+        h5::replaceDoubles(file, R.group + "/envelope/" + kRingNames[q], R.env[q].data(), {R.count[q], 4});
     if (R.count[3] > 0) {  // ovaling: the largest elongation and shortening of a diameter so far
       const auto& e = R.env[3];
       size_t imax = 0, imin = 0;
@@ -155,7 +157,10 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     for (Index n = 0; n < m.numNodes(); ++n) {
       Real d2 = 0;
       for (int k = 0; k < 3; ++k) d2 += std::pow(m.coords[3 * size_t(n) + k] - mi.point[k], 2);
-      if (d2 < best) { best = d2; mon.node = n; }
+      if (d2 < best) {
+        best = d2;
+        mon.node = n;
+      }
     }
     best = std::numeric_limits<Real>::max();
     const auto& blocks = s.blocks();
@@ -166,7 +171,11 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
           for (int d = 0; d < 3; ++d) c[d] += 0.125 * m.coords[3 * size_t(blocks[b]->node(e, k)) + d];
         Real d2 = 0;
         for (int d = 0; d < 3; ++d) d2 += std::pow(c[d] - mi.point[d], 2);
-        if (d2 < best) { best = d2; mon.block = Index(b); mon.elem = e; }
+        if (d2 < best) {
+          best = d2;
+          mon.block = Index(b);
+          mon.elem = e;
+        }
       }
     const std::string g = "/monitors/" + mi.name;
     mon.time = h5::ClockedRows(h5::RowAppender(f, g + "/time", 1, &I.ledger), 1, 0);
@@ -198,10 +207,11 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     h5::writeStringAttr(g, "lining_region", liningName);
     h5::writeIntAttr(g, "rings", (long long)I.ring->rings().size());
     if (!I.ring->note().empty()) h5::writeStringAttr(g, "note", I.ring->note());
-    h5::writeStringAttr(g, "convention",
-                        "per unit length of tunnel; N = integral of s_tt dr (tension +), M = integral of s_tt (r_mid - r) dr "
-                        "(+ = tension at the inner face), V = integral of s_rt dr; angle from +x towards +z about the "
-                        "ring centre; diameter_change: elongation + (m), relative to the seismic start");
+    h5::writeStringAttr(
+        g, "convention",
+        "per unit length of tunnel; N = integral of s_tt dr (tension +), M = integral of s_tt (r_mid - r) dr "
+        "(+ = tension at the inner face), V = integral of s_rt dr; angle from +x towards +z about the "
+        "ring centre; diameter_change: elongation + (m), relative to the seismic start");
     for (size_t r = 0; r < I.ring->rings().size(); ++r) {
       const LiningRing& R = I.ring->rings()[r];
       Impl::RingOut o;
@@ -311,7 +321,8 @@ void ResultsWriter::sample(const Solver& s) {
       o.cur[k].assign(o.count[k], 0.0);
     }
     I.ring->sectionForces(r, o.cur[0].data(), o.cur[1].data(), o.cur[2].data());
-    I.ring->diameterChanges(r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, o.cur[3].data());
+    I.ring->diameterChanges(
+        r, [&](Index n, int d) { return s.relativeDisplacement(n, d); }, o.cur[3].data());
     I.ring->freeBodyForces(r, s.state().uData(), o.cur[4].data(), o.cur[5].data(), o.cur[6].data());
     for (int k = 0; k < kRingQ; ++k)
       if (o.prev[k].empty()) o.prev[k] = o.cur[k];
@@ -341,8 +352,14 @@ void ResultsWriter::sample(const Solver& s) {
           const Real q = o.prev[k][j] + w * (o.cur[k][j] - o.prev[k][j]);
           o.pending[k].push_back(q);
           if (!env) continue;
-          if (q > env[4 * j]) { env[4 * j] = q; env[4 * j + 1] = tk; }
-          if (q < env[4 * j + 2]) { env[4 * j + 2] = q; env[4 * j + 3] = tk; }
+          if (q > env[4 * j]) {
+            env[4 * j] = q;
+            env[4 * j + 1] = tk;
+          }
+          if (q < env[4 * j + 2]) {
+            env[4 * j + 2] = q;
+            env[4 * j + 3] = tk;
+          }
         }
       }
     }
@@ -364,8 +381,7 @@ void ResultsWriter::addSeries(const std::string& path, std::function<Real()> val
 }
 
 void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, const std::vector<MonitorInput>& monitors,
-                                     const std::vector<Index>& nodes,
-                                     std::function<const std::vector<Real>&()> force) {
+                                     const std::vector<Index>& nodes, std::function<const std::vector<Real>&()> force) {
   // Tributary area vectors of the face nodes: a quarter of each quad's area vector (the quads are
   // counter-clockwise seen from outside the solid, so the vector points into the water). A is the
   // length of the summed vector, so a uniform pressure p, whose nodal forces are −p × this vector,
@@ -389,7 +405,10 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
     for (size_t j = 0; j < nodes.size(); ++j) {
       Real d2 = 0;
       for (int d = 0; d < 3; ++d) d2 += std::pow(x(nodes[j], d) - mi.point[d], 2);
-      if (d2 < bestD2) { bestD2 = d2; best = j; }
+      if (d2 < bestD2) {
+        bestD2 = d2;
+        best = j;
+      }
     }
     const Real len = nodes.empty() ? 0.0
                                    : std::sqrt(std::pow(areaVec[3 * best], 2) + std::pow(areaVec[3 * best + 1], 2) +
@@ -406,12 +425,13 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
       h5::writeDoubleAttr(gg, "water_ny", n[1]);
       h5::writeDoubleAttr(gg, "water_nz", n[2]);
     }
-    addSeries(g + "/water_pressure",
-              [force, n, j = best, A = len] {
-                const auto& F = force();
-                return -(F[3 * j] * n[0] + F[3 * j + 1] * n[1] + F[3 * j + 2] * n[2]) / A;
-              },
-              "water_pressure");
+    addSeries(
+        g + "/water_pressure",
+        [force, n, j = best, A = len] {
+          const auto& F = force();
+          return -(F[3 * j] * n[0] + F[3 * j + 1] * n[1] + F[3 * j + 2] * n[2]) / A;
+        },
+        "water_pressure");
   }
 }
 

@@ -35,8 +35,8 @@ void writeInterfaceHeader(hid_t file, const DynamicContact& c, State& st) {
   h5::writeStringAttr(g, "after_failure", afterFailureName(cp.afterFailure));
   h5::writeStringListAttr(g, "states", {"bonded", "separated", "slipping", "stuck", "inactive"});
   // the pair counts are taken from the nearer state, the dissipated energy interpolated
-  st.interfaceHistory = h5::ClockedRows(h5::RowAppender(file, "/interface/history", 7, st.ledger), 7, 0,
-                                        {0, 1, 1, 1, 1, 1, 0});
+  st.interfaceHistory =
+      h5::ClockedRows(h5::RowAppender(file, "/interface/history", 7, st.ledger), 7, 0, {0, 1, 1, 1, 1, 1, 0});
   h5::writeStringListAttr(g, "history_columns",
                           {"time", "bonded", "separated", "slipping", "stuck", "inactive", "dissipated"});
 }

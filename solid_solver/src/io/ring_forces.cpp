@@ -5,12 +5,12 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <numeric>
 #include <set>
 #include <sstream>
-#include <cstdint>
 
 namespace tq {
 
@@ -53,7 +53,10 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
     for (size_t k = 0; k < layers.size(); ++k) {
       const Real lo = layers[k], hi = k + 1 < layers.size() ? layers[k + 1] : lo + span;
       const Real d = y < lo - ytol ? lo - y : y > hi + ytol ? y - hi : 0.0;
-      if (d < bd) { bd = d; best = k; }
+      if (d < bd) {
+        bd = d;
+        best = k;
+      }
     }
     return best;
   };
@@ -122,8 +125,10 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
       const int a = *std::min_element(lines, lines + 8), b = *std::max_element(lines, lines + 8);
       const int na = int(std::count(lines, lines + 8, a));
       int lo = -1;
-      if (b == a + 1) lo = a;
-      else if (a == 0 && b == S - 1) lo = S - 1;  // across ±π
+      if (b == a + 1)
+        lo = a;
+      else if (a == 0 && b == S - 1)
+        lo = S - 1;  // across ±π
       if (lo < 0 || na != 4) {
         polar = false;
         why << "element " << lining.meshElem(elems[i]) << " of the lining does not lie between two radial node lines";
@@ -216,7 +221,8 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
       const Real er[2] = {std::cos(R.angle[c]), std::sin(R.angle[c])};
       Real rho = 0;
       for (int f = 0; f < 2; ++f)
-        rho += 0.5 * ((0.5 * (lo[2 * f] + hi[2 * f]) - R.xc) * er[0] + (0.5 * (lo[2 * f + 1] + hi[2 * f + 1]) - R.zc) * er[1]);
+        rho += 0.5 * ((0.5 * (lo[2 * f] + hi[2 * f]) - R.xc) * er[0] +
+                      (0.5 * (lo[2 * f + 1] + hi[2 * f + 1]) - R.zc) * er[1]);
       R.ref[c] = {R.xc + rho * er[0], R.zc + rho * er[1]};
     }
     // Diameters: pairs of node lines half a turn apart (whole rings).
@@ -229,8 +235,10 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
           }
     rings_.push_back(std::move(R));
   }
-  if (rings_.empty()) note_ = "no ring forces: " + why.str();
-  else if (!why.str().empty()) note_ += (note_.empty() ? "" : "; ") + ("some rings missing: " + why.str());
+  if (rings_.empty())
+    note_ = "no ring forces: " + why.str();
+  else if (!why.str().empty())
+    note_ += (note_.empty() ? "" : "; ") + ("some rings missing: " + why.str());
 }
 
 void RingForces::freeBodyForces(size_t r, const Real* u, Real* N, Real* M, Real* V) const {

@@ -24,7 +24,6 @@ MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v) {
   return p;
 }
 
-
 DamageEffect parseDamageEffect(const std::string& n) {
   if (n == "cohesion") return DamageEffect::Cohesion;
   if (n == "cohesion_and_stiffness") return DamageEffect::CohesionAndStiffness;
@@ -84,9 +83,9 @@ struct ActiveSet {
   int j[3];
 };
 constexpr ActiveSet kSets[] = {
-    {1, {S13, 0, 0}},     {1, {T3, 0, 0}},       {2, {S13, S12, 0}},   {2, {S13, S23, 0}},
-    {2, {S13, T3, 0}},    {2, {T3, T2, 0}},      {3, {S13, S23, T3}},  {3, {S13, S12, T3}},
-    {3, {S12, T3, T2}},   {3, {S13, T3, T2}},    {3, {S13, S12, T2}},  {3, {T3, T2, T1}},
+    {1, {S13, 0, 0}},   {1, {T3, 0, 0}},    {2, {S13, S12, 0}},  {2, {S13, S23, 0}},
+    {2, {S13, T3, 0}},  {2, {T3, T2, 0}},   {3, {S13, S23, T3}}, {3, {S13, S12, T3}},
+    {3, {S12, T3, T2}}, {3, {S13, T3, T2}}, {3, {S13, S12, T2}}, {3, {T3, T2, T1}},
 };
 constexpr int kNumSets = int(sizeof(kSets) / sizeof(kSets[0]));
 
@@ -175,8 +174,8 @@ void principalRange(const Real s[6], Real& smin, Real& smax, Real& size) {
     smin = smax = p;
     return;
   }
-  const Real j3 = dx * (dy * dz - s[YZ] * s[YZ]) - s[XY] * (s[XY] * dz - s[YZ] * s[ZX]) +
-                  s[ZX] * (s[XY] * s[YZ] - dy * s[ZX]);
+  const Real j3 =
+      dx * (dy * dz - s[YZ] * s[YZ]) - s[XY] * (s[XY] * dz - s[YZ] * s[ZX]) + s[ZX] * (s[XY] * s[YZ] - dy * s[ZX]);
   const Real x = std::clamp(j3 / (2 * r * r * r), Real(-1), Real(1));
   const Real a = std::acos(x) * (1.0 / 3);
   smax = p + 2 * r * std::cos(a);
@@ -252,8 +251,7 @@ PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
       for (int i = 0; i < 3; ++i) bestSig[i] = sig[i];
     }
   }
-  if (best < 0)
-    throw std::runtime_error("Mohr-Coulomb return: no active set solved (degenerate parameters)");
+  if (best < 0) throw std::runtime_error("Mohr-Coulomb return: no active set solved (degenerate parameters)");
   for (int i = 0; i < 3; ++i) r.sigma[i] = bestSig[i];
   r.activeSet = best;
   // Plastic strain increment Δε^p = C⁻¹ (σ^tr − σ) in principal form (unique even where the
@@ -293,9 +291,9 @@ MohrCoulombDamageMaterial::MohrCoulombDamageMaterial(const MohrCoulombDamagePara
 }
 
 std::vector<std::string> MohrCoulombDamageMaterial::historyNames() const {
-  return {"plastic_strain_xx", "plastic_strain_yy", "plastic_strain_zz", "plastic_strain_xy",
-          "plastic_strain_yz", "plastic_strain_zx", "kappa_1",         "kappa_2",
-          "kappa_3",           "damage",            "dissipation"};
+  return {"plastic_strain_xx", "plastic_strain_yy", "plastic_strain_zz", "plastic_strain_xy", "plastic_strain_yz",
+          "plastic_strain_zx", "kappa_1",           "kappa_2",           "kappa_3",           "damage",
+          "dissipation"};
 }
 
 MohrCoulombSurface MohrCoulombDamageMaterial::surface(Real D) const {
@@ -421,7 +419,7 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
         const Index l = suspect[k];
         const Real t[6] = {tr[XX][l], tr[YY][l], tr[ZZ][l], tr[XY][l], tr[YZ][l], tr[ZX][l]};
         const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
-        Real range[3], size;  // smallest, (unused), largest
+        Real range[3], size;                            // smallest, (unused), largest
         principalRange(t, range[0], range[2], size);
         range[1] = range[0];
         const Real margin = 1e-6 * std::max({size, sD.cohesionTerm, std::abs(sD.tension)});

@@ -15,60 +15,56 @@
 namespace tq::coupler {
 
 class Acceleration {
-  public:
-    virtual ~Acceleration() = default;
-    /// A new coupling window starts: forget the iteration history of the last one.
-    virtual void startWindow() = 0;
-    /// Given the input x_k of this iteration and the output x̃_k = H(x_k), computes x_{k+1}.
-    virtual void next(const std::vector<double>& x, const std::vector<double>& xTilde,
-                      std::vector<double>& xNext) = 0;
-    /// Relaxation factor used in the last step (1 for none; IQN-ILS: the first-step factor).
-    virtual double lastRelaxation() const = 0;
-    /// Save or restore what the iterations of later windows depend on (restart checkpoints).
-    virtual void checkpoint(StateIo& /*io*/) {}
+ public:
+  virtual ~Acceleration() = default;
+  /// A new coupling window starts: forget the iteration history of the last one.
+  virtual void startWindow() = 0;
+  /// Given the input x_k of this iteration and the output x̃_k = H(x_k), computes x_{k+1}.
+  virtual void next(const std::vector<double>& x, const std::vector<double>& xTilde, std::vector<double>& xNext) = 0;
+  /// Relaxation factor used in the last step (1 for none; IQN-ILS: the first-step factor).
+  virtual double lastRelaxation() const = 0;
+  /// Save or restore what the iterations of later windows depend on (restart checkpoints).
+  virtual void checkpoint(StateIo& /*io*/) {}
 };
 
 /// x_{k+1} = x̃_k.
 class NoAcceleration final : public Acceleration {
-  public:
-    void startWindow() override {}
-    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
-              std::vector<double>& xNext) override;
-    double lastRelaxation() const override { return 1.0; }
+ public:
+  void startWindow() override {}
+  void next(const std::vector<double>& x, const std::vector<double>& xTilde, std::vector<double>& xNext) override;
+  double lastRelaxation() const override { return 1.0; }
 };
 
 /// x_{k+1} = x_k + ω (x̃_k − x_k), fixed ω.
 class ConstantRelaxation final : public Acceleration {
-  public:
-    explicit ConstantRelaxation(double omega);
-    void startWindow() override {}
-    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
-              std::vector<double>& xNext) override;
-    double lastRelaxation() const override { return omega_; }
+ public:
+  explicit ConstantRelaxation(double omega);
+  void startWindow() override {}
+  void next(const std::vector<double>& x, const std::vector<double>& xTilde, std::vector<double>& xNext) override;
+  double lastRelaxation() const override { return omega_; }
 
-  private:
-    double omega_;
+ private:
+  double omega_;
 };
 
 /// Aitken Δ²: ω_k = −ω_{k−1} r_{k−1}ᵀ(r_k − r_{k−1}) / ‖r_k − r_{k−1}‖², r = x̃ − x;
 /// ω_0 = initial relaxation in every window.
 class Aitken final : public Acceleration {
-  public:
-    explicit Aitken(double initialOmega);
-    void startWindow() override;
-    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
-              std::vector<double>& xNext) override;
-    double lastRelaxation() const override { return omega_; }
-    void checkpoint(StateIo& io) override {
-        io.io(omega_);
-        io.io(rPrev_);
-        io.io(first_);
-    }
+ public:
+  explicit Aitken(double initialOmega);
+  void startWindow() override;
+  void next(const std::vector<double>& x, const std::vector<double>& xTilde, std::vector<double>& xNext) override;
+  double lastRelaxation() const override { return omega_; }
+  void checkpoint(StateIo& io) override {
+    io.io(omega_);
+    io.io(rPrev_);
+    io.io(first_);
+  }
 
-  private:
-    double omega0_, omega_;
-    std::vector<double> rPrev_;
-    bool first_ = true;
+ private:
+  double omega0_, omega_;
+  std::vector<double> rPrev_;
+  bool first_ = true;
 };
 
 /// QR2 filter threshold of IQN-ILS (relative to each column's norm).
@@ -80,34 +76,33 @@ inline constexpr double kIqnIlsFilter = 1e-3;
 /// (Haelterman et al. 2016): with the columns newest first, a column whose part orthogonal to the
 /// newer ones is below filterEps × its norm is dropped (docs/coupler.md "IQN-ILS filter").
 class IqnIls final : public Acceleration {
-  public:
-    /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
-    /// window starts from a relaxation step.
-    explicit IqnIls(double initialOmega, double filterEps = kIqnIlsFilter, int reuse = 0);
-    void startWindow() override;
-    void next(const std::vector<double>& x, const std::vector<double>& xTilde,
-              std::vector<double>& xNext) override;
-    double lastRelaxation() const override { return omega0_; }
-    std::size_t columns() const { return dr_.size(); }
-    void checkpoint(StateIo& io) override {
-        io.io(window_);
-        io.io(rPrev_);
-        io.io(xtPrev_);
-        io.io(dr_);
-        io.io(dxt_);
-        io.io(colWindow_);
-        io.io(first_);
-    }
+ public:
+  /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
+  /// window starts from a relaxation step.
+  explicit IqnIls(double initialOmega, double filterEps = kIqnIlsFilter, int reuse = 0);
+  void startWindow() override;
+  void next(const std::vector<double>& x, const std::vector<double>& xTilde, std::vector<double>& xNext) override;
+  double lastRelaxation() const override { return omega0_; }
+  std::size_t columns() const { return dr_.size(); }
+  void checkpoint(StateIo& io) override {
+    io.io(window_);
+    io.io(rPrev_);
+    io.io(xtPrev_);
+    io.io(dr_);
+    io.io(dxt_);
+    io.io(colWindow_);
+    io.io(first_);
+  }
 
-  private:
-    double omega0_, eps_;
-    int reuse_ = 0;
-    std::uint64_t window_ = 0;
-    std::vector<double> rPrev_, xtPrev_;
-    std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
-    std::vector<std::uint64_t> colWindow_;       ///< the window each column was made in
-    void dropColumn(std::size_t j);  ///< j: index in dr_ (0 = oldest)
-    bool first_ = true;
+ private:
+  double omega0_, eps_;
+  int reuse_ = 0;
+  std::uint64_t window_ = 0;
+  std::vector<double> rPrev_, xtPrev_;
+  std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
+  std::vector<std::uint64_t> colWindow_;       ///< the window each column was made in
+  void dropColumn(std::size_t j);              ///< j: index in dr_ (0 = oldest)
+  bool first_ = true;
 };
 
 /// reuse: IQN-ILS only, the windows whose columns are kept (CouplingConfig::reuse).

@@ -28,62 +28,61 @@
 namespace tq::coupler {
 
 struct DivergenceSettings {
-    int windows = 8;          ///< consecutive alternating windows before stopping
-    double growth = 1.1;      ///< least mean growth per window of the alternating change
-    int unconverged = 5;      ///< consecutive unconverged implicit windows with growing residual
-    double residualGrowth = 10; ///< ... that grew by at least this factor over them
-    double noiseFloor = 1e-9; ///< with no absolute tolerance: the floor relative to the peak RMS
+  int windows = 8;             ///< consecutive alternating windows before stopping
+  double growth = 1.1;         ///< least mean growth per window of the alternating change
+  int unconverged = 5;         ///< consecutive unconverged implicit windows with growing residual
+  double residualGrowth = 10;  ///< ... that grew by at least this factor over them
+  double noiseFloor = 1e-9;    ///< with no absolute tolerance: the floor relative to the peak RMS
 };
 
 class DivergenceMonitor {
-  public:
-    /// `slices`: the monitored fields in `x` (normally the data the partner sends);
-    /// `who`: the participant named in the message.
-    DivergenceMonitor(const CouplingConfig& c, std::vector<FieldSlice> slices, std::string who,
-                      DivergenceSettings s = {});
-    /// After every completed window: its final data and the scheme's state (residual and
-    /// whether the window ended at the pass limit). Throws DivergenceError naming the likely
-    /// cause and the fix.
-    void windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged,
-                    double residual);
-    /// Estimated amplification per window of the alternating mode (0 when none seen).
-    double lastAmplification() const { return lastAmp_; }
-    /// Restart checkpoints: save or restore the windows' history.
-    void checkpoint(StateIo& io) {
-        std::uint64_t n = tracks_.size();
-        io.io(n);
-        if (!io.saving()) tracks_.resize(std::size_t(n));
-        for (auto& t : tracks_) {
-            io.io(t.prev);
-            io.io(t.prevDelta);
-            io.io(t.prevChange);
-            io.io(t.peak);
-            io.io(t.run);
-            io.io(t.runStartChange);
-            io.io(t.hasPrev);
-            io.io(t.hasDelta);
-        }
-        io.io(unconvergedRun_);
-        io.io(unconvergedResiduals_);
-        io.io(lastAmp_);
+ public:
+  /// `slices`: the monitored fields in `x` (normally the data the partner sends);
+  /// `who`: the participant named in the message.
+  DivergenceMonitor(const CouplingConfig& c, std::vector<FieldSlice> slices, std::string who,
+                    DivergenceSettings s = {});
+  /// After every completed window: its final data and the scheme's state (residual and
+  /// whether the window ended at the pass limit). Throws DivergenceError naming the likely
+  /// cause and the fix.
+  void windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged, double residual);
+  /// Estimated amplification per window of the alternating mode (0 when none seen).
+  double lastAmplification() const { return lastAmp_; }
+  /// Restart checkpoints: save or restore the windows' history.
+  void checkpoint(StateIo& io) {
+    std::uint64_t n = tracks_.size();
+    io.io(n);
+    if (!io.saving()) tracks_.resize(std::size_t(n));
+    for (auto& t : tracks_) {
+      io.io(t.prev);
+      io.io(t.prevDelta);
+      io.io(t.prevChange);
+      io.io(t.peak);
+      io.io(t.run);
+      io.io(t.runStartChange);
+      io.io(t.hasPrev);
+      io.io(t.hasDelta);
     }
+    io.io(unconvergedRun_);
+    io.io(unconvergedResiduals_);
+    io.io(lastAmp_);
+  }
 
-  private:
-    struct Track {
-        std::vector<double> prev, prevDelta;
-        double prevChange = 0, peak = 0;
-        int run = 0;
-        double runStartChange = 0;
-        bool hasPrev = false, hasDelta = false;
-    };
-    const CouplingConfig& config_;
-    std::vector<FieldSlice> slices_;
-    std::string who_;
-    DivergenceSettings s_;
-    std::vector<Track> tracks_;
-    int unconvergedRun_ = 0;
-    std::vector<double> unconvergedResiduals_;
-    double lastAmp_ = 0;
+ private:
+  struct Track {
+    std::vector<double> prev, prevDelta;
+    double prevChange = 0, peak = 0;
+    int run = 0;
+    double runStartChange = 0;
+    bool hasPrev = false, hasDelta = false;
+  };
+  const CouplingConfig& config_;
+  std::vector<FieldSlice> slices_;
+  std::string who_;
+  DivergenceSettings s_;
+  std::vector<Track> tracks_;
+  int unconvergedRun_ = 0;
+  std::vector<double> unconvergedResiduals_;
+  double lastAmp_ = 0;
 };
 
 }  // namespace tq::coupler

@@ -40,135 +40,126 @@
 namespace tq::coupler {
 
 struct ExchangeStats {
-    std::uint64_t exchanges = 0;     ///< DATA messages received
-    double secondsInTransport = 0;   ///< inside send/receive, waiting for the partner included
-    double secondsWaiting = 0;       ///< of which receives waited for a message's header (partner busy)
-    double secondsMapping = 0;       ///< applying interface maps
-    std::uint64_t bytesSent = 0, bytesReceived = 0;
+  std::uint64_t exchanges = 0;    ///< DATA messages received
+  double secondsInTransport = 0;  ///< inside send/receive, waiting for the partner included
+  double secondsWaiting = 0;      ///< of which receives waited for a message's header (partner busy)
+  double secondsMapping = 0;      ///< applying interface maps
+  std::uint64_t bytesSent = 0, bytesReceived = 0;
 };
 
 class Participant : private ExchangePort {
-  public:
-    /// `token` is the per-run secret both sides were given by the launcher; the partner must
-    /// present the same one.
-    Participant(std::string name, CouplingConfig config, TransportOptions transport,
-                std::string token);
-    ~Participant() override;
-    Participant(const Participant&) = delete;
-    Participant& operator=(const Participant&) = delete;
+ public:
+  /// `token` is the per-run secret both sides were given by the launcher; the partner must
+  /// present the same one.
+  Participant(std::string name, CouplingConfig config, TransportOptions transport, std::string token);
+  ~Participant() override;
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
 
-    /// Declares this side's vertices of interface mesh `mesh` before initialize():
-    /// ids (unique), coordinates (3 per node, m), optional surface triangles (3 indices each).
-    void setMeshVertices(const std::string& mesh, std::vector<std::int64_t> ids,
-                         std::vector<double> coordinates,
-                         std::vector<std::int32_t> triangles = {});
+  /// Declares this side's vertices of interface mesh `mesh` before initialize():
+  /// ids (unique), coordinates (3 per node, m), optional surface triangles (3 indices each).
+  void setMeshVertices(const std::string& mesh, std::vector<std::int64_t> ids, std::vector<double> coordinates,
+                       std::vector<std::int32_t> triangles = {});
 
-    /// Connects, runs the handshake (refusing a partner with another token, protocol version,
-    /// configuration or incompatible mesh), builds the maps, and, on the second participant,
-    /// receives the first window's data. Returns the largest allowed step.
-    double initialize();
+  /// Connects, runs the handshake (refusing a partner with another token, protocol version,
+  /// configuration or incompatible mesh), builds the maps, and, on the second participant,
+  /// receives the first window's data. Returns the largest allowed step.
+  double initialize();
 
-    /// Restart checkpoints (docs/coupler.md "Restart"): the coupling state at a completed window
-    /// (the scheme's counters, the acceleration's secant columns, the predictor's history, the
-    /// divergence monitor's, the last values exchanged), as bytes. Call right after an advance()
-    /// that completed a window (isTimeWindowComplete()), before the next readData/writeData.
-    std::vector<unsigned char> saveState() const;
-    /// initialize() for a run resumed from saveState() bytes of this side, the partner resumed
-    /// from its own of the same window: connects and shakes hands as initialize() does, then
-    /// carries on from that window instead of window 0. Throws ConfigError when the bytes do not
-    /// fit this configuration.
-    double initializeResumed(const std::vector<unsigned char>& state);
+  /// Restart checkpoints (docs/coupler.md "Restart"): the coupling state at a completed window
+  /// (the scheme's counters, the acceleration's secant columns, the predictor's history, the
+  /// divergence monitor's, the last values exchanged), as bytes. Call right after an advance()
+  /// that completed a window (isTimeWindowComplete()), before the next readData/writeData.
+  std::vector<unsigned char> saveState() const;
+  /// initialize() for a run resumed from saveState() bytes of this side, the partner resumed
+  /// from its own of the same window: connects and shakes hands as initialize() does, then
+  /// carries on from that window instead of window 0. Throws ConfigError when the bytes do not
+  /// fit this configuration.
+  double initializeResumed(const std::vector<unsigned char>& state);
 
-    /// Stores this side's values of a field it writes (node-major, my node order).
-    void writeData(const std::string& mesh, const std::string& field, const double* values,
-                   std::size_t count);
-    void writeData(const std::string& mesh, const std::string& field,
-                   const std::vector<double>& v) {
-        writeData(mesh, field, v.data(), v.size());
-    }
-    /// Copies the partner's latest values of a field this side reads, mapped to my nodes.
-    void readData(const std::string& mesh, const std::string& field, double* values,
-                  std::size_t count) const;
-    void readData(const std::string& mesh, const std::string& field,
-                  std::vector<double>& v) const;
+  /// Stores this side's values of a field it writes (node-major, my node order).
+  void writeData(const std::string& mesh, const std::string& field, const double* values, std::size_t count);
+  void writeData(const std::string& mesh, const std::string& field, const std::vector<double>& v) {
+    writeData(mesh, field, v.data(), v.size());
+  }
+  /// Copies the partner's latest values of a field this side reads, mapped to my nodes.
+  void readData(const std::string& mesh, const std::string& field, double* values, std::size_t count) const;
+  void readData(const std::string& mesh, const std::string& field, std::vector<double>& v) const;
 
-    /// Moves time on by dt; at the end of a window exchanges data and applies the scheme.
-    /// Returns the largest allowed next step.
-    double advance(double dt);
+  /// Moves time on by dt; at the end of a window exchanges data and applies the scheme.
+  /// Returns the largest allowed next step.
+  double advance(double dt);
 
-    bool isCouplingOngoing() const;
-    bool isTimeWindowComplete() const;
-    bool requiresWritingCheckpoint() const;
-    bool requiresReadingCheckpoint() const;
-    /// Time left in the current window (s).
-    double getMaxTimeStepSize() const;
+  bool isCouplingOngoing() const;
+  bool isTimeWindowComplete() const;
+  bool requiresWritingCheckpoint() const;
+  bool requiresReadingCheckpoint() const;
+  /// Time left in the current window (s).
+  double getMaxTimeStepSize() const;
 
-    /// Clean end: BYE to the partner and wait for its BYE. Before the end of the coupling it
-    /// tells the partner that this side stops early (ABORT).
-    void finalize();
-    /// Tells the partner this side stops on an error (best effort, never throws) and closes.
-    void abort(const std::string& reason) noexcept;
+  /// Clean end: BYE to the partner and wait for its BYE. Before the end of the coupling it
+  /// tells the partner that this side stops early (ABORT).
+  void finalize();
+  /// Tells the partner this side stops on an error (best effort, never throws) and closes.
+  void abort(const std::string& reason) noexcept;
 
-    const std::string& name() const { return name_; }
-    const std::string& partner() const { return partner_; }
-    const CouplingConfig& config() const { return config_; }
-    const SchemeState& state() const;
-    ExchangeStats stats() const;
-    /// Number of partner vertices of a mesh (after initialize).
-    std::size_t partnerVertexCount(const std::string& mesh) const;
-    /// Simulated time at the start of the current window (s).
-    double windowStartTime() const;
+  const std::string& name() const { return name_; }
+  const std::string& partner() const { return partner_; }
+  const CouplingConfig& config() const { return config_; }
+  const SchemeState& state() const;
+  ExchangeStats stats() const;
+  /// Number of partner vertices of a mesh (after initialize).
+  std::size_t partnerVertexCount(const std::string& mesh) const;
+  /// Simulated time at the start of the current window (s).
+  double windowStartTime() const;
 
-  private:
-    struct Field;
-    struct MeshState;
+ private:
+  struct Field;
+  struct MeshState;
 
-    // ExchangePort
-    void sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t flags,
-                  double residual) override;
-    Received receiveData(std::uint64_t window, std::uint32_t iteration) override;
-    std::vector<double>& writtenValues() override;
-    const std::vector<double>& receivedValues() const override;
-    const std::vector<FieldSlice>& writtenSlices() const override { return writtenSlices_; }
-    const std::vector<FieldSlice>& receivedSlices() const override { return receivedSlices_; }
+  // ExchangePort
+  void sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t flags, double residual) override;
+  Received receiveData(std::uint64_t window, std::uint32_t iteration) override;
+  std::vector<double>& writtenValues() override;
+  const std::vector<double>& receivedValues() const override;
+  const std::vector<FieldSlice>& writtenSlices() const override { return writtenSlices_; }
+  const std::vector<FieldSlice>& receivedSlices() const override { return receivedSlices_; }
 
-    double connect();
-    void checkpoint(StateIo& io);
-    Hello makeHello() const;
-    /// All the reasons the partner's record is unacceptable ("" if none).
-    std::string checkPartner(const Hello& theirs) const;
-    void buildMaps(const Hello& theirs);
-    /// Handshake, both roles: the partner's record is checked and the maps built; on a mismatch
-    /// `reject` tells the partner why and HandshakeError is thrown.
-    void acceptPartner(const Hello& theirs, const std::function<void(ReasonCode, const std::string&)>& reject);
-    void runAcceptor(Deadline deadline);
-    void runConnector(Deadline deadline);
-    std::string where() const;
-    Field& field(const std::string& mesh, const std::string& name, bool write,
-                 const char* caller);
-    const Field& field(const std::string& mesh, const std::string& name, bool write,
-                       const char* caller) const;
-    template <class F>
-    auto guarded(const char* what, F&& f) -> decltype(f());
+  double connect();
+  void checkpoint(StateIo& io);
+  Hello makeHello() const;
+  /// All the reasons the partner's record is unacceptable ("" if none).
+  std::string checkPartner(const Hello& theirs) const;
+  void buildMaps(const Hello& theirs);
+  /// Handshake, both roles: the partner's record is checked and the maps built; on a mismatch
+  /// `reject` tells the partner why and HandshakeError is thrown.
+  void acceptPartner(const Hello& theirs, const std::function<void(ReasonCode, const std::string&)>& reject);
+  void runAcceptor(Deadline deadline);
+  void runConnector(Deadline deadline);
+  std::string where() const;
+  Field& field(const std::string& mesh, const std::string& name, bool write, const char* caller);
+  const Field& field(const std::string& mesh, const std::string& name, bool write, const char* caller) const;
+  template <class F>
+  auto guarded(const char* what, F&& f) -> decltype(f());
 
-    std::string name_, partner_;
-    CouplingConfig config_;
-    TransportOptions transport_;
-    std::string token_;
-    bool amFirst_ = true;
-    std::map<std::string, std::unique_ptr<MeshState>> meshes_;
-    std::vector<std::unique_ptr<Field>> fields_;
-    std::unique_ptr<Endpoint> link_;
-    std::unique_ptr<CouplingScheme> scheme_;
-    bool initialized_ = false, finalized_ = false;
-    double timeInWindow_ = 0.0;
-    std::vector<double> written_, received_;  ///< concatenated, for the scheme
-    std::vector<FieldSlice> writtenSlices_, receivedSlices_;
-    /// First participant: watches the partner's data for a coupling instability.
-    std::unique_ptr<DivergenceMonitor> monitor_;
-    double secondsMapping_ = 0.0;
-    std::uint64_t partnerDataBytes_ = 0;  ///< exact DATA payload size from the partner
-    std::uint64_t exchanges_ = 0;
+  std::string name_, partner_;
+  CouplingConfig config_;
+  TransportOptions transport_;
+  std::string token_;
+  bool amFirst_ = true;
+  std::map<std::string, std::unique_ptr<MeshState>> meshes_;
+  std::vector<std::unique_ptr<Field>> fields_;
+  std::unique_ptr<Endpoint> link_;
+  std::unique_ptr<CouplingScheme> scheme_;
+  bool initialized_ = false, finalized_ = false;
+  double timeInWindow_ = 0.0;
+  std::vector<double> written_, received_;  ///< concatenated, for the scheme
+  std::vector<FieldSlice> writtenSlices_, receivedSlices_;
+  /// First participant: watches the partner's data for a coupling instability.
+  std::unique_ptr<DivergenceMonitor> monitor_;
+  double secondsMapping_ = 0.0;
+  std::uint64_t partnerDataBytes_ = 0;  ///< exact DATA payload size from the partner
+  std::uint64_t exchanges_ = 0;
 };
 
 }  // namespace tq::coupler

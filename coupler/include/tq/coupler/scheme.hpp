@@ -18,81 +18,78 @@ namespace tq::coupler {
 
 /// One field's place in the concatenated written or received values.
 struct FieldSlice {
-    std::string name;
-    std::size_t offset = 0, size = 0;
-    double absoluteTolerance = 0.0;  ///< FieldSpec::absoluteTolerance (field units, RMS)
+  std::string name;
+  std::size_t offset = 0, size = 0;
+  double absoluteTolerance = 0.0;  ///< FieldSpec::absoluteTolerance (field units, RMS)
 };
 
 /// What a scheme needs from its participant.
 class ExchangePort {
-  public:
-    virtual ~ExchangePort() = default;
-    /// Sends this side's written fields (as currently held) in a DATA message.
-    virtual void sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t flags,
-                          double residual) = 0;
-    struct Received {
-        std::uint32_t flags = 0;
-        double residual = 0.0;
-    };
-    /// Receives the partner's DATA for (window, iteration) into the read fields.
-    virtual Received receiveData(std::uint64_t window, std::uint32_t iteration) = 0;
-    /// This side's written values, all written fields concatenated (may be modified: the
-    /// second participant replaces them by the accelerated values before sending).
-    virtual std::vector<double>& writtenValues() = 0;
-    /// The partner's values as last received, all read fields concatenated.
-    virtual const std::vector<double>& receivedValues() const = 0;
-    /// Where each written / read field lies in writtenValues() / receivedValues().
-    virtual const std::vector<FieldSlice>& writtenSlices() const = 0;
-    virtual const std::vector<FieldSlice>& receivedSlices() const = 0;
+ public:
+  virtual ~ExchangePort() = default;
+  /// Sends this side's written fields (as currently held) in a DATA message.
+  virtual void sendData(std::uint64_t window, std::uint32_t iteration, std::uint32_t flags, double residual) = 0;
+  struct Received {
+    std::uint32_t flags = 0;
+    double residual = 0.0;
+  };
+  /// Receives the partner's DATA for (window, iteration) into the read fields.
+  virtual Received receiveData(std::uint64_t window, std::uint32_t iteration) = 0;
+  /// This side's written values, all written fields concatenated (may be modified: the
+  /// second participant replaces them by the accelerated values before sending).
+  virtual std::vector<double>& writtenValues() = 0;
+  /// The partner's values as last received, all read fields concatenated.
+  virtual const std::vector<double>& receivedValues() const = 0;
+  /// Where each written / read field lies in writtenValues() / receivedValues().
+  virtual const std::vector<FieldSlice>& writtenSlices() const = 0;
+  virtual const std::vector<FieldSlice>& receivedSlices() const = 0;
 };
 
 struct SchemeState {
-    std::uint64_t window = 0;       ///< index of the current window (0-based)
-    std::uint32_t iteration = 0;    ///< pass within the window (0-based)
-    bool ongoing = true;
-    bool windowComplete = false;    ///< the last advance() completed a window
-    bool writeCheckpoint = false;   ///< save state now: a window starts that may be repeated
-    bool readCheckpoint = false;    ///< restore state now: the window is repeated
-    double residual = std::numeric_limits<double>::quiet_NaN();  ///< last measured residual
-    std::uint64_t totalIterations = 0;     ///< passes over all windows
-    std::uint64_t unconvergedWindows = 0;  ///< implicit windows that hit maxIterations
+  std::uint64_t window = 0;     ///< index of the current window (0-based)
+  std::uint32_t iteration = 0;  ///< pass within the window (0-based)
+  bool ongoing = true;
+  bool windowComplete = false;                                 ///< the last advance() completed a window
+  bool writeCheckpoint = false;                                ///< save state now: a window starts that may be repeated
+  bool readCheckpoint = false;                                 ///< restore state now: the window is repeated
+  double residual = std::numeric_limits<double>::quiet_NaN();  ///< last measured residual
+  std::uint64_t totalIterations = 0;                           ///< passes over all windows
+  std::uint64_t unconvergedWindows = 0;                        ///< implicit windows that hit maxIterations
 };
 
 class CouplingScheme {
-  public:
-    CouplingScheme(const CouplingConfig& c, bool amFirst) : config_(c), first_(amFirst) {}
-    virtual ~CouplingScheme() = default;
-    /// After the handshake. The second participant receives the first's window-0 data here.
-    virtual void initialize(ExchangePort& port) = 0;
-    /// At the end of a window (the participant has advanced through windowSize): exchange,
-    /// decide whether the window is repeated, update the state.
-    virtual void endWindow(ExchangePort& port) = 0;
-    /// Restart checkpoints: save or restore the scheme's state at a completed window.
-    virtual void checkpoint(StateIo& io) { io.io(state_); }
-    /// Instead of initialize(), after checkpoint() restored a completed window: the second
-    /// participant receives the first's data of the next window again (its checkpoint was taken
-    /// after that data arrived, the first's before it was sent; the values are the same).
-    virtual void resume(ExchangePort& port) = 0;
-    const SchemeState& state() const { return state_; }
-    /// Called by the participant when a step did not complete the window.
-    void clearFlags() {
-        state_.windowComplete = state_.writeCheckpoint = state_.readCheckpoint = false;
-    }
-    bool isFirst() const { return first_; }
+ public:
+  CouplingScheme(const CouplingConfig& c, bool amFirst) : config_(c), first_(amFirst) {}
+  virtual ~CouplingScheme() = default;
+  /// After the handshake. The second participant receives the first's window-0 data here.
+  virtual void initialize(ExchangePort& port) = 0;
+  /// At the end of a window (the participant has advanced through windowSize): exchange,
+  /// decide whether the window is repeated, update the state.
+  virtual void endWindow(ExchangePort& port) = 0;
+  /// Restart checkpoints: save or restore the scheme's state at a completed window.
+  virtual void checkpoint(StateIo& io) { io.io(state_); }
+  /// Instead of initialize(), after checkpoint() restored a completed window: the second
+  /// participant receives the first's data of the next window again (its checkpoint was taken
+  /// after that data arrived, the first's before it was sent; the values are the same).
+  virtual void resume(ExchangePort& port) = 0;
+  const SchemeState& state() const { return state_; }
+  /// Called by the participant when a step did not complete the window.
+  void clearFlags() { state_.windowComplete = state_.writeCheckpoint = state_.readCheckpoint = false; }
+  bool isFirst() const { return first_; }
 
-  protected:
-    const CouplingConfig& config_;
-    bool first_;
-    SchemeState state_;
+ protected:
+  const CouplingConfig& config_;
+  bool first_;
+  SchemeState state_;
 };
 
 /// Staggered (Gauss–Seidel): first sends, second answers, once per window.
 class SerialExplicit final : public CouplingScheme {
-  public:
-    using CouplingScheme::CouplingScheme;
-    void initialize(ExchangePort& port) override;
-    void endWindow(ExchangePort& port) override;
-    void resume(ExchangePort& port) override;
+ public:
+  using CouplingScheme::CouplingScheme;
+  void initialize(ExchangePort& port) override;
+  void endWindow(ExchangePort& port) override;
+  void resume(ExchangePort& port) override;
 };
 
 /// Serial implicit: passes repeated with checkpoint/rollback until converged (the second
@@ -102,22 +99,22 @@ class SerialExplicit final : public CouplingScheme {
 /// maxIterations; it accelerates its writes.
 /// With fixedPasses = 2 and no convergence test this is the paper's predictor–corrector.
 class SerialImplicit final : public CouplingScheme {
-  public:
-    SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses, bool testConvergence,
-                   std::unique_ptr<Acceleration> acceleration);
-    void initialize(ExchangePort& port) override;
-    void endWindow(ExchangePort& port) override;
-    void checkpoint(StateIo& io) override;
-    void resume(ExchangePort& port) override;
+ public:
+  SerialImplicit(const CouplingConfig& c, bool amFirst, int maxPasses, bool testConvergence,
+                 std::unique_ptr<Acceleration> acceleration);
+  void initialize(ExchangePort& port) override;
+  void endWindow(ExchangePort& port) override;
+  void checkpoint(StateIo& io) override;
+  void resume(ExchangePort& port) override;
 
-  private:
-    int maxPasses_;
-    bool test_;
-    std::unique_ptr<Acceleration> acc_;
-    std::vector<double> prevReceived_;  ///< second: d_{k−1}
-    std::vector<double> lastSent_;      ///< second: x_k (what the first used in this pass)
-    std::vector<double> next_;
-    std::vector<double> prevConverged_;  ///< second, predictor linear: x applied in window w−1
+ private:
+  int maxPasses_;
+  bool test_;
+  std::unique_ptr<Acceleration> acc_;
+  std::vector<double> prevReceived_;  ///< second: d_{k−1}
+  std::vector<double> lastSent_;      ///< second: x_k (what the first used in this pass)
+  std::vector<double> next_;
+  std::vector<double> prevConverged_;  ///< second, predictor linear: x applied in window w−1
 };
 
 std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::string& me);

@@ -15,42 +15,39 @@ using Clock = std::chrono::steady_clock;
 
 /// A point in time after which a blocking call gives up with TimeoutError.
 struct Deadline {
-    Clock::time_point at;
-    double seconds = 0.0;  ///< the timeout it was made from, for messages
-    static Deadline in(double seconds) {
-        return {Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(seconds)),
-                seconds};
-    }
-    /// Seconds left (may be negative).
-    double remaining() const {
-        return std::chrono::duration<double>(at - Clock::now()).count();
-    }
+  Clock::time_point at;
+  double seconds = 0.0;  ///< the timeout it was made from, for messages
+  static Deadline in(double seconds) {
+    return {Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds)),
+            seconds};
+  }
+  /// Seconds left (may be negative).
+  double remaining() const { return std::chrono::duration<double>(at - Clock::now()).count(); }
 };
 
 /// An established, ordered, reliable byte stream to the partner.
 class Channel {
-  public:
-    virtual ~Channel() = default;
-    /// Sends all n bytes. Throws TimeoutError, PartnerLostError or TransportError.
-    virtual void send(const std::uint8_t* data, std::size_t n, Deadline deadline) = 0;
-    /// Receives exactly n bytes. Throws TimeoutError (with the count received so far),
-    /// PartnerLostError on end of stream or reset, TransportError otherwise.
-    virtual void receive(std::uint8_t* data, std::size_t n, Deadline deadline) = 0;
-    virtual void close() noexcept = 0;
-    /// "tcp 127.0.0.1:41234 ↔ 127.0.0.1:50110", "mpi world rank 1"
-    virtual std::string describe() const = 0;
+ public:
+  virtual ~Channel() = default;
+  /// Sends all n bytes. Throws TimeoutError, PartnerLostError or TransportError.
+  virtual void send(const std::uint8_t* data, std::size_t n, Deadline deadline) = 0;
+  /// Receives exactly n bytes. Throws TimeoutError (with the count received so far),
+  /// PartnerLostError on end of stream or reset, TransportError otherwise.
+  virtual void receive(std::uint8_t* data, std::size_t n, Deadline deadline) = 0;
+  virtual void close() noexcept = 0;
+  /// "tcp 127.0.0.1:41234 ↔ 127.0.0.1:50110", "mpi world rank 1"
+  virtual std::string describe() const = 0;
 };
 
 /// Waits for partners. An acceptor may get several connections over time (a foreign process
 /// that knocks on the port is refused and the listener keeps waiting).
 class Listener {
-  public:
-    virtual ~Listener() = default;
-    virtual std::unique_ptr<Channel> accept(Deadline deadline) = 0;
-    virtual std::string describe() const = 0;
-    /// False when no second connection can ever arrive (MPI: the partner is fixed).
-    virtual bool canAcceptAgain() const = 0;
+ public:
+  virtual ~Listener() = default;
+  virtual std::unique_ptr<Channel> accept(Deadline deadline) = 0;
+  virtual std::string describe() const = 0;
+  /// False when no second connection can ever arrive (MPI: the partner is fixed).
+  virtual bool canAcceptAgain() const = 0;
 };
 
 enum class TransportKind { Tcp, Mpi };
@@ -58,23 +55,23 @@ enum class ConnectRole { Auto, Listen, Connect };
 
 /// How this side reaches its partner. Not compared in the handshake.
 struct TransportOptions {
-    TransportKind kind = TransportKind::Tcp;
-    /// Auto: the configuration's first participant listens, the second connects.
-    ConnectRole role = ConnectRole::Auto;
-    /// TCP listener: address to bind. Loopback unless the user asks for a network address.
-    std::string bindAddress = "127.0.0.1";
-    /// TCP listener: port; 0 lets the operating system choose a free one (the default).
-    int port = 0;
-    /// TCP: file through which the listener publishes "tqcp 1 tcp <host> <port>" and the
-    /// connector finds it. Written atomically; removed when the listener closes.
-    std::string addressFile;
-    /// TCP connector: explicit partner address (used instead of addressFile when port > 0).
-    std::string connectHost = "127.0.0.1";
-    int connectPort = 0;
-    /// s: how long to wait for the partner to appear (connect, accept, handshake).
-    double connectTimeout = 120.0;
-    /// s: how long any single receive may wait for the partner during the run.
-    double receiveTimeout = 120.0;
+  TransportKind kind = TransportKind::Tcp;
+  /// Auto: the configuration's first participant listens, the second connects.
+  ConnectRole role = ConnectRole::Auto;
+  /// TCP listener: address to bind. Loopback unless the user asks for a network address.
+  std::string bindAddress = "127.0.0.1";
+  /// TCP listener: port; 0 lets the operating system choose a free one (the default).
+  int port = 0;
+  /// TCP: file through which the listener publishes "tqcp 1 tcp <host> <port>" and the
+  /// connector finds it. Written atomically; removed when the listener closes.
+  std::string addressFile;
+  /// TCP connector: explicit partner address (used instead of addressFile when port > 0).
+  std::string connectHost = "127.0.0.1";
+  int connectPort = 0;
+  /// s: how long to wait for the partner to appear (connect, accept, handshake).
+  double connectTimeout = 120.0;
+  /// s: how long any single receive may wait for the partner during the run.
+  double receiveTimeout = 120.0;
 };
 
 /// Listener factory (TCP: binds and publishes the address; MPI: the partner leader's rank).

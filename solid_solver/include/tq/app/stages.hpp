@@ -22,16 +22,16 @@ class HeldExcavationLoad;
 /// What one stage did.
 struct StageReport {
   std::string name;
-  Index steps = 0;         ///< dynamic relaxation steps (0: no relaxation in this stage)
-  Real ratio = 0;          ///< final |unbalanced| / max(the stage's initial out-of-balance force, 1e-6 × force scale)
+  Index steps = 0;  ///< dynamic relaxation steps (0: no relaxation in this stage)
+  Real ratio = 0;   ///< final |unbalanced| / max(the stage's initial out-of-balance force, 1e-6 × force scale)
   bool converged = true;
   double wallSeconds = 0;
-  std::string note;        ///< e.g. the interface model used, the reactions held at the switch
+  std::string note;  ///< e.g. the interface model used, the reactions held at the switch
 };
 
 /// Drives the stages of a version 2 input on a built solver. The solver must outlive it.
 class StagedAnalysis {
-public:
+ public:
   /// Checks the stage prerequisites against the mesh (lining region, interface pairs, faces).
   /// Throws InputError.
   StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver);
@@ -57,7 +57,7 @@ public:
   /// (/stages release_fraction λ < 1; null otherwise). Released, it adds no force.
   const std::shared_ptr<HeldExcavationLoad>& heldExcavationLoad() const { return unreleased_; }
 
-private:
+ private:
   void setInSituStress();
   StageReport relaxStage(const std::string& name, std::ostream& log, double progressSeconds);
   void activateLining(std::ostream& log, StageReport& rep);
@@ -80,7 +80,7 @@ private:
 /// lining is active; release() removes them (the solver then relaxes their release on the
 /// composite rock and lining).
 class HeldExcavationLoad final : public NodalForceContributor {
-public:
+ public:
   explicit HeldExcavationLoad(std::vector<Real> forces) : f_(std::move(forces)) {}
   std::string name() const override { return "held excavation load"; }
   void addForces(Real t, Real dt, NodalState& state) override;
@@ -88,7 +88,7 @@ public:
   bool released() const { return released_; }
   const std::vector<Real>& forces() const { return f_; }
 
-private:
+ private:
   std::vector<Real> f_;  // [3N]
   bool released_ = false;
 };

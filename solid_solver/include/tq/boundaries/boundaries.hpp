@@ -25,7 +25,7 @@ struct AxisFace {
   int axis = 0;  ///< 0 x, 1 y, 2 z: the normal's direction
   int sign = 1;  ///< +1 or −1: outward normal = sign · e_axis
   std::vector<Index> nodes;
-  std::vector<Real> area;  ///< m², per node
+  std::vector<Real> area;    ///< m², per node
   std::vector<Index> quads;  ///< [4F] the face's quads (for per-face loads)
 };
 /// Throws InputError naming the group if it is missing or not planar and axis-aligned.
@@ -40,14 +40,14 @@ std::vector<Real> pressureNodalForces(const Mesh& mesh, const std::string& group
 /// Constant forces on nodes (N), e.g. the support reactions that replace the static supports at
 /// the start of the earthquake, or a static surface pressure.
 class ConstantNodalForces final : public NodalForceContributor {
-public:
+ public:
   ConstantNodalForces(std::string name, std::vector<Real> forces) : name_(std::move(name)), f_(std::move(forces)) {}
   std::string name() const override { return name_; }
   void addForces(Real t, Real dt, NodalState& state) override;
   const std::vector<Real>* constantForces() const override { return &f_; }
   const std::vector<Real>& forces() const { return f_; }
 
-private:
+ private:
   std::string name_;
   std::vector<Real> f_;  // [3N]
 };
@@ -56,12 +56,12 @@ private:
 struct SeismicBoundarySpec {
   bool bottom = false;
   std::string bottomFace = "bottom";
-  Real distance = 0;            ///< R (m) of the springs K = αG/R
+  Real distance = 0;  ///< R (m) of the springs K = αG/R
   Real alphaN = 4.0 / 3, alphaT = 2.0 / 3;
-  BaseHalfSpace halfSpace;      ///< ρ, cp, cs below the base (dashpots, springs, input)
+  BaseHalfSpace halfSpace;  ///< ρ, cp, cs below the base (dashpots, springs, input)
   std::vector<std::string> freeFieldFaces;
-  std::string columnFace;       ///< face whose layers define the base column
-  RayleighDamping damping;      ///< the model's Rayleigh damping (the columns use the same)
+  std::string columnFace;   ///< face whose layers define the base column
+  RayleighDamping damping;  ///< the model's Rayleigh damping (the columns use the same)
 };
 
 /// Viscoelastic base + free-field sides, all driven by the incident motion.
@@ -79,7 +79,7 @@ struct SeismicBoundarySpec {
 /// The spring's work is booked as boundary energy (boundaryWork), the input forces as external
 /// work, the dashpots as boundary dissipation (by the solver).
 class SeismicBoundaries final : public NodalForceContributor {
-public:
+ public:
   SeismicBoundaries(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
                     const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice);
   std::string name() const override { return "seismic boundaries"; }
@@ -103,7 +103,7 @@ public:
   std::array<Real, 3> springPerArea() const { return kArea_; }
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
 
-private:
+ private:
   FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
                               const std::string& face) const;
   struct SideNode {
@@ -111,7 +111,7 @@ private:
     Index column;
     Index level;  // interpolation between level and level + 1 with weight w
     Real w;
-    Real c[3];    // dashpot coefficient A·C per direction (N s/m)
+    Real c[3];  // dashpot coefficient A·C per direction (N s/m)
   };
   struct SideQuadLoad {
     Index column, layer;
@@ -127,7 +127,7 @@ private:
   std::array<Real, 3> kArea_{}, cArea_{};
   std::vector<SideNode> side_;
   std::vector<SideQuadLoad> sideQuads_;
-  std::vector<Real> u0_;         // [3 base nodes] displacement at the switch
+  std::vector<Real> u0_;             // [3 base nodes] displacement at the switch
   std::vector<Real> uPrev_, fPrev_;  // spring work by the trapezoid rule, as the solver books work
   bool first_ = true;
   Real springWork_ = 0;

@@ -18,7 +18,7 @@ namespace tq {
 /// and zero before the first; velocity and displacement are its exact integrals (piecewise
 /// quadratic and cubic), starting from rest. After the last sample a = 0 and v is held.
 class IncidentMotion {
-public:
+ public:
   IncidentMotion() = default;  ///< no motion
   /// @param t strictly increasing sample times (s); ax, ay, az accelerations (m/s²), same length
   ///          (an empty component is zero).
@@ -29,7 +29,7 @@ public:
   bool empty() const { return t_.empty(); }
   Real endTime() const { return t_.empty() ? 0 : t_.back(); }
 
-private:
+ private:
   size_t interval(Real t) const;  // k with t_k <= t < t_{k+1}
   std::vector<Real> t_;
   std::array<std::vector<Real>, 3> a_, v_, u_;
@@ -53,7 +53,7 @@ struct BaseHalfSpace {
 /// cp for z) and the incident force 2ρc v_in(t): exactly absorbing for vertical incidence in 1D.
 /// Stresses are the dynamic part only (the static state is carried elsewhere).
 class FreeFieldColumn {
-public:
+ public:
   FreeFieldColumn(std::vector<Real> levels, std::vector<ColumnLayer> layers, BaseHalfSpace base,
                   RayleighDamping damping);
 
@@ -92,7 +92,7 @@ public:
     a.io(dtLast_);
   }
 
-private:
+ private:
   std::vector<Real> z_;
   std::vector<ColumnLayer> layers_;
   BaseHalfSpace base_;

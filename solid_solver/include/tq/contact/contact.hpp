@@ -3,9 +3,9 @@
 ///        ARCHITECTURE.md §3; docs/theory.md §4) between coincident, duplicated node pairs
 ///        (rock node 1, lining node 2).
 ///
-/// Each step, after every force of the earlier phases is known (ForcePhase::Interface), both nodes of a pair are predicted
-/// without the contact force by the solver's own update formula; the contact force R1 = −R2
-/// (eq. 9) that makes the pair end the step together is
+/// Each step, after every force of the earlier phases is known (ForcePhase::Interface), both nodes of a pair are
+/// predicted without the contact force by the solver's own update formula; the contact force R1 = −R2 (eq. 9) that
+/// makes the pair end the step together is
 ///     R1 = K ∘ Δ,  K_d = 1 / (w1_d + w2_d),  w_d = Δu per unit force of the node in direction d
 /// — for the central difference w = Δt² / (m + ½(α m + c)Δt), i.e. K = M1 M2 / ((M1 + M2) Δt²)
 /// without damping; for the literal eqs. (3)–(4) w = Δt²/(2m), i.e. the paper's
@@ -60,10 +60,10 @@ ContactParams contactParamsFrom(const InterfaceInput& in);
 
 /// Geometry of the node pairs.
 struct ContactPairs {
-  std::vector<Index> node1;   ///< rock node of each pair
-  std::vector<Index> node2;   ///< lining node of each pair
-  std::vector<Real> normal;   ///< [3P] unit normal n1, from node 2 towards node 1 (lining → rock)
-  std::vector<Real> area;     ///< [P] tributary (control) area A1 (m²)
+  std::vector<Index> node1;  ///< rock node of each pair
+  std::vector<Index> node2;  ///< lining node of each pair
+  std::vector<Real> normal;  ///< [3P] unit normal n1, from node 2 towards node 1 (lining → rock)
+  std::vector<Real> area;    ///< [P] tributary (control) area A1 (m²)
   Index size() const { return Index(node1.size()); }
 };
 
@@ -85,7 +85,7 @@ enum class PairState : int {
 
 /// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
 class DynamicContact final : public NodalForceContributor {
-public:
+ public:
   /// The solver supplies the masses, supports and damping of the prediction; it must outlive this.
   DynamicContact(const Solver& solver, ContactPairs pairs, ContactParams params);
   std::string name() const override { return "rock-lining dynamic contact"; }
@@ -124,16 +124,16 @@ public:
   /// Number of pairs in a state.
   Index count(PairState s) const;
 
-private:
+ private:
   const Solver& solver_;
   ContactPairs pairs_;
   ContactParams params_;
   std::vector<std::uint8_t> state_, failed_, cohesive_;
-  std::vector<Real> r0_;      // [3P] relative offset u2 − u1 when the pair became active
-  std::vector<Real> force_;   // [3P] force on node 1 of the last step (N)
-  std::vector<Real> relPrev_; // [3P] u1 − u2 at the last call (for the work)
+  std::vector<Real> r0_;       // [3P] relative offset u2 − u1 when the pair became active
+  std::vector<Real> force_;    // [3P] force on node 1 of the last step (N)
+  std::vector<Real> relPrev_;  // [3P] u1 − u2 at the last call (for the work)
   std::vector<Real> fn_, ft_;
-  Real work_ = 0;             // work of the contact forces so far (J, ≤ 0 up to round-off)
+  Real work_ = 0;  // work of the contact forces so far (J, ≤ 0 up to round-off)
 };
 
 }  // namespace tq

@@ -24,7 +24,7 @@ namespace tq {
 /// displaced rock). Valid when the members' Rayleigh mass damping and nodal dashpots are
 /// proportional to their masses (true for the interface pairs, which carry no dashpots).
 class TiedNodeGroups final : public NodalForceContributor {
-public:
+ public:
   /// @param groups node lists, each of at least 2 nodes
   TiedNodeGroups(std::string name, std::vector<std::vector<Index>> groups);
   /// Pairs (a, b) as groups of two, e.g. mesh.rockLiningPairs.
@@ -66,7 +66,7 @@ public:
   const Real* force(Index j) const { return &force_[3 * size_t(j)]; }
   Index memberIndex(Index g, Index k) const { return start_[size_t(g)] + k; }
 
-private:
+ private:
   std::string name_;
   std::vector<Index> start_, node_;  // CSR
   std::vector<Real> force_;          // [3 members]

@@ -39,29 +39,28 @@ std::string formulationName(Hex8Formulation f);
 
 /// Energy terms of one block for one force evaluation (J).
 struct BlockEnergy {
-  Real stressWork = 0;     ///< ∫ ½(σ^n + σ^{n+1}) : Δε dV of this evaluation (accumulated by the solver)
-  Real storedEnergy = 0;   ///< current elastic hourglass energy (full integration: all strain energy)
-  Real dampingWork = 0;    ///< work of the stiffness-proportional damping forces over this step
+  Real stressWork = 0;    ///< ∫ ½(σ^n + σ^{n+1}) : Δε dV of this evaluation (accumulated by the solver)
+  Real storedEnergy = 0;  ///< current elastic hourglass energy (full integration: all strain energy)
+  Real dampingWork = 0;   ///< work of the stiffness-proportional damping forces over this step
 };
 
 /// What the force kernel needs besides the nodal state.
 struct ElementStepParams {
-  Real dt = 0;          ///< step about to be taken (s)
-  Real dtLast = 0;      ///< step that produced the current displacement increment (0 at start)
-  Real beta = 0;        ///< stiffness-proportional Rayleigh coefficient β (s)
+  Real dt = 0;      ///< step about to be taken (s)
+  Real dtLast = 0;  ///< step that produced the current displacement increment (0 at start)
+  Real beta = 0;    ///< stiffness-proportional Rayleigh coefficient β (s)
   /// Subcycling (Solver::enableSubcycling): evaluate only the chunks whose level is at most this
   /// (the chunks due at this fine step); 255 = every chunk.
   int activeLevel = 255;
 };
 
 class ElementBlock {
-public:
+ public:
   static constexpr Index kChunk = 64;  ///< elements per chunk (material update unit)
 
   /// @param meshElems mesh element indices that form this block (all of one region).
-  ElementBlock(std::string name, std::shared_ptr<const Material> material,
-               Hex8Formulation formulation, const Mesh& mesh, std::vector<Index> meshElems,
-               Real hourglassScale = 1.0);
+  ElementBlock(std::string name, std::shared_ptr<const Material> material, Hex8Formulation formulation,
+               const Mesh& mesh, std::vector<Index> meshElems, Real hourglassScale = 1.0);
 
   const std::string& name() const { return name_; }
   const Material& material() const { return *material_; }
@@ -147,10 +146,9 @@ public:
   /// Element index of the first non-finite or exploding stress (|σ| > limit) or -1.
   Index findBadStress(Real limit) const;
 
-private:
+ private:
   template <bool kDamp, bool kTotal>
-  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f,
-                     BlockEnergy& en);
+  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f, BlockEnergy& en);
   void fullIntegrationChunk(Index c, const Real* u, Real* f, BlockEnergy& en);
   void strainFromDisplacement(Index e, const NodalState& state);
   /// Geometry value `comp` (see element_block.cpp, kG*) of element e.
@@ -186,9 +184,9 @@ private:
   // subcycling: [level L below the coarsest] the chunks due at a step of level L, and their slabs
   // (positions in that list; slabs of one parity share no node)
   std::vector<std::vector<Index>> levelChunks_, levelSlabStart_;
-  std::vector<Real> chunkCentre_;  // [3 chunk + d] centre of a chunk's elements
+  std::vector<Real> chunkCentre_;       // [3 chunk + d] centre of a chunk's elements
   std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
-  bool avx2_ = false;     // kernel path
+  bool avx2_ = false;                   // kernel path
 };
 
 }  // namespace tq

@@ -14,7 +14,7 @@
 namespace tq {
 
 class NodalState {
-public:
+ public:
   NodalState() = default;
   explicit NodalState(Index numNodes) { resize(numNodes); }
   void resize(Index numNodes);
@@ -76,7 +76,7 @@ public:
   const Real* massData() const { return m_.data(); }  ///< [N]
   const Real* dashpotData() const { return c_.data(); }
 
-private:
+ private:
   Index n_ = 0;
   std::vector<Real> x0_, u_, v_, a_, fInt_, fExt_, m_, c_;
   bool hasDashpots_ = false;

@@ -71,7 +71,7 @@ inline constexpr ForcePhase kForcePhases[] = {ForcePhase::Loads, ForcePhase::Bou
 /// fluid loads): the solver calls it after the element forces are assembled, before the update,
 /// in the phase it was added to (ForcePhase).
 class NodalForceContributor {
-public:
+ public:
   virtual ~NodalForceContributor() = default;
   virtual std::string name() const = 0;
   /// Add forces to state.fExt at time t (the state holds u^n, v, f_int^n).
@@ -129,24 +129,24 @@ struct StableStep {
 /// Energy balance (J). balance = kinetic + internal + damping + boundary - external stays
 /// constant; `error` is its drift relative to the largest of the terms.
 struct EnergyBalance {
-  Real kinetic = 0;   ///< ½ m v^{n-½}·v^{n+½} (central difference; exact invariant when undamped)
-  Real internal = 0;  ///< strain energy incl. hourglass (= work of the stresses)
-  Real damping = 0;   ///< dissipated by Rayleigh damping
-  Real boundary = 0;  ///< absorbed by boundary dashpots
-  Real external = 0;  ///< work of the external forces
-  Real interface = 0; ///< dissipated by contributors (interface friction); not part of `external`
-  Real plastic = 0;   ///< dissipated by plasticity and damage (already part of `internal`)
-  Real error = 0;     ///< |balance - balance_0| / max(terms)
+  Real kinetic = 0;    ///< ½ m v^{n-½}·v^{n+½} (central difference; exact invariant when undamped)
+  Real internal = 0;   ///< strain energy incl. hourglass (= work of the stresses)
+  Real damping = 0;    ///< dissipated by Rayleigh damping
+  Real boundary = 0;   ///< absorbed by boundary dashpots
+  Real external = 0;   ///< work of the external forces
+  Real interface = 0;  ///< dissipated by contributors (interface friction); not part of `external`
+  Real plastic = 0;    ///< dissipated by plasticity and damage (already part of `internal`)
+  Real error = 0;      ///< |balance - balance_0| / max(terms)
 };
 
 struct SolverOptions {
   Integrator integrator = Integrator::CentralDifference;
   RayleighDamping damping;
-  Real safety = 0.9;            ///< stable-step safety factor
-  Real dt = 0;                  ///< user step (s); 0 = safety * critical
+  Real safety = 0.9;               ///< stable-step safety factor
+  Real dt = 0;                     ///< user step (s); 0 = safety * critical
   bool allowUnstableStep = false;  ///< testing only: accept dt above the stable limit
-  Real velocityLimit = 1.0e3;   ///< |v| above this (m/s) counts as exploding
-  Real gravity[3] = {0, 0, 0};  ///< body acceleration (m/s^2), e.g. {0, 0, -9.81}
+  Real velocityLimit = 1.0e3;      ///< |v| above this (m/s) counts as exploding
+  Real gravity[3] = {0, 0, 0};     ///< body acceleration (m/s^2), e.g. {0, 0, -9.81}
   /// Subcycling during the time loop (Solver::enableSubcycling): an element may step up to
   /// 2^subcyclingLevels times the finest step where its own stable step allows; 0 = off.
   int subcyclingLevels = 0;
@@ -154,19 +154,19 @@ struct SolverOptions {
 
 /// What enableSubcycling set up.
 struct SubcyclingInfo {
-  int levels = 0;                 ///< the coarsest level in use (steps of 2^levels fine steps)
-  std::vector<Index> nodes;       ///< nodes per level
-  std::vector<Index> elements;    ///< active elements per level (their chunk's level)
-  Real costFraction = 1;          ///< element evaluations per fine step / active elements
+  int levels = 0;               ///< the coarsest level in use (steps of 2^levels fine steps)
+  std::vector<Index> nodes;     ///< nodes per level
+  std::vector<Index> elements;  ///< active elements per level (their chunk's level)
+  Real costFraction = 1;        ///< element evaluations per fine step / active elements
 };
 
 /// Dynamic relaxation to static equilibrium (explicit steps with adaptive critical mass damping,
 /// Underwood's Rayleigh-quotient estimate of the lowest active frequency).
 struct RelaxResult;
 struct RelaxParams {
-  Real tolerance = 1e-6;   ///< stop when |f_ext - f_int| / |f_ext| on free dofs is below this
+  Real tolerance = 1e-6;  ///< stop when |f_ext - f_int| / |f_ext| on free dofs is below this
   Index maxSteps = 200000;
-  Index checkEvery = 10;   ///< steps between residual checks
+  Index checkEvery = 10;  ///< steps between residual checks
   /// Scale each element's mass so that all share the largest element's critical step (statics
   /// only: the equilibrium does not depend on the mass; gravity keeps the true mass). Turns the
   /// step count from (largest/smallest element) × (elements across) into (elements across).
@@ -180,12 +180,12 @@ struct RelaxParams {
 };
 struct RelaxResult {
   Index steps = 0;
-  Real ratio = 0;          ///< final unbalanced-force ratio
+  Real ratio = 0;  ///< final unbalanced-force ratio
   bool converged = false;
 };
 
 class Solver {
-public:
+ public:
   Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> blocks, SolverOptions opt);
 
   // ---- set-up -------------------------------------------------------------------------------
@@ -270,28 +270,28 @@ public:
   /// |f_ext − f_int|₂ over the free dofs (N).
   Real residualNorm() const;
 
-private:
+ private:
   void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
   void addGravityAndFoldedLoads();  // the Loads phase's parallel pass
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
-  void finishEnergy();  // the balance terms from the accumulated works (after a node update)
+  void finishEnergy();                 // the balance terms from the accumulated works (after a node update)
   [[noreturn]] void reportInstability(Index dof, Real value);
 
   const Mesh& mesh_;
   std::vector<std::unique_ptr<ElementBlock>> blocks_;
   SolverOptions opt_;
   NodalState state_;
-  std::vector<std::uint8_t> free_;  // [3N] 1 free, 0 fixed (one byte per dof: streamed every step)
+  std::vector<std::uint8_t> free_;     // [3N] 1 free, 0 fixed (one byte per dof: streamed every step)
   std::vector<Real> fExtPrev_, uRef_;  // f_ext of the previous step (swapped with the state's each step, for
                                        // the trapezoidal work); the seismic reference
   std::vector<NodalLoad> loads_;
   std::vector<AddedContributor> contributors_;  // in the order added
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
-  Real alphaRelax_ = -1;  // >= 0 while relaxing: replaces α
+  Real alphaRelax_ = -1;          // >= 0 while relaxing: replaces α
   mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
   mutable bool plasticStale_ = true;
   Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
@@ -300,7 +300,7 @@ private:
   Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
   std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
   bool balanceSet_ = false;
-  bool avx2_ = false;  // node update path (ElementBlock::defaultUseAvx2)
+  bool avx2_ = false;                // node update path (ElementBlock::defaultUseAvx2)
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
   // Subcycling: node levels, f_ext at each node's last velocity update and the step that update
   // took (the trapezoidal work over its next step), fine steps since enableSubcycling.

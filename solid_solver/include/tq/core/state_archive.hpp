@@ -20,7 +20,7 @@
 namespace tq {
 
 class StateArchive {
-public:
+ public:
   enum class Mode { Save, Restore };
 
   /// Start writing a new copy (replaces the previous one).
@@ -40,8 +40,8 @@ public:
       count_ = pos_;
       saved_ = true;
     } else if (pos_ != count_) {
-      throw std::logic_error("StateArchive: restored " + std::to_string(pos_) + " items of " +
-                             std::to_string(count_) + " saved (a part changed its checkpoint list)");
+      throw std::logic_error("StateArchive: restored " + std::to_string(pos_) + " items of " + std::to_string(count_) +
+                             " saved (a part changed its checkpoint list)");
     }
   }
   Mode mode() const { return mode_; }
@@ -116,7 +116,7 @@ public:
     }
   }
 
-private:
+ private:
   std::vector<unsigned char>& slot() {
     if (mode_ == Mode::Save) {
       if (pos_ == slots_.size()) slots_.emplace_back();

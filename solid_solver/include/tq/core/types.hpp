@@ -16,14 +16,14 @@ using Index = std::int32_t;
 /// Bad user input (mesh, parameters, options). The message says what is wrong, the offending
 /// value, where it came from and how to fix it.
 class InputError : public std::runtime_error {
-public:
+ public:
   explicit InputError(const std::string& what) : std::runtime_error(what) {}
 };
 
 /// A run that went unstable: a non-finite or exploding value was detected. The message names
 /// the step, the time, the quantity, the node or element and the likely cause.
 class InstabilityError : public std::runtime_error {
-public:
+ public:
   explicit InstabilityError(const std::string& what) : std::runtime_error(what) {}
 };
 
@@ -31,7 +31,7 @@ public:
 /// an I/O error). The message names the file and the system's reason; for a full disk also the
 /// space the next write needed and the space left.
 class OutputError : public std::runtime_error {
-public:
+ public:
   explicit OutputError(const std::string& what) : std::runtime_error(what) {}
 };
 

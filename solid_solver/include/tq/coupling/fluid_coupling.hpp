@@ -32,17 +32,17 @@ namespace tq {
 /// The coupling stopped the run: partner lost, timeout, handshake refused, protocol error,
 /// divergence. The message names the cause and the fix.
 class CouplingError : public std::runtime_error {
-public:
+ public:
   using std::runtime_error::runtime_error;
 };
 
 /// What the adapter did so far.
 struct FluidCouplingStats {
-  long long windows = 0;        ///< completed coupling windows
-  long long passes = 0;         ///< exchanges (a paper window has 2, an implicit one ≥ 2)
-  long long maxPasses = 0;      ///< most passes in one window
+  long long windows = 0;             ///< completed coupling windows
+  long long passes = 0;              ///< exchanges (a paper window has 2, an implicit one ≥ 2)
+  long long maxPasses = 0;           ///< most passes in one window
   long long unconvergedWindows = 0;  ///< implicit: windows ended at max_iterations above the tolerance
-  double secondsExchanging = 0; ///< wall time inside the coupler (waiting for the fluid included)
+  double secondsExchanging = 0;      ///< wall time inside the coupler (waiting for the fluid included)
   // Cost split (docs/coupler.md "Exchange cost"), all over the stepping only (start-up excluded):
   double secondsCoupled = 0;    ///< wall from the end of initialize() to the end of the last addForces()
   double secondsInCoupler = 0;  ///< wall inside addForces' coupler part (predict, write, advance, read)
@@ -53,7 +53,7 @@ struct FluidCouplingStats {
 };
 
 class FluidCoupling final : public NodalForceContributor {
-public:
+ public:
   /// Builds the coupling configuration from /coupling and the interface nodes of `in.face`.
   /// With `in.windowSize` > 0 the solver's step is set to windowSize / windowSteps (refused when
   /// above the stable step). Does not connect yet. Throws InputError on a bad configuration.
@@ -145,7 +145,7 @@ public:
   /// end (BYE or ABORT) or told it itself, and reaches MPI_Finalize (CouplingMpi::finish).
   bool partnerReleased() const;
 
-private:
+ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
@@ -155,7 +155,7 @@ private:
 /// it when the water did not accept the window (docs/coupler.md "Windows of several steps");
 /// otherwise it is Solver::step().
 class WindowedStepper {
-public:
+ public:
   /// `coupling` may be null (no water): then every step is final.
   WindowedStepper(Solver& solver, FluidCoupling* coupling)
       : solver_(solver), coupling_(coupling), windowed_(coupling && coupling->repeatsWindows()) {}
@@ -185,7 +185,7 @@ public:
   /// Windows stepped again from their saved start so far.
   long long restores() const { return restores_; }
 
-private:
+ private:
   Solver& solver_;
   FluidCoupling* coupling_;
   bool windowed_;
@@ -200,7 +200,7 @@ private:
 /// world is split by application before the static stages, so a missing partner is reported at
 /// once. tq-solid is one MPI process (it is threaded with OpenMP): a second solid rank is refused.
 class CouplingMpi {
-public:
+ public:
   /// MPI_Init, SIGTERM/SIGINT handling (mpirun's way of ending the job when a process died),
   /// world split. A partner missing from the job or a second solid process is a problem().
   explicit CouplingMpi(const CouplingInput& in);
@@ -231,7 +231,7 @@ public:
   /// "N processes" when this process was started by mpirun/mpiexec (Open MPI, MPICH), else "".
   static std::string launchedByMpirun();
 
-private:
+ private:
   bool finished_ = false, partnerInJob_ = false, noted_ = false, released_ = false;
   int worldSize_ = 1;
   std::string partner_, problem_;

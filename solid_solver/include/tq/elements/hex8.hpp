@@ -13,11 +13,10 @@ inline constexpr Real kEta[8] = {-1, -1, 1, 1, -1, -1, 1, 1};
 inline constexpr Real kZeta[8] = {-1, -1, -1, -1, 1, 1, 1, 1};
 
 /// Hourglass base vectors h_α = (ηζ, ζξ, ξη, ξηζ) at the nodes (Flanagan & Belytschko 1981).
-inline constexpr Real kH[4][8] = {
-    {1, 1, -1, -1, -1, -1, 1, 1},    // η ζ
-    {1, -1, -1, 1, -1, 1, 1, -1},    // ζ ξ
-    {1, -1, 1, -1, 1, -1, 1, -1},    // ξ η
-    {-1, 1, -1, 1, 1, -1, 1, -1}};   // ξ η ζ
+inline constexpr Real kH[4][8] = {{1, 1, -1, -1, -1, -1, 1, 1},   // η ζ
+                                  {1, -1, -1, 1, -1, 1, 1, -1},   // ζ ξ
+                                  {1, -1, 1, -1, 1, -1, 1, -1},   // ξ η
+                                  {-1, 1, -1, 1, 1, -1, 1, -1}};  // ξ η ζ
 
 /// Local faces with outward normals (right-hand rule), VTK order.
 inline constexpr int kFaces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
@@ -43,12 +42,12 @@ Real minJacobian(const Real x[3][8], int* where = nullptr);
 
 /// Geometry of one element for the one-point formulation.
 struct Geometry {
-  Real volume = 0;       ///< exact volume (m^3)
-  Real b[3][8] = {};     ///< uniform (volume-averaged) gradient b_jI = (1/V)∫ ∂N_I/∂x_j dV (1/m)
-  Real gamma[4][8] = {}; ///< hourglass projection γ_α = (h_α - Σ_j (h_α·x_j) b_j)/8
-  Real rot[3][3] = {};   ///< local orthonormal frame: column k = local axis k (rotation of J0)
-  Real invHalf[3] = {};  ///< 1/a_k, a_k = |∂x/∂ξ_k| at the centre (half edge lengths, m)
-  Real charLength = 0;   ///< V / (largest face area) (m), for the stable step
+  Real volume = 0;        ///< exact volume (m^3)
+  Real b[3][8] = {};      ///< uniform (volume-averaged) gradient b_jI = (1/V)∫ ∂N_I/∂x_j dV (1/m)
+  Real gamma[4][8] = {};  ///< hourglass projection γ_α = (h_α - Σ_j (h_α·x_j) b_j)/8
+  Real rot[3][3] = {};    ///< local orthonormal frame: column k = local axis k (rotation of J0)
+  Real invHalf[3] = {};   ///< 1/a_k, a_k = |∂x/∂ξ_k| at the centre (half edge lengths, m)
+  Real charLength = 0;    ///< V / (largest face area) (m), for the stable step
 };
 
 /// Compute the geometry of one element (exact volume and uniform gradient by 2x2x2 Gauss).

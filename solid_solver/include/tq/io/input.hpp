@@ -8,18 +8,18 @@
 #include <string>
 #include <vector>
 
-#include "tq/materials/material_mc.hpp"
 #include "tq/core/solver.hpp"
 #include "tq/io/staged_input.hpp"
+#include "tq/materials/material_mc.hpp"
 
 namespace tq {
 
 /// A load on the nodes of a face group or node set.
 struct LoadInput {
   std::string name;
-  std::string target;      ///< face group or node set name
-  int direction = 0;       ///< 0 x, 1 y, 2 z
-  Real force = 0;          ///< total force (N): by tributary area on a face group, equally on a node set
+  std::string target;  ///< face group or node set name
+  int direction = 0;   ///< 0 x, 1 y, 2 z
+  Real force = 0;      ///< total force (N): by tributary area on a face group, equally on a node set
   TimeFunction function = TimeFunction::constant(1.0);
 };
 
@@ -31,29 +31,29 @@ struct MonitorInput {
 
 /// Everything in solid_input.h5.
 struct SolidInput {
-  std::string path;        ///< the input file itself
-  std::string meshPath;    ///< resolved mesh.h5 path
+  std::string path;      ///< the input file itself
+  std::string meshPath;  ///< resolved mesh.h5 path
   SolverOptions options;
   Hex8Formulation formulation = Hex8Formulation::OnePointAssumedStrain;
-  Real tEnd = 0;           ///< end time (s)
+  Real tEnd = 0;                                                 ///< end time (s)
   std::vector<std::pair<std::string, ElasticParams>> materials;  ///< region -> elastic params
   /// Regions whose model is mohr_coulomb_damage -> its parameters (elastic part = `materials`).
   std::map<std::string, MohrCoulombDamageParams> mohrCoulomb;
   /// Region -> its material as read (model and parameters by name, those of no model included);
   /// `materials` and `mohrCoulomb` are built from it by the model's factory.
   std::map<std::string, MaterialValues> materialValues;
-  std::map<std::string, std::string> fixed;   ///< face group -> directions ("xyz", "z", ...)
+  std::map<std::string, std::string> fixed;  ///< face group -> directions ("xyz", "z", ...)
   std::vector<LoadInput> loads;
   std::vector<MonitorInput> monitors;
-  Real monitorDt = 0.005;  ///< monitor and energy sampling interval (s)
-  bool ringForces = true;  ///< lining section forces and diameter changes at every sample (tq/ring_forces.hpp)
+  Real monitorDt = 0.005;           ///< monitor and energy sampling interval (s)
+  bool ringForces = true;           ///< lining section forces and diameter changes at every sample (tq/ring_forces.hpp)
   std::vector<Real> snapshotTimes;  ///< field snapshot times (s)
   Real progressSeconds = 5;         ///< wall time between progress lines (s)
   /// simulated time between restart checkpoints (s; 0 = none), written when tq-solid is given
   /// --checkpoint-dir (tq/restart.hpp)
   Real checkpointInterval = 0;
   std::vector<std::string> requiredFaces;  ///< face groups the run needs (checked on the mesh)
-  StagedInput staged;      ///< stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
+  StagedInput staged;                      ///< stages, in-situ stress, boundaries, motion (tq/staged_input.hpp)
 };
 
 /// Read and validate solid_input.h5 against its table (solid_solver/src/input_schema.inc, generated

@@ -14,15 +14,15 @@ namespace tq {
 /// Connectivity in VTK/gmsh hex8 order (nodes 0-3 the face ζ = -1 counter-clockwise seen from
 /// +ζ, nodes 4-7 above them). Face quads are ordered counter-clockwise seen from outside.
 struct Mesh {
-  std::vector<Real> coords;           ///< [3N] x, y, z of each node (m), node-major
-  std::vector<Index> connectivity;    ///< [8E] hex8 node indices, element-major
-  std::vector<Index> region;          ///< [E] index into regionNames
-  std::vector<std::string> regionNames;                   ///< physical group names of regions
-  std::map<std::string, std::vector<Index>> faces;        ///< name -> [4F] boundary quads
-  std::map<std::string, std::vector<Index>> nodeSets;     ///< name -> node indices
-  std::vector<Index> rockLiningPairs;  ///< [2P] (rock node, lining node) coincident pairs
-  bool slice = false;                  ///< one-element-thick plane-strain slice along y
-  std::string source = "<memory>";     ///< where the mesh came from, for messages
+  std::vector<Real> coords;                            ///< [3N] x, y, z of each node (m), node-major
+  std::vector<Index> connectivity;                     ///< [8E] hex8 node indices, element-major
+  std::vector<Index> region;                           ///< [E] index into regionNames
+  std::vector<std::string> regionNames;                ///< physical group names of regions
+  std::map<std::string, std::vector<Index>> faces;     ///< name -> [4F] boundary quads
+  std::map<std::string, std::vector<Index>> nodeSets;  ///< name -> node indices
+  std::vector<Index> rockLiningPairs;                  ///< [2P] (rock node, lining node) coincident pairs
+  bool slice = false;                                  ///< one-element-thick plane-strain slice along y
+  std::string source = "<memory>";                     ///< where the mesh came from, for messages
 
   Index numNodes() const { return static_cast<Index>(coords.size() / 3); }
   Index numElems() const { return static_cast<Index>(connectivity.size() / 8); }
@@ -57,8 +57,8 @@ void writeMeshH5(const Mesh& mesh, const std::string& path);
 /// xmax, ymin, ymax.
 struct BoxSpec {
   Index nx = 1, ny = 1, nz = 1;
-  Real x0 = 0, y0 = 0, z0 = 0;       ///< lower corner (m)
-  Real lx = 1, ly = 1, lz = 1;       ///< edge lengths (m)
+  Real x0 = 0, y0 = 0, z0 = 0;  ///< lower corner (m)
+  Real lx = 1, ly = 1, lz = 1;  ///< edge lengths (m)
   std::string region = "rock";
 };
 Mesh makeBoxMesh(const BoxSpec& spec);
@@ -70,7 +70,7 @@ struct RingSpec {
   Index nRadial = 3, nAround = 48;   ///< elements through the thickness and around
   Real width = 0.25;                 ///< slice thickness along y (m); a tube's length
   std::string region = "lining";
-  Index nAxial = 1;                  ///< elements along y (1: a plane-strain slice; more: a tube)
+  Index nAxial = 1;  ///< elements along y (1: a plane-strain slice; more: a tube)
 };
 Mesh makeRingSliceMesh(const RingSpec& spec);
 

@@ -16,17 +16,17 @@ namespace tq {
 
 /// What checkpoint.json says (the files it names sit beside it).
 struct CheckpointManifest {
-  long long sequence = 0;  ///< 1 for the first checkpoint of a run, +1 each
-  double time = 0;         ///< simulated time, s
-  long long step = 0;      ///< solid steps taken
-  long long samples = 0;   ///< monitor rows in the results copy
-  long long window = -1;   ///< coupled with the water: completed coupling windows (-1: not coupled)
-  std::string fingerprint;  ///< of the case and the state's layout: a resume of another case is refused
+  long long sequence = 0;      ///< 1 for the first checkpoint of a run, +1 each
+  double time = 0;             ///< simulated time, s
+  long long step = 0;          ///< solid steps taken
+  long long samples = 0;       ///< monitor rows in the results copy
+  long long window = -1;       ///< coupled with the water: completed coupling windows (-1: not coupled)
+  std::string fingerprint;     ///< of the case and the state's layout: a resume of another case is refused
   std::string solid, results;  ///< file names: the state, the results copy
 };
 
 class RestartCheckpoints {
-public:
+ public:
   /// `dir` is created if missing, and locked for this process (flock on DIR/lock, released when
   /// the process ends however it ends): a second tq-solid on the same checkpoints, e.g. a resume
   /// while the solver of a run whose supervisor was killed still runs, is an InputError naming it.
@@ -55,7 +55,7 @@ public:
   void read(const CheckpointManifest& m, StateArchive& a) const;
   std::string file(const std::string& name) const { return dir_ + "/" + name; }
 
-private:
+ private:
   std::string dir_;
   int lock_ = -1;
   int keep_ = 1;

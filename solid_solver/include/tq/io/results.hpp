@@ -23,7 +23,7 @@ namespace tq {
 void principalStresses(const Real s[6], Real p[3]);
 
 class ResultsWriter {
-public:
+ public:
   ResultsWriter(const std::string& path, const SolidInput& in, const Solver& solver);
   ~ResultsWriter();
   /// Observe the solver's current state for the histories (monitors, energy, series, ring
@@ -76,7 +76,7 @@ public:
   /// results file as the checkpoint saved it) into this freshly started file.
   void resumeFrom(const std::string& copy, const Solver& solver);
 
-private:
+ private:
   /// Hold `bytes` of file space (plus what pending rows and metadata need) before writing them:
   /// a full disk throws OutputError here, before HDF5 starts a write it could not finish.
   void reserve(unsigned long long bytes);

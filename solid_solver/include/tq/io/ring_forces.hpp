@@ -23,14 +23,14 @@ class Solver;
 /// nodes. A section is the mid-plane of an element column (the elements between two neighbouring
 /// lines, one per layer through the thickness), where the one-point element samples its stress.
 struct LiningRing {
-  Real yMin = 0, yMax = 0;         ///< axial extent of the layer (m)
-  Real xc = 0, zc = 0;             ///< ring centre in the x–z plane (m)
-  Real rInner = 0, rOuter = 0;     ///< mean inner and outer radius (m)
-  Real rMid = 0;                   ///< mid-surface radius ½(rInner + rOuter): the moments' reference
-  bool closed = false;             ///< a whole ring (otherwise a sector)
-  std::vector<Real> angle;         ///< section angles θ (rad, from +x towards +z, in (−π, π]), ascending
-  std::vector<Real> lineAngle;     ///< angles of the radial node lines, ascending
-  std::vector<Real> diameterAngle; ///< direction of each diameter, in [0, π) (closed rings)
+  Real yMin = 0, yMax = 0;          ///< axial extent of the layer (m)
+  Real xc = 0, zc = 0;              ///< ring centre in the x–z plane (m)
+  Real rInner = 0, rOuter = 0;      ///< mean inner and outer radius (m)
+  Real rMid = 0;                    ///< mid-surface radius ½(rInner + rOuter): the moments' reference
+  bool closed = false;              ///< a whole ring (otherwise a sector)
+  std::vector<Real> angle;          ///< section angles θ (rad, from +x towards +z, in (−π, π]), ascending
+  std::vector<Real> lineAngle;      ///< angles of the radial node lines, ascending
+  std::vector<Real> diameterAngle;  ///< direction of each diameter, in [0, π) (closed rings)
   /// Per section, its elements through the thickness, inner to outer: block element, middle of
   /// its radial extent and that extent (m).
   struct Layer {
@@ -39,8 +39,8 @@ struct LiningRing {
     std::uint8_t upper;  ///< bit k: corner k lies on the column's θ+ node line
   };
   std::vector<std::vector<Layer>> column;
-  std::vector<std::array<Real, 2>> ref;  ///< per section: the moment reference point (x, z)
-  std::vector<std::vector<Index>> inner;  ///< per node line: its inner-face nodes (smallest radius)
+  std::vector<std::array<Real, 2>> ref;       ///< per section: the moment reference point (x, z)
+  std::vector<std::vector<Index>> inner;      ///< per node line: its inner-face nodes (smallest radius)
   std::vector<std::array<int, 2>> diameters;  ///< node lines at either end of each diameter
 };
 
@@ -48,7 +48,7 @@ struct LiningRing {
 /// grid in the ring's plane (each element between two radial node lines); otherwise there is no
 /// ring and note() says why.
 class RingForces {
-public:
+ public:
   /// @param axial y of the rings wanted: one ring per axial element layer that contains one of
   ///        them (a slice has one layer); none given: the middle layer.
   RingForces(const Mesh& mesh, const ElementBlock& lining, const std::vector<Real>& axial);
@@ -61,8 +61,8 @@ public:
   /// tension at the inner face), V = ∫σrθ dr (N/m, positive when the θ+ side pushes the θ− side
   /// outwards), σ in the polar axes of the section. N and V: each element's stress over its radial
   /// extent; M: σθθ(r) fitted by a straight line through the elements' values at the middles of
-  /// their radial extents (least squares, weights the extents): exact for a stress linear through the thickness. A section
-  /// of one element through the thickness has no such line: M is NaN.
+  /// their radial extents (least squares, weights the extents): exact for a stress linear through the thickness. A
+  /// section of one element through the thickness has no such line: M is NaN.
   void sectionForces(size_t r, Real* N, Real* M, Real* V) const;
   /// The section forces of the discrete ring (same sections, conventions and units): the force and
   /// moment that each element column transmits, from its elements' internal nodal forces at the
@@ -96,7 +96,7 @@ public:
     }
   }
 
-private:
+ private:
   const Mesh& mesh_;
   const ElementBlock* lining_;
   std::vector<LiningRing> rings_;

@@ -14,16 +14,15 @@
 namespace tq {
 
 /// The stage names in their only allowed order (paper §3.2; ARCHITECTURE.md §2).
-inline const std::vector<std::string> kStageOrder = {"in_situ", "excavation", "lining", "hydrostatic",
-                                                     "seismic"};
+inline const std::vector<std::string> kStageOrder = {"in_situ", "excavation", "lining", "hydrostatic", "seismic"};
 
 /// /stages: which stages run and how static equilibrium is reached.
 struct StagesInput {
-  std::vector<std::string> sequence;  ///< subset of kStageOrder, in that order
-  Real tolerance = 1e-4;              ///< dynamic relaxation stops when the unbalanced-force ratio is below
-  Index maxSteps = 50000;             ///< per static stage
-  bool massScaling = true;            ///< relax with element masses scaled to one common step (statics only)
-  bool equilibriumCorrection = true;  ///< at the switch, hold the residual out-of-balance force constant
+  std::vector<std::string> sequence;    ///< subset of kStageOrder, in that order
+  Real tolerance = 1e-4;                ///< dynamic relaxation stops when the unbalanced-force ratio is below
+  Index maxSteps = 50000;               ///< per static stage
+  bool massScaling = true;              ///< relax with element masses scaled to one common step (statics only)
+  bool equilibriumCorrection = true;    ///< at the switch, hold the residual out-of-balance force constant
   std::string liningRegion = "lining";  ///< region activated by the `lining` stage
   /// Fraction λ ∈ [0, 1] of the excavation load (the out-of-balance force the in-situ stress leaves
   /// on the hole: the released core tractions) relaxed by the excavation stage with the rock alone;
@@ -42,10 +41,10 @@ struct StagesInput {
 struct InSituInput {
   bool present = false;
   Real kx = 1, ky = 1, kz = 1;
-  Real gravity = 0;   ///< g (m/s², ≥ 0); also the body force −g ẑ of the whole run
-  Real density = 0;   ///< overburden density ρ (kg/m³); 0 = each element's own material density
+  Real gravity = 0;  ///< g (m/s², ≥ 0); also the body force −g ẑ of the whole run
+  Real density = 0;  ///< overburden density ρ (kg/m³); 0 = each element's own material density
   Real zTop = std::numeric_limits<Real>::quiet_NaN();  ///< ground surface (m); NaN = the mesh's top
-  Real surcharge = 0; ///< q: compressive vertical stress at z_top (Pa, ≥ 0); e.g. a far-field stress with g = 0
+  Real surcharge = 0;  ///< q: compressive vertical stress at z_top (Pa, ≥ 0); e.g. a far-field stress with g = 0
 };
 
 /// /hydrostatic: p(z) = p_axis − γw (z − z_axis), clipped at 0, on the face group `face`
@@ -71,10 +70,11 @@ struct InterfaceInput {
 struct BottomBoundaryInput {
   bool present = false;
   std::string face = "bottom";
-  Real distance = 0;        ///< R (m) in K = αG/R; 0 = default (tunnel axis to base, else model height)
-  Real alphaN = 0, alphaT = 0;  ///< 0 = 4/3, 2/3 (3D) or 1, 1/2 (slice)
-  Real rho = 0, cp = 0, cs = 0; ///< half-space below the base; 0 = from the elements on the face
-  std::string columnFace;   ///< face whose layering defines the base free-field column ("" = first free-field face, else xmin)
+  Real distance = 0;             ///< R (m) in K = αG/R; 0 = default (tunnel axis to base, else model height)
+  Real alphaN = 0, alphaT = 0;   ///< 0 = 4/3, 2/3 (3D) or 1, 1/2 (slice)
+  Real rho = 0, cp = 0, cs = 0;  ///< half-space below the base; 0 = from the elements on the face
+  std::string
+      columnFace;  ///< face whose layering defines the base free-field column ("" = first free-field face, else xmin)
 };
 
 /// /boundaries/free_field: lateral boundaries driven by 1D free-field columns.
@@ -97,23 +97,23 @@ struct PeriodicInput {
 struct MotionInput {
   bool present = false;
   std::vector<Real> time, ax, ay, az;  ///< s, m/s² (an empty component is zero)
-  Real cutoffFrequency = 0;        ///< Hz, for the λ_min/8 element-size warning (0: no check)
-  std::string convention;          ///< informational ("outcrop" or "incident" record)
+  Real cutoffFrequency = 0;            ///< Hz, for the λ_min/8 element-size warning (0: no check)
+  std::string convention;              ///< informational ("outcrop" or "incident" record)
 };
 
 /// /coupling: the water coupling of condition dynamic_water (docs/formats.md, docs/coupler.md
 /// "Solid adapter"); read by input_staged.cpp, used by tq/fluid_coupling.hpp.
 struct CouplingInput {
   bool present = false;
-  std::string scheme = "implicit";        ///< explicit | paper | implicit
-  Index windowSteps = 1;                  ///< solid steps per coupling window (k > 1: explicit only)
-  Real windowSize = 0;                    ///< s; 0 = windowSteps × the solid step
-  Index windows = 0;                      ///< 0 = ceil(t_end / window size)
-  Real tolerance = 1e-4;                  ///< implicit: relative residual
+  std::string scheme = "implicit";  ///< explicit | paper | implicit
+  Index windowSteps = 1;            ///< solid steps per coupling window (k > 1: explicit only)
+  Real windowSize = 0;              ///< s; 0 = windowSteps × the solid step
+  Index windows = 0;                ///< 0 = ceil(t_end / window size)
+  Real tolerance = 1e-4;            ///< implicit: relative residual
   /// implicit: absolute convergence floors on the RMS residual of each exchanged field, in its
   /// units (0 = none; `tunnelquake run` derives them from the problem scale, docs/coupler.md)
   Real absoluteTolVelocity = 0, absoluteTolDisplacement = 0, absoluteTolForce = 0;
-  Index maxIterations = 20;               ///< implicit: passes per window at most
+  Index maxIterations = 20;  ///< implicit: passes per window at most
   /// Stop when the energy the coupling created (couplingEnergy() > 0) exceeds this fraction of the
   /// largest interface work so far (0 = no stop; docs/coupler.md "Energy guard").
   Real energyLimit = 0;
@@ -123,19 +123,19 @@ struct CouplingInput {
   /// apply (step j: F_w + w_j (F̃ − F_w), w_j = 1 − (1 − j/k)·2(1 − β)); 0.5 = the linear ramp,
   /// 1 = the end force held over the window (docs/coupler.md "Window force weight").
   Real windowForceWeight = 0.5;
-  std::string acceleration = "iqn-ils";   ///< none | constant | aitken | iqn-ils
+  std::string acceleration = "iqn-ils";  ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
-  Index reuse = 0;                        ///< IQN-ILS: windows whose secant columns are kept
-  std::string predictor = "constant";     ///< implicit: first force of a window, constant | linear
-  std::string transport = "tcp";          ///< tcp | mpi
-  std::string addressFile;                ///< tcp: where the listener publishes its port
-  std::string token;                      ///< per-run secret both sides were given
-  Real timeout = 120;                     ///< s: a silent partner for longer stops the run
-  Real connectTimeout = 0;                ///< s: waiting for the partner to appear (0 = timeout)
-  std::string face = "lining_inner";      ///< mesh.h5 face group of the wetted interface
-  std::string mesh = "wall";              ///< interface mesh name on the wire
-  std::string map = "coincident";         ///< coincident | projection (the solid maps)
-  Real mapTolerance = 1e-6;               ///< m
+  Index reuse = 0;                     ///< IQN-ILS: windows whose secant columns are kept
+  std::string predictor = "constant";  ///< implicit: first force of a window, constant | linear
+  std::string transport = "tcp";       ///< tcp | mpi
+  std::string addressFile;             ///< tcp: where the listener publishes its port
+  std::string token;                   ///< per-run secret both sides were given
+  Real timeout = 120;                  ///< s: a silent partner for longer stops the run
+  Real connectTimeout = 0;             ///< s: waiting for the partner to appear (0 = timeout)
+  std::string face = "lining_inner";   ///< mesh.h5 face group of the wetted interface
+  std::string mesh = "wall";           ///< interface mesh name on the wire
+  std::string map = "coincident";      ///< coincident | projection (the solid maps)
+  Real mapTolerance = 1e-6;            ///< m
   std::vector<std::string> writeFields = {"velocity", "displacement"};  ///< solid → fluid, in order
   std::string participant = "solid", partner = "fluid";
   /// The water's volume law, carried by the solid (docs/coupler.md "Volume law in the solid"):
@@ -144,7 +144,7 @@ struct CouplingInput {
   /// enclosed volume held: the uniform pressure is the constraint's multiplier). With a law the
   /// water side sends its pressure less its wall mean. The tunnel's axis is y (mesh.h5's frame).
   std::string volumeLaw = "none";
-  Real bulkModulus = 0;                   ///< Pa: the law's K (compressible)
+  Real bulkModulus = 0;  ///< Pa: the law's K (compressible)
   /// kg/m³: with a volume law, the water's in-plane rigid translation is carried by the solid too (its
   /// mass ρ_w V, implicit; the exchange carries neither mode); 0 = the exchange carries it.
   Real waterDensity = 0;
@@ -153,7 +153,7 @@ struct CouplingInput {
   /// wet nodes, joined by the water's axial plug flow of density axialDensity; docs/coupler.md
   /// "Open ends").
   std::string waterEnds = "closed";
-  Real axialDensity = 0;                  ///< kg/m³: the axial flow's density (open ends)
+  Real axialDensity = 0;  ///< kg/m³: the axial flow's density (open ends)
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
@@ -167,7 +167,7 @@ struct StagedInput {
   FreeFieldInput freeField;
   PeriodicInput periodic;
   MotionInput motion;
-  std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
+  std::string condition;   ///< informational root attribute (no_water, static_water, dynamic_water)
   CouplingInput coupling;  ///< /coupling (dynamic_water)
 };
 

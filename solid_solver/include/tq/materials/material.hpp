@@ -42,7 +42,7 @@ struct MaterialValues {
   std::string model;
   std::map<std::string, Real> numbers;
   std::map<std::string, std::string> texts;
-  Real number(const std::string& name) const;       ///< throws InputError when absent
+  Real number(const std::string& name) const;  ///< throws InputError when absent
   const std::string& text(const std::string& name) const;
 };
 
@@ -51,16 +51,16 @@ ElasticParams elasticParams(const MaterialValues& v);
 
 /// One chunk of elements handed to a material: strain increments in, stresses updated in place.
 struct MaterialChunk {
-  Index count = 0;                ///< number of elements in the chunk
-  const Real* dstrain[6] = {};    ///< strain increment Δε per Voigt component, [count] each
-  Real* stress[6] = {};           ///< σ^n on entry, σ^{n+1} on exit (Pa), [count] each
-  Real* const* history = nullptr; ///< one [count] array per history variable (historyNames())
-  Real dt = 0;                    ///< time step of the increment (s)
+  Index count = 0;                 ///< number of elements in the chunk
+  const Real* dstrain[6] = {};     ///< strain increment Δε per Voigt component, [count] each
+  Real* stress[6] = {};            ///< σ^n on entry, σ^{n+1} on exit (Pa), [count] each
+  Real* const* history = nullptr;  ///< one [count] array per history variable (historyNames())
+  Real dt = 0;                     ///< time step of the increment (s)
 };
 
 /// Constitutive model of one element block.
 class Material {
-public:
+ public:
   virtual ~Material() = default;
   /// Type name as written in solid_input.h5 (e.g. "elastic").
   virtual std::string typeName() const = 0;
@@ -83,7 +83,7 @@ public:
 
 /// Hooke's law in rate form: σ^{n+1} = σ^n + C : Δε.
 class ElasticMaterial final : public Material {
-public:
+ public:
   explicit ElasticMaterial(const ElasticParams& p);  // throws InputError on bad values
   std::string typeName() const override { return "elastic"; }
   Real density() const override { return params_.density; }
@@ -92,7 +92,7 @@ public:
   void updateStressForElems(const MaterialChunk& chunk) const override;
   const ElasticParams& params() const { return params_; }
 
-private:
+ private:
   ElasticParams params_;
   ElasticModuli moduli_;
 };

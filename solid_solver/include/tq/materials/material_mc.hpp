@@ -35,12 +35,12 @@ std::string damageEffectName(DamageEffect e);
 
 /// Parameters of the Mohr–Coulomb damage material (all SI; angles in degrees as in the input).
 struct MohrCoulombDamageParams {
-  ElasticParams elastic;          ///< E (Pa), ν (-), ρ (kg/m^3)
-  Real cohesion = 0;              ///< c (Pa), ≥ 0
-  Real frictionAngle = 0;         ///< φ (degrees), 0 ≤ φ < 90
-  Real dilationAngle = 0;         ///< ψ (degrees), 0 ≤ ψ ≤ φ; default 0 (no plastic volume change)
-  Real tensileStrength = 0;       ///< σt (Pa), ≥ 0; capped at the apex c cot φ
-  Real damageConstant = 100;      ///< R in eq. (18) (-); 0 switches damage off (perfect plasticity)
+  ElasticParams elastic;      ///< E (Pa), ν (-), ρ (kg/m^3)
+  Real cohesion = 0;          ///< c (Pa), ≥ 0
+  Real frictionAngle = 0;     ///< φ (degrees), 0 ≤ φ < 90
+  Real dilationAngle = 0;     ///< ψ (degrees), 0 ≤ ψ ≤ φ; default 0 (no plastic volume change)
+  Real tensileStrength = 0;   ///< σt (Pa), ≥ 0; capped at the apex c cot φ
+  Real damageConstant = 100;  ///< R in eq. (18) (-); 0 switches damage off (perfect plasticity)
   DamageEffect damageEffect = DamageEffect::Cohesion;
 };
 
@@ -67,9 +67,9 @@ enum : int {
 
 /// Result of a return in principal space (exposed for tests).
 struct PrincipalReturn {
-  Real sigma[3] = {0, 0, 0};   ///< returned principal stresses, ascending (Pa)
-  Real plastic[3] = {0, 0, 0}; ///< plastic strain increment along the same directions (-)
-  int activeSet = -1;          ///< -1 elastic; otherwise the candidate index (docs)
+  Real sigma[3] = {0, 0, 0};    ///< returned principal stresses, ascending (Pa)
+  Real plastic[3] = {0, 0, 0};  ///< plastic strain increment along the same directions (-)
+  int activeSet = -1;           ///< -1 elastic; otherwise the candidate index (docs)
 };
 
 /// Mohr–Coulomb surface with fixed strengths (one step, one element): the pure geometry of the
@@ -91,7 +91,7 @@ struct MohrCoulombSurface {
 
 /// Mohr–Coulomb elastoplastic damage material (eqs. 16–18).
 class MohrCoulombDamageMaterial final : public Material {
-public:
+ public:
   explicit MohrCoulombDamageMaterial(const MohrCoulombDamageParams& p);  // throws InputError
   std::string typeName() const override { return "mohr_coulomb_damage"; }
   Real density() const override { return params_.elastic.density; }
@@ -107,7 +107,7 @@ public:
   /// D from the cumulative plastic deviatoric strains κ (eqs. 17–18), clamped to [0, 1].
   Real damageFrom(const Real kappa[3]) const;
 
-private:
+ private:
   /// Full update of one element whose trial stress may lie outside the surface.
   void plasticUpdate(Real stressOld[6], const Real dstrain[6], Real* const* hist, Index e) const;
 
