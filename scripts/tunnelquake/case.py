@@ -188,14 +188,24 @@ def closed_section(d: dict) -> bool:
     return d["mesh"]["mode"] == "slice" or d["water"]["ends"] == "closed"
 
 
-def coupling_window_force_weight(c: dict) -> float:
-    """The window force weight a coupling section asks for; absent: 0.75 for implicit windows of several
-    steps (damps the period-two mode of the water's added mass; docs/coupler.md "Window force weight"),
-    0.5 otherwise (where a weight has no effect)."""
+def coupling_window_force_weight(d: dict) -> float:
+    """The window force weight a case asks for (coupling.window_force_weight); absent: for implicit windows
+    of several steps 1 with incompressible water and open ends (3D), 0.75 otherwise (damps the period-two
+    mode of the water's added mass; docs/coupler.md "Window force weight"), 0.5 where a weight has no
+    effect."""
+    c = d["coupling"]
     w = c.get("window_force_weight")
-    if w is None:
-        return 0.75 if c["scheme"] == "implicit" and int(c["window"]) > 1 else 0.5
-    return float(w)
+    if w is not None:
+        return float(w)
+    if c["scheme"] != "implicit" or int(c["window"]) <= 1:
+        return 0.5
+    return 1.0 if open_incompressible(d) else 0.75
+
+
+def open_incompressible(d: dict) -> bool:
+    """Incompressible water in a 3D section with open ends: the water's axial flow carries the wall's
+    motion out of the ends, and the exchange's added mass is the largest the coupling meets."""
+    return d["water"]["model"] == "incompressible" and not closed_section(d)
 
 
 #: the implicit scheme's default window and IQN-ILS reuse (steps, windows): the example slice's
