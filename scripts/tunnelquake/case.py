@@ -600,6 +600,12 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                                 "solid must hold the enclosed volume (the constraint's multiplier is the uniform "
                                 "pressure)", "use volume_law: solid (the default), or water.model: compressible",
                                 raw["coupling"].key_lines.get("volume_law") if "coupling" in raw else None))
+    coupling_given = raw.get("coupling") or {}
+    if open_incompressible(d) and "reuse" not in coupling_given:
+        # IQN-ILS columns kept from earlier windows carry the Jacobian of a motion that has changed; with
+        # incompressible water and open ends they stopped the windows converging (the paper case in 3D:
+        # reuse 16 diverged at 6.44 s, reuse 0 passed it; docs/stability.md "Open ends in 3D")
+        d["coupling"]["reuse"] = 0
     if any(c in conds for c in ("static_water", "dynamic_water")) and water["head"] == 0.0:
         warnings.append("water.head is 0: the static and dynamic water conditions carry no hydrostatic load "
                         "(paper: 123 m)")

@@ -69,12 +69,12 @@ def assess_slice(case) -> SliceAssessment:
             # Measured on the paper case in 3D (docs/stability.md "The paper case in 3D"): the linear ramp of
             # the window's force lets a period-two mode grow even in converged windows; 1e-3 let the closed
             # water column's axial breathing mode grow on energy the coupling created from 13.5 s.
-            if open_incompressible(d) and coupling_window_force_weight(d) < 1:
-                advice.append(f"coupling.window_force_weight: 1 (here {coupling_window_force_weight(d):g}) holds the "
-                              "window's end force, which incompressible water with open ends needs (paper case in 3D: "
-                              "with 0.75 the divergence detection stopped it at 8.46 s of 20 s, with 1 it completes; "
-                              "docs/stability.md \"Water stiffness\")")
-            elif coupling_window_force_weight(d) < 0.75:
+            if open_incompressible(d) and int(cs.get("reuse", 0)) > 0:
+                advice.append(f"coupling.reuse: 0 (here {int(cs['reuse'])}): IQN-ILS columns kept from earlier windows "
+                              "stopped the windows of incompressible water with open ends converging (paper case in "
+                              "3D: reuse 16 diverged at 6.44 s with window force weight 1 and at 8.46 s with 0.75; "
+                              "reuse 0 with weight 1 ran on past them; docs/stability.md \"Open ends in 3D\")")
+            if coupling_window_force_weight(d) < 0.75:
                 advice.append("coupling.window_force_weight: 0.75 damps the period-two mode of the water's added "
                               "mass that the linear ramp (0.5) lets grow in 3D even in converged windows (paper case: "
                               "stopped at 0.066 s incompressible, at 4.8 s compressible with closed ends; with 0.75 "
@@ -164,13 +164,12 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
                    f"{ratios['volume stiffness']:.1f} >= 2) will make the coupling create energy or diverge: use "
                    "coupling.volume_law: solid (the default), which carries it inside the solid's step")
         stable = False
-    elif windowed and open_incompressible(d) and coupling_window_force_weight(d) < 1:
-        # measured on the paper case in 3D with open ends (docs/stability.md "Water stiffness"): with weight
-        # 0.75 the divergence detection stopped the record at 8.46 s (5 windows in a row at the pass limit)
-        verdict = (f"incompressible water with open ends and window_force_weight "
-                   f"{coupling_window_force_weight(d):g} < 1 lets the windows' residual grow until they no longer "
-                   "converge: use coupling.window_force_weight: 1 (the default for this scene), which holds the "
-                   "window's end force")
+    elif windowed and open_incompressible(d) and int(d["coupling"].get("reuse", 0)) > 0:
+        # measured on the paper case in 3D with open ends (docs/stability.md "Open ends in 3D"): with IQN-ILS
+        # reuse 16 the divergence detection stopped the record at 8.46 s (weight 0.75) and 6.44 s (weight 1)
+        verdict = (f"incompressible water with open ends and IQN-ILS columns reused from {d['coupling']['reuse']} "
+                   "earlier windows: the windows stop converging once the motion changes the interface's Jacobian: "
+                   "use coupling.reuse: 0 (the default for this scene)")
         stable = False
     elif law != "none" and scheme == "implicit":
         carried = ("volume law and its translation (mode 1) are" if d["coupling"]["water_translation"] == "solid"
