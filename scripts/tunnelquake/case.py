@@ -188,24 +188,14 @@ def closed_section(d: dict) -> bool:
     return d["mesh"]["mode"] == "slice" or d["water"]["ends"] == "closed"
 
 
-def coupling_window_force_weight(d: dict) -> float:
-    """The window force weight a case asks for (coupling.window_force_weight); absent: for implicit windows
-    of several steps 1 with incompressible water and open ends (3D), 0.75 otherwise (damps the period-two
-    mode of the water's added mass; docs/coupler.md "Window force weight"), 0.5 where a weight has no
-    effect."""
-    c = d["coupling"]
+def coupling_window_force_weight(c: dict) -> float:
+    """The window force weight a coupling section asks for; absent: 0.75 for implicit windows of several
+    steps (damps the period-two mode of the water's added mass; docs/coupler.md "Window force weight"),
+    0.5 otherwise (where a weight has no effect)."""
     w = c.get("window_force_weight")
-    if w is not None:
-        return float(w)
-    if c["scheme"] != "implicit" or int(c["window"]) <= 1:
-        return 0.5
-    return 1.0 if open_incompressible(d) else 0.75
-
-
-def open_incompressible(d: dict) -> bool:
-    """Incompressible water in a 3D section with open ends: the water's axial flow carries the wall's
-    motion out of the ends, and the exchange's added mass is the largest the coupling meets."""
-    return d["water"]["model"] == "incompressible" and not closed_section(d)
+    if w is None:
+        return 0.75 if c["scheme"] == "implicit" and int(c["window"]) > 1 else 0.5
+    return float(w)
 
 
 #: the implicit scheme's default window and IQN-ILS reuse (steps, windows): the example slice's
@@ -600,12 +590,6 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                                 "solid must hold the enclosed volume (the constraint's multiplier is the uniform "
                                 "pressure)", "use volume_law: solid (the default), or water.model: compressible",
                                 raw["coupling"].key_lines.get("volume_law") if "coupling" in raw else None))
-    coupling_given = raw.get("coupling") or {}
-    if open_incompressible(d) and "reuse" not in coupling_given:
-        # IQN-ILS columns kept from earlier windows carry the Jacobian of a motion that has changed; with
-        # incompressible water and open ends they stopped the windows converging (the paper case in 3D:
-        # reuse 16 diverged at 6.44 s, reuse 0 passed it; docs/stability.md "Open ends in 3D")
-        d["coupling"]["reuse"] = 0
     if any(c in conds for c in ("static_water", "dynamic_water")) and water["head"] == 0.0:
         warnings.append("water.head is 0: the static and dynamic water conditions carry no hydrostatic load "
                         "(paper: 123 m)")

@@ -18,13 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .case import (
-    closed_section,
-    coupling_window_force_weight,
-    lining_layer_step,
-    open_incompressible,
-    rayleigh_step_cut,
-)
+from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut
 
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
@@ -69,12 +63,7 @@ def assess_slice(case) -> SliceAssessment:
             # Measured on the paper case in 3D (docs/stability.md "The paper case in 3D"): the linear ramp of
             # the window's force lets a period-two mode grow even in converged windows; 1e-3 let the closed
             # water column's axial breathing mode grow on energy the coupling created from 13.5 s.
-            if open_incompressible(d) and int(cs.get("reuse", 0)) > 0:
-                advice.append(f"coupling.reuse: 0 (here {int(cs['reuse'])}): IQN-ILS columns kept from earlier windows "
-                              "stopped the windows of incompressible water with open ends converging (paper case in "
-                              "3D: reuse 16 diverged at 6.44 s with window force weight 1 and at 8.46 s with 0.75; "
-                              "reuse 0 with weight 1 ran on past them; docs/stability.md \"Open ends in 3D\")")
-            if coupling_window_force_weight(d) < 0.75:
+            if coupling_window_force_weight(cs) < 0.75:
                 advice.append("coupling.window_force_weight: 0.75 damps the period-two mode of the water's added "
                               "mass that the linear ramp (0.5) lets grow in 3D even in converged windows (paper case: "
                               "stopped at 0.066 s incompressible, at 4.8 s compressible with closed ends; with 0.75 "
@@ -152,10 +141,10 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
     # period two windows grow on a large exchanged added mass, converged or not (docs/coupler.md "Window
     # force weight"). Measured: 14.4 times the wet nodes' mass ran the example slice's record, 36 (water
     # as dense as the lining) stopped at 4.4 s, the open 3D tube's breathing (32) and the ring's 107 too.
-    windowed = scheme == "implicit" and int(d["coupling"]["window"]) > 1
-    ramped = windowed and coupling_window_force_weight(d) < 0.75
+    ramped = scheme == "implicit" and int(d["coupling"]["window"]) > 1 and coupling_window_force_weight(
+        d["coupling"]) < 0.75
     if ramped and worst >= PERIOD_TWO_RATIO:
-        verdict = (f"the ramped window force (window_force_weight {coupling_window_force_weight(d)}) "
+        verdict = (f"the ramped window force (window_force_weight {coupling_window_force_weight(d['coupling'])}) "
                    f"with an exchanged added-mass ratio {worst:.1f} >= {PERIOD_TWO_RATIO} will let a mode of period "
                    "two windows grow: use coupling.window_force_weight: 0.75 (the default)")
         stable = False
@@ -163,13 +152,6 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
         verdict = (f"the water's volumetric stiffness exchanged once a window (omega_v dt_c = "
                    f"{ratios['volume stiffness']:.1f} >= 2) will make the coupling create energy or diverge: use "
                    "coupling.volume_law: solid (the default), which carries it inside the solid's step")
-        stable = False
-    elif windowed and open_incompressible(d) and int(d["coupling"].get("reuse", 0)) > 0:
-        # measured on the paper case in 3D with open ends (docs/stability.md "Open ends in 3D"): with IQN-ILS
-        # reuse 16 the divergence detection stopped the record at 8.46 s (weight 0.75) and 6.44 s (weight 1)
-        verdict = (f"incompressible water with open ends and IQN-ILS columns reused from {d['coupling']['reuse']} "
-                   "earlier windows: the windows stop converging once the motion changes the interface's Jacobian: "
-                   "use coupling.reuse: 0 (the default for this scene)")
         stable = False
     elif law != "none" and scheme == "implicit":
         carried = ("volume law and its translation (mode 1) are" if d["coupling"]["water_translation"] == "solid"

@@ -242,8 +242,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             values = {"scheme": cs["scheme"], "window": cs["window"], "tolerance": cs["tolerance"],
                       "max_iterations": cs["max_iterations"]}
             # absent in the solid input: 0.5 (the linear ramp), no energy guard, constant predictor, no reuse
-            if coupling_window_force_weight(d) != 0.5:
-                values["window_force_weight"] = coupling_window_force_weight(d)
+            if coupling_window_force_weight(cs) != 0.5:
+                values["window_force_weight"] = coupling_window_force_weight(cs)
             if float(cs.get("energy_limit", 0)) > 0:
                 values["energy_limit"] = cs["energy_limit"]
             values["acceleration"] = cs["acceleration"]

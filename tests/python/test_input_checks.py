@@ -285,7 +285,7 @@ def test_defaults_are_the_settings_the_example_measured(tmp_path, capsys):
     assert d["damping"]["model"] == "mass_proportional"
     assert d["water"]["model"] == "compressible"
     assert (d["coupling"]["scheme"], d["coupling"]["window"], d["coupling"]["reuse"]) == ("implicit", 16, 16)
-    assert coupling_window_force_weight(d) == 0.75
+    assert coupling_window_force_weight(d["coupling"]) == 0.75
     assert not [w for w in case.warnings if "slower" in w or "longer" in w or "CPU" in w]
     # the other schemes keep one-step windows and no reuse
     (tmp_path / "case.yaml").write_text(text + "coupling:\n  scheme: explicit\n")

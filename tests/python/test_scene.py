@@ -178,34 +178,3 @@ def test_check_predicts_the_period_two_mode_of_ramped_windows(write_case):
     assert heavy.ratios["mode 1"] == pytest.approx(36.0) and not heavy.stable
     assert "period two" in heavy.message and "window_force_weight: 0.75" in heavy.message
     assert added_mass_diagnostic(_case(write_case, d=dense)).stable  # defaults: weight 0.75, laws in the solid
-
-
-def test_incompressible_water_with_open_ends_reuses_no_iqn_columns(write_case):
-    """Incompressible water in a 3D section with open ends gets IQN-ILS reuse 0 and window force weight 1 by
-    default, and `tunnelquake check` predicts a run that reuses columns from earlier windows unstable,
-    naming the key (measured: the paper case in 3D with open ends stopped by the divergence detection at
-    8.46 s of the record with reuse 16 and weight 0.75, at 6.44 s with reuse 16 and weight 1; reuse 0 and
-    weight 1 ran on past both; docs/stability.md "Open ends in 3D"). Closed ends keep reuse 16 and weight
-    0.75 (the paper case in 3D, closed and incompressible, completes the record with them). A tunnel
-    unlike the paper's: 5.0 m excavated radius, 0.6 m lining."""
-    from tunnelquake.case import coupling_window_force_weight
-    from tunnelquake.scene import added_mass_diagnostic
-
-    other = dict(r=("  excavated_radius: 5.25 m\n", "  excavated_radius: 5.0 m\n"),
-                 t=("  lining_thickness: 0.75 m\n", "  lining_thickness: 0.6 m\n"),
-                 m=("  mode: slice ", "  mode: 3d "), w=("  model: compressible\n", "  model: incompressible\n"))
-    case = _case(write_case, **other, k=("  reuse: 16\n", ""))
-    assert (case.data["coupling"]["reuse"], coupling_window_force_weight(case.data)) == (0, 1.0)
-    am = added_mass_diagnostic(case)
-    assert am.stable, am.message
-    assert not any("coupling.reuse" in x or "window_force_weight" in x for x in assess_slice(case).advice)
-
-    case = _case(write_case, **other)  # the example's coupling section asks for reuse: 16
-    assert case.data["coupling"]["reuse"] == 16
-    am = added_mass_diagnostic(case)
-    assert not am.stable and "coupling.reuse: 0" in am.message, am.message
-    assert any("coupling.reuse: 0 (here 16)" in x for x in assess_slice(case).advice)
-
-    closed = _case(write_case, **other, e=("  ends: open\n", "  ends: closed\n"), k=("  reuse: 16\n", ""))
-    assert (closed.data["coupling"]["reuse"], coupling_window_force_weight(closed.data)) == (16, 0.75)
-    assert added_mass_diagnostic(closed).stable
