@@ -68,7 +68,7 @@ def _check_geometry(g, path, raw: LineDict, ctx):
 
 
 def _check_material(m, path, raw, ctx):
-    from .solver_input_schema import required_by
+    from .solver_input_table import required_by
 
     for key in required_by(m["model"]):  # the solver's table says what the model needs
         if m[key] is None:

@@ -1,4 +1,5 @@
-"""The layout of solid_input.h5, tq-solid's input: the one table of its groups, attributes and datasets.
+"""The layout of solid_input.h5, tq-solid's input: the one table of its groups, attributes and datasets
+(its rows in `tunnelquake.solver_input_table`), resolved against the case schema.
 
 Everything else is made from this table:
 
@@ -25,269 +26,19 @@ import hashlib
 import json
 import math
 import sys
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from .paths import ROOT
-
-FORMAT = "tunnelquake-solid-input"
-VERSION = 2
-MATERIALS = "/materials/*"
-MODELS = ("elastic", "mohr_coulomb_damage")
-
-_UNSET = object()
-
-
-@dataclass(frozen=True)
-class Entry:
-    """One attribute (or dataset) of a group. ``group`` is a path; ``*`` stands for a free name
-    (a mesh region, a face group, a load). Bounds are inclusive unless ``lo_open``/``hi_open``.
-    An entry whose ``doc`` is empty shares the row of the entry before it in the docs."""
-
-    group: str
-    name: str
-    kind: str  # float | int | whole | flag | str | names | data
-    unit: str = ""
-    default: object = None  # None: no default (absent is absent)
-    lo: float | None = None
-    hi: float | None = None
-    lo_open: bool = False
-    hi_open: bool = False
-    required: bool = False
-    choices: tuple = ()
-    doc: str = ""
-    case: str | None = None
-    models: tuple = ()  # materials: the models that read it (empty: all)
-    required_by: tuple = ()  # materials: the models that need it
-
-
-@dataclass(frozen=True)
-class Group:
-    path: str
-    members: tuple = ()  # subgroups (and dataset entries are added from the table)
-    required: bool = False
-    doc: str = ""
-
-
-def _e(group, name, kind, doc="", **kw):
-    return Entry(group, name, kind, doc=doc, **kw)
-
-
-GROUPS = (
-    Group("/", ("solver", "damping", "materials", "boundary", "loads", "monitors", "output", "stages", "in_situ",
-                "hydrostatic", "interfaces", "boundaries", "motion", "coupling", "schema")),
-    Group("/schema", doc="the material rows of this table and the hash of the others (written by the writer)"),
-    Group("/solver", required=True, doc="at least attribute t_end"),
-    Group("/damping"),
-    Group("/materials", ("*",), required=True, doc="one subgroup per mesh region"),
-    Group(MATERIALS),
-    Group("/boundary", ("fixed",)),
-    Group("/boundary/fixed", ("*",)),
-    Group("/boundary/fixed/*"),
-    Group("/loads", ("*",)),
-    Group("/loads/*"),
-    Group("/monitors"),
-    Group("/output"),
-    Group("/stages"),
-    Group("/in_situ"),
-    Group("/hydrostatic"),
-    Group("/interfaces", ("rock_lining",)),
-    Group("/interfaces/rock_lining"),
-    Group("/boundaries", ("bottom", "free_field", "periodic")),
-    Group("/boundaries/bottom"),
-    Group("/boundaries/free_field"),
-    Group("/boundaries/periodic"),
-    Group("/motion"),
-    Group("/coupling"),
-)
-
-_MC = ("mohr_coulomb_damage",)
-
-ENTRIES: tuple[Entry, ...] = (
-    _e("/", "format", "str", f'`"{FORMAT}"`', required=True, choices=(FORMAT,)),
-    _e("/", "version", "int", f"`{VERSION}`", required=True, lo=VERSION, hi=VERSION),
-    _e("/", "condition", "str", "informational", choices=("no_water", "static_water", "dynamic_water")),
-    _e("/", "mesh", "str", "path of `mesh.h5`, relative to this file's folder or absolute", required=True),
-    _e("/schema", "hash", "str", "hash of the rows other than the material ones; tq-solid refuses a file whose "
-                                 "hash is not its own (written by another version of the table)"),
-    _e("/schema", "material_parameters", "data", "the material rows of this table, one string each (fields "
-                                                 "of `MATERIAL_ROW_FIELDS` joined by vertical bars): tq-solid reads the "
-                                                 "material attributes against them"),
-    _e("/solver", "t_end", "float", "end time", unit="s", required=True, lo=0.0, lo_open=True),
-    _e("/solver", "dt", "float", "time step; `0` = safety × critical. A step above safety × critical is refused",
-       unit="s", default=0.0),
-    _e("/solver", "safety", "float", "stable-step safety factor", default=0.9),
-    _e("/solver", "integrator", "str", "`paper_eq3_4`: the paper's eqs. 3–4 literally; unstable, for study",
-       default="central_difference", choices=("central_difference", "paper_eq3_4")),
-    _e("/solver", "formulation", "str", "`full_integration`: elastic reference, locks",
-       default="one_point_assumed_strain",
-       choices=("one_point_assumed_strain", "one_point_assumed_strain_no_poisson", "full_integration")),
-    _e("/solver", "velocity_limit", "float", "\\|v\\| above this stops the run as exploding", unit="m/s",
-       default=1e3),
-    _e("/solver", "gravity_z", "float", "vertical body acceleration (e.g. −9.81)", unit="m/s²", default=0.0),
-    _e("/solver", "subcycling_levels", "whole", "elements step up to 2^n times the finest step where their own "
-       "stable step allows (docs/solid_solver.md \"Subcycling\"); 0 = off. Not with stiffness-proportional "
-       "damping", default=0.0, case="time.subcycling"),
-    _e("/damping", "ratio", "float", "Rayleigh damping ratio ξ at f1, f2: α = 2ξω1ω2/(ω1+ω2), β = 2ξ/(ω1+ω2)",
-       default=0.0),
-    _e("/damping", "f1", "float", unit="Hz"),
-    _e("/damping", "f2", "float", unit="Hz"),
-    _e("/damping", "alpha", "float", "or the coefficients directly; not together with `ratio` (none: undamped)",
-       unit="1/s", default=0.0, lo=0.0),
-    _e("/damping", "beta", "float", unit="s", default=0.0, lo=0.0),
-    _e(MATERIALS, "model", "str", "docs/theory.md §3", default="elastic", choices=MODELS, case="materials.model"),
-    _e(MATERIALS, "E", "float", "Young's modulus, Poisson's ratio, density", unit="Pa", required=True,
-       case="materials.youngs_modulus"),
-    _e(MATERIALS, "nu", "float", required=True, case="materials.poisson_ratio"),
-    _e(MATERIALS, "rho", "float", unit="kg/m³", required=True, case="materials.density"),
-    _e(MATERIALS, "cohesion", "float", "c, φ, σt (capped at the apex c cot φ); required by "
-       "`mohr_coulomb_damage`, ignored by `elastic`", unit="Pa", case="materials.cohesion", models=_MC,
-       required_by=_MC),
-    _e(MATERIALS, "friction_angle", "float", unit="°", case="materials.friction_angle", models=_MC,
-       required_by=_MC),
-    _e(MATERIALS, "tensile_strength", "float", unit="Pa", case="materials.tensile_strength", models=_MC,
-       required_by=_MC),
-    _e(MATERIALS, "dilation_angle", "float", "ψ ≤ φ", unit="°", case="materials.dilation_angle", models=_MC),
-    _e(MATERIALS, "damage_constant", "float", "R of eq. (18) (0 = no damage, perfect plasticity)",
-       case="materials.damage_constant", models=_MC),
-    _e(MATERIALS, "damage_effect", "str", "`cohesion` (eq. 16: damage reduces c only) or "
-       "`cohesion_and_stiffness` (σ = (1 − D) C:(ε − ε^p): c, σt and the stiffness scaled by 1 − D)",
-       default="cohesion", choices=("cohesion", "cohesion_and_stiffness"), models=_MC),
-    _e("/boundary/fixed/*", "directions", "str", "fixed displacement directions of that face group's nodes, "
-       "letters from `xyz` (e.g. `\"xyz\"` base, `\"x\"` roller). A slice mesh gets u_y = 0 everywhere",
-       required=True),
-    _e("/loads/*", "target", "str", "face group (force shared by tributary area) or node set (equal shares)",
-       required=True),
-    _e("/loads/*", "direction", "str", required=True, choices=("x", "y", "z")),
-    _e("/loads/*", "force", "float", "total force, times the time function", unit="N", required=True),
-    _e("/loads/*", "time", "data", "piecewise-linear time function [K], end values held (none: constant 1)",
-       unit="s"),
-    _e("/loads/*", "value", "data"),
-    _e("/monitors", "names", "data", "monitor names [M] (no `/`); positions [M, 3]: nearest node for u, v, a, "
-       "element with the nearest centroid for stresses. `tunnelquake` adds `@base` (the base under the axis) "
-       "and `@free_field` (xmin side, axis depth), the references of `output.displacement_reference`"),
-    _e("/monitors", "points", "data", unit="m"),
-    _e("/output", "monitor_dt", "float", "interval of the histories (monitors, energies, ring forces): rows at "
-       "k·monitor_dt, interpolated between the solver states around each", unit="s", default=0.005, lo=0.0,
-       lo_open=True),
-    _e("/output", "progress_s", "float", "wall seconds between progress lines", unit="s", default=5.0),
-    _e("/output", "ring_forces", "flag", "1: the lining's section forces and diameter changes at every sample",
-       default=1.0),
-    _e("/output", "checkpoint_interval", "float", "simulated time between restart checkpoints, written with "
-       "`--checkpoint-dir` (\"Restart checkpoints\" below); 0 = none", unit="s", default=0.0, lo=0.0),
-    _e("/output", "snapshot_times", "data", "times of full-field snapshots [S]; `tunnelquake` writes "
-       "`output.snapshot_times`, or when empty every 1 s of the seismic stage and its end", unit="s"),
-    _e("/stages", "sequence", "names", "a subset of `in_situ,excavation,lining,hydrostatic,seismic` in that "
-       "order; without `/stages` one dynamic stage from rest", required=True),
-    _e("/stages", "relaxation_tolerance", "float", "static stages end when \\|f_ext − f_int\\|₂ / max(the "
-       "stage's initial out-of-balance force, 1e-6 × the model's force norm) is below this",
-       case="stages.relaxation_tolerance", hi_open=True),
-    _e("/stages", "relaxation_max_steps", "int", "per static stage; beyond it the run stops (exit 3)",
-       case="stages.relaxation_max_steps"),
-    _e("/stages", "mass_scaling", "flag", "1: relax with element masses scaled to one common step (statics "
-       "only)", default=1.0),
-    _e("/stages", "equilibrium_correction", "flag", "1: at the switch hold the relaxation's residual "
-       "out-of-balance force, so the model starts at rest", default=1.0),
-    _e("/stages", "lining_region", "str", "region installed by the `lining` stage", default="lining"),
-    _e("/stages", "release_fraction", "float", "λ: the `excavation` stage relaxes λ of the excavation load "
-       "with the rock alone, the `lining` stage the rest on rock and lining (docs/theory.md §2); λ < 1 needs "
-       "both stages", case="stages.release_fraction"),
-    _e("/in_situ", "kx", "float", "σx = kx σv, σy = ky σv, σz = kz σv, σv = −(q + g ∫_z^{z_top} ρ dζ) at each "
-       "centroid of every region but the lining (docs/solid_solver.md \"Staged initial state\")", default=1.0,
-       lo=0.0, case="in_situ.kx"),
-    _e("/in_situ", "ky", "float", default=1.0, lo=0.0, case="in_situ.ky"),
-    _e("/in_situ", "kz", "float", default=1.0, lo=0.0, case="in_situ.kz"),
-    _e("/in_situ", "gravity", "float", "g: the overburden's and the whole run's body force −g ẑ; not with a "
-       "different `/solver` `gravity_z`", unit="m/s²", default=0.0, lo=0.0, case="in_situ.gravity"),
-    _e("/in_situ", "density", "float", "overburden ρ (0 = each element's own), ground surface (default the "
-       "mesh's top), surcharge q", unit="kg/m³", default=0.0, lo=0.0),
-    _e("/in_situ", "z_top", "float", unit="m"),
-    _e("/in_situ", "surcharge", "float", unit="Pa", default=0.0, lo=0.0),
-    _e("/hydrostatic", "pressure_at_axis", "float", "p(z) = max(0, p_axis − γw (z − z_axis)); the writer uses "
-       "ρw g H, ρw g; `z_axis` required with γw > 0", unit="Pa", required=True, lo=0.0),
-    _e("/hydrostatic", "unit_weight", "float", unit="N/m³", default=0.0, lo=0.0),
-    _e("/hydrostatic", "z_axis", "float", unit="m", default=0.0),
-    _e("/hydrostatic", "face", "str", "face group loaded (consistent nodal forces, 2×2 Gauss points a quad)",
-       default="lining_inner"),
-    _e("/interfaces/rock_lining", "model", "str", "`bonded`: the pairs tied; `dynamic_contact`: eqs. 9–13",
-       default="bonded", choices=("bonded", "dynamic_contact"), case="interface.model"),
-    _e("/interfaces/rock_lining", "static_friction", "float", "μs, μd, f_c, and what a failed pair keeps "
-       "(`cohesion_lost` or `cohesion_kept`)", default=0.6, lo=0.0, case="interface.static_friction"),
-    _e("/interfaces/rock_lining", "dynamic_friction", "float", default=0.6, lo=0.0, case="interface.dynamic_friction"),
-    _e("/interfaces/rock_lining", "cohesion", "float", unit="Pa", default=0.0, lo=0.0, case="interface.cohesion"),
-    _e("/interfaces/rock_lining", "after_failure", "str", default="cohesion_lost", case="interface.after_failure"),
-    _e("/boundaries/bottom", "face", "str", "viscoelastic base on that face group", default="bottom"),
-    _e("/boundaries/bottom", "type", "str", default="viscoelastic", choices=("viscoelastic",)),
-    _e("/boundaries/bottom", "distance", "float", "R in K = αG/R (0: tunnel axis to base, else the model "
-       "height)", unit="m", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "alpha_n", "float", "α_N, α_T (0: 4/3, 2/3; slice meshes 1, 1/2)", default=0.0,
-       lo=0.0),
-    _e("/boundaries/bottom", "alpha_t", "float", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "rho", "float", "the half-space below the base, all three or none (0: the base "
-       "column's lowest layer)", unit="kg/m³", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "cp", "float", unit="m/s", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "cs", "float", unit="m/s", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "column_face", "str", "vertical face whose layers define the base's column "
-       "(empty: the first free-field face, else `xmin`)", default=""),
-    _e("/boundaries/free_field", "faces", "names", "vertical face groups driven by 1D free-field columns; each "
-       "horizontally layered", required=True),
-    _e("/boundaries/periodic", "faces", "names", "two opposite face groups tied node by node from the seismic "
-       "stage on; written for a slice whose motion has a component along the axis", required=True),
-    _e("/motion", "time", "data", "incident (up-going) accelerations [K] at the base, x, y: SH, z: P; linear "
-       "between samples; a missing component is zero", unit="s"),
-    _e("/motion", "ax", "data", unit="m/s²"),
-    _e("/motion", "ay", "data", unit="m/s²"),
-    _e("/motion", "az", "data", unit="m/s²"),
-    _e("/motion", "cutoff_frequency", "float", "for the λ_min/8 element-size warning; the record's convention "
-       "(informational)", unit="Hz", default=0.0, lo=0.0),
-    _e("/motion", "convention", "str", default=""),
-    _e("/coupling", "scheme", "str", "`dynamic_water` through the coupler (docs/coupler.md \"Solid adapter\")",
-       default="implicit", choices=("explicit", "paper", "implicit")),
-    _e("/coupling", "window", "int", "solid steps per window k (k > 1 not with `paper`); window length (0 = k "
-       "steps); number of windows (0 = ⌈t_end / window⌉)", default=1, lo=1),
-    _e("/coupling", "window_size", "float", unit="s", default=0.0, lo=0.0),
-    _e("/coupling", "windows", "int", default=0, lo=0),
-    _e("/coupling", "tolerance", "float", "implicit: relative residual, passes per window, acceleration, first "
-       "relaxation factor, windows of IQN-ILS columns kept, predictor (`linear` needs implicit)", default=1e-4,
-       lo=0.0),
-    _e("/coupling", "max_iterations", "int", default=20, lo=1),
-    _e("/coupling", "acceleration", "str", default="iqn-ils", choices=("none", "constant", "aitken", "iqn-ils")),
-    _e("/coupling", "initial_relaxation", "float", default=0.5, lo=0.0),
-    _e("/coupling", "reuse", "int", default=0, lo=0),
-    _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear")),
-    _e("/coupling", "absolute_tolerance_velocity", "float", "implicit: absolute floors on each field's RMS "
-       "residual (0 = none); `tunnelquake run` derives them (docs/coupler.md \"Convergence test\")",
-       unit="m/s", default=0.0, lo=0.0),
-    _e("/coupling", "absolute_tolerance_displacement", "float", unit="m", default=0.0, lo=0.0),
-    _e("/coupling", "absolute_tolerance_force", "float", unit="N", default=0.0, lo=0.0),
-    _e("/coupling", "window_force_weight", "float", "implicit windows of k > 1 steps: weight of the window-end "
-       "force (0.5 linear ramp, 1 end force held; docs/coupler.md \"Window force weight\")",
-       case="coupling.window_force_weight", default=0.5),
-    _e("/coupling", "energy_limit", "float", "stop (exit 3) when the coupling's energy exceeds energy_limit × "
-       "max(largest \\|interface work\\|, energy_floor) (docs/coupler.md \"Energy guard\"); 0 = no stop",
-       default=0.0, lo=0.0),
-    _e("/coupling", "energy_floor", "float", unit="J", default=0.0, lo=0.0),
-    _e("/coupling", "volume_law", "str", "the water's volumetric pressure in tq-solid's step (docs/coupler.md "
-       "\"Volume law in the solid\", \"Open ends\")", default="none",
-       choices=("none", "compressible", "incompressible")),
-    _e("/coupling", "bulk_modulus", "float", unit="Pa", default=0.0, lo=0.0),
-    _e("/coupling", "water_density", "float", unit="kg/m³", default=0.0, lo=0.0),
-    _e("/coupling", "water_ends", "str", default="closed", choices=("closed", "open")),
-    _e("/coupling", "axial_density", "float", unit="kg/m³", default=0.0, lo=0.0),
-    _e("/coupling", "transport", "str", "`mpi`: docs/coupler.md \"tq-solid under mpirun\"; the port file (tcp); "
-       "the run's secret; a silent fluid's limit; wait for the fluid (0 = timeout)", default="tcp",
-       choices=("tcp", "mpi")),
-    _e("/coupling", "address_file", "str", default=""),
-    _e("/coupling", "token", "str", default=""),
-    _e("/coupling", "timeout", "float", unit="s", default=120.0, lo=0.0, lo_open=True),
-    _e("/coupling", "connect_timeout", "float", unit="s", default=0.0, lo=0.0),
-    _e("/coupling", "face", "str", "wetted face group, interface name on the wire, the solid's map, fields the "
-       "solid writes in the fluid's order, participant names", default="lining_inner"),
-    _e("/coupling", "mesh", "str", default="wall"),
-    _e("/coupling", "map", "str", default="coincident", choices=("coincident", "projection")),
-    _e("/coupling", "map_tolerance", "float", unit="m", default=1e-6, lo=0.0),
-    _e("/coupling", "write_fields", "names", default="velocity,displacement"),
-    _e("/coupling", "participant", "str", default="solid"),
-    _e("/coupling", "partner", "str", default="fluid"),
+from .solver_input_table import (  # noqa: F401 - the table's names, used by the writer and the tests
+    ENTRIES,
+    FORMAT,
+    GROUPS,
+    MATERIALS,
+    MODELS,
+    VERSION,
+    Entry,
+    Group,
+    required_by,
 )
 
 
@@ -336,11 +87,6 @@ def _case_missing():
 def entries() -> list[Entry]:
     """The table with the case links resolved (what the writer, tq-solid and the docs use)."""
     return [_resolve(e) for e in ENTRIES]
-
-
-def required_by(model: str) -> list[str]:
-    """The case keys of the material parameters a model needs."""
-    return [e.case.rsplit(".", 1)[1] for e in entries() if e.group == MATERIALS and model in e.required_by]
 
 
 def linked(group: str, table: list[Entry] | None = None) -> list[Entry]:

@@ -123,7 +123,8 @@ _LITERAL = r'"([A-Za-z_][A-Za-z0-9_]*)"'
 _RUN = re.compile(_LITERAL + r"(?:\s*,\s*" + _LITERAL.replace("(", "(?:") + r")+")
 #: tq-solid reading an attribute of an HDF5 object by a literal name
 _READ = re.compile(r"h5::(?:hasAttr|read\w*Attr)\([^,()]+,\s*" + _LITERAL)
-GENERATED = {sis.INC, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py"}
+GENERATED = {sis.INC, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py",
+             ROOT / "scripts" / "tunnelquake" / "solver_input_table.py"}
 #: lists of the same words that are not solid_input.h5's, or not yet made from the table: (file, the
 #: list's first words) -> why. Any other list fails.
 KNOWN = {
