@@ -156,10 +156,8 @@ SolidInput readSolidInput(const std::string& path) {
     }
   }
   // /damping
-  if (h5::exists(f, "/damping")) {
-    auto g = h5::openGroup(f, "/damping");
+  if (const auto g = R.group(f, "/damping", "/damping"); g.valid()) {
     const std::string w = "/damping";
-    R.checkGroup(g, w, w);
     const bool byRatio = R.has(g, K::damping::ratio);
     const bool byCoef = R.has(g, K::damping::alpha) || R.has(g, K::damping::beta);
     if (byRatio && byCoef) R.fail(w, "give either ratio/f1/f2 or alpha/beta, not both");
@@ -177,12 +175,8 @@ SolidInput readSolidInput(const std::string& path) {
   }
   readMaterials(R, f, in);
   // /boundary/fixed/<face group>
-  if (h5::exists(f, "/boundary")) {
-    auto g = h5::openGroup(f, "/boundary");
-    R.checkGroup(g, "/boundary", "/boundary");
-    if (h5::exists(g, "fixed")) {
-      auto fg = h5::openGroup(g, "fixed");
-      R.checkGroup(fg, "/boundary/fixed", "/boundary/fixed");
+  if (const auto g = R.group(f, "/boundary", "/boundary"); g.valid()) {
+    if (const auto fg = R.group(g, "fixed", "/boundary/fixed"); fg.valid()) {
       for (const auto& group : h5::members(fg)) {
         auto gg = h5::openGroup(fg, group);
         const std::string w = "/boundary/fixed/" + group;
@@ -196,9 +190,7 @@ SolidInput readSolidInput(const std::string& path) {
     }
   }
   // /loads/<name>
-  if (h5::exists(f, "/loads")) {
-    auto g = h5::openGroup(f, "/loads");
-    R.checkGroup(g, "/loads", "/loads");
+  if (const auto g = R.group(f, "/loads", "/loads"); g.valid()) {
     for (const auto& name : h5::members(g)) {
       auto lg = h5::openGroup(g, name);
       const std::string w = "/loads/" + name;
@@ -222,9 +214,7 @@ SolidInput readSolidInput(const std::string& path) {
     }
   }
   // /monitors
-  if (h5::exists(f, "/monitors")) {
-    auto g = h5::openGroup(f, "/monitors");
-    R.checkGroup(g, "/monitors", "/monitors");
+  if (const auto g = R.group(f, "/monitors", "/monitors"); g.valid()) {
     const auto names = h5::readStrings(g, K::monitors::names.name);
     std::vector<hsize_t> d;
     const auto pts = h5::readDoubles(g, K::monitors::points.name, &d);
@@ -240,10 +230,8 @@ SolidInput readSolidInput(const std::string& path) {
     }
   }
   // /output
-  if (h5::exists(f, "/output")) {
-    auto g = h5::openGroup(f, "/output");
+  if (const auto g = R.group(f, "/output", "/output"); g.valid()) {
     const std::string w = "/output";
-    R.checkGroup(g, w, w);
     in.monitorDt = R.number(g, w, K::output::monitor_dt);
     in.progressSeconds = R.number(g, w, K::output::progress_s);
     in.ringForces = R.flag(g, w, K::output::ring_forces);

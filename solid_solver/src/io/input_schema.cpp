@@ -138,6 +138,13 @@ void Reader::fail(const std::string& where, const std::string& what) const {
   throw InputError("solid input '" + file_ + "', " + where + ": " + what);
 }
 
+h5::Handle Reader::group(hid_t parent, const std::string& name, const std::string& path) const {
+  if (!h5::exists(parent, name)) return {};
+  h5::Handle g = h5::openGroup(parent, name);
+  checkGroup(g, path, path);
+  return g;
+}
+
 void Reader::checkGroup(hid_t obj, const std::string& where, const std::string& group,
                         const std::vector<Row>& rows) const {
   std::vector<std::string> attrs, members;

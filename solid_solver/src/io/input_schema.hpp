@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "h5util.hpp"
 #include "tq/core/types.hpp"
 
 namespace tq::input_schema {
@@ -84,6 +85,9 @@ class Reader {
   void checkGroup(hid_t obj, const std::string& where, const std::string& group) const {
     checkGroup(obj, where, group, rowsOf(group));
   }
+  /// The group `name` of `parent` (at `path` in the file) opened and checked against the table's rows of
+  /// `path`; an invalid handle when the file has no such group.
+  h5::Handle group(hid_t parent, const std::string& name, const std::string& path) const;
   /// Refuse a file without a group the table marks required.
   void requireGroups(hid_t file) const;
   /// A number: the row's default when absent (required: refused), finite, within the row's bounds;

@@ -52,10 +52,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
              "both 'excavation' and 'lining' (or set release_fraction to 1)");
   }
   // /in_situ
-  if (h5::exists(f, "/in_situ")) {
-    auto g = h5::openGroup(f, "/in_situ");
+  if (const auto g = c.group(f, "/in_situ", "/in_situ"); g.valid()) {
     const std::string w = "/in_situ";
-    c.checkGroup(g, w, w);
     InSituInput& I = S.inSitu;
     I.present = true;
     I.kx = c.number(g, w, K::in_situ::kx);
@@ -76,10 +74,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
   if (S.stages.has("in_situ") && !S.inSitu.present)
     c.fail("/in_situ", "group is required by the in_situ stage (attributes kx, ky, kz, gravity)");
   // /hydrostatic
-  if (h5::exists(f, "/hydrostatic")) {
-    auto g = h5::openGroup(f, "/hydrostatic");
+  if (const auto g = c.group(f, "/hydrostatic", "/hydrostatic"); g.valid()) {
     const std::string w = "/hydrostatic";
-    c.checkGroup(g, w, w);
     HydrostaticInput& H = S.hydrostatic;
     H.present = true;
     H.face = c.text(g, w, K::hydrostatic::face);
@@ -91,13 +87,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
   if (S.stages.has("hydrostatic") && !S.hydrostatic.present)
     c.fail("/hydrostatic", "group is required by the hydrostatic stage (pressure_at_axis, unit_weight, z_axis)");
   // /interfaces/rock_lining
-  if (h5::exists(f, "/interfaces")) {
-    auto g = h5::openGroup(f, "/interfaces");
-    c.checkGroup(g, "/interfaces", "/interfaces");
-    if (h5::exists(g, "rock_lining")) {
-      auto gg = h5::openGroup(g, "rock_lining");
+  if (const auto g = c.group(f, "/interfaces", "/interfaces"); g.valid()) {
+    if (const auto gg = c.group(g, "rock_lining", "/interfaces/rock_lining"); gg.valid()) {
       const std::string w = "/interfaces/rock_lining";
-      c.checkGroup(gg, w, w);
       InterfaceInput& R = S.rockLining;
       R.present = true;
       R.model = c.text(gg, w, K::interfaces_rock_lining::model);
@@ -108,13 +100,9 @@ void readStagedInput(hid_t f, SolidInput& in) {
     }
   }
   // /boundaries
-  if (h5::exists(f, "/boundaries")) {
-    auto g = h5::openGroup(f, "/boundaries");
-    c.checkGroup(g, "/boundaries", "/boundaries");
-    if (h5::exists(g, "bottom")) {
-      auto gg = h5::openGroup(g, "bottom");
+  if (const auto g = c.group(f, "/boundaries", "/boundaries"); g.valid()) {
+    if (const auto gg = c.group(g, "bottom", "/boundaries/bottom"); gg.valid()) {
       const std::string w = "/boundaries/bottom";
-      c.checkGroup(gg, w, w);
       BottomBoundaryInput& B = S.bottom;
       B.present = true;
       B.face = c.text(gg, w, K::boundaries_bottom::face);
@@ -132,18 +120,14 @@ void readStagedInput(hid_t f, SolidInput& in) {
       B.columnFace = c.text(gg, w, K::boundaries_bottom::column_face);
       in.requiredFaces.push_back(B.face);
     }
-    if (h5::exists(g, "free_field")) {
-      auto gg = h5::openGroup(g, "free_field");
+    if (const auto gg = c.group(g, "free_field", "/boundaries/free_field"); gg.valid()) {
       const std::string w = "/boundaries/free_field";
-      c.checkGroup(gg, w, w);
       S.freeField.present = true;
       S.freeField.faces = c.names(gg, w, K::boundaries_free_field::faces);
       for (const auto& face : S.freeField.faces) in.requiredFaces.push_back(face);
     }
-    if (h5::exists(g, "periodic")) {
-      auto gg = h5::openGroup(g, "periodic");
+    if (const auto gg = c.group(g, "periodic", "/boundaries/periodic"); gg.valid()) {
       const std::string w = "/boundaries/periodic";
-      c.checkGroup(gg, w, w);
       S.periodic.present = true;
       S.periodic.faces = c.names(gg, w, K::boundaries_periodic::faces);
       if (S.periodic.faces.size() != 2 || S.periodic.faces[0] == S.periodic.faces[1])
@@ -152,10 +136,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
     }
   }
   // /motion
-  if (h5::exists(f, "/motion")) {
-    auto g = h5::openGroup(f, "/motion");
+  if (const auto g = c.group(f, "/motion", "/motion"); g.valid()) {
     const std::string w = "/motion";
-    c.checkGroup(g, w, w);
     MotionInput& M = S.motion;
     M.present = true;
     M.cutoffFrequency = c.number(g, w, K::motion::cutoff_frequency);
@@ -180,10 +162,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
   if (S.stages.has("seismic") && !S.bottom.present && !S.freeField.present && S.motion.present)
     c.fail("/boundaries", "the motion needs a base to enter through: add /boundaries/bottom");
   // /coupling (dynamic_water: the water through the coupler; docs/coupler.md "Solid adapter")
-  if (h5::exists(f, "/coupling")) {
-    auto g = h5::openGroup(f, "/coupling");
+  if (const auto g = c.group(f, "/coupling", "/coupling"); g.valid()) {
     const std::string w = "/coupling";
-    c.checkGroup(g, w, w);
     CouplingInput& C = S.coupling;
     C.present = true;
     C.scheme = c.text(g, w, K::coupling::scheme);
