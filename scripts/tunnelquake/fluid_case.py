@@ -53,6 +53,7 @@ from . import paths
 from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor
 from .coupling_scales import absolute_tolerances
 from .foam_dict import Quoted, foam_file
+from .solver_input_schema import group_attrs
 from .water_case import WaterCase, patch_types
 from .water_case import write as write_dictionaries
 
@@ -147,26 +148,9 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
 
 
 def solid_coupling_attrs(s: dict) -> dict:
-    """The /coupling attributes of solid_input.h5 (docs/formats.md) for these settings."""
-    out = {k: s[k] for k in ("scheme", "window", "window_size", "windows", "tolerance", "max_iterations",
-                             "acceleration", "initial_relaxation", "transport", "address_file", "token",
-                             "timeout", "connect_timeout", "face", "mesh", "map", "map_tolerance",
-                             "participant", "partner")}
-    out["write_fields"] = ",".join(s["write_fields"])
-    if s.get("predictor", "constant") != "constant":  # absent = constant (inputs made before the predictor)
-        out["predictor"] = s["predictor"]
-    if s.get("reuse", 0):  # absent = 0
-        out["reuse"] = int(s["reuse"])
-    out.update({f"absolute_tolerance_{k}": float(v) for k, v in s["absolute_tolerance"].items()})
-    if s.get("volume_law", "none") != "none":  # absent = none: the water sends its whole pressure
-        out["volume_law"] = s["volume_law"]
-        out["bulk_modulus"] = float(s["bulk_modulus"])
-        if s.get("water_density", 0.0) > 0:  # absent: the exchange carries the water's translation
-            out["water_density"] = float(s["water_density"])
-        if s.get("water_ends", "closed") == "open":  # absent = closed: one uniform pressure
-            out["water_ends"] = "open"
-            out["axial_density"] = float(s["axial_density"])
-    return out
+    """The /coupling attributes of solid_input.h5 (docs/formats.md) for these settings: each setting as
+    the table stores it, less those the table's /coupling rows leave out (solver_input_schema.group_attrs)."""
+    return group_attrs("/coupling", s)
 
 
 def exchange_dict(s: dict) -> dict:

@@ -172,6 +172,37 @@ def put(obj, group: str, name: str, value, table: list[Entry] | None = None) -> 
     obj.attrs[name] = np.int64(int(value)) if e.kind == "int" else x
 
 
+def group_attrs(group: str, values: dict, table: list[Entry] | None = None) -> dict:
+    """The attributes the writer puts in ``group`` for ``values`` (attribute name -> value), in the
+    table's order: each value as stored (a list for a ``names`` row joined by commas; a dict under
+    ``key`` gives attributes ``key_<item>``), less what the group's rows leave out: a value equal to
+    the default of an ``omit_default`` row, a ``written_with`` row whose partner is left out, and a
+    row with no value. A name that is not an attribute of the group is refused (KeyError)."""
+    table = table or entries()
+    rows = {e.name: e for e in table if e.group == group}
+    given = {}
+    for key, value in values.items():
+        for name, v in ((f"{key}_{k}", v) for k, v in value.items()) if isinstance(value, dict) else ((key, value),):
+            if name not in rows:
+                lookup(group, name, table)  # refused: KeyError naming the group and the key
+            given[name] = v
+
+    def written(name: str) -> bool:
+        e = rows[name]
+        return name in given and not (e.omit_default and given[name] == e.default) and \
+            (not e.written_with or written(e.written_with))
+
+    return {e.name: _stored(e, given[e.name]) for e in rows.values() if written(e.name)}
+
+
+def _stored(e: Entry, value):
+    if e.kind == "names" and isinstance(value, list | tuple):
+        return ",".join(value)
+    if e.kind == "int":
+        return int(value)
+    return float(value) if e.kind in ("float", "whole", "flag") else value
+
+
 def write_schema(f, table: list[Entry] | None = None) -> None:
     """The /schema group: the hash of the fixed rows and the material rows (tq-solid reads them)."""
     import h5py

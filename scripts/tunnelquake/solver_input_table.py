@@ -17,7 +17,11 @@ _UNSET = object()
 class Entry:
     """One attribute (or dataset) of a group. ``group`` is a path; ``*`` stands for a free name
     (a mesh region, a face group, a load). Bounds are inclusive unless ``lo_open``/``hi_open``.
-    An entry whose ``doc`` is empty shares the row of the entry before it in the docs."""
+    An entry whose ``doc`` is empty shares the row of the entry before it in the docs.
+
+    Which attributes the writer puts in the file (``solver_input_schema.group_attrs``): with
+    ``omit_default`` a value equal to the default is left out (tq-solid reads the default); with
+    ``written_with`` the attribute is left out unless that attribute of the group is written."""
 
     group: str
     name: str
@@ -34,6 +38,8 @@ class Entry:
     case: str | None = None
     models: tuple = ()  # materials: the models that read it (empty: all)
     required_by: tuple = ()  # materials: the models that need it
+    omit_default: bool = False  # writer: the default is not written
+    written_with: str = ""  # writer: only together with this attribute of the group
 
 
 @dataclass(frozen=True)
@@ -228,8 +234,8 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "max_iterations", "int", default=20, lo=1),
     _e("/coupling", "acceleration", "str", default="iqn-ils", choices=("none", "constant", "aitken", "iqn-ils")),
     _e("/coupling", "initial_relaxation", "float", default=0.5, lo=0.0),
-    _e("/coupling", "reuse", "int", default=0, lo=0),
-    _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear")),
+    _e("/coupling", "reuse", "int", default=0, lo=0, omit_default=True),
+    _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear"), omit_default=True),
     _e("/coupling", "absolute_tolerance_velocity", "float", "implicit: absolute floors on each field's RMS "
        "residual (0 = none); `tunnelquake run` derives them (docs/coupler.md \"Convergence test\")",
        unit="m/s", default=0.0, lo=0.0),
@@ -244,11 +250,13 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "energy_floor", "float", unit="J", default=0.0, lo=0.0),
     _e("/coupling", "volume_law", "str", "the water's volumetric pressure in tq-solid's step (docs/coupler.md "
        "\"Volume law in the solid\", \"Open ends\")", default="none",
-       choices=("none", "compressible", "incompressible")),
-    _e("/coupling", "bulk_modulus", "float", unit="Pa", default=0.0, lo=0.0),
-    _e("/coupling", "water_density", "float", unit="kg/m³", default=0.0, lo=0.0),
-    _e("/coupling", "water_ends", "str", default="closed", choices=("closed", "open")),
-    _e("/coupling", "axial_density", "float", unit="kg/m³", default=0.0, lo=0.0),
+       choices=("none", "compressible", "incompressible"), omit_default=True),
+    _e("/coupling", "bulk_modulus", "float", unit="Pa", default=0.0, lo=0.0, written_with="volume_law"),
+    _e("/coupling", "water_density", "float", unit="kg/m³", default=0.0, lo=0.0, omit_default=True,
+       written_with="volume_law"),
+    _e("/coupling", "water_ends", "str", default="closed", choices=("closed", "open"), omit_default=True,
+       written_with="volume_law"),
+    _e("/coupling", "axial_density", "float", unit="kg/m³", default=0.0, lo=0.0, written_with="water_ends"),
     _e("/coupling", "transport", "str", "`mpi`: docs/coupler.md \"tq-solid under mpirun\"; the port file (tcp); "
        "the run's secret; a silent fluid's limit; wait for the fluid (0 = timeout)", default="tcp",
        choices=("tcp", "mpi")),

@@ -11,6 +11,10 @@ docs/formats.md are made from.
 3. No second hand-written list of solid_input.h5 keys: in solid_solver/ and scripts/, no run of
    three or more string literals that are keys of one group of the table, and no attribute read in
    tq-solid by a literal key name, outside the table and its generated header.
+4. Which /coupling attributes are written is the table's rows' rule (group_attrs): every setting but
+   the constant predictor, reuse 0, and without a volume law none of the law's attributes (tq-solid
+   refuses a water density without one); with a law, water_density 0 and closed ends (with the axial
+   density) are left out. Checked for settings and for the case words that make them.
 """
 from __future__ import annotations
 
@@ -23,8 +27,11 @@ import h5py
 import pytest
 from test_solid_input import _case, prepared  # noqa: F401  (module fixture: the slice mesh and a motion)
 
+from conftest import EXAMPLE
+from tunnelquake import fluid_case as fc
 from tunnelquake import paths
 from tunnelquake import solver_input_schema as sis
+from tunnelquake.case import load_case
 from tunnelquake.solid_input import write_solid_input
 
 ROOT = sis.ROOT
@@ -128,13 +135,8 @@ GENERATED = {sis.INC, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py
 #: lists of the same words that are not solid_input.h5's, or not yet made from the table: (file, the
 #: list's first words) -> why. Any other list fails.
 KNOWN = {
-    ("scripts/tunnelquake/coupling/participant.py", '"units", "first", "second", "scheme"'):
-        "the coupler's own participant file (docs/coupler.md), whose names the coupler defines",
     ("scripts/tunnelquake/verification/stiffness_map.py", '"window", "reuse", "predictor"'):
         "case keys of the coupling section the study drops for the explicit scheme",
-    ("scripts/tunnelquake/fluid_case.py", '"scheme", "window", "window_size", "windows"'):
-        "fluid_case.solid_coupling_attrs: the /coupling attributes `tunnelquake run` adds over the writer's; "
-        "not yet written through the table",
 }
 
 
@@ -196,3 +198,82 @@ def test_no_second_hand_written_list_of_solver_input_keys():
             problems += [f"{p.relative_to(ROOT)}: read {x}" for x in literal_reads(text, keys)]
     assert not problems, "keys of solid_input.h5 belong in scripts/tunnelquake/solver_input_schema.py:\n" + \
         "\n".join(problems)
+
+
+# --------------------------------------------------------------------------------------------------
+# Which /coupling attributes are written
+# --------------------------------------------------------------------------------------------------
+#: the settings no rule leaves out (fluid_case.coupling_settings' keys), and the attributes they give
+_ALWAYS = {"scheme": "implicit", "window": 4, "window_size": 2.5e-4, "windows": 80, "tolerance": 1e-4,
+           "max_iterations": 20, "acceleration": "iqn-ils", "initial_relaxation": 0.5, "transport": "tcp",
+           "address_file": "/run/wall.addr", "token": "ab" * 16, "timeout": 120.0, "connect_timeout": 60.0,
+           "face": "lining_inner", "mesh": "wall", "map": "coincident", "map_tolerance": 1e-6,
+           "participant": "solid", "partner": "fluid"}
+_ALWAYS_ATTRS = {**_ALWAYS, "write_fields": "velocity,displacement", "absolute_tolerance_velocity": 1e-6,
+                 "absolute_tolerance_displacement": 2e-9, "absolute_tolerance_force": 3.0}
+
+
+def _settings(law, bulk, density, ends, predictor="constant", reuse=0) -> dict:
+    return {**_ALWAYS, "write_fields": ["velocity", "displacement"],
+            "absolute_tolerance": {"velocity": 1e-6, "displacement": 2e-9, "force": 3.0},
+            "predictor": predictor, "reuse": reuse, "volume_law": law, "bulk_modulus": bulk,
+            "water_density": density, "water_ends": ends, "axial_density": 998.0}
+
+
+@pytest.mark.parametrize("settings, conditional", [
+    (_settings("none", 0.0, 0.0, "closed"), {}),
+    (_settings("none", 0.0, 998.0, "open", "linear", 16), {"predictor": "linear", "reuse": 16}),
+    (_settings("compressible", 2e9, 998.0, "closed"),
+     {"volume_law": "compressible", "bulk_modulus": 2e9, "water_density": 998.0}),
+    (_settings("compressible", 2e9, 0.0, "open", "linear"),
+     {"predictor": "linear", "volume_law": "compressible", "bulk_modulus": 2e9, "water_ends": "open",
+      "axial_density": 998.0}),
+    (_settings("incompressible", 0.0, 998.0, "open", reuse=16),
+     {"reuse": 16, "volume_law": "incompressible", "bulk_modulus": 0.0, "water_density": 998.0,
+      "water_ends": "open", "axial_density": 998.0}),
+    (_settings("incompressible", 0.0, 0.0, "closed"), {"volume_law": "incompressible", "bulk_modulus": 0.0}),
+])
+def test_coupling_attributes_leave_out_what_the_rows_say(settings, conditional, tmp_path):
+    attrs = fc.solid_coupling_attrs(settings)
+    assert attrs == {**_ALWAYS_ATTRS, **conditional}
+    assert all(type(attrs[k]) is type(v) for k, v in {**_ALWAYS_ATTRS, **conditional}.items())
+    # what reaches the file: these attributes, stored by the table's kinds
+    with h5py.File(tmp_path / "c.h5", "w") as f:
+        g = f.create_group("coupling")
+        for key, value in attrs.items():
+            sis.put(g, "/coupling", key, value)
+        assert set(g.attrs) == set(attrs)
+        assert g.attrs["window"].dtype == "int64" and g.attrs["write_fields"] == "velocity,displacement"
+    # a setting missing is an attribute missing (tq-solid reads its default); a key outside the table is refused
+    assert "predictor" not in fc.solid_coupling_attrs({k: v for k, v in settings.items() if k != "predictor"})
+    with pytest.raises(KeyError, match="relaxation"):
+        fc.solid_coupling_attrs({**settings, "relaxation": 0.5})
+
+
+@pytest.mark.parametrize("mode, ends, law, model, translation, predictor, reuse, conditional", [
+    ("slice", "open", "solid", "compressible", "solid", "constant", 0,
+     {"volume_law": "compressible", "bulk_modulus": 2e9, "water_density": 998.0}),
+    ("3d", "open", "solid", "compressible", "water", "linear", 16,
+     {"predictor": "linear", "reuse": 16, "volume_law": "compressible", "bulk_modulus": 2e9,
+      "water_ends": "open", "axial_density": 998.0}),
+    ("3d", "closed", "solid", "incompressible", "solid", "linear", 0,
+     {"predictor": "linear", "volume_law": "incompressible", "bulk_modulus": 0.0, "water_density": 998.0}),
+    ("3d", "open", "solid", "incompressible", "solid", "constant", 16,
+     {"reuse": 16, "volume_law": "incompressible", "bulk_modulus": 0.0, "water_density": 998.0,
+      "water_ends": "open", "axial_density": 998.0}),
+    ("3d", "open", "water", "compressible", "solid", "constant", 0, {}),
+    ("slice", "closed", "water", "compressible", "water", "linear", 16, {"predictor": "linear", "reuse": 16}),
+])
+def test_the_cases_coupling_words_give_the_attributes(mode, ends, law, model, translation, predictor, reuse,
+                                                      conditional, tmp_path):
+    """The case's coupling.volume_law (solid: the water model's law; water: none), water_translation
+    (water: no water density), the section (a slice or closed ends: closed), predictor and reuse."""
+    case = load_case(EXAMPLE)
+    d = case.data
+    d["mesh"]["mode"] = mode
+    d["water"].update(ends=ends, model=model, density=998.0, bulk_modulus=2e9)
+    d["coupling"].update(volume_law=law, water_translation=translation, predictor=predictor, reuse=reuse)
+    attrs = fc.solid_coupling_attrs(fc.coupling_settings(case, 2.5e-4, tmp_path / "wall.addr", "ab" * 16,
+                                                         t_end=0.02))
+    assert set(attrs) == set(_ALWAYS_ATTRS) | set(conditional)
+    assert {k: attrs[k] for k in conditional} == conditional
