@@ -44,7 +44,7 @@ import numpy as np
 from . import children
 from .case import CONDITIONS, coupling_predictor, coupling_window_force_weight
 from .files import h5_in_memory
-from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, linked, lookup, put, write_schema
+from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, group_attrs, linked, lookup, put, write_schema
 
 
 class SolidInputError(ValueError):
@@ -240,20 +240,13 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
                                       "use window: 1")
             c = f.create_group("coupling")
             values = {"scheme": cs["scheme"], "window": cs["window"], "tolerance": cs["tolerance"],
-                      "max_iterations": cs["max_iterations"]}
-            # absent in the solid input: 0.5 (the linear ramp), no energy guard, constant predictor, no reuse
-            if coupling_window_force_weight(cs) != 0.5:
-                values["window_force_weight"] = coupling_window_force_weight(cs)
-            if float(cs.get("energy_limit", 0)) > 0:
-                values["energy_limit"] = cs["energy_limit"]
-            values["acceleration"] = cs["acceleration"]
-            if coupling_predictor(cs) != "constant":
-                values["predictor"] = coupling_predictor(cs)
-            if int(cs.get("reuse", 0)):
-                values["reuse"] = cs["reuse"]
-            values.update(transport=cs["transport"], timeout=cs["timeout"], address_file=str(coupling_address),
-                          token=str(coupling_token), face="lining_inner")
-            for key, value in values.items():
+                      "max_iterations": cs["max_iterations"], "window_force_weight": coupling_window_force_weight(cs),
+                      "energy_limit": cs.get("energy_limit", 0), "acceleration": cs["acceleration"],
+                      "predictor": coupling_predictor(cs), "reuse": cs.get("reuse", 0), "transport": cs["transport"],
+                      "timeout": cs["timeout"], "address_file": str(coupling_address), "token": str(coupling_token),
+                      "face": "lining_inner"}
+            # the table's rows leave out what tq-solid takes as absent (the linear ramp, no energy guard, ...)
+            for key, value in group_attrs("/coupling", values, table).items():
                 w(c, "/coupling", key, value)
 
         monitors = dict(d["output"]["monitors"] or {})

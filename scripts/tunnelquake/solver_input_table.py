@@ -243,10 +243,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "absolute_tolerance_force", "float", unit="N", default=0.0, lo=0.0),
     _e("/coupling", "window_force_weight", "float", "implicit windows of k > 1 steps: weight of the window-end "
        "force (0.5 linear ramp, 1 end force held; docs/coupler.md \"Window force weight\")",
-       case="coupling.window_force_weight", default=0.5),
+       case="coupling.window_force_weight", default=0.5, omit_default=True),
     _e("/coupling", "energy_limit", "float", "stop (exit 3) when the coupling's energy exceeds energy_limit × "
        "max(largest \\|interface work\\|, energy_floor) (docs/coupler.md \"Energy guard\"); 0 = no stop",
-       default=0.0, lo=0.0),
+       default=0.0, lo=0.0, omit_default=True),
     _e("/coupling", "energy_floor", "float", unit="J", default=0.0, lo=0.0),
     _e("/coupling", "volume_law", "str", "the water's volumetric pressure in tq-solid's step (docs/coupler.md "
        "\"Volume law in the solid\", \"Open ends\")", default="none",
