@@ -229,9 +229,12 @@ def _foam(folder: Path, *cmd: str, log: str, case: bool = True) -> None:
         raise FluidCaseError(f"{cmd[0]} failed on the water case; see {folder / f'log.{log}'}")
 
 
-def water_case(case, settings: dict, slice_mode: bool, write_interval: float | None = None) -> WaterCase:
+def water_case(case, settings: dict, slice_mode: bool, write_interval: float | None = None,
+               restart: dict | None = None) -> WaterCase:
     """The water case of condition dynamic_water (water_case.WaterCase) for `case` and the coupling
-    `settings`: one water step a coupling window."""
+    `settings`: one water step a coupling window. `restart`: the restart checkpoints' entries of
+    water_case.WaterCase (restart_dir, restart_windows, restart_from; docs/formats.md "Restart
+    checkpoints"), none by default."""
     d = case.data
     water = d["water"]
     model = water["model"]
@@ -265,7 +268,8 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
         exchange=exchange_dict(settings),
         # the solid carries the uniform pressure: send the remainder
         subtract_mean_pressure=law != "none" and closed_section(d),
-        log_interval=float(water.get("log_interval", WATER_LOG_INTERVAL)) if brief else None)
+        log_interval=float(water.get("log_interval", WATER_LOG_INTERVAL)) if brief else None,
+        **(restart or {}))
 
 
 def write_water_case(w: WaterCase, water_msh: Path, folder: Path) -> FluidCase:
@@ -288,26 +292,9 @@ def write_water_case(w: WaterCase, water_msh: Path, folder: Path) -> FluidCase:
 
 
 def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_mode: bool,
-                     write_interval: float | None = None) -> FluidCase:
+                     write_interval: float | None = None, restart: dict | None = None) -> FluidCase:
     """Make `folder` an OpenFOAM case of the water of `case`, ready to run coupled (not run)."""
-    return write_water_case(water_case(case, settings, slice_mode, write_interval), water_msh, folder)
-
-
-def set_restart(folder: Path, directory: Path, windows: int, resume_from: Path | None = None) -> None:
-    """Restart checkpoints of the water (docs/formats.md "Restart checkpoints"): the tqInterface
-    function object writes one every `windows` completed coupling windows into `directory`, and with
-    `resume_from` starts from that one."""
-    cd = Path(folder) / "system" / "controlDict"
-    entries = f'restartDir      "{directory}";\n{{indent}}restartWindows  {int(windows)};'
-    if resume_from is not None:
-        entries += f'\n{{indent}}restartFrom     "{resume_from}";'
-    t, n = re.subn(r"(\n(\s*)interfaceMotion\s+\w+;)",
-                   lambda m: f"{m.group(1)}\n{m.group(2)}" + entries.replace("{indent}", m.group(2)),
-                   cd.read_text(), count=1)
-    if n != 1:
-        raise FluidCaseError(f"{cd}: no interfaceMotion entry in the tqInterface function object to put the "
-                             "restart entries beside")
-    cd.write_text(t)
+    return write_water_case(water_case(case, settings, slice_mode, write_interval, restart), water_msh, folder)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -82,6 +82,12 @@ class WaterCase:
     # tqInterface's closed-domain check on the volume balance of the wall motion (its default 1e-3
     # when None; docs/water.md §7)
     volume_change_tolerance: float | None = None
+    # restart checkpoints (docs/formats.md "Restart checkpoints"): tqInterface writes one every
+    # `restart_windows` completed coupling windows into `restart_dir` (0: none), and starts from
+    # `restart_from` when given
+    restart_dir: str | None = None
+    restart_windows: int = 0
+    restart_from: str | None = None
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -90,6 +96,11 @@ class WaterCase:
             raise WaterCaseError(f"ends {self.ends!r}: two of {', '.join(END_KINDS)} (end_ymin, end_ymax)")
         if ("empty" in self.ends) and self.ends != ("empty", "empty"):
             raise WaterCaseError(f"ends {self.ends!r}: a slice has both ends empty")
+        if (self.restart_windows > 0) != (self.restart_dir is not None):
+            raise WaterCaseError(f"restart_windows {self.restart_windows} and restart_dir {self.restart_dir!r}: "
+                                 "give both (a checkpoint every N > 0 windows into a folder) or neither")
+        if self.restart_from is not None and self.restart_dir is None:
+            raise WaterCaseError(f"restart_from {self.restart_from!r} needs restart_dir and restart_windows")
 
     @property
     def compressible(self) -> bool:
@@ -136,6 +147,11 @@ def control_dict(w: WaterCase) -> dict:
     # transpiration: static mesh (constant/dynamicMeshDict staticFvMesh), wall velocity on the
     # fixed faces, loads and wall flux on the displaced wall (docs/water.md)
     interface["interfaceMotion"] = "transpiration"
+    if w.restart_dir is not None:
+        interface["restartDir"] = Quoted(w.restart_dir)
+        interface["restartWindows"] = int(w.restart_windows)
+        if w.restart_from is not None:
+            interface["restartFrom"] = Quoted(w.restart_from)
     if w.subtract_mean_pressure:
         interface["subtractMeanPressure"] = True
     interface["geometricCorrection"] = True

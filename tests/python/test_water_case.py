@@ -154,3 +154,26 @@ def test_mixed_ends_and_the_closed_domain_rule():
         wc.WaterCase(ends=("empty", "wall"), **base)
     with pytest.raises(wc.WaterCaseError, match="ends"):
         wc.WaterCase(ends=("open", "inlet"), **base)
+
+
+def test_restart_entries_are_part_of_the_description(tmp_path):
+    """The restart checkpoints' entries of tqInterface (docs/formats.md "Restart checkpoints") come
+    from the description, none by default; a folder without a period (or the reverse) is refused."""
+    case = load_case(EXAMPLE)
+    s = fc.coupling_settings(case, WINDOW, tmp_path / "wall.addr", "ab" * 16, t_end=0.05)
+
+    def interface(**restart):
+        w = fc.water_case(case, s, True, restart=restart or None)
+        return parse(wc.dictionaries(w)["system/controlDict"])["functions"]["interface"]
+
+    assert not {"restartDir", "restartWindows", "restartFrom"} & set(interface())
+    every = interface(restart_dir=str(tmp_path / "ck"), restart_windows=40)
+    assert (every["restartDir"], every["restartWindows"]) == (str(tmp_path / "ck"), 40)
+    assert "restartFrom" not in every
+    resumed = interface(restart_dir=str(tmp_path / "ck"), restart_windows=40,
+                        restart_from=str(tmp_path / "ck" / "fluid-000000040.bin"))
+    assert resumed["restartFrom"] == str(tmp_path / "ck" / "fluid-000000040.bin")
+    with pytest.raises(wc.WaterCaseError, match="restart_windows 0 and restart_dir"):
+        fc.water_case(case, s, True, restart={"restart_dir": str(tmp_path)})
+    with pytest.raises(wc.WaterCaseError, match="restart_from"):
+        fc.water_case(case, s, True, restart={"restart_from": "x.bin"})

@@ -260,10 +260,16 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
             for key, value in fc.solid_coupling_attrs(settings).items():
                 put(f["coupling"], "/coupling", key, value)
-        fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode)
+        ranks = int(case.data["parallel"]["fluid_ranks"])
+        every = checkpoint_windows(float(case.data["output"]["checkpoint_interval"]), float(settings["window_size"]))
+        restart = None
+        if every > 0 and ranks == 1:
+            restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
+                       "restart_from": str(point["fluid"]) if point is not None else None}
+        fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode,
+                                    restart=restart)
         env = fc.fluid_env()
         env[fc.TOKEN_ENV] = token
-        ranks = int(case.data["parallel"]["fluid_ranks"])
         fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
         if ranks > 1:
             dec = fc.decompose(fluid.path, ranks, _water_extents(case, mesh_h5), slice_mode)
@@ -290,11 +296,8 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     with children.FORK_LOCK:
         threads = solid_threads(case, mesh_h5, share)
     solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
-    every = checkpoint_windows(float(case.data["output"]["checkpoint_interval"]), float(settings["window_size"]))
-    if every > 0 and ranks == 1:
-        folder = checkpoint_dir(case, cond)
-        solid_cmd += ["--checkpoint-dir", str(folder)]
-        fc.set_restart(fluid.path, folder, every, Path(point["fluid"]) if point is not None else None)
+    if restart is not None:
+        solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
         if point is not None:
             solid_cmd += ["--resume", "--resume-sequence", str(int(point["sequence"]))]
     elif every > 0:
