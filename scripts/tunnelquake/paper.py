@@ -1025,7 +1025,7 @@ def finding_holds(v: dict, name: str) -> bool | None:
 def comparison_sections(results: list[ConditionResult], figures: dict[str, str], context: dict) -> list[str]:
     """The report's comparison part: values, damage and slip, findings, discussion. `figures`: key
     (fig05, ...) -> path relative to the report; `context`: what the discussion quotes (the record's
-    source and PGA, the damping, R, the water model, the mesh mode; cli/post.py `_context`)."""
+    source and PGA, the damping, R, the water model, the mesh mode; case_report.py `_context`)."""
     c = Comparison(results, figures, context)
     lines = ["## The paper's §3.3 numbers against ours", "",
              f"Verdicts: *reproduced* when ours is within ±{100 * TOLERANCE:.0f} % of the paper's value; *not "

@@ -6,6 +6,9 @@ import json
 import math
 from pathlib import Path
 
+from . import children
+from .scene import plan
+
 
 def checkpoint_dir(case, cond: str) -> Path:
     """Where tq-solid writes the condition's restart checkpoints (docs/formats.md "Restart checkpoints")."""
@@ -46,3 +49,43 @@ def coupled_resume_point(case, cond: str) -> dict | None:
         if whole and fluid.is_file() and (best is None or int(m["sequence"]) > int(best["sequence"])):
             best = {**m, "fluid": str(fluid)}
     return best
+
+
+def results_status(res: Path) -> str | None:
+    """The status attribute of a results file (None when there is no readable file)."""
+    import h5py
+
+    try:
+        with children.FORK_LOCK, h5py.File(res, "r") as f:
+            status = f.attrs.get("status", "")
+    except OSError:
+        return None
+    return status.decode() if isinstance(status, bytes) else str(status)
+
+
+def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
+    """What `run --resume` does with each planned condition: 'completed' (kept as it is),
+    'checkpoint' (tq-solid continues from its last restart checkpoint) or 'start' (no checkpoint:
+    from the beginning); then why there is nothing to resume (None when there is) and whether
+    that is an error (no checkpoint anywhere) rather than a finished run."""
+    what: dict[str, str] = {}
+    for cond, parts in plan(case):
+        if results_status(case.output_dir / f"results_{cond}.h5") == "completed":
+            what[cond] = "completed"
+        elif ("fluid" not in parts and checkpoint_manifest(case, cond) is not None) or (
+                "fluid" in parts and coupled_resume_point(case, cond) is not None):
+            what[cond] = "checkpoint"
+        else:
+            what[cond] = "start"
+    variant = f" --variant {case.variant}" if case.variant else ""
+    if what and all(v == "completed" for v in what.values()):
+        return what, (f"nothing to resume: every condition in {case.output_dir} completed ({', '.join(what)}); "
+                      f"the results are kept as they are (`tunnelquake post {case.path}{variant}` reports them, "
+                      f"`tunnelquake run {case.path}{variant}` without --resume runs them again)"), False
+    if "checkpoint" not in what.values() and "completed" not in what.values():
+        interval = float(case.data["output"]["checkpoint_interval"])
+        why = ("output.checkpoint_interval is 0: no checkpoint is written" if interval <= 0 else
+               f"a run writes its first after output.checkpoint_interval = {interval:g} s of shaking")
+        return what, (f"nothing to resume in {case.output_dir}: no condition has a restart checkpoint ({why}) and "
+                      f"none completed; run `tunnelquake run {case.path}{variant}` without --resume to start"), True
+    return what, None, False

@@ -75,7 +75,7 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
     """The main job on the built-in example: mesh, motion, a plan per condition that runs only the
     solvers each condition needs, and a report."""
     from tunnelquake.case import load_case
-    from tunnelquake.cli.run import plan
+    from tunnelquake.scene import plan
 
     # the first 0.02 s of shaking keeps the test short; the stages run in full
     p = _local_case(tmp_path, EXAMPLE.read_text() + "\ntime:\n  end_time: 0.02 s\n")
@@ -110,12 +110,12 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
     assert "| max_ux (cm) | no_water | top_arch |" in report
 
     # condition 3: tq-solid + OpenFOAM through the coupler, window by window
-    from tunnelquake.cli.run import solver_status
+    from tunnelquake.launch import solver_status
 
     if solver_status()["fluid"] is not None:
         return  # no OpenFOAM side here: conditions 1 and 2 are what can be checked
     assert "dynamic_water (solid + fluid): completed" in out, out[-3000:]
-    from tunnelquake.cli.run import concurrent_conditions
+    from tunnelquake.launch import concurrent_conditions
 
     if concurrent_conditions() > 1:  # the coupled condition ran beside the solid-only ones
         assert "running dynamic_water beside no_water, static_water" in out

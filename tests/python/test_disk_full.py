@@ -164,7 +164,7 @@ def test_coupled_run_on_a_full_disk_ends_with_a_clear_message_and_post_reports_i
     `post` on the full disk says up to which time the run is reported and that its outputs did
     not fit (exit 1, one error line); once space is freed, `post` writes the report of the run up
     to its last sample."""
-    from tunnelquake.cli.run import solver_status
+    from tunnelquake.launch import solver_status
 
     if solver_status()["fluid"] is not None:
         pytest.skip(f"the coupled condition cannot run here: {solver_status()['fluid']}")

@@ -22,7 +22,7 @@ from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import ground_layers, load_case
 from tunnelquake.cli import main
-from tunnelquake.cli.motion import write_motion
+from tunnelquake.prepare import write_motion
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.meshing.params import element_counts, resolve
 from tunnelquake.motion import from_case

@@ -54,7 +54,7 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
     from tunnelquake import fluid_case as fc
     from tunnelquake import paths
     from tunnelquake.case import load_case
-    from tunnelquake.cli import run
+    from tunnelquake import launch
 
     p = _copy(prepared, tmp_path)
     fake = tmp_path / "fake-tq-solid"
@@ -66,7 +66,7 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
         raise fc.FluidCaseError("set-up of the solid side done")
 
     monkeypatch.setattr(fc, "build_fluid_case", water_setup_stub)
-    monkeypatch.setattr(run, "say", lambda msg: None)
+    monkeypatch.setattr(launch, "say", lambda msg: None)
 
     open_now: dict[int, str] = {}
     guard = threading.Lock()
@@ -103,7 +103,7 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
 
     def coupled():
         while not stop.is_set():
-            outcomes.append(run.run_coupled_condition(case, "dynamic_water", motion)[2])
+            outcomes.append(launch.run_coupled_condition(case, "dynamic_water", motion)[2])
 
     th = threading.Thread(target=coupled)
     th.start()
@@ -111,7 +111,7 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
     t0 = time.monotonic()
     try:
         while time.monotonic() - t0 < 5.0 and not forks_with_open_files:
-            rc, _ = run.run_solid_condition(case, "no_water", motion)
+            rc, _ = launch.run_solid_condition(case, "no_water", motion)
             assert rc == 0
             spawned += 1
     finally:
@@ -260,7 +260,7 @@ def test_signal_stops_every_child_marks_the_conditions_interrupted_and_prints_on
     """SIGINT as a terminal's Ctrl-C sends it (to the whole process group), SIGTERM as `kill`
     sends it (to tunnelquake only), while the conditions run side by side (coupled: tq-solid and
     the water). Within the stated bound (children.STOP_GRACE_S + KILL_WAIT_S +
-    run.JOB_WIND_DOWN_S = 10 s) the command exits 128 + the signal number, its last line says
+    supervise.JOB_WIND_DOWN_S = 10 s) the command exits 128 + the signal number, its last line says
     what was stopped at which simulated time, no traceback, no process of the run is left, each
     running condition's results file reads status 'interrupted', the folder's lock is released,
     and `post` reports the interrupted conditions."""
@@ -270,7 +270,8 @@ def test_signal_stops_every_child_marks_the_conditions_interrupted_and_prints_on
     import h5py
 
     from tunnelquake import runlock
-    from tunnelquake.cli.run import JOB_WIND_DOWN_S, solver_status
+    from tunnelquake.launch import solver_status
+    from tunnelquake.supervise import JOB_WIND_DOWN_S
 
     p = _longer(prepared, tmp_path)
     res = p.parent / "results"
@@ -369,7 +370,7 @@ def test_summary_of_a_stopped_condition_names_only_a_results_file_that_was_writt
     with the status the solver recorded."""
     import h5py
 
-    from tunnelquake.cli.run import what_was_written
+    from tunnelquake.launch import what_was_written
 
     res = tmp_path / "results_no_water.h5"
     assert what_was_written(res) == "no results file was written (results_no_water.h5 does not exist)"

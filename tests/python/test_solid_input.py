@@ -23,7 +23,7 @@ import pytest
 
 from tunnelquake import paths
 from tunnelquake.case import load_case
-from tunnelquake.cli.motion import write_motion
+from tunnelquake.prepare import write_motion
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.motion import from_case
 from tunnelquake.references import lined_tunnel_internal_pressure

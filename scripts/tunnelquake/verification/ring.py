@@ -22,7 +22,7 @@ of solid_input.h5 and the fluid's `exchange` dictionary come from the same
 `fluid_case.coupling_settings`, the OpenFOAM case from `fluid_case.water_case` (its ends made
 symmetry planes, `build_water_case`) written by `fluid_case.write_water_case` on a
 `water.msh` written by the meshing package's gmsh writer, tq-solid first (listener), then
-rhoPimpleFoam/pimpleFoam with libtqFoam.so, both run and watched as `cli.run` does.
+rhoPimpleFoam/pimpleFoam with libtqFoam.so, both run and watched as `tunnelquake run` does (launch.py).
 
     python -m tunnelquake.verification.ring run --water --mode slice --scheme implicit
     python -m tunnelquake.verification.ring map --out docs/stability_runs.json
@@ -444,7 +444,7 @@ def _run_solid_alone(exe: Path, inp: Path, res: Path, work: Path) -> tuple[int, 
 
 
 def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path, res: Path) -> tuple[int, str, dict]:
-    """tq-solid + OpenFOAM through the coupler, as cli.run.run_coupled_condition does."""
+    """tq-solid + OpenFOAM through the coupler, as launch.run_coupled_condition does."""
     from .. import fluid_case as fc
     from ..children import Side, stop_side
     from ..solid_input import solid_step

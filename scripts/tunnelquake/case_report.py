@@ -1,0 +1,240 @@
+"""What a run left in the results folder -> figures, CSV monitors, ParaView files and report.md
+(post_case). Needs no solver; works on whatever results exist: a results file cut off mid-run, one
+stopped before the shaking (no monitor sample), an unreadable one, a condition never run. Each is
+reported as found; a figure that cannot be drawn is named with the reason, never a traceback.
+On a full disk every output that fits is still written (each in place only once complete) and
+OutputsNotWritten names the rest."""
+from __future__ import annotations
+
+import errno
+from pathlib import Path
+
+from .children import say
+from .files import DiskFull, atomic_path, is_no_space
+from .scene import plan
+
+
+class OutputsNotWritten(OSError):
+    """Outputs of post the disk had no room for (a DiskFull each); the results files are untouched."""
+
+    def __init__(self, failures: list[DiskFull]):
+        self.failures = failures
+        names = ", ".join(f.path.name for f in failures)
+        super().__init__(errno.ENOSPC, f"{failures[0]} (not written: {names}; the results files are unchanged)")
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
+def _disk_full(e: OSError, path) -> DiskFull:
+    return e if isinstance(e, DiskFull) else DiskFull(path)
+
+
+def _context(case, results, motion: dict | None) -> dict:
+    """What the discussion of a comparison quotes: the record and its PGA, damping, R, water model,
+    mode."""
+    ctx = {"mode": case.data["mesh"]["mode"], "variant": case.variant, "case_dir": str(case.path.parent)}
+    w = case.data.get("water") or {}
+    model = w.get("model", "unknown")
+    if model == "compressible" and w.get("bulk_modulus"):
+        model += f" (K = {float(w['bulk_modulus']) / 1e9:.3g} GPa)"
+    ctx["water_model"] = model
+    if motion is not None:
+        ctx["motion_source"] = motion["source"]
+        ctx["pga"] = motion.get("pga")
+    for r in results:
+        if "rayleigh_alpha" in r.attrs:
+            ctx["rayleigh_alpha"] = float(r.attrs["rayleigh_alpha"])
+            ctx["rayleigh_beta"] = float(r.attrs.get("rayleigh_beta", 0.0))
+        if "damage_constant" in r.input_attrs:
+            ctx["damage_constant"] = float(r.input_attrs["damage_constant"])
+    return ctx
+
+
+def _run_state(P, res, csv_name: str) -> str:
+    if not res.monitors:
+        return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**; no monitor (output.monitors is "
+                f"empty), so no histories; {len(res.snapshots)} field snapshot(s)")
+    if not res.samples:
+        return (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, no monitor sample: the run "
+                f"stopped before the shaking ({res.stage_state()}); nothing of this condition is in the figures "
+                f"and the tables below")
+    line = (f"- {P.CONDITION_LABELS[res.condition]}: status **{res.status}**, {res.samples} monitor samples to "
+            f"t = {res.t_end:.2f} s")
+    if res.planned_end is not None:
+        line += f" of the planned {res.planned_end:g} s"
+    line += f"; {len(res.snapshots)} field snapshot(s); monitors in `{csv_name}`"
+    if not res.complete:
+        line += (f". **The run did not complete**: everything below for this condition is post-processed up to "
+                 f"the last written step, t = {res.t_end:.4g} s")
+        if res.incomplete_snapshots:
+            line += f" (snapshot(s) {', '.join(res.incomplete_snapshots)} were cut off mid-write and are skipped)"
+    return line
+
+
+#: The report's figures: key, file name, caption.
+FIGURES = (
+    ("fig05", "fig05_hydrodynamic_pressure.png", "hydrodynamic pressure at the monitors, dynamic water"),
+    ("fig06", "fig06_max_displacements.png", "maximum displacements"),
+    ("fig07", "fig07_max_principal_stress.png", "maximum principal stress"),
+    ("fig08", "fig08_damage_histories.png", "damage at the monitors"),
+    ("fig09", "fig09_damage_section.png", "damage over the lining's middle section at the last snapshot"),
+    ("fig10", "fig10_interface_zones.png", "rock–lining interface state at the last snapshot"),
+)
+
+
+def post_case(case) -> Path:
+    from . import paper
+    from . import post as P
+    from . import report as R
+
+    out = case.output_dir
+    figs = out / "figures"
+    ref = paper if paper.applies(case.data) else None
+    order = list(case.data["output"]["monitors"] or {})
+    places = {m: R.monitor_place(case, p)[2] for m, p in (case.data["output"]["monitors"] or {}).items()}
+    strength = R.lining_tensile_strength(case)
+    motion = R.motion_summary(out / "motion.h5")
+    fig03 = figs / "fig03_input_motion.png"
+    lines = [f"# TunnelQuake report: {case.data['name']}", ""]
+    lines += R.motion_section(motion, f"figures/{fig03.name}" if fig03.is_file() else None)
+    lines += R.case_section(case)
+    lines += ["## Conditions", ""]
+    results, stopped = [], []
+    unwritten: list[DiskFull] = []
+    planned = [c for c, _ in plan(case)]
+    for cond in P.CONDITION_LABELS:
+        f = out / f"results_{cond}.h5"
+        if not f.is_file():
+            if cond in planned:
+                lines.append(f"- {P.CONDITION_LABELS[cond]}: no results (`{f.name}` was not written: the condition "
+                             "was not run, or stopped before its solver started)")
+                say(f"{cond}: no results file ({f.name})")
+            continue
+        try:
+            res = P.read_condition(f, cond, case.data["output"]["displacement_reference"])
+        except (OSError, KeyError, ValueError, TypeError) as e:  # unreadable: say so, go on with the others
+            lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
+            say(f"{cond}: {f.name} cannot be read ({e})")
+            continue
+        csv_file = out / f"monitors_{cond}.csv"
+        try:
+            P.monitors_csv(res, csv_file)
+        except OSError as e:
+            if not is_no_space(e):
+                raise
+            unwritten.append(_disk_full(e, csv_file))
+        lines.append(_run_state(P, res, csv_file.name))
+        if not res.samples:
+            say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
+            stopped.append(res)
+            continue
+        results.append(res)
+        if not res.complete:
+            say(f"{cond}: status '{res.status}': post-processed up to the last written step, t = {res.t_end:.4g} s")
+    lines.append("")
+    if stopped or results:
+        lines += R.peaks_section(results, stopped, order, strength, places)
+    if not results:
+        lines += ["No condition has monitor samples yet: nothing to draw or compare. This report lists only "
+                  "what exists.", ""]
+    else:
+        lines += R.differences_section(results, order)
+        dyn = next((r for r in results if r.condition == "dynamic_water"), None)
+        fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
+        if dyn is not None:
+            from .fluid_case import volume_law
+
+            lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
+        lines += R.lining_forces_section(R.design_quantities(case, results))
+        lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
+        if ref is not None:
+            ctx = _context(case, results, motion)
+            if fluid is not None:
+                ctx["fluid_interface"] = fluid
+            made = {k: f"figures/{name}" for k, name, _ in FIGURES if (figs / name).is_file()}
+            try:
+                lines += ref.comparison_sections(results, made, ctx)
+            except Exception as e:  # noqa: BLE001 - reported; the report keeps what was found above
+                lines += [f"## Comparison with the {ref.LABEL}", "", f"Not made: {type(e).__name__}: {e}", ""]
+                say(f"comparison with the {ref.LABEL} not made ({type(e).__name__}: {e})")
+    report = out / "report.md"
+    text = "\n".join(lines).rstrip("\n") + "\n"
+    try:
+        with atomic_path(report, len(text.encode())) as tmp:
+            tmp.write_text(text)
+    except DiskFull as e:
+        unwritten.append(e)
+    else:
+        say(f"report: {report}")
+    if unwritten:
+        raise OutputsNotWritten(unwritten)
+    return report
+
+
+def _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten: list) -> list[str]:
+    """Draw the figures (each one that fails is named with the reason; one the disk had no room
+    for is added to `unwritten`) and the ParaView files; the report's lines for them. `ref`: the paper module when the case compares with it (its
+    marks and bars in the figures, its figure numbers in the captions)."""
+    figs.mkdir(parents=True, exist_ok=True)
+    for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
+        (figs / fname).unlink(missing_ok=True)
+    made: dict[str, str] = {}
+    failed: dict[str, str] = {}
+
+    def keep(key, draw, *args, **kw):
+        try:
+            path = draw(*args, **kw)
+        except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
+            failed[key] = f"{type(e).__name__}: {e}"
+            if is_no_space(e):  # named in post's last line with the other outputs that did not fit
+                unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
+            else:
+                say(f"{key}: not drawn ({failed[key]})")
+            return
+        if path is not None:
+            made[key] = f"figures/{Path(path).name}"
+
+    name = {k: n for k, n, _ in FIGURES}
+    if dyn is not None:
+        keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / name["fig05"], fluid, order=order,
+             **({"marks": ref.pressure_marks(), "mark_label": f"{ref.LABEL} peak"} if ref is not None else {}))
+    keep("fig06", P.fig_max_displacements, results, figs / name["fig06"], order=order,
+         **({"reference": ref.displacement_bars, "reference_label": ref.LABEL, "unit": ref.DISPLACEMENT_UNIT} if ref is not None else {}))
+    keep("fig07", P.fig_principal_stress, results, figs / name["fig07"], order=order, strength=strength)
+    keep("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
+    keep("fig09", P.fig_damage_section, results, figs / name["fig09"])
+    keep("fig10", P.fig_interface_zones, results, figs / name["fig10"])
+    lines = ["## Figures", ""]
+    for key, _, caption in FIGURES:
+        title = ref.figure_caption(key, caption) if ref is not None else caption[:1].upper() + caption[1:]
+        if key in made:
+            lines += [f"![{title}]({made[key]})", ""]
+        elif key in failed:
+            lines += [f"- {title}: not drawn ({failed[key]})", ""]
+        elif key == "fig05" and dyn is None:
+            continue  # no dynamic-water condition: no water pressure to draw
+        else:
+            why = ("no water pressure recorded (run by a tq-solid without the monitors' water_pressure)"
+                   if key == "fig05" else "no damage recorded at the monitors" if key == "fig08"
+                   else "no field snapshot in the results")
+            lines += [f"- {title}: not drawn ({why})", ""]
+    xdmfs = []
+    for r in results:
+        try:
+            x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
+        except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
+            lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
+            if is_no_space(e):  # named in post's last line
+                unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
+            else:
+                say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
+            continue
+        if x is not None:
+            xdmfs.append(x)
+    if xdmfs:
+        lines += ["ParaView (open the .xdmf; the heavy data are the .h5 beside it): "
+                  + ", ".join(f"`{x.relative_to(out)}`" for x in xdmfs), ""]
+    return lines
+
+

@@ -1,0 +1,522 @@
+"""Running a case: mesh, motion, then each condition with only the solvers it needs, then post.
+
+  no_water       solid only (rock + lining), no fluid process, no coupling
+  static_water   solid only, with the hydrostatic pressure on the lining's inner face
+  dynamic_water  solid + OpenFOAM water, coupled every step
+
+run_held takes the results folder and runs the job (run_case) under the supervisor (supervise.py);
+`resume` continues each condition from its restart checkpoint (restart.resume_plan).
+"""
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from . import children, paths, supervise
+from .case_report import OutputsNotWritten, post_case
+from .children import Side, say, stop_side
+from .files import DiskFull, is_no_space
+from .prepare import make_mesh, mesh_dir, motion_and_figure
+from .restart import checkpoint_dir, checkpoint_manifest, checkpoint_windows, coupled_resume_point, resume_plan
+from .scene import plan
+from .solid_input import solid_threads
+from .solver_input_schema import put
+from .supervise import progress, started
+
+
+def solver_status() -> dict[str, str | None]:
+    """Which participants can run today; None means ready, else the reason it cannot."""
+    solid = paths.solid_executable()
+    fluid = paths.openfoam_library()
+    caps = _solid_capabilities(solid) if solid else set()
+    return {
+        "solid": None if "staged-seismic" in caps else
+        "the solid solver does not run staged seismic cases yet (rebuild tq-solid)",
+        "fluid": None if fluid and "water-coupling" in caps else
+        ("the OpenFOAM-side library is not built (run scripts/bootstrap.sh)" if not fluid else
+         "tq-solid does not report the water-coupling capability (rebuild it)"),
+    }
+
+
+def _solid_capabilities(exe) -> set[str]:
+    """What this tq-solid build can run (`tq-solid --capabilities`); empty if it cannot say."""
+    import subprocess
+
+    try:
+        out = children.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return set()
+    return set(out.stdout.split()) if out.returncode == 0 else set()
+
+
+def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
+                        resume: bool = False) -> tuple[int, object]:
+    """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
+    report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
+    the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence).
+    With `resume`, tq-solid continues from the condition's last restart checkpoint."""
+    import subprocess
+
+    from .solid_input import write_solid_input
+
+    work = case.output_dir / cond
+    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
+        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
+    res = case.output_dir / f"results_{cond}.h5"
+    cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
+    if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
+        cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
+    if resume:
+        cmd.append("--resume")
+    started(cond, res)
+    say(f"condition {cond}: running the solid ({' '.join(cmd)})")
+    if not prefix:
+        return children.run(cmd, env=solid_env()).returncode, res
+    # beside another condition: each line of tq-solid's progress says which condition it is
+    with children.popen(cmd, env=solid_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                        bufsize=1) as proc:
+        for line in proc.stdout:
+            progress(cond, line)
+            say(f"[{cond}] {line.rstrip()}")
+    return proc.returncode, res
+
+
+def concurrent_conditions() -> int:
+    """How many conditions may run at once: the cores this process may use (TQ_CONDITIONS_AT_ONCE
+    overrides, e.g. 1 to run them one after the other)."""
+    import os
+
+    env = os.environ.get("TQ_CONDITIONS_AT_ONCE")
+    if env:
+        return max(1, int(env))
+    return len(os.sched_getaffinity(0))
+
+
+#: spins of an idle OpenMP thread before it sleeps (GNU libgomp's GOMP_SPINCOUNT; its default is
+#: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE)
+SOLID_SPINCOUNT = "10000"
+
+
+def solid_env() -> dict:
+    """tq-solid's environment: an idle OpenMP thread spins briefly, then sleeps, unless the user set
+    OMP_WAIT_POLICY or GOMP_SPINCOUNT. Spinning without end (a team's default on a loaded machine)
+    took the cores from the water solver and the machine's other runs: 4 steps a second instead of
+    ~2,800 on the slice. Sleeping at once (OMP_WAIT_POLICY=PASSIVE, used until 2026-11-22) costs a
+    wake-up at each of the step's parallel loops: on the 3D paper mesh with 2 threads, 17.8-21.7 s
+    for 3,968 subcycled steps against 12.3-16.0 s with 2,000-200,000 spins (docs/benchmarks.md
+    "Solid subcycling and element order"); a few thousand spins bridge the gaps between the loops
+    of one step and are spent long before the water's pass ends."""
+    import os
+
+    env = dict(os.environ)
+    if "OMP_WAIT_POLICY" not in env and "GOMP_SPINCOUNT" not in env:
+        env["GOMP_SPINCOUNT"] = SOLID_SPINCOUNT
+    return env
+
+
+def _fluid_echo():
+    """Which OpenFOAM lines reach the terminal: errors, the library's messages, the end, and the
+    simulated time every 5 s of wall time."""
+    import time as _time
+
+    last = [0.0]
+
+    def echo(line: str) -> bool:
+        if line.startswith("tqInterface interface: t ="):  # one per pass: to the log only
+            return False
+        if "FATAL" in line or "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
+            return True
+        if "MPI_ABORT" in line or line.startswith(("mpirun", "Primary job", "nProcs")):  # parallel runs, mpirun
+            return True
+        if line.startswith("Time = ") and _time.monotonic() - last[0] > 5.0:
+            last[0] = _time.monotonic()
+            return True
+        return False
+
+    return echo
+
+
+def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
+    """The water's box (x, y, z extents, m): the lining's inner diameter across, the mesh's length
+    along the axis y (the slice's thickness in slice mode)."""
+    import h5py
+
+    g = case.data["geometry"]
+    d = 2.0 * (float(g["excavated_radius"]) - float(g["lining_thickness"]))
+    with h5py.File(mesh_h5, "r") as f:
+        y = f["nodes/coordinates"][:, 1]
+    return d, float(y.max() - y.min()), d
+
+
+#: Below this many water cells a rank `tunnelquake run` says that the ranks will not pay
+#: (measured, docs/coupler.md "Water on several MPI ranks").
+RANK_CELLS_WORTH_IT = 10000
+
+
+#: tq-solid's exit code when the file system refused its results (a full disk, a quota, an I/O error)
+SOLID_OUTPUT_ERROR = 5
+
+
+def _ran_out_of_space(folder, sides) -> bool:
+    """Whether a failed condition met a full disk: tq-solid said so (exit 5 with the reason), a
+    solver's last lines or its log's writing met ENOSPC, or the disk holding `folder` is full now."""
+    from .files import free_bytes
+
+    for side in sides:
+        if side.log_error is not None and is_no_space(side.log_error):
+            return True
+        if any("No space left on device" in line for line in side.lines):
+            return True
+    return free_bytes(folder) < 65536
+
+
+def _disk_full_note(folder) -> str:
+    from .files import free_bytes, human_bytes
+
+    return (f"no space left on the disk holding {folder} ({human_bytes(free_bytes(folder))} free). Fix: free space "
+            f"there, or set output.directory to a disk with room, and run again")
+
+
+def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
+                          resume: bool = False) -> tuple[int, object, str]:
+    """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
+    by the coupler over TCP; `share`: the solvers running at once (solid_threads). Returns (exit code, results path, what happened). Exit code: 0 both
+    completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
+
+    parallel.fluid_ranks N > 1: the water case is decomposed (fluid_case.decompose: decomposePar,
+    method simple) and the water runs as `mpirun -np N <solver> -parallel` (rank 0 holds the
+    coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
+    (reconstructPar; the processor folders stay in <fluid>/processor*).
+
+    Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
+    theirs into <condition>/checkpoint at every K-th completed window (restart.checkpoint_windows);
+    with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
+    the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
+    import secrets
+    import time as _time
+
+    import h5py
+
+    from . import fluid_case as fc
+    from .files import atomic_h5_update
+    from .solid_input import solid_step, write_solid_input
+
+    work = case.output_dir / cond
+    work.mkdir(parents=True, exist_ok=True)
+    res = case.output_dir / f"results_{cond}.h5"
+    exe = paths.solid_executable()
+    token = secrets.token_hex(16)
+    point = coupled_resume_point(case, cond) if resume else None
+    if point is not None:
+        with h5py.File(work / "solid_input.h5", "r") as f:
+            token = str(f["coupling"].attrs["token"])
+    addr = work / "wall.addr"
+    addr.unlink(missing_ok=True)
+    mesh_h5 = mesh_dir(case) / "mesh.h5"
+    # The whole set-up holds FORK_LOCK: it writes and reads back HDF5 files and starts children
+    # (tq-solid --check, OpenFOAM's utilities) while other conditions may be starting theirs.
+    children.FORK_LOCK.acquire()
+    try:
+        inp = write_solid_input(case, mesh_h5, motion_file, cond, work / "solid_input.h5",
+                                coupling_address=addr, coupling_token=token)
+        with h5py.File(inp, "r") as f:
+            t_end = float(f["solver"].attrs["t_end"])
+        with h5py.File(mesh_h5, "r") as f:
+            slice_mode = int(f.attrs.get("slice", 0)) == 1
+        k = int(case.data["coupling"]["window"])
+        settings = fc.coupling_settings(case, k * solid_step(exe, inp), addr, token, t_end=t_end)
+        with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
+            for key, value in fc.solid_coupling_attrs(settings).items():
+                put(f["coupling"], "/coupling", key, value)
+        ranks = int(case.data["parallel"]["fluid_ranks"])
+        every = checkpoint_windows(float(case.data["output"]["checkpoint_interval"]), float(settings["window_size"]))
+        restart = None
+        if every > 0 and ranks == 1:
+            restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
+                       "restart_from": str(point["fluid"]) if point is not None else None}
+        fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode,
+                                    restart=restart)
+        env = fc.fluid_env()
+        env[fc.TOKEN_ENV] = token
+        fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
+        if ranks > 1:
+            dec = fc.decompose(fluid.path, ranks, _water_extents(case, mesh_h5), slice_mode)
+            fluid_cmd = fc.mpirun_command(ranks, fluid.solver, fluid.path, env)
+            say(f"condition {cond}: water decomposed on {ranks} ranks (simple, n = {dec['split']}): cells "
+                f"{', '.join(map(str, dec['cells']))}, {dec['processor_faces']} processor faces; log "
+                f"{fluid.path / 'log.decomposePar'}")
+            if min(dec["cells"]) < RANK_CELLS_WORTH_IT:
+                say(f"condition {cond}: note: {min(dec['cells'])} water cells a rank is below "
+                    f"{RANK_CELLS_WORTH_IT}: the exchange and the ranks' communication outweigh the split "
+                    f"solve, expect no speed-up over parallel.fluid_ranks: 1 (docs/coupler.md)")
+    except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
+        if is_no_space(e):
+            e = f"{e}; {_disk_full_note(case.output_dir)}"
+        say(f"condition {cond}: cannot set up the coupled run: {e}")
+        return 2, res, f"not started: {e}"
+    finally:
+        children.FORK_LOCK.release()
+    say(f"condition {cond}: {settings['windows']} coupling windows of {settings['window_size']:.6g} s "
+        f"({settings['scheme']}, {settings['acceleration']}); water: {fluid.solver} ({fluid.model}, {fluid.mode}) "
+        f"in {fluid.path}")
+
+    solid_env_ = solid_env()
+    with children.FORK_LOCK:
+        threads = solid_threads(case, mesh_h5, share)
+    solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
+    if restart is not None:
+        solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
+        if point is not None:
+            solid_cmd += ["--resume", "--resume-sequence", str(int(point["sequence"]))]
+    elif every > 0:
+        say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
+    started(cond, res)
+    t0 = _time.perf_counter()
+    say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
+    solid = Side("solid", solid_cmd, work / "solid.log", solid_env_, lambda line: progress(cond, line))
+    fluid_side = None
+    timeout = settings["timeout"]
+    # the solid publishes its address after its static stages (relaxation: no time limit known)
+    while fluid_side is None:
+        if addr.exists():
+            say(f"condition {cond}: solid listening; running the water ({' '.join(fluid_cmd)}); "
+                f"log {work / 'fluid.log'}")
+            fluid_side = Side("water", fluid_cmd, work / "fluid.log", env, _fluid_echo())
+            break
+        if solid.proc.poll() is not None or children.stopping.is_set():
+            break
+        _time.sleep(0.05)
+
+    failed = None
+    if fluid_side is not None:
+        while True:
+            rs, rf = solid.proc.poll(), fluid_side.proc.poll()
+            if rs is not None and rs != 0:
+                failed = solid
+                stop_side(fluid_side, timeout)
+                break
+            if rf is not None and rf != 0:
+                failed = fluid_side
+                stop_side(solid, timeout)
+                break
+            if rs == 0 and rf == 0:
+                break
+            if rs == 0 or rf == 0:  # one ended cleanly: the other must follow (BYE) within the timeout
+                other = fluid_side if rs == 0 else solid
+                try:
+                    other.proc.wait(timeout=timeout)
+                except Exception:  # noqa: BLE001 - a hung partner after BYE
+                    stop_side(other, 0)
+                if other.proc.returncode != 0:
+                    failed = other
+                break
+            _time.sleep(0.1)
+        fluid_side.close()
+    elif solid.proc.wait() == 0:  # the solid ended without publishing: it never coupled
+        failed = solid
+    else:
+        failed = solid
+    solid.close()
+    wall = _time.perf_counter() - t0
+    if children.stopping.is_set():  # stopped by a signal: the supervisor says what and why
+        return 130, res, "interrupted"
+    on = ""
+    if ranks > 1:
+        on = f" on {ranks} ranks"
+        if fluid_side is not None:
+            with children.FORK_LOCK:  # reconstructPar is a child too
+                say(f"condition {cond}: {fc.reconstruct(fluid.path)}")
+    if failed is not None:
+        rc = failed.proc.returncode or 1
+        side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
+        say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
+        why = f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
+        if _ran_out_of_space(case.output_dir, [x for x in (solid, fluid_side) if x is not None]):
+            note = _disk_full_note(case.output_dir)
+            say(f"condition {cond}: stopped by a full disk: {note}")
+            why = f"stopped by a full disk after {wall:.1f} s ({side} first, exit {rc}): {note}"
+        return (rc if failed is solid else 1), res, f"{why}; {what_was_written(res)}"
+    return 0, res, f"coupled with {fluid.solver}{on} in {wall:.1f} s (logs: {work / 'solid.log'}, {work / 'fluid.log'})"
+
+
+def what_was_written(res: Path) -> str:
+    """Where a stopped condition's results are, said only of a file that exists and opens."""
+    if not res.is_file():
+        return f"no results file was written ({res.name} does not exist)"
+    try:
+        import h5py
+
+        with h5py.File(res, "r") as f:
+            status = f.attrs.get("status", "unknown")
+            status = status.decode() if isinstance(status, bytes) else str(status)
+    except OSError:
+        return f"{res.name} is there but does not open as HDF5 (the solver stopped while writing it)"
+    return f"what the solid wrote is in {res.name} (status {status})"
+
+
+def run_case(case, resume: bool = False, post: bool = True) -> int:
+    """The run itself: mesh, motion, the conditions (`resume`: from their restart checkpoints,
+    restart.resume_plan), post. Raises children.Interrupted when a signal stops it between steps."""
+    t0 = time.perf_counter()
+    which = f" (variant {case.variant})" if case.variant else ""
+    resuming: dict[str, str] = {}
+    if resume:
+        resuming, nothing, error = resume_plan(case)
+        if nothing is not None:
+            if error:
+                print(f"error: {nothing}", file=sys.stderr)
+                return 1
+            say(nothing)
+            return 0
+        for cond, what in resuming.items():
+            if what == "checkpoint":
+                coupled_ = "fluid" in dict(plan(case))[cond]
+                m = coupled_resume_point(case, cond) if coupled_ else checkpoint_manifest(case, cond)
+                say(f"resume: {cond} continues from its checkpoint at t = {float(m['time']):.6g} s")
+            elif what == "completed":
+                say(f"resume: {cond} completed earlier: kept")
+            else:
+                say(f"resume: {cond} has no restart checkpoint: it runs from the start")
+    say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
+    done: list[str] = []
+    skipped: list[str] = []
+    failed: list[str] = []
+
+    supervise.PHASE[0] = "meshing"
+    try:
+        summary = make_mesh(case)
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    c = summary["counts"]
+    done.append(f"mesh: {c['rock']} rock, {c['lining']} lining, {c['water']} water hexahedra "
+                f"({summary['mode']})")
+
+    children.check()
+    supervise.PHASE[0] = "preparing the motion"
+    made = motion_and_figure(case)
+    if made is None:
+        return 1
+    motion, motion_file, fig = made
+    done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
+
+    children.check()
+    supervise.PHASE[0] = "running the conditions"
+    status = solver_status()
+    runnable: list[tuple[str, tuple]] = []
+    for cond, parts in plan(case):
+        if resuming.get(cond) == "completed":
+            done.append(f"{cond} ({' + '.join(parts)}): completed earlier, kept")
+            continue
+        missing = [status[p] for p in parts if status[p] is not None]
+        runs = " + ".join(parts)
+        if missing:
+            say(f"condition {cond}: would run {runs}; not run: {'; '.join(missing)}")
+            skipped.append(f"{cond} ({runs}): {'; '.join(missing)}")
+        else:
+            runnable.append((cond, parts))
+
+    def coupled(cond, parts, share=1):
+        runs = " + ".join(parts)
+        rc, res, why = run_coupled_condition(case, cond, motion_file, share,
+                                             resume=resuming.get(cond) == "checkpoint")
+        if children.stopping.is_set():
+            return
+        if rc == 0:
+            done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
+        else:
+            failed.append(f"{cond} ({runs}): {why}")
+
+    def solid_only(cond, parts, prefix):
+        runs = " + ".join(parts)
+        t1 = time.perf_counter()
+        rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix,
+                                      resume=resuming.get(cond) == "checkpoint")
+        children.check()
+        if rc == 0:
+            done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
+        elif rc == SOLID_OUTPUT_ERROR:
+            from ..files import free_bytes, human_bytes
+
+            kept = f"what was written is in {res.name}" if res.is_file() else f"{res.name} was not started"
+            failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}; its message above says "
+                          f"why; {human_bytes(free_bytes(case.output_dir))} free now on the disk holding "
+                          f"{case.output_dir}); {kept}")
+        else:
+            failed.append(f"{cond} ({runs}): tq-solid stopped (exit {rc}); see the message above; "
+                          f"{what_was_written(res)}")
+
+    # The coupled condition (solid and water take turns: about one core) runs beside the solid-only
+    # ones (one core) when the machine has two cores or more; otherwise one after the other.
+    water = [(c, p) for c, p in runnable if "fluid" in p]
+    alone = [(c, p) for c, p in runnable if "fluid" not in p]
+    side_by_side = bool(water) and bool(alone) and concurrent_conditions() > 1
+    thread = None
+    if side_by_side:
+        import threading
+
+        say(f"running {', '.join(c for c, _ in water)} beside {', '.join(c for c, _ in alone)} "
+            f"({concurrent_conditions()} cores)")
+        def beside():
+            try:
+                for c, p in water:
+                    coupled(c, p, 2)
+            except children.Interrupted:
+                pass
+
+        thread = threading.Thread(target=beside, daemon=True)
+        thread.start()
+    else:
+        for c, p in water:
+            coupled(c, p)
+    for c, p in alone:
+        solid_only(c, p, side_by_side)
+    if thread is not None:
+        thread.join()
+
+    children.check()
+    supervise.PHASE[0] = "post-processing"
+    if post:
+        try:
+            report = post_case(case)
+        except OutputsNotWritten as e:
+            failed.append(f"post: {e}")
+        except Exception as e:  # noqa: BLE001 - the conditions' results stay; say why the report is missing
+            failed.append(f"post: {type(e).__name__}: {e} (the results files are kept; `tunnelquake post` retries)")
+        else:
+            done.append(f"post: {report}")
+
+    say(f"finished in {time.perf_counter() - t0:.1f} s")
+    say("done:")
+    for d in done:
+        say(f"  + {d}")
+    if skipped:
+        say("not run (the solver pieces are still being built):")
+        for s in skipped:
+            say(f"  - {s}")
+    if failed:
+        say("FAILED:")
+        for s in failed:
+            say(f"  ! {s}")
+        return 1
+    return 0
+
+
+def run_held(case, command: str, resume: bool = False, post: bool = True) -> int:
+    """Take the case's results folder (one run at a time; `command` says who holds it), then run the
+    job under the supervisor that turns SIGINT, SIGTERM and SIGHUP into an orderly stop."""
+    import contextlib
+
+    from .runlock import RunLockBusy, run_lock
+
+    with contextlib.ExitStack() as stack:
+        try:
+            note = stack.enter_context(run_lock(case.output_dir, command))
+        except RunLockBusy as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+        if note:
+            say(f"note: {note}")
+        return supervise.supervised(case, lambda: run_case(case, resume, post))

@@ -1,0 +1,123 @@
+"""A case's inputs in its results folder: the mesh (mesh/mesh.h5 for the solid, mesh/water.msh; rebuilt
+only when the geometry or mesh keys changed) and the ground motion (motion.h5 and its figure)."""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .children import say
+from .files import DiskFull, atomic_h5, atomic_path
+from .motion import MotionError, ProcessedMotion, from_case
+
+
+def mesh_dir(case) -> Path:
+    return case.output_dir / "mesh"
+
+
+def _fingerprint(case) -> str:
+    from .case import ground_layers
+
+    d = {"geometry": case.data["geometry"], "mesh": case.data["mesh"]}
+    if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
+        d["layers"] = ground_layers(case.data)
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def make_mesh(case, force: bool = False) -> dict:
+    """Build the mesh unless an up-to-date one (same geometry and mesh keys) is already there."""
+    from .meshing import build_tunnel_mesh, format_summary
+
+    out = mesh_dir(case)
+    stamp = out / "fingerprint.json"
+    fp = _fingerprint(case)
+    if not force and stamp.is_file():
+        old = json.loads(stamp.read_text())
+        if old.get("fingerprint") == fp and (out / "mesh.h5").is_file():
+            say(f"mesh: up to date in {out}")
+            return old["summary"]
+    out.mkdir(parents=True, exist_ok=True)
+    say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
+    from .case import ground_layers
+
+    stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
+    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data))
+    summary = json.loads(json.dumps(summary, default=str))
+    with atomic_path(stamp) as tmp:
+        tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
+    for line in format_summary(summary).splitlines():
+        say(line)
+    return summary
+
+
+def write_motion(motion: ProcessedMotion, path: Path) -> None:
+    with atomic_h5(path) as f:
+        f.attrs["format"] = "tunnelquake-motion"
+        f.attrs["version"] = 1
+        f.attrs["dt"] = motion.dt
+        f.attrs["convention"] = motion.convention
+        f.attrs["source"] = motion.record.source
+        f.attrs["record_name"] = motion.record.name
+        f.attrs["processing"] = "\n".join(motion.steps)
+        f["time"] = motion.time
+        f["incident_ax"] = motion.ax  # m/s^2, incident (up-going) wave at the base: across the tunnel
+        f["incident_ay"] = motion.ay  # along the tunnel's axis
+        f["incident_az"] = motion.az  # vertical
+        f["record_acc"] = motion.record.acc
+
+
+def plot_motion(motion: ProcessedMotion, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    factor = 2.0 if motion.convention == "outcrop" else 1.0
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    ax.plot(motion.time, factor * motion.ax, lw=0.8, label="x (across the tunnel)")
+    if np.any(motion.ay):
+        ax.plot(motion.time, factor * motion.ay, lw=0.8, label="y (along the axis)", alpha=0.8)
+    ax.plot(motion.time, factor * motion.az, lw=0.8, label="z (vertical)", alpha=0.8)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("acceleration (m/s$^2$)")
+    ax.set_title(f"Input motion: {motion.record.name}")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+
+
+def make_motion(case) -> tuple[ProcessedMotion, Path]:
+    motion, notes = from_case(case.data["ground_motion"], case.dir)
+    for n in notes:
+        say(f"NOTE: {n}")
+    out = case.output_dir / "motion.h5"
+    write_motion(motion, out)
+    peaks = ", ".join(f"{c} {float(np.max(np.abs(a))):.4g}" for c, a in (("x", motion.ax), ("y", motion.ay), ("z", motion.az)))
+    say(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
+        f"incident peaks {peaks} m/s^2 -> {out}")
+    for s in motion.steps:
+        say(f"  - {s}")
+    return motion, out
+
+
+def motion_and_figure(case) -> tuple[ProcessedMotion, Path, Path] | None:
+    """motion.h5 and its figure; None after printing why (a record refused, a full disk)."""
+    fig = case.output_dir / "figures" / "fig03_input_motion.png"
+    try:
+        motion, out = make_motion(case)
+        plot_motion(motion, fig)
+    except MotionError as e:
+        print(f"error: {e}")
+        return None
+    except DiskFull as e:
+        print(f"error: {e}", file=sys.stderr)
+        return None
+    return motion, out, fig
+
+
