@@ -22,10 +22,10 @@ from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import ground_layers, load_case
 from tunnelquake.cli import main
-from tunnelquake.prepare import write_motion
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.meshing.params import element_counts, resolve
 from tunnelquake.motion import from_case
+from tunnelquake.prepare import write_motion
 from tunnelquake.solid_input import write_solid_input
 
 CASE = """

@@ -52,9 +52,8 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
     import h5py
 
     from tunnelquake import fluid_case as fc
-    from tunnelquake import paths
+    from tunnelquake import launch, paths
     from tunnelquake.case import load_case
-    from tunnelquake import launch
 
     p = _copy(prepared, tmp_path)
     fake = tmp_path / "fake-tq-solid"

@@ -232,9 +232,9 @@ def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_
 
 def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path):
     """A record suite's `--resume` runs a member that did not finish with `run --resume` when it
-    left a restart checkpoint (suite_run.run_member): here a member killed inside its third
+    left a restart checkpoint (suite_launch.run_member): here a member killed inside its third
     checkpoint continues from its second and ends bitwise equal to the uninterrupted run."""
-    from tunnelquake.cli.suite_run import run_member
+    from tunnelquake.suite_launch import run_member
 
     p = _copy(reference, tmp_path)
     proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "3:solid"})

@@ -23,9 +23,9 @@ import pytest
 
 from tunnelquake import paths
 from tunnelquake.case import load_case
-from tunnelquake.prepare import write_motion
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.motion import from_case
+from tunnelquake.prepare import write_motion
 from tunnelquake.references import lined_tunnel_internal_pressure
 from tunnelquake.solid_input import SolidInputError, write_solid_input
 

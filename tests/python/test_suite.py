@@ -356,7 +356,7 @@ def test_suite_under_mpi4py_futures_is_bitwise_equal_to_the_local_pool(local_sui
 
 
 def _state(folder: Path, member: str) -> str:
-    from tunnelquake.cli.suite_run import read_state
+    from tunnelquake.suite_members import read_state
 
     return read_state(folder / "results" / "members" / member).get("status", "")
 
@@ -366,7 +366,7 @@ def test_ctrl_c_stops_every_member_in_bounded_time_and_resume_runs_only_the_rest
     runs (one worker): within the bound every process ends, the command exits 130 with one line
     naming what completed, what stopped and what never started. `--resume` then runs the second
     and third members only: the first's files are not touched."""
-    from tunnelquake.cli.suite_run import STOP_BOUND_S
+    from tunnelquake.suite_launch import STOP_BOUND_S
 
     _records(tmp_path / "records", 3)
     case = _suite_case(tmp_path, SUITE_3, end_time="1.5 s")
@@ -418,7 +418,7 @@ def test_ctrl_c_stops_every_member_in_bounded_time_and_resume_runs_only_the_rest
 def test_progress_line_counts_members_and_estimates_from_the_solver_progress(tmp_path):
     """Before any member ends, the ETA comes from the running members' simulated time (their
     run.log's tq-solid progress lines); after, from the finished members' wall times."""
-    from tunnelquake.cli import suite_run as R
+    from tunnelquake import suite_launch as R
 
     t0 = time.time() - 100
     ms = []
