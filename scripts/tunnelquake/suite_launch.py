@@ -30,6 +30,7 @@ from .children import QUIET, say
 from .launch import run_held
 from .prepare import make_mesh, mesh_dir
 from .suite_members import STATE, read_state
+from .supervise import Signalled
 
 #: s between progress lines while no member ends
 PROGRESS_S = float(os.environ.get("TQ_SUITE_PROGRESS_S", "30"))
@@ -190,12 +191,6 @@ def _progress(members, todo, results: dict, workers: int, t0: float, conditions:
 def _dur(s: float) -> str:
     s = max(0.0, s)
     return f"{s:.0f} s" if s < 120 else f"{s / 60:.1f} min"
-
-
-class _Signalled(BaseException):
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
 
 
 def _executor(kind: str, workers: int):
@@ -377,7 +372,7 @@ def _run_pool(case, opts: SuiteOptions, members, todo, need, results) -> int | N
     def on_signal(signum, frame):
         for sig in names.values():
             signal.signal(sig, lambda *_: None)
-        raise _Signalled(signum)
+        raise Signalled(signum)
 
     before = {sig: signal.getsignal(sig) for sig in names.values()}
     t0 = time.time()
@@ -410,7 +405,7 @@ def _run_pool(case, opts: SuiteOptions, members, todo, need, results) -> int | N
             say(_progress(members, todo, results, workers, t0, len(member_conditions(case))))
         pool.shutdown(wait=True)
         return 0
-    except _Signalled as e:
+    except Signalled as e:
         QUIET.set()
         signame = {v: k for k, v in names.items()}[e.signum]
         stop_file.touch()

@@ -25,6 +25,7 @@ def _signature(path):
 
 
 def started(cond: str, res) -> None:
+    """The solver of `cond` is started on its results file `res`."""
     STARTED[cond] = (res, _signature(res))
     PROGRESS.pop(cond, None)
 
@@ -36,6 +37,7 @@ _PROGRESS_LINE = re.compile(r"^\s*t = ([0-9.eE+-]+) s / ")
 
 
 def progress(cond: str, line: str) -> bool:
+    """Note the simulated time of a progress line of the solver of `cond`; True: the line is shown."""
     m = _PROGRESS_LINE.match(line)
     if m:
         PROGRESS[cond] = float(m.group(1))
@@ -49,7 +51,9 @@ JOB_WIND_DOWN_S = 3.0
 SIGNAL_NAMES = {2: "SIGINT", 15: "SIGTERM", 1: "SIGHUP"}
 
 
-class _Signalled(BaseException):
+class Signalled(BaseException):
+    """Raised in the main thread by the signal handler of a supervisor."""
+
     def __init__(self, signum: int):
         super().__init__(signum)
         self.signum = signum
@@ -83,7 +87,7 @@ def supervised(case, job) -> int:
     def on_signal(signum, frame):
         for sig in SIGNAL_NAMES:  # a second signal while stopping changes nothing
             signal.signal(sig, lambda *_: None)
-        raise _Signalled(signum)
+        raise Signalled(signum)
 
     t0 = time.monotonic()
     before = {sig: signal.getsignal(sig) for sig in SIGNAL_NAMES}
@@ -98,7 +102,7 @@ def supervised(case, job) -> int:
         worker.start()
         while worker.is_alive():
             worker.join(0.2)
-    except _Signalled as e:
+    except Signalled as e:
         QUIET.set()
         stopped = children.stop_all()
         worker.join(JOB_WIND_DOWN_S)
