@@ -110,6 +110,22 @@ def _solid_pid(folder) -> int:
     return pids[0]
 
 
+def _wait_gone(pids: list[int], timeout: float = 60.0) -> None:
+    """Wait until each process in `pids` has exited (gone, or a zombie: its files are closed)."""
+    deadline = time.monotonic() + timeout
+    for pid in pids:
+        while time.monotonic() < deadline:
+            try:
+                with open(f"/proc/{pid}/stat", "rb") as fh:
+                    if fh.read().rsplit(b")", 1)[1].split()[0] == b"Z":
+                        break
+            except OSError:
+                break
+            time.sleep(0.01)
+        else:
+            raise AssertionError(f"process {pid} still running {timeout} s after SIGKILL")
+
+
 def _stop(proc, folder, how: str, programs: tuple[bytes, ...] = (b"tq-solid",)) -> str:
     """Stop a running `tunnelquake run` (`_start`) in `folder` as `how` says: "SIGINT" to its
     process group (Ctrl-C), "SIGKILL tq-solid" or "SIGKILL water" (OpenFOAM's solver) alone (a
@@ -131,6 +147,7 @@ def _stop(proc, folder, how: str, programs: tuple[bytes, ...] = (b"tq-solid",)) 
                 os.kill(proc.pid, signal.SIGKILL)
                 for pid in pids:
                     os.kill(pid, signal.SIGKILL)
+                _wait_gone(pids)  # a killed solver holds its files' locks until it has exited
         out, _ = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
