@@ -160,10 +160,10 @@ class FluidCoupling final : public NodalForceContributor {
   std::unique_ptr<Impl> impl_;
 };
 
-/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): with
-/// implicit windows of several steps it saves the solver's state at each window start and restores
-/// it when the water did not accept the window (docs/coupler.md "Windows of several steps");
-/// otherwise it is Solver::step().
+/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): the time
+/// loop's part of the protocol's decision for implicit windows of several steps — it saves the
+/// solver's state at each window start and restores it when the water did not accept the window
+/// (docs/coupler.md "Windows of several steps"); otherwise it is Solver::step().
 class WindowedStepper {
  public:
   /// `coupling` may be null (no water): then every step is final.
