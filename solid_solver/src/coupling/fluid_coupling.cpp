@@ -692,7 +692,7 @@ struct FluidCoupling::Impl {
     stepInWindow = 0;
     while (!exchange(dt, st)) {
       trial = received;  // the next pass steps the window again with the water's answer
-      if (repeats) {     // a window of k steps: from the start the time loop restores
+      if (repeats) {     // a window of k steps: the time loop restores its start (takeRepeat())
         repeat = true;
         return false;
       }
