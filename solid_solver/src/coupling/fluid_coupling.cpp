@@ -83,8 +83,8 @@ struct FluidCoupling::Impl {
   Real window = 0, dtPrev = 0;
   long long windows = 0;
   Index stepInWindow = 0;
-  // Implicit windows of k > 1 steps (repeated whole): the force at the window's start F_w, the
-  // pass being stepped, and the repeat request for the time loop.
+  // The window being stepped: its passes so far; for implicit windows of k > 1 steps (stepped again
+  // whole) the force at its start F_w and the request to the time loop to step it again.
   bool repeats = false;
   std::vector<Real> forceStart;  // [3n]
   long long pass = 0;
@@ -490,7 +490,9 @@ struct FluidCoupling::Impl {
 
   /// The implicit scheme's pass-0 window-end force `trial`, at the start of a window: the last
   /// converged force, or with the linear predictor 2 F_w − F_{w−1} (F the force applied in a window,
-  /// the initial force before the first; receivedPrev moves on to F_w).
+  /// the initial force before the first; receivedPrev moves on to F_w), from which both sides start:
+  /// a window whose first answer already agrees with it to the tolerance needs one pass
+  /// (docs/coupler.md "Predictor").
   void implicitPassZeroForce() {
     trial = received;
     if (in.predictor != "linear") return;
@@ -518,7 +520,8 @@ struct FluidCoupling::Impl {
 
   /// The fluid's work, by the same trapezoid rule and pairing as the solid's booking:
   /// −½(R_f^n + R_f^{n−1})·(u_s^n − u_s^{n−1}), R_f the window's final force, u_s the motion the
-  /// fluid was sent (made one window earlier).
+  /// fluid was sent (made one window earlier). Converged exchange: R_f = the force applied and
+  /// u_s = the motion made, so the sum with the solid's work is zero (to the tolerance).
   void bookReceivedWork() {
     Real wf = 0;
     for (size_t j = 0; j < received.size(); ++j) wf -= 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
@@ -667,6 +670,144 @@ struct FluidCoupling::Impl {
   void read() {
     p->readData(in.mesh, "force", received);
     if (volumeLaw) projectForce(received);
+  }
+
+  // ------------------------------------------------------------------ the protocol, per window
+  // (tq/coupling/fluid_coupling.hpp; docs/coupler.md "Solid adapter", "Windows of several steps")
+
+  /// One solid step of the window, k = in.windowSteps steps and one water step: the plan at its
+  /// first step, the plan's force at steps j < k, the exchange at step k and the decision —
+  /// accepted: the next window; not accepted: the window stepped again from its start with the
+  /// water's answer as F̃ (a one-step window at once: its step is, at the interface, the local
+  /// update from `st`, which the next exchange() predicts again; a window of k steps by the time
+  /// loop, which restores the solver's state saved at its start: takeRepeat(), WindowedStepper).
+  /// True at the end of an accepted window.
+  bool windowStep(Real dt, const NodalState& st) {
+    if (++stepInWindow == 1) startWindow(st);
+    if (stepInWindow < in.windowSteps) {
+      stepForce();
+      p->advance(dt);
+      return false;
+    }
+    stepInWindow = 0;
+    while (!exchange(dt, st)) {
+      trial = received;  // the next pass steps the window again with the water's answer
+      if (repeats) {     // a window of k steps: the time loop restores its start (takeRepeat())
+        repeat = true;
+        return false;
+      }
+    }
+    acceptWindow(st);
+    return true;
+  }
+
+  /// The window's first step (of every pass): the interface's motion at the start (windows of
+  /// k > 1 steps send the window's mean velocity); on pass 0 the plan: the window-end force
+  /// `trial` of the first pass — implicit: the predictor's (implicitPassZeroForce()); paper and
+  /// explicit: none, the water answers the motion the other forces make — and, for windows stepped
+  /// again whole, the force at the window's start F_w (the last window's, the initial force before
+  /// the first).
+  void startWindow(const NodalState& st) {
+    if (in.windowSteps > 1) markWindowStart(st);
+    repeat = false;
+    if (pass > 0) return;  // stepped again: `trial` is the water's last answer
+    if (scheme != cp::SchemeKind::Implicit) {
+      std::fill(trial.begin(), trial.end(), 0.0);
+      return;
+    }
+    if (repeats) forceStart = stats.windows > 0 ? force : receivedPrev;
+    implicitPassZeroForce();
+  }
+
+  /// The force step j < k of a window applies. Implicit: F_w + w_j (F̃ − F_w) with
+  /// w_j = 1 − (1 − j/k) · 2(1 − β), β the window_force_weight (½: the linear ramp j/k; β > ½ leans
+  /// toward the window-end force, the window's mean weight ≈ β; docs/coupler.md "Window force
+  /// weight"). Explicit: the last answer, held.
+  void stepForce() {
+    if (scheme == cp::SchemeKind::Explicit) {
+      force = received;
+      return;
+    }
+    const Real k = Real(in.windowSteps);
+    const Real w = 1 - (1 - Real(stepInWindow) / k) * 2 * (1 - in.windowForceWeight);
+    for (size_t j = 0; j < force.size(); ++j) force[j] = forceStart[j] + w * (trial[j] - forceStart[j]);
+  }
+
+  /// One pass of the window's end: the interface's motion at t + Δt predicted with the window-end
+  /// force `trial` and the carried laws (windows of k > 1 steps: the window's mean velocity),
+  /// written, the coupler advanced, the water's force read. The force this step applies: explicit —
+  /// the answer (the corrector of the prediction); paper and implicit — `trial`, so that the water
+  /// saw exactly the motion the step makes (paper: R3 of the predictor pass; implicit: the force
+  /// being iterated). True when the water accepted the window.
+  bool exchange(Real dt, const NodalState& st) {
+    ++pass;
+    predictWithLaw(dt, st, trial);
+    if (in.windowSteps > 1) windowMeanVelocity();
+    write();
+    p->advance(dt);
+    read();
+    force = scheme == cp::SchemeKind::Explicit ? received : trial;
+    return !p->requiresReadingCheckpoint();
+  }
+
+  /// The window accepted: the water's work booked (windows stepped again whole pair it as the
+  /// solver pairs its own steps), the counters, pass 0 of the next window.
+  void acceptWindow(const NodalState& st) {
+    if (repeats)
+      bookReceivedWorkWindow(st);
+    else
+      bookReceivedWork();
+    ++stats.windows;
+    stats.passes += pass;
+    stats.maxPasses = std::max(stats.maxPasses, pass);
+    pass = 0;
+  }
+
+  /// The cost split's tallies for the coupler part of a step that began at t0 (wall) and c0 (CPU).
+  void timeCoupler(std::chrono::steady_clock::time_point t0, double c0) {
+    const auto t1 = std::chrono::steady_clock::now();
+    const double inCoupler = std::chrono::duration<double>(t1 - t0).count();
+    stats.secondsExchanging += inCoupler;
+    stats.secondsInCoupler += inCoupler;
+    stats.secondsCoupled = std::chrono::duration<double>(t1 - steppingStart).count();
+    const double c1 = threadCpu();
+    stats.cpuInCoupler += c1 - c0;
+    stats.cpuCoupled = c1 - cpuStart;
+  }
+
+  /// Adds this step's force and the carried laws' pressure (p_v and the translation's λ for the
+  /// force this step applies, implicit in this step's motion) to f_ext, and books the work of each
+  /// over u^{n−1} → u^n exactly as the solver books f_ext (trapezoid).
+  void addToSolid(Real dt, NodalState& st) {
+    if (volumeLaw) {
+      predict(dt, st, force, scratchU, scratchV);
+      applyCarriedLaws(dt, st.vData(), scratchU, scratchV, ps.data(), lam.data());
+      advanceAxialFlow(dt);
+    }
+    Real* fe = st.fExtData();
+    const Real* v = st.vData();
+    Real w = 0, wv = 0;
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = 3 * size_t(nodes[k]) + size_t(d), j = 3 * k + size_t(d);
+        total[j] = force[j];
+        if (!(st.mass(nodes[k]) > 0)) continue;
+        fe[i] += force[j];
+        w += 0.5 * (force[j] + prev[j]) * dtPrev * v[i];
+        if (volumeLaw) {
+          const Real pc = carried(k, ps.data(), lam.data());
+          const Real pcPrev = carried(k, psPrev.data(), lamPrev.data());
+          fe[i] += pc * g[j];
+          total[j] += pc * g[j];
+          wv += 0.5 * (pc + pcPrev) * g[j] * dtPrev * v[i];
+        }
+      }
+    work += w;
+    volumeWork += wv;
+    prev = force;
+    psPrev = ps;
+    lamPrev = lam;
+    dtPrev = dt;
   }
 };
 
@@ -846,144 +987,23 @@ void FluidCoupling::abort(const std::string& reason) noexcept {
 
 std::string FluidCoupling::name() const { return "water coupling on '" + impl_->in.face + "'"; }
 
+// One solid step of the coupling (the protocol: Impl::windowStep), then the force added to the solid.
 void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   Impl& I = *impl_;
   if (!I.initialized) throw CouplingError("water coupling: addForces before initialize()");
   if (!I.p->isCouplingOngoing())  // past the last window (never in tq-solid: its loop stops there)
     throw CouplingError("water coupling: the solid stepped past the last coupling window (t_end = " +
                         std::to_string(endTime()) + " s); stop the time loop when ongoing() is false");
-  const size_t n3 = I.force.size();
-  bool windowEnded = false;  // the guard then looks at the energy once this step's work is booked
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = threadCpu();
+  bool windowEnded = false;  // the guard then looks at the energy once this step's work is booked
   try {
-    if (I.repeats) {
-      // Implicit window of k steps, repeated whole until the water and the solid agree. Step j
-      // applies F_w + (j/k)(F̃ − F_w): F_w the force at the window's start, F̃ the window-end force
-      // of this pass (the predictor's, then the water's answers); the last step predicts the
-      // interface's motion with F̃ and exchanges (docs/coupler.md "Windows of several steps").
-      const Index k = I.in.windowSteps;
-      if (++I.stepInWindow == 1) {
-        I.markWindowStart(st);
-        I.repeat = false;
-        if (I.pass == 0) {  // a new window: F_w, and the pass-0 force as for one-step windows
-          I.forceStart = I.stats.windows > 0 ? I.force : I.receivedPrev;
-          I.implicitPassZeroForce();
-        }
-      }
-      if (I.stepInWindow < k) {
-        // β = 1/2: the linear ramp j/k; β > 1/2 leans toward the window-end force (docs/coupler.md
-        // "Window force weight"): w_j = 1 − (1 − j/k) · 2(1 − β), the window's mean weight ≈ β.
-        const Real w = 1 - (1 - Real(I.stepInWindow) / Real(k)) * 2 * (1 - I.in.windowForceWeight);
-        for (size_t j = 0; j < n3; ++j) I.force[j] = I.forceStart[j] + w * (I.trial[j] - I.forceStart[j]);
-        I.p->advance(dt);
-      } else {
-        I.stepInWindow = 0;
-        I.predictWithLaw(dt, st, I.trial);
-        I.windowMeanVelocity();
-        I.write();
-        I.p->advance(dt);
-        ++I.pass;
-        I.read();
-        I.force = I.trial;  // this step's force (the motion the water was sent)
-        if (I.p->requiresReadingCheckpoint()) {
-          I.trial = I.received;  // the next pass steps the window again with the water's answer
-          I.repeat = true;
-        } else {
-          I.bookReceivedWorkWindow(st);
-          ++I.stats.windows;
-          I.stats.passes += I.pass;
-          I.stats.maxPasses = std::max(I.stats.maxPasses, I.pass);
-          I.pass = 0;
-          windowEnded = true;
-        }
-      }
-    } else if (++I.stepInWindow < I.in.windowSteps) {
-      // Inside a window of k steps (explicit scheme): the last force is held; time moves on.
-      if (I.stepInWindow == 1) I.markWindowStart(st);
-      I.force = I.received;
-      I.p->advance(dt);
-    } else {
-      I.stepInWindow = 0;
-      // Pass 0 force: the paper's predictor and the explicit scheme predict without the fluid;
-      // the implicit scheme starts from the last converged force.
-      // With the linear predictor both sides start from 2 F_w − F_{w−1}, F the force applied in a
-      // window (its last pass's trial; the initial force before the first): a window whose first
-      // answer already agrees with it to the tolerance needs one pass (docs/coupler.md "Predictor").
-      if (I.scheme == cp::SchemeKind::Implicit)
-        I.implicitPassZeroForce();
-      else
-        std::fill(I.trial.begin(), I.trial.end(), 0.0);
-      long long passes = 0;
-      for (;;) {
-        I.predictWithLaw(dt, st, I.trial);
-        if (I.in.windowSteps > 1) I.windowMeanVelocity();
-        I.write();
-        I.p->advance(dt);
-        ++passes;
-        I.read();
-        if (!I.p->requiresReadingCheckpoint()) break;  // window complete
-        I.trial = I.received;  // repeat: the solid's answer to the new force is the local update
-      }
-      // The force applied: explicit — the one exchange's answer (the corrector of the prediction);
-      // paper and implicit — the force the last written prediction was made with (paper: R3 of the
-      // predictor pass; implicit: the converged force), so the fluid saw exactly this motion.
-      I.force = I.scheme == cp::SchemeKind::Explicit ? I.received : I.trial;
-      // The fluid's work, by the same trapezoid rule and pairing as the solid's booking below:
-      // −½(R_f^n + R_f^{n−1})·(u_s^n − u_s^{n−1}), R_f the window's final force, u_s the motion
-      // the fluid was sent (made one window earlier). Converged exchange: R_f = the force applied
-      // and u_s = the motion made, so the sum with the solid's work is zero (to the tolerance).
-      I.bookReceivedWork();
-      ++I.stats.windows;
-      I.stats.passes += passes;
-      I.stats.maxPasses = std::max(I.stats.maxPasses, passes);
-      windowEnded = true;
-    }
+    windowEnded = I.windowStep(dt, st);
   } catch (const cp::CouplerError& e) {
     I.fail("exchange with '" + I.in.partner + "' failed", e);
   }
-  const auto t1 = std::chrono::steady_clock::now();
-  const double inCoupler = std::chrono::duration<double>(t1 - t0).count();
-  I.stats.secondsExchanging += inCoupler;
-  I.stats.secondsInCoupler += inCoupler;
-  I.stats.secondsCoupled = std::chrono::duration<double>(t1 - I.steppingStart).count();
-  const double c1 = threadCpu();
-  I.stats.cpuInCoupler += c1 - c0;
-  I.stats.cpuCoupled = c1 - I.cpuStart;
-  // The carried laws' pressure (p_v and the translation's λ) for the force this step applies (the
-  // window's ramp, or the exchanged force), implicit in this step's motion.
-  if (I.volumeLaw) {
-    I.predict(dt, st, I.force, I.scratchU, I.scratchV);
-    I.applyCarriedLaws(dt, st.vData(), I.scratchU, I.scratchV, I.ps.data(), I.lam.data());
-    I.advanceAxialFlow(dt);
-  }
-  // Add R3 and the carried pressure, and book the work of each over u^{n−1} → u^n exactly as the
-  // solver books f_ext (trapezoid).
-  Real* fe = st.fExtData();
-  const Real* v = st.vData();
-  Real w = 0, wv = 0;
-  for (size_t k = 0; k < I.nodes.size(); ++k)
-    for (int d = 0; d < 3; ++d) {
-      const size_t i = 3 * size_t(I.nodes[k]) + size_t(d), j = 3 * k + size_t(d);
-      I.total[j] = I.force[j];
-      if (!(st.mass(I.nodes[k]) > 0)) continue;
-      fe[i] += I.force[j];
-      w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
-      if (I.volumeLaw) {
-        const Real pc = I.carried(k, I.ps.data(), I.lam.data());
-        const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
-        fe[i] += pc * I.g[j];
-        I.total[j] += pc * I.g[j];
-        wv += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
-      }
-    }
-  (void)n3;
-  I.work += w;
-  I.volumeWork += wv;
-  I.prev = I.force;
-  I.psPrev = I.ps;
-  I.lamPrev = I.lam;
-  I.dtPrev = dt;
+  I.timeCoupler(t0, c0);
+  I.addToSolid(dt, st);
   if (windowEnded) I.guardEnergy();
 }
 

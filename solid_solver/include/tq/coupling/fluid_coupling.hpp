@@ -4,14 +4,24 @@
 ///        the lining's wetted face (`lining_inner`) for the water's interface force R3 through the
 ///        coupler library (tqcoupler).
 ///
-/// Each solid step, after the forces of the earlier phases are known (ForcePhase::Water), the interface nodes
-/// are predicted at t + Δt by the solver's own update (leapfrog with α M and the boundary dashpots,
-/// fixed dofs held): v^{n+½} = [(m/Δt − c/2) v^{n−½} + f] / (m/Δt + c/2), u^{n+1} = u^n + Δt v^{n+½}.
-/// The prediction (displacement relative to the seismic start, and velocity) is written to the
-/// fluid, the coupler advances, and the force it returns is added to f_ext. Because the solid's
-/// response to an interface force is this local update, the solid needs no checkpoint of its whole
-/// state: for every new force the prediction is recomputed (paper and implicit schemes iterate
-/// inside addForces until the coupler says the window is complete).
+/// The protocol, per coupling window of k solid steps and one water step (written once, in
+/// fluid_coupling.cpp, Impl::windowStep; addForces runs it once per solid step, in
+/// ForcePhase::Water, after the forces of the earlier phases are known):
+///  - plan, at the window's first step: the window-end force F̃ of the first pass (implicit: the
+///    predictor's; paper and explicit: none) and the force at the window's start F_w. Step j < k
+///    applies F_w + w_j (F̃ − F_w) (explicit: the last answer, held).
+///  - exchange, at the window's last step: the interface nodes are predicted at t + Δt with F̃ by
+///    the solver's own update (leapfrog with α M and the boundary dashpots, fixed dofs held:
+///    v^{n+½} = [(m/Δt − c/2) v^{n−½} + f] / (m/Δt + c/2), u^{n+1} = u^n + Δt v^{n+½}); the prediction
+///    (displacement relative to the seismic start, and velocity: for k > 1 the window's mean) is
+///    written, the coupler advances, the water's force is read.
+///  - decision: accepted → the water's work and the counters are booked, the next window starts;
+///    not accepted → F̃ becomes the water's answer and the window is stepped again from its start.
+///    A one-step window's step is, for the interface, the local update from the step's state, so it
+///    is stepped again inside addForces by predicting again (no checkpoint of the solver); a window
+///    of k steps is stepped again by the time loop (WindowedStepper), which restores the solver's
+///    state saved at the window's start.
+/// Every step then adds its force (with the pressure of the laws the solid carries) to f_ext.
 ///
 /// This header and src/coupling/fluid_coupling.cpp are the only solid files that see the coupler (its
 /// headers are included in the .cpp only): the physics stays free of communication.
@@ -70,7 +80,7 @@ class FluidCoupling final : public NodalForceContributor {
   void abort(const std::string& reason) noexcept;
 
   std::string name() const override;
-  /// One solid step: predict, write, advance (exchange at the end of a window), read R3, add it.
+  /// One solid step of the protocol (plan, exchange, decision; see above), then its force added to f_ext.
   void addForces(Real t, Real dt, NodalState& state) override;
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
@@ -150,10 +160,10 @@ class FluidCoupling final : public NodalForceContributor {
   std::unique_ptr<Impl> impl_;
 };
 
-/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): with
-/// implicit windows of several steps it saves the solver's state at each window start and restores
-/// it when the water did not accept the window (docs/coupler.md "Windows of several steps");
-/// otherwise it is Solver::step().
+/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): the time
+/// loop's part of the protocol's decision for implicit windows of several steps — it saves the
+/// solver's state at each window start and restores it when the water did not accept the window
+/// (docs/coupler.md "Windows of several steps"); otherwise it is Solver::step().
 class WindowedStepper {
  public:
   /// `coupling` may be null (no water): then every step is final.
