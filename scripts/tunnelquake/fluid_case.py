@@ -21,18 +21,20 @@ Water models (case `water` section):
     incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the laminar model
                      tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 
-Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D:
-incompressible water with open ends (p = 0); compressible water with `ends: closed` (walls) or
-`ends: open` (p = 0).
+Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D: `ends:
+closed` (walls, compressible water in OpenFOAM) or `ends: open` (p = 0).
 
-Closed sections (a slice, or 3D with closed ends) carry the water's volume law in the solid
-(`volume_law()`, docs/coupler.md "Volume law in the solid"): tq-solid sets the uniform pressure of
-the enclosed water implicitly each step (p = -K dV/V, or the enclosed volume held for incompressible
-water), and by default the water's rigid translation too (`water_density` in the settings); OpenFOAM
-gets the wall motion less those modes and sends its wall pressure less its area mean (tqInterface
-`subtractMeanPressure`): its answer to the lining's deformation. Incompressible water in a closed section is solved by rhoPimpleFoam with
-REMAINDER_BULK_MODULUS, whose only role is to make the closed domain's pressure well posed (its
-uniform part is replaced by the solid's constraint).
+With the volume law in the solid (`volume_law()`, the default; docs/coupler.md "Volume law in the
+solid") tq-solid sets the water's volumetric pressure implicitly each step: one uniform pressure in a
+closed section (a slice, or 3D with closed ends), one per plane of wet nodes joined by the axial plug
+flow with open ends (p = -K dV/V, or the volume held for incompressible water), and by default the
+water's rigid translation too (`water_density` in the settings). OpenFOAM gets the wall motion less
+those modes, and in a closed section sends its wall pressure less its area mean (tqInterface
+`subtractMeanPressure`): its answer to the lining's deformation. Incompressible water is then solved
+by rhoPimpleFoam with REMAINDER_BULK_MODULUS, closed or open: the volume change is the solid's
+constraint, and OpenFOAM's stiffness only makes a closed domain's pressure well posed (pimpleFoam as
+the remainder with open ends did not run the record through: docs/stability.md "Open ends in 3D").
+pimpleFoam solves incompressible water when the whole pressure is exchanged (`volume_law: water`).
 Interface: transpiration. nNonOrthogonalCorrectors 0: the meshes of
 tunnelquake.meshing are structured all-hex (docs/water.md §10).
 
@@ -63,7 +65,7 @@ SOLID_WRITE_FIELDS = ("velocity", "displacement")
 
 
 #: Pa: the bulk modulus of the water OpenFOAM solves for the inertial remainder of incompressible water
-#: in a closed section (the uniform pressure is the solid's constraint; in 3D the remainder's
+#: (the volume change is the solid's constraint; in 3D the remainder's
 #: redistribution of volume along the axis meets this stiffness, not an infinite one)
 REMAINDER_BULK_MODULUS = 2.2e9
 
@@ -243,10 +245,11 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
         raise FluidCaseError("incompressible water in a closed slice needs the volume law in the solid "
                              "(coupling.volume_law: solid, the default); the water alone cannot change its "
                              "cross-section (docs/coupler.md \"Volume law in the solid\")")
-    # Incompressible water of a closed section: OpenFOAM solves the inertial remainder with
-    # compressible water (the uniform part is the solid's constraint, docs/coupler.md).
+    # Incompressible water with the volume law in the solid, closed or open ends: OpenFOAM solves the
+    # inertial remainder with compressible water (the volume change of each section is the solid's
+    # constraint, docs/coupler.md).
     bulk = float(water["bulk_modulus"])
-    if law == "incompressible" and closed_section(d):
+    if law == "incompressible":
         model, bulk = "compressible", REMAINDER_BULK_MODULUS
     elif law == "compressible":
         # The remainder hardly depends on K (it is the water's inertia), but OpenFOAM's own uniform

@@ -153,14 +153,6 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
                    f"{ratios['volume stiffness']:.1f} >= 2) will make the coupling create energy or diverge: use "
                    "coupling.volume_law: solid (the default), which carries it inside the solid's step")
         stable = False
-    elif (law != "none" and scheme == "implicit" and int(d["coupling"]["window"]) > 1
-          and w["model"] == "incompressible" and not closed_section(d)):
-        # measured on the paper case in 3D with open ends over the record (docs/stability.md "Open ends in 3D")
-        verdict = ("incompressible water with open ends in windows of several steps has not run a record through: "
-                   "on the paper case in 3D the divergence detection stopped it at 8.46 s (window force weight 0.75) "
-                   "and 6.44 s (1), and without IQN-ILS reuse it ran on with the coupling energy 13 times the "
-                   "interface work; use water.model: compressible (K = 2.2 GPa with open ends completes the record)")
-        stable = False
     elif law != "none" and scheme == "implicit":
         carried = ("volume law and its translation (mode 1) are" if d["coupling"]["water_translation"] == "solid"
                    else "volume law is")

@@ -38,8 +38,11 @@ CASES = {
     "3d, closed ends, incompressible": ("3d_incompressible", {}, {},
                                         ("rhoPimpleFoam", "wall", True, K_REMAINDER, True)),
     "3d, open ends": ("3d_open", {}, {}, ("rhoPimpleFoam", "open", False, None, False)),
+    # the remainder of incompressible water (its volume held by tq-solid) in compressible water
     "3d, open ends, incompressible": ("3d_open_incompressible", {}, {},
-                                      ("pimpleFoam", "open", False, None, False)),
+                                      ("rhoPimpleFoam", "open", False, K_REMAINDER, False)),
+    "3d, open ends, incompressible, whole pressure exchanged": (
+        "3d_open_incompressible", {}, {"volume_law": "water"}, ("pimpleFoam", "open", False, None, False)),
     # not the example's water: sea water, another head and tunnel depth
     "3d, closed, sea water": ("3d", {"density": 1025.0, "viscosity": 1.08e-3, "bulk_modulus": 2.34e9,
                                      "head": 41.5}, {}, ("rhoPimpleFoam", "wall", True, None, False)),
