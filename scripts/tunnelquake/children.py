@@ -252,3 +252,24 @@ def stop_side(side: Side, grace: float) -> None:
         except subprocess.TimeoutExpired:
             side.proc.kill()
             side.proc.wait(timeout=30)
+
+
+def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
+    """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
+    stopped (stop_side); a side that ends cleanly leaves its partner `grace` s to follow (it was told
+    the end) before it is ended. Returns the side that failed first, or None when both ended cleanly."""
+    import time as _time
+
+    while True:
+        r1, r2 = first.proc.poll(), second.proc.poll()
+        for side, rc, other in ((first, r1, second), (second, r2, first)):
+            if rc is not None and rc != 0:
+                stop_side(other, grace)
+                return side
+        if r1 == 0 and r2 == 0:
+            return None
+        if r1 == 0 or r2 == 0:
+            other = second if r1 == 0 else first
+            stop_side(other, grace)
+            return other if other.proc.returncode != 0 else None
+        _time.sleep(poll_s)

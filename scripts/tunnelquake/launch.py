@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import children, paths, supervise
 from .case_report import OutputsNotWritten, post_case
-from .children import Side, say, stop_side
+from .children import Side, say, watch_pair
 from .files import DiskFull, is_no_space
 from .prepare import make_mesh, mesh_dir, motion_and_figure
 from .restart import checkpoint_dir, checkpoint_manifest, checkpoint_windows, coupled_resume_point, resume_plan
@@ -291,32 +291,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
 
     failed = None
     if fluid_side is not None:
-        while True:
-            rs, rf = solid.proc.poll(), fluid_side.proc.poll()
-            if rs is not None and rs != 0:
-                failed = solid
-                stop_side(fluid_side, timeout)
-                break
-            if rf is not None and rf != 0:
-                failed = fluid_side
-                stop_side(solid, timeout)
-                break
-            if rs == 0 and rf == 0:
-                break
-            if rs == 0 or rf == 0:  # one ended cleanly: the other must follow (BYE) within the timeout
-                other = fluid_side if rs == 0 else solid
-                try:
-                    other.proc.wait(timeout=timeout)
-                except Exception:  # noqa: BLE001 - a hung partner after BYE
-                    stop_side(other, 0)
-                if other.proc.returncode != 0:
-                    failed = other
-                break
-            _time.sleep(0.1)
+        failed = watch_pair(solid, fluid_side, timeout)
         fluid_side.close()
-    elif solid.proc.wait() == 0:  # the solid ended without publishing: it never coupled
-        failed = solid
-    else:
+    else:  # the solid ended before publishing its address: it never coupled
+        solid.proc.wait()
         failed = solid
     solid.close()
     wall = _time.perf_counter() - t0

@@ -446,7 +446,7 @@ def _run_solid_alone(exe: Path, inp: Path, res: Path, work: Path) -> tuple[int, 
 def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path, res: Path) -> tuple[int, str, dict]:
     """tq-solid + OpenFOAM through the coupler, as launch.run_coupled_condition does."""
     from .. import fluid_case as fc
-    from ..children import Side, stop_side
+    from ..children import Side, watch_pair
     from ..solid_input import solid_step
 
     case = _fake_case(ring)
@@ -474,25 +474,7 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
             time.sleep(0.05)
     failed = None
     if side is not None:
-        while True:
-            rs, rf = solid.proc.poll(), side.proc.poll()
-            if rs is not None and rs != 0:
-                failed = solid
-                stop_side(side, ring.timeout)
-                break
-            if rf is not None and rf != 0:
-                failed = side
-                stop_side(solid, ring.timeout)
-                break
-            if rs == 0 and rf == 0:
-                break
-            if rs == 0 or rf == 0:
-                other = side if rs == 0 else solid
-                stop_side(other, ring.timeout)
-                if other.proc.returncode != 0:
-                    failed = other
-                break
-            time.sleep(0.05)
+        failed = watch_pair(solid, side, ring.timeout, poll_s=0.05)
         side.close()
     else:
         failed = solid
