@@ -351,7 +351,8 @@ def schema() -> Section:
                            doc="pressure head at the tunnel axis, m of water: p = rho_w g (head - (z - z_axis))"),
             "model": Choice(choices=("incompressible", "compressible"), default="compressible",
                             doc="compressible: real water of bulk modulus K (the default); incompressible: the "
-                                "limit K -> infinity (closed sections: the enclosed volume held by the solid)"),
+                                "limit K -> infinity (with coupling.volume_law solid the water's volume held by the "
+                                "solid: a closed section's, or each plane's with open ends)"),
             "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
             "ends": Choice(choices=("open", "closed"), default="open",
                            doc="axial ends of the water column: open (pressure) or closed (walls)"),
