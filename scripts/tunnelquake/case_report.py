@@ -87,8 +87,10 @@ def post_case(case) -> Path:
     from . import paper
     from . import post as P
     from . import report as R
+    from .fingerprint import check_post, record_post
 
     out = case.output_dir
+    inputs_notes = check_post(case)  # refuses results of other inputs, naming the key
     figs = out / "figures"
     ref = paper if paper.applies(case.data) else None
     order = list(case.data["output"]["monitors"] or {})
@@ -99,6 +101,10 @@ def post_case(case) -> Path:
     lines = [f"# TunnelQuake report: {case.data['name']}", ""]
     lines += R.motion_section(motion, f"figures/{fig03.name}" if fig03.is_file() else None)
     lines += R.case_section(case)
+    if inputs_notes:
+        lines += ["## Inputs", "", *inputs_notes, ""]
+        for n in inputs_notes:
+            say(n[2:])
     lines += ["## Conditions", ""]
     results, stopped = [], []
     unwritten: list[DiskFull] = []
@@ -167,6 +173,10 @@ def post_case(case) -> Path:
         unwritten.append(e)
     else:
         say(f"report: {report}")
+        try:
+            record_post(case)
+        except DiskFull as e:
+            unwritten.append(e)
     if unwritten:
         raise OutputsNotWritten(unwritten)
     return report

@@ -17,8 +17,9 @@ from . import children, paths, supervise
 from .case_report import OutputsNotWritten, post_case
 from .children import Side, say, watch_pair
 from .files import DiskFull, is_no_space
+from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
-from .restart import checkpoint_dir, checkpoint_manifest, checkpoint_windows, coupled_resume_point, resume_plan
+from .restart import checkpoint_dir, checkpoint_windows, coupled_resume_point, resume_plan
 from .scene import plan
 from .solid_input import solid_threads
 from .solver_input_schema import put
@@ -51,11 +52,12 @@ def _solid_capabilities(exe) -> set[str]:
 
 
 def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
-                        resume: bool = False) -> tuple[int, object]:
+                        resume: bool | dict = False) -> tuple[int, object]:
     """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
     report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
     the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence).
-    With `resume`, tq-solid continues from the condition's last restart checkpoint."""
+    With `resume`, tq-solid continues from the condition's last restart checkpoint (a manifest:
+    from that one, restart.condition_choice's newest intact checkpoint)."""
     import subprocess
 
     from .solid_input import write_solid_input
@@ -70,6 +72,8 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
     if resume:
         cmd.append("--resume")
+        if isinstance(resume, dict):
+            cmd += ["--resume-sequence", str(int(resume["sequence"]))]
     started(cond, res)
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     if not prefix:
@@ -235,7 +239,8 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         restart = None
         if every > 0 and ranks == 1:
             restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
-                       "restart_from": str(point["fluid"]) if point is not None else None}
+                       "restart_from": str(point["fluid"]) if point is not None else None,
+                       "input_fingerprint": condition_inputs(case, cond)["digest"]}
         fluid = fc.build_fluid_case(case, mesh_dir(case) / "water.msh", work / "fluid", settings, slice_mode,
                                     restart=restart)
         env = fc.fluid_env()
@@ -349,14 +354,16 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
             say(nothing)
             return 0
         for cond, what in resuming.items():
+            for note in getattr(what, "notes", ()):
+                say(f"resume: {cond}: {note}")
             if what == "checkpoint":
-                coupled_ = "fluid" in dict(plan(case))[cond]
-                m = coupled_resume_point(case, cond) if coupled_ else checkpoint_manifest(case, cond)
+                m = what.point
                 say(f"resume: {cond} continues from its checkpoint at t = {float(m['time']):.6g} s")
             elif what == "completed":
                 say(f"resume: {cond} completed earlier: kept")
             else:
-                say(f"resume: {cond} has no restart checkpoint: it runs from the start")
+                say(f"resume: {cond} runs from the start" if getattr(what, "notes", None) else
+                    f"resume: {cond} has no restart checkpoint: it runs from the start")
     say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []
@@ -410,8 +417,9 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
     def solid_only(cond, parts, prefix):
         runs = " + ".join(parts)
         t1 = time.perf_counter()
+        choice = resuming.get(cond)
         rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix,
-                                      resume=resuming.get(cond) == "checkpoint")
+                                      resume=choice.point if choice == "checkpoint" else False)
         children.check()
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")

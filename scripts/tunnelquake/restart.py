@@ -4,10 +4,17 @@ from __future__ import annotations
 
 import json
 import math
+import sys
+import zlib
 from pathlib import Path
 
 from . import children
 from .scene import plan
+
+#: the last key of a manifest: the CRC-32 of every byte before it
+MANIFEST_CRC = '"manifest_crc32"'
+#: the water checkpoint's trailer: input digest (64 bytes), TQFLSUM1, CRC-32 (4 bytes)
+FLUID_TRAILER = 64 + 8 + 4
 
 
 def checkpoint_dir(case, cond: str) -> Path:
@@ -16,12 +23,188 @@ def checkpoint_dir(case, cond: str) -> Path:
 
 
 def checkpoint_manifest(case, cond: str) -> dict | None:
-    """The condition's last complete restart checkpoint (its checkpoint.json), or None."""
+    """The condition's newest intact restart checkpoint (its manifest, verified with its files), or None."""
+    return intact_checkpoints(case, cond)[0]
+
+
+def file_crc(path: Path) -> str:
+    """The CRC-32 of a file (zlib's, 8 hex digits), as tq-solid and tqInterface write them."""
+    crc = 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            crc = zlib.crc32(block, crc)
+    return f"{crc:08x}"
+
+
+def manifest_problem(text: str) -> str | None:
+    """What is wrong with a manifest's text, or None: it must end with its `manifest_crc32` line,
+    the CRC-32 of every byte before it (tq-solid's manifestProblem)."""
+    k = text.rfind(MANIFEST_CRC)
+    if k < 0:
+        return ("it is cut short (no closing line)" if not text.endswith("}\n") else
+                "it has no manifest_crc32 (written by a tq-solid without checkpoint checksums)")
     try:
-        m = json.loads((checkpoint_dir(case, cond) / "checkpoint.json").read_text())
-    except (OSError, ValueError):
-        return None
-    return m if isinstance(m, dict) and m.get("format") == "tunnelquake-checkpoint" else None
+        want = json.loads("{" + text[k:])["manifest_crc32"]
+    except (ValueError, KeyError, TypeError):
+        return "it is cut short"
+    got = f"{zlib.crc32(text[:k].encode()):08x}"
+    return None if got == want else f"its CRC-32 is {got} instead of the {want} it records"
+
+
+def read_manifest(path: Path) -> tuple[dict | None, str | None]:
+    """A checkpoint manifest and None, or None and why it cannot be used."""
+    try:
+        text = path.read_bytes().decode(errors="replace")
+    except OSError as e:
+        return None, f"cannot be read ({e.strerror})"
+    problem = manifest_problem(text)
+    if problem is None:
+        try:
+            m = json.loads(text)
+            if not isinstance(m, dict) or m.get("format") != "tunnelquake-checkpoint":
+                problem = "is not a checkpoint manifest"
+            else:
+                int(m["sequence"])
+                return m, None
+        except (ValueError, KeyError, TypeError):
+            problem = "is not a checkpoint manifest"
+    return None, problem
+
+
+def checkpoint_problem(folder: Path, m: dict) -> str | None:
+    """Why the files a manifest names cannot be used (missing, another size, another CRC-32), or None."""
+    for part in ("solid", "results"):
+        try:
+            path = folder / str(m[part])
+            size = path.stat().st_size
+            if size != int(m[f"{part}_bytes"]):
+                return f"{path.name} is {size} bytes instead of {int(m[f'{part}_bytes'])} (cut short or damaged)"
+            crc = file_crc(path)
+        except FileNotFoundError:
+            return f"{m[part]} is missing"
+        except (OSError, KeyError, TypeError, ValueError) as e:
+            return f"its {part} file cannot be checked ({e})"
+        if crc != m.get(f"{part}_crc32"):
+            return f"the CRC-32 of {path.name} is {crc} instead of {m.get(f'{part}_crc32')} (the file is damaged)"
+    return None
+
+
+def fluid_file(folder: Path, window: int) -> Path:
+    return folder / f"fluid-{window:09d}.bin"
+
+
+def fluid_problem(path: Path) -> tuple[str | None, str | None]:
+    """The water's checkpoint file checked: (why it cannot be used or None, the input digest it carries).
+    Its trailer: the digest (64 bytes), TQFLSUM1, the CRC-32 (u32, this machine's order) of all before."""
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        return f"{path.name} cannot be read ({e.strerror})", None
+    if len(data) < 8 + FLUID_TRAILER or not data.startswith(b"TQFLUID1"):
+        return f"{path.name} is not a whole water checkpoint ({len(data)} bytes: cut short or damaged)", None
+    body = len(data) - 4
+    if data[body - 8:body] != b"TQFLSUM1":
+        return f"{path.name} does not end with its checksum (cut short or damaged)", None
+    want = int.from_bytes(data[body:], sys.byteorder)
+    got = zlib.crc32(memoryview(data)[:body])
+    if got != want:
+        return f"the CRC-32 of {path.name} is {got:08x} instead of {want:08x} (the file is damaged)", None
+    return None, data[body - 8 - 64:body - 8].decode(errors="replace").strip()
+
+
+class Choice(str):
+    """What `run --resume` does with a condition ('completed', 'checkpoint' or 'start', compared as
+    a string), with `notes` (why, in words) and `point` (the checkpoint's manifest, for 'checkpoint')."""
+
+    notes: list[str]
+    point: dict | None
+
+    @classmethod
+    def make(cls, what: str, notes: list[str] | None = None, point: dict | None = None) -> Choice:
+        c = cls(what)
+        c.notes, c.point = list(notes or []), point
+        return c
+
+
+def condition_choice(case, cond: str, parts) -> Choice:
+    """What `run --resume` does with one condition, from its results' and checkpoints' input
+    fingerprints (tunnelquake.fingerprint) and checksums: a completed condition is kept only when it
+    was computed with today's inputs (the post-only keys aside), a checkpoint is continued from only
+    when it is intact and of today's inputs; otherwise the condition runs from the start, and the
+    notes say why (the keys changed, the files damaged)."""
+    from . import fingerprint as F
+
+    now = F.condition_inputs(case, cond)
+    res = case.output_dir / f"results_{cond}.h5"
+    if results_status(res) == "completed":
+        old = F.read_results(res)
+        if old is None:
+            return Choice.make("start", [f"{res.name} carries no input fingerprint (written by an earlier "
+                                         "tunnelquake): it cannot be shown to be of today's inputs, so it runs again"])
+        if old["digest"] == now["digest"]:
+            return Choice.make("completed")
+        return Choice.make("start", [f"{res.name} was computed with other inputs: {F.say_changes(F.changes(old, now))}; "
+                                     "it runs again"])
+    point, damaged = intact_checkpoints(case, cond, coupled="fluid" in parts)
+    notes = [f"damaged checkpoint in {checkpoint_dir(case, cond)}: {d}" for d in damaged]
+    if point is None:
+        if damaged:
+            notes.append("no intact checkpoint is left: it runs from the start")
+        return Choice.make("start", notes)
+    if damaged:
+        notes.append(f"falls back to the newest intact checkpoint, {point['sequence']} (t = {float(point['time']):.6g} s)")
+    if point.get("inputs") != now["digest"]:
+        old = F.read_results(checkpoint_dir(case, cond) / str(point["results"]))
+        why = (F.say_changes(F.changes(old, now)) if old is not None else
+               "it carries no input fingerprint (written by an earlier tunnelquake)")
+        return Choice.make("start", notes + [f"its checkpoint was written with other inputs: {why}; it runs from "
+                                             "the start"])
+    return Choice.make("checkpoint", notes, point)
+
+
+def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[dict | None, list[str]]:
+    """The newest checkpoint of the condition whose manifest and files (coupled: and the water's
+    fluid-<window>.bin) pass their checksums, with `fluid` added when coupled; and the damage met on
+    the way, one line each ('checkpoint 3: the CRC-32 of solid-000003.bin is ... instead of ...')."""
+    folder = checkpoint_dir(case, cond)
+    if coupled is None:
+        coupled = "fluid" in dict(plan(case)).get(cond, ())
+    manifests: list[tuple[int, str, dict]] = []
+    damaged: list[str] = []
+    for path in sorted(folder.glob("checkpoint*.json")):
+        m, problem = read_manifest(path)
+        if m is None:
+            damaged.append(f"{path.name} {problem}")
+        else:
+            manifests.append((int(m["sequence"]), path.name, m))
+    seen: set[int] = set()
+    for seq, _name, m in sorted(manifests, key=lambda x: (-x[0], x[1] == "checkpoint.json")):
+        if seq in seen:
+            continue
+        seen.add(seq)
+        problem = checkpoint_problem(folder, m)
+        if problem is not None:
+            damaged.append(f"checkpoint {seq}: {problem}")
+            continue
+        if not coupled:
+            return m, damaged
+        try:
+            fluid = fluid_file(folder, int(m["window"]))
+        except (KeyError, TypeError, ValueError):
+            damaged.append(f"checkpoint {seq}: its manifest names no coupling window")
+            continue
+        if not fluid.is_file():
+            continue  # the water had not written its side of this window yet
+        problem, digest = fluid_problem(fluid)
+        if problem is not None:
+            damaged.append(f"checkpoint {seq}: {problem}")
+            continue
+        if digest != (m.get("inputs") or ""):
+            damaged.append(f"checkpoint {seq}: {fluid.name} carries input fingerprint {digest[:12]}, the solid's "
+                           f"{str(m.get('inputs'))[:12]}: the two sides are of different runs")
+            continue
+        return {**m, "fluid": str(fluid)}, damaged
+    return None, damaged
 
 
 def checkpoint_windows(interval: float, window_size: float) -> int:
@@ -34,21 +217,9 @@ def checkpoint_windows(interval: float, window_size: float) -> int:
 
 def coupled_resume_point(case, cond: str) -> dict | None:
     """The last coupling window for which both sides of a coupled condition wrote a whole restart
-    checkpoint: the solid's manifest of it (checkpoint-<n>.json, its files of the sizes named) with
+    checkpoint that passes its checksums: the solid's manifest of it (checkpoint-<n>.json) with
     `fluid` added, the water's fluid-<window>.bin beside it; None when there is none."""
-    folder = checkpoint_dir(case, cond)
-    best = None
-    for path in folder.glob("checkpoint-*.json"):
-        try:
-            m = json.loads(path.read_text())
-            window = int(m["window"])
-            whole = all((folder / m[k]).stat().st_size == int(m[f"{k}_bytes"]) for k in ("solid", "results"))
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-        fluid = folder / f"fluid-{window:09d}.bin"
-        if whole and fluid.is_file() and (best is None or int(m["sequence"]) > int(best["sequence"])):
-            best = {**m, "fluid": str(fluid)}
-    return best
+    return intact_checkpoints(case, cond, coupled=True)[0]
 
 
 def results_status(res: Path) -> str | None:
@@ -67,22 +238,18 @@ def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
     """What `run --resume` does with each planned condition: 'completed' (kept as it is),
     'checkpoint' (tq-solid continues from its last restart checkpoint) or 'start' (no checkpoint:
     from the beginning); then why there is nothing to resume (None when there is) and whether
-    that is an error (no checkpoint anywhere) rather than a finished run."""
+    that is an error (no checkpoint anywhere) rather than a finished run. Each value is a Choice
+    whose notes say why a condition runs again (its inputs changed, its checkpoints are damaged)."""
     what: dict[str, str] = {}
     for cond, parts in plan(case):
-        if results_status(case.output_dir / f"results_{cond}.h5") == "completed":
-            what[cond] = "completed"
-        elif ("fluid" not in parts and checkpoint_manifest(case, cond) is not None) or (
-                "fluid" in parts and coupled_resume_point(case, cond) is not None):
-            what[cond] = "checkpoint"
-        else:
-            what[cond] = "start"
+        what[cond] = condition_choice(case, cond, parts)
     variant = f" --variant {case.variant}" if case.variant else ""
     if what and all(v == "completed" for v in what.values()):
         return what, (f"nothing to resume: every condition in {case.output_dir} completed ({', '.join(what)}); "
                       f"the results are kept as they are (`tunnelquake post {case.path}{variant}` reports them, "
                       f"`tunnelquake run {case.path}{variant}` without --resume runs them again)"), False
-    if "checkpoint" not in what.values() and "completed" not in what.values():
+    if "checkpoint" not in what.values() and "completed" not in what.values() and not any(
+            getattr(v, "notes", None) for v in what.values()):
         interval = float(case.data["output"]["checkpoint_interval"])
         why = ("output.checkpoint_interval is 0: no checkpoint is written" if interval <= 0 else
                f"a run writes its first after output.checkpoint_interval = {interval:g} s of shaking")

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import children
+from . import children, fingerprint
 from .case import CONDITIONS, coupling_predictor, coupling_window_force_weight
 from .files import h5_in_memory
 from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, group_attrs, linked, lookup, put, write_schema
@@ -152,6 +152,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         w(f, "/", "version", VERSION)
         w(f, "/", "mesh", os.path.relpath(mesh_h5.resolve(), out.parent.resolve()))
         w(f, "/", "condition", condition)
+        w(f, "/", "input_fingerprint", fingerprint.to_text(fingerprint.condition_inputs(case, condition)))
 
         s = f.create_group("solver")
         w(s, "/solver", "t_end", t_end)

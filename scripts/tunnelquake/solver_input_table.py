@@ -89,6 +89,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/", "version", "int", f"`{VERSION}`", required=True, lo=VERSION, hi=VERSION),
     _e("/", "condition", "str", "informational", choices=("no_water", "static_water", "dynamic_water")),
     _e("/", "mesh", "str", "path of `mesh.h5`, relative to this file's folder or absolute", required=True),
+    _e("/", "input_fingerprint", "str", "the case keys that shaped this condition's results, by group, as JSON "
+                                        "(`tunnelquake.fingerprint`; docs/formats.md \"Input fingerprint\"): copied into "
+                                        "the results file's root attribute of that name, its `digest` into each "
+                                        "checkpoint manifest (`inputs`)"),
     _e("/schema", "hash", "str", "hash of the rows other than the material ones; tq-solid refuses a file whose "
                                  "hash is not its own (written by another version of the table)"),
     _e("/schema", "material_parameters", "data", "the material rows of this table, one string each (fields "

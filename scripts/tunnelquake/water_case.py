@@ -88,6 +88,9 @@ class WaterCase:
     restart_dir: str | None = None
     restart_windows: int = 0
     restart_from: str | None = None
+    # the digest of the condition's input fingerprint (tunnelquake.fingerprint): tqInterface writes it
+    # into each restart checkpoint and refuses to resume from one that carries another
+    input_fingerprint: str | None = None
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -152,6 +155,8 @@ def control_dict(w: WaterCase) -> dict:
         interface["restartWindows"] = int(w.restart_windows)
         if w.restart_from is not None:
             interface["restartFrom"] = Quoted(w.restart_from)
+        if w.input_fingerprint:
+            interface["inputFingerprint"] = w.input_fingerprint
     if w.subtract_mean_pressure:
         interface["subtractMeanPressure"] = True
     interface["geometricCorrection"] = True

@@ -227,10 +227,16 @@ def test_resume_of_a_finished_run_or_of_a_folder_without_checkpoint_says_so(refe
     assert not (p.parent / "results" / "results_no_water.h5").exists()
 
 
-def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_path):
-    """A checkpoint belongs to the solid input it was written for: after an edit of the case that
-    reaches it (here the lining's cohesion), tq-solid refuses to resume, saying why and what to do,
-    and the results of the interrupted run are left as they were."""
+def test_resume_after_the_case_changed_runs_again_naming_the_key(reference, tmp_path):
+    """A checkpoint belongs to the inputs it was written for (its manifest's `inputs`, the digest of
+    the condition's input fingerprint): after an edit of the case that shapes the condition (here
+    the lining's cohesion), `--resume` does not continue from it but runs the condition from the
+    start, naming the key with its old and new value, and the results then carry the new inputs.
+    tq-solid alone, given the old checkpoint, still refuses it (its own fingerprint of its input)."""
+    from tunnelquake import fingerprint as F
+    from tunnelquake import paths
+    from tunnelquake.case import load_case
+
     p = _copy(reference, tmp_path)
     proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "2:solid"})
     out, _ = proc.communicate(timeout=180)
@@ -238,13 +244,27 @@ def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_
     text = p.read_text()
     assert text.count("cohesion: 1.80 MPa") == 1
     p.write_text(text.replace("cohesion: 1.80 MPa", "cohesion: 1.90 MPa"))
+    work = p.parent / "results" / "no_water"
+    old_input = work / "solid_input.h5"
     again = _start(p, "--resume")
     out, _ = again.communicate(timeout=180)
-    assert again.returncode == 1, out[-2000:]
-    assert "resume: no_water continues from its checkpoint at t = 0.15" in out, out[-2000:]
-    assert "tq-solid: cannot resume from " in out and "was written for another input" in out, out[-2000:]
-    assert "run without --resume to start again" in out, out[-2000:]
-    assert "tq-solid stopped (exit 2)" in out, out[-2000:]
+    assert again.returncode == 0, out[-2000:]
+    assert ("resume: no_water: its checkpoint was written with other inputs: materials.lining.cohesion 1.8e+06 -> "
+            "1.9e+06 (solid material); it runs from the start") in out, out[-2000:]
+    assert "continues from its checkpoint" not in out, out[-2000:]
+    res = p.parent / "results" / "results_no_water.h5"
+    assert F.read_results(res)["digest"] == F.condition_inputs(load_case(p), "no_water")["digest"]
+    with h5py.File(res, "r") as f:
+        assert f.attrs["status"] == "completed"
+    # tq-solid's own check: a checkpoint of the old input refused by the new solver input
+    stale = _copy(reference, tmp_path / "stale")
+    proc = _start(stale, env={"TQ_CHECKPOINT_FAULT": "2:solid"})
+    proc.communicate(timeout=180)
+    assert old_input.is_file()
+    got = subprocess.run([str(paths.solid_executable()), str(old_input), "-o", str(tmp_path / "x.h5"),
+                          "--checkpoint-dir", str(stale.parent / "results" / "no_water" / "checkpoint"), "--resume"],
+                         capture_output=True, text=True, timeout=120)
+    assert got.returncode == 2 and "was written for another input" in got.stderr, got.stderr[-2000:]
 
 
 def test_suite_member_resumed_continues_from_its_checkpoint(reference, tmp_path):

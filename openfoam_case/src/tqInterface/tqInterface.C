@@ -24,6 +24,7 @@ License
 #include "OFstream.H"
 #include "OSspecific.H"
 #include "addToRunTimeSelectionTable.H"
+#include "tq/coupler/crc32.hpp"
 
 #include <cmath>
 #include <malloc.h>
@@ -824,6 +825,7 @@ Foam::functionObjects::tqInterface::tqInterface
     restartDir_ = dict.lookupOrDefault<fileName>("restartDir", fileName::null);
     restartDir_.expand();
     restartWindows_ = dict.lookupOrDefault<label>("restartWindows", 0);
+    inputFingerprint_ = dict.lookupOrDefault<word>("inputFingerprint", word::null);
     fileName restartFrom
     (
         dict.lookupOrDefault<fileName>("restartFrom", fileName::null)
@@ -1096,6 +1098,18 @@ namespace
 
 const char fluidRestartMagic[8] = {'T', 'Q', 'F', 'L', 'U', 'I', 'D', '1'};
 const char fluidRestartEnd[8] = {'T', 'Q', 'F', 'L', 'E', 'N', 'D', '1'};
+// The trailer after fluidRestartEnd: the input fingerprint's digest (64 bytes, space-padded), these
+// 8 bytes, and the CRC-32 (u32) of every byte before it
+const char fluidRestartSum[8] = {'T', 'Q', 'F', 'L', 'S', 'U', 'M', '1'};
+constexpr size_t fluidDigestBytes = 64;
+constexpr size_t fluidTrailerBytes = fluidDigestBytes + sizeof fluidRestartSum + sizeof(std::uint32_t);
+
+std::string paddedDigest(const std::string& d)
+{
+    std::string s(d.substr(0, fluidDigestBytes));
+    s.resize(fluidDigestBytes, ' ');
+    return s;
+}
 
 void putString(std::ostream& os, const std::string& s)
 {
@@ -1159,7 +1173,11 @@ void Foam::functionObjects::tqInterface::writeRestart(const label n)
     putString(os, rows);
     checkpoint_.write(os);
     os.write(fluidRestartEnd, sizeof fluidRestartEnd);
-    const std::string bytes(os.str());
+    os << paddedDigest(inputFingerprint_);
+    os.write(fluidRestartSum, sizeof fluidRestartSum);
+    std::string bytes(os.str());
+    const std::uint32_t crc = tq::crc::crc32(bytes.data(), bytes.size());
+    bytes.append(reinterpret_cast<const char*>(&crc), sizeof crc);
 
     mkDir(restartDir_);
     const std::string path(restartDir_/restartName(n));
@@ -1219,7 +1237,63 @@ std::string Foam::functionObjects::tqInterface::readRestart
         FatalErrorInFunction
             << "Resuming a decomposed water is not supported." << exit(FatalError);
     }
-    std::ifstream is(file, std::ios::binary);
+    std::string whole;
+    {
+        std::ifstream in(file, std::ios::binary);
+        std::ostringstream all;
+        all << in.rdbuf();
+        whole = all.str();
+    }
+    std::string damage;
+    if (whole.size() < sizeof fluidRestartMagic + fluidTrailerBytes)
+    {
+        damage = "it is missing or cut short (" + std::to_string(whole.size()) + " bytes)";
+    }
+    else
+    {
+        const size_t body = whole.size() - sizeof(std::uint32_t);
+        std::uint32_t want = 0;
+        std::memcpy(&want, whole.data() + body, sizeof want);
+        const std::uint32_t got = tq::crc::crc32(whole.data(), body);
+        if
+        (
+            std::memcmp
+            (
+                whole.data() + body - sizeof fluidRestartSum,
+                fluidRestartSum,
+                sizeof fluidRestartSum
+            ) != 0
+        )
+        {
+            damage = "it does not end with the checkpoint's checksum (cut short or damaged)";
+        }
+        else if (got != want)
+        {
+            damage = "its CRC-32 is " + tq::crc::hex(got) + " instead of the "
+                + tq::crc::hex(want) + " it records (the file is damaged)";
+        }
+        else if
+        (
+            whole.compare
+            (
+                body - sizeof fluidRestartSum - fluidDigestBytes,
+                fluidDigestBytes,
+                paddedDigest(inputFingerprint_)
+            ) != 0
+        )
+        {
+            damage = "it was written for other inputs (input fingerprint "
+                + whole.substr(body - sizeof fluidRestartSum - fluidDigestBytes, 16)
+                + "..., this run " + inputFingerprint_.substr(0, 16) + "...)";
+        }
+    }
+    if (!damage.empty())
+    {
+        FatalErrorInFunction
+            << "Cannot resume from " << file << ": " << damage << "." << nl
+            << "Fix: run again without --resume." << exit(FatalError);
+    }
+    std::istringstream is(whole.substr(0, whole.size() - fluidTrailerBytes));
     char magic[sizeof fluidRestartMagic];
     std::int64_t window = 0, rollbacks = 0;
     std::string exchangeState, rows;

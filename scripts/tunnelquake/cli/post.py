@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 
 from ..case_report import OutputsNotWritten, post_case
+from ..fingerprint import InputsChanged
 from .common import folder_held, load_or_report, parser, say
 
 
@@ -29,7 +30,7 @@ def main(argv: list[str]) -> int:
             return 0
         try:
             post_case(case)
-        except OutputsNotWritten as e:
+        except (OutputsNotWritten, InputsChanged) as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
     return 0

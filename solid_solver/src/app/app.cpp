@@ -73,6 +73,14 @@ std::string runFingerprint(const SolidInput& in, const Solver& s) {
   const Real numbers[2] = {s.dt(), in.tEnd};
   return hex64(fnv1a(numbers, sizeof numbers, h));
 }
+/// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "".
+std::string inputDigest(const std::string& json) {
+  const std::string key = "\"digest\": \"";
+  const size_t p = json.find(key);
+  if (p == std::string::npos) return "";
+  const size_t e = json.find('"', p + key.size());
+  return e == std::string::npos ? "" : json.substr(p + key.size(), e - p - key.size());
+}
 }  // namespace
 
 namespace {
@@ -325,8 +333,9 @@ void SolidRun::openCheckpoints() {
   } catch (const InputError& e) {
     throw CheckpointRefusal(e.what());
   }
-  if (m_.in.staged.coupling.present)
-    checkpoints_->setKeep(2);  // the water's checkpoint of a window comes after the solid's
+  // Two are kept: coupled, the water's checkpoint of a window comes after the solid's; and a resume
+  // falls back to the one before the last when the last is damaged.
+  checkpoints_->setKeep(2);
   if (!cl_.resume) return;
   std::string why;
   if (!checkpoints_->last(resumeFrom_, why, cl_.resumeSequence)) throw CheckpointRefusal("cannot resume: " + why);
@@ -546,6 +555,7 @@ void SolidRun::writeCheckpoint(Real t) {
   m.samples = writer_->samples();
   m.window = coupling_ ? coupling_->windowsDone() : -1;
   m.fingerprint = fingerprint_;
+  m.inputs = inputDigest(m_.in.staged.inputFingerprint);
   checkpoints_->write(m, checkpointArchive_, writer_->path());
   ++checkpointsWritten_;
   checkpointSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();

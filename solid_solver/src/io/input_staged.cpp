@@ -19,6 +19,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
   StagedInput& S = in.staged;
   S.present = true;
   S.condition = c.text(f, "root", K::root::condition);
+  S.inputFingerprint = c.text(f, "root", K::root::input_fingerprint);
   // /stages (absent: one dynamic stage from rest, and none of the groups below)
   const bool staged = h5::exists(f, "/stages");
   if (staged) {

@@ -14,8 +14,10 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "tq/core/types.hpp"
+#include "tq/coupler/crc32.hpp"
 
 namespace tq {
 
@@ -56,8 +58,8 @@ void writeFile(const std::string& path, const std::string& data) {
   if (!ok) throw OutputError(sysError("sync", path));
 }
 
-/// Copy `from` to a new file `to` and sync it.
-void copyFile(const std::string& from, const std::string& to) {
+/// Copy `from` to a new file `to` and sync it; the CRC-32 of the bytes copied.
+std::uint32_t copyFile(const std::string& from, const std::string& to) {
   const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
   if (in < 0) throw OutputError(sysError("read", from));
   const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -67,6 +69,7 @@ void copyFile(const std::string& from, const std::string& to) {
   }
   std::vector<char> buf(1 << 20);
   std::string problem;
+  std::uint32_t crc = 0;
   for (;;) {
     const ssize_t r = ::read(in, buf.data(), buf.size());
     if (r < 0 && errno == EINTR) continue;
@@ -75,6 +78,7 @@ void copyFile(const std::string& from, const std::string& to) {
       break;
     }
     if (r == 0) break;
+    crc = crc::crc32(buf.data(), size_t(r), crc);
     ssize_t done = 0;
     while (done < r) {
       const ssize_t w = ::write(out, buf.data() + done, size_t(r - done));
@@ -91,7 +95,21 @@ void copyFile(const std::string& from, const std::string& to) {
   ::close(in);
   ::close(out);
   if (!problem.empty()) throw OutputError(problem);
+  return crc;
 }
+
+/// The CRC-32 of a whole file (hex), or "" when it cannot be read.
+std::string fileCrc(const std::string& path) {
+  std::ifstream is(path, std::ios::binary);
+  if (!is) return "";
+  std::vector<char> buf(1 << 20);
+  std::uint32_t crc = 0;
+  while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+    crc = crc::crc32(buf.data(), size_t(is.gcount()), crc);
+  return is.bad() ? "" : crc::hex(crc);
+}
+
+const char* const kManifestCrcKey = "\"manifest_crc32\"";
 
 void renameOrThrow(const std::string& from, const std::string& to) {
   if (std::rename(from.c_str(), to.c_str()) != 0) throw OutputError(sysError("rename " + from + " to", to));
@@ -152,6 +170,20 @@ long long fileSequence(const std::string& n) {
 
 }  // namespace
 
+std::string manifestProblem(const std::string& text) {
+  const size_t k = text.rfind(kManifestCrcKey);
+  if (k == std::string::npos)
+    return text.size() < 2 || text.compare(text.size() - 2, 2, "}\n") != 0
+               ? "it is cut short (no closing line)"
+               : "it has no manifest_crc32 (written by a tq-solid without checkpoint checksums; run without --resume)";
+  std::string want;
+  if (!jsonValue(text.substr(k), "manifest_crc32", want) || text.compare(text.size() - 2, 2, "}\n") != 0)
+    return "it is cut short";
+  const std::string got = crc::hex(crc::crc32(text.data(), k));
+  if (got != want) return "its CRC-32 is " + got + " instead of the " + want + " it records";
+  return "";
+}
+
 std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h) {
   const auto* b = static_cast<const unsigned char*>(data);
   for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ULL;
@@ -210,6 +242,10 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
   std::stringstream ss;
   ss << is.rdbuf();
   const std::string text = ss.str();
+  if (const std::string p = manifestProblem(text); !p.empty()) {
+    why = file(manifest) + " is damaged: " + p;
+    return false;
+  }
   std::string v;
   auto num = [&](const char* key, auto& out) {
     if (!jsonValue(text, key, v)) return false;
@@ -221,17 +257,25 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
   if (!num("sequence", m.sequence) || !num("time", m.time) || !num("step", m.step) || !num("samples", m.samples) ||
       !num("solid_bytes", solidBytes) || !num("results_bytes", resultsBytes) ||
       !jsonValue(text, "fingerprint", m.fingerprint) || !jsonValue(text, "solid", m.solid) ||
-      !jsonValue(text, "results", m.results)) {
+      !jsonValue(text, "results", m.results) || !jsonValue(text, "solid_crc32", m.solidCrc) ||
+      !jsonValue(text, "results_crc32", m.resultsCrc)) {
     why = file(manifest) + " is not a checkpoint manifest";
     return false;
   }
   if (!num("window", m.window)) m.window = -1;
-  for (const auto& [name, bytes] : {std::pair{m.solid, solidBytes}, std::pair{m.results, resultsBytes}}) {
+  if (!jsonValue(text, "inputs", m.inputs)) m.inputs.clear();
+  for (const auto& [name, bytes, crc] : {std::tuple{m.solid, solidBytes, m.solidCrc},
+                                         std::tuple{m.results, resultsBytes, m.resultsCrc}}) {
     const long long got = fileSize(file(name));
     if (got != bytes) {
       why = "checkpoint " + std::to_string(m.sequence) + " names " + file(name) +
             (got < 0 ? ", which is missing"
                      : ", of " + std::to_string(got) + " bytes instead of " + std::to_string(bytes));
+      return false;
+    }
+    if (const std::string c = fileCrc(file(name)); c != crc) {
+      why = "checkpoint " + std::to_string(m.sequence) + " names " + file(name) + ", whose CRC-32 is " +
+            (c.empty() ? "unreadable" : c) + " instead of " + crc + " (the file is damaged)";
       return false;
     }
   }
@@ -248,7 +292,7 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
   writeFile(file(m.solid + ".tmp"), state);
   renameOrThrow(file(m.solid + ".tmp"), file(m.solid));
   faultPoint(m.sequence, "solid");
-  copyFile(results, file(m.results + ".tmp"));
+  const std::uint32_t resultsCrc = copyFile(results, file(m.results + ".tmp"));
   renameOrThrow(file(m.results + ".tmp"), file(m.results));
   faultPoint(m.sequence, "results");
   char t[40];
@@ -257,9 +301,14 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
   js << "{\n\"format\": \"tunnelquake-checkpoint\",\n\"version\": 1,\n\"sequence\": " << m.sequence
      << ",\n\"time\": " << t << ",\n\"step\": " << m.step << ",\n\"samples\": " << m.samples << ",\n\"fingerprint\": \""
      << m.fingerprint << "\",\n\"solid\": \"" << m.solid << "\",\n\"solid_bytes\": " << state.size()
-     << ",\n\"results\": \"" << m.results << "\",\n\"results_bytes\": " << fileSize(file(m.results));
+     << ",\n\"results\": \"" << m.results << "\",\n\"results_bytes\": " << fileSize(file(m.results))
+     << ",\n\"solid_crc32\": \"" << crc::hex(crc::crc32(state.data(), state.size())) << "\",\n\"results_crc32\": \""
+     << crc::hex(resultsCrc) << "\"";
+  if (!m.inputs.empty()) js << ",\n\"inputs\": \"" << m.inputs << "\"";
   if (m.window >= 0) js << ",\n\"window\": " << m.window;
-  js << "\n}\n";
+  js << ",\n";
+  const std::string body = js.str();
+  js << kManifestCrcKey << ": \"" << crc::hex(crc::crc32(body.data(), body.size())) << "\"\n}\n";
   if (keep_ > 1) {  // each kept checkpoint's own manifest, for a resume from the one before the last
     const std::string own = seqName("checkpoint", m.sequence, ".json");
     writeFile(file(own + ".tmp"), js.str());

@@ -135,6 +135,7 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
   h5::writeStringAttr(f, "status", "running");
   h5::writeStringAttr(f, "input", in.path);
   h5::writeStringAttr(f, "mesh", in.meshPath);
+  if (!in.staged.inputFingerprint.empty()) h5::writeStringAttr(f, "input_fingerprint", in.staged.inputFingerprint);
   h5::writeStringAttr(f, "integrator", integratorName(s.options().integrator));
   h5::writeStringAttr(f, "formulation", formulationName(in.formulation));
   const StableStep st = s.stableStep();

@@ -22,6 +22,8 @@ struct CheckpointManifest {
   long long samples = 0;       ///< monitor rows in the results copy
   long long window = -1;       ///< coupled with the water: completed coupling windows (-1: not coupled)
   std::string fingerprint;     ///< of the case and the state's layout: a resume of another case is refused
+  std::string inputs;          ///< the digest of the input fingerprint the run was given ("" when none)
+  std::string solidCrc, resultsCrc;  ///< CRC-32 (8 hex digits) of the two files, verified before a resume
   std::string solid, results;  ///< file names: the state, the results copy
 };
 
@@ -44,8 +46,8 @@ class RestartCheckpoints {
   /// fluid-*.bin included).
   void clear() const;
   /// The last complete checkpoint, or with `sequence` > 0 that one (kept by setKeep(2)). False
-  /// with `why` set when there is none or it cannot be used (a file missing or of another size
-  /// than the manifest says).
+  /// with `why` set when there is none or it cannot be used: the manifest's own checksum fails, or
+  /// a file it names is missing, of another size or of another CRC-32 than the manifest says.
   bool last(CheckpointManifest& m, std::string& why, long long sequence = 0) const;
   /// Write checkpoint `m.sequence` (the state `a` as last saved, and a copy of the flushed results
   /// file `results`), then the manifest, then remove the earlier checkpoint's files. Throws
@@ -60,6 +62,10 @@ class RestartCheckpoints {
   int lock_ = -1;
   int keep_ = 1;
 };
+
+/// The manifest's text as written: its lines, the last `"manifest_crc32": "<8 hex>"`, the CRC-32 of
+/// every byte before that line. Returns `why` empty when the text is whole.
+std::string manifestProblem(const std::string& text);
 
 /// FNV-1a (64 bit) of bytes, chained: a fingerprint of what a checkpoint belongs to.
 std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h = 1469598103934665603ULL);
