@@ -19,7 +19,7 @@ from .children import Side, say, watch_pair
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
-from .restart import checkpoint_dir, checkpoint_windows, coupled_resume_point, resume_plan
+from .restart import checkpoint_dir, checkpoint_windows, coupled_resume_point, resume_args, resume_plan
 from .scene import plan
 from .solid_input import solid_threads
 from .solver_input_schema import put
@@ -71,9 +71,7 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
     if resume:
-        cmd.append("--resume")
-        if isinstance(resume, dict):
-            cmd += ["--resume-sequence", str(int(resume["sequence"]))]
+        cmd += resume_args(resume) if isinstance(resume, dict) else ["--resume"]
     started(cond, res)
     say(f"condition {cond}: running the solid ({' '.join(cmd)})")
     if not prefix:
@@ -274,7 +272,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     if restart is not None:
         solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
         if point is not None:
-            solid_cmd += ["--resume", "--resume-sequence", str(int(point["sequence"]))]
+            solid_cmd += resume_args(point)
     elif every > 0:
         say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
     started(cond, res)

@@ -176,12 +176,14 @@ def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[di
         if m is None:
             damaged.append(f"{path.name} {problem}")
         else:
-            manifests.append((int(m["sequence"]), path.name, m))
+            manifests.append((int(m["sequence"]), path.name, m))  # tq-solid reads checkpoint.json by
+            # --resume alone, checkpoint-<n>.json by --resume --resume-sequence n (resume_args)
     seen: set[int] = set()
-    for seq, _name, m in sorted(manifests, key=lambda x: (-x[0], x[1] == "checkpoint.json")):
+    for seq, name, m in sorted(manifests, key=lambda x: (-x[0], x[1] == "checkpoint.json")):
         if seq in seen:
             continue
         seen.add(seq)
+        m = {**m, "manifest": name}
         problem = checkpoint_problem(folder, m)
         if problem is not None:
             damaged.append(f"checkpoint {seq}: {problem}")
@@ -213,6 +215,14 @@ def checkpoint_windows(interval: float, window_size: float) -> int:
     if interval <= 0:
         return 0
     return max(1, int(math.floor(interval / window_size + 0.5)))
+
+
+def resume_args(point: dict) -> list[str]:
+    """tq-solid's arguments to resume from the intact checkpoint `point` through the manifest that
+    was verified (the numbered one, or checkpoint.json when the numbered one is damaged)."""
+    if point.get("manifest") == "checkpoint.json":
+        return ["--resume"]
+    return ["--resume", "--resume-sequence", str(int(point["sequence"]))]
 
 
 def coupled_resume_point(case, cond: str) -> dict | None:

@@ -67,7 +67,7 @@ MATRIX = [
 def test_changed_input_matrix(completed, tmp_path, capsys):
     """For each group: the key changed, `run --resume` plans to run again exactly the conditions
     whose results it shaped (the notes name the key, its old and new value), and keeps the others;
-    `post` refuses with the key and the fix. Then a design key (post only) changed: `--resume`
+    `post` refuses with the key and the fix. Then a post-only key (group design) changed: `--resume`
     keeps both conditions, `post` re-posts and its report says which design key changed. Last, a
     real `--resume` after the lining's Young's modulus changed: both conditions run again, and
     their results then carry the new fingerprint."""
@@ -101,14 +101,15 @@ def test_changed_input_matrix(completed, tmp_path, capsys):
     # design: post-only keys re-post freely and the report says which changed
     folder = tmp_path / "design"
     shutil.copytree(completed, folder)
-    (folder / "case.yaml").write_text(original + "design:\n  gamma_c: 1.6\n")
+    (folder / "case.yaml").write_text(original.replace("displacement_reference: absolute",
+                                                       "displacement_reference: base"))
     what, nothing, _ = resume_plan(load_case(folder / "case.yaml"))
     assert dict(what) == {"no_water": "completed", "dynamic_water": "completed"}
     assert "nothing to resume" in nothing
     assert main(["post", str(folder / "case.yaml")]) == 0
     text = (folder / "results" / "report.md").read_text()
-    assert "Design settings changed since the last report (this one uses today's): design.gamma_c 1.5 -> 1.6 " \
-           "(design)" in text, text[:3000]
+    assert "Design settings changed since the last report (this one uses today's): output.displacement_reference " \
+           "absolute -> base (design)" in text, text[:3000]
     assert "results_no_water.h5: computed with this case's inputs" in text
 
     # the case from the issue: the lining's E changed, `--resume` must not keep the completed no_water
@@ -148,21 +149,21 @@ def _flip(path):
 
 @pytest.fixture(scope="module")
 def solid_runs(tmp_path_factory):
-    """The no_water case run whole (the reference) and stopped by SIGKILL inside its fourth
-    checkpoint (TQ_CHECKPOINT_FAULT): checkpoints 2 and 3 are left whole."""
+    """The no_water case run whole (the reference) and stopped by SIGKILL inside its third
+    checkpoint (TQ_CHECKPOINT_FAULT): checkpoints 1 and 2 are left whole."""
     ref = tmp_path_factory.mktemp("solid_ref")
     (ref / "case.yaml").write_text(_case_text("no_water", END, INTERVAL))
     assert main(["run", str(ref / "case.yaml"), "--no-post"]) == 0
     stopped = _copy(ref, tmp_path_factory.mktemp("solid_stopped"))
-    proc = _start(stopped, env={"TQ_CHECKPOINT_FAULT": "4:solid"})
+    proc = _start(stopped, env={"TQ_CHECKPOINT_FAULT": "3:solid"})
     out, _ = proc.communicate(timeout=240)
     assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
     return ref, stopped
 
 
 #: what is damaged: the file, and the checkpoint the resume continues from
-SOLID_KINDS = {"solid state": ("solid-000003.bin", 2), "results copy": ("results-000003.h5", 2),
-               "manifest": ("checkpoint.json", 3), "numbered manifest": ("checkpoint-000003.json", 3)}
+SOLID_KINDS = {"solid state": ("solid-000002.bin", 1), "results copy": ("results-000002.h5", 1),
+               "manifest": ("checkpoint.json", 2), "numbered manifest": ("checkpoint-000002.json", 2)}
 
 
 @pytest.mark.parametrize("damage", ["truncate", "flip"])
@@ -171,8 +172,8 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
                                                                          damage):
     """One file of the newest checkpoint cut to half or with one bit flipped: tq-solid itself
     refuses it (its CRC-32 or size), `run --resume` names the file and why, continues from the
-    newest intact checkpoint (the one before; the numbered manifest when checkpoint.json is
-    damaged) and ends bitwise equal to the run never stopped."""
+    newest intact checkpoint (the one before; the same one through its other manifest when one of
+    its two manifests is damaged) and ends bitwise equal to the run never stopped."""
     from tunnelquake import paths
 
     ref, stopped = solid_runs
@@ -187,7 +188,7 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
         res = dst / "results" / "results_no_water.h5"
         before = res.read_bytes()
         got = subprocess.run([str(paths.solid_executable()), str(dst / "results" / "no_water" / "solid_input.h5"),
-                              "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "3"],
+                              "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "2"],
                              capture_output=True, text=True, timeout=120)
         assert got.returncode == 2, got.stderr[-2000:]
         assert "cannot resume" in got.stderr and ("CRC-32" in got.stderr or "bytes instead of" in got.stderr
@@ -203,7 +204,8 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
     assert main(["run", str(case_yaml), "--resume", "--no-post"]) == 0
     out = capsys.readouterr().out
     assert f"resume: no_water: damaged checkpoint in {folder}: " in out, out[-3000:]
-    assert f"at t = {fallback * INTERVAL:g} s" in out, out[-3000:]
+    point = what["no_water"].point
+    assert f"resume: no_water continues from its checkpoint at t = {float(point['time']):.6g} s" in out, out[-3000:]
     assert _differences(ref / "results" / "results_no_water.h5", dst / "results" / "results_no_water.h5") == []
 
 
@@ -246,8 +248,17 @@ def test_damaged_water_checkpoint_is_detected_before_the_water_starts(water_runs
     and its cause within 5 s (nothing waits for a connection), falls back to the pair before and
     ends bitwise equal to the uninterrupted run."""
     ref, stopped = water_runs
-    dst = tmp_path / "case"
-    shutil.copytree(stopped.parent, dst)
+    # resumed in place (the coupled solid input names its folder), the stopped state restored after
+    dst = stopped.parent
+    shutil.copytree(dst / "results", tmp_path / "saved")
+    try:
+        _damage_water_and_resume(ref, dst, capsys, damage)
+    finally:
+        shutil.rmtree(dst / "results")
+        shutil.copytree(tmp_path / "saved", dst / "results")
+
+
+def _damage_water_and_resume(ref, dst, capsys, damage):
     case = load_case(dst / "case.yaml")
     newest, damaged = intact_checkpoints(case, "dynamic_water")
     assert newest is not None and not damaged

@@ -1176,7 +1176,7 @@ void Foam::functionObjects::tqInterface::writeRestart(const label n)
     os << paddedDigest(inputFingerprint_);
     os.write(fluidRestartSum, sizeof fluidRestartSum);
     std::string bytes(os.str());
-    const std::uint32_t crc = tq::crc::crc32(bytes.data(), bytes.size());
+    const std::uint32_t crc = ::tq::crc::crc32(bytes.data(), bytes.size());
     bytes.append(reinterpret_cast<const char*>(&crc), sizeof crc);
 
     mkDir(restartDir_);
@@ -1254,7 +1254,7 @@ std::string Foam::functionObjects::tqInterface::readRestart
         const size_t body = whole.size() - sizeof(std::uint32_t);
         std::uint32_t want = 0;
         std::memcpy(&want, whole.data() + body, sizeof want);
-        const std::uint32_t got = tq::crc::crc32(whole.data(), body);
+        const std::uint32_t got = ::tq::crc::crc32(whole.data(), body);
         if
         (
             std::memcmp
@@ -1269,8 +1269,8 @@ std::string Foam::functionObjects::tqInterface::readRestart
         }
         else if (got != want)
         {
-            damage = "its CRC-32 is " + tq::crc::hex(got) + " instead of the "
-                + tq::crc::hex(want) + " it records (the file is damaged)";
+            damage = "its CRC-32 is " + ::tq::crc::hex(got) + " instead of the "
+                + ::tq::crc::hex(want) + " it records (the file is damaged)";
         }
         else if
         (

@@ -75,11 +75,13 @@ std::string runFingerprint(const SolidInput& in, const Solver& s) {
 }
 /// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "".
 std::string inputDigest(const std::string& json) {
-  const std::string key = "\"digest\": \"";
-  const size_t p = json.find(key);
+  const std::string key = "\"digest\":";
+  size_t p = json.find(key);
   if (p == std::string::npos) return "";
-  const size_t e = json.find('"', p + key.size());
-  return e == std::string::npos ? "" : json.substr(p + key.size(), e - p - key.size());
+  p = json.find_first_not_of(' ', p + key.size());
+  if (p == std::string::npos || json[p] != '"') return "";
+  const size_t e = json.find('"', p + 1);
+  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
 }
 }  // namespace
 

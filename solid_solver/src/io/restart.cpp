@@ -264,8 +264,8 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
   }
   if (!num("window", m.window)) m.window = -1;
   if (!jsonValue(text, "inputs", m.inputs)) m.inputs.clear();
-  for (const auto& [name, bytes, crc] : {std::tuple{m.solid, solidBytes, m.solidCrc},
-                                         std::tuple{m.results, resultsBytes, m.resultsCrc}}) {
+  for (const auto& [name, bytes, crc] :
+       {std::tuple{m.solid, solidBytes, m.solidCrc}, std::tuple{m.results, resultsBytes, m.resultsCrc}}) {
     const long long got = fileSize(file(name));
     if (got != bytes) {
       why = "checkpoint " + std::to_string(m.sequence) + " names " + file(name) +

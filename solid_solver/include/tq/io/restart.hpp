@@ -16,15 +16,15 @@ namespace tq {
 
 /// What checkpoint.json says (the files it names sit beside it).
 struct CheckpointManifest {
-  long long sequence = 0;      ///< 1 for the first checkpoint of a run, +1 each
-  double time = 0;             ///< simulated time, s
-  long long step = 0;          ///< solid steps taken
-  long long samples = 0;       ///< monitor rows in the results copy
-  long long window = -1;       ///< coupled with the water: completed coupling windows (-1: not coupled)
-  std::string fingerprint;     ///< of the case and the state's layout: a resume of another case is refused
-  std::string inputs;          ///< the digest of the input fingerprint the run was given ("" when none)
+  long long sequence = 0;            ///< 1 for the first checkpoint of a run, +1 each
+  double time = 0;                   ///< simulated time, s
+  long long step = 0;                ///< solid steps taken
+  long long samples = 0;             ///< monitor rows in the results copy
+  long long window = -1;             ///< coupled with the water: completed coupling windows (-1: not coupled)
+  std::string fingerprint;           ///< of the case and the state's layout: a resume of another case is refused
+  std::string inputs;                ///< the digest of the input fingerprint the run was given ("" when none)
   std::string solidCrc, resultsCrc;  ///< CRC-32 (8 hex digits) of the two files, verified before a resume
-  std::string solid, results;  ///< file names: the state, the results copy
+  std::string solid, results;        ///< file names: the state, the results copy
 };
 
 class RestartCheckpoints {

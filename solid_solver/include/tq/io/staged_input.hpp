@@ -167,7 +167,7 @@ struct StagedInput {
   FreeFieldInput freeField;
   PeriodicInput periodic;
   MotionInput motion;
-  std::string condition;   ///< informational root attribute (no_water, static_water, dynamic_water)
+  std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
   /// root attribute input_fingerprint: the case keys that shaped this condition (written by
   /// `tunnelquake run`), copied into the results file; its digest goes into each checkpoint manifest
   std::string inputFingerprint;
