@@ -254,17 +254,24 @@ def stop_side(side: Side, grace: float) -> None:
             side.proc.wait(timeout=30)
 
 
+#: s a side that failed leaves its partner: a coupled partner sees the closed connection and stops by
+#: itself at once; one still waiting for the connection (the water stopped at its start) would
+#: otherwise wait its whole coupling timeout and blame the partner for not connecting
+PARTNER_GRACE_S = 5.0
+
+
 def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
     """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
-    stopped (stop_side); a side that ends cleanly leaves its partner `grace` s to follow (it was told
-    the end) before it is ended. Returns the side that failed first, or None when both ended cleanly."""
+    stopped (stop_side) after at most PARTNER_GRACE_S; a side that ends cleanly leaves its partner
+    `grace` s to follow (it was told the end) before it is ended. Returns the side that failed
+    first, or None when both ended cleanly."""
     import time as _time
 
     while True:
         r1, r2 = first.proc.poll(), second.proc.poll()
         for side, rc, other in ((first, r1, second), (second, r2, first)):
             if rc is not None and rc != 0:
-                stop_side(other, grace)
+                stop_side(other, min(grace, PARTNER_GRACE_S))
                 return side
         if r1 == 0 and r2 == 0:
             return None

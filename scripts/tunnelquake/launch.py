@@ -119,16 +119,25 @@ def solid_env() -> dict:
 
 
 def _fluid_echo():
-    """Which OpenFOAM lines reach the terminal: errors, the library's messages, the end, and the
-    simulated time every 5 s of wall time."""
+    """Which OpenFOAM lines reach the terminal: errors with their message (the lines between
+    "FOAM FATAL" and "From function"), the library's messages, the end, and the simulated time every
+    5 s of wall time."""
     import time as _time
 
     last = [0.0]
+    fatal = [False]
 
     def echo(line: str) -> bool:
+        if fatal[0]:
+            fatal[0] = not line.strip().startswith(("From function", "FOAM exiting", "From "))
+            if fatal[0] and line.strip():
+                return True
         if line.startswith("tqInterface interface: t ="):  # one per pass: to the log only
             return False
-        if "FATAL" in line or "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
+        if "FATAL" in line:
+            fatal[0] = True
+            return True
+        if "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
             return True
         if "MPI_ABORT" in line or line.startswith(("mpirun", "Primary job", "nProcs")):  # parallel runs, mpirun
             return True

@@ -156,7 +156,7 @@ def control_dict(w: WaterCase) -> dict:
         if w.restart_from is not None:
             interface["restartFrom"] = Quoted(w.restart_from)
         if w.input_fingerprint:
-            interface["inputFingerprint"] = w.input_fingerprint
+            interface["inputFingerprint"] = Quoted(w.input_fingerprint)  # a hex digest may start with a digit
     if w.subtract_mean_pressure:
         interface["subtractMeanPressure"] = True
     interface["geometricCorrection"] = True

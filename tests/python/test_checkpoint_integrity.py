@@ -278,3 +278,34 @@ def _damage_water_and_resume(ref, dst, capsys, damage):
     assert "did not connect" not in out
     assert _differences(ref / "results" / "results_dynamic_water.h5",
                         dst / "results" / "results_dynamic_water.h5") == []
+
+
+def test_damaged_water_checkpoint_given_to_the_water_stops_the_run_at_once_with_its_cause(water_runs, tmp_path,
+                                                                                          capsys, monkeypatch):
+    """The water's own check, with `run`'s bypassed (restart.fluid_problem made to pass every file):
+    tqInterface refuses the flipped file with a FATAL ERROR naming its CRC-32, and `run` reports
+    that cause and ends the waiting solid within children.PARTNER_GRACE_S (5 s) of the water's
+    stop, not after the 120 s coupling timeout with "did not connect in time"; exit 1, never
+    completed."""
+    from tunnelquake import restart
+
+    ref, stopped = water_runs
+    dst = stopped.parent
+    shutil.copytree(dst / "results", tmp_path / "saved")
+    try:
+        newest, _ = intact_checkpoints(load_case(dst / "case.yaml"), "dynamic_water")
+        _flip(dst / "results" / "dynamic_water" / "checkpoint" / os.path.basename(newest["fluid"]))
+        monkeypatch.setattr(restart, "fluid_problem", lambda path: (None, newest["inputs"]))
+        t0 = time.monotonic()
+        assert main(["run", str(dst / "case.yaml"), "--resume", "--no-post"]) == 1
+        wall = time.monotonic() - t0
+        out = capsys.readouterr().out
+        assert "(water) failed with exit code 1" in out, out[-3000:]
+        assert "its CRC-32 is " in out and "(the file is damaged)" in out, out[-3000:]
+        assert "did not connect" not in out, out[-3000:]
+        assert wall < 60.0, wall  # static stages, the water's start and its refusal, then 5 s at most
+        with h5py.File(dst / "results" / "results_dynamic_water.h5", "r") as f:
+            assert f.attrs["status"] != "completed"
+    finally:
+        shutil.rmtree(dst / "results")
+        shutil.copytree(tmp_path / "saved", dst / "results")

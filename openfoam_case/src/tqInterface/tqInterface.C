@@ -825,7 +825,8 @@ Foam::functionObjects::tqInterface::tqInterface
     restartDir_ = dict.lookupOrDefault<fileName>("restartDir", fileName::null);
     restartDir_.expand();
     restartWindows_ = dict.lookupOrDefault<label>("restartWindows", 0);
-    inputFingerprint_ = dict.lookupOrDefault<word>("inputFingerprint", word::null);
+    inputFingerprint_ =
+        dict.lookupOrDefault<string>("inputFingerprint", string::null);
     fileName restartFrom
     (
         dict.lookupOrDefault<fileName>("restartFrom", fileName::null)
