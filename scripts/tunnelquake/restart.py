@@ -1,5 +1,6 @@
-"""Restart checkpoints of a run's conditions: where tq-solid writes them and the last complete one
-(docs/user_guide.md "Resuming a run", docs/formats.md "Restart checkpoints")."""
+"""Restart checkpoints of a run's conditions: where tq-solid writes them, their checksums verified,
+the newest intact one, and what `run --resume` does with each condition (docs/user_guide.md
+"Resuming a run", docs/formats.md "Restart checkpoints" and "Input fingerprint")."""
 from __future__ import annotations
 
 import json
@@ -56,18 +57,18 @@ def read_manifest(path: Path) -> tuple[dict | None, str | None]:
     try:
         text = path.read_bytes().decode(errors="replace")
     except OSError as e:
-        return None, f"cannot be read ({e.strerror})"
+        return None, f"it cannot be read ({e.strerror})"
     problem = manifest_problem(text)
     if problem is None:
         try:
             m = json.loads(text)
             if not isinstance(m, dict) or m.get("format") != "tunnelquake-checkpoint":
-                problem = "is not a checkpoint manifest"
+                problem = "it is not a checkpoint manifest"
             else:
                 int(m["sequence"])
                 return m, None
         except (ValueError, KeyError, TypeError):
-            problem = "is not a checkpoint manifest"
+            problem = "it is not a checkpoint manifest"
     return None, problem
 
 
@@ -174,7 +175,7 @@ def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[di
     for path in sorted(folder.glob("checkpoint*.json")):
         m, problem = read_manifest(path)
         if m is None:
-            damaged.append(f"{path.name} {problem}")
+            damaged.append(f"{path.name} is damaged: {problem}")
         else:
             manifests.append((int(m["sequence"]), path.name, m))  # tq-solid reads checkpoint.json by
             # --resume alone, checkpoint-<n>.json by --resume --resume-sequence n (resume_args)

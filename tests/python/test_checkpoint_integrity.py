@@ -221,7 +221,7 @@ def test_truncated_manifests_alone_are_damage_not_no_checkpoint(solid_runs, tmp_
     assert main(["run", str(dst / "case.yaml"), "--resume", "--no-post"]) == 0
     captured = capsys.readouterr()
     assert "no condition has a restart checkpoint" not in captured.err + captured.out
-    assert "checkpoint.json it is cut short" in captured.out, captured.out[-3000:]
+    assert "checkpoint.json is damaged: it is cut short" in captured.out, captured.out[-3000:]
     assert "no intact checkpoint is left: it runs from the start" in captured.out
     assert _differences(ref / "results" / "results_no_water.h5", dst / "results" / "results_no_water.h5") == []
 
