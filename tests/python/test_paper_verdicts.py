@@ -155,3 +155,64 @@ def test_the_case_files_paper_variant_is_the_calibration_of_the_stored_study():
     assert S.same_keys(S.case_variant(), keys)
     assert "water.bulk_modulus" not in keys and keys["water.model"] == "incompressible"
     assert not any("10 GPa" in n for n in stored["choices"])
+
+
+def _three_conditions(tmp_path):
+    """Synthetic results of the three conditions (test_post's monitors: u_x = 0.01 (k + 1) sin(πt)
+    at monitor k, peak at t = 0.5 s), with the free field's history u_x = 0.01 sin(πt) (the lining
+    moves at most 0.02 m = 2 cm against it, at the bottom arch), and in condition (3) σ3 held at
+    1.27 MPa from t = 0: its peak is the static state at the seismic start."""
+    import h5py
+    import numpy as np
+    from test_post import HYDRO, _write_results
+
+    from tunnelquake import post as P
+
+    out = []
+    for cond in paper.CONDS:
+        path = _write_results(tmp_path / f"results_{cond}.h5", t_end=15.0, dt=0.05, snaps=(15.0,),
+                              hydro=HYDRO if cond == "dynamic_water" else None)
+        with h5py.File(path, "a") as f:
+            t = f["monitors/top_arch/time"][:, 0]
+            g = f.create_group("monitors/@free_field")
+            g["time"] = t[:, None]
+            u = np.zeros((t.size, 3))
+            u[:, 0] = 0.01 * np.sin(np.pi * t)
+            g["u"] = u
+            if cond == "dynamic_water":
+                for m in paper.MONITORS:
+                    f[f"monitors/{m}/principal"][:, 2] = 1.27e6
+        out.append(P.read_condition(path, cond))
+    return out
+
+
+def test_the_examples_report_gives_timing_static_state_differences_and_findings_first(tmp_path):
+    """The comparison part of the example's report: the findings table first; the quantities with
+    the changes (2) − (1) and (3) − (2) and the lining's displacement relative to the free field;
+    every displacement verdict with its timing; a σ3 reached by the static state says so, in the
+    quantities and value by value; the calibrated target named as such (the stored study beside
+    the case file)."""
+    import shutil
+
+    results = _three_conditions(tmp_path)
+    shutil.copy(S.STORE, tmp_path / paper.STUDY_FILE)
+    text = "\n".join(paper.comparison_sections(results, {}, {"case_dir": str(tmp_path)}))
+    heads = [line for line in text.splitlines() if line.startswith("## ")]
+    assert heads[0] == "## The paper's findings"
+    rows = {line.split(" | ")[0].lstrip("| "): line for line in text.splitlines() if line.startswith("| ")}
+    # u_x peaks 1, 2, 3 cm in every condition: the changes between conditions are 0
+    assert rows["peak u_x (2) − (1), the mean of 3 (cm)"].split(" | ")[2] == "0"
+    assert "(ours peak at 0.50 s, the paper's at 14.9 s)" in rows["peak u_x (3) − (2), the mean of 3 (cm)"]
+    # relative to the free field: the bottom arch's 0.03 sin − 0.01 sin = 2 cm
+    assert rows["largest displacement of the lining relative to the free field (cm)"].split(" | ")[2] == "2"
+    # the changes bounded by twice that (4 cm) are not out of reach: 4 cm exceeds the paper's
+    assert "out of reach" not in rows["peak u_x (3) − (2), the mean of 3 (cm)"]
+    cut = rows["peak σ3 (3) at the tensile strength at all 3 monitors"]
+    assert "reached at the static state (at t = 0, before the shaking)" in cut
+    assert "calibrated (release fraction)" in rows["σ3 at the seismic start with water, the mean of 3 (MPa)"]
+    assert "| predicted |" in rows["pressure peak: haunch / mean of the arches"]
+    value_rows = [line for line in text.splitlines() if line.startswith(("| max_ux (cm)", "| max_uz (cm)"))]
+    assert len(value_rows) == 18 and all("(ours at t = 0.50 s, the paper's at 14.9 s)" in r for r in value_rows)
+    s3 = [line for line in text.splitlines() if line.startswith("| max_tension (MPa) | dynamic_water")]
+    assert len(s3) == 3 and all("reached at the static state (t = 0, before the shaking)" in r for r in s3)
+    assert not any("| reproduced |" in r for r in s3)
