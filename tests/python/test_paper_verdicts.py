@@ -216,3 +216,31 @@ def test_the_examples_report_gives_timing_static_state_differences_and_findings_
     s3 = [line for line in text.splitlines() if line.startswith("| max_tension (MPa) | dynamic_water")]
     assert len(s3) == 3 and all("reached at the static state (t = 0, before the shaking)" in r for r in s3)
     assert not any("| reproduced |" in r for r in s3)
+
+
+def test_no_reached_or_bracketed_quantity_of_the_stored_study_is_labelled_out_of_reach():
+    """Over the study's stored runs, every quantity with a run within the band, or with two levels
+    of one choice on both sides of the paper's value, keeps that verdict even when a mechanism is
+    offered for every quantity."""
+    import json
+
+    stored = json.loads(S.STORE.read_text())
+    runs = {n: paper.quantity_values(v) for n, v in stored["choices"].items()}
+    seen = set()
+    for q in paper.scored():
+        vals = {n: v[q.key] for n, v in runs.items() if v.get(q.key) is not None}
+        if not vals:
+            continue
+        word, _ = paper.study_verdict(q.key, runs, q.paper, q.close, mechanism=MECH,
+                                      example_levels=S.EXAMPLE_LEVELS)
+        seen.add(word)
+        inside = any(paper._inside(x, q.paper, q.close) for x in vals.values())
+        if inside:
+            assert word in (paper.REACHED, paper.TRADE_OFF, paper.STATIC), q.key
+        else:
+            assert word in (paper.BRACKETED, paper.OUT_OF_REACH), q.key
+    # the stored study has both: σ3 (2) − (1) at the top arch is bracketed by release fraction 0.7–0.8
+    assert {paper.REACHED, paper.BRACKETED, paper.OUT_OF_REACH} <= seen
+    q = next(x for x in paper.quantities() if x.key == "dsigma3/static_water-no_water/top_arch")
+    word, text = paper.study_verdict(q.key, runs, q.paper, q.close, mechanism=MECH, example_levels=S.EXAMPLE_LEVELS)
+    assert word == paper.BRACKETED and text.startswith("bracketed by release fraction 0.7–0.8"), text
