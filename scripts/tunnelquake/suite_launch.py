@@ -12,7 +12,8 @@ whose run stops its solvers (children.stop_all) and marks its conditions interru
 still there STOP_BOUND_S later is killed with what it started. `--resume` then runs what is left.
 
 `python -m tunnelquake.suite_launch <member case> [--resume] [--no-post]` runs one member, as a Slurm
-array task does; a task that Slurm requeued (SLURM_RESTART_COUNT > 0) resumes from its checkpoint.
+array task does; a task that Slurm requeued (SLURM_RESTART_COUNT > 0) resumes from its checkpoint
+(with none, it runs from the start).
 """
 from __future__ import annotations
 
@@ -71,12 +72,25 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _has_checkpoint(case_file: str) -> bool:
+    """Whether a condition of this member left a restart checkpoint (docs/user_guide.md "Resuming a run")."""
+    from .case import load_case
+    from .restart import checkpoint_manifest
+    from .scene import plan
+
+    try:
+        case = load_case(Path(case_file))
+    except Exception:  # noqa: BLE001 - the member's own run reports a case it cannot read
+        return False
+    return any(checkpoint_manifest(case, cond) is not None for cond, _ in plan(case))
+
+
 def run_member(case_file: str, no_post: bool = False, stop_file: str | None = None, resume: bool = False) -> dict:
     """Run one member (as `tunnelquake run <member case>` does) in this process, its output to run.log
     beside it; returns {name, rc, status, wall_s}. A member whose turn comes once `stop_file`
     exists (the suite is being stopped; a pool may have handed it out already) does not start.
-    With `resume` it runs as `run --resume`: its completed conditions are kept, the others continue
-    from their restart checkpoints or start afresh (restart.resume_plan), and run.log is appended to."""
+    With `resume`, a member that left a restart checkpoint continues from it (`run --resume`; its
+    run.log is appended to); one without runs from the start."""
     import traceback
 
     folder = Path(case_file).parent
@@ -90,15 +104,16 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
     sys.stderr.flush()
     saved = os.dup(1), os.dup(2)
     rc = 1
-    with open(folder / "run.log", "a" if resume else "w") as log:
+    again = resume and _has_checkpoint(case_file)
+    with open(folder / "run.log", "a" if again else "w") as log:
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
         try:
-            argv = [case_file, *(["--no-post"] if no_post else []), *(["--resume"] if resume else [])]
-            if resume:
+            argv = [case_file, *(["--no-post"] if no_post else []), *(["--resume"] if again else [])]
+            if again:
                 say(f"--- {time.strftime('%Y-%m-%d %H:%M:%S')}: tunnelquake run {shlex.join(argv)}")
             case = load_or_report(Path(case_file))
-            rc = 1 if case is None else run_held(case, "tunnelquake run " + shlex.join(argv), resume=resume,
+            rc = 1 if case is None else run_held(case, "tunnelquake run " + shlex.join(argv), resume=again,
                                                  post=not no_post)
         except BaseException:  # noqa: BLE001 - a member's crash is its own; the suite goes on
             traceback.print_exc()
@@ -508,7 +523,8 @@ def main(argv: list[str]) -> int:
     args = p.parse_args(argv)
     again = requeued()
     if again and not args.resume:
-        say(f"Slurm requeued this task (SLURM_RESTART_COUNT={again}): the member resumes")
+        say(f"Slurm requeued this task (SLURM_RESTART_COUNT={again}): the member resumes from its restart "
+            "checkpoint, if it has one")
     out = run_member(str(Path(args.case).resolve()), no_post=args.no_post, resume=args.resume or again > 0)
     print(f"member {out['name']}: {out['status']} (exit {out['rc']}) in {out['wall_s']:.1f} s", flush=True)
     return 0 if out["rc"] == 0 else 1
