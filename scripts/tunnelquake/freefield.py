@@ -56,9 +56,11 @@ from pathlib import Path
 import numpy as np
 
 KINDS = ("P", "SV", "SH")
-#: The window is lengthened until the acceleration in its last 5 % is below this share of its peak.
-#: A frequency-independent complex velocity is slightly acausal: a precursor of about 3e-6 of the
-#: peak (layer damping 5 %) sits there whatever the length.
+#: The padded window is lengthened until the acceleration in the middle of its padding is below this
+#: share of its peak. (Not at its very end: a frequency-independent complex velocity is slightly
+#: acausal, and its precursor of a record that starts off zero wraps round to the end whatever the
+#: length: 1e-3 of the peak for layers with 5 % damping and a noise record starting at 0.2 % of its
+#: peak, 1.5e-4 for a smooth pulse.)
 TAIL = 1e-4
 CONVENTIONS = ("incident", "outcrop", "within")
 
@@ -372,7 +374,7 @@ def incident_motion(record, dt: float, wave: PlaneWave, profile: Profile, conven
     n = acc.size
     nfft = _fast_len(2 * n)
     freqs = np.fft.rfftfreq(nfft, dt)
-    spec = np.fft.rfft(acc, nfft)
+    spec = _without_nyquist(np.fft.rfft(acc, nfft), nfft)
     h = transfer(profile, wave, freqs, [profile.depth])[0] @ wave.record_direction()
     band = np.abs(spec) >= 1e-3 * np.abs(spec).max() if np.any(spec) else np.ones(freqs.size, bool)
     worst = int(np.argmin(np.where(band, np.abs(h), np.inf)))
@@ -382,6 +384,16 @@ def incident_motion(record, dt: float, wave: PlaneWave, profile: Profile, conven
                              "would amplify that frequency's noise", "give an outcrop or incident record, or damping "
                              "in the layers")
     return np.fft.irfft(spec / h, nfft)[:n]
+
+
+def _without_nyquist(spec: np.ndarray, nfft: int) -> np.ndarray:
+    """The spectrum with its Nyquist-frequency bin (even nfft) set to zero: a real signal's Nyquist
+    bin is real, so the phase the layers give it would be dropped by the inverse transform and leave
+    an alternating +-e over the whole window (5e-5 of the peak for a white-noise record)."""
+    if nfft % 2 == 0:
+        spec = spec.copy()
+        spec[-1] = 0.0
+    return spec
 
 
 def _fast_len(n: int) -> int:
@@ -449,31 +461,46 @@ def free_field(profile: Profile, waves: Sequence[tuple[PlaneWave, np.ndarray]], 
         travel = sum(m.thickness / m.vs for m in profile.layers) + depth.max() / cs_min
         span = max(t_out.max(), inc.size * dt) + delay.max() + travel
         n_tail = int(math.ceil(20 * travel / dt)) + 16
-        for _ in range(4):  # lengthen the window until what wraps round (reverberation) is negligible
+        # lengthen the window until the reverberation left in the middle of its padding (which would
+        # wrap round onto the start) is negligible, judged at the shallowest point on the record's
+        # content below half the Nyquist frequency
+        k = [int(np.argmin(depth))]
+        for _ in range(6):
             nfft = _fast_len(n_pre + int(math.ceil(span / dt)) + n_tail)
-            a_w = _wave_field(profile, wave, p, inc, dt, n_pre, nfft, depth, delay, chunk)
-            tail = np.abs(a_w[:, -max(4, nfft // 20):]).max()
-            if tail <= TAIL * max(np.abs(a_w).max(), 1e-300):
+            probe = _wave_field(profile, wave, inc, dt, n_pre, nfft, depth[k], delay[k], chunk, smooth=True)
+            tail = np.abs(probe[:, nfft - 3 * n_tail // 4:nfft - n_tail // 4]).max()
+            if tail <= TAIL * max(np.abs(probe).max(), 1e-300):
                 break
             n_tail *= 2
+        a_w = _wave_field(profile, wave, inc, dt, n_pre, nfft, depth, delay, chunk)
         grid = (np.arange(nfft) - n_pre) * dt
         from .motion import integrate
 
-        on_grid = times is None
-        for i in range(pts.shape[0]):
-            for c in range(3):
-                v, u = integrate(a_w[i, :, c], dt)
-                for key, arr in (("u", u), ("v", v), ("a", a_w[i, :, c])):
-                    out[key][i, :, c] += arr[n_pre:n_pre + t_out.size] if on_grid else np.interp(t_out, grid, arr)
+        for lo in range(0, pts.shape[0], chunk):
+            a_c = a_w[lo:lo + chunk].transpose(0, 2, 1)  # (m, 3, nfft)
+            v_c, u_c = integrate(a_c, dt)
+            for key, arr in (("u", u_c), ("v", v_c), ("a", a_c)):
+                if times is None:
+                    out[key][lo:lo + chunk] += arr[:, :, n_pre:n_pre + t_out.size].transpose(0, 2, 1)
+                else:
+                    for i in range(arr.shape[0]):
+                        for c in range(3):
+                            out[key][lo + i, :, c] += np.interp(t_out, grid, arr[i, c])
     return FreeField(points=pts, time=t_out, u=out["u"], v=out["v"], a=out["a"])
 
 
-def _wave_field(profile, wave, p, inc, dt, n_pre, nfft, depth, delay, chunk) -> np.ndarray:
-    """Acceleration (N, nfft, 3) on the padded clock t = (k - n_pre) dt for one wave."""
+def _wave_field(profile, wave, inc, dt, n_pre, nfft, depth, delay, chunk, smooth=False) -> np.ndarray:
+    """Acceleration (N, nfft, 3) on the padded clock t = (k - n_pre) dt for one wave; `smooth`: of
+    the record's content below half the Nyquist frequency only (a cosine taper), for judging the
+    window's length (content near the Nyquist frequency, whose phase the sampled clock cannot
+    carry, leaves a slowly decaying alternating tail of its own)."""
     x = np.zeros(nfft)
     x[n_pre:n_pre + inc.size] = inc
-    spec = np.fft.rfft(x)
+    spec = _without_nyquist(np.fft.rfft(x), nfft)
     freqs = np.fft.rfftfreq(nfft, dt)
+    if smooth:
+        f_half = 0.25 / dt
+        spec = spec * np.where(freqs < f_half, 0.5 * (1 + np.cos(np.pi * freqs / f_half)), 0.0)
     w = 2 * np.pi * freqs
     out = np.empty((depth.size, 3, nfft))
     uniq, inv = np.unique(np.round(depth, 9), return_inverse=True)

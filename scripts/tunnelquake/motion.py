@@ -327,9 +327,13 @@ def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.nda
 
 
 def integrate(acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity and displacement by the trapezoidal rule (linear acceleration within a step)."""
-    vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * dt)])
-    disp = np.concatenate([[0.0], np.cumsum(vel[:-1] * dt + (acc[:-1] / 3 + acc[1:] / 6) * dt * dt)])
+    """Velocity and displacement by the trapezoidal rule (linear acceleration within a step), from
+    rest, along the last axis."""
+    acc = np.asarray(acc, dtype=float)
+    zero = np.zeros(acc.shape[:-1] + (1,))
+    vel = np.concatenate([zero, np.cumsum(0.5 * (acc[..., 1:] + acc[..., :-1]) * dt, axis=-1)], axis=-1)
+    disp = np.concatenate([zero, np.cumsum(vel[..., :-1] * dt + (acc[..., :-1] / 3 + acc[..., 1:] / 6) * dt * dt,
+                                           axis=-1)], axis=-1)
     return vel, disp
 
 
