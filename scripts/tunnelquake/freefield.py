@@ -58,9 +58,8 @@ import numpy as np
 KINDS = ("P", "SV", "SH")
 #: The padded window is lengthened until the acceleration in the middle of its padding is below this
 #: share of its peak. (Not at its very end: a frequency-independent complex velocity is slightly
-#: acausal, and its precursor of a record that starts off zero wraps round to the end whatever the
-#: length: 1e-3 of the peak for layers with 5 % damping and a noise record starting at 0.2 % of its
-#: peak, 1.5e-4 for a smooth pulse.)
+#: acausal, and its precursor wraps round to the end whatever the length: 5e-4 of the peak within
+#: 0.3 s before a 50 ms pulse under two layers with 5 % damping.)
 TAIL = 1e-4
 CONVENTIONS = ("incident", "outcrop", "within")
 

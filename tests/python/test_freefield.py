@@ -350,6 +350,31 @@ def test_an_h5drm_file_in_mm_is_refused_naming_the_count_and_the_distance(tmp_pa
     np.testing.assert_allclose(got.u, field.u, atol=1e-12 * np.abs(field.u).max())
 
 
+def test_a_shakermaker_style_file_reads_through_its_transformation(tmp_path, layer_field):
+    # positions (North, East, depth) in km, motion rows (East, North, down): a model with x East,
+    # y North and z up reads it with scale 1000 and the axes swapped and z turned
+    nodes, internal, field = layer_field
+    n, nt = nodes.shape[0], field.time.size
+    x0_km = np.array([5.0, 7.0, 0.0])
+    ned = np.stack([nodes[:, 1], nodes[:, 0], -nodes[:, 2]], axis=1) / 1000.0 + x0_km
+    rows = np.zeros((3 * n, nt))
+    rows[0::3], rows[1::3], rows[2::3] = field.u[:, :, 0], field.u[:, :, 1], -field.u[:, :, 2]
+    with h5py.File(tmp_path / "sm.h5drm", "w") as f:
+        f["DRM_Data/xyz"] = ned
+        f["DRM_Data/internal"] = internal
+        f["DRM_Data/data_location"] = np.arange(n, dtype=np.int32) * 3
+        f["DRM_Data/displacement"] = rows
+        f["DRM_Data/acceleration"] = rows  # not compared here
+        f["DRM_Metadata/dt"] = field.dt
+        f["DRM_Metadata/tstart"] = 0.0
+        f["DRM_Metadata/drmbox_x0"] = x0_km
+    got = ff.read_h5drm(tmp_path / "sm.h5drm", nodes, scale=1000.0,
+                        transform=[[0, 1, 0], [1, 0, 0], [0, 0, -1]])
+    np.testing.assert_allclose(got.u, field.u, atol=1e-12 * np.abs(field.u).max())
+    with pytest.raises(ff.FreeFieldError, match=r"of 166 DRM layer nodes match a file point"):
+        ff.read_h5drm(tmp_path / "sm.h5drm", nodes, scale=1000.0)  # the axes left unswapped
+
+
 def test_inner_and_outer_flags_must_agree_with_the_model(tmp_path, layer_field):
     nodes, internal, field = layer_field
     path = _hand_built(tmp_path / "hand.h5drm", nodes, internal, field)
