@@ -431,6 +431,8 @@ def free_field(profile: Profile, waves: Sequence[tuple[PlaneWave, np.ndarray]], 
     motion is interpolated linearly. Velocity and displacement are integrated from rest on the
     padded clock, before the first arrival (trapezoidal velocity, linear acceleration within a
     step: motion.integrate)."""
+    from .motion import integrate
+
     pts = np.atleast_2d(np.asarray(points, dtype=float))
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise FreeFieldError(f"points must be an (N, 3) array of x, y, z; got shape {pts.shape}")
@@ -466,50 +468,56 @@ def free_field(profile: Profile, waves: Sequence[tuple[PlaneWave, np.ndarray]], 
         k = [int(np.argmin(depth))]
         for _ in range(6):
             nfft = _fast_len(n_pre + int(math.ceil(span / dt)) + n_tail)
-            probe = _wave_field(profile, wave, inc, dt, n_pre, nfft, depth[k], delay[k], chunk, smooth=True)
-            tail = np.abs(probe[:, nfft - 3 * n_tail // 4:nfft - n_tail // 4]).max()
+            probe = _Spectra(profile, wave, inc, dt, n_pre, nfft, depth[k], smooth=True).field([0], delay[k])
+            tail = np.abs(probe[:, :, nfft - 3 * n_tail // 4:nfft - n_tail // 4]).max()
             if tail <= TAIL * max(np.abs(probe).max(), 1e-300):
                 break
             n_tail *= 2
-        a_w = _wave_field(profile, wave, inc, dt, n_pre, nfft, depth, delay, chunk)
+        else:
+            raise FreeFieldError(f"the layers still ring at {tail / np.abs(probe).max():.2g} of the peak "
+                                 f"{n_tail * dt:g} s after the record: the free field cannot be computed on a "
+                                 "finite window", "give the layers some damping")
+        spectra = _Spectra(profile, wave, inc, dt, n_pre, nfft, depth)
         grid = (np.arange(nfft) - n_pre) * dt
-        from .motion import integrate
-
         for lo in range(0, pts.shape[0], chunk):
-            a_c = a_w[lo:lo + chunk].transpose(0, 2, 1)  # (m, 3, nfft)
+            idx = np.arange(lo, min(lo + chunk, pts.shape[0]))
+            a_c = spectra.field(idx, delay[idx])  # (m, 3, nfft)
             v_c, u_c = integrate(a_c, dt)
             for key, arr in (("u", u_c), ("v", v_c), ("a", a_c)):
                 if times is None:
-                    out[key][lo:lo + chunk] += arr[:, :, n_pre:n_pre + t_out.size].transpose(0, 2, 1)
+                    out[key][idx] += arr[:, :, n_pre:n_pre + t_out.size].transpose(0, 2, 1)
                 else:
-                    for i in range(arr.shape[0]):
+                    for i in range(idx.size):
                         for c in range(3):
-                            out[key][lo + i, :, c] += np.interp(t_out, grid, arr[i, c])
+                            out[key][idx[i], :, c] += np.interp(t_out, grid, arr[i, c])
     return FreeField(points=pts, time=t_out, u=out["u"], v=out["v"], a=out["a"])
 
 
-def _wave_field(profile, wave, inc, dt, n_pre, nfft, depth, delay, chunk, smooth=False) -> np.ndarray:
-    """Acceleration (N, nfft, 3) on the padded clock t = (k - n_pre) dt for one wave; `smooth`: of
-    the record's content below half the Nyquist frequency only (a cosine taper), for judging the
-    window's length (content near the Nyquist frequency, whose phase the sampled clock cannot
-    carry, leaves a slowly decaying alternating tail of its own)."""
-    x = np.zeros(nfft)
-    x[n_pre:n_pre + inc.size] = inc
-    spec = _without_nyquist(np.fft.rfft(x), nfft)
-    freqs = np.fft.rfftfreq(nfft, dt)
-    if smooth:
-        f_half = 0.25 / dt
-        spec = spec * np.where(freqs < f_half, 0.5 * (1 + np.cos(np.pi * freqs / f_half)), 0.0)
-    w = 2 * np.pi * freqs
-    out = np.empty((depth.size, 3, nfft))
-    uniq, inv = np.unique(np.round(depth, 9), return_inverse=True)
-    H = transfer(profile, wave, freqs, uniq)  # (nd, nf, 3)
-    for lo in range(0, depth.size, chunk):
-        idx = np.arange(lo, min(lo + chunk, depth.size))
-        shift = np.exp(-1j * w[None, :] * delay[idx, None]) * spec[None]  # (m, nf)
-        for c in range(3):
-            out[idx, c, :] = np.fft.irfft(H[inv[idx], :, c] * shift, nfft, axis=1)
-    return out.transpose(0, 2, 1)
+class _Spectra:
+    """One wave's incident spectrum on the padded clock t = (k - n_pre) dt and its transfer
+    functions to the points' depths. `smooth`: the record's content below half the Nyquist
+    frequency only (a cosine taper), for judging the window's length (content near the Nyquist
+    frequency, whose phase the sampled clock cannot carry, leaves a slowly decaying alternating
+    tail of its own)."""
+
+    def __init__(self, profile, wave, inc, dt, n_pre, nfft, depth, smooth=False):
+        x = np.zeros(nfft)
+        x[n_pre:n_pre + inc.size] = inc
+        spec = _without_nyquist(np.fft.rfft(x), nfft)
+        freqs = np.fft.rfftfreq(nfft, dt)
+        if smooth:
+            f_half = 0.25 / dt
+            spec = spec * np.where(freqs < f_half, 0.5 * (1 + np.cos(np.pi * freqs / f_half)), 0.0)
+        self.nfft, self.spec, self.w = nfft, spec, 2 * np.pi * freqs
+        uniq, self.inv = np.unique(np.round(depth, 9), return_inverse=True)
+        self.H = transfer(profile, wave, freqs, uniq)  # (ndepth, nf, 3)
+
+    def field(self, idx, delay) -> np.ndarray:
+        """Acceleration (len(idx), 3, nfft) at the points idx (indices into the depths given) with
+        their horizontal delays."""
+        shift = np.exp(-1j * self.w[None, :] * np.asarray(delay)[:, None]) * self.spec[None]  # (m, nf)
+        H = self.H[self.inv[np.asarray(idx)]]  # (m, nf, 3)
+        return np.fft.irfft(H.transpose(0, 2, 1) * shift[:, None, :], self.nfft, axis=2)
 
 
 def vertical_waves(record: Mapping[str, np.ndarray], components: Sequence[str] = ("x", "y", "z")) \
