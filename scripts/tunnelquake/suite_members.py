@@ -91,7 +91,7 @@ def plan_members(case) -> list[Member]:
         body["name"] = f"{d['name']}/{rec.name}"
         gm = dict(body.get("ground_motion") or {})
         gm.update({"source": "file", "file": str(rec.path), "format": rec.format, "units": rec.units,
-                   "if_missing": "error", "pga": float(pga)})
+                   "if_missing": "error", "pga": f"{float(pga)!r} m/s^2"})
         output = dict(body.get("output") or {})
         output["directory"] = "."
         body["ground_motion"], body["output"] = gm, output

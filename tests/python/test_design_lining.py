@@ -92,7 +92,7 @@ def test_the_design_block_errors_name_the_key(tmp_path):
             load_case(tmp_path / "case.yaml")
         assert key in str(e.value) and words in str(e.value), str(e.value)
     (tmp_path / "case.yaml").write_text(text.replace(
-        "\nstages:", "\ndesign:\n  concrete: {fck: 30 MPa}\n  reinforcement: {As_inner: 1.5e-3, As_outer: 1.5e-3}\n"
+        "\nstages:", "\ndesign:\n  concrete: {fck: 30 MPa}\n  reinforcement: {As_inner: 1500 mm2/m, As_outer: 1500 mm2/m}\n"
         "\nstages:", 1))
     case = load_case(tmp_path / "case.yaml")
     p, said = lining.design_parameters(case)
