@@ -60,6 +60,22 @@ def kirsch(p: float, k: float, a: float, r, theta):
     return srr, stt, srt
 
 
+def kirsch_pressurised(p: float, k: float, a: float, p_i: float, r, theta):
+    """Kirsch's field with a pressure p_i on the hole's wall (an unlined pressure tunnel; Lamé's
+    term added: σrr += p_i a²/r², σθθ −= p_i a²/r²), compression positive, θ from the horizontal.
+    Returns (σrr, σθθ, τrθ)."""
+    srr, stt, srt = kirsch(p, k, a, r, theta)
+    q = p_i * (a / np.asarray(r, float)) ** 2
+    return srr + q, stt - q, srt
+
+
+def kirsch_jacking_ratio_at_wall(p: float, k: float, p_i: float, theta) -> np.ndarray:
+    """The smallest in-plane compressive principal stress at the wall of the pressurised hole over
+    the internal pressure: min(σrr, σθθ) / p_i = min(1, (p[(1+k) + 2(1−k) cos 2θ] − p_i) / p_i)
+    (τrθ = 0 at the wall); with k < 1 smallest at the crown, θ = 90°, (p(3k − 1) − p_i) / p_i."""
+    return np.minimum(1.0, (kirsch_wall_hoop(p, k, theta) - p_i) / p_i)
+
+
 def kirsch_wall_hoop(p: float, k: float, theta) -> np.ndarray:
     """σθθ at the wall: p[(1+k) + 2(1−k) cos 2θ] — sidewall (θ=0) p(3−k), crown (θ=π/2) p(3k−1)."""
     return p * ((1 + k) + 2 * (1 - k) * np.cos(2 * np.asarray(theta, float)))

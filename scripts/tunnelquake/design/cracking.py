@@ -142,9 +142,10 @@ class CrackSection:
                 x = np.where(comp, np.clip(e_other / (e_other - e_face) * h, 0, h), 0.0)
             hc = np.where(comp, np.minimum(np.minimum(2.5 * (h - d), (h - x) / 3), h / 2),
                           min(2.5 * (h - d), h / 2))
-            rho = As / (b * hc)
-            diff = np.maximum((sig - kt * self.fct_eff / rho * (1 + alpha_e * rho)) / self.Es,
-                              0.6 * sig / self.Es)
+            with np.errstate(divide="ignore", invalid="ignore"):  # h_c,eff = 0: compressed through, no crack
+                rho = As / (b * np.maximum(hc, 1e-12 * h))
+                diff = np.maximum((sig - kt * self.fct_eff / rho * (1 + alpha_e * rho)) / self.Es,
+                                  0.6 * sig / self.Es)
             # k2: bending (a compression zone) 0.5; tension (7.13) (ε1 + ε2) / (2 ε1) at the faces
             e1 = np.maximum(-e_face, -e_other)
             e2 = np.minimum(-e_face, -e_other)

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .angles import crown_angle
+
 
 @dataclass
 class JackingResult:
@@ -46,8 +48,6 @@ def jacking(centroids: np.ndarray, stress: np.ndarray, centre: tuple[float, floa
             head: float, rho_w: float, g: float, time: float = float("nan")) -> JackingResult | None:
     """The smallest σ_min / p_w over the elements (centroids [E, 3] in x, y, z; stress [E, 6]) whose
     distance from the wall r − radius lies in [0, reach] and where p_w > 0; None when none does."""
-    from .lining import crown_angle
-
     c = np.asarray(centroids, float)
     dx, dz = c[:, 0] - centre[0], c[:, 2] - centre[1]
     dist = np.hypot(dx, dz) - radius

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from . import ovaling as ov
+from .angles import crown_angle
 from .capacity import Concrete, DesignParameters, design_mapping
 
 #: bins of N for the constant-N utilisation's candidates (besides the hull vertices)
@@ -79,13 +80,6 @@ class Combination:
         G = static if dry is None else dry
         W = np.zeros_like(static) if dry is None else static - dry
         return self.gamma_G * G + self.psi2_water * W + self.gamma_I * (now - static)
-
-
-def crown_angle(theta_rad) -> np.ndarray:
-    """An angle from +x towards +z (tq-solid's sections) as the report gives every angle: degrees
-    from the crown towards +x, in (−180, 180] (springline +x 90°, invert 180°, springline −x −90°)."""
-    a = 90.0 - np.degrees(np.asarray(theta_rad, float))
-    return -((180.0 - a) % 360.0 - 180.0)
 
 
 @dataclass
