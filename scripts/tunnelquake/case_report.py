@@ -72,6 +72,21 @@ def _run_state(P, res, csv_name: str) -> str:
     return line
 
 
+def _design(R, case, results) -> tuple[object | None, str]:
+    """The design quantities (None when no result has lining forces) and a line for what was not
+    made: a check the case cannot support is skipped with its reason, said once, and never fails
+    the post of a completed run."""
+    try:
+        design = R.design_quantities(case, results)
+    except Exception as e:  # noqa: BLE001 - reported; the report keeps everything else
+        say(f"design checks not made ({type(e).__name__}: {e})")
+        return None, f"design checks not made ({type(e).__name__}: {e})"
+    if design is not None:
+        for line in dict.fromkeys(x for c in design.conditions for x in c.skipped if x):
+            say(line)  # once, however many conditions it holds for
+    return design, ""
+
+
 #: The report's figures: key, file name, caption.
 FIGURES = (
     ("fig05", "fig05_hydrodynamic_pressure.png", "hydrodynamic pressure at the monitors, dynamic water"),
@@ -146,7 +161,11 @@ def post_case(case) -> Path:
             from .fluid_case import volume_law
 
             lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
-        lines += R.lining_forces_section(R.design_quantities(case, results))
+        design, why = _design(R, case, results)
+        if design is not None:
+            lines[2:2] = design.summary_lines()  # what a designer reads first, after the title
+        lines += R.lining_forces_section(design) if design is not None else (
+            ["## Lining forces", "", f"- {why}", ""] if why else [])
         lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
         if ref is not None:
             ctx = _context(case, results, motion)

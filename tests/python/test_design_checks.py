@@ -212,3 +212,68 @@ def test_the_pressure_tunnel_case_asks_for_every_check():
     assert cs.bar_diameter == pytest.approx(0.012) and cs.limit == pytest.approx(0.05e-3)
     assert lining.Combination.from_case(case.data) == lining.Combination(1.0, 1.0, 1.0)
     assert H == 0.5
+
+
+# ------------------------------------------------------------------------------------------------
+# The usual first analysis, run and posted
+# ------------------------------------------------------------------------------------------------
+FIRST = """name: first_analysis
+geometry:
+  x_range: [-30.0, 30.0]
+  y_range: [0.0, 1.0]
+  z_range: [-30.0, 30.0]
+  tunnel_centre_x: 0.0
+  tunnel_centre_z: 0.0
+  excavated_radius: 3.0 m
+  lining_thickness: 0.4 m
+mesh:
+  mode: slice
+  max_element_size: 5 m
+  lining_elements_around: 16
+  lining_elements_through: 2
+  near_field_half_width: 8.0
+  near_field_radial_divisions: 3
+materials:
+  rock: {model: elastic, youngs_modulus: 12 GPa, poisson_ratio: 0.25, density: 2600 kg/m^3}
+  lining: {model: elastic, youngs_modulus: 32 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}
+interface: {model: bonded}
+in_situ: {kx: 1.0, ky: 1.0}
+water: {head: 40 m}
+ground_motion:
+  source: file
+  file: record.txt
+  format: two_column
+  units: g
+  pga: 0.2 g
+  vertical_ratio: 0
+  duration: 1.0 s
+time: {end_time: 0.1 s}
+conditions: [static_water]
+output:
+  monitors:
+    crown: [0.0, 0.5, 2.8]
+"""
+
+
+def test_a_first_analysis_without_strengths_runs_to_its_report(tmp_path, capsys):
+    """An elastic lining with no strengths and no design block, run through `tunnelquake run`: the
+    run exits 0 with its report, whose design summary comes first, says once why the capacity
+    checks are skipped, and still gives the static N0 and the hydraulic jacking from the snapshots
+    (the static one at the seismic start). About 12 s."""
+    from tunnelquake.cli import main
+
+    t = np.arange(0.0, 1.0 + 1e-9, 0.01)
+    a = 0.2 * np.sin(2 * np.pi * 3 * t) * np.exp(-(((t - 0.4) / 0.2) ** 2))
+    (tmp_path / "record.txt").write_text("# time (s)  acceleration (g)\n"
+                                         + "".join(f"{x:.3f} {y:.6e}\n" for x, y in zip(t, a, strict=True)))
+    (tmp_path / "case.yaml").write_text(FIRST)
+    assert main(["run", str(tmp_path / "case.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("capacity checks skipped") == 1, out
+    report = (tmp_path / "results" / "report.md").read_text()
+    assert report.index("## Design summary") < report.index("## Input motion")
+    summary = report[report.index("## Design summary"):report.index("## Input motion")]
+    assert summary.count("capacity checks skipped") == 1 and "fails" not in summary
+    assert "Static state at the seismic start (tension positive): N₀" in summary
+    assert "| hydraulic jacking, static: σ_min / p_w |" in summary
+    assert "| hydraulic jacking, seismic: σ_min / p_w |" in summary

@@ -379,8 +379,10 @@ class LiningDesign:
         """Per condition: the governing check (the largest utilisation that has a verdict), then
         every check with where, when and its verdict."""
         out = ["## Design summary", "", self.ANGLES, ""]
+        said = set()
         if self.params is None:
             out += [f"- {self.source}", ""]
+            said.add(self.source)
         for c in self.conditions:
             rows = self._rows(c)
             ranked = []
@@ -395,17 +397,22 @@ class LiningDesign:
                     ranked.append((1.0 / j.ratio if j.ratio > 0 else math.inf, f"hydraulic jacking, {when}", j))
             s0 = c.static
             out += [f"### {c.condition}", "",
-                    f"Static state at the seismic start: N₀ {s0['N'][1].value / 1e3:.4g} … {s0['N'][0].value / 1e3:.4g} "
-                    f"kN/m (most compressive at {s0['N'][1].angle:.0f}°), M₀ {s0['M'][1].value / 1e3:.4g} … "
-                    f"{s0['M'][0].value / 1e3:.4g} kN m/m (largest at {s0['M'][0].angle:.0f}°).", ""]
+                    f"Static state at the seismic start (tension positive): N₀ {s0['N'][1].value / 1e3:.4g} kN/m at "
+                    f"{s0['N'][1].angle:.0f}° to {s0['N'][0].value / 1e3:.4g} kN/m at {s0['N'][0].angle:.0f}°, "
+                    f"M₀ {s0['M'][1].value / 1e3:.4g} kN m/m at {s0['M'][1].angle:.0f}° to "
+                    f"{s0['M'][0].value / 1e3:.4g} kN m/m at {s0['M'][0].angle:.0f}°.", ""]
             if ranked:
                 u, name, e = max(ranked, key=lambda x: x[0])
                 verdict = _verdict(u)
-                out += [f"Governing: **{name}**, utilisation {u:.3g} at {e.angle:.0f}°, t = {e.time:.3f} s: {verdict}.",
-                        ""]
-            out += ["| check | value | where | time (s) | verdict |", "|---|---:|---|---:|---|"]
-            out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows]
-            out += [f"- {x}" for x in c.skipped if x] + [""]
+                own = (f" (σ_min / p_w {e.ratio:.3g})" if hasattr(e, "ratio") else
+                       f" ({e.value * 1e3:.3g} mm)" if name.startswith("crack") else "")
+                out += [f"Governing: **{name}**, utilisation {u:.3g}{own} at {e.angle:.0f}°, t = {e.time:.3f} s: "
+                        f"{verdict}.", ""]
+            if rows:
+                out += ["| check | value | where | time (s) | verdict |", "|---|---:|---|---:|---|"]
+                out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows] + [""]
+            out += [f"- {x}" for x in c.skipped if x and x not in said]
+            out += [""] if out[-1] != "" else []
         return out
 
     def inputs_lines(self) -> list[str]:
@@ -413,7 +420,7 @@ class LiningDesign:
         p = self.params
         out = ["Design inputs: " + (f"capacity to {p.code} ({self.source}; γc {p.gamma_c:g}, γs {p.gamma_s:g}, "
                                     f"fck {p.concrete.fck / 1e6:.3g} MPa, fctm {p.concrete.fctm_value / 1e6:.3g} MPa"
-                                    if p is not None else self.source)]
+                                    if p is not None else "no capacity check (the design summary says why")]
         if p is not None and p.reinforced:
             r = p.reinforcement
             out[0] += (f", As inner {p.As_inner * 1e6:.4g} mm²/m, As outer {p.As_outer * 1e6:.4g} mm²/m, axis distance "
@@ -452,9 +459,12 @@ class LiningDesign:
                 out.append(f"| {q} ({unit}) | {shi.value / 1e3:.4g} | {shi.angle:.0f}° | {slo.value / 1e3:.4g} | "
                            f"{slo.angle:.0f}° | {dhi.value / 1e3:.4g} | {dhi.angle:.0f}° | {dhi.time:.3f} | "
                            f"{dlo.value / 1e3:.4g} | {dlo.angle:.0f}° | {dlo.time:.3f} |")
-            out += ["", "| check | value | where | time (s) | verdict |", "|---|---:|---|---:|---|"]
-            out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in self._rows(c)]
-            out += [f"- {x}" for x in c.skipped if x] + [""]
+            rows = self._rows(c)
+            if rows:
+                out += ["", "| check | value | where | time (s) | verdict |", "|---|---:|---|---:|---|"]
+                out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows]
+            out += [""] + [f"- {x}" for x in c.skipped if x and x != self.source]
+            out += [""] if out[-1] != "" else []
             d = c.free_body_difference
             if d and d["max|N|"] > 0:
                 m = (f"{d['M'] / 1e3:.3g} kN m/m in M ({100 * d['M'] / d['max|M|']:.2g} % of max|M|)"
