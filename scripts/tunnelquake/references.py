@@ -70,10 +70,11 @@ def kirsch_pressurised(p: float, k: float, a: float, p_i: float, r, theta):
 
 
 def kirsch_jacking_ratio_at_wall(p: float, k: float, p_i: float, theta) -> np.ndarray:
-    """The smallest in-plane compressive principal stress at the wall of the pressurised hole over
-    the internal pressure: min(σrr, σθθ) / p_i = min(1, (p[(1+k) + 2(1−k) cos 2θ] − p_i) / p_i)
-    (τrθ = 0 at the wall); with k < 1 smallest at the crown, θ = 90°, (p(3k − 1) − p_i) / p_i."""
-    return np.minimum(1.0, (kirsch_wall_hoop(p, k, theta) - p_i) / p_i)
+    """The compressive normal stress on a radial plane at the wall of the pressurised hole, the hoop
+    stress σθθ = p[(1+k) + 2(1−k) cos 2θ] − p_i, over the internal pressure p_i (the axial stress
+    assumed larger); with k < 1 smallest at the crown and invert, (p(3k − 1) − p_i) / p_i, with
+    k > 1 at the springlines, (p(3 − k) − p_i) / p_i."""
+    return (kirsch_wall_hoop(p, k, theta) - p_i) / p_i
 
 
 def kirsch_wall_hoop(p: float, k: float, theta) -> np.ndarray:

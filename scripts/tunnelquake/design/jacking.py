@@ -1,16 +1,19 @@
-"""Hydraulic jacking: the rock's smallest compressive principal stress around the tunnel against the
-internal water pressure.
+"""Hydraulic jacking: the rock's compressive stress around the tunnel against the internal water
+pressure.
 
-Water that leaks through the lining (or an unlined wall) reaches the joints of the rock at the
-tunnel's internal pressure; a joint opens where that pressure exceeds the stress that closes it,
-at most the smallest compressive principal stress σ_min. The check takes every rock element whose
+Water at the tunnel's pressure that reaches the rock (through a cracked or pervious lining, or at an
+unlined wall) opens the joints that run radially from the tunnel where it exceeds the stress that
+closes them: a pressurised cavity fractures radially (Hubbert & Willis 1957), against the normal
+stress on planes that contain the radial direction. The check takes every rock element whose
 centroid lies within `reach` of the excavated wall (in 3D the element layer of the monitors'
 section) and forms
 
     ratio = σ_min / p_w,    p_w = ρ_w g (head − (z − z_axis))   at the element's elevation,
 
-σ_min = −σ3 with σ3 the most tensile principal stress (tension positive, as tq-solid writes them).
-Jacking is excluded where ratio ≥ 1; the smallest ratio and where it occurs govern.
+σ_min the smallest compressive normal stress on a radial plane: the smaller eigenvalue of the
+stress in the plane of the hoop and axial directions (compression positive). The radial stress
+itself is left out: at the wall it is the pressure that acts there. Jacking is excluded where
+ratio ≥ 1; the smallest ratio and where it occurs govern.
 """
 from __future__ import annotations
 
@@ -32,16 +35,18 @@ class JackingResult:
     elements: int  # rock elements checked
 
 
-def principal_min_compression(stress: np.ndarray) -> np.ndarray:
-    """σ_min (compression positive) of [E, 6] stresses (xx, yy, zz, xy, yz, zx; tension positive):
-    minus the most tensile principal stress."""
+def radial_plane_min_compression(stress: np.ndarray, dx: np.ndarray, dz: np.ndarray) -> np.ndarray:
+    """σ_min (compression positive) on the planes through the radial direction: the smaller
+    eigenvalue of −σ restricted to the hoop and axial directions, of [E, 6] stresses (xx, yy, zz, xy,
+    yz, zx; tension positive) at points (dx, dz) from the tunnel axis in the x-z plane."""
     s = np.asarray(stress, float)
-    m = np.empty((s.shape[0], 3, 3))
-    m[:, 0, 0], m[:, 1, 1], m[:, 2, 2] = s[:, 0], s[:, 1], s[:, 2]
-    m[:, 0, 1] = m[:, 1, 0] = s[:, 3]
-    m[:, 1, 2] = m[:, 2, 1] = s[:, 4]
-    m[:, 0, 2] = m[:, 2, 0] = s[:, 5]
-    return -np.linalg.eigvalsh(m)[:, -1]
+    r = np.hypot(dx, dz)
+    tx, tz = -dz / r, dx / r  # the hoop direction (0, y, 0 is the axis)
+    s_tt = s[:, 0] * tx * tx + s[:, 2] * tz * tz + 2 * s[:, 5] * tx * tz
+    s_yy = s[:, 1]
+    s_ty = s[:, 3] * tx + s[:, 4] * tz  # σ_xy t_x + σ_yz t_z
+    mean, half = (s_tt + s_yy) / 2, np.hypot((s_tt - s_yy) / 2, s_ty)
+    return -(mean + half)  # minus the more tensile eigenvalue
 
 
 def jacking(centroids: np.ndarray, stress: np.ndarray, centre: tuple[float, float], radius: float, reach: float,
@@ -55,7 +60,7 @@ def jacking(centroids: np.ndarray, stress: np.ndarray, centre: tuple[float, floa
     sel = (dist >= -1e-9 * radius) & (dist <= reach) & (pw > 0)
     if not np.any(sel):
         return None
-    smin = principal_min_compression(np.asarray(stress, float)[sel])
+    smin = radial_plane_min_compression(np.asarray(stress, float)[sel], dx[sel], dz[sel])
     ratio = smin / pw[sel]
     k = int(np.argmin(ratio))
     idx = np.flatnonzero(sel)[k]

@@ -362,6 +362,9 @@ class LiningDesign:
             rows.append((name, val, f"{e.angle:.0f}°", f"{e.time:.3f}", verdict, ""))
         for name, e in c.crack.items():
             lim = c.crack_limit
+            if e.value == 0:
+                rows.append((f"crack width, {name}", "0 (uncracked: σ_t ≤ f_ctm)", "", "", "passes", ""))
+                continue
             verdict = (_verdict(e.value / lim) if lim else "no limit given (design.crack_width_limit)")
             rows.append((f"crack width, {name}", f"{e.value * 1e3:.3g} mm" + (f" ({e.value / lim:.3g} of "
                          f"{lim * 1e3:.3g} mm)" if lim else ""), f"{e.angle:.0f}°, {e.where}", f"{e.time:.3f}",
