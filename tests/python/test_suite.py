@@ -323,7 +323,8 @@ def test_suite_of_3_records_x_2_conditions_runs_as_one_command(local_suite):
     report = (res / "suite_report.md").read_text()
     assert "combination: **max** over the 3 member(s)" in report
     for name in members:
-        assert re.search(rf"^\| {name} \| `r\d.txt` \| -?x \| [0-9.e+-]+ \| 1\.5 \| completed \|", report, re.M), name
+        assert re.search(rf"^\| {name} \| `r\d.txt` \| -?x \| [0-9.e+-]+ \| 1\.5, 0\.153 g \| completed \|", report,
+                         re.M), name
     with open(res / "suite_peaks.csv") as fh:
         rows = {(r["member"], r["condition"], r["monitor"], r["quantity"]): float(r["value"]) for r in csv.DictReader(fh)}
     for cond in conds:
@@ -336,7 +337,14 @@ def test_suite_of_3_records_x_2_conditions_runs_as_one_command(local_suite):
                     assert rows[(m, cond, mon, q)] == v  # repr in the CSV: the same float
                 assert rows[("combined_max", cond, mon, q)] == max(vals)
             section = report.split(f"## Peaks: {cond}")[1].split(f"### {mon}")[1].split("###")[0]
-            assert f"| **max** | **{SM._fmt(max(own[m][mon]['max_ux'] for m in members))}** |" in section
+            mm = SM.shown("max_ux")[2]  # shown in mm
+            assert f"| **max** | **{SM._fmt(max(own[m][mon]['max_ux'] for m in members), mm)}** |" in section
+        # the lining's design quantities: each member's own, the most severe combined (the smallest of a minimum)
+        lin = SM.LINING
+        for q, pick in (("min_N", min), ("max_N", max), ("min_M", min), ("max_M", max)):
+            vals = [rows[(m, cond, lin, q)] for m in members]
+            assert rows[("combined_max", cond, lin, q)] == pick(vals), q
+        assert f"### {lin}" in report.split(f"## Peaks: {cond}")[1]
     # the members ran with their scaled records: a PGA of 1.5 m/s^2 each, the third reversed
     for m in members:
         with h5py.File(res / "members" / m / "motion.h5", "r") as f:
