@@ -282,3 +282,21 @@ def test_a_first_analysis_without_strengths_runs_to_its_report(tmp_path, capsys)
     assert "Static state at the seismic start (tension positive): N₀" in summary
     assert "| hydraulic jacking, static: σ_min / p_w |" in summary
     assert "| hydraulic jacking, seismic: σ_min / p_w |" in summary
+
+
+def test_plain_concrete_without_resistance_names_the_force_that_takes_it(tmp_path):
+    """A plain lining whose thrust is compressive everywhere but at one section and sample, where it
+    carries 0.2 kN/m of tension: §12.6.1 leaves no resistance there, and the row says so with the
+    force, the place and the time, not a bare 'no resistance'."""
+    t, N, M, V, dD = _histories()
+    N = np.full_like(N, -1e6)
+    N[37, 5] = 200.0  # 0.2 kN/m tension
+    M = np.zeros_like(M)
+    path = _results(tmp_path / "r.h5", N, M, V, dD, t)
+    p = DesignParameters(concrete=Concrete(fck=30e6, fctm=2.9e6))
+    c = lining.condition_design(path, "no_water", {}, p)
+    e = c.utilisation["plain concrete (EN 1992-1-1 §12.6.1)"]
+    assert math.isinf(e.value) and e.where == "N = +0.2 kN/m (tension +)"
+    assert e.time == pytest.approx(t[37]) and e.angle == pytest.approx(float(lining.crown_angle(5 * np.pi / 8)))
+    (row,) = [x for x in lining.LiningDesign([c], p, "test").report_lines() if x.startswith("| plain concrete")]
+    assert "no resistance left: N = +0.2 kN/m (tension +)" in row and "**fails**" in row

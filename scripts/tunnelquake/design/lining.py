@@ -248,7 +248,14 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
         checks = params.concrete_checks(Nc, Mc, h)
         util["cracking"] = _extreme(checks["cracking"].utilisation, r.angle, r.time, True)
         plain = np.where(np.isfinite(checks["plain"].utilisation), checks["plain"].utilisation, np.inf)
-        util["plain concrete (EN 1992-1-1 §12.6.1)"] = _extreme(plain, r.angle, r.time, True)
+        e = _extreme(plain, r.angle, r.time, True)
+        if not math.isfinite(e.value):  # where the section has none left: say the force that takes it away
+            out_of = ~np.isfinite(plain)
+            worst = np.where(out_of, -Nc, -np.inf)  # the largest net tension among them
+            e = _extreme(worst, r.angle, r.time, True)
+            e = Extreme(math.inf, e.angle, e.time, f"N = {e.value / 1e3:+.3g} kN/m (tension +)" if e.value > 0 else
+                        "the eccentricity |M/N| reaches h/2")
+        util["plain concrete (EN 1992-1-1 §12.6.1)"] = e
     out.utilisation = util
     return out
 
@@ -358,7 +365,7 @@ class LiningDesign:
                 verdict = "cracks (serviceability)" if e.value > 1 else "uncracked"
             else:
                 verdict = _verdict(e.value)
-            val = "no resistance (net tension)" if not math.isfinite(e.value) else f"{e.value:.3g}"
+            val = (f"no resistance left: {e.where}" if not math.isfinite(e.value) else f"{e.value:.3g}")
             rows.append((name, val, f"{e.angle:.0f}°", f"{e.time:.3f}", verdict, ""))
         for name, e in c.crack.items():
             lim = c.crack_limit
