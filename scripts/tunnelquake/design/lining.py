@@ -335,6 +335,22 @@ def condition_jacking(res, case, reach: float | None = None) -> dict:
     return out
 
 
+def interface_note(res) -> str:
+    """How many rock–lining pairs have a broken bond at the last snapshot, in words ('' without
+    interface pairs or snapshots)."""
+    from .. import post as P
+
+    if res.interface is None or not res.snapshots:
+        return ""
+    snap = P.read_snapshot(res, res.snapshots[-1][0])
+    failed = (snap.get("interface") or {}).get("failed")
+    if failed is None or not np.size(failed):
+        return ""
+    n, k = int(np.size(failed)), int(np.count_nonzero(failed))
+    return (f"rock–lining interface: the bond of {k} of {n} pairs broken by t = {snap['time']:.3f} s"
+            + (" (the lining and the rock no longer act as one there: figure fig10)" if k else ""))
+
+
 def _verdict(u: float) -> str:
     return "passes" if u <= 1 else "**fails**"
 
@@ -353,6 +369,7 @@ class LiningDesign:
     combination: Combination = field(default_factory=Combination)
     jacking: dict[str, dict] = field(default_factory=dict)  # condition -> condition_jacking
     jacking_reach: float | None = None
+    notes: dict[str, list[str]] = field(default_factory=dict)  # condition -> what else the designer must know
 
     ANGLES = ("Angles: degrees about the tunnel axis from the crown (0°) towards +x (springline +x 90°, "
               "invert 180°, springline −x −90°), for the monitors, the section forces and the checks alike.")
@@ -422,6 +439,7 @@ class LiningDesign:
                 out += ["| check | value | where | time (s) | verdict |", "|---|---:|---|---:|---|"]
                 out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows] + [""]
             out += [f"- {x}" for x in c.skipped if x and x not in said]
+            out += [f"- {x}" for x in self.notes.get(c.condition, [])]
             out += [""] if out[-1] != "" else []
         return out
 
@@ -540,6 +558,9 @@ def lining_design(case, results) -> LiningDesign | None:
     for res in results:
         if res.condition != "no_water" and case.data["water"]["head"] > 0:
             design.jacking[res.condition] = condition_jacking(res, case, design.jacking_reach)
+        note = interface_note(res) if hasattr(res, "interface") else ""
+        if note:
+            design.notes.setdefault(res.condition, []).append(note)
     motion = case.output_dir / "motion.h5"
     if motion.is_file():
         d = case.data
