@@ -300,3 +300,27 @@ def test_plain_concrete_without_resistance_names_the_force_that_takes_it(tmp_pat
     assert e.time == pytest.approx(t[37]) and e.angle == pytest.approx(float(lining.crown_angle(5 * np.pi / 8)))
     (row,) = [x for x in lining.LiningDesign([c], p, "test").report_lines() if x.startswith("| plain concrete")]
     assert "no resistance left: N = +0.2 kN/m (tension +)" in row and "**fails**" in row
+
+
+def test_envelopes_and_demand_points_of_the_figures_are_the_design_forces(tmp_path):
+    """What the figures draw: per section the largest and smallest design force over the run and
+    the static state (the first sample), and the demand pairs (N compression +, M) on the hull of
+    every pair (the reinforced utilisation's largest value is among them); both figures are drawn."""
+    from tunnelquake.design import figures as F
+
+    t, N, M, V, dD = _histories()
+    path = _results(tmp_path / "r.h5", N, M, V, dD, t)
+    p = DesignParameters(concrete=Concrete(fck=30e6), reinforcement=Reinforcement(), As_inner=1.131e-3,
+                         As_outer=1.131e-3, axis_distance=0.056)
+    c = lining.condition_design(path, "no_water", {}, p)
+    f32 = {q: a.astype(np.float32).astype(float) for q, a in (("N", N), ("M", M), ("V", V))}
+    for q in ("N", "M", "V"):
+        np.testing.assert_array_equal(c.envelope[q][0], f32[q].max(axis=0))
+        np.testing.assert_array_equal(c.envelope[q][1], f32[q].min(axis=0))
+        np.testing.assert_array_equal(c.static_forces[q], f32[q][0])
+    sec = p.section(H)
+    every = sec.utilisation_radial(-f32["N"].ravel(), f32["M"].ravel())
+    assert float(np.max(sec.utilisation_radial(*c.demand))) == pytest.approx(float(every.max()), rel=1e-9)
+    assert F.fig_envelopes([c], tmp_path / "env.png").stat().st_size > 20_000
+    assert F.fig_mn([c], sec, tmp_path / "mn.png").stat().st_size > 20_000
+    assert F.ring_scale([np.array([-2.0, 1.0])], 3.0) == pytest.approx(0.45 * 3.0 / 2.0)

@@ -122,6 +122,12 @@ class ConditionDesign:
     crack: dict[str, Extreme] = field(default_factory=dict)
     crack_limit: float | None = None
     skipped: list[str] = field(default_factory=list)  # checks not made, each with why
+    # per section (angles from the crown, deg): the design forces' envelopes {q: (max [S], min [S])}
+    # and the static state {q: [S]}; the demand pairs (N compression +, M) for the M–N diagram
+    angles: np.ndarray | None = None
+    envelope: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    static_forces: dict[str, np.ndarray] = field(default_factory=dict)
+    demand: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def _pick_ring(rings, monitors: dict):
@@ -212,7 +218,11 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
             for q in ("N", "M", "V")}
     inc = {q: float(np.max(np.abs(getattr(r, q) - getattr(r, q)[0]))) for q in ("N", "M", "V")}
     out = ConditionDesign(condition, r.index, h, r.r_mid, ext, ovl, {}, inc, free_body_difference(r),
-                          static=static, combined=comb, split=split)
+                          static=static, combined=comb, split=split, angles=crown_angle(r.angle),
+                          envelope={q: (des[q].max(axis=0), des[q].min(axis=0)) for q in ("N", "M", "V")},
+                          static_forces={q: des[q][0] for q in ("N", "M", "V")})
+    cand = _hull_candidates(-des["N"].ravel(), des["M"].ravel())
+    out.demand = (-des["N"].ravel()[cand], des["M"].ravel()[cand])
     if params is None:
         out.skipped.append(skipped)
         return out
@@ -239,10 +249,14 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
             cs = CrackSection(h, params.As_outer, params.As_inner, params.axis_distance, params.axis_distance,
                               crack.bar_diameter, crack.Ec, rf.Es, params.concrete.fctm_value)
             s0 = {q: des[q][:1] for q in ("N", "M")}
-            out.crack["static (k_t 0.4, long-term)"] = _crack_extreme(cs, -s0["N"], s0["M"], KT_LONG, r.angle,
-                                                                      r.time[:1])
-            out.crack["seismic situation (k_t 0.6, short-term)"] = _crack_extreme(cs, Nc, Mc, KT_SHORT, r.angle,
-                                                                                  r.time)
+            try:
+                out.crack["static (k_t 0.4, long-term)"] = _crack_extreme(cs, -s0["N"], s0["M"], KT_LONG, r.angle,
+                                                                          r.time[:1])
+                out.crack["seismic situation (k_t 0.6, short-term)"] = _crack_extreme(cs, Nc, Mc, KT_SHORT, r.angle,
+                                                                                      r.time)
+            except ValueError as e:  # a section the cracked analysis cannot take: said, the rest kept
+                out.crack.clear()
+                out.skipped.append(f"crack width not computed: {e}")
             out.crack_limit = crack.limit
     else:
         checks = params.concrete_checks(Nc, Mc, h)
