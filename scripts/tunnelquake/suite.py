@@ -141,6 +141,10 @@ def suite_section() -> Section:
         "workers": Number(integer=True, min=0, default=0,
                           doc="members run at once by `tunnelquake run` (--workers overrides); 0: the cores "
                               "// the cores one member uses"),
+        "slurm_time": Number(dim=U.TIME, min=60.0, default=None, why="Slurm counts time limits in whole minutes",
+                             doc="the time limit of each Slurm array task (`run --slurm`: #SBATCH --time, rounded up "
+                                 "to whole minutes), s; default: 2 x check's run-time estimate of a member + 10 min "
+                                 "(docs/user_guide.md \"Record suites\")"),
     })
 
 
