@@ -25,7 +25,8 @@ from pathlib import Path
 VERSION = 1
 ATTR = "input_fingerprint"
 
-#: the group of each top-level case section (a key not listed here is left out)
+#: the group of each top-level case section; a section not named here nor in NOT_SHAPING goes to
+#: the group "other" (so a section added to the case's schema is in the fingerprint until placed)
 SECTION_GROUPS = {
     "geometry": "geometry", "mesh": "geometry", "layers": "geometry",
     "materials": "solid material", "interface": "solid material", "in_situ": "solid material",
@@ -36,6 +37,10 @@ SECTION_GROUPS = {
     "time": "time and output", "output": "time and output",
     "design": "design", "reference": "design",
 }
+
+#: top-level sections that shape no result: names, which conditions run (each has its own
+#: fingerprint), a suite's members (each a case of its own), thread and rank counts
+NOT_SHAPING = {"name", "description", "conditions", "suite", "parallel", "variants"}
 
 #: keys read by `post` only: a change re-posts the same results
 POST_ONLY = "design"
@@ -77,8 +82,9 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
     "groups": {group: digest}, "keys": {key: [group, value as JSON]}}, of the keys that shape its
     results; with `post_only` of the design group's keys alone (what `post` reads)."""
     keys: dict[str, list[str]] = {}
-    for section, group in SECTION_GROUPS.items():
-        if section not in case.data or case.data[section] is None:
+    for section in case.data:
+        group = SECTION_GROUPS.get(section, "other")
+        if section in NOT_SHAPING or case.data[section] is None:
             continue
         if cond == "no_water" and group in ("water", "coupling"):
             continue
