@@ -47,7 +47,7 @@ interface: {model: bonded}
 water: {head: 0 m, model: compressible}
 ground_motion:
   source: synthetic
-  pga: 1.0
+  pga: 0.1 g
   synthetic: {duration: 1.0}
 time: {end_time: 0.01}
 """
