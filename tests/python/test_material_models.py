@@ -48,6 +48,7 @@ water: {head: 0 m, model: compressible}
 ground_motion:
   source: synthetic
   pga: 0.1 g
+  vertical_ratio: 0
   synthetic: {duration: 1.0}
 time: {end_time: 0.01}
 """
