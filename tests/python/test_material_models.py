@@ -50,6 +50,7 @@ ground_motion:
   pga: 0.1 g
   vertical_ratio: 0
   synthetic: {duration: 1.0}
+in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
 time: {end_time: 0.01}
 """
 
