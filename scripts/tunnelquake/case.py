@@ -27,6 +27,7 @@ from .schema import (
     load_yaml,
     validate,
 )
+from .solver_input_table import MODELS
 
 #: the fix of a bare PGA
 PGA_EXAMPLE = "'0.3 g' or '2.94 m/s^2'"
@@ -289,8 +290,8 @@ def schema() -> Section:
 
     material = Section(
         fields={
-            "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
-                            doc="constitutive model"),
+            "model": Choice(choices=MODELS, default="mohr_coulomb_damage",
+                            doc="constitutive model (the models tq-solid registers)"),
             "youngs_modulus": _positive(U.PRESSURE, "Young's (deformation) modulus, Pa", required=True),
             "poisson_ratio": Number(min=-1.0, max=0.5, min_open=True, max_open=True, required=True,
                                     doc="Poisson ratio, -1 < nu < 0.5",
@@ -307,6 +308,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "retardation_time": Number(dim=U.TIME, min=0.0,
+                                       doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
+                                           "damping ratio omega tau / 2 at angular frequency omega)"),
         },
         checks=[_check_material],
     )
