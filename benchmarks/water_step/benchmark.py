@@ -415,7 +415,7 @@ def main(argv=None) -> int:
             for n in others:
                 if n not in vs:
                     raise SystemExit(f"--variants: unknown variant {n!r}; known: {', '.join(vs)}")
-            names = others + ["ours"]
+            names = ["ours"] + others  # alternately: ours, stock, ours, stock, ...
             settings = dict(vs, ours=vs[OURS])
             runs: dict[str, list[dict]] = {n: [] for n in names}
             for _ in range(a.pair):
@@ -428,13 +428,17 @@ def main(argv=None) -> int:
                 cpu = [r["cpu_ms"] for r in rs]
                 wall = [r["wall_ms"] for r in rs]
                 out[name] = (min(cpu), statistics.median(cpu), min(wall), statistics.median(wall))
-                print(f"{mode} {name}: CPU ms/step min {out[name][0]:.2f} median {out[name][1]:.2f}; "
-                      f"wall min {out[name][2]:.2f} median {out[name][3]:.2f} ({len(rs)} runs)", flush=True)
+                print(f"{mode} {name}: CPU ms/step {', '.join(f'{x:.2f}' for x in cpu)}; min {out[name][0]:.2f} "
+                      f"median {out[name][1]:.2f}; wall min {out[name][2]:.2f} median {out[name][3]:.2f} "
+                      f"({len(rs)} runs)", flush=True)
             o = out["ours"]
             for name in others:
                 r = out[name]
+                # each round's ratio: the two runs next to each other, under the same load
+                rounds = [x["cpu_ms"] / y["cpu_ms"] for x, y in zip(runs[name], runs["ours"], strict=True)]
                 print(f"{mode} {name}/ours: CPU {r[0] / o[0]:.2f} (min) {r[1] / o[1]:.2f} (median); "
-                      f"wall {r[2] / o[2]:.2f} (min) {r[3] / o[3]:.2f} (median)", flush=True)
+                      f"wall {r[2] / o[2]:.2f} (min) {r[3] / o[3]:.2f} (median); CPU by round "
+                      f"{', '.join(f'{x:.2f}' for x in rounds)}, median {statistics.median(rounds):.2f}", flush=True)
         if not a.keep:
             shutil.rmtree(root)
         return 0
