@@ -74,7 +74,7 @@ def overrides(slice_mode: bool, p_tol: float | None = None, u_tol: float | None 
     out: dict = {}
 
     def lay(more: dict) -> None:
-        out.update(wc.merged(out, more))
+        out.update(wc.combined(out, more))
 
     if p_tol is not None:
         pcg = wc.Whole(solver="PCG", preconditioner="DIC", tolerance=p_tol, relTol=0)
@@ -165,10 +165,10 @@ def make_pipe_case(
         exchange=replay_exchange(motion, rollbacks=rollbacks, predictor_scale=predictor_scale,
                                  rollback_from=rollback_from),
         log_interval=log_interval, interface_motion=interface_motion)
-    over = wc.merged({"system/controlDict": {"writeFormat": "ascii"},
+    over = wc.combined({"system/controlDict": {"writeFormat": "ascii"},
                       "system/blockMeshDict": wc.pipe_block_mesh(w, R, L, nq, nr, ny, grading)},
                      overrides(two_d, **kw))
-    wc.write(w, case, wc.merged(over, more or {}))
+    wc.write(w, case, wc.combined(over, more or {}))
     return motion
 
 

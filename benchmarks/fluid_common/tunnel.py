@@ -143,7 +143,7 @@ def overrides(s: dict, ends: str, moving: bool) -> dict:
     if s["laminarModel"] is not None:
         out["constant/turbulenceProperties"] = {"laminar": {"laminarModel": s["laminarModel"]}}
     if moving and s["motion_solver"] == "laplacian":
-        out = wc.merged(out, pipe.laplacian_motion(s["laplacian_diffusivity"], s["cellDisplacement"],
+        out = wc.combined(out, pipe.laplacian_motion(s["laplacian_diffusivity"], s["cellDisplacement"],
                                                    slip_ends=ends != "empty"))
     elif moving and s["motion_solver"] != "tqInterpolated":
         raise ValueError(f"motion_solver {s['motion_solver']!r}: tqInterpolated or laplacian")

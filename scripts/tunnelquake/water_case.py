@@ -379,6 +379,19 @@ def merged(base: dict, over: dict) -> dict:
     return out
 
 
+def combined(first: dict, then: dict) -> dict:
+    """Two overrides as one: `then` laid on `first` as `merged` does, but its None entries kept
+    (each removes an entry of the writer's dictionaries)."""
+    out = dict(first)
+    for key, value in then.items():
+        if isinstance(value, dict) and not isinstance(value, Whole) and isinstance(out.get(key), dict):
+            inner = combined(out[key], value)
+            out[key] = Whole(inner) if isinstance(out[key], Whole) else inner
+        else:
+            out[key] = value
+    return out
+
+
 def data(w: WaterCase, overrides: dict | None = None) -> dict[str, tuple[str, dict]]:
     """Every file of the case but the mesh as data: {path: (class, dictionary)}. `overrides`
     ({path: entries}, laid on with `merged`; a path of its own adds a dictionary, None removes a

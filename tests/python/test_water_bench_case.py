@@ -99,6 +99,7 @@ def test_the_stock_variant_sets_the_stock_entries_only(tmp_path):
     assert st["system/fvSolution"]["solvers"]["p"]["solver"] == "GAMG"
     assert st["system/fvSolution"]["solvers"]["U(Final)?"]["tolerance"] == 1e-5
     assert "motionSolver    displacementLaplacian;" in st["constant/dynamicMeshDict"]
+    assert "tqInterpolatedDisplacement" not in st["constant/dynamicMeshDict"]
     assert st["0/U"]["boundaryField"]["interface"]["type"] == "movingWallVelocity"
     assert st["0/p"]["boundaryField"]["interface"]["type"] == "fixedFluxPressure"
     assert st["constant/turbulenceProperties"]["laminar"]["laminarModel"] == "Stokes"
