@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from tunnelquake import water_case as wc
-from tunnelquake.foam_dict import Quoted, Uniform
+from tunnelquake.foam_dict import Quoted, Uniform, foam_file
 
 from . import foamcase as fc
 from . import pipe
@@ -95,8 +95,11 @@ def prepare_mesh(mode: str, dest: Path) -> Path:
     dest.mkdir(parents=True)
     build_tunnel_mesh(PAPER_GEOMETRY, {"mode": mode}, dest / "mesh")
     case = dest / "case"
-    fc.write(case, "system/controlDict", "application pimpleFoam; startTime 0; endTime 1; deltaT 1;"
-             " writeControl timeStep; writeInterval 1;\n")
+    # the least controlDict gmshToFoam reads
+    (case / "system").mkdir(parents=True)
+    (case / "system" / "controlDict").write_text(foam_file(
+        {"application": "pimpleFoam", "startTime": 0, "endTime": 1, "deltaT": 1, "writeControl": "timeStep",
+         "writeInterval": 1}, "controlDict"))
     fc.run(case, "gmshToFoam", str(dest / "mesh" / "water.msh"))
     boundary = poly / "boundary"
     fc.run(case, "foamDictionary", str(boundary), "-entry", "entry0/interface/type", "-set", "wall",
