@@ -45,7 +45,21 @@ def assess_slice(case) -> SliceAssessment:
     advice: list[str] = []
     dynamic = "dynamic_water" in d["conditions"]
     water = d["water"]
-    if d["mesh"]["mode"] == "3d" and not reasons:
+    from .case import case_geology
+
+    geology = case_geology(d)
+    varying = []  # what changes along the tunnel axis
+    if geology is not None:
+        if geology.fault is not None:
+            varying.append(f"geology.fault_zone ({geology.fault.material}) crosses the tunnel")
+        varying += [f"geology.dipping_layers[{i}] ({layer.material}) dips along the axis (its bottom's normal has a "
+                    "y component)" for i, layer in enumerate(geology.dipping) if abs(layer.bottom.normal[1]) > 1e-9]
+    if d["mesh"]["mode"] == "slice" and varying:
+        reasons += [f"{v}: the ground changes along y, and a slice holds its section at mid-length only" for v in varying]
+    if d["mesh"]["mode"] == "3d" and varying:
+        advice.append("the ground changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
+                      "represent it, keep mesh.mode: 3d")
+    elif d["mesh"]["mode"] == "3d" and not reasons:
         if dynamic and water.get("ends", "open") == "open":
             # Measured on the paper case (docs/benchmarks.md "Slice against 3D"): open ends let the water
             # breathe along the 80 m tunnel, the slice cannot.
@@ -220,11 +234,11 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     tq-solid's own), cut by stiffness-proportional damping as tq-solid cuts it."""
     import math
 
-    from .case import ground_layers
+    from .case import case_geology, ground_layers
     from .meshing.params import element_counts, resolve
 
     d = case.data
-    counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
+    counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
     dt_crit = lining_layer_step(d)[1]
     dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
     duration = d["time"].get("end_time") or d["ground_motion"]["duration"]

@@ -190,6 +190,9 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             i = f.create_group("in_situ")
             _from_case(i, "/in_situ", ins, table)
             w(i, "/in_situ", "z_top", geo["z_range"][1])
+            rho = overburden_density(d)
+            if rho is not None:
+                w(i, "/in_situ", "density", rho)
         if hydrostatic:
             h = f.create_group("hydrostatic")
             w(h, "/hydrostatic", "face", "lining_inner")
@@ -269,6 +272,22 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
+
+
+def overburden_density(d: dict) -> float | None:
+    """The one overburden density the in-situ stress starts from when the ground has regions
+    bounded by planes of different densities (dipping layers, a fault zone): tq-solid's layered
+    overburden needs regions that are horizontal layers, so the stress is set with materials.rock's
+    density and the static relaxation carries the difference (each region's own weight is its body
+    force); None when the layered profile applies (docs/meshing.md "Regions bounded by planes")."""
+    from .case import case_geology
+
+    geology = case_geology(d)
+    if geology is None:
+        return None
+    ground = ["rock"] + [layer["material"] for layer in d.get("layers") or []] + geology.materials
+    densities = {float(d["materials"][m]["density"]) for m in ground}
+    return float(d["materials"]["rock"]["density"]) if len(densities) > 1 else None
 
 
 def reference_points(geo: dict, lo, y: float) -> dict[str, list[float]]:

@@ -1,0 +1,243 @@
+"""Regions bounded by planes (geology: a fault zone, dipping layers): the mesh's regions, the axial
+refinement across the band, check's estimates, input errors, and tq-solid's in-situ stress.
+
+1. A fault zone (4 m, strike 60, dip 70) and a dipping layer in a small 3D block: every ground
+   element's centroid satisfies its region's plane inequalities; the band's element volume
+   against the analytic one, (A_xz - A_hole) w / |n_y| (every line parallel to the axis crosses the
+   band over w / |n_y| inside the block), converging as the elements shrink (refinement_factor 1
+   and 2); the band has at least elements_across elements along the axis where it crosses the
+   near-field box; check's counts (params.element_counts, nothing meshed) equal the mesh's.
+2. End to end (tq-solid, static stages only, a slice): a horizontal cover over a layer dipping
+   across the tunnel; far from where the dipping plane crosses the block, the vertical stress at
+   the seismic start equals the overburden integral g sum(rho_i t_i) along the vertical, within 1 %.
+3. Each input error is a `check` error naming the key: a fault plane missing the block, a band
+   wider than the block, a dip outside (0, 90], a region material not defined, a dipping layer's
+   bottom plane leaving the block.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+from test_solid_input import _solid_with_stages
+
+from tunnelquake import meshing
+from tunnelquake.case import case_geology, ground_layers, load_case
+from tunnelquake.cli import main
+from tunnelquake.meshing import build_tunnel_mesh, hexmesh
+from tunnelquake.meshing.geology import from_case, plane_normal
+from tunnelquake.meshing.params import element_counts, resolve
+from tunnelquake.motion import from_case as motion_from_case
+from tunnelquake.prepare import write_motion
+from tunnelquake.solid_input import write_solid_input
+
+GEOMETRY = {"x_range": [-20.0, 20.0], "y_range": [0.0, 80.0], "z_range": [-20.0, 20.0], "tunnel_centre_x": 0.0,
+            "tunnel_centre_z": 0.0, "excavated_radius": 3.0, "lining_thickness": 0.5}
+MESH = {"max_element_size": 6.0, "lining_elements_around": 16, "near_field_half_width": 8.0,
+        "near_field_radial_divisions": 4, "elements_along_axis": 16}
+FAULT = {"material": "fault", "width": 4.0, "strike": 60.0, "dip": 70.0, "point": [0.0, 40.0, 0.0],
+         "elements_across": 3}
+DIPPING = {"material": "sand", "dip": 25.0, "dip_direction": 300.0, "point": [0.0, 40.0, 10.0]}
+
+
+def _mesh(tmp, k):
+    geo = from_case({"fault_zone": FAULT, "dipping_layers": [DIPPING]})
+    mesh = dict(MESH, refinement_factor=k)
+    summary = build_tunnel_mesh(GEOMETRY, mesh, tmp, None, geo)
+    with h5py.File(tmp / "mesh.h5") as f:
+        names = [r.decode() if isinstance(r, bytes) else str(r) for r in f["elements"].attrs["regions"]]
+        x = f["nodes/coordinates"][...][f["elements/connectivity"][...]]
+        region = f["elements/region"][...]
+    return geo, mesh, summary, names, x, region
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory):
+    return {k: _mesh(tmp_path_factory.mktemp(f"geology{k}"), k) for k in (1, 2)}
+
+
+def test_every_centroid_satisfies_its_regions_plane_inequalities(meshes):
+    geo, _, _, names, x, region = meshes[1]
+    assert names == ["rock", "lining", "sand", "fault"]
+    c = x.mean(axis=1)
+    d_layer = geo.dipping[0].bottom.distance(c)
+    d_fault = np.abs(geo.fault.plane.distance(c))
+    half = 0.5 * FAULT["width"]
+    fault, sand, rock = region == 3, region == 2, region == 0
+    assert fault.sum() > 0 and sand.sum() > 0 and rock.sum() > 0
+    assert (d_fault[fault] <= half).all()
+    assert (d_fault[sand | rock] > half).all()
+    assert (d_layer[sand] > 0).all() and (d_layer[rock] <= 0).all()
+    # the plane's normal from the convention: dip 25 towards azimuth 300 (from +y towards -x)
+    n = geo.dipping[0].bottom.normal
+    assert n == pytest.approx((math.sin(math.radians(25)) * math.sin(math.radians(300)),
+                               math.sin(math.radians(25)) * math.cos(math.radians(300)), math.cos(math.radians(25))))
+
+
+def test_the_bands_volume_converges_to_the_analytic_one(meshes):
+    errors = []
+    for k in (1, 2):
+        geo, _, _, _, x, region = meshes[k]
+        vol = hexmesh.volumes(x[region == 3]).sum()
+        around = MESH["lining_elements_around"]
+        hole = 0.5 * around * GEOMETRY["excavated_radius"] ** 2 * math.sin(2 * math.pi / around)  # the n-gon
+        exact = (40.0 * 40.0 - hole) * geo.fault.axial_length
+        errors.append(abs(vol / exact - 1))
+        print(f"refinement {k}: fault zone {vol:.2f} m^3 against {exact:.2f} m^3, {100 * (vol / exact - 1):+.3f} %")
+    assert errors[0] < 0.03
+    assert errors[1] < 0.6 * errors[0]  # the staircase error of the centroid rule shrinks with h
+
+
+def test_the_band_has_elements_across_along_the_axis(meshes):
+    for k in (1, 2):
+        geo, mesh, _, _, x, region = meshes[k]
+        plan = resolve(GEOMETRY, mesh, None, geo)
+        y = np.asarray(plan.y_levels)
+        # where the band's centre plane meets the tunnel axis (x = 0, z = 0): y = 40
+        lo, hi = 40.0 - 0.5 * geo.fault.axial_length, 40.0 + 0.5 * geo.fault.axial_length
+        inside = (0.5 * (y[1:] + y[:-1]) > lo) & (0.5 * (y[1:] + y[:-1]) < hi)
+        assert inside.sum() >= FAULT["elements_across"] * k
+        assert np.diff(y)[inside].max() <= geo.fault.axial_length / (FAULT["elements_across"] * k) + 1e-9
+        assert np.diff(y).max() <= 80.0 / (MESH["elements_along_axis"] * k) + 1e-9
+
+
+def test_check_counts_the_refined_mesh_before_meshing(meshes):
+    for k in (1, 2):
+        geo, mesh, summary, _, _, _ = meshes[k]
+        est = element_counts(resolve(GEOMETRY, mesh, None, geo))
+        assert est == {key: summary["counts"][key] for key in est}
+        uniform = element_counts(resolve(GEOMETRY, mesh))
+        assert est["rock"] > uniform["rock"]  # the refinement is counted
+
+
+# ------------------------------------------------------------------------------------------------
+# check: the case keys and their errors
+# ------------------------------------------------------------------------------------------------
+CASE = """
+name: geology_test
+geometry:
+  x_range: [-20.0, 20.0]
+  y_range: [0.0, 80.0]
+  z_range: [-20.0, 20.0]
+  tunnel_centre_z: 0.0
+  excavated_radius: 3.0
+  lining_thickness: 0.5
+mesh:
+  max_element_size: 6.0
+  lining_elements_around: 16
+  near_field_half_width: 8.0
+  near_field_radial_divisions: 4
+  elements_along_axis: 16
+materials:
+  rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700}
+  fault: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700}
+  sand: {model: elastic, youngs_modulus: 3 GPa, poisson_ratio: 0.3, density: 2400}
+  lining: {model: elastic, youngs_modulus: 28 GPa, poisson_ratio: 0.17, density: 2500}
+geology:
+  fault_zone: {material: fault, width: 4 m, strike: 60, dip: 70, point: [0, 40, 0], elements_across: 3}
+  dipping_layers:
+    - {material: sand, dip: 25, dip_direction: 90, point: [0, 40, 10]}
+interface: {model: bonded}
+ground_motion:
+  source: synthetic
+  pga: 1.0 m/s^2
+  vertical_ratio: 0.5
+  synthetic: {duration: 1.0}
+in_situ: {kx: 1.0, ky: 1.0}
+conditions: [no_water]
+time: {end_time: 0.01}
+"""
+
+
+def _check(tmp_path, capsys, *edits):
+    text = CASE
+    for old, new in zip(edits[::2], edits[1::2], strict=True):
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    p = tmp_path / "case.yaml"
+    p.write_text(text)
+    rc = main(["check", str(p)])
+    out = capsys.readouterr()
+    assert "Traceback" not in out.out + out.err
+    return rc, out.out, out.err
+
+
+def test_the_case_passes_check_with_the_refined_counts(tmp_path, capsys):
+    """The band's material as stiff and dense as the rock at the side faces (their free-field
+    columns need it), no dipping layer: check counts the refined mesh."""
+    rc, out, err = _check(tmp_path, capsys, "  dipping_layers:\n    - {material: sand, dip: 25, dip_direction: 90, "
+                          "point: [0, 40, 10]}\n", "", "  sand: {model: elastic, youngs_modulus: 3 GPa, "
+                          "poisson_ratio: 0.3, density: 2400}\n", "")
+    assert rc == 0, err
+    d = load_case(tmp_path / "case.yaml").data
+    est = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    uniform = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
+    assert est["rock"] > uniform["rock"]
+    assert (f"mesh: {est['rock']:,} ground (rock {est['regions']['rock']:,}, fault {est['regions']['fault']:,}) + "
+            f"{est['lining']:,} lining + {est['water']:,} water hexahedra") in out, out
+    assert "keep mesh.mode: 3d" in out  # no advice to use a slice
+
+
+@pytest.mark.parametrize("edits, message", [
+    (("point: [0, 40, 0]", "point: [0, 40, 400]"),
+     "geology.fault_zone.point = [0.0, 40.0, 400.0]: the band (4 m wide about the plane through [0.0, 40.0, 400.0]) "
+     "misses the block"),
+    (("width: 4 m", "width: 70 m"),
+     "geology.fault_zone.width = 70.0: the band, 70 m wide, is 86.02 m long along the tunnel axis"),
+    (("dip: 70", "dip: 95"), "geology.fault_zone.dip = 95: must lie in (0, 90]"),
+    (("dip: 70", "dip: 0"), "geology.fault_zone.dip = 0: must lie in (0, 90]"),
+    (("dip: 25", "dip: -5"), "geology.dipping_layers[0].dip = -5: must lie in (0, 90]"),
+    (("material: fault,", "material: gouge,"),
+     "geology.fault_zone.material = 'gouge': is not a material of the case. Fix: add materials.gouge"),
+    (("material: sand,", "material: clay,"),
+     "geology.dipping_layers[0].material = 'clay': is not a material of the case. Fix: add materials.clay"),
+    (("point: [0, 40, 10]", "point: [0, 40, 60]"),
+     "geology.dipping_layers[0].point = [0.0, 40.0, 60.0]: its bottom plane (dip and dip_direction through "
+     "[0.0, 40.0, 60.0]) passes above the block, leaving it without cutting it: the layer is empty"),
+    (("point: [0, 40, 10]", "point: [0, 40, -60]"), "passes below the block, leaving it without cutting it: the "
+                                                    "whole block is the layer"),
+    (("material: sand,", "material: fault,"), "geology.fault_zone.material = 'fault': names a region the mesh has "
+                                              "already"),
+])
+def test_input_errors_name_the_key(tmp_path, capsys, edits, message):
+    rc, _, err = _check(tmp_path, capsys, *edits)
+    assert rc == 1
+    assert message in err, err
+
+
+def test_a_fault_zone_in_a_slice_is_refused(tmp_path, capsys):
+    rc, _, err = _check(tmp_path, capsys, "mesh:\n", "mesh:\n  mode: slice\n")
+    assert rc == 1
+    assert "geology.fault_zone.material = 'fault': a slice is one element thick along the axis" in err, err
+
+
+def test_a_band_of_another_material_at_the_side_faces_is_refused(tmp_path, capsys):
+    """tq-solid's free-field columns need one material per row of a side face."""
+    rc, _, err = _check(tmp_path, capsys, "  fault: {model: elastic, youngs_modulus: 8 GPa",
+                        "  fault: {model: elastic, youngs_modulus: 1 GPa")
+    assert rc == 1
+    assert "geology.fault_zone = ['fault', 'rock']: meets the side face xmin" in err, err
+
+
+def test_a_layer_dipping_along_the_axis_meets_the_side_faces_in_part_of_a_row(tmp_path, capsys):
+    rc, _, err = _check(tmp_path, capsys, "dip_direction: 90", "dip_direction: 0",
+                        "  fault_zone: {material: fault, width: 4 m, strike: 60, dip: 70, point: [0, 40, 0], "
+                        "elements_across: 3}\n", "", "  fault: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: "
+                        "0.27, density: 2700}\n", "")
+    assert rc == 1
+    assert "geology.dipping_layers[0].dip_direction = ['rock', 'sand']: meets the side face xmin" in err, err
+
+
+def test_the_keys_are_documented_with_their_convention():
+    from tunnelquake.docgen import table
+
+    text = table()
+    for key in ("geology.fault_zone", "geology.dipping_layers[].dip", "geology.dipping_layers[].dip_direction"):
+        assert f"`{key}`" in text, key
+    assert "`strike` (number): direction of the fault's horizontal trace, degrees in plan from the tunnel axis +y, " \
+           "clockwise seen from above (towards +x)" in text
+    assert meshing.geology.plane_normal(90.0, 90.0) == (1.0, 0.0, 0.0)  # vertical, facing +x
+    assert plane_normal(30.0, 180.0)[1] < 0  # dipping towards -y: the normal leans to -y
