@@ -199,44 +199,6 @@ def _geology_checks(d: dict, raw: LineDict) -> list[Issue]:
     return issues
 
 
-def _side_face_checks(d: dict, raw: LineDict) -> list[Issue]:
-    """The seismic stage drives the side faces xmin and xmax with one 1D free-field column each,
-    which tq-solid builds only where every horizontal row of the face has one material: a region
-    bounded by planes that meets a side face in part of a row is refused here, before anything runs."""
-    from .meshing.params import MeshInputError, resolve, side_face_rows
-
-    geology = case_geology(d)
-    if geology is None or "seismic" not in d["stages"]["sequence"]:
-        return []
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), geology)
-    except MeshInputError:
-        return []  # said by _mesh_checks
-
-    def props(name):
-        m = d["materials"][name]
-        return (m["density"], m["youngs_modulus"], m["poisson_ratio"])
-
-    for face, rows in side_face_rows(plan).items():
-        for lo, hi, names in rows:
-            if len({props(n) for n in names if n in d["materials"]}) < 2:
-                continue
-            plane = [n for n in names if n in geology.materials]
-            if geology.fault is not None and geology.fault.material in plane:
-                key, fix = ("geology.fault_zone", "a fault zone crossing the tunnel meets the side faces along the "
-                            "axis; until the side boundaries follow a ground that changes along y, give the band the "
-                            "material of the ground at the sides, or leave the seismic stage to a model without it")
-            else:
-                i = next(i for i, layer in enumerate(geology.dipping) if layer.material in plane)
-                key, fix = (f"geology.dipping_layers[{i}].dip_direction", "dip the layer across the tunnel "
-                            "(dip_direction 90 or 270: its traces on the side faces are then horizontal)")
-            return [Issue(key, sorted(names), f"meets the side face {face} with {', '.join(sorted(names))} in one "
-                          f"horizontal row (z {lo:.4g} .. {hi:.4g} m): the seismic stage drives that face with a 1D "
-                          "free-field column, one material per row, and tq-solid refuses it", fix,
-                          raw.key_lines.get("geology"))]
-    return []
-
-
 def _component_section(what: str) -> Section:
     """A further component of the ground motion: a record file, scaled with the horizontal record's
     factor (the recorded ratio kept) unless it gives a PGA of its own."""
@@ -812,8 +774,6 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
 
     issues += paper.case_issues(d, raw.key_lines.get("reference"))
     issues += _mesh_checks(d, raw, warnings)
-    if not issues:
-        issues += _side_face_checks(d, raw)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
     if d["suite"]["records"] is not None:

@@ -308,6 +308,8 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
 
     faces, owner = hexmesh.boundary_faces(conn)
     groups = _classify_solid_faces(plan, coords, faces, region[owner])
+    if plan.geology is not None and not plan.slice:
+        groups.update(side_strips(plan, coords, groups))
     return {
         "coords": coords,
         "conn": conn,
@@ -318,6 +320,25 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
         "min_scaled": (q_rock[1], q_lining[1]),
         "max_edge": max(q_rock[2], q_lining[2]),
     }
+
+
+#: The side faces split into axial strips (STRIP_FORMAT.format(face, k)) for a ground that
+#: changes along y: one element wide, each strip is horizontally layered whatever the regions.
+STRIP_FORMAT = "{}_strip{:04d}"
+
+
+def side_strips(plan: MeshPlan, coords: np.ndarray, groups: dict) -> dict:
+    """The xmin and xmax faces cut into strips one axial layer wide, {name: quads}: the seismic
+    stage drives each with a 1D free-field column of its own (tq-solid needs one material per
+    horizontal row of a free-field face, which a band or a layer dipping along y breaks)."""
+    levels = np.asarray(plan.y_levels)
+    out = {}
+    for face in ("xmin", "xmax"):
+        quads = groups[face]
+        k = np.searchsorted(levels, coords[quads][:, :, 1].mean(axis=1)) - 1
+        for j in range(len(levels) - 1):
+            out[STRIP_FORMAT.format(face, j)] = quads[k == j]
+    return out
 
 
 def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
@@ -394,7 +415,7 @@ def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool, regions: list[st
         el.create_dataset("connectivity", data=s["conn"].astype(np.int32))
         el.create_dataset("region", data=s["region"].astype(np.int32))
         el.attrs["regions"] = np.array(regions, dtype=h5py.string_dtype())
-        for name in SOLID_FACE_NAMES:
+        for name in list(SOLID_FACE_NAMES) + sorted(set(s["faces"]) - set(SOLID_FACE_NAMES)):
             f.create_dataset(f"faces/{name}", data=s["faces"][name].astype(np.int32).reshape(-1, 4))
         f.create_dataset("interfaces/rock_lining", data=s["pairs"].astype(np.int32))
 

@@ -611,27 +611,6 @@ def _geology_regions(p: MeshPlan) -> dict:
 ROCK_REGION, LINING_REGION = "rock", "lining"
 
 
-def side_face_rows(p: MeshPlan) -> dict:
-    """For the side faces xmin and xmax: the region names of the elements along each of their
-    horizontal rows, {face: [(z_lo, z_hi, {region names})]} (the seismic stage drives these faces
-    with one 1D free-field column each, which needs one material per row)."""
-    from .geology import assign
-
-    xs = _grid_lines(p.xc, p.box_half_width, p.quarter.count, p.left, p.right, p.xmin, p.xmax)
-    zs = _grid_lines(p.zc, p.box_half_width, p.quarter.count, p.bottom, p.top, p.zmin, p.zmax)
-    y = np.asarray(p.y_levels)
-    ym, zm = 0.5 * (y[1:] + y[:-1]), 0.5 * (zs[1:] + zs[:-1])
-    names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + (p.geology.materials if p.geology else [])
-    out = {}
-    for face, x in (("xmin", 0.5 * (xs[0] + xs[1])), ("xmax", 0.5 * (xs[-1] + xs[-2]))):
-        Z, Y = np.meshgrid(zm, ym, indexing="ij")
-        pts = np.stack([np.full_like(Z, x), Y, Z], axis=-1)
-        base = layer_of(p, Z) if p.layers else np.zeros(Z.shape, np.int32)
-        r = assign(p.geology, pts, base, 2 + len(p.layers)) if p.geology else base
-        out[face] = [(float(zs[i]), float(zs[i + 1]), {names[k] for k in np.unique(r[i])}) for i in range(len(zm))]
-    return out
-
-
 #: Bytes of memory per hexahedron while meshing (gmsh's model and the Python arrays that build
 #: mesh.h5 and water.msh), measured as the peak RSS of build_tunnel_mesh: 2.1 kB on the paper's 3D
 #: mesh (79,200 hexahedra), 2.0 kB at refinement_factor 2 (633,600), 2.3 kB on the slice at 8.
