@@ -227,19 +227,40 @@ def _minutes(s: float) -> str:
     return f"{s:.0f} s" if s < 120 else f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.1f} h"
 
 
+def axial_step(d: dict, plan) -> float:
+    """The critical step of the shortest axial element, h / c_p with the fastest material (inf when
+    the axial grid is uniform: the lining's layer sets the step). A fault zone's refined stretch
+    can make it shorter than the lining's (meshing.params.axial_levels)."""
+    import math
+
+    import numpy as np
+
+    h = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else math.inf
+    if plan.geology is None or not math.isfinite(h):
+        return math.inf
+
+    def cp(m):
+        E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
+        return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+
+    return h / max(cp(m) for m in d["materials"].values())
+
+
 def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, with the constants above. The step is the lining's first element layer's
-    h / c_p times the safety factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s
-    tq-solid's own), cut by stiffness-proportional damping as tq-solid cuts it."""
+    h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
+    factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
+    stiffness-proportional damping as tq-solid cuts it."""
     import math
 
     from .case import case_geology, ground_layers
     from .meshing.params import element_counts, resolve
 
     d = case.data
-    counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
-    dt_crit = lining_layer_step(d)[1]
+    mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    counts = counts or element_counts(mesh_plan)
+    dt_crit = min(lining_layer_step(d)[1], axial_step(d, mesh_plan))
     dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
     duration = d["time"].get("end_time") or d["ground_motion"]["duration"]
     steps = int(math.ceil(duration / dt))

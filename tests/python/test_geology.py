@@ -390,3 +390,28 @@ def test_side_strips_reproduce_the_single_column_and_carry_the_band(tmp_path):
         band = histories[("band", "strips")][m]
         print(f"{m}: with the band and the layer, peak |u| {np.abs(band).max():.4g} m")
         assert np.isfinite(band).all()
+
+
+@pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
+def test_check_times_the_step_of_a_thin_bands_elements(tmp_path):
+    """A 0.2 m vertical band across the axis, 4 elements across: its 0.05 m axial elements, not the
+    lining's 0.17 m layer, set the stable step. check's run-time estimate takes it (scene.axial_step)
+    and agrees with tq-solid's own step (--check) within 5 %; the lining's alone is 3.3x longer."""
+    from tunnelquake.case import lining_layer_step
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.solid_input import solid_step
+
+    p = tmp_path / "case.yaml"
+    p.write_text(CASE.replace("width: 4 m, strike: 60, dip: 70", "width: 0.2 m, strike: 90, dip: 90")
+                 .replace("elements_across: 3", "elements_across: 4"))
+    case = load_case(p)
+    d = case.data
+    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
+    motion, _ = motion_from_case(d["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    est, got = runtime_estimate(case).dt, solid_step(_solid_with_stages(), inp)
+    lining = d["time"]["safety_factor"] * lining_layer_step(d)[1]
+    print(f"step: estimated {est:.4g} s, tq-solid {got:.4g} s, the lining's layer alone {lining:.4g} s")
+    assert est == pytest.approx(got, rel=0.05)
+    assert lining > 2 * got
