@@ -27,6 +27,7 @@ from .schema import (
     load_yaml,
     validate,
 )
+from .solver_input_table import MODELS
 
 #: the fix of a bare PGA
 PGA_EXAMPLE = "'0.3 g' or '2.94 m/s^2'"
@@ -104,6 +105,98 @@ def ground_layers(d: dict) -> list[tuple[str, float]]:
         z = layer["bottom"] if layer["bottom"] is not None else z - layer["thickness"]
         out.append((layer["material"], float(z)))
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Regions bounded by planes: a fault zone and dipping layers (meshing/geology.py)
+# ----------------------------------------------------------------------------------------------
+#: the convention of directions, said once for every key that takes one
+AZIMUTH = "degrees in plan from the tunnel axis +y, clockwise seen from above (towards +x)"
+
+
+def _geology_section() -> Section:
+    def dip(what):
+        return Number(min=0.0, min_open=True, max=90.0, why="degrees below horizontal: 90 is vertical, and a "
+                      "horizontal interface is a layers[] entry", doc=f"{what}, degrees below horizontal, in (0, 90]")
+
+    point = Tuple(item=_length(), length=3, doc="[x, y, z] m, a point on the plane")
+    fault = Section(checks=[_check_fault_zone], fields={
+        "material": Text(doc="the band's material: a name in materials, its own mesh region"),
+        "width": _positive(U.LENGTH, "true thickness of the band, normal to its plane, m"),
+        "strike": Number(min=0.0, max=360.0, doc=f"direction of the fault's horizontal trace, {AZIMUTH}: the angle "
+                                                   "at which it crosses the tunnel; it dips to the right of it "
+                                                   "(towards strike + 90)"),
+        "dip": dip("the fault's dip"),
+        "point": Tuple(item=_length(), length=3, doc="[x, y, z] m, a point on the band's centre plane (e.g. where "
+                                                     "it crosses the tunnel axis)"),
+        "elements_across": Number(integer=True, min=1, default=4,
+                                  doc="elements along the tunnel axis across the band where it crosses the "
+                                      "near-field box (the axial divisions are refined there)"),
+    })
+    layer = Section(fields={
+        "material": Text(required=True, doc="the layer's material: a name in materials, its own mesh region"),
+        "dip": dip("dip of the layer's bottom plane"),
+        "dip_direction": Number(min=0.0, max=360.0, required=True,
+                                doc=f"azimuth of the bottom plane's steepest descent, {AZIMUTH}"),
+        "point": point,
+    })
+    for f in ("dip", "point"):
+        layer.fields[f].required = True
+    return Section(doc="rock regions bounded by planes (docs/meshing.md \"Regions bounded by planes\")", fields={
+        "fault_zone": fault,
+        "dipping_layers": ListOf(item=layer, default=[],
+                                 doc="layers whose bottom is a plane of any dip, from the top down: an element "
+                                     "above a bottom plane is that layer's unless a layer listed before (or a "
+                                     "horizontal layers[] entry) has it; below them all, materials.rock"),
+    })
+
+
+def _check_fault_zone(fz, path, raw, ctx):
+    given = [k for k in ("width", "strike", "dip", "point") if fz[k] is not None]
+    if fz["material"] is None and given:
+        ctx.error(f"{path}.material", None, f"is missing: {', '.join(given)} describe a fault zone of no material",
+                  "add 'material: <a name in materials>'", raw.line)
+    elif fz["material"] is not None:
+        for k in ("width", "strike", "dip", "point"):
+            if fz[k] is None:
+                ctx.error(f"{path}.{k}", None, "is required with a fault zone",
+                          {"width": "add 'width: <true thickness> m'",
+                           "strike": "add 'strike: <deg from the tunnel axis y, clockwise seen from above>'",
+                           "dip": "add 'dip: <deg below horizontal, in (0, 90]>'",
+                           "point": "add 'point: [x, y, z]' (a point on its centre plane, in m)"}[k], raw.line)
+
+
+def case_geology(d: dict):
+    """The case's regions bounded by planes (meshing.geology.Geology), None when it has none."""
+    from .meshing.geology import from_case
+
+    return from_case(d.get("geology"))
+
+
+def _geology_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Every region the geology section names is a material of the case, and a region of its own
+    (not rock, lining, a horizontal layer's or another plane region's). Where the planes lie
+    against the block is the mesher's rule (meshing.params), said by _mesh_checks."""
+    g = d.get("geology") or {}
+    entries = [(f"geology.dipping_layers[{i}].material", e["material"]) for i, e in enumerate(g["dipping_layers"])]
+    if g["fault_zone"]["material"] is not None:
+        entries.append(("geology.fault_zone.material", g["fault_zone"]["material"]))
+    lines = raw.key_lines if isinstance(raw, LineDict) else {}
+    taken = {layer["material"] for layer in d.get("layers") or []}
+    issues = []
+    for key, name in entries:
+        if name not in d["materials"]:
+            issues.append(Issue(key, name, "is not a material of the case",
+                                f"add materials.{name} (youngs_modulus, poisson_ratio, density, ...), or name one "
+                                f"of: {', '.join(m for m in d['materials'] if m not in ('rock', 'lining'))}",
+                                lines.get("geology")))
+        elif name in ("rock", "lining") or name in taken:
+            issues.append(Issue(key, name, "names a region the mesh has already (rock, lining, a layer's or another "
+                                "plane region's): each region bounded by planes is its own mesh region",
+                                "give it a material of its own (copy the material under another name)",
+                                lines.get("geology")))
+        taken.add(name)
+    return issues
 
 
 def _component_section(what: str) -> Section:
@@ -289,8 +382,8 @@ def schema() -> Section:
 
     material = Section(
         fields={
-            "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
-                            doc="constitutive model"),
+            "model": Choice(choices=MODELS, default="mohr_coulomb_damage",
+                            doc="constitutive model (the models tq-solid registers)"),
             "youngs_modulus": _positive(U.PRESSURE, "Young's (deformation) modulus, Pa", required=True),
             "poisson_ratio": Number(min=-1.0, max=0.5, min_open=True, max_open=True, required=True,
                                     doc="Poisson ratio, -1 < nu < 0.5",
@@ -307,6 +400,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "retardation_time": Number(dim=U.TIME, min=0.0,
+                                       doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
+                                           "damping ratio omega tau / 2 at angular frequency omega)"),
         },
         checks=[_check_material],
     )
@@ -342,6 +438,7 @@ def schema() -> Section:
         }), default=[], doc="horizontal ground layers from the surface down, each its own mesh region; below the "
                             "last the ground is materials.rock, which holds the tunnel and its near-field box "
                             "(docs/solid_solver.md \"Layered ground\")"),
+        "geology": _geology_section(),
         "interface": Section(checks=[_check_interface], fields={
             "model": Choice(choices=("dynamic_contact", "bonded"), default="dynamic_contact",
                             doc="rock-lining interface: the paper's dynamic contact force method, or always bonded"),
@@ -638,6 +735,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
                             f"use fluid_ranks <= {cores}")
     issues += _layer_checks(d, raw)
+    issues += _geology_checks(d, raw)
     issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     out = d["output"]
@@ -852,6 +950,7 @@ def _layer_checks(d: dict, raw: LineDict) -> list[Issue]:
                                 "its own mesh region", "merge the two layers, or copy the material under another "
                                 "name", line))
         seen.add(name)
+    seen |= {m for m in (case_geology(d).materials if case_geology(d) else [])}
     for name in mats:
         if name not in ("rock", "lining") and name not in seen:
             issues.append(Issue(f"materials.{name}", name,
@@ -870,7 +969,7 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     from .meshing.params import MeshInputError, element_counts, machine_memory, memory_estimate, resolve
 
     try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d))
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     except MeshInputError as e:
         key = e.key or "mesh"
         section, _, leaf = key.partition(".")

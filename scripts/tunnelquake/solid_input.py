@@ -64,6 +64,7 @@ def _mesh_facts(mesh_h5: Path) -> dict:
             "slice": int(f.attrs.get("slice", 0)) == 1,
             "regions": regions,
             "faces": sorted(f["/faces"].keys()) if "faces" in f else [],
+            "strips": sorted(k for k in (f["/faces"].keys() if "faces" in f else []) if "_strip" in k),
             "pairs": int(f["/interfaces/rock_lining"].shape[0]) if "/interfaces/rock_lining" in f else 0,
             "lo": xyz.min(axis=0),
             "hi": xyz.max(axis=0),
@@ -177,7 +178,10 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             for name, value in _material_values(d["materials"][region], table).items():
                 w(mg, MATERIALS, name, value)
 
-        supports = {"bottom": "xyz", "xmin": "x", "xmax": "x"}
+        # The side faces: whole, or (a ground that changes along y) in strips one element wide, each
+        # its own support group and free-field column (meshing/build.py side_strips).
+        sides = mesh["strips"] or ["xmin", "xmax"]
+        supports = {"bottom": "xyz", **{side: "x" for side in sides}}
         if not mesh["slice"]:
             supports.update({"ymin": "y", "ymax": "y"})
         for face, dirs in supports.items():
@@ -191,6 +195,9 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             i = f.create_group("in_situ")
             _from_case(i, "/in_situ", ins, table)
             w(i, "/in_situ", "z_top", geo["z_range"][1])
+            rho = overburden_density(d)
+            if rho is not None:
+                w(i, "/in_situ", "density", rho)
         if hydrostatic:
             h = f.create_group("hydrostatic")
             w(h, "/hydrostatic", "face", "lining_inner")
@@ -207,7 +214,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(b, "/boundaries/bottom", "face", "bottom")
             w(b, "/boundaries/bottom", "type", "viscoelastic")
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
-            w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", "xmin,xmax")
+            w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
@@ -270,6 +277,22 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
+
+
+def overburden_density(d: dict) -> float | None:
+    """The one overburden density the in-situ stress starts from when the ground has regions
+    bounded by planes of different densities (dipping layers, a fault zone): tq-solid's layered
+    overburden needs regions that are horizontal layers, so the stress is set with materials.rock's
+    density and the static relaxation carries the difference (each region's own weight is its body
+    force); None when the layered profile applies (docs/meshing.md "Regions bounded by planes")."""
+    from .case import case_geology
+
+    geology = case_geology(d)
+    if geology is None:
+        return None
+    ground = ["rock"] + [layer["material"] for layer in d.get("layers") or []] + geology.materials
+    densities = {float(d["materials"][m]["density"]) for m in ground}
+    return float(d["materials"]["rock"]["density"]) if len(densities) > 1 else None
 
 
 def reference_points(geo: dict, lo, y: float) -> dict[str, list[float]]:
