@@ -558,6 +558,13 @@ void Foam::tq::fieldCheckpoint::store()
     {
         Info<< "tq::fieldCheckpoint: stored " << fields_.size()
             << " fields at time " << time_ << endl;
+        if (debug > 1)
+        {
+            forAll(fields_, i)
+            {
+                Info<< "    " << fields_[i].name() << endl;
+            }
+        }
     }
 }
 
@@ -630,6 +637,20 @@ void Foam::tq::fieldCheckpoint::restore() const
             WarningInFunction
                 << "Field " << fields_[i].name() << " saved at time "
                 << time_ << " no longer exists; not restored." << endl;
+        }
+    }
+
+    // A projection basis made after the state was saved (a checkpoint
+    // before the first pressure solve) was empty then: emptied, so that the
+    // re-solved step starts as the first attempt did and not from the
+    // abandoned attempt's increment
+    forAllConstIters(mesh_.thisDb(), iter)
+    {
+        projectionHistory* h = dynamic_cast<projectionHistory*>(iter.val());
+        if (h && !slots_.found(h->name()))
+        {
+            h->sign = 0;
+            h->q.clear();
         }
     }
 
