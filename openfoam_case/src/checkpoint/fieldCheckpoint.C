@@ -20,6 +20,8 @@ License
 #include "pointFields.H"
 #include "valuePointPatchField.H"
 #include "tqProjected.H"
+#include "lduPrimitiveMesh.H"
+#include "pairGAMGAgglomeration.H"
 
 #include <algorithm>
 
@@ -137,6 +139,42 @@ void getField(std::istream& is, Field<Type>& f)
             << "The water's restart checkpoint ends early (a damaged file)."
             << exit(FatalError);
     }
+}
+
+
+// GAMG's pair agglomerator (the default faceAreaPair) walks the cells of
+// each level it builds forwards or backwards by a process-wide flag that
+// every level built flips (pairGAMGAgglomeration::forward_, private).  A
+// moving mesh builds its agglomeration anew after every motion, so the
+// abandoned attempt of a rolled-back step flips the flag, and the re-solved
+// step would be agglomerated the other way: another multigrid, another
+// answer within the solver tolerance.  The flag is read and set through the
+// public per-level agglomerate() on a chain of five cells, which it pairs
+// (0 1)(2 3 4) walking forwards and (0 1 2)(3 4) backwards.
+
+//- Build one level on the chain: the flag before (true: forwards); flips it
+bool flipPairAgglomerationDirection()
+{
+    labelList lower({0, 1, 2, 3});
+    labelList upper({1, 2, 3, 4});
+    const lduPrimitiveMesh chain(5, lower, upper, UPstream::worldComm, true);
+    label nCoarse = 0;
+    const tmp<labelField> cluster =
+        pairGAMGAgglomeration::agglomerate
+        (
+            nCoarse,
+            chain.lduAddr(),
+            scalarField(4, 1.0)
+        );
+    return cluster()[2] == cluster()[4];
+}
+
+//- The flag, left as it was
+bool pairAgglomerationForward()
+{
+    const bool forward = flipPairAgglomerationDirection();
+    flipPairAgglomerationDirection();
+    return forward;
 }
 
 
@@ -470,6 +508,7 @@ Foam::tq::fieldCheckpoint::fieldCheckpoint(const fvMesh& mesh)
     timeIndex_(-1),
     fields_(),
     slots_(),
+    gamgForward_(true),
     moving_(false)
 {}
 
@@ -524,6 +563,8 @@ void Foam::tq::fieldCheckpoint::store()
         kept.setSize(n);
         fields_.transfer(kept);
     }
+
+    gamgForward_ = pairAgglomerationForward();
 
     // Mesh motion state.  V0 and meshPhi exist once the mesh has moved.
     points_ = mesh_.points();
@@ -640,6 +681,11 @@ void Foam::tq::fieldCheckpoint::restore() const
         }
     }
 
+    if (pairAgglomerationForward() != gamgForward_)
+    {
+        flipPairAgglomerationDirection();
+    }
+
     // A projection basis made after the state was saved (a checkpoint
     // before the first pressure solve) was empty then: emptied, so that the
     // re-solved step starts as the first attempt did and not from the
@@ -727,6 +773,7 @@ void Foam::tq::fieldCheckpoint::readAndRestore(std::istream& is)
     }
     moving_ = false;
     points_ = mesh_.points();
+    gamgForward_ = true;  // as at the saving run's first solve (static mesh)
     valid_ = true;
 
     // Old-time levels before the levels of those levels (U_0 before U_0_0)
