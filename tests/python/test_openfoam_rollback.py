@@ -11,8 +11,10 @@ bit-identical, asserted to 1e-12 relative.  Covered: checkpoint before the first
 step (Euler), checkpoints mid-run with backward ddt, the displacementLaplacian mesh
 motion (its cellDisplacement solution is restored too), a 3D pipe, and the transpiration
 interface (static mesh: the wall velocity pending in tqInterfaceVelocity is given again
-after the restore), also for the compressible water (rhoPimpleFoam: rho, h, T, psi), and the
-production pressure solver tqProjected (its projection basis).
+after the restore), also for the compressible water (rhoPimpleFoam: rho, h, T, psi).  Every
+variant solves the pressure as the product does (tqProjected, GAMG inside, to an absolute 1e-6), so
+a state the restore misses (its projection basis, GAMG's agglomeration direction on a moving mesh)
+shows up at the solver tolerance, far above 1e-12.
 """
 
 from __future__ import annotations

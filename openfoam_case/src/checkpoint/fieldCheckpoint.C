@@ -173,7 +173,13 @@ bool flipPairAgglomerationDirection()
 bool pairAgglomerationForward()
 {
     const bool forward = flipPairAgglomerationDirection();
-    flipPairAgglomerationDirection();
+    if (flipPairAgglomerationDirection() == forward)
+    {
+        FatalErrorInFunction
+            << "GAMG's pair agglomeration did not change direction between"
+            << " two builds (another OpenFOAM than v1912?): the rollback"
+            << " cannot put its direction back." << exit(FatalError);
+    }
     return forward;
 }
 
