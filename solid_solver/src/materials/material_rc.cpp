@@ -133,12 +133,32 @@ Real steelRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real as
          h;
 }
 
+namespace {
+Real bandWidth(const ReinforcedConcreteParams& p) { return std::min(2 * p.axisDistance, 0.5 * p.thickness); }
+// The element row's radial extent [lo, hi] from the inner face.
+void rowExtent(const ReinforcedConcreteParams& p, Real r, Real& lo, Real& hi) {
+  const Real h = p.thickness / p.layers;
+  const int row = std::clamp(int(std::floor((r - p.innerRadius) / h)), 0, int(std::lround(p.layers)) - 1);
+  lo = row * h;
+  hi = lo + h;
+}
+}  // namespace
+
 Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter) {
-  const Real band = std::min(2 * p.axisDistance, 0.5 * p.thickness);
-  Real rho = 0;
-  if (r - p.innerRadius < band) rho += asInner / band;
-  if (p.innerRadius + p.thickness - r < band) rho += asOuter / band;
+  const Real band = bandWidth(p);
+  Real lo, hi, rho = 0;
+  rowExtent(p, r, lo, hi);
+  if (lo < band) rho += asInner / band;
+  if (hi > p.thickness - band) rho += asOuter / band;
   return rho;
+}
+
+Real bandFraction(const ReinforcedConcreteParams& p, Real r) {
+  const Real band = bandWidth(p);
+  Real lo, hi;
+  rowExtent(p, r, lo, hi);
+  const Real in = std::max(Real(0), std::min(hi, band) - lo) + std::max(Real(0), hi - std::max(lo, p.thickness - band));
+  return std::min(Real(1), in / (hi - lo));
 }
 
 }  // namespace rc_law
@@ -205,6 +225,7 @@ void ReinforcedConcreteMaterial::initHistory(Index count, const Real* const cent
     h[rc_history::kStiffeningHoop][e] = rc_law::stiffeningRatio(params_, r, params_.asInnerHoop, params_.asOuterHoop);
     h[rc_history::kStiffeningAxial][e] =
         rc_law::stiffeningRatio(params_, r, params_.asInnerAxial, params_.asOuterAxial);
+    h[rc_history::kBandFraction][e] = rc_law::bandFraction(params_, r);
   }
 }
 
@@ -237,9 +258,15 @@ void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) co
       if (-eq > eMin) eMin = -eq;
       const Real rho = h[kRho][e];
       const Real rhoEff = h[kTs][e];
-      Real sig = rc_law::concrete(params_, eq, eMax, eMin, rhoEff);
-      if (rhoEff > 0 && sig > 0)  // the bars at a crack carry the stiffening stress too: σ_s,crack ≤ f_y
-        sig = std::min(sig, std::max(Real(0), rhoEff * (params_.fy - params_.Es * epsTotal)));
+      const Real plain = rc_law::concrete(params_, eq, eMax, eMin, 0);
+      Real sig = plain;
+      if (rhoEff > 0) {
+        Real tie = rc_law::concrete(params_, eq, eMax, eMin, rhoEff);
+        if (tie > 0)  // the bars at a crack carry the stiffening stress too: σ_s,crack ≤ f_y
+          tie = std::min(tie, std::max(Real(0), rhoEff * (params_.fy - params_.Es * epsTotal)));
+        const Real f = h[H::kBandFraction][e];
+        sig = f * tie + (1 - f) * plain;
+      }
       if (rho > 0) sig += rho * rc_law::steel(params_, epsTotal, h[kPl][e]);
       return sig - sigElastic;  // the correction to the elastic stress in this direction
     };

@@ -56,6 +56,7 @@ enum : int {
   kPlasticAxial,      ///< axial
   kStiffeningHoop,    ///< ρ_eff of the tension-stiffening tie (0: plain softening), hoop
   kStiffeningAxial,   ///< axial
+  kBandFraction,      ///< the part of the element's radial extent inside the stiffening band
   kCount
 };
 }  // namespace rc_history
@@ -71,6 +72,9 @@ Real concrete(const ReinforcedConcreteParams& p, Real e, Real eMax, Real eMinAbs
 /// about the bar, the bar at its centroid as in the tie of EN 1992-1-1 Fig. 7.1), 0 elsewhere:
 /// the band's concrete stiffens, the rest softens as plain concrete (docs/solid_solver.md).
 Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter);
+/// The part (0–1) of the radial extent of the element centred at r that lies in a stiffening band:
+/// the band's tie law acts on it, plain softening on the rest (a coarse mesh keeps the band's force).
+Real bandFraction(const ReinforcedConcreteParams& p, Real r);
 /// Steel's uniaxial stress (Pa) at strain eps, plastic strain updated in place (elastic–perfectly plastic).
 Real steel(const ReinforcedConcreteParams& p, Real eps, Real& epsPlastic);
 /// The hoop or axial steel ratio of an element whose centre lies at radius r from the ring centre:
