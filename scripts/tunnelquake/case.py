@@ -301,6 +301,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "tension_stiffening_beta": Number(min=0.0, max=1.0, default=1.0,
+                                              doc="reinforced_concrete: beta of EN 1992-1-1 eq. (7.19), 1 "
+                                                  "short-term, 0.5 sustained or repeated loading"),
             "retardation_time": Number(dim=U.TIME, min=0.0,
                                        doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
                                            "damping ratio omega tau / 2 at angular frequency omega)"),
@@ -540,6 +543,11 @@ def schema() -> Section:
                 "eps_ud": Number(min=0.0, min_open=True, doc="steel strain limit (none: no limit)"),
                 "As_inner": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the inner face, m^2/m"),
                 "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the outer face, m^2/m"),
+                "As_inner_axial": Number(dim=U.LENGTH, min=0.0, default=0.0,
+                                         doc="axial bar area per metre of circumference at the inner face, m^2/m "
+                                             "(the analysis' reinforced_concrete lining)"),
+                "As_outer_axial": Number(dim=U.LENGTH, min=0.0, default=0.0,
+                                         doc="axial bar area per metre of circumference at the outer face, m^2/m"),
                 "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
             }),
         }),
