@@ -102,6 +102,8 @@ struct Strip {
 
 TEST(ReinforcedConcrete, RegisteredUnderItsName) {
   ASSERT_NE(findMaterialModel(ReinforcedConcreteMaterial::kName), nullptr);
+  // One name per history slot: the block allocates historyNames().size() arrays.
+  EXPECT_EQ(ReinforcedConcreteMaterial(strip(1005e-6)).historyNames().size(), size_t(rc_history::kCount));
 }
 
 TEST(ReinforcedConcrete, BarsSmearedWithTheirCentroidAtTheBar) {

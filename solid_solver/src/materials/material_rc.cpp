@@ -211,7 +211,8 @@ std::vector<std::string> ReinforcedConcreteMaterial::historyNames() const {
           "steel_plastic_hoop",
           "steel_plastic_axial",
           "stiffening_rho_hoop",
-          "stiffening_rho_axial"};
+          "stiffening_rho_axial",
+          "band_fraction"};
 }
 
 void ReinforcedConcreteMaterial::initHistory(Index count, const Real* const centre[3], Real* const* h) const {
