@@ -66,7 +66,10 @@ namespace {
 // Parabola–rectangle (EN 1992-1-1 eq. 3.17) magnitude at compressive strain a ≥ 0, 0 once crushed.
 Real parabolaRectangle(const ReinforcedConcreteParams& p, Real a) {
   if (a <= 0) return 0;
-  if (a < p.epsC2) return p.fc * (1 - std::pow(1 - a / p.epsC2, p.exponent));
+  if (a < p.epsC2) {
+    const Real u = 1 - a / p.epsC2;
+    return p.fc * (1 - (p.exponent == 2 ? u * u : std::pow(u, p.exponent)));
+  }
   if (a <= p.epsCu2) return p.fc;
   return 0;  // crushed (εcu2 passed)
 }
