@@ -120,6 +120,14 @@ TEST(KelvinVoigtMaterial, StableStepAccountsForTheViscosity) {
   };
   EXPECT_NO_THROW(kick(0.9 * st.dtCritical));
   EXPECT_THROW(kick(0.9 * 2 / w), InstabilityError);
+  // Subcycling steps elements at their own elastic step: refused with a viscous material.
+  try {
+    s->checkSubcycling(3);
+    FAIL() << "subcycling accepted with a viscous material";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("retardation time"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(s->enableSubcycling(3), InputError);
 }
 
 // A harmonic P wave at f = 10 Hz driven at the base of a 600 m column (hex8 of side h): the

@@ -10,6 +10,7 @@ from which the case schema takes its choices, and the Kelvin–Voigt rock's key 
    viscous bound (2/ω)(√(1+ξ²) − ξ), ξ = τω/2, of the rock's smallest elements falls below the
    lining's elastic bound (measured: 4.68e-5 s set by the lining, 6.95e-6 s set by the rock; the
    closed-form check of the bound is the C++ test KelvinVoigtMaterial.StableStepAccountsForTheViscosity).
+   With subcycling (elements at their own elastic step) tq-solid refuses it at --check, naming τ.
 """
 from __future__ import annotations
 
@@ -46,8 +47,10 @@ interface: {model: bonded}
 water: {head: 0 m, model: compressible}
 ground_motion:
   source: synthetic
-  pga: 1.0
+  pga: 0.1 g
+  vertical_ratio: 0
   synthetic: {duration: 1.0}
+in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
 time: {end_time: 0.01}
 """
 
@@ -100,3 +103,9 @@ def test_kelvin_voigt_rock_reaches_tq_solid_and_shortens_its_step(tmp_path):
     dt_kv, block = _stable_step(exe, files["kv"])
     assert block == "rock"
     assert dt_kv < 0.5 * dt_elastic
+    # subcycling with a viscous material is refused by tq-solid's starter (--check), before any stage
+    sub = _case(tmp_path, "kelvin_voigt", ", retardation_time: 1 ms")
+    sub.data["time"]["subcycling"] = 3
+    path = write_solid_input(sub, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "sub.h5")
+    out = subprocess.run([str(exe), str(path), "--check"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "retardation time" in out.stdout + out.stderr, out.stdout + out.stderr

@@ -694,13 +694,8 @@ void Solver::updateNodesSubcycled(int active) {
   bookNodeChunks(nChunks);
 }
 
-SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
-  SubcyclingInfo info;
-  nodeLevel_.clear();
-  fSync_.clear();
-  dtPrevNode_.clear();
-  for (auto& b : blocks_) b->setChunkLevels({});
-  if (maxLevel <= 0) return info;
+void Solver::checkSubcycling(int maxLevel) const {
+  if (maxLevel <= 0) return;
   if (maxLevel > 8)
     throw InputError("subcycling levels = " + std::to_string(maxLevel) +
                      ": at most 8 (steps up to 256 times the finest); 3 or 4 is usual");
@@ -715,7 +710,17 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
       throw InputError("subcycling needs materials without viscosity (block '" + b->name() + "' is " +
                        b->material().typeName() + " with retardation time " +
                        std::to_string(b->material().viscousTime()) +
-                       " s): use an elastic or mohr_coulomb_damage material there, or set subcycling levels to 0");
+                       " s): use a material without viscosity there, or set subcycling levels to 0");
+}
+
+SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
+  SubcyclingInfo info;
+  nodeLevel_.clear();
+  fSync_.clear();
+  dtPrevNode_.clear();
+  for (auto& b : blocks_) b->setChunkLevels({});
+  if (maxLevel <= 0) return info;
+  checkSubcycling(maxLevel);
   if (!(dt_ > 0)) throw InputError("subcycling: set the time step first");
   const Index N = state_.numNodes();
   // Each node: the coarsest level all its active elements allow (their own safety × critical step).

@@ -240,6 +240,9 @@ class Solver {
   /// finest level of its nodes. Needs the central difference and no stiffness damping (β = 0).
   /// Throws InputError otherwise. maxLevel = 0 turns it off.
   SubcyclingInfo enableSubcycling(int maxLevel);
+  /// What enableSubcycling refuses (levels, integrator, stiffness damping, a viscous material),
+  /// without setting anything up: the starter asks it before the static stages. Throws InputError.
+  void checkSubcycling(int maxLevel) const;
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
 
