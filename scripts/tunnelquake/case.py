@@ -613,6 +613,23 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             "job\")", "use transport: tcp (the water may still run on several ranks: "
                             "parallel.fluid_ranks)",
                             raw["coupling"].key_lines.get("transport") if "coupling" in raw else None))
+    for region, m in d["materials"].items():  # the reinforced lining's concrete and bars come from design
+        if m["model"] != "reinforced_concrete":
+            continue
+        des = d.get("design") or {}
+        where = raw["materials"].key_lines.get(region) if "materials" in raw else None
+        if region != "lining":
+            issues.append(Issue(f"materials.{region}.model", "reinforced_concrete",
+                                "is the lining's model (its bars are placed about the tunnel axis)",
+                                "use it for materials.lining only", where))
+        elif not (des.get("concrete") or {}).get("fck"):
+            issues.append(Issue("design.concrete.fck", None, "is required by materials.lining.model "
+                                "reinforced_concrete (the analysis' concrete is the design block's)",
+                                "add design: {concrete: {fck: 30 MPa}}", where))
+        elif not ((des.get("reinforcement") or {}).get("As_inner") or (des.get("reinforcement") or {}).get("As_outer")):
+            issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
+                                "reinforced_concrete (hoop bars at the inner and outer faces)",
+                                "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os

@@ -8,7 +8,8 @@ geometry, and tq-solid builds it.
    distance of design.reinforcement, and the ring's centre, inner radius (excavated radius minus
    thickness), thickness and elements through it; the rock region gets none of them.
 2. tq-solid accepts the file (`--check`).
-3. A reinforced_concrete lining without a design block is refused naming the key to add.
+3. A reinforced_concrete lining without the design block's fck or hoop bars is refused by the case
+   check naming the key to add.
 """
 from __future__ import annotations
 
@@ -22,7 +23,8 @@ from tunnelquake.case import load_case
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.motion import from_case
 from tunnelquake.prepare import write_motion
-from tunnelquake.solid_input import SolidInputError, write_solid_input
+from tunnelquake.schema import CaseError
+from tunnelquake.solid_input import write_solid_input
 
 CASE = """
 name: rc_lining
@@ -43,15 +45,17 @@ interface: {model: bonded}
 water: {head: 0 m, model: compressible}
 ground_motion:
   source: synthetic
-  pga: 1.0
+  pga: 0.1 g
+  vertical_ratio: 0
   synthetic: {duration: 1.0}
+in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
 time: {end_time: 0.01}
 DESIGN
 """
 DESIGN = """design:
   concrete: {fck: 30 MPa}
-  reinforcement: {fyk: 500 MPa, As_inner: 1.005e-3, As_outer: 1.005e-3, As_inner_axial: 5.65e-4,
-                  As_outer_axial: 5.65e-4, axis_distance: 0.06 m}
+  reinforcement: {fyk: 500 MPa, As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m, As_inner_axial: 565 mm^2/m,
+                  As_outer_axial: 565 mm^2/m, axis_distance: 60 mm}
 """
 
 
@@ -89,6 +93,9 @@ def test_the_design_blocks_bars_and_concrete_reach_the_lining(tmp_path):
     assert run.returncode == 0, run.stdout + run.stderr
 
 
-def test_a_reinforced_lining_needs_the_design_block(tmp_path):
-    with pytest.raises(SolidInputError, match=r"design: \{concrete: \{fck"):
-        _write(tmp_path, design="")
+@pytest.mark.parametrize("design, key", [("", "design.concrete.fck"),
+                                         ("design:\n  concrete: {fck: 30 MPa}\n", "design.reinforcement.As_inner")])
+def test_a_reinforced_lining_needs_the_design_blocks_concrete_and_bars(tmp_path, design, key):
+    with pytest.raises(CaseError) as e:
+        _write(tmp_path, design=design)
+    assert key in str(e.value) and "reinforced_concrete" in str(e.value)
