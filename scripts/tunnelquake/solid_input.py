@@ -132,7 +132,7 @@ def _material_values(m: dict, table, d: dict | None = None) -> dict:
     for e in table:
         if e.group != MATERIALS:
             continue
-        if e.models and m.get("model") not in e.models and not (e.case or "materials.").startswith("materials."):
+        if e.models and m.get("model") not in e.models and not (e.case or "").startswith("materials."):
             continue
         v = m.get(e.case.rsplit(".", 1)[1] if e.case else e.name)
         v = e.default if v is None else v
