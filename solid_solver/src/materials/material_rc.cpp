@@ -5,54 +5,35 @@
 #include <cmath>
 #include <sstream>
 
+#include "io/input_schema.hpp"
+
 namespace tq {
 
-namespace rc_param {
-// The region's parameter names (the table's rows in scripts/tunnelquake/solver_input_table.py).
-constexpr const char* kFc = "fc";
-constexpr const char* kFct = "fct";
-constexpr const char* kEpsC2 = "eps_c2";
-constexpr const char* kEpsCu2 = "eps_cu2";
-constexpr const char* kBeta = "tension_stiffening_beta";
-constexpr const char* kEs = "Es";
-constexpr const char* kFy = "fy";
-constexpr const char* kAsInnerHoop = "As_inner_hoop";
-constexpr const char* kAsOuterHoop = "As_outer_hoop";
-constexpr const char* kAsInnerAxial = "As_inner_axial";
-constexpr const char* kAsOuterAxial = "As_outer_axial";
-constexpr const char* kAxisDistance = "axis_distance";
-constexpr const char* kCentreX = "ring_centre_x";
-constexpr const char* kCentreZ = "ring_centre_z";
-constexpr const char* kInnerRadius = "ring_inner_radius";
-constexpr const char* kThickness = "ring_thickness";
-constexpr const char* kLayers = "ring_layers";
-}  // namespace rc_param
-
 ReinforcedConcreteParams reinforcedConcreteParams(const MaterialValues& v) {
-  namespace P = rc_param;
+  namespace P = input_schema::key::materials;  // the table's names (solver_input_table.py)
   ReinforcedConcreteParams p;
   p.elastic = elasticParams(v);
-  p.fc = v.number(P::kFc);
-  p.fct = v.number(P::kFct);
+  p.fc = v.number(P::fc.name);
+  p.fct = v.number(P::fct.name);
   auto opt = [&](const char* name, Real def) {
     const auto it = v.numbers.find(name);
     return it == v.numbers.end() ? def : it->second;
   };
-  p.epsC2 = opt(P::kEpsC2, p.epsC2);
-  p.epsCu2 = opt(P::kEpsCu2, p.epsCu2);
-  p.beta = opt(P::kBeta, p.beta);
-  p.Es = opt(P::kEs, p.Es);
-  p.fy = opt(P::kFy, p.fy);
-  p.asInnerHoop = opt(P::kAsInnerHoop, 0);
-  p.asOuterHoop = opt(P::kAsOuterHoop, 0);
-  p.asInnerAxial = opt(P::kAsInnerAxial, 0);
-  p.asOuterAxial = opt(P::kAsOuterAxial, 0);
-  p.axisDistance = opt(P::kAxisDistance, p.axisDistance);
-  p.centreX = opt(P::kCentreX, 0);
-  p.centreZ = opt(P::kCentreZ, 0);
-  p.innerRadius = v.number(P::kInnerRadius);
-  p.thickness = v.number(P::kThickness);
-  p.layers = v.number(P::kLayers);
+  p.epsC2 = opt(P::eps_c2.name, p.epsC2);
+  p.epsCu2 = opt(P::eps_cu2.name, p.epsCu2);
+  p.beta = opt(P::tension_stiffening_beta.name, p.beta);
+  p.Es = opt(P::Es.name, p.Es);
+  p.fy = opt(P::fy.name, p.fy);
+  p.asInnerHoop = opt(P::As_inner_hoop.name, 0);
+  p.asOuterHoop = opt(P::As_outer_hoop.name, 0);
+  p.asInnerAxial = opt(P::As_inner_axial.name, 0);
+  p.asOuterAxial = opt(P::As_outer_axial.name, 0);
+  p.axisDistance = opt(P::axis_distance.name, p.axisDistance);
+  p.centreX = opt(P::ring_centre_x.name, 0);
+  p.centreZ = opt(P::ring_centre_z.name, 0);
+  p.innerRadius = v.number(P::ring_inner_radius.name);
+  p.thickness = v.number(P::ring_thickness.name);
+  p.layers = v.number(P::ring_layers.name);
   return p;
 }
 
