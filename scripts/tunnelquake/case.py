@@ -400,6 +400,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "tension_stiffening_beta": Number(min=0.0, max=1.0, default=1.0,
+                                              doc="reinforced_concrete: beta of EN 1992-1-1 eq. (7.19), 1 "
+                                                  "short-term, 0.5 sustained or repeated loading"),
             "retardation_time": Number(dim=U.TIME, min=0.0,
                                        doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
                                            "damping ratio omega tau / 2 at angular frequency omega)"),
@@ -655,6 +658,14 @@ def schema() -> Section:
                                    doc="bar area per metre at the inner face, with its unit (mm2/m or m2/m)"),
                 "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True, unit_example="'1005 mm2/m'",
                                    doc="bar area per metre at the outer face, with its unit (mm2/m or m2/m)"),
+                "As_inner_axial": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True,
+                                         unit_example="'1005 mm2/m'",
+                                         doc="axial bar area per metre of circumference at the inner face, with its "
+                                             "unit (mm2/m or m2/m; the analysis' reinforced_concrete lining)"),
+                "As_outer_axial": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True,
+                                         unit_example="'1005 mm2/m'",
+                                         doc="axial bar area per metre of circumference at the outer face, with its "
+                                             "unit (mm2/m or m2/m)"),
                 "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
                 "bar_diameter": _positive(U.LENGTH, "diameter of the bars, m (the crack width needs it; EN 1992-1-1 "
                                                     "§7.3.4)"),
@@ -722,6 +733,23 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             "job\")", "use transport: tcp (the water may still run on several ranks: "
                             "parallel.fluid_ranks)",
                             raw["coupling"].key_lines.get("transport") if "coupling" in raw else None))
+    for region, m in d["materials"].items():  # the reinforced lining's concrete and bars come from design
+        if m["model"] != "reinforced_concrete":
+            continue
+        des = d.get("design") or {}
+        where = raw["materials"].key_lines.get(region) if "materials" in raw else None
+        if region != "lining":
+            issues.append(Issue(f"materials.{region}.model", "reinforced_concrete",
+                                "is the lining's model (its bars are placed about the tunnel axis)",
+                                "use it for materials.lining only", where))
+        elif not (des.get("concrete") or {}).get("fck"):
+            issues.append(Issue("design.concrete.fck", None, "is required by materials.lining.model "
+                                "reinforced_concrete (the analysis' concrete is the design block's)",
+                                "add design: {concrete: {fck: 30 MPa}}", where))
+        elif not ((des.get("reinforcement") or {}).get("As_inner") or (des.get("reinforcement") or {}).get("As_outer")):
+            issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
+                                "reinforced_concrete (hoop bars at the inner and outer faces)",
+                                "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os

@@ -97,17 +97,53 @@ def _from_case(obj, group: str, section: dict, table) -> None:
         put(obj, group, e.name, section[e.case.rsplit(".", 1)[1]], table)
 
 
-def _material_values(m: dict, table) -> dict:
+def _reinforced_concrete_values(d: dict, m: dict) -> dict:
+    """The material map of a `reinforced_concrete` region completed from the case's design block
+    (concrete and bars: the same keys the design check reads) and the ring's geometry and mesh."""
+    from .design.capacity import Concrete
+
+    des = d.get("design") or {}
+    conc, bars = des.get("concrete") or {}, des.get("reinforcement") or {}
+    if not conc.get("fck"):
+        raise SolidInputError("materials.lining.model: reinforced_concrete needs the concrete's strength; "
+                              "add design: {concrete: {fck: 30 MPa}}")
+    if not (bars.get("As_inner") or bars.get("As_outer")):
+        raise SolidInputError("materials.lining.model: reinforced_concrete needs hoop bars; add "
+                              "design.reinforcement.As_inner and As_outer (m^2/m)")
+    c = Concrete(conc["fck"], conc.get("fctm"))
+    g = d["geometry"]
+    out = dict(m)
+    out.update({k: v for k, v in bars.items() if v is not None})
+    out.update(fck=c.fck, fctm=c.fctm_value, tunnel_centre_x=g["tunnel_centre_x"],
+               tunnel_centre_z=g["tunnel_centre_z"], lining_thickness=g["lining_thickness"],
+               ring_inner_radius=g["excavated_radius"] - g["lining_thickness"],
+               lining_elements_through=float(d["mesh"].get("lining_elements_through", 3)))
+    return out
+
+
+def _material_values(m: dict, table, d: dict | None = None) -> dict:
     """A region's material attributes: each material row of the table from its case key (else its
-    default); rows whose value is neither given nor defaulted are left out."""
+    default); rows whose value is neither given nor defaulted are left out. Rows fed from outside
+    the materials section (a reinforced_concrete lining's design and geometry values) are written
+    for the models that read them only."""
+    rc = m.get("model") == "reinforced_concrete"
+    if rc and d is not None:
+        m = _reinforced_concrete_values(d, m)
     out = {}
     for e in table:
         if e.group != MATERIALS:
             continue
-        v = m.get(e.case.rsplit(".", 1)[1]) if e.case else None
+        if e.models and m.get("model") not in e.models and not (e.case or "").startswith("materials."):
+            continue
+        v = m.get(e.case.rsplit(".", 1)[1] if e.case else e.name)
         v = e.default if v is None else v
         if v is not None:
             out[e.name] = v
+    if rc and d is not None:
+        from .design.capacity import Concrete
+
+        c = Concrete(d["design"]["concrete"]["fck"])
+        out.update(eps_c2=c.eps_c2, eps_cu2=c.eps_cu2)
     return out
 
 
@@ -175,7 +211,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
 
         for region in mesh["regions"]:
             mg = f.create_group(f"materials/{region}")
-            for name, value in _material_values(d["materials"][region], table).items():
+            for name, value in _material_values(d["materials"][region], table, d).items():
                 w(mg, MATERIALS, name, value)
 
         # The side faces: whole, or (a ground that changes along y) in strips one element wide, each
