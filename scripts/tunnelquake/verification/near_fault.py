@@ -31,6 +31,7 @@ import argparse
 import copy
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -85,14 +86,16 @@ def case_data(base: dict, record_file: Path, kind: str, d: float, water: str) ->
     return c
 
 
-def write(case_file: Path, folder: Path, kinds=KINDS, offsets=OFFSETS, waters=WATERS) -> list[Path]:
-    """The records and one case folder a run under `folder`; returns the case files."""
+def write(case_file: Path, folder: Path, kinds=KINDS, offsets=OFFSETS, waters=WATERS,
+          period: float = PERIOD) -> list[Path]:
+    """The records (pulse period `period` s) and one case folder a run under `folder`; returns the
+    case files."""
     base = yaml.safe_load(case_file.read_text())
     folder.mkdir(parents=True, exist_ok=True)
     out = []
     for kind in kinds:
         for d in offsets:
-            t, a = record(kind, d)
+            t, a = record(kind, d, period=period)
             rec = folder / f"{kind}_{d:g}.txt"
             rec.write_text("".join(f"{x:.4f} {y:.10e}\n" for x, y in zip(t, a, strict=True)))
             for water in waters:
@@ -115,7 +118,12 @@ def result(case_file: Path) -> dict:
     res = case_file.parent / "results" / "results_dynamic_water.h5"
     if not res.is_file():
         return row
-    with h5py.File(res, "r") as f:
+    try:
+        f = h5py.File(res, "r")
+    except OSError:  # a run still writing it holds its lock
+        row["status"] = "running"
+        return row
+    with f:
         row["status"] = str(f.attrs.get("status", ""))
         if "monitors" in f and len(f["monitors"]):
             g = f["monitors/top_arch"] if "top_arch" in f["monitors"] else next(iter(f["monitors"].values()))
@@ -139,7 +147,9 @@ def stable(row: dict) -> bool:
 
 
 def cases(folder: Path) -> list[Path]:
-    return sorted(p / "case.yaml" for p in folder.iterdir() if (p / "case.yaml").is_file())
+    """The case files of the runs `write` made under `folder` (sub-folders named kind_D_water)."""
+    pattern = re.compile(rf"^({'|'.join(KINDS)})_[0-9.]+_({'|'.join(WATERS)})$")
+    return sorted(p / "case.yaml" for p in folder.iterdir() if pattern.match(p.name) and (p / "case.yaml").is_file())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -152,6 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     w.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     w.add_argument("--offsets", type=float, nargs="+", default=list(OFFSETS), help="m")
     w.add_argument("--water", nargs="+", default=list(WATERS), choices=WATERS)
+    w.add_argument("--period", type=float, default=PERIOD, help="s, the pulses' period (default %(default)s)")
     r = sub.add_parser("run", help="run every case folder not yet run, one at a time")
     r.add_argument("--folder", type=Path, required=True)
     r.add_argument("--timeout", type=float, default=3600.0, help="seconds a run at most")
@@ -161,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if a.cmd == "write":
         case_file = a.case / "case.yaml" if a.case.is_dir() else a.case
-        for cf in write(case_file, a.folder, a.kinds, a.offsets, a.water):
+        for cf in write(case_file, a.folder, a.kinds, a.offsets, a.water, a.period):
             print(cf)
         return 0
     if a.cmd == "run":
@@ -184,10 +195,12 @@ def main(argv: list[str] | None = None) -> int:
     from ..scene import added_mass_diagnostic
 
     print("| record | D (m) | water | completes | lining's final u_x / u_z (m) | passes a window (max) | "
-          "E_c / interface work | check predicts | agree | coupled wall (s) |")
+          "E_c (/ interface work) | check predicts | agree | coupled wall (s) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for cf in cases(a.folder):
         row = result(cf)
+        if row["status"] in ("no results file", "running"):
+            continue
         data = yaml.safe_load(cf.read_text())
         try:
             predicted = added_mass_diagnostic(load_case(cf)).stable
@@ -197,8 +210,8 @@ def main(argv: list[str] | None = None) -> int:
         ok = stable(row)
         done = "yes" if row["status"] == "completed" else f"**no**: {row['status'][:80]} (t = {row['t_end']:.2f} s)"
         u = row.get("final_u")
-        ratio = (f"{row['coupling_energy'] / row['interface_work_peak']:+.2e}" if row.get("interface_work_peak")
-                 else "–")
+        ratio = (f"{row['coupling_energy']:+.2g} J ({row['coupling_energy'] / row['interface_work_peak']:+.1e})"
+                 if row.get("interface_work_peak") else "–")
         ppw = f"{row['passes_per_window']:.2f} ({row['max_passes']})" if "passes_per_window" in row else "–"
         print(f"| {kind} | {d} | {data['water']['model']} | {done} | "
               f"{f'{u[0]:.2f} / {u[2]:.2f}' if u else '–'} | {ppw} | {ratio} | "
