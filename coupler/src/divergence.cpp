@@ -52,16 +52,7 @@ void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<doubl
       c2 += delta[i] * delta[i];
     }
     const double change = std::sqrt(c2 / double(f.size));
-    double floor = std::max(f.absoluteTolerance, s_.noiseFloor * t.peak);
-    // The implicit scheme accepts a window whose data is off by up to `tolerance` of its RMS (the
-    // relative convergence test, convergenceMeasure), so two accepted windows differ by up to twice
-    // that without any response of the coupled system: changes below it are the iteration's accepted
-    // error, which the next windows correct, not a growing mode. They matter when the data holds a
-    // large part that changes nothing: the water solver's uniform pressure, which the solid takes out
-    // of the force it applies (the example slice after a 1.5 m pulse: 144 kPa, 77 kN a node, so
-    // 1e-3 accepts tens of N, and such errors alternating 34 -> 74 N stopped the run).
-    if (config_.scheme == SchemeKind::Implicit)
-      floor = std::max(floor, 2 * config_.tolerance * std::sqrt(sq / double(f.size)));
+    const double floor = std::max(f.absoluteTolerance, s_.noiseFloor * t.peak);
     bool alternating = false;
     if (t.hasDelta && change > floor && t.prevChange > floor) {
       double dot = 0;
