@@ -208,7 +208,12 @@ def main(argv: list[str] | None = None) -> int:
             predicted = False
         kind, d, water = row["case"].split("_")
         ok = stable(row)
-        done = "yes" if row["status"] == "completed" else f"**no**: {row['status'][:80]} (t = {row['t_end']:.2f} s)"
+        if row["status"] == "completed":
+            done = "yes"
+        elif "coupling is unstable" in row["status"]:  # the divergence detection's stop
+            done = f"**no**: divergence detection at {row['t_end']:.2f} s"
+        else:
+            done = f"**no**: {row['status'][:80]} (t = {row['t_end']:.2f} s)"
         u = row.get("final_u")
         ratio = (f"{row['coupling_energy']:+.2g} J ({row['coupling_energy'] / row['interface_work_peak']:+.1e})"
                  if row.get("interface_work_peak") else "–")
