@@ -133,7 +133,7 @@ struct DrmBox {
   Real h = 1.0;
   Mesh mesh;
   BoxSpec spec;
-  Real bLo[3], bHi[3];  // the inner region (closed), its boundary the b nodes
+  Real bLo[3], bHi[3];             // the inner region (closed), its boundary the b nodes
   std::vector<std::uint8_t> kind;  // per node: 0 inside (closed inner region), 1 e, 2 beyond
   DrmFreeField field;
 
@@ -194,9 +194,9 @@ struct DrmBox {
 };
 
 struct DrmRun {
-  Real insideL2 = 0;    // worst node: ‖u − u0‖₂ / ‖u0‖₂ over the record
-  Real outsideMax = 0;  // worst node beyond the inner region: ‖u‖₂ / ‖incident‖₂
-  Real outsidePeak = 0; // max |u| there / incident peak
+  Real insideL2 = 0;     // worst node: ‖u − u0‖₂ / ‖u0‖₂ over the record
+  Real outsideMax = 0;   // worst node beyond the inner region: ‖u‖₂ / ‖incident‖₂
+  Real outsidePeak = 0;  // max |u| there / incident peak
   Real secondsPerStep = 0, secondsPerStepNoDrm = 0;
   Index steps = 0, layerElems = 0;
 };
@@ -209,8 +209,8 @@ DrmRun runBox(DrmBox& box, const HalfSpaceField& ff, Real tEnd, bool timeWithout
   spec.halfSpace = {kRho, kCp, kCs};
   spec.freeFieldFaces = {"xmin", "xmax", "ymin", "ymax"};
   auto makeSolver = [&](bool withDrm, DrmRun& r) {
-    auto s = std::make_unique<Solver>(box.mesh, makeBlocksByRegion(box.mesh, {{"rock", tqtest::elastic(kE, kNu, kRho)}}),
-                                      SolverOptions{});
+    auto s = std::make_unique<Solver>(
+        box.mesh, makeBlocksByRegion(box.mesh, {{"rock", tqtest::elastic(kE, kNu, kRho)}}), SolverOptions{});
     auto sb = std::make_shared<SeismicBoundaries>(box.mesh, s->blocks(), spec, IncidentMotion(), false);
     sb->install(s->state());
     s->addContributor(ForcePhase::Boundaries, sb);

@@ -526,7 +526,8 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     solver_.addContributor(ForcePhase::Boundaries, drm_);
     std::ostringstream os;
     os << "domain reduction layer: " << drm_->numLayerElements() << " elements, " << drm_->numInner() << " inner and "
-       << drm_->numOuter() << " outer nodes, free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
+       << drm_->numOuter() << " outer nodes (" << drm_->numDistinctCouplings()
+       << " distinct element couplings), free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
        << " s";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();

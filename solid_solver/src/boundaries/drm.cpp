@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <sstream>
 
 namespace tq {
@@ -55,6 +56,7 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
   }
   std::vector<Real> uProbe(3 * size_t(mesh.numNodes()), 0.0);
   Real f0[24], f1[24];
+  std::map<std::vector<long long>, Index> distinct;
   for (const auto& b : blocks)
     for (Index e = 0; e < b->numElems(); ++e) {
       Index s[8];
@@ -74,24 +76,45 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
         throw InputError(os.str());
       }
       // K column by column: f(u) − f(0) is exact for the linear elastic element.
+      Real K[24][24];
       b->elementForces(e, uProbe.data(), f0);
-      const size_t base = coupling_.size();
-      coupling_.resize(base + 24 * 24, 0.0);
       for (int kj = 0; kj < 8; ++kj)
         for (int j = 0; j < 3; ++j) {
           Real& probe = uProbe[3 * size_t(b->node(e, kj)) + size_t(j)];
           probe = 1;
           b->elementForces(e, uProbe.data(), f1);
           probe = 0;
-          const bool colInner = field_.internal[size_t(s[kj])] != 0;
-          for (int ki = 0; ki < 8; ++ki) {
-            const bool rowInner = field_.internal[size_t(s[ki])] != 0;
-            if (rowInner == colInner) continue;
-            const Real sign = rowInner ? -1.0 : 1.0;  // P_b = −K_be w_e, P_e = +K_eb w_b
-            for (int i = 0; i < 3; ++i)
-              coupling_[base + size_t(3 * ki + i) * 24 + size_t(3 * kj + j)] = sign * (f1[3 * ki + i] - f0[3 * ki + i]);
-          }
+          for (int r = 0; r < 24; ++r) K[r][3 * kj + j] = f1[r] - f0[r];
         }
+      Coupling c;
+      for (int k = 0; k < 8; ++k) {
+        if (field_.internal[size_t(s[k])])
+          c.b[c.nb++] = k;
+        else
+          c.e[c.ne++] = k;
+      }
+      for (int ib = 0; ib < 3 * c.nb; ++ib)
+        for (int ie = 0; ie < 3 * c.ne; ++ie) {
+          const int rb = 3 * c.b[ib / 3] + ib % 3, re = 3 * c.e[ie / 3] + ie % 3;
+          c.kbe.push_back(K[rb][re]);
+        }
+      for (int ie = 0; ie < 3 * c.ne; ++ie)
+        for (int ib = 0; ib < 3 * c.nb; ++ib) {
+          const int rb = 3 * c.b[ib / 3] + ib % 3, re = 3 * c.e[ie / 3] + ie % 3;
+          c.keb.push_back(K[re][rb]);
+        }
+      // Share equal couplings: the key is the split and the entries in units of 2⁻³⁰ of the largest.
+      Real big = 0;
+      for (Real x : c.kbe) big = std::max(big, std::abs(x));
+      for (Real x : c.keb) big = std::max(big, std::abs(x));
+      const Real q = big > 0 ? std::ldexp(1.0, std::ilogb(big) - 30) : 1.0;
+      std::vector<long long> key = {c.nb};
+      for (int k = 0; k < c.nb; ++k) key.push_back(c.b[k]);
+      for (Real x : c.kbe) key.push_back(std::llround(x / q));
+      for (Real x : c.keb) key.push_back(std::llround(x / q));
+      auto [it, added] = distinct.emplace(std::move(key), Index(couplings_.size()));
+      if (added) couplings_.push_back(std::move(c));
+      elemCoupling_.push_back(it->second);
       for (int k = 0; k < 8; ++k) elemNodes_.push_back(s[k]);
     }
   if (elemNodes_.empty())
@@ -99,8 +122,6 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
                      " DRM nodes with both inner and outer ones; the nodes must be the two boundaries of a "
                      "one-element layer");
   w_.assign(3 * N, 0.0);
-  uS_.assign(3 * N, 0.0);
-  vS_.assign(3 * N, 0.0);
 }
 
 void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const {
@@ -133,25 +154,74 @@ void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v)
 }
 
 void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
-  sample(t, uS_, vS_);
-  for (size_t i = 0; i < w_.size(); ++i) w_[i] = uS_[i] + beta_ * vS_[i];
+  // w = u0 + β u̇0 at t, linear between the samples k and k + 1 (held outside them).
+  const size_t M = w_.size(), T = field_.time.size();
+  size_t k = 0;
+  Real a = 0;
+  if (t >= field_.time.back()) {
+    k = T - 2, a = 1;
+  } else if (t > field_.time.front()) {
+    k = size_t(std::upper_bound(field_.time.begin(), field_.time.end(), t) - field_.time.begin()) - 1;
+    a = (t - field_.time[k]) / (field_.time[k + 1] - field_.time[k]);
+  }
+  const Real* u0 = &field_.u[k * M];
+  const Real* v0 = &field_.v[k * M];
+  const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
+  if (beta_ == 0)
+    for (size_t i = 0; i < M; ++i) w_[i] = c0 * u0[i] + a * u0[M + i];
+  else
+    for (size_t i = 0; i < M; ++i) w_[i] = c0 * u0[i] + a * u0[M + i] + b0 * v0[i] + b1 * v0[M + i];
   Real* fe = state.fExtData();
   const size_t L = elemNodes_.size() / 8;
   for (size_t l = 0; l < L; ++l) {
+    const Coupling& c = couplings_[size_t(elemCoupling_[l])];
     const Index* s = &elemNodes_[8 * l];
-    Real wl[24], f[24];
-    for (int k = 0; k < 8; ++k)
-      for (int i = 0; i < 3; ++i) wl[3 * k + i] = w_[3 * size_t(s[k]) + size_t(i)];
-    const Real* C = &coupling_[l * 24 * 24];
-    for (int r = 0; r < 24; ++r) {
-      Real acc = 0;
-      for (int c = 0; c < 24; ++c) acc += C[24 * r + c] * wl[c];
-      f[r] = acc;
+    switch (c.nb) {  // every corner is b or e: ne = 8 − nb, fixed sizes for the compiler
+      case 1:
+        coupleElement<1>(c, s, fe);
+        break;
+      case 2:
+        coupleElement<2>(c, s, fe);
+        break;
+      case 3:
+        coupleElement<3>(c, s, fe);
+        break;
+      case 4:
+        coupleElement<4>(c, s, fe);
+        break;
+      case 5:
+        coupleElement<5>(c, s, fe);
+        break;
+      case 6:
+        coupleElement<6>(c, s, fe);
+        break;
+      default:
+        coupleElement<7>(c, s, fe);
+        break;
     }
-    for (int k = 0; k < 8; ++k) {
-      const size_t n = size_t(field_.nodes[size_t(s[k])]);
-      for (int i = 0; i < 3; ++i) fe[3 * n + size_t(i)] += f[3 * k + i];
-    }
+  }
+}
+
+template <int NB>
+void DomainReduction::coupleElement(const Coupling& c, const Index* s, Real* fe) const {
+  constexpr int mb = 3 * NB, me = 3 * (8 - NB);
+  Real wb[mb], we[me];
+  for (int k = 0; k < NB; ++k)
+    for (int i = 0; i < 3; ++i) wb[3 * k + i] = w_[3 * size_t(s[c.b[k]]) + size_t(i)];
+  for (int k = 0; k < 8 - NB; ++k)
+    for (int i = 0; i < 3; ++i) we[3 * k + i] = w_[3 * size_t(s[c.e[k]]) + size_t(i)];
+  // P_b = −K_be w_e on the inner corners, P_e = +K_eb w_b on the outer ones.
+  const Real* kbe = c.kbe.data();
+  for (int r = 0; r < mb; ++r) {
+    Real acc = 0;
+    for (int j = 0; j < me; ++j) acc += kbe[r * me + j] * we[j];
+    fe[3 * size_t(field_.nodes[size_t(s[c.b[r / 3]])]) + size_t(r % 3)] -= acc;
+  }
+  const Real* keb = c.keb.data();
+  for (int r = 0; r < me; ++r) {
+    Real acc = 0;
+    for (int j = 0; j < mb; ++j) acc += keb[r * mb + j] * wb[j];
+    fe[3 * size_t(field_.nodes[size_t(s[c.e[r / 3]])]) + size_t(r % 3)] += acc;
   }
 }
 
