@@ -4,8 +4,9 @@
 //
 // An elastic n x n x n box (1 m elements, free top) with a one-element DRM layer one element in from
 // its sides and bottom, driven by a free field of `samples` time samples (a travelling sine: the
-// values do not change the cost), every node given a small random velocity first. Times `steps` explicit steps `repeat` times with and without the
-// layer's forces and prints the medians (ms per step), the ratio and the layer's share of elements.
+// values do not change the cost), every node given a small random velocity first. Times `steps` explicit steps `repeat`
+// times with and without the layer's forces and prints the medians (ms per step), the ratio and the layer's share of
+// elements.
 #include <omp.h>
 
 #include <algorithm>
@@ -26,13 +27,19 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     const int v = std::atoi(argv[i + 1]);
-    if (a == "--n") n = v;
-    else if (a == "--steps") steps = v;
-    else if (a == "--repeat") repeat = v;
-    else if (a == "--threads") threads = v;
-    else if (a == "--samples") samples = v;
+    if (a == "--n")
+      n = v;
+    else if (a == "--steps")
+      steps = v;
+    else if (a == "--repeat")
+      repeat = v;
+    else if (a == "--threads")
+      threads = v;
+    else if (a == "--samples")
+      samples = v;
     else {
-      std::fprintf(stderr, "usage: tq-solid-bench-drm [--n 40] [--steps 200] [--repeat 5] [--threads N] [--samples 2000]\n");
+      std::fprintf(stderr,
+                   "usage: tq-solid-bench-drm [--n 40] [--steps 200] [--repeat 5] [--threads N] [--samples 2000]\n");
       return 2;
     }
   }
@@ -54,8 +61,8 @@ int main(int argc, char** argv) {
     const bool inside = x[0] > lo - tol && x[0] < hi + tol && x[1] > lo - tol && x[1] < hi + tol && x[2] > lo - tol;
     const bool onB = std::abs(x[0] - lo) < tol || std::abs(x[0] - hi) < tol || std::abs(x[1] - lo) < tol ||
                      std::abs(x[1] - hi) < tol || std::abs(x[2] - lo) < tol;
-    const bool inOuter = x[0] > lo - 1 - tol && x[0] < hi + 1 + tol && x[1] > lo - 1 - tol && x[1] < hi + 1 + tol &&
-                         x[2] > lo - 1 - tol;
+    const bool inOuter =
+        x[0] > lo - 1 - tol && x[0] < hi + 1 + tol && x[1] > lo - 1 - tol && x[1] < hi + 1 + tol && x[2] > lo - 1 - tol;
     if (inside && onB) field.nodes.push_back(k), field.internal.push_back(1);
     if (!inside && inOuter) field.nodes.push_back(k), field.internal.push_back(0);
   }
@@ -94,13 +101,13 @@ int main(int argc, char** argv) {
         for (int d = 0; d < 3; ++d) s.state().v(k, d) = U(rng);
       auto a = std::chrono::steady_clock::now();
       for (int k = 0; k < steps; ++k) s.step();
-      best[withDrm] = std::min(best[withDrm],
-                               std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
+      best[withDrm] =
+          std::min(best[withDrm], std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
       if (withDrm) {  // the layer's forces alone, at the same times
         a = std::chrono::steady_clock::now();
         for (int k = 0; k < steps; ++k) drm->addForces(k * s.dt(), s.dt(), s.state());
-        bestForces = std::min(bestForces,
-                              std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
+        bestForces =
+            std::min(bestForces, std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
       }
     }
   std::printf(

@@ -22,6 +22,7 @@
 #include "test_helpers.hpp"
 #include "tq/boundaries/boundaries.hpp"
 #include "tq/boundaries/drm.hpp"
+#include "tq/materials/material_mc.hpp"
 
 using namespace tq;
 
@@ -307,3 +308,52 @@ INSTANTIATE_TEST_SUITE_P(HomogeneousHalfSpace, DrmPlaneWave,
                            os << info.param;
                            return os.str();
                          });
+
+// A DRM layer that reaches into a nonlinear (Mohr–Coulomb) region is refused when the layer is
+// built, naming the element, the block and the fix; with an elastic material there it is accepted.
+TEST(DrmLayer, NonlinearMaterialInTheLayerIsRefused) {
+  DrmBox box(1.0, 4, 4);
+  box.field.time = {0.0, 1.0};
+  box.field.u.assign(2 * 3 * box.field.nodes.size(), 0.0);
+  box.field.v = box.field.a = box.field.u;
+  tq::MohrCoulombDamageParams mc;
+  mc.elastic = {kE, kNu, kRho};
+  mc.cohesion = 1e6;
+  mc.frictionAngle = 35;
+  mc.tensileStrength = 1e6;
+  const auto nonlinear = std::make_shared<MohrCoulombDamageMaterial>(mc);
+  Solver bad(box.mesh, makeBlocksByRegion(box.mesh, {{"rock", nonlinear}}), SolverOptions{});
+  try {
+    DomainReduction drm(box.mesh, bad.blocks(), box.field, 0.0);
+    FAIL() << "a Mohr-Coulomb layer was accepted";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("block 'rock'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("mohr_coulomb_damage"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("linear elastic"), std::string::npos) << msg;
+  }
+  Solver good(box.mesh, makeBlocksByRegion(box.mesh, {{"rock", tqtest::elastic(kE, kNu, kRho)}}), SolverOptions{});
+  const DomainReduction drm(box.mesh, good.blocks(), box.field, 0.0);
+  // 4 × 4 inner columns of 4 elements: the layer is the 6 × 6 ring around them, 5 deep, less the
+  // 4 × 4 inside, plus the 6 × 6 slab below: 20 × 4 + 36 = 116 elements.
+  EXPECT_EQ(drm.numLayerElements(), 20 * 4 + 36);
+}
+
+// Refused free fields: a node that is not in the mesh, flags without inner nodes, samples out of order.
+TEST(DrmLayer, UnusableFreeFieldIsRefused) {
+  DrmBox box(1.0, 4, 4);
+  DrmFreeField f = box.field;
+  f.time = {0.0, 1.0};
+  f.u.assign(2 * 3 * f.nodes.size(), 0.0);
+  f.v = f.a = f.u;
+  EXPECT_NO_THROW(checkDrmFreeField(f, box.mesh.numNodes()));
+  DrmFreeField g = f;
+  g.nodes[0] = box.mesh.numNodes();
+  EXPECT_THROW(checkDrmFreeField(g, box.mesh.numNodes()), InputError);
+  g = f;
+  std::fill(g.internal.begin(), g.internal.end(), std::uint8_t(0));
+  EXPECT_THROW(checkDrmFreeField(g, box.mesh.numNodes()), InputError);
+  g = f;
+  g.time = {1.0, 0.0};
+  EXPECT_THROW(checkDrmFreeField(g, box.mesh.numNodes()), InputError);
+}

@@ -205,7 +205,7 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
 template <int NB>
 void DomainReduction::coupleElement(const Coupling& c, const Index* s, Real* fe) const {
   constexpr int mb = 3 * NB, me = 3 * (8 - NB);
-  Real wb[mb], we[me];
+  Real wb[mb], we[me], pb[mb], pe[me];
   for (int k = 0; k < NB; ++k)
     for (int i = 0; i < 3; ++i) wb[3 * k + i] = w_[3 * size_t(s[c.b[k]]) + size_t(i)];
   for (int k = 0; k < 8 - NB; ++k)
@@ -215,13 +215,22 @@ void DomainReduction::coupleElement(const Coupling& c, const Index* s, Real* fe)
   for (int r = 0; r < mb; ++r) {
     Real acc = 0;
     for (int j = 0; j < me; ++j) acc += kbe[r * me + j] * we[j];
-    fe[3 * size_t(field_.nodes[size_t(s[c.b[r / 3]])]) + size_t(r % 3)] -= acc;
+    pb[r] = acc;
   }
   const Real* keb = c.keb.data();
   for (int r = 0; r < me; ++r) {
     Real acc = 0;
     for (int j = 0; j < mb; ++j) acc += keb[r * mb + j] * wb[j];
-    fe[3 * size_t(field_.nodes[size_t(s[c.e[r / 3]])]) + size_t(r % 3)] += acc;
+    pe[r] = acc;
+  }
+  const Index* nodes = field_.nodes.data();
+  for (int k = 0; k < NB; ++k) {
+    Real* f = fe + 3 * size_t(nodes[s[c.b[k]]]);
+    for (int i = 0; i < 3; ++i) f[i] -= pb[3 * k + i];
+  }
+  for (int k = 0; k < 8 - NB; ++k) {
+    Real* f = fe + 3 * size_t(nodes[s[c.e[k]]]);
+    for (int i = 0; i < 3; ++i) f[i] += pe[3 * k + i];
   }
 }
 
