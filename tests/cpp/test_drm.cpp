@@ -14,12 +14,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
+#include "input_fixture.hpp"
 #include "test_helpers.hpp"
+#include "tq/app/app.hpp"
 #include "tq/boundaries/boundaries.hpp"
 #include "tq/boundaries/drm.hpp"
 #include "tq/materials/material_mc.hpp"
@@ -356,4 +361,109 @@ TEST(DrmLayer, UnusableFreeFieldIsRefused) {
   g = f;
   g.time = {1.0, 0.0};
   EXPECT_THROW(checkDrmFreeField(g, box.mesh.numNodes()), InputError);
+}
+
+// The same through tq-solid: solid_input.h5 with /drm (the free field of SV at 30°, azimuth 30°, at
+// the layer's nodes, sampled every 2 ms), /boundaries (viscoelastic base, free-field sides, no
+// /motion), only the seismic stage; the monitors in results.h5 against the closed form.
+TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
+  const auto dir = std::filesystem::temp_directory_path() / ("tq_drm_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  DrmBox box(1.0, 12, 12);
+  const Real lo[3] = {0, 0, 0}, hi[3] = {box.spec.lx, box.spec.ly, box.spec.lz};
+  HalfSpaceField ff("SV", 30, 30, box.spec.lz, lo, hi);
+  const Real tEnd = 1.0;
+  box.sampleField(ff, 2e-3, tEnd);
+  writeMeshH5(box.mesh, (dir / "mesh.h5").string());
+  SolidInput in;
+  in.tEnd = tEnd;
+  in.materials = {{"rock", ElasticParams{kE, kNu, kRho}}};
+  in.monitorDt = 2e-3;
+  in.progressSeconds = 100;
+  in.ringForces = false;
+  // Inside: the surface centre and a node on the inner boundary b; outside: beyond the layer.
+  const Real c = 0.5 * box.spec.lx;
+  in.monitors = {{"surface", {c, c, box.spec.lz}}, {"b", {box.bLo[0], c, 6.0}}, {"outside", {0.0, c, 6.0}}};
+  in.staged.present = true;
+  in.staged.stages.sequence = {"seismic"};
+  in.staged.bottom.present = true;
+  in.staged.bottom.face = "bottom";
+  in.staged.bottom.distance = 600;
+  in.staged.freeField.present = true;
+  in.staged.freeField.faces = {"xmin", "xmax", "ymin", "ymax"};
+  test::writeInputFile(in, (dir / "solid_input.h5").string(), "mesh.h5");
+  {
+    auto f = h5::openFile((dir / "solid_input.h5").string(), true);
+    auto g = h5::ensureGroup(f, "/drm");
+    const DrmFreeField& D = box.field;
+    h5::writeInts(g, "nodes", D.nodes.data(), {D.nodes.size()});
+    const std::vector<Index> flags(D.internal.begin(), D.internal.end());
+    h5::writeInts(g, "internal", flags.data(), {flags.size()});
+    h5::writeDoubles(g, "time", D.time.data(), {D.time.size()});
+    const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
+    h5::writeDoubles(g, "displacement", D.u.data(), dims);
+    h5::writeDoubles(g, "velocity", D.v.data(), dims);
+    h5::writeDoubles(g, "acceleration", D.a.data(), dims);
+  }
+  std::ostringstream out, err;
+  const int rc =
+      runSolid({(dir / "solid_input.h5").string(), "-o", (dir / "results.h5").string(), "--threads", "1"}, out, err);
+  ASSERT_EQ(rc, 0) << err.str() << out.str();
+  EXPECT_NE(out.str().find("domain reduction layer: 820 elements"), std::string::npos) << out.str();
+  auto r = h5::openFile((dir / "results.h5").string());
+  Real incSq = 0;
+  for (const char* name : {"surface", "b", "outside"}) {
+    std::vector<hsize_t> d;
+    const auto t = h5::readDoubles(r, std::string("/monitors/") + name + "/time");
+    const auto u = h5::readDoubles(r, std::string("/monitors/") + name + "/u", &d);
+    const Real x[3] = {h5::readDoubleAttr(h5::openGroup(r, std::string("/monitors/") + name), "x"),
+                       h5::readDoubleAttr(h5::openGroup(r, std::string("/monitors/") + name), "y"),
+                       h5::readDoubleAttr(h5::openGroup(r, std::string("/monitors/") + name), "z")};
+    Real eSq = 0, rSq = 0, mSq = 0;
+    for (size_t k = 0; k < d[0]; ++k) {
+      Real u0[3], v0[3], a0[3], ui[3];
+      ff.at(x, t[k], u0, v0, a0);
+      ff.at(x, t[k], ui, v0, a0, true);
+      for (int i = 0; i < 3; ++i) {
+        eSq += std::pow(u[3 * k + size_t(i)] - u0[i], 2);
+        rSq += u0[i] * u0[i];
+        mSq += u[3 * k + size_t(i)] * u[3 * k + size_t(i)];
+        if (std::string(name) == "surface") incSq += ui[i] * ui[i];
+      }
+    }
+    if (std::string(name) == "outside") {
+      std::printf("tq-solid with /drm, SV 30°/30°: outside the layer ‖u‖/‖u_inc‖ %.2e\n", std::sqrt(mSq / incSq));
+      EXPECT_LT(std::sqrt(mSq / incSq), 0.02);
+    } else {
+      std::printf("tq-solid with /drm, SV 30°/30°: %s ‖u − u0‖/‖u0‖ %.2e (%zu samples)\n", name, std::sqrt(eSq / rSq),
+                  size_t(d[0]));
+      EXPECT_LT(std::sqrt(eSq / rSq), 0.01);
+    }
+  }
+  // The same input with a Mohr–Coulomb rock: `tq-solid --check` refuses it before anything runs.
+  MohrCoulombDamageParams mc;
+  mc.elastic = {kE, kNu, kRho};
+  mc.cohesion = 1e6;
+  mc.frictionAngle = 35;
+  mc.tensileStrength = 1e6;
+  in.mohrCoulomb = {{"rock", mc}};
+  test::writeInputFile(in, (dir / "nonlinear.h5").string(), "mesh.h5");
+  {
+    auto f = h5::openFile((dir / "nonlinear.h5").string(), true);
+    auto g = h5::ensureGroup(f, "/drm");
+    const DrmFreeField& D = box.field;
+    h5::writeInts(g, "nodes", D.nodes.data(), {D.nodes.size()});
+    const std::vector<Index> flags(D.internal.begin(), D.internal.end());
+    h5::writeInts(g, "internal", flags.data(), {flags.size()});
+    h5::writeDoubles(g, "time", D.time.data(), {D.time.size()});
+    const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
+    h5::writeDoubles(g, "displacement", D.u.data(), dims);
+    h5::writeDoubles(g, "velocity", D.v.data(), dims);
+    h5::writeDoubles(g, "acceleration", D.a.data(), dims);
+  }
+  std::ostringstream out2, err2;
+  EXPECT_EQ(runSolid({(dir / "nonlinear.h5").string(), "--check"}, out2, err2), 2);
+  EXPECT_NE(err2.str().find("must be linear elastic"), std::string::npos) << err2.str();
+  std::printf("%s", err2.str().c_str());
+  std::filesystem::remove_all(dir);
 }
