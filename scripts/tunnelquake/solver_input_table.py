@@ -229,10 +229,10 @@ ENTRIES: tuple[Entry, ...] = (
        required=True),
     _e("/drm", "time", "data", "free-field sample times [T], strictly increasing; linear in time between them, "
        "the end values held outside", unit="s", required=True),
-    _e("/drm", "displacement", "data", "free field at the nodes [T, N, 3]: displacement, velocity (used where "
+    _e("/drm", "u", "data", "free field at the nodes [T, N, 3]: displacement, velocity (used where "
        "Rayleigh β acts), acceleration (read; a lumped mass has no b–e coupling)", unit="m", required=True),
-    _e("/drm", "velocity", "data", unit="m/s", required=True),
-    _e("/drm", "acceleration", "data", unit="m/s²", required=True),
+    _e("/drm", "v", "data", unit="m/s", required=True),
+    _e("/drm", "a", "data", unit="m/s²", required=True),
     _e("/coupling", "scheme", "str", "`dynamic_water` through the coupler (docs/coupler.md \"Solid adapter\")",
        default="implicit", choices=("explicit", "paper", "implicit")),
     _e("/coupling", "window", "int", "solid steps per window k (k > 1 not with `paper`); window length (0 = k "

@@ -30,6 +30,7 @@
 #include "tq/materials/material_mc.hpp"
 
 using namespace tq;
+namespace K = tq::input_schema::key;
 
 namespace {
 
@@ -396,14 +397,14 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
     auto f = h5::openFile((dir / "solid_input.h5").string(), true);
     auto g = h5::ensureGroup(f, "/drm");
     const DrmFreeField& D = box.field;
-    h5::writeInts(g, "nodes", D.nodes.data(), {D.nodes.size()});
+    h5::writeInts(g, K::drm::nodes.name, D.nodes.data(), {D.nodes.size()});
     const std::vector<Index> flags(D.internal.begin(), D.internal.end());
-    h5::writeInts(g, "internal", flags.data(), {flags.size()});
-    h5::writeDoubles(g, "time", D.time.data(), {D.time.size()});
+    h5::writeInts(g, K::drm::internal.name, flags.data(), {flags.size()});
+    h5::writeDoubles(g, K::drm::time.name, D.time.data(), {D.time.size()});
     const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
-    h5::writeDoubles(g, "displacement", D.u.data(), dims);
-    h5::writeDoubles(g, "velocity", D.v.data(), dims);
-    h5::writeDoubles(g, "acceleration", D.a.data(), dims);
+    h5::writeDoubles(g, K::drm::u.name, D.u.data(), dims);
+    h5::writeDoubles(g, K::drm::v.name, D.v.data(), dims);
+    h5::writeDoubles(g, K::drm::a.name, D.a.data(), dims);
   }
   std::ostringstream out, err;
   const int rc =
@@ -452,14 +453,14 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
     auto f = h5::openFile((dir / "nonlinear.h5").string(), true);
     auto g = h5::ensureGroup(f, "/drm");
     const DrmFreeField& D = box.field;
-    h5::writeInts(g, "nodes", D.nodes.data(), {D.nodes.size()});
+    h5::writeInts(g, K::drm::nodes.name, D.nodes.data(), {D.nodes.size()});
     const std::vector<Index> flags(D.internal.begin(), D.internal.end());
-    h5::writeInts(g, "internal", flags.data(), {flags.size()});
-    h5::writeDoubles(g, "time", D.time.data(), {D.time.size()});
+    h5::writeInts(g, K::drm::internal.name, flags.data(), {flags.size()});
+    h5::writeDoubles(g, K::drm::time.name, D.time.data(), {D.time.size()});
     const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
-    h5::writeDoubles(g, "displacement", D.u.data(), dims);
-    h5::writeDoubles(g, "velocity", D.v.data(), dims);
-    h5::writeDoubles(g, "acceleration", D.a.data(), dims);
+    h5::writeDoubles(g, K::drm::u.name, D.u.data(), dims);
+    h5::writeDoubles(g, K::drm::v.name, D.v.data(), dims);
+    h5::writeDoubles(g, K::drm::a.name, D.a.data(), dims);
   }
   std::ostringstream out2, err2;
   EXPECT_EQ(runSolid({(dir / "nonlinear.h5").string(), "--check"}, out2, err2), 2);

@@ -164,21 +164,22 @@ void readStagedInput(hid_t f, SolidInput& in) {
   if (const auto g = c.group(f, "/drm", "/drm"); g.valid()) {
     const std::string w = "/drm";
     DrmFreeField& D = S.drm;
-    for (const char* name : {"nodes", "internal", "time", "displacement", "velocity", "acceleration"})
-      if (!h5::exists(g, name))
-        c.fail(w, std::string("dataset '") + name + "' is required (docs/formats.md \"solid_input.h5\", /drm)");
-    D.nodes = h5::readInts(g, "nodes");
-    for (Index flag : h5::readInts(g, "internal")) {
+    namespace KD = K::drm;
+    for (const auto* key : {&KD::nodes, &KD::internal, &KD::time, &KD::u, &KD::v, &KD::a})
+      if (!h5::exists(g, key->name))
+        c.fail(w, std::string("dataset '") + key->name + "' is required (docs/formats.md \"solid_input.h5\", /drm)");
+    D.nodes = h5::readInts(g, KD::nodes.name);
+    for (Index flag : h5::readInts(g, KD::internal.name)) {
       if (flag != 0 && flag != 1) c.fail(w, "internal must hold 0 (outer node e) or 1 (inner node b)");
       D.internal.push_back(std::uint8_t(flag));
     }
-    D.time = h5::readDoubles(g, "time");
+    D.time = h5::readDoubles(g, KD::time.name);
     const std::vector<hsize_t> want = {hsize_t(D.time.size()), hsize_t(D.nodes.size()), 3};
-    for (auto [name, arr] : {std::pair{"displacement", &D.u}, {"velocity", &D.v}, {"acceleration", &D.a}}) {
+    for (auto [key, arr] : {std::pair{&KD::u, &D.u}, {&KD::v, &D.v}, {&KD::a, &D.a}}) {
       std::vector<hsize_t> dims;
-      *arr = h5::readDoubles(g, name, &dims);
+      *arr = h5::readDoubles(g, key->name, &dims);
       if (dims != want)
-        c.fail(w, std::string(name) + " must be [T, N, 3] = [" + std::to_string(want[0]) + ", " +
+        c.fail(w, std::string(key->name) + " must be [T, N, 3] = [" + std::to_string(want[0]) + ", " +
                       std::to_string(want[1]) + ", 3] (time samples, nodes, components)");
     }
     if (!S.stages.has("seismic"))
