@@ -227,7 +227,8 @@ ENTRIES: tuple[Entry, ...] = (
        "eight nodes are among them with inner and outer ones; it must be linear elastic", required=True),
     _e("/drm", "internal", "data", "[N] 1 for an inner node (b, the region's side), 0 for an outer one (e)",
        required=True),
-    _e("/drm", "time", "data", "free-field sample times [T], strictly increasing; linear in time between them, "
+    _e("/drm", "time", "data", "free-field sample times [T] from the seismic stage's start, strictly increasing; "
+       "linear in time between them, "
        "the end values held outside", unit="s", required=True),
     _e("/drm", "u", "data", "free field at the nodes [T, N, 3]: displacement, velocity (used where "
        "Rayleigh β acts), acceleration (read; a lumped mass has no b–e coupling)", unit="m", required=True),
