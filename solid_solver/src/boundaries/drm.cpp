@@ -93,13 +93,15 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
         else
           c.e[c.ne++] = k;
       }
-      for (int ib = 0; ib < 3 * c.nb; ++ib)
-        for (int ie = 0; ie < 3 * c.ne; ++ie) {
+      // Stored column by column (K_be's column ie is contiguous over ib, K_eb's column ib over ie), so
+      // the products below run along contiguous rows without a reduction: they vectorise.
+      for (int ie = 0; ie < 3 * c.ne; ++ie)
+        for (int ib = 0; ib < 3 * c.nb; ++ib) {
           const int rb = 3 * c.b[ib / 3] + ib % 3, re = 3 * c.e[ie / 3] + ie % 3;
           c.kbe.push_back(K[rb][re]);
         }
-      for (int ie = 0; ie < 3 * c.ne; ++ie)
-        for (int ib = 0; ib < 3 * c.nb; ++ib) {
+      for (int ib = 0; ib < 3 * c.nb; ++ib)
+        for (int ie = 0; ie < 3 * c.ne; ++ie) {
           const int rb = 3 * c.b[ib / 3] + ib % 3, re = 3 * c.e[ie / 3] + ie % 3;
           c.keb.push_back(K[re][rb]);
         }
@@ -211,18 +213,14 @@ void DomainReduction::coupleElement(const Coupling& c, const Index* s, Real* fe)
   for (int k = 0; k < 8 - NB; ++k)
     for (int i = 0; i < 3; ++i) we[3 * k + i] = w_[3 * size_t(s[c.e[k]]) + size_t(i)];
   // P_b = −K_be w_e on the inner corners, P_e = +K_eb w_b on the outer ones.
-  const Real* kbe = c.kbe.data();
-  for (int r = 0; r < mb; ++r) {
-    Real acc = 0;
-    for (int j = 0; j < me; ++j) acc += kbe[r * me + j] * we[j];
-    pb[r] = acc;
-  }
-  const Real* keb = c.keb.data();
-  for (int r = 0; r < me; ++r) {
-    Real acc = 0;
-    for (int j = 0; j < mb; ++j) acc += keb[r * mb + j] * wb[j];
-    pe[r] = acc;
-  }
+  const Real* kbe = c.kbe.data();  // [me][mb]: column j of K_be
+  for (int r = 0; r < mb; ++r) pb[r] = 0;
+  for (int j = 0; j < me; ++j)
+    for (int r = 0; r < mb; ++r) pb[r] += kbe[j * mb + r] * we[j];
+  const Real* keb = c.keb.data();  // [mb][me]: column j of K_eb
+  for (int r = 0; r < me; ++r) pe[r] = 0;
+  for (int j = 0; j < mb; ++j)
+    for (int r = 0; r < me; ++r) pe[r] += keb[j * me + r] * wb[j];
   const Index* nodes = field_.nodes.data();
   for (int k = 0; k < NB; ++k) {
     Real* f = fe + 3 * size_t(nodes[s[c.b[k]]]);

@@ -46,7 +46,8 @@ class DomainReduction final : public NodalForceContributor {
   Real beta_ = 0;
   Index nInner_ = 0, nOuter_ = 0;
   /// One element's b–e coupling: its inner and outer corners (local numbers) and the blocks
-  /// K_be [3 nb][3 ne] and K_eb [3 ne][3 nb]. Elements of the same shape, material and split share one.
+  /// K_be (3 nb × 3 ne) and K_eb (3 ne × 3 nb), each stored column by column. Elements of the same shape, material and
+  /// split share one.
   struct Coupling {
     int nb = 0, ne = 0;
     int b[8] = {}, e[8] = {};
