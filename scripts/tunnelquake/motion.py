@@ -551,8 +551,9 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     if "vertical" in on_clock:
         v = on_clock["vertical"]
     else:
-        v = gm["vertical_ratio"] * h1
-        steps.append(f"vertical = {gm['vertical_ratio']:.4g} x horizontal")
+        ratio = gm["vertical_ratio"] or 0.0  # none with source none: no horizontal record to scale
+        v = ratio * h1
+        steps.append(f"vertical = {ratio:.4g} x horizontal")
     if (c, s) == (1.0, 0.0) and "second_horizontal" in on_clock:
         steps.append("horizontal record along x (across the tunnel), the second horizontal along y (the axis)")
     elif s != 0.0 or "second_horizontal" in on_clock:

@@ -60,6 +60,23 @@ def kirsch(p: float, k: float, a: float, r, theta):
     return srr, stt, srt
 
 
+def kirsch_pressurised(p: float, k: float, a: float, p_i: float, r, theta):
+    """Kirsch's field with a pressure p_i on the hole's wall (an unlined pressure tunnel; Lamé's
+    term added: σrr += p_i a²/r², σθθ −= p_i a²/r²), compression positive, θ from the horizontal.
+    Returns (σrr, σθθ, τrθ)."""
+    srr, stt, srt = kirsch(p, k, a, r, theta)
+    q = p_i * (a / np.asarray(r, float)) ** 2
+    return srr + q, stt - q, srt
+
+
+def kirsch_jacking_ratio_at_wall(p: float, k: float, p_i: float, theta) -> np.ndarray:
+    """The compressive normal stress on a radial plane at the wall of the pressurised hole, the hoop
+    stress σθθ = p[(1+k) + 2(1−k) cos 2θ] − p_i, over the internal pressure p_i (the axial stress
+    assumed larger); with k < 1 smallest at the crown and invert, (p(3k − 1) − p_i) / p_i, with
+    k > 1 at the springlines, (p(3 − k) − p_i) / p_i."""
+    return (kirsch_wall_hoop(p, k, theta) - p_i) / p_i
+
+
 def kirsch_wall_hoop(p: float, k: float, theta) -> np.ndarray:
     """σθθ at the wall: p[(1+k) + 2(1−k) cos 2θ] — sidewall (θ=0) p(3−k), crown (θ=π/2) p(3k−1)."""
     return p * ((1 + k) + 2 * (1 - k) * np.cos(2 * np.asarray(theta, float)))

@@ -378,7 +378,7 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
   writeMeshH5(box.mesh, (dir / "mesh.h5").string());
   SolidInput in;
   in.tEnd = tEnd;
-  in.materials = {{"rock", ElasticParams{kE, kNu, kRho}}};
+  in.materials = {{"rock", elasticValues({kE, kNu, kRho})}};
   in.monitorDt = 2e-3;
   in.progressSeconds = 100;
   in.ringForces = false;
@@ -447,7 +447,7 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
   mc.cohesion = 1e6;
   mc.frictionAngle = 35;
   mc.tensileStrength = 1e6;
-  in.mohrCoulomb = {{"rock", mc}};
+  in.materials = {{"rock", mohrCoulombDamageValues(mc)}};
   test::writeInputFile(in, (dir / "nonlinear.h5").string(), "mesh.h5");
   {
     auto f = h5::openFile((dir / "nonlinear.h5").string(), true);

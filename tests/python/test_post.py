@@ -302,14 +302,15 @@ def test_a_killed_run_post_processes_up_to_the_last_written_step(tmp_path, monke
     assert (res_dir / "report.md").read_text() == first
 
 
-def test_default_snapshots_cover_every_second_and_the_end():
-    """Figs. 9 and 10 need the state at the end, the XDMF an animation: with output.snapshot_times
-    empty, tq-solid is asked for one snapshot a second of shaking and one at t_end."""
+def test_default_snapshots_cover_the_start_every_second_and_the_end():
+    """Figs. 9 and 10 need the state at the end, the XDMF an animation, the hydraulic-jacking check
+    the static state at the seismic start: with output.snapshot_times empty, tq-solid is asked for
+    one snapshot at the start, one a second of shaking and one at t_end."""
     from tunnelquake.solid_input import snapshot_times
 
-    np.testing.assert_array_equal(snapshot_times([], 20.0), np.arange(1.0, 20.5, 1.0))
-    np.testing.assert_array_equal(snapshot_times([], 2.5), [1.0, 2.0, 2.5])
-    np.testing.assert_array_equal(snapshot_times([], 0.02), [0.02])
+    np.testing.assert_array_equal(snapshot_times([], 20.0), np.arange(0.0, 20.5, 1.0))
+    np.testing.assert_array_equal(snapshot_times([], 2.5), [0.0, 1.0, 2.0, 2.5])
+    np.testing.assert_array_equal(snapshot_times([], 0.02), [0.0, 0.02])
     np.testing.assert_array_equal(snapshot_times([0.5, 4.0], 20.0), [0.5, 4.0])
 
 

@@ -54,6 +54,7 @@ materials:
     tensile_strength: 2.2 MPa
     compressive_strength: 35 MPa
 water: {head: 60 m, model: compressible, bulk_modulus: 2.2 GPa}
+in_situ: {kx: 1.1, ky: 0.8}
 ground_motion:
   source: file
   file: record.txt
