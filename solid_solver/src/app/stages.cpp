@@ -54,6 +54,13 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
                      "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
   for (auto& b : solver_.blocks())
     if (b->name() == S.stages.liningRegion) lining_ = b.get();
+  if (S.drm.present()) {
+    try {
+      drm_ = std::make_shared<DomainReduction>(mesh_, solver_.blocks(), S.drm, solver_.options().damping.beta);
+    } catch (const InputError& e) {
+      throw InputError("solid input '" + in.path + "', " + e.what());
+    }
+  }
   const bool liningStage = S.stages.has("lining");
   if (liningStage) {
     if (!lining_)
@@ -511,6 +518,17 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       for (const auto& f : spec.freeFieldFaces) os << " " << f;
       os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers() << " layers)";
     }
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // The domain reduction layer's effective forces, with the boundaries (absorbing ones outside it).
+  if (drm_) {
+    solver_.addContributor(ForcePhase::Boundaries, drm_);
+    std::ostringstream os;
+    os << "domain reduction layer: " << drm_->numLayerElements() << " elements, " << drm_->numInner() << " inner and "
+       << drm_->numOuter() << " outer nodes (" << drm_->numDistinctCouplings()
+       << " distinct element couplings), free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
+       << " s";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }
