@@ -416,7 +416,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         elif rc == SOLID_OUTPUT_ERROR:
-            from ..files import free_bytes, human_bytes
+            from .files import free_bytes, human_bytes
 
             kept = f"what was written is in {res.name}" if res.is_file() else f"{res.name} was not started"
             failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}; its message above says "
