@@ -867,7 +867,15 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
     must exist (unless the case allows the synthetic fallback for the horizontal one), parse with
     finite values and a header that agrees with its data, and last the window
     `ground_motion.duration`: everything `tunnelquake motion` would refuse, or use without a word."""
-    from .motion import MotionError, check_covers, read_record, resolve_path
+    from .motion import (
+        MotionError,
+        check_covers,
+        check_filter_length,
+        check_moves,
+        lowpass_min_samples,
+        read_record,
+        resolve_path,
+    )
 
     section = raw.get("ground_motion") if isinstance(raw.get("ground_motion"), LineDict) else None
     key_lines = section.key_lines if section is not None else {}
@@ -896,16 +904,31 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
             issues.append(Issue(f"{where}.file", spec["file"], f"cannot be read: {e.problem}",
                                 e.fix or "check the format and units keys, or the file itself", line))
             continue
-        lengths.append((record.npts, record.dt, record.source, line))
+        try:
+            check_moves(record.acc, record.dt, gm["duration"], str(path))
+        except MotionError as e:
+            issues.append(Issue(f"{where}.file", spec["file"], e.problem, e.fix, line))
+        lengths.append((record.npts, record.dt, record.source, line, f"{where}.file", spec["file"]))
     if synthetic:
         syn = gm["synthetic"]  # the synthetic motion: its length, without generating it
-        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None))
-    for npts, dt, source, line in lengths:
+        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None,
+                        "ground_motion.synthetic.duration", syn["duration"]))
+    for npts, dt, source, line, key, value in lengths:
+        # the tests `run` makes when it processes the record (motion.check_window), one by one so
+        # that each names its key: the window against the record's length, then the window's
+        # samples against the low-pass (the record's own key when the record itself is too short)
         try:
             check_covers(npts, dt, gm["duration"], source)
         except MotionError as e:
             issues.append(Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
                                 key_lines.get("duration") or line))
+            continue
+        try:
+            check_filter_length(npts, dt, gm["duration"], gm["cutoff_frequency"], source)
+        except MotionError as e:
+            if npts >= lowpass_min_samples():  # the record has the samples; the window keeps too few
+                key, value, line = "ground_motion.duration", gm["duration"], key_lines.get("duration") or line
+            issues.append(Issue(key, value, e.problem, e.fix, line))
     return issues
 
 def _merge(base, over):

@@ -1,0 +1,154 @@
+"""One validation path: whatever `run` refuses before its solvers start, `check` refuses first,
+with a fix that applies (applying it makes both pass), and no command shows a traceback. The case
+is the pressure tunnel (a weathered layer, its own records), not the example."""
+from __future__ import annotations
+
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+from tunnelquake.cli import main
+
+PRESSURE = ROOT / "cases" / "pressure_tunnel"
+
+
+def _two_column(path, n: int, dt: float = 0.01, amplitude: float = 0.1):
+    """A two-column record in g of `n` samples at `dt`: a 3 Hz sine."""
+    t = np.arange(n) * dt
+    path.write_text("# time (s)  acceleration (g)\n" + "".join(
+        f"{x:.6f} {float(amplitude * np.sin(2 * np.pi * 3.0 * x))!r}\n" for x in t))
+
+
+def _case(folder, *, duration: str | None = None, cutoff: str = "15 Hz", extra: str = "") -> object:
+    """The pressure tunnel in `folder` with one horizontal record, `folder/rec.txt` (no second
+    horizontal or vertical record), the window `duration` (None: the whole record), `cutoff`."""
+    text = (PRESSURE / "case.yaml").read_text()
+    text = re.sub(r"\n  second_horizontal: .*", "", text)
+    text = re.sub(r"\n  vertical: .*", "", text)
+    text = text.replace("  file: horizontal.txt", "  file: rec.txt")
+    text = text.replace("  duration: 10 s\n", "" if duration is None else f"  duration: {duration}\n")
+    text = re.sub(r"  cutoff_frequency: 15 Hz.*", f"  cutoff_frequency: {cutoff}", text)
+    p = folder / "case.yaml"
+    p.write_text(text + extra)
+    return p
+
+
+def _cli(capsys, *args) -> tuple[int, str]:
+    rc = main([*map(str, args)])
+    out = capsys.readouterr()
+    assert "Traceback" not in out.out + out.err, out.out + out.err
+    return rc, out.out + out.err
+
+
+def _motion_of_run(p) -> str | None:
+    """What `run` does to the motion before its solvers start (motion.from_case, the path of
+    `tunnelquake motion` and `run`): None when it passes, else the refusal."""
+    from tunnelquake.case import schema
+    from tunnelquake.motion import MotionError, from_case
+    from tunnelquake.schema import load_yaml, validate
+
+    data = validate(schema(), load_yaml(p.read_text()), str(p))  # the keys alone, not check's tests
+    try:
+        from_case(data["ground_motion"], p.parent)
+    except MotionError as e:
+        return str(e)
+    return None
+
+
+def test_a_record_too_short_for_the_lowpass_is_refused_by_check_with_a_fix_that_applies(tmp_path, capsys):
+    """An 11-sample record (0.11 s at 0.01 s) under a 15 Hz low-pass (needs 16 samples), no
+    window: on today's main `check` passed it and `run` stopped after meshing advising a window
+    the record cannot cover. `check` refuses it on the record's key; each fix it names (a
+    16-sample record; the cut-off at the record's Nyquist frequency) makes `check` and the
+    motion `run` prepares pass."""
+    _two_column(tmp_path / "rec.txt", 11)
+    p = _case(tmp_path)
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1, out
+    assert "ground_motion.file = 'rec.txt'" in out, out
+    assert re.search(r"the window keeps 11 samples \(dt = 0\.01 s\), too few for the 15 Hz zero-phase low-pass "
+                     r"\(ground_motion\.cutoff_frequency\), which needs at least 16\. Fix: give a record of at least "
+                     r"16 samples \(0\.15 s at dt = 0\.01 s\), or set ground_motion\.cutoff_frequency to 50 Hz", out), out
+    assert "ground_motion.duration to at least" not in out  # the fix that cannot apply
+    assert _motion_of_run(p) is not None  # run refuses it too
+    # fix 1: the cut-off at the Nyquist frequency
+    p = _case(tmp_path, cutoff="50 Hz")
+    assert _cli(capsys, "check", p)[0] == 0 and _motion_of_run(p) is None
+    # fix 2: a record of 16 samples
+    _two_column(tmp_path / "rec.txt", 16)
+    p = _case(tmp_path)
+    assert _cli(capsys, "check", p)[0] == 0 and _motion_of_run(p) is None
+
+
+def test_a_window_too_short_for_the_lowpass_names_the_shortest_window_and_that_window_works(tmp_path, capsys):
+    """A 2 s record cut to a 0.1 s window (11 samples): the fix is the window of 0.15 s, which
+    passes `check` and the motion of `run`; 0.14 s still does not."""
+    _two_column(tmp_path / "rec.txt", 201)
+    p = _case(tmp_path, duration="0.1 s")
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1
+    assert re.search(r"ground_motion\.duration = 0\.1: .*the window keeps 11 of its 201 samples .* Fix: set "
+                     r"ground_motion\.duration to at least 0\.15 s \(the record lasts 2\.01 s\)", out), out
+    assert _motion_of_run(p) is not None
+    for window, ok in (("0.14 s", False), ("0.15 s", True)):
+        p = _case(tmp_path, duration=window)
+        assert (_cli(capsys, "check", p)[0] == 0) is ok, window
+        assert (_motion_of_run(p) is None) is ok, window
+
+
+@pytest.mark.parametrize("n, duration, cutoff", [
+    (n, d, c) for n in (2, 15, 16, 40) for d in (None, "0.1 s", "0.15 s", "0.3 s") for c in ("15 Hz", "50 Hz")])
+def test_check_passes_exactly_what_the_run_s_motion_passes(tmp_path, capsys, n, duration, cutoff):
+    """Over record lengths, windows and cut-offs around the low-pass's limit: `check` exits 0
+    exactly when the motion `run` prepares is accepted, and when both refuse, for one reason."""
+    _two_column(tmp_path / "rec.txt", n)
+    p = _case(tmp_path, duration=duration, cutoff=cutoff)
+    rc, out = _cli(capsys, "check", p)
+    refused = _motion_of_run(p) if rc == 0 else None
+    assert refused is None, (rc, refused)
+    if rc != 0:
+        assert re.search(r"lasts|too few for the|all zeros|needs at least two rows", out), out
+
+
+def _suite_case(tmp_path, lengths: list[int]):
+    (tmp_path / "records").mkdir()
+    for i, n in enumerate(lengths):
+        _two_column(tmp_path / "records" / f"r{i}.txt", n, amplitude=0.1 * (i + 1))
+    shutil.copy(tmp_path / "records" / "r0.txt", tmp_path / "rec.txt")
+    entries = "".join(f"    - {{file: records/r{i}.txt, units: g}}\n" for i in range(len(lengths)))
+    return _case(tmp_path, extra=f"\nsuite:\n  records:\n{entries}  scaling: pga\n")
+
+
+def test_a_suite_member_too_short_for_the_lowpass_is_refused_by_check_naming_the_member(tmp_path, capsys):
+    """A suite of three records, the second 11 samples long: `check` (on today's main a
+    MotionError traceback) and `run` exit 1 naming suite.records[1].file and a fix that
+    applies; with it at 16 samples both `check` and the suite's plan pass."""
+    p = _suite_case(tmp_path, [300, 11, 250])
+    for cmd in ("check", "run"):
+        rc, out = _cli(capsys, cmd, p)
+        assert rc == 1, out
+        assert re.search(r"suite\.records\[1\]\.file = '.*r1\.txt': cannot be used: .*r1\.txt: the window keeps 11 "
+                         r"samples .*Fix: give a record of at least 16 samples", out), out
+    _two_column(tmp_path / "records" / "r1.txt", 16)
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0, out
+    assert "suite: 3 members" in out
+
+
+def test_an_all_zero_record_is_refused_by_check_as_by_run(tmp_path, capsys):
+    """A record of zeros scaled to a PGA: `run` cannot scale it; `check` refuses it first."""
+    (tmp_path / "rec.txt").write_text("".join(f"{i * 0.01:.2f} 0.0\n" for i in range(100)))
+    p = _case(tmp_path)
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1 and "ground_motion.file = 'rec.txt'" in out and "all zeros" in out, out
+    assert "all zeros" in (_motion_of_run(p) or "")
+
+
+def test_check_says_the_window_is_the_whole_record_when_duration_is_unset(tmp_path, capsys):
+    _two_column(tmp_path / "rec.txt", 300)
+    rc, out = _cli(capsys, "check", _case(tmp_path))
+    assert rc == 0, out
+    assert "window the whole record;" in out and "None" not in out, out
