@@ -331,6 +331,12 @@ def what_was_written(res: Path) -> str:
             status = status.decode() if isinstance(status, bytes) else str(status)
     except OSError:
         return f"{res.name} is there but does not open as HDF5 (the solver stopped while writing it)"
+    if status == "running":  # its solver has ended: the file is cut off, never still running
+        if not supervise.rewritten(res):
+            return (f"{res.name} is as an earlier run left it, cut off where that run was stopped (this run's solver "
+                    "did not write to it; `tunnelquake post` reports it up to its last sample)")
+        return (f"what the solid wrote is in {res.name}, cut off: its solver ended without writing a status "
+                "(`tunnelquake post` reports it up to its last sample)")
     return f"what the solid wrote is in {res.name} (status {status})"
 
 

@@ -152,3 +152,48 @@ def test_check_says_the_window_is_the_whole_record_when_duration_is_unset(tmp_pa
     rc, out = _cli(capsys, "check", _case(tmp_path))
     assert rc == 0, out
     assert "window the whole record;" in out and "None" not in out, out
+
+
+def test_a_refused_resume_never_reports_a_cut_off_file_as_running(tmp_path):
+    """The pressure tunnel's no_water, 0.3 s with a checkpoint every 0.05 s: tq-solid killed
+    inside its second checkpoint (TQ_CHECKPOINT_FAULT) leaves its results file with the status
+    'running'; the run's summary says the file is cut off, not 'status running'. A `--resume`
+    that tq-solid refuses (its checkpoint folder held, as by another tq-solid) says the file is as
+    the earlier run left it; on today's main both summaries said '(status running)'."""
+    import fcntl
+    import os
+    import subprocess
+    import sys
+
+    from tunnelquake import paths
+
+    if paths.solid_executable() is None:
+        pytest.skip("tq-solid is not built")
+    shutil.copytree(PRESSURE, tmp_path / "case", ignore=shutil.ignore_patterns("results*"))
+    p = tmp_path / "case" / "case.yaml"
+    text = p.read_text().replace("  duration: 10 s", "  duration: 1 s")
+    text = text.replace("output:\n", "output:\n  checkpoint_interval: 0.05 s\n")
+    p.write_text(text + "\nconditions: [no_water]\ntime:\n  end_time: 0.3 s\n")
+
+    def run(*extra, env=None):
+        r = subprocess.run([sys.executable, "-m", "tunnelquake", "run", str(p), "--no-post", *extra],
+                           capture_output=True, text=True, timeout=300,
+                           env={**os.environ, "PYTHONPATH": str(ROOT / "scripts"), **(env or {})})
+        out = r.stdout + r.stderr
+        assert r.returncode == 1 and "Traceback" not in out, out[-3000:]
+        return out[out.index("FAILED:"):]
+
+    summary = run(env={"TQ_CHECKPOINT_FAULT": "2:solid"})
+    assert "tq-solid stopped (exit -9)" in summary, summary
+    assert "status running" not in summary, summary
+    assert "cut off: its solver ended without writing a status" in summary, summary
+    lock = p.parent / "results" / "no_water" / "checkpoint" / "lock"
+    fd = os.open(lock, os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        summary = run("--resume")
+    finally:
+        os.close(fd)
+    assert "tq-solid stopped (exit 2)" in summary, summary
+    assert "status running" not in summary, summary
+    assert "results_no_water.h5 is as an earlier run left it, cut off where that run was stopped" in summary, summary
