@@ -615,6 +615,9 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             f"use fluid_ranks <= {cores}")
     issues += _layer_checks(d, raw)
     warnings += _slow_setting_warnings(d)
+    from .sanity import case_warnings
+
+    warnings += case_warnings(d)
     out = d["output"]
     here = Path(filename).parent.resolve()
     where = (here / out["directory"]).resolve()

@@ -197,3 +197,64 @@ def test_a_refused_resume_never_reports_a_cut_off_file_as_running(tmp_path):
     assert "tq-solid stopped (exit 2)" in summary, summary
     assert "status running" not in summary, summary
     assert "results_no_water.h5 is as an earlier run left it, cut off where that run was stopped" in summary, summary
+
+
+@pytest.mark.parametrize("edit, key, value_words", [
+    (("  pga: 0.3 g", "  pga: 3 g"), "ground_motion.pga", "29.42 m/s^2 is 3 g: above 2 g"),
+    (("  lining_thickness: 0.5 m", "  lining_thickness: 0.15 m"), "geometry.lining_thickness",
+     "0.15 m is thinner than 1/40 of the excavated diameter 7 m (0.175 m)"),
+    (("  lining_thickness: 0.5 m", "  lining_thickness: 2 m"), "geometry.lining_thickness",
+     "2 m is more than half the excavated radius 3.5 m"),
+    (("    youngs_modulus: 33 GPa", "    youngs_modulus: 33 MPa"), "materials.lining.youngs_modulus",
+     "3.3e+07 Pa is outside 1e+10 to 8e+10 Pa"),
+    (("    youngs_modulus: 20 GPa", "    youngs_modulus: 20000 GPa"), "materials.rock.youngs_modulus",
+     "2e+13 Pa is outside 1e+07 to 1.5e+11 Pa"),
+    (("    density: 2300 kg/m^3", "    density: 2.3 kg/m^3"), "materials.weathered.density",
+     "2.3 kg/m^3 is outside 1000 to 3500 kg/m^3"),
+    (("  head: 60 m", "  head: 6000 m"), "water.head", "6000 m is above 2000 m"),
+])
+def test_a_value_far_outside_the_physical_range_is_warned_of_by_check_and_run_naming_it(tmp_path, capsys, edit, key,
+                                                                                        value_words):
+    """Each sanity warning (tunnelquake.sanity) on the pressure tunnel: `check` exits 0 with one
+    warning naming the key and the value; `run` prints the same before it meshes. The case as
+    given has none."""
+    text = (PRESSURE / "case.yaml").read_text()
+    assert edit[0] in text
+    for f in ("horizontal.txt", "along_axis.txt", "vertical.txt"):
+        shutil.copy(PRESSURE / f, tmp_path / f)
+    p = tmp_path / "case.yaml"
+    p.write_text(text)
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0 and "warning" not in out, out
+    p.write_text(text.replace(edit[0], edit[1], 1))
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0, out
+    warnings = [ln for ln in out.splitlines() if ln.startswith("warning: ")]
+    # (a thinner or thicker lining also moves the monitors off it: said by their own warnings)
+    sane = [w for w in warnings if not w.startswith("warning: output.monitors.")]
+    assert len(sane) == 1 and sane[0].startswith(f"warning: {key} {value_words}"), warnings
+    from tunnelquake.case_file import load_or_report
+
+    assert load_or_report(p) is not None  # what `run` loads the case with: the same warnings first
+    assert capsys.readouterr().err.splitlines() == warnings
+
+
+def test_a_suite_member_scaled_beyond_2_g_is_warned_of_by_check_and_by_the_suite_s_plan(tmp_path, capsys):
+    """A suite with scaling none whose second record is in cm/s^2 but declared in g (981x): its
+    member's PGA, 200 g, is in no key; `check` and the plan `run` makes (suite_members.plan_members)
+    warn of it naming the member, the record and the PGA. The first member (0.1 g) is not named."""
+    p = _suite_case(tmp_path, [300, 300])
+    _two_column(tmp_path / "records" / "r1.txt", 300, amplitude=196.1)  # 0.2 g written in cm/s^2
+    p.write_text(p.read_text().replace("scaling: pga", "scaling: none").replace("  pga: 0.3 g\n", ""))
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0, out
+    warnings = [ln for ln in out.splitlines() if ln.startswith("warning: ")]
+    assert len(warnings) == 1, warnings
+    m = re.match(r"warning: suite member r1 \(r1\.txt, scaled by 1\): PGA ([0-9.]+) m/s\^2 is ([0-9.]+) g: above 2 g",
+                 warnings[0])
+    assert m and 150 < float(m.group(2)) < 250, warnings  # the record's 196 g as processed (baseline, filter)
+    from tunnelquake.case import load_case
+    from tunnelquake.suite_members import plan_members
+
+    plan_members(load_case(p))
+    assert capsys.readouterr().err.strip().splitlines() == warnings
