@@ -911,6 +911,13 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
             check_moves(record.acc, record.dt, gm["duration"], str(path))
         except MotionError as e:
             issues.append(Issue(f"{where}.file", spec["file"], e.problem, e.fix, line))
+        if gm["pga"] is None and spec.get("pga") is None:  # used as recorded: its own peak is the PGA
+            from .sanity import pga_warning
+
+            w = pga_warning(f"{where}.file {spec['file']}: its peak (no pga scales it)",
+                            float(abs(record.acc).max()) if record.acc.size else None)
+            if w is not None:
+                warnings.append(w)
         lengths.append((record.npts, record.dt, record.source, line, f"{where}.file", spec["file"]))
     if synthetic:
         syn = gm["synthetic"]  # the synthetic motion: its length, without generating it

@@ -258,3 +258,18 @@ def test_a_suite_member_scaled_beyond_2_g_is_warned_of_by_check_and_by_the_suite
 
     plan_members(load_case(p))
     assert capsys.readouterr().err.strip().splitlines() == warnings
+
+
+def test_a_record_used_as_recorded_with_a_peak_above_2_g_is_warned_of(tmp_path, capsys):
+    """No ground_motion.pga: the record's own peak is the PGA. A record in cm/s^2 declared in g
+    (200 g) is warned of by `check`, naming the file; the same record at 0.2 g is not."""
+    _two_column(tmp_path / "rec.txt", 300, amplitude=196.1)
+    p = _case(tmp_path)
+    p.write_text(p.read_text().replace("  pga: 0.3 g\n", ""))
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0, out
+    assert re.search(r"warning: ground_motion\.file rec\.txt: its peak \(no pga scales it\) [0-9.]+ m/s\^2 is 19[0-9](\.[0-9]+)? "
+                     r"g: above 2 g", out), out
+    _two_column(tmp_path / "rec.txt", 300, amplitude=0.2)
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0 and "warning" not in out, out
