@@ -822,6 +822,21 @@ def _layer_checks(d: dict, raw: LineDict) -> list[Issue]:
     return issues
 
 
+#: Below this many water cells a rank parallel.fluid_ranks is refused (fluid_case.decompose): a slab
+#: of a few cells is mostly processor faces, and a rank of the simple split could get none.
+MIN_CELLS_PER_RANK = 20
+
+
+def fluid_ranks_problem(cells: int, ranks: int) -> tuple[str, str] | None:
+    """(problem, fix) when `ranks` water ranks would get fewer than MIN_CELLS_PER_RANK of the
+    water's `cells` cells each; None when they would not. `check` tests it on the mesh's counts,
+    `run` on the water case's cells."""
+    if ranks <= 1 or cells >= MIN_CELLS_PER_RANK * ranks:
+        return None
+    return (f"gives the water's {cells} cells fewer than {MIN_CELLS_PER_RANK} a rank",
+            f"use fluid_ranks: 1 (at most {max(1, cells // MIN_CELLS_PER_RANK)} for this mesh)")
+
+
 def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     """The mesher's own rules (meshing.params.resolve: multiples of 4 around, element sizes the
     structured blocks can meet, gradings, the near-field box inside the block), said against
@@ -849,6 +864,11 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
         fix = fix[:1].lower() + fix[1:]
         return [Issue(key, value, e.problem or str(e), fix, line)]
     counts = element_counts(plan)
+    issues = []
+    ranks = d["parallel"]["fluid_ranks"]
+    bad = fluid_ranks_problem(counts["water"], ranks) if "dynamic_water" in d["conditions"] else None
+    if bad is not None:
+        issues.append(Issue("parallel.fluid_ranks", ranks, *bad, _section_lines(raw, "parallel").get("fluid_ranks")))
     need = memory_estimate(counts, d["conditions"])
     have = machine_memory()
     if have is not None and max(need.values()) > have["total"]:
@@ -862,7 +882,7 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
             f"GiB available now): {short} would run out of memory. Fix: lower mesh.refinement_factor "
             f"({d['mesh']['refinement_factor']}), raise mesh.max_element_size or use fewer divisions, or mesh.mode: "
             "slice")
-    return []
+    return issues
 
 
 def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:

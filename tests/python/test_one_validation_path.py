@@ -273,3 +273,29 @@ def test_a_record_used_as_recorded_with_a_peak_above_2_g_is_warned_of(tmp_path, 
     _two_column(tmp_path / "rec.txt", 300, amplitude=0.2)
     rc, out = _cli(capsys, "check", p)
     assert rc == 0 and "warning" not in out, out
+
+
+def test_too_many_water_ranks_for_the_mesh_are_refused_by_check_as_by_run(tmp_path, capsys):
+    """parallel.fluid_ranks 16 on the pressure tunnel's slice (192 water cells; a rank needs 20):
+    `check` passed it and `run` refused it after meshing and writing the water case. `check`
+    refuses it naming the key and the most ranks the mesh takes (9), which passes; `run`'s
+    decomposition refuses 16 with the same words (one rule, case.fluid_ranks_problem)."""
+    from tunnelquake import fluid_case as fc
+
+    for f in ("horizontal.txt", "along_axis.txt", "vertical.txt"):
+        shutil.copy(PRESSURE / f, tmp_path / f)
+    p = tmp_path / "case.yaml"
+    text = (PRESSURE / "case.yaml").read_text()
+    p.write_text(text + "\nparallel:\n  fluid_ranks: 16\n")
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1, out
+    words = "gives the water's 192 cells fewer than 20 a rank"
+    assert f"parallel.fluid_ranks = 16: {words}. Fix: use fluid_ranks: 1 (at most 9 for this mesh)" in out, out
+    p.write_text(text + "\nparallel:\n  fluid_ranks: 9\n")
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 0, out
+    owner = tmp_path / "water" / "constant" / "polyMesh" / "owner"
+    owner.parent.mkdir(parents=True)
+    owner.write_text('FoamFile\n{\n    note        "nPoints:500  nCells:192  nFaces:900  nInternalFaces:300";\n}\n')
+    with pytest.raises(fc.FluidCaseError, match=re.escape(f"parallel.fluid_ranks = 16 {words}")):
+        fc.decompose(tmp_path / "water", 16, (6.0, 1.0, 6.0), True)
