@@ -863,6 +863,12 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
         fix = (e.fix or "see docs/meshing.md").rstrip(".")
         fix = fix[:1].lower() + fix[1:]
         return [Issue(key, value, e.problem or str(e), fix, line)]
+    except (MemoryError, OverflowError):  # divisions beyond any machine: their sizes cannot even be listed
+        written = raw.get("mesh") if isinstance(raw.get("mesh"), dict) else {}
+        return [Issue("mesh", {k: d["mesh"].get(k) for k in written},
+                      "asks for more element divisions than any machine can hold (listing their sizes overflowed)",
+                      "raise mesh.max_element_size, or lower the division counts and refinement_factor "
+                      "(docs/meshing.md)", raw.key_lines.get("mesh"))]
     counts = element_counts(plan)
     issues = []
     ranks = d["parallel"]["fluid_ranks"]
@@ -956,7 +962,10 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
         try:
             check_filter_length(npts, dt, gm["duration"], gm["cutoff_frequency"], source)
         except MotionError as e:
-            if npts >= lowpass_min_samples():  # the record has the samples; the window keeps too few
+            if e.key is not None:  # a key of the case's, not the record's length
+                leaf = e.key.rsplit(".", 1)[1]
+                key, value, line = e.key, gm[leaf], key_lines.get(leaf) or line
+            elif npts >= lowpass_min_samples():  # the record has the samples; the window keeps too few
                 key, value, line = "ground_motion.duration", gm["duration"], key_lines.get("duration") or line
             issues.append(Issue(key, value, e.problem, e.fix, line))
     return issues

@@ -45,10 +45,12 @@ class MotionError(ValueError):
     """A record that cannot be read; the message names the file, the line and the problem, and
     `fix` (when given) what to do about it."""
 
-    def __init__(self, problem: str, fix: str | None = None):
+    def __init__(self, problem: str, fix: str | None = None, key: str | None = None):
         super().__init__(problem if fix is None else f"{problem}. Fix: {fix}")
         self.problem = problem
         self.fix = fix
+        #: the case key the problem is about, when it is not the record itself
+        self.key = key
 
 
 @dataclass
@@ -402,15 +404,26 @@ def check_filter_length(npts: int, dt: float, duration: float | None, cutoff: fl
     """Refuse a record whose window keeps too few samples for the zero-phase low-pass at `cutoff`
     (none is needed when `cutoff` is at or above the record's Nyquist frequency). The fix named is
     one that applies: a longer window when the record has the samples, else a longer record (a
-    longer synthetic one), or a cut-off at the Nyquist frequency, which leaves the record as it is."""
+    longer synthetic one), or a cut-off at the Nyquist frequency, which leaves the record as it is.
+    A cut-off below 1 / the window is refused too: it would take out the whole motion (below
+    about 1e-7 of the Nyquist frequency the filter's design fails outright)."""
     nyq = 0.5 / dt
     need = lowpass_min_samples()
     kept = kept_samples(npts, dt, duration)
-    if cutoff >= nyq or kept >= need:
+    if cutoff >= nyq:
+        return
+    if kept >= need:
+        window = (kept - 1) * dt
+        if cutoff * window < 1.0:
+            raise MotionError(f"ground_motion.cutoff_frequency {cutoff:g} Hz is below 1 / the window ({1.0 / window:.3g} "
+                              f"Hz for {window:g} s): the low-pass would take out the whole motion",
+                              "give the cut-off above the frequencies to keep (15 to 25 Hz for a tunnel's seismic "
+                              "response), within what the mesh resolves (`check` warns beyond it)",
+                              key="ground_motion.cutoff_frequency")
         return
     synthetic = source == "synthetic"
     what = "the synthetic record" if synthetic else source
-    window = f" of its {npts}" if kept < npts else ""
+    of = f" of its {npts}" if kept < npts else ""
     longest = (need - 1) * dt
     if npts >= need:
         fix = (f"set ground_motion.duration to at least {longest:g} s (the record lasts {npts * dt:g} s), or leave "
@@ -422,7 +435,7 @@ def check_filter_length(npts: int, dt: float, duration: float | None, cutoff: fl
         fix = (f"give a record of at least {need} samples ({longest:g} s at dt = {dt:g} s), or set "
                f"ground_motion.cutoff_frequency to {nyq:g} Hz (the record's Nyquist frequency) or more, which "
                "leaves it unfiltered")
-    raise MotionError(f"{what}: the window keeps {kept}{window} samples (dt = {dt:g} s), too few for the {cutoff:g} "
+    raise MotionError(f"{what}: the window keeps {kept}{of} samples (dt = {dt:g} s), too few for the {cutoff:g} "
                       f"Hz zero-phase low-pass (ground_motion.cutoff_frequency), which needs at least {need}", fix)
 
 

@@ -100,7 +100,7 @@ def test_a_window_too_short_for_the_lowpass_names_the_shortest_window_and_that_w
 
 
 @pytest.mark.parametrize("n, duration, cutoff", [
-    (n, d, c) for n in (2, 15, 16, 40) for d in (None, "0.1 s", "0.15 s", "0.3 s") for c in ("15 Hz", "50 Hz")])
+    (n, d, c) for n in (2, 15, 16, 40) for d in (None, "0.1 s", "0.15 s", "0.3 s") for c in ("5 Hz", "15 Hz", "50 Hz")])
 def test_check_passes_exactly_what_the_run_s_motion_passes(tmp_path, capsys, n, duration, cutoff):
     """Over record lengths, windows and cut-offs around the low-pass's limit: `check` exits 0
     exactly when the motion `run` prepares is accepted, and when both refuse, for one reason."""
@@ -110,7 +110,7 @@ def test_check_passes_exactly_what_the_run_s_motion_passes(tmp_path, capsys, n, 
     refused = _motion_of_run(p) if rc == 0 else None
     assert refused is None, (rc, refused)
     if rc != 0:
-        assert re.search(r"lasts|too few for the|all zeros|needs at least two rows", out), out
+        assert re.search(r"lasts|too few for the|all zeros|needs at least two rows|take out the whole motion", out), out
 
 
 def _suite_case(tmp_path, lengths: list[int]):
@@ -299,3 +299,36 @@ def test_too_many_water_ranks_for_the_mesh_are_refused_by_check_as_by_run(tmp_pa
     owner.write_text('FoamFile\n{\n    note        "nPoints:500  nCells:192  nFaces:900  nInternalFaces:300";\n}\n')
     with pytest.raises(fc.FluidCaseError, match=re.escape(f"parallel.fluid_ranks = 16 {words}")):
         fc.decompose(tmp_path / "water", 16, (6.0, 1.0, 6.0), True)
+
+
+def test_a_cut_off_below_one_over_the_window_is_refused_by_check_on_its_key(tmp_path, capsys):
+    """ground_motion.cutoff_frequency 1e-9 Hz: the filter's design failed in `motion` with a
+    LinAlgError traceback after `check` passed it. Any cut-off below 1 / the window takes out the
+    whole motion: `check` refuses it on its key (10 s window: below 0.1 Hz), the motion of `run`
+    likewise; 0.2 Hz passes."""
+    _two_column(tmp_path / "rec.txt", 1001)
+    for cutoff, ok in (("1e-9 Hz", False), ("0.05 Hz", False), ("0.2 Hz", True)):
+        p = _case(tmp_path, cutoff=cutoff)
+        rc, out = _cli(capsys, "check", p)
+        assert (rc == 0) is ok, out
+        assert (_motion_of_run(p) is None) is ok, cutoff
+        if not ok:
+            assert re.search(r"ground_motion\.cutoff_frequency = [0-9.e-]+: ground_motion\.cutoff_frequency [0-9.e-]+ Hz is "
+                             r"below 1 / the window \(0\.1 Hz for 10 s\): the low-pass would take out the whole motion",
+                             out), out
+
+
+@pytest.mark.parametrize("old, new", [("  max_element_size: 5 m", "  max_element_size: 1e-9"),
+                                      ("  near_field_radial_divisions: 8", "  near_field_radial_divisions: 1000000")])
+def test_mesh_divisions_beyond_any_machine_are_refused_by_check(tmp_path, capsys, old, new):
+    """Mesh keys that ask for more divisions than can be listed (MemoryError, OverflowError
+    tracebacks from `check` before): one error naming the mesh keys written and the fix."""
+    for f in ("horizontal.txt", "along_axis.txt", "vertical.txt"):
+        shutil.copy(PRESSURE / f, tmp_path / f)
+    text = (PRESSURE / "case.yaml").read_text()
+    assert old in text
+    p = tmp_path / "case.yaml"
+    p.write_text(text.replace(old, new))
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1, out
+    assert "asks for more element divisions than any machine can hold" in out and "Fix: raise mesh.max_element_size" in out
