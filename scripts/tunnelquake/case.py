@@ -837,6 +837,10 @@ def fluid_ranks_problem(cells: int, ranks: int) -> tuple[str, str] | None:
             f"use fluid_ranks: 1 (at most {max(1, cells // MIN_CELLS_PER_RANK)} for this mesh)")
 
 
+#: the most element divisions along one edge of the mesh that `check` lets through
+MAX_EDGE_DIVISIONS = 100_000
+
+
 def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     """The mesher's own rules (meshing.params.resolve: multiples of 4 around, element sizes the
     structured blocks can meet, gradings, the near-field box inside the block), said against
@@ -844,6 +848,22 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     memory it needs, estimated from the division counts alone, against the machine's memory."""
     from .meshing.params import MeshInputError, element_counts, machine_memory, memory_estimate, resolve
 
+    # Divisions beyond any machine are refused before they are listed (a list of 1e9 sizes alone
+    # is 8 GB): more than MAX_EDGE_DIVISIONS along one edge is 1e10 elements in a slice already.
+    g, lines = d["geometry"], _section_lines(raw, "mesh")
+    extent = max(hi - lo for lo, hi in (g["x_range"], g["y_range"], g["z_range"]))
+    h = d["mesh"].get("max_element_size")
+    too_many = [(k, v) for k, v in d["mesh"].items()
+                if isinstance(v, int) and not isinstance(v, bool) and v > MAX_EDGE_DIVISIONS]
+    if h is not None and extent / h > MAX_EDGE_DIVISIONS:
+        too_many.insert(0, ("max_element_size", h))
+    if too_many:
+        k, v = too_many[0]
+        what = (f"divides the block's {extent:g} m into {extent / v:.3g} elements" if k == "max_element_size" else
+                "is a division count")
+        return [Issue(f"mesh.{k}", v, f"{what}, beyond {MAX_EDGE_DIVISIONS:,} along one edge: more elements than any "
+                      "machine can hold", "raise mesh.max_element_size, or lower the division counts and "
+                      "refinement_factor (docs/meshing.md)", lines.get(k) or raw.key_lines.get("mesh"))]
     try:
         plan = resolve(d["geometry"], d["mesh"], ground_layers(d))
     except MeshInputError as e:

@@ -319,10 +319,12 @@ def test_a_cut_off_below_one_over_the_window_is_refused_by_check_on_its_key(tmp_
 
 
 @pytest.mark.parametrize("old, new", [("  max_element_size: 5 m", "  max_element_size: 1e-9"),
+                                      ("  max_element_size: 5 m", "  max_element_size: 1e-7"),
                                       ("  near_field_radial_divisions: 8", "  near_field_radial_divisions: 1000000")])
 def test_mesh_divisions_beyond_any_machine_are_refused_by_check(tmp_path, capsys, old, new):
-    """Mesh keys that ask for more divisions than can be listed (MemoryError, OverflowError
-    tracebacks from `check` before): one error naming the mesh keys written and the fix."""
+    """Mesh keys that ask for more divisions than any machine holds (`check` raised MemoryError or
+    OverflowError, or at 1e-7 m listed 1.4e9 element sizes): one error naming the key and the fix,
+    at once and in little memory."""
     for f in ("horizontal.txt", "along_axis.txt", "vertical.txt"):
         shutil.copy(PRESSURE / f, tmp_path / f)
     text = (PRESSURE / "case.yaml").read_text()
@@ -331,4 +333,6 @@ def test_mesh_divisions_beyond_any_machine_are_refused_by_check(tmp_path, capsys
     p.write_text(text.replace(old, new))
     rc, out = _cli(capsys, "check", p)
     assert rc == 1, out
-    assert "asks for more element divisions than any machine can hold" in out and "Fix: raise mesh.max_element_size" in out
+    key = new.strip().split(":")[0]
+    assert f"mesh.{key} = " in out and "more elements than any machine can hold" in out, out
+    assert "Fix: raise mesh.max_element_size" in out, out
