@@ -336,3 +336,22 @@ def test_mesh_divisions_beyond_any_machine_are_refused_by_check(tmp_path, capsys
     key = new.strip().split(":")[0]
     assert f"mesh.{key} = " in out and "more elements than any machine can hold" in out, out
     assert "Fix: raise mesh.max_element_size" in out, out
+
+
+def test_a_rock_ring_element_too_thin_for_the_mesher_is_refused_by_check(tmp_path, capsys):
+    """near_field_radial_divisions 100 (graded 1.1): the first ring element, 4.7e-5 m, is thinner
+    than the 1.4e-4 m within which the mesher puts a face on a boundary, and `mesh` failed with a
+    RuntimeError traceback after `check` passed it. `check` refuses it naming the key; 86 (1.8e-4 m)
+    passes `check` and meshes (the mesher's own face check: one region per face)."""
+    for f in ("horizontal.txt", "along_axis.txt", "vertical.txt"):
+        shutil.copy(PRESSURE / f, tmp_path / f)
+    text = (PRESSURE / "case.yaml").read_text()
+    p = tmp_path / "case.yaml"
+    p.write_text(text.replace("  near_field_radial_divisions: 8", "  near_field_radial_divisions: 100"))
+    rc, out = _cli(capsys, "check", p)
+    assert rc == 1, out
+    assert re.search(r"mesh\.near_field_radial_divisions = 100: the first radial element of the rock ring is 4\.72e-05 m, "
+                     r"thinner than 0\.00014 m .* Fix: lower near_field_radial_divisions or near_field_growth", out), out
+    p.write_text(text.replace("  near_field_radial_divisions: 8", "  near_field_radial_divisions: 86"))
+    assert _cli(capsys, "check", p)[0] == 0
+    assert _cli(capsys, "mesh", p)[0] == 0
