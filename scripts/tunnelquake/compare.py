@@ -43,6 +43,7 @@ def _open(path: Path):
     """A results file opened for reading, or CompareError saying why it cannot be."""
     import h5py
 
+    path = Path(path)
     try:
         return h5py.File(path, "r")
     except OSError as e:
