@@ -24,6 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
+from tunnelquake import water_case as wc
+from tunnelquake.foam_dict import Quoted
+
 from .fluid_common import foamcase as fc
 from .fluid_common import pipe
 
@@ -41,15 +44,19 @@ def motion_iterations(log: str) -> float:
 def run_variant(root: Path, name: str, geom: dict, steps: int, dt: float, gamg: bool) -> dict:
     case = root / name
     solver = {"static": "tqInterpolated", "laplacianGAMG": "laplacian"}.get(name, name)
-    motion = pipe.make_pipe_case(
-        case,
-        dt=dt,
-        end_time=steps * dt,
-        write_interval=1e9,
-        motion_solver=solver,
-        p_tol=1e-7,
-        **geom,
-    )
+    gamg = {"solver": "GAMG", "smoother": "GaussSeidel", "tolerance": 1e-7}
+    more: dict = {"system/fvSolution": {"solvers": {"p": wc.Whole(gamg, relTol=0.01),
+                                                    "pFinal": wc.Whole(gamg, relTol=0)}}}
+    if name == "laplacianGAMG":
+        more["system/fvSolution"]["solvers"][Quoted("cellDisplacement(Final)?")] = wc.Whole(
+            solver="GAMG", smoother="GaussSeidel", tolerance=1e-6, relTol=0)
+    if name == "static":  # the mesh and the wall at rest: the step without any motion
+        more["constant/dynamicMeshDict"] = {"dynamicFvMesh": "staticFvMesh", "motionSolverLibs": None,
+                                            "motionSolver": None, "tqInterpolatedDisplacementCoeffs": None}
+        more["system/controlDict"] = {"functions": {"interface": {"exchange": {
+            "type": "none", "file": None, "axisPoint": None, "axisDirection": None}}}}
+    motion = pipe.make_pipe_case(case, dt=dt, end_time=steps * dt, write_interval=1e9, motion_solver=solver,
+                                 more=more, **geom)
     t = np.arange(0, (steps + 3) * dt, dt)
     omega = 2 * np.pi * 5.0
     u, v = pipe.harmonic_lateral(t, 1.0, omega)
@@ -58,27 +65,6 @@ def run_variant(root: Path, name: str, geom: dict, steps: int, dt: float, gamg: 
     if geom.get("two_d", True):
         ur, vr = 0 * ur, 0 * vr  # closed 2D slice: volume-preserving motion only
     pipe.write_motion(motion, t, u, v, ur, vr)
-    sol = case / "system" / "fvSolution"
-    s = sol.read_text()
-    s = s.replace(
-        '"p(Final)?" { solver PCG; preconditioner DIC; tolerance 1e-07; relTol 0; }',
-        "p { solver GAMG; smoother GaussSeidel; tolerance 1e-7; relTol 0.01; }\n"
-        "    pFinal { solver GAMG; smoother GaussSeidel; tolerance 1e-7; relTol 0; }",
-    )
-    if name == "laplacianGAMG":
-        s = re.sub(
-            r'"cellDisplacement\(Final\)\?" \{[^}]*\}',
-            '"cellDisplacement(Final)?" { solver GAMG; smoother GaussSeidel; tolerance 1e-6; relTol 0; }',
-            s,
-        )
-    sol.write_text(s)
-    if name == "static":
-        dm = case / "constant" / "dynamicMeshDict"
-        dm.write_text(dm.read_text().split("dynamicFvMesh")[0] + "dynamicFvMesh staticFvMesh;\n")
-        cd = case / "system" / "controlDict"
-        c = cd.read_text()
-        c = re.sub(r"exchange\s*\{[^}]*\}", "exchange { type none; }", c)
-        cd.write_text(c)
     fc.run(case, "blockMesh")
     log = fc.run(case, "pimpleFoam", timeout=1200)
     ncells = int(re.search(r"nCells:\s*(\d+)", (case / "log.blockMesh").read_text()).group(1))

@@ -41,16 +41,6 @@ def env() -> dict:
     return e
 
 
-def water_p_controls(closed: bool) -> str:
-    """Body of the water case's `p` solver entry (the production pressure controls, tqProjected with
-    GAMG inside: tunnelquake.water_case.pressure_solver), for a closed domain (tolerance 1e-6;
-    relTol 0) or an open one."""
-    from tunnelquake.foam_dict import inline
-    from tunnelquake.water_case import pressure_solver
-
-    return inline(pressure_solver(closed))
-
-
 HEADER = """FoamFile
 {{
     version     2.0;

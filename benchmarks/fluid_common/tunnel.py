@@ -1,17 +1,19 @@
 """Water cases on the tunnel's own water mesh (tunnelquake.meshing.build_tunnel_mesh), for the
-benchmark (benchmarks/water_step) and the verification tests.
+benchmark (benchmarks/water_step) and the verification tests, written by the product's writer
+(tunnelquake.water_case).
 
 prepare_mesh(mode, dest): builds the paper's mesh (PAPER_GEOMETRY, mode '3d' or 'slice'),
 converts water.msh with gmshToFoam and sets the patch types (interface: wall; slice ends:
 empty); returns the constant/polyMesh folder, reused by every case of that mesh.
 
-make_case(case, polymesh, settings): a complete pimpleFoam case with libtqFoam.so, written
-from a settings dict (defaults: SETTINGS, "ours"), with the fake solid ('replay') reading
-constant/wallMotion.dat.  Axial ends from the mesh: 'empty' (slice), 'wall' (a closed pipe:
-end plates moving with it, ends_are_walls) or open (p fixed, the tunnel's 3D mesh).  The settings cover the whole of what the benchmark compares:
-mesh motion (stock displacementLaplacian, tqInterpolatedDisplacement, transpiration), wall
-conditions (stock movingWallVelocity + fixedFluxPressure, or ours), linear solvers and PIMPLE
-controls, logging.
+make_case(case, polymesh, settings): a complete case: the dictionaries the product writes for
+this mesh's water (water_case.WaterCase: incompressible water, pimpleFoam; ends from the mesh:
+'empty' (slice), 'wall' (a closed pipe, ends_are_walls) or open (p fixed, the tunnel's 3D
+mesh)), with the fake solid ('replay') reading constant/wallMotion.dat. `settings` changes
+named knobs (SETTINGS) from the product's; each knob is one override of the writer's
+dictionaries (`overrides`), so that a benchmark variant (the stock set-up, a rejected
+alternative, a tight reference) is the product's case with what it sets otherwise, and the
+empty settings are the product's case itself.
 """
 
 from __future__ import annotations
@@ -23,57 +25,61 @@ from pathlib import Path
 
 import numpy as np
 
+from tunnelquake import water_case as wc
+from tunnelquake.foam_dict import Quoted, Uniform, foam_file
+
 from . import foamcase as fc
 from . import pipe
 
 # The tunnel axis of PAPER_GEOMETRY: along y through (0, *, 32)
 AXIS_POINT = (0.0, 0.0, 32.0)
 
-#: Settings of a case; every benchmark variant is a few overrides of these.
+#: The knobs of a case and their defaults; None: the product's (water_case) entry. Every benchmark
+#: variant is a few of these set.
 SETTINGS: dict = {
-    # interface motion: 'meshMotion' (the mesh follows the wall) or 'transpiration' (static)
+    # interface motion: 'transpiration' (static mesh, the product's) or 'meshMotion'
     "interface_motion": "transpiration",
-    # mesh motion solver when interface_motion is meshMotion:
-    #   'tqInterpolated' | 'laplacian' (stock displacementLaplacian)
+    # mesh motion solver when interface_motion is meshMotion: 'tqInterpolated' (the writer's) or
+    # 'laplacian' (stock displacementLaplacian with laplacian_diffusivity and cellDisplacement)
     "motion_solver": "tqInterpolated",
     "laplacian_diffusivity": "inverseDistance (interface)",
     "cellDisplacement": "solver PCG; preconditioner DIC; tolerance 1e-8; relTol 0;",
     # wall conditions: 'ours' (tqInterfaceVelocity + fixedFluxExtrapolatedPressure) or
     # 'stock' (movingWallVelocity + fixedFluxPressure)
     "wall": "ours",
-    # linear solvers (OpenFOAM dictionary bodies)
-    # the water case's (tqProjected, GAMG inside; open ends: relative tolerance)
-    "p": fc.water_p_controls(closed=False),
-    "pFinal": fc.water_p_controls(closed=False),
-    "U": "solver smoothSolver; smoother symGaussSeidel; tolerance 1e-8; relTol 0;",
-    "pcorr": "solver PCG; preconditioner DIC; tolerance 1e-2; relTol 0;",
-    # PIMPLE
-    # the viscous Laplacian of the momentum equation: 'corrected' adds a non-orthogonal
-    # correction built from a second full grad(U) every step; water's viscous term is tiny
-    "laplacianU": "Gauss linear uncorrected",
-    "laplacianP": "Gauss linear corrected",
+    # linear solvers (OpenFOAM dictionary bodies; None: the water case's)
+    "p": None,
+    "pFinal": None,
+    "U": None,
+    "pcorr": None,
+    # the Laplacians: of the momentum equation's viscous term and all others (default)
+    "laplacianU": None,
+    "laplacianP": None,
     # laminar stress model (constant/turbulenceProperties): 'tqNewtonian' (libtqFoam: only
     # laplacian(nuEff,U)) or the stock 'Stokes' (adds the explicit div(nuEff dev2(T(grad U))))
-    "laminarModel": "tqNewtonian",
-    "nOuterCorrectors": 1,
-    "nCorrectors": 1,
-    "nNonOrthogonalCorrectors": 0,
-    "momentumPredictor": False,
-    "correctPhi": False,
-    # per-step screen output: solver performance lines and the function object's lines
+    "laminarModel": None,
+    # PIMPLE
+    "nOuterCorrectors": None,
+    "nCorrectors": None,
+    "nNonOrthogonalCorrectors": None,
+    "momentumPredictor": None,
+    "correctPhi": None,
+    # per-step screen output: False: the solver's step lines and tqInterface's force lines each
+    # step (water_case log_interval = the step), no linear-solver lines; True: everything
+    # (log_interval None: the solver's residual lines too)
     "log": False,
-    "runTimeModifiable": False,
+    "runTimeModifiable": None,
     # tqInterface
-    "wallPressure": "extrapolated",
-    "geometricCorrection": True,
-    # keep freed memory in the heap (tqInterface heapTuning)
-    "heapTuning": True,
-    "extra_functions": "",
+    "wallPressure": None,
+    "geometricCorrection": None,
+    # keep freed memory in the heap (tqInterface heapTuning; its default yes)
+    "heapTuning": None,
+    # more function objects: {name: dictionary}
+    "functions": None,
     # run
     "dt": 1e-4,
     "steps": 100,
     "write_interval": None,  # None: only at the end
-    "solver": "pimpleFoam",
 }
 
 
@@ -89,8 +95,11 @@ def prepare_mesh(mode: str, dest: Path) -> Path:
     dest.mkdir(parents=True)
     build_tunnel_mesh(PAPER_GEOMETRY, {"mode": mode}, dest / "mesh")
     case = dest / "case"
-    fc.write(case, "system/controlDict", "application pimpleFoam; startTime 0; endTime 1; deltaT 1;"
-             " writeControl timeStep; writeInterval 1;\n")
+    # the least controlDict gmshToFoam reads
+    (case / "system").mkdir(parents=True)
+    (case / "system" / "controlDict").write_text(foam_file(
+        {"application": "pimpleFoam", "startTime": 0, "endTime": 1, "deltaT": 1, "writeControl": "timeStep",
+         "writeInterval": 1}, "controlDict"))
     fc.run(case, "gmshToFoam", str(dest / "mesh" / "water.msh"))
     boundary = poly / "boundary"
     fc.run(case, "foamDictionary", str(boundary), "-entry", "entry0/interface/type", "-set", "wall",
@@ -109,183 +118,74 @@ def ends_are_walls(boundary: str) -> bool:
     return len(types) == 2 and all(t == "wall" for t in types.values())
 
 
-def _solver_entry(name: str, body: str) -> str:
-    return f"    {name} {{ {body} }}\n"
+def overrides(s: dict, ends: str, moving: bool) -> dict:
+    """The writer's overrides of the knobs `s` (SETTINGS with a variant's values) on a mesh with
+    ends of kind `ends` (empty, wall or open); `moving`: the mesh follows the wall."""
+    fv_solution: dict = {"solvers": {}, "PIMPLE": {}}
+    for name in ("p", "pFinal"):
+        if s[name] is not None:
+            fv_solution["solvers"][name] = pipe.solver_controls(s[name])
+    if s["U"] is not None:
+        fv_solution["solvers"][Quoted("U(Final)?")] = pipe.solver_controls(s["U"])
+    if s["pcorr"] is not None:
+        fv_solution["solvers"][Quoted("pcorr(Final)?")] = pipe.solver_controls(s["pcorr"])
+    for key in ("nOuterCorrectors", "nCorrectors", "nNonOrthogonalCorrectors", "momentumPredictor", "correctPhi"):
+        if s[key] is not None:
+            fv_solution["PIMPLE"][key] = s[key]
+    laplacians = {}
+    if s["laplacianP"] is not None:
+        laplacians["default"] = s["laplacianP"]
+    if s["laplacianU"] is not None:
+        laplacians["laplacian(nuEff,U)"] = s["laplacianU"]
+    interface = {k: s[k] for k in ("wallPressure", "geometricCorrection", "heapTuning") if s[k] is not None}
+    control = {"functions": {"interface": interface, **(s["functions"] or {})}}
+    if s["runTimeModifiable"] is not None:
+        control["runTimeModifiable"] = s["runTimeModifiable"]
+    out = {"system/fvSolution": fv_solution, "system/fvSchemes": {"laplacianSchemes": laplacians},
+           "system/controlDict": control}
+    if s["laminarModel"] is not None:
+        out["constant/turbulenceProperties"] = {"laminar": {"laminarModel": s["laminarModel"]}}
+    if moving and s["motion_solver"] == "laplacian":
+        out = wc.combined(out, pipe.laplacian_motion(s["laplacian_diffusivity"], s["cellDisplacement"],
+                                                   slip_ends=ends != "empty"))
+    elif moving and s["motion_solver"] != "tqInterpolated":
+        raise ValueError(f"motion_solver {s['motion_solver']!r}: tqInterpolated or laplacian")
+    if s["wall"] == "stock":
+        # the stock moving-wall pair on the wall, and on closed ends (the moving mesh carries them)
+        u = wc.Whole(type="movingWallVelocity", value=Uniform([0, 0, 0]))
+        p = wc.Whole(type="fixedFluxPressure", value=Uniform(0))
+        walls = ["interface"] + ([Quoted("end_y(min|max)")] if ends == "wall" else [])
+        out["0/U"] = {"boundaryField": {w: u for w in walls}}
+        out["0/p"] = {"boundaryField": {w: p for w in walls}}
+    elif s["wall"] != "ours":
+        raise ValueError(f"wall {s['wall']!r}: ours or stock")
+    return out
 
 
 def make_case(case: Path, polymesh: Path, settings: dict | None = None) -> Path:
-    """Write the case from `settings` (overrides of SETTINGS); returns the motion table path."""
+    """Write the case from `settings` (knobs of SETTINGS set otherwise); returns the motion table
+    path. With no settings: the case the product writes for this water."""
     s = dict(SETTINGS)
+    unknown = set(settings or {}) - set(s)
+    if unknown:
+        raise ValueError(f"unknown case settings {sorted(unknown)}; known: {', '.join(s)}")
     s.update(settings or {})
     case = Path(case)
     if case.exists():
         shutil.rmtree(case)
     shutil.copytree(polymesh, case / "constant" / "polyMesh")
     boundary = (case / "constant" / "polyMesh" / "boundary").read_text()
-    slice_mode = "empty" in boundary
-    closed_ends = not slice_mode and ends_are_walls(boundary)
+    ends = "empty" if "empty" in boundary else "wall" if ends_are_walls(boundary) else "open"
     moving = s["interface_motion"] == "meshMotion"
     motion = case / "constant" / "wallMotion.dat"
     steps, dt = s["steps"], s["dt"]
-    wi = s["write_interval"] if s["write_interval"] is not None else steps * dt
-    log = "true" if s["log"] else "false"
-    debug = "" if s["log"] else "DebugSwitches { SolverPerformance 0; }\n"
-    fc.write(
-        case,
-        "system/controlDict",
-        f"""
-application     {s["solver"]};
-startFrom       startTime;
-startTime       0;
-stopAt          endTime;
-endTime         {steps * dt!r};
-deltaT          {dt!r};
-writeControl    runTime;
-writeInterval   {wi!r};
-purgeWrite      0;
-writeFormat     binary;
-writePrecision  14;
-timePrecision   10;
-runTimeModifiable {"true" if s["runTimeModifiable"] else "false"};
-{debug}libs            ("{fc.LIBRARY}");
-functions
-{{
-    interface
-    {{
-        type            tqInterface;
-        libs            ("{fc.LIBRARY}");
-        log             {log};
-        patch           interface;
-        rho             rhoInf;
-        rhoInf          {pipe.RHO};
-        wallPressure    {s["wallPressure"]};
-        interfaceMotion {s["interface_motion"]};
-        geometricCorrection {"yes" if s["geometricCorrection"] else "no"};
-        heapTuning      {"yes" if s["heapTuning"] else "no"};
-        exchange
-        {{
-            type            replay;
-            file            "{motion}";
-            axisPoint       ({AXIS_POINT[0]} {AXIS_POINT[1]} {AXIS_POINT[2]});
-            axisDirection   (0 1 0);
-        }}
-    }}
-{s["extra_functions"]}
-}}
-""",
-    )
-    fc.write(
-        case,
-        "system/fvSchemes",
-        f"""
-ddtSchemes {{ default Euler; }}
-gradSchemes {{ default Gauss linear; }}
-divSchemes {{ default none; div(phi,U) Gauss linear; div((nuEff*dev2(T(grad(U))))) Gauss linear; }}
-laplacianSchemes {{ default {s["laplacianP"]}; laplacian(nuEff,U) {s["laplacianU"]}; }}
-interpolationSchemes {{ default linear; }}
-snGradSchemes {{ default corrected; }}
-""",
-    )
-    solvers = (
-        _solver_entry("p", s["p"])
-        + _solver_entry("pFinal", s["pFinal"])
-        + _solver_entry('"U(Final)?"', s["U"])
-        + _solver_entry('"pcorr(Final)?"', s["pcorr"])
-        + _solver_entry('"cellDisplacement(Final)?"', s["cellDisplacement"])
-    )
-    fc.write(
-        case,
-        "system/fvSolution",
-        f"""
-solvers
-{{
-{solvers}}}
-PIMPLE
-{{
-    nOuterCorrectors {s["nOuterCorrectors"]};
-    nCorrectors     {s["nCorrectors"]};
-    nNonOrthogonalCorrectors {s["nNonOrthogonalCorrectors"]};
-    momentumPredictor {"yes" if s["momentumPredictor"] else "no"};
-    correctPhi      {"yes" if s["correctPhi"] else "no"};
-    pRefCell 0;
-    pRefValue 0;
-}}
-""",
-    )
-    fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {pipe.NU};\n")
-    fc.write(case, "constant/turbulenceProperties", pipe.turbulence_properties(s["laminarModel"]))
-    if not moving:
-        dyn = "dynamicFvMesh staticFvMesh;\n"
-    elif s["motion_solver"] == "tqInterpolated":
-        dyn = f"""dynamicFvMesh dynamicMotionSolverFvMesh;
-motionSolverLibs ("{fc.LIBRARY}");
-motionSolver tqInterpolatedDisplacement;
-tqInterpolatedDisplacementCoeffs {{ patches (interface); decay linear; }}
-"""
-    else:
-        dyn = f"""dynamicFvMesh dynamicMotionSolverFvMesh;
-motionSolverLibs ("libfvMotionSolvers.so");
-motionSolver displacementLaplacian;
-displacementLaplacianCoeffs {{ diffusivity {s["laplacian_diffusivity"]}; }}
-"""
-    fc.write(case, "constant/dynamicMeshDict", dyn)
-
-    if s["wall"] == "stock":
-        wall_u = "type movingWallVelocity; value uniform (0 0 0);"
-        wall_p = "type fixedFluxPressure; value uniform 0;"
-    else:
-        wall_u = "type tqInterfaceVelocity; value uniform (0 0 0);"
-        wall_p = "type fixedFluxExtrapolatedPressure; value uniform 0;"
-    if slice_mode:
-        end_u = end_p = end_d = "type empty;"
-    elif closed_ends:
-        # closed 3D pipe (ends of type wall, e.g. pipe.make_pipe_case's blockMesh): the end plates
-        # move with the pipe. Stock: the moving mesh carries them (movingWallVelocity); ours on a
-        # moving mesh the same through tqInterfaceVelocity; ours with transpiration (static mesh)
-        # sees only their in-plane motion for a lateral shake: slip (no flux, no shear) is exact
-        # for a rigid translation, whose water moves uniformly with the pipe
-        if s["wall"] == "stock":
-            end_u, end_p = "type movingWallVelocity; value uniform (0 0 0);", "type fixedFluxPressure; value uniform 0;"
-        else:
-            end_u = "type slip;" if not moving else "type tqInterfaceVelocity; value uniform (0 0 0);"
-            end_p = "type fixedFluxExtrapolatedPressure; value uniform 0;"
-        end_d = "type slip;" if s["motion_solver"] == "laplacian" else "type calculated; value uniform (0 0 0);"
-    else:
-        end_u = "type pressureInletOutletVelocity; value uniform (0 0 0);"
-        end_p = "type fixedValue; value uniform 0;"
-        # ends: the Laplacian needs a condition there (slip in the end plane); the interpolated
-        # motion moves them itself
-        end_d = "type slip;" if s["motion_solver"] == "laplacian" else "type calculated; value uniform (0 0 0);"
-    fc.write(
-        case,
-        "0/U",
-        f"""
-dimensions [0 1 -1 0 0 0 0];
-internalField uniform (0 0 0);
-boundaryField
-{{
-    interface {{ {wall_u} }}
-    "end_y(min|max)" {{ {end_u} }}
-}}
-""",
-        cls="volVectorField",
-    )
-    fc.write(
-        case,
-        "0/p",
-        f"""
-dimensions [0 2 -2 0 0 0 0];
-internalField uniform 0;
-boundaryField
-{{
-    interface {{ {wall_p} }}
-    "end_y(min|max)" {{ {end_p} }}
-}}
-""",
-        cls="volScalarField",
-    )
-    if moving:
-        pipe.write_point_displacement(case, end_d)
+    w = wc.WaterCase(
+        model="incompressible", ends=(ends, ends), density=pipe.RHO, viscosity=pipe.RHO * pipe.NU,
+        bulk_modulus=pipe.K_WATER, delta_t=dt, end_time=steps * dt,
+        write_interval=s["write_interval"] if s["write_interval"] is not None else steps * dt,
+        free_surface_level=AXIS_POINT[2], exchange=pipe.replay_exchange(motion, AXIS_POINT),
+        log_interval=None if s["log"] else dt, interface_motion=s["interface_motion"])
+    wc.write(w, case, overrides(s, ends, moving))
     return motion
 
 

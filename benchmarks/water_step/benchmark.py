@@ -9,8 +9,12 @@ contraction; dt 1e-4 s (the
 coupled step); mid-step wall velocities.  Every variant runs the tqInterface function object
 (loads, exchange with the fake solid).
 
+Every case is written by the product's writer (tunnelquake.water_case, through
+benchmarks/fluid_common/tunnel.make_case): 'ours' is the water case exactly as the product writes
+it; every other variant sets a few knobs of tunnel.SETTINGS, each one override of its dictionaries.
 Variants: STEPS, the accepted changes from the stock set-up to ours, one at a time
-(cumulative), then REJECTED, alternatives measured against ours.  'stock': pimpleFoam +
+(cumulative; the last rung is the product's case itself), then REJECTED, alternatives measured
+against ours.  'stock': pimpleFoam +
 displacementLaplacian with the settings of the stock tutorials (movingCone solvers and PIMPLE
 controls, inverseDistance diffusivity as the wave-maker tutorials, movingWallVelocity +
 fixedFluxPressure, runTimeModifiable, full log).  'stock' and 'ours' also run on 2 MPI ranks
@@ -71,6 +75,9 @@ STOCK = dict(
     laminarModel="Stokes",
 )
 
+#: the overrides of the last step: none, every knob back to the water case's (tunnel.SETTINGS)
+PRODUCT: dict = {}
+
 GAMG = "solver GAMG; smoother GaussSeidel; tolerance 0; relTol {};"
 #: p of a closed domain (the slice): the error of an unconverged incompressible pressure cannot
 #: leave through an open end and accumulates; an absolute tolerance keeps it at the floor
@@ -107,9 +114,9 @@ STEPS: list[tuple[str, str, dict]] = [
      "div(nuEff dev2(T(grad U)))", dict(laminarModel="tqNewtonian")),
     ("+GAMG mergeLevels 2", "p and pFinal: GAMG merges two agglomeration levels into one (fewer, "
      "coarser levels)", dict(p_extra="mergeLevels 2;")),
-    ("+p tqProjected = ours", "p and pFinal: tqProjected (libtqFoam): started from the projection onto the "
-     "last 32 steps' increments, GAMG as before finishing to relTol 0.05",
-     dict(p=tqprojected(0, 0.05), pFinal=tqprojected(0, 0.05))),
+    ("+p tqProjected = ours", "the water case as the product writes it (tunnelquake.water_case): p and pFinal "
+     "tqProjected (libtqFoam: started from the projection onto the last 32 steps' increments, GAMG as before "
+     "finishing to relTol 0.05), U to 1e-9", PRODUCT),
 ]
 
 #: name of the last step (ours): the one 'stock' is compared with on 1 and 2 ranks
@@ -235,9 +242,7 @@ def variants(closed: bool = False) -> list[tuple[str, str, dict]]:
         if closed and name.startswith("+p GAMG"):
             name, what, over = ("+p GAMG 1e-6", "p and pFinal: GAMG, absolute tolerance 1e-6 (closed domain)",
                                 dict(p=GAMG_CLOSED, pFinal=GAMG_CLOSED))
-        elif closed and name.startswith("+p tqProjected"):
-            over = dict(p=tqprojected(1e-6, 0), pFinal=tqprojected(1e-6, 0))
-        cur = _apply(cur, over)
+        cur = {} if over is PRODUCT else _apply(cur, over)
         out.append((name, what, cur))
         if name == "+GAMG mergeLevels 2":
             gamg = cur
@@ -410,7 +415,7 @@ def main(argv=None) -> int:
             for n in others:
                 if n not in vs:
                     raise SystemExit(f"--variants: unknown variant {n!r}; known: {', '.join(vs)}")
-            names = others + ["ours"]
+            names = ["ours"] + others  # alternately: ours, stock, ours, stock, ...
             settings = dict(vs, ours=vs[OURS])
             runs: dict[str, list[dict]] = {n: [] for n in names}
             for _ in range(a.pair):
@@ -423,13 +428,17 @@ def main(argv=None) -> int:
                 cpu = [r["cpu_ms"] for r in rs]
                 wall = [r["wall_ms"] for r in rs]
                 out[name] = (min(cpu), statistics.median(cpu), min(wall), statistics.median(wall))
-                print(f"{mode} {name}: CPU ms/step min {out[name][0]:.2f} median {out[name][1]:.2f}; "
-                      f"wall min {out[name][2]:.2f} median {out[name][3]:.2f} ({len(rs)} runs)", flush=True)
+                print(f"{mode} {name}: CPU ms/step {', '.join(f'{x:.2f}' for x in cpu)}; min {out[name][0]:.2f} "
+                      f"median {out[name][1]:.2f}; wall min {out[name][2]:.2f} median {out[name][3]:.2f} "
+                      f"({len(rs)} runs)", flush=True)
             o = out["ours"]
             for name in others:
                 r = out[name]
+                # each round's ratio: the two runs next to each other, under the same load
+                rounds = [x["cpu_ms"] / y["cpu_ms"] for x, y in zip(runs[name], runs["ours"], strict=True)]
                 print(f"{mode} {name}/ours: CPU {r[0] / o[0]:.2f} (min) {r[1] / o[1]:.2f} (median); "
-                      f"wall {r[2] / o[2]:.2f} (min) {r[3] / o[3]:.2f} (median)", flush=True)
+                      f"wall {r[2] / o[2]:.2f} (min) {r[3] / o[3]:.2f} (median); CPU by round "
+                      f"{', '.join(f'{x:.2f}' for x in rounds)}, median {statistics.median(rounds):.2f}", flush=True)
         if not a.keep:
             shutil.rmtree(root)
         return 0

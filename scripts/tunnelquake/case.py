@@ -27,7 +27,10 @@ from .schema import (
     load_yaml,
     validate,
 )
+from .solver_input_table import MODELS
 
+#: the fix of a bare PGA
+PGA_EXAMPLE = "'0.3 g' or '2.94 m/s^2'"
 STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
 #: s of simulated time between the water's printed passes (water.log: brief)
@@ -112,8 +115,9 @@ def _component_section(what: str) -> Section:
         "format": Choice(choices=("auto", "at2", "two_column"), default="auto"),
         "units": Choice(choices=("g", "m/s^2", "cm/s^2", "gal"), default=None,
                         doc="units of the record's values (AT2: read from the header)"),
-        "pga": _positive(U.ACCELERATION, "its own peak after processing, m/s^2 (default: scaled by the horizontal "
-                                         "record's factor)"),
+        "pga": _positive(U.ACCELERATION, "its own peak after processing, with its unit (g or m/s^2; default: scaled "
+                                         "by the horizontal record's factor)", unit_required=True,
+                         unit_example="'0.2 g' or '1.96 m/s^2'"),
     })
 
 
@@ -143,6 +147,10 @@ def _check_ground_motion(gm, path, raw, ctx):
         if {k for k, v in sub.items() if v not in (None, "auto")} and sub["file"] is None:
             ctx.error(f"{path}.{key}.file", None, f"is required when {key} is given",
                       f"add 'file: <path to the record>' under {key}, or remove {key}", lines.get(key, raw.line))
+    if gm["vertical"]["file"] is None and gm["source"] != "none" and gm["vertical_ratio"] is None:
+        ctx.error(f"{path}.vertical_ratio", None, "is missing: the vertical motion has no neutral default",
+                  "add 'vertical_ratio: <v / h>' (0: no vertical motion; EN 1998-1 §3.2.2.3: 0.9 or 0.45 of the "
+                  "horizontal's peak) or a vertical record (vertical: {file: ..., units: ...})", raw.line)
     if gm["vertical"]["file"] is not None and "vertical_ratio" in lines:
         ctx.error(f"{path}.vertical_ratio", gm["vertical_ratio"], "is given together with a vertical record",
                   "keep one: the vertical record (vertical.file) or the ratio", lines.get("vertical_ratio"))
@@ -282,8 +290,8 @@ def schema() -> Section:
 
     material = Section(
         fields={
-            "model": Choice(choices=("elastic", "mohr_coulomb_damage"), default="mohr_coulomb_damage",
-                            doc="constitutive model"),
+            "model": Choice(choices=MODELS, default="mohr_coulomb_damage",
+                            doc="constitutive model (the models tq-solid registers)"),
             "youngs_modulus": _positive(U.PRESSURE, "Young's (deformation) modulus, Pa", required=True),
             "poisson_ratio": Number(min=-1.0, max=0.5, min_open=True, max_open=True, required=True,
                                     doc="Poisson ratio, -1 < nu < 0.5",
@@ -300,6 +308,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "retardation_time": Number(dim=U.TIME, min=0.0,
+                                       doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
+                                           "damping ratio omega tau / 2 at angular frequency omega)"),
         },
         checks=[_check_material],
     )
@@ -354,8 +365,9 @@ def schema() -> Section:
                                 "limit K -> infinity (with coupling.volume_law solid the water's volume held by the "
                                 "solid: a closed section's, or each plane's with open ends)"),
             "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
-            "ends": Choice(choices=("open", "closed"), default="open",
-                           doc="axial ends of the water column: open (pressure) or closed (walls)"),
+            "ends": Choice(choices=("open", "closed"), default=None,
+                           doc="axial ends of the water column: open (pressure) or closed (walls); required by a 3D "
+                               "model with dynamic_water (a slice has no axial flow)"),
             "log": Choice(choices=("brief", "verbose"), default="brief",
                           doc="dynamic_water's fluid.log: brief: OpenFOAM's lines and the loads on the lining "
                               "once every log_interval of simulated time (and the run's first and last pass); "
@@ -376,15 +388,16 @@ def schema() -> Section:
                                  doc="what to do when the record file is absent"),
             "duration": _positive(U.TIME, "window kept from the start of the record, s"),
             "pga": _positive(U.ACCELERATION, "peak ground acceleration of the horizontal record after processing, "
-                                             "m/s^2"),
+                                             "with its unit (g or m/s^2: a bare number is refused)",
+                             unit_required=True, unit_example=PGA_EXAMPLE),
             "azimuth": Number(min=-360.0, max=360.0, default=0.0,
                               doc="direction of the horizontal record, degrees from x (across the tunnel) towards y "
                                   "(along its axis): x = cos(azimuth) h, y = sin(azimuth) h; 0: across the tunnel"),
             "second_horizontal": _component_section("a second horizontal record, at azimuth + 90 deg (with azimuth 0: "
                                                     "along the tunnel's axis, y)"),
-            "vertical_ratio": Number(min=0.0, default=2.0 / 3.0,
-                                     doc="vertical = ratio x the horizontal record (paper: 2/3), unless vertical "
-                                         "gives a record of its own"),
+            "vertical_ratio": Number(min=0.0, default=None,
+                                     doc="vertical = ratio x the horizontal record; required unless vertical gives a "
+                                         "record of its own (0: no vertical motion)"),
             "vertical": _component_section("a vertical record of its own (instead of vertical_ratio)"),
             "cutoff_frequency": _positive(U.FREQUENCY, "content above is removed, Hz", default=20.0),
             "baseline_correction": Bool(default=True),
@@ -393,8 +406,9 @@ def schema() -> Section:
             "synthetic": gm_synthetic,
         }),
         "in_situ": Section(fields={
-            "kx": _positive(U.DIMENSIONLESS, "sigma_x / sigma_z", default=1.1),
-            "ky": _positive(U.DIMENSIONLESS, "sigma_y / sigma_z", default=0.8),
+            "kx": _positive(U.DIMENSIONLESS, "sigma_x / sigma_z (K0 across the tunnel); required with the in_situ "
+                                             "stage"),
+            "ky": _positive(U.DIMENSIONLESS, "sigma_y / sigma_z (K0 along the axis); required with the in_situ stage"),
             "kz": _positive(U.DIMENSIONLESS, "vertical factor", default=1.0),
             "gravity": _positive(U.ACCELERATION, "m/s^2", default=9.81),
         }),
@@ -524,6 +538,16 @@ def schema() -> Section:
                                         doc="the tensile strength the cracking check uses"),
             "utilisation": Choice(choices=("radial", "constant_N"), default="radial",
                                   doc="of a reinforced section: along the ray from the origin, or at constant N"),
+            "crack_width_limit": _positive(U.LENGTH, "w_max the crack width is checked against, m (e.g. 0.2 mm; "
+                                                     "none: widths reported without a verdict)"),
+            "seismic_situation": Section(doc="the seismic design situation's factors (EN 1990 eq. 6.12b): E_d = "
+                                             "gamma_G E_G + psi2_water E_W + gamma_I dE_seismic", fields={
+                "gamma_G": _positive(U.DIMENSIONLESS, "factor of the static state without water (lining, ground)",
+                                     default=1.0),
+                "psi2_water": Number(min=0.0, default=1.0, doc="factor of the water's static part"),
+                "gamma_I": _positive(U.DIMENSIONLESS, "importance factor on the seismic increment (EN 1998-1 §4.2.5)",
+                                     default=1.0),
+            }),
             "concrete": Section(fields={
                 "fck": _positive(U.PRESSURE, "characteristic cylinder strength, Pa (default: the lining's "
                                              "compressive_strength)"),
@@ -534,9 +558,13 @@ def schema() -> Section:
                 "fyk": _positive(U.PRESSURE, "characteristic yield strength, Pa", default=500e6),
                 "Es": _positive(U.PRESSURE, "Young's modulus of the steel, Pa", default=200e9),
                 "eps_ud": Number(min=0.0, min_open=True, doc="steel strain limit (none: no limit)"),
-                "As_inner": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the inner face, m^2/m"),
-                "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, doc="bar area per metre at the outer face, m^2/m"),
+                "As_inner": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True, unit_example="'1005 mm2/m'",
+                                   doc="bar area per metre at the inner face, with its unit (mm2/m or m2/m)"),
+                "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True, unit_example="'1005 mm2/m'",
+                                   doc="bar area per metre at the outer face, with its unit (mm2/m or m2/m)"),
                 "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
+                "bar_diameter": _positive(U.LENGTH, "diameter of the bars, m (the crack width needs it; EN 1992-1-1 "
+                                                    "§7.3.4)"),
             }),
         }),
         "suite": _suite_section(),
@@ -614,6 +642,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
                             f"use fluid_ranks <= {cores}")
     issues += _layer_checks(d, raw)
+    issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     from .sanity import case_warnings
 
@@ -661,6 +690,24 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
 
         issues += suite_checks(d, raw, filename, warnings)
     return issues, warnings
+
+
+def _no_default_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Keys without a neutral default, required where the case uses them: the in-situ stress ratios
+    (K0) with the in_situ stage, the water's ends in a 3D model with moving water."""
+    issues = []
+    if "in_situ" in d["stages"]["sequence"]:
+        for key, what in (("kx", "across the tunnel"), ("ky", "along its axis")):
+            if d["in_situ"][key] is None:
+                issues.append(Issue(f"in_situ.{key}", None, f"is missing: the horizontal in-situ stress ratio {what} "
+                                    "(K0) has no neutral default", f"add 'in_situ: {{{key}: <sigma_h / sigma_v>}}' "
+                                    "from the site's stress measurements (1 - sin(phi) for a normally consolidated "
+                                    "ground)", raw.key_lines.get("in_situ") or raw.line))
+    if d["mesh"]["mode"] == "3d" and "dynamic_water" in d["conditions"] and d["water"]["ends"] is None:
+        issues.append(Issue("water.ends", None, "is missing: a 3D model's water column ends open or closed, and "
+                            "neither is a neutral default", "add 'water: {ends: open}' (pressure held at the ends) or "
+                            "'water: {ends: closed}' (walls)", raw.key_lines.get("water") or raw.line))
+    return issues
 
 
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:

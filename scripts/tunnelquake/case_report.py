@@ -72,6 +72,52 @@ def _run_state(P, res, csv_name: str) -> str:
     return line
 
 
+def _design(R, case, results) -> tuple[object | None, str]:
+    """The design quantities (None when no result has lining forces) and a line for what was not
+    made: a check the case cannot support is skipped with its reason, said once, and never fails
+    the post of a completed run."""
+    try:
+        design = R.design_quantities(case, results)
+    except Exception as e:  # noqa: BLE001 - reported; the report keeps everything else
+        say(f"design checks not made ({type(e).__name__}: {e})")
+        return None, f"design checks not made ({type(e).__name__}: {e})"
+    if design is not None:
+        for line in dict.fromkeys(x for c in design.conditions for x in c.skipped if x):
+            say(line)  # once, however many conditions it holds for
+    return design, ""
+
+
+#: The designer's figures: file name, caption.
+DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
+                  ("design_mn.png", "M–N interaction of the section with the demand points"))
+
+
+def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
+    """Draw the designer's figures (each one that fails is named with the reason); their lines."""
+    from .design import figures as F
+
+    lines = []
+    for name, caption in DESIGN_FIGURES:
+        (figs / name).unlink(missing_ok=True)
+        try:
+            if name == "design_envelopes.png":
+                made = F.fig_envelopes(design.conditions, figs / name)
+            else:
+                p = design.params
+                sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
+                made = F.fig_mn(design.conditions, sec, figs / name)
+        except Exception as e:  # noqa: BLE001 - a figure that fails must not lose the report
+            if is_no_space(e):
+                unwritten.append(_disk_full(e, figs / name))
+            else:
+                say(f"{name}: not drawn ({type(e).__name__}: {e})")
+            lines += [f"- {caption[:1].upper() + caption[1:]}: not drawn ({type(e).__name__}: {e})", ""]
+            continue
+        if made is not None:
+            lines += [f"![{caption[:1].upper() + caption[1:]}](figures/{name})", ""]
+    return lines
+
+
 #: The report's figures: key, file name, caption.
 FIGURES = (
     ("fig05", "fig05_hydrodynamic_pressure.png", "hydrodynamic pressure at the monitors, dynamic water"),
@@ -146,7 +192,13 @@ def post_case(case) -> Path:
             from .fluid_case import volume_law
 
             lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
-        lines += R.lining_forces_section(R.design_quantities(case, results))
+        design, why = _design(R, case, results)
+        if design is not None:
+            lines[2:2] = design.summary_lines()  # what a designer reads first, after the title
+        lines += R.lining_forces_section(design) if design is not None else (
+            ["## Lining forces", "", f"- {why}", ""] if why else [])
+        if design is not None:
+            lines += _design_figures(design, figs, unwritten)
         lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
         if ref is not None:
             ctx = _context(case, results, motion)

@@ -379,11 +379,11 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
     which = f" (variant {case.variant})" if case.variant else ""
     resuming: dict[str, str] = {}
     if resume:
-        resuming, nothing, error = resume_plan(case)
-        if nothing is not None:
-            if error:
-                print(f"error: {nothing}", file=sys.stderr)
-                return 1
+        resuming, nothing, afresh = resume_plan(case)
+        if nothing is not None and afresh:
+            say(f"resume: {nothing}")
+            resuming = {}
+        elif nothing is not None:
             say(nothing)
             return 0
         for cond, what in resuming.items():

@@ -337,9 +337,13 @@ def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = LOWPASS_ORDE
 
 
 def integrate(acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity and displacement by the trapezoidal rule (linear acceleration within a step)."""
-    vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * dt)])
-    disp = np.concatenate([[0.0], np.cumsum(vel[:-1] * dt + (acc[:-1] / 3 + acc[1:] / 6) * dt * dt)])
+    """Velocity and displacement by the trapezoidal rule (linear acceleration within a step), from
+    rest, along the last axis."""
+    acc = np.asarray(acc, dtype=float)
+    zero = np.zeros(acc.shape[:-1] + (1,))
+    vel = np.concatenate([zero, np.cumsum(0.5 * (acc[..., 1:] + acc[..., :-1]) * dt, axis=-1)], axis=-1)
+    disp = np.concatenate([zero, np.cumsum(vel[..., :-1] * dt + (acc[..., :-1] / 3 + acc[..., 1:] / 6) * dt * dt,
+                                           axis=-1)], axis=-1)
     return vel, disp
 
 
@@ -621,8 +625,9 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     if "vertical" in on_clock:
         v = on_clock["vertical"]
     else:
-        v = gm["vertical_ratio"] * h1
-        steps.append(f"vertical = {gm['vertical_ratio']:.4g} x horizontal")
+        ratio = gm["vertical_ratio"] or 0.0  # none with source none: no horizontal record to scale
+        v = ratio * h1
+        steps.append(f"vertical = {ratio:.4g} x horizontal")
     if (c, s) == (1.0, 0.0) and "second_horizontal" in on_clock:
         steps.append("horizontal record along x (across the tunnel), the second horizontal along y (the axis)")
     elif s != 0.0 or "second_horizontal" in on_clock:

@@ -588,7 +588,8 @@ def fig_damage_section(results: list[ConditionResult], out: Path) -> Path | None
     if not items:
         return None
     plt = _plt()
-    vmax = max(0.05, max(float(d.max()) for *_, d in items))
+    dmax = max(float(d.max()) for *_, d in items)
+    vmax = dmax if dmax > 0 else 1.0  # the scale fitted to the data (0 to 1 when nothing is damaged)
     fig, axes = plt.subplots(1, len(items), figsize=(4.0 * len(items) + 0.8, 4.0), squeeze=False)
     for ax, (res, t, polys, d) in zip(axes[0], items, strict=True):
         pc = PolyCollection(polys, array=d, cmap="inferno_r", edgecolors="0.6", linewidths=0.2)

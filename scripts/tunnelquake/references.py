@@ -60,6 +60,23 @@ def kirsch(p: float, k: float, a: float, r, theta):
     return srr, stt, srt
 
 
+def kirsch_pressurised(p: float, k: float, a: float, p_i: float, r, theta):
+    """Kirsch's field with a pressure p_i on the hole's wall (an unlined pressure tunnel; Lamé's
+    term added: σrr += p_i a²/r², σθθ −= p_i a²/r²), compression positive, θ from the horizontal.
+    Returns (σrr, σθθ, τrθ)."""
+    srr, stt, srt = kirsch(p, k, a, r, theta)
+    q = p_i * (a / np.asarray(r, float)) ** 2
+    return srr + q, stt - q, srt
+
+
+def kirsch_jacking_ratio_at_wall(p: float, k: float, p_i: float, theta) -> np.ndarray:
+    """The compressive normal stress on a radial plane at the wall of the pressurised hole, the hoop
+    stress σθθ = p[(1+k) + 2(1−k) cos 2θ] − p_i, over the internal pressure p_i (the axial stress
+    assumed larger); with k < 1 smallest at the crown and invert, (p(3k − 1) − p_i) / p_i, with
+    k > 1 at the springlines, (p(3 − k) − p_i) / p_i."""
+    return (kirsch_wall_hoop(p, k, theta) - p_i) / p_i
+
+
 def kirsch_wall_hoop(p: float, k: float, theta) -> np.ndarray:
     """σθθ at the wall: p[(1+k) + 2(1−k) cos 2θ] — sidewall (θ=0) p(3−k), crown (θ=π/2) p(3k−1)."""
     return p * ((1 + k) + 2 * (1 - k) * np.cos(2 * np.asarray(theta, float)))
@@ -215,3 +232,76 @@ def open_tube_mu_max(a: float, L: float) -> float:
 
     x = math.pi * a / L
     return float(a * ive(0, x) / (x * ive(1, x)))
+
+
+# ------------------------------------------------------------------------------------------------
+# Plane waves at a free surface and through layers
+# ------------------------------------------------------------------------------------------------
+def free_surface_reflection_p(alpha: float, beta: float, angle_deg: float) -> tuple[float, float]:
+    """Reflection coefficients (PP, PS) of a P wave of unit displacement amplitude incident at
+    `angle_deg` from the vertical on the free surface of an elastic half-space (Aki & Richards 2002,
+    eq. 5.32). With p = sin i / α, ξ = cos i / α, η = cos j / β, X = 1/β² − 2p² (= η² − p²) and the
+    Rayleigh denominator D = X² + 4p²ξη:  PP = (4p²ξη − X²)/D,  PS = −4αpξX/(βD).
+    Polarisations in (horizontal along the propagation, up): incident P (sin i, cos i), reflected
+    P (sin i, −cos i), reflected S (−cos j, −sin j)."""
+    p = math.sin(math.radians(angle_deg)) / alpha
+    xi = math.sqrt(1 / alpha**2 - p * p)
+    eta = math.sqrt(1 / beta**2 - p * p)
+    X = 1 / beta**2 - 2 * p * p
+    D = X * X + 4 * p * p * xi * eta
+    return (4 * p * p * xi * eta - X * X) / D, -4 * alpha * p * xi * X / (beta * D)
+
+
+def free_surface_p(alpha: float, beta: float, angle_deg: float) -> tuple[float, float]:
+    """Surface displacement (horizontal along the propagation direction, vertical up) of an elastic
+    half-space for an incident P wave of unit displacement amplitude at `angle_deg` from the
+    vertical: the incident wave plus the two of free_surface_reflection_p,
+        u_r = sin i (1 + PP) − cos j PS = 4 α p ξ η / (β² D),
+        u_z = cos i (1 − PP) − sin j PS = 2 α ξ X / (β² D)   (2 at vertical incidence)."""
+    p = math.sin(math.radians(angle_deg)) / alpha
+    xi = math.sqrt(1 / alpha**2 - p * p)
+    eta = math.sqrt(1 / beta**2 - p * p)
+    X = 1 / beta**2 - 2 * p * p
+    D = X * X + 4 * p * p * xi * eta
+    return 4 * alpha * p * xi * eta / (beta**2 * D), 2 * alpha * xi * X / (beta**2 * D)
+
+
+def free_surface_sv(alpha: float, beta: float, angle_deg: float) -> tuple[float, float]:
+    """Surface displacement (horizontal along the propagation direction, vertical up) of an elastic
+    half-space for an incident SV wave of unit amplitude at `angle_deg` from the vertical below the
+    critical angle asin(β/α) (polarised (cos j, −sin j) in (r, up): along +r at vertical incidence).
+
+    With p = sin j / β and ξ, η, X, D as in free_surface_p: SS = (4p²ξη − X²)/D and
+    SP = 4βpηX/(αD) (Aki & Richards 2002, eq. 5.32, in these polarisations), so
+        u_r = β η (1 − SS) + α p SP = 2 η X / (β D)      (2 at vertical incidence),
+        u_z = −(β p (1 + SS) + α ξ SP) = −4 p ξ η / (β D)."""
+    p = math.sin(math.radians(angle_deg)) / beta
+    if p >= 1 / alpha:
+        raise ValueError(f"SV at {angle_deg} deg is past the critical angle {math.degrees(math.asin(beta / alpha))} deg")
+    xi = math.sqrt(1 / alpha**2 - p * p)
+    eta = math.sqrt(1 / beta**2 - p * p)
+    X = 1 / beta**2 - 2 * p * p
+    D = X * X + 4 * p * p * xi * eta
+    return 2 * eta * X / (beta * D), -4 * p * xi * eta / (beta * D)
+
+
+def sh_layers_transfer_function(f: np.ndarray, layers: list[tuple[float, float, float, float]],
+                                rock: tuple[float, float]) -> np.ndarray:
+    """Surface / incident displacement of vertically incident SH waves through horizontal layers on
+    an elastic half-space (Kramer 1996, §7.2.1.3; Roesset 1977): layers (thickness, cs, ρ, ξ) from
+    the surface down, rock (cs, ρ) undamped. u = A_m e^{i(ωt + k_m z)} + B_m e^{i(ωt − k_m z)} in
+    layer m (z its local depth), A_1 = B_1, and across the interface under layer m
+        A_{m+1} = ½ A_m (1 + α_m) e^{i k_m h_m} + ½ B_m (1 − α_m) e^{−i k_m h_m},
+        B_{m+1} = ½ A_m (1 − α_m) e^{i k_m h_m} + ½ B_m (1 + α_m) e^{−i k_m h_m},
+    α_m = ρ_m cs*_m / (ρ_{m+1} cs*_{m+1}), cs* = cs (1 + iξ), k* = ω / cs*. Returns
+    2 A_1 / A_rock (the incident wave is A_rock: an outcrop record is 2 A_rock)."""
+    w = 2 * np.pi * np.asarray(f, dtype=float)
+    media = [(h, cs * (1 + 1j * xi), rho) for h, cs, rho, xi in layers] + [(0.0, complex(rock[0]), rock[1])]
+    A = np.ones_like(w, dtype=complex)
+    B = np.ones_like(w, dtype=complex)
+    for (h, c, rho), (_, c2, rho2) in zip(media[:-1], media[1:], strict=True):
+        k = w / c
+        a = rho * c / (rho2 * c2)
+        e = np.exp(1j * k * h)
+        A, B = 0.5 * A * (1 + a) * e + 0.5 * B * (1 - a) / e, 0.5 * A * (1 - a) * e + 0.5 * B * (1 + a) / e
+    return 2.0 / A

@@ -155,6 +155,7 @@ def case_section(case) -> list[str]:
             model += f", K = {w['bulk_modulus'] / 1e9:.3g} GPa"
         lines.append(f"- water ({', '.join(wet)}): head {w.get('head', 0):g} m at the axis, "
                      f"{w.get('density', 1000):g} kg/m³, {model}")
+    lines += inputs_echo(d)
     lines += ["", "| material | model | E (GPa) | ν | ρ (kg/m³) | c (MPa) | φ (°) | σt (MPa) | σc (MPa) |",
               "|---|---|---|---|---|---|---|---|---|"]
     for name, m in d["materials"].items():
@@ -170,6 +171,39 @@ def case_section(case) -> list[str]:
     if not d["output"]["monitors"]:
         lines.append("| (none: output.monitors is empty) | | | | | | |")
     return lines + [""]
+
+
+def inputs_echo(d: dict) -> list[str]:
+    """The other inputs that shaped the answer, as the run took them: the ground's layers, the
+    in-situ stress ratios, the stages, the interface, the damping and the motion's components."""
+    out = []
+    layers = d.get("layers") or []
+    if layers:
+        out.append("- ground layers from the surface down: " + ", ".join(
+            f"{x['material']} " + (f"to z = {x['bottom']:g} m" if x["bottom"] is not None else f"{x['thickness']:g} m")
+            for x in layers) + "; below them the rock")
+    ins, st = d["in_situ"], d["stages"]
+    if "in_situ" in st["sequence"]:
+        out.append(f"- in-situ stress: σx = {ins['kx']:g} σv, σy = {ins['ky']:g} σv, σz = {ins['kz']:g} σv (K0), "
+                   f"gravity {ins['gravity']:g} m/s²")
+    out.append(f"- stages: {', '.join(st['sequence'])}; release fraction {st['release_fraction']:g} before the lining")
+    i = d["interface"]
+    out.append(f"- rock–lining interface: {i['model']}" + (
+        f", μs {i['static_friction']:g}, μd {i['dynamic_friction']:g}, cohesion {i['cohesion'] / 1e6:.3g} MPa, "
+        f"{i['after_failure'].replace('_', ' ')} after failure" if i["model"] == "dynamic_contact" else ""))
+    dm = d["damping"]
+    out.append(f"- damping: {dm['model'].replace('_', ' ')}, ratio {dm['ratio']:g} at "
+               + (f"{dm['frequencies'][0]:g} Hz" if dm["model"] == "mass_proportional" else
+                  f"{dm['frequencies'][0]:g} and {dm['frequencies'][1]:g} Hz"))
+    gm = d["ground_motion"]
+    vert = ("a vertical record of its own" if gm["vertical"]["file"] is not None else
+            f"vertical = {gm['vertical_ratio']:g} × the horizontal" if gm["vertical_ratio"] is not None else "none")
+    out.append(f"- ground motion: {gm['source']}, azimuth {gm['azimuth']:g}°, {vert}"
+               + (", a second horizontal record" if gm["second_horizontal"]["file"] is not None else "")
+               + f", {gm['convention']} convention, low-pass {gm['cutoff_frequency']:g} Hz")
+    if d["mesh"]["mode"] != "slice" and any(c != "no_water" for c in d["conditions"]):
+        out.append(f"- water ends: {d['water']['ends']}")
+    return out
 
 
 def lining_tensile_strength(case) -> float | None:

@@ -66,8 +66,9 @@ def results_status(res: Path) -> str | None:
 def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
     """What `run --resume` does with each planned condition: 'completed' (kept as it is),
     'checkpoint' (tq-solid continues from its last restart checkpoint) or 'start' (no checkpoint:
-    from the beginning); then why there is nothing to resume (None when there is) and whether
-    that is an error (no checkpoint anywhere) rather than a finished run."""
+    from the beginning); then why there is nothing to resume (None when there is) and whether the
+    run starts afresh (no checkpoint anywhere, nothing completed: a requeued job killed before its
+    first checkpoint) rather than keeping a finished run."""
     what: dict[str, str] = {}
     for cond, parts in plan(case):
         if results_status(case.output_dir / f"results_{cond}.h5") == "completed":
@@ -87,5 +88,5 @@ def resume_plan(case) -> tuple[dict[str, str], str | None, bool]:
         why = ("output.checkpoint_interval is 0: no checkpoint is written" if interval <= 0 else
                f"a run writes its first after output.checkpoint_interval = {interval:g} s of shaking")
         return what, (f"nothing to resume in {case.output_dir}: no condition has a restart checkpoint ({why}) and "
-                      f"none completed; run `tunnelquake run {case.path}{variant}` without --resume to start"), True
+                      "none completed: starting afresh"), True
     return what, None, False

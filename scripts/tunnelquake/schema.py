@@ -133,6 +133,10 @@ class Number(Spec):
     max_open: bool = False  # True: value must be < max
     why: str = ""  # why the bounds are what they are
     integer: bool = False
+    #: a bare number is refused (its unit is not evident: g or m/s^2, mm^2/m or m^2/m); the fix
+    #: shows `unit_example`
+    unit_required: bool = False
+    unit_example: str = ""
 
     def _range_text(self) -> str:
         lo = "" if self.min is None else ("(" if self.min_open else "[") + f"{self.min:g}"
@@ -152,6 +156,16 @@ class Number(Spec):
                 return None
             x = value
         else:
+            if self.unit_required and not isinstance(value, bool):
+                try:
+                    bare = U.parse_quantity(value, self.dim).unit == ""
+                except U.UnitError:
+                    bare = False  # said below
+                if bare:
+                    ctx.error(path, value, "needs its unit: a bare number here is too easily meant in another unit",
+                              f"write it with its unit, e.g. {self.unit_example}" if self.unit_example else
+                              "write '<number> <unit>'", line)
+                    return None
             try:
                 x = U.parse_quantity(value, self.dim).value
             except U.UnitError as e:

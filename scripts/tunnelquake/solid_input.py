@@ -290,10 +290,11 @@ SNAPSHOT_INTERVAL = 1.0
 
 def snapshot_times(given, t_end: float) -> np.ndarray:
     """The field snapshot times: those given, else every SNAPSHOT_INTERVAL s of the seismic stage
-    and its end (the end state is what the paper's Figs. 9 and 10 show; post's XDMF animates the rest)."""
+    from its start and its end (the start holds the static state, which the hydraulic-jacking
+    check reads; the end state is what the paper's Figs. 9 and 10 show; post's XDMF animates the rest)."""
     if given:
         return np.asarray(given, float)
-    t = np.arange(SNAPSHOT_INTERVAL, t_end, SNAPSHOT_INTERVAL)
+    t = np.arange(0.0, t_end, SNAPSHOT_INTERVAL)
     return np.append(t[t < t_end - 1e-9], float(t_end))
 
 

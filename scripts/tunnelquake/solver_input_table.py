@@ -8,7 +8,9 @@ from dataclasses import dataclass
 FORMAT = "tunnelquake-solid-input"
 VERSION = 2
 MATERIALS = "/materials/*"
-MODELS = ("elastic", "mohr_coulomb_damage")
+# The material models tq-solid registers (solid_solver/src/materials/registry.cpp; a C++ test checks
+# the two lists agree). The case schema's `materials.<name>.model` takes its choices from here.
+MODELS = ("elastic", "mohr_coulomb_damage", "kelvin_voigt")
 
 _UNSET = object()
 
@@ -83,6 +85,7 @@ GROUPS = (
 )
 
 _MC = ("mohr_coulomb_damage",)
+_KV = ("kelvin_voigt",)
 
 ENTRIES: tuple[Entry, ...] = (
     _e("/", "format", "str", f'`"{FORMAT}"`', required=True, choices=(FORMAT,)),
@@ -134,6 +137,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e(MATERIALS, "damage_effect", "str", "`cohesion` (eq. 16: damage reduces c only) or "
        "`cohesion_and_stiffness` (σ = (1 − D) C:(ε − ε^p): c, σt and the stiffness scaled by 1 − D)",
        default="cohesion", choices=("cohesion", "cohesion_and_stiffness"), models=_MC),
+    _e(MATERIALS, "retardation_time", "float", "τ of `kelvin_voigt` (σ = C:ε + τ C:ε̇; damping ratio ξ = ωτ/2 at "
+       "angular frequency ω, e.g. ξ = 5 % at 5 Hz is τ = 3.2e-3 s; docs/solid_solver.md \"Kelvin–Voigt rock\"); "
+       "shortens the stable step like Rayleigh β", unit="s", case="materials.retardation_time", models=_KV,
+       required_by=_KV),
     _e("/boundary/fixed/*", "directions", "str", "fixed displacement directions of that face group's nodes, "
        "letters from `xyz` (e.g. `\"xyz\"` base, `\"x\"` roller). A slice mesh gets u_y = 0 everywhere",
        required=True),

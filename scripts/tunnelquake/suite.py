@@ -104,8 +104,8 @@ def suite_section() -> Section:
         "direction": Choice(choices=("x", "-x"), default="x",
                             doc="the record's horizontal motion along +x, or reversed (-x); the vertical follows "
                                 "as ground_motion.vertical_ratio x the horizontal"),
-        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
-                      doc="scaling pga: this member's PGA (default suite.pga), m/s^2"),
+        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True, unit_required=True, unit_example="'0.3 g'",
+                      doc="scaling pga: this member's PGA with its unit (default suite.pga)"),
     })
     return Section(doc="a set of records run as one job, one member per record (docs/user_guide.md \"Record "
                        "suites\")", checks=[_check_suite], fields={
@@ -114,8 +114,8 @@ def suite_section() -> Section:
         "scaling": Choice(choices=("pga", "spectrum", "none"), default="pga",
                           doc="pga: each record to a PGA; spectrum: amplitude scaling of the set to the target "
                               "spectrum over [T1, T2]; none: as processed"),
-        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
-                      doc="scaling pga: the PGA of every record, m/s^2 (default ground_motion.pga)"),
+        "pga": Number(dim=U.ACCELERATION, min=0.0, min_open=True, unit_required=True, unit_example="'0.3 g'",
+                      doc="scaling pga: the PGA of every record with its unit (default ground_motion.pga)"),
         "periods": Tuple(item=Number(dim=U.TIME, min=0.0, min_open=True), increasing=True,
                          doc="scaling spectrum: [T1, T2], the period range the mean spectrum must cover, s "
                              "(EN 1998-1: 0.2 T1 to 2 T1)"),
@@ -123,8 +123,8 @@ def suite_section() -> Section:
                          doc="the target spectrum: EN 1998-1 type 1 elastic spectrum (suite.ec8) or a table "
                              "(suite.table)"),
         "ec8": Section(fields={
-            "ag": Number(dim=U.ACCELERATION, min=0.0, min_open=True,
-                         doc="design ground acceleration on type A ground, ag = gamma_I agR, m/s^2"),
+            "ag": Number(dim=U.ACCELERATION, min=0.0, min_open=True, unit_required=True, unit_example="'0.25 g'",
+                         doc="design ground acceleration on type A ground, ag = gamma_I agR, with its unit"),
             "ground_type": Choice(choices=tuple(EC8_TYPE1), default="B", doc="EN 1998-1 Table 3.2 ground type"),
         }),
         "table": Section(fields={
@@ -141,6 +141,10 @@ def suite_section() -> Section:
         "workers": Number(integer=True, min=0, default=0,
                           doc="members run at once by `tunnelquake run` (--workers overrides); 0: the cores "
                               "// the cores one member uses"),
+        "slurm_time": Number(dim=U.TIME, min=60.0, default=None, why="Slurm counts time limits in whole minutes",
+                             doc="the time limit of each Slurm array task (`run --slurm`: #SBATCH --time, rounded up "
+                                 "to whole minutes), s; default: 2 x check's run-time estimate of a member + 10 min "
+                                 "(docs/user_guide.md \"Record suites\")"),
     })
 
 

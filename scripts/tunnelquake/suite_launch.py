@@ -11,13 +11,17 @@ workers too) cancels the members not started and sends SIGINT to each running me
 whose run stops its solvers (children.stop_all) and marks its conditions interrupted; a worker
 still there STOP_BOUND_S later is killed with what it started. `--resume` then runs what is left.
 
-`python -m tunnelquake.suite_launch <member case>` runs one member, as a Slurm array task does.
+`python -m tunnelquake.suite_launch <member case> [--resume] [--no-post]` runs one member, as a Slurm
+array task does; a task that Slurm requeued (SLURM_RESTART_COUNT > 0) resumes from its checkpoint
+(with none, it runs from the start).
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
+import shlex
 import signal
 import sys
 import time
@@ -85,7 +89,8 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
     """Run one member (as `tunnelquake run <member case>` does) in this process, its output to run.log
     beside it; returns {name, rc, status, wall_s}. A member whose turn comes once `stop_file`
     exists (the suite is being stopped; a pool may have handed it out already) does not start.
-    With `resume`, a member that left a restart checkpoint continues from it (`run --resume`)."""
+    With `resume`, a member that left a restart checkpoint continues from it (`run --resume`; its
+    run.log is appended to); one without runs from the start."""
     import traceback
 
     folder = Path(case_file).parent
@@ -99,14 +104,16 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
     sys.stderr.flush()
     saved = os.dup(1), os.dup(2)
     rc = 1
-    with open(folder / "run.log", "w") as log:
+    again = resume and _has_checkpoint(case_file)
+    with open(folder / "run.log", "a" if again else "w") as log:
         os.dup2(log.fileno(), 1)
         os.dup2(log.fileno(), 2)
         try:
-            again = resume and _has_checkpoint(case_file)
             argv = [case_file, *(["--no-post"] if no_post else []), *(["--resume"] if again else [])]
+            if again:
+                say(f"--- {time.strftime('%Y-%m-%d %H:%M:%S')}: tunnelquake run {shlex.join(argv)}")
             case = load_or_report(Path(case_file))
-            rc = 1 if case is None else run_held(case, "tunnelquake run " + " ".join(argv), resume=again,
+            rc = 1 if case is None else run_held(case, "tunnelquake run " + shlex.join(argv), resume=again,
                                                  post=not no_post)
         except BaseException:  # noqa: BLE001 - a member's crash is its own; the suite goes on
             traceback.print_exc()
@@ -257,28 +264,87 @@ def _stop_members(todo, pool) -> dict:
     return {"killed": killed}
 
 
-def write_slurm(case, members, need: int, argv_case: str) -> Path:
-    """A Slurm job array of the members (one task each), and the report's command to run after it."""
+#: a Slurm task's time limit from `check`'s run-time estimate of one member (scene.runtime_estimate):
+#: SLURM_TIME_FACTOR x the estimate + SLURM_TIME_EXTRA_S (static stages, start, post). The estimate
+#: ran high where measured: 50 min for the 3D variant that ran in 17.8 min, 3 min for the slice's
+#: three conditions that ran in 75 s (docs/benchmarks.md)
+SLURM_TIME_FACTOR = 2.0
+SLURM_TIME_EXTRA_S = 600.0
+
+
+def slurm_time(case, need: int) -> tuple[int, str]:
+    """Minutes of a member's array task (#SBATCH --time) and where they come from: suite.slurm_time,
+    or `check`'s estimate of one member's run (its conditions as `run` schedules them on `need`
+    cores) x SLURM_TIME_FACTOR + SLURM_TIME_EXTRA_S."""
+    from .scene import runtime_estimate
+
+    given = case.data["suite"].get("slurm_time")
+    if given is not None:
+        return max(1, math.ceil(float(given) / 60.0)), "suite.slurm_time"
+    est = runtime_estimate(case)
+    wall = est.wall if need > 1 else sum(est.seconds.values())
+    minutes = max(1, math.ceil((SLURM_TIME_FACTOR * wall + SLURM_TIME_EXTRA_S) / 60.0))
+    return minutes, (f"{SLURM_TIME_FACTOR:g} x check's estimate of a member ({wall:.0f} s of shaking) + "
+                     f"{SLURM_TIME_EXTRA_S / 60:g} min; suite.slurm_time sets it")
+
+
+def _slurm_duration(minutes: int) -> str:
+    """Minutes as Slurm's --time reads them: [days-]hours:minutes:seconds."""
+    days, rest = divmod(int(minutes), 24 * 60)
+    return (f"{days}-" if days else "") + f"{rest // 60:02d}:{rest % 60:02d}:00"
+
+
+def _sbatch_word(text: str) -> str:
+    """A value of an #SBATCH line, quoted as sbatch reads one: in double quotes, a backslash or a
+    double quote escaped by a backslash (sbatch splits the line at blanks outside quotes and takes
+    an unquoted # as the start of a comment)."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def write_slurm(case, members, need: int, argv_case: str, resume: bool = False, no_post: bool = False) -> Path:
+    """A Slurm job array of the members (one task each), and the report's command to run after it.
+    Every path is quoted for bash and for sbatch; each task runs in members/ (its output there too);
+    a requeued task (SLURM_RESTART_COUNT > 0) continues from its member's restart checkpoint."""
     from .suite_members import suite_dir
 
     folder = suite_dir(case)
-    names = " ".join(m.name for m in members)
-    env = "".join(f"export {k}={os.environ[k]}\n" for k in ("PYTHONPATH", "TQ_BUILD_DIR") if k in os.environ)
+    where = folder / "members"
+    for what, path in (("the results folder", str(folder)), ("the case file", str(case.path)),
+                       ("the case as given", argv_case)):
+        if "\n" in path or "\r" in path:
+            raise ValueError(f"{what} {path!r} has a line break in its path, which a line of a Slurm script cannot "
+                             "hold. Fix: rename the folder (or set output.directory) to a path without one")
+    names = " ".join(shlex.quote(m.name) for m in members)
+    env = "".join(f"export {k}={shlex.quote(os.environ[k])}\n" for k in ("PYTHONPATH", "TQ_BUILD_DIR")
+                  if k in os.environ)
+    minutes, why = slurm_time(case, need)
     script = folder / "suite.slurm"
-    script.write_text(
+    variant = f" --variant {shlex.quote(case.variant)}" if case.variant else ""
+    flags = "".join(f" {f}" for f, on in (("--resume", resume), ("--no-post", no_post)) if on)
+    text = (
         "#!/bin/bash\n"
-        f"# Record suite of {case.path}: one array task a member. Submit: sbatch {script}\n"
-        f"# Then the suite report: tunnelquake post {argv_case}"
-        f"{f' --variant {case.variant}' if case.variant else ''}\n"
-        f"#SBATCH --job-name=tq-{case.data['name']}\n"
+        f"# Record suite of {shlex.quote(str(case.path))}: one array task a member. Submit: sbatch {shlex.quote(str(script))}\n"
+        f"# Then the suite report: tunnelquake post {shlex.quote(argv_case)}{variant}\n"
+        f"# --time: {why}.\n"
+        "# A task Slurm requeues (node failure, preemption; SLURM_RESTART_COUNT > 0) continues from its\n"
+        "# member's restart checkpoint (docs/user_guide.md \"Record suites\").\n"
+        f"#SBATCH --job-name={_sbatch_word('tq-' + str(case.data['name']))}\n"
         f"#SBATCH --array=0-{len(members) - 1}\n"
         f"#SBATCH --cpus-per-task={need}\n"
         "#SBATCH --ntasks=1\n"
-        f"#SBATCH --output={folder / 'members'}/slurm-%A_%a.out\n"
+        f"#SBATCH --time={_slurm_duration(minutes)}\n"
+        "#SBATCH --requeue\n"
+        "#SBATCH --open-mode=append\n"
+        f"#SBATCH --chdir={_sbatch_word(str(where))}\n"
+        "#SBATCH --output=slurm-%A_%a.out\n"
         "set -euo pipefail\n" + env +
         f"members=({names})\n"
-        "member=${members[$SLURM_ARRAY_TASK_ID]}\n"
-        f"exec {sys.executable} -m tunnelquake.suite_launch {folder / 'members'}/$member/case.yaml\n")
+        'member=${members[$SLURM_ARRAY_TASK_ID]}\n'
+        f'exec {shlex.quote(sys.executable)} -m tunnelquake.suite_launch {shlex.quote(str(where))}/"$member"/case.yaml'
+        f"{flags}\n")
+    tmp = folder / f".suite.slurm.{os.getpid()}"
+    tmp.write_text(text)
+    os.replace(tmp, script)
     return script
 
 
@@ -335,9 +401,14 @@ def _suite(case, opts: SuiteOptions, note) -> int:
         if not todo:
             say("suite: every member finished: no job array to submit")
             return 0
-        script = write_slurm(case, todo, need, opts.case_arg)
-        say(f"suite: Slurm job array of {len(todo)} member(s) written: {script} (sbatch {script}); then "
-            f"`tunnelquake post {opts.case_arg}` writes the suite report")
+        try:
+            script = write_slurm(case, todo, need, opts.case_arg, resume=opts.resume, no_post=opts.no_post)
+        except ValueError as e:
+            print(f"error: suite: {e}", file=sys.stderr)
+            return 1
+        variant = f" --variant {shlex.quote(case.variant)}" if case.variant else ""
+        say(f"suite: Slurm job array of {len(todo)} member(s) written: {script} (`sbatch {shlex.quote(str(script))}`); "
+            f"then `tunnelquake post {shlex.quote(opts.case_arg)}{variant}` writes the suite report")
         return 0
     results: dict[str, dict] = {}
     rc = 0
@@ -431,7 +502,33 @@ def _run_pool(case, opts: SuiteOptions, members, todo, need, results) -> int | N
         children.stopping.clear()
 
 
-if __name__ == "__main__":  # one member, as a Slurm array task runs it
-    out = run_member(str(Path(sys.argv[1]).resolve()))
-    print(f"member {out['name']}: {out['status']} (exit {out['rc']}) in {out['wall_s']:.1f} s")
-    sys.exit(0 if out["rc"] == 0 else 1)
+def requeued() -> int:
+    """How many times Slurm has restarted this job (SLURM_RESTART_COUNT; 0 when not set)."""
+    try:
+        return max(0, int(os.environ.get("SLURM_RESTART_COUNT", "0") or 0))
+    except ValueError:
+        return 0
+
+
+def main(argv: list[str]) -> int:
+    """One member, as a Slurm array task runs it: from its restart checkpoint with --resume or when
+    Slurm requeued the task."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m tunnelquake.suite_launch",
+                                description="run one member of a record suite (a Slurm array task)")
+    p.add_argument("case", help="the member's case.yaml (<results>/members/<name>/case.yaml)")
+    p.add_argument("--resume", action="store_true", help="continue from the member's restart checkpoints")
+    p.add_argument("--no-post", action="store_true", help="skip the member's post-processing")
+    args = p.parse_args(argv)
+    again = requeued()
+    if again and not args.resume:
+        say(f"Slurm requeued this task (SLURM_RESTART_COUNT={again}): the member resumes from its restart "
+            "checkpoint, if it has one")
+    out = run_member(str(Path(args.case).resolve()), no_post=args.no_post, resume=args.resume or again > 0)
+    print(f"member {out['name']}: {out['status']} (exit {out['rc']}) in {out['wall_s']:.1f} s", flush=True)
+    return 0 if out["rc"] == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -92,7 +92,7 @@ def plan_members(case) -> list[Member]:
         body["name"] = f"{d['name']}/{rec.name}"
         gm = dict(body.get("ground_motion") or {})
         gm.update({"source": "file", "file": str(rec.path), "format": rec.format, "units": rec.units,
-                   "if_missing": "error", "pga": float(pga)})
+                   "if_missing": "error", "pga": f"{float(pga)!r} m/s^2"})
         output = dict(body.get("output") or {})
         output["directory"] = "."
         body["ground_motion"], body["output"] = gm, output
@@ -173,10 +173,74 @@ def combination_rule(rule: str, n: int) -> str:
     return rule
 
 
-def combine(values, rule: str) -> float:
-    """The design value of one quantity from the members' peaks, under the resolved rule."""
+def most_severe_is_smallest(quantity: str) -> bool:
+    """Whether the quantity's most severe value is its smallest: a signed minimum (the most
+    compressive principal stress `min_sigma1`, the most negative thrust `min_N`, the smallest
+    hydraulic-jacking ratio `min_jacking_ratio`): every quantity named min_*. The others are
+    largest when most severe."""
+    return quantity.startswith("min_")
+
+
+def combine(values, rule: str, quantity: str = "") -> float:
+    """The design value of one quantity from the members' peaks, under the resolved rule: their
+    mean, or the most severe member's value, the sign of the quantity respected (the smallest of a
+    signed minimum: -397, -355, -305 kPa combine to -397)."""
     v = np.asarray(values, float)
-    return float(np.mean(v)) if rule == "mean" else float(np.max(v))
+    if rule == "mean":
+        return float(np.mean(v))
+    return float(np.min(v)) if most_severe_is_smallest(quantity) else float(np.max(v))
+
+
+#: how the suite report shows each quantity: (label, unit, SI value x scale = shown)
+SHOWN = {"max_ux": ("max |u_x|", "mm", 1e3), "max_uy": ("max |u_y|", "mm", 1e3), "max_uz": ("max |u_z|", "mm", 1e3),
+         "max_tension": ("max σ3", "MPa", 1e-6), "min_sigma1": ("min σ1", "MPa", 1e-6),
+         "max_damage": ("max D", "", 1.0), "hydrodynamic_pressure_peak": ("peak |p_dyn|", "MPa", 1e-6),
+         "max_N": ("max N", "kN/m", 1e-3), "min_N": ("min N", "kN/m", 1e-3),
+         "max_M": ("max M", "kN·m/m", 1e-3), "min_M": ("min M", "kN·m/m", 1e-3),
+         "max_V": ("max V", "kN/m", 1e-3), "min_V": ("min V", "kN/m", 1e-3),
+         "max_crack_width": ("max crack width", "mm", 1e3), "min_jacking_ratio": ("min σ_min / p_w", "", 1.0)}
+
+
+def shown(q: str) -> tuple[str, str, float]:
+    """(label, unit, scale) of a quantity; a utilisation `utilisation: <check>` is dimensionless."""
+    if q in SHOWN:
+        return SHOWN[q]
+    return q, "", 1.0
+
+
+def lining_peaks(folder: Path, conditions: list[str], results: dict) -> dict:
+    """{condition: {quantity: value}} of a member's lining: N, M, V extremes (N tension positive, M
+    with tension at the inner face), each check's largest utilisation, the largest crack width and
+    the smallest hydraulic-jacking ratio, from the member's own case file and results
+    (design.lining); {} when the member has no ring forces. The seismic design situation's forces
+    (design.seismic_situation) are the ones combined."""
+    from .case import CaseError, load_case
+    from .design.lining import lining_design
+
+    try:
+        case = load_case(folder / "case.yaml")
+    except (CaseError, OSError):
+        return {}
+    res = [results[c] for c in conditions if c in results]
+    design = lining_design(case, res) if res else None
+    if design is None:
+        return {}
+    out: dict = {}
+    for c in design.conditions:
+        q = {}
+        for name in ("N", "M", "V"):
+            hi, lo = c.combined[name]
+            q[f"max_{name}"], q[f"min_{name}"] = hi.value, lo.value
+        for check, e in c.utilisation.items():
+            if check != "cracking" and np.isfinite(e.value):
+                q[f"utilisation: {check}"] = e.value
+        if c.crack:
+            q["max_crack_width"] = max(e.value for e in c.crack.values())
+        jack = [j for j in (design.jacking.get(c.condition) or {}).values() if not isinstance(j, str)]
+        if jack:
+            q["min_jacking_ratio"] = min(j.ratio for j in jack)
+        out[c.condition] = q
+    return out
 
 
 def _quantities(pk: dict) -> list[str]:
@@ -188,7 +252,7 @@ def member_peaks(folder: Path, conditions: list[str]) -> dict:
     """{condition: {monitor: {quantity: peak}}} of a member's completed conditions."""
     from . import post as P
 
-    out = {}
+    out, done = {}, {}
     for cond in conditions:
         res_file = folder / f"results_{cond}.h5"
         if not res_file.is_file():
@@ -196,8 +260,15 @@ def member_peaks(folder: Path, conditions: list[str]) -> dict:
         res = P.read_condition(res_file, cond)
         if not res.complete:
             continue
+        done[cond] = res
         out[cond] = {mon: {q: pk[q] for q in _quantities(pk)} for mon, pk in P.peaks(res).items()}
+    for cond, q in lining_peaks(folder, conditions, done).items():
+        out[cond][LINING] = q
     return out
+
+
+#: the suite tables' row of the lining's design quantities (beside the monitors)
+LINING = "lining (design)"
 
 
 def combined_table(peaks: dict[str, dict], rule: str) -> tuple[dict, str, int]:
@@ -217,12 +288,12 @@ def combined_table(peaks: dict[str, dict], rule: str) -> tuple[dict, str, int]:
                 vals = [peaks[m][cond][mon][q] for m in members
                         if cond in peaks[m] and mon in peaks[m][cond] and q in peaks[m][cond][mon]]
                 vals = [v for v in vals if v == v]
-                qs[q] = combine(vals, used) if vals else float("nan")
+                qs[q] = combine(vals, used, q) if vals else float("nan")
     return out, used, len(members)
 
 
-def _fmt(v: float) -> str:
-    return "n/a" if v != v else f"{v:.6g}"
+def _fmt(v: float, scale: float = 1.0) -> str:
+    return "n/a" if v != v else f"{v * scale:.4g}"
 
 
 def _plt():
@@ -342,29 +413,35 @@ def write_report(case, members: list[Member], states: dict[str, dict] | None = N
     missing = [m.name for m in members if m.name not in full]
     if missing:
         lines.append(f"- **not combined** (a condition not completed): {', '.join(missing)}")
-    lines += ["", "## Members", "", "| member | record | direction | scale factor | PGA (m/s^2) | status | wall (s) |",
+    lines += ["", "## Members", "", "| member | record | direction | scale factor | PGA (m/s², g) | status | wall (s) |",
               "|---|---|---|---|---|---|---|"]
     for m in members:
         st = states.get(m.name, {})
         status = "completed" if m.name in full else st.get("status", "not run")
         wall = st.get("wall_s")
-        lines.append(f"| {m.name} | `{m.record.path.name}` | {m.record.direction} | {m.factor:.6g} | {m.pga:.6g} | "
+        lines.append(f"| {m.name} | `{m.record.path.name}` | {m.record.direction} | {m.factor:.4g} | {m.pga:.4g}, {m.pga / 9.80665:.3g} g | "
                      f"{status} | {'' if wall is None else f'{wall:.1f}'} |")
     rows = []
     for cond in combined:
         lines += ["", f"## Peaks: {cond}", ""]
         for mon, qs in combined[cond].items():
             qn = list(qs)
-            lines += [f"### {mon}", "", "| member | " + " | ".join(qn) + " |", "|---" * (len(qn) + 1) + "|"]
+            head = [f"{shown(q)[0]} ({shown(q)[1]})" if shown(q)[1] else shown(q)[0] for q in qn]
+            lines += [f"### {mon}", "", "| member | " + " | ".join(head) + " |", "|---" * (len(qn) + 1) + "|"]
             for name in full:
                 vals = [full[name][cond].get(mon, {}).get(q, float("nan")) for q in qn]
-                lines.append(f"| {name} | " + " | ".join(_fmt(v) for v in vals) + " |")
+                lines.append(f"| {name} | " + " | ".join(_fmt(v, shown(q)[2]) for q, v in zip(qn, vals, strict=True))
+                             + " |")
                 rows += [(name, cond, mon, q, v) for q, v in zip(qn, vals, strict=True)]
-            lines.append(f"| **{rule}** | " + " | ".join(f"**{_fmt(qs[q])}**" for q in qn) + " |")
+            lines.append(f"| **{rule}** | " + " | ".join(f"**{_fmt(qs[q], shown(q)[2])}**" for q in qn) + " |")
             rows += [(f"combined_{rule}", cond, mon, q, qs[q]) for q in qn]
             lines.append("")
-    lines.append("Quantities as in each member's report.md: max_ux, max_uz (m), max_tension (Pa, largest sigma3), "
-                 "max_damage, hydrodynamic_pressure_peak (Pa) where recorded. All values: `suite_peaks.csv`.")
+    lines.append(f"Quantities as in each member's report.md (σ3 the most tensile principal stress, σ1 the most "
+                 f"compressive, tension positive; N tension positive, M with tension at the inner face; the lining's "
+                 f"forces those of the seismic design situation). **{rule}**: "
+                 + ("the members' mean." if rule == "mean" else "the most severe member's value: the largest, and for "
+                    "a minimum (min σ1, min N, min M, min V, min σ_min / p_w) the smallest.")
+                 + " All values in SI: `suite_peaks.csv`.")
     folder.mkdir(parents=True, exist_ok=True)
     with open(folder / "suite_peaks.csv", "w", newline="") as fh:
         w = csv.writer(fh)

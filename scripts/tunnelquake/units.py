@@ -49,6 +49,7 @@ _UNITS: dict[str, tuple[float, Dim]] = {
     "s": (1.0, TIME),
     "ms": (1e-3, TIME),
     "min": (60.0, TIME),
+    "h": (3600.0, TIME),
     "Hz": (1.0, FREQUENCY),
     "kg": (1.0, (1, 0, 0)),
     "t": (1e3, (1, 0, 0)),

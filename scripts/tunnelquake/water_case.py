@@ -5,8 +5,11 @@ one description, `WaterCase` (docs/water.md):
     write(WaterCase(...), folder)
 
 `fluid_case.water_case` makes the description of condition dynamic_water from the case file and
-the coupling settings; the water tests write their own. The mesh (constant/polyMesh) is
-converted by `fluid_case.write_water_case`, which sets its patch types from `patch_types`.
+the coupling settings; the water tests and benchmarks write their own, on the product's meshes or
+on `pipe_block_mesh` (a blockMesh O-grid pipe), and state what they set otherwise as `overrides`
+of these dictionaries (`dictionaries(w, overrides)`: a stock set-up, a tight reference solve), so
+that every water case has one writer. The mesh (constant/polyMesh) is converted by
+`fluid_case.write_water_case`, which sets its patch types from `patch_types`.
 
 Patches: `interface` (the lining's inner face, a wall moved by the coupling) and the axial ends
 `end_ymin`, `end_ymax`, each of one kind:
@@ -28,11 +31,13 @@ Water models:
                      the stock laminar model Stokes
 
 Interface: transpiration (static mesh, the wall velocity imposed on the fixed faces; docs/water.md
-§6.2). The numerics are those of the Benchmark in docs/water.md ("ours"): one PISO corrector, no
+§6.2), the product's; or meshMotion (incompressible water only: the mesh follows the wall,
+tqInterpolatedDisplacement), which the water tests verify. The numerics are those of the Benchmark in docs/water.md ("ours"): one PISO corrector, no
 momentum predictor, p by tqProjected + GAMG, Euler in time.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -45,6 +50,7 @@ GRAVITY = 9.81
 END_PATCHES = ("end_ymin", "end_ymax")
 END_KINDS = ("empty", "wall", "open", "symmetry")
 MODELS = ("incompressible", "compressible")
+INTERFACE_MOTIONS = ("transpiration", "meshMotion")
 LIBRARY = "libtqFoam.so"
 #: the note under each file's header
 NOTE = "written by tunnelquake.water_case"
@@ -88,6 +94,9 @@ class WaterCase:
     restart_dir: str | None = None
     restart_windows: int = 0
     restart_from: str | None = None
+    # transpiration (the product's) or meshMotion (the mesh follows the wall; incompressible water
+    # only: tqInterface refuses a density field on a moving mesh at start-up, docs/water.md)
+    interface_motion: str = "transpiration"
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -101,6 +110,9 @@ class WaterCase:
                                  "give both (a checkpoint every N > 0 windows into a folder) or neither")
         if self.restart_from is not None and self.restart_dir is None:
             raise WaterCaseError(f"restart_from {self.restart_from!r} needs restart_dir and restart_windows")
+        if self.interface_motion not in INTERFACE_MOTIONS:
+            raise WaterCaseError(f"interface_motion {self.interface_motion!r} is not one of "
+                                 f"{', '.join(INTERFACE_MOTIONS)}")
 
     @property
     def compressible(self) -> bool:
@@ -146,7 +158,7 @@ def control_dict(w: WaterCase) -> dict:
     interface["quietSolver"] = w.log_interval is not None
     # transpiration: static mesh (constant/dynamicMeshDict staticFvMesh), wall velocity on the
     # fixed faces, loads and wall flux on the displaced wall (docs/water.md)
-    interface["interfaceMotion"] = "transpiration"
+    interface["interfaceMotion"] = w.interface_motion
     if w.restart_dir is not None:
         interface["restartDir"] = Quoted(w.restart_dir)
         interface["restartWindows"] = int(w.restart_windows)
@@ -282,11 +294,14 @@ def turbulence_properties(w: WaterCase) -> dict:
     return {"simulationType": "laminar", "laminar": {"laminarModel": "Stokes" if w.compressible else "tqNewtonian"}}
 
 
-def dynamic_mesh_dict() -> dict:
-    # Transpiration: the mesh stays. (A moving mesh instead, tqInterface interfaceMotion
-    # meshMotion, incompressible water only: dynamicMotionSolverFvMesh with motionSolverLibs
-    # ("libtqFoam.so"), motionSolver tqInterpolatedDisplacement, patches (interface), decay linear.)
-    return {"dynamicFvMesh": "staticFvMesh"}
+def dynamic_mesh_dict(w: WaterCase) -> dict:
+    # Transpiration: the mesh stays. meshMotion: the interface's points take the received
+    # displacement and tqInterpolatedDisplacement moves the others, decaying linearly away from it
+    if w.interface_motion == "transpiration":
+        return {"dynamicFvMesh": "staticFvMesh"}
+    return {"dynamicFvMesh": "dynamicMotionSolverFvMesh", "motionSolverLibs": [Quoted(LIBRARY)],
+            "motionSolver": "tqInterpolatedDisplacement",
+            "tqInterpolatedDisplacementCoeffs": {"patches": ["interface"], "decay": "linear"}}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -345,29 +360,127 @@ def patch_types(w: WaterCase) -> dict[str, str]:
 # ------------------------------------------------------------------------------------------------
 # the files
 # ------------------------------------------------------------------------------------------------
-def dictionaries(w: WaterCase) -> dict[str, str]:
-    """Every file of the case but the mesh: {path relative to the case: text}."""
-    data = {
+class Whole(dict):
+    """An override's sub-dictionary that replaces the entry as a whole (a linear solver's
+    controls, a boundary condition) instead of being merged into it."""
+
+
+def merged(base: dict, over: dict) -> dict:
+    """`base` with `over` laid on it: a sub-dictionary in both merged entry by entry (unless it is
+    a `Whole`), any other value replaced, an entry None removed. Neither argument is changed."""
+    out = dict(base)
+    for key, value in over.items():
+        if value is None:
+            out.pop(key, None)
+        elif isinstance(value, dict) and not isinstance(value, Whole) and isinstance(out.get(key), dict):
+            out[key] = merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def combined(first: dict, then: dict) -> dict:
+    """Two overrides as one: `then` laid on `first` as `merged` does, but its None entries kept
+    (each removes an entry of the writer's dictionaries)."""
+    out = dict(first)
+    for key, value in then.items():
+        if isinstance(value, dict) and not isinstance(value, Whole) and isinstance(out.get(key), dict):
+            inner = combined(out[key], value)
+            out[key] = Whole(inner) if isinstance(out[key], Whole) else inner
+        else:
+            out[key] = value
+    return out
+
+
+def data(w: WaterCase, overrides: dict | None = None) -> dict[str, tuple[str, dict]]:
+    """Every file of the case but the mesh as data: {path: (class, dictionary)}. `overrides`
+    ({path: entries}, laid on with `merged`; a path of its own adds a dictionary, None removes a
+    file): what a test or a benchmark sets otherwise than the product."""
+    files = {
         "system/controlDict": control_dict(w),
         "system/fvSolution": fv_solution(w),
         "system/fvSchemes": fv_schemes(),
         "constant/thermophysicalProperties": thermophysical_properties(w),
         "constant/transportProperties": transport_properties(w),
         "constant/turbulenceProperties": turbulence_properties(w),
-        "constant/dynamicMeshDict": dynamic_mesh_dict(),
+        "constant/dynamicMeshDict": dynamic_mesh_dict(w),
     }
-    out = {path: foam_file(d, path.split("/")[1], note=NOTE) for path, d in data.items()}
+    out = {path: ("dictionary", d) for path, d in files.items()}
     for name in ("U", "p", "pointDisplacement") + (("T",) if w.compressible else ()):
-        out[f"0/{name}"] = foam_file(field_dict(w, name), name, cls=FIELDS[name][0], note=NOTE)
+        out[f"0/{name}"] = (FIELDS[name][0], field_dict(w, name))
+    for path, entries in (overrides or {}).items():
+        if entries is None:
+            out.pop(path, None)
+        else:
+            cls, d = out.get(path, ("dictionary", {}))
+            out[path] = (cls, merged(d, entries))
     return out
 
 
-def write(w: WaterCase, folder: Path) -> list[Path]:
-    """Write every file of `dictionaries(w)` into `folder`; returns their paths."""
+def dictionaries(w: WaterCase, overrides: dict | None = None) -> dict[str, str]:
+    """Every file of the case but the mesh: {path relative to the case: text} (`overrides`: see
+    `data`)."""
+    return {path: foam_file(d, path.split("/")[-1], cls=cls, note=NOTE)
+            for path, (cls, d) in data(w, overrides).items()}
+
+
+def write(w: WaterCase, folder: Path, overrides: dict | None = None) -> list[Path]:
+    """Write every file of `dictionaries(w, overrides)` into `folder`; returns their paths."""
     out = []
-    for rel, text in dictionaries(w).items():
+    for rel, text in dictionaries(w, overrides).items():
         path = Path(folder) / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
         out.append(path)
     return out
+
+
+# ------------------------------------------------------------------------------------------------
+# a test geometry: the pipe
+# ------------------------------------------------------------------------------------------------
+def pipe_block_mesh(w: WaterCase, radius: float, length: float, around: int, layers: int, axial: int = 1,
+                    grading: float = 1.0) -> dict:
+    """system/blockMeshDict of a water-filled pipe along y (cross-section x-z, centre on the y axis,
+    from y = 0 to `length`): an O-grid of a centre square (half-side 0.35 R, `around` x `around`
+    cells) and four outer blocks (`layers` cells out to the wall, the last `grading` times the
+    first), `axial` cells along (a slice: 1, ends empty). Patches: interface (the wall), end_ymin,
+    end_ymax of the types of `patch_types(w)`."""
+    a = 0.35 * radius
+    s = radius / math.sqrt(2)
+    plane = [(-a, -a), (a, -a), (a, a), (-a, a), (-s, -s), (s, -s), (s, s), (-s, s)]
+    vertices = [[x, 0.0, z] for x, z in plane] + [[x, float(length), z] for x, z in plane]
+
+    def hexa(q):  # q: 4 vertex ids in the first plane, ordered so that the block extrudes along +y
+        v0, v1, v3 = (vertices[i] for i in (q[0], q[1], q[3]))
+        e1 = [v1[k] - v0[k] for k in range(3)]
+        e3 = [v3[k] - v0[k] for k in range(3)]
+        if e1[2] * e3[0] - e1[0] * e3[2] < 0:  # the y component of e1 x e3
+            q = [q[0], q[3], q[2], q[1]]
+        return list(q) + [i + 8 for i in q]
+
+    cells = [1 if w.mode == "slice" else axial]
+    blocks = ["hex", hexa([0, 1, 2, 3]), [around, around] + cells, "simpleGrading", [1, 1, 1]]
+    for q in ([0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]):
+        h = hexa(q)
+        radial_first = (h[0] < 4) != (h[1] < 4)  # which local axis runs out to the wall
+        n, g = ([layers, around], [grading, 1, 1]) if radial_first else ([around, layers], [1, grading, 1])
+        blocks += ["hex", h, n + cells, "simpleGrading", g]
+    edges = []
+    for (i, j), (x, z) in {(4, 5): (0, -radius), (5, 6): (radius, 0), (6, 7): (0, radius),
+                           (7, 4): (-radius, 0)}.items():
+        edges += ["arc", i, j, [x, 0.0, z], "arc", i + 8, j + 8, [x, float(length), z]]
+    quads = [[0, 1, 2, 3], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
+    types = patch_types(w)
+    return {
+        "convertToMeters": 1,
+        "vertices": vertices,
+        "blocks": blocks,
+        "edges": edges,
+        "boundary": [
+            "interface", {"type": types["interface"],
+                          "faces": [[i, j, j + 8, i + 8] for i, j in ((4, 5), (5, 6), (6, 7), (7, 4))]},
+            "end_ymin", {"type": types["end_ymin"], "faces": quads},
+            "end_ymax", {"type": types["end_ymax"], "faces": [[i + 8 for i in q] for q in quads]},
+        ],
+        "mergePatchPairs": [],
+    }

@@ -93,22 +93,11 @@ inline void writeInputFile(const SolidInput& in, const std::string& path, const 
     h5::writeDoubleAttr(g, K::damping::alpha.name, in.options.damping.alpha);
     h5::writeDoubleAttr(g, K::damping::beta.name, in.options.damping.beta);
   }
-  for (const auto& [region, p] : in.materials) {
+  for (const auto& [region, v] : in.materials) {  // the model and its parameters by name
     auto g = h5::ensureGroup(f, "/materials/" + region);
-    h5::writeDoubleAttr(g, K::materials::E.name, p.youngsModulus);
-    h5::writeDoubleAttr(g, K::materials::nu.name, p.poissonRatio);
-    h5::writeDoubleAttr(g, K::materials::rho.name, p.density);
-    const auto mc = in.mohrCoulomb.find(region);
-    h5::writeStringAttr(g, K::materials::model.name, mc == in.mohrCoulomb.end() ? "elastic" : "mohr_coulomb_damage");
-    if (mc != in.mohrCoulomb.end()) {
-      const MohrCoulombDamageParams& q = mc->second;
-      h5::writeDoubleAttr(g, K::materials::cohesion.name, q.cohesion);
-      h5::writeDoubleAttr(g, K::materials::friction_angle.name, q.frictionAngle);
-      h5::writeDoubleAttr(g, K::materials::dilation_angle.name, q.dilationAngle);
-      h5::writeDoubleAttr(g, K::materials::tensile_strength.name, q.tensileStrength);
-      h5::writeDoubleAttr(g, K::materials::damage_constant.name, q.damageConstant);
-      h5::writeStringAttr(g, K::materials::damage_effect.name, damageEffectName(q.damageEffect));
-    }
+    h5::writeStringAttr(g, K::materials::model.name, v.model);
+    for (const auto& [name, x] : v.numbers) h5::writeDoubleAttr(g, name, x);
+    for (const auto& [name, t] : v.texts) h5::writeStringAttr(g, name, t);
   }
   for (const auto& [group, dirs] : in.fixed) {
     auto g = h5::ensureGroup(f, "/boundary/fixed/" + group);

@@ -46,7 +46,7 @@ const Real kE = 8e9, kNu = 0.27, kRho = 2700, kH = 20.0, kP = 1e6, kA = 4.0;
 SolidInput columnInput(const Files& f) {
   writeMeshH5(makeBoxMesh({2, 2, 20, 0, 0, 0, 2, 2, kH}), f / "mesh.h5");
   SolidInput in;
-  in.materials = {{"rock", {kE, kNu, kRho}}};
+  in.materials = {{"rock", elasticValues({kE, kNu, kRho})}};
   in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   const auto mod = ElasticModuli::fromYoungPoisson(kE, kNu);
   const Real c = std::sqrt(mod.pModulus() / kRho);

@@ -90,7 +90,7 @@ Mesh linedRing(Index nAround = 48, const RingGeometry& G = {}) {
 
 SolidInput ringInput(Real alpha = 0, Real beta = 0, const RingGeometry& G = {}) {
   SolidInput in;
-  in.materials = {{"lining", {G.El, G.nul, kRhol}}, {"rock", {G.Er, G.nur, kRhor}}};
+  in.materials = {{"lining", elasticValues({G.El, G.nul, kRhol})}, {"rock", elasticValues({G.Er, G.nur, kRhor})}};
   in.fixed = {{"outer", "xyz"}};
   in.options.damping.alpha = alpha;
   in.options.damping.beta = beta;
@@ -1053,7 +1053,7 @@ TubeRun breathingOpenTube(const std::string& law, Real K, Real L, Index nAxial) 
   mesh.faces["lining_inner"] = mesh.faces.at("inner");
   mesh.faces.erase("inner");
   SolidInput in;
-  in.materials = {{"lining", {30e9, 0.2, 2500}}};
+  in.materials = {{"lining", elasticValues({30e9, 0.2, 2500})}};
   in.fixed = {{"outer", "xyz"}, {"ymin", "y"}, {"ymax", "y"}};
   in.tEnd = 1;
   auto s = buildSolver(in, mesh);

@@ -187,7 +187,8 @@ TEST(LayeredSlice, AxialShWaveThroughAPeriodicSliceMatchesTheClosedForm) {
   tqtest::StagedRun run;
   run.mesh = tqtest::twoLayerBox({4, 1, 60, -10, 0, 0, 20, 1, 60}, rock.thickness, "rock", "soil");
   run.mesh.slice = true;
-  run.in.materials = {{"rock", {young(rock), rock.nu, rock.rho}}, {"soil", {young(soil), soil.nu, soil.rho}}};
+  run.in.materials = {{"rock", elasticValues({young(rock), rock.nu, rock.rho})},
+                      {"soil", elasticValues({young(soil), soil.nu, soil.rho})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}};
   const Real alpha = 2 * 0.05 * 2 * M_PI * 1.5;  // the default mass-proportional damping
   run.in.options.damping.alpha = alpha;
@@ -295,7 +296,7 @@ TEST(InSitu, OverburdenOfHorizontalLayersIsTheIntegralOfTheirDensities) {
   const BoxSpec box{2, 2, 30, 0, 0, 0, 20, 20, 60};
   const Real zi = 40, rhoR = 2600, rhoW = 2000, g = 9.81;
   run.mesh = tqtest::twoLayerBox(box, zi, "rock", "weathered");
-  run.in.materials = {{"rock", {20e9, 0.25, rhoR}}, {"weathered", {2e9, 0.3, rhoW}}};
+  run.in.materials = {{"rock", elasticValues({20e9, 0.25, rhoR})}, {"weathered", elasticValues({2e9, 0.3, rhoW})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   StagedInput& S = run.in.staged;
   S.present = true;
@@ -336,7 +337,7 @@ TEST(InSitu, RegionsBesideEachOtherWithDifferentDensitiesAreRefused) {
     for (int k = 0; k < 8; ++k) xc += 0.125 * run.mesh.coords[3 * size_t(run.mesh.connectivity[8 * size_t(e) + k])];
     run.mesh.region[size_t(e)] = xc < 10 ? 0 : 1;
   }
-  run.in.materials = {{"rock", {20e9, 0.25, 2600}}, {"dyke", {20e9, 0.25, 2900}}};
+  run.in.materials = {{"rock", elasticValues({20e9, 0.25, 2600})}, {"dyke", elasticValues({20e9, 0.25, 2900})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   StagedInput& S = run.in.staged;
   S.present = true;

@@ -183,7 +183,7 @@ void runPureShear(tqtest::StagedRun& run, Index nTheta, Index nThrough, Real S, 
   qs.liningT = 0.75;
   qs.L = Lfactor * qs.b;
   run.mesh = quarterPlate(qs);
-  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+  run.in.materials = {{"rock", elasticValues({kEr, kNur, kRhor})}, {"lining", elasticValues({kEl, kNul, kRhol})}};
   run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
   StagedInput& G = run.in.staged;
   G.present = true;

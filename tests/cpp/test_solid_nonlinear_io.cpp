@@ -40,12 +40,12 @@ struct Files {
 SolidInput weakColumn(const Files& f) {
   writeMeshH5(makeBoxMesh({2, 2, 10, 0, 0, 0, 2, 2, 10}), f / "mesh.h5");
   SolidInput in;
-  in.materials = {{"rock", {8e9, 0.27, 2700}}};
   MohrCoulombDamageParams mp = paperRock(100);
+  mp.elastic = {8e9, 0.27, 2700};
   mp.cohesion = 0.05e6;
   mp.frictionAngle = 10;
   mp.tensileStrength = 0.1e6;
-  in.mohrCoulomb["rock"] = mp;
+  in.materials = {{"rock", mohrCoulombDamageValues(mp)}};
   in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   in.tEnd = 0.01;
   LoadInput l;
@@ -67,12 +67,16 @@ SolidInput weakColumn(const Files& f) {
 TEST(SolidNonlinearInput, MohrCoulombAttributesRoundTripAndBadOnesAreRejected) {
   Files f;
   SolidInput in = weakColumn(f);
-  in.mohrCoulomb["rock"].dilationAngle = 5;
-  in.mohrCoulomb["rock"].damageEffect = DamageEffect::CohesionAndStiffness;
+  MohrCoulombDamageParams mp = mohrCoulombDamageParams(in.materials[0].second);
+  mp.dilationAngle = 5;
+  mp.damageEffect = DamageEffect::CohesionAndStiffness;
+  in.materials[0].second = mohrCoulombDamageValues(mp);
   test::writeInputFile(in, f / "in.h5", "mesh.h5");
   const SolidInput back = readSolidInput(f / "in.h5");
-  ASSERT_EQ(back.mohrCoulomb.count("rock"), 1u);
-  const auto& q = back.mohrCoulomb.at("rock");
+  ASSERT_EQ(back.materials.size(), 1u);
+  ASSERT_EQ(back.materials[0].first, "rock");
+  ASSERT_EQ(back.materials[0].second.model, "mohr_coulomb_damage");
+  const MohrCoulombDamageParams q = mohrCoulombDamageParams(back.materials[0].second);
   EXPECT_EQ(q.cohesion, 0.05e6);
   EXPECT_EQ(q.frictionAngle, 10.0);
   EXPECT_EQ(q.dilationAngle, 5.0);

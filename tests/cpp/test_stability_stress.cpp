@@ -71,7 +71,7 @@ constexpr Real kH = 50, kSplit = 25;
 struct LadderRun : StagedRun {
   void setUp(bool allowUnstable) {
     mesh = tqtest::twoLayerBox({2, 1, 20, 0, 0, 0, 10, 5, kH}, kSplit, "rock", "soil");
-    in.materials = {{"rock", kRock}, {"soil", kSoil}};
+    in.materials = {{"rock", elasticValues(kRock)}, {"soil", elasticValues(kSoil)}};
     in.options.safety = 1.0;
     in.options.allowUnstableStep = allowUnstable;
     in.options.damping = RayleighDamping::fromRatio(0.05, 1.0, 20.0);
@@ -254,14 +254,13 @@ void syntheticRecord(Real duration, Real dt, Real pga, std::vector<Real>& t, std
 TEST(StrongMotion, OneGRecordIntoAYieldingLayerClosesTheEnergyBalance) {
   StagedRun run;
   run.mesh = tqtest::twoLayerBox({2, 1, 20, 0, 0, 0, 10, 5, kH}, kSplit, "rock", "soil");
-  run.in.materials = {{"rock", kRock}, {"soil", kSoil}};
   MohrCoulombDamageParams soil;
   soil.elastic = kSoil;
   soil.cohesion = 30e3;
   soil.frictionAngle = 30;
   soil.tensileStrength = 10e3;
   soil.damageConstant = 100;
-  run.in.mohrCoulomb["soil"] = soil;
+  run.in.materials = {{"rock", elasticValues(kRock)}, {"soil", mohrCoulombDamageValues(soil)}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   run.in.options.damping = RayleighDamping::fromRatio(0.05, 1.0, 10.0);
   run.in.options.gravity[2] = -9.81;

@@ -138,7 +138,7 @@ namespace {
 tqtest::StagedRun gravityBlock(Real kx, bool massScaling, const std::vector<std::string>& seq) {
   tqtest::StagedRun run;
   run.mesh = makeBoxMesh({3, 2, 12, 0, 0, 0, 30, 20, 60});
-  run.in.materials = {{"rock", {8e9, 0.27, 2700}}};
+  run.in.materials = {{"rock", elasticValues({8e9, 0.27, 2700})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   StagedInput& S = run.in.staged;
   S.present = true;
@@ -239,7 +239,7 @@ TEST(StagedApp, BlockUnderPulseThroughFiles) {
   Mesh m = makeBoxMesh({4, 2, 24, 0, 0, 0, 20, 10, H});
   writeMeshH5(m, f / "mesh.h5");
   SolidInput in;
-  in.materials = {{"rock", {5e9, 0.25, 2000}}};
+  in.materials = {{"rock", elasticValues({5e9, 0.25, 2000})}};
   in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   in.tEnd = 0.3;
   in.monitors = {{"surface", {10, 5, H}}};
@@ -293,7 +293,7 @@ TEST(StagedApp, WarnsWhenElementsExceedAnEighthOfTheShortestWavelength) {
   Files f;
   writeMeshH5(makeBoxMesh({2, 1, 4, 0, 0, 0, 40, 20, 40}), f / "mesh.h5");  // 20 m x 20 m x 10 m elements
   SolidInput in;
-  in.materials = {{"rock", {5e9, 0.25, 2000}}};  // cs = 1000 m/s: λ/8 at 20 Hz = 6.25 m
+  in.materials = {{"rock", elasticValues({5e9, 0.25, 2000})}};  // cs = 1000 m/s: λ/8 at 20 Hz = 6.25 m
   in.tEnd = 0.01;
   in.progressSeconds = 100;
   in.staged.present = true;
@@ -315,7 +315,7 @@ TEST(StagedApp, BadInputIsReportedClearly) {
   Files f;
   auto base = [&]() {
     SolidInput in;
-    in.materials = {{"rock", {5e9, 0.25, 2000}}};
+    in.materials = {{"rock", elasticValues({5e9, 0.25, 2000})}};
     in.tEnd = 0.01;
     in.progressSeconds = 100;
     in.staged.present = true;
@@ -349,7 +349,7 @@ TEST(StagedApp, BadInputIsReportedClearly) {
       m.region[size_t(e)] = yc < 1 ? 0 : 1;
     }
     SolidInput in = base();
-    in.materials.push_back({"lining", {28e9, 0.17, 2500}});
+    in.materials.push_back({"lining", elasticValues({28e9, 0.17, 2500})});
     in.staged.freeField.present = true;
     in.staged.freeField.faces = {"xmin"};
     const auto [rc, msg] = run(in, m);
@@ -394,7 +394,7 @@ TEST(StagedApp, BadInputIsReportedClearly) {
 TEST(StagedRun, UnstableSeismicRunStopsWithStepAndLocation) {
   tqtest::StagedRun run;
   run.mesh = makeBoxMesh({2, 1, 10, 0, 0, 0, 10, 5, 25});
-  run.in.materials = {{"rock", {5e9, 0.25, 2000}}};
+  run.in.materials = {{"rock", elasticValues({5e9, 0.25, 2000})}};
   run.in.options.allowUnstableStep = true;
   run.in.staged.present = true;
   run.in.staged.stages.sequence = {"seismic"};

@@ -50,7 +50,7 @@ ReleaseResult stagedRelease(Real p0, Real lambda, Index nTheta, Index nThrough, 
   qs.nLining = nThrough;
   qs.liningT = 0.75;
   run.mesh = quarterPlate(qs);
-  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+  run.in.materials = {{"rock", elasticValues({kEr, kNur, kRhor})}, {"lining", elasticValues({kEl, kNul, kRhol})}};
   run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
   StagedInput& S = run.in.staged;
   S.present = true;
@@ -168,7 +168,7 @@ TEST(StressRelease, ReleaseFractionInput) {
   writeMeshH5(quarterPlate(qs), (dir / "mesh.h5").string());
   auto input = [&](Real lambda, std::vector<std::string> seq) {
     SolidInput in;
-    in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+    in.materials = {{"rock", elasticValues({kEr, kNur, kRhor})}, {"lining", elasticValues({kEl, kNul, kRhol})}};
     in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
     in.tEnd = 0.01;
     in.progressSeconds = 100;

@@ -136,7 +136,7 @@ struct BlockRun : StagedRun {
   void setUp(bool withMotion, bool correction, RayleighDamping damping) {
     const BoxSpec box{4, 3, 24, -20, -15, 0, 40, 30, 60};
     mesh = tqtest::twoLayerBox(box, 20.0, "rock", "soil");
-    in.materials = {{"rock", {kE, kNu, kRho}}, {"soil", {2 * 0.8e9 * 1.3, 0.3, 1900}}};
+    in.materials = {{"rock", elasticValues({kE, kNu, kRho})}, {"soil", elasticValues({2 * 0.8e9 * 1.3, 0.3, 1900})}};
     in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
     in.options.damping = damping;
     StagedInput& S = in.staged;

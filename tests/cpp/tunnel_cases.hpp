@@ -123,7 +123,7 @@ inline KirschResult kirsch(Index nTheta, Real p, Real k, Real Lfactor = 20) {
   qs.nTheta = nTheta;
   qs.L = Lfactor * qs.b;
   run.mesh = quarterPlate(qs);
-  run.in.materials = {{"rock", {kEr, kNur, kRhor}}};
+  run.in.materials = {{"rock", elasticValues({kEr, kNur, kRhor})}};
   run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
   StagedInput& S = run.in.staged;
   S.present = true;
@@ -255,7 +255,7 @@ inline void runLinedTunnel(tqtest::StagedRun& run, QuarterSpec& qs, Index nTheta
   qs.L = Lfactor * qs.b;
   qs.nLining = nThrough;
   run.mesh = quarterPlate(qs);
-  run.in.materials = {{"rock", {kEr, kNur, kRhor}}, {"lining", {kEl, kNul, kRhol}}};
+  run.in.materials = {{"rock", elasticValues({kEr, kNur, kRhor})}, {"lining", elasticValues({kEl, kNul, kRhol})}};
   run.in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}, {"top", "z"}};
   StagedInput& S = run.in.staged;
   S.present = true;

@@ -33,7 +33,8 @@ struct ColumnRun : StagedRun {
     const BoxSpec box{1, 1, n, 0, 0, 0, width, width, H, mats[0].first};
     mesh = mats.size() == 1 ? makeBoxMesh(box) : tqtest::twoLayerBox(box, zSplit, mats[0].first, mats[1].first);
     if (reshape) reshape(mesh);
-    in.materials = std::move(mats);
+    in.materials.clear();
+    for (const auto& [region, p] : mats) in.materials.emplace_back(region, elasticValues(p));
     in.staged.present = true;
     in.staged.stages.sequence = {"seismic"};
     bottom.present = true;

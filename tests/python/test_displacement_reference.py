@@ -49,6 +49,7 @@ materials:
   lining: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650 kg/m^3,
            compressive_strength: 40 MPa}
 interface: {model: bonded}
+in_situ: {kx: 1.1, ky: 0.8}
 ground_motion:
   source: file
   file: record.txt

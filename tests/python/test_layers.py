@@ -49,7 +49,8 @@ layers:
 interface: {model: bonded}
 ground_motion:
   source: synthetic
-  pga: 1.0
+  pga: 1.0 m/s^2
+  vertical_ratio: 0.6666666666666666
   synthetic: {duration: 1.0}
 in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
 stages:

@@ -21,7 +21,10 @@ def _record(path, dt, peak, f, n=400):
 
 
 def _case(tmp_path, motion: str):
-    """A small elastic slice case whose ground_motion section is `motion` (records in tmp_path)."""
+    """A small elastic slice case whose ground_motion section is `motion` (records in tmp_path); one
+    horizontal record alone has the vertical at 2/3 of it."""
+    alone = "vertical" not in motion and "source: none" not in motion
+    ratio = "\n  vertical_ratio: 0.6666666666666666" if alone else ""
     text = f"""name: components
 geometry:
   x_range: [-30.0, 30.0]
@@ -42,8 +45,9 @@ materials:
   rock: {{model: elastic, youngs_modulus: 12 GPa, poisson_ratio: 0.25, density: 2600 kg/m^3}}
   lining: {{model: elastic, youngs_modulus: 32 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}}
 interface: {{model: bonded}}
+in_situ: {{kx: 1.0, ky: 1.0}}
 ground_motion:
-{motion}
+{motion}{ratio}
   cutoff_frequency: 100 Hz
   baseline_correction: false
   duration: 1.5 s

@@ -55,8 +55,11 @@ def config(scheme: str) -> CouplingConfig:
 
 
 def _case(path: Path, interface_motion: str) -> Path:
+    """The water case's pipe with its pressure solved by PCG to 1e-10: the comparison is to
+    round-off, and with the water case's tqProjected (to an absolute 1e-6) the coupled run differs
+    from the replay by 1.6e-7 of the peak force on the moving mesh and with rollbacks (measured)."""
     motion = pipe.make_pipe_case(path, dt=DT, end_time=NSTEPS * DT, two_d=True, L=1.0, nq=16, nr=12,
-                                 interface_motion=interface_motion)
+                                 interface_motion=interface_motion, p_tol=1e-10)
     t = DT * np.arange(NSTEPS + 3)
     v = np.array([velocity(x) for x in t])
     v[0] = 0.0

@@ -46,7 +46,7 @@ def test_hydrostatic_and_hydrodynamic_parts(tmp_path, interface_motion, shaken):
     assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
     case = tmp_path / "case"
     motion = pipe.make_pipe_case(case, dt=DT, end_time=NSTEPS * DT, write_interval=DT, two_d=True, L=L,
-                                 interface_motion=interface_motion, hydrostatic=(G, H))
+                                 interface_motion=interface_motion, free_surface_level=H)
     t = DT * np.arange(NSTEPS + 3)
     z = np.zeros((len(t), 3))
     a0 = 0.5 if shaken else 0.0

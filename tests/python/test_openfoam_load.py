@@ -1,7 +1,8 @@
 """libtqFoam.so loads in a stock pimpleFoam run and integrates the interface traction (eq. 15).
 
 Case: a closed 2D box (1 m x 1 m, one cell thick), full of water (rho 1000 kg/m^3,
-nu 1.308e-6 m^2/s), shaken rigidly along x by OpenFOAM's own solidBody motion,
+nu 1.308e-6 m^2/s; the water case's numerics, tunnelquake.water_case), shaken rigidly along x by
+OpenFOAM's own solidBody motion,
 displacement A sin(wt).  All walls move with the box: U tqInterfaceVelocity (from
 libtqFoam.so) with p fixedFluxExtrapolatedPressure, the pairing docs/water.md recommends.
 
@@ -30,6 +31,8 @@ import numpy as np
 import pytest
 
 from benchmarks.fluid_common import foamcase as fc
+from tunnelquake import water_case as wc
+from tunnelquake.foam_dict import Quoted, Uniform
 
 RHO = 1000.0
 NU = 1.308e-6
@@ -45,144 +48,49 @@ _reason = fc.openfoam_missing_reason()
 pytestmark = pytest.mark.skipif(_reason is not None, reason=str(_reason))
 
 
-def _tq(name: str, patch: str, mode: str) -> str:
-    return f"""    {name}
-    {{
-        type            tqInterface;
-        libs            ("{fc.LIBRARY}");
-        patch           {patch};
-        rho             rhoInf;
-        rhoInf          {RHO};
-        wallPressure    {mode};
-    }}
-"""
-
-
 def make_box_case(case: Path) -> None:
-    fc.write(
-        case,
-        "system/blockMeshDict",
-        f"""
-convertToMeters 1;
-vertices ((0 0 0) (1 0 0) (1 1 0) (0 1 0) (0 0 0.1) (1 0 0.1) (1 1 0.1) (0 1 0.1));
-blocks (hex (0 1 2 3 4 5 6 7) ({NCELL} {NCELL} 1) simpleGrading (1 1 1));
-edges ();
-boundary
-(
-    right {{ type wall; faces ((1 2 6 5)); }}
-    walls {{ type wall; faces ((0 4 7 3) (0 1 5 4) (3 7 6 2)); }}
-    frontAndBack {{ type empty; faces ((0 3 2 1) (4 5 6 7)); }}
-);
-mergePatchPairs ();
-""",
-    )
-    fc.write(
-        case,
-        "system/controlDict",
-        f"""
-application     pimpleFoam;
-startFrom       startTime;
-startTime       0;
-stopAt          endTime;
-endTime         {END};
-deltaT          {DT};
-writeControl    runTime;
-writeInterval   {END / 4};
-purgeWrite      0;
-writeFormat     ascii;
-writePrecision  12;
-timePrecision   8;
-runTimeModifiable false;
-libs            ("{fc.LIBRARY}" "libforces.so");
-functions
-{{
-{_tq("rightPV", "right", "patchValue")}
-{_tq("wallsPV", "walls", "patchValue")}
-{_tq("rightEx", "right", "extrapolated")}
-{_tq("wallsEx", "walls", "extrapolated")}
-    forcesRight
-    {{
-        type            forces;
-        libs            ("libforces.so");
-        patches         (right);
-        rho             rhoInf;
-        rhoInf          {RHO};
-        CofR            (0 0 0);
-        writePrecision  15;
-        log             false;
-    }}
-}}
-""",
-    )
-    fc.write(
-        case,
-        "system/fvSchemes",
-        """
-ddtSchemes { default Euler; }
-gradSchemes { default Gauss linear; }
-divSchemes { default none; div(phi,U) Gauss linear; div((nuEff*dev2(T(grad(U))))) Gauss linear; }
-laplacianSchemes { default Gauss linear corrected; }
-interpolationSchemes { default linear; }
-snGradSchemes { default corrected; }
-""",
-    )
-    fc.write(
-        case,
-        "system/fvSolution",
-        """
-solvers
-{
-    "(p|pcorr)(Final)?" { solver PCG; preconditioner DIC; tolerance 1e-12; relTol 0; }
-    "U(Final)?" { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-12; relTol 0; }
-}
-PIMPLE { nOuterCorrectors 1; nCorrectors 2; nNonOrthogonalCorrectors 0; pRefCell 0; pRefValue 0;
-         correctPhi no; }
-""",
-    )
-    fc.write(case, "constant/transportProperties", f"transportModel Newtonian;\nnu {NU};\n")
-    fc.write(case, "constant/turbulenceProperties", "simulationType laminar;\n")
-    fc.write(
-        case,
-        "constant/dynamicMeshDict",
-        f"""
-dynamicFvMesh   dynamicMotionSolverFvMesh;
-motionSolver    solidBody;
-solidBodyCoeffs
-{{
-    solidBodyMotionFunction oscillatingLinearMotion;
-    oscillatingLinearMotionCoeffs {{ amplitude ({AMP} 0 0); omega {OMEGA}; }}
-}}
-""",
-    )
-    # The box starts with its velocity A w: the water moves with it.
-    fc.write(
-        case,
-        "0/U",
-        f"""
-dimensions [0 1 -1 0 0 0 0];
-internalField uniform ({AMP * OMEGA} 0 0);
-boundaryField
-{{
-    "(right|walls)" {{ type tqInterfaceVelocity; value uniform ({AMP * OMEGA} 0 0); }}
-    frontAndBack {{ type empty; }}
-}}
-""",
-        cls="volVectorField",
-    )
-    fc.write(
-        case,
-        "0/p",
-        """
-dimensions [0 2 -2 0 0 0 0];
-internalField uniform 0;
-boundaryField
-{
-    "(right|walls)" { type fixedFluxExtrapolatedPressure; value uniform 0; }
-    frontAndBack { type empty; }
-}
-""",
-        cls="volScalarField",
-    )
+    """The box, written by the water case's writer (tunnelquake.water_case: its numerics, its
+    tqInterface entries) with what the box sets otherwise: its mesh and patches, the solidBody
+    motion of the whole mesh, four tqInterface function objects and OpenFOAM's forces."""
+    w = wc.WaterCase(model="incompressible", ends=("empty", "empty"), density=RHO, viscosity=RHO * NU,
+                     bulk_modulus=2.2e9, delta_t=DT, end_time=END, write_interval=END / 4, free_surface_level=0.0,
+                     interface_motion="meshMotion")
+    interface = wc.control_dict(w)["functions"]["interface"]
+    functions = {f"{patch}{tag}": dict(interface, patch=patch, wallPressure=mode)
+                 for tag, mode in (("PV", "patchValue"), ("Ex", "extrapolated")) for patch in ("right", "walls")}
+    functions = {k: functions[k] for k in ("rightPV", "wallsPV", "rightEx", "wallsEx")}
+    functions["interface"] = None
+    functions["forcesRight"] = {"type": "forces", "libs": [Quoted("libforces.so")], "patches": ["right"],
+                                "rho": "rhoInf", "rhoInf": RHO, "CofR": [0, 0, 0], "writePrecision": 15,
+                                "log": False}
+    # the box starts with its velocity A w: the water moves with it; all its walls move with it
+    moving = Quoted("(right|walls)")
+    u0 = Uniform([AMP * OMEGA, 0, 0])
+    wc.write(w, case, {
+        "system/blockMeshDict": {
+            "convertToMeters": 1,
+            "vertices": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 0.1], [1, 0, 0.1], [1, 1, 0.1],
+                         [0, 1, 0.1]],
+            "blocks": ["hex", list(range(8)), [NCELL, NCELL, 1], "simpleGrading", [1, 1, 1]],
+            "edges": [],
+            "boundary": ["right", {"type": "wall", "faces": [[1, 2, 6, 5]]},
+                         "walls", {"type": "wall", "faces": [[0, 4, 7, 3], [0, 1, 5, 4], [3, 7, 6, 2]]},
+                         "frontAndBack", {"type": "empty", "faces": [[0, 3, 2, 1], [4, 5, 6, 7]]}],
+            "mergePatchPairs": [],
+        },
+        "system/controlDict": {"libs": [Quoted(str(fc.LIBRARY)), Quoted("libforces.so")], "functions": functions},
+        "constant/dynamicMeshDict": {
+            "motionSolverLibs": None, "tqInterpolatedDisplacementCoeffs": None, "motionSolver": "solidBody",
+            "solidBodyCoeffs": {"solidBodyMotionFunction": "oscillatingLinearMotion",
+                                "oscillatingLinearMotionCoeffs": {"amplitude": [AMP, 0, 0], "omega": OMEGA}}},
+        "0/U": {"internalField": u0, "boundaryField": {
+            "interface": None, "end_y(min|max)": None,
+            moving: {"type": "tqInterfaceVelocity", "value": u0}, "frontAndBack": {"type": "empty"}}},
+        "0/p": {"boundaryField": {
+            "interface": None, "end_y(min|max)": None,
+            moving: {"type": "fixedFluxExtrapolatedPressure", "value": Uniform(0)}, "frontAndBack": {"type": "empty"}}},
+        "0/pointDisplacement": None,
+    })
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ import pytest
 
 from benchmarks.fluid_common import foamcase as fc
 from benchmarks.fluid_common import pipe, tunnel
+from tunnelquake.foam_dict import Quoted
 from tunnelquake.references import open_pipe_contraction
 
 pytest.importorskip("gmsh")
@@ -37,19 +38,9 @@ U0, RAMP, DT = 1e-3, 0.05, 1e-3
 NSTEPS = 70
 WRITE_EVERY = 5
 
-OUTFLOW = """
-    outflow
-    {
-        type            surfaceFieldValue;
-        libs            ("libfieldFunctionObjects.so");
-        log             false;
-        writeFields     false;
-        regionType      patch;
-        name            end_ymax;
-        operation       sum;
-        fields          (phi);
-    }
-"""
+#: the flux through the open end (a function object of the water case)
+OUTFLOW = {"type": "surfaceFieldValue", "libs": [Quoted("libfieldFunctionObjects.so")], "log": False,
+           "writeFields": False, "regionType": "patch", "name": "end_ymax", "operation": "sum", "fields": ["phi"]}
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +67,7 @@ def test_open_pipe_contraction(tmp_path, polymesh, interface_motion):
     case = tmp_path / "case"
     motion = tunnel.make_case(case, polymesh, dict(
         interface_motion=interface_motion, dt=DT, steps=NSTEPS, write_interval=WRITE_EVERY * DT,
-        extra_functions=OUTFLOW))
+        functions={"outflow": OUTFLOW}))
     t = np.arange(0, (NSTEPS + 3) * DT, DT)
     ur = np.where(t < RAMP, -U0 * (1 - np.cos(math.pi * t / RAMP)) / 2, -U0)
     vr = np.concatenate([[0.0], np.diff(ur) / DT])

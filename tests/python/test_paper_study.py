@@ -1,9 +1,9 @@
-"""The identification study's logic (benchmarks/paper_study.py), on hand-made numbers
-whose answer is known: the prediction of a set of levels from one-at-a-time runs, the coordinate
-descent against an exhaustive search, and the findings read from a run's numbers."""
+"""The study of the paper's open choices (benchmarks/paper_study.py), on hand-made numbers whose
+answer is known: the count of the paper's numbers, the findings read from a run's numbers, the
+choices each run and which runs are matched with the paper (the verdicts and the calibration:
+test_paper_verdicts.py)."""
 from __future__ import annotations
 
-import itertools
 import math
 
 import pytest
@@ -28,51 +28,6 @@ def test_misfit_and_within_count_the_33_numbers():
     missing = dict(p)
     del missing["pressure/haunch"]
     assert paper.misfit(missing) == pytest.approx(4.0, rel=1e-12)
-
-
-def test_a_set_is_predicted_from_its_levels_ratios_and_stress_changes():
-    """Displacements scale: the prediction multiplies the levels' ratios. Stresses add: the
-    levels' changes are summed onto the example's, capped at the lining's tensile strength."""
-    keys = list(paper.paper_numbers())
-    sig = lambda k: k.startswith("max_tension")  # noqa: E731
-    example = _scaled(lambda k: 0.5 if sig(k) else 2.0)
-    a = {k: (v / 2 if k.startswith("max_u") else v + 0.2e6 if sig(k) else v) for k, v in example.items()}
-    b = {k: (v * 0.75 if k.startswith("max_u") else v - 0.5e6 if sig(k) else v) for k, v in example.items()}
-    pred = S.predict(example, {"A": a, "B": b}, keys)
-    assert pred["max_ux/no_water/haunch"] == pytest.approx(2.0 * 0.5 * 0.75 * paper.PAPER["max_ux"]["no_water"]["haunch"])
-    # 0.5 × 1.09 MPa + 0.2 − 0.5 MPa
-    assert pred["max_tension/no_water/haunch"] == pytest.approx(0.545e6 - 0.3e6)
-    assert pred["pressure/haunch"] == pytest.approx(example["pressure/haunch"])
-    # a change past the tensile strength stops there: 0.5 × 1.27 + 2 × 0.5 MPa
-    up = {k: (v + 0.5e6 if sig(k) else v) for k, v in example.items()}
-    capped = S.predict(example, {"A": up, "B": up}, keys)
-    assert capped["max_tension/dynamic_water/haunch"] == paper.PAPER["lining_tensile_strength"]
-    assert S.predict(example, {"A": None, "B": None}, keys) == example
-
-
-def test_coordinate_descent_finds_the_exhaustive_optimum():
-    """Three dimensions acting on different groups of numbers (separable in log space): the
-    descent's set equals the best of all 4 x 3 x 3 combinations, and its predicted misfit is that
-    combination's."""
-    keys = list(paper.paper_numbers())
-    example = _scaled(lambda k: 1.6 if k.startswith("max_u") else 0.5 if k.startswith("pressure/") else 1.3)
-    group = {"disp": lambda k: k.startswith("max_u"), "press": lambda k: k.startswith("pressure/"),
-             "rest": lambda k: not k.startswith(("max_u", "pressure/"))}
-    by_dim = {
-        "disp": {"x0.9": 0.9, "x0.62": 0.62, "x0.4": 0.4},
-        "press": {"x1.5": 1.5, "x2.1": 2.1},
-        "rest": {"x0.8": 0.8, "x0.5": 0.5},
-    }
-    nums = {d: {lv: {k: v * (f if group[d](k) else 1.0) for k, v in example.items()} for lv, f in levels.items()}
-            for d, levels in by_dim.items()}
-    chosen, pred, _ = S.identify(example, nums, keys)
-    best = min(itertools.product(*[[None, *by_dim[d]] for d in by_dim]),
-               key=lambda combo: paper.misfit(S.predict(example, {d: (nums[d][lv] if lv else None)
-                                                                  for d, lv in zip(by_dim, combo, strict=True)},
-                                                        keys), keys))
-    assert tuple(chosen[d] for d in by_dim) == best == ("x0.62", "x2.1", "x0.8")
-    assert paper.misfit(pred, keys) == pytest.approx(
-        paper.misfit(S.predict(example, {d: nums[d][lv] for d, lv in chosen.items()}, keys), keys))
 
 
 def test_the_findings_read_from_numbers():
@@ -109,14 +64,12 @@ def test_the_choices_run_the_conditions_they_can_change():
         assert c.dimension == "example" or c.dimension in S.EXAMPLE_LEVELS
 
 
-def test_a_run_cut_short_is_never_identified_nor_matched_with_the_paper():
+def test_a_run_cut_short_is_never_calibrated_nor_matched_with_the_paper():
     """A choice run over the record's first seconds only (Rayleigh damping) has peaks that are not the
-    whole record's: it is left out of the identification (by_dimension) and of the runs a paper number
-    is matched against (whole_record), and kept for its own comparison with the example cut alike."""
+    whole record's: it is left out of the runs a paper number is matched against and calibrated on
+    (whole_record), and kept for its own comparison with the example cut alike."""
     cut = [c for c in S.choices(S.CASE.parent) if "time.end_time" in c.overrides]
     assert cut and all(c.overrides["time.end_time"] == S.SHORT_END for c in cut)
     nums = {c.name: {"max_ux/no_water/top_arch": 0.03} for c in S.choices(S.CASE.parent)}
     assert not set(S.whole_record(nums)) & {c.name for c in cut}
     assert len(S.whole_record(nums)) + len(cut) == len(nums)
-    dims = S.by_dimension(nums)
-    assert all(c.level not in dims.get(c.dimension, {}) for c in cut)

@@ -302,14 +302,15 @@ def test_a_killed_run_post_processes_up_to_the_last_written_step(tmp_path, monke
     assert (res_dir / "report.md").read_text() == first
 
 
-def test_default_snapshots_cover_every_second_and_the_end():
-    """Figs. 9 and 10 need the state at the end, the XDMF an animation: with output.snapshot_times
-    empty, tq-solid is asked for one snapshot a second of shaking and one at t_end."""
+def test_default_snapshots_cover_the_start_every_second_and_the_end():
+    """Figs. 9 and 10 need the state at the end, the XDMF an animation, the hydraulic-jacking check
+    the static state at the seismic start: with output.snapshot_times empty, tq-solid is asked for
+    one snapshot at the start, one a second of shaking and one at t_end."""
     from tunnelquake.solid_input import snapshot_times
 
-    np.testing.assert_array_equal(snapshot_times([], 20.0), np.arange(1.0, 20.5, 1.0))
-    np.testing.assert_array_equal(snapshot_times([], 2.5), [1.0, 2.0, 2.5])
-    np.testing.assert_array_equal(snapshot_times([], 0.02), [0.02])
+    np.testing.assert_array_equal(snapshot_times([], 20.0), np.arange(0.0, 20.5, 1.0))
+    np.testing.assert_array_equal(snapshot_times([], 2.5), [0.0, 1.0, 2.0, 2.5])
+    np.testing.assert_array_equal(snapshot_times([], 0.02), [0.0, 0.02])
     np.testing.assert_array_equal(snapshot_times([0.5, 4.0], 20.0), [0.5, 4.0])
 
 
@@ -335,8 +336,9 @@ def test_water_side_record_keeps_the_accepted_steps(tmp_path):
 
 def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
     """With a study beside the case file (paper.STUDY_FILE), a number outside the band is followed by
-    each choice's measured effect on it ("with X instead of Y: a → b"), and its verdict names the run
-    that brings it within the band or marks it unreachable with the span of the study's runs."""
+    each choice's measured effect on it ("with X instead of Y: a → b"), and its verdict says what the
+    study's runs give for it: reached by a run, not reached in N runs with their span, or bracketed
+    by two levels of one choice (test_paper_verdicts.py: every verdict word)."""
     import json
 
     from tunnelquake import paper
@@ -344,8 +346,7 @@ def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
     path = _write_results(tmp_path / "results_dynamic_water.h5", t_end=10.0, dt=0.05, hydro=HYDRO, snaps=(10.0,))
     res = P.read_condition(path, "dynamic_water")
     ex = {f"pressure/{m}": p for m, p in HYDRO.items()}
-    study = {"levels": {"water": "incompressible"}, "overrides": {"water.model": "incompressible"},
-             "example_levels": {"water": "compressible, K = 2.2 GPa"}, "confirmed": None,
+    study = {"example_levels": {"water": "compressible, K = 2.2 GPa"},
              "choices": {paper.EXAMPLE_RUN: ex,
                          # the top arch reaches the band (0.25 of 0.256) at no cost: the others stay within
                          "water: incompressible": {"pressure/top_arch": 0.25e6, "pressure/haunch": 0.5e6,
@@ -356,72 +357,18 @@ def test_the_discussion_cites_the_studys_measured_deltas(tmp_path):
             "0.2 → 0.25 MPa") in text
     row = next(line for line in text.splitlines() if line.startswith("| hydrodynamic pressure peak (MPa) | "
                                                                         "dynamic_water | top_arch"))
-    assert "within the band with water: incompressible: 0.25 MPa" in row
-    # 0.3 MPa at the bottom arch is inside ±20 % of 0.326 already; the haunch equals the paper's
-    assert "**unreachable** in the study" not in text
+    assert "reached by water: incompressible (0.25 MPa)" in row
     study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.18e6
     (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
     text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
-    assert "**unreachable** in the study: its 2 runs span 0.18 (water: incompressible) … 0.2 MPa (example" in text
-    # runs on both sides of the paper's 0.256 bracket it: not reached, but not unreachable
+    assert ("not reached in 2 runs (span 0.18 … 0.2 MPa, water: incompressible … example: as cases/paper_tunnel; "
+            "all below the paper's)") in text
+    # the example and a water level on both sides of the paper's 0.256: bracketed by that choice
     study["choices"]["water: incompressible"]["pressure/top_arch"] = 0.35e6
     (tmp_path / paper.STUDY_FILE).write_text(json.dumps(study))
     text = "\n".join(paper.comparison_sections([res], {}, {"case_dir": str(tmp_path)}))
-    assert ("not reached by a level of the study, which brackets it: 0.2 (example: as cases/paper_tunnel) … 0.35 MPa "
-            "(water: incompressible)") in text
-
-
-def test_a_number_that_moves_with_a_sibling_in_every_run_is_unreachable_together_with_it():
-    """Two monitors of one quantity that keep their ratio under every choice studied cannot both
-    come within ±20 % of paper values whose ratio the two bands exclude: with the haunch within the
-    band, the top arch is **unreachable** together with it (not "bracketed"), and the verdict gives
-    the paper's ratio, the runs' span and the interval both bands allow. A run whose ratio falls in
-    that interval leaves it bracketed. Lining stresses pair across conditions by their difference."""
-    from tunnelquake import paper
-
-    target = paper.paper_numbers()
-    top, hau = target["pressure/top_arch"], target["pressure/haunch"]
-    # a closed section's pressure peaks: the same at every monitor (ratio 0.99-1.01) in every run
-    runs = {f"run {i}": {"pressure/top_arch": v * 0.99, "pressure/haunch": v, "pressure/bottom_arch": v * 1.01}
-            for i, v in enumerate((0.19e6, 0.40e6, 0.44e6))}
-    current = runs["run 2"]
-    assert abs(current["pressure/haunch"] / hau - 1) <= paper.TOLERANCE
-    text = paper.reach_text("pressure/top_arch", runs, top, None, current)
-    lo, hi = 0.8 * top / (1.2 * hau), 1.2 * top / (0.8 * hau)
-    assert text.startswith("**unreachable** together with haunch"), text
-    assert f"top arch / haunch is {top / hau:.3g} in the paper, 0.99 … 0.99 in all 3 runs" in text
-    assert f"needs {lo:.3g} … {hi:.3g})" in text
-    # without the reported run's numbers the same runs only bracket it
-    assert paper.reach_text("pressure/top_arch", runs, top).startswith("not reached by a level of the study")
-    # one run whose top arch/haunch ratio lies inside what both bands allow: a level may reach both
-    runs["run 3"] = {"pressure/top_arch": 0.26e6 * 0.6, "pressure/haunch": 0.26e6}
-    assert "together with" not in paper.reach_text("pressure/top_arch", runs, top, None, current)
-
-    # condition (2)'s lining tension against condition (3)'s at the same monitor: the paper's (3) is
-    # 0.47 MPa above its (2); in every run (3) is within 0.01 MPa of (2) or below it
-    k2, k3 = "max_tension/static_water/top_arch", "max_tension/dynamic_water/top_arch"
-    p2, p3 = target[k2], target[k3]
-    runs = {"capped": {k2: 1.26e6, k3: 1.26e6}, "released": {k2: 0.28e6, k3: 0.17e6}}
-    text = paper.reach_text(k2, runs, p2, None, runs["capped"])
-    need = (0.8 * p2 - 1.2 * p3) / 1e6, (1.2 * p2 - 0.8 * p3) / 1e6
-    assert text.startswith("**unreachable** together with (3) top arch"), text
-    assert f"(2) top arch − (3) top arch is {(p2 - p3) / 1e6:.3g} MPa in the paper, 0 MPa … 0.11 MPa" in text
-    assert f"needs {need[0]:.3g} MPa … {need[1]:.3g} MPa" in text
-    assert need[1] < 0  # both runs' differences (0, +0.11) lie above the interval both bands allow
-
-
-def test_a_number_reached_only_by_runs_that_lose_others_is_unreachable_beside_the_set():
-    """A number outside the band that only runs costing other numbers bring within it is
-    **unreachable** beside the reported set, with what each such run costs; a run that costs
-    nothing leaves the plain "within the band with" verdict."""
-    from tunnelquake import paper
-
-    target = paper.paper_numbers()
-    k, other = "max_tension/static_water/haunch", "max_tension/dynamic_water/top_arch"
-    current = {k: 1.27e6, other: target[other]}
-    runs = {"set": current, "release 0.7": {k: 0.914e6, other: -0.308e6}}
-    text = paper.reach_text(k, runs, target[k], None, current)
-    assert text.startswith("**unreachable** beside the numbers this set keeps within the band"), text
-    assert "release 0.7 (0.914 MPa): 1 leave the band (max σ3 (3) top arch 1.27 → -0.308 MPa)" in text
-    runs["free"] = {k: 0.9e6, other: target[other]}
-    assert paper.reach_text(k, runs, target[k], None, current).startswith("within the band with")
+    assert ("bracketed by water compressible, K = 2.2 GPa–incompressible (0.2 … 0.35 MPa): a level between passes "
+            "through it") in text
+    row = next(line for line in text.splitlines() if line.startswith("| hydrodynamic pressure peak (MPa) | "
+                                                                        "dynamic_water | top_arch"))
+    assert "out of reach:" not in row

@@ -78,3 +78,17 @@ def test_rayleigh_gives_the_ratio_at_both_frequencies():
     for f in (1.5, 10.0):
         w = 2 * np.pi * f
         assert a / (2 * w) + b * w / 2 == pytest.approx(0.05, rel=1e-12)
+
+
+@pytest.mark.parametrize("vp_vs", [1.7, 2.5])
+def test_free_surface_reflection_of_p_conserves_energy(vp_vs):
+    # energy flux normal to the surface: PP^2 + PS^2 (beta cos j) / (alpha cos i) = 1 (Aki & Richards 5.2.4)
+    alpha, beta = 1000.0 * vp_vs, 1000.0
+    for angle in (0.0, 10.0, 35.0, 60.0, 85.0):
+        pp, ps = ref.free_surface_reflection_p(alpha, beta, angle)
+        ci = np.cos(np.radians(angle))
+        cj = np.sqrt(1 - (np.sin(np.radians(angle)) * beta / alpha) ** 2)
+        assert pp**2 + ps**2 * beta * cj / (alpha * ci) == pytest.approx(1.0, rel=1e-12)
+    assert ref.free_surface_reflection_p(alpha, beta, 0.0) == pytest.approx((-1.0, 0.0))
+    assert ref.free_surface_p(alpha, beta, 0.0) == pytest.approx((0.0, 2.0))
+    assert ref.free_surface_sv(alpha, beta, 0.0) == pytest.approx((2.0, 0.0))

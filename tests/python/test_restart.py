@@ -209,9 +209,10 @@ def test_crash_while_writing_a_checkpoint_leaves_the_previous_one(reference, tmp
     assert f"at t = {manifest['time']:.6g} s" in resumed
 
 
-def test_resume_of_a_finished_run_or_of_a_folder_without_checkpoint_says_so(reference, tmp_path, capsys):
-    """--resume of a run that completed changes nothing and says so (exit 0); of a folder where no
-    run wrote a checkpoint it is an error naming the fix (exit 1)."""
+def test_resume_of_a_finished_run_keeps_it_and_with_nothing_to_resume_starts_afresh(reference, tmp_path, capsys):
+    """--resume of a run that completed changes nothing and says so (exit 0). --resume of a run
+    killed before its first checkpoint was written (tq-solid killed inside it: no manifest), as a
+    requeued batch job runs it, starts afresh, says so, and ends equal to the uninterrupted run."""
     res = reference / "results" / "results_no_water.h5"
     before = res.stat().st_mtime_ns
     assert main(["run", str(reference / "case.yaml"), "--resume", "--no-post"]) == 0
@@ -220,11 +221,15 @@ def test_resume_of_a_finished_run_or_of_a_folder_without_checkpoint_says_so(refe
     assert res.stat().st_mtime_ns == before
 
     p = _copy(reference, tmp_path)
-    assert main(["run", str(p), "--resume", "--no-post"]) == 1
-    err = capsys.readouterr().err
-    assert "nothing to resume in " in err and "no condition has a restart checkpoint" in err, err
-    assert "without --resume to start" in err, err
-    assert not (p.parent / "results" / "results_no_water.h5").exists()
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "1:solid"})
+    out, _ = proc.communicate(timeout=180)
+    assert proc.returncode == 1 and "tq-solid stopped (exit -9)" in out, out[-2000:]
+    assert not (p.parent / "results" / "no_water" / "checkpoint" / "checkpoint.json").exists()
+    assert main(["run", str(p), "--resume", "--no-post"]) == 0
+    out = capsys.readouterr().out
+    assert "resume: nothing to resume in " in out and "no condition has a restart checkpoint" in out, out[-2000:]
+    assert "starting afresh" in out and "continues from its checkpoint" not in out, out[-2000:]
+    assert _differences(res, p.parent / "results" / "results_no_water.h5") == []
 
 
 def test_resume_after_the_case_changed_is_refused_naming_the_fix(reference, tmp_path):

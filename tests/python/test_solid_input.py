@@ -49,7 +49,8 @@ interface: {model: bonded}
 water: {head: 123 m, model: compressible}
 ground_motion:
   source: synthetic
-  pga: 1.575
+  pga: 1.575 m/s^2
+  vertical_ratio: 0.6666666666666666
   synthetic: {duration: 2.0}
 in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
 stages:

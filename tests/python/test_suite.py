@@ -150,6 +150,35 @@ def test_a_member_not_completed_is_left_out_of_the_combination(tmp_path):
     assert combined["no_water"]["haunch"]["max_ux"] == pytest.approx(0.02, rel=1e-12)
 
 
+def test_max_keeps_the_most_severe_member_of_each_signed_quantity():
+    """Three members, each the most severe in some quantities: the combined value is that member's.
+    A minimum is most severe at its smallest (the crown's most compressive stress -397, -355, -305
+    kPa combine to -397, the thrust's most compressive N, the hydraulic-jacking ratio), a maximum
+    at its largest; the mean (7 or more members, EN 1998-1 §4.3.3.4.3) is the plain mean."""
+    members = {
+        "a": {"min_sigma1": -397e3, "max_tension": 0.8e6, "min_N": -1.2e6, "max_N": -0.2e6, "min_M": -40e3,
+              "max_M": 55e3, "min_jacking_ratio": 1.9, "max_crack_width": 0.11e-3, "utilisation: reinforced": 0.4},
+        "b": {"min_sigma1": -355e3, "max_tension": 1.1e6, "min_N": -1.5e6, "max_N": -0.4e6, "min_M": -35e3,
+              "max_M": 70e3, "min_jacking_ratio": 1.4, "max_crack_width": 0.09e-3, "utilisation: reinforced": 0.7},
+        "c": {"min_sigma1": -305e3, "max_tension": 0.9e6, "min_N": -1.1e6, "max_N": 0.1e6, "min_M": -52e3,
+              "max_M": 60e3, "min_jacking_ratio": 1.6, "max_crack_width": 0.14e-3, "utilisation: reinforced": 0.5},
+    }
+    severe = {"min_sigma1": "a", "max_tension": "b", "min_N": "b", "max_N": "c", "min_M": "c", "max_M": "b",
+              "min_jacking_ratio": "b", "max_crack_width": "c", "utilisation: reinforced": "b"}
+    peaks = {m: {"static_water": {"crown": dict(q)}} for m, q in members.items()}
+    combined, used, n = SM.combined_table(peaks, "auto")
+    assert (used, n) == ("max", 3)
+    for q, m in severe.items():
+        assert combined["static_water"]["crown"][q] == members[m][q], q
+    assert combined["static_water"]["crown"]["min_sigma1"] == -397e3
+    mean, used, _ = SM.combined_table(peaks, "mean")
+    assert used == "mean" and mean["static_water"]["crown"]["min_sigma1"] == pytest.approx(-(397e3 + 355e3 + 305e3) / 3, rel=1e-12)
+    # the report's units: kN/m, kN·m/m, MPa, mm
+    assert SM.shown("min_N")[1:] == ("kN/m", 1e-3) and SM.shown("max_M")[1:] == ("kN·m/m", 1e-3)
+    assert SM.shown("min_sigma1")[1:] == ("MPa", 1e-6) and SM.shown("max_ux")[1:] == ("mm", 1e3)
+    assert SM.shown("max_crack_width")[1:] == ("mm", 1e3)
+
+
 # ----------------------------------------------------------------------------------------------
 # Response spectrum
 # ----------------------------------------------------------------------------------------------
@@ -294,7 +323,8 @@ def test_suite_of_3_records_x_2_conditions_runs_as_one_command(local_suite):
     report = (res / "suite_report.md").read_text()
     assert "combination: **max** over the 3 member(s)" in report
     for name in members:
-        assert re.search(rf"^\| {name} \| `r\d.txt` \| -?x \| [0-9.e+-]+ \| 1\.5 \| completed \|", report, re.M), name
+        assert re.search(rf"^\| {name} \| `r\d.txt` \| -?x \| [0-9.e+-]+ \| 1\.5, 0\.153 g \| completed \|", report,
+                         re.M), name
     with open(res / "suite_peaks.csv") as fh:
         rows = {(r["member"], r["condition"], r["monitor"], r["quantity"]): float(r["value"]) for r in csv.DictReader(fh)}
     for cond in conds:
@@ -307,7 +337,14 @@ def test_suite_of_3_records_x_2_conditions_runs_as_one_command(local_suite):
                     assert rows[(m, cond, mon, q)] == v  # repr in the CSV: the same float
                 assert rows[("combined_max", cond, mon, q)] == max(vals)
             section = report.split(f"## Peaks: {cond}")[1].split(f"### {mon}")[1].split("###")[0]
-            assert f"| **max** | **{SM._fmt(max(own[m][mon]['max_ux'] for m in members))}** |" in section
+            mm = SM.shown("max_ux")[2]  # shown in mm
+            assert f"| **max** | **{SM._fmt(max(own[m][mon]['max_ux'] for m in members), mm)}** |" in section
+        # the lining's design quantities: each member's own, the most severe combined (the smallest of a minimum)
+        lin = SM.LINING
+        for q, pick in (("min_N", min), ("max_N", max), ("min_M", min), ("max_M", max)):
+            vals = [rows[(m, cond, lin, q)] for m in members]
+            assert rows[("combined_max", cond, lin, q)] == pick(vals), q
+        assert f"### {lin}" in report.split(f"## Peaks: {cond}")[1]
     # the members ran with their scaled records: a PGA of 1.5 m/s^2 each, the third reversed
     for m in members:
         with h5py.File(res / "members" / m / "motion.h5", "r") as f:

@@ -14,7 +14,8 @@ def add_arguments(p) -> None:
                    help="suite: local process pool, or mpi4py.futures' MPIPoolExecutor (the default under "
                         "`mpiexec -n N python -m mpi4py.futures -m tunnelquake run ...`)")
     p.add_argument("--resume", action="store_true",
-                   help="suite: run only the members not finished (a finished member is never run again)")
+                   help="keep the completed conditions and continue the others from their restart checkpoints "
+                        "(none: start afresh); suite: run only the members not finished, each so")
     p.add_argument("--slurm", action="store_true",
                    help="suite: write the members and a Slurm job-array script (suite.slurm), run nothing")
 

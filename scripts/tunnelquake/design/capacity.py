@@ -571,7 +571,8 @@ class DesignParameters:
         top = take(raw, {"code": "str", "gamma_c": U.DIMENSIONLESS, "gamma_s": U.DIMENSIONLESS,
                          "alpha_cc": U.DIMENSIONLESS, "alpha_cc_plain": U.DIMENSIONLESS,
                          "alpha_ct_plain": U.DIMENSIONLESS, "stress_block": "str", "cracking_strength": "str",
-                         "utilisation": "str", "concrete": "map", "reinforcement": "map"}, path)
+                         "utilisation": "str", "concrete": "map", "reinforcement": "map",
+                         "crack_width_limit": U.LENGTH, "seismic_situation": "map"}, path)
         if "concrete" not in raw or not isinstance(raw["concrete"], Mapping):
             raise ValueError(f"{path}.concrete: required, a mapping with at least fck")
         conc = take(raw["concrete"], {"fck": U.PRESSURE, "fctm": U.PRESSURE}, f"{path}.concrete")
@@ -581,7 +582,9 @@ class DesignParameters:
         if raw.get("reinforcement") is not None:
             r = take(raw["reinforcement"], {"fyk": U.PRESSURE, "Es": U.PRESSURE, "eps_ud": U.DIMENSIONLESS,
                                             "As_inner": U.LENGTH, "As_outer": U.LENGTH,
-                                            "axis_distance": U.LENGTH}, f"{path}.reinforcement")
+                                            "axis_distance": U.LENGTH, "bar_diameter": U.LENGTH},
+                     f"{path}.reinforcement")
+            r.pop("bar_diameter", None)  # the crack width's (design.lining.crack_settings)
             geo = {k: r.pop(k) for k in ("As_inner", "As_outer", "axis_distance") if k in r}
             kwargs.update(geo, reinforcement=Reinforcement(**r))
         names = {f.name for f in fields(cls)}

@@ -417,6 +417,28 @@ StableStep Solver::stableStep() const {
   s.xiMax = 0.5 * opt_.damping.beta * s.omegaMax;
   if (opt_.integrator == Integrator::PaperEq34) s.xiMax += opt_.damping.alpha / (2 * s.omegaMax);
   s.dtCritical = (2 / s.omegaMax) * (std::sqrt(1 + s.xiMax * s.xiMax) - s.xiMax);
+  s.omegaLimit = s.omegaMax;
+  // A viscous material (Kelvin–Voigt, retardation time τ) damps its block like β = τ more: the same
+  // bound with ξ = (β + τ) ω_b / 2 at the block's own ω_b, which can limit below ω_max's block.
+  for (const auto& b : blocks_) {
+    const Real tau = b->material().viscousTime();
+    if (!(tau > 0)) continue;
+    Index e = -1;
+    const Real w = b->maxFrequency(&e);
+    if (!(w > 0)) continue;
+    Real xi = 0.5 * (opt_.damping.beta + tau) * w;
+    if (opt_.integrator == Integrator::PaperEq34) xi += opt_.damping.alpha / (2 * w);
+    const Real dt = (2 / w) * (std::sqrt(1 + xi * xi) - xi);
+    if (dt < s.dtCritical) {
+      s.dtCritical = dt;
+      s.omegaLimit = w;
+      s.xiMax = xi;
+      s.block = b->name();
+      s.element = e >= 0 ? b->meshElem(e) : -1;
+      s.charLength = e >= 0 ? b->charLength(e) : 0;
+      s.waveSpeed = 0.5 * w * s.charLength;
+    }
+  }
   s.dtSafe = opt_.safety * s.dtCritical;
   return s;
 }
@@ -435,10 +457,11 @@ void Solver::setTimeStep(Real dt) {
     os << "time step dt = " << dt << " s is above the stable limit " << s.dtSafe << " s (= safety " << opt_.safety
        << " x critical " << s.dtCritical << " s). The limit comes from element " << s.element << " of block '"
        << s.block << "': characteristic length " << s.charLength << " m, P-wave speed " << s.waveSpeed
-       << " m/s, ω_max = 2 c_p / L = " << s.omegaMax << " rad/s, damping ratio at ω_max ξ = " << s.xiMax
-       << " (Δt ≤ (2/ω_max)(√(1+ξ²) - ξ)). Fix: use dt ≤ " << s.dtSafe
+       << " m/s, ω = 2 c_p / L = " << s.omegaLimit << " rad/s, damping ratio at ω ξ = " << s.xiMax
+       << " (Δt ≤ (2/ω)(√(1+ξ²) - ξ)). Fix: use dt ≤ " << s.dtSafe
        << " s or dt = 0 for automatic; or coarsen/regularise the smallest elements; or lower the "
-          "stiffness-proportional damping (its β shortens the step).";
+          "stiffness-proportional damping (its β, and a Kelvin–Voigt material's retardation time τ, shorten "
+          "the step).";
     throw InputError(os.str());
   }
   dt_ = dt;
@@ -671,13 +694,8 @@ void Solver::updateNodesSubcycled(int active) {
   bookNodeChunks(nChunks);
 }
 
-SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
-  SubcyclingInfo info;
-  nodeLevel_.clear();
-  fSync_.clear();
-  dtPrevNode_.clear();
-  for (auto& b : blocks_) b->setChunkLevels({});
-  if (maxLevel <= 0) return info;
+void Solver::checkSubcycling(int maxLevel) const {
+  if (maxLevel <= 0) return;
   if (maxLevel > 8)
     throw InputError("subcycling levels = " + std::to_string(maxLevel) +
                      ": at most 8 (steps up to 256 times the finest); 3 or 4 is usual");
@@ -687,6 +705,22 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   if (opt_.damping.beta > 0)
     throw InputError("subcycling needs damping without the stiffness term (β = " + std::to_string(opt_.damping.beta) +
                      " s given): use mass-proportional damping, or set subcycling levels to 0");
+  for (const auto& b : blocks_)
+    if (b->material().viscousTime() > 0)
+      throw InputError("subcycling needs materials without viscosity (block '" + b->name() + "' is " +
+                       b->material().typeName() + " with retardation time " +
+                       std::to_string(b->material().viscousTime()) +
+                       " s): use a material without viscosity there, or set subcycling levels to 0");
+}
+
+SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
+  SubcyclingInfo info;
+  nodeLevel_.clear();
+  fSync_.clear();
+  dtPrevNode_.clear();
+  for (auto& b : blocks_) b->setChunkLevels({});
+  if (maxLevel <= 0) return info;
+  checkSubcycling(maxLevel);
   if (!(dt_ > 0)) throw InputError("subcycling: set the time step first");
   const Index N = state_.numNodes();
   // Each node: the coarsest level all its active elements allow (their own safety × critical step).

@@ -10,6 +10,7 @@
 #include "h5util.hpp"
 #include "input_schema.hpp"
 #include "input_staged.hpp"
+#include "tq/materials/registry.hpp"
 
 namespace tq {
 
@@ -17,29 +18,6 @@ namespace S = input_schema;
 namespace K = input_schema::key;
 
 namespace {
-
-/// Material models: the name `model` gives, and what adds a region's material built from its
-/// parameter map (the parameters a model reads are the table's rows naming it).
-struct MaterialModel {
-  const char* name;
-  void (*add)(const std::string& region, const MaterialValues& v, SolidInput& in);
-};
-
-const MaterialModel kMaterialModels[] = {
-    {"elastic",
-     [](const std::string& region, const MaterialValues& v, SolidInput& in) {
-       const ElasticParams p = elasticParams(v);
-       ElasticMaterial check(p);
-       in.materials.emplace_back(region, p);
-     }},
-    {"mohr_coulomb_damage",
-     [](const std::string& region, const MaterialValues& v, SolidInput& in) {
-       const MohrCoulombDamageParams p = mohrCoulombDamageParams(v);
-       MohrCoulombDamageMaterial check(p);
-       in.materials.emplace_back(region, p.elastic);
-       in.mohrCoulomb[region] = p;
-     }},
-};
 
 /// The material rows the file is read against: its own /schema rows when it has them (each row
 /// this tq-solid was built with must be there, declared the same; rows it does not know are
@@ -101,15 +79,12 @@ void readMaterials(const S::Reader& R, hid_t f, SolidInput& in) {
       else
         v.numbers[r.name] = R.number(mg, w, r, required);
     }
-    const auto* model = std::find_if(std::begin(kMaterialModels), std::end(kMaterialModels),
-                                     [&](const MaterialModel& m) { return v.model == m.name; });
-    if (model == std::end(kMaterialModels)) R.fail(w, "model '" + v.model + "' has no material in this tq-solid");
     try {
-      model->add(region, v, in);
+      makeMaterial(v);  // a registered model (tq/materials/registry.hpp), its own checks of its parameters
     } catch (const InputError& e) {
       R.fail(w, e.what());
     }
-    in.materialValues[region] = v;
+    in.materials.emplace_back(region, v);
   }
 }
 
@@ -248,7 +223,7 @@ std::string inputJson(const SolidInput& in) {
   os.precision(17);
   os << "{\"path\": " << jsonString(in.path) << ", \"schema\": " << jsonString(S::kHash) << ", \"materials\": {";
   bool firstRegion = true;
-  for (const auto& [region, v] : in.materialValues) {
+  for (const auto& [region, v] : in.materials) {
     os << (firstRegion ? "" : ", ") << jsonString(region) << ": {\"model\": " << jsonString(v.model);
     for (const auto& [k, x] : v.numbers) os << ", " << jsonString(k) << ": " << x;
     for (const auto& [k, t] : v.texts) os << ", " << jsonString(k) << ": " << jsonString(t);
@@ -261,13 +236,7 @@ std::string inputJson(const SolidInput& in) {
 
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {
   std::vector<std::pair<std::string, std::shared_ptr<const Material>>> mats;
-  for (const auto& [region, p] : in.materials) {
-    const auto mc = in.mohrCoulomb.find(region);
-    if (mc != in.mohrCoulomb.end())
-      mats.emplace_back(region, std::make_shared<MohrCoulombDamageMaterial>(mc->second));
-    else
-      mats.emplace_back(region, std::make_shared<ElasticMaterial>(p));
-  }
+  for (const auto& [region, v] : in.materials) mats.emplace_back(region, makeMaterial(v));
   auto s = std::make_unique<Solver>(mesh, makeBlocksByRegion(mesh, mats, in.formulation), in.options);
   for (const auto& [group, dirs] : in.fixed) s->fixFaceGroup(group, dirs);
   for (const auto& l : in.loads) {

@@ -24,6 +24,18 @@ ElasticParams elasticParams(const MaterialValues& v) {
   return {v.number(M::E.name), v.number(M::nu.name), v.number(M::rho.name)};
 }
 
+MaterialValues elasticValues(const ElasticParams& p) {
+  namespace M = input_schema::key::materials;
+  MaterialValues v;
+  v.model = ElasticMaterial::kName;
+  v.numbers = {{M::E.name, p.youngsModulus}, {M::nu.name, p.poissonRatio}, {M::rho.name, p.density}};
+  return v;
+}
+
+std::shared_ptr<const Material> makeElasticMaterial(const MaterialValues& v) {
+  return std::make_shared<ElasticMaterial>(elasticParams(v));
+}
+
 ElasticModuli ElasticModuli::fromYoungPoisson(Real E, Real nu) {
   ElasticModuli m;
   m.mu = E / (2 * (1 + nu));

@@ -24,6 +24,23 @@ MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v) {
   return p;
 }
 
+MaterialValues mohrCoulombDamageValues(const MohrCoulombDamageParams& p) {
+  namespace M = input_schema::key::materials;
+  MaterialValues v = elasticValues(p.elastic);
+  v.model = MohrCoulombDamageMaterial::kName;
+  v.numbers[M::cohesion.name] = p.cohesion;
+  v.numbers[M::friction_angle.name] = p.frictionAngle;
+  v.numbers[M::dilation_angle.name] = p.dilationAngle;
+  v.numbers[M::tensile_strength.name] = p.tensileStrength;
+  v.numbers[M::damage_constant.name] = p.damageConstant;
+  v.texts[M::damage_effect.name] = damageEffectName(p.damageEffect);
+  return v;
+}
+
+std::shared_ptr<const Material> makeMohrCoulombDamageMaterial(const MaterialValues& v) {
+  return std::make_shared<MohrCoulombDamageMaterial>(mohrCoulombDamageParams(v));
+}
+
 DamageEffect parseDamageEffect(const std::string& n) {
   if (n == "cohesion") return DamageEffect::Cohesion;
   if (n == "cohesion_and_stiffness") return DamageEffect::CohesionAndStiffness;

@@ -116,10 +116,11 @@ inline bool lowerToFinestLevel(std::vector<std::uint8_t>& level, const std::vect
 
 /// The stable time step and what limits it.
 struct StableStep {
-  Real dtCritical = 0;  ///< (2/ω_max)(√(1+ξ²) - ξ) (s)
+  Real dtCritical = 0;  ///< (2/ω)(√(1+ξ²) - ξ) at ω = omegaLimit (s)
   Real dtSafe = 0;      ///< safety * dtCritical (s)
   Real omegaMax = 0;    ///< max element frequency 2 c_p / L_e (rad/s)
-  Real xiMax = 0;       ///< damping ratio at ω_max from β (and α for paper_eq3_4)
+  Real omegaLimit = 0;  ///< the limiting element's frequency: ω_max, or a viscous block's own ω_b (rad/s)
+  Real xiMax = 0;       ///< damping ratio at omegaLimit from β, a viscous material's τ (and α for paper_eq3_4)
   std::string block;    ///< block of the limiting element
   Index element = -1;   ///< mesh index of the limiting element
   Real charLength = 0;  ///< its V / A_max (m)
@@ -239,6 +240,9 @@ class Solver {
   /// finest level of its nodes. Needs the central difference and no stiffness damping (β = 0).
   /// Throws InputError otherwise. maxLevel = 0 turns it off.
   SubcyclingInfo enableSubcycling(int maxLevel);
+  /// What enableSubcycling refuses (levels, integrator, stiffness damping, a viscous material),
+  /// without setting anything up: the starter asks it before the static stages. Throws InputError.
+  void checkSubcycling(int maxLevel) const;
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
 

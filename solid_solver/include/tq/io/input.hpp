@@ -10,7 +10,7 @@
 
 #include "tq/core/solver.hpp"
 #include "tq/io/staged_input.hpp"
-#include "tq/materials/material_mc.hpp"
+#include "tq/materials/material.hpp"
 
 namespace tq {
 
@@ -35,13 +35,10 @@ struct SolidInput {
   std::string meshPath;  ///< resolved mesh.h5 path
   SolverOptions options;
   Hex8Formulation formulation = Hex8Formulation::OnePointAssumedStrain;
-  Real tEnd = 0;                                                 ///< end time (s)
-  std::vector<std::pair<std::string, ElasticParams>> materials;  ///< region -> elastic params
-  /// Regions whose model is mohr_coulomb_damage -> its parameters (elastic part = `materials`).
-  std::map<std::string, MohrCoulombDamageParams> mohrCoulomb;
-  /// Region -> its material as read (model and parameters by name, those of no model included);
-  /// `materials` and `mohrCoulomb` are built from it by the model's factory.
-  std::map<std::string, MaterialValues> materialValues;
+  Real tEnd = 0;  ///< end time (s)
+  /// Region -> its material as read (model and parameters by name, those of no model included), in
+  /// the file's order; buildSolver makes each from its model's factory (tq/materials/registry.hpp).
+  std::vector<std::pair<std::string, MaterialValues>> materials;
   std::map<std::string, std::string> fixed;  ///< face group -> directions ("xyz", "z", ...)
   std::vector<LoadInput> loads;
   std::vector<MonitorInput> monitors;

@@ -48,6 +48,9 @@ struct MaterialValues {
 
 /// The elastic parameters (E, nu, rho) of a region's parameter map.
 ElasticParams elasticParams(const MaterialValues& v);
+/// The parameter map of an elastic region (model "elastic"; E, nu, rho): the inverse of
+/// elasticParams, for inputs built in code.
+MaterialValues elasticValues(const ElasticParams& p);
 
 /// One chunk of elements handed to a material: strain increments in, stresses updated in place.
 struct MaterialChunk {
@@ -77,6 +80,10 @@ class Material {
   virtual int dissipationHistory() const { return -1; }
   /// True when σ = C ε exactly (lets the fully integrated reference element be used).
   virtual bool isLinearElastic() const { return false; }
+  /// Retardation time τ (s) of a viscous stress τ C:ε̇ the material adds to its elastic one (the
+  /// Kelvin–Voigt model), 0 for none. It damps like stiffness-proportional Rayleigh damping with
+  /// β = τ, so the solver shortens the stable step for it (Solver::stableStep).
+  virtual Real viscousTime() const { return 0; }
   /// Update the stresses of a chunk of elements from their strain increments.
   virtual void updateStressForElems(const MaterialChunk& chunk) const = 0;
 };
@@ -84,8 +91,9 @@ class Material {
 /// Hooke's law in rate form: σ^{n+1} = σ^n + C : Δε.
 class ElasticMaterial final : public Material {
  public:
+  static constexpr const char* kName = "elastic";    ///< the registry's name (materials/registry.cpp)
   explicit ElasticMaterial(const ElasticParams& p);  // throws InputError on bad values
-  std::string typeName() const override { return "elastic"; }
+  std::string typeName() const override { return kName; }
   Real density() const override { return params_.density; }
   ElasticModuli elasticModuli() const override { return moduli_; }
   bool isLinearElastic() const override { return true; }
@@ -96,5 +104,8 @@ class ElasticMaterial final : public Material {
   ElasticParams params_;
   ElasticModuli moduli_;
 };
+
+/// The registry's factory of the elastic model (throws InputError on bad values).
+std::shared_ptr<const Material> makeElasticMaterial(const MaterialValues& v);
 
 }  // namespace tq

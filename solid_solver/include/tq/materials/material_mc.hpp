@@ -46,6 +46,8 @@ struct MohrCoulombDamageParams {
 
 /// The Mohr-Coulomb damage parameters of a region's parameter map (docs/formats.md "## solid_input.h5").
 MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v);
+/// The parameter map of a Mohr-Coulomb damage region: the inverse of mohrCoulombDamageParams.
+MaterialValues mohrCoulombDamageValues(const MohrCoulombDamageParams& p);
 
 /// Names of the history variables, in order (one array each in the element block).
 namespace mc_history {
@@ -92,8 +94,9 @@ struct MohrCoulombSurface {
 /// Mohr–Coulomb elastoplastic damage material (eqs. 16–18).
 class MohrCoulombDamageMaterial final : public Material {
  public:
+  static constexpr const char* kName = "mohr_coulomb_damage";            ///< the registry's name
   explicit MohrCoulombDamageMaterial(const MohrCoulombDamageParams& p);  // throws InputError
-  std::string typeName() const override { return "mohr_coulomb_damage"; }
+  std::string typeName() const override { return kName; }
   Real density() const override { return params_.elastic.density; }
   ElasticModuli elasticModuli() const override { return moduli_; }
   std::vector<std::string> historyNames() const override;
@@ -116,5 +119,8 @@ class MohrCoulombDamageMaterial final : public Material {
   Real nPhi_ = 1, nPsi_ = 1, sqrtNPhi_ = 1, cotPhi_ = 0;
   Real dpSlope_ = 0;  // √(1 + Nφ² − (Nφ−1)²/3): inscribed-cone bound of the shear function
 };
+
+/// The registry's factory of the Mohr-Coulomb damage model (throws InputError on bad values).
+std::shared_ptr<const Material> makeMohrCoulombDamageMaterial(const MaterialValues& v);
 
 }  // namespace tq

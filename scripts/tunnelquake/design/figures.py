@@ -1,0 +1,95 @@
+"""The designer's figures: the design forces' envelopes around the ring, and the section's M–N
+diagram with the demand points. Angles as everywhere in the report: from the crown towards +x; the
+ring is drawn as seen along the tunnel axis, the crown up and +x to the right."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, out: Path) -> Path:
+    from ..files import atomic_path
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    return out
+
+
+def ring_scale(values: list[np.ndarray], radius: float) -> float:
+    """Metres of drawing per unit of the quantity: the largest |value| drawn at 0.45 × the radius."""
+    big = max((float(np.max(np.abs(v))) for v in values if v.size), default=0.0)
+    return 0.45 * radius / big if big > 0 else 0.0
+
+
+def fig_envelopes(conditions, out: Path) -> Path | None:
+    """N, M, V of the seismic design situation around the ring, one panel each: per condition the
+    largest and smallest value of each section over the run (solid, dashed) and the static state
+    (dotted), drawn off the lining's mid-line, outwards positive (N tension, M tension at the inner
+    face), at the scale given in each panel."""
+    items = [c for c in conditions if c.angles is not None and c.envelope]
+    if not items:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(14, 5.2))
+    R = items[0].radius
+    for ax, (q, unit) in zip(axes, (("N", "kN/m"), ("M", "kN·m/m"), ("V", "kN/m")), strict=True):
+        vals = [a / 1e3 for c in items for a in (*c.envelope[q], c.static_forces[q])]
+        k = ring_scale(vals, R)
+        t = np.radians(np.linspace(-180, 180, 361))
+        ax.plot(R * np.sin(t), R * np.cos(t), color="0.6", lw=1)
+        for i, c in enumerate(items):
+            order = np.argsort(c.angles)
+            th = np.radians(np.append(c.angles[order], c.angles[order][0] + 360))
+            for arr, ls, lab in ((c.envelope[q][0], "-", "max"), (c.envelope[q][1], "--", "min"),
+                                 (c.static_forces[q], ":", "static")):
+                v = np.append(arr[order], arr[order][0]) / 1e3
+                r = R + k * v
+                ax.plot(r * np.sin(th), r * np.cos(th), ls, color=f"C{i}", lw=1.2, label=f"{c.condition} {lab}")
+        ax.set_aspect("equal")
+        ax.set_title(f"{q} ({unit}); 1 m of drawing = {1 / k:.3g} {unit}" if k else f"{q}: zero", fontsize=9)
+        ax.set_xlabel("x from the axis (m)")
+        ax.set_ylabel("z from the axis (m)")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=6, loc="lower left")
+    fig.suptitle("Design forces around the ring (outwards: N tension, M tension at the inner face, V +); "
+                 "crown up, +x right", fontsize=10)
+    fig.tight_layout()
+    _save(fig, out)
+    plt.close(fig)
+    return out
+
+
+def fig_mn(conditions, section, out: Path) -> Path | None:
+    """The reinforced section's M–N resistance (design values) with each condition's demand points
+    (the vertices of the pairs' convex hull and the largest |M| per band of N)."""
+    items = [c for c in conditions if c.demand is not None and c.demand[0].size]
+    if not items or section is None:
+        return None
+    plt = _plt()
+    NR, MR = section.diagram()
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    ax.plot(MR / 1e3, NR / 1e3, color="k", lw=1.5, label="resistance (design)")
+    for i, c in enumerate(items):
+        ax.plot(c.demand[1] / 1e3, c.demand[0] / 1e3, "o", ms=3, color=f"C{i}", label=f"{c.condition} demand")
+    ax.axhline(0, color="0.7", lw=0.8)
+    ax.axvline(0, color="0.7", lw=0.8)
+    ax.set_xlabel("M (kN·m/m, tension at the inner face +)")
+    ax.set_ylabel("N (kN/m, compression +)")
+    ax.set_title("M–N interaction of the lining section with the seismic design situation's demand", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, out)
+    plt.close(fig)
+    return out
