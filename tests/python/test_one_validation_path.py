@@ -27,7 +27,7 @@ def _case(folder, *, duration: str | None = None, cutoff: str = "15 Hz", extra: 
     horizontal or vertical record), the window `duration` (None: the whole record), `cutoff`."""
     text = (PRESSURE / "case.yaml").read_text()
     text = re.sub(r"\n  second_horizontal: .*", "", text)
-    text = re.sub(r"\n  vertical: .*", "", text)
+    text = re.sub(r"\n  vertical: .*", "\n  vertical_ratio: 0.5", text)
     text = text.replace("  file: horizontal.txt", "  file: rec.txt")
     text = text.replace("  duration: 10 s\n", "" if duration is None else f"  duration: {duration}\n")
     text = re.sub(r"  cutoff_frequency: 15 Hz.*", f"  cutoff_frequency: {cutoff}", text)
