@@ -107,6 +107,98 @@ def ground_layers(d: dict) -> list[tuple[str, float]]:
     return out
 
 
+# ----------------------------------------------------------------------------------------------
+# Regions bounded by planes: a fault zone and dipping layers (meshing/geology.py)
+# ----------------------------------------------------------------------------------------------
+#: the convention of directions, said once for every key that takes one
+AZIMUTH = "degrees in plan from the tunnel axis +y, clockwise seen from above (towards +x)"
+
+
+def _geology_section() -> Section:
+    def dip(what):
+        return Number(min=0.0, min_open=True, max=90.0, why="degrees below horizontal: 90 is vertical, and a "
+                      "horizontal interface is a layers[] entry", doc=f"{what}, degrees below horizontal, in (0, 90]")
+
+    point = Tuple(item=_length(), length=3, doc="[x, y, z] m, a point on the plane")
+    fault = Section(checks=[_check_fault_zone], fields={
+        "material": Text(doc="the band's material: a name in materials, its own mesh region"),
+        "width": _positive(U.LENGTH, "true thickness of the band, normal to its plane, m"),
+        "strike": Number(min=0.0, max=360.0, doc=f"direction of the fault's horizontal trace, {AZIMUTH}: the angle "
+                                                   "at which it crosses the tunnel; it dips to the right of it "
+                                                   "(towards strike + 90)"),
+        "dip": dip("the fault's dip"),
+        "point": Tuple(item=_length(), length=3, doc="[x, y, z] m, a point on the band's centre plane (e.g. where "
+                                                     "it crosses the tunnel axis)"),
+        "elements_across": Number(integer=True, min=1, default=4,
+                                  doc="elements along the tunnel axis across the band where it crosses the "
+                                      "near-field box (the axial divisions are refined there)"),
+    })
+    layer = Section(fields={
+        "material": Text(required=True, doc="the layer's material: a name in materials, its own mesh region"),
+        "dip": dip("dip of the layer's bottom plane"),
+        "dip_direction": Number(min=0.0, max=360.0, required=True,
+                                doc=f"azimuth of the bottom plane's steepest descent, {AZIMUTH}"),
+        "point": point,
+    })
+    for f in ("dip", "point"):
+        layer.fields[f].required = True
+    return Section(doc="rock regions bounded by planes (docs/meshing.md \"Regions bounded by planes\")", fields={
+        "fault_zone": fault,
+        "dipping_layers": ListOf(item=layer, default=[],
+                                 doc="layers whose bottom is a plane of any dip, from the top down: an element "
+                                     "above a bottom plane is that layer's unless a layer listed before (or a "
+                                     "horizontal layers[] entry) has it; below them all, materials.rock"),
+    })
+
+
+def _check_fault_zone(fz, path, raw, ctx):
+    given = [k for k in ("width", "strike", "dip", "point") if fz[k] is not None]
+    if fz["material"] is None and given:
+        ctx.error(f"{path}.material", None, f"is missing: {', '.join(given)} describe a fault zone of no material",
+                  "add 'material: <a name in materials>'", raw.line)
+    elif fz["material"] is not None:
+        for k in ("width", "strike", "dip", "point"):
+            if fz[k] is None:
+                ctx.error(f"{path}.{k}", None, "is required with a fault zone",
+                          {"width": "add 'width: <true thickness> m'",
+                           "strike": "add 'strike: <deg from the tunnel axis y, clockwise seen from above>'",
+                           "dip": "add 'dip: <deg below horizontal, in (0, 90]>'",
+                           "point": "add 'point: [x, y, z]' (a point on its centre plane, in m)"}[k], raw.line)
+
+
+def case_geology(d: dict):
+    """The case's regions bounded by planes (meshing.geology.Geology), None when it has none."""
+    from .meshing.geology import from_case
+
+    return from_case(d.get("geology"))
+
+
+def _geology_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Every region the geology section names is a material of the case, and a region of its own
+    (not rock, lining, a horizontal layer's or another plane region's). Where the planes lie
+    against the block is the mesher's rule (meshing.params), said by _mesh_checks."""
+    g = d.get("geology") or {}
+    entries = [(f"geology.dipping_layers[{i}].material", e["material"]) for i, e in enumerate(g["dipping_layers"])]
+    if g["fault_zone"]["material"] is not None:
+        entries.append(("geology.fault_zone.material", g["fault_zone"]["material"]))
+    lines = raw.key_lines if isinstance(raw, LineDict) else {}
+    taken = {layer["material"] for layer in d.get("layers") or []}
+    issues = []
+    for key, name in entries:
+        if name not in d["materials"]:
+            issues.append(Issue(key, name, "is not a material of the case",
+                                f"add materials.{name} (youngs_modulus, poisson_ratio, density, ...), or name one "
+                                f"of: {', '.join(m for m in d['materials'] if m not in ('rock', 'lining'))}",
+                                lines.get("geology")))
+        elif name in ("rock", "lining") or name in taken:
+            issues.append(Issue(key, name, "names a region the mesh has already (rock, lining, a layer's or another "
+                                "plane region's): each region bounded by planes is its own mesh region",
+                                "give it a material of its own (copy the material under another name)",
+                                lines.get("geology")))
+        taken.add(name)
+    return issues
+
+
 def _component_section(what: str) -> Section:
     """A further component of the ground motion: a record file, scaled with the horizontal record's
     factor (the recorded ratio kept) unless it gives a PGA of its own."""
@@ -308,6 +400,9 @@ def schema() -> Section:
                                       doc="R in eq. (18), D_i = 1 - exp(-R |eps_i^p|); not given by the paper"),
             "damage_effect": Choice(choices=("cohesion", "cohesion_and_stiffness"), default="cohesion",
                                     doc="what damage reduces: cohesion only (eq. 16) or also the stiffness"),
+            "tension_stiffening_beta": Number(min=0.0, max=1.0, default=1.0,
+                                              doc="reinforced_concrete: beta of EN 1992-1-1 eq. (7.19), 1 "
+                                                  "short-term, 0.5 sustained or repeated loading"),
             "retardation_time": Number(dim=U.TIME, min=0.0,
                                        doc="kelvin_voigt: retardation time tau, s (sigma = C:eps + tau C:deps/dt; "
                                            "damping ratio omega tau / 2 at angular frequency omega)"),
@@ -346,6 +441,7 @@ def schema() -> Section:
         }), default=[], doc="horizontal ground layers from the surface down, each its own mesh region; below the "
                             "last the ground is materials.rock, which holds the tunnel and its near-field box "
                             "(docs/solid_solver.md \"Layered ground\")"),
+        "geology": _geology_section(),
         "interface": Section(checks=[_check_interface], fields={
             "model": Choice(choices=("dynamic_contact", "bonded"), default="dynamic_contact",
                             doc="rock-lining interface: the paper's dynamic contact force method, or always bonded"),
@@ -562,6 +658,14 @@ def schema() -> Section:
                                    doc="bar area per metre at the inner face, with its unit (mm2/m or m2/m)"),
                 "As_outer": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True, unit_example="'1005 mm2/m'",
                                    doc="bar area per metre at the outer face, with its unit (mm2/m or m2/m)"),
+                "As_inner_axial": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True,
+                                         unit_example="'1005 mm2/m'",
+                                         doc="axial bar area per metre of circumference at the inner face, with its "
+                                             "unit (mm2/m or m2/m; the analysis' reinforced_concrete lining)"),
+                "As_outer_axial": Number(dim=U.LENGTH, min=0.0, default=0.0, unit_required=True,
+                                         unit_example="'1005 mm2/m'",
+                                         doc="axial bar area per metre of circumference at the outer face, with its "
+                                             "unit (mm2/m or m2/m)"),
                 "axis_distance": _positive(U.LENGTH, "face to bar centroid, m", default=0.05),
                 "bar_diameter": _positive(U.LENGTH, "diameter of the bars, m (the crack width needs it; EN 1992-1-1 "
                                                     "§7.3.4)"),
@@ -629,6 +733,23 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             "job\")", "use transport: tcp (the water may still run on several ranks: "
                             "parallel.fluid_ranks)",
                             raw["coupling"].key_lines.get("transport") if "coupling" in raw else None))
+    for region, m in d["materials"].items():  # the reinforced lining's concrete and bars come from design
+        if m["model"] != "reinforced_concrete":
+            continue
+        des = d.get("design") or {}
+        where = raw["materials"].key_lines.get(region) if "materials" in raw else None
+        if region != "lining":
+            issues.append(Issue(f"materials.{region}.model", "reinforced_concrete",
+                                "is the lining's model (its bars are placed about the tunnel axis)",
+                                "use it for materials.lining only", where))
+        elif not (des.get("concrete") or {}).get("fck"):
+            issues.append(Issue("design.concrete.fck", None, "is required by materials.lining.model "
+                                "reinforced_concrete (the analysis' concrete is the design block's)",
+                                "add design: {concrete: {fck: 30 MPa}}", where))
+        elif not ((des.get("reinforcement") or {}).get("As_inner") or (des.get("reinforcement") or {}).get("As_outer")):
+            issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
+                                "reinforced_concrete (hoop bars at the inner and outer faces)",
+                                "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os
@@ -642,6 +763,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             f"will share cores (mpirun --oversubscribe) and run slower than on {cores}; "
                             f"use fluid_ranks <= {cores}")
     issues += _layer_checks(d, raw)
+    issues += _geology_checks(d, raw)
     issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     from .sanity import case_warnings
@@ -859,6 +981,7 @@ def _layer_checks(d: dict, raw: LineDict) -> list[Issue]:
                                 "its own mesh region", "merge the two layers, or copy the material under another "
                                 "name", line))
         seen.add(name)
+    seen |= {m for m in (case_geology(d).materials if case_geology(d) else [])}
     for name in mats:
         if name not in ("rock", "lining") and name not in seen:
             issues.append(Issue(f"materials.{name}", name,
@@ -912,7 +1035,7 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
                       "machine can hold", "raise mesh.max_element_size, or lower the division counts and "
                       "refinement_factor (docs/meshing.md)", lines.get(k) or raw.key_lines.get("mesh"))]
     try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d))
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     except MeshInputError as e:
         key = e.key or "mesh"
         section, _, leaf = key.partition(".")

@@ -19,11 +19,13 @@ def mesh_dir(case) -> Path:
 
 
 def _fingerprint(case) -> str:
-    from .case import ground_layers
+    from .case import case_geology, ground_layers
 
     d = {"geometry": case.data["geometry"], "mesh": case.data["mesh"]}
     if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
         d["layers"] = ground_layers(case.data)
+    if case_geology(case.data) is not None:  # likewise
+        d["geology"] = case.data["geology"]
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -41,10 +43,11 @@ def make_mesh(case, force: bool = False) -> dict:
             return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
-    from .case import ground_layers
+    from .case import case_geology, ground_layers
 
     stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
-    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data))
+    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data),
+                                case_geology(case.data))
     summary = json.loads(json.dumps(summary, default=str))
     with atomic_path(stamp) as tmp:
         tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))

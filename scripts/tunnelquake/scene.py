@@ -45,7 +45,21 @@ def assess_slice(case) -> SliceAssessment:
     advice: list[str] = []
     dynamic = "dynamic_water" in d["conditions"]
     water = d["water"]
-    if d["mesh"]["mode"] == "3d" and not reasons:
+    from .case import case_geology
+
+    geology = case_geology(d)
+    varying = []  # what changes along the tunnel axis
+    if geology is not None:
+        if geology.fault is not None:
+            varying.append(f"geology.fault_zone ({geology.fault.material}) crosses the tunnel")
+        varying += [f"geology.dipping_layers[{i}] ({layer.material}) dips along the axis (its bottom's normal has a "
+                    "y component)" for i, layer in enumerate(geology.dipping) if abs(layer.bottom.normal[1]) > 1e-9]
+    if d["mesh"]["mode"] == "slice" and varying:
+        reasons += [f"{v}: the ground changes along y, and a slice holds its section at mid-length only" for v in varying]
+    if d["mesh"]["mode"] == "3d" and varying:
+        advice.append("the ground changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
+                      "represent it, keep mesh.mode: 3d")
+    elif d["mesh"]["mode"] == "3d" and not reasons:
         if dynamic and water.get("ends", "open") == "open":
             # Measured on the paper case (docs/benchmarks.md "Slice against 3D"): open ends let the water
             # breathe along the 80 m tunnel, the slice cannot.
@@ -213,19 +227,40 @@ def _minutes(s: float) -> str:
     return f"{s:.0f} s" if s < 120 else f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.1f} h"
 
 
+def axial_step(d: dict, plan) -> float:
+    """The critical step of the shortest axial element, h / c_p with the fastest material (inf when
+    the axial grid is uniform: the lining's layer sets the step). A fault zone's refined stretch
+    can make it shorter than the lining's (meshing.params.axial_levels)."""
+    import math
+
+    import numpy as np
+
+    h = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else math.inf
+    if plan.geology is None or not math.isfinite(h):
+        return math.inf
+
+    def cp(m):
+        E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
+        return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+
+    return h / max(cp(m) for m in d["materials"].values())
+
+
 def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, with the constants above. The step is the lining's first element layer's
-    h / c_p times the safety factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s
-    tq-solid's own), cut by stiffness-proportional damping as tq-solid cuts it."""
+    h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
+    factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
+    stiffness-proportional damping as tq-solid cuts it."""
     import math
 
-    from .case import ground_layers
+    from .case import case_geology, ground_layers
     from .meshing.params import element_counts, resolve
 
     d = case.data
-    counts = counts or element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
-    dt_crit = lining_layer_step(d)[1]
+    mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    counts = counts or element_counts(mesh_plan)
+    dt_crit = min(lining_layer_step(d)[1], axial_step(d, mesh_plan))
     dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
     duration = d["time"].get("end_time")
     if duration is None:

@@ -64,6 +64,7 @@ def _mesh_facts(mesh_h5: Path) -> dict:
             "slice": int(f.attrs.get("slice", 0)) == 1,
             "regions": regions,
             "faces": sorted(f["/faces"].keys()) if "faces" in f else [],
+            "strips": sorted(k for k in (f["/faces"].keys() if "faces" in f else []) if "_strip" in k),
             "pairs": int(f["/interfaces/rock_lining"].shape[0]) if "/interfaces/rock_lining" in f else 0,
             "lo": xyz.min(axis=0),
             "hi": xyz.max(axis=0),
@@ -96,17 +97,53 @@ def _from_case(obj, group: str, section: dict, table) -> None:
         put(obj, group, e.name, section[e.case.rsplit(".", 1)[1]], table)
 
 
-def _material_values(m: dict, table) -> dict:
+def _reinforced_concrete_values(d: dict, m: dict) -> dict:
+    """The material map of a `reinforced_concrete` region completed from the case's design block
+    (concrete and bars: the same keys the design check reads) and the ring's geometry and mesh."""
+    from .design.capacity import Concrete
+
+    des = d.get("design") or {}
+    conc, bars = des.get("concrete") or {}, des.get("reinforcement") or {}
+    if not conc.get("fck"):
+        raise SolidInputError("materials.lining.model: reinforced_concrete needs the concrete's strength; "
+                              "add design: {concrete: {fck: 30 MPa}}")
+    if not (bars.get("As_inner") or bars.get("As_outer")):
+        raise SolidInputError("materials.lining.model: reinforced_concrete needs hoop bars; add "
+                              "design.reinforcement.As_inner and As_outer (m^2/m)")
+    c = Concrete(conc["fck"], conc.get("fctm"))
+    g = d["geometry"]
+    out = dict(m)
+    out.update({k: v for k, v in bars.items() if v is not None})
+    out.update(fck=c.fck, fctm=c.fctm_value, tunnel_centre_x=g["tunnel_centre_x"],
+               tunnel_centre_z=g["tunnel_centre_z"], lining_thickness=g["lining_thickness"],
+               ring_inner_radius=g["excavated_radius"] - g["lining_thickness"],
+               lining_elements_through=float(d["mesh"].get("lining_elements_through", 3)))
+    return out
+
+
+def _material_values(m: dict, table, d: dict | None = None) -> dict:
     """A region's material attributes: each material row of the table from its case key (else its
-    default); rows whose value is neither given nor defaulted are left out."""
+    default); rows whose value is neither given nor defaulted are left out. Rows fed from outside
+    the materials section (a reinforced_concrete lining's design and geometry values) are written
+    for the models that read them only."""
+    rc = m.get("model") == "reinforced_concrete"
+    if rc and d is not None:
+        m = _reinforced_concrete_values(d, m)
     out = {}
     for e in table:
         if e.group != MATERIALS:
             continue
-        v = m.get(e.case.rsplit(".", 1)[1]) if e.case else None
+        if e.models and m.get("model") not in e.models and not (e.case or "").startswith("materials."):
+            continue
+        v = m.get(e.case.rsplit(".", 1)[1] if e.case else e.name)
         v = e.default if v is None else v
         if v is not None:
             out[e.name] = v
+    if rc and d is not None:
+        from .design.capacity import Concrete
+
+        c = Concrete(d["design"]["concrete"]["fck"])
+        out.update(eps_c2=c.eps_c2, eps_cu2=c.eps_cu2)
     return out
 
 
@@ -173,10 +210,13 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
 
         for region in mesh["regions"]:
             mg = f.create_group(f"materials/{region}")
-            for name, value in _material_values(d["materials"][region], table).items():
+            for name, value in _material_values(d["materials"][region], table, d).items():
                 w(mg, MATERIALS, name, value)
 
-        supports = {"bottom": "xyz", "xmin": "x", "xmax": "x"}
+        # The side faces: whole, or (a ground that changes along y) in strips one element wide, each
+        # its own support group and free-field column (meshing/build.py side_strips).
+        sides = mesh["strips"] or ["xmin", "xmax"]
+        supports = {"bottom": "xyz", **{side: "x" for side in sides}}
         if not mesh["slice"]:
             supports.update({"ymin": "y", "ymax": "y"})
         for face, dirs in supports.items():
@@ -190,6 +230,9 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             i = f.create_group("in_situ")
             _from_case(i, "/in_situ", ins, table)
             w(i, "/in_situ", "z_top", geo["z_range"][1])
+            rho = overburden_density(d)
+            if rho is not None:
+                w(i, "/in_situ", "density", rho)
         if hydrostatic:
             h = f.create_group("hydrostatic")
             w(h, "/hydrostatic", "face", "lining_inner")
@@ -206,7 +249,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(b, "/boundaries/bottom", "face", "bottom")
             w(b, "/boundaries/bottom", "type", "viscoelastic")
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
-            w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", "xmin,xmax")
+            w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
@@ -269,6 +312,22 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
+
+
+def overburden_density(d: dict) -> float | None:
+    """The one overburden density the in-situ stress starts from when the ground has regions
+    bounded by planes of different densities (dipping layers, a fault zone): tq-solid's layered
+    overburden needs regions that are horizontal layers, so the stress is set with materials.rock's
+    density and the static relaxation carries the difference (each region's own weight is its body
+    force); None when the layered profile applies (docs/meshing.md "Regions bounded by planes")."""
+    from .case import case_geology
+
+    geology = case_geology(d)
+    if geology is None:
+        return None
+    ground = ["rock"] + [layer["material"] for layer in d.get("layers") or []] + geology.materials
+    densities = {float(d["materials"][m]["density"]) for m in ground}
+    return float(d["materials"]["rock"]["density"]) if len(densities) > 1 else None
 
 
 def reference_points(geo: dict, lo, y: float) -> dict[str, list[float]]:

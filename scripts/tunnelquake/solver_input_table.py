@@ -10,7 +10,7 @@ VERSION = 2
 MATERIALS = "/materials/*"
 # The material models tq-solid registers (solid_solver/src/materials/registry.cpp; a C++ test checks
 # the two lists agree). The case schema's `materials.<name>.model` takes its choices from here.
-MODELS = ("elastic", "mohr_coulomb_damage", "kelvin_voigt")
+MODELS = ("elastic", "mohr_coulomb_damage", "kelvin_voigt", "reinforced_concrete")
 
 _UNSET = object()
 
@@ -86,6 +86,7 @@ GROUPS = (
 
 _MC = ("mohr_coulomb_damage",)
 _KV = ("kelvin_voigt",)
+_RC = ("reinforced_concrete",)
 
 ENTRIES: tuple[Entry, ...] = (
     _e("/", "format", "str", f'`"{FORMAT}"`', required=True, choices=(FORMAT,)),
@@ -141,6 +142,46 @@ ENTRIES: tuple[Entry, ...] = (
        "angular frequency ω, e.g. ξ = 5 % at 5 Hz is τ = 3.2e-3 s; docs/solid_solver.md \"Kelvin–Voigt rock\"); "
        "shortens the stable step like Rayleigh β", unit="s", case="materials.retardation_time", models=_KV,
        required_by=_KV),
+    # reinforced_concrete (docs/solid_solver.md "Reinforced concrete lining"): the concrete and bars
+    # of the case's design block, the ring's geometry from geometry and mesh (solid_input.py).
+    _e(MATERIALS, "fc", "float", "`reinforced_concrete`: compressive strength of the parabola–rectangle (the "
+       "design block's fck)", unit="Pa", case="design.concrete.fck", models=_RC, lo=0.0, lo_open=True),
+    _e(MATERIALS, "fct", "float", "`reinforced_concrete`: tensile strength (fctm; EN 1992-1-1 Table 3.1 from fck "
+       "when not given)", unit="Pa", case="design.concrete.fctm", models=_RC, lo=0.0, lo_open=True),
+    _e(MATERIALS, "eps_c2", "float", "`reinforced_concrete`: strain at the parabola's top (written from fck, "
+       "EN 1992-1-1 Table 3.1)", models=_RC, default=2.0e-3, lo=0.0, lo_open=True),
+    _e(MATERIALS, "eps_cu2", "float", "`reinforced_concrete`: ultimate compressive strain; beyond it the concrete "
+       "has crushed (written from fck, Table 3.1)", models=_RC, default=3.5e-3, lo=0.0,
+       lo_open=True),
+    _e(MATERIALS, "tension_stiffening_beta", "float", "`reinforced_concrete`: β of EN 1992-1-1 eq. (7.19) in the "
+       "tension-stiffening law (1 short-term, 0.5 sustained or repeated)", case="materials.tension_stiffening_beta",
+       models=_RC, default=1.0, lo=0.0, hi=1.0),
+    _e(MATERIALS, "Es", "float", "`reinforced_concrete`: steel modulus", unit="Pa", case="design.reinforcement.Es",
+       models=_RC, default=200e9, lo=0.0, lo_open=True),
+    _e(MATERIALS, "fy", "float", "`reinforced_concrete`: steel yield strength (elastic–perfectly plastic)",
+       unit="Pa", case="design.reinforcement.fyk", models=_RC, default=500e6, lo=0.0, lo_open=True),
+    _e(MATERIALS, "As_inner_hoop", "float", "`reinforced_concrete`: hoop bars at the inner face, area per metre "
+       "of tunnel", unit="m²/m", case="design.reinforcement.As_inner", models=_RC, default=0.0, lo=0.0),
+    _e(MATERIALS, "As_outer_hoop", "float", "`reinforced_concrete`: hoop bars at the outer face", unit="m²/m",
+       case="design.reinforcement.As_outer", models=_RC, default=0.0, lo=0.0),
+    _e(MATERIALS, "As_inner_axial", "float", "`reinforced_concrete`: axial bars at the inner face, area per metre "
+       "of circumference", unit="m²/m", case="design.reinforcement.As_inner_axial", models=_RC, default=0.0,
+       lo=0.0),
+    _e(MATERIALS, "As_outer_axial", "float", "`reinforced_concrete`: axial bars at the outer face", unit="m²/m",
+       case="design.reinforcement.As_outer_axial", models=_RC, default=0.0, lo=0.0),
+    _e(MATERIALS, "axis_distance", "float", "`reinforced_concrete`: face to bar centroid, both faces", unit="m",
+       case="design.reinforcement.axis_distance", models=_RC, default=0.05, lo=0.0, lo_open=True),
+    _e(MATERIALS, "ring_centre_x", "float", "`reinforced_concrete`: x of the tunnel axis (the hoop direction is "
+       "about it)", unit="m", case="geometry.tunnel_centre_x", models=_RC),
+    _e(MATERIALS, "ring_centre_z", "float", "`reinforced_concrete`: z of the tunnel axis", unit="m",
+       case="geometry.tunnel_centre_z", models=_RC),
+    _e(MATERIALS, "ring_inner_radius", "float", "`reinforced_concrete`: the lining's inner radius "
+       "(written as geometry.excavated_radius − lining_thickness)", unit="m", models=_RC,
+       lo=0.0, lo_open=True),
+    _e(MATERIALS, "ring_thickness", "float", "`reinforced_concrete`: the lining's thickness", unit="m",
+       case="geometry.lining_thickness", models=_RC, lo=0.0, lo_open=True),
+    _e(MATERIALS, "ring_layers", "float", "`reinforced_concrete`: elements through the lining's thickness (the "
+       "bars' rows)", case="mesh.lining_elements_through", models=_RC, lo=1.0),
     _e("/boundary/fixed/*", "directions", "str", "fixed displacement directions of that face group's nodes, "
        "letters from `xyz` (e.g. `\"xyz\"` base, `\"x\"` roller). A slice mesh gets u_y = 0 everywhere",
        required=True),

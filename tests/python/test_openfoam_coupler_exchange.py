@@ -54,12 +54,11 @@ def config(scheme: str) -> CouplingConfig:
     )
 
 
-def _case(path: Path, interface_motion: str) -> Path:
-    """The water case's pipe with its pressure solved by PCG to 1e-10: the comparison is to
-    round-off, and with the water case's tqProjected (to an absolute 1e-6) the coupled run differs
-    from the replay by 1.6e-7 of the peak force on the moving mesh and with rollbacks (measured)."""
+def _case(path: Path, interface_motion: str, p_tol: float | None = None) -> Path:
+    """The water case's pipe, its pressure solved as the product does (tqProjected, GAMG inside,
+    to an absolute 1e-6) unless `p_tol` asks for PCG to that tolerance."""
     motion = pipe.make_pipe_case(path, dt=DT, end_time=NSTEPS * DT, two_d=True, L=1.0, nq=16, nr=12,
-                                 interface_motion=interface_motion, p_tol=1e-10)
+                                 interface_motion=interface_motion, p_tol=p_tol)
     t = DT * np.arange(NSTEPS + 3)
     v = np.array([velocity(x) for x in t])
     v[0] = 0.0
@@ -70,15 +69,21 @@ def _case(path: Path, interface_motion: str) -> Path:
 
 
 @pytest.mark.parametrize(
-    "interface_motion,scheme",
-    [("transpiration", "explicit"), ("meshMotion", "explicit"), ("transpiration", "implicit")],
+    "interface_motion,scheme,p_tol",
+    [("transpiration", "explicit", None), ("transpiration", "implicit", None),
+     # the moving mesh with the product's solve: no rollback, the same solver path (directions,
+     # iterations), yet the two runs part at round-off (1e-12 of the force) at window 9 and grow
+     # to 1.6e-7 of the peak by window 26 (plain GAMG to 1e-6: 5.6e-7; tqProjected around PCG:
+     # forces within 1e-9, pMean 3.2e-9): GAMG, whose agglomeration is rebuilt from the moved
+     # faces every window, amplifies it (measured); PCG to 1e-10 keeps it below 1e-9
+     ("meshMotion", "explicit", 1e-10)],
 )
-def test_coupler_exchange_matches_replay(tmp_path, interface_motion, scheme):
+def test_coupler_exchange_matches_replay(tmp_path, interface_motion, scheme, p_tol):
     """implicit: every window is solved twice (the second pass after a rollback through the
     coupler's checkpoint flags) and converges at the second pass (the solid's motion does not
-    depend on the force, and the re-solved step is bit-identical)."""
+    depend on the force, and the re-solved step is bit-identical, the first window's included)."""
     assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
-    replay = _case(tmp_path / "replay", interface_motion)
+    replay = _case(tmp_path / "replay", interface_motion, p_tol)
     fc.run(replay, "pimpleFoam")
     ref = fc.read_interface(replay)
 
@@ -159,7 +164,7 @@ def test_coupler_exchange_two_ranks(tmp_path):
     serial replay run; tolerance 1e-5 of the peak force (the decomposed linear solver takes
     another path to its tolerance; measured 5e-7)."""
     assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
-    replay = _case(tmp_path / "replay", "transpiration")
+    replay = _case(tmp_path / "replay", "transpiration", p_tol=1e-10)
     fc.run(replay, "pimpleFoam")
     ref = fc.read_interface(replay)
 

@@ -20,6 +20,8 @@ License
 #include "pointFields.H"
 #include "valuePointPatchField.H"
 #include "tqProjected.H"
+#include "lduPrimitiveMesh.H"
+#include "pairGAMGAgglomeration.H"
 
 #include <algorithm>
 
@@ -137,6 +139,48 @@ void getField(std::istream& is, Field<Type>& f)
             << "The water's restart checkpoint ends early (a damaged file)."
             << exit(FatalError);
     }
+}
+
+
+// GAMG's pair agglomerator (the default faceAreaPair) walks the cells of
+// each level it builds forwards or backwards by a process-wide flag that
+// every level built flips (pairGAMGAgglomeration::forward_, private).  A
+// moving mesh builds its agglomeration anew after every motion, so the
+// abandoned attempt of a rolled-back step flips the flag, and the re-solved
+// step would be agglomerated the other way: another multigrid, another
+// answer within the solver tolerance.  The flag is read and set through the
+// public per-level agglomerate() on a chain of five cells, which it pairs
+// (0 1)(2 3 4) walking forwards and (0 1 2)(3 4) backwards.
+
+//- Build one level on the chain: the flag before (true: forwards); flips it
+bool flipPairAgglomerationDirection()
+{
+    labelList lower({0, 1, 2, 3});
+    labelList upper({1, 2, 3, 4});
+    const lduPrimitiveMesh chain(5, lower, upper, UPstream::worldComm, true);
+    label nCoarse = 0;
+    const tmp<labelField> cluster =
+        pairGAMGAgglomeration::agglomerate
+        (
+            nCoarse,
+            chain.lduAddr(),
+            scalarField(4, 1.0)
+        );
+    return cluster()[2] == cluster()[4];
+}
+
+//- The flag, left as it was
+bool pairAgglomerationForward()
+{
+    const bool forward = flipPairAgglomerationDirection();
+    if (flipPairAgglomerationDirection() == forward)
+    {
+        FatalErrorInFunction
+            << "GAMG's pair agglomeration did not change direction between"
+            << " two builds (another OpenFOAM than v1912?): the rollback"
+            << " cannot put its direction back." << exit(FatalError);
+    }
+    return forward;
 }
 
 
@@ -470,6 +514,7 @@ Foam::tq::fieldCheckpoint::fieldCheckpoint(const fvMesh& mesh)
     timeIndex_(-1),
     fields_(),
     slots_(),
+    gamgForward_(true),
     moving_(false)
 {}
 
@@ -525,6 +570,8 @@ void Foam::tq::fieldCheckpoint::store()
         fields_.transfer(kept);
     }
 
+    gamgForward_ = pairAgglomerationForward();
+
     // Mesh motion state.  V0 and meshPhi exist once the mesh has moved.
     points_ = mesh_.points();
     moving_ = mesh_.moving() && runTime.timeIndex() > runTime.startTimeIndex();
@@ -558,6 +605,13 @@ void Foam::tq::fieldCheckpoint::store()
     {
         Info<< "tq::fieldCheckpoint: stored " << fields_.size()
             << " fields at time " << time_ << endl;
+        if (debug > 1)
+        {
+            forAll(fields_, i)
+            {
+                Info<< "    " << fields_[i].name() << endl;
+            }
+        }
     }
 }
 
@@ -630,6 +684,25 @@ void Foam::tq::fieldCheckpoint::restore() const
             WarningInFunction
                 << "Field " << fields_[i].name() << " saved at time "
                 << time_ << " no longer exists; not restored." << endl;
+        }
+    }
+
+    if (pairAgglomerationForward() != gamgForward_)
+    {
+        flipPairAgglomerationDirection();
+    }
+
+    // A projection basis made after the state was saved (a checkpoint
+    // before the first pressure solve) was empty then: emptied, so that the
+    // re-solved step starts as the first attempt did and not from the
+    // abandoned attempt's increment
+    forAllConstIters(mesh_.thisDb(), iter)
+    {
+        projectionHistory* h = dynamic_cast<projectionHistory*>(iter.val());
+        if (h && !slots_.found(h->name()))
+        {
+            h->sign = 0;
+            h->q.clear();
         }
     }
 
@@ -706,6 +779,7 @@ void Foam::tq::fieldCheckpoint::readAndRestore(std::istream& is)
     }
     moving_ = false;
     points_ = mesh_.points();
+    gamgForward_ = true;  // as at the saving run's first solve (static mesh)
     valid_ = true;
 
     // Old-time levels before the levels of those levels (U_0 before U_0_0)

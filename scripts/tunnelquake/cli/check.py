@@ -10,10 +10,10 @@ from .common import load_or_report, parser, say
 def mesh_estimate(d: dict) -> str:
     """One line: the hexahedra the mesh will have and the memory meshing and the run need
     (estimated from the division counts; the case's checks warn when that exceeds the machine's)."""
-    from ..case import ground_layers
+    from ..case import case_geology, ground_layers
     from ..meshing.params import element_counts, machine_memory, memory_estimate, resolve
 
-    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d)))
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
     need = memory_estimate(counts, d["conditions"])
     have = machine_memory()
     mib = 2.0**20

@@ -582,9 +582,12 @@ class DesignParameters:
         if raw.get("reinforcement") is not None:
             r = take(raw["reinforcement"], {"fyk": U.PRESSURE, "Es": U.PRESSURE, "eps_ud": U.DIMENSIONLESS,
                                             "As_inner": U.LENGTH, "As_outer": U.LENGTH,
+                                            "As_inner_axial": U.LENGTH, "As_outer_axial": U.LENGTH,
                                             "axis_distance": U.LENGTH, "bar_diameter": U.LENGTH},
                      f"{path}.reinforcement")
             r.pop("bar_diameter", None)  # the crack width's (design.lining.crack_settings)
+            for k in ("As_inner_axial", "As_outer_axial"):  # the analysis' axial bars: not in a hoop section
+                r.pop(k, None)
             geo = {k: r.pop(k) for k in ("As_inner", "As_outer", "axis_distance") if k in r}
             kwargs.update(geo, reinforcement=Reinforcement(**r))
         names = {f.name for f in fields(cls)}

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
+from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
 from .params import MeshInputError, MeshPlan, layer_of, resolve
 
@@ -45,20 +46,21 @@ PAPER_COUNTS = {"rock": 58080, "lining": 6336, "water": 14256}
 
 def region_names(plan: MeshPlan) -> list[str]:
     """The solid's regions in mesh.h5 order: rock, lining, then the ground layers from the top."""
-    return [ROCK, LINING] + [name for name, _ in plan.layers]
+    return [ROCK, LINING] + [name for name, _ in plan.layers] + (plan.geology.materials if plan.geology else [])
 
 
-def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None) -> dict:
+def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None, geology=None) -> dict:
     """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
 
     geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
     excavated_radius, lining_thickness (m). mesh: MESH_DEFAULTS keys (missing ones take the
     default; unknown ones are rejected). layers: the ground's horizontal layers from the surface
-    down, [(region name, z of its bottom)] (params.resolve). Returns a summary dict (see format_summary).
+    down, [(region name, z of its bottom)] (params.resolve). geology: regions bounded by planes
+    (geology.Geology: dipping layers, a fault zone), each element by its centroid. Returns a summary dict (see format_summary).
     Raises MeshInputError for bad input, RuntimeError if a quality check fails.
     """
     t0 = time.perf_counter()
-    plan = resolve(geometry, mesh, layers)
+    plan = resolve(geometry, mesh, layers, geology)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {"model": out_dir / "model.msh", "solid": out_dir / "mesh.h5", "water": out_dir / "water.msh"}
@@ -248,13 +250,14 @@ def _snap_layers(plan: MeshPlan, coords: np.ndarray) -> None:
     """Put every node exactly on its extrusion layer y_k = ymin + k (ymax - ymin) / n.
 
     gmsh's transfinite interpolation of the base surface leaves y = ymin + O(1e-15) when ymin != 0;
-    the plane-strain slice and the face tests want the layers exact. Moves are <= 1e-12 m.
+    the plane-strain slice and the face tests want the layers exact. Moves are <= 1e-12 m. With a
+    refined axial grid the layers are plan.y_levels.
     """
-    n = plan.axial.count
-    dy = (plan.ymax - plan.ymin) / n
+    levels = np.asarray(plan.y_levels, float)
     ok = np.isfinite(coords[:, 1])
-    k = np.rint((coords[ok, 1] - plan.ymin) / dy)
-    y = np.where(k == n, plan.ymax, plan.ymin + k * dy)
+    k = np.clip(np.searchsorted(levels, coords[ok, 1]), 1, len(levels) - 1)
+    k = np.where(np.abs(coords[ok, 1] - levels[k - 1]) < np.abs(coords[ok, 1] - levels[k]), k - 1, k)
+    y = levels[k]
     if np.abs(y - coords[ok, 1]).max(initial=0.0) > 1e-9 * max(1.0, abs(plan.ymax)):
         raise RuntimeError("gmsh placed nodes off the extrusion layers")
     coords[ok, 1] = y
@@ -294,6 +297,8 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     # The ground's elements take the region of the layer their centre lies in (each lies wholly
     # between two layer bottoms: those are grid lines of the outer rock).
     ground = layer_of(plan, gcoords[rock][:, :, 2].mean(axis=1)) if plan.layers else np.zeros(len(rock), np.int32)
+    if plan.geology is not None:  # regions bounded by planes: by the centroid
+        ground = assign(plan.geology, gcoords[rock].mean(axis=1), ground, 2 + len(plan.layers))
     region = np.concatenate([ground.astype(np.int32), np.ones(len(lining), np.int32)])
     pairs = np.stack([index[shared], dup[shared]], axis=1)
 
@@ -303,6 +308,8 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
 
     faces, owner = hexmesh.boundary_faces(conn)
     groups = _classify_solid_faces(plan, coords, faces, region[owner])
+    if plan.geology is not None and not plan.slice:
+        groups.update(side_strips(plan, coords, groups))
     return {
         "coords": coords,
         "conn": conn,
@@ -313,6 +320,25 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
         "min_scaled": (q_rock[1], q_lining[1]),
         "max_edge": max(q_rock[2], q_lining[2]),
     }
+
+
+#: The side faces split into axial strips (STRIP_FORMAT.format(face, k)) for a ground that
+#: changes along y: one element wide, each strip is horizontally layered whatever the regions.
+STRIP_FORMAT = "{}_strip{:04d}"
+
+
+def side_strips(plan: MeshPlan, coords: np.ndarray, groups: dict) -> dict:
+    """The xmin and xmax faces cut into strips one axial layer wide, {name: quads}: the seismic
+    stage drives each with a 1D free-field column of its own (tq-solid needs one material per
+    horizontal row of a free-field face, which a band or a layer dipping along y breaks)."""
+    levels = np.asarray(plan.y_levels)
+    out = {}
+    for face in ("xmin", "xmax"):
+        quads = groups[face]
+        k = np.searchsorted(levels, coords[quads][:, :, 1].mean(axis=1)) - 1
+        for j in range(len(levels) - 1):
+            out[STRIP_FORMAT.format(face, j)] = quads[k == j]
+    return out
 
 
 def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
@@ -389,7 +415,7 @@ def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool, regions: list[st
         el.create_dataset("connectivity", data=s["conn"].astype(np.int32))
         el.create_dataset("region", data=s["region"].astype(np.int32))
         el.attrs["regions"] = np.array(regions, dtype=h5py.string_dtype())
-        for name in SOLID_FACE_NAMES:
+        for name in list(SOLID_FACE_NAMES) + sorted(set(s["faces"]) - set(SOLID_FACE_NAMES)):
             f.create_dataset(f"faces/{name}", data=s["faces"][name].astype(np.int32).reshape(-1, 4))
         f.create_dataset("interfaces/rock_lining", data=s["pairs"].astype(np.int32))
 

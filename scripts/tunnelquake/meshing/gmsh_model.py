@@ -170,7 +170,8 @@ def build_model(plan: MeshPlan, name: str = "tunnel") -> dict:
         0.0,
         plan.ymax - plan.ymin,
         0.0,
-        numElements=[plan.axial.count],
+        numElements=[1] * plan.axial.count if _graded(plan) else [plan.axial.count],
+        heights=_heights(plan) if _graded(plan) else [],
         recombine=True,
     )
     # gmsh returns, per input surface: its top copy, the volume, then the lateral surfaces.
@@ -186,6 +187,21 @@ def build_model(plan: MeshPlan, name: str = "tunnel") -> dict:
 
     groups = _physical_groups(plan, volumes, region_of)
     return {"volumes": volumes, "groups": groups}
+
+
+def _graded(plan: MeshPlan) -> bool:
+    """Whether the axial grid is not uniform (a fault zone's refined stretch)."""
+    y = plan.y_levels
+    if len(y) < 3:
+        return False
+    d = [b - a for a, b in zip(y[:-1], y[1:], strict=True)]
+    return max(d) - min(d) > 1e-9 * (plan.ymax - plan.ymin)
+
+
+def _heights(plan: MeshPlan) -> list[float]:
+    """The extrusion's layer tops as fractions of the axial length."""
+    span = plan.ymax - plan.ymin
+    return [(y - plan.ymin) / span for y in plan.y_levels[1:]]
 
 
 def _physical_groups(plan: MeshPlan, volumes, region_of) -> dict:

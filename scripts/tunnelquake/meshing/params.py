@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geology import Geology, band_y_range, corners
+
 #: Every mesh parameter with its default. The defaults reproduce the paper's mesh (Liu, Zhang &
 #: Xiao 2021, §3.1): 58,080 rock and 6,336 lining hexahedra exactly, 14,784 water hexahedra
 #: (paper 14,256: a conforming water mesh with 48 cells around cannot reach 324 cells a layer).
@@ -31,6 +33,7 @@ MESH_DEFAULTS: dict = {
     "near_field_growth": 1.1,
     "outer_growth": 1.0,
     "refinement_factor": 1,
+    "axial_growth": 1.2,
 }
 
 #: One line per key of MESH_DEFAULTS: meaning and unit.
@@ -60,6 +63,8 @@ MESH_DOC: dict = {
     "<= max_element_size",
     "refinement_factor": "integer >= 1 multiplying every division count (convergence studies); "
     "growth ratios are adjusted so the grading stays the same",
+    "axial_growth": "ratio of consecutive axial element lengths away from a fault zone's refined "
+    "stretch (geology.fault_zone), up to the length elements_along_axis gives (1 = a sudden jump)",
 }
 
 GEOMETRY_KEYS = (
@@ -140,6 +145,11 @@ class MeshPlan:
     # layer's bottom in m). The top band has a grid line at every bottom; below the last one the
     # ground is the region 'rock'.
     layers: tuple[tuple[str, float], ...] = ()
+    # Regions bounded by planes (geology.py): dipping layers and a fault zone, assigned by centroid.
+    geology: Geology | None = None
+    # The axial grid: y of every extrusion layer boundary, ymin .. ymax (len = axial.count + 1).
+    # Uniform unless a fault zone refines the stretch where it crosses the near-field box.
+    y_levels: tuple[float, ...] = ()
 
 
 def _fail(where: str, key: str, value, why: str, fix: str):
@@ -245,13 +255,16 @@ def merged_mesh_params(mesh: dict | None) -> dict:
     return out
 
 
-def resolve(geometry: dict, mesh: dict | None, layers=None) -> MeshPlan:
+def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | None = None) -> MeshPlan:
     """Validate ``geometry`` and ``mesh`` (MESH_DEFAULTS keys) and derive the block divisions.
 
     ``layers``: the ground's horizontal layers from the surface down, [(region name, z of its
     bottom in m)], the ground below the last being 'rock'. Each bottom becomes a grid line of the
     outer rock's top band; the near-field box must lie below them all (in 'rock'), and a layer
-    must be at least one near-field element (2 near_field_half_width / (around / 4)) thick."""
+    must be at least one near-field element (2 near_field_half_width / (around / 4)) thick.
+
+    ``geology``: regions bounded by planes (geology.Geology): checked against the block here, and
+    a fault zone refines the axial divisions where it crosses the near-field box (axial_levels)."""
     _check_keys("geometry", geometry, GEOMETRY_KEYS)
     missing = [k for k in GEOMETRY_KEYS if k not in geometry]
     if missing:
@@ -297,7 +310,7 @@ def resolve(geometry: dict, mesh: dict | None, layers=None) -> MeshPlan:
             "0.5 is a good value.",
         )
     growths = {}
-    for key in ("water_ring_growth", "near_field_growth", "outer_growth"):
+    for key in ("water_ring_growth", "near_field_growth", "outer_growth", "axial_growth"):
         v = _number(w, m, key)
         if not 0.5 <= v <= 2.0:
             _fail(w, key, v, "must lie in [0.5, 2]", "Use 1 for uniform sizes.")
@@ -347,6 +360,14 @@ def resolve(geometry: dict, mesh: dict | None, layers=None) -> MeshPlan:
     layers = tuple((str(n), float(z)) for n, z in (layers or ()))
     top = _layered_band(layers, zc + L, zmax, h_box, hmax, float(m["outer_growth"]), k) if layers else outer(zmax - zc - L)
 
+    if geology is not None:
+        _check_geology(geology, (xmin, ymin, zmin), (xmax, ymax, zmax), slice_mode)
+        y_levels = axial_levels(geology, ymin, ymax, axial.count, (xc - L, xc + L), (zc - L, zc + L),
+                                growths["axial_growth"], k)
+    else:
+        y_levels = tuple(np.linspace(ymin, ymax, axial.count + 1))
+    axial = Divisions(len(y_levels) - 1)
+
     plan = MeshPlan(
         xmin=xmin,
         xmax=xmax,
@@ -372,6 +393,8 @@ def resolve(geometry: dict, mesh: dict | None, layers=None) -> MeshPlan:
         top=top,
         axial=axial,
         layers=layers,
+        geology=geology,
+        y_levels=y_levels,
     )
     _check_sizes(plan)
     return plan
@@ -518,6 +541,8 @@ def element_counts(p: MeshPlan) -> dict:
             regions[name] = nx * n * layers
             rows += n
     regions = {"rock": (rock2 - nx * rows) * layers, **regions}
+    if p.geology is not None:
+        regions = _geology_regions(p)
     return {
         "rock": rock2 * layers,
         "regions": regions,
@@ -526,6 +551,75 @@ def element_counts(p: MeshPlan) -> dict:
         "solid_nodes": solid_nodes2 * (layers + 1),
         "water_nodes": water_nodes2 * (layers + 1),
     }
+
+
+def _grid_lines(c, L, q, low_band, high_band, lo, hi) -> np.ndarray:
+    """Grid coordinates along x or z (as gmsh_model.build_cross_section lays them): the outer
+    bands' graded segments, the near-field box's q uniform divisions."""
+    out = list(np.linspace(c - L, c + L, q + 1))
+    y = c - L
+    for length, div in low_band:
+        for s in graded_sizes(length, div):
+            y -= s
+            out.insert(0, y)
+    y = c + L
+    for length, div in high_band:
+        for s in graded_sizes(length, div):
+            y += s
+            out.append(y)
+    out[0], out[-1] = lo, hi
+    return np.asarray(out)
+
+
+def ground_centroids(p: MeshPlan) -> np.ndarray:
+    """(x, z) of every ground element's centroid in the cross-section, [N, 2]: the rock ring
+    (transfinite: node (i, j) = (1 - v_j) C_b(u_i) + v_j C_box(u_i), u uniform, v graded) and the
+    outer tensor grid less the near-field box."""
+    q, L = p.quarter.count, p.box_half_width
+    v = np.concatenate([[0.0], np.cumsum(graded_sizes(1.0, p.near_field))])
+    v[-1] = 1.0
+    cents = []
+    for k in range(4):
+        a0, a1 = math.radians(45 + 90 * k), math.radians(135 + 90 * k)
+        u = np.linspace(0.0, 1.0, q + 1)
+        t = a0 + (a1 - a0) * u
+        inner = np.stack([p.xc + p.radius_outer * np.cos(t), p.zc + p.radius_outer * np.sin(t)], axis=1)
+        c0 = np.array([p.xc + L * np.sign(math.cos(a0)), p.zc + L * np.sign(math.sin(a0))])
+        c1 = np.array([p.xc + L * np.sign(math.cos(a1)), p.zc + L * np.sign(math.sin(a1))])
+        outer = c0 + u[:, None] * (c1 - c0)
+        nodes = (1 - v)[None, :, None] * inner[:, None, :] + v[None, :, None] * outer[:, None, :]
+        cents.append(0.25 * (nodes[:-1, :-1] + nodes[1:, :-1] + nodes[:-1, 1:] + nodes[1:, 1:]).reshape(-1, 2))
+    xs = _grid_lines(p.xc, L, q, p.left, p.right, p.xmin, p.xmax)
+    zs = _grid_lines(p.zc, L, q, p.bottom, p.top, p.zmin, p.zmax)
+    xm, zm = 0.5 * (xs[1:] + xs[:-1]), 0.5 * (zs[1:] + zs[:-1])
+    X, Z = np.meshgrid(xm, zm, indexing="ij")
+    box = (np.abs(X - p.xc) < L) & (np.abs(Z - p.zc) < L)
+    cents.append(np.stack([X[~box], Z[~box]], axis=1))
+    return np.concatenate(cents)
+
+
+def _geology_regions(p: MeshPlan) -> dict:
+    """Ground elements per region with regions bounded by planes: every ground element's
+    centroid (cross-section centroid, axial layer mid-point) through geology.assign, as the
+    builder assigns them."""
+    from .geology import assign
+
+    xz = ground_centroids(p)
+    y = np.asarray(p.y_levels)
+    ym = 0.5 * (y[1:] + y[:-1])
+    base = layer_of(p, xz[:, 1]) if p.layers else np.zeros(len(xz), np.int32)
+    names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + p.geology.materials
+    counts = np.zeros(len(names), dtype=np.int64)
+    for j in range(0, len(ym), 64):  # a few axial layers at a time: memory stays small
+        yy = ym[j:j + 64]
+        pts = np.empty((len(xz), len(yy), 3))
+        pts[:, :, 0], pts[:, :, 1], pts[:, :, 2] = xz[:, None, 0], yy[None, :], xz[:, None, 1]
+        r = assign(p.geology, pts, np.repeat(base[:, None], len(yy), axis=1), 2 + len(p.layers))
+        counts += np.bincount(r.ravel(), minlength=len(names))
+    return {n: int(c) for i, (n, c) in enumerate(zip(names, counts, strict=True)) if i != 1}
+
+
+ROCK_REGION, LINING_REGION = "rock", "lining"
 
 
 #: Bytes of memory per hexahedron while meshing (gmsh's model and the Python arrays that build
@@ -580,3 +674,79 @@ def machine_memory() -> dict | None:
     if "MemTotal" not in kb:
         return None
     return {"total": kb["MemTotal"] * 1024.0, "available": kb.get("MemAvailable", kb["MemTotal"]) * 1024.0}
+
+
+def _check_geology(geo: Geology, lo, hi, slice_mode: bool) -> None:
+    """The planes against the block: a fault zone must meet the block and not cover it, a dipping
+    layer's bottom must cut the block (else the layer is empty or the whole ground)."""
+    box = corners(lo, hi)
+    f = geo.fault
+    if f is not None:
+        key = "geology.fault_zone"
+        if slice_mode:
+            why = "a slice is one element thick along the axis and cannot hold a band crossing it"
+            raise MeshInputError(f"{key}: {why}", f"{key}.material", f.material, why,
+                                 "Use mesh.mode: 3d (the band needs the tunnel's length), or remove the fault zone.")
+        dist = f.plane.distance(box)
+        half = 0.5 * f.width
+        if dist.min() > half or dist.max() < -half:
+            near = float(np.abs(dist).min()) - half
+            why = (f"the band ({f.width:g} m wide about the plane through {list(f.plane.point)}) misses the block "
+                   f"x {lo[0]:g}..{hi[0]:g}, y {lo[1]:g}..{hi[1]:g}, z {lo[2]:g}..{hi[2]:g} by {near:.4g} m")
+            raise MeshInputError(f"{key}.point: {why}", f"{key}.point", list(f.plane.point), why,
+                                 "Give a point on the fault's centre plane inside the block (e.g. on the tunnel "
+                                 "axis), or check strike and dip.")
+        if (np.abs(dist) <= half).all() or f.axial_length >= hi[1] - lo[1]:
+            what = ("covers the whole block" if (np.abs(dist) <= half).all() else
+                    f"is {f.axial_length:.4g} m long along the tunnel axis (width / |n_y|), not shorter than the "
+                    f"block's {hi[1] - lo[1]:g} m")
+            why = f"the band, {f.width:g} m wide, {what}, so the block has no rock beside it"
+            raise MeshInputError(f"{key}.width: {why}", f"{key}.width", f.width, why,
+                                 "Give the fault zone's true thickness (normal to its plane), smaller than the "
+                                 "block, or lengthen geometry.y_range.")
+    for i, layer in enumerate(geo.dipping):
+        dist = layer.bottom.distance(box)
+        if dist.min() > 0 or dist.max() < 0:
+            key = f"geology.dipping_layers[{i}]"
+            side = "below" if dist.min() > 0 else "above"
+            what = "the whole block is the layer" if side == "below" else "the layer is empty"
+            why = (f"its bottom plane (dip and dip_direction through {list(layer.bottom.point)}) passes {side} the "
+                   f"block, leaving it without cutting it: {what}")
+            raise MeshInputError(f"{key}.point: {why}", f"{key}.point", list(layer.bottom.point), why,
+                                 "Give a point of the layer's bottom inside the block, or check dip and "
+                                 "dip_direction.")
+
+
+def axial_levels(geo: Geology, ymin: float, ymax: float, count: int, xs, zs, growth: float,
+                 k: int = 1) -> tuple[float, ...]:
+    """The y of every axial grid line. Uniform (``count`` elements) unless a fault zone crosses the
+    near-field box xs x zs: then the stretch [ya, yb] the band occupies there has elements of at
+    most min(h0, (w / |n_y|) / (N k)) (N = elements_across, h0 = the uniform length), so the band
+    has at least N k elements across along the axis in the lining and the rock ring around it, and
+    outside it the elements grow by ``growth`` back to h0 (outer_band)."""
+    h0 = (ymax - ymin) / count
+    f = geo.fault
+    span = band_y_range(f, xs, zs) if f is not None else None
+    if span is None or span[1] <= ymin or span[0] >= ymax:
+        return tuple(np.linspace(ymin, ymax, count + 1))
+    ya, yb = max(span[0], ymin), min(span[1], ymax)
+    h = min(h0, f.axial_length / (f.elements_across * k))
+    n_band = max(1, math.ceil((yb - ya) / h - 1e-9))
+    h = (yb - ya) / n_band
+    levels = list(np.linspace(ya, yb, n_band + 1))
+    if ya > ymin + 1e-9 * (ymax - ymin):  # the stretch below, its sizes growing away from the band
+        y = ya
+        for length, div in outer_band(ya - ymin, h, h0, max(growth, 1.0)):
+            sizes = graded_sizes(length, div)
+            for s in sizes:
+                y -= s
+                levels.insert(0, y)
+        levels[0] = ymin
+    if yb < ymax - 1e-9 * (ymax - ymin):
+        y = yb
+        for length, div in outer_band(ymax - yb, h, h0, max(growth, 1.0)):
+            for s in graded_sizes(length, div):
+                y += s
+                levels.append(y)
+        levels[-1] = ymax
+    return tuple(float(v) for v in levels)

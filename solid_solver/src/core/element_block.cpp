@@ -267,6 +267,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
       G[kGVol * kChunk] = g.volume;
     }
   }
+  initElementHistory(mesh);
   chunkEnergy_.resize(nChunks);
   chunkCentre_.assign(3 * nChunks, 0.0);  // mean of its elements' nodes (subcycling's slabs)
   for (size_t c = 0; c < nChunks; ++c) {
@@ -280,6 +281,16 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   std::vector<Index> all(nChunks);
   for (size_t c = 0; c < nChunks; ++c) all[c] = Index(c);
   slabStart_ = slabsInOrder(conn_, nElems_, mesh.numNodes(), kChunk, all, 4);
+}
+
+void ElementBlock::initElementHistory(const Mesh& mesh) {
+  if (history_.empty()) return;
+  for (auto& c : elemCentre_) c.assign(size_t(nElems_), 0.0);  // element centres for the material
+  for (size_t e = 0; e < size_t(nElems_); ++e)
+    for (int k = 0; k < 8; ++k)
+      for (int d = 0; d < 3; ++d) elemCentre_[d][e] += mesh.coords[3 * size_t(conn_[8 * e + k]) + size_t(d)] / 8;
+  const Real* centre[3] = {elemCentre_[0].data(), elemCentre_[1].data(), elemCentre_[2].data()};
+  material_->initHistory(nElems_, centre, historyPtr_.data());
 }
 
 Real ElementBlock::geo(Index e, int comp) const {
@@ -330,6 +341,12 @@ void ElementBlock::setActive(Index e, bool on, const NodalState& state) {
   active_[e] = on ? 1 : 0;
   for (int c = 0; c < 6; ++c) stress_[c][e] = 0;
   for (auto& h : history_) h[e] = 0;
+  if (!history_.empty()) {  // the material's per-element data from the element's centre
+    const Real* centre[3] = {&elemCentre_[0][size_t(e)], &elemCentre_[1][size_t(e)], &elemCentre_[2][size_t(e)]};
+    Real* hp[64];
+    for (size_t h = 0; h < history_.size() && h < 64; ++h) hp[h] = history_[h].data() + e;
+    material_->initHistory(1, centre, hp);
+  }
   // Restart strain-free from the current displacement (the next strain increment is measured
   // from here, so an element installed into a deformed mesh carries no stress).
   strainFromDisplacement(e, state);
@@ -842,8 +859,8 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
     cv.offset[k] = kTotal && hasOffset_ ? offset_[k].data() + e0 : nullptr;
   }
   cv.allActive = std::all_of(cv.act, cv.act + kChunk, [](std::uint8_t a) { return a != 0; });
-  Real* hp[16];
-  const size_t nh = std::min<size_t>(historyPtr_.size(), 16);
+  Real* hp[32];
+  const size_t nh = std::min<size_t>(historyPtr_.size(), 32);
   for (size_t h = 0; h < nh; ++h) hp[h] = historyPtr_[h] + e0;
   cv.history = hp;
   cv.material = material_.get();

@@ -7,6 +7,7 @@
 
 #include "tq/materials/material_kv.hpp"
 #include "tq/materials/material_mc.hpp"
+#include "tq/materials/material_rc.hpp"
 
 namespace tq {
 
@@ -15,6 +16,7 @@ const std::vector<MaterialModel>& materialModels() {
       {ElasticMaterial::kName, &makeElasticMaterial},
       {MohrCoulombDamageMaterial::kName, &makeMohrCoulombDamageMaterial},
       {KelvinVoigtMaterial::kName, &makeKelvinVoigtMaterial},
+      {ReinforcedConcreteMaterial::kName, &makeReinforcedConcreteMaterial},
   };
   return models;
 }

@@ -171,6 +171,8 @@ class ElementBlock {
   std::vector<Real> stress_[6], strain_[6], offset_[6];
   std::vector<std::vector<Real>> history_;
   std::vector<Real*> historyPtr_;
+  std::vector<Real> elemCentre_[3];  ///< element centres (x, y, z), kept for a material's initHistory
+  void initElementHistory(const Mesh& mesh);
   // Constants.
   ElasticModuli mod_;
   Real nuBar_ = 0, hgScale_ = 1;

@@ -84,6 +84,12 @@ class Material {
   /// Kelvin–Voigt model), 0 for none. It damps like stiffness-proportional Rayleigh damping with
   /// β = τ, so the solver shortens the stable step for it (Solver::stableStep).
   virtual Real viscousTime() const { return 0; }
+  /// Set a material's per-element history from the elements' centres (x, y, z arrays of `count`)
+  /// when a block is built and when an element is (re)activated: e.g. the directions of smeared
+  /// reinforcement. Default: nothing (history starts at 0).
+  virtual void initHistory(Index count, const Real* const centre[3], Real* const* history) const {
+    (void)count, (void)centre, (void)history;
+  }
   /// Update the stresses of a chunk of elements from their strain increments.
   virtual void updateStressForElems(const MaterialChunk& chunk) const = 0;
 };

@@ -1,0 +1,133 @@
+"""Rock regions bounded by planes of any strike and dip: a fault zone (a band) and dipping layers.
+
+Axes: x across the tunnel, y along its axis, z up (right-handed). Directions in plan are azimuths
+in degrees measured from +y (the tunnel axis) clockwise seen from above, i.e. towards +x: with y
+as north and x as east they are compass bearings (0 = +y, 90 = +x, 180 = -y, 270 = -x).
+
+A plane of dip delta (degrees below horizontal, 0 < delta <= 90) and dip direction beta (the
+azimuth of its steepest descent) has the unit normal
+
+    n = (sin delta sin beta, sin delta cos beta, cos delta)
+
+which points up (and, for a vertical plane, towards beta). A fault given by its strike sigma
+takes the right-hand rule: it dips towards beta = sigma + 90. The strike is the angle, in plan,
+between the tunnel axis and the fault's trace on a horizontal plane, so a fault of strike 60 (or
+240) crosses the tunnel at 60 degrees.
+
+* fault zone: the band |n . (x - p)| <= w / 2 (w the true thickness, p a point on its centre
+  plane); it crosses the tunnel axis over the length w / |n_y| along y.
+* dipping layer: the ground above its bottom plane, n . (x - p) > 0, not already in a layer
+  listed before it (from the surface down, the first match wins).
+
+Each ground element takes the region its centroid lies in: the fault zone first, then the
+horizontal layers (grid lines of the mesh), then the dipping layers, then rock.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Plane:
+    normal: tuple[float, float, float]
+    point: tuple[float, float, float]
+
+    def distance(self, x: np.ndarray) -> np.ndarray:
+        """Signed distance of points x [..., 3] from the plane (positive on the normal's side)."""
+        n = np.asarray(self.normal)
+        return (np.asarray(x, float) - np.asarray(self.point)) @ n
+
+
+def plane_normal(dip: float, dip_direction: float) -> tuple[float, float, float]:
+    """Unit normal (x, y, z) of a plane of dip `dip` towards azimuth `dip_direction` (degrees;
+    azimuth from +y clockwise seen from above, towards +x)."""
+    d, b = math.radians(dip), math.radians(dip_direction)
+    n = (math.sin(d) * math.sin(b), math.sin(d) * math.cos(b), math.cos(d))
+    return tuple(0.0 if abs(c) < 1e-15 else c for c in n)
+
+
+@dataclass(frozen=True)
+class FaultZone:
+    material: str
+    plane: Plane  # the centre plane
+    width: float  # true thickness, m
+    elements_across: int  # elements along the axis across the band where it meets the near-field box
+
+    def contains(self, x: np.ndarray) -> np.ndarray:
+        return np.abs(self.plane.distance(x)) <= 0.5 * self.width
+
+    @property
+    def axial_length(self) -> float:
+        """The band's length along y (any line parallel to the tunnel axis): w / |n_y|."""
+        ny = abs(self.plane.normal[1])
+        return math.inf if ny < 1e-12 else self.width / ny
+
+
+@dataclass(frozen=True)
+class DippingLayer:
+    material: str
+    bottom: Plane
+
+
+@dataclass(frozen=True)
+class Geology:
+    fault: FaultZone | None = None
+    dipping: tuple[DippingLayer, ...] = ()
+
+    @property
+    def materials(self) -> list[str]:
+        """Region names in mesh.h5 order after rock, lining and the horizontal layers."""
+        return [layer.material for layer in self.dipping] + ([self.fault.material] if self.fault else [])
+
+
+def corners(lo, hi) -> np.ndarray:
+    """The 8 corners of the box [lo, hi] (3-vectors)."""
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], float)
+
+
+def assign(geology: Geology, centroids: np.ndarray, base: np.ndarray, first: int) -> np.ndarray:
+    """Ground region of each centroid [..., 3]. `base` holds the regions the horizontal layers
+    give (0 rock, 2 + i layer i); the dipping layers take index first + j where the base is rock,
+    the fault zone first + len(dipping) everywhere it reaches."""
+    out = np.array(base, dtype=np.int32, copy=True)
+    free = out == 0
+    for j, layer in enumerate(geology.dipping):
+        hit = free & (layer.bottom.distance(centroids) > 0)
+        out[hit] = first + j
+        free &= ~hit
+    if geology.fault is not None:
+        out[geology.fault.contains(centroids)] = first + len(geology.dipping)
+    return out
+
+
+def band_y_range(fault: FaultZone, xs, zs) -> tuple[float, float] | None:
+    """The y-interval the band occupies over the rectangle xs x zs of the cross-section (the
+    near-field box around the tunnel); None when the band runs parallel to the axis."""
+    n, p = fault.plane.normal, fault.plane.point
+    if abs(n[1]) < 1e-12:
+        return None
+    yc = [p[1] - (n[0] * (x - p[0]) + n[2] * (z - p[2])) / n[1] for x in xs for z in zs]
+    half = 0.5 * fault.axial_length
+    return min(yc) - half, max(yc) + half
+
+
+def from_case(section: dict | None) -> Geology | None:
+    """The Geology of a validated case's `geology:` section (SI values), None when it has none."""
+    if not section:
+        return None
+    fz = section.get("fault_zone") or {}
+    fault = None
+    if fz.get("material") is not None:
+        n = plane_normal(fz["dip"], (fz["strike"] + 90.0) % 360.0)
+        fault = FaultZone(fz["material"], Plane(n, tuple(map(float, fz["point"]))), float(fz["width"]),
+                          int(fz["elements_across"]))
+    dipping = tuple(DippingLayer(e["material"], Plane(plane_normal(e["dip"], e["dip_direction"]),
+                                                      tuple(map(float, e["point"]))))
+                    for e in section.get("dipping_layers") or [])
+    if fault is None and not dipping:
+        return None
+    return Geology(fault, dipping)

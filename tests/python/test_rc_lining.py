@@ -1,0 +1,101 @@
+"""A reinforced-concrete lining in the analysis (docs/solid_solver.md "Reinforced concrete lining"):
+the case's one definition of the bars (design.reinforcement, the keys the design check reads) and
+of the concrete (design.concrete) reaches tq-solid's `reinforced_concrete` lining with the ring's
+geometry, and tq-solid builds it.
+
+1. The lining region is written with fc = fck, fct = fctm (EN 1992-1-1 Table 3.1 from fck when not
+   given: 0.30 fck^(2/3) = 2.896 MPa for C30), eps_c2/eps_cu2 of Table 3.1, the bar areas and axis
+   distance of design.reinforcement, and the ring's centre, inner radius (excavated radius minus
+   thickness), thickness and elements through it; the rock region gets none of them.
+2. tq-solid accepts the file (`--check`).
+3. A reinforced_concrete lining without the design block's fck or hoop bars is refused by the case
+   check naming the key to add.
+"""
+from __future__ import annotations
+
+import subprocess
+
+import h5py
+import pytest
+
+from tunnelquake import paths
+from tunnelquake.case import load_case
+from tunnelquake.meshing import build_tunnel_mesh
+from tunnelquake.motion import from_case
+from tunnelquake.prepare import write_motion
+from tunnelquake.schema import CaseError
+from tunnelquake.solid_input import write_solid_input
+
+CASE = """
+name: rc_lining
+geometry:
+  x_range: [-30.0, 30.0]
+  y_range: [0.0, 10.0]
+  z_range: [-25.0, 40.0]
+  tunnel_centre_z: 10.0
+  excavated_radius: 3.5
+  lining_thickness: 0.4
+mesh:
+  mode: slice
+  lining_elements_through: 4
+materials:
+  rock: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650}
+  lining: {model: reinforced_concrete, youngs_modulus: 33 GPa, poisson_ratio: 0.2, density: 2500}
+interface: {model: bonded}
+water: {head: 0 m, model: compressible}
+ground_motion:
+  source: synthetic
+  pga: 0.1 g
+  vertical_ratio: 0
+  synthetic: {duration: 1.0}
+in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
+time: {end_time: 0.01}
+DESIGN
+"""
+DESIGN = """design:
+  concrete: {fck: 30 MPa}
+  reinforcement: {fyk: 500 MPa, As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m, As_inner_axial: 565 mm^2/m,
+                  As_outer_axial: 565 mm^2/m, axis_distance: 60 mm}
+"""
+
+
+def _write(tmp_path, design=DESIGN):
+    p = tmp_path / "case.yaml"
+    p.write_text(CASE.replace("DESIGN", design))
+    case = load_case(p)
+    build_tunnel_mesh(case.data["geometry"], case.data["mesh"], tmp_path)
+    motion, _ = from_case(case.data["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    return write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "s.h5")
+
+
+def test_the_design_blocks_bars_and_concrete_reach_the_lining(tmp_path):
+    out = _write(tmp_path)
+    with h5py.File(out) as f:
+        a, rock = f["materials/lining"].attrs, f["materials/rock"].attrs
+        assert a["model"] == "reinforced_concrete"
+        assert a["fc"] == pytest.approx(30e6, rel=1e-12)
+        assert a["fct"] == pytest.approx(0.30 * 30 ** (2 / 3) * 1e6, rel=1e-12)
+        assert (a["eps_c2"], a["eps_cu2"]) == pytest.approx((2.0e-3, 3.5e-3), rel=1e-12)
+        assert a["fy"] == pytest.approx(500e6) and a["Es"] == pytest.approx(200e9)
+        assert a["As_inner_hoop"] == pytest.approx(1.005e-3) and a["As_outer_hoop"] == pytest.approx(1.005e-3)
+        assert a["As_inner_axial"] == pytest.approx(5.65e-4) and a["As_outer_axial"] == pytest.approx(5.65e-4)
+        assert a["axis_distance"] == pytest.approx(0.06)
+        assert (a["ring_centre_x"], a["ring_centre_z"]) == pytest.approx((0.0, 10.0))
+        assert a["ring_inner_radius"] == pytest.approx(3.1) and a["ring_thickness"] == pytest.approx(0.4)
+        assert a["ring_layers"] == 4
+        assert not {"fc", "eps_c2", "As_inner_hoop", "ring_inner_radius", "ring_layers"} & set(rock.keys())
+    exe = paths.solid_executable()
+    if exe is None:
+        pytest.skip("tq-solid is not built")
+    run = subprocess.run([str(exe), str(out), "--check", "--threads", "1"], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+@pytest.mark.parametrize("design, key", [("", "design.concrete.fck"),
+                                         ("design:\n  concrete: {fck: 30 MPa}\n", "design.reinforcement.As_inner")])
+def test_a_reinforced_lining_needs_the_design_blocks_concrete_and_bars(tmp_path, design, key):
+    with pytest.raises(CaseError) as e:
+        _write(tmp_path, design=design)
+    assert key in str(e.value) and "reinforced_concrete" in str(e.value)
