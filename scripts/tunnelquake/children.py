@@ -170,9 +170,14 @@ QUIET = threading.Event()
 
 
 def say(msg: str) -> None:
+    """One line to stdout, written whole in one call: print() writes the text and its newline
+    apart, so two threads' lines (the solid's and the water's echo) could run together."""
     if QUIET.is_set():
         return
-    print(f"[tunnelquake] {msg}", flush=True)
+    import sys
+
+    sys.stdout.write(f"[tunnelquake] {msg}\n")
+    sys.stdout.flush()
 
 
 class Side:
