@@ -9,6 +9,7 @@
 #include <iosfwd>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tq/boundaries/boundaries.hpp"
@@ -62,6 +63,10 @@ class StagedAnalysis {
  private:
   void setInSituStress();
   StageReport relaxStage(const std::string& name, std::ostream& log, double progressSeconds);
+  /// Why a static stage did not converge: which region holds the unbalanced force and where its
+  /// largest nodal value is, and whether the ratio was still falling (`history`: steps, ratio).
+  std::string notInEquilibrium(const std::string& name, const RelaxResult& r,
+                               const std::vector<std::pair<Index, Real>>& history);
   void activateLining(std::ostream& log, StageReport& rep);
   void installInterface(std::ostream& log, StageReport& rep);
   void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
