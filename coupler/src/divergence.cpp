@@ -13,19 +13,14 @@ DivergenceMonitor::DivergenceMonitor(const CouplingConfig& c, std::vector<FieldS
     : config_(c), slices_(std::move(slices)), who_(std::move(who)), s_(s), tracks_(slices_.size()) {}
 
 namespace {
+/// The first fix to try, in one sentence; the rest are in docs/coupler.md "Divergence detection".
 std::string fixText(SchemeKind scheme) {
   std::string s = "Fix: ";
   if (scheme != SchemeKind::Implicit)
-    s += "use the implicit scheme (coupling.scheme implicit, acceleration iqn-ils), which "
-         "converges the interface within each window whatever the mass ratio; ";
+    s += "coupling.scheme: implicit (acceleration iqn-ils)";
   else
-    s += "lower the initial relaxation (coupling initial_relaxation) or raise the passes "
-         "per window (coupling.max_iterations); ";
-  s += "or model the water as compressible (water.model compressible: the mass it adds over "
-       "one window, about rho c window per unit wall area, shrinks with the window, so a "
-       "smaller window then helps; with incompressible water a smaller window does not); or "
-       "stiffen the wall (docs/coupler.md \"Divergence detection\", `tunnelquake check` "
-       "prints the added-mass ratios).";
+    s += "lower coupling.initial_relaxation or raise coupling.max_iterations";
+  s += ", or water.model: compressible with a shorter window (docs/coupler.md \"Divergence detection\").";
   return s;
 }
 }  // namespace
@@ -68,24 +63,11 @@ void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<doubl
       if (t.run >= s_.windows && amp >= s_.growth) {
         std::ostringstream m;
         m.precision(3);
-        m << "participant '" << who_ << "': the coupling is unstable: in the last " << t.run
-          << " windows (up to window " << window + 1 << " of " << config_.maxWindows
-          << ", t = " << double(window + 1) * config_.windowSize << " s) the interface '" << f.name
-          << "' changed sign from one window to the next, and its change grew by a "
-             "factor "
-          << amp << " per window (RMS change " << t.runStartChange << " -> " << change
-          << "): an amplification of about " << -amp
-          << " per window, a mode of period two windows that no response resolved by "
-             "the window of "
-          << config_.windowSize << " s can have. Likely cause: the added-mass instability of the '"
-          << schemeName(config_.scheme) << "' scheme";
-        if (config_.scheme == SchemeKind::Explicit)
-          m << " (its error is amplified by about -m_a/m per window: the water's added "
-               "mass is about "
-            << amp << " times the wall's mass m_a/m > 1)";
-        else
-          m << " (the water's added mass is large against the wall's mass)";
-        m << ". The run was stopped before any value overflowed. " << fixText(config_.scheme);
+        m << "participant '" << who_ << "': the coupling is unstable at t = " << double(window + 1) * config_.windowSize
+          << " s (window " << window + 1 << "): the interface '" << f.name
+          << "' changed sign window after window, growing " << amp << "x a window over " << t.run
+          << " windows: the added-mass instability of the '" << schemeName(config_.scheme)
+          << "' scheme; stopped before any value overflowed. " << fixText(config_.scheme);
         throw DivergenceError(m.str());
       }
     } else {
@@ -112,14 +94,11 @@ void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<doubl
   if (unconvergedRun_ >= s_.unconverged && residual >= s_.residualGrowth * unconvergedResiduals_.front()) {
     std::ostringstream m;
     m.precision(3);
-    m << "participant '" << who_ << "': the implicit coupling iteration diverges: " << unconvergedRun_
-      << " consecutive windows (up to window " << window + 1 << " of " << config_.maxWindows
-      << ", t = " << double(window + 1) * config_.windowSize << " s) ended at the limit of " << config_.maxIterations
-      << " passes with a growing residual (" << unconvergedResiduals_.front() << " -> " << residual << ", tolerance "
-      << config_.tolerance << ", acceleration " << accelerationName(config_.acceleration)
-      << "). Likely cause: a strong added-mass effect (the water's added mass large against "
-         "the wall's) that the acceleration cannot absorb at this window. The run was "
-         "stopped before any value overflowed. "
+    m << "participant '" << who_
+      << "': the implicit coupling iteration diverges at t = " << double(window + 1) * config_.windowSize
+      << " s (window " << window + 1 << "): " << unconvergedRun_ << " windows in a row ended at the limit of "
+      << config_.maxIterations << " passes with a growing residual (" << unconvergedResiduals_.front() << " -> "
+      << residual << "): an added-mass effect the acceleration cannot absorb; stopped before any value overflowed. "
       << fixText(config_.scheme);
     throw DivergenceError(m.str());
   }

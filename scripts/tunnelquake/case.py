@@ -766,6 +766,9 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _geology_checks(d, raw)
     issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
+    from .sanity import case_warnings
+
+    warnings += case_warnings(d)
     out = d["output"]
     here = Path(filename).parent.resolve()
     where = (here / out["directory"]).resolve()
@@ -989,6 +992,25 @@ def _layer_checks(d: dict, raw: LineDict) -> list[Issue]:
     return issues
 
 
+#: Below this many water cells a rank parallel.fluid_ranks is refused (fluid_case.decompose): a slab
+#: of a few cells is mostly processor faces, and a rank of the simple split could get none.
+MIN_CELLS_PER_RANK = 20
+
+
+def fluid_ranks_problem(cells: int, ranks: int) -> tuple[str, str] | None:
+    """(problem, fix) when `ranks` water ranks would get fewer than MIN_CELLS_PER_RANK of the
+    water's `cells` cells each; None when they would not. `check` tests it on the mesh's counts,
+    `run` on the water case's cells."""
+    if ranks <= 1 or cells >= MIN_CELLS_PER_RANK * ranks:
+        return None
+    return (f"gives the water's {cells} cells fewer than {MIN_CELLS_PER_RANK} a rank",
+            f"use fluid_ranks: 1 (at most {max(1, cells // MIN_CELLS_PER_RANK)} for this mesh)")
+
+
+#: the most element divisions along one edge of the mesh that `check` lets through
+MAX_EDGE_DIVISIONS = 100_000
+
+
 def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     """The mesher's own rules (meshing.params.resolve: multiples of 4 around, element sizes the
     structured blocks can meet, gradings, the near-field box inside the block), said against
@@ -996,6 +1018,22 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
     memory it needs, estimated from the division counts alone, against the machine's memory."""
     from .meshing.params import MeshInputError, element_counts, machine_memory, memory_estimate, resolve
 
+    # Divisions beyond any machine are refused before they are listed (a list of 1e9 sizes alone
+    # is 8 GB): more than MAX_EDGE_DIVISIONS along one edge is 1e10 elements in a slice already.
+    g, lines = d["geometry"], _section_lines(raw, "mesh")
+    extent = max(hi - lo for lo, hi in (g["x_range"], g["y_range"], g["z_range"]))
+    h = d["mesh"].get("max_element_size")
+    too_many = [(k, v) for k, v in d["mesh"].items()
+                if isinstance(v, int) and not isinstance(v, bool) and v > MAX_EDGE_DIVISIONS]
+    if h is not None and extent / h > MAX_EDGE_DIVISIONS:
+        too_many.insert(0, ("max_element_size", h))
+    if too_many:
+        k, v = too_many[0]
+        what = (f"divides the block's {extent:g} m into {extent / v:.3g} elements" if k == "max_element_size" else
+                "is a division count")
+        return [Issue(f"mesh.{k}", v, f"{what}, beyond {MAX_EDGE_DIVISIONS:,} along one edge: more elements than any "
+                      "machine can hold", "raise mesh.max_element_size, or lower the division counts and "
+                      "refinement_factor (docs/meshing.md)", lines.get(k) or raw.key_lines.get("mesh"))]
     try:
         plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     except MeshInputError as e:
@@ -1015,7 +1053,18 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
         fix = (e.fix or "see docs/meshing.md").rstrip(".")
         fix = fix[:1].lower() + fix[1:]
         return [Issue(key, value, e.problem or str(e), fix, line)]
+    except (MemoryError, OverflowError):  # divisions beyond any machine: their sizes cannot even be listed
+        written = raw.get("mesh") if isinstance(raw.get("mesh"), dict) else {}
+        return [Issue("mesh", {k: d["mesh"].get(k) for k in written},
+                      "asks for more element divisions than any machine can hold (listing their sizes overflowed)",
+                      "raise mesh.max_element_size, or lower the division counts and refinement_factor "
+                      "(docs/meshing.md)", raw.key_lines.get("mesh"))]
     counts = element_counts(plan)
+    issues = []
+    ranks = d["parallel"]["fluid_ranks"]
+    bad = fluid_ranks_problem(counts["water"], ranks) if "dynamic_water" in d["conditions"] else None
+    if bad is not None:
+        issues.append(Issue("parallel.fluid_ranks", ranks, *bad, _section_lines(raw, "parallel").get("fluid_ranks")))
     need = memory_estimate(counts, d["conditions"])
     have = machine_memory()
     if have is not None and max(need.values()) > have["total"]:
@@ -1029,7 +1078,7 @@ def _mesh_checks(d: dict, raw: LineDict, warnings: list[str]) -> list[Issue]:
             f"GiB available now): {short} would run out of memory. Fix: lower mesh.refinement_factor "
             f"({d['mesh']['refinement_factor']}), raise mesh.max_element_size or use fewer divisions, or mesh.mode: "
             "slice")
-    return []
+    return issues
 
 
 def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) -> list[Issue]:
@@ -1037,7 +1086,15 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
     must exist (unless the case allows the synthetic fallback for the horizontal one), parse with
     finite values and a header that agrees with its data, and last the window
     `ground_motion.duration`: everything `tunnelquake motion` would refuse, or use without a word."""
-    from .motion import MotionError, check_covers, read_record, resolve_path
+    from .motion import (
+        MotionError,
+        check_covers,
+        check_filter_length,
+        check_moves,
+        lowpass_min_samples,
+        read_record,
+        resolve_path,
+    )
 
     section = raw.get("ground_motion") if isinstance(raw.get("ground_motion"), LineDict) else None
     key_lines = section.key_lines if section is not None else {}
@@ -1066,16 +1123,41 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
             issues.append(Issue(f"{where}.file", spec["file"], f"cannot be read: {e.problem}",
                                 e.fix or "check the format and units keys, or the file itself", line))
             continue
-        lengths.append((record.npts, record.dt, record.source, line))
+        try:
+            check_moves(record.acc, record.dt, gm["duration"], str(path))
+        except MotionError as e:
+            issues.append(Issue(f"{where}.file", spec["file"], e.problem, e.fix, line))
+        if gm["pga"] is None and spec.get("pga") is None:  # used as recorded: its own peak is the PGA
+            from .sanity import pga_warning
+
+            w = pga_warning(f"{where}.file {spec['file']}: its peak (no pga scales it)",
+                            float(abs(record.acc).max()) if record.acc.size else None)
+            if w is not None:
+                warnings.append(w)
+        lengths.append((record.npts, record.dt, record.source, line, f"{where}.file", spec["file"]))
     if synthetic:
         syn = gm["synthetic"]  # the synthetic motion: its length, without generating it
-        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None))
-    for npts, dt, source, line in lengths:
+        lengths.append((int(round(syn["duration"] / syn["dt"])) + 1, syn["dt"], "synthetic", None,
+                        "ground_motion.synthetic.duration", syn["duration"]))
+    for npts, dt, source, line, key, value in lengths:
+        # the tests `run` makes when it processes the record (motion.check_window), one by one so
+        # that each names its key: the window against the record's length, then the window's
+        # samples against the low-pass (the record's own key when the record itself is too short)
         try:
             check_covers(npts, dt, gm["duration"], source)
         except MotionError as e:
             issues.append(Issue("ground_motion.duration", gm["duration"], e.problem, e.fix,
                                 key_lines.get("duration") or line))
+            continue
+        try:
+            check_filter_length(npts, dt, gm["duration"], gm["cutoff_frequency"], source)
+        except MotionError as e:
+            if e.key is not None:  # a key of the case's, not the record's length
+                leaf = e.key.rsplit(".", 1)[1]
+                key, value, line = e.key, gm[leaf], key_lines.get(leaf) or line
+            elif npts >= lowpass_min_samples():  # the record has the samples; the window keeps too few
+                key, value, line = "ground_motion.duration", gm["duration"], key_lines.get("duration") or line
+            issues.append(Issue(key, value, e.problem, e.fix, line))
     return issues
 
 def _merge(base, over):

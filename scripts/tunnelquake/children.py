@@ -170,9 +170,14 @@ QUIET = threading.Event()
 
 
 def say(msg: str) -> None:
+    """One line to stdout, written whole in one call: print() writes the text and its newline
+    apart, so two threads' lines (the solid's and the water's echo) could run together."""
     if QUIET.is_set():
         return
-    print(f"[tunnelquake] {msg}", flush=True)
+    import sys
+
+    sys.stdout.write(f"[tunnelquake] {msg}\n")
+    sys.stdout.flush()
 
 
 class Side:
@@ -188,6 +193,8 @@ class Side:
         import threading
 
         self.name, self.log, self.lines = name, log, collections.deque(maxlen=40)
+        #: the same last lines, each with whether it was echoed to the terminal
+        self.echoed = collections.deque(maxlen=40)
         self.log_error: OSError | None = None
         self.fh = open(log, "w")
         self.proc = popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -214,7 +221,9 @@ class Side:
         for line in self.proc.stdout:
             logged(self.fh.write, line)
             self.lines.append(line)
-            if echo(line):
+            shown = bool(echo(line))
+            self.echoed.append(shown)
+            if shown:
                 logged(self.fh.flush)
                 say(f"  [{self.name}] {line.rstrip()}")
                 flushed = _time.monotonic()
@@ -231,7 +240,10 @@ class Side:
             self.fh.close()
 
     def tail(self, n: int = 6) -> str:
-        return "\n".join(f"      {x.rstrip()}" for x in list(self.lines)[-n:])
+        """The last `n` lines of the output that the terminal has not seen (a line echoed as it
+        came is not printed again), indented; empty when it saw them all."""
+        unseen = [x for x, shown in zip(list(self.lines), list(self.echoed), strict=True) if not shown]
+        return "\n".join(f"      {x.rstrip()}" for x in unseen[-n:])
 
 
 def stop_side(side: Side, grace: float) -> None:

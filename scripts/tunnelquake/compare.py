@@ -4,7 +4,9 @@
 compares every results_<condition>.h5 dataset and attribute (the bytes as stored), the monitors' CSV
 files and the report, leaving out what is not a result: the /timings group, attributes that hold
 wall-clock seconds (names ending in `_s`) or the run's own paths (`input`, `mesh`), report lines that
-quote wall-clock figures, and the results folder's own path where the report names it.
+quote wall-clock figures, and the results folder's own path where the report names it. Two
+results files (`.h5`) are compared alone; a results file and a folder, against the folder's file
+of that name. A folder that a run is writing, or a file a solver holds, is refused naming them.
 """
 from __future__ import annotations
 
@@ -32,13 +34,41 @@ def _bytes(v) -> bytes:
     return a.tobytes()
 
 
+class CompareError(Exception):
+    """What keeps two runs from being compared (a folder being written, a file that does not open);
+    the message names it and what to do."""
+
+
+def _open(path: Path):
+    """A results file opened for reading, or CompareError saying why it cannot be."""
+    import h5py
+
+    path = Path(path)
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        text = str(e)
+        if isinstance(e, BlockingIOError) or "unable to lock file" in text:
+            raise CompareError(f"{path} is locked by the process writing it (a solver still running): compare it "
+                               "once its run has ended") from None
+        if not path.is_file():
+            raise CompareError(f"{path}: no such file") from None
+        raise CompareError(f"{path} does not open as an HDF5 results file ({text.splitlines()[0][:200]})") from None
+
+
 def results_differences(a_path: Path, b_path: Path) -> list[str]:
     """Every dataset and attribute that differs between two results files (bytes compared); /timings
-    (wall times, steps of this process) left out. Empty when they are equal."""
+    (wall times, steps of this process) left out. Empty when they are equal. CompareError when one
+    of them cannot be opened."""
+    import contextlib
+
     import h5py
 
     out: list[str] = []
-    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+    with contextlib.ExitStack() as stack:
+        a = stack.enter_context(_open(a_path))
+        b = stack.enter_context(_open(b_path))
+
         def attrs(name, x, y):
             for k in sorted(set(x.attrs) | set(y.attrs)):
                 if _not_a_result(k):
@@ -105,15 +135,58 @@ def results_folder(p: Path) -> Path:
         return p
     case = p / "case.yaml" if p.is_dir() else p
     if case.is_file():
-        from .case import load_case
+        from .case import CaseError, load_case
+        from .case_file import screen_case_file
 
-        return load_case(case).output_dir
+        problem = screen_case_file(case)
+        if problem is None:
+            try:
+                return load_case(case).output_dir
+            except CaseError as e:
+                problem = str(e)
+        raise FileNotFoundError(f"{p}: neither a results folder (results_<condition>.h5), a results file (.h5) nor a "
+                                f"case file that loads: {problem}")
     raise FileNotFoundError(f"{p}: neither a results folder (results_<condition>.h5) nor a case file")
 
 
+def _is_h5(p: Path) -> bool:
+    """Whether `p` is a file that starts with HDF5's signature (a results file given by its path)."""
+    try:
+        with open(p, "rb") as fh:
+            return fh.read(8) == b"\x89HDF\r\n\x1a\n"
+    except OSError:
+        return False
+
+
+def _not_being_written(folder: Path) -> None:
+    """CompareError when a tunnelquake command holds `folder` (a run writing its results)."""
+    from .runlock import describe, holder
+
+    who = holder(folder)
+    if who is not None:
+        raise CompareError(f"{folder} is being written by a running tunnelquake command ({describe(who)}): its results "
+                           "are not final; compare once it has ended")
+
+
 def compare_runs(a: Path, b: Path) -> Comparison:
-    """Compare two results folders: results files, monitors' CSV files and the report."""
+    """Compare two results folders: results files, monitors' CSV files and the report. Two results
+    files are compared alone; a results file and a folder: the file against the folder's file of
+    that name (or the file a case writes there)."""
+    a, b = Path(a), Path(b)
+    if _is_h5(a) or _is_h5(b):
+        files = [p if _is_h5(p) else None for p in (a, b)]
+        other = next(p for p in files if p is not None).name
+        pair = [p if p is not None else results_folder(q) / other for p, q in zip(files, (a, b), strict=True)]
+        for p in pair:
+            _not_being_written(p.parent)
+        c = Comparison(compared=[other if pair[0].name == pair[1].name else f"{pair[0].name} / {pair[1].name}"])
+        diff = results_differences(pair[0], pair[1])
+        if diff:
+            c.differences[c.compared[0]] = diff
+        return c
     a, b = results_folder(a), results_folder(b)
+    for folder in (a, b):
+        _not_being_written(folder)
     c = Comparison()
     patterns = ("results_*.h5", "monitors_*.csv", "report.md")
     for pattern in patterns:

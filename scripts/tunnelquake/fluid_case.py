@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
-from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor
+from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor, fluid_ranks_problem
 from .coupling_scales import absolute_tolerances
 from .foam_dict import Quoted, foam_file
 from .solver_input_schema import group_attrs
@@ -305,9 +305,6 @@ def build_fluid_case(case, water_msh: Path, folder: Path, settings: dict, slice_
 # ----------------------------------------------------------------------------------------------
 #: The key every decomposition error names.
 RANKS_KEY = "parallel.fluid_ranks"
-#: Below this many water cells a rank parallel.fluid_ranks is refused: a slab of a few cells is
-#: mostly processor faces, and a rank of the simple split could get none.
-MIN_CELLS_PER_RANK = 20
 
 
 def water_cells(folder: Path) -> int:
@@ -370,10 +367,9 @@ def decompose(folder: Path, ranks: int, extents: tuple[float, float, float], sli
     Errors name parallel.fluid_ranks and the fix."""
     folder = Path(folder)
     cells = water_cells(folder)
-    if cells < MIN_CELLS_PER_RANK * ranks:
-        raise FluidCaseError(f"{RANKS_KEY} = {ranks} gives the water's {cells} cells fewer than "
-                             f"{MIN_CELLS_PER_RANK} a rank; use fluid_ranks: 1 (at most "
-                             f"{max(1, cells // MIN_CELLS_PER_RANK)} for this mesh)")
+    bad = fluid_ranks_problem(cells, ranks)  # the rule `check` applies to the mesh's counts
+    if bad is not None:
+        raise FluidCaseError(f"{RANKS_KEY} = {ranks} {bad[0]}; {bad[1]}")
     split = simple_split(ranks, extents, slice_mode)
     write_decompose_dict(folder, ranks, split)
     for old in folder.glob("processor*"):

@@ -119,25 +119,43 @@ def solid_env() -> dict:
 
 
 def _fluid_echo():
-    """Which OpenFOAM lines reach the terminal: errors with their message (the lines between
-    "FOAM FATAL" and "From function"), the library's messages, the end, and the simulated time every
-    5 s of wall time."""
+    """Which OpenFOAM lines reach the terminal: errors, the library's messages, the end, and the
+    simulated time every 5 s of wall time."""
     import time as _time
 
     last = [0.0]
-    fatal = [False]
+    # OpenFOAM's error block (its FATAL line to "FOAM exiting") is echoed whole, unless it only
+    # repeats the solid's error ("'solid' stopped on an error while ...", within its first lines):
+    # the solid's own line says that, once.
+    state = ["idle"]  # idle, held (the block's first lines, waiting), relay, fatal
+    held: list[str] = []
 
     def echo(line: str) -> bool:
-        if fatal[0]:
-            fatal[0] = not line.strip().startswith(("From function", "FOAM exiting", "From "))
-            if fatal[0] and line.strip():
-                return True
         if line.startswith("tqInterface interface: t ="):  # one per pass: to the log only
             return False
-        if "FATAL" in line:
-            fatal[0] = True
-            return True
-        if "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
+        if state[0] == "held":  # the block's first lines, until one says whose error it is
+            if "stopped on an error while" in line:
+                state[0] = "relay"
+                held.clear()
+            elif len(held) < 4 and not line.lstrip().startswith(("From function", "FOAM exiting")):
+                held.append(line)
+                return False
+            else:
+                for h in held:
+                    if h.strip():
+                        say(f"  [water] {h.rstrip()}")
+                held.clear()
+                state[0] = "fatal"
+        if state[0] in ("relay", "fatal"):
+            shown = state[0] == "fatal" and bool(line.strip())
+            if "FOAM exiting" in line:
+                state[0] = "idle"
+            return shown
+        if "FATAL" in line and "ERROR" in line:
+            state[0] = "held"
+            held.append(line)
+            return False
+        if "FATAL" in line or "tqInterface" in line or "coupler" in line.lower() or line.startswith("End"):
             return True
         if "MPI_ABORT" in line or line.startswith(("mpirun", "Primary job", "nProcs")):  # parallel runs, mpirun
             return True
@@ -321,7 +339,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     if failed is not None:
         rc = failed.proc.returncode or 1
         side = "tq-solid (solid)" if failed is solid else f"{fluid.solver}{on} (water)"
-        say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}\n{failed.tail()}")
+        unseen = failed.tail()
+        say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}" + (f"\n{unseen}" if unseen
+                                                                                           else ""))
         why = f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
         if _ran_out_of_space(case.output_dir, [x for x in (solid, fluid_side) if x is not None]):
             note = _disk_full_note(case.output_dir)
@@ -343,6 +363,15 @@ def what_was_written(res: Path) -> str:
             status = status.decode() if isinstance(status, bytes) else str(status)
     except OSError:
         return f"{res.name} is there but does not open as HDF5 (the solver stopped while writing it)"
+    if status == "running":  # its solver has ended: the file is cut off, never still running
+        if not supervise.rewritten(res):
+            return (f"{res.name} is as an earlier run left it, cut off where that run was stopped (this run's solver "
+                    "did not write to it; `tunnelquake post` reports it up to its last sample)")
+        return (f"what the solid wrote is in {res.name}, cut off: its solver ended without writing a status "
+                "(`tunnelquake post` reports it up to its last sample)")
+    if len(status) > 120:  # the solver's own message above says the whole of it, once
+        cut = status.find(". ")
+        status = (status[:cut] if 0 < cut <= 160 else status[:120].rsplit(" ", 1)[0]) + " ... (in full above)"
     return f"what the solid wrote is in {res.name} (status {status})"
 
 
@@ -431,7 +460,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
         if rc == 0:
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         elif rc == SOLID_OUTPUT_ERROR:
-            from ..files import free_bytes, human_bytes
+            from .files import free_bytes, human_bytes
 
             kept = f"what was written is in {res.name}" if res.is_file() else f"{res.name} was not started"
             failed.append(f"{cond} ({runs}): tq-solid could not write its results (exit {rc}; its message above says "

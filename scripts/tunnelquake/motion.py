@@ -45,10 +45,12 @@ class MotionError(ValueError):
     """A record that cannot be read; the message names the file, the line and the problem, and
     `fix` (when given) what to do about it."""
 
-    def __init__(self, problem: str, fix: str | None = None):
+    def __init__(self, problem: str, fix: str | None = None, key: str | None = None):
         super().__init__(problem if fix is None else f"{problem}. Fix: {fix}")
         self.problem = problem
         self.fix = fix
+        #: the case key the problem is about, when it is not the record itself
+        self.key = key
 
 
 @dataclass
@@ -308,21 +310,29 @@ class SyntheticModel:
 # --------------------------------------------------------------------------------------------
 # Processing
 # --------------------------------------------------------------------------------------------
-def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarray:
+#: the order of the zero-phase Butterworth low-pass (ground_motion.cutoff_frequency)
+LOWPASS_ORDER = 4
+
+
+def lowpass_min_samples(order: int = LOWPASS_ORDER) -> int:
+    """The fewest samples the zero-phase low-pass of `order` filters: sosfiltfilt pads each end
+    with 3 x (2 sections + 1) samples (its default) and needs more than that."""
+    return 3 * (2 * ((order + 1) // 2) + 1) + 1
+
+
+def lowpass(acc: np.ndarray, dt: float, cutoff: float, order: int = LOWPASS_ORDER) -> np.ndarray:
     """Zero-phase Butterworth low-pass; unchanged when the cut-off is at or above Nyquist."""
     from scipy.signal import butter, sosfiltfilt
 
     nyq = 0.5 / dt
     if cutoff >= nyq:
         return acc.copy()
-    sos = butter(order, cutoff / nyq, btype="low", output="sos")
-    # sosfiltfilt pads each end with 3 x (2 sections + 1) samples (its default) and needs more
-    padlen = 3 * (2 * len(sos) + 1)
-    if len(acc) <= padlen:
+    need = lowpass_min_samples(order)
+    if len(acc) < need:
         raise MotionError(f"ground_motion: the record keeps {len(acc)} samples (dt = {dt:g} s), too few for the "
-                          f"{cutoff:g} Hz zero-phase low-pass, which needs more than {padlen}. Fix: set "
-                          f"ground_motion.duration to at least {(padlen + 1) * dt:g} s (a shorter simulation: "
-                          "time.end_time)")
+                          f"{cutoff:g} Hz zero-phase low-pass, which needs at least {need}",
+                          f"give at least {need} samples ({(need - 1) * dt:g} s at this step)")
+    sos = butter(order, cutoff / nyq, btype="low", output="sos")
     return sosfiltfilt(sos, acc)
 
 
@@ -387,11 +397,75 @@ def check_covers(npts: int, dt: float, duration: float | None, source: str) -> N
                           f"{length:g} s only", fix)
 
 
+def kept_samples(npts: int, dt: float, duration: float | None) -> int:
+    """The samples of a record of `npts` at `dt` that the window `duration` keeps (condition())."""
+    if duration is not None and duration < (npts - 1) * dt:
+        return int(np.floor(duration / dt + 1e-9)) + 1
+    return npts
+
+
+def check_filter_length(npts: int, dt: float, duration: float | None, cutoff: float, source: str) -> None:
+    """Refuse a record whose window keeps too few samples for the zero-phase low-pass at `cutoff`
+    (none is needed when `cutoff` is at or above the record's Nyquist frequency). The fix named is
+    one that applies: a longer window when the record has the samples, else a longer record (a
+    longer synthetic one), or a cut-off at the Nyquist frequency, which leaves the record as it is.
+    A cut-off below 1 / the window is refused too: it would take out the whole motion (below
+    about 1e-7 of the Nyquist frequency the filter's design fails outright)."""
+    nyq = 0.5 / dt
+    need = lowpass_min_samples()
+    kept = kept_samples(npts, dt, duration)
+    if cutoff >= nyq:
+        return
+    if kept >= need:
+        window = (kept - 1) * dt
+        if cutoff * window < 1.0:
+            raise MotionError(f"ground_motion.cutoff_frequency {cutoff:g} Hz is below 1 / the window ({1.0 / window:.3g} "
+                              f"Hz for {window:g} s): the low-pass would take out the whole motion",
+                              "give the cut-off above the frequencies to keep (15 to 25 Hz for a tunnel's seismic "
+                              "response), within what the mesh resolves (`check` warns beyond it)",
+                              key="ground_motion.cutoff_frequency")
+        return
+    synthetic = source == "synthetic"
+    what = "the synthetic record" if synthetic else source
+    of = f" of its {npts}" if kept < npts else ""
+    longest = (need - 1) * dt
+    if npts >= need:
+        fix = (f"set ground_motion.duration to at least {longest:g} s (the record lasts {npts * dt:g} s), or leave "
+               "it out for the whole record")
+    elif synthetic:
+        fix = (f"set ground_motion.synthetic.duration to at least {longest:g} s, and ground_motion.duration (if "
+               "set) to as much")
+    else:
+        fix = (f"give a record of at least {need} samples ({longest:g} s at dt = {dt:g} s), or set "
+               f"ground_motion.cutoff_frequency to {nyq:g} Hz (the record's Nyquist frequency) or more, which "
+               "leaves it unfiltered")
+    raise MotionError(f"{what}: the window keeps {kept}{of} samples (dt = {dt:g} s), too few for the {cutoff:g} "
+                      f"Hz zero-phase low-pass (ground_motion.cutoff_frequency), which needs at least {need}", fix)
+
+
+def check_window(npts: int, dt: float, duration: float | None, cutoff: float, source: str) -> None:
+    """Every test of a record's length that processing it makes (condition()), without reading
+    or filtering it: it covers the window `duration`, and the window has the samples the
+    low-pass at `cutoff` needs. `tunnelquake check` runs it on each record and suite member,
+    `run` on the record it processes. `source`: the file, or 'synthetic'."""
+    check_covers(npts, dt, duration, source)
+    check_filter_length(npts, dt, duration, cutoff, source)
+
+
+def check_moves(acc: np.ndarray, dt: float, duration: float | None, source: str) -> None:
+    """Refuse a record that is all zeros over the window `duration`: it cannot be scaled to a PGA
+    (_peak_factor) or a spectrum, and unscaled it shakes nothing."""
+    if not np.any(np.asarray(acc)[:kept_samples(len(acc), dt, duration)]):
+        within = " within ground_motion.duration" if kept_samples(len(acc), dt, duration) < len(acc) else ""
+        raise MotionError(f"{source}: the record is all zeros{within}: it cannot be scaled, and shakes nothing",
+                          "give the record of the motion meant (or source: none for no horizontal motion)")
+
+
 def condition(record: Record, *, duration: float | None, cutoff: float, baseline: bool,
               label: str = "") -> tuple[np.ndarray, list[str]]:
     """One record cut to the window, low-passed and baseline-corrected (its own step kept);
     returns the acceleration and what was done."""
-    check_covers(record.npts, record.dt, duration,
+    check_window(record.npts, record.dt, duration, cutoff,
                  "synthetic" if record.source.startswith("synthetic(") else record.source)
     steps: list[str] = []
     pre = f"{label}: " if label else ""
@@ -564,6 +638,31 @@ def from_case(gm: dict, case_dir: Path) -> tuple[ProcessedMotion, list[str]]:
     conv = gm["convention"]
     return ProcessedMotion(dt=lead.dt, ax=_incident(ax, conv), az=_incident(v, conv), record=lead, steps=steps,
                            convention=conv, ay=_incident(ay, conv)), notes
+
+
+def window_seconds(gm: dict, case_dir: Path) -> float | None:
+    """The length of the processed motion (the time of its last sample, which a run without
+    time.end_time shakes for): ground_motion.duration when set, else that of the record which
+    sets the clock (the horizontal one, the synthetic, or the first further record); None when
+    that record cannot be read (the case's checks say why)."""
+    records = [gm] if gm["source"] == "file" else []
+    records += [gm[key] for key, _ in _OTHER_COMPONENTS if gm[key]["file"] is not None]
+    length = None
+    if gm["source"] == "synthetic" or (gm["source"] == "file" and gm["if_missing"] == "synthetic"
+                                       and not resolve_path(gm["file"], case_dir).is_file()):
+        syn = gm["synthetic"]
+        length = (int(round(syn["duration"] / syn["dt"]))) * syn["dt"]
+    else:
+        for spec in records:
+            try:
+                rec = read_record(resolve_path(spec["file"], case_dir), spec["format"], spec["units"])
+            except MotionError:
+                return None
+            length = (rec.npts - 1) * rec.dt
+            break
+    if length is None:
+        return gm["duration"]
+    return length if gm["duration"] is None else min(length, gm["duration"])
 
 
 def resolve_path(p: str, case_dir: Path) -> Path:

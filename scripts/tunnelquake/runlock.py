@@ -24,7 +24,8 @@ class RunLockBusy(Exception):
     """Another run holds the folder; the message names it."""
 
 
-def _describe(info: dict) -> str:
+def describe(info: dict) -> str:
+    """Who holds a folder, from its lock record: pid, start, host, command."""
     parts = [f"pid {info.get('pid', '?')}"]
     if info.get("started"):
         parts.append(f"started {info['started']}")
@@ -90,14 +91,14 @@ def run_lock(folder: Path, command: str | None = None):
         os.close(fd)
         words = str(info.get("command", "")).split()
         who = " ".join(words[:2]) if words[:1] == ["tunnelquake"] and len(words) > 1 else "tunnelquake command"
-        raise RunLockBusy(f"another `{who}` is using {folder} ({_describe(info or {'pid': '?'})}); "
+        raise RunLockBusy(f"another `{who}` is using {folder} ({describe(info or {'pid': '?'})}); "
                           f"wait for it to end, or stop it (kill {info.get('pid', '<pid>')}), then run again") from None
     try:
         previous = _read(fd)
         note = None
         if previous:
             why = "is no longer running" if not _alive(previous.get("pid")) else "no longer holds it"
-            note = (f"taking over the lock of an earlier run ({_describe(previous)}): pid {previous.get('pid', '?')} "
+            note = (f"taking over the lock of an earlier run ({describe(previous)}): pid {previous.get('pid', '?')} "
                     f"{why}, it ended without releasing the folder")
         record = {"pid": os.getpid(), "started": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
                   "host": os.uname().nodename, "command": command or " ".join(sys.argv)}

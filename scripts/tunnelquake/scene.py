@@ -262,7 +262,11 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     counts = counts or element_counts(mesh_plan)
     dt_crit = min(lining_layer_step(d)[1], axial_step(d, mesh_plan))
     dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
-    duration = d["time"].get("end_time") or d["ground_motion"]["duration"]
+    duration = d["time"].get("end_time")
+    if duration is None:
+        from .motion import window_seconds
+
+        duration = window_seconds(d["ground_motion"], case.dir) or 0.0
     steps = int(math.ceil(duration / dt))
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
     solid = (rock + counts["lining"]) * steps * SOLID_S_PER_ELEMENT_STEP

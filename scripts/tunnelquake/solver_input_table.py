@@ -58,7 +58,7 @@ def _e(group, name, kind, doc="", **kw):
 
 GROUPS = (
     Group("/", ("solver", "damping", "materials", "boundary", "loads", "monitors", "output", "stages", "in_situ",
-                "hydrostatic", "interfaces", "boundaries", "motion", "coupling", "schema")),
+                "hydrostatic", "interfaces", "boundaries", "motion", "drm", "coupling", "schema")),
     Group("/schema", doc="the material rows of this table and the hash of the others (written by the writer)"),
     Group("/solver", required=True, doc="at least attribute t_end"),
     Group("/damping"),
@@ -81,6 +81,7 @@ GROUPS = (
     Group("/boundaries/free_field"),
     Group("/boundaries/periodic"),
     Group("/motion"),
+    Group("/drm", doc="the free field on a domain-reduction layer (docs/solid_solver.md \"Domain reduction\")"),
     Group("/coupling"),
 )
 
@@ -274,6 +275,17 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/motion", "cutoff_frequency", "float", "for the λ_min/8 element-size warning; the record's convention "
        "(informational)", unit="Hz", default=0.0, lo=0.0),
     _e("/motion", "convention", "str", default=""),
+    _e("/drm", "nodes", "data", "the DRM layer's nodes [N] (mesh node indices): the layer is every element whose "
+       "eight nodes are among them with inner and outer ones; it must be linear elastic", required=True),
+    _e("/drm", "internal", "data", "[N] 1 for an inner node (b, the region's side), 0 for an outer one (e)",
+       required=True),
+    _e("/drm", "time", "data", "free-field sample times [T] from the seismic stage's start, strictly increasing; "
+       "linear in time between them, "
+       "the end values held outside", unit="s", required=True),
+    _e("/drm", "u", "data", "free field at the nodes [T, N, 3]: displacement, velocity (used where "
+       "Rayleigh β acts), acceleration (read; a lumped mass has no b–e coupling)", unit="m", required=True),
+    _e("/drm", "v", "data", unit="m/s", required=True),
+    _e("/drm", "a", "data", unit="m/s²", required=True),
     _e("/coupling", "scheme", "str", "`dynamic_water` through the coupler (docs/coupler.md \"Solid adapter\")",
        default="implicit", choices=("explicit", "paper", "implicit")),
     _e("/coupling", "window", "int", "solid steps per window k (k > 1 not with `paper`); window length (0 = k "

@@ -223,7 +223,7 @@ def read_member(m: MemberRecord):
 def suite_checks(d: dict, raw, filename: str, warnings: list[str]) -> list:
     """What `tunnelquake check` says about a suite beyond its keys: every record there, readable
     in its units and long enough for ground_motion.duration, a PGA for scaling pga."""
-    from .motion import MotionError, check_covers
+    from .motion import MotionError, check_moves, check_window
     from .schema import Issue
 
     section = raw.get("suite") if isinstance(raw.get("suite"), dict) else {}
@@ -255,7 +255,8 @@ def suite_checks(d: dict, raw, filename: str, warnings: list[str]) -> list:
     for m in members:
         try:
             rec = read_member(m)
-            check_covers(rec.npts, rec.dt, gm["duration"], str(m.path))
+            check_window(rec.npts, rec.dt, gm["duration"], gm["cutoff_frequency"], str(m.path))
+            check_moves(rec.acc, rec.dt, gm["duration"], str(m.path))
         except MotionError as e:
             index = int(re.search(r"\[(\d+)\]", m.key).group(1))
             k = f"{m.key}.{'file' if s['records'][index]['file'] is not None else 'glob'}"

@@ -11,6 +11,7 @@ Combination (`combine`)
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -104,6 +105,10 @@ def plan_members(case) -> list[Member]:
             gm.update({"file": flipped.name, "format": "two_column", "units": "m/s^2"})
         text = head + yaml.safe_dump(body, sort_keys=False, default_flow_style=False, width=100)
         out.append(Member(rec.name, rec, f, pga, folder / "case.yaml", text))
+    from .sanity import member_warnings
+
+    for w in member_warnings(out):  # a scaled PGA no key states: said wherever the members are planned
+        print(f"warning: {w}", file=sys.stderr)
     return out
 
 

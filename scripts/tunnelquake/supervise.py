@@ -30,6 +30,15 @@ def started(cond: str, res) -> None:
     PROGRESS.pop(cond, None)
 
 
+def rewritten(res) -> bool:
+    """Whether a solver this run started has written `res` (it changed since the start); True
+    for a file no solver of this run was started on."""
+    for path, before in STARTED.values():
+        if path == res:
+            return _signature(res) != before
+    return True
+
+
 #: condition -> the simulated time of tq-solid's last progress line seen (`  t = 0.5 s / 2 s ...`);
 #: its results file may lag by up to its flush interval (2 s of wall time)
 PROGRESS: dict[str, float] = {}

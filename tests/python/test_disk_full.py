@@ -91,7 +91,7 @@ def _tq(*args, env_extra=None):
                           env=env, timeout=600)
 
 
-def _rows(path):
+def _rows(path, monitor: str = "top_arch"):
     """Status and monitor times of a results file (it must open)."""
     import h5py
     import numpy as np
@@ -99,7 +99,7 @@ def _rows(path):
     with h5py.File(path, "r") as f:
         status = f.attrs["status"]
         status = status.decode() if isinstance(status, bytes) else str(status)
-        t = np.asarray(f["monitors/top_arch/time"][...]).reshape(-1)
+        t = np.asarray(f[f"monitors/{monitor}/time"][...]).reshape(-1)
     return status, t
 
 
@@ -275,3 +275,46 @@ def test_mesh_build_writes_no_gmsh_or_fltk_preferences_outside_the_case(tmp_path
     assert stamps() == before
     assert sorted(str(x.relative_to(home)) for x in home.rglob("*")) == [".fltk", ".fltk/fltk.org",
                                                                        ".fltk/fltk.org/fltk.prefs"]
+
+
+def test_solid_only_run_on_a_full_disk_lists_each_condition_under_failed_and_goes_on_to_the_next_and_post(disk):
+    """`tunnelquake run` of two solid-only conditions of a case unlike the example (the pressure
+    tunnel: a weathered layer, three records, 1 s of shaking) on a tmpfs with 1 MB left after the
+    mesh and motion: the first condition's tq-solid stops in the shaking with exit 5; the run says
+    so in its summary with the space free, still starts the second condition (which finds no room
+    to start) and post, and ends with exit 1, no traceback and no process left. The first results
+    file opens with status 'stopped: ...' and every sample up to where it stopped."""
+    from tunnelquake import paths
+
+    if paths.solid_executable() is None:
+        pytest.skip("tq-solid is not built")
+    disk.resize("8M")
+    src = ROOT / "cases" / "pressure_tunnel"
+    case = disk.path / "case"
+    shutil.copytree(src, case, ignore=shutil.ignore_patterns("results*"))
+    p = case / "case.yaml"
+    p.write_text(p.read_text().replace("  duration: 10 s", "  duration: 2 s")
+                 + "\nconditions: [no_water, static_water]\ntime:\n  end_time: 1 s\n")
+    for cmd in ("mesh", "motion"):
+        r = _tq(cmd, p)
+        assert r.returncode == 0, r.stdout + r.stderr
+    # 1 MB: the first condition's set-up and first samples fit (577 kB for the first sample's
+    # chunks), its whole 1 s (1.1 MB) does not
+    disk.resize(f"{(disk.used() + 1_000_000) // 1024}k")
+    r = _tq("run", p, env_extra={"TQ_CONDITIONS_AT_ONCE": "1"})
+    out = r.stdout + r.stderr
+    assert r.returncode == 1, out[-3000:]
+    assert "Traceback" not in out and "Error:" not in out, out[-3000:]
+    assert "tq-solid: cannot write '" in out and "No space left on device" in out
+    assert "condition static_water: running the solid" in out, out[-3000:]  # the next condition started
+    summary = out[out.index("[tunnelquake] done:"):]
+    results = p.parent / "results"
+    for cond in ("no_water", "static_water"):
+        assert re.search(rf"! {cond} \(solid\): tq-solid could not write its results \(exit 5; .*[0-9.]+ [kMG]?B free "
+                         rf"now on the disk holding {re.escape(str(results))}\)", summary), summary
+    assert "what was written is in results_no_water.h5" in summary, summary
+    assert "post" in summary  # post ran: written (+) or listed under FAILED with what did not fit
+    assert _processes_naming(p.parent) == []
+    status, t = _rows(results / "results_no_water.h5", "crown")
+    assert status.startswith("stopped: cannot write ") and "No space left on device" in status, status
+    assert t.size > 0 and t[-1] < 1.0 and (t.size < 2 or (t[1:] > t[:-1]).all())

@@ -135,10 +135,12 @@ def test_processing_scales_pga_and_splits_outcrop():
 
 def test_too_short_a_record_for_the_lowpass_is_refused_with_the_fix():
     """sosfiltfilt needs more samples than its pad (3 x (2 sections + 1) = 15 for order 4): a
-    shorter record is refused naming ground_motion.duration and the shortest one that works."""
-    from tunnelquake.motion import MotionError, lowpass
+    shorter record is refused naming the fewest samples that work (a case's record is refused
+    earlier, by motion.check_window, with the case key that applies: test_one_validation_path.py)."""
+    from tunnelquake.motion import MotionError, lowpass, lowpass_min_samples
 
-    with pytest.raises(MotionError, match=r"ground_motion.duration to at least 0.32 s"):
+    assert lowpass_min_samples() == 16
+    with pytest.raises(MotionError, match=r"needs at least 16\. Fix: give at least 16 samples \(0\.3 s at this step\)"):
         lowpass(np.ones(2), 0.02, 20.0)
     out = lowpass(np.ones(16), 0.02, 5.0)  # 16 > 15 samples: filtered; a constant stays constant
     np.testing.assert_allclose(out, 1.0, rtol=1e-9)

@@ -137,6 +137,8 @@ GENERATED = {sis.INC, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py
 KNOWN = {
     ("scripts/tunnelquake/verification/stiffness_map.py", '"window", "reuse", "predictor"'):
         "case keys of the coupling section the study drops for the explicit scheme",
+    ("scripts/tunnelquake/freefield.py", '"u", "v", "a"'):
+        "the free field's own arrays, which solid_input.h5's /drm takes under the same names",
 }
 
 

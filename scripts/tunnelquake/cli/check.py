@@ -1,6 +1,9 @@
 """tunnelquake check: validate a case file without running anything."""
 from __future__ import annotations
 
+import sys
+
+from ..units import STANDARD_GRAVITY
 from .common import load_or_report, parser, say
 
 
@@ -46,8 +49,10 @@ def main(argv: list[str]) -> int:
     if ground_layers(d):
         say("  ground layers from the surface: " + ", ".join(f"{m} down to z = {z:g} m" for m, z in ground_layers(d))
             + "; below: rock")
-    say(f"  ground motion: {src}; window {gm['duration']} s; PGA {gm['pga']} m/s^2; cut-off "
-        f"{gm['cutoff_frequency']:g} Hz; convention {gm['convention']}")
+    window = "the whole record" if gm["duration"] is None else f"{gm['duration']:g} s"
+    pga = "the record's own" if gm["pga"] is None else f"{gm['pga']:g} m/s^2 ({gm['pga'] / STANDARD_GRAVITY:.3g} g)"
+    say(f"  ground motion: {src}; window {window}; PGA {pga}; cut-off {gm['cutoff_frequency']:g} Hz; convention "
+        f"{gm['convention']}")
     say(f"  {mesh_estimate(d)}")
     from ..scene import added_mass_diagnostic, assess_slice, plan, runtime_estimate
 
@@ -68,9 +73,14 @@ def main(argv: list[str]) -> int:
     for a in sl.advice:
         say(f"  advice: {a}")
     if d["suite"]["records"] is not None:
+        from ..motion import MotionError
         from ..suite_members import combination_rule, plan_members
 
-        members = plan_members(case)
+        try:
+            members = plan_members(case)
+        except (MotionError, ValueError) as e:  # the suite's checks say each record's problem first
+            print(f"error: the suite's members cannot be planned: {e}", file=sys.stderr)
+            return 1
         rule = combination_rule(d["suite"]["combine"], len(members))
         say(f"  suite: {len(members)} members (scaling {d['suite']['scaling']}, combined by {rule}), each in "
             f"{case.output_dir / 'members'}/<name>:")

@@ -1,6 +1,7 @@
 """tunnelquake compare A B: whether two runs' results are equal, byte for byte (results files, monitors,
-report; wall-clock figures and the runs' own paths left out). A and B are results folders or case files.
-Exit 0 when equal, 1 when anything differs (each difference listed), 2 when a folder holds no results."""
+report; wall-clock figures and the runs' own paths left out). A and B are results folders or case files,
+or two results files (.h5). Exit 0 when equal, 1 when anything differs (each difference listed), 2
+when there is nothing to compare or a run is still writing them (said why)."""
 from __future__ import annotations
 
 import argparse
@@ -14,11 +15,11 @@ def main(argv: list[str]) -> int:
     p.add_argument("a", type=Path, help="results folder (or case file) of the first run")
     p.add_argument("b", type=Path, help="results folder (or case file) of the second run")
     args = p.parse_args(argv)
-    from ..compare import compare_runs
+    from ..compare import CompareError, compare_runs
 
     try:
         c = compare_runs(args.a, args.b)
-    except FileNotFoundError as e:
+    except (FileNotFoundError, CompareError) as e:
         say(f"compare: {e}")
         return 2
     for name in c.compared:

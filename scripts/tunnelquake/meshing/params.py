@@ -465,6 +465,17 @@ def _check_sizes(p: MeshPlan) -> None:
             "the axial element length",
         ),
     ]
+    # The mesher puts a face on a named boundary when its nodes lie within 1e-6 of the block's
+    # largest extent of it (build._tolerance): an element thinner than that cannot be told from the
+    # boundary it touches (the pressure tunnel with 90 radial divisions, 1.22e-4 m against 1.4e-4 m:
+    # "16 solid boundary faces ... on several"; with 86, 1.79e-4 m, it meshes).
+    finest = 1e-6 * max(p.xmax - p.xmin, p.zmax - p.zmin)
+    h1 = min(graded_sizes(p.box_half_width - p.radius_outer, p.near_field))
+    if h1 < finest:
+        why = (f"the first radial element of the rock ring is {h1:.3g} m, thinner than {finest:.3g} m (1e-6 of the "
+               "block), below which the mesher cannot tell its faces from the tunnel's surface")
+        raise MeshInputError(f"mesh: {why}.", "mesh.near_field_radial_divisions", p.near_field.count, why,
+                             "Lower near_field_radial_divisions or near_field_growth.")
     for keys, size, what in checks:
         if size > h * (1 + 1e-9):
             why = f"{what} is {size:.4g} m > max_element_size {h} m"

@@ -54,6 +54,13 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
                      "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
   for (auto& b : solver_.blocks())
     if (b->name() == S.stages.liningRegion) lining_ = b.get();
+  if (S.drm.present()) {
+    try {
+      drm_ = std::make_shared<DomainReduction>(mesh_, solver_.blocks(), S.drm, solver_.options().damping.beta);
+    } catch (const InputError& e) {
+      throw InputError("solid input '" + in.path + "', " + e.what());
+    }
+  }
   const bool liningStage = S.stages.has("lining");
   if (liningStage) {
     if (!lining_)
@@ -193,7 +200,10 @@ StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& lo
   rp.tolerance = st.tolerance;
   rp.maxSteps = st.maxSteps;
   rp.massScaling = st.massScaling;
+  // The ratio at each check, for the trend said when the stage does not converge.
+  std::vector<std::pair<Index, Real>> history;
   rp.onCheck = [&](const RelaxResult& r) {
+    history.emplace_back(r.steps, r.ratio);
     const double t = now();
     if (t - last < progressSeconds || r.converged) return;
     // ETA from the recent convergence rate of log(ratio) per step.
@@ -235,15 +245,70 @@ StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& lo
   log << "  stage " << name << ": equilibrium " << (r.converged ? "reached" : "NOT reached") << " after " << r.steps
       << " relaxation steps, unbalanced-force ratio " << std::setprecision(3) << r.ratio << " (tolerance "
       << st.tolerance << "), " << std::setprecision(3) << rep.wallSeconds << " s" << std::endl;
-  if (!r.converged) {
-    std::ostringstream os;
-    os << "stage '" << name << "' did not reach static equilibrium: unbalanced-force ratio " << r.ratio << " after "
-       << r.steps << " dynamic relaxation steps (tolerance " << st.tolerance
-       << "). Raise /stages relaxation_max_steps (case: stages.relaxation_max_steps) or the tolerance, or check "
-          "the supports (a part free to move as a rigid body never settles).";
-    throw InstabilityError(os.str());
-  }
+  if (!r.converged) throw InstabilityError(notInEquilibrium(name, r, history));
   return rep;
+}
+
+std::string StagedAnalysis::notInEquilibrium(const std::string& name, const RelaxResult& r,
+                                             const std::vector<std::pair<Index, Real>>& history) {
+  const StagesInput& st = in_.staged.stages;
+  // Where the unbalanced force f_ext - f_int (free dofs) is, region by region, taken at rest.
+  solver_.computeForces(true);
+  const NodalState& s = solver_.state();
+  const Index N = s.numNodes();
+  std::vector<int> region(size_t(N), -1);
+  const auto& blocks = solver_.blocks();
+  for (size_t b = 0; b < blocks.size(); ++b)
+    for (Index e = 0; e < blocks[b]->numElems(); ++e)
+      for (int k = 0; k < 8; ++k) {
+        int& g = region[size_t(blocks[b]->node(e, k))];
+        if (g < 0) g = int(b);
+      }
+  std::vector<Real> share(blocks.size(), 0.0);
+  Real total = 0, largest = -1;
+  Index at = 0;
+  for (Index n = 0; n < N; ++n) {
+    Real r2 = 0;
+    for (int d = 0; d < 3; ++d) {
+      if (solver_.isFixed(n, d)) continue;
+      const size_t i = 3 * size_t(n) + d;
+      const Real f = s.fExtData()[i] - s.fIntData()[i];
+      r2 += f * f;
+    }
+    total += r2;
+    if (region[size_t(n)] >= 0) share[size_t(region[size_t(n)])] += r2;
+    if (r2 > largest) largest = r2, at = n;
+  }
+  std::ostringstream os;
+  os << std::setprecision(3) << "stage '" << name << "' did not reach static equilibrium in " << r.steps
+     << " relaxation steps (unbalanced-force ratio " << r.ratio << ", tolerance " << st.tolerance << "). ";
+  if (total > 0) {
+    const size_t worst = size_t(std::max_element(share.begin(), share.end()) - share.begin());
+    const Real* x = &mesh_.coords[3 * size_t(at)];
+    const int g = region[size_t(at)];
+    os << "Not in equilibrium: the " << (g >= 0 ? blocks[size_t(g)]->name() : std::string("mesh"))
+       << " near (x, y, z) = (" << x[0] << ", " << x[1] << ", " << x[2] << ") m, the largest unbalanced nodal force ("
+       << std::sqrt(largest) << " N); the " << blocks[worst]->name() << " holds " << std::fixed << std::setprecision(0)
+       << 100 * share[worst] / total << " % of the unbalance. " << std::defaultfloat << std::setprecision(3);
+  }
+  // The trend over the second half of the steps: still falling (more steps reach it), or not.
+  Real half = history.empty() ? r.ratio : history.front().second;
+  for (const auto& [steps, ratio] : history)
+    if (steps <= r.steps / 2) half = ratio;
+  if (half > 0 && r.ratio < 0.5 * half) {
+    const double perStep = std::log(half / r.ratio) / double(r.steps - r.steps / 2);
+    const double more = std::log(r.ratio / st.tolerance) / perStep;
+    // the steps to the tolerance at the recent rate, 20 % on top, rounded up to a hundred
+    const Index enough = Index(std::ceil((double(r.steps) + 1.2 * more) / 100.0)) * 100;
+    os << "The ratio was still falling (" << half << " -> " << r.ratio << " over the last " << r.steps - r.steps / 2
+       << " steps): raise stages.relaxation_max_steps to about " << enough << ".";
+  } else {
+    os << "The ratio did not fall over the last " << r.steps - r.steps / 2 << " steps (" << half << " -> " << r.ratio
+       << "): that part keeps moving under this stage's load - a part free to move as a rigid body (check the "
+          "supports), or ground or lining yielding without end (check its strength against the load there).";
+  }
+  os << " (docs/solid_solver.md \"Staged initial state\")";
+  return os.str();
 }
 
 void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
@@ -511,6 +576,17 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       for (const auto& f : spec.freeFieldFaces) os << " " << f;
       os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers() << " layers)";
     }
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // The domain reduction layer's effective forces, with the boundaries (absorbing ones outside it).
+  if (drm_) {
+    solver_.addContributor(ForcePhase::Boundaries, drm_);
+    std::ostringstream os;
+    os << "domain reduction layer: " << drm_->numLayerElements() << " elements, " << drm_->numInner() << " inner and "
+       << drm_->numOuter() << " outer nodes (" << drm_->numDistinctCouplings()
+       << " distinct element couplings), free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
+       << " s";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }

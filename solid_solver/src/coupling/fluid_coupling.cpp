@@ -40,12 +40,10 @@ std::string fixFor(const std::exception& e, const CouplingInput& in) {
     os << "A malformed or out-of-step message arrived. Fix: check that both sides are built from the same "
           "release; a foreign program may have connected to the coupling port.";
   else if (dynamic_cast<const cp::DivergenceError*>(&e)) {
-    os << "(The coupler's message above names the likely cause and the fix; see docs/coupler.md \"Divergence "
-          "detection\".)";
+    // the coupler's message names the cause and the first fix; one more when it applies
     if (in.scheme == "implicit" && in.windowSteps > 1 && in.windowForceWeight < 1)
-      os << " With windows of several steps a mode of period two windows is damped by leaning the steps' force "
-            "toward the window's end: raise coupling.window_force_weight toward 1 (here "
-         << in.windowForceWeight << "; docs/coupler.md \"Window force weight\").";
+      os << "Or raise coupling.window_force_weight toward 1 (here " << in.windowForceWeight
+         << "; docs/coupler.md \"Window force weight\").";
   } else if (dynamic_cast<const cp::MapError*>(&e))
     os << "The interface meshes do not match. Fix: regenerate the water mesh from the same geometry as mesh.h5 "
           "(its interface points must coincide with the solid's '"

@@ -160,6 +160,33 @@ void readStagedInput(hid_t f, SolidInput& in) {
           c.fail(w, "a non-finite acceleration at sample " + std::to_string(i));
     }
   }
+  // /drm: the free field on a domain-reduction layer (tq/boundaries/drm.hpp); the layer itself is
+  // checked against the mesh and the materials when the stages are built.
+  if (const auto g = c.group(f, "/drm", "/drm"); g.valid()) {
+    const std::string w = "/drm";
+    DrmFreeField& D = S.drm;
+    namespace KD = K::drm;
+    for (const auto* key : {&KD::nodes, &KD::internal, &KD::time, &KD::u, &KD::v, &KD::a})
+      if (!h5::exists(g, key->name))
+        c.fail(w, std::string("dataset '") + key->name + "' is required (docs/formats.md \"solid_input.h5\", /drm)");
+    D.nodes = h5::readInts(g, KD::nodes.name);
+    for (Index flag : h5::readInts(g, KD::internal.name)) {
+      if (flag != 0 && flag != 1) c.fail(w, "internal must hold 0 (outer node e) or 1 (inner node b)");
+      D.internal.push_back(std::uint8_t(flag));
+    }
+    D.time = h5::readDoubles(g, KD::time.name);
+    const std::vector<hsize_t> want = {hsize_t(D.time.size()), hsize_t(D.nodes.size()), 3};
+    for (auto [key, arr] : {std::pair{&KD::u, &D.u}, {&KD::v, &D.v}, {&KD::a, &D.a}}) {
+      std::vector<hsize_t> dims;
+      *arr = h5::readDoubles(g, key->name, &dims);
+      if (dims != want)
+        c.fail(w, std::string(key->name) + " must be [T, N, 3] = [" + std::to_string(want[0]) + ", " +
+                      std::to_string(want[1]) + ", 3] (time samples, nodes, components)");
+    }
+    if (!S.stages.has("seismic"))
+      c.fail(w, "the DRM layer's forces act in the seismic stage, which /stages sequence does not have");
+    if (D.nodes.empty()) c.fail(w, "nodes is empty; give the layer's nodes or leave /drm out");
+  }
   if (S.stages.has("seismic") && !S.bottom.present && !S.freeField.present && S.motion.present)
     c.fail("/boundaries", "the motion needs a base to enter through: add /boundaries/bottom");
   // /coupling (dynamic_water: the water through the coupler; docs/coupler.md "Solid adapter")

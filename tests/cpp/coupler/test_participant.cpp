@@ -457,9 +457,11 @@ TEST(AddedMass, ExplicitCouplingIsStableBelowRatioOneAndIsStoppedAbove) {
   const std::string msg = messageOf<DivergenceError>(unstable.solidError);
   EXPECT_TRUE(contains(msg, "added-mass instability")) << msg;
   EXPECT_TRUE(contains(msg, "'explicit' scheme")) << msg;
-  EXPECT_TRUE(contains(msg, "implicit scheme")) << msg;  // the fix
+  EXPECT_TRUE(contains(msg, "Fix: coupling.scheme: implicit")) << msg;  // the first fix
   EXPECT_TRUE(contains(msg, "compressible")) << msg;
   EXPECT_TRUE(contains(msg, "window")) << msg;
+  EXPECT_TRUE(contains(msg, "docs/coupler.md \"Divergence detection\"")) << msg;  // the rest
+  EXPECT_LE(msg.size(), 450u) << msg;                                             // a few lines; the rest is in the doc
   EXPECT_LE(unstable.windows, 12u);
   EXPECT_TRUE(unstable.allFinite);
   EXPECT_LT(unstable.maxAbs, 1e6);  // stopped by the monitor, not by the test's own guard

@@ -9,9 +9,11 @@
 #include <iosfwd>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tq/boundaries/boundaries.hpp"
+#include "tq/boundaries/drm.hpp"
 #include "tq/core/constraints.hpp"
 #include "tq/io/input.hpp"
 
@@ -51,6 +53,7 @@ class StagedAnalysis {
   /// Residual out-of-balance force held at the switch, relative to the force norms (0 if none).
   Real correctionRatio() const { return correctionRatio_; }
   const std::shared_ptr<SeismicBoundaries>& seismic() const { return seismic_; }
+  const std::shared_ptr<DomainReduction>& domainReduction() const { return drm_; }
   const std::shared_ptr<NodalForceContributor>& rockLiningInterface() const { return interface_; }
   const std::shared_ptr<ConstantNodalForces>& heldForces() const { return held_; }
   /// The part (1 − λ) of the excavation load held from the excavation stage to the lining stage
@@ -60,6 +63,10 @@ class StagedAnalysis {
  private:
   void setInSituStress();
   StageReport relaxStage(const std::string& name, std::ostream& log, double progressSeconds);
+  /// Why a static stage did not converge: which region holds the unbalanced force and where its
+  /// largest nodal value is, and whether the ratio was still falling (`history`: steps, ratio).
+  std::string notInEquilibrium(const std::string& name, const RelaxResult& r,
+                               const std::vector<std::pair<Index, Real>>& history);
   void activateLining(std::ostream& log, StageReport& rep);
   void installInterface(std::ostream& log, StageReport& rep);
   void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
@@ -72,6 +79,7 @@ class StagedAnalysis {
   std::shared_ptr<NodalForceContributor> interface_;
   std::shared_ptr<ConstantNodalForces> pressure_, held_;
   std::shared_ptr<SeismicBoundaries> seismic_;
+  std::shared_ptr<DomainReduction> drm_;  // /drm: built (and checked) with the stages, added at the switch
   std::shared_ptr<HeldExcavationLoad> unreleased_;
   Real correctionRatio_ = 0;
 };

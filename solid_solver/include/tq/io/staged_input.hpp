@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "tq/boundaries/drm_field.hpp"
 #include "tq/core/types.hpp"
 
 namespace tq {
@@ -167,6 +168,7 @@ struct StagedInput {
   FreeFieldInput freeField;
   PeriodicInput periodic;
   MotionInput motion;
+  DrmFreeField drm;       ///< /drm: the free field on a domain-reduction layer (absent: no nodes)
   std::string condition;  ///< informational root attribute (no_water, static_water, dynamic_water)
   /// root attribute input_fingerprint: the case keys that shaped this condition (written by
   /// `tunnelquake run`), copied into the results file; its digest goes into each checkpoint manifest

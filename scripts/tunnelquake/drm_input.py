@@ -1,0 +1,42 @@
+"""solid_input.h5's `/drm` group: the free field at the nodes of a domain-reduction layer, which
+tq-solid turns into the layer's effective forces (docs/theory.md §6.2, docs/formats.md). The field
+comes from `tunnelquake.freefield.free_field` at the layer's nodes, or from an H5DRM file through
+`freefield.read_h5drm` (which matches every node to a file point first)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .freefield import FreeField, FreeFieldError
+from .solver_input_schema import entries, put
+
+GROUP = "/drm"
+
+
+def write_drm(f, nodes, internal, field: FreeField) -> None:
+    """Write `/drm` into the open solid_input.h5 `f` (h5py): `nodes` (N,) mesh node indices, `internal`
+    (N,) true for the layer's inner nodes (b) and false for its outer ones (e), `field` the free field
+    at those nodes in the same order (u, v, a of shape (N, nt, 3); stored [nt, N, 3])."""
+    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    flags = np.asarray(internal, dtype=bool).ravel()
+    n = nodes.size
+    if flags.size != n:
+        raise FreeFieldError(f"/drm: {flags.size} inner/outer flags for {n} nodes", "give one flag a node")
+    if not flags.any() or flags.all():
+        raise FreeFieldError(f"/drm: {int(flags.sum())} of {n} nodes are inner (b): the layer needs both inner "
+                             "and outer nodes", "flag the layer's inner boundary true and its outer one false")
+    if len(np.unique(nodes)) != n or nodes.min() < 0:
+        raise FreeFieldError("/drm: node indices must be distinct and non-negative", "list each layer node once")
+    g = f.require_group(GROUP.strip("/"))
+    for e in (x for x in entries() if x.group == GROUP):
+        if e.name == "nodes":
+            value = nodes.astype(np.int32)
+        elif e.name == "internal":
+            value = flags.astype(np.int8)
+        else:  # the field's own arrays under the same names: time [nt], u, v, a (N, nt, 3)
+            value = np.asarray(getattr(field, e.name), dtype=float)
+            if value.ndim == 3:
+                if value.shape[0] != n or value.shape[2] != 3:
+                    raise FreeFieldError(f"/drm: {e.name} has shape {value.shape} for {n} nodes; needs (N, nt, 3)",
+                                         "compute the free field at the layer's nodes, in their order")
+                value = np.ascontiguousarray(np.swapaxes(value, 0, 1))
+        put(g, GROUP, e.name, value)
