@@ -1,6 +1,8 @@
 // Wire format v1: CRC-32, header codec, bounds-checked payload reader/writer.
 #include "tq/coupler/wire.hpp"
 
+#include "tq/coupler/crc32.hpp"
+
 #include <cmath>
 #include <sstream>
 
@@ -32,24 +34,6 @@ const char* faultName(ProtocolFault f) {
 
 namespace wire {
 namespace {
-
-// Slice-by-8 tables for the reflected polynomial 0xEDB88320.
-struct CrcTables {
-  std::uint32_t t[8][256];
-  CrcTables() {
-    for (std::uint32_t i = 0; i < 256; ++i) {
-      std::uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[0][i] = c;
-    }
-    for (std::uint32_t i = 0; i < 256; ++i)
-      for (int s = 1; s < 8; ++s) t[s][i] = (t[s - 1][i] >> 8) ^ t[0][t[s - 1][i] & 0xFFu];
-  }
-};
-const CrcTables& tables() {
-  static const CrcTables tb;
-  return tb;
-}
 
 std::uint16_t le16(const std::uint8_t* p) { return std::uint16_t(p[0] | (p[1] << 8)); }
 std::uint32_t le32(const std::uint8_t* p) {
@@ -124,18 +108,7 @@ std::string typeName(std::uint16_t t) {
 }
 
 std::uint32_t crc32(const std::uint8_t* p, std::size_t n, std::uint32_t crc) {
-  const auto& T = tables().t;
-  std::uint32_t c = ~crc;
-  while (n >= 8) {
-    std::uint32_t a = c ^ le32(p);
-    std::uint32_t b = le32(p + 4);
-    c = T[7][a & 0xFF] ^ T[6][(a >> 8) & 0xFF] ^ T[5][(a >> 16) & 0xFF] ^ T[4][a >> 24] ^ T[3][b & 0xFF] ^
-        T[2][(b >> 8) & 0xFF] ^ T[1][(b >> 16) & 0xFF] ^ T[0][b >> 24];
-    p += 8;
-    n -= 8;
-  }
-  while (n--) c = T[0][(c ^ *p++) & 0xFF] ^ (c >> 8);
-  return ~c;
+  return ::tq::crc::crc32(p, n, crc);  // the one CRC-32 of the project (crc32.hpp)
 }
 
 void encodeHeader(MessageType type, std::uint64_t sequence, const std::uint8_t* payload, std::size_t n,
