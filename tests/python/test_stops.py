@@ -87,3 +87,29 @@ def test_a_static_stage_cut_short_names_where_the_unbalance_is_and_the_steps_tha
     rc, out = _run(p)
     assert "stage excavation: equilibrium reached" in out, out[-3000:]
 
+
+
+def test_an_explicit_coupled_run_writes_its_restart_checkpoints(tmp_path):
+    """The explicit scheme saves no water state each window (it never steps one again); the water's
+    restart checkpoint must then save the accepted state itself, where before it stopped with 'No
+    state held to write' at its first restart window. With the energy guard off, the explicit run of
+    the pressure tunnel goes to its end through several restart windows."""
+    from tunnelquake.launch import solver_status
+
+    if solver_status()["fluid"] is not None:
+        pytest.skip(f"the coupled condition cannot run here: {solver_status()['fluid']}")
+    p = _case(tmp_path, "\nconditions: [dynamic_water]\ntime:\n  end_time: 0.02 s\ncoupling:\n  scheme: explicit\n"
+                        "  energy_limit: 0\n")
+    text = p.read_text()
+    assert "checkpoint_interval" not in text
+    p.write_text(text.replace("output:\n", "output:\n  checkpoint_interval: 0.005 s\n", 1) if "output:\n" in text
+                 else text + "output:\n  checkpoint_interval: 0.005 s\n")
+    rc, out = _run(p)
+    assert rc == 0, out[-3000:]
+    assert "No state held" not in out
+    control = (tmp_path / "case" / "results" / "dynamic_water" / "fluid" / "system" / "controlDict").read_text()
+    every = int(re.search(r"restartWindows\s+(\d+);", control).group(1))
+    log = (tmp_path / "case" / "results" / "dynamic_water" / "fluid.log").read_text()
+    passes = int(re.search(r"cost over (\d+) passes", log).group(1))
+    # the water passed at least one restart window (the completed run then removes the checkpoints)
+    assert 0 < every <= passes, (every, passes)

@@ -1062,6 +1062,13 @@ bool Foam::functionObjects::tqInterface::execute()
             const label n = exchange_->windowsCompleted();
             if (n > lastRestartWindow_ && n % restartWindows_ == 0)
             {
+                // A scheme that never steps a window again (explicit)
+                // saves no state each window: the accepted one is saved
+                // here for the restart file
+                if (!exchange_->requiresWritingCheckpoint())
+                {
+                    checkpoint_.store();
+                }
                 writeRestart(n);
             }
         }
