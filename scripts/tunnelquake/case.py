@@ -1123,11 +1123,13 @@ def _record_checks(gm: dict, raw: LineDict, filename: str, warnings: list[str]) 
             issues.append(Issue(f"{where}.file", spec["file"], f"cannot be read: {e.problem}",
                                 e.fix or "check the format and units keys, or the file itself", line))
             continue
+        scaled = gm["pga"] is not None or spec.get("pga") is not None
         try:
-            check_moves(record.acc, record.dt, gm["duration"], str(path))
+            if scaled:  # a record of zeros used as recorded is a run without shaking, which run allows
+                check_moves(record.acc, record.dt, gm["duration"], str(path))
         except MotionError as e:
             issues.append(Issue(f"{where}.file", spec["file"], e.problem, e.fix, line))
-        if gm["pga"] is None and spec.get("pga") is None:  # used as recorded: its own peak is the PGA
+        if not scaled:  # used as recorded: its own peak is the PGA
             from .sanity import pga_warning
 
             w = pga_warning(f"{where}.file {spec['file']}: its peak (no pga scales it)",

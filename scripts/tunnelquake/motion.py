@@ -453,8 +453,9 @@ def check_window(npts: int, dt: float, duration: float | None, cutoff: float, so
 
 
 def check_moves(acc: np.ndarray, dt: float, duration: float | None, source: str) -> None:
-    """Refuse a record that is all zeros over the window `duration`: it cannot be scaled to a PGA
-    (_peak_factor) or a spectrum, and unscaled it shakes nothing."""
+    """Refuse a record that is all zeros over the window `duration` when it is to be scaled: it
+    cannot be scaled to a PGA (_peak_factor) or a spectrum. Used as recorded it is a run without
+    shaking (the hydrostatic state held), which is allowed."""
     if not np.any(np.asarray(acc)[:kept_samples(len(acc), dt, duration)]):
         within = " within ground_motion.duration" if kept_samples(len(acc), dt, duration) < len(acc) else ""
         raise MotionError(f"{source}: the record is all zeros{within}: it cannot be scaled, and shakes nothing",

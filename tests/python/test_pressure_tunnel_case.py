@@ -82,9 +82,11 @@ def test_the_slices_y_faces_move_as_one_under_the_motion_along_the_axis(ran):
         assert lo.size == hi.size == xyz.shape[0] // 2
         key = {(round(x, 6), round(z, 6)): n for n, (x, _, z) in zip(hi, xyz[hi], strict=True)}
         partner = np.array([key[(round(x, 6), round(z, 6))] for x, _, z in xyz[lo]])
-        moving = [u for u in snaps if np.max(np.abs(u)) > 0]
-        assert moving, cond
-        for u in moving:
-            scale = np.max(np.abs(u))
-            assert np.max(np.abs(u[lo] - u[partner])) < 1e-9 * scale, cond
+        largest = max(float(np.max(np.abs(u))) for u in snaps)
+        assert largest > 0, cond
+        for u in snaps:  # the snapshot at the seismic start included (round-off there: ~1e-20 m)
+            assert np.max(np.abs(u[lo] - u[partner])) < 1e-9 * largest, cond
+        shaking = [u for u in snaps if np.max(np.abs(u)) > 1e-3 * largest]
+        assert shaking, cond
+        for u in shaking:
             assert np.max(np.abs(u[:, 1])) > 0.1 * np.max(np.abs(u[:, 0])), cond
