@@ -23,7 +23,7 @@ from conftest import EXAMPLE
 from tunnelquake.cli import main
 from tunnelquake.compare import results_differences as _differences
 
-RECORD = "../../../shared/data/ground_motions/elCentro_1940_NS_Peknold_dt0.02.AT2"
+RECORD = "../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2"
 
 #: shaking simulated, s; a checkpoint every INTERVAL s of it
 END, INTERVAL = 0.6, 0.15
