@@ -570,7 +570,13 @@ void Foam::tq::fieldCheckpoint::store()
         fields_.transfer(kept);
     }
 
-    gamgForward_ = pairAgglomerationForward();
+    // Only a mesh that moves builds its agglomeration again after the first
+    // solve; a static one (the transpiration interface) keeps it, so the
+    // direction is neither read nor put back there
+    if (mesh_.dynamic())
+    {
+        gamgForward_ = pairAgglomerationForward();
+    }
 
     // Mesh motion state.  V0 and meshPhi exist once the mesh has moved.
     points_ = mesh_.points();
@@ -687,7 +693,7 @@ void Foam::tq::fieldCheckpoint::restore() const
         }
     }
 
-    if (pairAgglomerationForward() != gamgForward_)
+    if (mesh_.dynamic() && pairAgglomerationForward() != gamgForward_)
     {
         flipPairAgglomerationDirection();
     }
