@@ -97,6 +97,7 @@ def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
     from .design import figures as F
 
     lines = []
+    figs.mkdir(parents=True, exist_ok=True)
     for name, caption in DESIGN_FIGURES:
         (figs / name).unlink(missing_ok=True)
         try:
