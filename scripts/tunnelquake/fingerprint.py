@@ -50,6 +50,19 @@ LEFT_OUT = {"output.directory", "output.allow_outside", "output.checkpoint_inter
             "coupling.transport", "water.log", "water.log_interval"}
 MOVED = {"output.displacement_reference": "design"}
 
+#: design sections the analysis itself reads when a region's model takes them (a reinforced_concrete
+#: lining is built from the concrete and the bars the design check reads): then they shape results
+ANALYSIS_DESIGN = {"reinforced_concrete": ("design.concrete.", "design.reinforcement.")}
+
+
+def _key_group(key: str, group: str, analysis_design: tuple[str, ...]) -> str:
+    """The group a key counts in: its section's, moved (MOVED), or 'solid material' for a design key
+    the analysis reads."""
+    if key.startswith(analysis_design):
+        return "solid material"
+    return MOVED.get(key, group)
+
+
 #: the water keys the static_water condition reads (its hydrostatic load); dynamic_water reads them all
 STATIC_WATER_KEYS = {"water.density", "water.head"}
 
@@ -82,6 +95,8 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
     "groups": {group: digest}, "keys": {key: [group, value as JSON]}}, of the keys that shape its
     results; with `post_only` of the design group's keys alone (what `post` reads)."""
     keys: dict[str, list[str]] = {}
+    models = {m.get("model") for m in (case.data.get("materials") or {}).values() if isinstance(m, dict)}
+    analysis_design = tuple(p for model in sorted(models & ANALYSIS_DESIGN.keys()) for p in ANALYSIS_DESIGN[model])
     for section in case.data:
         group = SECTION_GROUPS.get(section, "other")
         if section in NOT_SHAPING or case.data[section] is None:
@@ -95,11 +110,12 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
         for key, value in flat.items():
             if key in LEFT_OUT or (cond == "static_water" and group == "water" and key not in STATIC_WATER_KEYS):
                 continue
-            if (MOVED.get(key, group) == POST_ONLY) != post_only:
+            key_group = _key_group(key, group, analysis_design)
+            if (key_group == POST_ONLY) != post_only:
                 continue
             if section == "ground_motion" and key.endswith(".file") and json.loads(value):
                 value = _file_digest(case.dir / json.loads(value))  # the record, wherever it lies
-            keys[key] = [MOVED.get(key, group), value]
+            keys[key] = [key_group, value]
     groups: dict[str, dict] = {}
     for key, (group, value) in keys.items():
         groups.setdefault(group, {})[key] = value

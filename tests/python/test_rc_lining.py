@@ -99,3 +99,23 @@ def test_a_reinforced_lining_needs_the_design_blocks_concrete_and_bars(tmp_path,
     with pytest.raises(CaseError) as e:
         _write(tmp_path, design=design)
     assert key in str(e.value) and "reinforced_concrete" in str(e.value)
+
+
+def test_the_bars_of_a_reinforced_lining_are_in_its_results_fingerprint(tmp_path):
+    """The bars and the concrete shape a reinforced_concrete lining's analysis, so they are in the
+    conditions' input fingerprint (a `--resume` after a change of bars runs again, `post` refuses);
+    with an elastic lining the same keys are the design check's only (post-only: a re-post)."""
+    from tunnelquake.fingerprint import condition_inputs
+
+    def digests(text):
+        p = tmp_path / "case.yaml"
+        p.write_text(text)
+        case = load_case(p)
+        return condition_inputs(case, "no_water")["digest"], condition_inputs(case, "no_water", post_only=True)["digest"]
+
+    more_bars = DESIGN.replace("As_inner: 1005 mm^2/m", "As_inner: 1340 mm^2/m")
+    rc, rc_more = digests(CASE.replace("DESIGN", DESIGN)), digests(CASE.replace("DESIGN", more_bars))
+    assert rc[0] != rc_more[0] and rc[1] == rc_more[1]
+    elastic = CASE.replace("model: reinforced_concrete", "model: elastic")
+    el, el_more = digests(elastic.replace("DESIGN", DESIGN)), digests(elastic.replace("DESIGN", more_bars))
+    assert el[0] == el_more[0] and el[1] != el_more[1]
