@@ -28,7 +28,7 @@ ATTR = "input_fingerprint"
 #: the group of each top-level case section; a section not named here nor in NOT_SHAPING goes to
 #: the group "other" (so a section added to the case's schema is in the fingerprint until placed)
 SECTION_GROUPS = {
-    "geometry": "geometry", "mesh": "geometry", "layers": "geometry",
+    "geometry": "geometry", "mesh": "geometry", "layers": "geometry", "geology": "geometry",
     "materials": "solid material", "interface": "solid material", "in_situ": "solid material",
     "stages": "solid material", "damping": "solid material",
     "water": "water",
