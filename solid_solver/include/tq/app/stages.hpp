@@ -67,6 +67,9 @@ class StagedAnalysis {
   /// largest nodal value is, and whether the ratio was still falling (`history`: steps, ratio).
   std::string notInEquilibrium(const std::string& name, const RelaxResult& r,
                                const std::vector<std::pair<Index, Real>>& history);
+  /// The fault_offset stage: the /fault_offset nodes fixed and moved, in its increments, each
+  /// relaxed (the report sums their steps and times).
+  StageReport faultOffsetStage(std::ostream& log, double progressSeconds);
   void activateLining(std::ostream& log, StageReport& rep);
   void installInterface(std::ostream& log, StageReport& rep);
   void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
