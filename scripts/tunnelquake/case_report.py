@@ -9,6 +9,8 @@ from __future__ import annotations
 import errno
 from pathlib import Path
 
+import numpy as np
+
 from .children import say
 from .files import DiskFull, atomic_path, is_no_space
 from .scene import plan
@@ -130,6 +132,41 @@ FIGURES = (
 )
 
 
+def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
+    """The lining as a beam along the axis (3D results): per condition the largest |resultant|
+    at the seismic start and over the snapshots, each with its y, the interface's largest slip,
+    and the CSV of the whole profile (post.lining_along_axis)."""
+    rows = []
+    for res in results:
+        axis = P.lining_along_axis(res)
+        if axis is None:
+            continue
+        f = out / f"lining_axis_{res.condition}.csv"
+        try:
+            P.lining_axis_csv(axis, f)
+        except OSError as e:
+            if not is_no_space(e):
+                raise
+            unwritten.append(_disk_full(e, f))
+        for k, unit in P.AXIS_RESULTANTS.items():
+            i, j = int(np.argmax(np.abs(axis["start"][k]))), int(np.argmax(axis["envelope"][k]))
+            rows.append(f"| {P.CONDITION_LABELS[res.condition]} | {k} ({unit}) | {axis['start'][k][i]:.4g} at y = "
+                        f"{axis['y'][i]:.4g} m | {axis['envelope'][k][j]:.4g} at y = {axis['y'][j]:.4g} m |")
+        if axis["slip"] is not None:
+            i = int(np.argmax(axis["slip"]["max"]))
+            rows.append(f"| {P.CONDITION_LABELS[res.condition]} | interface slip (m), t = {axis['end_time']:.4g} s | "
+                        f"– | {axis['slip']['max'][i]:.4g} at y = {axis['slip']['y'][i]:.4g} m |")
+    if not rows:
+        return []
+    return ["## The lining along the axis", "",
+            "The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
+            "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
+            "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
+            "`lining_axis_<condition>.csv`.", "",
+            "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the snapshots: "
+            "largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
+
+
 def post_case(case) -> Path:
     from . import paper
     from . import post as P
@@ -193,6 +230,7 @@ def post_case(case) -> Path:
                   "what exists.", ""]
     else:
         lines += R.differences_section(results, order)
+        lines += _lining_axis(P, results, out, unwritten)
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
