@@ -200,6 +200,11 @@ def run_tq(build: Path, m: Model, formulation: str) -> tuple[np.ndarray, float, 
         return r["snapshots/0/u"][...], wall, line
 
 
+def _num(v) -> str:
+    """A number as CalculiX reads it: at most 20 characters a field (13 significant digits)."""
+    return f"{float(v):.12e}"
+
+
 def write_ccx_deck(m: Model, element: str, out: Path) -> np.ndarray:
     """The CalculiX deck of the same problem; returns the map mesh node -> CalculiX node (1-based;
     a lining node of a bonded pair is its rock partner)."""
@@ -213,7 +218,7 @@ def write_ccx_deck(m: Model, element: str, out: Path) -> np.ndarray:
     node_id[pairs[:, 1]] = pairs[:, 0] + 1  # merged: the tie
     used = np.unique(node_id[conn])
     lines = ["*HEADING", "fault offset benchmark (benchmarks/fault_offset.py)", "*NODE, NSET=NALL"]
-    lines += [f"{i}, {xyz[i - 1, 0]!r}, {xyz[i - 1, 1]!r}, {xyz[i - 1, 2]!r}" for i in used]
+    lines += [f"{i}, {_num(xyz[i - 1, 0])}, {_num(xyz[i - 1, 1])}, {_num(xyz[i - 1, 2])}" for i in used]
     for k, name in enumerate(names):
         sel = np.flatnonzero(region == k)
         if not len(sel):
@@ -222,7 +227,8 @@ def write_ccx_deck(m: Model, element: str, out: Path) -> np.ndarray:
         lines += [f"{e + 1}, " + ", ".join(str(int(n)) for n in node_id[conn[e]]) for e in sel]
     for name in names:
         mat = m.data["materials"][name]
-        lines += [f"*MATERIAL, NAME=M_{name}", "*ELASTIC", f"{mat['youngs_modulus']!r}, {mat['poisson_ratio']!r}",
+        lines += [f"*MATERIAL, NAME=M_{name}", "*ELASTIC",
+                  f"{_num(mat['youngs_modulus'])}, {_num(mat['poisson_ratio'])}",
                   f"*SOLID SECTION, ELSET=E_{name}, MATERIAL=M_{name}"]
     lines += ["*STEP", "*STATIC", "*BOUNDARY"]
     seen = set()
@@ -231,7 +237,7 @@ def write_ccx_deck(m: Model, element: str, out: Path) -> np.ndarray:
         if cid in seen:
             continue
         seen.add(cid)
-        lines += [f"{cid}, {d + 1}, {d + 1}, {u[d]!r}" for d in range(3)]
+        lines += [f"{cid}, {d + 1}, {d + 1}, {_num(u[d])}" for d in range(3)]
     lines += ["*NODE PRINT, NSET=NALL", "U", "*END STEP", ""]
     out.write_text("\n".join(lines))
     return node_id
@@ -311,7 +317,7 @@ def markdown(levels: list[Level], pairs=PAIRS) -> str:
     for lv in levels:
         for formulation, element in pairs:
             a, b = lv.profiles[("tq-solid", formulation)], lv.profiles[("CalculiX", element)]
-            diffs = " | ".join(f"{100 * difference(a, b, q):.3f} %" for q, _ in QUANTITIES)
+            diffs = " | ".join(f"{100 * difference(a, b, q):.3g} %" for q, _ in QUANTITIES)
             rows.append(f"| {lv.level:g} | {lv.elements:,} | {lv.axial_length:.3f} | {formulation} / {element} | "
                         f"{diffs} | {lv.walls[('tq-solid', formulation)]:.1f} | "
                         f"{lv.walls[('CalculiX', element)]:.1f} |")

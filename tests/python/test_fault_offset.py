@@ -262,7 +262,7 @@ def test_offset_then_shaking_holds_the_slip_through_the_switch(prepared):
         assert "in 2 increment(s), held in x, y, z" in str(stage.attrs["note"])
         nodes = f["fault_offset/nodes"][...]
         last = r["snapshots"][str(len(r["snapshots"]) - 1)]
-        assert float(last.attrs["time"]) == pytest.approx(0.004, rel=1e-6)
+        assert 0.004 <= float(last.attrs["time"]) < 0.0041  # the end, to a step
         moved = np.abs(last["u"][...][nodes]).max()
     assert moved < 1e-3 * slip, moved
     # the report's section: the lining's resultants along the axis at the seismic start, from the
@@ -275,7 +275,7 @@ def test_offset_then_shaking_holds_the_slip_through_the_switch(prepared):
     assert axis is not None and axis["y"].size >= 6
     lines = _lining_axis(P, [res], tmp, [])
     assert lines[0] == "## The lining along the axis"
-    assert sum(line.startswith("| no water | ") for line in lines) == 5
+    assert sum(line.startswith("| (1) no water | ") for line in lines) == 5
     with open(tmp / "lining_axis_no_water.csv") as fh:
         rows = fh.read().splitlines()
     assert rows[0].startswith("y_m,N_start_N,M_h_start_Nm") and len(rows) == axis["y"].size + 1
