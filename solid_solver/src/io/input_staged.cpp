@@ -31,9 +31,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
     for (const auto& s : S.stages.sequence) {
       const auto it = std::find(kStageOrder.begin(), kStageOrder.end(), s);
       if (it == kStageOrder.end())
-        c.fail(w,
-               "unknown stage '" + s +
-                   "' (stages, in this order: in_situ, excavation, lining, hydrostatic, fault_offset, seismic)");
+        c.fail(w, "unknown stage '" + s +
+                      "' (stages, in this order: in_situ, excavation, lining, hydrostatic, fault_offset, seismic)");
       const size_t k = size_t(it - kStageOrder.begin());
       if (k < at)
         c.fail(w, "stage '" + s +
