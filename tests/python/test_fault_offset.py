@@ -312,3 +312,16 @@ def test_axis_resultants_of_a_linear_axial_stress_are_the_rings_area_and_inertia
     assert r.M_h == pytest.approx(-b * inertia, rel=0.02)
     assert r.M_v == pytest.approx(-c * inertia, rel=0.02)
     assert np.all(r.V_h == 0) and np.all(r.V_v == 0)
+
+
+def test_the_shipped_fault_crossing_case_passes_check(capsys):
+    """cases/fault_crossing: a pressure tunnel crossing a 20 m fault zone at 60 degrees, a 0.5 m
+    offset before the shaking; check passes and says the slip vector of magnitude 0.5 m at rake 45."""
+    case = Path(__file__).resolve().parents[2] / "cases" / "fault_crossing"
+    assert main(["check", str(case)]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    v = slip_vector(60.0, 70.0, 0.5, 45.0)
+    assert f"fault offset: the hanging wall moved by [{v[0]:.4g}, {v[1]:.4g}, {v[2]:.4g}] m (0.5 m)" in out
+    d = load_case(case / "case.yaml").data
+    fz = d["geology"]["fault_zone"]
+    assert (fz["width"], fz["strike"]) == (20.0, 60.0) and d["mesh"]["mode"] == "3d"
