@@ -178,8 +178,14 @@ def _fault_offset_section() -> Section:
                        doc="degrees in the fault's plane from its strike direction (Aki & Richards): 90 reverse "
                            "(the hanging wall up dip), -90 normal, 0 left-lateral, 180 right-lateral"),
         "increments": Number(integer=True, min=1, default=10,
-                             doc="equal steps the slip is imposed in, each relaxed to static equilibrium (more "
-                                 "follow a yielding ground's path more closely)"),
+                             doc="equal steps the static slip is imposed in, each relaxed to static equilibrium "
+                                 "(more follow a yielding ground's path more closely)"),
+        "rise_time": _positive(U.TIME, "s: the slip during the run instead, from start_time over rise_time (a "
+                                       "cosine ramp), the block's faces but the top held to it, so no record "
+                                       "enters (the slip alone, dynamic); none: the static offset before the "
+                                       "shaking"),
+        "start_time": Number(dim=U.TIME, min=0.0, doc="s from the start of the run (the seismic stage) at which a "
+                                                      "slip with rise_time starts (default 0)"),
     })
 
 
@@ -194,6 +200,10 @@ def _check_fault_offset(fo, path, raw, ctx):
                   line)
     elif fo["rake"] is not None and fo["magnitude"] is None:
         ctx.error(f"{path}.magnitude", None, "is required with rake", "add 'magnitude: <slip> m'", line)
+    if fo["start_time"] is not None and fo["rise_time"] is None:
+        ctx.error(f"{path}.start_time", fo["start_time"], "times a slip during the run, which needs rise_time",
+                  "add 'rise_time: <s>' (the slip during the run), or remove start_time (the static offset before "
+                  "the shaking)", line)
 
 
 def fault_offset_slip(d: dict):
@@ -232,6 +242,13 @@ def _fault_offset_checks(d: dict, raw: LineDict) -> list[Issue]:
     if size == 0:
         return [Issue("fault_offset.slip", list(map(float, slip)), "is zero: the fault does not move",
                       "give the hanging wall's displacement, e.g. slip: [0, 0, 0.5] m, or remove fault_offset", line)]
+    end = (d.get("time") or {}).get("end_time")
+    if fo.get("rise_time") is not None and end is not None and (fo.get("start_time") or 0.0) + fo["rise_time"] > end:
+        return [Issue("fault_offset.rise_time", fo["rise_time"],
+                      f"with start_time {fo.get('start_time') or 0.0:g} s ends the slip at "
+                      f"{(fo.get('start_time') or 0.0) + fo['rise_time']:g} s, after the run's end (time.end_time "
+                      f"{end:g} s)", "shorten the rise time or start the slip earlier, or lengthen time.end_time",
+                      _section_lines(raw, "fault_offset").get("rise_time"))]
     geo = case_geology(d)
     normal = float(np.dot(slip, geo.fault.plane.normal))
     if abs(normal) > 1e-3 * size:
@@ -844,6 +861,10 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _layer_checks(d, raw)
     issues += _geology_checks(d, raw)
     issues += _fault_offset_checks(d, raw)
+    if (d.get("fault_offset") or {}).get("rise_time") is not None:
+        warnings.append("fault_offset.rise_time: the slip during the run holds the block's faces but the top in x, y "
+                        "and z, so the ground motion does not enter: the run is the slip alone (without rise_time "
+                        "the offset is static, before the shaking)")
     issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     from .sanity import case_warnings

@@ -169,7 +169,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         raise SolidInputError(f"mesh {mesh_h5} has region(s) {missing} without a material in the case; "
                               f"add materials.{missing[0]}")
     sequence = list(stages["sequence"])
-    if fault_offset_slip(d) is not None:  # the offset before the shaking
+    if fault_offset_slip(d) is not None and d["fault_offset"]["rise_time"] is None:  # the offset before the shaking
         sequence.insert(sequence.index("seismic") if "seismic" in sequence else len(sequence), "fault_offset")
     hydrostatic = condition in ("static_water", "dynamic_water") and water["head"] > 0
     if not hydrostatic:
@@ -248,6 +248,9 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(fo, "/fault_offset", "nodes", offset[0])
             w(fo, "/fault_offset", "displacement", offset[1])
             w(fo, "/fault_offset", "increments", int(d["fault_offset"]["increments"]))
+            if d["fault_offset"]["rise_time"] is not None:  # the slip during the run
+                w(fo, "/fault_offset", "rise_time", d["fault_offset"]["rise_time"])
+                w(fo, "/fault_offset", "start_time", d["fault_offset"]["start_time"] or 0.0)
         if mesh["pairs"]:
             it = d["interface"]
             r = f.create_group("interfaces/rock_lining")

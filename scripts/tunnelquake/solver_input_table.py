@@ -252,6 +252,10 @@ ENTRIES: tuple[Entry, ...] = (
        "stage", unit="m", required=True),
     _e("/fault_offset", "increments", "int", "equal steps the displacement is imposed in, each relaxed to "
        "equilibrium", default=1, lo=1),
+    _e("/fault_offset", "rise_time", "float", "T > 0: no fault_offset stage; from the seismic stage's switch the "
+       "nodes are held and moved by the displacement times ½(1 − cos(π (t − t0)/T)) over [t0, t0 + T], t0 = "
+       "start_time; 0: the static offset of the fault_offset stage", unit="s", default=0.0, lo=0.0),
+    _e("/fault_offset", "start_time", "float", unit="s", default=0.0, lo=0.0),
     _e("/interfaces/rock_lining", "model", "str", "`bonded`: the pairs tied; `dynamic_contact`: eqs. 9–13",
        default="bonded", choices=("bonded", "dynamic_contact"), case="interface.model"),
     _e("/interfaces/rock_lining", "static_friction", "float", "μs, μd, f_c, and what a failed pair keeps "

@@ -5,7 +5,8 @@
    share 1 above the band, 0 below, linear across it.
 2. Input errors, each a `check` error naming the key and the fix: no fault zone to slip across,
    magnitude without rake, rake without magnitude, the slip given twice, a slip with a component
-   normal to the plane, a zero slip, a fault plane that misses the block.
+   normal to the plane, a zero slip, a rise time <= 0, a start time without a rise time, a slip
+   that ends after the run, a fault plane that misses the block.
 3. solid_input.h5: the fault_offset stage before the seismic one; every node of the block's faces
    but the top moved by its share of the slip (hanging wall the whole slip, footwall none).
 4. Against CalculiX (skipped without ccx or a tq-solid with the stage): the static elastic offset
@@ -152,6 +153,12 @@ def test_the_case_passes_check_and_says_the_offset(tmp_path, capsys):
     (("magnitude: 0.2 m, rake: -30", "magnitude: 0 m, rake: -30"), "fault_offset.magnitude = '0 m': must be > 0"),
     (("rake: -30", "rake: 270"), "fault_offset.rake = 270: must lie in [-180, 180]"),
     (("increments: 2", "increments: 0"), "fault_offset.increments = 0"),
+    (("increments: 2", "increments: 2, rise_time: 0 s"), "fault_offset.rise_time = '0 s': must be > 0"),
+    (("increments: 2", "increments: 2, start_time: 0.001 s"),
+     "fault_offset.start_time = 0.001: times a slip during the run, which needs rise_time. Fix: add 'rise_time: <s>'"),
+    (("increments: 2", "increments: 2, rise_time: 0.003 s, start_time: 0.002 s"),
+     "fault_offset.rise_time = 0.003: with start_time 0.002 s ends the slip at 0.005 s, after the run's end "
+     "(time.end_time 0.004 s)"),
     (("point: [0, 15, 0]", "point: [0, 15, 400]"), "geology.fault_zone.point = [0.0, 15.0, 400.0]: the band (4 m wide "
                                                    "about the plane through [0.0, 15.0, 400.0]) misses the block"),
 ])

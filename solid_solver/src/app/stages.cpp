@@ -33,6 +33,24 @@ Real zBottomOf(const Mesh& m) {
 
 }  // namespace
 
+PrescribedSlip::PrescribedSlip(const FaultOffsetInput& in, const NodalState& state)
+    : nodes_(in.nodes), d_(in.displacement), u0_(3 * in.nodes.size()), t0_(in.startTime), rise_(in.riseTime) {
+  for (size_t i = 0; i < nodes_.size(); ++i)
+    for (int d = 0; d < 3; ++d) u0_[3 * i + d] = state.u(nodes_[i], d);
+}
+
+Real PrescribedSlip::ramp(Real t) const {
+  if (t <= t0_) return 0;
+  if (t >= t0_ + rise_) return 1;
+  return 0.5 * (1 - std::cos(M_PI * (t - t0_) / rise_));
+}
+
+void PrescribedSlip::addForces(Real t, Real dt, NodalState& state) {
+  const Real r = ramp(t + dt);
+  for (size_t i = 0; i < nodes_.size(); ++i)
+    for (int d = 0; d < 3; ++d) state.u(nodes_[i], d) = u0_[3 * i + d] + r * d_[3 * i + d];
+}
+
 void HeldExcavationLoad::addForces(Real, Real, NodalState& state) {
   if (released_) return;
   Real* fe = state.fExtData();
@@ -545,6 +563,14 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
   if (S.stages.has("fault_offset"))
     for (Index n : S.faultOffset.nodes)
       for (int d = 0; d < 3; ++d) byReplaced[3 * size_t(n) + d] = 1;
+  // A slip during the shaking: its nodes keep (or take) a support in every direction, no reaction held.
+  const bool slipping = S.faultOffset.dynamic();
+  if (slipping)
+    for (Index n : S.faultOffset.nodes)
+      for (int d = 0; d < 3; ++d) {
+        if (!solver_.isFixed(n, d)) solver_.fix(n, d);
+        keep[3 * size_t(n) + d] = 1;
+      }
   if (mesh_.slice && !S.periodic.present)
     for (Index n = 0; n < N; ++n) keep[3 * size_t(n) + 1] = 1;  // plane strain stays
   std::vector<Real> held(3 * size_t(N), 0.0);
@@ -636,6 +662,17 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
        << drm_->numOuter() << " outer nodes (" << drm_->numDistinctCouplings()
        << " distinct element couplings), free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
        << " s";
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // The fault's slip: puts its nodes each step (they are held, so no other force moves them).
+  if (slipping) {
+    slip_ = std::make_shared<PrescribedSlip>(S.faultOffset, st);
+    solver_.addContributor(ForcePhase::Boundaries, slip_);
+    std::ostringstream os;
+    os.precision(4);
+    os << "fault slip: " << S.faultOffset.nodes.size() << " nodes held and moved over t = " << S.faultOffset.startTime
+       << " … " << S.faultOffset.startTime + S.faultOffset.riseTime << " s (cosine ramp)";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }

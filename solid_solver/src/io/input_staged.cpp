@@ -105,8 +105,18 @@ void readStagedInput(hid_t f, SolidInput& in) {
       if (!std::isfinite(x)) c.fail(w, "displacement holds a non-finite value");
     F.increments = Index(c.number(g, w, KF::increments));
     if (F.nodes.empty()) c.fail(w, "nodes is empty; give the nodes to move or leave /fault_offset out");
-    if (!S.stages.has("fault_offset"))
+    F.riseTime = c.number(g, w, KF::rise_time);
+    F.startTime = c.number(g, w, KF::start_time);
+    if (F.dynamic()) {
+      if (!S.stages.has("seismic"))
+        c.fail(w, "a slip with rise_time > 0 is imposed in the seismic stage, which /stages sequence does not have");
+      if (S.stages.has("fault_offset"))
+        c.fail(w,
+               "a slip with rise_time > 0 is imposed in the seismic stage, not by a fault_offset stage: remove "
+               "fault_offset from /stages sequence or set rise_time to 0");
+    } else if (!S.stages.has("fault_offset")) {
       c.fail(w, "the offset is imposed by the fault_offset stage, which /stages sequence does not have");
+    }
   }
   if (S.stages.has("fault_offset") && !S.faultOffset.present)
     c.fail("/fault_offset", "group is required by the fault_offset stage (datasets nodes, displacement)");

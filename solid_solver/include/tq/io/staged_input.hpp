@@ -60,14 +60,20 @@ struct HydrostaticInput {
 };
 
 /// /fault_offset: a prescribed displacement of given nodes (a fault's slip at the block's
-/// boundaries, docs/solid_solver.md "Fault offset"), imposed by the fault_offset stage on top of
-/// the state before it, in `increments` equal steps, each relaxed to equilibrium; the nodes are
-/// held there (all three directions) until the seismic stage, which holds their reactions.
+/// boundaries, docs/solid_solver.md "Fault offset"). Static (rise_time 0): imposed by the
+/// fault_offset stage on top of the state before it, in `increments` equal steps, each relaxed to
+/// equilibrium; the nodes are held there (all three directions) until the seismic stage, which
+/// holds their reactions. Dynamic (rise_time > 0): from the seismic stage's switch the nodes are
+/// held in x, y, z and moved by the displacement times the ramp ½(1 − cos(π (t − t0)/T)) over
+/// [t0, t0 + T], t0 = start_time, T = rise_time (PrescribedSlip).
 struct FaultOffsetInput {
   bool present = false;
   std::vector<Index> nodes;        ///< [N] mesh node indices
   std::vector<Real> displacement;  ///< [3N] the displacement each node is given (m)
   Index increments = 1;
+  Real riseTime = 0;   ///< T (s); 0: the static offset of the fault_offset stage
+  Real startTime = 0;  ///< t0 (s) from the seismic stage's start
+  bool dynamic() const { return present && riseTime > 0; }
 };
 
 /// /interfaces/rock_lining: the rock-lining node pairs of mesh.h5 and how they interact.
