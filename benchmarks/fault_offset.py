@@ -147,8 +147,10 @@ def make_model(level: float, workdir: Path) -> Model:
                  lining_axial_length=float(np.diff(ys).min()))
 
 
-def write_tq_input(m: Model, formulation: str, out: Path) -> Path:
-    """tq-solid's input for the offset alone: the fault_offset stage, no gravity, bonded lining."""
+def write_tq_input(m: Model, formulation: str, out: Path, history: dict | None = None) -> Path:
+    """tq-solid's input for the offset alone: the fault_offset stage, no gravity, bonded lining.
+    With ``history`` ({start_time, rise_time, t_end, alpha, snapshot_times}) the slip during a
+    seismic stage instead (no motion, no absorbing boundary, mass-proportional damping alpha)."""
     table = entries()
     with h5py.File(out, "w") as f:
         def w(obj, group, name, value):
@@ -158,7 +160,7 @@ def write_tq_input(m: Model, formulation: str, out: Path) -> Path:
         w(f, "/", "version", VERSION)
         w(f, "/", "mesh", os.path.relpath(m.mesh_h5.resolve(), out.parent.resolve()))
         s = f.create_group("solver")
-        w(s, "/solver", "t_end", 1.0)
+        w(s, "/solver", "t_end", history["t_end"] if history else 1.0)
         w(s, "/solver", "formulation", formulation)
         with h5py.File(m.mesh_h5) as mf:
             regions = [r.decode() if isinstance(r, bytes) else str(r) for r in mf["elements"].attrs["regions"]]
@@ -170,16 +172,23 @@ def write_tq_input(m: Model, formulation: str, out: Path) -> Path:
             w(g, MATERIALS, "nu", mat["poisson_ratio"])
             w(g, MATERIALS, "rho", mat["density"])
         st = f.create_group("stages")
-        w(st, "/stages", "sequence", "fault_offset")
+        w(st, "/stages", "sequence", "seismic" if history else "fault_offset")
         w(st, "/stages", "relaxation_tolerance", TOLERANCE)
         w(st, "/stages", "relaxation_max_steps", 2_000_000)
         fo = f.create_group("fault_offset")
         w(fo, "/fault_offset", "nodes", m.nodes)
         w(fo, "/fault_offset", "displacement", m.displacement)
         w(fo, "/fault_offset", "increments", 1)
+        if history:
+            w(fo, "/fault_offset", "rise_time", history["rise_time"])
+            w(fo, "/fault_offset", "start_time", history["start_time"])
+            dm = f.create_group("damping")
+            w(dm, "/damping", "alpha", history["alpha"])
         w(f.create_group("interfaces/rock_lining"), "/interfaces/rock_lining", "model", "bonded")
         o = f.create_group("output")
         w(o, "/output", "ring_forces", 0)
+        if history:
+            w(o, "/output", "snapshot_times", np.asarray(history["snapshot_times"], float))
         write_schema(f, table)
     return out
 

@@ -332,3 +332,43 @@ def test_the_shipped_fault_crossing_case_passes_check(capsys):
     d = load_case(case / "case.yaml").data
     fz = d["geology"]["fault_zone"]
     assert (fz["width"], fz["strike"]) == (20.0, 60.0) and d["mesh"]["mode"] == "3d"
+
+
+@pytest.mark.skipif(_solid_with_offset() is None, reason="tq-solid with the fault_offset stage is not built")
+def test_slip_during_the_run_follows_the_ramp_and_settles_on_the_static_offset(tmp_path):
+    """The slip with a rise time (benchmarks/fault_offset.py's coarsest model, elastic): the held
+    nodes are at the cosine ramp's value at each snapshot (to round-off), and with a mass-
+    proportional damping near critical for the block's lowest modes (alpha = 250/s; the lowest
+    shear mode about c_s / 4H = 18 Hz) the lining's axial strain and curvatures 0.2 s after the slip
+    equal the static offset's (the fault_offset stage on the same mesh) within 0.1 % of their peaks:
+    what is left of the transient decays as exp(-alpha t / 2) ~ e^-25."""
+    from benchmarks.fault_offset import QUANTITIES, difference, make_model, run_tq, write_tq_input
+    from tunnelquake.lining_axis import axis_profile, lining_nodes
+
+    exe = _solid_with_offset()
+    m = make_model(1, tmp_path)
+    u_static, _, _ = run_tq(exe.parent.parent, m, "one_point_assumed_strain")
+    t0, rise, t_end = 0.005, 0.02, 0.225
+    times = [t0 + 0.25 * rise, t0 + 0.5 * rise, t_end]
+    inp = write_tq_input(m, "one_point_assumed_strain", tmp_path / "dynamic.h5",
+                         {"start_time": t0, "rise_time": rise, "t_end": t_end, "alpha": 250.0,
+                          "snapshot_times": times})
+    res = tmp_path / "dynamic_results.h5"
+    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "fault slip:" in run.stdout
+    with h5py.File(res) as r, h5py.File(m.mesh_h5) as f:
+        snaps = sorted((float(r["snapshots"][k].attrs["time"]), r["snapshots"][k]["u"][...]) for k in r["snapshots"])
+        xyz, conn = f["nodes/coordinates"][...], f["elements/connectivity"][...]
+        region = f["elements/region"][...]
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["elements"].attrs["regions"]]
+    assert len(snaps) == 3
+    for t, u in snaps:
+        ramp = 0.5 * (1 - math.cos(math.pi * min(1.0, (t - t0) / rise)))
+        assert np.abs(u[m.nodes] - ramp * m.displacement).max() <= 1e-12 * np.abs(m.displacement).max()
+    nodes = lining_nodes(conn, region, names.index("lining"))
+    static = axis_profile(xyz, nodes, u_static, (0.0, 0.0))
+    settled = axis_profile(xyz, nodes, snaps[-1][1], (0.0, 0.0))
+    for q, _ in QUANTITIES:
+        assert difference(settled, static, q) < 1e-3, (q, difference(settled, static, q))
