@@ -28,7 +28,7 @@ vertical plane along the axis, from each code's nodal displacements through the 
 (`tunnelquake.lining_axis.axis_profile`: plane sections fitted to the lining nodes of each station):
 per quantity max over the stations |tq - ccx| / max |ccx|. The ladder (`mesh.refinement_factor` 1,
 2, 3) gives the peaks of each quantity per level and the observed order from the three levels
-(benchmarks.common.observed_orders against the typical element length).
+(`three_level_order`, against the shortest lining element along the axis).
 
 Usage (from the repository root): TQ_BUILD_DIR=build .venv/bin/python -m benchmarks.fault_offset
 [--levels 1 1.5 2] [--workdir /tmp/tq-fault]
@@ -317,6 +317,30 @@ def run_level(build: Path, level: float, workdir: Path, pairs=PAIRS) -> Level:
     return out
 
 
+def three_level_order(h: list[float], q: list[float]) -> float | None:
+    """The order p of q(h) = q* + C h^p through three (h, q) pairs of any refinement ratios: the
+    root of (q1 - q0)/(q2 - q1) = (h1^p - h0^p)/(h2^p - h1^p) in (0.05, 20), by bisection; None where
+    the differences change sign (not in the asymptotic range) or no root lies there."""
+    d0, d1 = q[1] - q[0], q[2] - q[1]
+    if d0 == 0 or d1 == 0 or (d0 > 0) != (d1 > 0):
+        return None
+    target = d0 / d1
+
+    def f(p):
+        return (h[1] ** p - h[0] ** p) / (h[2] ** p - h[1] ** p) - target
+
+    lo, hi = 0.05, 20.0
+    if f(lo) * f(hi) > 0:
+        return None
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if f(lo) * f(mid) <= 0:
+            hi = mid
+        else:
+            lo = mid
+    return 0.5 * (lo + hi)
+
+
 def markdown(levels: list[Level], pairs=PAIRS) -> str:
     from .common import observed_orders
 
@@ -330,19 +354,30 @@ def markdown(levels: list[Level], pairs=PAIRS) -> str:
             rows.append(f"| {lv.level:g} | {lv.elements:,} | {lv.axial_length:.3f} | {formulation} / {element} | "
                         f"{diffs} | {lv.walls[('tq-solid', formulation)]:.1f} | "
                         f"{lv.walls[('CalculiX', element)]:.1f} |")
+    sizes = [lv.axial_length for lv in levels]
+    if len(levels) >= 2:
+        rows += ["", "Observed order of the pairs' difference between successive levels (benchmarks.common."
+                 "observed_orders against the shortest lining element along the axis):", "",
+                 "| pair | " + " | ".join(label for _, label in QUANTITIES) + " |", "|---|" + "---:|" * len(QUANTITIES)]
+        for formulation, element in pairs:
+            cells = []
+            for q, _ in QUANTITIES:
+                diffs = [difference(lv.profiles[("tq-solid", formulation)], lv.profiles[("CalculiX", element)], q)
+                         for lv in levels]
+                cells.append(", ".join("–" if o is None else f"{o:.2f}" for o in observed_orders(sizes, diffs)[1:]))
+            rows.append(f"| {formulation} / {element} | " + " | ".join(cells) + " |")
     rows += ["", "Peaks along the axis (max over the stations of \\|q\\|) per level, and the observed order "
-             "p from the three levels (q_h − q_h/2 over q_h/2 − q_h/4 scaled by the length ratios):", "",
+             "p of the last three levels (three_level_order: q = q* + C h^p through all three, h the shortest "
+             "lining element along the axis):", "",
              "| code, element | quantity | " + " | ".join(f"level {lv.level:g}" for lv in levels) + " | order |",
              "|---|---|" + "---:|" * (len(levels) + 1)]
-    sizes = [lv.axial_length for lv in levels]
     for code in [k for lv in levels[:1] for k in lv.profiles]:
         for q, label in QUANTITIES:
             peaks = [float(np.max(np.abs(getattr(lv.profiles[code], q)))) for lv in levels]
             order = "–"
             if len(levels) >= 3:
-                errs = [abs(p - peaks[-1]) for p in peaks[:-1]]
-                orders = observed_orders(sizes[:-1], errs)
-                order = ", ".join("–" if o is None else f"{o:.2f}" for o in orders[1:]) or "–"
+                p = three_level_order(sizes[-3:], peaks[-3:])
+                order = "–" if p is None else f"{p:.2f}"
             rows.append(f"| {code[0]} {code[1]} | {label} | " + " | ".join(f"{p:.4e}" for p in peaks) +
                         f" | {order} |")
     return "\n".join(rows)
