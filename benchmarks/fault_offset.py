@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import math
 import os
 import re
 import shutil
@@ -214,6 +215,29 @@ def _num(v) -> str:
     return f"{float(v):.12e}"
 
 
+def _ccx_node_id(m: Model) -> np.ndarray:
+    """Mesh node -> CalculiX node (1-based; a lining node of a bonded pair is its rock partner)."""
+    with h5py.File(m.mesh_h5) as f:
+        n = f["nodes/coordinates"].shape[0]
+        pairs = f["interfaces/rock_lining"][...]
+    node_id = np.arange(1, n + 1)
+    node_id[pairs[:, 1]] = pairs[:, 0] + 1
+    return node_id
+
+
+def _reused_model(level: float, workdir: Path) -> Model:
+    d = workdir / f"level{level:g}"
+    data = load_case(d / "case.yaml").data
+    nodes, disp = fault_offset_displacements(data, d / "mesh.h5")
+    with h5py.File(d / "mesh.h5") as f:
+        conn, region = f["elements/connectivity"][...], f["elements/region"][...]
+        names = [r.decode() if isinstance(r, bytes) else str(r) for r in f["elements"].attrs["regions"]]
+        xyz = f["nodes/coordinates"][...]
+    ys = np.unique(np.round(xyz[conn[region == names.index("lining")]][:, :, 1].ravel(), 9))
+    return Model(level, d, data, d / "mesh.h5", nodes, disp, elements=len(conn),
+                 lining_axial_length=float(np.diff(ys).min()))
+
+
 def write_ccx_deck(m: Model, element: str, out: Path) -> np.ndarray:
     """The CalculiX deck of the same problem; returns the map mesh node -> CalculiX node (1-based;
     a lining node of a bonded pair is its rock partner)."""
@@ -264,13 +288,17 @@ def run_ccx(m: Model, element: str) -> tuple[np.ndarray, float]:
     wall = time.perf_counter() - t0
     if out.returncode != 0 or "*ERROR" in out.stdout:
         raise BenchError(f"CalculiX failed on {deck}:\n{out.stdout[-2000:]}\n{out.stderr[-2000:]}")
+    return read_ccx(deck, node_id), wall
+
+
+def read_ccx(deck: Path, node_id: np.ndarray) -> np.ndarray:
+    """The displacements [N, 3] of the mesh's nodes from CalculiX's .dat beside ``deck``."""
     u_by_id = {}
     for ln in deck.with_suffix(".dat").read_text().splitlines():
         if re.match(r"^\s*\d+\s+\S+\s+\S+\s+\S+\s*$", ln):
             p = ln.split()
             u_by_id[int(p[0])] = [float(v) for v in p[1:]]
-    u = np.array([u_by_id.get(int(i), [np.nan] * 3) for i in node_id])
-    return u, wall
+    return np.array([u_by_id.get(int(i), [np.nan] * 3) for i in node_id])
 
 
 @dataclass
@@ -293,8 +321,10 @@ def difference(a: AxisProfile, b: AxisProfile, q: str) -> float:
     return float(np.max(np.abs(x - y)) / np.max(np.abs(y)))
 
 
-def run_level(build: Path, level: float, workdir: Path, pairs=PAIRS) -> Level:
-    m = make_model(level, workdir)
+def run_level(build: Path, level: float, workdir: Path, pairs=PAIRS, reuse: bool = False) -> Level:
+    """Run both codes on one level (with ``reuse``: read what an earlier run left in ``workdir``
+    instead, the wall times then unknown)."""
+    m = make_model(level, workdir) if not reuse else _reused_model(level, workdir)
     with h5py.File(m.mesh_h5) as f:
         xyz = f["nodes/coordinates"][...]
         conn = f["elements/connectivity"][...]
@@ -305,6 +335,14 @@ def run_level(build: Path, level: float, workdir: Path, pairs=PAIRS) -> Level:
     centre = (float(g["tunnel_centre_x"]), float(g["tunnel_centre_z"]))
     out = Level(level, m.elements, m.lining_axial_length)
     for formulation, element in pairs:
+        if reuse:
+            with h5py.File(m.dir / f"tq_{formulation}_results.h5") as r:
+                u = r["snapshots/0/u"][...]
+            out.profiles[("tq-solid", formulation)] = axis_profile(xyz, nodes, u, centre)
+            out.walls[("tq-solid", formulation)] = out.walls[("CalculiX", element)] = math.nan
+            deck = m.dir / f"ccx_{element}.inp"
+            out.profiles[("CalculiX", element)] = axis_profile(xyz, nodes, read_ccx(deck, _ccx_node_id(m)), centre)
+            continue
         u, wall, line = run_tq(build, m, formulation)
         out.profiles[("tq-solid", formulation)] = axis_profile(xyz, nodes, u, centre)
         out.walls[("tq-solid", formulation)] = wall
@@ -383,10 +421,40 @@ def markdown(levels: list[Level], pairs=PAIRS) -> str:
     return "\n".join(rows)
 
 
+def figure(levels: list[Level], out: Path, pairs=PAIRS) -> Path:
+    """The lining's axial strain and curvatures along the axis: per level tq-solid's default element
+    (lines) and CalculiX's C3D8I (markers)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    formulation, element = pairs[-1]
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.0), sharex=True)
+    for k, lv in enumerate(levels):
+        a, b = lv.profiles[("tq-solid", formulation)], lv.profiles[("CalculiX", element)]
+        for ax, (q, label) in zip(axes, QUANTITIES, strict=True):
+            ax.plot(a.y, getattr(a, q), color=f"C{k}", label=f"tq-solid {formulation}, level {lv.level:g}")
+            ax.plot(b.y, getattr(b, q), "o", color=f"C{k}", mfc="none", ms=4,
+                    label=f"CalculiX {element}, level {lv.level:g}")
+            ax.set_ylabel(label, fontsize=8)
+            ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=6, ncol=2)
+    axes[-1].set_xlabel("y along the tunnel axis (m)")
+    fig.suptitle("Static fault offset: the lining along the axis", fontsize=10)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--levels", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/tq-fault"))
+    ap.add_argument("--reuse", action="store_true", help="read the outputs an earlier run left in --workdir")
+    ap.add_argument("--figure", type=Path, help="write the profiles' figure there (e.g. docs/bench/fault_offset.png)")
     args = ap.parse_args()
     build = Path(os.environ.get("TQ_BUILD_DIR", ROOT / "build"))
     reason = missing_reason(build)
@@ -395,7 +463,7 @@ def main() -> None:
     levels = []
     for lv in args.levels:
         try:
-            levels.append(run_level(build, lv, args.workdir))
+            levels.append(run_level(build, lv, args.workdir, reuse=args.reuse))
         except BenchError as e:
             sys.exit(str(e))
         print(f"level {lv:g} done", file=sys.stderr, flush=True)
@@ -403,6 +471,8 @@ def main() -> None:
                          text=True).stdout.strip()
     print(f"date {datetime.date.today()}, machine {machine()}, calculix-ccx {ver or '?'}, 1 thread each\n")
     print(markdown(levels))
+    if args.figure:
+        print(f"\nfigure: {figure(levels, args.figure)}")
     bad = [lv.level for lv in levels for f, e in PAIRS[:1]
            if max(difference(lv.profiles[("tq-solid", f)], lv.profiles[("CalculiX", e)], q) for q, _ in QUANTITIES)
            > TOLERANCE_AGREE]
