@@ -35,6 +35,9 @@ STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
 #: s of simulated time between the water's printed passes (water.log: brief)
 WATER_LOG_INTERVAL = 0.01
+#: Pa: the bulk modulus of fresh water near 10-20 degC (water.bulk_modulus's default); the one place the
+#: number is written (fluid_case.py and the verification scripts read it here)
+WATER_BULK_MODULUS = 2.2e9
 #: s of simulated time between restart checkpoints (output.checkpoint_interval): the cost of one
 #: is measured in docs/benchmarks.md "Restart checkpoints"
 CHECKPOINT_INTERVAL = 1.0
@@ -460,7 +463,8 @@ def schema() -> Section:
                             doc="compressible: real water of bulk modulus K (the default); incompressible: the "
                                 "limit K -> infinity (with coupling.volume_law solid the water's volume held by the "
                                 "solid: a closed section's, or each plane's with open ends)"),
-            "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
+            "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model",
+                                      default=WATER_BULK_MODULUS),
             "ends": Choice(choices=("open", "closed"), default=None,
                            doc="axial ends of the water column: open (pressure) or closed (walls); required by a 3D "
                                "model with dynamic_water (a slice has no axial flow)"),
