@@ -547,6 +547,22 @@ TEST(SolidCoupling, ImplicitWindowsOfSeveralStepsGiveTheLinedTunnelClosedForm) {
   EXPECT_EQ(c.windows.windows, steps / k);
 }
 
+// A coupled solid steps only through CoupledStepper: a plain Solver::step() (or relax()) with the
+// adapter among the contributors would add a force no exchange decided, and is refused, naming the fix.
+TEST(SolidCoupling, AStepOutsideTheCoupledProtocolIsRefused) {
+  const Mesh mesh = linedRing(24);
+  SolidInput in = ringInput();
+  auto s = buildSolver(in, mesh);
+  auto ad = std::make_shared<FluidCoupling>(*s, couplingInput(freshDir("outside"), "explicit", 10), 1.0);
+  s->addContributor(ForcePhase::Water, ad);
+  try {
+    s->step();
+    FAIL() << "a step outside the protocol was taken";
+  } catch (const CouplingError& e) {
+    EXPECT_NE(std::string(e.what()).find("CoupledStepper"), std::string::npos) << e.what();
+  }
+}
+
 // (d) A prescribed time-varying interface force through the coupler = the same force as the
 // solid's own load (bitwise for a force constant in time), and its booked work = the solver's
 // external work (the only external force besides the pulse, which is off here).
