@@ -43,6 +43,7 @@ import numpy as np
 
 from . import children, fingerprint, incident_wave
 from .case import CONDITIONS, coupling_predictor, coupling_window_force_weight
+from .drm_input import write_drm_group
 from .files import h5_in_memory
 from .freefield import FreeFieldError
 from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, group_attrs, linked, lookup, put, write_schema
@@ -265,7 +266,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             # wave (half an outcrop record)
             record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
             try:
-                incident_wave.write_drm_group(f, d, ground_layers(d), mesh_h5, record,
+                write_drm_group(f, d, ground_layers(d), mesh_h5, record,
                                               float(motion["time"][1] - motion["time"][0]))
             except (incident_wave.DrmLayerError, FreeFieldError) as e:
                 raise SolidInputError(f"incident_wave: {e}") from None

@@ -35,10 +35,9 @@ from tunnelquake.schema import CaseError
 
 h5py = pytest.importorskip("h5py")
 
+from conftest import ROOT  # noqa: E402
 from tunnelquake import incident_wave as iw  # noqa: E402
 from tunnelquake.paths import solid_executable  # noqa: E402
-
-from conftest import ROOT  # noqa: E402
 
 EXE = solid_executable()
 
