@@ -16,10 +16,10 @@ as the free field does. Here: a 5 m tunnel 20 m deep in a soft rock (Vs 914 m/s,
 example's), an SV Ricker pulse 20 deg from the vertical travelling along the axis and at 45 deg to
 it, run through the case keys, `write_solid_input` and tq-solid; the lining element's axial strain
 from its stress increment against eps_yy of the free field (tunnelquake.freefield, checked against
-closed forms in test_freefield.py) at the tunnel's axis. Tolerances (TOLERANCE): along the axis 1 %
-of the peak and 1 % L2 over the pulse (measured 0.11 % and 0.45 %); at 45 deg to it 4 % (measured
-3.4 % and 3.5 % low, while the displacements there agree within 0.4 %: the cause is not found, and
-the 1 % the verification asks for is not met at 45 deg; docs/verification.md)."""
+closed forms in test_freefield.py) at the tunnel's axis, 45 m from the tunnel's plugged ends.
+Tolerance: 1 % of the peak and 1 % L2 over the pulse (measured: along the axis 0.17 % and 0.70 %, at
+45 deg 0.05 % and 0.57 %). Nearer an end the lining departs from the free field: 15 m from it, in a
+60 m block, 3.4 % low at 45 deg (docs/verification.md)."""
 from __future__ import annotations
 
 import os
@@ -45,7 +45,7 @@ BASE = """
 name: wave_test
 geometry:
   x_range: [-30.0, 30.0]
-  y_range: [0.0, 60.0]
+  y_range: [0.0, 120.0]
   z_range: [-30.0, 20.0]
   tunnel_centre_x: 0.0
   tunnel_centre_z: 0.0
@@ -56,7 +56,7 @@ mesh:
   max_element_size: 6 m
   lining_elements_around: 16
   lining_elements_through: 1
-  elements_along_axis: 10
+  elements_along_axis: 20
   near_field_half_width: 7 m
   near_field_radial_divisions: 2
   water_ring_divisions: 1
@@ -92,7 +92,7 @@ output:
 #: tunnel's axial (membrane) strain, free of its bending and of the hole's antiplane perturbation
 R_MID = 2.35
 ANGLES = (78.75, 101.25, 258.75, 281.25)
-MONITORS = {f"ring{int(a)}": [round(float(R_MID * np.cos(np.radians(a))), 6), 33.0,
+MONITORS = {f"ring{int(a)}": [round(float(R_MID * np.cos(np.radians(a))), 6), 63.0,
                               round(float(R_MID * np.sin(np.radians(a))), 6)]
             for a in ANGLES}
 BASE = BASE.replace("{monitors}", "\n".join(f"    {k}: {v}" for k, v in MONITORS.items()))
@@ -134,9 +134,8 @@ def test_the_wave_keys_pass_check(tmp_path):
     (lambda s: s.replace("vertical_ratio: 0", "vertical_ratio: 0.5"), "ground_motion.vertical_ratio", "vertical"),
     (lambda s: s.replace("conditions: [no_water]", "conditions: [no_water, dynamic_water]\nwater: {ends: closed}"),
      "conditions", "incident wave"),
-    (lambda s: s.replace("azimuth: 0", "azimuth: 0\n  drm_offset: 3").replace("tunnel_end_plugs: 3",
-                                                                              "tunnel_end_plugs: 5")
-     .replace("elements_along_axis: 10", "elements_along_axis: 12"), "incident_wave.drm_offset", "near-field box"),
+    (lambda s: s.replace("azimuth: 0", "azimuth: 0\n  drm_offset: 3").replace("plugs: 3", "plugs: 5"),
+     "incident_wave.drm_offset", "near-field box"),
     (lambda s: s.replace("type: SV", "type: none"), "incident_wave.angle", "type is none"),
 ])
 def test_check_refuses_what_the_run_cannot_honour(tmp_path, edit, key, words):
@@ -155,10 +154,10 @@ def test_plugged_ends_leave_no_lining_or_pairs_in_the_end_stretches(tmp_path):
         pairs, ends = f["interfaces/rock_lining"][...], f["faces/tunnel_ends"][...]
     y = xyz[conn][:, :, 1].mean(axis=1)
     lining_y = y[region == 1]
-    assert lining_y.min() > 18.0 and lining_y.max() < 42.0  # 3 of 6 m at each end
-    assert (xyz[pairs[:, 0], 1] > 18.0).all() and (xyz[pairs[:, 0], 1] < 42.0).all()
-    assert np.allclose(np.unique(xyz[ends][:, :, 1]), [18.0, 42.0])
-    assert s["counts"]["lining"] == 16 * 4 and s["water_faces"]["end_ymin"] == s["water_faces"]["end_ymax"] > 0
+    assert lining_y.min() > 18.0 and lining_y.max() < 102.0  # 3 of 6 m at each end
+    assert (xyz[pairs[:, 0], 1] > 18.0).all() and (xyz[pairs[:, 0], 1] < 102.0).all()
+    assert np.allclose(np.unique(xyz[ends][:, :, 1]), [18.0, 102.0])
+    assert s["counts"]["lining"] == 16 * 14 and s["water_faces"]["end_ymin"] == s["water_faces"]["end_ymax"] > 0
 
 
 def test_the_drm_layer_is_one_ring_in_and_its_nodes_split_inner_and_outer():
@@ -188,7 +187,7 @@ def test_the_drm_layer_is_one_ring_in_and_its_nodes_split_inner_and_outer():
 
 
 #: azimuth -> (peak, L2) relative error allowed (see the module's text)
-TOLERANCE = {0.0: (0.01, 0.01), 45.0: (0.04, 0.04)}
+TOLERANCE = {0.0: (0.01, 0.01), 45.0: (0.01, 0.01)}
 
 
 @pytest.mark.skipif(EXE is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
@@ -218,7 +217,7 @@ def test_a_lining_of_the_ground_strains_along_its_axis_as_the_free_field(tmp_pat
     s = s - s[0]
     E, nu = 5e9, 0.3
     eps = (s[:, 1] - nu * (s[:, 0] + s[:, 2])) / E  # the lining's mean axial strain (tension +)
-    centroid = [0.0, 33.0, 0.0]  # the tunnel's axis, at an axial element's middle
+    centroid = [0.0, 63.0, 0.0]  # the tunnel's axis, at an axial element's middle
     profile, wave = iw.ground_profile(d, ground_layers(d)), iw.plane_wave(d)
     inc = incident_motion(rec, dt, wave, profile, "incident")
     # t = 0 where the wave first reaches the layer's nodes, as in the run's /drm
