@@ -846,7 +846,7 @@ def _incident_wave_section() -> Section:
 def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
     """What a run could not honour of the incident wave (incident_wave.checks), then where its DRM
     layer falls in the mesh's bands (when the mesh keys themselves are valid)."""
-    from .incident_wave import active, band_issue, checks
+    from .incident_wave import active, band_issue, checks, monitor_issues
     from .meshing.params import MeshInputError, resolve
 
     issues = checks(d, ground_layers(d), raw.key_lines, lambda name: _section_lines(raw, name))
@@ -857,7 +857,7 @@ def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
     except (MeshInputError, MemoryError, OverflowError):
         return []  # said by _mesh_checks
     bad = band_issue(d, plan, lambda name: _section_lines(raw, name))
-    return [bad] if bad else []
+    return [bad] if bad else monitor_issues(d, plan, lambda name: _section_lines(raw, name))
 
 
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:

@@ -181,6 +181,37 @@ def band_issue(d: dict, plan, section_lines) -> Issue | None:
                  "mesh.max_element_size", section_lines("incident_wave").get("drm_offset"))
 
 
+def inner_box(plan, offset: int) -> tuple[tuple[float, float], tuple[float, float], float]:
+    """((x0, x1), (y0, y1), z0): the region inside the DRM layer (its inner nodes' planes), from
+    the mesh plan's grid lines: offset + 1 elements in from the sides and the base."""
+    from .meshing.params import grid_lines
+
+    xs, ys, zs = grid_lines(plan)
+    k = offset + 1
+    return (float(xs[k]), float(xs[-1 - k])), (float(ys[k]), float(ys[-1 - k])), float(zs[k])
+
+
+def monitor_issues(d: dict, plan, section_lines) -> list[Issue]:
+    """Outside the DRM layer tq-solid computes the scattered field only (u minus the free field):
+    a monitor there, or the base and side reference points of output.displacement_reference, would
+    record that, not the motion."""
+    (x0, x1), (y0, y1), z0 = inner_box(plan, int(d["incident_wave"]["drm_offset"]))
+    out = []
+    ref = d["output"]["displacement_reference"]
+    if ref != "absolute":
+        out.append(Issue("output.displacement_reference", ref, "is measured at the model's base or side, outside the "
+                         "DRM layer, where tq-solid computes the scattered field only", "use displacement_reference: "
+                         "absolute with an incident wave", section_lines("output").get("displacement_reference")))
+    tol = 1e-6 * max(x1 - x0, y1 - y0)
+    for name, p in (d["output"]["monitors"] or {}).items():
+        if p is not None and not (x0 - tol <= p[0] <= x1 + tol and y0 - tol <= p[1] <= y1 + tol and p[2] >= z0 - tol):
+            out.append(Issue(f"output.monitors.{name}", p, f"lies outside the DRM layer (the region inside it is x "
+                             f"{x0:g}..{x1:g}, y {y0:g}..{y1:g}, z >= {z0:g} m), where tq-solid computes the "
+                             "scattered field only, not the motion", "move it inside that region",
+                             section_lines("output").get("monitors")))
+    return out
+
+
 # ------------------------------------------------------------------------------------------------
 # The layer in a mesh, and /drm
 # ------------------------------------------------------------------------------------------------

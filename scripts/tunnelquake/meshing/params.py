@@ -598,6 +598,13 @@ def _grid_lines(c, L, q, low_band, high_band, lo, hi) -> np.ndarray:
     return np.asarray(out)
 
 
+def grid_lines(p: MeshPlan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The outer grid's node coordinates along x, y and z (the near-field box's sides included)."""
+    q, L = p.quarter.count, p.box_half_width
+    return (_grid_lines(p.xc, L, q, p.left, p.right, p.xmin, p.xmax), np.asarray(p.y_levels, float),
+            _grid_lines(p.zc, L, q, p.bottom, p.top, p.zmin, p.zmax))
+
+
 def ground_centroids(p: MeshPlan) -> np.ndarray:
     """(x, z) of every ground element's centroid in the cross-section, [N, 2]: the rock ring
     (transfinite: node (i, j) = (1 - v_j) C_b(u_i) + v_j C_box(u_i), u uniform, v graded) and the
