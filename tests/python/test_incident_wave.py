@@ -278,3 +278,13 @@ def test_vertical_sv_through_the_drm_layer_gives_the_slices_peaks(tmp_path):
         err = peaks["3d"][m] / peaks["slice"][m] - 1
         print(f"{m}: 3D through DRM {peaks['3d'][m]:.5e} m, slice {peaks['slice'][m]:.5e} m ({err:+.3%})")
         assert abs(err) < 0.005
+
+
+def test_the_report_says_which_wave_the_record_drives(tmp_path):
+    from tunnelquake.case_report import _wave_lines
+
+    d = load_case(_case(tmp_path, lambda s: s.replace("azimuth: 0", "azimuth: 30"))).data
+    text = " ".join(_wave_lines(d))
+    assert "plane SV wave, 20 deg from the vertical, travelling 30 deg" in text and "incident record" in text
+    d["incident_wave"]["type"] = "none"
+    assert _wave_lines(d) == []
