@@ -288,3 +288,17 @@ def test_the_report_says_which_wave_the_record_drives(tmp_path):
     assert "plane SV wave, 20 deg from the vertical, travelling 30 deg" in text and "incident record" in text
     d["incident_wave"]["type"] = "none"
     assert _wave_lines(d) == []
+
+
+def test_the_wave_keys_count_in_the_fingerprint_only_when_a_wave_is_asked_for(tmp_path):
+    """A case without a wave keeps the fingerprint it had before the keys existed (no incident_wave
+    or tunnel_end_plugs key in it), so its results and checkpoints stay current; a wave's keys count
+    in the record group, the plugs in the geometry group."""
+    from tunnelquake.fingerprint import condition_inputs
+
+    wave = condition_inputs(load_case(_case(tmp_path)), "no_water")["keys"]
+    assert wave["incident_wave.angle"][0] == "record" and wave["mesh.tunnel_end_plugs"][0] == "geometry"
+    plain = load_case(_case(tmp_path, lambda s: s.replace("type: SV", "type: none").replace("  angle: 20\n", "")
+                            .replace("  azimuth: 0\n", "").replace("  tunnel_end_plugs: 3\n", "")))
+    keys = condition_inputs(plain, "no_water")["keys"]
+    assert not [k for k in keys if k.startswith("incident_wave") or k == "mesh.tunnel_end_plugs"]
