@@ -302,3 +302,50 @@ def test_the_wave_keys_count_in_the_fingerprint_only_when_a_wave_is_asked_for(tm
                             .replace("  azimuth: 0\n", "").replace("  tunnel_end_plugs: 3\n", "")))
     keys = condition_inputs(plain, "no_water")["keys"]
     assert not [k for k in keys if k.startswith("incident_wave") or k == "mesh.tunnel_end_plugs"]
+
+
+@pytest.mark.skipif(EXE is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
+def test_a_layered_case_moves_as_its_free_field_through_the_case_keys(tmp_path):
+    """The profile comes from the case: an 8 m soft layer (E 1 GPa, Vs 439 m/s) over the rock, SV
+    20 deg at azimuth 30 given as a within record (the total motion at the top of the rock,
+    deconvolved). The ground surface and a point in the rock, both inside the DRM layer, against the
+    free field of tunnelquake.freefield (closed forms in test_freefield.py) at their nodes: 1 % L2
+    over the pulse (Bielak et al. 2003: inside the layer the total motion is the free field plus
+    what the tunnel scatters, small at 10 m from a flexible lining)."""
+    from tunnelquake.case import ground_layers
+    from tunnelquake.freefield import free_field, incident_motion
+    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
+    from tunnelquake.solid_input import write_solid_input
+
+    points = {"surface": [12.0, 60.0, 20.0], "rock": [-12.0, 60.0, -12.0]}
+
+    def edit(s):
+        s = s.replace("materials:\n", "layers:\n  - {material: soft, thickness: 8 m}\nmaterials:\n  soft: {model: "
+                      "elastic, youngs_modulus: 1 GPa, poisson_ratio: 0.3, density: 2000 kg/m^3}\n")
+        s = s.replace("  azimuth: 0\n", "  azimuth: 30\n  convention: within\n")
+        return s.replace("  monitors:\n", "  monitors:\n" + "".join(f"    {k}: {v}\n" for k, v in points.items()))
+
+    case = load_case(_case(tmp_path, edit))
+    d = case.data
+    make_mesh(case)
+    _, motion_h5 = make_motion(case)
+    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "solid_input.h5")
+    out = subprocess.run([str(EXE), str(inp), "-o", str(tmp_path / "r.h5"), "--threads", "1"],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    with h5py.File(mesh_dir(case) / "mesh.h5") as m, h5py.File(inp) as f, h5py.File(motion_h5) as mo:
+        xyz = m["nodes/coordinates"][...]
+        layer = xyz[f["drm/nodes"][...]]
+        rec, dt = mo["incident_ax"][...], float(mo.attrs["dt"])
+    profile, wave = iw.ground_profile(d, ground_layers(d)), iw.plane_wave(d)
+    assert len(profile.layers) == 1 and profile.layers[0].thickness == pytest.approx(8.0)
+    assert profile.layers[0].vs == pytest.approx(np.sqrt(1e9 / 2.6 / 2000))
+    inc = incident_motion(rec, dt, wave, profile, "within")
+    with h5py.File(tmp_path / "r.h5") as r:
+        for name, p in points.items():
+            t, u = r[f"monitors/{name}/time"][:, 0], r[f"monitors/{name}/u"][...]
+            node = xyz[np.argmin(np.sum((xyz - p) ** 2, axis=1))]
+            ref = free_field(profile, [(wave, inc)], dt, np.vstack([layer, node]), times=t).u[-1]
+            err = np.sqrt(np.sum((u - u[0] - ref) ** 2) / np.sum(ref ** 2))
+            print(f"{name} at {node}: L2 error {err:.3%}")
+            assert err < 0.01, name
