@@ -43,10 +43,12 @@ def write_drm(f, nodes, internal, field: FreeField) -> None:
         put(g, GROUP, e.name, value)
 
 
-def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray, dt: float) -> dict:
+def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray, dt: float,
+                    h5drm=None) -> dict:
     """Compute the free field at the DRM layer's nodes of `mesh_h5` and write `/drm` into the open
     solid_input.h5 `f`. `record_acc`: the processed record (the wave's defining component, under
-    convention(d)) sampled every dt from the seismic stage's start. Returns a summary."""
+    convention(d)) sampled every dt from the seismic stage's start. `h5drm`: a path to write the same
+    free field to in the H5DRM layout as well (freefield.write_h5drm). Returns a summary."""
     import h5py
 
     from .freefield import free_field, incident_motion
@@ -73,4 +75,8 @@ def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray,
     inc = incident_motion(np.asarray(record_acc, float), dt, wave, profile, convention(d))
     field = free_field(profile, [(wave, inc)], dt, xyz[nodes])
     write_drm(f, nodes, internal, field)
+    if h5drm is not None:
+        from .freefield import write_h5drm
+
+        write_h5drm(h5drm, field, internal)
     return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": int(field.time.size)}

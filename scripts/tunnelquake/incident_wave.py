@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .schema import Choice, Issue, Number, Section
+from .schema import Bool, Choice, Issue, Number, Section
 
 KINDS = ("none", "P", "SV", "SH")
 #: the ground materials the DRM layer may cross: tq-solid forms the layer's stiffness once
@@ -50,6 +50,9 @@ def section() -> Section:
         "damping": Number(min=0.0, max=0.5, max_open=True, default=0.0,
                           doc="damping ratio of every ground medium in the free field (a complex velocity "
                               "c (1 + i ratio), docs/theory.md §6.1)"),
+        "write_h5drm": Bool(default=False,
+                            doc="also write the free field at the layer's nodes as an H5DRM file (OpenSees' layout, "
+                                "docs/formats.md \"H5DRM\"), <condition>/free_field.h5drm in the results folder"),
         "drm_offset": Number(integer=True, min=0, default=1,
                              doc="element rings between the block's sides and base and the DRM layer (0: the "
                                  "layer's outer nodes on them); the absorbing boundaries sit there"),
@@ -101,7 +104,7 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
     w = d["incident_wave"]
     wl = section_lines("incident_wave")
     if not active(d):
-        given = [k for k in ("angle", "azimuth", "convention", "damping", "drm_offset") if k in wl]
+        given = [k for k in ("angle", "azimuth", "convention", "damping", "drm_offset", "write_h5drm") if k in wl]
         return [Issue(f"incident_wave.{given[0]}", w[given[0]], "is given but incident_wave.type is none (no plane "
                       "wave)", "add 'type: P', 'SV' or 'SH', or remove it", wl.get(given[0]))] if given else []
     issues: list[Issue] = []

@@ -266,8 +266,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             # wave (half an outcrop record)
             record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
             try:
-                write_drm_group(f, d, ground_layers(d), mesh_h5, record,
-                                              float(motion["time"][1] - motion["time"][0]))
+                write_drm_group(f, d, ground_layers(d), mesh_h5, record, float(motion["time"][1] - motion["time"][0]),
+                                out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
             except (incident_wave.DrmLayerError, FreeFieldError) as e:
                 raise SolidInputError(f"incident_wave: {e}") from None
         elif "seismic" in sequence:

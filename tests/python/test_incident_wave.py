@@ -349,3 +349,24 @@ def test_a_layered_case_moves_as_its_free_field_through_the_case_keys(tmp_path):
             err = np.sqrt(np.sum((u - u[0] - ref) ** 2) / np.sum(ref ** 2))
             print(f"{name} at {node}: L2 error {err:.3%}")
             assert err < 0.01, name
+
+
+def test_the_runs_free_field_is_written_as_an_h5drm_file_that_reads_back(tmp_path):
+    """incident_wave.write_h5drm: the free field the run's /drm holds, also in OpenSees' H5DRM layout;
+    read back through freefield.read_h5drm (every layer node matched to a file point, the inner and
+    outer flags checked) it is the /drm field to round-off, so the run can be repeated from the file."""
+    from tunnelquake.freefield import read_h5drm
+    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
+    from tunnelquake.solid_input import write_solid_input
+
+    case = load_case(_case(tmp_path, lambda s: s.replace("  azimuth: 0\n", "  azimuth: 0\n  write_h5drm: true\n")))
+    make_mesh(case)
+    _, motion_h5 = make_motion(case)
+    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "w" / "solid_input.h5")
+    with h5py.File(inp) as f, h5py.File(mesh_dir(case) / "mesh.h5") as m:
+        nodes, internal = f["drm/nodes"][...], f["drm/internal"][...].astype(bool)
+        u, t = np.swapaxes(f["drm/u"][...], 0, 1), f["drm/time"][...]
+        xyz = m["nodes/coordinates"][...][nodes]
+    back = read_h5drm(tmp_path / "w" / "free_field.h5drm", xyz, internal)
+    assert np.allclose(back.time, t, rtol=0, atol=1e-12)
+    assert np.max(np.abs(back.u - u)) <= 1e-12 * np.max(np.abs(u))
