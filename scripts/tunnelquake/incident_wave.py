@@ -161,7 +161,9 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
 
     try:
         profile = ground_profile(d, layers)
-        incident_motion(np.zeros(4), 0.01, plane_wave(d), profile, convention(d))
+        # (a within record's deconvolution depends on the record's content: `run` checks it with the record)
+        conv = "outcrop" if convention(d) == "within" else convention(d)
+        incident_motion(np.zeros(4), 0.01, plane_wave(d), profile, conv)
     except FreeFieldError as e:
         key = "angle" if "angle" in e.problem else "convention"
         issues.append(Issue(f"incident_wave.{key}", w[key] if key == "angle" else convention(d), e.problem,
