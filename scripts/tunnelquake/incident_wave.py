@@ -155,8 +155,8 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
         issues.append(Issue("conditions", "dynamic_water", "with an incident wave is not built: the coupled water "
                             "with plugged tunnel ends is not verified", "run no_water and static_water, or "
                             "incident_wave.type: none", lines.get("conditions") or line))
-    if issues:
-        return issues
+    if issues or any(m not in d["materials"] for m, _ in layers):
+        return issues  # (a layer without its material: said by the layers' own check)
     from .freefield import FreeFieldError, incident_motion
 
     try:

@@ -149,6 +149,8 @@ def test_the_wave_keys_pass_check(tmp_path):
      "scattered field"),
     (lambda s: s.replace("monitors:\n", "monitors:\n    side: [-28.0, 60.0, 0.0]\n"), "output.monitors.side",
      "outside the DRM layer"),
+    (lambda s: s.replace("materials:\n", "layers: [{material: clay, thickness: 5 m}]\nmaterials:\n"),
+     "layers[0].material", "not a material"),
 ])
 def test_check_refuses_what_the_run_cannot_honour(tmp_path, edit, key, words):
     issues = _issues(tmp_path, edit)
