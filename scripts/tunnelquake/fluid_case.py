@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
-from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor, fluid_ranks_problem
+from .case import WATER_BULK_MODULUS, WATER_LOG_INTERVAL, closed_section, coupling_predictor, fluid_ranks_problem
 from .coupling_scales import absolute_tolerances
 from .foam_dict import Quoted, foam_file
 from .solver_input_schema import group_attrs
@@ -67,7 +67,7 @@ SOLID_WRITE_FIELDS = ("velocity", "displacement")
 #: Pa: the bulk modulus of the water OpenFOAM solves for the inertial remainder of incompressible water
 #: (the volume change is the solid's constraint; in 3D the remainder's
 #: redistribution of volume along the axis meets this stiffness, not an infinite one)
-REMAINDER_BULK_MODULUS = 2.2e9
+REMAINDER_BULK_MODULUS = WATER_BULK_MODULUS
 
 
 def volume_law(case) -> tuple[str, float]:

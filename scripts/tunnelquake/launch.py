@@ -60,13 +60,17 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     from that one, restart.condition_choice's newest intact checkpoint)."""
     import subprocess
 
-    from .solid_input import write_solid_input
+    from .solid_input import SolidInputError, write_solid_input
 
     work = case.output_dir / cond
-    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
-        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
-        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
     res = case.output_dir / f"results_{cond}.h5"
+    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
+        try:
+            inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+        except SolidInputError as e:  # (e.g. an incident wave's within record that cannot be deconvolved)
+            say(f"condition {cond}: no solid input: {e}")
+            return 2, res
+        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]

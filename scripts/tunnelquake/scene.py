@@ -54,10 +54,15 @@ def assess_slice(case) -> SliceAssessment:
             varying.append(f"geology.fault_zone ({geology.fault.material}) crosses the tunnel")
         varying += [f"geology.dipping_layers[{i}] ({layer.material}) dips along the axis (its bottom's normal has a "
                     "y component)" for i, layer in enumerate(geology.dipping) if abs(layer.bottom.normal[1]) > 1e-9]
+    wave = d.get("incident_wave") or {}
+    if wave.get("type", "none") != "none":
+        varying.append(f"incident_wave: a {wave['type']} wave {wave['angle']:g} deg from the vertical through a domain-"
+                       "reduction layer, which a slice has no room for")
     if d["mesh"]["mode"] == "slice" and varying:
         reasons += [f"{v}: the ground changes along y, and a slice holds its section at mid-length only" for v in varying]
     if d["mesh"]["mode"] == "3d" and varying:
-        advice.append("the ground changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
+        what = "the motion or the ground" if wave.get("type", "none") != "none" else "the ground"
+        advice.append(f"{what} changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
                       "represent it, keep mesh.mode: 3d")
     elif d["mesh"]["mode"] == "3d" and not reasons:
         if dynamic and water.get("ends", "open") == "open":

@@ -41,9 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import children, fingerprint
+from . import children, fingerprint, incident_wave
 from .case import CONDITIONS, case_geology, coupling_predictor, coupling_window_force_weight, fault_offset_slip
+from .drm_input import write_drm_group
 from .files import h5_in_memory
+from .freefield import FreeFieldError
 from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, group_attrs, linked, lookup, put, write_schema
 
 
@@ -256,12 +258,30 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             r = f.create_group("interfaces/rock_lining")
             _from_case(r, "/interfaces/rock_lining", it, table)
 
+        wave = incident_wave.active(d) and "seismic" in sequence
+        if wave and mesh["slice"]:
+            raise SolidInputError("incident_wave needs a 3D mesh (mesh.mode: 3d); this one is a slice")
         if "seismic" in sequence:
             b = f.create_group("boundaries/bottom")
             w(b, "/boundaries/bottom", "face", "bottom")
             w(b, "/boundaries/bottom", "type", "viscoelastic")
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
+            # with an incident wave the base and the x sides absorb what the tunnel scatters (the wave
+            # enters through the DRM layer); the y faces stay on rollers, which hold that scattered
+            # field's u_y only (their quads follow the tunnel's O-grid: no free-field columns there)
             w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
+        if wave:
+            from .case import ground_layers
+
+            # the processed horizontal record: motion.h5 keeps the vertical-incidence incident
+            # wave (half an outcrop record)
+            record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
+            try:
+                write_drm_group(f, d, ground_layers(d), mesh_h5, record, float(motion["time"][1] - motion["time"][0]),
+                                out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
+            except (incident_wave.DrmLayerError, FreeFieldError) as e:
+                raise SolidInputError(f"incident_wave: {e}") from None
+        elif "seismic" in sequence:
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:

@@ -49,6 +49,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import paths
+from ..case import WATER_BULK_MODULUS
 from ..references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency
 from ..solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
@@ -82,7 +83,7 @@ class Ring:
     water: bool = True
     rho_f: float = 1000.0
     model: str = "compressible"  # compressible (rhoPimpleFoam) | incompressible (pimpleFoam)
-    bulk_modulus: float = 2.2e9
+    bulk_modulus: float = WATER_BULK_MODULUS
     viscosity: float = 1e-3
     water_layers: int = 0  # cell layers from the core square to the wall (0: n_around / 8)
     # the coupling (case section `coupling`)

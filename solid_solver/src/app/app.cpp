@@ -22,6 +22,8 @@
 #include <sstream>
 
 #include "tq/app/stages.hpp"
+#include "tq/coupling/coupled_stepper.hpp"
+#include "tq/coupling/coupling_mpi.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/restart.hpp"
@@ -239,6 +241,7 @@ class SolidRun {
   bool writerStarted_ = false;
   std::unique_ptr<ResultsWriter> writer_;
   std::shared_ptr<FluidCoupling> coupling_;
+  std::shared_ptr<CarriedWater> water_;  // the water's laws the solid carries (null: none)
   bool stagesWritten_ = false, stepping_ = false;
   size_t nextSnap_ = 0;
   Real tFinal_ = 0, gap_ = 0;  // the last final state's time, and the span to it from the one before
@@ -376,11 +379,13 @@ void SolidRun::connectWater() {
   const CouplingInput& ci = m_.in.staged.coupling;
   if (!ci.present) return;
   Solver& s = *m_.solver;
-  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd);
+  water_ = CarriedWater::fromCoupling(s, ci);
+  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd, water_.get());
   out_ << "tq-solid: " << coupling_->describe() << "; waiting for the fluid" << std::endl;
-  if (!cl_.resume) coupling_->initialize();  // resumed: once its state is restored (restoreOrStart)
-  s.addContributor(ForcePhase::Water, coupling_);
-  m_.in.tEnd = coupling_->endTime();  // whole windows
+  if (!cl_.resume) coupling_->initialize();                 // resumed: once its state is restored (restoreOrStart)
+  s.addContributor(ForcePhase::Water, coupling_);           // the exchanged force, then
+  if (water_) s.addContributor(ForcePhase::Water, water_);  // the pressure the solid carries
+  m_.in.tEnd = coupling_->endTime();                        // whole windows
   addCouplingSeries();
   out_ << "tq-solid: coupled with the fluid; t_end = " << m_.in.tEnd << " s (" << coupling_->windowCount()
        << " windows)" << std::endl;
@@ -398,9 +403,9 @@ void SolidRun::addCouplingSeries() {
       "/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
   results.addSeries(
       "/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
-  if (c->hasVolumeLaw())
+  if (const CarriedWater* w = water_.get())
     results.addSeries(
-        "/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
+        "/coupling/volume_pressure", [w] { return w->volumePressure(); }, "volume_pressure");
   results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
                            [c]() -> const std::vector<Real>& { return c->force(); });
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
@@ -496,37 +501,37 @@ void SolidRun::restoreOrStart() {
   if (coupling_) coupling_->initializeResumed();
 }
 
-// The time loop. Implicit coupling windows of several steps: the state at each window start is
-// kept, and a window the water did not accept is stepped again from it; results are sampled at
-// window ends.
+// The time loop: a step, or with the water a coupling window (CoupledStepper: an implicit window of
+// several steps the water did not accept is stepped again from its start); results are sampled at
+// the final states.
 void SolidRun::stepToEnd() {
   Solver& s = *m_.solver;
   ResultsWriter& results = *writer_;
   t0_ = lastReport_ = lastFlush_ = std::chrono::steady_clock::now();
   step0_ = s.stepCount();
-  WindowedStepper stepper(s, coupling_.get());
+  CoupledStepper stepper(s, coupling_.get());
   stepping_ = true;
-  try {
-    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) {
-      if (!stepper.step()) continue;
-      if (coupling_) {
-        const std::string note = coupling_->takeNote();
-        if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
-      }
-      const Real t = s.time();
-      gap_ = t - tFinal_;
-      tFinal_ = t;
-      // The histories are written at k x monitor_dt, interpolated between the final states on
-      // either side: observe this state when a requested time falls before the next final state
-      // (expected one step, or window, on).
-      if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
-      while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
-        results.snapshot(s);
-        ++nextSnap_;
-      }
-      writeCheckpoint(t);
-      flushAndReport(t);
+  const auto onFinal = [&] {
+    if (coupling_) {
+      const std::string note = coupling_->takeNote();
+      if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
     }
+    const Real t = s.time();
+    gap_ = t - tFinal_;
+    tFinal_ = t;
+    // The histories are written at k x monitor_dt, interpolated between the final states on
+    // either side: observe this state when a requested time falls before the next final state
+    // (expected one step, or window, on).
+    if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
+    while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
+      results.snapshot(s);
+      ++nextSnap_;
+    }
+    writeCheckpoint(t);
+    flushAndReport(t);
+  };
+  try {
+    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) stepper.advance(onFinal);
   } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample
     results.sample(s);
     throw;
@@ -595,8 +600,8 @@ void SolidRun::writeCouplingSummary() {
                        {"fluid_work", c.fluidWork()},
                        {"fluid_received_work", c.fluidReceivedWork()},
                        {"coupling_energy", c.couplingEnergy()},
-                       {"volume_law_work", c.volumeLawWork()},
-                       {"enclosed_volume", c.enclosedVolume()},
+                       {"volume_law_work", water_ ? water_->work() : 0.0},
+                       {"enclosed_volume", water_ ? water_->enclosedVolume() : 0.0},
                        {"interface_work_peak", c.interfaceWorkPeak()},
                        {"energy_floor", c.energyFloor()},
                        {"energy_limit", m_.in.staged.coupling.energyLimit},

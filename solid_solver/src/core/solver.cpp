@@ -503,15 +503,24 @@ void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContribu
 // the constant loads folded into its pass, then the NodalLoads, then the phase's other
 // contributors; then Boundaries, Interface, Water, Ties.
 void Solver::computeExternalForces() {
+  addGravityAndLoads();
+  addPhaseForces(ForcePhase::Loads, ForcePhase::Ties);
+}
+
+void Solver::addGravityAndLoads() {
   addGravityAndFoldedLoads();
   Real* fe = state_.fExtData();
   for (const auto& l : loads_) {
     const Real f = l.forcePerNode * l.function(t_);
     for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
   }
+}
+
+void Solver::addPhaseForces(ForcePhase first, ForcePhase last) {
   for (const ForcePhase phase : kForcePhases)
-    for (auto& e : contributors_)
-      if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
+    if (phase >= first && phase <= last)
+      for (auto& e : contributors_)
+        if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
 }
 
 void Solver::addGravityAndFoldedLoads() {
@@ -823,16 +832,28 @@ void Solver::reportInstability(Index dof, Real value) {
 }
 
 void Solver::step() {
+  beginStep();
+  finishStep();
+}
+
+void Solver::beginStep() {
   // Subcycling: the chunks and nodes due at this fine step are those of level <= the number of
   // trailing zero bits of the fine-step count (all of them at count 0).
-  const int active = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
-  computeInternalForces(active);
+  activeLevel_ = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
+  computeInternalForces(activeLevel_);
   state_.swapFExt(fExtPrev_);  // f_ext of the step just taken becomes the previous one
-  computeExternalForces();
+  addGravityAndLoads();
+  addPhaseForces(ForcePhase::Loads, ForcePhase::Interface);
+  stepOpen_ = true;
+}
+
+void Solver::finishStep() {
+  addPhaseForces(ForcePhase::Water, ForcePhase::Ties);
+  stepOpen_ = false;
   if (nodeLevel_.empty()) {
     updateNodes();
   } else {
-    updateNodesSubcycled(active);
+    updateNodesSubcycled(activeLevel_);
     ++cycle_;
   }
   dtLast_ = dt_;
@@ -862,6 +883,7 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(fSync_);
   a.io(dtPrevNode_);
   a.io(cycle_);
+  if (!a.saving()) stepOpen_ = false;  // a restored state abandons an open step
   for (auto& b : blocks_) b->checkpoint(a);
   for (auto& e : contributors_) e.contributor->checkpoint(a);
 }

@@ -280,7 +280,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.volumeLaw = c.text(g, w, K::coupling::volume_law);
     C.bulkModulus = c.number(g, w, K::coupling::bulk_modulus);
     if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))
-      c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
+      c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa: the case's water.bulk_modulus)");
     C.waterDensity = c.number(g, w, K::coupling::water_density);
     if (C.waterDensity > 0 && C.volumeLaw == "none")
       c.fail(w,

@@ -212,8 +212,15 @@ class Solver {
 
   // ---- time stepping ------------------------------------------------------------------------
   /// One explicit step: element forces -> assembly -> external forces (gravity and the
-  /// contributors, phase by phase in ForcePhase order) -> update -> check.
+  /// contributors, phase by phase in ForcePhase order) -> update -> check. beginStep(), finishStep().
   void step();
+  /// The step in two halves, for the water coupling's exchange (CoupledStepper), which needs the
+  /// step's other forces before the water's: beginStep() assembles f_int and the external force of
+  /// the phases before ForcePhase::Water; finishStep() adds the Water and Ties phases and updates.
+  /// Between the two the step is open (stepOpen()); restoring a checkpoint abandons an open step.
+  void beginStep();
+  void finishStep();
+  bool stepOpen() const { return stepOpen_; }
   /// Steps until time >= tEnd (calls `each` after every step if given).
   void runUntil(Real tEnd, const std::function<void()>& each = {});
   /// Dynamic relaxation to static equilibrium (Rayleigh damping is suspended meanwhile).
@@ -277,7 +284,9 @@ class Solver {
  private:
   void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
-  void addGravityAndFoldedLoads();  // the Loads phase's parallel pass
+  void addPhaseForces(ForcePhase first, ForcePhase last);  // the contributors of the phases first … last
+  void addGravityAndFoldedLoads();                         // the Loads phase's parallel pass
+  void addGravityAndLoads();                               // gravity, the folded loads, the NodalLoads
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
@@ -295,6 +304,8 @@ class Solver {
   std::vector<AddedContributor> contributors_;  // in the order added
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
+  int activeLevel_ = 255;  // subcycling: the level of the open step (beginStep to finishStep)
+  bool stepOpen_ = false;
   Real alphaRelax_ = -1;          // >= 0 while relaxing: replaces α
   mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
   mutable bool plasticStale_ = true;
