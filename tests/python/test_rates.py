@@ -127,3 +127,24 @@ def test_estimate_predicts_the_cpu_seconds_of_a_case_unlike_the_example(tmp_path
     assert measured > 0
     print(f"estimate {est:.3f} CPU s, measured {measured:.3f} CPU s, ratio {est / measured:.3f}")
     assert abs(est / measured - 1) < 0.30, (est, measured, rates)
+
+
+def test_no_probe_no_estimate_and_a_slurm_task_gets_a_day_saying_why(monkeypatch):
+    """Without a probe (no build) the estimate says so instead of guessing, and a Slurm array task's
+    time limit is a day with the reason in the script's comment (suite.slurm_time sets it)."""
+    from tunnelquake.case import load_case
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.suite_launch import SLURM_TIME_UNKNOWN_MIN, slurm_time
+
+    def no_probe(*a, **k):
+        raise R.ProbeFailed("/nowhere/tq-solid-bench is not built (scripts/bootstrap.sh builds it)")
+
+    monkeypatch.setattr(R, "machine_rates", no_probe)
+    case = load_case(EXAMPLE)
+    est = runtime_estimate(case)
+    assert est.seconds == {} and est.line() == ("run time: not estimated (this machine's speed could not be "
+                                                "measured: /nowhere/tq-solid-bench is not built (scripts/bootstrap.sh "
+                                                "builds it))")
+    case.data.setdefault("suite", {})["slurm_time"] = None
+    minutes, why = slurm_time(case, 2)
+    assert minutes == SLURM_TIME_UNKNOWN_MIN == 1440 and "is not built" in why and "suite.slurm_time" in why
