@@ -96,15 +96,22 @@ def _key(program: Path) -> str:
 
 
 def _cpu_seconds(cmd: list[str]) -> float:
-    """CPU seconds (user + system) of one run of `cmd`, from its own resource usage."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    if proc.stderr:
-        proc.stderr.close()
-    if proc.returncode != 0:
-        raise ProbeFailed(f"{cmd[0]} exited {proc.returncode}: {err.strip()[-300:]}")
+    """CPU seconds (user + system) of one run of `cmd`, from its own resource usage (os.wait4)."""
+    import tempfile
+
+    from . import children
+
+    with tempfile.TemporaryFile() as err:
+        try:
+            proc = children.popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        except OSError as e:
+            raise ProbeFailed(f"{cmd[0]} cannot be started ({e.strerror})") from e
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            text = err.read().decode(errors="replace").strip()
+            raise ProbeFailed(f"{cmd[0]} exited {proc.returncode}: {text[-300:]}")
     return usage.ru_utime + usage.ru_stime
 
 
@@ -113,8 +120,8 @@ def measure(program: Path | None = None, runs: int = PROBE_RUNS) -> float:
     program = program or probe_program()
     if not program.is_file():
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
-    env_cmd = [str(program), *PROBE_ARGS]
-    times = sorted(_cpu_seconds(env_cmd) for _ in range(max(1, runs)))
+    cmd = [str(program), *PROBE_ARGS]
+    times = sorted(_cpu_seconds(cmd) for _ in range(max(1, runs)))
     return times[len(times) // 2]
 
 
