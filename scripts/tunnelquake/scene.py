@@ -200,18 +200,30 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
                                f"{verdict}")
 
 
-#: CPU seconds of tq-solid per element and solid step (Mohr-Coulomb damage and contact included),
-#: and of OpenFOAM per water pass and per water cell and pass: measured on the example's coupled
-#: runs on a 2-core AMD EPYC Zen 3 (docs/benchmarks.md "Water of any stiffness": the slice's 20 s
-#: record, 181 s coupled, 1.415 passes a window; the 3D variant's first second, 236 s, 2.57 passes).
-SOLID_S_PER_ELEMENT_STEP = 0.17e-6
-WATER_S_PER_PASS = 1.5e-3
-WATER_S_PER_CELL_PASS = 2.4e-6
-#: water passes a window: the implicit scheme's measured mean (1.4-1.8 on the example); explicit 1,
-#: the paper's predictor-corrector 2
-PASSES_PER_WINDOW = {"implicit": 1.5, "explicit": 1.0, "paper": 2.0}
-#: the share of the rock's element-steps with time.subcycling (the paper mesh in 3D: 0.32)
-SUBCYCLED_SHARE = 0.32
+#: water passes a window: explicit 1, the paper's predictor-corrector 2; the implicit scheme's at
+#: tolerance 1e-3 (the example slice: 1.398 over the record, 1.516 over its first 2 s), times
+#: IMPLICIT_PASSES_PER_DECADE for each tenfold tighter tolerance (measured: the first 1 s of the slice,
+#: windows of 16 with reuse, 2.44 passes at 1e-4 against 1.77 at 1e-3, 1.38x; the 3D variant's record
+#: at 1e-4, 1.89, against the slice's 1.398 at 1e-3, 1.35x; docs/benchmarks.md)
+PASSES_PER_WINDOW = {"implicit": 1.45, "explicit": 1.0, "paper": 2.0}
+IMPLICIT_PASSES_PER_DECADE = 1.37
+
+
+def passes_per_window(coupling: dict) -> float:
+    """The water passes a coupling window is expected to take (PASSES_PER_WINDOW)."""
+    import math
+
+    scheme = coupling["scheme"]
+    passes = PASSES_PER_WINDOW[scheme]
+    if scheme == "implicit":
+        passes *= IMPLICIT_PASSES_PER_DECADE ** math.log10(1e-3 / float(coupling["tolerance"]))
+    return max(1.0, passes)
+#: the rock's share of its one-rate CPU time with time.subcycling: its element evaluations fall to
+#: 0.32 (the paper mesh in 3D), but every node still moves at every fine step; measured: the 3D
+#: variant's no_water over 0.2 s, 1 thread, 16.1 CPU s of shaking, 0.51 (Intel VM, 2026-11-28); the
+#: same input's first 0.25 s, 23 against 44 s, 0.47 (docs/benchmarks.md "Solid subcycling and element
+#: order")
+SUBCYCLED_SHARE = 0.5
 
 
 @dataclass
@@ -220,12 +232,14 @@ class RuntimeEstimate:
     steps: int  # solid steps of the shaking
     seconds: dict[str, float]  # condition -> CPU s of its shaking
     wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others)
+    basis: str = ""  # where the rates come from (rates.MachineRates), or why there are none
 
     def line(self) -> str:
+        if not self.seconds and self.basis:
+            return f"run time: not estimated ({self.basis})"
         per = ", ".join(f"{c} {_minutes(s)}" for c, s in self.seconds.items())
         return (f"run time: about {_minutes(self.wall)} of shaking ({per}; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s), within about 2x on a 2-core Zen 3 like this project's benchmarks; the static "
-                "stages come on top")
+                f"{self.dt:.2g} s) on an otherwise idle machine, from {self.basis}; the static stages come on top")
 
 
 def _minutes(s: float) -> str:
@@ -251,9 +265,10 @@ def axial_step(d: dict, plan) -> float:
     return h / max(cp(m) for m in d["materials"].values())
 
 
-def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
+def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
-    and the coupling scheme, with the constants above. The step is the lining's first element layer's
+    and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
+    default rates.machine_rates(), the cached probe of this processor and build, run once). The step is the lining's first element layer's
     h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
     factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
     stiffness-proportional damping as tq-solid cuts it."""
@@ -273,18 +288,29 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
 
         duration = window_seconds(d["ground_motion"], case.dir) or 0.0
     steps = int(math.ceil(duration / dt))
+    from . import rates as R
+
+    if rates is None:
+        try:
+            rates = R.machine_rates()
+        except (R.ProbeFailed, OSError) as e:
+            return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
+                                   basis=f"this machine's speed could not be measured: {e}")
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
-    solid = (rock + counts["lining"]) * steps * SOLID_S_PER_ELEMENT_STEP
+    solid = (rock + counts["lining"]) * steps * rates.solid_element_step
     seconds = {}
     for cond, parts in plan(case):
         if "fluid" not in parts:
             seconds[cond] = solid
             continue
         c = d["coupling"]
-        passes = PASSES_PER_WINDOW[c["scheme"]] * steps / c["window"]
-        seconds[cond] = (solid * PASSES_PER_WINDOW[c["scheme"]]
-                         + passes * (WATER_S_PER_PASS + counts["water"] * WATER_S_PER_CELL_PASS))
+        per_window = passes_per_window(c)
+        passes = per_window * steps / c["window"]
+        seconds[cond] = (solid * R.COUPLED_SOLID_FACTOR * per_window
+                         + passes * (rates.water_pass + counts["water"] * rates.water_cell_pass))
     coupled = [s for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(seconds.values())
-    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall)
+    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}; "
+             "docs/benchmarks.md \"check's run-time estimate\")")
+    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis)
