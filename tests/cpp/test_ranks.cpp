@@ -36,14 +36,14 @@ struct Files {
   std::string operator/(const std::string& n) const { return (dir / n).string(); }
 };
 
-// Two regions of a box: the upper half weighs 3 times the lower one.
+// Two regions of a box: the half at x > 6 (across its longest axis) weighs 3 times the other.
 Mesh twoRegionBox() {
   Mesh m = makeBoxMesh({12, 8, 10, 0, 0, 0, 12, 8, 10, "rock"});
   m.regionNames = {"rock", "stiff"};
   for (Index e = 0; e < m.numElems(); ++e) {
-    Real z = 0;
-    for (int k = 0; k < 8; ++k) z += 0.125 * m.coords[3 * size_t(m.connectivity[8 * size_t(e) + k]) + 2];
-    m.region[size_t(e)] = z > 5 ? 1 : 0;
+    Real x = 0;
+    for (int k = 0; k < 8; ++k) x += 0.125 * m.coords[3 * size_t(m.connectivity[8 * size_t(e) + k])];
+    m.region[size_t(e)] = x > 6 ? 1 : 0;
   }
   return m;
 }
@@ -66,12 +66,14 @@ TEST(RankPartition, BisectionBalancesTheElementCostForAnyNumberOfParts) {
     for (int p = 0; p < parts; ++p) EXPECT_GT(pw[size_t(p)], 0) << "part " << p << " of " << parts << " is empty";
     EXPECT_EQ(part, partitionRcb(m, w, parts)) << "the partition depends on the mesh and weights alone";
   }
-  // Weighted: the cut of two parts lies in the heavy half (z > 5), not at z = 5.
+  // Weighted: the cut of two parts lies in the heavy half, at x = 6 + 6/3 (half the weight: 480 light
+  // elements and 160 heavy ones), not at x = 6.
   const std::vector<int> two = partitionRcb(m, w, 2);
   Index heavyInFirst = 0, lightInFirst = 0;
   for (Index e = 0; e < m.numElems(); ++e)
     if (two[size_t(e)] == 0) (m.region[size_t(e)] == 1 ? heavyInFirst : lightInFirst)++;
-  EXPECT_GT(heavyInFirst + lightInFirst, m.numElems() / 2);  // more elements in the part with the light ones
+  EXPECT_EQ(lightInFirst, m.numElems() / 2);
+  EXPECT_EQ(heavyInFirst, m.numElems() / 6);
   EXPECT_THROW(partitionRcb(m, w, m.numElems() + 1), InputError);
 }
 
