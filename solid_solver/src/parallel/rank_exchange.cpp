@@ -1,6 +1,8 @@
 #include "tq/parallel/rank_exchange.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
@@ -50,6 +52,20 @@ class MpiRankExchange final : public RankExchange {
   void sumFrontier(Real* data, int comps) override {
     start(data, comps);
     finish(data, comps);
+  }
+  Real frontierMismatch(const Real* data, int comps) override {
+    start(data, comps);
+    MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE);
+    const size_t c = size_t(comps);
+    Real worst = 0;
+    for (size_t j = 0; j < ranks_.size(); ++j)
+      for (size_t p = 0; p < nodes_[j].size(); ++p)
+        for (size_t d = 0; d < c; ++d) {
+          const Real mine = data[c * size_t(nodes_[j][p]) + d], theirs = recv_[j][c * p + d];
+          worst = std::max(worst, mine == theirs ? Real(0) : std::abs(mine - theirs));
+          if (!(mine == theirs) && !(std::abs(mine - theirs) > 0)) worst = std::numeric_limits<Real>::infinity();
+        }
+    return maxAll(worst);
   }
   void beginForceSum(const Real* f) override { start(f, 3); }
   void finishForceSum(Real* f) override { finish(f, 3); }

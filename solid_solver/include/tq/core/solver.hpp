@@ -136,6 +136,9 @@ class RankExchange {
   virtual const std::uint8_t* owned() const = 0;
   /// Frontier nodes this rank holds but does not own.
   virtual const std::vector<Index>& ghosts() const = 0;
+  /// The largest difference, over every rank, between this rank's copy of a frontier node's values
+  /// (`comps` per node) and another rank's copy of the same node: 0 when the copies agree bitwise.
+  virtual Real frontierMismatch(const Real* data, int comps) = 0;
 };
 
 /// The stable time step and what limits it.
