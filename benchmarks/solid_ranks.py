@@ -139,8 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     for c in configs:
         us = statistics.median(x["us"] for x in runs[c])
         cpu = statistics.median(x["cpu_s"] for x in runs[c])
-        ratio_us = statistics.median(a["us"] / b["us"] for a, b in zip(runs[c], runs[first]))
-        ratio_cpu = statistics.median(a["cpu_s"] / b["cpu_s"] for a, b in zip(runs[c], runs[first]))
+        ratio_us = statistics.median(a["us"] / b["us"] for a, b in zip(runs[c], runs[first], strict=True))
+        ratio_cpu = statistics.median(a["cpu_s"] / b["cpu_s"] for a, b in zip(runs[c], runs[first], strict=True))
         rounds = " / ".join(f"{x['us']:.4f}" for x in runs[c])
         print(f"  {c}: {us:.4f} us/element-step (rounds {rounds}), "
               f"CPU {cpu:.2f} s; / {first}: {ratio_us:.3f} (loop wall), {ratio_cpu:.3f} (CPU)")
