@@ -142,8 +142,10 @@ def main(argv: list[str] | None = None) -> int:
         ratio_us = statistics.median(a["us"] / b["us"] for a, b in zip(runs[c], runs[first], strict=True))
         ratio_cpu = statistics.median(a["cpu_s"] / b["cpu_s"] for a, b in zip(runs[c], runs[first], strict=True))
         rounds = " / ".join(f"{x['us']:.4f}" for x in runs[c])
-        print(f"  {c}: {us:.4f} us/element-step (rounds {rounds}), "
-              f"CPU {cpu:.2f} s; / {first}: {ratio_us:.3f} (loop wall), {ratio_cpu:.3f} (CPU)")
+        cpus = " / ".join(f"{x['cpu_s']:.2f}" for x in runs[c])
+        ratios = " / ".join(f"{a['cpu_s'] / b['cpu_s']:.3f}" for a, b in zip(runs[c], runs[first], strict=True))
+        print(f"  {c}: {us:.4f} us/element-step (rounds {rounds}), CPU {cpu:.2f} s (rounds {cpus}); / {first}: "
+              f"{ratio_us:.3f} (loop wall), {ratio_cpu:.3f} (CPU; rounds {ratios})")
     return 0
 
 

@@ -255,6 +255,39 @@ TEST(RankRuns, MohrCoulombDamageColumnMonitorsEqualOnOneToFourRanks) {
   EXPECT_TRUE(damaged) << "no damage at any monitor: the case does not test the damage on ranks";
 }
 
+// A run that goes unstable on one rank's part stops every rank: exit 3, the message of the rank
+// that saw it, the results file with the status "stopped: ..." (no rank left waiting).
+TEST(RankRuns, AnInstabilityOnOneRankStopsEveryRankWithTheStatusWritten) {
+  Files f;
+  writeMeshH5(makeBoxMesh({12, 4, 4, 0, 0, 0, 12, 4, 4}), f / "mesh.h5");
+  SolidInput in;
+  in.materials = {{"rock", elasticValues({8e9, 0.27, 2700})}};
+  in.fixed = {{"xmin", "xyz"}};
+  in.options.velocityLimit = 1e-3;  // the pull on xmax exceeds it within a few steps
+  in.tEnd = 0.05;
+  LoadInput pull;
+  pull.name = "pull";
+  pull.target = "xmax";
+  pull.direction = 0;
+  pull.force = 1e9;
+  in.loads = {pull};
+  in.monitors = {{"end", {12, 2, 2}}};
+  in.monitorDt = 1e-3;
+  in.progressSeconds = 100;
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
+  const std::string log = f / "log.txt", res = f / "r.h5";
+  const int rc = std::system((mpiexec(3) + TQ_TEST_SOLID_EXE + " " + (f / "solid_input.h5") + " --distributed -o " +
+                              res + " > " + log + " 2>&1")
+                                 .c_str());
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream is(log);
+  std::stringstream ss;
+  ss << is.rdbuf();
+  EXPECT_NE(ss.str().find("exploding"), std::string::npos) << ss.str();
+  auto r = h5::openFile(res);
+  EXPECT_EQ(h5::readStringAttr(r, "status").rfind("stopped: ", 0), 0u) << h5::readStringAttr(r, "status");
+}
+
 TEST(RankRuns, StagedInputIsRefusedOnRanksWithTheReason) {
   Files f;
   writeMeshH5(makeBoxMesh({2, 2, 2, 0, 0, 0, 2, 2, 2}), f / "mesh.h5");

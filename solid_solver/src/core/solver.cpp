@@ -840,7 +840,10 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
 void Solver::reportInstability(Index dof, Real value) {
   const Index node = dof / 3;
   const int d = int(dof % 3);
+  RankExchange* const rx = rx_;
+  rx_ = nullptr;  // on ranks: this rank's own step for the message (the others are not asking)
   const StableStep s = stableStep();
+  rx_ = rx;
   std::ostringstream os;
   os.precision(6);
   os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_"
