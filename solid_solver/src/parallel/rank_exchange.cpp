@@ -1,6 +1,7 @@
 #include "tq/parallel/rank_exchange.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -70,7 +71,12 @@ class MpiRankExchange final : public RankExchange {
   void beginForceSum(const Real* f) override { start(f, 3); }
   void finishForceSum(Real* f) override { finish(f, 3); }
 
-  void sumAll(Real* v, int n) override { MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD); }
+  void sumAll(Real* v, int n) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  double waitSeconds() const override { return wait_; }
   Real maxAll(Real v) override {
     MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     return v;
@@ -109,7 +115,9 @@ class MpiRankExchange final : public RankExchange {
   }
   // Waits for them and writes each frontier node's total, summed in ascending rank order.
   void finish(Real* data, int comps) {
+    const auto t0 = std::chrono::steady_clock::now();
     MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE);
+    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const size_t c = size_t(comps);
     for (size_t k = 0; k < frontier_.size(); ++k)
       for (size_t d = 0; d < c; ++d) {
@@ -132,6 +140,7 @@ class MpiRankExchange final : public RankExchange {
   std::vector<Real> self_;
   std::vector<std::vector<Real>> send_, recv_;
   std::vector<MPI_Request> requests_;
+  double wait_ = 0;  // s waiting in finish() and sumAll()
 };
 
 }  // namespace

@@ -42,6 +42,37 @@ struct RankCommandLine {
   bool check = false;
 };
 
+int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RankCommandLine& cl) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--distributed") {
+    } else if (a == "-o" && i + 1 < args.size()) {
+      cl.output = args[++i];
+    } else if (a == "--check") {
+      cl.check = true;
+    } else if (a == "--threads" && i + 1 < args.size()) {
+      omp_set_num_threads(std::stoi(args[++i]));
+    } else if (a == "--checkpoint-dir" || a == "--resume" || a == "--resume-sequence") {
+      err << "tq-solid: input error: restart checkpoints (" << a
+          << ") are not supported on ranks yet; run without --ranks to write them\n";
+      return 2;
+    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
+      cl.input = a;
+    } else {
+      err << "tq-solid: unknown argument '" << a << "' (on ranks: tq-solid solid_input.h5 --distributed [-o "
+          << "results.h5] [--threads N] [--check])\n";
+      return 1;
+    }
+  }
+  if (cl.input.empty()) {
+    err << "tq-solid: no input file given (tq-solid solid_input.h5 --distributed)\n";
+    return 1;
+  }
+  return -1;
+}
+
+#ifdef TQ_SOLID_HAVE_MPI
+
 /// What the run on ranks does not support yet, or "" (the same answer on every rank: the input is
 /// the same file).
 std::string unsupportedOnRanks(const SolidInput& in) {
@@ -60,8 +91,6 @@ std::string unsupportedOnRanks(const SolidInput& in) {
            " does not run on ranks (central_difference only)" + fix;
   return "";
 }
-
-#ifdef TQ_SOLID_HAVE_MPI
 
 /// The state rank 0 needs for the results: each rank's owned nodes (u, v, a) and its elements
 /// (stress, history), gathered into the mirror (a solver of the whole model on rank 0).
@@ -217,35 +246,6 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
   return s;
 }
 
-int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RankCommandLine& cl) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--distributed") {
-    } else if (a == "-o" && i + 1 < args.size()) {
-      cl.output = args[++i];
-    } else if (a == "--check") {
-      cl.check = true;
-    } else if (a == "--threads" && i + 1 < args.size()) {
-      omp_set_num_threads(std::stoi(args[++i]));
-    } else if (a == "--checkpoint-dir" || a == "--resume" || a == "--resume-sequence") {
-      err << "tq-solid: input error: restart checkpoints (" << a
-          << ") are not supported on ranks yet; run without --ranks to write them\n";
-      return 2;
-    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
-      cl.input = a;
-    } else {
-      err << "tq-solid: unknown argument '" << a << "' (on ranks: tq-solid solid_input.h5 --distributed [-o "
-          << "results.h5] [--threads N] [--check])\n";
-      return 1;
-    }
-  }
-  if (cl.input.empty()) {
-    err << "tq-solid: no input file given (tq-solid solid_input.h5 --distributed)\n";
-    return 1;
-  }
-  return -1;
-}
-
 std::string hms(double s) {
   std::ostringstream os;
   if (s >= 60) os << int(s / 60) << " min ";
@@ -359,6 +359,8 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
       const long long steps = s.stepCount() - step0;
       // Every rank's copy of a frontier node holds the same displacement and velocity, bitwise
       // (the frontier sums run in rank order on every rank): checked once at the end.
+      // The share of the stepping spent waiting for the other ranks, the largest over the ranks.
+      const Real waitShare = exchange ? exchange->maxAll(wall > 0 ? exchange->waitSeconds() / wall : 0.0) : 0.0;
       Real mismatch = 0;
       if (exchange) {
         mismatch = exchange->frontierMismatch(s.state().uData(), 3);
@@ -371,7 +373,8 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
                             {"threads_per_rank", double(omp_get_max_threads())},
                             {"largest_part_over_mean", imbalance},
                             {"frontier_node_copies", counts[0]},
-                            {"frontier_copies_max_difference", mismatch}},
+                            {"frontier_copies_max_difference", mismatch},
+                            {"wait_fraction", waitShare}},
                            {{"partition", "recursive coordinate bisection weighted by element cost"},
                             {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
         writer->setStatus("completed");

@@ -139,6 +139,9 @@ class RankExchange {
   /// The largest difference, over every rank, between this rank's copy of a frontier node's values
   /// (`comps` per node) and another rank's copy of the same node: 0 when the copies agree bitwise.
   virtual Real frontierMismatch(const Real* data, int comps) = 0;
+  /// Wall time this rank has spent waiting for the others so far (the frontier sums' and the
+  /// reductions' completion), s.
+  virtual double waitSeconds() const = 0;
 };
 
 /// The stable time step and what limits it.
