@@ -28,6 +28,7 @@
 #include "tq/io/input.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
+#include "tq/parallel/ranked_run.hpp"
 
 namespace tq {
 
@@ -39,6 +40,8 @@ const char* kUsage =
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
     "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+    "  --distributed  run on the ranks of mpirun, the model partitioned between them (tunnelquake run\n"
+    "               --ranks N; docs/architecture.md \"The solid on ranks\")\n"
     "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
     "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
     "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
@@ -668,6 +671,7 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   // HDF5 closes what is still open at exit; a file whose flush failed then crashes it
   // (H5F__close_cb). Every file here is closed by its owner, so that pass is left out.
   H5dont_atexit();
+  if (wantsRankedRun(args)) return runSolidOnRanks(args, out, err);  // on MPI ranks (tq/parallel/)
   std::unique_ptr<CouplingMpi> mpi;
   int rc = 0;
   try {
