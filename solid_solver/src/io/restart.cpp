@@ -336,7 +336,8 @@ void RestartCheckpoints::read(const CheckpointManifest& m, StateArchive& a) cons
   std::ifstream is(file(m.solid), std::ios::binary);
   char magic[sizeof kMagic];
   const bool read = bool(is.read(magic, sizeof magic));
-  if (read && std::memcmp(magic, kMagic, sizeof kMagic - 1) == 0 && magic[sizeof kMagic - 1] != kMagic[sizeof kMagic - 1])
+  if (read && std::memcmp(magic, kMagic, sizeof kMagic - 1) == 0 &&
+      magic[sizeof kMagic - 1] != kMagic[sizeof kMagic - 1])
     throw InputError(file(m.solid) + " was written by another version of tq-solid (state layout " +
                      std::string(1, magic[sizeof kMagic - 1]) + ", this build reads " +
                      std::string(1, kMagic[sizeof kMagic - 1]) + "); run without --resume to start again");
