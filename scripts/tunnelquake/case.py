@@ -303,6 +303,16 @@ def coupling_window_force_weight(c: dict) -> float:
 IMPLICIT_WINDOW = 16
 
 
+def coupling_window_problem(scheme: str, window: int) -> str | None:
+    """Why a coupling window of `window` solid steps cannot go with `scheme`, or None: the paper's
+    predictor-corrector makes its two passes for one-step windows. The one rule the case check and
+    the coupled run ask; tq-solid's reader refuses the same /coupling (input_staged.cpp)."""
+    if int(window) > 1 and scheme == "paper":
+        return (f"a window of {int(window)} solid steps needs scheme explicit or implicit (the paper scheme's two "
+                "passes are made for one-step windows)")
+    return None
+
+
 def _check_coupling(c, path, raw, ctx):
     if c.get("window") is None:
         c["window"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" else 1
@@ -322,10 +332,9 @@ def _check_coupling(c, path, raw, ctx):
                   f"weights the force across the steps of an implicit window of several steps; {why}, so it "
                   f"would have no effect", "use scheme: implicit with window > 1, or leave window_force_weight out",
                   raw.key_lines.get("window_force_weight"))
-    if c["window"] > 1 and c["scheme"] == "paper":
-        ctx.error(f"{path}.window", c["window"], "a window of several solid steps needs scheme explicit or implicit "
-                  "(the paper scheme's two passes are made for one-step windows)",
-                  "use scheme: implicit with this window, or window: 1", raw.key_lines.get("window"))
+    if (why := coupling_window_problem(c["scheme"], c["window"])) is not None:
+        ctx.error(f"{path}.window", c["window"], why, "use scheme: implicit with this window, or window: 1",
+                  raw.key_lines.get("window"))
 
 
 def _check_stages(s, path, raw, ctx):

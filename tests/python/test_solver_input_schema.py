@@ -277,5 +277,8 @@ def test_the_cases_coupling_words_give_the_attributes(mode, ends, law, model, tr
     d["coupling"].update(volume_law=law, water_translation=translation, predictor=predictor, reuse=reuse)
     attrs = fc.solid_coupling_attrs(fc.coupling_settings(case, 2.5e-4, tmp_path / "wall.addr", "ab" * 16,
                                                          t_end=0.02))
+    # the example's implicit windows of 16 steps: the window force weight 0.75, the energy guard at 0.05,
+    # a checkpoint every 1 s = 4000 windows of 2.5e-4 s
+    conditional = {**conditional, "window_force_weight": 0.75, "energy_limit": 0.05, "checkpoint_windows": 4000}
     assert set(attrs) == set(_ALWAYS_ATTRS) | set(conditional)
     assert {k: attrs[k] for k in conditional} == conditional

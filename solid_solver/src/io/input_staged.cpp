@@ -198,6 +198,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.windowSteps = Index(c.number(g, w, K::coupling::window));
     C.windowSize = c.number(g, w, K::coupling::window_size);
     C.windows = Index(c.number(g, w, K::coupling::windows));
+    C.checkpointWindows = Index(c.number(g, w, K::coupling::checkpoint_windows));
     C.tolerance = c.number(g, w, K::coupling::tolerance);
     C.absoluteTolVelocity = c.number(g, w, K::coupling::absolute_tolerance_velocity);
     C.absoluteTolDisplacement = c.number(g, w, K::coupling::absolute_tolerance_displacement);

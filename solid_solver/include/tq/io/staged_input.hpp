@@ -120,6 +120,9 @@ struct CouplingInput {
   Real energyLimit = 0;
   /// J: the least reference work of that ratio (0 = from the absolute tolerances, see the guard).
   Real energyFloor = 0;
+  /// With restart checkpoints: one at the end of every K-th accepted window (K = this, 0 = every
+  /// window; `tunnelquake run` decides it from /output checkpoint_interval: fluid_case.checkpoint_windows).
+  Index checkpointWindows = 0;
   /// Implicit windows of k > 1 steps: weight β of the window-end force in the force the solid's steps
   /// apply (step j: F_w + w_j (F̃ − F_w), w_j = 1 − (1 − j/k)·2(1 − β)); 0.5 = the linear ramp,
   /// 1 = the end force held over the window (docs/coupler.md "Window force weight").
