@@ -67,6 +67,11 @@ struct InterfaceInput {
   std::string afterFailure = "cohesion_lost";        ///< contact only
 };
 
+struct ContactParams;  // tq/contact/contact.hpp
+/// The contact parameters of /interfaces/rock_lining (model, static_friction, dynamic_friction,
+/// cohesion, after_failure); throws InputError on unknown names or bad values.
+ContactParams contactParamsFrom(const InterfaceInput& in);
+
 /// /boundaries/bottom: viscoelastic base (Deeks & Randolph 1994; Liu Jingbo et al. 2006).
 struct BottomBoundaryInput {
   bool present = false;
