@@ -714,6 +714,32 @@ class Case:
         return (self.dir / self.data["output"]["directory"]).resolve()
 
 
+def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """time.subcycling steps each element at its own elastic step, which tq-solid cannot do for a viscous
+    stress (a Kelvin-Voigt material's or Rayleigh's stiffness term: its step bound depends on the
+    viscosity, docs/solid_solver.md "Subcycling"); its starter refuses both, so the case check does first."""
+    levels = d["time"].get("subcycling") or 0
+    if levels <= 0:
+        return []
+    line = _section_lines(raw, "time").get("subcycling")
+    out = []
+    for region, m in d["materials"].items():
+        tau = m.get("retardation_time") or 0.0
+        if m["model"] == "kelvin_voigt" and tau > 0:
+            out.append(Issue("time.subcycling", levels,
+                             f"needs materials without viscosity: materials.{region} is kelvin_voigt with "
+                             f"retardation_time {tau:g} s, whose viscous stress tq-solid steps at the finest step "
+                             "only", f"set time.subcycling: 0, or give materials.{region} a model without "
+                             "viscosity (elastic)", line))
+    dmp = d["damping"]
+    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
+        out.append(Issue("time.subcycling", levels,
+                         "needs damping without the stiffness term: damping.model rayleigh adds beta K, a viscous "
+                         "stress tq-solid steps at the finest step only",
+                         "use damping.model: mass_proportional (the default), or time.subcycling: 0", line))
+    return out
+
+
 def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issue], list[str]]:
     """Checks across sections, and the ground-motion file itself."""
     issues: list[Issue] = []
@@ -759,6 +785,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
                                 "reinforced_concrete (hoop bars at the inner and outer faces)",
                                 "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
+    issues += _subcycling_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os
