@@ -28,12 +28,6 @@ ALLOWED = {
     ("src/core/constraints.cpp", "boundaries/boundaries.hpp"):
         "TiedNodeGroups::periodicPairs finds the two periodic faces with boundaries' axisFace; moving axisFace "
         "(and the 2x2 Gauss quad helpers it shares with pressureNodalForces) into core/mesh removes it",
-    ("src/materials/material.cpp", "io/input_schema.hpp"):
-        "the elastic parameters' names from the generated table's keys (input_schema::key::materials); "
-        "generating the material rows' names into a header of materials/ removes it",
-    ("src/materials/material_kv.cpp", "io/input_schema.hpp"): "as material.cpp",
-    ("src/materials/material_mc.cpp", "io/input_schema.hpp"): "as material.cpp",
-    ("src/materials/material_rc.cpp", "io/input_schema.hpp"): "as material.cpp",
 }
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"', re.M)
