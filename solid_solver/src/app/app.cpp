@@ -24,6 +24,7 @@
 #include "tq/app/stages.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
 
