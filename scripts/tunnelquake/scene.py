@@ -265,13 +265,65 @@ def axial_step(d: dict, plan) -> float:
     return h / max(cp(m) for m in d["materials"].values())
 
 
+def _p_wave_speed(m: dict) -> float:
+    import math
+
+    E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
+    return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+
+
+def ground_element_size(plan) -> float:
+    """The smallest side of the ground's elements beside the excavation, m: the rock ring's hoop size
+    at the excavated radius, its first radial size along an axis (meshing.params' near-field
+    grading) or the axial size (a slice's thickness, the shortest axial element in 3D)."""
+    import math
+
+    import numpy as np
+
+    from .meshing.params import graded_sizes
+
+    radial = min(graded_sizes(plan.box_half_width - plan.radius_outer, plan.near_field))
+    hoop = 2 * math.pi * plan.radius_outer / (4 * plan.quarter.count)
+    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
+    return min(radial, hoop, axial)
+
+
+def critical_step(d: dict, plan) -> float:
+    """The solid's critical step, s, bounded as tq-solid's Solver::stableStep bounds it: the elastic
+    bound 2/w_max (w_max from the lining's first element layer, or a fault zone's shortest axial
+    element, axial_step) cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's
+    own bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3),
+    at its w_b = 2 c_p / h: h the lining's layer for the lining, the ground's smallest element side
+    (ground_element_size) for a ground region."""
+    import math
+
+    from .references import rayleigh_coefficients
+
+    h1, dt_lining = lining_layer_step(d)
+    dt_elastic = min(dt_lining, axial_step(d, plan))
+    dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
+    dmp = d["damping"]
+    beta = (rayleigh_coefficients(dmp["ratio"], *dmp["frequencies"])[1]
+            if dmp["model"] == "rayleigh" and dmp["ratio"] > 0 else 0.0)
+    h_ground = ground_element_size(plan)
+    for region, m in d["materials"].items():
+        tau = m.get("retardation_time") or 0.0
+        if m["model"] != "kelvin_voigt" or not tau > 0:
+            continue
+        w = 2 * _p_wave_speed(m) / (h1 if region == "lining" else h_ground)
+        xi = 0.5 * (beta + tau) * w
+        dt = min(dt, 2 / w * (math.sqrt(1 + xi * xi) - xi))
+    return dt
+
+
 def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
     default rates.machine_rates(), the cached probe of this processor and build, run once). The step is the lining's first element layer's
     h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
     factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
-    stiffness-proportional damping as tq-solid cuts it."""
+    stiffness-proportional damping and a Kelvin-Voigt material's viscosity as tq-solid cuts it
+    (critical_step)."""
     import math
 
     from .case import case_geology, ground_layers
@@ -280,8 +332,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     d = case.data
     mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     counts = counts or element_counts(mesh_plan)
-    dt_crit = min(lining_layer_step(d)[1], axial_step(d, mesh_plan))
-    dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
+    dt = d["time"].get("dt") or d["time"]["safety_factor"] * critical_step(d, mesh_plan)
     duration = d["time"].get("end_time")
     if duration is None:
         from .motion import window_seconds

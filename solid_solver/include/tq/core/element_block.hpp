@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "tq/core/mesh.hpp"
 #include "tq/core/nodal_state.hpp"
 #include "tq/core/state_archive.hpp"
-#include "tq/io/mesh.hpp"
 #include "tq/materials/material.hpp"
 
 namespace tq {

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "tq/core/element_block.hpp"
+#include "tq/core/mesh.hpp"
 #include "tq/core/nodal_state.hpp"
-#include "tq/io/mesh.hpp"
 
 namespace tq {
 
