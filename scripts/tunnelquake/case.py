@@ -401,6 +401,16 @@ def coupling_window_force_weight(c: dict) -> float:
 IMPLICIT_WINDOW = 16
 
 
+def coupling_window_problem(scheme: str, window: int) -> str | None:
+    """Why a coupling window of `window` solid steps cannot go with `scheme`, or None: the paper's
+    predictor-corrector makes its two passes for one-step windows. The one rule the case check and
+    the coupled run ask; tq-solid's reader refuses the same /coupling (input_staged.cpp)."""
+    if int(window) > 1 and scheme == "paper":
+        return (f"a window of {int(window)} solid steps needs scheme explicit or implicit (the paper scheme's two "
+                "passes are made for one-step windows)")
+    return None
+
+
 def _check_coupling(c, path, raw, ctx):
     if c.get("window") is None:
         c["window"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" else 1
@@ -420,10 +430,9 @@ def _check_coupling(c, path, raw, ctx):
                   f"weights the force across the steps of an implicit window of several steps; {why}, so it "
                   f"would have no effect", "use scheme: implicit with window > 1, or leave window_force_weight out",
                   raw.key_lines.get("window_force_weight"))
-    if c["window"] > 1 and c["scheme"] == "paper":
-        ctx.error(f"{path}.window", c["window"], "a window of several solid steps needs scheme explicit or implicit "
-                  "(the paper scheme's two passes are made for one-step windows)",
-                  "use scheme: implicit with this window, or window: 1", raw.key_lines.get("window"))
+    if (why := coupling_window_problem(c["scheme"], c["window"])) is not None:
+        ctx.error(f"{path}.window", c["window"], why, "use scheme: implicit with this window, or window: 1",
+                  raw.key_lines.get("window"))
 
 
 def _check_stages(s, path, raw, ctx):
@@ -806,6 +815,32 @@ class Case:
         return (self.dir / self.data["output"]["directory"]).resolve()
 
 
+def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """time.subcycling steps each element at its own elastic step, which tq-solid cannot do for a viscous
+    stress (a Kelvin-Voigt material's or Rayleigh's stiffness term: its step bound depends on the
+    viscosity, docs/solid_solver.md "Subcycling"); its starter refuses both, so the case check does first."""
+    levels = d["time"].get("subcycling") or 0
+    if levels <= 0:
+        return []
+    line = _section_lines(raw, "time").get("subcycling")
+    out = []
+    for region, m in d["materials"].items():
+        tau = m.get("retardation_time") or 0.0
+        if m["model"] == "kelvin_voigt" and tau > 0:
+            out.append(Issue("time.subcycling", levels,
+                             f"needs materials without viscosity: materials.{region} is kelvin_voigt with "
+                             f"retardation_time {tau:g} s, whose viscous stress tq-solid steps at the finest step "
+                             "only", f"set time.subcycling: 0, or give materials.{region} a model without "
+                             "viscosity (elastic)", line))
+    dmp = d["damping"]
+    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
+        out.append(Issue("time.subcycling", levels,
+                         "needs damping without the stiffness term: damping.model rayleigh adds beta K, a viscous "
+                         "stress tq-solid steps at the finest step only",
+                         "use damping.model: mass_proportional (the default), or time.subcycling: 0", line))
+    return out
+
+
 def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issue], list[str]]:
     """Checks across sections, and the ground-motion file itself."""
     issues: list[Issue] = []
@@ -851,6 +886,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
                                 "reinforced_concrete (hoop bars at the inner and outer faces)",
                                 "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
+    issues += _subcycling_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os

@@ -1,6 +1,6 @@
 // tq-solid: explicit dynamics of rock and lining (see docs/solid_solver.md).
 //
-//   tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]
+//   tq-solid solid_input.h5 [-o results.h5] [--check [--json FILE]] [--threads N]
 //
 // A run is a starter and an engine. The starter reads and checks the input and the mesh and
 // builds the model (element blocks and materials, supports, loads, the time step, the stages). The
@@ -26,19 +26,25 @@
 #include "tq/coupling/coupling_mpi.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
+#include "tq/parallel/ranked_run.hpp"
 
 namespace tq {
 
 namespace {
 const char* kUsage =
-    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume "
-    "[--resume-sequence N]]]\n"
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check [--json FILE]] [--threads N]\n"
+    "                [--checkpoint-dir DIR [--resume [--resume-sequence N]]]\n"
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
+    "  --json FILE  with --check: also write the step it found to FILE as JSON (dt, dt_critical,\n"
+    "               safety, t_end, steps, block, element; every number to full double precision)\n"
     "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+    "  --distributed  run on the ranks of mpirun, the model partitioned between them (tunnelquake run\n"
+    "               --ranks N; docs/architecture.md \"The solid on ranks\")\n"
     "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
     "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
     "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
@@ -51,7 +57,7 @@ const char* kUsage =
 // What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
-    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
+    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v2 "
     "mohr-coulomb-damage dynamic-contact water-coupling restart fault-offset";
 
 std::string hms(double s) {
@@ -91,7 +97,7 @@ namespace {
 
 /// The command line.
 struct CommandLine {
-  std::string input, output = "results.h5", checkpointDir;
+  std::string input, output = "results.h5", checkpointDir, checkJson;
   bool check = false, resume = false;
   long long resumeSequence = 0;
 };
@@ -111,6 +117,8 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
       return 0;
     } else if (a == "--check") {
       cl.check = true;
+    } else if (a == "--json" && i + 1 < args.size()) {
+      cl.checkJson = args[++i];
     } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
       cl.checkpointDir = args[++i];
     } else if (a == "--resume") {
@@ -125,6 +133,10 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
       err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
       return 1;
     }
+  }
+  if (!cl.checkJson.empty() && !cl.check) {
+    err << "tq-solid: --json goes with --check (it writes what the check found)\n" << kUsage;
+    return 1;
   }
   if (cl.input.empty() || (cl.resume && cl.checkpointDir.empty())) {
     err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n")
@@ -173,6 +185,30 @@ void describeModel(const Model& m, std::ostream& out) {
     const std::string w = elementSizeWarning(s, m.in.staged.motion.cutoffFrequency);
     if (!w.empty()) out << "tq-solid: " << w << "\n";
   }
+}
+
+/// What --check found, for programs (`tunnelquake run` sizes the coupling window and the water's
+/// step from dt): one JSON object, every number with 17 significant digits (read back exactly),
+/// written to FILE.part and renamed. Throws OutputError.
+void writeCheckJson(const Model& m, const std::string& file) {
+  const Solver& s = *m.solver;
+  const StableStep st = s.stableStep();
+  std::string block;
+  for (char c : st.block) {
+    if (c == '"' || c == '\\') block += '\\';
+    block += c;
+  }
+  const std::string part = file + ".part";
+  {
+    std::ofstream f(part);
+    f << std::setprecision(17) << "{\"dt\": " << s.dt() << ", \"dt_critical\": " << st.dtCritical
+      << ", \"safety\": " << s.options().safety << ", \"t_end\": " << m.in.tEnd
+      << ", \"steps\": " << std::llround(std::ceil(m.in.tEnd / s.dt())) << ", \"block\": \"" << block
+      << "\", \"element\": " << st.element << "}\n";
+    f.close();
+    if (!f) throw OutputError("cannot write " + part);
+  }
+  if (std::rename(part.c_str(), file.c_str()) != 0) throw OutputError("cannot rename " + part + " to " + file);
 }
 
 // ---- The engine: runs the model ---------------------------------------------------------------
@@ -255,6 +291,7 @@ int SolidRun::exec() {
       startModel(cl_.input, m_);  // the starter
       describeModel(m_, out_);
       if (cl_.check) {
+        if (!cl_.checkJson.empty()) writeCheckJson(m_, cl_.checkJson);
         out_ << "tq-solid: input and mesh are valid\n";
         return 0;
       }
@@ -474,11 +511,10 @@ void SolidRun::restoreOrStart() {
   Solver& s = *m_.solver;
   tFinal_ = s.time();
   nextCheckpoint_ = m_.in.checkpointInterval;
-  // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
-  // windows, at least 1), a rule the water applies to its own window count too.
-  checkpointWindows_ = coupling_ && m_.in.checkpointInterval > 0
-                           ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
-                           : 0;
+  // Coupled with the water: a checkpoint at the end of every K-th window, K as /coupling
+  // checkpoint_windows gives it (the water is given the same K).
+  checkpointWindows_ =
+      coupling_ && m_.in.checkpointInterval > 0 ? std::max<long long>(1, m_.in.staged.coupling.checkpointWindows) : 0;
   if (!cl_.resume) {
     if (checkpoints_) checkpoints_->clear();
     writer_->sample(s);
@@ -668,6 +704,7 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   // HDF5 closes what is still open at exit; a file whose flush failed then crashes it
   // (H5F__close_cb). Every file here is closed by its owner, so that pass is left out.
   H5dont_atexit();
+  if (wantsRankedRun(args)) return runSolidOnRanks(args, out, err);  // on MPI ranks (tq/parallel/)
   std::unique_ptr<CouplingMpi> mpi;
   int rc = 0;
   try {

@@ -9,10 +9,22 @@
 
 #include "h5util.hpp"
 #include "input_schema.hpp"
+#include "tq/contact/contact.hpp"
 
 namespace tq {
 
 namespace K = input_schema::key;
+
+ContactParams contactParamsFrom(const InterfaceInput& in) {
+  ContactParams p;
+  p.model = parseInterfaceModel(in.model);
+  p.staticFriction = in.staticFriction;
+  p.dynamicFriction = in.dynamicFriction;
+  p.cohesion = in.cohesion;
+  p.afterFailure = parseAfterFailure(in.afterFailure);
+  p.check();
+  return p;
+}
 
 void readStagedInput(hid_t f, SolidInput& in) {
   const input_schema::Reader c(in.path);
@@ -231,6 +243,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.windowSteps = Index(c.number(g, w, K::coupling::window));
     C.windowSize = c.number(g, w, K::coupling::window_size);
     C.windows = Index(c.number(g, w, K::coupling::windows));
+    C.checkpointWindows = Index(c.number(g, w, K::coupling::checkpoint_windows));
     C.tolerance = c.number(g, w, K::coupling::tolerance);
     C.absoluteTolVelocity = c.number(g, w, K::coupling::absolute_tolerance_velocity);
     C.absoluteTolDisplacement = c.number(g, w, K::coupling::absolute_tolerance_displacement);
