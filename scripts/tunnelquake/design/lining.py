@@ -384,6 +384,7 @@ class LiningDesign:
     jacking: dict[str, dict] = field(default_factory=dict)  # condition -> condition_jacking
     jacking_reach: float | None = None
     notes: dict[str, list[str]] = field(default_factory=dict)  # condition -> what else the designer must know
+    bars_in_analysis: bool = False  # the lining is `reinforced_concrete`: its forces come from the bars too
 
     ANGLES = ("Angles: degrees about the tunnel axis from the crown (0°) towards +x (springline +x 90°, "
               "invert 180°, springline −x −90°), for the monitors, the section forces and the checks alike.")
@@ -470,7 +471,11 @@ class LiningDesign:
         elif p is not None:
             out[0] += ", plain concrete"
         out[0] += ("); combination: " + self.combination.words() + ".")
-        if p is not None and p.reinforced:
+        if p is not None and p.reinforced and self.bars_in_analysis:
+            out[0] += (" The reinforcement is in the analysis too (lining model reinforced_concrete: bars smeared in "
+                       "the lining's elements, concrete cracking with tension stiffening), so N, M, V come from the "
+                       "cracked reinforced section; the crack widths from the cracked section under them.")
+        elif p is not None and p.reinforced:
             out[0] += (" The reinforcement is in the check only, not in the analysis: the forces come from a lining "
                        "without bars, and the steel strains (crack widths) from the cracked section under them.")
         return out + [""]
@@ -567,7 +572,8 @@ def lining_design(case, results) -> LiningDesign | None:
             done.append(c)
     if not done:
         return None
-    design = LiningDesign(done, params, source, missing=missing, combination=combination)
+    design = LiningDesign(done, params, source, missing=missing, combination=combination,
+                          bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
     design.jacking_reach = case.data["geometry"]["excavated_radius"]
     for res in results:
         if res.condition != "no_water" and case.data["water"]["head"] > 0:
