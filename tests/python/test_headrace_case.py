@@ -8,7 +8,7 @@ condition and the first 1 s of the shaking) and its report
    1,448 kN/m), with the report's N the results file's: no tension cut-off shapes the forces;
 3. has the summary table per condition with its governing check;
 4. has the design figures (N, M, V envelopes around the ring; the M–N diagram with the demand
-   points), as files and in the report;
+   points; the deformed lining at the governing time), as files and in the report;
 5. has no contradictory verdicts: the governing check is the row with the largest utilisation and
    carries its verdict, no plain-concrete row beside the reinforced one, and the crack widths agree
    with the cracking check (zero where uncracked)."""
@@ -76,7 +76,7 @@ def test_the_summary_table_names_the_governing_check(ran):
 
 def test_the_design_figures_are_drawn_and_shown(ran):
     report = (ran / "report.md").read_text()
-    for name in ("design_envelopes.png", "design_mn.png"):
+    for name in ("design_envelopes.png", "design_mn.png", "design_deformed.png"):
         assert (ran / "figures" / name).stat().st_size > 10_000, name
         assert f"(figures/{name})" in report, name
 

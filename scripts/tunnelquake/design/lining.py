@@ -128,6 +128,20 @@ class ConditionDesign:
     envelope: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     static_forces: dict[str, np.ndarray] = field(default_factory=dict)
     demand: tuple[np.ndarray, np.ndarray] | None = None
+    # the ring's diameters: direction from the crown (deg) [D], the times [T] and each one's change
+    # relative to the seismic start [T, D] (m), for the deformed lining
+    diameter: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def governing_time(self) -> float | None:
+        """The time of the largest finite utilisation (the summary's governing check), else of the
+        largest diameter change; None with neither."""
+        finite = [e for e in self.utilisation.values() if math.isfinite(e.value)]
+        if finite:
+            return max(finite, key=lambda e: e.value).time
+        if self.diameter is not None:
+            i = int(np.unravel_index(int(np.argmax(np.abs(self.diameter[2]))), self.diameter[2].shape)[0])
+            return float(self.diameter[1][i])
+        return None
 
 
 def _pick_ring(rings, monitors: dict):
@@ -223,6 +237,8 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
                           static_forces={q: des[q][0] for q in ("N", "M", "V")})
     cand = _hull_candidates(-des["N"].ravel(), des["M"].ravel())
     out.demand = (-des["N"].ravel()[cand], des["M"].ravel()[cand])
+    if r.diameter_change.size:
+        out.diameter = (crown_angle(r.diameter_angle), r.time, r.diameter_change)
     if params is None:
         out.skipped.append(skipped)
         return out
