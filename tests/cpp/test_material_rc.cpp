@@ -196,6 +196,11 @@ TEST(ReinforcedConcrete, CrackedStiffnessInPureTensionWithinTenPercentOfEc2Inter
           as * 1e6, level, n / 1e3, eAt, eRef, ratio);
       EXPECT_NEAR(ratio, 1.0, 0.10) << "As " << as << " at N = " << level << " N_cr";
     }
+    // The crack pattern's "damage": the concrete's loss of secant stiffness, 1 − σ_c/(E ε), with
+    // σ_c = N/h − (A_s/h) E_s ε from the section's equilibrium (bars not deducted).
+    const Real nNow = s.forces(e0, 0.0, false).first;
+    const Real dRef = 1 - (nNow / kH - asTot / kH * p.Es * e0) / (E * e0);
+    for (int i = 0; i < kLayers; ++i) EXPECT_NEAR(s.hist[rc_history::kDamage][size_t(i)], dRef, 1e-9) << "row " << i;
   }
 }
 

@@ -213,7 +213,8 @@ std::vector<std::string> ReinforcedConcreteMaterial::historyNames() const {
           "face_row_inner",
           "face_row_outer",
           "section_share_hoop",
-          "section_share_axial"};
+          "section_share_axial",
+          "damage"};
 }
 
 namespace {
@@ -338,6 +339,8 @@ void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) co
         const Real f = h[kBf][e];
         sig = f * tie + (1 - f) * plain;
       }
+      if (eq > 0 && eMax > params_.fct / E)  // cracked and open: the secant's loss (history-monotone)
+        h[H::kDamage][e] = std::max(h[H::kDamage][e], std::clamp(1 - sig / (E * eq), Real(0), Real(1)));
       if (rho > 0) sig += rho * rc_law::steel(params_, epsTotal, h[kPl][e]);
       return sig - sigElastic;  // the correction to the elastic stress in this direction
     };

@@ -63,6 +63,8 @@ enum : int {
   kFaceOuter,  ///< the outer face row's
   kSectionShareHoop,   ///< s (0–1): how far the section is a tie, from its face rows' hoop strains (blockPass)
   kSectionShareAxial,  ///< axial
+  kDamage,  ///< "damage": the concrete's largest loss of secant stiffness in tension, 1 − σ_c/(E e) (0 uncracked; the
+            ///< crack pattern)
   kCount
 };
 }  // namespace rc_history
