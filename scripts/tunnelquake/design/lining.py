@@ -471,8 +471,24 @@ class LiningDesign:
                 out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows] + [""]
             out += [f"- {x}" for x in c.skipped if x and x not in said]
             out += [f"- {x}" for x in self.notes.get(c.condition, [])]
+            note = self._ultimate_beside_uncracked(c)
+            out += [f"- {note}"] if note else []
             out += [""] if out[-1] != "" else []
         return out
+
+    @staticmethod
+    def _ultimate_beside_uncracked(c: ConditionDesign) -> str:
+        """Why a failing reinforced M–N row and an 'uncracked' cracking row are no contradiction."""
+        mn = next((e for k, e in c.utilisation.items() if k.startswith("reinforced M–N")), None)
+        cr = c.utilisation.get("cracking")
+        if mn is None or cr is None or not mn.value > 1 or cr.value > 1:
+            return ""
+        return (f"The reinforced M–N check fails ({mn.value:.3g} at {mn.angle:.0f}°, t = {mn.time:.3f} s) where the "
+                f"cracking check finds the section uncracked ({cr.value:.3g}): two limit states, not a contradiction. "
+                "The M–N resistance is the ultimate one, without the concrete's tensile strength (EN 1992-1-1 "
+                "§6.1(2)) and with the bars at f_yk/γ_s; the cracking check sets the section's tension against "
+                "f_ctm. Should the lining crack (a lower tensile strength, shrinkage, a joint), the bars alone "
+                "cannot carry this demand: more reinforcement is needed.")
 
     def inputs_lines(self) -> list[str]:
         """The design inputs that shaped the answer."""
