@@ -16,12 +16,13 @@ from pathlib import Path
 import numpy as np
 
 from tunnelquake import water_case as wc
+from tunnelquake.case import WATER_BULK_MODULUS
 from tunnelquake.foam_dict import Quoted, parse
 
 RHO = 1000.0
 NU = 1.308e-6
-#: Bulk modulus of water [Pa] (weakly compressible model)
-K_WATER = 2.2e9
+#: Bulk modulus of water [Pa] (weakly compressible model): the case's default
+K_WATER = WATER_BULK_MODULUS
 #: Reference temperature of the compressible model [K]
 T0 = wc.T0
 #: the tqInterface gravity of every water case (its hydrostatic report)

@@ -17,8 +17,8 @@
 #include <string>
 #include <thread>
 
+#include "ring_scenario.hpp"
 #include "tq/coupler/participant.hpp"
-#include "tq/coupler/ring_scenario.hpp"
 #include "tq/coupler/wire.hpp"
 
 using namespace tq::coupler;

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "ring_scenario.hpp"
 #include "tq/coupler/participant.hpp"
-#include "tq/coupler/ring_scenario.hpp"
 #include "tq/coupler/scheme.hpp"
 
 namespace py = pybind11;

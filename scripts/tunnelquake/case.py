@@ -35,6 +35,9 @@ STAGES = ("in_situ", "excavation", "lining", "hydrostatic", "seismic")
 CONDITIONS = ("no_water", "static_water", "dynamic_water")
 #: s of simulated time between the water's printed passes (water.log: brief)
 WATER_LOG_INTERVAL = 0.01
+#: Pa: the bulk modulus of fresh water near 10-20 degC (water.bulk_modulus's default); the one place the
+#: number is written (fluid_case.py and the verification scripts read it here)
+WATER_BULK_MODULUS = 2.2e9
 #: s of simulated time between restart checkpoints (output.checkpoint_interval): the cost of one
 #: is measured in docs/benchmarks.md "Restart checkpoints"
 CHECKPOINT_INTERVAL = 1.0
@@ -303,6 +306,16 @@ def coupling_window_force_weight(c: dict) -> float:
 IMPLICIT_WINDOW = 16
 
 
+def coupling_window_problem(scheme: str, window: int) -> str | None:
+    """Why a coupling window of `window` solid steps cannot go with `scheme`, or None: the paper's
+    predictor-corrector makes its two passes for one-step windows. The one rule the case check and
+    the coupled run ask; tq-solid's reader refuses the same /coupling (input_staged.cpp)."""
+    if int(window) > 1 and scheme == "paper":
+        return (f"a window of {int(window)} solid steps needs scheme explicit or implicit (the paper scheme's two "
+                "passes are made for one-step windows)")
+    return None
+
+
 def _check_coupling(c, path, raw, ctx):
     if c.get("window") is None:
         c["window"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" else 1
@@ -322,10 +335,9 @@ def _check_coupling(c, path, raw, ctx):
                   f"weights the force across the steps of an implicit window of several steps; {why}, so it "
                   f"would have no effect", "use scheme: implicit with window > 1, or leave window_force_weight out",
                   raw.key_lines.get("window_force_weight"))
-    if c["window"] > 1 and c["scheme"] == "paper":
-        ctx.error(f"{path}.window", c["window"], "a window of several solid steps needs scheme explicit or implicit "
-                  "(the paper scheme's two passes are made for one-step windows)",
-                  "use scheme: implicit with this window, or window: 1", raw.key_lines.get("window"))
+    if (why := coupling_window_problem(c["scheme"], c["window"])) is not None:
+        ctx.error(f"{path}.window", c["window"], why, "use scheme: implicit with this window, or window: 1",
+                  raw.key_lines.get("window"))
 
 
 def _check_stages(s, path, raw, ctx):
@@ -359,7 +371,7 @@ def _mesh_section() -> Section:
         elif isinstance(default, bool):
             fields[key] = Bool(default=default)
         elif isinstance(default, int):
-            fields[key] = Number(integer=True, min=1, default=default)
+            fields[key] = Number(integer=True, min=0 if key == "tunnel_end_plugs" else 1, default=default)
         elif isinstance(default, float) or default is None:
             dim = U.LENGTH if key.endswith(("_size", "_radius", "_thickness", "_length", "_width")) else U.DIMENSIONLESS
             # default None: optional, the mesher resolves its absence (e.g. slice_thickness)
@@ -460,7 +472,8 @@ def schema() -> Section:
                             doc="compressible: real water of bulk modulus K (the default); incompressible: the "
                                 "limit K -> infinity (with coupling.volume_law solid the water's volume held by the "
                                 "solid: a closed section's, or each plane's with open ends)"),
-            "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model", default=2.2e9),
+            "bulk_modulus": _positive(U.PRESSURE, "Pa, for the compressible model",
+                                      default=WATER_BULK_MODULUS),
             "ends": Choice(choices=("open", "closed"), default=None,
                            doc="axial ends of the water column: open (pressure) or closed (walls); required by a 3D "
                                "model with dynamic_water (a slice has no axial flow)"),
@@ -672,6 +685,7 @@ def schema() -> Section:
             }),
         }),
         "suite": _suite_section(),
+        "incident_wave": _incident_wave_section(),
         "parallel": Section(fields={
             "threads": Number(integer=True, min=0, default=0, doc="solid OpenMP threads, 0 = the cores divided among the conditions running at once (one on a small mesh)"),
             "fluid_ranks": Number(integer=True, min=1, default=1,
@@ -703,6 +717,32 @@ class Case:
     @property
     def output_dir(self) -> Path:
         return (self.dir / self.data["output"]["directory"]).resolve()
+
+
+def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """time.subcycling steps each element at its own elastic step, which tq-solid cannot do for a viscous
+    stress (a Kelvin-Voigt material's or Rayleigh's stiffness term: its step bound depends on the
+    viscosity, docs/solid_solver.md "Subcycling"); its starter refuses both, so the case check does first."""
+    levels = d["time"].get("subcycling") or 0
+    if levels <= 0:
+        return []
+    line = _section_lines(raw, "time").get("subcycling")
+    out = []
+    for region, m in d["materials"].items():
+        tau = m.get("retardation_time") or 0.0
+        if m["model"] == "kelvin_voigt" and tau > 0:
+            out.append(Issue("time.subcycling", levels,
+                             f"needs materials without viscosity: materials.{region} is kelvin_voigt with "
+                             f"retardation_time {tau:g} s, whose viscous stress tq-solid steps at the finest step "
+                             "only", f"set time.subcycling: 0, or give materials.{region} a model without "
+                             "viscosity (elastic)", line))
+    dmp = d["damping"]
+    if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
+        out.append(Issue("time.subcycling", levels,
+                         "needs damping without the stiffness term: damping.model rayleigh adds beta K, a viscous "
+                         "stress tq-solid steps at the finest step only",
+                         "use damping.model: mass_proportional (the default), or time.subcycling: 0", line))
+    return out
 
 
 def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issue], list[str]]:
@@ -750,6 +790,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
                                 "reinforced_concrete (hoop bars at the inner and outer faces)",
                                 "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
+    issues += _subcycling_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os
@@ -807,6 +848,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
+    issues += _incident_wave_checks(d, raw)
     if d["suite"]["records"] is not None:
         from .suite import suite_checks
 
@@ -832,6 +874,32 @@ def _no_default_checks(d: dict, raw: LineDict) -> list[Issue]:
     return issues
 
 
+# ----------------------------------------------------------------------------------------------
+# A plane wave from any direction through a domain-reduction layer (incident_wave.py)
+# ----------------------------------------------------------------------------------------------
+def _incident_wave_section() -> Section:
+    from .incident_wave import section
+
+    return section()
+
+
+def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """What a run could not honour of the incident wave (incident_wave.checks), then where its DRM
+    layer falls in the mesh's bands (when the mesh keys themselves are valid)."""
+    from .incident_wave import active, band_issue, checks, monitor_issues
+    from .meshing.params import MeshInputError, resolve
+
+    issues = checks(d, ground_layers(d), raw.key_lines, lambda name: _section_lines(raw, name))
+    if issues or not active(d):
+        return issues
+    try:
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    except (MeshInputError, MemoryError, OverflowError):
+        return []  # said by _mesh_checks
+    bad = band_issue(d, plan, lambda name: _section_lines(raw, name))
+    return [bad] if bad else monitor_issues(d, plan, lambda name: _section_lines(raw, name))
+
+
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
     """A motion along the tunnel's axis (y) shears the ground antiplane; tq-solid runs it in a
     slice, whose y faces it ties periodic. A 3D model keeps its y faces on rollers (u_y = 0), which
@@ -839,8 +907,8 @@ def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
     from .motion import along_axis
 
     gm = d["ground_motion"]
-    if d["mesh"]["mode"] == "slice" or not along_axis(gm):
-        return []
+    if d["mesh"]["mode"] == "slice" or not along_axis(gm) or d["incident_wave"]["type"] != "none":
+        return []  # (with an incident wave its own checks name these keys)
     lines = _section_lines(raw, "ground_motion")
     key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
     value = gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"]

@@ -150,6 +150,7 @@ def post_case(case) -> Path:
     fig03 = figs / "fig03_input_motion.png"
     lines = [f"# TunnelQuake report: {case.data['name']}", ""]
     lines += R.motion_section(motion, f"figures/{fig03.name}" if fig03.is_file() else None)
+    lines += _wave_lines(case.data)
     lines += R.case_section(case)
     if inputs_notes:
         lines += ["## Inputs", "", *inputs_notes, ""]
@@ -304,3 +305,17 @@ def _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten:
     return lines
 
 
+def _wave_lines(d: dict) -> list[str]:
+    """With an incident_wave, what the record above drives: the plane wave through the DRM layer
+    (the record's vertical-incidence peaks above are the processed record's, not the wave's)."""
+    from .incident_wave import active, convention
+
+    if not active(d):
+        return []
+    w = d["incident_wave"]
+    return [f"The record drives a plane {w['type']} wave, {w['angle']:g} deg from the vertical, travelling "
+            f"{w['azimuth']:g} deg from the tunnel's axis towards x, as its {convention(d)} record (the component "
+            f"{ {'P': 'z', 'SV': 'along the propagation direction', 'SH': 'across it'}[w['type']] }); it enters "
+            f"through a domain-reduction layer {w['drm_offset']} element ring(s) in from the sides and the base "
+            "(docs/user_guide.md \"Waves from any direction\"). The line above about the incident wave is the "
+            "vertical-incidence reading of the record, not this wave's.", ""]

@@ -1,7 +1,8 @@
 """solid_input.h5's `/drm` group: the free field at the nodes of a domain-reduction layer, which
 tq-solid turns into the layer's effective forces (docs/theory.md §6.2, docs/formats.md). The field
 comes from `tunnelquake.freefield.free_field` at the layer's nodes, or from an H5DRM file through
-`freefield.read_h5drm` (which matches every node to a file point first)."""
+`freefield.read_h5drm` (which matches every node to a file point first). `write_drm_group` does
+it for a case's `incident_wave` (tunnelquake.incident_wave)."""
 from __future__ import annotations
 
 import numpy as np
@@ -40,3 +41,42 @@ def write_drm(f, nodes, internal, field: FreeField) -> None:
                                          "compute the free field at the layer's nodes, in their order")
                 value = np.ascontiguousarray(np.swapaxes(value, 0, 1))
         put(g, GROUP, e.name, value)
+
+
+def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray, dt: float,
+                    h5drm=None) -> dict:
+    """Compute the free field at the DRM layer's nodes of `mesh_h5` and write `/drm` into the open
+    solid_input.h5 `f`. `record_acc`: the processed record (the wave's defining component, under
+    convention(d)) sampled every dt from the seismic stage's start. `h5drm`: a path to write the same
+    free field to in the H5DRM layout as well (freefield.write_h5drm). Returns a summary."""
+    import h5py
+
+    from .freefield import free_field, incident_motion
+    from .incident_wave import DrmLayerError, convention, drm_layer, ground_profile, plane_wave
+
+    d = case_data
+    with h5py.File(mesh_h5, "r") as m:
+        xyz = m["/nodes/coordinates"][...]
+        conn = m["/elements/connectivity"][...].astype(np.int64)
+        faces = {k: m[f"/faces/{k}"][...] for k in ("xmin", "xmax", "ymin", "ymax", "bottom")}
+        regions = [r.decode() if isinstance(r, bytes) else str(r) for r in m["/elements"].attrs["regions"]]
+        region = m["/elements/region"][...]
+    nodes, internal = drm_layer(xyz, conn, int(d["incident_wave"]["drm_offset"]), faces)
+    # the tunnel must lie inside the layer: no lining element may touch it
+    lining = regions.index("lining") if "lining" in regions else -1
+    touch = np.zeros(xyz.shape[0], bool)
+    touch[nodes] = True
+    bad = (region == lining) & touch[conn].any(axis=1)
+    if bad.any():
+        raise DrmLayerError(f"{int(bad.sum())} lining element(s) touch the DRM layer: the tunnel crosses it; raise "
+                            "mesh.tunnel_end_plugs or lower incident_wave.drm_offset")
+    profile = ground_profile(d, layers)
+    wave = plane_wave(d)
+    inc = incident_motion(np.asarray(record_acc, float), dt, wave, profile, convention(d))
+    field = free_field(profile, [(wave, inc)], dt, xyz[nodes])
+    write_drm(f, nodes, internal, field)
+    if h5drm is not None:
+        from .freefield import write_h5drm
+
+        write_h5drm(h5drm, field, internal)
+    return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": int(field.time.size)}

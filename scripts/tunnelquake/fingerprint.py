@@ -33,7 +33,7 @@ SECTION_GROUPS = {
     "stages": "solid material", "damping": "solid material",
     "water": "water",
     "coupling": "coupling",
-    "ground_motion": "record",
+    "ground_motion": "record", "incident_wave": "record",
     "time": "time and output", "output": "time and output",
     "design": "design", "reference": "design",
 }
@@ -49,6 +49,10 @@ POST_ONLY = "design"
 LEFT_OUT = {"output.directory", "output.allow_outside", "output.checkpoint_interval", "coupling.timeout",
             "coupling.transport", "water.log", "water.log_interval"}
 MOVED = {"output.displacement_reference": "design"}
+
+#: keys counted only when they differ from their neutral value (a section or key added to the schema
+#: leaves the fingerprints of the cases that do not use it as they were)
+NEUTRAL = {"incident_wave": ("type", "none"), "mesh.tunnel_end_plugs": 0}
 
 #: design sections the analysis itself reads when a region's model takes them (a reinforced_concrete
 #: lining is built from the concrete and the bars the design check reads): then they shape results
@@ -101,6 +105,8 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
         group = SECTION_GROUPS.get(section, "other")
         if section in NOT_SHAPING or case.data[section] is None:
             continue
+        if section in NEUTRAL and case.data[section].get(NEUTRAL[section][0]) == NEUTRAL[section][1]:
+            continue
         if cond == "no_water" and group in ("water", "coupling"):
             continue
         if cond == "static_water" and group == "coupling":
@@ -108,6 +114,8 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
         flat: dict[str, str] = {}
         _flatten(section, case.data[section], flat)
         for key, value in flat.items():
+            if key in NEUTRAL and json.loads(value) == NEUTRAL[key]:
+                continue
             if key in LEFT_OUT or (cond == "static_water" and group == "water" and key not in STATIC_WATER_KEYS):
                 continue
             key_group = _key_group(key, group, analysis_design)

@@ -2,6 +2,7 @@
 dictionary generated from one description) on the case's water mesh (results/mesh/water.msh),
 coupled to tq-solid through the coupler (docs/water.md §8, docs/coupler.md "Running condition 3").
 
+    window_size = coupling_window_size(k, solid_step)                       # k solid steps, pinned
     settings = coupling_settings(case, window_size, address_file, token)   # one source of truth
     solid_coupling_attrs(settings)   -> the /coupling attributes of solid_input.h5
     exchange_dict(settings)          -> the fluid's `exchange { type coupler; ... }` dictionary (data)
@@ -52,7 +53,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import paths
-from .case import WATER_LOG_INTERVAL, closed_section, coupling_predictor, fluid_ranks_problem
+from .case import (
+    WATER_BULK_MODULUS,
+    WATER_LOG_INTERVAL,
+    closed_section,
+    coupling_predictor,
+    coupling_window_force_weight,
+    coupling_window_problem,
+    fluid_ranks_problem,
+)
 from .coupling_scales import absolute_tolerances
 from .foam_dict import Quoted, foam_file
 from .solver_input_schema import group_attrs
@@ -67,7 +76,7 @@ SOLID_WRITE_FIELDS = ("velocity", "displacement")
 #: Pa: the bulk modulus of the water OpenFOAM solves for the inertial remainder of incompressible water
 #: (the volume change is the solid's constraint; in 3D the remainder's
 #: redistribution of volume along the axis meets this stiffness, not an infinite one)
-REMAINDER_BULK_MODULUS = 2.2e9
+REMAINDER_BULK_MODULUS = WATER_BULK_MODULUS
 
 
 def volume_law(case) -> tuple[str, float]:
@@ -99,12 +108,39 @@ class FluidCase:
     delta_t: float
 
 
+def coupling_window_size(window: int, solid_dt: float) -> float:
+    """The coupling window both sides are given, s: `window` solid steps of tq-solid's step `solid_dt`
+    (solid_input.solid_step) rounded down to 5 significant digits, a short number in the water's
+    controlDict, its time names and the run's summary, and never above the solid's stable step."""
+    if not (solid_dt > 0 and math.isfinite(solid_dt)):
+        raise FluidCaseError(f"solid step {solid_dt!r} s is not positive")
+    q = 10.0 ** (math.floor(math.log10(solid_dt)) - 4)
+    return int(window) * (math.floor(solid_dt / q) * q)
+
+
+def coupling_windows(t_end: float, window_size: float) -> int:
+    """The number of coupling windows: ceil(t_end / window_size), at least 1 (the run ends on whole
+    windows). Both sides are given it (/coupling windows, the water's `windows`)."""
+    return max(1, math.ceil(t_end / window_size - 1e-9))
+
+
+def checkpoint_windows(interval: float, window_size: float) -> int:
+    """Coupled with the water: the windows between two restart checkpoints for a checkpoint every
+    `interval` s (output.checkpoint_interval), max(1, round(interval / window_size)); 0 for none.
+    Both sides are given the answer (/coupling checkpoint_windows, the water's restart_windows)."""
+    if interval <= 0:
+        return 0
+    return max(1, int(math.floor(interval / window_size + 0.5)))
+
+
 def coupling_settings(case, window_size: float, address_file: Path, token: str,
                       t_end: float | None = None) -> dict:
-    """Everything both sides must agree on, from the case's coupling section and the solid step.
+    """Everything both sides must agree on, from the case's coupling section and the window: one
+    object, written once as solid_input.h5's /coupling (solid_coupling_attrs) and given to the water
+    (exchange_dict, water_case).
 
-    window_size: the coupling window in s (k solid steps); windows: ceil(t_end / window_size), the
-    rule tq-solid applies itself when it is not given."""
+    window_size: the coupling window in s (coupling_window_size); windows: coupling_windows;
+    checkpoint_windows: the windows between two restart checkpoints (checkpoint_windows)."""
     d = case.data
     cs = d["coupling"]
     if t_end is None:
@@ -113,13 +149,17 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         raise FluidCaseError("coupling_settings needs the seismic duration (time.end_time or the motion's)")
     if not window_size > 0:
         raise FluidCaseError(f"coupling window size {window_size!r} s is not positive")
-    windows = max(1, math.ceil(t_end / window_size - 1e-9))
+    if (why := coupling_window_problem(cs["scheme"], cs["window"])) is not None:
+        raise FluidCaseError(f"coupling.window = {cs['window']}: {why}; use window: 1")
     law, bulk = volume_law(case)
     return {
         "scheme": cs["scheme"],
         "window": int(cs["window"]),
         "window_size": float(window_size),
-        "windows": int(windows),
+        "windows": coupling_windows(t_end, window_size),
+        "checkpoint_windows": checkpoint_windows(float(d["output"]["checkpoint_interval"]), window_size),
+        "window_force_weight": coupling_window_force_weight(cs),
+        "energy_limit": float(cs.get("energy_limit", 0)),
         "tolerance": float(cs["tolerance"]),
         # absolute floors per field (coupling_scales.py)
         "absolute_tolerance": absolute_tolerances(case, window_size, float(cs["tolerance"])),
@@ -161,9 +201,6 @@ def exchange_dict(s: dict) -> dict:
     if s["transport"] != "tcp":
         raise FluidCaseError(f"coupling.transport {s['transport']!r}: the OpenFOAM side speaks tcp only "
                              "(docs/water.md §11); use transport: tcp")
-    if s["window"] != 1 and s["scheme"] == "paper":
-        raise FluidCaseError(f"coupling.window = {s['window']} solid steps needs scheme explicit or implicit (the "
-                             "paper scheme's two passes are made for one-step windows); use window: 1")
     return {
         "type": "coupler",
         "participant": s["partner"],

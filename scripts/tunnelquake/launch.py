@@ -19,10 +19,9 @@ from .children import Side, say, watch_pair
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
-from .restart import checkpoint_dir, checkpoint_windows, coupled_resume_point, resume_args, resume_plan
+from .restart import checkpoint_dir, coupled_resume_point, resume_args, resume_plan
 from .scene import plan
 from .solid_input import solid_threads
-from .solver_input_schema import put
 from .supervise import progress, started
 
 
@@ -60,13 +59,17 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     from that one, restart.condition_choice's newest intact checkpoint)."""
     import subprocess
 
-    from .solid_input import write_solid_input
+    from .solid_input import SolidInputError, write_solid_input
 
     work = case.output_dir / cond
-    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
-        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
-        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
     res = case.output_dir / f"results_{cond}.h5"
+    with children.FORK_LOCK:  # no child may be created while these HDF5 files are open
+        try:
+            inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_file, cond, work / "solid_input.h5")
+        except SolidInputError as e:  # (e.g. an incident wave's within record that cannot be deconvolved)
+            say(f"condition {cond}: no solid input: {e}")
+            return 2, res
+        threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
@@ -220,7 +223,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     (reconstructPar; the processor folders stay in <fluid>/processor*).
 
     Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
-    theirs into <condition>/checkpoint at every K-th completed window (restart.checkpoint_windows);
+    theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows);
     with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
     the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
     import secrets
@@ -229,7 +232,6 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     import h5py
 
     from . import fluid_case as fc
-    from .files import atomic_h5_update
     from .solid_input import solid_step, write_solid_input
 
     work = case.output_dir / cond
@@ -248,19 +250,18 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     # (tq-solid --check, OpenFOAM's utilities) while other conditions may be starting theirs.
     children.FORK_LOCK.acquire()
     try:
-        inp = write_solid_input(case, mesh_h5, motion_file, cond, work / "solid_input.h5",
-                                coupling_address=addr, coupling_token=token)
+        # the solid's input without the coupling first, for tq-solid's step; then the one coupling
+        # settings object both sides are given, in the input written again with its /coupling group
+        inp = write_solid_input(case, mesh_h5, motion_file, cond, work / "solid_input.h5")
         with h5py.File(inp, "r") as f:
             t_end = float(f["solver"].attrs["t_end"])
         with h5py.File(mesh_h5, "r") as f:
             slice_mode = int(f.attrs.get("slice", 0)) == 1
-        k = int(case.data["coupling"]["window"])
-        settings = fc.coupling_settings(case, k * solid_step(exe, inp), addr, token, t_end=t_end)
-        with atomic_h5_update(inp) as f:  # pin every item of the handshake on the solid side too
-            for key, value in fc.solid_coupling_attrs(settings).items():
-                put(f["coupling"], "/coupling", key, value)
+        window = fc.coupling_window_size(case.data["coupling"]["window"], solid_step(exe, inp))
+        settings = fc.coupling_settings(case, window, addr, token, t_end=t_end)
+        inp = write_solid_input(case, mesh_h5, motion_file, cond, inp, coupling=settings)
         ranks = int(case.data["parallel"]["fluid_ranks"])
-        every = checkpoint_windows(float(case.data["output"]["checkpoint_interval"]), float(settings["window_size"]))
+        every = settings["checkpoint_windows"]
         restart = None
         if every > 0 and ranks == 1:
             restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,

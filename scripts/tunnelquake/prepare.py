@@ -21,7 +21,8 @@ def mesh_dir(case) -> Path:
 def _fingerprint(case) -> str:
     from .case import case_geology, ground_layers
 
-    d = {"geometry": case.data["geometry"], "mesh": case.data["mesh"]}
+    mesh = {k: v for k, v in case.data["mesh"].items() if not (k == "tunnel_end_plugs" and not v)}
+    d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs: the meshes made before the key stay current)
     if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
         d["layers"] = ground_layers(case.data)
     if case_geology(case.data) is not None:  # likewise

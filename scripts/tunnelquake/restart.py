@@ -4,7 +4,6 @@ the newest intact one, and what `run --resume` does with each condition (docs/us
 from __future__ import annotations
 
 import json
-import math
 import sys
 import zlib
 from pathlib import Path
@@ -208,14 +207,6 @@ def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[di
             continue
         return {**m, "fluid": str(fluid)}, damaged
     return None, damaged
-
-
-def checkpoint_windows(interval: float, window_size: float) -> int:
-    """Coupled with the water: the windows between two restart checkpoints, the rule tq-solid
-    applies too (max(1, round(interval / window_size)), 0 for no checkpoint)."""
-    if interval <= 0:
-        return 0
-    return max(1, int(math.floor(interval / window_size + 0.5)))
 
 
 def resume_args(point: dict) -> list[str]:

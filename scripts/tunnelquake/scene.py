@@ -54,10 +54,15 @@ def assess_slice(case) -> SliceAssessment:
             varying.append(f"geology.fault_zone ({geology.fault.material}) crosses the tunnel")
         varying += [f"geology.dipping_layers[{i}] ({layer.material}) dips along the axis (its bottom's normal has a "
                     "y component)" for i, layer in enumerate(geology.dipping) if abs(layer.bottom.normal[1]) > 1e-9]
+    wave = d.get("incident_wave") or {}
+    if wave.get("type", "none") != "none":
+        varying.append(f"incident_wave: a {wave['type']} wave {wave['angle']:g} deg from the vertical through a domain-"
+                       "reduction layer, which a slice has no room for")
     if d["mesh"]["mode"] == "slice" and varying:
         reasons += [f"{v}: the ground changes along y, and a slice holds its section at mid-length only" for v in varying]
     if d["mesh"]["mode"] == "3d" and varying:
-        advice.append("the ground changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
+        what = "the motion or the ground" if wave.get("type", "none") != "none" else "the ground"
+        advice.append(f"{what} changes along the tunnel axis (" + "; ".join(varying) + "): a slice cannot "
                       "represent it, keep mesh.mode: 3d")
     elif d["mesh"]["mode"] == "3d" and not reasons:
         if dynamic and water.get("ends", "open") == "open":
@@ -195,18 +200,30 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
                                f"{verdict}")
 
 
-#: CPU seconds of tq-solid per element and solid step (Mohr-Coulomb damage and contact included),
-#: and of OpenFOAM per water pass and per water cell and pass: measured on the example's coupled
-#: runs on a 2-core AMD EPYC Zen 3 (docs/benchmarks.md "Water of any stiffness": the slice's 20 s
-#: record, 181 s coupled, 1.415 passes a window; the 3D variant's first second, 236 s, 2.57 passes).
-SOLID_S_PER_ELEMENT_STEP = 0.17e-6
-WATER_S_PER_PASS = 1.5e-3
-WATER_S_PER_CELL_PASS = 2.4e-6
-#: water passes a window: the implicit scheme's measured mean (1.4-1.8 on the example); explicit 1,
-#: the paper's predictor-corrector 2
-PASSES_PER_WINDOW = {"implicit": 1.5, "explicit": 1.0, "paper": 2.0}
-#: the share of the rock's element-steps with time.subcycling (the paper mesh in 3D: 0.32)
-SUBCYCLED_SHARE = 0.32
+#: water passes a window: explicit 1, the paper's predictor-corrector 2; the implicit scheme's at
+#: tolerance 1e-3 (the example slice: 1.398 over the record, 1.516 over its first 2 s), times
+#: IMPLICIT_PASSES_PER_DECADE for each tenfold tighter tolerance (measured: the first 1 s of the slice,
+#: windows of 16 with reuse, 2.44 passes at 1e-4 against 1.77 at 1e-3, 1.38x; the 3D variant's record
+#: at 1e-4, 1.89, against the slice's 1.398 at 1e-3, 1.35x; docs/benchmarks.md)
+PASSES_PER_WINDOW = {"implicit": 1.45, "explicit": 1.0, "paper": 2.0}
+IMPLICIT_PASSES_PER_DECADE = 1.37
+
+
+def passes_per_window(coupling: dict) -> float:
+    """The water passes a coupling window is expected to take (PASSES_PER_WINDOW)."""
+    import math
+
+    scheme = coupling["scheme"]
+    passes = PASSES_PER_WINDOW[scheme]
+    if scheme == "implicit":
+        passes *= IMPLICIT_PASSES_PER_DECADE ** math.log10(1e-3 / float(coupling["tolerance"]))
+    return max(1.0, passes)
+#: the rock's share of its one-rate CPU time with time.subcycling: its element evaluations fall to
+#: 0.32 (the paper mesh in 3D), but every node still moves at every fine step; measured: the 3D
+#: variant's no_water over 0.2 s, 1 thread, 16.1 CPU s of shaking, 0.51 (Intel VM, 2026-11-28); the
+#: same input's first 0.25 s, 23 against 44 s, 0.47 (docs/benchmarks.md "Solid subcycling and element
+#: order")
+SUBCYCLED_SHARE = 0.5
 
 
 @dataclass
@@ -215,12 +232,14 @@ class RuntimeEstimate:
     steps: int  # solid steps of the shaking
     seconds: dict[str, float]  # condition -> CPU s of its shaking
     wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others)
+    basis: str = ""  # where the rates come from (rates.MachineRates), or why there are none
 
     def line(self) -> str:
+        if not self.seconds and self.basis:
+            return f"run time: not estimated ({self.basis})"
         per = ", ".join(f"{c} {_minutes(s)}" for c, s in self.seconds.items())
         return (f"run time: about {_minutes(self.wall)} of shaking ({per}; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s), within about 2x on a 2-core Zen 3 like this project's benchmarks; the static "
-                "stages come on top")
+                f"{self.dt:.2g} s) on an otherwise idle machine, from {self.basis}; the static stages come on top")
 
 
 def _minutes(s: float) -> str:
@@ -246,12 +265,65 @@ def axial_step(d: dict, plan) -> float:
     return h / max(cp(m) for m in d["materials"].values())
 
 
-def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
+def _p_wave_speed(m: dict) -> float:
+    import math
+
+    E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
+    return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+
+
+def ground_element_size(plan) -> float:
+    """The smallest side of the ground's elements beside the excavation, m: the rock ring's hoop size
+    at the excavated radius, its first radial size along an axis (meshing.params' near-field
+    grading) or the axial size (a slice's thickness, the shortest axial element in 3D)."""
+    import math
+
+    import numpy as np
+
+    from .meshing.params import graded_sizes
+
+    radial = min(graded_sizes(plan.box_half_width - plan.radius_outer, plan.near_field))
+    hoop = 2 * math.pi * plan.radius_outer / (4 * plan.quarter.count)
+    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
+    return min(radial, hoop, axial)
+
+
+def critical_step(d: dict, plan) -> float:
+    """The solid's critical step, s, bounded as tq-solid's Solver::stableStep bounds it: the elastic
+    bound 2/w_max (w_max from the lining's first element layer, or a fault zone's shortest axial
+    element, axial_step) cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's
+    own bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3),
+    at its w_b = 2 c_p / h: h the lining's layer for the lining, the ground's smallest element side
+    (ground_element_size) for a ground region."""
+    import math
+
+    from .references import rayleigh_coefficients
+
+    h1, dt_lining = lining_layer_step(d)
+    dt_elastic = min(dt_lining, axial_step(d, plan))
+    dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
+    dmp = d["damping"]
+    beta = (rayleigh_coefficients(dmp["ratio"], *dmp["frequencies"])[1]
+            if dmp["model"] == "rayleigh" and dmp["ratio"] > 0 else 0.0)
+    h_ground = ground_element_size(plan)
+    for region, m in d["materials"].items():
+        tau = m.get("retardation_time") or 0.0
+        if m["model"] != "kelvin_voigt" or not tau > 0:
+            continue
+        w = 2 * _p_wave_speed(m) / (h1 if region == "lining" else h_ground)
+        xi = 0.5 * (beta + tau) * w
+        dt = min(dt, 2 / w * (math.sqrt(1 + xi * xi) - xi))
+    return dt
+
+
+def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
-    and the coupling scheme, with the constants above. The step is the lining's first element layer's
+    and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
+    default rates.machine_rates(), the cached probe of this processor and build, run once). The step is the lining's first element layer's
     h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
     factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
-    stiffness-proportional damping as tq-solid cuts it."""
+    stiffness-proportional damping and a Kelvin-Voigt material's viscosity as tq-solid cuts it
+    (critical_step)."""
     import math
 
     from .case import case_geology, ground_layers
@@ -260,26 +332,36 @@ def runtime_estimate(case, counts: dict | None = None) -> RuntimeEstimate:
     d = case.data
     mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     counts = counts or element_counts(mesh_plan)
-    dt_crit = min(lining_layer_step(d)[1], axial_step(d, mesh_plan))
-    dt = d["time"].get("dt") or d["time"]["safety_factor"] * dt_crit / rayleigh_step_cut(d, dt_crit)
+    dt = d["time"].get("dt") or d["time"]["safety_factor"] * critical_step(d, mesh_plan)
     duration = d["time"].get("end_time")
     if duration is None:
         from .motion import window_seconds
 
         duration = window_seconds(d["ground_motion"], case.dir) or 0.0
     steps = int(math.ceil(duration / dt))
+    from . import rates as R
+
+    if rates is None:
+        try:
+            rates = R.machine_rates()
+        except (R.ProbeFailed, OSError) as e:
+            return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
+                                   basis=f"this machine's speed could not be measured: {e}")
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
-    solid = (rock + counts["lining"]) * steps * SOLID_S_PER_ELEMENT_STEP
+    solid = (rock + counts["lining"]) * steps * rates.solid_element_step
     seconds = {}
     for cond, parts in plan(case):
         if "fluid" not in parts:
             seconds[cond] = solid
             continue
         c = d["coupling"]
-        passes = PASSES_PER_WINDOW[c["scheme"]] * steps / c["window"]
-        seconds[cond] = (solid * PASSES_PER_WINDOW[c["scheme"]]
-                         + passes * (WATER_S_PER_PASS + counts["water"] * WATER_S_PER_CELL_PASS))
+        per_window = passes_per_window(c)
+        passes = per_window * steps / c["window"]
+        seconds[cond] = (solid * R.COUPLED_SOLID_FACTOR * per_window
+                         + passes * (rates.water_pass + counts["water"] * rates.water_cell_pass))
     coupled = [s for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(seconds.values())
-    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall)
+    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}; "
+             "docs/benchmarks.md \"check's run-time estimate\")")
+    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis)

@@ -5,17 +5,16 @@ from the one table of the file's layout (scripts/tunnelquake/solver_input_schema
 "## solid_input.h5" and tq-solid's reader are generated from it). Values come from the case; what is
 derived (mesh facts, the motion, the stages run) is computed here.
 
-    write_solid_input(case, mesh_h5, motion_h5, condition, out,
-                      coupling_address=None, coupling_token=None) -> Path
+    write_solid_input(case, mesh_h5, motion_h5, condition, out, coupling=None) -> Path
 
 Per condition (the paper's §3.2):
 
     no_water        stages without the hydrostatic one (no internal pressure)
     static_water    hydrostatic internal pressure p(z) = rho_w g (head - (z - z_axis)) on lining_inner
     dynamic_water   the same static pressure; the hydrodynamic part comes from the coupled water:
-                    with ``coupling_address`` (the TCP address file tq-solid publishes its port in)
-                    and ``coupling_token`` (the run's secret, given to the fluid too) a ``/coupling``
-                    group from the case's ``coupling`` section (docs/coupler.md "Solid adapter")
+                    with ``coupling`` (fluid_case.coupling_settings: the case's ``coupling`` section,
+                    the window, the TCP address file, the run's secret) a ``/coupling`` group
+                    (docs/coupler.md "Solid adapter")
 
 Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundaries"):
 
@@ -41,10 +40,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import children, fingerprint
-from .case import CONDITIONS, coupling_predictor, coupling_window_force_weight
+from . import children, fingerprint, incident_wave
+from .case import CONDITIONS
+from .drm_input import write_drm_group
 from .files import h5_in_memory
-from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, group_attrs, linked, lookup, put, write_schema
+from .freefield import FreeFieldError
+from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, linked, put, write_schema
 
 
 class SolidInputError(ValueError):
@@ -85,10 +86,6 @@ def _motion(motion_h5: Path) -> dict:
             "ay": np.asarray(f["incident_ay"][...], float) if "incident_ay" in f else None,
             "convention": conv.decode() if isinstance(conv, bytes) else str(conv),
         }
-
-
-#: Coupling schemes tq-solid's adapter runs (the case schema offers the same).
-COUPLING_SCHEMES = lookup("/coupling", "scheme").choices
 
 
 def _from_case(obj, group: str, section: dict, table) -> None:
@@ -148,12 +145,14 @@ def _material_values(m: dict, table, d: dict | None = None) -> dict:
 
 
 def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out: Path,
-                      coupling_address: str | Path | None = None, coupling_token: str | None = None) -> Path:
+                      coupling: dict | None = None) -> Path:
     """Write tq-solid's input for one condition of a validated case. Returns `out`.
 
-    For ``dynamic_water`` with ``coupling_address`` and ``coupling_token`` given, the ``/coupling``
-    group is written from the case's ``coupling`` section (the fluid must be given the same)."""
+    ``coupling``: for ``dynamic_water``, the coupling settings both sides are given
+    (fluid_case.coupling_settings), written once as the ``/coupling`` group (fluid_case.solid_coupling_attrs)."""
     import h5py
+
+    from .fluid_case import solid_coupling_attrs
 
     table = entries()
     if condition not in CONDITIONS:
@@ -181,7 +180,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.part")
     # built in memory: HDF5 never meets a full disk (files.h5_in_memory); the token's file is 0600 from the start
-    with h5_in_memory(tmp, 0o600 if coupling_token else 0o666) as f:
+    secret = coupling is not None and bool(coupling.get("token"))
+    with h5_in_memory(tmp, 0o600 if secret else 0o666) as f:
         def w(obj, group, name, value):  # every value through the table
             put(obj, group, name, value, table)
 
@@ -245,12 +245,30 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             r = f.create_group("interfaces/rock_lining")
             _from_case(r, "/interfaces/rock_lining", it, table)
 
+        wave = incident_wave.active(d) and "seismic" in sequence
+        if wave and mesh["slice"]:
+            raise SolidInputError("incident_wave needs a 3D mesh (mesh.mode: 3d); this one is a slice")
         if "seismic" in sequence:
             b = f.create_group("boundaries/bottom")
             w(b, "/boundaries/bottom", "face", "bottom")
             w(b, "/boundaries/bottom", "type", "viscoelastic")
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
+            # with an incident wave the base and the x sides absorb what the tunnel scatters (the wave
+            # enters through the DRM layer); the y faces stay on rollers, which hold that scattered
+            # field's u_y only (their quads follow the tunnel's O-grid: no free-field columns there)
             w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
+        if wave:
+            from .case import ground_layers
+
+            # the processed horizontal record: motion.h5 keeps the vertical-incidence incident
+            # wave (half an outcrop record)
+            record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
+            try:
+                write_drm_group(f, d, ground_layers(d), mesh_h5, record, float(motion["time"][1] - motion["time"][0]),
+                                out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
+            except (incident_wave.DrmLayerError, FreeFieldError) as e:
+                raise SolidInputError(f"incident_wave: {e}") from None
+        elif "seismic" in sequence:
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
@@ -267,30 +285,15 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             if motion["convention"]:
                 w(mo, "/motion", "convention", motion["convention"])
 
-        if condition == "dynamic_water" and (coupling_address is not None or coupling_token is not None):
-            if coupling_address is None or not coupling_token:
-                raise SolidInputError("dynamic_water coupling needs both coupling_address (the TCP address file) "
-                                      "and coupling_token (the run's secret)")
+        if coupling is not None:
+            if condition != "dynamic_water":
+                raise SolidInputError(f"condition {condition} runs without the water's coupling; only "
+                                      "dynamic_water takes a /coupling group")
             if "seismic" not in sequence:
                 raise SolidInputError("dynamic_water couples the water in the seismic stage; add seismic to "
                                       "stages.sequence")
-            cs = d["coupling"]
-            if cs["scheme"] not in COUPLING_SCHEMES:
-                raise SolidInputError(f"coupling.scheme {cs['scheme']!r} is not available in tq-solid's adapter "
-                                      f"(it runs {', '.join(COUPLING_SCHEMES)}); choose implicit or paper")
-            if int(cs["window"]) > 1 and cs["scheme"] == "paper":
-                raise SolidInputError(f"coupling.window = {cs['window']} solid steps needs scheme explicit or "
-                                      "implicit (the paper scheme's two passes are made for one-step windows); "
-                                      "use window: 1")
             c = f.create_group("coupling")
-            values = {"scheme": cs["scheme"], "window": cs["window"], "tolerance": cs["tolerance"],
-                      "max_iterations": cs["max_iterations"], "window_force_weight": coupling_window_force_weight(cs),
-                      "energy_limit": cs.get("energy_limit", 0), "acceleration": cs["acceleration"],
-                      "predictor": coupling_predictor(cs), "reuse": cs.get("reuse", 0), "transport": cs["transport"],
-                      "timeout": cs["timeout"], "address_file": str(coupling_address), "token": str(coupling_token),
-                      "face": "lining_inner"}
-            # the table's rows leave out what tq-solid takes as absent (the linear ramp, no energy guard, ...)
-            for key, value in group_attrs("/coupling", values, table).items():
+            for key, value in solid_coupling_attrs(coupling).items():
                 w(c, "/coupling", key, value)
 
         monitors = dict(d["output"]["monitors"] or {})
@@ -309,7 +312,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(o, "/output", "checkpoint_interval", d["output"]["checkpoint_interval"])
         w(o, "/output", "snapshot_times", snapshot_times(d["output"]["snapshot_times"], t_end))
         write_schema(f, table)
-    if coupling_token:  # the run's coupling secret: readable by its owner only
+    if secret:  # the run's coupling secret: readable by its owner only
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
@@ -359,21 +362,19 @@ def snapshot_times(given, t_end: float) -> np.ndarray:
 
 
 def solid_step(exe, solid_input) -> float:
-    """The solid step tq-solid will take (its --check: safety x the stable step, or the case's dt)."""
-    import math
-    import re
+    """The solid step tq-solid takes on `solid_input` (safety x its stable step, or the input's
+    /solver dt), as its `--check --json` writes it: to full double precision, never read from text."""
+    import json
+    import tempfile
 
-    out = children.run([str(exe), str(solid_input), "--check"], capture_output=True, text=True, timeout=300)
-    m = re.search(r"dt = ([0-9.eE+-]+) s", out.stdout + out.stderr)
-    if out.returncode != 0 or not m:
-        raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
-    # printed to 6 significant digits, i.e. possibly rounded *up* by up to 5e-6 relative (9.30806e-05
-    # can print as 9.3081e-05): step back by 1e-5 relative, then round down to 5 digits, so that the
-    # pinned step is never above the limit (a 5-digit value such as 9.3081e-05 was refused as above
-    # a limit of 9.30806e-05)
-    dt = float(m.group(1)) * (1.0 - 1e-5)
-    q = 10.0 ** (math.floor(math.log10(dt)) - 4)
-    return math.floor(dt / q) * q
+    solid_input = Path(solid_input)
+    with tempfile.TemporaryDirectory(prefix=".step-", dir=solid_input.parent) as tmp:
+        report = Path(tmp) / "check.json"
+        out = children.run([str(exe), str(solid_input), "--check", "--json", str(report)], capture_output=True,
+                           text=True, timeout=300)
+        if out.returncode != 0 or not report.is_file():
+            raise RuntimeError(f"tq-solid --check failed on {solid_input}:\n{(out.stdout + out.stderr)[-2000:]}")
+        return float(json.loads(report.read_text())["dt"])
 
 
 #: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice

@@ -292,6 +292,9 @@ ENTRIES: tuple[Entry, ...] = (
        "steps); number of windows (0 = ⌈t_end / window⌉)", default=1, lo=1),
     _e("/coupling", "window_size", "float", unit="s", default=0.0, lo=0.0),
     _e("/coupling", "windows", "int", default=0, lo=0),
+    _e("/coupling", "checkpoint_windows", "int", "with /output checkpoint_interval and `--checkpoint-dir`: a restart "
+       "checkpoint at the end of every K-th accepted window (0 = every window; `tunnelquake run` gives "
+       "round(checkpoint_interval / window_size), at least 1)", default=0, lo=0, omit_default=True),
     _e("/coupling", "tolerance", "float", "implicit: relative residual, passes per window, acceleration, first "
        "relaxation factor, windows of IQN-ILS columns kept, predictor (`linear` needs implicit)", default=1e-4,
        lo=0.0),

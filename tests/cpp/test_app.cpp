@@ -25,6 +25,7 @@
 #include "io/h5util.hpp"
 #include "tq/app/app.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 
 using namespace tq;
 

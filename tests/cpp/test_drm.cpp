@@ -27,6 +27,7 @@
 #include "tq/app/app.hpp"
 #include "tq/boundaries/boundaries.hpp"
 #include "tq/boundaries/drm.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/materials/material_mc.hpp"
 
 using namespace tq;

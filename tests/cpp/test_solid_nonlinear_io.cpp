@@ -16,6 +16,7 @@
 #include "tq/app/app.hpp"
 #include "tq/contact/contact.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/io/results.hpp"
 #include "tq/io/staged_input.hpp"
 

@@ -14,6 +14,7 @@
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
 #include "tq/app/app.hpp"
+#include "tq/io/mesh.hpp"
 
 using namespace tq;
 

@@ -14,6 +14,7 @@
 #include "input_fixture.hpp"
 #include "tq/app/app.hpp"
 #include "tq/contact/contact.hpp"
+#include "tq/io/mesh.hpp"
 #include "tunnel_cases.hpp"
 
 using namespace tq;

@@ -11,10 +11,19 @@ from which the case schema takes its choices, and the Kelvin–Voigt rock's key 
    lining's elastic bound (measured: 4.68e-5 s set by the lining, 6.95e-6 s set by the rock; the
    closed-form check of the bound is the C++ test KelvinVoigtMaterial.StableStepAccountsForTheViscosity).
    With subcycling (elements at their own elastic step) tq-solid refuses it at --check, naming τ.
+4. `tunnelquake check` refuses subcycling with a viscous stress first (a Kelvin–Voigt material, or
+   Rayleigh's stiffness term), naming time.subcycling and the material.
+5. check's step estimate (scene.critical_step) takes the viscous bound as tq-solid does, at the
+   block's own largest frequency 2 c_p / h (h its smallest element side), against the step tq-solid
+   takes (solid_step: --check --json), the same mesh: Kelvin–Voigt rock τ = 1 ms and 10 ms (measured
+   6.9514e-6 and 6.9753e-7 s estimated against 6.9514e-6 and 6.9753e-7 s critical; tolerance 1 %)
+   and a Kelvin–Voigt lining τ = 0.2 ms (5.69e-6 against 5.41e-6 s: the lining's layer h_1 / c_p is
+   2.6 % above tq-solid's element bound, the viscous bound ~1/(τ ω²) twice that; tolerance 7 %).
+   Without the viscous term the estimate stayed at the elastic 4.80e-5 s, 6.9x the rock's step.
 """
 from __future__ import annotations
 
-import re
+import json
 import subprocess
 
 import h5py
@@ -25,8 +34,9 @@ from tunnelquake.case import load_case, schema
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.motion import from_case
 from tunnelquake.prepare import write_motion
+from tunnelquake.scene import runtime_estimate
 from tunnelquake.schema import CaseError
-from tunnelquake.solid_input import write_solid_input
+from tunnelquake.solid_input import solid_step, write_solid_input
 from tunnelquake.solver_input_table import MODELS
 
 CASE = """
@@ -75,12 +85,13 @@ def test_kelvin_voigt_needs_a_non_negative_retardation_time(tmp_path, extra, why
 
 
 def _stable_step(exe, path):
-    out = subprocess.run([str(exe), str(path), "--check", "--threads", "1"], capture_output=True, text=True,
-                         timeout=120)
+    """tq-solid's critical step and the block that sets it (its --check --json)."""
+    report = path.with_suffix(".json")
+    out = subprocess.run([str(exe), str(path), "--check", "--threads", "1", "--json", str(report)],
+                         capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stdout + out.stderr
-    m = re.search(r"stable step (\S+) s \(element \d+ of '(\w+)'\)", out.stdout)
-    assert m, out.stdout
-    return float(m.group(1)), m.group(2)
+    r = json.loads(report.read_text())
+    return r["dt_critical"], r["block"]
 
 
 @pytest.mark.skipif(paths.solid_executable() is None, reason="tq-solid is not built")
@@ -109,3 +120,40 @@ def test_kelvin_voigt_rock_reaches_tq_solid_and_shortens_its_step(tmp_path):
     path = write_solid_input(sub, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "sub.h5")
     out = subprocess.run([str(exe), str(path), "--check"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and "retardation time" in out.stdout + out.stderr, out.stdout + out.stderr
+
+
+@pytest.mark.parametrize("extra, why", [
+    ("", "materials.rock is kelvin_voigt with retardation_time 0.001 s"),
+    ("damping: {model: rayleigh, ratio: 0.05, frequencies: [1.5, 10]}\n", "damping.model rayleigh adds beta K"),
+])
+def test_the_case_check_refuses_subcycling_with_a_viscous_stress(tmp_path, extra, why):
+    p = tmp_path / "case.yaml"
+    rock = ("kelvin_voigt", ", retardation_time: 1 ms") if not extra else ("elastic", "")
+    p.write_text(CASE.replace("ROCK", rock[0]).replace("EXTRA", rock[1]).replace(
+        "time: {end_time: 0.01}", "time: {end_time: 0.01, subcycling: 3}") + extra)
+    with pytest.raises(CaseError) as e:
+        load_case(p)
+    assert "time.subcycling" in str(e.value) and why in str(e.value), str(e.value)
+
+
+@pytest.mark.skipif(paths.solid_executable() is None, reason="tq-solid is not built")
+@pytest.mark.parametrize("rock, lining, tol", [
+    (", retardation_time: 1 ms", None, 0.01),
+    (", retardation_time: 10 ms", None, 0.01),
+    (None, "0.2 ms", 0.07),
+])
+def test_check_estimates_the_viscous_step_tq_solid_takes(tmp_path, rock, lining, tol):
+    text = CASE.replace("ROCK", "kelvin_voigt" if rock else "elastic").replace("EXTRA", rock or "")
+    if lining:
+        text = text.replace("lining: {model: elastic,", "lining: {model: kelvin_voigt, retardation_time: "
+                            f"{lining},")
+    p = tmp_path / "case.yaml"
+    p.write_text(text)
+    case = load_case(p)
+    build_tunnel_mesh(case.data["geometry"], case.data["mesh"], tmp_path)
+    motion, _ = from_case(case.data["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    est, got = runtime_estimate(case).dt, solid_step(paths.solid_executable(), inp)
+    print(f"step: estimated {est:.5g} s, tq-solid {got:.5g} s")
+    assert est == pytest.approx(got, rel=tol)

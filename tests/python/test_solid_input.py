@@ -21,6 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
+from tunnelquake import fluid_case as fc
 from tunnelquake import paths
 from tunnelquake.case import load_case
 from tunnelquake.meshing import build_tunnel_mesh
@@ -68,6 +69,12 @@ def _case(tmp_path, model="elastic", end=0.002):
     p = tmp_path / "case.yaml"
     p.write_text(CASE.replace("MODEL", model).replace("END", str(end)))
     return load_case(p)
+
+
+def _coupling(case, tmp_path, token="t"):
+    """The coupling settings object of `case` for a solid step of 5e-5 s (fluid_case.coupling_settings)."""
+    window = fc.coupling_window_size(case.data["coupling"]["window"], 5e-5)
+    return fc.coupling_settings(case, window, tmp_path / "wall.addr", token)
 
 
 @pytest.fixture(scope="module")
@@ -191,20 +198,22 @@ def test_energy_guard_and_window_force_weight_reach_the_solid(prepared, tmp_path
     when not 0.5 (the linear ramp; docs/coupler.md "Window force weight"): by default 0.75 for the
     implicit scheme's default windows of 16 steps, nothing for one-step windows."""
     case = _case(tmp_path)
-    kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
-    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5", **kw)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5",
+                            coupling=_coupling(case, tmp_path))
     with h5py.File(inp) as f:
         assert f["coupling"].attrs["energy_limit"] == 0.05
         assert f["coupling"].attrs["window"] == 16
         assert f["coupling"].attrs["window_force_weight"] == 0.75
     case.data["coupling"]["energy_limit"] = 0.0
     case.data["coupling"]["window_force_weight"] = 0.9
-    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "b.h5", **kw)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "b.h5",
+                            coupling=_coupling(case, tmp_path))
     with h5py.File(inp) as f:
         assert "energy_limit" not in f["coupling"].attrs
         assert f["coupling"].attrs["window_force_weight"] == 0.9
     case.data["coupling"].update(window=1, window_force_weight=None)
-    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5", **kw)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5",
+                            coupling=_coupling(case, tmp_path))
     with h5py.File(inp) as f:
         assert "window_force_weight" not in f["coupling"].attrs
 
@@ -217,13 +226,12 @@ def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, 
     check refuses the same: test_case_file.py)."""
     exe = _solid_with_stages()
     case = _case(tmp_path)
-    kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "t"}
     case.data["coupling"]["window_force_weight"] = 0.75
     for change in ({"scheme": "explicit", "reuse": 0}, {"window": 1}):
         c = dict(case.data["coupling"])
         case.data["coupling"].update(change)
         inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water",
-                                tmp_path / "w.h5", **kw)
+                                tmp_path / "w.h5", coupling=_coupling(case, tmp_path))
         run = subprocess.run([str(exe), str(inp), "--check"], capture_output=True, text=True, timeout=60)
         assert run.returncode == 2, run.stdout + run.stderr
         assert "window_force_weight" in run.stderr and "no effect" in run.stderr, run.stderr
@@ -251,8 +259,8 @@ def test_the_coupling_token_is_private(prepared, tmp_path):
     import stat
 
     case = _case(tmp_path)
-    kw = {"coupling_address": tmp_path / "wall.addr", "coupling_token": "secret"}
-    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5", **kw)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "c.h5",
+                            coupling=_coupling(case, tmp_path, token="secret"))
     assert stat.S_IMODE(inp.stat().st_mode) == 0o600
     with h5py.File(inp) as f:
         assert f["coupling"].attrs["token"] == "secret"

@@ -1,8 +1,8 @@
 """solid_input.h5 has one table (tunnelquake.solver_input_schema) that the writer, tq-solid's reader and
 docs/formats.md are made from.
 
-1. The generated files (solid_solver/src/io/input_schema.inc, docs/formats.md "## solid_input.h5") are
-   what the table gives now, byte for byte.
+1. The generated files (solid_solver/src/io/input_schema.inc, solid_solver/src/materials/parameter_names.hpp,
+   docs/formats.md "## solid_input.h5") are what the table gives now, byte for byte.
 2. A material parameter added to the table alone (a test fixture: `test_parameter` for every model,
    default 2.5, >= 0) is written by the one writer and reaches tq-solid's per-region parameter map
    (`tq-solid --print-input`) without rebuilding tq-solid; its bound is enforced by tq-solid; the same
@@ -39,6 +39,7 @@ ROOT = sis.ROOT
 
 def test_generated_header_and_docs_are_up_to_date():
     assert sis.INC.read_text() == sis.cpp_table(), "run: python -m tunnelquake.solver_input_schema --write"
+    assert sis.NAMES.read_text() == sis.cpp_material_names(), "run: python -m tunnelquake.solver_input_schema --write"
     doc = sis.DOC.read_text()
     current = doc[doc.index(sis.BEGIN) + len(sis.BEGIN):doc.index(sis.END)]
     assert current == "\n" + sis.doc_section() + "\n", "run: python -m tunnelquake.solver_input_schema --write"
@@ -130,7 +131,7 @@ _LITERAL = r'"([A-Za-z_][A-Za-z0-9_]*)"'
 _RUN = re.compile(_LITERAL + r"(?:\s*,\s*" + _LITERAL.replace("(", "(?:") + r")+")
 #: tq-solid reading an attribute of an HDF5 object by a literal name
 _READ = re.compile(r"h5::(?:hasAttr|read\w*Attr)\([^,()]+,\s*" + _LITERAL)
-GENERATED = {sis.INC, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py",
+GENERATED = {sis.INC, sis.NAMES, ROOT / "scripts" / "tunnelquake" / "solver_input_schema.py",
              ROOT / "scripts" / "tunnelquake" / "solver_input_table.py"}
 #: lists of the same words that are not solid_input.h5's, or not yet made from the table: (file, the
 #: list's first words) -> why. Any other list fails.
@@ -277,5 +278,8 @@ def test_the_cases_coupling_words_give_the_attributes(mode, ends, law, model, tr
     d["coupling"].update(volume_law=law, water_translation=translation, predictor=predictor, reuse=reuse)
     attrs = fc.solid_coupling_attrs(fc.coupling_settings(case, 2.5e-4, tmp_path / "wall.addr", "ab" * 16,
                                                          t_end=0.02))
+    # the example's implicit windows of 16 steps: the window force weight 0.75, the energy guard at 0.05,
+    # a checkpoint every 1 s = 4000 windows of 2.5e-4 s
+    conditional = {**conditional, "window_force_weight": 0.75, "energy_limit": 0.05, "checkpoint_windows": 4000}
     assert set(attrs) == set(_ALWAYS_ATTRS) | set(conditional)
     assert {k: attrs[k] for k in conditional} == conditional

@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 
 from ..units import STANDARD_GRAVITY
-from .common import load_or_report, parser, say
+from .common import add_ranks_argument, load_or_report, parser, refuse_ranks, say
 
 
 def mesh_estimate(d: dict) -> str:
@@ -25,9 +25,13 @@ def mesh_estimate(d: dict) -> str:
 
 
 def main(argv: list[str]) -> int:
-    args = parser("check", __doc__).parse_args(argv)
+    p = parser("check", __doc__)
+    add_ranks_argument(p)
+    args = p.parse_args(argv)
     case = load_or_report(args.case, args.variant)
     if case is None:
+        return 1
+    if refuse_ranks(case, args.ranks):
         return 1
     d = case.data
     g = d["geometry"]

@@ -23,6 +23,22 @@ def parser(prog: str, description: str) -> argparse.ArgumentParser:
     return p
 
 
+def add_ranks_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--ranks", type=int, metavar="N", default=1,
+                   help="run the solid on N MPI ranks, the model partitioned between them (mpirun -np N; "
+                        "docs/architecture.md \"The solid on ranks\" says what runs on ranks so far)")
+
+
+def refuse_ranks(case: Case, ranks: int) -> bool:
+    """True (after printing why) when the case cannot run its solid on `ranks` ranks."""
+    from ..solid_ranks import ranks_refusal, refusal_message
+
+    reasons = ranks_refusal(case, ranks)
+    if reasons:
+        print(f"error: {refusal_message(ranks, reasons)}", file=sys.stderr)
+    return bool(reasons)
+
+
 @contextlib.contextmanager
 def folder_held(case: Case, command: str):
     """Hold the case's results folder for a command that writes into it (mesh, motion, post by

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 
 from ..launch import run_held
-from .common import load_or_report, parser
+from .common import add_ranks_argument, load_or_report, parser, refuse_ranks
 
 
 def main(argv: list[str]) -> int:
@@ -18,12 +18,15 @@ def main(argv: list[str]) -> int:
     that turns SIGINT, SIGTERM and SIGHUP into an orderly stop."""
     p = parser("run", __doc__)
     p.add_argument("--no-post", action="store_true", help="skip post-processing")
+    add_ranks_argument(p)
     from . import suite_run
 
     suite_run.add_arguments(p)
     args = p.parse_args(argv)
     case = load_or_report(args.case, args.variant)
     if case is None:
+        return 1
+    if refuse_ranks(case, args.ranks):
         return 1
     if case.data["suite"]["records"] is not None:
         return suite_run.main(case, args, argv)

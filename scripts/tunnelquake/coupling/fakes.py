@@ -7,7 +7,7 @@ __init__.py) alone, for tests and for debugging one real solver against a fake p
   forces) and records the motion it receives.
 
 A prescription is any callable ``t -> array[nodes, 3]``: the analytic ring of the C++
-``tq-coupler-dummy`` (:class:`RingScenario`, coupler/include/tq/coupler/ring_scenario.hpp), or
+``tq-coupler-dummy`` (:class:`RingScenario`, coupler/testing/ring_scenario.hpp), or
 :class:`History`, a sampled history (HDF5 or .npz) replayed with linear interpolation in time.
 
 Command line (the options of tq-coupler-dummy, and --history)::

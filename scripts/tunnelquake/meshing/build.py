@@ -35,7 +35,7 @@ from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import MeshInputError, MeshPlan, layer_of, resolve
+from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
@@ -87,6 +87,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                     if not own_session:
                         gmsh.model.remove()
 
+            hexes = _plug_ends(plan, coords, hexes)
             solid = _solid_mesh(plan, coords, hexes)
             _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
             water = _water_mesh(plan, coords, hexes[WATER])
@@ -279,10 +280,34 @@ def _quality(conn: np.ndarray, coords: np.ndarray, what: str) -> tuple[float, fl
     return float(detj.min()), float(scaled.min()), hexmesh.max_edge_length(coords[conn])
 
 
+#: the face group of the plugs' faces towards the tunnel (mesh.tunnel_end_plugs)
+PLUG_FACES = "tunnel_ends"
+
+
+def _plug_ends(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
+    """With plugged ends (mesh.tunnel_end_plugs) the water and lining hexes of the end stretches
+    become rock, listed after the rock's own under the key 'plug' (their nodes are not split from
+    the rock's: the lining's ends are bonded to the plugs)."""
+    ends = plug_levels(plan)
+    if ends is None:
+        return hexes
+    out = dict(hexes)
+    plug = []
+    for region in (LINING, WATER):
+        y = gcoords[hexes[region]][:, :, 1].mean(axis=1)
+        inside = (y > ends[0]) & (y < ends[1])
+        plug.append(hexes[region][~inside])
+        out[region] = hexes[region][inside]
+    out["plug"] = np.concatenate(plug)
+    return out
+
+
 def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
-    """Rock + lining with the interface nodes duplicated: the lining gets its own copies."""
-    rock, lining = hexes[ROCK], hexes[LINING]
-    shared = np.intersect1d(rock, lining)  # gmsh tags on the rock-lining interface
+    """Rock + lining with the interface nodes duplicated: the lining gets its own copies (except
+    where the lining meets a plug of rock at a tunnel end: bonded there)."""
+    plug = hexes.get("plug", np.zeros((0, 8), np.int64))
+    rock, lining = np.concatenate([hexes[ROCK], plug]), hexes[LINING]
+    shared = np.setdiff1d(np.intersect1d(hexes[ROCK], lining), plug)  # gmsh tags on the rock-lining interface
     used = np.union1d(rock, lining)
     index = np.full(len(gcoords), -1, dtype=np.int64)
     index[used] = np.arange(len(used))
@@ -307,7 +332,7 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     q_lining = _quality(conn[nr:], coords, "lining")
 
     faces, owner = hexmesh.boundary_faces(conn)
-    groups = _classify_solid_faces(plan, coords, faces, region[owner])
+    groups = _classify_solid_faces(plan, coords, faces, region[owner], plug_levels(plan))
     if plan.geology is not None and not plan.slice:
         groups.update(side_strips(plan, coords, groups))
     return {
@@ -355,11 +380,16 @@ def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
     return {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
 
 
-def _classify_solid_faces(plan, coords, faces, owner_region) -> dict:
+def _classify_solid_faces(plan, coords, faces, owner_region, ends=None) -> dict:
     fx = coords[faces]
     tol = _tolerance(plan)
     r = _radius(plan, fx)
     masks = _plane_faces(plan, fx)
+    names = list(SOLID_FACE_NAMES)
+    if ends is not None:  # the plugs' faces towards the tunnel's hole
+        masks[PLUG_FACES] = np.any([(np.abs(fx[:, :, 1] - y) < tol).all(axis=1) for y in ends], axis=0) & ~(
+            masks["ymin"] | masks["ymax"])
+        names.append(PLUG_FACES)
     on_a = (np.abs(r - plan.radius_inner) < tol).all(axis=1)
     on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
     masks["lining_inner"] = on_a & (owner_region == 1)
@@ -371,7 +401,7 @@ def _classify_solid_faces(plan, coords, faces, owner_region) -> dict:
             f"{int((hits == 0).sum())} solid boundary faces are on no named boundary and "
             f"{int((hits > 1).sum())} on several"
         )
-    return {name: faces[masks[name]].astype(np.int32) for name in SOLID_FACE_NAMES}
+    return {name: faces[masks[name]].astype(np.int32) for name in names}
 
 
 def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
@@ -383,12 +413,12 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
     min_detj, min_scaled, max_edge = _quality(conn, coords, "water")
     faces, _ = hexmesh.boundary_faces(conn)
     fx = coords[faces]
-    planes = _plane_faces(plan, fx)
     tol = _tolerance(plan)
+    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
     masks = {
         "interface": (np.abs(_radius(plan, fx) - plan.radius_inner) < tol).all(axis=1),
-        "end_ymin": planes["ymin"],
-        "end_ymax": planes["ymax"],
+        "end_ymin": (np.abs(fx[:, :, 1] - y0) < tol).all(axis=1),
+        "end_ymax": (np.abs(fx[:, :, 1] - y1) < tol).all(axis=1),
     }
     hits = np.sum(list(masks.values()), axis=0)
     if (hits != 1).any():

@@ -34,6 +34,7 @@ MESH_DEFAULTS: dict = {
     "outer_growth": 1.0,
     "refinement_factor": 1,
     "axial_growth": 1.2,
+    "tunnel_end_plugs": 0,
 }
 
 #: One line per key of MESH_DEFAULTS: meaning and unit.
@@ -65,6 +66,9 @@ MESH_DOC: dict = {
     "growth ratios are adjusted so the grading stays the same",
     "axial_growth": "ratio of consecutive axial element lengths away from a fault zone's refined "
     "stretch (geology.fault_zone), up to the length elements_along_axis gives (1 = a sudden jump)",
+    "tunnel_end_plugs": "3d mode: axial element layers at each end of the block where the tunnel is filled "
+    "with rock (no lining, no water), so the tunnel ends inside the block; 0: it runs through both y faces. "
+    "A domain-reduction layer (incident_wave) needs the tunnel inside it",
 }
 
 GEOMETRY_KEYS = (
@@ -150,6 +154,8 @@ class MeshPlan:
     # The axial grid: y of every extrusion layer boundary, ymin .. ymax (len = axial.count + 1).
     # Uniform unless a fault zone refines the stretch where it crosses the near-field box.
     y_levels: tuple[float, ...] = ()
+    # Axial element layers at each end where the tunnel is filled with rock (3d mode; 0: none).
+    plugs: int = 0
 
 
 def _fail(where: str, key: str, value, why: str, fix: str):
@@ -395,9 +401,30 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
         layers=layers,
         geology=geology,
         y_levels=y_levels,
+        plugs=_plugs(m, slice_mode, axial.count, k),
     )
     _check_sizes(plan)
     return plan
+
+
+def _plugs(m: dict, slice_mode: bool, axial: int, k: int) -> int:
+    """The axial element layers filled with rock at each end (mesh.tunnel_end_plugs, times the
+    refinement factor); the tunnel must keep at least one layer between them."""
+    n = _integer("mesh", m, "tunnel_end_plugs", 0)
+    if n and slice_mode:
+        _fail("mesh", "tunnel_end_plugs", n, "a slice is one element thick: it has no tunnel ends to fill",
+              "Use tunnel_end_plugs: 0 with mode: slice.")
+    if n and 2 * n * k >= axial:
+        _fail("mesh", "tunnel_end_plugs", n, f"fills {2 * n * k} of the {axial} axial element layers: the tunnel "
+              "needs at least one between the two plugs", "Lower it or raise elements_along_axis.")
+    return n * k
+
+
+def plug_levels(plan: MeshPlan) -> tuple[float, float] | None:
+    """(y where the tunnel starts, y where it ends) with plugged ends, None without plugs."""
+    if not plan.plugs:
+        return None
+    return float(plan.y_levels[plan.plugs]), float(plan.y_levels[-1 - plan.plugs])
 
 
 def _layered_band(layers, z_box, zmax, h_box, hmax, growth, k):
@@ -569,6 +596,13 @@ def _grid_lines(c, L, q, low_band, high_band, lo, hi) -> np.ndarray:
             out.append(y)
     out[0], out[-1] = lo, hi
     return np.asarray(out)
+
+
+def grid_lines(p: MeshPlan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The outer grid's node coordinates along x, y and z (the near-field box's sides included)."""
+    q, L = p.quarter.count, p.box_half_width
+    return (_grid_lines(p.xc, L, q, p.left, p.right, p.xmin, p.xmax), np.asarray(p.y_levels, float),
+            _grid_lines(p.zc, L, q, p.bottom, p.top, p.zmin, p.zmax))
 
 
 def ground_centroids(p: MeshPlan) -> np.ndarray:

@@ -49,6 +49,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import paths
+from ..case import WATER_BULK_MODULUS, coupling_window_problem
 from ..references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency
 from ..solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
@@ -82,7 +83,7 @@ class Ring:
     water: bool = True
     rho_f: float = 1000.0
     model: str = "compressible"  # compressible (rhoPimpleFoam) | incompressible (pimpleFoam)
-    bulk_modulus: float = 2.2e9
+    bulk_modulus: float = WATER_BULK_MODULUS
     viscosity: float = 1e-3
     water_layers: int = 0  # cell layers from the core square to the wall (0: n_around / 8)
     # the coupling (case section `coupling`)
@@ -116,9 +117,8 @@ class Ring:
             raise RingError(f"water model {self.model!r} is not compressible or incompressible")
         if self.scheme not in SCHEMES:
             raise RingError(f"scheme {self.scheme!r} is not one of {', '.join(SCHEMES)}")
-        if self.window > 1 and self.scheme == "paper":
-            raise RingError(f"a window of {self.window} solid steps needs scheme explicit or implicit "
-                            "(docs/coupler.md)")
+        if (why := coupling_window_problem(self.scheme, self.window)) is not None:
+            raise RingError(f"{why} (docs/coupler.md)")
         if self.reuse < 0 or (self.reuse > 0 and (self.scheme != "implicit" or self.acceleration != "iqn-ils")):
             raise RingError(f"reuse {self.reuse} keeps IQN-ILS columns of earlier windows: it needs scheme implicit "
                             "and acceleration iqn-ils (and is >= 0); use reuse 0")
@@ -412,8 +412,10 @@ def _fake_case(ring: Ring) -> SimpleNamespace:
         "ground_motion": {"pga": None},
         "coupling": {"scheme": ring.scheme, "window": ring.window, "tolerance": ring.tolerance,
                      "max_iterations": ring.max_iterations, "acceleration": ring.acceleration,
-                     "reuse": ring.reuse, "transport": "tcp", "timeout": ring.timeout},
+                     "reuse": ring.reuse, "transport": "tcp", "timeout": ring.timeout,
+                     "window_force_weight": 0.5},  # the linear ramp over a window of several steps
         "time": {"end_time": None},
+        "output": {"checkpoint_interval": 0.0},
     })
 
 
@@ -455,7 +457,7 @@ def _run_coupled(ring: Ring, work: Path, mesh_h5: Path, t_end: float, exe: Path,
     addr.unlink(missing_ok=True)
     inp = write_solid_input(ring, mesh_h5, work / "solid_input.h5", t_end)
     dt = solid_step(exe, inp)
-    settings = fc.coupling_settings(case, ring.window * dt, addr, token, t_end=t_end)
+    settings = fc.coupling_settings(case, fc.coupling_window_size(ring.window, dt), addr, token, t_end=t_end)
     write_solid_input(ring, mesh_h5, inp, t_end, coupling=fc.solid_coupling_attrs(settings))
     # the fluid takes one step per coupling window (deltaT = window_size)
     fluid = build_water_case(ring, case, settings, work)

@@ -4,7 +4,7 @@ of one wet node (docs/stability.md "Near-fault pulses", docs/coupler.md "Window 
 The model is the adapter's protocol on one degree of freedom: a node of mass m on a spring of
 frequency omega (its tie to the rest of the structure), stepped by central differences with the step
 h, k steps a window of length D = k h. Step j of a window applies F_w + w_j (F~ - F_w), w_j = 1 - (1 -
-j/k) 2 (1 - beta), the last step F~ (tq-solid's FluidCoupling::stepForce and exchange). The water is a
+j/k) 2 (1 - beta), the last step F~ (tq-solid's FluidCoupling::planStep and exchange). The water is a
 pure added mass m_a that answers the window's mean velocity v_w = (u_end - u_start)/D with one
 implicit step, F~ = -m_a (v_w - v_(w-1))/D; the window is converged exactly (F~ is the fixed point).
 The state (u, v, F_w, v_(w-1)) maps linearly from one window to the next; the largest eigenvalue's

@@ -1,6 +1,6 @@
 // tq-solid: explicit dynamics of rock and lining (see docs/solid_solver.md).
 //
-//   tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N]
+//   tq-solid solid_input.h5 [-o results.h5] [--check [--json FILE]] [--threads N]
 //
 // A run is a starter and an engine. The starter reads and checks the input and the mesh and
 // builds the model (element blocks and materials, supports, loads, the time step, the stages). The
@@ -22,21 +22,29 @@
 #include <sstream>
 
 #include "tq/app/stages.hpp"
+#include "tq/coupling/coupled_stepper.hpp"
+#include "tq/coupling/coupling_mpi.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
+#include "tq/parallel/ranked_run.hpp"
 
 namespace tq {
 
 namespace {
 const char* kUsage =
-    "usage: tq-solid solid_input.h5 [-o results.h5] [--check] [--threads N] [--checkpoint-dir DIR [--resume "
-    "[--resume-sequence N]]]\n"
+    "usage: tq-solid solid_input.h5 [-o results.h5] [--check [--json FILE]] [--threads N]\n"
+    "                [--checkpoint-dir DIR [--resume [--resume-sequence N]]]\n"
     "  Explicit hex8 dynamics of rock and lining. Reads solid_input.h5 and the mesh.h5 it names\n"
     "  (docs/formats.md), writes results.h5 (monitors, energy balance, snapshots, timings).\n"
     "  --check      validate input and mesh, print the stable step, do not run\n"
+    "  --json FILE  with --check: also write the step it found to FILE as JSON (dt, dt_critical,\n"
+    "               safety, t_end, steps, block, element; every number to full double precision)\n"
     "  --threads N  OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+    "  --distributed  run on the ranks of mpirun, the model partitioned between them (tunnelquake run\n"
+    "               --ranks N; docs/architecture.md \"The solid on ranks\")\n"
     "  --capabilities  list what this build can run (tunnelquake run looks for staged-seismic)\n"
     "  --checkpoint-dir DIR  write restart checkpoints there every /output checkpoint_interval s of\n"
     "               simulated time (docs/formats.md \"Restart checkpoints\")\n"
@@ -49,7 +57,7 @@ const char* kUsage =
 // What this build runs end to end; `tunnelquake run` drives tq-solid once "staged-seismic" is here.
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
-    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v1 solid-input-v2 "
+    "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v2 "
     "mohr-coulomb-damage dynamic-contact water-coupling restart";
 
 std::string hms(double s) {
@@ -89,7 +97,7 @@ namespace {
 
 /// The command line.
 struct CommandLine {
-  std::string input, output = "results.h5", checkpointDir;
+  std::string input, output = "results.h5", checkpointDir, checkJson;
   bool check = false, resume = false;
   long long resumeSequence = 0;
 };
@@ -109,6 +117,8 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
       return 0;
     } else if (a == "--check") {
       cl.check = true;
+    } else if (a == "--json" && i + 1 < args.size()) {
+      cl.checkJson = args[++i];
     } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
       cl.checkpointDir = args[++i];
     } else if (a == "--resume") {
@@ -123,6 +133,10 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
       err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
       return 1;
     }
+  }
+  if (!cl.checkJson.empty() && !cl.check) {
+    err << "tq-solid: --json goes with --check (it writes what the check found)\n" << kUsage;
+    return 1;
   }
   if (cl.input.empty() || (cl.resume && cl.checkpointDir.empty())) {
     err << (cl.input.empty() ? "" : "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n")
@@ -171,6 +185,30 @@ void describeModel(const Model& m, std::ostream& out) {
     const std::string w = elementSizeWarning(s, m.in.staged.motion.cutoffFrequency);
     if (!w.empty()) out << "tq-solid: " << w << "\n";
   }
+}
+
+/// What --check found, for programs (`tunnelquake run` sizes the coupling window and the water's
+/// step from dt): one JSON object, every number with 17 significant digits (read back exactly),
+/// written to FILE.part and renamed. Throws OutputError.
+void writeCheckJson(const Model& m, const std::string& file) {
+  const Solver& s = *m.solver;
+  const StableStep st = s.stableStep();
+  std::string block;
+  for (char c : st.block) {
+    if (c == '"' || c == '\\') block += '\\';
+    block += c;
+  }
+  const std::string part = file + ".part";
+  {
+    std::ofstream f(part);
+    f << std::setprecision(17) << "{\"dt\": " << s.dt() << ", \"dt_critical\": " << st.dtCritical
+      << ", \"safety\": " << s.options().safety << ", \"t_end\": " << m.in.tEnd
+      << ", \"steps\": " << std::llround(std::ceil(m.in.tEnd / s.dt())) << ", \"block\": \"" << block
+      << "\", \"element\": " << st.element << "}\n";
+    f.close();
+    if (!f) throw OutputError("cannot write " + part);
+  }
+  if (std::rename(part.c_str(), file.c_str()) != 0) throw OutputError("cannot rename " + part + " to " + file);
 }
 
 // ---- The engine: runs the model ---------------------------------------------------------------
@@ -239,6 +277,7 @@ class SolidRun {
   bool writerStarted_ = false;
   std::unique_ptr<ResultsWriter> writer_;
   std::shared_ptr<FluidCoupling> coupling_;
+  std::shared_ptr<CarriedWater> water_;  // the water's laws the solid carries (null: none)
   bool stagesWritten_ = false, stepping_ = false;
   size_t nextSnap_ = 0;
   Real tFinal_ = 0, gap_ = 0;  // the last final state's time, and the span to it from the one before
@@ -252,6 +291,7 @@ int SolidRun::exec() {
       startModel(cl_.input, m_);  // the starter
       describeModel(m_, out_);
       if (cl_.check) {
+        if (!cl_.checkJson.empty()) writeCheckJson(m_, cl_.checkJson);
         out_ << "tq-solid: input and mesh are valid\n";
         return 0;
       }
@@ -376,11 +416,13 @@ void SolidRun::connectWater() {
   const CouplingInput& ci = m_.in.staged.coupling;
   if (!ci.present) return;
   Solver& s = *m_.solver;
-  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd);
+  water_ = CarriedWater::fromCoupling(s, ci);
+  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd, water_.get());
   out_ << "tq-solid: " << coupling_->describe() << "; waiting for the fluid" << std::endl;
-  if (!cl_.resume) coupling_->initialize();  // resumed: once its state is restored (restoreOrStart)
-  s.addContributor(ForcePhase::Water, coupling_);
-  m_.in.tEnd = coupling_->endTime();  // whole windows
+  if (!cl_.resume) coupling_->initialize();                 // resumed: once its state is restored (restoreOrStart)
+  s.addContributor(ForcePhase::Water, coupling_);           // the exchanged force, then
+  if (water_) s.addContributor(ForcePhase::Water, water_);  // the pressure the solid carries
+  m_.in.tEnd = coupling_->endTime();                        // whole windows
   addCouplingSeries();
   out_ << "tq-solid: coupled with the fluid; t_end = " << m_.in.tEnd << " s (" << coupling_->windowCount()
        << " windows)" << std::endl;
@@ -398,9 +440,9 @@ void SolidRun::addCouplingSeries() {
       "/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
   results.addSeries(
       "/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
-  if (c->hasVolumeLaw())
+  if (const CarriedWater* w = water_.get())
     results.addSeries(
-        "/coupling/volume_pressure", [c] { return c->volumePressure(); }, "volume_pressure");
+        "/coupling/volume_pressure", [w] { return w->volumePressure(); }, "volume_pressure");
   results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
                            [c]() -> const std::vector<Real>& { return c->force(); });
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
@@ -469,11 +511,10 @@ void SolidRun::restoreOrStart() {
   Solver& s = *m_.solver;
   tFinal_ = s.time();
   nextCheckpoint_ = m_.in.checkpointInterval;
-  // Coupled with the water: a checkpoint at the end of every K-th window (K = the interval in
-  // windows, at least 1), a rule the water applies to its own window count too.
-  checkpointWindows_ = coupling_ && m_.in.checkpointInterval > 0
-                           ? std::max(1LL, (long long)std::llround(m_.in.checkpointInterval / coupling_->windowSize()))
-                           : 0;
+  // Coupled with the water: a checkpoint at the end of every K-th window, K as /coupling
+  // checkpoint_windows gives it (the water is given the same K).
+  checkpointWindows_ =
+      coupling_ && m_.in.checkpointInterval > 0 ? std::max<long long>(1, m_.in.staged.coupling.checkpointWindows) : 0;
   if (!cl_.resume) {
     if (checkpoints_) checkpoints_->clear();
     writer_->sample(s);
@@ -496,37 +537,37 @@ void SolidRun::restoreOrStart() {
   if (coupling_) coupling_->initializeResumed();
 }
 
-// The time loop. Implicit coupling windows of several steps: the state at each window start is
-// kept, and a window the water did not accept is stepped again from it; results are sampled at
-// window ends.
+// The time loop: a step, or with the water a coupling window (CoupledStepper: an implicit window of
+// several steps the water did not accept is stepped again from its start); results are sampled at
+// the final states.
 void SolidRun::stepToEnd() {
   Solver& s = *m_.solver;
   ResultsWriter& results = *writer_;
   t0_ = lastReport_ = lastFlush_ = std::chrono::steady_clock::now();
   step0_ = s.stepCount();
-  WindowedStepper stepper(s, coupling_.get());
+  CoupledStepper stepper(s, coupling_.get());
   stepping_ = true;
-  try {
-    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) {
-      if (!stepper.step()) continue;
-      if (coupling_) {
-        const std::string note = coupling_->takeNote();
-        if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
-      }
-      const Real t = s.time();
-      gap_ = t - tFinal_;
-      tFinal_ = t;
-      // The histories are written at k x monitor_dt, interpolated between the final states on
-      // either side: observe this state when a requested time falls before the next final state
-      // (expected one step, or window, on).
-      if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
-      while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
-        results.snapshot(s);
-        ++nextSnap_;
-      }
-      writeCheckpoint(t);
-      flushAndReport(t);
+  const auto onFinal = [&] {
+    if (coupling_) {
+      const std::string note = coupling_->takeNote();
+      if (!note.empty()) out_ << "tq-solid: " << note << std::endl;
     }
+    const Real t = s.time();
+    gap_ = t - tFinal_;
+    tFinal_ = t;
+    // The histories are written at k x monitor_dt, interpolated between the final states on
+    // either side: observe this state when a requested time falls before the next final state
+    // (expected one step, or window, on).
+    if (t + gap_ >= results.nextSampleTime() - 1e-9 * gap_) results.sample(s);
+    while (nextSnap_ < m_.in.snapshotTimes.size() && t >= m_.in.snapshotTimes[nextSnap_] - 0.5 * s.dt()) {
+      results.snapshot(s);
+      ++nextSnap_;
+    }
+    writeCheckpoint(t);
+    flushAndReport(t);
+  };
+  try {
+    while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) stepper.advance(onFinal);
   } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample
     results.sample(s);
     throw;
@@ -595,8 +636,8 @@ void SolidRun::writeCouplingSummary() {
                        {"fluid_work", c.fluidWork()},
                        {"fluid_received_work", c.fluidReceivedWork()},
                        {"coupling_energy", c.couplingEnergy()},
-                       {"volume_law_work", c.volumeLawWork()},
-                       {"enclosed_volume", c.enclosedVolume()},
+                       {"volume_law_work", water_ ? water_->work() : 0.0},
+                       {"enclosed_volume", water_ ? water_->enclosedVolume() : 0.0},
                        {"interface_work_peak", c.interfaceWorkPeak()},
                        {"energy_floor", c.energyFloor()},
                        {"energy_limit", m_.in.staged.coupling.energyLimit},
@@ -663,6 +704,7 @@ int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostre
   // HDF5 closes what is still open at exit; a file whose flush failed then crashes it
   // (H5F__close_cb). Every file here is closed by its owner, so that pass is left out.
   H5dont_atexit();
+  if (wantsRankedRun(args)) return runSolidOnRanks(args, out, err);  // on MPI ranks (tq/parallel/)
   std::unique_ptr<CouplingMpi> mpi;
   int rc = 0;
   try {

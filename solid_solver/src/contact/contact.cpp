@@ -1,8 +1,6 @@
 // The rock–lining dynamic contact force (paper eqs. 9–13; docs/theory.md §4).
 #include "tq/contact/contact.hpp"
 
-#include "tq/io/staged_input.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -43,17 +41,6 @@ void ContactParams::check() const {
   if (!(dynamicFriction >= 0) || !(dynamicFriction <= staticFriction))
     bad("dynamic_friction", dynamicFriction, "give 0 <= μd <= μs (paper: both 0.6)");
   if (!(cohesion >= 0) || !std::isfinite(cohesion)) bad("cohesion", cohesion, "give f_c in Pa (>= 0; paper: 0.5e6)");
-}
-
-ContactParams contactParamsFrom(const InterfaceInput& in) {
-  ContactParams p;
-  p.model = parseInterfaceModel(in.model);
-  p.staticFriction = in.staticFriction;
-  p.dynamicFriction = in.dynamicFriction;
-  p.cohesion = in.cohesion;
-  p.afterFailure = parseAfterFailure(in.afterFailure);
-  p.check();
-  return p;
 }
 
 ContactPairs rockLiningPairs(const Mesh& mesh) {

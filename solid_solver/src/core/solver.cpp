@@ -393,6 +393,7 @@ void Solver::rebuild() {
   for (auto& b : blocks_) b->lumpMassInto(fresh);
   std::vector<Real> m(static_cast<size_t>(N));
   for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
+  if (rx_) rx_->sumFrontier(m.data(), 1);  // on ranks: a frontier node's mass from every rank's elements
   for (Index n = 0; n < N; ++n) state_.addMass(n, m[size_t(n)] - state_.mass(n));
 }
 
@@ -409,7 +410,7 @@ StableStep Solver::stableStep() const {
       s.waveSpeed = 0.5 * w * s.charLength;
     }
   }
-  if (s.omegaMax <= 0) throw InputError("no active elements: nothing to integrate");
+  if (s.omegaMax <= 0 && !rx_) throw InputError("no active elements: nothing to integrate");
   // Stiffness-proportional damping with the lagged velocity (Belytschko et al., Nonlinear FE,
   // §6.3): Δt ≤ (2/ω_max)(√(1+ξ²) - ξ), ξ = β ω_max / 2. The central difference treats α M with
   // the mean of the half-step velocities (unconditionally stable); the literal paper form treats it
@@ -438,6 +439,11 @@ StableStep Solver::stableStep() const {
       s.charLength = e >= 0 ? b->charLength(e) : 0;
       s.waveSpeed = 0.5 * w * s.charLength;
     }
+  }
+  if (rx_) {  // on ranks: the whole model's step (the limiting element's details are this rank's)
+    s.omegaMax = rx_->maxAll(s.omegaMax);
+    if (s.omegaMax <= 0) throw InputError("no active elements: nothing to integrate");
+    s.dtCritical = rx_->minAll(s.dtCritical);
   }
   s.dtSafe = opt_.safety * s.dtCritical;
   return s;
@@ -478,11 +484,16 @@ void Solver::computeInternalForces(int activeLevel) {
   Real* __restrict f = state_.fIntData();
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
   for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
-  for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {                  // blocks in order: a fixed sum order per node
+    if (rx_ && bi == rx_->frontierBlocks()) rx_->beginForceSum(f);  // on ranks: sent while the rest is computed
     const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, f);
     work += en.stressWork;
     stored += en.storedEnergy;
     damp += en.dampingWork;
+  }
+  if (rx_) {
+    if (rx_->frontierBlocks() >= blocks_.size()) rx_->beginForceSum(f);
+    rx_->finishForceSum(f);
   }
   stressWork_ += work;
   storedEnergy_ = stored;
@@ -503,15 +514,24 @@ void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContribu
 // the constant loads folded into its pass, then the NodalLoads, then the phase's other
 // contributors; then Boundaries, Interface, Water, Ties.
 void Solver::computeExternalForces() {
+  addGravityAndLoads();
+  addPhaseForces(ForcePhase::Loads, ForcePhase::Ties);
+}
+
+void Solver::addGravityAndLoads() {
   addGravityAndFoldedLoads();
   Real* fe = state_.fExtData();
   for (const auto& l : loads_) {
     const Real f = l.forcePerNode * l.function(t_);
     for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
   }
+}
+
+void Solver::addPhaseForces(ForcePhase first, ForcePhase last) {
   for (const ForcePhase phase : kForcePhases)
-    for (auto& e : contributors_)
-      if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
+    if (phase >= first && phase <= last)
+      for (auto& e : contributors_)
+        if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
 }
 
 void Solver::addGravityAndFoldedLoads() {
@@ -554,6 +574,11 @@ void Solver::updateNodes() {
   const Real vlim = opt_.velocityLimit;
   const bool leapfrog = opt_.integrator == Integrator::CentralDifference;
   Real* sums = nodeChunkSums_.data();
+  if (rx_) {  // on ranks: the ghosts' v^{n-1/2}, to take their share out of the sums (subtractGhostSums)
+    ghostV_.clear();
+    for (Index n : rx_->ghosts())
+      for (int d = 0; d < 3; ++d) ghostV_.push_back(v[3 * size_t(n) + d]);
+  }
 #pragma omp parallel for schedule(static) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
@@ -613,12 +638,36 @@ void Solver::bookNodeChunks(Index nChunks) {
     bdry += s[3];
     if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
   }
-  if (bad >= 0) reportInstability(bad, state_.vData()[bad]);
+  if (rx_) subtractGhostSums(ke, ext, damp, bdry);
+  if (bad >= 0 && !rx_) reportInstability(bad, state_.vData()[bad]);  // on ranks: finishEnergy, on every rank
   extWork_ += ext;
   dampWork_ += damp;
   bdryWork_ += bdry;
   energy_.kinetic = ke;
-  finishEnergy();
+  finishEnergy(bad);
+}
+
+void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) const {
+  // The leapfrog update's terms (leapfrogDofs) of each ghost dof, from its velocity before and after.
+  const Real* v = state_.vData();
+  const Real* fe = state_.fExtData();
+  const Real* cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
+  const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
+  const auto& ghosts = rx_->ghosts();
+  for (size_t k = 0; k < ghosts.size(); ++k) {
+    const Index n = ghosts[k];
+    const Real mn = state_.mass(n);
+    if (!(mn > 0)) continue;
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = 3 * size_t(n) + size_t(d);
+      const Real vo = ghostV_[3 * k + size_t(d)], vn = v[i], vb = 0.5 * (vo + vn);
+      const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
+      ext -= 0.5 * (fe[i] + fExtPrev_[i]) * dtLast_ * vo;
+      ke -= 0.5 * mn * vo * vn;
+      damp -= cm * vb * vb * dt_;
+      bdry -= cd * vb * vb * dt_;
+    }
+  }
 }
 
 const EnergyBalance& Solver::energy() const {
@@ -631,7 +680,7 @@ const EnergyBalance& Solver::energy() const {
   return energy_;
 }
 
-void Solver::finishEnergy() {
+void Solver::finishEnergy(Index bad) {
   // Contributors that dissipate (interface friction) or store/absorb (boundary springs) book their
   // own work W_c = -E_c; the solver's external work includes it, so it is moved out of `external`
   // into `interface` / `boundary`: balance = interface + kinetic + internal + damping + boundary
@@ -639,13 +688,25 @@ void Solver::finishEnergy() {
   Real dissContrib = 0, bdryContrib = 0;
   for (const auto& e : contributors_) dissContrib += e.contributor->dissipatedEnergy();
   for (const auto& e : contributors_) bdryContrib += e.contributor->boundaryEnergy();
-  const Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
-  energy_.internal = stressWork_ + storedEnergy_;
-  energy_.damping = dampWork_;
-  energy_.boundary = bdryWork_ + bE;
+  Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
+  Real internal = stressWork_ + storedEnergy_, damping = dampWork_, boundary = bdryWork_, external = extWork_;
+  if (rx_) {  // on ranks: the whole model's terms, and a stop on every rank when one went unstable
+    Real sums[8] = {internal, damping, boundary, external, energy_.kinetic, diss, bE, bad >= 0 ? 1.0 : 0.0};
+    rx_->sumAll(sums, 8);
+    internal = sums[0], damping = sums[1], boundary = sums[2], external = sums[3], energy_.kinetic = sums[4];
+    diss = sums[5], bE = sums[6];
+    if (sums[7] > 0) {
+      if (bad >= 0) reportInstability(bad, state_.vData()[bad]);
+      throw InstabilityError("run stopped at step " + std::to_string(step_) + ", t = " + std::to_string(t_) +
+                             " s: another rank's part of the model went unstable (its message is above)");
+    }
+  }
+  energy_.internal = internal;
+  energy_.damping = damping;
+  energy_.boundary = boundary + bE;
   energy_.interface = diss;
   plasticStale_ = true;  // energy_.plastic: by energy() when asked (not in the balance)
-  energy_.external = extWork_ + diss + bE;
+  energy_.external = external + diss + bE;
   const Real bal =
       energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary - energy_.external;
   if (!balanceSet_) {
@@ -788,7 +849,10 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
 void Solver::reportInstability(Index dof, Real value) {
   const Index node = dof / 3;
   const int d = int(dof % 3);
+  RankExchange* const rx = rx_;
+  rx_ = nullptr;  // on ranks: this rank's own step for the message (the others are not asking)
   const StableStep s = stableStep();
+  rx_ = rx;
   std::ostringstream os;
   os.precision(6);
   os << "run stopped at step " << step_ << ", t = " << t_ << " s: velocity v_"
@@ -823,16 +887,28 @@ void Solver::reportInstability(Index dof, Real value) {
 }
 
 void Solver::step() {
+  beginStep();
+  finishStep();
+}
+
+void Solver::beginStep() {
   // Subcycling: the chunks and nodes due at this fine step are those of level <= the number of
   // trailing zero bits of the fine-step count (all of them at count 0).
-  const int active = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
-  computeInternalForces(active);
+  activeLevel_ = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
+  computeInternalForces(activeLevel_);
   state_.swapFExt(fExtPrev_);  // f_ext of the step just taken becomes the previous one
-  computeExternalForces();
+  addGravityAndLoads();
+  addPhaseForces(ForcePhase::Loads, ForcePhase::Interface);
+  stepOpen_ = true;
+}
+
+void Solver::finishStep() {
+  addPhaseForces(ForcePhase::Water, ForcePhase::Ties);
+  stepOpen_ = false;
   if (nodeLevel_.empty()) {
     updateNodes();
   } else {
-    updateNodesSubcycled(active);
+    updateNodesSubcycled(activeLevel_);
     ++cycle_;
   }
   dtLast_ = dt_;
@@ -862,6 +938,7 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(fSync_);
   a.io(dtPrevNode_);
   a.io(cycle_);
+  if (!a.saving()) stepOpen_ = false;  // a restored state abandons an open step
   for (auto& b : blocks_) b->checkpoint(a);
   for (auto& e : contributors_) e.contributor->checkpoint(a);
 }
@@ -880,8 +957,9 @@ Real Solver::unbalancedRatio() const { return unbalancedRatio(false); }
 Real Solver::unbalancedRatio(bool allDofsReference) const {
   const Index N = state_.numNodes();
   Real r2 = 0, fe2 = 0, fi2 = 0;
+  const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
   for (Index n = 0; n < N; ++n)
-    for (int d = 0; d < 3; ++d) {
+    for (int d = 0; d < 3 && (!own || own[n]); ++d) {
       const size_t i = 3 * size_t(n) + d;
       const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
       const bool isFree = free_[i] != 0;
@@ -891,6 +969,11 @@ Real Solver::unbalancedRatio(bool allDofsReference) const {
         fi2 += fi * fi;
       }
     }
+  if (rx_) {
+    Real sums[3] = {r2, fe2, fi2};
+    rx_->sumAll(sums, 3);
+    r2 = sums[0], fe2 = sums[1], fi2 = sums[2];
+  }
   const Real ref = std::sqrt(std::max(fe2, fi2));
   return ref > 0 ? std::sqrt(r2) / ref : 0;
 }
@@ -898,13 +981,15 @@ Real Solver::unbalancedRatio(bool allDofsReference) const {
 Real Solver::residualNorm() const {
   const Index N = state_.numNodes();
   Real r2 = 0;
+  const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
   for (Index n = 0; n < N; ++n)
-    for (int d = 0; d < 3; ++d) {
+    for (int d = 0; d < 3 && (!own || own[n]); ++d) {
       const size_t i = 3 * size_t(n) + d;
       if (free_[i] == 0) continue;
       const Real r = state_.fExtData()[i] - state_.fIntData()[i];
       r2 += r * r;
     }
+  if (rx_) rx_->sumAll(&r2, 1);
   return std::sqrt(r2);
 }
 
@@ -935,6 +1020,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
       for (Index e = 0; e < b->numElems(); ++e)
         if (b->active(e)) wref = std::min(wref, 2 * cp / b->charLength(e));
     }
+    if (rx_) wref = rx_->minAll(wref);
     gravityMass_.assign(state_.massData(), state_.massData() + N);
     std::vector<Real> scaled(size_t(N), 0.0);
     for (const auto& b : blocks_) {
@@ -947,6 +1033,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
         for (int k = 0; k < 8; ++k) scaled[size_t(b->node(e, k))] += m;
       }
     }
+    if (rx_) rx_->sumFrontier(scaled.data(), 1);
     for (Index n = 0; n < N; ++n) state_.addMass(n, scaled[size_t(n)] - state_.mass(n));
     wmax = wref;
     dt_ = opt_.safety * 2 / wref;
@@ -968,6 +1055,19 @@ RelaxResult Solver::relax(const RelaxParams& p) {
           num += du * (f[i] - fPrev[i]);
           den += du * du * state_.mass(n);
         }
+      if (rx_) {  // on ranks: the whole model's Rayleigh quotient (ghost nodes counted on their owner)
+        Real q[2] = {0, 0};
+        for (Index n : rx_->ghosts())
+          for (int d = 0; d < 3; ++d) {
+            const size_t i = 3 * size_t(n) + d;
+            const Real du = dtLast_ * v[i];
+            q[0] += du * (f[i] - fPrev[i]);
+            q[1] += du * du * state_.mass(n);
+          }
+        q[0] = num - q[0], q[1] = den - q[1];
+        rx_->sumAll(q, 2);
+        num = q[0], den = q[1];
+      }
       if (den > 0 && num > 0) omega = std::min(std::sqrt(num / den), wmax);
     }
     std::copy(state_.fIntData(), state_.fIntData() + 3 * size_t(N), fPrev.begin());

@@ -234,40 +234,45 @@ std::string inputJson(const SolidInput& in) {
   return os.str();
 }
 
+std::map<Index, Real> loadShares(const SolidInput& in, const Mesh& mesh, const LoadInput& l) {
+  // Face group: the total force is shared in proportion to the nodes' tributary areas (a
+  // uniform traction, consistent nodal forces of bilinear quads). Node set: equal shares.
+  std::map<Index, Real> share;
+  if (mesh.faces.count(l.target)) {
+    const auto& q = mesh.faces.at(l.target);
+    Real total = 0;
+    for (size_t f = 0; f < q.size() / 4; ++f) {
+      const Real* x[4];
+      for (int k = 0; k < 4; ++k) x[k] = &mesh.coords[3 * size_t(q[4 * f + k])];
+      Real d1[3], d2[3];
+      for (int i = 0; i < 3; ++i) {
+        d1[i] = x[2][i] - x[0][i];
+        d2[i] = x[3][i] - x[1][i];
+      }
+      const Real area =
+          0.5 * std::sqrt(std::pow(d1[1] * d2[2] - d1[2] * d2[1], 2) + std::pow(d1[2] * d2[0] - d1[0] * d2[2], 2) +
+                          std::pow(d1[0] * d2[1] - d1[1] * d2[0], 2));
+      for (int k = 0; k < 4; ++k) share[q[4 * f + k]] += 0.25 * area;
+      total += area;
+    }
+    for (auto& [n, a] : share) a /= total;
+  } else if (mesh.nodeSets.count(l.target)) {
+    const auto& ns = mesh.nodeSets.at(l.target);
+    for (Index n : ns) share[n] += 1.0 / Real(ns.size());
+  } else {
+    throw InputError("solid input '" + in.path + "', /loads/" + l.name + ": target '" + l.target +
+                     "' is neither a face group nor a node set of mesh " + mesh.source);
+  }
+  return share;
+}
+
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {
   std::vector<std::pair<std::string, std::shared_ptr<const Material>>> mats;
   for (const auto& [region, v] : in.materials) mats.emplace_back(region, makeMaterial(v));
   auto s = std::make_unique<Solver>(mesh, makeBlocksByRegion(mesh, mats, in.formulation), in.options);
   for (const auto& [group, dirs] : in.fixed) s->fixFaceGroup(group, dirs);
   for (const auto& l : in.loads) {
-    // Face group: the total force is shared in proportion to the nodes' tributary areas (a
-    // uniform traction, consistent nodal forces of bilinear quads). Node set: equal shares.
-    std::map<Index, Real> share;
-    if (mesh.faces.count(l.target)) {
-      const auto& q = mesh.faces.at(l.target);
-      Real total = 0;
-      for (size_t f = 0; f < q.size() / 4; ++f) {
-        const Real* x[4];
-        for (int k = 0; k < 4; ++k) x[k] = &mesh.coords[3 * size_t(q[4 * f + k])];
-        Real d1[3], d2[3];
-        for (int i = 0; i < 3; ++i) {
-          d1[i] = x[2][i] - x[0][i];
-          d2[i] = x[3][i] - x[1][i];
-        }
-        const Real area =
-            0.5 * std::sqrt(std::pow(d1[1] * d2[2] - d1[2] * d2[1], 2) + std::pow(d1[2] * d2[0] - d1[0] * d2[2], 2) +
-                            std::pow(d1[0] * d2[1] - d1[1] * d2[0], 2));
-        for (int k = 0; k < 4; ++k) share[q[4 * f + k]] += 0.25 * area;
-        total += area;
-      }
-      for (auto& [n, a] : share) a /= total;
-    } else if (mesh.nodeSets.count(l.target)) {
-      const auto& ns = mesh.nodeSets.at(l.target);
-      for (Index n : ns) share[n] += 1.0 / Real(ns.size());
-    } else {
-      throw InputError("solid input '" + in.path + "', /loads/" + l.name + ": target '" + l.target +
-                       "' is neither a face group nor a node set of mesh " + mesh.source);
-    }
+    const std::map<Index, Real> share = loadShares(in, mesh, l);
     for (const auto& [n, w] : share) s->addLoad({{n}, l.direction, l.force * w, l.function});
   }
   return s;

@@ -9,10 +9,22 @@
 
 #include "h5util.hpp"
 #include "input_schema.hpp"
+#include "tq/contact/contact.hpp"
 
 namespace tq {
 
 namespace K = input_schema::key;
+
+ContactParams contactParamsFrom(const InterfaceInput& in) {
+  ContactParams p;
+  p.model = parseInterfaceModel(in.model);
+  p.staticFriction = in.staticFriction;
+  p.dynamicFriction = in.dynamicFriction;
+  p.cohesion = in.cohesion;
+  p.afterFailure = parseAfterFailure(in.afterFailure);
+  p.check();
+  return p;
+}
 
 void readStagedInput(hid_t f, SolidInput& in) {
   const input_schema::Reader c(in.path);
@@ -198,6 +210,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.windowSteps = Index(c.number(g, w, K::coupling::window));
     C.windowSize = c.number(g, w, K::coupling::window_size);
     C.windows = Index(c.number(g, w, K::coupling::windows));
+    C.checkpointWindows = Index(c.number(g, w, K::coupling::checkpoint_windows));
     C.tolerance = c.number(g, w, K::coupling::tolerance);
     C.absoluteTolVelocity = c.number(g, w, K::coupling::absolute_tolerance_velocity);
     C.absoluteTolDisplacement = c.number(g, w, K::coupling::absolute_tolerance_displacement);
@@ -247,7 +260,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.volumeLaw = c.text(g, w, K::coupling::volume_law);
     C.bulkModulus = c.number(g, w, K::coupling::bulk_modulus);
     if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))
-      c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa; water 2.2e9)");
+      c.fail(w, "volume_law compressible needs bulk_modulus > 0 (Pa: the case's water.bulk_modulus)");
     C.waterDensity = c.number(g, w, K::coupling::water_density);
     if (C.waterDensity > 0 && C.volumeLaw == "none")
       c.fail(w,

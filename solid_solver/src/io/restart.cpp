@@ -23,7 +23,9 @@ namespace tq {
 
 namespace {
 
-const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '1'};
+// The last character is the state layout: raise it whenever a part changes what it saves, so that a
+// checkpoint of another layout is refused by name instead of read into the wrong items.
+const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '2'};
 const char* const kManifest = "checkpoint.json";
 
 std::string sysError(const std::string& what, const std::string& path) {
@@ -333,7 +335,13 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
 void RestartCheckpoints::read(const CheckpointManifest& m, StateArchive& a) const {
   std::ifstream is(file(m.solid), std::ios::binary);
   char magic[sizeof kMagic];
-  if (!is.read(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof kMagic) != 0 || !a.read(is))
+  const bool read = bool(is.read(magic, sizeof magic));
+  if (read && std::memcmp(magic, kMagic, sizeof kMagic - 1) == 0 &&
+      magic[sizeof kMagic - 1] != kMagic[sizeof kMagic - 1])
+    throw InputError(file(m.solid) + " was written by another version of tq-solid (state layout " +
+                     std::string(1, magic[sizeof kMagic - 1]) + ", this build reads " +
+                     std::string(1, kMagic[sizeof kMagic - 1]) + "); run without --resume to start again");
+  if (!read || std::memcmp(magic, kMagic, sizeof kMagic) != 0 || !a.read(is))
     throw InputError(file(m.solid) + " is not a tq-solid checkpoint state (or it is damaged)");
 }
 

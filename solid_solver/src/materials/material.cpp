@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "io/input_schema.hpp"
+#include "materials/parameter_names.hpp"
 
 namespace tq {
 
@@ -20,15 +20,15 @@ const std::string& MaterialValues::text(const std::string& name) const {
 }
 
 ElasticParams elasticParams(const MaterialValues& v) {
-  namespace M = input_schema::key::materials;
-  return {v.number(M::E.name), v.number(M::nu.name), v.number(M::rho.name)};
+  namespace M = material_parameter;
+  return {v.number(M::E), v.number(M::nu), v.number(M::rho)};
 }
 
 MaterialValues elasticValues(const ElasticParams& p) {
-  namespace M = input_schema::key::materials;
+  namespace M = material_parameter;
   MaterialValues v;
   v.model = ElasticMaterial::kName;
-  v.numbers = {{M::E.name, p.youngsModulus}, {M::nu.name, p.poissonRatio}, {M::rho.name, p.density}};
+  v.numbers = {{M::E, p.youngsModulus}, {M::nu, p.poissonRatio}, {M::rho, p.density}};
   return v;
 }
 

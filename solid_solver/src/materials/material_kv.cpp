@@ -4,13 +4,13 @@
 #include <cmath>
 #include <sstream>
 
-#include "io/input_schema.hpp"
+#include "materials/parameter_names.hpp"
 
 namespace tq {
 
 KelvinVoigtParams kelvinVoigtParams(const MaterialValues& v) {
-  namespace M = input_schema::key::materials;
-  return {elasticParams(v), v.number(M::retardation_time.name)};
+  namespace M = material_parameter;
+  return {elasticParams(v), v.number(M::retardation_time)};
 }
 
 std::shared_ptr<const Material> makeKelvinVoigtMaterial(const MaterialValues& v) {

@@ -7,33 +7,33 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "io/input_schema.hpp"
+#include "materials/parameter_names.hpp"
 
 namespace tq {
 
 MohrCoulombDamageParams mohrCoulombDamageParams(const MaterialValues& v) {
-  namespace M = input_schema::key::materials;
+  namespace M = material_parameter;
   MohrCoulombDamageParams p;
   p.elastic = elasticParams(v);
-  p.cohesion = v.number(M::cohesion.name);
-  p.frictionAngle = v.number(M::friction_angle.name);
-  p.dilationAngle = v.number(M::dilation_angle.name);
-  p.tensileStrength = v.number(M::tensile_strength.name);
-  p.damageConstant = v.number(M::damage_constant.name);
-  p.damageEffect = parseDamageEffect(v.text(M::damage_effect.name));
+  p.cohesion = v.number(M::cohesion);
+  p.frictionAngle = v.number(M::friction_angle);
+  p.dilationAngle = v.number(M::dilation_angle);
+  p.tensileStrength = v.number(M::tensile_strength);
+  p.damageConstant = v.number(M::damage_constant);
+  p.damageEffect = parseDamageEffect(v.text(M::damage_effect));
   return p;
 }
 
 MaterialValues mohrCoulombDamageValues(const MohrCoulombDamageParams& p) {
-  namespace M = input_schema::key::materials;
+  namespace M = material_parameter;
   MaterialValues v = elasticValues(p.elastic);
   v.model = MohrCoulombDamageMaterial::kName;
-  v.numbers[M::cohesion.name] = p.cohesion;
-  v.numbers[M::friction_angle.name] = p.frictionAngle;
-  v.numbers[M::dilation_angle.name] = p.dilationAngle;
-  v.numbers[M::tensile_strength.name] = p.tensileStrength;
-  v.numbers[M::damage_constant.name] = p.damageConstant;
-  v.texts[M::damage_effect.name] = damageEffectName(p.damageEffect);
+  v.numbers[M::cohesion] = p.cohesion;
+  v.numbers[M::friction_angle] = p.frictionAngle;
+  v.numbers[M::dilation_angle] = p.dilationAngle;
+  v.numbers[M::tensile_strength] = p.tensileStrength;
+  v.numbers[M::damage_constant] = p.damageConstant;
+  v.texts[M::damage_effect] = damageEffectName(p.damageEffect);
   return v;
 }
 

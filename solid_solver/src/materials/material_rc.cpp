@@ -6,35 +6,35 @@
 #include <sstream>
 #include <vector>
 
-#include "io/input_schema.hpp"
+#include "materials/parameter_names.hpp"
 
 namespace tq {
 
 ReinforcedConcreteParams reinforcedConcreteParams(const MaterialValues& v) {
-  namespace P = input_schema::key::materials;  // the table's names (solver_input_table.py)
+  namespace P = material_parameter;  // the table's names (solver_input_table.py)
   ReinforcedConcreteParams p;
   p.elastic = elasticParams(v);
-  p.fc = v.number(P::fc.name);
-  p.fct = v.number(P::fct.name);
+  p.fc = v.number(P::fc);
+  p.fct = v.number(P::fct);
   auto opt = [&](const char* name, Real def) {
     const auto it = v.numbers.find(name);
     return it == v.numbers.end() ? def : it->second;
   };
-  p.epsC2 = opt(P::eps_c2.name, p.epsC2);
-  p.epsCu2 = opt(P::eps_cu2.name, p.epsCu2);
-  p.beta = opt(P::tension_stiffening_beta.name, p.beta);
-  p.Es = opt(P::Es.name, p.Es);
-  p.fy = opt(P::fy.name, p.fy);
-  p.asInnerHoop = opt(P::As_inner_hoop.name, 0);
-  p.asOuterHoop = opt(P::As_outer_hoop.name, 0);
-  p.asInnerAxial = opt(P::As_inner_axial.name, 0);
-  p.asOuterAxial = opt(P::As_outer_axial.name, 0);
-  p.axisDistance = opt(P::axis_distance.name, p.axisDistance);
-  p.centreX = opt(P::ring_centre_x.name, 0);
-  p.centreZ = opt(P::ring_centre_z.name, 0);
-  p.innerRadius = v.number(P::ring_inner_radius.name);
-  p.thickness = v.number(P::ring_thickness.name);
-  p.layers = v.number(P::ring_layers.name);
+  p.epsC2 = opt(P::eps_c2, p.epsC2);
+  p.epsCu2 = opt(P::eps_cu2, p.epsCu2);
+  p.beta = opt(P::tension_stiffening_beta, p.beta);
+  p.Es = opt(P::Es, p.Es);
+  p.fy = opt(P::fy, p.fy);
+  p.asInnerHoop = opt(P::As_inner_hoop, 0);
+  p.asOuterHoop = opt(P::As_outer_hoop, 0);
+  p.asInnerAxial = opt(P::As_inner_axial, 0);
+  p.asOuterAxial = opt(P::As_outer_axial, 0);
+  p.axisDistance = opt(P::axis_distance, p.axisDistance);
+  p.centreX = opt(P::ring_centre_x, 0);
+  p.centreZ = opt(P::ring_centre_z, 0);
+  p.innerRadius = v.number(P::ring_inner_radius);
+  p.thickness = v.number(P::ring_thickness);
+  p.layers = v.number(P::ring_layers);
   return p;
 }
 

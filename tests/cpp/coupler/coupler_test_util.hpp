@@ -12,8 +12,8 @@
 #include <string>
 #include <thread>
 
+#include "ring_scenario.hpp"
 #include "tq/coupler/participant.hpp"
-#include "tq/coupler/ring_scenario.hpp"
 
 namespace tqtest {
 

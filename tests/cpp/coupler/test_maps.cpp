@@ -7,9 +7,9 @@
 #include <numeric>
 #include <random>
 
+#include "ring_scenario.hpp"
 #include "tq/coupler/errors.hpp"
 #include "tq/coupler/maps.hpp"
-#include "tq/coupler/ring_scenario.hpp"
 
 using namespace tq::coupler;
 

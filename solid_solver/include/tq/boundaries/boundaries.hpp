@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "tq/boundaries/free_field.hpp"
+#include "tq/core/mesh.hpp"
 #include "tq/core/solver.hpp"
-#include "tq/io/mesh.hpp"
 
 namespace tq {
 

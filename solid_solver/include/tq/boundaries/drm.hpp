@@ -11,8 +11,8 @@
 
 #include "tq/boundaries/drm_field.hpp"
 #include "tq/core/element_block.hpp"
+#include "tq/core/mesh.hpp"
 #include "tq/core/solver.hpp"
-#include "tq/io/mesh.hpp"
 
 namespace tq {
 

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "tq/core/mesh.hpp"
 #include "tq/core/solver.hpp"
-#include "tq/io/mesh.hpp"
 
 namespace tq {
 
@@ -52,11 +52,6 @@ struct ContactParams {
   AfterFailure afterFailure = AfterFailure::CohesionLost;
   void check() const;  ///< throws InputError on bad values
 };
-
-struct InterfaceInput;  // solid_input.h5 /interfaces/rock_lining (tq/io/staged_input.hpp)
-/// The contact parameters of /interfaces/rock_lining (model, static_friction, dynamic_friction,
-/// cohesion, after_failure); throws InputError on unknown names or bad values.
-ContactParams contactParamsFrom(const InterfaceInput& in);
 
 /// Geometry of the node pairs.
 struct ContactPairs {

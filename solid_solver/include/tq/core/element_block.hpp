@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "tq/core/mesh.hpp"
 #include "tq/core/nodal_state.hpp"
 #include "tq/core/state_archive.hpp"
-#include "tq/io/mesh.hpp"
 #include "tq/materials/material.hpp"
 
 namespace tq {
@@ -75,6 +75,14 @@ class ElementBlock {
   /// Set a stress component of the last evaluated state (in-situ stress); the next evaluation
   /// adds C:(ε − ε_last) to it, like any other stress.
   void setStress(Index e, int comp, Real value);
+  /// A block that only holds the state gathered from MPI ranks for the results (tq/parallel/): the
+  /// stress (6) and the history variables of element e as its rank last evaluated them.
+  void setGatheredState(Index e, const Real* stress6, const Real* history) {
+    for (int c = 0; c < 6; ++c) stress_[c][size_t(e)] = stress6[c];
+    for (size_t h = 0; h < history_.size(); ++h) history_[h][size_t(e)] = history[h];
+  }
+  /// Number of history variables of each element.
+  int numHistory() const { return int(history_.size()); }
   /// Total small strain of the element (engineering shear), as last evaluated.
   Real strain(Index e, int comp) const;
   /// True when the block evaluates σ = C:ε(u) + σ_off in total form (linear elastic material,

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "tq/core/element_block.hpp"
+#include "tq/core/mesh.hpp"
 #include "tq/core/nodal_state.hpp"
-#include "tq/io/mesh.hpp"
 
 namespace tq {
 
@@ -114,6 +114,36 @@ inline bool lowerToFinestLevel(std::vector<std::uint8_t>& level, const std::vect
   return lowered;
 }
 
+/// The solid on MPI ranks (tq/parallel/): what the solver of one rank asks of the others. A solver
+/// without one (the default) is the whole model in one process and runs as it always did.
+class RankExchange {
+ public:
+  virtual ~RankExchange() = default;
+  /// Blocks [0, frontierBlocks()) hold this rank's elements with a frontier node, the later ones
+  /// none: the frontier's internal forces are complete once those blocks are done.
+  virtual size_t frontierBlocks() const = 0;
+  /// Sum `comps` values per node over the ranks that hold each frontier node (lumped masses).
+  virtual void sumFrontier(Real* data, int comps) = 0;
+  /// The internal forces f [3N]: start the frontier sum (after the frontier blocks), and finish it
+  /// (after the others): every rank then holds the same total on its copy of a frontier node.
+  virtual void beginForceSum(const Real* f) = 0;
+  virtual void finishForceSum(Real* f) = 0;
+  /// Sum n values over every rank, in place; the largest and the smallest of one value.
+  virtual void sumAll(Real* v, int n) = 0;
+  virtual Real maxAll(Real v) = 0;
+  virtual Real minAll(Real v) = 0;
+  /// [node] 1 where this rank owns the node: node sums count each node on its owner only.
+  virtual const std::uint8_t* owned() const = 0;
+  /// Frontier nodes this rank holds but does not own.
+  virtual const std::vector<Index>& ghosts() const = 0;
+  /// The largest difference, over every rank, between this rank's copy of a frontier node's values
+  /// (`comps` per node) and another rank's copy of the same node: 0 when the copies agree bitwise.
+  virtual Real frontierMismatch(const Real* data, int comps) = 0;
+  /// Wall time this rank has spent waiting for the others so far (the frontier sums' and the
+  /// reductions' completion), s.
+  virtual double waitSeconds() const = 0;
+};
+
 /// The stable time step and what limits it.
 struct StableStep {
   Real dtCritical = 0;  ///< (2/ω)(√(1+ξ²) - ξ) at ω = omegaLimit (s)
@@ -212,8 +242,15 @@ class Solver {
 
   // ---- time stepping ------------------------------------------------------------------------
   /// One explicit step: element forces -> assembly -> external forces (gravity and the
-  /// contributors, phase by phase in ForcePhase order) -> update -> check.
+  /// contributors, phase by phase in ForcePhase order) -> update -> check. beginStep(), finishStep().
   void step();
+  /// The step in two halves, for the water coupling's exchange (CoupledStepper), which needs the
+  /// step's other forces before the water's: beginStep() assembles f_int and the external force of
+  /// the phases before ForcePhase::Water; finishStep() adds the Water and Ties phases and updates.
+  /// Between the two the step is open (stepOpen()); restoring a checkpoint abandons an open step.
+  void beginStep();
+  void finishStep();
+  bool stepOpen() const { return stepOpen_; }
   /// Steps until time >= tEnd (calls `each` after every step if given).
   void runUntil(Real tEnd, const std::function<void()>& each = {});
   /// Dynamic relaxation to static equilibrium (Rayleigh damping is suspended meanwhile).
@@ -245,6 +282,16 @@ class Solver {
   void checkSubcycling(int maxLevel) const;
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
+  /// The solid on ranks (tq/parallel/): the exchange with the other ranks (not owned; null: one
+  /// process). Call rebuild() and setTimeStep() after setting it (summed masses, reduced step).
+  void setRankExchange(RankExchange* x) { rx_ = x; }
+  RankExchange* rankExchange() const { return rx_; }
+  /// A solver that only holds a state gathered from the ranks for the results (tq/parallel/): the
+  /// energy balance the ranks reduced (its plastic part is summed from this solver's blocks).
+  void setReportedEnergy(const EnergyBalance& e) {
+    energy_ = e;
+    plasticStale_ = true;
+  }
 
   // ---- access -------------------------------------------------------------------------------
   NodalState& state() { return state_; }
@@ -277,11 +324,15 @@ class Solver {
  private:
   void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
-  void addGravityAndFoldedLoads();  // the Loads phase's parallel pass
+  void addPhaseForces(ForcePhase first, ForcePhase last);  // the contributors of the phases first … last
+  void addGravityAndFoldedLoads();                         // the Loads phase's parallel pass
+  void addGravityAndLoads();                               // gravity, the folded loads, the NodalLoads
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
-  void finishEnergy();                 // the balance terms from the accumulated works (after a node update)
+  void finishEnergy(Index bad = -1);   // the balance terms from the accumulated works (after a node update)
+  // On ranks: the ghost nodes' share of a node update's sums, taken out again (they count on their owner).
+  void subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) const;
   [[noreturn]] void reportInstability(Index dof, Real value);
 
   const Mesh& mesh_;
@@ -295,6 +346,8 @@ class Solver {
   std::vector<AddedContributor> contributors_;  // in the order added
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
+  int activeLevel_ = 255;  // subcycling: the level of the open step (beginStep to finishStep)
+  bool stepOpen_ = false;
   Real alphaRelax_ = -1;          // >= 0 while relaxing: replaces α
   mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
   mutable bool plasticStale_ = true;
@@ -311,6 +364,9 @@ class Solver {
   std::vector<std::uint8_t> nodeLevel_;
   std::vector<Real> fSync_, dtPrevNode_;
   Index cycle_ = 0;
+  // On ranks (tq/parallel/): the exchange, and the ghost nodes' velocities before a node update.
+  RankExchange* rx_ = nullptr;
+  std::vector<Real> ghostV_;
 };
 
 /// One block per mesh region, each with the material given for that region name.

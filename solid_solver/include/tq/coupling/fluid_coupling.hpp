@@ -1,30 +1,25 @@
 /// @file fluid_coupling.hpp
 /// @brief The solid side of the rock–lining–water coupling (paper §2.2.2–2.2.3;
-///        docs/coupler.md "Solid adapter"): a NodalForceContributor that exchanges the motion of
-///        the lining's wetted face (`lining_inner`) for the water's interface force R3 through the
-///        coupler library (tqcoupler).
+///        docs/coupler.md "Solid adapter"): the exchange of the lining's wetted face (`lining_inner`)
+///        motion for the water's interface force R3 through the coupler library (tqcoupler).
 ///
-/// The protocol, per coupling window of k solid steps and one water step (written once, in
-/// fluid_coupling.cpp, Impl::windowStep; addForces runs it once per solid step, in
-/// ForcePhase::Water, after the forces of the earlier phases are known):
-///  - plan, at the window's first step: the window-end force F̃ of the first pass (implicit: the
-///    predictor's; paper and explicit: none) and the force at the window's start F_w. Step j < k
-///    applies F_w + w_j (F̃ − F_w) (explicit: the last answer, held).
-///  - exchange, at the window's last step: the interface nodes are predicted at t + Δt with F̃ by
-///    the solver's own update (leapfrog with α M and the boundary dashpots, fixed dofs held:
-///    v^{n+½} = [(m/Δt − c/2) v^{n−½} + f] / (m/Δt + c/2), u^{n+1} = u^n + Δt v^{n+½}); the prediction
-///    (displacement relative to the seismic start, and velocity: for k > 1 the window's mean) is
-///    written, the coupler advances, the water's force is read.
-///  - decision: accepted → the water's work and the counters are booked, the next window starts;
-///    not accepted → F̃ becomes the water's answer and the window is stepped again from its start.
-///    A one-step window's step is, for the interface, the local update from the step's state, so it
-///    is stepped again inside addForces by predicting again (no checkpoint of the solver); a window
-///    of k steps is stepped again by the time loop (WindowedStepper), which restores the solver's
-///    state saved at the window's start.
-/// Every step then adds its force (with the pressure of the laws the solid carries) to f_ext.
+/// The protocol's parts, per coupling window of k solid steps and one water step, in the order
+/// CoupledStepper::window (tq/coupling/coupled_stepper.hpp) runs them:
+///  - planWindow, at the window's start: the window-end force F̃ of the first pass (implicit: the
+///    predictor's; paper and explicit: none) and the force at the window's start F_w.
+///  - planStep j < k: the force step j applies, F_w + w_j (F̃ − F_w) (explicit: the last answer, held).
+///  - exchange, at the window's last step with its other forces known (Solver::beginStep): the
+///    interface nodes are predicted at t + Δt with F̃ by the solver's own update
+///    (tq/water/wall_prediction.hpp) and the laws the solid carries (tq/water/carried_water.hpp); the
+///    prediction (displacement relative to the seismic start, and velocity: for k > 1 the window's
+///    mean) is written, the coupler advances, the water's force is read. Not accepted: F̃ becomes the
+///    water's answer, and the window is stepped again.
+///  - acceptWindow, after the window's last step: the water's work and the counters booked, the
+///    energy guard.
+/// As a contributor (ForcePhase::Water) it adds the force planStep or exchange decided to f_ext.
 ///
-/// This header and src/coupling/fluid_coupling.cpp are the only solid files that see the coupler (its
-/// headers are included in the .cpp only): the physics stays free of communication.
+/// This header and src/coupling/ are the only solid files that see the coupler (its headers are
+/// included in the .cpp files only): the physics stays free of communication.
 #pragma once
 
 #include <memory>
@@ -36,6 +31,7 @@
 #include "tq/core/solver.hpp"
 #include "tq/io/mesh.hpp"
 #include "tq/io/staged_input.hpp"
+#include "tq/water/carried_water.hpp"
 
 namespace tq {
 
@@ -54,8 +50,8 @@ struct FluidCouplingStats {
   long long unconvergedWindows = 0;  ///< implicit: windows ended at max_iterations above the tolerance
   double secondsExchanging = 0;      ///< wall time inside the coupler (waiting for the fluid included)
   // Cost split (docs/coupler.md "Exchange cost"), all over the stepping only (start-up excluded):
-  double secondsCoupled = 0;    ///< wall from the end of initialize() to the end of the last addForces()
-  double secondsInCoupler = 0;  ///< wall inside addForces' coupler part (predict, write, advance, read)
+  double secondsCoupled = 0;    ///< wall from the end of initialize() to the end of the last protocol part
+  double secondsInCoupler = 0;  ///< wall inside the protocol's parts (predict, write, advance, read)
   double secondsWaiting = 0;    ///< of which receives were blocked until the fluid's message began
   double secondsMapping = 0;    ///< of which the interface maps were applied
   double cpuCoupled = 0;        ///< CPU seconds of the calling thread over the same span as secondsCoupled
@@ -68,8 +64,10 @@ class FluidCoupling final : public NodalForceContributor {
   /// With `in.windowSize` > 0 the solver's step is set to windowSize / windowSteps (refused when
   /// above the stable step). Does not connect yet. Throws InputError on a bad configuration.
   /// The solver must outlive the adapter; its displacement now is the reference of the
-  /// displacement written (construct it right after the switch to the seismic stage).
-  FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd);
+  /// displacement written (construct it right after the switch to the seismic stage). `water`: the
+  /// laws the solid carries on the same face (CarriedWater::fromCoupling; null: none), added to
+  /// the solver after this adapter; it must outlive the adapter.
+  FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd, const CarriedWater* water = nullptr);
   ~FluidCoupling() override;  ///< without finalize(): tells the fluid this side stopped (ABORT)
 
   /// Connects to the fluid and runs the handshake. Throws CouplingError.
@@ -79,8 +77,22 @@ class FluidCoupling final : public NodalForceContributor {
   /// Tells the fluid this side stops on an error (never throws).
   void abort(const std::string& reason) noexcept;
 
+  // ---- the protocol's parts, in the order CoupledStepper::window runs them -----------------------
+  /// The window's start (pass 0): its plan. Throws CouplingError before initialize() or past the last window.
+  void planWindow(const NodalState& state);
+  /// Step j (1 ≤ j < k) of the window: the force it applies; the coupler's clock moves on.
+  void planStep(Index j, Real dt);
+  /// One pass of the window's end, the last step's other forces known (Solver::beginStep): predict,
+  /// write, advance, read. True when the water accepted the window; else the next pass uses its answer.
+  bool exchange(Real dt, const NodalState& state);
+  /// The accepted window, its last step taken: the water's work booked, the counters, the energy
+  /// guard (InstabilityError when the coupling created more than energy_limit).
+  void acceptWindow();
+
+  // ---- the step -------------------------------------------------------------------------------------
   std::string name() const override;
-  /// One solid step of the protocol (plan, exchange, decision; see above), then its force added to f_ext.
+  /// The force the protocol decided for this step added to f_ext (its work booked); a step the
+  /// protocol did not decide (a solid stepped outside CoupledStepper) is a CouplingError.
   void addForces(Real t, Real dt, NodalState& state) override;
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
@@ -96,16 +108,14 @@ class FluidCoupling final : public NodalForceContributor {
   /// Completed coupling windows so far.
   long long windowsDone() const;
 
-  /// Windows of several solid steps with the implicit scheme: the time loop saves the solver's
-  /// state at each window start and restores it when takeRepeat() says the window must be
-  /// repeated (docs/coupler.md "Windows of several steps"). False for one-step windows (their
-  /// passes repeat only the interface nodes' update, inside addForces) and the explicit scheme.
+  /// Implicit windows of k > 1 steps are stepped again whole from their saved start when the water
+  /// does not accept them (docs/coupler.md "Windows of several steps"); one-step windows are not
+  /// (their step is predicted again before it is taken), nor are explicit ones (always accepted).
   bool repeatsWindows() const;
+  /// k: solid steps a window.
+  Index windowSteps() const;
   /// True between the first and the last step of a window (results are sampled at window ends).
   bool windowOpen() const;
-  /// True once after the last step of a window the water did not accept: restore the state
-  /// saved at the window start and step the window again (with the water's new force).
-  bool takeRepeat();
 
   /// False once the last window has been exchanged (the time loop stops there).
   bool ongoing() const;
@@ -131,21 +141,10 @@ class FluidCoupling final : public NodalForceContributor {
   /// A warning to print once (the coupling energy passed a fifth of the limit); empty otherwise.
   std::string takeNote();
   FluidCouplingStats stats() const;
-  /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N).
-  /// The force includes the pressure the solid carries (volume law and translation) where there is one.
+  /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N):
+  /// the exchanged force plus the pressure the solid carries (CarriedWater::force()) where there is one.
   const std::vector<Index>& nodes() const;
   const std::vector<Real>& force() const;
-  /// The water's volume law carried by the solid (/coupling volume_law, docs/coupler.md "Volume
-  /// law in the solid"): whether there is one, its pressure this step (Pa: the uniform pressure of a
-  /// closed section; with open ends the stations' volume-weighted mean), each station's pressure (one
-  /// for a closed section; with open ends one per plane of wet nodes along the axis, in order of y),
-  /// the work of the carried forces (volume law and translation) on the solid so far (J, part of the
-  /// balance's `external` term, not of couplingEnergy()), and the enclosed volume (m³).
-  bool hasVolumeLaw() const;
-  Real volumePressure() const;
-  std::vector<Real> stationPressures() const;
-  Real volumeLawWork() const;
-  Real enclosedVolume() const;
   /// Subcycling: the wet nodes step every fine step (the water force is set per step).
   bool constrainLevels(std::vector<std::uint8_t>& level) const override { return lowerToFinestLevel(level, nodes()); }
   /// One line describing the coupling (scheme, window, transport, interface size).
@@ -158,93 +157,6 @@ class FluidCoupling final : public NodalForceContributor {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
-};
-
-/// The time loop's step with the water coupling (tq-solid's loop and the tests use it): the time
-/// loop's part of the protocol's decision for implicit windows of several steps — it saves the
-/// solver's state at each window start and restores it when the water did not accept the window
-/// (docs/coupler.md "Windows of several steps"); otherwise it is Solver::step().
-class WindowedStepper {
- public:
-  /// `coupling` may be null (no water): then every step is final.
-  WindowedStepper(Solver& solver, FluidCoupling* coupling)
-      : solver_(solver), coupling_(coupling), windowed_(coupling && coupling->repeatsWindows()) {}
-  /// One solid step. True when the state is final (results may be sampled): always without
-  /// repeated windows, else at the end of an accepted window. False inside a window and after a
-  /// window was taken back (the state is then the window's start again).
-  bool step() {
-    if (windowed_ && saveNext_) {
-      archive_.beginSave();
-      solver_.checkpoint(archive_);
-      archive_.end();
-      saveNext_ = false;
-    }
-    solver_.step();
-    if (!windowed_) return true;
-    if (coupling_->takeRepeat()) {
-      archive_.beginRestore();
-      solver_.checkpoint(archive_);
-      archive_.end();
-      ++restores_;
-      return false;
-    }
-    if (coupling_->windowOpen()) return false;
-    saveNext_ = true;
-    return true;
-  }
-  /// Windows stepped again from their saved start so far.
-  long long restores() const { return restores_; }
-
- private:
-  Solver& solver_;
-  FluidCoupling* coupling_;
-  bool windowed_;
-  bool saveNext_ = true;
-  long long restores_ = 0;
-  StateArchive archive_;
-};
-
-/// tq-solid as one application of an MPMD mpirun job (/coupling transport mpi; docs/coupler.md
-/// "tq-solid under mpirun"): `mpirun -np 1 tq-solid ... : -np N fluid ...`. MPI is initialised
-/// only here, with MPI_THREAD_FUNNELED (the solid's OpenMP threads make no MPI calls), and the
-/// world is split by application before the static stages, so a missing partner is reported at
-/// once. tq-solid is one MPI process (it is threaded with OpenMP): a second solid rank is refused.
-class CouplingMpi {
- public:
-  /// MPI_Init, SIGTERM/SIGINT handling (mpirun's way of ending the job when a process died),
-  /// world split. A partner missing from the job or a second solid process is a problem().
-  explicit CouplingMpi(const CouplingInput& in);
-  CouplingMpi(const CouplingMpi&) = delete;
-  CouplingMpi& operator=(const CouplingMpi&) = delete;
-  ~CouplingMpi();  ///< finish(1) unless finish() was called
-
-  /// Why the coupling cannot run in this job (its message and fix), or empty. The run then
-  /// stops (exit 4) and finish() ends MPI: MPI_Finalize without a partner, else MPI_Abort.
-  const std::string& problem() const { return problem_; }
-  /// One line: the job's size and this process's cores and OpenMP threads.
-  std::string describe() const;
-  /// Warning (empty if none) when mpirun bound this process to fewer cores than the machine has
-  /// (Open MPI binds to a core by default for up to 2 processes): OpenMP then runs on those only.
-  std::string bindingWarning() const;
-  /// Records how the coupling ended (read before the coupling object goes away).
-  void note(const FluidCoupling& c);
-  /// Ends MPI for a run that returns `exitCode`, after results.h5 is closed:
-  /// - a termination signal arrived (mpirun is ending the job): nothing — MPI_Finalize would wait
-  ///   for the dead process; the job ends anyway;
-  /// - the fluid is known to end by itself (completed, or told the error, or it stopped on its own
-  ///   error): MPI_Finalize, so mpirun reports tq-solid's exit code and message, not an abort;
-  /// - otherwise (the fluid fell silent, or was never reached: an error before the handshake):
-  ///   MPI_Abort with exitCode, since the fluid would never reach MPI_Finalize. Does not return then.
-  /// Returns exitCode.
-  int finish(int exitCode, std::ostream& err);
-
-  /// "N processes" when this process was started by mpirun/mpiexec (Open MPI, MPICH), else "".
-  static std::string launchedByMpirun();
-
- private:
-  bool finished_ = false, partnerInJob_ = false, noted_ = false, released_ = false;
-  int worldSize_ = 1;
-  std::string partner_, problem_;
 };
 
 }  // namespace tq

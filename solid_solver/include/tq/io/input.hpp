@@ -62,6 +62,9 @@ SolidInput readSolidInput(const std::string& path);
 /// (`tq-solid --print-input`).
 std::string inputJson(const SolidInput& in);
 
+/// A load's share of its total force per node (sums to 1): by tributary area on a face group, equal
+/// on a node set. Throws InputError when the target is neither.
+std::map<Index, Real> loadShares(const SolidInput& in, const Mesh& mesh, const LoadInput& load);
 /// Build the solver (blocks per region, supports, loads) for an input and its mesh.
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh);
 

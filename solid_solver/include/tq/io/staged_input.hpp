@@ -67,6 +67,11 @@ struct InterfaceInput {
   std::string afterFailure = "cohesion_lost";        ///< contact only
 };
 
+struct ContactParams;  // tq/contact/contact.hpp
+/// The contact parameters of /interfaces/rock_lining (model, static_friction, dynamic_friction,
+/// cohesion, after_failure); throws InputError on unknown names or bad values.
+ContactParams contactParamsFrom(const InterfaceInput& in);
+
 /// /boundaries/bottom: viscoelastic base (Deeks & Randolph 1994; Liu Jingbo et al. 2006).
 struct BottomBoundaryInput {
   bool present = false;
@@ -120,6 +125,9 @@ struct CouplingInput {
   Real energyLimit = 0;
   /// J: the least reference work of that ratio (0 = from the absolute tolerances, see the guard).
   Real energyFloor = 0;
+  /// With restart checkpoints: one at the end of every K-th accepted window (K = this, 0 = every
+  /// window; `tunnelquake run` decides it from /output checkpoint_interval: fluid_case.checkpoint_windows).
+  Index checkpointWindows = 0;
   /// Implicit windows of k > 1 steps: weight β of the window-end force in the force the solid's steps
   /// apply (step j: F_w + w_j (F̃ − F_w), w_j = 1 − (1 − j/k)·2(1 − β)); 0.5 = the linear ramp,
   /// 1 = the end force held over the window (docs/coupler.md "Window force weight").

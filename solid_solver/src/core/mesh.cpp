@@ -1,4 +1,4 @@
-#include "tq/io/mesh.hpp"
+#include "tq/core/mesh.hpp"
 
 #include <algorithm>
 #include <array>

@@ -1,0 +1,162 @@
+"""This machine's speed for `check`'s run-time estimate (scene.runtime_estimate): measured here, cached.
+
+The probe is a fixed run of tq-solid-bench (the elastic hex8 kernel on a 16^3 box, one thread): its
+CPU seconds on this machine. Every rate of the estimate is a measured multiple of it
+(docs/benchmarks.md "check's run-time estimate"): the multiples are properties of the code (the
+same kernels, one thread), the probe's seconds the property of the machine. CPU seconds, not wall
+seconds: on a machine shared with other work the wall time says how busy it was, not how fast it is.
+
+The probe's result is cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
+bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
+(TQ_RATES_FILE overrides the file), so it runs once a machine and build.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import paths
+
+#: the probe: tq-solid-bench's arguments (about 0.5 CPU s on a 2026 server core)
+PROBE_ARGS = ("--n", "16", "--steps", "400", "--repeat", "3", "--threads", "1")
+#: probes taken, their median kept (a busy machine slows CPU seconds a little too: caches, SMT)
+PROBE_RUNS = 3
+
+#: CPU seconds of one element-step of the example slice's solid-only shaking (Mohr-Coulomb damage,
+#: rock-lining contact, seismic boundaries, free field, monitors, ring forces, checkpoints) per probe
+#: CPU second: its no_water input over 2 s of record (31,643 steps of 1,464 elements after the
+#: static stages, whose 0.39 CPU s are taken off) against the probe, alternated, median of 3 rounds
+#: (docs/benchmarks.md "check's run-time estimate")
+SOLID_PER_PROBE_S = 2.58e-7
+#: the coupled solid's CPU per element-step it computes (every pass of a window) against the
+#: solid-only one, per probe second: the exchange, the water's laws carried in the solid, the
+#: window's saved state (the slice's coupled condition over 2 s, 3 rounds beside the probe: 1.27,
+#: 1.125, 0.94; over the whole record 1.15; perf: 6.5 % of the coupled solid's samples are outside
+#: the solid-only code)
+COUPLED_SOLID_FACTOR = 1.13
+#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water
+#: on this project's Intel Xeon VMs, 0.97 ms a pass for the slice's 336 cells and 20.4 ms for the 3D
+#: variant's 14,784 (docs/benchmarks.md), split between the two, against the probe's 0.54 CPU s there
+WATER_PER_PROBE_S = 0.96e-3
+WATER_CELL_PER_PROBE_S = 2.49e-6
+
+
+@dataclass(frozen=True)
+class MachineRates:
+    """CPU seconds of the pieces of a run on this machine."""
+
+    probe_s: float  # the probe's CPU seconds (median of PROBE_RUNS)
+    processor: str
+    source: str  # 'measured now' or 'cached <date>'
+
+    @property
+    def solid_element_step(self) -> float:
+        return SOLID_PER_PROBE_S * self.probe_s
+
+    @property
+    def water_pass(self) -> float:
+        return WATER_PER_PROBE_S * self.probe_s
+
+    @property
+    def water_cell_pass(self) -> float:
+        return WATER_CELL_PER_PROBE_S * self.probe_s
+
+
+class ProbeFailed(RuntimeError):
+    """The probe could not run (no build, it failed): the estimate says so instead of guessing."""
+
+
+def processor() -> str:
+    """The processor's model name (as lscpu's 'Model name'), else the platform's word for it."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+def cache_file() -> Path:
+    return Path(os.environ.get("TQ_RATES_FILE") or Path.home() / ".cache" / "tunnelquake" / "machine_rates.json")
+
+
+def probe_program() -> Path:
+    return paths.build_dir() / "solid_solver" / "tq-solid-bench"
+
+
+def _key(program: Path) -> str:
+    st = program.stat()
+    return f"{processor()} | {program.resolve()} {st.st_size} {int(st.st_mtime)}"
+
+
+def _cpu_seconds(cmd: list[str]) -> float:
+    """CPU seconds (user + system) of one run of `cmd`, from its own resource usage (os.wait4)."""
+    import tempfile
+
+    from . import children
+
+    with tempfile.TemporaryFile() as err:
+        try:
+            proc = children.popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        except OSError as e:
+            raise ProbeFailed(f"{cmd[0]} cannot be started ({e.strerror})") from e
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            text = err.read().decode(errors="replace").strip()
+            raise ProbeFailed(f"{cmd[0]} exited {proc.returncode}: {text[-300:]}")
+    return usage.ru_utime + usage.ru_stime
+
+
+def measure(program: Path | None = None, runs: int = PROBE_RUNS) -> float:
+    """The probe's CPU seconds on this machine: the median of `runs` runs."""
+    program = program or probe_program()
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    cmd = [str(program), *PROBE_ARGS]
+    times = sorted(_cpu_seconds(cmd) for _ in range(max(1, runs)))
+    return times[len(times) // 2]
+
+
+def _read_cache() -> dict:
+    try:
+        data = json.loads(cache_file().read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def machine_rates(program: Path | None = None, measure_if_missing: bool = True) -> MachineRates:
+    """This machine's rates: the cached probe of this processor and build, else the probe run now
+    (and cached). Raises ProbeFailed when it cannot be measured (or `measure_if_missing` is False
+    and nothing is cached)."""
+    from .files import atomic_path
+
+    program = program or probe_program()
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    key = _key(program)
+    cache = _read_cache()
+    hit = cache.get(key)
+    if isinstance(hit, dict) and float(hit.get("probe_s", 0)) > 0:
+        return MachineRates(float(hit["probe_s"]), processor(), f"cached {hit.get('date', '')}".strip())
+    if not measure_if_missing:
+        raise ProbeFailed(f"no probe of this machine cached in {cache_file()}")
+    probe = measure(program)
+    cache[key] = {"probe_s": probe, "date": time.strftime("%Y-%m-%d"), "args": " ".join(PROBE_ARGS)}
+    path = cache_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(cache, indent=1, sort_keys=True)
+        with atomic_path(path, len(text)) as tmp:
+            tmp.write_text(text)
+    except OSError:
+        pass  # an unwritable cache: measured again next time
+    return MachineRates(probe, processor(), "measured now")

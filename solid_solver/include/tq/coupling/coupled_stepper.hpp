@@ -1,0 +1,41 @@
+/// @file coupled_stepper.hpp
+/// @brief tq-solid's time-loop step with the water coupling: one coupling window in the protocol's
+///        shape, as the water side runs it (openfoam_case tqInterface::execute): save, solve the
+///        window, exchange, accept or restore (docs/coupler.md "Solid adapter", "Windows of several
+///        steps"). Without a coupling, one solid step.
+#pragma once
+
+#include <functional>
+
+#include "tq/core/state_archive.hpp"
+#include "tq/coupling/fluid_coupling.hpp"
+
+namespace tq {
+
+class CoupledStepper {
+ public:
+  /// `coupling` may be null (no water): then advance() is one Solver::step(). The coupling must be
+  /// one of the solver's contributors (ForcePhase::Water), and initialized.
+  CoupledStepper(Solver& solver, FluidCoupling* coupling) : solver_(solver), coupling_(coupling) {}
+
+  /// One coupling window (no coupling: one step). `onFinal` is called after each state that is final
+  /// (results may be sampled): after every step, except inside an implicit window of several steps,
+  /// whose steps are final only at its accepted end.
+  void advance(const std::function<void()>& onFinal);
+
+  /// Windows stepped again from their saved start so far.
+  long long restores() const { return restores_; }
+  /// Solid steps begun, repeated ones included (a one-step window's step counts once).
+  long long steps() const { return steps_; }
+
+ private:
+  void window(const std::function<void()>& onFinal);
+  void solveWindow(bool stepsAreFinal, const std::function<void()>& onFinal);
+
+  Solver& solver_;
+  FluidCoupling* coupling_;
+  StateArchive start_;  // the solver's state at the window's start (windows stepped again whole)
+  long long restores_ = 0, steps_ = 0;
+};
+
+}  // namespace tq

@@ -1,0 +1,23 @@
+/// @file ranked_run.hpp
+/// @brief tq-solid on MPI ranks: `mpirun -np N tq-solid solid_input.h5 --distributed` (what
+///        `tunnelquake run CASE --ranks N` starts). Each rank steps its part of the model
+///        (partition.hpp, rank_layout.hpp, rank_exchange.hpp); rank 0 gathers the state at the
+///        sample and snapshot times and writes the one results file.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace tq {
+
+/// True when the command line asks for a run on ranks (--distributed).
+bool wantsRankedRun(const std::vector<std::string>& args);
+
+/// The run on ranks; exit codes as runSolid (tq/app/app.hpp). What it does not support yet (the
+/// staged analysis and everything in it: in-situ state, seismic boundaries, motion, contact, DRM,
+/// the water coupling; subcycling; restart checkpoints; the paper_eq3_4 integrator) is refused with
+/// exit 2 and a message naming it, before anything runs.
+int runSolidOnRanks(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace tq

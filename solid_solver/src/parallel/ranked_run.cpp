@@ -1,0 +1,436 @@
+// tq-solid on MPI ranks (docs/architecture.md "The solid on ranks"). Every rank reads the input
+// and the global mesh and partitions it the same way (recursive coordinate bisection weighted by
+// element cost); each then builds a solver of its own elements and their nodes. The frontier
+// nodes' masses and internal forces are summed across the ranks that share them (rank_exchange),
+// the step size, the energies and the norms over every rank. Rank 0 also holds the whole model as
+// a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it,
+// and the serial results writer writes the one results file from it.
+#include "tq/parallel/ranked_run.hpp"
+
+#include <hdf5.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#ifdef TQ_SOLID_HAVE_MPI
+#include <mpi.h>
+#endif
+
+#include "tq/io/input.hpp"
+#include "tq/io/results.hpp"
+#include "tq/materials/registry.hpp"
+#include "tq/parallel/partition.hpp"
+#include "tq/parallel/rank_exchange.hpp"
+#include "tq/parallel/rank_layout.hpp"
+
+namespace tq {
+
+bool wantsRankedRun(const std::vector<std::string>& args) {
+  return std::find(args.begin(), args.end(), "--distributed") != args.end();
+}
+
+namespace {
+
+struct RankCommandLine {
+  std::string input, output = "results.h5";
+  bool check = false;
+};
+
+int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RankCommandLine& cl) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--distributed") {
+    } else if (a == "-o" && i + 1 < args.size()) {
+      cl.output = args[++i];
+    } else if (a == "--check") {
+      cl.check = true;
+    } else if (a == "--threads" && i + 1 < args.size()) {
+      omp_set_num_threads(std::stoi(args[++i]));
+    } else if (a == "--checkpoint-dir" || a == "--resume" || a == "--resume-sequence") {
+      err << "tq-solid: input error: restart checkpoints (" << a
+          << ") are not supported on ranks yet; run without --ranks to write them\n";
+      return 2;
+    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
+      cl.input = a;
+    } else {
+      err << "tq-solid: unknown argument '" << a << "' (on ranks: tq-solid solid_input.h5 --distributed [-o "
+          << "results.h5] [--threads N] [--check])\n";
+      return 1;
+    }
+  }
+  if (cl.input.empty()) {
+    err << "tq-solid: no input file given (tq-solid solid_input.h5 --distributed)\n";
+    return 1;
+  }
+  return -1;
+}
+
+#ifdef TQ_SOLID_HAVE_MPI
+
+/// What the run on ranks does not support yet, or "" (the same answer on every rank: the input is
+/// the same file).
+std::string unsupportedOnRanks(const SolidInput& in) {
+  const std::string fix = "; run it without --ranks (one process, OpenMP threads), or leave that part out";
+  if (in.staged.present) {
+    std::string what = "the staged analysis (/stages";
+    if (in.staged.coupling.present) what += ", the water coupling";
+    if (in.staged.bottom.present || in.staged.freeField.present) what += ", the seismic boundaries";
+    if (in.staged.motion.present) what += ", the input motion";
+    if (in.staged.inSitu.present) what += ", the in-situ state";
+    return what + ", and with them dynamic contact and the DRM layer) does not run on ranks yet" + fix;
+  }
+  if (in.options.subcyclingLevels > 0) return "subcycling (/solver subcycling_levels) does not run on ranks yet" + fix;
+  if (in.options.integrator != Integrator::CentralDifference)
+    return "the integrator " + integratorName(in.options.integrator) +
+           " does not run on ranks (central_difference only)" + fix;
+  return "";
+}
+
+/// The state rank 0 needs for the results: each rank's owned nodes (u, v, a) and its elements
+/// (stress, history), gathered into the mirror (a solver of the whole model on rank 0).
+class StateGather {
+ public:
+  StateGather(const RankLayout& L, const Solver& local, Solver* mirror, int history) : H_(history) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    for (size_t i = 0; i < L.globalNode.size(); ++i)
+      if (L.owned[i]) {
+        ownedLocal_.push_back(Index(i));
+        nodeIds_.push_back(L.globalNode[i]);
+      }
+    for (const auto& b : local.blocks())
+      for (Index e = 0; e < b->numElems(); ++e) {
+        elems_.emplace_back(b.get(), e);
+        elemIds_.push_back(L.globalElem[size_t(b->meshElem(e))]);
+      }
+    nodeCounts_ = gatherIds(nodeIds_, allNodes_, rank, size);
+    elemCounts_ = gatherIds(elemIds_, allElems_, rank, size);
+    if (mirror) {
+      mirrorElem_.assign(size_t(mirror->mesh().numElems()), {nullptr, -1});
+      for (auto& b : mirror->blocks())
+        for (Index e = 0; e < b->numElems(); ++e) mirrorElem_[size_t(b->meshElem(e))] = {b.get(), e};
+    }
+  }
+
+  void gather(const Solver& local, Solver* mirror) {
+    const NodalState& st = local.state();
+    std::vector<Real> nodes;
+    nodes.reserve(9 * ownedLocal_.size());
+    for (Index n : ownedLocal_) {
+      for (int d = 0; d < 3; ++d) nodes.push_back(st.u(n, d));
+      for (int d = 0; d < 3; ++d) nodes.push_back(st.v(n, d));
+      for (int d = 0; d < 3; ++d) nodes.push_back(st.a(n, d));
+    }
+    const size_t R = size_t(6 + H_);
+    std::vector<Real> elems(R * elems_.size(), 0.0);
+    for (size_t k = 0; k < elems_.size(); ++k) {
+      const auto [b, e] = elems_[k];
+      for (int c = 0; c < 6; ++c) elems[R * k + size_t(c)] = b->stress(e, c);
+      for (int h = 0; h < b->numHistory(); ++h) elems[R * k + 6 + size_t(h)] = b->history(h, e);
+    }
+    std::vector<Real> allN, allE;
+    gatherValues(nodes, nodeCounts_, 9, allN);
+    gatherValues(elems, elemCounts_, int(R), allE);
+    if (!mirror) return;
+    NodalState& ms = mirror->state();
+    for (size_t k = 0; k < allNodes_.size(); ++k) {
+      const Index n = allNodes_[k];
+      for (int d = 0; d < 3; ++d) {
+        ms.u(n, d) = allN[9 * k + size_t(d)];
+        ms.v(n, d) = allN[9 * k + 3 + size_t(d)];
+        ms.a(n, d) = allN[9 * k + 6 + size_t(d)];
+      }
+    }
+    for (size_t k = 0; k < allElems_.size(); ++k) {
+      const auto [b, e] = mirrorElem_[size_t(allElems_[k])];
+      b->setGatheredState(e, &allE[R * k], &allE[R * k + 6]);
+    }
+    mirror->setTime(local.time());
+    mirror->setReportedEnergy(local.energy());
+  }
+
+ private:
+  // The ids of every rank, on rank 0 in rank order; returns the counts per rank.
+  static std::vector<int> gatherIds(const std::vector<Index>& mine, std::vector<Index>& all, int rank, int size) {
+    int n = int(mine.size());
+    std::vector<int> counts(size_t(size), 0), displs(size_t(size), 0);
+    MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (rank == 0) {
+      for (int r = 1; r < size; ++r) displs[size_t(r)] = displs[size_t(r) - 1] + counts[size_t(r) - 1];
+      all.resize(size_t(displs.back() + counts.back()));
+    }
+    MPI_Gatherv(mine.data(), n, MPI_INT32_T, all.data(), counts.data(), displs.data(), MPI_INT32_T, 0, MPI_COMM_WORLD);
+    return counts;
+  }
+  static void gatherValues(const std::vector<Real>& mine, const std::vector<int>& counts, int per,
+                           std::vector<Real>& all) {
+    std::vector<int> c(counts.size()), displs(counts.size(), 0);
+    for (size_t r = 0; r < counts.size(); ++r) c[r] = counts[r] * per;
+    for (size_t r = 1; r < counts.size(); ++r) displs[r] = displs[r - 1] + c[r - 1];
+    all.resize(size_t(displs.back() + c.back()));
+    MPI_Gatherv(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), c.data(), displs.data(), MPI_DOUBLE, 0,
+                MPI_COMM_WORLD);
+  }
+
+  int H_;
+  std::vector<Index> ownedLocal_, nodeIds_, elemIds_, allNodes_, allElems_;
+  std::vector<std::pair<const ElementBlock*, Index>> elems_;
+  std::vector<int> nodeCounts_, elemCounts_;
+  std::vector<std::pair<ElementBlock*, Index>> mirrorElem_;
+};
+
+/// The solver of one rank's part: a block per region of its frontier elements, then one per region
+/// of the others (RankExchange::frontierBlocks), the supports and loads of the global mesh mapped
+/// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
+std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global, const RankLayout& L,
+                                        std::unique_ptr<RankExchange>& exchange) {
+  std::vector<std::pair<Index, std::shared_ptr<const Material>>> mats;
+  std::vector<bool> covered(global.regionNames.size(), false);
+  for (const auto& [region, v] : in.materials) {
+    const Index r = global.regionIndex(region);
+    if (r < 0) {
+      std::string have;
+      for (auto& n : global.regionNames) have += " '" + n + "'";
+      throw InputError("material for region '" + region + "' but the mesh " + global.source +
+                       " has no such region (it has:" + have + ")");
+    }
+    covered[size_t(r)] = true;
+    mats.emplace_back(r, makeMaterial(v));
+  }
+  for (Index e = 0; e < global.numElems(); ++e)
+    if (!covered[size_t(global.region[size_t(e)])])
+      throw InputError("region '" + global.regionNames[size_t(global.region[size_t(e)])] + "' of mesh " +
+                       global.source + " has elements but no material; add /materials/" +
+                       global.regionNames[size_t(global.region[size_t(e)])]);
+  std::vector<std::unique_ptr<ElementBlock>> blocks;
+  size_t frontierBlocks = 0;
+  for (int pass = 0; pass < 2; ++pass) {  // frontier elements first
+    for (const auto& [r, mat] : mats) {
+      std::vector<Index> elems;
+      for (Index e = 0; e < L.mesh.numElems(); ++e)
+        if (L.mesh.region[size_t(e)] == r && L.frontierElem[size_t(e)] == (pass == 0 ? 1 : 0)) elems.push_back(e);
+      if (elems.empty()) continue;
+      blocks.push_back(
+          std::make_unique<ElementBlock>(global.regionNames[size_t(r)], mat, in.formulation, L.mesh, std::move(elems)));
+      if (pass == 0) ++frontierBlocks;
+    }
+  }
+  SolverOptions opt = in.options;
+  opt.dt = 0;  // the step is set once the exchange is in (every rank the same)
+  auto s = std::make_unique<Solver>(L.mesh, std::move(blocks), opt);
+  exchange = makeRankExchange(L, frontierBlocks);
+  s->setRankExchange(exchange.get());
+  s->rebuild();
+  s->setTimeStep(in.options.dt);
+  for (const auto& [group, dirs] : in.fixed) {
+    const auto nodes = global.faceNodes(group);
+    for (char c : dirs) {
+      const int d = c == 'x' ? 0 : c == 'y' ? 1 : c == 'z' ? 2 : -1;
+      if (d < 0)
+        throw InputError("fixed directions '" + dirs + "' for face group '" + group +
+                         "': use letters x, y, z (e.g. \"xyz\" or \"z\")");
+      for (Index n : nodes)
+        if (L.localNode[size_t(n)] >= 0) s->fix(L.localNode[size_t(n)], d);
+    }
+  }
+  for (const auto& l : in.loads)
+    for (const auto& [n, w] : loadShares(in, global, l))
+      if (L.localNode[size_t(n)] >= 0) s->addLoad({{L.localNode[size_t(n)]}, l.direction, l.force * w, l.function});
+  return s;
+}
+
+std::string hms(double s) {
+  std::ostringstream os;
+  if (s >= 60) os << int(s / 60) << " min ";
+  os << int(std::fmod(s, 60)) << " s";
+  return os.str();
+}
+
+/// The run of one rank. Every rank reaches each collective call in the same order: the errors
+/// that every rank meets alike (the input, the step, an instability, reduced over the ranks) end
+/// them all through the same catch; one that only rank 0 can meet (its results file) aborts the job
+/// once the file holds its status.
+int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, std::ostream& err) {
+  std::unique_ptr<ResultsWriter> writer;
+  const auto stopWith = [&](int code, const std::string& message, const char* label) {
+    if (rank == 0) err << "tq-solid: " << label << message << "\n";
+    if (writer) writer->setStatus("stopped: " + message);
+    return code;
+  };
+  try {
+    try {
+      SolidInput in = readSolidInput(cl.input);
+      if (const std::string why = unsupportedOnRanks(in); !why.empty()) throw InputError(why);
+      const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
+      const std::vector<Real> cost = elementCosts(global, in);
+      const std::vector<int> part = partitionRcb(global, cost, size);
+      std::unique_ptr<RankExchange> exchange;
+      std::unique_ptr<Solver> local, mirror;
+      RankLayout layout;
+      if (size == 1) {  // the whole model: the solver of a plain run, no frontier
+        local = buildSolver(in, global);
+      } else {
+        layout = makeRankLayout(global, part, rank, size);
+        local = buildRankSolver(in, global, layout, exchange);
+        if (rank == 0) mirror = buildSolver(in, global);
+      }
+      Solver& s = *local;
+      Solver* view = size == 1 ? local.get() : mirror.get();  // what the results are written from (rank 0)
+      // The partition: weights per rank, frontier nodes.
+      const std::vector<Real> w = partWeights(part, cost, size);
+      const Real wmax = *std::max_element(w.begin(), w.end());
+      Real wsum = 0;
+      for (Real x : w) wsum += x;
+      Real counts[2] = {Real(layout.frontier.size()), Real(layout.owned.size() - layout.ghosts.size())};
+      if (exchange) exchange->sumAll(counts, 2);
+      const Real imbalance = wmax / (wsum / size);
+      const StableStep st = s.stableStep();
+      if (rank == 0) {
+        out << "tq-solid: " << global.numNodes() << " nodes, " << global.numElems() << " elements, "
+            << integratorName(s.options().integrator) << ", on " << size << " rank(s) x " << omp_get_max_threads()
+            << " thread(s)\n  partition: recursive coordinate bisection by element cost, largest part "
+            << std::setprecision(4) << imbalance << " x the mean, " << std::llround(counts[0])
+            << " frontier node copies\n  stable step " << st.dtCritical << " s, dt = " << s.dt() << " s, "
+            << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = " << in.tEnd << " s" << std::endl;
+      }
+      if (cl.check) {
+        if (rank == 0) out << "tq-solid: input and mesh are valid (on " << size << " ranks)\n";
+        return 0;
+      }
+      int history = 0;
+      for (const auto& [region, v] : in.materials)
+        history = std::max(history, int(makeMaterial(v)->historyNames().size()));
+      std::unique_ptr<StateGather> gather;
+      if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get(), history);
+      const auto observe = [&] {
+        if (gather) gather->gather(s, mirror.get());
+      };
+      if (rank == 0) writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+      observe();
+      if (writer) writer->sample(*view);
+      // The next history time, from rank 0's writer, sent to every rank after each sample: the
+      // ranks decide alike when to gather, without a message at the other steps.
+      Real nextSample = writer ? writer->nextSampleTime() : 0;
+      if (size > 1) MPI_Bcast(&nextSample, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+      const auto t0 = std::chrono::steady_clock::now();
+      auto lastReport = t0, lastFlush = t0;
+      const Index step0 = s.stepCount();
+      Real tPrev = s.time();
+      size_t nextSnap = 0;
+      while (s.time() < in.tEnd - 1e-9 * s.dt()) {
+        s.step();
+        const Real t = s.time(), gap = t - tPrev;
+        tPrev = t;
+        const bool due = t + gap >= nextSample - 1e-9 * gap;
+        const bool snap = nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt();
+        if (due || snap) observe();
+        if (due) {
+          if (writer) writer->sample(*view);
+          nextSample = writer ? writer->nextSampleTime() : 0;
+          if (size > 1) MPI_Bcast(&nextSample, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        }
+        while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
+          if (writer) writer->snapshot(*view);
+          ++nextSnap;
+        }
+        if (!writer) continue;
+        const auto now = std::chrono::steady_clock::now();
+        if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
+          writer->flush();
+          lastFlush = now;
+        }
+        if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
+          const double wall = std::chrono::duration<double>(now - t0).count();
+          const double rate = double(s.stepCount() - step0) / wall;
+          out << "  t = " << std::setprecision(5) << t << " s / " << in.tEnd << " s, step " << s.stepCount() << ", "
+              << std::setprecision(4) << rate << " steps/s, energy error " << std::setprecision(2) << s.energy().error
+              << ", ETA " << hms((in.tEnd - t) / s.dt() / rate) << std::endl;
+          lastReport = now;
+        }
+      }
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const long long steps = s.stepCount() - step0;
+      // Every rank's copy of a frontier node holds the same displacement and velocity, bitwise
+      // (the frontier sums run in rank order on every rank): checked once at the end.
+      // The share of the stepping spent waiting for the other ranks, the largest over the ranks.
+      const Real waitShare = exchange ? exchange->maxAll(wall > 0 ? exchange->waitSeconds() / wall : 0.0) : 0.0;
+      Real mismatch = 0;
+      if (exchange) {
+        mismatch = exchange->frontierMismatch(s.state().uData(), 3);
+        mismatch = std::max(mismatch, exchange->frontierMismatch(s.state().vData(), 3));
+      }
+      if (writer) {
+        writer->writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
+        writer->writeAttrs("/ranks",
+                           {{"ranks", double(size)},
+                            {"threads_per_rank", double(omp_get_max_threads())},
+                            {"largest_part_over_mean", imbalance},
+                            {"frontier_node_copies", counts[0]},
+                            {"frontier_copies_max_difference", mismatch},
+                            {"wait_fraction", waitShare}},
+                           {{"partition", "recursive coordinate bisection weighted by element cost"},
+                            {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
+        writer->setStatus("completed");
+        out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
+            << (steps > 0 ? 1e6 * wall / (double(steps) * global.numElems()) : 0.0) << " µs per element-step), "
+            << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  results: " << cl.output << "\n";
+      }
+      return 0;
+    } catch (const InputError& e) {
+      return stopWith(2, e.what(), "input error: ");
+    } catch (const InstabilityError& e) {
+      const std::string m = e.what();
+      if (rank != 0 && m.find("another rank") == std::string::npos)
+        err << "tq-solid: rank " << rank << ": " << m << "\n";
+      return stopWith(3, m, "");
+    }
+  } catch (const OutputError& e) {  // rank 0's results file: the other ranks cannot go on without it
+    err << "tq-solid: " << e.what() << "\n";
+    MPI_Abort(MPI_COMM_WORLD, 5);
+    return 5;
+  }
+}
+
+#endif
+
+}  // namespace
+
+int runSolidOnRanks(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  RankCommandLine cl;
+  if (const int rc = parseRankCommandLine(args, err, cl); rc >= 0) return rc;
+#ifdef TQ_SOLID_HAVE_MPI
+  int ready = 0;
+  MPI_Initialized(&ready);
+  if (!ready) {
+    int provided = 0;
+    MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  }
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  int rc = 0;
+  try {
+    rc = runOnRank(cl, rank, size, out, err);
+  } catch (const std::exception& e) {  // not met alike by every rank: end the whole job
+    err << "tq-solid: rank " << rank << ": error: " << e.what() << "\n";
+    MPI_Abort(MPI_COMM_WORLD, 1);
+  }
+  // every rank the same code: the errors above are met alike by all of them
+  MPI_Finalize();
+  return rc;
+#else
+  (void)out;
+  err << "tq-solid: input error: this tq-solid was built without MPI and cannot run on ranks (--distributed); "
+         "install the MPI development files (e.g. libopenmpi-dev) and build again, or run without --ranks\n";
+  return 2;
+#endif
+}
+
+}  // namespace tq

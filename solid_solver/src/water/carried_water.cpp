@@ -1,0 +1,450 @@
+// The water's laws tq-solid carries in its own step (tq/water/carried_water.hpp; docs/coupler.md
+// "Volume law in the solid", "Open ends").
+#include "tq/water/carried_water.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "tq/io/mesh.hpp"
+
+namespace tq {
+
+struct CarriedWater::Impl {
+  const Solver& solver;
+  CouplingInput in;
+  WallPrediction wall;  // the wet nodes (mesh indices, ascending) and u0
+  const std::vector<Index>& nodes;
+  // The water's volume law (docs/coupler.md "Volume law in the solid"): the pressure
+  // p_j of station j acts on its wet nodes as p_j g_i, g the nodes' area vectors out of the water, and
+  // is set implicitly each step from the volume change the step makes, s_j^{n+1} = Σ_{i∈j} g_i·(u_i^{n+1}
+  // − u0_i). A closed section is one station: p = −κ s^{n+1} (κ = K/V), or s^{n+1} = 0
+  // (incompressible). With open ends each plane of wet nodes normal to the axis y is a station, the
+  // volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes
+  // (docs/coupler.md "Open ends"): p_j = −κ_j (s_j + W_j), or s_j + W_j = 0.
+  bool incompressible = false;
+  Real volume = 0;          // m³: all the enclosed water
+  std::vector<Real> g;      // [3n] m²
+  WallMotion scratch;       // the step's prediction (addForces)
+  std::vector<Real> force;  // [3n] N: the carried pressure's force added this step
+  Real volumeWork = 0, dtPrev = 0;
+  bool openEnds = false;
+  size_t S = 1;                      // stations
+  std::vector<size_t> station;       // [n] the station of each wet node
+  std::vector<Real> Vs, compliance;  // [S] m³, and V_j/K (0: incompressible) in m³/Pa
+  // Open ends: segment j joins stations j and j+1, Q̇_j = cAx_j (p_j − p_{j+1}) with cAx = A/(ρ h);
+  // Q [S−1] the axial flux at t^{n−½} (m³/s), W [S] the volume that has left each station (m³).
+  std::vector<Real> cAx, Q, W;
+  std::vector<Real> ps, psPrev;  // [S] Pa: the stations' pressure this step and the last
+  // The water's rigid translation in the section's plane (x, z), carried when /coupling
+  // water_density is given: a station's mean displacement is ū_j = T_j u = (1/V_j) Σ_{i∈j}
+  // r_i (g_i·u_i) (r_i = x_i − c_j, c_j the station's water centroid; exact for incompressible water,
+  // ∫u dV = ∮ (x − c) u·n dA), and its force on the wall is the pressure p = r·λ_j/V_j with resultant
+  // λ_j = −ρ_w V_j ā_j, ā_j = T_j a, implicit in the step like p_j. The exchange then carries neither
+  // the volume change nor the translation.
+  bool translation = false;
+  Real rhoW = 0;
+  std::vector<Real> r;             // [2n] (x − c_j, z − c_j) of each wet node
+  std::vector<Real> lam, lamPrev;  // [2S] N: the water's in-plane resultant −ρ V_j ā_j this step
+  // The oblique projection the exchange sees, station by station: P u = u − B C⁻¹ Aᵀu removes the
+  // carried modes from a motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u
+  // and T u), Pᵀ F = F − A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
+  int modes = 0;
+  std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
+  // Work space of the laws (per station).
+  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri;
+
+  Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
+      : solver(s), in(ci), wall(s, std::move(wet)), nodes(wall.nodes()) {}
+
+  /// The stations: one for a closed section; with open ends, the planes of wet nodes along y, whose
+  /// positions (ascending) it returns.
+  std::vector<Real> buildStations(const Mesh& mesh) {
+    const size_t n = nodes.size();
+    station.assign(n, 0);
+    S = 1;
+    if (!openEnds) return {};
+    std::vector<Real> ys(n);
+    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[3 * size_t(nodes[k]) + 1];
+    std::vector<Real> planes = ys;
+    std::sort(planes.begin(), planes.end());
+    const Real tol = 1e-9 * std::max<Real>(1, planes.back() - planes.front());
+    planes.erase(std::unique(planes.begin(), planes.end(), [&](Real a, Real b) { return b - a <= tol; }), planes.end());
+    S = planes.size();
+    if (S < 3)
+      throw InputError("/coupling water_ends open: the wetted face '" + in.face + "' has " + std::to_string(S) +
+                       " plane(s) of nodes along the axis y; the open-ends law needs at least 3 (two elements "
+                       "along the axis). Use water_ends closed for a slice");
+    for (size_t k = 0; k < n; ++k) {
+      const auto it = std::lower_bound(planes.begin(), planes.end(), ys[k] - tol);
+      station[k] = size_t(it - planes.begin());
+    }
+    return planes;
+  }
+
+  /// g and the stations' volumes V_j from the wetted face's quads: each quad's area vector (half the
+  /// cross product of its diagonals) oriented away from the wetted section's centroid, a quarter to
+  /// each corner; a quad's volume is ½ S_q·(x_q − c)⊥ (the divergence of the in-section position is 2:
+  /// the section's area times the length along the axis y), a quarter to each corner's station, and
+  /// the water's centroid c_j from ∫(x − c)_k dV = ⅓ ∮ (x − c)_k (x − c)⊥·n.
+  void buildVolumeLaw(const Mesh& mesh) {
+    const size_t n = nodes.size();
+    g.assign(3 * n, 0.0);
+    auto x = [&](Index node, int d) { return mesh.coords[3 * size_t(node) + size_t(d)]; };
+    Real c[3] = {0, 0, 0};
+    for (Index node : nodes)
+      for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
+    const std::vector<Real> planes = buildStations(mesh);
+    const auto& quads = mesh.faces.at(in.face);
+    Vs.assign(S, 0.0);
+    std::vector<Real> cw(2 * S, 0.0), Vseg(S > 1 ? S - 1 : 0, 0.0);
+    for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+      Real sq[3], xq[3] = {0, 0, 0};
+      quadAreaVector(mesh, &quads[q], sq);
+      for (int d = 0; d < 3; ++d)
+        for (int k = 0; k < 4; ++k) xq[d] += 0.25 * x(quads[q + size_t(k)], d);
+      const Real radial = sq[0] * (xq[0] - c[0]) + sq[2] * (xq[2] - c[2]);  // (x − c)⊥, axis y
+      const Real sign = radial < 0 ? -1.0 : 1.0;
+      size_t jmin = S, jmax = 0;
+      for (int k = 0; k < 4; ++k) {
+        const size_t i = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
+        const size_t j = station[i];
+        jmin = std::min(jmin, j), jmax = std::max(jmax, j);
+        Vs[j] += 0.125 * sign * radial;
+        cw[2 * j] += 0.25 * sign * (xq[0] - c[0]) * radial / 3;
+        cw[2 * j + 1] += 0.25 * sign * (xq[2] - c[2]) * radial / 3;
+        for (int d = 0; d < 3; ++d) g[3 * i + size_t(d)] += 0.25 * sign * sq[d];
+      }
+      if (openEnds) {
+        if (jmax != jmin + 1)
+          throw InputError("/coupling water_ends open: a quad of the wetted face '" + in.face +
+                           "' does not join two neighbouring planes of nodes along the axis y; the open-ends law "
+                           "needs the wetted face built of layers along the axis (an extruded mesh)");
+        Vseg[jmin] += 0.5 * sign * radial;
+      }
+    }
+    volume = 0;
+    for (size_t j = 0; j < S; ++j) {
+      volume += Vs[j];
+      if (!(Vs[j] > 0))
+        throw InputError("/coupling volume_law: the face '" + in.face + "' encloses no volume about the axis y (" +
+                         std::to_string(Vs[j]) + " m³" + (S > 1 ? " at station " + std::to_string(j) : "") +
+                         "); the volume law needs the wetted face of a closed section, or of a tube");
+    }
+    compliance.assign(S, 0.0);
+    for (size_t j = 0; j < S; ++j) compliance[j] = incompressible ? 0.0 : Vs[j] / in.bulkModulus;
+    // the plug flow's A/(ρ h) of each segment: A = V_seg / h
+    cAx.assign(S > 1 ? S - 1 : 0, 0.0);
+    for (size_t j = 0; j + 1 < S; ++j) {
+      const Real h = planes[j + 1] - planes[j];
+      cAx[j] = Vseg[j] / (in.axialDensity * h * h);
+    }
+    Q.assign(S > 1 ? S - 1 : 0, 0.0);
+    W.assign(S, 0.0);
+    ps.assign(S, 0.0);
+    psPrev.assign(S, 0.0);
+    lam.assign(2 * S, 0.0);
+    lamPrev.assign(2 * S, 0.0);
+    translation = in.waterDensity > 0;
+    rhoW = in.waterDensity;
+    r.assign(2 * n, 0.0);
+    for (size_t k = 0; k < n; ++k) {
+      const size_t j = station[k];
+      r[2 * k] = x(nodes[k], 0) - (c[0] + cw[2 * j] / Vs[j]);
+      r[2 * k + 1] = x(nodes[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
+    }
+    buildProjection();
+    scratch.resize(3 * n);
+    force.assign(3 * n, 0.0);
+    sums.assign(12 * S, 0.0);
+    alpha.assign(2 * S, 0.0);
+    beta.assign(2 * S, 0.0);
+    sPrime.assign(S, 0.0);
+    suPrime.assign(S, 0.0);
+    pScratch.assign(S, 0.0);
+    lamScratch.assign(2 * S, 0.0);
+    tri.assign(2 * S, 0.0);
+  }
+
+  /// The carried laws on a prediction (predict() just made `du`, `dv` = u^{n+1} − u0 and v^{n+½} with
+  /// the other forces; `v` = v^{n−½}): the correction is the pressure field p_c(x) = p_j + r·λ_j/V_j on
+  /// station j's wet nodes (force g_i p_c(x_i), response respU/respV: the update is linear in the
+  /// force), with
+  ///   volume:       p_j = −κ_j (s_j^{n+1} + W_j^{n+1}) (incompressible: s_j^{n+1} + W_j^{n+1} = 0),
+  ///                 s_j^{n+1} = g·du after the correction, W = 0 for a closed section; open ends:
+  ///                 W_j^{n+1} = W_j^n + Δt (Q_j − Q_{j−1})^{n+½}, Q_j^{n+½} = Q_j^{n−½} + Δt cAx_j (p_j − p_{j+1}),
+  ///                 p = 0 at the end planes;
+  ///   translation:  λ_j = −ρ V_j ā_j,  ā_j = T_j (v^{n+½} − v^{n−½})/Δt after the correction.
+  /// Each station's translation is eliminated first (λ_j = α_j + β_j p_j), which leaves one equation in
+  /// p for a closed section, and a tridiagonal system in the interior stations' p for open ends.
+  /// Writes p [S] and λ [2S] (the work space when null).
+  void applyCarriedLaws(Real dt, const Real* v, WallMotion& m, Real* pOut, Real* lamOut) const {
+    std::vector<Real>&du = m.disp, &dv = m.vel;
+    const std::vector<Real>&respU = m.respU, &respV = m.respV;
+    if (!pOut) pOut = pScratch.data();
+    if (!lamOut) lamOut = lamScratch.data();
+    std::fill(sums.begin(), sums.end(), 0.0);
+    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0
+    Real SUall = 0;
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* s = &sums[12 * station[k]];
+      Real qU = 0, qV = 0, gdv = 0;
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        s[0] += g[j] * du[j];
+        qU += g[j] * g[j] * respU[j];
+        qV += g[j] * g[j] * respV[j];
+        gdv += g[j] * (dv[j] - v[3 * size_t(nodes[k]) + size_t(d)]);
+      }
+      s[1] += qU;
+      SUall += qU;
+      if (!translation) continue;
+      for (int a = 0; a < 2; ++a) {
+        const Real ra = r[2 * k + size_t(a)];
+        s[2 + a] += qU * ra;
+        s[4 + a] += qV * ra;
+        s[10 + a] += ra * gdv;
+        for (int b = 0; b < 2; ++b) s[6 + 2 * a + b] += qV * ra * r[2 * k + size_t(b)];
+      }
+    }
+    if (!(SUall > 0)) {
+      std::fill(pOut, pOut + S, 0.0);
+      std::fill(lamOut, lamOut + 2 * S, 0.0);
+      return;
+    }
+    // each station's translation: (I + f SVrr/V) λ = −f V a0 − f SVr p, f = ρ/Δt, a0 = (1/V) Σ r g·Δv
+    for (size_t j = 0; j < S; ++j) {
+      const Real* s = &sums[12 * j];
+      sPrime[j] = s[0], suPrime[j] = s[1];
+      if (!translation) continue;
+      const Real V = Vs[j], f = rhoW / dt;
+      const Real b00 = 1 + f * s[6] / V, b01 = f * s[7] / V, b10 = f * s[8] / V, b11 = 1 + f * s[9] / V;
+      const Real det = b00 * b11 - b01 * b10;
+      const Real ra0 = -f * s[10], ra1 = -f * s[11], rb0 = -f * s[4], rb1 = -f * s[5];
+      alpha[2 * j] = (b11 * ra0 - b01 * ra1) / det, alpha[2 * j + 1] = (b00 * ra1 - b10 * ra0) / det;
+      beta[2 * j] = (b11 * rb0 - b01 * rb1) / det, beta[2 * j + 1] = (b00 * rb1 - b10 * rb0) / det;
+      sPrime[j] += (s[2] * alpha[2 * j] + s[3] * alpha[2 * j + 1]) / V;
+      suPrime[j] += (s[2] * beta[2 * j] + s[3] * beta[2 * j + 1]) / V;
+    }
+    if (!openEnds) {
+      pOut[0] = -sPrime[0] / (suPrime[0] + compliance[0]);
+    } else {
+      // interior stations 1 … S−2 (Thomas): −dt² c_{j−1} p_{j−1} + D_j p_j − dt² c_j p_{j+1} = rhs_j
+      pOut[0] = pOut[S - 1] = 0;
+      const Real dt2 = dt * dt;
+      Real* cp = tri.data();  // modified super-diagonal
+      Real* dp = cp + S;      // modified right-hand side
+      for (size_t j = 1; j + 1 < S; ++j) {
+        const Real sub = j > 1 ? -dt2 * cAx[j - 1] : 0.0, sup = -dt2 * cAx[j];
+        const Real D = suPrime[j] + compliance[j] + dt2 * (cAx[j - 1] + cAx[j]);
+        const Real rhs = -(sPrime[j] + W[j] + dt * (Q[j] - Q[j - 1]));
+        const Real den = D - (j > 1 ? sub * cp[j - 1] : 0.0);
+        cp[j] = sup / den;
+        dp[j] = (rhs - (j > 1 ? sub * dp[j - 1] : 0.0)) / den;
+      }
+      for (size_t j = S - 2; j >= 1; --j) pOut[j] = dp[j] - (j + 2 < S ? cp[j] * pOut[j + 1] : 0.0);
+    }
+    for (size_t j = 0; j < S; ++j) {
+      lamOut[2 * j] = translation ? alpha[2 * j] + beta[2 * j] * pOut[j] : 0.0;
+      lamOut[2 * j + 1] = translation ? alpha[2 * j + 1] + beta[2 * j + 1] * pOut[j] : 0.0;
+    }
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Real pc = carried(k, pOut, lamOut);
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        du[j] += respU[j] * g[j] * pc;
+        dv[j] += respV[j] * g[j] * pc;
+      }
+    }
+  }
+
+  /// The carried pressure at wet node k for station pressures p and resultants λ.
+  Real carried(size_t k, const Real* p, const Real* l) const {
+    const size_t j = station[k];
+    return translation ? p[j] + (r[2 * k] * l[2 * j] + r[2 * k + 1] * l[2 * j + 1]) / Vs[j] : p[j];
+  }
+
+  /// Open ends: the axial plug flow moves on with this step's station pressures.
+  void advanceAxialFlow(Real dt) {
+    if (!openEnds) return;
+    for (size_t j = 0; j + 1 < S; ++j) Q[j] += dt * cAx[j] * (ps[j] - ps[j + 1]);
+    for (size_t j = 1; j + 1 < S; ++j) W[j] += dt * (Q[j] - Q[j - 1]);
+  }
+
+  /// Gauss–Jordan with partial pivoting on a 3 × 4 augmented matrix; the solution ends in column 3.
+  static void solve3(Real M[3][4]) {
+    for (int c = 0; c < 3; ++c) {
+      int piv = c;
+      for (int q = c + 1; q < 3; ++q)
+        if (std::abs(M[q][c]) > std::abs(M[piv][c])) piv = q;
+      for (int k = 0; k < 4; ++k) std::swap(M[c][k], M[piv][k]);
+      for (int q = 0; q < 3; ++q)
+        if (q != c) {
+          const Real f = M[q][c] / M[c][c];
+          for (int k = c; k < 4; ++k) M[q][k] -= f * M[c][k];
+        }
+    }
+    for (int q = 0; q < 3; ++q) M[q][3] /= M[q][q];
+  }
+
+  /// C_j = A_jᵀB_j of each station's carried modes and its inverse (see `Cinv`).
+  void buildProjection() {
+    modes = translation ? 3 : 1;
+    Cinv.assign(9 * S, 0.0);
+    // columns of B: g, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z (on the station's nodes)
+    auto Bcol = [&](int m, size_t k, int d) -> Real {
+      if (m == 0) return g[3 * k + size_t(d)];
+      return (m == 1 && d == 0) || (m == 2 && d == 2) ? 1.0 : 0.0;
+    };
+    auto Arow = [&](int m, size_t k, int d) -> Real {
+      if (m == 0) return g[3 * k + size_t(d)];
+      return r[2 * k + size_t(m - 1)] * g[3 * k + size_t(d)] / Vs[station[k]];
+    };
+    std::vector<Real> C(9 * S, 0.0);
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int a = 0; a < modes; ++a)
+        for (int b = 0; b < modes; ++b)
+          for (int d = 0; d < 3; ++d) C[9 * station[k] + size_t(3 * a + b)] += Arow(a, k, d) * Bcol(b, k, d);
+    for (size_t j = 0; j < S; ++j) {
+      if (modes == 1) {
+        Cinv[9 * j] = 1 / C[9 * j];
+        continue;
+      }
+      for (int b = 0; b < 3; ++b) {  // column b of C⁻¹: the solution of C x = e_b
+        Real M[3][4];
+        for (int a = 0; a < 3; ++a) {
+          for (int c2 = 0; c2 < 3; ++c2) M[a][c2] = C[9 * j + size_t(3 * a + c2)];
+          M[a][3] = a == b ? 1.0 : 0.0;
+        }
+        solve3(M);
+        for (int a = 0; a < 3; ++a) Cinv[9 * j + size_t(3 * a + b)] = M[a][3];
+      }
+    }
+  }
+
+  /// With the volume law the exchange leaves the carried modes to the solid: a motion sent loses them
+  /// (P u: no volume change, and no translation of the water), a force read loses what would work on
+  /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
+  void projectMotion(std::vector<Real>& x) const {
+    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* m = &sums[3 * station[k]];
+      for (int d = 0; d < 3; ++d) {
+        const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
+        m[0] += gv * xv;
+        if (modes == 3) m[1] += r[2 * k] * gv * xv / Vs[station[k]], m[2] += r[2 * k + 1] * gv * xv / Vs[station[k]];
+      }
+    }
+    for (size_t j = 0; j < S; ++j)
+      for (int a = 0; a < modes; ++a)
+        for (int b = 0; b < modes; ++b)
+          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Real* c = &sums[3 * (S + station[k])];
+      for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
+      if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
+    }
+  }
+  void projectForce(std::vector<Real>& f) const {
+    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      Real* m = &sums[3 * station[k]];
+      for (int d = 0; d < 3; ++d) m[0] += g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
+      if (modes == 3) m[1] += f[3 * k], m[2] += f[3 * k + 2];
+    }
+    for (size_t j = 0; j < S; ++j)
+      for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
+        for (int b = 0; b < modes; ++b)
+          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * b + a)] * sums[3 * j + size_t(b)];
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const size_t j = station[k];
+      const Real* c = &sums[3 * (S + j)];
+      const Real pc = c[0] + (modes == 3 ? (c[1] * r[2 * k] + c[2] * r[2 * k + 1]) / Vs[j] : 0.0);
+      for (int d = 0; d < 3; ++d) f[3 * k + size_t(d)] -= pc * g[3 * k + size_t(d)];
+    }
+  }
+};
+
+std::shared_ptr<CarriedWater> CarriedWater::fromCoupling(const Solver& solver, const CouplingInput& in) {
+  if (in.volumeLaw == "none") return nullptr;
+  return std::make_shared<CarriedWater>(solver, in);
+}
+
+CarriedWater::CarriedWater(const Solver& solver, const CouplingInput& in)
+    : impl_(std::make_unique<Impl>(solver, in, wallNodes(solver.mesh(), in.face))) {
+  impl_->incompressible = in.volumeLaw == "incompressible";
+  impl_->openEnds = in.waterEnds == "open";
+  impl_->buildVolumeLaw(solver.mesh());
+}
+
+CarriedWater::~CarriedWater() = default;
+
+std::string CarriedWater::name() const { return "water carried by the solid on '" + impl_->in.face + "'"; }
+
+// The pressure p_j and the resultants λ_j implicit in this step's motion (the prediction holds every
+// force before this one, the exchanged water force included), then added and booked like f_ext.
+void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
+  Impl& I = *impl_;
+  I.wall.predict(dt, st, nullptr, I.scratch, true);
+  I.applyCarriedLaws(dt, st.vData(), I.scratch, I.ps.data(), I.lam.data());
+  I.advanceAxialFlow(dt);
+  Real* fe = st.fExtData();
+  const Real* v = st.vData();
+  Real wv = 0;
+  std::fill(I.force.begin(), I.force.end(), 0.0);
+  forEachMovingDof(I.nodes, st, [&](size_t k, size_t i, size_t j) {
+    const Real pc = I.carried(k, I.ps.data(), I.lam.data());
+    const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
+    I.force[j] = pc * I.g[j];
+    fe[i] += I.force[j];
+    wv += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+  });
+  I.volumeWork += wv;
+  I.psPrev = I.ps;
+  I.lamPrev = I.lam;
+  I.dtPrev = dt;
+}
+
+void CarriedWater::checkpoint(StateArchive& a) {
+  Impl& I = *impl_;
+  for (std::vector<Real>* v : {&I.ps, &I.psPrev, &I.lam, &I.lamPrev, &I.Q, &I.W, &I.force, &I.wall.reference()})
+    a.io(*v);
+  a.io(I.volumeWork);
+  a.io(I.dtPrev);
+}
+
+bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {
+  return lowerToFinestLevel(level, impl_->nodes);
+}
+
+void CarriedWater::correct(Real dt, const NodalState& st, WallMotion& m) const {
+  impl_->applyCarriedLaws(dt, st.vData(), m, nullptr, nullptr);
+}
+void CarriedWater::projectMotion(std::vector<Real>& x) const { impl_->projectMotion(x); }
+void CarriedWater::projectForce(std::vector<Real>& f) const { impl_->projectForce(f); }
+
+const std::vector<Index>& CarriedWater::nodes() const { return impl_->nodes; }
+const std::vector<Real>& CarriedWater::force() const { return impl_->force; }
+Real CarriedWater::volumePressure() const {
+  const Impl& I = *impl_;
+  if (I.S == 1) return I.ps.empty() ? 0.0 : I.ps[0];
+  Real pV = 0;
+  for (size_t j = 0; j < I.S; ++j) pV += I.ps[j] * I.Vs[j];
+  return pV / I.volume;
+}
+std::vector<Real> CarriedWater::stationPressures() const { return impl_->ps; }
+Real CarriedWater::work() const { return impl_->volumeWork; }
+Real CarriedWater::enclosedVolume() const { return impl_->volume; }
+
+std::string CarriedWater::describe() const {
+  const Impl& I = *impl_;
+  std::ostringstream os;
+  os.precision(6);
+  os << "volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
+  if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
+  if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
+  if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
+  return os.str();
+}
+
+}  // namespace tq

@@ -1,0 +1,150 @@
+"""`check`'s run-time estimate rests on a probe measured on this machine (tunnelquake.rates,
+docs/benchmarks.md "check's run-time estimate"): the probe runs once a processor and build and is
+cached; the estimate scales with what it measured; and it predicts a real run's CPU time.
+
+References: the probe's CPU time is the program's own resource usage (os.wait4), checked against a
+program that burns a known share of CPU; the estimate's prediction against tq-solid's CPU seconds of
+the same case measured here, within the 30 % the estimate claims."""
+from __future__ import annotations
+
+import os
+import resource
+import stat
+import sys
+
+import pytest
+
+from conftest import EXAMPLE
+from tunnelquake import rates as R
+
+
+def _fake_probe(folder, loops: int):
+    """A probe program that burns CPU for `loops` iterations and logs each start to `runs.log`."""
+    prog = folder / "probe"
+    prog.write_text(f"#!{sys.executable}\n"
+                    "import pathlib, sys\n"
+                    f"pathlib.Path({str(folder / 'runs.log')!r}).open('a').write('run\\n')\n"
+                    f"s = 0\nfor i in range({loops}):\n    s += i * i\n")
+    prog.chmod(prog.stat().st_mode | stat.S_IXUSR)
+    return prog
+
+
+def test_probe_runs_once_a_processor_and_build_and_its_cpu_seconds_are_the_programs_own(tmp_path, monkeypatch):
+    monkeypatch.setenv("TQ_RATES_FILE", str(tmp_path / "cache" / "rates.json"))
+    prog = _fake_probe(tmp_path, 1_000_000)
+    first = R.machine_rates(program=prog)
+    runs = (tmp_path / "runs.log").read_text().count("run")
+    assert first.source == "measured now" and runs == R.PROBE_RUNS
+    # CPU seconds of the program itself: about what this process needs for the same loop
+    t0 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
+    s = 0
+    for i in range(1_000_000):
+        s += i * i
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_utime - t0
+    assert 0.4 * own < first.probe_s < 2.5 * own + 0.1, (first.probe_s, own)
+    # cached: the second call runs nothing
+    again = R.machine_rates(program=prog)
+    assert again.probe_s == first.probe_s and again.source.startswith("cached")
+    assert (tmp_path / "runs.log").read_text().count("run") == runs
+    # another build (the program changed): measured again
+    prog.write_text(prog.read_text() + "# rebuilt\n")
+    os.utime(prog, (prog.stat().st_atime, prog.stat().st_mtime + 10))
+    assert R.machine_rates(program=prog).source == "measured now"
+    assert (tmp_path / "runs.log").read_text().count("run") == 2 * runs
+
+
+def test_probe_that_cannot_run_is_said_not_guessed(tmp_path, monkeypatch):
+    monkeypatch.setenv("TQ_RATES_FILE", str(tmp_path / "rates.json"))
+    with pytest.raises(R.ProbeFailed, match="not built"):
+        R.machine_rates(program=tmp_path / "missing")
+    bad = tmp_path / "bad"
+    bad.write_text("#!/bin/sh\necho broken >&2\nexit 3\n")
+    bad.chmod(0o755)
+    with pytest.raises(R.ProbeFailed, match="exited 3: broken"):
+        R.machine_rates(program=bad)
+
+
+def test_estimate_scales_with_the_measured_probe():
+    """Each condition's CPU seconds are the element-steps times the probe's seconds times the
+    measured multiples: twice the probe, twice the estimate; the solid-only condition exactly
+    elements x steps x SOLID_PER_PROBE_S x probe."""
+    from tunnelquake.case import case_geology, ground_layers, load_case
+    from tunnelquake.meshing.params import element_counts, resolve
+    from tunnelquake.scene import runtime_estimate
+
+    case = load_case(EXAMPLE)
+    one = runtime_estimate(case, rates=R.MachineRates(0.5, "test", "given"))
+    two = runtime_estimate(case, rates=R.MachineRates(1.0, "test", "given"))
+    for cond in one.seconds:
+        assert two.seconds[cond] == pytest.approx(2 * one.seconds[cond], rel=1e-12)
+    d = case.data
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    assert one.seconds["no_water"] == pytest.approx(
+        (counts["rock"] + counts["lining"]) * one.steps * R.SOLID_PER_PROBE_S * 0.5, rel=1e-12)
+    assert "test's speed" in one.line() and "probe 0.5 CPU s" in one.line()
+
+
+def _pressure_tunnel(folder, end: float):
+    """cases/pressure_tunnel (a case unlike the example: another section, three-component motion, a
+    weathered layer) with its no_water condition alone and `end` s of shaking."""
+    import shutil
+
+    src = EXAMPLE.parents[1] / "pressure_tunnel"
+    folder.mkdir(parents=True, exist_ok=True)
+    for f in src.glob("*.txt"):
+        shutil.copy(f, folder / f.name)
+    text = (src / "case.yaml").read_text()
+    text = "\n".join("conditions: [no_water]" if line.startswith("conditions:") else line
+                     for line in text.splitlines())
+    if "\nconditions:" not in text:
+        text += "\nconditions: [no_water]"
+    (folder / "case.yaml").write_text(text + f"\ntime:\n  end_time: {end} s\n")
+    return folder / "case.yaml"
+
+
+def _solid_cpu(case_yaml) -> float:
+    """CPU seconds of the children (tq-solid) of one `tunnelquake run --no-post` of the case."""
+    from tunnelquake.cli import main
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert main(["run", str(case_yaml), "--no-post"]) == 0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def test_estimate_predicts_the_cpu_seconds_of_a_case_unlike_the_example(tmp_path):
+    """The solid-only condition of the pressure tunnel, 0.6 s of shaking against 0.05 s (the
+    difference takes the start and the static stages off): the CPU seconds tq-solid took for the
+    0.55 s between them within 30 % of what the estimate, at this machine's probe, says of them."""
+    from tunnelquake.case import load_case
+    from tunnelquake.scene import runtime_estimate
+
+    short, long_ = _pressure_tunnel(tmp_path / "short", 0.05), _pressure_tunnel(tmp_path / "long", 0.6)
+    measured = _solid_cpu(long_) - _solid_cpu(short)
+    rates = R.machine_rates()
+    est = (runtime_estimate(load_case(long_), rates=rates).seconds["no_water"]
+           - runtime_estimate(load_case(short), rates=rates).seconds["no_water"])
+    assert measured > 0
+    print(f"estimate {est:.3f} CPU s, measured {measured:.3f} CPU s, ratio {est / measured:.3f}")
+    assert abs(est / measured - 1) < 0.30, (est, measured, rates)
+
+
+def test_no_probe_no_estimate_and_a_slurm_task_gets_a_day_saying_why(monkeypatch):
+    """Without a probe (no build) the estimate says so instead of guessing, and a Slurm array task's
+    time limit is a day with the reason in the script's comment (suite.slurm_time sets it)."""
+    from tunnelquake.case import load_case
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.suite_launch import SLURM_TIME_UNKNOWN_MIN, slurm_time
+
+    def no_probe(*a, **k):
+        raise R.ProbeFailed("/nowhere/tq-solid-bench is not built (scripts/bootstrap.sh builds it)")
+
+    monkeypatch.setattr(R, "machine_rates", no_probe)
+    case = load_case(EXAMPLE)
+    est = runtime_estimate(case)
+    assert est.seconds == {} and est.line() == ("run time: not estimated (this machine's speed could not be "
+                                                "measured: /nowhere/tq-solid-bench is not built (scripts/bootstrap.sh "
+                                                "builds it))")
+    case.data.setdefault("suite", {})["slurm_time"] = None
+    minutes, why = slurm_time(case, 2)
+    assert minutes == SLURM_TIME_UNKNOWN_MIN == 1440 and "is not built" in why and "suite.slurm_time" in why
