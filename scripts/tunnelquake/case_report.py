@@ -91,7 +91,8 @@ def _design(R, case, results) -> tuple[object | None, str]:
 
 #: The designer's figures: file name, caption.
 DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
-                  ("design_mn.png", "M–N interaction of the section with the demand points"))
+                  ("design_mn.png", "M–N interaction of the section with the demand points"),
+                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"))
 
 
 def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
@@ -105,6 +106,8 @@ def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
         try:
             if name == "design_envelopes.png":
                 made = F.fig_envelopes(design.conditions, figs / name)
+            elif name == "design_deformed.png":
+                made = F.fig_deformed(design.conditions, figs / name)
             else:
                 p = design.params
                 sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
