@@ -19,7 +19,14 @@ from .children import Side, say, watch_pair
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
-from .restart import checkpoint_dir, coupled_resume_point, resume_args, resume_plan
+from .restart import (
+    checkpoint_dir,
+    coupled_resume_point,
+    forget_resume_source,
+    keep_resume_source,
+    resume_args,
+    resume_plan,
+)
 from .scene import plan
 from .solid_input import solid_threads
 from .supervise import progress, started
@@ -73,6 +80,10 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
+    if isinstance(resume, dict):
+        resume = keep_resume_source(case, cond, resume)
+    elif not resume:
+        forget_resume_source(case, cond)
     if resume:
         cmd += resume_args(resume) if isinstance(resume, dict) else ["--resume"]
     started(cond, res)
@@ -240,6 +251,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     exe = paths.solid_executable()
     token = secrets.token_hex(16)
     point = coupled_resume_point(case, cond) if resume else None
+    if point is not None:
+        point = keep_resume_source(case, cond, point)
+    else:
+        forget_resume_source(case, cond)
     if point is not None:
         with h5py.File(work / "solid_input.h5", "r") as f:
             token = str(f["coupling"].attrs["token"])
@@ -447,6 +462,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
         if children.stopping.is_set():
             return
         if rc == 0:
+            forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
         else:
             failed.append(f"{cond} ({runs}): {why}")
@@ -459,6 +475,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
                                       resume=choice.point if choice == "checkpoint" else False)
         children.check()
         if rc == 0:
+            forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
         elif rc == SOLID_OUTPUT_ERROR:
             from .files import free_bytes, human_bytes

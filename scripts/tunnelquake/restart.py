@@ -4,6 +4,7 @@ the newest intact one, and what `run --resume` does with each condition (docs/us
 from __future__ import annotations
 
 import json
+import os
 import sys
 import zlib
 from pathlib import Path
@@ -20,6 +21,16 @@ FLUID_TRAILER = 64 + 8 + 4
 def checkpoint_dir(case, cond: str) -> Path:
     """Where tq-solid writes the condition's restart checkpoints (docs/formats.md "Restart checkpoints")."""
     return case.output_dir / cond / "checkpoint"
+
+
+#: the sub-folder of a condition's checkpoint folder that holds the checkpoint a resume started from
+#: until the condition completes (keep_resume_source); neither solver's retention looks into it
+KEPT = "resumed-from"
+
+
+def kept_dir(case, cond: str) -> Path:
+    """Where the checkpoint a resume of the condition started from is kept (keep_resume_source)."""
+    return checkpoint_dir(case, cond) / KEPT
 
 
 def checkpoint_manifest(case, cond: str) -> dict | None:
@@ -166,27 +177,31 @@ def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[di
     """The newest checkpoint of the condition whose manifest and files (coupled: and the water's
     fluid-<window>.bin) pass their checksums, with `fluid` added when coupled; and the damage met on
     the way, one line each ('checkpoint 3: the CRC-32 of solid-000003.bin is ... instead of ...')."""
-    folder = checkpoint_dir(case, cond)
+    main = checkpoint_dir(case, cond)
     if coupled is None:
         coupled = "fluid" in dict(plan(case)).get(cond, ())
-    manifests: list[tuple[int, str, dict]] = []
+    manifests: list[tuple[int, bool, str, dict]] = []
     damaged: list[str] = []
-    for path in sorted(folder.glob("checkpoint*.json")):
-        m, problem = read_manifest(path)
-        if m is None:
-            damaged.append(f"{path.name} is damaged: {problem}")
-        else:
-            manifests.append((int(m["sequence"]), path.name, m))  # tq-solid reads checkpoint.json by
-            # --resume alone, checkpoint-<n>.json by --resume --resume-sequence n (resume_args)
-    seen: set[int] = set()
-    for seq, name, m in sorted(manifests, key=lambda x: (-x[0], x[1] == "checkpoint.json")):
-        if seq in seen:
+    # the checkpoint folder's own, then the one a resume started from (kept_dir), after the folder's
+    # own of the same sequence
+    for kept, where in ((False, main), (True, main / KEPT)):
+        for path in sorted(where.glob("checkpoint*.json")):
+            m, problem = read_manifest(path)
+            if m is None:
+                damaged.append(f"{path.relative_to(main)} is damaged: {problem}")
+            else:
+                manifests.append((int(m["sequence"]), kept, path.name, m))  # tq-solid reads checkpoint.json
+                # by --resume alone, checkpoint-<n>.json by --resume --resume-sequence n (resume_args)
+    seen: set[tuple[int, bool]] = set()
+    for seq, kept, name, m in sorted(manifests, key=lambda x: (-x[0], x[1], x[2] == "checkpoint.json")):
+        if (seq, kept) in seen:
             continue
-        seen.add(seq)
-        m = {**m, "manifest": name}
+        seen.add((seq, kept))
+        folder = main / KEPT if kept else main
+        m = {**m, "manifest": name, "kept": kept}
         problem = checkpoint_problem(folder, m)
         if problem is not None:
-            damaged.append(f"checkpoint {seq}: {problem}")
+            damaged.append(f"checkpoint {seq}{' (kept)' if kept else ''}: {problem}")
             continue
         if not coupled:
             return m, damaged
@@ -207,6 +222,59 @@ def intact_checkpoints(case, cond: str, coupled: bool | None = None) -> tuple[di
             continue
         return {**m, "fluid": str(fluid)}, damaged
     return None, damaged
+
+
+def _link(src: Path, dst: Path) -> None:
+    """dst made the same file as src: a hard link (the solvers replace a checkpoint file by renaming a
+    new one over it, never write into it), or a copy where the file system has no links."""
+    import shutil
+
+    dst.unlink(missing_ok=True)
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
+def keep_resume_source(case, cond: str, point: dict) -> dict:
+    """Before a resume continues from the intact checkpoint `point` (intact_checkpoints): its files (the
+    solid's state and results copy, its manifest, coupled the water's fluid-<window>.bin) are kept in
+    kept_dir until the condition completes, and put back into the checkpoint folder when the point was
+    the kept one. tq-solid keeps only its last two checkpoints and the water its last two windows, so
+    without this the resume's source went once the resumed run had written two newer ones, and a second
+    failure that damaged those could no longer fall back to it. Returns the point as the solvers are to
+    read it: from the checkpoint folder, its numbered manifest (resume_args)."""
+    main, kept = checkpoint_dir(case, cond), kept_dir(case, cond)
+    src = kept if point.get("kept") else main
+    seq = int(point["sequence"])
+    numbered = f"checkpoint-{seq:06d}.json"
+    names = [(str(point["manifest"]), numbered), (str(point["solid"]), str(point["solid"])),
+             (str(point["results"]), str(point["results"]))]
+    if point.get("fluid"):
+        names.append((Path(point["fluid"]).name, Path(point["fluid"]).name))
+    if point.get("kept"):
+        for name, as_name in names:
+            _link(src / name, main / as_name)
+    else:
+        old = [p for p in kept.iterdir()] if kept.is_dir() else []
+        kept.mkdir(exist_ok=True)
+        for p in old:  # the source of an earlier resume: an older checkpoint of the same run
+            if p.is_file() and p.name not in {as_name for _, as_name in names}:
+                p.unlink()
+        for name, as_name in names:
+            _link(main / name, kept / as_name)
+    out = {**point, "manifest": numbered if point.get("kept") else point["manifest"], "kept": False}
+    if point.get("fluid"):
+        out["fluid"] = str(main / Path(point["fluid"]).name)
+    return out
+
+
+def forget_resume_source(case, cond: str) -> None:
+    """The checkpoint a resume started from is dropped: the condition completed (its results are whole),
+    or it starts afresh (tq-solid clears the checkpoint folder then)."""
+    import shutil
+
+    shutil.rmtree(kept_dir(case, cond), ignore_errors=True)
 
 
 def resume_args(point: dict) -> list[str]:
