@@ -25,9 +25,10 @@ Water models (case `water` section):
 Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D: `ends:
 closed` (walls, compressible water in OpenFOAM) or `ends: open` (p = 0).
 
-With the volume law in the solid (`volume_law()`, the default; docs/coupler.md "Volume law in the
-solid") tq-solid sets the water's volumetric pressure implicitly each step: one uniform pressure in a
-closed section (a slice, or 3D with closed ends), one per plane of wet nodes joined by the axial plug
+What each water model means for the two sides is decided in one place, `water_split()` (its
+WaterSplit: tq-solid's part into /coupling, OpenFOAM's into the water case). With the volume law in
+the solid (the default; docs/coupler.md "Volume law in the solid") tq-solid sets the water's
+volumetric pressure implicitly each step: one uniform pressure in a closed section (a slice, or 3D with closed ends), one per plane of wet nodes joined by the axial plug
 flow with open ends (p = -K dV/V, or the volume held for incompressible water), and by default the
 water's rigid translation too (`water_density` in the settings). OpenFOAM gets the wall motion less
 those modes, and in a closed section sends its wall pressure less its area mean (tqInterface
@@ -79,19 +80,59 @@ SOLID_WRITE_FIELDS = ("velocity", "displacement")
 REMAINDER_BULK_MODULUS = WATER_BULK_MODULUS
 
 
-def volume_law(case) -> tuple[str, float]:
-    """Who carries the volumetric part of the water pressure: ("compressible", K) or ("incompressible", 0)
-    when the solid does (the default, coupling.volume_law `solid`: in a closed section, a slice or 3D
-    with closed ends, one uniform pressure; with open ends one pressure per plane of wet nodes along the
-    axis, joined by the water's axial flow, p = 0 at the ends), ("none", 0) when the water solver sends
-    its whole pressure (coupling.volume_law `water`)."""
+@dataclass(frozen=True)
+class WaterSplit:
+    """Which part of the water's pressure each side carries: decided for a case by `water_split`, the
+    one place (docs/coupler.md "Volume law in the solid"). tq-solid's part is written to solid_input.h5's
+    /coupling (coupling_settings); OpenFOAM's is written into the water case (water_case: its water
+    model and K, and tqInterface's `subtractMeanPressure`, which tqInterface reads and never decides)."""
+
+    volume_law: str  # carried by tq-solid: compressible | incompressible | none (the water sends it all)
+    bulk_modulus: float  # Pa: tq-solid's K for a compressible volume law, else 0
+    water_density: float  # kg/m³: tq-solid carries the water's rigid translation (0: the water does)
+    water_ends: str  # closed (one station) | open (one per plane of wet nodes, joined by the axial flow)
+    axial_density: float  # kg/m³: the density of that axial flow
+    foam_model: str  # the water OpenFOAM solves: compressible | incompressible
+    foam_bulk_modulus: float  # Pa: OpenFOAM's K (its perfectFluid; unused by pimpleFoam)
+    subtract_mean_pressure: bool  # tqInterface sends its wall pressure less its area mean
+
+
+def water_split(case) -> WaterSplit:
+    """What each water model means for the two sides (the case's `water` and `coupling.volume_law`,
+    `coupling.water_translation`):
+
+    - coupling.volume_law `solid` (the default): tq-solid carries the volumetric part, K =
+      water.bulk_modulus for compressible water, the volume held for incompressible water; in a closed
+      section (a slice, or 3D with closed ends) one uniform pressure, with open ends one pressure per
+      plane of wet nodes joined by the axial plug flow. OpenFOAM solves the inertial remainder with
+      compressible water of K at most REMAINDER_BULK_MODULUS (exactly it for incompressible water), and
+      in a closed section sends its wall pressure less its area mean (the uniform part is the solid's).
+    - coupling.volume_law `water`: OpenFOAM solves the case's water (its model and K) and sends its whole
+      pressure; tq-solid carries nothing."""
     d = case.data
-    water = d["water"]
-    if d["coupling"].get("volume_law", "solid") == "water":
-        return "none", 0.0
+    water, cs = d["water"], d["coupling"]
+    rho, k_case = float(water["density"]), float(water["bulk_modulus"])
+    ends = "closed" if closed_section(d) else "open"
+    if cs.get("volume_law", "solid") == "water":
+        return WaterSplit("none", 0.0, 0.0, ends, rho, water["model"], k_case, False)
+    translation = rho if cs.get("water_translation", "solid") == "solid" else 0.0
     if water["model"] == "incompressible":
-        return "incompressible", 0.0
-    return "compressible", float(water["bulk_modulus"])
+        # the volume change is the solid's constraint; OpenFOAM's stiffness only makes a closed domain's
+        # pressure well posed
+        law, k_solid, k_foam = "incompressible", 0.0, REMAINDER_BULK_MODULUS
+    else:
+        # The remainder hardly depends on K (it is the water's inertia), but OpenFOAM's own uniform
+        # pressure, subtracted from it, grows with K and brings its solver noise along
+        # (docs/coupler.md "Volume law in the solid": K = 2200 GPa in OpenFOAM stopped at 1.2 s).
+        law, k_solid, k_foam = "compressible", k_case, min(k_case, REMAINDER_BULK_MODULUS)
+    return WaterSplit(law, k_solid, translation, ends, rho, "compressible", k_foam, ends == "closed")
+
+
+def volume_law(case) -> tuple[str, float]:
+    """Who carries the volumetric part of the water pressure (water_split): ("compressible", K) or
+    ("incompressible", 0) when the solid does, ("none", 0) when the water solver sends its whole pressure."""
+    w = water_split(case)
+    return w.volume_law, w.bulk_modulus
 
 
 class FluidCaseError(RuntimeError):
@@ -151,7 +192,7 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         raise FluidCaseError(f"coupling window size {window_size!r} s is not positive")
     if (why := coupling_window_problem(cs["scheme"], cs["window"])) is not None:
         raise FluidCaseError(f"coupling.window = {cs['window']}: {why}; use window: 1")
-    law, bulk = volume_law(case)
+    split = water_split(case)
     return {
         "scheme": cs["scheme"],
         "window": int(cs["window"]),
@@ -180,12 +221,12 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "write_fields": list(SOLID_WRITE_FIELDS),
         "participant": "solid",
         "partner": "fluid",
-        "volume_law": law,
-        "bulk_modulus": bulk,
-        "water_density": (float(d["water"]["density"]) if law != "none"
-                          and cs.get("water_translation", "solid") == "solid" else 0.0),
-        "water_ends": "closed" if closed_section(d) else "open",
-        "axial_density": float(d["water"]["density"]),
+        # tq-solid's part of the water (water_split)
+        "volume_law": split.volume_law,
+        "bulk_modulus": split.bulk_modulus,
+        "water_density": split.water_density,
+        "water_ends": split.water_ends,
+        "axial_density": split.axial_density,
     }
 
 
@@ -276,23 +317,16 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
     checkpoints"), none by default."""
     d = case.data
     water = d["water"]
-    model = water["model"]
-    law = settings.get("volume_law", "none")
-    if model == "incompressible" and slice_mode and law != "incompressible":
+    split = water_split(case)
+    if settings.get("volume_law", "none") != split.volume_law:
+        raise FluidCaseError(f"the coupling settings give tq-solid volume_law {settings.get('volume_law')!r}, "
+                             f"but this case's water gives {split.volume_law!r}: make the settings from the "
+                             "same case (coupling_settings)")
+    if water["model"] == "incompressible" and slice_mode and split.volume_law != "incompressible":
         raise FluidCaseError("incompressible water in a closed slice needs the volume law in the solid "
                              "(coupling.volume_law: solid, the default); the water alone cannot change its "
                              "cross-section (docs/coupler.md \"Volume law in the solid\")")
-    # Incompressible water with the volume law in the solid, closed or open ends: OpenFOAM solves the
-    # inertial remainder with compressible water (the volume change of each section is the solid's
-    # constraint, docs/coupler.md).
-    bulk = float(water["bulk_modulus"])
-    if law == "incompressible":
-        model, bulk = "compressible", REMAINDER_BULK_MODULUS
-    elif law == "compressible":
-        # The remainder hardly depends on K (it is the water's inertia), but OpenFOAM's own uniform
-        # pressure, subtracted from it, grows with K and brings its solver noise along
-        # (docs/coupler.md "Volume law in the solid": K = 2200 GPa in OpenFOAM stopped at 1.2 s).
-        bulk = min(bulk, REMAINDER_BULK_MODULUS)
+    model = split.foam_model
     if slice_mode:
         ends = "empty"
     else:
@@ -302,12 +336,11 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
     brief = water.get("log", "brief") == "brief"
     return WaterCase(
         model=model, ends=(ends, ends), density=float(water["density"]), viscosity=float(water["viscosity"]),
-        bulk_modulus=bulk, delta_t=dt, end_time=end_time,
+        bulk_modulus=split.foam_bulk_modulus, delta_t=dt, end_time=end_time,
         write_interval=write_interval if write_interval else max(end_time, 0.1),
         free_surface_level=float(d["geometry"]["tunnel_centre_z"]) + float(water["head"]),
         exchange=exchange_dict(settings),
-        # the solid carries the uniform pressure: send the remainder
-        subtract_mean_pressure=law != "none" and closed_section(d),
+        subtract_mean_pressure=split.subtract_mean_pressure,
         log_interval=float(water.get("log_interval", WATER_LOG_INTERVAL)) if brief else None,
         **(restart or {}))
 

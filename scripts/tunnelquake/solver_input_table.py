@@ -302,9 +302,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "scheme", "str", "`dynamic_water` through the coupler (docs/coupler.md \"Solid adapter\")",
        default="implicit", choices=("explicit", "paper", "implicit")),
     _e("/coupling", "window", "int", "solid steps per window k (k > 1 not with `paper`); window length (0 = k "
-       "steps); number of windows (0 = ⌈t_end / window⌉)", default=1, lo=1),
+       "steps; tq-solid's seismic step is window_size / k); number of windows (both sides run this many: "
+       "`tunnelquake run` gives ⌈t_end / window_size⌉)", default=1, lo=1),
     _e("/coupling", "window_size", "float", unit="s", default=0.0, lo=0.0),
-    _e("/coupling", "windows", "int", default=0, lo=0),
+    _e("/coupling", "windows", "int", lo=1, required=True),
     _e("/coupling", "checkpoint_windows", "int", "with /output checkpoint_interval and `--checkpoint-dir`: a restart "
        "checkpoint at the end of every K-th accepted window (0 = every window; `tunnelquake run` gives "
        "round(checkpoint_interval / window_size), at least 1)", default=0, lo=0, omit_default=True),

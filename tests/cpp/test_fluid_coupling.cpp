@@ -368,7 +368,7 @@ DynResult dynamicRun(const Mesh& mesh, const std::string& scheme, bool coupled,
     const auto dir = freshDir(scheme);
     CouplingInput ci = couplingInput(dir, scheme, steps / window);
     ci.windowSteps = window;
-    auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
+    auto ad = std::make_shared<FluidCoupling>(*s, ci);
     FakeFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), fluidForce);
     ad->initialize();
     s->addContributor(ForcePhase::Water, ad);
@@ -553,7 +553,7 @@ TEST(SolidCoupling, AStepOutsideTheCoupledProtocolIsRefused) {
   const Mesh mesh = linedRing(24);
   SolidInput in = ringInput();
   auto s = buildSolver(in, mesh);
-  auto ad = std::make_shared<FluidCoupling>(*s, couplingInput(freshDir("outside"), "explicit", 10), 1.0);
+  auto ad = std::make_shared<FluidCoupling>(*s, couplingInput(freshDir("outside"), "explicit", 10));
   s->addContributor(ForcePhase::Water, ad);
   try {
     s->step();
@@ -692,7 +692,7 @@ GuardRun springRun(const std::string& scheme, Real limit, Index windows) {
   ci.writeFields = {"displacement"};
   ci.energyLimit = limit;
   ci.energyFloor = 1.0;  // J, 1/300 of the run's interface work: the start (E_c ≈ work ≈ 0) is not judged
-  auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
+  auto ad = std::make_shared<FluidCoupling>(*s, ci);
   FakeFluid fluid(ci, ad->windowSize(), mesh, interfaceNodes(mesh), [k](Real, const std::vector<Real>& u) {
     std::vector<Real> f(u.size());
     for (size_t i = 0; i < u.size(); ++i) f[i] = -k * u[i];
@@ -783,7 +783,7 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps) {
   ci.acceleration = "iqn-ils";
   ci.tolerance = 1e-10;
   ci.maxIterations = 30;
-  auto ad = std::make_shared<FluidCoupling>(*s, ci, 1.0);
+  auto ad = std::make_shared<FluidCoupling>(*s, ci);
   const Real window = ad->windowSize();
   struct History {
     Real t = -1;

@@ -152,3 +152,22 @@ def test_tq_solid_refuses_what_the_paper_scheme_rule_refuses(slice_input):
         assert run.returncode == code, run.stdout + run.stderr
         if code:
             assert "one-step windows" in run.stderr
+
+
+@pytest.mark.skipif(_solid() is None, reason="tq-solid with --check --json is not built")
+def test_tq_solid_takes_the_window_count_it_is_given(slice_input):
+    """The number of windows is the case's (fluid_case.coupling_windows), given to both sides: tq-solid's
+    reader refuses a /coupling without it, or with none, naming the attribute, instead of counting its own."""
+    case, tmp, inp = slice_input
+    exe = _solid()
+    window = fc.coupling_window_size(case.data["coupling"]["window"], solid_step(exe, inp))
+    s = fc.coupling_settings(case, window, tmp / "wall.addr", "ab" * 16, t_end=0.01)
+    for name, edit in (("absent", lambda a: a.__delitem__("windows")), ("zero", lambda a: a.__setitem__("windows", 0))):
+        out = write_solid_input(case, tmp / "mesh.h5", tmp / "motion.h5", "dynamic_water", tmp / f"w_{name}.h5",
+                                coupling=s)
+        with h5py.File(out, "r+") as f:
+            edit(f["coupling"].attrs)
+        run = subprocess.run([str(exe), str(out), "--check"], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 2, (name, run.stdout + run.stderr)
+        assert "/coupling" in run.stderr and "windows" in run.stderr, (name, run.stderr)
+        assert "Traceback" not in run.stderr and "terminate" not in run.stderr

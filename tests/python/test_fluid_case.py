@@ -59,7 +59,13 @@ def test_refusals_name_the_fix(tmp_path):
     with pytest.raises(fc.FluidCaseError, match="tcp"):
         fc.exchange_dict({**s, "transport": "mpi"})
     case.data["water"]["model"] = "incompressible"
-    with pytest.raises(fc.FluidCaseError, match="compressible"):
+    # settings made for another water: the two sides would carry different parts
+    with pytest.raises(fc.FluidCaseError, match="volume_law 'compressible'.*'incompressible'"):
+        fc.build_fluid_case(case, tmp_path / "water.msh", tmp_path / "fluid", s, slice_mode=True)
+    # incompressible water in a slice with the whole pressure in the water: nothing can change the section
+    case.data["coupling"]["volume_law"] = "water"
+    s = fc.coupling_settings(case, s["window_size"], tmp_path / "wall.addr", "ab" * 16, t_end=0.05)
+    with pytest.raises(fc.FluidCaseError, match="incompressible water in a closed slice needs the volume law"):
         fc.build_fluid_case(case, tmp_path / "water.msh", tmp_path / "fluid", s, slice_mode=True)
 
 

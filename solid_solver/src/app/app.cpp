@@ -416,8 +416,11 @@ void SolidRun::connectWater() {
   const CouplingInput& ci = m_.in.staged.coupling;
   if (!ci.present) return;
   Solver& s = *m_.solver;
+  // The seismic stage's step: window_size / k, so that k steps make the window both sides were given
+  // (InputError when above the stable step). The adapter reads it.
+  if (ci.windowSize > 0) s.setTimeStep(ci.windowSize / Real(ci.windowSteps));
   water_ = CarriedWater::fromCoupling(s, ci);
-  coupling_ = std::make_shared<FluidCoupling>(s, ci, m_.in.tEnd, water_.get());
+  coupling_ = std::make_shared<FluidCoupling>(s, ci, water_.get());
   out_ << "tq-solid: " << coupling_->describe() << "; waiting for the fluid" << std::endl;
   if (!cl_.resume) coupling_->initialize();                 // resumed: once its state is restored (restoreOrStart)
   s.addContributor(ForcePhase::Water, coupling_);           // the exchanged force, then

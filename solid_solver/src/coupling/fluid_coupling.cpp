@@ -340,7 +340,7 @@ struct FluidCoupling::Impl {
   }
 };
 
-FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd, const CarriedWater* water)
+FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water)
     : impl_(std::make_unique<Impl>(solver, in, wallNodes(solver.mesh(), in.face), water)) {
   Impl& I = *impl_;
   const Mesh& mesh = solver.mesh();
@@ -361,11 +361,13 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd,
     I.energyFloor =
         Real(I.nodes.size()) * (in.absoluteTolForce / in.tolerance) * (in.absoluteTolDisplacement / in.tolerance);
 
-  // Step and window: window = k solid steps.
-  if (in.windowSize > 0) solver.setTimeStep(in.windowSize / Real(in.windowSteps));  // InputError if unstable
+  // The window: k solid steps (the run set the solver's step from /coupling window_size before; the
+  // number of windows is /coupling's, decided by the case: fluid_case.coupling_windows).
   I.window = in.windowSize > 0 ? in.windowSize : Real(in.windowSteps) * solver.dt();
-  I.windows = in.windows > 0 ? in.windows : (long long)std::ceil(tEnd / I.window - 1e-9);
-  if (I.windows < 1) I.windows = 1;
+  if (in.windows < 1)
+    throw InputError("/coupling: windows " + std::to_string(in.windows) +
+                     " is not a number of coupling windows; give windows >= 1 (both sides run the same count)");
+  I.windows = in.windows;
 
   cp::CouplingConfig c;
   c.first = in.participant;
@@ -392,10 +394,6 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd,
   }
   I.scheme = c.scheme;
   I.repeats = in.windowSteps > 1 && c.scheme == cp::SchemeKind::Implicit;
-  if (in.windowSteps > 1 && c.scheme == cp::SchemeKind::Paper)
-    throw InputError("/coupling: a window of " + std::to_string(in.windowSteps) +
-                     " solid steps needs scheme explicit or implicit (the paper scheme's two passes are "
-                     "made for one-step windows); use window 1");
   t.kind = in.transport == "mpi" ? cp::TransportKind::Mpi : cp::TransportKind::Tcp;
   t.addressFile = in.addressFile;
   t.receiveTimeout = in.timeout;

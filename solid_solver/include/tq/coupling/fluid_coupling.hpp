@@ -60,14 +60,18 @@ struct FluidCouplingStats {
 
 class FluidCoupling final : public NodalForceContributor {
  public:
-  /// Builds the coupling configuration from /coupling and the interface nodes of `in.face`.
-  /// With `in.windowSize` > 0 the solver's step is set to windowSize / windowSteps (refused when
-  /// above the stable step). Does not connect yet. Throws InputError on a bad configuration.
+  /// Builds the coupling configuration from /coupling and the interface nodes of `in.face`: a
+  /// window of `in.windowSize` s (0: windowSteps × the solver's step), `in.windows` of them (at least 1;
+  /// the case decides the count, fluid_case.coupling_windows). The adapter reads the solver's step and
+  /// never sets it: the run sets it from /coupling first (SolidRun::connectWater, windowSize /
+  /// windowSteps), as it sets every other step. The rules between settings (the paper scheme's one-step
+  /// windows, ...) are the reader's (io/input_staged.cpp). Does not connect yet. Throws InputError on a
+  /// bad configuration.
   /// The solver must outlive the adapter; its displacement now is the reference of the
   /// displacement written (construct it right after the switch to the seismic stage). `water`: the
   /// laws the solid carries on the same face (CarriedWater::fromCoupling; null: none), added to
   /// the solver after this adapter; it must outlive the adapter.
-  FluidCoupling(Solver& solver, const CouplingInput& in, Real tEnd, const CarriedWater* water = nullptr);
+  FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water = nullptr);
   ~FluidCoupling() override;  ///< without finalize(): tells the fluid this side stopped (ABORT)
 
   /// Connects to the fluid and runs the handshake. Throws CouplingError.

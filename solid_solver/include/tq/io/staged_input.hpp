@@ -132,7 +132,7 @@ struct CouplingInput {
   std::string scheme = "implicit";  ///< explicit | paper | implicit
   Index windowSteps = 1;            ///< solid steps per coupling window (k > 1: explicit only)
   Real windowSize = 0;              ///< s; 0 = windowSteps × the solid step
-  Index windows = 0;                ///< 0 = ceil(t_end / window size)
+  Index windows = 0;                ///< coupling windows to run (required, ≥ 1: fluid_case.coupling_windows)
   Real tolerance = 1e-4;            ///< implicit: relative residual
   /// implicit: absolute convergence floors on the RMS residual of each exchanged field, in its
   /// units (0 = none; `tunnelquake run` derives them from the problem scale, docs/coupler.md)
