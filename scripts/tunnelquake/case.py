@@ -169,6 +169,101 @@ def _check_fault_zone(fz, path, raw, ctx):
                            "point": "add 'point: [x, y, z]' (a point on its centre plane, in m)"}[k], raw.line)
 
 
+def _fault_offset_section() -> Section:
+    return Section(checks=[_check_fault_offset],
+                   doc="a prescribed slip across geology.fault_zone, imposed on the block's boundaries before the "
+                       "shaking (docs/solid_solver.md \"Fault offset\")", fields={
+        "slip": Tuple(item=_length(), length=3,
+                      doc="[x, y, z] m: the hanging wall's displacement relative to the footwall, in the fault's "
+                          "plane (or give magnitude and rake)"),
+        "magnitude": _positive(U.LENGTH, "the slip's length in the fault's plane, m (with rake)"),
+        "rake": Number(min=-180.0, max=180.0,
+                       doc="degrees in the fault's plane from its strike direction (Aki & Richards): 90 reverse "
+                           "(the hanging wall up dip), -90 normal, 0 left-lateral, 180 right-lateral"),
+        "increments": Number(integer=True, min=1, default=10,
+                             doc="equal steps the static slip is imposed in, each relaxed to static equilibrium "
+                                 "(more follow a yielding ground's path more closely)"),
+        "rise_time": _positive(U.TIME, "s: the slip during the run instead, from start_time over rise_time (a "
+                                       "cosine ramp), the block's faces but the top held to it, so no record "
+                                       "enters (the slip alone, dynamic); none: the static offset before the "
+                                       "shaking"),
+        "start_time": Number(dim=U.TIME, min=0.0, doc="s from the start of the run (the seismic stage) at which a "
+                                                      "slip with rise_time starts (default 0)"),
+    })
+
+
+def _check_fault_offset(fo, path, raw, ctx):
+    line = raw.line if isinstance(raw, LineDict) else None
+    if fo["slip"] is not None and fo["magnitude"] is not None:
+        ctx.error(f"{path}.magnitude", fo["magnitude"], "is given with slip: the slip is given twice",
+                  "give either slip: [x, y, z] or magnitude and rake", line)
+    elif fo["magnitude"] is not None and fo["rake"] is None:
+        ctx.error(f"{path}.rake", None, "is required with magnitude",
+                  "add 'rake: <deg in the fault plane from the strike: 90 reverse, -90 normal, 0 left-lateral>'",
+                  line)
+    elif fo["rake"] is not None and fo["magnitude"] is None:
+        ctx.error(f"{path}.magnitude", None, "is required with rake", "add 'magnitude: <slip> m'", line)
+    if fo["start_time"] is not None and fo["rise_time"] is None:
+        ctx.error(f"{path}.start_time", fo["start_time"], "times a slip during the run, which needs rise_time",
+                  "add 'rise_time: <s>' (the slip during the run), or remove start_time (the static offset before "
+                  "the shaking)", line)
+
+
+def fault_offset_slip(d: dict):
+    """The hanging wall's displacement relative to the footwall (numpy [3], m) of a validated
+    case's fault_offset section, None when it has none."""
+    import numpy as np
+
+    fo = d.get("fault_offset") or {}
+    if fo.get("slip") is not None:
+        return np.asarray(fo["slip"], float)
+    if fo.get("magnitude") is None:
+        return None
+    from .meshing.geology import slip_vector
+
+    fz = d["geology"]["fault_zone"]
+    return slip_vector(fz["strike"], fz["dip"], float(fo["magnitude"]), float(fo["rake"]))
+
+
+def _fault_offset_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """A slip needs a fault zone, and lies in its plane."""
+    import numpy as np
+
+    fo = d.get("fault_offset") or {}
+    given = fo.get("slip") is not None or fo.get("magnitude") is not None
+    if not given:
+        return []
+    line = _section_lines(raw, "fault_offset").get("slip" if fo.get("slip") is not None else "magnitude")
+    fz = (d.get("geology") or {}).get("fault_zone") or {}
+    if fz.get("material") is None:
+        return [Issue("fault_offset", None, "prescribes a slip with no fault zone to slip across",
+                      "add geology.fault_zone (material, width, strike, dip, point), or remove fault_offset", line)]
+    if fz.get("width") is None or fz.get("strike") is None or fz.get("dip") is None or fz.get("point") is None:
+        return []  # the fault zone's own check names what is missing
+    slip = fault_offset_slip(d)
+    size = float(np.linalg.norm(slip))
+    if size == 0:
+        return [Issue("fault_offset.slip", list(map(float, slip)), "is zero: the fault does not move",
+                      "give the hanging wall's displacement, e.g. slip: [0, 0, 0.5] m, or remove fault_offset", line)]
+    end = (d.get("time") or {}).get("end_time")
+    if fo.get("rise_time") is not None and end is not None and (fo.get("start_time") or 0.0) + fo["rise_time"] > end:
+        return [Issue("fault_offset.rise_time", fo["rise_time"],
+                      f"with start_time {fo.get('start_time') or 0.0:g} s ends the slip at "
+                      f"{(fo.get('start_time') or 0.0) + fo['rise_time']:g} s, after the run's end (time.end_time "
+                      f"{end:g} s)", "shorten the rise time or start the slip earlier, or lengthen time.end_time",
+                      _section_lines(raw, "fault_offset").get("rise_time"))]
+    geo = case_geology(d)
+    normal = float(np.dot(slip, geo.fault.plane.normal))
+    if abs(normal) > 1e-3 * size:
+        along = slip - normal * np.asarray(geo.fault.plane.normal)
+        return [Issue("fault_offset.slip", list(map(float, slip)),
+                      f"has {normal:+.4g} m normal to the fault's plane ({100 * abs(normal) / size:.3g} % of its "
+                      "length): it would open or close the fault",
+                      "give a slip in the plane, e.g. its in-plane part "
+                      f"[{along[0]:.4g}, {along[1]:.4g}, {along[2]:.4g}] m, or magnitude and rake", line)]
+    return []
+
+
 def case_geology(d: dict):
     """The case's regions bounded by planes (meshing.geology.Geology), None when it has none."""
     from .meshing.geology import from_case
@@ -454,6 +549,7 @@ def schema() -> Section:
                             "last the ground is materials.rock, which holds the tunnel and its near-field box "
                             "(docs/solid_solver.md \"Layered ground\")"),
         "geology": _geology_section(),
+        "fault_offset": _fault_offset_section(),
         "interface": Section(checks=[_check_interface], fields={
             "model": Choice(choices=("dynamic_contact", "bonded"), default="dynamic_contact",
                             doc="rock-lining interface: the paper's dynamic contact force method, or always bonded"),
@@ -805,6 +901,11 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                             f"use fluid_ranks <= {cores}")
     issues += _layer_checks(d, raw)
     issues += _geology_checks(d, raw)
+    issues += _fault_offset_checks(d, raw)
+    if (d.get("fault_offset") or {}).get("rise_time") is not None:
+        warnings.append("fault_offset.rise_time: the slip during the run holds the block's faces but the top in x, y "
+                        "and z, so the ground motion does not enter: the run is the slip alone (without rise_time "
+                        "the offset is static, before the shaking)")
     issues += _no_default_checks(d, raw)
     warnings += _slow_setting_warnings(d)
     from .sanity import case_warnings

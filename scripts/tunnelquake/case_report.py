@@ -9,6 +9,8 @@ from __future__ import annotations
 import errno
 from pathlib import Path
 
+import numpy as np
+
 from .children import say
 from .files import DiskFull, atomic_path, is_no_space
 from .scene import plan
@@ -89,7 +91,8 @@ def _design(R, case, results) -> tuple[object | None, str]:
 
 #: The designer's figures: file name, caption.
 DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
-                  ("design_mn.png", "M–N interaction of the section with the demand points"))
+                  ("design_mn.png", "M–N interaction of the section with the demand points"),
+                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"))
 
 
 def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
@@ -103,6 +106,8 @@ def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
         try:
             if name == "design_envelopes.png":
                 made = F.fig_envelopes(design.conditions, figs / name)
+            elif name == "design_deformed.png":
+                made = F.fig_deformed(design.conditions, figs / name)
             else:
                 p = design.params
                 sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
@@ -128,6 +133,41 @@ FIGURES = (
     ("fig09", "fig09_damage_section.png", "damage over the lining's middle section at the last snapshot"),
     ("fig10", "fig10_interface_zones.png", "rock–lining interface state at the last snapshot"),
 )
+
+
+def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
+    """The lining as a beam along the axis (3D results): per condition the largest |resultant|
+    at the seismic start and over the snapshots, each with its y, the interface's largest slip,
+    and the CSV of the whole profile (post.lining_along_axis)."""
+    rows = []
+    for res in results:
+        axis = P.lining_along_axis(res)
+        if axis is None:
+            continue
+        f = out / f"lining_axis_{res.condition}.csv"
+        try:
+            P.lining_axis_csv(axis, f)
+        except OSError as e:
+            if not is_no_space(e):
+                raise
+            unwritten.append(_disk_full(e, f))
+        for k, unit in P.AXIS_RESULTANTS.items():
+            i, j = int(np.argmax(np.abs(axis["start"][k]))), int(np.argmax(axis["envelope"][k]))
+            rows.append(f"| {P.CONDITION_LABELS[res.condition]} | {k} ({unit}) | {axis['start'][k][i]:.4g} at y = "
+                        f"{axis['y'][i]:.4g} m | {axis['envelope'][k][j]:.4g} at y = {axis['y'][j]:.4g} m |")
+        if axis["slip"] is not None:
+            i = int(np.argmax(axis["slip"]["max"]))
+            rows.append(f"| {P.CONDITION_LABELS[res.condition]} | interface slip (m), t = {axis['end_time']:.4g} s | "
+                        f"– | {axis['slip']['max'][i]:.4g} at y = {axis['slip']['y'][i]:.4g} m |")
+    if not rows:
+        return []
+    return ["## The lining along the axis", "",
+            "The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
+            "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
+            "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
+            "`lining_axis_<condition>.csv`.", "",
+            "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the snapshots: "
+            "largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
 
 
 def post_case(case) -> Path:
@@ -194,6 +234,7 @@ def post_case(case) -> Path:
                   "what exists.", ""]
     else:
         lines += R.differences_section(results, order)
+        lines += _lining_axis(P, results, out, unwritten)
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:

@@ -30,7 +30,7 @@ ATTR = "input_fingerprint"
 SECTION_GROUPS = {
     "geometry": "geometry", "mesh": "geometry", "layers": "geometry", "geology": "geometry",
     "materials": "solid material", "interface": "solid material", "in_situ": "solid material",
-    "stages": "solid material", "damping": "solid material",
+    "stages": "solid material", "damping": "solid material", "fault_offset": "solid material",
     "water": "water",
     "coupling": "coupling",
     "ground_motion": "record", "incident_wave": "record",

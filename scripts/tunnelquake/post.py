@@ -292,6 +292,66 @@ def monitors_csv(res: ConditionResult, out: Path) -> Path:
     return out
 
 
+#: the lining's resultants along the axis (tunnelquake.lining_axis), their units
+AXIS_RESULTANTS = {"N": "N", "M_h": "N m", "M_v": "N m", "V_h": "N", "V_v": "N"}
+
+
+def lining_along_axis(res: ConditionResult) -> dict | None:
+    """The lining as a beam along the axis (3D results with more than one axial layer of lining;
+    None otherwise): per layer its resultants (lining_axis.axis_resultants) at the first snapshot
+    (the seismic start: the static state, a fault's offset included) and their largest |value|
+    over every snapshot; per station of rock-lining pairs the largest interface slip at the last
+    snapshot (the contact's own `slip`; none for a bonded interface)."""
+    from .lining_axis import axis_resultants
+
+    if res.mesh is None or not res.snapshots:
+        return None
+    lin = lining_elements(res)
+    if lin.size == 0:
+        return None
+    c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
+    centre = tunnel_centre(res)
+    first = read_snapshot(res, res.snapshots[0][0])
+    if "stress" not in first:
+        return None
+    start = axis_resultants(c, conn, lin, first["stress"], centre)
+    if start.y.size < 2:
+        return None
+    env = {k: np.abs(getattr(start, k)) for k in AXIS_RESULTANTS}
+    for key, _ in res.snapshots[1:]:
+        snap = read_snapshot(res, key)
+        if "stress" in snap:
+            r = axis_resultants(c, conn, lin, snap["stress"], centre)
+            env = {k: np.maximum(env[k], np.abs(getattr(r, k))) for k in AXIS_RESULTANTS}
+    out = {"y": start.y, "start": {k: getattr(start, k) for k in AXIS_RESULTANTS}, "envelope": env,
+           "start_time": res.snapshots[0][1], "end_time": res.snapshots[-1][1], "slip": None}
+    if res.interface is not None:
+        last = read_snapshot(res, res.snapshots[-1][0])
+        slip = (last.get("interface") or {}).get("slip")
+        if slip is not None:
+            y = c[res.interface["pairs"][:, 1], 1]
+            ys = np.unique(np.round(y, 6))
+            idx = np.searchsorted(ys, np.round(y, 6))
+            peak = np.zeros(ys.size)
+            np.maximum.at(peak, idx, np.abs(np.asarray(slip, float)))
+            out["slip"] = {"y": ys, "max": peak}
+    return out
+
+
+def lining_axis_csv(axis: dict, out: Path) -> Path:
+    """lining_axis_<condition>.csv: per axial layer of lining its y, the resultants at the seismic
+    start and their largest |value| over the snapshots (docs/formats.md)."""
+    header = ["y_m"] + [f"{k}_start_{u.replace(' ', '')}" for k, u in AXIS_RESULTANTS.items()] + \
+        [f"{k}_maxabs_{u.replace(' ', '')}" for k, u in AXIS_RESULTANTS.items()]
+    with atomic_path(out, 16 * len(header) * (axis["y"].size + 1)) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for i, y in enumerate(axis["y"]):
+            w.writerow([f"{y:.6g}"] + [f"{axis['start'][k][i]:.6e}" for k in AXIS_RESULTANTS] +
+                       [f"{axis['envelope'][k][i]:.6e}" for k in AXIS_RESULTANTS])
+    return out
+
+
 def _on_monitor_time(mo: Monitor, t: np.ndarray, v: np.ndarray) -> np.ndarray:
     """A series with its own time column put on the monitor's rows (same sampling in tq-solid)."""
     n = min(t.size, mo.time.size)

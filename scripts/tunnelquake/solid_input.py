@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from . import children, fingerprint, incident_wave
-from .case import CONDITIONS
+from .case import CONDITIONS, case_geology, fault_offset_slip
 from .drm_input import write_drm_group
 from .files import h5_in_memory
 from .freefield import FreeFieldError
@@ -168,6 +168,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         raise SolidInputError(f"mesh {mesh_h5} has region(s) {missing} without a material in the case; "
                               f"add materials.{missing[0]}")
     sequence = list(stages["sequence"])
+    if fault_offset_slip(d) is not None and d["fault_offset"]["rise_time"] is None:  # the offset before the shaking
+        sequence.insert(sequence.index("seismic") if "seismic" in sequence else len(sequence), "fault_offset")
     hydrostatic = condition in ("static_water", "dynamic_water") and water["head"] > 0
     if not hydrostatic:
         sequence = [s for s in sequence if s != "hydrostatic"]
@@ -240,6 +242,15 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(h, "/hydrostatic", "unit_weight", water["density"] * g)
             w(h, "/hydrostatic", "pressure_at_axis", water["density"] * g * water["head"])
             w(h, "/hydrostatic", "z_axis", geo["tunnel_centre_z"])
+        offset = fault_offset_displacements(d, mesh_h5)
+        if offset is not None:
+            fo = f.create_group("fault_offset")
+            w(fo, "/fault_offset", "nodes", offset[0])
+            w(fo, "/fault_offset", "displacement", offset[1])
+            w(fo, "/fault_offset", "increments", int(d["fault_offset"]["increments"]))
+            if d["fault_offset"]["rise_time"] is not None:  # the slip during the run
+                w(fo, "/fault_offset", "rise_time", d["fault_offset"]["rise_time"])
+                w(fo, "/fault_offset", "start_time", d["fault_offset"]["start_time"] or 0.0)
         if mesh["pairs"]:
             it = d["interface"]
             r = f.create_group("interfaces/rock_lining")
@@ -316,6 +327,34 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         os.chmod(tmp, 0o600)
     os.replace(tmp, out)
     return out
+
+
+#: The block's faces a fault offset moves: all but the ground surface (top), which stays free.
+FAULT_OFFSET_FACES = ("bottom", "xmin", "xmax", "ymin", "ymax")
+
+
+def fault_offset_displacements(d: dict, mesh_h5: Path):
+    """The fault_offset stage's nodes and their displacements ([N] int, [N, 3] m) for a case with a
+    fault_offset, else None: every node of the block's faces but the top (FAULT_OFFSET_FACES) takes
+    the hanging wall's slip times its share (meshing.geology.hanging_wall_share: 1 above the band,
+    0 below, linear across it), so the footwall's boundary is held, the hanging wall's moved as one
+    and the band's sheared uniformly (docs/solid_solver.md "Fault offset")."""
+    import h5py
+
+    from .meshing.geology import hanging_wall_share
+
+    slip = fault_offset_slip(d)
+    if slip is None:
+        return None
+    with h5py.File(mesh_h5, "r") as f:
+        missing = [name for name in FAULT_OFFSET_FACES if f"faces/{name}" not in f]
+        if missing:
+            raise SolidInputError(f"mesh {mesh_h5} has no face group(s) {missing}, which the fault offset moves; "
+                                  "rebuild it with `tunnelquake mesh --force`")
+        nodes = np.unique(np.concatenate([f[f"faces/{name}"][...].ravel() for name in FAULT_OFFSET_FACES]))
+        xyz = f["/nodes/coordinates"][...][nodes]
+    share = hanging_wall_share(case_geology(d).fault, xyz)
+    return nodes.astype(np.int64), share[:, None] * np.asarray(slip, float)[None, :]
 
 
 def overburden_density(d: dict) -> float | None:

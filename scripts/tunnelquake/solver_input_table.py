@@ -58,7 +58,8 @@ def _e(group, name, kind, doc="", **kw):
 
 GROUPS = (
     Group("/", ("solver", "damping", "materials", "boundary", "loads", "monitors", "output", "stages", "in_situ",
-                "hydrostatic", "interfaces", "boundaries", "motion", "drm", "coupling", "schema")),
+                "hydrostatic", "fault_offset", "interfaces", "boundaries", "motion", "drm", "coupling",
+                "schema")),
     Group("/schema", doc="the material rows of this table and the hash of the others (written by the writer)"),
     Group("/solver", required=True, doc="at least attribute t_end"),
     Group("/damping"),
@@ -74,6 +75,8 @@ GROUPS = (
     Group("/stages"),
     Group("/in_situ"),
     Group("/hydrostatic"),
+    Group("/fault_offset", doc="the fault_offset stage's prescribed displacement (docs/solid_solver.md "
+                               "\"Fault offset\")"),
     Group("/interfaces", ("rock_lining",)),
     Group("/interfaces/rock_lining"),
     Group("/boundaries", ("bottom", "free_field", "periodic")),
@@ -211,7 +214,7 @@ ENTRIES: tuple[Entry, ...] = (
        "`--checkpoint-dir` (\"Restart checkpoints\" below); 0 = none", unit="s", default=0.0, lo=0.0),
     _e("/output", "snapshot_times", "data", "times of full-field snapshots [S]; `tunnelquake` writes "
        "`output.snapshot_times`, or when empty every 1 s of the seismic stage and its end", unit="s"),
-    _e("/stages", "sequence", "names", "a subset of `in_situ,excavation,lining,hydrostatic,seismic` in that "
+    _e("/stages", "sequence", "names", "a subset of `in_situ,excavation,lining,hydrostatic,fault_offset,seismic` in that "
        "order; without `/stages` one dynamic stage from rest", required=True),
     _e("/stages", "relaxation_tolerance", "float", "static stages end when \\|f_ext − f_int\\|₂ / max(the "
        "stage's initial out-of-balance force, 1e-6 × the model's force norm) is below this",
@@ -243,6 +246,16 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/hydrostatic", "z_axis", "float", unit="m", default=0.0),
     _e("/hydrostatic", "face", "str", "face group loaded (consistent nodal forces, 2×2 Gauss points a quad)",
        default="lining_inner"),
+    _e("/fault_offset", "nodes", "data", "the nodes moved [N] (mesh node indices), each held in x, y, z from the "
+       "fault_offset stage to the seismic stage's switch, where its reactions are held as forces", required=True),
+    _e("/fault_offset", "displacement", "data", "[N, 3] each node's displacement, added to the state before the "
+       "stage", unit="m", required=True),
+    _e("/fault_offset", "increments", "int", "equal steps the displacement is imposed in, each relaxed to "
+       "equilibrium", default=1, lo=1),
+    _e("/fault_offset", "rise_time", "float", "T > 0: no fault_offset stage; from the seismic stage's switch the "
+       "nodes are held and moved by the displacement times ½(1 − cos(π (t − t0)/T)) over [t0, t0 + T], t0 = "
+       "start_time; 0: the static offset of the fault_offset stage", unit="s", default=0.0, lo=0.0),
+    _e("/fault_offset", "start_time", "float", unit="s", default=0.0, lo=0.0),
     _e("/interfaces/rock_lining", "model", "str", "`bonded`: the pairs tied; `dynamic_contact`: eqs. 9–13",
        default="bonded", choices=("bonded", "dynamic_contact"), case="interface.model"),
     _e("/interfaces/rock_lining", "static_friction", "float", "μs, μd, f_c, and what a failed pair keeps "

@@ -324,3 +324,21 @@ def test_envelopes_and_demand_points_of_the_figures_are_the_design_forces(tmp_pa
     assert F.fig_envelopes([c], tmp_path / "env.png").stat().st_size > 20_000
     assert F.fig_mn([c], sec, tmp_path / "mn.png").stat().st_size > 20_000
     assert F.ring_scale([np.array([-2.0, 1.0])], 3.0) == pytest.approx(0.45 * 3.0 / 2.0)
+
+
+def test_a_failing_ultimate_check_beside_an_uncracked_section_is_explained(tmp_path):
+    """A lining in hoop tension of 1,000 kN/m: above what ø16 @ 200 mm on both faces carry at f_yd
+    (2 × 1005 mm²/m × 500/1.15 MPa = 874 kN/m: the reinforced M–N check fails) and below the plain
+    section's cracking force f_ctm t (2.9 MPa × 0.5 m = 1,450 kN/m: uncracked). The summary keeps
+    both rows and says in one line why they are no contradiction; a demand the bars carry gets no
+    such line."""
+    t, N, M, V, dD = _histories()
+    p = DesignParameters(concrete=Concrete(fck=30e6, fctm=2.9e6), reinforcement=Reinforcement(), As_inner=1.005e-3,
+                         As_outer=1.005e-3)
+    for n, fails in ((1.0e6, True), (0.6e6, False)):
+        path = _results(tmp_path / f"r{n:g}.h5", np.full_like(N, n), np.zeros_like(M), V, dD, t)
+        c = lining.condition_design(path, "static_water", {}, p)
+        mn, cr = c.utilisation["reinforced M–N (radial)"], c.utilisation["cracking"]
+        assert (mn.value > 1) == fails and cr.value < 1
+        text = "\n".join(lining.LiningDesign([c], p, "test").summary_lines())
+        assert ("two limit states, not a contradiction" in text) == fails, text

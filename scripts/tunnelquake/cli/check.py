@@ -53,6 +53,17 @@ def main(argv: list[str]) -> int:
     if ground_layers(d):
         say("  ground layers from the surface: " + ", ".join(f"{m} down to z = {z:g} m" for m, z in ground_layers(d))
             + "; below: rock")
+    from ..case import fault_offset_slip
+
+    slip = fault_offset_slip(d)
+    if slip is not None:
+        fo = d["fault_offset"]
+        when = (f"in {fo['increments']} increment(s), before the shaking" if fo["rise_time"] is None else
+                f"from t = {fo['start_time'] or 0.0:g} s over {fo['rise_time']:g} s of the run (cosine ramp), the "
+                "faces held to it so that no record enters")
+        say(f"  fault offset: the hanging wall moved by [{slip[0]:.4g}, {slip[1]:.4g}, {slip[2]:.4g}] m "
+            f"({float((slip ** 2).sum()) ** 0.5:.4g} m) relative to the footwall on the block's faces but the top, "
+            f"{when}")
     window = "the whole record" if gm["duration"] is None else f"{gm['duration']:g} s"
     pga = "the record's own" if gm["pga"] is None else f"{gm['pga']:g} m/s^2 ({gm['pga'] / STANDARD_GRAVITY:.3g} g)"
     say(f"  ground motion: {src}; window {window}; PGA {pga}; cut-off {gm['cutoff_frequency']:g} Hz; convention "

@@ -1,5 +1,5 @@
-"""The designer's figures: the design forces' envelopes around the ring, and the section's M–N
-diagram with the demand points. Angles as everywhere in the report: from the crown towards +x; the
+"""The designer's figures: the design forces' envelopes around the ring, the section's M–N
+diagram with the demand points, and the deformed lining at the governing time. Angles as everywhere in the report: from the crown towards +x; the
 ring is drawn as seen along the tunnel axis, the crown up and +x to the right."""
 from __future__ import annotations
 
@@ -73,6 +73,47 @@ def fig_mn(conditions, section, out: Path) -> Path | None:
     ax.set_title("M–N interaction of the lining section with the seismic design situation's demand", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, out)
+    plt.close(fig)
+    return out
+
+
+def fig_deformed(conditions, out: Path) -> Path | None:
+    """The lining's ovaling at each condition's governing time (the summary's governing check):
+    each diameter's change relative to the seismic start, half of it at each of its ends, drawn
+    radially off the mid-line at one scale stated in the title (the symmetric part of the
+    deformation; a rigid-body motion of the ring moves no diameter)."""
+    items = []
+    for c in conditions:
+        t = c.governing_time() if c.diameter is not None else None
+        if t is not None:
+            i = int(np.argmin(np.abs(c.diameter[1] - t)))
+            items.append((c, float(c.diameter[1][i]), c.diameter[2][i] / 2))
+    if not items:
+        return None
+    R = items[0][0].radius
+    big = max(float(np.max(np.abs(u))) for _, _, u in items)
+    k = 0.15 * R / big if big > 0 else 0.0
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    t = np.radians(np.linspace(-180, 180, 361))
+    ax.plot(R * np.sin(t), R * np.cos(t), color="0.6", lw=1, label="undeformed mid-line")
+    for i, (c, time, u) in enumerate(items):
+        phi = np.concatenate([c.diameter[0], c.diameter[0] + 180.0])
+        ur = np.concatenate([u, u])
+        order = np.argsort(phi)
+        th = np.radians(np.append(phi[order], phi[order][0] + 360))
+        r = R + k * np.append(ur[order], ur[order][0])
+        ax.plot(r * np.sin(th), r * np.cos(th), "-", color=f"C{i}", lw=1.5,
+                label=f"{c.condition} at t = {time:.3f} s (largest |Δd/2| {1e3 * float(np.max(np.abs(u))):.3g} mm)")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x from the axis (m)")
+    ax.set_ylabel("z from the axis (m)")
+    ax.set_title(f"Deformed lining at the governing time (ovaling from the seismic start), displacements × {k:.3g}"
+                 if k else "Deformed lining: no diameter change", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     _save(fig, out)
     plt.close(fig)

@@ -128,6 +128,20 @@ class ConditionDesign:
     envelope: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     static_forces: dict[str, np.ndarray] = field(default_factory=dict)
     demand: tuple[np.ndarray, np.ndarray] | None = None
+    # the ring's diameters: direction from the crown (deg) [D], the times [T] and each one's change
+    # relative to the seismic start [T, D] (m), for the deformed lining
+    diameter: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def governing_time(self) -> float | None:
+        """The time of the largest finite utilisation (the summary's governing check), else of the
+        largest diameter change; None with neither."""
+        finite = [e for e in self.utilisation.values() if math.isfinite(e.value)]
+        if finite:
+            return max(finite, key=lambda e: e.value).time
+        if self.diameter is not None:
+            i = int(np.unravel_index(int(np.argmax(np.abs(self.diameter[2]))), self.diameter[2].shape)[0])
+            return float(self.diameter[1][i])
+        return None
 
 
 def _pick_ring(rings, monitors: dict):
@@ -223,6 +237,8 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
                           static_forces={q: des[q][0] for q in ("N", "M", "V")})
     cand = _hull_candidates(-des["N"].ravel(), des["M"].ravel())
     out.demand = (-des["N"].ravel()[cand], des["M"].ravel()[cand])
+    if r.diameter_change.size:
+        out.diameter = (crown_angle(r.diameter_angle), r.time, r.diameter_change)
     if params is None:
         out.skipped.append(skipped)
         return out
@@ -384,6 +400,7 @@ class LiningDesign:
     jacking: dict[str, dict] = field(default_factory=dict)  # condition -> condition_jacking
     jacking_reach: float | None = None
     notes: dict[str, list[str]] = field(default_factory=dict)  # condition -> what else the designer must know
+    bars_in_analysis: bool = False  # the lining is `reinforced_concrete`: its forces come from the bars too
 
     ANGLES = ("Angles: degrees about the tunnel axis from the crown (0°) towards +x (springline +x 90°, "
               "invert 180°, springline −x −90°), for the monitors, the section forces and the checks alike.")
@@ -454,8 +471,24 @@ class LiningDesign:
                 out += [f"| {a} | {b} | {w} | {t} | {v} |" for a, b, w, t, v, _ in rows] + [""]
             out += [f"- {x}" for x in c.skipped if x and x not in said]
             out += [f"- {x}" for x in self.notes.get(c.condition, [])]
+            note = self._ultimate_beside_uncracked(c)
+            out += [f"- {note}"] if note else []
             out += [""] if out[-1] != "" else []
         return out
+
+    @staticmethod
+    def _ultimate_beside_uncracked(c: ConditionDesign) -> str:
+        """Why a failing reinforced M–N row and an 'uncracked' cracking row are no contradiction."""
+        mn = next((e for k, e in c.utilisation.items() if k.startswith("reinforced M–N")), None)
+        cr = c.utilisation.get("cracking")
+        if mn is None or cr is None or not mn.value > 1 or cr.value > 1:
+            return ""
+        return (f"The reinforced M–N check fails ({mn.value:.3g} at {mn.angle:.0f}°, t = {mn.time:.3f} s) where the "
+                f"cracking check finds the section uncracked ({cr.value:.3g}): two limit states, not a contradiction. "
+                "The M–N resistance is the ultimate one, without the concrete's tensile strength (EN 1992-1-1 "
+                "§6.1(2)) and with the bars at f_yk/γ_s; the cracking check sets the section's tension against "
+                "f_ctm. Should the lining crack (a lower tensile strength, shrinkage, a joint), the bars alone "
+                "cannot carry this demand: more reinforcement is needed.")
 
     def inputs_lines(self) -> list[str]:
         """The design inputs that shaped the answer."""
@@ -470,7 +503,11 @@ class LiningDesign:
         elif p is not None:
             out[0] += ", plain concrete"
         out[0] += ("); combination: " + self.combination.words() + ".")
-        if p is not None and p.reinforced:
+        if p is not None and p.reinforced and self.bars_in_analysis:
+            out[0] += (" The reinforcement is in the analysis too (lining model reinforced_concrete: bars smeared in "
+                       "the lining's elements, concrete cracking with tension stiffening), so N, M, V come from the "
+                       "cracked reinforced section; the crack widths from the cracked section under them.")
+        elif p is not None and p.reinforced:
             out[0] += (" The reinforcement is in the check only, not in the analysis: the forces come from a lining "
                        "without bars, and the steel strains (crack widths) from the cracked section under them.")
         return out + [""]
@@ -567,7 +604,8 @@ def lining_design(case, results) -> LiningDesign | None:
             done.append(c)
     if not done:
         return None
-    design = LiningDesign(done, params, source, missing=missing, combination=combination)
+    design = LiningDesign(done, params, source, missing=missing, combination=combination,
+                          bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
     design.jacking_reach = case.data["geometry"]["excavated_radius"]
     for res in results:
         if res.condition != "no_water" and case.data["water"]["head"] > 0:

@@ -67,6 +67,29 @@ class FaultZone:
         return math.inf if ny < 1e-12 else self.width / ny
 
 
+def slip_vector(strike: float, dip: float, magnitude: float, rake: float) -> np.ndarray:
+    """The hanging wall's displacement relative to the footwall (x, y, z; m) for a slip of
+    `magnitude` at `rake` (degrees in the fault plane from the strike direction, Aki & Richards:
+    90 reverse, the hanging wall up dip; -90 normal; 0 left-lateral; 180 right-lateral):
+    magnitude (cos(rake) s + sin(rake) u), s the unit strike vector (horizontal, azimuth `strike`)
+    and u the unit up-dip vector in the plane."""
+    sg, d, b = math.radians(strike), math.radians(dip), math.radians(strike + 90.0)
+    s = np.array([math.sin(sg), math.cos(sg), 0.0])
+    up = np.array([-math.cos(d) * math.sin(b), -math.cos(d) * math.cos(b), math.sin(d)])
+    r = math.radians(rake)
+    v = magnitude * (math.cos(r) * s + math.sin(r) * up)
+    v[np.abs(v) < 1e-15 * max(magnitude, 1e-300)] = 0.0
+    return v
+
+
+def hanging_wall_share(fault: FaultZone, x: np.ndarray) -> np.ndarray:
+    """The share of the slip each point [..., 3] takes: 1 on the hanging wall (above the band,
+    on its upward normal's side, n . (x - p) >= w/2), 0 on the footwall (n . (x - p) <= -w/2),
+    linear in n . (x - p) across the band (the band sheared uniformly)."""
+    s = fault.plane.distance(x) / fault.width + 0.5
+    return np.clip(s, 0.0, 1.0)
+
+
 @dataclass(frozen=True)
 class DippingLayer:
     material: str

@@ -33,6 +33,24 @@ Real zBottomOf(const Mesh& m) {
 
 }  // namespace
 
+PrescribedSlip::PrescribedSlip(const FaultOffsetInput& in, const NodalState& state)
+    : nodes_(in.nodes), d_(in.displacement), u0_(3 * in.nodes.size()), t0_(in.startTime), rise_(in.riseTime) {
+  for (size_t i = 0; i < nodes_.size(); ++i)
+    for (int d = 0; d < 3; ++d) u0_[3 * i + d] = state.u(nodes_[i], d);
+}
+
+Real PrescribedSlip::ramp(Real t) const {
+  if (t <= t0_) return 0;
+  if (t >= t0_ + rise_) return 1;
+  return 0.5 * (1 - std::cos(M_PI * (t - t0_) / rise_));
+}
+
+void PrescribedSlip::addForces(Real t, Real dt, NodalState& state) {
+  const Real r = ramp(t + dt);
+  for (size_t i = 0; i < nodes_.size(); ++i)
+    for (int d = 0; d < 3; ++d) state.u(nodes_[i], d) = u0_[3 * i + d] + r * d_[3 * i + d];
+}
+
 void HeldExcavationLoad::addForces(Real, Real, NodalState& state) {
   if (released_) return;
   Real* fe = state.fExtData();
@@ -71,6 +89,12 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
                        " has no /interfaces/rock_lining node pairs, which the lining "
                        "stage needs to join the lining to the rock");
   }
+  if (S.faultOffset.present)
+    for (Index n : S.faultOffset.nodes)
+      if (n < 0 || n >= mesh.numNodes())
+        throw InputError("solid input '" + in.path + "', /fault_offset: node " + std::to_string(n) +
+                         " is not a node of mesh " + mesh.source + " (" + std::to_string(mesh.numNodes()) +
+                         " nodes); rewrite the input from its mesh");
   if (S.stages.has("hydrostatic") && !mesh.faces.count(S.hydrostatic.face))
     mesh.faceNodes(S.hydrostatic.face);  // throws the missing-group message
   if (S.stages.has("seismic")) {
@@ -437,6 +461,8 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
       StageReport rep = relaxStage(name, log, progressSeconds);
       rep.note = note.note;
       reports_.push_back(rep);
+    } else if (name == "fault_offset") {
+      reports_.push_back(faultOffsetStage(log, progressSeconds));
     } else if (name == "hydrostatic") {
       const HydrostaticInput& H = S.hydrostatic;
       pressure_ = std::make_shared<ConstantNodalForces>(
@@ -452,6 +478,42 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
       reports_.push_back(rep);
     }
   }
+}
+
+StageReport StagedAnalysis::faultOffsetStage(std::ostream& log, double progressSeconds) {
+  const FaultOffsetInput& F = in_.staged.faultOffset;
+  NodalState& st = solver_.state();
+  const size_t n = F.nodes.size();
+  std::vector<Real> start(3 * n);
+  Real largest = 0;
+  for (size_t i = 0; i < n; ++i) {
+    Real d2 = 0;
+    for (int d = 0; d < 3; ++d) {
+      solver_.fix(F.nodes[i], d);
+      start[3 * i + d] = st.u(F.nodes[i], d);
+      d2 += F.displacement[3 * i + d] * F.displacement[3 * i + d];
+    }
+    largest = std::max(largest, std::sqrt(d2));
+  }
+  StageReport rep;
+  for (Index k = 1; k <= F.increments; ++k) {
+    // The nodes are fixed (a zero increment each step): the relaxation keeps them where they are put.
+    const Real share = Real(k) / Real(F.increments);
+    for (size_t i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) st.u(F.nodes[i], d) = start[3 * i + d] + share * F.displacement[3 * i + d];
+    const Index before = rep.steps;
+    const double wall = rep.wallSeconds;
+    rep = relaxStage("fault_offset", log, progressSeconds);
+    rep.steps += before;
+    rep.wallSeconds += wall;
+  }
+  std::ostringstream os;
+  os.precision(4);
+  os << n << " nodes moved (largest displacement " << largest << " m) in " << F.increments
+     << " increment(s), held in x, y, z";
+  rep.note = os.str();
+  log << "  stage fault_offset: " << rep.note << std::endl;
+  return rep;
 }
 
 void StagedAnalysis::switchToDynamics(std::ostream& log) {
@@ -496,6 +558,19 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[3 * size_t(n) + d] = 1;
     }
   }
+  // The fault offset's nodes: held by the stage, released here with their reactions held (the
+  // supports of their face groups that stay, e.g. the y-faces' rollers, stay).
+  if (S.stages.has("fault_offset"))
+    for (Index n : S.faultOffset.nodes)
+      for (int d = 0; d < 3; ++d) byReplaced[3 * size_t(n) + d] = 1;
+  // A slip during the shaking: its nodes keep (or take) a support in every direction, no reaction held.
+  const bool slipping = S.faultOffset.dynamic();
+  if (slipping)
+    for (Index n : S.faultOffset.nodes)
+      for (int d = 0; d < 3; ++d) {
+        if (!solver_.isFixed(n, d)) solver_.fix(n, d);
+        keep[3 * size_t(n) + d] = 1;
+      }
   if (mesh_.slice && !S.periodic.present)
     for (Index n = 0; n < N; ++n) keep[3 * size_t(n) + 1] = 1;  // plane strain stays
   std::vector<Real> held(3 * size_t(N), 0.0);
@@ -587,6 +662,17 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
        << drm_->numOuter() << " outer nodes (" << drm_->numDistinctCouplings()
        << " distinct element couplings), free field of " << S.drm.time.size() << " samples to " << S.drm.time.back()
        << " s";
+    log << "  " << os.str() << std::endl;
+    rep.note += "; " + os.str();
+  }
+  // The fault's slip: puts its nodes each step (they are held, so no other force moves them).
+  if (slipping) {
+    slip_ = std::make_shared<PrescribedSlip>(S.faultOffset, st);
+    solver_.addContributor(ForcePhase::Boundaries, slip_);
+    std::ostringstream os;
+    os.precision(4);
+    os << "fault slip: " << S.faultOffset.nodes.size() << " nodes held and moved over t = " << S.faultOffset.startTime
+       << " … " << S.faultOffset.startTime + S.faultOffset.riseTime << " s (cosine ramp)";
     log << "  " << os.str() << std::endl;
     rep.note += "; " + os.str();
   }

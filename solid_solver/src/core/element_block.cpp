@@ -948,6 +948,10 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
   if (full && p.beta > 0)
     throw InputError("block '" + name_ + "': full_integration does not support stiffness-proportional damping");
   const bool damp = p.beta > 0;
+  if (!full && !total_ && !history_.empty() && material_->hasBlockPass()) {
+    const Real* centre[3] = {elemCentre_[0].data(), elemCentre_[1].data(), elemCentre_[2].data()};
+    material_->blockPass(nElems_, centre, historyPtr_.data());
+  }
   const Index nSlabs = Index(slabStart_.size()) - 1;
   const std::vector<std::uint8_t>& levels = chunkLevel_;
   auto chunk = [&](Index c) {

@@ -43,13 +43,13 @@ void readStagedInput(hid_t f, SolidInput& in) {
     for (const auto& s : S.stages.sequence) {
       const auto it = std::find(kStageOrder.begin(), kStageOrder.end(), s);
       if (it == kStageOrder.end())
-        c.fail(w,
-               "unknown stage '" + s + "' (stages, in this order: in_situ, excavation, lining, hydrostatic, seismic)");
+        c.fail(w, "unknown stage '" + s +
+                      "' (stages, in this order: in_situ, excavation, lining, hydrostatic, fault_offset, seismic)");
       const size_t k = size_t(it - kStageOrder.begin());
       if (k < at)
         c.fail(w, "stage '" + s +
                       "' is out of order or repeated (the order is in_situ, excavation, "
-                      "lining, hydrostatic, seismic)");
+                      "lining, hydrostatic, fault_offset, seismic)");
       at = k + 1;
     }
     if (S.stages.sequence.empty()) c.fail(w, "sequence is empty");
@@ -99,6 +99,39 @@ void readStagedInput(hid_t f, SolidInput& in) {
   }
   if (S.stages.has("hydrostatic") && !S.hydrostatic.present)
     c.fail("/hydrostatic", "group is required by the hydrostatic stage (pressure_at_axis, unit_weight, z_axis)");
+  // /fault_offset: the prescribed displacement of the fault_offset stage
+  if (const auto g = c.group(f, "/fault_offset", "/fault_offset"); g.valid()) {
+    const std::string w = "/fault_offset";
+    FaultOffsetInput& F = S.faultOffset;
+    namespace KF = K::fault_offset;
+    for (const auto* key : {&KF::nodes, &KF::displacement})
+      if (!h5::exists(g, key->name))
+        c.fail(w, std::string("dataset '") + key->name + "' is required (docs/formats.md \"solid_input.h5\")");
+    F.present = true;
+    F.nodes = h5::readInts(g, KF::nodes.name);
+    std::vector<hsize_t> dims;
+    F.displacement = h5::readDoubles(g, KF::displacement.name, &dims);
+    if (dims.size() != 2 || dims[0] != hsize_t(F.nodes.size()) || dims[1] != 3)
+      c.fail(w, "displacement must be [N, 3] with N = " + std::to_string(F.nodes.size()) + " (the nodes' count)");
+    for (Real x : F.displacement)
+      if (!std::isfinite(x)) c.fail(w, "displacement holds a non-finite value");
+    F.increments = Index(c.number(g, w, KF::increments));
+    if (F.nodes.empty()) c.fail(w, "nodes is empty; give the nodes to move or leave /fault_offset out");
+    F.riseTime = c.number(g, w, KF::rise_time);
+    F.startTime = c.number(g, w, KF::start_time);
+    if (F.dynamic()) {
+      if (!S.stages.has("seismic"))
+        c.fail(w, "a slip with rise_time > 0 is imposed in the seismic stage, which /stages sequence does not have");
+      if (S.stages.has("fault_offset"))
+        c.fail(w,
+               "a slip with rise_time > 0 is imposed in the seismic stage, not by a fault_offset stage: remove "
+               "fault_offset from /stages sequence or set rise_time to 0");
+    } else if (!S.stages.has("fault_offset")) {
+      c.fail(w, "the offset is imposed by the fault_offset stage, which /stages sequence does not have");
+    }
+  }
+  if (S.stages.has("fault_offset") && !S.faultOffset.present)
+    c.fail("/fault_offset", "group is required by the fault_offset stage (datasets nodes, displacement)");
   // /interfaces/rock_lining
   if (const auto g = c.group(f, "/interfaces", "/interfaces"); g.valid()) {
     if (const auto gg = c.group(g, "rock_lining", "/interfaces/rock_lining"); gg.valid()) {
@@ -282,7 +315,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
   }
   if (!staged) {
     if (S.inSitu.present || S.hydrostatic.present || S.rockLining.present || S.bottom.present || S.freeField.present ||
-        S.periodic.present || S.motion.present || S.coupling.present)
+        S.periodic.present || S.motion.present || S.coupling.present || S.faultOffset.present)
       c.fail("/stages",
              "group is required with the staged groups (attribute sequence, e.g. \"in_situ,excavation,"
              "lining,hydrostatic,seismic\")");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "materials/parameter_names.hpp"
 
@@ -118,7 +119,12 @@ Real steelRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real as
 }
 
 namespace {
-Real bandWidth(const ReinforcedConcreteParams& p) { return std::min(2 * p.axisDistance, 0.5 * p.thickness); }
+// Each face's stiffening zone: h_c,ef = min(2a, h/2) in bending, widened to h/2 as the section
+// becomes a tie (share 1).
+Real bandWidth(const ReinforcedConcreteParams& p, Real share) {
+  const Real b0 = std::min(2 * p.axisDistance, 0.5 * p.thickness);
+  return b0 + std::clamp(share, Real(0), Real(1)) * (0.5 * p.thickness - b0);
+}
 // The element row's radial extent [lo, hi] from the inner face.
 void rowExtent(const ReinforcedConcreteParams& p, Real r, Real& lo, Real& hi) {
   const Real h = p.thickness / p.layers;
@@ -128,8 +134,8 @@ void rowExtent(const ReinforcedConcreteParams& p, Real r, Real& lo, Real& hi) {
 }
 }  // namespace
 
-Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter) {
-  const Real band = bandWidth(p);
+Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter, Real share) {
+  const Real band = bandWidth(p, share);
   Real lo, hi, rho = 0;
   rowExtent(p, r, lo, hi);
   if (lo < band) rho += asInner / band;
@@ -137,12 +143,18 @@ Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Re
   return rho;
 }
 
-Real bandFraction(const ReinforcedConcreteParams& p, Real r) {
-  const Real band = bandWidth(p);
+Real bandFraction(const ReinforcedConcreteParams& p, Real r, Real share) {
+  const Real band = bandWidth(p, share);
   Real lo, hi;
   rowExtent(p, r, lo, hi);
   const Real in = std::max(Real(0), std::min(hi, band) - lo) + std::max(Real(0), hi - std::max(lo, p.thickness - band));
   return std::min(Real(1), in / (hi - lo));
+}
+
+Real sectionShare(Real strainInner, Real strainOuter) {
+  const Real hi = std::max(strainInner, strainOuter), lo = std::min(strainInner, strainOuter);
+  if (!(hi > 0)) return 0;
+  return std::clamp(2 * lo / hi, Real(0), Real(1));
 }
 
 }  // namespace rc_law
@@ -196,8 +208,54 @@ std::vector<std::string> ReinforcedConcreteMaterial::historyNames() const {
           "steel_plastic_axial",
           "stiffening_rho_hoop",
           "stiffening_rho_axial",
-          "band_fraction"};
+          "band_fraction_hoop",
+          "band_fraction_axial",
+          "face_row_inner",
+          "face_row_outer",
+          "section_share_hoop",
+          "section_share_axial",
+          "damage"};
 }
+
+namespace {
+// Sets every element's face-row partners (history kFaceInner/kFaceOuter: 1 + index, -1 none): the
+// innermost and the outermost element on its ray (same angle about the ring centre and same y
+// within a quarter of a row's thickness). By the extremes, not by rows from the radius: a coarse
+// ring's element centres lie inside the arc (by r (1 − cos(Δθ/2)), half a thin row at 11°).
+void findFaceRows(const ReinforcedConcreteParams& p, Index count, const Real* const centre[3], Real* const* h) {
+  const Real rMid = p.innerRadius + 0.5 * p.thickness, tol = 0.25 * p.thickness / p.layers;
+  struct Entry {
+    Real theta, y, r;
+    Index e;
+  };
+  std::vector<Entry> all(static_cast<size_t>(count));
+  for (Index e = 0; e < count; ++e) {
+    const Real dx = centre[0][e] - p.centreX, dz = centre[2][e] - p.centreZ;
+    all[size_t(e)] = {std::atan2(dz, dx), centre[1][e], std::hypot(dx, dz), e};
+  }
+  std::vector<Entry> sorted = all;
+  std::sort(sorted.begin(), sorted.end(), [](const Entry& a, const Entry& b) { return a.theta < b.theta; });
+  const Real dTheta = tol / rMid, twoPi = 2 * std::acos(Real(-1));
+  for (const Entry& me : all) {
+    Index in = -1, out = -1;
+    Real rIn = 0, rOut = 0;
+    for (Real shift : {Real(0), twoPi, -twoPi}) {  // a ray at ±π may be stored as its twin
+      const Real t = me.theta + shift;
+      auto it = std::lower_bound(sorted.begin(), sorted.end(), t - dTheta,
+                                 [](const Entry& a, Real v) { return a.theta < v; });
+      for (; it != sorted.end() && it->theta <= t + dTheta; ++it) {
+        if (std::hypot((it->theta - t) * rMid, it->y - me.y) >= tol) continue;
+        if (in < 0 || it->r < rIn) in = it->e, rIn = it->r;
+        if (out < 0 || it->r > rOut) out = it->e, rOut = it->r;
+      }
+    }
+    // One element through the thickness has no section to read: bending's zone.
+    const bool ok = in >= 0 && out >= 0 && in != out;
+    h[rc_history::kFaceInner][me.e] = ok ? Real(in + 1) : -1;
+    h[rc_history::kFaceOuter][me.e] = ok ? Real(out + 1) : -1;
+  }
+}
+}  // namespace
 
 void ReinforcedConcreteMaterial::initHistory(Index count, const Real* const centre[3], Real* const* h) const {
   for (Index e = 0; e < count; ++e) {
@@ -210,7 +268,36 @@ void ReinforcedConcreteMaterial::initHistory(Index count, const Real* const cent
     h[rc_history::kStiffeningHoop][e] = rc_law::stiffeningRatio(params_, r, params_.asInnerHoop, params_.asOuterHoop);
     h[rc_history::kStiffeningAxial][e] =
         rc_law::stiffeningRatio(params_, r, params_.asInnerAxial, params_.asOuterAxial);
-    h[rc_history::kBandFraction][e] = rc_law::bandFraction(params_, r);
+    h[rc_history::kBandFractionHoop][e] = h[rc_history::kBandFractionAxial][e] = rc_law::bandFraction(params_, r);
+  }
+  // A single element (re-activated) leaves its face rows to blockPass, which has the whole block.
+  if (count > 1) findFaceRows(params_, count, centre, h);
+}
+
+void ReinforcedConcreteMaterial::blockPass(Index count, const Real* const centre[3], Real* const* h) const {
+  namespace H = rc_history;
+  bool search = false;
+  for (Index e = 0; e < count && !search; ++e) search = h[H::kFaceInner][e] == 0 || h[H::kFaceOuter][e] == 0;
+  if (search) findFaceRows(params_, count, centre, h);
+  auto hoop = [&](Index e) {  // the element's hoop strain, from its total strain of the last update
+    const Real cs = h[H::kCos][e], sn = h[H::kSin][e];
+    return sn * sn * h[H::kEpsXX][e] + cs * cs * h[H::kEpsZZ][e] - cs * sn * h[H::kEpsZX][e];
+  };
+  for (Index e = 0; e < count; ++e) {
+    const Index a = Index(h[H::kFaceInner][e]) - 1, b = Index(h[H::kFaceOuter][e]) - 1;
+    Real sHoop = 0, sAxial = 0;
+    if (a >= 0 && b >= 0) {
+      sHoop = rc_law::sectionShare(hoop(a), hoop(b));
+      sAxial = rc_law::sectionShare(h[H::kEpsYY][a], h[H::kEpsYY][b]);
+    }
+    if (sHoop == h[H::kSectionShareHoop][e] && sAxial == h[H::kSectionShareAxial][e]) continue;
+    h[H::kSectionShareHoop][e] = sHoop;
+    h[H::kSectionShareAxial][e] = sAxial;
+    const Real r = std::hypot(centre[0][e] - params_.centreX, centre[2][e] - params_.centreZ);
+    h[H::kStiffeningHoop][e] = rc_law::stiffeningRatio(params_, r, params_.asInnerHoop, params_.asOuterHoop, sHoop);
+    h[H::kStiffeningAxial][e] = rc_law::stiffeningRatio(params_, r, params_.asInnerAxial, params_.asOuterAxial, sAxial);
+    h[H::kBandFractionHoop][e] = rc_law::bandFraction(params_, r, sHoop);
+    h[H::kBandFractionAxial][e] = rc_law::bandFraction(params_, r, sAxial);
   }
 }
 
@@ -235,7 +322,7 @@ void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) co
     const Real epsA = eps[YY];
     const Real sigT = ttXX * s[XX] + ttZZ * s[ZZ] + 2 * ttZX * s[ZX];
     const Real sigA = s[YY];
-    auto direction = [&](Real sigElastic, Real epsTotal, int kTen, int kCom, int kPl, int kRho, int kTs) {
+    auto direction = [&](Real sigElastic, Real epsTotal, int kTen, int kCom, int kPl, int kRho, int kTs, int kBf) {
       const Real eq = sigElastic / E;  // equivalent uniaxial strain
       Real& eMax = h[kTen][e];
       Real& eMin = h[kCom][e];
@@ -249,16 +336,18 @@ void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) co
         Real tie = rc_law::concrete(params_, eq, eMax, eMin, rhoEff);
         if (tie > 0)  // the bars at a crack carry the stiffening stress too: σ_s,crack ≤ f_y
           tie = std::min(tie, std::max(Real(0), rhoEff * (params_.fy - params_.Es * epsTotal)));
-        const Real f = h[H::kBandFraction][e];
+        const Real f = h[kBf][e];
         sig = f * tie + (1 - f) * plain;
       }
+      if (eq > 0 && eMax > params_.fct / E)  // cracked and open: the secant's loss (history-monotone)
+        h[H::kDamage][e] = std::max(h[H::kDamage][e], std::clamp(1 - sig / (E * eq), Real(0), Real(1)));
       if (rho > 0) sig += rho * rc_law::steel(params_, epsTotal, h[kPl][e]);
       return sig - sigElastic;  // the correction to the elastic stress in this direction
     };
-    const Real dT =
-        direction(sigT, epsT, H::kTensionHoop, H::kCompressionHoop, H::kPlasticHoop, H::kRhoHoop, H::kStiffeningHoop);
+    const Real dT = direction(sigT, epsT, H::kTensionHoop, H::kCompressionHoop, H::kPlasticHoop, H::kRhoHoop,
+                              H::kStiffeningHoop, H::kBandFractionHoop);
     const Real dA = direction(sigA, epsA, H::kTensionAxial, H::kCompressionAxial, H::kPlasticAxial, H::kRhoAxial,
-                              H::kStiffeningAxial);
+                              H::kStiffeningAxial, H::kBandFractionAxial);
     c.stress[XX][e] = s[XX] + dT * ttXX;
     c.stress[ZZ][e] = s[ZZ] + dT * ttZZ;
     c.stress[ZX][e] = s[ZX] + dT * ttZX;

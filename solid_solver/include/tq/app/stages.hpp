@@ -20,6 +20,7 @@
 namespace tq {
 
 class HeldExcavationLoad;
+class PrescribedSlip;
 
 /// What one stage did.
 struct StageReport {
@@ -67,6 +68,9 @@ class StagedAnalysis {
   /// largest nodal value is, and whether the ratio was still falling (`history`: steps, ratio).
   std::string notInEquilibrium(const std::string& name, const RelaxResult& r,
                                const std::vector<std::pair<Index, Real>>& history);
+  /// The fault_offset stage: the /fault_offset nodes fixed and moved, in its increments, each
+  /// relaxed (the report sums their steps and times).
+  StageReport faultOffsetStage(std::ostream& log, double progressSeconds);
   void activateLining(std::ostream& log, StageReport& rep);
   void installInterface(std::ostream& log, StageReport& rep);
   void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
@@ -81,6 +85,7 @@ class StagedAnalysis {
   std::shared_ptr<SeismicBoundaries> seismic_;
   std::shared_ptr<DomainReduction> drm_;  // /drm: built (and checked) with the stages, added at the switch
   std::shared_ptr<HeldExcavationLoad> unreleased_;
+  std::shared_ptr<PrescribedSlip> slip_;  // /fault_offset with rise_time > 0, from the switch on
   Real correctionRatio_ = 0;
 };
 
@@ -99,6 +104,26 @@ class HeldExcavationLoad final : public NodalForceContributor {
  private:
   std::vector<Real> f_;  // [3N]
   bool released_ = false;
+};
+
+/// A fault's slip during the seismic stage (/fault_offset with rise_time > 0): each node, held in
+/// x, y, z by the solver, is put at u0 + d ramp(t) before each step's update, u0 its displacement at
+/// the switch, d its displacement, ramp(t) = ½(1 − cos(π (t − t0)/T)) on [t0, t0 + T] (0 before, 1
+/// after), so the next step's element forces see the slip at its end. The held nodes' velocity
+/// stays 0 in the state (a stiffness-proportional damping does not see the slip's rate).
+class PrescribedSlip final : public NodalForceContributor {
+ public:
+  PrescribedSlip(const FaultOffsetInput& in, const NodalState& state);
+  std::string name() const override { return "prescribed fault slip"; }
+  void addForces(Real t, Real dt, NodalState& state) override;
+  void checkpoint(StateArchive& a) override { a.io(u0_); }
+  /// The ramp at time t (0 … 1).
+  Real ramp(Real t) const;
+
+ private:
+  std::vector<Index> nodes_;
+  std::vector<Real> d_, u0_;  // [3N]
+  Real t0_, rise_;
 };
 
 /// λ_min/8 check (Kuhlemeyer & Lysmer 1973): elements whose longest edge exceeds c_s/(8 f) for

@@ -15,7 +15,8 @@
 namespace tq {
 
 /// The stage names in their only allowed order (paper §3.2; ARCHITECTURE.md §2).
-inline const std::vector<std::string> kStageOrder = {"in_situ", "excavation", "lining", "hydrostatic", "seismic"};
+inline const std::vector<std::string> kStageOrder = {"in_situ",     "excavation",   "lining",
+                                                     "hydrostatic", "fault_offset", "seismic"};
 
 /// /stages: which stages run and how static equilibrium is reached.
 struct StagesInput {
@@ -56,6 +57,23 @@ struct HydrostaticInput {
   Real pressureAtAxis = 0;  ///< p_axis = ρw g H (Pa)
   Real unitWeight = 0;      ///< γw = ρw g (N/m³)
   Real zAxis = 0;           ///< elevation of the tunnel axis (m)
+};
+
+/// /fault_offset: a prescribed displacement of given nodes (a fault's slip at the block's
+/// boundaries, docs/solid_solver.md "Fault offset"). Static (rise_time 0): imposed by the
+/// fault_offset stage on top of the state before it, in `increments` equal steps, each relaxed to
+/// equilibrium; the nodes are held there (all three directions) until the seismic stage, which
+/// holds their reactions. Dynamic (rise_time > 0): from the seismic stage's switch the nodes are
+/// held in x, y, z and moved by the displacement times the ramp ½(1 − cos(π (t − t0)/T)) over
+/// [t0, t0 + T], t0 = start_time, T = rise_time (PrescribedSlip).
+struct FaultOffsetInput {
+  bool present = false;
+  std::vector<Index> nodes;        ///< [N] mesh node indices
+  std::vector<Real> displacement;  ///< [3N] the displacement each node is given (m)
+  Index increments = 1;
+  Real riseTime = 0;   ///< T (s); 0: the static offset of the fault_offset stage
+  Real startTime = 0;  ///< t0 (s) from the seismic stage's start
+  bool dynamic() const { return present && riseTime > 0; }
 };
 
 /// /interfaces/rock_lining: the rock-lining node pairs of mesh.h5 and how they interact.
@@ -171,6 +189,7 @@ struct StagedInput {
   StagesInput stages;
   InSituInput inSitu;
   HydrostaticInput hydrostatic;
+  FaultOffsetInput faultOffset;
   InterfaceInput rockLining;
   BottomBoundaryInput bottom;
   FreeFieldInput freeField;

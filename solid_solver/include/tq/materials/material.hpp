@@ -90,6 +90,16 @@ class Material {
   virtual void initHistory(Index count, const Real* const centre[3], Real* const* history) const {
     (void)count, (void)centre, (void)history;
   }
+  /// True when the material needs blockPass before each update of the block's stresses.
+  virtual bool hasBlockPass() const { return false; }
+  /// A serial pass over the whole block before the chunks' stress updates of one force
+  /// evaluation: a material whose element law reads other elements' state (the reinforced
+  /// lining's section: the strains of its face rows) derives it here from their history, i.e. from
+  /// the last update, so the chunks' updates stay independent of their order and thread count.
+  /// centre: the element centres (x, y, z arrays of `count`). Default: nothing.
+  virtual void blockPass(Index count, const Real* const centre[3], Real* const* history) const {
+    (void)count, (void)centre, (void)history;
+  }
   /// Update the stresses of a chunk of elements from their strain increments.
   virtual void updateStressForElems(const MaterialChunk& chunk) const = 0;
 };

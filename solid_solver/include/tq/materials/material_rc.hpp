@@ -3,8 +3,9 @@
 ///        (docs/solid_solver.md "Reinforced concrete lining"). Concrete and steel act in the
 ///        hoop (θ) and axial (y) directions of a ring about the tunnel axis (y, centre (x_c, z_c)
 ///        in the x–z plane): concrete by an equivalent-uniaxial total-strain law (parabola–rectangle
-///        in compression, cracking at f_ct, tension stiffening of EN 1992-1-1 §7.4.3 in the
-///        elements that hold bars, linear softening in the others), steel elastic–perfectly
+///        in compression, cracking at f_ct, tension stiffening of EN 1992-1-1 §7.4.3 in a zone
+///        about each bar layer that widens to the whole section as the section becomes a tie
+///        (blockPass), linear softening in the rest), steel elastic–perfectly
 ///        plastic bars smeared over the elements whose radial extent holds the bar layer. The
 ///        element's stress is the composite one (concrete + ρ σ_s), so the ring forces integrated
 ///        from the element stresses include the bars.
@@ -48,15 +49,22 @@ enum : int {
   kEpsXY,
   kEpsYZ,
   kEpsZX,
-  kTensionHoop,       ///< largest equivalent uniaxial tensile strain reached, hoop (-)
-  kTensionAxial,      ///< axial
-  kCompressionHoop,   ///< largest equivalent uniaxial compressive strain reached (> 0), hoop
-  kCompressionAxial,  ///< axial
-  kPlasticHoop,       ///< steel plastic strain, hoop
-  kPlasticAxial,      ///< axial
-  kStiffeningHoop,    ///< ρ_eff of the tension-stiffening tie (0: plain softening), hoop
-  kStiffeningAxial,   ///< axial
-  kBandFraction,      ///< the part of the element's radial extent inside the stiffening band
+  kTensionHoop,        ///< largest equivalent uniaxial tensile strain reached, hoop (-)
+  kTensionAxial,       ///< axial
+  kCompressionHoop,    ///< largest equivalent uniaxial compressive strain reached (> 0), hoop
+  kCompressionAxial,   ///< axial
+  kPlasticHoop,        ///< steel plastic strain, hoop
+  kPlasticAxial,       ///< axial
+  kStiffeningHoop,     ///< ρ_eff of the tension-stiffening tie (0: plain softening), hoop
+  kStiffeningAxial,    ///< axial
+  kBandFractionHoop,   ///< the part of the element's radial extent inside the stiffening zone, hoop
+  kBandFractionAxial,  ///< axial
+  kFaceInner,  ///< 1 + the block index of the inner face row's element of this section (-1: none, 0: not searched)
+  kFaceOuter,  ///< the outer face row's
+  kSectionShareHoop,   ///< s (0–1): how far the section is a tie, from its face rows' hoop strains (blockPass)
+  kSectionShareAxial,  ///< axial
+  kDamage,  ///< "damage": the concrete's largest loss of secant stiffness in tension, 1 − σ_c/(E e) (0 uncracked; the
+            ///< crack pattern)
   kCount
 };
 }  // namespace rc_history
@@ -70,11 +78,18 @@ Real concrete(const ReinforcedConcreteParams& p, Real e, Real eMax, Real eMinAbs
 /// The tension-stiffening tie's ratio ρ_eff = A_s / h_c,ef of an element whose centre lies at
 /// radius r within h_c,ef = min(2a, h/2) of a face (a the axis distance: the concrete symmetric
 /// about the bar, the bar at its centroid as in the tie of EN 1992-1-1 Fig. 7.1), 0 elsewhere:
-/// the band's concrete stiffens, the rest softens as plain concrete (docs/solid_solver.md).
-Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter);
-/// The part (0–1) of the radial extent of the element centred at r that lies in a stiffening band:
-/// the band's tie law acts on it, plain softening on the rest (a coarse mesh keeps the band's force).
-Real bandFraction(const ReinforcedConcreteParams& p, Real r);
+/// the band's concrete stiffens, the rest softens as plain concrete (docs/solid_solver.md). The
+/// section share s (0–1, sectionShare) widens each face's zone from h_c,ef to h/2: at s = 1 (a section
+/// wholly in tension) the whole section is the tie of its bars, as EN 1992-1-1 §7.4.3's N_cr/N takes it.
+Real stiffeningRatio(const ReinforcedConcreteParams& p, Real r, Real asInner, Real asOuter, Real share = 0);
+/// The part (0–1) of the radial extent of the element centred at r that lies in a stiffening zone:
+/// the zone's tie law acts on it, plain softening on the rest (a coarse mesh keeps the zone's force).
+Real bandFraction(const ReinforcedConcreteParams& p, Real r, Real share = 0);
+/// How far a section is a tie (0 bending, 1 tension) from the strains of its two face rows (the
+/// element rows at the inner and outer face, one direction): with ψ = min/max of the two (the
+/// larger > 0), s = clamp(2ψ, 0, 1): one face compressed (ψ ≤ 0) 0, both faces stretched with
+/// the smaller at least half the larger 1, linear between.
+Real sectionShare(Real strainInner, Real strainOuter);
 /// Steel's uniaxial stress (Pa) at strain eps, plastic strain updated in place (elastic–perfectly plastic).
 Real steel(const ReinforcedConcreteParams& p, Real eps, Real& epsPlastic);
 /// The hoop or axial steel ratio of an element whose centre lies at radius r from the ring centre:
@@ -96,6 +111,14 @@ class ReinforcedConcreteMaterial final : public Material {
   ElasticModuli elasticModuli() const override { return moduli_; }
   std::vector<std::string> historyNames() const override;
   void initHistory(Index count, const Real* const centre[3], Real* const* history) const override;
+  bool hasBlockPass() const override { return true; }
+  /// Each element's section share s (hoop, axial) from its section's face rows (their strains of
+  /// the last update), and from it the element's stiffening ratio and zone fraction. The face rows
+  /// are found once (and after an element is re-activated) among the block's elements: the
+  /// element of the first and of the last row whose centre lies on this element's ray (same
+  /// angle about the ring centre and same y within a quarter of a row's thickness). Where none is
+  /// found (an unstructured lining, or a face row on another MPI rank), s = 0: bending's zone.
+  void blockPass(Index count, const Real* const centre[3], Real* const* history) const override;
   void updateStressForElems(const MaterialChunk& chunk) const override;
   const ReinforcedConcreteParams& params() const { return params_; }
 
