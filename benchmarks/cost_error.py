@@ -242,10 +242,11 @@ def analyse(runs: list[dict]) -> dict:
         for r in rs:
             if r.get("completed") and "peaks" in r:
                 r["errors"] = errors(r, ref)
-        cand = [r for r in rs if "errors" in r and r is not ref and r.get("cpu_s")]
+        # where no point is marked default, the reference is the default (single-rate stepping)
+        default = next((r for r in rs if r["role"] == "default"), ref)
+        cand = [r for r in rs if "errors" in r and (r is not ref or r is default) and r.get("cpu_s")]
         pts = [(r["cpu_s"], r["errors"]["worst"]) for r in cand]
         front = [cand[i]["name"] for i in pareto_front(pts)]
-        default = next((r for r in rs if r["role"] == "default"), None)
         cheaper_ok = [r["name"] for r in cand if default is not None and default.get("cpu_s")
                       and r["cpu_s"] < default["cpu_s"] and r["errors"]["worst"] <= TARGET and r is not default]
         out[cond] = {"reference": ref["name"], "front": front,
@@ -300,6 +301,10 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
                    color="C3" if d else ("C0" if r["name"] in a["front"] else "0.45"), zorder=3)
         ax.annotate(_short(r["name"]) + (" (default)" if d else "") + f" [{r['errors']['worst_of']}]",
                     (r["cpu_s"], e), fontsize=7, xytext=(5, -10 if i % 2 else 4), textcoords="offset points")
+    if ref_default:  # the default is the reference: drawn at difference 0
+        ax.scatter(ref["cpu_s"], 0.0, marker="*", s=220, color="C3", zorder=3, clip_on=False)
+        ax.annotate(_short(ref["name"]) + " (default = reference)", (ref["cpu_s"], 0.0), fontsize=7,
+                    xytext=(-40, 6), textcoords="offset points")
     fr = sorted((r["cpu_s"], 100 * r["errors"]["worst"]) for r in rs if r["name"] in a["front"])
     if fr:
         ax.step([x for x, _ in fr], [y for _, y in fr], where="post", color="C0", lw=1, label="Pareto front")
