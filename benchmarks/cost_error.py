@@ -24,7 +24,8 @@ start, meshing, statics and the shaking). Each point is run once, at most --jobs
 (default 2), under `nice`.
 
 Writes FOLDER/cost_error.json (every point) and FOLDER/cost_error_<condition>.png (error against
-CPU, the default marked, the Pareto front drawn); --docs copies the figures to docs/bench/.
+CPU, the default marked, the Pareto front drawn); --docs copies the figures and the JSON to
+docs/bench/.
 --tabulate-only re-reads the JSON and redraws without running. Prints the table.
 """
 from __future__ import annotations
@@ -336,6 +337,8 @@ def render(data: dict, folder: Path, docs: bool) -> str:
         plot(cond, runs, an[cond], png, data["end"])
         if docs and png.is_file():
             shutil.copy(png, ROOT / "docs" / "bench" / png.name)
+    if docs:  # the measured points beside the figures, for a redraw without rerunning (--tabulate-only)
+        shutil.copy(folder / "cost_error.json", ROOT / "docs" / "bench" / "cost_error.json")
     text = (f"{data['machine']}; first {data['end']:g} s of the record\n" + table(runs, an) + "\n\n"
             + json.dumps(an, indent=1))
     (folder / "cost_error.md").write_text(text)
