@@ -294,7 +294,7 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
         return
     ref = next(r for r in runs if r["condition"] == cond and r["role"] == "reference")
     ref_default = not any(r["role"] == "default" for r in runs if r["condition"] == cond)
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    fig, ax = plt.subplots(figsize=(7.5, 5.2))
     for i, r in enumerate(sorted(rs, key=lambda r: r["cpu_s"])):
         e = 100 * r["errors"]["worst"]
         d = r["role"] == "default"
@@ -305,8 +305,9 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
     if ref_default:  # the default is the reference: drawn at difference 0
         ax.scatter(ref["cpu_s"], 0.0, marker="*", s=220, color="C3", zorder=3, clip_on=False)
         ax.annotate(_short(ref["name"]) + " (default = reference)", (ref["cpu_s"], 0.0), fontsize=7,
-                    xytext=(-40, 6), textcoords="offset points")
-    fr = sorted((r["cpu_s"], 100 * r["errors"]["worst"]) for r in rs if r["name"] in a["front"])
+                    xytext=(-150, 8), textcoords="offset points")
+    fr = sorted((r["cpu_s"], 100 * r["errors"]["worst"]) for r in rs + ([ref] if ref_default else [])
+                if r["name"] in a["front"])
     if fr:
         ax.step([x for x, _ in fr], [y for _, y in fr], where="post", color="C0", lw=1, label="Pareto front")
     if max(100 * r["errors"]["worst"] for r in rs) < 5 * 100 * TARGET:
@@ -315,14 +316,13 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
     notes = [f"reference: {_short(ref['name'])}, {ref['cpu_s']:.0f} CPU s" + (" (the default)" if ref_default else "")]
     notes += [f"{_short(r['name'])}: stopped at t = {r.get('t_end', math.nan):.2f} s (energy guard)"
               for r in runs if r["condition"] == cond and not r.get("completed")]
-    ax.text(0.98, 0.02, "\n".join(notes), transform=ax.transAxes, ha="right", va="bottom", fontsize=7,
-            bbox={"fc": "white", "ec": "0.7"})
+    fig.text(0.01, 0.01, "; ".join(notes), ha="left", va="bottom", fontsize=6.5, wrap=True)
     ax.set_xlabel("CPU s (tq-solid + water for the coupled runs; whole run solid-only)")
     ax.set_ylabel("worst monitored-peak difference from the reference, %")
     ax.set_title(f"{cond}, first {end:g} s: cost against error, one point per setting", fontsize=9)
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, alpha=0.3)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
