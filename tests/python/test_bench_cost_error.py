@@ -1,0 +1,35 @@
+"""benchmarks.cost_error's analysis on hand-made runs: the worst relative peak difference against the
+reference, the Pareto front of (CPU, error), and the cheaper points within 0.1 % (hand-computed)."""
+import math
+
+from benchmarks.cost_error import analyse, errors
+
+
+def _run(name, cpu, s3, p, n, role="", cond="dynamic_water"):
+    return {"name": name, "condition": cond, "role": role, "completed": True, "cpu_s": cpu, "wall_s": cpu,
+            "peaks": {"a": {"max_tension": s3, "min_sigma1": -2.0e6, "hydrodynamic_pressure_peak": p,
+                            "max_ux": 0.01, "max_uz": 0.02, "max_damage": 0.0},
+                      "b": {"max_tension": 1.0e6, "min_sigma1": -1.0e6, "max_ux": 0.01, "max_uz": 0.02}},
+            "rings": {"N": n, "M": 1.0e5}}
+
+
+def test_worst_difference_names_the_quantity():
+    ref = _run("ref", 100.0, 1.0e6, 2.0e5, 2.0e6, "reference")
+    r = _run("x", 10.0, 1.002e6, 2.01e5, 2.0e6)  # sigma3 +0.2 %, pressure +0.5 %
+    e = errors(r, ref)
+    assert math.isclose(e["each"]["sigma3"], 0.002, rel_tol=1e-9)
+    assert math.isclose(e["each"]["pressure"], 0.005, rel_tol=1e-9)
+    assert e["worst_of"] == "pressure" and math.isclose(e["worst"], 0.005, rel_tol=1e-9)
+    assert e["each"]["ring N"] == 0.0 and e["damage"] == 0.0  # equal peaks: no difference
+
+
+def test_front_and_cheaper_points_within_target():
+    runs = [_run("ref", 100.0, 1.0e6, 2.0e5, 2.0e6, "reference"),
+            _run("default", 20.0, 1.0e6, 2.004e5, 2.0e6, "default"),  # 0.2 %
+            _run("cheap_ok", 15.0, 1.0005e6, 2.0e5, 2.0e6),  # 0.05 %: cheaper and within 0.1 %
+            _run("cheap_bad", 10.0, 1.0e6, 2.1e5, 2.0e6),  # 5 %: cheapest, on the front
+            _run("dear_bad", 30.0, 1.0e6, 2.1e5, 2.0e6)]  # dominated by every other
+    a = analyse(runs)["dynamic_water"]
+    assert a["front"] == ["cheap_bad", "cheap_ok"]
+    assert a["default_on_front"] is False
+    assert a["cheaper_within_target"] == ["cheap_ok"]
