@@ -27,6 +27,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from case_edits import check_edited
 from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
@@ -115,16 +116,7 @@ def load_case_from_text(text: str, tmp: Path | None = None) -> dict:
 # 2. input errors
 # ------------------------------------------------------------------------------------------------
 def _check(tmp_path, capsys, *edits):
-    text = CASE
-    for old, new in zip(edits[::2], edits[1::2], strict=True):
-        assert old in text, old
-        text = text.replace(old, new, 1)
-    p = tmp_path / "case.yaml"
-    p.write_text(text)
-    rc = main(["check", str(p)])
-    out = capsys.readouterr()
-    assert "Traceback" not in out.out + out.err
-    return rc, out.out, out.err
+    return check_edited(tmp_path, capsys, CASE, *edits)
 
 
 def test_the_case_passes_check_and_says_the_offset(tmp_path, capsys):

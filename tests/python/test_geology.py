@@ -26,6 +26,7 @@ import subprocess
 import h5py
 import numpy as np
 import pytest
+from case_edits import check_edited
 from test_solid_input import _solid_with_stages
 
 from tunnelquake import meshing
@@ -157,16 +158,7 @@ time: {end_time: 0.01}
 
 
 def _check(tmp_path, capsys, *edits):
-    text = CASE
-    for old, new in zip(edits[::2], edits[1::2], strict=True):
-        assert old in text, old
-        text = text.replace(old, new, 1)
-    p = tmp_path / "case.yaml"
-    p.write_text(text)
-    rc = main(["check", str(p)])
-    out = capsys.readouterr()
-    assert "Traceback" not in out.out + out.err
-    return rc, out.out, out.err
+    return check_edited(tmp_path, capsys, CASE, *edits)
 
 
 def test_the_case_passes_check_with_the_refined_counts(tmp_path, capsys):
