@@ -161,14 +161,17 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
     for (const auto& [q, blk] : rows[r]) {
       std::array<std::uint64_t, 9> bits;
       std::memcpy(bits.data(), blk.data(), sizeof bits);
-      auto [it, added] = blockIds.emplace(bits, Index(blocks_.size() / 9));
-      if (added) blocks_.insert(blocks_.end(), blk.begin(), blk.end());
+      auto [it, added] = blockIds.emplace(bits, Index(blocks_.size() / 12));
+      if (added)  // column by column, each column padded to four: one vector a column
+        for (int d = 0; d < 3; ++d)
+          for (int i = 0; i < 4; ++i) blocks_.push_back(i < 3 ? blk[size_t(3 * i + d)] : 0.0);
       rowCols_.push_back(q);
       rowBlock_.push_back(it->second);
     }
     rowStart_[r + 1] = Index(rowCols_.size());
   }
   w_.assign(3 * N, 0.0);
+  avx2_ = ElementBlock::defaultUseAvx2();
 }
 
 void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const {
@@ -200,6 +203,41 @@ void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v)
   }
 }
 
+namespace {
+
+/// The rows [r0, r1) of the layer's product, each row's entries in order (tq/boundaries/drm.hpp).
+struct RowProduct {
+  const Index *start, *cols, *blk, *nodes;
+  const Real *blocks, *w;
+  Real* fe;
+};
+
+typedef Real V4 __attribute__((vector_size(32)));
+
+inline __attribute__((always_inline)) void rowsBody(const RowProduct& q, size_t r0, size_t r1) {
+  for (size_t r = r0; r < r1; ++r) {
+    V4 acc = {0, 0, 0, 0};
+    for (Index p = q.start[r]; p < q.start[r + 1]; ++p) {
+      const Real* b = q.blocks + 12 * size_t(q.blk[p]);
+      const Real* x = q.w + 3 * size_t(q.cols[p]);
+      V4 c0, c1, c2;
+      std::memcpy(&c0, b, sizeof c0);
+      std::memcpy(&c1, b + 4, sizeof c1);
+      std::memcpy(&c2, b + 8, sizeof c2);
+      acc += c0 * x[0] + c1 * x[1] + c2 * x[2];
+    }
+    Real* f = q.fe + 3 * size_t(q.nodes[r]);
+    f[0] += acc[0];
+    f[1] += acc[1];
+    f[2] += acc[2];
+  }
+}
+
+__attribute__((target("avx2,fma"))) void rowsAvx2(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
+void rowsGeneric(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
+
+}  // namespace
+
 void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
   // w = u0 + β u̇0 at t, linear between the samples k and k + 1 (held outside them).
   const size_t M = w_.size(), T = field_.time.size(), N = M / 3;
@@ -215,13 +253,11 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
   const Real* __restrict v0 = &field_.v[k * M];
   const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
   Real* __restrict w = w_.data();
-  Real* __restrict fe = state.fExtData();
-  const Index* __restrict start = rowStart_.data();
-  const Index* __restrict cols = rowCols_.data();
-  const Index* __restrict blk = rowBlock_.data();
-  const Real* __restrict B = blocks_.data();
-  const Index* __restrict nodes = field_.nodes.data();
-  const bool damped = beta_ != 0;
+  const RowProduct q{rowStart_.data(), rowCols_.data(), rowBlock_.data(), field_.nodes.data(), blocks_.data(), w,
+                     state.fExtData()};
+  const bool damped = beta_ != 0, avx2 = avx2_;
+  constexpr size_t kRows = 64;  // rows a work item
+  const size_t nItems = (N + kRows - 1) / kRows;
   // One parallel region: w everywhere, then each row's three forces from its own entries in order.
 #pragma omp parallel if (N >= 512)
   {
@@ -233,19 +269,12 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
       for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i];
     }
 #pragma omp for schedule(static)
-    for (size_t r = 0; r < N; ++r) {
-      Real f0 = 0, f1 = 0, f2 = 0;
-      for (Index p = start[r]; p < start[r + 1]; ++p) {
-        const Real* b = B + 9 * size_t(blk[p]);
-        const Real* x = w + 3 * size_t(cols[p]);
-        f0 += b[0] * x[0] + b[1] * x[1] + b[2] * x[2];
-        f1 += b[3] * x[0] + b[4] * x[1] + b[5] * x[2];
-        f2 += b[6] * x[0] + b[7] * x[1] + b[8] * x[2];
-      }
-      Real* f = fe + 3 * size_t(nodes[r]);
-      f[0] += f0;
-      f[1] += f1;
-      f[2] += f2;
+    for (size_t it = 0; it < nItems; ++it) {
+      const size_t r0 = it * kRows, r1 = std::min(N, r0 + kRows);
+      if (avx2)
+        rowsAvx2(q, r0, r1);
+      else
+        rowsGeneric(q, r0, r1);
     }
   }
 }

@@ -39,7 +39,7 @@ class DomainReduction final : public NodalForceContributor {
   /// Distinct element couplings found in the layer (a regular layer needs a handful).
   Index numDistinctCouplings() const { return nCouplings_; }
   /// Distinct 3 × 3 node-to-node blocks of the assembled coupling.
-  Index numDistinctBlocks() const { return Index(blocks_.size() / 9); }
+  Index numDistinctBlocks() const { return Index(blocks_.size() / 12); }
   const DrmFreeField& field() const { return field_; }
   /// The free field's displacement and velocity at time t, node slot i (the field's order).
   void sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const;
@@ -54,8 +54,9 @@ class DomainReduction final : public NodalForceContributor {
   /// the forces do not depend on the thread count.
   std::vector<Index> rowStart_;  ///< [N + 1]
   std::vector<Index> rowCols_;   ///< column slot of each entry
-  std::vector<Index> rowBlock_;  ///< index of each entry's block in blocks_ (units of 9)
-  std::vector<Real> blocks_;     ///< the distinct blocks, 9 a block, row by row
+  std::vector<Index> rowBlock_;  ///< index of each entry's block in blocks_ (units of 12)
+  std::vector<Real> blocks_;     ///< the distinct blocks, column by column, each column padded to 4
+  bool avx2_ = false;            ///< the product's AVX2/FMA path (ElementBlock::defaultUseAvx2)
   std::vector<Real> w_;          ///< [3N] scratch: u0 + β u̇0 at the step
 };
 
