@@ -165,10 +165,10 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
       if (added)  // column by column, each column padded to four: one vector a column
         for (int d = 0; d < 3; ++d)
           for (int i = 0; i < 4; ++i) blocks_.push_back(i < 3 ? blk[size_t(3 * i + d)] : 0.0);
-      rowCols_.push_back(q);
-      rowBlock_.push_back(it->second);
+      rowEntries_.push_back(3 * q);
+      rowEntries_.push_back(12 * it->second);
     }
-    rowStart_[r + 1] = Index(rowCols_.size());
+    rowStart_[r + 1] = Index(rowEntries_.size() / 2);
   }
   w_.assign(3 * N, 0.0);
   avx2_ = ElementBlock::defaultUseAvx2();
@@ -207,7 +207,7 @@ namespace {
 
 /// The rows [r0, r1) of the layer's product, each row's entries in order (tq/boundaries/drm.hpp).
 struct RowProduct {
-  const Index *start, *cols, *blk, *nodes;
+  const Index *start, *entries, *nodes;  // entries: [3 column slot, 12 block] each
   const Real *blocks, *w;
   Real* fe;
 };
@@ -221,8 +221,8 @@ inline __attribute__((always_inline)) void rowsBody(const RowProduct& q, size_t 
     const Index pEnd = q.start[r + 1];
     Index p = q.start[r];
     auto term = [&](Index e) {
-      const Real* b = q.blocks + 12 * size_t(q.blk[e]);
-      const Real* x = q.w + 3 * size_t(q.cols[e]);
+      const Real* x = q.w + q.entries[2 * e];
+      const Real* b = q.blocks + q.entries[2 * e + 1];
       V4 c0, c1, c2;
       std::memcpy(&c0, b, sizeof c0);
       std::memcpy(&c1, b + 4, sizeof c1);
@@ -262,8 +262,7 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
   const Real* __restrict v0 = &field_.v[k * M];
   const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
   Real* __restrict w = w_.data();
-  const RowProduct q{rowStart_.data(), rowCols_.data(), rowBlock_.data(), field_.nodes.data(), blocks_.data(), w,
-                     state.fExtData()};
+  const RowProduct q{rowStart_.data(), rowEntries_.data(), field_.nodes.data(), blocks_.data(), w, state.fExtData()};
   const bool damped = beta_ != 0, avx2 = avx2_;
   constexpr size_t kRows = 64;  // rows a work item
   const size_t nItems = (N + kRows - 1) / kRows;

@@ -49,15 +49,14 @@ class DomainReduction final : public NodalForceContributor {
   Real beta_ = 0;
   Index nInner_ = 0, nOuter_ = 0, nCouplings_ = 0, nLayerElems_ = 0;
   /// The layer elements' b–e couplings assembled node by node: row r (a layer node, the field's
-  /// slot) holds the 3 × 3 blocks −K_be (r inner) or +K_eb (r outer) against the slots rowCols_
+  /// slot) holds the 3 × 3 blocks −K_be (r inner) or +K_eb (r outer) against the slots in rowEntries_
   /// [rowStart_[r], rowStart_[r + 1]); each row is summed by one thread alone, in a fixed order, so
   /// the forces do not depend on the thread count.
-  std::vector<Index> rowStart_;  ///< [N + 1]
-  std::vector<Index> rowCols_;   ///< column slot of each entry
-  std::vector<Index> rowBlock_;  ///< index of each entry's block in blocks_ (units of 12)
-  std::vector<Real> blocks_;     ///< the distinct blocks, column by column, each column padded to 4
-  bool avx2_ = false;            ///< the product's AVX2/FMA path (ElementBlock::defaultUseAvx2)
-  std::vector<Real> w_;          ///< [3N] scratch: u0 + β u̇0 at the step
+  std::vector<Index> rowStart_;    ///< [N + 1]
+  std::vector<Index> rowEntries_;  ///< each entry's offsets: 3 × its column slot (into w_), its block's into blocks_
+  std::vector<Real> blocks_;       ///< the distinct blocks, column by column, each column padded to 4
+  bool avx2_ = false;              ///< the product's AVX2/FMA path (ElementBlock::defaultUseAvx2)
+  std::vector<Real> w_;            ///< [3N] scratch: u0 + β u̇0 at the step
 };
 
 }  // namespace tq
