@@ -3,7 +3,10 @@
 #include "tq/boundaries/drm.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <map>
 #include <sstream>
 
@@ -57,6 +60,16 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
   std::vector<Real> uProbe(3 * size_t(mesh.numNodes()), 0.0);
   Real f0[24], f1[24];
   std::map<std::vector<long long>, Index> distinct;
+  // One element's b–e coupling: its inner and outer corners (local numbers) and the blocks K_be
+  // (3 nb × 3 ne) and K_eb (3 ne × 3 nb), each stored column by column.
+  struct Coupling {
+    int nb = 0, ne = 0;
+    int b[8] = {}, e[8] = {};
+    std::vector<Real> kbe, keb;
+  };
+  std::vector<Coupling> couplings;
+  std::vector<Index> elemNodes;     // [8 L] slots of each layer element's corners
+  std::vector<Index> elemCoupling;  // [L] index into couplings
   for (const auto& b : blocks)
     for (Index e = 0; e < b->numElems(); ++e) {
       Index s[8];
@@ -93,8 +106,6 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
         else
           c.e[c.ne++] = k;
       }
-      // Stored column by column (K_be's column ie is contiguous over ib, K_eb's column ib over ie), so
-      // the products below run along contiguous rows without a reduction: they vectorise.
       for (int ie = 0; ie < 3 * c.ne; ++ie)
         for (int ib = 0; ib < 3 * c.nb; ++ib) {
           const int rb = 3 * c.b[ib / 3] + ib % 3, re = 3 * c.e[ie / 3] + ie % 3;
@@ -114,16 +125,53 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
       for (int k = 0; k < c.nb; ++k) key.push_back(c.b[k]);
       for (Real x : c.kbe) key.push_back(std::llround(x / q));
       for (Real x : c.keb) key.push_back(std::llround(x / q));
-      auto [it, added] = distinct.emplace(std::move(key), Index(couplings_.size()));
-      if (added) couplings_.push_back(std::move(c));
-      elemCoupling_.push_back(it->second);
-      for (int k = 0; k < 8; ++k) elemNodes_.push_back(s[k]);
+      auto [it, added] = distinct.emplace(std::move(key), Index(couplings.size()));
+      if (added) couplings.push_back(std::move(c));
+      elemCoupling.push_back(it->second);
+      for (int k = 0; k < 8; ++k) elemNodes.push_back(s[k]);
     }
-  if (elemNodes_.empty())
+  if (elemNodes.empty())
     throw InputError("/drm: no element has all eight nodes among the " + std::to_string(N) +
                      " DRM nodes with both inner and outer ones; the nodes must be the two boundaries of a "
                      "one-element layer");
+  nCouplings_ = Index(couplings.size());
+  nLayerElems_ = Index(elemCoupling.size());
+  // Assembly node by node, the elements in their order: row slot r, column slot q, the block
+  // −K_be (r inner, q outer) or +K_eb (r outer, q inner), row-major 3 × 3.
+  std::vector<std::map<Index, std::array<Real, 9>>> rows(N);
+  for (size_t l = 0; l < size_t(nLayerElems_); ++l) {
+    const Coupling& c = couplings[size_t(elemCoupling[l])];
+    const Index* sl = &elemNodes[8 * l];
+    const int mb = 3 * c.nb, me = 3 * c.ne;
+    for (int kb = 0; kb < c.nb; ++kb)
+      for (int ke = 0; ke < c.ne; ++ke) {
+        auto& toE = rows[size_t(sl[c.b[kb]])][sl[c.e[ke]]];  // row b, column e: −K_be
+        auto& toB = rows[size_t(sl[c.e[ke]])][sl[c.b[kb]]];  // row e, column b: +K_eb
+        for (int i = 0; i < 3; ++i)
+          for (int d = 0; d < 3; ++d) {
+            toE[size_t(3 * i + d)] -= c.kbe[size_t((3 * ke + d) * mb + 3 * kb + i)];
+            toB[size_t(3 * i + d)] += c.keb[size_t((3 * kb + d) * me + 3 * ke + i)];
+          }
+      }
+  }
+  // Equal blocks (bit for bit) are stored once.
+  std::map<std::array<std::uint64_t, 9>, Index> blockIds;
+  rowStart_.assign(N + 1, 0);
+  for (size_t r = 0; r < N; ++r) {
+    for (const auto& [q, blk] : rows[r]) {
+      std::array<std::uint64_t, 9> bits;
+      std::memcpy(bits.data(), blk.data(), sizeof bits);
+      auto [it, added] = blockIds.emplace(bits, Index(blocks_.size() / 12));
+      if (added)  // column by column, each column padded to four: one vector a column
+        for (int d = 0; d < 3; ++d)
+          for (int i = 0; i < 4; ++i) blocks_.push_back(i < 3 ? blk[size_t(3 * i + d)] : 0.0);
+      rowEntries_.push_back(3 * q);
+      rowEntries_.push_back(12 * it->second);
+    }
+    rowStart_[r + 1] = Index(rowEntries_.size() / 2);
+  }
   w_.assign(3 * N, 0.0);
+  avx2_ = ElementBlock::defaultUseAvx2();
 }
 
 void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const {
@@ -155,9 +203,53 @@ void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v)
   }
 }
 
+namespace {
+
+/// The rows [r0, r1) of the layer's product, each row's entries in order (tq/boundaries/drm.hpp).
+struct RowProduct {
+  const Index *start, *entries, *nodes;  // entries: [3 column slot, 12 block] each
+  const Real *blocks, *w;
+  Real* fe;
+};
+
+typedef Real V4 __attribute__((vector_size(32)));
+
+inline __attribute__((always_inline)) void rowsBody(const RowProduct& q, size_t r0, size_t r1) {
+  for (size_t r = r0; r < r1; ++r) {
+    // Two partial sums (even and odd entries) shorten the chain of additions; the order is fixed.
+    V4 acc0 = {0, 0, 0, 0}, acc1 = {0, 0, 0, 0};
+    const Index pEnd = q.start[r + 1];
+    Index p = q.start[r];
+    auto term = [&](Index e) {
+      const Real* x = q.w + q.entries[2 * e];
+      const Real* b = q.blocks + q.entries[2 * e + 1];
+      V4 c0, c1, c2;
+      std::memcpy(&c0, b, sizeof c0);
+      std::memcpy(&c1, b + 4, sizeof c1);
+      std::memcpy(&c2, b + 8, sizeof c2);
+      return c0 * x[0] + c1 * x[1] + c2 * x[2];
+    };
+    for (; p + 1 < pEnd; p += 2) {
+      acc0 += term(p);
+      acc1 += term(p + 1);
+    }
+    if (p < pEnd) acc0 += term(p);
+    const V4 acc = acc0 + acc1;
+    Real* f = q.fe + 3 * size_t(q.nodes[r]);
+    f[0] += acc[0];
+    f[1] += acc[1];
+    f[2] += acc[2];
+  }
+}
+
+__attribute__((target("avx2,fma"))) void rowsAvx2(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
+void rowsGeneric(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
+
+}  // namespace
+
 void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
   // w = u0 + β u̇0 at t, linear between the samples k and k + 1 (held outside them).
-  const size_t M = w_.size(), T = field_.time.size();
+  const size_t M = w_.size(), T = field_.time.size(), N = M / 3;
   size_t k = 0;
   Real a = 0;
   if (t >= field_.time.back()) {
@@ -166,69 +258,32 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
     k = size_t(std::upper_bound(field_.time.begin(), field_.time.end(), t) - field_.time.begin()) - 1;
     a = (t - field_.time[k]) / (field_.time[k + 1] - field_.time[k]);
   }
-  const Real* u0 = &field_.u[k * M];
-  const Real* v0 = &field_.v[k * M];
+  const Real* __restrict u0 = &field_.u[k * M];
+  const Real* __restrict v0 = &field_.v[k * M];
   const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
-  if (beta_ == 0)
-    for (size_t i = 0; i < M; ++i) w_[i] = c0 * u0[i] + a * u0[M + i];
-  else
-    for (size_t i = 0; i < M; ++i) w_[i] = c0 * u0[i] + a * u0[M + i] + b0 * v0[i] + b1 * v0[M + i];
-  Real* fe = state.fExtData();
-  const size_t L = elemNodes_.size() / 8;
-  for (size_t l = 0; l < L; ++l) {
-    const Coupling& c = couplings_[size_t(elemCoupling_[l])];
-    const Index* s = &elemNodes_[8 * l];
-    switch (c.nb) {  // every corner is b or e: ne = 8 − nb, fixed sizes for the compiler
-      case 1:
-        coupleElement<1>(c, s, fe);
-        break;
-      case 2:
-        coupleElement<2>(c, s, fe);
-        break;
-      case 3:
-        coupleElement<3>(c, s, fe);
-        break;
-      case 4:
-        coupleElement<4>(c, s, fe);
-        break;
-      case 5:
-        coupleElement<5>(c, s, fe);
-        break;
-      case 6:
-        coupleElement<6>(c, s, fe);
-        break;
-      default:
-        coupleElement<7>(c, s, fe);
-        break;
+  Real* __restrict w = w_.data();
+  const RowProduct q{rowStart_.data(), rowEntries_.data(), field_.nodes.data(), blocks_.data(), w, state.fExtData()};
+  const bool damped = beta_ != 0, avx2 = avx2_;
+  constexpr size_t kRows = 64;  // rows a work item
+  const size_t nItems = (N + kRows - 1) / kRows;
+  // One parallel region: w everywhere, then each row's three forces from its own entries in order.
+#pragma omp parallel if (N >= 512)
+  {
+    if (damped) {
+#pragma omp for schedule(static)
+      for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i] + b0 * v0[i] + b1 * v0[M + i];
+    } else {
+#pragma omp for schedule(static)
+      for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i];
     }
-  }
-}
-
-template <int NB>
-void DomainReduction::coupleElement(const Coupling& c, const Index* s, Real* fe) const {
-  constexpr int mb = 3 * NB, me = 3 * (8 - NB);
-  Real wb[mb], we[me], pb[mb], pe[me];
-  for (int k = 0; k < NB; ++k)
-    for (int i = 0; i < 3; ++i) wb[3 * k + i] = w_[3 * size_t(s[c.b[k]]) + size_t(i)];
-  for (int k = 0; k < 8 - NB; ++k)
-    for (int i = 0; i < 3; ++i) we[3 * k + i] = w_[3 * size_t(s[c.e[k]]) + size_t(i)];
-  // P_b = −K_be w_e on the inner corners, P_e = +K_eb w_b on the outer ones.
-  const Real* kbe = c.kbe.data();  // [me][mb]: column j of K_be
-  for (int r = 0; r < mb; ++r) pb[r] = 0;
-  for (int j = 0; j < me; ++j)
-    for (int r = 0; r < mb; ++r) pb[r] += kbe[j * mb + r] * we[j];
-  const Real* keb = c.keb.data();  // [mb][me]: column j of K_eb
-  for (int r = 0; r < me; ++r) pe[r] = 0;
-  for (int j = 0; j < mb; ++j)
-    for (int r = 0; r < me; ++r) pe[r] += keb[j * me + r] * wb[j];
-  const Index* nodes = field_.nodes.data();
-  for (int k = 0; k < NB; ++k) {
-    Real* f = fe + 3 * size_t(nodes[s[c.b[k]]]);
-    for (int i = 0; i < 3; ++i) f[i] -= pb[3 * k + i];
-  }
-  for (int k = 0; k < 8 - NB; ++k) {
-    Real* f = fe + 3 * size_t(nodes[s[c.e[k]]]);
-    for (int i = 0; i < 3; ++i) f[i] += pe[3 * k + i];
+#pragma omp for schedule(static)
+    for (size_t it = 0; it < nItems; ++it) {
+      const size_t r0 = it * kRows, r1 = std::min(N, r0 + kRows);
+      if (avx2)
+        rowsAvx2(q, r0, r1);
+      else
+        rowsGeneric(q, r0, r1);
+    }
   }
 }
 

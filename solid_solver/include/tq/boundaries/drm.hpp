@@ -22,8 +22,9 @@ namespace tq {
 /// the free field linear in time between its samples (held outside them). The layer: every element
 /// whose eight nodes are all DRM nodes with at least one b and one e node; its block must be linear
 /// elastic with a one-point element (InputError otherwise, naming the block). K is each layer
-/// element's own stiffness, formed once from ElementBlock::elementForces; only its b–e blocks are kept, one copy per
-/// distinct block (equal to 2⁻³⁰ of the largest entry), so a regular layer costs little memory.
+/// element's own stiffness, formed once from ElementBlock::elementForces; its b–e blocks (one copy per
+/// distinct element, equal to 2⁻³⁰ of the largest entry) are assembled once into node-to-node 3 × 3
+/// blocks, so a step is a sparse product over the layer's nodes, threaded by rows.
 class DomainReduction final : public NodalForceContributor {
  public:
   /// @param beta the stiffness-proportional Rayleigh coefficient acting in the layer (s)
@@ -32,11 +33,13 @@ class DomainReduction final : public NodalForceContributor {
   std::string name() const override { return "domain reduction"; }
   void addForces(Real t, Real dt, NodalState& state) override;
 
-  Index numLayerElements() const { return Index(elemNodes_.size() / 8); }
+  Index numLayerElements() const { return nLayerElems_; }
   Index numInner() const { return nInner_; }
   Index numOuter() const { return nOuter_; }
-  /// Distinct element couplings stored (a regular layer needs a handful).
-  Index numDistinctCouplings() const { return Index(couplings_.size()); }
+  /// Distinct element couplings found in the layer (a regular layer needs a handful).
+  Index numDistinctCouplings() const { return nCouplings_; }
+  /// Distinct 3 × 3 node-to-node blocks of the assembled coupling.
+  Index numDistinctBlocks() const { return Index(blocks_.size() / 12); }
   const DrmFreeField& field() const { return field_; }
   /// The free field's displacement and velocity at time t, node slot i (the field's order).
   void sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const;
@@ -44,21 +47,16 @@ class DomainReduction final : public NodalForceContributor {
  private:
   DrmFreeField field_;
   Real beta_ = 0;
-  Index nInner_ = 0, nOuter_ = 0;
-  /// One element's b–e coupling: its inner and outer corners (local numbers) and the blocks
-  /// K_be (3 nb × 3 ne) and K_eb (3 ne × 3 nb), each stored column by column. Elements of the same shape, material and
-  /// split share one.
-  struct Coupling {
-    int nb = 0, ne = 0;
-    int b[8] = {}, e[8] = {};
-    std::vector<Real> kbe, keb;
-  };
-  template <int NB>
-  void coupleElement(const Coupling& c, const Index* slots, Real* fExt) const;
-  std::vector<Coupling> couplings_;  ///< the distinct couplings
-  std::vector<Index> elemNodes_;     ///< [8 L] slots into field_.nodes of each layer element's corners
-  std::vector<Index> elemCoupling_;  ///< [L] index into couplings_
-  std::vector<Real> w_;              ///< [3N] scratch: u0 + β u̇0 at the step
+  Index nInner_ = 0, nOuter_ = 0, nCouplings_ = 0, nLayerElems_ = 0;
+  /// The layer elements' b–e couplings assembled node by node: row r (a layer node, the field's
+  /// slot) holds the 3 × 3 blocks −K_be (r inner) or +K_eb (r outer) against the slots in rowEntries_
+  /// [rowStart_[r], rowStart_[r + 1]); each row is summed by one thread alone, in a fixed order, so
+  /// the forces do not depend on the thread count.
+  std::vector<Index> rowStart_;    ///< [N + 1]
+  std::vector<Index> rowEntries_;  ///< each entry's offsets: 3 × its column slot (into w_), its block's into blocks_
+  std::vector<Real> blocks_;       ///< the distinct blocks, column by column, each column padded to 4
+  bool avx2_ = false;              ///< the product's AVX2/FMA path (ElementBlock::defaultUseAvx2)
+  std::vector<Real> w_;            ///< [3N] scratch: u0 + β u̇0 at the step
 };
 
 }  // namespace tq
