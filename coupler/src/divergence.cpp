@@ -19,7 +19,7 @@ std::string fixText(SchemeKind scheme) {
   if (scheme != SchemeKind::Implicit)
     s += "coupling.scheme: implicit (acceleration iqn-ils)";
   else
-    s += "lower coupling.initial_relaxation or raise coupling.max_iterations";
+    s += "coupling.tolerance ten times lower, or coupling.window_force_weight: 1 with windows of several steps";
   s += ", or water.model: compressible with a shorter window (docs/coupler.md \"Divergence detection\").";
   return s;
 }
