@@ -209,6 +209,42 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
     assert _differences(ref / "results" / "results_no_water.h5", dst / "results" / "results_no_water.h5") == []
 
 
+def test_a_checkpoint_of_another_state_layout_is_refused_by_name(solid_runs, tmp_path):
+    """A checkpoint whose state another tq-solid wrote (the layout digit after TQRSTAT differs), with
+    checksums that match: tq-solid refuses it naming both layouts and the fix, before it writes
+    anything, instead of reading the other layout's items into this build's parts."""
+    import re
+    import zlib
+
+    from tunnelquake import paths
+
+    _, stopped = solid_runs
+    dst = tmp_path / "case"
+    shutil.copytree(stopped.parent, dst)
+    folder = dst / "results" / "no_water" / "checkpoint"
+    state = bytearray((folder / "solid-000002.bin").read_bytes())
+    assert bytes(state[:7]) == b"TQRSTAT"
+    this_layout = chr(state[7])
+    other = "1" if this_layout != "1" else "9"
+    state[7] = ord(other)
+    (folder / "solid-000002.bin").write_bytes(bytes(state))
+    manifest = folder / "checkpoint-000002.json"
+    text = re.sub(r'"solid_crc32": "[0-9a-f]{8}"', f'"solid_crc32": "{zlib.crc32(bytes(state)):08x}"',
+                  manifest.read_text())
+    body = text[:text.index('"manifest_crc32"')]
+    text = re.sub(r'"manifest_crc32": "[0-9a-f]{8}"', f'"manifest_crc32": "{zlib.crc32(body.encode()):08x}"', text)
+    manifest.write_text(text)
+    res = dst / "results" / "results_no_water.h5"
+    before = res.read_bytes()
+    got = subprocess.run([str(paths.solid_executable()), str(dst / "results" / "no_water" / "solid_input.h5"),
+                          "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "2"],
+                         capture_output=True, text=True, timeout=120)
+    assert got.returncode == 2, got.stderr[-2000:]
+    assert (f"was written by another version of tq-solid (state layout {other}, this build reads {this_layout}); "
+            "run without --resume to start again") in got.stderr, got.stderr[-2000:]
+    assert res.read_bytes() == before
+
+
 def test_truncated_manifests_alone_are_damage_not_no_checkpoint(solid_runs, tmp_path, capsys):
     """Every manifest cut short: `--resume` says which are damaged and why (not 'no condition has a
     restart checkpoint'), and runs the condition from the start, ending equal to the reference."""

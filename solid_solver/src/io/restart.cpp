@@ -28,6 +28,20 @@ namespace {
 const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '2'};
 const char* const kManifest = "checkpoint.json";
 
+/// "" when the state file `path` begins with this build's magic; else why it cannot be read: another
+/// layout (named, with the fix) or not a state at all.
+std::string layoutProblem(const std::string& path) {
+  std::ifstream is(path, std::ios::binary);
+  char magic[sizeof kMagic];
+  if (!is.read(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof kMagic - 1) != 0)
+    return path + " is not a tq-solid checkpoint state (or it is damaged)";
+  const char got = magic[sizeof kMagic - 1], want = kMagic[sizeof kMagic - 1];
+  if (got != want)
+    return path + " was written by another version of tq-solid (state layout " + std::string(1, got) +
+           ", this build reads " + std::string(1, want) + "); run without --resume to start again";
+  return "";
+}
+
 std::string sysError(const std::string& what, const std::string& path) {
   return "cannot " + what + " " + path + ": " + std::strerror(errno);
 }
@@ -281,7 +295,8 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
       return false;
     }
   }
-  return true;
+  why = layoutProblem(file(m.solid));  // before anything is written: the state's layout is this build's
+  return why.empty();
 }
 
 void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, const std::string& results) const {
@@ -333,15 +348,10 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
 }
 
 void RestartCheckpoints::read(const CheckpointManifest& m, StateArchive& a) const {
+  if (const std::string why = layoutProblem(file(m.solid)); !why.empty()) throw InputError(why);
   std::ifstream is(file(m.solid), std::ios::binary);
   char magic[sizeof kMagic];
-  const bool read = bool(is.read(magic, sizeof magic));
-  if (read && std::memcmp(magic, kMagic, sizeof kMagic - 1) == 0 &&
-      magic[sizeof kMagic - 1] != kMagic[sizeof kMagic - 1])
-    throw InputError(file(m.solid) + " was written by another version of tq-solid (state layout " +
-                     std::string(1, magic[sizeof kMagic - 1]) + ", this build reads " +
-                     std::string(1, kMagic[sizeof kMagic - 1]) + "); run without --resume to start again");
-  if (!read || std::memcmp(magic, kMagic, sizeof kMagic) != 0 || !a.read(is))
+  if (!is.read(magic, sizeof magic) || !a.read(is))
     throw InputError(file(m.solid) + " is not a tq-solid checkpoint state (or it is damaged)");
 }
 
