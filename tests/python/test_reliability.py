@@ -57,7 +57,9 @@ def test_race_coupled_setup_beside_a_starting_solid_never_forks_with_an_hdf5_fil
 
     p = _copy(prepared, tmp_path)
     fake = tmp_path / "fake-tq-solid"
-    fake.write_text('#!/bin/sh\necho "dt = 1e-05 s"\n')
+    # tq-solid --check --json FILE writes its step to FILE; any other call only has to succeed
+    fake.write_text('#!/bin/sh\nwhile [ $# -gt 0 ]; do\n  if [ "$1" = --json ]; then echo \'{"dt": 1e-05}\' > "$2"; fi\n'
+                    '  shift\ndone\n')
     fake.chmod(0o755)
     monkeypatch.setattr(paths, "solid_executable", lambda: fake)
 
