@@ -292,6 +292,21 @@ DrmRun runBox(DrmBox& box, const HalfSpaceField& ff, Real tEnd, bool timeWithout
 
 class DrmPlaneWave : public ::testing::TestWithParam<DrmCase> {};
 
+/// The free field `D` written as the /drm group of the solver input `path` (the layout
+/// drm_input.write_drm_group writes from Python).
+void writeDrmGroup(const std::string& path, const DrmFreeField& D) {
+  auto f = h5::openFile(path, true);
+  auto g = h5::ensureGroup(f, "/drm");
+  h5::writeInts(g, K::drm::nodes.name, D.nodes.data(), {D.nodes.size()});
+  const std::vector<Index> flags(D.internal.begin(), D.internal.end());
+  h5::writeInts(g, K::drm::internal.name, flags.data(), {flags.size()});
+  h5::writeDoubles(g, K::drm::time.name, D.time.data(), {D.time.size()});
+  const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
+  h5::writeDoubles(g, K::drm::u.name, D.u.data(), dims);
+  h5::writeDoubles(g, K::drm::v.name, D.v.data(), dims);
+  h5::writeDoubles(g, K::drm::a.name, D.a.data(), dims);
+}
+
 }  // namespace
 
 // Inside the layer the motion is the free field within 1 % (L2 over the record, worst node);
@@ -494,19 +509,7 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
   in.staged.freeField.present = true;
   in.staged.freeField.faces = {"xmin", "xmax", "ymin", "ymax"};
   test::writeInputFile(in, (dir / "solid_input.h5").string(), "mesh.h5");
-  {
-    auto f = h5::openFile((dir / "solid_input.h5").string(), true);
-    auto g = h5::ensureGroup(f, "/drm");
-    const DrmFreeField& D = box.field;
-    h5::writeInts(g, K::drm::nodes.name, D.nodes.data(), {D.nodes.size()});
-    const std::vector<Index> flags(D.internal.begin(), D.internal.end());
-    h5::writeInts(g, K::drm::internal.name, flags.data(), {flags.size()});
-    h5::writeDoubles(g, K::drm::time.name, D.time.data(), {D.time.size()});
-    const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
-    h5::writeDoubles(g, K::drm::u.name, D.u.data(), dims);
-    h5::writeDoubles(g, K::drm::v.name, D.v.data(), dims);
-    h5::writeDoubles(g, K::drm::a.name, D.a.data(), dims);
-  }
+  writeDrmGroup((dir / "solid_input.h5").string(), box.field);
   std::ostringstream out, err;
   const int rc =
       runSolid({(dir / "solid_input.h5").string(), "-o", (dir / "results.h5").string(), "--threads", "1"}, out, err);
@@ -550,19 +553,7 @@ TEST(DrmLayer, TqSolidReadsTheFreeFieldFromSolidInput) {
   mc.tensileStrength = 1e6;
   in.materials = {{"rock", mohrCoulombDamageValues(mc)}};
   test::writeInputFile(in, (dir / "nonlinear.h5").string(), "mesh.h5");
-  {
-    auto f = h5::openFile((dir / "nonlinear.h5").string(), true);
-    auto g = h5::ensureGroup(f, "/drm");
-    const DrmFreeField& D = box.field;
-    h5::writeInts(g, K::drm::nodes.name, D.nodes.data(), {D.nodes.size()});
-    const std::vector<Index> flags(D.internal.begin(), D.internal.end());
-    h5::writeInts(g, K::drm::internal.name, flags.data(), {flags.size()});
-    h5::writeDoubles(g, K::drm::time.name, D.time.data(), {D.time.size()});
-    const std::vector<hsize_t> dims = {D.time.size(), D.nodes.size(), 3};
-    h5::writeDoubles(g, K::drm::u.name, D.u.data(), dims);
-    h5::writeDoubles(g, K::drm::v.name, D.v.data(), dims);
-    h5::writeDoubles(g, K::drm::a.name, D.a.data(), dims);
-  }
+  writeDrmGroup((dir / "nonlinear.h5").string(), box.field);
   std::ostringstream out2, err2;
   EXPECT_EQ(runSolid({(dir / "nonlinear.h5").string(), "--check"}, out2, err2), 2);
   EXPECT_NE(err2.str().find("must be linear elastic"), std::string::npos) << err2.str();
