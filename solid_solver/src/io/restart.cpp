@@ -28,10 +28,9 @@ namespace {
 const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '2'};
 const char* const kManifest = "checkpoint.json";
 
-/// "" when the state file `path` begins with this build's magic; else why it cannot be read: another
-/// layout (named, with the fix) or not a state at all.
-std::string layoutProblem(const std::string& path) {
-  std::ifstream is(path, std::ios::binary);
+/// "" when the state file `path`, open as `is`, begins with this build's magic (`is` is left after it);
+/// else why it cannot be read: another layout (named, with the fix) or not a state at all.
+std::string layoutProblem(std::istream& is, const std::string& path) {
   char magic[sizeof kMagic];
   if (!is.read(magic, sizeof magic) || std::memcmp(magic, kMagic, sizeof kMagic - 1) != 0)
     return path + " is not a tq-solid checkpoint state (or it is damaged)";
@@ -295,7 +294,8 @@ bool RestartCheckpoints::last(CheckpointManifest& m, std::string& why, long long
       return false;
     }
   }
-  why = layoutProblem(file(m.solid));  // before anything is written: the state's layout is this build's
+  std::ifstream state(file(m.solid), std::ios::binary);
+  why = layoutProblem(state, file(m.solid));  // before anything is written: the state's layout is this build's
   return why.empty();
 }
 
@@ -348,11 +348,9 @@ void RestartCheckpoints::write(CheckpointManifest m, const StateArchive& a, cons
 }
 
 void RestartCheckpoints::read(const CheckpointManifest& m, StateArchive& a) const {
-  if (const std::string why = layoutProblem(file(m.solid)); !why.empty()) throw InputError(why);
   std::ifstream is(file(m.solid), std::ios::binary);
-  char magic[sizeof kMagic];
-  if (!is.read(magic, sizeof magic) || !a.read(is))
-    throw InputError(file(m.solid) + " is not a tq-solid checkpoint state (or it is damaged)");
+  if (const std::string why = layoutProblem(is, file(m.solid)); !why.empty()) throw InputError(why);
+  if (!a.read(is)) throw InputError(file(m.solid) + " is not a tq-solid checkpoint state (or it is damaged)");
 }
 
 }  // namespace tq
