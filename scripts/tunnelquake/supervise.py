@@ -5,6 +5,7 @@ The conditions' runners (launch.py) record here what they started and how far it
 from __future__ import annotations
 
 import re
+import threading
 import time
 
 from . import children
@@ -71,6 +72,26 @@ class Signalled(BaseException):
 #: the phase the job is in, for the line printed when a signal stops it
 PHASE = ["starting"]
 
+#: set when a signal stopped the run and the job's thread had not ended within JOB_WIND_DOWN_S
+LEFT_RUNNING = threading.Event()
+
+
+def exit_now_if_left_running(rc: int) -> None:
+    """End the process at once (stdout and stderr flushed, the interpreter not finalized) when a
+    stopped run's job thread is still running. Finalizing beside it can hang for good: a thread
+    left inside h5py holds h5py's global lock, and the interpreter's teardown frees h5py objects,
+    which takes that lock (a daemon thread holding it at exit: the process never ended)."""
+    import os
+    import sys
+
+    if LEFT_RUNNING.is_set():
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(rc)
+
 
 def supervised(case, job) -> int:
     """Run `job` (no argument, returns the exit code; children.Interrupted when stopped between
@@ -79,11 +100,15 @@ def supervised(case, job) -> int:
     running as interrupted in its results file, print one line, return 128 + the signal number."""
     import signal
     import sys
-    import threading
 
     if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
         return job()
     box: dict = {}
+
+    # the job's end is told by an Event of its own, never by Thread.is_alive or join: a signal
+    # raised while join waits makes Python 3.11 take the thread for ended (join releases the
+    # thread's own lock when interrupted) while it still runs
+    done = threading.Event()
 
     def body() -> None:
         try:
@@ -92,6 +117,8 @@ def supervised(case, job) -> int:
             box["rc"] = None
         except BaseException as e:  # noqa: BLE001 - handed to the main thread, raised there
             box["exc"] = e
+        finally:
+            done.set()
 
     def on_signal(signum, frame):
         for sig in SIGNAL_NAMES:  # a second signal while stopping changes nothing
@@ -101,6 +128,7 @@ def supervised(case, job) -> int:
     t0 = time.monotonic()
     before = {sig: signal.getsignal(sig) for sig in SIGNAL_NAMES}
     children.stopping.clear()
+    LEFT_RUNNING.clear()
     QUIET.clear()
     STARTED.clear()
     PHASE[0] = "starting"
@@ -109,12 +137,13 @@ def supervised(case, job) -> int:
         for sig in SIGNAL_NAMES:
             signal.signal(sig, on_signal)
         worker.start()
-        while worker.is_alive():
-            worker.join(0.2)
+        while not done.wait(0.2):
+            pass
     except Signalled as e:
         QUIET.set()
         stopped = children.stop_all()
-        worker.join(JOB_WIND_DOWN_S)
+        if not done.wait(JOB_WIND_DOWN_S):
+            LEFT_RUNNING.set()
         name = SIGNAL_NAMES[e.signum]
         print(_interrupted_line(name, PHASE[0], _mark_interrupted(name), stopped, time.monotonic() - t0, case),
               file=sys.stderr, flush=True)

@@ -345,6 +345,54 @@ def test_second_run_of_the_same_case_folder_refuses_naming_the_first(prepared, t
     assert first.returncode == 143
 
 
+def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(prepared, tmp_path):
+    """A signal reaches `tunnelquake run` while its job's thread is inside h5py (h5py's global lock
+    held: writing a condition's input beside a running solver). The thread does not end within
+    supervise.JOB_WIND_DOWN_S; the interpreter's teardown frees h5py objects, which takes that lock,
+    so a normal exit never ends. The command must still exit 128 + 15 within the stated bound,
+    with its one line, and release the folder. The job is replaced by one that holds the lock."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+
+    from tunnelquake import runlock, supervise
+
+    p = _copy(prepared, tmp_path)
+    script = tmp_path / "held.py"
+    script.write_text(textwrap.dedent(f"""
+        import sys, time
+        import h5py
+        from tunnelquake import launch
+        from tunnelquake.cli import main
+        kept = h5py.File({str(tmp_path / "open.h5")!r}, "w").create_group("g")  # freed at teardown
+        def job(case, resume, post):
+            print("job: holding h5py's lock", flush=True)
+            with h5py._objects.phil:
+                time.sleep(120)
+        launch.run_case = job
+        sys.argv = ["tunnelquake", "run", {str(p)!r}, "--no-post"]
+        sys.exit(main())
+    """))
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, start_new_session=True)
+    try:
+        _read_until(proc, "job: holding h5py's lock")
+        t_sig = time.monotonic()
+        os.kill(proc.pid, signal.SIGTERM)
+        rest, _ = proc.communicate(timeout=30)
+        took = time.monotonic() - t_sig
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 143, rest
+    assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
+    assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
+    assert runlock.holder(p.parent / "results") is None
+
+
 def test_stale_lock_of_a_dead_run_is_taken_over_saying_so(prepared, tmp_path, capsys):
     """The lock file still names a run that died (SIGKILL leaves its record): the next run takes
     the folder over, says so naming the dead PID, runs, and clears the record at its end."""

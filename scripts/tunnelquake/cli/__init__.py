@@ -17,7 +17,16 @@ COMMANDS = ("check", "mesh", "motion", "run", "post", "compare", "bench")
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    """The `tunnelquake` command; `argv` None reads the process's arguments (a program, not a call)."""
+    code = _command(list(sys.argv[1:] if argv is None else argv))
+    if argv is None:
+        from ..supervise import exit_now_if_left_running
+
+        exit_now_if_left_running(code)
+    return code
+
+
+def _command(argv: list[str]) -> int:
     if not argv or argv[0] in ("-h", "--help"):
         print(__doc__.strip())
         return 0 if argv else 2
