@@ -77,7 +77,8 @@ def test_the_summary_table_names_the_governing_check(ran):
 
 def test_the_design_figures_are_drawn_and_shown(ran):
     report = (ran / "report.md").read_text()
-    for name in ("design_envelopes.png", "design_mn.png", "design_deformed.png", "fig09_damage_section.png"):
+    for name in ("design_envelopes.png", "design_mn.png", "design_deformed.png", "design_cracks.png",
+                 "fig09_damage_section.png"):
         assert (ran / "figures" / name).stat().st_size > 10_000, name
         assert f"(figures/{name})" in report, name
 
