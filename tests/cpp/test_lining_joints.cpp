@@ -56,7 +56,8 @@ struct TwoRings {
     for (size_t f = 0; f < q.size() / 4; ++f) {
       Real s[3];
       quadAreaVector(a, &q[4 * f], s);
-      for (int k = 0; k < 4; ++k) trib[size_t(q[4 * f + k])] += 0.25 * std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+      for (int k = 0; k < 4; ++k)
+        trib[size_t(q[4 * f + k])] += 0.25 * std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
     }
     const auto bStart = b.faceNodes("ymin");
     for (Index n : a.faceNodes("ymax")) {
@@ -88,9 +89,9 @@ struct TwoRings {
 
 JointParams gasket() {
   JointParams jp;
-  jp.normalStiffness = 2e9;   // Pa/m
-  jp.shearStiffness = 1e9;    // Pa/m
-  jp.tensileStrength = 1e9;   // Pa: never reached by the static loads here
+  jp.normalStiffness = 2e9;  // Pa/m
+  jp.shearStiffness = 1e9;   // Pa/m
+  jp.tensileStrength = 1e9;  // Pa: never reached by the static loads here
   return jp;
 }
 
@@ -113,10 +114,11 @@ TEST(LiningJoints, StaticPullOpensTheJointByForceOverStiffness) {
     }
     const JointSummary s = m.joints->summaries(m.solver->state())[0];
     const Real expected = F / (jp.normalStiffness * m.area);
-    std::printf("%s %.3g N: opening %.9e m, F/(k_n A) %.9e m (%.2e relative; A %.6f m2), axial force %.9e N, "
-                "opening across the joint %.3e to %.3e m, %ld steps\n",
-                F > 0 ? "pull" : "push", F, s.opening, expected, s.opening / expected - 1, m.area, s.axialForce,
-                s.openingMin, s.openingMax, long(steps));
+    std::printf(
+        "%s %.3g N: opening %.9e m, F/(k_n A) %.9e m (%.2e relative; A %.6f m2), axial force %.9e N, "
+        "opening across the joint %.3e to %.3e m, %ld steps\n",
+        F > 0 ? "pull" : "push", F, s.opening, expected, s.opening / expected - 1, m.area, s.axialForce, s.openingMin,
+        s.openingMax, long(steps));
     EXPECT_NEAR(s.opening / expected, 1.0, 1e-6);
     EXPECT_NEAR(s.axialForce / F, 1.0, 1e-6);
     for (Index p = 0; p < m.joints->numPairs(); ++p) EXPECT_EQ(int(m.joints->state(p)), int(JointState::Closed));

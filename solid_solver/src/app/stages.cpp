@@ -340,8 +340,8 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
   if (in_.staged.liningJoints.present) {
     // The lining's joints first: their forces are among the lining's when the rock-lining
     // interface (contact or tie, same phase) predicts or shares its pairs' motion.
-    auto j = std::make_shared<LiningJoints>(solver_, readJointPairs(in_.meshPath),
-                                            jointParamsFrom(in_.staged.liningJoints));
+    auto j =
+        std::make_shared<LiningJoints>(solver_, readJointPairs(in_.meshPath), jointParamsFrom(in_.staged.liningJoints));
     solver_.addContributor(ForcePhase::Interface, j);
     log << "  lining joints: " << j->numJoints() << " joints, " << j->numPairs() << " node pairs" << std::endl;
   }

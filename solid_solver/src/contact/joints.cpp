@@ -37,8 +37,8 @@ void JointPairs::check(const std::string& where, Index numNodes) const {
     if (nodeA[p] < 0 || nodeA[p] >= numNodes || nodeB[p] < 0 || nodeB[p] >= numNodes)
       throw InputError(where + ": pair " + std::to_string(p) + " names a node outside the mesh");
     if (joint[p] < 0 || joint[p] >= numJoints())
-      throw InputError(where + ": pair " + std::to_string(p) + " names joint " + std::to_string(joint[p]) +
-                       " of " + std::to_string(numJoints()));
+      throw InputError(where + ": pair " + std::to_string(p) + " names joint " + std::to_string(joint[p]) + " of " +
+                       std::to_string(numJoints()));
     if (!(area[p] > 0)) throw InputError(where + ": pair " + std::to_string(p) + " has no tributary area");
   }
 }

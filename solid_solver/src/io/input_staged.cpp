@@ -41,8 +41,9 @@ JointPairs readJointPairs(const std::string& meshPath) {
   const std::string where = "lining joints of mesh '" + meshPath + "'";
   auto f = h5::openFile(meshPath);
   if (!h5::exists(f, "/interfaces/lining_joints"))
-    throw InputError(where + ": the mesh has no joints (/interfaces/lining_joints); re-mesh with the case's "
-                             "lining_joints (tunnelquake mesh --force) or remove /interfaces/lining_joints from the input");
+    throw InputError(where +
+                     ": the mesh has no joints (/interfaces/lining_joints); re-mesh with the case's "
+                     "lining_joints (tunnelquake mesh --force) or remove /interfaces/lining_joints from the input");
   std::vector<hsize_t> d;
   const auto pairs = h5::readInts(f, "/interfaces/lining_joints", &d);
   if (d.size() != 2 || d[1] != 2) throw InputError(where + ": /interfaces/lining_joints must have shape [P, 2]");

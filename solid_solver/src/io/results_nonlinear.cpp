@@ -67,9 +67,9 @@ void writeJointsHeader(hid_t file, const LiningJoints& j, State& st) {
   h5::writeDoubleAttr(g, "friction", jp.friction);
   const hsize_t cols = 1 + kJointColumns * J;
   st.jointHistory = h5::ClockedRows(h5::RowAppender(file, "/joints/history", cols, st.ledger), cols, 0);
-  h5::writeStringListAttr(g, "history_columns",
-                          {"time", "opening", "opening_max", "opening_min", "slip", "slip_max", "axial_force",
-                           "rotation_x", "rotation_z"});
+  h5::writeStringListAttr(
+      g, "history_columns",
+      {"time", "opening", "opening_max", "opening_min", "slip", "slip_max", "axial_force", "rotation_x", "rotation_z"});
 }
 
 bool updateJoints(hid_t file, const Solver& s, State& st) {

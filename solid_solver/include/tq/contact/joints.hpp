@@ -62,7 +62,7 @@ struct JointSummary {
   Real opening = 0, openingMax = 0, openingMin = 0;  ///< m
   Real slip = 0, slipMax = 0;                        ///< m: |area-weighted mean of s|, largest |s|
   Real axialForce = 0;                               ///< N, sum of the pairs' N
-  Real rotationX = 0, rotationZ = 0;  ///< rad: d(opening)/dx, d(opening)/dz (least-squares plane)
+  Real rotationX = 0, rotationZ = 0;                 ///< rad: d(opening)/dx, d(opening)/dz (least-squares plane)
 };
 
 class LiningJoints final : public NodalForceContributor {
