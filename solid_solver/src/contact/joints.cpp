@@ -153,7 +153,7 @@ void LiningJoints::addForces(Real /*t*/, Real dt, NodalState& st) {
 
 std::vector<JointSummary> LiningJoints::summaries(const NodalState& s) const {
   const Index J = numJoints();
-  std::vector<JointSummary> out(size_t(J));
+  std::vector<JointSummary> out(static_cast<size_t>(J));
   // area-weighted sums per joint: A, A g, A x, A z, A s_x, A s_z; the plane fit's moments
   std::vector<Real> sa(size_t(J), 0), sg(size_t(J), 0), sx(size_t(J), 0), sz(size_t(J), 0), ssx(size_t(J), 0),
       ssz(size_t(J), 0);
