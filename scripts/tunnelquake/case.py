@@ -286,8 +286,7 @@ def _lining_joints_section() -> Section:
 def lining_joints_active(d: dict) -> bool:
     """Whether the case asks for lining joints (any key of lining_joints given)."""
     lj = d.get("lining_joints") or {}
-    return any(lj.get(k) is not None for k in ("spacing", "normal_stiffness", "shear_stiffness", "friction",
-                                                 "allowed_opening"))
+    return any(v is not None for k, v in lj.items() if k != "tensile_strength")  # (the one with a default)
 
 
 def joint_spacing(d: dict) -> float | None:
