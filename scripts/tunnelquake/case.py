@@ -325,15 +325,17 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
     tol = 1e-6 * length
     levels = np.asarray([y for y in plan.y_levels if y0 - tol <= y <= y1 + tol])
     h = float(np.diff(levels).max())
-    if s >= length - tol:
-        return [Issue("lining_joints.spacing", s, f"is not shorter than the lining ({length:g} m from y = {y0:g} to "
-                      f"{y1:g} m): no joint fits in it", f"give a ring length that divides {length:g} m into two or "
-                      f"more rings, e.g. {length / max(2, round(length / (4 * h))):g} m", line)]
-    n = length / s
-    options = [k for k in range(1, len(levels)) if (len(levels) - 1) % k == 0 and k < len(levels) - 1]
+    options = [k for k in range(1, len(levels) - 1) if (len(levels) - 1) % k == 0]
     suggest = min(options, key=lambda k: abs(k * h - s)) * h if options else None
-    hint = (f"e.g. {suggest:g} m ({round(suggest / h)} axial elements of {h:g} m)" if suggest is not None else
+    count = round(suggest / h) if suggest is not None else 0
+    hint = (f"e.g. {suggest:g} m ({count} axial element{'s' if count > 1 else ''} of {h:g} m)" if count else
             "refine mesh.elements_along_axis")
+    if s >= length - tol:
+        longest = f"e.g. {max(options) * h:g} m" if options else "refine mesh.elements_along_axis"
+        return [Issue("lining_joints.spacing", s, f"is not shorter than the lining ({length:g} m from y = {y0:g} to "
+                      f"{y1:g} m): no joint fits in it", f"give a ring length of whole axial elements that divides "
+                      f"{length:g} m into two or more rings, {longest}", line)]
+    n = length / s
     if abs(n - round(n)) > 1e-6 * n:
         return [Issue("lining_joints.spacing", s, f"divides the lining's {length:g} m into {n:.4g} rings: the rings "
                       "must be whole", f"give a spacing that divides {length:g} m and is a whole number of axial "
