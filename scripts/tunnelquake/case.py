@@ -308,6 +308,11 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
                      ("shear_stiffness", "add 'shear_stiffness: <k_s> MPa/m'")):
         if lj.get(key) is None:
             return [Issue(f"lining_joints.{key}", None, "is required with lining joints", fix, here)]
+    if "dynamic_water" in d["conditions"]:
+        return [Issue("lining_joints", None, "cannot run with the dynamic_water condition: the coupled water's wall "
+                      "has one node where the lining has two at every joint, and the exchange maps them one to one "
+                      "(coincident map)", "run the no_water and static_water conditions (conditions: [no_water, "
+                      "static_water]), or remove lining_joints", here)]
     if d["mesh"]["mode"] != "3d":
         return [Issue("lining_joints", None, f"needs a 3D mesh: a {d['mesh']['mode']} mesh has no length along the "
                       "axis to cut into rings", "set mesh.mode: 3d, or remove lining_joints", here)]

@@ -119,6 +119,8 @@ def _slice(s):
 
 @pytest.mark.parametrize("edit, key, words", [
     (_slice, "lining_joints", ("3D mesh", "mesh.mode: 3d")),
+    (lambda s: s.replace("conditions: [no_water]", "conditions: [no_water, dynamic_water]"), "lining_joints",
+     ("dynamic_water", "conditions:")),
     (lambda s: s.replace("spacing: 6 m", "spacing: 90 m"), "lining_joints.spacing", ("not shorter than the lining",
                                                                                     "84 m")),
     (lambda s: s.replace("spacing: 6 m", "spacing: 5 m"), "lining_joints.spacing", ("16.8 rings", "whole")),
