@@ -146,6 +146,16 @@ def test_check_refuses_joints_the_model_cannot_have(tmp_path, edit, key, words):
     assert issues[key].fix, text
 
 
+def test_tunnelquake_check_names_the_key_and_the_fix(tmp_path, capsys):
+    from case_edits import check_edited
+
+    _pulse(tmp_path / "pulse.txt")
+    rc, out, err = check_edited(tmp_path, capsys, textwrap.dedent(BASE), "spacing: 6 m", "spacing: 7 m")
+    assert rc != 0
+    assert "lining_joints.spacing = 7" in err + out and "between the mesh's axial element layers" in err + out
+    assert "e.g. 6 m (1 axial element of 6 m)" in err + out
+
+
 def test_the_joint_keys_pass_check(tmp_path):
     case = load_case(_case(tmp_path))
     lj = case.data["lining_joints"]
