@@ -12,7 +12,7 @@
    domain-reduction layer. The mesh ties each rock node on a joint plane to the ring before the
    joint, so each ring is held to the ground at one plane (its +y end) and slides free of it
    elsewhere; with soft joints (k_n = k_s = 1 MPa/m: the joint force strains a ring by
-   k_n L / E = 1.2e-6 of the ground's strain) the rings move rigidly with the ground at their held
+   k_n L / E = 1.2e-3 of the ground's strain) the rings move rigidly with the ground at their held
    planes and the joints take all the strain: joint k opens by u(y_k+1) - u(y_k) = eps_ff L (the
    free field's axial strain at the middle of the ring after it, times the ring length; plane-wave
    strain eps_yy = -p_y v_y). Every joint whose two rings are free of the plugs (y = 30 ... 90 m) opens
