@@ -139,12 +139,49 @@ FIGURES = (
 )
 
 
-def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
+def _joint_rows(P, res, out: Path, unwritten: list, allowed: float | None) -> tuple[list[str], list[str]]:
+    """A condition's lining joints: joints_<condition>.csv, one table row per joint (its peak
+    opening, closing, slip and axial force over the run) and the watertightness line against
+    lining_joints.allowed_opening."""
+    J = res.joints
+    if J is None or not len(J["time"]):
+        return [], []
+    f = out / f"joints_{res.condition}.csv"
+    try:
+        P.joints_csv(J, f)
+    except OSError as e:
+        if not is_no_space(e):
+            raise
+        unwritten.append(_disk_full(e, f))
+    label = P.CONDITION_LABELS[res.condition]
+    rows = []
+    for j, y in enumerate(J["y"]):
+        i_open, i_close = int(np.argmax(J["opening_max"][:, j])), int(np.argmin(J["opening_min"][:, j]))
+        i_slip, i_n = int(np.argmax(J["slip_max"][:, j])), int(np.argmax(np.abs(J["axial_force"][:, j])))
+        rows.append(f"| {label} | {y:.4g} | {J['opening'][:, j].max():.4g} | {J['opening_max'][i_open, j]:.4g} at "
+                    f"t = {J['time'][i_open]:.4g} s | {J['opening_min'][i_close, j]:.4g} | {J['slip_max'][i_slip, j]:.4g} "
+                    f"| {J['axial_force'][i_n, j]:.4g} |")
+    notes = []
+    if allowed is not None:
+        worst = J["opening_max"].max(axis=0)
+        over = [f"y = {J['y'][j]:.4g} m ({worst[j]:.4g} m)" for j in range(len(J["y"])) if worst[j] > allowed]
+        notes.append(f"- {label}: watertightness: " + (
+            f"**{len(over)} of {len(J['y'])} joints open beyond the allowed {allowed:.4g} m**: " + ", ".join(over)
+            if over else f"every joint's largest opening ({worst.max():.4g} m at y = {J['y'][int(np.argmax(worst))]:.4g} "
+                         f"m) is within the allowed {allowed:.4g} m"))
+    return rows, notes
+
+
+def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None) -> list[str]:
     """The lining as a beam along the axis (3D results): per condition the largest |resultant|
     at the seismic start and over the snapshots, each with its y, the interface's largest slip,
-    and the CSV of the whole profile (post.lining_along_axis)."""
-    rows = []
+    and the CSV of the whole profile (post.lining_along_axis); with lining joints each joint's
+    opening, slip and axial force, and the watertightness check."""
+    rows, joint_rows, joint_notes = [], [], []
     for res in results:
+        jr, jn = _joint_rows(P, res, out, unwritten, allowed_opening)
+        joint_rows += jr
+        joint_notes += jn
         axis = P.lining_along_axis(res)
         if axis is None:
             continue
@@ -163,15 +200,27 @@ def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
             i = int(np.argmax(axis["slip"]["max"]))
             rows.append(f"| {P.CONDITION_LABELS[res.condition]} | interface slip (m), t = {axis['end_time']:.4g} s | "
                         f"– | {axis['slip']['max'][i]:.4g} at y = {axis['slip']['y'][i]:.4g} m |")
-    if not rows:
+    if not rows and not joint_rows:
         return []
-    return ["## The lining along the axis", "",
-            "The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
-            "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
-            "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
-            "`lining_axis_<condition>.csv`.", "",
-            "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the snapshots: "
-            "largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
+    lines = ["## The lining along the axis", ""]
+    if rows:
+        lines += ["The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
+                  "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
+                  "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
+                  "`lining_axis_<condition>.csv`.", "",
+                  "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the "
+                  "snapshots: largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
+    if joint_rows:
+        lines += ["The lining's joints (lining_joints): per joint its opening along the axis (the mean over the "
+                  "joint's area; > 0 open, < 0 closed), its largest and smallest at any pair, the slip across it and "
+                  "the axial force through it (tension +), at the output times; the histories in "
+                  "`joints_<condition>.csv` (docs/theory.md \"Lining joints\").", "",
+                  "| condition | joint y (m) | peak mean opening (m) | largest opening at a pair (m) | largest "
+                  "closing (m) | largest slip (m) | largest \\|axial force\\| (N) |",
+                  "|---|---:|---:|---:|---:|---:|---:|", *joint_rows, "", *joint_notes]
+        if joint_notes:
+            lines.append("")
+    return lines
 
 
 def post_case(case) -> Path:
@@ -238,7 +287,8 @@ def post_case(case) -> Path:
                   "what exists.", ""]
     else:
         lines += R.differences_section(results, order)
-        lines += _lining_axis(P, results, out, unwritten)
+        lines += _lining_axis(P, results, out, unwritten,
+                              (case.data.get("lining_joints") or {}).get("allowed_opening"))
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
