@@ -1,7 +1,7 @@
 """python -m benchmarks.allrun_phases [--json OUT] -- COMMAND...: where a run's wall and CPU time go.
 
 Runs COMMAND (e.g. `tunnelquake run cases/paper_tunnel`), stamps each line it prints with the
-seconds since the start, and samples /proc every 50 ms for every process below it: each process's
+seconds since the start and the command's own CPU seconds so far, and samples /proc every 50 ms for every process below it: each process's
 first and last sighting (its wall span) and its user+sys CPU (the last sample; a process sampled
 once at most 50 ms before its end loses at most that). The Python driver's own CPU is reported
 apart (its threads' work: set-up, writing inputs, post-processing). On a machine shared with other
@@ -98,8 +98,10 @@ def main(argv: list[str]) -> int:
     lines = []
     for line in proc.stdout:
         t = time.monotonic() - t0
-        lines.append((round(t, 3), line.rstrip()))
-        sys.stdout.write(f"{t:8.2f} {line}")
+        st = _stat(proc.pid)  # the command's own CPU so far, with each line
+        cpu = st[2] if st else float("nan")
+        lines.append((round(t, 3), round(cpu, 2), line.rstrip()))
+        sys.stdout.write(f"{t:8.2f} {cpu:6.2f} {line}")
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.monotonic() - t0
     sampler.done.set()
