@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import pickle
 import signal
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -90,10 +91,14 @@ def draw_all(jobs: Jobs) -> dict[str, Outcome]:
 
     theirs, mine = items[0::2], items[1::2]  # the helper takes the first: this process has the rest of its job after
     with children.FORK_LOCK:
+        for stream in (sys.stdout, sys.stderr):  # nothing buffered that the helper would write again
+            stream.flush()
+        read_fd, write_fd = os.pipe()
         try:
-            read_fd, write_fd = os.pipe()
             pid = os.fork()
         except OSError:
+            os.close(read_fd)
+            os.close(write_fd)
             return {it[0]: _run(it) for it in items}
         if pid == 0:  # the helper: draw its share, send the outcomes, leave without exit handlers
             code = 0
@@ -104,6 +109,8 @@ def draw_all(jobs: Jobs) -> dict[str, Outcome]:
                 data = pickle.dumps({it[0]: _portable(_run(it)) for it in theirs})
                 with os.fdopen(write_fd, "wb") as w:
                     w.write(data)
+                for stream in (sys.stdout, sys.stderr):
+                    stream.flush()
             except BaseException:  # noqa: BLE001 - the parent says the figures were not drawn
                 code = 1
             os._exit(code)
