@@ -92,10 +92,12 @@ def _design(R, case, results) -> tuple[object | None, str]:
 #: The designer's figures: file name, caption.
 DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
                   ("design_mn.png", "M–N interaction of the section with the demand points"),
-                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"))
+                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"),
+                  ("design_cracks.png", "crack pattern at the governing time (the field snapshot nearest it, both "
+                                        "times in the title)"))
 
 
-def _design_figure_jobs(design, figs: Path, jobs) -> None:
+def _design_figure_jobs(design, figs: Path, jobs, results=()) -> None:
     """The designer's figures to draw (drawing.Jobs, keys `design:<file name>`); earlier ones removed."""
     from .design import figures as F
 
@@ -106,6 +108,8 @@ def _design_figure_jobs(design, figs: Path, jobs) -> None:
             jobs.add(f"design:{name}", F.fig_envelopes, design.conditions, figs / name)
         elif name == "design_deformed.png":
             jobs.add(f"design:{name}", F.fig_deformed, design.conditions, figs / name)
+        elif name == "design_cracks.png":
+            jobs.add(f"design:{name}", F.fig_cracks, design.conditions, results, figs / name)
         else:
             jobs.add(f"design:{name}", _fig_mn, design, figs / name)
 
@@ -263,7 +267,7 @@ def post_case(case) -> Path:
 
         jobs = Jobs()  # every figure and ParaView file, made in two processes (drawing.py)
         if design is not None:
-            _design_figure_jobs(design, figs, jobs)
+            _design_figure_jobs(design, figs, jobs, results)
         _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs)
         drawn = draw_all(jobs)
         if design is not None:
