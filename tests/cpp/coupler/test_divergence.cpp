@@ -73,7 +73,7 @@ std::vector<double> pulseAndRinging(long w) {
 }  // namespace
 
 TEST(DivergenceMonitor, DecayingOscillationSampledAtPeriodTwoIsNotStopped) {
-  // The measured case: after a near-fault pulse the water's force on a lining loose in its bore
+  // The measured case: after a near-fault pulse the water's force on a lining whose bond has failed
   // alternates in sign in about 90 % of the 1 ms windows, its RMS change decaying as e^{−0.77 t}
   // (105 N to 21 N over 2.1 s); a run of 8 alternating windows recovering from a dip (11 N to 25 N)
   // reached the growth 1.1 a window and stopped the run. Here: a decay of 0.9995 a window (e^{−0.5 t}),
