@@ -27,6 +27,7 @@ std::string fixText(SchemeKind scheme) {
 
 void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged,
                                    double residual) {
+  const double forget = s_.memoryWindows > 0 ? std::pow(0.5, 1.0 / double(s_.memoryWindows)) : 0.0;
   for (std::size_t j = 0; j < slices_.size(); ++j) {
     const FieldSlice& f = slices_[j];
     Track& t = tracks_[j];
@@ -49,28 +50,43 @@ void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<doubl
     const double change = std::sqrt(c2 / double(f.size));
     const double floor = std::max(f.absoluteTolerance, s_.noiseFloor * t.peak);
     bool alternating = false;
-    if (t.hasDelta && change > floor && t.prevChange > floor) {
-      double dot = 0;
-      for (std::size_t i = 0; i < f.size; ++i) dot += delta[i] * t.prevDelta[i];
-      const double cosine = dot / (double(f.size) * change * t.prevChange);
-      alternating = cosine < -0.5;
+    if (t.hasDelta) {
+      // the alternating part of this window: half the RMS second difference (a smooth response's
+      // is (ωΔ)²/2 of its change, an alternating one's equals its change)
+      double dot = 0, d2 = 0;
+      for (std::size_t i = 0; i < f.size; ++i) {
+        dot += delta[i] * t.prevDelta[i];
+        d2 += (delta[i] - t.prevDelta[i]) * (delta[i] - t.prevDelta[i]);
+      }
+      t.recent.push_back(0.5 * std::sqrt(d2 / double(f.size)));
+      if (change > floor && t.prevChange > floor) alternating = dot / (double(f.size) * change * t.prevChange) < -0.5;
+    }
+    // the level: the largest alternating part of the windows before the last `windows`
+    t.level *= forget;
+    if (t.recent.size() > std::size_t(s_.windows)) {
+      if (s_.memoryWindows > 0) t.level = std::max(t.level, t.recent.front());
+      t.recent.erase(t.recent.begin());
     }
     if (alternating) {
-      if (t.run == 0) t.runStartChange = t.prevChange;
+      if (t.run == 0) t.runChanges.assign(1, t.prevChange);
       ++t.run;
-      const double amp = std::pow(change / t.runStartChange, 1.0 / t.run);
+      t.runChanges.push_back(change);
+      if (t.runChanges.size() > std::size_t(s_.windows) + 1) t.runChanges.erase(t.runChanges.begin());
+      const int span = std::min(t.run, s_.windows);
+      const double amp = std::pow(change / t.runChanges[t.runChanges.size() - 1 - std::size_t(span)], 1.0 / span);
       lastAmp_ = -amp;
-      if (t.run >= s_.windows && amp >= s_.growth) {
+      if (t.run >= s_.windows && amp >= s_.growth && change > t.level) {
         std::ostringstream m;
         m.precision(3);
         m << "participant '" << who_ << "': the coupling is unstable at t = " << double(window + 1) * config_.windowSize
           << " s (window " << window + 1 << "): the interface '" << f.name
-          << "' changed sign window after window, growing " << amp << "x a window over " << t.run
+          << "' changed sign window after window, growing " << amp << "x a window over the last " << span
           << " windows: the added-mass instability of the '" << schemeName(config_.scheme)
           << "' scheme; stopped before any value overflowed. " << fixText(config_.scheme);
         throw DivergenceError(m.str());
       }
     } else {
+      t.runChanges.clear();
       t.run = 0;
     }
     t.prev.assign(xs, xs + f.size);

@@ -382,13 +382,18 @@ double Participant::initialize() {
 }
 
 namespace {
-constexpr std::uint32_t kStateMagic = 0x54515253;  // "TQRS": a participant's restart state, version 1
-}
+// "TQRS" + version: a participant's restart state (version 2: the divergence monitor's remembered
+// alternating level)
+constexpr std::uint32_t kStateMagic = 0x54515253 + 1;
+}  // namespace
 
 void Participant::checkpoint(StateIo& io) {
   std::uint32_t magic = kStateMagic;
   io.io(magic);
-  if (magic != kStateMagic) throw ConfigError("participant '" + name_ + "': not a coupler restart state");
+  if (magic != kStateMagic)
+    throw ConfigError("participant '" + name_ +
+                      "': not a coupler restart state of this version (another build, or another file); run the "
+                      "condition afresh");
   io.io(timeInWindow_);
   io.io(written_);
   io.io(received_);

@@ -831,12 +831,13 @@ AddedMassRun addedMassRun(Real ma, Index k, Real beta, Index steps) {
 // through fully converged implicit windows (tolerance 1e-10). One-step windows are the monolithic
 // system (m + m_a) a = f to the tolerance — the reference. Windows of 16 steps whose steps ramp the
 // force linearly from the window's start to its end (β = ½, the former only choice) are unstable
-// at m_a = 20,000 kg a node (107 × the crown node's 187 kg): a period-two mode grows until the velocity limit
-// stops the run, although every window is converged — the coupled time discretization, not the
-// iteration, is at fault (the paper case in 3D: docs/stability.md). Leaning the steps' force toward
-// the window-end force (β = ¾) damps that mode and follows the reference's crown displacement, a
-// 40 ms pulse, within 5 % at every window end (measured 4.2 %; β = ½ at m_a = 5,000 kg (27×), where it is
-// stable: 2.7 %, β = ¾ 2.5 %: the window's coarse acceleration, not β, sets that difference).
+// at m_a = 20,000 kg a node (107 × the crown node's 187 kg): a period-two mode grows, and the divergence
+// detection stops the run (window 12; before its growth was taken over the last 8 windows, the
+// velocity limit did, "exploding"), although every window is converged — the coupled time
+// discretization, not the iteration, is at fault (the paper case in 3D: docs/stability.md). Leaning the steps' force
+// toward the window-end force (β = ¾) damps that mode and follows the reference's crown displacement, a 40 ms pulse,
+// within 5 % at every window end (measured 4.2 %; β = ½ at m_a = 5,000 kg (27×), where it is stable: 2.7 %, β = ¾ 2.5
+// %: the window's coarse acceleration, not β, sets that difference).
 TEST(SolidCoupling, WindowForceWeightDampsThePeriodTwoAddedMassMode) {
   const Real ma = 20000;
   const Index steps = 3200, k = 16;
@@ -855,9 +856,10 @@ TEST(SolidCoupling, WindowForceWeightDampsThePeriodTwoAddedMassMode) {
       "added mass %g kg a node (%.1f x the crown node's %.1f kg): one-step windows %lld passes; windows of %ld "
       "steps, beta 1/2: %lld windows, stopped: %s; beta 3/4: %lld windows, %lld passes, crown u_x within %.2f %% "
       "of the one-step run's peak %.4g mm\n",
-      ma, ma / ref.nodeMass, ref.nodeMass, ref.passes, long(k), ramp.windows, ramp.stopped.substr(0, 120).c_str(),
-      lean.windows, lean.passes, 100 * d / m, 1e3 * m);
-  EXPECT_NE(ramp.stopped.find("exploding"), std::string::npos);
+      ma, ma / ref.nodeMass, ref.nodeMass, ref.passes, long(k), ramp.windows,
+      ramp.stopped.substr(std::min(ramp.stopped.find("participant"), ramp.stopped.size()), 150).c_str(), lean.windows,
+      lean.passes, 100 * d / m, 1e3 * m);
+  EXPECT_NE(ramp.stopped.find("changed sign window after window"), std::string::npos) << ramp.stopped;
   EXPECT_LT(ramp.windows, steps / k);
   ASSERT_EQ(lean.stopped, "");
   ASSERT_EQ(lean.crown.size(), size_t(steps / k));

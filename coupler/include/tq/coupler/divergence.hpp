@@ -12,8 +12,18 @@
 /// scheme), a mode of period two windows that no physical response resolved by the window can
 /// have: consecutive changes point in opposite directions window after window and grow by |λ|.
 /// The monitor flags a window as alternating when cos(Δ_n, Δ_{n−1}) < −½ and both changes are
-/// above the noise floor, and stops the run when `windows` consecutive windows alternate and the
-/// change grew by at least `growth` per window on average over them. An implicit scheme that
+/// above the noise floor, and stops the run when the last `windows` windows all alternate, the
+/// change grew by at least `growth` per window on average over them, and it passed the level the
+/// alternating part held before them. A window's alternating part is half the RMS of its second
+/// difference Δ_n − Δ_{n−1} (equal to the change of a signal alternating in sign, (ωΔ)²/2 of the
+/// change of a response the windows resolve); the level is its largest value over the earlier
+/// windows, a memory that halves every `memoryWindows` windows. The level test separates a mode the
+/// scheme amplifies, which grows past every earlier level, from a decaying oscillation the windows
+/// sample at period two (a response near the window's Nyquist frequency, several modes beating),
+/// whose change recovers by 2x or more from each dip of its beat within 8 windows but stays below
+/// the level it held before the dip. The growth is taken over the last `windows` windows, not since
+/// the run began, so a mode that grows inside a longer alternating oscillation is stopped once it
+/// dominates it. An implicit scheme that
 /// reaches its pass limit in `unconverged` consecutive windows with a residual that grows in each
 /// and by `residualGrowth` over them is stopped too (a residual that stagnates near the tolerance
 /// is not: that is a slow iteration, counted in SchemeState::unconvergedWindows).
@@ -33,6 +43,7 @@ struct DivergenceSettings {
   int unconverged = 5;         ///< consecutive unconverged implicit windows with growing residual
   double residualGrowth = 10;  ///< ... that grew by at least this factor over them
   double noiseFloor = 1e-9;    ///< with no absolute tolerance: the floor relative to the peak RMS
+  int memoryWindows = 4000;    ///< half-life (windows) of the remembered alternating level; 0: none
 };
 
 class DivergenceMonitor {
@@ -58,7 +69,9 @@ class DivergenceMonitor {
       io.io(t.prevChange);
       io.io(t.peak);
       io.io(t.run);
-      io.io(t.runStartChange);
+      io.io(t.runChanges);
+      io.io(t.recent);
+      io.io(t.level);
       io.io(t.hasPrev);
       io.io(t.hasDelta);
     }
@@ -72,7 +85,13 @@ class DivergenceMonitor {
     std::vector<double> prev, prevDelta;
     double prevChange = 0, peak = 0;
     int run = 0;
-    double runStartChange = 0;
+    // the change before the current run of alternating windows, then the run's changes (at most the
+    // last `windows` + 1)
+    std::vector<double> runChanges;
+    // the alternating part (half the RMS second difference) of the last `windows` windows, and the
+    // level: the largest of the windows before them, forgotten at the half-life memoryWindows
+    std::vector<double> recent;
+    double level = 0;
     bool hasPrev = false, hasDelta = false;
   };
   const CouplingConfig& config_;
