@@ -444,6 +444,7 @@ std::string CarriedWater::describe() const {
   if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
   if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
   if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
+  if (I.in.subtractMeanPressure) os << "; the water sends its wall pressure less its mean";
   return os.str();
 }
 
