@@ -31,6 +31,7 @@ import textwrap
 
 import numpy as np
 import pytest
+from case_texts import record_motion, tunnel
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -43,41 +44,15 @@ from tunnelquake.paths import solid_executable  # noqa: E402
 
 EXE = solid_executable()
 
-BASE = """
-name: wave_test
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 120.0]
-  z_range: [-30.0, 20.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 2.5 m
-  lining_thickness: 0.3 m
-mesh:
-  mode: 3d
-  max_element_size: 6 m
-  lining_elements_around: 16
-  lining_elements_through: 1
-  elements_along_axis: 20
-  near_field_half_width: 7 m
-  near_field_radial_divisions: 2
-  water_ring_divisions: 1
-  tunnel_end_plugs: 3
-materials:
+BASE = tunnel("wave_test", [-30.0, 30.0], [0.0, 120.0], [-30.0, 20.0], centre_x=0.0, centre_z=0.0, radius="2.5 m",
+              lining="0.3 m", mode="3d", max_element_size="6 m", lining_elements_around=16,
+              lining_elements_through=1, elements_along_axis=20, near_field_half_width="7 m",
+              near_field_radial_divisions=2, water_ring_divisions=1, tunnel_end_plugs=3) + """materials:
   rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
   lining: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
 interface: {model: bonded}
-ground_motion:
-  source: file
-  file: pulse.txt
-  format: two_column
-  units: m/s^2
-  pga: 1.0 m/s^2
-  vertical_ratio: 0
-  cutoff_frequency: 12 Hz
-  baseline_correction: false
-  convention: incident
-incident_wave:
+""" + record_motion("pulse.txt", units="m/s^2", pga="1.0 m/s^2", vertical_ratio=0, cutoff_frequency="12 Hz",
+                    baseline_correction="false", convention="incident") + """incident_wave:
   type: SV
   angle: 20
   azimuth: 0
