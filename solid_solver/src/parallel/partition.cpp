@@ -33,17 +33,17 @@ void bisect(const std::vector<Real>& centre, const std::vector<Real>& weight, st
   }
   // The axis of the largest extent of the centroids.
   Real lo[3], hi[3];
-  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = centre[3 * size_t(*first) + d];
+  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = centre[dofIndex(*first, d)];
   for (auto it = first; it != last; ++it)
     for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], centre[3 * size_t(*it) + d]);
-      hi[d] = std::max(hi[d], centre[3 * size_t(*it) + d]);
+      lo[d] = std::min(lo[d], centre[dofIndex(*it, d)]);
+      hi[d] = std::max(hi[d], centre[dofIndex(*it, d)]);
     }
   int axis = 0;
   for (int d = 1; d < 3; ++d)
     if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
   std::sort(first, last, [&](Index a, Index b) {
-    const Real ca = centre[3 * size_t(a) + axis], cb = centre[3 * size_t(b) + axis];
+    const Real ca = centre[dofIndex(a, axis)], cb = centre[dofIndex(b, axis)];
     return ca < cb || (ca == cb && a < b);
   });
   const int left = parts / 2;
@@ -73,7 +73,7 @@ std::vector<int> partitionRcb(const Mesh& mesh, const std::vector<Real>& weight,
   for (Index e = 0; e < E; ++e)
     for (int k = 0; k < 8; ++k)
       for (int d = 0; d < 3; ++d)
-        centre[3 * size_t(e) + d] += 0.125 * mesh.coords[3 * size_t(mesh.connectivity[8 * size_t(e) + k]) + d];
+        centre[3 * size_t(e) + d] += 0.125 * mesh.coords[dofIndex(mesh.connectivity[8 * size_t(e) + k], d)];
   std::vector<Index> order(static_cast<size_t>(E));
   std::iota(order.begin(), order.end(), 0);
   std::vector<int> part(size_t(E), 0);
