@@ -118,8 +118,9 @@ std::vector<Index> subsetSlabs(const std::vector<Index>& conn, Index numElems, I
   std::vector<Index> bestOrder = chunks, best = slabsInOrder(conn, numElems, numNodes, chunk, chunks, minChunks);
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<Index> order = chunks;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](Index a, Index b) { return centre[dofIndex(a, axis)] < centre[dofIndex(b, axis)]; });
+    std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) {
+      return centre[3 * size_t(a) + size_t(axis)] < centre[3 * size_t(b) + size_t(axis)];
+    });
     std::vector<Index> st = slabsInOrder(conn, numElems, numNodes, chunk, order, minChunks);
     if (widest(st) < widest(best)) {
       best.swap(st);

@@ -33,17 +33,17 @@ void bisect(const std::vector<Real>& centre, const std::vector<Real>& weight, st
   }
   // The axis of the largest extent of the centroids.
   Real lo[3], hi[3];
-  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = centre[dofIndex(*first, d)];
+  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = centre[3 * size_t(*first) + d];
   for (auto it = first; it != last; ++it)
     for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], centre[dofIndex(*it, d)]);
-      hi[d] = std::max(hi[d], centre[dofIndex(*it, d)]);
+      lo[d] = std::min(lo[d], centre[3 * size_t(*it) + d]);
+      hi[d] = std::max(hi[d], centre[3 * size_t(*it) + d]);
     }
   int axis = 0;
   for (int d = 1; d < 3; ++d)
     if (hi[d] - lo[d] > hi[axis] - lo[axis]) axis = d;
   std::sort(first, last, [&](Index a, Index b) {
-    const Real ca = centre[dofIndex(a, axis)], cb = centre[dofIndex(b, axis)];
+    const Real ca = centre[3 * size_t(a) + axis], cb = centre[3 * size_t(b) + axis];
     return ca < cb || (ca == cb && a < b);
   });
   const int left = parts / 2;
