@@ -92,10 +92,12 @@ def _design(R, case, results) -> tuple[object | None, str]:
 #: The designer's figures: file name, caption.
 DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
                   ("design_mn.png", "M–N interaction of the section with the demand points"),
-                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"))
+                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"),
+                  ("design_cracks.png", "crack pattern at the governing time (the field snapshot nearest it, both "
+                                        "times in the title)"))
 
 
-def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
+def _design_figures(design, figs: Path, unwritten: list, results=()) -> list[str]:
     """Draw the designer's figures (each one that fails is named with the reason); their lines."""
     from .design import figures as F
 
@@ -108,6 +110,8 @@ def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
                 made = F.fig_envelopes(design.conditions, figs / name)
             elif name == "design_deformed.png":
                 made = F.fig_deformed(design.conditions, figs / name)
+            elif name == "design_cracks.png":
+                made = F.fig_cracks(design.conditions, results, figs / name)
             else:
                 p = design.params
                 sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
@@ -247,7 +251,7 @@ def post_case(case) -> Path:
         lines += R.lining_forces_section(design) if design is not None else (
             ["## Lining forces", "", f"- {why}", ""] if why else [])
         if design is not None:
-            lines += _design_figures(design, figs, unwritten)
+            lines += _design_figures(design, figs, unwritten, results)
         lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
         if ref is not None:
             ctx = _context(case, results, motion)
