@@ -25,11 +25,7 @@ LAYERS = (("elements", "materials"), ("core",), ("contact", "boundaries"), ("io"
 #: headers below every layer
 FOUNDATION = {"core/types.hpp"}
 #: (file, included header) -> why it is still there and the move that removes it
-ALLOWED = {
-    ("src/core/constraints.cpp", "boundaries/boundaries.hpp"):
-        "TiedNodeGroups::periodicPairs finds the two periodic faces with boundaries' axisFace; moving axisFace "
-        "(and the 2x2 Gauss quad helpers it shares with pressureNodalForces) into core/mesh removes it",
-}
+ALLOWED: dict[tuple[str, str], str] = {}
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"', re.M)
 _HEIGHT = {folder: h for h, tier in enumerate(LAYERS) for folder in tier}

@@ -85,7 +85,9 @@ class WaterSplit:
     """Which part of the water's pressure each side carries: decided for a case by `water_split`, the
     one place (docs/coupler.md "Volume law in the solid"). tq-solid's part is written to solid_input.h5's
     /coupling (coupling_settings); OpenFOAM's is written into the water case (water_case: its water
-    model and K, and tqInterface's `subtractMeanPressure`, which tqInterface reads and never decides)."""
+    model and K). Whether the water sends its wall pressure less its mean concerns both sides: it
+    travels in the settings, to /coupling subtract_mean_pressure and to tqInterface's
+    `subtractMeanPressure` (which tqInterface reads and never decides)."""
 
     volume_law: str  # carried by tq-solid: compressible | incompressible | none (the water sends it all)
     bulk_modulus: float  # Pa: tq-solid's K for a compressible volume law, else 0
@@ -227,6 +229,9 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "water_density": split.water_density,
         "water_ends": split.water_ends,
         "axial_density": split.axial_density,
+        # OpenFOAM's part that tq-solid must know of: the water sends its wall pressure less its mean
+        # (the water case's tqInterface and tq-solid's /coupling both read it from here)
+        "subtract_mean_pressure": split.subtract_mean_pressure,
     }
 
 
@@ -340,7 +345,7 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
         write_interval=write_interval if write_interval else max(end_time, 0.1),
         free_surface_level=float(d["geometry"]["tunnel_centre_z"]) + float(water["head"]),
         exchange=exchange_dict(settings),
-        subtract_mean_pressure=split.subtract_mean_pressure,
+        subtract_mean_pressure=bool(settings.get("subtract_mean_pressure", False)),
         log_interval=float(water.get("log_interval", WATER_LOG_INTERVAL)) if brief else None,
         **(restart or {}))
 

@@ -349,6 +349,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "water_ends", "str", default="closed", choices=("closed", "open"), omit_default=True,
        written_with="volume_law"),
     _e("/coupling", "axial_density", "float", unit="kg/m³", default=0.0, lo=0.0, written_with="water_ends"),
+    _e("/coupling", "subtract_mean_pressure", "flag", "1: the water sends its wall pressure less its area mean "
+       "(OpenFOAM's tqInterface `subtractMeanPressure`, written from the same setting): the uniform part is "
+       "tq-solid's volume law, so it needs a volume_law with water_ends closed", default=0.0,
+       omit_default=True),
     _e("/coupling", "transport", "str", "`mpi`: docs/coupler.md \"tq-solid under mpirun\"; the port file (tcp); "
        "the run's secret; a silent fluid's limit; wait for the fluid (0 = timeout)", default="tcp",
        choices=("tcp", "mpi")),

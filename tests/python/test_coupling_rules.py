@@ -171,3 +171,64 @@ def test_tq_solid_takes_the_window_count_it_is_given(slice_input):
         assert run.returncode == 2, (name, run.stdout + run.stderr)
         assert "/coupling" in run.stderr and "windows" in run.stderr, (name, run.stderr)
         assert "Traceback" not in run.stderr and "terminate" not in run.stderr
+
+
+#: variant, water overrides, coupling overrides -> whether the water sends its wall pressure less its mean:
+#: exactly when tq-solid carries a volume law in a closed section (its uniform pressure is that mean;
+#: docs/coupler.md "Volume law in the solid"), never with open ends or with the whole pressure exchanged
+MEAN_PRESSURE_CASES = (
+    (None, {}, {}, True),
+    (None, {"model": "incompressible"}, {}, True),
+    (None, {}, {"volume_law": "water"}, False),
+    ("3d_solid_law", {}, {}, True),
+    ("3d_open", {}, {}, False),
+    ("3d_open_incompressible", {}, {}, False),
+)
+
+
+@pytest.mark.parametrize("variant, water, coupling, subtract", MEAN_PRESSURE_CASES)
+def test_the_mean_pressure_flag_both_sides_get_is_one_setting(tmp_path, variant, water, coupling, subtract):
+    """Whether the water sends its wall pressure less its area mean is one coupling setting, written to
+    /coupling (subtract_mean_pressure) and into the water's tqInterface entry (subtractMeanPressure) from
+    the same settings object: the two agree for every water model, and a change of the setting alone
+    changes both."""
+    case = load_case(EXAMPLE, variant)
+    case.data["water"].update(water)
+    case.data["coupling"].update(coupling)
+    slice_mode = case.data["mesh"]["mode"] == "slice"
+
+    def sides(s):
+        solid = fc.solid_coupling_attrs(s).get("subtract_mean_pressure", 0.0) == 1.0
+        ctrl = parse(water_case.dictionaries(fc.water_case(case, s, slice_mode))["system/controlDict"])
+        return solid, ctrl["functions"]["interface"].get("subtractMeanPressure", "no") == "yes"
+
+    s = fc.coupling_settings(case, 1e-3, tmp_path / "wall.addr", "ab" * 16, t_end=0.01)
+    assert s["subtract_mean_pressure"] is subtract
+    assert sides(s) == (subtract, subtract)
+    # the setting changed in the settings object alone: both sides follow
+    assert sides({**s, "subtract_mean_pressure": not subtract}) == (not subtract, not subtract)
+
+
+@pytest.mark.skipif(_solid() is None, reason="tq-solid with --check --json is not built")
+def test_tq_solid_refuses_a_mean_pressure_no_volume_law_carries(slice_input):
+    """/coupling subtract_mean_pressure 1 says the water leaves out its mean wall pressure: tq-solid takes
+    it with its closed-section volume law (the example's settings) and refuses it, naming the attribute,
+    where no law of a closed section carries that mean (the whole pressure exchanged, or open ends)."""
+    case, tmp, inp = slice_input
+    exe = _solid()
+    window = fc.coupling_window_size(case.data["coupling"]["window"], solid_step(exe, inp))
+    s = fc.coupling_settings(case, window, tmp / "wall.addr", "ab" * 16, t_end=0.01)
+    assert s["subtract_mean_pressure"] is True and s["volume_law"] == "compressible"
+    for name, edit, code in (
+            ("closed law", {}, 0),
+            ("no law", {"volume_law": "none", "bulk_modulus": 0.0, "water_density": 0.0}, 2),
+            ("open ends", {"water_ends": "open"}, 2)):
+        out = write_solid_input(case, tmp / "mesh.h5", tmp / "motion.h5", "dynamic_water",
+                                tmp / f"mean_{name.replace(' ', '_')}.h5", coupling={**s, **edit})
+        with h5py.File(out) as f:
+            assert f["coupling"].attrs["subtract_mean_pressure"] == 1
+        run = subprocess.run([str(exe), str(out), "--check"], capture_output=True, text=True, timeout=120)
+        assert run.returncode == code, (name, run.stdout + run.stderr)
+        if code:
+            assert "subtract_mean_pressure" in run.stderr and "water_ends closed" in run.stderr, (name, run.stderr)
+            assert "Traceback" not in run.stderr and "terminate" not in run.stderr

@@ -10,6 +10,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from case_texts import record_motion, small_slice
 from test_design_lining import H, _histories, _results
 
 from tunnelquake import references as ref
@@ -222,37 +223,8 @@ def test_the_pressure_tunnel_case_asks_for_every_check():
 # ------------------------------------------------------------------------------------------------
 # The usual first analysis, run and posted
 # ------------------------------------------------------------------------------------------------
-FIRST = """name: first_analysis
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 1.0]
-  z_range: [-30.0, 30.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 3.0 m
-  lining_thickness: 0.4 m
-mesh:
-  mode: slice
-  max_element_size: 5 m
-  lining_elements_around: 16
-  lining_elements_through: 2
-  near_field_half_width: 8.0
-  near_field_radial_divisions: 3
-materials:
-  rock: {model: elastic, youngs_modulus: 12 GPa, poisson_ratio: 0.25, density: 2600 kg/m^3}
-  lining: {model: elastic, youngs_modulus: 32 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}
-interface: {model: bonded}
-in_situ: {kx: 1.0, ky: 1.0}
-water: {head: 40 m}
-ground_motion:
-  source: file
-  file: record.txt
-  format: two_column
-  units: g
-  pga: 0.2 g
-  vertical_ratio: 0
-  duration: 1.0 s
-time: {end_time: 0.1 s}
+FIRST = small_slice("first_analysis") + """water: {head: 40 m}
+""" + record_motion("record.txt", units="g", pga="0.2 g", vertical_ratio=0, duration="1.0 s") + """time: {end_time: 0.1 s}
 conditions: [static_water]
 output:
   monitors:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from case_texts import record_motion, tunnel
 
 from tunnelquake import post as P
 from tunnelquake.cli import main
@@ -27,38 +28,16 @@ H, H_CROWN = 55.0, 32.6  # block height; the crown's height above the base, m
 CS, CP = float(np.sqrt(8e9 / 2650)), float(np.sqrt(24e9 / 2650))  # G = 8 GPa, λ + 2G = 24 GPa
 F_MAX = 1.2  # Hz: above it the pulse's spectrum is below 1 % of its peak (asserted below)
 
-CASE = """\
-name: slow_shaking
-geometry:
-  x_range: [-40.0, 40.0]
-  y_range: [0.0, 8.0]
-  z_range: [-20.0, 35.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 10.0
-  excavated_radius: 3.0 m
-  lining_thickness: 0.4 m
-mesh:
-  mode: slice
-  max_element_size: 5.5 m
-  lining_elements_around: 24
-  lining_elements_through: 2
-  near_field_half_width: 7.0
-  near_field_radial_divisions: 5
-materials:
+CASE = tunnel("slow_shaking", [-40.0, 40.0], [0.0, 8.0], [-20.0, 35.0], centre_x=0.0, centre_z=10.0, radius="3.0 m",
+              lining="0.4 m", mode="slice", max_element_size="5.5 m", lining_elements_around=24,
+              lining_elements_through=2, near_field_half_width=7.0, near_field_radial_divisions=5) + """materials:
   rock: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650 kg/m^3}
   lining: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650 kg/m^3,
            compressive_strength: 40 MPa}
 interface: {model: bonded}
 in_situ: {kx: 1.1, ky: 0.8}
-ground_motion:
-  source: file
-  file: record.txt
-  format: two_column
-  units: m/s^2
-  duration: 5.0 s
-  vertical_ratio: 0.5
-  baseline_correction: false
-damping: {model: mass_proportional, ratio: 0.02, frequencies: [0.5 Hz, 10 Hz]}
+""" + record_motion("record.txt", units="m/s^2", duration="5.0 s", vertical_ratio=0.5,
+                    baseline_correction="false") + """damping: {model: mass_proportional, ratio: 0.02, frequencies: [0.5 Hz, 10 Hz]}
 conditions: [no_water]
 output:
   displacement_reference: base

@@ -28,6 +28,7 @@ import h5py
 import numpy as np
 import pytest
 from case_edits import check_edited
+from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
@@ -38,22 +39,9 @@ from tunnelquake.motion import from_case as motion_from_case
 from tunnelquake.prepare import write_motion
 from tunnelquake.solid_input import FAULT_OFFSET_FACES, write_solid_input
 
-CASE = """
-name: fault_offset_test
-geometry:
-  x_range: [-15.0, 15.0]
-  y_range: [0.0, 30.0]
-  z_range: [-15.0, 15.0]
-  tunnel_centre_z: 0.0
-  excavated_radius: 2.5
-  lining_thickness: 0.4
-mesh:
-  max_element_size: 8.0
-  lining_elements_around: 16
-  near_field_half_width: 6.0
-  near_field_radial_divisions: 3
-  elements_along_axis: 6
-materials:
+CASE = tunnel("fault_offset_test", [-15.0, 15.0], [0.0, 30.0], [-15.0, 15.0], centre_z=0.0, radius=2.5,
+              lining=0.4, max_element_size=8.0, lining_elements_around=16, near_field_half_width=6.0,
+              near_field_radial_divisions=3, elements_along_axis=6) + """materials:
   rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700}
   gouge: {model: elastic, youngs_modulus: 1 GPa, poisson_ratio: 0.3, density: 2200}
   lining: {model: elastic, youngs_modulus: 28 GPa, poisson_ratio: 0.17, density: 2500}
@@ -61,12 +49,7 @@ geology:
   fault_zone: {material: gouge, width: 4 m, strike: 120, dip: 60, point: [0, 15, 0], elements_across: 2}
 fault_offset: {magnitude: 0.2 m, rake: -30, increments: 2}
 interface: {model: bonded}
-ground_motion:
-  source: synthetic
-  pga: 1.0 m/s^2
-  vertical_ratio: 0.5
-  synthetic: {duration: 1.0}
-in_situ: {kx: 1.0, ky: 1.0}
+""" + synthetic_motion("1.0 m/s^2", 0.5, 1.0) + """in_situ: {kx: 1.0, ky: 1.0}
 stages: {sequence: [in_situ, seismic], relaxation_tolerance: 1.0e-6, relaxation_max_steps: 200000}
 conditions: [no_water]
 time: {end_time: 0.004}

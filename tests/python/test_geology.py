@@ -27,6 +27,7 @@ import h5py
 import numpy as np
 import pytest
 from case_edits import check_edited
+from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
 from tunnelquake import meshing
@@ -121,22 +122,9 @@ def test_check_counts_the_refined_mesh_before_meshing(meshes):
 # ------------------------------------------------------------------------------------------------
 # check: the case keys and their errors
 # ------------------------------------------------------------------------------------------------
-CASE = """
-name: geology_test
-geometry:
-  x_range: [-20.0, 20.0]
-  y_range: [0.0, 80.0]
-  z_range: [-20.0, 20.0]
-  tunnel_centre_z: 0.0
-  excavated_radius: 3.0
-  lining_thickness: 0.5
-mesh:
-  max_element_size: 6.0
-  lining_elements_around: 16
-  near_field_half_width: 8.0
-  near_field_radial_divisions: 4
-  elements_along_axis: 16
-materials:
+CASE = tunnel("geology_test", [-20.0, 20.0], [0.0, 80.0], [-20.0, 20.0], centre_z=0.0, radius=3.0, lining=0.5,
+              max_element_size=6.0, lining_elements_around=16, near_field_half_width=8.0,
+              near_field_radial_divisions=4, elements_along_axis=16) + """materials:
   rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700}
   fault: {model: elastic, youngs_modulus: 1 GPa, poisson_ratio: 0.3, density: 2200}
   sand: {model: elastic, youngs_modulus: 3 GPa, poisson_ratio: 0.3, density: 2400}
@@ -146,12 +134,7 @@ geology:
   dipping_layers:
     - {material: sand, dip: 25, dip_direction: 90, point: [0, 40, 10]}
 interface: {model: bonded}
-ground_motion:
-  source: synthetic
-  pga: 1.0 m/s^2
-  vertical_ratio: 0.5
-  synthetic: {duration: 1.0}
-in_situ: {kx: 1.0, ky: 1.0}
+""" + synthetic_motion("1.0 m/s^2", 0.5, 1.0) + """in_situ: {kx: 1.0, ky: 1.0}
 conditions: [no_water]
 time: {end_time: 0.01}
 """
@@ -221,22 +204,9 @@ def test_the_keys_are_documented_with_their_convention():
 # ------------------------------------------------------------------------------------------------
 # tq-solid: the in-situ stress of a dipping layer under a horizontal cover
 # ------------------------------------------------------------------------------------------------
-STATIC = """
-name: dipping_static
-geometry:
-  x_range: [-400.0, 400.0]
-  y_range: [0.0, 10.0]
-  z_range: [-60.0, 100.0]
-  tunnel_centre_z: -20.0
-  excavated_radius: 2.0
-  lining_thickness: 0.3
-mesh:
-  mode: slice
-  max_element_size: 8.0
-  near_field_half_width: 8.0
-  lining_elements_around: 16
-  near_field_radial_divisions: 3
-materials:
+STATIC = tunnel("dipping_static", [-400.0, 400.0], [0.0, 10.0], [-60.0, 100.0], centre_z=-20.0, radius=2.0,
+                lining=0.3, mode="slice", max_element_size=8.0, near_field_half_width=8.0,
+                lining_elements_around=16, near_field_radial_divisions=3) + """materials:
   rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.25, density: 2700}
   cover: {model: elastic, youngs_modulus: 1 GPa, poisson_ratio: 0.3, density: 1900}
   weak: {model: elastic, youngs_modulus: 3 GPa, poisson_ratio: 0.3, density: 2200}
@@ -247,12 +217,7 @@ geology:
   dipping_layers:
     - {material: weak, dip: 20, dip_direction: 90, point: [0, 5, 40]}
 interface: {model: bonded}
-ground_motion:
-  source: synthetic
-  pga: 1.0 m/s^2
-  vertical_ratio: 0.5
-  synthetic: {duration: 1.0}
-in_situ: {kx: 0.8, ky: 0.8, kz: 1.0}
+""" + synthetic_motion("1.0 m/s^2", 0.5, 1.0) + """in_situ: {kx: 0.8, ky: 0.8, kz: 1.0}
 stages:
   sequence: [in_situ, seismic]
   relaxation_tolerance: 1.0e-7

@@ -31,6 +31,7 @@ import textwrap
 
 import numpy as np
 import pytest
+from case_texts import record_motion, tunnel
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -43,41 +44,15 @@ from tunnelquake.paths import solid_executable  # noqa: E402
 
 EXE = solid_executable()
 
-BASE = """
-name: wave_test
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 120.0]
-  z_range: [-30.0, 20.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 2.5 m
-  lining_thickness: 0.3 m
-mesh:
-  mode: 3d
-  max_element_size: 6 m
-  lining_elements_around: 16
-  lining_elements_through: 1
-  elements_along_axis: 20
-  near_field_half_width: 7 m
-  near_field_radial_divisions: 2
-  water_ring_divisions: 1
-  tunnel_end_plugs: 3
-materials:
+BASE = tunnel("wave_test", [-30.0, 30.0], [0.0, 120.0], [-30.0, 20.0], centre_x=0.0, centre_z=0.0, radius="2.5 m",
+              lining="0.3 m", mode="3d", max_element_size="6 m", lining_elements_around=16,
+              lining_elements_through=1, elements_along_axis=20, near_field_half_width="7 m",
+              near_field_radial_divisions=2, water_ring_divisions=1, tunnel_end_plugs=3) + """materials:
   rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
   lining: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
 interface: {model: bonded}
-ground_motion:
-  source: file
-  file: pulse.txt
-  format: two_column
-  units: m/s^2
-  pga: 1.0 m/s^2
-  vertical_ratio: 0
-  cutoff_frequency: 12 Hz
-  baseline_correction: false
-  convention: incident
-incident_wave:
+""" + record_motion("pulse.txt", units="m/s^2", pga="1.0 m/s^2", vertical_ratio=0, cutoff_frequency="12 Hz",
+                    baseline_correction="false", convention="incident") + """incident_wave:
   type: SV
   angle: 20
   azimuth: 0
@@ -117,6 +92,26 @@ def _case(tmp_path, edit=lambda s: s):
     p = tmp_path / "case.yaml"
     p.write_text(edit(textwrap.dedent(BASE)))
     return p
+
+
+def _solid_input(case, work):
+    """The case's mesh and motion made, its no_water solid input written to work/solid_input.h5:
+    (solid_input.h5, motion.h5)."""
+    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
+    from tunnelquake.solid_input import write_solid_input
+
+    make_mesh(case)
+    _, motion_h5 = make_motion(case)
+    return write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", work / "solid_input.h5"), motion_h5
+
+
+def _solved(case, work):
+    """_solid_input, then tq-solid on it (one thread): (solid_input.h5, motion.h5, the results work/r.h5)."""
+    inp, motion_h5 = _solid_input(case, work)
+    out = subprocess.run([str(EXE), str(inp), "-o", str(work / "r.h5"), "--threads", "1"], capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    return inp, motion_h5, work / "r.h5"
 
 
 def _issues(tmp_path, edit):
@@ -212,18 +207,12 @@ CURVATURE_TOLERANCE = {"horizontal": 0.01, "vertical": 0.05}
 def test_a_lining_of_the_ground_strains_along_its_axis_as_the_free_field(tmp_path, azimuth):
     from tunnelquake.case import ground_layers
     from tunnelquake.freefield import free_field, incident_motion
-    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
-    from tunnelquake.solid_input import write_solid_input
+    from tunnelquake.prepare import mesh_dir
 
     case = load_case(_case(tmp_path, lambda s: s.replace("azimuth: 0", f"azimuth: {azimuth:g}")))
     d = case.data
-    make_mesh(case)
-    _, motion_h5 = make_motion(case)
-    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "solid_input.h5")
-    out = subprocess.run([str(EXE), str(inp), "-o", str(tmp_path / "r.h5"), "--threads", "1"],
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-    with h5py.File(tmp_path / "r.h5") as r:
+    inp, motion_h5, results = _solved(case, tmp_path)
+    with h5py.File(results) as r:
         t = r[f"monitors/{next(iter(MONITORS))}/time"][:, 0]
         s = np.mean([r[f"monitors/{m}/stress"][...] for m in MONITORS], axis=0)
         ring = {y: np.mean([r[f"monitors/{m}/u"][...] - r[f"monitors/{m}/u"][0] for m in NODES
@@ -279,8 +268,6 @@ def test_vertical_sv_through_the_drm_layer_gives_the_slices_peaks(tmp_path):
     along x) through its DRM layer, against the slice of the same case driven through its base and
     free-field columns (no incident_wave). Tolerance 0.5 % of the lining's peak u_x (measured
     0.05 %)."""
-    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
-    from tunnelquake.solid_input import write_solid_input
 
     peaks = {}
     for mode in ("3d", "slice"):
@@ -293,14 +280,8 @@ def test_vertical_sv_through_the_drm_layer_gives_the_slices_peaks(tmp_path):
 
         work = tmp_path / mode
         work.mkdir()
-        case = load_case(_case(work, edit))
-        make_mesh(case)
-        _, motion_h5 = make_motion(case)
-        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", work / "solid_input.h5")
-        out = subprocess.run([str(EXE), str(inp), "-o", str(work / "r.h5"), "--threads", "1"], capture_output=True,
-                             text=True, timeout=300)
-        assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
-        with h5py.File(work / "r.h5") as r:
+        _, _, results = _solved(load_case(_case(work, edit)), work)
+        with h5py.File(results) as r:
             peaks[mode] = {m: float(np.abs(r[f"monitors/{m}/u"][:, 0] - r[f"monitors/{m}/u"][0, 0]).max())
                            for m in MONITORS}
     for m in MONITORS:
@@ -343,8 +324,7 @@ def test_a_layered_case_moves_as_its_free_field_through_the_case_keys(tmp_path):
     what the tunnel scatters, small at 10 m from a flexible lining)."""
     from tunnelquake.case import ground_layers
     from tunnelquake.freefield import free_field, incident_motion
-    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
-    from tunnelquake.solid_input import write_solid_input
+    from tunnelquake.prepare import mesh_dir
 
     points = {"surface": [12.0, 60.0, 20.0], "rock": [-12.0, 60.0, -12.0]}
 
@@ -356,12 +336,7 @@ def test_a_layered_case_moves_as_its_free_field_through_the_case_keys(tmp_path):
 
     case = load_case(_case(tmp_path, edit))
     d = case.data
-    make_mesh(case)
-    _, motion_h5 = make_motion(case)
-    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "solid_input.h5")
-    out = subprocess.run([str(EXE), str(inp), "-o", str(tmp_path / "r.h5"), "--threads", "1"],
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    inp, motion_h5, results = _solved(case, tmp_path)
     with h5py.File(mesh_dir(case) / "mesh.h5") as m, h5py.File(inp) as f, h5py.File(motion_h5) as mo:
         xyz = m["nodes/coordinates"][...]
         layer = xyz[f["drm/nodes"][...]]
@@ -370,7 +345,7 @@ def test_a_layered_case_moves_as_its_free_field_through_the_case_keys(tmp_path):
     assert len(profile.layers) == 1 and profile.layers[0].thickness == pytest.approx(8.0)
     assert profile.layers[0].vs == pytest.approx(np.sqrt(1e9 / 2.6 / 2000))
     inc = incident_motion(rec, dt, wave, profile, "within")
-    with h5py.File(tmp_path / "r.h5") as r:
+    with h5py.File(results) as r:
         for name, p in points.items():
             t, u = r[f"monitors/{name}/time"][:, 0], r[f"monitors/{name}/u"][...]
             node = xyz[np.argmin(np.sum((xyz - p) ** 2, axis=1))]
@@ -385,13 +360,10 @@ def test_the_runs_free_field_is_written_as_an_h5drm_file_that_reads_back(tmp_pat
     read back through freefield.read_h5drm (every layer node matched to a file point, the inner and
     outer flags checked) it is the /drm field to round-off, so the run can be repeated from the file."""
     from tunnelquake.freefield import read_h5drm
-    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
-    from tunnelquake.solid_input import write_solid_input
+    from tunnelquake.prepare import mesh_dir
 
     case = load_case(_case(tmp_path, lambda s: s.replace("  azimuth: 0\n", "  azimuth: 0\n  write_h5drm: true\n")))
-    make_mesh(case)
-    _, motion_h5 = make_motion(case)
-    inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "w" / "solid_input.h5")
+    inp, _ = _solid_input(case, tmp_path / "w")
     with h5py.File(inp) as f, h5py.File(mesh_dir(case) / "mesh.h5") as m:
         nodes, internal = f["drm/nodes"][...], f["drm/internal"][...].astype(bool)
         u, t = np.swapaxes(f["drm/u"][...], 0, 1), f["drm/time"][...]

@@ -32,10 +32,7 @@ def test_the_tree_keeps_the_direction():
 
 
 def test_an_include_up_the_layers_is_named(tmp_path):
-    # the same as the allowed ones of the real tree, so that ALLOWED's entries match here too
-    allowed = {"src/core/constraints.cpp": '#include "tq/boundaries/boundaries.hpp"\n'}
     good = _tree(tmp_path / "good", {
-        **allowed,
         "include/tq/core/solver.hpp": '#include "tq/core/mesh.hpp"\n#include "tq/materials/material.hpp"\n',
         "include/tq/io/mesh.hpp": '#include "tq/core/mesh.hpp"\n',
         "src/io/input.cpp": '#include "h5util.hpp"\n#include "tq/contact/contact.hpp"\n',
@@ -46,7 +43,7 @@ def test_an_include_up_the_layers_is_named(tmp_path):
     assert run.returncode == 0, run.stdout
 
     bad = _tree(tmp_path / "bad", {
-        **allowed,
+        "src/core/constraints.cpp": '#include "tq/boundaries/boundaries.hpp"\n',
         "include/tq/core/solver.hpp": '#include "tq/io/mesh.hpp"\n',
         "src/contact/contact.cpp": '#include "io/input_schema.hpp"\n',
         "src/materials/material_kv.cpp": '#include "io/input_schema.hpp"\n',
@@ -60,14 +57,23 @@ def test_an_include_up_the_layers_is_named(tmp_path):
         in run.stdout
     assert "src/boundaries/drm.cpp: includes tq/contact/contact.hpp (contact/ is a layer of the same height" \
         in run.stdout
-
-
-def test_an_allowed_inversion_that_is_gone_must_leave_the_list(tmp_path):
-    tree = _tree(tmp_path, {"src/core/constraints.cpp": '#include "tq/core/constraints.hpp"\n'})
-    run = _check(tree)
-    assert run.returncode == 1
-    assert "src/core/constraints.cpp -> boundaries/boundaries.hpp is no longer included; remove the entry" \
+    assert "src/core/constraints.cpp: includes tq/boundaries/boundaries.hpp (boundaries/ is a layer above core/)" \
         in run.stdout
+
+
+def test_an_allowed_inversion_is_kept_and_one_gone_must_leave_the_list(tmp_path, monkeypatch, capsys):
+    """An inversion listed in ALLOWED passes while it is included; once the include is gone the entry
+    is refused (the real list is empty: one is listed here)."""
+    import include_layers
+
+    monkeypatch.setattr(include_layers, "ALLOWED", {
+        ("src/core/constraints.cpp", "boundaries/boundaries.hpp"): "the periodic tie finds its faces there"})
+    kept = _tree(tmp_path / "kept", {"src/core/constraints.cpp": '#include "tq/boundaries/boundaries.hpp"\n'})
+    assert include_layers.main(["--root", str(kept)]) == 0
+    gone = _tree(tmp_path / "gone", {"src/core/constraints.cpp": '#include "tq/core/constraints.hpp"\n'})
+    assert include_layers.main(["--root", str(gone)]) == 1
+    assert "src/core/constraints.cpp -> boundaries/boundaries.hpp is no longer included; remove the entry" \
+        in capsys.readouterr().out
 
 
 def test_a_folder_in_no_layer_is_refused(tmp_path):

@@ -18,6 +18,7 @@ import subprocess
 
 import h5py
 import pytest
+from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import ground_layers, load_case
@@ -28,18 +29,8 @@ from tunnelquake.motion import from_case
 from tunnelquake.prepare import write_motion
 from tunnelquake.solid_input import write_solid_input
 
-CASE = """
-name: layers_test
-geometry:
-  x_range: [XMIN, XMAX]
-  y_range: [0.0, 80.0]
-  z_range: [-28.0, 154.7]
-  tunnel_centre_z: 32.0
-  excavated_radius: 5.25
-  lining_thickness: 0.75
-mesh:
-  mode: slice
-materials:
+CASE = tunnel("layers_test", "[XMIN, XMAX]", [0.0, 80.0], [-28.0, 154.7], centre_z=32.0, radius=5.25, lining=0.75,
+              mode="slice") + """materials:
   rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700}
   weathered: {model: elastic, youngs_modulus: 2 GPa, poisson_ratio: 0.3, density: 2100}
   lining: {model: elastic, youngs_modulus: 28 GPa, poisson_ratio: 0.17, density: 2500}
@@ -47,12 +38,7 @@ layers:
   - material: weathered
     thickness: 24.7 m
 interface: {model: bonded}
-ground_motion:
-  source: synthetic
-  pga: 1.0 m/s^2
-  vertical_ratio: 0.6666666666666666
-  synthetic: {duration: 1.0}
-in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
+""" + synthetic_motion("1.0 m/s^2", 0.6666666666666666, 1.0) + """in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
 stages:
   sequence: [in_situ, excavation, lining, seismic]
   relaxation_tolerance: 1.0e-6

@@ -28,6 +28,7 @@ import subprocess
 
 import h5py
 import pytest
+from case_texts import synthetic_motion, tunnel
 
 from tunnelquake import paths
 from tunnelquake.case import load_case, schema
@@ -39,28 +40,13 @@ from tunnelquake.schema import CaseError
 from tunnelquake.solid_input import solid_step, write_solid_input
 from tunnelquake.solver_input_table import MODELS
 
-CASE = """
-name: material_models
-geometry:
-  x_range: [-40.0, 40.0]
-  y_range: [0.0, 10.0]
-  z_range: [-30.0, 60.0]
-  tunnel_centre_z: 20.0
-  excavated_radius: 4.0
-  lining_thickness: 0.5
-mesh:
-  mode: slice
-materials:
+CASE = tunnel("material_models", [-40.0, 40.0], [0.0, 10.0], [-30.0, 60.0], centre_z=20.0, radius=4.0, lining=0.5,
+              mode="slice") + """materials:
   rock: {model: ROCK, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700EXTRA}
   lining: {model: elastic, youngs_modulus: 28 GPa, poisson_ratio: 0.17, density: 2500}
 interface: {model: bonded}
 water: {head: 0 m, model: compressible}
-ground_motion:
-  source: synthetic
-  pga: 0.1 g
-  vertical_ratio: 0
-  synthetic: {duration: 1.0}
-in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
+""" + synthetic_motion("0.1 g", 0, 1.0) + """in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
 time: {end_time: 0.01}
 """
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from case_texts import small_slice
 
 from tunnelquake.case import CaseError, load_case
 from tunnelquake.motion import from_case
@@ -25,28 +26,7 @@ def _case(tmp_path, motion: str):
     horizontal record alone has the vertical at 2/3 of it."""
     alone = "vertical" not in motion and "source: none" not in motion
     ratio = "\n  vertical_ratio: 0.6666666666666666" if alone else ""
-    text = f"""name: components
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 1.0]
-  z_range: [-30.0, 30.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 3.0 m
-  lining_thickness: 0.4 m
-mesh:
-  mode: slice
-  max_element_size: 5 m
-  lining_elements_around: 16
-  lining_elements_through: 2
-  near_field_half_width: 8.0
-  near_field_radial_divisions: 3
-materials:
-  rock: {{model: elastic, youngs_modulus: 12 GPa, poisson_ratio: 0.25, density: 2600 kg/m^3}}
-  lining: {{model: elastic, youngs_modulus: 32 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}}
-interface: {{model: bonded}}
-in_situ: {{kx: 1.0, ky: 1.0}}
-ground_motion:
+    text = small_slice("components") + f"""ground_motion:
 {motion}{ratio}
   cutoff_frequency: 100 Hz
   baseline_correction: false

@@ -17,6 +17,7 @@ import subprocess
 
 import h5py
 import pytest
+from case_texts import synthetic_motion, tunnel
 
 from tunnelquake import paths
 from tunnelquake.case import load_case
@@ -26,29 +27,13 @@ from tunnelquake.prepare import write_motion
 from tunnelquake.schema import CaseError
 from tunnelquake.solid_input import write_solid_input
 
-CASE = """
-name: rc_lining
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 10.0]
-  z_range: [-25.0, 40.0]
-  tunnel_centre_z: 10.0
-  excavated_radius: 3.5
-  lining_thickness: 0.4
-mesh:
-  mode: slice
-  lining_elements_through: 4
-materials:
+CASE = tunnel("rc_lining", [-30.0, 30.0], [0.0, 10.0], [-25.0, 40.0], centre_z=10.0, radius=3.5, lining=0.4,
+              mode="slice", lining_elements_through=4) + """materials:
   rock: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650}
   lining: {model: reinforced_concrete, youngs_modulus: 33 GPa, poisson_ratio: 0.2, density: 2500}
 interface: {model: bonded}
 water: {head: 0 m, model: compressible}
-ground_motion:
-  source: synthetic
-  pga: 0.1 g
-  vertical_ratio: 0
-  synthetic: {duration: 1.0}
-in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
+""" + synthetic_motion("0.1 g", 0, 1.0) + """in_situ: {kx: 1.0, ky: 1.0, kz: 1.0}
 time: {end_time: 0.01}
 DESIGN
 """

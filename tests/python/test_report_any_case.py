@@ -13,6 +13,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
+from case_texts import record_motion, tunnel
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
@@ -24,25 +25,10 @@ MONITORS = {"crown": [0.0, 5.0, 18.0], "springline": [3.0, 5.0, 15.0], "invert":
             "shoulder": [2.1213, 5.0, 17.1213]}
 STRENGTH = 2.2e6  # the lining's tensile strength, Pa
 
-CASE = """\
-name: own_tunnel
-description: a pressure tunnel unlike the example
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 10.0]
-  z_range: [-15.0, 40.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 15.0
-  excavated_radius: 3.5 m
-  lining_thickness: 0.5 m
-mesh:
-  mode: slice
-  max_element_size: 5 m
-  lining_elements_around: 32
-  lining_elements_through: 2
-  near_field_half_width: 8.0
-  near_field_radial_divisions: 6
-materials:
+CASE = tunnel("own_tunnel", [-30.0, 30.0], [0.0, 10.0], [-15.0, 40.0], centre_x=0.0, centre_z=15.0, radius="3.5 m",
+              lining="0.5 m", description="a pressure tunnel unlike the example", mode="slice",
+              max_element_size="5 m", lining_elements_around=32, lining_elements_through=2,
+              near_field_half_width=8.0, near_field_radial_divisions=6) + """materials:
   rock: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2650 kg/m^3}
   lining:
     model: mohr_coulomb_damage
@@ -55,15 +41,7 @@ materials:
     compressive_strength: 35 MPa
 water: {head: 60 m, model: compressible, bulk_modulus: 2.2 GPa}
 in_situ: {kx: 1.1, ky: 0.8}
-ground_motion:
-  source: file
-  file: record.txt
-  format: two_column
-  units: g
-  duration: 1.0 s
-  pga: 0.3 g
-  vertical_ratio: 0.5
-damping: {model: mass_proportional, ratio: 0.05, frequencies: [2 Hz, 10 Hz]}
+""" + record_motion("record.txt", units="g", duration="1.0 s", pga="0.3 g", vertical_ratio=0.5) + """damping: {model: mass_proportional, ratio: 0.05, frequencies: [2 Hz, 10 Hz]}
 conditions: [no_water, static_water, dynamic_water]
 coupling: {scheme: implicit, window: 16, tolerance: 1e-3, reuse: 16}
 output:

@@ -20,6 +20,7 @@ import subprocess
 import h5py
 import numpy as np
 import pytest
+from case_texts import synthetic_motion, tunnel
 
 from tunnelquake import fluid_case as fc
 from tunnelquake import paths
@@ -30,30 +31,15 @@ from tunnelquake.prepare import write_motion
 from tunnelquake.references import lined_tunnel_internal_pressure
 from tunnelquake.solid_input import SolidInputError, write_solid_input
 
-CASE = """
-name: solid_input_test
-geometry:
-  x_range: [-60.0, 60.0]
-  y_range: [0.0, 80.0]
-  z_range: [-28.0, 154.7]
-  tunnel_centre_z: 32.0
-  excavated_radius: 5.25
-  lining_thickness: 0.75
-mesh:
-  mode: slice
-materials:
+CASE = tunnel("solid_input_test", [-60.0, 60.0], [0.0, 80.0], [-28.0, 154.7], centre_z=32.0, radius=5.25,
+              lining=0.75, mode="slice") + """materials:
   rock: {model: elastic, youngs_modulus: 8 GPa, poisson_ratio: 0.27, density: 2700,
          cohesion: 0.55 MPa, friction_angle: 37, tensile_strength: 1.2 MPa}
   lining: {model: MODEL, youngs_modulus: 28 GPa, poisson_ratio: 0.17, density: 2500,
            cohesion: 1.8 MPa, friction_angle: 40, tensile_strength: 1.27 MPa}
 interface: {model: bonded}
 water: {head: 123 m, model: compressible}
-ground_motion:
-  source: synthetic
-  pga: 1.575 m/s^2
-  vertical_ratio: 0.6666666666666666
-  synthetic: {duration: 2.0}
-in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
+""" + synthetic_motion("1.575 m/s^2", 0.6666666666666666, 2.0) + """in_situ: {kx: 1.1, ky: 0.8, kz: 1.0}
 stages:
   relaxation_tolerance: 1.0e-6
   relaxation_max_steps: 100000

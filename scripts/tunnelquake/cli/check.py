@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 
 from ..units import STANDARD_GRAVITY
-from .common import add_ranks_argument, load_or_report, parser, refuse_ranks, say
+from .common import add_ranks_argument, load_for_ranks, parser, say
 
 
 def mesh_estimate(d: dict) -> str:
@@ -28,10 +28,8 @@ def main(argv: list[str]) -> int:
     p = parser("check", __doc__)
     add_ranks_argument(p)
     args = p.parse_args(argv)
-    case = load_or_report(args.case, args.variant)
+    case = load_for_ranks(args)
     if case is None:
-        return 1
-    if refuse_ranks(case, args.ranks):
         return 1
     d = case.data
     g = d["geometry"]

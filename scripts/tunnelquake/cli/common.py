@@ -39,6 +39,15 @@ def refuse_ranks(case: Case, ranks: int) -> bool:
     return bool(reasons)
 
 
+def load_for_ranks(args: argparse.Namespace) -> Case | None:
+    """The case of the command line (args.case, args.variant) when it loads and its solid can run on
+    args.ranks ranks; None after printing why not."""
+    case = load_or_report(args.case, args.variant)
+    if case is None or refuse_ranks(case, args.ranks):
+        return None
+    return case
+
+
 @contextlib.contextmanager
 def folder_held(case: Case, command: str):
     """Hold the case's results folder for a command that writes into it (mesh, motion, post by

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 
 from ..launch import run_held
-from .common import add_ranks_argument, load_or_report, parser, refuse_ranks
+from .common import add_ranks_argument, load_for_ranks, parser
 
 
 def main(argv: list[str]) -> int:
@@ -23,10 +23,8 @@ def main(argv: list[str]) -> int:
 
     suite_run.add_arguments(p)
     args = p.parse_args(argv)
-    case = load_or_report(args.case, args.variant)
+    case = load_for_ranks(args)
     if case is None:
-        return 1
-    if refuse_ranks(case, args.ranks):
         return 1
     if case.data["suite"]["records"] is not None:
         return suite_run.main(case, args, argv)

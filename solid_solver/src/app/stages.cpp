@@ -22,13 +22,13 @@ double now() { return std::chrono::duration<double>(std::chrono::steady_clock::n
 
 Real zTopOf(const Mesh& m) {
   Real z = -std::numeric_limits<Real>::max();
-  for (Index n = 0; n < m.numNodes(); ++n) z = std::max(z, m.coords[3 * size_t(n) + 2]);
+  for (Index n = 0; n < m.numNodes(); ++n) z = std::max(z, m.coords[dofIndex(n, 2)]);
   return z;
 }
 
 Real zBottomOf(const Mesh& m) {
   Real z = std::numeric_limits<Real>::max();
-  for (Index n = 0; n < m.numNodes(); ++n) z = std::min(z, m.coords[3 * size_t(n) + 2]);
+  for (Index n = 0; n < m.numNodes(); ++n) z = std::min(z, m.coords[dofIndex(n, 2)]);
   return z;
 }
 
@@ -149,7 +149,7 @@ OverburdenProfile overburdenProfile(const std::vector<std::unique_ptr<ElementBlo
     Range r{std::numeric_limits<Real>::max(), -std::numeric_limits<Real>::max(), b->material().density(), b->name()};
     for (Index e = 0; e < b->numElems(); ++e)
       for (int k = 0; k < 8; ++k) {
-        const Real z = mesh.coords[3 * size_t(b->node(e, k)) + 2];
+        const Real z = mesh.coords[dofIndex(b->node(e, k), 2)];
         r.lo = std::min(r.lo, z);
         r.hi = std::max(r.hi, z);
       }
@@ -199,7 +199,7 @@ void StagedAnalysis::setInSituStress() {
     if (b.get() == lining_) continue;
     for (Index e = 0; e < b->numElems(); ++e) {
       Real zc = 0;
-      for (int k = 0; k < 8; ++k) zc += 0.125 * mesh_.coords[3 * size_t(b->node(e, k)) + 2];
+      for (int k = 0; k < 8; ++k) zc += 0.125 * mesh_.coords[dofIndex(b->node(e, k), 2)];
       // Overburden, tension positive: σv = −(q + g ∫_z^{z_top} ρ dζ).
       const Real load = I.density > 0 ? I.density * (zTop - zc) : profile.integral(zc, zTop);
       const Real sv = -(I.surcharge + I.gravity * load);
@@ -296,7 +296,7 @@ std::string StagedAnalysis::notInEquilibrium(const std::string& name, const Rela
     Real r2 = 0;
     for (int d = 0; d < 3; ++d) {
       if (solver_.isFixed(n, d)) continue;
-      const size_t i = 3 * size_t(n) + d;
+      const size_t i = dofIndex(n, d);
       const Real f = s.fExtData()[i] - s.fIntData()[i];
       r2 += f * f;
     }
@@ -377,7 +377,7 @@ void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
     if (!(s.mass(n) > 0)) continue;  // inactive (the lining's nodes): no force on them
     for (int d = 0; d < 3; ++d) {
       if (solver_.isFixed(n, d)) continue;  // the support takes its share; no force to hold
-      const size_t i = 3 * size_t(n) + d;
+      const size_t i = dofIndex(n, d);
       f[i] = keep * (s.fIntData()[i] - s.fExtData()[i]);
       f2 += f[i] * f[i];
     }
@@ -558,36 +558,36 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     periodicPairs = TiedNodeGroups::periodicPairs(mesh_, S.periodic.faces[0], S.periodic.faces[1]);
     const int axis = axisFace(mesh_, S.periodic.faces[0]).axis;
     for (const auto& p : periodicPairs)
-      for (Index n : p) byReplaced[3 * size_t(n) + size_t(axis)] = 1;
+      for (Index n : p) byReplaced[dofIndex(n, axis)] = 1;
   }
   for (const auto& [group, dirs] : in_.fixed) {
     const auto nodes = mesh_.faceNodes(group);
     for (char c : dirs) {
       const int d = c == 'x' ? 0 : c == 'y' ? 1 : 2;
-      for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[3 * size_t(n) + d] = 1;
+      for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[dofIndex(n, d)] = 1;
     }
   }
   // The fault offset's nodes: held by the stage, released here with their reactions held (the
   // supports of their face groups that stay, e.g. the y-faces' rollers, stay).
   if (S.stages.has("fault_offset"))
     for (Index n : S.faultOffset.nodes)
-      for (int d = 0; d < 3; ++d) byReplaced[3 * size_t(n) + d] = 1;
+      for (int d = 0; d < 3; ++d) byReplaced[dofIndex(n, d)] = 1;
   // A slip during the shaking: its nodes keep (or take) a support in every direction, no reaction held.
   const bool slipping = S.faultOffset.dynamic();
   if (slipping)
     for (Index n : S.faultOffset.nodes)
       for (int d = 0; d < 3; ++d) {
         if (!solver_.isFixed(n, d)) solver_.fix(n, d);
-        keep[3 * size_t(n) + d] = 1;
+        keep[dofIndex(n, d)] = 1;
       }
   if (mesh_.slice && !S.periodic.present)
-    for (Index n = 0; n < N; ++n) keep[3 * size_t(n) + 1] = 1;  // plane strain stays
+    for (Index n = 0; n < N; ++n) keep[dofIndex(n, 1)] = 1;  // plane strain stays
   std::vector<Real> held(3 * size_t(N), 0.0);
   Real react2 = 0, corr2 = 0;
   Index released = 0;
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3; ++d) {
-      const size_t i = 3 * size_t(n) + d;
+      const size_t i = dofIndex(n, d);
       if (solver_.isFixed(n, d)) {
         if (byReplaced[i] && !keep[i]) {
           solver_.release(n, d);
@@ -630,16 +630,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       const Real zb = zBottomOf(mesh_);
       Real zAxis = std::numeric_limits<Real>::quiet_NaN();
       if (S.hydrostatic.present && S.hydrostatic.unitWeight > 0) zAxis = S.hydrostatic.zAxis;
-      for (const char* g : {"lining_inner", "rock_hole"})
-        if (!std::isfinite(zAxis) && mesh_.faces.count(g)) {
-          const auto nodes = mesh_.faceNodes(g);
-          Real lo = 1e300, hi = -1e300;
-          for (Index n : nodes) {
-            lo = std::min(lo, mesh_.coords[3 * size_t(n) + 2]);
-            hi = std::max(hi, mesh_.coords[3 * size_t(n) + 2]);
-          }
-          zAxis = 0.5 * (lo + hi);
-        }
+      if (!std::isfinite(zAxis)) zAxis = tunnelAxisZ(mesh_);
       spec.distance = std::isfinite(zAxis) ? zAxis - zb : zTopOf(mesh_) - zb;
     }
     const MotionInput& M = S.motion;

@@ -11,98 +11,11 @@ namespace tq {
 
 namespace {
 
-constexpr Real kXi4[4] = {-1, 1, 1, -1}, kEta4[4] = {-1, -1, 1, 1};
-
-/// Bilinear quad at (ξ, η): shape functions N and the tangents ∂x/∂ξ, ∂x/∂η.
-void quadAt(const Real x[4][3], Real xi, Real eta, Real N[4], Real* pos, Real axi[3], Real aeta[3]) {
-  for (int k = 0; k < 4; ++k) N[k] = 0.25 * (1 + kXi4[k] * xi) * (1 + kEta4[k] * eta);
-  for (int i = 0; i < 3; ++i) {
-    axi[i] = aeta[i] = 0;
-    if (pos) pos[i] = 0;
-    for (int k = 0; k < 4; ++k) {
-      axi[i] += 0.25 * kXi4[k] * (1 + kEta4[k] * eta) * x[k][i];
-      aeta[i] += 0.25 * kEta4[k] * (1 + kXi4[k] * xi) * x[k][i];
-      if (pos) pos[i] += N[k] * x[k][i];
-    }
-  }
-}
-
-void cross(const Real a[3], const Real b[3], Real c[3]) {
-  c[0] = a[1] * b[2] - a[2] * b[1];
-  c[1] = a[2] * b[0] - a[0] * b[2];
-  c[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-/// 2×2 Gauss loop over one quad: fn(N, position, n dA) with the oriented area element.
-template <class Fn>
-void gaussQuad(const Mesh& mesh, const Index* q, Fn fn) {
-  Real x[4][3];
-  for (int k = 0; k < 4; ++k)
-    for (int i = 0; i < 3; ++i) x[k][i] = mesh.coords[3 * size_t(q[k]) + i];
-  const Real g = 1 / std::sqrt(3.0);
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b) {
-      Real N[4], pos[3], axi[3], aeta[3], ndA[3];
-      quadAt(x, a ? g : -g, b ? g : -g, N, pos, axi, aeta);
-      cross(axi, aeta, ndA);  // weight 1 per Gauss point
-      fn(N, pos, ndA);
-    }
-}
+using face_quadrature::gaussQuad;
 
 std::string mshort(const Mesh& m) { return "mesh " + m.source; }
 
 }  // namespace
-
-AxisFace axisFace(const Mesh& mesh, const std::string& group) {
-  auto it = mesh.faces.find(group);
-  if (it == mesh.faces.end()) {
-    mesh.faceNodes(group);  // throws the standard "missing group" message
-    throw InputError(mshort(mesh) + ": face group '" + group + "' is missing");
-  }
-  const auto& q = it->second;
-  if (q.empty()) throw InputError(mshort(mesh) + ": face group '" + group + "' is empty");
-  AxisFace f;
-  f.name = group;
-  f.quads = q;
-  Real n[3] = {0, 0, 0};
-  std::map<Index, Real> area;
-  for (size_t k = 0; k < q.size() / 4; ++k)
-    gaussQuad(mesh, &q[4 * k], [&](const Real N[4], const Real*, const Real ndA[3]) {
-      const Real dA = std::sqrt(ndA[0] * ndA[0] + ndA[1] * ndA[1] + ndA[2] * ndA[2]);
-      for (int i = 0; i < 3; ++i) n[i] += ndA[i];
-      for (int c = 0; c < 4; ++c) area[q[4 * k + c]] += N[c] * dA;
-    });
-  const Real len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  f.axis = int(std::max_element(n, n + 3, [](Real a, Real b) { return std::abs(a) < std::abs(b); }) - n);
-  f.sign = n[f.axis] > 0 ? 1 : -1;
-  // Planar and axis-aligned: every node on the same coordinate plane.
-  Real lo = 1e300, hi = -1e300, ext = 0;
-  for (const auto& [node, a] : area) {
-    const Real c = mesh.coords[3 * size_t(node) + f.axis];
-    lo = std::min(lo, c);
-    hi = std::max(hi, c);
-  }
-  for (int i = 0; i < 3; ++i) {
-    Real a = 1e300, b = -1e300;
-    for (const auto& [node, ar] : area) {
-      a = std::min(a, mesh.coords[3 * size_t(node) + i]);
-      b = std::max(b, mesh.coords[3 * size_t(node) + i]);
-    }
-    ext = std::max(ext, b - a);
-  }
-  if (!(len > 0) || std::abs(n[f.axis]) < (1 - 1e-9) * len || hi - lo > 1e-9 * ext) {
-    std::ostringstream os;
-    os << mshort(mesh) << ": face group '" << group
-       << "' must be a plane perpendicular to x, y or z for this boundary (its nodes span " << hi - lo << " m along "
-       << "xyz"[f.axis] << "); use an axis-aligned block boundary";
-    throw InputError(os.str());
-  }
-  for (const auto& [node, a] : area) {
-    f.nodes.push_back(node);
-    f.area.push_back(a);
-  }
-  return f;
-}
 
 std::vector<Real> pressureNodalForces(const Mesh& mesh, const std::string& group,
                                       const std::function<Real(const Real x[3])>& pressure) {
@@ -117,7 +30,7 @@ std::vector<Real> pressureNodalForces(const Mesh& mesh, const std::string& group
     gaussQuad(mesh, &q[4 * k], [&](const Real N[4], const Real pos[3], const Real ndA[3]) {
       const Real p = pressure(pos);
       for (int c = 0; c < 4; ++c)
-        for (int i = 0; i < 3; ++i) f[3 * size_t(q[4 * k + c]) + i] -= N[c] * p * ndA[i];
+        for (int i = 0; i < 3; ++i) f[dofIndex(q[4 * k + c], i)] -= N[c] * p * ndA[i];
     });
   return f;
 }
@@ -186,7 +99,7 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
   std::vector<Real> z;
   Real zmin = 1e300, zmax = -1e300;
   for (Index n : f.nodes) {
-    z.push_back(mesh.coords[3 * size_t(n) + 2]);
+    z.push_back(mesh.coords[dofIndex(n, 2)]);
     zmin = std::min(zmin, z.back());
     zmax = std::max(zmax, z.back());
   }
@@ -208,8 +121,8 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
     const Index* q = &f.quads[4 * k];
     Real lo = 1e300, hi = -1e300;
     for (int c = 0; c < 4; ++c) {
-      lo = std::min(lo, mesh.coords[3 * size_t(q[c]) + 2]);
-      hi = std::max(hi, mesh.coords[3 * size_t(q[c]) + 2]);
+      lo = std::min(lo, mesh.coords[dofIndex(q[c], 2)]);
+      hi = std::max(hi, mesh.coords[dofIndex(q[c], 2)]);
     }
     const Index l0 = levelOf(lo), l1 = levelOf(hi);
     if (l1 != l0 + 1) {
@@ -276,7 +189,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
                        "' is not a horizontal base facing down (outward normal −z); the viscoelastic "
                        "boundary belongs on the bottom of the model");
     const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
-    if (std::abs(col.level(0) - mesh.coords[3 * size_t(base_.nodes[0]) + 2]) >
+    if (std::abs(col.level(0) - mesh.coords[dofIndex(base_.nodes[0], 2)]) >
         1e-9 * std::max(1.0, col.level(col.numLevels() - 1) - col.level(0)))
       throw InputError(mshort(mesh) + ": the base column's bottom (face '" + colFace +
                        "') is not at the height of face group '" + spec_.bottomFace + "'");
@@ -295,7 +208,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
     for (size_t k = 0; k < f.quads.size() / 4; ++k) {
       const Index* q = &f.quads[4 * k];
       Real zc = 0;
-      for (int c = 0; c < 4; ++c) zc += 0.25 * mesh.coords[3 * size_t(q[c]) + 2];
+      for (int c = 0; c < 4; ++c) zc += 0.25 * mesh.coords[dofIndex(q[c], 2)];
       SideQuadLoad L;
       L.column = Index(fi);
       L.layer = col.layerAt(zc);
@@ -318,7 +231,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
           SideNode s;
           s.node = q[c];
           s.column = Index(fi);
-          col.interpolation(mesh.coords[3 * size_t(q[c]) + 2], &s.level, &s.w);
+          col.interpolation(mesh.coords[dofIndex(q[c], 2)], &s.level, &s.w);
           s.c[0] = s.c[1] = s.c[2] = 0;
           side_.push_back(s);
         }
@@ -365,7 +278,7 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
         const size_t j = 3 * i + d;
         const Real u = state.u(n, d);
         const Real fs = -A * kArea_[size_t(d)] * (u - u0_[j]);
-        fe[3 * size_t(n) + d] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
+        fe[dofIndex(n, d)] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
         if (!first_) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
         fPrev_[j] = fs;
         uPrev_[j] = u;
@@ -380,7 +293,7 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
     const Index k1 = std::min<Index>(s.level + 1, col.numLevels() - 1);
     for (int d = 0; d < 3; ++d) {
       const Real vff = (1 - s.w) * col.vMean(s.level, d) + s.w * col.vMean(k1, d);
-      fe[3 * size_t(s.node) + d] += s.c[d] * vff;
+      fe[dofIndex(s.node, d)] += s.c[d] * vff;
     }
   }
   static constexpr int kVoigt[3][3] = {{XX, XY, ZX}, {XY, YY, YZ}, {ZX, YZ, ZZ}};
@@ -389,7 +302,7 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
     Real t3[3];
     for (int i = 0; i < 3; ++i) t3[i] = L.sign * sig[kVoigt[i][L.axis]];
     for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) fe[3 * size_t(L.node[c]) + i] += L.share[c] * t3[i];
+      for (int i = 0; i < 3; ++i) fe[dofIndex(L.node[c], i)] += L.share[c] * t3[i];
   }
 }
 

@@ -93,7 +93,7 @@ DomainReduction::DomainReduction(const Mesh& mesh, const std::vector<std::unique
       b->elementForces(e, uProbe.data(), f0);
       for (int kj = 0; kj < 8; ++kj)
         for (int j = 0; j < 3; ++j) {
-          Real& probe = uProbe[3 * size_t(b->node(e, kj)) + size_t(j)];
+          Real& probe = uProbe[dofIndex(b->node(e, kj), j)];
           probe = 1;
           b->elementForces(e, uProbe.data(), f1);
           probe = 0;

@@ -55,10 +55,10 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
   std::string face;
   Real sign = 1;
   bool onLining = true;
-  if (mesh.faces.count("lining_outer")) {
-    face = "lining_outer";
-  } else if (mesh.faces.count("rock_hole")) {
-    face = "rock_hole";
+  if (mesh.faces.count(face_group::kLiningOuter)) {
+    face = face_group::kLiningOuter;
+  } else if (mesh.faces.count(face_group::kRockHole)) {
+    face = face_group::kRockHole;
     sign = -1;  // rock_hole's outward normal points into the hole, i.e. from rock to lining
     onLining = false;
   } else {
@@ -82,8 +82,8 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
   Real lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
   for (Index n = 0; n < N; ++n)
     for (int i = 0; i < 3; ++i) {
-      lo[i] = std::min(lo[i], mesh.coords[3 * size_t(n) + i]);
-      hi[i] = std::max(hi[i], mesh.coords[3 * size_t(n) + i]);
+      lo[i] = std::min(lo[i], mesh.coords[dofIndex(n, i)]);
+      hi[i] = std::max(hi[i], mesh.coords[dofIndex(n, i)]);
     }
   const Real size = std::sqrt(std::pow(hi[0] - lo[0], 2) + std::pow(hi[1] - lo[1], 2) + std::pow(hi[2] - lo[2], 2));
   ContactPairs pr;
@@ -96,7 +96,7 @@ ContactPairs rockLiningPairs(const Mesh& mesh) {
     pr.node1[p] = a;
     pr.node2[p] = b;
     Real dist = 0;
-    for (int i = 0; i < 3; ++i) dist += std::pow(mesh.coords[3 * size_t(a) + i] - mesh.coords[3 * size_t(b) + i], 2);
+    for (int i = 0; i < 3; ++i) dist += std::pow(mesh.coords[dofIndex(a, i)] - mesh.coords[dofIndex(b, i)], 2);
     if (std::sqrt(dist) > 1e-9 * size) {
       std::ostringstream os;
       os << where << ": pair " << p << " (rock node " << a << ", lining node " << b << ") is " << std::sqrt(dist)
@@ -142,7 +142,7 @@ Real DynamicContact::opening(Index p, const NodalState& s) const {
   const Index a = pairs_.node1[size_t(p)], b = pairs_.node2[size_t(p)];
   const Real* n = &pairs_.normal[3 * size_t(p)];
   Real g = 0;
-  for (int d = 0; d < 3; ++d) g += n[d] * (s.u(b, d) - s.u(a, d) - r0_[3 * size_t(p) + d]);
+  for (int d = 0; d < 3; ++d) g += n[d] * (s.u(b, d) - s.u(a, d) - r0_[dofIndex(p, d)]);
   return -g;
 }
 
@@ -151,7 +151,7 @@ Real DynamicContact::slip(Index p, const NodalState& s) const {
   const Real* n = &pairs_.normal[3 * size_t(p)];
   Real r[3], rn = 0;
   for (int d = 0; d < 3; ++d) {
-    r[d] = s.u(b, d) - s.u(a, d) - r0_[3 * size_t(p) + d];
+    r[d] = s.u(b, d) - s.u(a, d) - r0_[dofIndex(p, d)];
     rn += n[d] * r[d];
   }
   Real t2 = 0;
@@ -180,8 +180,8 @@ void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
     if (state_[p] == std::uint8_t(PairState::Inactive)) {
       // Becomes active (both sides installed): bonded in the current configuration.
       for (int d = 0; d < 3; ++d) {
-        r0_[3 * p + d] = u[3 * size_t(b) + d] - u[3 * size_t(a) + d];
-        relPrev_[3 * p + d] = u[3 * size_t(a) + d] - u[3 * size_t(b) + d];
+        r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
+        relPrev_[3 * p + d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
         R[d] = 0;
       }
       state_[p] = std::uint8_t(PairState::Bonded);
@@ -190,7 +190,7 @@ void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
     }
     // Work of the previous force over the last increment (the solver books the same terms).
     Real rel[3], Rnew[3] = {0, 0, 0};
-    for (int d = 0; d < 3; ++d) rel[d] = u[3 * size_t(a) + d] - u[3 * size_t(b) + d];
+    for (int d = 0; d < 3; ++d) rel[d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
     const Real* n = &pairs_.normal[3 * p];
     Real pred[3], cur[3], W[3];
     for (int d = 0; d < 3; ++d) {
@@ -269,8 +269,8 @@ void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
       work_ += (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;
       relPrev_[3 * p + d] = rel[d];
       R[d] = Rnew[d];
-      fe[3 * size_t(a) + d] += Rnew[d];
-      fe[3 * size_t(b) + d] -= Rnew[d];
+      fe[dofIndex(a, d)] += Rnew[d];
+      fe[dofIndex(b, d)] -= Rnew[d];
     }
   }
 }

@@ -78,7 +78,7 @@ void LiningJoints::addForces(Real /*t*/, Real dt, NodalState& st) {
     }
     if (state_[p] == std::uint8_t(JointState::Inactive)) {  // installed: unstressed in its current configuration
       for (int d = 0; d < 3; ++d) {
-        r0_[3 * p + d] = u[3 * size_t(b) + d] - u[3 * size_t(a) + d];
+        r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
         relPrev_[3 * p + d] = -r0_[3 * p + d];
         sp_[3 * p + d] = 0;
         F[d] = 0;

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "tq/boundaries/boundaries.hpp"
+#include "tq/core/face_quadrature.hpp"
 
 namespace tq {
 
@@ -38,7 +38,7 @@ std::vector<std::vector<Index>> TiedNodeGroups::periodicPairs(const Mesh& mesh, 
     throw InputError(what + " have " + std::to_string(a.nodes.size()) + " and " + std::to_string(b.nodes.size()) +
                      " nodes: a periodic model needs the same node layout on both (an extruded mesh)");
   const int i = (a.axis + 1) % 3, j = (a.axis + 2) % 3;
-  auto at = [&](Index n, int d) { return mesh.coords[3 * size_t(n) + d]; };
+  auto at = [&](Index n, int d) { return mesh.coords[dofIndex(n, d)]; };
   Real ext = 0;
   for (int d = 0; d < 3; ++d) {
     Real lo = 1e300, hi = -1e300;
@@ -129,16 +129,16 @@ void TiedNodeGroups::addForces(Real, Real, NodalState& state) {
     for (Index j = j0; j < j1; ++j) {
       const Index n = node_[size_t(j)];
       M += state.mass(n);
-      for (int d = 0; d < 3; ++d) F[d] += fe[3 * size_t(n) + d] - fi[3 * size_t(n) + d];
+      for (int d = 0; d < 3; ++d) F[d] += fe[dofIndex(n, d)] - fi[dofIndex(n, d)];
     }
     for (Index j = j0; j < j1; ++j) {
       const Index n = node_[size_t(j)];
       const Real m = state.mass(n);
       for (int d = 0; d < 3; ++d) {
         // Massless members (an element set not active yet) stay at rest: no exchange.
-        const Real fc = (M > 0 && m > 0) ? m * F[d] / M - (fe[3 * size_t(n) + d] - fi[3 * size_t(n) + d]) : 0.0;
-        force_[3 * size_t(j) + d] = fc;
-        fe[3 * size_t(n) + d] += fc;
+        const Real fc = (M > 0 && m > 0) ? m * F[d] / M - (fe[dofIndex(n, d)] - fi[dofIndex(n, d)]) : 0.0;
+        force_[dofIndex(j, d)] = fc;
+        fe[dofIndex(n, d)] += fc;
       }
     }
   }

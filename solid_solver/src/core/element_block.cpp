@@ -241,7 +241,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
     Real x[3][8];
     for (int k = 0; k < 8; ++k) {
       conn_[8 * e + k] = mesh.connectivity[8 * size_t(me) + k];
-      for (int i = 0; i < 3; ++i) x[i][k] = mesh.coords[3 * size_t(conn_[8 * e + k]) + i];
+      for (int i = 0; i < 3; ++i) x[i][k] = mesh.coords[dofIndex(conn_[8 * e + k], i)];
     }
     const hex8::Geometry g = hex8::computeGeometry(x);
     vol_[e] = g.volume;
@@ -275,7 +275,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
     for (size_t e = a; e < b; ++e)
       for (int k = 0; k < 8; ++k)
         for (int d = 0; d < 3; ++d)
-          chunkCentre_[3 * c + size_t(d)] += mesh.coords[3 * size_t(conn_[8 * e + k]) + size_t(d)] / Real(8 * (b - a));
+          chunkCentre_[3 * c + size_t(d)] += mesh.coords[dofIndex(conn_[8 * e + k], d)] / Real(8 * (b - a));
   }
   // Slabs for the scatter over all chunks in order (depends on the mesh only)
   std::vector<Index> all(nChunks);
@@ -288,7 +288,7 @@ void ElementBlock::initElementHistory(const Mesh& mesh) {
   for (auto& c : elemCentre_) c.assign(size_t(nElems_), 0.0);  // element centres for the material
   for (size_t e = 0; e < size_t(nElems_); ++e)
     for (int k = 0; k < 8; ++k)
-      for (int d = 0; d < 3; ++d) elemCentre_[d][e] += mesh.coords[3 * size_t(conn_[8 * e + k]) + size_t(d)] / 8;
+      for (int d = 0; d < 3; ++d) elemCentre_[d][e] += mesh.coords[dofIndex(conn_[8 * e + k], d)] / 8;
   const Real* centre[3] = {elemCentre_[0].data(), elemCentre_[1].data(), elemCentre_[2].data()};
   material_->initHistory(nElems_, centre, historyPtr_.data());
 }
@@ -899,7 +899,7 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
     Real fe[24] = {};
     Real ue[3][8];
     for (int k = 0; k < 8; ++k)
-      for (int i = 0; i < 3; ++i) ue[i][k] = u[3 * size_t(conn_[8 * e + k]) + i];
+      for (int i = 0; i < 3; ++i) ue[i][k] = u[dofIndex(conn_[8 * e + k], i)];
     Real savg[6] = {}, eavg[6] = {};
     for (int gp = 0; gp < 8; ++gp) {
       const Real* bg = &bg_[192 * e + 24 * gp];
@@ -933,7 +933,7 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
       strain_[k][e] = eavg[k] / vol_[e];
     }
     for (int k = 0; k < 8; ++k)
-      for (int i = 0; i < 3; ++i) f[3 * size_t(conn_[8 * e + k]) + i] += fe[3 * k + i];
+      for (int i = 0; i < 3; ++i) f[dofIndex(conn_[8 * e + k], i)] += fe[3 * k + i];
   }
   en.stressWork = 0;
   en.storedEnergy = energy;
@@ -1018,7 +1018,7 @@ void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 8; ++k) {
       ug[i][k][l] = ug[i][k][l + 1] = 0;
-      ug[i][k][le] = u[3 * size_t(conn_[8 * size_t(e) + k]) + i];
+      ug[i][k][le] = u[dofIndex(conn_[8 * size_t(e) + k], i)];
     }
   V2 L[3][3];
   gradient(ug, G, l, L);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "tq/elements/hex8.hpp"
@@ -21,11 +22,24 @@ std::vector<Index> Mesh::faceNodes(const std::string& group) const {
   return n;
 }
 
+Real tunnelAxisZ(const Mesh& mesh) {
+  for (const char* g : {face_group::kLiningInner, face_group::kRockHole})
+    if (mesh.faces.count(g)) {
+      Real lo = 1e300, hi = -1e300;
+      for (Index n : mesh.faceNodes(g)) {
+        lo = std::min(lo, mesh.coords[dofIndex(n, 2)]);
+        hi = std::max(hi, mesh.coords[dofIndex(n, 2)]);
+      }
+      if (const Real z = 0.5 * (lo + hi); std::isfinite(z)) return z;
+    }
+  return std::numeric_limits<Real>::quiet_NaN();
+}
+
 void quadAreaVector(const Mesh& mesh, const Index* quad, Real s[3]) {
   Real d1[3], d2[3];
   for (int d = 0; d < 3; ++d) {
-    d1[d] = mesh.coords[3 * size_t(quad[2]) + size_t(d)] - mesh.coords[3 * size_t(quad[0]) + size_t(d)];
-    d2[d] = mesh.coords[3 * size_t(quad[3]) + size_t(d)] - mesh.coords[3 * size_t(quad[1]) + size_t(d)];
+    d1[d] = mesh.coords[dofIndex(quad[2], d)] - mesh.coords[dofIndex(quad[0], d)];
+    d2[d] = mesh.coords[dofIndex(quad[3], d)] - mesh.coords[dofIndex(quad[1], d)];
   }
   s[0] = 0.5 * (d1[1] * d2[2] - d1[2] * d2[1]);
   s[1] = 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]);

@@ -269,7 +269,7 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     const bool d = q.lev[n] <= q.active;
     const Real dtn = q.dt * Real(1u << q.lev[n]);
     for (int c = 0; c < 3; ++c) {
-      const size_t i = 3 * size_t(n) + size_t(c);
+      const size_t i = dofIndex(n, c);
       subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0, i,
                          q, r.ke, r.ext, r.damp, r.bdry, bads);
     }
@@ -363,7 +363,7 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
   const Index N = mesh.numNodes();
   state_.resize(N);
   for (Index n = 0; n < N; ++n)
-    for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[3 * size_t(n) + d]);
+    for (int d = 0; d < 3; ++d) state_.setX0(n, d, mesh.coords[dofIndex(n, d)]);
   free_.assign(3 * size_t(N), 1);
   fExtPrev_.assign(3 * size_t(N), 0.0);
   nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
@@ -373,7 +373,7 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
   setTimeStep(opt_.dt);
 }
 
-void Solver::fix(Index node, int d) { free_[3 * size_t(node) + d] = 0; }
+void Solver::fix(Index node, int d) { free_[dofIndex(node, d)] = 0; }
 
 void Solver::fixFaceGroup(const std::string& group, const std::string& dirs) {
   const auto nodes = mesh_.faceNodes(group);
@@ -523,7 +523,7 @@ void Solver::addGravityAndLoads() {
   Real* fe = state_.fExtData();
   for (const auto& l : loads_) {
     const Real f = l.forcePerNode * l.function(t_);
-    for (Index n : l.nodes) fe[3 * size_t(n) + l.direction] += f;
+    for (Index n : l.nodes) fe[dofIndex(n, l.direction)] += f;
   }
 }
 
@@ -577,7 +577,7 @@ void Solver::updateNodes() {
   if (rx_) {  // on ranks: the ghosts' v^{n-1/2}, to take their share out of the sums (subtractGhostSums)
     ghostV_.clear();
     for (Index n : rx_->ghosts())
-      for (int d = 0; d < 3; ++d) ghostV_.push_back(v[3 * size_t(n) + d]);
+      for (int d = 0; d < 3; ++d) ghostV_.push_back(v[dofIndex(n, d)]);
   }
 #pragma omp parallel for schedule(static) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
@@ -598,7 +598,7 @@ void Solver::updateNodes() {
       for (Index n = n0; n < n1; ++n) {
         const Real mn = m[n];
         for (int d = 0; d < 3; ++d) {
-          const size_t i = 3 * size_t(n) + d;
+          const size_t i = dofIndex(n, d);
           if (!(mn > 0)) {  // node of no active element: at rest
             v[i] = a[i] = 0;
             continue;
@@ -659,7 +659,7 @@ void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) cons
     const Real mn = state_.mass(n);
     if (!(mn > 0)) continue;
     for (int d = 0; d < 3; ++d) {
-      const size_t i = 3 * size_t(n) + size_t(d);
+      const size_t i = dofIndex(n, d);
       const Real vo = ghostV_[3 * k + size_t(d)], vn = v[i], vb = 0.5 * (vo + vn);
       const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
       ext -= 0.5 * (fe[i] + fExtPrev_[i]) * dtLast_ * vo;
@@ -950,7 +950,7 @@ void Solver::runUntil(Real tEnd, const std::function<void()>& each) {
   }
 }
 
-Real Solver::velocityAt(Index node, int d) const { return state_.vData()[3 * size_t(node) + d]; }
+Real Solver::velocityAt(Index node, int d) const { return state_.vData()[dofIndex(node, d)]; }
 
 Real Solver::unbalancedRatio() const { return unbalancedRatio(false); }
 
@@ -960,7 +960,7 @@ Real Solver::unbalancedRatio(bool allDofsReference) const {
   const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3 && (!own || own[n]); ++d) {
-      const size_t i = 3 * size_t(n) + d;
+      const size_t i = dofIndex(n, d);
       const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
       const bool isFree = free_[i] != 0;
       if (isFree) r2 += (fe - fi) * (fe - fi);
@@ -984,7 +984,7 @@ Real Solver::residualNorm() const {
   const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3 && (!own || own[n]); ++d) {
-      const size_t i = 3 * size_t(n) + d;
+      const size_t i = dofIndex(n, d);
       if (free_[i] == 0) continue;
       const Real r = state_.fExtData()[i] - state_.fIntData()[i];
       r2 += r * r;
@@ -1050,7 +1050,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
       const Real* v = state_.vData();
       for (Index n = 0; n < N; ++n)
         for (int d = 0; d < 3; ++d) {
-          const size_t i = 3 * size_t(n) + d;
+          const size_t i = dofIndex(n, d);
           const Real du = dtLast_ * v[i];
           num += du * (f[i] - fPrev[i]);
           den += du * du * state_.mass(n);
@@ -1059,7 +1059,7 @@ RelaxResult Solver::relax(const RelaxParams& p) {
         Real q[2] = {0, 0};
         for (Index n : rx_->ghosts())
           for (int d = 0; d < 3; ++d) {
-            const size_t i = 3 * size_t(n) + d;
+            const size_t i = dofIndex(n, d);
             const Real du = dtLast_ * v[i];
             q[0] += du * (f[i] - fPrev[i]);
             q[1] += du * du * state_.mass(n);
@@ -1116,7 +1116,7 @@ void Solver::resetMotion() {
 }
 
 Real Solver::relativeDisplacement(Index node, int d) const {
-  const size_t i = 3 * size_t(node) + d;
+  const size_t i = dofIndex(node, d);
   return state_.uData()[i] - (uRef_.empty() ? 0.0 : uRef_[i]);
 }
 

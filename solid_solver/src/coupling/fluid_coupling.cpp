@@ -140,7 +140,7 @@ struct FluidCoupling::Impl {
     for (size_t k = 0; k < nodes.size(); ++k)
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * k + size_t(d);
-        dispStart[j] = u[3 * size_t(nodes[k]) + size_t(d)] - u0[j];
+        dispStart[j] = u[dofIndex(nodes[k], d)] - u0[j];
       }
   }
   void windowMeanVelocity() {
@@ -288,7 +288,7 @@ struct FluidCoupling::Impl {
     force = scheme == cp::SchemeKind::Explicit ? received : trial;
     if (repeats)  // u^n of the window's last step, for the booking once it is accepted
       for (size_t k = 0; k < nodes.size(); ++k)
-        for (int d = 0; d < 3; ++d) uLast[3 * k + size_t(d)] = st.uData()[3 * size_t(nodes[k]) + size_t(d)];
+        for (int d = 0; d < 3; ++d) uLast[3 * k + size_t(d)] = st.uData()[dofIndex(nodes[k], d)];
     const bool accepted = !p->requiresReadingCheckpoint();
     if (!accepted) trial = received;
     forceSet = accepted || !repeats;  // a one-step window's step is predicted again, not taken
@@ -403,7 +403,7 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const Carr
   std::vector<std::int64_t> ids(I.nodes.begin(), I.nodes.end());
   std::vector<double> xyz(n3);
   for (size_t k = 0; k < I.nodes.size(); ++k)
-    for (int d = 0; d < 3; ++d) xyz[3 * k + d] = mesh.coords[3 * size_t(I.nodes[k]) + d];
+    for (int d = 0; d < 3; ++d) xyz[3 * k + d] = mesh.coords[dofIndex(I.nodes[k], d)];
   std::vector<std::int32_t> tri;
   const auto& quads = mesh.faces.at(in.face);
   auto local = [&](Index n) {

@@ -38,7 +38,7 @@ void edgeLengthRange(const Real* coords, const Index* nodes, Real& shortest, Rea
   for (const auto& ed : kEdges) {
     Real d2 = 0;
     for (int i = 0; i < 3; ++i) {
-      const Real dx = coords[3 * size_t(nodes[ed[0]]) + i] - coords[3 * size_t(nodes[ed[1]]) + i];
+      const Real dx = coords[dofIndex(nodes[ed[0]], i)] - coords[dofIndex(nodes[ed[1]], i)];
       d2 += dx * dx;
     }
     lo2 = std::min(lo2, d2);

@@ -347,6 +347,13 @@ void readStagedInput(hid_t f, SolidInput& in) {
       c.fail(w,
              "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
              "the axial flow between the planes of the wetted face carries)");
+    C.subtractMeanPressure = c.flag(g, w, K::coupling::subtract_mean_pressure);
+    if (C.subtractMeanPressure && (C.volumeLaw == "none" || C.waterEnds != "closed"))
+      c.fail(w,
+             "subtract_mean_pressure 1 (the water sends its wall pressure less its mean) needs the solid to carry "
+             "that uniform part: a volume_law with water_ends closed, but volume_law is " +
+                 C.volumeLaw + " and water_ends " + C.waterEnds +
+                 "; write the settings from one case (fluid_case.coupling_settings) or leave it out");
     if (C.windowSteps > 1 && C.scheme == "paper")
       c.fail(w, "a window of " + std::to_string(C.windowSteps) +
                     " solid steps needs scheme explicit or implicit (the "

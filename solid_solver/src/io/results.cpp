@@ -159,7 +159,7 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
     Real best = std::numeric_limits<Real>::max();
     for (Index n = 0; n < m.numNodes(); ++n) {
       Real d2 = 0;
-      for (int k = 0; k < 3; ++k) d2 += std::pow(m.coords[3 * size_t(n) + k] - mi.point[k], 2);
+      for (int k = 0; k < 3; ++k) d2 += std::pow(m.coords[dofIndex(n, k)] - mi.point[k], 2);
       if (d2 < best) {
         best = d2;
         mon.node = n;
@@ -171,7 +171,7 @@ ResultsWriter::ResultsWriter(const std::string& path, const SolidInput& in, cons
       for (Index e = 0; e < blocks[b]->numElems(); ++e) {
         Real c[3] = {0, 0, 0};
         for (int k = 0; k < 8; ++k)
-          for (int d = 0; d < 3; ++d) c[d] += 0.125 * m.coords[3 * size_t(blocks[b]->node(e, k)) + d];
+          for (int d = 0; d < 3; ++d) c[d] += 0.125 * m.coords[dofIndex(blocks[b]->node(e, k), d)];
         Real d2 = 0;
         for (int d = 0; d < 3; ++d) d2 += std::pow(c[d] - mi.point[d], 2);
         if (d2 < best) {
@@ -392,7 +392,7 @@ void ResultsWriter::addWaterPressure(const Mesh& m, const std::string& face, con
   std::vector<Real> areaVec(3 * nodes.size(), 0.0);
   const auto& quads = m.faces.at(face);
   auto local = [&](Index n) { return size_t(std::lower_bound(nodes.begin(), nodes.end(), n) - nodes.begin()); };
-  auto x = [&](Index n, int d) { return m.coords[3 * size_t(n) + d]; };
+  auto x = [&](Index n, int d) { return m.coords[dofIndex(n, d)]; };
   for (size_t q = 0; q + 3 < quads.size(); q += 4) {
     Real s[3];
     quadAreaVector(m, &quads[q], s);
@@ -459,8 +459,8 @@ void ResultsWriter::snapshot(const Solver& s) {
   std::vector<Real> u(3 * size_t(N)), v(3 * size_t(N)), st(6 * size_t(E), 0.0);
   for (Index n = 0; n < N; ++n)
     for (int d = 0; d < 3; ++d) {
-      u[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
-      v[3 * size_t(n) + d] = s.velocityAt(n, d);
+      u[dofIndex(n, d)] = s.relativeDisplacement(n, d);
+      v[dofIndex(n, d)] = s.velocityAt(n, d);
     }
   for (const auto& b : s.blocks())
     for (Index e = 0; e < b->numElems(); ++e)

@@ -29,7 +29,7 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
     note_ = "no ring forces: the lining region has no elements";
     return;
   }
-  auto X = [&](Index n, int d) { return mesh.coords[3 * size_t(n) + d]; };
+  auto X = [&](Index n, int d) { return mesh.coords[dofIndex(n, d)]; };
   // Axial element layers by the elements' smallest y.
   std::vector<Real> ylo(static_cast<size_t>(E)), yhi(static_cast<size_t>(E));
   Real span = 0;
@@ -82,7 +82,7 @@ RingForces::RingForces(const Mesh& mesh, const ElementBlock& lining, const std::
     // group lining_inner (exact for nodes on one circle), or over all its nodes without that group
     // (exact for nodes on concentric circles placed symmetrically around them: a whole ring).
     std::vector<Index> fitNodes;
-    if (auto it = mesh.faces.find("lining_inner"); it != mesh.faces.end())
+    if (auto it = mesh.faces.find(face_group::kLiningInner); it != mesh.faces.end())
       for (Index n : it->second)
         if (std::binary_search(nodes.begin(), nodes.end(), n)) fitNodes.push_back(n);
     std::sort(fitNodes.begin(), fitNodes.end());
@@ -258,7 +258,7 @@ void RingForces::freeBodyForces(size_t r, const Real* u, Real* N, Real* M, Real*
         const Real fx = f[3 * k], fz = f[3 * k + 2];
         Tx += fx;
         Tz += fz;
-        m += (mesh_.coords[3 * size_t(n) + 2] - R.ref[s][1]) * fx - (mesh_.coords[3 * size_t(n)] - R.ref[s][0]) * fz;
+        m += (mesh_.coords[dofIndex(n, 2)] - R.ref[s][1]) * fx - (mesh_.coords[3 * size_t(n)] - R.ref[s][0]) * fz;
       }
     }
     const Real c = std::cos(R.angle[s]), sn = std::sin(R.angle[s]);

@@ -73,7 +73,7 @@ std::vector<int> partitionRcb(const Mesh& mesh, const std::vector<Real>& weight,
   for (Index e = 0; e < E; ++e)
     for (int k = 0; k < 8; ++k)
       for (int d = 0; d < 3; ++d)
-        centre[3 * size_t(e) + d] += 0.125 * mesh.coords[3 * size_t(mesh.connectivity[8 * size_t(e) + k]) + d];
+        centre[3 * size_t(e) + d] += 0.125 * mesh.coords[dofIndex(mesh.connectivity[8 * size_t(e) + k], d)];
   std::vector<Index> order(static_cast<size_t>(E));
   std::iota(order.begin(), order.end(), 0);
   std::vector<int> part(size_t(E), 0);

@@ -51,7 +51,7 @@ RankLayout makeRankLayout(const Mesh& g, const std::vector<int>& part, int rank,
   m.source = g.source + " (rank " + std::to_string(rank) + " of " + std::to_string(ranks) + ")";
   m.coords.reserve(3 * L.globalNode.size());
   for (Index n : L.globalNode)
-    for (int d = 0; d < 3; ++d) m.coords.push_back(g.coords[3 * size_t(n) + d]);
+    for (int d = 0; d < 3; ++d) m.coords.push_back(g.coords[dofIndex(n, d)]);
   m.connectivity.reserve(8 * L.globalElem.size());
   for (Index e : L.globalElem) {
     for (int k = 0; k < 8; ++k) m.connectivity.push_back(L.localNode[size_t(g.connectivity[8 * size_t(e) + k])]);

@@ -65,7 +65,7 @@ struct CarriedWater::Impl {
     S = 1;
     if (!openEnds) return {};
     std::vector<Real> ys(n);
-    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[3 * size_t(nodes[k]) + 1];
+    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[dofIndex(nodes[k], 1)];
     std::vector<Real> planes = ys;
     std::sort(planes.begin(), planes.end());
     const Real tol = 1e-9 * std::max<Real>(1, planes.back() - planes.front());
@@ -90,7 +90,7 @@ struct CarriedWater::Impl {
   void buildVolumeLaw(const Mesh& mesh) {
     const size_t n = nodes.size();
     g.assign(3 * n, 0.0);
-    auto x = [&](Index node, int d) { return mesh.coords[3 * size_t(node) + size_t(d)]; };
+    auto x = [&](Index node, int d) { return mesh.coords[dofIndex(node, d)]; };
     Real c[3] = {0, 0, 0};
     for (Index node : nodes)
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
@@ -194,7 +194,7 @@ struct CarriedWater::Impl {
         s[0] += g[j] * du[j];
         qU += g[j] * g[j] * respU[j];
         qV += g[j] * g[j] * respV[j];
-        gdv += g[j] * (dv[j] - v[3 * size_t(nodes[k]) + size_t(d)]);
+        gdv += g[j] * (dv[j] - v[dofIndex(nodes[k], d)]);
       }
       s[1] += qU;
       SUall += qU;
@@ -444,6 +444,7 @@ std::string CarriedWater::describe() const {
   if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
   if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
   if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
+  if (I.in.subtractMeanPressure) os << "; the water sends its wall pressure less its mean";
   return os.str();
 }
 

@@ -31,7 +31,7 @@ void WallPrediction::predict(Real dt, const NodalState& st, const Real* F, WallM
     const Index n = nodes_[k];
     const Real mn = st.mass(n);
     for (int d = 0; d < 3; ++d) {
-      const size_t i = 3 * size_t(n) + size_t(d), j = 3 * k + size_t(d);
+      const size_t i = dofIndex(n, d), j = 3 * k + size_t(d);
       if (!(mn > 0)) {  // node of no active element: the solver holds it at rest
         m.disp[j] = u[i] - u0_[j];
         m.vel[j] = 0;

@@ -13,23 +13,11 @@
 #include <vector>
 
 #include "tq/boundaries/free_field.hpp"
+#include "tq/core/face_quadrature.hpp"
 #include "tq/core/mesh.hpp"
 #include "tq/core/solver.hpp"
 
 namespace tq {
-
-/// The nodes of a planar face group whose outward normal is a coordinate axis, each with its
-/// tributary area ∫N_I dA (exact for bilinear quads, 2×2 Gauss).
-struct AxisFace {
-  std::string name;
-  int axis = 0;  ///< 0 x, 1 y, 2 z: the normal's direction
-  int sign = 1;  ///< +1 or −1: outward normal = sign · e_axis
-  std::vector<Index> nodes;
-  std::vector<Real> area;    ///< m², per node
-  std::vector<Index> quads;  ///< [4F] the face's quads (for per-face loads)
-};
-/// Throws InputError naming the group if it is missing or not planar and axis-aligned.
-AxisFace axisFace(const Mesh& mesh, const std::string& group);
 
 /// Consistent nodal forces f_I = −∫ N_I p(x) n dA of a pressure p (Pa, pushing against the
 /// face's outward normal n) over a face group, by 2×2 Gauss points per bilinear quad.

@@ -69,9 +69,9 @@ class FreeFieldColumn {
   const ColumnLayer& layer(Index l) const { return layers_[size_t(l)]; }
   const BaseHalfSpace& base() const { return base_; }
   /// Displacement u^n of level k, direction d (m).
-  Real u(Index k, int d) const { return un_[3 * size_t(k) + d]; }
+  Real u(Index k, int d) const { return un_[dofIndex(k, d)]; }
   /// Mean velocity ½(v^{n−½} + v^{n+½}) of level k (m/s).
-  Real vMean(Index k, int d) const { return vbar_[3 * size_t(k) + d]; }
+  Real vMean(Index k, int d) const { return vbar_[dofIndex(k, d)]; }
   /// Stress σ^n + σ_d^n of layer l, Voigt order xx, yy, zz, xy, yz, zx (Pa; σ_xy = 0).
   const Real* stress(Index l) const { return &sTot_[6 * size_t(l)]; }
   /// Layer index containing z (clamped to the column), and level interpolation z -> (k, w):

@@ -30,7 +30,7 @@ class PairPrediction {
   bool leapfrog() const { return leapfrog_; }
 
   void operator()(Index n, int d, Real& ut, Real& w) const {
-    const size_t i = 3 * size_t(n) + size_t(d);
+    const size_t i = dofIndex(n, d);
     const Real fr = solver_.isFixed(n, d) ? 0.0 : 1.0, mn = m_[n];
     const Real f = fe_[i] - fi_[i], cm = alpha_ * mn;
     if (leapfrog_) {

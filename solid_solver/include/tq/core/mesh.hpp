@@ -32,6 +32,19 @@ struct Mesh {
   Index regionIndex(const std::string& name) const;
 };
 
+/// The tunnel's face groups the mesher writes (docs/formats.md "mesh.h5"): the lining's inner face
+/// (the water's wall), the lining's outer face and the rock's face of the hole (the two sides of the
+/// rock-lining interface).
+namespace face_group {
+inline constexpr const char* kLiningInner = "lining_inner";
+inline constexpr const char* kLiningOuter = "lining_outer";
+inline constexpr const char* kRockHole = "rock_hole";
+}  // namespace face_group
+
+/// The height z of the tunnel's axis: the middle of the lining's inner face in z, else of the rock's
+/// hole; NaN when the mesh has neither face group.
+Real tunnelAxisZ(const Mesh& mesh);
+
 /// The area vector of a face quad (its four mesh node indices, in order): ½ d1 × d2 of its diagonals
 /// d1 = x2 − x0, d2 = x3 − x1, exact for a planar quad; outward for nodes counter-clockwise seen from
 /// outside.

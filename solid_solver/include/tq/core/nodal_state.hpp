@@ -1,6 +1,6 @@
 /// @file nodal_state.hpp
 /// @brief The one owner of the nodal data layout. Every nodal vector (x0, u, v, a, f_int, f_ext)
-///        is one array of 3N values, node-major (x, y, z of node n at 3n, 3n+1, 3n+2), like
+///        is one array of 3N values, node-major (x, y, z of node n at dofIndex(n, d) = 3n + d), like
 ///        OpenRadioss' X(3, NUMNOD): one cache line per node in the element gathers. Kernels use
 ///        the raw pointers; everything else goes through the accessors, so a change of layout
 ///        touches this file only.
@@ -21,30 +21,30 @@ class NodalState {
   Index numNodes() const { return n_; }
 
   /// Reference position (m).
-  Real x0(Index n, int d) const { return x0_[3 * size_t(n) + d]; }
+  Real x0(Index n, int d) const { return x0_[dofIndex(n, d)]; }
   /// Displacement u^n (m).
-  Real& u(Index n, int d) { return u_[3 * size_t(n) + d]; }
-  Real u(Index n, int d) const { return u_[3 * size_t(n) + d]; }
+  Real& u(Index n, int d) { return u_[dofIndex(n, d)]; }
+  Real u(Index n, int d) const { return u_[dofIndex(n, d)]; }
   /// Velocity (m/s): v^{n-1/2} for the central difference (leapfrog), v^n for paper_eq3_4.
-  Real& v(Index n, int d) { return v_[3 * size_t(n) + d]; }
-  Real v(Index n, int d) const { return v_[3 * size_t(n) + d]; }
+  Real& v(Index n, int d) { return v_[dofIndex(n, d)]; }
+  Real v(Index n, int d) const { return v_[dofIndex(n, d)]; }
   /// Acceleration a^n of the last step (m/s^2).
-  Real& a(Index n, int d) { return a_[3 * size_t(n) + d]; }
-  Real a(Index n, int d) const { return a_[3 * size_t(n) + d]; }
+  Real& a(Index n, int d) { return a_[dofIndex(n, d)]; }
+  Real a(Index n, int d) const { return a_[dofIndex(n, d)]; }
   /// Internal (element) force including the stiffness-proportional damping force (N).
-  Real fInt(Index n, int d) const { return fInt_[3 * size_t(n) + d]; }
+  Real fInt(Index n, int d) const { return fInt_[dofIndex(n, d)]; }
   /// External force of the current step (N).
-  Real& fExt(Index n, int d) { return fExt_[3 * size_t(n) + d]; }
-  Real fExt(Index n, int d) const { return fExt_[3 * size_t(n) + d]; }
+  Real& fExt(Index n, int d) { return fExt_[dofIndex(n, d)]; }
+  Real fExt(Index n, int d) const { return fExt_[dofIndex(n, d)]; }
   /// Lumped mass (kg).
   Real mass(Index n) const { return m_[n]; }
   /// Nodal dashpot coefficient per direction from absorbing boundaries (N s/m).
-  Real dashpot(Index n, int d) const { return c_[3 * size_t(n) + d]; }
+  Real dashpot(Index n, int d) const { return c_[dofIndex(n, d)]; }
 
-  void setX0(Index n, int d, Real value) { x0_[3 * size_t(n) + d] = value; }
+  void setX0(Index n, int d, Real value) { x0_[dofIndex(n, d)] = value; }
   void addMass(Index n, Real value) { m_[n] += value; }
   void addDashpot(Index n, int d, Real value) {
-    c_[3 * size_t(n) + d] += value;
+    c_[dofIndex(n, d)] += value;
     if (value != 0) hasDashpots_ = true;
   }
   /// False while no dashpot was ever added (the node update then skips the dashpot stream).

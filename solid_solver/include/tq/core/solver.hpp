@@ -223,7 +223,7 @@ class Solver {
   /// Fix direction d (0 x, 1 y, 2 z) of a node (zero displacement increment).
   void fix(Index node, int d);
   /// Free a fixed direction again (a static support replaced by a dynamic boundary).
-  void release(Index node, int d) { free_[3 * size_t(node) + d] = 1; }
+  void release(Index node, int d) { free_[dofIndex(node, d)] = 1; }
   /// Fix the given directions ("x", "xz", "xyz", ...) of every node of a face group.
   void fixFaceGroup(const std::string& group, const std::string& dirs);
   void addLoad(NodalLoad load) { loads_.push_back(std::move(load)); }
@@ -306,7 +306,7 @@ class Solver {
   /// The energy balance after the last step (the plastic dissipation, a sum over every element,
   /// is summed here on demand rather than every step).
   const EnergyBalance& energy() const;
-  bool isFixed(Index node, int d) const { return free_[3 * size_t(node) + d] == 0; }
+  bool isFixed(Index node, int d) const { return free_[dofIndex(node, d)] == 0; }
   /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
   Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
   /// The nodal force contributors with their phases, in the order they were added.

@@ -2,6 +2,7 @@
 /// @brief Scalar and index types of the solid solver, and its error types.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -12,6 +13,11 @@ namespace tq {
 using Real = double;
 /// Index type of nodes, elements and degrees of freedom (meshes up to 2^31 entities).
 using Index = std::int32_t;
+
+/// Where component d (0 x, 1 y, 2 z) of node n stands in a nodal array of 3N values, node-major (x, y,
+/// z of node n at 3n, 3n+1, 3n+2): the layout of NodalState's vectors, the mesh's coordinates and
+/// every [3N] force or flag array.
+constexpr std::size_t dofIndex(std::size_t n, std::size_t d) { return 3 * n + d; }
 
 /// Bad user input (mesh, parameters, options). The message says what is wrong, the offending
 /// value, where it came from and how to fix it.

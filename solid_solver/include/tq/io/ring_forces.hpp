@@ -88,7 +88,7 @@ class RingForces {
         for (Index n : nodes)
           for (int d = 0; d < 3; ++d) {
             ua[d] += w * rel(n, d);
-            xa[d] += w * mesh_.coords[3 * size_t(n) + d];
+            xa[d] += w * mesh_.coords[dofIndex(n, d)];
           }
       }
       const Real len = std::sqrt(xa[0] * xa[0] + xa[2] * xa[2]);

@@ -186,8 +186,8 @@ struct CouplingInput {
   /// The water's volume law, carried by the solid (docs/coupler.md "Volume law in the solid"):
   /// "none" (the water side sends its whole pressure), "compressible" (uniform pressure
   /// p = −K ΔV/V of the enclosed water, implicit in the solid's step) or "incompressible" (the
-  /// enclosed volume held: the uniform pressure is the constraint's multiplier). With a law the
-  /// water side sends its pressure less its wall mean. The tunnel's axis is y (mesh.h5's frame).
+  /// enclosed volume held: the uniform pressure is the constraint's multiplier). The tunnel's axis is
+  /// y (mesh.h5's frame).
   std::string volumeLaw = "none";
   Real bulkModulus = 0;  ///< Pa: the law's K (compressible)
   /// kg/m³: with a volume law, the water's in-plane rigid translation is carried by the solid too (its
@@ -199,6 +199,10 @@ struct CouplingInput {
   /// "Open ends").
   std::string waterEnds = "closed";
   Real axialDensity = 0;  ///< kg/m³: the axial flow's density (open ends)
+  /// The water sends its wall pressure less its area mean (the water case's tqInterface
+  /// `subtractMeanPressure` is written from the same setting): that uniform part is the closed
+  /// section's volume law here, which it therefore needs.
+  bool subtractMeanPressure = false;
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.

@@ -26,7 +26,7 @@ template <class F>
 void forEachMovingDof(const std::vector<Index>& nodes, const NodalState& st, F&& f) {
   for (size_t k = 0; k < nodes.size(); ++k) {
     if (!(st.mass(nodes[k]) > 0)) continue;
-    for (int d = 0; d < 3; ++d) f(k, 3 * size_t(nodes[k]) + size_t(d), 3 * k + size_t(d));
+    for (int d = 0; d < 3; ++d) f(k, dofIndex(nodes[k], d), 3 * k + size_t(d));
   }
 }
 
