@@ -1057,6 +1057,8 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
     issues += _incident_wave_checks(d, raw)
+    if not issues:
+        issues += _within_record_checks(d, raw, filename)
     if d["suite"]["records"] is not None:
         from .suite import suite_checks
 
@@ -1089,6 +1091,30 @@ def _incident_wave_section() -> Section:
     from .incident_wave import section
 
     return section()
+
+
+def _within_record_checks(d: dict, raw: LineDict, filename: str) -> list[Issue]:
+    """A within record (the total motion at the top of the half-space) is deconvolved to the
+    incident wave with the record's own spectrum, which only the processed record tells: the same
+    processing and deconvolution the run does, so that a record whose band holds a frequency where
+    the within motion vanishes is refused here, not when the run writes its input."""
+    from .freefield import FreeFieldError, incident_motion
+    from .incident_wave import active, convention, ground_profile, plane_wave
+    from .motion import MotionError, from_case
+
+    if not active(d) or convention(d) != "within":
+        return []
+    try:
+        m, _ = from_case(d["ground_motion"], Path(filename).parent)
+    except (MotionError, OSError, ValueError):
+        return []  # the record's own checks say what is wrong with it
+    record = m.ax * (2.0 if m.convention == "outcrop" else 1.0)  # as the run's solid input takes it
+    try:
+        incident_motion(record, m.dt, plane_wave(d), ground_profile(d, ground_layers(d)), "within")
+    except FreeFieldError as e:
+        return [Issue("incident_wave.convention", "within", e.problem, e.fix or "see docs/theory.md §6.1",
+                      _section_lines(raw, "incident_wave").get("convention"))]
+    return []
 
 
 def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:

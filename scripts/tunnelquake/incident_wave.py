@@ -161,7 +161,7 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
 
     try:
         profile = ground_profile(d, layers)
-        # (a within record's deconvolution depends on the record's content: `run` checks it with the record)
+        # (a within record's deconvolution depends on the record's content: case._within_record_checks)
         conv = "outcrop" if convention(d) == "within" else convention(d)
         incident_motion(np.zeros(4), 0.01, plane_wave(d), profile, conv)
     except FreeFieldError as e:

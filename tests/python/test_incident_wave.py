@@ -146,6 +146,13 @@ def test_the_wave_keys_pass_check(tmp_path):
      "outside the DRM layer"),
     (lambda s: s.replace("materials:\n", "layers: [{material: clay, thickness: 5 m}]\nmaterials:\n"),
      "layers[0].material", "not a material"),
+    # a within record over an undamped 13 m layer (Vs 249.6 m/s), SV from below: the within motion
+    # vanishes at Vs/4H = 4.80 Hz, inside the pulse's band and on its spectrum's 0.4 Hz grid;
+    # deconvolving it is refused from the processed record, as the run would refuse it
+    (lambda s: s.replace("materials:\n", "layers: [{material: soft, thickness: 13 m}]\nmaterials:\n  soft: "
+                         "{model: elastic, youngs_modulus: 0.324 GPa, poisson_ratio: 0.3, density: 2000 kg/m^3}\n")
+     .replace("  azimuth: 0\n", "  azimuth: 0\n  convention: within\n").replace("angle: 20", "angle: 0"),
+     "incident_wave.convention", "nearly vanishes at"),
 ])
 def test_check_refuses_what_the_run_cannot_honour(tmp_path, edit, key, words):
     issues = _issues(tmp_path, edit)
