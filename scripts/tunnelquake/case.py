@@ -949,7 +949,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
-    issues += _incident_wave_checks(d, raw)
+    issues += _incident_wave_checks(d, raw, filename)
     if d["suite"]["records"] is not None:
         from .suite import suite_checks
 
@@ -984,10 +984,11 @@ def _incident_wave_section() -> Section:
     return section()
 
 
-def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
+def _incident_wave_checks(d: dict, raw: LineDict, filename: str) -> list[Issue]:
     """What a run could not honour of the incident wave (incident_wave.checks), then where its DRM
-    layer falls in the mesh's bands (when the mesh keys themselves are valid)."""
-    from .incident_wave import active, band_issue, checks, monitor_issues
+    layer falls in the mesh's bands (when the mesh keys themselves are valid), then an H5DRM file
+    against that layer."""
+    from .incident_wave import active, band_issue, checks, h5drm_issues, monitor_issues
     from .meshing.params import MeshInputError, resolve
 
     issues = checks(d, ground_layers(d), raw.key_lines, lambda name: _section_lines(raw, name))
@@ -998,7 +999,26 @@ def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
     except (MeshInputError, MemoryError, OverflowError):
         return []  # said by _mesh_checks
     bad = band_issue(d, plan, lambda name: _section_lines(raw, name))
-    return [bad] if bad else monitor_issues(d, plan, lambda name: _section_lines(raw, name))
+    if bad:
+        return [bad]
+    issues = monitor_issues(d, plan, lambda name: _section_lines(raw, name))
+    if d["incident_wave"]["type"] == "h5drm":
+        issues += h5drm_issues(d, plan, Path(filename).parent, lambda name: _section_lines(raw, name),
+                               seismic_length(d))
+    return issues
+
+
+def seismic_length(d: dict) -> float | None:
+    """The seismic stage's length where the keys give it (time.end_time, else the record's window or
+    the synthetic record's length); None where only the record file tells."""
+    gm = d["ground_motion"]
+    if d["time"]["end_time"] is not None:
+        return float(d["time"]["end_time"])
+    if gm["duration"] is not None:
+        return float(gm["duration"])
+    if gm["source"] == "synthetic":
+        return float(gm["synthetic"]["duration"])
+    return None
 
 
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:

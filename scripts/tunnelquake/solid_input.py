@@ -42,7 +42,7 @@ import numpy as np
 
 from . import children, fingerprint, incident_wave
 from .case import CONDITIONS, case_geology, fault_offset_slip
-from .drm_input import write_drm_group
+from .drm_input import write_drm_group, write_drm_group_from_file
 from .files import h5_in_memory
 from .freefield import FreeFieldError
 from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, linked, put, write_schema
@@ -275,8 +275,12 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             # wave (half an outcrop record)
             record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
             try:
-                write_drm_group(f, d, ground_layers(d), mesh_h5, record, float(motion["time"][1] - motion["time"][0]),
-                                out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
+                if d["incident_wave"]["type"] == "h5drm":  # the free field from a file
+                    write_drm_group_from_file(f, d, mesh_h5, case.dir, t_end)
+                else:
+                    write_drm_group(f, d, ground_layers(d), mesh_h5, record,
+                                    float(motion["time"][1] - motion["time"][0]),
+                                    out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
             except (incident_wave.DrmLayerError, FreeFieldError) as e:
                 raise SolidInputError(f"incident_wave: {e}") from None
         elif "seismic" in sequence:
