@@ -315,6 +315,10 @@ def test_the_report_says_which_wave_the_record_drives(tmp_path):
     d = load_case(_case(tmp_path, lambda s: s.replace("azimuth: 0", "azimuth: 30"))).data
     text = " ".join(_wave_lines(d))
     assert "plane SV wave, 20 deg from the vertical, travelling 30 deg" in text and "incident record" in text
+    d["incident_wave"]["type"] = "h5drm"
+    d["incident_wave"]["h5drm"]["file"] = "regional.h5drm"
+    text = " ".join(_wave_lines(d))
+    assert "read from the H5DRM file regional.h5drm" in text and "sets the run's length only" in text
     d["incident_wave"]["type"] = "none"
     assert _wave_lines(d) == []
 
