@@ -603,7 +603,9 @@ def match_points(nodes: np.ndarray, points: np.ndarray, tolerance: float, what: 
             f"{int(ok.sum())} of {nodes.shape[0]} DRM layer nodes match a {what} point within {tolerance:g} m; the "
             f"largest distance from a node to its nearest {what} point is {dist[k]:.6g} m (node {k} at "
             f"{tuple(round(float(v), 6) for v in nodes[k])}){hint}",
-            "give the file's length scale and origin (scale, x0), or a file computed at the model's nodes")
+            "give the file's length scale and origin (a case: incident_wave.h5drm crd_scale, transformation, "
+            "x0), or a file computed at the model's nodes (every layer node, the end caps' round the tunnel "
+            "included)")
     uniq, counts = np.unique(idx, return_counts=True)
     if (counts > 1).any():
         j = int(uniq[np.argmax(counts)])

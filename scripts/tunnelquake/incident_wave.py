@@ -133,7 +133,7 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
     kind = w["type"]
     from_file = kind == "h5drm"
     if from_file:
-        for k in (x for x in PLANE_WAVE_KEYS if x in wl):
+        for k in (x for x in (*PLANE_WAVE_KEYS, "write_h5drm") if x in wl):
             issues.append(Issue(f"incident_wave.{k}", w[k], "is given but incident_wave.type is h5drm: the free field "
                                 "comes from the file, not from a plane wave the tool computes", "remove it, or give "
                                 "type: P, SV or SH", wl.get(k)))

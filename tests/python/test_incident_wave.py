@@ -520,6 +520,9 @@ def test_a_good_h5drm_file_passes_check_and_plane_wave_keys_beside_it_are_refuse
     issues = _issues(tmp_path, lambda s: _file_case(tmp_path).read_text().replace("type: h5drm", "type: h5drm\n"
                                                                                   "  angle: 10"))
     assert "type is h5drm" in issues["incident_wave.angle"].problem
+    issues = _issues(tmp_path, lambda s: _file_case(tmp_path).read_text().replace("type: h5drm", "type: h5drm\n"
+                                                                                  "  write_h5drm: true"))
+    assert "type is h5drm" in issues["incident_wave.write_h5drm"].problem
     issues = _issues(tmp_path, lambda s: s.replace("azimuth: 0\n", "azimuth: 0\n  h5drm: {file: field.h5drm}\n"))
     assert "type is SV" in issues["incident_wave.h5drm"].problem
 
