@@ -1023,21 +1023,26 @@ def seismic_length(d: dict) -> float | None:
 
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
     """A motion along the tunnel's axis (y) shears the ground antiplane; tq-solid runs it in a
-    slice, whose y faces it ties periodic. A 3D model keeps its y faces on rollers (u_y = 0), which
-    would hold that motion back: refused there, naming the key that gives it."""
+    slice, whose y faces it ties periodic, or in a 3D model whose tunnel's ends are plugged with
+    ground, whose y faces then take free-field columns (the first side's, shared). A 3D model
+    without plugs keeps its y faces on rollers (u_y = 0), which would hold that motion back:
+    refused there, naming the key that gives it."""
     from .motion import along_axis
 
     gm = d["ground_motion"]
     if d["mesh"]["mode"] == "slice" or not along_axis(gm) or d["incident_wave"]["type"] != "none":
         return []  # (with an incident wave its own checks name these keys)
+    if int(d["mesh"].get("tunnel_end_plugs") or 0) > 0:
+        return []  # the y faces take free-field columns (the first side's, shared)
     lines = _section_lines(raw, "ground_motion")
     key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
     value = gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"]
     return [Issue(f"ground_motion.{key}", value,
-                  "gives a motion along the tunnel's axis (y), which a 3D model cannot take: its y faces are on "
-                  "rollers (u_y = 0)",
-                  "use mesh.mode: slice (its y faces are tied periodic, so the ground shears along the axis), or a "
-                  "motion across the tunnel and vertical only (azimuth 0 or 180, no second_horizontal)",
+                  "gives a motion along the tunnel's axis (y), which a 3D model takes only through free-field "
+                  "columns on its y faces, and those need the tunnel's ends plugged with ground",
+                  "set mesh.tunnel_end_plugs: 1 or more, use mesh.mode: slice (its y faces are tied periodic, so "
+                  "the ground shears along the axis), or a motion across the tunnel and vertical only (azimuth 0 "
+                  "or 180, no second_horizontal)",
                   lines.get(key))]
 
 

@@ -287,9 +287,17 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
-                    raise SolidInputError("the motion has a component along the tunnel's axis (y), which a 3D "
-                                          "model's y faces (rollers) would hold back; use mesh.mode: slice")
-                w(f.create_group("boundaries/periodic"), "/boundaries/periodic", "faces", "ymin,ymax")
+                    # a 3D model takes it through free-field columns on its y faces too: their quads
+                    # follow the tunnel's O-grid, so they share the first side's column, and the
+                    # tunnel's ends must be plugged with ground there (tq-solid refuses another material)
+                    if not int(d["mesh"].get("tunnel_end_plugs") or 0):
+                        raise SolidInputError("the motion has a component along the tunnel's axis (y), which a "
+                                              "3D model takes through free-field columns on its y faces, and "
+                                              "those need the tunnel's ends plugged with ground; set "
+                                              "mesh.tunnel_end_plugs: 1 or more, or use mesh.mode: slice")
+                    w(f["boundaries/free_field"], "/boundaries/free_field", "shared_column_faces", "ymin,ymax")
+                else:
+                    w(f.create_group("boundaries/periodic"), "/boundaries/periodic", "faces", "ymin,ymax")
             mo = f.create_group("motion")
             w(mo, "/motion", "time", motion["time"])
             w(mo, "/motion", "ax", motion["ax"])
