@@ -25,7 +25,9 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
   symmetry planes, and their layers are not horizontal where the tunnel crosses them. A motion
   with a component along the axis (y, an SH wave shearing the ground antiplane) needs u_y free:
   in a slice the ymin/ymax faces are then tied periodic (/boundaries/periodic: u equal on both,
-  all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model refuses it;
+  all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model takes it with
+  the tunnel's ends plugged with ground, its y faces then on free-field columns too (the first
+  side's column shared: /boundaries/free_field shared_column_faces), and refuses it otherwise;
 * the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
 * materials: every material row of the table, from the case key it is linked to (else its default),
   given or not by the model (tq-solid builds the material the ``model`` names from the ones it reads);
@@ -266,7 +268,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
             # with an incident wave the base and the x sides absorb what the tunnel scatters (the wave
             # enters through the DRM layer); the y faces stay on rollers, which hold that scattered
-            # field's u_y only (their quads follow the tunnel's O-grid: no free-field columns there)
+            # field's u_y only (the shared columns a plugged tunnel's y faces can take are not used
+            # with a DRM layer: not verified there)
             w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
         if wave:
             from .case import ground_layers
