@@ -264,6 +264,97 @@ def _fault_offset_checks(d: dict, raw: LineDict) -> list[Issue]:
     return []
 
 
+def _lining_joints_section() -> Section:
+    return Section(doc="the lining as rings of one length along the axis, joined at circumferential joints "
+                       "(3D meshes; docs/theory.md \"Lining joints\")", fields={
+        "spacing": _positive(U.LENGTH, "m: each ring's length along the axis; joints every spacing from the "
+                                       "tunnel's start, each on a plane of the mesh's axial element layers"),
+        "normal_stiffness": _positive(U.STIFFNESS_PER_AREA, "k_n, Pa/m: the joint's normal stiffness per unit area "
+                                                            "(opening = axial stress / k_n)"),
+        "shear_stiffness": _positive(U.STIFFNESS_PER_AREA, "k_s, Pa/m: its shear stiffness per unit area (gaskets, "
+                                                           "dowels)"),
+        "tensile_strength": Number(dim=U.PRESSURE, min=0.0, default=0.0,
+                                   doc="f_t, Pa: the axial tension a joint carries before it opens; once open it "
+                                       "carries none (0: joints open under any tension)"),
+        "friction": Number(min=0.0, doc="mu: the joint's shear capped at mu x its compression (slip beyond); none: "
+                                        "the shear spring without a cap"),
+        "allowed_opening": _positive(U.LENGTH, "m: the watertightness limit; the report compares each joint's "
+                                               "largest opening with it"),
+    })
+
+
+def lining_joints_active(d: dict) -> bool:
+    """Whether the case asks for lining joints (any key of lining_joints given)."""
+    lj = d.get("lining_joints") or {}
+    return any(v is not None for k, v in lj.items() if k != "tensile_strength")  # (the one with a default)
+
+
+def joint_spacing(d: dict) -> float | None:
+    """The lining's ring length (m) when the case has lining joints, else None."""
+    return float(d["lining_joints"]["spacing"]) if lining_joints_active(d) else None
+
+
+def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Joints need a 3D mesh, a spacing that divides the lining's length into whole rings shorter
+    than it, and each joint on a plane of the axial element layers."""
+    if not lining_joints_active(d):
+        return []
+    lj = d["lining_joints"]
+    lines = _section_lines(raw, "lining_joints")
+    here = raw.key_lines.get("lining_joints")
+    for key, fix in (("spacing", "add 'spacing: <ring length> m' (e.g. 1.5 m)"),
+                     ("normal_stiffness", "add 'normal_stiffness: <k_n> MPa/m' (a gasket: of the order of "
+                                          "1e3-1e5 MPa/m)"),
+                     ("shear_stiffness", "add 'shear_stiffness: <k_s> MPa/m'")):
+        if lj.get(key) is None:
+            return [Issue(f"lining_joints.{key}", None, "is required with lining joints", fix, here)]
+    if "dynamic_water" in d["conditions"]:
+        return [Issue("lining_joints", None, "cannot run with the dynamic_water condition: the coupled water's wall "
+                      "has one node where the lining has two at every joint, and the exchange maps them one to one "
+                      "(coincident map)", "run the no_water and static_water conditions (conditions: [no_water, "
+                      "static_water]), or remove lining_joints", here)]
+    if d["mesh"]["mode"] != "3d":
+        return [Issue("lining_joints", None, f"needs a 3D mesh: a {d['mesh']['mode']} mesh has no length along the "
+                      "axis to cut into rings", "set mesh.mode: 3d, or remove lining_joints", here)]
+    import numpy as np
+
+    from .meshing.params import MeshInputError, plug_levels, resolve
+
+    try:
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    except (MeshInputError, MemoryError, OverflowError):
+        return []  # said by _mesh_checks
+    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    length, s = y1 - y0, float(lj["spacing"])
+    line = lines.get("spacing") or here
+    tol = 1e-6 * length
+    levels = np.asarray([y for y in plan.y_levels if y0 - tol <= y <= y1 + tol])
+    h = float(np.diff(levels).max())
+    options = [k for k in range(1, len(levels) - 1) if (len(levels) - 1) % k == 0]
+    suggest = min(options, key=lambda k: abs(k * h - s)) * h if options else None
+    count = round(suggest / h) if suggest is not None else 0
+    hint = (f"e.g. {suggest:g} m ({count} axial element{'s' if count > 1 else ''} of {h:g} m)" if count else
+            "refine mesh.elements_along_axis")
+    if s >= length - tol:
+        longest = f"e.g. {max(options) * h:g} m" if options else "refine mesh.elements_along_axis"
+        return [Issue("lining_joints.spacing", s, f"is not shorter than the lining ({length:g} m from y = {y0:g} to "
+                      f"{y1:g} m): no joint fits in it", f"give a ring length of whole axial elements that divides "
+                      f"{length:g} m into two or more rings, {longest}", line)]
+    n = length / s
+    if abs(n - round(n)) > 1e-6 * n:
+        return [Issue("lining_joints.spacing", s, f"divides the lining's {length:g} m into {n:.4g} rings: the rings "
+                      "must be whole", f"give a spacing that divides {length:g} m and is a whole number of axial "
+                      f"elements, {hint}", line)]
+    for k in range(1, round(n)):
+        y = y0 + k * s
+        if np.abs(levels - y).min() > tol:
+            return [Issue("lining_joints.spacing", s, f"puts joint {k} at y = {y:g} m, between the mesh's axial "
+                          f"element layers ({h:g} m long): a joint must be a plane of element faces",
+                          f"give a spacing that is a whole number of axial elements, {hint}, or set "
+                          "mesh.elements_along_axis so that the layers fall on the joints", line)]
+    return []
+
+
 def case_geology(d: dict):
     """The case's regions bounded by planes (meshing.geology.Geology), None when it has none."""
     from .meshing.geology import from_case
@@ -559,6 +650,7 @@ def schema() -> Section:
             "after_failure": Choice(choices=("cohesion_lost", "cohesion_kept"), default="cohesion_lost",
                                     doc="what a pair keeps once its bond has failed"),
         }),
+        "lining_joints": _lining_joints_section(),
         "water": Section(fields={
             "density": _positive(U.MASS_DENSITY, "kg/m^3", default=1000.0),
             "viscosity": _positive(U.DYNAMIC_VISCOSITY, "dynamic viscosity, Pa s", default=1.308e-3),
@@ -841,6 +933,11 @@ def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
     return out
 
 
+#: Element rows through a reinforced_concrete lining from which its stresses reach the section's
+#: bending resistance within 5 % (a plane-section strip of one-point rows: 4 rows 0.87, 10 rows 0.989).
+RC_BENDING_ROWS = 10
+
+
 def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issue], list[str]]:
     """Checks across sections, and the ground-motion file itself."""
     issues: list[Issue] = []
@@ -886,6 +983,15 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
                                 "reinforced_concrete (hoop bars at the inner and outer faces)",
                                 "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
+    rc = (d["materials"].get("lining") or {}).get("model") == "reinforced_concrete"
+    through = d["mesh"].get("lining_elements_through", 3)
+    if rc and through < RC_BENDING_ROWS:
+        warnings.append(f"mesh.lining_elements_through {through} with a reinforced_concrete lining: each element row "
+                        "has one stress, at its centre, so the lining's bending resistance from its stresses stays "
+                        f"below the section's M_Rd (a plane-section strip of 4 such rows reaches 0.87 of it, of 10 "
+                        f"0.989), and past the bars' yield the elements' elastic bending modes carry more (docs/"
+                        f"solid_solver.md \"A ring failing in bending\"); where the lining may fail in bending use "
+                        f"mesh.lining_elements_through: {RC_BENDING_ROWS} or more")
     issues += _subcycling_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
@@ -902,6 +1008,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _layer_checks(d, raw)
     issues += _geology_checks(d, raw)
     issues += _fault_offset_checks(d, raw)
+    issues += _lining_joint_checks(d, raw)
     if (d.get("fault_offset") or {}).get("rise_time") is not None:
         warnings.append("fault_offset.rise_time: the slip during the run holds the block's faces but the top in x, y "
                         "and z, so the ground motion does not enter: the run is the slip alone (without rise_time "

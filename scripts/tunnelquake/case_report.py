@@ -92,34 +92,51 @@ def _design(R, case, results) -> tuple[object | None, str]:
 #: The designer's figures: file name, caption.
 DESIGN_FIGURES = (("design_envelopes.png", "design forces N, M, V around the ring: envelopes and the static state"),
                   ("design_mn.png", "M–N interaction of the section with the demand points"),
-                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"))
+                  ("design_deformed.png", "deformed lining at the governing time (ovaling, scale in the title)"),
+                  ("design_cracks.png", "crack pattern at the governing time (the field snapshot nearest it, both "
+                                        "times in the title)"))
 
 
-def _design_figures(design, figs: Path, unwritten: list) -> list[str]:
-    """Draw the designer's figures (each one that fails is named with the reason); their lines."""
+def _design_figure_jobs(design, figs: Path, jobs, results=()) -> None:
+    """The designer's figures to draw (drawing.Jobs, keys `design:<file name>`); earlier ones removed."""
     from .design import figures as F
 
-    lines = []
     figs.mkdir(parents=True, exist_ok=True)
-    for name, caption in DESIGN_FIGURES:
+    for name, _ in DESIGN_FIGURES:
         (figs / name).unlink(missing_ok=True)
-        try:
-            if name == "design_envelopes.png":
-                made = F.fig_envelopes(design.conditions, figs / name)
-            elif name == "design_deformed.png":
-                made = F.fig_deformed(design.conditions, figs / name)
-            else:
-                p = design.params
-                sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
-                made = F.fig_mn(design.conditions, sec, figs / name)
-        except Exception as e:  # noqa: BLE001 - a figure that fails must not lose the report
+        if name == "design_envelopes.png":
+            jobs.add(f"design:{name}", F.fig_envelopes, design.conditions, figs / name)
+        elif name == "design_deformed.png":
+            jobs.add(f"design:{name}", F.fig_deformed, design.conditions, figs / name)
+        elif name == "design_cracks.png":
+            jobs.add(f"design:{name}", F.fig_cracks, design.conditions, results, figs / name)
+        else:
+            jobs.add(f"design:{name}", _fig_mn, design, figs / name)
+
+
+def _fig_mn(design, path: Path):
+    from .design import figures as F
+
+    p = design.params
+    sec = p.section(design.conditions[0].thickness) if p is not None and p.reinforced else None
+    return F.fig_mn(design.conditions, sec, path)
+
+
+def _design_figures(figs: Path, unwritten: list, drawn: dict) -> list[str]:
+    """The lines of the designer's figures from their outcomes (`drawn`: drawing.draw_all's); each
+    one that failed is named with the reason."""
+    lines = []
+    for name, caption in DESIGN_FIGURES:
+        o = drawn[f"design:{name}"]
+        if o.error is not None:
+            e = o.error
             if is_no_space(e):
                 unwritten.append(_disk_full(e, figs / name))
             else:
                 say(f"{name}: not drawn ({type(e).__name__}: {e})")
             lines += [f"- {caption[:1].upper() + caption[1:]}: not drawn ({type(e).__name__}: {e})", ""]
             continue
-        if made is not None:
+        if o.value is not None:
             lines += [f"![{caption[:1].upper() + caption[1:]}](figures/{name})", ""]
     return lines
 
@@ -135,12 +152,49 @@ FIGURES = (
 )
 
 
-def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
+def _joint_rows(P, res, out: Path, unwritten: list, allowed: float | None) -> tuple[list[str], list[str]]:
+    """A condition's lining joints: joints_<condition>.csv, one table row per joint (its peak
+    opening, closing, slip and axial force over the run) and the watertightness line against
+    lining_joints.allowed_opening."""
+    J = res.joints
+    if J is None or not len(J["time"]):
+        return [], []
+    f = out / f"joints_{res.condition}.csv"
+    try:
+        P.joints_csv(J, f)
+    except OSError as e:
+        if not is_no_space(e):
+            raise
+        unwritten.append(_disk_full(e, f))
+    label = P.CONDITION_LABELS[res.condition]
+    rows = []
+    for j, y in enumerate(J["y"]):
+        i_open, i_close = int(np.argmax(J["opening_max"][:, j])), int(np.argmin(J["opening_min"][:, j]))
+        i_slip, i_n = int(np.argmax(J["slip_max"][:, j])), int(np.argmax(np.abs(J["axial_force"][:, j])))
+        rows.append(f"| {label} | {y:.4g} | {J['opening'][:, j].max():.4g} | {J['opening_max'][i_open, j]:.4g} at "
+                    f"t = {J['time'][i_open]:.4g} s | {J['opening_min'][i_close, j]:.4g} | {J['slip_max'][i_slip, j]:.4g} "
+                    f"| {J['axial_force'][i_n, j]:.4g} |")
+    notes = []
+    if allowed is not None:
+        worst = J["opening_max"].max(axis=0)
+        over = [f"y = {J['y'][j]:.4g} m ({worst[j]:.4g} m)" for j in range(len(J["y"])) if worst[j] > allowed]
+        notes.append(f"- {label}: watertightness: " + (
+            f"**{len(over)} of {len(J['y'])} joints open beyond the allowed {allowed:.4g} m**: " + ", ".join(over)
+            if over else f"every joint's largest opening ({worst.max():.4g} m at y = {J['y'][int(np.argmax(worst))]:.4g} "
+                         f"m) is within the allowed {allowed:.4g} m"))
+    return rows, notes
+
+
+def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None) -> list[str]:
     """The lining as a beam along the axis (3D results): per condition the largest |resultant|
     at the seismic start and over the snapshots, each with its y, the interface's largest slip,
-    and the CSV of the whole profile (post.lining_along_axis)."""
-    rows = []
+    and the CSV of the whole profile (post.lining_along_axis); with lining joints each joint's
+    opening, slip and axial force, and the watertightness check."""
+    rows, joint_rows, joint_notes = [], [], []
     for res in results:
+        jr, jn = _joint_rows(P, res, out, unwritten, allowed_opening)
+        joint_rows += jr
+        joint_notes += jn
         axis = P.lining_along_axis(res)
         if axis is None:
             continue
@@ -159,15 +213,27 @@ def _lining_axis(P, results, out: Path, unwritten: list) -> list[str]:
             i = int(np.argmax(axis["slip"]["max"]))
             rows.append(f"| {P.CONDITION_LABELS[res.condition]} | interface slip (m), t = {axis['end_time']:.4g} s | "
                         f"– | {axis['slip']['max'][i]:.4g} at y = {axis['slip']['y'][i]:.4g} m |")
-    if not rows:
+    if not rows and not joint_rows:
         return []
-    return ["## The lining along the axis", "",
-            "The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
-            "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
-            "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
-            "`lining_axis_<condition>.csv`.", "",
-            "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the snapshots: "
-            "largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
+    lines = ["## The lining along the axis", ""]
+    if rows:
+        lines += ["The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
+                  "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
+                  "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
+                  "`lining_axis_<condition>.csv`.", "",
+                  "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the "
+                  "snapshots: largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
+    if joint_rows:
+        lines += ["The lining's joints (lining_joints): per joint its opening along the axis (the mean over the "
+                  "joint's area; > 0 open, < 0 closed), its largest and smallest at any pair, the slip across it and "
+                  "the axial force through it (tension +), at the output times; the histories in "
+                  "`joints_<condition>.csv` (docs/theory.md \"Lining joints\").", "",
+                  "| condition | joint y (m) | peak mean opening (m) | largest opening at a pair (m) | largest "
+                  "closing (m) | largest slip (m) | largest \\|axial force\\| (N) |",
+                  "|---|---:|---:|---:|---:|---:|---:|", *joint_rows, "", *joint_notes]
+        if joint_notes:
+            lines.append("")
+    return lines
 
 
 def post_case(case) -> Path:
@@ -234,7 +300,8 @@ def post_case(case) -> Path:
                   "what exists.", ""]
     else:
         lines += R.differences_section(results, order)
-        lines += _lining_axis(P, results, out, unwritten)
+        lines += _lining_axis(P, results, out, unwritten,
+                              (case.data.get("lining_joints") or {}).get("allowed_opening"))
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
@@ -246,9 +313,16 @@ def post_case(case) -> Path:
             lines[2:2] = design.summary_lines()  # what a designer reads first, after the title
         lines += R.lining_forces_section(design) if design is not None else (
             ["## Lining forces", "", f"- {why}", ""] if why else [])
+        from .drawing import Jobs, draw_all
+
+        jobs = Jobs()  # every figure and ParaView file, made in two processes (drawing.py)
         if design is not None:
-            lines += _design_figures(design, figs, unwritten)
-        lines += _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten)
+            _design_figure_jobs(design, figs, jobs, results)
+        _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs)
+        drawn = draw_all(jobs)
+        if design is not None:
+            lines += _design_figures(figs, unwritten, drawn)
+        lines += _figures(ref, results, dyn, figs, out, unwritten, drawn)
         if ref is not None:
             ctx = _context(case, results, motion)
             if fluid is not None:
@@ -277,39 +351,48 @@ def post_case(case) -> Path:
     return report
 
 
-def _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten: list) -> list[str]:
-    """Draw the figures (each one that fails is named with the reason; one the disk had no room
-    for is added to `unwritten`) and the ParaView files; the report's lines for them. `ref`: the paper module when the case compares with it (its
-    marks and bars in the figures, its figure numbers in the captions)."""
+def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs) -> None:
+    """The report's figures and the ParaView files to make (drawing.Jobs: keys fig05..fig10 and
+    `xdmf:<condition>`); an earlier post's figures removed first. `ref`: the paper module when the
+    case compares with it (its marks and bars in the figures)."""
     figs.mkdir(parents=True, exist_ok=True)
     for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
         (figs / fname).unlink(missing_ok=True)
-    made: dict[str, str] = {}
-    failed: dict[str, str] = {}
-
-    def keep(key, draw, *args, **kw):
-        try:
-            path = draw(*args, **kw)
-        except Exception as e:  # noqa: BLE001 - one figure that fails must not lose the report
-            failed[key] = f"{type(e).__name__}: {e}"
-            if is_no_space(e):  # named in post's last line with the other outputs that did not fit
-                unwritten.append(_disk_full(e, next(a for a in args if isinstance(a, Path))))
-            else:
-                say(f"{key}: not drawn ({failed[key]})")
-            return
-        if path is not None:
-            made[key] = f"figures/{Path(path).name}"
-
     name = {k: n for k, n, _ in FIGURES}
     if dyn is not None:
-        keep("fig05", P.fig_hydrodynamic_pressure, dyn, figs / name["fig05"], fluid, order=order,
-             **({"marks": ref.pressure_marks(), "mark_label": f"{ref.LABEL} peak"} if ref is not None else {}))
-    keep("fig06", P.fig_max_displacements, results, figs / name["fig06"], order=order,
-         **({"reference": ref.displacement_bars, "reference_label": ref.LABEL, "unit": ref.DISPLACEMENT_UNIT} if ref is not None else {}))
-    keep("fig07", P.fig_principal_stress, results, figs / name["fig07"], order=order, strength=strength)
-    keep("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
-    keep("fig09", P.fig_damage_section, results, figs / name["fig09"])
-    keep("fig10", P.fig_interface_zones, results, figs / name["fig10"])
+        jobs.add("fig05", P.fig_hydrodynamic_pressure, dyn, figs / name["fig05"], fluid, order=order,
+                 **({"marks": ref.pressure_marks(), "mark_label": f"{ref.LABEL} peak"} if ref is not None else {}))
+    jobs.add("fig06", P.fig_max_displacements, results, figs / name["fig06"], order=order,
+             **({"reference": ref.displacement_bars, "reference_label": ref.LABEL, "unit": ref.DISPLACEMENT_UNIT}
+                if ref is not None else {}))
+    jobs.add("fig07", P.fig_principal_stress, results, figs / name["fig07"], order=order, strength=strength)
+    jobs.add("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
+    jobs.add("fig09", P.fig_damage_section, results, figs / name["fig09"])
+    jobs.add("fig10", P.fig_interface_zones, results, figs / name["fig10"])
+    for r in results:
+        jobs.add(f"xdmf:{r.condition}", P.write_xdmf, r, out / "paraview" / f"{r.condition}.xdmf")
+
+
+def _figures(ref, results, dyn, figs, out, unwritten: list, drawn: dict) -> list[str]:
+    """The report's lines for the figures and the ParaView files from their outcomes (`drawn`:
+    drawing.draw_all's); each one that failed is named with the reason, one the disk had no room
+    for is added to `unwritten`. `ref`: the paper module (its figure numbers in the captions)."""
+    made: dict[str, str] = {}
+    failed: dict[str, str] = {}
+    name = {k: n for k, n, _ in FIGURES}
+    for key, _, _ in FIGURES:
+        o = drawn.get(key)
+        if o is None:
+            continue
+        if o.error is not None:
+            e = o.error
+            failed[key] = f"{type(e).__name__}: {e}"
+            if is_no_space(e):  # named in post's last line with the other outputs that did not fit
+                unwritten.append(_disk_full(e, figs / name[key]))
+            else:
+                say(f"{key}: not drawn ({failed[key]})")
+        elif o.value is not None:
+            made[key] = f"figures/{Path(o.value).name}"
     lines = ["## Figures", ""]
     for key, _, caption in FIGURES:
         title = ref.figure_caption(key, caption) if ref is not None else caption[:1].upper() + caption[1:]
@@ -326,15 +409,16 @@ def _figures(P, ref, results, dyn, fluid, figs, order, strength, out, unwritten:
             lines += [f"- {title}: not drawn ({why})", ""]
     xdmfs = []
     for r in results:
-        try:
-            x = P.write_xdmf(r, out / "paraview" / f"{r.condition}.xdmf")
-        except Exception as e:  # noqa: BLE001 - reported; the rest of the report still follows
+        o = drawn[f"xdmf:{r.condition}"]
+        if o.error is not None:
+            e = o.error
             lines += [f"- ParaView file of {r.condition}: not written ({type(e).__name__}: {e})", ""]
             if is_no_space(e):  # named in post's last line
                 unwritten.append(_disk_full(e, out / "paraview" / f"{r.condition}.xdmf"))
             else:
                 say(f"{r.condition}: ParaView file not written ({type(e).__name__}: {e})")
             continue
+        x = o.value
         if x is not None:
             xdmfs.append(x)
     if xdmfs:

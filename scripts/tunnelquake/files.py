@@ -39,6 +39,18 @@ class DiskFull(OSError):
     def __str__(self) -> str:
         return self.strerror
 
+    def __reduce__(self):
+        """Pickled as it is (an error of a figure drawn in a helper process crosses to this one:
+        drawing.py), not rebuilt from OSError's (errno, text)."""
+        return _disk_full_as_was, (self.path, self.needed, self.free, self.strerror)
+
+
+def _disk_full_as_was(path, needed, free, text) -> DiskFull:
+    e = DiskFull.__new__(DiskFull)
+    OSError.__init__(e, errno.ENOSPC, text)
+    e.path, e.needed, e.free = path, needed, free
+    return e
+
 
 def is_no_space(e: BaseException) -> bool:
     """An error of a write that the file system refused for lack of space (also as HDF5 reports it)."""

@@ -31,6 +31,7 @@ SECTION_GROUPS = {
     "geometry": "geometry", "mesh": "geometry", "layers": "geometry", "geology": "geometry",
     "materials": "solid material", "interface": "solid material", "in_situ": "solid material",
     "stages": "solid material", "damping": "solid material", "fault_offset": "solid material",
+    "lining_joints": "solid material",
     "water": "water",
     "coupling": "coupling",
     "ground_motion": "record", "incident_wave": "record",
@@ -48,11 +49,11 @@ POST_ONLY = "design"
 #: keys inside the sections above that shape no result (left out), and keys of another group
 LEFT_OUT = {"output.directory", "output.allow_outside", "output.checkpoint_interval", "coupling.timeout",
             "coupling.transport", "water.log", "water.log_interval"}
-MOVED = {"output.displacement_reference": "design"}
+MOVED = {"output.displacement_reference": "design", "lining_joints.allowed_opening": "design"}
 
 #: keys counted only when they differ from their neutral value (a section or key added to the schema
 #: leaves the fingerprints of the cases that do not use it as they were)
-NEUTRAL = {"incident_wave": ("type", "none"), "mesh.tunnel_end_plugs": 0}
+NEUTRAL = {"incident_wave": ("type", "none"), "lining_joints": ("spacing", None), "mesh.tunnel_end_plugs": 0}
 
 #: design sections the analysis itself reads when a region's model takes them (a reinforced_concrete
 #: lining is built from the concrete and the bars the design check reads): then they shape results

@@ -433,11 +433,11 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
 
     children.check()
     supervise.PHASE[0] = "preparing the motion"
-    made = motion_and_figure(case)
+    made = motion_and_figure(case, reuse=True)
     if made is None:
         return 1
-    motion, motion_file, fig = made
-    done.append(f"motion: {motion.record.source} -> {motion_file.name}, {fig.name}")
+    source, motion_file, fig = made
+    done.append(f"motion: {source} -> {motion_file.name}, {fig.name}")
 
     children.check()
     supervise.PHASE[0] = "running the conditions"

@@ -56,6 +56,7 @@ class ConditionResult:
     incomplete_snapshots: list[str] = field(default_factory=list)
     mesh: dict | None = None  # coordinates [N, 3], connectivity [E, 8], region [E], regions
     interface: dict | None = None  # pairs [P, 2], normal, area, states, history [T, 7]
+    joints: dict | None = None  # the lining's joints (read_joints): y [J], time [T], opening [T, J], ...
     input_attrs: dict = field(default_factory=dict)  # /materials/lining attrs of the solid input
     coupling: dict = field(default_factory=dict)  # /coupling attrs (condition 3: scheme, windows, ...)
     stages_done: list[str] = field(default_factory=list)  # /stages/<k>_<name> converged, in order
@@ -191,6 +192,7 @@ def read_condition(path: Path, condition: str, reference: str = "absolute") -> C
                 h = _rows(g["history"])
                 iface["history"] = h[:_advancing(h[:, 0])]
                 iface["history_columns"] = [_text(c) for c in g.attrs.get("history_columns", [])]
+        joints = read_joints(f)
     refs = {key: mons.pop(name) for key, name in REFERENCES.items() if name in mons}
     if reference not in DISPLACEMENT_REFERENCES:
         raise ValueError(f"displacement reference {reference!r}: expected one of {', '.join(DISPLACEMENT_REFERENCES)}")
@@ -218,8 +220,50 @@ def read_condition(path: Path, condition: str, reference: str = "absolute") -> C
             pass
     return ConditionResult(condition, path, status, mons, attrs=attrs, planned_end=planned, snapshots=snaps,
                            incomplete_snapshots=broken, mesh=mesh, interface=iface, input_attrs=mat,
-                           coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
+                           joints=joints, coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
                            stages_planned=sequence, references=refs, displacement_reference=reference)
+
+
+#: /joints/history's quantities per joint (after the time column), their units
+JOINT_QUANTITIES = {"opening": "m", "opening_max": "m", "opening_min": "m", "slip": "m", "slip_max": "m",
+                    "axial_force": "N", "rotation_x": "rad", "rotation_z": "rad"}
+
+
+def read_joints(f) -> dict | None:
+    """The lining's joints of an open results file (tq-solid's /joints, docs/solid_solver.md "Lining
+    joints"): y [J], area [J] (m^2), the law's parameters, time [T] and per quantity of
+    JOINT_QUANTITIES a [T, J] history; None without joints."""
+    if "joints/y" not in f:
+        return None
+    g = f["joints"]
+    out = {"y": g["y"][...], "area": g["area"][...],
+           "params": {k: float(v) for k, v in g.attrs.items() if k != "history_columns"}}
+    cols = [_text(c) for c in g.attrs.get("history_columns", [])]
+    if cols[1:] != list(JOINT_QUANTITIES):
+        raise ValueError(f"/joints history_columns {cols} are not {['time', *JOINT_QUANTITIES]}: results of another "
+                         "tq-solid version")
+    h = _rows(g["history"]) if "history" in g else np.zeros((0, 1 + len(JOINT_QUANTITIES) * len(out["y"])))
+    h = h[:_advancing(h[:, 0])] if len(h) else h
+    out["time"] = h[:, 0]
+    q = h[:, 1:].reshape(len(h), len(out["y"]), len(JOINT_QUANTITIES))
+    for k, name in enumerate(JOINT_QUANTITIES):
+        out[name] = q[:, :, k]
+    return out
+
+
+def joints_csv(joints: dict, out: Path) -> Path:
+    """joints_<condition>.csv: one row per output time, per joint its opening (area-weighted mean,
+    largest, smallest over its pairs), slip (of the mean, largest), axial force and the opening's
+    gradients across it (docs/formats.md)."""
+    J = len(joints["y"])
+    header = ["time_s"] + [f"j{j}_{k}_{u}" for j in range(J) for k, u in JOINT_QUANTITIES.items()]
+    with atomic_path(out, 16 * len(header) * (len(joints["time"]) + 2)) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["# joint planes y (m): " + " ".join(f"j{j}={y:.6g}" for j, y in enumerate(joints["y"]))])
+        w.writerow(header)
+        for i, t in enumerate(joints["time"]):
+            w.writerow([f"{t:.6g}"] + [f"{joints[k][i, j]:.6e}" for j in range(J) for k in JOINT_QUANTITIES])
+    return out
 
 
 def displacement_against(res: ConditionResult, monitor: str, reference: str) -> np.ndarray | None:

@@ -19,7 +19,7 @@ def mesh_dir(case) -> Path:
 
 
 def _fingerprint(case) -> str:
-    from .case import case_geology, ground_layers
+    from .case import case_geology, ground_layers, lining_joints_active
 
     mesh = {k: v for k, v in case.data["mesh"].items() if not (k == "tunnel_end_plugs" and not v)}
     d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs: the meshes made before the key stay current)
@@ -27,6 +27,8 @@ def _fingerprint(case) -> str:
         d["layers"] = ground_layers(case.data)
     if case_geology(case.data) is not None:  # likewise
         d["geology"] = case.data["geology"]
+    if lining_joints_active(case.data):  # likewise
+        d["lining_joints"] = case.data["lining_joints"]["spacing"]
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -44,11 +46,11 @@ def make_mesh(case, force: bool = False) -> dict:
             return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
-    from .case import case_geology, ground_layers
+    from .case import case_geology, ground_layers, joint_spacing
 
     stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
     summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data),
-                                case_geology(case.data))
+                                case_geology(case.data), joint_spacing(case.data))
     summary = json.loads(json.dumps(summary, default=str))
     with atomic_path(stamp) as tmp:
         tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
@@ -96,32 +98,78 @@ def plot_motion(motion: ProcessedMotion, path: Path) -> None:
     plt.close(fig)
 
 
-def make_motion(case) -> tuple[ProcessedMotion, Path]:
+def _motion_fingerprint(case) -> str:
+    """What motion.h5 and its figure are made from: the ground_motion section, the contents of the
+    record files it names, and the code that processes, writes and draws the motion (motion.py,
+    this file)."""
+    from .motion import resolve_path
+
+    gm = case.data["ground_motion"]
+    files = [gm.get("file")] + [(gm.get(k) or {}).get("file") for k in ("second_horizontal", "vertical")]
+    h = hashlib.sha256(json.dumps(gm, sort_keys=True, default=str).encode())
+    for f in files:
+        if f:
+            p = resolve_path(f, case.dir)
+            h.update(p.read_bytes() if p.is_file() else b"missing")
+    for src in (Path(__file__).with_name("motion.py"), Path(__file__)):
+        h.update(src.read_bytes())
+    return h.hexdigest()[:16]
+
+
+MOTION_STAMP = "motion.json"
+
+
+def make_motion(case, log: list[str] | None = None) -> tuple[ProcessedMotion, Path]:
+    """Process the case's motion into motion.h5; what it says is also appended to `log`."""
+    def tell(line: str) -> None:
+        say(line)
+        if log is not None:
+            log.append(line)
+
     motion, notes = from_case(case.data["ground_motion"], case.dir)
     for n in notes:
-        say(f"NOTE: {n}")
+        tell(f"NOTE: {n}")
     out = case.output_dir / "motion.h5"
     write_motion(motion, out)
     peaks = ", ".join(f"{c} {float(np.max(np.abs(a))):.4g}" for c, a in (("x", motion.ax), ("y", motion.ay), ("z", motion.az)))
-    say(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
-        f"incident peaks {peaks} m/s^2 -> {out}")
+    tell(f"motion: {motion.record.source}; {motion.ax.size} points at dt={motion.dt:g} s; "
+         f"incident peaks {peaks} m/s^2 -> {out}")
     for s in motion.steps:
-        say(f"  - {s}")
+        tell(f"  - {s}")
     return motion, out
 
 
-def motion_and_figure(case) -> tuple[ProcessedMotion, Path, Path] | None:
-    """motion.h5 and its figure; None after printing why (a record refused, a full disk)."""
+def motion_and_figure(case, reuse: bool = False) -> tuple[str, Path, Path] | None:
+    """motion.h5 and its figure; (the record's source, motion.h5, the figure), or None after
+    printing why (a record refused, a full disk). With `reuse` (`tunnelquake run`), the files an
+    earlier run made from the same motion keys, record files and code (motion.json's fingerprint)
+    are kept and what that run said is said again."""
     fig = case.output_dir / "figures" / "fig03_input_motion.png"
+    out = case.output_dir / "motion.h5"
+    stamp = case.output_dir / MOTION_STAMP
+    fp = _motion_fingerprint(case)
+    if reuse and stamp.is_file() and out.is_file() and fig.is_file():
+        try:
+            old = json.loads(stamp.read_text())
+        except (OSError, ValueError):
+            old = {}
+        if old.get("fingerprint") == fp:
+            for line in old.get("lines", []):
+                say(line)
+            say(f"motion: up to date in {out} (and {fig.name})")
+            return old["source"], out, fig
+    stamp.unlink(missing_ok=True)  # up to date only once both files are in place
+    lines: list[str] = []
     try:
-        motion, out = make_motion(case)
+        motion, out = make_motion(case, lines)
         plot_motion(motion, fig)
+        text = json.dumps({"fingerprint": fp, "source": motion.record.source, "lines": lines}, indent=1)
+        with atomic_path(stamp, len(text)) as tmp:
+            tmp.write_text(text)
     except MotionError as e:
         print(f"error: {e}")
         return None
     except DiskFull as e:
         print(f"error: {e}", file=sys.stderr)
         return None
-    return motion, out, fig
-
-
+    return motion.record.source, out, fig

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from . import children, fingerprint, incident_wave
-from .case import CONDITIONS, case_geology, fault_offset_slip
+from .case import CONDITIONS, case_geology, fault_offset_slip, lining_joints_active
 from .drm_input import write_drm_group, write_drm_group_from_file
 from .files import h5_in_memory
 from .freefield import FreeFieldError
@@ -69,6 +69,7 @@ def _mesh_facts(mesh_h5: Path) -> dict:
             "faces": sorted(f["/faces"].keys()) if "faces" in f else [],
             "strips": sorted(k for k in (f["/faces"].keys() if "faces" in f else []) if "_strip" in k),
             "pairs": int(f["/interfaces/rock_lining"].shape[0]) if "/interfaces/rock_lining" in f else 0,
+            "joints": int(f["/interfaces/lining_joint_y"].shape[0]) if "/interfaces/lining_joint_y" in f else 0,
             "lo": xyz.min(axis=0),
             "hi": xyz.max(axis=0),
         }
@@ -257,6 +258,17 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             it = d["interface"]
             r = f.create_group("interfaces/rock_lining")
             _from_case(r, "/interfaces/rock_lining", it, table)
+        if mesh["joints"]:
+            lj = d["lining_joints"]
+            if not lining_joints_active(d):
+                raise SolidInputError(f"mesh {mesh_h5} has lining joints but the case has no lining_joints; rebuild "
+                                      "the mesh with `tunnelquake mesh --force`")
+            r = f.create_group("interfaces/lining_joints")
+            _from_case(r, "/interfaces/lining_joints", lj, table)
+            put(r, "/interfaces/lining_joints", "friction", -1.0 if lj["friction"] is None else lj["friction"], table)
+        elif lining_joints_active(d):
+            raise SolidInputError(f"mesh {mesh_h5} has no lining joints, which the case's lining_joints asks for; "
+                                  "rebuild it with `tunnelquake mesh --force`")
 
         wave = incident_wave.active(d) and "seismic" in sequence
         if wave and mesh["slice"]:

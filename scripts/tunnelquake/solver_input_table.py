@@ -77,8 +77,10 @@ GROUPS = (
     Group("/hydrostatic"),
     Group("/fault_offset", doc="the fault_offset stage's prescribed displacement (docs/solid_solver.md "
                                "\"Fault offset\")"),
-    Group("/interfaces", ("rock_lining",)),
+    Group("/interfaces", ("rock_lining", "lining_joints")),
     Group("/interfaces/rock_lining"),
+    Group("/interfaces/lining_joints", doc="the joint law of the lining's joints, whose node pairs mesh.h5 "
+                                           "holds (docs/theory.md \"Lining joints\")"),
     Group("/boundaries", ("bottom", "free_field", "periodic")),
     Group("/boundaries/bottom"),
     Group("/boundaries/free_field"),
@@ -263,6 +265,15 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/interfaces/rock_lining", "dynamic_friction", "float", default=0.6, lo=0.0, case="interface.dynamic_friction"),
     _e("/interfaces/rock_lining", "cohesion", "float", unit="Pa", default=0.0, lo=0.0, case="interface.cohesion"),
     _e("/interfaces/rock_lining", "after_failure", "str", default="cohesion_lost", case="interface.after_failure"),
+    _e("/interfaces/lining_joints", "normal_stiffness", "float", "k_n and k_s: the joint's normal and shear "
+       "stiffness per unit area", unit="Pa/m", required=True, lo=0.0, lo_open=True,
+       case="lining_joints.normal_stiffness"),
+    _e("/interfaces/lining_joints", "shear_stiffness", "float", unit="Pa/m", required=True, lo=0.0, lo_open=True,
+       case="lining_joints.shear_stiffness"),
+    _e("/interfaces/lining_joints", "tensile_strength", "float", "f_t: the tension a joint carries before it "
+       "opens (0: none)", unit="Pa", default=0.0, lo=0.0, case="lining_joints.tensile_strength"),
+    _e("/interfaces/lining_joints", "friction", "float", "μ: the shear capped at μ × compression; negative: "
+       "the shear spring without a cap", default=-1.0),
     _e("/boundaries/bottom", "face", "str", "viscoelastic base on that face group", default="bottom"),
     _e("/boundaries/bottom", "type", "str", default="viscoelastic", choices=("viscoelastic",)),
     _e("/boundaries/bottom", "distance", "float", "R in K = αG/R (0: tunnel axis to base, else the model "

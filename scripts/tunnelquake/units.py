@@ -26,6 +26,7 @@ PRESSURE: Dim = (1, -1, -2)
 VELOCITY: Dim = (0, 1, -1)
 ACCELERATION: Dim = (0, 1, -2)
 DYNAMIC_VISCOSITY: Dim = (1, -1, -1)
+STIFFNESS_PER_AREA: Dim = (1, -2, -2)  # Pa/m: a joint's spring per unit area
 ANGLE: Dim = DIMENSIONLESS
 
 DIM_NAMES = {
@@ -38,6 +39,7 @@ DIM_NAMES = {
     VELOCITY: "velocity (m/s)",
     ACCELERATION: "acceleration (m/s^2)",
     DYNAMIC_VISCOSITY: "dynamic viscosity (Pa*s)",
+    STIFFNESS_PER_AREA: "stiffness per unit area (Pa/m)",
 }
 
 # unit -> (factor to SI, dimension)

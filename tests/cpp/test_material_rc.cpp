@@ -496,3 +496,38 @@ TEST(ReinforcedConcrete, RingPushedToFailureReachesTheSectionsCapacity) {
     EXPECT_GT(std::abs(bestM[g]), 0.1 * mRdRectangular(0)) << "a point with bending, not pure compression";
   }
 }
+
+// Pure bending: the crown of the same ring (10 elements through) governs when the load path keeps the
+// springline away from its own capacity. In-situ stress with K = 0 (vertical q only) in soft rock
+// (0.02 GPa), q raised by 25 % a run from 0.47 MPa past the crown's failure: the largest utilisation
+// along the load ray (1/λ, (λN, λM) on the rectangular block's diagram) within 5 % of 1 at a section
+// whose eccentricity e = |M/N| is at least 2 h (N under 2 % of N_Rd,0: the diagram's bending end).
+// Measured (docs/solid_solver.md "A ring failing in bending"): in 0.3 GPa rock the springline
+// (N ≈ 8.7 MN/m) fails first and the crown stops at 0.86–0.94; with 4 elements through, a row's
+// one-point stress puts the compression and the outer bar at the face row's centre and the crown's
+// stress resultant stops at 0.86 (a plane-section strip of 4 rows: 0.87).
+TEST(ReinforcedConcrete, RingInBendingReachesTheSectionsMomentCapacity) {
+  std::vector<Real> best, bestN, bestM, last;
+  for (Real q = 0.47e6; q < 0.95e6; q *= 1.25) {
+    const RingState s = pushRing(q, 0.0, 0, 0.02e9, 10);
+    best.resize(s.N.size(), 0.0), bestN.resize(s.N.size(), 0.0), bestM.resize(s.N.size(), 0.0);
+    last.resize(s.N.size(), 0.0);
+    for (size_t k = 0; k < s.N.size(); ++k) {
+      last[k] = rayUtilisation(-s.N[k], s.M[k]);
+      if (last[k] > best[k]) best[k] = last[k], bestN[k] = -s.N[k], bestM[k] = s.M[k];
+    }
+  }
+  const Real nRd0 = kRingFc * kRingT + 2 * kRingAs * kRingFy;
+  const size_t c = best.size() - 1;  // the crown's section (θ nearest 90°)
+  for (size_t k : {size_t(0), c})
+    std::printf(
+        "%s: N %.1f kN/m compression (%.2f %% of N_Rd,0), M %.1f kNm/m (e/h %.2f), M_Rd(N) %.1f kNm/m "
+        "(M_Rd(0) %.1f), ray utilisation %.4f; at the last load %.4f\n",
+        k == c ? "crown, bending" : "springline", bestN[k] / 1e3, 100 * bestN[k] / nRd0, bestM[k] / 1e3,
+        std::abs(bestM[k] / bestN[k]) / kRingT, mRdRectangular(bestN[k]) / 1e3, mRdRectangular(0) / 1e3, best[k],
+        last[k]);
+  EXPECT_NEAR(best[c], 1.0, 0.05);
+  EXPECT_GT(std::abs(bestM[c] / bestN[c]), 2 * kRingT) << "a point at the diagram's bending end";
+  EXPECT_LT(std::abs(bestN[c]), 0.02 * nRd0);
+  EXPECT_LT(last[c], best[c] - 0.05) << "the ring raised past the crown's failure";
+}

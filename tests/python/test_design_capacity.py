@@ -176,6 +176,39 @@ def test_pure_bending_rectangular_block_by_hand():
     assert sec.pure_compression()[0] == pytest.approx(12.4e6, rel=1e-12)  # η fcd b h + 2 As 400 MPa
 
 
+def test_a_section_in_tension_with_a_small_eccentricity_by_hand():
+    """A lining in hoop tension with a little bending (the pressure tunnel's demand): both bars at
+    f_yd and a thin parabola-rectangle block on the compressed face, nothing else (EN 1992-1-1
+    §6.1(2): the concrete's tensile strength ignored). A section unlike the examples': h 0.35 m,
+    C40/50 (f_cd 26.667 MPa), ø20 @ 150 mm inner (2094 mm²/m, the bottom), ø12 @ 150 mm outer (754
+    mm²/m, the top), both at 45 mm; demand N = −900 kN/m (tension), M = +100 kNm/m (inner face
+    stretched: the top compressed).
+    By hand, the block x deep (k = 17/21 f_cd = 21.587302 MN/m², its centroid β x = 99/238 x from the
+    top), the bars' tension T = (2094 + 754) mm² × 434.7826 MPa = 1.238261 MN/m and their moment
+    about mid-depth M_s = 434.7826 × (2094 − 754) × 1e-6 × 0.13 = 0.0757391 MNm/m:
+      N_R = k x − T, M_R = k x (h/2 − β x) + M_s, on the demand's ray M_R N = M N_R:
+      −N k β x² + (N k h/2 − M k) x + (N M_s + M T) = 0
+      → 8.081633 x² − 5.558730 x + 0.055661 = 0 (MN, m) → x = 0.0101634 m,
+    inside the range where the top bar still yields in tension (x ≤ 45 mm × 3.5/(3.5 + 2.173913)
+    = 27.76 mm); N_R = −1.018860 MN/m, M_R = 0.1132067 MNm/m; u = N/N_R = 0.883340. The bars alone
+    (no block) would give N/T = 0.727 at M = 0 and cannot carry this M with both at f_yd."""
+    sec = cap.RCSection(0.35, cap.Concrete(40 * MPA), cap.Reinforcement(), As_top=754e-6, As_bottom=2094e-6,
+                        d_top=0.045, d_bottom=0.045)
+    k, beta, fyd = 17 / 21 * 40 * MPA / 1.5, 99 / 238, 500 * MPA / 1.15
+    T, Ms = (2094e-6 + 754e-6) * fyd, fyd * (2094e-6 - 754e-6) * (0.175 - 0.045)
+    assert (T, Ms) == (pytest.approx(1.238261e6, rel=1e-6), pytest.approx(0.0757391e6, rel=1e-6))
+    N, M = -0.9e6, 0.1e6
+    a, b, c = -N * k * beta, N * k * 0.175 - M * k, N * Ms + M * T
+    x = (-b - math.sqrt(b * b - 4 * a * c)) / (2 * a)
+    assert x == pytest.approx(0.0101634, rel=1e-5)
+    assert 0 < x < 0.045 * 3.5e-3 / (3.5e-3 + fyd / 200e9)  # the regime assumed by hand
+    NR, MR = k * x - T, k * x * (0.175 - beta * x) + Ms
+    assert (NR, MR) == (pytest.approx(-1.018860e6, rel=1e-6), pytest.approx(0.1132067e6, rel=1e-6))
+    assert N / NR == pytest.approx(0.883340, rel=1e-6)
+    assert float(sec.utilisation_radial(N, M)) == pytest.approx(N / NR, rel=1e-9)
+    assert float(sec.utilisation_radial(NR, MR)) == pytest.approx(1.0, abs=1e-9)  # the point is on the curve
+
+
 def test_utilisation_radial_and_at_constant_N(section):
     Nb, Mb = section.balanced_point()
     # radial: a point halfway to the curve along its ray is used at 0.5 (by definition, but through

@@ -223,6 +223,38 @@ def test_damage_section_and_fig9_show_the_files_values(tmp_path):
     assert "| reproduced |" in row
 
 
+def test_the_crack_pattern_is_drawn_at_the_snapshot_nearest_the_governing_time(tmp_path, monkeypatch):
+    """The design's crack-pattern figure shows the damage of the field snapshot nearest each
+    condition's governing time (here 1.8 s among snapshots at 1, 2 and 3 s: the one at 2 s, not the
+    last), element by element, and says both times on the figure."""
+    from types import SimpleNamespace
+
+    from tunnelquake.design import figures as F
+
+    path = _write_results(tmp_path / "results_dynamic_water.h5", t_end=3.0, snaps=(1.0, 2.0, 3.0),
+                          damage_of=_haunch_damage)
+    res = P.read_condition(path, "dynamic_water")
+    assert F.nearest_snapshot(res, 1.8) == ("1", 2.0)
+    assert F.nearest_snapshot(res, 1.5) == ("0", 1.0)  # of two at the same distance, the earlier
+    ts, polys, d = F.crack_pattern(res, 1.8)
+    _, _, elems = P.damage_section(res, P.read_snapshot(res, "1"))
+    assert ts == 2.0
+    cen = res.mesh["coordinates"][res.mesh["connectivity"][elems]].mean(axis=1)
+    expected = _haunch_damage(np.arctan2(cen[:, 0], cen[:, 2]), np.hypot(cen[:, 0], cen[:, 2]), 2.0)
+    np.testing.assert_allclose(d, expected, rtol=1e-12)
+    assert not np.allclose(d, P.read_snapshot(res, "2")["damage"][elems])  # the last snapshot differs
+    drawn = []
+    monkeypatch.setattr(F, "_save", lambda fig, out: drawn.append(fig) or out.write_bytes(b"png"))
+    cond = SimpleNamespace(condition="dynamic_water", governing_time=lambda: 1.8)
+    assert F.fig_cracks([cond], [res], tmp_path / "cracks.png") == tmp_path / "cracks.png"
+    ax = drawn[0].axes[0]
+    assert "governing t = 1.800 s" in ax.get_title() and "nearest snapshot t = 2.000 s" in ax.get_title()
+    np.testing.assert_allclose(ax.collections[0].get_array(), expected, rtol=1e-12)
+    assert ax.collections[0].get_clim() == pytest.approx((0.0, expected.max()))  # the scale fitted to the data
+    no_time = SimpleNamespace(condition="dynamic_water", governing_time=lambda: None)
+    assert F.fig_cracks([no_time], [res], tmp_path / "none.png") is None
+
+
 def test_xdmf_reads_back_with_meshio(tmp_path):
     meshio = pytest.importorskip("meshio")
     path = _write_results(tmp_path / "results_no_water.h5", damage_of=_haunch_damage, state_of=_haunch_slip)

@@ -233,6 +233,7 @@ def test_figures_draw_the_cases_monitors_and_its_lining_strength(own_case, monke
             return _orig(self, *args, **kw)
 
         monkeypatch.setattr(Axes, name, wrapper)
+    monkeypatch.setenv("TQ_DRAW_PROCESSES", "1")  # every figure drawn in this process, where the calls are recorded
     assert main(["post", str(own_case / "case.yaml")]) == 0
     lines = [(a[0], kw.get("label")) for a, kw in calls["axhline"]]
     assert lines == [(pytest.approx(2.2), "lining tensile strength 2.2 MPa")] * 3  # one panel per condition

@@ -1,5 +1,5 @@
 """The designer's figures: the design forces' envelopes around the ring, the section's M–N
-diagram with the demand points, and the deformed lining at the governing time. Angles as everywhere in the report: from the crown towards +x; the
+diagram with the demand points, the deformed lining and the crack pattern at the governing time. Angles as everywhere in the report: from the crown towards +x; the
 ring is drawn as seen along the tunnel axis, the crown up and +x to the right."""
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..post import _plt, _save  # the Agg back end; PNG put in place only once complete
+# _plt: the Agg back end; _save: the PNG put in place only once complete
+from ..post import _plt, _save, damage_section, read_snapshot
 
 
 def ring_scale(values: list[np.ndarray], radius: float) -> float:
@@ -115,6 +116,64 @@ def fig_deformed(conditions, out: Path) -> Path | None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
+    _save(fig, out)
+    plt.close(fig)
+    return out
+
+
+def nearest_snapshot(res, time: float) -> tuple[str, float] | None:
+    """The complete field snapshot of a condition's results nearest `time` (of two at the same
+    distance, the earlier): (key, its time); None without snapshots."""
+    if not res.snapshots:
+        return None
+    return min(res.snapshots, key=lambda s: (abs(s[1] - time), s[1]))
+
+
+def crack_pattern(res, time: float):
+    """The lining's middle section at the snapshot nearest `time`: (the snapshot's time, the
+    elements' outlines, their damage D); None without a snapshot or without damage."""
+    near = nearest_snapshot(res, time)
+    if near is None or res.mesh is None:
+        return None
+    snap = read_snapshot(res, near[0])
+    polys, d, _ = damage_section(res, snap)
+    return (snap["time"], polys, d) if polys else None
+
+
+def fig_cracks(conditions, results, out: Path) -> Path | None:
+    """The crack pattern (the lining's damage D over its middle section: a reinforced_concrete
+    lining's loss of secant stiffness in tension) at each condition's governing time (the summary's
+    governing check), from the field snapshot nearest it; both times in each panel's title, the
+    colour scale fitted to the largest D drawn."""
+    from matplotlib.collections import PolyCollection
+
+    by_condition = {r.condition: r for r in results}
+    items = []
+    for c in conditions:
+        res, t = by_condition.get(c.condition), c.governing_time()
+        if res is None or t is None:
+            continue
+        got = crack_pattern(res, t)
+        if got is not None:
+            items.append((c.condition, t, *got))
+    if not items:
+        return None
+    plt = _plt()
+    dmax = max(float(d.max()) for *_, d in items)
+    vmax = dmax if dmax > 0 else 1.0  # 0 to 1 when nothing has cracked
+    fig, axes = plt.subplots(1, len(items), figsize=(4.2 * len(items) + 0.8, 4.4), squeeze=False)
+    for ax, (cond, t, ts, polys, d) in zip(axes[0], items, strict=True):
+        pc = PolyCollection(polys, array=d, cmap="inferno_r", edgecolors="0.6", linewidths=0.2)
+        pc.set_clim(0.0, vmax)
+        ax.add_collection(pc)
+        ax.autoscale_view()
+        ax.set_aspect("equal")
+        ax.set_title(f"{cond}: governing t = {t:.3f} s,\nnearest snapshot t = {ts:.3f} s; max D = {d.max():.3g}",
+                     fontsize=9)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("z (m)")
+    fig.colorbar(pc, ax=axes[0].tolist(), label="damage D (cracked: loss of secant stiffness in tension)", shrink=0.8)
+    fig.suptitle("Crack pattern at the governing time (the field snapshot nearest it)", fontsize=10)
     _save(fig, out)
     plt.close(fig)
     return out

@@ -4,6 +4,7 @@ Steps:
   1. validate the inputs and derive the block divisions (params.resolve);
   2. build and mesh the structured all-hex gmsh model (gmsh_model.build_model), write model.msh;
   3. solid: rock + lining hexes, lining nodes on the rock-lining interface duplicated and paired,
+     with lining joints the lining's nodes on each joint plane duplicated again and paired,
      elements oriented to positive volume, boundary quads named, written as mesh.h5
      (docs/formats.md);
   4. water: its hexes and wall/end quads written as gmsh 2.2 ASCII for gmshToFoam;
@@ -38,6 +39,8 @@ from .gmsh_model import LINING, ROCK, WATER, build_model
 from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
+#: the face group of the lining's joint faces (both sides of every joint)
+JOINT_FACES = "lining_joints"
 WATER_GROUPS = ("water", "interface", "end_ymin", "end_ymax")
 
 #: The paper's element counts (§3.1), for the summary's comparison.
@@ -49,14 +52,17 @@ def region_names(plan: MeshPlan) -> list[str]:
     return [ROCK, LINING] + [name for name, _ in plan.layers] + (plan.geology.materials if plan.geology else [])
 
 
-def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None, geology=None) -> dict:
+def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None, geology=None,
+                      joint_spacing: float | None = None) -> dict:
     """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
 
     geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
     excavated_radius, lining_thickness (m). mesh: MESH_DEFAULTS keys (missing ones take the
     default; unknown ones are rejected). layers: the ground's horizontal layers from the surface
     down, [(region name, z of its bottom)] (params.resolve). geology: regions bounded by planes
-    (geology.Geology: dipping layers, a fault zone), each element by its centroid. Returns a summary dict (see format_summary).
+    (geology.Geology: dipping layers, a fault zone), each element by its centroid. joint_spacing: the
+    lining's ring length (m), joints every spacing from the lining's start (joint_levels), each a plane
+    of axial element layers. Returns a summary dict (see format_summary).
     Raises MeshInputError for bad input, RuntimeError if a quality check fails.
     """
     t0 = time.perf_counter()
@@ -88,7 +94,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                         gmsh.model.remove()
 
             hexes = _plug_ends(plan, coords, hexes)
-            solid = _solid_mesh(plan, coords, hexes)
+            solid = _solid_mesh(plan, coords, hexes, joint_levels(plan, joint_spacing))
             _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
             water = _water_mesh(plan, coords, hexes[WATER])
             _write_gmsh22(tmp["water"], water)
@@ -118,6 +124,8 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
         "faces": {k: len(v) for k, v in solid["faces"].items()},
         "water_faces": {k: len(v) for k, v in water["faces"].items()},
         "interface_pairs": len(solid["pairs"]),
+        "joints": len(solid["joint_y"]),
+        "joint_pairs": len(solid["joint_pairs"]),
         "max_element_size": h,
         "max_element_size_limit": plan.max_element_size,
         "min_jacobian": min(solid["min_detj"], water["min_detj"]),
@@ -209,6 +217,7 @@ def format_summary(s: dict) -> str:
     lines += [
         f"  solid nodes {c['solid_nodes']}, water nodes {c['water_nodes']}",
         f"  rock-lining node pairs: {s['interface_pairs']}",
+        *([f"  lining joints: {s['joints']} ({s['joint_pairs']} node pairs)"] if s.get("joints") else []),
         f"  longest edge: {s['max_element_size']:.3f} m (limit {s['max_element_size_limit']:g} m)",
         f"  min corner det J: {s['min_jacobian']:.4g} m^3; min scaled Jacobian: "
         + ", ".join(f"{k} {v:.3f}" for k, v in s["min_scaled_jacobian"].items()),
@@ -302,9 +311,76 @@ def _plug_ends(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     return out
 
 
-def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
+def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
+    """The joints' planes y: every `spacing` from the lining's start (the first plug's end, or the
+    block's ymin face) to before its end; each snapped to the axial element layer it lies on.
+    Raises MeshInputError when the rings are not whole or a joint falls between layers (the case
+    check says the same before anything runs)."""
+    if not spacing:
+        return []
+    if plan.slice:
+        raise MeshInputError("lining joints need a 3D mesh (mesh.mode: 3d)", key="lining_joints")
+    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    n = (y1 - y0) / spacing
+    tol = 1e-6 * (y1 - y0)
+    if round(n) < 2 or abs(n - round(n)) > 1e-6 * n:
+        raise MeshInputError(f"lining_joints.spacing {spacing:g} m does not cut the lining's {y1 - y0:g} m into two "
+                             "or more whole rings", key="lining_joints.spacing")
+    levels = np.asarray(plan.y_levels, float)
+    out = []
+    for k in range(1, round(n)):
+        i = int(np.abs(levels - (y0 + k * spacing)).argmin())
+        if abs(levels[i] - (y0 + k * spacing)) > tol:
+            raise MeshInputError(f"lining joint {k} at y = {y0 + k * spacing:g} m is not on an axial element layer",
+                                 key="lining_joints.spacing")
+        out.append(float(levels[i]))
+    return out
+
+
+def _quad_areas(coords: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Areas of planar quads [F, 4]: half the cross product of the diagonals."""
+    x = coords[quads]
+    return 0.5 * np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]), axis=1)
+
+
+def _split_joints(plan: MeshPlan, coords: np.ndarray, conn: np.ndarray, lining: np.ndarray, joints: list[float]):
+    """Duplicate the lining's nodes on each joint plane: the elements on its +y side take the copies.
+    Returns the coordinates, the connectivity, the pairs [P, 2] (node on the -y side, its copy), each
+    pair's joint index and its tributary area on the plane (a quarter of each adjacent joint face of
+    the -y side)."""
+    tol = _tolerance(plan)
+    conn = conn.copy()
+    pairs, index, area = [], [], []
+    for j, y in enumerate(joints):
+        el = conn[lining]
+        on = np.abs(coords[el][:, :, 1] - y) < tol
+        cy = coords[el][:, :, 1].mean(axis=1)
+        plus, minus = lining[(cy > y) & on.any(axis=1)], lining[(cy < y) & on.any(axis=1)]
+        nodes = np.unique(conn[plus][np.abs(coords[conn[plus]][:, :, 1] - y) < tol])
+        copy = len(coords) + np.arange(len(nodes))
+        remap = np.arange(len(coords) + len(nodes))
+        remap[nodes] = copy
+        conn[plus] = remap[conn[plus]]
+        # the -y side's faces on the plane give the tributary areas
+        faces, _ = hexmesh.boundary_faces(conn[minus])
+        faces = faces[(np.abs(coords[faces][:, :, 1] - y) < tol).all(axis=1)]
+        a = np.zeros(len(coords))
+        np.add.at(a, faces.ravel(), np.repeat(_quad_areas(coords, faces) / 4, 4))
+        coords = np.concatenate([coords, coords[nodes]])
+        pairs.append(np.stack([nodes, copy], axis=1))
+        index.append(np.full(len(nodes), j))
+        area.append(a[nodes])
+    if not joints:
+        return coords, conn, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return coords, conn, np.concatenate(pairs).astype(np.int64), np.concatenate(index).astype(np.int64), \
+        np.concatenate(area)
+
+
+def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[float] = ()) -> dict:
     """Rock + lining with the interface nodes duplicated: the lining gets its own copies (except
-    where the lining meets a plug of rock at a tunnel end: bonded there)."""
+    where the lining meets a plug of rock at a tunnel end: bonded there). With joints, the lining's
+    nodes on each joint plane once more: the ring on the +y side takes the copies, and the rock's
+    interface node stays paired with the -y side's node."""
     plug = hexes.get("plug", np.zeros((0, 8), np.int64))
     rock, lining = np.concatenate([hexes[ROCK], plug]), hexes[LINING]
     shared = np.setdiff1d(np.intersect1d(hexes[ROCK], lining), plug)  # gmsh tags on the rock-lining interface
@@ -319,6 +395,8 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     lining_c = np.where(dup[lining] >= 0, dup[lining], index[lining])
     conn = np.concatenate([rock_c, lining_c])
     conn = hexmesh.orient_positive(conn, coords)
+    coords, conn, joint_pairs, joint_index, joint_area = _split_joints(
+        plan, coords, conn, np.arange(len(rock), len(rock) + len(lining)), list(joints))
     # The ground's elements take the region of the layer their centre lies in (each lies wholly
     # between two layer bottoms: those are grid lines of the outer rock).
     ground = layer_of(plan, gcoords[rock][:, :, 2].mean(axis=1)) if plan.layers else np.zeros(len(rock), np.int32)
@@ -332,7 +410,7 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     q_lining = _quality(conn[nr:], coords, "lining")
 
     faces, owner = hexmesh.boundary_faces(conn)
-    groups = _classify_solid_faces(plan, coords, faces, region[owner], plug_levels(plan))
+    groups = _classify_solid_faces(plan, coords, faces, region[owner], plug_levels(plan), list(joints))
     if plan.geology is not None and not plan.slice:
         groups.update(side_strips(plan, coords, groups))
     return {
@@ -340,6 +418,10 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
         "conn": conn,
         "region": region,
         "pairs": pairs,
+        "joint_pairs": joint_pairs,
+        "joint_index": joint_index,
+        "joint_area": joint_area,
+        "joint_y": np.asarray(list(joints), float),
         "faces": groups,
         "min_detj": min(q_rock[0], q_lining[0]),
         "min_scaled": (q_rock[1], q_lining[1]),
@@ -380,7 +462,7 @@ def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
     return {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
 
 
-def _classify_solid_faces(plan, coords, faces, owner_region, ends=None) -> dict:
+def _classify_solid_faces(plan, coords, faces, owner_region, ends=None, joints=()) -> dict:
     fx = coords[faces]
     tol = _tolerance(plan)
     r = _radius(plan, fx)
@@ -395,6 +477,10 @@ def _classify_solid_faces(plan, coords, faces, owner_region, ends=None) -> dict:
     masks["lining_inner"] = on_a & (owner_region == 1)
     masks["lining_outer"] = on_b & (owner_region == 1)
     masks["rock_hole"] = on_b & (owner_region != 1)
+    if joints:  # both sides of every joint
+        masks[JOINT_FACES] = np.any([(np.abs(fx[:, :, 1] - y) < tol).all(axis=1) for y in joints], axis=0) & (
+            owner_region == 1)
+        names.append(JOINT_FACES)
     hits = np.sum([m for m in masks.values()], axis=0)
     if (hits != 1).any():
         raise RuntimeError(
@@ -448,6 +534,11 @@ def _write_solid(path: pathlib.Path, s: dict, slice_mode: bool, regions: list[st
         for name in list(SOLID_FACE_NAMES) + sorted(set(s["faces"]) - set(SOLID_FACE_NAMES)):
             f.create_dataset(f"faces/{name}", data=s["faces"][name].astype(np.int32).reshape(-1, 4))
         f.create_dataset("interfaces/rock_lining", data=s["pairs"].astype(np.int32))
+        if len(s["joint_y"]):
+            f.create_dataset("interfaces/lining_joints", data=s["joint_pairs"].astype(np.int32))
+            f.create_dataset("interfaces/lining_joint_index", data=s["joint_index"].astype(np.int32))
+            f.create_dataset("interfaces/lining_joint_area", data=s["joint_area"].astype(np.float64))
+            f.create_dataset("interfaces/lining_joint_y", data=s["joint_y"].astype(np.float64))
 
 
 def _write_gmsh22(path: pathlib.Path, w: dict) -> None:

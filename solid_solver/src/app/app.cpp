@@ -58,7 +58,7 @@ const char* kUsage =
 const char* kCapabilities =
     "elastic hex8 central-difference rayleigh-damping staged-seismic in-situ excavation lining-activation "
     "hydrostatic bonded-interface viscoelastic-base free-field incident-motion solid-input-v2 "
-    "mohr-coulomb-damage dynamic-contact water-coupling restart fault-offset";
+    "mohr-coulomb-damage dynamic-contact water-coupling restart fault-offset lining-joints";
 
 std::string hms(double s) {
   std::ostringstream os;

@@ -2,6 +2,7 @@
 #include "tq/app/stages.hpp"
 
 #include "tq/contact/contact.hpp"
+#include "tq/contact/joints.hpp"
 #include "tq/elements/hex8.hpp"
 
 #include <algorithm>
@@ -337,6 +338,14 @@ std::string StagedAnalysis::notInEquilibrium(const std::string& name, const Rela
 }
 
 void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
+  if (in_.staged.liningJoints.present) {
+    // The lining's joints first: their forces are among the lining's when the rock-lining
+    // interface (contact or tie, same phase) predicts or shares its pairs' motion.
+    auto j =
+        std::make_shared<LiningJoints>(solver_, readJointPairs(in_.meshPath), jointParamsFrom(in_.staged.liningJoints));
+    solver_.addContributor(ForcePhase::Interface, j);
+    log << "  lining joints: " << j->numJoints() << " joints, " << j->numPairs() << " node pairs" << std::endl;
+  }
   const InterfaceInput& R = in_.staged.rockLining;
   if (R.present && R.model == "dynamic_contact") {
     // The paper's dynamic contact force method (eqs. 9-13, tq/contact/contact.hpp): each pair bonds in

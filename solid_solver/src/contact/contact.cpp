@@ -5,6 +5,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "tq/contact/pair_prediction.hpp"
+
 namespace tq {
 
 InterfaceModel parseInterfaceModel(const std::string& n) {
@@ -158,32 +160,13 @@ Real DynamicContact::slip(Index p, const NodalState& s) const {
 }
 
 void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
-  const bool leapfrog = solver_.options().integrator == Integrator::CentralDifference;
-  const Real alpha = solver_.massDampingCoefficient();
+  const PairPrediction predict(solver_, dt, st);
+  const bool leapfrog = predict.leapfrog();
   const Real* u = st.uData();
-  const Real* v = st.vData();
-  const Real* fi = st.fIntData();
   Real* fe = st.fExtData();
   const Real* m = st.massData();
-  const Real* cb = st.dashpotData();
   const Real mus = params_.staticFriction, mud = params_.dynamicFriction;
   const bool dynamic = params_.model == InterfaceModel::DynamicContact;
-  // Predicted displacement of dof (n, d) without the contact force, by the solver's own update
-  // (Solver::updateNodes), and its mobility w = ∂u^{n+1}/∂f.
-  auto predict = [&](Index n, int d, Real& ut, Real& w) {
-    const size_t i = 3 * size_t(n) + size_t(d);
-    const Real fr = solver_.isFixed(n, d) ? 0.0 : 1.0, mn = m[n];
-    const Real f = fe[i] - fi[i], cm = alpha * mn;
-    if (leapfrog) {
-      const Real mdt = mn / dt, ch = 0.5 * (cm + cb[i]);
-      ut = u[i] + dt * (fr * ((mdt - ch) * v[i] + f) / (mdt + ch));
-      w = fr * dt * dt / (mn + ch * dt);
-    } else {
-      const Real acc = fr * (f - (cm + cb[i]) * v[i]) / mn;
-      ut = u[i] + dt * v[i] + 0.5 * dt * dt * acc;
-      w = fr * 0.5 * dt * dt / mn;
-    }
-  };
   const size_t P = size_t(pairs_.size());
   for (size_t p = 0; p < P; ++p) {
     const Index a = pairs_.node1[p], b = pairs_.node2[p];

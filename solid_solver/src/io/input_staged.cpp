@@ -10,6 +10,7 @@
 #include "h5util.hpp"
 #include "input_schema.hpp"
 #include "tq/contact/contact.hpp"
+#include "tq/contact/joints.hpp"
 
 namespace tq {
 
@@ -24,6 +25,38 @@ ContactParams contactParamsFrom(const InterfaceInput& in) {
   p.afterFailure = parseAfterFailure(in.afterFailure);
   p.check();
   return p;
+}
+
+JointParams jointParamsFrom(const JointsInput& in) {
+  JointParams p;
+  p.normalStiffness = in.normalStiffness;
+  p.shearStiffness = in.shearStiffness;
+  p.tensileStrength = in.tensileStrength;
+  p.friction = in.friction;
+  p.check();
+  return p;
+}
+
+JointPairs readJointPairs(const std::string& meshPath) {
+  const std::string where = "lining joints of mesh '" + meshPath + "'";
+  auto f = h5::openFile(meshPath);
+  if (!h5::exists(f, "/interfaces/lining_joints"))
+    throw InputError(where +
+                     ": the mesh has no joints (/interfaces/lining_joints); re-mesh with the case's "
+                     "lining_joints (tunnelquake mesh --force) or remove /interfaces/lining_joints from the input");
+  std::vector<hsize_t> d;
+  const auto pairs = h5::readInts(f, "/interfaces/lining_joints", &d);
+  if (d.size() != 2 || d[1] != 2) throw InputError(where + ": /interfaces/lining_joints must have shape [P, 2]");
+  JointPairs jp;
+  const size_t P = pairs.size() / 2;
+  for (size_t p = 0; p < P; ++p) {
+    jp.nodeA.push_back(pairs[2 * p]);
+    jp.nodeB.push_back(pairs[2 * p + 1]);
+  }
+  jp.area = h5::readDoubles(f, "/interfaces/lining_joint_area");
+  jp.joint = h5::readInts(f, "/interfaces/lining_joint_index");
+  jp.y = h5::readDoubles(f, "/interfaces/lining_joint_y");
+  return jp;
 }
 
 void readStagedInput(hid_t f, SolidInput& in) {
@@ -143,6 +176,15 @@ void readStagedInput(hid_t f, SolidInput& in) {
       R.dynamicFriction = c.number(gg, w, K::interfaces_rock_lining::dynamic_friction);
       R.cohesion = c.number(gg, w, K::interfaces_rock_lining::cohesion);
       R.afterFailure = c.text(gg, w, K::interfaces_rock_lining::after_failure);
+    }
+    if (const auto gg = c.group(g, "lining_joints", "/interfaces/lining_joints"); gg.valid()) {
+      const std::string w = "/interfaces/lining_joints";
+      JointsInput& J = S.liningJoints;
+      J.present = true;
+      J.normalStiffness = c.number(gg, w, K::interfaces_lining_joints::normal_stiffness);
+      J.shearStiffness = c.number(gg, w, K::interfaces_lining_joints::shear_stiffness);
+      J.tensileStrength = c.number(gg, w, K::interfaces_lining_joints::tensile_strength);
+      J.friction = c.number(gg, w, K::interfaces_lining_joints::friction);
     }
   }
   // /boundaries

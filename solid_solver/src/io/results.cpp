@@ -76,7 +76,7 @@ struct ResultsWriter::Impl {
   void writeRingEnvelopes();
   /// Every history written on the clock, in one order (restart checkpoints).
   std::vector<h5::ClockedRows*> clockedRows() {
-    std::vector<h5::ClockedRows*> rows{&energy, &nl.interfaceHistory, &nl.dissipation};
+    std::vector<h5::ClockedRows*> rows{&energy, &nl.interfaceHistory, &nl.dissipation, &nl.jointHistory};
     for (auto& m : monitors)
       for (auto* r : {&m.time, &m.u, &m.v, &m.a, &m.stress, &m.principal}) rows.push_back(r);
     for (auto& [r, value] : series) rows.push_back(&r);
@@ -562,10 +562,12 @@ void ResultsWriter::resumeFrom(const std::string& copy, const Solver& solver) {
   StateArchive kept;
   kept.beginSave();
   I.nl.interfaceHistory.checkpoint(kept);
+  I.nl.jointHistory.checkpoint(kept);
   kept.end();
   nlout::prepare(I.file, solver, I.nl);
   kept.beginRestore();
   I.nl.interfaceHistory.checkpoint(kept);
+  I.nl.jointHistory.checkpoint(kept);
   kept.end();
   std::vector<h5::RowAppender*> rows;
   for (auto* r : I.clockedRows()) rows.push_back(&r->appender());

@@ -41,6 +41,45 @@ void writeInterfaceHeader(hid_t file, const DynamicContact& c, State& st) {
                           {"time", "bonded", "separated", "slipping", "stuck", "inactive", "dissipated"});
 }
 
+// /joints: the pairs, each joint's plane and area, the law, written once when the joints are first
+// seen; /joints/history: per joint its opening (area-weighted mean, largest, smallest), slip (mean,
+// largest), axial force and the opening's gradients across the joint (docs/solid_solver.md).
+void writeJointsHeader(hid_t file, const LiningJoints& j, State& st) {
+  const JointPairs& p = j.pairs();
+  const hsize_t P = hsize_t(p.size()), J = hsize_t(p.numJoints());
+  std::vector<Index> pairs(2 * P);
+  std::vector<Real> area(J, 0.0);
+  for (hsize_t k = 0; k < P; ++k) {
+    pairs[2 * k] = p.nodeA[k];
+    pairs[2 * k + 1] = p.nodeB[k];
+    area[size_t(p.joint[k])] += p.area[k];
+  }
+  h5::writeInts(file, "/joints/pairs", pairs.data(), {P, 2});
+  h5::writeInts(file, "/joints/joint", p.joint.data(), {P});
+  h5::writeDoubles(file, "/joints/pair_area", p.area.data(), {P});
+  h5::writeDoubles(file, "/joints/y", p.y.data(), {J});
+  h5::writeDoubles(file, "/joints/area", area.data(), {J});
+  auto g = h5::openGroup(file, "/joints");
+  const JointParams& jp = j.params();
+  h5::writeDoubleAttr(g, "normal_stiffness", jp.normalStiffness);
+  h5::writeDoubleAttr(g, "shear_stiffness", jp.shearStiffness);
+  h5::writeDoubleAttr(g, "tensile_strength", jp.tensileStrength);
+  h5::writeDoubleAttr(g, "friction", jp.friction);
+  const hsize_t cols = 1 + kJointColumns * J;
+  st.jointHistory = h5::ClockedRows(h5::RowAppender(file, "/joints/history", cols, st.ledger), cols, 0);
+  h5::writeStringListAttr(
+      g, "history_columns",
+      {"time", "opening", "opening_max", "opening_min", "slip", "slip_max", "axial_force", "rotation_x", "rotation_z"});
+}
+
+bool updateJoints(hid_t file, const Solver& s, State& st) {
+  if (!st.joints) {
+    st.joints = findJoints(s);
+    if (st.joints) writeJointsHeader(file, *st.joints, st);
+  }
+  return st.joints != nullptr;
+}
+
 bool updateContact(hid_t file, const Solver& s, State& st) {
   if (!st.contact) {
     st.contact = findContact(s);
@@ -51,7 +90,16 @@ bool updateContact(hid_t file, const Solver& s, State& st) {
 
 }  // namespace
 
-void prepare(hid_t file, const Solver& s, State& st) { updateContact(file, s, st); }
+void prepare(hid_t file, const Solver& s, State& st) {
+  updateContact(file, s, st);
+  updateJoints(file, s, st);
+}
+
+const LiningJoints* findJoints(const Solver& s) {
+  for (const auto& e : s.contributors())
+    if (auto* d = dynamic_cast<const LiningJoints*>(e.contributor.get())) return d;
+  return nullptr;
+}
 
 const DynamicContact* findContact(const Solver& s) {
   for (const auto& e : s.contributors())
@@ -93,12 +141,25 @@ void observe(hid_t file, const Solver& s, const std::vector<std::pair<Index, Ind
                          c.dissipatedEnergy()};
     st.interfaceHistory.observe(row);
   }
+  if (updateJoints(file, s, st)) {
+    const auto sum = st.joints->summaries(s.state());
+    std::vector<Real> row(1 + kJointColumns * sum.size());
+    row[0] = s.time();
+    for (size_t j = 0; j < sum.size(); ++j) {
+      const JointSummary& o = sum[j];
+      const Real v[kJointColumns] = {o.opening, o.openingMax, o.openingMin, o.slip,
+                                     o.slipMax, o.axialForce, o.rotationX,  o.rotationZ};
+      for (int k = 0; k < kJointColumns; ++k) row[1 + kJointColumns * j + size_t(k)] = v[k];
+    }
+    st.jointHistory.observe(row.data());
+  }
 }
 
 void write(double t, double w, State& st) {
   for (auto& m : st.monitorDamage) m.write(t, w);
   st.dissipation.write(t, w);
   if (st.contact) st.interfaceHistory.write(t, w);
+  if (st.joints) st.jointHistory.write(t, w);
 }
 
 void snapshot(hid_t file, const std::string& g, const Solver& s, State& st) {

@@ -8,6 +8,7 @@
 
 #include "h5util.hpp"
 #include "tq/contact/contact.hpp"
+#include "tq/contact/joints.hpp"
 #include "tq/core/solver.hpp"
 
 namespace tq::nlout {
@@ -17,12 +18,20 @@ struct State {
   std::vector<h5::ClockedRows> monitorDamage;  ///< /monitors/<name>/damage [T, 1], one per monitor
   const DynamicContact* contact = nullptr;     ///< found among the solver's contributors
   h5::ClockedRows interfaceHistory;            ///< /interface/history [T, 7]
+  const LiningJoints* joints = nullptr;        ///< the lining's joints, found among the contributors
+  h5::ClockedRows jointHistory;                ///< /joints/history [T, 1 + kJointColumns J]
   h5::ClockedRows dissipation;                 ///< /energy/dissipation [T, 3]
   h5::SpaceLedger* ledger = nullptr;           ///< the results file's, for the appenders above
 };
 
 /// The rock–lining contact among the solver's contributors, or nullptr.
 const DynamicContact* findContact(const Solver& s);
+
+/// The lining's joints among the solver's contributors, or nullptr.
+const LiningJoints* findJoints(const Solver& s);
+
+/// Columns of /joints/history per joint, after the time column.
+constexpr int kJointColumns = 8;
 
 /// Damage D of element e of block b (0 for a material without damage).
 Real elementDamage(const Solver& s, Index block, Index elem);

@@ -90,6 +90,24 @@ struct ContactParams;  // tq/contact/contact.hpp
 /// cohesion, after_failure); throws InputError on unknown names or bad values.
 ContactParams contactParamsFrom(const InterfaceInput& in);
 
+/// /interfaces/lining_joints: the law of the lining's joints (their node pairs are mesh.h5's
+/// /interfaces/lining_joints, read by readJointPairs).
+struct JointsInput {
+  bool present = false;
+  Real normalStiffness = 0, shearStiffness = 0;  ///< k_n, k_s (Pa/m)
+  Real tensileStrength = 0;                      ///< f_t (Pa)
+  Real friction = -1;                            ///< μ; < 0: no cap on the shear
+};
+
+struct JointParams;  // tq/contact/joints.hpp
+struct JointPairs;
+/// The joint law of /interfaces/lining_joints; throws InputError on bad values.
+JointParams jointParamsFrom(const JointsInput& in);
+/// mesh.h5's joints: /interfaces/lining_joints [P, 2] (node on the −y side, its copy on the +y
+/// side), lining_joint_area [P] (m²), lining_joint_index [P] and lining_joint_y [J]; throws
+/// InputError when the mesh has none or they are inconsistent.
+JointPairs readJointPairs(const std::string& meshPath);
+
 /// /boundaries/bottom: viscoelastic base (Deeks & Randolph 1994; Liu Jingbo et al. 2006).
 struct BottomBoundaryInput {
   bool present = false;
@@ -193,6 +211,7 @@ struct StagedInput {
   HydrostaticInput hydrostatic;
   FaultOffsetInput faultOffset;
   InterfaceInput rockLining;
+  JointsInput liningJoints;
   BottomBoundaryInput bottom;
   FreeFieldInput freeField;
   PeriodicInput periodic;
