@@ -1056,7 +1056,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
-    issues += _incident_wave_checks(d, raw)
+    issues += _incident_wave_checks(d, raw, filename)
     if not issues:
         issues += _within_record_checks(d, raw, filename)
     if d["suite"]["records"] is not None:
@@ -1117,10 +1117,11 @@ def _within_record_checks(d: dict, raw: LineDict, filename: str) -> list[Issue]:
     return []
 
 
-def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
+def _incident_wave_checks(d: dict, raw: LineDict, filename: str) -> list[Issue]:
     """What a run could not honour of the incident wave (incident_wave.checks), then where its DRM
-    layer falls in the mesh's bands (when the mesh keys themselves are valid)."""
-    from .incident_wave import active, band_issue, checks, monitor_issues
+    layer falls in the mesh's bands (when the mesh keys themselves are valid), then an H5DRM file
+    against that layer."""
+    from .incident_wave import active, band_issue, checks, h5drm_issues, monitor_issues
     from .meshing.params import MeshInputError, resolve
 
     issues = checks(d, ground_layers(d), raw.key_lines, lambda name: _section_lines(raw, name))
@@ -1131,26 +1132,50 @@ def _incident_wave_checks(d: dict, raw: LineDict) -> list[Issue]:
     except (MeshInputError, MemoryError, OverflowError):
         return []  # said by _mesh_checks
     bad = band_issue(d, plan, lambda name: _section_lines(raw, name))
-    return [bad] if bad else monitor_issues(d, plan, lambda name: _section_lines(raw, name))
+    if bad:
+        return [bad]
+    issues = monitor_issues(d, plan, lambda name: _section_lines(raw, name))
+    if d["incident_wave"]["type"] == "h5drm":
+        issues += h5drm_issues(d, plan, Path(filename).parent, lambda name: _section_lines(raw, name),
+                               seismic_length(d))
+    return issues
+
+
+def seismic_length(d: dict) -> float | None:
+    """The seismic stage's length where the keys give it (time.end_time, else the record's window or
+    the synthetic record's length); None where only the record file tells."""
+    gm = d["ground_motion"]
+    if d["time"]["end_time"] is not None:
+        return float(d["time"]["end_time"])
+    if gm["duration"] is not None:
+        return float(gm["duration"])
+    if gm["source"] == "synthetic":
+        return float(gm["synthetic"]["duration"])
+    return None
 
 
 def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
     """A motion along the tunnel's axis (y) shears the ground antiplane; tq-solid runs it in a
-    slice, whose y faces it ties periodic. A 3D model keeps its y faces on rollers (u_y = 0), which
-    would hold that motion back: refused there, naming the key that gives it."""
+    slice, whose y faces it ties periodic, or in a 3D model whose tunnel's ends are plugged with
+    ground, whose y faces then take free-field columns (the first side's, shared). A 3D model
+    without plugs keeps its y faces on rollers (u_y = 0), which would hold that motion back:
+    refused there, naming the key that gives it."""
     from .motion import along_axis
 
     gm = d["ground_motion"]
     if d["mesh"]["mode"] == "slice" or not along_axis(gm) or d["incident_wave"]["type"] != "none":
         return []  # (with an incident wave its own checks name these keys)
+    if int(d["mesh"].get("tunnel_end_plugs") or 0) > 0:
+        return []  # the y faces take free-field columns (the first side's, shared)
     lines = _section_lines(raw, "ground_motion")
     key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
     value = gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"]
     return [Issue(f"ground_motion.{key}", value,
-                  "gives a motion along the tunnel's axis (y), which a 3D model cannot take: its y faces are on "
-                  "rollers (u_y = 0)",
-                  "use mesh.mode: slice (its y faces are tied periodic, so the ground shears along the axis), or a "
-                  "motion across the tunnel and vertical only (azimuth 0 or 180, no second_horizontal)",
+                  "gives a motion along the tunnel's axis (y), which a 3D model takes only through free-field "
+                  "columns on its y faces, and those need the tunnel's ends plugged with ground",
+                  "set mesh.tunnel_end_plugs: 1 or more, use mesh.mode: slice (its y faces are tied periodic, so "
+                  "the ground shears along the axis), or a motion across the tunnel and vertical only (azimuth 0 "
+                  "or 180, no second_horizontal)",
                   lines.get(key))]
 
 

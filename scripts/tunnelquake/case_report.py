@@ -435,6 +435,12 @@ def _wave_lines(d: dict) -> list[str]:
     if not active(d):
         return []
     w = d["incident_wave"]
+    if w["type"] == "h5drm":
+        h = w["h5drm"]
+        return [f"The free field enters through a domain-reduction layer {w['drm_offset']} element ring(s) in from "
+                f"the sides and the base, read from the H5DRM file {h['file']} (factor {h['factor']:g}, crd_scale "
+                f"{h['crd_scale']:g}; docs/user_guide.md \"Waves from any direction\"); the record above sets the "
+                "run's length only.", ""]
     return [f"The record drives a plane {w['type']} wave, {w['angle']:g} deg from the vertical, travelling "
             f"{w['azimuth']:g} deg from the tunnel's axis towards x, as its {convention(d)} record (the component "
             f"{ {'P': 'z', 'SV': 'along the propagation direction', 'SH': 'across it'}[w['type']] }); it enters "

@@ -43,18 +43,13 @@ def write_drm(f, nodes, internal, field: FreeField) -> None:
         put(g, GROUP, e.name, value)
 
 
-def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray, dt: float,
-                    h5drm=None) -> dict:
-    """Compute the free field at the DRM layer's nodes of `mesh_h5` and write `/drm` into the open
-    solid_input.h5 `f`. `record_acc`: the processed record (the wave's defining component, under
-    convention(d)) sampled every dt from the seismic stage's start. `h5drm`: a path to write the same
-    free field to in the H5DRM layout as well (freefield.write_h5drm). Returns a summary."""
+def _layer(d: dict, mesh_h5):
+    """(xyz of every mesh node, the layer's nodes, their inner flags) of the case's DRM layer in
+    `mesh_h5`; refused where a lining element touches it (the tunnel crosses the layer)."""
     import h5py
 
-    from .freefield import free_field, incident_motion
-    from .incident_wave import DrmLayerError, convention, drm_layer, ground_profile, plane_wave
+    from .incident_wave import DrmLayerError, drm_layer
 
-    d = case_data
     with h5py.File(mesh_h5, "r") as m:
         xyz = m["/nodes/coordinates"][...]
         conn = m["/elements/connectivity"][...].astype(np.int64)
@@ -70,6 +65,20 @@ def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray,
     if bad.any():
         raise DrmLayerError(f"{int(bad.sum())} lining element(s) touch the DRM layer: the tunnel crosses it; raise "
                             "mesh.tunnel_end_plugs or lower incident_wave.drm_offset")
+    return xyz, nodes, internal
+
+
+def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray, dt: float,
+                    h5drm=None) -> dict:
+    """Compute the free field at the DRM layer's nodes of `mesh_h5` and write `/drm` into the open
+    solid_input.h5 `f`. `record_acc`: the processed record (the wave's defining component, under
+    convention(d)) sampled every dt from the seismic stage's start. `h5drm`: a path to write the same
+    free field to in the H5DRM layout as well (freefield.write_h5drm). Returns a summary."""
+    from .freefield import free_field, incident_motion
+    from .incident_wave import convention, ground_profile, plane_wave
+
+    d = case_data
+    xyz, nodes, internal = _layer(d, mesh_h5)
     profile = ground_profile(d, layers)
     wave = plane_wave(d)
     inc = incident_motion(np.asarray(record_acc, float), dt, wave, profile, convention(d))
@@ -80,3 +89,28 @@ def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray,
 
         write_h5drm(h5drm, field, internal)
     return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": int(field.time.size)}
+
+
+def write_drm_group_from_file(f, case_data: dict, mesh_h5, case_dir, t_end: float) -> dict:
+    """Write `/drm` into the open solid_input.h5 `f` from the case's H5DRM file
+    (incident_wave.h5drm): every node of the DRM layer of `mesh_h5` matched to a file point
+    (freefield.read_h5drm through OpenSees' mapping, incident_wave.h5drm_options), the file's first
+    sample at the seismic stage's start. Refused (FreeFieldError) where the file ends before t_end.
+    Returns a summary."""
+    from pathlib import Path
+
+    from .freefield import read_h5drm
+    from .incident_wave import h5drm_options
+
+    d = case_data
+    given = Path(d["incident_wave"]["h5drm"]["file"])
+    path = given if given.is_absolute() else Path(case_dir) / given
+    xyz, nodes, internal = _layer(d, mesh_h5)
+    field = read_h5drm(path, xyz[nodes], internal, **h5drm_options(d))
+    time = field.time - field.time[0]
+    if time[-1] < t_end - 1e-9 * max(t_end, 1.0):
+        raise FreeFieldError(f"{path}: the free field lasts {time[-1]:g} s from its first sample, shorter than the "
+                             f"seismic stage's {t_end:g} s", "give a file that lasts the run, or a shorter "
+                             "time.end_time")
+    write_drm(f, nodes, internal, FreeField(points=field.points, time=time, u=field.u, v=field.v, a=field.a))
+    return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": int(time.size)}

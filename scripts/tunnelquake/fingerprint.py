@@ -122,7 +122,7 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
             key_group = _key_group(key, group, analysis_design)
             if (key_group == POST_ONLY) != post_only:
                 continue
-            if section == "ground_motion" and key.endswith(".file") and json.loads(value):
+            if section in ("ground_motion", "incident_wave") and key.endswith(".file") and json.loads(value):
                 value = _file_digest(case.dir / json.loads(value))  # the record, wherever it lies
             keys[key] = [key_group, value]
     groups: dict[str, dict] = {}

@@ -603,7 +603,9 @@ def match_points(nodes: np.ndarray, points: np.ndarray, tolerance: float, what: 
             f"{int(ok.sum())} of {nodes.shape[0]} DRM layer nodes match a {what} point within {tolerance:g} m; the "
             f"largest distance from a node to its nearest {what} point is {dist[k]:.6g} m (node {k} at "
             f"{tuple(round(float(v), 6) for v in nodes[k])}){hint}",
-            "give the file's length scale and origin (scale, x0), or a file computed at the model's nodes")
+            "give the file's length scale and origin (a case: incident_wave.h5drm crd_scale, transformation, "
+            "x0), or a file computed at the model's nodes (every layer node, the end caps' round the tunnel "
+            "included)")
     uniq, counts = np.unique(idx, return_counts=True)
     if (counts > 1).any():
         j = int(uniq[np.argmax(counts)])
@@ -612,13 +614,13 @@ def match_points(nodes: np.ndarray, points: np.ndarray, tolerance: float, what: 
     return idx
 
 
-def read_h5drm(path, nodes, internal=None, scale: float = 1.0, x0: Sequence[float] | None = None,
-               transform=None, rows=None, motion_scale: float = 1.0, tolerance: float = 1e-3) -> FreeField:
-    """The free field at the model's DRM layer `nodes` (M, 3; m, the tool's axes) from a file in the
-    H5DRM layout. File points map to the model as x = transform ((xyz - x0) scale) (x0 None: the
-    file's drmbox_x0; transform None: identity); the motion rows map as u = rows @ row (rows None:
-    OPENSEES_ROWS, OpenSees' reading) times `motion_scale` (to m). Every node must match a file point
-    within `tolerance` (m). `internal` (M,) bool, when given, must agree with the file's flags."""
+def h5drm_layout(path) -> dict:
+    """What a file in the H5DRM layout holds, checked without reading its motion: {"xyz" (N, 3),
+    "internal" (N,) bool or None, "location" (N,) first row of each point, "samples", "dt", "tstart",
+    "x0" (drmbox_x0, or zeros)}. Refuses, naming the dataset: a file that is not HDF5, a missing
+    dataset, shapes that do not fit N points (xyz (N, 3); internal and data_location (N,);
+    displacement, velocity, acceleration (3 N, nt) alike), rows outside the motion arrays, fewer
+    than two samples, a step that is not positive and finite, a tend that the samples do not reach."""
     import h5py
 
     path = Path(path)
@@ -636,41 +638,81 @@ def read_h5drm(path, nodes, internal=None, scale: float = 1.0, x0: Sequence[floa
                                      "give a file with /DRM_Data/xyz, displacement, acceleration and "
                                      "/DRM_Metadata/dt, tstart")
         xyz = np.asarray(f["DRM_Data/xyz"][...], dtype=float)
+        if xyz.ndim != 2 or xyz.shape[1] != 3 or xyz.shape[0] == 0:
+            raise FreeFieldError(f"{path}: /DRM_Data/xyz has shape {xyz.shape}; needs (N, 3), one row a point")
         npt = xyz.shape[0]
-        loc = (np.asarray(f["DRM_Data/data_location"][...], dtype=int) if "DRM_Data/data_location" in f
-               else np.arange(npt) * 3)
-        flags = np.asarray(f["DRM_Data/internal"][...], dtype=bool) if "DRM_Data/internal" in f else None
+        out = {"xyz": xyz, "internal": None, "location": np.arange(npt) * 3}
+        for name, key in (("internal", "internal"), ("data_location", "location")):
+            if f"DRM_Data/{name}" in f:
+                v = np.asarray(f[f"DRM_Data/{name}"][...]).ravel()
+                if v.shape != (npt,):
+                    raise FreeFieldError(f"{path}: /DRM_Data/{name} has {v.size} entries for {npt} points",
+                                         "give one entry a point of /DRM_Data/xyz")
+                out[key] = v.astype(bool) if name == "internal" else v.astype(np.int64)
+        shape = f["DRM_Data/displacement"].shape
+        if len(shape) != 2 or shape[0] != 3 * npt:
+            raise FreeFieldError(f"{path}: /DRM_Data/displacement has shape {shape}; {npt} points need "
+                                 f"({3 * npt}, nt): three rows a point, one column a sample")
+        for name in ("velocity", "acceleration"):
+            if f"DRM_Data/{name}" in f and f[f"DRM_Data/{name}"].shape != shape:
+                raise FreeFieldError(f"{path}: /DRM_Data/{name} has shape {f[f'DRM_Data/{name}'].shape}, "
+                                     f"/DRM_Data/displacement {shape}", "give every motion array the same shape")
+        loc = out["location"]
+        if loc.min() < 0 or loc.max() + 3 > shape[0]:
+            raise FreeFieldError(f"{path}: /DRM_Data/data_location points outside the motion's {shape[0]} rows")
+        nt = shape[1]
         dt = float(f["DRM_Metadata/dt"][()])
         tstart = float(f["DRM_Metadata/tstart"][()])
-        origin = (np.asarray(f["DRM_Metadata/drmbox_x0"][...], dtype=float) if x0 is None and
-                  "DRM_Metadata/drmbox_x0" in f else np.asarray(x0 if x0 is not None else (0, 0, 0), dtype=float))
-        T = np.eye(3) if transform is None else np.asarray(transform, dtype=float)
-        R = OPENSEES_ROWS if rows is None else np.asarray(rows, dtype=float)
-        pts = ((xyz - origin[None]) * scale) @ T.T
-        idx = match_points(nodes, pts, tolerance)
-        if internal is not None and flags is not None:
-            bad = np.flatnonzero(np.asarray(internal, dtype=bool) != flags[idx])
-            if bad.size:
-                raise FreeFieldError(f"{path}: {bad.size} of {len(idx)} DRM layer nodes are inner nodes in the model "
-                                     f"and outer ones in the file or the reverse (first: node {int(bad[0])})",
-                                     "give the file of this DRM layer, or the file's internal flags")
-        data = {}
-        shape = f["DRM_Data/displacement"].shape
-        nt = shape[1]
-        if shape[0] != 3 * npt:
-            raise FreeFieldError(f"{path}: /DRM_Data/displacement has {shape[0]} rows; {npt} points need {3 * npt}")
+        if nt < 2:
+            raise FreeFieldError(f"{path}: the motion has {nt} sample(s); the free field needs at least two")
+        if not (math.isfinite(dt) and dt > 0) or not math.isfinite(tstart):
+            raise FreeFieldError(f"{path}: /DRM_Metadata/dt is {dt:g} s and tstart {tstart:g} s; the step must be "
+                                 "positive and both finite")
         if "DRM_Metadata/tend" in f:
             tend = float(f["DRM_Metadata/tend"][()])
             if abs(tend - (tstart + (nt - 1) * dt)) > 0.5 * dt and abs(tend - (tstart + nt * dt)) > 0.5 * dt:
                 raise FreeFieldError(f"{path}: tstart {tstart:g} s, dt {dt:g} s and {nt} samples end at "
-                                     f"{tstart + (nt - 1) * dt:g} s, but tend is {tend:g} s")
+                                     f"{tstart + (nt - 1) * dt:g} s, but tend is {tend:g} s",
+                                     "give the file's true dt (the motion's columns are its samples)")
+        out.update(samples=nt, dt=dt, tstart=tstart,
+                   x0=(np.asarray(f["DRM_Metadata/drmbox_x0"][...], dtype=float).ravel()
+                       if "DRM_Metadata/drmbox_x0" in f else np.zeros(3)))
+    return out
+
+
+def read_h5drm(path, nodes, internal=None, scale: float = 1.0, x0: Sequence[float] | None = None,
+               transform=None, rows=None, motion_scale: float = 1.0, tolerance: float = 1e-3,
+               origin: Sequence[float] = (0.0, 0.0, 0.0)) -> FreeField:
+    """The free field at the model's DRM layer `nodes` (M, 3; m, the tool's axes) from a file in the
+    H5DRM layout (checked first: h5drm_layout). File points map to the model as x = transform ((xyz
+    - x0) scale) + origin (x0 None: the file's drmbox_x0; transform None: identity); the motion rows
+    map as u = rows @ row (rows None:
+    OPENSEES_ROWS, OpenSees' reading) times `motion_scale` (to m). Every node must match a file point
+    within `tolerance` (m). `internal` (M,) bool, when given, must agree with the file's flags."""
+    import h5py
+
+    path = Path(path)
+    lay = h5drm_layout(path)
+    xyz, flags, loc = lay["xyz"], lay["internal"], lay["location"]
+    dt, tstart, nt = lay["dt"], lay["tstart"], lay["samples"]
+    origin_file = lay["x0"] if x0 is None else np.asarray(x0, dtype=float)
+    T = np.eye(3) if transform is None else np.asarray(transform, dtype=float)
+    R = OPENSEES_ROWS if rows is None else np.asarray(rows, dtype=float)
+    pts = ((xyz - origin_file[None]) * scale) @ T.T + np.asarray(origin, dtype=float)[None]
+    idx = match_points(nodes, pts, tolerance)
+    if internal is not None and flags is not None:
+        bad = np.flatnonzero(np.asarray(internal, dtype=bool) != flags[idx])
+        if bad.size:
+            raise FreeFieldError(f"{path}: {bad.size} of {len(idx)} DRM layer nodes are inner nodes in the model "
+                                 f"and outer ones in the file or the reverse (first: node {int(bad[0])})",
+                                 "give the file of this DRM layer, or the file's internal flags")
+    with h5py.File(path, "r") as f:
+        data = {}
         for name in ("displacement", "velocity", "acceleration"):
             key = f"DRM_Data/{name}"
             if key not in f:
                 continue
             ds = f[key]
-            if ds.shape != shape:
-                raise FreeFieldError(f"{path}: /{key} has shape {ds.shape}, /DRM_Data/displacement {shape}")
             rows_at = (loc[idx][:, None] + np.arange(3)[None]).ravel()
             sel = np.sort(rows_at)
             block = ds[sel, :] if sel.size else np.zeros((0, nt))

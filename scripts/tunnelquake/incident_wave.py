@@ -22,9 +22,12 @@ import math
 
 import numpy as np
 
-from .schema import Bool, Choice, Issue, Number, Section
+from . import units as U
+from .schema import Bool, Choice, Issue, Number, Section, Text, Tuple
 
-KINDS = ("none", "P", "SV", "SH")
+KINDS = ("none", "P", "SV", "SH", "h5drm")
+#: the keys that shape a plane wave (not a free field read from a file)
+PLANE_WAVE_KEYS = ("angle", "azimuth", "convention", "damping")
 #: the ground materials the DRM layer may cross: tq-solid forms the layer's stiffness once
 LINEAR_MODELS = ("elastic",)
 
@@ -36,7 +39,8 @@ def section() -> Section:
         "type": Choice(choices=KINDS, default="none",
                        doc="none: the vertically incident motion through the base and free-field sides; P, SV or "
                            "SH: the ground motion's horizontal record is this plane wave's defining component (z "
-                           "for P, the horizontal propagation direction for SV, across it for SH)"),
+                           "for P, the horizontal propagation direction for SV, across it for SH); h5drm: the free "
+                           "field at the layer's nodes read from an H5DRM file (incident_wave.h5drm)"),
         "angle": Number(min=0.0, max=90.0, max_open=True, default=0.0,
                         doc="incidence angle from the vertical in the half-space (materials.rock), deg; SV below "
                             "the critical angle asin(Vs/Vp)"),
@@ -53,6 +57,23 @@ def section() -> Section:
         "write_h5drm": Bool(default=False,
                             doc="also write the free field at the layer's nodes as an H5DRM file (OpenSees' layout, "
                                 "docs/formats.md \"H5DRM\"), <condition>/free_field.h5drm in the results folder"),
+        "h5drm": Section(doc="the free field from an H5DRM file (type: h5drm; OpenSees' H5DRM pattern's arguments; "
+                             "docs/formats.md \"H5DRM\")", fields={
+            "file": Text(doc="the H5DRM file, relative to the case file: the free field at the DRM layer's nodes, "
+                             "its first sample at the seismic stage's start"),
+            "factor": Number(min=0.0, min_open=True, default=1.0,
+                             doc="multiplies the file's displacement, velocity and acceleration (to m, m/s, m/s^2)"),
+            "crd_scale": Number(min=0.0, min_open=True, default=1.0,
+                                doc="multiplies the file's coordinates less drmbox_x0 (to m: 1000 for km)"),
+            "distance_tolerance": Number(dim=U.LENGTH, min=0.0, min_open=True, default=0.01,
+                                         doc="largest distance from a DRM layer node to its file point, m"),
+            "transformation": Tuple(item=Number(), length=9, default=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                                    doc="T row by row (T00 ... T22): x = T (crd_scale (x_file - drmbox_x0)) + x0 "
+                                        "for the file's points; the motion rows are read as OpenSees reads them, "
+                                        "u = factor (row 0, row 1, -row 2) in the model's axes"),
+            "x0": Tuple(item=Number(dim=U.LENGTH), length=3, default=[0.0, 0.0, 0.0],
+                        doc="the model's point of the file's drmbox_x0, m (added after the transformation)"),
+        }),
         "drm_offset": Number(integer=True, min=0, default=1,
                              doc="element rings between the block's sides and base and the DRM layer (0: the "
                                  "layer's outer nodes on them); the absorbing boundaries sit there"),
@@ -104,12 +125,26 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
     w = d["incident_wave"]
     wl = section_lines("incident_wave")
     if not active(d):
-        given = [k for k in ("angle", "azimuth", "convention", "damping", "drm_offset", "write_h5drm") if k in wl]
+        given = [k for k in (*PLANE_WAVE_KEYS, "drm_offset", "write_h5drm", "h5drm") if k in wl]
         return [Issue(f"incident_wave.{given[0]}", w[given[0]], "is given but incident_wave.type is none (no plane "
-                      "wave)", "add 'type: P', 'SV' or 'SH', or remove it", wl.get(given[0]))] if given else []
+                      "wave)", "add 'type: P', 'SV', 'SH' or 'h5drm', or remove it", wl.get(given[0]))] if given else []
     issues: list[Issue] = []
     line = wl.get("type") or lines.get("incident_wave")
     kind = w["type"]
+    from_file = kind == "h5drm"
+    if from_file:
+        for k in (x for x in (*PLANE_WAVE_KEYS, "write_h5drm") if x in wl):
+            issues.append(Issue(f"incident_wave.{k}", w[k], "is given but incident_wave.type is h5drm: the free field "
+                                "comes from the file, not from a plane wave the tool computes", "remove it, or give "
+                                "type: P, SV or SH", wl.get(k)))
+        if not w["h5drm"]["file"]:
+            issues.append(Issue("incident_wave.h5drm.file", None, "is missing: type h5drm reads the free field at the "
+                                "DRM layer's nodes from that file", "add 'h5drm: {file: <path of the H5DRM file>}'",
+                                wl.get("h5drm") or line))
+    elif "h5drm" in wl:
+        issues.append(Issue("incident_wave.h5drm", "...", f"is given but incident_wave.type is {kind}: the tool "
+                            "computes that plane wave's free field itself", "remove it, or give type: h5drm",
+                            wl.get("h5drm")))
     if d["mesh"]["mode"] != "3d":
         issues.append(Issue("incident_wave.type", kind, "needs a 3D model (a domain-reduction layer round the "
                             "tunnel); mesh.mode is slice", "use mesh.mode: 3d, or incident_wave.type: none (the "
@@ -122,8 +157,8 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
                             "end inside it, with at least one layer of rock between)",
                             f"set mesh.tunnel_end_plugs: {offset + 2} or more", section_lines("mesh").get(
                                 "tunnel_end_plugs") or lines.get("mesh") or line))
-    if d.get("geology") and ((d["geology"].get("fault_zone") or {}).get("material")
-                             or d["geology"].get("dipping_layers")):
+    if not from_file and d.get("geology") and ((d["geology"].get("fault_zone") or {}).get("material")
+                                               or d["geology"].get("dipping_layers")):
         issues.append(Issue("geology", "fault zone / dipping layers", "the free field of a plane wave is computed "
                             "for horizontal layers only", "remove the geology section, or incident_wave.type: none",
                             lines.get("geology")))
@@ -134,6 +169,12 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
                                 "everything outside it lie in this ground material (the free field and the layer's "
                                 "forces are those of an elastic ground)", "use model: elastic for the ground, or "
                                 "incident_wave.type: none", section_lines("materials").get(name)))
+    if "dynamic_water" in d["conditions"]:
+        issues.append(Issue("conditions", "dynamic_water", "with an incident wave is not built: the coupled water "
+                            "with plugged tunnel ends is not verified", "run no_water and static_water, or "
+                            "incident_wave.type: none", lines.get("conditions") or line))
+    if from_file:
+        return issues  # (the file's own checks: h5drm_issues, once the mesh plan is known)
     gm, gml = d["ground_motion"], section_lines("ground_motion")
     if gm["source"] == "none":
         issues.append(Issue("ground_motion.source", "none", f"leaves the {kind} wave without its record",
@@ -151,10 +192,6 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
         issues.append(Issue("ground_motion.azimuth", gm["azimuth"], "turns the horizontal record; the wave's "
                             "direction is incident_wave.azimuth", "remove ground_motion.azimuth (or 0)",
                             gml.get("azimuth")))
-    if "dynamic_water" in d["conditions"]:
-        issues.append(Issue("conditions", "dynamic_water", "with an incident wave is not built: the coupled water "
-                            "with plugged tunnel ends is not verified", "run no_water and static_water, or "
-                            "incident_wave.type: none", lines.get("conditions") or line))
     if issues or any(m not in d["materials"] for m, _ in layers):
         return issues  # (a layer without its material: said by the layers' own check)
     from .freefield import FreeFieldError, incident_motion
@@ -194,6 +231,88 @@ def inner_box(plan, offset: int) -> tuple[tuple[float, float], tuple[float, floa
     xs, ys, zs = grid_lines(plan)
     k = offset + 1
     return (float(xs[k]), float(xs[-1 - k])), (float(ys[k]), float(ys[-1 - k])), float(zs[k])
+
+
+def layer_points(plan, offset: int) -> tuple[np.ndarray, np.ndarray]:
+    """(xyz, internal) of the DRM layer's nodes that lie on the mesh plan's outer grid, without
+    meshing: the grid's points of the shell between the planes `offset` and `offset` + 1 in from the
+    sides and the base (drm_layer finds them in the mesh); internal: on the inner planes or inside
+    them. Left out: the end caps' nodes inside the near-field box round the tunnel (its O-grid, the
+    plugged tunnel), which only the mesh gives."""
+    from .meshing.params import grid_lines
+
+    xs, ys, zs = grid_lines(plan)
+    o = offset
+    i, j, k = np.meshgrid(np.arange(o, xs.size - o), np.arange(o, ys.size - o), np.arange(o, zs.size), indexing="ij")
+    i, j, k = i.ravel(), j.ravel(), k.ravel()
+    nx, ny = xs.size - 1, ys.size - 1
+    inside = (i > o + 1) & (i < nx - o - 1) & (j > o + 1) & (j < ny - o - 1) & (k > o + 1)
+    inner = (i >= o + 1) & (i <= nx - o - 1) & (j >= o + 1) & (j <= ny - o - 1) & (k >= o + 1)
+    L, tol = plan.box_half_width, 1e-9 * max(1.0, plan.box_half_width)
+    in_box = (np.abs(xs[i] - plan.xc) < L - tol) & (np.abs(zs[k] - plan.zc) < L - tol)
+    keep = ~inside & ~in_box
+    xyz = np.stack([xs[i[keep]], ys[j[keep]], zs[k[keep]]], axis=1).astype(float)
+    return xyz, inner[keep]
+
+
+def h5drm_options(d: dict) -> dict:
+    """read_h5drm's keyword arguments from incident_wave.h5drm (OpenSees' H5DRM mapping: x = T
+    (crd_scale (x_file - drmbox_x0)) + x0 for the points, u = factor diag(1, 1, -1) row for the
+    motion, which T does not turn)."""
+    from .freefield import OPENSEES_ROWS
+
+    h = d["incident_wave"]["h5drm"]
+    T = np.asarray(h["transformation"], dtype=float).reshape(3, 3)
+    return {"scale": float(h["crd_scale"]), "transform": T, "origin": np.asarray(h["x0"], dtype=float),
+            "rows": OPENSEES_ROWS, "motion_scale": float(h["factor"]), "tolerance": float(h["distance_tolerance"])}
+
+
+def h5drm_issues(d: dict, plan, case_dir, section_lines, t_end: float | None) -> list[Issue]:
+    """An H5DRM file the run could not use, named under incident_wave.h5drm: missing, not in the
+    layout or of inconsistent shapes, a clock that is not increasing or does not reach t_end (the
+    seismic stage's length, when known), points that do not match the DRM layer's nodes (the count
+    and the largest distance: a wrong crd_scale), inner and outer flags that disagree."""
+    from pathlib import Path
+
+    from .freefield import FreeFieldError, h5drm_layout, match_points
+
+    h = d["incident_wave"]["h5drm"]
+    hl = section_lines("incident_wave")
+    line = hl.get("h5drm")
+    key = "incident_wave.h5drm.file"
+    path = Path(h["file"]) if Path(h["file"]).is_absolute() else Path(case_dir) / h["file"]
+    if not path.is_file():
+        return [Issue(key, h["file"], f"{path}: file not found", "give the H5DRM file's path, relative to the case "
+                      "file", line)]
+    try:
+        lay = h5drm_layout(path)
+    except FreeFieldError as e:
+        return [Issue(key, h["file"], e.problem, e.fix or "give a file in the H5DRM layout (docs/formats.md "
+                      "\"H5DRM\")", line)]
+    issues = []
+    span = lay["dt"] * (lay["samples"] - 1)
+    if t_end is not None and span < t_end - 1e-9 * max(t_end, 1.0):
+        issues.append(Issue(key, h["file"], f"holds {lay['samples']} samples every {lay['dt']:g} s ({span:g} s from "
+                            f"its first sample), shorter than the seismic stage's {t_end:g} s: the free field would "
+                            "stand still after the file's end", "give a file that lasts the run, or a shorter "
+                            "time.end_time", line))
+    opts = h5drm_options(d)
+    xyz, internal = layer_points(plan, int(d["incident_wave"]["drm_offset"]))
+    pts = ((lay["xyz"] - lay["x0"][None]) * opts["scale"]) @ opts["transform"].T + opts["origin"][None]
+    try:
+        idx = match_points(xyz, pts, opts["tolerance"])
+    except FreeFieldError as e:
+        return issues + [Issue(key, h["file"], f"{path}: {e.problem}", "set incident_wave.h5drm.crd_scale, "
+                               "transformation and x0 so that the file's points land on the model's (OpenSees' "
+                               "mapping), or give the file of this model's DRM layer", line)]
+    if lay["internal"] is not None:
+        bad = np.flatnonzero(internal != lay["internal"][idx])
+        if bad.size:
+            issues.append(Issue(key, h["file"], f"{path}: {bad.size} of {len(idx)} DRM layer nodes are inner (b) "
+                                "nodes in the model and outer (e) ones in the file or the reverse (first at "
+                                f"{tuple(round(float(v), 3) for v in xyz[bad[0]])} m)", "give the file of this "
+                                "model's DRM layer (incident_wave.drm_offset)", line))
+    return issues
 
 
 def monitor_issues(d: dict, plan, section_lines) -> list[Issue]:

@@ -25,7 +25,9 @@ Choices made here (docs/solid_solver.md "Staged initial state", "Seismic boundar
   symmetry planes, and their layers are not horizontal where the tunnel crosses them. A motion
   with a component along the axis (y, an SH wave shearing the ground antiplane) needs u_y free:
   in a slice the ymin/ymax faces are then tied periodic (/boundaries/periodic: u equal on both,
-  all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model refuses it;
+  all three directions, which keeps eps_yy = 0 and plane strain in x-z); a 3D model takes it with
+  the tunnel's ends plugged with ground, its y faces then on free-field columns too (the first
+  side's column shared: /boundaries/free_field shared_column_faces), and refuses it otherwise;
 * the spring distance R of the viscoelastic base is the depth of the tunnel axis above the base;
 * materials: every material row of the table, from the case key it is linked to (else its default),
   given or not by the model (tq-solid builds the material the ``model`` names from the ones it reads);
@@ -42,7 +44,7 @@ import numpy as np
 
 from . import children, fingerprint, incident_wave
 from .case import CONDITIONS, case_geology, fault_offset_slip, lining_joints_active
-from .drm_input import write_drm_group
+from .drm_input import write_drm_group, write_drm_group_from_file
 from .files import h5_in_memory
 from .freefield import FreeFieldError
 from .solver_input_schema import FORMAT, MATERIALS, VERSION, entries, linked, put, write_schema
@@ -278,7 +280,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             w(b, "/boundaries/bottom", "distance", geo["tunnel_centre_z"] - geo["z_range"][0])
             # with an incident wave the base and the x sides absorb what the tunnel scatters (the wave
             # enters through the DRM layer); the y faces stay on rollers, which hold that scattered
-            # field's u_y only (their quads follow the tunnel's O-grid: no free-field columns there)
+            # field's u_y only (the shared columns a plugged tunnel's y faces can take are not used
+            # with a DRM layer: not verified there)
             w(f.create_group("boundaries/free_field"), "/boundaries/free_field", "faces", ",".join(sides))
         if wave:
             from .case import ground_layers
@@ -287,17 +290,29 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
             # wave (half an outcrop record)
             record = motion["ax"] * (2.0 if motion["convention"] == "outcrop" else 1.0)
             try:
-                write_drm_group(f, d, ground_layers(d), mesh_h5, record, float(motion["time"][1] - motion["time"][0]),
-                                out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
+                if d["incident_wave"]["type"] == "h5drm":  # the free field from a file
+                    write_drm_group_from_file(f, d, mesh_h5, case.dir, t_end)
+                else:
+                    write_drm_group(f, d, ground_layers(d), mesh_h5, record,
+                                    float(motion["time"][1] - motion["time"][0]),
+                                    out.parent / "free_field.h5drm" if d["incident_wave"]["write_h5drm"] else None)
             except (incident_wave.DrmLayerError, FreeFieldError) as e:
                 raise SolidInputError(f"incident_wave: {e}") from None
         elif "seismic" in sequence:
             axial = motion["ay"] is not None and bool(np.any(motion["ay"]))
             if axial:
                 if not mesh["slice"]:
-                    raise SolidInputError("the motion has a component along the tunnel's axis (y), which a 3D "
-                                          "model's y faces (rollers) would hold back; use mesh.mode: slice")
-                w(f.create_group("boundaries/periodic"), "/boundaries/periodic", "faces", "ymin,ymax")
+                    # a 3D model takes it through free-field columns on its y faces too: their quads
+                    # follow the tunnel's O-grid, so they share the first side's column, and the
+                    # tunnel's ends must be plugged with ground there (tq-solid refuses another material)
+                    if not int(d["mesh"].get("tunnel_end_plugs") or 0):
+                        raise SolidInputError("the motion has a component along the tunnel's axis (y), which a "
+                                              "3D model takes through free-field columns on its y faces, and "
+                                              "those need the tunnel's ends plugged with ground; set "
+                                              "mesh.tunnel_end_plugs: 1 or more, or use mesh.mode: slice")
+                    w(f["boundaries/free_field"], "/boundaries/free_field", "shared_column_faces", "ymin,ymax")
+                else:
+                    w(f.create_group("boundaries/periodic"), "/boundaries/periodic", "faces", "ymin,ymax")
             mo = f.create_group("motion")
             w(mo, "/motion", "time", motion["time"])
             w(mo, "/motion", "ax", motion["ax"])

@@ -289,6 +289,10 @@ ENTRIES: tuple[Entry, ...] = (
        "(empty: the first free-field face, else `xmin`)", default=""),
     _e("/boundaries/free_field", "faces", "names", "vertical face groups driven by 1D free-field columns; each "
        "horizontally layered", required=True),
+    _e("/boundaries/free_field", "shared_column_faces", "names", "vertical face groups whose quads are not in "
+       "horizontal rows (a tunnel's cross-section, its ends plugged with ground), driven by the first face's "
+       "column: each node at its height, each quad by the column's layer at its centroid, whose material it "
+       "must have", default=""),
     _e("/boundaries/periodic", "faces", "names", "two opposite face groups tied node by node from the seismic "
        "stage on; written for a slice whose motion has a component along the axis", required=True),
     _e("/motion", "time", "data", "incident (up-going) accelerations [K] at the base, x, y: SH, z: P; linear "

@@ -1,19 +1,23 @@
 // tq-solid-bench-drm: the domain reduction layer's added time per step (not a test).
 //
 //   tq-solid-bench-drm [--n 40] [--steps 200] [--repeat 5] [--threads N] [--samples 2000]
+//                      [--steps-per-sample 10]
 //
 // An elastic n x n x n box (1 m elements, free top) with a one-element DRM layer one element in from
-// its sides and bottom, driven by a free field of `samples` time samples (a travelling sine: the
-// values do not change the cost), every node given a small random velocity first. Times `steps` explicit steps `repeat`
-// times with and without the layer's forces and prints the medians (ms per step), the ratio and the layer's share of
+// its sides and bottom, driven by a free field of `samples` time samples `steps-per-sample` stable
+// steps apart (a travelling sine: the values do not change the cost; below 1 the samples are finer
+// than the step), every node given a small random velocity first. Times `steps` explicit steps
+// `repeat` times without and with the layer's forces, interleaved, in CPU time of the process (on a
+// shared machine the wall clock measures the others' load too), and prints each round's ratio and
+// their median, the median times (ms per step), the layer's forces alone and the layer's share of
 // elements.
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <memory>
 #include <random>
 #include <string>
@@ -24,10 +28,13 @@
 
 int main(int argc, char** argv) {
   int n = 40, steps = 200, repeat = 5, threads = 0, samples = 2000;
+  double stepsPerSample = 10;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     const int v = std::atoi(argv[i + 1]);
-    if (a == "--n")
+    if (a == "--steps-per-sample")
+      stepsPerSample = std::atof(argv[i + 1]);
+    else if (a == "--n")
       n = v;
     else if (a == "--steps")
       steps = v;
@@ -39,12 +46,14 @@ int main(int argc, char** argv) {
       samples = v;
     else {
       std::fprintf(stderr,
-                   "usage: tq-solid-bench-drm [--n 40] [--steps 200] [--repeat 5] [--threads N] [--samples 2000]\n");
+                   "usage: tq-solid-bench-drm [--n 40] [--steps 200] [--repeat 5] [--threads N] [--samples 2000] "
+                   "[--steps-per-sample 10]\n");
       return 2;
     }
   }
-  if (n < 5 || steps < 1 || repeat < 1 || samples < 2) {
-    std::fprintf(stderr, "tq-solid-bench-drm: need n >= 5, steps >= 1, repeat >= 1, samples >= 2\n");
+  if (n < 5 || steps < 1 || repeat < 1 || samples < 2 || !(stepsPerSample > 0)) {
+    std::fprintf(stderr,
+                 "tq-solid-bench-drm: need n >= 5, steps >= 1, repeat >= 1, samples >= 2, steps-per-sample > 0\n");
     return 2;
   }
   if (threads > 0) omp_set_num_threads(threads);
@@ -67,8 +76,12 @@ int main(int argc, char** argv) {
     if (!inside && inOuter) field.nodes.push_back(k), field.internal.push_back(0);
   }
   const size_t N = field.nodes.size();
+  const auto blocks = [&] {
+    return tq::makeBlocksByRegion(mesh, {{"rock", std::make_shared<tq::ElasticMaterial>(rock)}});
+  };
+  const double stepDt = tq::Solver(mesh, blocks(), tq::SolverOptions{}).dt(), sampleDt = stepsPerSample * stepDt;
   for (int s = 0; s < samples; ++s) {
-    const double t = 1e-3 * s;
+    const double t = sampleDt * s;
     field.time.push_back(t);
     for (size_t i = 0; i < N; ++i) {
       const double z = mesh.coords[3 * size_t(field.nodes[i]) + 2], ph = 2 * M_PI * 5 * (t - z / 200);
@@ -79,14 +92,23 @@ int main(int argc, char** argv) {
       }
     }
   }
-  // Interleaved repeats (without, with, without, …) and the fastest of each: on a shared machine
-  // the minimum is the least disturbed measurement.
-  double best[2] = {1e300, 1e300}, bestForces = 1e300;
-  tq::Index layer = 0;
+  // Interleaved repeats (without, with, without, …): each round's ratio of two neighbouring runs,
+  // and the median over the rounds.
+  const auto cpu = [] {
+    timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+  };
+  const auto median = [](std::vector<double> x) {
+    std::sort(x.begin(), x.end());
+    const size_t m = x.size() / 2;
+    return x.size() % 2 ? x[m] : 0.5 * (x[m - 1] + x[m]);
+  };
+  std::vector<double> without, with, forces, ratio;
+  tq::Index layer = 0, products = 0;
   for (int r = 0; r < repeat; ++r)
     for (int withDrm = 0; withDrm < 2; ++withDrm) {
-      tq::Solver s(mesh, tq::makeBlocksByRegion(mesh, {{"rock", std::make_shared<tq::ElasticMaterial>(rock)}}),
-                   tq::SolverOptions{});
+      tq::Solver s(mesh, blocks(), tq::SolverOptions{});
       std::shared_ptr<tq::DomainReduction> drm;
       if (withDrm) {
         drm = std::make_shared<tq::DomainReduction>(mesh, s.blocks(), field, 0.0);
@@ -99,22 +121,29 @@ int main(int argc, char** argv) {
       std::uniform_real_distribution<double> U(-1e-3, 1e-3);
       for (tq::Index k = 0; k < mesh.numNodes(); ++k)
         for (int d = 0; d < 3; ++d) s.state().v(k, d) = U(rng);
-      auto a = std::chrono::steady_clock::now();
+      double a = cpu();
       for (int k = 0; k < steps; ++k) s.step();
-      best[withDrm] =
-          std::min(best[withDrm], std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
-      if (withDrm) {  // the layer's forces alone, at the same times
-        a = std::chrono::steady_clock::now();
-        for (int k = 0; k < steps; ++k) drm->addForces(k * s.dt(), s.dt(), s.state());
-        bestForces =
-            std::min(bestForces, std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count() / steps);
+      (withDrm ? with : without).push_back((cpu() - a) / steps);
+      if (withDrm) {  // the layer's forces alone, at the same times, from a layer that kept nothing
+        products = drm->numProducts();
+        tq::DomainReduction fresh(mesh, s.blocks(), field, 0.0);
+        a = cpu();
+        for (int k = 0; k < steps; ++k) fresh.addForces(k * s.dt(), s.dt(), s.state());
+        forces.push_back((cpu() - a) / steps);
+        ratio.push_back(with.back() / without.back());
       }
     }
   std::printf(
-      "tq-solid-bench-drm: %d elements (%d in the DRM layer, %.1f %%), %zu DRM nodes, %d thread(s), fastest of %d: "
-      "%.3f ms a step without, %.3f ms with the layer (+%.1f %%); the layer's forces alone %.3f ms (%.1f %% of a "
-      "step without)\n",
-      int(mesh.numElems()), int(layer), 100.0 * layer / mesh.numElems(), N, omp_get_max_threads(), repeat,
-      1e3 * best[0], 1e3 * best[1], 100 * (best[1] / best[0] - 1), 1e3 * bestForces, 100 * bestForces / best[0]);
+      "tq-solid-bench-drm: %d elements (%d in the DRM layer, %.1f %%), %zu DRM nodes, %d thread(s), samples every "
+      "%g steps (%d products in %d steps), CPU time, medians of %d interleaved rounds: %.3f ms a step without, "
+      "%.3f ms with the layer; with/without a round %.3f (+%.1f %%; rounds",
+      int(mesh.numElems()), int(layer), 100.0 * layer / mesh.numElems(), N, omp_get_max_threads(), stepsPerSample,
+      int(products), steps, repeat, 1e3 * median(without), 1e3 * median(with), median(ratio),
+      100 * (median(ratio) - 1));
+  for (double x : ratio) std::printf(" %+.1f", 100 * (x - 1));
+  std::vector<double> share;
+  for (size_t r = 0; r < forces.size(); ++r) share.push_back(forces[r] / without[r]);
+  std::printf(" %%); the layer's forces alone %.4f ms (%.2f %% of a step without)\n", 1e3 * median(forces),
+              100 * median(share));
   return 0;
 }

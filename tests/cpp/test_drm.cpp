@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -388,8 +389,12 @@ TEST(DrmLayer, UnusableFreeFieldIsRefused) {
 // (ElementBlock::elementForces at the free field placed on the element's outer corners alone, then on
 // its inner corners alone): P_b = −K_be w_e, P_e = +K_eb w_b, w = u0 + β u̇0 interpolated in time
 // (docs/theory.md §6.2). The box's nodes are moved at random so that no two layer elements are alike.
-// Tolerance 1e-12 of the largest force (round-off of sums of a few dozen terms). The forces are
-// summed node by node, so they are bit for bit the same on 1, 2 and 3 threads.
+// A sequence of times as a run visits them: with a step finer than the samples the layer forms its
+// product at the samples and interpolates the forces (two products at the first time, one when a
+// sample is new, none otherwise, and one for a sample held past the end or before the start), with a
+// step coarser than them the product of the interpolated field (one a call). Tolerance 1e-12 of the
+// largest force (round-off of sums of a few dozen terms). The forces are summed node by node, so they
+// are bit for bit the same on 1, 2 and 3 threads.
 TEST(DrmLayer, ForcesEqualTheElementsOwnForAnyThreadCount) {
   DrmBox box(1.0, 8, 8);
   std::mt19937 rng(11);
@@ -397,85 +402,120 @@ TEST(DrmLayer, ForcesEqualTheElementsOwnForAnyThreadCount) {
   for (Real& x : box.mesh.coords) x += 0.15 * U(rng);
   const size_t N = box.field.nodes.size();
   ASSERT_GE(N, 512u);  // large enough for the threaded path
-  const Real beta = 2e-3, t = 0.3, tA = 0.2, tB = 0.7;
-  box.field.time = {0.0, tA, tB, 1.0};
+  const Real beta = 2e-3;
+  box.field.time = {0.0, 0.2, 0.7, 1.0};
+  const size_t T = box.field.time.size();
   for (auto* arr : {&box.field.u, &box.field.v, &box.field.a}) {
-    arr->resize(4 * 3 * N);
+    arr->resize(T * 3 * N);
     for (Real& x : *arr) x = 1e-3 * U(rng);
   }
   Solver s(box.mesh, makeBlocksByRegion(box.mesh, {{"rock", tqtest::elastic(kE, kNu, kRho)}}), SolverOptions{});
-  DomainReduction drm(box.mesh, s.blocks(), box.field, beta);
-  EXPECT_GT(drm.numDistinctCouplings(), drm.numLayerElements() / 2);
 
-  // The reference, element by element.
+  // The reference at time t, element by element.
   const Index nn = box.mesh.numNodes();
-  const Real a = (t - tA) / (tB - tA);
-  std::vector<Real> w(3 * size_t(nn), 0.0);
   std::vector<std::int8_t> side(size_t(nn), -1);  // 1 inner, 0 outer, −1 not a layer node
-  for (size_t i = 0; i < N; ++i) {
-    const Index n = box.field.nodes[i];
-    side[size_t(n)] = std::int8_t(box.field.internal[i]);
-    for (int d = 0; d < 3; ++d) {
-      const size_t k1 = (1 * N + i) * 3 + size_t(d), k2 = (2 * N + i) * 3 + size_t(d);
-      w[3 * size_t(n) + size_t(d)] =
-          (1 - a) * box.field.u[k1] + a * box.field.u[k2] + beta * ((1 - a) * box.field.v[k1] + a * box.field.v[k2]);
-    }
-  }
-  std::vector<Real> ref(3 * size_t(nn), 0.0), probe(3 * size_t(nn), 0.0);
+  for (size_t i = 0; i < N; ++i) side[size_t(box.field.nodes[i])] = std::int8_t(box.field.internal[i]);
   Index layer = 0;
-  for (const auto& b : s.blocks())
-    for (Index e = 0; e < b->numElems(); ++e) {
-      int inner = 0, outer = 0;
-      for (int k = 0; k < 8; ++k) {
-        const int sd = side[size_t(b->node(e, k))];
-        inner += sd == 1;
-        outer += sd == 0;
-      }
-      if (inner + outer < 8 || inner == 0 || outer == 0) continue;
-      ++layer;
-      Real f0[24], f[24];
-      b->elementForces(e, probe.data(), f0);
-      for (int from = 0; from < 2; ++from) {  // from the outer corners' w onto the inner ones, then back
-        for (int k = 0; k < 8; ++k) {
-          const Index n = b->node(e, k);
-          for (int d = 0; d < 3; ++d)
-            probe[3 * size_t(n) + size_t(d)] = side[size_t(n)] == from ? w[3 * size_t(n) + size_t(d)] : 0.0;
-        }
-        b->elementForces(e, probe.data(), f);
-        for (int k = 0; k < 8; ++k) {
-          const Index n = b->node(e, k);
-          if (side[size_t(n)] == from) continue;
-          for (int d = 0; d < 3; ++d)
-            ref[3 * size_t(n) + size_t(d)] += (from == 0 ? -1.0 : 1.0) * (f[3 * k + d] - f0[3 * k + d]);
-        }
-        for (int k = 0; k < 8; ++k)
-          for (int d = 0; d < 3; ++d) probe[3 * size_t(b->node(e, k)) + size_t(d)] = 0.0;
-      }
+  auto reference = [&](Real t) {
+    const auto& tt = box.field.time;
+    size_t k = 0;
+    Real a = 0;
+    if (t >= tt.back()) {
+      k = T - 2, a = 1;
+    } else if (t > tt.front()) {
+      while (tt[k + 1] <= t) ++k;
+      a = (t - tt[k]) / (tt[k + 1] - tt[k]);
     }
-  ASSERT_EQ(layer, drm.numLayerElements());
-  Real big = 0;
-  for (Real x : ref) big = std::max(big, std::abs(x));
-  ASSERT_GT(big, 0.0);
+    std::vector<Real> w(3 * size_t(nn), 0.0);
+    for (size_t i = 0; i < N; ++i)
+      for (int d = 0; d < 3; ++d) {
+        const size_t k1 = (k * N + i) * 3 + size_t(d), k2 = ((k + 1) * N + i) * 3 + size_t(d);
+        w[3 * size_t(box.field.nodes[i]) + size_t(d)] =
+            (1 - a) * box.field.u[k1] + a * box.field.u[k2] + beta * ((1 - a) * box.field.v[k1] + a * box.field.v[k2]);
+      }
+    std::vector<Real> ref(3 * size_t(nn), 0.0), probe(3 * size_t(nn), 0.0);
+    layer = 0;
+    for (const auto& b : s.blocks())
+      for (Index e = 0; e < b->numElems(); ++e) {
+        int inner = 0, outer = 0;
+        for (int k8 = 0; k8 < 8; ++k8) {
+          const int sd = side[size_t(b->node(e, k8))];
+          inner += sd == 1;
+          outer += sd == 0;
+        }
+        if (inner + outer < 8 || inner == 0 || outer == 0) continue;
+        ++layer;
+        Real f0[24], f[24];
+        b->elementForces(e, probe.data(), f0);
+        for (int from = 0; from < 2; ++from) {  // from the outer corners' w onto the inner ones, then back
+          for (int k8 = 0; k8 < 8; ++k8) {
+            const Index n = b->node(e, k8);
+            for (int d = 0; d < 3; ++d)
+              probe[3 * size_t(n) + size_t(d)] = side[size_t(n)] == from ? w[3 * size_t(n) + size_t(d)] : 0.0;
+          }
+          b->elementForces(e, probe.data(), f);
+          for (int k8 = 0; k8 < 8; ++k8) {
+            const Index n = b->node(e, k8);
+            if (side[size_t(n)] == from) continue;
+            for (int d = 0; d < 3; ++d)
+              ref[3 * size_t(n) + size_t(d)] += (from == 0 ? -1.0 : 1.0) * (f[3 * k8 + d] - f0[3 * k8 + d]);
+          }
+          for (int k8 = 0; k8 < 8; ++k8)
+            for (int d = 0; d < 3; ++d) probe[3 * size_t(b->node(e, k8)) + size_t(d)] = 0.0;
+        }
+      }
+    return ref;
+  };
+  // (t, Δt, the products formed so far after the call)
+  struct Call {
+    Real t, dt;
+    Index products;
+  };
+  const Call calls[] = {
+      {0.3, 1e-4, 2},   // samples 1 and 2
+      {0.35, 1e-4, 2},  // both kept
+      {0.8, 1e-4, 3},   // sample 2 kept, 3 new
+      {1.2, 1e-4, 3},   // past the end: sample 3 held
+      {0.0, 1e-4, 4},   // the start: sample 0 alone
+      {0.1, 0.4, 5},    // a step coarser than the samples: the interpolated field's product
+      {0.05, 0.4, 6},   //   (also where a sample is kept: 0)
+  };
+  std::vector<std::vector<Real>> refs;
+  std::vector<Real> bigs;
+  for (const Call& c : calls) {
+    refs.push_back(reference(c.t));
+    Real big = 0;
+    for (Real x : refs.back()) big = std::max(big, std::abs(x));
+    ASSERT_GT(big, 0.0);
+    bigs.push_back(big);
+  }
 
   const int threads0 = omp_get_max_threads();
-  std::vector<Real> first;
+  std::vector<std::vector<Real>> first;
   for (int threads : {1, 2, 3}) {
     omp_set_num_threads(threads);
-    Real* fe = s.state().fExtData();
-    std::fill(fe, fe + 3 * size_t(nn), 0.0);
-    drm.addForces(t, 1e-4, s.state());
-    std::vector<Real> got(fe, fe + 3 * size_t(nn));
-    Real err = 0;
-    for (size_t i = 0; i < got.size(); ++i) err = std::max(err, std::abs(got[i] - ref[i]));
-    std::printf(
-        "DRM layer forces, %d thread(s): %d layer elements, %d distinct couplings; largest difference "
-        "from the elements' own forces %.2e of the largest force\n",
-        threads, int(drm.numLayerElements()), int(drm.numDistinctCouplings()), err / big);
-    EXPECT_LT(err, 1e-12 * big) << threads << " thread(s)";
-    if (first.empty())
-      first = got;
-    else
-      EXPECT_TRUE(got == first) << threads << " threads differ from one";
+    DomainReduction drm(box.mesh, s.blocks(), box.field, beta);
+    EXPECT_GT(drm.numDistinctCouplings(), drm.numLayerElements() / 2);
+    ASSERT_EQ(layer, drm.numLayerElements());
+    for (size_t c = 0; c < std::size(calls); ++c) {
+      Real* fe = s.state().fExtData();
+      std::fill(fe, fe + 3 * size_t(nn), 0.0);
+      drm.addForces(calls[c].t, calls[c].dt, s.state());
+      std::vector<Real> got(fe, fe + 3 * size_t(nn));
+      Real err = 0;
+      for (size_t i = 0; i < got.size(); ++i) err = std::max(err, std::abs(got[i] - refs[c][i]));
+      std::printf(
+          "DRM layer forces, %d thread(s), t = %g s, dt = %g s: %d layer elements, %d distinct couplings, %d "
+          "products; largest difference from the elements' own forces %.2e of the largest force\n",
+          threads, calls[c].t, calls[c].dt, int(drm.numLayerElements()), int(drm.numDistinctCouplings()),
+          int(drm.numProducts()), err / bigs[c]);
+      EXPECT_LT(err, 1e-12 * bigs[c]) << threads << " thread(s), t = " << calls[c].t;
+      EXPECT_EQ(drm.numProducts(), calls[c].products) << "t = " << calls[c].t;
+      if (first.size() <= c)
+        first.push_back(got);
+      else
+        EXPECT_TRUE(got == first[c]) << threads << " threads differ from one, t = " << calls[c].t;
+    }
   }
   omp_set_num_threads(threads0);
 }

@@ -131,11 +131,27 @@ TEST(WaveColumnLayer, TransferFunctionOfLayerOnRockMatchesKramer) {
 namespace {
 
 /// 3D block of two layers with free-field sides on all four faces, staged: in-situ stress under
-/// gravity, equilibrium, switch, then SH + P pulses (z = 2/3 x), Rayleigh damping on.
+/// gravity, equilibrium, switch, then S + P pulses (z = 2/3 of the horizontal), Rayleigh damping
+/// on; the horizontal pulse at `azimuth` degrees from x towards y (x = cos, y = sin).
 struct BlockRun : StagedRun {
-  void setUp(bool withMotion, bool correction, RayleighDamping damping) {
+  /// sharedY: the y faces driven by xmin's column (sharedColumnFaces), their inner nodes moved up
+  /// or down by `jitter` of an element's height (in a checkerboard), so that their quads leave the
+  /// column's rows as a tunnel's cross-section does.
+  void setUp(bool withMotion, bool correction, RayleighDamping damping, Real azimuth = 0, bool sharedY = false,
+             Real jitter = 0) {
     const BoxSpec box{4, 3, 24, -20, -15, 0, 40, 30, 60};
     mesh = tqtest::twoLayerBox(box, 20.0, "rock", "soil");
+    const Real hx = box.lx / box.nx, hz = box.lz / box.nz;
+    for (Index n = 0; n < mesh.numNodes(); ++n) {
+      Real* x = &mesh.coords[3 * size_t(n)];
+      const bool onY = std::abs(x[1] - box.y0) < 1e-9 || std::abs(x[1] - box.y0 - box.ly) < 1e-9;
+      const bool inner = x[0] > box.x0 + 1e-9 && x[0] < box.x0 + box.lx - 1e-9 && x[2] > box.z0 + 1e-9 &&
+                         x[2] < box.z0 + box.lz - 1e-9 && std::abs(x[2] - 20.0) > 1e-9;
+      if (onY && inner) {
+        const long parity = std::lround((x[0] - box.x0) / hx) + std::lround((x[2] - box.z0) / hz);
+        x[2] += (parity % 2 ? 1 : -1) * jitter * hz;
+      }
+    }
     in.materials = {{"rock", elasticValues({kE, kNu, kRho})}, {"soil", elasticValues({2 * 0.8e9 * 1.3, 0.3, 1900})}};
     in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
     in.options.damping = damping;
@@ -154,11 +170,17 @@ struct BlockRun : StagedRun {
     S.bottom.distance = 30;
     S.freeField.present = true;
     S.freeField.faces = {"xmin", "xmax", "ymin", "ymax"};
+    if (sharedY) {
+      S.freeField.faces = {"xmin", "xmax"};
+      S.freeField.sharedColumnFaces = {"ymin", "ymax"};
+    }
     S.motion.present = true;
     GaussPulse p;
     p.amplitude = withMotion ? 0.01 : 0.0;
-    std::vector<Real> t2;
-    p.sample(1.0, 1e-4, S.motion.time, S.motion.ax);
+    std::vector<Real> t2, t3;
+    const Real c = std::cos(azimuth * M_PI / 180), sn = std::sin(azimuth * M_PI / 180);
+    p.sample(1.0, 1e-4, S.motion.time, S.motion.ax, c);
+    if (sn != 0) p.sample(1.0, 1e-4, t3, S.motion.ay, sn);
     p.sample(1.0, 1e-4, t2, S.motion.az, 2.0 / 3.0);
     build();
   }
@@ -207,6 +229,130 @@ TEST(FreeField, BlockFollowsTheColumnAtEveryHeight) {
   EXPECT_LT(worst[2] / peak[2], 0.01);
   EXPECT_GT(peak[0], 0.015);  // the surface doubles the 0.01 m incident pulse
   EXPECT_LT(s.energy().error, 0.01);
+}
+
+// A horizontally oblique motion in 3D: the pulse at 30° from x towards y, so the y faces' columns
+// carry a motion along their own plane (u_y, as the x faces' carry u_x) and the x faces' an antiplane
+// one. Every node at every height follows the 1D free-field column within the x faces' tolerance, 1 %
+// of the column's peak, in x, y and z (the column: the same layers and base, the closed form's
+// discrete counterpart verified in FreeField.LayerOnRockTransferFunction).
+TEST(FreeField, BlockFollowsTheColumnInAnObliqueHorizontalMotion) {
+  BlockRun run;
+  run.setUp(true, true, RayleighDamping::fromRatio(0.05, 2.0, 20.0), 30.0);
+  std::ostringstream log;
+  run.stages->runStatics(log);
+  run.stages->switchToDynamics(log);
+  Solver& s = *run.solver;
+  const auto& cols = run.stages->seismic()->columns();
+  ASSERT_GE(cols.size(), 1u);
+  const FreeFieldColumn& col = cols[0];
+  std::vector<Index> level(size_t(run.mesh.numNodes()));
+  for (Index n = 0; n < run.mesh.numNodes(); ++n) {
+    Index k;
+    Real w;
+    col.interpolation(run.mesh.coords[3 * size_t(n) + 2], &k, &w);
+    level[size_t(n)] = w > 0.5 ? k + 1 : k;
+  }
+  Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
+  std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
+  while (s.time() < 0.35) {
+    s.step();
+    for (int d = 0; d < 3; ++d)
+      for (Index k = 0; k < col.numLevels(); ++k) peak[d] = std::max(peak[d], std::abs(col.u(k, d)));
+    for (Index n = 0; n < run.mesh.numNodes(); ++n)
+      for (int d = 0; d < 3; ++d) {
+        const Real diff = std::abs(uPrev[3 * size_t(n) + d] - col.u(level[size_t(n)], d));
+        worst[d] = std::max(worst[d], diff);
+        uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
+      }
+  }
+  std::printf(
+      "free-field block, pulse at 30 deg from x: max |u_node - u_column| / column peak: x %.2e, y %.2e, z %.2e "
+      "(peaks %.3e, %.3e, %.3e m); energy balance error %.2e\n",
+      worst[0] / peak[0], worst[1] / peak[1], worst[2] / peak[2], peak[0], peak[1], peak[2], s.energy().error);
+  for (int d = 0; d < 3; ++d) EXPECT_LT(worst[d] / peak[d], 0.01) << "component " << d;
+  EXPECT_NEAR(peak[1] / peak[0], std::tan(M_PI / 6), 0.01 * std::tan(M_PI / 6));  // the motion's own split
+  EXPECT_LT(s.energy().error, 0.01);
+}
+
+// The y faces as a tunnel's cross-section gives them: quads out of the column's rows (their inner
+// nodes moved by 0.1 of an element's height, up and down in a checkerboard), driven by xmin's column
+// shared (each node at its own height, each quad by the layer at its centroid), under the pulse at
+// 30° from x towards y. The block has no tunnel: every node follows the column interpolated at its
+// height within the x faces' tolerance, 1 % of the column's peak, in x, y and z. With the faces not
+// moved the shared column gives what their own columns give (round-off).
+TEST(FreeField, SharedColumnOnFacesOutOfItsRowsFollowsTheColumn) {
+  for (const Real jitter : {0.0, 0.1}) {
+    BlockRun run;
+    run.setUp(true, true, RayleighDamping::fromRatio(0.05, 2.0, 20.0), 30.0, true, jitter);
+    std::ostringstream log;
+    run.stages->runStatics(log);
+    run.stages->switchToDynamics(log);
+    Solver& s = *run.solver;
+    const FreeFieldColumn& col = run.stages->seismic()->columns()[0];
+    ASSERT_EQ(run.stages->seismic()->columns().size(), 2u);  // xmin's and xmax's: the y faces share xmin's
+    std::vector<Index> level(size_t(run.mesh.numNodes()));
+    std::vector<Real> weight(size_t(run.mesh.numNodes()));
+    for (Index n = 0; n < run.mesh.numNodes(); ++n)
+      col.interpolation(run.mesh.coords[3 * size_t(n) + 2], &level[size_t(n)], &weight[size_t(n)]);
+    Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
+    std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);
+    while (s.time() < 0.35) {
+      s.step();
+      for (int d = 0; d < 3; ++d)
+        for (Index k = 0; k < col.numLevels(); ++k) peak[d] = std::max(peak[d], std::abs(col.u(k, d)));
+      for (Index n = 0; n < run.mesh.numNodes(); ++n) {
+        const Index k0 = level[size_t(n)], k1 = std::min<Index>(k0 + 1, col.numLevels() - 1);
+        const Real w = weight[size_t(n)];
+        for (int d = 0; d < 3; ++d) {
+          const Real ucol = (1 - w) * col.u(k0, d) + w * col.u(k1, d);
+          worst[d] = std::max(worst[d], std::abs(uPrev[3 * size_t(n) + d] - ucol));
+          uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
+        }
+      }
+    }
+    std::printf(
+        "free-field block, y faces on xmin's column, their nodes moved %.1f h: max |u_node - u_column| / column "
+        "peak: x %.2e, y %.2e, z %.2e; energy balance error %.2e\n",
+        jitter, worst[0] / peak[0], worst[1] / peak[1], worst[2] / peak[2], s.energy().error);
+    const Real tol = jitter == 0 ? 1e-12 : 0.01;
+    for (int d = 0; d < 3; ++d) EXPECT_LT(worst[d] / peak[d], tol) << "component " << d << ", moved " << jitter;
+    EXPECT_LT(s.energy().error, 0.01);
+  }
+}
+
+// A shared column refuses a face whose ground differs from the column's layers (a tunnel's lining
+// or an unplugged hole there), naming the face, the quad and the block.
+TEST(FreeField, SharedColumnRefusesAFaceOfAnotherMaterial) {
+  BlockRun bad;
+  bad.setUp(true, true, RayleighDamping::fromRatio(0.05, 2.0, 20.0), 30.0, true, 0.0);
+  // One element on the ymin face, away from the x faces, below the layers' interface: now soil.
+  Index changed = -1;
+  for (Index e = 0; e < bad.mesh.numElems() && changed < 0; ++e) {
+    bool onYmin = false, onX = false;
+    Real zc = 0;
+    for (int k = 0; k < 8; ++k) {
+      const Real* x = &bad.mesh.coords[3 * size_t(bad.mesh.connectivity[8 * size_t(e) + k])];
+      onYmin |= std::abs(x[1] + 15) < 1e-9;
+      onX |= std::abs(std::abs(x[0]) - 20) < 1e-9;
+      zc += x[2] / 8;
+    }
+    if (onYmin && !onX && zc < 10) changed = e;
+  }
+  ASSERT_GE(changed, 0);
+  bad.mesh.region[size_t(changed)] = 1;
+  bad.in.staged.inSitu.density = 2000;  // one overburden density: the regions are no longer layers
+  bad.build();
+  std::ostringstream log;
+  bad.stages->runStatics(log);
+  try {
+    bad.stages->switchToDynamics(log);
+    FAIL() << "a quad of another material than the column's layer was accepted";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("face group 'ymin'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("plug the tunnel's ends"), std::string::npos) << msg;
+  }
 }
 
 // The switch from static supports to dynamic boundaries: with zero input motion the model stays

@@ -303,6 +303,10 @@ def test_the_report_says_which_wave_the_record_drives(tmp_path):
     d = load_case(_case(tmp_path, lambda s: s.replace("azimuth: 0", "azimuth: 30"))).data
     text = " ".join(_wave_lines(d))
     assert "plane SV wave, 20 deg from the vertical, travelling 30 deg" in text and "incident record" in text
+    d["incident_wave"]["type"] = "h5drm"
+    d["incident_wave"]["h5drm"]["file"] = "regional.h5drm"
+    text = " ".join(_wave_lines(d))
+    assert "read from the H5DRM file regional.h5drm" in text and "sets the run's length only" in text
     d["incident_wave"]["type"] = "none"
     assert _wave_lines(d) == []
 
@@ -378,3 +382,169 @@ def test_the_runs_free_field_is_written_as_an_h5drm_file_that_reads_back(tmp_pat
     back = read_h5drm(tmp_path / "w" / "free_field.h5drm", xyz, internal)
     assert np.allclose(back.time, t, rtol=0, atol=1e-12)
     assert np.max(np.abs(back.u - u)) <= 1e-12 * np.max(np.abs(u))
+
+
+# ------------------------------------------------------------------------------------------------
+# The free field from an H5DRM file (incident_wave.type: h5drm)
+# ------------------------------------------------------------------------------------------------
+def _plan(d):
+    from tunnelquake.case import case_geology, ground_layers
+    from tunnelquake.meshing.params import resolve
+
+    return resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+
+
+def _file_case(tmp_path, file="field.h5drm", extra=""):
+    """The test case reading its free field from `file` (next to the case file)."""
+    return _case(tmp_path, lambda s: s.replace("  type: SV\n  angle: 20\n  azimuth: 0\n",
+                                               f"  type: h5drm\n  h5drm: {{file: {file}{extra}}}\n"))
+
+
+def _hand_file(path, xyz, internal, nt=11, dt=0.2, rows=None, tend=None, coord_scale=1.0):
+    """An H5DRM file written here with h5py in OpenSees' layout (a uniform field: the values do not
+    matter to check): points in reverse order, located through data_location."""
+    n = len(xyz)
+    order = np.arange(n)[::-1]
+    with h5py.File(path, "w") as f:
+        g = f.create_group("DRM_Data")
+        g["xyz"] = xyz[order] * coord_scale
+        g["internal"] = internal[order]
+        g["data_location"] = 3 * np.arange(n, dtype=np.int32)
+        for name in ("displacement", "velocity", "acceleration"):
+            g[name] = np.zeros((3 * n if rows is None else rows, nt))
+        m = f.create_group("DRM_Metadata")
+        m["dt"], m["tstart"] = dt, 0.0
+        m["tend"] = (nt - 1) * dt if tend is None else tend
+        m["drmbox_x0"] = np.zeros(3)
+    return path
+
+
+def test_the_layers_nodes_from_the_plan_are_the_meshs(tmp_path):
+    """check matches a file against the layer's nodes from the mesh plan's grid lines (no mesh
+    yet): each is a node drm_layer finds in the built mesh (to 1e-9 m), with the same inner/outer
+    flag; the mesh's others are the end caps' nodes inside the near-field box (the O-grid round the
+    plugged tunnel), which the run matches when it writes its input."""
+    from scipy.spatial import cKDTree
+
+    from tunnelquake.meshing import build_tunnel_mesh
+
+    d = load_case(_case(tmp_path)).data
+    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path / "mesh")
+    with h5py.File(tmp_path / "mesh" / "mesh.h5") as m:
+        xyz = m["nodes/coordinates"][...]
+        conn = m["elements/connectivity"][...].astype(np.int64)
+        faces = {k: m[f"faces/{k}"][...] for k in ("xmin", "xmax", "ymin", "ymax", "bottom")}
+    nodes, inner = iw.drm_layer(xyz, conn, 1, faces)
+    plan = _plan(d)
+    pts, flags = iw.layer_points(plan, 1)
+    dist, idx = cKDTree(xyz[nodes]).query(pts)
+    assert dist.max() < 1e-9 and len(np.unique(idx)) == len(pts)
+    assert (inner[idx] == flags).all()
+    others = np.setdiff1d(np.arange(len(nodes)), idx)
+    rest = xyz[nodes[others]]
+    L = plan.box_half_width
+    assert (np.abs(rest[:, 0] - plan.xc) < L).all() and (np.abs(rest[:, 2] - plan.zc) < L).all()
+    assert set(np.round(rest[:, 1], 6)) <= {6.0, 12.0, 108.0, 114.0}  # the layer's end planes
+    print(f"{len(pts)} of the layer's {len(nodes)} nodes from the plan; {len(others)} in the end caps' box")
+
+
+@pytest.mark.parametrize("make, extra, words", [
+    (None, "", "file not found"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, rows=3 * len(xyz) - 3), "", "three rows a point"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, coord_scale=1000.0), "",
+     "DRM layer nodes match a file point within 0.01 m; the largest distance"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, coord_scale=1000.0), "", "a length scale of about 0.001"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, tend=4.0), "", "but tend is 4"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, dt=-0.2), "", "must be positive"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, inner, nt=5), "", "shorter than the seismic stage"),
+    (lambda p, xyz, inner: _hand_file(p, xyz, ~inner), "", "inner (b) nodes in the model and outer (e) ones"),
+])
+def test_check_refuses_an_h5drm_file_the_run_cannot_use(tmp_path, make, extra, words):
+    """Each refusal under incident_wave.h5drm.file, before anything runs: the file missing; motion
+    arrays of the wrong shape; points in mm against a model in m (the message counts the matched
+    nodes and gives the largest distance: OpenSees' silent pitfall); a tend the samples do not reach;
+    a step that is not positive; a file shorter than the run (time.end_time 1.2 s, the file 0.8 s);
+    inner and outer flags reversed."""
+    d = load_case(_case(tmp_path)).data
+    xyz, inner = iw.layer_points(_plan(d), 1)
+    if make is not None:
+        make(tmp_path / "field.h5drm", xyz, inner)
+    path = _file_case(tmp_path, extra=extra)
+    path.write_text(path.read_text() + "time: {end_time: 1.2 s}\n")
+    with pytest.raises(CaseError) as e:
+        load_case(path)
+    issues = {i.path: i for i in e.value.issues}
+    assert "incident_wave.h5drm.file" in issues, sorted(issues)
+    assert words in issues["incident_wave.h5drm.file"].problem, issues["incident_wave.h5drm.file"].problem
+
+
+def test_a_good_h5drm_file_passes_check_and_plane_wave_keys_beside_it_are_refused(tmp_path):
+    d = load_case(_case(tmp_path)).data
+    xyz, inner = iw.layer_points(_plan(d), 1)
+    _hand_file(tmp_path / "field.h5drm", xyz, inner, nt=11, dt=0.2)
+    case = load_case(_file_case(tmp_path))
+    assert case.data["incident_wave"]["type"] == "h5drm"
+    _hand_file(tmp_path / "mm.h5drm", xyz, inner, coord_scale=1000.0)  # in mm, read with its scale
+    assert load_case(_file_case(tmp_path, file="mm.h5drm", extra=", crd_scale: 0.001")).data["incident_wave"][
+        "h5drm"]["crd_scale"] == 0.001
+    # ShakerMaker's frame: (North, East, depth) in km about drmbox_x0, read through OpenSees' T and x0
+    sm = np.column_stack([xyz[:, 1], xyz[:, 0], -xyz[:, 2]]) / 1000.0 + [3.0, 4.0, 0.5]
+    _hand_file(tmp_path / "sm.h5drm", sm, inner)
+    with h5py.File(tmp_path / "sm.h5drm", "a") as f:
+        f["DRM_Metadata/drmbox_x0"][...] = [3.0, 4.0, 0.5]
+    sm_keys = ", crd_scale: 1000, transformation: [0, 1, 0, 1, 0, 0, 0, 0, -1]"
+    load_case(_file_case(tmp_path, file="sm.h5drm", extra=sm_keys))
+    issues = _issues(tmp_path, lambda s: _file_case(tmp_path, file="sm.h5drm", extra=", crd_scale: 1000").read_text())
+    assert "DRM layer nodes match a file point" in issues["incident_wave.h5drm.file"].problem
+    issues = _issues(tmp_path, lambda s: _file_case(tmp_path).read_text().replace("type: h5drm", "type: h5drm\n"
+                                                                                  "  angle: 10"))
+    assert "type is h5drm" in issues["incident_wave.angle"].problem
+    issues = _issues(tmp_path, lambda s: _file_case(tmp_path).read_text().replace("type: h5drm", "type: h5drm\n"
+                                                                                  "  write_h5drm: true"))
+    assert "type is h5drm" in issues["incident_wave.write_h5drm"].problem
+    issues = _issues(tmp_path, lambda s: s.replace("azimuth: 0\n", "azimuth: 0\n  h5drm: {file: field.h5drm}\n"))
+    assert "type is SV" in issues["incident_wave.h5drm"].problem
+
+
+@pytest.mark.skipif(EXE is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
+def test_the_tools_own_field_through_an_h5drm_file_gives_the_same_run(tmp_path):
+    """The SV wave at 20 deg along the axis, run twice through tq-solid (0.7 s): with the free field
+    the tool computes (`/drm` from the plane wave, written also as free_field.h5drm), and with that
+    file as the case's H5DRM input (type: h5drm, OpenSees' mapping with the identity). The /drm the
+    run reads and every monitored value (u, v, a, stress) agree to round-off: 1e-12 of each
+    quantity's peak (measured: equal bit for bit, the file holding the same doubles)."""
+    from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
+    from tunnelquake.solid_input import write_solid_input
+
+    runs = {}
+    for name in ("built_in", "file"):
+        work = tmp_path / name
+        work.mkdir()
+        if name == "built_in":
+            path = _case(work, lambda s: s.replace("azimuth: 0\n", "azimuth: 0\n  write_h5drm: true\n"))
+        else:
+            path = _file_case(work, file=str(tmp_path / "built_in" / "free_field.h5drm"))
+        path.write_text(path.read_text() + "time: {end_time: 0.7 s}\n")  # the pulse's peak at 0.6 s
+        case = load_case(path)
+        make_mesh(case)
+        _, motion_h5 = make_motion(case)
+        inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", work / "solid_input.h5")
+        out = subprocess.run([str(EXE), str(inp), "-o", str(work / "r.h5"), "--threads", "1"], capture_output=True,
+                             text=True, timeout=300)
+        assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+        with h5py.File(inp) as f, h5py.File(work / "r.h5") as r:
+            runs[name] = {**{f"drm/{k}": f[f"drm/{k}"][...] for k in f["drm"]},
+                          **{f"{m}/{q}": r[f"monitors/{m}/{q}"][...] for m in MONITORS
+                             for q in ("u", "v", "a", "stress")}}
+    a, b = runs["built_in"], runs["file"]
+    assert sorted(a) == sorted(b)
+    # the wave has reached the lining (its peak velocity there 0.1 m/s: the incident 0.05 m/s doubled)
+    peak_v = max(float(np.abs(a[f"{m}/v"]).max()) for m in MONITORS)
+    assert peak_v > 0.05
+    worst = 0.0
+    for k in a:
+        peak = max(float(np.abs(a[k]).max()), 1e-300)
+        worst = max(worst, float(np.abs(a[k] - b[k]).max()) / peak)
+        assert np.abs(a[k] - b[k]).max() <= 1e-12 * peak, k
+    print(f"the H5DRM file's run against the built-in field's: largest difference {worst:.2e} of a peak (the "
+          f"lining's peak velocity {peak_v:.3g} m/s)")

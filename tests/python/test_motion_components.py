@@ -205,8 +205,9 @@ def test_misused_component_keys_are_refused_naming_the_key(tmp_path, motion, key
      "ground_motion.second_horizontal"),
 ])
 def test_a_motion_along_the_axis_is_refused_in_3d_naming_the_key(tmp_path, capsys, motion, key):
-    """A 3D model keeps its y faces on rollers, which would hold a motion along the axis back:
-    `tunnelquake check` refuses it naming the key; across the tunnel (azimuth 180) it passes."""
+    """A 3D model whose tunnel's ends are not plugged keeps its y faces on rollers, which would hold
+    a motion along the axis back: `tunnelquake check` refuses it naming the key and the fixes (the
+    plugs, a slice); across the tunnel (azimuth 180) it passes."""
     from tunnelquake.cli import main
 
     _horizontal_pair(tmp_path)
@@ -215,6 +216,7 @@ def test_a_motion_along_the_axis_is_refused_in_3d_naming_the_key(tmp_path, capsy
     assert main(["check", str(p)]) != 0
     out = capsys.readouterr()
     assert f"{key}" in out.out + out.err and "mesh.mode: slice" in out.out + out.err, out.out + out.err
+    assert "mesh.tunnel_end_plugs: 1 or more" in out.out + out.err
     p.write_text(_case(tmp_path, "  source: file\n  file: h.txt\n  units: g\n  azimuth: 180").read_text()
                  .replace("mode: slice", "mode: 3d"))
     capsys.readouterr()
@@ -256,4 +258,42 @@ def test_a_motion_at_an_azimuth_shakes_the_slice_along_x_and_y_as_the_free_field
     ex, ey = np.max(np.abs(u[:, 0] - c * D)) / peak, np.max(np.abs(u[:, 1] - s * D)) / peak
     print(f"azimuth 30 deg, ground surface beside the tunnel: peak D {peak:.4g} m; max |u_x - cos D| {ex:.2%}, "
           f"max |u_y - sin D| {ey:.2%} of the peak; |u_z| {np.max(np.abs(u[:, 2])) / peak:.1e}")
+    assert ex < 0.01 and ey < 0.01
+
+
+def test_a_motion_at_an_azimuth_shakes_the_3d_model_through_columns_on_all_four_sides(tmp_path):
+    """The same motion (azimuth 30 deg) and closed form in a 3D model: the tunnel's ends plugged
+    with rock (mesh.tunnel_end_plugs), so its y faces take free-field columns (the first side's,
+    shared: their quads follow the tunnel's O-grid) and the block moves along x and y as the free
+    field; at the ground surface 12 m beside the tunnel, mid-length, within the same 1 % of the
+    peak."""
+    import h5py
+
+    from tunnelquake.cli import main
+    from tunnelquake.motion import integrate
+
+    _record(tmp_path / "h.txt", DT, 0.20, 2.0)
+    p = _case(tmp_path, "  source: file\n  file: h.txt\n  units: g\n  pga: 0.3 g\n  azimuth: 30 deg\n"
+                        "  vertical_ratio: 0.0")
+    text = p.read_text().replace("    invert: [0.0, 0.5, -2.8]", "    ground: [15.0, 15.0, 30.0]")
+    text = text.replace("  y_range: [0.0, 1.0]", "  y_range: [0.0, 30.0]").replace(
+        "  mode: slice\n", "  mode: 3d\n  elements_along_axis: 6\n  tunnel_end_plugs: 1\n")
+    p.write_text(text + "time: {end_time: 1.0}\ndamping: {ratio: 0.0}\n")
+    assert main(["run", str(p), "--no-post"]) == 0
+    with h5py.File(tmp_path / "results" / "no_water" / "solid_input.h5", "r") as f:
+        shared = f["boundaries/free_field"].attrs["shared_column_faces"]
+    assert "ymin" in str(shared) and "ymax" in str(shared)
+    with h5py.File(tmp_path / "results" / "motion.h5", "r") as f:
+        dt = float(f.attrs["dt"])
+        ax = f["incident_ax"][...]
+    with h5py.File(tmp_path / "results" / "results_no_water.h5", "r") as f:
+        t, u = f["monitors/ground/time"][:, 0], f["monitors/ground/u"][...]
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    _, disp = integrate(2 * ax / c, dt)  # the outcrop record's displacement
+    delay = 60.0 / np.sqrt(12e9 / (2 * 1.25) / 2600)  # H / c_s: 60 m of rock, G = E / 2(1 + nu)
+    D = np.interp(t - delay, np.arange(disp.size) * dt, disp, left=0.0)
+    peak = np.max(np.abs(D))
+    ex, ey = np.max(np.abs(u[:, 0] - c * D)) / peak, np.max(np.abs(u[:, 1] - s * D)) / peak
+    print(f"3D, azimuth 30 deg, ground surface beside the tunnel: peak D {peak:.4g} m; max |u_x - cos D| {ex:.2%}, "
+          f"max |u_y - sin D| {ey:.2%} of the peak")
     assert ex < 0.01 and ey < 0.01

@@ -101,6 +101,7 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
   if (S.stages.has("seismic")) {
     if (S.bottom.present) axisFace(mesh, S.bottom.face);  // throws if missing or not a plane
     for (const auto& f : S.freeField.faces) axisFace(mesh, f);
+    for (const auto& f : S.freeField.sharedColumnFaces) axisFace(mesh, f);
   }
 }
 
@@ -549,6 +550,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
   std::set<std::string> replaced;
   if (S.bottom.present) replaced.insert(S.bottom.face);
   for (const auto& f : S.freeField.faces) replaced.insert(f);
+  for (const auto& f : S.freeField.sharedColumnFaces) replaced.insert(f);
   for (const auto& f : S.periodic.faces) replaced.insert(f);
   std::vector<char> keep(3 * size_t(N), 0), byReplaced(3 * size_t(N), 0);
   // Periodic faces: their nodes' supports along the faces' normal give way to the tie (in a slice
@@ -622,6 +624,7 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     spec.alphaT = S.bottom.alphaT > 0 ? S.bottom.alphaT : (mesh_.slice ? 0.5 : 2.0 / 3.0);
     spec.halfSpace = {S.bottom.rho, S.bottom.cp, S.bottom.cs};
     spec.freeFieldFaces = S.freeField.faces;
+    spec.sharedColumnFaces = S.freeField.sharedColumnFaces;
     spec.columnFace = S.bottom.columnFace;
     spec.damping = solver_.options().damping;
     spec.distance = S.bottom.distance;
@@ -649,6 +652,8 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     if (!spec.freeFieldFaces.empty()) {
       os << (spec.bottom ? "; " : "") << "free-field sides:";
       for (const auto& f : spec.freeFieldFaces) os << " " << f;
+      for (const auto& f : spec.sharedColumnFaces)
+        os << " " << f << " (" << spec.freeFieldFaces.front() << "'s column)";
       os << " (" << seismic_->columns().size() << " column(s), " << seismic_->baseColumn().numLayers() << " layers)";
     }
     log << "  " << os.str() << std::endl;

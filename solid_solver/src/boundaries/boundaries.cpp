@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <sstream>
 
 namespace tq {
@@ -200,10 +201,24 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
     kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance, spec_.alphaN * G / spec_.distance};
     cArea_ = {hs.rho * hs.cs, hs.rho * hs.cs, hs.rho * hs.cp};
   }
-  // Free-field sides: per node dashpots and column interpolation, per quad the traction loads.
-  for (size_t fi = 0; fi < spec_.freeFieldFaces.size(); ++fi) {
-    const AxisFace f = axisFace(mesh, spec_.freeFieldFaces[fi]);
+  // Free-field sides: per node dashpots and column interpolation, per quad the traction loads. The
+  // shared-column faces take the first face's column (their quads need not lie in its rows).
+  if (!spec_.sharedColumnFaces.empty() && spec_.freeFieldFaces.empty())
+    throw InputError(mshort(mesh) + ": shared-column faces need a free-field face whose column they share");
+  std::vector<std::pair<std::string, bool>> sides;
+  for (const auto& face : spec_.freeFieldFaces) sides.emplace_back(face, false);
+  for (const auto& face : spec_.sharedColumnFaces) sides.emplace_back(face, true);
+  std::unique_ptr<QuadOwners> owners;
+  if (!spec_.sharedColumnFaces.empty()) owners = std::make_unique<QuadOwners>(mesh, blocks);
+  for (size_t si = 0; si < sides.size(); ++si) {
+    const auto& [faceName, shared] = sides[si];
+    const size_t fi = shared ? 0 : si;
+    const AxisFace f = axisFace(mesh, faceName);
     const FreeFieldColumn& col = columns_[fi];
+    if (shared && f.axis == 2)
+      throw InputError(mshort(mesh) + ": face group '" + faceName +
+                       "' is horizontal; a free-field column needs a vertical side face");
+    const Real zLo = col.level(0), zHi = col.level(col.numLevels() - 1), zTol = 1e-9 * std::max(1.0, zHi - zLo);
     std::map<Index, size_t> at;
     for (size_t k = 0; k < f.quads.size() / 4; ++k) {
       const Index* q = &f.quads[4 * k];
@@ -212,6 +227,32 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
       SideQuadLoad L;
       L.column = Index(fi);
       L.layer = col.layerAt(zc);
+      if (shared) {  // within the column's height, of its layer's material
+        for (int c = 0; c < 4; ++c) {
+          const Real z = mesh.coords[3 * size_t(q[c]) + 2];
+          if (z < zLo - zTol || z > zHi + zTol)
+            throw InputError(mshort(mesh) + ": face group '" + faceName + "' has a node at z = " + std::to_string(z) +
+                             " m, outside the column of '" + spec_.freeFieldFaces.front() + "' (" +
+                             std::to_string(zLo) + " .. " + std::to_string(zHi) + " m)");
+        }
+        const Owner o = owners->find(q);
+        if (o.block < 0)
+          throw InputError(mshort(mesh) + ": quad " + std::to_string(k) + " of face group '" + faceName +
+                           "' belongs to no element");
+        const Material& mat = blocks[size_t(o.block)]->material();
+        const ElasticModuli em = mat.elasticModuli();
+        const ColumnLayer& have = col.layer(L.layer);
+        if (std::abs(have.rho - mat.density()) > 1e-9 * have.rho || std::abs(have.mu - em.mu) > 1e-9 * have.mu ||
+            std::abs(have.lambda - em.lambda) > 1e-9 * std::abs(have.mu)) {
+          std::ostringstream os;
+          os << mshort(mesh) << ": face group '" << faceName << "' quad " << k << " (z = " << zc << " m) is in block '"
+             << blocks[size_t(o.block)]->name() << "', not of the material of the column's layer there (face '"
+             << spec_.freeFieldFaces.front()
+             << "'); a shared column needs the face's ground layered as the column's: plug the tunnel's ends "
+                "with ground (use rollers on that face otherwise)";
+          throw InputError(os.str());
+        }
+      }
       L.axis = f.axis;
       L.sign = f.sign;
       for (int c = 0; c < 4; ++c) {

@@ -205,11 +205,12 @@ void DomainReduction::sample(Real t, std::vector<Real>& u, std::vector<Real>& v)
 
 namespace {
 
-/// The rows [r0, r1) of the layer's product, each row's entries in order (tq/boundaries/drm.hpp).
+/// The rows [r0, r1) of the layer's product, each row's entries in order (tq/boundaries/drm.hpp):
+/// into out at the rows' mesh nodes (added) where nodes is given, else at the rows (assigned).
 struct RowProduct {
   const Index *start, *entries, *nodes;  // entries: [3 column slot, 12 block] each
   const Real *blocks, *w;
-  Real* fe;
+  Real* out;
 };
 
 typedef Real V4 __attribute__((vector_size(32)));
@@ -235,20 +236,71 @@ inline __attribute__((always_inline)) void rowsBody(const RowProduct& q, size_t 
     }
     if (p < pEnd) acc0 += term(p);
     const V4 acc = acc0 + acc1;
-    Real* f = q.fe + 3 * size_t(q.nodes[r]);
-    f[0] += acc[0];
-    f[1] += acc[1];
-    f[2] += acc[2];
+    if (q.nodes) {
+      Real* f = q.out + 3 * size_t(q.nodes[r]);
+      f[0] += acc[0];
+      f[1] += acc[1];
+      f[2] += acc[2];
+    } else {
+      Real* f = q.out + 3 * r;
+      f[0] = acc[0];
+      f[1] = acc[1];
+      f[2] = acc[2];
+    }
   }
 }
 
 __attribute__((target("avx2,fma"))) void rowsAvx2(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
 void rowsGeneric(const RowProduct& q, size_t r0, size_t r1) { rowsBody(q, r0, r1); }
 
+/// Layers of fewer nodes run on one thread (the parallel region costs more than the work).
+constexpr size_t kThreadedNodes = 512;
+
 }  // namespace
 
-void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
-  // w = u0 + β u̇0 at t, linear between the samples k and k + 1 (held outside them).
+void DomainReduction::product(Real* out, bool atNodes) const {
+  const size_t N = field_.nodes.size();
+  const RowProduct q{rowStart_.data(), rowEntries_.data(), atNodes ? field_.nodes.data() : nullptr,
+                     blocks_.data(),   w_.data(),          out};
+  const bool avx2 = avx2_;
+  constexpr size_t kRows = 64;  // rows a work item
+  const size_t nItems = (N + kRows - 1) / kRows;
+#pragma omp parallel for schedule(static) if (N >= kThreadedNodes)
+  for (size_t it = 0; it < nItems; ++it) {
+    const size_t r0 = it * kRows, r1 = std::min(N, r0 + kRows);
+    if (avx2)
+      rowsAvx2(q, r0, r1);
+    else
+      rowsGeneric(q, r0, r1);
+  }
+}
+
+const Real* DomainReduction::forcesAt(Index k) {
+  for (int s = 0; s < 2; ++s)
+    if (kept_[s].sample == k) {
+      lastUsed_ = s;
+      return kept_[s].f.data();
+    }
+  // w = u0 + β u̇0 at sample k, then its forces in the field's order, into the slot used less recently.
+  const size_t M = w_.size();
+  const Real* __restrict u0 = &field_.u[size_t(k) * M];
+  const Real* __restrict v0 = &field_.v[size_t(k) * M];
+  Real* __restrict w = w_.data();
+  const Real beta = beta_;
+#pragma omp parallel for schedule(static) if (M >= 3 * kThreadedNodes)
+  for (size_t i = 0; i < M; ++i) w[i] = u0[i] + beta * v0[i];
+  const int s = 1 - lastUsed_;
+  kept_[s].f.resize(M);
+  product(kept_[s].f.data(), false);
+  ++products_;
+  kept_[s].sample = k;
+  lastUsed_ = s;
+  return kept_[s].f.data();
+}
+
+void DomainReduction::addForces(Real t, Real dt, NodalState& state) {
+  // The field at t is (1 − a) × sample k + a × sample k + 1 (held outside the samples), and so are
+  // its forces.
   const size_t M = w_.size(), T = field_.time.size(), N = M / 3;
   size_t k = 0;
   Real a = 0;
@@ -258,31 +310,32 @@ void DomainReduction::addForces(Real t, Real /*dt*/, NodalState& state) {
     k = size_t(std::upper_bound(field_.time.begin(), field_.time.end(), t) - field_.time.begin()) - 1;
     a = (t - field_.time[k]) / (field_.time[k + 1] - field_.time[k]);
   }
-  const Real* __restrict u0 = &field_.u[k * M];
-  const Real* __restrict v0 = &field_.v[k * M];
-  const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
-  Real* __restrict w = w_.data();
-  const RowProduct q{rowStart_.data(), rowEntries_.data(), field_.nodes.data(), blocks_.data(), w, state.fExtData()};
-  const bool damped = beta_ != 0, avx2 = avx2_;
-  constexpr size_t kRows = 64;  // rows a work item
-  const size_t nItems = (N + kRows - 1) / kRows;
-  // One parallel region: w everywhere, then each row's three forces from its own entries in order.
-#pragma omp parallel if (N >= 512)
-  {
-    if (damped) {
-#pragma omp for schedule(static)
-      for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i] + b0 * v0[i] + b1 * v0[M + i];
-    } else {
-#pragma omp for schedule(static)
-      for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i];
-    }
-#pragma omp for schedule(static)
-    for (size_t it = 0; it < nItems; ++it) {
-      const size_t r0 = it * kRows, r1 = std::min(N, r0 + kRows);
-      if (avx2)
-        rowsAvx2(q, r0, r1);
-      else
-        rowsGeneric(q, r0, r1);
+  Real* __restrict fe = state.fExtData();
+  const Index k0 = Index(k), k1 = Index(k + 1);
+  const bool need0 = a != 1, need1 = a != 0;
+  if (need0 && need1 && field_.time[k + 1] - field_.time[k] < dt) {
+    // Samples finer than the step: one product of the interpolated field (each step would need two
+    // new samples' products). The choice depends on t and dt alone, not on what was kept.
+    const Real* __restrict u0 = &field_.u[k * M];
+    const Real* __restrict v0 = &field_.v[k * M];
+    const Real c0 = 1 - a, b0 = beta_ * (1 - a), b1 = beta_ * a;
+    Real* __restrict w = w_.data();
+#pragma omp parallel for schedule(static) if (M >= 3 * kThreadedNodes)
+    for (size_t i = 0; i < M; ++i) w[i] = c0 * u0[i] + a * u0[M + i] + b0 * v0[i] + b1 * v0[M + i];
+    product(fe, true);
+    ++products_;
+    return;
+  }
+  const Real* __restrict f0 = need0 ? forcesAt(k0) : nullptr;
+  const Real* __restrict f1 = need1 ? forcesAt(k1) : nullptr;
+  const Index* __restrict nodes = field_.nodes.data();
+  const Real c0 = 1 - a;
+#pragma omp parallel for schedule(static) if (N >= kThreadedNodes)
+  for (size_t r = 0; r < N; ++r) {
+    Real* f = fe + 3 * size_t(nodes[r]);
+    for (size_t d = 0; d < 3; ++d) {
+      const size_t i = 3 * r + d;
+      f[d] += f0 && f1 ? c0 * f0[i] + a * f1[i] : f0 ? f0[i] : f1[i];
     }
   }
 }

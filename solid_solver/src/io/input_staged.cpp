@@ -213,6 +213,8 @@ void readStagedInput(hid_t f, SolidInput& in) {
       S.freeField.present = true;
       S.freeField.faces = c.names(gg, w, K::boundaries_free_field::faces);
       for (const auto& face : S.freeField.faces) in.requiredFaces.push_back(face);
+      S.freeField.sharedColumnFaces = c.names(gg, w, K::boundaries_free_field::shared_column_faces);
+      for (const auto& face : S.freeField.sharedColumnFaces) in.requiredFaces.push_back(face);
     }
     if (const auto gg = c.group(g, "periodic", "/boundaries/periodic"); gg.valid()) {
       const std::string w = "/boundaries/periodic";

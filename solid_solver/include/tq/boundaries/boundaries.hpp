@@ -48,6 +48,11 @@ struct SeismicBoundarySpec {
   Real alphaN = 4.0 / 3, alphaT = 2.0 / 3;
   BaseHalfSpace halfSpace;  ///< ρ, cp, cs below the base (dashpots, springs, input)
   std::vector<std::string> freeFieldFaces;
+  /// Vertical faces whose quads are not stacked in horizontal rows (a tunnel's cross-section with
+  /// its ends plugged), driven by freeFieldFaces[0]'s column: the ground's layers are horizontal, so
+  /// the column is the same; each node takes it at its height, each quad the stress and impedance of
+  /// the column's layer at its centroid, whose material the quad's element must have.
+  std::vector<std::string> sharedColumnFaces;
   std::string columnFace;   ///< face whose layers define the base column
   RayleighDamping damping;  ///< the model's Rayleigh damping (the columns use the same)
 };

@@ -24,7 +24,12 @@ namespace tq {
 /// elastic with a one-point element (InputError otherwise, naming the block). K is each layer
 /// element's own stiffness, formed once from ElementBlock::elementForces; its b–e blocks (one copy per
 /// distinct element, equal to 2⁻³⁰ of the largest entry) are assembled once into node-to-node 3 × 3
-/// blocks, so a step is a sparse product over the layer's nodes, threaded by rows.
+/// blocks, a sparse product over the layer's nodes, threaded by rows. The forces are linear in the
+/// free field, so they are linear in time between its samples as the field is: the product is formed
+/// at the samples a step needs, once each (the last two kept), and a step interpolates them; where
+/// the samples are finer than the step, a step forms the product of the interpolated field instead.
+/// At most one product a step either way (two at the first), and the forces at (t, Δt) do not
+/// depend on what was kept before.
 class DomainReduction final : public NodalForceContributor {
  public:
   /// @param beta the stiffness-proportional Rayleigh coefficient acting in the layer (s)
@@ -41,6 +46,8 @@ class DomainReduction final : public NodalForceContributor {
   /// Distinct 3 × 3 node-to-node blocks of the assembled coupling.
   Index numDistinctBlocks() const { return Index(blocks_.size() / 12); }
   const DrmFreeField& field() const { return field_; }
+  /// Products over the layer's rows formed so far (at samples, or direct).
+  Index numProducts() const { return products_; }
   /// The free field's displacement and velocity at time t, node slot i (the field's order).
   void sample(Real t, std::vector<Real>& u, std::vector<Real>& v) const;
 
@@ -57,6 +64,19 @@ class DomainReduction final : public NodalForceContributor {
   std::vector<Real> blocks_;       ///< the distinct blocks, column by column, each column padded to 4
   bool avx2_ = false;              ///< the product's AVX2/FMA path (ElementBlock::defaultUseAvx2)
   std::vector<Real> w_;            ///< [3N] scratch: u0 + β u̇0 at the step
+  /// The forces at two samples, in the field's order ([3N] each; sample −1: none yet).
+  struct SampleForces {
+    Index sample = -1;
+    std::vector<Real> f;
+  };
+  SampleForces kept_[2];
+  int lastUsed_ = 0;    ///< the slot used last: the other one is replaced first
+  Index products_ = 0;  ///< products formed (at samples or direct), for the tests and the bench
+  /// The forces of the field w_ (3N, field order) into out: assigned in field order (nodes null) or
+  /// added at the mesh nodes.
+  void product(Real* out, bool atNodes) const;
+  /// The slot holding sample k's forces, formed now if no slot holds them.
+  const Real* forcesAt(Index k);
 };
 
 }  // namespace tq

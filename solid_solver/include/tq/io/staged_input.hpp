@@ -123,6 +123,8 @@ struct BottomBoundaryInput {
 struct FreeFieldInput {
   bool present = false;
   std::vector<std::string> faces;  ///< e.g. xmin, xmax (and ymin, ymax in 3D)
+  /// Faces not horizontally layered (a tunnel's cross-section), driven by faces[0]'s column.
+  std::vector<std::string> sharedColumnFaces;
 };
 
 /// /boundaries/periodic: two opposite faces whose nodes move alike (u on `faces[1]` equals u on
