@@ -34,6 +34,7 @@ from test_solid_input import _solid_with_stages
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh
+from tunnelquake.meshing.build import LINING_END_FACES
 from tunnelquake.meshing.geology import hanging_wall_share, slip_vector
 from tunnelquake.motion import from_case as motion_from_case
 from tunnelquake.prepare import write_motion
@@ -165,11 +166,13 @@ def test_solid_input_moves_every_face_node_but_the_tops_by_its_share(prepared):
     fault = case_geology(case.data).fault
     with h5py.File(tmp / "mesh.h5") as m, h5py.File(inp) as f:
         xyz = m["nodes/coordinates"][...]
-        faces = {name: np.unique(m[f"faces/{name}"][...]) for name in ("top", *FAULT_OFFSET_FACES)}
+        faces = {name: np.unique(m[f"faces/{name}"][...]) for name in ("top", LINING_END_FACES, *FAULT_OFFSET_FACES)}
         assert f["stages"].attrs["sequence"] == "in_situ,fault_offset,seismic"
         nodes, disp = f["fault_offset/nodes"][...], f["fault_offset/displacement"][...]
         assert int(f["fault_offset"].attrs["increments"]) == 2
-    expected = np.unique(np.concatenate([faces[k] for k in FAULT_OFFSET_FACES]))
+        assert f[f"boundary/fixed/{LINING_END_FACES}"].attrs["directions"] == "y"  # held as the y faces
+    # the bonded interface ties the lining's end rings to the rock's face nodes: they move with them
+    expected = np.unique(np.concatenate([faces[k] for k in (*FAULT_OFFSET_FACES, LINING_END_FACES)]))
     assert np.array_equal(np.sort(nodes), expected)
     top_only = np.setdiff1d(faces["top"], expected)
     assert len(top_only) > 0 and not np.isin(top_only, nodes).any()  # the ground surface stays free
