@@ -25,8 +25,11 @@ def _fingerprint(case) -> str:
     d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs: the meshes made before the key stay current)
     if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
         d["layers"] = ground_layers(case.data)
-    if case_geology(case.data) is not None:  # likewise
+    geology = case_geology(case.data)
+    if geology is not None:  # likewise
         d["geology"] = case.data["geology"]
+        if geology.fault is not None:  # its lining's end faces are their own group (meshing.build.LINING_END_FACES)
+            d["lining_end_faces"] = True
     if lining_joints_active(case.data):  # likewise
         d["lining_joints"] = case.data["lining_joints"]["spacing"]
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]

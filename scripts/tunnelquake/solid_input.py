@@ -225,6 +225,7 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         supports = {"bottom": "xyz", **{side: "x" for side in sides}}
         if not mesh["slice"]:
             supports.update({"ymin": "y", "ymax": "y"})
+            supports.update({face: "y" for face in _tied_lining_ends(d, mesh["faces"])})
         for face, dirs in supports.items():
             w(f.create_group(f"boundary/fixed/{face}"), "/boundary/fixed/*", "directions", dirs)
 
@@ -360,9 +361,21 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
 FAULT_OFFSET_FACES = ("bottom", "xmin", "xmax", "ymin", "ymax")
 
 
+def _tied_lining_ends(d: dict, faces) -> list[str]:
+    """The mesh's lining end faces (meshing.build.LINING_END_FACES: a block crossed by a fault zone)
+    when a bonded interface ties the lining's outer nodes to the rock's: those ends are then held as
+    the y faces are (the tie would otherwise join a held node to a free one); [] with the dynamic
+    contact, whose lining ends are free and follow the rock through the interface alone."""
+    from .meshing.build import LINING_END_FACES
+
+    bonded = (d.get("interface") or {}).get("model") == "bonded"
+    return [LINING_END_FACES] if bonded and LINING_END_FACES in faces else []
+
+
 def fault_offset_displacements(d: dict, mesh_h5: Path):
     """The fault_offset stage's nodes and their displacements ([N] int, [N, 3] m) for a case with a
-    fault_offset, else None: every node of the block's faces but the top (FAULT_OFFSET_FACES) takes
+    fault_offset, else None: every node of the block's faces but the top (FAULT_OFFSET_FACES; the
+    lining's end faces only when a bonded interface ties them to the rock, _tied_lining_ends) takes
     the hanging wall's slip times its share (meshing.geology.hanging_wall_share: 1 above the band,
     0 below, linear across it), so the footwall's boundary is held, the hanging wall's moved as one
     and the band's sheared uniformly (docs/solid_solver.md "Fault offset")."""
@@ -378,7 +391,8 @@ def fault_offset_displacements(d: dict, mesh_h5: Path):
         if missing:
             raise SolidInputError(f"mesh {mesh_h5} has no face group(s) {missing}, which the fault offset moves; "
                                   "rebuild it with `tunnelquake mesh --force`")
-        nodes = np.unique(np.concatenate([f[f"faces/{name}"][...].ravel() for name in FAULT_OFFSET_FACES]))
+        moved = FAULT_OFFSET_FACES + tuple(_tied_lining_ends(d, f["faces"].keys()))
+        nodes = np.unique(np.concatenate([f[f"faces/{name}"][...].ravel() for name in moved]))
         xyz = f["/nodes/coordinates"][...][nodes]
     share = hanging_wall_share(case_geology(d).fault, xyz)
     return nodes.astype(np.int64), share[:, None] * np.asarray(slip, float)[None, :]

@@ -34,6 +34,7 @@ from test_solid_input import _solid_with_stages
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh
+from tunnelquake.meshing.build import LINING_END_FACES
 from tunnelquake.meshing.geology import hanging_wall_share, slip_vector
 from tunnelquake.motion import from_case as motion_from_case
 from tunnelquake.prepare import write_motion
@@ -165,11 +166,13 @@ def test_solid_input_moves_every_face_node_but_the_tops_by_its_share(prepared):
     fault = case_geology(case.data).fault
     with h5py.File(tmp / "mesh.h5") as m, h5py.File(inp) as f:
         xyz = m["nodes/coordinates"][...]
-        faces = {name: np.unique(m[f"faces/{name}"][...]) for name in ("top", *FAULT_OFFSET_FACES)}
+        faces = {name: np.unique(m[f"faces/{name}"][...]) for name in ("top", LINING_END_FACES, *FAULT_OFFSET_FACES)}
         assert f["stages"].attrs["sequence"] == "in_situ,fault_offset,seismic"
         nodes, disp = f["fault_offset/nodes"][...], f["fault_offset/displacement"][...]
         assert int(f["fault_offset"].attrs["increments"]) == 2
-    expected = np.unique(np.concatenate([faces[k] for k in FAULT_OFFSET_FACES]))
+        assert f[f"boundary/fixed/{LINING_END_FACES}"].attrs["directions"] == "y"  # held as the y faces
+    # the bonded interface ties the lining's end rings to the rock's face nodes: they move with them
+    expected = np.unique(np.concatenate([faces[k] for k in (*FAULT_OFFSET_FACES, LINING_END_FACES)]))
     assert np.array_equal(np.sort(nodes), expected)
     top_only = np.setdiff1d(faces["top"], expected)
     assert len(top_only) > 0 and not np.isin(top_only, nodes).any()  # the ground surface stays free
@@ -347,3 +350,41 @@ def test_slip_during_the_run_follows_the_ramp_and_settles_on_the_static_offset(t
     settled = axis_profile(xyz, nodes, snaps[-1][1], (0.0, 0.0))
     for q, _ in QUANTITIES:
         assert difference(settled, static, q) < 1e-3, (q, difference(settled, static, q))
+
+
+@pytest.mark.skipif(_solid_with_offset() is None, reason="tq-solid with the fault_offset stage is not built")
+def test_the_linings_free_ends_carry_no_axial_force_of_the_offset(tmp_path):
+    """The static offset of CASE with the dynamic contact: the lining's end faces (mesh group
+    lining_ends) are neither on the y faces' rollers nor moved with the block's faces, so the end
+    sections are traction-free and the lining is loaded through the interface alone. Far from the
+    fault the hanging wall moves as one body and the footwall stays, so the free field's axial strain
+    there is ~0 and the lining's axial force N must fall from the band towards 0 at its ends: the end
+    layers' |N| (half a layer in from a free end, what the interface gathers over it) within 25 % of
+    the largest |N| in the band (measured 5.6 %; with the ends clamped to the moved faces it was
+    111 %: the lining a bar stretched between a moved end and a held one)."""
+    text = CASE.replace("interface: {model: bonded}", "interface: {model: dynamic_contact}")
+    (tmp_path / "case.yaml").write_text(text)
+    case = load_case(tmp_path / "case.yaml")
+    d = case.data
+    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, None, case_geology(d))
+    motion, _ = motion_from_case(d["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    with h5py.File(tmp_path / "mesh.h5") as m, h5py.File(inp) as f:
+        ends = np.unique(m[f"faces/{LINING_END_FACES}"][...])
+        assert ends.size > 0 and f"boundary/fixed/{LINING_END_FACES}" not in f
+        assert not np.isin(ends, f["fault_offset/nodes"][...]).any()
+    res = tmp_path / "results.h5"
+    run = subprocess.run([str(_solid_with_offset()), str(inp), "-o", str(res), "--threads", "1"],
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "stage fault_offset: equilibrium reached" in run.stdout
+    from tunnelquake import post as P
+
+    axis = P.lining_along_axis(P.read_condition(res, "no_water"))
+    y, N = axis["y"], axis["start"]["N"]
+    fault = case_geology(d).fault
+    band = np.abs(N[np.abs(y - fault.plane.point[1]) < 5.0]).max()  # layers within 5 m of the crossing
+    assert band > 1e7  # the offset stretches the lining across the band
+    end = max(abs(N[0]), abs(N[-1]))
+    assert end < 0.25 * band, (end, band)

@@ -291,6 +291,10 @@ def _quality(conn: np.ndarray, coords: np.ndarray, what: str) -> tuple[float, fl
 
 #: the face group of the plugs' faces towards the tunnel (mesh.tunnel_end_plugs)
 PLUG_FACES = "tunnel_ends"
+#: the face group of the lining's end faces on the y faces in a block crossed by a fault zone: not part of
+#: ymin/ymax, so neither their rollers nor a fault offset hold the lining's ends, which follow the rock
+#: through the rock-lining interface (docs/solid_solver.md "Fault offset")
+LINING_END_FACES = "lining_ends"
 
 
 def _plug_ends(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
@@ -472,6 +476,13 @@ def _classify_solid_faces(plan, coords, faces, owner_region, ends=None, joints=(
         masks[PLUG_FACES] = np.any([(np.abs(fx[:, :, 1] - y) < tol).all(axis=1) for y in ends], axis=0) & ~(
             masks["ymin"] | masks["ymax"])
         names.append(PLUG_FACES)
+    if getattr(plan.geology, "fault", None) is not None and not plan.slice:
+        lining_ends = (masks["ymin"] | masks["ymax"]) & (owner_region == 1)
+        if lining_ends.any():
+            masks["ymin"] &= ~lining_ends
+            masks["ymax"] &= ~lining_ends
+            masks[LINING_END_FACES] = lining_ends
+            names.append(LINING_END_FACES)
     on_a = (np.abs(r - plan.radius_inner) < tol).all(axis=1)
     on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
     masks["lining_inner"] = on_a & (owner_region == 1)
