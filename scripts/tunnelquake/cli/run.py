@@ -26,7 +26,11 @@ def main(argv: list[str]) -> int:
     case = load_or_report(args.case, args.variant)
     if case is None:
         return 1
-    if refuse_ranks(case, args.ranks):
+    if refuse_ranks(case, args.ranks, args.resume):
+        return 1
+    if case.data["suite"]["records"] is not None and args.ranks > 1:
+        print(f"error: --ranks {args.ranks}: a record suite runs its members side by side (--workers); run it "
+              "without --ranks", file=sys.stderr)
         return 1
     if case.data["suite"]["records"] is not None:
         return suite_run.main(case, args, argv)
@@ -35,4 +39,5 @@ def main(argv: list[str]) -> int:
         print(f"error: {', '.join(used)}: only for a case with a suite: section (docs/user_guide.md \"Record "
               "suites\")", file=sys.stderr)
         return 1
-    return run_held(case, "tunnelquake run " + " ".join(map(str, argv)), resume=args.resume, post=not args.no_post)
+    return run_held(case, "tunnelquake run " + " ".join(map(str, argv)), resume=args.resume, post=not args.no_post,
+                    ranks=args.ranks)

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -22,6 +23,8 @@
 #include <mpi.h>
 #endif
 
+#include "tq/app/stages.hpp"
+#include "tq/contact/contact.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/results.hpp"
 #include "tq/materials/registry.hpp"
@@ -77,13 +80,13 @@ int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err
 /// the same file).
 std::string unsupportedOnRanks(const SolidInput& in) {
   const std::string fix = "; run it without --ranks (one process, OpenMP threads), or leave that part out";
-  if (in.staged.present) {
-    std::string what = "the staged analysis (/stages";
-    if (in.staged.coupling.present) what += ", the water coupling";
-    if (in.staged.bottom.present || in.staged.freeField.present) what += ", the seismic boundaries";
-    if (in.staged.motion.present) what += ", the input motion";
-    if (in.staged.inSitu.present) what += ", the in-situ state";
-    return what + ", and with them dynamic contact and the DRM layer) does not run on ranks yet" + fix;
+  const StagedInput& S = in.staged;
+  if (S.present) {
+    if (S.coupling.present)
+      return "the water coupling (/coupling, condition dynamic_water) does not run on ranks yet" + fix;
+    if (S.drm.present()) return "the domain reduction layer (/drm, incident_wave) does not run on ranks yet" + fix;
+    if (S.faultOffset.present) return "the fault offset (/fault_offset) does not run on ranks yet" + fix;
+    if (S.periodic.present) return "periodic faces (/boundaries periodic) do not run on ranks yet" + fix;
   }
   if (in.options.subcyclingLevels > 0) return "subcycling (/solver subcycling_levels) does not run on ranks yet" + fix;
   if (in.options.integrator != Integrator::CentralDifference)
@@ -97,6 +100,7 @@ std::string unsupportedOnRanks(const SolidInput& in) {
 class StateGather {
  public:
   StateGather(const RankLayout& L, const Solver& local, Solver* mirror, int history) : H_(history) {
+    (void)H_;
     int rank = 0, size = 1;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -105,11 +109,16 @@ class StateGather {
         ownedLocal_.push_back(Index(i));
         nodeIds_.push_back(L.globalNode[i]);
       }
-    for (const auto& b : local.blocks())
+    for (const auto& b : local.blocks()) {
+      R_ = std::max(R_, size_t(b->gatheredSize()));
       for (Index e = 0; e < b->numElems(); ++e) {
         elems_.emplace_back(b.get(), e);
         elemIds_.push_back(L.globalElem[size_t(b->meshElem(e))]);
       }
+    }
+    unsigned long long r = R_;
+    MPI_Allreduce(MPI_IN_PLACE, &r, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    R_ = size_t(r);
     nodeCounts_ = gatherIds(nodeIds_, allNodes_, rank, size);
     elemCounts_ = gatherIds(elemIds_, allElems_, rank, size);
     if (mirror) {
@@ -128,12 +137,11 @@ class StateGather {
       for (int d = 0; d < 3; ++d) nodes.push_back(st.v(n, d));
       for (int d = 0; d < 3; ++d) nodes.push_back(st.a(n, d));
     }
-    const size_t R = size_t(6 + H_);
+    const size_t R = R_;
     std::vector<Real> elems(R * elems_.size(), 0.0);
     for (size_t k = 0; k < elems_.size(); ++k) {
       const auto [b, e] = elems_[k];
-      for (int c = 0; c < 6; ++c) elems[R * k + size_t(c)] = b->stress(e, c);
-      for (int h = 0; h < b->numHistory(); ++h) elems[R * k + 6 + size_t(h)] = b->history(h, e);
+      b->gatheredState(e, &elems[R * k]);
     }
     std::vector<Real> allN, allE;
     gatherValues(nodes, nodeCounts_, 9, allN);
@@ -150,10 +158,37 @@ class StateGather {
     }
     for (size_t k = 0; k < allElems_.size(); ++k) {
       const auto [b, e] = mirrorElem_[size_t(allElems_[k])];
-      b->setGatheredState(e, &allE[R * k], &allE[R * k + 6]);
+      b->setGatheredState(e, &allE[R * k]);
     }
     mirror->setTime(local.time());
     mirror->setReportedEnergy(local.energy());
+  }
+
+  /// The dynamic contact's pairs: each rank's owned pairs into the mirror's contact (rank 0), with
+  /// the dissipated energy summed over the ranks. Every rank calls it alike.
+  void gatherContact(const DynamicContact& local, const std::vector<Index>& pairIndex,
+                     const std::vector<std::uint8_t>& owned, DynamicContact* mirror, RankExchange& rx) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (pairCounts_.empty()) {
+      std::vector<Index> ids;
+      for (size_t k = 0; k < pairIndex.size(); ++k)
+        if (owned[k]) {
+          ownedPairs_.push_back(Index(k));
+          ids.push_back(pairIndex[k]);
+        }
+      pairCounts_ = gatherIds(ids, allPairs_, rank, size);
+    }
+    constexpr int P = DynamicContact::kGatheredSize;
+    std::vector<Real> mine(P * ownedPairs_.size()), all;
+    for (size_t k = 0; k < ownedPairs_.size(); ++k) local.gatheredPair(ownedPairs_[k], &mine[P * k]);
+    gatherValues(mine, pairCounts_, P, all);
+    Real dissipated = local.dissipatedEnergy();
+    rx.sumAll(&dissipated, 1);
+    if (!mirror) return;
+    for (size_t k = 0; k < allPairs_.size(); ++k) mirror->setGatheredPair(allPairs_[k], &all[P * k]);
+    mirror->setDissipatedEnergy(dissipated);
   }
 
  private:
@@ -180,7 +215,10 @@ class StateGather {
   }
 
   int H_;
+  size_t R_ = 13;  // values per element (ElementBlock::gatheredSize, the largest of any block)
   std::vector<Index> ownedLocal_, nodeIds_, elemIds_, allNodes_, allElems_;
+  std::vector<Index> ownedPairs_, allPairs_;
+  std::vector<int> pairCounts_;
   std::vector<std::pair<const ElementBlock*, Index>> elems_;
   std::vector<int> nodeCounts_, elemCounts_;
   std::vector<std::pair<ElementBlock*, Index>> mirrorElem_;
@@ -273,13 +311,36 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
       const std::vector<int> part = partitionRcb(global, cost, size);
       std::unique_ptr<RankExchange> exchange;
       std::unique_ptr<Solver> local, mirror;
+      std::unique_ptr<StagedAnalysis> stages;
       RankLayout layout;
+      // The materials of the whole model's regions (the seismic boundaries' columns read the
+      // elements a rank does not hold).
+      std::vector<std::shared_ptr<const Material>> regionMaterial(global.regionNames.size());
+      for (const auto& [region, v] : in.materials)
+        if (const Index r = global.regionIndex(region); r >= 0) regionMaterial[size_t(r)] = makeMaterial(v);
+      RankPart rankPart;
       if (size == 1) {  // the whole model: the solver of a plain run, no frontier
         local = buildSolver(in, global);
+        if (in.staged.present) stages = std::make_unique<StagedAnalysis>(in, global, *local);
       } else {
-        layout = makeRankLayout(global, part, rank, size);
+        // A rock-lining pair's two nodes are held together: its force needs both.
+        std::vector<std::vector<Index>> together;
+        if (in.staged.present)
+          for (size_t p = 0; p + 1 < global.rockLiningPairs.size(); p += 2)
+            together.push_back({global.rockLiningPairs[p], global.rockLiningPairs[p + 1]});
+        layout = makeRankLayout(global, part, rank, size, together);
         local = buildRankSolver(in, global, layout, exchange);
         if (rank == 0) mirror = buildSolver(in, global);
+        if (in.staged.present) {
+          rankPart.rank = rank;
+          rankPart.global = &global;
+          rankPart.localNode = &layout.localNode;
+          rankPart.owned = &layout.owned;
+          rankPart.elementMaterial.resize(size_t(global.numElems()));
+          for (Index e = 0; e < global.numElems(); ++e)
+            rankPart.elementMaterial[size_t(e)] = regionMaterial[size_t(global.region[size_t(e)])].get();
+          stages = std::make_unique<StagedAnalysis>(in, layout.mesh, *local, &rankPart);
+        }
       }
       Solver& s = *local;
       Solver* view = size == 1 ? local.get() : mirror.get();  // what the results are written from (rank 0)
@@ -300,6 +361,11 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
             << " frontier node copies\n  stable step " << st.dtCritical << " s, dt = " << s.dt() << " s, "
             << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = " << in.tEnd << " s" << std::endl;
       }
+      if (rank == 0 && stages) {
+        out << "  stages:";
+        for (const auto& n : in.staged.stages.sequence) out << " " << n;
+        out << (in.staged.condition.empty() ? "" : " (condition " + in.staged.condition + ")") << "\n";
+      }
       if (cl.check) {
         if (rank == 0) out << "tq-solid: input and mesh are valid (on " << size << " ranks)\n";
         return 0;
@@ -309,10 +375,45 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         history = std::max(history, int(makeMaterial(v)->historyNames().size()));
       std::unique_ptr<StateGather> gather;
       if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get(), history);
+      std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
+        if (gatherContact) gatherContact();
       };
       if (rank == 0) writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+      if (stages) {
+        // The static stages and the switch, on every rank alike (rank 0 says what they did).
+        std::ostream none(nullptr);
+        std::ostream& log = rank == 0 ? out : none;
+        stages->runStatics(log, in.progressSeconds);
+        if (stages->hasSeismic()) stages->switchToDynamics(log);
+        // The dynamic contact in the results: a mirror of it on rank 0, filled at every gather.
+        const auto* contact = dynamic_cast<const DynamicContact*>(stages->rockLiningInterface().get());
+        if (contact && size > 1) {
+          std::shared_ptr<DynamicContact> shown;
+          if (mirror) {
+            shown = std::make_shared<DynamicContact>(*mirror, rockLiningPairs(global), contact->params());
+            mirror->addContributor(ForcePhase::Interface, shown);
+          }
+          gatherContact = [&, contact, shown] {
+            gather->gatherContact(*contact, stages->contactPairIndex(), stages->contactPairOwned(), shown.get(),
+                                  *exchange);
+          };
+        }
+        observe();
+        if (mirror) mirror->resetMotion();  // the seismic start's displacement, as the ranks' solvers hold it
+        if (writer)
+          for (const auto& r : stages->reports())
+            writer->writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+        if (!stages->hasSeismic()) {
+          if (writer) {
+            writer->snapshot(*view);
+            writer->setStatus("completed");
+            out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl.output << "\n";
+          }
+          return 0;
+        }
+      }
       observe();
       if (writer) writer->sample(*view);
       // The next history time, from rank 0's writer, sent to every rank after each sample: the
