@@ -4,9 +4,10 @@ tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
 --distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
 the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
-or bonded tie, elastic, Mohr-Coulomb and reinforced-concrete materials, monitors, ring forces and
-snapshots. What does not run on ranks yet (the water coupling, the DRM layer of an incident wave,
-a fault offset, a motion along the tunnel's axis, subcycling, restart checkpoints) is refused by
+or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces and snapshots. What does
+not run on ranks yet (the water coupling, the DRM layer of an incident wave, a fault offset, a
+motion along the tunnel's axis, the reinforced_concrete material, subcycling, restart checkpoints)
+is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
 runs.
 """
@@ -46,6 +47,10 @@ def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
     if (d.get("time") or {}).get("subcycling"):
         reasons.append(f"subcycling (time.subcycling {d['time']['subcycling']}): set time.subcycling: 0, or run "
                        "without --ranks")
+    rc = [name for name, m in d["materials"].items() if m.get("model") == "reinforced_concrete"]
+    if rc:
+        reasons.append(f"the reinforced_concrete material (materials.{rc[0]}: its section share needs the whole "
+                       "lining ring on one rank): use mohr_coulomb_damage or elastic there, or run without --ranks")
     if shutil.which("mpirun") is None:
         reasons.append("MPI ranks, but mpirun is not installed: install the Debian package openmpi-bin "
                        "(scripts/bootstrap.sh does), or run without --ranks")

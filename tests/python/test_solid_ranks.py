@@ -82,3 +82,12 @@ def test_ranks_run_under_mpirun_oversubscribed_only_where_the_cores_are_short():
     assert fits[fits.index("tq-solid"):-1] == ["tq-solid", "in.h5", "-o", "r.h5", "--threads", "1"]
     short = solid_command("tq-solid", "in.h5", "r.h5", 1, 4, cores=2)
     assert "--oversubscribe" in short and short[short.index("-np") + 1] == "4"
+
+
+@needs_mpirun
+def test_a_reinforced_lining_is_refused_on_ranks(capsys):
+    """The reinforced lining's section share pairs each element with its face rows among the lining's
+    elements, which a partition splits: refused by name, the material to use instead named."""
+    assert main(["check", str(EXAMPLE.parents[1] / "headrace_tunnel" / "case.yaml"), "--ranks", "2"]) == 1
+    err = capsys.readouterr().err
+    assert "the reinforced_concrete material (materials.lining" in err and "use mohr_coulomb_damage" in err, err

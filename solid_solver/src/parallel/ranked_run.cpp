@@ -13,14 +13,19 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
+#include <pthread.h>
 #endif
 
 #include "tq/app/stages.hpp"
@@ -39,6 +44,39 @@ bool wantsRankedRun(const std::vector<std::string>& args) {
 }
 
 namespace {
+
+#ifdef TQ_SOLID_HAVE_MPI
+/// A run on ranks ended from outside: mpirun ends every rank with SIGTERM when one of them dies
+/// (killed, crashed) or when the run is stopped (Ctrl-C, `tunnelquake run` stopping). A thread of
+/// each rank waits for it (the signals blocked in every other thread); rank 0 then writes the
+/// results file's status, between two of its writes (the writer's lock), and every rank exits.
+struct StopWatch {
+  std::mutex mutex;                 // held by every use of the results writer
+  ResultsWriter* writer = nullptr;  // rank 0's, while it is open
+};
+StopWatch gStop;
+
+void waitForStop(sigset_t signals) {
+  int sig = 0;
+  if (sigwait(&signals, &sig) != 0) return;
+  {
+    std::lock_guard<std::mutex> lock(gStop.mutex);
+    if (gStop.writer) {
+      std::ostringstream os;
+      os << "stopped: the run on ranks was ended by signal " << sig
+         << (sig == SIGTERM ? " (SIGTERM: mpirun ends every rank when one of them is lost, or when the run is stopped)"
+                            : "")
+         << "; the results up to t = " << gStop.writer->lastSampleTime() << " s are kept";
+      try {
+        gStop.writer->setStatus(os.str());
+        std::cerr << "tq-solid: " << os.str().substr(9) << "\n";
+      } catch (const std::exception&) {
+      }
+    }
+  }
+  std::_Exit(128 + sig);
+}
+#endif
 
 struct RankCommandLine {
   std::string input, output = "results.h5";
@@ -78,8 +116,15 @@ int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err
 
 /// What the run on ranks does not support yet, or "" (the same answer on every rank: the input is
 /// the same file).
-std::string unsupportedOnRanks(const SolidInput& in) {
+std::string unsupportedOnRanks(const SolidInput& in, int ranks) {
   const std::string fix = "; run it without --ranks (one process, OpenMP threads), or leave that part out";
+  // The reinforced lining's section share reads the element's face-row partners among its block's
+  // elements: on several ranks a partner may sit on another rank (s = 0 there, not as one process).
+  for (const auto& [region, v] : in.materials)
+    if (ranks > 1 && v.model == "reinforced_concrete")
+      return "the reinforced_concrete material (region '" + region +
+             "': its section share needs the whole lining ring on one rank) does not run on ranks yet; use "
+             "mohr_coulomb_damage or elastic there, or run it without --ranks (one process, OpenMP threads)";
   const StagedInput& S = in.staged;
   if (S.present) {
     if (S.coupling.present)
@@ -297,15 +342,26 @@ std::string hms(double s) {
 /// once the file holds its status.
 int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, std::ostream& err) {
   std::unique_ptr<ResultsWriter> writer;
+  struct Unwatched {  // the watcher of stop signals lets go of the writer before it closes
+    ~Unwatched() {
+      std::lock_guard<std::mutex> lock(gStop.mutex);
+      gStop.writer = nullptr;
+    }
+  } unwatched;
+  // Every use of the writer under the watcher's lock.
+  const auto write = [&](const auto& fn) {
+    std::lock_guard<std::mutex> lock(gStop.mutex);
+    if (writer) fn(*writer);
+  };
   const auto stopWith = [&](int code, const std::string& message, const char* label) {
     if (rank == 0) err << "tq-solid: " << label << message << "\n";
-    if (writer) writer->setStatus("stopped: " + message);
+    write([&](ResultsWriter& w) { w.setStatus("stopped: " + message); });
     return code;
   };
   try {
     try {
       SolidInput in = readSolidInput(cl.input);
-      if (const std::string why = unsupportedOnRanks(in); !why.empty()) throw InputError(why);
+      if (const std::string why = unsupportedOnRanks(in, size); !why.empty()) throw InputError(why);
       const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
       const std::vector<Real> cost = elementCosts(global, in);
       const std::vector<int> part = partitionRcb(global, cost, size);
@@ -380,7 +436,11 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         if (gather) gather->gather(s, mirror.get());
         if (gatherContact) gatherContact();
       };
-      if (rank == 0) writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+      if (rank == 0) {
+        std::lock_guard<std::mutex> lock(gStop.mutex);
+        writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+        gStop.writer = writer.get();
+      }
       if (stages) {
         // The static stages and the switch, on every rank alike (rank 0 says what they did).
         std::ostream none(nullptr);
@@ -402,20 +462,21 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         }
         observe();
         if (mirror) mirror->resetMotion();  // the seismic start's displacement, as the ranks' solvers hold it
-        if (writer)
+        write([&](ResultsWriter& w) {
           for (const auto& r : stages->reports())
-            writer->writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+            w.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+        });
         if (!stages->hasSeismic()) {
-          if (writer) {
-            writer->snapshot(*view);
-            writer->setStatus("completed");
+          write([&](ResultsWriter& w) {
+            w.snapshot(*view);
+            w.setStatus("completed");
             out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl.output << "\n";
-          }
+          });
           return 0;
         }
       }
       observe();
-      if (writer) writer->sample(*view);
+      write([&](ResultsWriter& w) { w.sample(*view); });
       // The next history time, from rank 0's writer, sent to every rank after each sample: the
       // ranks decide alike when to gather, without a message at the other steps.
       Real nextSample = writer ? writer->nextSampleTime() : 0;
@@ -433,18 +494,18 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         const bool snap = nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt();
         if (due || snap) observe();
         if (due) {
-          if (writer) writer->sample(*view);
+          write([&](ResultsWriter& w) { w.sample(*view); });
           nextSample = writer ? writer->nextSampleTime() : 0;
           if (size > 1) MPI_Bcast(&nextSample, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
         }
         while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
-          if (writer) writer->snapshot(*view);
+          write([&](ResultsWriter& w) { w.snapshot(*view); });
           ++nextSnap;
         }
         if (!writer) continue;
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
-          writer->flush();
+          write([](ResultsWriter& w) { w.flush(); });
           lastFlush = now;
         }
         if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
@@ -467,22 +528,22 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         mismatch = exchange->frontierMismatch(s.state().uData(), 3);
         mismatch = std::max(mismatch, exchange->frontierMismatch(s.state().vData(), 3));
       }
-      if (writer) {
-        writer->writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
-        writer->writeAttrs("/ranks",
-                           {{"ranks", double(size)},
-                            {"threads_per_rank", double(omp_get_max_threads())},
-                            {"largest_part_over_mean", imbalance},
-                            {"frontier_node_copies", counts[0]},
-                            {"frontier_copies_max_difference", mismatch},
-                            {"wait_fraction", waitShare}},
-                           {{"partition", "recursive coordinate bisection weighted by element cost"},
-                            {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
-        writer->setStatus("completed");
+      write([&](ResultsWriter& w) {
+        w.writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
+        w.writeAttrs("/ranks",
+                     {{"ranks", double(size)},
+                      {"threads_per_rank", double(omp_get_max_threads())},
+                      {"largest_part_over_mean", imbalance},
+                      {"frontier_node_copies", counts[0]},
+                      {"frontier_copies_max_difference", mismatch},
+                      {"wait_fraction", waitShare}},
+                     {{"partition", "recursive coordinate bisection weighted by element cost"},
+                      {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
+        w.setStatus("completed");
         out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
             << (steps > 0 ? 1e6 * wall / (double(steps) * global.numElems()) : 0.0) << " µs per element-step), "
             << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  results: " << cl.output << "\n";
-      }
+      });
       return 0;
     } catch (const InputError& e) {
       return stopWith(2, e.what(), "input error: ");
@@ -507,6 +568,13 @@ int runSolidOnRanks(const std::vector<std::string>& args, std::ostream& out, std
   RankCommandLine cl;
   if (const int rc = parseRankCommandLine(args, err, cl); rc >= 0) return rc;
 #ifdef TQ_SOLID_HAVE_MPI
+  // The stop signals go to one thread of each rank (waitForStop): blocked here, before MPI and
+  // OpenMP start theirs, so that every thread inherits the block.
+  sigset_t stops;
+  sigemptyset(&stops);
+  for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&stops, sig);
+  pthread_sigmask(SIG_BLOCK, &stops, nullptr);
+  std::thread(waitForStop, stops).detach();
   int ready = 0;
   MPI_Initialized(&ready);
   if (!ready) {
