@@ -324,16 +324,18 @@ TEST(RankRuns, AnInstabilityOnOneRankStopsEveryRankWithTheStatusWritten) {
 // differs at the level of the quantity itself (a dropped frontier term: order 1). The monitors'
 // accelerations, to 1e-8: each is a velocity increment over one step, Δv/Δt, and the shaking's Δv
 // is small beside the round-off that the prestressed state's highest modes give v (ω_max² ε |u|
-// Δt); measured here 2.3e-10 (2-4 ranks), and on the 3D scene of docs/benchmarks.md 1.6e-8 between
-// ranks and one process, 1.4e-8 between two one-process runs that differ only in their SIMD path
-// (TQ_SOLID_SIMD=generic): the computation's own round-off.
+// Δt). Measured here (2, 3, 8 ranks): 6.6e-12, 5.6e-12, 6.3e-12, the accelerations 1.5e-11,
+// 1.1e-11, 1.7e-11; with a 2-element lining and a stricter relaxation the accelerations reached
+// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.6e-8 between ranks and one process where
+// two one-process runs that differ only in their SIMD path (TQ_SOLID_SIMD=generic) differ by
+// 1.4e-8: the computation's own round-off.
 TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
   Files f;
   tqcases::QuarterSpec qs;
   qs.nTheta = 8;
   qs.L = 6 * qs.b;
   qs.liningT = 0.75;
-  qs.nLining = 2;
+  qs.nLining = 1;
   const Mesh mesh = tqcases::quarterPlate(qs);
   writeMeshH5(mesh, f / "mesh.h5");
   SolidInput in;
@@ -352,11 +354,11 @@ TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
   in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}};
   in.options.gravity[2] = -9.81;
   in.options.damping = {1.0, 0.0};
-  in.tEnd = 0.06;
+  in.tEnd = 0.045;
   StagedInput& S = in.staged;
   S.present = true;
   S.stages.sequence = {"in_situ", "excavation", "lining", "seismic"};
-  S.stages.tolerance = 1e-4;
+  S.stages.tolerance = 1e-3;
   S.inSitu.present = true;
   S.inSitu.kx = 1.2;
   S.inSitu.gravity = 9.81;
@@ -368,8 +370,8 @@ TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
   S.freeField.present = true;
   S.freeField.faces = {"xmax"};
   S.motion.present = true;
-  for (Real t = 0; t <= 0.06 + 1e-12; t += 1e-3) {  // a 25 Hz pulse, 0.8 g across, 0.5 g vertical
-    const Real a = 8.0 * std::sin(2 * M_PI * 25 * t) * std::exp(-std::pow((t - 0.025) / 0.01, 2));
+  for (Real t = 0; t <= 0.045 + 1e-12; t += 1e-3) {  // a 25 Hz pulse, 0.8 g across, 0.5 g vertical
+    const Real a = 8.0 * std::sin(2 * M_PI * 25 * t) * std::exp(-std::pow((t - 0.02) / 0.008, 2));
     S.motion.time.push_back(t);
     S.motion.ax.push_back(a);
     S.motion.az.push_back(0.6 * a);
