@@ -16,6 +16,8 @@ from __future__ import annotations
 import os
 import shutil
 
+from .children import STOP_GRACE_S
+
 
 class RanksError(ValueError):
     """--ranks cannot be honoured: the message says why and what to do."""
@@ -87,6 +89,11 @@ def solid_command(exe, solid_input, results, threads: int, ranks: int, cores: in
     # A waiting rank yields its core (OpenMPI spins in its waits otherwise): on a shared 2-core
     # machine 2 ranks of a 1,000-element box took 3.2-11.5 us an element-step spinning, 0.44-1.26 yielding.
     cmd += ["--mca", "mpi_yield_when_idle", "1"]
+    # When a rank dies mpirun ends the others with SIGTERM, then SIGKILL after this many seconds
+    # (default 1): rank 0 writes the results file's status in between. With the default, a 2-rank run
+    # killed on this machine's 2 cores under a load of 24 was SIGKILLed while writing it (the status
+    # stayed 'running').
+    cmd += ["--mca", "odls_base_sigkill_timeout", str(int(STOP_GRACE_S))]
     cmd += ["-x", "OMP_NUM_THREADS=" + str(threads), "-x", "OMP_WAIT_POLICY"] if "OMP_WAIT_POLICY" in os.environ \
         else ["-x", "OMP_NUM_THREADS=" + str(threads)]
     return cmd + base + ["--distributed"]

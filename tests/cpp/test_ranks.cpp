@@ -148,7 +148,8 @@ int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1")
 // project's containers).
 std::string mpiexec(int ranks) {
   return std::string(TQ_TEST_MPIEXEC) + (::geteuid() == 0 ? " --allow-run-as-root" : "") +
-         " --oversubscribe --bind-to none --mca mpi_yield_when_idle 1 -np " + std::to_string(ranks) + " ";
+         " --oversubscribe --bind-to none --mca mpi_yield_when_idle 1 --mca odls_base_sigkill_timeout 5 -np " +
+         std::to_string(ranks) + " ";
 }
 
 // The largest difference between two runs' values of each dataset, and its largest magnitude.
