@@ -10,16 +10,18 @@ solid_input.write_solid_input), runs tq-solid on it as one process, then under
 compares every dataset under /monitors, /energy, /interface, /ring_forces and /snapshots with the
 one-process run: the largest difference relative to the largest magnitude of its dataset (an
 interface pair's opening and slip against the snapshot's largest displacement), the monitors'
-accelerations apart; and the same for the one-process run with the generic SIMD path
+accelerations apart, and the datasets written in single precision (the ring forces) in units of
+the last bit of their largest magnitude; and the same for the one-process run with the generic SIMD path
 (TQ_SOLID_SIMD=generic), the computation's own round-off.
 
     slice      the built-in example (cases/paper_tunnel), slice mode, condition no_water: in-situ,
                excavation, lining with the dynamic contact, Mohr-Coulomb damage in rock and lining,
                viscoelastic base and free-field sides, the record's first END seconds
     scene3d    a 3D scene unlike the example: cases/pressure_tunnel (a weathered layer over the rock,
-               its own records across the tunnel and vertical) as a 3D block 3 m long, coarse, its
-               lining and rock Mohr-Coulomb, the dynamic contact, condition static_water (the
-               hydrostatic stage)
+               its own records across the tunnel and vertical, scaled to 0.8 g and 0.5 g) as a 3D
+               block 3 m long, coarse, its lining and rock Mohr-Coulomb and weakened (they yield),
+               the dynamic contact with 0.01 MPa cohesion and friction 0.05 (pairs slip), condition
+               static_water (the hydrostatic stage)
 
 --rounds R > 0 also times R rounds of one rank against the one-process run (the whole command's
 CPU time, user + system, mpirun included) and prints the median ratio.
@@ -65,7 +67,14 @@ def _scene(name: str, folder: Path, end: float) -> tuple[Path, str]:
         data["mesh"].update({"mode": "3d", "max_element_size": "6 m", "lining_elements_around": 16,
                              "lining_elements_through": 1, "near_field_radial_divisions": 3,
                              "elements_along_axis": 3})
-        data["interface"] = {"model": "dynamic_contact", "cohesion": "0.2 MPa"}
+        data["interface"] = {"model": "dynamic_contact", "cohesion": "0.01 MPa", "static_friction": 0.05,
+                             "dynamic_friction": 0.05}
+        # weaker ground and lining and a stronger shaking than the case's, so that both yield and
+        # pairs slip or open
+        data["materials"]["rock"].update({"cohesion": "0.3 MPa", "tensile_strength": "0.15 MPa"})
+        data["materials"]["lining"].update({"tensile_strength": "0.5 MPa"})
+        data["ground_motion"]["pga"] = "0.8 g"
+        data["ground_motion"]["vertical"]["pga"] = "0.5 g"
         data["ground_motion"].pop("second_horizontal", None)  # a 3D block's y faces are on rollers
         for m in data["output"]["monitors"].values():
             m[1] = 1.5
@@ -91,8 +100,8 @@ def _datasets(res: Path) -> dict[str, np.ndarray]:
         assert f.attrs["status"] == "completed", (res, f.attrs["status"])
 
         def take(name, obj):
-            if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiu":
-                out[name] = np.asarray(obj[()], dtype=float)
+            if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiu":  # single precision kept so
+                out[name] = np.asarray(obj[()], dtype=np.float32 if obj.dtype == np.float32 else float)
 
         for g in GROUPS:
             if g in f:
@@ -116,7 +125,7 @@ def _compare(ref: dict, got: dict) -> dict:
     """The largest relative difference of the accelerations and of everything else, where, the
     datasets equal bitwise, and how many of the ring forces' envelope peak times differ (the time of
     a peak is the sample of the largest value: two nearly equal samples may swap on round-off)."""
-    out = {"worst": (0.0, ""), "acc": (0.0, ""), "bitwise": [], "peak_times": [0, 0]}
+    out = {"worst": (0.0, ""), "acc": (0.0, ""), "bitwise": [], "peak_times": [0, 0], "f32_ulps": (0.0, "")}
     assert set(ref) == set(got), set(ref) ^ set(got)
     for k, a in ref.items():
         b = got[k]
@@ -126,6 +135,14 @@ def _compare(ref: dict, got: dict) -> dict:
             out["peak_times"][1] += a[:, 1::2].size
             a, b = a[:, 0::2], b[:, 0::2]
         same = (a == b) | (np.isnan(a) & np.isnan(b))
+        if a.dtype == np.float32:  # written in single precision (ring forces): its last bit, 6e-8, apart
+            last = float(np.spacing(np.float32(np.nanmax(np.abs(a))))) if a.size and not np.all(np.isnan(a)) else 1.0
+            ulps = float(np.max(np.where(same, 0.0, np.abs(a.astype(float) - b)))) / last if a.size else 0.0
+            if ulps == 0:
+                out["bitwise"].append(k)
+            if ulps > out["f32_ulps"][0]:
+                out["f32_ulps"] = (ulps, k)
+            continue
         diff = float(np.max(np.where(same, 0.0, np.abs(a - b)))) if a.size else 0.0
         scale = _scale(ref, k)
         rel = diff / scale if scale > 0 else diff
@@ -211,7 +228,8 @@ def _compare_only(folder: Path, ranks: list[int]) -> int:
             continue
         c = _compare(ref, _datasets(folder / f"{name}.h5"))
         print(f"{name}: largest relative difference {c['worst'][0]:.3g} ({c['worst'][1]}), accelerations "
-              f"{c['acc'][0]:.3g} ({c['acc'][1]}); {len(c['bitwise'])} of {len(ref)} datasets bitwise; envelope "
+              f"{c['acc'][0]:.3g} ({c['acc'][1]}); single precision: {c['f32_ulps'][0]:.3g} ulp "
+              f"({c['f32_ulps'][1]}); {len(c['bitwise'])} of {len(ref)} datasets bitwise; envelope "
               f"peak times differing {c['peak_times'][0]} of {c['peak_times'][1]}")
     return 0
 
