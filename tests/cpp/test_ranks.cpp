@@ -113,6 +113,9 @@ TEST(RankLayout, FrontierListsAgreeBetweenNeighboursAndEachNodeHasOneOwner) {
 namespace {
 
 // Every dataset under a group (recursively): path -> values.
+// The datasets written in single precision (the ring forces), by path.
+std::set<std::string> gSinglePrecision;
+
 void readAll(hid_t f, const std::string& group, std::map<std::string, std::vector<double>>& out) {
   for (const std::string& name : h5::members(h5::openGroup(f, group))) {
     const std::string path = group + "/" + name;
@@ -124,8 +127,13 @@ void readAll(hid_t f, const std::string& group, std::map<std::string, std::vecto
 #endif
     if (info.type == H5O_TYPE_GROUP)
       readAll(f, path, out);
-    else if (info.type == H5O_TYPE_DATASET)
+    else if (info.type == H5O_TYPE_DATASET) {
       out[path] = h5::readDoubles(f, path);
+      const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT), t = H5Dget_type(d);
+      if (H5Tget_class(t) == H5T_FLOAT && H5Tget_size(t) == 4) gSinglePrecision.insert(path);
+      H5Tclose(t);
+      H5Dclose(d);
+    }
   }
 }
 
@@ -172,7 +180,8 @@ std::map<std::string, std::pair<double, double>> differences(const std::map<std:
 // tq-solid as one process and on 1-4 ranks (or those given): the largest difference of any
 // monitored value (every dataset under `groups`) relative to the largest magnitude of its series,
 // under 1e-10 (`accelerations`: the monitors' accelerations under that bound instead; see the
-// staged tunnel below for why a prestressed model's need another).
+// staged tunnel below for why a prestressed model's need another); a dataset written in single
+// precision (the ring forces' N, M, V, diameter change) within the last bit of its peak.
 void compareRanks(const Files& f, const std::string& label, const std::vector<int>& rankCounts = {1, 2, 3, 4},
                   const std::vector<std::string>& groups = kHistories, double accelerations = 1e-10) {
   const std::string exe = TQ_TEST_SOLID_EXE, in = f / "solid_input.h5";
@@ -197,6 +206,12 @@ void compareRanks(const Files& f, const std::string& label, const std::vector<in
       const auto [diff, scale] = ds;
       if (ranks == 1) EXPECT_EQ(diff, 0.0) << path << ": one rank is the plain run, bitwise";
       const double rel = scale > 0 ? diff / scale : diff;
+      if (gSinglePrecision.count(path)) {  // its last bit at its peak: 6e-8 of it
+        const float peak = float(scale);
+        EXPECT_LE(diff, double(std::nextafter(peak, 2 * peak + 1) - peak))
+            << label << " on " << ranks << " ranks: " << path << " (single precision) differs by more than its last bit";
+        continue;
+      }
       const bool acc = path.size() > 2 && path.compare(path.size() - 2, 2, "/a") == 0;
       if (acc && rel > worstA) worstA = rel, whereA = path;
       if (!acc && rel > worst) worst = rel, where = path;
