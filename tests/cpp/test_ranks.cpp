@@ -209,7 +209,8 @@ void compareRanks(const Files& f, const std::string& label, const std::vector<in
       if (gSinglePrecision.count(path)) {  // its last bit at its peak: 6e-8 of it
         const float peak = float(scale);
         EXPECT_LE(diff, double(std::nextafter(peak, 2 * peak + 1) - peak))
-            << label << " on " << ranks << " ranks: " << path << " (single precision) differs by more than its last bit";
+            << label << " on " << ranks << " ranks: " << path
+            << " (single precision) differs by more than its last bit";
         continue;
       }
       const bool acc = path.size() > 2 && path.compare(path.size() - 2, 2, "/a") == 0;
