@@ -343,9 +343,9 @@ TEST(RankRuns, AnInstabilityOnOneRankStopsEveryRankWithTheStatusWritten) {
 // is small beside the round-off that the prestressed state's highest modes give v (ω_max² ε |u|
 // Δt). Measured here (2, 3, 8 ranks): 6.6e-12, 5.6e-12, 6.3e-12, the accelerations 1.5e-11,
 // 1.1e-11, 1.7e-11; with a 2-element lining and a stricter relaxation the accelerations reached
-// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.6e-8 between ranks and one process where
+// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.2-1.8e-8 between ranks and one process where
 // two one-process runs that differ only in their SIMD path (TQ_SOLID_SIMD=generic) differ by
-// 1.4e-8: the computation's own round-off.
+// 1.5e-8: the computation's own round-off.
 TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
   Files f;
   tqcases::QuarterSpec qs;
