@@ -568,4 +568,5 @@ def run_held(case, command: str, resume: bool = False, post: bool = True, ranks:
             return 1
         if note:
             say(f"note: {note}")
-        return supervise.supervised(case, lambda: run_case(case, resume, post, ranks))
+        return supervise.supervised(case, lambda: run_case(case, resume, post, ranks) if ranks > 1
+                                    else run_case(case, resume, post))
