@@ -41,6 +41,7 @@ def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case,
     assert main(["check", str(case), "--ranks", "4"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
+    assert "the solid on 4 MPI ranks" in captured.out
 
 
 @needs_mpirun

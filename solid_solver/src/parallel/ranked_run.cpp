@@ -141,11 +141,11 @@ std::string unsupportedOnRanks(const SolidInput& in, int ranks) {
 }
 
 /// The state rank 0 needs for the results: each rank's owned nodes (u, v, a) and its elements
-/// (stress, history), gathered into the mirror (a solver of the whole model on rank 0).
+/// (ElementBlock::gatheredState: active flag, stress, strain record, history), gathered into the
+/// mirror (a solver of the whole model on rank 0).
 class StateGather {
  public:
-  StateGather(const RankLayout& L, const Solver& local, Solver* mirror, int history) : H_(history) {
-    (void)H_;
+  StateGather(const RankLayout& L, const Solver& local, Solver* mirror) {
     int rank = 0, size = 1;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -259,7 +259,6 @@ class StateGather {
                 MPI_COMM_WORLD);
   }
 
-  int H_;
   size_t R_ = 13;  // values per element (ElementBlock::gatheredSize, the largest of any block)
   std::vector<Index> ownedLocal_, nodeIds_, elemIds_, allNodes_, allElems_;
   std::vector<Index> ownedPairs_, allPairs_;
@@ -349,13 +348,13 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
     }
   } unwatched;
   // Every use of the writer under the watcher's lock.
-  const auto write = [&](const auto& fn) {
+  const auto withWriter = [&](const auto& fn) {
     std::lock_guard<std::mutex> lock(gStop.mutex);
     if (writer) fn(*writer);
   };
   const auto stopWith = [&](int code, const std::string& message, const char* label) {
     if (rank == 0) err << "tq-solid: " << label << message << "\n";
-    write([&](ResultsWriter& w) { w.setStatus("stopped: " + message); });
+    withWriter([&](ResultsWriter& w) { w.setStatus("stopped: " + message); });
     return code;
   };
   try {
@@ -426,11 +425,8 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         if (rank == 0) out << "tq-solid: input and mesh are valid (on " << size << " ranks)\n";
         return 0;
       }
-      int history = 0;
-      for (const auto& [region, v] : in.materials)
-        history = std::max(history, int(makeMaterial(v)->historyNames().size()));
       std::unique_ptr<StateGather> gather;
-      if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get(), history);
+      if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get());
       std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
@@ -462,12 +458,12 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         }
         observe();
         if (mirror) mirror->resetMotion();  // the seismic start's displacement, as the ranks' solvers hold it
-        write([&](ResultsWriter& w) {
+        withWriter([&](ResultsWriter& w) {
           for (const auto& r : stages->reports())
             w.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
         });
         if (!stages->hasSeismic()) {
-          write([&](ResultsWriter& w) {
+          withWriter([&](ResultsWriter& w) {
             w.snapshot(*view);
             w.setStatus("completed");
             out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl.output << "\n";
@@ -476,7 +472,7 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         }
       }
       observe();
-      write([&](ResultsWriter& w) { w.sample(*view); });
+      withWriter([&](ResultsWriter& w) { w.sample(*view); });
       // The next history time, from rank 0's writer, sent to every rank after each sample: the
       // ranks decide alike when to gather, without a message at the other steps.
       Real nextSample = writer ? writer->nextSampleTime() : 0;
@@ -494,18 +490,18 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         const bool snap = nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt();
         if (due || snap) observe();
         if (due) {
-          write([&](ResultsWriter& w) { w.sample(*view); });
+          withWriter([&](ResultsWriter& w) { w.sample(*view); });
           nextSample = writer ? writer->nextSampleTime() : 0;
           if (size > 1) MPI_Bcast(&nextSample, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
         }
         while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
-          write([&](ResultsWriter& w) { w.snapshot(*view); });
+          withWriter([&](ResultsWriter& w) { w.snapshot(*view); });
           ++nextSnap;
         }
         if (!writer) continue;
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
-          write([](ResultsWriter& w) { w.flush(); });
+          withWriter([](ResultsWriter& w) { w.flush(); });
           lastFlush = now;
         }
         if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
@@ -528,7 +524,7 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         mismatch = exchange->frontierMismatch(s.state().uData(), 3);
         mismatch = std::max(mismatch, exchange->frontierMismatch(s.state().vData(), 3));
       }
-      write([&](ResultsWriter& w) {
+      withWriter([&](ResultsWriter& w) {
         w.writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
         w.writeAttrs("/ranks",
                      {{"ranks", double(size)},
