@@ -58,7 +58,7 @@ def _solid_capabilities(exe) -> set[str]:
 
 
 def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
-                        resume: bool | dict = False) -> tuple[int, object]:
+                        resume: bool | dict = False, ranks: int = 1) -> tuple[int, object]:
     """Write this condition's solid input and run tq-solid on it; results_<cond>.h5 beside the
     report. tq-solid exits 0 when completed, 2 on bad input, 3 when it stopped (unstable...), 4 when
     the water coupling stopped (dynamic_water: partner lost, timeout, handshake, divergence).
@@ -77,6 +77,14 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
             say(f"condition {cond}: no solid input: {e}")
             return 2, res
         threads = solid_threads(case, mesh_dir(case) / "mesh.h5", 2 if prefix else 1)
+    if ranks > 1:  # on MPI ranks (solid_ranks): one thread a rank unless the cores allow more
+        from .solid_ranks import solid_command
+
+        threads = max(1, threads // ranks)
+        cmd = solid_command(paths.solid_executable(), inp, res, threads, ranks)
+        started(cond, res)
+        say(f"condition {cond}: running the solid on {ranks} ranks, no restart checkpoints ({' '.join(cmd)})")
+        return children.run(cmd, env=solid_env()).returncode, res
     cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
@@ -391,9 +399,10 @@ def what_was_written(res: Path) -> str:
     return f"what the solid wrote is in {res.name} (status {status})"
 
 
-def run_case(case, resume: bool = False, post: bool = True) -> int:
+def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> int:
     """The run itself: mesh, motion, the conditions (`resume`: from their restart checkpoints,
-    restart.resume_plan), post. Raises children.Interrupted when a signal stops it between steps."""
+    restart.resume_plan; `ranks`: the solid-only conditions' solid on that many MPI ranks), post.
+    Raises children.Interrupted when a signal stops it between steps."""
     t0 = time.perf_counter()
     which = f" (variant {case.variant})" if case.variant else ""
     resuming: dict[str, str] = {}
@@ -472,7 +481,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
         t1 = time.perf_counter()
         choice = resuming.get(cond)
         rc, res = run_solid_condition(case, cond, motion_file, prefix=prefix,
-                                      resume=choice.point if choice == "checkpoint" else False)
+                                      resume=choice.point if choice == "checkpoint" else False, ranks=ranks)
         children.check()
         if rc == 0:
             forget_resume_source(case, cond)
@@ -544,7 +553,7 @@ def run_case(case, resume: bool = False, post: bool = True) -> int:
     return 0
 
 
-def run_held(case, command: str, resume: bool = False, post: bool = True) -> int:
+def run_held(case, command: str, resume: bool = False, post: bool = True, ranks: int = 1) -> int:
     """Take the case's results folder (one run at a time; `command` says who holds it), then run the
     job under the supervisor that turns SIGINT, SIGTERM and SIGHUP into an orderly stop."""
     import contextlib
@@ -559,4 +568,5 @@ def run_held(case, command: str, resume: bool = False, post: bool = True) -> int
             return 1
         if note:
             say(f"note: {note}")
-        return supervise.supervised(case, lambda: run_case(case, resume, post))
+        return supervise.supervised(case, lambda: run_case(case, resume, post, ranks) if ranks > 1
+                                    else run_case(case, resume, post))

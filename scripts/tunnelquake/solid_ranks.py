@@ -2,37 +2,68 @@
 tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
---distributed``: elastic and Mohr-Coulomb materials, supports, loads, gravity, Rayleigh damping,
-monitors and snapshots. The staged analysis every case runs (in-situ state, excavation and lining
-stages, the seismic boundaries, the input motion, the rock-lining contact, the DRM layer, the
-water coupling) does not run on ranks yet: ``tunnelquake check`` and ``run`` refuse ``--ranks N``
-above 1 for a case, naming what is missing, before anything runs.
+--distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
+the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
+or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces and snapshots. What does
+not run on ranks yet (the water coupling, the DRM layer of an incident wave, a fault offset, a
+motion along the tunnel's axis, the reinforced_concrete material, subcycling, restart checkpoints)
+is refused by
+``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
+runs.
 """
 from __future__ import annotations
 
 import os
 import shutil
 
+from .children import STOP_GRACE_S
+
 
 class RanksError(ValueError):
     """--ranks cannot be honoured: the message says why and what to do."""
 
 
-def ranks_refusal(case, ranks: int) -> list[str]:
-    """What keeps this case from running its solid on `ranks` ranks (empty: it can)."""
+def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
+    """What keeps this case from running its solid on `ranks` ranks (empty: it can), each with its fix."""
     if ranks < 1:
         return [f"--ranks {ranks}: give 1 or more"]
     if ranks == 1:
         return []
+    from .motion import along_axis
+
     d = case.data
-    reasons = ["the staged analysis every case runs (in-situ state, excavation and lining stages, the "
-               "viscoelastic and free-field boundaries, the input motion): tq-solid on ranks runs unstaged "
-               "inputs only so far"]
-    if d.get("interface", {}).get("model") == "dynamic_contact":
-        reasons.append("the rock-lining dynamic contact (interface.model: dynamic_contact), whose pairs may "
-                       "cross a partition boundary")
+    reasons = []
     if "dynamic_water" in d.get("conditions", []):
-        reasons.append("the water coupling (condition dynamic_water)")
+        reasons.append("the water coupling (condition dynamic_water): run the conditions no_water and "
+                       "static_water on ranks (conditions: [no_water, static_water]) and dynamic_water without --ranks")
+    if (d.get("incident_wave") or {}).get("type", "none") != "none":
+        reasons.append("the domain reduction layer of the incident wave (incident_wave.type "
+                       f"{d['incident_wave']['type']}): remove incident_wave, or run without --ranks")
+    if (d.get("fault_offset") or {}).get("slip") is not None or (d.get("fault_offset") or {}).get("magnitude") \
+            is not None:
+        reasons.append("the fault offset (fault_offset): remove it, or run without --ranks")
+    if along_axis(d["ground_motion"]):
+        reasons.append("a motion along the tunnel's axis (ground_motion.second_horizontal or azimuth), which the "
+                       "slice takes through periodic faces: use a motion across the tunnel and vertical only, or "
+                       "run without --ranks")
+    if (d.get("time") or {}).get("subcycling"):
+        reasons.append(f"subcycling (time.subcycling {d['time']['subcycling']}): set time.subcycling: 0, or run "
+                       "without --ranks")
+    from .case import lining_joints_active
+
+    if lining_joints_active(d):
+        reasons.append("the lining's joints (lining_joints: their node pairs are not yet split among ranks): remove "
+                       "lining_joints, or run without --ranks")
+    rc = [name for name, m in d["materials"].items() if m.get("model") == "reinforced_concrete"]
+    if rc:
+        reasons.append(f"the reinforced_concrete material (materials.{rc[0]}: its section share needs the whole "
+                       "lining ring on one rank): use mohr_coulomb_damage or elastic there, or run without --ranks")
+    if shutil.which("mpirun") is None:
+        reasons.append("MPI ranks, but mpirun is not installed: install the Debian package openmpi-bin "
+                       "(scripts/bootstrap.sh does), or run without --ranks")
+    if resume:
+        reasons.append("--resume (restart checkpoints are not written on ranks): run without --resume, or without "
+                       "--ranks")
     return reasons
 
 
@@ -40,8 +71,8 @@ def refusal_message(ranks: int, reasons: list[str]) -> str:
     if ranks < 1:
         return reasons[0]
     return (f"--ranks {ranks}: the solid cannot run this case on ranks yet; it uses " + "; ".join(reasons)
-            + ". Run it without --ranks (one process, OpenMP threads: --threads is chosen for you), "
-              "docs/architecture.md \"The solid on ranks\"")
+            + ". Without --ranks it runs as one process with OpenMP threads (docs/architecture.md \"The solid on "
+              "ranks\")")
 
 
 def solid_command(exe, solid_input, results, threads: int, ranks: int, cores: int | None = None) -> list[str]:
@@ -63,6 +94,11 @@ def solid_command(exe, solid_input, results, threads: int, ranks: int, cores: in
     # A waiting rank yields its core (OpenMPI spins in its waits otherwise): on a shared 2-core
     # machine 2 ranks of a 1,000-element box took 3.2-11.5 us an element-step spinning, 0.44-1.26 yielding.
     cmd += ["--mca", "mpi_yield_when_idle", "1"]
+    # When a rank dies mpirun ends the others with SIGTERM, then SIGKILL after this many seconds
+    # (default 1): rank 0 writes the results file's status in between. With the default, a 2-rank run
+    # killed on this machine's 2 cores under a load of 24 was SIGKILLed while writing it (the status
+    # stayed 'running').
+    cmd += ["--mca", "odls_base_sigkill_timeout", str(int(STOP_GRACE_S))]
     cmd += ["-x", "OMP_NUM_THREADS=" + str(threads), "-x", "OMP_WAIT_POLICY"] if "OMP_WAIT_POLICY" in os.environ \
         else ["-x", "OMP_NUM_THREADS=" + str(threads)]
     return cmd + base + ["--distributed"]

@@ -59,6 +59,15 @@ inline void writeStagedGroups(hid_t f, const SolidInput& in) {
     auto g = h5::ensureGroup(f, "/boundaries/free_field");
     h5::writeStringListAttr(g, K::boundaries_free_field::faces.name, S.freeField.faces);
   }
+  if (S.rockLining.present) {
+    auto g = h5::ensureGroup(f, "/interfaces/rock_lining");
+    const InterfaceInput& R = S.rockLining;
+    h5::writeStringAttr(g, K::interfaces_rock_lining::model.name, R.model);
+    h5::writeDoubleAttr(g, K::interfaces_rock_lining::static_friction.name, R.staticFriction);
+    h5::writeDoubleAttr(g, K::interfaces_rock_lining::dynamic_friction.name, R.dynamicFriction);
+    h5::writeDoubleAttr(g, K::interfaces_rock_lining::cohesion.name, R.cohesion);
+    h5::writeStringAttr(g, K::interfaces_rock_lining::after_failure.name, R.afterFailure);
+  }
   if (S.motion.present) {
     auto g = h5::ensureGroup(f, "/motion");
     const MotionInput& M = S.motion;

@@ -2,6 +2,7 @@
 // layout (frontier, owners), and tq-solid on 1, 2, 3 and 4 ranks (oversubscribed where the machine
 // has fewer cores) against the same run as one process: every monitored quantity equal to round-off.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 #include "tq/parallel/partition.hpp"
 #include "tq/parallel/rank_exchange.hpp"
 #include "tq/parallel/rank_layout.hpp"
+#include "tunnel_cases.hpp"
 
 using namespace tq;
 
@@ -111,6 +113,9 @@ TEST(RankLayout, FrontierListsAgreeBetweenNeighboursAndEachNodeHasOneOwner) {
 namespace {
 
 // Every dataset under a group (recursively): path -> values.
+// The datasets written in single precision (the ring forces), by path.
+std::set<std::string> gSinglePrecision;
+
 void readAll(hid_t f, const std::string& group, std::map<std::string, std::vector<double>>& out) {
   for (const std::string& name : h5::members(h5::openGroup(f, group))) {
     const std::string path = group + "/" + name;
@@ -122,18 +127,26 @@ void readAll(hid_t f, const std::string& group, std::map<std::string, std::vecto
 #endif
     if (info.type == H5O_TYPE_GROUP)
       readAll(f, path, out);
-    else if (info.type == H5O_TYPE_DATASET)
+    else if (info.type == H5O_TYPE_DATASET) {
       out[path] = h5::readDoubles(f, path);
+      const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT), t = H5Dget_type(d);
+      if (H5Tget_class(t) == H5T_FLOAT && H5Tget_size(t) == 4) gSinglePrecision.insert(path);
+      H5Tclose(t);
+      H5Dclose(d);
+    }
   }
 }
 
-std::map<std::string, std::vector<double>> monitored(const std::string& results) {
+const std::vector<std::string> kHistories = {"/monitors", "/energy"};
+
+std::map<std::string, std::vector<double>> monitored(const std::string& results,
+                                                     const std::vector<std::string>& groups = kHistories) {
   h5::quiet();
   auto f = h5::openFile(results);
   EXPECT_EQ(h5::readStringAttr(f, "status"), "completed") << results;
   std::map<std::string, std::vector<double>> out;
-  readAll(f, "/monitors", out);
-  readAll(f, "/energy", out);
+  for (const std::string& g : groups)
+    if (H5Lexists(f, g.c_str(), H5P_DEFAULT) > 0) readAll(f, g, out);
   return out;
 }
 
@@ -143,21 +156,43 @@ int run(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1")
 // project's containers).
 std::string mpiexec(int ranks) {
   return std::string(TQ_TEST_MPIEXEC) + (::geteuid() == 0 ? " --allow-run-as-root" : "") +
-         " --oversubscribe --bind-to none --mca mpi_yield_when_idle 1 -np " + std::to_string(ranks) + " ";
+         " --oversubscribe --bind-to none --mca mpi_yield_when_idle 1 --mca odls_base_sigkill_timeout 5 -np " +
+         std::to_string(ranks) + " ";
 }
 
-// tq-solid as one process and on 1-4 ranks: the largest difference of any monitored value relative
-// to the largest magnitude of its series.
-void compareRanks(const Files& f, const std::string& label) {
+// The largest difference between two runs' values of each dataset, and its largest magnitude.
+std::map<std::string, std::pair<double, double>> differences(const std::map<std::string, std::vector<double>>& a,
+                                                             const std::map<std::string, std::vector<double>>& b) {
+  std::map<std::string, std::pair<double, double>> out;
+  for (const auto& [path, x] : a) {
+    const auto& y = b.at(path);
+    EXPECT_EQ(x.size(), y.size()) << path;
+    double scale = 0, diff = 0;
+    for (size_t i = 0; i < x.size() && i < y.size(); ++i) {
+      scale = std::max(scale, std::abs(x[i]));
+      diff = std::max(diff, std::abs(x[i] - y[i]));
+    }
+    out[path] = {diff, scale};
+  }
+  return out;
+}
+
+// tq-solid as one process and on 1-4 ranks (or those given): the largest difference of any
+// monitored value (every dataset under `groups`) relative to the largest magnitude of its series,
+// under 1e-10 (`accelerations`: the monitors' accelerations under that bound instead; see the
+// staged tunnel below for why a prestressed model's need another); a dataset written in single
+// precision (the ring forces' N, M, V, diameter change) within the last bit of its peak.
+void compareRanks(const Files& f, const std::string& label, const std::vector<int>& rankCounts = {1, 2, 3, 4},
+                  const std::vector<std::string>& groups = kHistories, double accelerations = 1e-10) {
   const std::string exe = TQ_TEST_SOLID_EXE, in = f / "solid_input.h5";
   ASSERT_EQ(run(exe + " " + in + " --threads 1 -o " + (f / "plain.h5")), 0);
-  const auto plain = monitored(f / "plain.h5");
+  const auto plain = monitored(f / "plain.h5", groups);
   ASSERT_FALSE(plain.empty());
-  for (int ranks : {1, 2, 3, 4}) {
+  for (int ranks : rankCounts) {
     const std::string out = f / ("ranks" + std::to_string(ranks) + ".h5");
     ASSERT_EQ(run(mpiexec(ranks) + exe + " " + in + " --distributed --threads 1 -o " + out), 0)
         << label << " on " << ranks << " ranks";
-    const auto got = monitored(out);
+    const auto got = monitored(out, groups);
     if (ranks > 1) {  // the copies of a frontier node agree bitwise on every rank that holds it
       auto r = h5::openFile(out);
       auto g = h5::openGroup(r, "/ranks");
@@ -165,23 +200,28 @@ void compareRanks(const Files& f, const std::string& label) {
       EXPECT_EQ(h5::readDoubleAttr(g, "frontier_copies_max_difference"), 0.0) << label << ", " << ranks;
     }
     ASSERT_EQ(got.size(), plain.size());
-    double worst = 0;
-    std::string where;
-    for (const auto& [path, a] : plain) {
-      const auto& b = got.at(path);
-      ASSERT_EQ(a.size(), b.size()) << path;
-      double scale = 0, diff = 0;
-      for (size_t i = 0; i < a.size(); ++i) {
-        scale = std::max(scale, std::abs(a[i]));
-        diff = std::max(diff, std::abs(a[i] - b[i]));
-      }
+    double worst = 0, worstA = 0;
+    std::string where, whereA;
+    for (const auto& [path, ds] : differences(plain, got)) {
+      const auto [diff, scale] = ds;
       if (ranks == 1) EXPECT_EQ(diff, 0.0) << path << ": one rank is the plain run, bitwise";
       const double rel = scale > 0 ? diff / scale : diff;
-      if (rel > worst) worst = rel, where = path;
+      if (gSinglePrecision.count(path)) {  // its last bit at its peak: 6e-8 of it
+        const float peak = float(scale);
+        EXPECT_LE(diff, double(std::nextafter(peak, 2 * peak + 1) - peak))
+            << label << " on " << ranks << " ranks: " << path
+            << " (single precision) differs by more than its last bit";
+        continue;
+      }
+      const bool acc = path.size() > 2 && path.compare(path.size() - 2, 2, "/a") == 0;
+      if (acc && rel > worstA) worstA = rel, whereA = path;
+      if (!acc && rel > worst) worst = rel, where = path;
     }
     std::cout << "[ranks] " << label << ", " << ranks << " rank(s): largest relative difference " << worst
-              << (where.empty() ? "" : " (" + where + ")") << "\n";
+              << (where.empty() ? "" : " (" + where + ")") << "; accelerations " << worstA
+              << (whereA.empty() ? "" : " (" + whereA + ")") << "\n";
     EXPECT_LT(worst, 1e-10) << label << " on " << ranks << " ranks, at " << where;
+    EXPECT_LT(worstA, accelerations) << label << " on " << ranks << " ranks, at " << whereA;
   }
 }
 
@@ -288,30 +328,229 @@ TEST(RankRuns, AnInstabilityOnOneRankStopsEveryRankWithTheStatusWritten) {
   EXPECT_EQ(h5::readStringAttr(r, "status").rfind("stopped: ", 0), 0u) << h5::readStringAttr(r, "status");
 }
 
-TEST(RankRuns, StagedInputIsRefusedOnRanksWithTheReason) {
+// The staged analysis on ranks: in-situ stress, excavation, the lining installed with the dynamic
+// contact on the rock-lining pairs, then an earthquake through a viscoelastic base and a free-field
+// side, both rock and lining Mohr-Coulomb with damage. A quarter of a lined tunnel (plane strain),
+// small enough for 6 runs in seconds; a strong pulse, a weak interface and weak rock, so that pairs
+// slip or open and the ground yields, and the pairs cross the partition boundaries on 2 and more
+// ranks. Every monitored value (monitors with damage, energy terms, the interface's pair counts and
+// dissipated energy, the lining's ring forces) equals the one-process run to 1e-10 of its series'
+// largest magnitude: the sums that differ from one process are the frontier nodes' internal forces
+// and masses (summed in rank order instead of element order) and the energy terms, so the runs
+// differ by round-off grown over the steps, and a wrong pair force, boundary term or missed copy
+// differs at the level of the quantity itself (a dropped frontier term: order 1). The monitors'
+// accelerations, to 1e-8: each is a velocity increment over one step, Δv/Δt, and the shaking's Δv
+// is small beside the round-off that the prestressed state's highest modes give v (ω_max² ε |u|
+// Δt). Measured here (2, 3, 8 ranks): 6.6e-12, 5.6e-12, 6.3e-12, the accelerations 1.5e-11,
+// 1.1e-11, 1.7e-11; with a 2-element lining and a stricter relaxation the accelerations reached
+// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.2-1.8e-8 between ranks and one process where
+// two one-process runs that differ only in their SIMD path (TQ_SOLID_SIMD=generic) differ by
+// 1.5e-8: the computation's own round-off.
+TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
+  Files f;
+  tqcases::QuarterSpec qs;
+  qs.nTheta = 8;
+  qs.L = 6 * qs.b;
+  qs.liningT = 0.75;
+  qs.nLining = 1;
+  const Mesh mesh = tqcases::quarterPlate(qs);
+  writeMeshH5(mesh, f / "mesh.h5");
+  SolidInput in;
+  MohrCoulombDamageParams rock, lining;
+  rock.elastic = {8e9, 0.27, 2700};
+  rock.cohesion = 0.15e6;
+  rock.frictionAngle = 30;
+  rock.tensileStrength = 0.1e6;
+  rock.damageConstant = 100;
+  lining.elastic = {28e9, 0.17, 2500};
+  lining.cohesion = 1.8e6;
+  lining.frictionAngle = 40;
+  lining.tensileStrength = 0.3e6;
+  lining.damageConstant = 100;
+  in.materials = {{"rock", mohrCoulombDamageValues(rock)}, {"lining", mohrCoulombDamageValues(lining)}};
+  in.fixed = {{"bottom", "z"}, {"xmin", "x"}, {"xmax", "x"}};
+  in.options.gravity[2] = -9.81;
+  in.options.damping = {1.0, 0.0};
+  in.tEnd = 0.045;
+  StagedInput& S = in.staged;
+  S.present = true;
+  S.stages.sequence = {"in_situ", "excavation", "lining", "seismic"};
+  S.stages.tolerance = 1e-3;
+  S.inSitu.present = true;
+  S.inSitu.kx = 1.2;
+  S.inSitu.gravity = 9.81;
+  S.inSitu.surcharge = 2e6;
+  S.rockLining.present = true;
+  S.rockLining.model = "dynamic_contact";
+  S.rockLining.cohesion = 0.02e6;
+  S.bottom.present = true;
+  S.freeField.present = true;
+  S.freeField.faces = {"xmax"};
+  S.motion.present = true;
+  for (Real t = 0; t <= 0.045 + 1e-12; t += 1e-3) {  // a 25 Hz pulse, 0.8 g across, 0.5 g vertical
+    const Real a = 8.0 * std::sin(2 * M_PI * 25 * t) * std::exp(-std::pow((t - 0.02) / 0.008, 2));
+    S.motion.time.push_back(t);
+    S.motion.ax.push_back(a);
+    S.motion.az.push_back(0.6 * a);
+  }
+  in.monitors = {{"crown", {0.0, 0.25, 4.9}},
+                 {"springline", {4.9, 0.25, 0.3}},
+                 {"haunch", {3.5, 0.25, 3.5}},
+                 {"rock", {8.0, 0.25, 8.0}}};
+  in.monitorDt = 1e-3;
+  in.progressSeconds = 100;
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
+  // The pairs cross the partitions: some pair's rock node is used by the elements of other ranks
+  // than its lining node (those ranks then hold both, the layout's `together` groups).
+  {
+    const std::vector<Real> cost = elementCosts(mesh, readSolidInput(f / "solid_input.h5"));
+    Index crossing = 0;
+    for (int ranks : {2, 3, 4, 8}) {
+      const std::vector<int> part = partitionRcb(mesh, cost, ranks);
+      std::vector<std::set<int>> users(size_t(mesh.numNodes()));
+      for (Index e = 0; e < mesh.numElems(); ++e)
+        for (int k = 0; k < 8; ++k) users[size_t(mesh.connectivity[8 * size_t(e) + k])].insert(part[size_t(e)]);
+      Index here = 0;
+      for (size_t p = 0; p < mesh.rockLiningPairs.size(); p += 2)
+        here += users[size_t(mesh.rockLiningPairs[p])] != users[size_t(mesh.rockLiningPairs[p + 1])];
+      std::cout << "[ranks] " << ranks << " ranks: " << here << " of " << mesh.rockLiningPairs.size() / 2
+                << " rock-lining pairs cross the partition\n";
+      crossing += here;
+    }
+    EXPECT_GT(crossing, 0) << "no rock-lining pair crosses a partition: the case does not test that";
+  }
+  compareRanks(f, "staged tunnel with contact and damage", {1, 2, 3, 8},
+               {"/monitors", "/energy", "/interface", "/ring_forces"}, 1e-8);
+  // The case does what it is for: damage, and pairs that slipped or opened.
+  auto r = h5::openFile(f / "ranks8.h5");
+  std::map<std::string, std::vector<double>> all;
+  readAll(r, "/monitors", all);
+  double damage = 0;
+  for (const auto& [path, v] : all)
+    if (path.find("damage") != std::string::npos)
+      for (double x : v) damage = std::max(damage, x);
+  EXPECT_GT(damage, 1e-3) << "no damage at any monitor";
+  const std::vector<double> history = h5::readDoubles(r, "/interface/history");
+  double failed = 0;  // columns: time, bonded, separated, slipping, stuck, inactive, dissipated
+  for (size_t i = 0; i + 7 <= history.size(); i += 7) failed = std::max(failed, history[i + 2] + history[i + 3]);
+  EXPECT_GT(failed, 0) << "no pair separated or slipped";
+}
+
+namespace {
+
+// The pid of the process of rank `rank` among the children of `parent` (mpiexec starts its ranks
+// as its own children, each with OMPI_COMM_WORLD_RANK in its environment), or -1.
+pid_t rankProcess(pid_t parent, int rank) {
+  for (const auto& e : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream st(e.path() / "stat");
+    std::string line;
+    std::getline(st, line);
+    const size_t close = line.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(line.substr(close + 2));
+    char state = 0;
+    pid_t ppid = -1;
+    rest >> state >> ppid;
+    if (ppid != parent) continue;
+    std::ifstream env(e.path() / "environ", std::ios::binary);
+    std::string var;
+    while (std::getline(env, var, '\0'))
+      if (var == "OMPI_COMM_WORLD_RANK=" + std::to_string(rank)) return pid_t(std::stol(name));
+  }
+  return -1;
+}
+
+// Running (a zombie whose parent has not reaped it yet counts as ended).
+bool alive(pid_t pid) {
+  std::ifstream st("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(st, line)) return false;
+  const size_t close = line.rfind(')');
+  return close != std::string::npos && close + 2 < line.size() && line[close + 2] != 'Z' && line[close + 2] != 'X';
+}
+
+}  // namespace
+
+// A rank killed mid-run (SIGKILL: it cannot say anything) stops the whole run: mpirun ends the
+// other ranks, rank 0 writes the results file's status on its way out ("stopped: ..."), the samples
+// written so far stay readable, and no rank is left running.
+TEST(RankRuns, AKilledRankStopsEveryRankWithTheStatusWritten) {
+  Files f;
+  writeMeshH5(makeBoxMesh({12, 6, 6, 0, 0, 0, 12, 6, 6}), f / "mesh.h5");
+  SolidInput in;
+  in.materials = {{"rock", elasticValues({8e9, 0.27, 2700})}};
+  in.fixed = {{"xmin", "xyz"}};
+  in.tEnd = 100;  // far longer than the test waits
+  LoadInput tip;
+  tip.name = "tip";
+  tip.target = "xmax";
+  tip.direction = 2;
+  tip.force = -1e5;
+  in.loads = {tip};
+  in.monitors = {{"tip", {12, 3, 3}}};
+  in.monitorDt = 1e-4;
+  in.progressSeconds = 0.2;
+  test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
+  const std::string log = f / "log.txt", res = f / "r.h5", pidFile = f / "pid";
+  ASSERT_EQ(std::system(("(" + mpiexec(3) + TQ_TEST_SOLID_EXE + " " + (f / "solid_input.h5") + " --distributed -o " +
+                         res + " > " + log + " 2>&1 & echo $! > " + pidFile + ")")
+                            .c_str()),
+            0);
+  pid_t mpirun = -1;
+  std::ifstream(pidFile) >> mpirun;
+  ASSERT_GT(mpirun, 0);
+  const auto readLog = [&] {
+    std::ifstream is(log);
+    std::stringstream ss;
+    ss << is.rdbuf();
+    return ss.str();
+  };
+  // Stepping: rank 0 has printed progress (samples written), rank 2 is there.
+  pid_t victim = -1;
+  for (int i = 0; i < 600 && (victim < 0 || readLog().find("  t = ") == std::string::npos); ++i) {
+    ::usleep(100000);
+    if (victim < 0) victim = rankProcess(mpirun, 2);
+  }
+  ASSERT_GT(victim, 0) << "rank 2 not found\n" << readLog();
+  ASSERT_NE(readLog().find("  t = "), std::string::npos) << readLog();
+  const pid_t rank0 = rankProcess(mpirun, 0), rank1 = rankProcess(mpirun, 1);
+  ASSERT_EQ(::kill(victim, SIGKILL), 0);
+  for (int i = 0; i < 300 && alive(mpirun); ++i) ::usleep(100000);
+  EXPECT_FALSE(alive(mpirun)) << "mpirun still running 30 s after a rank was killed";
+  EXPECT_FALSE(rank0 > 0 && alive(rank0)) << "rank 0 left running";
+  EXPECT_FALSE(rank1 > 0 && alive(rank1)) << "rank 1 left running";
+  h5::quiet();
+  auto r = h5::openFile(res);
+  const std::string status = h5::readStringAttr(r, "status");
+  EXPECT_EQ(status.rfind("stopped: ", 0), 0u) << status << "\n" << readLog();
+  EXPECT_NE(status.find("ended by signal"), std::string::npos) << status;
+  EXPECT_GT(h5::readDoubles(r, "/monitors/tip/time").size(), 1u) << "the samples before the kill are kept";
+}
+
+// What does not run on ranks yet is refused before anything runs, by name, with the fix.
+TEST(RankRuns, WhatDoesNotRunOnRanksIsRefusedWithTheReason) {
   Files f;
   writeMeshH5(makeBoxMesh({2, 2, 2, 0, 0, 0, 2, 2, 2}), f / "mesh.h5");
   SolidInput in;
   in.materials = {{"rock", elasticValues({8e9, 0.27, 2700})}};
+  in.fixed = {{"bottom", "xyz"}};
   in.tEnd = 0.01;
   in.progressSeconds = 100;
-  in.staged.present = true;
-  in.staged.stages.sequence = {"seismic"};
-  in.staged.bottom.present = true;
-  in.staged.motion.present = true;
-  in.staged.motion.time = {0, 1};
-  in.staged.motion.ax = {0, 0};
+  in.options.subcyclingLevels = 2;
   test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
   const std::string log = f / "log.txt";
   const int rc = std::system((mpiexec(2) + TQ_TEST_SOLID_EXE + " " + (f / "solid_input.h5") + " --distributed -o " +
                               (f / "r.h5") + " > " + log + " 2>&1")
                                  .c_str());
-  EXPECT_NE(rc, 0);
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
   std::ifstream is(log);
   std::stringstream ss;
   ss << is.rdbuf();
+  EXPECT_NE(ss.str().find("subcycling"), std::string::npos) << ss.str();
   EXPECT_NE(ss.str().find("does not run on ranks yet"), std::string::npos) << ss.str();
-  EXPECT_NE(ss.str().find("the seismic boundaries"), std::string::npos) << ss.str();
+  EXPECT_NE(ss.str().find("without --ranks"), std::string::npos) << ss.str();
 }
 
 #endif

@@ -23,6 +23,7 @@
 """
 from __future__ import annotations
 
+import shutil
 import subprocess
 import textwrap
 
@@ -160,6 +161,17 @@ def test_the_joint_keys_pass_check(tmp_path):
     case = load_case(_case(tmp_path))
     lj = case.data["lining_joints"]
     assert lj["normal_stiffness"] == 1e6 and lj["allowed_opening"] == 1e-3 and lj["friction"] is None
+
+
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_joints_are_refused_on_ranks_naming_them_and_the_fix(tmp_path, capsys):
+    """The joints' node pairs are not split among ranks: `check --ranks 2` refuses the case before
+    anything runs, naming lining_joints and the fix."""
+    from tunnelquake.cli import main
+
+    assert main(["check", str(_case(tmp_path)), "--ranks", "2"]) == 1
+    err = capsys.readouterr().err
+    assert "the lining's joints (lining_joints" in err and "run without --ranks" in err, err
 
 
 # ------------------------------------------------------------------------------------------------

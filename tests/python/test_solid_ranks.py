@@ -1,7 +1,10 @@
 """The solid on MPI ranks, the Python side: `--ranks N` of `tunnelquake check` and `run` refuses,
-before anything runs, what tq-solid cannot run on ranks yet (every case's staged analysis), naming
-it; and the mpirun command line of a run on ranks (oversubscribed only where the cores are short).
-The ranks themselves are tested in tests/cpp/test_ranks.cpp (tq-solid on 1-4 ranks against one process)."""
+before anything runs, what tq-solid cannot run on ranks yet (the water coupling, an incident wave's
+DRM layer, a fault offset, a motion along the axis, subcycling, --resume), naming it and the fix, and
+accepts the rest (the staged analysis, the seismic boundaries, the dynamic contact, damage); and the
+mpirun command line of a run on ranks (oversubscribed only where the cores are short). The ranks
+themselves are tested in tests/cpp/test_ranks.cpp (tq-solid on 1-8 ranks against one process,
+the staged tunnel with contact and damage among them)."""
 from __future__ import annotations
 
 import shutil
@@ -12,19 +15,56 @@ from conftest import EXAMPLE
 from tunnelquake.cli import main
 from tunnelquake.solid_ranks import solid_command
 
+needs_mpirun = pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+
 
 def test_check_with_one_rank_is_the_plain_check(capsys):
     assert main(["check", str(EXAMPLE), "--ranks", "1"]) == 0
     assert "is valid" in capsys.readouterr().out
 
 
+@needs_mpirun
 @pytest.mark.parametrize("command", ["check", "run"])
-def test_ranks_above_one_are_refused_for_a_staged_case_naming_what_is_missing(command, capsys, tmp_path):
+def test_the_water_coupling_is_refused_on_ranks_naming_it_and_the_fix(command, capsys):
     assert main([command, str(EXAMPLE), "--ranks", "3"]) == 1
     captured = capsys.readouterr()
-    assert "--ranks 3" in captured.err and "staged analysis" in captured.err
-    assert "without --ranks" in captured.err  # the fix
+    assert "--ranks 3" in captured.err and "the water coupling (condition dynamic_water)" in captured.err
+    assert "conditions: [no_water, static_water]" in captured.err  # the fix
+    assert "staged analysis" not in captured.err  # the staged analysis runs on ranks
     assert "is valid" not in captured.out and "running" not in captured.out  # refused before anything ran
+
+
+@needs_mpirun
+def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
+    case = write_case(example_text.replace("conditions: [no_water, static_water, dynamic_water]",
+                                           "conditions: [no_water, static_water]"))
+    assert main(["check", str(case), "--ranks", "4"]) == 0
+    captured = capsys.readouterr()
+    assert "is valid" in captured.out and "--ranks" not in captured.err
+    assert "the solid on 4 MPI ranks" in captured.out
+
+
+@needs_mpirun
+@pytest.mark.parametrize("edit,named", [
+    (("time:\n", "time:\n  subcycling: 2\n"), "subcycling (time.subcycling 2)"),
+    (("ground_motion:\n", "ground_motion:\n  azimuth: 30 deg\n"), "a motion along the tunnel's axis"),
+])
+def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text, capsys, edit, named):
+    text = example_text.replace("conditions: [no_water, static_water, dynamic_water]", "conditions: [no_water]")
+    if edit[0] not in text:
+        text += "\n" + edit[0]
+    case = write_case(text.replace(edit[0], edit[1], 1))
+    assert main(["check", str(case), "--ranks", "2"]) == 1
+    err = capsys.readouterr().err
+    assert named in err and "without --ranks" in err, err
+
+
+@needs_mpirun
+def test_resume_is_refused_on_ranks(write_case, example_text, capsys):
+    case = write_case(example_text.replace("conditions: [no_water, static_water, dynamic_water]",
+                                           "conditions: [no_water]"))
+    assert main(["run", str(case), "--ranks", "2", "--resume"]) == 1
+    assert "--resume (restart checkpoints are not written on ranks)" in capsys.readouterr().err
 
 
 def test_ranks_below_one_are_refused(capsys):
@@ -36,10 +76,19 @@ def test_one_rank_is_the_plain_command_line():
     assert solid_command("tq-solid", "in.h5", "r.h5", 2, 1) == ["tq-solid", "in.h5", "-o", "r.h5", "--threads", "2"]
 
 
-@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+@needs_mpirun
 def test_ranks_run_under_mpirun_oversubscribed_only_where_the_cores_are_short():
     fits = solid_command("tq-solid", "in.h5", "r.h5", 1, 2, cores=2)
     assert fits[1:3] == ["-np", "2"] and fits[-1] == "--distributed" and "--oversubscribe" not in fits
     assert fits[fits.index("tq-solid"):-1] == ["tq-solid", "in.h5", "-o", "r.h5", "--threads", "1"]
     short = solid_command("tq-solid", "in.h5", "r.h5", 1, 4, cores=2)
     assert "--oversubscribe" in short and short[short.index("-np") + 1] == "4"
+
+
+@needs_mpirun
+def test_a_reinforced_lining_is_refused_on_ranks(capsys):
+    """The reinforced lining's section share pairs each element with its face rows among the lining's
+    elements, which a partition splits: refused by name, the material to use instead named."""
+    assert main(["check", str(EXAMPLE.parents[1] / "headrace_tunnel" / "case.yaml"), "--ranks", "2"]) == 1
+    err = capsys.readouterr().err
+    assert "the reinforced_concrete material (materials.lining" in err and "use mohr_coulomb_damage" in err, err

@@ -46,6 +46,9 @@ def main(argv: list[str]) -> int:
     say(f"  block x {g['x_range']} y {g['y_range']} z {g['z_range']} m; tunnel r={g['excavated_radius']:g} m "
         f"at z={g['tunnel_centre_z']:g} m, lining {g['lining_thickness']:g} m; mesh mode {d['mesh']['mode']}")
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
+    if args.ranks > 1:
+        say(f"  the solid on {args.ranks} MPI ranks (mpirun, the model partitioned between them; no restart "
+            "checkpoints: docs/architecture.md \"The solid on ranks\")")
     from ..case import ground_layers
 
     if ground_layers(d):

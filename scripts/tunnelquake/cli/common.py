@@ -26,14 +26,14 @@ def parser(prog: str, description: str) -> argparse.ArgumentParser:
 def add_ranks_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--ranks", type=int, metavar="N", default=1,
                    help="run the solid on N MPI ranks, the model partitioned between them (mpirun -np N; "
-                        "docs/architecture.md \"The solid on ranks\" says what runs on ranks so far)")
+                        "docs/architecture.md \"The solid on ranks\" says what runs on ranks)")
 
 
-def refuse_ranks(case: Case, ranks: int) -> bool:
+def refuse_ranks(case: Case, ranks: int, resume: bool = False) -> bool:
     """True (after printing why) when the case cannot run its solid on `ranks` ranks."""
     from ..solid_ranks import ranks_refusal, refusal_message
 
-    reasons = ranks_refusal(case, ranks)
+    reasons = ranks_refusal(case, ranks, resume)
     if reasons:
         print(f"error: {refusal_message(ranks, reasons)}", file=sys.stderr)
     return bool(reasons)
@@ -43,7 +43,7 @@ def load_for_ranks(args: argparse.Namespace) -> Case | None:
     """The case of the command line (args.case, args.variant) when it loads and its solid can run on
     args.ranks ranks; None after printing why not."""
     case = load_or_report(args.case, args.variant)
-    if case is None or refuse_ranks(case, args.ranks):
+    if case is None or refuse_ranks(case, args.ranks, bool(getattr(args, "resume", False))):
         return None
     return case
 

@@ -26,6 +26,10 @@ def main(argv: list[str]) -> int:
     case = load_for_ranks(args)
     if case is None:
         return 1
+    if case.data["suite"]["records"] is not None and args.ranks > 1:
+        print(f"error: --ranks {args.ranks}: a record suite runs its members side by side (--workers); run it "
+              "without --ranks", file=sys.stderr)
+        return 1
     if case.data["suite"]["records"] is not None:
         return suite_run.main(case, args, argv)
     used = [f"--{k}" for k in ("workers", "executor", "slurm") if getattr(args, k) not in (None, False)]
@@ -33,4 +37,5 @@ def main(argv: list[str]) -> int:
         print(f"error: {', '.join(used)}: only for a case with a suite: section (docs/user_guide.md \"Record "
               "suites\")", file=sys.stderr)
         return 1
-    return run_held(case, "tunnelquake run " + " ".join(map(str, argv)), resume=args.resume, post=not args.no_post)
+    return run_held(case, "tunnelquake run " + " ".join(map(str, argv)), resume=args.resume, post=not args.no_post,
+                    ranks=args.ranks)

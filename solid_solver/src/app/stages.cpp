@@ -13,6 +13,7 @@
 #include <ostream>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 namespace tq {
 
@@ -59,8 +60,12 @@ void HeldExcavationLoad::addForces(Real, Real, NodalState& state) {
   for (size_t i = 0; i < n; ++i) fe[i] += f_[i];
 }
 
-StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver)
-    : in_(in), mesh_(mesh), solver_(solver) {
+StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver, const RankPart* part)
+    : in_(in),
+      mesh_(mesh),
+      model_(part ? *part->global : mesh),
+      solver_(solver),
+      part_(part ? std::make_unique<RankPart>(*part) : nullptr) {
   const StagedInput& S = in.staged;
   if (!S.present) throw InputError("solid input '" + in.path + "': no stages (version 1 input)");
   const Real lambda = S.stages.releaseFraction;
@@ -72,7 +77,9 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
                      "', /stages: release_fraction < 1 holds part of the excavation "
                      "load until the lining stage: the sequence needs both 'excavation' and 'lining'");
   for (auto& b : solver_.blocks())
-    if (b->name() == S.stages.liningRegion) lining_ = b.get();
+    if (b->name() == S.stages.liningRegion) linings_.push_back(b.get());
+  if (const Index r = model_.regionIndex(S.stages.liningRegion); r >= 0)
+    hasLining_ = std::find(model_.region.begin(), model_.region.end(), r) != model_.region.end();
   if (S.drm.present()) {
     try {
       drm_ = std::make_shared<DomainReduction>(mesh_, solver_.blocks(), S.drm, solver_.options().damping.beta);
@@ -82,27 +89,46 @@ StagedAnalysis::StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& s
   }
   const bool liningStage = S.stages.has("lining");
   if (liningStage) {
-    if (!lining_)
+    if (!hasLining_)
       throw InputError("solid input '" + in.path + "', /stages: the lining stage needs region '" +
-                       S.stages.liningRegion + "' in mesh " + mesh.source + " (set lining_region or remove the stage)");
-    if (mesh.rockLiningPairs.empty())
-      throw InputError("mesh " + mesh.source +
+                       S.stages.liningRegion + "' in mesh " + model_.source +
+                       " (set lining_region or remove the stage)");
+    if (model_.rockLiningPairs.empty())
+      throw InputError("mesh " + model_.source +
                        " has no /interfaces/rock_lining node pairs, which the lining "
                        "stage needs to join the lining to the rock");
   }
   if (S.faultOffset.present)
     for (Index n : S.faultOffset.nodes)
-      if (n < 0 || n >= mesh.numNodes())
+      if (n < 0 || n >= model_.numNodes())
         throw InputError("solid input '" + in.path + "', /fault_offset: node " + std::to_string(n) +
-                         " is not a node of mesh " + mesh.source + " (" + std::to_string(mesh.numNodes()) +
+                         " is not a node of mesh " + model_.source + " (" + std::to_string(model_.numNodes()) +
                          " nodes); rewrite the input from its mesh");
-  if (S.stages.has("hydrostatic") && !mesh.faces.count(S.hydrostatic.face))
-    mesh.faceNodes(S.hydrostatic.face);  // throws the missing-group message
+  if (S.stages.has("hydrostatic") && !model_.faces.count(S.hydrostatic.face))
+    model_.faceNodes(S.hydrostatic.face);  // throws the missing-group message
   if (S.stages.has("seismic")) {
-    if (S.bottom.present) axisFace(mesh, S.bottom.face);  // throws if missing or not a plane
-    for (const auto& f : S.freeField.faces) axisFace(mesh, f);
-    for (const auto& f : S.freeField.sharedColumnFaces) axisFace(mesh, f);
+    if (S.bottom.present) axisFace(model_, S.bottom.face);  // throws if missing or not a plane
+    for (const auto& f : S.freeField.faces) axisFace(model_, f);
+    for (const auto& f : S.freeField.sharedColumnFaces) axisFace(model_, f);
   }
+}
+
+void StagedAnalysis::sumRanks(Real* v, int n) const {
+  if (RankExchange* rx = solver_.rankExchange()) rx->sumAll(v, n);
+}
+
+std::vector<Real> StagedAnalysis::toLocal(const std::vector<Real>& global) const {
+  if (!part_) return global;
+  std::vector<Real> f(3 * size_t(mesh_.numNodes()), 0.0);
+  const std::vector<Index>& loc = *part_->localNode;
+  for (size_t n = 0; n < loc.size(); ++n)
+    if (loc[n] >= 0)
+      for (size_t d = 0; d < 3; ++d) f[3 * size_t(loc[n]) + d] = global[3 * n + d];
+  return f;
+}
+
+bool StagedAnalysis::isLining(const ElementBlock* b) const {
+  return std::find(linings_.begin(), linings_.end(), b) != linings_.end();
 }
 
 namespace {
@@ -137,26 +163,16 @@ struct OverburdenProfile {
   }
 };
 
-OverburdenProfile overburdenProfile(const std::vector<std::unique_ptr<ElementBlock>>& blocks,
-                                    const ElementBlock* lining, const Mesh& mesh) {
-  struct Range {
-    Real lo, hi, rho;
-    std::string name;
-  };
-  std::vector<Range> ranges;
+/// The heights a ground region's elements span, and its density.
+struct HeightRange {
+  Real lo, hi, rho;
+  std::string name;
+};
+
+OverburdenProfile overburdenProfile(const std::vector<HeightRange>& ranges) {
+  using Range = HeightRange;
   Real span = 0;
-  for (const auto& b : blocks) {
-    if (b.get() == lining || b->numElems() == 0) continue;
-    Range r{std::numeric_limits<Real>::max(), -std::numeric_limits<Real>::max(), b->material().density(), b->name()};
-    for (Index e = 0; e < b->numElems(); ++e)
-      for (int k = 0; k < 8; ++k) {
-        const Real z = mesh.coords[dofIndex(b->node(e, k), 2)];
-        r.lo = std::min(r.lo, z);
-        r.hi = std::max(r.hi, z);
-      }
-    span = std::max(span, r.hi - r.lo);
-    ranges.push_back(r);
-  }
+  for (const Range& r : ranges) span = std::max(span, r.hi - r.lo);
   const Real tol = 1e-9 * std::max(1.0, span);
   // Cut the heights at every region's ends; each piece takes the density of the regions over it.
   std::vector<Real> cuts;
@@ -192,12 +208,49 @@ OverburdenProfile overburdenProfile(const std::vector<std::unique_ptr<ElementBlo
 
 void StagedAnalysis::setInSituStress() {
   const InSituInput& I = in_.staged.inSitu;
-  const Real zTop = std::isfinite(I.zTop) ? I.zTop : zTopOf(mesh_);
-  // One overburden density for all (/in_situ density), or the layered profile of the regions.
+  const Real zTop = std::isfinite(I.zTop) ? I.zTop : zTopOf(model_);
+  // One overburden density for all (/in_situ density), or the layered profile of the regions: the
+  // heights of each block's elements (on ranks: of each region's, over every rank).
   OverburdenProfile profile;
-  if (!(I.density > 0)) profile = overburdenProfile(solver_.blocks(), lining_, mesh_);
+  if (!(I.density > 0)) {
+    constexpr Real kFar = std::numeric_limits<Real>::max();
+    std::vector<HeightRange> ranges;
+    const auto span = [&](const ElementBlock& b, HeightRange& r) {
+      for (Index e = 0; e < b.numElems(); ++e)
+        for (int k = 0; k < 8; ++k) {
+          const Real z = mesh_.coords[dofIndex(b.node(e, k), 2)];
+          r.lo = std::min(r.lo, z);
+          r.hi = std::max(r.hi, z);
+        }
+    };
+    if (!part_) {
+      for (const auto& b : solver_.blocks())
+        if (!isLining(b.get()) && b->numElems() > 0) {
+          HeightRange r{kFar, -kFar, b->material().density(), b->name()};
+          span(*b, r);
+          ranges.push_back(r);
+        }
+    } else {
+      RankExchange& rx = *solver_.rankExchange();
+      for (size_t g = 0; g < model_.regionNames.size(); ++g) {
+        const std::string& name = model_.regionNames[g];
+        if (name == in_.staged.stages.liningRegion) continue;
+        HeightRange r{kFar, -kFar, 0, name};
+        for (const auto& b : solver_.blocks())
+          if (b->name() == name) {
+            r.rho = b->material().density();
+            span(*b, r);
+          }
+        r.lo = rx.minAll(r.lo);
+        r.hi = rx.maxAll(r.hi);
+        r.rho = rx.maxAll(r.rho);
+        if (r.lo <= r.hi) ranges.push_back(r);
+      }
+    }
+    profile = overburdenProfile(ranges);
+  }
   for (auto& b : solver_.blocks()) {
-    if (b.get() == lining_) continue;
+    if (isLining(b.get())) continue;
     for (Index e = 0; e < b->numElems(); ++e) {
       Real zc = 0;
       for (int k = 0; k < 8; ++k) zc += 0.125 * mesh_.coords[dofIndex(b->node(e, k), 2)];
@@ -256,12 +309,14 @@ StageReport StagedAnalysis::relaxStage(const std::string& name, std::ostream& lo
   // released core tractions, the lining's weight, the water pressure), but at least 1e-6 of the
   // model's force scale (so a stage that adds no load does not chase round-off).
   solver_.computeForces(true);
-  Real fi2 = 0, fe2 = 0;
+  Real f2[2] = {0, 0};  // |f_int|², |f_ext|²
   for (Index i = 0; i < 3 * s.numNodes(); ++i) {
-    fi2 += s.fIntData()[i] * s.fIntData()[i];
-    fe2 += s.fExtData()[i] * s.fExtData()[i];
+    if (!counts(i / 3)) continue;
+    f2[0] += s.fIntData()[i] * s.fIntData()[i];
+    f2[1] += s.fExtData()[i] * s.fExtData()[i];
   }
-  const Real r0 = solver_.residualNorm(), scale = std::sqrt(std::max(fi2, fe2));
+  sumRanks(f2, 2);
+  const Real r0 = solver_.residualNorm(), scale = std::sqrt(std::max(f2[0], f2[1]));
   rp.referenceForce = std::max({r0, 1e-6 * scale, std::numeric_limits<Real>::min()});
   const RelaxResult r = solver_.relax(rp);
   rep.steps = r.steps;
@@ -282,18 +337,21 @@ std::string StagedAnalysis::notInEquilibrium(const std::string& name, const Rela
   solver_.computeForces(true);
   const NodalState& s = solver_.state();
   const Index N = s.numNodes();
+  // Each node's region: that of the first block (in block order) with an element on it.
   std::vector<int> region(size_t(N), -1);
   const auto& blocks = solver_.blocks();
+  const size_t R = mesh_.regionNames.size();
   for (size_t b = 0; b < blocks.size(); ++b)
     for (Index e = 0; e < blocks[b]->numElems(); ++e)
       for (int k = 0; k < 8; ++k) {
         int& g = region[size_t(blocks[b]->node(e, k))];
-        if (g < 0) g = int(b);
+        if (g < 0) g = int(mesh_.region[size_t(blocks[b]->meshElem(e))]);
       }
-  std::vector<Real> share(blocks.size(), 0.0);
-  Real total = 0, largest = -1;
+  std::vector<Real> share(R + 1, 0.0);  // per region, then the total
+  Real largest = -1;
   Index at = 0;
   for (Index n = 0; n < N; ++n) {
+    if (!counts(n)) continue;
     Real r2 = 0;
     for (int d = 0; d < 3; ++d) {
       if (solver_.isFixed(n, d)) continue;
@@ -301,21 +359,40 @@ std::string StagedAnalysis::notInEquilibrium(const std::string& name, const Rela
       const Real f = s.fExtData()[i] - s.fIntData()[i];
       r2 += f * f;
     }
-    total += r2;
+    share[R] += r2;
     if (region[size_t(n)] >= 0) share[size_t(region[size_t(n)])] += r2;
     if (r2 > largest) largest = r2, at = n;
   }
+  // The largest nodal force's place: x, y, z and region (on ranks: of the rank that holds the
+  // largest, the lowest such rank).
+  Real where[4] = {0, 0, 0, -1};
+  if (largest >= 0)
+    for (int d = 0; d < 3; ++d) where[d] = mesh_.coords[3 * size_t(at) + size_t(d)];
+  if (largest >= 0) where[3] = region[size_t(at)];
+  if (RankExchange* rx = solver_.rankExchange()) {
+    sumRanks(share.data(), int(share.size()));
+    const Real top = rx->maxAll(largest);
+    const int first = int(rx->minAll(largest == top ? Real(part_->rank) : Real(1e9)));
+    Real mine[5] = {0, 0, 0, 0, 0};
+    if (part_->rank == first) mine[0] = where[0], mine[1] = where[1], mine[2] = where[2], mine[3] = where[3] + 1;
+    sumRanks(mine, 4);
+    where[0] = mine[0], where[1] = mine[1], where[2] = mine[2], where[3] = mine[3] - 1;
+    largest = top;
+  }
+  const Real total = share[R];
+  share.pop_back();
   std::ostringstream os;
   os << std::setprecision(3) << "stage '" << name << "' did not reach static equilibrium in " << r.steps
      << " relaxation steps (unbalanced-force ratio " << r.ratio << ", tolerance " << st.tolerance << "). ";
   if (total > 0) {
     const size_t worst = size_t(std::max_element(share.begin(), share.end()) - share.begin());
-    const Real* x = &mesh_.coords[3 * size_t(at)];
-    const int g = region[size_t(at)];
-    os << "Not in equilibrium: the " << (g >= 0 ? blocks[size_t(g)]->name() : std::string("mesh"))
+    const Real* x = where;
+    const int g = int(where[3]);
+    os << "Not in equilibrium: the " << (g >= 0 ? mesh_.regionNames[size_t(g)] : std::string("mesh"))
        << " near (x, y, z) = (" << x[0] << ", " << x[1] << ", " << x[2] << ") m, the largest unbalanced nodal force ("
-       << std::sqrt(largest) << " N); the " << blocks[worst]->name() << " holds " << std::fixed << std::setprecision(0)
-       << 100 * share[worst] / total << " % of the unbalance. " << std::defaultfloat << std::setprecision(3);
+       << std::sqrt(largest) << " N); the " << mesh_.regionNames[worst] << " holds " << std::fixed
+       << std::setprecision(0) << 100 * share[worst] / total << " % of the unbalance. " << std::defaultfloat
+       << std::setprecision(3);
   }
   // The trend over the second half of the steps: still falling (more steps reach it), or not.
   Real half = history.empty() ? r.ratio : history.front().second;
@@ -339,6 +416,9 @@ std::string StagedAnalysis::notInEquilibrium(const std::string& name, const Rela
 
 void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
   if (in_.staged.liningJoints.present) {
+    if (part_)  // a joint's pairs are read by global node number and predicted from one whole state
+      throw InputError("solid input '" + in_.path +
+                       "', /lining_joints: the lining's joints do not run on ranks; run without --distributed");
     // The lining's joints first: their forces are among the lining's when the rock-lining
     // interface (contact or tie, same phase) predicts or shares its pairs' motion.
     auto j =
@@ -350,19 +430,48 @@ void StagedAnalysis::installInterface(std::ostream& log, StageReport& rep) {
   if (R.present && R.model == "dynamic_contact") {
     // The paper's dynamic contact force method (eqs. 9-13, tq/contact/contact.hpp): each pair bonds in
     // its current configuration once both sides have mass, then separates or slips.
-    auto c = std::make_shared<DynamicContact>(solver_, rockLiningPairs(mesh_), contactParamsFrom(R));
+    // On ranks: the pairs this rank holds (both nodes, or neither: the layout holds a pair's nodes
+    // together), each computed by every rank that holds it and counted by the owner of its rock node.
+    ContactPairs all = rockLiningPairs(model_), pairs;
+    if (!part_) {
+      pairs = all;
+    } else {
+      for (Index p = 0; p < all.size(); ++p) {
+        const Index a = local(all.node1[size_t(p)]), b = local(all.node2[size_t(p)]);
+        if ((a < 0) != (b < 0))
+          throw std::logic_error("rock-lining pair " + std::to_string(p) + " is held by halves on a rank");
+        if (a < 0) continue;
+        pairs.node1.push_back(a);
+        pairs.node2.push_back(b);
+        for (int d = 0; d < 3; ++d) pairs.normal.push_back(all.normal[3 * size_t(p) + size_t(d)]);
+        pairs.area.push_back(all.area[size_t(p)]);
+        contactPairIndex_.push_back(p);
+        contactPairOwned_.push_back(counts(a) ? 1 : 0);
+      }
+    }
+    auto c = std::make_shared<DynamicContact>(solver_, std::move(pairs), contactParamsFrom(R));
+    if (part_) c->countOnly(contactPairOwned_);
     solver_.addContributor(ForcePhase::Interface, c);
     interface_ = c;
-    rep.note = "rock-lining interface: dynamic contact (" + std::to_string(c->numPairs()) + " pairs)";
+    rep.note = "rock-lining interface: dynamic contact (" + std::to_string(all.size()) + " pairs)";
     log << "  " << rep.note << std::endl;
     return;
   }
-  auto tie =
-      std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)", TiedNodeGroups::pairs(mesh_.rockLiningPairs));
+  std::vector<std::vector<Index>> groups = TiedNodeGroups::pairs(model_.rockLiningPairs);
+  const size_t tied = groups.size();
+  if (part_) {  // the pairs this rank holds, on its nodes
+    std::vector<std::vector<Index>> mine;
+    for (auto& g : groups) {
+      for (Index& n : g) n = local(n);
+      if (std::all_of(g.begin(), g.end(), [](Index n) { return n >= 0; })) mine.push_back(g);
+    }
+    groups = std::move(mine);
+  }
+  auto tie = std::make_shared<TiedNodeGroups>("rock-lining interface (bonded)", std::move(groups));
   tie->install(solver_);
   interface_ = tie;
   solver_.addContributor(ForcePhase::Interface, tie);
-  rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tie->numGroups()) + ")";
+  rep.note = "rock-lining interface: bonded (tied pairs: " + std::to_string(tied) + ")";
 }
 
 void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
@@ -380,9 +489,10 @@ void StagedAnalysis::holdUnreleasedLoad(std::ostream& log, StageReport& rep) {
       if (solver_.isFixed(n, d)) continue;  // the support takes its share; no force to hold
       const size_t i = dofIndex(n, d);
       f[i] = keep * (s.fIntData()[i] - s.fExtData()[i]);
-      f2 += f[i] * f[i];
+      if (counts(n)) f2 += f[i] * f[i];
     }
   }
+  sumRanks(&f2, 1);
   unreleased_ = std::make_shared<HeldExcavationLoad>(std::move(f));
   solver_.addContributor(ForcePhase::Loads, unreleased_);
   std::ostringstream os;
@@ -398,7 +508,8 @@ void StagedAnalysis::activateLining(std::ostream& log, StageReport& rep) {
   // Installed stress-free into the displaced rock: the lining's own nodes never moved (no mass
   // while inactive), so its displacement reference is the state at activation; the tie keeps
   // the pairs' increments equal from here on.
-  for (Index e = 0; e < lining_->numElems(); ++e) lining_->setActive(e, true, solver_.state());
+  for (ElementBlock* lining : linings_)
+    for (Index e = 0; e < lining->numElems(); ++e) lining->setActive(e, true, solver_.state());
   solver_.rebuild();
   installInterface(log, rep);
 }
@@ -409,14 +520,11 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
   if (S.stages.has("lining")) {
     // Not installed yet: no mass, no stiffness; its nodes stay at rest until the lining stage.
     // (The time step stays the one of the complete model.)
-    for (Index e = 0; e < lining_->numElems(); ++e) lining_->setActive(e, false, solver_.state());
+    for (ElementBlock* lining : linings_)
+      for (Index e = 0; e < lining->numElems(); ++e) lining->setActive(e, false, solver_.state());
     solver_.rebuild();
   }
-  if (!S.stages.has("lining") && lining_ == nullptr) {
-    for (auto& b : solver_.blocks())
-      if (b->name() == S.stages.liningRegion) lining_ = b.get();
-  }
-  if (!S.stages.has("lining") && lining_ && !mesh_.rockLiningPairs.empty() && !interface_) {
+  if (!S.stages.has("lining") && hasLining_ && !model_.rockLiningPairs.empty() && !interface_) {
     StageReport rep;
     rep.name = "interface";
     installInterface(log, rep);  // lining present from the start: tie it now
@@ -476,9 +584,9 @@ void StagedAnalysis::runStatics(std::ostream& log, double progressSeconds) {
     } else if (name == "hydrostatic") {
       const HydrostaticInput& H = S.hydrostatic;
       pressure_ = std::make_shared<ConstantNodalForces>(
-          "hydrostatic pressure", pressureNodalForces(mesh_, H.face, [&H](const Real x[3]) {
+          "hydrostatic pressure", toLocal(pressureNodalForces(model_, H.face, [&H](const Real x[3]) {
             return std::max<Real>(0, H.pressureAtAxis - H.unitWeight * (x[2] - H.zAxis));
-          }));
+          })));
       solver_.addContributor(ForcePhase::Loads, pressure_);
       StageReport rep = relaxStage(name, log, progressSeconds);
       std::ostringstream os;
@@ -536,13 +644,15 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     for (int d = 0; d < 3; ++d) st.v(n, d) = 0;
   solver_.computeForces(true);
   std::vector<Real> r(3 * size_t(N));
-  Real fi2 = 0, fe2 = 0;
+  Real f2[2] = {0, 0};  // |f_int|², |f_ext|²
   for (size_t i = 0; i < r.size(); ++i) {
     r[i] = st.fIntData()[i] - st.fExtData()[i];
-    fi2 += st.fIntData()[i] * st.fIntData()[i];
-    fe2 += st.fExtData()[i] * st.fExtData()[i];
+    if (!counts(Index(i / 3))) continue;
+    f2[0] += st.fIntData()[i] * st.fIntData()[i];
+    f2[1] += st.fExtData()[i] * st.fExtData()[i];
   }
-  const Real ref = std::sqrt(std::max(fi2, fe2));
+  sumRanks(f2, 2);
+  const Real ref = std::sqrt(std::max(f2[0], f2[1]));
   // 2. The seismic record starts here: velocities 0, displacements relative to this state.
   solver_.resetMotion();
   // 3. Supports replaced by dynamic boundaries: a dof is released when every support group that
@@ -563,10 +673,11 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
       for (Index n : p) byReplaced[dofIndex(n, axis)] = 1;
   }
   for (const auto& [group, dirs] : in_.fixed) {
-    const auto nodes = mesh_.faceNodes(group);
+    const auto nodes = model_.faceNodes(group);
     for (char c : dirs) {
       const int d = c == 'x' ? 0 : c == 'y' ? 1 : 2;
-      for (Index n : nodes) (replaced.count(group) ? byReplaced : keep)[dofIndex(n, d)] = 1;
+      for (Index g : nodes)
+        if (const Index n = local(g); n >= 0) (replaced.count(group) ? byReplaced : keep)[dofIndex(n, d)] = 1;
     }
   }
   // The fault offset's nodes: held by the stage, released here with their reactions held (the
@@ -594,14 +705,18 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
         if (byReplaced[i] && !keep[i]) {
           solver_.release(n, d);
           held[i] = r[i];  // the reaction the support gave
-          react2 += r[i] * r[i];
-          ++released;
+          if (counts(n)) react2 += r[i] * r[i], ++released;
         }
       } else if (S.stages.equilibriumCorrection && st.mass(n) > 0) {
         held[i] = r[i];  // residual out-of-balance of the relaxation, held constant
-        corr2 += r[i] * r[i];
+        if (counts(n)) corr2 += r[i] * r[i];
       }
     }
+  {
+    Real sums[3] = {react2, corr2, Real(released)};
+    sumRanks(sums, 3);
+    react2 = sums[0], corr2 = sums[1], released = Index(std::llround(sums[2]));
+  }
   correctionRatio_ = ref > 0 ? std::sqrt(corr2) / ref : 0;
   held_ = std::make_shared<ConstantNodalForces>("held support reactions", held);
   solver_.addContributor(ForcePhase::Loads, held_);
@@ -630,15 +745,21 @@ void StagedAnalysis::switchToDynamics(std::ostream& log) {
     spec.distance = S.bottom.distance;
     if (!(spec.distance > 0)) {
       // Default R: from the tunnel axis to the base, else the model height.
-      const Real zb = zBottomOf(mesh_);
+      const Real zb = zBottomOf(model_);
       Real zAxis = std::numeric_limits<Real>::quiet_NaN();
       if (S.hydrostatic.present && S.hydrostatic.unitWeight > 0) zAxis = S.hydrostatic.zAxis;
-      if (!std::isfinite(zAxis)) zAxis = tunnelAxisZ(mesh_);
-      spec.distance = std::isfinite(zAxis) ? zAxis - zb : zTopOf(mesh_) - zb;
+      if (!std::isfinite(zAxis)) zAxis = tunnelAxisZ(model_);
+      spec.distance = std::isfinite(zAxis) ? zAxis - zb : zTopOf(model_) - zb;
     }
     const MotionInput& M = S.motion;
     IncidentMotion motion = M.present ? IncidentMotion(M.time, M.ax, M.ay, M.az) : IncidentMotion();
-    seismic_ = std::make_shared<SeismicBoundaries>(mesh_, solver_.blocks(), spec, std::move(motion), mesh_.slice);
+    if (part_) {  // built on the whole model, as in one process, then kept where it acts on this rank
+      seismic_ =
+          std::make_shared<SeismicBoundaries>(model_, part_->elementMaterial, spec, std::move(motion), model_.slice);
+      seismic_->restrictToNodes(*part_->localNode, *part_->owned);
+    } else {
+      seismic_ = std::make_shared<SeismicBoundaries>(mesh_, solver_.blocks(), spec, std::move(motion), mesh_.slice);
+    }
     seismic_->install(st);
     solver_.addContributor(ForcePhase::Boundaries, seismic_);
     std::ostringstream os;

@@ -46,51 +46,52 @@ void ConstantNodalForces::addForces(Real, Real, NodalState& state) {
 
 namespace {
 
-/// Element (block b, element e) that owns a boundary quad (all four nodes), or {-1, -1}.
-struct Owner {
-  Index block = -1, elem = -1;
-};
-
+/// The mesh element that owns a boundary quad (all four nodes), or -1.
 class QuadOwners {
  public:
-  explicit QuadOwners(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks) : blocks_(blocks) {
-    const Index N = mesh.numNodes();
+  explicit QuadOwners(const Mesh& mesh) : mesh_(mesh) {
+    const Index N = mesh.numNodes(), E = mesh.numElems();
     start_.assign(size_t(N) + 1, 0);
-    for (const auto& b : blocks)
-      for (Index e = 0; e < b->numElems(); ++e)
-        for (int k = 0; k < 8; ++k) ++start_[size_t(b->node(e, k)) + 1];
+    for (Index e = 0; e < E; ++e)
+      for (int k = 0; k < 8; ++k) ++start_[size_t(mesh.connectivity[8 * size_t(e) + k]) + 1];
     for (Index n = 0; n < N; ++n) start_[size_t(n) + 1] += start_[size_t(n)];
     list_.resize(size_t(start_.back()));
     std::vector<Index> fill(start_.begin(), start_.end() - 1);
-    for (size_t bi = 0; bi < blocks.size(); ++bi)
-      for (Index e = 0; e < blocks[bi]->numElems(); ++e)
-        for (int k = 0; k < 8; ++k) list_[size_t(fill[size_t(blocks[bi]->node(e, k))]++)] = {Index(bi), e};
+    for (Index e = 0; e < E; ++e)
+      for (int k = 0; k < 8; ++k) list_[size_t(fill[size_t(mesh.connectivity[8 * size_t(e) + k])]++)] = e;
   }
-  Owner find(const Index* q) const {
+  Index find(const Index* q) const {
     for (Index j = start_[size_t(q[0])]; j < start_[size_t(q[0]) + 1]; ++j) {
-      const Owner o = list_[size_t(j)];
+      const Index e = list_[size_t(j)];
       int hits = 0;
       for (int c = 1; c < 4; ++c)
         for (int k = 0; k < 8; ++k)
-          if (blocks_[size_t(o.block)]->node(o.elem, k) == q[c]) {
+          if (mesh_.connectivity[8 * size_t(e) + k] == q[c]) {
             ++hits;
             break;
           }
-      if (hits == 3) return o;
+      if (hits == 3) return e;
     }
-    return {};
+    return -1;
   }
 
  private:
-  const std::vector<std::unique_ptr<ElementBlock>>& blocks_;
+  const Mesh& mesh_;
   std::vector<Index> start_;
-  std::vector<Owner> list_;
+  std::vector<Index> list_;
 };
+
+/// Each mesh element's material, from the blocks that hold them.
+std::vector<const Material*> materialsOf(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks) {
+  std::vector<const Material*> m(size_t(mesh.numElems()), nullptr);
+  for (const auto& b : blocks)
+    for (Index e = 0; e < b->numElems(); ++e) m[size_t(b->meshElem(e))] = &b->material();
+  return m;
+}
 
 }  // namespace
 
-FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
-                                               const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
                                                const std::string& group) const {
   const AxisFace f = axisFace(mesh, group);
   if (f.axis == 2)
@@ -117,7 +118,7 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
   // One material per layer, from the elements that own the face's quads.
   std::vector<ColumnLayer> layers(levels.size() - 1);
   std::vector<bool> seen(layers.size(), false);
-  const QuadOwners owners(mesh, blocks);
+  const QuadOwners owners(mesh);
   for (size_t k = 0; k < f.quads.size() / 4; ++k) {
     const Index* q = &f.quads[4 * k];
     Real lo = 1e300, hi = -1e300;
@@ -134,11 +135,11 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
             "quads are stacked in horizontal rows (use rollers there instead)";
       throw InputError(os.str());
     }
-    const Owner o = owners.find(q);
-    if (o.block < 0)
+    const Index o = owners.find(q);
+    if (o < 0 || !elementMaterial[size_t(o)])
       throw InputError(mshort(mesh) + ": quad " + std::to_string(k) + " of face group '" + group +
                        "' belongs to no element");
-    const Material& mat = blocks[size_t(o.block)]->material();
+    const Material& mat = *elementMaterial[size_t(o)];
     const ElasticModuli em = mat.elasticModuli();
     ColumnLayer L{mat.density(), em.lambda, em.mu};
     ColumnLayer& have = layers[size_t(l0)];
@@ -149,7 +150,7 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
                std::abs(have.lambda - L.lambda) > 1e-9 * std::abs(have.mu)) {
       std::ostringstream os;
       os << mshort(mesh) << ": face group '" << group << "' has two materials in the layer z = " << levels[size_t(l0)]
-         << " .. " << levels[size_t(l0) + 1] << " m (block '" << blocks[size_t(o.block)]->name()
+         << " .. " << levels[size_t(l0) + 1] << " m (block '" << mesh.regionNames[size_t(mesh.region[size_t(o)])]
          << "' differs); a free-field column needs one material per horizontal layer (use rollers on that face)";
       throw InputError(os.str());
     }
@@ -167,6 +168,10 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh,
 }
 
 SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+                                     const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice)
+    : SeismicBoundaries(mesh, materialsOf(mesh, blocks), spec, std::move(motion), slice) {}
+
+SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const Material*>& blocks,
                                      const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice)
     : spec_(spec), motion_(std::move(motion)) {
   (void)slice;
@@ -283,6 +288,38 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<std::un
   }
 }
 
+void SeismicBoundaries::restrictToNodes(const std::vector<Index>& localNode, const std::vector<std::uint8_t>& owned) {
+  AxisFace base = base_;
+  base.nodes.clear();
+  base.area.clear();
+  baseCounted_.clear();
+  for (size_t i = 0; i < base_.nodes.size(); ++i) {
+    const Index n = localNode[size_t(base_.nodes[i])];
+    if (n < 0) continue;
+    base.nodes.push_back(n);
+    base.area.push_back(base_.area[i]);
+    baseCounted_.push_back(owned[size_t(n)]);
+  }
+  base.quads.clear();  // in the whole model's numbering: not used once built
+  base_ = std::move(base);
+  std::vector<SideNode> side;
+  for (SideNode s : side_) {
+    s.node = localNode[size_t(s.node)];
+    if (s.node >= 0) side.push_back(s);
+  }
+  side_ = std::move(side);
+  std::vector<SideQuadLoad> quads;
+  for (SideQuadLoad q : sideQuads_) {
+    bool any = false;
+    for (int c = 0; c < 4; ++c) {
+      q.node[c] = localNode[size_t(q.node[c])];
+      any = any || q.node[c] >= 0;
+    }
+    if (any) quads.push_back(q);
+  }
+  sideQuads_ = std::move(quads);
+}
+
 void SeismicBoundaries::install(NodalState& state) {
   for (const auto& s : side_)
     for (int d = 0; d < 3; ++d) state.addDashpot(s.node, d, s.c[d]);
@@ -320,7 +357,7 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
         const Real u = state.u(n, d);
         const Real fs = -A * kArea_[size_t(d)] * (u - u0_[j]);
         fe[dofIndex(n, d)] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
-        if (!first_) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
+        if (!first_ && (baseCounted_.empty() || baseCounted_[i])) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
         fPrev_[j] = fs;
         uPrev_[j] = u;
       }
@@ -343,7 +380,8 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
     Real t3[3];
     for (int i = 0; i < 3; ++i) t3[i] = L.sign * sig[kVoigt[i][L.axis]];
     for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) fe[dofIndex(L.node[c], i)] += L.share[c] * t3[i];
+      if (L.node[c] >= 0)  // on ranks: a corner this rank does not hold
+        for (int i = 0; i < 3; ++i) fe[dofIndex(L.node[c], i)] += L.share[c] * t3[i];
   }
 }
 

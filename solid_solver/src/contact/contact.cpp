@@ -138,6 +138,24 @@ Index DynamicContact::count(PairState s) const {
   return Index(std::count(state_.begin(), state_.end(), std::uint8_t(s)));
 }
 
+void DynamicContact::gatheredPair(Index p, Real* out) const {
+  const size_t i = size_t(p);
+  out[0] = state_[i];
+  out[1] = failed_[i];
+  for (int d = 0; d < 3; ++d) out[2 + d] = r0_[3 * i + size_t(d)];
+  out[5] = fn_[i];
+  out[6] = ft_[i];
+}
+
+void DynamicContact::setGatheredPair(Index p, const Real* in) {
+  const size_t i = size_t(p);
+  state_[i] = std::uint8_t(in[0]);
+  failed_[i] = std::uint8_t(in[1]);
+  for (int d = 0; d < 3; ++d) r0_[3 * i + size_t(d)] = in[2 + d];
+  fn_[i] = in[5];
+  ft_[i] = in[6];
+}
+
 Real DynamicContact::opening(Index p, const NodalState& s) const {
   const Index a = pairs_.node1[size_t(p)], b = pairs_.node2[size_t(p)];
   const Real* n = &pairs_.normal[3 * size_t(p)];
@@ -264,9 +282,10 @@ void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
     ft_[p] = std::sqrt(rt2);
     // Work of the contact forces: ½(R^{n−1} + R^n)·Δ(u1 − u2) (central difference, as the
     // solver's trapezoid rule books it), R^{n−1}·Δ(u1 − u2) for the literal eqs. (3)–(4).
+    const bool counted = counted_.empty() || counted_[p];
     for (int d = 0; d < 3; ++d) {
       const Real dr = rel[d] - relPrev_[3 * p + d];
-      work_ += (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;
+      if (counted) work_ += (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;
       relPrev_[3 * p + d] = rel[d];
       R[d] = Rnew[d];
       fe[dofIndex(a, d)] += Rnew[d];

@@ -1047,6 +1047,30 @@ void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {
   for (int k = 0; k < 24; ++k) f[k] = F[k][lane];
 }
 
+void ElementBlock::gatheredState(Index e, Real* out) const {
+  const size_t i = size_t(e);
+  out[0] = active_[i];
+  for (int c = 0; c < 6; ++c) out[1 + c] = stress_[c][i];
+  for (int c = 0; c < 6; ++c)
+    out[7 + c] = total_ ? (hasOffset_ ? offset_[c][i] : 0.0) : (strain_[c].empty() ? 0.0 : strain_[c][i]);
+  for (size_t h = 0; h < history_.size(); ++h) out[13 + h] = history_[h][i];
+}
+
+void ElementBlock::setGatheredState(Index e, const Real* in) {
+  const size_t i = size_t(e);
+  active_[i] = in[0] != 0 ? 1 : 0;
+  for (int c = 0; c < 6; ++c) stress_[c][i] = in[1 + c];
+  for (int c = 0; c < 6; ++c) {
+    if (total_) {
+      if (in[7 + c] != 0) hasOffset_ = true;
+      if (!offset_[c].empty()) offset_[c][i] = in[7 + c];
+    } else if (!strain_[c].empty()) {
+      strain_[c][i] = in[7 + c];
+    }
+  }
+  for (size_t h = 0; h < history_.size(); ++h) history_[h][i] = in[13 + h];
+}
+
 void ElementBlock::checkpoint(StateArchive& a) {
   for (auto& s : stress_) a.io(s);
   for (auto& s : strain_) a.io(s);

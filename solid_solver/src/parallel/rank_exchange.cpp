@@ -71,9 +71,20 @@ class MpiRankExchange final : public RankExchange {
   void beginForceSum(const Real* f) override { start(f, 3); }
   void finishForceSum(Real* f) override { finish(f, 3); }
 
+  // Every rank's values gathered and summed in rank order on every rank: the same bits on all of
+  // them (a reduction's order is the MPI library's choice, and a convergence test or a stop that
+  // one rank decides from other bits than the others would leave them waiting for each other).
   void sumAll(Real* v, int n) override {
     const auto t0 = std::chrono::steady_clock::now();
-    MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    int size = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    all_.resize(size_t(n) * size_t(size));
+    MPI_Allgather(v, n, MPI_DOUBLE, all_.data(), n, MPI_DOUBLE, MPI_COMM_WORLD);
+    for (int i = 0; i < n; ++i) {
+      Real sum = 0;
+      for (int r = 0; r < size; ++r) sum += all_[size_t(r) * size_t(n) + size_t(i)];
+      v[i] = sum;
+    }
     wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   double waitSeconds() const override { return wait_; }
@@ -139,6 +150,7 @@ class MpiRankExchange final : public RankExchange {
   std::vector<Index> termStart_;
   std::vector<Real> self_;
   std::vector<std::vector<Real>> send_, recv_;
+  std::vector<Real> all_;  // sumAll's gathered values
   std::vector<MPI_Request> requests_;
   double wait_ = 0;  // s waiting in finish() and sumAll()
 };

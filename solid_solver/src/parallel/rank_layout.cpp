@@ -4,7 +4,8 @@
 
 namespace tq {
 
-RankLayout makeRankLayout(const Mesh& g, const std::vector<int>& part, int rank, int ranks) {
+RankLayout makeRankLayout(const Mesh& g, const std::vector<int>& part, int rank, int ranks,
+                          const std::vector<std::vector<Index>>& together) {
   RankLayout L;
   L.rank = rank;
   L.ranks = ranks;
@@ -33,6 +34,32 @@ RankLayout makeRankLayout(const Mesh& g, const std::vector<int>& part, int rank,
     e = std::unique(b, e);
     holders.insert(holders.end(), b, e);
     hStart[size_t(n) + 1] = Index(holders.size());
+  }
+  // Groups held together: every member is held by every rank that holds one of them (repeated
+  // until no group grows, for groups that share a node).
+  if (!together.empty()) {
+    std::vector<std::vector<int>> of(static_cast<size_t>(N));
+    for (Index n = 0; n < N; ++n)
+      of[size_t(n)].assign(holders.begin() + hStart[size_t(n)], holders.begin() + hStart[size_t(n) + 1]);
+    for (bool grown = true; grown;) {
+      grown = false;
+      for (const auto& grp : together) {
+        std::vector<int> all;
+        for (Index n : grp) all.insert(all.end(), of[size_t(n)].begin(), of[size_t(n)].end());
+        std::sort(all.begin(), all.end());
+        all.erase(std::unique(all.begin(), all.end()), all.end());
+        for (Index n : grp)
+          if (of[size_t(n)] != all) {
+            of[size_t(n)] = all;
+            grown = true;
+          }
+      }
+    }
+    holders.clear();
+    for (Index n = 0; n < N; ++n) {
+      holders.insert(holders.end(), of[size_t(n)].begin(), of[size_t(n)].end());
+      hStart[size_t(n) + 1] = Index(holders.size());
+    }
   }
   // This rank's elements and nodes, in the global order.
   L.localNode.assign(size_t(N), -1);

@@ -13,15 +13,23 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
+#include <pthread.h>
 #endif
 
+#include "tq/app/stages.hpp"
+#include "tq/contact/contact.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/results.hpp"
 #include "tq/materials/registry.hpp"
@@ -36,6 +44,39 @@ bool wantsRankedRun(const std::vector<std::string>& args) {
 }
 
 namespace {
+
+#ifdef TQ_SOLID_HAVE_MPI
+/// A run on ranks ended from outside: mpirun ends every rank with SIGTERM when one of them dies
+/// (killed, crashed) or when the run is stopped (Ctrl-C, `tunnelquake run` stopping). A thread of
+/// each rank waits for it (the signals blocked in every other thread); rank 0 then writes the
+/// results file's status, between two of its writes (the writer's lock), and every rank exits.
+struct StopWatch {
+  std::mutex mutex;                 // held by every use of the results writer
+  ResultsWriter* writer = nullptr;  // rank 0's, while it is open
+};
+StopWatch gStop;
+
+void waitForStop(sigset_t signals) {
+  int sig = 0;
+  if (sigwait(&signals, &sig) != 0) return;
+  {
+    std::lock_guard<std::mutex> lock(gStop.mutex);
+    if (gStop.writer) {
+      std::ostringstream os;
+      os << "stopped: the run on ranks was ended by signal " << sig
+         << (sig == SIGTERM ? " (SIGTERM: mpirun ends every rank when one of them is lost, or when the run is stopped)"
+                            : "")
+         << "; the results up to t = " << gStop.writer->lastSampleTime() << " s are kept";
+      try {
+        gStop.writer->setStatus(os.str());
+        std::cerr << "tq-solid: " << os.str().substr(9) << "\n";
+      } catch (const std::exception&) {
+      }
+    }
+  }
+  std::_Exit(128 + sig);
+}
+#endif
 
 struct RankCommandLine {
   std::string input, output = "results.h5";
@@ -75,15 +116,22 @@ int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err
 
 /// What the run on ranks does not support yet, or "" (the same answer on every rank: the input is
 /// the same file).
-std::string unsupportedOnRanks(const SolidInput& in) {
+std::string unsupportedOnRanks(const SolidInput& in, int ranks) {
   const std::string fix = "; run it without --ranks (one process, OpenMP threads), or leave that part out";
-  if (in.staged.present) {
-    std::string what = "the staged analysis (/stages";
-    if (in.staged.coupling.present) what += ", the water coupling";
-    if (in.staged.bottom.present || in.staged.freeField.present) what += ", the seismic boundaries";
-    if (in.staged.motion.present) what += ", the input motion";
-    if (in.staged.inSitu.present) what += ", the in-situ state";
-    return what + ", and with them dynamic contact and the DRM layer) does not run on ranks yet" + fix;
+  // The reinforced lining's section share reads the element's face-row partners among its block's
+  // elements: on several ranks a partner may sit on another rank (s = 0 there, not as one process).
+  for (const auto& [region, v] : in.materials)
+    if (ranks > 1 && v.model == "reinforced_concrete")
+      return "the reinforced_concrete material (region '" + region +
+             "': its section share needs the whole lining ring on one rank) does not run on ranks yet; use "
+             "mohr_coulomb_damage or elastic there, or run it without --ranks (one process, OpenMP threads)";
+  const StagedInput& S = in.staged;
+  if (S.present) {
+    if (S.coupling.present)
+      return "the water coupling (/coupling, condition dynamic_water) does not run on ranks yet" + fix;
+    if (S.drm.present()) return "the domain reduction layer (/drm, incident_wave) does not run on ranks yet" + fix;
+    if (S.faultOffset.present) return "the fault offset (/fault_offset) does not run on ranks yet" + fix;
+    if (S.periodic.present) return "periodic faces (/boundaries periodic) do not run on ranks yet" + fix;
   }
   if (in.options.subcyclingLevels > 0) return "subcycling (/solver subcycling_levels) does not run on ranks yet" + fix;
   if (in.options.integrator != Integrator::CentralDifference)
@@ -93,10 +141,11 @@ std::string unsupportedOnRanks(const SolidInput& in) {
 }
 
 /// The state rank 0 needs for the results: each rank's owned nodes (u, v, a) and its elements
-/// (stress, history), gathered into the mirror (a solver of the whole model on rank 0).
+/// (ElementBlock::gatheredState: active flag, stress, strain record, history), gathered into the
+/// mirror (a solver of the whole model on rank 0).
 class StateGather {
  public:
-  StateGather(const RankLayout& L, const Solver& local, Solver* mirror, int history) : H_(history) {
+  StateGather(const RankLayout& L, const Solver& local, Solver* mirror) {
     int rank = 0, size = 1;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -105,11 +154,16 @@ class StateGather {
         ownedLocal_.push_back(Index(i));
         nodeIds_.push_back(L.globalNode[i]);
       }
-    for (const auto& b : local.blocks())
+    for (const auto& b : local.blocks()) {
+      R_ = std::max(R_, size_t(b->gatheredSize()));
       for (Index e = 0; e < b->numElems(); ++e) {
         elems_.emplace_back(b.get(), e);
         elemIds_.push_back(L.globalElem[size_t(b->meshElem(e))]);
       }
+    }
+    unsigned long long r = R_;
+    MPI_Allreduce(MPI_IN_PLACE, &r, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    R_ = size_t(r);
     nodeCounts_ = gatherIds(nodeIds_, allNodes_, rank, size);
     elemCounts_ = gatherIds(elemIds_, allElems_, rank, size);
     if (mirror) {
@@ -128,12 +182,11 @@ class StateGather {
       for (int d = 0; d < 3; ++d) nodes.push_back(st.v(n, d));
       for (int d = 0; d < 3; ++d) nodes.push_back(st.a(n, d));
     }
-    const size_t R = size_t(6 + H_);
+    const size_t R = R_;
     std::vector<Real> elems(R * elems_.size(), 0.0);
     for (size_t k = 0; k < elems_.size(); ++k) {
       const auto [b, e] = elems_[k];
-      for (int c = 0; c < 6; ++c) elems[R * k + size_t(c)] = b->stress(e, c);
-      for (int h = 0; h < b->numHistory(); ++h) elems[R * k + 6 + size_t(h)] = b->history(h, e);
+      b->gatheredState(e, &elems[R * k]);
     }
     std::vector<Real> allN, allE;
     gatherValues(nodes, nodeCounts_, 9, allN);
@@ -150,10 +203,37 @@ class StateGather {
     }
     for (size_t k = 0; k < allElems_.size(); ++k) {
       const auto [b, e] = mirrorElem_[size_t(allElems_[k])];
-      b->setGatheredState(e, &allE[R * k], &allE[R * k + 6]);
+      b->setGatheredState(e, &allE[R * k]);
     }
     mirror->setTime(local.time());
     mirror->setReportedEnergy(local.energy());
+  }
+
+  /// The dynamic contact's pairs: each rank's owned pairs into the mirror's contact (rank 0), with
+  /// the dissipated energy summed over the ranks. Every rank calls it alike.
+  void gatherContact(const DynamicContact& local, const std::vector<Index>& pairIndex,
+                     const std::vector<std::uint8_t>& owned, DynamicContact* mirror, RankExchange& rx) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (pairCounts_.empty()) {
+      std::vector<Index> ids;
+      for (size_t k = 0; k < pairIndex.size(); ++k)
+        if (owned[k]) {
+          ownedPairs_.push_back(Index(k));
+          ids.push_back(pairIndex[k]);
+        }
+      pairCounts_ = gatherIds(ids, allPairs_, rank, size);
+    }
+    constexpr int P = DynamicContact::kGatheredSize;
+    std::vector<Real> mine(P * ownedPairs_.size()), all;
+    for (size_t k = 0; k < ownedPairs_.size(); ++k) local.gatheredPair(ownedPairs_[k], &mine[P * k]);
+    gatherValues(mine, pairCounts_, P, all);
+    Real dissipated = local.dissipatedEnergy();
+    rx.sumAll(&dissipated, 1);
+    if (!mirror) return;
+    for (size_t k = 0; k < allPairs_.size(); ++k) mirror->setGatheredPair(allPairs_[k], &all[P * k]);
+    mirror->setDissipatedEnergy(dissipated);
   }
 
  private:
@@ -179,8 +259,10 @@ class StateGather {
                 MPI_COMM_WORLD);
   }
 
-  int H_;
+  size_t R_ = 13;  // values per element (ElementBlock::gatheredSize, the largest of any block)
   std::vector<Index> ownedLocal_, nodeIds_, elemIds_, allNodes_, allElems_;
+  std::vector<Index> ownedPairs_, allPairs_;
+  std::vector<int> pairCounts_;
   std::vector<std::pair<const ElementBlock*, Index>> elems_;
   std::vector<int> nodeCounts_, elemCounts_;
   std::vector<std::pair<ElementBlock*, Index>> mirrorElem_;
@@ -259,27 +341,61 @@ std::string hms(double s) {
 /// once the file holds its status.
 int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, std::ostream& err) {
   std::unique_ptr<ResultsWriter> writer;
+  struct Unwatched {  // the watcher of stop signals lets go of the writer before it closes
+    ~Unwatched() {
+      std::lock_guard<std::mutex> lock(gStop.mutex);
+      gStop.writer = nullptr;
+    }
+  } unwatched;
+  // Every use of the writer under the watcher's lock.
+  const auto withWriter = [&](const auto& fn) {
+    std::lock_guard<std::mutex> lock(gStop.mutex);
+    if (writer) fn(*writer);
+  };
   const auto stopWith = [&](int code, const std::string& message, const char* label) {
     if (rank == 0) err << "tq-solid: " << label << message << "\n";
-    if (writer) writer->setStatus("stopped: " + message);
+    withWriter([&](ResultsWriter& w) { w.setStatus("stopped: " + message); });
     return code;
   };
   try {
     try {
       SolidInput in = readSolidInput(cl.input);
-      if (const std::string why = unsupportedOnRanks(in); !why.empty()) throw InputError(why);
+      if (const std::string why = unsupportedOnRanks(in, size); !why.empty()) throw InputError(why);
       const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
       const std::vector<Real> cost = elementCosts(global, in);
       const std::vector<int> part = partitionRcb(global, cost, size);
       std::unique_ptr<RankExchange> exchange;
       std::unique_ptr<Solver> local, mirror;
+      std::unique_ptr<StagedAnalysis> stages;
       RankLayout layout;
+      // The materials of the whole model's regions (the seismic boundaries' columns read the
+      // elements a rank does not hold).
+      std::vector<std::shared_ptr<const Material>> regionMaterial(global.regionNames.size());
+      for (const auto& [region, v] : in.materials)
+        if (const Index r = global.regionIndex(region); r >= 0) regionMaterial[size_t(r)] = makeMaterial(v);
+      RankPart rankPart;
       if (size == 1) {  // the whole model: the solver of a plain run, no frontier
         local = buildSolver(in, global);
+        if (in.staged.present) stages = std::make_unique<StagedAnalysis>(in, global, *local);
       } else {
-        layout = makeRankLayout(global, part, rank, size);
+        // A rock-lining pair's two nodes are held together: its force needs both.
+        std::vector<std::vector<Index>> together;
+        if (in.staged.present)
+          for (size_t p = 0; p + 1 < global.rockLiningPairs.size(); p += 2)
+            together.push_back({global.rockLiningPairs[p], global.rockLiningPairs[p + 1]});
+        layout = makeRankLayout(global, part, rank, size, together);
         local = buildRankSolver(in, global, layout, exchange);
         if (rank == 0) mirror = buildSolver(in, global);
+        if (in.staged.present) {
+          rankPart.rank = rank;
+          rankPart.global = &global;
+          rankPart.localNode = &layout.localNode;
+          rankPart.owned = &layout.owned;
+          rankPart.elementMaterial.resize(size_t(global.numElems()));
+          for (Index e = 0; e < global.numElems(); ++e)
+            rankPart.elementMaterial[size_t(e)] = regionMaterial[size_t(global.region[size_t(e)])].get();
+          stages = std::make_unique<StagedAnalysis>(in, layout.mesh, *local, &rankPart);
+        }
       }
       Solver& s = *local;
       Solver* view = size == 1 ? local.get() : mirror.get();  // what the results are written from (rank 0)
@@ -300,21 +416,63 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
             << " frontier node copies\n  stable step " << st.dtCritical << " s, dt = " << s.dt() << " s, "
             << std::llround(std::ceil(in.tEnd / s.dt())) << " steps to t_end = " << in.tEnd << " s" << std::endl;
       }
+      if (rank == 0 && stages) {
+        out << "  stages:";
+        for (const auto& n : in.staged.stages.sequence) out << " " << n;
+        out << (in.staged.condition.empty() ? "" : " (condition " + in.staged.condition + ")") << "\n";
+      }
       if (cl.check) {
         if (rank == 0) out << "tq-solid: input and mesh are valid (on " << size << " ranks)\n";
         return 0;
       }
-      int history = 0;
-      for (const auto& [region, v] : in.materials)
-        history = std::max(history, int(makeMaterial(v)->historyNames().size()));
       std::unique_ptr<StateGather> gather;
-      if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get(), history);
+      if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get());
+      std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
+        if (gatherContact) gatherContact();
       };
-      if (rank == 0) writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+      if (rank == 0) {
+        std::lock_guard<std::mutex> lock(gStop.mutex);
+        writer = std::make_unique<ResultsWriter>(cl.output, in, *view);
+        gStop.writer = writer.get();
+      }
+      if (stages) {
+        // The static stages and the switch, on every rank alike (rank 0 says what they did).
+        std::ostream none(nullptr);
+        std::ostream& log = rank == 0 ? out : none;
+        stages->runStatics(log, in.progressSeconds);
+        if (stages->hasSeismic()) stages->switchToDynamics(log);
+        // The dynamic contact in the results: a mirror of it on rank 0, filled at every gather.
+        const auto* contact = dynamic_cast<const DynamicContact*>(stages->rockLiningInterface().get());
+        if (contact && size > 1) {
+          std::shared_ptr<DynamicContact> shown;
+          if (mirror) {
+            shown = std::make_shared<DynamicContact>(*mirror, rockLiningPairs(global), contact->params());
+            mirror->addContributor(ForcePhase::Interface, shown);
+          }
+          gatherContact = [&, contact, shown] {
+            gather->gatherContact(*contact, stages->contactPairIndex(), stages->contactPairOwned(), shown.get(),
+                                  *exchange);
+          };
+        }
+        observe();
+        if (mirror) mirror->resetMotion();  // the seismic start's displacement, as the ranks' solvers hold it
+        withWriter([&](ResultsWriter& w) {
+          for (const auto& r : stages->reports())
+            w.writeStage(r.name, r.steps, r.ratio, r.converged, r.wallSeconds, r.note);
+        });
+        if (!stages->hasSeismic()) {
+          withWriter([&](ResultsWriter& w) {
+            w.snapshot(*view);
+            w.setStatus("completed");
+            out << "tq-solid: completed the static stages (no seismic stage)\n  results: " << cl.output << "\n";
+          });
+          return 0;
+        }
+      }
       observe();
-      if (writer) writer->sample(*view);
+      withWriter([&](ResultsWriter& w) { w.sample(*view); });
       // The next history time, from rank 0's writer, sent to every rank after each sample: the
       // ranks decide alike when to gather, without a message at the other steps.
       Real nextSample = writer ? writer->nextSampleTime() : 0;
@@ -332,18 +490,18 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         const bool snap = nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt();
         if (due || snap) observe();
         if (due) {
-          if (writer) writer->sample(*view);
+          withWriter([&](ResultsWriter& w) { w.sample(*view); });
           nextSample = writer ? writer->nextSampleTime() : 0;
           if (size > 1) MPI_Bcast(&nextSample, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
         }
         while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
-          if (writer) writer->snapshot(*view);
+          withWriter([&](ResultsWriter& w) { w.snapshot(*view); });
           ++nextSnap;
         }
         if (!writer) continue;
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
-          writer->flush();
+          withWriter([](ResultsWriter& w) { w.flush(); });
           lastFlush = now;
         }
         if (std::chrono::duration<double>(now - lastReport).count() >= in.progressSeconds) {
@@ -366,22 +524,22 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         mismatch = exchange->frontierMismatch(s.state().uData(), 3);
         mismatch = std::max(mismatch, exchange->frontierMismatch(s.state().vData(), 3));
       }
-      if (writer) {
-        writer->writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
-        writer->writeAttrs("/ranks",
-                           {{"ranks", double(size)},
-                            {"threads_per_rank", double(omp_get_max_threads())},
-                            {"largest_part_over_mean", imbalance},
-                            {"frontier_node_copies", counts[0]},
-                            {"frontier_copies_max_difference", mismatch},
-                            {"wait_fraction", waitShare}},
-                           {{"partition", "recursive coordinate bisection weighted by element cost"},
-                            {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
-        writer->setStatus("completed");
+      withWriter([&](ResultsWriter& w) {
+        w.writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
+        w.writeAttrs("/ranks",
+                     {{"ranks", double(size)},
+                      {"threads_per_rank", double(omp_get_max_threads())},
+                      {"largest_part_over_mean", imbalance},
+                      {"frontier_node_copies", counts[0]},
+                      {"frontier_copies_max_difference", mismatch},
+                      {"wait_fraction", waitShare}},
+                     {{"partition", "recursive coordinate bisection weighted by element cost"},
+                      {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
+        w.setStatus("completed");
         out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
             << (steps > 0 ? 1e6 * wall / (double(steps) * global.numElems()) : 0.0) << " µs per element-step), "
             << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  results: " << cl.output << "\n";
-      }
+      });
       return 0;
     } catch (const InputError& e) {
       return stopWith(2, e.what(), "input error: ");
@@ -406,6 +564,13 @@ int runSolidOnRanks(const std::vector<std::string>& args, std::ostream& out, std
   RankCommandLine cl;
   if (const int rc = parseRankCommandLine(args, err, cl); rc >= 0) return rc;
 #ifdef TQ_SOLID_HAVE_MPI
+  // The stop signals go to one thread of each rank (waitForStop): blocked here, before MPI and
+  // OpenMP start theirs, so that every thread inherits the block.
+  sigset_t stops;
+  sigemptyset(&stops);
+  for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&stops, sig);
+  pthread_sigmask(SIG_BLOCK, &stops, nullptr);
+  std::thread(waitForStop, stops).detach();
   int ready = 0;
   MPI_Initialized(&ready);
   if (!ready) {

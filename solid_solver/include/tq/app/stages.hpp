@@ -6,6 +6,7 @@
 ///        plus the viscoelastic base and free-field sides, so nothing jumps).
 #pragma once
 
+#include <cstdint>
 #include <iosfwd>
 #include <memory>
 #include <string>
@@ -22,6 +23,18 @@ namespace tq {
 class HeldExcavationLoad;
 class PrescribedSlip;
 
+/// One MPI rank's part of the model for the staged analysis (tq/parallel/): the face groups, the
+/// interface pairs, the supports and the seismic boundaries are resolved on the whole model's mesh,
+/// as in one process, and mapped onto the rank's nodes; every sum over the model (norms, energies)
+/// counts each node on its owner and is summed over the ranks.
+struct RankPart {
+  int rank = 0;
+  const Mesh* global = nullptr;                      ///< the whole model's mesh
+  const std::vector<Index>* localNode = nullptr;     ///< [global node] local index, or −1
+  const std::vector<std::uint8_t>* owned = nullptr;  ///< [local node] 1 where this rank owns it
+  std::vector<const Material*> elementMaterial;      ///< [global element] its region's material
+};
+
 /// What one stage did.
 struct StageReport {
   std::string name;
@@ -37,7 +50,9 @@ class StagedAnalysis {
  public:
   /// Checks the stage prerequisites against the mesh (lining region, interface pairs, faces).
   /// Throws InputError.
-  StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver);
+  /// On MPI ranks `mesh` and `solver` are the rank's part, and `part` says how it maps onto the
+  /// whole model (copied; null: one process).
+  StagedAnalysis(const SolidInput& in, const Mesh& mesh, Solver& solver, const RankPart* part = nullptr);
 
   /// Run the static stages (in_situ … hydrostatic) in order; a `lining` stage first deactivates
   /// the lining (installed stress-free in its stage). Progress lines go to `log` every
@@ -60,6 +75,10 @@ class StagedAnalysis {
   /// The part (1 − λ) of the excavation load held from the excavation stage to the lining stage
   /// (/stages release_fraction λ < 1; null otherwise). Released, it adds no force.
   const std::shared_ptr<HeldExcavationLoad>& heldExcavationLoad() const { return unreleased_; }
+  /// On ranks: the index in the whole model's pair list (rockLiningPairs) of each pair of the
+  /// dynamic contact (its pairs are those this rank holds), and whether this rank owns it.
+  const std::vector<Index>& contactPairIndex() const { return contactPairIndex_; }
+  const std::vector<std::uint8_t>& contactPairOwned() const { return contactPairOwned_; }
 
  private:
   void setInSituStress();
@@ -75,10 +94,24 @@ class StagedAnalysis {
   void installInterface(std::ostream& log, StageReport& rep);
   void holdUnreleasedLoad(std::ostream& log, StageReport& rep);
 
+  // On ranks: the local index of a global node (−1: not held), whether a local node counts in the
+  // model's sums, the sum of n values over the ranks (nothing in one process), a [3N] global force
+  // on the local nodes.
+  Index local(Index globalNode) const { return part_ ? (*part_->localNode)[size_t(globalNode)] : globalNode; }
+  bool counts(Index node) const { return !part_ || (*part_->owned)[size_t(node)] != 0; }
+  void sumRanks(Real* v, int n) const;
+  std::vector<Real> toLocal(const std::vector<Real>& global) const;
+  bool isLining(const ElementBlock* b) const;
+
   const SolidInput& in_;
-  const Mesh& mesh_;
+  const Mesh& mesh_;   // the solver's mesh (on ranks: the rank's part)
+  const Mesh& model_;  // the whole model's mesh (face groups, pairs, extents)
   Solver& solver_;
-  ElementBlock* lining_ = nullptr;
+  std::unique_ptr<RankPart> part_;      // on ranks
+  std::vector<ElementBlock*> linings_;  // the blocks of the lining region (on ranks: a frontier and an interior one)
+  bool hasLining_ = false;              // the whole model has lining elements
+  std::vector<Index> contactPairIndex_;
+  std::vector<std::uint8_t> contactPairOwned_;
   std::vector<StageReport> reports_;
   std::shared_ptr<NodalForceContributor> interface_;
   std::shared_ptr<ConstantNodalForces> pressure_, held_;

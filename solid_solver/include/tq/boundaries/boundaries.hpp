@@ -75,6 +75,15 @@ class SeismicBoundaries final : public NodalForceContributor {
  public:
   SeismicBoundaries(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
                     const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice);
+  /// The same with each mesh element's material given ([E]; on MPI ranks the whole model's mesh,
+  /// whose elements a rank's blocks do not all hold).
+  SeismicBoundaries(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
+                    const SeismicBoundarySpec& spec, IncidentMotion motion, bool slice);
+  /// On MPI ranks (tq/parallel/): built on the whole model's mesh, keep what acts on this rank's
+  /// nodes, renumbered (localNode [global node]: its local index, or −1 where the rank does not
+  /// hold it). Each node's force is then the sum of the same terms in the same order as in one
+  /// process. `owned` [local node]: the base nodes whose spring energy this rank counts.
+  void restrictToNodes(const std::vector<Index>& localNode, const std::vector<std::uint8_t>& owned);
   std::string name() const override { return "seismic boundaries"; }
   /// Register the nodal dashpots and the displacement reference u_0 (the state at the switch).
   void install(NodalState& state);
@@ -97,7 +106,7 @@ class SeismicBoundaries final : public NodalForceContributor {
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
 
  private:
-  FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<std::unique_ptr<ElementBlock>>& blocks,
+  FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
                               const std::string& face) const;
   struct SideNode {
     Index node;
@@ -120,8 +129,9 @@ class SeismicBoundaries final : public NodalForceContributor {
   std::array<Real, 3> kArea_{}, cArea_{};
   std::vector<SideNode> side_;
   std::vector<SideQuadLoad> sideQuads_;
-  std::vector<Real> u0_;             // [3 base nodes] displacement at the switch
-  std::vector<Real> uPrev_, fPrev_;  // spring work by the trapezoid rule, as the solver books work
+  std::vector<std::uint8_t> baseCounted_;  // [base nodes] in springWork_ (empty: all)
+  std::vector<Real> u0_;                   // [3 base nodes] displacement at the switch
+  std::vector<Real> uPrev_, fPrev_;        // spring work by the trapezoid rule, as the solver books work
   bool first_ = true;
   Real springWork_ = 0;
 };

@@ -119,6 +119,17 @@ class DynamicContact final : public NodalForceContributor {
   /// Number of pairs in a state.
   Index count(PairState s) const;
 
+  /// On MPI ranks (tq/parallel/): every rank computes each pair it holds, but only the pairs marked
+  /// here (those it owns) count in its dissipated energy, so that the ranks' sum counts each once.
+  void countOnly(std::vector<std::uint8_t> counted) { counted_ = std::move(counted); }
+  /// The results of a run on ranks: pair p's state in kGatheredSize values (state, failed, r0,
+  /// normal and tangential force), and a contact that only holds gathered states for the results
+  /// (the mirror of rank 0) set from them and from the ranks' summed dissipated energy.
+  static constexpr int kGatheredSize = 7;
+  void gatheredPair(Index p, Real* out) const;
+  void setGatheredPair(Index p, const Real* in);
+  void setDissipatedEnergy(Real e) { work_ = -e; }
+
  private:
   const Solver& solver_;
   ContactPairs pairs_;
@@ -128,7 +139,8 @@ class DynamicContact final : public NodalForceContributor {
   std::vector<Real> force_;    // [3P] force on node 1 of the last step (N)
   std::vector<Real> relPrev_;  // [3P] u1 − u2 at the last call (for the work)
   std::vector<Real> fn_, ft_;
-  Real work_ = 0;  // work of the contact forces so far (J, ≤ 0 up to round-off)
+  std::vector<std::uint8_t> counted_;  // empty: every pair counts in work_
+  Real work_ = 0;                      // work of the contact forces so far (J, ≤ 0 up to round-off)
 };
 
 }  // namespace tq

@@ -75,12 +75,13 @@ class ElementBlock {
   /// Set a stress component of the last evaluated state (in-situ stress); the next evaluation
   /// adds C:(ε − ε_last) to it, like any other stress.
   void setStress(Index e, int comp, Real value);
-  /// A block that only holds the state gathered from MPI ranks for the results (tq/parallel/): the
-  /// stress (6) and the history variables of element e as its rank last evaluated them.
-  void setGatheredState(Index e, const Real* stress6, const Real* history) {
-    for (int c = 0; c < 6; ++c) stress_[c][size_t(e)] = stress6[c];
-    for (size_t h = 0; h < history_.size(); ++h) history_[h][size_t(e)] = history[h];
-  }
+  /// The results of a run on MPI ranks (tq/parallel/): element e's state as this block holds it, in
+  /// gatheredSize() values: the active flag, the stress (6), the strain record (6; σ_off in total
+  /// form) and the history variables; setGatheredState puts such values into a block of the same
+  /// material that only holds the gathered state for the results (the mirror of rank 0).
+  int gatheredSize() const { return 13 + numHistory(); }
+  void gatheredState(Index e, Real* out) const;
+  void setGatheredState(Index e, const Real* in);
   /// Number of history variables of each element.
   int numHistory() const { return int(history_.size()); }
   /// Total small strain of the element (engineering shear), as last evaluated.

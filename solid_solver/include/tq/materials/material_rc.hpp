@@ -117,7 +117,8 @@ class ReinforcedConcreteMaterial final : public Material {
   /// are found once (and after an element is re-activated) among the block's elements: the
   /// element of the first and of the last row whose centre lies on this element's ray (same
   /// angle about the ring centre and same y within a quarter of a row's thickness). Where none is
-  /// found (an unstructured lining, or a face row on another MPI rank), s = 0: bending's zone.
+  /// found (an unstructured lining), s = 0: bending's zone. (Refused on MPI ranks, whose
+  /// blocks split the ring's face rows.)
   void blockPass(Index count, const Real* const centre[3], Real* const* history) const override;
   void updateStressForElems(const MaterialChunk& chunk) const override;
   const ReinforcedConcreteParams& params() const { return params_; }

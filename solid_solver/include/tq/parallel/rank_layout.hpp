@@ -44,6 +44,11 @@ struct RankLayout {
 };
 
 /// The layout of rank `rank` of `ranks` for a partition (partitionRcb) of the global mesh.
-RankLayout makeRankLayout(const Mesh& global, const std::vector<int>& part, int rank, int ranks);
+/// `together`: groups of nodes whose force needs the state of every member (a contact pair, a tie):
+/// a rank that holds one member of a group holds them all (as frontier nodes, summed like any
+/// other), so each rank computes the group's force from its own copies, which are bitwise equal on
+/// every rank.
+RankLayout makeRankLayout(const Mesh& global, const std::vector<int>& part, int rank, int ranks,
+                          const std::vector<std::vector<Index>>& together = {});
 
 }  // namespace tq
