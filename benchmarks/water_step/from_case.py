@@ -53,6 +53,8 @@ def short_copy(case_path: Path, dest: Path, end_time: float = RUN_END_TIME) -> P
     """A copy of the case file for a short coupled run of dynamic_water alone, results under dest."""
     case_path = Path(case_path)
     src = case_path / "case.yaml" if case_path.is_dir() else case_path
+    if not src.is_file():
+        raise SystemExit(f"--from-case {case_path}: no case file there; give a case.yaml or the folder holding it")
     raw = yaml.safe_load(src.read_text())
     raw["conditions"] = ["dynamic_water"]
     raw.setdefault("time", {})
