@@ -34,6 +34,8 @@ Usage (from the repository root):
       [--mesh 3d slice] [--variants NAME ...] [--ranks 1 2] [--steps3d 100] [--steps2d 1000] [--repeat 3]
   ... benchmark.py --pair 5 [--variants NAME ...]: ours and each named variant (default: stock)
       alternately, 5 runs each; min and median of each and the ratios to ours.
+  ... benchmark.py --from-case CASE [--variant NAME] [--pair 5] [--steps 300]: ours and the stock
+      solvers alternately on the water case the product writes for CASE's dynamic_water (from_case.py).
 """
 
 from __future__ import annotations
