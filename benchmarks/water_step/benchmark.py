@@ -34,6 +34,8 @@ Usage (from the repository root):
       [--mesh 3d slice] [--variants NAME ...] [--ranks 1 2] [--steps3d 100] [--steps2d 1000] [--repeat 3]
   ... benchmark.py --pair 5 [--variants NAME ...]: ours and each named variant (default: stock)
       alternately, 5 runs each; min and median of each and the ratios to ours.
+  ... benchmark.py --from-case CASE [--variant NAME] [--pair 5] [--steps 300]: ours and the stock
+      solvers alternately on the water case the product writes for CASE's dynamic_water (from_case.py).
 """
 
 from __future__ import annotations
@@ -378,6 +380,42 @@ def _match(xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
     return idx
 
 
+def from_case_pairs(a, root: Path) -> int:
+    """--from-case: ours and stock alternately on the water case the product writes (from_case.py);
+    OpenFOAM's CPU ms a step after the first 10, each round's ratio, the medians."""
+    from . import from_case as fcase
+
+    copy = fcase.short_copy(Path(a.from_case), root / "run")
+    fluid = fcase.run_short(copy, a.variant)
+    w, axis, differ = fcase.product_description(copy, a.variant, fluid)
+    cells = int(re.search(r"nCells:\s*(\d+)", (fluid / "constant/polyMesh/owner").read_text(errors="replace")[:2000])
+                .group(1))
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}, {machine()}, work dir {root}")
+    print(f"# the product's water case ({fluid}): {w.solver}, {w.model} water, {w.mode}, {cells} cells, "
+          f"ends {w.ends[0]}, step {w.delta_t:.6g} s (the coupling window); the writer's files "
+          f"{'identical to the run' if not differ else 'differ from the run: ' + ', '.join(differ)} "
+          "(the exchange aside)", flush=True)
+    rounds = max(a.pair, 1) if a.pair else 5
+    cpu: dict[str, list[float]] = {"ours": [], "stock": []}
+    for _ in range(rounds):
+        for name in ("ours", "stock"):
+            time.sleep(a.pause)
+            case = root / name
+            fcase.write_variant(w, axis, fluid, case, a.steps, stock=STOCK if name == "stock" else None)
+            _wall, c, _log = run_timed(case, w.solver, 1)
+            skip = 10
+            cpu[name].append(1000 * (c[-1] - c[skip]) / (len(c) - 1 - skip))
+        print(f"round {len(cpu['ours'])}: CPU ms a step ours {cpu['ours'][-1]:.3f}, stock {cpu['stock'][-1]:.3f}, "
+              f"stock/ours {cpu['stock'][-1] / cpu['ours'][-1]:.2f}", flush=True)
+    ratios = [s / o for s, o in zip(cpu["stock"], cpu["ours"], strict=True)]
+    print(f"{w.mode} {cells} cells, {a.steps} steps, {rounds} rounds: ours median {statistics.median(cpu['ours']):.3f}"
+          f" ms, stock median {statistics.median(cpu['stock']):.3f} ms; stock/ours by round "
+          f"{', '.join(f'{x:.2f}' for x in ratios)}; median {statistics.median(ratios):.2f}")
+    if not a.keep:
+        shutil.rmtree(root)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--mesh", nargs="+", default=["3d", "slice"])
@@ -397,11 +435,19 @@ def main(argv=None) -> int:
                     help="write every N steps and compare the wall pressure at each write (the "
                          "largest difference; default: the last step only). The writes are in the "
                          "timed steps: use it for the accuracy columns, not the times")
+    ap.add_argument("--from-case", default=None, metavar="CASE",
+                    help="instead of the paper-size meshes: the water case the product writes for CASE's "
+                         "condition dynamic_water (a short coupled run writes it; from_case.py), ours and "
+                         "the stock solvers alternately --pair times (default 5), --steps steps")
+    ap.add_argument("--variant", default=None, help="with --from-case: the case file's variant")
+    ap.add_argument("--steps", type=int, default=300, help="with --from-case: water steps a run")
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--keep", action="store_true")
     a = ap.parse_args(argv)
     root = Path(a.workdir or tempfile.mkdtemp(prefix="tq-water-bench-"))
     root.mkdir(parents=True, exist_ok=True)
+    if a.from_case:
+        return from_case_pairs(a, root)
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}, {machine()}, best of {a.repeat}, work dir {root}")
     print("| mesh | cells | variant | ranks | ms/step CPU | ms/step wall | motion its/step "
           "| ΔF/F_max | Δp_w/p_max |")
