@@ -214,7 +214,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
   for (const auto& face : spec_.freeFieldFaces) sides.emplace_back(face, false);
   for (const auto& face : spec_.sharedColumnFaces) sides.emplace_back(face, true);
   std::unique_ptr<QuadOwners> owners;
-  if (!spec_.sharedColumnFaces.empty()) owners = std::make_unique<QuadOwners>(mesh, blocks);
+  if (!spec_.sharedColumnFaces.empty()) owners = std::make_unique<QuadOwners>(mesh);
   for (size_t si = 0; si < sides.size(); ++si) {
     const auto& [faceName, shared] = sides[si];
     const size_t fi = shared ? 0 : si;
@@ -234,25 +234,25 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
       L.layer = col.layerAt(zc);
       if (shared) {  // within the column's height, of its layer's material
         for (int c = 0; c < 4; ++c) {
-          const Real z = mesh.coords[3 * size_t(q[c]) + 2];
+          const Real z = mesh.coords[dofIndex(q[c], 2)];
           if (z < zLo - zTol || z > zHi + zTol)
             throw InputError(mshort(mesh) + ": face group '" + faceName + "' has a node at z = " + std::to_string(z) +
                              " m, outside the column of '" + spec_.freeFieldFaces.front() + "' (" +
                              std::to_string(zLo) + " .. " + std::to_string(zHi) + " m)");
         }
-        const Owner o = owners->find(q);
-        if (o.block < 0)
+        const Index o = owners->find(q);
+        if (o < 0 || !blocks[size_t(o)])
           throw InputError(mshort(mesh) + ": quad " + std::to_string(k) + " of face group '" + faceName +
                            "' belongs to no element");
-        const Material& mat = blocks[size_t(o.block)]->material();
+        const Material& mat = *blocks[size_t(o)];
         const ElasticModuli em = mat.elasticModuli();
         const ColumnLayer& have = col.layer(L.layer);
         if (std::abs(have.rho - mat.density()) > 1e-9 * have.rho || std::abs(have.mu - em.mu) > 1e-9 * have.mu ||
             std::abs(have.lambda - em.lambda) > 1e-9 * std::abs(have.mu)) {
           std::ostringstream os;
           os << mshort(mesh) << ": face group '" << faceName << "' quad " << k << " (z = " << zc << " m) is in block '"
-             << blocks[size_t(o.block)]->name() << "', not of the material of the column's layer there (face '"
-             << spec_.freeFieldFaces.front()
+             << mesh.regionNames[size_t(mesh.region[size_t(o)])]
+             << "', not of the material of the column's layer there (face '" << spec_.freeFieldFaces.front()
              << "'); a shared column needs the face's ground layered as the column's: plug the tunnel's ends "
                 "with ground (use rollers on that face otherwise)";
           throw InputError(os.str());
