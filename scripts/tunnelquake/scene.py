@@ -328,7 +328,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
     factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
     stiffness-proportional damping and a Kelvin-Voigt material's viscosity as tq-solid cuts it
-    (critical_step)."""
+    (critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
+    steps to each condition and makes the shaking after it dearer in ground that yields (rates.py
+    RELAX_STEPS_PER_INCREMENT, RELAX_STEP_FACTOR, YIELDED_SHAKING_FACTOR); the other static stages
+    are not counted."""
     import math
 
     from .case import case_geology, ground_layers
