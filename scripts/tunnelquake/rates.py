@@ -45,6 +45,25 @@ COUPLED_SOLID_FACTOR = 1.13
 WATER_PER_PROBE_S = 0.96e-3
 WATER_CELL_PER_PROBE_S = 2.49e-6
 
+#: A fault offset imposed by a static stage (fault_offset without a rise_time): relaxation steps an
+#: increment (the stage relaxes to equilibrium after each of fault_offset.increments): cases/fault_crossing,
+#: 10 increments, 370 / 380 / 410 / 450 / 490 / 530 / 570 / 590 / 610 / 620 steps, 5,020 in all
+#: (docs/benchmarks.md "check's estimates on the 3D cases")
+RELAX_STEPS_PER_INCREMENT = 502
+#: CPU of one element-step of that relaxation against the shaking's (SOLID_PER_PROBE_S): the ground
+#: it drives past yield takes the return mapping at every step, and each step adds the Rayleigh
+#: quotient's sums; cases/fault_crossing: 18.36 CPU s for 5,020 steps of 6,984 elements, 5.24e-7 s an
+#: element-step, probe 0.525 CPU s: 9.97e-7 per probe second, 3.87 times the shaking's rate
+RELAX_STEP_FACTOR = 3.87
+#: The shaking after such an offset, per element-step, against the same shaking without it, where
+#: the ground yields (any material but elastic / kelvin_voigt): the plastic zone the offset leaves
+#: takes the return mapping at every step. cases/fault_crossing's no_water, 0.25 s (4,464 steps),
+#: 1 thread, the same input with and without its fault_offset stage: 0.312 against 0.144 us an
+#: element-step (the latter within 7 % of SOLID_PER_PROBE_S at the probe's 0.525 CPU s)
+YIELDED_SHAKING_FACTOR = 2.17
+#: Materials that never yield: an offset leaves no plastic zone in them
+LINEAR_MODELS = ("elastic", "kelvin_voigt")
+
 
 @dataclass(frozen=True)
 class MachineRates:

@@ -231,15 +231,20 @@ class RuntimeEstimate:
     dt: float  # the solid's step, s (estimated from the lining's first element layer)
     steps: int  # solid steps of the shaking
     seconds: dict[str, float]  # condition -> CPU s of its shaking
-    wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others)
+    wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others), statics included
     basis: str = ""  # where the rates come from (rates.MachineRates), or why there are none
+    statics: float = 0.0  # CPU s of each condition's fault-offset static stage (0 without one)
+    statics_steps: int = 0  # its relaxation steps (rates.RELAX_STEPS_PER_INCREMENT a increment)
 
     def line(self) -> str:
         if not self.seconds and self.basis:
             return f"run time: not estimated ({self.basis})"
         per = ", ".join(f"{c} {_minutes(s)}" for c, s in self.seconds.items())
-        return (f"run time: about {_minutes(self.wall)} of shaking ({per}; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s) on an otherwise idle machine, from {self.basis}; the static stages come on top")
+        offset = (f", each after about {_minutes(self.statics)} of the fault offset's static stage "
+                  f"({self.statics_steps:,} relaxation steps)" if self.statics else "")
+        rest = "the other static stages come on top" if self.statics else "the static stages come on top"
+        return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
+                f"{self.dt:.2g} s{offset}) on an otherwise idle machine, from {self.basis}; {rest}")
 
 
 def _minutes(s: float) -> str:
@@ -323,7 +328,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     h / c_p (or a fault zone's shortest axial element's, axial_step, if shorter) times the safety
     factor (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s tq-solid's own), cut by
     stiffness-proportional damping and a Kelvin-Voigt material's viscosity as tq-solid cuts it
-    (critical_step)."""
+    (critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
+    steps to each condition and makes the shaking after it dearer in ground that yields (rates.py
+    RELAX_STEPS_PER_INCREMENT, RELAX_STEP_FACTOR, YIELDED_SHAKING_FACTOR); the other static stages
+    are not counted."""
     import math
 
     from .case import case_geology, ground_layers
@@ -349,6 +357,17 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
                                    basis=f"this machine's speed could not be measured: {e}")
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
     solid = (rock + counts["lining"]) * steps * rates.solid_element_step
+    statics, statics_steps = 0.0, 0
+    fo = d.get("fault_offset") or {}
+    from .case import fault_offset_slip
+
+    if fault_offset_slip(d) is not None and fo.get("rise_time") is None:
+        # the offset imposed by a static stage before the shaking: its relaxation steps, and the
+        # shaking after it dearer where the ground it yielded is plastic (rates.py)
+        statics_steps = int(fo["increments"]) * R.RELAX_STEPS_PER_INCREMENT
+        statics = (counts["rock"] + counts["lining"]) * statics_steps * rates.solid_element_step * R.RELAX_STEP_FACTOR
+        if any(m["model"] not in R.LINEAR_MODELS for m in d["materials"].values()):
+            solid *= R.YIELDED_SHAKING_FACTOR
     seconds = {}
     for cond, parts in plan(case):
         if "fluid" not in parts:
@@ -359,9 +378,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         passes = per_window * steps / c["window"]
         seconds[cond] = (solid * R.COUPLED_SOLID_FACTOR * per_window
                          + passes * (rates.water_pass + counts["water"] * rates.water_cell_pass))
-    coupled = [s for c, s in seconds.items() if c == "dynamic_water"]
-    alone = [s for c, s in seconds.items() if c != "dynamic_water"]
-    wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(seconds.values())
+    coupled = [s + statics for c, s in seconds.items() if c == "dynamic_water"]
+    alone = [s + statics for c, s in seconds.items() if c != "dynamic_water"]
+    wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
     basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}; "
              "docs/benchmarks.md \"check's run-time estimate\")")
-    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis)
+    return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
+                           statics_steps=statics_steps)

@@ -216,7 +216,7 @@ def test_huge_3d_mesh_is_estimated_and_warned_above_the_machine_memory(tmp_path,
     out = capsys.readouterr()
     assert rc == 0 and "Traceback" not in out.err
     assert ("warning: mesh: about 40,550,400 hexahedra (rock 29,736,960, lining 3,244,032, water 7,569,408) need "
-            "about 86.9 GiB to mesh and 99.3 GiB to run, more than this machine's 24.0 GiB of memory (20.0 GiB "
+            "about 86.9 GiB to mesh and 99.5 GiB to run, more than this machine's 24.0 GiB of memory (20.0 GiB "
             "available now): meshing and the run would run out of memory. Fix: lower mesh.refinement_factor (8), "
             "raise mesh.max_element_size or use fewer divisions, or mesh.mode: slice") in out.err
     assert "mesh: 29,736,960 rock + 3,244,032 lining + 7,569,408 water hexahedra" in out.out

@@ -668,22 +668,30 @@ SOLID_BYTES_PER_ELEMENT = 1500
 WATER_BYTES_PER_CELL = 1000
 #: What the mesher holds before any mesh (Python with numpy, h5py and gmsh: 55 MB measured), bytes.
 MESHING_BASE_BYTES = 60e6
-#: What the run's solvers hold before any mesh (tq-solid, OpenFOAM's libraries), bytes.
-RUN_BASE_BYTES = 100e6
+#: What `tunnelquake run`'s own Python process holds while its solvers run (numpy, h5py, gmsh,
+#: matplotlib, the motion and the solver inputs it wrote), bytes: peak RSS 176 MB on
+#: cases/fault_crossing (its imports alone 80 MB; docs/benchmarks.md "check's estimates on the 3D cases").
+DRIVER_BYTES = 180e6
+#: What one tq-solid process holds before its mesh (the program and its libraries), bytes: 18.3 MB
+#: peak RSS of a tq-solid that read its input and refused it.
+SOLID_BASE_BYTES = 18e6
+#: What OpenFOAM's libraries hold before any cell, bytes (not measured here).
+WATER_BASE_BYTES = 100e6
 
 
 def memory_estimate(counts: dict, conditions=("dynamic_water",)) -> dict:
-    """Peak memory in bytes, from element_counts: 'meshing' (build_tunnel_mesh) and 'run' (the
-    conditions' solvers: `tunnelquake run` runs the coupled condition beside one solid-only one,
-    so up to two tq-solid processes and OpenFOAM at once)."""
+    """Peak memory in bytes, from element_counts: 'meshing' (build_tunnel_mesh) and 'run' (`tunnelquake
+    run`'s own process and the conditions' solvers: it runs the coupled condition beside one
+    solid-only one, so up to two tq-solid processes and OpenFOAM at once; solid-only conditions one
+    after another). A DRM field's samples (incident_wave) are not counted."""
     solid = counts["rock"] + counts["lining"]
     hexes = solid + counts["water"]
     conds = list(conditions)
     solids = 2 if "dynamic_water" in conds and len(conds) > 1 else 1
-    water = counts["water"] * WATER_BYTES_PER_CELL if "dynamic_water" in conds else 0.0
+    water = WATER_BASE_BYTES + counts["water"] * WATER_BYTES_PER_CELL if "dynamic_water" in conds else 0.0
     return {
         "meshing": MESHING_BASE_BYTES + hexes * MESHING_BYTES_PER_HEX,
-        "run": RUN_BASE_BYTES + solids * solid * SOLID_BYTES_PER_ELEMENT + water,
+        "run": DRIVER_BYTES + solids * (SOLID_BASE_BYTES + solid * SOLID_BYTES_PER_ELEMENT) + water,
     }
 
 
