@@ -55,3 +55,22 @@ materials:
 interface: {model: bonded}
 in_situ: {kx: 1.0, ky: 1.0}
 """
+
+
+def ricker_pulse_file(path, fc: float = 2.5, dt: float = 0.004, n: int = 310) -> None:
+    """A Ricker pulse of centre frequency `fc` (peak 1 at 1.5/fc s) as a two-column record (t, a)."""
+    import numpy as np
+
+    t = np.arange(n) * dt
+    a = (np.pi * fc * (t - 1.5 / fc)) ** 2
+    np.savetxt(path, np.column_stack([t, (1 - 2 * a) * np.exp(-a)]))
+
+
+def pulse_case(tmp_path, text: str, edit=lambda s: s):
+    """`text` (edited) written as tmp_path/case.yaml beside a Ricker record pulse.txt; its path."""
+    import textwrap
+
+    ricker_pulse_file(tmp_path / "pulse.txt")
+    p = tmp_path / "case.yaml"
+    p.write_text(edit(textwrap.dedent(text)))
+    return p

@@ -27,11 +27,10 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import textwrap
 
 import numpy as np
 import pytest
-from case_texts import record_motion, tunnel
+from case_texts import pulse_case, record_motion, tunnel
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -81,17 +80,8 @@ NODES = {f"node{int(y)}_{a}": [round(float(2.2 * np.cos(np.radians(a))), 6) + 0.
 BASE = BASE.replace("{monitors}", "\n".join(f"    {k}: {v}" for k, v in {**MONITORS, **NODES}.items()))
 
 
-def _pulse(path, fc=2.5, dt=0.004, n=310):
-    t = np.arange(n) * dt
-    a = (np.pi * fc * (t - 1.5 / fc)) ** 2
-    np.savetxt(path, np.column_stack([t, (1 - 2 * a) * np.exp(-a)]))
-
-
 def _case(tmp_path, edit=lambda s: s):
-    _pulse(tmp_path / "pulse.txt")
-    p = tmp_path / "case.yaml"
-    p.write_text(edit(textwrap.dedent(BASE)))
-    return p
+    return pulse_case(tmp_path, BASE, edit)
 
 
 def _solid_input(case, work):

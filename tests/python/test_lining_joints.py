@@ -29,6 +29,7 @@ import textwrap
 
 import numpy as np
 import pytest
+from case_texts import pulse_case, ricker_pulse_file
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -97,17 +98,8 @@ RING = 6.0
 E_LINING = 5e9
 
 
-def _pulse(path, fc=2.5, dt=0.004, n=310):
-    t = np.arange(n) * dt
-    a = (np.pi * fc * (t - 1.5 / fc)) ** 2
-    np.savetxt(path, np.column_stack([t, (1 - 2 * a) * np.exp(-a)]))
-
-
 def _case(tmp_path, edit=lambda s: s):
-    _pulse(tmp_path / "pulse.txt")
-    p = tmp_path / "case.yaml"
-    p.write_text(edit(textwrap.dedent(BASE)))
-    return p
+    return pulse_case(tmp_path, BASE, edit)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -150,7 +142,7 @@ def test_check_refuses_joints_the_model_cannot_have(tmp_path, edit, key, words):
 def test_tunnelquake_check_names_the_key_and_the_fix(tmp_path, capsys):
     from case_edits import check_edited
 
-    _pulse(tmp_path / "pulse.txt")
+    ricker_pulse_file(tmp_path / "pulse.txt")
     rc, out, err = check_edited(tmp_path, capsys, textwrap.dedent(BASE), "spacing: 6 m", "spacing: 7 m")
     assert rc != 0
     assert "lining_joints.spacing = 7" in err + out and "between the mesh's axial element layers" in err + out
