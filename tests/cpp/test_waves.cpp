@@ -186,6 +186,18 @@ struct BlockRun : StagedRun {
   }
 };
 
+/// Each node's nearest level of the column (by height).
+std::vector<Index> nearestLevels(const FreeFieldColumn& col, const Mesh& mesh) {
+  std::vector<Index> level(size_t(mesh.numNodes()));
+  for (Index n = 0; n < mesh.numNodes(); ++n) {
+    Index k;
+    Real w;
+    col.interpolation(mesh.coords[dofIndex(n, 2)], &k, &w);
+    level[size_t(n)] = w > 0.5 ? k + 1 : k;
+  }
+  return level;
+}
+
 }  // namespace
 
 // Every node of the block at every height follows the 1D free-field column computed alongside
@@ -198,13 +210,7 @@ TEST(FreeField, BlockFollowsTheColumnAtEveryHeight) {
   run.stages->switchToDynamics(log);
   Solver& s = *run.solver;
   const FreeFieldColumn& col = run.stages->seismic()->columns()[0];
-  std::vector<Index> level(size_t(run.mesh.numNodes()));
-  for (Index n = 0; n < run.mesh.numNodes(); ++n) {
-    Index k;
-    Real w;
-    col.interpolation(run.mesh.coords[3 * size_t(n) + 2], &k, &w);
-    level[size_t(n)] = w > 0.5 ? k + 1 : k;
-  }
+  const std::vector<Index> level = nearestLevels(col, run.mesh);
   Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
   std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
   while (s.time() < 0.35) {
@@ -246,13 +252,7 @@ TEST(FreeField, BlockFollowsTheColumnInAnObliqueHorizontalMotion) {
   const auto& cols = run.stages->seismic()->columns();
   ASSERT_GE(cols.size(), 1u);
   const FreeFieldColumn& col = cols[0];
-  std::vector<Index> level(size_t(run.mesh.numNodes()));
-  for (Index n = 0; n < run.mesh.numNodes(); ++n) {
-    Index k;
-    Real w;
-    col.interpolation(run.mesh.coords[3 * size_t(n) + 2], &k, &w);
-    level[size_t(n)] = w > 0.5 ? k + 1 : k;
-  }
+  const std::vector<Index> level = nearestLevels(col, run.mesh);
   Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
   std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
   while (s.time() < 0.35) {
