@@ -21,6 +21,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "tq/app/ranked_run.hpp"
 #include "tq/app/stages.hpp"
 #include "tq/coupling/coupled_stepper.hpp"
 #include "tq/coupling/coupling_mpi.hpp"
@@ -29,7 +30,6 @@
 #include "tq/io/mesh.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
-#include "tq/parallel/ranked_run.hpp"
 
 namespace tq {
 

@@ -2,7 +2,7 @@
 /// @brief The halo exchange of the solid on MPI ranks: the frontier nodes' partial sums (internal
 ///        forces each step, lumped masses when they change) sent to and received from the ranks
 ///        that share them with non-blocking MPI, and the sums over every rank (step size, energies,
-///        norms). The only file of tq-solid, with ranked_run.cpp, that calls MPI.
+///        norms). The only file of tq-solid, with app/ranked_run.cpp, that calls MPI.
 #pragma once
 
 #include <memory>

@@ -5,7 +5,7 @@
 // the step size, the energies and the norms over every rank. Rank 0 also holds the whole model as
 // a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it,
 // and the serial results writer writes the one results file from it.
-#include "tq/parallel/ranked_run.hpp"
+#include "tq/app/ranked_run.hpp"
 
 #include <hdf5.h>
 #include <omp.h>
