@@ -2,6 +2,7 @@
 each test is named after the fault, forces it, and asserts the clean outcome."""
 from __future__ import annotations
 
+import contextlib
 import re
 import shutil
 import threading
@@ -251,6 +252,28 @@ def _processes_naming(folder) -> list[str]:
     return found
 
 
+@contextlib.contextmanager
+def _killed_at_end(proc):
+    """`proc` (a process group of its own), killed with its group if it is still there when the block ends."""
+    import os
+    import signal
+
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def _signalled(proc, send) -> tuple[str, float]:
+    """`send()` (a signal to `proc`), then the rest of its output and the seconds it took to end."""
+    t_sig = time.monotonic()
+    send()
+    rest, _ = proc.communicate(timeout=30)
+    return rest, time.monotonic() - t_sig
+
+
 def _longer(prepared, tmp_path, end_time: str = "2 s"):
     p = _copy(prepared, tmp_path)
     p.write_text(p.read_text().replace("end_time: 0.02 s", f"end_time: {end_time}"))
@@ -279,22 +302,11 @@ def test_signal_stops_every_child_marks_the_conditions_interrupted_and_prints_on
     p = _longer(prepared, tmp_path)
     res = p.parent / "results"
     coupled = solver_status()["fluid"] is None
-    proc = _start_run(p, "--no-post")
-    try:
+    with _killed_at_end(_start_run(p, "--no-post")) as proc:
         before = _read_until(proc, "running the water" if coupled else "[no_water] tq-solid: stage")
         time.sleep(1.5)
-        t_sig = time.monotonic()
         sig = getattr(signal, signame)
-        if to_group:
-            os.killpg(proc.pid, sig)
-        else:
-            os.kill(proc.pid, sig)
-        rest, _ = proc.communicate(timeout=30)
-        took = time.monotonic() - t_sig
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        rest, took = _signalled(proc, lambda: os.killpg(proc.pid, sig) if to_group else os.kill(proc.pid, sig))
     from tunnelquake import children
 
     assert proc.returncode == code, rest[-2000:]
@@ -377,18 +389,10 @@ def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(pre
         sys.argv = ["tunnelquake", "run", {str(p)!r}, "--no-post"]
         sys.exit(main())
     """))
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, start_new_session=True)
-    try:
+    with _killed_at_end(subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                                         stderr=subprocess.STDOUT, text=True, start_new_session=True)) as proc:
         _read_until(proc, "job: holding h5py's lock")
-        t_sig = time.monotonic()
-        os.kill(proc.pid, signal.SIGTERM)
-        rest, _ = proc.communicate(timeout=30)
-        took = time.monotonic() - t_sig
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        rest, took = _signalled(proc, lambda: os.kill(proc.pid, signal.SIGTERM))
     assert proc.returncode == 143, rest
     assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
     assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
