@@ -74,3 +74,28 @@ def pulse_case(tmp_path, text: str, edit=lambda s: s):
     p = tmp_path / "case.yaml"
     p.write_text(edit(textwrap.dedent(text)))
     return p
+
+
+def wave_tunnel(name: str) -> str:
+    """A 3D case under a plane SV wave: a 5 m tunnel with a 0.3 m lining, 120 m long in 6 m axial
+    elements, its ends plugged with rock (3 layers), rock and lining alike (elastic, E 5 GPa) and
+    bonded, the Ricker record pulse.txt (ricker_pulse_file) as the incident wave at 20 deg, undamped,
+    shaking only. It ends with the monitors' heading: the test writes its monitors after it."""
+    return tunnel(name, [-30.0, 30.0], [0.0, 120.0], [-30.0, 20.0], centre_x=0.0, centre_z=0.0, radius="2.5 m",
+                  lining="0.3 m", mode="3d", max_element_size="6 m", lining_elements_around=16,
+                  lining_elements_through=1, elements_along_axis=20, near_field_half_width="7 m",
+                  near_field_radial_divisions=2, water_ring_divisions=1, tunnel_end_plugs=3) + """materials:
+  rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
+  lining: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
+interface: {model: bonded}
+""" + record_motion("pulse.txt", units="m/s^2", pga="1.0 m/s^2", vertical_ratio=0, cutoff_frequency="12 Hz",
+                    baseline_correction="false", convention="incident") + """incident_wave:
+  type: SV
+  angle: 20
+  azimuth: 0
+stages: {sequence: [seismic]}
+conditions: [no_water]
+damping: {ratio: 0}
+output:
+  monitors:
+"""

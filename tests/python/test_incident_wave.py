@@ -30,7 +30,7 @@ import sys
 
 import numpy as np
 import pytest
-from case_texts import pulse_case, record_motion, tunnel
+from case_texts import pulse_case, wave_tunnel
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -43,25 +43,7 @@ from tunnelquake.paths import solid_executable  # noqa: E402
 
 EXE = solid_executable()
 
-BASE = tunnel("wave_test", [-30.0, 30.0], [0.0, 120.0], [-30.0, 20.0], centre_x=0.0, centre_z=0.0, radius="2.5 m",
-              lining="0.3 m", mode="3d", max_element_size="6 m", lining_elements_around=16,
-              lining_elements_through=1, elements_along_axis=20, near_field_half_width="7 m",
-              near_field_radial_divisions=2, water_ring_divisions=1, tunnel_end_plugs=3) + """materials:
-  rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
-  lining: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
-interface: {model: bonded}
-""" + record_motion("pulse.txt", units="m/s^2", pga="1.0 m/s^2", vertical_ratio=0, cutoff_frequency="12 Hz",
-                    baseline_correction="false", convention="incident") + """incident_wave:
-  type: SV
-  angle: 20
-  azimuth: 0
-stages: {sequence: [seismic]}
-conditions: [no_water]
-damping: {ratio: 0}
-output:
-  monitors:
-{monitors}
-"""
+BASE = wave_tunnel("wave_test") + "{monitors}\n"
 
 #: the lining's mid-thickness radius, and the centroids of its four elements beside the crown and the
 #: invert (16 around, nodes at 45 + k 22.5 deg): symmetric about both axes, so their mean is the

@@ -29,7 +29,7 @@ import textwrap
 
 import numpy as np
 import pytest
-from case_texts import pulse_case, ricker_pulse_file
+from case_texts import pulse_case, ricker_pulse_file, wave_tunnel
 
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
@@ -41,56 +41,13 @@ from tunnelquake.paths import solid_executable  # noqa: E402
 
 #: a 5 m tunnel with a 0.3 m lining in soft rock (E 5 GPa), 120 m long, 6 m axial elements; the
 #: lining runs between the plugs, from y = 18 to 102 m; rings of 6 m: 14 rings, 13 joints
-BASE = """
-name: joints_test
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 120.0]
-  z_range: [-30.0, 20.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 2.5 m
-  lining_thickness: 0.3 m
-mesh:
-  mode: 3d
-  max_element_size: 6 m
-  lining_elements_around: 16
-  lining_elements_through: 1
-  elements_along_axis: 20
-  near_field_half_width: 7 m
-  near_field_radial_divisions: 2
-  water_ring_divisions: 1
-  tunnel_end_plugs: 3
-materials:
-  rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
-  lining: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}
-interface: {model: bonded}
+BASE = wave_tunnel("joints_test") + """    ground: [10.0, 63.0, 0.0]
 lining_joints:
   spacing: 6 m
   normal_stiffness: 1 MPa/m
   shear_stiffness: 1 MPa/m
   tensile_strength: 1 GPa
   allowed_opening: 1 mm
-ground_motion:
-  source: file
-  file: pulse.txt
-  format: two_column
-  units: m/s^2
-  pga: 1.0 m/s^2
-  vertical_ratio: 0
-  cutoff_frequency: 12 Hz
-  baseline_correction: false
-  convention: incident
-incident_wave:
-  type: SV
-  angle: 20
-  azimuth: 0
-stages: {sequence: [seismic]}
-conditions: [no_water]
-damping: {ratio: 0}
-output:
-  monitors:
-    ground: [10.0, 63.0, 0.0]
 """
 
 LINING = (18.0, 102.0)
