@@ -388,6 +388,66 @@ def _geology_checks(d: dict, raw: LineDict) -> list[Issue]:
     return issues
 
 
+WATER_END_KINDS = ("reservoir", "valve", "surge_tank")
+
+
+def _water_end_section(where: str) -> Section:
+    """What closes one end of an open water column (water.ends: open; docs/theory.md "The water column
+    along the tunnel")."""
+    return Section(fields={
+        "kind": Choice(choices=WATER_END_KINDS, default="reservoir",
+                       doc=f"the water column's end at {where}: reservoir (the head held, p = 0 hydrodynamic), "
+                           "valve (closed: no flow), surge_tank (a free surface of the given area, its level a "
+                           "state: dp/dt = rho_w g Q / area)"),
+        "area": _positive(U.AREA, "the surge tank's free-surface area, m^2"),
+    })
+
+
+def water_end_kinds(d: dict) -> tuple[str, str]:
+    """The kinds of the water column's two ends (y_min, y_max) in a 3D model with open ends."""
+    w = d["water"]
+    return tuple((w.get(e) or {}).get("kind") or "reservoir" for e in ("end_ymin", "end_ymax"))
+
+
+def _water_end_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """A surge tank needs its area, an area a surge tank; the kinds need a 3D column with open ends, two
+    valves leave it no end that fixes its pressure, and a surge tank's level is carried by the solid."""
+    issues: list[Issue] = []
+    w = d["water"]
+    wraw = raw.get("water") if isinstance(raw.get("water"), dict) else LineDict()
+    given = [e for e in ("end_ymin", "end_ymax") if e in wraw]
+    for e in given:
+        end, eraw = w.get(e) or {}, wraw.get(e) if isinstance(wraw.get(e), dict) else LineDict()
+        kind, line = end.get("kind") or "reservoir", wraw.key_lines.get(e)
+        if kind == "surge_tank" and end.get("area") is None:
+            issues.append(Issue(f"water.{e}.area", None, "is missing: a surge tank with no area has no free surface "
+                                "(its level rises by the inflow over the area)",
+                                f"add the tank's free-surface area, e.g. 'water: {{{e}: {{kind: surge_tank, "
+                                "area: 40 m^2}}}', or make the end a reservoir or a valve", line))
+        if kind != "surge_tank" and end.get("area") is not None:
+            issues.append(Issue(f"water.{e}.area", end["area"], f"is a surge tank's area, but water.{e}.kind is "
+                                f"{kind}", "remove area, or use kind: surge_tank",
+                                eraw.key_lines.get("area", line)))
+    if given and (d["mesh"]["mode"] != "3d" or w["ends"] != "open"):
+        e = given[0]
+        issues.append(Issue(f"water.{e}.kind", (w[e] or {}).get("kind"), "closes one end of a water column along the tunnel, which needs a "
+                            "3D model with water.ends: open (a slice, or closed ends, has no axial flow)",
+                            "use mesh.mode: 3d and water.ends: open, or remove it", wraw.key_lines.get(e)))
+        return issues
+    kinds = water_end_kinds(d)
+    if kinds == ("valve", "valve"):
+        issues.append(Issue("water.end_ymax.kind", "valve", "closes the column's second end: with valves at both "
+                            "ends no end holds the water's pressure level",
+                            "make one end a reservoir or a surge tank, or use water.ends: closed",
+                            wraw.key_lines.get("end_ymax")))
+    if "surge_tank" in kinds and d["coupling"]["volume_law"] == "water":
+        e = "end_ymin" if kinds[0] == "surge_tank" else "end_ymax"
+        issues.append(Issue(f"water.{e}.kind", "surge_tank", "the surge tank's level is carried by tq-solid's water "
+                            "law, but coupling.volume_law water leaves the whole pressure to the water solver",
+                            "use coupling.volume_law: solid (the default)", wraw.key_lines.get(e)))
+    return issues
+
+
 def _component_section(what: str) -> Section:
     """A further component of the ground motion: a record file, scaled with the horizontal record's
     factor (the recorded ratio kept) unless it gives a PGA of its own."""
@@ -665,6 +725,8 @@ def schema() -> Section:
             "ends": Choice(choices=("open", "closed"), default=None,
                            doc="axial ends of the water column: open (pressure) or closed (walls); required by a 3D "
                                "model with dynamic_water (a slice has no axial flow)"),
+            "end_ymin": _water_end_section("y_min"),
+            "end_ymax": _water_end_section("y_max"),
             "log": Choice(choices=("brief", "verbose"), default="brief",
                           doc="dynamic_water's fluid.log: brief: OpenFOAM's lines and the loads on the lining "
                               "once every log_interval of simulated time (and the run's first and last pass); "
@@ -1009,6 +1071,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _geology_checks(d, raw)
     issues += _fault_offset_checks(d, raw)
     issues += _lining_joint_checks(d, raw)
+    issues += _water_end_checks(d, raw)
     if (d.get("fault_offset") or {}).get("rise_time") is not None:
         warnings.append("fault_offset.rise_time: the slip during the run holds the block's faces but the top in x, y "
                         "and z, so the ground motion does not enter: the run is the slip alone (without rise_time "

@@ -23,7 +23,9 @@ Water models (case `water` section):
                      tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 
 Slice mode (mesh attribute `slice` = 1): the ends are `empty`, the section closed. 3D: `ends:
-closed` (walls, compressible water in OpenFOAM) or `ends: open` (p = 0).
+closed` (walls, compressible water in OpenFOAM) or `ends: open`, each end (`end_ymin`, `end_ymax`) a
+reservoir (p = 0), a valve (a wall) or a surge tank (p = 0 for the water solver; the tank's level is
+tq-solid's).
 
 What each water model means for the two sides is decided in one place, `water_split()` (its
 WaterSplit: tq-solid's part into /coupling, OpenFOAM's into the water case). With the volume law in
@@ -62,6 +64,7 @@ from .case import (
     coupling_window_force_weight,
     coupling_window_problem,
     fluid_ranks_problem,
+    water_end_kinds,
 )
 from .coupling_scales import absolute_tolerances
 from .foam_dict import Quoted, foam_file
@@ -97,6 +100,9 @@ class WaterSplit:
     foam_model: str  # the water OpenFOAM solves: compressible | incompressible
     foam_bulk_modulus: float  # Pa: OpenFOAM's K (its perfectFluid; unused by pimpleFoam)
     subtract_mean_pressure: bool  # tqInterface sends its wall pressure less its area mean
+    #: open ends: what closes each end (y_min, y_max): reservoir | valve | surge_tank, and a tank's area (m²)
+    end_kinds: tuple[str, str] = ("reservoir", "reservoir")
+    surge_tank_areas: tuple[float, float] = (0.0, 0.0)
 
 
 def water_split(case) -> WaterSplit:
@@ -115,8 +121,11 @@ def water_split(case) -> WaterSplit:
     water, cs = d["water"], d["coupling"]
     rho, k_case = float(water["density"]), float(water["bulk_modulus"])
     ends = "closed" if closed_section(d) else "open"
+    kinds = water_end_kinds(d) if ends == "open" else ("reservoir", "reservoir")
+    areas = tuple(float((water.get(e) or {}).get("area") or 0.0) if k == "surge_tank" else 0.0
+                  for e, k in zip(("end_ymin", "end_ymax"), kinds, strict=True))
     if cs.get("volume_law", "solid") == "water":
-        return WaterSplit("none", 0.0, 0.0, ends, rho, water["model"], k_case, False)
+        return WaterSplit("none", 0.0, 0.0, ends, rho, water["model"], k_case, False, kinds, areas)
     translation = rho if cs.get("water_translation", "solid") == "solid" else 0.0
     if water["model"] == "incompressible":
         # the volume change is the solid's constraint; OpenFOAM's stiffness only makes a closed domain's
@@ -127,7 +136,7 @@ def water_split(case) -> WaterSplit:
         # pressure, subtracted from it, grows with K and brings its solver noise along
         # (docs/coupler.md "Volume law in the solid": K = 2200 GPa in OpenFOAM stopped at 1.2 s).
         law, k_solid, k_foam = "compressible", k_case, min(k_case, REMAINDER_BULK_MODULUS)
-    return WaterSplit(law, k_solid, translation, ends, rho, "compressible", k_foam, ends == "closed")
+    return WaterSplit(law, k_solid, translation, ends, rho, "compressible", k_foam, ends == "closed", kinds, areas)
 
 
 def volume_law(case) -> tuple[str, float]:
@@ -229,6 +238,10 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         "water_density": split.water_density,
         "water_ends": split.water_ends,
         "axial_density": split.axial_density,
+        "end_ymin": split.end_kinds[0],
+        "end_ymax": split.end_kinds[1],
+        "surge_tank_area_ymin": split.surge_tank_areas[0],
+        "surge_tank_area_ymax": split.surge_tank_areas[1],
         # OpenFOAM's part that tq-solid must know of: the water sends its wall pressure less its mean
         # (the water case's tqInterface and tq-solid's /coupling both read it from here)
         "subtract_mean_pressure": split.subtract_mean_pressure,
@@ -333,14 +346,18 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
                              "cross-section (docs/coupler.md \"Volume law in the solid\")")
     model = split.foam_model
     if slice_mode:
-        ends = "empty"
+        ends = ("empty", "empty")
+    elif water["ends"] == "closed":
+        ends = ("wall", "wall") if model == "compressible" else ("open", "open")
     else:
-        ends = "wall" if model == "compressible" and water["ends"] == "closed" else "open"
+        # a valve is a wall; the reservoir's p = 0 is an open patch, and so is a surge tank's (its level is
+        # tq-solid's: the water solver's remainder meets p = 0 there)
+        ends = tuple("wall" if k == "valve" else "open" for k in split.end_kinds)
     dt = settings["window_size"]
     end_time = settings["windows"] * dt
     brief = water.get("log", "brief") == "brief"
     return WaterCase(
-        model=model, ends=(ends, ends), density=float(water["density"]), viscosity=float(water["viscosity"]),
+        model=model, ends=ends, density=float(water["density"]), viscosity=float(water["viscosity"]),
         bulk_modulus=split.foam_bulk_modulus, delta_t=dt, end_time=end_time,
         write_interval=write_interval if write_interval else max(end_time, 0.1),
         free_surface_level=float(d["geometry"]["tunnel_centre_z"]) + float(water["head"]),

@@ -27,6 +27,7 @@ VELOCITY: Dim = (0, 1, -1)
 ACCELERATION: Dim = (0, 1, -2)
 DYNAMIC_VISCOSITY: Dim = (1, -1, -1)
 STIFFNESS_PER_AREA: Dim = (1, -2, -2)  # Pa/m: a joint's spring per unit area
+AREA: Dim = (0, 2, 0)
 ANGLE: Dim = DIMENSIONLESS
 
 DIM_NAMES = {
@@ -40,6 +41,7 @@ DIM_NAMES = {
     ACCELERATION: "acceleration (m/s^2)",
     DYNAMIC_VISCOSITY: "dynamic viscosity (Pa*s)",
     STIFFNESS_PER_AREA: "stiffness per unit area (Pa/m)",
+    AREA: "area (m^2)",
 }
 
 # unit -> (factor to SI, dimension)

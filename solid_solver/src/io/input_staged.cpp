@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "h5util.hpp"
 #include "input_schema.hpp"
@@ -349,6 +350,25 @@ void readStagedInput(hid_t f, SolidInput& in) {
       c.fail(w,
              "water_ends open with a volume_law needs axial_density > 0 (kg/m³: the water's density, which "
              "the axial flow between the planes of the wetted face carries)");
+    C.endYmin = c.text(g, w, K::coupling::end_ymin);
+    C.endYmax = c.text(g, w, K::coupling::end_ymax);
+    C.surgeTankAreaYmin = c.number(g, w, K::coupling::surge_tank_area_ymin);
+    C.surgeTankAreaYmax = c.number(g, w, K::coupling::surge_tank_area_ymax);
+    for (const auto& [end, kind, area] : {std::tuple{"end_ymin", C.endYmin, C.surgeTankAreaYmin},
+                                          std::tuple{"end_ymax", C.endYmax, C.surgeTankAreaYmax}}) {
+      const std::string areaKey = std::string("surge_tank_area_") + (end + 4);
+      if (kind == "surge_tank" && !(area > 0))
+        c.fail(w, std::string(end) + " surge_tank needs " + areaKey + " > 0 (m²: the tank's free-surface area)");
+      if (kind != "surge_tank" && area != 0)
+        c.fail(w, areaKey + " " + std::to_string(area) + " is the area of a surge tank, but " + end + " is " + kind +
+                      "; leave it out or make " + end + " surge_tank");
+      if (kind != "reservoir" && C.waterEnds != "open")
+        c.fail(w, std::string(end) + " " + kind + " closes one end of an open water column; it needs water_ends open");
+    }
+    if (C.endYmin == "valve" && C.endYmax == "valve")
+      c.fail(w,
+             "end_ymin and end_ymax are both valve: the column has no end that fixes its pressure; use water_ends "
+             "closed (one uniform pressure) or make one end a reservoir or a surge tank");
     C.subtractMeanPressure = c.flag(g, w, K::coupling::subtract_mean_pressure);
     if (C.subtractMeanPressure && (C.volumeLaw == "none" || C.waterEnds != "closed"))
       c.fail(w,

@@ -20,8 +20,10 @@ struct CarriedWater::Impl {
   // is set implicitly each step from the volume change the step makes, s_j^{n+1} = Σ_{i∈j} g_i·(u_i^{n+1}
   // − u0_i). A closed section is one station: p = −κ s^{n+1} (κ = K/V), or s^{n+1} = 0
   // (incompressible). With open ends each plane of wet nodes normal to the axis y is a station, the
-  // volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes
-  // (docs/coupler.md "Open ends"): p_j = −κ_j (s_j + W_j), or s_j + W_j = 0.
+  // volume W_j that left it flows along the axis as a plug (docs/coupler.md "Open ends"):
+  // p_j = −κ_j (s_j + W_j), or s_j + W_j = 0. An end plane at a reservoir holds p = 0; at a valve it
+  // is a station whose only flow is to its neighbour; at a surge tank the same, its compliance V_j/K
+  // plus the tank's A_s/(ρ g) (the water that left into the tank raised its level by p/(ρ g)).
   bool incompressible = false;
   Real volume = 0;          // m³: all the enclosed water
   std::vector<Real> g;      // [3n] m²
@@ -29,6 +31,7 @@ struct CarriedWater::Impl {
   std::vector<Real> force;  // [3n] N: the carried pressure's force added this step
   Real volumeWork = 0, dtPrev = 0;
   bool openEnds = false;
+  size_t jFirst = 0, jLast = 0;      // open ends: the stations whose pressure the law sets (not at a reservoir)
   size_t S = 1;                      // stations
   std::vector<size_t> station;       // [n] the station of each wet node
   std::vector<Real> Vs, compliance;  // [S] m³, and V_j/K (0: incompressible) in m³/Pa
@@ -133,6 +136,15 @@ struct CarriedWater::Impl {
     }
     compliance.assign(S, 0.0);
     for (size_t j = 0; j < S; ++j) compliance[j] = incompressible ? 0.0 : Vs[j] / in.bulkModulus;
+    jFirst = 0, jLast = S - 1;
+    if (openEnds) {
+      // the surge tank's free surface: dV_tank = (A_s/(ρ g)) dp in parallel with the end station's water
+      constexpr Real g0 = 9.80665;
+      if (in.endYmin == "surge_tank") compliance[0] += in.surgeTankAreaYmin / (in.axialDensity * g0);
+      if (in.endYmax == "surge_tank") compliance[S - 1] += in.surgeTankAreaYmax / (in.axialDensity * g0);
+      jFirst = in.endYmin == "reservoir" ? 1 : 0;
+      jLast = in.endYmax == "reservoir" ? S - 2 : S - 1;
+    }
     // the plug flow's A/(ρ h) of each segment: A = V_seg / h
     cAx.assign(S > 1 ? S - 1 : 0, 0.0);
     for (size_t j = 0; j + 1 < S; ++j) {
@@ -173,7 +185,7 @@ struct CarriedWater::Impl {
   ///   volume:       p_j = −κ_j (s_j^{n+1} + W_j^{n+1}) (incompressible: s_j^{n+1} + W_j^{n+1} = 0),
   ///                 s_j^{n+1} = g·du after the correction, W = 0 for a closed section; open ends:
   ///                 W_j^{n+1} = W_j^n + Δt (Q_j − Q_{j−1})^{n+½}, Q_j^{n+½} = Q_j^{n−½} + Δt cAx_j (p_j − p_{j+1}),
-  ///                 p = 0 at the end planes;
+  ///                 p = 0 at a reservoir's end plane (a valve's or a surge tank's is a station);
   ///   translation:  λ_j = −ρ V_j ā_j,  ā_j = T_j (v^{n+½} − v^{n−½})/Δt after the correction.
   /// Each station's translation is eliminated first (λ_j = α_j + β_j p_j), which leaves one equation in
   /// p for a closed section, and a tridiagonal system in the interior stations' p for open ends.
@@ -229,20 +241,23 @@ struct CarriedWater::Impl {
     if (!openEnds) {
       pOut[0] = -sPrime[0] / (suPrime[0] + compliance[0]);
     } else {
-      // interior stations 1 … S−2 (Thomas): −dt² c_{j−1} p_{j−1} + D_j p_j − dt² c_j p_{j+1} = rhs_j
+      // the stations jFirst … jLast (Thomas): −dt² c_{j−1} p_{j−1} + D_j p_j − dt² c_j p_{j+1} = rhs_j;
+      // segment j joins stations j and j+1, a reservoir's end station holds p = 0
       pOut[0] = pOut[S - 1] = 0;
       const Real dt2 = dt * dt;
       Real* cp = tri.data();  // modified super-diagonal
       Real* dp = cp + S;      // modified right-hand side
-      for (size_t j = 1; j + 1 < S; ++j) {
-        const Real sub = j > 1 ? -dt2 * cAx[j - 1] : 0.0, sup = -dt2 * cAx[j];
-        const Real D = suPrime[j] + compliance[j] + dt2 * (cAx[j - 1] + cAx[j]);
-        const Real rhs = -(sPrime[j] + W[j] + dt * (Q[j] - Q[j - 1]));
-        const Real den = D - (j > 1 ? sub * cp[j - 1] : 0.0);
+      for (size_t j = jFirst; j <= jLast; ++j) {
+        const bool left = j > 0, right = j + 1 < S;  // the segments j−1 and j exist
+        const Real cl = left ? cAx[j - 1] : 0.0, cr = right ? cAx[j] : 0.0;
+        const Real sub = j > jFirst ? -dt2 * cl : 0.0, sup = j < jLast ? -dt2 * cr : 0.0;
+        const Real D = suPrime[j] + compliance[j] + dt2 * (cl + cr);
+        const Real rhs = -(sPrime[j] + W[j] + dt * ((right ? Q[j] : 0.0) - (left ? Q[j - 1] : 0.0)));
+        const Real den = D - (j > jFirst ? sub * cp[j - 1] : 0.0);
         cp[j] = sup / den;
-        dp[j] = (rhs - (j > 1 ? sub * dp[j - 1] : 0.0)) / den;
+        dp[j] = (rhs - (j > jFirst ? sub * dp[j - 1] : 0.0)) / den;
       }
-      for (size_t j = S - 2; j >= 1; --j) pOut[j] = dp[j] - (j + 2 < S ? cp[j] * pOut[j + 1] : 0.0);
+      for (size_t j = jLast + 1; j-- > jFirst;) pOut[j] = dp[j] - (j < jLast ? cp[j] * pOut[j + 1] : 0.0);
     }
     for (size_t j = 0; j < S; ++j) {
       lamOut[2 * j] = translation ? alpha[2 * j] + beta[2 * j] * pOut[j] : 0.0;
@@ -268,7 +283,7 @@ struct CarriedWater::Impl {
   void advanceAxialFlow(Real dt) {
     if (!openEnds) return;
     for (size_t j = 0; j + 1 < S; ++j) Q[j] += dt * cAx[j] * (ps[j] - ps[j + 1]);
-    for (size_t j = 1; j + 1 < S; ++j) W[j] += dt * (Q[j] - Q[j - 1]);
+    for (size_t j = jFirst; j <= jLast; ++j) W[j] += dt * ((j + 1 < S ? Q[j] : 0.0) - (j > 0 ? Q[j - 1] : 0.0));
   }
 
   /// Gauss–Jordan with partial pivoting on a 3 × 4 augmented matrix; the solution ends in column 3.
@@ -441,7 +456,12 @@ std::string CarriedWater::describe() const {
   std::ostringstream os;
   os.precision(6);
   os << "volume law in the solid: " << I.in.volumeLaw << " water, enclosed volume " << I.volume << " m³";
-  if (I.openEnds) os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow";
+  if (I.openEnds) {
+    os << ", open ends: " << I.S << " stations along the axis joined by the water's axial flow, ends " << I.in.endYmin;
+    if (I.in.endYmin == "surge_tank") os << " (" << I.in.surgeTankAreaYmin << " m²)";
+    os << " / " << I.in.endYmax;
+    if (I.in.endYmax == "surge_tank") os << " (" << I.in.surgeTankAreaYmax << " m²)";
+  }
   if (!I.incompressible) os << ", K " << I.in.bulkModulus << " Pa";
   if (I.translation) os << ", the water's in-plane translation (" << I.rhoW * I.volume << " kg)";
   if (I.in.subtractMeanPressure) os << "; the water sends its wall pressure less its mean";

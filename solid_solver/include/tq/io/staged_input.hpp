@@ -201,6 +201,13 @@ struct CouplingInput {
   /// "Open ends").
   std::string waterEnds = "closed";
   Real axialDensity = 0;  ///< kg/m³: the axial flow's density (open ends)
+  /// Open ends: what closes each end of the water column (end_ymin, end_ymax): "reservoir" (p = 0 at
+  /// the end plane), "valve" (no flow through it: the end plane is a station of its own) or
+  /// "surge_tank" (a free surface of area surgeTankArea*: the end station's pressure is ρ g times the
+  /// level the water that flowed into the tank raised, a compliance A_s/(ρ g) in parallel with the
+  /// station's water; docs/theory.md "The water column along the tunnel").
+  std::string endYmin = "reservoir", endYmax = "reservoir";
+  Real surgeTankAreaYmin = 0, surgeTankAreaYmax = 0;  ///< m²
   /// The water sends its wall pressure less its area mean (the water case's tqInterface
   /// `subtractMeanPressure` is written from the same setting): that uniform part is the closed
   /// section's volume law here, which it therefore needs.

@@ -8,8 +8,9 @@
 /// out of the water, set implicitly each step from the volume change the step makes,
 /// s_j^{n+1} = Σ_{i∈j} g_i·(u_i^{n+1} − u0_i). A closed section is one station: p = −κ s^{n+1} (κ = K/V),
 /// or s^{n+1} = 0 (incompressible). With open ends each plane of wet nodes normal to the axis y is a
-/// station, the volume W_j that left it flows along the axis as a plug, and p = 0 at the two end planes:
-/// p_j = −κ_j (s_j + W_j), or s_j + W_j = 0. With a water density the water's in-plane translation is
+/// station, the volume W_j that left it flows along the axis as a plug: p_j = −κ_j (s_j + W_j), or
+/// s_j + W_j = 0; an end plane at a reservoir holds p = 0, at a valve it has no flow out, at a surge
+/// tank its compliance has the tank's A_s/(ρ g) added. With a water density the water's in-plane translation is
 /// carried too: its force on the wall is the pressure r·λ_j/V_j with resultant λ_j = −ρ_w V_j ā_j.
 ///
 /// The interface to the step: a contributor of ForcePhase::Water added after the water coupling's

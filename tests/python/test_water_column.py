@@ -1,0 +1,242 @@
+"""The water column along the tunnel: its ends (water.end_ymin / end_ymax: reservoir, valve, surge
+tank), the closed form of its wave speed with the lining's and the rock's compliance
+(tunnelquake.verification.water_column, docs/theory.md "The water column along the tunnel"), and the
+coupled run's resonances against it (docs/verification.md "The water column along the tunnel").
+
+The coupled run: `tunnelquake run` (tq-solid + rhoPimpleFoam, 3D) of a 30 m tunnel (r_i 2.6 m, a 0.4 m
+lining, E 20 GPa, bonded to rock of E 5 GPa, ν 0.25), a reservoir at y = 0 and a closed valve at
+y = 30 m, shaken by a vertical Ricker pulse (15 Hz) that breathes the whole section at once; the
+pressure at the valve (the mean of four wall monitors round it: the section's ovalling and
+translation cancel) rings at the column's quarter-wave frequencies, measured by least squares
+started from the spectrum's peaks (water_column.measured_frequencies)."""
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+h5py = pytest.importorskip("h5py")
+pytest.importorskip("scipy")
+from tunnelquake import fluid_case as fc  # noqa: E402
+from tunnelquake import paths, water_case  # noqa: E402
+from tunnelquake.case import load_case  # noqa: E402
+from tunnelquake.cli import main  # noqa: E402
+from tunnelquake.schema import CaseError  # noqa: E402
+from tunnelquake.verification.water_column import (  # noqa: E402
+    mass_oscillation_period,
+    measured_frequencies,
+    quarter_wave_frequencies,
+    section_compliance,
+    surge_tank_frequencies,
+    wave_speed,
+)
+
+coupled = pytest.mark.skipif(
+    paths.solid_executable() is None or paths.openfoam_library() is None
+    or not Path("/usr/share/openfoam").is_dir(),
+    reason="tq-solid, libtqFoam.so or OpenFOAM v1912 missing (set TQ_BUILD_DIR)")
+
+#: the column: wetted radius, lining, rock, water (SI)
+R_I, R_O, E_L, NU_L, E_R, NU_R, K_W, RHO_W, LENGTH = 2.6, 3.0, 20e9, 0.2, 5e9, 0.25, 2.2e9, 1000.0, 30.0
+G_R = E_R / (2 * (1 + NU_R))
+
+CASE = """\
+name: water_column
+geometry:
+  x_range: [-30.0, 30.0]
+  y_range: [0.0, 30.0]
+  z_range: [-30.0, 30.0]
+  tunnel_centre_x: 0.0
+  tunnel_centre_z: 0.0
+  excavated_radius: 3.0 m
+  lining_thickness: 0.4 m
+mesh:
+  mode: 3d
+  max_element_size: 10 m
+  lining_elements_around: 16
+  lining_elements_through: 1
+  elements_along_axis: 15
+  near_field_half_width: 9 m
+  near_field_radial_divisions: 4
+  water_ring_divisions: 1
+materials:
+  rock: {model: elastic, youngs_modulus: 5 GPa, poisson_ratio: 0.25, density: 2400 kg/m^3}
+  lining: {model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.2, density: 2400 kg/m^3}
+interface: {model: bonded}
+water:
+  ends: open
+  end_ymin: {kind: reservoir}
+  end_ymax: {kind: valve}
+ground_motion:
+  source: none
+  vertical: {file: pulse.txt, format: two_column, units: m/s^2, pga: 1.0 m/s^2}
+  baseline_correction: false
+  convention: incident
+  cutoff_frequency: 40 Hz
+stages: {sequence: [seismic]}
+conditions: [dynamic_water]
+damping: {ratio: 0}
+time: {end_time: 0.8 s}
+output:
+  history_interval: 0.001 s
+  monitors:
+    valve_top: [0.0, 30.0, 2.6]
+    valve_bottom: [0.0, 30.0, -2.6]
+    valve_left: [-2.6, 30.0, 0.0]
+    valve_right: [2.6, 30.0, 0.0]
+"""
+VALVE = ("valve_top", "valve_bottom", "valve_left", "valve_right")
+PULSE_FC, FREE_FROM = 15.0, 0.2  # Hz; s: the pulse (peak at 0.1 s) is over at the tunnel
+
+
+def _case(tmp_path: Path, edit=lambda s: s) -> Path:
+    t = np.arange(400) * 1e-3
+    a = (np.pi * PULSE_FC * (t - 1.5 / PULSE_FC)) ** 2
+    np.savetxt(tmp_path / "pulse.txt", np.column_stack([t, (1 - 2 * a) * np.exp(-a)]))
+    p = tmp_path / "case.yaml"
+    p.write_text(edit(textwrap.dedent(CASE)))
+    return p
+
+
+def _water(text: str, ends: str) -> str:
+    """The case with its water section's end lines replaced by `ends` (lines of the water section)."""
+    old = "  end_ymin: {kind: reservoir}\n  end_ymax: {kind: valve}\n"
+    assert old in text
+    return text.replace(old, textwrap.indent(textwrap.dedent(ends), "  "))
+
+
+# ---- the closed form ------------------------------------------------------------------------------
+
+def test_wave_speed_limits():
+    """The section's compliance D = (1/A) dA/dp against its limits: a thin lining alone is Korteweg's
+    pipe anchored against axial movement, D = 2r(1 − ν²)/(E e) (Wylie & Streeter, c1 = 1 − ν²); no
+    lining in rock is the cavity's 1/G_r (u = p r/(2G_r)); a lining on rigid rock or a rigid lining
+    leaves the water's own a = sqrt(K/ρ); and the lining in rock lies between its two parts in
+    series and the softer of them."""
+    e, r = 0.01, R_I
+    assert section_compliance(r, r + e, E_L, NU_L, 0.0) == pytest.approx(
+        2 * (r + e / 2) * (1 - NU_L**2) / (E_L * e), rel=1e-3)
+    assert section_compliance(r, r, E_L, NU_L, G_R) == pytest.approx(1 / G_R, rel=1e-12)
+    assert section_compliance(r, r * (1 + 1e-7), E_L, NU_L, G_R) == pytest.approx(1 / G_R, rel=1e-6)
+    assert wave_speed(K_W, RHO_W, section_compliance(R_I, R_O, 1e30, NU_L, G_R)) == pytest.approx(
+        math.sqrt(K_W / RHO_W), rel=1e-9)
+    assert section_compliance(R_I, R_O, E_L, NU_L, math.inf) < 0.05 * section_compliance(R_I, R_O, E_L, NU_L, 0.0)
+    both = section_compliance(R_I, R_O, E_L, NU_L, G_R)
+    assert both < min(1 / G_R, section_compliance(R_I, R_O, E_L, NU_L, 0.0))
+    # the thick lining alone against Lamé's u(r_i) = p r_i (1+ν)/E ((1−2ν) r_i² + r_o²)/(r_o² − r_i²)
+    lame = 2 * (1 + NU_L) / E_L * ((1 - 2 * NU_L) * R_I**2 + R_O**2) / (R_O**2 - R_I**2)
+    assert section_compliance(R_I, R_O, E_L, NU_L, 0.0) == pytest.approx(lame, rel=1e-12)
+    # this file's column: the rock and the lining together take the wave speed from 1483 to 1143 m/s
+    a = wave_speed(K_W, RHO_W, both)
+    assert a == pytest.approx(1142.7, abs=0.1)
+    assert quarter_wave_frequencies(a, LENGTH) == pytest.approx([a / 120, 3 * a / 120])
+
+
+def test_surge_tank_closed_form_limits():
+    """The column between a reservoir and a surge tank: a vanishing tank is a valve (the quarter
+    wave a/(4L)), a large one the mass oscillation T = 2π sqrt(L A_s/(g A_t)) of the rigid column."""
+    a, at = 1142.7, math.pi * R_I**2
+    assert surge_tank_frequencies(a, LENGTH, at, 1e-9)[0] == pytest.approx(a / (4 * LENGTH), rel=1e-6)
+    f = surge_tank_frequencies(a, LENGTH, at, 40.0)
+    assert f[0] == pytest.approx(1 / mass_oscillation_period(LENGTH, at, 40.0), rel=1e-4)
+    assert f[1] == pytest.approx(a / (2 * LENGTH), rel=1e-3)  # the next: nearly the open–open half wave
+
+
+def test_measured_frequencies_of_a_known_signal():
+    """The frequency measurement on two decaying sinusoids and noise, 5 periods of the lower: within
+    0.05 %."""
+    t = np.arange(0, 0.6, 1e-3)
+    rng = np.random.default_rng(1)
+    p = (np.exp(-0.3 * t) * np.cos(2 * np.pi * 9.52 * t + 0.4) + 0.3 * np.sin(2 * np.pi * 28.57 * t)
+         + 0.01 * rng.standard_normal(t.size))
+    f1, f2 = measured_frequencies(t, p)
+    assert f1 == pytest.approx(9.52, rel=5e-4) and f2 == pytest.approx(28.57, rel=5e-4)
+
+
+# ---- the case's ends ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("ends, key, words", [
+    ("end_ymax: {kind: surge_tank}\n", "water.end_ymax.area", "surge tank with no area"),
+    ("end_ymin: {kind: valve, area: 3 m^2}\n", "water.end_ymin.area", "use kind: surge_tank"),
+    ("end_ymin: {kind: valve}\nend_ymax: {kind: valve}\n", "water.end_ymax.kind", "make one end a reservoir"),
+])
+def test_check_refuses_ends_that_cannot_be(tmp_path, ends, key, words):
+    """A surge tank with no area, an area on a valve, and valves at both ends (no end holds the
+    pressure level) are refused by `check`, naming the key and the fix."""
+    p = _case(tmp_path, lambda s: _water(s, ends))
+    with pytest.raises(CaseError) as e:
+        load_case(p)
+    assert key in str(e.value) and words in str(e.value) and "Fix:" in str(e.value)
+    assert main(["check", str(p)]) != 0
+
+
+def test_check_refuses_end_kinds_without_an_open_column(tmp_path):
+    """The end kinds need a 3D column with open ends; a surge tank needs the solid's water law."""
+    p = _case(tmp_path, lambda s: s.replace("  ends: open\n", "  ends: closed\n"))
+    with pytest.raises(CaseError, match=r"water.end_ymin.kind = .reservoir.: .*needs a 3D model with water.ends: open"):
+        load_case(p)
+    p = _case(tmp_path, lambda s: _water(s, "end_ymax: {kind: surge_tank, area: 2 m^2}\n")
+              + "coupling: {volume_law: water}\n")
+    with pytest.raises(CaseError, match=r"water.end_ymax.kind.*use coupling.volume_law: solid"):
+        load_case(p)
+
+
+def test_both_sides_get_the_ends(tmp_path):
+    """The valve and the reservoir reach tq-solid's /coupling and the water case: the valve's end a
+    wall, the reservoir's and the surge tank's p = 0 patches (the tank's level is tq-solid's)."""
+    case = load_case(_case(tmp_path))
+    s = fc.coupling_settings(case, 1e-3, tmp_path / "wall.addr", "ab" * 16, t_end=0.01)
+    attrs = fc.solid_coupling_attrs(s)
+    assert attrs["water_ends"] == "open" and attrs["end_ymax"] == "valve" and "end_ymin" not in attrs
+    assert "surge_tank_area_ymax" not in attrs
+    w = fc.water_case(case, s, slice_mode=False)
+    assert w.ends == ("open", "wall") and water_case.patch_types(w) == {
+        "interface": "wall", "end_ymin": "patch", "end_ymax": "wall"}
+    p = water_case.dictionaries(w)["0/p"]
+    assert "end_ymin" in p and "end_ymax" in p
+    tank = load_case(_case(tmp_path, lambda t: _water(t, "end_ymin: {kind: surge_tank, area: 0.5 m^2}\n"
+                                                         "end_ymax: {kind: valve}\n")))
+    s = fc.coupling_settings(tank, 1e-3, tmp_path / "wall.addr", "ab" * 16, t_end=0.01)
+    attrs = fc.solid_coupling_attrs(s)
+    assert attrs["end_ymin"] == "surge_tank" and attrs["surge_tank_area_ymin"] == 0.5
+    assert fc.water_case(tank, s, slice_mode=False).ends == ("open", "wall")
+
+
+# ---- the coupled run ------------------------------------------------------------------------------
+
+def _valve_pressure(results: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The mean of the four valve monitors' water pressure (Pa) against time."""
+    ps = []
+    with h5py.File(results, "r") as f:
+        assert f.attrs["status"] == "completed", f.attrs["status"]
+        for m in VALVE:
+            w = f[f"monitors/{m}/water_pressure"][:]
+            ps.append(w[:, 1])
+    return w[:, 0], np.mean(ps, axis=0)
+
+
+#: f1 within 3 %, f2 within 4 % of the closed form: the hex8 lining of 16 × 1 elements and the rock's
+#: near field of 4 rings (the section's compliance, D in a² ∝ 1/(1/K + D)), the 60 m block's
+#: finite rock (the cavity's stiffness, O((r_o/30 m)²) = 1 %), and the axial stations 2 m apart
+#: ((kh)²/24: 0.05 % for f1, 0.4 % for f2); docs/verification.md "The water column along the tunnel"
+F1_TOL, F2_TOL = 0.03, 0.04
+
+
+@coupled
+def test_reservoir_valve_column_rings_at_its_quarter_wave_frequencies(tmp_path):
+    """The coupled 3D run's valve pressure rings at f_n = (2n − 1) a/(4L) with a from the lining and
+    the rock (9.52 and 28.57 Hz; the rigid tube's would be 12.36 and 37.07 Hz)."""
+    case = _case(tmp_path)
+    assert main(["run", str(case)]) == 0
+    t, p = _valve_pressure(tmp_path / "results" / "results_dynamic_water.h5")
+    keep = t >= FREE_FROM
+    f1, f2 = measured_frequencies(t[keep], p[keep])
+    a = wave_speed(K_W, RHO_W, section_compliance(R_I, R_O, E_L, NU_L, G_R))
+    e1, e2 = quarter_wave_frequencies(a, LENGTH)
+    print(f"\nmeasured f1 {f1:.3f} Hz, f2 {f2:.3f} Hz; closed form {e1:.3f}, {e2:.3f} Hz "
+          f"({100 * (f1 / e1 - 1):+.2f} %, {100 * (f2 / e2 - 1):+.2f} %)")
+    assert f1 == pytest.approx(e1, rel=F1_TOL)
+    assert f2 == pytest.approx(e2, rel=F2_TOL)
