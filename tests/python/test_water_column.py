@@ -240,3 +240,30 @@ def test_reservoir_valve_column_rings_at_its_quarter_wave_frequencies(tmp_path):
           f"({100 * (f1 / e1 - 1):+.2f} %, {100 * (f2 / e2 - 1):+.2f} %)")
     assert f1 == pytest.approx(e1, rel=F1_TOL)
     assert f2 == pytest.approx(e2, rel=F2_TOL)
+
+
+#: the tank: a standpipe of 0.005 m² at y = 30 m instead of the valve, whose lowest frequency (5.08 Hz)
+#: lies between the valve's quarter wave (9.52 Hz) and the rigid column's mass oscillation (5.86 Hz),
+#: so that the test tells the tank's law from both of its limits within a short run (a tank of tens of
+#: m² swings over minutes: the same law, out of a seismic run's reach)
+TANK_AREA = 0.005
+
+
+@coupled
+def test_reservoir_surge_tank_column_rings_at_the_tanks_frequency(tmp_path):
+    """A surge tank at the column's end: the two lowest roots of cot(ωL/a) = ω A_s a/(g A_t) (5.08 and
+    20.66 Hz), A_t the meshed wetted area (the inscribed 16-gon), within F1_TOL and F2_TOL."""
+    case = _case(tmp_path, lambda s: _water(s, f"end_ymin: {{kind: reservoir}}\n"
+                                               f"end_ymax: {{kind: surge_tank, area: {TANK_AREA} m^2}}\n"))
+    assert main(["run", str(case)]) == 0
+    t, p = _valve_pressure(tmp_path / "results" / "results_dynamic_water.h5")
+    keep = t >= FREE_FROM
+    f1, f2 = measured_frequencies(t[keep], p[keep])
+    a = wave_speed(K_W, RHO_W, section_compliance(R_I, R_O, E_L, NU_L, G_R))
+    at = 8 * R_I**2 * math.sin(2 * math.pi / 16)
+    e1, e2 = surge_tank_frequencies(a, LENGTH, at, TANK_AREA)
+    print(f"\nmeasured f1 {f1:.3f} Hz, f2 {f2:.3f} Hz; closed form {e1:.3f}, {e2:.3f} Hz ({100 * (f1 / e1 - 1):+.2f} %, "
+          f"{100 * (f2 / e2 - 1):+.2f} %); valve {quarter_wave_frequencies(a, LENGTH)[0]:.3f} Hz, mass oscillation "
+          f"{1 / mass_oscillation_period(LENGTH, at, TANK_AREA):.3f} Hz")
+    assert f1 == pytest.approx(e1, rel=F1_TOL)
+    assert f2 == pytest.approx(e2, rel=F2_TOL)

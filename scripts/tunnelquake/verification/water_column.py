@@ -73,39 +73,39 @@ def mass_oscillation_period(length: float, tunnel_area: float, tank_area: float,
     return 2 * math.pi * math.sqrt(length * tank_area / (gravity * tunnel_area))
 
 
-def measured_frequencies(t: np.ndarray, p: np.ndarray, guesses: int = 2) -> list[float]:
-    """The frequencies (Hz) of the `guesses` strongest peaks of p(t), each refined by a least-squares
-    fit of that many sinusoids (each with its own exponential decay) and a constant. The starting
-    values are the peaks of the Hann-windowed spectrum, zero-padded 16× (independent of any closed
-    form)."""
+def measured_frequencies(t: np.ndarray, p: np.ndarray, count: int = 2) -> list[float]:
+    """The frequencies (Hz) of the `count` strongest components of p(t): the strongest peak of the
+    Hann-windowed spectrum (zero-padded 16×) starts a least-squares fit of a decaying sinusoid and a
+    constant; the next is the strongest peak of what that fit leaves, and the fit is made again with
+    both, and so on (a weak component is not lost in the side lobes of a strong one). Independent of
+    any closed form. Sorted ascending."""
     from scipy.optimize import least_squares
-    from scipy.signal import find_peaks
 
     t = np.asarray(t, float) - float(t[0])
     p = np.asarray(p, float)
+    p = p / (float(np.abs(p).max()) or 1.0)
     dt = float(np.median(np.diff(t)))
     n = 16 * len(p)
-    spec = np.abs(np.fft.rfft((p - p.mean()) * np.hanning(len(p)), n))
     freqs = np.fft.rfftfreq(n, dt)
-    peaks, _ = find_peaks(spec)
-    peaks = peaks[freqs[peaks] > 1.5 / t[-1]]  # at least 1.5 periods in the record
-    start = sorted(freqs[peaks[np.argsort(spec[peaks])[::-1][:guesses]]])
-    scale = float(np.abs(p).max()) or 1.0
+    usable = freqs > 1.5 / t[-1]  # at least 1.5 periods in the record
 
-    def model(x):
+    def model(x, k):
         out = np.full_like(t, x[0])
-        for k in range(len(start)):
-            f, zeta, a, b = x[1 + 4 * k: 5 + 4 * k]
+        for j in range(k):
+            f, zeta, a, b = x[1 + 4 * j: 5 + 4 * j]
             w = 2 * np.pi * f
             out += np.exp(-zeta * w * t) * (a * np.cos(w * t) + b * np.sin(w * t))
         return out
 
-    x0 = [0.0]
-    for f in start:
-        x0 += [f, 0.0, 0.0, 0.0]
-    lo, hi = [-np.inf], [np.inf]
-    for f in start:  # each frequency within 30 % of its peak, its decay a few periods at most
-        lo += [0.7 * f, -0.2, -np.inf, -np.inf]
-        hi += [1.3 * f, 0.5, np.inf, np.inf]
-    res = least_squares(lambda x: (model(x) - p / scale), x0, bounds=(lo, hi), x_scale="jac")
-    return sorted(float(res.x[1 + 4 * k]) for k in range(len(start)))
+    x = np.array([0.0])
+    for k in range(1, count + 1):
+        left = p - model(x, k - 1)
+        spec = np.abs(np.fft.rfft((left - left.mean()) * np.hanning(len(p)), n))
+        spec[~usable] = 0.0
+        x = np.concatenate([x, [freqs[int(np.argmax(spec))], 0.0, 0.0, 0.0]])
+        lo, hi = [-np.inf], [np.inf]
+        for j in range(k):  # each frequency within 30 % of its peak, its decay a few periods at most
+            lo += [0.7 * x[1 + 4 * j], -0.2, -np.inf, -np.inf]
+            hi += [1.3 * x[1 + 4 * j], 0.5, np.inf, np.inf]
+        x = least_squares(lambda y, k=k: model(y, k) - p, x, bounds=(lo, hi), x_scale="jac").x
+    return sorted(float(x[1 + 4 * j]) for j in range(count))
