@@ -218,11 +218,12 @@ def _valve_pressure(results: Path) -> tuple[np.ndarray, np.ndarray]:
     return w[:, 0], np.mean(ps, axis=0)
 
 
-#: f1 within 3 %, f2 within 4 % of the closed form: the hex8 lining of 16 × 1 elements and the rock's
-#: near field of 4 rings (the section's compliance, D in a² ∝ 1/(1/K + D)), the 60 m block's
-#: finite rock (the cavity's stiffness, O((r_o/30 m)²) = 1 %), and the axial stations 2 m apart
-#: ((kh)²/24: 0.05 % for f1, 0.4 % for f2); docs/verification.md "The water column along the tunnel"
-F1_TOL, F2_TOL = 0.03, 0.04
+#: f1 within 1 %, f2 within 3 % of the closed form, which is quasi-static: the wall's radial inertia (the
+#: lining and the rock moving with the breathing) lowers the frequencies, the higher mode more. Measured
+#: (docs/verification.md "The water column along the tunnel"): this mesh f1 −0.19 %, f2 −2.0 %; with
+#: rock and lining 10× lighter +0.25 %, +0.09 % (the inertia's share −0.44 %, −2.1 %); the mesh refined
+#: (24 × 2 lining elements, 8 near-field rings, 30 axial layers) −0.40 %, −1.55 %
+F1_TOL, F2_TOL = 0.01, 0.03
 
 
 @coupled
