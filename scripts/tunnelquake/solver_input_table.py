@@ -356,11 +356,13 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "end_ymin", "str", "water_ends open: what closes each end of the column (docs/theory.md "
        "\"The water column along the tunnel\"): reservoir (p = 0), valve (no flow), surge_tank (a free surface "
        "of the area surge_tank_area_*)", default="reservoir", choices=("reservoir", "valve", "surge_tank"),
-       omit_default=True),
+       omit_default=True, written_with="water_ends"),
     _e("/coupling", "end_ymax", "str", default="reservoir", choices=("reservoir", "valve", "surge_tank"),
-       omit_default=True),
-    _e("/coupling", "surge_tank_area_ymin", "float", unit="m²", default=0.0, lo=0.0, omit_default=True),
-    _e("/coupling", "surge_tank_area_ymax", "float", unit="m²", default=0.0, lo=0.0, omit_default=True),
+       omit_default=True, written_with="water_ends"),
+    _e("/coupling", "surge_tank_area_ymin", "float", unit="m²", default=0.0, lo=0.0, omit_default=True,
+       written_with="water_ends"),
+    _e("/coupling", "surge_tank_area_ymax", "float", unit="m²", default=0.0, lo=0.0, omit_default=True,
+       written_with="water_ends"),
     _e("/coupling", "subtract_mean_pressure", "flag", "1: the water sends its wall pressure less its area mean "
        "(OpenFOAM's tqInterface `subtractMeanPressure`, written from the same setting): the uniform part is "
        "tq-solid's volume law, so it needs a volume_law with water_ends closed", default=0.0,

@@ -203,6 +203,11 @@ def test_both_sides_get_the_ends(tmp_path):
     attrs = fc.solid_coupling_attrs(s)
     assert attrs["end_ymin"] == "surge_tank" and attrs["surge_tank_area_ymin"] == 0.5
     assert fc.water_case(tank, s, slice_mode=False).ends == ("open", "wall")
+    # with the whole pressure the water solver's, tq-solid carries no column: the valve is the water's wall
+    foam = load_case(_case(tmp_path, lambda t: t + "coupling: {volume_law: water}\n"))
+    s = fc.coupling_settings(foam, 1e-3, tmp_path / "wall.addr", "ab" * 16, t_end=0.01)
+    assert not {"water_ends", "end_ymin", "end_ymax"} & set(fc.solid_coupling_attrs(s))
+    assert fc.water_case(foam, s, slice_mode=False).ends == ("open", "wall")
 
 
 # ---- the coupled run ------------------------------------------------------------------------------
