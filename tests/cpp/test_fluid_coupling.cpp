@@ -1026,13 +1026,13 @@ struct TubeRun {
   Real omega = 0;       ///< rad/s: the drive's ω
 };
 
-/// A lining tube a = 3 m, b = 3.6 m, length L along y in nAxial layers, open at y = 0 and at y = L
-/// closed by `endYmax` (a reservoir: open, or a valve), its outer
+/// A lining tube a = 3 m, b = 3.6 m, length L along y in nAxial layers, its ends closed by `endYmin`
+/// and `endYmax` (a reservoir: open, or a valve), its outer
 /// face moved radially by u(t) = U (1 − cos ωt)² / 4 (at rest at t = 0, slow against the ring's own
 /// breathing), the ends held axially (plane strain), water inside through the volume law of open
 /// ends and a fake water sending no remainder; sampled at ωt = π/2.
 TubeRun breathingOpenTube(const std::string& law, Real K, Real L, Index nAxial,
-                          const std::string& endYmax = "reservoir") {
+                          const std::string& endYmin = "reservoir", const std::string& endYmax = "reservoir") {
   RingSpec rs;
   rs.rInner = 3.0, rs.rOuter = 3.6, rs.nRadial = 3, rs.nAround = 32, rs.width = L, rs.nAxial = nAxial;
   Mesh mesh = makeRingSliceMesh(rs);
@@ -1052,6 +1052,7 @@ TubeRun breathingOpenTube(const std::string& law, Real K, Real L, Index nAxial,
   ci.waterDensity = 1000;
   ci.waterEnds = "open";
   ci.axialDensity = 1000;
+  ci.endYmin = endYmin;
   ci.endYmax = endYmax;
   auto water = std::make_shared<CarriedWater>(*s, ci);  // the laws alone: no coupler, no water solver
   s->addContributor(ForcePhase::Water, water);
@@ -1132,27 +1133,31 @@ TEST(SolidCoupling, OpenEndsVolumeLawGivesThePlugFlowPressureOfABreathingTube) {
 // p(y) = (ρ Ä / (A k²)) [1 − cos k(y − L) / cos(kL)], −ρ Ä y (2L − y) / (2A) incompressible. Tolerance
 // 2 % of the valve's value at every station, as for the open tube.
 TEST(SolidCoupling, ValveEndVolumeLawGivesThePlugFlowPressureOfATubeClosedAtOneEnd) {
-  for (const std::string law : {"incompressible", "compressible"}) {
-    const Real K = 2.2e9, rho = 1000, L = 20.0;
-    const Index nAx = 10;
-    const TubeRun run = breathingOpenTube(law, law == "compressible" ? K : 0.0, L, nAx, "valve");
-    ASSERT_EQ(run.p.size(), size_t(nAx + 1));
-    const Real Add = 32 * 3.0 * std::sin(2 * M_PI / 32) * run.aRadial;
-    const Real k = law == "compressible" ? 2 * run.omega / std::sqrt(K / rho) : 0.0;
-    auto closedForm = [&](Real y) {
-      if (k == 0) return -rho * Add * y * (2 * L - y) / (2 * run.area);
-      return rho * Add / (run.area * k * k) * (1 - std::cos(k * (y - L)) / std::cos(k * L));
-    };
-    const Real refValve = closedForm(L);
-    Real worst = 0;
-    for (size_t j = 0; j < run.p.size(); ++j)
-      worst = std::max(worst, std::abs(run.p[j] - closedForm(L * Real(j) / Real(nAx))) / std::abs(refValve));
-    std::printf(
-        "tube L = %.0f m closed at y = L, %s water: valve p %.5g Pa, closed form %.5g Pa (%+.3f %%); worst "
-        "station %.3f %% of the valve's\n",
-        L, law.c_str(), run.p.back(), refValve, 100 * (run.p.back() / refValve - 1), 100 * worst);
-    EXPECT_NEAR(run.p.back() / refValve, 1, 0.02);
-    EXPECT_LT(worst, 0.02);
-    EXPECT_EQ(run.p.front(), 0.0);
-  }
+  for (const bool valveAtYmax : {true, false})
+    for (const std::string law : {"incompressible", "compressible"}) {
+      const Real K = 2.2e9, rho = 1000, L = 20.0;
+      const Index nAx = 10;
+      const TubeRun run = valveAtYmax
+                              ? breathingOpenTube(law, law == "compressible" ? K : 0.0, L, nAx, "reservoir", "valve")
+                              : breathingOpenTube(law, law == "compressible" ? K : 0.0, L, nAx, "valve", "reservoir");
+      ASSERT_EQ(run.p.size(), size_t(nAx + 1));
+      const Real Add = 32 * 3.0 * std::sin(2 * M_PI / 32) * run.aRadial;
+      const Real k = law == "compressible" ? 2 * run.omega / std::sqrt(K / rho) : 0.0;
+      auto closedForm = [&](Real y) {  // y from the reservoir
+        if (k == 0) return -rho * Add * y * (2 * L - y) / (2 * run.area);
+        return rho * Add / (run.area * k * k) * (1 - std::cos(k * (y - L)) / std::cos(k * L));
+      };
+      auto fromReservoir = [&](size_t j) { return L * Real(valveAtYmax ? j : size_t(nAx) - j) / Real(nAx); };
+      const Real refValve = closedForm(L), valve = valveAtYmax ? run.p.back() : run.p.front();
+      Real worst = 0;
+      for (size_t j = 0; j < run.p.size(); ++j)
+        worst = std::max(worst, std::abs(run.p[j] - closedForm(fromReservoir(j))) / std::abs(refValve));
+      std::printf(
+          "tube L = %.0f m, a valve at y_%s, %s water: valve p %.5g Pa, closed form %.5g Pa (%+.3f %%); "
+          "worst station %.3f %% of the valve's\n",
+          L, valveAtYmax ? "max" : "min", law.c_str(), valve, refValve, 100 * (valve / refValve - 1), 100 * worst);
+      EXPECT_NEAR(valve / refValve, 1, 0.02);
+      EXPECT_LT(worst, 0.02);
+      EXPECT_EQ(valveAtYmax ? run.p.front() : run.p.back(), 0.0);
+    }
 }
