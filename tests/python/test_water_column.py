@@ -210,6 +210,38 @@ def test_both_sides_get_the_ends(tmp_path):
     assert fc.water_case(foam, s, slice_mode=False).ends == ("open", "wall")
 
 
+@pytest.mark.skipif(paths.solid_executable() is None, reason="tq-solid is not built (set TQ_BUILD_DIR)")
+def test_tq_solid_refuses_ends_its_column_cannot_take(tmp_path):
+    """tq-solid's reader of /coupling, past `check`: the case's settings are taken; a surge tank with no
+    area, an area on a valve and valves at both ends are refused naming the attribute, no traceback
+    (the writer leaves the ends out of a closed section: they are written with water_ends)."""
+    import subprocess
+
+    from tunnelquake.meshing import build_tunnel_mesh
+    from tunnelquake.motion import from_case
+    from tunnelquake.prepare import write_motion
+    from tunnelquake.solid_input import write_solid_input
+
+    case = load_case(_case(tmp_path))
+    d = case.data
+    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path)
+    motion, _ = from_case(d["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    s = fc.coupling_settings(case, 1e-4, tmp_path / "wall.addr", "ab" * 16, t_end=0.01)
+    exe = str(paths.solid_executable())
+    for name, edit, words in (
+            ("taken", {}, None),
+            ("tank without area", {"end_ymax": "surge_tank"}, "surge_tank_area_ymax > 0"),
+            ("area on a valve", {"surge_tank_area_ymax": 2.0}, "surge_tank_area_ymax 2"),
+            ("two valves", {"end_ymin": "valve"}, "both valve")):
+        out = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "dynamic_water",
+                                tmp_path / f"{name.replace(' ', '_')}.h5", coupling={**s, **edit})
+        run = subprocess.run([exe, str(out), "--check"], capture_output=True, text=True, timeout=120)
+        assert run.returncode == (0 if words is None else 2), (name, run.stdout + run.stderr)
+        if words:
+            assert words in run.stderr and "Traceback" not in run.stderr, (name, run.stderr)
+
+
 # ---- the coupled run ------------------------------------------------------------------------------
 
 def _valve_pressure(results: Path) -> tuple[np.ndarray, np.ndarray]:
