@@ -266,7 +266,7 @@ F1_TOL, F2_TOL = 0.01, 0.03
 @coupled
 def test_reservoir_valve_column_rings_at_its_quarter_wave_frequencies(tmp_path):
     """The coupled 3D run's valve pressure rings at f_n = (2n − 1) a/(4L) with a from the lining and
-    the rock (9.52 and 28.57 Hz; the rigid tube's would be 12.36 and 37.07 Hz)."""
+    the rock (9.52 and 28.57 Hz; the rigid tube's would be 12.36 and 37.08 Hz)."""
     case = _case(tmp_path)
     assert main(["run", str(case)]) == 0
     t, p = _valve_pressure(tmp_path / "results" / "results_dynamic_water.h5")
