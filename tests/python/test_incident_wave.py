@@ -94,6 +94,7 @@ def _long(s: str) -> str:
         s = s.replace(old, new)
     return s
 
+
 def _case(tmp_path, edit=lambda s: s):
     return pulse_case(tmp_path, BASE, edit)
 
@@ -262,8 +263,9 @@ def test_a_lining_of_the_ground_strains_along_its_axis_as_the_free_field(tmp_pat
     from tunnelquake.freefield import free_field, incident_motion
     from tunnelquake.prepare import mesh_dir
 
+    snapshots = f"output:\n  snapshot_times: {list(TORSION_TIMES)}\n" if azimuth == 45.0 else "output:\n"
     case = load_case(_case(tmp_path, lambda s: _long(s).replace("azimuth: 0", f"azimuth: {azimuth:g}")
-                           .replace("output:\n", f"output:\n  snapshot_times: {list(TORSION_TIMES)}\n")))
+                           .replace("output:\n", snapshots)))
     d = case.data
     inp, motion_h5, results = _solved(case, tmp_path)
     with h5py.File(results) as r:
