@@ -417,7 +417,8 @@ def fig_lining_axis(axes: dict, out: Path) -> Path | None:
                 c = colours[k % len(colours)]
                 k += 1
                 name = f"{CONDITION_LABELS.get(cond, cond)} {q}" if len(keys) > 1 else CONDITION_LABELS.get(cond, cond)
-                ax.plot(axis["y"], scale * axis["envelope"][q], color=c, lw=1.2, label=f"{name}, max |value|")
+                ax.plot(axis["y"], scale * axis["envelope"][q], color=c, lw=1.2, marker="o", ms=2.5,
+                        label=f"{name}, max |value|")
                 ax.plot(axis["y"], scale * axis["start"][q], color=c, lw=0.8, ls="--",
                         label=f"{name}, at t = {axis['start_time']:.3g} s")
         ax.set_ylabel(ylabel)
