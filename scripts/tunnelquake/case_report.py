@@ -149,6 +149,7 @@ FIGURES = (
     ("fig08", "fig08_damage_histories.png", "damage at the monitors"),
     ("fig09", "fig09_damage_section.png", "damage over the lining's middle section at the last snapshot"),
     ("fig10", "fig10_interface_zones.png", "rock–lining interface state at the last snapshot"),
+    ("fig11", "fig11_lining_axis.png", "the lining's section forces along the tunnel (3D)"),
 )
 
 
@@ -185,11 +186,13 @@ def _joint_rows(P, res, out: Path, unwritten: list, allowed: float | None) -> tu
     return rows, notes
 
 
-def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None) -> list[str]:
+def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None,
+                 axes: dict | None = None) -> list[str]:
     """The lining as a beam along the axis (3D results): per condition the largest |resultant|
     at the seismic start and over the snapshots, each with its y, the interface's largest slip,
-    and the CSV of the whole profile (post.lining_along_axis); with lining joints each joint's
-    opening, slip and axial force, and the watertightness check."""
+    and the CSV of the whole profile (post.lining_along_axis, also put in `axes` by condition for
+    the figure); with lining joints each joint's opening, slip and axial force, and the
+    watertightness check."""
     rows, joint_rows, joint_notes = [], [], []
     for res in results:
         jr, jn = _joint_rows(P, res, out, unwritten, allowed_opening)
@@ -198,6 +201,8 @@ def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float 
         axis = P.lining_along_axis(res)
         if axis is None:
             continue
+        if axes is not None:
+            axes[res.condition] = axis
         f = out / f"lining_axis_{res.condition}.csv"
         try:
             P.lining_axis_csv(axis, f)
@@ -218,9 +223,10 @@ def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float 
     lines = ["## The lining along the axis", ""]
     if rows:
         lines += ["The lining as a beam along the tunnel (x across, y along, z up): per axial layer its axial force N "
-                  "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane, "
-                  "from its elements' stresses (docs/solid_solver.md \"Fault offset\"); the whole profiles in "
-                  "`lining_axis_<condition>.csv`.", "",
+                  "(tension +), its moments M_h, M_v and shears V_h, V_v in the horizontal and the vertical plane "
+                  "and its torsion T about the axis, from its elements' stresses (docs/solid_solver.md \"Fault "
+                  "offset\"); the whole profiles in `lining_axis_<condition>.csv` and the figure of the lining's "
+                  "section forces along the tunnel.", "",
                   "| condition | quantity | seismic start (the static state): largest \\|value\\| | over the "
                   "snapshots: largest \\|value\\| |", "|---|---|---:|---:|", *rows, ""]
     if joint_rows:
@@ -300,8 +306,9 @@ def post_case(case) -> Path:
                   "what exists.", ""]
     else:
         lines += R.differences_section(results, order)
+        axes: dict = {}
         lines += _lining_axis(P, results, out, unwritten,
-                              (case.data.get("lining_joints") or {}).get("allowed_opening"))
+                              (case.data.get("lining_joints") or {}).get("allowed_opening"), axes)
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:
@@ -318,7 +325,7 @@ def post_case(case) -> Path:
         jobs = Jobs()  # every figure and ParaView file, made in two processes (drawing.py)
         if design is not None:
             _design_figure_jobs(design, figs, jobs, results)
-        _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs)
+        _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes)
         drawn = draw_all(jobs)
         if design is not None:
             lines += _design_figures(figs, unwritten, drawn)
@@ -351,10 +358,11 @@ def post_case(case) -> Path:
     return report
 
 
-def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs) -> None:
-    """The report's figures and the ParaView files to make (drawing.Jobs: keys fig05..fig10 and
+def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes=None) -> None:
+    """The report's figures and the ParaView files to make (drawing.Jobs: keys fig05..fig11 and
     `xdmf:<condition>`); an earlier post's figures removed first. `ref`: the paper module when the
-    case compares with it (its marks and bars in the figures)."""
+    case compares with it (its marks and bars in the figures); `axes`: the lining along the axis
+    per condition (_lining_axis's), for fig11."""
     figs.mkdir(parents=True, exist_ok=True)
     for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
         (figs / fname).unlink(missing_ok=True)
@@ -369,6 +377,7 @@ def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs) 
     jobs.add("fig08", P.fig_damage_histories, results, figs / name["fig08"], order=order)
     jobs.add("fig09", P.fig_damage_section, results, figs / name["fig09"])
     jobs.add("fig10", P.fig_interface_zones, results, figs / name["fig10"])
+    jobs.add("fig11", P.fig_lining_axis, axes or {}, figs / name["fig11"])
     for r in results:
         jobs.add(f"xdmf:{r.condition}", P.write_xdmf, r, out / "paraview" / f"{r.condition}.xdmf")
 
@@ -402,6 +411,8 @@ def _figures(ref, results, dyn, figs, out, unwritten: list, drawn: dict) -> list
             lines += [f"- {title}: not drawn ({failed[key]})", ""]
         elif key == "fig05" and dyn is None:
             continue  # no dynamic-water condition: no water pressure to draw
+        elif key == "fig11":
+            continue  # no lining along an axis (a slice, or 3D results without snapshots)
         else:
             why = ("no water pressure recorded (run by a tq-solid without the monitors' water_pressure)"
                    if key == "fig05" else "no damage recorded at the monitors" if key == "fig08"

@@ -1,5 +1,5 @@
 """The lining as a beam along the tunnel axis (y): its axial strain and curvatures, its section
-resultants (axial force, biaxial bending, shear) and the rock-lining interface's slip, station by
+resultants (axial force, biaxial bending, shear, torsion) and the rock-lining interface's slip, station by
 station along the axis, from a field snapshot (displacements [N, 3], element stresses [E, 6]).
 
 Conventions (docs/solid_solver.md "Fault offset"; x across the tunnel, y along it, z up; the
@@ -17,7 +17,10 @@ section's centre (x_c, z_c) is the tunnel axis):
   volume over its axial length): N = sum sigma_yy A_e (tension positive), the moments in the
   horizontal and vertical planes M_h = -sum sigma_yy (x - x_c) A_e and M_v = -sum sigma_yy
   (z - z_c) A_e (N m; for a beam M = EI kappa with the curvatures above), the shears V_h = sum
-  sigma_xy A_e and V_v = sum sigma_yz A_e (N).
+  sigma_xy A_e and V_v = sum sigma_yz A_e (N), and the torsion T = sum ((z - z_c) sigma_xy -
+  (x - x_c) sigma_yz) A_e (N m): the moment about +y of the traction on the section's +y face
+  (right-handed; T = G J theta' for a twist theta about +y growing along y). It is -sum r
+  sigma_y_theta A_e with theta measured from +x towards +z, the ring's angle (docs/formats.md).
 * interface slip, per rock-lining node pair (rock node, lining node): the lining's displacement
   less the rock's; per station its axial component (y) and its component round the ring, the
   largest magnitude of each over the station's pairs.
@@ -49,7 +52,8 @@ class AxisProfile:
 
 @dataclass
 class AxisResultants:
-    """Per axial element layer of the lining: its mid y and its resultants (N, N m)."""
+    """Per axial element layer of the lining: its mid y and its resultants (N, N m): axial force,
+    moments and shears in the horizontal and the vertical plane, torsion."""
 
     y: np.ndarray
     N: np.ndarray
@@ -57,6 +61,7 @@ class AxisResultants:
     M_v: np.ndarray
     V_h: np.ndarray
     V_v: np.ndarray
+    T: np.ndarray
 
 
 @dataclass
@@ -119,10 +124,11 @@ def axis_resultants(coords: np.ndarray, connectivity: np.ndarray, elements: np.n
     span = float(np.ptp(coords[:, 1])) or 1.0
     ly, idx = _stations(cen[:, 1], 1e-7 * span)
     s = stress[elements]
-    out = {k: np.zeros(len(ly)) for k in ("N", "M_h", "M_v", "V_h", "V_v")}
-    for key, val in (("N", s[:, SYY] * area), ("M_h", -s[:, SYY] * (cen[:, 0] - centre[0]) * area),
-                     ("M_v", -s[:, SYY] * (cen[:, 2] - centre[1]) * area), ("V_h", s[:, SXY] * area),
-                     ("V_v", s[:, SYZ] * area)):
+    dx, dz = cen[:, 0] - centre[0], cen[:, 2] - centre[1]
+    out = {k: np.zeros(len(ly)) for k in ("N", "M_h", "M_v", "V_h", "V_v", "T")}
+    for key, val in (("N", s[:, SYY] * area), ("M_h", -s[:, SYY] * dx * area), ("M_v", -s[:, SYY] * dz * area),
+                     ("V_h", s[:, SXY] * area), ("V_v", s[:, SYZ] * area),
+                     ("T", (dz * s[:, SXY] - dx * s[:, SYZ]) * area)):
         np.add.at(out[key], idx, val)
     return AxisResultants(y=ly, **out)
 

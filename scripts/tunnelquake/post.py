@@ -337,7 +337,7 @@ def monitors_csv(res: ConditionResult, out: Path) -> Path:
 
 
 #: the lining's resultants along the axis (tunnelquake.lining_axis), their units
-AXIS_RESULTANTS = {"N": "N", "M_h": "N m", "M_v": "N m", "V_h": "N", "V_v": "N"}
+AXIS_RESULTANTS = {"N": "N", "M_h": "N m", "M_v": "N m", "V_h": "N", "V_v": "N", "T": "N m"}
 
 
 def lining_along_axis(res: ConditionResult) -> dict | None:
@@ -393,6 +393,45 @@ def lining_axis_csv(axis: dict, out: Path) -> Path:
         for i, y in enumerate(axis["y"]):
             w.writerow([f"{y:.6g}"] + [f"{axis['start'][k][i]:.6e}" for k in AXIS_RESULTANTS] +
                        [f"{axis['envelope'][k][i]:.6e}" for k in AXIS_RESULTANTS])
+    return out
+
+
+#: the panels of the lining-along-the-axis figure: (quantities, axis label, scale to its unit)
+AXIS_PANELS = ((("N",), "axial force N (MN)", 1e-6), (("T",), "torsion T (MN m)", 1e-6),
+               (("M_h", "M_v"), "moment (MN m)", 1e-6), (("V_h", "V_v"), "shear (MN)", 1e-6))
+
+
+def fig_lining_axis(axes: dict, out: Path) -> Path | None:
+    """The lining's section forces against distance along the tunnel (lining_along_axis per
+    condition, `axes` {condition: axis}): a panel per quantity, per condition the largest |value|
+    over the snapshots (solid) and the value at the seismic start (dashed); None with no 3D lining."""
+    if not axes:
+        return None
+    plt = _plt()
+    fig, grid = plt.subplots(2, 2, figsize=(11, 6.4), sharex=True)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, (keys, ylabel, scale) in zip(grid.ravel(), AXIS_PANELS, strict=True):
+        k = 0
+        for cond, axis in axes.items():
+            for q in keys:
+                c = colours[k % len(colours)]
+                k += 1
+                name = f"{CONDITION_LABELS.get(cond, cond)} {q}" if len(keys) > 1 else CONDITION_LABELS.get(cond, cond)
+                ax.plot(axis["y"], scale * axis["envelope"][q], color=c, lw=1.2, marker="o", ms=2.5,
+                        label=f"{name}, max |value|")
+                ax.plot(axis["y"], scale * axis["start"][q], color=c, lw=0.8, ls="--",
+                        label=f"{name}, at t = {axis['start_time']:.3g} s")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6)
+    for ax in grid[1]:
+        ax.set_xlabel("y, distance along the tunnel (m)")
+    first = next(iter(axes.values()))
+    fig.suptitle("The lining along the axis: section forces per axial element layer (max |value| over the "
+                 f"snapshots {first['start_time']:.3g}–{first['end_time']:.3g} s)", fontsize=9)
+    fig.tight_layout()
+    _save(fig, out)
+    plt.close(fig)
     return out
 
 

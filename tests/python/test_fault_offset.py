@@ -260,7 +260,7 @@ def test_offset_then_shaking_holds_the_slip_through_the_switch(prepared):
     assert axis is not None and axis["y"].size >= 6
     lines = _lining_axis(P, [res], tmp, [])
     assert lines[0] == "## The lining along the axis"
-    assert sum(line.startswith("| (1) no water | ") for line in lines) == 5
+    assert sum(line.startswith("| (1) no water | ") for line in lines) == 6  # N, M_h, M_v, V_h, V_v, T
     with open(tmp / "lining_axis_no_water.csv") as fh:
         rows = fh.read().splitlines()
     assert rows[0].startswith("y_m,N_start_N,M_h_start_Nm") and len(rows) == axis["y"].size + 1
