@@ -78,3 +78,13 @@ def run_solid(exe, inp: Path, res: Path, timeout: float) -> subprocess.Completed
                          timeout=timeout)
     assert run.returncode == 0, run.stdout + run.stderr
     return run
+
+
+def ran_case(folder: Path, text: str, *options: str) -> Path:
+    """`tunnelquake run` (with `options`) of the case `text` written to folder/case.yaml, asserted to
+    end with exit status 0; returns `folder`."""
+    from tunnelquake.cli import main
+
+    (folder / "case.yaml").write_text(text)
+    assert main(["run", str(folder / "case.yaml"), *options]) == 0
+    return folder

@@ -25,6 +25,7 @@ import pytest
 from test_restart import _case_text, _copy, _start, _stop
 from test_restart_coupled import _wait_for_pair
 
+from conftest import ran_case
 from tunnelquake.case import load_case
 from tunnelquake.cli import main
 from tunnelquake.compare import results_differences as _differences
@@ -44,10 +45,7 @@ def _two_conditions(end: float, interval: float) -> str:
 @pytest.fixture(scope="module")
 def completed(tmp_path_factory):
     """no_water and dynamic_water run to the end (a short record), with their report."""
-    folder = tmp_path_factory.mktemp("completed")
-    (folder / "case.yaml").write_text(_two_conditions(0.04, 0.0))
-    assert main(["run", str(folder / "case.yaml")]) == 0
-    return folder
+    return ran_case(tmp_path_factory.mktemp("completed"), _two_conditions(0.04, 0.0))
 
 
 #: one key of each group, its text in the example and the changed text; the conditions it reruns
