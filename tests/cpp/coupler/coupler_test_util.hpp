@@ -60,6 +60,15 @@ inline void setRing(Participant& p, const scenario::Ring& r, bool solid) {
     p.setMeshVertices("wall", r.fluidIds(), r.fluidCoordinates(), r.fluidTriangles());
 }
 
+/// Couples `p` (its mesh set, initialized) to its last window: before each advance of `dt` it
+/// writes the same `values` of `field` on the mesh "wall".
+inline void coupleSteadily(Participant& p, const std::string& field, const std::vector<double>& values, double dt) {
+  while (p.isCouplingOngoing()) {
+    p.writeData("wall", field, values);
+    p.advance(dt);
+  }
+}
+
 /// Runs a and b concurrently; returns their exceptions (null when none).
 inline std::pair<std::exception_ptr, std::exception_ptr> runPair(const std::function<void()>& a,
                                                                  const std::function<void()>& b) {

@@ -84,17 +84,43 @@ std::vector<std::uint8_t> withHeaderVersion(std::vector<std::uint8_t> m, std::ui
   return m;
 }
 
+/// The dummy fluid's arguments: `scheme`, 50 windows of 1 ms, a 5 s timeout, hanging at window
+/// `hangAt`.
+std::vector<std::string> hangingFluid(const std::filesystem::path& dir, const std::string& token,
+                                      const std::string& scheme, const std::string& hangAt) {
+  return {"--role",           "fluid", "--token",          token,
+          "--scheme",         scheme,  "--windows",        "50",
+          "--window-size",    "0.001", "--max-iterations", "30",
+          "--tolerance",      "1e-10", "--address-file",   (dir / "wall.addr").string(),
+          "--hang-at-window", hangAt,  "--timeout",        "5"};
+}
+
+/// The solid couples (the ring's velocity at t = 0 each window) until its partner's fault stops it
+/// with `Error`: the error's message and how long the last advance waited (s).
+template <class Error>
+std::pair<std::string, double> coupleUntilStopped(Participant& p, const scenario::Ring& r, double dt) {
+  const auto v = scenario::field(r, true, true, 0.0);
+  std::string msg;
+  std::chrono::steady_clock::time_point t0;
+  try {
+    while (p.isCouplingOngoing()) {
+      p.writeData("wall", "velocity", v);
+      t0 = std::chrono::steady_clock::now();
+      p.advance(dt);
+    }
+  } catch (const Error& e) {
+    msg = e.what();
+  }
+  return {msg, Secs(std::chrono::steady_clock::now() - t0).count()};
+}
+
 }  // namespace
 
 TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
   const auto dir = freshDir();
   const auto c = ringConfig(SchemeKind::Explicit, 50);
   scenario::Ring r;
-  DummyProcess fluid({"--role",           "fluid",    "--token",          "tok-kill",
-                      "--scheme",         "explicit", "--windows",        "50",
-                      "--window-size",    "0.001",    "--max-iterations", "30",
-                      "--tolerance",      "1e-10",    "--address-file",   (dir / "wall.addr").string(),
-                      "--hang-at-window", "3",        "--timeout",        "5"});
+  DummyProcess fluid(hangingFluid(dir, "tok-kill", "explicit", "3"));
   ASSERT_TRUE(fluid.started());
   Participant p("solid", c, tcp(dir, 5.0), "tok-kill");
   setRing(p, r, true);
@@ -103,19 +129,7 @@ TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     fluid.kill9();
   });
-  const auto v = scenario::field(r, true, true, 0.0);
-  std::string msg;
-  std::chrono::steady_clock::time_point t0;
-  try {
-    while (p.isCouplingOngoing()) {
-      p.writeData("wall", "velocity", v);
-      t0 = std::chrono::steady_clock::now();
-      p.advance(c.windowSize);
-    }
-  } catch (const PartnerLostError& e) {
-    msg = e.what();
-  }
-  const double waited = Secs(std::chrono::steady_clock::now() - t0).count();
+  const auto [msg, waited] = coupleUntilStopped<PartnerLostError>(p, r, c.windowSize);
   killer.join();
   EXPECT_TRUE(contains(msg, "participant 'solid' waiting for DATA of window 4 of 50")) << msg;
   EXPECT_TRUE(contains(msg, "from 'fluid'")) << msg;
@@ -130,30 +144,14 @@ TEST(Faults, HungPartnerStopsTheSolidAfterTheTimeout) {
   const auto dir = freshDir();
   const auto c = ringConfig(SchemeKind::Implicit, 50);
   scenario::Ring r;
-  DummyProcess fluid({"--role",           "fluid",    "--token",          "tok-hang",
-                      "--scheme",         "implicit", "--windows",        "50",
-                      "--window-size",    "0.001",    "--max-iterations", "30",
-                      "--tolerance",      "1e-10",    "--address-file",   (dir / "wall.addr").string(),
-                      "--hang-at-window", "2",        "--timeout",        "5"});
+  DummyProcess fluid(hangingFluid(dir, "tok-hang", "implicit", "2"));
   ASSERT_TRUE(fluid.started());
   auto t = tcp(dir, 5.0);
   t.receiveTimeout = 1.0;
   Participant p("solid", c, t, "tok-hang");
   setRing(p, r, true);
   p.initialize();
-  const auto v = scenario::field(r, true, true, 0.0);
-  std::string msg;
-  std::chrono::steady_clock::time_point t0;
-  try {
-    while (p.isCouplingOngoing()) {
-      p.writeData("wall", "velocity", v);
-      t0 = std::chrono::steady_clock::now();
-      p.advance(c.windowSize);
-    }
-  } catch (const TimeoutError& e) {
-    msg = e.what();
-  }
-  const double waited = Secs(std::chrono::steady_clock::now() - t0).count();
+  const auto [msg, waited] = coupleUntilStopped<TimeoutError>(p, r, c.windowSize);
   EXPECT_TRUE(contains(msg, "waiting for DATA of window 3 of 50, pass 1")) << msg;
   EXPECT_TRUE(contains(msg, "within the timeout of 1 s")) << msg;
   EXPECT_GT(waited, 0.95);
@@ -170,10 +168,7 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
         Participant p("solid", c, tcp(dir), "tok-foreign");
         setRing(p, r, true);
         p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "velocity", scenario::field(r, true, true, 0));
-          p.advance(c.windowSize);
-        }
+        coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
         p.finalize();
       },
       [&] {
@@ -188,10 +183,7 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
         Participant p("fluid", c, tcp(dir), "tok-foreign");
         setRing(p, r, false);
         p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "force", scenario::field(r, false, false, 0));
-          p.advance(c.windowSize);
-        }
+        coupleSteadily(p, "force", scenario::field(r, false, false, 0), c.windowSize);
         p.finalize();
       });
   rethrowIf(es);
@@ -250,10 +242,7 @@ TEST_P(MalformedData, IsRefusedAndThePeerIsTold) {
         Participant p("solid", c, tcp(dir), "tok-bad");
         setRing(p, r, true);
         p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "velocity", scenario::field(r, true, true, 0));
-          p.advance(c.windowSize);
-        }
+        coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
       },
       [&] {
         RawPeer peer(dir, "fluid");
