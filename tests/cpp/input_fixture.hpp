@@ -14,6 +14,18 @@ namespace tq::test {
 
 namespace K = input_schema::key;
 
+/// A load "pressure" of `force` (N) along z over the face group `target`, on at once (within 1 ns)
+/// and held.
+inline LoadInput suddenPressure(const std::string& target, Real force) {
+  LoadInput l;
+  l.name = "pressure";
+  l.target = target;
+  l.direction = 2;
+  l.force = force;
+  l.function = {{0.0, 1e-9, 1.0}, {0.0, 1.0, 1.0}};
+  return l;
+}
+
 inline void writeStagedGroups(hid_t f, const SolidInput& in) {
   const StagedInput& S = in.staged;
   if (!S.condition.empty()) h5::writeStringAttr(f, K::root::condition.name, S.condition);
