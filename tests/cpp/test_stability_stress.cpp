@@ -40,6 +40,7 @@
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
+#include "test_folder.hpp"
 #include "test_helpers.hpp"
 #include "tq/io/results.hpp"
 
@@ -49,15 +50,8 @@ using tqtest::StagedRun;
 
 namespace {
 
-struct Files {
-  std::filesystem::path dir;
-  Files() {
-    dir = std::filesystem::temp_directory_path() / ("tq_stress_" + std::to_string(::getpid()) + "_" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir);
-  }
-  ~Files() { std::filesystem::remove_all(dir); }
-  std::string operator/(const std::string& n) const { return (dir / n).string(); }
+struct Files : tqtest::TestFolder {
+  Files() : TestFolder("tq_stress_") {}
 };
 
 // Rock: cs 1000 m/s, ν 0.25, ρ 2000; soil: cs 400 m/s, ν 0.3, ρ 1900.
