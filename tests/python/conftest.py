@@ -71,6 +71,17 @@ def solid_input(case, folder: Path, layers=None, geology=None) -> Path:
     return write_solid_input(case, folder / "mesh.h5", folder / "motion.h5", "no_water", folder / "in.h5")
 
 
+def solid_with(*capabilities: str):
+    """The built tq-solid when its --capabilities lists each of `capabilities`, else None."""
+    from tunnelquake import paths
+
+    exe = paths.solid_executable()
+    if exe is None:
+        return None
+    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
+    return exe if out.returncode == 0 and all(c in out.stdout for c in capabilities) else None
+
+
 def run_solid(exe, inp: Path, res: Path, timeout: float) -> subprocess.CompletedProcess:
     """tq-solid `exe` on one thread from `inp` to `res`; asserts that it exited 0 and returns the
     run (its printed lines)."""

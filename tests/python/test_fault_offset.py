@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import os
-import subprocess
 from pathlib import Path
 
 import h5py
@@ -29,9 +28,8 @@ import numpy as np
 import pytest
 from case_edits import check_edited
 from case_texts import synthetic_motion, tunnel
-from test_solid_input import _solid_with_stages
 
-from conftest import run_solid, solid_input
+from conftest import run_solid, solid_input, solid_with
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing.build import LINING_END_FACES
@@ -214,11 +212,7 @@ def test_static_offset_matches_calculix_on_the_same_mesh(tmp_path):
 # 5. the offset, then the shaking
 # ------------------------------------------------------------------------------------------------
 def _solid_with_offset():
-    exe = _solid_with_stages()
-    if exe is None:
-        return None
-    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
-    return exe if "fault-offset" in out.stdout else None
+    return solid_with("staged-seismic", "fault-offset")
 
 
 @pytest.mark.skipif(_solid_with_offset() is None, reason="tq-solid with the fault_offset stage is not built")

@@ -22,9 +22,8 @@ import numpy as np
 import pytest
 from case_texts import synthetic_motion, tunnel
 
-from conftest import mesh_and_motion, run_solid
+from conftest import mesh_and_motion, run_solid, solid_with
 from tunnelquake import fluid_case as fc
-from tunnelquake import paths
 from tunnelquake.case import load_case
 from tunnelquake.references import lined_tunnel_internal_pressure
 from tunnelquake.solid_input import SolidInputError, write_solid_input
@@ -112,11 +111,7 @@ def test_layout_per_condition(prepared, tmp_path):
 
 
 def _solid_with_stages():
-    exe = paths.solid_executable()
-    if exe is None:
-        return None
-    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
-    return exe if out.returncode == 0 and "staged-seismic" in out.stdout else None
+    return solid_with("staged-seismic")
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
