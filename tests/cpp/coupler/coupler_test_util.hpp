@@ -60,6 +60,12 @@ inline void setRing(Participant& p, const scenario::Ring& r, bool solid) {
     p.setMeshVertices("wall", r.fluidIds(), r.fluidCoordinates(), r.fluidTriangles());
 }
 
+/// The ring's mesh set on `p` (solid or fluid side) and `p` initialized: connected, handshake done.
+inline void startOnRing(Participant& p, const scenario::Ring& r, bool solid) {
+  setRing(p, r, solid);
+  p.initialize();
+}
+
 /// Couples `p` (its mesh set, initialized) to its last window: before each advance of `dt` it
 /// writes the same `values` of `field` on the mesh "wall".
 inline void coupleSteadily(Participant& p, const std::string& field, const std::vector<double>& values, double dt) {

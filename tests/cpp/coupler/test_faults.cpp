@@ -123,8 +123,7 @@ TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
   DummyProcess fluid(hangingFluid(dir, "tok-kill", "explicit", "3"));
   ASSERT_TRUE(fluid.started());
   Participant p("solid", c, tcp(dir, 5.0), "tok-kill");
-  setRing(p, r, true);
-  p.initialize();
+  startOnRing(p, r, true);
   std::thread killer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     fluid.kill9();
@@ -149,8 +148,7 @@ TEST(Faults, HungPartnerStopsTheSolidAfterTheTimeout) {
   auto t = tcp(dir, 5.0);
   t.receiveTimeout = 1.0;
   Participant p("solid", c, t, "tok-hang");
-  setRing(p, r, true);
-  p.initialize();
+  startOnRing(p, r, true);
   const auto [msg, waited] = coupleUntilStopped<TimeoutError>(p, r, c.windowSize);
   EXPECT_TRUE(contains(msg, "waiting for DATA of window 3 of 50, pass 1")) << msg;
   EXPECT_TRUE(contains(msg, "within the timeout of 1 s")) << msg;
@@ -166,8 +164,7 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-foreign");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
         coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
         p.finalize();
       },
@@ -181,8 +178,7 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
                        decodeReason(m.payload.data(), m.payload.size()).message;
         }
         Participant p("fluid", c, tcp(dir), "tok-foreign");
-        setRing(p, r, false);
-        p.initialize();
+        startOnRing(p, r, false);
         coupleSteadily(p, "force", scenario::field(r, false, false, 0), c.windowSize);
         p.finalize();
       });
@@ -200,8 +196,7 @@ TEST(Faults, OtherProtocolVersionIsRefusedWithBothVersionsNamed) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-ver");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
       },
       [&] {
         RawPeer peer(dir, "fluid");
@@ -240,8 +235,7 @@ TEST_P(MalformedData, IsRefusedAndThePeerIsTold) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-bad");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
         coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
       },
       [&] {
