@@ -14,6 +14,23 @@ namespace tq::test {
 
 namespace K = input_schema::key;
 
+/// Staged input with the stages `sequence`, in_situ among them: the in-situ stress under gravity g
+/// (also the run's body force −g ẑ) with the stress ratios kx, ky, kz. Returns the staged input
+/// for the rest of the set-up.
+inline StagedInput& inSituUnderGravity(SolidInput& in, std::vector<std::string> sequence, Real g, Real kx = 1,
+                                       Real ky = 1, Real kz = 1) {
+  StagedInput& S = in.staged;
+  S.present = true;
+  S.stages.sequence = std::move(sequence);
+  S.inSitu.present = true;
+  S.inSitu.kx = kx;
+  S.inSitu.ky = ky;
+  S.inSitu.kz = kz;
+  S.inSitu.gravity = g;
+  in.options.gravity[2] = -g;
+  return S;
+}
+
 /// A load "pressure" of `force` (N) along z over the face group `target`, on at once (within 1 ns)
 /// and held.
 inline LoadInput suddenPressure(const std::string& target, Real force) {

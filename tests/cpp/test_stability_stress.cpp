@@ -37,6 +37,7 @@
 #include <random>
 #include <sstream>
 
+#include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
@@ -248,25 +249,12 @@ void syntheticRecord(Real duration, Real dt, Real pga, std::vector<Real>& t, std
 TEST(StrongMotion, OneGRecordIntoAYieldingLayerClosesTheEnergyBalance) {
   StagedRun run;
   run.mesh = tqtest::twoLayerBox({2, 1, 20, 0, 0, 0, 10, 5, kH}, kSplit, "rock", "soil");
-  MohrCoulombDamageParams soil;
-  soil.elastic = kSoil;
-  soil.cohesion = 30e3;
-  soil.frictionAngle = 30;
-  soil.tensileStrength = 10e3;
-  soil.damageConstant = 100;
+  const MohrCoulombDamageParams soil = tqtest::mohrCoulomb(kSoil, 30e3, 30, 10e3, 100);
   run.in.materials = {{"rock", elasticValues(kRock)}, {"soil", mohrCoulombDamageValues(soil)}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   run.in.options.damping = RayleighDamping::fromRatio(0.05, 1.0, 10.0);
-  run.in.options.gravity[2] = -9.81;
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ", "seismic"};
+  StagedInput& S = test::inSituUnderGravity(run.in, {"in_situ", "seismic"}, 9.81, 0.6, 0.6, 1.0);
   S.stages.tolerance = 1e-6;
-  S.inSitu.present = true;
-  S.inSitu.kx = 0.6;
-  S.inSitu.ky = 0.6;
-  S.inSitu.kz = 1.0;
-  S.inSitu.gravity = 9.81;
   S.bottom.present = true;
   S.freeField.present = true;
   S.freeField.faces = {"xmin", "xmax"};
