@@ -95,6 +95,18 @@ std::vector<std::string> hangingFluid(const std::filesystem::path& dir, const st
           "--hang-at-window", hangAt,  "--timeout",        "5"};
 }
 
+/// A solid's run of 50 one-millisecond windows against the dummy fluid (a process of its own)
+/// that hangs at window `hangAt`.
+struct AgainstHangingFluid {
+  std::filesystem::path dir = freshDir();
+  CouplingConfig c;
+  scenario::Ring r;
+  DummyProcess fluid;
+  AgainstHangingFluid(SchemeKind scheme, const std::string& token, const std::string& hangAt)
+      : c(ringConfig(scheme, 50)),
+        fluid(hangingFluid(dir, token, scheme == SchemeKind::Explicit ? "explicit" : "implicit", hangAt)) {}
+};
+
 /// The solid couples (the ring's velocity at t = 0 each window) until its partner's fault stops it
 /// with `Error`: the error's message and how long the last advance waited (s).
 template <class Error>
@@ -117,18 +129,15 @@ std::pair<std::string, double> coupleUntilStopped(Participant& p, const scenario
 }  // namespace
 
 TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
-  const auto dir = freshDir();
-  const auto c = ringConfig(SchemeKind::Explicit, 50);
-  scenario::Ring r;
-  DummyProcess fluid(hangingFluid(dir, "tok-kill", "explicit", "3"));
-  ASSERT_TRUE(fluid.started());
-  Participant p("solid", c, tcp(dir, 5.0), "tok-kill");
-  startOnRing(p, r, true);
+  AgainstHangingFluid run(SchemeKind::Explicit, "tok-kill", "3");
+  ASSERT_TRUE(run.fluid.started());
+  Participant p("solid", run.c, tcp(run.dir, 5.0), "tok-kill");
+  startOnRing(p, run.r, true);
   std::thread killer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    fluid.kill9();
+    run.fluid.kill9();
   });
-  const auto [msg, waited] = coupleUntilStopped<PartnerLostError>(p, r, c.windowSize);
+  const auto [msg, waited] = coupleUntilStopped<PartnerLostError>(p, run.r, run.c.windowSize);
   killer.join();
   EXPECT_TRUE(contains(msg, "participant 'solid' waiting for DATA of window 4 of 50")) << msg;
   EXPECT_TRUE(contains(msg, "from 'fluid'")) << msg;
@@ -140,16 +149,13 @@ TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
 }
 
 TEST(Faults, HungPartnerStopsTheSolidAfterTheTimeout) {
-  const auto dir = freshDir();
-  const auto c = ringConfig(SchemeKind::Implicit, 50);
-  scenario::Ring r;
-  DummyProcess fluid(hangingFluid(dir, "tok-hang", "implicit", "2"));
-  ASSERT_TRUE(fluid.started());
-  auto t = tcp(dir, 5.0);
+  AgainstHangingFluid run(SchemeKind::Implicit, "tok-hang", "2");
+  ASSERT_TRUE(run.fluid.started());
+  auto t = tcp(run.dir, 5.0);
   t.receiveTimeout = 1.0;
-  Participant p("solid", c, t, "tok-hang");
-  startOnRing(p, r, true);
-  const auto [msg, waited] = coupleUntilStopped<TimeoutError>(p, r, c.windowSize);
+  Participant p("solid", run.c, t, "tok-hang");
+  startOnRing(p, run.r, true);
+  const auto [msg, waited] = coupleUntilStopped<TimeoutError>(p, run.r, run.c.windowSize);
   EXPECT_TRUE(contains(msg, "waiting for DATA of window 3 of 50, pass 1")) << msg;
   EXPECT_TRUE(contains(msg, "within the timeout of 1 s")) << msg;
   EXPECT_GT(waited, 0.95);
