@@ -1,10 +1,15 @@
-// Test fixture: solid_input.h5 from an in-memory SolidInput, every attribute named by the generated
-// table's constants (solid_solver/src/input_schema.inc), so no list of keys of its own. The Python
-// writer (tunnelquake.solid_input) writes the real ones.
+// Test fixtures for the solid's inputs: solid_input.h5 from an in-memory SolidInput, every attribute
+// named by the generated table's constants (solid_solver/src/input_schema.inc), so no list of keys
+// of its own (the Python writer, tunnelquake.solid_input, writes the real ones); the pieces of a
+// SolidInput the tests share (a sudden pressure load, the in-situ stage under gravity); an input
+// refused with a message that names what is wrong.
 #pragma once
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "io/h5util.hpp"
 #include "io/input_schema.hpp"
@@ -13,6 +18,19 @@
 namespace tq::test {
 
 namespace K = input_schema::key;
+
+/// `run()` is refused with an InputError whose message names each of `parts` (the test fails with
+/// `accepted` when it is not refused).
+template <class Run>
+void expectInputError(Run&& run, const std::string& accepted, const std::vector<std::string>& parts) {
+  try {
+    run();
+    ADD_FAILURE() << accepted;
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    for (const auto& part : parts) EXPECT_NE(msg.find(part), std::string::npos) << msg;
+  }
+}
 
 /// Staged input with the stages `sequence`, in_situ among them: the in-situ stress under gravity g
 /// (also the run's body force −g ẑ) with the stress ratios kx, ky, kz. Returns the staged input

@@ -271,14 +271,8 @@ TEST(LayeredSlice, PeriodicFacesThatDoNotFaceEachOtherAreRefused) {
     EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0])], m.coords[3 * size_t(p[1])]);
     EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0]) + 2], m.coords[3 * size_t(p[1]) + 2]);
   }
-  try {
-    TiedNodeGroups::periodicPairs(m, "xmin", "ymax");
-    FAIL() << "expected an x face and a y face to be refused";
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find("'xmin' and 'ymax'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("not opposite"), std::string::npos) << msg;
-  }
+  test::expectInputError([&] { TiedNodeGroups::periodicPairs(m, "xmin", "ymax"); },
+                         "expected an x face and a y face to be refused", {"'xmin' and 'ymax'", "not opposite"});
 }
 
 // A block of two layers (lower 'rock' ρ 2600, upper 'weathered' ρ 2000, interface 20 m below the
@@ -329,13 +323,6 @@ TEST(InSitu, RegionsBesideEachOtherWithDifferentDensitiesAreRefused) {
   test::inSituUnderGravity(run.in, {"in_situ"}, 9.81);
   run.build();
   std::ostringstream log;
-  try {
-    run.stages->runStatics(log);
-    FAIL() << "expected the overburden to be refused";
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find("'rock'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("'dyke'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("/in_situ density"), std::string::npos) << msg;
-  }
+  test::expectInputError([&] { run.stages->runStatics(log); }, "expected the overburden to be refused",
+                         {"'rock'", "'dyke'", "/in_situ density"});
 }
