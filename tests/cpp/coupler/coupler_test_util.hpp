@@ -95,6 +95,22 @@ inline std::pair<std::exception_ptr, std::exception_ptr> runPair(const std::func
   return {ea, eb};
 }
 
+/// Both sides started on their rings concurrently (the solid with `cs` on `rs`, the fluid with `cf`
+/// on `rf`, over loopback TCP in `dir`); returns their exceptions (null when none).
+inline std::pair<std::exception_ptr, std::exception_ptr> handshakePair(
+    const std::filesystem::path& dir, const CouplingConfig& cs, const scenario::Ring& rs, const CouplingConfig& cf,
+    const scenario::Ring& rf, const std::string& token) {
+  return runPair(
+      [&] {
+        Participant p("solid", cs, tcp(dir), token);
+        startOnRing(p, rs, true);
+      },
+      [&] {
+        Participant p("fluid", cf, tcp(dir), token);
+        startOnRing(p, rf, false);
+      });
+}
+
 /// Message of an exception of type E (fails the test for another outcome).
 template <class E>
 std::string messageOf(const std::exception_ptr& e) {

@@ -173,15 +173,7 @@ TEST(Handshake, DifferentInterfaceSizeIsRefusedOnBothSides) {
   const auto c = ringConfig(SchemeKind::Explicit, 2);
   scenario::Ring rs, rf;
   rf.nTheta = 60;
-  const auto [es, ef] = runPair(
-      [&] {
-        Participant p("solid", c, tcp(dir), "tok-size");
-        startOnRing(p, rs, true);
-      },
-      [&] {
-        Participant p("fluid", c, tcp(dir), "tok-size");
-        startOnRing(p, rf, false);
-      });
+  const auto [es, ef] = handshakePair(dir, c, rs, c, rf, "tok-size");
   const std::string a = messageOf<HandshakeError>(es), b = messageOf<HandshakeError>(ef);
   EXPECT_TRUE(contains(a, "has 128 nodes here and 120 on 'fluid'")) << a;
   EXPECT_TRUE(contains(b, "refused by its partner")) << b;
@@ -195,15 +187,7 @@ TEST(Handshake, DifferentConfigurationIsListedItemByItem) {
   cf.windowSize = 2e-3;
   cf.fields[1].components = 1;
   scenario::Ring r;
-  const auto [es, ef] = runPair(
-      [&] {
-        Participant p("solid", cs, tcp(dir), "tok-cfg");
-        startOnRing(p, r, true);
-      },
-      [&] {
-        Participant p("fluid", cf, tcp(dir), "tok-cfg");
-        startOnRing(p, r, false);
-      });
+  const auto [es, ef] = handshakePair(dir, cs, r, cf, r, "tok-cfg");
   const std::string a = messageOf<HandshakeError>(es);
   EXPECT_TRUE(contains(a, "window size (s): here 0.001")) << a;
   EXPECT_TRUE(contains(a, "'force' components: here 3, 'fluid' has 1")) << a;
@@ -404,6 +388,16 @@ OscResult oscillated(SchemeKind scheme, AccelerationKind acc, double ratio, int 
   return r;
 }
 
+/// 20 windows at rest: each within `maxPasses` passes, on average at most `meanPasses`, the motion
+/// at the floor's scale (below 1e-12 m).
+void expectAtRest(const OscResult& r, AccelerationKind acc, int maxPasses, double meanPasses) {
+  ASSERT_EQ(r.passesPerWindow.size(), 20u);
+  for (std::size_t w = 0; w < r.passesPerWindow.size(); ++w)
+    EXPECT_LE(r.passesPerWindow[w], maxPasses) << accelerationName(acc) << ", window " << w + 1;
+  EXPECT_LE(double(r.passes) / 20.0, meanPasses) << accelerationName(acc);
+  EXPECT_LT(r.maxAbs, 1e-12) << accelerationName(acc);
+}
+
 /// The monolithic reference: the same integrator with mass m + m_a.
 std::vector<double> monolithic(double ratio, int windows, double dt = 1e-3) {
   const double m = 1.0 + ratio, k = 4 * M_PI * M_PI * 25.0 * m;
@@ -521,11 +515,7 @@ TEST(AddedMass, AbsoluteToleranceEndsWindowsAtRestInTwoPasses) {
     // then takes a third pass. The motion stays at the floor's scale (1e-12 m, not growing).
     rest.atolForce = tol * 5.0 * 0.01 * std::pow(2 * M_PI * 5, 2);
     const auto with = oscillated(SchemeKind::Implicit, acc, 5.0, 20, rest);
-    ASSERT_EQ(with.passesPerWindow.size(), 20u);
-    for (std::size_t w = 0; w < with.passesPerWindow.size(); ++w)
-      EXPECT_LE(with.passesPerWindow[w], 3) << accelerationName(acc) << ", window " << w + 1;
-    EXPECT_LE(double(with.passes) / 20.0, 2.5) << accelerationName(acc);
-    EXPECT_LT(with.maxAbs, 1e-12) << accelerationName(acc);
+    expectAtRest(with, acc, 3, 2.5);
     // ... while the moving model problem still reaches the monolithic solution to 1e-8.
     OscOptions moving = rest;
     moving.x0 = 0.01;
@@ -583,11 +573,7 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
     rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
     const auto one = oscillated(SchemeKind::Implicit, acc, 0.5, 20, rest);
-    ASSERT_EQ(one.passesPerWindow.size(), 20u);
-    for (std::size_t w = 0; w < one.passesPerWindow.size(); ++w)
-      EXPECT_LE(one.passesPerWindow[w], 2) << accelerationName(acc) << ", window " << w + 1;
-    EXPECT_LE(double(one.passes) / 20.0, 1.1) << accelerationName(acc);
-    EXPECT_LT(one.maxAbs, 1e-12) << accelerationName(acc);
+    expectAtRest(one, acc, 2, 1.1);
     // A loose tolerance over a whole period (2,000 windows): the extrapolation of the *applied*
     // forces carries each accepted error once (extrapolating the water's answers instead multiplied
     // them by the added-mass feedback: on the paper slice at tolerance 1e-3 a period-two mode grew
