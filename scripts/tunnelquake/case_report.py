@@ -32,6 +32,17 @@ def _disk_full(e: OSError, path) -> DiskFull:
     return e if isinstance(e, DiskFull) else DiskFull(path)
 
 
+def _write_csv(write, data, path: Path, unwritten: list) -> None:
+    """`write(data, path)`; a full disk is noted in `unwritten` (named in post's last line with the other
+    outputs that did not fit), any other error is raised."""
+    try:
+        write(data, path)
+    except OSError as e:
+        if not is_no_space(e):
+            raise
+        unwritten.append(_disk_full(e, path))
+
+
 def _context(case, results, motion: dict | None) -> dict:
     """What the discussion of a comparison quotes: the record and its PGA, damping, R, water model,
     mode."""
@@ -161,12 +172,7 @@ def _joint_rows(P, res, out: Path, unwritten: list, allowed: float | None) -> tu
     if J is None or not len(J["time"]):
         return [], []
     f = out / f"joints_{res.condition}.csv"
-    try:
-        P.joints_csv(J, f)
-    except OSError as e:
-        if not is_no_space(e):
-            raise
-        unwritten.append(_disk_full(e, f))
+    _write_csv(P.joints_csv, J, f, unwritten)
     label = P.CONDITION_LABELS[res.condition]
     rows = []
     for j, y in enumerate(J["y"]):
@@ -204,12 +210,7 @@ def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float 
         if axes is not None:
             axes[res.condition] = axis
         f = out / f"lining_axis_{res.condition}.csv"
-        try:
-            P.lining_axis_csv(axis, f)
-        except OSError as e:
-            if not is_no_space(e):
-                raise
-            unwritten.append(_disk_full(e, f))
+        _write_csv(P.lining_axis_csv, axis, f, unwritten)
         for k, unit in P.AXIS_RESULTANTS.items():
             i, j = int(np.argmax(np.abs(axis["start"][k]))), int(np.argmax(axis["envelope"][k]))
             rows.append(f"| {P.CONDITION_LABELS[res.condition]} | {k} ({unit}) | {axis['start'][k][i]:.4g} at y = "
@@ -284,12 +285,7 @@ def post_case(case) -> Path:
             say(f"{cond}: {f.name} cannot be read ({e})")
             continue
         csv_file = out / f"monitors_{cond}.csv"
-        try:
-            P.monitors_csv(res, csv_file)
-        except OSError as e:
-            if not is_no_space(e):
-                raise
-            unwritten.append(_disk_full(e, csv_file))
+        _write_csv(P.monitors_csv, res, csv_file, unwritten)
         lines.append(_run_state(P, res, csv_file.name))
         if not res.samples:
             say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")

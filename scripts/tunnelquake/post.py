@@ -501,6 +501,14 @@ def _save(fig, out: Path) -> None:
         raise
 
 
+def _finish(fig, out: Path) -> Path:
+    """A drawn figure laid out (tight), saved (_save) and closed; returns its path."""
+    fig.tight_layout()
+    _save(fig, out)
+    _plt().close(fig)
+    return out
+
+
 def _plt():
     import matplotlib
 
@@ -548,10 +556,7 @@ def fig_max_displacements(results: list[ConditionResult], out: Path, order: list
         ax.set_title(title)
         ax.grid(alpha=0.3, axis="y")
     axes[1].legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, out)
-    plt.close(fig)
-    return out
+    return _finish(fig, out)
 
 
 def fig_principal_stress(results: list[ConditionResult], out: Path, order: list[str] | None = None,
@@ -574,10 +579,7 @@ def fig_principal_stress(results: list[ConditionResult], out: Path, order: list[
         ax.set_ylabel("max principal stress (MPa)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, out)
-    plt.close(fig)
-    return out
+    return _finish(fig, out)
 
 
 def read_fluid_interface(fluid_dir: Path) -> dict | None:
@@ -636,10 +638,7 @@ def fig_hydrodynamic_pressure(res: ConditionResult, out: Path, fluid: dict | Non
     ax.set_title(f"{CONDITION_LABELS[res.condition]}: water pressure on the lining minus hydrostatic")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    _save(fig, out)
-    plt.close(fig)
-    return out
+    return _finish(fig, out)
 
 
 def fig_damage_histories(results: list[ConditionResult], out: Path, order: list[str] | None = None) -> Path | None:
@@ -663,10 +662,7 @@ def fig_damage_histories(results: list[ConditionResult], out: Path, order: list[
         ax.set_ylim(-0.02, max(0.1, 1.1 * top))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, out)
-    plt.close(fig)
-    return out
+    return _finish(fig, out)
 
 
 # ---- the lining's middle section -------------------------------------------------------------
@@ -805,10 +801,7 @@ def fig_interface_zones(results: list[ConditionResult], out: Path) -> Path | Non
         ax.set_xlabel("x (m)")
         ax.set_ylabel("z (m)")
         ax.legend(fontsize=6, loc="center")
-    fig.tight_layout()
-    _save(fig, out)
-    plt.close(fig)
-    return out
+    return _finish(fig, out)
 
 
 # ---- ParaView ---------------------------------------------------------------------------------

@@ -218,10 +218,20 @@ class Text(Spec):
 
 
 @dataclass
-class Tuple(Spec):
-    """A fixed-length list of one item spec, e.g. a coordinate range or a point."""
+class _Items(Spec):
+    """A YAML list whose entries share one spec (`item`)."""
 
     item: Spec = field(default_factory=Number)
+
+    def _entries(self, value: list, path, line, ctx) -> list:
+        """Each entry checked by `item` (None where it fails), named path[i] in errors."""
+        return [self.item.check(v, f"{path}[{i}]", line, ctx) for i, v in enumerate(value)]
+
+
+@dataclass
+class Tuple(_Items):
+    """A fixed-length list of one item spec, e.g. a coordinate range or a point."""
+
     length: int = 2
     increasing: bool = False
 
@@ -230,7 +240,7 @@ class Tuple(Spec):
             ctx.error(path, value, f"must be a list of {self.length} values",
                       f"write [{', '.join(['v'] * self.length)}]", line)
             return None
-        out = [self.item.check(v, f"{path}[{i}]", line, ctx) for i, v in enumerate(value)]
+        out = self._entries(value, path, line, ctx)
         if any(v is None for v in out):
             return None
         if self.increasing and any(b <= a for a, b in zip(out, out[1:], strict=False)):
@@ -240,8 +250,7 @@ class Tuple(Spec):
 
 
 @dataclass
-class ListOf(Spec):
-    item: Spec = field(default_factory=Number)
+class ListOf(_Items):
     min_length: int = 0
     unique: bool = False
 
@@ -252,7 +261,7 @@ class ListOf(Spec):
         if len(value) < self.min_length:
             ctx.error(path, value, f"needs at least {self.min_length} entries", "add entries", line)
             return None
-        out = [self.item.check(v, f"{path}[{i}]", line, ctx) for i, v in enumerate(value)]
+        out = self._entries(value, path, line, ctx)
         if self.unique and len(set(map(repr, value))) != len(value):
             ctx.error(path, value, "has repeated entries", "list each entry once", line)
         return None if any(v is None for v in out) else out

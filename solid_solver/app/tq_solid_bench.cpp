@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_options.hpp"
 #include "tq/core/solver.hpp"
 
 namespace {
@@ -101,21 +102,14 @@ std::string machineLine() {
 
 int main(int argc, char** argv) {
   using namespace tq;
-  int n = 40, steps = 200, repeat = 5;
+  bench::SizeOptions size{40, 200, 5};
   bool damping = false, generic = false;
   double columnP = 0, fixedDt = 0;
   std::string ccxDeck;
   for (int i = 1; i < argc; ++i) {
+    if (bench::readSizeOption(argc, argv, i, size)) continue;
     const std::string a = argv[i];
-    if (a == "--n" && i + 1 < argc)
-      n = std::stoi(argv[++i]);
-    else if (a == "--steps" && i + 1 < argc)
-      steps = std::stoi(argv[++i]);
-    else if (a == "--repeat" && i + 1 < argc)
-      repeat = std::stoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc)
-      omp_set_num_threads(std::stoi(argv[++i]));
-    else if (a == "--damping")
+    if (a == "--damping")
       damping = true;
     else if (a == "--generic")
       generic = true;
@@ -132,6 +126,7 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
+  const int n = size.n, steps = size.steps, repeat = size.repeat;
   if (columnP > 0 && !(fixedDt > 0)) {
     std::fprintf(stderr, "tq-solid-bench: --column needs --dt (the fixed step shared with CalculiX)\n");
     return 1;

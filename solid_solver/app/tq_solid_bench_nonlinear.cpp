@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_options.hpp"
 #include "tq/contact/contact.hpp"
 #include "tq/core/solver.hpp"
 #include "tq/materials/material_mc.hpp"
@@ -130,22 +131,13 @@ Timing summarize(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int n = 30, steps = 100, repeat = 5;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--n" && i + 1 < argc)
-      n = std::stoi(argv[++i]);
-    else if (a == "--steps" && i + 1 < argc)
-      steps = std::stoi(argv[++i]);
-    else if (a == "--repeat" && i + 1 < argc)
-      repeat = std::stoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc)
-      omp_set_num_threads(std::stoi(argv[++i]));
-    else {
+  bench::SizeOptions size{30, 100, 5};
+  for (int i = 1; i < argc; ++i)
+    if (!bench::readSizeOption(argc, argv, i, size)) {
       std::fprintf(stderr, "usage: tq-solid-bench-nl [--n 30] [--steps 100] [--repeat 5] [--threads N]\n");
       return 1;
     }
-  }
+  const int n = size.n, steps = size.steps, repeat = size.repeat;
   std::printf("tq-solid-bench-nl: %d thread(s), median of %d runs\n", omp_get_max_threads(), repeat);
   // 1. Material update alone.
   {

@@ -1,10 +1,15 @@
-// Test fixture: solid_input.h5 from an in-memory SolidInput, every attribute named by the generated
-// table's constants (solid_solver/src/input_schema.inc), so no list of keys of its own. The Python
-// writer (tunnelquake.solid_input) writes the real ones.
+// Test fixtures for the solid's inputs: solid_input.h5 from an in-memory SolidInput, every attribute
+// named by the generated table's constants (solid_solver/src/input_schema.inc), so no list of keys
+// of its own (the Python writer, tunnelquake.solid_input, writes the real ones); the pieces of a
+// SolidInput the tests share (a sudden pressure load, the in-situ stage under gravity); an input
+// refused with a message that names what is wrong.
 #pragma once
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "io/h5util.hpp"
 #include "io/input_schema.hpp"
@@ -13,6 +18,48 @@
 namespace tq::test {
 
 namespace K = input_schema::key;
+
+/// `run()` is refused with an InputError whose message names each of `parts` (the test fails with
+/// `accepted` when it is not refused).
+template <class Run>
+void expectInputError(Run&& run, const std::string& accepted, const std::vector<std::string>& parts) {
+  try {
+    run();
+    ADD_FAILURE() << accepted;
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    for (const auto& part : parts) EXPECT_NE(msg.find(part), std::string::npos) << msg;
+  }
+}
+
+/// Staged input with the stages `sequence`, in_situ among them: the in-situ stress under gravity g
+/// (also the run's body force −g ẑ) with the stress ratios kx, ky, kz. Returns the staged input
+/// for the rest of the set-up.
+inline StagedInput& inSituUnderGravity(SolidInput& in, std::vector<std::string> sequence, Real g, Real kx = 1,
+                                       Real ky = 1, Real kz = 1) {
+  StagedInput& S = in.staged;
+  S.present = true;
+  S.stages.sequence = std::move(sequence);
+  S.inSitu.present = true;
+  S.inSitu.kx = kx;
+  S.inSitu.ky = ky;
+  S.inSitu.kz = kz;
+  S.inSitu.gravity = g;
+  in.options.gravity[2] = -g;
+  return S;
+}
+
+/// A load "pressure" of `force` (N) along z over the face group `target`, on at once (within 1 ns)
+/// and held.
+inline LoadInput suddenPressure(const std::string& target, Real force) {
+  LoadInput l;
+  l.name = "pressure";
+  l.target = target;
+  l.direction = 2;
+  l.force = force;
+  l.function = {{0.0, 1e-9, 1.0}, {0.0, 1.0, 1.0}};
+  return l;
+}
 
 inline void writeStagedGroups(hid_t f, const SolidInput& in) {
   const StagedInput& S = in.staged;

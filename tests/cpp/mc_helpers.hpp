@@ -1,5 +1,5 @@
 // Helpers for the Mohr–Coulomb damage and contact tests: a material point driven without a mesh,
-// the paper's Table 1 parameters, and principal stresses.
+// the paper's Table 1 parameters, principal stresses, and rock–lining meshes with paired nodes.
 #pragma once
 
 #include <Eigen/Dense>
@@ -16,26 +16,77 @@ namespace tqtest {
 using tq::Index;
 using tq::Real;
 
-/// Paper Table 1, rock: E 8 GPa, ν 0.27, c 0.55 MPa, φ 37°, ρ 2700, σt 1.20 MPa.
-inline tq::MohrCoulombDamageParams paperRock(Real R = 100) {
+/// Mohr–Coulomb damage parameters: elastic (E, ν, ρ), cohesion c, friction angle φ (degrees),
+/// tensile strength σt and damage constant R.
+inline tq::MohrCoulombDamageParams mohrCoulomb(tq::ElasticParams elastic, Real c, Real phi, Real st, Real R) {
   tq::MohrCoulombDamageParams p;
-  p.elastic = {8e9, 0.27, 2700};
-  p.cohesion = 0.55e6;
-  p.frictionAngle = 37;
-  p.tensileStrength = 1.20e6;
+  p.elastic = elastic;
+  p.cohesion = c;
+  p.frictionAngle = phi;
+  p.tensileStrength = st;
   p.damageConstant = R;
   return p;
 }
 
+/// Paper Table 1, rock: E 8 GPa, ν 0.27, c 0.55 MPa, φ 37°, ρ 2700, σt 1.20 MPa.
+inline tq::MohrCoulombDamageParams paperRock(Real R = 100) {
+  return mohrCoulomb({8e9, 0.27, 2700}, 0.55e6, 37, 1.20e6, R);
+}
+
 /// Paper Table 1, lining (C25): E 28 GPa, ν 0.17, c 1.80 MPa, φ 40°, ρ 2500, σt 1.27 MPa.
 inline tq::MohrCoulombDamageParams paperLining(Real R = 100) {
-  tq::MohrCoulombDamageParams p;
-  p.elastic = {28e9, 0.17, 2500};
-  p.cohesion = 1.80e6;
-  p.frictionAngle = 40;
-  p.tensileStrength = 1.27e6;
-  p.damageConstant = R;
-  return p;
+  return mohrCoulomb({28e9, 0.17, 2500}, 1.80e6, 40, 1.27e6, R);
+}
+
+/// The rock mesh `r` with the lining mesh `l` appended (its nodes numbered from r.numNodes(), its
+/// elements in region 1, "lining") and no face groups: the caller names the faces and the pairs.
+inline tq::Mesh withLining(const tq::Mesh& r, const tq::Mesh& l) {
+  tq::Mesh m = r;
+  const Index off = r.numNodes();
+  m.coords.insert(m.coords.end(), l.coords.begin(), l.coords.end());
+  for (Index c : l.connectivity) m.connectivity.push_back(c + off);
+  m.regionNames = {"rock", "lining"};
+  for (Index e = 0; e < l.numElems(); ++e) m.region.push_back(1);
+  m.faces.clear();
+  return m;
+}
+
+/// A lining box (z in [0, hl], nzl elements high) on a rock box (z in [−hr, 0], nzr elements high),
+/// nx × ny columns of side w, the nodes at z = 0 doubled (rock node, lining node) and listed as
+/// pairs. Faces: bottom (the rock's), top (the lining's), lining_outer (the lining's bottom,
+/// outward normal −z, towards the rock) and, with `rockHole`, rock_hole (the rock's top).
+inline tq::Mesh pairedStack(Index nx, Index ny, Index nzr, Index nzl, Real hr, Real hl, Real w, bool rockHole) {
+  const tq::Mesh r = tq::makeBoxMesh({nx, ny, nzr, 0, 0, -hr, nx * w, ny * w, hr, "rock"});
+  const tq::Mesh l = tq::makeBoxMesh({nx, ny, nzl, 0, 0, 0, nx * w, ny * w, hl, "lining"});
+  const Index off = r.numNodes();
+  tq::Mesh m = withLining(r, l);
+  m.faces["bottom"] = r.faces.at("bottom");
+  for (Index q : l.faces.at("top")) m.faces["top"].push_back(q + off);
+  for (Index q : l.faces.at("bottom")) m.faces["lining_outer"].push_back(q + off);
+  if (rockHole) m.faces["rock_hole"] = r.faces.at("top");
+  // Pairs: rock top-layer node with the coincident lining bottom-layer node.
+  const Index perLayer = (nx + 1) * (ny + 1);
+  for (Index k = 0; k < perLayer; ++k) {
+    m.rockLiningPairs.push_back(nzr * perLayer + k);
+    m.rockLiningPairs.push_back(off + k);
+  }
+  tq::checkMesh(m);
+  return m;
+}
+
+/// The cross product of quad k's diagonals in face list q (twice its area vector, along its
+/// outward normal).
+inline void quadDiagonalCross(const tq::Mesh& m, const std::vector<Index>& q, size_t k, Real c[3]) {
+  const Real* x[4];
+  for (int i = 0; i < 4; ++i) x[i] = &m.coords[3 * size_t(q[4 * k + size_t(i)])];
+  Real d1[3], d2[3];
+  for (int i = 0; i < 3; ++i) {
+    d1[i] = x[2][i] - x[0][i];
+    d2[i] = x[3][i] - x[1][i];
+  }
+  c[0] = d1[1] * d2[2] - d1[2] * d2[1];
+  c[1] = d1[2] * d2[0] - d1[0] * d2[2];
+  c[2] = d1[0] * d2[1] - d1[1] * d2[0];
 }
 
 inline Real nPhi(Real phiDeg) {

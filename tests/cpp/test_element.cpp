@@ -37,6 +37,18 @@ void expectedStress(Real E, Real nu, Real s[6]) {
   for (int k = 3; k < 6; ++k) s[k] = m.mu * kEps[k];
 }
 
+// Every node of `m` displaced by the linear field, one step of `s` (its forces at u^0); `sx`: the
+// field's exact stress for E, ν.
+void stepUnderLinearField(Solver& s, const Mesh& m, Real E, Real nu, Real sx[6]) {
+  for (Index n = 0; n < m.numNodes(); ++n) {
+    Real x[3] = {m.coords[3 * n], m.coords[3 * n + 1], m.coords[3 * n + 2]}, u[3];
+    linearField(x, u);
+    for (int d = 0; d < 3; ++d) s.state().u(n, d) = u[d];
+  }
+  s.step();
+  expectedStress(E, nu, sx);
+}
+
 }  // namespace
 
 TEST(Hex8Geometry, UniformGradientReproducesLinearFieldsOnDistortedElements) {
@@ -75,14 +87,8 @@ TEST(Hex8Element, PatchTestDistortedMeshExactStressAndZeroInteriorForces) {
   SolverOptions opt;
   Solver s(m, makeBlocksByRegion(m, {{"rock", elastic(E, nu, 2500)}}), opt);
   // Prescribe the linear field on all nodes; one step computes forces at u^0.
-  for (Index n = 0; n < m.numNodes(); ++n) {
-    Real x[3] = {m.coords[3 * n], m.coords[3 * n + 1], m.coords[3 * n + 2]}, u[3];
-    linearField(x, u);
-    for (int d = 0; d < 3; ++d) s.state().u(n, d) = u[d];
-  }
-  s.step();
   Real sx[6];
-  expectedStress(E, nu, sx);
+  stepUnderLinearField(s, m, E, nu, sx);
   const Real scale = std::abs(sx[2]);
   const auto& b = *s.blocks()[0];
   for (Index e = 0; e < b.numElems(); ++e)
@@ -108,14 +114,8 @@ TEST(Hex8Element, SingleElementUniformStrainGivesTractionResultants) {
   BoxSpec spec{1, 1, 1, 0, 0, 0, a, bw, c};
   Mesh m = makeBoxMesh(spec);
   Solver s(m, makeBlocksByRegion(m, {{"rock", elastic(E, nu, 2700)}}), SolverOptions{});
-  for (Index n = 0; n < m.numNodes(); ++n) {
-    Real x[3] = {m.coords[3 * n], m.coords[3 * n + 1], m.coords[3 * n + 2]}, u[3];
-    linearField(x, u);
-    for (int d = 0; d < 3; ++d) s.state().u(n, d) = u[d];
-  }
-  s.step();
   Real sx[6];
-  expectedStress(E, nu, sx);
+  stepUnderLinearField(s, m, E, nu, sx);
   for (int k = 0; k < 6; ++k) EXPECT_NEAR(s.blocks()[0]->stress(0, k), sx[k], 1e-12 * std::abs(sx[2]));
   // Node 6 (corner at x=a, y=b, z=c): internal force = quarter of each face's traction
   // resultant: f_i = σ_ix (b c/4) + σ_iy (a c/4) + σ_iz (a b/4).

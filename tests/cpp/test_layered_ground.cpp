@@ -30,6 +30,7 @@
 #include <sstream>
 #include <vector>
 
+#include "input_fixture.hpp"
 #include "staged_helpers.hpp"
 #include "tq/boundaries/free_field.hpp"
 #include "tq/core/constraints.hpp"
@@ -192,15 +193,8 @@ TEST(LayeredSlice, AxialShWaveThroughAPeriodicSliceMatchesTheClosedForm) {
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}};
   const Real alpha = 2 * 0.05 * 2 * M_PI * 1.5;  // the default mass-proportional damping
   run.in.options.damping.alpha = alpha;
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ", "seismic"};
+  StagedInput& S = test::inSituUnderGravity(run.in, {"in_situ", "seismic"}, 9.81, 1.1, 0.8);
   S.stages.tolerance = 1e-8;
-  S.inSitu.present = true;
-  S.inSitu.kx = 1.1;
-  S.inSitu.ky = 0.8;
-  S.inSitu.gravity = 9.81;
-  run.in.options.gravity[2] = -9.81;
   S.bottom.present = true;
   S.bottom.distance = 30;
   S.bottom.rho = kRhoR;
@@ -277,14 +271,8 @@ TEST(LayeredSlice, PeriodicFacesThatDoNotFaceEachOtherAreRefused) {
     EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0])], m.coords[3 * size_t(p[1])]);
     EXPECT_DOUBLE_EQ(m.coords[3 * size_t(p[0]) + 2], m.coords[3 * size_t(p[1]) + 2]);
   }
-  try {
-    TiedNodeGroups::periodicPairs(m, "xmin", "ymax");
-    FAIL() << "expected an x face and a y face to be refused";
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find("'xmin' and 'ymax'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("not opposite"), std::string::npos) << msg;
-  }
+  test::expectInputError([&] { TiedNodeGroups::periodicPairs(m, "xmin", "ymax"); },
+                         "expected an x face and a y face to be refused", {"'xmin' and 'ymax'", "not opposite"});
 }
 
 // A block of two layers (lower 'rock' ρ 2600, upper 'weathered' ρ 2000, interface 20 m below the
@@ -298,15 +286,8 @@ TEST(InSitu, OverburdenOfHorizontalLayersIsTheIntegralOfTheirDensities) {
   run.mesh = tqtest::twoLayerBox(box, zi, "rock", "weathered");
   run.in.materials = {{"rock", elasticValues({20e9, 0.25, rhoR})}, {"weathered", elasticValues({2e9, 0.3, rhoW})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ"};
+  StagedInput& S = test::inSituUnderGravity(run.in, {"in_situ"}, g, 1.1, 0.8);
   S.stages.tolerance = 1e-8;
-  S.inSitu.present = true;
-  S.inSitu.kx = 1.1;
-  S.inSitu.ky = 0.8;
-  S.inSitu.gravity = g;
-  run.in.options.gravity[2] = -g;
   run.build();
   std::ostringstream log;
   run.stages->runStatics(log);
@@ -339,21 +320,9 @@ TEST(InSitu, RegionsBesideEachOtherWithDifferentDensitiesAreRefused) {
   }
   run.in.materials = {{"rock", elasticValues({20e9, 0.25, 2600})}, {"dyke", elasticValues({20e9, 0.25, 2900})}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ"};
-  S.inSitu.present = true;
-  S.inSitu.gravity = 9.81;
-  run.in.options.gravity[2] = -9.81;
+  test::inSituUnderGravity(run.in, {"in_situ"}, 9.81);
   run.build();
   std::ostringstream log;
-  try {
-    run.stages->runStatics(log);
-    FAIL() << "expected the overburden to be refused";
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find("'rock'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("'dyke'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("/in_situ density"), std::string::npos) << msg;
-  }
+  test::expectInputError([&] { run.stages->runStatics(log); }, "expected the overburden to be refused",
+                         {"'rock'", "'dyke'", "/in_situ density"});
 }

@@ -40,27 +40,7 @@ Mesh stackMesh(Index nx, Index ny, Index nzr, Index nzl, Real hr, Real hl, Real 
     for (Index e = 0; e < m.numElems(); ++e) m.region[e] = e / (nx * ny) < nzr ? 0 : 1;
     return m;
   }
-  Mesh r = makeBoxMesh({nx, ny, nzr, 0, 0, -hr, nx * w, ny * w, hr, "rock"});
-  const Mesh l = makeBoxMesh({nx, ny, nzl, 0, 0, 0, nx * w, ny * w, hl, "lining"});
-  const Index off = r.numNodes();
-  Mesh m = r;
-  m.coords.insert(m.coords.end(), l.coords.begin(), l.coords.end());
-  for (Index c : l.connectivity) m.connectivity.push_back(c + off);
-  m.regionNames = {"rock", "lining"};
-  for (Index e = 0; e < l.numElems(); ++e) m.region.push_back(1);
-  m.faces.clear();
-  m.faces["bottom"] = r.faces.at("bottom");
-  for (Index q : l.faces.at("top")) m.faces["top"].push_back(q + off);
-  for (Index q : l.faces.at("bottom")) m.faces["lining_outer"].push_back(q + off);
-  m.faces["rock_hole"] = r.faces.at("top");
-  // Pairs: rock top-layer node with the coincident lining bottom-layer node.
-  const Index perLayer = (nx + 1) * (ny + 1);
-  for (Index k = 0; k < perLayer; ++k) {
-    m.rockLiningPairs.push_back(nzr * perLayer + k);
-    m.rockLiningPairs.push_back(off + k);
-  }
-  checkMesh(m);
-  return m;
+  return pairedStack(nx, ny, nzr, nzl, hr, hl, w, true);
 }
 
 std::shared_ptr<const Material> rockMat() { return elastic(8e9, 0.27, 2700); }
@@ -172,6 +152,17 @@ struct BlockOnBase {
   }
 };
 
+constexpr Real kPullCohesion = 0.5e6;  // Pa, the pulled blocks' cohesion
+
+// A block bonded by cohesion kPullCohesion (`after` its failure), under no normal or tangential
+// force, pulled up by fz × c A; mass damping (200 /s) lets it come to rest on the base.
+BlockOnBase pulledBlock(AfterFailure after, TimeFunction fz) {
+  ContactParams cp;
+  cp.cohesion = kPullCohesion;
+  cp.afterFailure = after;
+  return BlockOnBase(cp, 0.0, TimeFunction::constant(0.0), std::move(fz), cp.cohesion * kBlockArea, 200.0);
+}
+
 }  // namespace
 
 TEST(SolidContact, BlockSticksUntilStaticStrengthThenSlidesWithDynamicFriction) {
@@ -227,13 +218,10 @@ TEST(SolidContact, BlockSticksUntilStaticStrengthThenSlidesWithDynamicFriction) 
 
 TEST(SolidContact, PulledApartPairSeparatesAtCohesionAndRecontactsWithoutPenetration) {
   for (auto after : {AfterFailure::CohesionLost, AfterFailure::CohesionKept}) {
-    ContactParams cp;
-    cp.cohesion = 0.5e6;
-    cp.afterFailure = after;
-    const Real cA = cp.cohesion * kBlockArea;
+    const Real cA = kPullCohesion * kBlockArea;
     // Upward pull rising to 1.2 c A at 0.1 s, then a downward push of 0.2 c A from 0.1 s on.
     TimeFunction fz{{0.0, 0.1, 0.1 + 1e-9, 10.0}, {0.0, 1.2, -0.2, -0.2}};
-    BlockOnBase b(cp, 0.0, TimeFunction::constant(0.0), fz, cA, 200.0);
+    BlockOnBase b = pulledBlock(after, fz);
     Solver& s = *b.solver;
     Real tSep = -1, tClose = -1, minOpening = 0;
     while (s.time() < 0.4) {
@@ -269,13 +257,9 @@ TEST(SolidContact, PulledApartPairSeparatesAtCohesionAndRecontactsWithoutPenetra
 // After failure: a re-closed pair carries tension again only with cohesion_kept.
 TEST(SolidContact, AfterFailureOptionDecidesWhetherAClosedPairCarriesTensionAgain) {
   for (auto after : {AfterFailure::CohesionLost, AfterFailure::CohesionKept}) {
-    ContactParams cp;
-    cp.cohesion = 0.5e6;
-    cp.afterFailure = after;
-    const Real cA = cp.cohesion * kBlockArea;
     // Break (pull to 1.2 c A), push back for a while, then pull again with 0.5 c A.
-    TimeFunction fz{{0.0, 0.1, 0.1 + 1e-9, 0.4, 0.4 + 1e-9, 10.0}, {0.0, 1.2, -0.2, -0.2, 0.5, 0.5}};
-    BlockOnBase b(cp, 0.0, TimeFunction::constant(0.0), fz, cA, 200.0);
+    BlockOnBase b =
+        pulledBlock(after, {{0.0, 0.1, 0.1 + 1e-9, 0.4, 0.4 + 1e-9, 10.0}, {0.0, 1.2, -0.2, -0.2, 0.5, 0.5}});
     Solver& s = *b.solver;
     while (s.time() < 0.4) s.step();
     ASSERT_EQ(b.contact->count(PairState::Separated), 0) << "not closed again before the second pull";
@@ -292,13 +276,8 @@ TEST(SolidContact, PairsFromTheMeshHaveRadialNormalsAndTributaryAreasOnARing) {
   // Lining ring (r 5.25-6.0) and rock ring (6.0-9.0) with duplicated nodes at r = 6.
   RingSpec rl{5.25, 6.0, 3, 48, 0.25, "lining"}, rr{6.0, 9.0, 4, 48, 0.25, "rock"};
   Mesh l = makeRingSliceMesh(rl), r = makeRingSliceMesh(rr);
-  Mesh m = r;
+  Mesh m = withLining(r, l);
   const Index off = r.numNodes();
-  m.coords.insert(m.coords.end(), l.coords.begin(), l.coords.end());
-  for (Index c : l.connectivity) m.connectivity.push_back(c + off);
-  m.regionNames = {"rock", "lining"};
-  for (Index e = 0; e < l.numElems(); ++e) m.region.push_back(1);
-  m.faces.clear();
   for (Index q : l.faces.at("outer")) m.faces["lining_outer"].push_back(q + off);
   for (Index n = 0; n < off; ++n) {
     const Real* x = &m.coords[3 * size_t(n)];

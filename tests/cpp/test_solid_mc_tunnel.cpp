@@ -26,13 +26,8 @@ TEST(SolidMcTunnel, OverloadedLiningDamagesFromTheInnerFaceAndStaysStable) {
   const Index nAround = 48;
   const Mesh l = makeRingSliceMesh({5.25, 6.0, 3, nAround, 0.25, "lining"});
   const Mesh r = makeRingSliceMesh({6.0, 30.0, 10, nAround, 0.25, "rock"});
-  Mesh m = r;
+  Mesh m = withLining(r, l);
   const Index off = r.numNodes();
-  m.coords.insert(m.coords.end(), l.coords.begin(), l.coords.end());
-  for (Index c : l.connectivity) m.connectivity.push_back(c + off);
-  m.regionNames = {"rock", "lining"};
-  for (Index e = 0; e < l.numElems(); ++e) m.region.push_back(1);
-  m.faces.clear();
   for (Index q : l.faces.at("outer")) m.faces["lining_outer"].push_back(q + off);
   for (Index q : l.faces.at("inner")) m.faces["lining_inner"].push_back(q + off);
   m.faces["rock_outer"] = r.faces.at("outer");
@@ -60,15 +55,9 @@ TEST(SolidMcTunnel, OverloadedLiningDamagesFromTheInnerFaceAndStaysStable) {
   std::map<Index, std::array<Real, 3>> f;
   const auto& q = m.faces.at("lining_inner");
   for (size_t k = 0; k < q.size() / 4; ++k) {
-    const Real* x[4];
-    for (int i = 0; i < 4; ++i) x[i] = &m.coords[3 * size_t(q[4 * k + i])];
-    Real d1[3], d2[3];
-    for (int i = 0; i < 3; ++i) {
-      d1[i] = x[2][i] - x[0][i];
-      d2[i] = x[3][i] - x[1][i];
-    }
-    const Real av[3] = {0.5 * (d1[1] * d2[2] - d1[2] * d2[1]), 0.5 * (d1[2] * d2[0] - d1[0] * d2[2]),
-                        0.5 * (d1[0] * d2[1] - d1[1] * d2[0])};  // outward from the lining: towards the axis
+    Real c[3];
+    quadDiagonalCross(m, q, k, c);
+    const Real av[3] = {0.5 * c[0], 0.5 * c[1], 0.5 * c[2]};  // outward from the lining: towards the axis
     for (int i = 0; i < 4; ++i)
       for (int d = 0; d < 3; ++d) f[q[4 * k + i]][size_t(d)] -= p * av[d] / 4;
   }

@@ -12,6 +12,7 @@
 #include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
+#include "test_folder.hpp"
 #include "test_helpers.hpp"
 #include "tq/app/app.hpp"
 #include "tq/contact/contact.hpp"
@@ -25,15 +26,8 @@ using namespace tqtest;
 
 namespace {
 
-struct Files {
-  std::filesystem::path dir;
-  Files() {
-    dir = std::filesystem::temp_directory_path() / ("tq_nl_" + std::to_string(::getpid()) + "_" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir);
-  }
-  ~Files() { std::filesystem::remove_all(dir); }
-  std::string operator/(const std::string& n) const { return (dir / n).string(); }
+struct Files : tqtest::TestFolder {
+  Files() : TestFolder("tq_nl_") {}
 };
 
 // A confined column (rollers on the sides, fixed base) of weak rock under a suddenly applied top
@@ -41,21 +35,10 @@ struct Files {
 SolidInput weakColumn(const Files& f) {
   writeMeshH5(makeBoxMesh({2, 2, 10, 0, 0, 0, 2, 2, 10}), f / "mesh.h5");
   SolidInput in;
-  MohrCoulombDamageParams mp = paperRock(100);
-  mp.elastic = {8e9, 0.27, 2700};
-  mp.cohesion = 0.05e6;
-  mp.frictionAngle = 10;
-  mp.tensileStrength = 0.1e6;
-  in.materials = {{"rock", mohrCoulombDamageValues(mp)}};
+  in.materials = {{"rock", mohrCoulombDamageValues(mohrCoulomb({8e9, 0.27, 2700}, 0.05e6, 10, 0.1e6, 100))}};
   in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   in.tEnd = 0.01;
-  LoadInput l;
-  l.name = "pressure";
-  l.target = "top";
-  l.direction = 2;
-  l.force = -1e6 * 4.0;
-  l.function = {{0.0, 1e-9, 1.0}, {0.0, 1.0, 1.0}};
-  in.loads = {l};
+  in.loads = {test::suddenPressure("top", -1e6 * 4.0)};
   in.monitors = {{"top", {1.0, 1.0, 10.0}}, {"base", {1.0, 1.0, 0.5}}};
   in.monitorDt = 1e-4;
   in.snapshotTimes = {0.01};
@@ -90,14 +73,8 @@ TEST(SolidNonlinearInput, MohrCoulombAttributesRoundTripAndBadOnesAreRejected) {
     auto g = h5::openGroup(h, "/materials/rock");
     h5::writeStringAttr(g, "damage_effect", "stiffness");
   }
-  try {
-    readSolidInput(f / "in.h5");
-    FAIL() << "bad damage_effect accepted";
-  } catch (const InputError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find("/materials/rock"), std::string::npos) << m;
-    EXPECT_NE(m.find("cohesion_and_stiffness"), std::string::npos) << m;
-  }
+  test::expectInputError([&] { readSolidInput(f / "in.h5"); }, "bad damage_effect accepted",
+                         {"/materials/rock", "cohesion_and_stiffness"});
   {
     auto h = h5::openFile(f / "in.h5", true);
     auto g = h5::openGroup(h, "/materials/rock");

@@ -37,9 +37,11 @@
 #include <random>
 #include <sstream>
 
+#include "input_fixture.hpp"
 #include "io/h5util.hpp"
 #include "mc_helpers.hpp"
 #include "staged_helpers.hpp"
+#include "test_folder.hpp"
 #include "test_helpers.hpp"
 #include "tq/io/results.hpp"
 
@@ -49,15 +51,8 @@ using tqtest::StagedRun;
 
 namespace {
 
-struct Files {
-  std::filesystem::path dir;
-  Files() {
-    dir = std::filesystem::temp_directory_path() / ("tq_stress_" + std::to_string(::getpid()) + "_" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir);
-  }
-  ~Files() { std::filesystem::remove_all(dir); }
-  std::string operator/(const std::string& n) const { return (dir / n).string(); }
+struct Files : tqtest::TestFolder {
+  Files() : TestFolder("tq_stress_") {}
 };
 
 // Rock: cs 1000 m/s, ν 0.25, ρ 2000; soil: cs 400 m/s, ν 0.3, ρ 1900.
@@ -165,16 +160,10 @@ TEST(StepLadder, AboveTheCriticalStepIsRefusedAndAForcedRunStopsCleanly) {
       LadderRun run;
       run.setUp(false);
       const StableStep st = run.solver->stableStep();
-      try {
-        run.solver->setTimeStep(f * st.dtCritical);
-        ADD_FAILURE() << "a step of " << f << " x critical was accepted";
-      } catch (const InputError& e) {
-        const std::string msg = e.what();
-        EXPECT_NE(msg.find("above the stable limit"), std::string::npos) << msg;
-        EXPECT_NE(msg.find("element " + std::to_string(st.element) + " of block '" + st.block + "'"), std::string::npos)
-            << msg;
-        EXPECT_NE(msg.find("Fix:"), std::string::npos) << msg;
-      }
+      test::expectInputError(
+          [&] { run.solver->setTimeStep(f * st.dtCritical); },
+          "a step of " + std::to_string(f) + " x critical was accepted",
+          {"above the stable limit", "element " + std::to_string(st.element) + " of block '" + st.block + "'", "Fix:"});
     }
     // Forced past the check: stopped before anything is non-finite, results file readable.
     Files files;
@@ -254,25 +243,12 @@ void syntheticRecord(Real duration, Real dt, Real pga, std::vector<Real>& t, std
 TEST(StrongMotion, OneGRecordIntoAYieldingLayerClosesTheEnergyBalance) {
   StagedRun run;
   run.mesh = tqtest::twoLayerBox({2, 1, 20, 0, 0, 0, 10, 5, kH}, kSplit, "rock", "soil");
-  MohrCoulombDamageParams soil;
-  soil.elastic = kSoil;
-  soil.cohesion = 30e3;
-  soil.frictionAngle = 30;
-  soil.tensileStrength = 10e3;
-  soil.damageConstant = 100;
+  const MohrCoulombDamageParams soil = tqtest::mohrCoulomb(kSoil, 30e3, 30, 10e3, 100);
   run.in.materials = {{"rock", elasticValues(kRock)}, {"soil", mohrCoulombDamageValues(soil)}};
   run.in.fixed = {{"bottom", "xyz"}, {"xmin", "x"}, {"xmax", "x"}, {"ymin", "y"}, {"ymax", "y"}};
   run.in.options.damping = RayleighDamping::fromRatio(0.05, 1.0, 10.0);
-  run.in.options.gravity[2] = -9.81;
-  StagedInput& S = run.in.staged;
-  S.present = true;
-  S.stages.sequence = {"in_situ", "seismic"};
+  StagedInput& S = test::inSituUnderGravity(run.in, {"in_situ", "seismic"}, 9.81, 0.6, 0.6, 1.0);
   S.stages.tolerance = 1e-6;
-  S.inSitu.present = true;
-  S.inSitu.kx = 0.6;
-  S.inSitu.ky = 0.6;
-  S.inSitu.kz = 1.0;
-  S.inSitu.gravity = 9.81;
   S.bottom.present = true;
   S.freeField.present = true;
   S.freeField.faces = {"xmin", "xmax"};

@@ -40,6 +40,7 @@
 #include <cstdio>
 #include <map>
 
+#include "mc_helpers.hpp"
 #include "test_helpers.hpp"
 #include "tq/contact/contact.hpp"
 
@@ -56,41 +57,15 @@ constexpr Real kRhoLining = 2500;
 
 /// Rock block z ∈ [−kHr, 0] under a lining slab z ∈ [0, kHl], interface nodes duplicated (rock
 /// node, lining node) and listed as pairs; the lining bottom is `lining_outer` (normal −z).
-Mesh softStack() {
-  Mesh r = makeBoxMesh({kN, kN, 4, 0, 0, -kHr, kN * kW, kN * kW, kHr, "rock"});
-  const Mesh l = makeBoxMesh({kN, kN, 1, 0, 0, 0, kN * kW, kN * kW, kHl, "lining"});
-  const Index off = r.numNodes();
-  Mesh m = r;
-  m.coords.insert(m.coords.end(), l.coords.begin(), l.coords.end());
-  for (Index c : l.connectivity) m.connectivity.push_back(c + off);
-  m.regionNames = {"rock", "lining"};
-  for (Index e = 0; e < l.numElems(); ++e) m.region.push_back(1);
-  m.faces.clear();
-  m.faces["bottom"] = r.faces.at("bottom");
-  for (Index q : l.faces.at("top")) m.faces["top"].push_back(q + off);
-  for (Index q : l.faces.at("bottom")) m.faces["lining_outer"].push_back(q + off);
-  const Index perLayer = (kN + 1) * (kN + 1);
-  for (Index k = 0; k < perLayer; ++k) {
-    m.rockLiningPairs.push_back(4 * perLayer + k);
-    m.rockLiningPairs.push_back(off + k);
-  }
-  checkMesh(m);
-  return m;
-}
+Mesh softStack() { return pairedStack(kN, kN, 4, 1, kHr, kHl, kW, false); }
 
 /// Tributary area of each node of a face group (a quarter of each adjacent quad).
 std::map<Index, Real> tributary(const Mesh& m, const std::string& group) {
   std::map<Index, Real> a;
   const auto& q = m.faces.at(group);
   for (size_t k = 0; k < q.size() / 4; ++k) {
-    const Real* x[4];
-    for (int i = 0; i < 4; ++i) x[i] = &m.coords[3 * size_t(q[4 * k + i])];
-    Real d1[3], d2[3];
-    for (int i = 0; i < 3; ++i) {
-      d1[i] = x[2][i] - x[0][i];
-      d2[i] = x[3][i] - x[1][i];
-    }
-    const Real c[3] = {d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0]};
+    Real c[3];
+    quadDiagonalCross(m, q, k, c);
     const Real area = 0.5 * std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
     for (int i = 0; i < 4; ++i) a[q[4 * k + i]] += area / 4;
   }

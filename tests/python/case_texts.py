@@ -8,6 +8,9 @@ Values are written as YAML reads them: a number or a string as it is ("2.5 m"), 
 flow sequence ([-15.0, 15.0])."""
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 
 def _value(v) -> str:
     if isinstance(v, list | tuple):
@@ -99,3 +102,15 @@ damping: {ratio: 0}
 output:
   monitors:
 """
+
+
+def short_example(example: Path, folder: Path, duration: str, extra: str = "") -> Path:
+    """A copy of an example case's files (not its results) in `folder`, its 10 s of shaking cut to
+    `duration` and `extra` appended to its case.yaml; returns `folder`."""
+    for f in example.iterdir():
+        if f.is_file():
+            shutil.copy(f, folder / f.name)
+    text = (folder / "case.yaml").read_text()
+    assert "  duration: 10 s\n" in text
+    (folder / "case.yaml").write_text(text.replace("  duration: 10 s\n", f"  duration: {duration}\n") + extra)
+    return folder

@@ -1,6 +1,8 @@
-"""Shared fixtures: paths of the repository, the example case and the shared data."""
+"""Shared fixtures: paths of the repository, the example case and the shared data; the inputs of
+a tq-solid run written from a case as `tunnelquake run` writes them, and the run itself."""
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -10,6 +12,24 @@ EXAMPLE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
 SHARED = ROOT.parent / "shared"
 EL_CENTRO = SHARED / "data" / "ground_motions" / "elCentro_1940_NS_Peknold_dt0.02.AT2"
 EL_CENTRO_PEER = SHARED / "data" / "ground_motions" / "IELC180_PEER_1940_ElCentro9_180_dt0.01.AT2"
+
+#: the example's mesh coarsened for the coupled tests: one lining element through (0.75 m), 24
+#: around, 4 rock rings, 2 water rings, 13.5 m outer elements
+COARSE_EXAMPLE_MESH = {"lining_elements_around": 24, "lining_elements_through": 1, "near_field_radial_divisions": 4,
+                       "water_ring_divisions": 2, "max_element_size": "13.5 m"}
+
+
+def coupled_run_missing(mpirun: bool = False) -> str | None:
+    """What a coupled run (with `mpirun`: on several water ranks) lacks on this machine, as a skip
+    reason; None when nothing is missing."""
+    from tunnelquake import paths
+
+    missing = (paths.solid_executable() is None or paths.openfoam_library() is None
+               or not Path("/usr/share/openfoam").is_dir() or (mpirun and not Path("/usr/bin/mpirun").exists()))
+    if not missing:
+        return None
+    return ("tq-solid, libtqFoam.so, OpenFOAM v1912 or mpirun missing (set TQ_BUILD_DIR)" if mpirun
+            else "tq-solid, libtqFoam.so or OpenFOAM v1912 missing (set TQ_BUILD_DIR)")
 
 
 @pytest.fixture
@@ -27,3 +47,55 @@ def write_case(tmp_path):
         return p
 
     return _write
+
+
+def mesh_and_motion(case, folder: Path, layers=None, geology=None) -> None:
+    """A loaded case's mesh (mesh.h5, with `layers` and `geology` as the mesher takes them) and
+    ground motion (motion.h5) in `folder`."""
+    from tunnelquake.meshing import build_tunnel_mesh
+    from tunnelquake.motion import from_case
+    from tunnelquake.prepare import write_motion
+
+    d = case.data
+    build_tunnel_mesh(d["geometry"], d["mesh"], folder, layers, geology)
+    motion, _ = from_case(d["ground_motion"], case.dir)
+    write_motion(motion, folder / "motion.h5")
+
+
+def solid_input(case, folder: Path, layers=None, geology=None) -> Path:
+    """mesh_and_motion and the condition no_water's tq-solid input from them (in.h5 in `folder`);
+    returns the input's path."""
+    from tunnelquake.solid_input import write_solid_input
+
+    mesh_and_motion(case, folder, layers, geology)
+    return write_solid_input(case, folder / "mesh.h5", folder / "motion.h5", "no_water", folder / "in.h5")
+
+
+def solid_with(*capabilities: str):
+    """The built tq-solid when its --capabilities lists each of `capabilities`, else None."""
+    from tunnelquake import paths
+
+    exe = paths.solid_executable()
+    if exe is None:
+        return None
+    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
+    return exe if out.returncode == 0 and all(c in out.stdout for c in capabilities) else None
+
+
+def run_solid(exe, inp: Path, res: Path, timeout: float) -> subprocess.CompletedProcess:
+    """tq-solid `exe` on one thread from `inp` to `res`; asserts that it exited 0 and returns the
+    run (its printed lines)."""
+    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
+                         timeout=timeout)
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run
+
+
+def ran_case(folder: Path, text: str, *options: str) -> Path:
+    """`tunnelquake run` (with `options`) of the case `text` written to folder/case.yaml, asserted to
+    end with exit status 0; returns `folder`."""
+    from tunnelquake.cli import main
+
+    (folder / "case.yaml").write_text(text)
+    assert main(["run", str(folder / "case.yaml"), *options]) == 0
+    return folder

@@ -25,6 +25,7 @@ import pytest
 from test_restart import _case_text, _copy, _start, _stop
 from test_restart_coupled import _wait_for_pair
 
+from conftest import ran_case
 from tunnelquake.case import load_case
 from tunnelquake.cli import main
 from tunnelquake.compare import results_differences as _differences
@@ -44,10 +45,7 @@ def _two_conditions(end: float, interval: float) -> str:
 @pytest.fixture(scope="module")
 def completed(tmp_path_factory):
     """no_water and dynamic_water run to the end (a short record), with their report."""
-    folder = tmp_path_factory.mktemp("completed")
-    (folder / "case.yaml").write_text(_two_conditions(0.04, 0.0))
-    assert main(["run", str(folder / "case.yaml")]) == 0
-    return folder
+    return ran_case(tmp_path_factory.mktemp("completed"), _two_conditions(0.04, 0.0))
 
 
 #: one key of each group, its text in the example and the changed text; the conditions it reruns
@@ -147,6 +145,21 @@ def _flip(path):
     path.write_bytes(bytes(data))
 
 
+def _resume_refused(case_dir, folder):
+    """tq-solid resumed from checkpoint 2 of `folder` (the case's no_water condition): asserts that
+    it stops with exit 2 and leaves the results file as it was; returns the run (its messages)."""
+    from tunnelquake import paths
+
+    res = case_dir / "results" / "results_no_water.h5"
+    before = res.read_bytes()
+    got = subprocess.run([str(paths.solid_executable()), str(case_dir / "results" / "no_water" / "solid_input.h5"),
+                          "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "2"],
+                         capture_output=True, text=True, timeout=120)
+    assert got.returncode == 2, got.stderr[-2000:]
+    assert res.read_bytes() == before
+    return got
+
+
 @pytest.fixture(scope="module")
 def solid_runs(tmp_path_factory):
     """The no_water case run whole (the reference) and stopped by SIGKILL inside its third
@@ -174,7 +187,6 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
     refuses it (its CRC-32 or size), `run --resume` names the file and why, continues from the
     newest intact checkpoint (the one before; the same one through its other manifest when one of
     its two manifests is damaged) and ends bitwise equal to the run never stopped."""
-    from tunnelquake import paths
 
     ref, stopped = solid_runs
     dst = tmp_path / "case"
@@ -185,15 +197,9 @@ def test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back(solid_ru
     (_truncate if damage == "truncate" else _flip)(folder / name)
 
     if kind != "manifest":  # tq-solid's own check, before it writes anything
-        res = dst / "results" / "results_no_water.h5"
-        before = res.read_bytes()
-        got = subprocess.run([str(paths.solid_executable()), str(dst / "results" / "no_water" / "solid_input.h5"),
-                              "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "2"],
-                             capture_output=True, text=True, timeout=120)
-        assert got.returncode == 2, got.stderr[-2000:]
+        got = _resume_refused(dst, folder)
         assert "cannot resume" in got.stderr and ("CRC-32" in got.stderr or "bytes instead of" in got.stderr
                                                   or "cut short" in got.stderr), got.stderr[-2000:]
-        assert res.read_bytes() == before
 
     t0 = time.monotonic()
     what, _, _ = resume_plan(load_case(case_yaml))
@@ -216,7 +222,6 @@ def test_a_checkpoint_of_another_state_layout_is_refused_by_name(solid_runs, tmp
     import re
     import zlib
 
-    from tunnelquake import paths
 
     _, stopped = solid_runs
     dst = tmp_path / "case"
@@ -234,15 +239,9 @@ def test_a_checkpoint_of_another_state_layout_is_refused_by_name(solid_runs, tmp
     body = text[:text.index('"manifest_crc32"')]
     text = re.sub(r'"manifest_crc32": "[0-9a-f]{8}"', f'"manifest_crc32": "{zlib.crc32(body.encode()):08x}"', text)
     manifest.write_text(text)
-    res = dst / "results" / "results_no_water.h5"
-    before = res.read_bytes()
-    got = subprocess.run([str(paths.solid_executable()), str(dst / "results" / "no_water" / "solid_input.h5"),
-                          "-o", str(res), "--checkpoint-dir", str(folder), "--resume", "--resume-sequence", "2"],
-                         capture_output=True, text=True, timeout=120)
-    assert got.returncode == 2, got.stderr[-2000:]
+    got = _resume_refused(dst, folder)
     assert (f"was written by another version of tq-solid (state layout {other}, this build reads {this_layout}); "
             "run without --resume to start again") in got.stderr, got.stderr[-2000:]
-    assert res.read_bytes() == before
 
 
 def test_truncated_manifests_alone_are_damage_not_no_checkpoint(solid_runs, tmp_path, capsys):

@@ -31,23 +31,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
 h5py = pytest.importorskip("h5py")
 yaml = pytest.importorskip("yaml")
-from tunnelquake import paths  # noqa: E402
+from conftest import COARSE_EXAMPLE_MESH, EXAMPLE, coupled_run_missing  # noqa: E402
 from tunnelquake.cli import main  # noqa: E402
 
-EXAMPLE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
+coupled = pytest.mark.skipif(coupled_run_missing() is not None, reason=str(coupled_run_missing()))
 
-coupled = pytest.mark.skipif(
-    paths.solid_executable() is None or paths.openfoam_library() is None
-    or not Path("/usr/share/openfoam").is_dir(),
-    reason="tq-solid, libtqFoam.so or OpenFOAM v1912 missing (set TQ_BUILD_DIR)")
-
-#: the example's mesh coarsened: one lining element through (0.75 m), 24 around, 4 rock rings, 2 water
-#: rings, 13.5 m outer elements (enough for the 5 Hz cut-off below: c_s/(8 f) = 27 m)
-COARSE = {"lining_elements_around": 24, "lining_elements_through": 1, "near_field_radial_divisions": 4,
-          "water_ring_divisions": 2, "max_element_size": "13.5 m"}
+#: the example's mesh coarsened (its 13.5 m outer elements are enough for the 5 Hz cut-off below:
+#: c_s/(8 f) = 27 m)
+COARSE = COARSE_EXAMPLE_MESH
 
 #: check 4: one cycle of a 1 Hz sine under a Hann window, a(t) = A sin²(πt/T) sin(2πt/T), T = 1 s,
 #: incident at the base in x and (2/3) in z; run to RIGID_END_S (past both peaks at the tunnel)

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import os
-import subprocess
 from pathlib import Path
 
 import h5py
@@ -29,16 +28,13 @@ import numpy as np
 import pytest
 from case_edits import check_edited
 from case_texts import synthetic_motion, tunnel
-from test_solid_input import _solid_with_stages
 
+from conftest import run_solid, solid_input, solid_with
 from tunnelquake.case import case_geology, fault_offset_slip, load_case
 from tunnelquake.cli import main
-from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.meshing.build import LINING_END_FACES
 from tunnelquake.meshing.geology import hanging_wall_share, slip_vector
-from tunnelquake.motion import from_case as motion_from_case
-from tunnelquake.prepare import write_motion
-from tunnelquake.solid_input import FAULT_OFFSET_FACES, write_solid_input
+from tunnelquake.solid_input import FAULT_OFFSET_FACES
 
 CASE = tunnel("fault_offset_test", [-15.0, 15.0], [0.0, 30.0], [-15.0, 15.0], centre_z=0.0, radius=2.5,
               lining=0.4, max_element_size=8.0, lining_elements_around=16, near_field_half_width=6.0,
@@ -152,12 +148,7 @@ def prepared(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("fault_offset")
     (tmp / "case.yaml").write_text(CASE)
     case = load_case(tmp / "case.yaml")
-    d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp, None, case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp / "motion.h5")
-    inp = write_solid_input(case, tmp / "mesh.h5", tmp / "motion.h5", "no_water", tmp / "in.h5")
-    return tmp, case, inp
+    return tmp, case, solid_input(case, tmp, None, case_geology(case.data))
 
 
 def test_solid_input_moves_every_face_node_but_the_tops_by_its_share(prepared):
@@ -221,11 +212,7 @@ def test_static_offset_matches_calculix_on_the_same_mesh(tmp_path):
 # 5. the offset, then the shaking
 # ------------------------------------------------------------------------------------------------
 def _solid_with_offset():
-    exe = _solid_with_stages()
-    if exe is None:
-        return None
-    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
-    return exe if "fault-offset" in out.stdout else None
+    return solid_with("staged-seismic", "fault-offset")
 
 
 @pytest.mark.skipif(_solid_with_offset() is None, reason="tq-solid with the fault_offset stage is not built")
@@ -235,9 +222,7 @@ def test_offset_then_shaking_holds_the_slip_through_the_switch(prepared):
     moves by the shaking alone (a 1 m/s^2 record over 4 ms: about 0.5 a t^2 = 8e-6 m)."""
     tmp, case, inp = prepared
     res = tmp / "results.h5"
-    run = subprocess.run([str(_solid_with_offset()), str(inp), "-o", str(res), "--threads", "1"],
-                         capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run = run_solid(_solid_with_offset(), inp, res, timeout=600)
     assert "stage fault_offset: equilibrium reached" in run.stdout
     slip = np.linalg.norm(fault_offset_slip(case.data))
     with h5py.File(res) as r, h5py.File(inp) as f:
@@ -332,9 +317,7 @@ def test_slip_during_the_run_follows_the_ramp_and_settles_on_the_static_offset(t
                          {"start_time": t0, "rise_time": rise, "t_end": t_end, "alpha": 250.0,
                           "snapshot_times": times})
     res = tmp_path / "dynamic_results.h5"
-    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
-                         timeout=600)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run = run_solid(exe, inp, res, timeout=600)
     assert "fault slip:" in run.stdout
     with h5py.File(res) as r, h5py.File(m.mesh_h5) as f:
         snaps = sorted((float(r["snapshots"][k].attrs["time"]), r["snapshots"][k]["u"][...]) for k in r["snapshots"])
@@ -366,18 +349,13 @@ def test_the_linings_free_ends_carry_no_axial_force_of_the_offset(tmp_path):
     (tmp_path / "case.yaml").write_text(text)
     case = load_case(tmp_path / "case.yaml")
     d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, None, case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, None, case_geology(d))
     with h5py.File(tmp_path / "mesh.h5") as m, h5py.File(inp) as f:
         ends = np.unique(m[f"faces/{LINING_END_FACES}"][...])
         assert ends.size > 0 and f"boundary/fixed/{LINING_END_FACES}" not in f
         assert not np.isin(ends, f["fault_offset/nodes"][...]).any()
     res = tmp_path / "results.h5"
-    run = subprocess.run([str(_solid_with_offset()), str(inp), "-o", str(res), "--threads", "1"],
-                         capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run = run_solid(_solid_with_offset(), inp, res, timeout=600)
     assert "stage fault_offset: equilibrium reached" in run.stdout
     from tunnelquake import post as P
 

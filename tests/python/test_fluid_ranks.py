@@ -28,20 +28,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
 h5py = pytest.importorskip("h5py")
 yaml = pytest.importorskip("yaml")
-from tunnelquake import paths  # noqa: E402
+from conftest import COARSE_EXAMPLE_MESH, EXAMPLE, coupled_run_missing  # noqa: E402
 from tunnelquake.cli import main  # noqa: E402
 
-EXAMPLE = ROOT / "cases" / "paper_tunnel" / "case.yaml"
-pytestmark = pytest.mark.skipif(
-    paths.solid_executable() is None or paths.openfoam_library() is None
-    or not Path("/usr/share/openfoam").is_dir() or not Path("/usr/bin/mpirun").exists(),
-    reason="tq-solid, libtqFoam.so, OpenFOAM v1912 or mpirun missing (set TQ_BUILD_DIR)")
+pytestmark = pytest.mark.skipif(coupled_run_missing(mpirun=True) is not None,
+                                reason=str(coupled_run_missing(mpirun=True)))
 
-COARSE = {"lining_elements_around": 24, "lining_elements_through": 1, "near_field_radial_divisions": 4,
-          "water_ring_divisions": 2, "max_element_size": "13.5 m"}
+COARSE = COARSE_EXAMPLE_MESH
 PERIOD_S, PGA, END_S = 0.2, 1.0, 0.06
 TOL = 1e-6  # of the peak (see the module's docstring)
 

@@ -21,7 +21,6 @@ refinement across the band, check's estimates, input errors, and tq-solid's in-s
 from __future__ import annotations
 
 import math
-import subprocess
 
 import h5py
 import numpy as np
@@ -30,14 +29,13 @@ from case_edits import check_edited
 from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
+from conftest import mesh_and_motion, run_solid, solid_input
 from tunnelquake import meshing
 from tunnelquake.case import case_geology, ground_layers, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
 from tunnelquake.meshing.geology import from_case, plane_normal
 from tunnelquake.meshing.params import element_counts, resolve
-from tunnelquake.motion import from_case as motion_from_case
-from tunnelquake.prepare import write_motion
 from tunnelquake.solid_input import write_solid_input
 
 GEOMETRY = {"x_range": [-20.0, 20.0], "y_range": [0.0, 80.0], "z_range": [-20.0, 20.0], "tunnel_centre_x": 0.0,
@@ -263,16 +261,11 @@ def test_tq_solid_vertical_stress_is_the_overburden_far_from_the_dip(tmp_path, c
     assert main(["check", str(p)]) == 0, capsys.readouterr().err
     case = load_case(p)
     d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
     with h5py.File(inp) as f:
         assert float(f["in_situ"].attrs["density"]) == RHO["rock"]  # the stress starts from one density
     res = tmp_path / "results.h5"
-    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run_solid(exe, inp, res, timeout=300)
     with h5py.File(res) as r:
         assert r.attrs["status"] == "completed"
         coords, conn = r["mesh/coordinates"][...], r["mesh/connectivity"][...]
@@ -313,9 +306,7 @@ def test_side_strips_reproduce_the_single_column_and_carry_the_band(tmp_path):
         (run_dir / "case.yaml").write_text(t)
         case = load_case(run_dir / "case.yaml")
         d = case.data
-        build_tunnel_mesh(d["geometry"], d["mesh"], run_dir, ground_layers(d), case_geology(d))
-        motion, _ = motion_from_case(d["ground_motion"], case.dir)
-        write_motion(motion, run_dir / "motion.h5")
+        mesh_and_motion(case, run_dir, ground_layers(d), case_geology(d))
         variants = {"strips": run_dir / "mesh.h5"}
         if name == "uniform":  # the same mesh with the whole side faces: one column each
             import shutil
@@ -332,9 +323,7 @@ def test_side_strips_reproduce_the_single_column_and_carry_the_band(tmp_path):
                 faces = faces.decode() if isinstance(faces, bytes) else str(faces)
                 assert (faces == "xmin,xmax") == (label == "whole"), faces
             res = run_dir / f"{label}.h5"
-            out = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True,
-                                 text=True, timeout=300)
-            assert out.returncode == 0, out.stdout + out.stderr
+            run_solid(exe, inp, res, timeout=300)
             with h5py.File(res) as r:
                 assert r.attrs["status"] == "completed"
                 histories[(name, label)] = {m: r[f"monitors/{m}/u"][...] for m in ("crown", "side")}
@@ -363,10 +352,7 @@ def test_check_times_the_step_of_a_thin_bands_elements(tmp_path):
                  .replace("elements_across: 3", "elements_across: 4"))
     case = load_case(p)
     d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
     est, got = runtime_estimate(case).dt, solid_step(_solid_with_stages(), inp)
     lining = d["time"]["safety_factor"] * lining_layer_step(d)[1]
     print(f"step: estimated {est:.4g} s, tq-solid {got:.4g} s, the lining's layer alone {lining:.4g} s")

@@ -18,10 +18,10 @@ condition and the first 1 s of the shaking) and its report
 from __future__ import annotations
 
 import re
-import shutil
 
 import numpy as np
 import pytest
+from case_texts import short_example
 
 from conftest import ROOT
 from tunnelquake.cli import main
@@ -33,14 +33,7 @@ FCT_T = 0.30 * 30 ** (2 / 3) * 1e6 * 0.5  # N/m
 
 @pytest.fixture(scope="module")
 def ran(tmp_path_factory):
-    d = tmp_path_factory.mktemp("headrace_tunnel")
-    for f in CASE.iterdir():
-        if f.is_file():
-            shutil.copy(f, d / f.name)
-    text = (d / "case.yaml").read_text()
-    assert "  duration: 10 s\n" in text
-    (d / "case.yaml").write_text(text.replace("  duration: 10 s\n", "  duration: 1 s\n")
-                                 + "conditions: [static_water]\n")
+    d = short_example(CASE, tmp_path_factory.mktemp("headrace_tunnel"), "1 s", "conditions: [static_water]\n")
     assert main(["run", str(d)]) == 0
     return d / "results"
 

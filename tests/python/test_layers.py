@@ -14,20 +14,16 @@ in-situ stress.
 """
 from __future__ import annotations
 
-import subprocess
-
 import h5py
 import pytest
 from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
+from conftest import run_solid, solid_input
 from tunnelquake.case import ground_layers, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh
 from tunnelquake.meshing.params import element_counts, resolve
-from tunnelquake.motion import from_case
-from tunnelquake.prepare import write_motion
-from tunnelquake.solid_input import write_solid_input
 
 CASE = tunnel("layers_test", "[XMIN, XMAX]", [0.0, 80.0], [-28.0, 154.7], centre_z=32.0, radius=5.25, lining=0.75,
               mode="slice") + """materials:
@@ -152,15 +148,9 @@ def test_the_layer_is_a_mesh_region_between_grid_lines(layered_mesh):
 def test_tq_solid_in_situ_stress_is_the_layered_overburden(tmp_path):
     exe = _solid_with_stages()
     case = load_case(_write(tmp_path, xmin=-300.0, xmax=300.0, mx=-280.0))
-    d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d))
-    motion, _ = from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, ground_layers(case.data))
     res = tmp_path / "results.h5"
-    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run_solid(exe, inp, res, timeout=300)
     with h5py.File(res) as r:
         assert r.attrs["status"] == "completed"
         coords = r["mesh/coordinates"][...]

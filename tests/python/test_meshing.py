@@ -48,6 +48,8 @@ COARSE = {
     "near_field_radial_divisions": 4,
 }
 ROUNDOFF = 1e-9  # relative, for quantities that are exact up to floating-point round-off
+#: the block's six outer faces
+BLOCK_FACES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax")
 
 
 def polygon_area(r: float, n: int) -> float:
@@ -259,17 +261,7 @@ def test_hdf5_layout(coarse3d):
     assert solid["regions"] == ["rock", "lining"]
     d = solid["dtypes"]
     assert (d["x"], d["conn"], d["region"], d["pairs"]) == (np.float64, np.int32, np.int32, np.int32)
-    assert set(solid["faces"]) == {
-        "bottom",
-        "top",
-        "xmin",
-        "xmax",
-        "ymin",
-        "ymax",
-        "lining_inner",
-        "rock_hole",
-        "lining_outer",
-    }
+    assert set(solid["faces"]) == {*BLOCK_FACES, "lining_inner", "rock_hole", "lining_outer"}
     assert all(f.dtype == np.int32 and f.shape[1] == 4 for f in solid["faces"].values())
     # every node is used by an element
     assert np.unique(solid["conn"]).size == len(solid["x"])
@@ -279,21 +271,7 @@ def test_model_msh_physical_groups(coarse3d):
     s, _, _, out = coarse3d
     m = meshio.read(out / "model.msh")
     names = set(m.field_data)
-    assert {
-        "rock",
-        "lining",
-        "water",
-        "bottom",
-        "top",
-        "xmin",
-        "xmax",
-        "ymin",
-        "ymax",
-        "rock_lining",
-        "lining_inner",
-        "end_ymin",
-        "end_ymax",
-    } <= names
+    assert {"rock", "lining", "water", *BLOCK_FACES, "rock_lining", "lining_inner", "end_ymin", "end_ymax"} <= names
     phys = np.concatenate(
         [d for d, blk in zip(m.cell_data["gmsh:physical"], m.cells, strict=True) if blk.type == "hexahedron"]
     )

@@ -15,6 +15,7 @@ Also on 2 MPI ranks (the master merges the interface points over the processor b
 
 from __future__ import annotations
 
+import contextlib
 import math
 import shutil
 import subprocess
@@ -68,6 +69,45 @@ def _case(path: Path, interface_motion: str, p_tol: float | None = None) -> Path
     return path
 
 
+def _coupled_case(replay: Path, tmp_path: Path, exchange: str) -> Path:
+    """A copy of the replay case (mesh and inputs, no results) whose controlDict's exchange
+    dictionary holds `exchange` instead of the replay's entries."""
+    coupled = tmp_path / "coupled"
+    shutil.copytree(replay, coupled, ignore=shutil.ignore_patterns("postProcessing", "0.*", "log.*"))
+    cd = coupled / "system" / "controlDict"
+    text = cd.read_text()
+    start = text.index("exchange")
+    end = text.index("}", start)
+    cd.write_text(text[:start] + "exchange\n        {\n" + exchange + text[end:])
+    return coupled
+
+
+def _interface_points(replay: Path) -> np.ndarray:
+    """OpenFOAM's interface points (x0 of points.dat) at the replay run's last output time."""
+    last = max((p.name for p in (replay / "postProcessing" / "interface").iterdir() if p.name != "0"), key=float)
+    return fc.read_points(replay, last)[:, 0:3]
+
+
+@contextlib.contextmanager
+def _fake_solid_running(fake: FakeSolid):
+    """FakeSolid run on a thread while the body runs OpenFOAM; yields the outcome: 'received' (what
+    FakeSolid got) or 'error' (its exception), filled once the thread is joined."""
+    outcome: dict = {}
+
+    def solid():
+        try:
+            outcome["received"] = fake.run()
+        except Exception as e:  # reported by the caller
+            outcome["error"] = e
+
+    th = threading.Thread(target=solid, daemon=True)
+    th.start()
+    try:
+        yield outcome
+    finally:
+        th.join(timeout=60)
+
+
 @pytest.mark.parametrize(
     "interface_motion,scheme,p_tol",
     [("transpiration", "explicit", None), ("transpiration", "implicit", None),
@@ -88,15 +128,8 @@ def test_coupler_exchange_matches_replay(tmp_path, interface_motion, scheme, p_t
     ref = fc.read_interface(replay)
 
     # the same case, coupled to FakeSolid
-    coupled = tmp_path / "coupled"
-    shutil.copytree(replay, coupled, ignore=shutil.ignore_patterns("postProcessing", "0.*", "log.*"))
     addr = tmp_path / "wall.addr"
-    cd = coupled / "system" / "controlDict"
-    text = cd.read_text()
-    start = text.index("exchange")
-    end = text.index("}", start)
-    cd.write_text(text[:start] + f"""exchange
-        {{
+    coupled = _coupled_case(replay, tmp_path, f"""\
             type            coupler;
             participant     fluid;
             partner         solid;
@@ -109,28 +142,15 @@ def test_coupler_exchange_matches_replay(tmp_path, interface_motion, scheme, p_t
             mesh            wall;
             readFields      (velocity);
             writeFields     (force);
-        """ + text[end:])
+        """)
 
     # FakeSolid's vertices: OpenFOAM's interface points (x0 of points.dat), in another order
-    last = max((p.name for p in (replay / "postProcessing" / "interface").iterdir() if p.name != "0"), key=float)
-    x0 = fc.read_points(replay, last)[:, 0:3][::-1].copy()
+    x0 = _interface_points(replay)[::-1].copy()
     ids = 7000 + np.arange(len(x0), dtype=np.int64)
     part = Participant("solid", config(scheme), TOKEN, address_file=str(addr), connect_timeout=60, receive_timeout=60)
     fake = FakeSolid(part, ids, x0, lambda t: np.tile(velocity(t), (len(x0), 1)))
-    outcome: dict = {}
-
-    def solid():
-        try:
-            outcome["received"] = fake.run()
-        except Exception as e:  # reported below
-            outcome["error"] = e
-
-    th = threading.Thread(target=solid, daemon=True)
-    th.start()
-    try:
+    with _fake_solid_running(fake) as outcome:
         fc.run(coupled, "pimpleFoam", timeout=120)
-    finally:
-        th.join(timeout=60)
     assert "error" not in outcome, f"FakeSolid failed: {outcome.get('error')!r}"
     got = fc.read_interface(coupled)
 
@@ -168,47 +188,27 @@ def test_coupler_exchange_two_ranks(tmp_path):
     fc.run(replay, "pimpleFoam")
     ref = fc.read_interface(replay)
 
-    coupled = tmp_path / "coupled"
-    shutil.copytree(replay, coupled, ignore=shutil.ignore_patterns("postProcessing", "0.*", "log.*"))
     addr = tmp_path / "wall.addr"
-    cd = coupled / "system" / "controlDict"
-    text = cd.read_text()
-    start = text.index("exchange")
-    end = text.index("}", start)
-    cd.write_text(text[:start] + f"""exchange
-        {{
+    coupled = _coupled_case(replay, tmp_path, f"""\
             type coupler; token "{TOKEN}"; addressFile "{addr}"; scheme explicit;
             timeout 60; connectTimeout 60;
-        """ + text[end:])
+        """)
     fc.write(coupled, "system/decomposeParDict", "numberOfSubdomains 2;\nmethod simple;\n"
              "simpleCoeffs { n (2 1 1); delta 0.001; }\n")
     fc.run(coupled, "decomposePar")
 
-    last = max((p.name for p in (replay / "postProcessing" / "interface").iterdir() if p.name != "0"), key=float)
-    x0 = fc.read_points(replay, last)[:, 0:3]
+    x0 = _interface_points(replay)
     part = Participant("solid", config("explicit"), TOKEN, address_file=str(addr), connect_timeout=60,
                        receive_timeout=60)
     fake = FakeSolid(part, 100 + np.arange(len(x0), dtype=np.int64), x0,
                      lambda t: np.tile(velocity(t), (len(x0), 1)))
-    outcome: dict = {}
-
-    def solid():
-        try:
-            outcome["received"] = fake.run()
-        except Exception as e:  # reported below
-            outcome["error"] = e
-
-    th = threading.Thread(target=solid, daemon=True)
-    th.start()
-    try:
+    with _fake_solid_running(fake) as outcome:
         # ranks unbound and yielding while they wait: a rank that spins in a receive starves its
         # partner and the fake solid on a small, shared machine
         proc = subprocess.run(["mpirun", "--allow-run-as-root", "--oversubscribe", "--bind-to", "none",
                                "--mca", "mpi_yield_when_idle", "1", "-np", "2", "pimpleFoam",
                                "-parallel", "-case", str(coupled)], env=fc.env(), capture_output=True, text=True,
                               timeout=120)
-    finally:
-        th.join(timeout=60)
     (coupled / "log.pimpleFoam").write_text(proc.stdout + proc.stderr)
     assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
     assert "error" not in outcome, f"FakeSolid failed: {outcome.get('error')!r}"

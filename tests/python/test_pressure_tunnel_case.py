@@ -7,11 +7,11 @@ the slice antiplane: its two y faces move as one (the periodic tie), to round-of
 from __future__ import annotations
 
 import re
-import shutil
 
 import h5py
 import numpy as np
 import pytest
+from case_texts import short_example
 
 from conftest import ROOT
 from tunnelquake.cli import main
@@ -22,13 +22,7 @@ CASE = ROOT / "cases" / "pressure_tunnel"
 
 @pytest.fixture(scope="module")
 def ran(tmp_path_factory):
-    d = tmp_path_factory.mktemp("pressure_tunnel")
-    for f in CASE.iterdir():
-        if f.is_file():
-            shutil.copy(f, d / f.name)
-    text = (d / "case.yaml").read_text()
-    assert "  duration: 10 s\n" in text
-    (d / "case.yaml").write_text(text.replace("  duration: 10 s\n", "  duration: 1.5 s\n"))
+    d = short_example(CASE, tmp_path_factory.mktemp("pressure_tunnel"), "1.5 s")
     assert main(["run", str(d)]) == 0
     return d / "results"
 

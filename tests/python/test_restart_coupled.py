@@ -16,6 +16,7 @@ import h5py
 import pytest
 from test_restart import _case_text, _copy, _start, _stop
 
+from conftest import ran_case
 from tunnelquake.cli import main
 from tunnelquake.compare import results_differences as _differences
 
@@ -25,10 +26,7 @@ END, INTERVAL = 0.3, 0.1
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("reference")
-    (folder / "case.yaml").write_text(_case_text("dynamic_water", END, INTERVAL))
-    assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
-    return folder
+    return ran_case(tmp_path_factory.mktemp("reference"), _case_text("dynamic_water", END, INTERVAL), "--no-post")
 
 
 def _wait_for_pair(case_yaml, proc, sequence: int, timeout: float = 240.0) -> dict:

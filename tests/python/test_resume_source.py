@@ -11,6 +11,7 @@ import pytest
 from test_checkpoint_integrity import _flip
 from test_restart import _case_text, _copy, _start
 
+from conftest import ran_case
 from tunnelquake.case import load_case
 from tunnelquake.cli import main
 from tunnelquake.compare import results_differences as _differences
@@ -22,10 +23,7 @@ END, INTERVAL = 0.25, 0.05
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("source_ref")
-    (folder / "case.yaml").write_text(_case_text("no_water", END, INTERVAL))
-    assert main(["run", str(folder / "case.yaml"), "--no-post"]) == 0
-    return folder
+    return ran_case(tmp_path_factory.mktemp("source_ref"), _case_text("no_water", END, INTERVAL), "--no-post")
 
 
 def _killed_in(case_yaml, fault: str, *extra: str) -> None:

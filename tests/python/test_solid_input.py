@@ -22,12 +22,9 @@ import numpy as np
 import pytest
 from case_texts import synthetic_motion, tunnel
 
+from conftest import mesh_and_motion, run_solid, solid_with
 from tunnelquake import fluid_case as fc
-from tunnelquake import paths
 from tunnelquake.case import load_case
-from tunnelquake.meshing import build_tunnel_mesh
-from tunnelquake.motion import from_case
-from tunnelquake.prepare import write_motion
 from tunnelquake.references import lined_tunnel_internal_pressure
 from tunnelquake.solid_input import SolidInputError, write_solid_input
 
@@ -67,10 +64,7 @@ def _coupling(case, tmp_path, token="t"):
 def prepared(tmp_path_factory):
     """The paper's slice mesh (mesh defaults) and a synthetic motion, once for the module."""
     tmp = tmp_path_factory.mktemp("solid_input")
-    case = _case(tmp)
-    build_tunnel_mesh(case.data["geometry"], case.data["mesh"], tmp)
-    motion, _ = from_case(case.data["ground_motion"], case.dir)
-    write_motion(motion, tmp / "motion.h5")
+    mesh_and_motion(_case(tmp), tmp)
     return tmp
 
 
@@ -117,11 +111,7 @@ def test_layout_per_condition(prepared, tmp_path):
 
 
 def _solid_with_stages():
-    exe = paths.solid_executable()
-    if exe is None:
-        return None
-    out = subprocess.run([str(exe), "--capabilities"], capture_output=True, text=True, timeout=10)
-    return exe if out.returncode == 0 and "staged-seismic" in out.stdout else None
+    return solid_with("staged-seismic")
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
@@ -132,9 +122,7 @@ def test_tq_solid_lining_under_water_matches_closed_form(prepared, tmp_path):
     for cond in ("no_water", "static_water"):
         inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", cond, tmp_path / f"{cond}.h5")
         res = tmp_path / f"results_{cond}.h5"
-        run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True,
-                             text=True, timeout=300)
-        assert run.returncode == 0, run.stdout + run.stderr
+        run_solid(exe, inp, res, timeout=300)
         with h5py.File(res) as r:
             assert r.attrs["status"] == "completed"
             stages = {k.split("_", 1)[1]: r["stages"][k].attrs for k in r["stages"]}

@@ -60,6 +60,21 @@ inline void setRing(Participant& p, const scenario::Ring& r, bool solid) {
     p.setMeshVertices("wall", r.fluidIds(), r.fluidCoordinates(), r.fluidTriangles());
 }
 
+/// The ring's mesh set on `p` (solid or fluid side) and `p` initialized: connected, handshake done.
+inline void startOnRing(Participant& p, const scenario::Ring& r, bool solid) {
+  setRing(p, r, solid);
+  p.initialize();
+}
+
+/// Couples `p` (its mesh set, initialized) to its last window: before each advance of `dt` it
+/// writes the same `values` of `field` on the mesh "wall".
+inline void coupleSteadily(Participant& p, const std::string& field, const std::vector<double>& values, double dt) {
+  while (p.isCouplingOngoing()) {
+    p.writeData("wall", field, values);
+    p.advance(dt);
+  }
+}
+
 /// Runs a and b concurrently; returns their exceptions (null when none).
 inline std::pair<std::exception_ptr, std::exception_ptr> runPair(const std::function<void()>& a,
                                                                  const std::function<void()>& b) {
@@ -78,6 +93,22 @@ inline std::pair<std::exception_ptr, std::exception_ptr> runPair(const std::func
   }
   ta.join();
   return {ea, eb};
+}
+
+/// Both sides started on their rings concurrently (the solid with `cs` on `rs`, the fluid with `cf`
+/// on `rf`, over loopback TCP in `dir`); returns their exceptions (null when none).
+inline std::pair<std::exception_ptr, std::exception_ptr> handshakePair(
+    const std::filesystem::path& dir, const CouplingConfig& cs, const scenario::Ring& rs, const CouplingConfig& cf,
+    const scenario::Ring& rf, const std::string& token) {
+  return runPair(
+      [&] {
+        Participant p("solid", cs, tcp(dir), token);
+        startOnRing(p, rs, true);
+      },
+      [&] {
+        Participant p("fluid", cf, tcp(dir), token);
+        startOnRing(p, rf, false);
+      });
 }
 
 /// Message of an exception of type E (fails the test for another outcome).

@@ -84,25 +84,33 @@ std::vector<std::uint8_t> withHeaderVersion(std::vector<std::uint8_t> m, std::ui
   return m;
 }
 
-}  // namespace
+/// The dummy fluid's arguments: `scheme`, 50 windows of 1 ms, a 5 s timeout, hanging at window
+/// `hangAt`.
+std::vector<std::string> hangingFluid(const std::filesystem::path& dir, const std::string& token,
+                                      const std::string& scheme, const std::string& hangAt) {
+  return {"--role",           "fluid", "--token",          token,
+          "--scheme",         scheme,  "--windows",        "50",
+          "--window-size",    "0.001", "--max-iterations", "30",
+          "--tolerance",      "1e-10", "--address-file",   (dir / "wall.addr").string(),
+          "--hang-at-window", hangAt,  "--timeout",        "5"};
+}
 
-TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
-  const auto dir = freshDir();
-  const auto c = ringConfig(SchemeKind::Explicit, 50);
+/// A solid's run of 50 one-millisecond windows against the dummy fluid (a process of its own)
+/// that hangs at window `hangAt`.
+struct AgainstHangingFluid {
+  std::filesystem::path dir = freshDir();
+  CouplingConfig c;
   scenario::Ring r;
-  DummyProcess fluid({"--role",           "fluid",    "--token",          "tok-kill",
-                      "--scheme",         "explicit", "--windows",        "50",
-                      "--window-size",    "0.001",    "--max-iterations", "30",
-                      "--tolerance",      "1e-10",    "--address-file",   (dir / "wall.addr").string(),
-                      "--hang-at-window", "3",        "--timeout",        "5"});
-  ASSERT_TRUE(fluid.started());
-  Participant p("solid", c, tcp(dir, 5.0), "tok-kill");
-  setRing(p, r, true);
-  p.initialize();
-  std::thread killer([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    fluid.kill9();
-  });
+  DummyProcess fluid;
+  AgainstHangingFluid(SchemeKind scheme, const std::string& token, const std::string& hangAt)
+      : c(ringConfig(scheme, 50)),
+        fluid(hangingFluid(dir, token, scheme == SchemeKind::Explicit ? "explicit" : "implicit", hangAt)) {}
+};
+
+/// The solid couples (the ring's velocity at t = 0 each window) until its partner's fault stops it
+/// with `Error`: the error's message and how long the last advance waited (s).
+template <class Error>
+std::pair<std::string, double> coupleUntilStopped(Participant& p, const scenario::Ring& r, double dt) {
   const auto v = scenario::field(r, true, true, 0.0);
   std::string msg;
   std::chrono::steady_clock::time_point t0;
@@ -110,12 +118,26 @@ TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
     while (p.isCouplingOngoing()) {
       p.writeData("wall", "velocity", v);
       t0 = std::chrono::steady_clock::now();
-      p.advance(c.windowSize);
+      p.advance(dt);
     }
-  } catch (const PartnerLostError& e) {
+  } catch (const Error& e) {
     msg = e.what();
   }
-  const double waited = Secs(std::chrono::steady_clock::now() - t0).count();
+  return {msg, Secs(std::chrono::steady_clock::now() - t0).count()};
+}
+
+}  // namespace
+
+TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
+  AgainstHangingFluid run(SchemeKind::Explicit, "tok-kill", "3");
+  ASSERT_TRUE(run.fluid.started());
+  Participant p("solid", run.c, tcp(run.dir, 5.0), "tok-kill");
+  startOnRing(p, run.r, true);
+  std::thread killer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    run.fluid.kill9();
+  });
+  const auto [msg, waited] = coupleUntilStopped<PartnerLostError>(p, run.r, run.c.windowSize);
   killer.join();
   EXPECT_TRUE(contains(msg, "participant 'solid' waiting for DATA of window 4 of 50")) << msg;
   EXPECT_TRUE(contains(msg, "from 'fluid'")) << msg;
@@ -127,33 +149,13 @@ TEST(Faults, KilledPartnerStopsTheSolidAtOnceWithAClearMessage) {
 }
 
 TEST(Faults, HungPartnerStopsTheSolidAfterTheTimeout) {
-  const auto dir = freshDir();
-  const auto c = ringConfig(SchemeKind::Implicit, 50);
-  scenario::Ring r;
-  DummyProcess fluid({"--role",           "fluid",    "--token",          "tok-hang",
-                      "--scheme",         "implicit", "--windows",        "50",
-                      "--window-size",    "0.001",    "--max-iterations", "30",
-                      "--tolerance",      "1e-10",    "--address-file",   (dir / "wall.addr").string(),
-                      "--hang-at-window", "2",        "--timeout",        "5"});
-  ASSERT_TRUE(fluid.started());
-  auto t = tcp(dir, 5.0);
+  AgainstHangingFluid run(SchemeKind::Implicit, "tok-hang", "2");
+  ASSERT_TRUE(run.fluid.started());
+  auto t = tcp(run.dir, 5.0);
   t.receiveTimeout = 1.0;
-  Participant p("solid", c, t, "tok-hang");
-  setRing(p, r, true);
-  p.initialize();
-  const auto v = scenario::field(r, true, true, 0.0);
-  std::string msg;
-  std::chrono::steady_clock::time_point t0;
-  try {
-    while (p.isCouplingOngoing()) {
-      p.writeData("wall", "velocity", v);
-      t0 = std::chrono::steady_clock::now();
-      p.advance(c.windowSize);
-    }
-  } catch (const TimeoutError& e) {
-    msg = e.what();
-  }
-  const double waited = Secs(std::chrono::steady_clock::now() - t0).count();
+  Participant p("solid", run.c, t, "tok-hang");
+  startOnRing(p, run.r, true);
+  const auto [msg, waited] = coupleUntilStopped<TimeoutError>(p, run.r, run.c.windowSize);
   EXPECT_TRUE(contains(msg, "waiting for DATA of window 3 of 50, pass 1")) << msg;
   EXPECT_TRUE(contains(msg, "within the timeout of 1 s")) << msg;
   EXPECT_GT(waited, 0.95);
@@ -168,12 +170,8 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-foreign");
-        setRing(p, r, true);
-        p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "velocity", scenario::field(r, true, true, 0));
-          p.advance(c.windowSize);
-        }
+        startOnRing(p, r, true);
+        coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
         p.finalize();
       },
       [&] {
@@ -186,12 +184,8 @@ TEST(Faults, ForeignConnectionIsRefusedAndThePartnerStillCouples) {
                        decodeReason(m.payload.data(), m.payload.size()).message;
         }
         Participant p("fluid", c, tcp(dir), "tok-foreign");
-        setRing(p, r, false);
-        p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "force", scenario::field(r, false, false, 0));
-          p.advance(c.windowSize);
-        }
+        startOnRing(p, r, false);
+        coupleSteadily(p, "force", scenario::field(r, false, false, 0), c.windowSize);
         p.finalize();
       });
   rethrowIf(es);
@@ -208,8 +202,7 @@ TEST(Faults, OtherProtocolVersionIsRefusedWithBothVersionsNamed) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-ver");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
       },
       [&] {
         RawPeer peer(dir, "fluid");
@@ -248,12 +241,8 @@ TEST_P(MalformedData, IsRefusedAndThePeerIsTold) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-bad");
-        setRing(p, r, true);
-        p.initialize();
-        while (p.isCouplingOngoing()) {
-          p.writeData("wall", "velocity", scenario::field(r, true, true, 0));
-          p.advance(c.windowSize);
-        }
+        startOnRing(p, r, true);
+        coupleSteadily(p, "velocity", scenario::field(r, true, true, 0), c.windowSize);
       },
       [&] {
         RawPeer peer(dir, "fluid");

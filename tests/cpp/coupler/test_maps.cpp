@@ -59,6 +59,23 @@ std::vector<double> pointsOnFacets(const std::vector<double>& xyz, const std::ve
   return p;
 }
 
+/// A ring's faceted wetted face (nTheta around, nLayers rings, `length` long) and n random points
+/// on its facets (pointsOnFacets with `seed`): a source mesh and a non-matching target.
+struct RingAndPoints {
+  std::vector<double> s;          ///< the ring's nodes
+  std::vector<std::int32_t> tri;  ///< its triangles
+  std::vector<double> t;          ///< the points on them
+};
+RingAndPoints ringAndPoints(int nTheta, int nLayers, double length, int n, unsigned seed) {
+  scenario::Ring r;
+  r.nTheta = nTheta;
+  r.nLayers = nLayers;
+  r.length = length;
+  RingAndPoints out{r.solidCoordinates(), r.solidTriangles(), {}};
+  out.t = pointsOnFacets(out.s, out.tri, n, seed);
+  return out;
+}
+
 double maxAbsDiff(const std::vector<double>& a, const std::vector<double>& b) {
   double m = 0;
   for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
@@ -136,13 +153,7 @@ TEST(CoincidentMap, ListsUnmatchedNodesWithIdsAndDistances) {
 TEST(ProjectionMap, ReproducesConstantAndLinearMotionExactlyOnNonMatchingMeshes) {
   // Source: the lining's wetted face, coarse (48 x 4); target: 3000 points of a different
   // distribution on the same faceted surface.
-  scenario::Ring r;
-  r.nTheta = 48;
-  r.nLayers = 4;
-  r.length = 3.0;
-  const auto s = r.solidCoordinates();
-  const auto tri = r.solidTriangles();
-  const auto t = pointsOnFacets(s, tri, 3000, 42);
+  const auto [s, tri, t] = ringAndPoints(48, 4, 3.0, 3000, 42);
   const ConsistentMap m = NearestProjection(1e-9).build(view(s, tri), view(t));
   EXPECT_EQ(m.targetSize(), 3000u);
   EXPECT_FALSE(m.isPermutation());
@@ -184,13 +195,7 @@ TEST(ProjectionMap, LinearMotionOnTheTrueCylinderHasTheChordError) {
 }
 
 TEST(ConservativeMap, PreservesTotalForceAndWorkToRoundOff) {
-  scenario::Ring r;
-  r.nTheta = 40;
-  r.nLayers = 3;
-  r.length = 2.0;
-  const auto s = r.solidCoordinates();
-  const auto tri = r.solidTriangles();
-  const auto t = pointsOnFacets(s, tri, 2500, 3);
+  const auto [s, tri, t] = ringAndPoints(40, 3, 2.0, 2500, 3);
   const ConsistentMap motion = NearestProjection(1e-9).build(view(s, tri), view(t));
   const ConservativeMap forces = motion.transpose();
   static_assert(ConservativeMap::kConstraint == MapConstraint::Conservative);

@@ -94,8 +94,7 @@ TEST(Participant, SubcyclingExchangesOncePerWindow) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-sub");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
         const auto v = scenario::field(r, true, true, 0);
         while (p.isCouplingOngoing()) {
           p.writeData("wall", "velocity", v);
@@ -107,8 +106,7 @@ TEST(Participant, SubcyclingExchangesOncePerWindow) {
       },
       [&] {
         Participant p("fluid", c, tcp(dir), "tok-sub");
-        setRing(p, r, false);
-        p.initialize();
+        startOnRing(p, r, false);
         while (p.isCouplingOngoing()) {
           p.writeData("wall", "force", scenario::field(r, false, false, 0));
           p.advance(p.getMaxTimeStepSize());
@@ -128,15 +126,13 @@ TEST(Participant, StepLargerThanTheWindowIsAClearError) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-dt");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
         p.writeData("wall", "velocity", scenario::field(r, true, true, 0));
         p.advance(2e-3);
       },
       [&] {
         Participant p("fluid", c, tcp(dir), "tok-dt");
-        setRing(p, r, false);
-        p.initialize();
+        startOnRing(p, r, false);
         p.writeData("wall", "force", scenario::field(r, false, false, 0));
         p.advance(1e-3);
       });
@@ -154,13 +150,11 @@ TEST(Handshake, WrongTokenIsRefusedAndTheListenerKeepsWaiting) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir, 1.5), "token-of-run-A");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
       },
       [&] {
         Participant p("fluid", c, tcp(dir, 1.5), "token-of-run-B");
-        setRing(p, r, false);
-        p.initialize();
+        startOnRing(p, r, false);
       });
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string f = messageOf<HandshakeError>(ef);
@@ -179,17 +173,7 @@ TEST(Handshake, DifferentInterfaceSizeIsRefusedOnBothSides) {
   const auto c = ringConfig(SchemeKind::Explicit, 2);
   scenario::Ring rs, rf;
   rf.nTheta = 60;
-  const auto [es, ef] = runPair(
-      [&] {
-        Participant p("solid", c, tcp(dir), "tok-size");
-        setRing(p, rs, true);
-        p.initialize();
-      },
-      [&] {
-        Participant p("fluid", c, tcp(dir), "tok-size");
-        setRing(p, rf, false);
-        p.initialize();
-      });
+  const auto [es, ef] = handshakePair(dir, c, rs, c, rf, "tok-size");
   const std::string a = messageOf<HandshakeError>(es), b = messageOf<HandshakeError>(ef);
   EXPECT_TRUE(contains(a, "has 128 nodes here and 120 on 'fluid'")) << a;
   EXPECT_TRUE(contains(b, "refused by its partner")) << b;
@@ -203,17 +187,7 @@ TEST(Handshake, DifferentConfigurationIsListedItemByItem) {
   cf.windowSize = 2e-3;
   cf.fields[1].components = 1;
   scenario::Ring r;
-  const auto [es, ef] = runPair(
-      [&] {
-        Participant p("solid", cs, tcp(dir), "tok-cfg");
-        setRing(p, r, true);
-        p.initialize();
-      },
-      [&] {
-        Participant p("fluid", cf, tcp(dir), "tok-cfg");
-        setRing(p, r, false);
-        p.initialize();
-      });
+  const auto [es, ef] = handshakePair(dir, cs, r, cf, r, "tok-cfg");
   const std::string a = messageOf<HandshakeError>(es);
   EXPECT_TRUE(contains(a, "window size (s): here 0.001")) << a;
   EXPECT_TRUE(contains(a, "'force' components: here 3, 'fluid' has 1")) << a;
@@ -227,8 +201,7 @@ TEST(Handshake, UnmatchedInterfaceNodesAreListed) {
   const auto [es, ef] = runPair(
       [&] {
         Participant p("solid", c, tcp(dir), "tok-map");
-        setRing(p, r, true);
-        p.initialize();
+        startOnRing(p, r, true);
       },
       [&] {
         Participant p("fluid", c, tcp(dir), "tok-map");
@@ -407,6 +380,24 @@ OscResult oscillate(SchemeKind scheme, AccelerationKind acc, double ratio, int w
   return out;
 }
 
+/// oscillate, an exception of either side rethrown (failing the test).
+OscResult oscillated(SchemeKind scheme, AccelerationKind acc, double ratio, int windows, const OscOptions& o = {}) {
+  OscResult r = oscillate(scheme, acc, ratio, windows, o);
+  rethrowIf(r.solidError);
+  rethrowIf(r.fluidError);
+  return r;
+}
+
+/// 20 windows at rest: each within `maxPasses` passes, on average at most `meanPasses`, the motion
+/// at the floor's scale (below 1e-12 m).
+void expectAtRest(const OscResult& r, AccelerationKind acc, int maxPasses, double meanPasses) {
+  ASSERT_EQ(r.passesPerWindow.size(), 20u);
+  for (std::size_t w = 0; w < r.passesPerWindow.size(); ++w)
+    EXPECT_LE(r.passesPerWindow[w], maxPasses) << accelerationName(acc) << ", window " << w + 1;
+  EXPECT_LE(double(r.passes) / 20.0, meanPasses) << accelerationName(acc);
+  EXPECT_LT(r.maxAbs, 1e-12) << accelerationName(acc);
+}
+
 /// The monolithic reference: the same integrator with mass m + m_a.
 std::vector<double> monolithic(double ratio, int windows, double dt = 1e-3) {
   const double m = 1.0 + ratio, k = 4 * M_PI * M_PI * 25.0 * m;
@@ -431,9 +422,7 @@ double largestDeviation(const OscResult& r, const std::vector<double>& ref) {
 
 TEST(AddedMass, ImplicitCouplingMatchesTheMonolithicOscillatorAtRatioFive) {
   for (auto acc : {AccelerationKind::Aitken, AccelerationKind::IqnIls}) {
-    const auto res = oscillate(SchemeKind::Implicit, acc, 5.0, 100);
-    rethrowIf(res.solidError);
-    rethrowIf(res.fluidError);
+    const auto res = oscillated(SchemeKind::Implicit, acc, 5.0, 100);
     const auto ref = monolithic(5.0, 100);
     ASSERT_EQ(res.x0.size(), ref.size());
     const double err = largestDeviation(res, ref);
@@ -475,9 +464,7 @@ TEST(AddedMass, DivergenceMonitorRaisesNoFalseAlarm) {
   // m_a/m = 0.5; the same with 5 % damping (a decaying oscillation); the same forced at its
   // resonance (a response that grows linearly: physical growth); implicit at m_a/m = 5.
   const double ma = 0.5, k = 4 * M_PI * M_PI * 25.0 * 1.5, w0 = std::sqrt(k / 1.5);
-  const auto plain = oscillate(SchemeKind::Explicit, AccelerationKind::None, ma, 2000);
-  rethrowIf(plain.solidError);
-  rethrowIf(plain.fluidError);
+  const auto plain = oscillated(SchemeKind::Explicit, AccelerationKind::None, ma, 2000);
   EXPECT_EQ(plain.windows, 2000u);
   OscOptions damped;
   damped.damping = 2 * 0.05 * std::sqrt(k * 1.5);
@@ -496,9 +483,7 @@ TEST(AddedMass, DivergenceMonitorRaisesNoFalseAlarm) {
   for (std::size_t i = 0; i < 200; ++i) early = std::max(early, std::abs(res.x0[i]));
   for (std::size_t i = 1800; i < 2000; ++i) late = std::max(late, std::abs(res.x0[i]));
   EXPECT_GT(late, 5 * early);  // it did grow (resonance: linearly, about 10x over 10 periods)
-  const auto impl = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 5.0, 600);
-  rethrowIf(impl.solidError);
-  rethrowIf(impl.fluidError);
+  const auto impl = oscillated(SchemeKind::Implicit, AccelerationKind::IqnIls, 5.0, 600);
   EXPECT_EQ(impl.windows, 600u);
 }
 
@@ -521,9 +506,7 @@ TEST(AddedMass, AbsoluteToleranceEndsWindowsAtRestInTwoPasses) {
     // m_a/m = 0.5: two passes in every window.
     OscOptions light = rest;
     light.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
-    const auto two = oscillate(SchemeKind::Implicit, acc, 0.5, 20, light);
-    rethrowIf(two.solidError);
-    rethrowIf(two.fluidError);
+    const auto two = oscillated(SchemeKind::Implicit, acc, 0.5, 20, light);
     ASSERT_EQ(two.passesPerWindow.size(), 20u);
     for (std::size_t w = 0; w < two.passesPerWindow.size(); ++w)
       EXPECT_EQ(two.passesPerWindow[w], 2) << accelerationName(acc) << ", window " << w + 1;
@@ -531,20 +514,12 @@ TEST(AddedMass, AbsoluteToleranceEndsWindowsAtRestInTwoPasses) {
     // added-mass feedback (about 10x a window here) until it reaches the floor; that window
     // then takes a third pass. The motion stays at the floor's scale (1e-12 m, not growing).
     rest.atolForce = tol * 5.0 * 0.01 * std::pow(2 * M_PI * 5, 2);
-    const auto with = oscillate(SchemeKind::Implicit, acc, 5.0, 20, rest);
-    rethrowIf(with.solidError);
-    rethrowIf(with.fluidError);
-    ASSERT_EQ(with.passesPerWindow.size(), 20u);
-    for (std::size_t w = 0; w < with.passesPerWindow.size(); ++w)
-      EXPECT_LE(with.passesPerWindow[w], 3) << accelerationName(acc) << ", window " << w + 1;
-    EXPECT_LE(double(with.passes) / 20.0, 2.5) << accelerationName(acc);
-    EXPECT_LT(with.maxAbs, 1e-12) << accelerationName(acc);
+    const auto with = oscillated(SchemeKind::Implicit, acc, 5.0, 20, rest);
+    expectAtRest(with, acc, 3, 2.5);
     // ... while the moving model problem still reaches the monolithic solution to 1e-8.
     OscOptions moving = rest;
     moving.x0 = 0.01;
-    const auto res = oscillate(SchemeKind::Implicit, acc, 5.0, 100, moving);
-    rethrowIf(res.solidError);
-    rethrowIf(res.fluidError);
+    const auto res = oscillated(SchemeKind::Implicit, acc, 5.0, 100, moving);
     const auto ref = monolithic(5.0, 100);
     ASSERT_EQ(res.x0.size(), ref.size());
     const double err = largestDeviation(res, ref);
@@ -574,12 +549,8 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     cst.atolForce = 1e-4 * 5.0 * 0.01 * std::pow(2 * M_PI * 5, 2);
     OscOptions lin = cst;
     lin.linearPredictor = true;
-    const auto a = oscillate(SchemeKind::Implicit, acc, 5.0, windows, cst);
-    const auto b = oscillate(SchemeKind::Implicit, acc, 5.0, windows, lin);
-    rethrowIf(a.solidError);
-    rethrowIf(a.fluidError);
-    rethrowIf(b.solidError);
-    rethrowIf(b.fluidError);
+    const auto a = oscillated(SchemeKind::Implicit, acc, 5.0, windows, cst);
+    const auto b = oscillated(SchemeKind::Implicit, acc, 5.0, windows, lin);
     ASSERT_EQ(b.x0.size(), ref.size());
     const double ea = largestDeviation(a, ref), eb = largestDeviation(b, ref);
     // Both within the tolerance's reach of the monolithic answer (amplitude 0.01 m).
@@ -601,14 +572,8 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     rest.noise = 1e-12;
     rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
     rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
-    const auto one = oscillate(SchemeKind::Implicit, acc, 0.5, 20, rest);
-    rethrowIf(one.solidError);
-    rethrowIf(one.fluidError);
-    ASSERT_EQ(one.passesPerWindow.size(), 20u);
-    for (std::size_t w = 0; w < one.passesPerWindow.size(); ++w)
-      EXPECT_LE(one.passesPerWindow[w], 2) << accelerationName(acc) << ", window " << w + 1;
-    EXPECT_LE(double(one.passes) / 20.0, 1.1) << accelerationName(acc);
-    EXPECT_LT(one.maxAbs, 1e-12) << accelerationName(acc);
+    const auto one = oscillated(SchemeKind::Implicit, acc, 0.5, 20, rest);
+    expectAtRest(one, acc, 2, 1.1);
     // A loose tolerance over a whole period (2,000 windows): the extrapolation of the *applied*
     // forces carries each accepted error once (extrapolating the water's answers instead multiplied
     // them by the added-mass feedback: on the paper slice at tolerance 1e-3 a period-two mode grew
@@ -617,9 +582,7 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     loose.tolerance = 1e-3;
     loose.atolVelocity *= 10;
     loose.atolForce *= 10;
-    const auto period = oscillate(SchemeKind::Implicit, acc, 5.0, 2000, loose);
-    rethrowIf(period.solidError);
-    rethrowIf(period.fluidError);
+    const auto period = oscillated(SchemeKind::Implicit, acc, 5.0, 2000, loose);
     ASSERT_EQ(period.windows, 2000u);
     const double ep = largestDeviation(period, monolithic(5.0, 2000, 1e-4));
     EXPECT_LT(ep, 1e-3 * 0.01) << accelerationName(acc);
@@ -642,9 +605,7 @@ TEST(AddedMass, WindowsEndedAtThePassLimitAreCountedOnBothSides) {
   capped.maxIterations = 3;
   capped.x0 = 0.0;
   capped.noise = 1e-12;
-  const auto res = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 30, capped);
-  rethrowIf(res.solidError);
-  rethrowIf(res.fluidError);
+  const auto res = oscillated(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 30, capped);
   EXPECT_EQ(res.unconvergedFluid, 30u);
   EXPECT_EQ(res.unconvergedSolid, res.unconvergedFluid);
   const auto full = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 30);
@@ -672,9 +633,7 @@ TEST(Restart, ResumedPairRepeatsTheRestOfTheRunBitwise) {
     o.reuse = acc == AccelerationKind::IqnIls ? 4 : 0;
     o.saveAt = 60;
     const int windows = 120;
-    const OscResult full = oscillate(SchemeKind::Implicit, acc, 5.0, windows, o);
-    rethrowIf(full.solidError);
-    rethrowIf(full.fluidError);
+    const OscResult full = oscillated(SchemeKind::Implicit, acc, 5.0, windows, o);
     ASSERT_EQ(full.x0.size(), std::size_t(windows));
     ASSERT_FALSE(full.saved.solid.empty());
     ASSERT_FALSE(full.saved.fluid.empty());
@@ -685,9 +644,7 @@ TEST(Restart, ResumedPairRepeatsTheRestOfTheRunBitwise) {
     OscOptions r = o;
     r.saveAt = -1;
     r.resume = &full.saved;
-    const OscResult resumed = oscillate(SchemeKind::Implicit, acc, 5.0, windows, r);
-    rethrowIf(resumed.solidError);
-    rethrowIf(resumed.fluidError);
+    const OscResult resumed = oscillated(SchemeKind::Implicit, acc, 5.0, windows, r);
     ASSERT_EQ(resumed.x0.size(), std::size_t(windows - o.saveAt));
     size_t diffs = 0;
     for (std::size_t i = 0; i < resumed.x0.size(); ++i)
@@ -707,9 +664,7 @@ TEST(Restart, ResumedPairRepeatsTheRestOfTheRunBitwise) {
 TEST(Restart, StateOfAnotherConfigurationOrCutShortIsRefused) {
   OscOptions o;
   o.saveAt = 3;
-  const OscResult full = oscillate(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 6, o);
-  rethrowIf(full.solidError);
-  rethrowIf(full.fluidError);
+  const OscResult full = oscillated(SchemeKind::Implicit, AccelerationKind::IqnIls, 0.5, 6, o);
   OscSaved cut = full.saved;
   cut.fluid.resize(cut.fluid.size() / 2);
   OscOptions r;
