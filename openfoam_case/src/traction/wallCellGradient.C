@@ -1,5 +1,14 @@
-/* TunnelQuake: water side, built against OpenFOAM v1912.
-   License: GPL-3.0-or-later, like the OpenFOAM libraries it links against. */
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | TunnelQuake: water side, built against
+   \\    /   O peration     | OpenFOAM v1912
+    \\  /    A nd           |
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+License
+    GPL-3.0-or-later, like the OpenFOAM libraries it links against.
+
+\*---------------------------------------------------------------------------*/
 
 #include "wallCellGradient.H"
 
