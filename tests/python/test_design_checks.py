@@ -298,6 +298,29 @@ def test_envelopes_and_demand_points_of_the_figures_are_the_design_forces(tmp_pa
     assert F.ring_scale([np.array([-2.0, 1.0])], 3.0) == pytest.approx(0.45 * 3.0 / 2.0)
 
 
+def test_the_deformed_lining_is_drawn_at_the_governing_time_at_the_scale_its_title_states(tmp_path, monkeypatch):
+    """fig_deformed: at the sample nearest the governing time each diameter's change Δd is drawn
+    half at each of its ends, radially off the mid-line R, at one scale k = 0.15 R / max|Δd/2|
+    that the title states; the angle from the crown towards +x (x = r sin φ, z = r cos φ)."""
+    from tunnelquake.design import figures as F
+
+    R, phi, times = 3.25, np.array([0.0, 45.0, 90.0, 135.0]), np.array([0.0, 1.0, 2.0])
+    dd = np.array([[0.0, 0.0, 0.0, 0.0], [2e-3, -1e-3, -2e-3, 0.5e-3], [4e-3, 0.0, -4e-3, 0.0]])
+    cond = SimpleNamespace(condition="no_water", radius=R, diameter=(phi, times, dd), governing_time=lambda: 1.1)
+    drawn = {}
+    monkeypatch.setattr(F, "_save", lambda fig, out: drawn.setdefault("fig", fig))
+    assert F.fig_deformed([cond], tmp_path / "deformed.png") == tmp_path / "deformed.png"
+    ax = drawn["fig"].axes[0]
+    k = 0.15 * R / 1e-3  # the sample at t = 1 s, nearest 1.1 s: largest |Δd/2| 1 mm
+    assert f"displacements × {k:.3g}" in ax.get_title()
+    x, z = ax.lines[1].get_data()
+    r, th = np.hypot(x, z), np.degrees(np.arctan2(x, z))
+    for p, d in zip(phi, dd[1], strict=True):
+        for end in (p, p + 180.0):
+            j = int(np.argmin(np.abs((th - end + 180.0) % 360.0 - 180.0)))
+            assert r[j] == pytest.approx(R + k * d / 2, rel=1e-12), (p, end)
+
+
 def test_a_failing_ultimate_check_beside_an_uncracked_section_is_explained(tmp_path):
     """A lining in hoop tension of 1,000 kN/m: above what ø16 @ 200 mm on both faces carry at f_yd
     (2 × 1005 mm²/m × 500/1.15 MPa = 874 kN/m: the reinforced M–N check fails) and below the plain
