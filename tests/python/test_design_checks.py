@@ -337,3 +337,40 @@ def test_a_failing_ultimate_check_beside_an_uncracked_section_is_explained(tmp_p
         assert (mn.value > 1) == fails and cr.value < 1
         text = "\n".join(lining.LiningDesign([c], p, "test").summary_lines())
         assert ("two limit states, not a contradiction" in text) == fails, text
+
+
+def test_a_section_cracked_in_the_analysis_is_reported_cracked_with_its_cracked_sections_width(tmp_path, monkeypatch):
+    """A reinforced_concrete lining whose concrete the analysis has cracked while its N stays below
+    f_ctm t (the bars carry it: 1,000 kN/m of hoop tension, 0.69 of 2.9 MPa × 0.5 m): the cracking row
+    reports the analysis' crack (its largest damage, how many sections, from which snapshot), no line
+    calls the cracked section uncracked, and the short-term crack width at the cracked sections, from the
+    first sample at or after the snapshot that shows them cracked, is §7.3.4's for a section in pure
+    tension (σ_s = N / 2A_s at both faces, h_c,eff = min(2.5 a, h/2), k2 = 1), by hand to 1e-9; the
+    long-term width of the static state, before the crack, is 0. With the bars in the check only the
+    same forces give 'uncracked' and no width (the forces alone)."""
+    t, N, M, V, dD = _histories()
+    S = N.shape[1]
+    n, As, a, phi, Es, Ec, fct, kt = 1.0e6, 1.005e-3, 0.05, 0.016, 200e9, 33e9, 2.9e6, 0.6
+    p = DesignParameters(concrete=Concrete(fck=30e6, fctm=fct), reinforcement=Reinforcement(), As_inner=As,
+                         As_outer=As, axis_distance=a)
+    path = _results(tmp_path / "r.h5", np.full_like(N, n), np.zeros_like(M), V, dD, t)
+    D = np.zeros((2, S))
+    D[1, 3:6] = [0.4, 0.6, 0.5]  # sections 3-5 cracked at the snapshot at 1 s
+    monkeypatch.setattr(lining, "analysis_cracks", lambda path, condition, ring: (np.array([0.0, 1.0]), D))
+    crack = lining.CrackSettings(phi, Ec, 0.3e-3)
+    c = lining.condition_design(path, "static_water", {}, p, crack=crack, bars_in_analysis=True)
+    text = "\n".join(lining.LiningDesign([c], p, "test").summary_lines())
+    row = next(x for x in text.splitlines() if x.startswith("| cracking |"))
+    assert "cracked in the analysis (damage up to 0.6" in row and "3 of 16 sections, from t = 1.000 s" in row, row
+    assert "uncracked" not in row and "two limit states" not in text, text
+    sigma_s, hc = n / (2 * As), min(2.5 * a, H / 2)
+    rho = As / hc
+    eps = max((sigma_s - kt * fct / rho * (1 + Es / Ec * rho)) / Es, 0.6 * sigma_s / Es)
+    w = (3.4 * (a - phi / 2) + 0.8 * 1.0 * 0.425 * phi / rho) * eps
+    seismic, static = c.crack["seismic situation (k_t 0.6, short-term)"], c.crack["static (k_t 0.4, long-term)"]
+    assert seismic.value == pytest.approx(w, rel=1e-9)
+    assert seismic.time == float(t[np.searchsorted(t, 1.0)])
+    assert static.value == 0.0
+    plain = lining.condition_design(path, "static_water", {}, p, crack=crack)
+    assert plain.analysis_crack is None and plain.crack["seismic situation (k_t 0.6, short-term)"].value == 0.0
+    assert "| cracking | 0.69 |" in "\n".join(lining.LiningDesign([plain], p, "test").summary_lines())
