@@ -374,3 +374,24 @@ def test_a_section_cracked_in_the_analysis_is_reported_cracked_with_its_cracked_
     plain = lining.condition_design(path, "static_water", {}, p, crack=crack)
     assert plain.analysis_crack is None and plain.crack["seismic situation (k_t 0.6, short-term)"].value == 0.0
     assert "| cracking | 0.69 |" in "\n".join(lining.LiningDesign([plain], p, "test").summary_lines())
+
+
+def test_the_analysis_crack_pattern_is_read_per_section_from_the_snapshots(tmp_path):
+    """analysis_cracks: the lining elements' damage at each field snapshot, the largest per section
+    of the ring (the element nearest each section's angle, the sections' angles from +x towards +z
+    about the ring's centre); cracked_at: a section counts as cracked from the first snapshot that
+    shows its crack. A ring of 16 elements around, damage at the element 11.25° from the crown
+    towards +x only, growing from the snapshot at 1 s: the section there, and no other, from 2 s."""
+    from test_post import _write_results
+
+    a0 = math.radians(11.25)
+    path = _write_results(tmp_path / "results_no_water.h5", t_end=3.0, snaps=(1.0, 2.0, 3.0),
+                          damage_of=lambda a, r, ts: np.where(np.abs(a - a0) < 1e-6, 0.2 * (ts - 1.0), 0.0))
+    ring = SimpleNamespace(centre=(0.0, 0.0), angle=math.pi / 2 - np.radians(11.25 + 22.5 * np.arange(16)))
+    times, D = lining.analysis_cracks(path, "no_water", ring)
+    np.testing.assert_array_equal(times, [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(D[:, 0], [0.0, 0.2, 0.4], rtol=1e-12)
+    assert not D[:, 1:].any()
+    cracked = lining.cracked_at((times, D), np.array([0.5, 1.5, 2.0, 2.5]))
+    np.testing.assert_array_equal(cracked[:, 0], [False, False, True, True])
+    assert not cracked[:, 1:].any()
