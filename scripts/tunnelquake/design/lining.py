@@ -198,15 +198,22 @@ def analysis_cracks(path: Path, condition: str, ring) -> tuple[np.ndarray, np.nd
     per snapshot, the largest damage D (a reinforced_concrete lining's concrete cracked in tension;
     D never decreases) of the middle section's lining elements whose centre lies nearest each
     section's angle [K, S]. None without snapshots that hold the lining's damage."""
-    from ..post import damage_section, read_condition, read_snapshot
+    import h5py
+
+    from ..post import damage_section, read_condition
 
     res = read_condition(path, condition)
     if res.mesh is None or not res.snapshots:
         return None
     times, rows = [], []
     c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
+    with h5py.File(path, "r") as f:  # the damage alone of each snapshot
+        damage = {key: f[f"snapshots/{key}/damage"][...] for key, _ in res.snapshots
+                  if f"snapshots/{key}/damage" in f}
     for key, t in res.snapshots:
-        _, d, sel = damage_section(res, read_snapshot(res, key))
+        if key not in damage:
+            return None
+        _, d, sel = damage_section(res, {"damage": damage[key]})
         if d.size == 0:
             return None
         ctr = c[conn[sel]].mean(axis=1)
