@@ -1051,8 +1051,9 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
         warnings.append(f"mesh.lining_elements_through {through} with a reinforced_concrete lining: each element row "
                         "has one stress, at its centre, so the lining's bending resistance from its stresses stays "
                         f"below the section's M_Rd (a plane-section strip of 4 such rows reaches 0.87 of it, of 10 "
-                        f"0.989), and past the bars' yield the elements' elastic bending modes carry more (docs/"
-                        f"solid_solver.md \"A ring failing in bending\"); where the lining may fail in bending use "
+                        f"0.989), and past the bars' yield the elements' own bending modes carry more than the section "
+                        f"(the crown of a ring in bending transmits 1.65-1.84 times its section's moment with 4 rows, "
+                        f"1.07 with 10: docs/solid_solver.md \"A ring failing in bending\"); where the lining may fail in bending use "
                         f"mesh.lining_elements_through: {RC_BENDING_ROWS} or more")
     issues += _subcycling_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]

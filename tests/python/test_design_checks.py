@@ -298,6 +298,29 @@ def test_envelopes_and_demand_points_of_the_figures_are_the_design_forces(tmp_pa
     assert F.ring_scale([np.array([-2.0, 1.0])], 3.0) == pytest.approx(0.45 * 3.0 / 2.0)
 
 
+def test_the_deformed_lining_is_drawn_at_the_governing_time_at_the_scale_its_title_states(tmp_path, monkeypatch):
+    """fig_deformed: at the sample nearest the governing time each diameter's change Δd is drawn
+    half at each of its ends, radially off the mid-line R, at one scale k = 0.15 R / max|Δd/2|
+    that the title states; the angle from the crown towards +x (x = r sin φ, z = r cos φ)."""
+    from tunnelquake.design import figures as F
+
+    R, phi, times = 3.25, np.array([0.0, 45.0, 90.0, 135.0]), np.array([0.0, 1.0, 2.0])
+    dd = np.array([[0.0, 0.0, 0.0, 0.0], [2e-3, -1e-3, -2e-3, 0.5e-3], [4e-3, 0.0, -4e-3, 0.0]])
+    cond = SimpleNamespace(condition="no_water", radius=R, diameter=(phi, times, dd), governing_time=lambda: 1.1)
+    drawn = {}
+    monkeypatch.setattr(F, "_save", lambda fig, out: drawn.setdefault("fig", fig))
+    assert F.fig_deformed([cond], tmp_path / "deformed.png") == tmp_path / "deformed.png"
+    ax = drawn["fig"].axes[0]
+    k = 0.15 * R / 1e-3  # the sample at t = 1 s, nearest 1.1 s: largest |Δd/2| 1 mm
+    assert f"displacements × {k:.3g}" in ax.get_title()
+    x, z = ax.lines[1].get_data()
+    r, th = np.hypot(x, z), np.degrees(np.arctan2(x, z))
+    for p, d in zip(phi, dd[1], strict=True):
+        for end in (p, p + 180.0):
+            j = int(np.argmin(np.abs((th - end + 180.0) % 360.0 - 180.0)))
+            assert r[j] == pytest.approx(R + k * d / 2, rel=1e-12), (p, end)
+
+
 def test_a_failing_ultimate_check_beside_an_uncracked_section_is_explained(tmp_path):
     """A lining in hoop tension of 1,000 kN/m: above what ø16 @ 200 mm on both faces carry at f_yd
     (2 × 1005 mm²/m × 500/1.15 MPa = 874 kN/m: the reinforced M–N check fails) and below the plain
@@ -314,3 +337,61 @@ def test_a_failing_ultimate_check_beside_an_uncracked_section_is_explained(tmp_p
         assert (mn.value > 1) == fails and cr.value < 1
         text = "\n".join(lining.LiningDesign([c], p, "test").summary_lines())
         assert ("two limit states, not a contradiction" in text) == fails, text
+
+
+def test_a_section_cracked_in_the_analysis_is_reported_cracked_with_its_cracked_sections_width(tmp_path, monkeypatch):
+    """A reinforced_concrete lining whose concrete the analysis has cracked while its N stays below
+    f_ctm t (the bars carry it: 1,000 kN/m of hoop tension, 0.69 of 2.9 MPa × 0.5 m): the cracking row
+    reports the analysis' crack (its largest damage, how many sections, from which snapshot), no line
+    calls the cracked section uncracked, and the short-term crack width at the cracked sections, from the
+    first sample at or after the snapshot that shows them cracked, is §7.3.4's for a section in pure
+    tension (σ_s = N / 2A_s at both faces, h_c,eff = min(2.5 a, h/2), k2 = 1), by hand to 1e-9; the
+    long-term width of the static state, before the crack, is 0. With the bars in the check only the
+    same forces give 'uncracked' and no width (the forces alone)."""
+    t, N, M, V, dD = _histories()
+    S = N.shape[1]
+    n, As, a, phi, Es, Ec, fct, kt = 1.0e6, 1.005e-3, 0.05, 0.016, 200e9, 33e9, 2.9e6, 0.6
+    p = DesignParameters(concrete=Concrete(fck=30e6, fctm=fct), reinforcement=Reinforcement(), As_inner=As,
+                         As_outer=As, axis_distance=a)
+    path = _results(tmp_path / "r.h5", np.full_like(N, n), np.zeros_like(M), V, dD, t)
+    D = np.zeros((2, S))
+    D[1, 3:6] = [0.4, 0.6, 0.5]  # sections 3-5 cracked at the snapshot at 1 s
+    monkeypatch.setattr(lining, "analysis_cracks", lambda path, condition, ring: (np.array([0.0, 1.0]), D))
+    crack = lining.CrackSettings(phi, Ec, 0.3e-3)
+    c = lining.condition_design(path, "static_water", {}, p, crack=crack, bars_in_analysis=True)
+    text = "\n".join(lining.LiningDesign([c], p, "test").summary_lines())
+    row = next(x for x in text.splitlines() if x.startswith("| cracking |"))
+    assert "cracked in the analysis (damage up to 0.6" in row and "3 of 16 sections, from t = 1.000 s" in row, row
+    assert "uncracked" not in row and "two limit states" not in text, text
+    sigma_s, hc = n / (2 * As), min(2.5 * a, H / 2)
+    rho = As / hc
+    eps = max((sigma_s - kt * fct / rho * (1 + Es / Ec * rho)) / Es, 0.6 * sigma_s / Es)
+    w = (3.4 * (a - phi / 2) + 0.8 * 1.0 * 0.425 * phi / rho) * eps
+    seismic, static = c.crack["seismic situation (k_t 0.6, short-term)"], c.crack["static (k_t 0.4, long-term)"]
+    assert seismic.value == pytest.approx(w, rel=1e-9)
+    assert seismic.time == float(t[np.searchsorted(t, 1.0)])
+    assert static.value == 0.0
+    plain = lining.condition_design(path, "static_water", {}, p, crack=crack)
+    assert plain.analysis_crack is None and plain.crack["seismic situation (k_t 0.6, short-term)"].value == 0.0
+    assert "| cracking | 0.69 |" in "\n".join(lining.LiningDesign([plain], p, "test").summary_lines())
+
+
+def test_the_analysis_crack_pattern_is_read_per_section_from_the_snapshots(tmp_path):
+    """analysis_cracks: the lining elements' damage at each field snapshot, the largest per section
+    of the ring (the element nearest each section's angle, the sections' angles from +x towards +z
+    about the ring's centre); cracked_at: a section counts as cracked from the first snapshot that
+    shows its crack. A ring of 16 elements around, damage at the element 11.25° from the crown
+    towards +x only, growing from the snapshot at 1 s: the section there, and no other, from 2 s."""
+    from test_post import _write_results
+
+    a0 = math.radians(11.25)
+    path = _write_results(tmp_path / "results_no_water.h5", t_end=3.0, snaps=(1.0, 2.0, 3.0),
+                          damage_of=lambda a, r, ts: np.where(np.abs(a - a0) < 1e-6, 0.2 * (ts - 1.0), 0.0))
+    ring = SimpleNamespace(centre=(0.0, 0.0), angle=math.pi / 2 - np.radians(11.25 + 22.5 * np.arange(16)))
+    times, D = lining.analysis_cracks(path, "no_water", ring)
+    np.testing.assert_array_equal(times, [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(D[:, 0], [0.0, 0.2, 0.4], rtol=1e-12)
+    assert not D[:, 1:].any()
+    cracked = lining.cracked_at((times, D), np.array([0.5, 1.5, 2.0, 2.5]))
+    np.testing.assert_array_equal(cracked[:, 0], [False, False, True, True])
+    assert not cracked[:, 1:].any()

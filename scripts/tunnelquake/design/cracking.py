@@ -119,8 +119,10 @@ class CrackSection:
         return (lam * np.cos(phi)).reshape(shape), (lam * np.sin(phi)).reshape(shape)
 
     # ---------------------------------------------------------------------------------------
-    def crack_width(self, N, M, kt: float) -> dict:
-        """§7.3.4 at both faces for (N, M) pairs. Returns arrays (broadcast shape): 'w_bottom',
+    def crack_width(self, N, M, kt: float, cracked=None) -> dict:
+        """§7.3.4 at both faces for (N, M) pairs. `cracked` (bool, broadcast with N, M; optional):
+        where the section has cracked already (the analysis' own crack pattern), it is taken as
+        cracked whatever its uncracked stress. Returns arrays (broadcast shape): 'w_bottom',
         'w_top' (m; 0 where the face's bars are not stretched or the section is uncracked),
         'eps_s_bottom', 'eps_s_top' (the bars' stretch, tension positive), 'sigma_s_bottom',
         'sigma_s_top' (Pa), 'x' (depth of the compression zone from its face, m)."""
@@ -128,7 +130,7 @@ class CrackSection:
         h, b = self.h, self.b
         et, eb = self.strains(N, M)
         sigma_unc = np.abs(M) / (b * h * h / 6) - N / (b * h)  # the uncracked section's tension
-        cracked = sigma_unc > self.fct_eff
+        cracked = sigma_unc > self.fct_eff if cracked is None else (sigma_unc > self.fct_eff) | np.asarray(cracked, bool)
         out = {}
         alpha_e = self.Es / self.Ec
         for face, As, a, e_face, e_other in (("bottom", self.As_bottom, self.a_bottom, eb, et),

@@ -131,6 +131,9 @@ class ConditionDesign:
     # the ring's diameters: direction from the crown (deg) [D], the times [T] and each one's change
     # relative to the seismic start [T, D] (m), for the deformed lining
     diameter: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    # the analysis' own crack pattern (a reinforced_concrete lining): the largest damage D at the
+    # snapshots, its angle, the first snapshot time with a crack, and how many sections have cracked
+    analysis_crack: Extreme | None = None
 
     def governing_time(self) -> float | None:
         """The time of the largest finite utilisation (the summary's governing check), else of the
@@ -190,22 +193,72 @@ def static_state(path: Path, monitors: dict):
     return {q: getattr(r, q)[0].astype(float) for q in ("N", "M", "V")}
 
 
-def _crack_extreme(sec, Nc, Mc, kt, angle, time) -> Extreme:
+def analysis_cracks(path: Path, condition: str, ring) -> tuple[np.ndarray, np.ndarray] | None:
+    """The analysis' own crack pattern at the sections of `ring`: the field snapshots' times [K] and,
+    per snapshot, the largest damage D (a reinforced_concrete lining's concrete cracked in tension;
+    D never decreases) of the middle section's lining elements whose centre lies nearest each
+    section's angle [K, S]. None without snapshots that hold the lining's damage."""
+    import h5py
+
+    from ..post import damage_section, read_condition
+
+    res = read_condition(path, condition)
+    if res.mesh is None or not res.snapshots:
+        return None
+    times, rows = [], []
+    c, conn = res.mesh["coordinates"], res.mesh["connectivity"]
+    with h5py.File(path, "r") as f:  # the damage alone of each snapshot
+        damage = {key: f[f"snapshots/{key}/damage"][...] for key, _ in res.snapshots
+                  if f"snapshots/{key}/damage" in f}
+    for key, t in res.snapshots:
+        if key not in damage:
+            return None
+        _, d, sel = damage_section(res, {"damage": damage[key]})
+        if d.size == 0:
+            return None
+        ctr = c[conn[sel]].mean(axis=1)
+        th = np.arctan2(ctr[:, 2] - ring.centre[1], ctr[:, 0] - ring.centre[0])  # as the sections' angles
+        j = np.argmin(np.abs((th[:, None] - ring.angle[None, :] + np.pi) % (2 * np.pi) - np.pi), axis=1)
+        per = np.zeros(ring.angle.size)
+        np.maximum.at(per, j, np.asarray(d, float))
+        times.append(t)
+        rows.append(per)
+    return np.asarray(times), np.asarray(rows)
+
+
+def cracked_at(cracks: tuple[np.ndarray, np.ndarray], time: np.ndarray) -> np.ndarray:
+    """[T, S]: whether each section had cracked in the analysis by each sample time, as the latest
+    field snapshot at or before it records (a crack between two snapshots counts from the later)."""
+    times, D = cracks
+    k = np.searchsorted(times, np.asarray(time, float) + 1e-9 * max(1.0, float(np.max(times))), side="right") - 1
+    out = np.zeros((np.size(time), D.shape[1]), bool)
+    ok = k >= 0
+    out[ok] = D[k[ok]] > 0
+    return out
+
+
+def _crack_extreme(sec, Nc, Mc, kt, angle, time, cracked=None) -> Extreme:
     from .cracking import CrackSection  # noqa: F401 - sec is one
 
-    w = sec.crack_width(Nc, Mc, kt)
+    w = sec.crack_width(Nc, Mc, kt, cracked)
     both = np.stack([w["w_bottom"], w["w_top"]])
     f, i, j = np.unravel_index(int(np.argmax(both)), both.shape)
+    if not both[f, i, j] > 0:  # why there is none
+        return Extreme(0.0, 0.0, 0.0, "no stretched bars at a cracked section" if cracked is not None and
+                       np.any(cracked) else "uncracked: σ_t ≤ f_ctm")
     return Extreme(float(both[f, i, j]), float(crown_angle(angle[j])), float(time[i]),
                    "inner face" if f == 0 else "outer face")
 
 
 def condition_design(path: Path, condition: str, monitors: dict, params: DesignParameters | None,
                      combination: Combination | None = None, dry: dict | None = None,
-                     crack: CrackSettings | None = None, skipped: str = "") -> ConditionDesign | None:
+                     crack: CrackSettings | None = None, skipped: str = "",
+                     bars_in_analysis: bool = False) -> ConditionDesign | None:
     """The designer's quantities of one condition's ring forces. `params` None: forces only (the
     checks skipped, `skipped` says why). `dry`: the no-water condition's static state (static_state)
-    to split the static state into G and water for the combination."""
+    to split the static state into G and water for the combination. `bars_in_analysis`: the lining
+    is reinforced_concrete, so its crack pattern (analysis_cracks) says where it has cracked: there the
+    cracking check reports the crack and the crack width takes the section as cracked."""
     from ..ring_forces import read_ring_forces
 
     rings = [r for r in read_ring_forces(path) if r.time.size > 0 and r.N.size > 0]
@@ -256,6 +309,14 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
                                                                 float(r.time[i]))
         checks = params.concrete_checks(Nc, Mc, h)
         util["cracking"] = _extreme(checks["cracking"].utilisation, r.angle, r.time, True)
+        cracks = analysis_cracks(path, condition, r) if bars_in_analysis else None
+        mask = None
+        if cracks is not None and float(np.max(cracks[1])) > 0:
+            k, j = np.unravel_index(int(np.argmax(cracks[1])), cracks[1].shape)
+            first = int(np.argmax(np.any(cracks[1] > 0, axis=1)))
+            out.analysis_crack = Extreme(float(cracks[1][k, j]), float(crown_angle(r.angle[j])), float(cracks[0][first]),
+                                         f"{int(np.count_nonzero(cracks[1][-1] > 0))} of {r.angle.size} sections")
+            mask = cracked_at(cracks, r.time)
         if crack is None:
             out.skipped.append("crack width skipped: no design.reinforcement.bar_diameter")
         else:
@@ -267,9 +328,10 @@ def condition_design(path: Path, condition: str, monitors: dict, params: DesignP
             s0 = {q: des[q][:1] for q in ("N", "M")}
             try:
                 out.crack["static (k_t 0.4, long-term)"] = _crack_extreme(cs, -s0["N"], s0["M"], KT_LONG, r.angle,
-                                                                          r.time[:1])
+                                                                          r.time[:1],
+                                                                          None if mask is None else mask[:1])
                 out.crack["seismic situation (k_t 0.6, short-term)"] = _crack_extreme(cs, Nc, Mc, KT_SHORT, r.angle,
-                                                                                      r.time)
+                                                                                      r.time, mask)
             except ValueError as e:  # a section the cracked analysis cannot take: said, the rest kept
                 out.crack.clear()
                 out.skipped.append(f"crack width not computed: {e}")
@@ -409,7 +471,11 @@ class LiningDesign:
         """(check, value, where, when, verdict, note) rows of one condition."""
         rows = []
         for name, e in c.utilisation.items():
-            if name == "cracking":
+            if name == "cracking" and c.analysis_crack is not None:
+                a = c.analysis_crack
+                verdict = (f"cracked in the analysis (damage up to {a.value:.2g} at {a.angle + 0.0:.0f}°, {a.where}, "
+                           f"from t = {a.time:.3f} s)")
+            elif name == "cracking":
                 verdict = "cracks (serviceability)" if e.value > 1 else "uncracked"
             else:
                 verdict = _verdict(e.value)
@@ -418,7 +484,7 @@ class LiningDesign:
         for name, e in c.crack.items():
             lim = c.crack_limit
             if e.value == 0:
-                rows.append((f"crack width, {name}", "0 (uncracked: σ_t ≤ f_ctm)", "", "", "passes", ""))
+                rows.append((f"crack width, {name}", f"0 ({e.where})", "", "", "passes", ""))
                 continue
             verdict = (_verdict(e.value / lim) if lim else "no limit given (design.crack_width_limit)")
             rows.append((f"crack width, {name}", f"{e.value * 1e3:.3g} mm" + (f" ({e.value / lim:.3g} of "
@@ -481,7 +547,7 @@ class LiningDesign:
         """Why a failing reinforced M–N row and an 'uncracked' cracking row are no contradiction."""
         mn = next((e for k, e in c.utilisation.items() if k.startswith("reinforced M–N")), None)
         cr = c.utilisation.get("cracking")
-        if mn is None or cr is None or not mn.value > 1 or cr.value > 1:
+        if mn is None or cr is None or not mn.value > 1 or cr.value > 1 or c.analysis_crack is not None:
             return ""
         return (f"The reinforced M–N check fails ({mn.value:.3g} at {mn.angle:.0f}°, t = {mn.time:.3f} s) where the "
                 f"cracking check finds the section uncracked ({cr.value:.3g}): two limit states, not a contradiction. "
@@ -595,7 +661,8 @@ def lining_design(case, results) -> LiningDesign | None:
     done, missing = [], []
     for res in results:
         c = condition_design(Path(res.path), res.condition, monitors, params, combination, dry, crack,
-                             skipped=source if params is None else "")
+                             skipped=source if params is None else "",
+                             bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
         if c is None:
             from ..ring_forces import ring_forces_note
 

@@ -236,6 +236,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   for (auto& s : total_ ? offset_ : strain_) s.assign(nChunks * kChunk, 0.0);
   for (size_t h = 0; h < material_->historyNames().size(); ++h) history_.emplace_back(E, 0.0);
   for (auto& h : history_) historyPtr_.push_back(h.data());
+  hgHistory_ = full ? -1 : material_->hourglassScaleHistory();
   for (size_t e = 0; e < E; ++e) {
     const Index me = meshElems_[e];
     Real x[3][8];
@@ -492,6 +493,15 @@ inline __attribute__((always_inline)) void hourglassStiffness(const HourglassMod
   Qh[2][3] = V9 * (lp2m * s2 + mu * (s0 + s1)) * qh[2][3];
 }
 
+/// Qh × the material's per-element factor on the hourglass stiffness.
+template <class V>
+inline __attribute__((always_inline)) void scaleHourglass(V factor, V Qh[3][4]) {
+#pragma GCC unroll 3
+  for (int k = 0; k < 3; ++k)
+#pragma GCC unroll 4
+    for (int a = 0; a < 4; ++a) Qh[k][a] *= factor;
+}
+
 /// Load component `comp` of the lanes l..l+3 of a chunk-SoA array (kChunk values per component).
 template <class V>
 inline __attribute__((always_inline)) V geov(const Real* G, int comp, Index l) {
@@ -591,6 +601,7 @@ struct ElementBlock::ChunkView {
   const Material* material;
   Index n;  // elements in the chunk
   HourglassModuli hm;
+  const Real* hgFactor;  // [n] the material's factor on each element's hourglass stiffness, or null
   Real beta, dt, dtLast;
   // The next chunk's streams, prefetched into L2 while this one computes (null for the last):
   // geometry, strain and stress, connectivity.
@@ -639,6 +650,11 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   alignas(64) Real Qg[12][W];
   alignas(64) Real ws[W], eh[W], wd[W];
   const HourglassModuli& hm = cv.hm;
+  alignas(64) Real hf[W];
+  if (cv.hgFactor) {
+    for (Index l = 0; l < n; ++l) hf[l] = cv.hgFactor[l];
+    for (Index l = n; l < nv; ++l) hf[l] = 1;
+  }
   for (Index l = 0; l < nv; l += kLanes) {
     V actv;
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
@@ -684,6 +700,7 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     hourglassModes(ug, G, l, L, qh);
     const V ia[3] = {geov<V>(G, kGIa, l), geov<V>(G, kGIa + 1, l), geov<V>(G, kGIa + 2, l)};
     hourglassStiffness(hm, vol, ia, qh, Qh);
+    if (cv.hgFactor) scaleHourglass(loadv<V>(hf + l), Qh);
     V ehg = zero;
 #pragma GCC unroll 3
     for (int k = 0; k < 3; ++k)
@@ -702,6 +719,7 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
       }
       hourglassModes(vg, G, l, Lv, qdh);
       hourglassStiffness(hm, vol, ia, qdh, Qdh);
+      if (cv.hgFactor) scaleHourglass(loadv<V>(hf + l), Qdh);
       V pd = zero;
 #pragma GCC unroll 3
       for (int k = 0; k < 3; ++k)
@@ -866,6 +884,7 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   cv.material = material_.get();
   cv.n = std::min(kChunk, nElems_ - e0);
   cv.hm = HourglassModuli{mod_.lambda, mod_.mu, mod_.pModulus(), nuBar_, hgScale_};
+  cv.hgFactor = hgHistory_ >= 0 ? historyPtr_[size_t(hgHistory_)] + e0 : nullptr;
   cv.beta = p.beta;
   cv.dt = p.dt;
   cv.dtLast = p.dtLast;
@@ -1042,6 +1061,7 @@ void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {
   const V2 ia[3] = {geov<V2>(G, kGIa, l), geov<V2>(G, kGIa + 1, l), geov<V2>(G, kGIa + 2, l)};
   const V2 vol = geov<V2>(G, kGVol, l);
   hourglassStiffness(HourglassModuli{lam, mu, mod_.pModulus(), nuBar_, hgScale_}, vol, ia, qh, Qh);
+  if (hgHistory_ >= 0) scaleHourglass(V2{} + history_[size_t(hgHistory_)][size_t(e)], Qh);
   hourglassToGlobal(G, l, Qh, Q);
   cornerForces(G, l, vol, s, Q, F);
   for (int k = 0; k < 24; ++k) f[k] = F[k][lane];

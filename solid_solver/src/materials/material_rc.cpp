@@ -214,7 +214,8 @@ std::vector<std::string> ReinforcedConcreteMaterial::historyNames() const {
           "face_row_outer",
           "section_share_hoop",
           "section_share_axial",
-          "damage"};
+          "damage",
+          "hourglass_scale"};
 }
 
 namespace {
@@ -269,6 +270,7 @@ void ReinforcedConcreteMaterial::initHistory(Index count, const Real* const cent
     h[rc_history::kStiffeningAxial][e] =
         rc_law::stiffeningRatio(params_, r, params_.asInnerAxial, params_.asOuterAxial);
     h[rc_history::kBandFractionHoop][e] = h[rc_history::kBandFractionAxial][e] = rc_law::bandFraction(params_, r);
+    h[rc_history::kHourglassScale][e] = 1;
   }
   // A single element (re-activated) leaves its face rows to blockPass, which has the whole block.
   if (count > 1) findFaceRows(params_, count, centre, h);
@@ -304,6 +306,7 @@ void ReinforcedConcreteMaterial::blockPass(Index count, const Real* const centre
 void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) const {
   namespace H = rc_history;
   const Real lam = concrete_.lambda, mu = concrete_.mu, twoMu = 2 * mu, E = params_.elastic.youngsModulus;
+  const Real epsCr = params_.fct / E;
   Real* const* h = c.history;
   for (Index e = 0; e < c.count; ++e) {
     Real eps[6];
@@ -342,6 +345,15 @@ void ReinforcedConcreteMaterial::updateStressForElems(const MaterialChunk& c) co
       if (eq > 0 && eMax > params_.fct / E)  // cracked and open: the secant's loss (history-monotone)
         h[H::kDamage][e] = std::max(h[H::kDamage][e], std::clamp(1 - sig / (E * eq), Real(0), Real(1)));
       if (rho > 0) sig += rho * rc_law::steel(params_, epsTotal, h[kPl][e]);
+      // The element's secant ratio in this direction, composite stress over the elastic one of
+      // the same strains (concrete and bars), once past the elastic range: its hourglass
+      // stiffness follows it (smallest so far, as the concrete's secant unloading keeps it).
+      if (eMax > epsCr || -eq > epsCr || h[kPl][e] != 0) {
+        const Real elastic = sigElastic + rho * params_.Es * epsTotal;
+        if (std::abs(elastic) > 0)
+          h[H::kHourglassScale][e] =
+              std::min(h[H::kHourglassScale][e], std::clamp(sig / elastic, rc_law::kHourglassFloor, Real(1)));
+      }
       return sig - sigElastic;  // the correction to the elastic stress in this direction
     };
     const Real dT = direction(sigT, epsT, H::kTensionHoop, H::kCompressionHoop, H::kPlasticHoop, H::kRhoHoop,

@@ -185,6 +185,7 @@ class ElementBlock {
   // Constants.
   ElasticModuli mod_;
   Real nuBar_ = 0, hgScale_ = 1;
+  int hgHistory_ = -1;  ///< the material's hourglass factor (history index), -1: elastic hourglass stiffness
   bool total_ = false, hasOffset_ = false;
   // Total form: the internal energy is the complementary energy ½ σ:C⁻¹:σ V of the current
   // stress (equal to the stress work for a linear material); energyShift_ keeps it continuous when

@@ -78,6 +78,10 @@ class Material {
   /// per unit volume (J/m^3, plasticity and damage), or -1 when the material dissipates nothing.
   /// The solver sums V times it for the energy balance's dissipation term.
   virtual int dissipationHistory() const { return -1; }
+  /// Index (into historyNames()) of a per-element factor (0, 1] on the one-point element's
+  /// hourglass stiffness, which the material keeps at its current stiffness relative to
+  /// elasticModuli() (1: elastic), or -1 for none: the hourglass stiffness stays elastic.
+  virtual int hourglassScaleHistory() const { return -1; }
   /// True when σ = C ε exactly (lets the fully integrated reference element be used).
   virtual bool isLinearElastic() const { return false; }
   /// Retardation time τ (s) of a viscous stress τ C:ε̇ the material adds to its elastic one (the

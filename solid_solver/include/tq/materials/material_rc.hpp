@@ -65,12 +65,17 @@ enum : int {
   kSectionShareAxial,  ///< axial
   kDamage,  ///< "damage": the concrete's largest loss of secant stiffness in tension, 1 − σ_c/(E e) (0 uncracked; the
             ///< crack pattern)
+  kHourglassScale,  ///< the element's smallest composite secant ratio σ/σ_elastic over both directions (1 elastic):
+                    ///< the factor on its hourglass stiffness
   kCount
 };
 }  // namespace rc_history
 
 /// The element-level laws, public for the tests and the section integration.
 namespace rc_law {
+/// The smallest factor on an element's hourglass stiffness (a crushed or open-cracked element
+/// keeps this much of it, so that its hourglass modes keep some stiffness).
+constexpr Real kHourglassFloor = 0.05;
 /// Concrete's uniaxial stress (Pa, tension positive) at equivalent uniaxial strain e with the
 /// loading memory (largest tension eMax ≥ 0, largest compression eMinAbs ≥ 0 reached, including
 /// this e); rho: the steel ratio of the element in that direction (0: plain softening).
@@ -112,6 +117,8 @@ class ReinforcedConcreteMaterial final : public Material {
   std::vector<std::string> historyNames() const override;
   void initHistory(Index count, const Real* const centre[3], Real* const* history) const override;
   bool hasBlockPass() const override { return true; }
+  /// The hourglass stiffness follows the element's secant stiffness (history kHourglassScale).
+  int hourglassScaleHistory() const override { return rc_history::kHourglassScale; }
   /// Each element's section share s (hoop, axial) from its section's face rows (their strains of
   /// the last update), and from it the element's stiffening ratio and zone fraction. The face rows
   /// are found once (and after an element is re-activated) among the block's elements: the
