@@ -4,10 +4,11 @@ tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
 --distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
 the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
-or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces and snapshots. What does
-not run on ranks yet (the water coupling, the DRM layer of an incident wave, a fault offset, a
-motion along the tunnel's axis, the reinforced_concrete material, subcycling, restart checkpoints)
-is refused by
+or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces, snapshots and restart
+checkpoints (``--resume`` on the same rank count: a checkpoint holds each rank's part of that
+partition). What does not run on ranks yet (the water coupling, the DRM layer of an incident wave,
+a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, subcycling, the
+lining's joints) is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
 runs.
 """
@@ -23,7 +24,7 @@ class RanksError(ValueError):
     """--ranks cannot be honoured: the message says why and what to do."""
 
 
-def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
+def ranks_refusal(case, ranks: int) -> list[str]:
     """What keeps this case from running its solid on `ranks` ranks (empty: it can), each with its fix."""
     if ranks < 1:
         return [f"--ranks {ranks}: give 1 or more"]
@@ -61,9 +62,6 @@ def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
     if shutil.which("mpirun") is None:
         reasons.append("MPI ranks, but mpirun is not installed: install the Debian package openmpi-bin "
                        "(scripts/bootstrap.sh does), or run without --ranks")
-    if resume:
-        reasons.append("--resume (restart checkpoints are not written on ranks): run without --resume, or without "
-                       "--ranks")
     return reasons
 
 

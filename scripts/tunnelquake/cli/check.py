@@ -47,8 +47,8 @@ def main(argv: list[str]) -> int:
         f"at z={g['tunnel_centre_z']:g} m, lining {g['lining_thickness']:g} m; mesh mode {d['mesh']['mode']}")
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
     if args.ranks > 1:
-        say(f"  the solid on {args.ranks} MPI ranks (mpirun, the model partitioned between them; no restart "
-            "checkpoints: docs/architecture.md \"The solid on ranks\")")
+        say(f"  the solid on {args.ranks} MPI ranks (mpirun, the model partitioned between them; restart "
+            f"checkpoints resume on {args.ranks} ranks only: docs/architecture.md \"The solid on ranks\")")
     from ..case import ground_layers
 
     if ground_layers(d):
