@@ -61,14 +61,14 @@ def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text,
 
 
 #: shaking simulated by the resume test, s; a checkpoint every INTERVAL s of it
-END, INTERVAL = 0.3, 0.1
+END, INTERVAL = 0.2, 0.05
 
 
 @needs_mpirun
 def test_a_run_on_ranks_whose_rank_is_killed_resumes_on_its_ranks_bitwise_equal(tmp_path, capsys, monkeypatch):
     """`run --ranks 2` with restart checkpoints, rank 1 killed (SIGKILL, as a lost node: the test hook
     TQ_RANK_FAULT) at 70 % of the shaking: the run stops with the results file's status written and the
-    checkpoint of 0.2 s kept; `run --ranks 2 --resume` continues from it and ends with every dataset and
+    checkpoint of 0.1 s kept; `run --ranks 2 --resume` continues from it and ends with every dataset and
     attribute of the results (all but the wall-clock figures) byte for byte those of the run on 2 ranks
     that was never stopped (reference; tolerance 0: the same partition sums in the same order, so a
     state the checkpoint misses shows as a difference)."""
@@ -104,7 +104,7 @@ def test_a_run_on_ranks_whose_rank_is_killed_resumes_on_its_ranks_bitwise_equal(
 
     assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--resume", "--no-post"]) == 0
     out = capsys.readouterr().out
-    assert "resume: no_water continues from its checkpoint at t = 0.2 s" in out, out[-3000:]
+    assert "resume: no_water continues from its checkpoint at t = 0.1" in out, out[-3000:]
     assert "--checkpoint-dir" in out and "--resume" in out
     assert results_differences(ref / "results" / "results_no_water.h5", res) == []
     assert not (case / "results" / "no_water" / "checkpoint" / "checkpoint.json").exists()

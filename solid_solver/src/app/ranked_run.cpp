@@ -317,6 +317,18 @@ std::string rankRunFingerprint(std::uint64_t runHash, long long ranks) {
   return hex64(ranks > 0 ? fnv1a(&ranks, sizeof ranks, runHash) : runHash);
 }
 
+/// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "": the
+/// manifest names it, and `tunnelquake run --resume` resumes only a checkpoint of today's inputs.
+std::string inputDigest(const std::string& json) {
+  const std::string key = "\"digest\":";
+  size_t p = json.find(key);
+  if (p == std::string::npos) return "";
+  p = json.find_first_not_of(' ', p + key.size());
+  if (p == std::string::npos || json[p] != '"') return "";
+  const size_t e = json.find('"', p + 1);
+  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
+}
+
 /// Restart checkpoints of a run on ranks, in the one-process run's folder and files (tq/io/restart.hpp:
 /// the lock, the manifest written last, the CRC-32 checks, the two kept): each rank saves the state
 /// of its own part (its solver with its elements, nodes and contributors; rank 0 also the results
@@ -331,7 +343,12 @@ class RankCheckpoints {
   /// Collective. Rank 0 opens the folder (its lock) and with --resume checks the checkpoint to go
   /// on from; a refusal is thrown on every rank alike (CheckpointRefusal).
   RankCheckpoints(const RankCommandLine& cl, const SolidInput& in, Real dt, int rank, int size)
-      : rank_(rank), size_(size), resume_(cl.resume), interval_(in.checkpointInterval), next_(in.checkpointInterval) {
+      : rank_(rank),
+        size_(size),
+        resume_(cl.resume),
+        interval_(in.checkpointInterval),
+        next_(in.checkpointInterval),
+        inputs_(inputDigest(in.staged.inputFingerprint)) {
     std::string why;
     int code = 0;
     if (rank == 0) {
@@ -432,6 +449,7 @@ class RankCheckpoints {
       m.step = step;
       m.samples = samples;
       m.fingerprint = fingerprint_;
+      m.inputs = inputs_;
       std::lock_guard<std::mutex> held(lock);
       dir_->write(m, all, writer->path());
     }
@@ -538,7 +556,7 @@ class RankCheckpoints {
   Real interval_, next_;
   long long seq_ = 0, written_ = 0;
   double seconds_ = 0;
-  std::string fingerprint_;
+  std::string inputs_, fingerprint_;
   std::unique_ptr<RestartCheckpoints> dir_;  // rank 0
   CheckpointManifest from_;
   StateArchive archive_;
