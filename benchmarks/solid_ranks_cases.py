@@ -30,8 +30,8 @@ the last bit of their largest magnitude; and the same for the one-process run wi
 --rounds R > 0 also times R rounds of the --configs (default plain:1,ranks:1x1: one rank against
 the one-process run; ranks:1x2,ranks:2x1: 2 ranks x 1 thread against 1 rank x 2 threads), alternated
 within each round: the whole command's CPU time (user + system, mpirun included) and the stepping
-loop's wall time, medians and median ratios to the first configuration. `--ranks ''` skips the
-comparison runs.
+loop's wall time, medians and median ratios to the first configuration; with `--ranks ''` only
+these (no comparison runs).
 """
 from __future__ import annotations
 
@@ -201,6 +201,10 @@ def main(argv: list[str] | None = None) -> int:
     exe = paths.solid_executable()
     cores = len(os.sched_getaffinity(0))
     print(f"{args.scene}: condition {cond}, {args.end} s, mesh {summary.get('elements', summary)}", flush=True)
+    if args.rounds > 0 and not args.ranks:  # timing alone
+        _time_configs(exe, inp, folder, args.configs.split(","), args.rounds, cores)
+        print(machine())
+        return 0
     plain = folder / "plain.h5"
     t = _run(solid_command(exe, inp, plain, 1, 1), folder / "plain.log")
     print(f"one process: {t['wall_s']:.1f} s wall", flush=True)
@@ -211,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     c = _compare(ref, _datasets(generic))
     print(f"one process, generic SIMD path: largest relative difference {c['worst'][0]:.3g} ({c['worst'][1]}), "
           f"accelerations {c['acc'][0]:.3g} ({c['acc'][1]})", flush=True)
-    for n in (int(x) for x in args.ranks.split(",") if x):
+    for n in (int(x) for x in args.ranks.split(",")):
         res = folder / f"ranks{n}.h5"
         cmd = solid_command(exe, inp, res, 1, n, cores) if n > 1 else _one_rank(exe, inp, res, cores)
         t = _run(cmd, folder / f"ranks{n}.log")
