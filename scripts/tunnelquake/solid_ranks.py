@@ -65,6 +65,24 @@ def ranks_refusal(case, ranks: int) -> list[str]:
     return reasons
 
 
+#: Peak memory of tq-solid on ranks: a rank's fixed part (the program and MPI: rank 1 of the example
+#: slice on 2 ranks, 1,464 elements, peaked at 28 MiB), then bytes per solid element from the
+#: 2,000,376-element box on 2 ranks (docs/benchmarks.md "A 2-million-element model on ranks"): a
+#: rank's part (its elements as a solver: rank 0 held 1,811 MiB more than rank 1, the whole model),
+#: the whole mesh and partition every rank reads (the rest of rank 1's 1,170 MiB).
+RANK_BASE_BYTES = 28 * 2**20
+PART_BYTES_PER_ELEMENT = 1811 * 2**20 / 2_000_376
+WHOLE_MESH_BYTES_PER_ELEMENT = (1170 - 28 - 1811 / 2) * 2**20 / 2_000_376
+
+
+def memory_per_rank(solid_elements: int, ranks: int) -> tuple[float, float]:
+    """Estimated peak memory (bytes) of rank 0 and of each other rank of a run of `solid_elements` on
+    `ranks` ranks: every rank its share of the elements and the whole mesh; rank 0 also the whole
+    model it gathers the results into."""
+    other = RANK_BASE_BYTES + solid_elements * (PART_BYTES_PER_ELEMENT / ranks + WHOLE_MESH_BYTES_PER_ELEMENT)
+    return other + solid_elements * PART_BYTES_PER_ELEMENT, other
+
+
 def refusal_message(ranks: int, reasons: list[str]) -> str:
     if ranks < 1:
         return reasons[0]

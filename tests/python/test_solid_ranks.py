@@ -43,6 +43,21 @@ def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case,
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
     assert "the solid on 4 MPI ranks" in captured.out
+    assert "memory on 4 ranks: about " in captured.out and "MiB on each other rank" in captured.out
+
+
+def test_the_memory_per_rank_estimate_is_the_measured_one_and_divides_every_rank_but_0():
+    """memory_per_rank against the 2,000,376-element box on 2 ranks it is measured from
+    (docs/benchmarks.md: rank 0 2,981 MiB, rank 1 1,170 MiB), then on more ranks: the other ranks'
+    share falls as 1/N toward the whole mesh each reads, rank 0 keeps the whole model."""
+    from tunnelquake.solid_ranks import memory_per_rank
+
+    mib = 2.0**20
+    first, other = memory_per_rank(2_000_376, 2)
+    assert first / mib == pytest.approx(2981, abs=1) and other / mib == pytest.approx(1170, abs=1)
+    first8, other8 = memory_per_rank(2_000_376, 8)
+    assert other8 < other and other8 / mib == pytest.approx(1170 - 1811 / 2 + 1811 / 8, abs=1)
+    assert first8 - other8 == pytest.approx(first - other)  # rank 0's mirror: the whole model on any count
 
 
 @needs_mpirun
