@@ -29,14 +29,16 @@ the last bit of their largest magnitude; and the same for the one-process run wi
 
 --rounds R > 0 also times R rounds of the --configs (default plain:1,ranks:1x1: one rank against
 the one-process run; ranks:1x2,ranks:2x1: 2 ranks x 1 thread against 1 rank x 2 threads), alternated
-within each round: the whole command's CPU time (user + system, mpirun included) and the stepping
-loop's wall time, medians and median ratios to the first configuration; with `--ranks ''` only
+within each round: the whole command's CPU time (user + system, mpirun included), tq-solid's own
+(GNU time around the executable, summed over the ranks: mpirun's left out) and the stepping loop's
+wall time, medians and median ratios to the first configuration; with `--ranks ''` only
 these (no comparison runs).
 """
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
 import shutil
 import statistics
@@ -56,6 +58,7 @@ from tunnelquake.solid_input import write_solid_input
 from tunnelquake.solid_ranks import solid_command
 
 ROOT = Path(__file__).resolve().parents[1]
+GNU_TIME = shutil.which("time") or "/usr/bin/time"
 GROUPS = ("/monitors", "/energy", "/interface", "/ring_forces", "/snapshots")
 
 
@@ -247,21 +250,26 @@ def _time_configs(exe, inp, folder: Path, configs: list[str], rounds: int, cores
                 n, _, threads = spec.partition("x")
                 cmd = solid_command(exe, inp, res, int(threads), int(n), cores) if int(n) > 1 else \
                     _one_rank(exe, inp, res, cores, int(threads))
-            t = _run(cmd, folder / f"timed_{kind}_{spec}.log")
+            # tq-solid's own CPU time, each rank's apart from mpirun's: GNU time around the executable
+            at = cmd.index(str(exe))
+            cmd = cmd[:at] + [GNU_TIME, "-f", "tq-solid CPU %U %S"] + cmd[at:]
+            log = folder / f"timed_{kind}_{spec}.log"
+            t = _run(cmd, log)
+            t["solid_cpu_s"] = sum(float(u) + float(v) for u, v in re.findall(r"tq-solid CPU ([0-9.]+) ([0-9.]+)",
+                                                                               log.read_text()))
             with h5py.File(res, "r") as f:
                 t["loop_s"] = float(f["timings"].attrs["wall_s"])
             runs[c].append(t)
-            print(f"round {r + 1} {c}: CPU {t['cpu_s']:.2f} s, stepping loop {t['loop_s']:.2f} s, whole command "
-                  f"{t['wall_s']:.2f} s", flush=True)
+            print(f"round {r + 1} {c}: CPU {t['cpu_s']:.2f} s (tq-solid's own {t['solid_cpu_s']:.2f} s), stepping "
+                  f"loop {t['loop_s']:.2f} s, whole command {t['wall_s']:.2f} s", flush=True)
     first = configs[0]
     for c in configs:
-        cpu = statistics.median(x["cpu_s"] for x in runs[c])
-        loop = statistics.median(x["loop_s"] for x in runs[c])
-        r_cpu = [a["cpu_s"] / b["cpu_s"] for a, b in zip(runs[c], runs[first], strict=True)]
-        r_loop = [a["loop_s"] / b["loop_s"] for a, b in zip(runs[c], runs[first], strict=True)]
-        print(f"  {c}: CPU {cpu:.2f} s, stepping loop {loop:.2f} s (medians of {rounds}); / {first}: CPU "
-              f"{statistics.median(r_cpu):.3f} (rounds {' / '.join(f'{x:.3f}' for x in r_cpu)}), stepping loop "
-              f"{statistics.median(r_loop):.3f} (rounds {' / '.join(f'{x:.3f}' for x in r_loop)})", flush=True)
+        parts = []
+        for key, what in (("cpu_s", "CPU"), ("solid_cpu_s", "tq-solid's own CPU"), ("loop_s", "stepping loop")):
+            ratios = [a[key] / b[key] for a, b in zip(runs[c], runs[first], strict=True)]
+            parts.append(f"{what} {statistics.median(x[key] for x in runs[c]):.2f} s, / {first} "
+                         f"{statistics.median(ratios):.3f} (rounds {' / '.join(f'{x:.3f}' for x in ratios)})")
+        print(f"  {c} (medians of {rounds}): " + "; ".join(parts), flush=True)
 
 
 def _compare_only(folder: Path, ranks: list[int]) -> int:
