@@ -3,7 +3,7 @@
 peak memory of every rank (a benchmark, not a test).
 
 usage: python -m benchmarks.solid_ranks_large FOLDER [--n 126] [--steps 100] [--ranks 2]
-                                              [--threads 1] [--plain]
+                                              [--threads 1] [--samples 10] [--plain]
 
 Writes the elastic box of benchmarks.solid_ranks with n^3 unit hex8 (n = 126: 2,000,376 elements,
 2,048,383 nodes; base fixed, a ramped top load, gravity) through a structured generator (numpy, no
@@ -52,11 +52,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--samples", type=int, default=10,
+                    help="monitor samples over the steps (each gathers every element's state to rank 0)")
     ap.add_argument("--plain", action="store_true", help="also run it as one process for its peak memory")
     args = ap.parse_args(argv)
     exe = paths.solid_executable()
     t0 = time.perf_counter()
-    inp = write_box(args.folder, args.n, args.steps)
+    inp = write_box(args.folder, args.n, args.steps, args.samples)
     mesh_s = time.perf_counter() - t0
     mesh_mb = (args.folder / "mesh.h5").stat().st_size / 2**20
     print(f"{args.n ** 3:,} elements, {(args.n + 1) ** 3:,} nodes: mesh.h5 ({mesh_mb:.0f} MiB) and the input "
