@@ -33,8 +33,9 @@ from tunnelquake.solid_ranks import solid_command
 from tunnelquake.solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
 
-def write_box(folder: Path, n: int, steps: int) -> Path:
-    """mesh.h5 and solid_input.h5 of the n^3 box (1 m elements, rock E 8 GPa); `steps` steps."""
+def write_box(folder: Path, n: int, steps: int, samples: int = 10) -> Path:
+    """mesh.h5 and solid_input.h5 of the n^3 box (1 m elements, rock E 8 GPa); `steps` steps, the
+    monitors sampled `samples` times over them."""
     folder.mkdir(parents=True, exist_ok=True)
     g = np.arange(n + 1, dtype=float)
     z, y, x = np.meshgrid(g, g, g, indexing="ij")
@@ -88,7 +89,7 @@ def write_box(folder: Path, n: int, steps: int) -> Path:
         put(mo, "/monitors", "names", np.array(["top", "middle"], dtype=h5py.string_dtype()))
         put(mo, "/monitors", "points", np.array([[n / 2, n / 2, n], [n / 2, n / 2, n / 2]], dtype=float))
         o = f.create_group("output")
-        put(o, "/output", "monitor_dt", steps * dt / 10)
+        put(o, "/output", "monitor_dt", steps * dt / samples)
         put(o, "/output", "progress_s", 1e9)
         write_schema(f)
     return out

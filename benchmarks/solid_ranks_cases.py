@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Staged cases on MPI ranks against one process (a measurement, not a test).
 
-usage: python -m benchmarks.solid_ranks_cases FOLDER [--scene slice|scene3d] [--end 1.0]
-                                              [--ranks 1,2,3,4,8] [--rounds 0] [--compare-only]
+usage: python -m benchmarks.solid_ranks_cases FOLDER [--scene slice|scene3d|example3d] [--end 1.0]
+                                              [--ranks 1,2,3,4,8] [--rounds 0] [--configs ...]
+                                              [--compare-only]
 
 Writes one condition's solid input through the product (`tunnelquake` meshing, motion and
 solid_input.write_solid_input), runs tq-solid on it as one process, then under
@@ -23,13 +24,21 @@ the last bit of their largest magnitude; and the same for the one-process run wi
                the dynamic contact with 0.01 MPa cohesion and friction 0.05 (pairs slip), condition
                static_water (the hydrostatic stage)
 
---rounds R > 0 also times R rounds of one rank against the one-process run (the whole command's
-CPU time, user + system, mpirun included) and prints the median ratio.
+    example3d  the example's 3D model (cases/paper_tunnel, mesh mode 3d: 80 m long), condition
+               no_water, without the `3d` variant's subcycling (not on ranks)
+
+--rounds R > 0 also times R rounds of the --configs (default plain:1,ranks:1x1: one rank against
+the one-process run; ranks:1x2,ranks:2x1: 2 ranks x 1 thread against 1 rank x 2 threads), alternated
+within each round: the whole command's CPU time (user + system, mpirun included), tq-solid's own
+(GNU time around the executable, summed over the ranks: mpirun's left out) and the stepping loop's
+wall time, medians and median ratios to the first configuration; with `--ranks ''` only
+these (no comparison runs).
 """
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
 import shutil
 import statistics
@@ -49,6 +58,7 @@ from tunnelquake.solid_input import write_solid_input
 from tunnelquake.solid_ranks import solid_command
 
 ROOT = Path(__file__).resolve().parents[1]
+GNU_TIME = shutil.which("time") or "/usr/bin/time"
 GROUPS = ("/monitors", "/energy", "/interface", "/ring_forces", "/snapshots")
 
 
@@ -79,8 +89,14 @@ def _scene(name: str, folder: Path, end: float) -> tuple[Path, str]:
         for m in data["output"]["monitors"].values():
             m[1] = 1.5
         cond = "static_water"
+    elif name == "example3d":
+        src = ROOT / "cases" / "paper_tunnel" / "case.yaml"
+        data = yaml.safe_load(src.read_text())
+        data.pop("variants", None)
+        data["mesh"]["mode"] = "3d"  # the `3d` variant's model, its solid alone (no subcycling on ranks)
+        cond = "no_water"
     else:
-        raise SystemExit(f"unknown scene {name!r}: slice or scene3d")
+        raise SystemExit(f"unknown scene {name!r}: slice, scene3d or example3d")
     gm = data["ground_motion"]
     for g in (gm, gm.get("vertical") or {}, gm.get("second_horizontal") or {}):
         if "file" in g:
@@ -173,6 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--end", type=float, default=1.0, help="seconds of shaking")
     ap.add_argument("--ranks", default="1,2,3,4,8")
     ap.add_argument("--rounds", type=int, default=0)
+    ap.add_argument("--configs", default="plain:1,ranks:1x1",
+                    help="what --rounds times: plain:T (one process, T threads), ranks:RxT (R ranks x T threads)")
     ap.add_argument("--compare-only", action="store_true", help="compare the results files already in FOLDER")
     args = ap.parse_args(argv)
     if args.compare_only:
@@ -186,6 +204,10 @@ def main(argv: list[str] | None = None) -> int:
     exe = paths.solid_executable()
     cores = len(os.sched_getaffinity(0))
     print(f"{args.scene}: condition {cond}, {args.end} s, mesh {summary.get('elements', summary)}", flush=True)
+    if args.rounds > 0 and not args.ranks:  # timing alone
+        _time_configs(exe, inp, folder, args.configs.split(","), args.rounds, cores)
+        print(machine())
+        return 0
     plain = folder / "plain.h5"
     t = _run(solid_command(exe, inp, plain, 1, 1), folder / "plain.log")
     print(f"one process: {t['wall_s']:.1f} s wall", flush=True)
@@ -208,17 +230,46 @@ def main(argv: list[str] | None = None) -> int:
               f"peak times differing {c['peak_times'][0]} of {c['peak_times'][1]}; frontier copies differ by {mism}; "
               f"{t['wall_s']:.1f} s wall", flush=True)
     if args.rounds > 0:
-        ratios = []
-        for r in range(args.rounds):
-            a = _run(solid_command(exe, inp, plain, 1, 1), folder / "plain.log")
-            b = _run(_one_rank(exe, inp, folder / "ranks1.h5", cores), folder / "ranks1.log")
-            ratios.append(b["cpu_s"] / a["cpu_s"])
-            print(f"round {r + 1}: CPU one process {a['cpu_s']:.2f} s, one rank {b['cpu_s']:.2f} s, "
-                  f"ratio {ratios[-1]:.3f}", flush=True)
-        print(f"one rank / one process (CPU, median of {args.rounds}): {statistics.median(ratios):.3f} "
-              f"(rounds {' / '.join(f'{x:.3f}' for x in ratios)})")
+        _time_configs(exe, inp, folder, args.configs.split(","), args.rounds, cores)
     print(machine())
     return 0
+
+
+def _time_configs(exe, inp, folder: Path, configs: list[str], rounds: int, cores: int) -> None:
+    """Each configuration (plain:T one process with T threads, ranks:RxT R ranks of T threads) run in
+    turn within every round; the CPU time of the whole command (mpirun included) and the stepping
+    loop's wall time (/timings), each configuration's median and its ratio to the first's."""
+    runs: dict[str, list[dict]] = {c: [] for c in configs}
+    for r in range(rounds):
+        for c in configs:
+            kind, _, spec = c.partition(":")
+            res = folder / f"timed_{kind}_{spec}.h5"
+            if kind == "plain":
+                cmd = solid_command(exe, inp, res, int(spec), 1)
+            else:
+                n, _, threads = spec.partition("x")
+                cmd = solid_command(exe, inp, res, int(threads), int(n), cores) if int(n) > 1 else \
+                    _one_rank(exe, inp, res, cores, int(threads))
+            # tq-solid's own CPU time, each rank's apart from mpirun's: GNU time around the executable
+            at = cmd.index(str(exe))
+            cmd = cmd[:at] + [GNU_TIME, "-f", "tq-solid CPU %U %S"] + cmd[at:]
+            log = folder / f"timed_{kind}_{spec}.log"
+            t = _run(cmd, log)
+            t["solid_cpu_s"] = sum(float(u) + float(v) for u, v in re.findall(r"tq-solid CPU ([0-9.]+) ([0-9.]+)",
+                                                                               log.read_text()))
+            with h5py.File(res, "r") as f:
+                t["loop_s"] = float(f["timings"].attrs["wall_s"])
+            runs[c].append(t)
+            print(f"round {r + 1} {c}: CPU {t['cpu_s']:.2f} s (tq-solid's own {t['solid_cpu_s']:.2f} s), stepping "
+                  f"loop {t['loop_s']:.2f} s, whole command {t['wall_s']:.2f} s", flush=True)
+    first = configs[0]
+    for c in configs:
+        parts = []
+        for key, what in (("cpu_s", "CPU"), ("solid_cpu_s", "tq-solid's own CPU"), ("loop_s", "stepping loop")):
+            ratios = [a[key] / b[key] for a, b in zip(runs[c], runs[first], strict=True)]
+            parts.append(f"{what} {statistics.median(x[key] for x in runs[c]):.2f} s, / {first} "
+                         f"{statistics.median(ratios):.3f} (rounds {' / '.join(f'{x:.3f}' for x in ratios)})")
+        print(f"  {c} (medians of {rounds}): " + "; ".join(parts), flush=True)
 
 
 def _compare_only(folder: Path, ranks: list[int]) -> int:
@@ -234,11 +285,11 @@ def _compare_only(folder: Path, ranks: list[int]) -> int:
     return 0
 
 
-def _one_rank(exe, inp, res, cores) -> list[str]:
+def _one_rank(exe, inp, res, cores, threads: int = 1) -> list[str]:
     """mpirun -np 1 tq-solid --distributed (solid_command gives the plain line for one rank)."""
-    cmd = solid_command(exe, inp, res, 1, 2, cores)
+    cmd = solid_command(exe, inp, res, threads, 2, cores)
     cmd[cmd.index("-np") + 1] = "1"
-    if "--oversubscribe" in cmd and cores >= 1:
+    if "--oversubscribe" in cmd and cores >= threads:
         cmd.remove("--oversubscribe")
         i = cmd.index("--bind-to")
         del cmd[i:i + 2]

@@ -82,10 +82,8 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
 
         threads = max(1, threads // ranks)
         cmd = solid_command(paths.solid_executable(), inp, res, threads, ranks)
-        started(cond, res)
-        say(f"condition {cond}: running the solid on {ranks} ranks, no restart checkpoints ({' '.join(cmd)})")
-        return children.run(cmd, env=solid_env()).returncode, res
-    cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
+    else:
+        cmd = [str(paths.solid_executable()), str(inp), "-o", str(res), "--threads", str(threads)]
     if float(case.data["output"]["checkpoint_interval"]) > 0 or resume:
         cmd += ["--checkpoint-dir", str(checkpoint_dir(case, cond))]
     if isinstance(resume, dict):
@@ -95,7 +93,7 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
     if resume:
         cmd += resume_args(resume) if isinstance(resume, dict) else ["--resume"]
     started(cond, res)
-    say(f"condition {cond}: running the solid ({' '.join(cmd)})")
+    say(f"condition {cond}: running the solid{f' on {ranks} ranks' if ranks > 1 else ''} ({' '.join(cmd)})")
     if not prefix:
         return children.run(cmd, env=solid_env()).returncode, res
     # beside another condition: each line of tq-solid's progress says which condition it is

@@ -4,10 +4,11 @@ tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
 --distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
 the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
-or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces and snapshots. What does
-not run on ranks yet (the water coupling, the DRM layer of an incident wave, a fault offset, a
-motion along the tunnel's axis, the reinforced_concrete material, subcycling, restart checkpoints)
-is refused by
+or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces, snapshots and restart
+checkpoints (``--resume`` on the same rank count: a checkpoint holds each rank's part of that
+partition). What does not run on ranks yet (the water coupling, the DRM layer of an incident wave,
+a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, subcycling, the
+lining's joints) is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
 runs.
 """
@@ -23,7 +24,7 @@ class RanksError(ValueError):
     """--ranks cannot be honoured: the message says why and what to do."""
 
 
-def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
+def ranks_refusal(case, ranks: int) -> list[str]:
     """What keeps this case from running its solid on `ranks` ranks (empty: it can), each with its fix."""
     if ranks < 1:
         return [f"--ranks {ranks}: give 1 or more"]
@@ -61,10 +62,25 @@ def ranks_refusal(case, ranks: int, resume: bool = False) -> list[str]:
     if shutil.which("mpirun") is None:
         reasons.append("MPI ranks, but mpirun is not installed: install the Debian package openmpi-bin "
                        "(scripts/bootstrap.sh does), or run without --ranks")
-    if resume:
-        reasons.append("--resume (restart checkpoints are not written on ranks): run without --resume, or without "
-                       "--ranks")
     return reasons
+
+
+#: Peak memory of tq-solid on ranks: a rank's fixed part (the program and MPI: rank 1 of the example
+#: slice on 2 ranks, 1,464 elements, peaked at 28 MiB), then bytes per solid element from the
+#: 2,000,376-element box on 2 ranks (docs/benchmarks.md "A 2-million-element model on ranks"): a
+#: rank's part (its elements as a solver: rank 0 held 1,811 MiB more than rank 1, the whole model),
+#: the whole mesh and partition every rank reads (the rest of rank 1's 1,170 MiB).
+RANK_BASE_BYTES = 28 * 2**20
+PART_BYTES_PER_ELEMENT = 1811 * 2**20 / 2_000_376
+WHOLE_MESH_BYTES_PER_ELEMENT = (1170 - 28 - 1811 / 2) * 2**20 / 2_000_376
+
+
+def memory_per_rank(solid_elements: int, ranks: int) -> tuple[float, float]:
+    """Estimated peak memory (bytes) of rank 0 and of each other rank of a run of `solid_elements` on
+    `ranks` ranks: every rank its share of the elements and the whole mesh; rank 0 also the whole
+    model it gathers the results into."""
+    other = RANK_BASE_BYTES + solid_elements * (PART_BYTES_PER_ELEMENT / ranks + WHOLE_MESH_BYTES_PER_ELEMENT)
+    return other + solid_elements * PART_BYTES_PER_ELEMENT, other
 
 
 def refusal_message(ranks: int, reasons: list[str]) -> str:

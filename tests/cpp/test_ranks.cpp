@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -328,26 +329,12 @@ TEST(RankRuns, AnInstabilityOnOneRankStopsEveryRankWithTheStatusWritten) {
   EXPECT_EQ(h5::readStringAttr(r, "status").rfind("stopped: ", 0), 0u) << h5::readStringAttr(r, "status");
 }
 
-// The staged analysis on ranks: in-situ stress, excavation, the lining installed with the dynamic
-// contact on the rock-lining pairs, then an earthquake through a viscoelastic base and a free-field
-// side, both rock and lining Mohr-Coulomb with damage. A quarter of a lined tunnel (plane strain),
-// small enough for 6 runs in seconds; a strong pulse, a weak interface and weak rock, so that pairs
-// slip or open and the ground yields, and the pairs cross the partition boundaries on 2 and more
-// ranks. Every monitored value (monitors with damage, energy terms, the interface's pair counts and
-// dissipated energy, the lining's ring forces) equals the one-process run to 1e-10 of its series'
-// largest magnitude: the sums that differ from one process are the frontier nodes' internal forces
-// and masses (summed in rank order instead of element order) and the energy terms, so the runs
-// differ by round-off grown over the steps, and a wrong pair force, boundary term or missed copy
-// differs at the level of the quantity itself (a dropped frontier term: order 1). The monitors'
-// accelerations, to 1e-8: each is a velocity increment over one step, Δv/Δt, and the shaking's Δv
-// is small beside the round-off that the prestressed state's highest modes give v (ω_max² ε |u|
-// Δt). Measured here (2, 3, 8 ranks): 6.6e-12, 5.6e-12, 6.3e-12, the accelerations 1.5e-11,
-// 1.1e-11, 1.7e-11; with a 2-element lining and a stricter relaxation the accelerations reached
-// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.2-1.8e-8 between ranks and one process where
-// two one-process runs that differ only in their SIMD path (TQ_SOLID_SIMD=generic) differ by
-// 1.5e-8: the computation's own round-off.
-TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
-  Files f;
+namespace {
+
+// The staged tunnel of the test below (a quarter of a lined tunnel with contact and damage, shaken
+// by a pulse), written to f/solid_input.h5 and f/mesh.h5, with restart checkpoints every
+// `checkpointInterval` s (0: none) and snapshots at `snapshots`; its mesh.
+Mesh writeStagedTunnel(const Files& f, Real checkpointInterval = 0, const std::vector<Real>& snapshots = {}) {
   tqcases::QuarterSpec qs;
   qs.nTheta = 8;
   qs.L = 6 * qs.b;
@@ -399,7 +386,35 @@ TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
                  {"rock", {8.0, 0.25, 8.0}}};
   in.monitorDt = 1e-3;
   in.progressSeconds = 100;
+  in.checkpointInterval = checkpointInterval;
+  in.snapshotTimes = snapshots;
   test::writeInputFile(in, f / "solid_input.h5", "mesh.h5");
+  return mesh;
+}
+
+}  // namespace
+
+// The staged analysis on ranks: in-situ stress, excavation, the lining installed with the dynamic
+// contact on the rock-lining pairs, then an earthquake through a viscoelastic base and a free-field
+// side, both rock and lining Mohr-Coulomb with damage. A quarter of a lined tunnel (plane strain),
+// small enough for 6 runs in seconds; a strong pulse, a weak interface and weak rock, so that pairs
+// slip or open and the ground yields, and the pairs cross the partition boundaries on 2 and more
+// ranks. Every monitored value (monitors with damage, energy terms, the interface's pair counts and
+// dissipated energy, the lining's ring forces) equals the one-process run to 1e-10 of its series'
+// largest magnitude: the sums that differ from one process are the frontier nodes' internal forces
+// and masses (summed in rank order instead of element order) and the energy terms, so the runs
+// differ by round-off grown over the steps, and a wrong pair force, boundary term or missed copy
+// differs at the level of the quantity itself (a dropped frontier term: order 1). The monitors'
+// accelerations, to 1e-8: each is a velocity increment over one step, Δv/Δt, and the shaking's Δv
+// is small beside the round-off that the prestressed state's highest modes give v (ω_max² ε |u|
+// Δt). Measured here (2, 3, 8 ranks): 6.6e-12, 5.6e-12, 6.3e-12, the accelerations 1.5e-11,
+// 1.1e-11, 1.7e-11; with a 2-element lining and a stricter relaxation the accelerations reached
+// 2.3e-10, and on the 3D scene of docs/benchmarks.md 1.2-1.8e-8 between ranks and one process where
+// two one-process runs that differ only in their SIMD path (TQ_SOLID_SIMD=generic) differ by
+// 1.5e-8: the computation's own round-off.
+TEST(RankRuns, StagedTunnelWithContactAndDamageEqualOnOneToEightRanks) {
+  Files f;
+  const Mesh mesh = writeStagedTunnel(f);
   // The pairs cross the partitions: some pair's rock node is used by the elements of other ranks
   // than its lining node (those ranks then hold both, the layout's `together` groups).
   {
@@ -527,6 +542,70 @@ TEST(RankRuns, AKilledRankStopsEveryRankWithTheStatusWritten) {
   EXPECT_EQ(status.rfind("stopped: ", 0), 0u) << status << "\n" << readLog();
   EXPECT_NE(status.find("ended by signal"), std::string::npos) << status;
   EXPECT_GT(h5::readDoubles(r, "/monitors/tip/time").size(), 1u) << "the samples before the kill are kept";
+}
+
+// Restart checkpoints on ranks: the staged tunnel (contact, damage, seismic boundaries) on 3 ranks
+// writes one every 0.01 s. Rank 2 killed (SIGKILL) after 60 % of the steps stops the run with the
+// results file's status written and the last checkpoint kept; a resume on 2 ranks is refused before
+// anything is written, naming the 3 it needs; `--resume` on 3 ranks ends with every history, snapshot
+// and the interface's record bitwise equal to the run that was never stopped (the same rank count:
+// the same partition, the same sums in the same order, and every part's whole state restored).
+TEST(RankRuns, AKilledRankRunResumesOnItsRanksBitwiseEqualToAnUninterruptedRun) {
+  Files f;
+  writeStagedTunnel(f, 0.01, {0.015, 0.035});
+  const std::string exe = TQ_TEST_SOLID_EXE, in = f / "solid_input.h5";
+  const auto command = [&](int ranks, const std::string& out, const std::string& dir, const std::string& extra) {
+    return mpiexec(ranks) + "-x TQ_RANK_FAULT " + exe + " " + in + " --distributed --threads 1 -o " + out +
+           " --checkpoint-dir " + dir + extra;
+  };
+  const auto readLog = [](const std::string& path) {
+    std::ifstream is(path);
+    std::stringstream ss;
+    ss << is.rdbuf();
+    return ss.str();
+  };
+  const std::vector<std::string> groups = {"/monitors", "/energy", "/interface", "/ring_forces", "/snapshots"};
+  ::unsetenv("TQ_RANK_FAULT");
+  ASSERT_EQ(run(command(3, f / "whole.h5", f / "whole_checkpoints", "")), 0);
+  const auto whole = monitored(f / "whole.h5", groups);
+  long long steps = 0;
+  {
+    auto w = h5::openFile(f / "whole.h5");
+    steps = h5::readIntAttr(h5::openGroup(w, "/timings"), "steps");
+    EXPECT_EQ(h5::readDoubleAttr(h5::openGroup(w, "/timings"), "checkpoints"), 4.0) << "t = 0.01, 0.02, 0.03, 0.04";
+  }
+  ASSERT_GT(steps, 20);
+  EXPECT_FALSE(std::filesystem::exists(f / "whole_checkpoints/checkpoint.json")) << "a completed run keeps none";
+
+  const std::string res = f / "r.h5", dir = f / "checkpoints", log = f / "log.txt";
+  ::setenv("TQ_RANK_FAULT", ("2:" + std::to_string(steps * 6 / 10)).c_str(), 1);
+  const int killed = std::system((command(3, res, dir, "") + " > " + log + " 2>&1").c_str());
+  ::unsetenv("TQ_RANK_FAULT");
+  EXPECT_NE(WEXITSTATUS(killed), 0) << readLog(log);
+  h5::quiet();
+  const auto status = [&] { return h5::readStringAttr(h5::openFile(res), "status"); };
+  EXPECT_EQ(status().rfind("stopped: ", 0), 0u) << status() << "\n" << readLog(log);
+  EXPECT_NE(status().find("ended by signal"), std::string::npos) << status();
+  ASSERT_TRUE(std::filesystem::exists(dir + "/checkpoint.json")) << readLog(log);
+
+  const int other = std::system((command(2, res, dir, " --resume") + " > " + log + " 2>&1").c_str());
+  EXPECT_EQ(WEXITSTATUS(other), 2);
+  EXPECT_NE(readLog(log).find("written by the run on 3 ranks; resume it on 3 ranks (--ranks 3)"), std::string::npos)
+      << readLog(log);
+  EXPECT_EQ(status().rfind("stopped: ", 0), 0u) << "a refused resume left the results file as it was";
+
+  ASSERT_EQ(std::system((command(3, res, dir, " --resume") + " > " + log + " 2>&1").c_str()), 0) << readLog(log);
+  EXPECT_NE(readLog(log).find("resumed from checkpoint 2 at t = 0.02"), std::string::npos) << readLog(log);
+  const auto resumed = monitored(res, groups);
+  ASSERT_EQ(resumed.size(), whole.size());
+  EXPECT_TRUE(whole.count("/snapshots/1/u") || whole.count("/snapshots/1/displacement"))
+      << "the snapshots are compared";
+  for (const auto& [path, x] : whole) {
+    const auto& y = resumed.at(path);
+    ASSERT_EQ(x.size(), y.size()) << path;
+    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(double)), 0)
+        << path << " differs from the uninterrupted run";
+  }
 }
 
 // What does not run on ranks yet is refused before anything runs, by name, with the fix.

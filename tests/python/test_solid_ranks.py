@@ -1,7 +1,8 @@
 """The solid on MPI ranks, the Python side: `--ranks N` of `tunnelquake check` and `run` refuses,
 before anything runs, what tq-solid cannot run on ranks yet (the water coupling, an incident wave's
-DRM layer, a fault offset, a motion along the axis, subcycling, --resume), naming it and the fix, and
-accepts the rest (the staged analysis, the seismic boundaries, the dynamic contact, damage); and the
+DRM layer, a fault offset, a motion along the axis, subcycling), naming it and the fix, and accepts
+the rest (the staged analysis, the seismic boundaries, the dynamic contact, damage); a run on ranks
+killed mid-run and resumed on its ranks (`--resume`) ends as the run never stopped; and the
 mpirun command line of a run on ranks (oversubscribed only where the cores are short). The ranks
 themselves are tested in tests/cpp/test_ranks.cpp (tq-solid on 1-8 ranks against one process,
 the staged tunnel with contact and damage among them)."""
@@ -42,6 +43,21 @@ def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case,
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
     assert "the solid on 4 MPI ranks" in captured.out
+    assert "memory on 4 ranks: about " in captured.out and "MiB on each other rank" in captured.out
+
+
+def test_the_memory_per_rank_estimate_is_the_measured_one_and_divides_every_rank_but_0():
+    """memory_per_rank against the 2,000,376-element box on 2 ranks it is measured from
+    (docs/benchmarks.md: rank 0 2,981 MiB, rank 1 1,170 MiB), then on more ranks: the other ranks'
+    share falls as 1/N toward the whole mesh each reads, rank 0 keeps the whole model."""
+    from tunnelquake.solid_ranks import memory_per_rank
+
+    mib = 2.0**20
+    first, other = memory_per_rank(2_000_376, 2)
+    assert first / mib == pytest.approx(2981, abs=1) and other / mib == pytest.approx(1170, abs=1)
+    first8, other8 = memory_per_rank(2_000_376, 8)
+    assert other8 < other and other8 / mib == pytest.approx(1170 - 1811 / 2 + 1811 / 8, abs=1)
+    assert first8 - other8 == pytest.approx(first - other)  # rank 0's mirror: the whole model on any count
 
 
 @needs_mpirun
@@ -59,12 +75,54 @@ def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text,
     assert named in err and "without --ranks" in err, err
 
 
+#: shaking simulated by the resume test, s; a checkpoint every INTERVAL s of it
+END, INTERVAL = 0.2, 0.05
+
+
 @needs_mpirun
-def test_resume_is_refused_on_ranks(write_case, example_text, capsys):
-    case = write_case(example_text.replace("conditions: [no_water, static_water, dynamic_water]",
-                                           "conditions: [no_water]"))
-    assert main(["run", str(case), "--ranks", "2", "--resume"]) == 1
-    assert "--resume (restart checkpoints are not written on ranks)" in capsys.readouterr().err
+def test_a_run_on_ranks_whose_rank_is_killed_resumes_on_its_ranks_bitwise_equal(tmp_path, capsys, monkeypatch):
+    """`run --ranks 2` with restart checkpoints, rank 1 killed (SIGKILL, as a lost node: the test hook
+    TQ_RANK_FAULT) at 70 % of the shaking: the run stops with the results file's status written and the
+    checkpoint of 0.1 s kept; `run --ranks 2 --resume` continues from it and ends with every dataset and
+    attribute of the results (all but the wall-clock figures) byte for byte those of the run on 2 ranks
+    that was never stopped (reference; tolerance 0: the same partition sums in the same order, so a
+    state the checkpoint misses shows as a difference)."""
+    import h5py
+
+    from tunnelquake.compare import results_differences
+
+    text = "\n".join("conditions: [no_water]" if ln.startswith("conditions:") else ln
+                     for ln in EXAMPLE.read_text().splitlines())
+    text = text.replace("output:\n", f"output:\n  checkpoint_interval: {INTERVAL} s\n", 1)
+    text += f"\ntime:\n  end_time: {END} s\n"
+    ref = tmp_path / "reference"
+    ref.mkdir()
+    (ref / "case.yaml").write_text(text)
+    assert main(["run", str(ref / "case.yaml"), "--ranks", "2", "--no-post"]) == 0
+    with h5py.File(ref / "results" / "results_no_water.h5", "r") as f:
+        steps = int(f["timings"].attrs["steps"])
+    case = tmp_path / "case"
+    (case / "results").mkdir(parents=True)
+    (case / "case.yaml").write_text(text)
+    shutil.copytree(ref / "results" / "mesh", case / "results" / "mesh")
+    shutil.copy(ref / "results" / "motion.h5", case / "results" / "motion.h5")
+    capsys.readouterr()
+
+    monkeypatch.setenv("TQ_RANK_FAULT", f"1:{int(0.7 * steps)}")
+    assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--no-post"]) != 0
+    monkeypatch.delenv("TQ_RANK_FAULT")
+    res = case / "results" / "results_no_water.h5"
+    with h5py.File(res, "r") as f:
+        status = f.attrs["status"]
+    assert status.startswith("stopped: the run on ranks was ended by signal"), status
+    capsys.readouterr()
+
+    assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--resume", "--no-post"]) == 0
+    out = capsys.readouterr().out
+    assert "resume: no_water continues from its checkpoint at t = 0.1" in out, out[-3000:]
+    assert "--checkpoint-dir" in out and "--resume" in out
+    assert results_differences(ref / "results" / "results_no_water.h5", res) == []
+    assert not (case / "results" / "no_water" / "checkpoint" / "checkpoint.json").exists()
 
 
 def test_ranks_below_one_are_refused(capsys):

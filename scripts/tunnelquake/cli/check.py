@@ -24,6 +24,21 @@ def mesh_estimate(d: dict) -> str:
             f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{machine}")
 
 
+def ranks_memory(d: dict, ranks: int) -> str:
+    """One line: the estimated peak memory of rank 0 and of each other rank of the solid on `ranks` ranks
+    (tunnelquake.solid_ranks.memory_per_rank, measured on a 2-million-element model)."""
+    from ..case import case_geology, ground_layers
+    from ..meshing.params import element_counts, resolve
+    from ..solid_ranks import memory_per_rank
+
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    first, other = memory_per_rank(counts["rock"] + counts["lining"], ranks)
+    mib = 2.0**20
+    return (f"memory on {ranks} ranks: about {first / mib:,.0f} MiB on rank 0 (its part and the whole model the "
+            f"results are gathered into), {other / mib:,.0f} MiB on each other rank (docs/benchmarks.md \"A "
+            "2-million-element model on ranks\")")
+
+
 def main(argv: list[str]) -> int:
     p = parser("check", __doc__)
     add_ranks_argument(p)
@@ -47,8 +62,9 @@ def main(argv: list[str]) -> int:
         f"at z={g['tunnel_centre_z']:g} m, lining {g['lining_thickness']:g} m; mesh mode {d['mesh']['mode']}")
     say(f"  materials: {', '.join(d['materials'])}; conditions: {', '.join(d['conditions'])}")
     if args.ranks > 1:
-        say(f"  the solid on {args.ranks} MPI ranks (mpirun, the model partitioned between them; no restart "
-            "checkpoints: docs/architecture.md \"The solid on ranks\")")
+        say(f"  the solid on {args.ranks} MPI ranks (mpirun, the model partitioned between them; restart "
+            f"checkpoints resume on {args.ranks} ranks only: docs/architecture.md \"The solid on ranks\")")
+        say(f"  {ranks_memory(d, args.ranks)}")
     from ..case import ground_layers
 
     if ground_layers(d):

@@ -29,11 +29,11 @@ def add_ranks_argument(p: argparse.ArgumentParser) -> None:
                         "docs/architecture.md \"The solid on ranks\" says what runs on ranks)")
 
 
-def refuse_ranks(case: Case, ranks: int, resume: bool = False) -> bool:
+def refuse_ranks(case: Case, ranks: int) -> bool:
     """True (after printing why) when the case cannot run its solid on `ranks` ranks."""
     from ..solid_ranks import ranks_refusal, refusal_message
 
-    reasons = ranks_refusal(case, ranks, resume)
+    reasons = ranks_refusal(case, ranks)
     if reasons:
         print(f"error: {refusal_message(ranks, reasons)}", file=sys.stderr)
     return bool(reasons)
@@ -43,7 +43,7 @@ def load_for_ranks(args: argparse.Namespace) -> Case | None:
     """The case of the command line (args.case, args.variant) when it loads and its solid can run on
     args.ranks ranks; None after printing why not."""
     case = load_or_report(args.case, args.variant)
-    if case is None or refuse_ranks(case, args.ranks, bool(getattr(args, "resume", False))):
+    if case is None or refuse_ranks(case, args.ranks):
         return None
     return case
 

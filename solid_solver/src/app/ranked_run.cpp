@@ -4,7 +4,8 @@
 // nodes' masses and internal forces are summed across the ranks that share them (rank_exchange),
 // the step size, the energies and the norms over every rank. Rank 0 also holds the whole model as
 // a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it,
-// and the serial results writer writes the one results file from it.
+// and the serial results writer writes the one results file from it. Restart checkpoints: each
+// rank saves its part's state, rank 0 gathers them into the one-process run's checkpoint files.
 #include "tq/app/ranked_run.hpp"
 
 #include <hdf5.h>
@@ -12,25 +13,30 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
 #include <pthread.h>
+#include <sys/resource.h>
 #endif
 
 #include "tq/app/stages.hpp"
 #include "tq/contact/contact.hpp"
 #include "tq/io/input.hpp"
+#include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
 #include "tq/materials/registry.hpp"
 #include "tq/parallel/partition.hpp"
@@ -79,8 +85,9 @@ void waitForStop(sigset_t signals) {
 #endif
 
 struct RankCommandLine {
-  std::string input, output = "results.h5";
-  bool check = false;
+  std::string input, output = "results.h5", checkpointDir;
+  bool check = false, resume = false;
+  long long resumeSequence = 0;
 };
 
 int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RankCommandLine& cl) {
@@ -93,20 +100,26 @@ int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err
       cl.check = true;
     } else if (a == "--threads" && i + 1 < args.size()) {
       omp_set_num_threads(std::stoi(args[++i]));
-    } else if (a == "--checkpoint-dir" || a == "--resume" || a == "--resume-sequence") {
-      err << "tq-solid: input error: restart checkpoints (" << a
-          << ") are not supported on ranks yet; run without --ranks to write them\n";
-      return 2;
+    } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
+      cl.checkpointDir = args[++i];
+    } else if (a == "--resume") {
+      cl.resume = true;
+    } else if (a == "--resume-sequence" && i + 1 < args.size()) {
+      cl.resumeSequence = std::stoll(args[++i]);
     } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
       cl.input = a;
     } else {
       err << "tq-solid: unknown argument '" << a << "' (on ranks: tq-solid solid_input.h5 --distributed [-o "
-          << "results.h5] [--threads N] [--check])\n";
+          << "results.h5] [--threads N] [--check] [--checkpoint-dir DIR [--resume [--resume-sequence N]]])\n";
       return 1;
     }
   }
   if (cl.input.empty()) {
     err << "tq-solid: no input file given (tq-solid solid_input.h5 --distributed)\n";
+    return 1;
+  }
+  if (cl.resume && cl.checkpointDir.empty()) {
+    err << "tq-solid: --resume needs --checkpoint-dir (where the checkpoints are)\n";
     return 1;
   }
   return -1;
@@ -268,6 +281,287 @@ class StateGather {
   std::vector<std::pair<ElementBlock*, Index>> mirrorElem_;
 };
 
+/// A run on ranks that cannot start from its checkpoint folder (another tq-solid holds it, nothing
+/// to resume, a checkpoint of another run or rank count): the code and the message, alike on every
+/// rank.
+class CheckpointRefusal : public std::runtime_error {
+ public:
+  CheckpointRefusal(int code, const std::string& why) : std::runtime_error(why), code(code) {}
+  int code;
+};
+
+/// Rank 0's text, on every rank.
+void broadcast(std::string& text) {
+  unsigned long long n = text.size();
+  MPI_Bcast(&n, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+  text.resize(size_t(n));
+  if (n) MPI_Bcast(text.data(), int(n), MPI_CHAR, 0, MPI_COMM_WORLD);
+}
+
+/// What a checkpoint of a run on ranks belongs to: the bytes of the input and mesh files, the step
+/// and the end (as the one-process run's fingerprint), then the rank count (rankRunFingerprint).
+std::uint64_t runHash(const SolidInput& in, Real dt) {
+  std::uint64_t h = fnv1a(nullptr, 0);
+  for (const std::string& path : {in.path, in.meshPath}) {
+    std::ifstream is(path, std::ios::binary);
+    std::vector<char> buf(1 << 16);
+    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+      h = fnv1a(buf.data(), size_t(is.gcount()), h);
+  }
+  const Real numbers[2] = {dt, in.tEnd};
+  return fnv1a(numbers, sizeof numbers, h);
+}
+/// The fingerprint of the run on `ranks` ranks (0: the one-process run's own, to say so when a
+/// resume meets one).
+std::string rankRunFingerprint(std::uint64_t runHash, long long ranks) {
+  return hex64(ranks > 0 ? fnv1a(&ranks, sizeof ranks, runHash) : runHash);
+}
+
+/// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "": the
+/// manifest names it, and `tunnelquake run --resume` resumes only a checkpoint of today's inputs.
+std::string inputDigest(const std::string& json) {
+  const std::string key = "\"digest\":";
+  size_t p = json.find(key);
+  if (p == std::string::npos) return "";
+  p = json.find_first_not_of(' ', p + key.size());
+  if (p == std::string::npos || json[p] != '"') return "";
+  const size_t e = json.find('"', p + 1);
+  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
+}
+
+/// Restart checkpoints of a run on ranks, in the one-process run's folder and files (tq/io/restart.hpp:
+/// the lock, the manifest written last, the CRC-32 checks, the two kept): each rank saves the state
+/// of its own part (its solver with its elements, nodes and contributors; rank 0 also the results
+/// writer's), rank 0 gathers the parts and writes them as the one state file, a header naming the
+/// rank count first, then the bytes of rank 0, 1, ... A resume reads that file on rank 0 and hands
+/// each rank its part. Resumable on the same rank count only: a part is its rank's elements and
+/// nodes in that partition's numbering.
+class RankCheckpoints {
+ public:
+  using State = std::function<void(StateArchive&)>;
+
+  /// Collective. Rank 0 opens the folder (its lock) and with --resume checks the checkpoint to go
+  /// on from; a refusal is thrown on every rank alike (CheckpointRefusal).
+  RankCheckpoints(const RankCommandLine& cl, const SolidInput& in, Real dt, int rank, int size)
+      : rank_(rank),
+        size_(size),
+        resume_(cl.resume),
+        interval_(in.checkpointInterval),
+        next_(in.checkpointInterval),
+        inputs_(inputDigest(in.staged.inputFingerprint)) {
+    std::string why;
+    int code = 0;
+    if (rank == 0) {
+      const std::uint64_t hash = runHash(in, dt);
+      fingerprint_ = rankRunFingerprint(hash, size);
+      try {
+        dir_ = std::make_unique<RestartCheckpoints>(cl.checkpointDir);
+        dir_->setKeep(2);  // a resume falls back to the one before the last when the last is damaged
+        if (resume_) {
+          if (!dir_->last(from_, why, cl.resumeSequence)) {
+            why = "cannot resume: " + why;
+          } else if (from_.fingerprint != fingerprint_) {
+            std::ostringstream os;
+            os << "cannot resume from " << dir_->dir() << ": its checkpoint (t = " << from_.time << " s) ";
+            long long other = 0;
+            for (long long k = 1; k <= 4096 && !other; ++k)
+              if (k != size && rankRunFingerprint(hash, k) == from_.fingerprint) other = k;
+            if (other > 0)
+              os << "was written by the run on " << other << " ranks; resume it on " << other << " ranks (--ranks "
+                 << other << "): a checkpoint holds each rank's part of that partition";
+            else if (rankRunFingerprint(hash, 0) == from_.fingerprint)
+              os << "was written by the run as one process; resume it without --ranks";
+            else
+              os << "was written for another input (the case, its mesh or its motion changed since, or this is "
+                    "another build of tq-solid: fingerprint "
+                 << from_.fingerprint << ", this run " << fingerprint_ << "); run without --resume to start again";
+            why = os.str();
+          }
+          if (!why.empty()) code = 2;
+        }
+      } catch (const InputError& e) {
+        why = e.what(), code = 2;
+      } catch (const OutputError& e) {
+        why = e.what(), code = 5;
+      }
+    }
+    MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    broadcast(why);
+    if (code) throw CheckpointRefusal(code, why);
+  }
+
+  bool resuming() const { return resume_; }
+  const CheckpointManifest& from() const { return from_; }
+  long long written() const { return written_; }
+  double seconds() const { return seconds_; }
+
+  /// The checkpoint's own counters, in every rank's state.
+  void io(StateArchive& a) {
+    a.io(next_);
+    a.io(seq_);
+  }
+
+  /// A fresh start: the folder's earlier checkpoints removed (rank 0).
+  void clear() const {
+    if (dir_) dir_->clear();
+  }
+  /// The results are whole: nothing left to resume.
+  void completed() const { clear(); }
+
+  /// Due at the end of the step to `t` (every rank alike: the same t on all of them).
+  bool due(Real t, Real dt, Real tEnd) const { return interval_ > 0 && t >= next_ - 1e-9 * dt && t < tEnd - 1e-9 * dt; }
+
+  /// Collective: every rank's state saved (`state`; rank 0's under `lock`, with the results file
+  /// flushed first), gathered and written by rank 0 with a copy of the results file.
+  void write(Real t, Real dt, long long step, const State& state, ResultsWriter* writer, std::mutex& lock) {
+    const auto c0 = std::chrono::steady_clock::now();
+    while (t >= next_ - 1e-9 * dt) next_ += interval_;
+    ++seq_;
+    std::string mine;
+    long long samples = 0;
+    {
+      std::unique_lock<std::mutex> held(lock, std::defer_lock);
+      if (rank_ == 0) held.lock();
+      if (writer) {
+        writer->flush();
+        samples = writer->samples();
+      }
+      archive_.beginSave();
+      state(archive_);
+      archive_.end();
+      std::ostringstream os;
+      archive_.write(os);
+      mine = os.str();
+    }
+    std::vector<std::vector<unsigned char>> parts = gatherParts(mine);
+    if (rank_ == 0) {
+      StateArchive all;
+      all.beginSave();
+      Header h;
+      h.ranks = size_;
+      all.io(h);
+      for (auto& p : parts) all.io(p);
+      all.end();
+      parts.clear();
+      CheckpointManifest m;
+      m.sequence = seq_;
+      m.time = t;
+      m.step = step;
+      m.samples = samples;
+      m.fingerprint = fingerprint_;
+      m.inputs = inputs_;
+      std::lock_guard<std::mutex> held(lock);
+      dir_->write(m, all, writer->path());
+    }
+    ++written_;
+    seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+  }
+
+  /// Collective, --resume: the checkpoint's state file read on rank 0, each rank's part restored
+  /// into it by `state` (rank 0's under `lock`). A part that does not fit stops every rank alike.
+  void restore(const State& state, std::mutex& lock) {
+    std::string why;
+    std::vector<std::vector<unsigned char>> parts;
+    if (rank_ == 0) {
+      try {
+        StateArchive all;
+        dir_->read(from_, all);
+        all.beginRestore();
+        Header h;
+        all.io(h);
+        if (std::string(h.tag, sizeof h.tag) != std::string(Header{}.tag, sizeof h.tag))
+          throw InputError("it is not the state of a run on ranks");
+        if (h.ranks != size_)
+          throw InputError("it holds the parts of " + std::to_string(h.ranks) + " ranks; resume it on " +
+                           std::to_string(h.ranks) + " ranks (--ranks " + std::to_string(h.ranks) + ")");
+        parts.resize(size_t(size_));
+        for (auto& p : parts) all.io(p);
+        all.end();
+      } catch (const std::exception& e) {
+        why = e.what();
+      }
+    }
+    broadcast(why);
+    if (!why.empty()) throw CheckpointRefusal(2, "cannot resume from " + where() + ": " + why);
+    const std::string mine = scatterParts(parts);
+    int failed = 0;
+    try {
+      std::istringstream is(mine);
+      if (!archive_.read(is)) throw InputError("its part of the state ends early");
+      std::unique_lock<std::mutex> held(lock, std::defer_lock);
+      if (rank_ == 0) held.lock();
+      archive_.beginRestore();
+      state(archive_);
+      archive_.end();
+    } catch (const std::exception& e) {
+      why = e.what();
+      failed = 1;
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (failed)
+      throw CheckpointRefusal(2, "cannot resume from " + where() + ": a rank's part does not fit this run" +
+                                     (why.empty() ? "" : " (" + why + ")") + "; run without --resume to start again");
+  }
+  /// The results copy of the checkpoint resumed from (rank 0).
+  std::string resultsCopy() const { return dir_ ? dir_->file(from_.results) : ""; }
+
+ private:
+  struct Header {
+    char tag[8] = {'T', 'Q', 'R', 'A', 'N', 'K', 'S', '1'};
+    long long ranks = 0;
+  };
+  std::string where() const { return dir_ ? dir_->file(from_.solid) : "the checkpoint"; }
+
+  std::vector<std::vector<unsigned char>> gatherParts(const std::string& mine) const {
+    if (mine.size() > size_t(INT_MAX))
+      throw OutputError("the checkpoint state of rank " + std::to_string(rank_) +
+                        " exceeds 2 GiB (one message); run on more ranks");
+    int n = int(mine.size());
+    std::vector<int> counts(size_t(size_), 0), displs(size_t(size_), 0);
+    MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    std::vector<unsigned char> all;
+    if (rank_ == 0) {
+      size_t total = 0;
+      for (int r = 0; r < size_; ++r) total += size_t(counts[size_t(r)]);
+      if (total > size_t(INT_MAX)) throw OutputError("the checkpoint state exceeds 2 GiB (one message)");
+      for (int r = 1; r < size_; ++r) displs[size_t(r)] = displs[size_t(r) - 1] + counts[size_t(r) - 1];
+      all.resize(total);
+    }
+    MPI_Gatherv(mine.data(), n, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE, 0, MPI_COMM_WORLD);
+    std::vector<std::vector<unsigned char>> parts;
+    if (rank_ == 0)
+      for (int r = 0; r < size_; ++r)
+        parts.emplace_back(all.begin() + displs[size_t(r)], all.begin() + displs[size_t(r)] + counts[size_t(r)]);
+    return parts;
+  }
+  std::string scatterParts(const std::vector<std::vector<unsigned char>>& parts) const {
+    std::vector<int> counts(size_t(size_), 0), displs(size_t(size_), 0);
+    std::vector<unsigned char> all;
+    if (rank_ == 0) {
+      for (int r = 0; r < size_; ++r) {
+        counts[size_t(r)] = int(parts[size_t(r)].size());
+        if (r > 0) displs[size_t(r)] = displs[size_t(r) - 1] + counts[size_t(r) - 1];
+        all.insert(all.end(), parts[size_t(r)].begin(), parts[size_t(r)].end());
+      }
+    }
+    int n = 0;
+    MPI_Scatter(counts.data(), 1, MPI_INT, &n, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    std::string mine(size_t(n), '\0');
+    MPI_Scatterv(all.data(), counts.data(), displs.data(), MPI_BYTE, mine.data(), n, MPI_BYTE, 0, MPI_COMM_WORLD);
+    return mine;
+  }
+
+  int rank_, size_;
+  bool resume_;
+  Real interval_, next_;
+  long long seq_ = 0, written_ = 0;
+  double seconds_ = 0;
+  std::string inputs_, fingerprint_;
+  std::unique_ptr<RestartCheckpoints> dir_;  // rank 0
+  CheckpointManifest from_;
+  StateArchive archive_;
+};
+
 /// The solver of one rank's part: a block per region of its frontier elements, then one per region
 /// of the others (RankExchange::frontierBlocks), the supports and loads of the global mesh mapped
 /// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
@@ -326,6 +620,18 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
     for (const auto& [n, w] : loadShares(in, global, l))
       if (L.localNode[size_t(n)] >= 0) s->addLoad({{L.localNode[size_t(n)]}, l.direction, l.force * w, l.function});
   return s;
+}
+
+/// Test hook (docs/solid_solver.md "Restart checkpoints on ranks"): TQ_RANK_FAULT=<rank>:<step>
+/// kills rank <rank> (SIGKILL, as a lost node) once it has taken <step> steps of the time loop;
+/// 0 (none) on every other rank or without it.
+long long rankFaultStep(int rank) {
+  const char* f = std::getenv("TQ_RANK_FAULT");
+  if (!f) return 0;
+  const std::string v = f;
+  const size_t colon = v.find(':');
+  if (colon == std::string::npos || v.substr(0, colon) != std::to_string(rank)) return 0;
+  return std::atoll(v.c_str() + colon + 1);
 }
 
 std::string hms(double s) {
@@ -427,6 +733,10 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
       }
       std::unique_ptr<StateGather> gather;
       if (size > 1) gather = std::make_unique<StateGather>(layout, s, mirror.get());
+      // Restart checkpoints: the folder opened (and with --resume the checkpoint checked) before the
+      // results file is started, so a refused resume leaves that file as it was.
+      std::unique_ptr<RankCheckpoints> checkpoints;
+      if (!cl.checkpointDir.empty()) checkpoints = std::make_unique<RankCheckpoints>(cl, in, s.dt(), rank, size);
       std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
@@ -471,8 +781,26 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
           return 0;
         }
       }
-      observe();
-      withWriter([&](ResultsWriter& w) { w.sample(*view); });
+      // Everything a checkpoint holds of this rank, in this order (saved and restored alike).
+      size_t nextSnap = 0;
+      const auto rankState = [&](StateArchive& a) {
+        s.checkpoint(a);
+        if (writer) writer->checkpoint(a);
+        a.io(nextSnap);
+        checkpoints->io(a);
+      };
+      if (checkpoints && checkpoints->resuming()) {
+        checkpoints->restore(rankState, gStop.mutex);
+        withWriter([&](ResultsWriter& w) { w.resumeFrom(checkpoints->resultsCopy(), *view); });
+        const CheckpointManifest& m = checkpoints->from();
+        if (rank == 0)
+          out << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step
+              << ", " << m.samples << " samples) on " << size << " rank(s)" << std::endl;
+      } else {
+        if (checkpoints) checkpoints->clear();
+        observe();
+        withWriter([&](ResultsWriter& w) { w.sample(*view); });
+      }
       // The next history time, from rank 0's writer, sent to every rank after each sample: the
       // ranks decide alike when to gather, without a message at the other steps.
       Real nextSample = writer ? writer->nextSampleTime() : 0;
@@ -481,9 +809,10 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
       auto lastReport = t0, lastFlush = t0;
       const Index step0 = s.stepCount();
       Real tPrev = s.time();
-      size_t nextSnap = 0;
+      const long long faultStep = rankFaultStep(rank);
       while (s.time() < in.tEnd - 1e-9 * s.dt()) {
         s.step();
+        if (faultStep > 0 && s.stepCount() - step0 == faultStep) std::raise(SIGKILL);
         const Real t = s.time(), gap = t - tPrev;
         tPrev = t;
         const bool due = t + gap >= nextSample - 1e-9 * gap;
@@ -497,6 +826,10 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         while (nextSnap < in.snapshotTimes.size() && t >= in.snapshotTimes[nextSnap] - 0.5 * s.dt()) {
           withWriter([&](ResultsWriter& w) { w.snapshot(*view); });
           ++nextSnap;
+        }
+        if (checkpoints && checkpoints->due(t, s.dt(), in.tEnd)) {
+          checkpoints->write(t, s.dt(), s.stepCount(), rankState, writer.get(), gStop.mutex);
+          lastFlush = std::chrono::steady_clock::now();
         }
         if (!writer) continue;
         const auto now = std::chrono::steady_clock::now();
@@ -524,23 +857,49 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         mismatch = exchange->frontierMismatch(s.state().uData(), 3);
         mismatch = std::max(mismatch, exchange->frontierMismatch(s.state().vData(), 3));
       }
+      // Each rank's peak resident memory (MiB), on rank 0 in rank order.
+      std::vector<double> peak(size_t(size), 0.0);
+      {
+        struct rusage ru {};
+        getrusage(RUSAGE_SELF, &ru);
+        double mine = double(ru.ru_maxrss) / 1024.0;  // kB on Linux
+        MPI_Gather(&mine, 1, MPI_DOUBLE, peak.data(), 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+      }
       withWriter([&](ResultsWriter& w) {
         w.writeTimings(wall, steps, steps * global.numElems(), omp_get_max_threads());
+        const double peakOthers = size > 1 ? *std::max_element(peak.begin() + 1, peak.end()) : 0.0;
         w.writeAttrs("/ranks",
                      {{"ranks", double(size)},
                       {"threads_per_rank", double(omp_get_max_threads())},
                       {"largest_part_over_mean", imbalance},
                       {"frontier_node_copies", counts[0]},
-                      {"frontier_copies_max_difference", mismatch},
-                      {"wait_fraction", waitShare}},
+                      {"frontier_copies_max_difference", mismatch}},
                      {{"partition", "recursive coordinate bisection weighted by element cost"},
-                      {"results", "gathered to rank 0 at every sample and snapshot, written by it"}});
+                      {"results", "gathered to rank 0 at every sample and snapshot, written by it"},
+                      {"checkpoints",
+                       "each rank's part of the state gathered by rank 0 into one file; resumable on "
+                       "the same rank count"}});
+        // What this run took of the machine (with the wall times: not results, tunnelquake compare
+        // leaves them out).
+        w.writeAttrs("/timings", {{"wait_fraction", waitShare},
+                                  {"peak_memory_rank0_MiB", peak[0]},
+                                  {"peak_memory_other_ranks_max_MiB", peakOthers}});
+        if (checkpoints)
+          w.writeAttrs("/timings", {{"checkpoints", double(checkpoints->written())},
+                                    {"checkpoint_s", checkpoints->seconds()},
+                                    {"checkpoint_interval", in.checkpointInterval}});
         w.setStatus("completed");
+        if (checkpoints) checkpoints->completed();
         out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
             << (steps > 0 ? 1e6 * wall / (double(steps) * global.numElems()) : 0.0) << " µs per element-step), "
-            << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  results: " << cl.output << "\n";
+            << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  peak memory per rank (MiB):";
+        for (int r = 0; r < size; ++r) out << " " << std::llround(peak[size_t(r)]);
+        out << (size > 1 ? " (rank 0 also holds the whole model for the results)" : "") << "\n  results: " << cl.output
+            << "\n";
       });
       return 0;
+    } catch (const CheckpointRefusal& e) {
+      return stopWith(e.code, e.what(), "");
     } catch (const InputError& e) {
       return stopWith(2, e.what(), "input error: ");
     } catch (const InstabilityError& e) {
@@ -549,8 +908,14 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
         err << "tq-solid: rank " << rank << ": " << m << "\n";
       return stopWith(3, m, "");
     }
-  } catch (const OutputError& e) {  // rank 0's results file: the other ranks cannot go on without it
+  } catch (const OutputError& e) {  // rank 0's results file or checkpoint: the others cannot go on without it
     err << "tq-solid: " << e.what() << "\n";
+    withWriter([&](ResultsWriter& w) {
+      try {
+        w.setStatus("stopped: " + std::string(e.what()));
+      } catch (const std::exception&) {
+      }
+    });
     MPI_Abort(MPI_COMM_WORLD, 5);
     return 5;
   }
