@@ -18,16 +18,23 @@ the static in-situ stress under the slope against CalculiX.
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
 
 import h5py
 import numpy as np
 import pytest
 from case_edits import check_edited
 from case_texts import synthetic_motion, tunnel
+from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import case_geology, ground_layers, load_case
+from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
 from tunnelquake.meshing.params import element_counts, resolve
+from tunnelquake.motion import from_case as motion_from_case
+from tunnelquake.prepare import write_motion
+from tunnelquake.solid_input import write_solid_input
 
 # A block unlike the paper's: 80 x 30 x 60 m, a 2 m tunnel 10 m below mid-height, a 30 deg slope
 # descending across the tunnel towards +x from a crest at x = -10 m, 15 m high.
@@ -140,3 +147,187 @@ def test_a_slope_along_the_axis_in_a_slice_is_refused(tmp_path, capsys):
     assert rc == 1
     assert "geology.slope.dip_direction = 180.0: a slice holds one section across the tunnel" in err, err
     assert "use dip_direction 90 or 270" in err
+
+
+# ------------------------------------------------------------------------------------------------
+# tq-solid's static state under a slope against CalculiX (plane strain, the same section)
+# ------------------------------------------------------------------------------------------------
+# A section 300 m wide and 140 m deep: a 30 m high slope at 30 deg descending towards +x from a
+# crest at x = -30 m (the toe at x = 21.96 m), over a soft layer whose bottom dips 10 deg towards -x
+# (z = -35 m at x = 0); a 1 m tunnel deep under the flat ground at x = 100 m, far from every monitor.
+G = 9.81
+X0, X1, Z0, Z_TOP = -150.0, 150.0, -100.0, 40.0
+CREST, ANGLE, HEIGHT = -30.0, 30.0, 30.0
+RHO = {"rock": 2400.0, "soft": 2100.0}
+ELASTIC = {"rock": (6e9, 0.3), "soft": (1.5e9, 0.28)}
+KX, KY = 0.6, 0.5
+DIP_TAN, DIP_Z0 = math.tan(math.radians(10.0)), -35.0
+STATIC = tunnel("slope_static", [X0, X1], [0.0, 4.0], [Z0, Z_TOP], centre_x=100.0, centre_z=-80.0, radius="1.0 m",
+                lining="0.2 m", mode="slice", max_element_size="4 m", lining_elements_around=16,
+                near_field_half_width=3.0, near_field_radial_divisions=2) + f"""materials:
+  rock: {{model: elastic, youngs_modulus: 6 GPa, poisson_ratio: 0.3, density: {RHO['rock']:g}}}
+  soft: {{model: elastic, youngs_modulus: 1.5 GPa, poisson_ratio: 0.28, density: {RHO['soft']:g}}}
+  lining: {{model: elastic, youngs_modulus: 6 GPa, poisson_ratio: 0.3, density: {RHO['rock']:g}}}
+geology:
+  slope: {{angle: {ANGLE:g}, dip_direction: 90, crest: [{CREST:g}, 0], height: {HEIGHT:g} m}}
+  dipping_layers:
+    - {{material: soft, dip: 10, dip_direction: 270, point: [0, 2, {DIP_Z0:g}]}}
+interface: {{model: bonded}}
+""" + synthetic_motion("1.0 m/s^2", 0.5, 1.0) + f"""in_situ: {{kx: {KX:g}, ky: {KY:g}, kz: 1.0}}
+stages:
+  sequence: [in_situ, seismic]
+  relaxation_tolerance: 1.0e-8
+  relaxation_max_steps: 400000
+conditions: [no_water]
+time: {{end_time: 0.001}}
+output:
+  monitors:
+    behind_crest: [-100.0, 2.0, 10.0]
+    under_crest: [-30.0, 2.0, 20.0]
+    under_face: [-5.0, 2.0, 10.0]
+    under_toe: [22.0, 2.0, -5.0]
+    in_front: [70.0, 2.0, -10.0]
+    deep_under_face: [-5.0, 2.0, -70.0]
+"""
+
+
+def _static_surface(x):
+    return Z_TOP - np.clip((np.asarray(x, float) - CREST) * math.tan(math.radians(ANGLE)), 0.0, HEIGHT)
+
+
+def _sigma0(z):
+    """The in_situ stage's start, the overburden of the flat top z = 40 m: (sigma_x, sigma_z), Pa."""
+    sv = -RHO["rock"] * G * (Z_TOP - np.asarray(z, float))
+    return KX * sv, sv
+
+
+def _ccx_plane_strain(work, h=2.0):
+    """CalculiX's elastic response of the section (CPE8R, elements about h, x horizontal, y up in its
+    plane) to what tq-solid's relaxation carries: the start's traction on the slope released
+    (consistent nodal forces, 3-point Gauss on each quadratic edge) and the soft layer's density less
+    the start's as gravity; the base fixed, the sides on rollers, as tq-solid's static supports. Returns
+    the elements' centroids [E, 2] and their mean stress (sigma_x, sigma_z, tau_xz) [E, 3], the start's
+    added."""
+    nx, nz = round((X1 - X0) / h), round((Z_TOP - Z0) / h)
+    xi = np.linspace(X0, X1, 2 * nx + 1)
+    zt = _static_surface(xi)
+    t = np.linspace(0.0, 1.0, 2 * nz + 1)
+    X = np.repeat(xi[:, None], 2 * nz + 1, axis=1)
+    Z = Z0 + t[None, :] * (zt[:, None] - Z0)
+    nid = np.full(X.shape, -1, int)
+    corner = (np.arange(X.shape[0])[:, None] % 2 == 1) & (np.arange(X.shape[1])[None, :] % 2 == 1)
+    used = ~corner  # the 8-node serendipity elements leave the cells' centres out
+    nid[used] = np.arange(1, used.sum() + 1)
+    elems, cents, soft = [], [], []
+    for a in range(nx):
+        for b in range(nz):
+            i, j = 2 * a, 2 * b
+            e = [nid[i, j], nid[i + 2, j], nid[i + 2, j + 2], nid[i, j + 2], nid[i + 1, j], nid[i + 2, j + 1],
+                 nid[i + 1, j + 2], nid[i, j + 1]]
+            elems.append(e)
+            c = np.array([X[[i, i + 2, i + 2, i], [j, j, j + 2, j + 2]].mean(), Z[[i, i + 2, i + 2, i],
+                                                                                  [j, j, j + 2, j + 2]].mean()])
+            cents.append(c)
+            soft.append(c[1] > DIP_Z0 + DIP_TAN * c[0])  # above the dipping bottom: the soft layer
+    elems, cents, soft = np.array(elems), np.array(cents), np.array(soft)
+    # released traction: -sigma0 . n on the top edges below z_top, n the outward normal
+    force = np.zeros((used.sum() + 1, 2))
+    gp, gw = np.array([-math.sqrt(0.6), 0.0, math.sqrt(0.6)]), np.array([5.0, 8.0, 5.0]) / 9.0
+    top = X.shape[1] - 1
+    for a in range(nx):
+        ids = [nid[2 * a, top], nid[2 * a + 1, top], nid[2 * a + 2, top]]
+        px, pz = X[2 * a:2 * a + 3, top], Z[2 * a:2 * a + 3, top]
+        for s, w in zip(gp, gw, strict=True):
+            n_ = np.array([0.5 * s * (s - 1), 1 - s * s, 0.5 * s * (s + 1)])
+            dn = np.array([s - 0.5, -2 * s, s + 0.5])
+            tx, tz = dn @ px, dn @ pz  # tangent (d/ds), |.| the length factor
+            normal = np.array([-tz, tx])  # outward (up) normal times the length factor
+            sx, sz = _sigma0(n_ @ pz)
+            traction = -np.array([sx * normal[0], sz * normal[1]])  # -sigma0 . n (sigma0 diagonal)
+            for k in range(3):
+                force[ids[k]] += w * n_[k] * traction
+    # (CalculiX reads numbers of at most 20 characters)
+    lines = ["*HEADING", "slope section, plane strain", "*NODE"]
+    lines += [f"{nid[i, j]}, {X[i, j]:.12e}, {Z[i, j]:.12e}" for i in range(X.shape[0]) for j in range(X.shape[1])
+              if used[i, j]]
+    for name, mask in (("EROCK", ~soft), ("ESOFT", soft)):
+        lines.append(f"*ELEMENT, TYPE=CPE8R, ELSET={name}")
+        lines += [f"{k + 1}, " + ", ".join(map(str, elems[k])) for k in np.flatnonzero(mask)]
+    for name in ("rock", "soft"):
+        e, nu = ELASTIC[name]
+        lines += [f"*MATERIAL, NAME={name.upper()}", "*ELASTIC", f"{e!r}, {nu!r}", "*DENSITY",
+                  f"{float(abs(RHO[name] - RHO['rock']) or 1.0)!r}",
+                  f"*SOLID SECTION, ELSET=E{name.upper()}, MATERIAL={name.upper()}", "1."]
+    base = nid[:, 0]
+    sides = np.concatenate([nid[0, :][used[0, :]], nid[-1, :][used[-1, :]]])
+    lines += ["*BOUNDARY"] + [f"{n}, 1, 2" for n in base] + [f"{n}, 1, 1" for n in sides]
+    lines += ["*STEP", "*STATIC", "*CLOAD"]
+    lines += [f"{n}, {d + 1}, {force[n, d]:.12e}" for n in np.flatnonzero(np.abs(force).sum(axis=1)) for d in (0, 1)]
+    # the soft layer weighs (rho_soft - rho_rock) g more than the start's overburden assumed: upwards here
+    lines += ["*DLOAD", f"ESOFT, GRAV, {G!r}, 0., {1.0 if RHO['soft'] < RHO['rock'] else -1.0}, 0."]
+    lines += ["*EL PRINT, ELSET=EROCK", "S", "*EL PRINT, ELSET=ESOFT", "S", "*END STEP"]
+    (work / "slope.inp").write_text("\n".join(lines) + "\n")
+    env = {"OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1", "CCX_NPROC_STIFFNESS": "1",
+           "NUMBER_OF_CPUS": "1", "PATH": "/usr/bin:/bin"}
+    run = subprocess.run(["ccx", "-i", "slope"], cwd=work, capture_output=True, text=True, env=env, timeout=300)
+    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:] + run.stderr
+    stress = np.zeros((len(elems), 3))
+    count = np.zeros(len(elems))
+    for line in (work / "slope.dat").read_text().splitlines():
+        parts = line.split()
+        if len(parts) == 8 and parts[0].isdigit():
+            e = int(parts[0]) - 1
+            sxx, syy, _, sxy = (float(v) for v in parts[2:6])
+            stress[e] += (sxx, syy, sxy)
+            count[e] += 1
+    assert (count == 8).all()  # CalculiX expands a CPE8R into a C3D20R of 8 points
+    stress /= count[:, None]
+    sx0, sz0 = _sigma0(cents[:, 1])
+    stress[:, 0] += sx0
+    stress[:, 1] += sz0
+    return cents, stress
+
+
+@pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed")
+def test_static_stress_under_the_slope_matches_calculix(tmp_path, capsys):
+    from scipy.interpolate import LinearNDInterpolator
+
+    exe = _solid_with_stages()
+    p = tmp_path / "case.yaml"
+    p.write_text(STATIC)
+    assert main(["check", str(p)]) == 0, capsys.readouterr().err
+    case = load_case(p)
+    d = case.data
+    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
+    motion, _ = motion_from_case(d["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    res = tmp_path / "results.h5"
+    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr
+    cents, ccx = _ccx_plane_strain(tmp_path)
+    at = LinearNDInterpolator(cents, ccx)
+    worst = 0.0
+    with h5py.File(res) as r:
+        assert r.attrs["status"] == "completed"
+        coords, conn = r["mesh/coordinates"][...], r["mesh/connectivity"][...]
+        for name in ("behind_crest", "under_crest", "under_face", "under_toe", "in_front", "deep_under_face"):
+            g = r[f"monitors/{name}"]
+            x, _, z = coords[conn[int(g.attrs["element"])]].mean(axis=0)
+            s = g["stress"][0]
+            tq = np.array([s[0], s[2], s[5]])  # xx, zz, zx
+            ref = at([[x, z]])[0]
+            err = np.abs(tq - ref) / abs(ref[1])
+            worst = max(worst, err.max())
+            start = _sigma0(z)
+            moved = max(abs(tq[0] - start[0]), abs(tq[1] - start[1])) / abs(ref[1])
+            print(f"{name} (x = {x:.1f}, z = {z:.1f} m, depth {_static_surface(x) - z:.1f} m): "
+                  f"tq-solid sx {tq[0] / 1e6:.4f} sz {tq[1] / 1e6:.4f} txz {tq[2] / 1e6:.4f} MPa; "
+                  f"CalculiX {ref[0] / 1e6:.4f} {ref[1] / 1e6:.4f} {ref[2] / 1e6:.4f} MPa; "
+                  f"differences / |sz| {100 * err[0]:.2f} {100 * err[1]:.2f} {100 * err[2]:.2f} %; the relaxation "
+                  f"moved the start by {100 * moved:.0f} %")
+            assert moved > 0.05  # the slope's release, not the start, is compared
+    print(f"largest difference {100 * worst:.2f} % of the vertical stress")
+    assert worst < 0.01
