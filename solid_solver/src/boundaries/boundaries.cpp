@@ -205,6 +205,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
       throw InputError("viscoelastic base: distance R must be > 0 m (got " + std::to_string(spec_.distance) + ")");
     kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance, spec_.alphaN * G / spec_.distance};
     cArea_ = {hs.rho * hs.cs, hs.rho * hs.cs, hs.rho * hs.cp};
+    assignBaseColumns(mesh);
   }
   // Free-field sides: per node dashpots and column interpolation, per quad the traction loads. The
   // shared-column faces take the first face's column (their quads need not lie in its rows).
@@ -288,18 +289,57 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
   }
 }
 
+void SeismicBoundaries::assignBaseColumns(const Mesh& mesh) {
+  baseColumnOf_.assign(base_.nodes.size(), baseColumn_);
+  const Real zBase = mesh.coords[dofIndex(base_.nodes[0], 2)];
+  std::vector<std::array<Real, 4>> boxes;  // x lo, x hi, y lo, y hi of each candidate face
+  std::vector<Index> candidates;
+  for (size_t i = 0; i < spec_.freeFieldFaces.size(); ++i) {
+    const FreeFieldColumn& c = columns_[i];
+    if (std::abs(c.level(0) - zBase) > 1e-9 * std::max(1.0, c.level(c.numLevels() - 1) - c.level(0))) continue;
+    const AxisFace f = axisFace(mesh, spec_.freeFieldFaces[i]);
+    std::array<Real, 4> b{1e300, -1e300, 1e300, -1e300};
+    for (Index n : f.nodes) {
+      const Real x = mesh.coords[dofIndex(n, 0)], y = mesh.coords[dofIndex(n, 1)];
+      b[0] = std::min(b[0], x);
+      b[1] = std::max(b[1], x);
+      b[2] = std::min(b[2], y);
+      b[3] = std::max(b[3], y);
+    }
+    boxes.push_back(b);
+    candidates.push_back(Index(i));
+  }
+  if (candidates.size() < 2) return;
+  for (size_t k = 0; k < base_.nodes.size(); ++k) {
+    const Real x = mesh.coords[dofIndex(base_.nodes[k], 0)], y = mesh.coords[dofIndex(base_.nodes[k], 1)];
+    Real best = 1e300;
+    for (size_t j = 0; j < boxes.size(); ++j) {
+      const auto& b = boxes[j];
+      const Real dx = std::max({b[0] - x, Real(0), x - b[1]}), dy = std::max({b[2] - y, Real(0), y - b[3]});
+      const Real d2 = dx * dx + dy * dy;
+      if (d2 < best) {  // the first of equally near faces
+        best = d2;
+        baseColumnOf_[k] = candidates[j];
+      }
+    }
+  }
+}
+
 void SeismicBoundaries::restrictToNodes(const std::vector<Index>& localNode, const std::vector<std::uint8_t>& owned) {
   AxisFace base = base_;
   base.nodes.clear();
   base.area.clear();
   baseCounted_.clear();
+  std::vector<Index> columnOf;
   for (size_t i = 0; i < base_.nodes.size(); ++i) {
     const Index n = localNode[size_t(base_.nodes[i])];
     if (n < 0) continue;
     base.nodes.push_back(n);
     base.area.push_back(base_.area[i]);
     baseCounted_.push_back(owned[size_t(n)]);
+    if (!baseColumnOf_.empty()) columnOf.push_back(baseColumnOf_[i]);
   }
+  baseColumnOf_ = std::move(columnOf);
   base.quads.clear();  // in the whole model's numbering: not used once built
   base_ = std::move(base);
   std::vector<SideNode> side;
@@ -338,20 +378,21 @@ void SeismicBoundaries::install(NodalState& state) {
 void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   for (auto& c : columns_) c.advance(t, dt, motion_);
   Real* fe = state.fExtData();
-  // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot).
+  // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot), u_col the base of
+  // the node's column (assignBaseColumns).
   if (spec_.bottom) {
     const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
     const BaseHalfSpace& hs = col.base();
     const Real cin[3] = {2 * hs.rho * hs.cs, 2 * hs.rho * hs.cs, 2 * hs.rho * hs.cp};
-    Real vin[3], ucol[3];
-    for (int d = 0; d < 3; ++d) {
-      vin[d] = motion_.velocity(d, t);
-      ucol[d] = col.u(0, d);
-    }
+    Real vin[3];
+    for (int d = 0; d < 3; ++d) vin[d] = motion_.velocity(d, t);
     Real work = 0;
     for (size_t i = 0; i < base_.nodes.size(); ++i) {
       const Index n = base_.nodes[i];
       const Real A = base_.area[i];
+      const FreeFieldColumn& own = baseColumnOf_.empty() ? col : columns_[size_t(baseColumnOf_[i])];
+      Real ucol[3];
+      for (int d = 0; d < 3; ++d) ucol[d] = own.u(0, d);
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * i + d;
         const Real u = state.u(n, d);

@@ -108,6 +108,12 @@ class SeismicBoundaries final : public NodalForceContributor {
  private:
   FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
                               const std::string& face) const;
+  /// Each base node's spring follows the base of the nearest free-field face's column (horizontal
+  /// distance to the face's extent; the first of equally near ones), so that under a ground that
+  /// changes across the block (a slope, dipping layers, side faces in strips along the axis) the base
+  /// near each side follows that side's column; the base column everywhere when fewer than two columns
+  /// reach the base.
+  void assignBaseColumns(const Mesh& mesh);
   struct SideNode {
     Index node;
     Index column;
@@ -134,6 +140,7 @@ class SeismicBoundaries final : public NodalForceContributor {
   std::vector<Real> uPrev_, fPrev_;        // spring work by the trapezoid rule, as the solver books work
   bool first_ = true;
   Real springWork_ = 0;
+  std::vector<Index> baseColumnOf_;  // [base nodes] the column whose base the node's spring follows
 };
 
 }  // namespace tq
