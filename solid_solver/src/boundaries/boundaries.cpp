@@ -89,6 +89,9 @@ std::vector<const Material*> materialsOf(const Mesh& mesh, const std::vector<std
   return m;
 }
 
+/// The base dashpot per area in direction d (ρ cs across, ρ cp normal to the base).
+Real baseDashpot(const BaseHalfSpace& hs, int d) { return hs.rho * (d == 2 ? hs.cp : hs.cs); }
+
 }  // namespace
 
 FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
@@ -366,7 +369,7 @@ void SeismicBoundaries::install(NodalState& state) {
   u0_.assign(3 * base_.nodes.size(), 0.0);
   for (size_t i = 0; i < base_.nodes.size(); ++i)
     for (int d = 0; d < 3; ++d) {
-      state.addDashpot(base_.nodes[i], d, base_.area[i] * cArea_[size_t(d)]);
+      state.addDashpot(base_.nodes[i], d, base_.area[i] * baseDashpot(baseColumnOf(i).base(), d));
       u0_[3 * i + d] = state.u(base_.nodes[i], d);
     }
   uPrev_ = u0_;
@@ -381,23 +384,22 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot), u_col the base of
   // the node's column (assignBaseColumns).
   if (spec_.bottom) {
-    const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
-    const BaseHalfSpace& hs = col.base();
-    const Real cin[3] = {2 * hs.rho * hs.cs, 2 * hs.rho * hs.cs, 2 * hs.rho * hs.cp};
     Real vin[3];
     for (int d = 0; d < 3; ++d) vin[d] = motion_.velocity(d, t);
     Real work = 0;
     for (size_t i = 0; i < base_.nodes.size(); ++i) {
       const Index n = base_.nodes[i];
       const Real A = base_.area[i];
-      const FreeFieldColumn& own = baseColumnOf_.empty() ? col : columns_[size_t(baseColumnOf_[i])];
-      Real ucol[3];
-      for (int d = 0; d < 3; ++d) ucol[d] = own.u(0, d);
+      const FreeFieldColumn& own = baseColumnOf(i);
+      const BaseHalfSpace& hs = own.base();
+      const Real G = hs.rho * hs.cs * hs.cs;
+      const Real k[3] = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance,
+                         spec_.alphaN * G / spec_.distance};
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * i + d;
         const Real u = state.u(n, d);
-        const Real fs = -A * kArea_[size_t(d)] * (u - u0_[j]);
-        fe[dofIndex(n, d)] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
+        const Real fs = -A * k[d] * (u - u0_[j]);
+        fe[dofIndex(n, d)] += fs + A * (k[d] * own.u(0, d) + 2 * baseDashpot(hs, d) * vin[d]);
         if (!first_ && (baseCounted_.empty() || baseCounted_[i])) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
         fPrev_[j] = fs;
         uPrev_[j] = u;

@@ -100,7 +100,8 @@ class SeismicBoundaries final : public NodalForceContributor {
   const std::vector<FreeFieldColumn>& columns() const { return columns_; }
   const FreeFieldColumn& baseColumn() const { return columns_[size_t(baseColumn_)]; }
   const IncidentMotion& motion() const { return motion_; }
-  /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction.
+  /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction (of the base column's
+  /// half-space; each node's are its own column's, assignBaseColumns).
   const std::vector<Index>& baseNodes() const { return base_.nodes; }
   std::array<Real, 3> springPerArea() const { return kArea_; }
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
@@ -108,12 +109,15 @@ class SeismicBoundaries final : public NodalForceContributor {
  private:
   FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
                               const std::string& face) const;
-  /// Each base node's spring follows the base of the nearest free-field face's column (horizontal
-  /// distance to the face's extent; the first of equally near ones), so that under a ground that
-  /// changes across the block (a slope, dipping layers, side faces in strips along the axis) the base
-  /// near each side follows that side's column; the base column everywhere when fewer than two columns
-  /// reach the base.
+  /// Each base node takes the nearest free-field face's column (horizontal distance to the face's
+  /// extent; the first of equally near ones): its spring follows that column's base, and its dashpot
+  /// and input are that column's half-space's, so that under a ground that changes across the block
+  /// (a slope, dipping layers, side faces in strips along the axis) the base near each side is that
+  /// side's column's; the base column everywhere when fewer than two columns reach the base.
   void assignBaseColumns(const Mesh& mesh);
+  const FreeFieldColumn& baseColumnOf(size_t i) const {
+    return columns_[size_t(baseColumnOf_.empty() ? baseColumn_ : baseColumnOf_[i])];
+  }
   struct SideNode {
     Index node;
     Index column;
