@@ -8,6 +8,7 @@ the block's y = 0 face, so the cover over the crown falls from 36.5 m to 11.0 m.
    to round-off, so the cover over the crown is z_s - 3.5 m at every axial grid line; every element
    keeps a positive Jacobian and every edge stays within max_element_size though the axial edges
    lean with the slope.
+3. The stable step: the slope's squeezed elements do not set it; check's estimate holds.
 """
 from __future__ import annotations
 
@@ -17,10 +18,14 @@ import h5py
 import numpy as np
 import pytest
 from case_edits import check_edited
+from test_solid_input import _solid_with_stages
 
 from tunnelquake.case import case_geology, ground_layers, load_case
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
+from tunnelquake.motion import from_case as motion_from_case
 from tunnelquake.paths import ROOT
+from tunnelquake.prepare import write_motion
+from tunnelquake.solid_input import write_solid_input
 
 CASE = (ROOT / "cases" / "portal" / "case.yaml").read_text()
 TAN35 = math.tan(math.radians(35.0))
@@ -70,3 +75,30 @@ def test_the_cover_falls_towards_the_portal_as_the_slope_says(portal_mesh):
     assert all(b >= a - 1e-9 for a, b in zip(cover[:-1], cover[1:], strict=True))  # never rises towards the portal
     assert (hexmesh.corner_jacobians(x[conn])[0] > 0).all()
     assert summary["max_element_size"] <= 8.0
+
+
+@pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
+def test_checks_step_estimate_holds_under_the_slope(tmp_path):
+    """The slope squeezes the ground above the near-field box (to 0.25 of its height at the portal
+    end here), not the lining, whose elements set the stable step: tq-solid's own step (--check) is the
+    flat block's, and check's estimate (scene.runtime_estimate) is within 5 % of it."""
+    from tunnelquake import paths
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.solid_input import solid_step
+
+    steps = {}
+    for name, text in (("slope", CASE), ("flat", CASE.replace("  slope: {angle: 35, dip_direction: 180, crest: [0, "
+                                                                "36.4]}", "  dipping_layers: []"))):
+        run = tmp_path / name
+        run.mkdir()
+        (run / "case.yaml").write_text(text)
+        case = load_case(run / "case.yaml")
+        d = case.data
+        build_tunnel_mesh(d["geometry"], d["mesh"], run, ground_layers(d), case_geology(d))
+        motion, _ = motion_from_case(d["ground_motion"], case.dir)
+        write_motion(motion, run / "motion.h5")
+        inp = write_solid_input(case, run / "mesh.h5", run / "motion.h5", "no_water", run / "in.h5")
+        steps[name] = (runtime_estimate(case).dt, solid_step(paths.solid_executable(), inp))
+    print("step (check's estimate, tq-solid):", steps)
+    assert steps["slope"][1] == pytest.approx(steps["flat"][1], rel=1e-6)
+    assert steps["slope"][0] == pytest.approx(steps["slope"][1], rel=0.05)
