@@ -118,18 +118,61 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh, const std::vect
     const auto it = std::lower_bound(levels.begin(), levels.end(), v - tol);
     return Index(it - levels.begin());
   };
+  // A face whose rows lean (a sloping ground surface changing along the face): where every vertical
+  // line of its nodes holds as many nodes, the column's levels are the lines' mean heights, row by row,
+  // and each quad lies in the layer of its centroid (the quads then take the column at their own
+  // heights, as a shared column's do).
+  bool leaning = [&] {
+    for (size_t k = 0; k < f.quads.size() / 4; ++k) {
+      Real lo = 1e300, hi = -1e300;
+      for (int c = 0; c < 4; ++c) {
+        lo = std::min(lo, mesh.coords[dofIndex(f.quads[4 * k + c], 2)]);
+        hi = std::max(hi, mesh.coords[dofIndex(f.quads[4 * k + c], 2)]);
+      }
+      if (levelOf(hi) != levelOf(lo) + 1) return true;
+    }
+    return false;
+  }();
+  if (leaning) {
+    const int along = f.axis == 0 ? 1 : 0;  // the face's horizontal direction
+    std::map<long long, std::vector<Real>> lines;
+    const Real htol = 1e-9 * std::max(1.0, zmax - zmin);
+    for (Index n : f.nodes)
+      lines[std::llround(mesh.coords[dofIndex(n, along)] / htol)].push_back(mesh.coords[dofIndex(n, 2)]);
+    const size_t count = lines.begin()->second.size();
+    bool same = count >= 2;
+    for (auto& [key, zs] : lines) {
+      (void)key;
+      std::sort(zs.begin(), zs.end());
+      same = same && zs.size() == count;
+    }
+    if (same) {
+      levels.assign(count, 0.0);
+      for (const auto& [key, zs] : lines) {
+        (void)key;
+        for (size_t r = 0; r < count; ++r) levels[r] += zs[r] / Real(lines.size());
+      }
+    } else {
+      leaning = false;  // refused below: quads across several levels
+    }
+  }
+  auto quadLayer = [&](Real zc) {
+    const auto it = std::upper_bound(levels.begin(), levels.end(), zc);
+    return std::clamp<Index>(Index(it - levels.begin()) - 1, 0, Index(levels.size()) - 2);
+  };
   // One material per layer, from the elements that own the face's quads.
   std::vector<ColumnLayer> layers(levels.size() - 1);
   std::vector<bool> seen(layers.size(), false);
   const QuadOwners owners(mesh);
   for (size_t k = 0; k < f.quads.size() / 4; ++k) {
     const Index* q = &f.quads[4 * k];
-    Real lo = 1e300, hi = -1e300;
+    Real lo = 1e300, hi = -1e300, zc = 0;
     for (int c = 0; c < 4; ++c) {
       lo = std::min(lo, mesh.coords[dofIndex(q[c], 2)]);
       hi = std::max(hi, mesh.coords[dofIndex(q[c], 2)]);
+      zc += 0.25 * mesh.coords[dofIndex(q[c], 2)];
     }
-    const Index l0 = levelOf(lo), l1 = levelOf(hi);
+    const Index l0 = leaning ? quadLayer(zc) : levelOf(lo), l1 = leaning ? l0 + 1 : levelOf(hi);
     if (l1 != l0 + 1) {
       std::ostringstream os;
       os << mshort(mesh) << ": face group '" << group << "' is not horizontally layered: quad " << k
