@@ -145,13 +145,40 @@ def _geology_section() -> Section:
     })
     for f in ("dip", "point"):
         layer.fields[f].required = True
-    return Section(doc="rock regions bounded by planes (docs/meshing.md \"Regions bounded by planes\")", fields={
+    slope = Section(checks=[_check_slope], fields={
+        "angle": Number(min=0.0, min_open=True, max=90.0, max_open=True,
+                        why="degrees below horizontal: 0 is flat ground (leave the slope out) and a vertical face "
+                            "is not meshed",
+                        doc="the slope's angle, degrees below horizontal, in (0, 90)"),
+        "dip_direction": Number(min=0.0, max=360.0, doc=f"azimuth the ground descends towards, {AZIMUTH}"),
+        "crest": Tuple(item=_length(), length=2, doc="[x, y] m, a point in plan of the crest line (the slope's top "
+                                                       "edge, at the block's top geometry.z_range[1])"),
+        "height": _positive(U.LENGTH, "the drop from the crest to the toe, m (flat ground below the toe); default: "
+                                      "no toe inside the block"),
+    })
+    return Section(doc="rock regions bounded by planes and the ground surface (docs/meshing.md \"Regions bounded by "
+                       "planes\", \"Sloping ground surface\")", fields={
+        "slope": slope,
         "fault_zone": fault,
         "dipping_layers": ListOf(item=layer, default=[],
                                  doc="layers whose bottom is a plane of any dip, from the top down: an element "
                                      "above a bottom plane is that layer's unless a layer listed before (or a "
                                      "horizontal layers[] entry) has it; below them all, materials.rock"),
     })
+
+
+def _check_slope(sl, path, raw, ctx):
+    if sl["angle"] is None:
+        given = [k for k in ("dip_direction", "crest", "height") if sl[k] is not None]
+        if given:
+            ctx.error(f"{path}.angle", None, f"is missing: {', '.join(given)} describe a slope of no angle",
+                      "add 'angle: <deg below horizontal, in (0, 90)>'", raw.line)
+        return
+    for k, fix in (("dip_direction", "add 'dip_direction: <azimuth the ground descends towards, deg from the tunnel "
+                                     "axis y, clockwise seen from above>'"),
+                   ("crest", "add 'crest: [x, y]' (a point of the slope's top edge in plan, in m)")):
+        if sl[k] is None:
+            ctx.error(f"{path}.{k}", None, "is required with a slope", fix, raw.line)
 
 
 def _check_fault_zone(fz, path, raw, ctx):

@@ -157,6 +157,10 @@ def checks(d: dict, layers: list[tuple[str, float]], lines: dict, section_lines)
                             "end inside it, with at least one layer of rock between)",
                             f"set mesh.tunnel_end_plugs: {offset + 2} or more", section_lines("mesh").get(
                                 "tunnel_end_plugs") or lines.get("mesh") or line))
+    if not from_file and d.get("geology") and (d["geology"].get("slope") or {}).get("angle") is not None:
+        issues.append(Issue("geology.slope", "a sloping surface", "the free field of a plane wave is computed for a "
+                            "flat ground surface only", "remove geology.slope, or incident_wave.type: none (the "
+                            "side faces' free-field columns and the base drive a sloping block)", lines.get("geology")))
     if not from_file and d.get("geology") and ((d["geology"].get("fault_zone") or {}).get("material")
                                                or d["geology"].get("dipping_layers")):
         issues.append(Issue("geology", "fault zone / dipping layers", "the free field of a plane wave is computed "

@@ -36,7 +36,7 @@ from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve
+from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve, slope_base, surface_nodes
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 #: the face group of the lining's joint faces (both sides of every joint)
@@ -84,11 +84,12 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                     t_gmsh = time.perf_counter() - t0
                     coords, hexes = _extract(model["volumes"])
                     needed = _bytes_needed(coords, hexes)
+                    _snap_layers(plan, coords)
+                    _slope_nodes(plan, coords)
                     gmsh.option.setNumber("Mesh.SaveAll", 0)
                     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
                     gmsh.option.setNumber("Mesh.Binary", 0)
                     _write_model(tmp["model"])
-                    _snap_layers(plan, coords)
                 finally:
                     if not own_session:
                         gmsh.model.remove()
@@ -254,6 +255,18 @@ def _extract(volumes: dict) -> tuple[np.ndarray, dict]:
             blocks.append(np.asarray(nodes[0], dtype=np.int64).reshape(-1, 8))
         hexes[region] = np.concatenate(blocks)
     return coords, hexes
+
+
+def _slope_nodes(plan: MeshPlan, coords: np.ndarray) -> None:
+    """With a sloping surface (geology.slope), move the nodes above z_b onto it (params.surface_nodes),
+    in the gmsh model too, so model.msh shows the same mesh."""
+    if plan.geology is None or plan.geology.slope is None:
+        return
+    ok = np.isfinite(coords[:, 2]) & (coords[:, 2] > slope_base(plan))
+    moved = surface_nodes(plan, coords[ok])
+    for tag, xyz in zip(np.flatnonzero(ok).tolist(), moved.tolist(), strict=True):
+        gmsh.model.mesh.setNode(tag, xyz, [])
+    coords[ok] = moved
 
 
 def _snap_layers(plan: MeshPlan, coords: np.ndarray) -> None:
@@ -463,7 +476,11 @@ def _plane_faces(plan: MeshPlan, fx: np.ndarray) -> dict:
         "ymin": (1, plan.ymin),
         "ymax": (1, plan.ymax),
     }
-    return {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
+    out = {n: (np.abs(fx[:, :, ax] - v) < tol).all(axis=1) for n, (ax, v) in planes.items()}
+    if plan.geology is not None and plan.geology.slope is not None:  # the ground surface follows the slope
+        top = np.concatenate([fx[..., :2], np.full(fx.shape[:-1] + (1,), plan.zmax)], axis=-1)
+        out["top"] = (np.abs(fx[:, :, 2] - surface_nodes(plan, top)[:, :, 2]) < tol).all(axis=1)
+    return out
 
 
 def _classify_solid_faces(plan, coords, faces, owner_region, ends=None, joints=()) -> dict:

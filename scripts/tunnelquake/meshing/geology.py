@@ -21,6 +21,15 @@ between the tunnel axis and the fault's trace on a horizontal plane, so a fault 
 
 Each ground element takes the region its centroid lies in: the fault zone first, then the
 horizontal layers (grid lines of the mesh), then the dipping layers, then rock.
+
+* sloping ground surface: flat at the block's top z_top behind a horizontal crest line through
+  (x_c, y_c), descending at angle alpha towards azimuth beta past it, down to z_top - H (the toe;
+  no toe when H is not given): with d = (x - x_c) sin beta + (y - y_c) cos beta the horizontal
+  distance past the crest, z_s = z_top - min(max(d, 0) tan alpha, H). The mesh follows it by
+  moving every node above a base level z_b (the top of the near-field box or the bottom of the
+  top horizontal layer, whichever is higher) along its vertical, z' = z_b + (z - z_b) r(x, y),
+  r = (z_s - z_b) / (z_top - z_b): the nodes at z_top land on the surface, those at or below z_b
+  stay, so the ground under z_b (the tunnel, the horizontal layers) is untouched.
 """
 
 from __future__ import annotations
@@ -97,9 +106,40 @@ class DippingLayer:
 
 
 @dataclass(frozen=True)
+class Slope:
+    angle: float  # degrees below horizontal, in (0, 90)
+    dip_direction: float  # azimuth of the descent
+    crest: tuple[float, float]  # (x, y) of a point of the crest line, m
+    height: float | None = None  # the drop from the crest to the toe, m; None: no toe inside the block
+
+    def drop(self, x, y) -> np.ndarray:
+        """How far the surface lies below the block's top at plan points (x, y), m."""
+        b = math.radians(self.dip_direction)
+        d = (np.asarray(x, float) - self.crest[0]) * math.sin(b) + (np.asarray(y, float) - self.crest[1]) * math.cos(b)
+        out = np.maximum(d, 0.0) * math.tan(math.radians(self.angle))
+        return out if self.height is None else np.minimum(out, self.height)
+
+
+def surface_ratio(slope: Slope, x, y, z_top: float, z_base: float) -> np.ndarray:
+    """r(x, y) = (z_s - z_b) / (z_top - z_b): the factor the ground above z_b is squeezed by."""
+    return 1.0 - slope.drop(x, y) / (z_top - z_base)
+
+
+def map_to_surface(slope: Slope, xyz: np.ndarray, z_top: float, z_base: float) -> np.ndarray:
+    """Points [..., 3] of the flat-topped block moved onto the sloping ground: z' = z_b + (z - z_b) r(x, y)
+    above z_b, unchanged at and below it."""
+    out = np.array(xyz, float, copy=True)
+    above = out[..., 2] > z_base
+    r = surface_ratio(slope, out[..., 0], out[..., 1], z_top, z_base)
+    out[..., 2] = np.where(above, z_base + (out[..., 2] - z_base) * r, out[..., 2])
+    return out
+
+
+@dataclass(frozen=True)
 class Geology:
     fault: FaultZone | None = None
     dipping: tuple[DippingLayer, ...] = ()
+    slope: Slope | None = None
 
     @property
     def materials(self) -> list[str]:
@@ -151,6 +191,12 @@ def from_case(section: dict | None) -> Geology | None:
     dipping = tuple(DippingLayer(e["material"], Plane(plane_normal(e["dip"], e["dip_direction"]),
                                                       tuple(map(float, e["point"]))))
                     for e in section.get("dipping_layers") or [])
-    if fault is None and not dipping:
+    sl = section.get("slope") or {}
+    slope = None
+    if sl.get("angle") is not None:
+        h = sl.get("height")
+        slope = Slope(float(sl["angle"]), float(sl["dip_direction"]), tuple(map(float, sl["crest"])),
+                      None if h is None else float(h))
+    if fault is None and not dipping and slope is None:
         return None
-    return Geology(fault, dipping)
+    return Geology(fault, dipping, slope)

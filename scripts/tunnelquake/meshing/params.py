@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geology import Geology, band_y_range, corners
+from .geology import Geology, band_y_range, corners, map_to_surface, surface_ratio
 
 #: Every mesh parameter with its default. The defaults reproduce the paper's mesh (Liu, Zhang &
 #: Xiao 2021, §3.1): 58,080 rock and 6,336 lining hexahedra exactly, 14,784 water hexahedra
@@ -367,7 +367,17 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
     top = _layered_band(layers, zc + L, zmax, h_box, hmax, float(m["outer_growth"]), k) if layers else outer(zmax - zc - L)
 
     if geology is not None:
-        _check_geology(geology, (xmin, ymin, zmin), (xmax, ymax, zmax), slice_mode)
+        z_base = max([zc + L] + [z for _, z in layers])
+        _check_geology(geology, (xmin, ymin, zmin), (xmax, ymax, zmax), slice_mode, z_base)
+        if geology.slope is not None:  # the x bands' edges lean with the surface: keep them <= hmax
+            top_x = math.tan(math.radians(geology.slope.angle)) * abs(math.sin(math.radians(geology.slope.dip_direction)))
+            hx = hmax / math.sqrt(1.0 + top_x**2)
+
+            def outer_x(length):
+                segs = outer_band(length, h_box, hx, float(m["outer_growth"]))
+                return tuple((d, Divisions(div.count * k, div.growth ** (1.0 / k))) for d, div in segs)
+        else:
+            outer_x = outer
         y_levels = axial_levels(geology, ymin, ymax, axial.count, (xc - L, xc + L), (zc - L, zc + L),
                                 growths["axial_growth"], k)
     else:
@@ -393,8 +403,8 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
         lining=Divisions(through * k),
         water_ring=Divisions(n_water * k, growths["water_ring_growth"]),
         near_field=Divisions(n_near * k, growths["near_field_growth"]),
-        left=outer(xc - L - xmin),
-        right=outer(xmax - xc - L),
+        left=(outer_x if geology is not None else outer)(xc - L - xmin),
+        right=(outer_x if geology is not None else outer)(xmax - xc - L),
         bottom=outer(zc - L - zmin),
         top=top,
         axial=axial,
@@ -404,7 +414,48 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
         plugs=_plugs(m, slice_mode, axial.count, k),
     )
     _check_sizes(plan)
+    if geology is not None and geology.slope is not None:
+        _check_slope_edges(plan)
     return plan
+
+
+def slope_base(p: MeshPlan) -> float:
+    """z_b: the level above which a sloping surface moves the mesh's nodes (geology.map_to_surface):
+    the near-field box's top or the top horizontal layer's bottom, whichever is higher."""
+    return max([p.zc + p.box_half_width] + [z for _, z in p.layers])
+
+
+def surface_nodes(p: MeshPlan, xyz: np.ndarray) -> np.ndarray:
+    """Points [..., 3] of the flat-topped block on the plan's ground: moved onto the sloping surface
+    when the geology has one, else unchanged."""
+    slope = p.geology.slope if p.geology is not None else None
+    if slope is None:
+        return np.asarray(xyz, float)
+    return map_to_surface(slope, xyz, p.zmax, slope_base(p))
+
+
+def _check_slope_edges(p: MeshPlan) -> None:
+    """A sloping surface leans the horizontal edges of the elements above z_b: an edge of plan
+    length h becomes up to h sqrt(1 + (tan(angle) c)^2) long, c the direction cosine of the descent
+    along it. The x bands are divided for it (resolve); the near-field box's sides and the axial
+    elements are checked here."""
+    s = p.geology.slope
+    t = math.tan(math.radians(s.angle))
+    b = math.radians(s.dip_direction)
+    h_box = 2.0 * p.box_half_width / p.quarter.count
+    hy = float(np.diff(p.y_levels).max()) if not p.slice else 0.0
+    lx, ly = h_box * math.sqrt(1 + (t * math.sin(b)) ** 2), hy * math.sqrt(1 + (t * math.cos(b)) ** 2)
+    if ly > p.max_element_size * (1 + 1e-9):
+        need = math.ceil((p.ymax - p.ymin) * math.sqrt(1 + (t * math.cos(b)) ** 2) / p.max_element_size)
+        why = (f"axial elements {hy:.4g} m long lean with the slope (angle {s.angle:g} deg) to {ly:.4g} m > "
+               f"max_element_size {p.max_element_size:g} m")
+        raise MeshInputError(f"mesh.elements_along_axis: {why}", "mesh.elements_along_axis", p.axial.count, why,
+                             f"Use elements_along_axis >= {need}, or a larger max_element_size.")
+    if lx > p.max_element_size * (1 + 1e-9):
+        why = (f"the near-field box's {h_box:.4g} m divisions lean with the slope (angle {s.angle:g} deg) to "
+               f"{lx:.4g} m > max_element_size {p.max_element_size:g} m")
+        raise MeshInputError(f"mesh.lining_elements_around: {why}", "mesh.lining_elements_around",
+                             4 * p.quarter.count, why, "Use more elements around, or a larger max_element_size.")
 
 
 def _plugs(m: dict, slice_mode: bool, axial: int, k: int) -> int:
@@ -644,10 +695,29 @@ def _geology_regions(p: MeshPlan) -> dict:
     base = layer_of(p, xz[:, 1]) if p.layers else np.zeros(len(xz), np.int32)
     names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + p.geology.materials
     counts = np.zeros(len(names), dtype=np.int64)
+    slope = p.geology.slope
+    if slope is not None:  # the outer grid's x extents (ground_centroids lists its elements last)
+        q, L = p.quarter.count, p.box_half_width
+        xs = _grid_lines(p.xc, L, q, p.left, p.right, p.xmin, p.xmax)
+        zs = _grid_lines(p.zc, L, q, p.bottom, p.top, p.zmin, p.zmax)
+        X0, Z = np.meshgrid(xs[:-1], 0.5 * (zs[1:] + zs[:-1]), indexing="ij")
+        X1, _ = np.meshgrid(xs[1:], zs[1:], indexing="ij")
+        xm = 0.5 * (X0 + X1)
+        box = (np.abs(xm - p.xc) < L) & (np.abs(Z - p.zc) < L)
+        x_ends = np.full((len(xz), 2), np.nan)
+        x_ends[len(xz) - int((~box).sum()):] = np.stack([X0[~box], X1[~box]], axis=1)
+        zb = slope_base(p)
     for j in range(0, len(ym), 64):  # a few axial layers at a time: memory stays small
         yy = ym[j:j + 64]
         pts = np.empty((len(xz), len(yy), 3))
         pts[:, :, 0], pts[:, :, 1], pts[:, :, 2] = xz[:, None, 0], yy[None, :], xz[:, None, 1]
+        if slope is not None:  # the element's centroid on the slope: its z times the mean r of its plan corners
+            r = np.zeros((len(xz), len(yy)))
+            for xe in (x_ends[:, 0], x_ends[:, 1]):
+                for ye in (y[j:j + 64][:len(yy)], y[j + 1:j + 65][:len(yy)]):
+                    r += 0.25 * surface_ratio(slope, xe[:, None], ye[None, :], p.zmax, zb)
+            above = np.isfinite(r) & (pts[:, :, 2] > zb)
+            pts[:, :, 2] = np.where(above, zb + (pts[:, :, 2] - zb) * np.where(above, r, 1.0), pts[:, :, 2])
         r = assign(p.geology, pts, np.repeat(base[:, None], len(yy), axis=1), 2 + len(p.layers))
         counts += np.bincount(r.ravel(), minlength=len(names))
     return {n: int(c) for i, (n, c) in enumerate(zip(names, counts, strict=True)) if i != 1}
@@ -718,9 +788,57 @@ def machine_memory() -> dict | None:
     return {"total": kb["MemTotal"] * 1024.0, "available": kb.get("MemAvailable", kb["MemTotal"]) * 1024.0}
 
 
-def _check_geology(geo: Geology, lo, hi, slice_mode: bool) -> None:
+#: The thinnest a sloping surface may leave the ground above z_b, as a share of z_top - z_b: the
+#: elements there are squeezed vertically by this factor at most.
+SLOPE_MIN_SHARE = 0.25
+
+
+def _check_slope(s, lo, hi, slice_mode: bool, z_base: float) -> None:
+    """The slope against the block: it must descend inside it, and its surface must stay above
+    z_b + SLOPE_MIN_SHARE (z_top - z_b) everywhere (else the ground above the tunnel's near-field
+    box, or the top horizontal layer, would be squeezed to nothing or cut through)."""
+    key = "geology.slope"
+    if slice_mode and abs(math.cos(math.radians(s.dip_direction))) > 1e-9:
+        why = ("a slice holds one section across the tunnel, and a slope descending along the axis changes the "
+               "section along it")
+        raise MeshInputError(f"{key}.dip_direction: {why}", f"{key}.dip_direction", s.dip_direction, why,
+                             "Use dip_direction 90 or 270 (descending across the tunnel) in a slice, or mesh.mode: 3d.")
+    plan_corners = [(x, y) for x in (lo[0], hi[0]) for y in (lo[1], hi[1])]
+    drops = [float(s.drop(x, y)) for x, y in plan_corners]
+    if max(drops) <= 0.0:
+        why = (f"the crest line through {list(s.crest)} leaves the whole block x {lo[0]:g}..{hi[0]:g}, "
+               f"y {lo[1]:g}..{hi[1]:g} behind it: the slope never descends inside the block")
+        raise MeshInputError(f"{key}.crest: {why}", f"{key}.crest", list(s.crest), why,
+                             "Give a crest point inside the block (in plan), or check dip_direction (the azimuth "
+                             "the ground descends towards).")
+    allowed = (1.0 - SLOPE_MIN_SHARE) * (hi[2] - z_base)
+    worst = max(drops)
+    if worst > allowed * (1 + 1e-12):
+        x, y = plan_corners[int(np.argmax(drops))]
+        b = math.radians(s.dip_direction)
+        reach = (x - s.crest[0]) * math.sin(b) + (y - s.crest[1]) * math.cos(b)  # the farthest distance past the crest
+        limit = (f"the ground above z = {z_base:g} m (the top of the tunnel's near-field box, or the bottom of the top "
+                 f"horizontal layer) must keep {SLOPE_MIN_SHARE:g} of its {hi[2] - z_base:g} m")
+        if s.height is not None and s.height > allowed:
+            why = f"drops the surface {s.height:g} m, to z = {hi[2] - s.height:g} m, but {limit}: at most {allowed:.4g} m"
+            raise MeshInputError(f"{key}.height: {why}", f"{key}.height", s.height, why,
+                                 f"Give height <= {allowed:.4g} m, or raise geometry.z_range[1] / lower the tunnel "
+                                 "(geometry.tunnel_centre_z) to give the slope room.")
+        steepest = math.degrees(math.atan(allowed / reach))
+        why = (f"is steeper than the block allows: descending from the crest through {list(s.crest)}, the surface "
+               f"falls {worst:.4g} m by ({x:g}, {y:g}), to z = {hi[2] - worst:.4g} m, but {limit}")
+        raise MeshInputError(f"{key}.angle: {why}", f"{key}.angle", s.angle, why,
+                             f"Use angle <= {steepest:.1f} deg with this crest, or give height <= {allowed:.4g} m "
+                             "(a toe inside the block), move the crest (geology.slope.crest) towards the descent, or "
+                             "raise geometry.z_range[1].")
+
+
+def _check_geology(geo: Geology, lo, hi, slice_mode: bool, z_base: float | None = None) -> None:
     """The planes against the block: a fault zone must meet the block and not cover it, a dipping
-    layer's bottom must cut the block (else the layer is empty or the whole ground)."""
+    layer's bottom must cut the block (else the layer is empty or the whole ground); a slope must
+    descend inside the block and leave ground above z_base (_check_slope)."""
+    if geo.slope is not None:
+        _check_slope(geo.slope, lo, hi, slice_mode, hi[2] if z_base is None else z_base)
     box = corners(lo, hi)
     f = geo.fault
     if f is not None:

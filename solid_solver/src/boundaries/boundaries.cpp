@@ -89,6 +89,9 @@ std::vector<const Material*> materialsOf(const Mesh& mesh, const std::vector<std
   return m;
 }
 
+/// The base dashpot per area in direction d (ρ cs across, ρ cp normal to the base).
+Real baseDashpot(const BaseHalfSpace& hs, int d) { return hs.rho * (d == 2 ? hs.cp : hs.cs); }
+
 }  // namespace
 
 FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
@@ -115,18 +118,61 @@ FreeFieldColumn SeismicBoundaries::buildColumn(const Mesh& mesh, const std::vect
     const auto it = std::lower_bound(levels.begin(), levels.end(), v - tol);
     return Index(it - levels.begin());
   };
+  // A face whose rows lean (a sloping ground surface changing along the face): where every vertical
+  // line of its nodes holds as many nodes, the column's levels are the lines' mean heights, row by row,
+  // and each quad lies in the layer of its centroid (the quads then take the column at their own
+  // heights, as a shared column's do).
+  bool leaning = [&] {
+    for (size_t k = 0; k < f.quads.size() / 4; ++k) {
+      Real lo = 1e300, hi = -1e300;
+      for (int c = 0; c < 4; ++c) {
+        lo = std::min(lo, mesh.coords[dofIndex(f.quads[4 * k + c], 2)]);
+        hi = std::max(hi, mesh.coords[dofIndex(f.quads[4 * k + c], 2)]);
+      }
+      if (levelOf(hi) != levelOf(lo) + 1) return true;
+    }
+    return false;
+  }();
+  if (leaning) {
+    const int along = f.axis == 0 ? 1 : 0;  // the face's horizontal direction
+    std::map<long long, std::vector<Real>> lines;
+    const Real htol = 1e-9 * std::max(1.0, zmax - zmin);
+    for (Index n : f.nodes)
+      lines[std::llround(mesh.coords[dofIndex(n, along)] / htol)].push_back(mesh.coords[dofIndex(n, 2)]);
+    const size_t count = lines.begin()->second.size();
+    bool same = count >= 2;
+    for (auto& [key, zs] : lines) {
+      (void)key;
+      std::sort(zs.begin(), zs.end());
+      same = same && zs.size() == count;
+    }
+    if (same) {
+      levels.assign(count, 0.0);
+      for (const auto& [key, zs] : lines) {
+        (void)key;
+        for (size_t r = 0; r < count; ++r) levels[r] += zs[r] / Real(lines.size());
+      }
+    } else {
+      leaning = false;  // refused below: quads across several levels
+    }
+  }
+  auto quadLayer = [&](Real zc) {
+    const auto it = std::upper_bound(levels.begin(), levels.end(), zc);
+    return std::clamp<Index>(Index(it - levels.begin()) - 1, 0, Index(levels.size()) - 2);
+  };
   // One material per layer, from the elements that own the face's quads.
   std::vector<ColumnLayer> layers(levels.size() - 1);
   std::vector<bool> seen(layers.size(), false);
   const QuadOwners owners(mesh);
   for (size_t k = 0; k < f.quads.size() / 4; ++k) {
     const Index* q = &f.quads[4 * k];
-    Real lo = 1e300, hi = -1e300;
+    Real lo = 1e300, hi = -1e300, zc = 0;
     for (int c = 0; c < 4; ++c) {
       lo = std::min(lo, mesh.coords[dofIndex(q[c], 2)]);
       hi = std::max(hi, mesh.coords[dofIndex(q[c], 2)]);
+      zc += 0.25 * mesh.coords[dofIndex(q[c], 2)];
     }
-    const Index l0 = levelOf(lo), l1 = levelOf(hi);
+    const Index l0 = leaning ? quadLayer(zc) : levelOf(lo), l1 = leaning ? l0 + 1 : levelOf(hi);
     if (l1 != l0 + 1) {
       std::ostringstream os;
       os << mshort(mesh) << ": face group '" << group << "' is not horizontally layered: quad " << k
@@ -205,6 +251,7 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
       throw InputError("viscoelastic base: distance R must be > 0 m (got " + std::to_string(spec_.distance) + ")");
     kArea_ = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance, spec_.alphaN * G / spec_.distance};
     cArea_ = {hs.rho * hs.cs, hs.rho * hs.cs, hs.rho * hs.cp};
+    assignBaseColumns(mesh);
   }
   // Free-field sides: per node dashpots and column interpolation, per quad the traction loads. The
   // shared-column faces take the first face's column (their quads need not lie in its rows).
@@ -288,18 +335,57 @@ SeismicBoundaries::SeismicBoundaries(const Mesh& mesh, const std::vector<const M
   }
 }
 
+void SeismicBoundaries::assignBaseColumns(const Mesh& mesh) {
+  baseColumnOf_.assign(base_.nodes.size(), baseColumn_);
+  const Real zBase = mesh.coords[dofIndex(base_.nodes[0], 2)];
+  std::vector<std::array<Real, 4>> boxes;  // x lo, x hi, y lo, y hi of each candidate face
+  std::vector<Index> candidates;
+  for (size_t i = 0; i < spec_.freeFieldFaces.size(); ++i) {
+    const FreeFieldColumn& c = columns_[i];
+    if (std::abs(c.level(0) - zBase) > 1e-9 * std::max(1.0, c.level(c.numLevels() - 1) - c.level(0))) continue;
+    const AxisFace f = axisFace(mesh, spec_.freeFieldFaces[i]);
+    std::array<Real, 4> b{1e300, -1e300, 1e300, -1e300};
+    for (Index n : f.nodes) {
+      const Real x = mesh.coords[dofIndex(n, 0)], y = mesh.coords[dofIndex(n, 1)];
+      b[0] = std::min(b[0], x);
+      b[1] = std::max(b[1], x);
+      b[2] = std::min(b[2], y);
+      b[3] = std::max(b[3], y);
+    }
+    boxes.push_back(b);
+    candidates.push_back(Index(i));
+  }
+  if (candidates.size() < 2) return;
+  for (size_t k = 0; k < base_.nodes.size(); ++k) {
+    const Real x = mesh.coords[dofIndex(base_.nodes[k], 0)], y = mesh.coords[dofIndex(base_.nodes[k], 1)];
+    Real best = 1e300;
+    for (size_t j = 0; j < boxes.size(); ++j) {
+      const auto& b = boxes[j];
+      const Real dx = std::max({b[0] - x, Real(0), x - b[1]}), dy = std::max({b[2] - y, Real(0), y - b[3]});
+      const Real d2 = dx * dx + dy * dy;
+      if (d2 < best) {  // the first of equally near faces
+        best = d2;
+        baseColumnOf_[k] = candidates[j];
+      }
+    }
+  }
+}
+
 void SeismicBoundaries::restrictToNodes(const std::vector<Index>& localNode, const std::vector<std::uint8_t>& owned) {
   AxisFace base = base_;
   base.nodes.clear();
   base.area.clear();
   baseCounted_.clear();
+  std::vector<Index> columnOf;
   for (size_t i = 0; i < base_.nodes.size(); ++i) {
     const Index n = localNode[size_t(base_.nodes[i])];
     if (n < 0) continue;
     base.nodes.push_back(n);
     base.area.push_back(base_.area[i]);
     baseCounted_.push_back(owned[size_t(n)]);
+    if (!baseColumnOf_.empty()) columnOf.push_back(baseColumnOf_[i]);
   }
+  baseColumnOf_ = std::move(columnOf);
   base.quads.clear();  // in the whole model's numbering: not used once built
   base_ = std::move(base);
   std::vector<SideNode> side;
@@ -326,7 +412,7 @@ void SeismicBoundaries::install(NodalState& state) {
   u0_.assign(3 * base_.nodes.size(), 0.0);
   for (size_t i = 0; i < base_.nodes.size(); ++i)
     for (int d = 0; d < 3; ++d) {
-      state.addDashpot(base_.nodes[i], d, base_.area[i] * cArea_[size_t(d)]);
+      state.addDashpot(base_.nodes[i], d, base_.area[i] * baseDashpot(baseColumnOf(i).base(), d));
       u0_[3 * i + d] = state.u(base_.nodes[i], d);
     }
   uPrev_ = u0_;
@@ -338,25 +424,25 @@ void SeismicBoundaries::install(NodalState& state) {
 void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   for (auto& c : columns_) c.advance(t, dt, motion_);
   Real* fe = state.fExtData();
-  // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot).
+  // Base: spring to u_0, input A[K u_col + 2ρc v_in] (the dashpot is a nodal dashpot), u_col the base of
+  // the node's column (assignBaseColumns).
   if (spec_.bottom) {
-    const FreeFieldColumn& col = columns_[size_t(baseColumn_)];
-    const BaseHalfSpace& hs = col.base();
-    const Real cin[3] = {2 * hs.rho * hs.cs, 2 * hs.rho * hs.cs, 2 * hs.rho * hs.cp};
-    Real vin[3], ucol[3];
-    for (int d = 0; d < 3; ++d) {
-      vin[d] = motion_.velocity(d, t);
-      ucol[d] = col.u(0, d);
-    }
+    Real vin[3];
+    for (int d = 0; d < 3; ++d) vin[d] = motion_.velocity(d, t);
     Real work = 0;
     for (size_t i = 0; i < base_.nodes.size(); ++i) {
       const Index n = base_.nodes[i];
       const Real A = base_.area[i];
+      const FreeFieldColumn& own = baseColumnOf(i);
+      const BaseHalfSpace& hs = own.base();
+      const Real G = hs.rho * hs.cs * hs.cs;
+      const Real k[3] = {spec_.alphaT * G / spec_.distance, spec_.alphaT * G / spec_.distance,
+                         spec_.alphaN * G / spec_.distance};
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * i + d;
         const Real u = state.u(n, d);
-        const Real fs = -A * kArea_[size_t(d)] * (u - u0_[j]);
-        fe[dofIndex(n, d)] += fs + A * (kArea_[size_t(d)] * ucol[d] + cin[d] * vin[d]);
+        const Real fs = -A * k[d] * (u - u0_[j]);
+        fe[dofIndex(n, d)] += fs + A * (k[d] * own.u(0, d) + 2 * baseDashpot(hs, d) * vin[d]);
         if (!first_ && (baseCounted_.empty() || baseCounted_[i])) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
         fPrev_[j] = fs;
         uPrev_[j] = u;

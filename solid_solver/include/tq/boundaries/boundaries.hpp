@@ -100,7 +100,8 @@ class SeismicBoundaries final : public NodalForceContributor {
   const std::vector<FreeFieldColumn>& columns() const { return columns_; }
   const FreeFieldColumn& baseColumn() const { return columns_[size_t(baseColumn_)]; }
   const IncidentMotion& motion() const { return motion_; }
-  /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction.
+  /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction (of the base column's
+  /// half-space; each node's are its own column's, assignBaseColumns).
   const std::vector<Index>& baseNodes() const { return base_.nodes; }
   std::array<Real, 3> springPerArea() const { return kArea_; }
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
@@ -108,6 +109,15 @@ class SeismicBoundaries final : public NodalForceContributor {
  private:
   FreeFieldColumn buildColumn(const Mesh& mesh, const std::vector<const Material*>& elementMaterial,
                               const std::string& face) const;
+  /// Each base node takes the nearest free-field face's column (horizontal distance to the face's
+  /// extent; the first of equally near ones): its spring follows that column's base, and its dashpot
+  /// and input are that column's half-space's, so that under a ground that changes across the block
+  /// (a slope, dipping layers, side faces in strips along the axis) the base near each side is that
+  /// side's column's; the base column everywhere when fewer than two columns reach the base.
+  void assignBaseColumns(const Mesh& mesh);
+  const FreeFieldColumn& baseColumnOf(size_t i) const {
+    return columns_[size_t(baseColumnOf_.empty() ? baseColumn_ : baseColumnOf_[i])];
+  }
   struct SideNode {
     Index node;
     Index column;
@@ -134,6 +144,7 @@ class SeismicBoundaries final : public NodalForceContributor {
   std::vector<Real> uPrev_, fPrev_;        // spring work by the trapezoid rule, as the solver books work
   bool first_ = true;
   Real springWork_ = 0;
+  std::vector<Index> baseColumnOf_;  // [base nodes] the column whose base the node's spring follows
 };
 
 }  // namespace tq
