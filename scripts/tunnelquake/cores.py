@@ -14,13 +14,18 @@ SMALL_MESH_ELEMENTS = 20000
 SOLID_SPINCOUNT = "10000"
 
 
+def available() -> int:
+    """The cores this process may use."""
+    return len(os.sched_getaffinity(0))
+
+
 def concurrent_conditions() -> int:
     """How many conditions may run at once: the cores this process may use (TQ_CONDITIONS_AT_ONCE
     overrides, e.g. 1 to run them one after the other)."""
     env = os.environ.get("TQ_CONDITIONS_AT_ONCE")
     if env:
         return max(1, int(env))
-    return len(os.sched_getaffinity(0))
+    return available()
 
 
 def side_by_side(conditions_parts) -> bool:
@@ -40,7 +45,7 @@ def solid_thread_count(threads: int, elements: int, share: int = 1) -> int:
     the steps a second of 2 threads each, docs/benchmarks.md "Threads of solvers side by side")."""
     if threads:
         return int(threads)
-    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)) // max(1, share))
+    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, available() // max(1, share))
 
 
 def solid_env() -> dict:

@@ -342,7 +342,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     import math
 
     from .case import case_geology, ground_layers
-    from .cores import side_by_side, solid_thread_count
+    from .cores import available, side_by_side, solid_thread_count
     from .meshing.params import element_counts, resolve
 
     d = case.data
@@ -361,13 +361,15 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     share = 2 if side_by_side(conditions) else 1
     elements = counts["rock"] + counts["lining"]
     threads = {c: solid_thread_count(int(d["parallel"]["threads"]), elements, share) for c, _ in conditions}
+    # more threads than cores run no faster than one a core
+    on_cores = {c: min(n, available()) for c, n in threads.items()}
     if rates is None:
         try:
-            rates = R.machine_rates(threads=max(threads.values(), default=1))
+            rates = R.machine_rates(threads=max(on_cores.values(), default=1))
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
-    speedup = {c: rates.speedup(n) for c, n in threads.items()}
+    speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
     solid = (rock + counts["lining"]) * steps * rates.solid_element_step
     statics, statics_steps = 0.0, 0

@@ -105,6 +105,9 @@ def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkey
     pinned.data["parallel"]["threads"] = 1
     e = runtime_estimate(pinned, rates=given)
     assert e.threads == {"dynamic_water": 1} and e.seconds == pytest.approx(est.cpu, rel=1e-12)
+    pinned.data["parallel"]["threads"] = 8  # more threads than the 2 cores: the 2 cores' speed-up
+    e = runtime_estimate(pinned, rates=given)
+    assert e.threads == {"dynamic_water": 8} and e.speedup == {"dynamic_water": 1.6}
 
     all3 = load_case(EXAMPLE, variant="3d")
     all3.data["conditions"] = ["no_water", "static_water", "dynamic_water"]
