@@ -114,6 +114,7 @@ def points_3d() -> list[Point]:
         ("window 16, tol 1e-4, subcycling 0", {sub: 0}, ""),
         ("window 16, tol 1e-3, subcycling 3", {tol: 1e-3}, ""),
         ("window 32, tol 1e-4, subcycling 3", {win: 32}, ""),
+        ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid", {law: "solid"}, ""),
     )]
 
