@@ -10,6 +10,11 @@ is read whole, so its processing is the same as the full run's). Two ladders:
                  against a converged reference (one-step windows, tolerance 1e-5)
   no_water       the solid's stepping: time.subcycling 1, 2, 3 against single-rate (0)
 
+With --variant NAME the case file's variant is laid over every point and the 3D ladder runs
+instead (points_3d: condition 3 of the `3d` variant, the solid on one thread): the variant's
+settings against single-rate stepping at tolerance 1e-5, the window, the tolerance, the
+subcycling and the volume law one at a time; its files are named cost_error_<variant>*.
+
 The error of a point is the largest relative difference, over the monitors, of its monitored
 peaks against the reference's: the lining's principal stresses at the monitors (max sigma3,
 the most compressive sigma1), the lining rings' section forces (the largest |N|, |M|, |V| over the
@@ -90,16 +95,51 @@ def points() -> list[Point]:
     ]
 
 
+#: the 3D ladder's keys on every point: the solid on one thread, so that its CPU seconds
+#: (solid_cpu_s: the calling thread's) are the whole solid's and the points compare
+THREADS_1 = {"parallel.threads": 1}
+
+
+def points_3d() -> list[Point]:
+    """The settings tried on the case's 3D variant (--variant), condition 3 alone: the variant's
+    own settings the default; the reference single-rate (subcycling 0) at tolerance 1e-5 in windows
+    of 16 (one-step windows cost about 16 water passes a window more, beyond what this bench can
+    run in 3D); the window (the water's rate), the tolerance, the subcycling and where the volume
+    law is carried (the water's remainder only) one at a time."""
+    dw, win, tol, sub = "dynamic_water", "coupling.window", "coupling.tolerance", "time.subcycling"
+    law = "coupling.volume_law"
+    return [Point(name, dw, {**THREADS_1, **keys}, role) for name, keys, role in (
+        ("window 16, tol 1e-5, subcycling 0", {tol: 1e-5, sub: 0}, "reference"),
+        ("window 16, tol 1e-4, subcycling 3", {}, "default"),
+        ("window 16, tol 1e-4, subcycling 0", {sub: 0}, ""),
+        ("window 16, tol 1e-3, subcycling 3", {tol: 1e-3}, ""),
+        ("window 32, tol 1e-4, subcycling 3", {win: 32}, ""),
+        ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
+        ("volume law in the solid", {law: "solid"}, ""),
+    )]
+
+
+def lay(d: dict, over: dict) -> None:
+    """Lay the nested keys of `over` over `d` (a case file's variant over the rest of it)."""
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(d.get(k), dict):
+            lay(d[k], v)
+        else:
+            d[k] = copy.deepcopy(v)
+
+
 # ----------------------------------------------------------------------------------------------
 # running
 
-def write_point(p: Point, base: dict, base_dir: Path, folder: Path, end: float) -> Path:
-    """FOLDER/<condition>/<slug>/case.yaml: the case with the point's keys, time.end_time = end,
-    one condition, the record path made absolute."""
+def write_point(p: Point, base: dict, base_dir: Path, folder: Path, end: float, variant: str | None = None) -> Path:
+    """FOLDER/<condition>/<slug>/case.yaml: the case (with its `variant` laid over it) with the
+    point's keys, time.end_time = end, one condition, the record path made absolute."""
     import yaml
 
     d = copy.deepcopy(base)
-    d.pop("variants", None)
+    variants = d.pop("variants", None) or {}
+    if variant:
+        lay(d, variants[variant])
     gm = d["ground_motion"]
     if gm.get("file"):
         gm["file"] = str((base_dir / gm["file"]).resolve())
@@ -281,7 +321,7 @@ def _short(name: str) -> str:
             .replace(", tol ", " tol ").replace(", subcycling ", " sub ").replace("subcycling ", "sub "))
 
 
-def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
+def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float, variant: str | None = None) -> None:
     """Worst monitored-peak difference (%) against CPU s of the completed points, linear axes; the
     default a red star, the front joined; the reference and the stopped points named in a box."""
     import matplotlib
@@ -319,7 +359,8 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
     fig.text(0.01, 0.01, "; ".join(notes), ha="left", va="bottom", fontsize=6.5, wrap=True)
     ax.set_xlabel("CPU s (tq-solid + water for the coupled runs; whole run solid-only)")
     ax.set_ylabel("worst monitored-peak difference from the reference, %")
-    ax.set_title(f"{cond}, first {end:g} s: cost against error, one point per setting", fontsize=9)
+    where = f" ({variant} variant)" if variant else ""
+    ax.set_title(f"{cond}{where}, first {end:g} s: cost against error, one point per setting", fontsize=9)
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, alpha=0.3)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
@@ -327,21 +368,23 @@ def plot(cond: str, runs: list[dict], a: dict, path: Path, end: float) -> None:
     plt.close(fig)
 
 
-def render(data: dict, folder: Path, docs: bool) -> str:
+def render(data: dict, folder: Path, docs: bool, tag: str = "") -> str:
+    """Tabulate and draw; `tag` ('_3d' for --variant 3d) names the files apart from the slice's."""
     runs = data["runs"]
     an = analyse(runs)
     data["analysis"] = an
-    (folder / "cost_error.json").write_text(json.dumps(data, indent=1, default=str))
+    store = folder / f"cost_error{tag}.json"
+    store.write_text(json.dumps(data, indent=1, default=str))
     for cond in an:
-        png = folder / f"cost_error_{cond}.png"
-        plot(cond, runs, an[cond], png, data["end"])
+        png = folder / f"cost_error{tag}_{cond}.png"
+        plot(cond, runs, an[cond], png, data["end"], data.get("variant"))
         if docs and png.is_file():
             shutil.copy(png, ROOT / "docs" / "bench" / png.name)
     if docs:  # the measured points beside the figures, for a redraw without rerunning (--tabulate-only)
-        shutil.copy(folder / "cost_error.json", ROOT / "docs" / "bench" / "cost_error.json")
+        shutil.copy(store, ROOT / "docs" / "bench" / store.name)
     text = (f"{data['machine']}; first {data['end']:g} s of the record\n" + table(runs, an) + "\n\n"
             + json.dumps(an, indent=1))
-    (folder / "cost_error.md").write_text(text)
+    (folder / f"cost_error{tag}.md").write_text(text)
     return text
 
 
@@ -355,20 +398,27 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--only", nargs="*", default=None, help="names of the points to run (default: all)")
     ap.add_argument("--docs", action="store_true", help="copy the figures to docs/bench/")
     ap.add_argument("--tabulate-only", action="store_true")
+    ap.add_argument("--variant", default=None,
+                    help="the case file's variant to lay over it (3d: the 3D ladder, points_3d)")
     a = ap.parse_args(argv)
     import yaml
 
     folder = a.folder.resolve()
     folder.mkdir(parents=True, exist_ok=True)
-    store = folder / "cost_error.json"
-    data = json.loads(store.read_text()) if store.is_file() else {"end": a.end, "runs": []}
+    tag = f"_{slug(a.variant)}" if a.variant else ""
+    store = folder / f"cost_error{tag}.json"
+    data = json.loads(store.read_text()) if store.is_file() else {"end": a.end, "runs": [], "variant": a.variant}
     if not a.tabulate_only:
         base = yaml.safe_load(a.case.read_text())
-        todo = [p for p in points() if a.only is None or p.name in a.only]
+        if a.variant and a.variant not in (base.get("variants") or {}):
+            ap.error(f"--variant {a.variant}: {a.case} has no such variant (its variants: "
+                     f"{', '.join(base.get('variants') or {}) or 'none'})")
+        ladder = points_3d() if a.variant else points()
+        todo = [p for p in ladder if a.only is None or p.name in a.only]
         lock = threading.Lock()
 
         def one(p: Point) -> None:
-            d = write_point(p, base, a.case.resolve().parent, folder, a.end)
+            d = write_point(p, base, a.case.resolve().parent, folder, a.end, a.variant)
             rec = run_point(p, d, a.limit)
             rec["point"] = asdict(p)
             print(f"{p.condition} {p.name}: {rec.get('status')} cpu {rec.get('cpu_s', math.nan):.1f} s "
@@ -382,7 +432,7 @@ def main(argv: list[str]) -> int:
             list(ex.map(one, todo))
     data["machine"] = common.machine()
     data["end"] = data.get("end", a.end)
-    print(render(data, folder, a.docs))
+    print(render(data, folder, a.docs, tag))
     return 0
 
 

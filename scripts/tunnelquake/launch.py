@@ -16,6 +16,7 @@ from pathlib import Path
 from . import children, paths, supervise
 from .case_report import OutputsNotWritten, post_case
 from .children import Side, say, watch_pair
+from .cores import concurrent_conditions, solid_env
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
@@ -103,39 +104,6 @@ def run_solid_condition(case, cond: str, motion_file, prefix: bool = False,
             progress(cond, line)
             say(f"[{cond}] {line.rstrip()}")
     return proc.returncode, res
-
-
-def concurrent_conditions() -> int:
-    """How many conditions may run at once: the cores this process may use (TQ_CONDITIONS_AT_ONCE
-    overrides, e.g. 1 to run them one after the other)."""
-    import os
-
-    env = os.environ.get("TQ_CONDITIONS_AT_ONCE")
-    if env:
-        return max(1, int(env))
-    return len(os.sched_getaffinity(0))
-
-
-#: spins of an idle OpenMP thread before it sleeps (GNU libgomp's GOMP_SPINCOUNT; its default is
-#: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE)
-SOLID_SPINCOUNT = "10000"
-
-
-def solid_env() -> dict:
-    """tq-solid's environment: an idle OpenMP thread spins briefly, then sleeps, unless the user set
-    OMP_WAIT_POLICY or GOMP_SPINCOUNT. Spinning without end (a team's default on a loaded machine)
-    took the cores from the water solver and the machine's other runs: 4 steps a second instead of
-    ~2,800 on the slice. Sleeping at once (OMP_WAIT_POLICY=PASSIVE, used until 2026-11-22) costs a
-    wake-up at each of the step's parallel loops: on the 3D paper mesh with 2 threads, 17.8-21.7 s
-    for 3,968 subcycled steps against 12.3-16.0 s with 2,000-200,000 spins (docs/benchmarks.md
-    "Solid subcycling and element order"); a few thousand spins bridge the gaps between the loops
-    of one step and are spent long before the water's pass ends."""
-    import os
-
-    env = dict(os.environ)
-    if "OMP_WAIT_POLICY" not in env and "GOMP_SPINCOUNT" not in env:
-        env["GOMP_SPINCOUNT"] = SOLID_SPINCOUNT
-    return env
 
 
 def _fluid_echo():

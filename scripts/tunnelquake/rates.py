@@ -6,18 +6,27 @@ CPU seconds on this machine. Every rate of the estimate is a measured multiple o
 same kernels, one thread), the probe's seconds the property of the machine. CPU seconds, not wall
 seconds: on a machine shared with other work the wall time says how busy it was, not how fast it is.
 
-The probe's result is cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
+A run on several OpenMP threads (a large mesh: solid_input.run_threads) takes the one-thread CPU
+seconds divided by the **thread speed-up** of this machine: a second probe, tq-solid-bench on a 32^3
+box on 1 and on N threads in turn, compares the busiest thread's CPU seconds per element-step (each
+thread's CLOCK_THREAD_CPUTIME_ID, the largest of the team): the time the steps take when each thread
+has a core, which other work on the machine changes far less than the wall time (a thread that is
+not running is not counted, and the one waiting for it sleeps).
+
+The probes' results are cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
 bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
-(TQ_RATES_FILE overrides the file), so it runs once a machine and build.
+(TQ_RATES_FILE overrides the file), so each runs once a machine and build (the speed-up once for
+each thread count asked for).
 """
 from __future__ import annotations
 
 import json
 import os
 import platform
+import re
 import subprocess
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import paths
@@ -26,6 +35,11 @@ from . import paths
 PROBE_ARGS = ("--n", "16", "--steps", "400", "--repeat", "3", "--threads", "1")
 #: probes taken, their median kept (a busy machine slows CPU seconds a little too: caches, SMT)
 PROBE_RUNS = 3
+
+#: the thread probe: tq-solid-bench's arguments without --threads (32,768 elements, about 0.6 CPU s a
+#: run on a 2026 server core), run on 1 and on N threads in turn, THREAD_PROBE_ROUNDS times
+THREAD_PROBE_ARGS = ("--n", "32", "--steps", "20", "--repeat", "5")
+THREAD_PROBE_ROUNDS = 3
 
 #: CPU seconds of one element-step of the example slice's solid-only shaking (Mohr-Coulomb damage,
 #: rock-lining contact, seismic boundaries, free field, monitors, ring forces, checkpoints) per probe
@@ -72,6 +86,13 @@ class MachineRates:
     probe_s: float  # the probe's CPU seconds (median of PROBE_RUNS)
     processor: str
     source: str  # 'measured now' or 'cached <date>'
+    speedups: dict = field(default_factory=dict)  # threads -> thread speed-up of the solid's step (measured)
+    speedup_note: str = ""  # why a speed-up asked for is not there
+
+    def speedup(self, threads: int) -> float:
+        """The solid step's speed-up on `threads` OpenMP threads against one: 1 for one thread, the
+        measured figure otherwise (1 when it could not be measured: speedup_note says why)."""
+        return 1.0 if threads <= 1 else float(self.speedups.get(int(threads), 1.0))
 
     @property
     def solid_element_step(self) -> float:
@@ -144,6 +165,40 @@ def measure(program: Path | None = None, runs: int = PROBE_RUNS) -> float:
     return times[len(times) // 2]
 
 
+_BUSIEST = re.compile(r"busiest thread's CPU: median ([0-9.eE+-]+) us")
+
+
+def _busiest_us(program: Path, threads: int, env: dict) -> float:
+    """The thread probe's busiest thread's CPU microseconds per element-step on `threads` threads."""
+    cmd = [str(program), *THREAD_PROBE_ARGS, "--threads", str(threads)]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    except OSError as e:
+        raise ProbeFailed(f"{program} cannot be started ({e.strerror})") from e
+    if proc.returncode != 0:
+        raise ProbeFailed(f"{program} exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
+    found = _BUSIEST.search(proc.stdout)
+    if not found:
+        raise ProbeFailed(f"{program} does not print its busiest thread's CPU (an older build: "
+                          "scripts/bootstrap.sh rebuilds it)")
+    return float(found.group(1))
+
+
+def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS) -> float:
+    """The solid step's speed-up on `threads` threads: the thread probe on one thread and on
+    `threads` in turn, `rounds` times; the median of the rounds' ratios of the busiest thread's CPU
+    per element-step. The threads wait as tq-solid's do (cores.solid_env)."""
+    from .cores import solid_env
+
+    program = program or probe_program()
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    env = solid_env()
+    ratios = sorted(_busiest_us(program, 1, env) / _busiest_us(program, threads, env)
+                    for _ in range(max(1, rounds)))
+    return ratios[len(ratios) // 2]
+
+
 def _read_cache() -> dict:
     try:
         data = json.loads(cache_file().read_text())
@@ -152,24 +207,9 @@ def _read_cache() -> dict:
     return data if isinstance(data, dict) else {}
 
 
-def machine_rates(program: Path | None = None, measure_if_missing: bool = True) -> MachineRates:
-    """This machine's rates: the cached probe of this processor and build, else the probe run now
-    (and cached). Raises ProbeFailed when it cannot be measured (or `measure_if_missing` is False
-    and nothing is cached)."""
+def _write_cache(cache: dict) -> None:
     from .files import atomic_path
 
-    program = program or probe_program()
-    if not program.is_file():
-        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
-    key = _key(program)
-    cache = _read_cache()
-    hit = cache.get(key)
-    if isinstance(hit, dict) and float(hit.get("probe_s", 0)) > 0:
-        return MachineRates(float(hit["probe_s"]), processor(), f"cached {hit.get('date', '')}".strip())
-    if not measure_if_missing:
-        raise ProbeFailed(f"no probe of this machine cached in {cache_file()}")
-    probe = measure(program)
-    cache[key] = {"probe_s": probe, "date": time.strftime("%Y-%m-%d"), "args": " ".join(PROBE_ARGS)}
     path = cache_file()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -178,4 +218,42 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True) 
             tmp.write_text(text)
     except OSError:
         pass  # an unwritable cache: measured again next time
-    return MachineRates(probe, processor(), "measured now")
+
+
+def machine_rates(program: Path | None = None, measure_if_missing: bool = True, threads: int = 1) -> MachineRates:
+    """This machine's rates: the cached probe of this processor and build, else the probe run now
+    (and cached); with `threads` > 1 also the thread speed-up on that many threads, cached the same
+    way (a thread probe that cannot run leaves the speed-up out and says why in speedup_note).
+    Raises ProbeFailed when the probe cannot be measured (or `measure_if_missing` is False and
+    nothing is cached)."""
+    program = program or probe_program()
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    key = _key(program)
+    cache = _read_cache()
+    hit = cache.get(key)
+    changed = False
+    if isinstance(hit, dict) and float(hit.get("probe_s", 0)) > 0:
+        source = f"cached {hit.get('date', '')}".strip()
+    elif not measure_if_missing:
+        raise ProbeFailed(f"no probe of this machine cached in {cache_file()}")
+    else:
+        hit = {"probe_s": measure(program), "date": time.strftime("%Y-%m-%d"), "args": " ".join(PROBE_ARGS)}
+        source, changed = "measured now", True
+    speedups = {int(k): float(v) for k, v in (hit.get("speedup") or {}).items() if float(v) > 0}
+    note = ""
+    if threads > 1 and threads not in speedups:
+        if not measure_if_missing:
+            note = f"no thread speed-up on {threads} threads cached in {cache_file()}"
+        else:
+            try:
+                speedups[threads] = measure_speedup(threads, program)
+                hit["speedup"] = {str(k): v for k, v in sorted(speedups.items())}
+                hit["speedup_args"] = " ".join(THREAD_PROBE_ARGS)
+                changed = True
+            except ProbeFailed as e:
+                note = f"the thread probe could not run: {e}"
+    if changed:
+        cache[key] = hit
+        _write_cache(cache)
+    return MachineRates(float(hit["probe_s"]), processor(), source, speedups, note)

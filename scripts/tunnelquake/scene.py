@@ -230,11 +230,14 @@ SUBCYCLED_SHARE = 0.5
 class RuntimeEstimate:
     dt: float  # the solid's step, s (estimated from the lining's first element layer)
     steps: int  # solid steps of the shaking
-    seconds: dict[str, float]  # condition -> CPU s of its shaking
+    seconds: dict[str, float]  # condition -> s of its shaking on an otherwise idle machine
     wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others), statics included
     basis: str = ""  # where the rates come from (rates.MachineRates), or why there are none
-    statics: float = 0.0  # CPU s of each condition's fault-offset static stage (0 without one)
+    statics: float = 0.0  # s of each condition's fault-offset static stage (0 without one)
     statics_steps: int = 0  # its relaxation steps (rates.RELAX_STEPS_PER_INCREMENT a increment)
+    threads: dict[str, int] = field(default_factory=dict)  # condition -> tq-solid's OpenMP threads
+    speedup: dict[str, float] = field(default_factory=dict)  # condition -> their speed-up (1 on one thread)
+    cpu: dict[str, float] = field(default_factory=dict)  # condition -> CPU s of its shaking on one thread
 
     def line(self) -> str:
         if not self.seconds and self.basis:
@@ -243,8 +246,10 @@ class RuntimeEstimate:
         offset = (f", each after about {_minutes(self.statics)} of the fault offset's static stage "
                   f"({self.statics_steps:,} relaxation steps)" if self.statics else "")
         rest = "the other static stages come on top" if self.statics else "the static stages come on top"
+        many = sorted({(n, self.speedup.get(c, 1.0)) for c, n in self.threads.items() if n > 1})
+        threads = "".join(f"; the solid on {n} threads, {x:.2f}x one thread's speed" for n, x in many)
         return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s{offset}) on an otherwise idle machine, from {self.basis}; {rest}")
+                f"{self.dt:.2g} s{offset}{threads}) on an otherwise idle machine, from {self.basis}; {rest}")
 
 
 def _minutes(s: float) -> str:
@@ -331,10 +336,13 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     (critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
     steps to each condition and makes the shaking after it dearer in ground that yields (rates.py
     RELAX_STEPS_PER_INCREMENT, RELAX_STEP_FACTOR, YIELDED_SHAKING_FACTOR); the other static stages
-    are not counted."""
+    are not counted. The solid's part is its CPU time on one thread divided by the measured speed-up
+    of the OpenMP threads `run` gives it (cores.solid_thread_count: the cores divided among the
+    conditions running at once, one on a small mesh; rates.MachineRates.speedup)."""
     import math
 
     from .case import case_geology, ground_layers
+    from .cores import available, side_by_side, solid_thread_count
     from .meshing.params import element_counts, resolve
 
     d = case.data
@@ -349,12 +357,19 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     steps = int(math.ceil(duration / dt))
     from . import rates as R
 
+    conditions = plan(case)
+    share = 2 if side_by_side(conditions) else 1
+    elements = counts["rock"] + counts["lining"]
+    threads = {c: solid_thread_count(int(d["parallel"]["threads"]), elements, share) for c, _ in conditions}
+    # more threads than cores run no faster than one a core
+    on_cores = {c: min(n, available()) for c, n in threads.items()}
     if rates is None:
         try:
-            rates = R.machine_rates()
+            rates = R.machine_rates(threads=max(on_cores.values(), default=1))
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
+    speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
     solid = (rock + counts["lining"]) * steps * rates.solid_element_step
     statics, statics_steps = 0.0, 0
@@ -368,20 +383,24 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         statics = (counts["rock"] + counts["lining"]) * statics_steps * rates.solid_element_step * R.RELAX_STEP_FACTOR
         if any(m["model"] not in R.LINEAR_MODELS for m in d["materials"].values()):
             solid *= R.YIELDED_SHAKING_FACTOR
-    seconds = {}
-    for cond, parts in plan(case):
+    seconds, cpu = {}, {}
+    for cond, parts in conditions:
+        x = speedup[cond]
         if "fluid" not in parts:
-            seconds[cond] = solid
+            cpu[cond], seconds[cond] = solid, solid / x
             continue
         c = d["coupling"]
         per_window = passes_per_window(c)
         passes = per_window * steps / c["window"]
-        seconds[cond] = (solid * R.COUPLED_SOLID_FACTOR * per_window
-                         + passes * (rates.water_pass + counts["water"] * rates.water_cell_pass))
-    coupled = [s + statics for c, s in seconds.items() if c == "dynamic_water"]
-    alone = [s + statics for c, s in seconds.items() if c != "dynamic_water"]
+        water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
+        # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
+        cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window + water
+        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window / x + water
+    coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
+    alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
-    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}; "
-             "docs/benchmarks.md \"check's run-time estimate\")")
+    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}"
+             + (f"; {rates.speedup_note}" if rates.speedup_note else "")
+             + "; docs/benchmarks.md \"check's run-time estimate\")")
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
-                           statics_steps=statics_steps)
+                           statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu)

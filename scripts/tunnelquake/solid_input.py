@@ -44,6 +44,7 @@ import numpy as np
 
 from . import children, fingerprint, incident_wave
 from .case import CONDITIONS, case_geology, fault_offset_slip, lining_joints_active
+from .cores import SMALL_MESH_ELEMENTS, solid_thread_count  # noqa: F401 - SMALL_MESH_ELEMENTS kept for its users
 from .drm_input import write_drm_group, write_drm_group_from_file
 from .files import h5_in_memory
 from .freefield import FreeFieldError
@@ -457,25 +458,11 @@ def solid_step(exe, solid_input) -> float:
         return float(json.loads(report.read_text())["dt"])
 
 
-#: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
-#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one (docs/benchmarks.md).
-SMALL_MESH_ELEMENTS = 20000
-
-
 def solid_threads(case, mesh_h5, share: int = 1) -> int:
-    """OpenMP threads for tq-solid: the case's `parallel.threads`, or for 0 one thread on a small
-    mesh (SMALL_MESH_ELEMENTS) and otherwise the cores divided among the `share` solvers that run
-    at once (conditions side by side): a team of threads on cores it shares with another solver
-    waits at each parallel loop for a thread that is not running (three 3D runs side by side on 2
-    cores: 1 thread each 1.3-1.45x the steps a second of 2 threads each, docs/benchmarks.md "Threads of
-    solvers side by side")."""
-    import os
-
+    """OpenMP threads for tq-solid: cores.solid_thread_count of the case's `parallel.threads` and
+    the mesh's solid elements."""
     import h5py
 
-    threads = int(case.data["parallel"]["threads"])
-    if threads:
-        return threads
     with h5py.File(mesh_h5, "r") as f:
         elements = f["elements/connectivity"].shape[0]
-    return 1 if elements < SMALL_MESH_ELEMENTS else max(1, len(os.sched_getaffinity(0)) // max(1, share))
+    return solid_thread_count(int(case.data["parallel"]["threads"]), elements, share)

@@ -13,7 +13,12 @@
 // u_z after `steps` steps is printed. --write-ccx writes the same problem as a CalculiX deck
 // (*DYNAMIC, EXPLICIT, DIRECT; C3D8R; same nodes, elements, loads and step).
 // --generic: the generic x86-64 kernel instead of the AVX2 one (same as TQ_SOLID_SIMD=generic).
+// The default case also prints the busiest thread's CPU time per element-step (CLOCK_THREAD_CPUTIME_ID
+// of each thread of the team, the largest): about the time the steps take with every thread on a
+// core of its own, which a machine shared with other work does not change as it changes the wall time
+// (check's thread speed-up, scripts/tunnelquake/rates.py).
 #include <omp.h>
+#include <time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -28,6 +33,18 @@
 #include "tq/core/solver.hpp"
 
 namespace {
+
+// Each thread of the OpenMP team's CPU seconds so far, by thread number.
+std::vector<double> teamCpuSeconds() {
+  std::vector<double> t(size_t(omp_get_max_threads()), 0.0);
+#pragma omp parallel
+  {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    t[size_t(omp_get_thread_num())] = double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+  }
+  return t;
+}
 
 // The CalculiX deck of the column case: node k of the mesh is node k + 1, element e is e + 1.
 void writeCcxDeck(const tq::Mesh& mesh, const std::vector<std::pair<tq::Index, double>>& topForces,
@@ -188,14 +205,20 @@ int main(int argc, char** argv) {
   for (Index i = 0; i < mesh.numNodes(); ++i)
     for (int d = 0; d < 3; ++d) s.state().v(i, d) = U(rng);
   for (int i = 0; i < 10; ++i) s.step();  // warm-up (first touch, caches)
-  std::vector<double> us;
+  std::vector<double> us, cpuUs;
   for (int r = 0; r < repeat; ++r) {
+    const std::vector<double> c0 = teamCpuSeconds();
     const auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < steps; ++i) s.step();
     const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const std::vector<double> c1 = teamCpuSeconds();
+    double busiest = 0;
+    for (size_t k = 0; k < c0.size() && k < c1.size(); ++k) busiest = std::max(busiest, c1[k] - c0[k]);
     us.push_back(1e6 * sec / (double(steps) * mesh.numElems()));
+    cpuUs.push_back(1e6 * busiest / (double(steps) * mesh.numElems()));
   }
   std::sort(us.begin(), us.end());
+  std::sort(cpuUs.begin(), cpuUs.end());
   const double med = us[us.size() / 2];
   std::printf("tq-solid-bench: machine: %s\n", machineLine().c_str());
   std::printf(
@@ -207,5 +230,7 @@ int main(int argc, char** argv) {
       "  %d x %d steps: median %.4f us per element-step (min %.4f, max %.4f); "
       "%.3g element-steps/s; energy error %.2e\n",
       repeat, steps, med, us.front(), us.back(), 1.0 / med * 1e6, s.energy().error);
+  std::printf("  busiest thread's CPU: median %.4f us per element-step (min %.4f, max %.4f)\n", cpuUs[cpuUs.size() / 2],
+              cpuUs.front(), cpuUs.back());
   return 0;
 }

@@ -33,3 +33,28 @@ def test_front_and_cheaper_points_within_target():
     assert a["front"] == ["cheap_bad", "cheap_ok"]
     assert a["default_on_front"] is False
     assert a["cheaper_within_target"] == ["cheap_ok"]
+
+
+def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
+    """--variant 3d: every point is the case file's `3d` variant (its mesh mode, subcycling, closed
+    ends, coupling) with the point's own keys on top, one thread, condition 3 alone, and each written
+    case is a valid case file."""
+    import yaml
+
+    from benchmarks.cost_error import DEFAULT_CASE, points_3d, write_point
+    from tunnelquake.case import load_case
+
+    base = yaml.safe_load(DEFAULT_CASE.read_text())
+    variant = base["variants"]["3d"]
+    pts = points_3d()
+    assert [p.role for p in pts].count("reference") == 1 and [p.role for p in pts].count("default") == 1
+    for p in pts:
+        d = yaml.safe_load((write_point(p, base, DEFAULT_CASE.parent, tmp_path, 0.5, "3d") / "case.yaml").read_text())
+        assert d["mesh"]["mode"] == "3d" and d["water"]["ends"] == variant["water"]["ends"]
+        assert d["parallel"]["threads"] == 1 and d["conditions"] == ["dynamic_water"] and "variants" not in d
+        assert d["time"]["subcycling"] == p.overrides.get("time.subcycling", variant["time"]["subcycling"])
+        assert d["coupling"]["tolerance"] == p.overrides.get("coupling.tolerance", variant["coupling"]["tolerance"])
+        assert d["coupling"]["window_force_weight"] == variant["coupling"]["window_force_weight"]
+    default = next(p for p in pts if p.role == "default")
+    assert set(default.overrides) == {"parallel.threads"}  # the variant's own settings
+    load_case(tmp_path / "dynamic_water" / "window_16__tol_1e_5__subcycling_0" / "case.yaml")
