@@ -16,6 +16,7 @@ mid-length 4x lower than the slice's; docs/benchmarks.md "Slice against 3D").
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut
@@ -54,6 +55,9 @@ def assess_slice(case) -> SliceAssessment:
             varying.append(f"geology.fault_zone ({geology.fault.material}) crosses the tunnel")
         varying += [f"geology.dipping_layers[{i}] ({layer.material}) dips along the axis (its bottom's normal has a "
                     "y component)" for i, layer in enumerate(geology.dipping) if abs(layer.bottom.normal[1]) > 1e-9]
+        if geology.slope is not None and abs(math.cos(math.radians(geology.slope.dip_direction))) > 1e-9:
+            varying.append(f"geology.slope descends towards azimuth {geology.slope.dip_direction:g} deg, along the "
+                           "axis, so the cover changes along it")
     wave = d.get("incident_wave") or {}
     if wave.get("type", "none") != "none":
         varying.append(f"incident_wave: a {wave['type']} wave {wave['angle']:g} deg from the vertical through a domain-"

@@ -25,6 +25,7 @@ from tunnelquake.meshing import build_tunnel_mesh, hexmesh
 from tunnelquake.motion import from_case as motion_from_case
 from tunnelquake.paths import ROOT
 from tunnelquake.prepare import write_motion
+from tunnelquake.scene import assess_slice
 from tunnelquake.solid_input import write_solid_input
 
 CASE = (ROOT / "cases" / "portal" / "case.yaml").read_text()
@@ -38,6 +39,20 @@ def _surface(y):
 def test_the_portal_case_passes_check(tmp_path, capsys):
     rc, out, err = check_edited(tmp_path, capsys, CASE)
     assert rc == 0, err
+
+
+def test_check_keeps_the_portal_in_3d_because_its_cover_changes_along_the_axis(tmp_path, capsys):
+    """A slope falling along the axis changes the cover along it, which no slice holds: check's advice
+    says so and does not offer a slice; a slope falling across the axis (dip direction 90 deg) leaves
+    the scene uniform along it."""
+    rc, out, err = check_edited(tmp_path, capsys, CASE)
+    assert rc == 0, err
+    assert "geology.slope descends towards azimuth 180 deg, along the axis" in out + err
+    assert "mesh.mode: slice gives the same answer" not in out + err
+    case = load_case(tmp_path / "case.yaml")
+    across = dict(case.data["geology"]["slope"], dip_direction=90.0)
+    case.data["geology"] = dict(case.data["geology"], slope=across)
+    assert not any("geology.slope" in a for a in assess_slice(case).advice)
 
 
 def test_a_portal_slope_steeper_than_the_block_allows_is_refused(tmp_path, capsys):
