@@ -281,14 +281,16 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/boundaries/bottom", "alpha_n", "float", "α_N, α_T (0: 4/3, 2/3; slice meshes 1, 1/2)", default=0.0,
        lo=0.0),
     _e("/boundaries/bottom", "alpha_t", "float", default=0.0, lo=0.0),
-    _e("/boundaries/bottom", "rho", "float", "the half-space below the base, all three or none (0: the base "
-       "column's lowest layer)", unit="kg/m³", default=0.0, lo=0.0),
+    _e("/boundaries/bottom", "rho", "float", "the half-space below the base, all three or none (0: each base "
+       "node's column's lowest layer, the nearest free-field face's)", unit="kg/m³", default=0.0, lo=0.0),
     _e("/boundaries/bottom", "cp", "float", unit="m/s", default=0.0, lo=0.0),
     _e("/boundaries/bottom", "cs", "float", unit="m/s", default=0.0, lo=0.0),
     _e("/boundaries/bottom", "column_face", "str", "vertical face whose layers define the base's column "
        "(empty: the first free-field face, else `xmin`)", default=""),
     _e("/boundaries/free_field", "faces", "names", "vertical face groups driven by 1D free-field columns; each "
-       "horizontally layered", required=True),
+       "horizontally layered (quads in rows of one material), or with rows that lean but as many nodes on every "
+       "vertical line of it (a strip under a slope along the axis: the column on the lines' mean heights, each "
+       "quad at its centroid's height)", required=True),
     _e("/boundaries/free_field", "shared_column_faces", "names", "vertical face groups whose quads are not in "
        "horizontal rows (a tunnel's cross-section, its ends plugged with ground), driven by the first face's "
        "column: each node at its height, each quad by the column's layer at its centroid, whose material it "
