@@ -28,13 +28,11 @@ from case_edits import check_edited
 from case_texts import record_motion, ricker_pulse_file, synthetic_motion, tunnel, wave_tunnel
 from test_solid_input import _solid_with_stages
 
+from conftest import run_solid, solid_input
 from tunnelquake.case import case_geology, ground_layers, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
 from tunnelquake.meshing.params import element_counts, resolve
-from tunnelquake.motion import from_case as motion_from_case
-from tunnelquake.prepare import write_motion
-from tunnelquake.solid_input import write_solid_input
 
 # A block unlike the paper's: 80 x 30 x 60 m, a 2 m tunnel 10 m below mid-height, a 30 deg slope
 # descending across the tunnel towards +x from a crest at x = -10 m, 15 m high.
@@ -311,14 +309,9 @@ def test_static_stress_under_the_slope_matches_calculix(tmp_path, capsys):
     assert main(["check", str(p)]) == 0, capsys.readouterr().err
     case = load_case(p)
     d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
     res = tmp_path / "results.h5"
-    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run_solid(exe, inp, res, timeout=300)
     cents, ccx = _ccx_plane_strain(tmp_path)
     at = LinearNDInterpolator(cents, ccx)
     worst = 0.0
@@ -401,14 +394,9 @@ def test_motion_away_from_the_slope_is_the_layered_free_field(tmp_path, capsys):
     assert main(["check", str(p)]) == 0, capsys.readouterr().err
     case = load_case(p)
     d = case.data
-    build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path, ground_layers(d), case_geology(d))
-    motion, _ = motion_from_case(d["ground_motion"], case.dir)
-    write_motion(motion, tmp_path / "motion.h5")
-    inp = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "in.h5")
+    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
     res = tmp_path / "results.h5"
-    run = subprocess.run([str(exe), str(inp), "-o", str(res), "--threads", "1"], capture_output=True, text=True,
-                         timeout=600)
-    assert run.returncode == 0, run.stdout + run.stderr
+    run_solid(exe, inp, res, timeout=600)
     with h5py.File(tmp_path / "motion.h5") as f:
         inc, dt = f["incident_ax"][...], float(f.attrs["dt"])
     rock = dict(vp=VS_ROCK * math.sqrt(3.0), vs=VS_ROCK, rho=2500.0)  # nu 0.25

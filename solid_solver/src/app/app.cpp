@@ -67,29 +67,9 @@ std::string hms(double s) {
   os << int(std::fmod(s, 60)) << " s";
   return os.str();
 }
-/// What a restart checkpoint belongs to: the bytes of the input and mesh files (every setting,
-/// the motion, the mesh), the step and the end (a build whose parts save other state is caught by
-/// the archive's own checks on restore).
+/// What a restart checkpoint belongs to (runInputHash, tq/io/restart.hpp).
 std::string runFingerprint(const SolidInput& in, const Solver& s) {
-  std::uint64_t h = fnv1a(nullptr, 0);
-  for (const std::string& path : {in.path, in.meshPath}) {
-    std::ifstream is(path, std::ios::binary);
-    std::vector<char> buf(1 << 16);
-    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
-      h = fnv1a(buf.data(), size_t(is.gcount()), h);
-  }
-  const Real numbers[2] = {s.dt(), in.tEnd};
-  return hex64(fnv1a(numbers, sizeof numbers, h));
-}
-/// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "".
-std::string inputDigest(const std::string& json) {
-  const std::string key = "\"digest\":";
-  size_t p = json.find(key);
-  if (p == std::string::npos) return "";
-  p = json.find_first_not_of(' ', p + key.size());
-  if (p == std::string::npos || json[p] != '"') return "";
-  const size_t e = json.find('"', p + 1);
-  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
+  return hex64(runInputHash(in.path, in.meshPath, s.dt(), in.tEnd));
 }
 }  // namespace
 

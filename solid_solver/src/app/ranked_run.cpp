@@ -298,35 +298,13 @@ void broadcast(std::string& text) {
   if (n) MPI_Bcast(text.data(), int(n), MPI_CHAR, 0, MPI_COMM_WORLD);
 }
 
-/// What a checkpoint of a run on ranks belongs to: the bytes of the input and mesh files, the step
-/// and the end (as the one-process run's fingerprint), then the rank count (rankRunFingerprint).
-std::uint64_t runHash(const SolidInput& in, Real dt) {
-  std::uint64_t h = fnv1a(nullptr, 0);
-  for (const std::string& path : {in.path, in.meshPath}) {
-    std::ifstream is(path, std::ios::binary);
-    std::vector<char> buf(1 << 16);
-    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
-      h = fnv1a(buf.data(), size_t(is.gcount()), h);
-  }
-  const Real numbers[2] = {dt, in.tEnd};
-  return fnv1a(numbers, sizeof numbers, h);
-}
+/// What a checkpoint of a run on ranks belongs to: the one-process run's hash (runInputHash), then
+/// the rank count (rankRunFingerprint).
+std::uint64_t runHash(const SolidInput& in, Real dt) { return runInputHash(in.path, in.meshPath, dt, in.tEnd); }
 /// The fingerprint of the run on `ranks` ranks (0: the one-process run's own, to say so when a
 /// resume meets one).
 std::string rankRunFingerprint(std::uint64_t runHash, long long ranks) {
   return hex64(ranks > 0 ? fnv1a(&ranks, sizeof ranks, runHash) : runHash);
-}
-
-/// The "digest" of the input fingerprint (a JSON text whose first key is "digest"), or "": the
-/// manifest names it, and `tunnelquake run --resume` resumes only a checkpoint of today's inputs.
-std::string inputDigest(const std::string& json) {
-  const std::string key = "\"digest\":";
-  size_t p = json.find(key);
-  if (p == std::string::npos) return "";
-  p = json.find_first_not_of(' ', p + key.size());
-  if (p == std::string::npos || json[p] != '"') return "";
-  const size_t e = json.find('"', p + 1);
-  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
 }
 
 /// Restart checkpoints of a run on ranks, in the one-process run's folder and files (tq/io/restart.hpp:

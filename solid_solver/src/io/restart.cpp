@@ -211,6 +211,28 @@ std::string hex64(std::uint64_t h) {
   return buf;
 }
 
+std::uint64_t runInputHash(const std::string& inputPath, const std::string& meshPath, double dt, double tEnd) {
+  std::uint64_t h = fnv1a(nullptr, 0);
+  for (const std::string& path : {inputPath, meshPath}) {
+    std::ifstream is(path, std::ios::binary);
+    std::vector<char> buf(1 << 16);
+    while (is.read(buf.data(), std::streamsize(buf.size())) || is.gcount() > 0)
+      h = fnv1a(buf.data(), size_t(is.gcount()), h);
+  }
+  const double numbers[2] = {dt, tEnd};
+  return fnv1a(numbers, sizeof numbers, h);
+}
+
+std::string inputDigest(const std::string& json) {
+  const std::string key = "\"digest\":";
+  size_t p = json.find(key);
+  if (p == std::string::npos) return "";
+  p = json.find_first_not_of(' ', p + key.size());
+  if (p == std::string::npos || json[p] != '"') return "";
+  const size_t e = json.find('"', p + 1);
+  return e == std::string::npos ? "" : json.substr(p + 1, e - p - 1);
+}
+
 RestartCheckpoints::RestartCheckpoints(std::string dir) : dir_(std::move(dir)) {
   if (::mkdir(dir_.c_str(), 0755) != 0 && errno != EEXIST) throw OutputError(sysError("create the folder", dir_));
   const std::string path = file("lock");

@@ -71,4 +71,13 @@ std::string manifestProblem(const std::string& text);
 std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h = 1469598103934665603ULL);
 std::string hex64(std::uint64_t h);
 
+/// What a restart checkpoint belongs to: FNV-1a of the bytes of the input and the mesh file (every
+/// setting, the motion, the mesh), then of the step and the end time (a build whose parts save other
+/// state is caught by the archive's own checks on restore).
+std::uint64_t runInputHash(const std::string& inputPath, const std::string& meshPath, double dt, double tEnd);
+
+/// The "digest" of an input fingerprint (a JSON text whose first key is "digest"), or "": a manifest
+/// names it, and `tunnelquake run --resume` resumes only a checkpoint of today's inputs.
+std::string inputDigest(const std::string& fingerprintJson);
+
 }  // namespace tq
