@@ -122,8 +122,8 @@ def test_estimate_predicts_the_cpu_seconds_of_a_case_unlike_the_example(tmp_path
     short, long_ = _pressure_tunnel(tmp_path / "short", 0.05), _pressure_tunnel(tmp_path / "long", 0.6)
     measured = _solid_cpu(long_) - _solid_cpu(short)
     rates = R.machine_rates()
-    est = (runtime_estimate(load_case(long_), rates=rates).seconds["no_water"]
-           - runtime_estimate(load_case(short), rates=rates).seconds["no_water"])
+    est = (runtime_estimate(load_case(long_), rates=rates).cpu["no_water"]
+           - runtime_estimate(load_case(short), rates=rates).cpu["no_water"])
     assert measured > 0
     print(f"estimate {est:.3f} CPU s, measured {measured:.3f} CPU s, ratio {est / measured:.3f}")
     assert abs(est / measured - 1) < 0.30, (est, measured, rates)

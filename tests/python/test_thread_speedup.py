@@ -127,7 +127,8 @@ def test_the_real_probe_splits_the_work_over_its_threads(monkeypatch):
     """tq-solid-bench's busiest thread on 2 threads, its idle threads waiting as tq-solid's do
     (cores.solid_env: a short spin, then sleep), does at least half of one thread's work (a speed-up
     of at most 2, 10 % allowed for the caches: each core's own L2 holds more of half the box) and
-    measurably less than all of it; the same thread count against itself is 1 within 15 %."""
+    measurably less than all of it; the same thread count against itself is 1 within 15 % (each the
+    median of the probe's 3 rounds, as check measures it)."""
     monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
     monkeypatch.delenv("GOMP_SPINCOUNT", raising=False)
     prog = R.probe_program()
@@ -136,10 +137,10 @@ def test_the_real_probe_splits_the_work_over_its_threads(monkeypatch):
     if len(cores.os.sched_getaffinity(0)) < 2:
         pytest.skip("one core")
     try:
-        two = R.measure_speedup(2, prog, rounds=1)
+        two = R.measure_speedup(2, prog)
     except R.ProbeFailed as e:
         pytest.skip(str(e))
-    same = R.measure_speedup(1, prog, rounds=1)
+    same = R.measure_speedup(1, prog)
     print(f"speed-up on 2 threads {two:.3f}; 1 against 1 {same:.3f}")
     assert 1.1 < two <= 2.2, two
     assert abs(same - 1) < 0.15, same
