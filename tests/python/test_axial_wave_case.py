@@ -115,5 +115,6 @@ def test_the_axial_forces_are_the_linings_elastic_response(ran):
             np.add.at(ours, layer, syy * area * arm)
             got = getattr(r, q) - getattr(start, q)
             worst = max(worst, float(np.max(np.abs(got - ours))) / max(float(np.max(np.abs(got))), 1.0))
+    print(f"worst {worst:.3g}")
     assert worst < 1e-6, worst
 
