@@ -326,12 +326,10 @@ Real TimeFunction::operator()(Real time) const {
   return value[i - 1] + w * (value[i] - value[i - 1]);
 }
 
-std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
-    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
-    Hex8Formulation formulation) {
-  std::vector<std::unique_ptr<ElementBlock>> blocks;
+std::vector<Index> materialRegions(const Mesh& mesh, const std::vector<std::string>& names) {
+  std::vector<Index> regions;
   std::vector<bool> covered(mesh.regionNames.size(), false);
-  for (const auto& [name, mat] : materials) {
+  for (const std::string& name : names) {
     const Index r = mesh.regionIndex(name);
     if (r < 0) {
       std::string have;
@@ -340,11 +338,7 @@ std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
                        " has no such region (it has:" + have + ")");
     }
     covered[size_t(r)] = true;
-    std::vector<Index> elems;
-    for (Index e = 0; e < mesh.numElems(); ++e)
-      if (mesh.region[e] == r) elems.push_back(e);
-    if (!elems.empty())
-      blocks.push_back(std::make_unique<ElementBlock>(name, mat, formulation, mesh, std::move(elems)));
+    regions.push_back(r);
   }
   for (size_t r = 0; r < covered.size(); ++r)
     if (!covered[r])
@@ -352,6 +346,24 @@ std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
         if (mesh.region[e] == Index(r))
           throw InputError("region '" + mesh.regionNames[r] + "' of mesh " + mesh.source +
                            " has elements but no material; add /materials/" + mesh.regionNames[r]);
+  return regions;
+}
+
+std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
+    const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
+    Hex8Formulation formulation) {
+  std::vector<std::string> names;
+  for (const auto& m : materials) names.push_back(m.first);
+  const std::vector<Index> regions = materialRegions(mesh, names);
+  std::vector<std::unique_ptr<ElementBlock>> blocks;
+  for (size_t m = 0; m < materials.size(); ++m) {
+    std::vector<Index> elems;
+    for (Index e = 0; e < mesh.numElems(); ++e)
+      if (mesh.region[e] == regions[m]) elems.push_back(e);
+    if (!elems.empty())
+      blocks.push_back(
+          std::make_unique<ElementBlock>(materials[m].first, materials[m].second, formulation, mesh, std::move(elems)));
+  }
   return blocks;
 }
 

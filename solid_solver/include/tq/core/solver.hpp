@@ -369,6 +369,10 @@ class Solver {
   std::vector<Real> ghostV_;
 };
 
+/// The mesh region of each material's region name, in the order given; InputError naming the fix for
+/// a name the mesh has no region of, or for a region with elements and no material.
+std::vector<Index> materialRegions(const Mesh& mesh, const std::vector<std::string>& names);
+
 /// One block per mesh region, each with the material given for that region name.
 std::vector<std::unique_ptr<ElementBlock>> makeBlocksByRegion(
     const Mesh& mesh, const std::vector<std::pair<std::string, std::shared_ptr<const Material>>>& materials,
