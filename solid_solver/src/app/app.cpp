@@ -76,11 +76,36 @@ std::string runFingerprint(const SolidInput& in, const Solver& s) {
 namespace {
 
 /// The command line.
-struct CommandLine {
-  std::string input, output = "results.h5", checkpointDir, checkJson;
-  bool check = false, resume = false;
-  long long resumeSequence = 0;
+struct CommandLine : RunOptions {
+  std::string checkJson;
 };
+
+}  // namespace
+
+bool takeRunOption(const std::vector<std::string>& args, size_t& i, RunOptions& o) {
+  const std::string& a = args[i];
+  const bool valued = i + 1 < args.size();
+  if (a == "-o" && valued) {
+    o.output = args[++i];
+  } else if (a == "--check") {
+    o.check = true;
+  } else if (a == "--threads" && valued) {
+    omp_set_num_threads(std::stoi(args[++i]));
+  } else if (a == "--checkpoint-dir" && valued) {
+    o.checkpointDir = args[++i];
+  } else if (a == "--resume") {
+    o.resume = true;
+  } else if (a == "--resume-sequence" && valued) {
+    o.resumeSequence = std::stoll(args[++i]);
+  } else if (!a.empty() && a[0] != '-' && o.input.empty()) {
+    o.input = a;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+namespace {
 
 /// Reads the command line into `cl`. Returns the exit code when the command line alone ends the
 /// run (help, capabilities: 0; a wrong argument: 1), else -1.
@@ -90,26 +115,12 @@ int parseCommandLine(const std::vector<std::string>& args, std::ostream& out, st
     if (a == "-h" || a == "--help") {
       out << kUsage;
       return 0;
-    } else if (a == "-o" && i + 1 < args.size()) {
-      cl.output = args[++i];
     } else if (a == "--capabilities") {
       out << "tq-solid capabilities: " << kCapabilities << "\n";
       return 0;
-    } else if (a == "--check") {
-      cl.check = true;
     } else if (a == "--json" && i + 1 < args.size()) {
       cl.checkJson = args[++i];
-    } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
-      cl.checkpointDir = args[++i];
-    } else if (a == "--resume") {
-      cl.resume = true;
-    } else if (a == "--resume-sequence" && i + 1 < args.size()) {
-      cl.resumeSequence = std::stoll(args[++i]);
-    } else if (a == "--threads" && i + 1 < args.size()) {
-      omp_set_num_threads(std::stoi(args[++i]));
-    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
-      cl.input = a;
-    } else {
+    } else if (!takeRunOption(args, i, cl)) {
       err << "tq-solid: unknown argument '" << a << "'\n" << kUsage;
       return 1;
     }

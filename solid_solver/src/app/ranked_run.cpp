@@ -8,6 +8,8 @@
 // rank saves its part's state, rank 0 gathers them into the one-process run's checkpoint files.
 #include "tq/app/ranked_run.hpp"
 
+#include "tq/app/app.hpp"
+
 #include <hdf5.h>
 #include <omp.h>
 
@@ -84,31 +86,11 @@ void waitForStop(sigset_t signals) {
 }
 #endif
 
-struct RankCommandLine {
-  std::string input, output = "results.h5", checkpointDir;
-  bool check = false, resume = false;
-  long long resumeSequence = 0;
-};
-
-int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RankCommandLine& cl) {
+int parseRankCommandLine(const std::vector<std::string>& args, std::ostream& err, RunOptions& cl) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--distributed") {
-    } else if (a == "-o" && i + 1 < args.size()) {
-      cl.output = args[++i];
-    } else if (a == "--check") {
-      cl.check = true;
-    } else if (a == "--threads" && i + 1 < args.size()) {
-      omp_set_num_threads(std::stoi(args[++i]));
-    } else if (a == "--checkpoint-dir" && i + 1 < args.size()) {
-      cl.checkpointDir = args[++i];
-    } else if (a == "--resume") {
-      cl.resume = true;
-    } else if (a == "--resume-sequence" && i + 1 < args.size()) {
-      cl.resumeSequence = std::stoll(args[++i]);
-    } else if (!a.empty() && a[0] != '-' && cl.input.empty()) {
-      cl.input = a;
-    } else {
+    } else if (!takeRunOption(args, i, cl)) {
       err << "tq-solid: unknown argument '" << a << "' (on ranks: tq-solid solid_input.h5 --distributed [-o "
           << "results.h5] [--threads N] [--check] [--checkpoint-dir DIR [--resume [--resume-sequence N]]])\n";
       return 1;
@@ -320,7 +302,7 @@ class RankCheckpoints {
 
   /// Collective. Rank 0 opens the folder (its lock) and with --resume checks the checkpoint to go
   /// on from; a refusal is thrown on every rank alike (CheckpointRefusal).
-  RankCheckpoints(const RankCommandLine& cl, const SolidInput& in, Real dt, int rank, int size)
+  RankCheckpoints(const RunOptions& cl, const SolidInput& in, Real dt, int rank, int size)
       : rank_(rank),
         size_(size),
         resume_(cl.resume),
@@ -545,24 +527,11 @@ class RankCheckpoints {
 /// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
 std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global, const RankLayout& L,
                                         std::unique_ptr<RankExchange>& exchange) {
+  std::vector<std::string> names;
+  for (const auto& m : in.materials) names.push_back(m.first);
+  const std::vector<Index> regions = materialRegions(global, names);
   std::vector<std::pair<Index, std::shared_ptr<const Material>>> mats;
-  std::vector<bool> covered(global.regionNames.size(), false);
-  for (const auto& [region, v] : in.materials) {
-    const Index r = global.regionIndex(region);
-    if (r < 0) {
-      std::string have;
-      for (auto& n : global.regionNames) have += " '" + n + "'";
-      throw InputError("material for region '" + region + "' but the mesh " + global.source +
-                       " has no such region (it has:" + have + ")");
-    }
-    covered[size_t(r)] = true;
-    mats.emplace_back(r, makeMaterial(v));
-  }
-  for (Index e = 0; e < global.numElems(); ++e)
-    if (!covered[size_t(global.region[size_t(e)])])
-      throw InputError("region '" + global.regionNames[size_t(global.region[size_t(e)])] + "' of mesh " +
-                       global.source + " has elements but no material; add /materials/" +
-                       global.regionNames[size_t(global.region[size_t(e)])]);
+  for (size_t m = 0; m < in.materials.size(); ++m) mats.emplace_back(regions[m], makeMaterial(in.materials[m].second));
   std::vector<std::unique_ptr<ElementBlock>> blocks;
   size_t frontierBlocks = 0;
   for (int pass = 0; pass < 2; ++pass) {  // frontier elements first
@@ -623,7 +592,7 @@ std::string hms(double s) {
 /// that every rank meets alike (the input, the step, an instability, reduced over the ranks) end
 /// them all through the same catch; one that only rank 0 can meet (its results file) aborts the job
 /// once the file holds its status.
-int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, std::ostream& err) {
+int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::ostream& err) {
   std::unique_ptr<ResultsWriter> writer;
   struct Unwatched {  // the watcher of stop signals lets go of the writer before it closes
     ~Unwatched() {
@@ -904,7 +873,7 @@ int runOnRank(const RankCommandLine& cl, int rank, int size, std::ostream& out, 
 }  // namespace
 
 int runSolidOnRanks(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  RankCommandLine cl;
+  RunOptions cl;
   if (const int rc = parseRankCommandLine(args, err, cl); rc >= 0) return rc;
 #ifdef TQ_SOLID_HAVE_MPI
   // The stop signals go to one thread of each rank (waitForStop): blocked here, before MPI and
