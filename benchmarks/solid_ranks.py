@@ -95,7 +95,8 @@ def write_box(folder: Path, n: int, steps: int, samples: int = 10) -> Path:
     return out
 
 
-def run_once(cmd: list[str], results: Path) -> dict:
+def timed(cmd: list[str]) -> tuple[subprocess.CompletedProcess, float, float]:
+    """The command's result, its wall time and the CPU time (user + system) of it and its children."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -103,9 +104,13 @@ def run_once(cmd: list[str], results: Path) -> dict:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}\n{proc.stdout}\n{proc.stderr}")
+    return proc, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def run_once(cmd: list[str], results: Path) -> dict:
+    _, wall, cpu = timed(cmd)
     with h5py.File(results, "r") as f:
         us = float(f["timings"].attrs["us_per_element_step"])
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return {"us": us, "cpu_s": cpu, "wall_s": wall}
 
 

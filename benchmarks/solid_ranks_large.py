@@ -19,30 +19,16 @@ from __future__ import annotations
 
 import argparse
 import re
-import resource
 import shutil
-import subprocess
 import time
 from pathlib import Path
 
 import h5py
 
 from benchmarks.common import machine
-from benchmarks.solid_ranks import write_box
+from benchmarks.solid_ranks import timed, write_box
 from tunnelquake import paths
 from tunnelquake.solid_ranks import solid_command
-
-
-def timed(cmd: list[str]) -> tuple[subprocess.CompletedProcess, float, float]:
-    """The command's result, its wall time and the CPU time (user + system) of it and its children."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}\n{proc.stdout}\n{proc.stderr}")
-    return proc, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main(argv: list[str] | None = None) -> int:
