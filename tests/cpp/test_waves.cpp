@@ -14,6 +14,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <initializer_list>
 #include <ostream>
 #include <sstream>
 
@@ -198,6 +199,28 @@ std::vector<Index> nearestLevels(const FreeFieldColumn& col, const Mesh& mesh) {
   return level;
 }
 
+/// Steps the block's solver to t = 0.35 s against its first free-field column: per component d of
+/// `dirs`, the largest |u_node - u_column| at the node's nearest level (the column's u() is u^n of
+/// the step just taken, so it is compared with the model's u^n, the displacement before this step's
+/// update) into worst[d], and the column's peak |u| into peak[d].
+void stepAgainstTheColumn(BlockRun& run, std::initializer_list<int> dirs, Real worst[3], Real peak[3]) {
+  Solver& s = *run.solver;
+  const FreeFieldColumn& col = run.stages->seismic()->columns()[0];
+  const std::vector<Index> level = nearestLevels(col, run.mesh);
+  std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
+  while (s.time() < 0.35) {
+    s.step();
+    for (int d : dirs)
+      for (Index k = 0; k < col.numLevels(); ++k) peak[d] = std::max(peak[d], std::abs(col.u(k, d)));
+    for (Index n = 0; n < run.mesh.numNodes(); ++n)
+      for (int d : dirs) {
+        const Real diff = std::abs(uPrev[3 * size_t(n) + d] - col.u(level[size_t(n)], d));
+        worst[d] = std::max(worst[d], diff);
+        uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
+      }
+  }
+}
+
 }  // namespace
 
 // Every node of the block at every height follows the 1D free-field column computed alongside
@@ -208,24 +231,9 @@ TEST(FreeField, BlockFollowsTheColumnAtEveryHeight) {
   std::ostringstream log;
   run.stages->runStatics(log);
   run.stages->switchToDynamics(log);
-  Solver& s = *run.solver;
-  const FreeFieldColumn& col = run.stages->seismic()->columns()[0];
-  const std::vector<Index> level = nearestLevels(col, run.mesh);
   Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
-  std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
-  while (s.time() < 0.35) {
-    s.step();
-    // The column's u() is u^n of the step just taken: compare with the model's u^n, which is the
-    // displacement before this step's update — keep the model's previous values.
-    for (int d : {0, 2})
-      for (Index k = 0; k < col.numLevels(); ++k) peak[d] = std::max(peak[d], std::abs(col.u(k, d)));
-    for (Index n = 0; n < run.mesh.numNodes(); ++n)
-      for (int d : {0, 2}) {
-        const Real diff = std::abs(uPrev[3 * size_t(n) + d] - col.u(level[size_t(n)], d));
-        worst[d] = std::max(worst[d], diff);
-        uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
-      }
-  }
+  stepAgainstTheColumn(run, {0, 2}, worst, peak);
+  const Solver& s = *run.solver;
   std::printf(
       "free-field block: max |u_node - u_column| / column peak: x %.2e, z %.2e (peaks %.3e, %.3e m); "
       "energy balance error %.2e; %s\n",
@@ -248,24 +256,10 @@ TEST(FreeField, BlockFollowsTheColumnInAnObliqueHorizontalMotion) {
   std::ostringstream log;
   run.stages->runStatics(log);
   run.stages->switchToDynamics(log);
-  Solver& s = *run.solver;
-  const auto& cols = run.stages->seismic()->columns();
-  ASSERT_GE(cols.size(), 1u);
-  const FreeFieldColumn& col = cols[0];
-  const std::vector<Index> level = nearestLevels(col, run.mesh);
+  ASSERT_GE(run.stages->seismic()->columns().size(), 1u);
   Real worst[3] = {0, 0, 0}, peak[3] = {0, 0, 0};
-  std::vector<Real> uPrev(3 * size_t(run.mesh.numNodes()), 0.0);  // the model's u^n
-  while (s.time() < 0.35) {
-    s.step();
-    for (int d = 0; d < 3; ++d)
-      for (Index k = 0; k < col.numLevels(); ++k) peak[d] = std::max(peak[d], std::abs(col.u(k, d)));
-    for (Index n = 0; n < run.mesh.numNodes(); ++n)
-      for (int d = 0; d < 3; ++d) {
-        const Real diff = std::abs(uPrev[3 * size_t(n) + d] - col.u(level[size_t(n)], d));
-        worst[d] = std::max(worst[d], diff);
-        uPrev[3 * size_t(n) + d] = s.relativeDisplacement(n, d);
-      }
-  }
+  stepAgainstTheColumn(run, {0, 1, 2}, worst, peak);
+  const Solver& s = *run.solver;
   std::printf(
       "free-field block, pulse at 30 deg from x: max |u_node - u_column| / column peak: x %.2e, y %.2e, z %.2e "
       "(peaks %.3e, %.3e, %.3e m); energy balance error %.2e\n",
