@@ -525,8 +525,8 @@ class RankCheckpoints {
 /// The solver of one rank's part: a block per region of its frontier elements, then one per region
 /// of the others (RankExchange::frontierBlocks), the supports and loads of the global mesh mapped
 /// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
-std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global, const RankLayout& L,
-                                        std::unique_ptr<RankExchange>& exchange) {
+std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global, const std::vector<int>& part,
+                                        const RankLayout& L, std::unique_ptr<RankExchange>& exchange) {
   std::vector<std::string> names;
   for (const auto& m : in.materials) names.push_back(m.first);
   const std::vector<Index> regions = materialRegions(global, names);
@@ -548,7 +548,7 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
   SolverOptions opt = in.options;
   opt.dt = 0;  // the step is set once the exchange is in (every rank the same)
   auto s = std::make_unique<Solver>(L.mesh, std::move(blocks), opt);
-  exchange = makeRankExchange(L, frontierBlocks);
+  exchange = makeRankExchange(L, frontierBlocks, global, part, regions, s->blocks());
   s->setRankExchange(exchange.get());
   s->rebuild();
   s->setTimeStep(in.options.dt);
@@ -637,7 +637,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
           for (size_t p = 0; p + 1 < global.rockLiningPairs.size(); p += 2)
             together.push_back({global.rockLiningPairs[p], global.rockLiningPairs[p + 1]});
         layout = makeRankLayout(global, part, rank, size, together);
-        local = buildRankSolver(in, global, layout, exchange);
+        local = buildRankSolver(in, global, part, layout, exchange);
         if (rank == 0) mirror = buildSolver(in, global);
         if (in.staged.present) {
           rankPart.rank = rank;

@@ -284,6 +284,25 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   slabStart_ = slabsInOrder(conn_, nElems_, mesh.numNodes(), kChunk, all, 4);
 }
 
+void ElementBlock::nodeSumOrder(const Mesh& mesh, std::vector<Index> meshElems, std::vector<Index>& lumped,
+                                std::vector<Index>& scattered) {
+  lumped = scatterOrder(mesh, std::move(meshElems));
+  const Index E = Index(lumped.size());
+  const Index nChunks = (E + kChunk - 1) / kChunk;
+  std::vector<Index> conn(8 * size_t(E)), all(static_cast<size_t>(nChunks));
+  for (Index e = 0; e < E; ++e)
+    for (int k = 0; k < 8; ++k) conn[8 * size_t(e) + size_t(k)] = mesh.connectivity[8 * size_t(lumped[size_t(e)]) + k];
+  for (Index c = 0; c < nChunks; ++c) all[size_t(c)] = c;
+  const std::vector<Index> slab = slabsInOrder(conn, E, mesh.numNodes(), kChunk, all, 4);  // as the constructor's
+  const Index nSlabs = Index(slab.size()) - 1;
+  scattered.clear();
+  scattered.reserve(size_t(E));
+  for (Index parity = 0; parity < 2; ++parity)  // as computeForcesForElems
+    for (Index s = parity; s < nSlabs; s += 2)
+      for (Index c = slab[size_t(s)]; c < slab[size_t(s) + 1]; ++c)
+        for (Index e = c * kChunk; e < std::min(E, (c + 1) * kChunk); ++e) scattered.push_back(lumped[size_t(e)]);
+}
+
 void ElementBlock::initElementHistory(const Mesh& mesh) {
   if (history_.empty()) return;
   for (auto& c : elemCentre_) c.assign(size_t(nElems_), 0.0);  // element centres for the material
@@ -609,6 +628,7 @@ struct ElementBlock::ChunkView {
   const Real* nextStrain[6];  // stored form: strain; total form: σ_off (null when none)
   const Real* nextStress[6];
   const Index* nextConn;
+  Real* cornerOut;  // on ranks: [24 n] the corner forces, stored instead of scattered (null: scatter)
 };
 
 namespace {
@@ -818,8 +838,12 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
 #pragma GCC unroll 24
     for (int k = 0; k < 24; ++k) storev(F[k] + l, on ? Fk[k] : zero);
   }
-  // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free).
-  for (Index l = 0; l < n; ++l) {
+  // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free); on ranks,
+  //    stored per element instead (the exchange sums each node's in the one-process order).
+  if (cv.cornerOut)
+    for (Index l = 0; l < n; ++l)
+      for (int k = 0; k < 24; ++k) cv.cornerOut[24 * l + k] = F[k][l];
+  for (Index l = 0; l < n && !cv.cornerOut; ++l) {
     if (!cv.act[l]) continue;
     for (int k = 0; k < 8; ++k) {
       Real* fn = f + 3 * size_t(cn[8 * l + k]);
@@ -894,6 +918,7 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   const Index e1 = nElems_ > 16384 ? e0 + kChunk : nElems_;
   cv.nextG = e1 < nElems_ ? &geo_[size_t(c + 1) * kGeo * kChunk] : nullptr;
   cv.nextConn = e1 < nElems_ ? &conn_[8 * size_t(e1)] : nullptr;
+  cv.cornerOut = cornerOut_ ? cornerOut_ + 24 * size_t(e0) : nullptr;
   for (int k = 0; k < 6; ++k) {
     const bool next = e1 < nElems_;
     cv.nextStrain[k] = !next        ? nullptr
@@ -914,6 +939,7 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
   Real energy = 0;
   for (Index l = 0; l < n; ++l) {
     const size_t e = size_t(e0 + l);
+    if (cornerOut_) std::fill(cornerOut_ + 24 * e, cornerOut_ + 24 * e + 24, 0.0);
     if (!active_[e]) continue;
     Real fe[24] = {};
     Real ue[3][8];
@@ -951,8 +977,11 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
       stress_[k][e] = savg[k] / vol_[e];
       strain_[k][e] = eavg[k] / vol_[e];
     }
-    for (int k = 0; k < 8; ++k)
-      for (int i = 0; i < 3; ++i) f[dofIndex(conn_[8 * e + k], i)] += fe[3 * k + i];
+    if (cornerOut_)
+      std::copy(fe, fe + 24, cornerOut_ + 24 * e);
+    else
+      for (int k = 0; k < 8; ++k)
+        for (int i = 0; i < 3; ++i) f[dofIndex(conn_[8 * e + k], i)] += fe[3 * k + i];
   }
   en.stressWork = 0;
   en.storedEnergy = energy;

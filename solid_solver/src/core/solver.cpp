@@ -401,11 +401,20 @@ void Solver::fixFaceGroup(const std::string& group, const std::string& dirs) {
 void Solver::rebuild() {
   const Index N = state_.numNodes();
   // Lumped masses: re-sum from active elements.
-  NodalState fresh(N);
-  for (auto& b : blocks_) b->lumpMassInto(fresh);
   std::vector<Real> m(static_cast<size_t>(N));
-  for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
-  if (rx_) rx_->sumFrontier(m.data(), 1);  // on ranks: a frontier node's mass from every rank's elements
+  if (rx_) {  // on ranks: every element's share, summed as one process sums it, over every rank
+    std::vector<std::vector<Real>> share(blocks_.size());
+    for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+      const ElementBlock& b = *blocks_[bi];
+      for (Index e = 0; e < b.numElems(); ++e)
+        share[bi].push_back(b.active(e) ? b.material().density() * b.volume(e) / 8 : 0.0);
+    }
+    rx_->sumElementShares(share, m.data());
+  } else {
+    NodalState fresh(N);
+    for (auto& b : blocks_) b->lumpMassInto(fresh);
+    for (Index n = 0; n < N; ++n) m[size_t(n)] = fresh.mass(n);
+  }
   for (Index n = 0; n < N; ++n) state_.addMass(n, m[size_t(n)] - state_.mass(n));
 }
 
@@ -1035,17 +1044,25 @@ RelaxResult Solver::relax(const RelaxParams& p) {
     if (rx_) wref = rx_->minAll(wref);
     gravityMass_.assign(state_.massData(), state_.massData() + N);
     std::vector<Real> scaled(size_t(N), 0.0);
-    for (const auto& b : blocks_) {
+    std::vector<std::vector<Real>> share(rx_ ? blocks_.size() : 0);  // on ranks: summed as one process sums them
+    for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+      const ElementBlock* b = blocks_[bi].get();
       const Real rho = b->material().density();
       const Real cp = std::sqrt(b->material().elasticModuli().pModulus() / rho);
       for (Index e = 0; e < b->numElems(); ++e) {
-        if (!b->active(e)) continue;
+        if (!b->active(e)) {
+          if (rx_) share[bi].push_back(0.0);
+          continue;
+        }
         const Real we = 2 * cp / b->charLength(e), f = (we / wref) * (we / wref);
         const Real m = f * rho * b->volume(e) / 8;
-        for (int k = 0; k < 8; ++k) scaled[size_t(b->node(e, k))] += m;
+        if (rx_)
+          share[bi].push_back(m);
+        else
+          for (int k = 0; k < 8; ++k) scaled[size_t(b->node(e, k))] += m;
       }
     }
-    if (rx_) rx_->sumFrontier(scaled.data(), 1);
+    if (rx_) rx_->sumElementShares(share, scaled.data());
     for (Index n = 0; n < N; ++n) state_.addMass(n, scaled[size_t(n)] - state_.mass(n));
     wmax = wref;
     dt_ = opt_.safety * 2 / wref;

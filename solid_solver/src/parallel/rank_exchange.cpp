@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
@@ -17,10 +19,124 @@ bool rankRunsAvailable() { return true; }
 
 namespace {
 
+// Each node's sum in the one-process order. One process adds an element's values to its nodes
+// block by block in a fixed order (lumpMassInto: the block's element order; the force kernel: its
+// even slabs, then its odd ones), a function of the whole mesh alone. A rank's blocks are other
+// blocks, so a node's sum on a rank follows that order explicitly: every element stores its values
+// (a unit: an element for the masses, an element's corner for the forces), the ranks send the
+// units of their elements at the nodes they share, and each node adds its units in the position
+// of their elements in the one-process order. Every copy of a node, and the one process, then add
+// the same values in the same order: the same bits.
+struct NodeSumPlan {
+  int comps = 1;
+  size_t localUnits = 0;                      // units this rank computes; received ones follow
+  std::vector<Index> start, unit;             // [local node] its units in [start[i], start[i + 1])
+  std::vector<std::vector<Index>> sendUnits;  // [neighbour] the local units it is sent, in order
+  std::vector<size_t> recvAt;                 // [neighbour] its first unit in the buffer
+  std::vector<Real> values;                   // [(local + received units) * comps]
+
+  // The sums into out[comps * i + d] for every local node i.
+  void sum(Real* out) const {
+    const size_t c = size_t(comps);
+    const Index n = Index(start.size()) - 1;
+    for (Index i = 0; i < n; ++i)
+      for (size_t d = 0; d < c; ++d) {
+        Real s = 0;
+        for (Index t = start[size_t(i)]; t < start[size_t(i) + 1]; ++t) s += values[c * size_t(unit[size_t(t)]) + d];
+        out[c * size_t(i) + d] = s;
+      }
+  }
+};
+
+// The plan of `comps` values per unit. seq[global element]: its position in the one-process order;
+// unitOf(local element, corner): its local unit.
+template <class UnitOf>
+NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<int>& part,
+                     const std::vector<Index>& seq, int comps, size_t localUnits, const UnitOf& unitOf) {
+  NodeSumPlan P;
+  P.comps = comps;
+  P.localUnits = localUnits;
+  const size_t nl = L.globalNode.size(), nb = L.neighbours.size();
+  std::vector<Index> localElem(size_t(global.numElems()), -1);
+  for (size_t e = 0; e < L.globalElem.size(); ++e) localElem[size_t(L.globalElem[e])] = Index(e);
+  // Each local node's incidences: (position of the element, its rank, the element, the corner).
+  struct Inc {
+    Index seq;
+    int rank;
+    Index elem;
+    int corner;
+  };
+  std::vector<std::vector<Inc>> inc(nl);
+  for (Index e = 0; e < global.numElems(); ++e)
+    for (int k = 0; k < 8; ++k) {
+      const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])];
+      if (i >= 0) inc[size_t(i)].push_back({seq[size_t(e)], part[size_t(e)], e, k});
+    }
+  for (auto& v : inc) std::sort(v.begin(), v.end(), [](const Inc& a, const Inc& b) { return a.seq < b.seq; });
+  // The messages: for each shared node (ascending, the same list on both sides), the sender's
+  // units at it in the order; where[i][x]: the buffer unit of node i's incidence x.
+  std::vector<std::vector<Index>> where(nl);
+  for (size_t i = 0; i < nl; ++i) where[i].assign(inc[i].size(), -1);
+  P.sendUnits.resize(nb);
+  P.recvAt.resize(nb);
+  size_t next = localUnits;
+  for (size_t j = 0; j < nb; ++j) {
+    P.recvAt[j] = next;
+    for (Index i : L.neighbours[j].nodes)
+      for (size_t x = 0; x < inc[size_t(i)].size(); ++x) {
+        const Inc& c = inc[size_t(i)][x];
+        if (c.rank == L.rank) P.sendUnits[j].push_back(unitOf(localElem[size_t(c.elem)], c.corner));
+        if (c.rank == L.neighbours[j].rank) where[size_t(i)][x] = Index(next++);
+      }
+  }
+  P.start.assign(nl + 1, 0);
+  for (size_t i = 0; i < nl; ++i) {
+    for (size_t x = 0; x < inc[i].size(); ++x) {
+      const Inc& c = inc[i][x];
+      const Index u = c.rank == L.rank ? unitOf(localElem[size_t(c.elem)], c.corner) : where[i][x];
+      if (u < 0)
+        throw std::logic_error("rank layout: an element of rank " + std::to_string(c.rank) + " at node " +
+                               std::to_string(L.globalNode[i]) + " that no neighbour sends");
+      P.unit.push_back(u);
+    }
+    P.start[i + 1] = Index(P.unit.size());
+  }
+  P.values.assign(size_t(comps) * next, 0.0);
+  return P;
+}
+
 class MpiRankExchange final : public RankExchange {
  public:
-  MpiRankExchange(const RankLayout& L, size_t frontierBlocks)
+  MpiRankExchange(const RankLayout& L, size_t frontierBlocks, const Mesh& global, const std::vector<int>& part,
+                  const std::vector<Index>& blockRegions, const std::vector<std::unique_ptr<ElementBlock>>& blocks)
       : frontierBlocks_(frontierBlocks), owned_(L.owned), ghosts_(L.ghosts), frontier_(L.frontier) {
+    // The one-process order: its blocks (one per region, in blockRegions' order), each adding its
+    // elements' masses in its element order and its forces in its scatter order.
+    std::vector<Index> massSeq(size_t(global.numElems()), 0), forceSeq(size_t(global.numElems()), 0);
+    {
+      Index mPos = 0, fPos = 0;
+      std::vector<Index> lumped, scattered;
+      for (Index r : blockRegions) {
+        std::vector<Index> elems;
+        for (Index e = 0; e < global.numElems(); ++e)
+          if (global.region[size_t(e)] == r) elems.push_back(e);
+        ElementBlock::nodeSumOrder(global, std::move(elems), lumped, scattered);
+        for (Index e : lumped) massSeq[size_t(e)] = mPos++;
+        for (Index e : scattered) forceSeq[size_t(e)] = fPos++;
+      }
+    }
+    // This rank's units: its elements block by block (masses), 8 corners each (forces).
+    std::vector<Index> elemUnit(L.globalElem.size(), -1);
+    std::vector<size_t> blockBase;
+    size_t units = 0;
+    for (const auto& b : blocks) {
+      blockBase.push_back(units);
+      for (Index e = 0; e < b->numElems(); ++e) elemUnit[size_t(b->meshElem(e))] = Index(units++);
+    }
+    shares_ = makePlan(L, global, part, massSeq, 1, units, [&](Index le, int) { return elemUnit[size_t(le)]; });
+    forces_ = makePlan(L, global, part, forceSeq, 3, 8 * units,
+                       [&](Index le, int k) { return 8 * elemUnit[size_t(le)] + Index(k); });
+    for (size_t b = 0; b < blocks.size(); ++b) blocks[b]->setCornerForceOutput(&forces_.values[24 * blockBase[b]]);
     const size_t F = L.frontier.size();
     // Where each frontier node's partial values come from, in ascending rank order: this rank's
     // own (source -1) or neighbour j's buffer at position p.
@@ -68,8 +184,26 @@ class MpiRankExchange final : public RankExchange {
         }
     return maxAll(worst);
   }
-  void beginForceSum(const Real* f) override { start(f, 3); }
-  void finishForceSum(Real* f) override { finish(f, 3); }
+  // The blocks store their corner forces (setCornerForceOutput) instead of adding them to f: the
+  // frontier elements' units are sent once their blocks are done, and every node's force is summed
+  // from its units in the one-process order once the others are.
+  void beginForceSum(const Real*) override { post(forces_, kForceTag, planRequests_); }
+  void finishForceSum(Real* f) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    MPI_Waitall(int(planRequests_.size()), planRequests_.data(), MPI_STATUSES_IGNORE);
+    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    forces_.sum(f);
+  }
+  void sumElementShares(const std::vector<std::vector<Real>>& perBlock, Real* nodal) override {
+    size_t u = 0;
+    for (const auto& v : perBlock)
+      for (Real x : v) shares_.values[u++] = x;
+    if (u != shares_.localUnits) throw std::logic_error("sumElementShares: one value per element of each block");
+    std::vector<MPI_Request> req;
+    post(shares_, kShareTag, req);
+    MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE);
+    shares_.sum(nodal);
+  }
 
   // Every rank's values gathered and summed in rank order on every rank: the same bits on all of
   // them (a reduction's order is the MPI library's choice, and a convergence test or a stop that
@@ -103,7 +237,26 @@ class MpiRankExchange final : public RankExchange {
     int source;  // -1 this rank, else the neighbour's index
     Index pos;   // position in that source's list
   };
-  static constexpr int kTag = 4301;
+  static constexpr int kTag = 4301, kForceTag = 4302, kShareTag = 4303;
+
+  // Posts the receives of a plan's units from the neighbours and the sends of this rank's.
+  void post(NodeSumPlan& P, int tag, std::vector<MPI_Request>& req) {
+    const size_t c = size_t(P.comps), nb = ranks_.size();
+    req.resize(2 * nb);
+    planSend_.resize(nb);
+    for (size_t j = 0; j < nb; ++j) {
+      const size_t end = j + 1 < nb ? P.recvAt[j + 1] : P.values.size() / c;
+      MPI_Irecv(&P.values[c * P.recvAt[j]], int(c * (end - P.recvAt[j])), MPI_DOUBLE, ranks_[j], tag, MPI_COMM_WORLD,
+                &req[j]);
+    }
+    for (size_t j = 0; j < nb; ++j) {
+      std::vector<Real>& out = planSend_[j];
+      out.resize(c * P.sendUnits[j].size());
+      for (size_t p = 0; p < P.sendUnits[j].size(); ++p)
+        for (size_t d = 0; d < c; ++d) out[c * p + d] = P.values[c * size_t(P.sendUnits[j][p]) + d];
+      MPI_Isend(out.data(), int(out.size()), MPI_DOUBLE, ranks_[j], tag, MPI_COMM_WORLD, &req[nb + j]);
+    }
+  }
 
   // Posts the receives and sends of the frontier values of `data` (comps per node) and keeps this
   // rank's own partial values.
@@ -152,20 +305,27 @@ class MpiRankExchange final : public RankExchange {
   std::vector<std::vector<Real>> send_, recv_;
   std::vector<Real> all_;  // sumAll's gathered values
   std::vector<MPI_Request> requests_;
+  NodeSumPlan shares_, forces_;  // the masses' and the forces' sums in the one-process order
+  std::vector<std::vector<Real>> planSend_;
+  std::vector<MPI_Request> planRequests_;
   double wait_ = 0;  // s waiting in finish() and sumAll()
 };
 
 }  // namespace
 
-std::unique_ptr<RankExchange> makeRankExchange(const RankLayout& layout, size_t frontierBlocks) {
-  return std::make_unique<MpiRankExchange>(layout, frontierBlocks);
+std::unique_ptr<RankExchange> makeRankExchange(const RankLayout& layout, size_t frontierBlocks, const Mesh& global,
+                                               const std::vector<int>& part, const std::vector<Index>& blockRegions,
+                                               const std::vector<std::unique_ptr<ElementBlock>>& blocks) {
+  return std::make_unique<MpiRankExchange>(layout, frontierBlocks, global, part, blockRegions, blocks);
 }
 
 #else
 
 bool rankRunsAvailable() { return false; }
 
-std::unique_ptr<RankExchange> makeRankExchange(const RankLayout&, size_t) {
+std::unique_ptr<RankExchange> makeRankExchange(const RankLayout&, size_t, const Mesh&, const std::vector<int>&,
+                                               const std::vector<Index>&,
+                                               const std::vector<std::unique_ptr<ElementBlock>>&) {
   throw InputError(
       "this tq-solid was built without MPI: it cannot run on ranks (install the MPI development files, "
       "e.g. libopenmpi-dev, and build again)");

@@ -137,6 +137,17 @@ class ElementBlock {
   const std::vector<Index>& levelSlabStarts(int L) const { return levelSlabStart_[size_t(L)]; }
   int numLevels() const { return int(levelChunks_.size()); }
 
+  /// The solid on MPI ranks (tq/parallel/): the order in which a block of `meshElems` (one
+  /// region's elements, ascending) adds its elements' values to their nodes, as mesh element
+  /// indices: `lumped`, its element order (lumpMassInto); `scattered`, the force kernel's (its
+  /// even slabs, then its odd ones). A function of the mesh and the list alone.
+  static void nodeSumOrder(const Mesh& mesh, std::vector<Index> meshElems, std::vector<Index>& lumped,
+                           std::vector<Index>& scattered);
+  /// On MPI ranks: store each element's corner forces at out[24 e + 3 k + i] (element e of this
+  /// block, corner k, component i; zero for an inactive element) instead of adding them to the
+  /// nodal forces, which are then summed from them in the one-process order (nullptr: add them).
+  void setCornerForceOutput(Real* out) { cornerOut_ = out; }
+
   /// True when this CPU has AVX2 and FMA (the kernel's fast path).
   static bool avx2Available();
   /// The kernel path a new block takes: AVX2 when available, unless the environment variable
@@ -199,6 +210,7 @@ class ElementBlock {
   std::vector<Real> chunkCentre_;       // [3 chunk + d] centre of a chunk's elements
   std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
   bool avx2_ = false;                   // kernel path
+  Real* cornerOut_ = nullptr;           // on ranks: the corner forces' destination (setCornerForceOutput)
 };
 
 }  // namespace tq

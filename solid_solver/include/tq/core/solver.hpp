@@ -128,6 +128,10 @@ class RankExchange {
   /// (after the others): every rank then holds the same total on its copy of a frontier node.
   virtual void beginForceSum(const Real* f) = 0;
   virtual void finishForceSum(Real* f) = 0;
+  /// Each node's sum of its elements' values (perBlock[b][e]: element e of block b, the same at each
+  /// of its corners) over every rank, in the order one process adds them (lumpMassInto), into
+  /// nodal [N]: the lumped masses the same bits as one process's.
+  virtual void sumElementShares(const std::vector<std::vector<Real>>& perBlock, Real* nodal) = 0;
   /// Sum n values over every rank, in place; the largest and the smallest of one value.
   virtual void sumAll(Real* v, int n) = 0;
   virtual Real maxAll(Real v) = 0;

@@ -17,10 +17,17 @@ namespace tq {
 /// True when this build of tq-solid can run on MPI ranks (MPI found at compile time).
 bool rankRunsAvailable();
 
-/// The exchange of one rank. Each frontier node's total is summed in ascending rank order from
-/// every holder's partial value, the same expression on every rank: the copies of a frontier node
-/// stay bitwise equal on all the ranks that hold it. MPI must be initialised (MPI_COMM_WORLD).
-/// Throws InputError when this build has no MPI.
-std::unique_ptr<RankExchange> makeRankExchange(const RankLayout& layout, size_t frontierBlocks);
+/// The exchange of one rank. Every node's internal force and mass (every node this rank holds,
+/// frontier or not) is summed from its elements' values in the order one process adds them: the
+/// one-process blocks (one per region, in `blockRegions`' order, as makeBlocksByRegion) with their
+/// element and scatter orders (ElementBlock::nodeSumOrder), the other ranks' elements' values sent
+/// to the ranks that share the node. So every copy of a node and the one process add the same
+/// values in the same order: the same bits. `blocks`: this rank's solver's blocks (they store their
+/// corner forces for it from now on); `part`: the partition. sumFrontier adds the holders' partial
+/// values in ascending rank order. MPI must be initialised (MPI_COMM_WORLD). Throws InputError when
+/// this build has no MPI.
+std::unique_ptr<RankExchange> makeRankExchange(const RankLayout& layout, size_t frontierBlocks, const Mesh& global,
+                                               const std::vector<int>& part, const std::vector<Index>& blockRegions,
+                                               const std::vector<std::unique_ptr<ElementBlock>>& blocks);
 
 }  // namespace tq
