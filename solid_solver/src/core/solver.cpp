@@ -978,21 +978,27 @@ Real Solver::unbalancedRatio() const { return unbalancedRatio(false); }
 Real Solver::unbalancedRatio(bool allDofsReference) const {
   const Index N = state_.numNodes();
   Real r2 = 0, fe2 = 0, fi2 = 0;
-  const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
+  std::vector<Real> terms(rx_ ? 9 * size_t(N) : 0);  // on ranks: summed in the one-process order
   for (Index n = 0; n < N; ++n)
-    for (int d = 0; d < 3 && (!own || own[n]); ++d) {
+    for (int d = 0; d < 3; ++d) {
       const size_t i = dofIndex(n, d);
       const Real fe = state_.fExtData()[i], fi = state_.fIntData()[i];
-      const bool isFree = free_[i] != 0;
+      const bool isFree = free_[i] != 0, ref = isFree || allDofsReference;
+      if (rx_) {
+        terms[9 * size_t(n) + size_t(d)] = isFree ? (fe - fi) * (fe - fi) : 0.0;
+        terms[9 * size_t(n) + 3 + size_t(d)] = ref ? fe * fe : 0.0;
+        terms[9 * size_t(n) + 6 + size_t(d)] = ref ? fi * fi : 0.0;
+        continue;
+      }
       if (isFree) r2 += (fe - fi) * (fe - fi);
-      if (isFree || allDofsReference) {
+      if (ref) {
         fe2 += fe * fe;
         fi2 += fi * fi;
       }
     }
   if (rx_) {
-    Real sums[3] = {r2, fe2, fi2};
-    rx_->sumAll(sums, 3);
+    Real sums[3] = {0, 0, 0};
+    rx_->sumInNodeOrder(terms.data(), 3, 3, sums);
     r2 = sums[0], fe2 = sums[1], fi2 = sums[2];
   }
   const Real ref = std::sqrt(std::max(fe2, fi2));
@@ -1002,15 +1008,18 @@ Real Solver::unbalancedRatio(bool allDofsReference) const {
 Real Solver::residualNorm() const {
   const Index N = state_.numNodes();
   Real r2 = 0;
-  const std::uint8_t* own = rx_ ? rx_->owned() : nullptr;  // on ranks: each node on its owner
+  std::vector<Real> terms(rx_ ? 3 * size_t(N) : 0);  // on ranks: summed in the one-process order
   for (Index n = 0; n < N; ++n)
-    for (int d = 0; d < 3 && (!own || own[n]); ++d) {
+    for (int d = 0; d < 3; ++d) {
       const size_t i = dofIndex(n, d);
       if (free_[i] == 0) continue;
       const Real r = state_.fExtData()[i] - state_.fIntData()[i];
-      r2 += r * r;
+      if (rx_)
+        terms[i] = r * r;
+      else
+        r2 += r * r;
     }
-  if (rx_) rx_->sumAll(&r2, 1);
+  if (rx_) rx_->sumInNodeOrder(terms.data(), 1, 3, &r2);
   return std::sqrt(r2);
 }
 
@@ -1077,25 +1086,26 @@ RelaxResult Solver::relax(const RelaxParams& p) {
       Real num = 0, den = 0;
       const Real* f = state_.fIntData();
       const Real* v = state_.vData();
-      for (Index n = 0; n < N; ++n)
-        for (int d = 0; d < 3; ++d) {
-          const size_t i = dofIndex(n, d);
-          const Real du = dtLast_ * v[i];
-          num += du * (f[i] - fPrev[i]);
-          den += du * du * state_.mass(n);
-        }
-      if (rx_) {  // on ranks: the whole model's Rayleigh quotient (ghost nodes counted on their owner)
-        Real q[2] = {0, 0};
-        for (Index n : rx_->ghosts())
+      if (rx_) {  // on ranks: the whole model's Rayleigh quotient, summed in the one-process order
+        rankTerms_.resize(6 * size_t(N));
+        for (Index n = 0; n < N; ++n)
           for (int d = 0; d < 3; ++d) {
             const size_t i = dofIndex(n, d);
             const Real du = dtLast_ * v[i];
-            q[0] += du * (f[i] - fPrev[i]);
-            q[1] += du * du * state_.mass(n);
+            rankTerms_[6 * size_t(n) + size_t(d)] = du * (f[i] - fPrev[i]);
+            rankTerms_[6 * size_t(n) + 3 + size_t(d)] = du * du * state_.mass(n);
           }
-        q[0] = num - q[0], q[1] = den - q[1];
-        rx_->sumAll(q, 2);
+        Real q[2] = {0, 0};
+        rx_->sumInNodeOrder(rankTerms_.data(), 2, 3, q);
         num = q[0], den = q[1];
+      } else {
+        for (Index n = 0; n < N; ++n)
+          for (int d = 0; d < 3; ++d) {
+            const size_t i = dofIndex(n, d);
+            const Real du = dtLast_ * v[i];
+            num += du * (f[i] - fPrev[i]);
+            den += du * du * state_.mass(n);
+          }
       }
       if (den > 0 && num > 0) omega = std::min(std::sqrt(num / den), wmax);
     }

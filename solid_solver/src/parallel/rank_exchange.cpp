@@ -137,6 +137,24 @@ class MpiRankExchange final : public RankExchange {
     forces_ = makePlan(L, global, part, forceSeq, 3, 8 * units,
                        [&](Index le, int k) { return 8 * elemUnit[size_t(le)] + Index(k); });
     for (size_t b = 0; b < blocks.size(); ++b) blocks[b]->setCornerForceOutput(&forces_.values[24 * blockBase[b]]);
+    // The owned nodes of every rank, on rank 0 (sumInNodeOrder).
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    std::vector<int> ids;
+    for (size_t i = 0; i < L.owned.size(); ++i)
+      if (L.owned[i]) {
+        ownedLocal_.push_back(Index(i));
+        ids.push_back(int(L.globalNode[i]));
+      }
+    globalNodes_ = size_t(global.numNodes());
+    int n = int(ids.size());
+    ownedCounts_.assign(size_t(size_), 0);
+    MPI_Gather(&n, 1, MPI_INT, ownedCounts_.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    std::vector<int> displs(size_t(size_), 0);
+    for (int r = 1; r < size_; ++r) displs[size_t(r)] = displs[size_t(r) - 1] + ownedCounts_[size_t(r) - 1];
+    ownedIds_.resize(rank_ == 0 ? size_t(displs.back() + ownedCounts_.back()) : 0);
+    MPI_Gatherv(ids.data(), n, MPI_INT, ownedIds_.data(), ownedCounts_.data(), displs.data(), MPI_INT, 0,
+                MPI_COMM_WORLD);
     const size_t F = L.frontier.size();
     // Where each frontier node's partial values come from, in ascending rank order: this rank's
     // own (source -1) or neighbour j's buffer at position p.
@@ -219,6 +237,34 @@ class MpiRankExchange final : public RankExchange {
       for (int r = 0; r < size; ++r) sum += all_[size_t(r) * size_t(n) + size_t(i)];
       v[i] = sum;
     }
+    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  // The owners' terms gathered on rank 0, summed there node by node in the global numbering, the
+  // sums sent to every rank: one process's sequential loop, in O(nodes) values a call.
+  void sumInNodeOrder(const Real* terms, int nSums, int per, Real* sums) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    const size_t k = size_t(nSums) * size_t(per);
+    std::vector<Real> mine;
+    mine.reserve(k * ownedLocal_.size());
+    for (Index i : ownedLocal_) mine.insert(mine.end(), terms + k * size_t(i), terms + k * size_t(i) + k);
+    std::vector<int> counts(static_cast<size_t>(size_)), displs(size_t(size_), 0);
+    for (int r = 0; r < size_; ++r) counts[size_t(r)] = int(k) * ownedCounts_[size_t(r)];
+    for (int r = 1; r < size_; ++r) displs[size_t(r)] = displs[size_t(r) - 1] + counts[size_t(r) - 1];
+    std::vector<Real> all(rank_ == 0 ? k * ownedIds_.size() : 0);
+    MPI_Gatherv(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+                MPI_COMM_WORLD);
+    if (rank_ == 0) {
+      std::vector<Real> byNode(k * globalNodes_, 0.0);  // a node no element uses: terms 0, as one process's
+      for (size_t p = 0; p < ownedIds_.size(); ++p)
+        std::copy(&all[k * p], &all[k * p] + k, &byNode[k * size_t(ownedIds_[p])]);
+      for (int s = 0; s < nSums; ++s) {
+        Real sum = 0;
+        for (size_t n = 0; n < globalNodes_; ++n)
+          for (int j = 0; j < per; ++j) sum += byNode[k * n + size_t(s) * size_t(per) + size_t(j)];
+        sums[s] = sum;
+      }
+    }
+    MPI_Bcast(sums, nSums, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   double waitSeconds() const override { return wait_; }
@@ -306,6 +352,10 @@ class MpiRankExchange final : public RankExchange {
   std::vector<Real> all_;  // sumAll's gathered values
   std::vector<MPI_Request> requests_;
   NodeSumPlan shares_, forces_;  // the masses' and the forces' sums in the one-process order
+  int rank_ = 0, size_ = 1;
+  std::vector<Index> ownedLocal_;                   // this rank's owned nodes
+  std::vector<int> ownedCounts_, ownedIds_;         // rank 0: every rank's owned nodes (global indices)
+  size_t globalNodes_ = 0;
   std::vector<std::vector<Real>> planSend_;
   std::vector<MPI_Request> planRequests_;
   double wait_ = 0;  // s waiting in finish() and sumAll()

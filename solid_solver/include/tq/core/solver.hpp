@@ -132,6 +132,11 @@ class RankExchange {
   /// of its corners) over every rank, in the order one process adds them (lumpMassInto), into
   /// nodal [N]: the lumped masses the same bits as one process's.
   virtual void sumElementShares(const std::vector<std::vector<Real>>& perBlock, Real* nodal) = 0;
+  /// Sums over the whole model's nodes in the order one process adds them: node by node in the
+  /// global numbering, each node's `per` terms in turn, each node on its owner. terms[(nSums i + s)
+  /// per + j]: this rank's node i, sum s, term j; sums[s] receives the same bits on every rank and
+  /// as one process's sequential loop (a term one process skips is given as 0).
+  virtual void sumInNodeOrder(const Real* terms, int nSums, int per, Real* sums) = 0;
   /// Sum n values over every rank, in place; the largest and the smallest of one value.
   virtual void sumAll(Real* v, int n) = 0;
   virtual Real maxAll(Real v) = 0;
@@ -370,6 +375,7 @@ class Solver {
   Index cycle_ = 0;
   // On ranks (tq/parallel/): the exchange, and the ghost nodes' velocities before a node update.
   RankExchange* rx_ = nullptr;
+  std::vector<Real> rankTerms_;  // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
   std::vector<Real> ghostV_;
 };
 
