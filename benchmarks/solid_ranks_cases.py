@@ -229,6 +229,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{c['acc'][0]:.3g} ({c['acc'][1]}); {len(c['bitwise'])} of {len(ref)} datasets bitwise; envelope "
               f"peak times differing {c['peak_times'][0]} of {c['peak_times'][1]}; frontier copies differ by {mism}; "
               f"{t['wall_s']:.1f} s wall", flush=True)
+        if n > 1:
+            print(f"  not bitwise: {', '.join(sorted(set(ref) - set(c['bitwise'])))}", flush=True)
     if args.rounds > 0:
         _time_configs(exe, inp, folder, args.configs.split(","), args.rounds, cores)
     print(machine())

@@ -353,8 +353,8 @@ class MpiRankExchange final : public RankExchange {
   std::vector<MPI_Request> requests_;
   NodeSumPlan shares_, forces_;  // the masses' and the forces' sums in the one-process order
   int rank_ = 0, size_ = 1;
-  std::vector<Index> ownedLocal_;                   // this rank's owned nodes
-  std::vector<int> ownedCounts_, ownedIds_;         // rank 0: every rank's owned nodes (global indices)
+  std::vector<Index> ownedLocal_;            // this rank's owned nodes
+  std::vector<int> ownedCounts_, ownedIds_;  // rank 0: every rank's owned nodes (global indices)
   size_t globalNodes_ = 0;
   std::vector<std::vector<Real>> planSend_;
   std::vector<MPI_Request> planRequests_;
