@@ -66,40 +66,46 @@ NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<
     Index elem;
     int corner;
   };
-  std::vector<std::vector<Inc>> inc(nl);
+  std::vector<Index> at(nl + 1, 0);  // node i's incidences inc[at[i] .. at[i + 1])
   for (Index e = 0; e < global.numElems(); ++e)
-    for (int k = 0; k < 8; ++k) {
-      const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])];
-      if (i >= 0) inc[size_t(i)].push_back({seq[size_t(e)], part[size_t(e)], e, k});
-    }
-  for (auto& v : inc) std::sort(v.begin(), v.end(), [](const Inc& a, const Inc& b) { return a.seq < b.seq; });
+    for (int k = 0; k < 8; ++k)
+      if (const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; i >= 0) ++at[size_t(i) + 1];
+  for (size_t i = 0; i < nl; ++i) at[i + 1] += at[i];
+  std::vector<Inc> inc(static_cast<size_t>(at[nl]));
+  {
+    std::vector<Index> fill(at.begin(), at.end() - 1);
+    for (Index e = 0; e < global.numElems(); ++e)
+      for (int k = 0; k < 8; ++k)
+        if (const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; i >= 0)
+          inc[size_t(fill[size_t(i)]++)] = {seq[size_t(e)], part[size_t(e)], e, k};
+  }
+  for (size_t i = 0; i < nl; ++i)
+    std::sort(inc.begin() + at[i], inc.begin() + at[i + 1], [](const Inc& a, const Inc& b) { return a.seq < b.seq; });
   // The messages: for each shared node (ascending, the same list on both sides), the sender's
-  // units at it in the order; where[i][x]: the buffer unit of node i's incidence x.
-  std::vector<std::vector<Index>> where(nl);
-  for (size_t i = 0; i < nl; ++i) where[i].assign(inc[i].size(), -1);
+  // units at it in the order; where[x]: the buffer unit of incidence x from another rank.
+  std::vector<Index> where(inc.size(), -1);
   P.sendUnits.resize(nb);
   P.recvAt.resize(nb);
   size_t next = localUnits;
   for (size_t j = 0; j < nb; ++j) {
     P.recvAt[j] = next;
     for (Index i : L.neighbours[j].nodes)
-      for (size_t x = 0; x < inc[size_t(i)].size(); ++x) {
-        const Inc& c = inc[size_t(i)][x];
+      for (Index x = at[size_t(i)]; x < at[size_t(i) + 1]; ++x) {
+        const Inc& c = inc[size_t(x)];
         if (c.rank == L.rank) P.sendUnits[j].push_back(unitOf(localElem[size_t(c.elem)], c.corner));
-        if (c.rank == L.neighbours[j].rank) where[size_t(i)][x] = Index(next++);
+        if (c.rank == L.neighbours[j].rank) where[size_t(x)] = Index(next++);
       }
   }
-  P.start.assign(nl + 1, 0);
-  for (size_t i = 0; i < nl; ++i) {
-    for (size_t x = 0; x < inc[i].size(); ++x) {
-      const Inc& c = inc[i][x];
-      const Index u = c.rank == L.rank ? unitOf(localElem[size_t(c.elem)], c.corner) : where[i][x];
-      if (u < 0)
-        throw std::logic_error("rank layout: an element of rank " + std::to_string(c.rank) + " at node " +
-                               std::to_string(L.globalNode[i]) + " that no neighbour sends");
-      P.unit.push_back(u);
-    }
-    P.start[i + 1] = Index(P.unit.size());
+  P.start = std::move(at);
+  P.unit.resize(inc.size());
+  for (size_t x = 0; x < inc.size(); ++x) {
+    const Inc& c = inc[x];
+    const Index u = c.rank == L.rank ? unitOf(localElem[size_t(c.elem)], c.corner) : where[x];
+    if (u < 0)
+      throw std::logic_error("rank layout: an element of rank " + std::to_string(c.rank) + " at global node " +
+                             std::to_string(global.connectivity[8 * size_t(c.elem) + size_t(c.corner)]) +
+                             " that no neighbour sends");
+    P.unit[x] = u;
   }
   P.values.assign(size_t(comps) * next, 0.0);
   return P;
