@@ -840,10 +840,12 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   }
   // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free); on ranks,
   //    stored per element instead (the exchange sums each node's in the one-process order).
-  if (cv.cornerOut)
+  Real* const out = cv.cornerOut;
+  if (out)
     for (Index l = 0; l < n; ++l)
-      for (int k = 0; k < 24; ++k) cv.cornerOut[24 * l + k] = F[k][l];
-  for (Index l = 0; l < n && !cv.cornerOut; ++l) {
+      for (int k = 0; k < 24; ++k) out[24 * l + k] = F[k][l];
+  const Index scattered = out ? 0 : n;
+  for (Index l = 0; l < scattered; ++l) {
     if (!cv.act[l]) continue;
     for (int k = 0; k < 8; ++k) {
       Real* fn = f + 3 * size_t(cn[8 * l + k]);
