@@ -1,11 +1,12 @@
 // tq-solid on MPI ranks (docs/architecture.md "The solid on ranks"). Every rank reads the input
 // and the global mesh and partitions it the same way (recursive coordinate bisection weighted by
-// element cost); each then builds a solver of its own elements and their nodes. The frontier
-// nodes' masses and internal forces are summed across the ranks that share them (rank_exchange),
-// the step size, the energies and the norms over every rank. Rank 0 also holds the whole model as
-// a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it,
-// and the serial results writer writes the one results file from it. Restart checkpoints: each
-// rank saves its part's state, rank 0 gathers them into the one-process run's checkpoint files.
+// element cost); each then builds a solver of its own elements and their nodes. Every node's mass
+// and internal force is summed from its elements' values in the one-process order, the frontier
+// elements' values sent to the ranks that share their nodes (rank_exchange), so a run on ranks has
+// the one-process run's bits; the step size, the energies and the norms are reduced over every rank. Rank 0 also holds
+// the whole model as a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it, and
+// the serial results writer writes the one results file from it. Restart checkpoints: each rank saves its part's state,
+// rank 0 gathers them into the one-process run's checkpoint files.
 #include "tq/app/ranked_run.hpp"
 
 #include "tq/app/app.hpp"

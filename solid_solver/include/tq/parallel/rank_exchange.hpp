@@ -1,8 +1,10 @@
 /// @file rank_exchange.hpp
-/// @brief The halo exchange of the solid on MPI ranks: the frontier nodes' partial sums (internal
-///        forces each step, lumped masses when they change) sent to and received from the ranks
-///        that share them with non-blocking MPI, and the sums over every rank (step size, energies,
-///        norms). The only file of tq-solid, with app/ranked_run.cpp, that calls MPI.
+/// @brief The halo exchange of the solid on MPI ranks: every node's internal force (each step) and
+///        lumped mass (when it changes) summed from its elements' values in the one-process order,
+///        the frontier elements' values sent to and received from the ranks that share their nodes
+///        with non-blocking MPI, and the sums over every rank (step size, energies, the
+///        relaxation's norms in the one-process order). The only file of tq-solid, with
+///        app/ranked_run.cpp, that calls MPI.
 #pragma once
 
 #include <memory>
