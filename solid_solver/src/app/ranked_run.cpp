@@ -3,10 +3,11 @@
 // element cost); each then builds a solver of its own elements and their nodes. Every node's mass
 // and internal force is summed from its elements' values in the one-process order, the frontier
 // elements' values sent to the ranks that share their nodes (rank_exchange), so a run on ranks has
-// the one-process run's bits; the step size, the energies and the norms are reduced over every rank. Rank 0 also holds
-// the whole model as a mirror: at the sample and snapshot times the ranks' nodes and elements are gathered into it, and
-// the serial results writer writes the one results file from it. Restart checkpoints: each rank saves its part's state,
-// rank 0 gathers them into the one-process run's checkpoint files.
+// the one-process run's bits; the step size, the energies and the norms are reduced over every
+// rank. Rank 0 also holds the whole model as a mirror: at the sample and snapshot times the ranks'
+// nodes and elements are gathered into it, and the serial results writer writes the one results
+// file from it. Restart checkpoints: each rank saves its part's state, rank 0 gathers them into the
+// one-process run's checkpoint files.
 #include "tq/app/ranked_run.hpp"
 
 #include "tq/app/app.hpp"
