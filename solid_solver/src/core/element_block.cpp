@@ -628,7 +628,8 @@ struct ElementBlock::ChunkView {
   const Real* nextStrain[6];  // stored form: strain; total form: σ_off (null when none)
   const Real* nextStress[6];
   const Index* nextConn;
-  Real* cornerOut;  // on ranks: [24 n] the corner forces, stored instead of scattered (null: scatter)
+  Real* cornerOut;          // on ranks: the corner forces' store (null: none)
+  const Index* cornerSlot;  // on ranks: [n] each element's slot in it, or -1
 };
 
 namespace {
@@ -839,13 +840,13 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (int k = 0; k < 24; ++k) storev(F[k] + l, on ? Fk[k] : zero);
   }
   // 5. Scatter into the nodes in element order (the slab scheme keeps this race-free); on ranks,
-  //    stored per element instead (the exchange sums each node's in the one-process order).
-  Real* const out = cv.cornerOut;
-  if (out)
+  //    some elements' corner forces also stored (the exchange sums their nodes in the one-process
+  //    order).
+  if (Real* const out = cv.cornerOut)
     for (Index l = 0; l < n; ++l)
-      for (int k = 0; k < 24; ++k) out[24 * l + k] = F[k][l];
-  const Index scattered = out ? 0 : n;
-  for (Index l = 0; l < scattered; ++l) {
+      if (const Index slot = cv.cornerSlot[l]; slot >= 0)
+        for (int k = 0; k < 24; ++k) out[24 * size_t(slot) + size_t(k)] = F[k][l];
+  for (Index l = 0; l < n; ++l) {
     if (!cv.act[l]) continue;
     for (int k = 0; k < 8; ++k) {
       Real* fn = f + 3 * size_t(cn[8 * l + k]);
@@ -920,7 +921,8 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
   const Index e1 = nElems_ > 16384 ? e0 + kChunk : nElems_;
   cv.nextG = e1 < nElems_ ? &geo_[size_t(c + 1) * kGeo * kChunk] : nullptr;
   cv.nextConn = e1 < nElems_ ? &conn_[8 * size_t(e1)] : nullptr;
-  cv.cornerOut = cornerOut_ ? cornerOut_ + 24 * size_t(e0) : nullptr;
+  cv.cornerOut = cornerOut_;
+  cv.cornerSlot = cornerOut_ ? cornerSlot_ + e0 : nullptr;
   for (int k = 0; k < 6; ++k) {
     const bool next = e1 < nElems_;
     cv.nextStrain[k] = !next        ? nullptr
@@ -941,7 +943,8 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
   Real energy = 0;
   for (Index l = 0; l < n; ++l) {
     const size_t e = size_t(e0 + l);
-    if (cornerOut_) std::fill(cornerOut_ + 24 * e, cornerOut_ + 24 * e + 24, 0.0);
+    Real* const out = cornerOut_ && cornerSlot_[e] >= 0 ? cornerOut_ + 24 * size_t(cornerSlot_[e]) : nullptr;
+    if (out) std::fill(out, out + 24, 0.0);
     if (!active_[e]) continue;
     Real fe[24] = {};
     Real ue[3][8];
@@ -979,11 +982,9 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
       stress_[k][e] = savg[k] / vol_[e];
       strain_[k][e] = eavg[k] / vol_[e];
     }
-    if (cornerOut_)
-      std::copy(fe, fe + 24, cornerOut_ + 24 * e);
-    else
-      for (int k = 0; k < 8; ++k)
-        for (int i = 0; i < 3; ++i) f[dofIndex(conn_[8 * e + k], i)] += fe[3 * k + i];
+    if (out) std::copy(fe, fe + 24, out);
+    for (int k = 0; k < 8; ++k)
+      for (int i = 0; i < 3; ++i) f[dofIndex(conn_[8 * e + k], i)] += fe[3 * k + i];
   }
   en.stressWork = 0;
   en.storedEnergy = energy;

@@ -30,33 +30,56 @@ namespace {
 struct NodeSumPlan {
   int comps = 1;
   size_t localUnits = 0;                      // units this rank computes; received ones follow
-  std::vector<Index> start, unit;             // [local node] its units in [start[i], start[i + 1])
+  std::vector<Index> node;                    // the local nodes it sums
+  std::vector<Index> start, unit;             // [row] node[row]'s units in [start[row], start[row + 1])
   std::vector<std::vector<Index>> sendUnits;  // [neighbour] the local units it is sent, in order
   std::vector<size_t> recvAt;                 // [neighbour] its first unit in the buffer
   std::vector<Real> values;                   // [(local + received units) * comps]
 
-  // The sums into out[comps * i + d] for every local node i.
+  // The sums into out[comps * i + d] for each of its nodes i.
   void sum(Real* out) const {
     const size_t c = size_t(comps);
-    const Index n = Index(start.size()) - 1;
-    for (Index i = 0; i < n; ++i)
+    if (c == 3) {  // the forces: the three components in one pass, each its own sequence
+      for (size_t r = 0; r < node.size(); ++r) {
+        Real s0 = 0, s1 = 0, s2 = 0;
+        for (Index t = start[r]; t < start[r + 1]; ++t) {
+          const Real* v = &values[3 * size_t(unit[size_t(t)])];
+          s0 += v[0];
+          s1 += v[1];
+          s2 += v[2];
+        }
+        Real* o = out + 3 * size_t(node[r]);
+        o[0] = s0, o[1] = s1, o[2] = s2;
+      }
+      return;
+    }
+    for (size_t r = 0; r < node.size(); ++r)
       for (size_t d = 0; d < c; ++d) {
         Real s = 0;
-        for (Index t = start[size_t(i)]; t < start[size_t(i) + 1]; ++t) s += values[c * size_t(unit[size_t(t)]) + d];
-        out[c * size_t(i) + d] = s;
+        for (Index t = start[r]; t < start[r + 1]; ++t) s += values[c * size_t(unit[size_t(t)]) + d];
+        out[c * size_t(node[r]) + d] = s;
       }
   }
 };
 
-// The plan of `comps` values per unit. seq[global element]: its position in the one-process order;
-// unitOf(local element, corner): its local unit.
+// The plan of `comps` values per unit for the local nodes where `include` is 1 (every frontier node
+// among them). seq[global element]: its position in the one-process order; unitOf(local element,
+// corner): its local unit.
 template <class UnitOf>
 NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<int>& part,
-                     const std::vector<Index>& seq, int comps, size_t localUnits, const UnitOf& unitOf) {
+                     const std::vector<Index>& seq, const std::vector<std::uint8_t>& include, int comps,
+                     size_t localUnits, const UnitOf& unitOf) {
   NodeSumPlan P;
   P.comps = comps;
   P.localUnits = localUnits;
-  const size_t nl = L.globalNode.size(), nb = L.neighbours.size();
+  const size_t nb = L.neighbours.size();
+  std::vector<Index> row(L.globalNode.size(), -1);
+  for (size_t i = 0; i < include.size(); ++i)
+    if (include[i]) {
+      row[i] = Index(P.node.size());
+      P.node.push_back(Index(i));
+    }
+  const size_t nl = P.node.size();
   std::vector<Index> localElem(size_t(global.numElems()), -1);
   for (size_t e = 0; e < L.globalElem.size(); ++e) localElem[size_t(L.globalElem[e])] = Index(e);
   // Each local node's incidences: (position of the element, its rank, the element, the corner).
@@ -69,15 +92,16 @@ NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<
   std::vector<Index> at(nl + 1, 0);  // node i's incidences inc[at[i] .. at[i + 1])
   for (Index e = 0; e < global.numElems(); ++e)
     for (int k = 0; k < 8; ++k)
-      if (const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; i >= 0) ++at[size_t(i) + 1];
+      if (const Index l = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; l >= 0 && row[size_t(l)] >= 0)
+        ++at[size_t(row[size_t(l)]) + 1];
   for (size_t i = 0; i < nl; ++i) at[i + 1] += at[i];
   std::vector<Inc> inc(static_cast<size_t>(at[nl]));
   {
     std::vector<Index> fill(at.begin(), at.end() - 1);
     for (Index e = 0; e < global.numElems(); ++e)
       for (int k = 0; k < 8; ++k)
-        if (const Index i = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; i >= 0)
-          inc[size_t(fill[size_t(i)]++)] = {seq[size_t(e)], part[size_t(e)], e, k};
+        if (const Index l = L.localNode[size_t(global.connectivity[8 * size_t(e) + k])]; l >= 0 && row[size_t(l)] >= 0)
+          inc[size_t(fill[size_t(row[size_t(l)])]++)] = {seq[size_t(e)], part[size_t(e)], e, k};
   }
   for (size_t i = 0; i < nl; ++i)
     std::sort(inc.begin() + at[i], inc.begin() + at[i + 1], [](const Inc& a, const Inc& b) { return a.seq < b.seq; });
@@ -89,8 +113,8 @@ NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<
   size_t next = localUnits;
   for (size_t j = 0; j < nb; ++j) {
     P.recvAt[j] = next;
-    for (Index i : L.neighbours[j].nodes)
-      for (Index x = at[size_t(i)]; x < at[size_t(i) + 1]; ++x) {
+    for (Index n : L.neighbours[j].nodes)
+      for (Index x = at[size_t(row[size_t(n)])]; x < at[size_t(row[size_t(n)]) + 1]; ++x) {
         const Inc& c = inc[size_t(x)];
         if (c.rank == L.rank) P.sendUnits[j].push_back(unitOf(localElem[size_t(c.elem)], c.corner));
         if (c.rank == L.neighbours[j].rank) where[size_t(x)] = Index(next++);
@@ -131,18 +155,64 @@ class MpiRankExchange final : public RankExchange {
         for (Index e : scattered) forceSeq[size_t(e)] = fPos++;
       }
     }
-    // This rank's units: its elements block by block (masses), 8 corners each (forces).
-    std::vector<Index> elemUnit(L.globalElem.size(), -1);
-    std::vector<size_t> blockBase;
+    // The masses: every node from its elements' shares (a unit an element, block by block).
+    const size_t nl = L.globalNode.size(), ne = L.globalElem.size();
+    std::vector<Index> elemUnit(ne, -1);
     size_t units = 0;
-    for (const auto& b : blocks) {
-      blockBase.push_back(units);
+    for (const auto& b : blocks)
       for (Index e = 0; e < b->numElems(); ++e) elemUnit[size_t(b->meshElem(e))] = Index(units++);
+    shares_ = makePlan(L, global, part, massSeq, std::vector<std::uint8_t>(nl, 1), 1, units,
+                       [&](Index le, int) { return elemUnit[size_t(le)]; });
+    // The forces. This rank's blocks scatter into the nodes as one process does, in their own
+    // order (localSeq); where a node's elements all lie on this rank and that order is the
+    // one-process order, the scatter is the one-process sum. The others, and every frontier node,
+    // are summed from the corner forces (a unit a corner) of the elements at them, which the
+    // blocks store besides.
+    std::vector<Index> localSeq(ne, 0);
+    {
+      Index pos = 0;
+      for (const auto& b : blocks) {
+        const std::vector<Index>& st = b->slabStarts();
+        const Index nS = Index(st.size()) - 1, nE = b->numElems();
+        for (Index parity = 0; parity < 2; ++parity)  // as computeForcesForElems
+          for (Index sl = parity; sl < nS; sl += 2)
+            for (Index c = st[size_t(sl)]; c < st[size_t(sl) + 1]; ++c)
+              for (Index e = c * ElementBlock::kChunk; e < std::min(nE, (c + 1) * ElementBlock::kChunk); ++e)
+                localSeq[size_t(b->meshElem(e))] = pos++;
+      }
     }
-    shares_ = makePlan(L, global, part, massSeq, 1, units, [&](Index le, int) { return elemUnit[size_t(le)]; });
-    forces_ = makePlan(L, global, part, forceSeq, 3, 8 * units,
-                       [&](Index le, int k) { return 8 * elemUnit[size_t(le)] + Index(k); });
-    for (size_t b = 0; b < blocks.size(); ++b) blocks[b]->setCornerForceOutput(&forces_.values[24 * blockBase[b]]);
+    std::vector<std::uint8_t> summed(nl, 0);
+    for (Index i : L.frontier) summed[size_t(i)] = 1;
+    {
+      std::vector<Index> at(nl + 1, 0), elems(8 * ne);
+      for (size_t e = 0; e < ne; ++e)
+        for (int k = 0; k < 8; ++k) ++at[size_t(L.mesh.connectivity[8 * e + size_t(k)]) + 1];
+      for (size_t i = 0; i < nl; ++i) at[i + 1] += at[i];
+      std::vector<Index> fill(at.begin(), at.end() - 1);
+      for (size_t e = 0; e < ne; ++e)
+        for (int k = 0; k < 8; ++k) elems[size_t(fill[size_t(L.mesh.connectivity[8 * e + size_t(k)])]++)] = Index(e);
+      for (size_t i = 0; i < nl; ++i) {
+        auto b = elems.begin() + at[i], en = elems.begin() + at[i + 1];
+        std::sort(b, en, [&](Index x, Index y) {
+          return forceSeq[size_t(L.globalElem[size_t(x)])] < forceSeq[size_t(L.globalElem[size_t(y)])];
+        });
+        for (auto it = b; it + 1 < en && !summed[i]; ++it)
+          if (localSeq[size_t(*it)] > localSeq[size_t(*(it + 1))]) summed[i] = 1;
+      }
+    }
+    std::vector<Index> slot(ne, -1);
+    size_t slots = 0;
+    for (size_t e = 0; e < ne; ++e)
+      for (int k = 0; k < 8 && slot[e] < 0; ++k)
+        if (summed[size_t(L.mesh.connectivity[8 * e + size_t(k)])]) slot[e] = Index(slots++);
+    forces_ = makePlan(L, global, part, forceSeq, summed, 3, 8 * slots,
+                       [&](Index le, int k) { return 8 * slot[size_t(le)] + Index(k); });
+    summedNodes_ = forces_.node.size();
+    for (const auto& b : blocks) {
+      blockSlots_.emplace_back();
+      for (Index e = 0; e < b->numElems(); ++e) blockSlots_.back().push_back(slot[size_t(b->meshElem(e))]);
+      b->setCornerForceOutput(forces_.values.data(), blockSlots_.back().data());
+    }
     // The owned nodes of every rank, on rank 0 (sumInNodeOrder).
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
@@ -357,7 +427,9 @@ class MpiRankExchange final : public RankExchange {
   std::vector<std::vector<Real>> send_, recv_;
   std::vector<Real> all_;  // sumAll's gathered values
   std::vector<MPI_Request> requests_;
-  NodeSumPlan shares_, forces_;  // the masses' and the forces' sums in the one-process order
+  NodeSumPlan shares_, forces_;                 // the masses' and the forces' sums in the one-process order
+  std::vector<std::vector<Index>> blockSlots_;  // [block][element] its corner forces' slot, or -1
+  size_t summedNodes_ = 0;                      // nodes whose force is summed from corner forces
   int rank_ = 0, size_ = 1;
   std::vector<Index> ownedLocal_;            // this rank's owned nodes
   std::vector<int> ownedCounts_, ownedIds_;  // rank 0: every rank's owned nodes (global indices)

@@ -143,10 +143,14 @@ class ElementBlock {
   /// even slabs, then its odd ones). A function of the mesh and the list alone.
   static void nodeSumOrder(const Mesh& mesh, std::vector<Index> meshElems, std::vector<Index>& lumped,
                            std::vector<Index>& scattered);
-  /// On MPI ranks: store each element's corner forces at out[24 e + 3 k + i] (element e of this
-  /// block, corner k, component i; zero for an inactive element) instead of adding them to the
-  /// nodal forces, which are then summed from them in the one-process order (nullptr: add them).
-  void setCornerForceOutput(Real* out) { cornerOut_ = out; }
+  /// On MPI ranks: besides adding them to the nodal forces, store the corner forces of each element
+  /// e with slot[e] >= 0 at out[24 slot[e] + 3 k + i] (corner k, component i; zero for an inactive
+  /// element), from which the exchange sums the nodes that the scatter does not sum in the
+  /// one-process order (out nullptr: none; slot: one per element of the block, kept by the caller).
+  void setCornerForceOutput(Real* out, const Index* slot) {
+    cornerOut_ = out;
+    cornerSlot_ = slot;
+  }
 
   /// True when this CPU has AVX2 and FMA (the kernel's fast path).
   static bool avx2Available();
@@ -211,6 +215,7 @@ class ElementBlock {
   std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
   bool avx2_ = false;                   // kernel path
   Real* cornerOut_ = nullptr;           // on ranks: the corner forces' destination (setCornerForceOutput)
+  const Index* cornerSlot_ = nullptr;   // on ranks: [element] its slot there, or -1
 };
 
 }  // namespace tq
