@@ -36,8 +36,18 @@ from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import (MeshInputError, MeshPlan, layer_of, lining_extent, plug_levels, portal_bench, portal_cut, resolve,
-                     slope_base, surface_nodes)
+from .params import (
+    MeshInputError,
+    MeshPlan,
+    layer_of,
+    lining_extent,
+    plug_levels,
+    portal_bench,
+    portal_cut,
+    resolve,
+    slope_base,
+    surface_nodes,
+)
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 #: the face group of the lining's joint faces (both sides of every joint)
