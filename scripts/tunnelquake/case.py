@@ -370,13 +370,13 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
                       "axis to cut into rings", "set mesh.mode: 3d, or remove lining_joints", here)]
     import numpy as np
 
-    from .meshing.params import MeshInputError, plug_levels, resolve
+    from .meshing.params import MeshInputError, lining_extent, resolve
 
     try:
         plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     except (MeshInputError, MemoryError, OverflowError):
         return []  # said by _mesh_checks
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)  # the plugs' ends, a portal's face, or the block's y faces
     length, s = y1 - y0, float(lj["spacing"])
     line = lines.get("spacing") or here
     tol = 1e-6 * length
