@@ -236,6 +236,8 @@ def test_the_portal_case_runs_and_reports_the_lining_along_the_axis(tmp_path):
     out = ran_case(tmp_path, CASE.replace("conditions: [no_water]", "conditions: [no_water]\ntime: {end_time: 0.2}"))
     report = (out / "results" / "report.md").read_text()
     assert "## The lining along the axis" in report
+    assert ("- portal: the tunnel leaves the hillside through a face at y = 20 m, looking towards -y; in front of it "
+            "the ground cut down to the bench z = -6 m and the lining ended; the face's head 8.5 m over the crown") in report
     rows = np.genfromtxt(out / "results" / "lining_axis_no_water.csv", delimiter=",", names=True)
     print("lining along the axis, the face's first layers: " + "; ".join(
         f"y {r['y_m']:.1f} m: N {r['N_maxabs_N'] / 1e3:.1f} kN, M_v {r['M_v_maxabs_Nm'] / 1e3:.1f} kN m, "
