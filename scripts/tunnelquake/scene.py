@@ -58,6 +58,9 @@ def assess_slice(case) -> SliceAssessment:
         if geology.slope is not None and abs(math.cos(math.radians(geology.slope.dip_direction))) > 1e-9:
             varying.append(f"geology.slope descends towards azimuth {geology.slope.dip_direction:g} deg, along the "
                            "axis, so the cover changes along it")
+        if geology.portal is not None:
+            varying.append(f"geology.portal: the tunnel leaves a {geology.portal.angle:g} deg slope through a face at "
+                           f"y = {geology.portal.station:g} m, and ends there")
     wave = d.get("incident_wave") or {}
     if wave.get("type", "none") != "none":
         varying.append(f"incident_wave: a {wave['type']} wave {wave['angle']:g} deg from the vertical through a domain-"
