@@ -210,8 +210,17 @@ void principalRange(const Real s[6], Real& smin, Real& smax, Real& size) {
 // the computed x carries the same half-digit loss as acos's form (principalRange), so a caller
 // compares with a margin. The loop vectorises (no branches, no library calls but sqrt).
 constexpr Index kBoundBatch = 64;
-inline __attribute__((always_inline)) void principalBounds(const Real (*t)[kBoundBatch], Index n, Real* __restrict smin,
-                                                           Real* __restrict smax, Real* __restrict size) {
+
+// The block constants of the elastic trial, its inscribed-cone test and the bounds' test.
+struct TrialConstants {
+  Real lam, mu, stiffF, Np, slope, kc0, c0, st0, cotPhi, sqrt23;
+};
+
+// inside[l] 1 where the bounds of item l (damage D[l]) lie inside the surface by at least the
+// margin 2e-6 of the stress scale (twice the closed form's: updateStressForElems), else 0.
+inline __attribute__((always_inline)) void principalBounds(const TrialConstants& k, const Real (*t)[kBoundBatch],
+                                                           const Real* __restrict D, Index n, Real* __restrict inside) {
+  const Real Np = k.Np, stiffF = k.stiffF, kc0 = k.kc0, c0 = k.c0, st0 = k.st0, cotPhi = k.cotPhi;
   const Real* __restrict sxxP = t[XX];
   const Real* __restrict syyP = t[YY];
   const Real* __restrict szzP = t[ZZ];
@@ -243,9 +252,13 @@ inline __attribute__((always_inline)) void principalBounds(const Real (*t)[kBoun
     newton();
     newton();
     newton();
-    smax[l] = p + 2 * r * hi;
-    smin[l] = p + 2 * r * lo;
-    size[l] = std::abs(p) + 2 * r;
+    const Real smax = p + 2 * r * hi, smin = p + 2 * r * lo, size = std::abs(p) + 2 * r;
+    const Real kc = (1 - D[l]) * kc0, tCut = (1 - stiffF * D[l]) * st0, tApex = (1 - D[l]) * c0 * cotPhi;
+    const Real tension = tCut < tApex ? tCut : tApex, absT = tension < 0 ? -tension : tension;
+    const Real scale = size > kc ? (size > absT ? size : absT) : (kc > absT ? kc : absT);
+    const Real margin = 2e-6 * scale;
+    const bool okShear = Np * smax - smin - kc < -(Np + 1) * margin, okTension = smax - tension < -margin;
+    inside[l] = (okShear && okTension) ? 1.0 : 0.0;
   }
 }
 
@@ -393,11 +406,6 @@ Real MohrCoulombDamageMaterial::damageFrom(const Real kappa[3]) const {
 
 namespace {
 
-// The block constants of the elastic trial and its inscribed-cone test (updateStressForElems).
-struct TrialConstants {
-  Real lam, mu, stiffF, Np, slope, kc0, c0, st0, cotPhi, sqrt23;
-};
-
 // Elastic trial of n ≤ kBoundBatch elements, written over their stress in place (σ^n kept in
 // `old`), and the inscribed-cone test (inside[l] 1 or 0). One loop the compiler vectorises; its
 // instances differ only in the vector width (no fused multiply-add: the same values).
@@ -459,12 +467,12 @@ __attribute__((target("avx2"))) void trialAvx2(const TrialConstants& k, Index n,
                                                Real* const* st, Real (*old)[kBoundBatch], Real* inside) {
   trialBody(k, n, Dp, de, st, old, inside);
 }
-void boundsGeneric(const Real (*t)[kBoundBatch], Index n, Real* smin, Real* smax, Real* size) {
-  principalBounds(t, n, smin, smax, size);
+void boundsGeneric(const TrialConstants& k, const Real (*t)[kBoundBatch], const Real* D, Index n, Real* inside) {
+  principalBounds(k, t, D, n, inside);
 }
-__attribute__((target("avx2"))) void boundsAvx2(const Real (*t)[kBoundBatch], Index n, Real* smin, Real* smax,
-                                                Real* size) {
-  principalBounds(t, n, smin, smax, size);
+__attribute__((target("avx2"))) void boundsAvx2(const TrialConstants& k, const Real (*t)[kBoundBatch], const Real* D,
+                                                Index n, Real* inside) {
+  principalBounds(k, t, D, n, inside);
 }
 
 // AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit).
@@ -518,22 +526,17 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
     //    the range's error is below 1e-8 of the scale), so the bounds change no decision.
     if (nSuspect == 0) continue;
     alignas(64) Real packed[6][kBoundBatch];
-    alignas(64) Real bMin[kBoundBatch], bMax[kBoundBatch], bSize[kBoundBatch];
+    alignas(64) Real pD[kBoundBatch], bounded[kBoundBatch];
     for (int q = 0; q < 6; ++q)
       for (Index k = 0; k < nSuspect; ++k) packed[q][k] = c.stress[q][e0 + suspect[k]];
+    for (Index k = 0; k < nSuspect; ++k) pD[k] = dmg[e0 + suspect[k]];
     if (kMaterialAvx2)
-      boundsAvx2(packed, nSuspect, bMin, bMax, bSize);
+      boundsAvx2(tk, packed, pD, nSuspect, bounded);
     else
-      boundsGeneric(packed, nSuspect, bMin, bMax, bSize);
+      boundsGeneric(tk, packed, pD, nSuspect, bounded);
     for (Index k = 0; k < nSuspect; ++k) {
+      if (bounded[k] != 0) continue;
       const Index e = e0 + suspect[k];
-      {
-        const Real D = dmg[e];
-        const Real cD = (1 - D) * c0, kc = 2 * cD * sqrtNPhi_;
-        const Real tension = std::min(stiff ? (1 - D) * st0 : st0, cD * cotPhi);
-        const Real margin = 2e-6 * std::max({bSize[k], kc, std::abs(tension)});
-        if (Np * bMax[k] - bMin[k] - kc < -(Np + 1) * margin && bMax[k] - tension < -margin) continue;
-      }
       {
         const Real t[6] = {packed[XX][k], packed[YY][k], packed[ZZ][k], packed[XY][k], packed[YZ][k], packed[ZX][k]};
         const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
