@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -476,11 +477,13 @@ __attribute__((target("avx2"))) void boundsAvx2(const TrialConstants& k, const R
 }
 
 // AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit).
+// TQ_SOLID_SIMD=generic asks for the generic path, as it does of the element kernel.
 bool materialAvx2() {
+  const char* env = std::getenv("TQ_SOLID_SIMD");
+  if (env && std::string(env) == "generic") return false;
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2");
 }
-const bool kMaterialAvx2 = materialAvx2();
 
 }  // namespace
 
@@ -495,6 +498,7 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
   //    Elements that pass stay elastic (the common case costs a few flops more than Hooke, in
   //    a loop the compiler vectorises); the others are decomposed and returned if outside.
   constexpr Index kBlock = kBoundBatch;
+  static const bool kMaterialAvx2 = materialAvx2();  // once, on the first use
   const TrialConstants tk{
       moduli_.lambda, moduli_.mu,          stiff ? 1.0 : 0.0, Np, dpSlope_, 2 * c0 * sqrtNPhi_, c0, st0,
       cotPhi,         std::sqrt(2.0 / 3.0)};
