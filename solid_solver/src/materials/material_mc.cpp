@@ -209,7 +209,9 @@ void principalRange(const Real s[6], Real& smin, Real& smax, Real& size) {
 // c ≤ ½ + √((1 + x)/6) (and ≤ 1); by symmetry the smallest root is at least −½ − √((1 − x)/6).
 // Three steps leave c within 2e-9 of the root (from 0.06 at the start); where two roots coincide
 // the computed x carries the same half-digit loss as acos's form (principalRange), so a caller
-// compares with a margin. The loop vectorises (no branches, no library calls but sqrt).
+// compares with a margin. The loop vectorises (no branches, no library calls but sqrt; the file is
+// compiled with -fno-trapping-math, which lets the compiler turn selects around divisions into
+// blends: solid_solver/CMakeLists.txt).
 constexpr Index kBoundBatch = 64;
 
 // The block constants of the elastic trial, its inscribed-cone test and the bounds' test.
