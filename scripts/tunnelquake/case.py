@@ -332,18 +332,32 @@ def _lining_joints_section() -> Section:
                                         "the shear spring without a cap"),
         "allowed_opening": _positive(U.LENGTH, "m: the watertightness limit; the report compares each joint's "
                                                "largest opening with it"),
+        "held_at": Choice(choices=JOINT_HOLDS, default="along_ring",
+                          doc="where each ring is tied to the rock: along_ring (at every plane of nodes along "
+                              "it but its -y end: grouted along its length) or ring_middle (at its middle "
+                              "plane only, elsewhere free of the rock, without contact: rings held at "
+                              "mid-length; needs rings of an even number of axial elements)"),
     })
+
+
+#: lining_joints.held_at: where each ring is tied to the rock (meshing.build)
+JOINT_HOLDS = ("along_ring", "ring_middle")
 
 
 def lining_joints_active(d: dict) -> bool:
     """Whether the case asks for lining joints (any key of lining_joints given)."""
     lj = d.get("lining_joints") or {}
-    return any(v is not None for k, v in lj.items() if k != "tensile_strength")  # (the one with a default)
+    return any(v is not None for k, v in lj.items() if k not in ("tensile_strength", "held_at"))  # (with defaults)
 
 
 def joint_spacing(d: dict) -> float | None:
     """The lining's ring length (m) when the case has lining joints, else None."""
     return float(d["lining_joints"]["spacing"]) if lining_joints_active(d) else None
+
+
+def joint_hold(d: dict) -> str:
+    """Where the lining's rings are tied to the rock (lining_joints.held_at; along_ring without joints)."""
+    return (d["lining_joints"].get("held_at") or "along_ring") if lining_joints_active(d) else "along_ring"
 
 
 def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
@@ -404,6 +418,19 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
                           f"element layers ({h:g} m long): a joint must be a plane of element faces",
                           f"give a spacing that is a whole number of axial elements, {hint}, or set "
                           "mesh.elements_along_axis so that the layers fall on the joints", line)]
+    if lj.get("held_at") == "ring_middle":
+        for k in range(round(n)):
+            y = y0 + (k + 0.5) * s
+            if np.abs(levels - y).min() > tol:
+                even = [m for m in options if m % 2 == 0]
+                fix = (f"give rings of an even number of axial elements, e.g. spacing: "
+                       f"{min(even, key=lambda m: abs(m * h - s)) * h:g} m, or " if even else
+                       "refine mesh.elements_along_axis to give rings of an even number of axial elements, or ")
+                return [Issue("lining_joints.held_at", "ring_middle", f"needs a plane of nodes at each ring's middle: "
+                              f"the ring from y = {y0 + k * s:g} to {y0 + (k + 1) * s:g} m ({s:g} m, axial elements "
+                              f"of {h:g} m) has none at y = {y:g} m",
+                              fix + "hold the rings along their length (held_at: along_ring)",
+                              lines.get("held_at") or here)]
     return []
 
 

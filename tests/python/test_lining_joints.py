@@ -3,16 +3,19 @@
 
 1. Input errors, each a `check` error naming the key and the fix: joints on a slice mesh, a ring
    length not shorter than the lining, rings that are not whole, a joint between the axial element
-   layers, a stiffness <= 0, a stiffness missing.
+   layers, a stiffness <= 0, a stiffness missing, rings held at their middle (held_at: ring_middle)
+   that have no plane of nodes there (an odd number of axial elements), a held_at not of the choices.
 2. The mesh: the lining's nodes on every joint plane duplicated, the copies coincident with their
    originals and used only by the ring on the +y side; each joint's tributary areas sum to the
-   annulus of the lining's polygonal section (exact, 1e-9 relative).
+   annulus of the lining's polygonal section (exact, 1e-9 relative). By default every lining node on
+   the outer surface but a ring's -y end is tied to the rock; with held_at: ring_middle only those on
+   each ring's middle plane (rings of 2 elements between plugs, and of 4 elements between the block's
+   faces without plugs).
 3. Closed form (tq-solid; skipped without a tq-solid with lining joints): rings of the rock's own
    properties, two axial elements (12 m) long, in an SV wave travelling along the axis through the
-   domain-reduction layer. The mesh ties each rock node on a joint plane to the ring before the joint;
-   the test unties those (drops the rock-lining pairs on the joint planes), so that each ring is held
-   to the ground at its middle plane only and slides free of it elsewhere (a set-up of the solver, not
-   one a case file asks for); with soft joints (k_n = k_s = 1 MPa/m: the joint force strains a ring by
+   domain-reduction layer. The case holds each ring to the ground at its middle plane only
+   (lining_joints.held_at: ring_middle: the mesh keeps the rock-lining pairs there alone), so that it
+   slides free of the ground elsewhere; with soft joints (k_n = k_s = 1 MPa/m: the joint force strains a ring by
    k_n L / E = 2.4e-3 of the ground's strain) the rings move rigidly with the ground at their held
    planes and the joints take all the strain: joint k opens by u(y_k + L/2) - u(y_k - L/2) = eps_ff L
    (the free field's axial strain at the joint, times the ring length; plane-wave strain
@@ -85,6 +88,12 @@ def _slice(s):
      ("required", "shear_stiffness:")),
     (lambda s: s.replace("normal_stiffness: 1 MPa/m", "normal_stiffness: 1 MPa"), "lining_joints.normal_stiffness",
      ("Pa/m",)),
+    (lambda s: s.replace("spacing: 6 m", "spacing: 6 m\n  held_at: ring_middle"), "lining_joints.held_at",
+     ("ring from y = 18 to 24 m", "none at y = 21 m", "spacing: 12 m", "held_at: along_ring")),
+    (lambda s: s.replace("spacing: 6 m", "spacing: 42 m\n  held_at: ring_middle"), "lining_joints.held_at",
+     ("ring from y = 18 to 60 m", "none at y = 39 m", "spacing: 12 m")),
+    (lambda s: s.replace("spacing: 6 m", "spacing: 6 m\n  held_at: middle"), "lining_joints.held_at",
+     ("along_ring", "ring_middle")),
 ])
 def test_check_refuses_joints_the_model_cannot_have(tmp_path, edit, key, words):
     with pytest.raises(CaseError) as e:
@@ -111,6 +120,7 @@ def test_the_joint_keys_pass_check(tmp_path):
     case = load_case(_case(tmp_path))
     lj = case.data["lining_joints"]
     assert lj["normal_stiffness"] == 1e6 and lj["allowed_opening"] == 1e-3 and lj["friction"] is None
+    assert lj["held_at"] == "along_ring"
 
 
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
@@ -162,6 +172,42 @@ def test_the_mesh_splits_the_lining_at_every_joint_plane(tmp_path):
     for j in range(len(ys)):
         assert np.isclose(area[index == j].sum(), ring_area, rtol=1e-9)
         assert (index == j).sum() == 32  # 16 around x 2 through
+    # held along the ring (the default): every plane of the lining's outer nodes but the plugs' faces
+    # (merged with the plug) is tied, 16 around; the joint planes tie the ring before the joint
+    tied = xyz[rock_pairs[:, 0], 1]
+    np.testing.assert_allclose(np.unique(tied.round(9)), np.arange(LINING[0] + RING, LINING[1] - 1e-9, RING))
+    assert len(tied) == 13 * 16
+
+
+def _rock_tied_planes(tmp_path, edit):
+    """(the y of every rock-lining pair's node, the joints' planes) of the mesh of BASE edited."""
+    from tunnelquake.prepare import make_mesh, mesh_dir
+
+    case = load_case(_case(tmp_path, edit))
+    summary = make_mesh(case)
+    assert summary["joint_hold"] == "ring_middle"
+    with h5py.File(mesh_dir(case) / "mesh.h5") as m:
+        xyz = m["nodes/coordinates"][...]
+        return xyz[m["interfaces/rock_lining"][:, 0], 1], m["interfaces/lining_joint_y"][...]
+
+
+@pytest.mark.parametrize("edit, rings", [
+    # 7 rings of two elements between the plugs (y 18 .. 102 m)
+    (lambda s: s.replace("spacing: 6 m", "spacing: 12 m\n  held_at: ring_middle"), [(18.0 + 12 * k, 12.0)
+                                                                                     for k in range(7)]),
+    # no plugs (and no incident wave, which needs them): the lining runs the block's length
+    # (0 .. 120 m), 5 rings of four elements
+    (lambda s: s.replace("spacing: 6 m", "spacing: 24 m\n  held_at: ring_middle").replace(
+        "  tunnel_end_plugs: 3\n", "").replace("type: SV", "type: none").replace("  angle: 20\n  azimuth: 0\n", ""),
+     [(24.0 * k, 24.0) for k in range(5)]),
+])
+def test_rings_held_at_their_middle_are_tied_to_the_rock_there_only(tmp_path, edit, rings):
+    tied, joints = _rock_tied_planes(tmp_path, edit)
+    middles = [a + length / 2 for a, length in rings]
+    np.testing.assert_allclose(joints, [a for a, _ in rings[1:]], atol=1e-9)
+    np.testing.assert_allclose(np.unique(tied.round(9)), middles, atol=1e-9)
+    for y in middles:  # the whole circumference of each middle plane: 16 nodes around
+        assert np.isclose(tied, y, atol=1e-9).sum() == 16
 
 
 # ------------------------------------------------------------------------------------------------
@@ -184,19 +230,6 @@ PEAK_TOLERANCE = 0.02
 HELD_RING = 12.0
 
 
-def _hold_rings_at_their_middle(mesh_h5) -> int:
-    """Untie the rock from the lining on every joint plane (drop those rock-lining pairs), so that each
-    ring is held to the ground at its middle plane of nodes only; returns how many ties were dropped."""
-    with h5py.File(mesh_h5, "r+") as m:
-        xyz = m["nodes/coordinates"][...]
-        ties = m["interfaces/rock_lining"][...]
-        planes = m["interfaces/lining_joint_y"][...]
-        on_joint = np.isclose(xyz[ties[:, 0], 1][:, None], planes[None, :], atol=1e-9).any(axis=1)
-        del m["interfaces/rock_lining"]
-        m["interfaces/rock_lining"] = ties[~on_joint]
-    return int(on_joint.sum())
-
-
 @pytest.mark.skipif(EXE is None, reason="tq-solid with lining joints is not built (set TQ_BUILD_DIR)")
 def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_path):
     from tunnelquake import post as P
@@ -206,11 +239,13 @@ def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_pa
     from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
     from tunnelquake.solid_input import write_solid_input
 
-    case = load_case(_case(tmp_path, lambda t: t.replace("spacing: 6 m", f"spacing: {HELD_RING:g} m")))
+    case = load_case(_case(tmp_path, lambda t: t.replace("spacing: 6 m",
+                                                         f"spacing: {HELD_RING:g} m\n  held_at: ring_middle")))
     d = case.data
     make_mesh(case)
-    # 16 ties around on each of the 6 joint planes y = 30, 42, ..., 90 m
-    assert _hold_rings_at_their_middle(mesh_dir(case) / "mesh.h5") == 6 * 16
+    with h5py.File(mesh_dir(case) / "mesh.h5") as m:  # the ties on the 7 rings' middle planes only
+        tied = m["nodes/coordinates"][...][m["interfaces/rock_lining"][:, 0], 1]
+    np.testing.assert_allclose(np.unique(tied.round(9)), np.arange(LINING[0], LINING[1] - 1, HELD_RING) + HELD_RING / 2)
     _, motion_h5 = make_motion(case)
     inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "solid_input.h5")
     out = subprocess.run([str(EXE), str(inp), "-o", str(tmp_path / "results_no_water.h5"), "--threads", "1"],

@@ -4,7 +4,8 @@ Steps:
   1. validate the inputs and derive the block divisions (params.resolve);
   2. build and mesh the structured all-hex gmsh model (gmsh_model.build_model), write model.msh;
   3. solid: rock + lining hexes, lining nodes on the rock-lining interface duplicated and paired,
-     with lining joints the lining's nodes on each joint plane duplicated again and paired,
+     with lining joints the lining's nodes on each joint plane duplicated again and paired (and,
+     with the rings held at their middle, only the rock-lining pairs on each ring's middle plane kept),
      elements oriented to positive volume, boundary quads named, written as mesh.h5
      (docs/formats.md);
   4. water: its hexes and wall/end quads written as gmsh 2.2 ASCII for gmshToFoam;
@@ -64,7 +65,7 @@ def region_names(plan: MeshPlan) -> list[str]:
 
 
 def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None, geology=None,
-                      joint_spacing: float | None = None) -> dict:
+                      joint_spacing: float | None = None, joint_hold: str = "along_ring") -> dict:
     """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
 
     geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
@@ -73,7 +74,10 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
     down, [(region name, z of its bottom)] (params.resolve). geology: regions bounded by planes
     (geology.Geology: dipping layers, a fault zone), each element by its centroid. joint_spacing: the
     lining's ring length (m), joints every spacing from the lining's start (joint_levels), each a plane
-    of axial element layers. Returns a summary dict (see format_summary).
+    of axial element layers. joint_hold: where each ring is tied to the rock, "along_ring" (at its
+    planes of nodes except its -y end, the +y side's copy of a joint) or "ring_middle" (at its middle
+    plane only: the rock-lining pairs elsewhere are left out; ring_middle_levels).
+    Returns a summary dict (see format_summary).
     Raises MeshInputError for bad input, RuntimeError if a quality check fails.
     """
     t0 = time.perf_counter()
@@ -106,7 +110,9 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                         gmsh.model.remove()
 
             hexes = _portal_cut(plan, coords, _plug_ends(plan, coords, hexes))
-            solid = _solid_mesh(plan, coords, hexes, joint_levels(plan, joint_spacing))
+            joints = joint_levels(plan, joint_spacing)
+            held = ring_middle_levels(plan, joints) if joints and joint_hold == "ring_middle" else None
+            solid = _solid_mesh(plan, coords, hexes, joints, held)
             _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
             water = _water_mesh(plan, coords, hexes[WATER])
             _write_gmsh22(tmp["water"], water)
@@ -138,6 +144,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
         "interface_pairs": len(solid["pairs"]),
         "joints": len(solid["joint_y"]),
         "joint_pairs": len(solid["joint_pairs"]),
+        "joint_hold": joint_hold if len(solid["joint_y"]) else None,
         "max_element_size": h,
         "max_element_size_limit": plan.max_element_size,
         "min_jacobian": min(solid["min_detj"], water["min_detj"]),
@@ -229,7 +236,9 @@ def format_summary(s: dict) -> str:
     lines += [
         f"  solid nodes {c['solid_nodes']}, water nodes {c['water_nodes']}",
         f"  rock-lining node pairs: {s['interface_pairs']}",
-        *([f"  lining joints: {s['joints']} ({s['joint_pairs']} node pairs)"] if s.get("joints") else []),
+        *([f"  lining joints: {s['joints']} ({s['joint_pairs']} node pairs)"
+           + ("; each ring tied to the rock at its middle plane only" if s.get("joint_hold") == "ring_middle" else "")]
+          if s.get("joints") else []),
         f"  longest edge: {s['max_element_size']:.3f} m (limit {s['max_element_size_limit']:g} m)",
         f"  min corner det J: {s['min_jacobian']:.4g} m^3; min scaled Jacobian: "
         + ", ".join(f"{k} {v:.3f}" for k, v in s["min_scaled_jacobian"].items()),
@@ -378,6 +387,26 @@ def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
     return out
 
 
+def ring_middle_levels(plan: MeshPlan, joints: list[float]) -> list[float]:
+    """The middle plane y of every ring between the lining's ends and its joints (a ring held to the
+    rock there only: lining_joints.held_at ring_middle). Raises MeshInputError when a ring's middle is
+    not a plane of nodes (a ring of an odd number of axial elements, one included; the case check says
+    the same before anything runs)."""
+    y0, y1 = lining_extent(plan)
+    ends = [y0, *joints, y1]
+    levels = np.asarray(plan.y_levels, float)
+    tol = 1e-6 * (y1 - y0)
+    out = []
+    for a, b in zip(ends[:-1], ends[1:], strict=True):
+        i = int(np.abs(levels - 0.5 * (a + b)).argmin())
+        if abs(levels[i] - 0.5 * (a + b)) > tol:
+            raise MeshInputError(f"lining_joints.held_at ring_middle: the ring from y = {a:g} to {b:g} m has no plane "
+                                 "of nodes at its middle (an odd number of axial elements)",
+                                 key="lining_joints.held_at")
+        out.append(float(levels[i]))
+    return out
+
+
 def _quad_areas(coords: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Areas of planar quads [F, 4]: half the cross product of the diagonals."""
     x = coords[quads]
@@ -417,11 +446,13 @@ def _split_joints(plan: MeshPlan, coords: np.ndarray, conn: np.ndarray, lining: 
         np.concatenate(area)
 
 
-def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[float] = ()) -> dict:
+def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[float] = (),
+                held: list[float] | None = None) -> dict:
     """Rock + lining with the interface nodes duplicated: the lining gets its own copies (except
     where the lining meets a plug of rock at a tunnel end: bonded there). With joints, the lining's
     nodes on each joint plane once more: the ring on the +y side takes the copies, and the rock's
-    interface node stays paired with the -y side's node."""
+    interface node stays paired with the -y side's node. `held`: the planes y on which the rock-lining
+    pairs are kept (each ring's middle), the others left out; None keeps them all."""
     plug = hexes.get("plug", np.zeros((0, 8), np.int64))
     rock, lining = np.concatenate([hexes[ROCK], plug]), hexes[LINING]
     shared = np.setdiff1d(np.intersect1d(hexes[ROCK], lining), plug)  # gmsh tags on the rock-lining interface
@@ -445,6 +476,9 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[f
         ground = assign(plan.geology, gcoords[rock].mean(axis=1), ground, 2 + len(plan.layers))
     region = np.concatenate([ground.astype(np.int32), np.ones(len(lining), np.int32)])
     pairs = np.stack([index[shared], dup[shared]], axis=1)
+    if held is not None:  # the rings tied to the rock at their middle planes only
+        on = np.abs(coords[pairs[:, 0], 1][:, None] - np.asarray(held)[None, :]) < _tolerance(plan)
+        pairs = pairs[on.any(axis=1)]
 
     nr = len(rock)
     q_rock = _quality(conn[:nr], coords, "rock")
