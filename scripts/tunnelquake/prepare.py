@@ -19,7 +19,7 @@ def mesh_dir(case) -> Path:
 
 
 def _fingerprint(case) -> str:
-    from .case import case_geology, ground_layers, lining_joints_active
+    from .case import case_geology, ground_layers, joint_hold, lining_joints_active
 
     mesh = {k: v for k, v in case.data["mesh"].items() if not (k == "tunnel_end_plugs" and not v)}
     d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs: the meshes made before the key stay current)
@@ -32,6 +32,8 @@ def _fingerprint(case) -> str:
             d["lining_end_faces"] = True
     if lining_joints_active(case.data):  # likewise
         d["lining_joints"] = case.data["lining_joints"]["spacing"]
+        if joint_hold(case.data) != "along_ring":  # likewise
+            d["lining_joints_held_at"] = joint_hold(case.data)
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -49,11 +51,11 @@ def make_mesh(case, force: bool = False) -> dict:
             return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
-    from .case import case_geology, ground_layers, joint_spacing
+    from .case import case_geology, ground_layers, joint_hold, joint_spacing
 
     stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
     summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data),
-                                case_geology(case.data), joint_spacing(case.data))
+                                case_geology(case.data), joint_spacing(case.data), joint_hold(case.data))
     summary = json.loads(json.dumps(summary, default=str))
     with atomic_path(stamp) as tmp:
         tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))

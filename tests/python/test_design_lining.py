@@ -139,3 +139,21 @@ def test_the_difference_between_design_and_free_body_forces_is_reported_from_the
     assert read_ring_forces(path)[0].free_body is None
     c = lining.condition_design(path, "no_water", {}, p)
     assert not any(x.startswith("Equilibrium:") for x in lining.LiningDesign([c], p, "test").report_lines())
+
+
+def test_the_interface_note_counts_broken_bonds_and_warns_of_the_step_sensitivity_only_then(monkeypatch):
+    """interface_note on a last snapshot with 3 of 8 bonds broken: the count and time, and the warning
+    that peaks after pairs let go depend on the step (docs/solid_solver.md "Subcycling": a step 1 %
+    shorter moved such peaks by 20-42 %); with none broken, the count alone."""
+    from types import SimpleNamespace
+
+    from tunnelquake import post as P
+
+    failed = {"value": np.array([0, 1, 1, 0, 0, 1, 0, 0])}
+    monkeypatch.setattr(P, "read_snapshot", lambda res, t: {"time": 2.5, "interface": {"failed": failed["value"]}})
+    res = SimpleNamespace(interface=object(), snapshots=[(0, 2.5)])
+    note = lining.interface_note(res)
+    assert note.startswith("rock–lining interface: the bond of 3 of 8 pairs broken by t = 2.500 s")
+    assert "a step 1 % shorter can move them by tens of per cent" in note
+    failed["value"] = np.zeros(8)
+    assert lining.interface_note(res) == "rock–lining interface: the bond of 0 of 8 pairs broken by t = 2.500 s"

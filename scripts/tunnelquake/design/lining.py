@@ -440,7 +440,10 @@ def interface_note(res) -> str:
         return ""
     n, k = int(np.size(failed)), int(np.count_nonzero(failed))
     return (f"rock–lining interface: the bond of {k} of {n} pairs broken by t = {snap['time']:.3f} s"
-            + (" (the lining and the rock no longer act as one there: figure fig10)" if k else ""))
+            + (" (the lining and the rock no longer act as one there: figure fig10). The peaks after the "
+               "first pair lets go depend on the step in which each pair fails: a step 1 % shorter can move "
+               "them by tens of per cent (docs/solid_solver.md, \"Subcycling\"), so read them as one "
+               "realisation, not to three digits" if k else ""))
 
 
 def _verdict(u: float) -> str:

@@ -4,7 +4,8 @@ Steps:
   1. validate the inputs and derive the block divisions (params.resolve);
   2. build and mesh the structured all-hex gmsh model (gmsh_model.build_model), write model.msh;
   3. solid: rock + lining hexes, lining nodes on the rock-lining interface duplicated and paired,
-     with lining joints the lining's nodes on each joint plane duplicated again and paired,
+     with lining joints the lining's nodes on each joint plane duplicated again and paired (and,
+     with the rings held at their middle, only the rock-lining pairs on each ring's middle plane kept),
      elements oriented to positive volume, boundary quads named, written as mesh.h5
      (docs/formats.md);
   4. water: its hexes and wall/end quads written as gmsh 2.2 ASCII for gmshToFoam;
@@ -36,7 +37,18 @@ from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve, slope_base, surface_nodes
+from .params import (
+    MeshInputError,
+    MeshPlan,
+    layer_of,
+    lining_extent,
+    plug_levels,
+    portal_bench,
+    portal_cut,
+    resolve,
+    slope_base,
+    surface_nodes,
+)
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 #: the face group of the lining's joint faces (both sides of every joint)
@@ -53,7 +65,7 @@ def region_names(plan: MeshPlan) -> list[str]:
 
 
 def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=None, geology=None,
-                      joint_spacing: float | None = None) -> dict:
+                      joint_spacing: float | None = None, joint_hold: str = "along_ring") -> dict:
     """Mesh the tunnel and write model.msh, mesh.h5 and water.msh into ``out_dir``.
 
     geometry: keys x_range, y_range, z_range ([min, max], m), tunnel_centre_x, tunnel_centre_z,
@@ -62,7 +74,10 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
     down, [(region name, z of its bottom)] (params.resolve). geology: regions bounded by planes
     (geology.Geology: dipping layers, a fault zone), each element by its centroid. joint_spacing: the
     lining's ring length (m), joints every spacing from the lining's start (joint_levels), each a plane
-    of axial element layers. Returns a summary dict (see format_summary).
+    of axial element layers. joint_hold: where each ring is tied to the rock, "along_ring" (at its
+    planes of nodes except its -y end, the +y side's copy of a joint) or "ring_middle" (at its middle
+    plane only: the rock-lining pairs elsewhere are left out; ring_middle_levels).
+    Returns a summary dict (see format_summary).
     Raises MeshInputError for bad input, RuntimeError if a quality check fails.
     """
     t0 = time.perf_counter()
@@ -94,8 +109,10 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                     if not own_session:
                         gmsh.model.remove()
 
-            hexes = _plug_ends(plan, coords, hexes)
-            solid = _solid_mesh(plan, coords, hexes, joint_levels(plan, joint_spacing))
+            hexes = _portal_cut(plan, coords, _plug_ends(plan, coords, hexes))
+            joints = joint_levels(plan, joint_spacing)
+            held = ring_middle_levels(plan, joints) if joints and joint_hold == "ring_middle" else None
+            solid = _solid_mesh(plan, coords, hexes, joints, held)
             _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
             water = _water_mesh(plan, coords, hexes[WATER])
             _write_gmsh22(tmp["water"], water)
@@ -127,6 +144,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
         "interface_pairs": len(solid["pairs"]),
         "joints": len(solid["joint_y"]),
         "joint_pairs": len(solid["joint_pairs"]),
+        "joint_hold": joint_hold if len(solid["joint_y"]) else None,
         "max_element_size": h,
         "max_element_size_limit": plan.max_element_size,
         "min_jacobian": min(solid["min_detj"], water["min_detj"]),
@@ -218,7 +236,9 @@ def format_summary(s: dict) -> str:
     lines += [
         f"  solid nodes {c['solid_nodes']}, water nodes {c['water_nodes']}",
         f"  rock-lining node pairs: {s['interface_pairs']}",
-        *([f"  lining joints: {s['joints']} ({s['joint_pairs']} node pairs)"] if s.get("joints") else []),
+        *([f"  lining joints: {s['joints']} ({s['joint_pairs']} node pairs)"
+           + ("; each ring tied to the rock at its middle plane only" if s.get("joint_hold") == "ring_middle" else "")]
+          if s.get("joints") else []),
         f"  longest edge: {s['max_element_size']:.3f} m (limit {s['max_element_size_limit']:g} m)",
         f"  min corner det J: {s['min_jacobian']:.4g} m^3; min scaled Jacobian: "
         + ", ".join(f"{k} {v:.3f}" for k, v in s["min_scaled_jacobian"].items()),
@@ -328,6 +348,19 @@ def _plug_ends(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     return out
 
 
+#: the face group of what a portal's cut lays bare: the bench in front of the face, the face itself
+#: (the headwall, through which the bore opens) and the lining's end there
+PORTAL_FACES = "portal"
+
+
+def _portal_cut(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
+    """With a portal (geology.portal) every hexahedron of every region whose centroid lies in front
+    of the face above the bench is removed (params.portal_cut); model.msh keeps the uncut block."""
+    if plan.geology is None or plan.geology.portal is None:
+        return hexes
+    return {region: h[~portal_cut(plan, gcoords[h].mean(axis=1))] for region, h in hexes.items()}
+
+
 def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
     """The joints' planes y: every `spacing` from the lining's start (the first plug's end, or the
     block's ymin face) to before its end; each snapped to the axial element layer it lies on.
@@ -337,7 +370,7 @@ def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
         return []
     if plan.slice:
         raise MeshInputError("lining joints need a 3D mesh (mesh.mode: 3d)", key="lining_joints")
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)
     n = (y1 - y0) / spacing
     tol = 1e-6 * (y1 - y0)
     if round(n) < 2 or abs(n - round(n)) > 1e-6 * n:
@@ -350,6 +383,26 @@ def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
         if abs(levels[i] - (y0 + k * spacing)) > tol:
             raise MeshInputError(f"lining joint {k} at y = {y0 + k * spacing:g} m is not on an axial element layer",
                                  key="lining_joints.spacing")
+        out.append(float(levels[i]))
+    return out
+
+
+def ring_middle_levels(plan: MeshPlan, joints: list[float]) -> list[float]:
+    """The middle plane y of every ring between the lining's ends and its joints (a ring held to the
+    rock there only: lining_joints.held_at ring_middle). Raises MeshInputError when a ring's middle is
+    not a plane of nodes (a ring of an odd number of axial elements, one included; the case check says
+    the same before anything runs)."""
+    y0, y1 = lining_extent(plan)
+    ends = [y0, *joints, y1]
+    levels = np.asarray(plan.y_levels, float)
+    tol = 1e-6 * (y1 - y0)
+    out = []
+    for a, b in zip(ends[:-1], ends[1:], strict=True):
+        i = int(np.abs(levels - 0.5 * (a + b)).argmin())
+        if abs(levels[i] - 0.5 * (a + b)) > tol:
+            raise MeshInputError(f"lining_joints.held_at ring_middle: the ring from y = {a:g} to {b:g} m has no plane "
+                                 "of nodes at its middle (an odd number of axial elements)",
+                                 key="lining_joints.held_at")
         out.append(float(levels[i]))
     return out
 
@@ -393,11 +446,13 @@ def _split_joints(plan: MeshPlan, coords: np.ndarray, conn: np.ndarray, lining: 
         np.concatenate(area)
 
 
-def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[float] = ()) -> dict:
+def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[float] = (),
+                held: list[float] | None = None) -> dict:
     """Rock + lining with the interface nodes duplicated: the lining gets its own copies (except
     where the lining meets a plug of rock at a tunnel end: bonded there). With joints, the lining's
     nodes on each joint plane once more: the ring on the +y side takes the copies, and the rock's
-    interface node stays paired with the -y side's node."""
+    interface node stays paired with the -y side's node. `held`: the planes y on which the rock-lining
+    pairs are kept (each ring's middle), the others left out; None keeps them all."""
     plug = hexes.get("plug", np.zeros((0, 8), np.int64))
     rock, lining = np.concatenate([hexes[ROCK], plug]), hexes[LINING]
     shared = np.setdiff1d(np.intersect1d(hexes[ROCK], lining), plug)  # gmsh tags on the rock-lining interface
@@ -421,6 +476,9 @@ def _solid_mesh(plan: MeshPlan, gcoords: np.ndarray, hexes: dict, joints: list[f
         ground = assign(plan.geology, gcoords[rock].mean(axis=1), ground, 2 + len(plan.layers))
     region = np.concatenate([ground.astype(np.int32), np.ones(len(lining), np.int32)])
     pairs = np.stack([index[shared], dup[shared]], axis=1)
+    if held is not None:  # the rings tied to the rock at their middle planes only
+        on = np.abs(coords[pairs[:, 0], 1][:, None] - np.asarray(held)[None, :]) < _tolerance(plan)
+        pairs = pairs[on.any(axis=1)]
 
     nr = len(rock)
     q_rock = _quality(conn[:nr], coords, "rock")
@@ -500,6 +558,13 @@ def _classify_solid_faces(plan, coords, faces, owner_region, ends=None, joints=(
             masks["ymax"] &= ~lining_ends
             masks[LINING_END_FACES] = lining_ends
             names.append(LINING_END_FACES)
+    po = plan.geology.portal if plan.geology is not None else None
+    if po is not None:  # the bench in front of the face and the face (the headwall and the lining's end)
+        at_face = (np.abs(fx[:, :, 1] - po.station) < tol).all(axis=1)
+        bench = (np.abs(fx[:, :, 2] - portal_bench(plan)) < tol).all(axis=1) & (fx[:, :, 1] < po.station + tol).all(
+            axis=1)
+        masks[PORTAL_FACES] = (at_face | bench) & ~masks["top"]
+        names.append(PORTAL_FACES)
     on_a = (np.abs(r - plan.radius_inner) < tol).all(axis=1)
     on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
     masks["lining_inner"] = on_a & (owner_region == 1)
@@ -528,7 +593,7 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
     faces, _ = hexmesh.boundary_faces(conn)
     fx = coords[faces]
     tol = _tolerance(plan)
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)
     masks = {
         "interface": (np.abs(_radius(plan, fx) - plan.radius_inner) < tol).all(axis=1),
         "end_ymin": (np.abs(fx[:, :, 1] - y0) < tol).all(axis=1),

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "tq/app/ranked_run.hpp"
@@ -434,9 +435,27 @@ void SolidRun::addCouplingSeries() {
       "/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
   results.addSeries(
       "/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
-  if (const CarriedWater* w = water_.get())
+  if (const CarriedWater* w = water_.get()) {
     results.addSeries(
         "/coupling/volume_pressure", [w] { return w->volumePressure(); }, "volume_pressure");
+    // Open ends: the pressure along the axis (each station's, its y an attribute of the group) and a
+    // surge tank's level.
+    const std::vector<Real>& ys = w->stationPositions();
+    std::map<std::string, double> where;
+    for (size_t j = 0; j < ys.size(); ++j) {
+      char name[32];
+      std::snprintf(name, sizeof name, "station_%03zu", j);
+      results.addSeries(
+          "/coupling/axial_pressure/" + std::string(name), [w, j] { return w->stationPressure(j); }, "pressure");
+      where[std::string(name) + "_y"] = ys[j];
+    }
+    if (!ys.empty()) results.writeAttrs("/coupling/axial_pressure", where);
+    for (int e = 0; e < 2; ++e)
+      if (w->hasSurgeTank(e))
+        results.addSeries(
+            e == 0 ? "/coupling/surge_level_ymin" : "/coupling/surge_level_ymax", [w, e] { return w->surgeLevel(e); },
+            "level");
+  }
   results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
                            [c]() -> const std::vector<Real>& { return c->force(); });
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -199,6 +200,71 @@ void principalRange(const Real s[6], Real& smin, Real& smax, Real& size) {
   smin = p + 2 * r * std::cos(a + 2 * M_PI / 3);
 }
 
+// Bounds of the largest and smallest principal value without trigonometry, for a batch of
+// symmetric 3x3 (Voigt, component q of item l at t[q][l]): σ = p + 2r c with r = √(J2/3) and c a
+// root of the Chebyshev cubic φ(c) = 4c³ − 3c − x, x = J3 / (2 r³) = cos 3α. The largest root lies
+// in [½, 1], where φ is increasing and convex: Newton's method started above it stays above it
+// (each iterate is an upper bound); the smallest lies in [−1, −½], where φ is increasing and
+// concave: started below it, Newton stays below. The starts: 6δ² + 4δ³ = 1 + x for c = ½ + δ, so
+// c ≤ ½ + √((1 + x)/6) (and ≤ 1); by symmetry the smallest root is at least −½ − √((1 − x)/6).
+// Three steps leave c within 2e-9 of the root (from 0.06 at the start); where two roots coincide
+// the computed x carries the same half-digit loss as acos's form (principalRange), so a caller
+// compares with a margin. The loop vectorises (no branches, no library calls but sqrt; the file is
+// compiled with -fno-trapping-math, which lets the compiler turn selects around divisions into
+// blends: solid_solver/CMakeLists.txt).
+constexpr Index kBoundBatch = 64;
+
+// The block constants of the elastic trial, its inscribed-cone test and the bounds' test.
+struct TrialConstants {
+  Real lam, mu, stiffF, Np, slope, kc0, c0, st0, cotPhi, sqrt23;
+};
+
+// inside[l] 1 where the bounds of item l (damage D[l]) lie inside the surface by at least the
+// margin 2e-6 of the stress scale (twice the closed form's: updateStressForElems), else 0.
+inline __attribute__((always_inline)) void principalBounds(const TrialConstants& k, const Real (*t)[kBoundBatch],
+                                                           const Real* __restrict D, Index n, Real* __restrict inside) {
+  const Real Np = k.Np, stiffF = k.stiffF, kc0 = k.kc0, c0 = k.c0, st0 = k.st0, cotPhi = k.cotPhi;
+  const Real* __restrict sxxP = t[XX];
+  const Real* __restrict syyP = t[YY];
+  const Real* __restrict szzP = t[ZZ];
+  const Real* __restrict sxyP = t[XY];
+  const Real* __restrict syzP = t[YZ];
+  const Real* __restrict szxP = t[ZX];
+#pragma omp simd
+  for (Index l = 0; l < n; ++l) {
+    const Real sxx = sxxP[l], syy = syyP[l], szz = szzP[l], sxy = sxyP[l], syz = syzP[l], szx = szxP[l];
+    const Real p = (sxx + syy + szz) * (1.0 / 3);
+    const Real dx = sxx - p, dy = syy - p, dz = szz - p;
+    const Real j2 = 0.5 * (dx * dx + dy * dy + dz * dz) + sxy * sxy + syz * syz + szx * szx;
+    const Real r = std::sqrt(j2 * (1.0 / 3));
+    const Real j3 = dx * (dy * dz - syz * syz) - sxy * (sxy * dz - syz * szx) + szx * (sxy * syz - dy * szx);
+    const Real r3 = 2 * r * r * r;
+    // Every value computed unconditionally (selects, divisions by a positive stand-in where a
+    // step is not taken), so the loop vectorises.
+    Real x = j3 / (r3 > 0 ? r3 : 1.0);
+    x = x > 1 ? 1.0 : x;
+    x = x < -1 ? -1.0 : x;
+    const Real up = 0.5 + std::sqrt((1 + x) * (1.0 / 6)), dn = 0.5 + std::sqrt((1 - x) * (1.0 / 6));
+    Real hi = up < 1 ? up : 1.0, lo = -(dn < 1 ? dn : 1.0);
+    auto newton = [&]() {
+      const Real fh = (4 * hi * hi - 3) * hi - x, dh = 12 * hi * hi - 3;
+      const Real fl = (4 * lo * lo - 3) * lo - x, dl = 12 * lo * lo - 3;
+      hi -= (fh > 0 ? fh : 0.0) / (dh > 0 ? dh : 1.0);
+      lo -= (fl < 0 ? fl : 0.0) / (dl > 0 ? dl : 1.0);
+    };
+    newton();
+    newton();
+    newton();
+    const Real smax = p + 2 * r * hi, smin = p + 2 * r * lo, size = std::abs(p) + 2 * r;
+    const Real kc = (1 - D[l]) * kc0, tCut = (1 - stiffF * D[l]) * st0, tApex = (1 - D[l]) * c0 * cotPhi;
+    const Real tension = tCut < tApex ? tCut : tApex, absT = tension < 0 ? -tension : tension;
+    const Real scale = size > kc ? (size > absT ? size : absT) : (kc > absT ? kc : absT);
+    const Real margin = 2e-6 * scale;
+    const bool okShear = Np * smax - smin - kc < -(Np + 1) * margin, okTension = smax - tension < -margin;
+    inside[l] = (okShear && okTension) ? 1.0 : 0.0;
+  }
+}
+
 // Σ_i d_i v_i v_iᵀ in Voigt form (engineering shear when `engineering`).
 void spectralToVoigt(const Real d[3], const Real v[3][3], bool engineering, Real out[6]) {
   const Real g = engineering ? 2.0 : 1.0;
@@ -341,100 +407,144 @@ Real MohrCoulombDamageMaterial::damageFrom(const Real kappa[3]) const {
   return std::min(Real(1), std::sqrt(sum));
 }
 
+namespace {
+
+// Elastic trial of n ≤ kBoundBatch elements, written over their stress in place (σ^n kept in
+// `old`), and the inscribed-cone test (inside[l] 1 or 0). One loop the compiler vectorises; its
+// instances differ only in the vector width (no fused multiply-add: the same values).
+inline __attribute__((always_inline)) void trialBody(const TrialConstants& k, Index n, const Real* __restrict Dp,
+                                                     const Real* const* de, Real* const* st,
+                                                     Real (*__restrict old)[kBoundBatch], Real* __restrict inside) {
+  const Real lam = k.lam, mu = k.mu, stiffF = k.stiffF, Np = k.Np, slope = k.slope, kc0 = k.kc0, c0 = k.c0, st0 = k.st0,
+             cotPhi = k.cotPhi, sqrt23 = k.sqrt23;
+  const Real* __restrict ex = de[XX];
+  const Real* __restrict ey = de[YY];
+  const Real* __restrict ez = de[ZZ];
+  const Real* __restrict gxy = de[XY];
+  const Real* __restrict gyz = de[YZ];
+  const Real* __restrict gzx = de[ZX];
+  // σ^n read and the trial written in place (element by element: no dependence between lanes).
+  Real* sx = st[XX];
+  Real* sy = st[YY];
+  Real* sz = st[ZZ];
+  Real* sxyq = st[XY];
+  Real* syzq = st[YZ];
+  Real* szxq = st[ZX];
+#pragma omp simd
+  for (Index l = 0; l < n; ++l) {
+    const Real D = Dp[l];
+    const Real f = 1 - stiffF * D;
+    const Real exx = ex[l], eyy = ey[l], ezz = ez[l];
+    const Real t = exx + eyy + ezz;
+    const Real o[6] = {sx[l], sy[l], sz[l], sxyq[l], syzq[l], szxq[l]};
+    const Real sxx = o[XX] + f * (lam * t + 2 * mu * exx);
+    const Real syy = o[YY] + f * (lam * t + 2 * mu * eyy);
+    const Real szz = o[ZZ] + f * (lam * t + 2 * mu * ezz);
+    const Real sxy = o[XY] + f * mu * gxy[l];
+    const Real syz = o[YZ] + f * mu * gyz[l];
+    const Real szx = o[ZX] + f * mu * gzx[l];
+    const Real p = (sxx + syy + szz) * (1.0 / 3);
+    const Real dx = sxx - p, dy = syy - p, dz = szz - p;
+    const Real sn = std::sqrt(dx * dx + dy * dy + dz * dz + 2 * (sxy * sxy + syz * syz + szx * szx));
+    const Real cD = (1 - D) * c0;
+    const Real tCut = (1 - stiffF * D) * st0, tApex = cD * cotPhi;
+    const Real tension = tCut < tApex ? tCut : tApex;
+    const bool okShear = (Np - 1) * p + slope * sn <= (1 - D) * kc0;
+    const bool okTension = p + sqrt23 * sn <= tension;
+    inside[l] = (okShear && okTension) ? 1.0 : 0.0;
+    for (int q = 0; q < 6; ++q) old[q][l] = o[q];
+    sx[l] = sxx;
+    sy[l] = syy;
+    sz[l] = szz;
+    sxyq[l] = sxy;
+    syzq[l] = syz;
+    szxq[l] = szx;
+  }
+}
+
+void trialGeneric(const TrialConstants& k, Index n, const Real* Dp, const Real* const* de, Real* const* st,
+                  Real (*old)[kBoundBatch], Real* inside) {
+  trialBody(k, n, Dp, de, st, old, inside);
+}
+__attribute__((target("avx2"))) void trialAvx2(const TrialConstants& k, Index n, const Real* Dp, const Real* const* de,
+                                               Real* const* st, Real (*old)[kBoundBatch], Real* inside) {
+  trialBody(k, n, Dp, de, st, old, inside);
+}
+void boundsGeneric(const TrialConstants& k, const Real (*t)[kBoundBatch], const Real* D, Index n, Real* inside) {
+  principalBounds(k, t, D, n, inside);
+}
+__attribute__((target("avx2"))) void boundsAvx2(const TrialConstants& k, const Real (*t)[kBoundBatch], const Real* D,
+                                                Index n, Real* inside) {
+  principalBounds(k, t, D, n, inside);
+}
+
+// AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit).
+// TQ_SOLID_SIMD=generic asks for the generic path, as it does of the element kernel.
+bool materialAvx2() {
+  const char* env = std::getenv("TQ_SOLID_SIMD");
+  if (env && std::string(env) == "generic") return false;
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+}
+
+}  // namespace
+
 void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) const {
   using namespace mc_history;
   const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
-  const Real lam = moduli_.lambda, mu = moduli_.mu;
-  const Real Np = nPhi_, kc0 = 2 * params_.cohesion * sqrtNPhi_, st0 = params_.tensileStrength;
-  const Real cotPhi = cotPhi_, slope = dpSlope_, c0 = params_.cohesion;
-  const Real sqrt23 = std::sqrt(2.0 / 3.0);
+  const Real Np = nPhi_, st0 = params_.tensileStrength;
+  const Real cotPhi = cotPhi_, c0 = params_.cohesion;
   const Real* __restrict dmg = c.history[kDamage];
   // 1. Elastic trial for every element, and a cheap test against an inscribed cone: the largest
   //    principal stress is at most p + √(2/3)|s| and Nφσ3 − σ1 at most (Nφ−1)p + slope |s|.
   //    Elements that pass stay elastic (the common case costs a few flops more than Hooke, in
   //    a loop the compiler vectorises); the others are decomposed and returned if outside.
-  constexpr Index kBlock = 64;
-  const Real stiffF = stiff ? 1.0 : 0.0;
-  const Real* __restrict exxP = c.dstrain[XX];
-  const Real* __restrict eyyP = c.dstrain[YY];
-  const Real* __restrict ezzP = c.dstrain[ZZ];
-  const Real* __restrict gxyP = c.dstrain[XY];
-  const Real* __restrict gyzP = c.dstrain[YZ];
-  const Real* __restrict gzxP = c.dstrain[ZX];
-  const Real* __restrict sxxP = c.stress[XX];
-  const Real* __restrict syyP = c.stress[YY];
-  const Real* __restrict szzP = c.stress[ZZ];
-  const Real* __restrict sxyP = c.stress[XY];
-  const Real* __restrict syzP = c.stress[YZ];
-  const Real* __restrict szxP = c.stress[ZX];
-  alignas(64) Real tr[6][kBlock];
+  constexpr Index kBlock = kBoundBatch;
+  static const bool kMaterialAvx2 = materialAvx2();  // once, on the first use
+  const TrialConstants tk{
+      moduli_.lambda, moduli_.mu,          stiff ? 1.0 : 0.0, Np, dpSlope_, 2 * c0 * sqrtNPhi_, c0, st0,
+      cotPhi,         std::sqrt(2.0 / 3.0)};
+  alignas(64) Real old[6][kBlock];  // σ^n of the block (the trial replaces it in c.stress)
   alignas(64) Real inside[kBlock];
-  Real old[6][kBlock];
   Index suspect[kBlock];
   for (Index e0 = 0; e0 < c.count; e0 += kBlock) {
     const Index n = std::min<Index>(kBlock, c.count - e0);
-    const Real* __restrict Dp = dmg + e0;
-    const Real* __restrict ex = exxP + e0;
-    const Real* __restrict ey = eyyP + e0;
-    const Real* __restrict ez = ezzP + e0;
-    const Real* __restrict gxy = gxyP + e0;
-    const Real* __restrict gyz = gyzP + e0;
-    const Real* __restrict gzx = gzxP + e0;
-    const Real* __restrict s0x = sxxP + e0;
-    const Real* __restrict s0y = syyP + e0;
-    const Real* __restrict s0z = szzP + e0;
-    const Real* __restrict s0xy = sxyP + e0;
-    const Real* __restrict s0yz = syzP + e0;
-    const Real* __restrict s0zx = szxP + e0;
-#pragma omp simd
-    for (Index l = 0; l < n; ++l) {
-      const Real D = Dp[l];
-      const Real f = 1 - stiffF * D;
-      const Real exx = ex[l], eyy = ey[l], ezz = ez[l];
-      const Real t = exx + eyy + ezz;
-      const Real sxx = s0x[l] + f * (lam * t + 2 * mu * exx);
-      const Real syy = s0y[l] + f * (lam * t + 2 * mu * eyy);
-      const Real szz = s0z[l] + f * (lam * t + 2 * mu * ezz);
-      const Real sxy = s0xy[l] + f * mu * gxy[l];
-      const Real syz = s0yz[l] + f * mu * gyz[l];
-      const Real szx = s0zx[l] + f * mu * gzx[l];
-      const Real p = (sxx + syy + szz) * (1.0 / 3);
-      const Real dx = sxx - p, dy = syy - p, dz = szz - p;
-      const Real sn = std::sqrt(dx * dx + dy * dy + dz * dz + 2 * (sxy * sxy + syz * syz + szx * szx));
-      const Real cD = (1 - D) * c0;
-      const Real tCut = (1 - stiffF * D) * st0, tApex = cD * cotPhi;
-      const Real tension = tCut < tApex ? tCut : tApex;
-      const bool okShear = (Np - 1) * p + slope * sn <= (1 - D) * kc0;
-      const bool okTension = p + sqrt23 * sn <= tension;
-      inside[l] = (okShear && okTension) ? 1.0 : 0.0;
-      tr[XX][l] = sxx;
-      tr[YY][l] = syy;
-      tr[ZZ][l] = szz;
-      tr[XY][l] = sxy;
-      tr[YZ][l] = syz;
-      tr[ZX][l] = szx;
+    const Real* de[6];
+    Real* st[6];
+    for (int q = 0; q < 6; ++q) {
+      de[q] = c.dstrain[q] + e0;
+      st[q] = c.stress[q] + e0;
     }
+    if (kMaterialAvx2)
+      trialAvx2(tk, n, dmg + e0, de, st, old, inside);
+    else
+      trialGeneric(tk, n, dmg + e0, de, st, old, inside);
     Index nSuspect = 0;
     for (Index l = 0; l < n; ++l)
-      if (inside[l] == 0) {
-        for (int q = 0; q < 6; ++q) old[q][nSuspect] = c.stress[q][e0 + l];
-        suspect[nSuspect++] = l;
-      }
-    for (int q = 0; q < 6; ++q) {
-      Real* __restrict out = c.stress[q] + e0;
-      const Real* __restrict in = tr[q];
-#pragma omp simd
-      for (Index l = 0; l < n; ++l) out[l] = in[l];
-    }
+      if (inside[l] == 0) suspect[nSuspect++] = l;
     // 2. The others: most are still inside (the cone is a loose bound near the surface's
-    //    corners): the closed-form principal range decides those, with a margin of 1e-6 of the
-    //    stress scale (far above its round-off); the rest get the exact eigen-decomposition and
-    //    the return mapping. The trial written above is their answer when inside.
+    //    corners). Bounds of their principal range (principalBounds, a vectorised loop over the
+    //    suspects packed together) decide most of those, with twice the margin of the next test;
+    //    then the closed-form principal range, with a margin of 1e-6 of the stress scale (far
+    //    above its round-off); the rest get the exact eigen-decomposition and the return mapping.
+    //    The trial written above is their answer when inside. An element the bounds pass has the
+    //    range's values at least the margin inside too (the bounds lie outside the exact range,
+    //    the range's error is below 1e-8 of the scale), so the bounds change no decision.
+    if (nSuspect == 0) continue;
+    alignas(64) Real packed[6][kBoundBatch];
+    alignas(64) Real pD[kBoundBatch], bounded[kBoundBatch];
+    for (int q = 0; q < 6; ++q)
+      for (Index k = 0; k < nSuspect; ++k) packed[q][k] = c.stress[q][e0 + suspect[k]];
+    for (Index k = 0; k < nSuspect; ++k) pD[k] = dmg[e0 + suspect[k]];
+    if (kMaterialAvx2)
+      boundsAvx2(tk, packed, pD, nSuspect, bounded);
+    else
+      boundsGeneric(tk, packed, pD, nSuspect, bounded);
     for (Index k = 0; k < nSuspect; ++k) {
+      if (bounded[k] != 0) continue;
       const Index e = e0 + suspect[k];
       {
-        const Index l = suspect[k];
-        const Real t[6] = {tr[XX][l], tr[YY][l], tr[ZZ][l], tr[XY][l], tr[YZ][l], tr[ZX][l]};
+        const Real t[6] = {packed[XX][k], packed[YY][k], packed[ZZ][k], packed[XY][k], packed[YZ][k], packed[ZX][k]};
         const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
         Real range[3], size;                            // smallest, (unused), largest
         principalRange(t, range[0], range[2], size);
@@ -444,7 +554,7 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
       }
       Real sig[6], de[6];
       for (int q = 0; q < 6; ++q) {
-        sig[q] = old[q][k];
+        sig[q] = old[q][suspect[k]];
         de[q] = c.dstrain[q][e];
       }
       plasticUpdate(sig, de, c.history, e);
