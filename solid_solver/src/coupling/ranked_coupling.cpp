@@ -214,6 +214,7 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
         }
         I.water = CarriedWater::fromCoupling(*I.view, in);
         I.adapter = std::make_shared<FluidCoupling>(*I.view, in, I.water.get());
+        I.adapter->tellTimeBy(local);  // its messages say the ranks' time and step, not the mirror's
         info[0] = I.adapter->repeatsWindows() ? 1 : 0;
         info[1] = Real(I.adapter->windowSteps());
         info[2] = I.adapter->endTime();

@@ -94,6 +94,9 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   void finalize();
   /// Tells the fluid this side stops on an error (never throws).
   void abort(const std::string& reason) noexcept;
+  /// The solver whose time and step count the messages name (default: the one it couples; on MPI
+  /// ranks rank 0's own, whose clock the mirror it couples does not follow step by step).
+  void tellTimeBy(const Solver& clock);
 
   // ---- the protocol's parts, in the order CoupledStepper::window runs them -----------------------
   /// The window's start (pass 0): its plan. Throws CouplingError before initialize() or past the last window.
