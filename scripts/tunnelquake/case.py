@@ -156,9 +156,24 @@ def _geology_section() -> Section:
         "height": _positive(U.LENGTH, "the drop from the crest to the toe, m (flat ground below the toe); default: "
                                       "no toe inside the block"),
     })
+    portal = Section(checks=[_check_portal], fields={
+        "station": _length("y of the face where the tunnel leaves the hillside, m; the face looks towards -y (the "
+                           "block's ymin face): in front of it the ground is cut down to the bench (the bottom of the "
+                           "tunnel's near-field box) and the tunnel ends"),
+        "slope_deg": Number(min=0.0, min_open=True, max=90.0, max_open=True,
+                            why="degrees below horizontal: 0 is flat ground and a vertical face is the headwall alone",
+                            doc="the slope above the face, degrees below horizontal, in (0, 90): it rises from the "
+                                "face's head to the block's top"),
+        "skew_deg": Number(min=-60.0, max=60.0, default=0.0,
+                           doc="degrees between the slope's strike and the normal to the tunnel axis (the slope "
+                               "descends towards azimuth 180 + skew_deg); 0: its strike square to the axis"),
+        "cover": _positive(U.LENGTH, "m of ground over the crown at the face (the headwall's top); default: the least "
+                                     "the mesh allows (a quarter of the ground above the near-field box kept)"),
+    })
     return Section(doc="rock regions bounded by planes and the ground surface (docs/meshing.md \"Regions bounded by "
-                       "planes\", \"Sloping ground surface\")", fields={
+                       "planes\", \"Sloping ground surface\"; docs/user_guide.md \"Portal\")", fields={
         "slope": slope,
+        "portal": portal,
         "fault_zone": fault,
         "dipping_layers": ListOf(item=layer, default=[],
                                  doc="layers whose bottom is a plane of any dip, from the top down: an element "
@@ -179,6 +194,16 @@ def _check_slope(sl, path, raw, ctx):
                    ("crest", "add 'crest: [x, y]' (a point of the slope's top edge in plan, in m)")):
         if sl[k] is None:
             ctx.error(f"{path}.{k}", None, "is required with a slope", fix, raw.line)
+
+
+def _check_portal(po, path, raw, ctx):
+    given = [k for k in ("station", "slope_deg", "cover") if po[k] is not None]
+    if given and po["station"] is None:
+        ctx.error(f"{path}.station", None, f"is missing: {', '.join(given)} describe a portal with no face",
+                  "add 'station: <y of the face, m>'", raw.line)
+    elif given and po["slope_deg"] is None:
+        ctx.error(f"{path}.slope_deg", None, "is required with a portal",
+                  "add 'slope_deg: <the slope above the face, deg below horizontal, in (0, 90)>'", raw.line)
 
 
 def _check_fault_zone(fz, path, raw, ctx):
@@ -345,13 +370,13 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
                       "axis to cut into rings", "set mesh.mode: 3d, or remove lining_joints", here)]
     import numpy as np
 
-    from .meshing.params import MeshInputError, plug_levels, resolve
+    from .meshing.params import MeshInputError, lining_extent, resolve
 
     try:
         plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     except (MeshInputError, MemoryError, OverflowError):
         return []  # said by _mesh_checks
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)  # the plugs' ends, a portal's face, or the block's y faces
     length, s = y1 - y0, float(lj["spacing"])
     line = lines.get("spacing") or here
     tol = 1e-6 * length
@@ -412,6 +437,17 @@ def _geology_checks(d: dict, raw: LineDict) -> list[Issue]:
                                 "give it a material of its own (copy the material under another name)",
                                 lines.get("geology")))
         taken.add(name)
+    po = g.get("portal") or {}
+    if po.get("station") is not None:
+        if "dynamic_water" in d["conditions"]:
+            issues.append(Issue("conditions", d["conditions"], "dynamic_water with geology.portal: the water's mesh "
+                                "would end at the portal's face, and no water end condition is modelled there",
+                                "run the portal with no_water or static_water", lines.get("conditions")))
+        if (d.get("incident_wave") or {}).get("type", "none") not in ("none", None):
+            issues.append(Issue("incident_wave.type", d["incident_wave"]["type"], "the free field of a plane wave is "
+                                "computed for a flat ground surface only, and a portal cuts it",
+                                "use incident_wave.type: none with geology.portal (the free-field columns at the "
+                                "sides follow the cut)", lines.get("incident_wave")))
     return issues
 
 

@@ -161,6 +161,7 @@ FIGURES = (
     ("fig09", "fig09_damage_section.png", "damage over the lining's middle section at the last snapshot"),
     ("fig10", "fig10_interface_zones.png", "rock–lining interface state at the last snapshot"),
     ("fig11", "fig11_lining_axis.png", "the lining's section forces along the tunnel (3D)"),
+    ("fig12", "fig12_water_column.png", "the water's pressure along the axis and a surge tank's level, dynamic water"),
 )
 
 
@@ -190,6 +191,31 @@ def _joint_rows(P, res, out: Path, unwritten: list, allowed: float | None) -> tu
             if over else f"every joint's largest opening ({worst.max():.4g} m at y = {J['y'][int(np.argmax(worst))]:.4g} "
                          f"m) is within the allowed {allowed:.4g} m"))
     return rows, notes
+
+
+def _water_column_lines(P, res, out: Path, unwritten: list) -> list[str]:
+    """The water along the tunnel (open ends): its largest pressure along the axis, each surge tank's
+    largest rise and fall of level, and water_column_<condition>.csv (post.water_column_csv); none
+    without a water column."""
+    W = res.water_column
+    if W is None or not W["time"].size:
+        return []
+    _write_csv(P.water_column_csv, W, out / f"water_column_{res.condition}.csv", unwritten)
+    i, j = np.unravel_index(int(np.argmax(np.abs(W["p"]))), W["p"].shape)
+    lines = ["## The water along the tunnel", "",
+             f"The water column's pressure along the axis ({len(W['y'])} stations from y = {W['y'][0]:.4g} to "
+             f"{W['y'][-1]:.4g} m, carried by the solid's volume law): largest |p| {abs(W['p'][i, j]) / 1e3:.4g} kPa "
+             f"at y = {W['y'][j]:.4g} m, t = {W['time'][i]:.4g} s; every station's history in "
+             f"water_column_{res.condition}.csv and the figure below.", ""]
+    for end in P.SURGE_LEVELS:
+        h = W.get(f"level_{end}")
+        if h is None or not h.size:
+            continue
+        up, down = int(np.argmax(h)), int(np.argmin(h))
+        lines += [f"- The surge tank at y {end[1:]}: its level rose at most {h[up] * 1e3:.4g} mm above rest (t = "
+                  f"{W['time'][up]:.4g} s) and fell at most {-h[down] * 1e3:.4g} mm below it (t = {W['time'][down]:.4g} "
+                  "s).", ""]
+    return lines
 
 
 def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None,
@@ -311,6 +337,7 @@ def post_case(case) -> Path:
             from .fluid_case import volume_law
 
             lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
+            lines += _water_column_lines(P, dyn, out, unwritten)
         design, why = _design(R, case, results)
         if design is not None:
             lines[2:2] = design.summary_lines()  # what a designer reads first, after the title
@@ -374,6 +401,8 @@ def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, 
     jobs.add("fig09", P.fig_damage_section, results, figs / name["fig09"])
     jobs.add("fig10", P.fig_interface_zones, results, figs / name["fig10"])
     jobs.add("fig11", P.fig_lining_axis, axes or {}, figs / name["fig11"])
+    if dyn is not None:
+        jobs.add("fig12", P.fig_water_column, dyn, figs / name["fig12"])
     for r in results:
         jobs.add(f"xdmf:{r.condition}", P.write_xdmf, r, out / "paraview" / f"{r.condition}.xdmf")
 
@@ -405,8 +434,10 @@ def _figures(ref, results, dyn, figs, out, unwritten: list, drawn: dict) -> list
             lines += [f"![{title}]({made[key]})", ""]
         elif key in failed:
             lines += [f"- {title}: not drawn ({failed[key]})", ""]
-        elif key == "fig05" and dyn is None:
+        elif key in ("fig05", "fig12") and dyn is None:
             continue  # no dynamic-water condition: no water pressure to draw
+        elif key == "fig12":
+            continue  # no water column along the axis (closed ends, or a slice)
         elif key == "fig11":
             continue  # no lining along an axis (a slice, or 3D results without snapshots)
         else:

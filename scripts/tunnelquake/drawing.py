@@ -12,17 +12,25 @@ The fork is made under children.FORK_LOCK (no HDF5 file of this process is open 
 children.py), the helper resets the stop signals to their defaults (a stopped run's SIGTERM to its
 direct children, or a terminal's Ctrl-C, ends it) and leaves by os._exit, running no exit handler
 of this process. Where fork is unavailable, fails, or only one core may be used, or when
-TQ_DRAW_PROCESSES=1, everything is drawn here, in order.
+TQ_DRAW_PROCESSES=1, everything is drawn here, in order. A helper that has not sent its figures
+HELPER_WAIT_S seconds (or ten times this process's own drawing time, if longer) after this process
+finished its share is taken to hang (a lock copied by the fork in the held state): it is killed and
+its share drawn here, so a report is never lost to it nor waits for ever.
 """
 from __future__ import annotations
 
 import os
 import pickle
+import select
 import signal
 import sys
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
+
+#: seconds the helper may take past this process's own share (at least; see the module's text)
+HELPER_WAIT_S = 120.0
 
 
 @dataclass
@@ -82,6 +90,23 @@ def _portable(o: Outcome) -> Outcome:
         return Outcome(error=RuntimeError(text))
 
 
+def _read_until(fd: int, deadline: float) -> tuple[bytes, bool]:
+    """Everything written to the pipe `fd` until its writer closes it (then closes `fd`), and
+    whether `deadline` (time.monotonic) passed first."""
+    chunks = []
+    try:
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([fd], [], [], left)[0]:
+                return b"".join(chunks), True
+            chunk = os.read(fd, 1 << 16)
+            if not chunk:
+                return b"".join(chunks), False
+            chunks.append(chunk)
+    finally:
+        os.close(fd)
+
+
 def draw_all(jobs: Jobs) -> dict[str, Outcome]:
     """Draw every job; their outcomes by key (the order of `jobs`)."""
     items = jobs.items
@@ -116,16 +141,28 @@ def draw_all(jobs: Jobs) -> dict[str, Outcome]:
             os._exit(code)
     os.close(write_fd)
     out: dict[str, Outcome] = {}
+    started = time.monotonic()
     try:
         here = {it[0]: _run(it) for it in mine}
-    finally:
-        with os.fdopen(read_fd, "rb") as r:
-            data = r.read()
-        _, status = os.waitpid(pid, 0)
-    try:
-        there = pickle.loads(data) if data else None
-    except Exception:  # noqa: BLE001 - a cut-off message: the helper ended mid-write
-        there = None
+    except BaseException:  # interrupted here: the helper's figures are not waited for
+        os.close(read_fd)
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        raise
+    wait_s = max(HELPER_WAIT_S, 10 * (time.monotonic() - started))
+    data, hung = _read_until(read_fd, time.monotonic() + wait_s)
+    if hung:
+        os.kill(pid, signal.SIGKILL)
+    _, status = os.waitpid(pid, 0)
+    if hung:
+        print(f"tunnelquake: the drawing process had not sent its figures {wait_s:.0f} s after this one drew its own's figures; "
+              "it was stopped and its figures are drawn here", file=sys.stderr)
+        there = {it[0]: _run(it) for it in theirs}
+    else:
+        try:
+            there = pickle.loads(data) if data else None
+        except Exception:  # noqa: BLE001 - a cut-off message: the helper ended mid-write
+            there = None
     if there is None:
         why = DrawingProcessEnded(f"the drawing process ended without its figures (exit status "
                                   f"{os.waitstatus_to_exitcode(status)})")

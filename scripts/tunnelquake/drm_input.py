@@ -11,12 +11,20 @@ from .freefield import FreeField, FreeFieldError
 from .solver_input_schema import entries, put
 
 GROUP = "/drm"
+#: Nodes free_field computes at once: its work arrays (each chunk's acceleration, velocity and
+#: displacement on the padded clock, and the complex spectra) scale with it. cases/axial_wave (1,558
+#: nodes, 42.9 MiB of field): free_field's traced peak 83.9 MiB with 256, 51.1 MiB with 64 (tracemalloc).
+FREE_FIELD_CHUNK = 64
+#: Nodes of the field written to /drm at once (write_drm): the transposed block is its only copy.
+WRITE_BLOCK = 256
 
 
-def write_drm(f, nodes, internal, field: FreeField) -> None:
+def write_drm(f, nodes, internal, field: FreeField, release: bool = False) -> None:
     """Write `/drm` into the open solid_input.h5 `f` (h5py): `nodes` (N,) mesh node indices, `internal`
     (N,) true for the layer's inner nodes (b) and false for its outer ones (e), `field` the free field
-    at those nodes in the same order (u, v, a of shape (N, nt, 3); stored [nt, N, 3])."""
+    at those nodes in the same order (u, v, a of shape (N, nt, 3); stored [nt, N, 3], written a block
+    of nodes at a time so that no whole transposed copy is made). `release`: drop each of the field's
+    arrays from `field` once written (the file, built in memory, then holds the only copy)."""
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     flags = np.asarray(internal, dtype=bool).ravel()
     n = nodes.size
@@ -34,12 +42,20 @@ def write_drm(f, nodes, internal, field: FreeField) -> None:
         elif e.name == "internal":
             value = flags.astype(np.int8)
         else:  # the field's own arrays under the same names: time [nt], u, v, a (N, nt, 3)
-            value = np.asarray(getattr(field, e.name), dtype=float)
-            if value.ndim == 3:
+            value = getattr(field, e.name)
+            if np.ndim(value) == 3:
+                value = np.asarray(value, dtype=float)
                 if value.shape[0] != n or value.shape[2] != 3:
                     raise FreeFieldError(f"/drm: {e.name} has shape {value.shape} for {n} nodes; needs (N, nt, 3)",
                                          "compute the free field at the layer's nodes, in their order")
-                value = np.ascontiguousarray(np.swapaxes(value, 0, 1))
+                ds = g.create_dataset(e.name, shape=(value.shape[1], n, 3), dtype=float)
+                for lo in range(0, n, WRITE_BLOCK):
+                    ds[:, lo:lo + WRITE_BLOCK, :] = np.swapaxes(value[lo:lo + WRITE_BLOCK], 0, 1)
+                del value
+                if release:
+                    setattr(field, e.name, None)
+                continue
+            value = np.asarray(value, dtype=float)
         put(g, GROUP, e.name, value)
 
 
@@ -82,13 +98,14 @@ def write_drm_group(f, case_data: dict, layers, mesh_h5, record_acc: np.ndarray,
     profile = ground_profile(d, layers)
     wave = plane_wave(d)
     inc = incident_motion(np.asarray(record_acc, float), dt, wave, profile, convention(d))
-    field = free_field(profile, [(wave, inc)], dt, xyz[nodes])
-    write_drm(f, nodes, internal, field)
+    field = free_field(profile, [(wave, inc)], dt, xyz[nodes], chunk=FREE_FIELD_CHUNK)
+    samples = int(field.time.size)
     if h5drm is not None:
         from .freefield import write_h5drm
 
         write_h5drm(h5drm, field, internal)
-    return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": int(field.time.size)}
+    write_drm(f, nodes, internal, field, release=True)
+    return {"nodes": int(nodes.size), "inner": int(internal.sum()), "samples": samples}
 
 
 def write_drm_group_from_file(f, case_data: dict, mesh_h5, case_dir, t_end: float) -> dict:

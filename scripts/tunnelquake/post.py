@@ -57,6 +57,7 @@ class ConditionResult:
     mesh: dict | None = None  # coordinates [N, 3], connectivity [E, 8], region [E], regions
     interface: dict | None = None  # pairs [P, 2], normal, area, states, history [T, 7]
     joints: dict | None = None  # the lining's joints (read_joints): y [J], time [T], opening [T, J], ...
+    water_column: dict | None = None  # the water along the axis (read_water_column): y [S], p [T, S], levels
     input_attrs: dict = field(default_factory=dict)  # /materials/lining attrs of the solid input
     coupling: dict = field(default_factory=dict)  # /coupling attrs (condition 3: scheme, windows, ...)
     stages_done: list[str] = field(default_factory=list)  # /stages/<k>_<name> converged, in order
@@ -193,6 +194,7 @@ def read_condition(path: Path, condition: str, reference: str = "absolute") -> C
                 iface["history"] = h[:_advancing(h[:, 0])]
                 iface["history_columns"] = [_text(c) for c in g.attrs.get("history_columns", [])]
         joints = read_joints(f)
+        water_column = read_water_column(f)
     refs = {key: mons.pop(name) for key, name in REFERENCES.items() if name in mons}
     if reference not in DISPLACEMENT_REFERENCES:
         raise ValueError(f"displacement reference {reference!r}: expected one of {', '.join(DISPLACEMENT_REFERENCES)}")
@@ -220,8 +222,82 @@ def read_condition(path: Path, condition: str, reference: str = "absolute") -> C
             pass
     return ConditionResult(condition, path, status, mons, attrs=attrs, planned_end=planned, snapshots=snaps,
                            incomplete_snapshots=broken, mesh=mesh, interface=iface, input_attrs=mat,
-                           joints=joints, coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
+                           joints=joints, water_column=water_column, coupling=coupling, stages_done=stages_done, stages_failed=stages_failed,
                            stages_planned=sequence, references=refs, displacement_reference=reference)
+
+
+#: a surge tank's level series in /coupling, by end
+SURGE_LEVELS = {"ymin": "surge_level_ymin", "ymax": "surge_level_ymax"}
+
+
+def read_water_column(f) -> dict | None:
+    """The water column along the tunnel of an open results file (tq-solid's volume law with open
+    ends, docs/coupler.md "Open ends"): y [S] (m) the stations along the axis, time [T], p [T, S] (Pa)
+    each station's pressure (the pressure along the axis), and per end with a surge tank
+    level_<end> [T] (m) its level above rest (the tank's own series); None without open ends."""
+    if "coupling/axial_pressure" not in f:
+        return None
+    g = f["coupling/axial_pressure"]
+    names = sorted(g)
+    if not names:
+        return None
+    cols = [_rows(g[n]) for n in names]
+    k = min(_advancing(c[:, 0]) for c in cols)
+    out = {"y": np.array([float(g.attrs[f"{n}_y"]) for n in names]), "time": cols[0][:k, 0],
+           "p": np.column_stack([c[:k, 1] for c in cols])}
+    for end, name in SURGE_LEVELS.items():
+        if f"coupling/{name}" in f:
+            r = _rows(f[f"coupling/{name}"])
+            out[f"level_{end}"] = r[:min(k, r.shape[0]), 1]
+    return out
+
+
+def water_column_csv(W: dict, out: Path) -> Path:
+    """water_column_<condition>.csv: one row per output time, each station's pressure (Pa) along the
+    axis and each surge tank's level above rest (m)."""
+    levels = [e for e in SURGE_LEVELS if f"level_{e}" in W]
+    header = ["time_s"] + [f"p{j}_Pa" for j in range(len(W["y"]))] + [f"surge_level_{e}_m" for e in levels]
+    n = min([W["time"].size] + [W[f"level_{e}"].size for e in levels])
+    with atomic_path(out, 16 * len(header) * (n + 2)) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["# stations y (m): " + " ".join(f"p{j}={y:.6g}" for j, y in enumerate(W["y"]))])
+        w.writerow(header)
+        for i in range(n):
+            w.writerow([f"{W['time'][i]:.6g}"] + [f"{v:.6e}" for v in W["p"][i]]
+                       + [f"{W[f'level_{e}'][i]:.6e}" for e in levels])
+    return out
+
+
+def fig_water_column(res: ConditionResult, out: Path) -> Path | None:
+    """The water along the tunnel (dynamic water with open ends): its pressure along the axis against
+    time (each station's, coloured by y), and a surge tank's level against time. None without it."""
+    W = res.water_column
+    if W is None or not W["time"].size:
+        return None
+    plt = _plt()
+    levels = [e for e in SURGE_LEVELS if f"level_{e}" in W]
+    fig, axes = plt.subplots(1, 2 if levels else 1, figsize=(10 if levels else 6, 3.6), squeeze=False)
+    ax = axes[0][0]
+    t, y = W["time"], W["y"]
+    im = ax.pcolormesh(t, y, W["p"].T / 1e3, shading="nearest", cmap="RdBu_r",
+                       vmin=-np.abs(W["p"]).max() / 1e3 or None, vmax=np.abs(W["p"]).max() / 1e3 or None)
+    fig.colorbar(im, ax=ax, label="pressure (kPa)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("y along the axis (m)")
+    ax.set_title("the water's pressure along the axis")
+    if levels:
+        ax = axes[0][1]
+        big = max(float(np.abs(W[f"level_{e}"]).max(initial=0.0)) for e in levels) >= 1.0
+        scale, unit = (1.0, "m") if big else (1e3, "mm")
+        for e in levels:
+            ax.plot(t[:W[f"level_{e}"].size], W[f"level_{e}"] * scale, lw=0.9, label=f"surge tank at y {e[1:]}")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(f"level above rest ({unit})")
+        ax.set_title("the surge tank's level")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{CONDITION_LABELS[res.condition]}: the water along the tunnel")
+    return _finish(fig, out)
 
 
 #: /joints/history's quantities per joint (after the time column), their units

@@ -37,8 +37,9 @@ PROBE_ARGS = ("--n", "16", "--steps", "400", "--repeat", "3", "--threads", "1")
 PROBE_RUNS = 3
 
 #: the thread probe: tq-solid-bench's arguments without --threads (32,768 elements, about 0.6 CPU s a
-#: run on a 2026 server core), run on 1 and on N threads in turn, THREAD_PROBE_ROUNDS times
-THREAD_PROBE_ARGS = ("--n", "32", "--steps", "20", "--repeat", "5")
+#: run on a 2026 server core); each run times 9 pairs, 20 steps on one thread and 20 on N in one
+#: process (--against 1), and prints the median of the pairs' ratios; THREAD_PROBE_ROUNDS runs
+THREAD_PROBE_ARGS = ("--n", "32", "--steps", "20", "--repeat", "9", "--against", "1")
 THREAD_PROBE_ROUNDS = 3
 
 #: CPU seconds of one element-step of the example slice's solid-only shaking (Mohr-Coulomb damage,
@@ -165,37 +166,40 @@ def measure(program: Path | None = None, runs: int = PROBE_RUNS) -> float:
     return times[len(times) // 2]
 
 
-_BUSIEST = re.compile(r"busiest thread's CPU: median ([0-9.eE+-]+) us")
+_SPEEDUP = re.compile(r"speed-up of \d+ thread\(s\) over 1, busiest thread's CPU: median ([0-9.eE+-]+) of")
 
 
-def _busiest_us(program: Path, threads: int, env: dict) -> float:
-    """The thread probe's busiest thread's CPU microseconds per element-step on `threads` threads."""
+def _paired_speedup(program: Path, threads: int, env: dict) -> float:
+    """One run of the thread probe: the median over its pairs of the busiest thread's CPU per
+    element-step on one thread against that on `threads`, the two halves of each pair run in one
+    process a tenth of a second apart (a shared VM's speed drifts by a third over seconds; runs in
+    turn in two processes saw that drift as a speed-up of 1.29 for one thread against one)."""
     cmd = [str(program), *THREAD_PROBE_ARGS, "--threads", str(threads)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     except OSError as e:
         raise ProbeFailed(f"{program} cannot be started ({e.strerror})") from e
+    older = "an older build: scripts/bootstrap.sh rebuilds it"
     if proc.returncode != 0:
-        raise ProbeFailed(f"{program} exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
-    found = _BUSIEST.search(proc.stdout)
+        hint = f" ({older})" if "usage:" in proc.stderr else ""
+        raise ProbeFailed(f"{program} exited {proc.returncode}: {proc.stderr.strip()[-300:]}{hint}")
+    found = _SPEEDUP.search(proc.stdout)
     if not found:
-        raise ProbeFailed(f"{program} does not print its busiest thread's CPU (an older build: "
-                          "scripts/bootstrap.sh rebuilds it)")
+        raise ProbeFailed(f"{program} does not print its busiest thread's speed-up ({older})")
     return float(found.group(1))
 
 
 def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS) -> float:
-    """The solid step's speed-up on `threads` threads: the thread probe on one thread and on
-    `threads` in turn, `rounds` times; the median of the rounds' ratios of the busiest thread's CPU
-    per element-step. The threads wait as tq-solid's do (cores.solid_env)."""
+    """The solid step's speed-up on `threads` threads: the median of `rounds` runs of the thread
+    probe, each the median of its pairs' ratios of the busiest thread's CPU per element-step on one
+    thread and on `threads`. The threads wait as tq-solid's do (cores.solid_env)."""
     from .cores import solid_env
 
     program = program or probe_program()
     if not program.is_file():
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
     env = solid_env()
-    ratios = sorted(_busiest_us(program, 1, env) / _busiest_us(program, threads, env)
-                    for _ in range(max(1, rounds)))
+    ratios = sorted(_paired_speedup(program, threads, env) for _ in range(max(1, rounds)))
     return ratios[len(ratios) // 2]
 
 

@@ -137,6 +137,22 @@ def _mpa(v) -> str:
     return "—" if v is None else f"{v / 1e6:.4g}"
 
 
+def _portal_line(d: dict) -> list[str]:
+    """The portal's geometry as meshed (geology.portal), none without one."""
+    po = (d.get("geology") or {}).get("portal") or {}
+    if po.get("station") is None:
+        return []
+    from .case import case_geology, ground_layers
+    from .meshing.params import portal_bench, resolve
+
+    plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    head = plan.zmax - plan.geology.slope.height
+    return [f"- portal: the tunnel leaves the hillside through a face at y = {po['station']:g} m, looking towards -y; "
+            f"in front of it the ground cut down to the bench z = {portal_bench(plan):g} m and the lining ended; the "
+            f"face's head {head - plan.zc - plan.radius_outer:.4g} m over the crown, the slope above it "
+            f"{po['slope_deg']:g}° (skew {po.get('skew_deg') or 0:g}°) up to z = {plan.zmax:g} m"]
+
+
 def case_section(case) -> list[str]:
     """Geometry, materials, water and monitors of the case as it ran."""
     d = case.data
@@ -147,6 +163,7 @@ def case_section(case) -> list[str]:
              f"(inner radius {a:g} m), axis at x = {g['tunnel_centre_x']:g} m, z = {g['tunnel_centre_z']:g} m",
              f"- block: x {g['x_range'][0]:g} … {g['x_range'][1]:g} m, y {g['y_range'][0]:g} … {g['y_range'][1]:g} m, "
              f"z {g['z_range'][0]:g} … {g['z_range'][1]:g} m; mesh mode {d['mesh']['mode']}"]
+    lines += _portal_line(d)
     w = d.get("water") or {}
     wet = [c for c in d["conditions"] if c != "no_water"]
     if wet:

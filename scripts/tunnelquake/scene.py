@@ -58,6 +58,9 @@ def assess_slice(case) -> SliceAssessment:
         if geology.slope is not None and abs(math.cos(math.radians(geology.slope.dip_direction))) > 1e-9:
             varying.append(f"geology.slope descends towards azimuth {geology.slope.dip_direction:g} deg, along the "
                            "axis, so the cover changes along it")
+        if geology.portal is not None:
+            varying.append(f"geology.portal: the tunnel leaves a {geology.portal.angle:g} deg slope through a face at "
+                           f"y = {geology.portal.station:g} m, and ends there")
     wave = d.get("incident_wave") or {}
     if wave.get("type", "none") != "none":
         varying.append(f"incident_wave: a {wave['type']} wave {wave['angle']:g} deg from the vertical through a domain-"
@@ -408,3 +411,103 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
              + "; docs/benchmarks.md \"check's run-time estimate\")")
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
                            statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu)
+
+
+# ------------------------------------------------------------------------------------------------
+# The memory of a domain-reduction field (incident_wave): counted in check's "MiB to run"
+# ------------------------------------------------------------------------------------------------
+#: Copies of a DRM field (u, v and a at the layer's nodes, 8 bytes a value) `tunnelquake run`'s own
+#: process holds at its peak: the field from freefield.free_field (computed in chunks of
+#: drm_input.FREE_FIELD_CHUNK nodes, whose work arrays come on top) and one of its three arrays
+#: transposed for the file (drm_input.write_drm). Measured on cases/axial_wave (42.9 MiB field):
+#: free_field's traced peak 51.1 MiB, writing the input 65 MiB (docs/benchmarks.md "check's
+#: estimates on the 3D cases").
+DRIVER_DRM_COPIES = 4.0 / 3.0
+#: Copies tq-solid holds: the input's /drm it read and the layer's own (boundaries/drm.cpp copies the
+#: field into DomainReduction); cases/axial_wave: 111.7 MiB peak RSS against 30.9 MiB without it.
+SOLID_DRM_COPIES = 2.0
+
+
+def drm_layer_nodes(plan, offset: int) -> int:
+    """The nodes of the DRM layer `offset` element rings in from the block's sides and base
+    (incident_wave.drm_layer), counted on the mesh plan without meshing: the section's outer grid is
+    structured (nx x nz elements: the side zones' divisions and the near-field box's side, which has
+    quarter.count), so its nodes at distance k from x_min, x_max and the base number
+    (nx + 1 - 2k)(nz + 1 - k) minus those at k + 1; the two node planes of the layer across the
+    block's ends (y) take every section node at distance >= offset (the plugged section: the ends are
+    rock), the planes between them the section's two rings at offset and offset + 1. A filled section
+    of F quadrilaterals and B boundary nodes has F + 1 + B / 2 nodes (Euler). Exact on
+    cases/axial_wave (1,558) and the joint test's case (1,610)."""
+    from .meshing.params import element_counts
+
+    nx = sum(dv.count for _, dv in plan.left) + plan.quarter.count + sum(dv.count for _, dv in plan.right)
+    nz = sum(dv.count for _, dv in plan.bottom) + plan.quarter.count + sum(dv.count for _, dv in plan.top)
+    ny = len(plan.y_levels) - 1
+
+    def at_least(k):  # section nodes at distance >= k from x_min, x_max and the base (outer grid)
+        return max(nx + 1 - 2 * k, 0) * max(nz + 1 - k, 0)
+
+    counts = element_counts(plan)
+    section = (counts["rock"] + counts["lining"] + counts["water"]) / max(ny, 1) + 1 + (nx + nz)
+    outer = (nx + 1) * (nz + 1) - at_least(offset)  # the rows outside the layer
+    ends = 4 * (section - outer)
+    sides = max(ny - 2 * offset - 3, 0) * (at_least(offset) - at_least(offset + 2))
+    return int(round(ends + sides))
+
+
+def drm_field_bytes(case, plan=None) -> float:
+    """Bytes of the free field a DRM layer is given (u, v, a: layer nodes x time samples x 3 x 8
+    bytes each); 0 without an incident wave. The samples: the processed record's (its window over
+    the record's step, which free_field keeps), or an H5DRM file's own."""
+    from .case import case_geology, ground_layers
+    from .incident_wave import active
+    from .meshing.params import resolve
+
+    d = case.data
+    if not active(d):
+        return 0.0
+    plan = plan or resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    nodes = drm_layer_nodes(plan, int(d["incident_wave"]["drm_offset"]))
+    samples = _field_samples(case)
+    return 3 * nodes * samples * 3 * 8.0 if samples else 0.0
+
+
+def _field_samples(case) -> int:
+    """The DRM field's time samples (0 where the record cannot be read: check says why)."""
+    from .motion import MotionError, read_record, resolve_path, window_seconds
+
+    d = case.data
+    w = d["incident_wave"]
+    if w["type"] == "h5drm":
+        import h5py
+
+        try:
+            with h5py.File(resolve_path(w["h5drm"]["file"], case.dir), "r") as f:
+                return int(f["DRM_Data/displacement"].shape[1])
+        except (OSError, KeyError):
+            return 0
+    gm = d["ground_motion"]
+    window = window_seconds(gm, case.dir)
+    if not window:
+        return 0
+    if gm["source"] == "file":
+        try:
+            dt = read_record(resolve_path(gm["file"], case.dir), gm["format"], gm["units"]).dt
+        except MotionError:
+            dt = gm["synthetic"]["dt"] if gm["if_missing"] == "synthetic" else 0.0
+    else:
+        dt = gm["synthetic"]["dt"]
+    return int(round(window / dt)) + 1 if dt > 0 else 0
+
+
+def with_drm_memory(need: dict, case, plan=None) -> dict:
+    """meshing.params.memory_estimate's `need` with the DRM field added to 'run' (the driver's copies
+    and each tq-solid's: two at once beside the coupled condition, as memory_estimate counts them),
+    and 'drm_field' the field's own bytes."""
+    field_bytes = drm_field_bytes(case, plan)
+    conds = list(case.data["conditions"])
+    solids = 2 if "dynamic_water" in conds and len(conds) > 1 else 1
+    out = dict(need)
+    out["run"] = need["run"] + (DRIVER_DRM_COPIES + solids * SOLID_DRM_COPIES) * field_bytes
+    out["drm_field"] = field_bytes
+    return out

@@ -1,6 +1,6 @@
 // tq-solid-bench: time per element-step of elastic hex8 on an n x n x n box (not a test).
 //
-//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] [--generic]
+//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N [--against M]] [--damping] [--generic]
 //                  [--column P --dt DT [--write-ccx deck.inp]]
 //
 // Default case: builds the box in memory (one region, base fixed), gives it small random
@@ -17,6 +17,11 @@
 // of each thread of the team, the largest): about the time the steps take with every thread on a
 // core of its own, which a machine shared with other work does not change as it changes the wall time
 // (check's thread speed-up, scripts/tunnelquake/rates.py).
+// --against M: each of the `repeat` timings is a pair, `steps` steps on M threads and `steps` on N
+// (in turn M N, N M, ...), and the median of the pairs' ratios of the busiest thread's CPU is printed:
+// the speed-up of N threads over M. The two halves of a pair run a tenth of a second apart in one
+// process, so a machine whose speed drifts over seconds (a shared VM: 0.08 to 0.12 us per
+// element-step within a minute) moves both alike, where two processes run in turn would not.
 #include <omp.h>
 #include <time.h>
 
@@ -121,6 +126,7 @@ int main(int argc, char** argv) {
   using namespace tq;
   bench::SizeOptions size{40, 200, 5};
   bool damping = false, generic = false;
+  int against = 0;
   double columnP = 0, fixedDt = 0;
   std::string ccxDeck;
   for (int i = 1; i < argc; ++i) {
@@ -130,6 +136,8 @@ int main(int argc, char** argv) {
       damping = true;
     else if (a == "--generic")
       generic = true;
+    else if (a == "--against" && i + 1 < argc)
+      against = std::stoi(argv[++i]);
     else if (a == "--column" && i + 1 < argc)
       columnP = std::stod(argv[++i]);
     else if (a == "--dt" && i + 1 < argc)
@@ -138,8 +146,8 @@ int main(int argc, char** argv) {
       ccxDeck = argv[++i];
     else {
       std::fprintf(stderr,
-                   "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N] [--damping] "
-                   "[--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
+                   "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N [--against M]] "
+                   "[--damping] [--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
       return 1;
     }
   }
@@ -204,9 +212,10 @@ int main(int argc, char** argv) {
   std::uniform_real_distribution<Real> U(-1e-3, 1e-3);
   for (Index i = 0; i < mesh.numNodes(); ++i)
     for (int d = 0; d < 3; ++d) s.state().v(i, d) = U(rng);
-  for (int i = 0; i < 10; ++i) s.step();  // warm-up (first touch, caches)
-  std::vector<double> us, cpuUs;
-  for (int r = 0; r < repeat; ++r) {
+  const int threads = omp_get_max_threads();
+  // `steps` steps on `team` threads: the wall and the busiest thread's CPU, us per element-step
+  auto timedSteps = [&](int team) {
+    omp_set_num_threads(team);
     const std::vector<double> c0 = teamCpuSeconds();
     const auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < steps; ++i) s.step();
@@ -214,9 +223,25 @@ int main(int argc, char** argv) {
     const std::vector<double> c1 = teamCpuSeconds();
     double busiest = 0;
     for (size_t k = 0; k < c0.size() && k < c1.size(); ++k) busiest = std::max(busiest, c1[k] - c0[k]);
-    us.push_back(1e6 * sec / (double(steps) * mesh.numElems()));
-    cpuUs.push_back(1e6 * busiest / (double(steps) * mesh.numElems()));
+    const double perElemStep = 1e6 / (double(steps) * mesh.numElems());
+    return std::pair<double, double>{sec * perElemStep, busiest * perElemStep};
+  };
+  for (int team : {against, threads}) {
+    if (team <= 0) continue;
+    omp_set_num_threads(team);
+    for (int i = 0; i < 10; ++i) s.step();  // warm-up (first touch, caches, the team's threads)
   }
+  std::vector<double> us, cpuUs, pairRatio;
+  for (int r = 0; r < repeat; ++r) {
+    double other = 0;
+    if (against > 0 && r % 2 == 0) other = timedSteps(against).second;
+    const auto [wall, cpu] = timedSteps(threads);
+    if (against > 0 && r % 2 == 1) other = timedSteps(against).second;
+    us.push_back(wall);
+    cpuUs.push_back(cpu);
+    if (against > 0) pairRatio.push_back(other / cpu);
+  }
+  omp_set_num_threads(threads);
   std::sort(us.begin(), us.end());
   std::sort(cpuUs.begin(), cpuUs.end());
   const double med = us[us.size() / 2];
@@ -232,5 +257,11 @@ int main(int argc, char** argv) {
       repeat, steps, med, us.front(), us.back(), 1.0 / med * 1e6, s.energy().error);
   std::printf("  busiest thread's CPU: median %.4f us per element-step (min %.4f, max %.4f)\n", cpuUs[cpuUs.size() / 2],
               cpuUs.front(), cpuUs.back());
+  if (!pairRatio.empty()) {
+    std::sort(pairRatio.begin(), pairRatio.end());
+    std::printf(
+        "  speed-up of %d thread(s) over %d, busiest thread's CPU: median %.4f of %d pairs (min %.4f, max %.4f)\n",
+        threads, against, pairRatio[pairRatio.size() / 2], int(pairRatio.size()), pairRatio.front(), pairRatio.back());
+  }
   return 0;
 }

@@ -1,14 +1,16 @@
 """Figures drawn in two processes (tunnelquake.drawing): every job's outcome comes back as if it
 had run here (its value, or its exception with type and message, a full disk still a full disk),
-half of the jobs run in the helper, and a helper that dies leaves its jobs failed with the
-reason instead of a lost report."""
+half of the jobs run in the helper, a helper that dies leaves its jobs failed with the
+reason instead of a lost report, and a helper that hangs is stopped and its jobs drawn here."""
 from __future__ import annotations
 
 import os
 import signal
+import time
 
 import pytest
 
+from tunnelquake import drawing
 from tunnelquake.drawing import DrawingProcessEnded, Jobs, draw_all
 from tunnelquake.files import DiskFull, is_no_space
 
@@ -26,6 +28,14 @@ def _fail(kind, path):
 
 def _die(_path):
     os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _hang_unless_in(parent, path):
+    """Writes `path` in the process `parent`; in any other it hangs (as a fork that copied a held
+    lock would)."""
+    if os.getpid() != parent:
+        time.sleep(3600)
+    return _write(path, "drawn")
 
 
 @pytest.fixture
@@ -71,3 +81,18 @@ def test_one_process_draws_everything_here_in_order(tmp_path, monkeypatch):
         jobs.add(f"w{i}", _write, tmp_path / f"w{i}.txt", str(i))
     out = draw_all(jobs)
     assert [o.value[1] for o in out.values()] == [os.getpid()] * 3
+
+
+def test_a_helper_that_hangs_is_stopped_and_its_jobs_drawn_here(tmp_path, two, monkeypatch, capfd):
+    monkeypatch.setattr(drawing, "HELPER_WAIT_S", 1.0)
+    jobs = Jobs()
+    jobs.add("hangs there", _hang_unless_in, os.getpid(), tmp_path / "a.txt")  # the helper's
+    jobs.add("here", _write, tmp_path / "b.txt", "kept")
+    t0 = time.monotonic()
+    out = draw_all(jobs)
+    assert time.monotonic() - t0 < 30
+    assert out["hangs there"].error is None and out["hangs there"].value == (tmp_path / "a.txt", os.getpid())
+    assert (tmp_path / "a.txt").read_text() == "drawn" and out["here"].value[1] == os.getpid()
+    assert "had not sent its figures 1 s after" in capfd.readouterr().err
+    with pytest.raises(ChildProcessError):  # the helper was reaped: no child left behind
+        os.waitpid(-1, os.WNOHANG)

@@ -8,18 +8,19 @@
    originals and used only by the ring on the +y side; each joint's tributary areas sum to the
    annulus of the lining's polygonal section (exact, 1e-9 relative).
 3. Closed form (tq-solid; skipped without a tq-solid with lining joints): rings of the rock's own
-   properties, one axial element (6 m) long, in an SV wave travelling along the axis through the
-   domain-reduction layer. The mesh ties each rock node on a joint plane to the ring before the
-   joint, so each ring is held to the ground at one plane (its +y end) and slides free of it
-   elsewhere; with soft joints (k_n = k_s = 1 MPa/m: the joint force strains a ring by
-   k_n L / E = 1.2e-3 of the ground's strain) the rings move rigidly with the ground at their held
-   planes and the joints take all the strain: joint k opens by u(y_k+1) - u(y_k) = eps_ff L (the
-   free field's axial strain at the middle of the ring after it, times the ring length; plane-wave
-   strain eps_yy = -p_y v_y). Every joint whose two rings are free of the plugs (y = 30 ... 90 m) opens
-   to within 2 % of the closed form's peak (measured 0.43-1.63 %). The two joints beside the plugs
-   are printed, not asserted: the ring there is bonded to a plug's face, the hole's free end, which
-   does not move as the free field (measured +3.8 % and +20 %; docs/verification.md). The report's
-   lining section lists every joint.
+   properties, two axial elements (12 m) long, in an SV wave travelling along the axis through the
+   domain-reduction layer. The mesh ties each rock node on a joint plane to the ring before the joint;
+   the test unties those (drops the rock-lining pairs on the joint planes), so that each ring is held
+   to the ground at its middle plane only and slides free of it elsewhere (a set-up of the solver, not
+   one a case file asks for); with soft joints (k_n = k_s = 1 MPa/m: the joint force strains a ring by
+   k_n L / E = 2.4e-3 of the ground's strain) the rings move rigidly with the ground at their held
+   planes and the joints take all the strain: joint k opens by u(y_k + L/2) - u(y_k - L/2) = eps_ff L
+   (the free field's axial strain at the joint, times the ring length; plane-wave strain
+   eps_yy = -p_y v_y). Every joint, the two beside the plugs included, opens to within 2 % of the
+   closed form's peak (measured 0.47-0.80 %). With the mesh's own ties and one-element rings one ring
+   must be held at a plug's face, the hole's end, which does not move as the free field: those two
+   joints open +3.5 % and +20 % (docs/verification.md "Lining joints", measured). The report's lining
+   section lists every joint.
 """
 from __future__ import annotations
 
@@ -179,6 +180,23 @@ EXE = _joint_solid()
 PEAK_TOLERANCE = 0.02
 
 
+#: the closed form's rings: two axial elements (12 m) each, held to the ground at their middle plane
+HELD_RING = 12.0
+
+
+def _hold_rings_at_their_middle(mesh_h5) -> int:
+    """Untie the rock from the lining on every joint plane (drop those rock-lining pairs), so that each
+    ring is held to the ground at its middle plane of nodes only; returns how many ties were dropped."""
+    with h5py.File(mesh_h5, "r+") as m:
+        xyz = m["nodes/coordinates"][...]
+        ties = m["interfaces/rock_lining"][...]
+        planes = m["interfaces/lining_joint_y"][...]
+        on_joint = np.isclose(xyz[ties[:, 0], 1][:, None], planes[None, :], atol=1e-9).any(axis=1)
+        del m["interfaces/rock_lining"]
+        m["interfaces/rock_lining"] = ties[~on_joint]
+    return int(on_joint.sum())
+
+
 @pytest.mark.skipif(EXE is None, reason="tq-solid with lining joints is not built (set TQ_BUILD_DIR)")
 def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_path):
     from tunnelquake import post as P
@@ -188,9 +206,11 @@ def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_pa
     from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
     from tunnelquake.solid_input import write_solid_input
 
-    case = load_case(_case(tmp_path))
+    case = load_case(_case(tmp_path, lambda t: t.replace("spacing: 6 m", f"spacing: {HELD_RING:g} m")))
     d = case.data
     make_mesh(case)
+    # 16 ties around on each of the 6 joint planes y = 30, 42, ..., 90 m
+    assert _hold_rings_at_their_middle(mesh_dir(case) / "mesh.h5") == 6 * 16
     _, motion_h5 = make_motion(case)
     inp = write_solid_input(case, mesh_dir(case) / "mesh.h5", motion_h5, "no_water", tmp_path / "solid_input.h5")
     out = subprocess.run([str(EXE), str(inp), "-o", str(tmp_path / "results_no_water.h5"), "--threads", "1"],
@@ -198,7 +218,7 @@ def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_pa
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     res = P.read_condition(tmp_path / "results_no_water.h5", "no_water")
     J = res.joints
-    assert J is not None and len(J["y"]) == 13
+    np.testing.assert_allclose(J["y"], np.arange(LINING[0] + HELD_RING, LINING[1] - 1e-9, HELD_RING), atol=1e-9)
     t = J["time"]
     with h5py.File(motion_h5) as m:
         rec, dt = m["incident_ax"][...], float(m.attrs["dt"])
@@ -206,24 +226,23 @@ def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_pa
         layer = m["nodes/coordinates"][...][f["drm/nodes"][...]]
     profile, wave = iw.ground_profile(d, ground_layers(d)), iw.plane_wave(d)
     inc = incident_motion(rec, dt, wave, profile, "incident")
-    mid = np.column_stack([np.zeros(len(J["y"])), J["y"] + RING / 2, np.zeros(len(J["y"]))])
+    at = np.column_stack([np.zeros(len(J["y"])), J["y"], np.zeros(len(J["y"]))])
     # t = 0 where the wave first reaches the layer's nodes, as in the run's /drm
-    ff = free_field(profile, [(wave, inc)], dt, np.vstack([layer, mid]), times=t)
+    ff = free_field(profile, [(wave, inc)], dt, np.vstack([layer, at]), times=t)
     p_y = wave.slowness(profile) * wave.directions()[0][1]
     worst = 0.0
     for j, y in enumerate(J["y"]):
-        ref = -p_y * ff.v[len(layer) + j][:, 1] * RING
+        ref = -p_y * ff.v[len(layer) + j][:, 1] * HELD_RING  # the free field's eps_yy at the joint, times L
         g = J["opening"][:, j]
         err = abs(np.abs(g).max() / np.abs(ref).max() - 1)
         l2 = np.sqrt(np.sum((g - ref) ** 2) / np.sum(ref ** 2))
         print(f"joint at y = {y:g} m: peak opening {np.abs(g).max():.5e} m against eps_ff L {np.abs(ref).max():.5e} m "
               f"({err:.2%}), L2 {l2:.2%}; slip {J['slip_max'][:, j].max():.3e} m, axial force "
               f"{np.abs(J['axial_force'][:, j]).max():.3e} N")
-        if LINING[0] + RING < y < LINING[1] - RING:  # neither ring bonded to a plug's face
-            assert err < PEAK_TOLERANCE, f"joint at y = {y:g} m"
-            worst = max(worst, err)
-    print(f"largest peak error away from the plugs {worst:.2%}")
+        assert err < PEAK_TOLERANCE, f"joint at y = {y:g} m"
+        worst = max(worst, err)
+    print(f"largest peak error {worst:.2%}")
     # the report's lining section: one row per joint and the watertightness line
     rows, notes = _joint_rows(P, res, tmp_path, [], d["lining_joints"]["allowed_opening"])
-    assert len(rows) == 13 and len(notes) == 1 and "1 mm" not in notes[0] and "0.001" in notes[0]
+    assert len(rows) == 6 and len(notes) == 1 and "1 mm" not in notes[0] and "0.001" in notes[0]
     assert (tmp_path / "joints_no_water.csv").is_file()

@@ -290,7 +290,10 @@ TANK_AREA = 0.005
 @coupled
 def test_reservoir_surge_tank_column_rings_at_the_tanks_frequency(tmp_path):
     """A surge tank at the column's end: the two lowest roots of cot(ωL/a) = ω A_s a/(g A_t) (5.08 and
-    20.66 Hz), A_t the meshed wetted area (the inscribed 16-gon), within F1_TOL and F2_TOL."""
+    20.66 Hz), A_t the meshed wetted area (the inscribed 16-gon), within F1_TOL and F2_TOL; the tank's
+    level, written as its own series, swings at the lowest root within F1_TOL (the column's mass
+    oscillation against the tank with the column's compliance; its stiff-column limit
+    T = 2π sqrt(L A_s/(g A_t)), Wylie & Streeter, Fluid Transients, the surge tank chapter)."""
     case = _case(tmp_path, lambda s: _water(s, f"end_ymin: {{kind: reservoir}}\n"
                                                f"end_ymax: {{kind: surge_tank, area: {TANK_AREA} m^2}}\n"))
     assert main(["run", str(case)]) == 0
@@ -305,3 +308,58 @@ def test_reservoir_surge_tank_column_rings_at_the_tanks_frequency(tmp_path):
           f"{1 / mass_oscillation_period(LENGTH, at, TANK_AREA):.3f} Hz")
     assert f1 == pytest.approx(e1, rel=F1_TOL)
     assert f2 == pytest.approx(e2, rel=F2_TOL)
+    # the tank's level, its own series in the results (/coupling/surge_level_ymax, read by
+    # post.read_water_column with the pressure along the axis): it swings at the lowest root,
+    # measured from the level alone, within F1_TOL; and it is the end station's pressure over rho g
+    # (the tank's compliance A_s/(rho g) holds A_s p/(rho g) of water; to round-off)
+    from tunnelquake import post as P
+
+    W = P.read_condition(tmp_path / "results" / "results_dynamic_water.h5", "dynamic_water").water_column
+    assert W is not None and "level_ymax" in W and "level_ymin" not in W
+    np.testing.assert_allclose(W["y"], np.linspace(0.0, LENGTH, len(W["y"])), atol=1e-9)
+    h = W["level_ymax"]
+    np.testing.assert_allclose(h, W["p"][: h.size, -1] / (RHO_W * 9.80665), rtol=1e-12, atol=1e-15)
+    keep = W["time"][: h.size] >= FREE_FROM
+    g1 = measured_frequencies(W["time"][: h.size][keep], h[keep])[0]
+    print(f"the level's lowest frequency {g1:.3f} Hz ({100 * (g1 / e1 - 1):+.2f} %), largest rise {h.max():.3f} m")
+    assert g1 == pytest.approx(e1, rel=F1_TOL)
+    # the report: the section, the CSV and the figure of the water along the tunnel
+    report = (tmp_path / "results" / "report.md").read_text()
+    assert "## The water along the tunnel" in report and "The surge tank at y max" in report
+    assert (tmp_path / "results" / "water_column_dynamic_water.csv").is_file()
+    assert (tmp_path / "results" / "figures" / "fig12_water_column.png").is_file()
+
+
+def test_the_water_columns_series_are_read_written_and_drawn_as_stored(tmp_path):
+    """post.read_water_column on tq-solid's layout (/coupling/axial_pressure/station_<k> [T, 2] with
+    their y as the group's attrs, /coupling/surge_level_ymax [T, 2]): the stations in order of y,
+    the rows up to the last time every series reached, the values as stored; water_column_csv
+    writes them back (to its 7 significant digits) and fig_water_column draws them."""
+    import csv
+
+    from tunnelquake import post as P
+
+    t = np.arange(6) * 0.01
+    p = np.array([[k * 10.0 + i for k in range(3)] for i in range(6)])  # p[i, station]
+    with h5py.File(tmp_path / "r.h5", "w") as f:
+        g = f.create_group("coupling/axial_pressure")
+        for k, y in enumerate((0.0, 2.5, 5.0)):
+            rows = np.column_stack([t, p[:, k]])
+            g[f"station_{k:03d}"] = rows if k != 1 else rows[:5]  # one station a row behind
+            g.attrs[f"station_{k:03d}_y"] = y
+        f["coupling/surge_level_ymax"] = np.column_stack([t, p[:, 2] / (RHO_W * 9.80665)])
+    with h5py.File(tmp_path / "r.h5") as f:
+        W = P.read_water_column(f)
+    np.testing.assert_array_equal(W["y"], [0.0, 2.5, 5.0])
+    np.testing.assert_array_equal(W["time"], t[:5])
+    np.testing.assert_array_equal(W["p"], p[:5])
+    np.testing.assert_array_equal(W["level_ymax"], p[:5, 2] / (RHO_W * 9.80665))
+    out = P.water_column_csv(W, tmp_path / "w.csv")
+    rows = list(csv.reader(out.open()))
+    assert rows[0] == ["# stations y (m): p0=0 p1=2.5 p2=5"]
+    assert rows[1] == ["time_s", "p0_Pa", "p1_Pa", "p2_Pa", "surge_level_ymax_m"]
+    back = np.array(rows[2:], float)
+    np.testing.assert_allclose(back[:, 1:4], p[:5], rtol=1e-6)
+    np.testing.assert_allclose(back[:, 4], W["level_ymax"], rtol=1e-6)
+    res = P.ConditionResult("dynamic_water", tmp_path / "r.h5", "completed", {}, water_column=W)
+    assert P.fig_water_column(res, tmp_path / "fig.png").stat().st_size > 10_000

@@ -7,21 +7,28 @@ from ..units import STANDARD_GRAVITY
 from .common import add_ranks_argument, load_for_ranks, parser, say
 
 
-def mesh_estimate(d: dict) -> str:
+def mesh_estimate(d: dict, case=None) -> str:
     """One line: the hexahedra the mesh will have and the memory meshing and the run need
-    (estimated from the division counts; the case's checks warn when that exceeds the machine's)."""
+    (estimated from the division counts, and with `case` a DRM layer's free field: scene.with_drm_memory;
+    the case's checks warn when that exceeds the machine's)."""
     from ..case import case_geology, ground_layers
     from ..meshing.params import element_counts, machine_memory, memory_estimate, resolve
 
-    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    counts = element_counts(mesh_plan)
     need = memory_estimate(counts, d["conditions"])
+    if case is not None:
+        from ..scene import with_drm_memory
+
+        need = with_drm_memory(need, case, mesh_plan)
     have = machine_memory()
     mib = 2.0**20
     machine = f" (machine: {have['total'] / mib:,.0f} MiB)" if have else ""
     ground = "rock" if len(counts["regions"]) < 2 else (
         "ground (" + ", ".join(f"{k} {v:,}" for k, v in counts["regions"].items()) + ")")
+    drm = (f" (a DRM field of {need['drm_field'] / mib:,.0f} MiB in it)" if need.get("drm_field") else "")
     return (f"mesh: {counts['rock']:,} {ground} + {counts['lining']:,} lining + {counts['water']:,} water hexahedra; "
-            f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{machine}")
+            f"about {need['meshing'] / mib:,.0f} MiB to mesh, {need['run'] / mib:,.0f} MiB to run{drm}{machine}")
 
 
 def ranks_memory(d: dict, ranks: int) -> str:
@@ -88,7 +95,7 @@ def main(argv: list[str]) -> int:
     pga = "the record's own" if gm["pga"] is None else f"{gm['pga']:g} m/s^2 ({gm['pga'] / STANDARD_GRAVITY:.3g} g)"
     say(f"  ground motion: {src}; window {window}; PGA {pga}; cut-off {gm['cutoff_frequency']:g} Hz; convention "
         f"{gm['convention']}")
-    say(f"  {mesh_estimate(d)}")
+    say(f"  {mesh_estimate(d, case)}")
     from ..scene import added_mass_diagnostic, assess_slice, plan, runtime_estimate
 
     say(f"  {runtime_estimate(case).line()}")

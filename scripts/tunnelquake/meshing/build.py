@@ -36,7 +36,18 @@ from ..files import DiskFull, atomic_path, h5_in_memory
 from . import hexmesh
 from .geology import assign
 from .gmsh_model import LINING, ROCK, WATER, build_model
-from .params import MeshInputError, MeshPlan, layer_of, plug_levels, resolve, slope_base, surface_nodes
+from .params import (
+    MeshInputError,
+    MeshPlan,
+    layer_of,
+    lining_extent,
+    plug_levels,
+    portal_bench,
+    portal_cut,
+    resolve,
+    slope_base,
+    surface_nodes,
+)
 
 SOLID_FACE_NAMES = ("bottom", "top", "xmin", "xmax", "ymin", "ymax", "lining_inner", "rock_hole", "lining_outer")
 #: the face group of the lining's joint faces (both sides of every joint)
@@ -94,7 +105,7 @@ def build_tunnel_mesh(geometry: dict, mesh: dict, out_dir: pathlib.Path, layers=
                     if not own_session:
                         gmsh.model.remove()
 
-            hexes = _plug_ends(plan, coords, hexes)
+            hexes = _portal_cut(plan, coords, _plug_ends(plan, coords, hexes))
             solid = _solid_mesh(plan, coords, hexes, joint_levels(plan, joint_spacing))
             _write_solid(tmp["solid"], solid, plan.slice, region_names(plan))
             water = _water_mesh(plan, coords, hexes[WATER])
@@ -328,6 +339,19 @@ def _plug_ends(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
     return out
 
 
+#: the face group of what a portal's cut lays bare: the bench in front of the face, the face itself
+#: (the headwall, through which the bore opens) and the lining's end there
+PORTAL_FACES = "portal"
+
+
+def _portal_cut(plan: MeshPlan, gcoords: np.ndarray, hexes: dict) -> dict:
+    """With a portal (geology.portal) every hexahedron of every region whose centroid lies in front
+    of the face above the bench is removed (params.portal_cut); model.msh keeps the uncut block."""
+    if plan.geology is None or plan.geology.portal is None:
+        return hexes
+    return {region: h[~portal_cut(plan, gcoords[h].mean(axis=1))] for region, h in hexes.items()}
+
+
 def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
     """The joints' planes y: every `spacing` from the lining's start (the first plug's end, or the
     block's ymin face) to before its end; each snapped to the axial element layer it lies on.
@@ -337,7 +361,7 @@ def joint_levels(plan: MeshPlan, spacing: float | None) -> list[float]:
         return []
     if plan.slice:
         raise MeshInputError("lining joints need a 3D mesh (mesh.mode: 3d)", key="lining_joints")
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)
     n = (y1 - y0) / spacing
     tol = 1e-6 * (y1 - y0)
     if round(n) < 2 or abs(n - round(n)) > 1e-6 * n:
@@ -500,6 +524,13 @@ def _classify_solid_faces(plan, coords, faces, owner_region, ends=None, joints=(
             masks["ymax"] &= ~lining_ends
             masks[LINING_END_FACES] = lining_ends
             names.append(LINING_END_FACES)
+    po = plan.geology.portal if plan.geology is not None else None
+    if po is not None:  # the bench in front of the face and the face (the headwall and the lining's end)
+        at_face = (np.abs(fx[:, :, 1] - po.station) < tol).all(axis=1)
+        bench = (np.abs(fx[:, :, 2] - portal_bench(plan)) < tol).all(axis=1) & (fx[:, :, 1] < po.station + tol).all(
+            axis=1)
+        masks[PORTAL_FACES] = (at_face | bench) & ~masks["top"]
+        names.append(PORTAL_FACES)
     on_a = (np.abs(r - plan.radius_inner) < tol).all(axis=1)
     on_b = (np.abs(r - plan.radius_outer) < tol).all(axis=1)
     masks["lining_inner"] = on_a & (owner_region == 1)
@@ -528,7 +559,7 @@ def _water_mesh(plan: MeshPlan, gcoords: np.ndarray, water: np.ndarray) -> dict:
     faces, _ = hexmesh.boundary_faces(conn)
     fx = coords[faces]
     tol = _tolerance(plan)
-    y0, y1 = plug_levels(plan) or (plan.ymin, plan.ymax)
+    y0, y1 = lining_extent(plan)
     masks = {
         "interface": (np.abs(_radius(plan, fx) - plan.radius_inner) < tol).all(axis=1),
         "end_ymin": (np.abs(fx[:, :, 1] - y0) < tol).all(axis=1),

@@ -30,6 +30,15 @@ horizontal layers (grid lines of the mesh), then the dipping layers, then rock.
   top horizontal layer, whichever is higher) along its vertical, z' = z_b + (z - z_b) r(x, y),
   r = (z_s - z_b) / (z_top - z_b): the nodes at z_top land on the surface, those at or below z_b
   stay, so the ground under z_b (the tunnel, the horizontal layers) is untouched.
+
+* portal: the tunnel leaves the hillside through a face across its axis at station y_p, facing -y
+  (towards the block's ymin face). In front of the face (y < y_p) the ground is cut down to the bench
+  z_f, the bottom of the tunnel's near-field box: every element whose centroid lies in front of y_p
+  above z_f is removed, the tunnel's lining and bore with it, so the lining ends at the face. Behind
+  it the face rises vertically from the bench to the portal's head z_h = crown + cover (the headwall,
+  through which the tunnel's bore opens), and from the head the slope rises at its angle to the
+  block's top: a Slope of that angle descending towards azimuth 180 + skew whose toe line, at z_h,
+  passes through (x_c, y_p) (portal_slope), applied by the node map above.
 """
 
 from __future__ import annotations
@@ -136,10 +145,34 @@ def map_to_surface(slope: Slope, xyz: np.ndarray, z_top: float, z_base: float) -
 
 
 @dataclass(frozen=True)
+class Portal:
+    station: float  # y of the face where the tunnel leaves it, m
+    angle: float  # the slope above the face, degrees below horizontal, in (0, 90)
+    skew: float = 0.0  # degrees: the slope's strike against the normal to the axis (its descent azimuth 180 + skew)
+    cover: float | None = None  # m of ground over the crown at the face; None: the least the mesh allows
+
+    @property
+    def dip_direction(self) -> float:
+        return (180.0 + self.skew) % 360.0
+
+
+def portal_slope(portal: Portal, head: float, xc: float, z_top: float) -> Slope:
+    """The slope over a portal whose head (the top of the face over the tunnel) is at z = head: it
+    falls at portal.angle towards azimuth 180 + skew from the block's top z_top to its toe at `head`,
+    the toe line through (xc, station)."""
+    h = z_top - head
+    run = h / math.tan(math.radians(portal.angle))
+    b = math.radians(portal.dip_direction)
+    crest = (xc - run * math.sin(b), portal.station - run * math.cos(b))
+    return Slope(portal.angle, portal.dip_direction, crest, h)
+
+
+@dataclass(frozen=True)
 class Geology:
     fault: FaultZone | None = None
     dipping: tuple[DippingLayer, ...] = ()
     slope: Slope | None = None
+    portal: Portal | None = None
 
     @property
     def materials(self) -> list[str]:
@@ -197,6 +230,11 @@ def from_case(section: dict | None) -> Geology | None:
         h = sl.get("height")
         slope = Slope(float(sl["angle"]), float(sl["dip_direction"]), tuple(map(float, sl["crest"])),
                       None if h is None else float(h))
-    if fault is None and not dipping and slope is None:
+    po = section.get("portal") or {}
+    portal = None
+    if po.get("station") is not None and po.get("slope_deg") is not None:
+        portal = Portal(float(po["station"]), float(po["slope_deg"]), float(po.get("skew_deg") or 0.0),
+                        None if po.get("cover") is None else float(po["cover"]))
+    if fault is None and not dipping and slope is None and portal is None:
         return None
-    return Geology(fault, dipping, slope)
+    return Geology(fault, dipping, slope, portal)

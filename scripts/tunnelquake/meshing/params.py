@@ -8,12 +8,13 @@ block, progression ratios, the axial extent), so the builder itself makes no dec
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .geology import Geology, band_y_range, corners, map_to_surface, surface_ratio
+from .geology import Geology, band_y_range, corners, map_to_surface, portal_slope, surface_ratio
 
 #: Every mesh parameter with its default. The defaults reproduce the paper's mesh (Liu, Zhang &
 #: Xiao 2021, §3.1): 58,080 rock and 6,336 lining hexahedra exactly, 14,784 water hexahedra
@@ -366,6 +367,9 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
     layers = tuple((str(n), float(z)) for n, z in (layers or ()))
     top = _layered_band(layers, zc + L, zmax, h_box, hmax, float(m["outer_growth"]), k) if layers else outer(zmax - zc - L)
 
+    if geology is not None and geology.portal is not None:
+        geology = _portal_geology(geology, m, (xmin, ymin, zmin), (xmax, ymax, zmax), xc, zc, b, L, layers,
+                                  slice_mode, axial.count)
     if geology is not None:
         z_base = max([zc + L] + [z for _, z in layers])
         _check_geology(geology, (xmin, ymin, zmin), (xmax, ymax, zmax), slice_mode, z_base)
@@ -378,8 +382,11 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
                 return tuple((d, Divisions(div.count * k, div.growth ** (1.0 / k))) for d, div in segs)
         else:
             outer_x = outer
-        y_levels = axial_levels(geology, ymin, ymax, axial.count, (xc - L, xc + L), (zc - L, zc + L),
-                                growths["axial_growth"], k)
+        if geology.portal is not None:
+            y_levels = portal_levels(geology.portal.station, ymin, ymax, axial.count)
+        else:
+            y_levels = axial_levels(geology, ymin, ymax, axial.count, (xc - L, xc + L), (zc - L, zc + L),
+                                    growths["axial_growth"], k)
     else:
         y_levels = tuple(np.linspace(ymin, ymax, axial.count + 1))
     axial = Divisions(len(y_levels) - 1)
@@ -417,6 +424,118 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
     if geology is not None and geology.slope is not None:
         _check_slope_edges(plan)
     return plan
+
+
+def portal_levels(station: float, ymin: float, ymax: float, count: int) -> tuple[float, ...]:
+    """The axial grid with a portal: a grid line at the face's station, the stretches in front of it
+    and behind it each uniform, their elements no longer than the uniform (ymax - ymin) / count."""
+    h0 = (ymax - ymin) / count
+    n1 = max(1, math.ceil((station - ymin) / h0 - 1e-9))
+    n2 = max(1, math.ceil((ymax - station) / h0 - 1e-9))
+    levels = list(np.linspace(ymin, station, n1 + 1)) + list(np.linspace(station, ymax, n2 + 1))[1:]
+    return tuple(float(v) for v in levels)
+
+
+def portal_bench(p: MeshPlan) -> float:
+    """z of the bench in front of a portal's face: the bottom of the tunnel's near-field box."""
+    return p.zc - p.box_half_width
+
+
+def portal_cut(p: MeshPlan, centroids: np.ndarray) -> np.ndarray:
+    """Which elements (by their centroids [..., 3]) a portal removes: in front of its face (y below the
+    station) and above the bench; all False without a portal."""
+    po = p.geology.portal if p.geology is not None else None
+    c = np.asarray(centroids, float)
+    if po is None:
+        return np.zeros(c.shape[:-1], bool)
+    return (c[..., 1] < po.station) & (c[..., 2] > portal_bench(p))
+
+
+def lining_extent(p: MeshPlan) -> tuple[float, float]:
+    """(y where the lining starts, y where it ends): the plugs' ends, a portal's face, else the block's y faces."""
+    ends = plug_levels(p)
+    if ends is not None:
+        return ends
+    po = p.geology.portal if p.geology is not None else None
+    return (po.station if po is not None else p.ymin), p.ymax
+
+
+def portal_least_cover(zc: float, b: float, L: float, layers, z_top: float) -> tuple[float, float]:
+    """(the least cover over the crown at a portal's face, the base z_b it is measured from): the
+    slope's node map must keep SLOPE_MIN_SHARE of the ground above z_b (_check_slope)."""
+    zb = max([zc + L] + [z for _, z in layers])
+    return zb + SLOPE_MIN_SHARE * (z_top - zb) - (zc + b), zb
+
+
+def _portal_geology(geo: Geology, m: dict, lo, hi, xc, zc, b, L, layers, slice_mode: bool, count: int) -> Geology:
+    """Check a portal (geology.portal) against the block and the mesh, and return the geology with the
+    slope above its face (geology.portal_slope) as its ground surface."""
+    po = geo.portal
+    key = "geology.portal"
+    if slice_mode:
+        why = "a slice holds one section across the tunnel, and a portal ends the tunnel along its axis"
+        raise MeshInputError(f"{key}.station: {why}", f"{key}.station", po.station, why,
+                             "Use mesh.mode: 3d with a portal.")
+    if geo.slope is not None:
+        why = "a portal makes its own ground surface (the slope above its face), so a second slope cannot be laid on it"
+        raise MeshInputError(f"geology.slope: {why}", "geology.slope.angle", geo.slope.angle, why,
+                             "Remove geology.slope; geology.portal.slope_deg and skew_deg set the slope over the portal.")
+    if geo.fault is not None:
+        why = "a fault zone and a portal in one block are not meshed together"
+        raise MeshInputError(f"{key}: {why}", "geology.fault_zone.material", geo.fault.material, why,
+                             "Model the fault crossing and the portal as two cases.")
+    if int(m.get("tunnel_end_plugs") or 0):
+        why = "the tunnel ends at the portal's face, not in a plug of rock"
+        raise MeshInputError(f"mesh.tunnel_end_plugs: {why}", "mesh.tunnel_end_plugs", m["tunnel_end_plugs"], why,
+                             "Use tunnel_end_plugs: 0 with a portal.")
+    ymin, ymax = lo[1], hi[1]
+    h0 = (ymax - ymin) / count
+    if not ymin + h0 - 1e-9 <= po.station <= ymax - h0 + 1e-9:
+        why = (f"lies outside the tunnel, which runs along y {ymin:g}..{ymax:g} m here: the face must cross it with at "
+               f"least one axial element ({h0:.4g} m) of cut in front and of tunnel behind")
+        raise MeshInputError(f"{key}.station: {why}", f"{key}.station", po.station, why,
+                             f"Give a station between {ymin + h0:.4g} and {ymax - h0:.4g} m (the face faces -y, "
+                             "towards the block's ymin face), or lengthen geometry.y_range.")
+    z_top = hi[2]
+    least, zb = portal_least_cover(zc, b, L, layers, z_top)
+    crown = zc + b
+    cover = least if po.cover is None else po.cover
+    if cover < least * (1 - 1e-9) - 1e-9:
+        why = (f"is less than the block allows: the slope above the face squeezes the ground above z = {zb:g} m (the top "
+               f"of the near-field box, or the bottom of the top horizontal layer), which must keep {SLOPE_MIN_SHARE:g} "
+               f"of its {z_top - zb:g} m, so the face's head lies at z >= {crown + least:.4g} m")
+        raise MeshInputError(f"{key}.cover: {why}", f"{key}.cover", po.cover, why,
+                             f"Give cover >= {least:.4g} m (or leave it out), or lower mesh.near_field_half_width.")
+    head = crown + cover
+    if head >= z_top - 1e-9:
+        why = f"puts the face's head at z = {head:.4g} m, at or above the block's top {z_top:g} m: no slope is left"
+        raise MeshInputError(f"{key}.cover: {why}", f"{key}.cover", po.cover, why,
+                             f"Give cover < {z_top - crown:.4g} m, or raise geometry.z_range[1].")
+    slope = portal_slope(po, head, xc, z_top)
+    levels = portal_levels(po.station, ymin, ymax, count)
+    hy = float(np.diff(levels).max())
+    hmax = float(m["max_element_size"])
+    t = math.tan(math.radians(po.angle))
+    ca = abs(math.cos(math.radians(po.dip_direction)))
+    rise = z_top - head
+    # the axial edges lean with the slope: hy sqrt(1 + (tan a cos skew)^2) <= max_element_size; and the face
+    # must span two axial elements at least, else the mesh's surface cannot show its angle
+    steep_lean = math.degrees(math.atan(math.sqrt(max(hmax * hmax / (hy * hy) - 1.0, 0.0)) / max(ca, 1e-12)))
+    steep_face = math.degrees(math.atan(rise / (2.0 * hy * max(ca, 1e-12))))
+    if po.angle > min(steep_lean, steep_face) + 1e-9:
+        lean = hy * math.sqrt(1 + (t * ca) ** 2)
+        if steep_face <= steep_lean:
+            why = (f"is steeper than the block allows: the slope rises {rise:.4g} m from the face's head (z = {head:.4g} m) "
+                   f"to the block's top over {rise / (t * max(ca, 1e-12)):.4g} m along the axis, less than two of its "
+                   f"{hy:.4g} m axial elements, so the mesh cannot follow the face")
+        else:
+            why = (f"is steeper than the block allows: the axial elements ({hy:.4g} m) lean with the slope to "
+                   f"{lean:.4g} m > max_element_size {hmax:g} m")
+        need = math.ceil((ymax - ymin) / min(hmax / math.sqrt(1 + (t * ca) ** 2), rise / (2 * t * max(ca, 1e-12))))
+        raise MeshInputError(f"{key}.slope_deg: {why}", f"{key}.slope_deg", po.angle, why,
+                             f"Use slope_deg <= {math.floor(10 * min(steep_lean, steep_face)) / 10:.1f} deg with this "
+                             f"mesh, or mesh.elements_along_axis >= {need}.")
+    return dataclasses.replace(geo, slope=slope)
 
 
 def slope_base(p: MeshPlan) -> float:
@@ -621,13 +740,18 @@ def element_counts(p: MeshPlan) -> dict:
     regions = {"rock": (rock2 - nx * rows) * layers, **regions}
     if p.geology is not None:
         regions = _geology_regions(p)
+    # a portal keeps, in front of its face, the outer grid's rows below the bench only
+    front = sum(1 for y in p.y_levels[1:] if y <= p.geology.portal.station + 1e-9) if (
+        p.geology is not None and p.geology.portal is not None) else 0
+    behind = layers - front
+    nb = sum(d.count for _, d in p.bottom)
     return {
-        "rock": rock2 * layers,
+        "rock": rock2 * behind + nx * nb * front,
         "regions": regions,
-        "lining": lining2 * layers,
-        "water": water2 * layers,
-        "solid_nodes": solid_nodes2 * (layers + 1),
-        "water_nodes": water_nodes2 * (layers + 1),
+        "lining": lining2 * behind,
+        "water": water2 * behind,
+        "solid_nodes": solid_nodes2 * (behind + 1) + (nx + 1) * (nb + 1) * front,
+        "water_nodes": water_nodes2 * (behind + 1) if behind < layers else water_nodes2 * (layers + 1),
     }
 
 
@@ -719,6 +843,10 @@ def _geology_regions(p: MeshPlan) -> dict:
             above = np.isfinite(r) & (pts[:, :, 2] > zb)
             pts[:, :, 2] = np.where(above, zb + (pts[:, :, 2] - zb) * np.where(above, r, 1.0), pts[:, :, 2])
         r = assign(p.geology, pts, np.repeat(base[:, None], len(yy), axis=1), 2 + len(p.layers))
+        if p.geology.portal is not None:  # what a portal's cut removes (by the unmoved centroid: the
+            # cut's elements lie wholly in front of the face, their z is that of the flat block's)
+            keep = ~((yy[None, :] < p.geology.portal.station) & (xz[:, None, 1] > portal_bench(p)))
+            r = r[keep]
         counts += np.bincount(r.ravel(), minlength=len(names))
     return {n: int(c) for i, (n, c) in enumerate(zip(names, counts, strict=True)) if i != 1}
 

@@ -1,6 +1,10 @@
 // What the water coupling writes into the results file (tq/coupling/coupling_results.hpp).
 #include "tq/coupling/coupling_results.hpp"
 
+#include <cstdio>
+#include <map>
+#include <string>
+
 namespace tq {
 
 void addCouplingSeries(ResultsWriter& results, const Solver& view, const SolidInput& in, FluidCoupling& c,
@@ -12,9 +16,28 @@ void addCouplingSeries(ResultsWriter& results, const Solver& view, const SolidIn
       "/energy/fluid_received_work", [cp] { return cp->fluidReceivedWork(); }, "fluid_received_work");
   results.addSeries(
       "/energy/coupling_energy", [cp] { return cp->couplingEnergy(); }, "coupling_energy");
-  if (water)
+  if (water) {
     results.addSeries(
         "/coupling/volume_pressure", [water] { return water->volumePressure(); }, "volume_pressure");
+    // Open ends: the pressure along the axis (each station's, its y an attribute of the group) and a
+    // surge tank's level.
+    const std::vector<Real>& ys = water->stationPositions();
+    std::map<std::string, double> where;
+    for (size_t j = 0; j < ys.size(); ++j) {
+      char name[32];
+      std::snprintf(name, sizeof name, "station_%03zu", j);
+      results.addSeries(
+          "/coupling/axial_pressure/" + std::string(name), [water, j] { return water->stationPressure(j); },
+          "pressure");
+      where[std::string(name) + "_y"] = ys[j];
+    }
+    if (!ys.empty()) results.writeAttrs("/coupling/axial_pressure", where);
+    for (int e = 0; e < 2; ++e)
+      if (water->hasSurgeTank(e))
+        results.addSeries(
+            e == 0 ? "/coupling/surge_level_ymin" : "/coupling/surge_level_ymax",
+            [water, e] { return water->surgeLevel(e); }, "level");
+  }
   results.addWaterPressure(view.mesh(), in.staged.coupling.face, in.monitors, cp->nodes(),
                            [cp]() -> const std::vector<Real>& { return cp->force(); });
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface

@@ -39,6 +39,7 @@ struct CarriedWater::Impl {
   // Q [S−1] the axial flux at t^{n−½} (m³/s), W [S] the volume that has left each station (m³).
   std::vector<Real> cAx, Q, W;
   std::vector<Real> ps, psPrev;  // [S] Pa: the stations' pressure this step and the last
+  std::vector<Real> planes;      // [S] m: the stations' y with open ends (empty for a closed section)
   // The water's rigid translation in the section's plane (x, z), carried when /coupling
   // water_density is given: a station's mean displacement is ū_j = T_j u = (1/V_j) Σ_{i∈j}
   // r_i (g_i·u_i) (r_i = x_i − c_j, c_j the station's water centroid; exact for incompressible water,
@@ -97,7 +98,7 @@ struct CarriedWater::Impl {
     Real c[3] = {0, 0, 0};
     for (Index node : nodes)
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
-    const std::vector<Real> planes = buildStations(mesh);
+    planes = buildStations(mesh);
     const auto& quads = mesh.faces.at(in.face);
     Vs.assign(S, 0.0);
     std::vector<Real> cw(2 * S, 0.0), Vseg(S > 1 ? S - 1 : 0, 0.0);
@@ -448,6 +449,20 @@ Real CarriedWater::volumePressure() const {
   return pV / I.volume;
 }
 std::vector<Real> CarriedWater::stationPressures() const { return impl_->ps; }
+Real CarriedWater::stationPressure(size_t j) const { return j < impl_->ps.size() ? impl_->ps[j] : 0.0; }
+const std::vector<Real>& CarriedWater::stationPositions() const { return impl_->planes; }
+bool CarriedWater::hasSurgeTank(int end) const {
+  const Impl& I = *impl_;
+  return I.openEnds && (end == 0 ? I.in.endYmin : I.in.endYmax) == "surge_tank";
+}
+// The tank's compliance A_s/(ρ g) holds the volume A_s p/(ρ g) at its end station's pressure p, so its
+// level stands p/(ρ g) above its rest.
+Real CarriedWater::surgeLevel(int end) const {
+  const Impl& I = *impl_;
+  if (!hasSurgeTank(end) || I.ps.empty()) return 0.0;
+  constexpr Real g0 = 9.80665;
+  return (end == 0 ? I.ps.front() : I.ps.back()) / (I.in.axialDensity * g0);
+}
 Real CarriedWater::work() const { return impl_->volumeWork; }
 Real CarriedWater::enclosedVolume() const { return impl_->volume; }
 

@@ -67,6 +67,15 @@ class CarriedWater final : public NodalForceContributor {
   Real volumePressure() const;
   /// Each station's pressure (one for a closed section; with open ends one per plane, in order of y).
   std::vector<Real> stationPressures() const;
+  /// Station j's pressure this step (Pa; 0 past the last station).
+  Real stationPressure(size_t j) const;
+  /// The stations' positions along the axis y (m), with open ends; empty for a closed section.
+  const std::vector<Real>& stationPositions() const;
+  /// Whether end 0 (y_min) or 1 (y_max) is a surge tank.
+  bool hasSurgeTank(int end) const;
+  /// A surge tank's level above its rest (m) at end 0 (y_min) or 1 (y_max): the volume its compliance
+  /// took, A_s p/(ρ g), over its area, p/(ρ g) with p its end station's pressure; 0 without a tank.
+  Real surgeLevel(int end) const;
   /// The carried forces' work on the solid so far (J; part of the balance's `external` term).
   Real work() const;
   /// The enclosed volume (m³).
