@@ -1,8 +1,9 @@
 /// @file coupling_results.hpp
 /// @brief What the water coupling writes into the results file: its histories (the works, the
 ///        volume law's pressure, with open ends along the axis and a surge tank's level, the water
-///        pressure at the monitors, the wetted face's total force and mean acceleration) and its summary (/coupling attributes). One copy for the run as one
-///        process (app.cpp) and the run on ranks (ranked_run.cpp, from rank 0's whole-model mirror).
+///        pressure at the monitors, the wetted face's total force and mean acceleration) and its summary (/coupling
+///        attributes). One copy for the run as one process (app.cpp) and the run on ranks (ranked_run.cpp, from rank
+///        0's whole-model mirror).
 #pragma once
 
 #include "tq/coupling/fluid_coupling.hpp"
