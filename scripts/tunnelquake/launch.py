@@ -197,7 +197,7 @@ def _disk_full_note(folder) -> str:
 
 
 def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
-                          resume: bool = False) -> tuple[int, object, str]:
+                          resume: bool = False, solid_ranks: int = 1) -> tuple[int, object, str]:
     """Condition dynamic_water: tq-solid (listener, first participant) + OpenFOAM (second), joined
     by the coupler over TCP; `share`: the solvers running at once (solid_threads). Returns (exit code, results path, what happened). Exit code: 0 both
     completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
@@ -207,7 +207,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
     (reconstructPar; the processor folders stay in <fluid>/processor*).
 
-    Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
+    `solid_ranks` > 1: tq-solid runs on that many MPI ranks (solid_ranks.solid_command), rank 0
+    exchanging the whole wetted face for every rank; then neither side writes restart checkpoints.
+
+    Restart checkpoints (output.checkpoint_interval > 0, the water and the solid on one rank each): both sides write
     theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows);
     with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
     the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
@@ -252,7 +255,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         ranks = int(case.data["parallel"]["fluid_ranks"])
         every = settings["checkpoint_windows"]
         restart = None
-        if every > 0 and ranks == 1:
+        if every > 0 and ranks == 1 and solid_ranks == 1:
             restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
                        "restart_from": str(point["fluid"]) if point is not None else None,
                        "input_fingerprint": condition_inputs(case, cond)["digest"]}
@@ -286,10 +289,16 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     with children.FORK_LOCK:
         threads = solid_threads(case, mesh_h5, share)
     solid_cmd = [str(exe), str(inp), "-o", str(res), "--threads", str(threads)]
+    if solid_ranks > 1:
+        from .solid_ranks import solid_command
+
+        solid_cmd = solid_command(exe, inp, res, max(1, threads // solid_ranks), solid_ranks)
     if restart is not None:
         solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
         if point is not None:
             solid_cmd += resume_args(point)
+    elif every > 0 and solid_ranks > 1:
+        say(f"condition {cond}: no restart checkpoints with the solid on {solid_ranks} ranks (--ranks)")
     elif every > 0:
         say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
     started(cond, res)
@@ -367,7 +376,7 @@ def what_was_written(res: Path) -> str:
 
 def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> int:
     """The run itself: mesh, motion, the conditions (`resume`: from their restart checkpoints,
-    restart.resume_plan; `ranks`: the solid-only conditions' solid on that many MPI ranks), post.
+    restart.resume_plan; `ranks`: every condition's solid on that many MPI ranks), post.
     Raises children.Interrupted when a signal stops it between steps."""
     t0 = time.perf_counter()
     which = f" (variant {case.variant})" if case.variant else ""
@@ -433,7 +442,7 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
     def coupled(cond, parts, share=1):
         runs = " + ".join(parts)
         rc, res, why = run_coupled_condition(case, cond, motion_file, share,
-                                             resume=resuming.get(cond) == "checkpoint")
+                                             resume=resuming.get(cond) == "checkpoint", solid_ranks=ranks)
         if children.stopping.is_set():
             return
         if rc == 0:

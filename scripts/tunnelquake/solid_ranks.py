@@ -4,9 +4,11 @@ tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
 --distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
 the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
-or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces, snapshots and restart
+or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces, snapshots, restart
 checkpoints (``--resume`` on the same rank count: a checkpoint holds each rank's part of that
-partition). What does not run on ranks yet (the water coupling, the DRM layer of an incident wave,
+partition) and the water coupling of dynamic_water (gathered: rank 0 exchanges the whole wetted face
+with the water for every rank; no restart checkpoints for it on ranks). What does not run on ranks yet
+(the DRM layer of an incident wave,
 a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, subcycling, the
 lining's joints) is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
@@ -34,9 +36,6 @@ def ranks_refusal(case, ranks: int) -> list[str]:
 
     d = case.data
     reasons = []
-    if "dynamic_water" in d.get("conditions", []):
-        reasons.append("the water coupling (condition dynamic_water): run the conditions no_water and "
-                       "static_water on ranks (conditions: [no_water, static_water]) and dynamic_water without --ranks")
     if (d.get("incident_wave") or {}).get("type", "none") != "none":
         reasons.append("the domain reduction layer of the incident wave (incident_wave.type "
                        f"{d['incident_wave']['type']}): remove incident_wave, or run without --ranks")

@@ -26,6 +26,7 @@
 #include "tq/app/stages.hpp"
 #include "tq/coupling/coupled_stepper.hpp"
 #include "tq/coupling/coupling_mpi.hpp"
+#include "tq/coupling/coupling_results.hpp"
 #include "tq/coupling/fluid_coupling.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/mesh.hpp"
@@ -423,68 +424,8 @@ void SolidRun::connectWater() {
        << " windows)" << std::endl;
 }
 
-// The coupling's histories in the results: its works, the volume law's pressure, the water
-// pressure at the monitors, the wetted face's total force and mean acceleration.
-void SolidRun::addCouplingSeries() {
-  const Solver& s = *m_.solver;
-  ResultsWriter& results = *writer_;
-  FluidCoupling* c = coupling_.get();
-  results.addSeries(
-      "/energy/fluid_work", [c] { return c->fluidWork(); }, "fluid_work");
-  results.addSeries(
-      "/energy/fluid_received_work", [c] { return c->fluidReceivedWork(); }, "fluid_received_work");
-  results.addSeries(
-      "/energy/coupling_energy", [c] { return c->couplingEnergy(); }, "coupling_energy");
-  if (const CarriedWater* w = water_.get()) {
-    results.addSeries(
-        "/coupling/volume_pressure", [w] { return w->volumePressure(); }, "volume_pressure");
-    // Open ends: the pressure along the axis (each station's, its y an attribute of the group) and a
-    // surge tank's level.
-    const std::vector<Real>& ys = w->stationPositions();
-    std::map<std::string, double> where;
-    for (size_t j = 0; j < ys.size(); ++j) {
-      char name[32];
-      std::snprintf(name, sizeof name, "station_%03zu", j);
-      results.addSeries(
-          "/coupling/axial_pressure/" + std::string(name), [w, j] { return w->stationPressure(j); }, "pressure");
-      where[std::string(name) + "_y"] = ys[j];
-    }
-    if (!ys.empty()) results.writeAttrs("/coupling/axial_pressure", where);
-    for (int e = 0; e < 2; ++e)
-      if (w->hasSurgeTank(e))
-        results.addSeries(
-            e == 0 ? "/coupling/surge_level_ymin" : "/coupling/surge_level_ymax", [w, e] { return w->surgeLevel(e); },
-            "level");
-  }
-  results.addWaterPressure(s.mesh(), m_.in.staged.coupling.face, m_.in.monitors, c->nodes(),
-                           [c]() -> const std::vector<Real>& { return c->force(); });
-  // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
-  // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
-  // (m/s²), both of the same step, per direction.
-  for (int d = 0; d < 3; ++d) {
-    const std::string axis(1, "xyz"[d]);
-    results.addSeries(
-        "/coupling/force_" + axis,
-        [c, d] {
-          Real sum = 0;
-          const auto& F = c->force();
-          for (size_t k = 0; k < c->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
-          return sum;
-        },
-        "force_" + axis);
-    results.addSeries(
-        "/coupling/acceleration_" + axis,
-        [c, &st = s.state(), d] {
-          Real ma = 0, m = 0;
-          for (Index n : c->nodes()) {
-            ma += st.mass(n) * st.a(n, d);
-            m += st.mass(n);
-          }
-          return m > 0 ? ma / m : Real(0);
-        },
-        "acceleration_" + axis);
-  }
-}
+// The coupling's histories in the results (tq/coupling/coupling_results.hpp).
+void SolidRun::addCouplingSeries() { tq::addCouplingSeries(*writer_, *m_.solver, m_.in, *coupling_, water_.get()); }
 
 // After every contributor is in: they mark their fine nodes.
 void SolidRun::enableSubcycling() {
@@ -636,34 +577,7 @@ void SolidRun::flushAndReport(Real t) {
 }
 
 void SolidRun::writeCouplingSummary() {
-  if (!coupling_) return;
-  const FluidCouplingStats cs = coupling_->stats();
-  const FluidCoupling& c = *coupling_;
-  writer_->writeAttrs("/coupling",
-                      {{"windows", double(cs.windows)},
-                       {"passes", double(cs.passes)},
-                       {"max_passes", double(cs.maxPasses)},
-                       {"exchange_s", cs.secondsExchanging},
-                       {"unconverged_windows", double(cs.unconvergedWindows)},
-                       {"window_size", c.windowSize()},
-                       {"fluid_work", c.fluidWork()},
-                       {"fluid_received_work", c.fluidReceivedWork()},
-                       {"coupling_energy", c.couplingEnergy()},
-                       {"volume_law_work", water_ ? water_->work() : 0.0},
-                       {"enclosed_volume", water_ ? water_->enclosedVolume() : 0.0},
-                       {"interface_work_peak", c.interfaceWorkPeak()},
-                       {"energy_floor", c.energyFloor()},
-                       {"energy_limit", m_.in.staged.coupling.energyLimit},
-                       // cost split over the stepping (docs/coupler.md "Exchange cost")
-                       {"coupled_wall_s", cs.secondsCoupled},
-                       {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
-                       {"coupler_s", cs.secondsInCoupler},
-                       {"exchange_wait_s", cs.secondsWaiting},
-                       {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},
-                       {"mapping_s", cs.secondsMapping},
-                       {"solid_cpu_s", cs.cpuCoupled - cs.cpuInCoupler},
-                       {"coupler_cpu_s", cs.cpuInCoupler}},
-                      {{"scheme", m_.in.staged.coupling.scheme}});
+  if (coupling_) tq::writeCouplingSummary(*writer_, m_.in.staged.coupling, *coupling_, water_.get());
 }
 
 void SolidRun::writeTimings(double wall) {

@@ -39,6 +39,9 @@
 
 #include "tq/app/stages.hpp"
 #include "tq/contact/contact.hpp"
+#include "tq/coupling/coupled_stepper.hpp"
+#include "tq/coupling/coupling_results.hpp"
+#include "tq/coupling/ranked_coupling.hpp"
 #include "tq/io/input.hpp"
 #include "tq/io/restart.hpp"
 #include "tq/io/results.hpp"
@@ -124,8 +127,6 @@ std::string unsupportedOnRanks(const SolidInput& in, int ranks) {
              "mohr_coulomb_damage or elastic there, or run it without --ranks (one process, OpenMP threads)";
   const StagedInput& S = in.staged;
   if (S.present) {
-    if (S.coupling.present)
-      return "the water coupling (/coupling, condition dynamic_water) does not run on ranks yet" + fix;
     if (S.drm.present()) return "the domain reduction layer (/drm, incident_wave) does not run on ranks yet" + fix;
     if (S.faultOffset.present) return "the fault offset (/fault_offset) does not run on ranks yet" + fix;
     if (S.periodic.present) return "periodic faces (/boundaries periodic) do not run on ranks yet" + fix;
@@ -524,6 +525,81 @@ class RankCheckpoints {
   StateArchive archive_;
 };
 
+/// What a coupled run (/coupling, condition dynamic_water) on ranks cannot honour, or "" (alike on
+/// every rank).
+std::string coupledRunOnRanksRefusal(const SolidInput& in, const RunOptions& cl) {
+  const CouplingInput& ci = in.staged.coupling;
+  if (!in.staged.present || !ci.present) return "";
+  if (ci.transport == "mpi")
+    return "/coupling transport mpi: the solid on ranks couples over TCP only (its ranks are one MPI job of their "
+           "own); set /coupling transport tcp (tunnelquake run does), or run tq-solid as one process";
+  if (!cl.checkpointDir.empty())
+    return "--checkpoint-dir: the coupled run on ranks writes no restart checkpoints (the coupler's state with "
+           "each rank's part is not saved yet); run it without --checkpoint-dir (tunnelquake run --ranks does), or "
+           "as one process to have them";
+  return "";
+}
+
+/// The water coupling on ranks (tq/coupling/ranked_coupling.hpp): the seismic step set from
+/// /coupling (collective), rank 0's adapter and carried laws made on its mirror (`view`) and
+/// connected, the coupling its ranks' solvers' Water contributor, the run's end at whole windows,
+/// the coupling's histories in rank 0's results (`writer`, null elsewhere).
+std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& global, const RankLayout& L, Solver& s,
+                                                    Solver* mirror, Solver* view, ResultsWriter* writer,
+                                                    std::mutex& lock, std::ostream& out, int rank, int size) {
+  const CouplingInput& ci = in.staged.coupling;
+  if (ci.windowSize > 0) s.setTimeStep(ci.windowSize / Real(ci.windowSteps));
+  auto water = std::make_shared<RankedCoupling>(ci, global, L.localNode, L.owned, s, mirror);
+  if (rank == 0) out << "tq-solid: " << water->adapter()->describe() << "; waiting for the fluid" << std::endl;
+  water->initialize();
+  s.addContributor(ForcePhase::Water, water);
+  in.tEnd = water->endTime();  // whole windows
+  if (writer) {
+    std::lock_guard<std::mutex> held(lock);
+    addCouplingSeries(*writer, *view, in, *water->adapter(), water->water());
+  }
+  if (rank == 0) {
+    out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << water->windowCount() << " windows)";
+    if (size > 1)
+      out << "; rank 0 exchanges the wetted face's " << water->wetNodes()
+          << " nodes for every rank (gathered from their owners each step)";
+    out << std::endl;
+  }
+  return water;
+}
+
+/// The end of a coupled run on ranks: the fluid's last window (collective), the coupling's summary
+/// and the time its gathers took (the largest over the ranks), a warning for unconverged windows.
+void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWriter* writer, RankExchange* rx,
+                        std::ostream& err) {
+  water.finalize();
+  const Real gather = rx ? rx->maxAll(water.secondsCommunicating()) : water.secondsCommunicating();
+  if (!writer) return;
+  writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
+  writer->writeAttrs("/coupling", {{"ranks_gather_s", gather}, {"wet_nodes", double(water.wetNodes())}},
+                     {{"on_ranks", "gathered: rank 0 exchanges the whole wetted face for every rank"}});
+  const FluidCouplingStats cs = water.adapter()->stats();
+  if (cs.unconvergedWindows > 0)
+    err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
+        << " coupling windows ended at the pass limit (coupling.max_iterations = " << in.staged.coupling.maxIterations
+        << ") with the interface residual above the tolerance " << in.staged.coupling.tolerance
+        << "; /coupling unconverged_windows in the results counts them.\n";
+}
+
+/// A coupled run on ranks that stops on an error: rank 0 tells the fluid (unless the coupling itself
+/// stopped) and writes the coupling's summary so far.
+void stopWaterOnRanks(RankedCoupling* water, const CouplingInput& in, ResultsWriter* writer, bool couplingStopped,
+                      const std::string& message) {
+  if (!water || !water->adapter()) return;
+  if (!couplingStopped) water->abort("the solid stopped: " + message);
+  if (writer) {
+    try {
+      writeCouplingSummary(*writer, in, *water->adapter(), water->water());
+    } catch (const std::exception&) {
+    }
+  }
+}
+
 /// The solver of one rank's part: a block per region of its frontier elements, then one per region
 /// of the others (RankExchange::frontierBlocks), the supports and loads of the global mesh mapped
 /// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
@@ -596,7 +672,9 @@ std::string hms(double s) {
 /// once the file holds its status.
 int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::ostream& err) {
   std::unique_ptr<ResultsWriter> writer;
-  struct Unwatched {  // the watcher of stop signals lets go of the writer before it closes
+  std::shared_ptr<RankedCoupling> water;  // the water coupling (dynamic_water), after the writer: closed before it
+  CouplingInput coupling;                 // its settings (the input is gone when an error is caught)
+  struct Unwatched {                      // the watcher of stop signals lets go of the writer before it closes
     ~Unwatched() {
       std::lock_guard<std::mutex> lock(gStop.mutex);
       gStop.writer = nullptr;
@@ -616,6 +694,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
     try {
       SolidInput in = readSolidInput(cl.input);
       if (const std::string why = unsupportedOnRanks(in, size); !why.empty()) throw InputError(why);
+      if (const std::string why = coupledRunOnRanksRefusal(in, cl); !why.empty()) throw InputError(why);
       const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
       const std::vector<Real> cost = elementCosts(global, in);
       const std::vector<int> part = partitionRcb(global, cost, size);
@@ -730,6 +809,11 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
           return 0;
         }
       }
+      if (in.staged.present && in.staged.coupling.present) {
+        coupling = in.staged.coupling;
+        water =
+            connectWaterOnRanks(in, global, layout, s, mirror.get(), view, writer.get(), gStop.mutex, out, rank, size);
+      }
       // Everything a checkpoint holds of this rank, in this order (saved and restored alike).
       size_t nextSnap = 0;
       const auto rankState = [&](StateArchive& a) {
@@ -759,8 +843,11 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       const Index step0 = s.stepCount();
       Real tPrev = s.time();
       const long long faultStep = rankFaultStep(rank);
-      while (s.time() < in.tEnd - 1e-9 * s.dt()) {
-        s.step();
+      // After each final state (every step; coupled: not inside an implicit window of several steps,
+      // CoupledStepper): the samples, snapshots, checkpoints and progress.
+      const auto onFinal = [&] {
+        if (water && rank == 0)
+          if (const std::string note = water->adapter()->takeNote(); !note.empty()) out << "tq-solid: " << note << "\n";
         if (faultStep > 0 && s.stepCount() - step0 == faultStep) std::raise(SIGKILL);
         const Real t = s.time(), gap = t - tPrev;
         tPrev = t;
@@ -780,7 +867,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
           checkpoints->write(t, s.dt(), s.stepCount(), rankState, writer.get(), gStop.mutex);
           lastFlush = std::chrono::steady_clock::now();
         }
-        if (!writer) continue;
+        if (!writer) return;
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastFlush).count() > 2.0) {
           withWriter([](ResultsWriter& w) { w.flush(); });
@@ -794,7 +881,16 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
               << ", ETA " << hms((in.tEnd - t) / s.dt() / rate) << std::endl;
           lastReport = now;
         }
+      };
+      CoupledStepper stepper(s, water.get());  // without the water: one step
+      try {
+        while (s.time() < in.tEnd - 1e-9 * s.dt() && (!water || water->ongoing())) stepper.advance(onFinal);
+      } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample (every rank alike)
+        observe();
+        withWriter([&](ResultsWriter& w) { w.sample(*view); });
+        throw;
       }
+      if (water) finishWaterOnRanks(*water, in, writer.get(), exchange.get(), err);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const long long steps = s.stepCount() - step0;
       // Every rank's copy of a frontier node holds the same displacement and velocity, bitwise
@@ -849,9 +945,14 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       return 0;
     } catch (const CheckpointRefusal& e) {
       return stopWith(e.code, e.what(), "");
+    } catch (const CouplingError& e) {  // the fluid is lost, silent or refused: stop with its cause
+      withWriter([&](ResultsWriter& w) { stopWaterOnRanks(water.get(), coupling, &w, true, e.what()); });
+      return stopWith(4, e.what(), "");
     } catch (const InputError& e) {
+      withWriter([&](ResultsWriter& w) { stopWaterOnRanks(water.get(), coupling, &w, false, e.what()); });
       return stopWith(2, e.what(), "input error: ");
     } catch (const InstabilityError& e) {
+      withWriter([&](ResultsWriter& w) { stopWaterOnRanks(water.get(), coupling, &w, false, e.what()); });
       const std::string m = e.what();
       if (rank != 0 && m.find("another rank") == std::string::npos)
         err << "tq-solid: rank " << rank << ": " << m << "\n";

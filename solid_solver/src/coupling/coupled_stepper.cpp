@@ -15,7 +15,7 @@ void CoupledStepper::advance(const std::function<void()>& onFinal) {
 // state saved at its start. A one-step window is not stepped back: its one step is still open (begun,
 // not finished) when the water answers, so the next pass predicts that same step again.
 void CoupledStepper::window(const std::function<void()>& onFinal) {
-  FluidCoupling& c = *coupling_;
+  WindowCoupling& c = *coupling_;
   const bool whole = c.repeatsWindows();
   if (whole) {  // save
     start_.beginSave();

@@ -31,6 +31,7 @@ double threadCpu() {
 
 struct FluidCoupling::Impl {
   Solver& solver;
+  const Solver* clock;  // whose time and step the messages name
   CouplingInput in;
   WallPrediction wall;              // the interface nodes (mesh indices, ascending) and u0
   const std::vector<Index>& nodes;  // wall.nodes()
@@ -82,6 +83,7 @@ struct FluidCoupling::Impl {
 
   Impl(Solver& s, const CouplingInput& ci, std::vector<Index> wet, const CarriedWater* w)
       : solver(s),
+        clock(&s),
         in(ci),
         wall(s, std::move(wet)),
         nodes(wall.nodes()),
@@ -112,7 +114,7 @@ struct FluidCoupling::Impl {
     if (dynamic_cast<const cp::TimeoutError*>(&e)) silent = true;
     if (dynamic_cast<const cp::HandshakeError*>(&e)) linked = true;  // refused: both sides know
     std::ostringstream os;
-    os << "water coupling: " << what << " at t = " << solver.time() << " s (solid step " << solver.stepCount()
+    os << "water coupling: " << what << " at t = " << clock->time() << " s (solid step " << clock->stepCount()
        << "): " << e.what() << " " << couplingFix(e, in);
     throw CouplingError(os.str());
   }
@@ -203,7 +205,7 @@ struct FluidCoupling::Impl {
     const Real ratio = ec / ref;
     auto where = [&] {
       std::ostringstream os;
-      os << "t = " << solver.time() << " s (window " << stats.windows << ")";
+      os << "t = " << clock->time() << " s (window " << stats.windows << ")";
       return os.str();
     };
     if (!(ratio <= in.energyLimit))
@@ -478,6 +480,8 @@ void FluidCoupling::finalize() {
   }
   I.finalized = true;
 }
+
+void FluidCoupling::tellTimeBy(const Solver& clock) { impl_->clock = &clock; }
 
 void FluidCoupling::abort(const std::string& reason) noexcept {
   if (impl_->p && !impl_->finalized) impl_->p->abort(reason);

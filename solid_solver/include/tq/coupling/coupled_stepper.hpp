@@ -15,8 +15,9 @@ namespace tq {
 class CoupledStepper {
  public:
   /// `coupling` may be null (no water): then advance() is one Solver::step(). The coupling must be
-  /// one of the solver's contributors (ForcePhase::Water), and initialized.
-  CoupledStepper(Solver& solver, FluidCoupling* coupling) : solver_(solver), coupling_(coupling) {}
+  /// one of the solver's contributors (ForcePhase::Water), and initialized (a FluidCoupling; on MPI
+  /// ranks each rank's RankedCoupling).
+  CoupledStepper(Solver& solver, WindowCoupling* coupling) : solver_(solver), coupling_(coupling) {}
 
   /// One coupling window (no coupling: one step). `onFinal` is called after each state that is final
   /// (results may be sampled): after every step, except inside an implicit window of several steps,
@@ -33,7 +34,7 @@ class CoupledStepper {
   void solveWindow(bool stepsAreFinal, const std::function<void()>& onFinal);
 
   Solver& solver_;
-  FluidCoupling* coupling_;
+  WindowCoupling* coupling_;
   StateArchive start_;  // the solver's state at the window's start (windows stepped again whole)
   long long restores_ = 0, steps_ = 0;
 };

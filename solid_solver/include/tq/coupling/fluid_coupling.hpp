@@ -58,7 +58,21 @@ struct FluidCouplingStats {
   double cpuInCoupler = 0;      ///< of which inside the coupler part (a blocked receive costs no CPU)
 };
 
-class FluidCoupling final : public NodalForceContributor {
+/// The protocol's parts CoupledStepper runs, per window (see FluidCoupling's for what each does):
+/// FluidCoupling, and on MPI ranks RankedCoupling (tq/coupling/ranked_coupling.hpp), which runs
+/// rank 0's FluidCoupling for every rank.
+class WindowCoupling {
+ public:
+  virtual ~WindowCoupling() = default;
+  virtual void planWindow(const NodalState& state) = 0;
+  virtual void planStep(Index j, Real dt) = 0;
+  virtual bool exchange(Real dt, const NodalState& state) = 0;
+  virtual void acceptWindow() = 0;
+  virtual bool repeatsWindows() const = 0;
+  virtual Index windowSteps() const = 0;
+};
+
+class FluidCoupling final : public NodalForceContributor, public WindowCoupling {
  public:
   /// Builds the coupling configuration from /coupling and the interface nodes of `in.face`: a
   /// window of `in.windowSize` s (0: windowSteps × the solver's step), `in.windows` of them (at least 1;
@@ -80,18 +94,21 @@ class FluidCoupling final : public NodalForceContributor {
   void finalize();
   /// Tells the fluid this side stops on an error (never throws).
   void abort(const std::string& reason) noexcept;
+  /// The solver whose time and step count the messages name (default: the one it couples; on MPI
+  /// ranks rank 0's own, whose clock the mirror it couples does not follow step by step).
+  void tellTimeBy(const Solver& clock);
 
   // ---- the protocol's parts, in the order CoupledStepper::window runs them -----------------------
   /// The window's start (pass 0): its plan. Throws CouplingError before initialize() or past the last window.
-  void planWindow(const NodalState& state);
+  void planWindow(const NodalState& state) override;
   /// Step j (1 ≤ j < k) of the window: the force it applies; the coupler's clock moves on.
-  void planStep(Index j, Real dt);
+  void planStep(Index j, Real dt) override;
   /// One pass of the window's end, the last step's other forces known (Solver::beginStep): predict,
   /// write, advance, read. True when the water accepted the window; else the next pass uses its answer.
-  bool exchange(Real dt, const NodalState& state);
+  bool exchange(Real dt, const NodalState& state) override;
   /// The accepted window, its last step taken: the water's work booked, the counters, the energy
   /// guard (InstabilityError when the coupling created more than energy_limit).
-  void acceptWindow();
+  void acceptWindow() override;
 
   // ---- the step -------------------------------------------------------------------------------------
   std::string name() const override;
@@ -115,9 +132,9 @@ class FluidCoupling final : public NodalForceContributor {
   /// Implicit windows of k > 1 steps are stepped again whole from their saved start when the water
   /// does not accept them (docs/coupler.md "Windows of several steps"); one-step windows are not
   /// (their step is predicted again before it is taken), nor are explicit ones (always accepted).
-  bool repeatsWindows() const;
+  bool repeatsWindows() const override;
   /// k: solid steps a window.
-  Index windowSteps() const;
+  Index windowSteps() const override;
   /// True between the first and the last step of a window (results are sampled at window ends).
   bool windowOpen() const;
 
