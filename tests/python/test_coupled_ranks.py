@@ -13,9 +13,10 @@ moves.
 
 Asserted: every dataset of /monitors, /energy and /coupling (the works, the coupling energy, the
 volume law's pressure, the wetted face's force and mean acceleration, the water pressure at the
-monitors) on 2, 3, 4 and 8 ranks equal to the one-process run within 1e-10 of the largest magnitude
-of its series (a vector's components against the largest of them; round-off: a frontier node's
-internal force is summed in rank order instead of element order; measured 6.6e-13 to 1.0e-12); the
+monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every node's force and mass
+is summed in the one-process order on any rank count, docs/architecture.md "The solid on ranks"),
+but the whole-model energy sums (/energy/history, summed over each rank's elements and then across
+ranks), within 1e-13 of the largest magnitude of their series (measured 7.9e-16 to 1.0e-15); the
 /coupling counters (windows, passes) equal; on one rank (`--distributed` without other ranks) every
 dataset bitwise equal.
 """
@@ -46,8 +47,10 @@ pytestmark = [pytest.mark.skipif(EXE is None, reason="tq-solid is not built (set
 
 DT, K_STEPS, WINDOWS = 2e-5, 4, 60  # solid step (s), steps a window, windows: 4.8 ms of shaking
 TOKEN = "coupled-ranks-test"
-#: the bound on every monitored quantity against the one-process run, relative to its peak
-BOUND = 1e-10
+#: the bound on the energy sums against the one-process run, relative to their series' peak
+ENERGY_SUM_BOUND = 1e-13
+#: the datasets summed over every element in rank order, not bitwise
+RANK_ORDER_SUMS = ("energy/history",)
 
 
 def half_held_ring(path: Path) -> None:
@@ -182,7 +185,10 @@ def test_coupled_run_on_ranks_equals_the_one_process_run(one_process, tmp_path, 
         rel = float(np.max(np.abs(got2 - ref2))) / peak if peak > 0 else float(np.max(np.abs(got2), initial=0.0))
         print(f"{ranks} ranks: {name}: {rel:.2g} of its peak")
         worst = max(worst, rel)
-        assert rel <= BOUND, (name, rel)
+        if name in RANK_ORDER_SUMS:
+            assert rel <= ENERGY_SUM_BOUND, (name, rel)
+        else:
+            assert np.array_equal(got2, ref2), (name, rel)
     print(f"{ranks} ranks: largest difference of any monitored quantity {worst:.2g} of its peak")
     # the volume law carries a pressure of the water's order (no round-off compared with round-off): the
     # section's area changes as the free half sags and the x push moves it
