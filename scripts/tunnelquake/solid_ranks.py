@@ -68,17 +68,22 @@ def ranks_refusal(case, ranks: int) -> list[str]:
 #: slice on 2 ranks, 1,464 elements, peaked at 28 MiB), then bytes per solid element from the
 #: 2,000,376-element box on 2 ranks (docs/benchmarks.md "A 2-million-element model on ranks"): a
 #: rank's part (its elements as a solver: rank 0 held 1,811 MiB more than rank 1, the whole model),
-#: the whole mesh and partition every rank reads (the rest of rank 1's 1,170 MiB).
+#: the whole mesh and partition every rank reads (the rest of rank 1's 1,170 MiB before the sums in
+#: the one-process order), and those sums' stored corner forces and plans (rank 1 1,170 -> 1,314 MiB
+#: for its 1,000,188 elements when they came).
 RANK_BASE_BYTES = 28 * 2**20
 PART_BYTES_PER_ELEMENT = 1811 * 2**20 / 2_000_376
 WHOLE_MESH_BYTES_PER_ELEMENT = (1170 - 28 - 1811 / 2) * 2**20 / 2_000_376
+ORDER_SUM_BYTES_PER_ELEMENT = (1314 - 1170) * 2**20 / 1_000_188
 
 
 def memory_per_rank(solid_elements: int, ranks: int) -> tuple[float, float]:
     """Estimated peak memory (bytes) of rank 0 and of each other rank of a run of `solid_elements` on
-    `ranks` ranks: every rank its share of the elements and the whole mesh; rank 0 also the whole
-    model it gathers the results into."""
-    other = RANK_BASE_BYTES + solid_elements * (PART_BYTES_PER_ELEMENT / ranks + WHOLE_MESH_BYTES_PER_ELEMENT)
+    `ranks` ranks: every rank its share of the elements (with the one-process order's sums above one
+    rank) and the whole mesh; rank 0 also the whole model it gathers the results into."""
+    share = solid_elements / ranks
+    other = (RANK_BASE_BYTES + share * (PART_BYTES_PER_ELEMENT + (ORDER_SUM_BYTES_PER_ELEMENT if ranks > 1 else 0))
+             + solid_elements * WHOLE_MESH_BYTES_PER_ELEMENT)
     return other + solid_elements * PART_BYTES_PER_ELEMENT, other
 
 
