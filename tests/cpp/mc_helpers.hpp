@@ -51,6 +51,22 @@ inline tq::Mesh withLining(const tq::Mesh& r, const tq::Mesh& l) {
   return m;
 }
 
+/// Pairs each rock node (numbered below `rockNodes`) at radius `radius` from the y axis with the
+/// lining node (numbered from `rockNodes`) at the same place: the rock–lining pairs of a lined ring.
+inline void pairRockWithLiningAt(tq::Mesh& m, Index rockNodes, Real radius) {
+  for (Index n = 0; n < rockNodes; ++n) {
+    const Real* x = &m.coords[3 * size_t(n)];
+    if (std::abs(std::hypot(x[0], x[2]) - radius) > 1e-9) continue;
+    for (Index q = rockNodes; q < m.numNodes(); ++q) {
+      const Real* y = &m.coords[3 * size_t(q)];
+      if (std::abs(x[0] - y[0]) + std::abs(x[1] - y[1]) + std::abs(x[2] - y[2]) < 1e-9) {
+        m.rockLiningPairs.push_back(n);
+        m.rockLiningPairs.push_back(q);
+      }
+    }
+  }
+}
+
 /// A lining box (z in [0, hl], nzl elements high) on a rock box (z in [−hr, 0], nzr elements high),
 /// nx × ny columns of side w, the nodes at z = 0 doubled (rock node, lining node) and listed as
 /// pairs. Faces: bottom (the rock's), top (the lining's), lining_outer (the lining's bottom,

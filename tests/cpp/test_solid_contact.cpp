@@ -279,16 +279,9 @@ TEST(SolidContact, PairsFromTheMeshHaveRadialNormalsAndTributaryAreasOnARing) {
   Mesh m = withLining(r, l);
   const Index off = r.numNodes();
   for (Index q : l.faces.at("outer")) m.faces["lining_outer"].push_back(q + off);
-  for (Index n = 0; n < off; ++n) {
-    const Real* x = &m.coords[3 * size_t(n)];
-    if (std::abs(std::hypot(x[0], x[2]) - 6.0) > 1e-9) continue;
-    const Index q = nodeAt(m, x, n);
-    ASSERT_GE(q, off);
-    m.rockLiningPairs.push_back(n);
-    m.rockLiningPairs.push_back(q);
-  }
+  pairRockWithLiningAt(m, off, 6.0);
   const ContactPairs p = rockLiningPairs(m);
-  ASSERT_EQ(p.size(), 96);
+  ASSERT_EQ(p.size(), 96);  // every rock node at r = 6 m (48 around, 2 across) with its lining node
   Real total = 0;
   for (Index k = 0; k < p.size(); ++k) {
     const Real* x = &m.coords[3 * size_t(p.node1[k])];

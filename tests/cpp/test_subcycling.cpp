@@ -24,6 +24,7 @@
 
 using namespace tq;
 using tqtest::GaussPulse;
+using tqtest::pairRockWithLiningAt;
 using tqtest::StagedRun;
 
 namespace {
@@ -114,17 +115,7 @@ LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real t
   }
   m.faces["rock_outer"] = r.faces.at("outer");
   for (Index q : l.faces.at("outer")) m.faces["lining_outer"].push_back(q + off);
-  for (Index n = 0; n < off; ++n) {  // the rock's nodes at r = 6 m pair with the lining's outer nodes
-    const Real* x = &m.coords[3 * size_t(n)];
-    if (std::abs(std::hypot(x[0], x[2]) - 6.0) > 1e-9) continue;
-    for (Index q = off; q < m.numNodes(); ++q) {
-      const Real* y = &m.coords[3 * size_t(q)];
-      if (std::abs(x[0] - y[0]) + std::abs(x[1] - y[1]) + std::abs(x[2] - y[2]) < 1e-9) {
-        m.rockLiningPairs.push_back(n);
-        m.rockLiningPairs.push_back(q);
-      }
-    }
-  }
+  pairRockWithLiningAt(m, off, 6.0);  // the rock's nodes at r = 6 m with the lining's outer nodes
   checkMesh(m);
   SolverOptions opt;
   opt.damping.alpha = 2;  // light mass damping
