@@ -218,8 +218,20 @@ def _water_column_lines(P, res, out: Path, unwritten: list) -> list[str]:
     return lines
 
 
+def joint_hold_note(hold: str) -> str:
+    """What the rings' ties to the rock (lining_joints.held_at) mean for the joints' openings."""
+    if hold == "ring_middle":
+        return ("The rings are tied to the rock on their middle plane only (`lining_joints.held_at: ring_middle`): "
+                "each moves with the ground there, so a joint opens by about the ground's axial strain times the "
+                "ring length (docs/verification.md \"Lining joints\").")
+    return ("The rings are tied to the rock along their length (`lining_joints.held_at: along_ring`): each strains "
+            "with the ground, so a joint opens by less than the ground's axial strain times the ring length (12 m "
+            "rings of the rock's own properties: 19 % less than with `ring_middle`, docs/verification.md "
+            "\"Lining joints\").")
+
+
 def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float | None = None,
-                 axes: dict | None = None) -> list[str]:
+                 axes: dict | None = None, hold: str = "along_ring") -> list[str]:
     """The lining as a beam along the axis (3D results): per condition the largest |resultant|
     at the seismic start and over the snapshots, each with its y, the interface's largest slip,
     and the CSV of the whole profile (post.lining_along_axis, also put in `axes` by condition for
@@ -260,7 +272,7 @@ def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float 
         lines += ["The lining's joints (lining_joints): per joint its opening along the axis (the mean over the "
                   "joint's area; > 0 open, < 0 closed), its largest and smallest at any pair, the slip across it and "
                   "the axial force through it (tension +), at the output times; the histories in "
-                  "`joints_<condition>.csv` (docs/theory.md \"Lining joints\").", "",
+                  "`joints_<condition>.csv` (docs/theory.md \"Lining joints\"). " + joint_hold_note(hold), "",
                   "| condition | joint y (m) | peak mean opening (m) | largest opening at a pair (m) | largest "
                   "closing (m) | largest slip (m) | largest \\|axial force\\| (N) |",
                   "|---|---:|---:|---:|---:|---:|---:|", *joint_rows, "", *joint_notes]
@@ -329,8 +341,11 @@ def post_case(case) -> Path:
     else:
         lines += R.differences_section(results, order)
         axes: dict = {}
+        from .case import joint_hold
+
         lines += _lining_axis(P, results, out, unwritten,
-                              (case.data.get("lining_joints") or {}).get("allowed_opening"), axes)
+                              (case.data.get("lining_joints") or {}).get("allowed_opening"), axes,
+                              joint_hold(case.data))
         dyn = next((r for r in results if r.condition == "dynamic_water"), None)
         fluid = P.read_fluid_interface(out / "dynamic_water" / "fluid") if dyn is not None else None
         if dyn is not None:

@@ -233,8 +233,8 @@ HELD_RING = 12.0
 @pytest.mark.skipif(EXE is None, reason="tq-solid with lining joints is not built (set TQ_BUILD_DIR)")
 def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_path):
     from tunnelquake import post as P
-    from tunnelquake.case import ground_layers
-    from tunnelquake.case_report import _joint_rows
+    from tunnelquake.case import ground_layers, joint_hold
+    from tunnelquake.case_report import _joint_rows, joint_hold_note
     from tunnelquake.freefield import free_field, incident_motion
     from tunnelquake.prepare import make_mesh, make_motion, mesh_dir
     from tunnelquake.solid_input import write_solid_input
@@ -281,3 +281,5 @@ def test_each_joint_opens_by_the_free_fields_strain_times_the_ring_length(tmp_pa
     rows, notes = _joint_rows(P, res, tmp_path, [], d["lining_joints"]["allowed_opening"])
     assert len(rows) == 6 and len(notes) == 1 and "1 mm" not in notes[0] and "0.001" in notes[0]
     assert (tmp_path / "joints_no_water.csv").is_file()
+    assert "ring_middle" in joint_hold_note(joint_hold(d)) and "about the ground's axial strain" in joint_hold_note(
+        joint_hold(d))
