@@ -71,6 +71,20 @@ def solid_input(case, folder: Path, layers=None, geology=None) -> Path:
     return write_solid_input(case, folder / "mesh.h5", folder / "motion.h5", "no_water", folder / "in.h5")
 
 
+def checked_input(folder: Path, text: str, capsys):
+    """The case `text` written to folder/case.yaml, passed by `tunnelquake check` (asserted), loaded,
+    and its no_water tq-solid input made with the case's ground layers and geology (solid_input);
+    returns (the case, the input's path)."""
+    from tunnelquake.case import case_geology, ground_layers, load_case
+    from tunnelquake.cli import main
+
+    p = folder / "case.yaml"
+    p.write_text(text)
+    assert main(["check", str(p)]) == 0, capsys.readouterr().err
+    case = load_case(p)
+    return case, solid_input(case, folder, ground_layers(case.data), case_geology(case.data))
+
+
 def solid_with(*capabilities: str):
     """The built tq-solid when its --capabilities lists each of `capabilities`, else None."""
     from tunnelquake import paths

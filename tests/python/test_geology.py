@@ -29,10 +29,9 @@ from case_edits import check_edited
 from case_texts import synthetic_motion, tunnel
 from test_solid_input import _solid_with_stages
 
-from conftest import mesh_and_motion, run_solid, solid_input
+from conftest import checked_input, mesh_and_motion, run_solid, solid_input
 from tunnelquake import meshing
 from tunnelquake.case import case_geology, ground_layers, load_case
-from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
 from tunnelquake.meshing.geology import from_case, plane_normal
 from tunnelquake.meshing.params import element_counts, resolve
@@ -256,12 +255,7 @@ def test_tq_solid_vertical_stress_is_the_overburden_far_from_the_dip(tmp_path, c
     vertical of the point below the interface (x = 60, z = 0 m) crosses it: printed, not asserted (the local column's integral
     is not the exact stress of a laterally varying ground)."""
     exe = _solid_with_stages()
-    p = tmp_path / "case.yaml"
-    p.write_text(STATIC)
-    assert main(["check", str(p)]) == 0, capsys.readouterr().err
-    case = load_case(p)
-    d = case.data
-    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
+    _, inp = checked_input(tmp_path, STATIC, capsys)
     with h5py.File(inp) as f:
         assert float(f["in_situ"].attrs["density"]) == RHO["rock"]  # the stress starts from one density
     res = tmp_path / "results.h5"

@@ -28,9 +28,8 @@ from case_texts import synthetic_motion, tunnel
 from static_section import monitors_against_section
 from test_solid_input import _solid_with_stages
 
-from conftest import run_solid, solid_input
-from tunnelquake.case import case_geology, ground_layers, load_case
-from tunnelquake.cli import main
+from conftest import checked_input, run_solid
+from tunnelquake.case import case_geology, ground_layers
 from tunnelquake.meshing.params import resolve, surface_nodes
 
 G = 9.81
@@ -176,15 +175,11 @@ def test_static_stress_under_the_portal_matches_calculix(tmp_path, capsys):
     from scipy.interpolate import LinearNDInterpolator
 
     exe = _solid_with_stages()
-    p = tmp_path / "case.yaml"
-    p.write_text(STATIC)
-    assert main(["check", str(p)]) == 0, capsys.readouterr().err
-    case = load_case(p)
+    case, inp = checked_input(tmp_path, STATIC, capsys)
     d = case.data
     plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     ys, zs = _profile(plan)
     assert zs[0] == pytest.approx(9.75) and zs[-1] == pytest.approx(Z_TOP)  # the head, the top
-    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
     res = tmp_path / "results.h5"
     run_solid(exe, inp, res, timeout=600)
     cents, ccx = _ccx_section(tmp_path, plan)

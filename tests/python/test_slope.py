@@ -29,7 +29,7 @@ from case_texts import record_motion, ricker_pulse_file, synthetic_motion, tunne
 from static_section import monitors_against_section
 from test_solid_input import _solid_with_stages
 
-from conftest import run_solid, solid_input
+from conftest import checked_input, run_solid
 from tunnelquake.case import case_geology, ground_layers, load_case
 from tunnelquake.cli import main
 from tunnelquake.meshing import build_tunnel_mesh, hexmesh
@@ -305,12 +305,7 @@ def test_static_stress_under_the_slope_matches_calculix(tmp_path, capsys):
     from scipy.interpolate import LinearNDInterpolator
 
     exe = _solid_with_stages()
-    p = tmp_path / "case.yaml"
-    p.write_text(STATIC)
-    assert main(["check", str(p)]) == 0, capsys.readouterr().err
-    case = load_case(p)
-    d = case.data
-    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
+    _, inp = checked_input(tmp_path, STATIC, capsys)
     res = tmp_path / "results.h5"
     run_solid(exe, inp, res, timeout=300)
     cents, ccx = _ccx_plane_strain(tmp_path)
@@ -372,12 +367,8 @@ def test_motion_away_from_the_slope_is_the_layered_free_field(tmp_path, capsys):
 
     exe = _solid_with_stages()
     ricker_pulse_file(tmp_path / "pulse.txt")
-    p = tmp_path / "case.yaml"
-    p.write_text(DYNAMIC + "".join(f"    {k}: [{x}, 1.25, {z}]\n" for k, (x, z, _) in FAR.items()))
-    assert main(["check", str(p)]) == 0, capsys.readouterr().err
-    case = load_case(p)
-    d = case.data
-    inp = solid_input(case, tmp_path, ground_layers(d), case_geology(d))
+    _, inp = checked_input(tmp_path, DYNAMIC + "".join(f"    {k}: [{x}, 1.25, {z}]\n" for k, (x, z, _) in FAR.items()),
+                           capsys)
     res = tmp_path / "results.h5"
     run_solid(exe, inp, res, timeout=600)
     with h5py.File(tmp_path / "motion.h5") as f:
