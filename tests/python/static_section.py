@@ -2,7 +2,9 @@
 slope and portal tests' CalculiX comparisons)."""
 from __future__ import annotations
 
+import subprocess
 from collections.abc import Callable
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -38,3 +40,28 @@ def monitors_against_section(results, names, reference: Callable, axis: int, com
             assert moved > 0.05, name
     print(f"largest difference {100 * worst:.2f} % of the vertical stress")
     return worst
+
+
+def ccx_section_stress(work: Path, name: str, deck: list[str], elements: int, start) -> np.ndarray:
+    """CalculiX on the plane-strain deck `deck` (lines; written to work/name.inp, one thread): each
+    CPE8R element's stress [horizontal, vertical, shear], the mean of its 8 printed points, with
+    the start `start` ([horizontal, vertical] at each element) added (the deck loads only the change
+    from it)."""
+    (work / f"{name}.inp").write_text("\n".join(deck) + "\n")
+    env = {"OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1", "CCX_NPROC_STIFFNESS": "1",
+           "NUMBER_OF_CPUS": "1", "PATH": "/usr/bin:/bin"}
+    run = subprocess.run(["ccx", "-i", name], cwd=work, capture_output=True, text=True, env=env, timeout=300)
+    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:] + run.stderr
+    stress, count = np.zeros((elements, 3)), np.zeros(elements)
+    for line in (work / f"{name}.dat").read_text().splitlines():
+        parts = line.split()
+        if len(parts) == 8 and parts[0].isdigit():
+            e = int(parts[0]) - 1
+            horizontal, vertical, _, shear = (float(v) for v in parts[2:6])
+            stress[e] += (horizontal, vertical, shear)
+            count[e] += 1
+    assert (count == 8).all()  # CalculiX expands a CPE8R into a C3D20R of 8 points
+    stress /= count[:, None]
+    stress[:, 0] += start[0]
+    stress[:, 1] += start[1]
+    return stress

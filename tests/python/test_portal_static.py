@@ -20,12 +20,11 @@ from __future__ import annotations
 
 import math
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
 from case_texts import synthetic_motion, tunnel
-from static_section import monitors_against_section
+from static_section import ccx_section_stress, monitors_against_section
 from test_solid_input import _solid_with_stages
 
 from conftest import checked_input, run_solid
@@ -148,25 +147,7 @@ def _ccx_section(work, plan, per_element=2, h_low=1.5):
     lines += ["*STEP", "*STATIC", "*CLOAD"]
     lines += [f"{n}, {d + 1}, {force[n, d]:.12e}" for n in np.flatnonzero(np.abs(force).sum(axis=1)) for d in (0, 1)]
     lines += ["*EL PRINT, ELSET=EROCK", "S", "*END STEP"]
-    (work / "portal.inp").write_text("\n".join(lines) + "\n")
-    env = {"OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1", "CCX_NPROC_STIFFNESS": "1",
-           "NUMBER_OF_CPUS": "1", "PATH": "/usr/bin:/bin"}
-    run = subprocess.run(["ccx", "-i", "portal"], cwd=work, capture_output=True, text=True, env=env, timeout=300)
-    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:] + run.stderr
-    stress, count = np.zeros((len(elems), 3)), np.zeros(len(elems))
-    for line in (work / "portal.dat").read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 8 and parts[0].isdigit():
-            e = int(parts[0]) - 1
-            syy, szz, _, syz = (float(v) for v in parts[2:6])
-            stress[e] += (syy, szz, syz)
-            count[e] += 1
-    assert (count == 8).all()  # CalculiX expands a CPE8R into a C3D20R of 8 points
-    stress /= count[:, None]
-    s0 = _sigma0(cents[:, 1])
-    stress[:, 0] += s0[0]
-    stress[:, 1] += s0[1]
-    return cents, stress
+    return cents, ccx_section_stress(work, "portal", lines, len(elems), _sigma0(cents[:, 1]))
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")

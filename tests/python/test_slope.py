@@ -19,14 +19,13 @@ from __future__ import annotations
 
 import math
 import shutil
-import subprocess
 
 import h5py
 import numpy as np
 import pytest
 from case_edits import check_edited
 from case_texts import record_motion, ricker_pulse_file, synthetic_motion, tunnel, wave_tunnel
-from static_section import monitors_against_section
+from static_section import ccx_section_stress, monitors_against_section
 from test_solid_input import _solid_with_stages
 
 from conftest import checked_input, run_solid
@@ -277,26 +276,7 @@ def _ccx_plane_strain(work, h=2.0):
     # the soft layer weighs (rho_soft - rho_rock) g more than the start's overburden assumed: upwards here
     lines += ["*DLOAD", f"ESOFT, GRAV, {G!r}, 0., {1.0 if RHO['soft'] < RHO['rock'] else -1.0}, 0."]
     lines += ["*EL PRINT, ELSET=EROCK", "S", "*EL PRINT, ELSET=ESOFT", "S", "*END STEP"]
-    (work / "slope.inp").write_text("\n".join(lines) + "\n")
-    env = {"OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1", "CCX_NPROC_STIFFNESS": "1",
-           "NUMBER_OF_CPUS": "1", "PATH": "/usr/bin:/bin"}
-    run = subprocess.run(["ccx", "-i", "slope"], cwd=work, capture_output=True, text=True, env=env, timeout=300)
-    assert run.returncode == 0 and "Job finished" in run.stdout, run.stdout[-2000:] + run.stderr
-    stress = np.zeros((len(elems), 3))
-    count = np.zeros(len(elems))
-    for line in (work / "slope.dat").read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 8 and parts[0].isdigit():
-            e = int(parts[0]) - 1
-            sxx, syy, _, sxy = (float(v) for v in parts[2:6])
-            stress[e] += (sxx, syy, sxy)
-            count[e] += 1
-    assert (count == 8).all()  # CalculiX expands a CPE8R into a C3D20R of 8 points
-    stress /= count[:, None]
-    sx0, sz0 = _sigma0(cents[:, 1])
-    stress[:, 0] += sx0
-    stress[:, 1] += sz0
-    return cents, stress
+    return cents, ccx_section_stress(work, "slope", lines, len(elems), _sigma0(cents[:, 1]))
 
 
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
