@@ -127,3 +127,60 @@ def test_coupled_run_on_ranks_with_a_rank_killed_resumes_bitwise_equal(tmp_path,
     assert status(case / "results.h5") == "completed"
     assert results_differences(ref / "results.h5", case / "results.h5") == []
     assert not (case / "checkpoint" / "checkpoint.json").exists()  # a completed run leaves none to resume
+
+
+#: the OpenFOAM case: shaking simulated, s, and a checkpoint every INTERVAL s of it (both sides)
+END, INTERVAL = 0.2, 0.05
+
+
+def test_run_on_ranks_with_openfoams_water_killed_and_resumed_is_bitwise_equal(tmp_path, capsys, monkeypatch):
+    """`tunnelquake run --ranks 2` of the example's dynamic_water (OpenFOAM's water), rank 1 killed
+    (SIGKILL) at 85 % of the shaking, after both sides wrote their checkpoint of 0.15 s: `run
+    --ranks 3 --resume` is refused by name with the fix, before the water starts; `run --ranks 2
+    --resume` starts both sides from the last window both wrote, the water as the one-process resume
+    does (its fluid-<window>.bin), and ends with every dataset and attribute of the results (all but
+    the wall-clock figures) byte for byte those of the run on 2 ranks never stopped."""
+    from test_restart import _case_text
+
+    from conftest import ran_case
+    from tunnelquake.case import load_case
+    from tunnelquake.cli import main
+    from tunnelquake.restart import coupled_resume_point
+
+    ref = tmp_path / "reference"
+    ref.mkdir()
+    ran_case(ref, _case_text("dynamic_water", END, INTERVAL), "--ranks", "2", "--no-post")
+    said = capsys.readouterr().out
+    assert "--checkpoint-dir" in said, said[-3000:]
+    with h5py.File(ref / "results" / "results_dynamic_water.h5", "r") as f:
+        steps = int(f["timings"].attrs["steps"])
+        assert int(f["timings"].attrs["checkpoints"]) == 3  # at 0.05, 0.1 and 0.15 s; none at the end
+        assert int(f["ranks"].attrs["ranks"]) == 2
+    case = tmp_path / "case"
+    (case / "results").mkdir(parents=True)
+    shutil.copy(ref / "case.yaml", case / "case.yaml")
+    shutil.copytree(ref / "results" / "mesh", case / "results" / "mesh")
+    shutil.copy(ref / "results" / "motion.h5", case / "results" / "motion.h5")
+
+    monkeypatch.setenv("TQ_RANK_FAULT", f"1:{int(0.85 * steps)}")
+    assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--no-post"]) != 0
+    monkeypatch.delenv("TQ_RANK_FAULT")
+    res = case / "results" / "results_dynamic_water.h5"
+    stopped = status(res)
+    assert stopped.startswith("stopped: the run on ranks was ended by signal"), stopped
+    m = coupled_resume_point(load_case(case / "case.yaml"), "dynamic_water")
+    assert m is not None and float(m["time"]) == pytest.approx(3 * INTERVAL, rel=0.02), m
+    capsys.readouterr()
+
+    assert main(["run", str(case / "case.yaml"), "--ranks", "3", "--resume", "--no-post"]) != 0
+    said = capsys.readouterr().out
+    assert "was written by the run on 2 ranks; resume it on 2 ranks (--ranks 2)" in said, said[-3000:]
+    assert "running the water" not in said, said[-3000:]
+    assert status(res) == stopped
+
+    assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--resume", "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert f"resume: dynamic_water continues from its checkpoint at t = {float(m['time']):.6g} s" in said, said[-3000:]
+    assert status(res) == "completed"
+    assert results_differences(ref / "results" / "results_dynamic_water.h5", res) == []
+    assert not list((case / "results" / "dynamic_water" / "checkpoint").glob("*-*"))

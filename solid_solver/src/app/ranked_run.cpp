@@ -657,7 +657,8 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
 }
 
 /// Test hook (docs/solid_solver.md "Restart checkpoints on ranks"): TQ_RANK_FAULT=<rank>:<step>
-/// kills rank <rank> (SIGKILL, as a lost node) once it has taken <step> steps of the time loop;
+/// kills rank <rank> (SIGKILL, as a lost node) at the first final state once it has taken <step> steps of the
+/// time loop (coupled: a window's end);
 /// 0 (none) on every other rank or without it.
 long long rankFaultStep(int rank) {
   const char* f = std::getenv("TQ_RANK_FAULT");
@@ -863,7 +864,8 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       const auto onFinal = [&] {
         if (water && rank == 0)
           if (const std::string note = water->adapter()->takeNote(); !note.empty()) out << "tq-solid: " << note << "\n";
-        if (faultStep > 0 && s.stepCount() - step0 == faultStep) std::raise(SIGKILL);
+        if (faultStep > 0 && s.stepCount() - step0 >= faultStep)  // coupled: at the first window end past it
+          std::raise(SIGKILL);
         const Real t = s.time(), gap = t - tPrev;
         tPrev = t;
         const bool due = t + gap >= nextSample - 1e-9 * gap;
