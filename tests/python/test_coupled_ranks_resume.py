@@ -130,12 +130,12 @@ def test_coupled_run_on_ranks_with_a_rank_killed_resumes_bitwise_equal(tmp_path,
 
 
 #: the OpenFOAM case: shaking simulated, s, and a checkpoint every INTERVAL s of it (both sides)
-END, INTERVAL = 0.2, 0.05
+END, INTERVAL = 0.1, 0.025
 
 
 def test_run_on_ranks_with_openfoams_water_killed_and_resumed_is_bitwise_equal(tmp_path, capsys, monkeypatch):
     """`tunnelquake run --ranks 2` of the example's dynamic_water (OpenFOAM's water), rank 1 killed
-    (SIGKILL) at 85 % of the shaking, after both sides wrote their checkpoint of 0.15 s: `run
+    (SIGKILL) at 85 % of the shaking, after both sides wrote their checkpoint of 0.075 s: `run
     --ranks 3 --resume` is refused by name with the fix, before the water starts; `run --ranks 2
     --resume` starts both sides from the last window both wrote, the water as the one-process resume
     does (its fluid-<window>.bin), and ends with every dataset and attribute of the results (all but
@@ -154,7 +154,7 @@ def test_run_on_ranks_with_openfoams_water_killed_and_resumed_is_bitwise_equal(t
     assert "--checkpoint-dir" in said, said[-3000:]
     with h5py.File(ref / "results" / "results_dynamic_water.h5", "r") as f:
         steps = int(f["timings"].attrs["steps"])
-        assert int(f["timings"].attrs["checkpoints"]) == 3  # at 0.05, 0.1 and 0.15 s; none at the end
+        assert int(f["timings"].attrs["checkpoints"]) == 3  # at 0.025, 0.05 and 0.075 s; none at the end
         assert int(f["ranks"].attrs["ranks"]) == 2
     case = tmp_path / "case"
     (case / "results").mkdir(parents=True)
