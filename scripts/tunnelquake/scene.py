@@ -100,12 +100,13 @@ def assess_slice(case) -> SliceAssessment:
                               "the whole force, the water's head included, so 1e-3 accepts errors of about 1 % of the "
                               "hydrodynamic force; in 3D they fed the closed water column's axial breathing mode (paper "
                               "case: energy created from 13.5 s, the run wrong by 16 s; docs/coupler.md \"Energy guard\")")
-        if not any(subcycling_levels(d, c) for c in d["conditions"]):
+        single = [c for c in d["conditions"] if not subcycling_levels(d, c)]
+        if single:
             # Measured on the paper mesh (docs/benchmarks.md "Solid subcycling and element order"): the
             # lining's 0.25 m layers set the step; the rock may take up to 8 times it.
-            advice.append("time.subcycling: 3 lets the rock step up to 8 times the lining's step (paper mesh in 3D: "
-                          "0.32 of the element evaluations, about 1.9x fewer solid seconds a step; "
-                          "docs/solid_solver.md \"Subcycling\")")
+            advice.append(f"time.subcycling: 3 (here single-rate: {', '.join(single)}) lets the rock step up to 8 "
+                          "times the lining's step (paper mesh in 3D: 0.32 of the element evaluations, about 1.9x "
+                          "fewer solid seconds a step; docs/solid_solver.md \"Subcycling\")")
     return SliceAssessment(valid=not reasons, reasons=reasons, advice=advice)
 
 

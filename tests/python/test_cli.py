@@ -7,6 +7,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
+from case_edits import with_time
 
 from conftest import EXAMPLE, ROOT
 from tunnelquake.cli import main
@@ -78,7 +79,7 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
     from tunnelquake.scene import plan
 
     # the first 0.02 s of shaking keeps the test short; the stages run in full
-    p = _local_case(tmp_path, EXAMPLE.read_text() + "\ntime:\n  end_time: 0.02 s\n")
+    p = _local_case(tmp_path, with_time(EXAMPLE.read_text(), end_time="0.02 s"))
     assert main(["run", str(p)]) == 0
     out = capsys.readouterr().out
     res = tmp_path / "results"
