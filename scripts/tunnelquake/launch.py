@@ -208,10 +208,11 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     (reconstructPar; the processor folders stay in <fluid>/processor*).
 
     `solid_ranks` > 1: tq-solid runs on that many MPI ranks (solid_ranks.solid_command), rank 0
-    exchanging the whole wetted face for every rank; then neither side writes restart checkpoints.
+    exchanging the whole wetted face for every rank.
 
-    Restart checkpoints (output.checkpoint_interval > 0, the water and the solid on one rank each): both sides write
-    theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows);
+    Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
+    theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows;
+    the solid on ranks gathers its ranks' parts into one, which resumes on the same rank count only);
     with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
     the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
     import secrets
@@ -255,7 +256,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         ranks = int(case.data["parallel"]["fluid_ranks"])
         every = settings["checkpoint_windows"]
         restart = None
-        if every > 0 and ranks == 1 and solid_ranks == 1:
+        if every > 0 and ranks == 1:
             restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
                        "restart_from": str(point["fluid"]) if point is not None else None,
                        "input_fingerprint": condition_inputs(case, cond)["digest"]}
@@ -297,8 +298,6 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
         if point is not None:
             solid_cmd += resume_args(point)
-    elif every > 0 and solid_ranks > 1:
-        say(f"condition {cond}: no restart checkpoints with the solid on {solid_ranks} ranks (--ranks)")
     elif every > 0:
         say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
     started(cond, res)

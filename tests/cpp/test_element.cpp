@@ -10,8 +10,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
 
 #include "test_helpers.hpp"
+#include "tq/core/element_block.hpp"
 #include "tq/elements/hex8.hpp"
 
 using namespace tq;
@@ -158,4 +162,34 @@ TEST(Hex8Element, AssumedStrainHourglassIsExactForPlaneStrainBending) {
   // Full integration adds the parasitic shear energy: ½ μ κ² (x² part) → ratio 1 + (μ/E')(a/c)²... > 1.
   const Real full = bendingEnergy(Hex8Formulation::FullIntegration, E, nu, a, b, c, kappa);
   EXPECT_GT(full / exact, 1.3);
+}
+
+namespace {
+// A material that keeps more history values an element than the element step passes.
+class ManyHistoryMaterial final : public Material {
+ public:
+  std::string typeName() const override { return "many_history"; }
+  Real density() const override { return 2000; }
+  ElasticModuli elasticModuli() const override { return ElasticModuli::fromYoungPoisson(1e9, 0.25); }
+  std::vector<std::string> historyNames() const override {
+    return std::vector<std::string>(ElementBlock::kMaxHistory + 1, "h");
+  }
+  void updateStressForElems(const MaterialChunk&) const override {}
+};
+}  // namespace
+
+// A material with more history than the step's stack array is refused when its block is built,
+// naming the block, the material and both counts, instead of having its extra values dropped.
+TEST(ElementBlock, AMaterialWithTooMuchHistoryIsRefusedByName) {
+  const Mesh m = makeBoxMesh(BoxSpec{1, 1, 1, 0, 0, 0, 1.0, 1.0, 1.0});
+  try {
+    ElementBlock b("rock", std::make_shared<ManyHistoryMaterial>(), Hex8Formulation::OnePointAssumedStrain, m, {0});
+    FAIL() << "built a block whose material keeps 33 history values";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("block 'rock'"), std::string::npos) << what;
+    EXPECT_NE(what.find("many_history"), std::string::npos) << what;
+    EXPECT_NE(what.find("keeps 33"), std::string::npos) << what;
+    EXPECT_NE(what.find("32"), std::string::npos) << what;
+  }
 }

@@ -74,7 +74,7 @@ def main(argv: list[str]) -> int:
         say(f"  {ranks_memory(d, args.ranks)}")
         if "dynamic_water" in d["conditions"]:
             say("  dynamic_water on ranks: rank 0 exchanges the whole wetted face with the water for every rank "
-                "(gathered each step); no restart checkpoints for it")
+                "(gathered each step)")
     from ..case import ground_layers
 
     if ground_layers(d):

@@ -13,6 +13,12 @@ A prescription is any callable ``t -> array[nodes, 3]``: the analytic ring of th
 Command line (the options of tq-coupler-dummy, and --history)::
 
     python -m tunnelquake.coupling.fakes --role fluid --token T --address-file run/wall.addr
+
+A fake restarts as a solver does (docs/reliability.md "Restart"): with ``--checkpoint-dir DIR
+--checkpoint-windows K`` it saves its participant's state (``save_state``) at the end of every K-th
+window into ``DIR/fake-<window>.bin``; ``--resume-from FILE`` starts from such a file
+(``initialize_resumed``) instead of window 0. A fake's own state is its prescription, a function of
+the window alone.
 """
 
 from __future__ import annotations
@@ -107,8 +113,11 @@ class _Fake:
     writes = reads = ""
 
     def __init__(self, participant: Participant, ids, coordinates, prescription: Prescription, triangles=None,
-                 mesh: str = "wall", die_at_window: int = -1, hang_at_window: int = -1):
+                 mesh: str = "wall", die_at_window: int = -1, hang_at_window: int = -1,
+                 checkpoint_dir: Path | None = None, checkpoint_windows: int = 0, resume_from: Path | None = None):
         self.p = participant
+        self.checkpoint_dir, self.checkpoint_windows = checkpoint_dir, checkpoint_windows
+        self.resume_from = resume_from
         self.mesh = mesh
         self.prescription = prescription
         self.die_at, self.hang_at = die_at_window, hang_at_window
@@ -120,7 +129,10 @@ class _Fake:
     def run(self) -> list[tuple[int, int, np.ndarray]]:
         """Runs the coupling to its end; returns what was read. Coupler errors propagate."""
         p = self.p
-        p.initialize()
+        if self.resume_from is not None:
+            p.initialize_resumed(Path(self.resume_from).read_bytes())
+        else:
+            p.initialize()
         window_size = p.config.window_size
         while p.is_coupling_ongoing():
             w, k = p.state.window, p.state.iteration
@@ -134,9 +146,20 @@ class _Fake:
             p.write_data(self.mesh, self.writes, self.prescription((w + 1) * window_size))
             p.advance(p.get_max_time_step_size())
             self.passes += 1
+            if self.checkpoint_windows > 0 and p.is_time_window_complete() \
+                    and p.state.window % self.checkpoint_windows == 0:
+                self.save(p.state.window)
         self.received.append((p.state.window, 0, p.read_data(self.mesh, self.reads)))
         p.finalize()
         return self.received
+
+
+    def save(self, window: int) -> None:
+        """The participant's state after `window` completed windows, written whole (by rename)."""
+        path = Path(self.checkpoint_dir) / f"fake-{window:09d}.bin"
+        part = path.with_suffix(".part")
+        part.write_bytes(self.p.save_state())
+        os.replace(part, path)
 
 
 class FakeSolid(_Fake):
@@ -178,7 +201,12 @@ def main(argv=None) -> int:
     ap.add_argument("--hang-at-window", type=int, default=-1)
     ap.add_argument("--history", help="replay this HDF5/.npz history instead of the analytic ring scenario")
     ap.add_argument("--report", help="write 'key value' lines: windows, passes, max_error, error_kind, exit")
+    ap.add_argument("--checkpoint-dir", type=Path, help="save the participant's state here (fake-<window>.bin)")
+    ap.add_argument("--checkpoint-windows", type=int, default=0, help="... at the end of every K-th window")
+    ap.add_argument("--resume-from", type=Path, help="start from this saved state instead of window 0")
     a = ap.parse_args(argv)
+    restart = {"checkpoint_dir": a.checkpoint_dir, "checkpoint_windows": a.checkpoint_windows,
+               "resume_from": a.resume_from}
 
     ring = RingScenario(a.n_theta, a.n_layers)
     cfg = ring_config(a.scheme, a.windows, a.window_size, a.acceleration, a.max_iterations, a.tolerance, a.map,
@@ -198,13 +226,16 @@ def main(argv=None) -> int:
         if a.history:
             h = History.load(a.history)
             fake = (FakeSolid if solid else FakeFluid)(p, h.ids, h.coordinates, h,
-                                                       die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+                                                       die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
+                                                       **restart)
         elif solid:
             fake = FakeSolid(p, ring.solid_ids(), ring.solid_coordinates(), lambda t: ring.velocity(t, True),
-                             ring.solid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+                             ring.solid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
+                             **restart)
         else:
             fake = FakeFluid(p, ring.fluid_ids(), ring.fluid_coordinates(), lambda t: ring.force(t, False),
-                             ring.fluid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window)
+                             ring.fluid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
+                             **restart)
         received = fake.run()
         # Check what was read against the partner's prescription (analytic scenario only): the
         # fluid every pass (the solid's data are never relaxed), the solid at window starts.

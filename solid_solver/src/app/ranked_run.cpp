@@ -7,7 +7,8 @@
 // rank. Rank 0 also holds the whole model as a mirror: at the sample and snapshot times the ranks'
 // nodes and elements are gathered into it, and the serial results writer writes the one results
 // file from it. Restart checkpoints: each rank saves its part's state, rank 0 gathers them into the
-// one-process run's checkpoint files.
+// one-process run's checkpoint files (coupled with the water: at the end of every K-th window, with
+// the coupling's state, as one process).
 #include "tq/app/ranked_run.hpp"
 
 #include "tq/app/app.hpp"
@@ -373,10 +374,18 @@ class RankCheckpoints {
 
   /// Due at the end of the step to `t` (every rank alike: the same t on all of them).
   bool due(Real t, Real dt, Real tEnd) const { return interval_ > 0 && t >= next_ - 1e-9 * dt && t < tEnd - 1e-9 * dt; }
+  /// Coupled with the water: due at the end of every K-th window instead (/coupling checkpoint_windows,
+  /// the water given the same K; 0: none), as one process: not inside a window, not after the last.
+  void everyWindows(long long k) { windows_ = k; }
+  bool due(const RankedCoupling& c) const {
+    return windows_ > 0 && !c.windowOpen() && c.windowsDone() % windows_ == 0 && c.windowsDone() < c.windowCount();
+  }
 
   /// Collective: every rank's state saved (`state`; rank 0's under `lock`, with the results file
-  /// flushed first), gathered and written by rank 0 with a copy of the results file.
-  void write(Real t, Real dt, long long step, const State& state, ResultsWriter* writer, std::mutex& lock) {
+  /// flushed first), gathered and written by rank 0 with a copy of the results file. `window`: the
+  /// coupling windows completed (-1: not coupled), for the manifest.
+  void write(Real t, Real dt, long long step, const State& state, ResultsWriter* writer, std::mutex& lock,
+             long long window = -1) {
     const auto c0 = std::chrono::steady_clock::now();
     while (t >= next_ - 1e-9 * dt) next_ += interval_;
     ++seq_;
@@ -411,6 +420,7 @@ class RankCheckpoints {
       m.time = t;
       m.step = step;
       m.samples = samples;
+      m.window = window;
       m.fingerprint = fingerprint_;
       m.inputs = inputs_;
       std::lock_guard<std::mutex> held(lock);
@@ -517,6 +527,7 @@ class RankCheckpoints {
   int rank_, size_;
   bool resume_;
   Real interval_, next_;
+  long long windows_ = 0;
   long long seq_ = 0, written_ = 0;
   double seconds_ = 0;
   std::string inputs_, fingerprint_;
@@ -527,31 +538,29 @@ class RankCheckpoints {
 
 /// What a coupled run (/coupling, condition dynamic_water) on ranks cannot honour, or "" (alike on
 /// every rank).
-std::string coupledRunOnRanksRefusal(const SolidInput& in, const RunOptions& cl) {
+std::string coupledRunOnRanksRefusal(const SolidInput& in) {
   const CouplingInput& ci = in.staged.coupling;
   if (!in.staged.present || !ci.present) return "";
   if (ci.transport == "mpi")
     return "/coupling transport mpi: the solid on ranks couples over TCP only (its ranks are one MPI job of their "
            "own); set /coupling transport tcp (tunnelquake run does), or run tq-solid as one process";
-  if (!cl.checkpointDir.empty())
-    return "--checkpoint-dir: the coupled run on ranks writes no restart checkpoints (the coupler's state with "
-           "each rank's part is not saved yet); run it without --checkpoint-dir (tunnelquake run --ranks does), or "
-           "as one process to have them";
   return "";
 }
 
 /// The water coupling on ranks (tq/coupling/ranked_coupling.hpp): the seismic step set from
 /// /coupling (collective), rank 0's adapter and carried laws made on its mirror (`view`) and
-/// connected, the coupling its ranks' solvers' Water contributor, the run's end at whole windows,
-/// the coupling's histories in rank 0's results (`writer`, null elsewhere).
+/// connected (`resuming`: not yet, once its state is restored: RankedCoupling::initializeResumed), the
+/// coupling its ranks' solvers' Water contributor, the run's end at whole windows, the coupling's
+/// histories in rank 0's results (`writer`, null elsewhere).
 std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& global, const RankLayout& L, Solver& s,
                                                     Solver* mirror, Solver* view, ResultsWriter* writer,
-                                                    std::mutex& lock, std::ostream& out, int rank, int size) {
+                                                    std::mutex& lock, std::ostream& out, int rank, int size,
+                                                    bool resuming) {
   const CouplingInput& ci = in.staged.coupling;
   if (ci.windowSize > 0) s.setTimeStep(ci.windowSize / Real(ci.windowSteps));
   auto water = std::make_shared<RankedCoupling>(ci, global, L.localNode, L.owned, s, mirror);
   if (rank == 0) out << "tq-solid: " << water->adapter()->describe() << "; waiting for the fluid" << std::endl;
-  water->initialize();
+  if (!resuming) water->initialize();
   s.addContributor(ForcePhase::Water, water);
   in.tEnd = water->endTime();  // whole windows
   if (writer) {
@@ -648,7 +657,8 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
 }
 
 /// Test hook (docs/solid_solver.md "Restart checkpoints on ranks"): TQ_RANK_FAULT=<rank>:<step>
-/// kills rank <rank> (SIGKILL, as a lost node) once it has taken <step> steps of the time loop;
+/// kills rank <rank> (SIGKILL, as a lost node) at the first final state once it has taken <step> steps of the
+/// time loop (coupled: a window's end);
 /// 0 (none) on every other rank or without it.
 long long rankFaultStep(int rank) {
   const char* f = std::getenv("TQ_RANK_FAULT");
@@ -694,7 +704,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
     try {
       SolidInput in = readSolidInput(cl.input);
       if (const std::string why = unsupportedOnRanks(in, size); !why.empty()) throw InputError(why);
-      if (const std::string why = coupledRunOnRanksRefusal(in, cl); !why.empty()) throw InputError(why);
+      if (const std::string why = coupledRunOnRanksRefusal(in); !why.empty()) throw InputError(why);
       const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
       const std::vector<Real> cost = elementCosts(global, in);
       const std::vector<int> part = partitionRcb(global, cost, size);
@@ -811,8 +821,10 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       }
       if (in.staged.present && in.staged.coupling.present) {
         coupling = in.staged.coupling;
-        water =
-            connectWaterOnRanks(in, global, layout, s, mirror.get(), view, writer.get(), gStop.mutex, out, rank, size);
+        water = connectWaterOnRanks(in, global, layout, s, mirror.get(), view, writer.get(), gStop.mutex, out, rank,
+                                    size, checkpoints && checkpoints->resuming());
+        if (checkpoints && in.checkpointInterval > 0)
+          checkpoints->everyWindows(std::max<long long>(1, in.staged.coupling.checkpointWindows));
       }
       // Everything a checkpoint holds of this rank, in this order (saved and restored alike).
       size_t nextSnap = 0;
@@ -821,6 +833,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
         if (writer) writer->checkpoint(a);
         a.io(nextSnap);
         checkpoints->io(a);
+        if (water) water->restartState(a);
       };
       if (checkpoints && checkpoints->resuming()) {
         checkpoints->restore(rankState, gStop.mutex);
@@ -828,7 +841,10 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
         const CheckpointManifest& m = checkpoints->from();
         if (rank == 0)
           out << "tq-solid: resumed from checkpoint " << m.sequence << " at t = " << m.time << " s (step " << m.step
-              << ", " << m.samples << " samples) on " << size << " rank(s)" << std::endl;
+              << ", " << m.samples << " samples"
+              << (m.window >= 0 ? ", coupling window " + std::to_string(m.window) : "") << ") on " << size << " rank(s)"
+              << std::endl;
+        if (water) water->initializeResumed();
       } else {
         if (checkpoints) checkpoints->clear();
         observe();
@@ -848,7 +864,8 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       const auto onFinal = [&] {
         if (water && rank == 0)
           if (const std::string note = water->adapter()->takeNote(); !note.empty()) out << "tq-solid: " << note << "\n";
-        if (faultStep > 0 && s.stepCount() - step0 == faultStep) std::raise(SIGKILL);
+        if (faultStep > 0 && s.stepCount() - step0 >= faultStep)  // coupled: at the first window end past it
+          std::raise(SIGKILL);
         const Real t = s.time(), gap = t - tPrev;
         tPrev = t;
         const bool due = t + gap >= nextSample - 1e-9 * gap;
@@ -863,8 +880,9 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
           withWriter([&](ResultsWriter& w) { w.snapshot(*view); });
           ++nextSnap;
         }
-        if (checkpoints && checkpoints->due(t, s.dt(), in.tEnd)) {
-          checkpoints->write(t, s.dt(), s.stepCount(), rankState, writer.get(), gStop.mutex);
+        if (checkpoints && (water ? checkpoints->due(*water) : checkpoints->due(t, s.dt(), in.tEnd))) {
+          checkpoints->write(t, s.dt(), s.stepCount(), rankState, writer.get(), gStop.mutex,
+                             water ? water->windowsDone() : -1);
           lastFlush = std::chrono::steady_clock::now();
         }
         if (!writer) return;

@@ -234,7 +234,12 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
   total_ = !full && material_->isLinearElastic();
   for (auto& s : stress_) s.assign(nChunks * kChunk, 0.0);  // padded to whole chunks
   for (auto& s : total_ ? offset_ : strain_) s.assign(nChunks * kChunk, 0.0);
-  for (size_t h = 0; h < material_->historyNames().size(); ++h) history_.emplace_back(E, 0.0);
+  const size_t nHistory = material_->historyNames().size();
+  if (nHistory > kMaxHistory)
+    throw InputError("block '" + name_ + "': material '" + material_->typeName() + "' keeps " +
+                     std::to_string(nHistory) + " history values an element, more than the " +
+                     std::to_string(kMaxHistory) + " the element step passes (ElementBlock::kMaxHistory)");
+  for (size_t h = 0; h < nHistory; ++h) history_.emplace_back(E, 0.0);
   for (auto& h : history_) historyPtr_.push_back(h.data());
   hgHistory_ = full ? -1 : material_->hourglassScaleHistory();
   for (size_t e = 0; e < E; ++e) {
@@ -363,8 +368,8 @@ void ElementBlock::setActive(Index e, bool on, const NodalState& state) {
   for (auto& h : history_) h[e] = 0;
   if (!history_.empty()) {  // the material's per-element data from the element's centre
     const Real* centre[3] = {&elemCentre_[0][size_t(e)], &elemCentre_[1][size_t(e)], &elemCentre_[2][size_t(e)]};
-    Real* hp[64];
-    for (size_t h = 0; h < history_.size() && h < 64; ++h) hp[h] = history_[h].data() + e;
+    Real* hp[kMaxHistory];
+    for (size_t h = 0; h < history_.size(); ++h) hp[h] = history_[h].data() + e;
     material_->initHistory(1, centre, hp);
   }
   // Restart strain-free from the current displacement (the next strain increment is measured
@@ -904,9 +909,8 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
     cv.offset[k] = kTotal && hasOffset_ ? offset_[k].data() + e0 : nullptr;
   }
   cv.allActive = std::all_of(cv.act, cv.act + kChunk, [](std::uint8_t a) { return a != 0; });
-  Real* hp[32];
-  const size_t nh = std::min<size_t>(historyPtr_.size(), 32);
-  for (size_t h = 0; h < nh; ++h) hp[h] = historyPtr_[h] + e0;
+  Real* hp[kMaxHistory];
+  for (size_t h = 0; h < historyPtr_.size(); ++h) hp[h] = historyPtr_[h] + e0;
   cv.history = hp;
   cv.material = material_.get();
   cv.n = std::min(kChunk, nElems_ - e0);

@@ -285,6 +285,7 @@ void RankedCoupling::planWindow(const NodalState& st) {
 
 void RankedCoupling::planStep(Index j, Real dt) {
   impl_->onRoot([&] { impl_->adapter->planStep(j, dt); }, secondsComm_);
+  open_ = true;
 }
 
 bool RankedCoupling::exchange(Real dt, const NodalState& st) {
@@ -293,12 +294,23 @@ bool RankedCoupling::exchange(Real dt, const NodalState& st) {
   Real accepted = 0;
   I.onRoot([&] { accepted = I.adapter->exchange(dt, I.size == 1 ? st : I.view->state()) ? 1 : 0; }, secondsComm_);
   I.broadcast(&accepted, 1, secondsComm_);
+  open_ = false;
   return accepted != 0;
 }
 
 void RankedCoupling::acceptWindow() {
   impl_->onRoot([&] { impl_->adapter->acceptWindow(); }, secondsComm_);
   ++done_;
+}
+
+// Restart checkpoints: the windows done on every rank, the adapter's state across windows on rank 0.
+void RankedCoupling::restartState(StateArchive& a) {
+  a.io(done_);
+  if (impl_->adapter) impl_->adapter->restartState(a);
+}
+
+void RankedCoupling::initializeResumed() {
+  impl_->onRoot([&] { impl_->adapter->initializeResumed(); }, secondsComm_);
 }
 
 }  // namespace tq

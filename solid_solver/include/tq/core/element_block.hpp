@@ -57,6 +57,8 @@ struct ElementStepParams {
 class ElementBlock {
  public:
   static constexpr Index kChunk = 64;  ///< elements per chunk (material update unit)
+  /// Most history values a material may keep per element (the step passes them on the stack).
+  static constexpr size_t kMaxHistory = 32;
 
   /// @param meshElems mesh element indices that form this block (all of one region).
   ElementBlock(std::string name, std::shared_ptr<const Material> material, Hex8Formulation formulation,

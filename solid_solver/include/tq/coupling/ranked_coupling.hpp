@@ -72,11 +72,24 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   bool repeatsWindows() const override { return repeats_; }
   Index windowSteps() const override { return steps_; }
 
+  // ---- restart checkpoints (at a window's end) ----------------------------------------------------
+  /// Completed windows, and whether a window is open (between its first step and its exchange): the
+  /// same on every rank, without a message.
+  long long windowsDone() const { return done_; }
+  bool windowOpen() const { return open_; }
+  /// The coupling's state across windows: the windows done (every rank), and on rank 0 the adapter's
+  /// (FluidCoupling::restartState: the coupler participant's bytes among it). Saved at a window's
+  /// end; restored before initializeResumed().
+  void restartState(StateArchive& archive);
+  /// Collective, initialize() for a run restored by restartState(): rank 0 connects and carries on
+  /// from the saved window (CouplingError on every rank).
+  void initializeResumed();
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::vector<Index> wet_;  // the wetted face's nodes (global indices, ascending)
-  bool repeats_ = false;
+  bool repeats_ = false, open_ = false;
   Index steps_ = 1;
   Real endTime_ = 0;
   long long windows_ = 0, done_ = 0;
