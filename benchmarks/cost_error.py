@@ -6,8 +6,9 @@ changed, one condition, cut to the record's first --end seconds (`time.end_time`
 is read whole, so its processing is the same as the full run's). Two ladders:
 
   dynamic_water  the coupling's settings: coupling.window (the solid steps per water step: the
-                 water's own rate), coupling.tolerance, coupling.scheme (implicit / explicit);
-                 against a converged reference (one-step windows, tolerance 1e-5)
+                 water's own rate), coupling.tolerance, coupling.scheme (implicit / explicit),
+                 and single-rate stepping against the case's time.subcycling; against a converged
+                 reference (one-step windows, tolerance 1e-5, single-rate)
   no_water       the solid's stepping: time.subcycling 1, 2, 3 against single-rate (0)
 
 With --variant NAME the case file's variant is laid over every point and the 3D ladder runs
@@ -74,22 +75,23 @@ def points() -> list[Point]:
     dw, nw = "dynamic_water", "no_water"
     tol = "coupling.tolerance"
     win = "coupling.window"
+    sub = "time.subcycling"
     return [
-        Point("implicit, window 1, tol 1e-5", dw, {win: 1, tol: 1e-5}, "reference"),
-        Point("implicit, window 16, tol 1e-3", dw, {}, "default"),
+        Point("implicit, window 1, tol 1e-5, subcycling 0", dw, {win: 1, tol: 1e-5, sub: 0}, "reference"),
+        Point("implicit, window 16, tol 1e-3, subcycling 3", dw, {}, "default"),  # the case's own settings
         Point("subcycling 0", nw, {}, "reference"),
-        Point("subcycling 3", nw, {"time.subcycling": 3}),
+        Point("subcycling 3", nw, {sub: 3}),
         Point("implicit, window 1, tol 1e-3", dw, {win: 1}),
         Point("implicit, window 4, tol 1e-3", dw, {win: 4}),
         Point("implicit, window 32, tol 1e-3", dw, {win: 32}),
         Point("implicit, window 16, tol 1e-2", dw, {tol: 1e-2}),
         Point("implicit, window 16, tol 1e-4", dw, {tol: 1e-4}),
         Point("implicit, window 64, tol 1e-3", dw, {win: 64}),
-        Point("subcycling 1", nw, {"time.subcycling": 1}),
-        Point("subcycling 2", nw, {"time.subcycling": 2}),
+        Point("subcycling 1", nw, {sub: 1}),
+        Point("subcycling 2", nw, {sub: 2}),
         Point("explicit, window 1", dw, {"coupling.scheme": "explicit", win: 1, "coupling.reuse": 0}),
         Point("explicit, window 4", dw, {"coupling.scheme": "explicit", win: 4, "coupling.reuse": 0}),
-        Point("implicit, window 16, tol 1e-3, subcycling 3", dw, {"time.subcycling": 3}),
+        Point("implicit, window 16, tol 1e-3, subcycling 0", dw, {sub: 0}),
         Point("implicit, window 8, tol 1e-3", dw, {win: 8}),
         Point("implicit, window 16, tol 1e-5", dw, {tol: 1e-5}),
     ]

@@ -38,8 +38,10 @@ def _case(folder: Path, members: int, end_time: float) -> Path:
     text = (ROOT / "cases" / "paper_tunnel" / "case.yaml").read_text().split("\nvariants:")[0]
     text = text.replace("conditions: [no_water, static_water, dynamic_water]", "conditions: [no_water]")
     text = text.replace("if_missing: synthetic", "if_missing: synthetic\n  units: g")
-    text += (f"\ntime:\n  end_time: {end_time:g} s\nsuite:\n  records:\n    - {{glob: 'records/kt*.txt', units: g}}\n"
-             "  scaling: pga\n")
+    # the shaking cut to end_time, in the case's own time section
+    text = text.replace("\ntime:\n", f"\ntime:\n  end_time: {end_time:g} s\n", 1) if "\ntime:\n" in text else \
+        text + f"\ntime:\n  end_time: {end_time:g} s\n"
+    text += "\nsuite:\n  records:\n    - {glob: 'records/kt*.txt', units: g}\n  scaling: pga\n"
     path = folder / "case.yaml"
     path.write_text(text)
     return path

@@ -21,6 +21,7 @@ from .schema import (
     ListOf,
     MapOf,
     Number,
+    OneOrMap,
     Section,
     Text,
     Tuple,
@@ -944,10 +945,13 @@ def schema() -> Section:
         "time": Section(fields={
             "dt": Number(dim=U.TIME, min=0.0, min_open=True, doc="solid step, s (default: the stable step x safety)"),
             "safety_factor": Number(min=0.0, max=1.0, min_open=True, default=0.9),
-            "subcycling": Number(integer=True, min=0, max=8, default=0,
-                                 doc="multi-time-step solid: an element steps up to 2^n times the finest step where "
-                                     "its own stable step allows (0 = one step for all; docs/solid_solver.md "
-                                     "\"Subcycling\")"),
+            "subcycling": OneOrMap(item=Number(integer=True, min=0, max=8), names=CONDITIONS, absent=0, default=0,
+                                   name_kind="condition",
+                                   example_map="of conditions to levels, e.g. {static_water: 3, dynamic_water: 3}",
+                                   doc="multi-time-step solid: an element steps up to 2^n times the finest step "
+                                       "where its own stable step allows (0 = one step for all); n for every "
+                                       "condition, or a mapping of conditions to n (a condition left out: 0), e.g. "
+                                       "{static_water: 3, dynamic_water: 3} (docs/solid_solver.md \"Subcycling\")"),
             "end_time": _positive(U.TIME, "s (default: the motion's duration)"),
         }),
         "output": Section(fields={
@@ -1059,28 +1063,40 @@ class Case:
         return (self.dir / self.data["output"]["directory"]).resolve()
 
 
+def subcycling_levels(d: dict, condition: str) -> int:
+    """The subcycling levels (time.subcycling) condition `condition` steps its solid with: the one value
+    given for every condition, or the condition's entry of a per-condition mapping (0 without one)."""
+    levels = d["time"].get("subcycling")
+    if isinstance(levels, dict):
+        return int(levels.get(condition, 0))
+    return int(levels or 0)
+
+
 def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
     """time.subcycling steps each element at its own elastic step, which tq-solid cannot do for a viscous
     stress (a Kelvin-Voigt material's or Rayleigh's stiffness term: its step bound depends on the
-    viscosity, docs/solid_solver.md "Subcycling"); its starter refuses both, so the case check does first."""
-    levels = d["time"].get("subcycling") or 0
-    if levels <= 0:
+    viscosity, docs/solid_solver.md "Subcycling"); its starter refuses both, so the case check does first.
+    Only the conditions that run are asked: a per-condition level of a condition not run steps nothing."""
+    on = [c for c in d["conditions"] if subcycling_levels(d, c) > 0]
+    if not on:
         return []
+    levels = d["time"]["subcycling"]
     line = _section_lines(raw, "time").get("subcycling")
+    which = "" if len(on) == len(d["conditions"]) else f" (it subcycles {', '.join(on)})"
     out = []
     for region, m in d["materials"].items():
         tau = m.get("retardation_time") or 0.0
         if m["model"] == "kelvin_voigt" and tau > 0:
             out.append(Issue("time.subcycling", levels,
-                             f"needs materials without viscosity: materials.{region} is kelvin_voigt with "
+                             f"needs materials without viscosity{which}: materials.{region} is kelvin_voigt with "
                              f"retardation_time {tau:g} s, whose viscous stress tq-solid steps at the finest step "
                              "only", f"set time.subcycling: 0, or give materials.{region} a model without "
                              "viscosity (elastic)", line))
     dmp = d["damping"]
     if dmp["model"] == "rayleigh" and dmp["ratio"] > 0:
         out.append(Issue("time.subcycling", levels,
-                         "needs damping without the stiffness term: damping.model rayleigh adds beta K, a viscous "
-                         "stress tq-solid steps at the finest step only",
+                         f"needs damping without the stiffness term{which}: damping.model rayleigh adds beta K, a "
+                         "viscous stress tq-solid steps at the finest step only",
                          "use damping.model: mass_proportional (the default), or time.subcycling: 0", line))
     return out
 

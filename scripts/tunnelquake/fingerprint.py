@@ -115,6 +115,11 @@ def condition_inputs(case, cond: str, post_only: bool = False) -> dict:
             continue
         flat: dict[str, str] = {}
         _flatten(section, case.data[section], flat)
+        if section == "time":  # the level this condition steps with, whether given once or per condition
+            from .case import subcycling_levels
+
+            flat = {k: v for k, v in flat.items() if not k.startswith("time.subcycling.")}
+            flat["time.subcycling"] = json.dumps(subcycling_levels(case.data, cond))
         for key, value in flat.items():
             if key in NEUTRAL and json.loads(value) == NEUTRAL[key]:
                 continue

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut
+from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut, subcycling_levels
 
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
@@ -100,12 +100,13 @@ def assess_slice(case) -> SliceAssessment:
                               "the whole force, the water's head included, so 1e-3 accepts errors of about 1 % of the "
                               "hydrodynamic force; in 3D they fed the closed water column's axial breathing mode (paper "
                               "case: energy created from 13.5 s, the run wrong by 16 s; docs/coupler.md \"Energy guard\")")
-        if not d["time"].get("subcycling"):
+        single = [c for c in d["conditions"] if not subcycling_levels(d, c)]
+        if single:
             # Measured on the paper mesh (docs/benchmarks.md "Solid subcycling and element order"): the
             # lining's 0.25 m layers set the step; the rock may take up to 8 times it.
-            advice.append("time.subcycling: 3 lets the rock step up to 8 times the lining's step (paper mesh in 3D: "
-                          "0.32 of the element evaluations, about 1.9x fewer solid seconds a step; "
-                          "docs/solid_solver.md \"Subcycling\")")
+            advice.append(f"time.subcycling: 3 (here single-rate: {', '.join(single)}) lets the rock step up to 8 "
+                          "times the lining's step (paper mesh in 3D: 0.32 of the element evaluations, about 1.9x "
+                          "fewer solid seconds a step; docs/solid_solver.md \"Subcycling\")")
     return SliceAssessment(valid=not reasons, reasons=reasons, advice=advice)
 
 
@@ -377,8 +378,9 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
-    rock = counts["rock"] * (SUBCYCLED_SHARE if d["time"].get("subcycling") else 1.0)
-    solid = (rock + counts["lining"]) * steps * rates.solid_element_step
+    # each condition's solid at its own subcycling (time.subcycling, given once or per condition)
+    solid_of = {c: (counts["rock"] * (SUBCYCLED_SHARE if subcycling_levels(d, c) else 1.0) + counts["lining"])
+                * steps * rates.solid_element_step for c, _ in conditions}
     statics, statics_steps = 0.0, 0
     fo = d.get("fault_offset") or {}
     from .case import fault_offset_slip
@@ -389,10 +391,11 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         statics_steps = int(fo["increments"]) * R.RELAX_STEPS_PER_INCREMENT
         statics = (counts["rock"] + counts["lining"]) * statics_steps * rates.solid_element_step * R.RELAX_STEP_FACTOR
         if any(m["model"] not in R.LINEAR_MODELS for m in d["materials"].values()):
-            solid *= R.YIELDED_SHAKING_FACTOR
+            solid_of = {c: s * R.YIELDED_SHAKING_FACTOR for c, s in solid_of.items()}
     seconds, cpu = {}, {}
     for cond, parts in conditions:
         x = speedup[cond]
+        solid = solid_of[cond]
         if "fluid" not in parts:
             cpu[cond], seconds[cond] = solid, solid / x
             continue

@@ -332,6 +332,44 @@ class MapOf(Spec):
         return {k: self.item.check(v, _join(path, k), lines.get(k, line), ctx) for k, v in value.items()}
 
 
+@dataclass
+class OneOrMap(Spec):
+    """One value for every name of `names`, or a mapping of some of them to values (the names left
+    out take `absent`): e.g. a setting given once for every condition, or per condition."""
+
+    item: Spec = field(default_factory=Number)
+    names: tuple = ()
+    absent: Any = None
+    example_map: str = ""  # the fix's example of the mapping form
+    name_kind: str = "name"  # what the mapping's keys are, in the key reference
+
+    def check(self, value, path, line, ctx):
+        if not isinstance(value, dict):
+            sub = Context()
+            out = self.item.check(value, path, line, sub)
+            for i in sub.issues:  # the item's own fix, and the mapping form beside it
+                ctx.issues.append(Issue(i.path, i.value, i.problem,
+                                        f"{i.fix}, or a mapping {self.example_map}" if self.example_map else i.fix,
+                                        i.line))
+            return out
+        lines = getattr(value, "key_lines", {})
+        out: dict[str, Any] = {}
+        ok = True
+        for k, v in value.items():
+            where = lines.get(k, line)
+            if k not in self.names:
+                near = _closest(str(k), self.names)
+                hint = f"did you mean '{near}'? " if near else ""
+                ctx.error(_join(path, k), v, f"is not one of {', '.join(self.names)}",
+                          f"{hint}name one of: {', '.join(self.names)}", where)
+                ok = False
+                continue
+            x = self.item.check(v, _join(path, k), where, ctx)
+            ok &= x is not None
+            out[k] = x
+        return out if ok else None
+
+
 def _join(path: str, key) -> str:
     return f"{path}.{key}" if path else str(key)
 

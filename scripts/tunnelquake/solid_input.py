@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from . import children, fingerprint, incident_wave
-from .case import CONDITIONS, case_geology, fault_offset_slip, lining_joints_active
+from .case import CONDITIONS, case_geology, fault_offset_slip, lining_joints_active, subcycling_levels
 from .cores import SMALL_MESH_ELEMENTS, solid_thread_count  # noqa: F401 - SMALL_MESH_ELEMENTS kept for its users
 from .drm_input import write_drm_group, write_drm_group_from_file
 from .files import h5_in_memory
@@ -201,8 +201,8 @@ def write_solid_input(case, mesh_h5: Path, motion_h5: Path, condition: str, out:
         w(s, "/solver", "t_end", t_end)
         w(s, "/solver", "dt", d["time"]["dt"] or 0.0)
         w(s, "/solver", "safety", d["time"]["safety_factor"])
-        if d["time"]["subcycling"]:
-            w(s, "/solver", "subcycling_levels", d["time"]["subcycling"])
+        if subcycling_levels(d, condition):
+            w(s, "/solver", "subcycling_levels", subcycling_levels(d, condition))
 
         damp = d["damping"]
         if damp["ratio"] > 0:

@@ -47,9 +47,13 @@ def ranks_refusal(case, ranks: int) -> list[str]:
         reasons.append("a motion along the tunnel's axis (ground_motion.second_horizontal or azimuth), which the "
                        "slice takes through periodic faces: use a motion across the tunnel and vertical only, or "
                        "run without --ranks")
-    if (d.get("time") or {}).get("subcycling"):
-        reasons.append(f"subcycling (time.subcycling {d['time']['subcycling']}): set time.subcycling: 0, or run "
-                       "without --ranks")
+    from .case import subcycling_levels
+
+    subcycled = [c for c in d["conditions"] if subcycling_levels(d, c)]
+    if subcycled:
+        which = "" if len(subcycled) == len(d["conditions"]) else f", in {', '.join(subcycled)}"
+        reasons.append(f"subcycling (time.subcycling {d['time']['subcycling']}{which}): set time.subcycling: 0, "
+                       "or run without --ranks")
     from .case import lining_joints_active
 
     if lining_joints_active(d):

@@ -54,13 +54,15 @@ def _case_schema():
 
 
 def _case_spec(dotted: str):
-    from .schema import MapOf, Section
+    from .schema import MapOf, OneOrMap, Section
 
     spec = _case_schema()
     for part in dotted.split("."):
         spec = spec.fields[part]
         if isinstance(spec, MapOf):
             spec = spec.item
+        elif isinstance(spec, OneOrMap):  # each value's bounds, the key's default
+            spec = replace(spec.item, default=spec.default)
     assert not isinstance(spec, Section), dotted
     return spec
 

@@ -21,3 +21,18 @@ def check_edited(tmp_path, capsys, text: str, *edits: str) -> tuple[int, str, st
     out = capsys.readouterr()
     assert "Traceback" not in out.out + out.err
     return rc, out.out, out.err
+
+
+def with_time(text: str, **keys: str) -> str:
+    """`text` with `keys` (e.g. end_time="0.02 s") set in its block `time:` section: each added as the
+    section's first key, or replacing the section's own line of that key; without a `time:` section,
+    a new one at the end."""
+    lines = text.splitlines()
+    try:
+        at = next(i for i, ln in enumerate(lines) if ln.rstrip() == "time:")
+    except StopIteration:
+        return text.rstrip("\n") + "\ntime:\n" + "".join(f"  {k}: {v}\n" for k, v in keys.items())
+    end = next((i for i in range(at + 1, len(lines)) if lines[i] and not lines[i].startswith((" ", "#"))), len(lines))
+    section = [ln for ln in lines[at + 1:end] if not any(ln.startswith(f"  {k}:") for k in keys)]
+    lines[at + 1:end] = [f"  {k}: {v}" for k, v in keys.items()] + section
+    return "\n".join(lines) + "\n"

@@ -9,6 +9,7 @@ import threading
 import time
 
 import pytest
+from case_edits import with_time
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
@@ -19,7 +20,7 @@ RECORD = "../../../shared/data/ground_motions/IELC180_PEER_1940_ElCentro9_180_dt
 def _case_text(end_time: str = "0.02 s") -> str:
     """The example with its record path made absolute and a short shaking."""
     rec = (EXAMPLE.parent / RECORD).resolve()
-    return EXAMPLE.read_text().replace(RECORD, str(rec)) + f"\ntime:\n  end_time: {end_time}\n"
+    return with_time(EXAMPLE.read_text().replace(RECORD, str(rec)), end_time=end_time)
 
 
 @pytest.fixture(scope="module")

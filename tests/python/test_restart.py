@@ -18,6 +18,7 @@ import time
 
 import h5py
 import pytest
+from case_edits import with_time
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
@@ -41,7 +42,7 @@ def _case_text(condition: str = "no_water", end: float = END, interval: float = 
         lines.append(line)
         if line.startswith("output:"):
             lines.append(f"  checkpoint_interval: {interval} s")
-    return "\n".join(lines) + f"\ntime:\n  end_time: {end} s\n"
+    return with_time("\n".join(lines), end_time=f"{end} s")
 
 
 @pytest.fixture(scope="module")

@@ -49,12 +49,15 @@ def test_3d_case_is_offered_the_slice(write_case):
 
 
 def test_3d_case_is_offered_subcycling(write_case):
-    """A 3D case stepping everything at the lining's step is offered subcycling (paper mesh: 0.32 of
-    the element evaluations; docs/solid_solver.md "Subcycling"); one that has it, and the slice, are not."""
-    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d ")))
-    assert any("time.subcycling: 3" in x for x in a.advice)
-    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "),
-                           s=("\nconditions:", "\ntime:\n  subcycling: 3\n\nconditions:")))
+    """A 3D case with a condition stepping everything at the lining's step is offered subcycling for
+    it (paper mesh: 0.32 of the element evaluations; docs/solid_solver.md "Subcycling"); one whose
+    conditions all have it, and the slice, are not."""
+    one = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycling: 0\n")
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "), s=one))
+    assert any("time.subcycling: 3" in x and "no_water, static_water, dynamic_water" in x for x in a.advice)
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d ")))  # the example's: no_water single-rate
+    assert any("time.subcycling: 3" in x and "(here single-rate: no_water)" in x for x in a.advice)
+    a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "), s=(one[0], "  subcycling: 3\n")))
     assert not any("subcycling" in x for x in a.advice)
     assert not any("subcycling" in x for x in assess_slice(_case(write_case)).advice)
 

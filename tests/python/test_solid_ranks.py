@@ -12,6 +12,7 @@ from __future__ import annotations
 import shutil
 
 import pytest
+from case_edits import edited, with_time
 
 from conftest import EXAMPLE
 from tunnelquake.cli import main
@@ -25,11 +26,20 @@ def test_check_with_one_rank_is_the_plain_check(capsys):
     assert "is valid" in capsys.readouterr().out
 
 
+#: the example's time.subcycling (static_water and dynamic_water), which does not run on ranks, made 0
+SINGLE_RATE = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycling: 0\n")
+
+
 @needs_mpirun
-def test_the_water_coupling_is_accepted_on_ranks(capsys):
+def test_the_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
     """The example's three conditions, dynamic_water among them (the water coupling runs on the
-    solid's ranks: rank 0 exchanges the wetted face, tests/cpp/test_ranks.cpp checks its results)."""
-    assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 0
+    solid's ranks: rank 0 exchanges the wetted face, tests/cpp/test_ranks.cpp checks its results),
+    single-rate; the example as it is names its subcycled conditions and the fix."""
+    assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 1
+    err = capsys.readouterr().err
+    assert "subcycling (time.subcycling {'static_water': 3, 'dynamic_water': 3}, in static_water, dynamic_water)" \
+        in err and "set time.subcycling: 0" in err, err
+    assert main(["check", str(write_case(edited(example_text, *SINGLE_RATE))), "--ranks", "3"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
     assert "the solid on 3 MPI ranks" in captured.out
@@ -37,8 +47,8 @@ def test_the_water_coupling_is_accepted_on_ranks(capsys):
 
 @needs_mpirun
 def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
-    case = write_case(example_text.replace("conditions: [no_water, static_water, dynamic_water]",
-                                           "conditions: [no_water, static_water]"))
+    case = write_case(edited(example_text, "conditions: [no_water, static_water, dynamic_water]",
+                             "conditions: [no_water, static_water]", *SINGLE_RATE))
     assert main(["check", str(case), "--ranks", "4"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
@@ -63,7 +73,7 @@ def test_the_memory_per_rank_estimate_is_the_measured_one_and_divides_every_rank
 
 @needs_mpirun
 @pytest.mark.parametrize("edit,named", [
-    (("time:\n", "time:\n  subcycling: 2\n"), "subcycling (time.subcycling 2)"),
+    ((SINGLE_RATE[0], "  subcycling: 2\n"), "subcycling (time.subcycling 2)"),
     (("ground_motion:\n", "ground_motion:\n  azimuth: 30 deg\n"), "a motion along the tunnel's axis"),
 ])
 def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text, capsys, edit, named):
@@ -95,7 +105,7 @@ def test_a_run_on_ranks_whose_rank_is_killed_resumes_on_its_ranks_bitwise_equal(
     text = "\n".join("conditions: [no_water]" if ln.startswith("conditions:") else ln
                      for ln in EXAMPLE.read_text().splitlines())
     text = text.replace("output:\n", f"output:\n  checkpoint_interval: {INTERVAL} s\n", 1)
-    text += f"\ntime:\n  end_time: {END} s\n"
+    text = with_time(text, end_time=f"{END} s")
     ref = tmp_path / "reference"
     ref.mkdir()
     (ref / "case.yaml").write_text(text)

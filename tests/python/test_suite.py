@@ -20,6 +20,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from case_edits import with_time
 from test_reliability import _processes_naming
 
 from conftest import EXAMPLE
@@ -57,7 +58,7 @@ def _suite_case(folder: Path, suite: str, end_time: str = "0.2 s") -> Path:
     text = text.replace("conditions: [no_water, static_water, dynamic_water]", "conditions: [no_water, static_water]")
     text = re.sub(r"file: \.\./\.\./\.\./shared\S*", "file: records/r0.txt", text)
     text = text.replace("if_missing: synthetic", "units: g").replace("duration: 20 s", f"duration: {RECORD_S:g} s")
-    text += f"\ntime:\n  end_time: {end_time}\n" + suite
+    text = with_time(text, end_time=end_time) + suite
     p = folder / "case.yaml"
     p.write_text(text)
     return p
