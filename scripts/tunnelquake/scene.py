@@ -372,7 +372,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     on_cores = {c: min(n, available()) for c, n in threads.items()}
     if rates is None:
         try:
-            rates = R.machine_rates(threads=max(on_cores.values(), default=1))
+            rates = R.machine_rates(threads=max(on_cores.values(), default=1), elements=elements)
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
@@ -406,7 +406,9 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
-    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}"
+    size = (f"; {elements:,} solid elements: the {rates.size_side}^3 box's CPU an element-step "
+            f"{rates.size_factor:.2f}x the probe's" if rates.size_side else "")
+    basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}{size}"
              + (f"; {rates.speedup_note}" if rates.speedup_note else "")
              + "; docs/benchmarks.md \"check's run-time estimate\")")
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
