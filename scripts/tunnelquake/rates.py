@@ -13,16 +13,15 @@ thread's CLOCK_THREAD_CPUTIME_ID, the largest of the team): the time the steps t
 has a core, which other work on the machine changes far less than the wall time (a thread that is
 not running is not counted, and the one waiting for it sleeps).
 
-A model much larger than the probe's box runs out of the caches the probe runs in: its element-step
-costs more, and its threads speed it up less, than the small box says (the 3D example, 64,416 solid
-elements: one thread's CPU the same at load 1 and 6 where the probe's fell by a quarter; 1.55x on 2
-threads where the 32^3 box said 1.93x). So such a model gets a **size-class probe**: a box of about
-as many elements as the model (the side SIZE_CLASSES nearest its cube root, bounded at 40: 64,000
-elements, far out of a core's cache), timed on one thread alternately with the probe's own box in
-rounds of one process each; the **size factor** is the median of the rounds' ratios of the busiest
-thread's CPU per element-step, box of the class against the probe's, and the model's one-thread
-rate is the probe's times it. Its thread speed-up is measured on the box of its class, not the
-32^3 one (size_class, measure_size_factor).
+A model much larger than the probe's box (4,096 elements, in a core's cache) runs out of the caches
+the probe runs in, and its element-step need not cost what the small box's does, nor its threads
+speed it up as the 32^3 box's do. So such a model gets a **size-class probe**: a box of about as
+many elements as the model (the side of SIZE_CLASSES nearest its cube root, bounded at 40: 64,000
+elements, about the 3D example's 64,416), timed on one thread alternately with the probe's own box,
+one process each; the **size factor** is the median of the rounds' ratios of the busiest thread's
+CPU per element-step, box of the class against the probe's, and the model's one-thread rate is the
+probe's times it. Its thread speed-up is measured on the box of its class (size_class,
+measure_size_factor; docs/benchmarks.md "check's estimates on the 3D cases").
 
 The probes' results are cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
 bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
@@ -107,11 +106,15 @@ SOLID_PER_PROBE_S = 2.58e-7
 #: 1.125, 0.94; over the whole record 1.15; perf: 6.5 % of the coupled solid's samples are outside
 #: the solid-only code)
 COUPLED_SOLID_FACTOR = 1.13
-#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water
-#: on this project's Intel Xeon VMs, 0.97 ms a pass for the slice's 336 cells and 20.4 ms for the 3D
-#: variant's 14,784 (docs/benchmarks.md), split between the two, against the probe's 0.54 CPU s there
-WATER_PER_PROBE_S = 0.96e-3
-WATER_CELL_PER_PROBE_S = 2.49e-6
+#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water,
+#: OpenFOAM's CPU (ExecutionTime) over the passes, 1.267 ms a pass for the slice's 336 cells (the
+#: whole record, 27,730 passes) and 21.5 / 21.8 ms for the 3D variant's 14,784 (its first 0.2 s, 557
+#: passes, on 2 and on 1 solid thread), split between the two, against the probe's 0.41 CPU s
+#: measured beside them (0.401-0.447, 2026-11-29 05:43-06:09, load 6-12; docs/benchmarks.md "check's
+#: estimates on the 3D cases"); the former figures (0.96e-3, 2.49e-6: 20.4 ms a 3D pass at a probe of
+#: 0.54 s) gave 15.4 ms at this probe, 29 % under the 21.6 ms measured
+WATER_PER_PROBE_S = 1.93e-3
+WATER_CELL_PER_PROBE_S = 3.44e-6
 
 #: A fault offset imposed by a static stage (fault_offset without a rise_time): relaxation steps an
 #: increment (the stage relaxes to equilibrium after each of fault_offset.increments): cases/fault_crossing,
