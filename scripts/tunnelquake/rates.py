@@ -58,8 +58,9 @@ SIZE_CLASSES = (24, 32, 40)
 #: solid elements above which a model gets a size-class probe: twice the probe's 16^3 box (the slice
 #: of the example, 1,464 elements, follows the probe: docs/benchmarks.md "check's run-time estimate")
 SIZE_CLASS_MIN_ELEMENTS = 2 * 16**3
-#: one round of the size factor: the probe's box and the class's, one thread, one process each
-#: (about 0.5 + 0.6 CPU s at the 40 class on a 2026 server core); SIZE_ROUNDS rounds, median
+#: one round of the size factor: the probe's box and the class's, one thread, one process each;
+#: SIZE_ROUNDS rounds, median (2.2 CPU s the three rounds at the 40 class, and 4.3 CPU s its thread
+#: probe's three runs, on the Intel VM of docs/benchmarks.md at load 8.6)
 SIZE_PROBE_ARGS = ("--steps", "400", "--repeat", "3", "--threads", "1")
 SIZE_ROUNDS = 3
 #: element-steps of each timed run of a size-class box (its steps: this over the box's elements)
