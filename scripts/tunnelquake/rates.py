@@ -13,10 +13,20 @@ thread's CLOCK_THREAD_CPUTIME_ID, the largest of the team): the time the steps t
 has a core, which other work on the machine changes far less than the wall time (a thread that is
 not running is not counted, and the one waiting for it sleeps).
 
+A model much larger than the probe's box (4,096 elements, in a core's cache) runs out of the caches
+the probe runs in, and its element-step need not cost what the small box's does, nor its threads
+speed it up as the 32^3 box's do. So such a model gets a **size-class probe**: a box of about as
+many elements as the model (the side of SIZE_CLASSES nearest its cube root, bounded at 40: 64,000
+elements, about the 3D example's 64,416), timed on one thread alternately with the probe's own box,
+one process each; the **size factor** is the median of the rounds' ratios of the busiest thread's
+CPU per element-step, box of the class against the probe's, and the model's one-thread rate is the
+probe's times it. Its thread speed-up is measured on the box of its class (size_class,
+measure_size_factor; docs/benchmarks.md "check's estimates on the 3D cases").
+
 The probes' results are cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
 bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
 (TQ_RATES_FILE overrides the file), so each runs once a machine and build (the speed-up once for
-each thread count asked for).
+each thread count asked for; the size factor and its speed-ups once a size class).
 """
 from __future__ import annotations
 
@@ -42,6 +52,49 @@ PROBE_RUNS = 3
 THREAD_PROBE_ARGS = ("--n", "32", "--steps", "20", "--repeat", "9", "--against", "1")
 THREAD_PROBE_ROUNDS = 3
 
+#: The size classes: the sides of the boxes a model larger than SIZE_CLASS_MIN_ELEMENTS is probed on
+#: (the one whose cube is nearest its solid elements, in ratio; the largest for any larger model)
+SIZE_CLASSES = (24, 32, 40)
+#: solid elements above which a model gets a size-class probe: twice the probe's 16^3 box (the slice
+#: of the example, 1,464 elements, follows the probe: docs/benchmarks.md "check's run-time estimate")
+SIZE_CLASS_MIN_ELEMENTS = 2 * 16**3
+#: one round of the size factor: the probe's box and the class's, one thread, one process each;
+#: SIZE_ROUNDS rounds, median (2.2 CPU s the three rounds at the 40 class, and 4.3 CPU s its thread
+#: probe's three runs, on the Intel VM of docs/benchmarks.md at load 8.6)
+SIZE_PROBE_ARGS = ("--steps", "400", "--repeat", "3", "--threads", "1")
+SIZE_ROUNDS = 3
+#: element-steps of each timed run of a size-class box (its steps: this over the box's elements)
+SIZE_ELEMENT_STEPS = 32**3 * 20
+
+
+def size_class(elements: int) -> int:
+    """The side of the box a model of `elements` solid elements is probed on: 0 (the probe's own
+    box) up to SIZE_CLASS_MIN_ELEMENTS, else the SIZE_CLASSES side whose cube is nearest in ratio
+    (the largest for anything larger)."""
+    import math
+
+    if elements <= SIZE_CLASS_MIN_ELEMENTS:
+        return 0
+    return min(SIZE_CLASSES, key=lambda n: abs(math.log(elements / n**3)))
+
+
+def _class_steps(side: int) -> int:
+    return max(2, round(SIZE_ELEMENT_STEPS / side**3))
+
+
+def size_probe_args(side: int) -> tuple[str, ...]:
+    """tq-solid-bench's arguments for one thread on the class's box (SIZE_ELEMENT_STEPS a timing)."""
+    return ("--n", str(side), "--steps", str(_class_steps(side)), "--repeat", "3", "--threads", "1")
+
+
+def thread_probe_args(side: int = 0) -> tuple[str, ...]:
+    """The thread probe's arguments without --threads: THREAD_PROBE_ARGS, or on a size class's box
+    with as many element-steps a timing."""
+    if not side:
+        return THREAD_PROBE_ARGS
+    return ("--n", str(side), "--steps", str(_class_steps(side)), "--repeat", "9", "--against", "1")
+
+
 #: CPU seconds of one element-step of the example slice's solid-only shaking (Mohr-Coulomb damage,
 #: rock-lining contact, seismic boundaries, free field, monitors, ring forces, checkpoints) per probe
 #: CPU second: its no_water input over 2 s of record (31,643 steps of 1,464 elements after the
@@ -54,11 +107,15 @@ SOLID_PER_PROBE_S = 2.58e-7
 #: 1.125, 0.94; over the whole record 1.15; perf: 6.5 % of the coupled solid's samples are outside
 #: the solid-only code)
 COUPLED_SOLID_FACTOR = 1.13
-#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water
-#: on this project's Intel Xeon VMs, 0.97 ms a pass for the slice's 336 cells and 20.4 ms for the 3D
-#: variant's 14,784 (docs/benchmarks.md), split between the two, against the probe's 0.54 CPU s there
-WATER_PER_PROBE_S = 0.96e-3
-WATER_CELL_PER_PROBE_S = 2.49e-6
+#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water,
+#: OpenFOAM's CPU (ExecutionTime) over the passes, 1.267 ms a pass for the slice's 336 cells (the
+#: whole record, 27,730 passes) and 21.5 / 21.8 ms for the 3D variant's 14,784 (its first 0.2 s, 557
+#: passes, on 2 and on 1 solid thread), split between the two, against the probe's 0.41 CPU s
+#: measured beside them (0.401-0.447, 2026-11-29 05:43-06:09, load 6-12; docs/benchmarks.md "check's
+#: estimates on the 3D cases"); the former figures (0.96e-3, 2.49e-6: 20.4 ms a 3D pass at a probe of
+#: 0.54 s) gave 15.4 ms at this probe, 29 % under the 21.6 ms measured
+WATER_PER_PROBE_S = 1.93e-3
+WATER_CELL_PER_PROBE_S = 3.44e-6
 
 #: A fault offset imposed by a static stage (fault_offset without a rise_time): relaxation steps an
 #: increment (the stage relaxes to equilibrium after each of fault_offset.increments): cases/fault_crossing,
@@ -89,6 +146,8 @@ class MachineRates:
     source: str  # 'measured now' or 'cached <date>'
     speedups: dict = field(default_factory=dict)  # threads -> thread speed-up of the solid's step (measured)
     speedup_note: str = ""  # why a speed-up asked for is not there
+    size_side: int = 0  # the size class's box side (0: the probe's own box, size_class)
+    size_factor: float = 1.0  # its busiest thread's CPU per element-step against the probe box's
 
     def speedup(self, threads: int) -> float:
         """The solid step's speed-up on `threads` OpenMP threads against one: 1 for one thread, the
@@ -97,7 +156,8 @@ class MachineRates:
 
     @property
     def solid_element_step(self) -> float:
-        return SOLID_PER_PROBE_S * self.probe_s
+        """One thread's CPU seconds of a solid element-step: the probe's rate times the size factor."""
+        return SOLID_PER_PROBE_S * self.probe_s * self.size_factor
 
     @property
     def water_pass(self) -> float:
@@ -166,15 +226,51 @@ def measure(program: Path | None = None, runs: int = PROBE_RUNS) -> float:
     return times[len(times) // 2]
 
 
+_BUSIEST = re.compile(r"busiest thread's CPU: median ([0-9.eE+-]+) us per element-step")
+
+
+def _busiest_us(program: Path, args: tuple[str, ...], env: dict) -> float:
+    """The busiest thread's CPU per element-step, us, that one run of tq-solid-bench prints."""
+    cmd = [str(program), *args]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    except OSError as e:
+        raise ProbeFailed(f"{program} cannot be started ({e.strerror})") from e
+    if proc.returncode != 0:
+        raise ProbeFailed(f"{program} exited {proc.returncode}: {proc.stderr.strip()[-300:]}")
+    found = _BUSIEST.search(proc.stdout)
+    if not found or not float(found.group(1)) > 0:
+        raise ProbeFailed(f"{program} does not print its busiest thread's CPU (an older build: "
+                          "scripts/bootstrap.sh rebuilds it)")
+    return float(found.group(1))
+
+
+def measure_size_factor(side: int, program: Path | None = None, rounds: int = SIZE_ROUNDS) -> float:
+    """The size factor of the class `side`: the median over `rounds` rounds of the busiest thread's
+    CPU per element-step on the class's box (size_probe_args) against the probe's 16^3 box, one
+    thread, the two run one after the other in each round (a shared machine's speed drifts over
+    seconds: the ratio of neighbours, not of figures taken minutes apart)."""
+    from .cores import solid_env
+
+    program = program or probe_program()
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    env = solid_env()
+    small = ("--n", "16", *SIZE_PROBE_ARGS)
+    ratios = sorted(_busiest_us(program, size_probe_args(side), env) / _busiest_us(program, small, env)
+                    for _ in range(max(1, rounds)))
+    return ratios[len(ratios) // 2]
+
+
 _SPEEDUP = re.compile(r"speed-up of \d+ thread\(s\) over 1, busiest thread's CPU: median ([0-9.eE+-]+) of")
 
 
-def _paired_speedup(program: Path, threads: int, env: dict) -> float:
+def _paired_speedup(program: Path, threads: int, env: dict, side: int = 0) -> float:
     """One run of the thread probe: the median over its pairs of the busiest thread's CPU per
     element-step on one thread against that on `threads`, the two halves of each pair run in one
     process a tenth of a second apart (a shared VM's speed drifts by a third over seconds; runs in
     turn in two processes saw that drift as a speed-up of 1.29 for one thread against one)."""
-    cmd = [str(program), *THREAD_PROBE_ARGS, "--threads", str(threads)]
+    cmd = [str(program), *thread_probe_args(side), "--threads", str(threads)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     except OSError as e:
@@ -189,17 +285,19 @@ def _paired_speedup(program: Path, threads: int, env: dict) -> float:
     return float(found.group(1))
 
 
-def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS) -> float:
+def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS,
+                    side: int = 0) -> float:
     """The solid step's speed-up on `threads` threads: the median of `rounds` runs of the thread
-    probe, each the median of its pairs' ratios of the busiest thread's CPU per element-step on one
-    thread and on `threads`. The threads wait as tq-solid's do (cores.solid_env)."""
+    probe (on the box of size class `side`, 0 for the 32^3 one), each the median of its pairs'
+    ratios of the busiest thread's CPU per element-step on one thread and on `threads`. The threads
+    wait as tq-solid's do (cores.solid_env)."""
     from .cores import solid_env
 
     program = program or probe_program()
     if not program.is_file():
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
     env = solid_env()
-    ratios = sorted(_paired_speedup(program, threads, env) for _ in range(max(1, rounds)))
+    ratios = sorted(_paired_speedup(program, threads, env, side) for _ in range(max(1, rounds)))
     return ratios[len(ratios) // 2]
 
 
@@ -224,12 +322,15 @@ def _write_cache(cache: dict) -> None:
         pass  # an unwritable cache: measured again next time
 
 
-def machine_rates(program: Path | None = None, measure_if_missing: bool = True, threads: int = 1) -> MachineRates:
+def machine_rates(program: Path | None = None, measure_if_missing: bool = True, threads: int = 1,
+                  elements: int = 0) -> MachineRates:
     """This machine's rates: the cached probe of this processor and build, else the probe run now
-    (and cached); with `threads` > 1 also the thread speed-up on that many threads, cached the same
-    way (a thread probe that cannot run leaves the speed-up out and says why in speedup_note).
-    Raises ProbeFailed when the probe cannot be measured (or `measure_if_missing` is False and
-    nothing is cached)."""
+    (and cached); for a model of `elements` solid elements above SIZE_CLASS_MIN_ELEMENTS also its
+    size class's factor (measure_size_factor); with `threads` > 1 also the thread speed-up on that
+    many threads (on the size class's box where there is one), each cached the same way (a size or
+    thread probe that cannot run leaves its figure out and says why in speedup_note). Raises
+    ProbeFailed when the probe cannot be measured (or `measure_if_missing` is False and nothing is
+    cached)."""
     program = program or probe_program()
     if not program.is_file():
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
@@ -244,20 +345,37 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True, 
     else:
         hit = {"probe_s": measure(program), "date": time.strftime("%Y-%m-%d"), "args": " ".join(PROBE_ARGS)}
         source, changed = "measured now", True
-    speedups = {int(k): float(v) for k, v in (hit.get("speedup") or {}).items() if float(v) > 0}
-    note = ""
-    if threads > 1 and threads not in speedups:
+    side = size_class(elements)
+    # the figures of the size class (its factor, its speed-ups) or of the probe's own box
+    where = hit.get("size_class", {}).get(str(side), {}) if side else hit
+    notes = []
+    factor = float(where.get("factor", 0)) if side else 1.0
+    if side and not factor > 0:
         if not measure_if_missing:
-            note = f"no thread speed-up on {threads} threads cached in {cache_file()}"
+            notes.append(f"no size-class probe ({side}^3 box) cached in {cache_file()}")
         else:
             try:
-                speedups[threads] = measure_speedup(threads, program)
-                hit["speedup"] = {str(k): v for k, v in sorted(speedups.items())}
-                hit["speedup_args"] = " ".join(THREAD_PROBE_ARGS)
+                factor = measure_size_factor(side, program)
+                where.update(factor=factor, args=" ".join(size_probe_args(side)), date=time.strftime("%Y-%m-%d"))
                 changed = True
             except ProbeFailed as e:
-                note = f"the thread probe could not run: {e}"
+                notes.append(f"the size-class probe ({side}^3 box) could not run: {e}")
+    speedups = {int(k): float(v) for k, v in (where.get("speedup") or {}).items() if float(v) > 0}
+    if threads > 1 and threads not in speedups:
+        if not measure_if_missing:
+            notes.append(f"no thread speed-up on {threads} threads cached in {cache_file()}")
+        else:
+            try:
+                speedups[threads] = measure_speedup(threads, program, side=side)
+                where["speedup"] = {str(k): v for k, v in sorted(speedups.items())}
+                where["speedup_args"] = " ".join(thread_probe_args(side))
+                changed = True
+            except ProbeFailed as e:
+                notes.append(f"the thread probe could not run: {e}")
+    if side and where:
+        hit.setdefault("size_class", {})[str(side)] = where
     if changed:
         cache[key] = hit
         _write_cache(cache)
-    return MachineRates(float(hit["probe_s"]), processor(), source, speedups, note)
+    return MachineRates(float(hit["probe_s"]), processor(), source, speedups, "; ".join(notes),
+                        side if factor > 0 else 0, factor if factor > 0 else 1.0)
