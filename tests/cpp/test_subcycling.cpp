@@ -208,7 +208,7 @@ Real worstPeakDifference(const LinedTunnelPeaks& a, const LinedTunnelPeaks& b, R
 /// upper part may step 4 times the lower part's step: levels 0 | 1 | 2, the top 128 elements
 /// evaluated every 4th step), its base fixed, brought to rest under its own weight (dynamic
 /// relaxation), then a vertical and a lateral load on its top, 0.5 and 0.2 % of the weight, applied
-/// suddenly (undamped): it bounces and sways about its loaded state, the weight's and
+/// suddenly (light mass damping, α = 0.5 /s): it bounces and sways about its loaded state, the weight's and
 /// the preload's first-order work hundreds of times the energy of the motion, as under a
 /// preloaded tunnel's shaking. At every fine step: the balance's drift (EnergyBalance::error); at
 /// the steps where every node updates (all the elements evaluated): the reported internal energy
@@ -232,6 +232,7 @@ PreloadedBoxEnergy runPreloadedBox(int levels, Real dtFactor, Real tEnd) {
   const Real rho = 2200, g = 9.81;
   SolverOptions opt;
   opt.gravity[2] = -g;
+  opt.damping.alpha = 0.5;
   Solver s(m, makeBlocksByRegion(m, {{"rock", tqtest::elastic(2e9, 0.25, rho)}}), opt);
   s.fixFaceGroup("bottom", "xyz");
   RelaxParams rp;
@@ -271,19 +272,20 @@ PreloadedBoxEnergy runPreloadedBox(int levels, Real dtFactor, Real tEnd) {
 
 }  // namespace
 
-// The energy balance of subcycled stepping closes at every fine step as the single-rate one does
-// (runPreloadedBox, undamped): the works of the internal and the external forces are both booked
-// at each node's own updates and its kinetic energy is ½ m v^{k-½}·v^{k+½} of its own step also
-// between them (updateNodesSubcycled), so kinetic + internal − external is the sum of the nodes'
-// own update identities: round-off, 1e-15 of the external work (single-rate 1.7e-14; bound
-// 1e-12). Booked as before, the internal work as the elements are evaluated and the kinetic energy
-// from v alone between updates, a coarse node's motion counted on the fine elements next to it
-// before its external work, and the balance swung by 2.7e-2 of the external work here (7.4 % of
-// the example's static_water energies at 0.005 s). What multi-rate stepping does not conserve
-// exactly is the strain energy: the internal work booked at the coarse nodes' updates differs from
-// the change of ½ u·f_int(u) by the sampling of the fine elements' forces at those updates,
-// 6.2e-5 of the external work at the steps where every node updates (bound 1e-4; single-rate
-// 1.5e-9), 1.5e-6 at half the step (levels then 1 | 2; bound a quarter of it).
+// The energy balance of subcycled stepping closes at every fine step (runPreloadedBox): the works
+// of the internal and the external forces and of the dashpots are booked at each node's own
+// updates, consistently with its kinetic energy ½ m v^{k-½}·v^{k+½} of its own step, kept also
+// between them (updateNodesSubcycled), so kinetic + internal + damping − external is the sum of
+// the nodes' own update identities: round-off, measured 1.0e-15 of the external work (bound
+// 1e-12). Single-rate books the damping as c v̄² Δt, 2.0e-6 here (bound 1e-5; 1.7e-14 undamped).
+// Booked as the single-rate scheme books them, the internal work as the elements are evaluated and
+// the kinetic energy from v alone between updates, a coarse node's motion was counted on the fine
+// elements next to it before its external work, and the balance swung by 2.7e-2 of the external
+// work here (7.4 % of the example's static_water energies at 0.005 s). What multi-rate stepping
+// does not conserve exactly is the strain energy: the internal work booked at the coarse nodes'
+// updates differs from the change of ½ u·f_int(u) by the sampling of the fine elements' forces
+// at those updates, 6.2e-5 of the external work at the steps where every node updates (bound
+// 1e-4; single-rate 1.6e-9), 1.5e-6 at half the step (levels then 1 | 2; bound a quarter of it).
 TEST(Subcycling, EnergyBalanceClosesAtEveryFineStep) {
   const Real tEnd = 0.1;
   const PreloadedBoxEnergy one = runPreloadedBox(0, 1.0, tEnd), sub = runPreloadedBox(2, 1.0, tEnd);
@@ -298,7 +300,7 @@ TEST(Subcycling, EnergyBalanceClosesAtEveryFineStep) {
       half.maxStrainDiff / sub.maxStrainDiff);
   ASSERT_EQ(sub.info.levels, 2) << "the 1 m cubes step 4 times the 0.25 m cubes' step";
   ASSERT_GT(one.scale, 50 * one.motionEnergy) << "the loads' first-order work must dominate";
-  EXPECT_LT(one.maxDrift, 1e-12);
+  EXPECT_LT(one.maxDrift, 1e-5);
   EXPECT_LT(sub.maxDrift, 1e-12);
   EXPECT_LT(half.maxDrift, 1e-12);
   EXPECT_LT(sub.maxStrainDiff, 1e-4);
