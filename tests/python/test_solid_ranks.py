@@ -1,7 +1,7 @@
 """The solid on MPI ranks, the Python side: `--ranks N` of `tunnelquake check` and `run` refuses,
 before anything runs, what tq-solid cannot run on ranks yet (an incident wave's DRM layer, a fault
-offset, a motion along the axis, subcycling), naming it and the fix, and accepts the rest (the staged
-analysis, the seismic boundaries, the dynamic contact, damage, the water coupling); a run on ranks
+offset, a motion along the axis), naming it and the fix, and accepts the rest (the staged
+analysis, the seismic boundaries, the dynamic contact, damage, the water coupling, subcycling); a run on ranks
 killed mid-run and resumed on its ranks (`--resume`) ends as the run never stopped; and the
 mpirun command line of a run on ranks (oversubscribed only where the cores are short). The ranks
 themselves are tested in tests/cpp/test_ranks.cpp (tq-solid on 1-8 ranks against one process,
@@ -36,9 +36,14 @@ def test_the_water_coupling_is_accepted_on_ranks(capsys):
 
 
 @needs_mpirun
-def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
-    case = write_case(example_text.replace("conditions: [no_water, static_water, dynamic_water]",
-                                           "conditions: [no_water, static_water]"))
+@pytest.mark.parametrize("subcycling", [0, 3])
+def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys, subcycling):
+    """With and without subcycling (tq-solid's ranks step it as one process does, bitwise:
+    tests/cpp/test_ranks.cpp, RankRuns.SubcycledThreeDimensionalTunnelWithContactAndDamageBitwiseOnOneToEightRanks)."""
+    text = example_text.replace("conditions: [no_water, static_water, dynamic_water]",
+                                "conditions: [no_water, static_water]")
+    case = write_case(text + f"\ntime:\n  subcycling: {subcycling}\n" if "\ntime:" not in text else
+                      text.replace("\ntime:\n", f"\ntime:\n  subcycling: {subcycling}\n", 1))
     assert main(["check", str(case), "--ranks", "4"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
@@ -63,7 +68,6 @@ def test_the_memory_per_rank_estimate_is_the_measured_one_and_divides_every_rank
 
 @needs_mpirun
 @pytest.mark.parametrize("edit,named", [
-    (("time:\n", "time:\n  subcycling: 2\n"), "subcycling (time.subcycling 2)"),
     (("ground_motion:\n", "ground_motion:\n  azimuth: 30 deg\n"), "a motion along the tunnel's axis"),
 ])
 def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text, capsys, edit, named):
