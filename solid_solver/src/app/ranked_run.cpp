@@ -750,7 +750,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
         }
       }
       Solver& s = *local;
-      s.checkSubcycling(in.options.subcyclingLevels);  // refused now, not after the static stages
+      s.checkSubcycling(in.options.subcyclingLevels);         // refused now, not after the static stages
       Solver* view = size == 1 ? local.get() : mirror.get();  // what the results are written from (rank 0)
       // The partition: weights per rank, frontier nodes.
       const std::vector<Real> w = partWeights(part, cost, size);

@@ -333,7 +333,8 @@ class MpiRankExchange final : public RankExchange {
     for (const auto& lumped : opLumped_) {
       for (size_t p = 0; p < lumped.size(); ++p)
         chunkOf[size_t(lumped[p])] = chunkStart.back() + Index(p) / ElementBlock::kChunk;
-      chunkStart.push_back(chunkStart.back() + (Index(lumped.size()) + ElementBlock::kChunk - 1) / ElementBlock::kChunk);
+      chunkStart.push_back(chunkStart.back() +
+                           (Index(lumped.size()) + ElementBlock::kChunk - 1) / ElementBlock::kChunk);
     }
     // Their levels: min over their active elements' nodes, over every rank (255: none active).
     std::vector<Real> level(size_t(chunkStart.back()), 255.0);
@@ -350,7 +351,8 @@ class MpiRankExchange final : public RankExchange {
       mine.emplace_back(size_t(b->numChunks()), 255);
       for (Index e = 0; e < b->numElems(); ++e) {
         const Index c = chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e))])];
-        const Index first = chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e / ElementBlock::kChunk * ElementBlock::kChunk))])];
+        const Index first =
+            chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e / ElementBlock::kChunk * ElementBlock::kChunk))])];
         if (c != first)
           throw std::logic_error("subcycling on ranks: a chunk of block '" + b->name() +
                                  "' holds elements of two one-process chunks");
@@ -379,8 +381,9 @@ class MpiRankExchange final : public RankExchange {
     for (size_t e = 0; e < key.size(); ++e)
       if (key[e] < 0) key[e] = global.numElems() + Index(e);
     std::vector<Index> incElem;
-    forces_ = makePlan(layout_, global, part_, key, std::vector<std::uint8_t>(nl, 1), 3, 8 * ne,
-                       [](Index le, int k) { return 8 * le + Index(k); }, &incElem);
+    forces_ = makePlan(
+        layout_, global, part_, key, std::vector<std::uint8_t>(nl, 1), 3, 8 * ne,
+        [](Index le, int k) { return 8 * le + Index(k); }, &incElem);
     summedNodes_ = forces_.node.size();
     levelStart_.assign(nL, {});
     levelUnit_.assign(nL, {});
@@ -552,10 +555,10 @@ class MpiRankExchange final : public RankExchange {
   std::vector<Index> ownedLocal_;            // this rank's owned nodes
   std::vector<int> ownedCounts_, ownedIds_;  // rank 0: every rank's owned nodes (global indices)
   size_t globalNodes_ = 0;
-  const Mesh* global_;                         // the whole mesh (subcycle())
-  std::vector<int> part_;                      // the partition
-  RankLayout layout_;                          // this rank's lists (its mesh left out)
-  std::vector<std::vector<Index>> opLumped_;   // [one-process block] its element order
+  const Mesh* global_;                                      // the whole mesh (subcycle())
+  std::vector<int> part_;                                   // the partition
+  RankLayout layout_;                                       // this rank's lists (its mesh left out)
+  std::vector<std::vector<Index>> opLumped_;                // [one-process block] its element order
   std::vector<std::vector<Index>> levelStart_, levelUnit_;  // subcycling: [level] each node's units
   std::vector<std::vector<Real>> planSend_;
   std::vector<MPI_Request> planRequests_;
