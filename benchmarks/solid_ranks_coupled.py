@@ -56,8 +56,9 @@ def _write_case(src: Path, variant: str | None, end: float, folder: Path) -> Pat
 
 
 def _results(folder: Path) -> Path | None:
-    """The dynamic_water results file of a completed run in folder, or None."""
-    for p in sorted(folder.glob("results*/dynamic_water/results.h5")):
+    """The dynamic_water results file of a completed run in folder (results*/results_dynamic_water.h5),
+    or None."""
+    for p in sorted(folder.glob("results*/results_dynamic_water.h5")):
         with h5py.File(p, "r") as f:
             if f.attrs.get("status") == "completed":
                 return p
