@@ -63,6 +63,8 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   void addForces(Real t, Real dt, NodalState& state) override;
   /// Rank 0: the adapter's and the carried laws' step state (a window stepped again restores it).
   void checkpoint(StateArchive& archive) override;
+  /// Subcycling: this rank's wet nodes at the finest level (as the adapter's on one process).
+  bool constrainLevels(std::vector<std::uint8_t>& level) const override;
 
   // ---- the protocol (CoupledStepper), collective ------------------------------------------------
   void planWindow(const NodalState& state) override;
