@@ -684,8 +684,8 @@ void Solver::bookNodeChunks(Index nChunks) {
   }
   Real wint = 0;
   for (Index c = 0; c < nChunks; ++c) wint += nodeChunkSums_[kSums * size_t(c) + 5];
+  if (rx_) subtractGhostSums(ke, ext, damp, bdry, wint);
   nodalIntWork_ += wint;
-  if (rx_) subtractGhostSums(ke, ext, damp, bdry);
   if (bad >= 0 && !rx_) reportInstability(bad, state_.vData()[bad]);  // on ranks: finishEnergy, on every rank
   extWork_ += ext;
   dampWork_ += damp;
@@ -694,30 +694,33 @@ void Solver::bookNodeChunks(Index nChunks) {
   finishEnergy(bad);
 }
 
-void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) const {
+void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry, Real& wint) const {
   // The leapfrog update's terms (leapfrogDofs) of each ghost dof, from its velocity before and after.
   const Real* v = state_.vData();
   const Real* fe = state_.fExtData();
   const Real* cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
   const auto& ghosts = rx_->ghosts();
-  if (!nodeLevel_.empty()) {  // subcycling: subcycleDofs' terms
+  if (!nodeLevel_.empty()) {  // subcycling: subcycleDofs' terms, from the ghost's values before the update
+    const Real* fi = state_.fIntData();
     for (size_t k = 0; k < ghosts.size(); ++k) {
       const Index n = ghosts[k];
       const Real mn = state_.mass(n);
       if (!(mn > 0)) continue;
       const int l = nodeLevel_[size_t(n)];
       const bool due = l <= activeLevel_;
-      const Real dtn = dt_ * Real(1u << l);
+      const Real dtn = dt_ * Real(1u << l), dtl = ghostDtp_[k];
       for (int d = 0; d < 3; ++d) {
-        const size_t i = dofIndex(n, d);
-        const Real vo = ghostV_[3 * k + size_t(d)], vn = v[i], vb = 0.5 * (vo + vn);
+        const size_t i = dofIndex(n, d), j = 3 * k + size_t(d);
+        const Real vo = ghostV_[j], vn = v[i], vb = 0.5 * (vo + vn), ao = ghostA_[j];
         const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
-        ke -= 0.5 * mn * vo * vn;
+        ke -= 0.5 * mn * vo * (due ? vn : vo - dtn * ao);
         if (!due) continue;
-        ext -= 0.5 * (fe[i] + ghostFs_[3 * k + size_t(d)]) * ghostDtp_[k] * vo;
-        damp -= cm * vb * vb * dtn;
-        bdry -= cd * vb * vb * dtn;
+        ext -= 0.5 * (fe[i] + ghostFs_[j]) * dtl * vo;
+        wint -= 0.5 * (fi[i] + ghostFis_[j]) * dtl * vo;
+        const Real wdash = 0.5 * vo * (dtn * vb + dtl * (vo - 0.5 * dtl * ao));
+        damp -= cm * wdash;
+        bdry -= cd * wdash;
       }
     }
     return;
@@ -815,11 +818,15 @@ void Solver::updateNodesSubcycled(int active) {
   if (rx_) {  // on ranks: the ghosts' values before the update, to take their share out of the sums
     ghostV_.clear();
     ghostFs_.clear();
+    ghostFis_.clear();
+    ghostA_.clear();
     ghostDtp_.clear();
     for (Index n : rx_->ghosts()) {
       for (int d = 0; d < 3; ++d) {
         ghostV_.push_back(v[dofIndex(n, d)]);
         ghostFs_.push_back(fs[dofIndex(n, d)]);
+        ghostFis_.push_back(fis[dofIndex(n, d)]);
+        ghostA_.push_back(a[dofIndex(n, d)]);
       }
       ghostDtp_.push_back(dtp[n]);
     }

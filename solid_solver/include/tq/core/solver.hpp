@@ -353,7 +353,7 @@ class Solver {
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
   void finishEnergy(Index bad = -1);   // the balance terms from the accumulated works (after a node update)
   // On ranks: the ghost nodes' share of a node update's sums, taken out again (they count on their owner).
-  void subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) const;
+  void subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry, Real& wint) const;
   [[noreturn]] void reportInstability(Index dof, Real value);
 
   const Mesh& mesh_;
@@ -392,7 +392,8 @@ class Solver {
   RankExchange* rx_ = nullptr;
   std::vector<Real> rankTerms_;  // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
   std::vector<Real> ghostV_;
-  std::vector<Real> ghostFs_, ghostDtp_;  // subcycling on ranks: the ghosts' fSync_ and dtPrevNode_ before the update
+  // subcycling on ranks: the ghosts' fSync_, fIntSync_, accelerations and dtPrevNode_ before the update
+  std::vector<Real> ghostFs_, ghostFis_, ghostA_, ghostDtp_;
 };
 
 /// The mesh region of each material's region name, in the order given; InputError naming the fix for
