@@ -589,7 +589,7 @@ double Participant::initializeResumed(const std::vector<unsigned char>& state) {
 double Participant::connect() {
   if (initialized_) throw ConfigError("participant '" + name_ + "': initialize() called twice");
   for (const auto& m : config_.meshes)
-    if (meshes_.at(m.name)->own.size() == 0)
+    if (meshes_.at(m.name)->own.size() == 0 && parts_ == 1)  // a part may hold none of a mesh's nodes
       throw ConfigError("participant '" + name_ + "': interface mesh '" + m.name +
                         "' has no vertices; call setMeshVertices() before initialize()");
   const bool listen = transport_.role == ConnectRole::Listen || (transport_.role == ConnectRole::Auto && amFirst_);

@@ -28,7 +28,7 @@ def test_check_with_one_rank_is_the_plain_check(capsys):
 @needs_mpirun
 def test_the_water_coupling_is_accepted_on_ranks(capsys):
     """The example's three conditions, dynamic_water among them (the water coupling runs on the
-    solid's ranks: rank 0 exchanges the wetted face, tests/cpp/test_ranks.cpp checks its results)."""
+    solid's ranks: each rank exchanges its part of the wetted face, test_coupled_ranks.py checks its results)."""
     assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err

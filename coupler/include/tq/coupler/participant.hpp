@@ -70,6 +70,7 @@ class Participant : private ExchangePort {
   /// part the values of that part's nodes only; its scheme measures, accelerates and decides on the
   /// whole interface, as with a partner in one piece, and the parts follow its flags. The divergence
   /// monitor then runs on the partner, over the data it sends (the first's parts see a piece each).
+  /// A part may hold no node of a mesh (a rank away from the interface): it exchanges empty blocks.
   void setPart(int part, int parts);
   std::uint32_t part() const { return part_; }
   std::uint32_t parts() const { return parts_; }
