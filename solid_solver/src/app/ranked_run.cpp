@@ -574,14 +574,15 @@ std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& 
 }
 
 /// The end of a coupled run on ranks: the fluid's last window (collective), the coupling's summary
-/// and the time its gathers took (the largest over the ranks), a warning for unconverged windows.
+/// and the time its messages between the ranks took (the largest over the ranks), a warning for
+/// unconverged windows.
 void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWriter* writer, RankExchange* rx,
                         std::ostream& err) {
   water.finalize();
   const Real gather = rx ? rx->maxAll(water.secondsCommunicating()) : water.secondsCommunicating();
   if (!writer) return;
   writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
-  writer->writeAttrs("/coupling", {{"ranks_gather_s", gather}, {"wet_nodes", double(water.wetNodes())}},
+  writer->writeAttrs("/coupling", {{"ranks_messages_s", gather}, {"wet_nodes", double(water.wetNodes())}},
                      {{"on_ranks",
                        "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
                        "the wet nodes folded across the ranks in the one-process order"}});
@@ -775,7 +776,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
-        if (water) water->observe();  // the wet nodes' force, for the results
+        if (water) water->observe(mirror.get());  // the wet nodes' force and mass, for the results
         if (gatherContact) gatherContact();
       };
       if (rank == 0) {

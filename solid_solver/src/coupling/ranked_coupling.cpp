@@ -112,6 +112,12 @@ struct RankedCoupling::Impl {
     }
   }
 
+  /// The steps' works booked (the carried laws' first, as the energy guard reads them after).
+  void flushWork() {
+    if (water) water->flushWork();
+    adapter->flushWork();
+  }
+
   /// The frontier's wet nodes: each owner's f_ext to the other ranks that hold the node.
   void sendFrontier(NodalState& st) {
 #ifdef TQ_SOLID_HAVE_MPI
@@ -236,10 +242,10 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
       I.counts.resize(size_t(I.size)), I.displs.resize(size_t(I.size));
       for (int r = 0; r < I.size; ++r) {
         if (r > 0) placeDispls[size_t(r)] = placeDispls[size_t(r) - 1] + nodeCounts[size_t(r) - 1];
-        I.counts[size_t(r)] = 3 * nodeCounts[size_t(r)], I.displs[size_t(r)] = 3 * placeDispls[size_t(r)];
+        I.counts[size_t(r)] = 4 * nodeCounts[size_t(r)], I.displs[size_t(r)] = 4 * placeDispls[size_t(r)];
       }
       I.allPlaces.resize(wet_.size());
-      I.gathered.resize(3 * wet_.size());
+      I.gathered.resize(4 * wet_.size());
       I.wholeForce.assign(3 * wet_.size(), 0.0);
     }
     MPI_Gatherv(places.data(), mineCount, MPI_LONG_LONG, I.allPlaces.data(), nodeCounts.data(), placeDispls.data(),
@@ -263,7 +269,10 @@ void RankedCoupling::initialize() {
 }
 
 void RankedCoupling::finalize() {
-  impl_->together([&] { impl_->adapter->finalize(); });
+  impl_->together([&] {
+    impl_->flushWork();
+    impl_->adapter->finalize();
+  });
 }
 
 void RankedCoupling::abort(const std::string& reason) noexcept {
@@ -276,22 +285,40 @@ Index RankedCoupling::partNodes() const { return Index(impl_->adapter->nodes().s
 std::vector<Index> RankedCoupling::partCounts() const {
   std::vector<Index> n;
   if (impl_->size == 1) return {wetNodes()};
-  for (int c : impl_->counts) n.push_back(Index(c / 3));
+  for (int c : impl_->counts) n.push_back(Index(c / 4));
   return n;
 }
 
-void RankedCoupling::observe() {
+void RankedCoupling::observe(Solver* view) {
   Impl& I = *impl_;
   if (I.size == 1) return;
+  I.flushWork();
 #ifdef TQ_SOLID_HAVE_MPI
   const auto t0 = std::chrono::steady_clock::now();
-  I.mine = I.adapter->force();
+  // each wet node's force (3) and its mass as this rank sums it (the one-process sum), from its owner
+  const std::vector<Real>& f = I.adapter->force();
+  I.mine.clear();
+  for (size_t q = 0; q < I.partNodes.size(); ++q) {
+    I.mine.insert(I.mine.end(), f.begin() + long(3 * q), f.begin() + long(3 * q + 3));
+    I.mine.push_back(I.local.state().mass(I.partNodes[q]));
+  }
   MPI_Gatherv(I.mine.data(), int(I.mine.size()), MPI_DOUBLE, I.gathered.data(), I.counts.data(), I.displs.data(),
               MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  if (I.rank == 0)
-    for (size_t q = 0; q < I.allPlaces.size(); ++q)
-      for (size_t d = 0; d < 3; ++d) I.wholeForce[3 * size_t(I.allPlaces[q]) + d] = I.gathered[3 * q + d];
+  if (I.rank == 0 && view) {
+    NodalState& ms = view->state();
+    for (size_t q = 0; q < I.allPlaces.size(); ++q) {
+      const size_t k = size_t(I.allPlaces[q]);
+      for (size_t d = 0; d < 3; ++d) I.wholeForce[3 * k + d] = I.gathered[4 * q + d];
+      const Index n = wet_[k];
+      if (ms.mass(n) != I.gathered[4 * q + 3]) {  // set exactly: m + (−m) is 0, then 0 + x is x
+        ms.addMass(n, -ms.mass(n));
+        ms.addMass(n, I.gathered[4 * q + 3]);
+      }
+    }
+  }
   secondsComm_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+#else
+  (void)view;
 #endif
 }
 
@@ -303,12 +330,12 @@ std::string RankedCoupling::name() const { return "water coupling on the ranks (
 
 // In the one-process order: the exchanged force, then the pressure the solid carries (its prediction
 // reads the f_ext the exchanged force added), on this rank's part; the frontier's f_ext to its copies.
+// Neither meets an error one rank alone would (a step outside the protocol is one on every rank): no
+// agreement is needed.
 void RankedCoupling::addForces(Real t, Real dt, NodalState& st) {
   Impl& I = *impl_;
-  I.together([&] {
-    I.adapter->addForces(t, dt, st);
-    if (I.water) I.water->addForces(t, dt, st);
-  });
+  I.adapter->addForces(t, dt, st);
+  if (I.water) I.water->addForces(t, dt, st);
   I.sendFrontier(st);
 }
 
@@ -323,7 +350,7 @@ void RankedCoupling::planWindow(const NodalState& st) {
 }
 
 void RankedCoupling::planStep(Index j, Real dt) {
-  impl_->together([&] { impl_->adapter->planStep(j, dt); });
+  impl_->adapter->planStep(j, dt);  // inside the window: no exchange, an error alike on every rank
 }
 
 bool RankedCoupling::exchange(Real dt, const NodalState& st) {
@@ -333,7 +360,10 @@ bool RankedCoupling::exchange(Real dt, const NodalState& st) {
 }
 
 void RankedCoupling::acceptWindow() {
-  impl_->together([&] { impl_->adapter->acceptWindow(); });
+  impl_->together([&] {
+    impl_->flushWork();  // the energy guard reads the works
+    impl_->adapter->acceptWindow();
+  });
   ++done_;
 }
 

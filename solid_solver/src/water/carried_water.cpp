@@ -62,6 +62,9 @@ struct CarriedWater::Impl {
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
   // Work space of the laws (per station).
   mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, workSum;
+  // On a part: each step's work terms ([3n]) and which nodes moved, booked in step order by flushWork()
+  std::vector<std::vector<Real>> pendingWork;
+  std::vector<std::vector<std::uint8_t>> pendingMoving;
 
   Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
       : solver(s), in(ci), wall(s, std::move(wet)), nodes(wall.nodes()) {}
@@ -436,6 +439,28 @@ void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
   Real* fe = st.fExtData();
   const Real* v = st.vData();
   std::fill(I.force.begin(), I.force.end(), 0.0);
+  if (I.part) {  // the step's work terms kept; summed over the parts in order by flushWork()
+    std::vector<Real> terms(I.force.size(), 0.0);
+    std::vector<std::uint8_t> moving(I.nodes.size(), 0);
+    for (size_t k = 0; k < I.nodes.size(); ++k) {
+      if (!(st.mass(I.nodes[k]) > 0)) continue;
+      moving[k] = 1;
+      const Real pc = I.carried(k, I.ps.data(), I.lam.data());
+      const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+        I.force[j] = pc * I.g[j];
+        fe[i] += I.force[j];
+        terms[j] = 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+      }
+    }
+    I.pendingWork.push_back(std::move(terms));
+    I.pendingMoving.push_back(std::move(moving));
+    I.psPrev = I.ps;
+    I.lamPrev = I.lam;
+    I.dtPrev = dt;
+    return;
+  }
   I.workSum.assign(1, 0.0);  // the work of the moving dofs, in the order of the wet nodes
   foldOverWetNodes(I.part, I.nodes.size(), I.workSum, [&](size_t k) {
     if (!(st.mass(I.nodes[k]) > 0)) return;  // as forEachMovingDof
@@ -460,6 +485,26 @@ void CarriedWater::checkpoint(StateArchive& a) {
     a.io(*v);
   a.io(I.volumeWork);
   a.io(I.dtPrev);
+  if (I.part) {  // the steps whose work is not booked yet: those of a window stepped again are dropped
+    long long pending = (long long)I.pendingWork.size();
+    a.io(pending);
+    if (!a.saving()) I.pendingWork.resize(size_t(pending)), I.pendingMoving.resize(size_t(pending));
+  }
+}
+
+void CarriedWater::flushWork() {
+  Impl& I = *impl_;
+  if (!I.part || I.pendingWork.empty()) return;
+  const size_t m = I.pendingWork.size();
+  I.workSum.assign(m, 0.0);
+  I.part->fold(I.workSum, [&](size_t k) {
+    for (size_t s = 0; s < m; ++s)
+      if (I.pendingMoving[s][k])
+        for (size_t j = 3 * k; j < 3 * k + 3; ++j) I.workSum[s] += I.pendingWork[s][j];
+  });
+  for (size_t s = 0; s < m; ++s) I.volumeWork += I.workSum[s];
+  I.pendingWork.clear();
+  I.pendingMoving.clear();
 }
 
 bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {

@@ -126,6 +126,10 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
   void checkpoint(StateArchive& archive) override;
+  /// On a part (MPI ranks): the work of the steps since the last call booked, each step's sum over
+  /// the parts in the one-process order (collective; the steps' terms are kept until then, so a step
+  /// costs no message for it); before fluidWork() is read. Nothing in one process (booked each step).
+  void flushWork();
   /// Restart checkpoints (tq/io/restart.hpp): at a window's end, the adapter's state across windows
   /// (the last windows' forces and motions, the predictor's history, the energy bookkeeping, the
   /// counters) and the coupler participant's bytes (Participant::saveState); restored before

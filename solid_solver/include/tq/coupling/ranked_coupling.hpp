@@ -47,10 +47,12 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   /// pressures and counters are the whole face's, alike on every rank; nodes() and force() the part's.
   FluidCoupling* adapter();
   const CarriedWater* water() const;
-  /// Collective, before a results sample: the wet nodes' force last added (the exchanged one and the
-  /// carried pressure's), gathered on rank 0 in the order of wetNodeList() (results only: gathered
-  /// as the rest of the results on ranks).
-  void observe();
+  /// Collective, before a results sample: the works booked (FluidCoupling::flushWork); the wet nodes'
+  /// force last added (the exchanged one and the carried pressure's) gathered on rank 0 in the order
+  /// of wetNodeList(), and their mass as the ranks sum it set on rank 0's `view` (the whole-model
+  /// mirror the results are written from; null elsewhere). Results only: gathered as the rest of the
+  /// results on ranks.
+  void observe(Solver* view);
   /// Rank 0, after observe(): the whole face's nodes (global indices, ascending) and their force.
   const std::vector<Index>& wetNodeList() const { return wet_; }
   const std::vector<Real>& wetForce() const;

@@ -53,6 +53,9 @@ class CarriedWater final : public NodalForceContributor {
   /// The step state: the stations' pressures and resultants of the last two steps, the axial
   /// flow's integrators, the work, the force added, the reference u0.
   void checkpoint(StateArchive& archive) override;
+  /// On a part: the work of the steps since the last call booked, each step's sum over the parts in
+  /// the one-process order (collective); before work() is read. Nothing in one process.
+  void flushWork();
   /// Subcycling: the wet nodes step every fine step.
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
 
