@@ -836,6 +836,15 @@ double Participant::windowStartTime() const {
   return scheme_ ? double(scheme_->state().window) * config_.windowSize : 0.0;
 }
 
+std::vector<std::size_t> Participant::partnerPartNodes(const std::string& mesh) const {
+  if (partLinks_.empty()) return {partnerVertexCount(mesh)};
+  std::vector<std::size_t> n;
+  const auto it = partNodes_.find(mesh);
+  if (it == partNodes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");
+  for (const auto& nodes : it->second) n.push_back(nodes.size());
+  return n;
+}
+
 std::size_t Participant::partnerVertexCount(const std::string& mesh) const {
   auto it = meshes_.find(mesh);
   if (it == meshes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");

@@ -138,11 +138,17 @@ def run_coupled(tmp: Path, ranks: int | None) -> Path:
         # owns, a node on a partition boundary in one part only (the water refuses parts that do not
         # cover its face once each), and the parts add up to the face
         said = re.search(r"each rank exchanges its own part of the wetted face's (\d+) nodes with the water "
-                         r"\(the nodes it owns:([ \d]+)\)", solid.stdout)
+                         r"\(the nodes it owns:([ \d]+);", solid.stdout)
         assert said, solid.stdout
         parts = [int(n) for n in said[2].split()]
         assert int(said[1]) == 2 * N_THETA and len(parts) == ranks, said[0]
         assert sum(parts) == 2 * N_THETA and max(parts) < 2 * N_THETA, parts
+        print(f"{ranks} ranks: the wet nodes each rank exchanges: {parts}")
+        # and the water's own count: one connection a rank, each with that rank's nodes (it checked
+        # that they pair with its own once each before the first window)
+        assert f"fake fluid: the partner in {ranks} part(s) of {' '.join(map(str, parts))} nodes" in fout, fout
+    else:
+        assert f"fake fluid: the partner in 1 part(s) of {2 * N_THETA} nodes" in fout, fout
     return res
 
 

@@ -566,7 +566,7 @@ std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& 
       out << "; each rank exchanges its own part of the wetted face's " << water->wetNodes()
           << " nodes with the water (the nodes it owns:";
       for (Index n : water->partCounts()) out << " " << n;
-      out << ")";
+      out << "; the face's node list in " << water->foldRuns() << " runs of one rank each)";
     }
     out << std::endl;
   }

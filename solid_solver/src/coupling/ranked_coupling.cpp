@@ -282,6 +282,7 @@ void RankedCoupling::abort(const std::string& reason) noexcept {
 FluidCoupling* RankedCoupling::adapter() { return impl_->adapter.get(); }
 const CarriedWater* RankedCoupling::water() const { return impl_->water.get(); }
 Index RankedCoupling::partNodes() const { return Index(impl_->adapter->nodes().size()); }
+Index RankedCoupling::foldRuns() const { return impl_->size == 1 ? 1 : Index(impl_->runs.size()); }
 std::vector<Index> RankedCoupling::partCounts() const {
   std::vector<Index> n;
   if (impl_->size == 1) return {wetNodes()};

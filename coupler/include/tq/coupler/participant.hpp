@@ -76,6 +76,9 @@ class Participant : private ExchangePort {
   std::uint32_t parts() const { return parts_; }
   /// Parts of the partner (after initialize(); 1 for a partner in one piece).
   std::size_t partnerParts() const { return 1 + partLinks_.size(); }
+  /// The nodes of a mesh each of the partner's parts exchanges, in part order (after initialize();
+  /// one count, the partner's nodes, for a partner in one piece).
+  std::vector<std::size_t> partnerPartNodes(const std::string& mesh) const;
 
   /// Connects, runs the handshake (refusing a partner with another token, protocol version,
   /// configuration or incompatible mesh), builds the maps, and, on the second participant,

@@ -60,6 +60,9 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   Index partNodes() const;
   /// Rank 0: every rank's part node count, in rank order (they add up to wetNodes()).
   std::vector<Index> partCounts() const;
+  /// The runs of the face's node list each held by one rank: a folded sum passes from rank to rank
+  /// runs − 1 times, then goes to every rank (1 on one rank).
+  Index foldRuns() const;
 
   /// The same on every rank.
   Real endTime() const { return endTime_; }
