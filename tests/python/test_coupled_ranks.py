@@ -210,7 +210,7 @@ def test_coupled_run_on_ranks_equals_the_one_process_run(one_process, tmp_path, 
     assert np.max(np.abs(one_process["coupling/volume_pressure"][:, 1])) > 1e-3 * 1e6
 
 
-@pytest.mark.parametrize("what", ["checkpoints", "transport mpi"])
+@pytest.mark.parametrize("what", ["checkpoints", "transport mpi", "map projection"])
 def test_what_the_coupled_run_on_ranks_cannot_honour_is_refused_before_it_connects(tmp_path, what):
     half_held_ring(tmp_path / "mesh.h5")
     solid_input(tmp_path / "solid_input.h5", tmp_path / "wall.addr")
@@ -218,10 +218,14 @@ def test_what_the_coupled_run_on_ranks_cannot_honour_is_refused_before_it_connec
     if what == "checkpoints":
         cmd += ["--checkpoint-dir", str(tmp_path / "checkpoints")]
         named, fix = "--checkpoint-dir: the coupled run on ranks writes no restart checkpoints", "without --checkpoint-dir"
-    else:
+    elif what == "transport mpi":
         with h5py.File(tmp_path / "solid_input.h5", "a") as f:
             f["coupling"].attrs["transport"] = "mpi"
         named, fix = "/coupling transport mpi: the solid on ranks couples over TCP only", "set /coupling transport tcp"
+    else:
+        with h5py.File(tmp_path / "solid_input.h5", "a") as f:
+            f["coupling"].attrs["map"] = "projection"
+        named, fix = "/coupling map projection: the solid on ranks exchanges each rank's part", "set /coupling map coincident"
     solid = subprocess.run(cmd, env=ENV, capture_output=True, text=True, timeout=60)
     assert solid.returncode == 2, solid.stdout + solid.stderr
     assert named in solid.stderr and fix in solid.stderr, solid.stderr

@@ -533,6 +533,10 @@ std::string coupledRunOnRanksRefusal(const SolidInput& in, const RunOptions& cl)
   if (ci.transport == "mpi")
     return "/coupling transport mpi: the solid on ranks couples over TCP only (its ranks are one MPI job of their "
            "own); set /coupling transport tcp (tunnelquake run does), or run tq-solid as one process";
+  if (ci.map != "coincident")
+    return "/coupling map " + ci.map +
+           ": the solid on ranks exchanges each rank's part of the wetted face with the coincident map only; set "
+           "/coupling map coincident (tunnelquake run does), or run tq-solid as one process";
   if (!cl.checkpointDir.empty())
     return "--checkpoint-dir: the coupled run on ranks writes no restart checkpoints (the coupler's state with "
            "each rank's part is not saved yet); run it without --checkpoint-dir (tunnelquake run --ranks does), or "
