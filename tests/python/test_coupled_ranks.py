@@ -11,12 +11,17 @@ restored and stepped again until the exchange converges). The water's pressure o
 pushes it along x (1 + cos 2θ + ½ cos θ around it) and pulses in time, so every monitored quantity
 moves.
 
-Asserted: every dataset of /monitors, /energy and /coupling (the works, the coupling energy, the
-volume law's pressure, the wetted face's force and mean acceleration, the water pressure at the
-monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every node's force and mass
-is summed in the one-process order on any rank count, docs/architecture.md "The solid on ranks"),
-but the whole-model energy sums (/energy/history, summed over each rank's elements and then across
-ranks), within 1e-13 of the largest magnitude of their series (measured 7.9e-16 to 1.0e-15); the
+Each rank exchanges its own part of the wetted face (the wet nodes it owns) with the fake water over
+its own connection; asserted: the water coupled with one part a rank, each part with the nodes that
+rank says it owns, none with the whole face, the parts adding up to it (the water refuses parts that
+do not cover its face once each), and every dataset of /monitors, /energy and /coupling (the works,
+the coupling energy, the volume law's pressure, the wetted face's force and mean acceleration, the
+water pressure at the monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every
+node's force and mass is summed in the one-process order on any rank count, docs/architecture.md
+"The solid on ranks"; the sums over the wet nodes are folded across the ranks in that order, "The
+water coupling on ranks"), but the whole-model energy sums (/energy/history, summed over each rank's
+elements and then across ranks), within 1e-13 of the largest magnitude of their series (measured
+5.7e-16 to 1.3e-15); the
 /coupling counters (windows, passes) equal; on one rank (`--distributed` without other ranks) every
 dataset bitwise equal.
 """
