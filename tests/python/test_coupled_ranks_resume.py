@@ -57,7 +57,8 @@ def prepare(folder: Path) -> Path:
 def run(folder: Path, ranks: int, resume_window: int | None = None, fault: str | None = None):
     """The solid on `ranks` ranks and the fake water, both with their checkpoints; `resume_window`: both
     resumed from that window's; `fault`: TQ_RANK_FAULT. Returns (solid, water) completed processes."""
-    (folder / "wall.addr").unlink(missing_ok=True)
+    for addr in folder.glob("wall.addr*"):  # part 0's and the other parts' (.part<r>) of a run before
+        addr.unlink()
     water_cmd = [sys.executable, "-m", "tunnelquake.coupling.fakes", "--role", "fluid", "--token", TOKEN,
                  "--address-file", str(folder / "wall.addr"), "--scheme", "implicit", "--windows", str(WINDOWS),
                  "--window-size", repr(K_STEPS * 2e-5), "--n-theta", str(N_THETA), "--n-layers", "2",

@@ -33,8 +33,8 @@ SINGLE_RATE = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycl
 @needs_mpirun
 def test_the_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
     """The example's three conditions, dynamic_water among them (the water coupling runs on the
-    solid's ranks: rank 0 exchanges the wetted face, tests/cpp/test_ranks.cpp checks its results),
-    single-rate; the example as it is names its subcycled conditions and the fix."""
+    solid's ranks: each rank exchanges its part of the wetted face, test_coupled_ranks.py checks its
+    results), single-rate; the example as it is names its subcycled conditions and the fix."""
     assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 1
     err = capsys.readouterr().err
     assert "subcycling (time.subcycling {'static_water': 3, 'dynamic_water': 3}, in static_water, dynamic_water)" \
