@@ -4,6 +4,9 @@ two or more trees of the code side by side: a benchmark, not a test.
 usage: python -m benchmarks.allrun_time OUT --tree NAME=SRC[:BUILD] --tree NAME=SRC[:BUILD] ...
            [--case CASE.yaml] [--variant NAME] [--end SECONDS] [--rounds 3] [--json FILE]
 
+CASE (default cases/paper_tunnel/case.yaml) is read from each tree when it is a relative path, so
+that each tree runs its own version of the example; an absolute path is the same file for all.
+
 Each tree is a checkout of this repository (SRC: its scripts/ are put first on PYTHONPATH) with
 its native build (BUILD, default SRC/build, given to the run as TQ_BUILD_DIR). Every round runs
 the case once with each tree, in an order that turns by one each round (so that a drift of the
@@ -27,7 +30,7 @@ import time
 from pathlib import Path
 
 from .common import machine
-from .cost_error import DEFAULT_CASE, lay
+from .cost_error import lay
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -88,7 +91,8 @@ def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.allrun_time", description=__doc__.split("\n\n")[0])
     ap.add_argument("out", type=Path, help="folder for the runs (created)")
     ap.add_argument("--tree", action="append", required=True, help="NAME=SRC[:BUILD]; the first is the baseline")
-    ap.add_argument("--case", type=Path, default=DEFAULT_CASE)
+    ap.add_argument("--case", type=Path, default=Path("cases/paper_tunnel/case.yaml"),
+                    help="relative: each tree's own file; absolute: one file for every tree")
     ap.add_argument("--variant", default=None)
     ap.add_argument("--end", type=float, default=None, help="cut the record to this many seconds")
     ap.add_argument("--rounds", type=int, default=3)
@@ -99,14 +103,18 @@ def main(argv: list[str]) -> int:
     trees = [parse_tree(t) for t in a.tree]
     if len({t[0] for t in trees}) != len(trees):
         raise SystemExit("--tree: give each tree its own NAME")
-    base = yaml.safe_load(a.case.read_text())
+    cases = {name: a.case if a.case.is_absolute() else src / a.case for name, src, _ in trees}
+    for name, path in cases.items():
+        if not path.is_file():
+            raise SystemExit(f"--case {a.case}: no {path} (tree {name})")
     runs: list[dict] = []
     print(machine(), flush=True)
     for r in range(a.rounds):
         order = trees[r % len(trees):] + trees[:r % len(trees)]
         for name, src, build in order:
             folder = a.out / f"round{r + 1}" / name
-            case = write_case(base, a.case.parent, folder, a.variant, a.end)
+            source = cases[name]
+            case = write_case(yaml.safe_load(source.read_text()), source.parent, folder, a.variant, a.end)
             rec = {"round": r + 1, "tree": name, **run_once(src, build, case, folder / "run.log")}
             runs.append(rec)
             print(f"round {r + 1} {name:>12}: wall {rec['wall_s']:8.1f} s, CPU {rec['cpu_s']:8.1f} s, "

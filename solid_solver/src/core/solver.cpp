@@ -17,7 +17,7 @@ namespace tq {
 
 namespace {
 constexpr Index kNodeChunk = 1024;
-constexpr int kSums = 5;  // kinetic, external, damping, boundary, first bad dof (as Real)
+constexpr int kSums = 6;  // kinetic, external, damping, boundary, first bad dof (as Real), internal work
 
 struct LeapfrogArgs {
   Real *u, *v, *a;
@@ -30,6 +30,7 @@ struct LeapfrogArgs {
 };
 struct LeapfrogSums {
   Real ke = 0, ext = 0, damp = 0, bdry = 0;
+  Real wint = 0;  // subcycled: the internal forces' work booked at the node updates
   Index nBad = 0;
 };
 
@@ -41,12 +42,13 @@ inline Index firstBadDof(const Real* v, size_t i0, size_t i1, Real vlim) {
   return -1;
 }
 
-inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Index bad) {
+inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Index bad, Real wint = 0) {
   s[0] = ke;
   s[1] = ext;
   s[2] = damp;
   s[3] = bdry;
   s[4] = Real(bad);
+  s[5] = wint;
 }
 
 typedef long long LI2 __attribute__((vector_size(16)));
@@ -183,6 +185,7 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
 }
 struct SubcycleArgs {
   Real *u, *v, *a, *fs, *dtp;  // fs: f_ext at each node's last update; dtp: its last step
+  Real* fis;                   // f_int at each node's last update
   const Real *fi, *fe, *cb, *m;
   const std::uint8_t *fr, *lev;
   Index nn;  // nodes in the chunk
@@ -193,13 +196,18 @@ struct SubcycleArgs {
 
 // Subcycled update of one dof or one vector of dofs (see Solver::updateNodesSubcycled): a due
 // node (upd) takes the central-difference step dtn = 2^level Δt; every node of an active element
-// moves by Δt v. Branch-free like leapfrogDofs.
+// moves by Δt v. Branch-free like leapfrogDofs. The works of the external and of the internal
+// forces are both booked at the node's updates, over its previous step (trapezoid): the node's
+// own update then balances kinetic + internal + damping - external exactly, at every fine step
+// (the elements' own stress work, booked when they are evaluated, would count a coarse node's
+// motion on the fine elements next to it before its external work and kinetic energy are).
 template <class T>
 inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rdt, T dtl, T fri, T cd, size_t i,
-                                                        const SubcycleArgs& q, T& ke, T& ext, T& damp, T& bdry,
+                                                        const SubcycleArgs& q, T& ke, T& ext, T& damp, T& bdry, T& wint,
                                                         T& bad) {
   const T zero = T{} * 0.0, one = zero + 1.0;
   const T vo = loadv<T>(q.v + i), fei = loadv<T>(q.fe + i), fii = loadv<T>(q.fi + i), fsi = loadv<T>(q.fs + i);
+  const T fisi = loadv<T>(q.fis + i), ao = loadv<T>(q.a + i);
   const auto has = mn > 0;
   const auto upd = has & (due > 0);
   const T cm = q.alpha * mn, mdt = mn * rdt, ch = 0.5 * (cm + cd);
@@ -208,11 +216,20 @@ inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rd
   const T vn = upd ? vnew : has ? vo : zero;
   const T vb = 0.5 * (vo + vn);
   ext += upd ? 0.5 * (fei + fsi) * dtl * vo : zero;  // over this node's previous step
-  ke += has ? 0.5 * mn * vo * vn : zero;
-  damp += upd ? cm * vb * vb * dtn : zero;
-  bdry += upd ? cd * vb * vb * dtn : zero;
+  wint += upd ? 0.5 * (fii + fisi) * dtl * vo : zero;
+  // ½ m v^{k-½}·v^{k+½} of the node's own step k, also between its updates (v^{k-½} = v - a dtn):
+  // the kinetic energy changes only where the works are booked.
+  ke += has ? 0.5 * mn * vo * (upd ? vn : vo - dtn * ao) : zero;
+  // The dashpots' work over the node's previous step, ½ v^{k+½}·(c v̄^{k+1} dtn + c v̄^k dtl) with
+  // v̄^k = v^{k+½} − ½ a dtl: what the product form of the kinetic energy loses to them from one
+  // update to the next (booked as c v̄² dtn at each update, as single-rate books it, the preloaded
+  // box of test_subcycling.cpp drifted by 4.5e-6 of its external work; now 1e-15).
+  const T wdash = 0.5 * vo * (dtn * vb + dtl * (vo - 0.5 * dtl * ao));
+  damp += upd ? cm * wdash : zero;
+  bdry += upd ? cd * wdash : zero;
   storev(q.fs + i, upd ? fei : fsi);
-  storev(q.a + i, upd ? (vn - vo) * rdt : has ? loadv<T>(q.a + i) : zero);
+  storev(q.fis + i, upd ? fii : fisi);
+  storev(q.a + i, upd ? (vn - vo) * rdt : has ? ao : zero);
   storev(q.v + i, vn);
   storev(q.u + i, loadv<T>(q.u + i) + q.dt * vn);  // + 0 for a node of no active element
   const T av = vn < 0 ? -vn : vn;
@@ -224,7 +241,7 @@ inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rd
 template <class V, bool kDash>
 inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleArgs& q) {
   constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
-  V ke{}, ext{}, damp{}, bdry{}, bad{};
+  V ke{}, ext{}, damp{}, bdry{}, wint{}, bad{};
   const Index n4 = q.nn / 4 * 4;
   for (Index n = 0; n < n4; n += 4) {
     V mv[K];
@@ -232,11 +249,15 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     bool quiet = true;  // none of the 4 due, all of active elements: most groups at most fine steps
     for (int j = 0; j < 4; ++j) quiet = quiet && q.lev[n + j] > q.active && q.m[n + j] > 0;
     if (quiet) {  // move on with v (what subcycleDofs does for them, without its division)
+      alignas(32) Real dtq4[4];
+      for (int j = 0; j < 4; ++j) dtq4[j] = q.dt * Real(1u << q.lev[n + j]);
+      V tq[K];
+      dofMasses(dtq4, tq);
 #pragma GCC unroll 6
       for (int k = 0; k < K; ++k) {
         const size_t i = 3 * size_t(n) + size_t(k) * L;
         const V vo = loadv<V>(q.v + i);
-        ke += 0.5 * mv[k] * vo * vo;
+        ke += 0.5 * mv[k] * vo * (vo - tq[k] * loadv<V>(q.a + i));
         storev(q.u + i, loadv<V>(q.u + i) + q.dt * vo);
       }
       continue;
@@ -258,20 +279,22 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
       const V cd = kDash ? loadv<V>(q.cb + i) : V{};
-      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry, bad);
+      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry, wint,
+                      bad);
     }
     for (int j = 0; j < 4; ++j)
       if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
   }
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
+  for (int l = 0; l < L; ++l) r.wint += wint[l];
   for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
     const bool d = q.lev[n] <= q.active;
     const Real dtn = q.dt * Real(1u << q.lev[n]);
     for (int c = 0; c < 3; ++c) {
       const size_t i = dofIndex(n, c);
       subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0, i,
-                         q, r.ke, r.ext, r.damp, r.bdry, bads);
+                         q, r.ke, r.ext, r.damp, r.bdry, r.wint, bads);
     }
     if (q.m[n] > 0 && d) q.dtp[n] = dtn;
   }
@@ -659,6 +682,9 @@ void Solver::bookNodeChunks(Index nChunks) {
     bdry += s[3];
     if (bad < 0 && s[4] >= 0) bad = Index(s[4]);
   }
+  Real wint = 0;
+  for (Index c = 0; c < nChunks; ++c) wint += nodeChunkSums_[kSums * size_t(c) + 5];
+  nodalIntWork_ += wint;
   if (rx_) subtractGhostSums(ke, ext, damp, bdry);
   if (bad >= 0 && !rx_) reportInstability(bad, state_.vData()[bad]);  // on ranks: finishEnergy, on every rank
   extWork_ += ext;
@@ -710,7 +736,10 @@ void Solver::finishEnergy(Index bad) {
   for (const auto& e : contributors_) dissContrib += e.contributor->dissipatedEnergy();
   for (const auto& e : contributors_) bdryContrib += e.contributor->boundaryEnergy();
   Real diss = dissContrib - interface0_, bE = bdryContrib - boundary0_;
-  Real internal = stressWork_ + storedEnergy_, damping = dampWork_, boundary = bdryWork_, external = extWork_;
+  // Subcycled: the internal forces' work booked at the node updates (updateNodesSubcycled) from
+  // the elements' internal energy when subcycling started.
+  Real internal = nodeLevel_.empty() ? stressWork_ + storedEnergy_ : intBase_ + nodalIntWork_, damping = dampWork_,
+       boundary = bdryWork_, external = extWork_;
   if (rx_) {  // on ranks: the whole model's terms, and a stop on every rank when one went unstable
     Real sums[8] = {internal, damping, boundary, external, energy_.kinetic, diss, bE, bad >= 0 ? 1.0 : 0.0};
     rx_->sumAll(sums, 8);
@@ -756,6 +785,7 @@ void Solver::updateNodesSubcycled(int active) {
   const std::uint8_t* __restrict fr = free_.data();
   const std::uint8_t* __restrict lev = nodeLevel_.data();
   Real* __restrict fs = fSync_.data();
+  Real* __restrict fis = fIntSync_.data();
   Real* __restrict dtp = dtPrevNode_.data();
   const Real dt = dt_, alpha = opt_.damping.alpha, vlim = opt_.velocityLimit;
   Real rdt[9];  // 1 / (2^level Δt)
@@ -765,13 +795,12 @@ void Solver::updateNodesSubcycled(int active) {
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
     const size_t i0 = 3 * size_t(n0);
-    SubcycleArgs q{u + i0, v + i0,  a + i0,   fs + i0, dtp + n0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
-                   m + n0, fr + i0, lev + n0, n1 - n0, dt,       alpha,   vlim,    active,
-                   {}};
+    SubcycleArgs q{u + i0, v + i0,  a + i0,   fs + i0, dtp + n0, fis + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
+                   m + n0, fr + i0, lev + n0, n1 - n0, dt,       alpha,    vlim,    active,  {}};
     std::copy(rdt, rdt + 9, q.rdt);
     const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
     const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
-    storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad);
+    storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad, ls.wint);
   }
   bookNodeChunks(nChunks);
 }
@@ -799,6 +828,7 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   SubcyclingInfo info;
   nodeLevel_.clear();
   fSync_.clear();
+  fIntSync_.clear();
   dtPrevNode_.clear();
   for (auto& b : blocks_) b->setChunkLevels({});
   if (maxLevel <= 0) return info;
@@ -840,8 +870,11 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
       }
   }
   nodeLevel_ = std::move(level);
-  fSync_.assign(state_.fExtData(), state_.fExtData() + 3 * size_t(N));  // f_ext of the step just taken
+  fSync_.assign(state_.fExtData(), state_.fExtData() + 3 * size_t(N));     // f_ext of the step just taken
+  fIntSync_.assign(state_.fIntData(), state_.fIntData() + 3 * size_t(N));  // and its f_int
   dtPrevNode_.assign(size_t(N), dtLast_);
+  intBase_ = stressWork_ + storedEnergy_;  // the elements' internal energy to the step just taken
+  nodalIntWork_ = 0;
   cycle_ = 0;
   info.nodes.assign(size_t(maxLevel) + 1, 0);
   info.elements.assign(size_t(maxLevel) + 1, 0);
@@ -957,7 +990,10 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(boundary0_);
   a.io(alphaRelax_);
   a.io(fSync_);
+  a.io(fIntSync_);
   a.io(dtPrevNode_);
+  a.io(intBase_);
+  a.io(nodalIntWork_);
   a.io(cycle_);
   if (!a.saving()) stepOpen_ = false;  // a restored state abandons an open step
   for (auto& b : blocks_) b->checkpoint(a);
@@ -1146,6 +1182,7 @@ void Solver::resetMotion() {
     }
   stressWork_ = dampWork_ = bdryWork_ = extWork_ = 0;
   stressWork_ = -storedEnergy_;  // internal energy restarts at 0 from the current state
+  intBase_ = nodalIntWork_ = 0;  // subcycled: likewise
   interface0_ = plastic0_ = boundary0_ = 0;
   for (const auto& e : contributors_) interface0_ += e.contributor->dissipatedEnergy();
   for (const auto& b : blocks_) plastic0_ += b->dissipatedEnergy();

@@ -170,7 +170,8 @@ struct StableStep {
 /// constant; `error` is its drift relative to the largest of the terms.
 struct EnergyBalance {
   Real kinetic = 0;    ///< ½ m v^{n-½}·v^{n+½} (central difference; exact invariant when undamped)
-  Real internal = 0;   ///< strain energy incl. hourglass (= work of the stresses)
+  Real internal = 0;   ///< strain energy incl. hourglass (= work of the stresses); subcycled: the work
+                       ///< of the internal forces booked at each node's updates, like `external`
   Real damping = 0;    ///< dissipated by Rayleigh damping
   Real boundary = 0;   ///< absorbed by boundary dashpots
   Real external = 0;   ///< work of the external forces
@@ -368,10 +369,13 @@ class Solver {
   bool balanceSet_ = false;
   bool avx2_ = false;                // node update path (ElementBlock::defaultUseAvx2)
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
-  // Subcycling: node levels, f_ext at each node's last velocity update and the step that update
-  // took (the trapezoidal work over its next step), fine steps since enableSubcycling.
+  // Subcycling: node levels, f_ext and f_int at each node's last velocity update and the step that
+  // update took (the trapezoidal works over its next step), fine steps since enableSubcycling; the
+  // internal energy is then the elements' at enableSubcycling (intBase_) plus the internal forces'
+  // work booked at the node updates (nodalIntWork_), as the external work is.
   std::vector<std::uint8_t> nodeLevel_;
-  std::vector<Real> fSync_, dtPrevNode_;
+  std::vector<Real> fSync_, fIntSync_, dtPrevNode_;
+  Real intBase_ = 0, nodalIntWork_ = 0;
   Index cycle_ = 0;
   // On ranks (tq/parallel/): the exchange, and the ghost nodes' velocities before a node update.
   RankExchange* rx_ = nullptr;
