@@ -31,7 +31,9 @@ start, meshing, statics and the shaking). Each point is run once, at most --jobs
 
 Writes FOLDER/cost_error.json (every point) and FOLDER/cost_error_<condition>.png (error against
 CPU, the default marked, the Pareto front drawn); --docs copies the figures and the JSON to
-docs/bench/.
+docs/bench/. --suffix S names them cost_error[_<variant>]S* (a run of another --end beside the
+default one's). The table gives each point's coupling energy against the interface work
+(|coupling_energy| / interface_work_peak of the run's /coupling record).
 --tabulate-only re-reads the JSON and redraws without running. Prints the table.
 """
 from __future__ import annotations
@@ -252,6 +254,17 @@ MONITOR_KEYS = (("sigma3", "max_tension"), ("sigma1", "min_sigma1"), ("pressure"
                 ("u_x", "max_ux"), ("u_z", "max_uz"))
 
 
+def energy_ratio(rec: dict) -> float:
+    """The coupling's energy error against the interface work: |coupling_energy| over the largest
+    |work| the water did on the lining (interface_work_peak); NaN where the run did not record both."""
+    c = rec.get("coupling") or {}
+    try:
+        e, w = float(c["coupling_energy"]), float(c["interface_work_peak"])
+    except (KeyError, TypeError, ValueError):
+        return math.nan
+    return abs(e) / w if w > 0 else math.nan
+
+
 def errors(rec: dict, ref: dict) -> dict:
     """Each quantity's largest relative difference against the reference (over the monitors for
     the monitors' peaks), the worst of them, and which; the damage apart."""
@@ -303,8 +316,9 @@ def table(runs: list[dict], an: dict) -> str:
     lines = []
     for cond, a in an.items():
         lines += [f"\n{cond}: reference {a.get('reference')}; front: {', '.join(a.get('front', []))}",
-                  "| setting | CPU s | wall s | passes a window | worst error (which) | damage | status |",
-                  "|---|---:|---:|---:|---|---:|---|"]
+                  "| setting | CPU s (water) | wall s | passes a window | worst error (which) | damage "
+                  "| coupling energy / interface work | status |",
+                  "|---|---:|---:|---:|---|---:|---:|---|"]
         for r in (r for r in runs if r["condition"] == cond):
             c = r.get("coupling") or {}
             passes = (f"{c['passes'] / c['windows']:.2f}" if c.get("windows") and "passes" in c else "–")
@@ -313,8 +327,10 @@ def table(runs: list[dict], an: dict) -> str:
                    f"{100 * e['worst']:.3f} % ({e['worst_of']})" if e else "–")
             dmg = f"{100 * e['damage']:.2f} %" if e and r["role"] != "reference" else "–"
             mark = " (default)" if r["role"] == "default" else ""
-            lines.append(f"| {r['name']}{mark} | {r.get('cpu_s', math.nan):.1f} | {r['wall_s']:.0f} | {passes} "
-                         f"| {err} | {dmg} | {r.get('status', '?')} |")
+            water = f" ({r['water_cpu_s']:.1f})" if "water_cpu_s" in r else ""
+            en = energy_ratio(r)
+            lines.append(f"| {r['name']}{mark} | {r.get('cpu_s', math.nan):.1f}{water} | {r['wall_s']:.0f} | {passes} "
+                         f"| {err} | {dmg} | {'–' if math.isnan(en) else f'{en:.1e}'} | {r.get('status', '?')} |")
     return "\n".join(lines)
 
 
@@ -402,12 +418,17 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--tabulate-only", action="store_true")
     ap.add_argument("--variant", default=None,
                     help="the case file's variant to lay over it (3d: the 3D ladder, points_3d)")
+    ap.add_argument("--suffix", default="",
+                    help="appended to the files' names (cost_error_3d_2.5s*.json/png for --suffix _2.5s): "
+                         "keeps a run of another length apart from the default one's files")
     a = ap.parse_args(argv)
     import yaml
 
+    if a.suffix and not re.fullmatch(r"[A-Za-z0-9_.-]+", a.suffix):
+        ap.error(f"--suffix {a.suffix!r}: use letters, digits and _ . - only (it names files), e.g. --suffix _2.5s")
     folder = a.folder.resolve()
     folder.mkdir(parents=True, exist_ok=True)
-    tag = f"_{slug(a.variant)}" if a.variant else ""
+    tag = (f"_{slug(a.variant)}" if a.variant else "") + a.suffix
     store = folder / f"cost_error{tag}.json"
     data = json.loads(store.read_text()) if store.is_file() else {"end": a.end, "runs": [], "variant": a.variant}
     if not a.tabulate_only:
@@ -432,7 +453,8 @@ def main(argv: list[str]) -> int:
 
         with ThreadPoolExecutor(max_workers=a.jobs) as ex:
             list(ex.map(one, todo))
-    data["machine"] = common.machine()
+    if not (a.tabulate_only and data.get("machine")):  # a redraw keeps the machine line of the runs
+        data["machine"] = common.machine()
     data["end"] = data.get("end", a.end)
     print(render(data, folder, a.docs, tag))
     return 0

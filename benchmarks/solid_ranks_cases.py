@@ -25,7 +25,8 @@ the last bit of their largest magnitude; and the same for the one-process run wi
                static_water (the hydrostatic stage)
 
     example3d  the example's 3D model (cases/paper_tunnel, mesh mode 3d: 80 m long), condition
-               no_water, without the `3d` variant's subcycling (not on ranks)
+               no_water, single-rate (the `3d` variant itself, subcycled and coupled to OpenFOAM's
+               water: benchmarks.solid_ranks_coupled)
 
 --rounds R > 0 also times R rounds of the --configs (default plain:1,ranks:1x1: one rank against
 the one-process run; ranks:1x2,ranks:2x1: 2 ranks x 1 thread against 1 rank x 2 threads), alternated
@@ -93,7 +94,7 @@ def _scene(name: str, folder: Path, end: float) -> tuple[Path, str]:
         src = ROOT / "cases" / "paper_tunnel" / "case.yaml"
         data = yaml.safe_load(src.read_text())
         data.pop("variants", None)
-        data["mesh"]["mode"] = "3d"  # the `3d` variant's model, its solid alone (no subcycling on ranks)
+        data["mesh"]["mode"] = "3d"  # the `3d` variant's model, its solid alone, single-rate
         cond = "no_water"
     else:
         raise SystemExit(f"unknown scene {name!r}: slice, scene3d or example3d")

@@ -4,13 +4,13 @@ tq-solid cannot run on ranks yet, and the mpirun command of a run on ranks.
 tq-solid runs a model partitioned between ranks with ``mpirun -np N tq-solid solid_input.h5
 --distributed``: the staged analysis (in-situ state, excavation, lining, hydrostatic pressure),
 the viscoelastic base and free-field sides with the input motion, the rock-lining dynamic contact
-or bonded tie, elastic and Mohr-Coulomb materials, monitors, ring forces, snapshots, restart
+or bonded tie, elastic and Mohr-Coulomb materials, subcycling, monitors, ring forces, snapshots, restart
 checkpoints (``--resume`` on the same rank count: a checkpoint holds each rank's part of that
 partition; coupled with the water, with the coupling's state at a window's end, as one process) and
 the water coupling of dynamic_water (each rank exchanges the wet nodes it owns with the water over its
 own connection). What does not run on ranks yet
 (the DRM layer of an incident wave,
-a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, subcycling, the
+a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, the
 lining's joints) is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
 runs.
@@ -47,13 +47,6 @@ def ranks_refusal(case, ranks: int) -> list[str]:
         reasons.append("a motion along the tunnel's axis (ground_motion.second_horizontal or azimuth), which the "
                        "slice takes through periodic faces: use a motion across the tunnel and vertical only, or "
                        "run without --ranks")
-    from .case import subcycling_levels
-
-    subcycled = [c for c in d["conditions"] if subcycling_levels(d, c)]
-    if subcycled:
-        which = "" if len(subcycled) == len(d["conditions"]) else f", in {', '.join(subcycled)}"
-        reasons.append(f"subcycling (time.subcycling {d['time']['subcycling']}{which}): set time.subcycling: 0, "
-                       "or run without --ranks")
     from .case import lining_joints_active
 
     if lining_joints_active(d):

@@ -2,7 +2,7 @@
 reference, the Pareto front of (CPU, error), and the cheaper points within 0.1 % (hand-computed)."""
 import math
 
-from benchmarks.cost_error import analyse, errors
+from benchmarks.cost_error import analyse, energy_ratio, errors
 
 
 def _run(name, cpu, s3, p, n, role="", cond="dynamic_water"):
@@ -58,3 +58,23 @@ def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
     default = next(p for p in pts if p.role == "default")
     assert set(default.overrides) == {"parallel.threads"}  # the variant's own settings
     load_case(tmp_path / "dynamic_water" / "window_16__tol_1e_5__subcycling_0" / "case.yaml")
+
+
+def test_energy_ratio_is_the_coupling_energy_over_the_interface_work():
+    """|coupling_energy| / interface_work_peak of the run's /coupling record (hand-computed: a
+    -0.0073 J energy error against 326.5 J of interface work is 2.24e-5); NaN without the record."""
+    r = {"coupling": {"coupling_energy": -0.0073, "interface_work_peak": 326.5}}
+    assert math.isclose(energy_ratio(r), 0.0073 / 326.5, rel_tol=1e-12)
+    assert math.isnan(energy_ratio({"coupling": {"coupling_energy": 1.0}}))
+    assert math.isnan(energy_ratio({}))
+
+
+def test_a_suffix_that_cannot_name_a_file_is_refused_before_anything_runs(tmp_path, capsys):
+    import pytest
+
+    from benchmarks.cost_error import main
+
+    with pytest.raises(SystemExit) as e:
+        main([str(tmp_path), "--suffix", "../x", "--tabulate-only"])
+    assert e.value.code == 2 and "--suffix" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -1,7 +1,7 @@
 """The solid on MPI ranks, the Python side: `--ranks N` of `tunnelquake check` and `run` refuses,
 before anything runs, what tq-solid cannot run on ranks yet (an incident wave's DRM layer, a fault
-offset, a motion along the axis, subcycling), naming it and the fix, and accepts the rest (the staged
-analysis, the seismic boundaries, the dynamic contact, damage, the water coupling); a run on ranks
+offset, a motion along the axis), naming it and the fix, and accepts the rest (the staged
+analysis, the seismic boundaries, the dynamic contact, damage, the water coupling, subcycling); a run on ranks
 killed mid-run and resumed on its ranks (`--resume`) ends as the run never stopped; and the
 mpirun command line of a run on ranks (oversubscribed only where the cores are short). The ranks
 themselves are tested in tests/cpp/test_ranks.cpp (tq-solid on 1-8 ranks against one process,
@@ -26,29 +26,28 @@ def test_check_with_one_rank_is_the_plain_check(capsys):
     assert "is valid" in capsys.readouterr().out
 
 
-#: the example's time.subcycling (static_water and dynamic_water), which does not run on ranks, made 0
+#: the example's time.subcycling (static_water and dynamic_water subcycled)
 SINGLE_RATE = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycling: 0\n")
 
 
 @needs_mpirun
-def test_the_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
-    """The example's three conditions, dynamic_water among them (the water coupling runs on the
-    solid's ranks: each rank exchanges its part of the wetted face, test_coupled_ranks.py checks its
-    results), single-rate; the example as it is names its subcycled conditions and the fix."""
-    assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 1
-    err = capsys.readouterr().err
-    assert "subcycling (time.subcycling {'static_water': 3, 'dynamic_water': 3}, in static_water, dynamic_water)" \
-        in err and "set time.subcycling: 0" in err, err
-    assert main(["check", str(write_case(edited(example_text, *SINGLE_RATE))), "--ranks", "3"]) == 0
+def test_the_water_coupling_is_accepted_on_ranks(capsys):
+    """The example as it is, its three conditions, dynamic_water among them (the water coupling
+    runs on the solid's ranks: each rank exchanges its part of the wetted face, test_coupled_ranks.py
+    checks its results) and its subcycled conditions (stepped on ranks as one process does)."""
+    assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
     assert "the solid on 3 MPI ranks" in captured.out
 
 
 @needs_mpirun
-def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys):
+@pytest.mark.parametrize("subcycling", [0, 3])
+def test_the_staged_case_without_water_coupling_is_accepted_on_ranks(write_case, example_text, capsys, subcycling):
+    """With and without subcycling (tq-solid's ranks step it as one process does, bitwise:
+    tests/cpp/test_ranks.cpp, RankRuns.SubcycledThreeDimensionalTunnelWithContactAndDamageBitwiseOnOneToEightRanks)."""
     case = write_case(edited(example_text, "conditions: [no_water, static_water, dynamic_water]",
-                             "conditions: [no_water, static_water]", *SINGLE_RATE))
+                             "conditions: [no_water, static_water]", SINGLE_RATE[0], f"  subcycling: {subcycling}\n"))
     assert main(["check", str(case), "--ranks", "4"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err
@@ -73,7 +72,6 @@ def test_the_memory_per_rank_estimate_is_the_measured_one_and_divides_every_rank
 
 @needs_mpirun
 @pytest.mark.parametrize("edit,named", [
-    ((SINGLE_RATE[0], "  subcycling: 2\n"), "subcycling (time.subcycling 2)"),
     (("ground_motion:\n", "ground_motion:\n  azimuth: 30 deg\n"), "a motion along the tunnel's axis"),
 ])
 def test_what_does_not_run_on_ranks_is_refused_by_name(write_case, example_text, capsys, edit, named):

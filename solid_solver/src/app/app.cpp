@@ -430,22 +430,7 @@ void SolidRun::addCouplingSeries() { tq::addCouplingSeries(*writer_, *m_.solver,
 // After every contributor is in: they mark their fine nodes.
 void SolidRun::enableSubcycling() {
   if (m_.in.options.subcyclingLevels <= 0) return;
-  const SubcyclingInfo sc = m_.solver->enableSubcycling(m_.in.options.subcyclingLevels);
-  std::ostringstream os;
-  os << "tq-solid: subcycling: steps of 1";
-  for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
-  os << " x dt for";
-  for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
-  os << " elements (";
-  for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
-  os << " nodes): " << std::setprecision(3) << sc.costFraction << " of the element evaluations of one step for all\n";
-  out_ << os.str();
-  std::map<std::string, double> attrs{{"levels", double(sc.levels)}, {"cost_fraction", sc.costFraction}};
-  for (size_t l = 0; l < sc.elements.size(); ++l) {
-    attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
-    attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
-  }
-  writer_->writeAttrs("/subcycling", attrs, {});
+  reportSubcycling(m_.solver->enableSubcycling(m_.in.options.subcyclingLevels), out_, *writer_);
 }
 
 // Everything a checkpoint holds, in this order (saved and restored alike).
@@ -626,6 +611,24 @@ int runSolidBody(const std::vector<std::string>& args, std::ostream& out, std::o
 }
 
 }  // namespace
+
+void reportSubcycling(const SubcyclingInfo& sc, std::ostream& out, ResultsWriter& writer) {
+  std::ostringstream os;
+  os << "tq-solid: subcycling: steps of 1";
+  for (int l = 1; l <= sc.levels; ++l) os << ", " << (1 << l);
+  os << " x dt for";
+  for (size_t l = 0; l < sc.elements.size(); ++l) os << (l ? ", " : " ") << sc.elements[l];
+  os << " elements (";
+  for (size_t l = 0; l < sc.nodes.size(); ++l) os << (l ? ", " : "") << sc.nodes[l];
+  os << " nodes): " << std::setprecision(3) << sc.costFraction << " of the element evaluations of one step for all\n";
+  out << os.str();
+  std::map<std::string, double> attrs{{"levels", double(sc.levels)}, {"cost_fraction", sc.costFraction}};
+  for (size_t l = 0; l < sc.elements.size(); ++l) {
+    attrs["elements_level_" + std::to_string(l)] = double(sc.elements[l]);
+    attrs["nodes_level_" + std::to_string(l)] = double(sc.nodes[l]);
+  }
+  writer.writeAttrs("/subcycling", attrs, {});
+}
 
 int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   // HDF5 closes what is still open at exit; a file whose flush failed then crashes it

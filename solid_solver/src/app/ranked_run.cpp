@@ -132,7 +132,6 @@ std::string unsupportedOnRanks(const SolidInput& in, int ranks) {
     if (S.faultOffset.present) return "the fault offset (/fault_offset) does not run on ranks yet" + fix;
     if (S.periodic.present) return "periodic faces (/boundaries periodic) do not run on ranks yet" + fix;
   }
-  if (in.options.subcyclingLevels > 0) return "subcycling (/solver subcycling_levels) does not run on ranks yet" + fix;
   if (in.options.integrator != Integrator::CentralDifference)
     return "the integrator " + integratorName(in.options.integrator) +
            " does not run on ranks (central_difference only)" + fix;
@@ -622,7 +621,10 @@ void stopWaterOnRanks(RankedCoupling* water, const CouplingInput& in, ResultsWri
 
 /// The solver of one rank's part: a block per region of its frontier elements, then one per region
 /// of the others (RankExchange::frontierBlocks), the supports and loads of the global mesh mapped
-/// onto its nodes, the exchange set, the masses summed and the step reduced over every rank.
+/// onto its nodes, the exchange set, the masses summed and the step reduced over every rank. With
+/// subcycling, a block per region and per one-process chunk its elements belong to (each pass):
+/// a chunk is evaluated at the steps of its level, so that each element is evaluated at the steps
+/// one process evaluates it (RankExchange::subcycle gives each chunk that level).
 std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global, const std::vector<int>& part,
                                         const RankLayout& L, std::unique_ptr<RankExchange>& exchange) {
   std::vector<std::string> names;
@@ -630,17 +632,33 @@ std::unique_ptr<Solver> buildRankSolver(const SolidInput& in, const Mesh& global
   const std::vector<Index> regions = materialRegions(global, names);
   std::vector<std::pair<Index, std::shared_ptr<const Material>>> mats;
   for (size_t m = 0; m < in.materials.size(); ++m) mats.emplace_back(regions[m], makeMaterial(in.materials[m].second));
+  // With subcycling: [global element] its chunk in one process (its region's block: 64 elements of
+  // that block's order a chunk); else every element 0.
+  std::vector<Index> chunkOf(size_t(global.numElems()), 0);
+  if (in.options.subcyclingLevels > 0) {
+    Index next = 0;
+    for (const auto& [r, mat] : mats) {
+      std::vector<Index> elems, lumped, scattered;
+      for (Index e = 0; e < global.numElems(); ++e)
+        if (global.region[size_t(e)] == r) elems.push_back(e);
+      ElementBlock::nodeSumOrder(global, std::move(elems), lumped, scattered);
+      for (size_t p = 0; p < lumped.size(); ++p) chunkOf[size_t(lumped[p])] = next + Index(p) / ElementBlock::kChunk;
+      next += (Index(lumped.size()) + ElementBlock::kChunk - 1) / ElementBlock::kChunk;
+    }
+  }
   std::vector<std::unique_ptr<ElementBlock>> blocks;
   size_t frontierBlocks = 0;
   for (int pass = 0; pass < 2; ++pass) {  // frontier elements first
     for (const auto& [r, mat] : mats) {
-      std::vector<Index> elems;
+      std::map<Index, std::vector<Index>> groups;  // by their one-process chunk, in its order
       for (Index e = 0; e < L.mesh.numElems(); ++e)
-        if (L.mesh.region[size_t(e)] == r && L.frontierElem[size_t(e)] == (pass == 0 ? 1 : 0)) elems.push_back(e);
-      if (elems.empty()) continue;
-      blocks.push_back(
-          std::make_unique<ElementBlock>(global.regionNames[size_t(r)], mat, in.formulation, L.mesh, std::move(elems)));
-      if (pass == 0) ++frontierBlocks;
+        if (L.mesh.region[size_t(e)] == r && L.frontierElem[size_t(e)] == (pass == 0 ? 1 : 0))
+          groups[chunkOf[size_t(L.globalElem[size_t(e)])]].push_back(e);
+      for (auto& [chunk, elems] : groups) {
+        blocks.push_back(std::make_unique<ElementBlock>(global.regionNames[size_t(r)], mat, in.formulation, L.mesh,
+                                                        std::move(elems)));
+        if (pass == 0) ++frontierBlocks;
+      }
     }
   }
   SolverOptions opt = in.options;
@@ -753,6 +771,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
         }
       }
       Solver& s = *local;
+      s.checkSubcycling(in.options.subcyclingLevels);         // refused now, not after the static stages
       Solver* view = size == 1 ? local.get() : mirror.get();  // what the results are written from (rank 0)
       // The partition: weights per rank, frontier nodes.
       const std::vector<Real> w = partWeights(part, cost, size);
@@ -837,6 +856,10 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
                                     checkpoints && checkpoints->resuming());
         if (checkpoints && in.checkpointInterval > 0)
           checkpoints->everyWindows(std::max<long long>(1, in.staged.coupling.checkpointWindows));
+      }
+      if (in.options.subcyclingLevels > 0) {  // after every contributor is in: they mark their fine nodes
+        const SubcyclingInfo sc = s.enableSubcycling(in.options.subcyclingLevels);
+        withWriter([&](ResultsWriter& w) { reportSubcycling(sc, out, w); });
       }
       // Everything a checkpoint holds of this rank, in this order (saved and restored alike).
       size_t nextSnap = 0;

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 
 #include "tq/elements/hex8.hpp"
 
@@ -435,17 +436,22 @@ Real ElementBlock::frequency(Index e) const {
   return 2 * std::sqrt(mod_.pModulus() / material_->density()) / charLen_[e];
 }
 
-void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel) {
+void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel, const std::vector<std::uint8_t>* given) {
   chunkLevel_.clear();
   levelChunks_.clear();
   levelSlabStart_.clear();
   if (nodeLevel.empty()) return;
   const Index nChunks = numChunks();
-  chunkLevel_.assign(size_t(nChunks), 255);
-  for (Index e = 0; e < nElems_; ++e) {
-    if (!active_[e]) continue;
-    std::uint8_t& l = chunkLevel_[size_t(e / kChunk)];
-    for (int k = 0; k < 8; ++k) l = std::min(l, nodeLevel[size_t(conn_[8 * size_t(e) + k])]);
+  if (given) {
+    if (Index(given->size()) != nChunks) throw std::logic_error("setChunkLevels: one level per chunk");
+    chunkLevel_ = *given;
+  } else {
+    chunkLevel_.assign(size_t(nChunks), 255);
+    for (Index e = 0; e < nElems_; ++e) {
+      if (!active_[e]) continue;
+      std::uint8_t& l = chunkLevel_[size_t(e / kChunk)];
+      for (int k = 0; k < 8; ++k) l = std::min(l, nodeLevel[size_t(conn_[8 * size_t(e) + k])]);
+    }
   }
   // For each level L up to the coarsest one: the chunks due at a step of level L and their slabs
   int top = -1;
@@ -460,6 +466,55 @@ void ElementBlock::setChunkLevels(const std::vector<std::uint8_t>& nodeLevel) {
     levelSlabStart_[size_t(L)] =
         subsetSlabs(conn_, nElems_, Index(nodeLevel.size()), kChunk, chunkCentre_, levelChunks_[size_t(L)], 2);
   }
+}
+
+std::vector<std::vector<Index>> ElementBlock::levelSumOrders(const Mesh& mesh, const std::vector<Index>& lumped,
+                                                             const std::vector<std::uint8_t>& chunkLevel,
+                                                             int maxLevel) {
+  // The block's connectivity, chunk centres and slabs as its constructor and setChunkLevels make
+  // them (the one-process block has the whole mesh's nodes).
+  const Index E = Index(lumped.size()), nChunks = (E + kChunk - 1) / kChunk;
+  std::vector<Index> conn(8 * size_t(E)), all(static_cast<size_t>(nChunks));
+  for (Index e = 0; e < E; ++e)
+    for (int k = 0; k < 8; ++k) conn[8 * size_t(e) + size_t(k)] = mesh.connectivity[8 * size_t(lumped[size_t(e)]) + k];
+  std::vector<Real> centre(3 * size_t(nChunks), 0.0);
+  for (Index c = 0; c < nChunks; ++c) {
+    const Index a = c * kChunk, b = std::min(E, a + kChunk);
+    for (Index e = a; e < b; ++e)
+      for (int k = 0; k < 8; ++k)
+        for (int d = 0; d < 3; ++d)
+          centre[3 * size_t(c) + size_t(d)] +=
+              mesh.coords[dofIndex(conn[8 * size_t(e) + size_t(k)], d)] / Real(8 * (b - a));
+  }
+  for (Index c = 0; c < nChunks; ++c) all[size_t(c)] = c;
+  const std::vector<Index> slab = slabsInOrder(conn, E, mesh.numNodes(), kChunk, all, 4);
+  int top = -1;
+  for (std::uint8_t l : chunkLevel)
+    if (l != 255) top = std::max(top, int(l));
+  std::vector<std::vector<Index>> orders(size_t(maxLevel) + 1);
+  auto add = [&](std::vector<Index>& out, Index c) {
+    for (Index e = c * kChunk; e < std::min(E, (c + 1) * kChunk); ++e) out.push_back(lumped[size_t(e)]);
+  };
+  for (int L = 0; L <= maxLevel; ++L) {
+    std::vector<Index>& out = orders[size_t(L)];
+    if (L < top) {  // as computeForcesForElems at a step below the coarsest level
+      std::vector<Index> cs;
+      for (Index c = 0; c < nChunks; ++c)
+        if (chunkLevel[size_t(c)] <= L) cs.push_back(c);
+      const std::vector<Index> st = subsetSlabs(conn, E, mesh.numNodes(), kChunk, centre, cs, 2);
+      const Index nS = Index(st.size()) - 1;
+      for (Index parity = 0; parity < 2; ++parity)
+        for (Index s = parity; s < nS; s += 2)
+          for (Index k = st[size_t(s)]; k < st[size_t(s) + 1]; ++k) add(out, cs[size_t(k)]);
+    } else {  // the block's slabs, the chunks not due left out
+      const Index nS = Index(slab.size()) - 1;
+      for (Index parity = 0; parity < 2; ++parity)
+        for (Index s = parity; s < nS; s += 2)
+          for (Index c = slab[size_t(s)]; c < slab[size_t(s) + 1]; ++c)
+            if (chunkLevel[size_t(c)] <= L) add(out, c);
+    }
+  }
+  return orders;
 }
 
 Index ElementBlock::findBadStress(Real limit) const {

@@ -537,7 +537,7 @@ void Solver::computeInternalForces(int activeLevel) {
   }
   if (rx_) {
     if (rx_->frontierBlocks() >= blocks_.size()) rx_->beginForceSum(f);
-    rx_->finishForceSum(f);
+    rx_->finishForceSum(f, activeLevel);
   }
   stressWork_ += work;
   storedEnergy_ = stored;
@@ -701,6 +701,27 @@ void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry) cons
   const Real* cb = state_.hasDashpots() ? state_.dashpotData() : nullptr;
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
   const auto& ghosts = rx_->ghosts();
+  if (!nodeLevel_.empty()) {  // subcycling: subcycleDofs' terms
+    for (size_t k = 0; k < ghosts.size(); ++k) {
+      const Index n = ghosts[k];
+      const Real mn = state_.mass(n);
+      if (!(mn > 0)) continue;
+      const int l = nodeLevel_[size_t(n)];
+      const bool due = l <= activeLevel_;
+      const Real dtn = dt_ * Real(1u << l);
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = dofIndex(n, d);
+        const Real vo = ghostV_[3 * k + size_t(d)], vn = v[i], vb = 0.5 * (vo + vn);
+        const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
+        ke -= 0.5 * mn * vo * vn;
+        if (!due) continue;
+        ext -= 0.5 * (fe[i] + ghostFs_[3 * k + size_t(d)]) * ghostDtp_[k] * vo;
+        damp -= cm * vb * vb * dtn;
+        bdry -= cd * vb * vb * dtn;
+      }
+    }
+    return;
+  }
   for (size_t k = 0; k < ghosts.size(); ++k) {
     const Index n = ghosts[k];
     const Real mn = state_.mass(n);
@@ -791,6 +812,18 @@ void Solver::updateNodesSubcycled(int active) {
   Real rdt[9];  // 1 / (2^level Δt)
   for (int l = 0; l < 9; ++l) rdt[l] = 1 / (dt * Real(1u << l));
   Real* sums = nodeChunkSums_.data();
+  if (rx_) {  // on ranks: the ghosts' values before the update, to take their share out of the sums
+    ghostV_.clear();
+    ghostFs_.clear();
+    ghostDtp_.clear();
+    for (Index n : rx_->ghosts()) {
+      for (int d = 0; d < 3; ++d) {
+        ghostV_.push_back(v[dofIndex(n, d)]);
+        ghostFs_.push_back(fs[dofIndex(n, d)]);
+      }
+      ghostDtp_.push_back(dtp[n]);
+    }
+  }
 #pragma omp parallel for schedule(dynamic, 2) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
@@ -852,6 +885,15 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   // one level: a fine element next to nodes stepping 8 times its step made the lining's stresses
   // oscillate and grow on the paper slice within 3 s; graded, the run stays within the reference's
   // energy error), until neither lowers a level.
+  // On ranks the same levels as one process: each rank lowers its nodes' levels as one process
+  // does, the copies of a frontier node take the lowest, until no rank lowers one (the levels only
+  // go down, to the largest ones that meet every constraint: one answer, whatever the order).
+  std::vector<Real> copies;
+  if (rx_) {
+    copies.assign(level.begin(), level.end());
+    rx_->minFrontier(copies.data(), 1);
+    for (Index n = 0; n < N; ++n) level[size_t(n)] = std::uint8_t(copies[size_t(n)]);
+  }
   for (bool changed = true; changed;) {
     changed = false;
     for (const auto& e : contributors_) changed = e.contributor->constrainLevels(level) || changed;
@@ -868,6 +910,18 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
           }
         }
       }
+    if (rx_) {
+      copies.assign(level.begin(), level.end());
+      rx_->minFrontier(copies.data(), 1);
+      for (Index n = 0; n < N; ++n)
+        if (std::uint8_t(copies[size_t(n)]) != level[size_t(n)]) {
+          level[size_t(n)] = std::uint8_t(copies[size_t(n)]);
+          changed = true;
+        }
+      Real any = changed ? 1.0 : 0.0;
+      rx_->sumAll(&any, 1);
+      changed = any > 0;
+    }
   }
   nodeLevel_ = std::move(level);
   fSync_.assign(state_.fExtData(), state_.fExtData() + 3 * size_t(N));     // f_ext of the step just taken
@@ -879,13 +933,14 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   info.nodes.assign(size_t(maxLevel) + 1, 0);
   info.elements.assign(size_t(maxLevel) + 1, 0);
   for (Index n = 0; n < N; ++n)
-    if (state_.mass(n) > 0) {
-      ++info.nodes[nodeLevel_[size_t(n)]];
-      info.levels = std::max<int>(info.levels, nodeLevel_[size_t(n)]);
-    }
+    if (state_.mass(n) > 0 && (!rx_ || rx_->owned()[n])) ++info.nodes[nodeLevel_[size_t(n)]];
+  // On ranks each chunk takes the level of the one-process chunk its elements belong to.
+  const std::vector<std::vector<std::uint8_t>> given =
+      rx_ ? rx_->subcycle(nodeLevel_, maxLevel, blocks_) : std::vector<std::vector<std::uint8_t>>{};
   Real evals = 0, active = 0;
-  for (auto& b : blocks_) {
-    b->setChunkLevels(nodeLevel_);
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+    auto& b = blocks_[bi];
+    b->setChunkLevels(nodeLevel_, rx_ ? &given[bi] : nullptr);
     for (Index e = 0; e < b->numElems(); ++e) {
       if (!b->active(e)) continue;
       const int l = b->chunkLevel(e / ElementBlock::kChunk);
@@ -894,6 +949,21 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
       active += 1;
     }
   }
+  if (rx_) {  // the whole model's counts (whole numbers and sums of powers of 2: exact in any order)
+    std::vector<Real> counts(info.nodes.begin(), info.nodes.end());
+    counts.insert(counts.end(), info.elements.begin(), info.elements.end());
+    counts.push_back(evals);
+    counts.push_back(active);
+    rx_->sumAll(counts.data(), int(counts.size()));
+    for (size_t l = 0; l <= size_t(maxLevel); ++l) {
+      info.nodes[l] = decltype(info.nodes)::value_type(counts[l]);
+      info.elements[l] = decltype(info.elements)::value_type(counts[size_t(maxLevel) + 1 + l]);
+    }
+    evals = counts[2 * (size_t(maxLevel) + 1)];
+    active = counts[2 * (size_t(maxLevel) + 1) + 1];
+  }
+  for (size_t l = 0; l < info.nodes.size(); ++l)
+    if (info.nodes[l] > 0) info.levels = std::max<int>(info.levels, int(l));
   info.elements.resize(size_t(info.levels) + 1);
   info.nodes.resize(size_t(info.levels) + 1);
   info.costFraction = active > 0 ? evals / active : 1;

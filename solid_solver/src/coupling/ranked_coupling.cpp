@@ -262,6 +262,12 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
   windows_ = I.adapter->windowCount();
 }
 
+bool RankedCoupling::constrainLevels(std::vector<std::uint8_t>& level) const {
+  std::vector<Index> nodes;
+  for (const auto& h : impl_->held) nodes.push_back(h.second);
+  return lowerToFinestLevel(level, nodes);
+}
+
 RankedCoupling::~RankedCoupling() = default;
 
 void RankedCoupling::initialize() {

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #ifdef TQ_SOLID_HAVE_MPI
 #include <mpi.h>
@@ -36,14 +37,16 @@ struct NodeSumPlan {
   std::vector<size_t> recvAt;                 // [neighbour] its first unit in the buffer
   std::vector<Real> values;                   // [(local + received units) * comps]
 
-  // The sums into out[comps * i + d] for each of its nodes i.
-  void sum(Real* out) const {
+  // The sums into out[comps * i + d] for each of its nodes i (of the units in at[row] .. at[row + 1]
+  // of `units`: by default its own).
+  void sum(Real* out) const { sum(out, start, unit); }
+  void sum(Real* out, const std::vector<Index>& at, const std::vector<Index>& units) const {
     const size_t c = size_t(comps);
     if (c == 3) {  // the forces: the three components in one pass, each its own sequence
       for (size_t r = 0; r < node.size(); ++r) {
         Real s0 = 0, s1 = 0, s2 = 0;
-        for (Index t = start[r]; t < start[r + 1]; ++t) {
-          const Real* v = &values[3 * size_t(unit[size_t(t)])];
+        for (Index t = at[r]; t < at[r + 1]; ++t) {
+          const Real* v = &values[3 * size_t(units[size_t(t)])];
           s0 += v[0];
           s1 += v[1];
           s2 += v[2];
@@ -56,7 +59,7 @@ struct NodeSumPlan {
     for (size_t r = 0; r < node.size(); ++r)
       for (size_t d = 0; d < c; ++d) {
         Real s = 0;
-        for (Index t = start[r]; t < start[r + 1]; ++t) s += values[c * size_t(unit[size_t(t)]) + d];
+        for (Index t = at[r]; t < at[r + 1]; ++t) s += values[c * size_t(units[size_t(t)]) + d];
         out[c * size_t(node[r]) + d] = s;
       }
   }
@@ -64,11 +67,12 @@ struct NodeSumPlan {
 
 // The plan of `comps` values per unit for the local nodes where `include` is 1 (every frontier node
 // among them). seq[global element]: its position in the one-process order; unitOf(local element,
-// corner): its local unit.
+// corner): its local unit. incElem (when given): [incidence] its global element, in the plan's
+// unit order.
 template <class UnitOf>
 NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<int>& part,
                      const std::vector<Index>& seq, const std::vector<std::uint8_t>& include, int comps,
-                     size_t localUnits, const UnitOf& unitOf) {
+                     size_t localUnits, const UnitOf& unitOf, std::vector<Index>* incElem = nullptr) {
   NodeSumPlan P;
   P.comps = comps;
   P.localUnits = localUnits;
@@ -131,6 +135,10 @@ NodeSumPlan makePlan(const RankLayout& L, const Mesh& global, const std::vector<
                              " that no neighbour sends");
     P.unit[x] = u;
   }
+  if (incElem) {
+    incElem->resize(inc.size());
+    for (size_t x = 0; x < inc.size(); ++x) (*incElem)[x] = inc[x].elem;
+  }
   P.values.assign(size_t(comps) * next, 0.0);
   return P;
 }
@@ -139,7 +147,14 @@ class MpiRankExchange final : public RankExchange {
  public:
   MpiRankExchange(const RankLayout& L, size_t frontierBlocks, const Mesh& global, const std::vector<int>& part,
                   const std::vector<Index>& blockRegions, const std::vector<std::unique_ptr<ElementBlock>>& blocks)
-      : frontierBlocks_(frontierBlocks), owned_(L.owned), ghosts_(L.ghosts), frontier_(L.frontier) {
+      : frontierBlocks_(frontierBlocks),
+        owned_(L.owned),
+        ghosts_(L.ghosts),
+        frontier_(L.frontier),
+        global_(&global),
+        part_(part) {
+    layout_ = L;  // its lists (subcycle() makes the force plans again); the mesh is not needed
+    layout_.mesh = Mesh();
     // The one-process order: its blocks (one per region, in blockRegions' order), each adding its
     // elements' masses in its element order and its forces in its scatter order.
     std::vector<Index> massSeq(size_t(global.numElems()), 0), forceSeq(size_t(global.numElems()), 0);
@@ -151,6 +166,7 @@ class MpiRankExchange final : public RankExchange {
         for (Index e = 0; e < global.numElems(); ++e)
           if (global.region[size_t(e)] == r) elems.push_back(e);
         ElementBlock::nodeSumOrder(global, std::move(elems), lumped, scattered);
+        opLumped_.push_back(lumped);
         for (Index e : lumped) massSeq[size_t(e)] = mPos++;
         for (Index e : scattered) forceSeq[size_t(e)] = fPos++;
       }
@@ -282,11 +298,116 @@ class MpiRankExchange final : public RankExchange {
   // frontier elements' units are sent once their blocks are done, and every node's force is summed
   // from its units in the one-process order once the others are.
   void beginForceSum(const Real*) override { post(forces_, kForceTag, planRequests_); }
-  void finishForceSum(Real* f) override {
+  void finishForceSum(Real* f, int activeLevel) override {
     const auto t0 = std::chrono::steady_clock::now();
     MPI_Waitall(int(planRequests_.size()), planRequests_.data(), MPI_STATUSES_IGNORE);
     wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    forces_.sum(f);
+    if (levelStart_.empty()) {
+      forces_.sum(f);
+    } else {  // subcycling: the elements due at this step's level, in that level's order
+      const size_t L = std::min(size_t(activeLevel), levelStart_.size() - 1);
+      forces_.sum(f, levelStart_[L], levelUnit_[L]);
+    }
+  }
+  void minFrontier(Real* data, int comps) override {
+    start(data, comps);
+    const auto t0 = std::chrono::steady_clock::now();
+    MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE);
+    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const size_t c = size_t(comps);
+    for (size_t k = 0; k < frontier_.size(); ++k)
+      for (size_t d = 0; d < c; ++d) {
+        Real m = self_[c * k + d];
+        for (Index t = termStart_[k]; t < termStart_[k + 1]; ++t) {
+          const Term& T = terms_[size_t(t)];
+          if (T.source >= 0) m = std::min(m, recv_[size_t(T.source)][c * size_t(T.pos) + d]);
+        }
+        data[c * size_t(frontier_[k]) + d] = m;
+      }
+  }
+  std::vector<std::vector<std::uint8_t>> subcycle(const std::vector<std::uint8_t>& nodeLevel, int maxLevel,
+                                                  const std::vector<std::unique_ptr<ElementBlock>>& blocks) override {
+    const Mesh& global = *global_;
+    // The one-process chunks: block by block (opLumped_), 64 elements of its order each.
+    std::vector<Index> chunkOf(size_t(global.numElems()), -1), chunkStart{0};
+    for (const auto& lumped : opLumped_) {
+      for (size_t p = 0; p < lumped.size(); ++p)
+        chunkOf[size_t(lumped[p])] = chunkStart.back() + Index(p) / ElementBlock::kChunk;
+      chunkStart.push_back(chunkStart.back() +
+                           (Index(lumped.size()) + ElementBlock::kChunk - 1) / ElementBlock::kChunk);
+    }
+    // Their levels: min over their active elements' nodes, over every rank (255: none active).
+    std::vector<Real> level(size_t(chunkStart.back()), 255.0);
+    for (const auto& b : blocks)
+      for (Index e = 0; e < b->numElems(); ++e) {
+        if (!b->active(e)) continue;
+        Real& l = level[size_t(chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e))])])];
+        for (int k = 0; k < 8; ++k) l = std::min(l, Real(nodeLevel[size_t(b->node(e, k))]));
+      }
+    MPI_Allreduce(MPI_IN_PLACE, level.data(), int(level.size()), MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    // This rank's chunks: each lies in one of them.
+    std::vector<std::vector<std::uint8_t>> mine;
+    for (const auto& b : blocks) {
+      mine.emplace_back(size_t(b->numChunks()), 255);
+      for (Index e = 0; e < b->numElems(); ++e) {
+        const Index c = chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e))])];
+        const Index first =
+            chunkOf[size_t(layout_.globalElem[size_t(b->meshElem(e / ElementBlock::kChunk * ElementBlock::kChunk))])];
+        if (c != first)
+          throw std::logic_error("subcycling on ranks: a chunk of block '" + b->name() +
+                                 "' holds elements of two one-process chunks");
+        mine.back()[size_t(e / ElementBlock::kChunk)] = std::uint8_t(level[size_t(c)]);
+      }
+    }
+    // Each level's order of the elements' forces at the nodes: the one-process blocks' in turn.
+    const size_t nL = size_t(maxLevel) + 1;
+    std::vector<std::vector<Index>> seq(nL, std::vector<Index>(size_t(global.numElems()), -1));
+    {
+      std::vector<Index> pos(nL, 0);
+      for (size_t ob = 0; ob < opLumped_.size(); ++ob) {
+        std::vector<std::uint8_t> cl;
+        for (Index c = chunkStart[ob]; c < chunkStart[ob + 1]; ++c) cl.push_back(std::uint8_t(level[size_t(c)]));
+        const auto orders = ElementBlock::levelSumOrders(global, opLumped_[ob], cl, maxLevel);
+        for (size_t L = 0; L < nL; ++L)
+          for (Index e : orders[L]) seq[L][size_t(e)] = pos[L]++;
+      }
+    }
+    // Every node summed from its elements' corner forces (a slot an element): the plan of all
+    // of them (the messages), then each level's units, in that level's order.
+    const size_t nl = layout_.globalNode.size(), ne = layout_.globalElem.size();
+    // (the plan's order a key for every element, the same on both sides of a message: the elements
+    // of no level after the others, by index)
+    std::vector<Index> key(seq.back());
+    for (size_t e = 0; e < key.size(); ++e)
+      if (key[e] < 0) key[e] = global.numElems() + Index(e);
+    std::vector<Index> incElem;
+    forces_ = makePlan(
+        layout_, global, part_, key, std::vector<std::uint8_t>(nl, 1), 3, 8 * ne,
+        [](Index le, int k) { return 8 * le + Index(k); }, &incElem);
+    summedNodes_ = forces_.node.size();
+    levelStart_.assign(nL, {});
+    levelUnit_.assign(nL, {});
+    for (size_t L = 0; L < nL; ++L) {
+      std::vector<Index>& at = levelStart_[L];
+      std::vector<Index>& unit = levelUnit_[L];
+      at.push_back(0);
+      std::vector<std::pair<Index, Index>> row;
+      for (size_t r = 0; r < forces_.node.size(); ++r) {
+        row.clear();
+        for (Index x = forces_.start[r]; x < forces_.start[r + 1]; ++x)
+          if (const Index q = seq[L][size_t(incElem[size_t(x)])]; q >= 0) row.emplace_back(q, forces_.unit[size_t(x)]);
+        std::sort(row.begin(), row.end());
+        for (const auto& [q, u] : row) unit.push_back(u);
+        at.push_back(Index(unit.size()));
+      }
+    }
+    blockSlots_.clear();
+    for (const auto& b : blocks) {
+      blockSlots_.emplace_back();
+      for (Index e = 0; e < b->numElems(); ++e) blockSlots_.back().push_back(b->meshElem(e));
+      b->setCornerForceOutput(forces_.values.data(), blockSlots_.back().data());
+    }
+    return mine;
   }
   void sumElementShares(const std::vector<std::vector<Real>>& perBlock, Real* nodal) override {
     size_t u = 0;
@@ -434,6 +555,11 @@ class MpiRankExchange final : public RankExchange {
   std::vector<Index> ownedLocal_;            // this rank's owned nodes
   std::vector<int> ownedCounts_, ownedIds_;  // rank 0: every rank's owned nodes (global indices)
   size_t globalNodes_ = 0;
+  const Mesh* global_;                                      // the whole mesh (subcycle())
+  std::vector<int> part_;                                   // the partition
+  RankLayout layout_;                                       // this rank's lists (its mesh left out)
+  std::vector<std::vector<Index>> opLumped_;                // [one-process block] its element order
+  std::vector<std::vector<Index>> levelStart_, levelUnit_;  // subcycling: [level] each node's units
   std::vector<std::vector<Real>> planSend_;
   std::vector<MPI_Request> planRequests_;
   double wait_ = 0;  // s waiting in finish() and sumAll()

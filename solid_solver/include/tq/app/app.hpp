@@ -25,4 +25,9 @@ bool takeRunOption(const std::vector<std::string>& args, size_t& i, RunOptions& 
 /// the water coupling (fluid lost, silent or refused; the message names the cause and the fix).
 int runSolid(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
+struct SubcyclingInfo;
+class ResultsWriter;
+/// The subcycling's levels as a run reports them: a line on `out`, the /subcycling attributes.
+void reportSubcycling(const SubcyclingInfo& sc, std::ostream& out, ResultsWriter& writer);
+
 }  // namespace tq

@@ -114,7 +114,9 @@ class ElementBlock {
   /// Subcycling: give each chunk the level min over its active elements' nodes of nodeLevel
   /// (a chunk is evaluated at the fine steps where the node of the finest level among its
   /// elements is updated: every 2^level fine steps). An empty array clears the levels.
-  void setChunkLevels(const std::vector<std::uint8_t>& nodeLevel);
+  /// `given` (on MPI ranks): each chunk's level as it is, [chunk] (the level of the one-process
+  /// chunk its elements belong to); nodeLevel then only sizes the slabs.
+  void setChunkLevels(const std::vector<std::uint8_t>& nodeLevel, const std::vector<std::uint8_t>* given = nullptr);
   /// Level of chunk c (0 without subcycling).
   int chunkLevel(Index c) const { return chunkLevel_.empty() ? 0 : chunkLevel_[size_t(c)]; }
   Index numChunks() const { return Index(chunkEnergy_.size()); }
@@ -145,6 +147,13 @@ class ElementBlock {
   /// even slabs, then its odd ones). A function of the mesh and the list alone.
   static void nodeSumOrder(const Mesh& mesh, std::vector<Index> meshElems, std::vector<Index>& lumped,
                            std::vector<Index>& scattered);
+  /// Subcycling on MPI ranks: the order in which the force kernel of a block whose element order is
+  /// `lumped` (nodeSumOrder) adds its elements' forces to their nodes at a step of each level L =
+  /// 0 .. maxLevel (orders[L], mesh element indices), its chunks' levels being `chunkLevel`
+  /// (setChunkLevels; 255: no active element): the elements of the chunks due at L only, in the
+  /// order of that level's slabs (computeForcesForElems). A function of the mesh and the levels.
+  static std::vector<std::vector<Index>> levelSumOrders(const Mesh& mesh, const std::vector<Index>& lumped,
+                                                        const std::vector<std::uint8_t>& chunkLevel, int maxLevel);
   /// On MPI ranks: besides adding them to the nodal forces, store the corner forces of each element
   /// e with slot[e] >= 0 at out[24 slot[e] + 3 k + i] (corner k, component i; zero for an inactive
   /// element), from which the exchange sums the nodes that the scatter does not sum in the

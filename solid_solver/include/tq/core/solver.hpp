@@ -126,8 +126,19 @@ class RankExchange {
   virtual void sumFrontier(Real* data, int comps) = 0;
   /// The internal forces f [3N]: start the frontier sum (after the frontier blocks), and finish it
   /// (after the others): every rank then holds the same total on its copy of a frontier node.
+  /// `activeLevel`: the step's subcycling level (Solver::beginStep; 255 without subcycling).
   virtual void beginForceSum(const Real* f) = 0;
-  virtual void finishForceSum(Real* f) = 0;
+  virtual void finishForceSum(Real* f, int activeLevel) = 0;
+  /// The smallest of each frontier node's copies (`comps` values per node), on every copy.
+  virtual void minFrontier(Real* data, int comps) = 0;
+  /// Subcycling: the levels of this rank's chunks, [block][chunk]: each the level one process gives
+  /// the chunk its elements belong to (min over its active elements' nodes of nodeLevel, over every
+  /// rank; a rank's chunk lies in one such chunk, the blocks are made so). From then on each
+  /// node's force at a step of level L is summed from the elements due at L in the one-process
+  /// order of that level (ElementBlock::levelSumOrders). nodeLevel [local node], the same on
+  /// every copy; collective.
+  virtual std::vector<std::vector<std::uint8_t>> subcycle(const std::vector<std::uint8_t>& nodeLevel, int maxLevel,
+                                                          const std::vector<std::unique_ptr<ElementBlock>>& blocks) = 0;
   /// Each node's sum of its elements' values (perBlock[b][e]: element e of block b, the same at each
   /// of its corners) over every rank, in the order one process adds them (lumpMassInto), into
   /// nodal [N]: the lumped masses the same bits as one process's.
@@ -381,6 +392,7 @@ class Solver {
   RankExchange* rx_ = nullptr;
   std::vector<Real> rankTerms_;  // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
   std::vector<Real> ghostV_;
+  std::vector<Real> ghostFs_, ghostDtp_;  // subcycling on ranks: the ghosts' fSync_ and dtPrevNode_ before the update
 };
 
 /// The mesh region of each material's region name, in the order given; InputError naming the fix for

@@ -80,6 +80,8 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   void addForces(Real t, Real dt, NodalState& state) override;
   /// The adapter's and the carried laws' step state of this rank's part (a window stepped again restores it).
   void checkpoint(StateArchive& archive) override;
+  /// Subcycling: this rank's wet nodes at the finest level (as the adapter's on one process).
+  bool constrainLevels(std::vector<std::uint8_t>& level) const override;
 
   // ---- the protocol (CoupledStepper), collective ------------------------------------------------
   void planWindow(const NodalState& state) override;
