@@ -34,6 +34,7 @@ struct RankedCoupling::Impl {
   std::shared_ptr<CarriedWater> water;     // on this rank's part
   std::shared_ptr<FluidCoupling> adapter;  // on this rank's part
   std::vector<Index> partNodes;            // the part's nodes (this solver's indices), in place order
+  std::vector<Index> heldNodes;            // every wet node this rank holds, owned or a frontier copy
   // The frontier's wet nodes: the local nodes whose f_ext this rank sends each other holder (it owns
   // them) or receives from their owner, per rank, in place order.
   std::vector<std::pair<int, std::vector<Index>>> sendTo, recvFrom;
@@ -164,6 +165,7 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
 #endif
   wet_ = wallNodes(global, in.face);  // an InputError on every rank alike
   if (I.size == 1) {                  // the one-process run
+    I.heldNodes = wet_;
     I.together([&] {
       I.water = CarriedWater::fromCoupling(local, in);
       I.adapter = std::make_shared<FluidCoupling>(local, in, I.water.get());
@@ -182,6 +184,7 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     for (size_t k = 0; k < wet_.size(); ++k) {
       const Index l = L.localNode[size_t(wet_[k])];
       if (l < 0) continue;
+      I.heldNodes.push_back(l);
       if (L.owned[size_t(l)]) {
         I.part.places.push_back(k);
         I.partNodes.push_back(l);
@@ -263,9 +266,7 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
 }
 
 bool RankedCoupling::constrainLevels(std::vector<std::uint8_t>& level) const {
-  std::vector<Index> nodes;
-  for (const auto& h : impl_->held) nodes.push_back(h.second);
-  return lowerToFinestLevel(level, nodes);
+  return lowerToFinestLevel(level, impl_->heldNodes);
 }
 
 RankedCoupling::~RankedCoupling() = default;
