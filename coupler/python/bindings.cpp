@@ -283,6 +283,10 @@ PYBIND11_MODULE(_coupler, m) {
       .def_property_readonly("window_start_time", [](const PyParticipant& s) { return s.p().windowStartTime(); })
       .def("partner_vertex_count",
            [](const PyParticipant& s, const std::string& mesh) { return s.p().partnerVertexCount(mesh); })
+      .def(
+          "partner_part_nodes",
+          [](const PyParticipant& s, const std::string& mesh) { return s.p().partnerPartNodes(mesh); }, py::arg("mesh"),
+          "The nodes each of the partner's parts exchanges (one count: a partner in one piece).")
       .def("stats", [](const PyParticipant& s) {
         const ExchangeStats x = s.p().stats();
         py::dict d;

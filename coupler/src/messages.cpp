@@ -110,6 +110,8 @@ std::vector<std::uint8_t> encodeHello(const Hello& h) {
     w.u64(m.triangles.size() / 3);
     w.i32s(m.triangles.data(), m.triangles.size());
   }
+  w.u32(h.part);
+  w.u32(h.parts);
   return out;
 }
 
@@ -139,6 +141,11 @@ Hello decodeHello(const std::uint8_t* p, std::size_t n) {
                "-1");
     h.meshes.push_back(std::move(m));
   }
+  h.part = r.u32();
+  h.parts = r.u32();
+  if (h.parts < 1 || h.parts > 65536 || h.part >= h.parts)
+    r.fail("part " + std::to_string(h.part) + " of " + std::to_string(h.parts) +
+           " is not a part (0 <= part < parts <= 65536)");
   r.finish();
   return h;
 }

@@ -52,6 +52,48 @@ Participant::Participant(std::string name, CouplingConfig config, TransportOptio
   }
 }
 
+namespace {
+/// For each point of `at` (3 coordinates each), the index of the nearest of `points` within `tol`
+/// (m), or −1: the pairing of the coincident map.
+std::vector<long> coincidentWith(const std::vector<double>& points, const std::vector<double>& at, double tol) {
+  std::vector<long> out(at.size() / 3, -1);
+  if (points.empty()) return out;
+  const KdTree tree(points.data(), points.size() / 3);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    double d2 = 0;
+    const std::size_t s = tree.nearest(at.data() + 3 * i, &d2);
+    if (std::sqrt(d2) <= tol) out[i] = long(s);
+  }
+  return out;
+}
+
+double meshTolerance(const CouplingConfig& c, const std::string& mesh) {
+  for (const auto& m : c.meshes)
+    if (m.name == mesh) return m.tolerance;
+  return 0.0;
+}
+}  // namespace
+
+std::string partAddressFile(const std::string& addressFile, std::uint32_t part) {
+  return part == 0 ? addressFile : addressFile + ".part" + std::to_string(part);
+}
+
+std::vector<Endpoint*> Participant::links() const {
+  std::vector<Endpoint*> all;
+  if (link_) all.push_back(link_.get());
+  for (const auto& l : partLinks_) all.push_back(l.get());
+  return all;
+}
+
+void Participant::setPart(int part, int parts) {
+  if (initialized_) throw ConfigError("participant '" + name_ + "': setPart after initialize()");
+  if (parts < 1 || parts > 65536 || part < 0 || part >= parts)
+    throw ConfigError("participant '" + name_ + "': part " + std::to_string(part) + " of " + std::to_string(parts) +
+                      " is not a part (0 <= part < parts <= 65536)");
+  part_ = std::uint32_t(part);
+  parts_ = std::uint32_t(parts);
+}
+
 Participant::~Participant() {
   if (link_ && link_->open() && !finalized_)
     abort("participant '" + name_ +
@@ -101,7 +143,12 @@ auto Participant::guarded(const char* what, F&& f) -> decltype(f()) {
   try {
     return f();
   } catch (const PartnerLostError&) {
-    if (link_) link_->close();  // the partner is gone or already stopping: nothing to tell
+    // the partner is gone or already stopping: nothing to tell, but to its other parts when it is in parts
+    if (partLinks_.empty()) {
+      if (link_) link_->close();
+    } else {
+      abort(std::string(what) + ": a part of '" + partner_ + "' stopped");
+    }
     finalized_ = true;
     throw;
   } catch (const CouplerError& e) {
@@ -117,6 +164,8 @@ Hello Participant::makeHello() const {
   h.partner = partner_;
   h.config = config_;
   for (const auto& m : config_.meshes) h.meshes.push_back(meshes_.at(m.name)->own);
+  h.part = part_;
+  h.parts = parts_;
   return h;
 }
 
@@ -241,7 +290,9 @@ void Participant::buildMaps(const Hello& theirs) {
 }
 
 void Participant::runAcceptor(Deadline deadline) {
-  auto listener = makeListener(transport_, name_, partner_);
+  TransportOptions t = transport_;  // a part r > 0 publishes its own address file
+  t.addressFile = partAddressFile(t.addressFile, part_);
+  auto listener = makeListener(t, name_, partner_);
   std::vector<std::string> refused;
   auto refusedText = [&] {
     std::string s;
@@ -316,7 +367,25 @@ void Participant::runAcceptor(Deadline deadline) {
   }
 }
 
-void Participant::acceptPartner(const Hello& h, const std::function<void(ReasonCode, const std::string&)>& reject) {
+void Participant::acceptPartner(const Hello& theirs,
+                                const std::function<void(ReasonCode, const std::string&)>& reject) {
+  Hello h = theirs;
+  if (parts_ > 1)  // a part: the partner's nodes that pair with this part's (coincident maps), in its order
+    for (auto& m : h.meshes) {
+      const auto it = meshes_.find(m.name);
+      if (it == meshes_.end()) continue;
+      const std::vector<long> pair =
+          coincidentWith(it->second->own.coordinates, m.coordinates, meshTolerance(config_, m.name));
+      MeshVertices sub;
+      sub.name = m.name;
+      for (std::size_t i = 0; i < m.ids.size(); ++i)
+        if (pair[i] >= 0) {
+          sub.ids.push_back(m.ids[i]);
+          sub.coordinates.insert(sub.coordinates.end(), m.coordinates.begin() + std::ptrdiff_t(3 * i),
+                                 m.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
+        }
+      m = std::move(sub);
+    }
   const std::string problems = checkPartner(h);
   if (!problems.empty()) {
     const std::string text =
@@ -334,45 +403,133 @@ void Participant::acceptPartner(const Hello& h, const std::function<void(ReasonC
 
 void Participant::runConnector(Deadline deadline) {
   link_ = std::make_unique<Endpoint>(connectTo(transport_, name_, partner_, deadline), name_, partner_);
+  // REJECT to every part connected so far, then closed
   auto reject = [&](ReasonCode code, const std::string& text) {
-    try {
-      link_->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
-    } catch (const CouplerError&) {
+    for (Endpoint* l : links()) {
+      try {
+        l->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
+      } catch (const CouplerError&) {
+      }
+      l->close();
     }
-    link_->close();
   };
-  link_->send(MessageType::Hello, encodeHello(makeHello()), deadline, "handshake");
-  Message m;
-  try {
-    m = link_->receive(deadline, "WELCOME (handshake answer)");
-  } catch (const ProtocolError& e) {
-    if (e.fault() == ProtocolFault::BadVersion) {
-      reject(ReasonCode::WrongVersion, e.what());
-      throw HandshakeError(e.what());
+  // HELLO to one part, its WELCOME (or REJECT) back, its token checked
+  auto greet = [&](Endpoint& ep) {
+    ep.send(MessageType::Hello, encodeHello(makeHello()), deadline, "handshake");
+    Message m;
+    try {
+      m = ep.receive(deadline, "WELCOME (handshake answer)");
+    } catch (const ProtocolError& e) {
+      if (e.fault() == ProtocolFault::BadVersion) {
+        reject(ReasonCode::WrongVersion, e.what());
+        throw HandshakeError(e.what());
+      }
+      reject(ReasonCode::ProtocolViolation, e.what());
+      throw;
     }
-    reject(ReasonCode::ProtocolViolation, e.what());
-    throw;
-  }
-  if (m.header.type == MessageType::Reject) {
-    const Reason why = decodeReason(m.payload.data(), m.payload.size());
-    link_->close();
-    throw HandshakeError("participant '" + name_ + "' was refused by its partner: " + why.message);
-  }
-  if (m.header.type != MessageType::Welcome) {
-    const std::string text =
-        "participant '" + name_ + "' expected WELCOME or REJECT, got " + wire::typeName(std::uint16_t(m.header.type));
-    reject(ReasonCode::ProtocolViolation, text);
-    throw ProtocolError(ProtocolFault::UnexpectedType, text);
-  }
-  const Hello h = decodeHello(m.payload.data(), m.payload.size());
-  if (h.token != token_) {
-    const std::string text = "participant '" + name_ + "' refused '" + h.participant +
-                             "': its run token differs (another run's participant)";
-    reject(ReasonCode::WrongToken, text);
-    throw HandshakeError(text);
+    if (m.header.type == MessageType::Reject) {
+      const Reason why = decodeReason(m.payload.data(), m.payload.size());
+      for (Endpoint* l : links()) l->close();
+      throw HandshakeError("participant '" + name_ + "' was refused by its partner: " + why.message);
+    }
+    if (m.header.type != MessageType::Welcome) {
+      const std::string text =
+          "participant '" + name_ + "' expected WELCOME or REJECT, got " + wire::typeName(std::uint16_t(m.header.type));
+      reject(ReasonCode::ProtocolViolation, text);
+      throw ProtocolError(ProtocolFault::UnexpectedType, text);
+    }
+    const Hello h = decodeHello(m.payload.data(), m.payload.size());
+    if (h.token != token_) {
+      const std::string text = "participant '" + name_ + "' refused '" + h.participant +
+                               "': its run token differs (another run's participant)";
+      reject(ReasonCode::WrongToken, text);
+      throw HandshakeError(text);
+    }
+    return h;
+  };
+  Hello h = greet(*link_);
+  if (h.parts > 1) {
+    // The partner in parts: each part's WELCOME carries its own nodes; the parts together are the
+    // partner's interface, checked as one (its nodes in part order), each node in one part only.
+    std::string problem;  // the first reason it cannot be
+    if (transport_.connectPort > 0) problem = "a partner in parts is found through its address files, not a port";
+    for (const auto& m : config_.meshes)
+      if (config_.mappingSideOf(m) != partner_ || m.mapping != MapKind::Coincident)
+        problem = "mesh '" + m.name + "': a partner in parts maps every mesh with the coincident map";
+    if (amFirst_) problem = "a partner in parts must be the configuration's first participant";
+    if (h.part != 0) problem = "the address file names part " + std::to_string(h.part) + ", not part 0";
+    if (!problem.empty()) {
+      const std::string text = "participant '" + name_ + "' cannot couple with '" + h.participant + "' in " +
+                               std::to_string(h.parts) + " parts: " + problem;
+      reject(ReasonCode::ConfigMismatch, text);
+      throw HandshakeError(text);
+    }
+    std::vector<Hello> parts{h};
+    for (std::uint32_t r = 1; r < h.parts; ++r) {
+      TransportOptions t = transport_;
+      t.addressFile = partAddressFile(transport_.addressFile, r);
+      partLinks_.push_back(std::make_unique<Endpoint>(connectTo(t, name_, partner_, deadline), name_, partner_));
+      parts.push_back(greet(*partLinks_.back()));
+      const std::string differ = describeDifferences(config_, parts.back().config, "'" + partner_ + "'");
+      if (parts.back().participant != h.participant || parts.back().partner != h.partner || !differ.empty()) {
+        const std::string text = "participant '" + name_ + "': part " + std::to_string(r) + " of '" + h.participant +
+                                 "' is not the same participant as its part 0 (participant '" +
+                                 parts.back().participant + "', partner '" + parts.back().partner + "')" + differ;
+        reject(ReasonCode::ConfigMismatch, text);
+        throw HandshakeError(text);
+      }
+      if (parts.back().part != r || parts.back().parts != h.parts) {
+        const std::string text = "participant '" + name_ + "': address file '" + t.addressFile + "' names part " +
+                                 std::to_string(parts.back().part) + " of " + std::to_string(parts.back().parts) +
+                                 ", expected part " + std::to_string(r) + " of " + std::to_string(h.parts);
+        reject(ReasonCode::ProtocolViolation, text);
+        throw HandshakeError(text);
+      }
+    }
+    std::ostringstream bad;
+    for (auto& m : h.meshes) {
+      const auto it = meshes_.find(m.name);
+      if (it == meshes_.end()) continue;
+      // where each of my nodes is: the part holding the node that pairs with it (one only)
+      const MeshVertices& own = it->second->own;
+      std::vector<int> holder(own.ids.size(), -1);
+      std::vector<std::int64_t> heldAs(own.ids.size(), 0);
+      auto& nodes = partNodes_[m.name];
+      nodes.assign(h.parts, {});
+      for (std::uint32_t r = 0; r < h.parts; ++r) {
+        for (const auto& pm : parts[r].meshes) {
+          if (pm.name != m.name) continue;
+          if (r > 0) {  // the union, in part order
+            const auto base = std::int32_t(m.ids.size());
+            m.ids.insert(m.ids.end(), pm.ids.begin(), pm.ids.end());
+            m.coordinates.insert(m.coordinates.end(), pm.coordinates.begin(), pm.coordinates.end());
+            for (auto t : pm.triangles) m.triangles.push_back(base + t);
+          }
+          const std::vector<long> pair =
+              coincidentWith(own.coordinates, pm.coordinates, meshTolerance(config_, m.name));
+          for (std::size_t i = 0; i < pm.ids.size(); ++i) {
+            if (pair[i] < 0) continue;  // a node without a partner: the coincident check names it
+            const auto o = std::size_t(pair[i]);
+            if (holder[o] >= 0)
+              bad << "\n  - mesh '" << m.name << "': node " << pm.ids[i] << " is in part " << holder[o] << " (as node "
+                  << heldAs[o] << ") and in part " << r << " (each node belongs to one part)";
+            holder[o] = int(r);
+            heldAs[o] = pm.ids[i];
+          }
+        }
+      }
+      for (std::size_t i = 0; i < own.ids.size(); ++i)
+        if (holder[i] >= 0) nodes[std::size_t(holder[i])].push_back(i);
+    }
+    if (!bad.str().empty()) {
+      const std::string text = "participant '" + name_ + "' cannot couple with '" + h.participant + "' in " +
+                               std::to_string(h.parts) + " parts:" + bad.str();
+      reject(ReasonCode::MeshMismatch, text);
+      throw HandshakeError(text);
+    }
   }
   acceptPartner(h, reject);
-  link_->send(MessageType::Ready, {}, deadline, "handshake");
+  for (Endpoint* l : links()) l->send(MessageType::Ready, {}, deadline, "handshake");
 }
 
 double Participant::initialize() {
@@ -432,18 +589,41 @@ double Participant::initializeResumed(const std::vector<unsigned char>& state) {
 double Participant::connect() {
   if (initialized_) throw ConfigError("participant '" + name_ + "': initialize() called twice");
   for (const auto& m : config_.meshes)
-    if (meshes_.at(m.name)->own.size() == 0)
+    if (meshes_.at(m.name)->own.size() == 0 && parts_ == 1)  // a part may hold none of a mesh's nodes
       throw ConfigError("participant '" + name_ + "': interface mesh '" + m.name +
                         "' has no vertices; call setMeshVertices() before initialize()");
   const bool listen = transport_.role == ConnectRole::Listen || (transport_.role == ConnectRole::Auto && amFirst_);
+  if (parts_ > 1) {
+    std::string problem;  // the first reason it cannot be
+    for (const auto& m : config_.meshes)
+      if (config_.mappingSideOf(m) != name_ || m.mapping != MapKind::Coincident)
+        problem = "it must map mesh '" + m.name + "' with the coincident map";
+    if (transport_.kind != TransportKind::Tcp || transport_.addressFile.empty())
+      problem = "it must couple over TCP with an address file";
+    if (!listen) problem = "it must listen (the partner connects to every part)";
+    if (!amFirst_) problem = "it must be the configuration's first participant (the second decides each window)";
+    if (!problem.empty())
+      throw ConfigError("participant '" + name_ + "' in " + std::to_string(parts_) + " parts: " + problem);
+  }
   const Deadline deadline = Deadline::in(transport_.connectTimeout);
   if (listen)
     runAcceptor(deadline);
   else
     runConnector(deadline);
   link_->setExpectedDataSize(partnerDataBytes_);
+  if (!partLinks_.empty()) {  // each part sends the read fields on its own nodes
+    for (std::size_t r = 0; r < partnerParts(); ++r) {
+      std::vector<std::uint64_t> blocks;
+      for (const auto& f : fields_)
+        if (!f->write) blocks.push_back(partNodes_.at(f->spec.mesh)[r].size() * std::size_t(f->comps));
+      partDataBytes_.push_back(dataPayloadSize(blocks));
+      links()[r]->setExpectedDataSize(partDataBytes_.back());
+    }
+  }
   scheme_ = makeScheme(config_, name_);
-  if (amFirst_) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
+  if (amFirst_ && parts_ == 1) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
+  // a partner in parts sees a piece each: the monitor watches the whole of what this side sends
+  if (!amFirst_ && !partLinks_.empty()) monitor_ = std::make_unique<DivergenceMonitor>(config_, writtenSlices_, name_);
   initialized_ = true;
   return 0.0;
 }
@@ -519,47 +699,35 @@ void Participant::sendData(std::uint64_t window, std::uint32_t iteration, std::u
   secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
   std::ostringstream ctx;
   ctx << "window " << window + 1 << ", pass " << iteration + 1;
-  link_->send(MessageType::Data, encodeData(d), Deadline::in(transport_.receiveTimeout), ctx.str());
+  if (partLinks_.empty()) {
+    link_->send(MessageType::Data, encodeData(d), Deadline::in(transport_.receiveTimeout), ctx.str());
+    return;
+  }
+  // a partner in parts: each part the values of its own nodes
+  const std::vector<Endpoint*> all = links();
+  for (std::size_t r = 0; r < all.size(); ++r) {
+    DataMessage part = d;
+    std::size_t b = 0;
+    for (const auto& f : fields_) {
+      if (!f->write) continue;
+      const auto& nodes = partNodes_.at(f->spec.mesh)[r];
+      const std::size_t c = std::size_t(f->comps);
+      std::vector<double>& v = part.fields[b++].values;
+      v.resize(nodes.size() * c);
+      for (std::size_t q = 0; q < nodes.size(); ++q)
+        for (std::size_t k = 0; k < c; ++k) v[q * c + k] = f->wire[nodes[q] * c + k];
+    }
+    all[r]->send(MessageType::Data, encodeData(part), Deadline::in(transport_.receiveTimeout),
+                 ctx.str() + " to part " + std::to_string(r));
+  }
 }
 
 ExchangePort::Received Participant::receiveData(std::uint64_t window, std::uint32_t iteration) {
   std::ostringstream what;
   what << "DATA of window " << window + 1 << " of " << config_.maxWindows << ", pass " << iteration + 1
        << " (t = " << double(window + 1) * config_.windowSize << " s)";
-  const Message m = link_->receive(Deadline::in(transport_.receiveTimeout), what.str());
-  if (m.header.type == MessageType::Bye)
-    throw PartnerLostError("'" + partner_ + "' ended the coupling (BYE) while '" + name_ + "' was waiting for " +
-                           what.str());
-  if (m.header.type != MessageType::Data)
-    throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' got " +
-                                                           wire::typeName(std::uint16_t(m.header.type)) + " from '" +
-                                                           partner_ + "' while waiting for " + what.str());
-  const DataMessage d = decodeData(m.payload.data(), m.payload.size());
-  if (d.window != window || d.iteration != iteration) {
-    std::ostringstream s;
-    s << "participant '" << name_ << "' and '" << partner_ << "' are out of step: it sent "
-      << "window " << d.window + 1 << ", pass " << d.iteration + 1 << " while " << what.str() << " was due";
-    throw ProtocolError(ProtocolFault::BadPayload, s.str());
-  }
-  std::size_t b = 0;
-  for (auto& f : fields_) {
-    if (f->write) continue;
-    if (b >= d.fields.size() || d.fields[b].field != std::uint32_t(f->index) ||
-        d.fields[b].components != std::uint32_t(f->comps) ||
-        d.fields[b].values.size() != f->wireNodes * std::size_t(f->comps))
-      throw ProtocolError(ProtocolFault::BadPayload,
-                          "participant '" + name_ + "': DATA from '" + partner_ + "' does not carry field '" +
-                              f->spec.name + "' as agreed in the handshake (block " + std::to_string(b) + ")");
-    for (double v : d.fields[b].values)
-      if (!std::isfinite(v))
-        throw DivergenceError("'" + partner_ + "' sent non-finite values of '" + f->spec.name + "' in " + what.str() +
-                              ": the partner's solution has blown up");
-    std::copy(d.fields[b].values.begin(), d.fields[b].values.end(), received_.begin() + std::ptrdiff_t(f->offset));
-    ++b;
-  }
-  if (b != d.fields.size())
-    throw ProtocolError(ProtocolFault::BadPayload, "participant '" + name_ + "': DATA from '" + partner_ +
-                                                       "' carries more field blocks than agreed");
+  Received got;
+  for (std::size_t r = 0; r < partnerParts(); ++r) receivePart(r, window, iteration, what.str(), got);
   const auto t0 = Clock::now();
   for (auto& f : fields_) {
     if (f->write) continue;
@@ -573,7 +741,57 @@ ExchangePort::Received Participant::receiveData(std::uint64_t window, std::uint3
   }
   secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
   ++exchanges_;
-  return {d.flags, d.residual};
+  return got;
+}
+
+// One DATA message into received_: the partner's (r = 0), or part r's of a partner in parts, its
+// values on that part's nodes put in their places; the flags and residual those of part 0.
+void Participant::receivePart(std::size_t r, std::uint64_t window, std::uint32_t iteration, const std::string& due,
+                              Received& got) {
+  const std::string from =
+      partLinks_.empty() ? "'" + partner_ + "'" : "part " + std::to_string(r) + " of '" + partner_ + "'";
+  const Message m = links()[r]->receive(Deadline::in(transport_.receiveTimeout), due);
+  if (m.header.type == MessageType::Bye)
+    throw PartnerLostError(from + " ended the coupling (BYE) while '" + name_ + "' was waiting for " + due);
+  if (m.header.type != MessageType::Data)
+    throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' got " +
+                                                           wire::typeName(std::uint16_t(m.header.type)) + " from " +
+                                                           from + " while waiting for " + due);
+  const DataMessage d = decodeData(m.payload.data(), m.payload.size());
+  if (d.window != window || d.iteration != iteration) {
+    std::ostringstream s;
+    s << "participant '" << name_ << "' and " << from << " are out of step: it sent "
+      << "window " << d.window + 1 << ", pass " << d.iteration + 1 << " while " << due << " was due";
+    throw ProtocolError(ProtocolFault::BadPayload, s.str());
+  }
+  std::size_t b = 0;
+  for (auto& f : fields_) {
+    if (f->write) continue;
+    const std::size_t c = std::size_t(f->comps);
+    const std::vector<std::size_t>* nodes = partLinks_.empty() ? nullptr : &partNodes_.at(f->spec.mesh)[r];
+    const std::size_t n = nodes ? nodes->size() : f->wireNodes;
+    if (b >= d.fields.size() || d.fields[b].field != std::uint32_t(f->index) ||
+        d.fields[b].components != std::uint32_t(f->comps) || d.fields[b].values.size() != n * c)
+      throw ProtocolError(ProtocolFault::BadPayload,
+                          "participant '" + name_ + "': DATA from " + from + " does not carry field '" + f->spec.name +
+                              "' as agreed in the handshake (block " + std::to_string(b) + ")");
+    const std::vector<double>& v = d.fields[b].values;
+    for (double x : v)
+      if (!std::isfinite(x))
+        throw DivergenceError(from + " sent non-finite values of '" + f->spec.name + "' in " + due +
+                              ": the partner's solution has blown up");
+    double* dst = received_.data() + f->offset;
+    if (!nodes)
+      std::copy(v.begin(), v.end(), dst);
+    else
+      for (std::size_t q = 0; q < n; ++q)
+        for (std::size_t k = 0; k < c; ++k) dst[(*nodes)[q] * c + k] = v[q * c + k];
+    ++b;
+  }
+  if (b != d.fields.size())
+    throw ProtocolError(ProtocolFault::BadPayload,
+                        "participant '" + name_ + "': DATA from " + from + " carries more field blocks than agreed");
+  if (r == 0) got = {d.flags, d.residual};
 }
 
 std::vector<double>& Participant::writtenValues() { return written_; }
@@ -597,7 +815,7 @@ double Participant::advance(double dt) {
     const SchemeState& st = scheme_->state();
     if (monitor_ && st.windowComplete) {
       const bool unconverged = config_.scheme == SchemeKind::Implicit && !(st.residual < config_.tolerance);
-      monitor_->windowDone(st.window - 1, received_, unconverged, st.residual);
+      monitor_->windowDone(st.window - 1, amFirst_ ? received_ : written_, unconverged, st.residual);
     }
   });
   return getMaxTimeStepSize();
@@ -618,6 +836,15 @@ double Participant::windowStartTime() const {
   return scheme_ ? double(scheme_->state().window) * config_.windowSize : 0.0;
 }
 
+std::vector<std::size_t> Participant::partnerPartNodes(const std::string& mesh) const {
+  if (partLinks_.empty()) return {partnerVertexCount(mesh)};
+  std::vector<std::size_t> n;
+  const auto it = partNodes_.find(mesh);
+  if (it == partNodes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");
+  for (const auto& nodes : it->second) n.push_back(nodes.size());
+  return n;
+}
+
 std::size_t Participant::partnerVertexCount(const std::string& mesh) const {
   auto it = meshes_.find(mesh);
   if (it == meshes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");
@@ -628,11 +855,11 @@ ExchangeStats Participant::stats() const {
   ExchangeStats s;
   s.exchanges = exchanges_;
   s.secondsMapping = secondsMapping_;
-  if (link_) {
-    s.secondsInTransport = link_->secondsInTransport();
-    s.secondsWaiting = link_->secondsWaiting();
-    s.bytesSent = link_->bytesSent();
-    s.bytesReceived = link_->bytesReceived();
+  for (const Endpoint* l : links()) {
+    s.secondsInTransport += l->secondsInTransport();
+    s.secondsWaiting += l->secondsWaiting();
+    s.bytesSent += l->bytesSent();
+    s.bytesReceived += l->bytesReceived();
   }
   return s;
 }
@@ -641,7 +868,7 @@ void Participant::finalize() {
   if (finalized_) return;
   if (!initialized_ || !link_ || !link_->open()) {
     finalized_ = true;
-    if (link_) link_->close();
+    for (Endpoint* l : links()) l->close();
     return;
   }
   if (scheme_->state().ongoing) {
@@ -649,25 +876,31 @@ void Participant::finalize() {
     return;
   }
   guarded("finalize", [&] {
-    link_->send(MessageType::Bye, encodeReason({ReasonCode::SolverError, ""}), Deadline::in(transport_.receiveTimeout),
-                "end of coupling");
-    const Message m = link_->receive(Deadline::in(transport_.receiveTimeout), "BYE (end of coupling)");
-    if (m.header.type != MessageType::Bye)
-      throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' expected BYE from '" + partner_ +
-                                                             "', got " + wire::typeName(std::uint16_t(m.header.type)));
+    for (Endpoint* l : links())
+      l->send(MessageType::Bye, encodeReason({ReasonCode::SolverError, ""}), Deadline::in(transport_.receiveTimeout),
+              "end of coupling");
+    for (Endpoint* l : links()) {
+      const Message m = l->receive(Deadline::in(transport_.receiveTimeout), "BYE (end of coupling)");
+      if (m.header.type != MessageType::Bye)
+        throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' expected BYE from '" +
+                                                               partner_ + "', got " +
+                                                               wire::typeName(std::uint16_t(m.header.type)));
+    }
   });
-  link_->close();
+  for (Endpoint* l : links()) l->close();
   finalized_ = true;
 }
 
 void Participant::abort(const std::string& reason) noexcept {
-  try {
-    if (link_ && link_->open())
-      link_->send(MessageType::Abort, encodeReason({ReasonCode::SolverError, reason}),
-                  Deadline::in(std::min(2.0, transport_.receiveTimeout)), "abort");
-  } catch (...) {
+  for (Endpoint* l : links()) {
+    try {
+      if (l->open())
+        l->send(MessageType::Abort, encodeReason({ReasonCode::SolverError, reason}),
+                Deadline::in(std::min(2.0, transport_.receiveTimeout)), "abort");
+    } catch (...) {
+    }
+    l->close();
   }
-  if (link_) link_->close();
   finalized_ = true;
 }
 

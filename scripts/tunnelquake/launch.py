@@ -238,6 +238,8 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
             token = str(f["coupling"].attrs["token"])
     addr = work / "wall.addr"
     addr.unlink(missing_ok=True)
+    for stale in work.glob("wall.addr.part*"):  # the solid's parts on ranks (a stopped run's)
+        stale.unlink(missing_ok=True)
     mesh_h5 = mesh_dir(case) / "mesh.h5"
     # The whole set-up holds FORK_LOCK: it writes and reads back HDF5 files and starts children
     # (tq-solid --check, OpenFOAM's utilities) while other conditions may be starting theirs.

@@ -7,8 +7,8 @@ the viscoelastic base and free-field sides with the input motion, the rock-linin
 or bonded tie, elastic and Mohr-Coulomb materials, subcycling, monitors, ring forces, snapshots, restart
 checkpoints (``--resume`` on the same rank count: a checkpoint holds each rank's part of that
 partition; coupled with the water, with the coupling's state at a window's end, as one process) and
-the water coupling of dynamic_water (gathered: rank 0 exchanges the whole wetted face with the water
-for every rank). What does not run on ranks yet
+the water coupling of dynamic_water (each rank exchanges the wet nodes it owns with the water over its
+own connection). What does not run on ranks yet
 (the DRM layer of an incident wave,
 a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, the
 lining's joints) is refused by

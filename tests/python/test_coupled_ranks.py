@@ -11,18 +11,24 @@ restored and stepped again until the exchange converges). The water's pressure o
 pushes it along x (1 + cos 2θ + ½ cos θ around it) and pulses in time, so every monitored quantity
 moves.
 
-Asserted: every dataset of /monitors, /energy and /coupling (the works, the coupling energy, the
-volume law's pressure, the wetted face's force and mean acceleration, the water pressure at the
-monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every node's force and mass
-is summed in the one-process order on any rank count, docs/architecture.md "The solid on ranks"),
-but the whole-model energy sums (/energy/history, summed over each rank's elements and then across
-ranks), within 1e-13 of the largest magnitude of their series (measured 7.9e-16 to 1.0e-15); the
+Each rank exchanges its own part of the wetted face (the wet nodes it owns) with the fake water over
+its own connection; asserted: the water coupled with one part a rank, each part with the nodes that
+rank says it owns, none with the whole face, the parts adding up to it (the water refuses parts that
+do not cover its face once each), and every dataset of /monitors, /energy and /coupling (the works,
+the coupling energy, the volume law's pressure, the wetted face's force and mean acceleration, the
+water pressure at the monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every
+node's force and mass is summed in the one-process order on any rank count, docs/architecture.md
+"The solid on ranks"; the sums over the wet nodes are folded across the ranks in that order, "The
+water coupling on ranks"), but the whole-model energy sums (/energy/history, summed over each rank's
+elements and then across ranks), within 1e-13 of the largest magnitude of their series (measured
+5.7e-16 to 1.3e-15); the
 /coupling counters (windows, passes) equal; on one rank (`--distributed` without other ranks) every
 dataset bitwise equal.
 """
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -133,7 +139,21 @@ def run_coupled(tmp: Path, ranks: int | None) -> Path:
     assert solid.returncode == 0, solid.stdout + solid.stderr
     assert fluid.returncode == 0, fout + ferr
     if ranks and ranks > 1:
-        assert f"exchanges the wetted face's {2 * N_THETA} nodes for every rank" in solid.stdout
+        # no rank holds the whole wetted face: each rank's part of the coupler carries the wet nodes it
+        # owns, a node on a partition boundary in one part only (the water refuses parts that do not
+        # cover its face once each), and the parts add up to the face
+        said = re.search(r"each rank exchanges its own part of the wetted face's (\d+) nodes with the water "
+                         r"\(the nodes it owns:([ \d]+);", solid.stdout)
+        assert said, solid.stdout
+        parts = [int(n) for n in said[2].split()]
+        assert int(said[1]) == 2 * N_THETA and len(parts) == ranks, said[0]
+        assert sum(parts) == 2 * N_THETA and max(parts) < 2 * N_THETA, parts
+        print(f"{ranks} ranks: the wet nodes each rank exchanges: {parts}")
+        # and the water's own count: one connection a rank, each with that rank's nodes (it checked
+        # that they pair with its own once each before the first window)
+        assert f"fake fluid: the partner in {ranks} part(s) of {' '.join(map(str, parts))} nodes" in fout, fout
+    else:
+        assert f"fake fluid: the partner in 1 part(s) of {2 * N_THETA} nodes" in fout, fout
     return res
 
 
@@ -195,13 +215,19 @@ def test_coupled_run_on_ranks_equals_the_one_process_run(one_process, tmp_path, 
     assert np.max(np.abs(one_process["coupling/volume_pressure"][:, 1])) > 1e-3 * 1e6
 
 
-def test_what_the_coupled_run_on_ranks_cannot_honour_is_refused_before_it_connects(tmp_path):
+@pytest.mark.parametrize("what", ["transport mpi", "map projection"])
+def test_what_the_coupled_run_on_ranks_cannot_honour_is_refused_before_it_connects(tmp_path, what):
     half_held_ring(tmp_path / "mesh.h5")
     solid_input(tmp_path / "solid_input.h5", tmp_path / "wall.addr")
     cmd = solid_command(EXE, tmp_path / "solid_input.h5", tmp_path / "results.h5", 1, 2)
-    with h5py.File(tmp_path / "solid_input.h5", "a") as f:
-        f["coupling"].attrs["transport"] = "mpi"
-    named, fix = "/coupling transport mpi: the solid on ranks couples over TCP only", "set /coupling transport tcp"
+    if what == "transport mpi":
+        with h5py.File(tmp_path / "solid_input.h5", "a") as f:
+            f["coupling"].attrs["transport"] = "mpi"
+        named, fix = "/coupling transport mpi: the solid on ranks couples over TCP only", "set /coupling transport tcp"
+    else:
+        with h5py.File(tmp_path / "solid_input.h5", "a") as f:
+            f["coupling"].attrs["map"] = "projection"
+        named, fix = "/coupling map projection: the solid on ranks exchanges each rank's part", "set /coupling map coincident"
     solid = subprocess.run(cmd, env=ENV, capture_output=True, text=True, timeout=60)
     assert solid.returncode == 2, solid.stdout + solid.stderr
     assert named in solid.stderr and fix in solid.stderr, solid.stderr

@@ -8,8 +8,8 @@ Reference: the same coupled run on the same ranks, never stopped, with the same 
 dataset and attribute of the results file but the wall-clock figures must be equal byte for byte
 (tolerance 0): the solid's sums on ranks run in a fixed order, the coupler's iterations are
 deterministic, so any state the checkpoint misses (a rank's part, the coupling's windows done on every
-rank, rank 0's adapter and its carried volume law, the coupler participant's secant columns and
-predictor) shows up as a difference. The case is test_coupled_ranks's: the lining ring with the volume
+rank, each rank's adapter and its carried volume law, its part of the coupler participant's secant
+columns and predictor) shows up as a difference. The case is test_coupled_ranks's: the lining ring with the volume
 law and the water's translation carried, implicit windows of 4 steps stepped again whole, so a window
 restored from a checkpoint is a window the run iterated.
 
@@ -57,7 +57,8 @@ def prepare(folder: Path) -> Path:
 def run(folder: Path, ranks: int, resume_window: int | None = None, fault: str | None = None):
     """The solid on `ranks` ranks and the fake water, both with their checkpoints; `resume_window`: both
     resumed from that window's; `fault`: TQ_RANK_FAULT. Returns (solid, water) completed processes."""
-    (folder / "wall.addr").unlink(missing_ok=True)
+    for addr in folder.glob("wall.addr*"):  # part 0's and the other parts' (.part<r>) of a run before
+        addr.unlink()
     water_cmd = [sys.executable, "-m", "tunnelquake.coupling.fakes", "--role", "fluid", "--token", TOKEN,
                  "--address-file", str(folder / "wall.addr"), "--scheme", "implicit", "--windows", str(WINDOWS),
                  "--window-size", repr(K_STEPS * 2e-5), "--n-theta", str(N_THETA), "--n-layers", "2",

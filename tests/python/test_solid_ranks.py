@@ -33,8 +33,8 @@ SINGLE_RATE = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycl
 @needs_mpirun
 def test_the_water_coupling_is_accepted_on_ranks(capsys):
     """The example as it is, its three conditions, dynamic_water among them (the water coupling
-    runs on the solid's ranks, tests/cpp/test_ranks.cpp checks its results) and its subcycled
-    conditions (stepped on ranks as one process does)."""
+    runs on the solid's ranks: each rank exchanges its part of the wetted face, test_coupled_ranks.py
+    checks its results) and its subcycled conditions (stepped on ranks as one process does)."""
     assert main(["check", str(EXAMPLE), "--ranks", "3"]) == 0
     captured = capsys.readouterr()
     assert "is valid" in captured.out and "--ranks" not in captured.err

@@ -73,8 +73,8 @@ def main(argv: list[str]) -> int:
             f"checkpoints resume on {args.ranks} ranks only: docs/architecture.md \"The solid on ranks\")")
         say(f"  {ranks_memory(d, args.ranks)}")
         if "dynamic_water" in d["conditions"]:
-            say("  dynamic_water on ranks: rank 0 exchanges the whole wetted face with the water for every rank "
-                "(gathered each step)")
+            say("  dynamic_water on ranks: each rank exchanges the wet nodes it owns with the water, over its "
+                "own connection")
     from ..case import ground_layers
 
     if ground_layers(d):

@@ -251,6 +251,8 @@ def main(argv=None) -> int:
         report.update(windows=str(p.state.window), passes=str(fake.passes), max_error=repr(err))
         print(f"fake {a.role}: {p.state.window} windows, {fake.passes} passes, "
               f"max relative error of received data {err:g}")
+        parts = p.partner_part_nodes("wall")
+        print(f"fake {a.role}: the partner in {len(parts)} part(s) of {' '.join(map(str, parts))} nodes")
         rc = 0 if err <= 1e-12 else 3
     except CouplerError as e:
         print(f"fake {a.role}: {type(e).__name__}: {e}", file=sys.stderr)

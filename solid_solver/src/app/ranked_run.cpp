@@ -543,49 +543,60 @@ std::string coupledRunOnRanksRefusal(const SolidInput& in) {
   if (ci.transport == "mpi")
     return "/coupling transport mpi: the solid on ranks couples over TCP only (its ranks are one MPI job of their "
            "own); set /coupling transport tcp (tunnelquake run does), or run tq-solid as one process";
+  if (ci.map != "coincident")
+    return "/coupling map " + ci.map +
+           ": the solid on ranks exchanges each rank's part of the wetted face with the coincident map only; set "
+           "/coupling map coincident (tunnelquake run does), or run tq-solid as one process";
   return "";
 }
 
 /// The water coupling on ranks (tq/coupling/ranked_coupling.hpp): the seismic step set from
-/// /coupling (collective), rank 0's adapter and carried laws made on its mirror (`view`) and
-/// connected (`resuming`: not yet, once its state is restored: RankedCoupling::initializeResumed), the
-/// coupling its ranks' solvers' Water contributor, the run's end at whole windows, the coupling's
-/// histories in rank 0's results (`writer`, null elsewhere).
+/// /coupling (collective), each rank's adapter and carried laws made on its part and connected (`resuming`: not yet,
+/// once their state is restored: RankedCoupling::initializeResumed), the coupling its ranks' solvers' Water
+/// contributor, the run's end at whole windows, the coupling's histories in rank 0's results (`writer`, null
+/// elsewhere).
 std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& global, const RankLayout& L, Solver& s,
-                                                    Solver* mirror, Solver* view, ResultsWriter* writer,
-                                                    std::mutex& lock, std::ostream& out, int rank, int size,
-                                                    bool resuming) {
+                                                    Solver* view, ResultsWriter* writer, std::mutex& lock,
+                                                    std::ostream& out, int rank, int size, bool resuming) {
   const CouplingInput& ci = in.staged.coupling;
   if (ci.windowSize > 0) s.setTimeStep(ci.windowSize / Real(ci.windowSteps));
-  auto water = std::make_shared<RankedCoupling>(ci, global, L.localNode, L.owned, s, mirror);
+  auto water = std::make_shared<RankedCoupling>(ci, global, L, s);
   if (rank == 0) out << "tq-solid: " << water->adapter()->describe() << "; waiting for the fluid" << std::endl;
   if (!resuming) water->initialize();
   s.addContributor(ForcePhase::Water, water);
   in.tEnd = water->endTime();  // whole windows
   if (writer) {
     std::lock_guard<std::mutex> held(lock);
-    addCouplingSeries(*writer, *view, in, *water->adapter(), water->water());
+    RankedCoupling* w = water.get();
+    addCouplingSeries(*writer, *view, in, *water->adapter(), water->water(), &water->wetNodeList(),
+                      [w]() -> const std::vector<Real>& { return w->wetForce(); });
   }
   if (rank == 0) {
     out << "tq-solid: coupled with the fluid; t_end = " << in.tEnd << " s (" << water->windowCount() << " windows)";
-    if (size > 1)
-      out << "; rank 0 exchanges the wetted face's " << water->wetNodes()
-          << " nodes for every rank (gathered from their owners each step)";
+    if (size > 1) {
+      out << "; each rank exchanges its own part of the wetted face's " << water->wetNodes()
+          << " nodes with the water (the nodes it owns:";
+      for (Index n : water->partCounts()) out << " " << n;
+      out << "; the face's node list in " << water->foldRuns() << " runs of one rank each)";
+    }
     out << std::endl;
   }
   return water;
 }
 
 /// The end of a coupled run on ranks: the fluid's last window (collective), the coupling's summary
-/// and the time its gathers took (the largest over the ranks), a warning for unconverged windows.
+/// and the time its messages between the ranks took (the largest over the ranks), a warning for
+/// unconverged windows.
 void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWriter* writer, RankExchange* rx,
                         std::ostream& err) {
   water.finalize();
   const Real gather = rx ? rx->maxAll(water.secondsCommunicating()) : water.secondsCommunicating();
   if (!writer) return;
   writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
-  writer->writeAttrs("/coupling", {{"ranks_gather_s", gather}, {"wet_nodes", double(water.wetNodes())}},
-                     {{"on_ranks", "gathered: rank 0 exchanges the whole wetted face for every rank"}});
+  writer->writeAttrs("/coupling", {{"ranks_messages_s", gather}, {"wet_nodes", double(water.wetNodes())}},
+                     {{"on_ranks",
+                       "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
+                       "the wet nodes folded across the ranks in the one-process order"}});
   const FluidCouplingStats cs = water.adapter()->stats();
   if (cs.unconvergedWindows > 0)
     err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
@@ -797,6 +808,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       std::function<void()> gatherContact;
       const auto observe = [&] {
         if (gather) gather->gather(s, mirror.get());
+        if (water) water->observe(mirror.get());  // the wet nodes' force and mass, for the results
         if (gatherContact) gatherContact();
       };
       if (rank == 0) {
@@ -840,8 +852,8 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       }
       if (in.staged.present && in.staged.coupling.present) {
         coupling = in.staged.coupling;
-        water = connectWaterOnRanks(in, global, layout, s, mirror.get(), view, writer.get(), gStop.mutex, out, rank,
-                                    size, checkpoints && checkpoints->resuming());
+        water = connectWaterOnRanks(in, global, layout, s, view, writer.get(), gStop.mutex, out, rank, size,
+                                    checkpoints && checkpoints->resuming());
         if (checkpoints && in.checkpointInterval > 0)
           checkpoints->everyWindows(std::max<long long>(1, in.staged.coupling.checkpointWindows));
       }

@@ -8,8 +8,11 @@
 namespace tq {
 
 void addCouplingSeries(ResultsWriter& results, const Solver& view, const SolidInput& in, FluidCoupling& c,
-                       const CarriedWater* water) {
+                       const CarriedWater* water, const std::vector<Index>* nodes,
+                       std::function<const std::vector<Real>&()> force) {
   FluidCoupling* cp = &c;
+  const std::vector<Index>* wet = nodes ? nodes : &c.nodes();
+  if (!force) force = [cp]() -> const std::vector<Real>& { return cp->force(); };
   results.addSeries(
       "/energy/fluid_work", [cp] { return cp->fluidWork(); }, "fluid_work");
   results.addSeries(
@@ -38,8 +41,7 @@ void addCouplingSeries(ResultsWriter& results, const Solver& view, const SolidIn
             e == 0 ? "/coupling/surge_level_ymin" : "/coupling/surge_level_ymax",
             [water, e] { return water->surgeLevel(e); }, "level");
   }
-  results.addWaterPressure(view.mesh(), in.staged.coupling.face, in.monitors, cp->nodes(),
-                           [cp]() -> const std::vector<Real>& { return cp->force(); });
+  results.addWaterPressure(view.mesh(), in.staged.coupling.face, in.monitors, *wet, force);
   // The wetted face as a whole (docs/verification.md, the rigidly shaken lining): the total interface
   // force R3 the coupling added (N) and the mass-weighted mean acceleration a^n of its nodes
   // (m/s²), both of the same step, per direction.
@@ -47,18 +49,18 @@ void addCouplingSeries(ResultsWriter& results, const Solver& view, const SolidIn
     const std::string axis(1, "xyz"[d]);
     results.addSeries(
         "/coupling/force_" + axis,
-        [cp, d] {
+        [wet, force, d] {
           Real sum = 0;
-          const auto& F = cp->force();
-          for (size_t k = 0; k < cp->nodes().size(); ++k) sum += F[3 * k + size_t(d)];
+          const auto& F = force();
+          for (size_t k = 0; k < wet->size(); ++k) sum += F[3 * k + size_t(d)];
           return sum;
         },
         "force_" + axis);
     results.addSeries(
         "/coupling/acceleration_" + axis,
-        [cp, &st = view.state(), d] {
+        [wet, &st = view.state(), d] {
           Real ma = 0, m = 0;
-          for (Index n : cp->nodes()) {
+          for (Index n : *wet) {
             ma += st.mass(n) * st.a(n, d);
             m += st.mass(n);
           }

@@ -37,16 +37,23 @@ struct FluidCoupling::Impl {
   const std::vector<Index>& nodes;  // wall.nodes()
   std::vector<Real>& u0;            // [3n] displacement at the seismic start (wall.reference())
   const CarriedWater* water;        // the laws the solid carries (null: the water sends its whole force)
-  std::vector<Real> force, prev;    // [3n] force added this step / last step (N)
-  std::vector<Real> received;       // [3n] latest force read from the fluid
-  std::vector<Real> trial;          // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;   // [3n] predictor linear: the force applied one window earlier
-  WallMotion motion;                // [3n] the predicted motion written (disp, vel) and its response
-  std::vector<Real>&disp, &vel;     // motion.disp, motion.vel
-  std::vector<Real> sent;           // [3n] the motion written, less what the water does not see
-  bool planar = false;              // a slice: the water is sent the wall's in-plane motion only (write())
-  std::vector<Real> total;          // [3n] force(): the exchanged force + the carried pressure
-  std::vector<Real> dispStart;      // [3n] u − u0 at the start of the current window (k > 1)
+  // On MPI ranks: this rank's part of the wetted face, the sums over the wet nodes folded over the
+  // parts in the one-process order (tq/water/wet_part.hpp); null in one process.
+  const WetPart* part = nullptr;
+  std::vector<Real> acc;  // a fold's sums
+  // On a part: each step's work terms ([3n]) and which nodes moved, booked in step order by flushWork()
+  std::vector<std::vector<Real>> pendingWork;
+  std::vector<std::vector<std::uint8_t>> pendingMoving;
+  std::vector<Real> force, prev;   // [3n] force added this step / last step (N)
+  std::vector<Real> received;      // [3n] latest force read from the fluid
+  std::vector<Real> trial;         // [3n] force used in the current prediction
+  std::vector<Real> receivedPrev;  // [3n] predictor linear: the force applied one window earlier
+  WallMotion motion;               // [3n] the predicted motion written (disp, vel) and its response
+  std::vector<Real>&disp, &vel;    // motion.disp, motion.vel
+  std::vector<Real> sent;          // [3n] the motion written, less what the water does not see
+  bool planar = false;             // a slice: the water is sent the wall's in-plane motion only (write())
+  std::vector<Real> total;         // [3n] force(): the exchanged force + the carried pressure
+  std::vector<Real> dispStart;     // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   Real window = 0, dtPrev = 0;
@@ -154,9 +161,11 @@ struct FluidCoupling::Impl {
   /// fluid was sent (made one window earlier). Converged exchange: R_f = the force applied and
   /// u_s = the motion made, so the sum with the solid's work is zero (to the tolerance).
   void bookReceivedWork() {
-    Real wf = 0;
-    for (size_t j = 0; j < received.size(); ++j) wf -= 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
-    fluidReceived += wf;
+    acc.assign(1, 0.0);
+    foldOverWetNodes(part, nodes.size(), acc, [&](size_t k) {
+      for (size_t j = 3 * k; j < 3 * k + 3; ++j) acc[0] -= 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
+    });
+    fluidReceived += acc[0];
     recvPrev = received;
     sent2.swap(sent1);
     sent1 = disp;
@@ -176,15 +185,16 @@ struct FluidCoupling::Impl {
   /// show up as energy created, (β̄ − ½) Σ ΔF·Δu, although the water and the solid agree.
   void bookReceivedWorkWindow() {
     const Real k = Real(in.windowSteps), bbar = ((k - 1) * in.windowForceWeight + 0.5) / k;
-    Real wf = 0;
-    for (size_t k3 = 0; k3 < nodes.size(); ++k3)
+    acc.assign(1, 0.0);
+    foldOverWetNodes(part, nodes.size(), acc, [&](size_t k3) {
       for (int d = 0; d < 3; ++d) {
         const size_t j = 3 * k3 + size_t(d);
         const Real lag = uLast[j] - u0[j];
-        wf -= (bbar * received[j] + (1 - bbar) * recvPrev[j]) * (lag - lagPrev[j]);
+        acc[0] -= (bbar * received[j] + (1 - bbar) * recvPrev[j]) * (lag - lagPrev[j]);
         lagPrev[j] = lag;
       }
-    fluidReceived += wf;
+    });
+    fluidReceived += acc[0];
     recvPrev = received;
   }
 
@@ -345,6 +355,35 @@ struct FluidCoupling::Impl {
 FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water)
     : impl_(std::make_unique<Impl>(solver, in, wallNodes(solver.mesh(), in.face), water)) {
   Impl& I = *impl_;
+  // Interface vertices: mesh node index as id, the face's quads as triangles.
+  std::vector<std::int64_t> ids(I.nodes.begin(), I.nodes.end());
+  std::vector<std::int32_t> tri;
+  const auto& quads = solver.mesh().faces.at(in.face);
+  auto local = [&](Index n) {
+    return std::int32_t(std::lower_bound(I.nodes.begin(), I.nodes.end(), n) - I.nodes.begin());
+  };
+  for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+    const std::int32_t a = local(quads[q]), b = local(quads[q + 1]), cc = local(quads[q + 2]), d = local(quads[q + 3]);
+    tri.insert(tri.end(), {a, b, cc, a, cc, d});
+  }
+  setUp(std::move(ids), std::move(tri));
+}
+
+FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water, const WetPart& part,
+                             std::vector<Index> nodes, std::vector<std::int64_t> ids)
+    : impl_(std::make_unique<Impl>(solver, in, std::move(nodes), water)) {
+  impl_->part = &part;
+  if (in.map != "coincident")
+    throw InputError("/coupling map " + in.map +
+                     ": the solid on ranks exchanges each rank's part of the wetted face with the coincident map "
+                     "only; set /coupling map coincident, or run tq-solid as one process");
+  setUp(std::move(ids), {});
+}
+
+void FluidCoupling::setUp(std::vector<std::int64_t> ids, std::vector<std::int32_t> tri) {
+  Impl& I = *impl_;
+  const Solver& solver = I.solver;
+  const CouplingInput& in = I.in;
   const Mesh& mesh = solver.mesh();
   const size_t n3 = 3 * I.nodes.size();
   for (std::vector<Real>* v : {&I.force, &I.prev, &I.received, &I.trial, &I.receivedPrev, &I.dispStart, &I.forceStart,
@@ -360,8 +399,8 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const Carr
   if (in.energyFloor > 0)
     I.energyFloor = in.energyFloor;
   else if (in.absoluteTolForce > 0 && in.absoluteTolDisplacement > 0 && in.tolerance > 0)
-    I.energyFloor =
-        Real(I.nodes.size()) * (in.absoluteTolForce / in.tolerance) * (in.absoluteTolDisplacement / in.tolerance);
+    I.energyFloor = Real(I.part ? I.part->wholeCount : I.nodes.size()) * (in.absoluteTolForce / in.tolerance) *
+                    (in.absoluteTolDisplacement / in.tolerance);
 
   // The window: k solid steps (the run set the solver's step from /coupling window_size before; the
   // number of windows is /coupling's, decided by the case: fluid_case.coupling_windows).
@@ -401,22 +440,13 @@ FluidCoupling::FluidCoupling(Solver& solver, const CouplingInput& in, const Carr
   t.receiveTimeout = in.timeout;
   t.connectTimeout = in.connectTimeout > 0 ? in.connectTimeout : in.timeout;
 
-  // Interface vertices: mesh node index as id, reference coordinates, the face's quads as triangles.
-  std::vector<std::int64_t> ids(I.nodes.begin(), I.nodes.end());
+  // Interface vertices: the ids, the reference coordinates, the triangles.
   std::vector<double> xyz(n3);
   for (size_t k = 0; k < I.nodes.size(); ++k)
     for (int d = 0; d < 3; ++d) xyz[3 * k + d] = mesh.coords[dofIndex(I.nodes[k], d)];
-  std::vector<std::int32_t> tri;
-  const auto& quads = mesh.faces.at(in.face);
-  auto local = [&](Index n) {
-    return std::int32_t(std::lower_bound(I.nodes.begin(), I.nodes.end(), n) - I.nodes.begin());
-  };
-  for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-    const std::int32_t a = local(quads[q]), b = local(quads[q + 1]), cc = local(quads[q + 2]), d = local(quads[q + 3]);
-    tri.insert(tri.end(), {a, b, cc, a, cc, d});
-  }
   try {
     I.p = std::make_unique<cp::Participant>(in.participant, c, t, in.token);
+    if (I.part && I.part->parts > 1) I.p->setPart(I.part->part, I.part->parts);
     I.p->setMeshVertices(in.mesh, std::move(ids), std::move(xyz), std::move(tri));
   } catch (const cp::CouplerError& e) {
     throw InputError(std::string("/coupling: ") + e.what());
@@ -530,12 +560,34 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.forceSet = false;
   Real* fe = st.fExtData();
   const Real* v = st.vData();
-  Real w = 0;
-  forEachMovingDof(I.nodes, st, [&](size_t, size_t i, size_t j) {
-    fe[i] += I.force[j];
-    w += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+  if (I.part) {  // the step's work terms kept; summed over the parts in order by flushWork()
+    std::vector<Real> terms(I.force.size(), 0.0);
+    std::vector<std::uint8_t> moving(I.nodes.size(), 0);
+    for (size_t k = 0; k < I.nodes.size(); ++k) {
+      if (!(st.mass(I.nodes[k]) > 0)) continue;
+      moving[k] = 1;
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+        fe[i] += I.force[j];
+        terms[j] = 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+      }
+    }
+    I.pendingWork.push_back(std::move(terms));
+    I.pendingMoving.push_back(std::move(moving));
+    I.prev = I.force;
+    I.dtPrev = dt;
+    return;
+  }
+  I.acc.assign(1, 0.0);  // the work of the moving dofs, in the order of the wet nodes
+  foldOverWetNodes(I.part, I.nodes.size(), I.acc, [&](size_t k) {
+    if (!(st.mass(I.nodes[k]) > 0)) return;  // as forEachMovingDof
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+      fe[i] += I.force[j];
+      I.acc[0] += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+    }
   });
-  I.work += w;
+  I.work += I.acc[0];
   I.prev = I.force;
   I.dtPrev = dt;
 }
@@ -547,6 +599,26 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   a.io(I.work);
   a.io(I.dtPrev);
   a.io(I.stepInWindow);
+  if (I.part) {  // the steps whose work is not booked yet: those of a window stepped again are dropped
+    long long pending = (long long)I.pendingWork.size();
+    a.io(pending);
+    if (!a.saving()) I.pendingWork.resize(size_t(pending)), I.pendingMoving.resize(size_t(pending));
+  }
+}
+
+void FluidCoupling::flushWork() {
+  Impl& I = *impl_;
+  if (!I.part || I.pendingWork.empty()) return;  // every part has stepped alike: the same count
+  const size_t m = I.pendingWork.size();
+  I.acc.assign(m, 0.0);
+  I.part->fold(I.acc, [&](size_t k) {
+    for (size_t s = 0; s < m; ++s)
+      if (I.pendingMoving[s][k])
+        for (size_t j = 3 * k; j < 3 * k + 3; ++j) I.acc[s] += I.pendingWork[s][j];
+  });
+  for (size_t s = 0; s < m; ++s) I.work += I.acc[s];
+  I.pendingWork.clear();
+  I.pendingMoving.clear();
 }
 
 bool FluidCoupling::repeatsWindows() const { return impl_->repeats; }
@@ -590,7 +662,7 @@ bool FluidCoupling::partnerReleased() const { return impl_->linked && !impl_->si
 
 std::string FluidCoupling::describe() const {
   const Impl& I = *impl_;
-  return describeCoupling(I.in, I.window, I.windows, I.nodes.size(), I.water);
+  return describeCoupling(I.in, I.window, I.windows, I.part ? I.part->wholeCount : I.nodes.size(), I.water);
 }
 
 }  // namespace tq

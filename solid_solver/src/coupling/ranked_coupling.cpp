@@ -1,8 +1,9 @@
-// The water coupling of the solid on MPI ranks (tq/coupling/ranked_coupling.hpp): rank 0 runs the
-// adapter and the carried laws on its whole-model mirror, gathering the wet nodes' state from their
-// owners and sending their external force back to every copy.
+// The water coupling of the solid on MPI ranks (tq/coupling/ranked_coupling.hpp): each rank exchanges
+// its own part of the wetted face with the water; the sums over the wet nodes are folded across the
+// ranks in the one-process order.
 #include "tq/coupling/ranked_coupling.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -13,101 +14,90 @@
 namespace tq {
 
 namespace {
-// What a wet node's owner sends rank 0 each time: u, v, f_int, f_ext so far (3 each), the dashpot
-// coefficients (3), the lumped mass: all the step's update of the node reads (WallPrediction).
-constexpr int kPer = 16;
+#ifdef TQ_SOLID_HAVE_MPI
+constexpr int kFoldTag = 0x7F01, kFrontierTag = 0x7F02;  // this file's messages among the ranks
+#endif
+
+/// A run of the wetted face's node list held by one rank: places [begin, end).
+struct Run {
+  long long begin = 0, end = 0;
+  int rank = 0;
+};
 }  // namespace
 
 struct RankedCoupling::Impl {
   explicit Impl(Solver& s) : local(s) {}
   int rank = 0, size = 1;
   Solver& local;
-  Solver* view = nullptr;                  // rank 0: the mirror (one rank: the rank's own solver)
-  std::shared_ptr<CarriedWater> water;     // rank 0
-  std::shared_ptr<FluidCoupling> adapter;  // rank 0
-  // This rank's wet nodes (their place k in the wetted face's list, their local index), and those it owns.
-  std::vector<std::pair<size_t, Index>> held, owned;
-  std::vector<int> counts, displs;  // rank 0: values from each rank in a gather
-  std::vector<size_t> order;        // rank 0: the place k of each gathered node, in rank order
-  std::vector<Real> mine, all, fe;
+  WetPart part;                            // this rank's part of the face (its owned wet nodes)
+  std::vector<Run> runs;                   // the face's node list in runs, each of one rank, in order
+  std::shared_ptr<CarriedWater> water;     // on this rank's part
+  std::shared_ptr<FluidCoupling> adapter;  // on this rank's part
+  std::vector<Index> partNodes;            // the part's nodes (this solver's indices), in place order
+  std::vector<Index> heldNodes;            // every wet node this rank holds, owned or a frontier copy
+  // The frontier's wet nodes: the local nodes whose f_ext this rank sends each other holder (it owns
+  // them) or receives from their owner, per rank, in place order.
+  std::vector<std::pair<int, std::vector<Index>>> sendTo, recvFrom;
+  std::vector<std::vector<Real>> sendBuf, recvBuf;
+  // Results (rank 0): each rank's node count and the places, the face's force last added.
+  std::vector<int> counts, displs;
+  std::vector<long long> allPlaces;
+  std::vector<Real> mine, gathered, wholeForce;
+  double* seconds = nullptr;
 
-  /// Collective: the wet nodes' state, each from its owner, into the mirror's (rank 0).
-  void gather(const NodalState& st, const std::vector<Index>& wet, double& seconds) {
-    if (size == 1) return;
+  /// WetPart::fold: the runs in order; each rank adds its nodes' terms to acc received from the rank
+  /// of the run before and sends it to the rank of the run after; the last run's rank sends it to all.
+  void fold(std::vector<Real>& acc, const std::function<void(size_t)>& node) {
 #ifdef TQ_SOLID_HAVE_MPI
     const auto t0 = std::chrono::steady_clock::now();
-    mine.resize(kPer * owned.size());
-    const Real *u = st.uData(), *v = st.vData(), *fi = st.fIntData(), *fx = st.fExtData(), *c = st.dashpotData();
-    for (size_t q = 0; q < owned.size(); ++q) {
-      const Index l = owned[q].second;
-      Real* x = &mine[kPer * q];
-      for (int d = 0; d < 3; ++d) {
-        const size_t i = dofIndex(l, d);
-        x[d] = u[i], x[3 + d] = v[i], x[6 + d] = fi[i], x[9 + d] = fx[i], x[12 + d] = c[i];
-      }
-      x[15] = st.mass(l);
+    const int n = int(acc.size());
+    size_t q = 0;
+    for (size_t i = 0; i < runs.size(); ++i) {
+      if (runs[i].rank != rank) continue;
+      if (i > 0) MPI_Recv(acc.data(), n, MPI_DOUBLE, runs[i - 1].rank, kFoldTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      for (long long k = runs[i].begin; k < runs[i].end; ++k) node(q++);
+      if (i + 1 < runs.size()) MPI_Send(acc.data(), n, MPI_DOUBLE, runs[i + 1].rank, kFoldTag, MPI_COMM_WORLD);
     }
-    MPI_Gatherv(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
-                MPI_COMM_WORLD);
-    if (rank == 0) {
-      NodalState& ms = view->state();
-      Real *mu = ms.uData(), *mv = ms.vData(), *mfi = ms.fIntData(), *mfe = ms.fExtData();
-      for (size_t q = 0; q < order.size(); ++q) {
-        const Index n = wet[order[q]];
-        const Real* x = &all[kPer * q];
-        for (int d = 0; d < 3; ++d) {
-          const size_t i = dofIndex(n, d);
-          mu[i] = x[d], mv[i] = x[3 + d], mfi[i] = x[6 + d], mfe[i] = x[9 + d];
-          if (ms.dashpot(n, d) != x[12 + d]) {  // set exactly: c + (−c) is 0, then 0 + x is x
-            ms.addDashpot(n, d, -ms.dashpot(n, d));
-            ms.addDashpot(n, d, x[12 + d]);
-          }
-        }
-        if (ms.mass(n) != x[15]) {
-          ms.addMass(n, -ms.mass(n));
-          ms.addMass(n, x[15]);
-        }
-      }
-      view->setTime(local.time());
-    }
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    MPI_Bcast(acc.data(), n, MPI_DOUBLE, runs.back().rank, MPI_COMM_WORLD);
+    *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 #else
-    (void)st, (void)wet, (void)seconds;
+    (void)acc, (void)node;
 #endif
   }
 
-  /// Rank 0 runs `part`; an error it meets is thrown on every rank alike (its type and message).
+  /// Collective: `part` on every rank; an error any rank meets is thrown on every rank alike (the
+  /// worst kind, the lowest such rank's message).
   template <class F>
-  void onRoot(F&& part, double& seconds) {
+  void together(F&& step) {
     int code = 0;
     std::string why;
-    if (rank == 0) {
-      try {
-        part();
-      } catch (const CouplingError& e) {
-        code = 4, why = e.what();
-      } catch (const InstabilityError& e) {
-        code = 3, why = e.what();
-      } catch (const InputError& e) {
-        code = 2, why = e.what();
-      } catch (const std::exception& e) {
-        code = 1, why = e.what();
-      }
+    try {
+      step();
+    } catch (const CouplingError& e) {
+      code = 4, why = e.what();
+    } catch (const InstabilityError& e) {
+      code = 3, why = e.what();
+    } catch (const InputError& e) {
+      code = 2, why = e.what();
+    } catch (const std::exception& e) {
+      code = 1, why = e.what();
     }
 #ifdef TQ_SOLID_HAVE_MPI
     if (size > 1) {
       const auto t0 = std::chrono::steady_clock::now();
-      MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
-      if (code) {
+      struct {
+        int code, rank;
+      } in{code, rank}, out{0, 0};
+      MPI_Allreduce(&in, &out, 1, MPI_2INT, MPI_MAXLOC, MPI_COMM_WORLD);
+      if (out.code) {
         unsigned long long n = why.size();
-        MPI_Bcast(&n, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+        MPI_Bcast(&n, 1, MPI_UNSIGNED_LONG_LONG, out.rank, MPI_COMM_WORLD);
         why.resize(size_t(n));
-        MPI_Bcast(why.data(), int(n), MPI_CHAR, 0, MPI_COMM_WORLD);
+        MPI_Bcast(why.data(), int(n), MPI_CHAR, out.rank, MPI_COMM_WORLD);
+        code = out.code;
       }
-      seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
-#else
-    (void)seconds;
 #endif
     switch (code) {
       case 0:
@@ -123,23 +113,48 @@ struct RankedCoupling::Impl {
     }
   }
 
-  /// Collective: `n` values of rank 0 on every rank.
-  void broadcast(Real* x, int n, double& seconds) {
+  /// The steps' works booked (the carried laws' first, as the energy guard reads them after).
+  void flushWork() {
+    if (water) water->flushWork();
+    adapter->flushWork();
+  }
+
+  /// The frontier's wet nodes: each owner's f_ext to the other ranks that hold the node.
+  void sendFrontier(NodalState& st) {
 #ifdef TQ_SOLID_HAVE_MPI
-    if (size == 1) return;
+    if (sendTo.empty() && recvFrom.empty()) return;
     const auto t0 = std::chrono::steady_clock::now();
-    MPI_Bcast(x, n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    Real* fx = st.fExtData();
+    std::vector<MPI_Request> req;
+    for (size_t i = 0; i < recvFrom.size(); ++i) {
+      recvBuf[i].resize(3 * recvFrom[i].second.size());
+      req.emplace_back();
+      MPI_Irecv(recvBuf[i].data(), int(recvBuf[i].size()), MPI_DOUBLE, recvFrom[i].first, kFrontierTag, MPI_COMM_WORLD,
+                &req.back());
+    }
+    for (size_t i = 0; i < sendTo.size(); ++i) {
+      sendBuf[i].clear();
+      for (Index l : sendTo[i].second)
+        for (int d = 0; d < 3; ++d) sendBuf[i].push_back(fx[dofIndex(l, d)]);
+      req.emplace_back();
+      MPI_Isend(sendBuf[i].data(), int(sendBuf[i].size()), MPI_DOUBLE, sendTo[i].first, kFrontierTag, MPI_COMM_WORLD,
+                &req.back());
+    }
+    MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE);
+    for (size_t i = 0; i < recvFrom.size(); ++i)
+      for (size_t q = 0; q < recvFrom[i].second.size(); ++q)
+        for (int d = 0; d < 3; ++d) fx[dofIndex(recvFrom[i].second[q], d)] = recvBuf[i][3 * q + size_t(d)];
+    *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 #else
-    (void)x, (void)n, (void)seconds;
+    (void)st;
 #endif
   }
 };
 
-RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, const std::vector<Index>& localNode,
-                               const std::vector<std::uint8_t>& owned, Solver& local, Solver* mirror)
+RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, const RankLayout& L, Solver& local)
     : impl_(std::make_unique<Impl>(local)) {
   Impl& I = *impl_;
+  I.seconds = &secondsComm_;
 #ifdef TQ_SOLID_HAVE_MPI
   int ready = 0;
   MPI_Initialized(&ready);
@@ -148,101 +163,123 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     MPI_Comm_size(MPI_COMM_WORLD, &I.size);
   }
 #endif
-  I.view = I.size == 1 ? &local : mirror;
   wet_ = wallNodes(global, in.face);  // an InputError on every rank alike
-  for (size_t k = 0; k < wet_.size(); ++k) {
-    const Index l = I.size == 1 ? wet_[k] : localNode[size_t(wet_[k])];
-    if (l < 0) continue;
-    I.held.emplace_back(k, l);
-    if (I.size == 1 || owned[size_t(l)]) I.owned.emplace_back(k, l);
-  }
+  if (I.size == 1) {                  // the one-process run
+    I.heldNodes = wet_;
+    I.together([&] {
+      I.water = CarriedWater::fromCoupling(local, in);
+      I.adapter = std::make_shared<FluidCoupling>(local, in, I.water.get());
+    });
+  } else {
 #ifdef TQ_SOLID_HAVE_MPI
-  if (I.size > 1) {
-    // Who sends which wet node, once: the counts and places, on rank 0 in rank order.
-    const int n = int(I.owned.size());
-    std::vector<int> nodeCounts(size_t(I.size), 0), nodeDispls(size_t(I.size), 0);
-    MPI_Gather(&n, 1, MPI_INT, nodeCounts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
-    std::vector<long long> ks, allKs;
-    for (const auto& [k, l] : I.owned) ks.push_back((long long)k);
-    if (I.rank == 0) {
-      I.counts.assign(size_t(I.size), 0), I.displs.assign(size_t(I.size), 0);
-      for (int r = 0; r < I.size; ++r) {
-        if (r > 0) nodeDispls[size_t(r)] = nodeDispls[size_t(r) - 1] + nodeCounts[size_t(r) - 1];
-        I.counts[size_t(r)] = kPer * nodeCounts[size_t(r)];
-        I.displs[size_t(r)] = kPer * nodeDispls[size_t(r)];
+    // This rank's part: the wet nodes it owns, in the face's order; the frontier's other holders.
+    std::vector<std::pair<int, std::vector<Index>>> sendTo, recvFrom;
+    auto listFor = [](std::vector<std::pair<int, std::vector<Index>>>& lists, int r) -> std::vector<Index>& {
+      for (auto& [who, nodes] : lists)
+        if (who == r) return nodes;
+      lists.emplace_back(r, std::vector<Index>{});
+      return lists.back().second;
+    };
+    std::vector<std::int64_t> ids;
+    for (size_t k = 0; k < wet_.size(); ++k) {
+      const Index l = L.localNode[size_t(wet_[k])];
+      if (l < 0) continue;
+      I.heldNodes.push_back(l);
+      if (L.owned[size_t(l)]) {
+        I.part.places.push_back(k);
+        I.partNodes.push_back(l);
+        ids.push_back(std::int64_t(wet_[k]));
       }
-      allKs.resize(size_t(nodeDispls.back() + nodeCounts.back()));
-      I.all.resize(kPer * allKs.size());
+      const auto f = std::lower_bound(L.frontier.begin(), L.frontier.end(), l);
+      if (f == L.frontier.end() || *f != l) continue;
+      const size_t fi = size_t(f - L.frontier.begin());
+      const int* holders = &L.frontierRanks[size_t(L.frontierStart[fi])];
+      const size_t nh = size_t(L.frontierStart[fi + 1] - L.frontierStart[fi]);
+      const int owner = *std::min_element(holders, holders + nh);
+      for (size_t h = 0; h < nh; ++h)
+        if (holders[h] != I.rank && owner == I.rank)
+          listFor(sendTo, holders[h]).push_back(l);
+        else if (holders[h] == owner && owner != I.rank)
+          listFor(recvFrom, owner).push_back(l);
     }
-    MPI_Gatherv(ks.data(), n, MPI_LONG_LONG, allKs.data(), nodeCounts.data(), nodeDispls.data(), MPI_LONG_LONG, 0,
-                MPI_COMM_WORLD);
+    std::sort(sendTo.begin(), sendTo.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::sort(recvFrom.begin(), recvFrom.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    I.sendTo = std::move(sendTo), I.recvFrom = std::move(recvFrom);
+    I.sendBuf.resize(I.sendTo.size()), I.recvBuf.resize(I.recvFrom.size());
+    // The runs of every rank, in the face's order: who adds which nodes' terms when.
+    std::vector<long long> mineRuns;
+    for (size_t q = 0; q < I.part.places.size(); ++q) {
+      const long long k = (long long)I.part.places[q];
+      if (q == 0 || (long long)I.part.places[q - 1] + 1 != k) mineRuns.insert(mineRuns.end(), {k, k});
+      mineRuns.back() = k + 1;
+    }
+    const int nRuns = int(mineRuns.size());
+    std::vector<int> runCounts(size_t(I.size)), runDispls(size_t(I.size), 0);
+    MPI_Allgather(&nRuns, 1, MPI_INT, runCounts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    for (int r = 1; r < I.size; ++r) runDispls[size_t(r)] = runDispls[size_t(r) - 1] + runCounts[size_t(r) - 1];
+    std::vector<long long> allRuns(size_t(runDispls.back() + runCounts.back()));
+    MPI_Allgatherv(mineRuns.data(), nRuns, MPI_LONG_LONG, allRuns.data(), runCounts.data(), runDispls.data(),
+                   MPI_LONG_LONG, MPI_COMM_WORLD);
+    for (int r = 0; r < I.size; ++r)
+      for (int i = 0; i < runCounts[size_t(r)]; i += 2)
+        I.runs.push_back({allRuns[size_t(runDispls[size_t(r)] + i)], allRuns[size_t(runDispls[size_t(r)] + i + 1)], r});
+    std::sort(I.runs.begin(), I.runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
+    long long next = 0;
+    for (const Run& r : I.runs) {
+      if (r.begin != next) throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
+      next = r.end;
+    }
+    if (next != (long long)wet_.size() || I.runs.empty())
+      throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
+    I.part.wholeCount = wet_.size();
+    I.part.part = I.rank;
+    I.part.parts = I.size;
+    I.part.fold = [&I](std::vector<Real>& acc, const std::function<void(size_t)>& node) { I.fold(acc, node); };
+    // Results: each rank's node count and places on rank 0.
+    const int mineCount = int(I.part.places.size());
+    std::vector<int> nodeCounts(size_t(I.size));
+    MPI_Gather(&mineCount, 1, MPI_INT, nodeCounts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    std::vector<long long> places(I.part.places.begin(), I.part.places.end());
+    std::vector<int> placeDispls(size_t(I.size), 0);
     if (I.rank == 0) {
-      for (long long k : allKs) I.order.push_back(size_t(k));
-      if (I.order.size() != wet_.size())  // every wet node has one owner (RankLayout)
-        throw std::logic_error("the wet nodes' owners do not cover the wetted face");
+      I.counts.resize(size_t(I.size)), I.displs.resize(size_t(I.size));
+      for (int r = 0; r < I.size; ++r) {
+        if (r > 0) placeDispls[size_t(r)] = placeDispls[size_t(r) - 1] + nodeCounts[size_t(r) - 1];
+        I.counts[size_t(r)] = 4 * nodeCounts[size_t(r)], I.displs[size_t(r)] = 4 * placeDispls[size_t(r)];
+      }
+      I.allPlaces.resize(wet_.size());
+      I.gathered.resize(4 * wet_.size());
+      I.wholeForce.assign(3 * wet_.size(), 0.0);
     }
-    // The wet nodes' supports as the ranks' solvers hold them (the staged analysis sets them) on
-    // the mirror, which the prediction of the wall's motion reads.
-    std::vector<Real> fixed, allFixed;
-    for (const auto& [k, l] : I.owned)
-      for (int d = 0; d < 3; ++d) fixed.push_back(local.isFixed(l, d) ? 1.0 : 0.0);
-    std::vector<int> c3(size_t(I.size)), d3(size_t(I.size));
-    for (int r = 0; r < I.size && I.rank == 0; ++r)
-      c3[size_t(r)] = 3 * nodeCounts[size_t(r)], d3[size_t(r)] = 3 * nodeDispls[size_t(r)];
-    if (I.rank == 0) allFixed.assign(3 * wet_.size(), 0.0);
-    MPI_Gatherv(fixed.data(), int(fixed.size()), MPI_DOUBLE, allFixed.data(), c3.data(), d3.data(), MPI_DOUBLE, 0,
-                MPI_COMM_WORLD);
-    if (I.rank == 0)
-      for (size_t q = 0; q < I.order.size(); ++q)
-        for (int d = 0; d < 3; ++d) {
-          const Index node = wet_[I.order[q]];
-          if (allFixed[3 * q + size_t(d)] != 0)
-            mirror->fix(node, d);
-          else
-            mirror->release(node, d);
-        }
-  }
+    MPI_Gatherv(places.data(), mineCount, MPI_LONG_LONG, I.allPlaces.data(), nodeCounts.data(), placeDispls.data(),
+                MPI_LONG_LONG, 0, MPI_COMM_WORLD);
+    I.together([&] {
+      if (in.volumeLaw != "none") I.water = std::make_shared<CarriedWater>(local, in, global, I.part, I.partNodes);
+      I.adapter = std::make_shared<FluidCoupling>(local, in, I.water.get(), I.part, I.partNodes, std::move(ids));
+    });
 #endif
-  I.gather(local.state(), wet_, secondsComm_);
-  Real info[4] = {0, 0, 0, 0};
-  I.onRoot(
-      [&] {
-        if (I.size > 1) {
-          if (I.view->massDampingCoefficient() != local.massDampingCoefficient())
-            throw std::logic_error("the whole-model mirror's mass damping differs from the ranks' solvers'");
-          I.view->setTimeStep(local.dt());
-        }
-        I.water = CarriedWater::fromCoupling(*I.view, in);
-        I.adapter = std::make_shared<FluidCoupling>(*I.view, in, I.water.get());
-        I.adapter->tellTimeBy(local);  // its messages say the ranks' time and step, not the mirror's
-        info[0] = I.adapter->repeatsWindows() ? 1 : 0;
-        info[1] = Real(I.adapter->windowSteps());
-        info[2] = I.adapter->endTime();
-        info[3] = Real(I.adapter->windowCount());
-      },
-      secondsComm_);
-  I.broadcast(info, 4, secondsComm_);
-  repeats_ = info[0] != 0;
-  steps_ = Index(info[1]);
-  endTime_ = info[2];
-  windows_ = (long long)info[3];
-  I.fe.assign(3 * wet_.size(), 0.0);
+  }
+  repeats_ = I.adapter->repeatsWindows();
+  steps_ = I.adapter->windowSteps();
+  endTime_ = I.adapter->endTime();
+  windows_ = I.adapter->windowCount();
 }
 
 bool RankedCoupling::constrainLevels(std::vector<std::uint8_t>& level) const {
-  std::vector<Index> nodes;
-  for (const auto& h : impl_->held) nodes.push_back(h.second);
-  return lowerToFinestLevel(level, nodes);
+  return lowerToFinestLevel(level, impl_->heldNodes);
 }
 
 RankedCoupling::~RankedCoupling() = default;
 
 void RankedCoupling::initialize() {
-  impl_->onRoot([&] { impl_->adapter->initialize(); }, secondsComm_);
+  impl_->together([&] { impl_->adapter->initialize(); });
 }
 
 void RankedCoupling::finalize() {
-  impl_->onRoot([&] { impl_->adapter->finalize(); }, secondsComm_);
+  impl_->together([&] {
+    impl_->flushWork();
+    impl_->adapter->finalize();
+  });
 }
 
 void RankedCoupling::abort(const std::string& reason) noexcept {
@@ -251,72 +288,107 @@ void RankedCoupling::abort(const std::string& reason) noexcept {
 
 FluidCoupling* RankedCoupling::adapter() { return impl_->adapter.get(); }
 const CarriedWater* RankedCoupling::water() const { return impl_->water.get(); }
+Index RankedCoupling::partNodes() const { return Index(impl_->adapter->nodes().size()); }
+Index RankedCoupling::foldRuns() const { return impl_->size == 1 ? 1 : Index(impl_->runs.size()); }
+std::vector<Index> RankedCoupling::partCounts() const {
+  std::vector<Index> n;
+  if (impl_->size == 1) return {wetNodes()};
+  for (int c : impl_->counts) n.push_back(Index(c / 4));
+  return n;
+}
 
-std::string RankedCoupling::name() const { return "water coupling on the ranks (rank 0 exchanges)"; }
+void RankedCoupling::observe(Solver* view) {
+  Impl& I = *impl_;
+  if (I.size == 1) return;
+  I.flushWork();
+#ifdef TQ_SOLID_HAVE_MPI
+  const auto t0 = std::chrono::steady_clock::now();
+  // each wet node's force (3) and its mass as this rank sums it (the one-process sum), from its owner
+  const std::vector<Real>& f = I.adapter->force();
+  I.mine.clear();
+  for (size_t q = 0; q < I.partNodes.size(); ++q) {
+    I.mine.insert(I.mine.end(), f.begin() + long(3 * q), f.begin() + long(3 * q + 3));
+    I.mine.push_back(I.local.state().mass(I.partNodes[q]));
+  }
+  MPI_Gatherv(I.mine.data(), int(I.mine.size()), MPI_DOUBLE, I.gathered.data(), I.counts.data(), I.displs.data(),
+              MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  if (I.rank == 0 && view) {
+    NodalState& ms = view->state();
+    for (size_t q = 0; q < I.allPlaces.size(); ++q) {
+      const size_t k = size_t(I.allPlaces[q]);
+      for (size_t d = 0; d < 3; ++d) I.wholeForce[3 * k + d] = I.gathered[4 * q + d];
+      const Index n = wet_[k];
+      if (ms.mass(n) != I.gathered[4 * q + 3]) {  // set exactly: m + (−m) is 0, then 0 + x is x
+        ms.addMass(n, -ms.mass(n));
+        ms.addMass(n, I.gathered[4 * q + 3]);
+      }
+    }
+  }
+  secondsComm_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+#else
+  (void)view;
+#endif
+}
 
-// In the one-process order: the exchanged force, then the pressure the solid carries (their
-// predictions read the f_ext the one before added), on rank 0's mirror; f_ext back to every copy.
+const std::vector<Real>& RankedCoupling::wetForce() const {
+  return impl_->size == 1 ? impl_->adapter->force() : impl_->wholeForce;
+}
+
+std::string RankedCoupling::name() const { return "water coupling on the ranks (each rank its part)"; }
+
+// In the one-process order: the exchanged force, then the pressure the solid carries (its prediction
+// reads the f_ext the exchanged force added), on this rank's part; the frontier's f_ext to its copies.
+// Neither meets an error one rank alone would (a step outside the protocol is one on every rank): no
+// agreement is needed.
 void RankedCoupling::addForces(Real t, Real dt, NodalState& st) {
   Impl& I = *impl_;
-  I.gather(st, wet_, secondsComm_);
-  I.onRoot(
-      [&] {
-        NodalState& ms = I.size == 1 ? st : I.view->state();
-        I.adapter->addForces(t, dt, ms);
-        if (I.water) I.water->addForces(t, dt, ms);
-        if (I.size > 1)
-          for (size_t k = 0; k < wet_.size(); ++k)
-            for (int d = 0; d < 3; ++d) I.fe[3 * k + size_t(d)] = ms.fExt(wet_[k], d);
-      },
-      secondsComm_);
-  if (I.size == 1) return;
-  I.broadcast(I.fe.data(), int(I.fe.size()), secondsComm_);
-  Real* fx = st.fExtData();
-  for (const auto& [k, l] : I.held)
-    for (int d = 0; d < 3; ++d) fx[dofIndex(l, d)] = I.fe[3 * k + size_t(d)];
+  I.adapter->addForces(t, dt, st);
+  if (I.water) I.water->addForces(t, dt, st);
+  I.sendFrontier(st);
 }
 
 void RankedCoupling::checkpoint(StateArchive& a) {
   Impl& I = *impl_;
-  if (!I.adapter) return;
   I.adapter->checkpoint(a);
   if (I.water) I.water->checkpoint(a);
 }
 
 void RankedCoupling::planWindow(const NodalState& st) {
-  Impl& I = *impl_;
-  I.gather(st, wet_, secondsComm_);
-  I.onRoot([&] { I.adapter->planWindow(I.size == 1 ? st : I.view->state()); }, secondsComm_);
+  impl_->together([&] { impl_->adapter->planWindow(st); });
 }
 
 void RankedCoupling::planStep(Index j, Real dt) {
-  impl_->onRoot([&] { impl_->adapter->planStep(j, dt); }, secondsComm_);
+  impl_->adapter->planStep(j, dt);  // inside the window: no exchange, an error alike on every rank
   open_ = true;
 }
 
 bool RankedCoupling::exchange(Real dt, const NodalState& st) {
-  Impl& I = *impl_;
-  I.gather(st, wet_, secondsComm_);
-  Real accepted = 0;
-  I.onRoot([&] { accepted = I.adapter->exchange(dt, I.size == 1 ? st : I.view->state()) ? 1 : 0; }, secondsComm_);
-  I.broadcast(&accepted, 1, secondsComm_);
+  bool accepted = false;
+  impl_->together([&] { accepted = impl_->adapter->exchange(dt, st); });
   open_ = false;
-  return accepted != 0;
+  return accepted;  // the water's flag, the same on every part
 }
 
 void RankedCoupling::acceptWindow() {
-  impl_->onRoot([&] { impl_->adapter->acceptWindow(); }, secondsComm_);
+  impl_->together([&] {
+    impl_->flushWork();  // the energy guard reads the works
+    impl_->adapter->acceptWindow();
+  });
   ++done_;
 }
 
-// Restart checkpoints: the windows done on every rank, the adapter's state across windows on rank 0.
+// Restart checkpoints: the windows done, and each rank's adapter's state across windows (its part of
+// the coupler's solid participant among it). At a window's end the works are booked (acceptWindow
+// folded them), so no step's term is pending.
 void RankedCoupling::restartState(StateArchive& a) {
   a.io(done_);
-  if (impl_->adapter) impl_->adapter->restartState(a);
+  impl_->adapter->restartState(a);
 }
 
+// Every rank's part connects to the water and carries on from its saved state; an error one part
+// meets is thrown on every rank.
 void RankedCoupling::initializeResumed() {
-  impl_->onRoot([&] { impl_->adapter->initializeResumed(); }, secondsComm_);
+  impl_->together([&] { impl_->adapter->initializeResumed(); });
 }
 
 }  // namespace tq

@@ -15,6 +15,11 @@ struct CarriedWater::Impl {
   CouplingInput in;
   WallPrediction wall;  // the wet nodes (mesh indices, ascending) and u0
   const std::vector<Index>& nodes;
+  // On MPI ranks: this rank's part of the wetted face (its nodes `nodes`, the solver's indices), its
+  // sums folded over the parts in the one-process order (tq/water/wet_part.hpp); null in one process.
+  const WetPart* part = nullptr;
+  // The whole wetted face's nodes in the mesh the geometry is built on (one process: `nodes`).
+  std::vector<Index> geo;
   // The water's volume law (docs/coupler.md "Volume law in the solid"): the pressure
   // p_j of station j acts on its wet nodes as p_j g_i, g the nodes' area vectors out of the water, and
   // is set implicitly each step from the volume change the step makes, s_j^{n+1} = Σ_{i∈j} g_i·(u_i^{n+1}
@@ -56,7 +61,10 @@ struct CarriedWater::Impl {
   int modes = 0;
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
   // Work space of the laws (per station).
-  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri;
+  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, workSum;
+  // On a part: each step's work terms ([3n]) and which nodes moved, booked in step order by flushWork()
+  std::vector<std::vector<Real>> pendingWork;
+  std::vector<std::vector<std::uint8_t>> pendingMoving;
 
   Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
       : solver(s), in(ci), wall(s, std::move(wet)), nodes(wall.nodes()) {}
@@ -64,12 +72,12 @@ struct CarriedWater::Impl {
   /// The stations: one for a closed section; with open ends, the planes of wet nodes along y, whose
   /// positions (ascending) it returns.
   std::vector<Real> buildStations(const Mesh& mesh) {
-    const size_t n = nodes.size();
+    const size_t n = geo.size();
     station.assign(n, 0);
     S = 1;
     if (!openEnds) return {};
     std::vector<Real> ys(n);
-    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[dofIndex(nodes[k], 1)];
+    for (size_t k = 0; k < n; ++k) ys[k] = mesh.coords[dofIndex(geo[k], 1)];
     std::vector<Real> planes = ys;
     std::sort(planes.begin(), planes.end());
     const Real tol = 1e-9 * std::max<Real>(1, planes.back() - planes.front());
@@ -92,11 +100,11 @@ struct CarriedWater::Impl {
   /// the section's area times the length along the axis y), a quarter to each corner's station, and
   /// the water's centroid c_j from ∫(x − c)_k dV = ⅓ ∮ (x − c)_k (x − c)⊥·n.
   void buildVolumeLaw(const Mesh& mesh) {
-    const size_t n = nodes.size();
+    const size_t n = geo.size();
     g.assign(3 * n, 0.0);
     auto x = [&](Index node, int d) { return mesh.coords[dofIndex(node, d)]; };
     Real c[3] = {0, 0, 0};
-    for (Index node : nodes)
+    for (Index node : geo)
       for (int d = 0; d < 3; ++d) c[d] += x(node, d) / Real(n);
     planes = buildStations(mesh);
     const auto& quads = mesh.faces.at(in.face);
@@ -111,7 +119,7 @@ struct CarriedWater::Impl {
       const Real sign = radial < 0 ? -1.0 : 1.0;
       size_t jmin = S, jmax = 0;
       for (int k = 0; k < 4; ++k) {
-        const size_t i = size_t(std::lower_bound(nodes.begin(), nodes.end(), quads[q + size_t(k)]) - nodes.begin());
+        const size_t i = size_t(std::lower_bound(geo.begin(), geo.end(), quads[q + size_t(k)]) - geo.begin());
         const size_t j = station[i];
         jmin = std::min(jmin, j), jmax = std::max(jmax, j);
         Vs[j] += 0.125 * sign * radial;
@@ -163,13 +171,23 @@ struct CarriedWater::Impl {
     r.assign(2 * n, 0.0);
     for (size_t k = 0; k < n; ++k) {
       const size_t j = station[k];
-      r[2 * k] = x(nodes[k], 0) - (c[0] + cw[2 * j] / Vs[j]);
-      r[2 * k + 1] = x(nodes[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
+      r[2 * k] = x(geo[k], 0) - (c[0] + cw[2 * j] / Vs[j]);
+      r[2 * k + 1] = x(geo[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
     }
     buildProjection();
-    scratch.resize(3 * n);
-    force.assign(3 * n, 0.0);
-    sums.assign(12 * S, 0.0);
+    if (part) {  // the geometry of this part's nodes only
+      std::vector<Real> gp, rp;
+      std::vector<size_t> sp;
+      for (size_t k : part->places) {
+        gp.insert(gp.end(), g.begin() + long(3 * k), g.begin() + long(3 * k + 3));
+        rp.insert(rp.end(), r.begin() + long(2 * k), r.begin() + long(2 * k + 2));
+        sp.push_back(station[k]);
+      }
+      g.swap(gp), r.swap(rp), station.swap(sp);
+    }
+    scratch.resize(3 * nodes.size());
+    force.assign(3 * nodes.size(), 0.0);
+    sums.assign(12 * S + 1, 0.0);  // the last: the response of every station together
     alpha.assign(2 * S, 0.0);
     beta.assign(2 * S, 0.0);
     sPrime.assign(S, 0.0);
@@ -197,9 +215,8 @@ struct CarriedWater::Impl {
     if (!pOut) pOut = pScratch.data();
     if (!lamOut) lamOut = lamScratch.data();
     std::fill(sums.begin(), sums.end(), 0.0);
-    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0
-    Real SUall = 0;
-    for (size_t k = 0; k < nodes.size(); ++k) {
+    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0; then SU of all stations
+    foldOverWetNodes(part, nodes.size(), sums, [&](size_t k) {
       Real* s = &sums[12 * station[k]];
       Real qU = 0, qV = 0, gdv = 0;
       for (int d = 0; d < 3; ++d) {
@@ -210,8 +227,8 @@ struct CarriedWater::Impl {
         gdv += g[j] * (dv[j] - v[dofIndex(nodes[k], d)]);
       }
       s[1] += qU;
-      SUall += qU;
-      if (!translation) continue;
+      sums[12 * S] += qU;
+      if (!translation) return;
       for (int a = 0; a < 2; ++a) {
         const Real ra = r[2 * k + size_t(a)];
         s[2 + a] += qU * ra;
@@ -219,8 +236,8 @@ struct CarriedWater::Impl {
         s[10 + a] += ra * gdv;
         for (int b = 0; b < 2; ++b) s[6 + 2 * a + b] += qV * ra * r[2 * k + size_t(b)];
       }
-    }
-    if (!(SUall > 0)) {
+    });
+    if (!(sums[12 * S] > 0)) {
       std::fill(pOut, pOut + S, 0.0);
       std::fill(lamOut, lamOut + 2 * S, 0.0);
       return;
@@ -317,7 +334,7 @@ struct CarriedWater::Impl {
       return r[2 * k + size_t(m - 1)] * g[3 * k + size_t(d)] / Vs[station[k]];
     };
     std::vector<Real> C(9 * S, 0.0);
-    for (size_t k = 0; k < nodes.size(); ++k)
+    for (size_t k = 0; k < geo.size(); ++k)
       for (int a = 0; a < modes; ++a)
         for (int b = 0; b < modes; ++b)
           for (int d = 0; d < 3; ++d) C[9 * station[k] + size_t(3 * a + b)] += Arow(a, k, d) * Bcol(b, k, d);
@@ -343,14 +360,16 @@ struct CarriedWater::Impl {
   /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
   void projectMotion(std::vector<Real>& x) const {
     std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      Real* m = &sums[3 * station[k]];
+    moments.assign(3 * S, 0.0);
+    foldOverWetNodes(part, nodes.size(), moments, [&](size_t k) {
+      Real* m = &moments[3 * station[k]];
       for (int d = 0; d < 3; ++d) {
         const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
         m[0] += gv * xv;
         if (modes == 3) m[1] += r[2 * k] * gv * xv / Vs[station[k]], m[2] += r[2 * k + 1] * gv * xv / Vs[station[k]];
       }
-    }
+    });
+    std::copy(moments.begin(), moments.end(), sums.begin());
     for (size_t j = 0; j < S; ++j)
       for (int a = 0; a < modes; ++a)
         for (int b = 0; b < modes; ++b)
@@ -363,11 +382,13 @@ struct CarriedWater::Impl {
   }
   void projectForce(std::vector<Real>& f) const {
     std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      Real* m = &sums[3 * station[k]];
+    moments.assign(3 * S, 0.0);
+    foldOverWetNodes(part, nodes.size(), moments, [&](size_t k) {
+      Real* m = &moments[3 * station[k]];
       for (int d = 0; d < 3; ++d) m[0] += g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
       if (modes == 3) m[1] += f[3 * k], m[2] += f[3 * k + 2];
-    }
+    });
+    std::copy(moments.begin(), moments.end(), sums.begin());
     for (size_t j = 0; j < S; ++j)
       for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
         for (int b = 0; b < modes; ++b)
@@ -388,9 +409,20 @@ std::shared_ptr<CarriedWater> CarriedWater::fromCoupling(const Solver& solver, c
 
 CarriedWater::CarriedWater(const Solver& solver, const CouplingInput& in)
     : impl_(std::make_unique<Impl>(solver, in, wallNodes(solver.mesh(), in.face))) {
+  impl_->geo = impl_->nodes;
   impl_->incompressible = in.volumeLaw == "incompressible";
   impl_->openEnds = in.waterEnds == "open";
   impl_->buildVolumeLaw(solver.mesh());
+}
+
+CarriedWater::CarriedWater(const Solver& solver, const CouplingInput& in, const Mesh& whole, const WetPart& part,
+                           std::vector<Index> nodes)
+    : impl_(std::make_unique<Impl>(solver, in, std::move(nodes))) {
+  impl_->part = &part;
+  impl_->geo = wallNodes(whole, in.face);
+  impl_->incompressible = in.volumeLaw == "incompressible";
+  impl_->openEnds = in.waterEnds == "open";
+  impl_->buildVolumeLaw(whole);
 }
 
 CarriedWater::~CarriedWater() = default;
@@ -406,16 +438,42 @@ void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.advanceAxialFlow(dt);
   Real* fe = st.fExtData();
   const Real* v = st.vData();
-  Real wv = 0;
   std::fill(I.force.begin(), I.force.end(), 0.0);
-  forEachMovingDof(I.nodes, st, [&](size_t k, size_t i, size_t j) {
+  if (I.part) {  // the step's work terms kept; summed over the parts in order by flushWork()
+    std::vector<Real> terms(I.force.size(), 0.0);
+    std::vector<std::uint8_t> moving(I.nodes.size(), 0);
+    for (size_t k = 0; k < I.nodes.size(); ++k) {
+      if (!(st.mass(I.nodes[k]) > 0)) continue;
+      moving[k] = 1;
+      const Real pc = I.carried(k, I.ps.data(), I.lam.data());
+      const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+        I.force[j] = pc * I.g[j];
+        fe[i] += I.force[j];
+        terms[j] = 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+      }
+    }
+    I.pendingWork.push_back(std::move(terms));
+    I.pendingMoving.push_back(std::move(moving));
+    I.psPrev = I.ps;
+    I.lamPrev = I.lam;
+    I.dtPrev = dt;
+    return;
+  }
+  I.workSum.assign(1, 0.0);  // the work of the moving dofs, in the order of the wet nodes
+  foldOverWetNodes(I.part, I.nodes.size(), I.workSum, [&](size_t k) {
+    if (!(st.mass(I.nodes[k]) > 0)) return;  // as forEachMovingDof
     const Real pc = I.carried(k, I.ps.data(), I.lam.data());
     const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
-    I.force[j] = pc * I.g[j];
-    fe[i] += I.force[j];
-    wv += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+    for (int d = 0; d < 3; ++d) {
+      const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+      I.force[j] = pc * I.g[j];
+      fe[i] += I.force[j];
+      I.workSum[0] += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+    }
   });
-  I.volumeWork += wv;
+  I.volumeWork += I.workSum[0];
   I.psPrev = I.ps;
   I.lamPrev = I.lam;
   I.dtPrev = dt;
@@ -427,6 +485,26 @@ void CarriedWater::checkpoint(StateArchive& a) {
     a.io(*v);
   a.io(I.volumeWork);
   a.io(I.dtPrev);
+  if (I.part) {  // the steps whose work is not booked yet: those of a window stepped again are dropped
+    long long pending = (long long)I.pendingWork.size();
+    a.io(pending);
+    if (!a.saving()) I.pendingWork.resize(size_t(pending)), I.pendingMoving.resize(size_t(pending));
+  }
+}
+
+void CarriedWater::flushWork() {
+  Impl& I = *impl_;
+  if (!I.part || I.pendingWork.empty()) return;
+  const size_t m = I.pendingWork.size();
+  I.workSum.assign(m, 0.0);
+  I.part->fold(I.workSum, [&](size_t k) {
+    for (size_t s = 0; s < m; ++s)
+      if (I.pendingMoving[s][k])
+        for (size_t j = 3 * k; j < 3 * k + 3; ++j) I.workSum[s] += I.pendingWork[s][j];
+  });
+  for (size_t s = 0; s < m; ++s) I.volumeWork += I.workSum[s];
+  I.pendingWork.clear();
+  I.pendingMoving.clear();
 }
 
 bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {

@@ -28,6 +28,9 @@ struct Hello {
   std::string partner;      ///< whom the sender expects at the other end
   CouplingConfig config;
   std::vector<MeshVertices> meshes;
+  /// The sender's part of its participant (Participant::setPart): `part` of `parts`, each a
+  /// connection of its own carrying its own vertices; 0 of 1 for a participant in one piece.
+  std::uint32_t part = 0, parts = 1;
 };
 
 /// Reason codes of REJECT and ABORT.

@@ -61,6 +61,25 @@ class Participant : private ExchangePort {
   void setMeshVertices(const std::string& mesh, std::vector<std::int64_t> ids, std::vector<double> coordinates,
                        std::vector<std::int32_t> triangles = {});
 
+  /// A participant split over several processes (the MPI ranks of one solver), each holding its
+  /// own nodes of every interface mesh: this process is part `part` of `parts`. Call before
+  /// initialize(). A participant in parts is the configuration's first, listens over TCP and maps
+  /// every mesh with the coincident map; part 0 publishes the address file, part r > 0 the address
+  /// file's name with ".part<r>" appended (partAddressFile). The partner, one process, connects to
+  /// every part, refuses parts whose nodes do not cover its own once each, and exchanges with each
+  /// part the values of that part's nodes only; its scheme measures, accelerates and decides on the
+  /// whole interface, as with a partner in one piece, and the parts follow its flags. The divergence
+  /// monitor then runs on the partner, over the data it sends (the first's parts see a piece each).
+  /// A part may hold no node of a mesh (a rank away from the interface): it exchanges empty blocks.
+  void setPart(int part, int parts);
+  std::uint32_t part() const { return part_; }
+  std::uint32_t parts() const { return parts_; }
+  /// Parts of the partner (after initialize(); 1 for a partner in one piece).
+  std::size_t partnerParts() const { return 1 + partLinks_.size(); }
+  /// The nodes of a mesh each of the partner's parts exchanges, in part order (after initialize();
+  /// one count, the partner's nodes, for a partner in one piece).
+  std::vector<std::size_t> partnerPartNodes(const std::string& mesh) const;
+
   /// Connects, runs the handshake (refusing a partner with another token, protocol version,
   /// configuration or incompatible mesh), builds the maps, and, on the second participant,
   /// receives the first window's data. Returns the largest allowed step.
@@ -160,6 +179,18 @@ class Participant : private ExchangePort {
   double secondsMapping_ = 0.0;
   std::uint64_t partnerDataBytes_ = 0;  ///< exact DATA payload size from the partner
   std::uint64_t exchanges_ = 0;
+  std::uint32_t part_ = 0, parts_ = 1;  ///< this side's part (setPart)
+  /// A partner in parts: the links to its parts 1.. (link_ is part 0's), each part's own-node
+  /// indices per mesh (ascending: the order of my nodes), its exact DATA payload size.
+  std::vector<std::unique_ptr<Endpoint>> partLinks_;
+  std::map<std::string, std::vector<std::vector<std::size_t>>> partNodes_;
+  std::vector<std::uint64_t> partDataBytes_;
+  std::vector<Endpoint*> links() const;
+  void receivePart(std::size_t r, std::uint64_t window, std::uint32_t iteration, const std::string& what,
+                   Received& got);
 };
+
+/// The address file part `part` of a participant in parts publishes (the name, then ".part<r>" for r > 0).
+std::string partAddressFile(const std::string& addressFile, std::uint32_t part);
 
 }  // namespace tq::coupler

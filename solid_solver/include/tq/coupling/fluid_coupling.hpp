@@ -86,6 +86,14 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// laws the solid carries on the same face (CarriedWater::fromCoupling; null: none), added to
   /// the solver after this adapter; it must outlive the adapter.
   FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water = nullptr);
+  /// On MPI ranks: the exchange of this rank's part of the wetted face (tq/water/wet_part.hpp), a
+  /// part of the coupler's participant (Participant::setPart) with its own connection to the water:
+  /// `nodes` its nodes in `solver` (in the order of part.places), `ids` their global indices (the
+  /// interface's ids); `water` the carried laws on the same part. Every sum over the wet nodes is
+  /// folded over the parts in the one-process order, so each protocol part and addForces are
+  /// collective. The coincident map only (InputError otherwise). `part` outlives it.
+  FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water, const WetPart& part,
+                std::vector<Index> nodes, std::vector<std::int64_t> ids);
   ~FluidCoupling() override;  ///< without finalize(): tells the fluid this side stopped (ABORT)
 
   /// Connects to the fluid and runs the handshake. Throws CouplingError.
@@ -118,6 +126,10 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
   void checkpoint(StateArchive& archive) override;
+  /// On a part (MPI ranks): the work of the steps since the last call booked, each step's sum over
+  /// the parts in the one-process order (collective; the steps' terms are kept until then, so a step
+  /// costs no message for it); before fluidWork() is read. Nothing in one process (booked each step).
+  void flushWork();
   /// Restart checkpoints (tq/io/restart.hpp): at a window's end, the adapter's state across windows
   /// (the last windows' forces and motions, the predictor's history, the energy bookkeeping, the
   /// counters) and the coupler participant's bytes (Participant::saveState); restored before
@@ -162,7 +174,8 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// A warning to print once (the coupling energy passed a fifth of the limit); empty otherwise.
   std::string takeNote();
   FluidCouplingStats stats() const;
-  /// The interface nodes (mesh indices, ascending) and the force last added to each ([3n], N):
+  /// The interface nodes (mesh indices, ascending; on a part: the part's, in its solver's indices)
+  /// and the force last added to each ([3n], N):
   /// the exchanged force plus the pressure the solid carries (CarriedWater::force()) where there is one.
   const std::vector<Index>& nodes() const;
   const std::vector<Real>& force() const;
@@ -176,6 +189,7 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   bool partnerReleased() const;
 
  private:
+  void setUp(std::vector<std::int64_t> ids, std::vector<std::int32_t> triangles);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -1,19 +1,21 @@
 /// @file ranked_coupling.hpp
 /// @brief The water coupling of the solid on MPI ranks (docs/architecture.md "The solid on ranks",
-///        "The water coupling on ranks"). A gather, not an m:n exchange: rank 0 holds the one coupler
-///        participant (FluidCoupling) and the water's laws the solid carries (CarriedWater), both on
-///        its whole-model mirror solver; each rank sends it the state of the wet nodes it owns (u, v,
-///        f_int, f_ext so far, mass, dashpot: each node once, from its owner), rank 0 runs the
-///        protocol's part on the whole wetted face in the one-process order, and sends every rank the
-///        wet nodes' external force, which each rank sets on every copy it holds (a frontier node's
-///        copies stay bitwise equal). The carried laws' sums over the wet nodes run on rank 0 in the
-///        order of the one-process run, whatever the rank count.
+///        "The water coupling on ranks"). Each rank exchanges its own part of the wetted face: the
+///        wet nodes it owns (a node on a partition boundary on its owner only, so each once), with
+///        its own connection to the water (a part of the coupler's solid participant,
+///        Participant::setPart), through its own FluidCoupling and CarriedWater made on its own
+///        solver. The water checks that the parts cover the face once each and decides on the whole
+///        face (convergence, acceleration, window by window), as with one process. The sums over the
+///        wet nodes (the volume law's, its projections', the works that the energy guard reads) are
+///        folded across the ranks in the one-process order (tq/water/wet_part.hpp), so every decision
+///        and every value is bitwise that of one process. No rank holds the whole face's state.
 ///
 /// Each rank's RankedCoupling is a contributor of its solver (ForcePhase::Water, in place of the
 /// adapter and the carried laws of the one-process run) and the WindowCoupling CoupledStepper runs:
-/// every call is collective, and an error rank 0 meets (the fluid lost, the energy guard) is thrown
-/// on every rank alike. On one rank it is the one-process run: the adapter on the rank's own solver,
-/// no messages.
+/// every call is collective; an error one rank meets is thrown on every rank (the lowest such rank's
+/// message). After the step's water force the owner of a wet node on a partition boundary sends its
+/// f_ext to the other ranks that hold it (their copies stay bitwise equal). On one rank it is the
+/// one-process run: the adapter on the rank's own solver, no messages.
 #pragma once
 
 #include <memory>
@@ -21,47 +23,62 @@
 #include <vector>
 
 #include "tq/coupling/fluid_coupling.hpp"
+#include "tq/parallel/rank_layout.hpp"
 #include "tq/water/carried_water.hpp"
 
 namespace tq {
 
 class RankedCoupling final : public NodalForceContributor, public WindowCoupling {
  public:
-  /// Collective; MPI initialised. `global`: the whole mesh; `localNode` [global node]: this rank's
-  /// index of it or −1 (empty on one rank); `owned` [local node]: 1 on the node's owner; `local`: this
-  /// rank's solver, switched to the seismic stage with its step set; `mirror`: rank 0's solver of the
-  /// whole model (null elsewhere; on one rank `local` itself), its state gathered at the seismic start.
-  /// Makes the carried laws and the adapter on rank 0 (not connected). Throws InputError alike on
-  /// every rank.
-  RankedCoupling(const CouplingInput& in, const Mesh& global, const std::vector<Index>& localNode,
-                 const std::vector<std::uint8_t>& owned, Solver& local, Solver* mirror);
+  /// Collective; MPI initialised. `global`: the whole mesh; `layout`: this rank's part (empty on one
+  /// rank); `local`: this rank's solver, switched to the seismic stage with its step set. Makes this
+  /// rank's carried laws and adapter on its part (not connected). Throws InputError alike on every rank.
+  RankedCoupling(const CouplingInput& in, const Mesh& global, const RankLayout& layout, Solver& local);
   ~RankedCoupling() override;
 
-  /// Collective: rank 0 connects to the fluid and shakes hands (CouplingError on every rank).
+  /// Collective: every rank's part listens for the fluid and shakes hands (CouplingError on every rank).
   void initialize();
   /// Collective: the clean end after the last window.
   void finalize();
-  /// Rank 0 tells the fluid this side stops (never throws; nothing on the other ranks).
+  /// This rank's part tells the fluid this side stops (never throws).
   void abort(const std::string& reason) noexcept;
 
-  /// Rank 0's adapter and carried laws (null on the other ranks; the laws null when none).
+  /// This rank's adapter and carried laws on its part (the laws null when none). Their works,
+  /// pressures and counters are the whole face's, alike on every rank; nodes() and force() the part's.
   FluidCoupling* adapter();
   const CarriedWater* water() const;
+  /// Collective, before a results sample: the works booked (FluidCoupling::flushWork); the wet nodes'
+  /// force last added (the exchanged one and the carried pressure's) gathered on rank 0 in the order
+  /// of wetNodeList(), and their mass as the ranks sum it set on rank 0's `view` (the whole-model
+  /// mirror the results are written from; null elsewhere). Results only: gathered as the rest of the
+  /// results on ranks.
+  void observe(Solver* view);
+  /// Rank 0, after observe(): the whole face's nodes (global indices, ascending) and their force.
+  const std::vector<Index>& wetNodeList() const { return wet_; }
+  const std::vector<Real>& wetForce() const;
+  /// This rank's part: its wet nodes (owned, each node in one part only).
+  Index partNodes() const;
+  /// Rank 0: every rank's part node count, in rank order (they add up to wetNodes()).
+  std::vector<Index> partCounts() const;
+  /// The runs of the face's node list each held by one rank: a folded sum passes from rank to rank
+  /// runs − 1 times, then goes to every rank (1 on one rank).
+  Index foldRuns() const;
 
   /// The same on every rank.
   Real endTime() const { return endTime_; }
   long long windowCount() const { return windows_; }
   bool ongoing() const { return done_ < windows_; }
   Index wetNodes() const { return Index(wet_.size()); }
-  /// Seconds this rank spent in the coupling's gathers and broadcasts (waiting for rank 0 included).
+  /// Seconds this rank spent in the coupling's messages between the ranks (the folded sums, the
+  /// frontier's force, the errors agreed; waiting for the other ranks included).
   double secondsCommunicating() const { return secondsComm_; }
 
   // ---- as a contributor (ForcePhase::Water) of this rank's solver -------------------------------
   std::string name() const override;
-  /// Collective: the wet nodes' state to rank 0, which adds the exchanged force and the carried
-  /// pressure there; their f_ext back to every copy.
+  /// Collective: this rank's part adds the exchanged force and the carried pressure to its nodes;
+  /// the frontier's f_ext from each owner to the other ranks that hold the node.
   void addForces(Real t, Real dt, NodalState& state) override;
-  /// Rank 0: the adapter's and the carried laws' step state (a window stepped again restores it).
+  /// The adapter's and the carried laws' step state of this rank's part (a window stepped again restores it).
   void checkpoint(StateArchive& archive) override;
   /// Subcycling: this rank's wet nodes at the finest level (as the adapter's on one process).
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
@@ -79,12 +96,12 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   /// same on every rank, without a message.
   long long windowsDone() const { return done_; }
   bool windowOpen() const { return open_; }
-  /// The coupling's state across windows: the windows done (every rank), and on rank 0 the adapter's
-  /// (FluidCoupling::restartState: the coupler participant's bytes among it). Saved at a window's
-  /// end; restored before initializeResumed().
+  /// The coupling's state across windows: the windows done, and this rank's adapter's
+  /// (FluidCoupling::restartState: the bytes of this rank's part of the coupler participant among
+  /// it), on every rank. Saved at a window's end; restored before initializeResumed().
   void restartState(StateArchive& archive);
-  /// Collective, initialize() for a run restored by restartState(): rank 0 connects and carries on
-  /// from the saved window (CouplingError on every rank).
+  /// Collective, initialize() for a run restored by restartState(): every rank's part connects to the
+  /// water and carries on from the saved window (CouplingError on every rank).
   void initializeResumed();
 
  private:

@@ -26,6 +26,7 @@
 #include "tq/core/solver.hpp"
 #include "tq/io/staged_input.hpp"
 #include "tq/water/wall_prediction.hpp"
+#include "tq/water/wet_part.hpp"
 
 namespace tq {
 
@@ -36,6 +37,12 @@ class CarriedWater final : public NodalForceContributor {
   /// Throws InputError on a face that encloses no volume or an open-ends face not built in layers.
   static std::shared_ptr<CarriedWater> fromCoupling(const Solver& solver, const CouplingInput& in);
   CarriedWater(const Solver& solver, const CouplingInput& in);
+  /// On MPI ranks: the laws on this rank's part of the wetted face (`nodes`: its nodes in `solver`,
+  /// in the order of part.places), their geometry from the `whole` mesh's face, every sum over the
+  /// wet nodes folded over the parts in the one-process order (tq/water/wet_part.hpp): each call
+  /// that sums (addForces, correct, projectMotion, projectForce) is collective. `part` outlives it.
+  CarriedWater(const Solver& solver, const CouplingInput& in, const Mesh& whole, const WetPart& part,
+               std::vector<Index> nodes);
   ~CarriedWater() override;
 
   // ---- the step -------------------------------------------------------------------------------
@@ -46,6 +53,9 @@ class CarriedWater final : public NodalForceContributor {
   /// The step state: the stations' pressures and resultants of the last two steps, the axial
   /// flow's integrators, the work, the force added, the reference u0.
   void checkpoint(StateArchive& archive) override;
+  /// On a part: the work of the steps since the last call booked, each step's sum over the parts in
+  /// the one-process order (collective); before work() is read. Nothing in one process.
+  void flushWork();
   /// Subcycling: the wet nodes step every fine step.
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
 
@@ -59,6 +69,7 @@ class CarriedWater final : public NodalForceContributor {
   void projectForce(std::vector<Real>& f) const;
 
   // ---- what it did ----------------------------------------------------------------------------
+  /// Its wet nodes (on a part: the part's, in the solver's indices).
   const std::vector<Index>& nodes() const;
   /// The carried pressure's force on each wet node this step ([3n], N; zero on nodes at rest).
   const std::vector<Real>& force() const;
