@@ -207,8 +207,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
     (reconstructPar; the processor folders stay in <fluid>/processor*).
 
-    `solid_ranks` > 1: tq-solid runs on that many MPI ranks (solid_ranks.solid_command), rank 0
-    exchanging the whole wetted face for every rank.
+    `solid_ranks` > 1: tq-solid runs on that many MPI ranks (solid_ranks.solid_command), each rank
+    exchanging the wet nodes it owns with the water over its own connection (a part of the coupler's
+    first participant).
 
     Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
     theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows;
