@@ -40,10 +40,8 @@ struct FluidCoupling::Impl {
   // On MPI ranks: this rank's part of the wetted face, the sums over the wet nodes folded over the
   // parts in the one-process order (tq/water/wet_part.hpp); null in one process.
   const WetPart* part = nullptr;
-  std::vector<Real> acc;  // a fold's sums
-  // On a part: each step's work terms ([3n]) and which nodes moved, booked in step order by flushWork()
-  std::vector<std::vector<Real>> pendingWork;
-  std::vector<std::vector<std::uint8_t>> pendingMoving;
+  std::vector<Real> acc;           // a fold's sums
+  PendingWetWork pending;          // on a part: each step's work terms, booked in step order by flushWork()
   std::vector<Real> force, prev;   // [3n] force added this step / last step (N)
   std::vector<Real> received;      // [3n] latest force read from the fluid
   std::vector<Real> trial;         // [3n] force used in the current prediction
@@ -572,8 +570,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
         terms[j] = 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
       }
     }
-    I.pendingWork.push_back(std::move(terms));
-    I.pendingMoving.push_back(std::move(moving));
+    I.pending.add(std::move(terms), std::move(moving));
     I.prev = I.force;
     I.dtPrev = dt;
     return;
@@ -599,26 +596,12 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   a.io(I.work);
   a.io(I.dtPrev);
   a.io(I.stepInWindow);
-  if (I.part) {  // the steps whose work is not booked yet: those of a window stepped again are dropped
-    long long pending = (long long)I.pendingWork.size();
-    a.io(pending);
-    if (!a.saving()) I.pendingWork.resize(size_t(pending)), I.pendingMoving.resize(size_t(pending));
-  }
+  if (I.part) I.pending.checkpoint(a);  // the steps whose work is not booked yet
 }
 
 void FluidCoupling::flushWork() {
   Impl& I = *impl_;
-  if (!I.part || I.pendingWork.empty()) return;  // every part has stepped alike: the same count
-  const size_t m = I.pendingWork.size();
-  I.acc.assign(m, 0.0);
-  I.part->fold(I.acc, [&](size_t k) {
-    for (size_t s = 0; s < m; ++s)
-      if (I.pendingMoving[s][k])
-        for (size_t j = 3 * k; j < 3 * k + 3; ++j) I.acc[s] += I.pendingWork[s][j];
-  });
-  for (size_t s = 0; s < m; ++s) I.work += I.acc[s];
-  I.pendingWork.clear();
-  I.pendingMoving.clear();
+  if (I.part) I.pending.flush(*I.part, I.acc, I.work);
 }
 
 bool FluidCoupling::repeatsWindows() const { return impl_->repeats; }

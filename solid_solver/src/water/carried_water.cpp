@@ -62,9 +62,7 @@ struct CarriedWater::Impl {
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
   // Work space of the laws (per station).
   mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, workSum;
-  // On a part: each step's work terms ([3n]) and which nodes moved, booked in step order by flushWork()
-  std::vector<std::vector<Real>> pendingWork;
-  std::vector<std::vector<std::uint8_t>> pendingMoving;
+  PendingWetWork pending;  // on a part: each step's work terms, booked in step order by flushWork()
 
   Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
       : solver(s), in(ci), wall(s, std::move(wet)), nodes(wall.nodes()) {}
@@ -454,8 +452,7 @@ void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
         terms[j] = 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
       }
     }
-    I.pendingWork.push_back(std::move(terms));
-    I.pendingMoving.push_back(std::move(moving));
+    I.pending.add(std::move(terms), std::move(moving));
     I.psPrev = I.ps;
     I.lamPrev = I.lam;
     I.dtPrev = dt;
@@ -485,26 +482,12 @@ void CarriedWater::checkpoint(StateArchive& a) {
     a.io(*v);
   a.io(I.volumeWork);
   a.io(I.dtPrev);
-  if (I.part) {  // the steps whose work is not booked yet: those of a window stepped again are dropped
-    long long pending = (long long)I.pendingWork.size();
-    a.io(pending);
-    if (!a.saving()) I.pendingWork.resize(size_t(pending)), I.pendingMoving.resize(size_t(pending));
-  }
+  if (I.part) I.pending.checkpoint(a);  // the steps whose work is not booked yet
 }
 
 void CarriedWater::flushWork() {
   Impl& I = *impl_;
-  if (!I.part || I.pendingWork.empty()) return;
-  const size_t m = I.pendingWork.size();
-  I.workSum.assign(m, 0.0);
-  I.part->fold(I.workSum, [&](size_t k) {
-    for (size_t s = 0; s < m; ++s)
-      if (I.pendingMoving[s][k])
-        for (size_t j = 3 * k; j < 3 * k + 3; ++j) I.workSum[s] += I.pendingWork[s][j];
-  });
-  for (size_t s = 0; s < m; ++s) I.volumeWork += I.workSum[s];
-  I.pendingWork.clear();
-  I.pendingMoving.clear();
+  if (I.part) I.pending.flush(*I.part, I.workSum, I.volumeWork);
 }
 
 bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {

@@ -10,9 +10,12 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
+#include "tq/core/state_archive.hpp"
 #include "tq/core/types.hpp"
 
 namespace tq {
@@ -41,5 +44,39 @@ void foldOverWetNodes(const WetPart* part, size_t n, std::vector<Real>& acc, F&&
   }
   part->fold(acc, std::function<void(size_t)>(node));
 }
+
+/// A part's work terms of each step (3 a wet node) and which of its nodes moved, kept in step order
+/// until flush() sums them over the whole face in the one-process order: one fold a window instead
+/// of one a step.
+struct PendingWetWork {
+  std::vector<std::vector<Real>> terms;
+  std::vector<std::vector<std::uint8_t>> moving;
+
+  void add(std::vector<Real> stepTerms, std::vector<std::uint8_t> stepMoving) {
+    terms.push_back(std::move(stepTerms));
+    moving.push_back(std::move(stepMoving));
+  }
+  /// Collective over the parts (every part keeps the same steps): adds each kept step's sum over the
+  /// whole face to `total`, in step order (acc: work space), and forgets them.
+  void flush(const WetPart& part, std::vector<Real>& acc, Real& total) {
+    if (terms.empty()) return;
+    const size_t m = terms.size();
+    acc.assign(m, 0.0);
+    part.fold(acc, [&](size_t k) {
+      for (size_t s = 0; s < m; ++s)
+        if (moving[s][k])
+          for (size_t j = 3 * k; j < 3 * k + 3; ++j) acc[s] += terms[s][j];
+    });
+    for (size_t s = 0; s < m; ++s) total += acc[s];
+    terms.clear();
+    moving.clear();
+  }
+  /// The count of steps kept (those of a window stepped again are dropped).
+  void checkpoint(StateArchive& a) {
+    long long pending = (long long)terms.size();
+    a.io(pending);
+    if (!a.saving()) terms.resize(size_t(pending)), moving.resize(size_t(pending));
+  }
+};
 
 }  // namespace tq
