@@ -173,8 +173,8 @@ def test_coupled_run_on_a_full_disk_ends_with_a_clear_message_and_post_reports_i
     (p.parent / "results" / "mesh" / "model.msh").unlink()  # 0.4 MB the run does not need
     # room for the run's start, its snapshot at the seismic start and its first samples, the first
     # chunks of the lining's ring forces included (design and diameter histories float32, free-body
-    # forces float64: 3 x 98 kB); 1.2 MB leaves no room for a sample, 1.5 and 1.8 MB stop in the shaking
-    disk.resize(f"{(disk.used() + 1_500_000) // 1024}k")
+    # forces float64: 3 x 98 kB); 1.2 and 1.5 MB leave no room for a sample, 1.8 MB stops in the shaking
+    disk.resize(f"{(disk.used() + 1_800_000) // 1024}k")
     r = _tq("run", p)
     out = r.stdout + r.stderr
     assert r.returncode == 1, out[-3000:]
