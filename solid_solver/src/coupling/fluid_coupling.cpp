@@ -558,33 +558,15 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.forceSet = false;
   Real* fe = st.fExtData();
   const Real* v = st.vData();
-  if (I.part) {  // the step's work terms kept; summed over the parts in order by flushWork()
-    std::vector<Real> terms(I.force.size(), 0.0);
-    std::vector<std::uint8_t> moving(I.nodes.size(), 0);
-    for (size_t k = 0; k < I.nodes.size(); ++k) {
-      if (!(st.mass(I.nodes[k]) > 0)) continue;
-      moving[k] = 1;
-      for (int d = 0; d < 3; ++d) {
-        const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWork()).
+  I.pending.bookStep(
+      I.part, I.nodes.size(), [&](size_t k) { return st.mass(I.nodes[k]) > 0; },
+      [&](size_t k, int d, size_t j) {
+        const size_t i = dofIndex(I.nodes[k], d);
         fe[i] += I.force[j];
-        terms[j] = 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
-      }
-    }
-    I.pending.add(std::move(terms), std::move(moving));
-    I.prev = I.force;
-    I.dtPrev = dt;
-    return;
-  }
-  I.acc.assign(1, 0.0);  // the work of the moving dofs, in the order of the wet nodes
-  foldOverWetNodes(I.part, I.nodes.size(), I.acc, [&](size_t k) {
-    if (!(st.mass(I.nodes[k]) > 0)) return;  // as forEachMovingDof
-    for (int d = 0; d < 3; ++d) {
-      const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
-      fe[i] += I.force[j];
-      I.acc[0] += 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
-    }
-  });
-  I.work += I.acc[0];
+        return 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+      },
+      I.work);
   I.prev = I.force;
   I.dtPrev = dt;
 }

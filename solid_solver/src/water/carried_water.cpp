@@ -437,40 +437,21 @@ void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
   Real* fe = st.fExtData();
   const Real* v = st.vData();
   std::fill(I.force.begin(), I.force.end(), 0.0);
-  if (I.part) {  // the step's work terms kept; summed over the parts in order by flushWork()
-    std::vector<Real> terms(I.force.size(), 0.0);
-    std::vector<std::uint8_t> moving(I.nodes.size(), 0);
-    for (size_t k = 0; k < I.nodes.size(); ++k) {
-      if (!(st.mass(I.nodes[k]) > 0)) continue;
-      moving[k] = 1;
-      const Real pc = I.carried(k, I.ps.data(), I.lam.data());
-      const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
-      for (int d = 0; d < 3; ++d) {
-        const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
+  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWork()).
+  Real pc = 0, pcPrev = 0;  // the node's carried pressure now and a step before
+  I.pending.bookStep(
+      I.part, I.nodes.size(), [&](size_t k) { return st.mass(I.nodes[k]) > 0; },
+      [&](size_t k, int d, size_t j) {
+        if (d == 0) {
+          pc = I.carried(k, I.ps.data(), I.lam.data());
+          pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
+        }
+        const size_t i = dofIndex(I.nodes[k], d);
         I.force[j] = pc * I.g[j];
         fe[i] += I.force[j];
-        terms[j] = 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
-      }
-    }
-    I.pending.add(std::move(terms), std::move(moving));
-    I.psPrev = I.ps;
-    I.lamPrev = I.lam;
-    I.dtPrev = dt;
-    return;
-  }
-  I.workSum.assign(1, 0.0);  // the work of the moving dofs, in the order of the wet nodes
-  foldOverWetNodes(I.part, I.nodes.size(), I.workSum, [&](size_t k) {
-    if (!(st.mass(I.nodes[k]) > 0)) return;  // as forEachMovingDof
-    const Real pc = I.carried(k, I.ps.data(), I.lam.data());
-    const Real pcPrev = I.carried(k, I.psPrev.data(), I.lamPrev.data());
-    for (int d = 0; d < 3; ++d) {
-      const size_t i = dofIndex(I.nodes[k], d), j = 3 * k + size_t(d);
-      I.force[j] = pc * I.g[j];
-      fe[i] += I.force[j];
-      I.workSum[0] += 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
-    }
-  });
-  I.volumeWork += I.workSum[0];
+        return 0.5 * (pc + pcPrev) * I.g[j] * I.dtPrev * v[i];
+      },
+      I.volumeWork);
   I.psPrev = I.ps;
   I.lamPrev = I.lam;
   I.dtPrev = dt;

@@ -56,6 +56,31 @@ struct PendingWetWork {
     terms.push_back(std::move(stepTerms));
     moving.push_back(std::move(stepMoving));
   }
+  /// One step's work over the wet nodes that move (moves(k)): term(k, d, j) for each of their dofs
+  /// in node order (j = 3 k + d; it may also set the dof's force). On a part (`part` not null) the
+  /// terms are kept for flush(); in one process they are added up in that order and then to `total`.
+  template <class Moves, class Term>
+  void bookStep(const WetPart* part, size_t nodes, Moves&& moves, Term&& term, Real& total) {
+    std::vector<Real> stepTerms(part ? 3 * nodes : 0, 0.0);
+    std::vector<std::uint8_t> stepMoving(part ? nodes : 0, 0);
+    Real work = 0;
+    for (size_t k = 0; k < nodes; ++k) {
+      if (!moves(k)) continue;
+      if (part) stepMoving[k] = 1;
+      for (int d = 0; d < 3; ++d) {
+        const size_t j = 3 * k + size_t(d);
+        const Real w = term(k, d, j);
+        if (part)
+          stepTerms[j] = w;
+        else
+          work += w;
+      }
+    }
+    if (part)
+      add(std::move(stepTerms), std::move(stepMoving));
+    else
+      total += work;
+  }
   /// Collective over the parts (every part keeps the same steps): adds each kept step's sum over the
   /// whole face to `total`, in step order (acc: work space), and forgets them.
   void flush(const WetPart& part, std::vector<Real>& acc, Real& total) {
