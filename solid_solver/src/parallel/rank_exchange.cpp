@@ -311,9 +311,7 @@ class MpiRankExchange final : public RankExchange {
   }
   void minFrontier(Real* data, int comps) override {
     start(data, comps);
-    const auto t0 = std::chrono::steady_clock::now();
-    MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE);
-    wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    waitAll();
     const size_t c = size_t(comps);
     for (size_t k = 0; k < frontier_.size(); ++k)
       for (size_t d = 0; d < c; ++d) {
@@ -520,11 +518,15 @@ class MpiRankExchange final : public RankExchange {
                 &requests_[ranks_.size() + j]);
     }
   }
-  // Waits for them and writes each frontier node's total, summed in ascending rank order.
-  void finish(Real* data, int comps) {
+  // Waits for the frontier messages in flight, the wait counted in wait_.
+  void waitAll() {
     const auto t0 = std::chrono::steady_clock::now();
     MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE);
     wait_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  // Waits for them and writes each frontier node's total, summed in ascending rank order.
+  void finish(Real* data, int comps) {
+    waitAll();
     const size_t c = size_t(comps);
     for (size_t k = 0; k < frontier_.size(); ++k)
       for (size_t d = 0; d < c; ++d) {
