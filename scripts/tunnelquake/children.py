@@ -272,6 +272,30 @@ def stop_side(side: Side, grace: float) -> None:
 PARTNER_GRACE_S = 5.0
 
 
+#: what the coupler's PartnerLostError says (coupler/src/endpoint.cpp, participant.cpp,
+#: transport_tcp.cpp): a side whose last lines hold one of these stopped because its partner went
+#: first, by a lost connection, an ABORT or a BYE
+PARTNER_LOST_SIGNS = ("The partner process has probably stopped", "stopped on an error while",
+                      "ended the coupling (BYE) while", "connection closed by the partner")
+
+
+def lost_its_partner(side: Side) -> bool:
+    """Whether the side's last output lines say its coupling partner went first."""
+    return any(sign in line for line in list(side.lines) for sign in PARTNER_LOST_SIGNS)
+
+
+def root_failure(failed: Side, other: Side) -> Side:
+    """The side to blame for a coupled run's failure, given the one `watch_pair` saw fail first and
+    its partner (both ended). The first to exit is not always the cause: a solid on MPI ranks whose
+    rank is killed is ended by mpirun only after the water, which saw the connection close at once,
+    has stopped. When the first failed side says it lost its partner and the partner failed too
+    (without saying the same), the partner is the cause."""
+    rc = other.proc.returncode
+    if rc not in (0, None) and lost_its_partner(failed) and not lost_its_partner(other):
+        return other
+    return failed
+
+
 def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
     """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
     stopped (stop_side) after at most PARTNER_GRACE_S; a side that ends cleanly leaves its partner

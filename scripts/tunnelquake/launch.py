@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import children, paths, supervise
 from .case_report import OutputsNotWritten, post_case
-from .children import Side, say, watch_pair
+from .children import Side, lost_its_partner, root_failure, say, watch_pair
 from .cores import concurrent_conditions, solid_env
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
@@ -324,6 +324,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     if fluid_side is not None:
         failed = watch_pair(solid, fluid_side, timeout)
         fluid_side.close()
+        if failed is not None:
+            solid.close()  # its last lines read in full
+            failed = root_failure(failed, solid if failed is fluid_side else fluid_side)
     else:  # the solid ended before publishing its address: it never coupled
         solid.proc.wait()
         failed = solid
@@ -344,6 +347,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         say(f"condition {cond}: {side} failed with exit code {rc}; its log: {failed.log}" + (f"\n{unseen}" if unseen
                                                                                            else ""))
         why = f"{side} failed (exit {rc}) after {wall:.1f} s; see {failed.log}"
+        partner = fluid_side if failed is solid else solid
+        if partner is not None and lost_its_partner(partner):
+            say(f"condition {cond}: the {partner.name} stopped because the {failed.name} did (its log: {partner.log})")
+            why += f" (the {partner.name} stopped after it)"
         if _ran_out_of_space(case.output_dir, [x for x in (solid, fluid_side) if x is not None]):
             note = _disk_full_note(case.output_dir)
             say(f"condition {cond}: stopped by a full disk: {note}")

@@ -1,0 +1,63 @@
+"""Which side a failed coupled run blames (`children.root_failure`, used by `tunnelquake run`).
+
+The first side to exit is not always the cause: a solid on MPI ranks whose rank is killed is ended
+by mpirun only after the water, which saw the connection close at once, has already stopped with
+"partner lost". Here two coupler participants (the fakes of `tunnelquake.coupling.fakes`, the real
+coupler and its real messages) couple over TCP; one dies at a window inside a wrapper that, like
+mpirun, lingers 2 s before it exits, so its partner is seen failing first. The side that died must
+be blamed, and a side that fails on its own must be blamed as before.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from tunnelquake.children import Side, lost_its_partner, root_failure, watch_pair
+
+ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT / "scripts") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+FAKE = [sys.executable, "-m", "tunnelquake.coupling.fakes", "--token", "tok", "--windows", "40",
+        "--n-theta", "16", "--n-layers", "1", "--timeout", "20"]
+#: like mpirun after one of its ranks died: the wrapper outlives the dead process by 2 s
+LINGERING = ["sh", "-c", '"$@"; sleep 2; exit 137', "sh"]
+
+
+def _pair(tmp_path: Path, dying: str, lingering: bool) -> tuple[Side, Side, Side | None]:
+    addr = str(tmp_path / "wall.addr")
+    cmds = {}
+    for role in ("solid", "fluid"):
+        cmd = FAKE + ["--role", role, "--address-file", addr]
+        if role == dying:
+            cmd += ["--die-at-window", "5"]
+            if lingering:
+                cmd = LINGERING + cmd
+        cmds[role] = cmd
+    solid = Side("solid", cmds["solid"], tmp_path / "solid.log", ENV, lambda line: False)
+    fluid = Side("water", cmds["fluid"], tmp_path / "fluid.log", ENV, lambda line: False)
+    failed = watch_pair(solid, fluid, grace=30.0, poll_s=0.02)
+    for s in (solid, fluid):
+        s.close()
+    return solid, fluid, failed
+
+
+@pytest.mark.parametrize("dying", ["solid", "fluid"])
+def test_the_side_that_died_is_blamed_though_its_partner_exited_first(tmp_path, dying):
+    solid, fluid, failed = _pair(tmp_path, dying, lingering=True)
+    died, partner = (solid, fluid) if dying == "solid" else (fluid, solid)
+    # the partner exited first (it saw the closed connection while the wrapper lingered) ...
+    assert failed is partner, (failed.name if failed else None, partner.log.read_text()[-2000:])
+    assert partner.proc.returncode != 0 and died.proc.returncode == 137
+    assert lost_its_partner(partner), partner.log.read_text()[-2000:]
+    # ... and the one whose process died is the cause
+    assert root_failure(failed, died) is died
+
+
+def test_a_side_that_fails_on_its_own_first_stays_blamed(tmp_path):
+    solid, fluid, failed = _pair(tmp_path, "fluid", lingering=False)
+    assert failed is not None and not lost_its_partner(fluid)
+    other = solid if failed is fluid else fluid
+    assert root_failure(failed, other) is fluid
+    assert lost_its_partner(solid), solid.log.read_text()[-2000:]
