@@ -81,12 +81,14 @@ int fluidPartOf(int k, int parts, int n) { return ((k + 5) % n) * parts / n; }
 /// claims too (−1: none), `fluidAlso` one fluid node (fluid order) a second fluid part claims too;
 /// `emptyLast`: the last solid part holds no node; `saveAt`: every side saves its state at that
 /// window's end and runs on (0: none); `resume`: every side starts from those states
-/// (initializeResumed) instead.
+/// (initializeResumed) instead; `emptyFluidLast`: the last fluid part holds no node; `scheme`: the
+/// coupling scheme.
 PartsRun coupleInParts(int parts, AccelerationKind acc, int windows, int also = -1, bool emptyLast = false,
-                       int saveAt = 0, const PartsSaved* resume = nullptr, int fluidParts = 1, int fluidAlso = -1) {
+                       int saveAt = 0, const PartsSaved* resume = nullptr, int fluidParts = 1, int fluidAlso = -1,
+                       bool emptyFluidLast = false, SchemeKind scheme = SchemeKind::Implicit) {
   const int used = emptyLast ? parts - 1 : parts;  // the parts that hold nodes
   const auto dir = freshDir();
-  auto c = ringConfig(SchemeKind::Implicit, std::uint64_t(windows));
+  auto c = ringConfig(scheme, std::uint64_t(windows));
   c.acceleration = acc;
   c.tolerance = 1e-9;
   c.maxIterations = 40;
@@ -163,9 +165,10 @@ PartsRun coupleInParts(int parts, AccelerationKind acc, int windows, int also = 
     const auto fxyz = r.fluidCoordinates();
     std::vector<std::int64_t> pid;
     std::vector<double> pxyz;
+    const int fluidUsed = emptyFluidLast ? fluidParts - 1 : fluidParts;
     for (int k = 0; k < n; ++k)
-      if (fluidPartOf(k, fluidParts, n) == part ||
-          (k == fluidAlso && part == (fluidPartOf(k, fluidParts, n) + 1) % fluidParts)) {
+      if (fluidPartOf(k, fluidUsed, n) == part ||
+          (k == fluidAlso && part == (fluidPartOf(k, fluidUsed, n) + 1) % fluidUsed)) {
         pid.push_back(fids[std::size_t(k)]);
         pxyz.insert(pxyz.end(), fxyz.begin() + 3 * k, fxyz.begin() + 3 * k + 3);
       }
@@ -381,4 +384,35 @@ TEST(Parts, BothInPartsResumeFromSavedStatesBitwise) {
         ASSERT_EQ(resumed.x[w][k], whole.x[w][k]) << accelerationName(acc) << ", window " << w << ", node " << k;
     }
   }
+}
+
+// A fluid part that holds no node (a water rank away from the wall) takes part in every sum and
+// decision with empty blocks: the same answer bitwise; and an unstable coupling (explicit, added
+// mass 4 x the mass) is stopped by the divergence monitor on the fluid's parts, from their combined
+// sums, at the window where the solid in one piece stops it, on every fluid part with the same words.
+TEST(Parts, AnEmptyFluidPartAndTheDivergenceMonitorOnFluidPartsDecideAsOnePiece) {
+  const PartsRun one = coupleInParts(1, AccelerationKind::IqnIls, 40);
+  for (const auto& e : one.errors) rethrowIf(e);
+  const PartsRun split = coupleInParts(2, AccelerationKind::IqnIls, 40, -1, false, 0, nullptr, 4, -1, true);
+  for (const auto& e : split.errors) rethrowIf(e);
+  EXPECT_EQ(split.fluidNodes.back(), 0u);
+  EXPECT_EQ(split.passes, one.passes);
+  for (std::size_t w = 0; w < one.x.size(); ++w)
+    for (std::size_t k = 0; k < one.x[w].size(); ++k) ASSERT_EQ(split.x[w][k], one.x[w][k]) << w << ", " << k;
+
+  const PartsRun whole =
+      coupleInParts(1, AccelerationKind::None, 200, -1, false, 0, nullptr, 1, -1, false, SchemeKind::Explicit);
+  const std::string stop = messageOf<DivergenceError>(whole.errors[0]);
+  const auto at = stop.find("the coupling is unstable at");
+  ASSERT_NE(at, std::string::npos) << stop;
+  const std::string said = stop.substr(at);  // "the coupling is unstable at t = ... (window N): ..."
+  const PartsRun parts =
+      coupleInParts(2, AccelerationKind::None, 200, -1, false, 0, nullptr, 3, -1, false, SchemeKind::Explicit);
+  for (int q = 0; q < 3; ++q) {
+    const std::string fluid = messageOf<DivergenceError>(parts.errors[std::size_t(2 + q)]);
+    EXPECT_TRUE(contains(fluid, "participant 'fluid': " + said)) << "fluid part " << q << ": " << fluid << "\n" << stop;
+  }
+  for (int r = 0; r < 2; ++r) EXPECT_TRUE(parts.errors[std::size_t(r)]) << "solid part " << r;
+  std::cout << "[ info ] explicit, m_a/m = 4: " << said.substr(0, said.find(':'))
+            << " in one piece and on 3 fluid parts\n";
 }
