@@ -28,38 +28,53 @@ std::string fixText(SchemeKind scheme) {
 void DivergenceMonitor::windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged,
                                    double residual) {
   const double forget = s_.memoryWindows > 0 ? std::pow(0.5, 1.0 / double(s_.memoryWindows)) : 0.0;
+  // Every field's sums first (x², change², change · last change, change of the change²), combined
+  // over the parts of a participant in parts in one go: each part holds a piece of x.
+  std::vector<ExactSum> sums(4 * slices_.size());
+  std::vector<std::vector<double>> deltas(slices_.size());
   for (std::size_t j = 0; j < slices_.size(); ++j) {
     const FieldSlice& f = slices_[j];
     Track& t = tracks_[j];
-    if (f.size == 0 || f.offset + f.size > x.size()) continue;
+    if (f.offset + f.size > x.size()) continue;
     const double* xs = x.data() + f.offset;
-    double sq = 0;
-    for (std::size_t i = 0; i < f.size; ++i) sq += xs[i] * xs[i];
-    t.peak = std::max(t.peak, std::sqrt(sq / double(f.size)));
+    for (std::size_t i = 0; i < f.size; ++i) sums[4 * j].addProduct(xs[i], xs[i]);
+    if (!t.hasPrev) continue;
+    std::vector<double>& delta = deltas[j];
+    delta.resize(f.size);
+    for (std::size_t i = 0; i < f.size; ++i) {
+      delta[i] = xs[i] - t.prev[i];
+      sums[4 * j + 1].addProduct(delta[i], delta[i]);
+    }
+    if (!t.hasDelta) continue;
+    for (std::size_t i = 0; i < f.size; ++i) {
+      sums[4 * j + 2].addProduct(delta[i], t.prevDelta[i]);
+      const double dd = delta[i] - t.prevDelta[i];
+      sums[4 * j + 3].addProduct(dd, dd);
+    }
+  }
+  sums_->combine(sums);
+  for (std::size_t j = 0; j < slices_.size(); ++j) {
+    const FieldSlice& f = slices_[j];
+    Track& t = tracks_[j];
+    const double count = double(f.count());
+    if (f.count() == 0 || f.offset + f.size > x.size()) continue;
+    const double* xs = x.data() + f.offset;
+    t.peak = std::max(t.peak, std::sqrt(sums[4 * j].value() / count));
     if (!t.hasPrev) {
       t.prev.assign(xs, xs + f.size);
       t.hasPrev = true;
       continue;
     }
-    std::vector<double> delta(f.size);
-    double c2 = 0;
-    for (std::size_t i = 0; i < f.size; ++i) {
-      delta[i] = xs[i] - t.prev[i];
-      c2 += delta[i] * delta[i];
-    }
-    const double change = std::sqrt(c2 / double(f.size));
+    std::vector<double> delta = std::move(deltas[j]);
+    const double change = std::sqrt(sums[4 * j + 1].value() / count);
     const double floor = std::max(f.absoluteTolerance, s_.noiseFloor * t.peak);
     bool alternating = false;
     if (t.hasDelta) {
       // the alternating part of this window: half the RMS second difference (a smooth response's
       // is (ωΔ)²/2 of its change, an alternating one's equals its change)
-      double dot = 0, d2 = 0;
-      for (std::size_t i = 0; i < f.size; ++i) {
-        dot += delta[i] * t.prevDelta[i];
-        d2 += (delta[i] - t.prevDelta[i]) * (delta[i] - t.prevDelta[i]);
-      }
-      t.recent.push_back(0.5 * std::sqrt(d2 / double(f.size)));
-      if (change > floor && t.prevChange > floor) alternating = dot / (double(f.size) * change * t.prevChange) < -0.5;
+      const double dot = sums[4 * j + 2].value(), d2 = sums[4 * j + 3].value();
+      t.recent.push_back(0.5 * std::sqrt(d2 / count));
+      if (change > floor && t.prevChange > floor) alternating = dot / (count * change * t.prevChange) < -0.5;
     }
     // the level: the largest alternating part of the windows before the last `windows`
     t.level *= forget;

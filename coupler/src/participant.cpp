@@ -85,13 +85,43 @@ std::vector<Endpoint*> Participant::links() const {
   return all;
 }
 
-void Participant::setPart(int part, int parts) {
+void Participant::setPart(int part, int parts, std::shared_ptr<PartGroup> group) {
   if (initialized_) throw ConfigError("participant '" + name_ + "': setPart after initialize()");
   if (parts < 1 || parts > 65536 || part < 0 || part >= parts)
     throw ConfigError("participant '" + name_ + "': part " + std::to_string(part) + " of " + std::to_string(parts) +
                       " is not a part (0 <= part < parts <= 65536)");
   part_ = std::uint32_t(part);
   parts_ = std::uint32_t(parts);
+  group_ = std::move(group);
+}
+
+namespace {
+/// The sums of a participant in parts, completed over its parts through their PartGroup.
+class GroupSums final : public SumCombiner {
+ public:
+  explicit GroupSums(std::shared_ptr<PartGroup> g) : group_(std::move(g)) {}
+  void combine(std::vector<ExactSum>& sums) const override {
+    std::vector<std::int64_t> limbs;
+    limbs.reserve(sums.size() * std::size_t(ExactSum::kLimbs));
+    for (const auto& s : sums) s.appendTo(limbs);
+    group_->sumAll(limbs);
+    for (std::size_t i = 0; i < sums.size(); ++i) sums[i].readFrom(limbs, i * std::size_t(ExactSum::kLimbs));
+  }
+  std::size_t total(std::size_t mine) const override {
+    std::vector<std::int64_t> n{std::int64_t(mine)};
+    group_->sumAll(n);
+    return std::size_t(n[0]);
+  }
+
+ private:
+  std::shared_ptr<PartGroup> group_;
+};
+}  // namespace
+
+const SumCombiner& Participant::sums() const {
+  static const OnePiece one;
+  if (sums_) return *sums_;
+  return one;
 }
 
 Participant::~Participant() {
@@ -144,7 +174,7 @@ auto Participant::guarded(const char* what, F&& f) -> decltype(f()) {
     return f();
   } catch (const PartnerLostError&) {
     // the partner is gone or already stopping: nothing to tell, but to its other parts when it is in parts
-    if (partLinks_.empty()) {
+    if (links().size() <= 1) {
       if (link_) link_->close();
     } else {
       abort(std::string(what) + ": a part of '" + partner_ + "' stopped");
@@ -299,21 +329,35 @@ void Participant::runAcceptor(Deadline deadline) {
     for (const auto& r : refused) s += "\n  - refused: " + r;
     return s;
   };
-  for (;;) {
+  // The partner's parts (one for a partner in one piece), each with its HELLO, by part.
+  std::vector<std::unique_ptr<Endpoint>> eps;
+  std::vector<Hello> hellos;
+  std::uint32_t expected = 1, arrived = 0, firstPart = 0;
+  auto rejectOne = [](Endpoint& ep, ReasonCode code, const std::string& text) {
+    try {
+      ep.send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
+    } catch (const CouplerError&) {
+    }
+  };
+  auto rejectAll = [&](ReasonCode code, const std::string& text) {
+    for (auto& ep : eps)
+      if (ep) rejectOne(*ep, code, text), ep->close();
+  };
+  while (arrived < expected) {
     std::unique_ptr<Channel> ch;
     try {
       ch = listener->accept(deadline);
     } catch (const TimeoutError& e) {
+      std::string waiting;
+      if (arrived > 0)
+        waiting = " (" + std::to_string(arrived) + " of the " + std::to_string(expected) + " parts of '" + partner_ +
+                  "' connected)";
+      rejectAll(ReasonCode::ProtocolViolation,
+                "participant '" + name_ + "' timed out waiting for the other parts of '" + partner_ + "'" + waiting);
       throw TimeoutError(std::string(e.what()) + " (connect timeout " + std::to_string(deadline.seconds) + " s)" +
-                         refusedText());
+                         waiting + refusedText());
     }
     auto ep = std::make_unique<Endpoint>(std::move(ch), name_, partner_);
-    auto reject = [&](ReasonCode code, const std::string& text) {
-      try {
-        ep->send(MessageType::Reject, encodeReason({code, text}), Deadline::in(2.0), "handshake");
-      } catch (const CouplerError&) {
-      }
-    };
     Message m;
     Hello h;
     // A connection that says nothing must not hold the port until the connect timeout: a
@@ -329,11 +373,12 @@ void Participant::runAcceptor(Deadline deadline) {
       h = decodeHello(m.payload.data(), m.payload.size());
     } catch (const ProtocolError& e) {
       if (e.fault() == ProtocolFault::BadVersion) {
-        reject(ReasonCode::WrongVersion, e.what());
+        rejectOne(*ep, ReasonCode::WrongVersion, e.what());
+        rejectAll(ReasonCode::WrongVersion, e.what());
         throw HandshakeError(e.what());
       }
       if (!listener->canAcceptAgain()) throw;
-      reject(ReasonCode::ProtocolViolation, e.what());
+      rejectOne(*ep, ReasonCode::ProtocolViolation, e.what());
       refused.push_back(std::string("a foreign or malformed connection (") + e.what() + ")");
       continue;
     } catch (const TransportError& e) {
@@ -346,25 +391,106 @@ void Participant::runAcceptor(Deadline deadline) {
       const std::string text = "participant '" + name_ + "' refused the connection of '" + h.participant +
                                "': its run token differs (it belongs to another run, or the two sides were "
                                "given different tokens)";
-      reject(ReasonCode::WrongToken, text);
+      rejectOne(*ep, ReasonCode::WrongToken, text);
       if (!listener->canAcceptAgain()) throw HandshakeError(text);
       refused.push_back("'" + h.participant + "' with a different run token");
       continue;
     }
-    acceptPartner(h, reject);
-    ep->send(MessageType::Welcome, encodeHello(makeHello()), deadline, "handshake");
+    if (arrived == 0) {
+      expected = std::max<std::uint32_t>(1, h.parts);
+      eps.resize(expected);
+      hellos.resize(expected);
+      firstPart = h.part;
+    }
+    std::string problem;
+    if (h.parts != expected)
+      problem =
+          "it says it is in " + std::to_string(h.parts) + " parts, its first part said " + std::to_string(expected);
+    else if (h.part >= expected || eps[h.part])
+      problem = "part " + std::to_string(h.part) + " of " + std::to_string(h.parts) + " connected twice or is no part";
+    else if (h.parts > 1 && amFirst_ == false)
+      problem = "a partner in parts connects to the configuration's first participant";
+    else if (arrived > 0 && (h.participant != hellos[firstPart].participant || h.partner != hellos[firstPart].partner ||
+                             !describeDifferences(hellos[firstPart].config, h.config, "'" + partner_ + "'").empty()))
+      problem = "its part " + std::to_string(h.part) + " is not the same participant as its part " +
+                std::to_string(firstPart) +
+                describeDifferences(hellos[firstPart].config, h.config, "'" + partner_ + "'");
+    if (!problem.empty()) {
+      const std::string text = "participant '" + name_ + "' cannot couple with '" + h.participant + "' in " +
+                               std::to_string(h.parts) + " parts: " + problem;
+      rejectOne(*ep, ReasonCode::ConfigMismatch, text);
+      rejectAll(ReasonCode::ConfigMismatch, text);
+      throw HandshakeError(text);
+    }
+    eps[h.part] = std::move(ep);
+    hellos[h.part] = std::move(h);
+    ++arrived;
+  }
+  Hello h = hellos[0];
+  if (expected > 1) {
+    // The partner in parts: each part's HELLO carries its own nodes; the nodes that pair with mine,
+    // in part order, are my partner's mesh, each of my nodes paired by one part only.
+    routed_ = true;
+    std::ostringstream bad;
+    for (auto& m : h.meshes) {
+      const auto it = meshes_.find(m.name);
+      if (it == meshes_.end()) continue;
+      const MeshVertices& own = it->second->own;
+      std::vector<int> holder(own.ids.size(), -1);
+      std::vector<std::int64_t> heldAs(own.ids.size(), 0);
+      auto& nodes = partNodes_[m.name];
+      nodes.assign(expected, {});
+      MeshVertices merged;
+      merged.name = m.name;
+      for (std::uint32_t q = 0; q < expected; ++q)
+        for (const auto& pm : hellos[q].meshes) {
+          if (pm.name != m.name) continue;
+          const std::vector<long> pair =
+              coincidentWith(own.coordinates, pm.coordinates, meshTolerance(config_, m.name));
+          for (std::size_t i = 0; i < pm.ids.size(); ++i) {
+            if (pair[i] < 0) continue;  // another part of mine holds it (or none: that part says so)
+            const auto o = std::size_t(pair[i]);
+            if (holder[o] >= 0)
+              bad << "\n  - mesh '" << m.name << "': node " << pm.ids[i] << " is in part " << holder[o] << " (as node "
+                  << heldAs[o] << ") and in part " << q << " (each node belongs to one part; node " << own.ids[o]
+                  << " of '" << name_ << "')";
+            holder[o] = int(q);
+            heldAs[o] = pm.ids[i];
+            nodes[q].push_back(merged.ids.size());
+            merged.ids.push_back(pm.ids[i]);
+            merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin() + std::ptrdiff_t(3 * i),
+                                      pm.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
+          }
+        }
+      for (std::size_t o = 0; o < own.ids.size(); ++o)
+        if (holder[o] < 0)
+          bad << "\n  - mesh '" << m.name << "': node " << own.ids[o] << " of '" << name_ << "' is in no part of '"
+              << partner_ << "'";
+      m = std::move(merged);
+    }
+    if (!bad.str().empty()) {
+      const std::string text = "participant '" + name_ + "' cannot couple with '" + h.participant + "' in " +
+                               std::to_string(expected) + " parts:" + bad.str();
+      rejectAll(ReasonCode::MeshMismatch, text);
+      throw HandshakeError(text);
+    }
+  }
+  acceptPartner(h, rejectAll);
+  for (auto& ep : eps) ep->send(MessageType::Welcome, encodeHello(makeHello()), deadline, "handshake");
+  for (auto& ep : eps) {
     const Message r = ep->receive(deadline, "READY (handshake)");
     if (r.header.type == MessageType::Reject) {
       const Reason why = decodeReason(r.payload.data(), r.payload.size());
+      rejectAll(ReasonCode::MeshMismatch, why.message);
       throw HandshakeError("participant '" + name_ + "' was refused by its partner: " + why.message);
     }
     if (r.header.type != MessageType::Ready)
       throw ProtocolError(ProtocolFault::UnexpectedType, "participant '" + name_ + "' expected READY from '" +
                                                              partner_ + "', got " +
                                                              wire::typeName(std::uint16_t(r.header.type)));
-    link_ = std::move(ep);
-    return;
   }
+  link_ = std::move(eps[0]);
+  for (std::size_t q = 1; q < eps.size(); ++q) partLinks_.push_back(std::move(eps[q]));
 }
 
 void Participant::acceptPartner(const Hello& theirs,
@@ -448,9 +574,12 @@ void Participant::runConnector(Deadline deadline) {
     return h;
   };
   Hello h = greet(*link_);
-  if (h.parts > 1) {
+  if (h.parts > 1 || parts_ > 1) {
     // The partner in parts: each part's WELCOME carries its own nodes; the parts together are the
     // partner's interface, checked as one (its nodes in part order), each node in one part only.
+    // This side in parts: the partner's nodes that pair with this part's, each node of this part
+    // paired once.
+    routed_ = true;
     std::string problem;  // the first reason it cannot be
     if (transport_.connectPort > 0) problem = "a partner in parts is found through its address files, not a port";
     for (const auto& m : config_.meshes)
@@ -496,17 +625,19 @@ void Participant::runConnector(Deadline deadline) {
       std::vector<std::int64_t> heldAs(own.ids.size(), 0);
       auto& nodes = partNodes_[m.name];
       nodes.assign(h.parts, {});
+      MeshVertices merged;  // the union, in part order (this side in parts: the nodes paired with mine)
+      merged.name = m.name;
       for (std::uint32_t r = 0; r < h.parts; ++r) {
         for (const auto& pm : parts[r].meshes) {
           if (pm.name != m.name) continue;
-          if (r > 0) {  // the union, in part order
-            const auto base = std::int32_t(m.ids.size());
-            m.ids.insert(m.ids.end(), pm.ids.begin(), pm.ids.end());
-            m.coordinates.insert(m.coordinates.end(), pm.coordinates.begin(), pm.coordinates.end());
-            for (auto t : pm.triangles) m.triangles.push_back(base + t);
-          }
           const std::vector<long> pair =
               coincidentWith(own.coordinates, pm.coordinates, meshTolerance(config_, m.name));
+          if (parts_ == 1) {
+            const auto base = std::int32_t(merged.ids.size());
+            merged.ids.insert(merged.ids.end(), pm.ids.begin(), pm.ids.end());
+            merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin(), pm.coordinates.end());
+            for (auto t : pm.triangles) merged.triangles.push_back(base + t);
+          }
           for (std::size_t i = 0; i < pm.ids.size(); ++i) {
             if (pair[i] < 0) continue;  // a node without a partner: the coincident check names it
             const auto o = std::size_t(pair[i]);
@@ -515,11 +646,22 @@ void Participant::runConnector(Deadline deadline) {
                   << heldAs[o] << ") and in part " << r << " (each node belongs to one part)";
             holder[o] = int(r);
             heldAs[o] = pm.ids[i];
+            if (parts_ > 1) {
+              merged.ids.push_back(pm.ids[i]);
+              merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin() + std::ptrdiff_t(3 * i),
+                                        pm.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
+            }
           }
         }
       }
-      for (std::size_t i = 0; i < own.ids.size(); ++i)
-        if (holder[i] >= 0) nodes[std::size_t(holder[i])].push_back(i);
+      for (std::size_t i = 0; i < own.ids.size(); ++i) {
+        if (holder[i] >= 0)
+          nodes[std::size_t(holder[i])].push_back(i);
+        else if (parts_ > 1)
+          bad << "\n  - mesh '" << m.name << "': node " << own.ids[i] << " of part " << part_ << " of '" << name_
+              << "' is in no part of '" << h.participant << "'";
+      }
+      m = std::move(merged);
     }
     if (!bad.str().empty()) {
       const std::string text = "participant '" + name_ + "' cannot couple with '" + h.participant + "' in " +
@@ -539,9 +681,8 @@ double Participant::initialize() {
 }
 
 namespace {
-// "TQRS" + version: a participant's restart state (version 2: the divergence monitor's remembered
-// alternating level)
-constexpr std::uint32_t kStateMagic = 0x54515253 + 1;
+// "TQRS" + version: a participant's restart state (version 3: IQN-ILS keeps its columns' Gram matrix)
+constexpr std::uint32_t kStateMagic = 0x54515253 + 2;
 }  // namespace
 
 void Participant::checkpoint(StateIo& io) {
@@ -596,14 +737,18 @@ double Participant::connect() {
   if (parts_ > 1) {
     std::string problem;  // the first reason it cannot be
     for (const auto& m : config_.meshes)
-      if (config_.mappingSideOf(m) != name_ || m.mapping != MapKind::Coincident)
-        problem = "it must map mesh '" + m.name + "' with the coincident map";
+      if (config_.mappingSideOf(m) != config_.first || m.mapping != MapKind::Coincident)
+        problem =
+            "the first participant, '" + config_.first + "', must map mesh '" + m.name + "' with the coincident map";
     if (transport_.kind != TransportKind::Tcp || transport_.addressFile.empty())
       problem = "it must couple over TCP with an address file";
-    if (!listen) problem = "it must listen (the partner connects to every part)";
-    if (!amFirst_) problem = "it must be the configuration's first participant (the second decides each window)";
+    if (amFirst_ && !listen) problem = "it must listen (the partner connects to every part)";
+    if (!amFirst_ && listen) problem = "it must connect (each of its parts connects to every part of the first)";
+    if (!amFirst_ && !group_)
+      problem = "it needs a PartGroup to add its parts' sums (it decides each window on the whole interface)";
     if (!problem.empty())
       throw ConfigError("participant '" + name_ + "' in " + std::to_string(parts_) + " parts: " + problem);
+    if (!amFirst_) sums_ = std::make_unique<GroupSums>(group_);
   }
   const Deadline deadline = Deadline::in(transport_.connectTimeout);
   if (listen)
@@ -611,7 +756,7 @@ double Participant::connect() {
   else
     runConnector(deadline);
   link_->setExpectedDataSize(partnerDataBytes_);
-  if (!partLinks_.empty()) {  // each part sends the read fields on its own nodes
+  if (routed_) {  // each link carries the read fields on the nodes the two parts share
     for (std::size_t r = 0; r < partnerParts(); ++r) {
       std::vector<std::uint64_t> blocks;
       for (const auto& f : fields_)
@@ -620,10 +765,18 @@ double Participant::connect() {
       links()[r]->setExpectedDataSize(partDataBytes_.back());
     }
   }
+  if (sums_) {  // the second in parts: each field's values on every part (its sums' counts)
+    for (auto* slices : {&writtenSlices_, &receivedSlices_})
+      for (auto& f : *slices) f.total = sums_->total(f.size);
+  }
   scheme_ = makeScheme(config_, name_);
+  // The divergence monitor where the whole interface is: the first in one piece, over what it reads;
+  // else the second, over what it sends (in parts: each part its piece, the sums completed).
   if (amFirst_ && parts_ == 1) monitor_ = std::make_unique<DivergenceMonitor>(config_, receivedSlices_, name_);
-  // a partner in parts sees a piece each: the monitor watches the whole of what this side sends
-  if (!amFirst_ && !partLinks_.empty()) monitor_ = std::make_unique<DivergenceMonitor>(config_, writtenSlices_, name_);
+  if (!amFirst_ && partnerParts() > 1) {
+    monitor_ = std::make_unique<DivergenceMonitor>(config_, writtenSlices_, name_);
+    monitor_->useSums(sums());
+  }
   initialized_ = true;
   return 0.0;
 }
@@ -699,11 +852,11 @@ void Participant::sendData(std::uint64_t window, std::uint32_t iteration, std::u
   secondsMapping_ += std::chrono::duration<double>(Clock::now() - t0).count();
   std::ostringstream ctx;
   ctx << "window " << window + 1 << ", pass " << iteration + 1;
-  if (partLinks_.empty()) {
+  if (!routed_) {
     link_->send(MessageType::Data, encodeData(d), Deadline::in(transport_.receiveTimeout), ctx.str());
     return;
   }
-  // a partner in parts: each part the values of its own nodes
+  // a partner in parts, or this side in parts: each link the values of the nodes it carries
   const std::vector<Endpoint*> all = links();
   for (std::size_t r = 0; r < all.size(); ++r) {
     DataMessage part = d;
@@ -750,6 +903,7 @@ void Participant::receivePart(std::size_t r, std::uint64_t window, std::uint32_t
                               Received& got) {
   const std::string from =
       partLinks_.empty() ? "'" + partner_ + "'" : "part " + std::to_string(r) + " of '" + partner_ + "'";
+  // (this side in parts with the partner in one piece: routed_, one link)
   const Message m = links()[r]->receive(Deadline::in(transport_.receiveTimeout), due);
   if (m.header.type == MessageType::Bye)
     throw PartnerLostError(from + " ended the coupling (BYE) while '" + name_ + "' was waiting for " + due);
@@ -768,7 +922,7 @@ void Participant::receivePart(std::size_t r, std::uint64_t window, std::uint32_t
   for (auto& f : fields_) {
     if (f->write) continue;
     const std::size_t c = std::size_t(f->comps);
-    const std::vector<std::size_t>* nodes = partLinks_.empty() ? nullptr : &partNodes_.at(f->spec.mesh)[r];
+    const std::vector<std::size_t>* nodes = routed_ ? &partNodes_.at(f->spec.mesh)[r] : nullptr;
     const std::size_t n = nodes ? nodes->size() : f->wireNodes;
     if (b >= d.fields.size() || d.fields[b].field != std::uint32_t(f->index) ||
         d.fields[b].components != std::uint32_t(f->comps) || d.fields[b].values.size() != n * c)
@@ -791,7 +945,17 @@ void Participant::receivePart(std::size_t r, std::uint64_t window, std::uint32_t
   if (b != d.fields.size())
     throw ProtocolError(ProtocolFault::BadPayload,
                         "participant '" + name_ + "': DATA from " + from + " carries more field blocks than agreed");
-  if (r == 0) got = {d.flags, d.residual};
+  if (r == 0) {
+    got = {d.flags, d.residual};
+  } else if (d.flags != got.flags ||
+             !(d.residual == got.residual || (std::isnan(d.residual) && std::isnan(got.residual)))) {
+    std::ostringstream s;  // the second's parts decide together: every part sends the same
+    s.precision(17);
+    s << "participant '" << name_ << "': " << from << " sent flags " << d.flags << " and residual " << d.residual
+      << " in " << due << ", its part 0 flags " << got.flags << " and residual " << got.residual
+      << " (the parts of one participant decide together)";
+    throw ProtocolError(ProtocolFault::BadPayload, s.str());
+  }
 }
 
 std::vector<double>& Participant::writtenValues() { return written_; }
@@ -837,7 +1001,7 @@ double Participant::windowStartTime() const {
 }
 
 std::vector<std::size_t> Participant::partnerPartNodes(const std::string& mesh) const {
-  if (partLinks_.empty()) return {partnerVertexCount(mesh)};
+  if (!routed_) return {partnerVertexCount(mesh)};
   std::vector<std::size_t> n;
   const auto it = partNodes_.find(mesh);
   if (it == partNodes_.end()) throw ConfigError("unknown mesh '" + mesh + "'");

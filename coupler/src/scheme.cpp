@@ -19,22 +19,40 @@ double relativeDifference(const std::vector<double>& a, const std::vector<double
   return std::sqrt(d / n);
 }
 
-double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
-                          const std::vector<FieldSlice>& slices, double tolerance) {
-  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
-  double worst = 0;
+void addConvergenceSums(const std::vector<double>& a, const std::vector<double>& b,
+                        const std::vector<FieldSlice>& slices, std::vector<ExactSum>& sums) {
   for (const auto& f : slices) {
-    double d = 0, n = 0;
-    for (std::size_t i = f.offset; i < f.offset + f.size; ++i) {
-      d += (a[i] - b[i]) * (a[i] - b[i]);
-      n += a[i] * a[i];
+    ExactSum d, n;
+    for (std::size_t i = f.offset; i < f.offset + f.size && i < a.size() && i < b.size(); ++i) {
+      const double e = a[i] - b[i];
+      d.addProduct(e, e);
+      n.addProduct(a[i], a[i]);
     }
+    sums.push_back(d);
+    sums.push_back(n);
+  }
+}
+
+double convergenceFromSums(const std::vector<ExactSum>& sums, std::size_t at, const std::vector<FieldSlice>& slices,
+                           double tolerance) {
+  double worst = 0;
+  for (std::size_t j = 0; j < slices.size(); ++j) {
+    const FieldSlice& f = slices[j];
+    const double d = sums[at + 2 * j].value(), n = sums[at + 2 * j + 1].value();
     double m = n > 0 ? std::sqrt(d / n) : d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
-    if (f.absoluteTolerance > 0 && f.size > 0)
-      m = std::min(m, tolerance * std::sqrt(d / double(f.size)) / f.absoluteTolerance);
+    if (f.absoluteTolerance > 0 && f.count() > 0)
+      m = std::min(m, tolerance * std::sqrt(d / double(f.count())) / f.absoluteTolerance);
     worst = std::max(worst, m);
   }
   return worst;
+}
+
+double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
+                          const std::vector<FieldSlice>& slices, double tolerance) {
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  std::vector<ExactSum> sums;
+  addConvergenceSums(a, b, slices, sums);
+  return convergenceFromSums(sums, 0, slices, tolerance);
 }
 
 // ---------------------------------------------------------------- explicit
@@ -101,17 +119,27 @@ void SerialImplicit::endWindow(ExchangePort& port) {
                                                          std::to_string(maxPasses_) + " are configured");
   } else {
     const std::vector<double> xt = port.writtenValues();  // x̃_k = H(x_k)
-    for (double v : xt)
-      if (!std::isfinite(v))
-        throw DivergenceError("non-finite interface values written in window " + std::to_string(w) + ", pass " +
-                              std::to_string(k) +
-                              ": the coupled iteration diverged (see docs/coupler.md, "
-                              "added-mass instability)");
     const std::vector<double>& d = port.receivedValues();
     const double tol = config_.tolerance;
-    const double resWrite = convergenceMeasure(xt, lastSent_, port.writtenSlices(), tol);
-    const double resRead = k >= 1 ? convergenceMeasure(d, prevReceived_, port.receivedSlices(), tol)
-                                  : std::numeric_limits<double>::infinity();
+    // One combined sum a pass (the parts of a participant in parts): the non-finite values written,
+    // then the write and read fields' residuals.
+    std::vector<ExactSum> sums(1);
+    for (double v : xt)
+      if (!std::isfinite(v)) sums[0].add(1.0);
+    addConvergenceSums(xt, lastSent_, port.writtenSlices(), sums);
+    const std::size_t readAt = sums.size();
+    if (k >= 1) addConvergenceSums(d, prevReceived_, port.receivedSlices(), sums);
+    port.sums().combine(sums);
+    if (sums[0].value() != 0)
+      throw DivergenceError("non-finite interface values written in window " + std::to_string(w) + ", pass " +
+                            std::to_string(k) +
+                            ": the coupled iteration diverged (see docs/coupler.md, "
+                            "added-mass instability)");
+    const double resWrite = lastSent_.size() == xt.size() ? convergenceFromSums(sums, 1, port.writtenSlices(), tol)
+                                                          : std::numeric_limits<double>::infinity();
+    const double resRead = k >= 1 && prevReceived_.size() == d.size()
+                               ? convergenceFromSums(sums, readAt, port.receivedSlices(), tol)
+                               : std::numeric_limits<double>::infinity();
     // Pass 0 with the linear predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides (the
     // read data has no earlier pass to compare with; the motion is a function of x⁰).
     const bool linear = config_.predictor == PredictorKind::Linear;
@@ -137,6 +165,7 @@ void SerialImplicit::endWindow(ExchangePort& port) {
         lastSent_ = xt;
       }
     } else {
+      acc_->useSums(port.sums());
       acc_->next(lastSent_, xt, next_);
       port.writtenValues() = next_;
       port.sendData(w, k, 0, state_.residual);

@@ -498,7 +498,7 @@ def mpirun_command(ranks: int, solver: str, folder: Path, env: dict) -> list[str
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         cmd.append("--allow-run-as-root")
     cmd += ["--oversubscribe", "--bind-to", "none", "--mca", "mpi_yield_when_idle", "1"]
-    for var in (TOKEN_ENV, "LD_LIBRARY_PATH", "WM_PROJECT_DIR", "FOAM_SIGFPE", "PATH"):
+    for var in (TOKEN_ENV, "LD_LIBRARY_PATH", "WM_PROJECT_DIR", "FOAM_SIGFPE", "PATH", "TQ_WATER_GATHER"):
         if var in env:
             cmd += ["-x", var]
     return cmd + [solver, "-parallel", "-case", str(folder)]

@@ -203,9 +203,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     completed; else the failing side's (tq-solid: 2 input, 3 unstable, 4 coupling; OpenFOAM: 1).
 
     parallel.fluid_ranks N > 1: the water case is decomposed (fluid_case.decompose: decomposePar,
-    method simple) and the water runs as `mpirun -np N <solver> -parallel` (rank 0 holds the
-    coupler's participant; fluid_case.mpirun_command); its fields are reconstructed at the end
-    (reconstructPar; the processor folders stay in <fluid>/processor*).
+    method simple) and the water runs as `mpirun -np N <solver> -parallel` (each rank a part of the
+    coupler's participant with its own face points; fluid_case.mpirun_command); its fields are
+    reconstructed at the end (reconstructPar; the processor folders stay in <fluid>/processor*).
 
     `solid_ranks` > 1: tq-solid runs on that many MPI ranks (solid_ranks.solid_command), each rank
     exchanging the wet nodes it owns with the water over its own connection (a part of the coupler's

@@ -20,6 +20,8 @@ License
 #include "globalMeshData.H"
 #include "globalIndex.H"
 #include "Pstream.H"
+#include "PstreamBuffers.H"
+#include "ops.H"
 #include "OSspecific.H"
 
 #include <chrono>
@@ -66,6 +68,29 @@ double wallNow()
         std::chrono::steady_clock::now().time_since_epoch()
     ).count();
 }
+
+//- The water's ranks as the parts of one participant: their exact sums'
+//  integer limbs added over every rank (integers: any order gives the same)
+class PstreamGroup
+:
+    public ::tq::coupler::PartGroup
+{
+public:
+    void sumAll(std::vector<std::int64_t>& values) override
+    {
+        Foam::List<std::int64_t> v(Foam::label(values.size()));
+        forAll(v, i)
+        {
+            v[i] = values[i];
+        }
+        Foam::Pstream::listCombineGather(v, Foam::plusEqOp<std::int64_t>());
+        Foam::Pstream::listCombineScatter(v);
+        forAll(v, i)
+        {
+            values[i] = v[i];
+        }
+    }
+};
 
 } // End anonymous namespace
 
@@ -127,6 +152,14 @@ void Foam::tq::couplerExchange::reportCost() const
 
 void Foam::tq::couplerExchange::syncFlags()
 {
+    if (parts_)
+    {
+        // every part follows the same decisions of the second's scheme
+        readCheckpoint_ = participant_->requiresReadingCheckpoint();
+        writeCheckpoint_ = participant_->requiresWritingCheckpoint();
+        ongoing_ = participant_->isCouplingOngoing();
+        return;
+    }
     if (Pstream::master())
     {
         readCheckpoint_ = participant_->requiresReadingCheckpoint();
@@ -139,11 +172,77 @@ void Foam::tq::couplerExchange::syncFlags()
 }
 
 
+Foam::tmp<Foam::vectorField> Foam::tq::couplerExchange::spreadOwned
+(
+    const vectorField& owned
+) const
+{
+    const label me = Pstream::myProcNo();
+    PstreamBuffers bufs(Pstream::commsTypes::nonBlocking);
+    for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+    {
+        if (proci != me)
+        {
+            UOPstream os(proci, bufs);
+            os << vectorField(owned, recvFrom_[proci]);
+        }
+    }
+    bufs.finishedSends();
+    tmp<vectorField> tlocal(new vectorField(pointToGlobal_.size(), Zero));
+    vectorField& local = tlocal.ref();
+    forAll(ownedLocal_, k)
+    {
+        local[ownedLocal_[k]] = owned[k];
+    }
+    for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+    {
+        if (proci != me)
+        {
+            UIPstream is(proci, bufs);
+            vectorField part(is);
+            forAll(part, j)
+            {
+                local[sendTo_[proci][j]] = part[j];
+            }
+        }
+    }
+    return tlocal;
+}
+
+
 Foam::tmp<Foam::vectorField> Foam::tq::couplerExchange::readLocal
 (
     const word& field
 )
 {
+    if (parts_)
+    {
+        std::vector<double> v;
+        try
+        {
+            participant_->readData(meshName_, field, v);
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("readData", e.what());
+        }
+        vectorField owned(ownedLocal_.size());
+        if (v.size() != 3*owned.size())
+        {
+            fail
+            (
+                "readData",
+                "field '" + field + "' has " + std::to_string(v.size())
+              + " values for this rank's " + std::to_string(owned.size())
+              + " points x 3"
+            );
+        }
+        forAll(owned, k)
+        {
+            owned[k] = vector(v[3*k], v[3*k + 1], v[3*k + 2]);
+        }
+        return spreadOwned(owned);
+    }
     vectorField global(nGlobal_, Zero);
     if (Pstream::master())
     {
@@ -201,7 +300,12 @@ Foam::tq::couplerExchange::couplerExchange
         dict.lookupOrDefault<scalar>("windowSize", runTime.deltaTValue())
     ),
     startTime_(runTime.value()),
+    parts_(Pstream::parRun() && Foam::getEnv("TQ_WATER_GATHER") != "1"),
     pointToGlobal_(),
+    ownedLocal_(),
+    ownedStart_(0),
+    sendTo_(),
+    recvFrom_(),
     nGlobal_(0),
     windowStart_(runTime.value()),
     ongoing_(false),
@@ -271,6 +375,76 @@ void Foam::tq::couplerExchange::initialize
     windowDisplacement_.setSize(points0.size(), Zero);
     lastDisplacement_.setSize(points0.size(), Zero);
 
+    std::vector<std::int64_t> ids;
+    std::vector<double> xyz;
+    if (parts_)
+    {
+        // This rank's part: the points it owns, in global order; the
+        // shared points' other holders told which of their points it owns
+        const label me = Pstream::myProcNo();
+        ownedStart_ = gi().offset(me);
+        ownedLocal_.setSize(gi().localSize(me), -1);
+        List<DynamicList<label>> sendTo(Pstream::nProcs());
+        forAll(pointToGlobal_, i)
+        {
+            const label g = pointToGlobal_[i];
+            if (gi().isLocal(me, g))
+            {
+                ownedLocal_[g - ownedStart_] = i;
+            }
+            else
+            {
+                sendTo[gi().whichProcID(g)].append(i);
+            }
+        }
+        sendTo_.setSize(Pstream::nProcs());
+        recvFrom_.setSize(Pstream::nProcs());
+        PstreamBuffers bufs(Pstream::commsTypes::nonBlocking);
+        for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+        {
+            sendTo_[proci].transfer(sendTo[proci]);
+            if (proci != me)
+            {
+                UOPstream os(proci, bufs);
+                os << labelList(UIndirectList<label>(pointToGlobal_, sendTo_[proci]));
+            }
+        }
+        bufs.finishedSends();
+        for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+        {
+            if (proci != me)
+            {
+                UIPstream is(proci, bufs);
+                labelList g(is);
+                forAll(g, j)
+                {
+                    g[j] -= ownedStart_;
+                }
+                recvFrom_[proci].transfer(g);
+            }
+        }
+        ids.resize(ownedLocal_.size());
+        xyz.resize(3*ownedLocal_.size());
+        forAll(ownedLocal_, k)
+        {
+            if (ownedLocal_[k] < 0)
+            {
+                fail
+                (
+                    "initialize",
+                    "global interface point " + std::to_string(ownedStart_ + k)
+                  + " of this rank's range has no local point"
+                );
+            }
+            const point& x = points0[ownedLocal_[k]];
+            ids[k] = ownedStart_ + k;
+            xyz[3*k] = x.x();
+            xyz[3*k + 1] = x.y();
+            xyz[3*k + 2] = x.z();
+        }
+    }
+    else
+    {
     // Reference coordinates of every interface point, on the master
     List<labelList> procIds(Pstream::nProcs());
     List<pointField> procPoints(Pstream::nProcs());
@@ -281,8 +455,8 @@ void Foam::tq::couplerExchange::initialize
 
     if (Pstream::master())
     {
-        std::vector<std::int64_t> ids(nGlobal_);
-        std::vector<double> xyz(3*nGlobal_, 0.0);
+        ids.resize(nGlobal_);
+        xyz.assign(3*nGlobal_, 0.0);
         forAll(procIds, proci)
         {
             forAll(procIds[proci], i)
@@ -298,7 +472,11 @@ void Foam::tq::couplerExchange::initialize
         {
             ids[g] = g;
         }
+    }
+    }
 
+    if (holds())
+    {
         // The coupling configuration, item by item from the dictionary
         ::tq::coupler::CouplingConfig c;
         const word partner(dict_.lookupOrDefault<word>("partner", "solid"));
@@ -449,6 +627,15 @@ void Foam::tq::couplerExchange::initialize
             (
                 new ::tq::coupler::Participant(name_, c, t, token)
             );
+            if (parts_)
+            {
+                participant_->setPart
+                (
+                    Pstream::myProcNo(),
+                    Pstream::nProcs(),
+                    std::make_shared<PstreamGroup>()
+                );
+            }
             participant_->setMeshVertices(meshName_, ids, xyz);
             if (resumeState_.empty())
             {
@@ -473,7 +660,15 @@ void Foam::tq::couplerExchange::initialize
 
         Info<< "couplerExchange: participant '" << name_ << "' coupled with '"
             << partner << "' on mesh '" << meshName_ << "' ("
-            << nGlobal_ << " points), scheme "
+            << nGlobal_ << " points";
+        if (parts_)
+        {
+            Info<< " in " << Pstream::nProcs() << " parts, one a rank, "
+                << ownedLocal_.size() << " on the master, against "
+                << label(participant_->partnerParts()) << " parts of '"
+                << partner << "'";
+        }
+        Info<< "), scheme "
             << ::tq::coupler::schemeName(c.scheme) << ", window "
             << windowSize_ << " s x " << label(c.maxWindows) << endl;
         const ::tq::coupler::ExchangeStats xs = participant_->stats();
@@ -493,6 +688,57 @@ void Foam::tq::couplerExchange::writeForces
 )
 {
     enterCall();
+    if (parts_)
+    {
+        // The shared points' partial forces to their owners, added there in
+        // rank order from zero (the order of the gathered sum below)
+        const label me = Pstream::myProcNo();
+        PstreamBuffers bufs(Pstream::commsTypes::nonBlocking);
+        for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+        {
+            if (proci != me)
+            {
+                UOPstream os(proci, bufs);
+                os << vectorField(forces, sendTo_[proci]);
+            }
+        }
+        bufs.finishedSends();
+        vectorField owned(ownedLocal_.size(), Zero);
+        for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+        {
+            if (proci == me)
+            {
+                forAll(ownedLocal_, k)
+                {
+                    owned[k] += forces[ownedLocal_[k]];
+                }
+                continue;
+            }
+            UIPstream is(proci, bufs);
+            vectorField part(is);
+            forAll(part, j)
+            {
+                owned[recvFrom_[proci][j]] += part[j];
+            }
+        }
+        std::vector<double> f(3*owned.size());
+        forAll(owned, k)
+        {
+            f[3*k] = owned[k].x();
+            f[3*k + 1] = owned[k].y();
+            f[3*k + 2] = owned[k].z();
+        }
+        try
+        {
+            participant_->writeData(meshName_, writeFields_[0], f);
+        }
+        catch (const ::tq::coupler::CouplerError& e)
+        {
+            fail("writeData", e.what());
+        }
+        leaveCall();
+        return;
+    }
     // Point forces of all ranks, summed per global point (shared points
     // carry partial sums on each rank)
     List<labelList> procIds(Pstream::nProcs());
@@ -535,7 +781,7 @@ void Foam::tq::couplerExchange::advance(const scalar dt)
     ++passes_;
     bool complete = false;
     scalar windowStart = windowStart_;
-    if (Pstream::master())
+    if (holds())
     {
         try
         {
@@ -548,8 +794,11 @@ void Foam::tq::couplerExchange::advance(const scalar dt)
         complete = participant_->isTimeWindowComplete();
         windowStart = startTime_ + participant_->windowStartTime();
     }
-    Pstream::scatter(complete);
-    Pstream::scatter(windowStart);
+    if (!parts_)
+    {
+        Pstream::scatter(complete);
+        Pstream::scatter(windowStart);
+    }
     syncFlags();
 
     if (complete)
@@ -594,7 +843,7 @@ void Foam::tq::couplerExchange::finalize()
     }
     finalized_ = true;
     reportCost();
-    if (Pstream::master() && participant_)
+    if (holds() && participant_)
     {
         try
         {

@@ -8,9 +8,9 @@
 #include <memory>
 #include <vector>
 
-#include "tq/coupler/state_io.hpp"
-
 #include "tq/coupler/config.hpp"
+#include "tq/coupler/exact_sum.hpp"
+#include "tq/coupler/state_io.hpp"
 
 namespace tq::coupler {
 
@@ -25,6 +25,20 @@ class Acceleration {
   virtual double lastRelaxation() const = 0;
   /// Save or restore what the iterations of later windows depend on (restart checkpoints).
   virtual void checkpoint(StateIo& /*io*/) {}
+  /// How sums over the interface are completed: x is this part's share of a participant in parts
+  /// (Participant::setPart), and every dot product and norm is a sum over every part's share,
+  /// held exactly (exact_sum.hpp), so that the step does not depend on the part count.
+  void useSums(const SumCombiner& s) { sums_ = &s; }
+
+ protected:
+  const SumCombiner& sums() const { return *sums_; }
+
+ private:
+  static const SumCombiner& onePiece() {
+    static const OnePiece one;
+    return one;
+  }
+  const SumCombiner* sums_ = &onePiece();
 };
 
 /// x_{k+1} = x̃_k.
@@ -75,6 +89,9 @@ inline constexpr double kIqnIlsFilter = 1e-3;
 /// x_{k+1} = x̃_k + Wα. The first iteration of a window is relaxed by the initial ω. QR2 filter
 /// (Haelterman et al. 2016): with the columns newest first, a column whose part orthogonal to the
 /// newer ones is below filterEps × its norm is dropped (docs/coupler.md "IQN-ILS filter").
+/// The least squares is solved from V's Gram matrix VᵀV (its entries exact sums, kept from pass
+/// to pass: a new column adds one row) by Cholesky, R of V = QR, so that a participant in parts
+/// needs one combined sum a pass and every part computes the same α.
 class IqnIls final : public Acceleration {
  public:
   /// reuse: the secant columns of that many earlier windows are kept (IQN-ILS(reuse)); 0 = each
@@ -92,6 +109,7 @@ class IqnIls final : public Acceleration {
     io.io(dxt_);
     io.io(colWindow_);
     io.io(first_);
+    io.io(gram_);
   }
 
  private:
@@ -101,6 +119,8 @@ class IqnIls final : public Acceleration {
   std::vector<double> rPrev_, xtPrev_;
   std::vector<std::vector<double>> dr_, dxt_;  ///< newest last
   std::vector<std::uint64_t> colWindow_;       ///< the window each column was made in
+  std::vector<std::vector<double>> gram_;      ///< dr_[i]·dr_[j], j ≤ i (row i: i + 1 entries)
+  std::size_t total_ = 0;                      ///< the values of every part (0: not asked yet)
   void dropColumn(std::size_t j);              ///< j: index in dr_ (0 = oldest)
   bool first_ = true;
 };

@@ -56,6 +56,8 @@ class DivergenceMonitor {
   /// whether the window ended at the pass limit). Throws DivergenceError naming the likely
   /// cause and the fix.
   void windowDone(std::uint64_t window, const std::vector<double>& x, bool unconverged, double residual);
+  /// x is this part's piece of a participant in parts: the sums are completed over every part.
+  void useSums(const SumCombiner& s) { sums_ = &s; }
   /// Estimated amplification per window of the alternating mode (0 when none seen).
   double lastAmplification() const { return lastAmp_; }
   /// Restart checkpoints: save or restore the windows' history.
@@ -102,6 +104,8 @@ class DivergenceMonitor {
   int unconvergedRun_ = 0;
   std::vector<double> unconvergedResiduals_;
   double lastAmp_ = 0;
+  const SumCombiner* sums_ = &onePiece_;
+  static inline const OnePiece onePiece_{};
 };
 
 }  // namespace tq::coupler

@@ -47,6 +47,17 @@ struct ExchangeStats {
   std::uint64_t bytesSent = 0, bytesReceived = 0;
 };
 
+/// How the parts of a participant in parts add up their sums (the second participant in parts,
+/// whose scheme measures, accelerates and decides on the whole interface): sumAll is called by every
+/// part with a list of the same length, in the same order of calls, and returns on every part with
+/// every part's lists summed element by element (an MPI_Allreduce with MPI_SUM over the solver's
+/// ranks). Integer sums: any order of the parts gives the same answer.
+class PartGroup {
+ public:
+  virtual ~PartGroup() = default;
+  virtual void sumAll(std::vector<std::int64_t>& values) = 0;
+};
+
 class Participant : private ExchangePort {
  public:
   /// `token` is the per-run secret both sides were given by the launcher; the partner must
@@ -63,15 +74,20 @@ class Participant : private ExchangePort {
 
   /// A participant split over several processes (the MPI ranks of one solver), each holding its
   /// own nodes of every interface mesh: this process is part `part` of `parts`. Call before
-  /// initialize(). A participant in parts is the configuration's first, listens over TCP and maps
-  /// every mesh with the coincident map; part 0 publishes the address file, part r > 0 the address
-  /// file's name with ".part<r>" appended (partAddressFile). The partner, one process, connects to
-  /// every part, refuses parts whose nodes do not cover its own once each, and exchanges with each
-  /// part the values of that part's nodes only; its scheme measures, accelerates and decides on the
-  /// whole interface, as with a partner in one piece, and the parts follow its flags. The divergence
-  /// monitor then runs on the partner, over the data it sends (the first's parts see a piece each).
-  /// A part may hold no node of a mesh (a rank away from the interface): it exchanges empty blocks.
-  void setPart(int part, int parts);
+  /// initialize(). Both participants may be in parts; every mesh is mapped with the coincident map
+  /// by the first. The first's parts listen over TCP: part 0 publishes the address file, part r > 0
+  /// the address file's name with ".part<r>" appended (partAddressFile). Every part of the second
+  /// connects to every part of the first (the second in one piece: one part); each connection
+  /// carries the nodes the two parts share (none: empty blocks, and the flags). A node of the first
+  /// paired by two parts of the second, or by none, and a node of the second in two parts of the
+  /// first, or in none, are refused by name in the handshake. The second's scheme measures,
+  /// accelerates and decides on the whole interface, each part on its own nodes with its sums
+  /// completed through `group` (required for the second in parts; exact sums, so that every part
+  /// decides the same and the answer does not depend on the part count), and the first's parts
+  /// follow its flags. The divergence monitor runs on the first in one piece, over what it reads,
+  /// else on the second, over what it sends. A part may hold no node of a mesh (a rank away from
+  /// the interface): it exchanges empty blocks.
+  void setPart(int part, int parts, std::shared_ptr<PartGroup> group = nullptr);
   std::uint32_t part() const { return part_; }
   std::uint32_t parts() const { return parts_; }
   /// Parts of the partner (after initialize(); 1 for a partner in one piece).
@@ -143,6 +159,7 @@ class Participant : private ExchangePort {
   const std::vector<double>& receivedValues() const override;
   const std::vector<FieldSlice>& writtenSlices() const override { return writtenSlices_; }
   const std::vector<FieldSlice>& receivedSlices() const override { return receivedSlices_; }
+  const SumCombiner& sums() const override;
 
   double connect();
   void checkpoint(StateIo& io);
@@ -180,8 +197,13 @@ class Participant : private ExchangePort {
   std::uint64_t partnerDataBytes_ = 0;  ///< exact DATA payload size from the partner
   std::uint64_t exchanges_ = 0;
   std::uint32_t part_ = 0, parts_ = 1;  ///< this side's part (setPart)
-  /// A partner in parts: the links to its parts 1.. (link_ is part 0's), each part's own-node
-  /// indices per mesh (ascending: the order of my nodes), its exact DATA payload size.
+  std::shared_ptr<PartGroup> group_;    ///< the second in parts: how its parts add their sums
+  std::unique_ptr<SumCombiner> sums_;
+  /// The data of each link carries only the nodes of partNodes_ (a partner in parts, or the second
+  /// in parts); otherwise the one link carries every wire node.
+  bool routed_ = false;
+  /// A partner in parts: the links to its parts 1.. (link_ is part 0's), the wire indices of the
+  /// nodes each link carries, per mesh (ascending), its exact DATA payload size.
   std::vector<std::unique_ptr<Endpoint>> partLinks_;
   std::map<std::string, std::vector<std::vector<std::size_t>>> partNodes_;
   std::vector<std::uint64_t> partDataBytes_;

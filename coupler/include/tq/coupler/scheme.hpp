@@ -21,6 +21,8 @@ struct FieldSlice {
   std::string name;
   std::size_t offset = 0, size = 0;
   double absoluteTolerance = 0.0;  ///< FieldSpec::absoluteTolerance (field units, RMS)
+  std::size_t total = 0;           ///< the field's values on every part of a participant in parts (0: size)
+  std::size_t count() const { return total ? total : size; }
 };
 
 /// What a scheme needs from its participant.
@@ -43,6 +45,8 @@ class ExchangePort {
   /// Where each written / read field lies in writtenValues() / receivedValues().
   virtual const std::vector<FieldSlice>& writtenSlices() const = 0;
   virtual const std::vector<FieldSlice>& receivedSlices() const = 0;
+  /// Completes sums over the parts of a participant in parts (one piece: nothing to add).
+  virtual const SumCombiner& sums() const = 0;
 };
 
 struct SchemeState {
@@ -125,8 +129,15 @@ double relativeDifference(const std::vector<double>& a, const std::vector<double
 /// The convergence measure of one pass, max over the fields of
 /// min(‖a − b‖/‖a‖, tolerance × rms(a − b) / absoluteTolerance) (the second term only where the
 /// field has an absolute tolerance): the pass has converged when it is below `tolerance`. It is
-/// the relative residual except where the absolute floor is nearer to being met.
+/// the relative residual except where the absolute floor is nearer to being met. The sums are
+/// exact (exact_sum.hpp), so a participant in parts measures what it would in one piece.
 double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
                           const std::vector<FieldSlice>& slices, double tolerance);
+/// The sums of convergenceMeasure, appended to `sums` (‖a − b‖², ‖a‖² per field) for combining over
+/// parts; then the measure from them (`at`: where they start).
+void addConvergenceSums(const std::vector<double>& a, const std::vector<double>& b,
+                        const std::vector<FieldSlice>& slices, std::vector<ExactSum>& sums);
+double convergenceFromSums(const std::vector<ExactSum>& sums, std::size_t at, const std::vector<FieldSlice>& slices,
+                           double tolerance);
 
 }  // namespace tq::coupler
