@@ -577,7 +577,7 @@ std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& 
       out << "; each rank exchanges its own part of the wetted face's " << water->wetNodes()
           << " nodes with the water (the nodes it owns:";
       for (Index n : water->partCounts()) out << " " << n;
-      out << "; the face's node list in " << water->foldRuns() << " runs of one rank each)";
+      out << ")";
     }
     out << std::endl;
   }
@@ -596,7 +596,7 @@ void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWrit
   writer->writeAttrs("/coupling", {{"ranks_messages_s", gather}, {"wet_nodes", double(water.wetNodes())}},
                      {{"on_ranks",
                        "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
-                       "the wet nodes folded across the ranks in the one-process order"}});
+                       "the wet nodes taken in the one-process order on every rank"}});
   const FluidCouplingStats cs = water.adapter()->stats();
   if (cs.unconvergedWindows > 0)
     err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows
