@@ -591,9 +591,14 @@ void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWrit
                         std::ostream& err) {
   water.finalize();
   const Real gather = rx ? rx->maxAll(water.secondsCommunicating()) : water.secondsCommunicating();
+  const Real sums = rx ? rx->maxAll(water.secondsSumming()) : water.secondsSumming();
   if (!writer) return;
   writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
-  writer->writeAttrs("/coupling", {{"ranks_messages_s", gather}, {"wet_nodes", double(water.wetNodes())}},
+  writer->writeAttrs("/coupling",
+                     {{"ranks_messages_s", gather},
+                      {"ranks_sums_s", sums},
+                      {"ranks_sums", double(water.sumsGathered())},
+                      {"wet_nodes", double(water.wetNodes())}},
                      {{"on_ranks",
                        "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
                        "the wet nodes taken in the one-process order on every rank"}});

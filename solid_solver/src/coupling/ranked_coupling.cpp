@@ -42,7 +42,8 @@ struct RankedCoupling::Impl {
   // WetPart::gather's counts and offsets for its width, and its values in rank order.
   std::vector<int> gatherCounts, gatherDispls;
   std::vector<Real> byRank;
-  double* seconds = nullptr;
+  double *seconds = nullptr, *sumSeconds = nullptr;  // the messages' time, and the gathers' of it
+  long long* sums = nullptr;                         // the gathers
 
   /// WetPart::gather: one MPI_Allgatherv of every rank's `width` values a node, then put in the face's
   /// order (allPlaces).
@@ -62,7 +63,8 @@ struct RankedCoupling::Impl {
     whole.resize(size_t(at));
     for (size_t i = 0; i < allPlaces.size(); ++i)
       std::copy_n(byRank.data() + width * i, width, whole.data() + width * size_t(allPlaces[i]));
-    *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    *seconds += s, *sumSeconds += s, ++*sums;
 #else
     (void)mineTerms, (void)width, (void)whole;
 #endif
@@ -161,6 +163,8 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     : impl_(std::make_unique<Impl>(local)) {
   Impl& I = *impl_;
   I.seconds = &secondsComm_;
+  I.sumSeconds = &secondsSums_;
+  I.sums = &sums_;
 #ifdef TQ_SOLID_HAVE_MPI
   int ready = 0;
   MPI_Initialized(&ready);

@@ -71,6 +71,9 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   /// Seconds this rank spent in the coupling's messages between the ranks (the sums' gathers, the
   /// frontier's force, the errors agreed; waiting for the other ranks included).
   double secondsCommunicating() const { return secondsComm_; }
+  /// Of them, the sums' gathers (WetPart::gather), and how many.
+  double secondsSumming() const { return secondsSums_; }
+  long long sumsGathered() const { return sums_; }
 
   // ---- as a contributor (ForcePhase::Water) of this rank's solver -------------------------------
   std::string name() const override;
@@ -111,7 +114,8 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   Index steps_ = 1;
   Real endTime_ = 0;
   long long windows_ = 0, done_ = 0;
-  double secondsComm_ = 0;
+  double secondsComm_ = 0, secondsSums_ = 0;
+  long long sums_ = 0;
 };
 
 }  // namespace tq
