@@ -595,13 +595,12 @@ void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWrit
   if (!writer) return;
   writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
   writer->writeAttrs("/coupling",
-                     {{"ranks_messages_s", gather},
-                      {"ranks_sums_s", sums},
-                      {"ranks_sums", double(water.sumsGathered())},
-                      {"wet_nodes", double(water.wetNodes())}},
+                     {{"ranks_messages_s", gather}, {"ranks_sums_s", sums}, {"wet_nodes", double(water.wetNodes())}},
                      {{"on_ranks",
                        "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
                        "the wet nodes taken in the one-process order on every rank"}});
+  // the count of the sums' gathers: this process's (a resumed run counts from its restart)
+  writer->writeAttrs("/timings", {{"ranks_sums", double(water.sumsGathered())}}, {});
   const FluidCouplingStats cs = water.adapter()->stats();
   if (cs.unconvergedWindows > 0)
     err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows

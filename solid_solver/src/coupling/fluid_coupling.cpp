@@ -40,17 +40,17 @@ struct FluidCoupling::Impl {
   // On MPI ranks: this rank's part of the wetted face, the sums over the wet nodes taken in the
   // one-process order on every part (tq/water/wet_part.hpp); null in one process.
   const WetPart* part = nullptr;
-  PendingWetWork pending;          // on a part: each step's work terms, booked in step order by flushWetWork()
-  std::vector<Real> force, prev;   // [3n] force added this step / last step (N)
-  std::vector<Real> received;      // [3n] latest force read from the fluid
-  std::vector<Real> trial;         // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;  // [3n] predictor linear: the force applied one window earlier
-  WallMotion motion;               // [3n] the predicted motion written (disp, vel) and its response
-  std::vector<Real>&disp, &vel;    // motion.disp, motion.vel
-  std::vector<Real> sent;          // [3n] the motion written, less what the water does not see
-  bool planar = false;             // a slice: the water is sent the wall's in-plane motion only (write())
-  std::vector<Real> total;         // [3n] force(): the exchanged force + the carried pressure
-  std::vector<Real> dispStart;     // [3n] u − u0 at the start of the current window (k > 1)
+  PendingWetWork pending;               // on a part: each step's work terms, booked in step order by flushWetWork()
+  std::vector<Real> force, prev;        // [3n] force added this step / last step (N)
+  std::vector<Real> received;           // [3n] latest force read from the fluid
+  std::vector<Real> trial;              // [3n] force used in the current prediction
+  std::vector<Real> receivedPrev;       // [3n] predictor linear: the force applied one window earlier
+  WallMotion motion;                    // [3n] the predicted motion written (disp, vel) and its response
+  std::vector<Real>&disp, &vel;         // motion.disp, motion.vel
+  std::vector<std::vector<Real>> sent;  // [3n] each field written, less what the water does not see
+  bool planar = false;                  // a slice: the water is sent the wall's in-plane motion only (write())
+  std::vector<Real> total;              // [3n] force(): the exchanged force + the carried pressure
+  std::vector<Real> dispStart;          // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   Real window = 0, dtPrev = 0;
@@ -231,21 +231,25 @@ struct FluidCoupling::Impl {
   }
 
   void write() {
-    for (const auto& name : in.writeFields) {
-      if (!water && !planar) {
-        p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
-        continue;
-      }
-      sent = name == "velocity" ? vel : disp;
+    if (!water && !planar) {
+      for (const auto& name : in.writeFields) p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
+      return;
+    }
+    sent.resize(in.writeFields.size());
+    std::vector<std::vector<Real>*> fields;
+    for (size_t i = 0; i < sent.size(); ++i) {
+      sent[i] = in.writeFields[i] == "velocity" ? vel : disp;
       // A slice's water is planar: the wall's motion along the axis (a ground motion along y) would
       // only shift its one-cell mesh along y, which the water's point forces do not follow alike on
       // its two faces; it is sent the in-plane motion.
       if (planar)
-        for (size_t k = 0; k < nodes.size(); ++k) sent[3 * k + 1] = 0;
-      // The water sees the wall's motion less the carried modes (volume change, translation).
-      if (water) water->projectMotion(sent);
-      p->writeData(in.mesh, name, sent);
+        for (size_t k = 0; k < nodes.size(); ++k) sent[i][3 * k + 1] = 0;
+      fields.push_back(&sent[i]);
     }
+    // The water sees the wall's motion less the carried modes (volume change, translation); the
+    // fields' sums together (on a part: one gather).
+    if (water) water->projectMotions(fields);
+    for (size_t i = 0; i < sent.size(); ++i) p->writeData(in.mesh, in.writeFields[i], sent[i]);
   }
 
   /// The water's answer; with the volume law, less what would work on the carried modes.

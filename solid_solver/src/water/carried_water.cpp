@@ -65,7 +65,7 @@ struct CarriedWater::Impl {
   int modes = 0;
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
   // Work space of the laws (per station).
-  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments;
+  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, motionMoments;
   PendingWetWork pending;  // on a part: each step's work terms, booked in step order by flushWetWork()
 
   Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
@@ -410,36 +410,46 @@ struct CarriedWater::Impl {
   /// With the volume law the exchange leaves the carried modes to the solid: a motion sent loses them
   /// (P u: no volume change, and no translation of the water), a force read loses what would work on
   /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
-  void projectMotion(std::vector<Real>& x) const {
-    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
-    moments.assign(3 * S, 0.0);
-    // a node's terms, by dof: g·x, and with the translation r g·x / V (2)
-    const size_t w = size_t(modes);
+  /// Several motions at once (the fields written): their sums in one gather, each projected as alone.
+  void projectMotions(const std::vector<std::vector<Real>*>& xs) const {
+    // a motion's terms at a node, by dof: g·x, and with the translation r g·x / V (2)
+    const size_t w = size_t(modes), nf = xs.size();
+    motionMoments.assign(nf * 3 * S, 0.0);
     sumOverWetNodes(
-        part, nodes.size(), 3 * w,
+        part, nodes.size(), 3 * w * nf,
         [&](size_t k, Real* t) {
-          for (int d = 0; d < 3; ++d) {
-            const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
-            Real* td = t + w * size_t(d);
-            td[0] = gv * xv;
-            if (modes == 3)
-              td[1] = r[2 * k] * gv * xv / Vs[station[k]], td[2] = r[2 * k + 1] * gv * xv / Vs[station[k]];
+          for (const std::vector<Real>* xp : xs) {
+            const std::vector<Real>& x = *xp;
+            for (int d = 0; d < 3; ++d) {
+              const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
+              Real* td = t + w * size_t(d);
+              td[0] = gv * xv;
+              if (modes == 3)
+                td[1] = r[2 * k] * gv * xv / Vs[station[k]], td[2] = r[2 * k + 1] * gv * xv / Vs[station[k]];
+            }
+            t += 3 * w;
           }
         },
         [&](size_t k, const Real* t) {
-          Real* m = &moments[3 * stationW[k]];
-          for (int d = 0; d < 3; ++d)
-            for (size_t a = 0; a < w; ++a) m[a] += t[w * size_t(d) + a];
+          for (size_t f = 0; f < nf; ++f, t += 3 * w) {
+            Real* m = &motionMoments[3 * S * f + 3 * stationW[k]];
+            for (int d = 0; d < 3; ++d)
+              for (size_t a = 0; a < w; ++a) m[a] += t[w * size_t(d) + a];
+          }
         });
-    std::copy(moments.begin(), moments.end(), sums.begin());
-    for (size_t j = 0; j < S; ++j)
-      for (int a = 0; a < modes; ++a)
-        for (int b = 0; b < modes; ++b)
-          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      const Real* c = &sums[3 * (S + station[k])];
-      for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
-      if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
+    for (size_t f = 0; f < nf; ++f) {
+      std::vector<Real>& x = *xs[f];
+      std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
+      std::copy_n(motionMoments.begin() + long(3 * S * f), 3 * S, sums.begin());
+      for (size_t j = 0; j < S; ++j)
+        for (int a = 0; a < modes; ++a)
+          for (int b = 0; b < modes; ++b)
+            sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
+      for (size_t k = 0; k < nodes.size(); ++k) {
+        const Real* c = &sums[3 * (S + station[k])];
+        for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
+        if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
+      }
     }
   }
   void projectForce(std::vector<Real>& f) const {
@@ -552,7 +562,8 @@ bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {
 void CarriedWater::correct(Real dt, const NodalState& st, WallMotion& m) const {
   impl_->applyCarriedLaws(dt, st.vData(), m, nullptr, nullptr);
 }
-void CarriedWater::projectMotion(std::vector<Real>& x) const { impl_->projectMotion(x); }
+void CarriedWater::projectMotion(std::vector<Real>& x) const { impl_->projectMotions({&x}); }
+void CarriedWater::projectMotions(const std::vector<std::vector<Real>*>& xs) const { impl_->projectMotions(xs); }
 void CarriedWater::projectForce(std::vector<Real>& f) const { impl_->projectForce(f); }
 
 const std::vector<Index>& CarriedWater::nodes() const { return impl_->nodes; }

@@ -65,6 +65,9 @@ class CarriedWater final : public NodalForceContributor {
   void correct(Real dt, const NodalState& st, WallMotion& m) const;
   /// The motion the water sees: less the carried modes (no volume change, no translation).
   void projectMotion(std::vector<Real>& x) const;
+  /// The same for several motions (the fields written), each as projectMotion() projects it alone; on
+  /// a part their sums in one gather.
+  void projectMotions(const std::vector<std::vector<Real>*>& xs) const;
   /// The water's force kept: less what would work on the carried modes.
   void projectForce(std::vector<Real>& f) const;
 
