@@ -18,7 +18,7 @@ do not cover its face once each), and every dataset of /monitors, /energy and /c
 the coupling energy, the volume law's pressure, the wetted face's force and mean acceleration, the
 water pressure at the monitors) on 2, 3, 4 and 8 ranks bitwise equal to the one-process run (every
 node's force and mass is summed in the one-process order on any rank count, docs/architecture.md
-"The solid on ranks"; the sums over the wet nodes are folded across the ranks in that order, "The
+"The solid on ranks"; the sums over the wet nodes are taken in that order on every rank, "The
 water coupling on ranks"), but the whole-model energy sums (/energy/history, summed over each rank's
 elements and then across ranks), within 1e-13 of the largest magnitude of their series (measured
 5.7e-16 to 1.3e-15); the
@@ -143,7 +143,7 @@ def run_coupled(tmp: Path, ranks: int | None) -> Path:
         # owns, a node on a partition boundary in one part only (the water refuses parts that do not
         # cover its face once each), and the parts add up to the face
         said = re.search(r"each rank exchanges its own part of the wetted face's (\d+) nodes with the water "
-                         r"\(the nodes it owns:([ \d]+);", solid.stdout)
+                         r"\(the nodes it owns:([ \d]+)\)", solid.stdout)
         assert said, solid.stdout
         parts = [int(n) for n in said[2].split()]
         assert int(said[1]) == 2 * N_THETA and len(parts) == ranks, said[0]

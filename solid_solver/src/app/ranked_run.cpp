@@ -577,7 +577,7 @@ std::shared_ptr<RankedCoupling> connectWaterOnRanks(SolidInput& in, const Mesh& 
       out << "; each rank exchanges its own part of the wetted face's " << water->wetNodes()
           << " nodes with the water (the nodes it owns:";
       for (Index n : water->partCounts()) out << " " << n;
-      out << "; the face's node list in " << water->foldRuns() << " runs of one rank each)";
+      out << ")";
     }
     out << std::endl;
   }
@@ -591,12 +591,16 @@ void finishWaterOnRanks(RankedCoupling& water, const SolidInput& in, ResultsWrit
                         std::ostream& err) {
   water.finalize();
   const Real gather = rx ? rx->maxAll(water.secondsCommunicating()) : water.secondsCommunicating();
+  const Real sums = rx ? rx->maxAll(water.secondsSumming()) : water.secondsSumming();
   if (!writer) return;
   writeCouplingSummary(*writer, in.staged.coupling, *water.adapter(), water.water());
-  writer->writeAttrs("/coupling", {{"ranks_messages_s", gather}, {"wet_nodes", double(water.wetNodes())}},
+  writer->writeAttrs("/coupling",
+                     {{"ranks_messages_s", gather}, {"ranks_sums_s", sums}, {"wet_nodes", double(water.wetNodes())}},
                      {{"on_ranks",
                        "parts: each rank exchanges the wet nodes it owns with the water, the sums over "
-                       "the wet nodes folded across the ranks in the one-process order"}});
+                       "the wet nodes taken in the one-process order on every rank"}});
+  // the count of the sums' gathers: this process's (a resumed run counts from its restart)
+  writer->writeAttrs("/timings", {{"ranks_sums", double(water.sumsGathered())}}, {});
   const FluidCouplingStats cs = water.adapter()->stats();
   if (cs.unconvergedWindows > 0)
     err << "tq-solid: warning: " << cs.unconvergedWindows << " of " << cs.windows

@@ -37,21 +37,20 @@ struct FluidCoupling::Impl {
   const std::vector<Index>& nodes;  // wall.nodes()
   std::vector<Real>& u0;            // [3n] displacement at the seismic start (wall.reference())
   const CarriedWater* water;        // the laws the solid carries (null: the water sends its whole force)
-  // On MPI ranks: this rank's part of the wetted face, the sums over the wet nodes folded over the
-  // parts in the one-process order (tq/water/wet_part.hpp); null in one process.
+  // On MPI ranks: this rank's part of the wetted face, the sums over the wet nodes taken in the
+  // one-process order on every part (tq/water/wet_part.hpp); null in one process.
   const WetPart* part = nullptr;
-  std::vector<Real> acc;           // a fold's sums
-  PendingWetWork pending;          // on a part: each step's work terms, booked in step order by flushWork()
-  std::vector<Real> force, prev;   // [3n] force added this step / last step (N)
-  std::vector<Real> received;      // [3n] latest force read from the fluid
-  std::vector<Real> trial;         // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;  // [3n] predictor linear: the force applied one window earlier
-  WallMotion motion;               // [3n] the predicted motion written (disp, vel) and its response
-  std::vector<Real>&disp, &vel;    // motion.disp, motion.vel
-  std::vector<Real> sent;          // [3n] the motion written, less what the water does not see
-  bool planar = false;             // a slice: the water is sent the wall's in-plane motion only (write())
-  std::vector<Real> total;         // [3n] force(): the exchanged force + the carried pressure
-  std::vector<Real> dispStart;     // [3n] u − u0 at the start of the current window (k > 1)
+  PendingWetWork pending;               // on a part: each step's work terms, booked in step order by flushWetWork()
+  std::vector<Real> force, prev;        // [3n] force added this step / last step (N)
+  std::vector<Real> received;           // [3n] latest force read from the fluid
+  std::vector<Real> trial;              // [3n] force used in the current prediction
+  std::vector<Real> receivedPrev;       // [3n] predictor linear: the force applied one window earlier
+  WallMotion motion;                    // [3n] the predicted motion written (disp, vel) and its response
+  std::vector<Real>&disp, &vel;         // motion.disp, motion.vel
+  std::vector<std::vector<Real>> sent;  // [3n] each field written, less what the water does not see
+  bool planar = false;                  // a slice: the water is sent the wall's in-plane motion only (write())
+  std::vector<Real> total;              // [3n] force(): the exchanged force + the carried pressure
+  std::vector<Real> dispStart;          // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   Real window = 0, dtPrev = 0;
@@ -159,11 +158,15 @@ struct FluidCoupling::Impl {
   /// fluid was sent (made one window earlier). Converged exchange: R_f = the force applied and
   /// u_s = the motion made, so the sum with the solid's work is zero (to the tolerance).
   void bookReceivedWork() {
-    acc.assign(1, 0.0);
-    foldOverWetNodes(part, nodes.size(), acc, [&](size_t k) {
-      for (size_t j = 3 * k; j < 3 * k + 3; ++j) acc[0] -= 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
-    });
-    fluidReceived += acc[0];
+    Real sum = 0;
+    sumOverWetNodes(
+        part, nodes.size(), 3,
+        [&](size_t k, Real* t) {
+          for (size_t j = 3 * k; j < 3 * k + 3; ++j)
+            t[j - 3 * k] = 0.5 * (received[j] + recvPrev[j]) * (sent1[j] - sent2[j]);
+        },
+        [&](size_t, const Real* t) { sum -= t[0], sum -= t[1], sum -= t[2]; });
+    fluidReceived += sum;
     recvPrev = received;
     sent2.swap(sent1);
     sent1 = disp;
@@ -183,16 +186,19 @@ struct FluidCoupling::Impl {
   /// show up as energy created, (β̄ − ½) Σ ΔF·Δu, although the water and the solid agree.
   void bookReceivedWorkWindow() {
     const Real k = Real(in.windowSteps), bbar = ((k - 1) * in.windowForceWeight + 0.5) / k;
-    acc.assign(1, 0.0);
-    foldOverWetNodes(part, nodes.size(), acc, [&](size_t k3) {
-      for (int d = 0; d < 3; ++d) {
-        const size_t j = 3 * k3 + size_t(d);
-        const Real lag = uLast[j] - u0[j];
-        acc[0] -= (bbar * received[j] + (1 - bbar) * recvPrev[j]) * (lag - lagPrev[j]);
-        lagPrev[j] = lag;
-      }
-    });
-    fluidReceived += acc[0];
+    Real sum = 0;
+    sumOverWetNodes(
+        part, nodes.size(), 3,
+        [&](size_t k3, Real* t) {
+          for (int d = 0; d < 3; ++d) {
+            const size_t j = 3 * k3 + size_t(d);
+            const Real lag = uLast[j] - u0[j];
+            t[d] = (bbar * received[j] + (1 - bbar) * recvPrev[j]) * (lag - lagPrev[j]);
+            lagPrev[j] = lag;
+          }
+        },
+        [&](size_t, const Real* t) { sum -= t[0], sum -= t[1], sum -= t[2]; });
+    fluidReceived += sum;
     recvPrev = received;
   }
 
@@ -225,21 +231,25 @@ struct FluidCoupling::Impl {
   }
 
   void write() {
-    for (const auto& name : in.writeFields) {
-      if (!water && !planar) {
-        p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
-        continue;
-      }
-      sent = name == "velocity" ? vel : disp;
+    if (!water && !planar) {
+      for (const auto& name : in.writeFields) p->writeData(in.mesh, name, name == "velocity" ? vel : disp);
+      return;
+    }
+    sent.resize(in.writeFields.size());
+    std::vector<std::vector<Real>*> fields;
+    for (size_t i = 0; i < sent.size(); ++i) {
+      sent[i] = in.writeFields[i] == "velocity" ? vel : disp;
       // A slice's water is planar: the wall's motion along the axis (a ground motion along y) would
       // only shift its one-cell mesh along y, which the water's point forces do not follow alike on
       // its two faces; it is sent the in-plane motion.
       if (planar)
-        for (size_t k = 0; k < nodes.size(); ++k) sent[3 * k + 1] = 0;
-      // The water sees the wall's motion less the carried modes (volume change, translation).
-      if (water) water->projectMotion(sent);
-      p->writeData(in.mesh, name, sent);
+        for (size_t k = 0; k < nodes.size(); ++k) sent[i][3 * k + 1] = 0;
+      fields.push_back(&sent[i]);
     }
+    // The water sees the wall's motion less the carried modes (volume change, translation); the
+    // fields' sums together (on a part: one gather).
+    if (water) water->projectMotions(fields);
+    for (size_t i = 0; i < sent.size(); ++i) p->writeData(in.mesh, in.writeFields[i], sent[i]);
   }
 
   /// The water's answer; with the volume law, less what would work on the carried modes.
@@ -558,7 +568,7 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
   I.forceSet = false;
   Real* fe = st.fExtData();
   const Real* v = st.vData();
-  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWork()).
+  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWetWork()).
   I.pending.bookStep(
       I.part, I.nodes.size(), [&](size_t k) { return st.mass(I.nodes[k]) > 0; },
       [&](size_t k, int d, size_t j) {
@@ -581,10 +591,7 @@ void FluidCoupling::checkpoint(StateArchive& a) {
   if (I.part) I.pending.checkpoint(a);  // the steps whose work is not booked yet
 }
 
-void FluidCoupling::flushWork() {
-  Impl& I = *impl_;
-  if (I.part) I.pending.flush(*I.part, I.acc, I.work);
-}
+WetWorkBook FluidCoupling::workBook() { return {&impl_->pending, &impl_->work}; }
 
 bool FluidCoupling::repeatsWindows() const { return impl_->repeats; }
 Index FluidCoupling::windowSteps() const { return impl_->in.windowSteps; }

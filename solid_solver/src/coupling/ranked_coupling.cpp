@@ -1,6 +1,6 @@
 // The water coupling of the solid on MPI ranks (tq/coupling/ranked_coupling.hpp): each rank exchanges
-// its own part of the wetted face with the water; the sums over the wet nodes are folded across the
-// ranks in the one-process order.
+// its own part of the wetted face with the water; the sums over the wet nodes are taken in the
+// one-process order on every rank, from every node's terms gathered in one collective.
 #include "tq/coupling/ranked_coupling.hpp"
 
 #include <algorithm>
@@ -15,14 +15,8 @@ namespace tq {
 
 namespace {
 #ifdef TQ_SOLID_HAVE_MPI
-constexpr int kFoldTag = 0x7F01, kFrontierTag = 0x7F02;  // this file's messages among the ranks
+constexpr int kFrontierTag = 0x7F02;  // this file's messages among the ranks
 #endif
-
-/// A run of the wetted face's node list held by one rank: places [begin, end).
-struct Run {
-  long long begin = 0, end = 0;
-  int rank = 0;
-};
 }  // namespace
 
 struct RankedCoupling::Impl {
@@ -30,7 +24,6 @@ struct RankedCoupling::Impl {
   int rank = 0, size = 1;
   Solver& local;
   WetPart part;                            // this rank's part of the face (its owned wet nodes)
-  std::vector<Run> runs;                   // the face's node list in runs, each of one rank, in order
   std::shared_ptr<CarriedWater> water;     // on this rank's part
   std::shared_ptr<FluidCoupling> adapter;  // on this rank's part
   std::vector<Index> partNodes;            // the part's nodes (this solver's indices), in place order
@@ -39,29 +32,41 @@ struct RankedCoupling::Impl {
   // them) or receives from their owner, per rank, in place order.
   std::vector<std::pair<int, std::vector<Index>>> sendTo, recvFrom;
   std::vector<std::vector<Real>> sendBuf, recvBuf;
-  // Results (rank 0): each rank's node count and the places, the face's force last added.
-  std::vector<int> counts, displs;
+  // Every rank's node count and the places of its nodes, in rank order (allPlaces: rank 0's nodes,
+  // then rank 1's, ...), on every rank.
+  std::vector<int> nodeCounts;
   std::vector<long long> allPlaces;
+  // Results (rank 0): the gather's counts and offsets (4 values a node), the face's force last added.
+  std::vector<int> counts, displs;
   std::vector<Real> mine, gathered, wholeForce;
-  double* seconds = nullptr;
+  // WetPart::gather's counts and offsets for its width, and its values in rank order.
+  std::vector<int> gatherCounts, gatherDispls;
+  std::vector<Real> byRank;
+  double *seconds = nullptr, *sumSeconds = nullptr;  // the messages' time, and the gathers' of it
+  long long* sums = nullptr;                         // the gathers
 
-  /// WetPart::fold: the runs in order; each rank adds its nodes' terms to acc received from the rank
-  /// of the run before and sends it to the rank of the run after; the last run's rank sends it to all.
-  void fold(std::vector<Real>& acc, const std::function<void(size_t)>& node) {
+  /// WetPart::gather: one MPI_Allgatherv of every rank's `width` values a node, then put in the face's
+  /// order (allPlaces).
+  void gather(const std::vector<Real>& mineTerms, size_t width, std::vector<Real>& whole) {
 #ifdef TQ_SOLID_HAVE_MPI
     const auto t0 = std::chrono::steady_clock::now();
-    const int n = int(acc.size());
-    size_t q = 0;
-    for (size_t i = 0; i < runs.size(); ++i) {
-      if (runs[i].rank != rank) continue;
-      if (i > 0) MPI_Recv(acc.data(), n, MPI_DOUBLE, runs[i - 1].rank, kFoldTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-      for (long long k = runs[i].begin; k < runs[i].end; ++k) node(q++);
-      if (i + 1 < runs.size()) MPI_Send(acc.data(), n, MPI_DOUBLE, runs[i + 1].rank, kFoldTag, MPI_COMM_WORLD);
+    gatherCounts.resize(size_t(size)), gatherDispls.resize(size_t(size));
+    int at = 0;
+    for (int r = 0; r < size; ++r) {
+      gatherCounts[size_t(r)] = int(width) * nodeCounts[size_t(r)];
+      gatherDispls[size_t(r)] = at;
+      at += gatherCounts[size_t(r)];
     }
-    MPI_Bcast(acc.data(), n, MPI_DOUBLE, runs.back().rank, MPI_COMM_WORLD);
-    *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    byRank.resize(size_t(at));
+    MPI_Allgatherv(mineTerms.data(), gatherCounts[size_t(rank)], MPI_DOUBLE, byRank.data(), gatherCounts.data(),
+                   gatherDispls.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+    whole.resize(size_t(at));
+    for (size_t i = 0; i < allPlaces.size(); ++i)
+      std::copy_n(byRank.data() + width * i, width, whole.data() + width * size_t(allPlaces[i]));
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    *seconds += s, *sumSeconds += s, ++*sums;
 #else
-    (void)acc, (void)node;
+    (void)mineTerms, (void)width, (void)whole;
 #endif
   }
 
@@ -113,10 +118,13 @@ struct RankedCoupling::Impl {
     }
   }
 
-  /// The steps' works booked (the carried laws' first, as the energy guard reads them after).
+  /// The steps' works booked, the carried laws' and the adapter's in one gather.
   void flushWork() {
-    if (water) water->flushWork();
-    adapter->flushWork();
+    if (size == 1) return;  // one process books each step's own
+    if (water)
+      flushWetWork(part, {water->workBook(), adapter->workBook()});
+    else
+      flushWetWork(part, {adapter->workBook()});
   }
 
   /// The frontier's wet nodes: each owner's f_ext to the other ranks that hold the node.
@@ -155,6 +163,8 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     : impl_(std::make_unique<Impl>(local)) {
   Impl& I = *impl_;
   I.seconds = &secondsComm_;
+  I.sumSeconds = &secondsSums_;
+  I.sums = &sums_;
 #ifdef TQ_SOLID_HAVE_MPI
   int ready = 0;
   MPI_Initialized(&ready);
@@ -172,7 +182,8 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     });
   } else {
 #ifdef TQ_SOLID_HAVE_MPI
-    // This rank's part: the wet nodes it owns, in the face's order; the frontier's other holders.
+    // This rank's part: the wet nodes it owns, in the face's order; the frontier's other holders and
+    // this rank's copies of wet nodes other ranks own.
     std::vector<std::pair<int, std::vector<Index>>> sendTo, recvFrom;
     auto listFor = [](std::vector<std::pair<int, std::vector<Index>>>& lists, int r) -> std::vector<Index>& {
       for (auto& [who, nodes] : lists)
@@ -189,6 +200,8 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
         I.part.places.push_back(k);
         I.partNodes.push_back(l);
         ids.push_back(std::int64_t(wet_[k]));
+      } else {
+        I.part.copies.emplace_back(l, k);
       }
       const auto f = std::lower_bound(L.frontier.begin(), L.frontier.end(), l);
       if (f == L.frontier.end() || *f != l) continue;
@@ -206,53 +219,39 @@ RankedCoupling::RankedCoupling(const CouplingInput& in, const Mesh& global, cons
     std::sort(recvFrom.begin(), recvFrom.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     I.sendTo = std::move(sendTo), I.recvFrom = std::move(recvFrom);
     I.sendBuf.resize(I.sendTo.size()), I.recvBuf.resize(I.recvFrom.size());
-    // The runs of every rank, in the face's order: who adds which nodes' terms when.
-    std::vector<long long> mineRuns;
-    for (size_t q = 0; q < I.part.places.size(); ++q) {
-      const long long k = (long long)I.part.places[q];
-      if (q == 0 || (long long)I.part.places[q - 1] + 1 != k) mineRuns.insert(mineRuns.end(), {k, k});
-      mineRuns.back() = k + 1;
-    }
-    const int nRuns = int(mineRuns.size());
-    std::vector<int> runCounts(size_t(I.size)), runDispls(size_t(I.size), 0);
-    MPI_Allgather(&nRuns, 1, MPI_INT, runCounts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-    for (int r = 1; r < I.size; ++r) runDispls[size_t(r)] = runDispls[size_t(r) - 1] + runCounts[size_t(r) - 1];
-    std::vector<long long> allRuns(size_t(runDispls.back() + runCounts.back()));
-    MPI_Allgatherv(mineRuns.data(), nRuns, MPI_LONG_LONG, allRuns.data(), runCounts.data(), runDispls.data(),
+    // Every rank's nodes, on every rank: the gathers of the sums put each node's terms in its place.
+    const int mineCount = int(I.part.places.size());
+    I.nodeCounts.assign(size_t(I.size), 0);
+    MPI_Allgather(&mineCount, 1, MPI_INT, I.nodeCounts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    std::vector<int> placeDispls(size_t(I.size), 0);
+    for (int r = 1; r < I.size; ++r) placeDispls[size_t(r)] = placeDispls[size_t(r) - 1] + I.nodeCounts[size_t(r) - 1];
+    const size_t total = size_t(placeDispls.back() + I.nodeCounts.back());
+    if (total != wet_.size()) throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
+    std::vector<long long> places(I.part.places.begin(), I.part.places.end());
+    I.allPlaces.resize(total);
+    MPI_Allgatherv(places.data(), mineCount, MPI_LONG_LONG, I.allPlaces.data(), I.nodeCounts.data(), placeDispls.data(),
                    MPI_LONG_LONG, MPI_COMM_WORLD);
-    for (int r = 0; r < I.size; ++r)
-      for (int i = 0; i < runCounts[size_t(r)]; i += 2)
-        I.runs.push_back({allRuns[size_t(runDispls[size_t(r)] + i)], allRuns[size_t(runDispls[size_t(r)] + i + 1)], r});
-    std::sort(I.runs.begin(), I.runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
-    long long next = 0;
-    for (const Run& r : I.runs) {
-      if (r.begin != next) throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
-      next = r.end;
-    }
-    if (next != (long long)wet_.size() || I.runs.empty())
-      throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
+    std::vector<std::uint8_t> seen(wet_.size(), 0);
+    for (long long k : I.allPlaces)
+      if (k < 0 || size_t(k) >= wet_.size() || seen[size_t(k)]++)
+        throw std::logic_error("the wet nodes' owners do not cover the wetted face once each");
+    int copiesHere = I.part.copies.empty() ? 0 : 1, copiesAnywhere = 0;
+    MPI_Allreduce(&copiesHere, &copiesAnywhere, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    I.part.copiesAnywhere = copiesAnywhere != 0;
     I.part.wholeCount = wet_.size();
     I.part.part = I.rank;
     I.part.parts = I.size;
-    I.part.fold = [&I](std::vector<Real>& acc, const std::function<void(size_t)>& node) { I.fold(acc, node); };
-    // Results: each rank's node count and places on rank 0.
-    const int mineCount = int(I.part.places.size());
-    std::vector<int> nodeCounts(size_t(I.size));
-    MPI_Gather(&mineCount, 1, MPI_INT, nodeCounts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
-    std::vector<long long> places(I.part.places.begin(), I.part.places.end());
-    std::vector<int> placeDispls(size_t(I.size), 0);
+    I.part.gather = [&I](const std::vector<Real>& m, size_t width, std::vector<Real>& whole) {
+      I.gather(m, width, whole);
+    };
+    // Results: rank 0 gathers each rank's nodes' force and mass (4 values a node).
     if (I.rank == 0) {
       I.counts.resize(size_t(I.size)), I.displs.resize(size_t(I.size));
-      for (int r = 0; r < I.size; ++r) {
-        if (r > 0) placeDispls[size_t(r)] = placeDispls[size_t(r) - 1] + nodeCounts[size_t(r) - 1];
-        I.counts[size_t(r)] = 4 * nodeCounts[size_t(r)], I.displs[size_t(r)] = 4 * placeDispls[size_t(r)];
-      }
-      I.allPlaces.resize(wet_.size());
+      for (int r = 0; r < I.size; ++r)
+        I.counts[size_t(r)] = 4 * I.nodeCounts[size_t(r)], I.displs[size_t(r)] = 4 * placeDispls[size_t(r)];
       I.gathered.resize(4 * wet_.size());
       I.wholeForce.assign(3 * wet_.size(), 0.0);
     }
-    MPI_Gatherv(places.data(), mineCount, MPI_LONG_LONG, I.allPlaces.data(), nodeCounts.data(), placeDispls.data(),
-                MPI_LONG_LONG, 0, MPI_COMM_WORLD);
     I.together([&] {
       if (in.volumeLaw != "none") I.water = std::make_shared<CarriedWater>(local, in, global, I.part, I.partNodes);
       I.adapter = std::make_shared<FluidCoupling>(local, in, I.water.get(), I.part, I.partNodes, std::move(ids));
@@ -289,7 +288,6 @@ void RankedCoupling::abort(const std::string& reason) noexcept {
 FluidCoupling* RankedCoupling::adapter() { return impl_->adapter.get(); }
 const CarriedWater* RankedCoupling::water() const { return impl_->water.get(); }
 Index RankedCoupling::partNodes() const { return Index(impl_->adapter->nodes().size()); }
-Index RankedCoupling::foldRuns() const { return impl_->size == 1 ? 1 : Index(impl_->runs.size()); }
 std::vector<Index> RankedCoupling::partCounts() const {
   std::vector<Index> n;
   if (impl_->size == 1) return {wetNodes()};
@@ -337,14 +335,16 @@ const std::vector<Real>& RankedCoupling::wetForce() const {
 std::string RankedCoupling::name() const { return "water coupling on the ranks (each rank its part)"; }
 
 // In the one-process order: the exchanged force, then the pressure the solid carries (its prediction
-// reads the f_ext the exchanged force added), on this rank's part; the frontier's f_ext to its copies.
+// reads the f_ext the exchanged force added), on this rank's part; the frontier's f_ext to its copies:
+// with the carried laws it travels with their sums' terms (CarriedWater sets the copies), else in a
+// message of its own from each owner.
 // Neither meets an error one rank alone would (a step outside the protocol is one on every rank): no
 // agreement is needed.
 void RankedCoupling::addForces(Real t, Real dt, NodalState& st) {
   Impl& I = *impl_;
   I.adapter->addForces(t, dt, st);
   if (I.water) I.water->addForces(t, dt, st);
-  I.sendFrontier(st);
+  if (!I.water) I.sendFrontier(st);  // with the carried laws the copies' f_ext came with their sums
 }
 
 void RankedCoupling::checkpoint(StateArchive& a) {

@@ -16,7 +16,7 @@ struct CarriedWater::Impl {
   WallPrediction wall;  // the wet nodes (mesh indices, ascending) and u0
   const std::vector<Index>& nodes;
   // On MPI ranks: this rank's part of the wetted face (its nodes `nodes`, the solver's indices), its
-  // sums folded over the parts in the one-process order (tq/water/wet_part.hpp); null in one process.
+  // sums taken in the one-process order on every part (tq/water/wet_part.hpp); null in one process.
   const WetPart* part = nullptr;
   // The whole wetted face's nodes in the mesh the geometry is built on (one process: `nodes`).
   std::vector<Index> geo;
@@ -36,9 +36,13 @@ struct CarriedWater::Impl {
   std::vector<Real> force;  // [3n] N: the carried pressure's force added this step
   Real volumeWork = 0, dtPrev = 0;
   bool openEnds = false;
-  size_t jFirst = 0, jLast = 0;      // open ends: the stations whose pressure the law sets (not at a reservoir)
-  size_t S = 1;                      // stations
-  std::vector<size_t> station;       // [n] the station of each wet node
+  size_t jFirst = 0, jLast = 0;  // open ends: the stations whose pressure the law sets (not at a reservoir)
+  size_t S = 1;                  // stations
+  std::vector<size_t> station;   // [n] the station of each wet node
+  // The whole face's stations, area vectors and in-section positions (one process: station, g, r):
+  // what a sum's add() and a frontier copy's carried force read, on every part.
+  std::vector<size_t> stationW;
+  std::vector<Real> gW, rW;
   std::vector<Real> Vs, compliance;  // [S] m³, and V_j/K (0: incompressible) in m³/Pa
   // Open ends: segment j joins stations j and j+1, Q̇_j = cAx_j (p_j − p_{j+1}) with cAx = A/(ρ h);
   // Q [S−1] the axial flux at t^{n−½} (m³/s), W [S] the volume that has left each station (m³).
@@ -61,8 +65,8 @@ struct CarriedWater::Impl {
   int modes = 0;
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
   // Work space of the laws (per station).
-  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, workSum;
-  PendingWetWork pending;  // on a part: each step's work terms, booked in step order by flushWork()
+  mutable std::vector<Real> sums, alpha, beta, sPrime, suPrime, pScratch, lamScratch, tri, moments, motionMoments;
+  PendingWetWork pending;  // on a part: each step's work terms, booked in step order by flushWetWork()
 
   Impl(const Solver& s, const CouplingInput& ci, std::vector<Index> wet)
       : solver(s), in(ci), wall(s, std::move(wet)), nodes(wall.nodes()) {}
@@ -173,6 +177,8 @@ struct CarriedWater::Impl {
       r[2 * k + 1] = x(geo[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
     }
     buildProjection();
+    stationW = station;
+    if (part) gW = g, rW = r;
     if (part) {  // the geometry of this part's nodes only
       std::vector<Real> gp, rp;
       std::vector<size_t> sp;
@@ -207,34 +213,60 @@ struct CarriedWater::Impl {
   /// Each station's translation is eliminated first (λ_j = α_j + β_j p_j), which leaves one equation in
   /// p for a closed section, and a tridiagonal system in the interior stations' p for open ends.
   /// Writes p [S] and λ [2S] (the work space when null).
-  void applyCarriedLaws(Real dt, const Real* v, WallMotion& m, Real* pOut, Real* lamOut) const {
+  /// On a part with feAlong (the f_ext of this process's nodes) every node's f_ext travels with the
+  /// sums' terms (sumOverWetNodes: WetPart::whole holds them after).
+  void applyCarriedLaws(Real dt, const Real* v, WallMotion& m, Real* pOut, Real* lamOut,
+                        const Real* feAlong = nullptr) const {
     std::vector<Real>&du = m.disp, &dv = m.vel;
     const std::vector<Real>&respU = m.respU, &respV = m.respV;
     if (!pOut) pOut = pScratch.data();
     if (!lamOut) lamOut = lamScratch.data();
     std::fill(sums.begin(), sums.end(), 0.0);
-    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0; then SU of all stations
-    foldOverWetNodes(part, nodes.size(), sums, [&](size_t k) {
-      Real* s = &sums[12 * station[k]];
-      Real qU = 0, qV = 0, gdv = 0;
-      for (int d = 0; d < 3; ++d) {
-        const size_t j = 3 * k + size_t(d);
-        s[0] += g[j] * du[j];
-        qU += g[j] * g[j] * respU[j];
-        qV += g[j] * g[j] * respV[j];
-        gdv += g[j] * (dv[j] - v[dofIndex(nodes[k], d)]);
-      }
-      s[1] += qU;
-      sums[12 * S] += qU;
-      if (!translation) return;
-      for (int a = 0; a < 2; ++a) {
-        const Real ra = r[2 * k + size_t(a)];
-        s[2 + a] += qU * ra;
-        s[4 + a] += qV * ra;
-        s[10 + a] += ra * gdv;
-        for (int b = 0; b < 2; ++b) s[6 + 2 * a + b] += qV * ra * r[2 * k + size_t(b)];
-      }
-    });
+    // per station: 0 s*, 1 SU, 2–3 SUr, 4–5 SVr, 6–9 SVrr, 10–11 a0; then SU of all stations. A node's
+    // terms: g·du by dof (3), qU, then with the translation qU r (2), qV r (2), r g·Δv (2), qV r r (4);
+    // then, with feAlong, the node's f_ext (3: the frontier's copies take it, addForces).
+    const size_t width = (translation ? 14 : 4) + (feAlong ? 3 : 0);
+    sumOverWetNodes(
+        part, nodes.size(), width,
+        [&](size_t k, Real* t) {
+          Real qU = 0, qV = 0, gdv = 0;
+          for (int d = 0; d < 3; ++d) {
+            const size_t j = 3 * k + size_t(d);
+            t[d] = g[j] * du[j];
+            qU += g[j] * g[j] * respU[j];
+            qV += g[j] * g[j] * respV[j];
+            gdv += g[j] * (dv[j] - v[dofIndex(nodes[k], d)]);
+          }
+          t[3] = qU;
+          Real* e = t + 4;
+          if (translation) {
+            for (int a = 0; a < 2; ++a) {
+              const Real ra = r[2 * k + size_t(a)];
+              t[4 + a] = qU * ra;
+              t[6 + a] = qV * ra;
+              t[8 + a] = ra * gdv;
+              for (int b = 0; b < 2; ++b) t[10 + 2 * a + b] = qV * ra * r[2 * k + size_t(b)];
+            }
+            e = t + 14;
+          }
+          if (feAlong)
+            for (int d = 0; d < 3; ++d) e[d] = feAlong[dofIndex(nodes[k], d)];
+        },
+        [&](size_t k, const Real* t) {
+          Real* s = &sums[12 * stationW[k]];
+          s[0] += t[0];
+          s[0] += t[1];
+          s[0] += t[2];
+          s[1] += t[3];
+          sums[12 * S] += t[3];
+          if (!translation) return;
+          for (int a = 0; a < 2; ++a) {
+            s[2 + a] += t[4 + a];
+            s[4 + a] += t[6 + a];
+            s[10 + a] += t[8 + a];
+            for (int b = 0; b < 2; ++b) s[6 + 2 * a + b] += t[10 + 2 * a + b];
+          }
+        });
     if (!(sums[12 * S] > 0)) {
       std::fill(pOut, pOut + S, 0.0);
       std::fill(lamOut, lamOut + 2 * S, 0.0);
@@ -290,9 +322,31 @@ struct CarriedWater::Impl {
   }
 
   /// The carried pressure at wet node k for station pressures p and resultants λ.
-  Real carried(size_t k, const Real* p, const Real* l) const {
-    const size_t j = station[k];
-    return translation ? p[j] + (r[2 * k] * l[2 * j] + r[2 * k + 1] * l[2 * j + 1]) / Vs[j] : p[j];
+  Real carried(size_t k, const Real* p, const Real* l) const { return carriedAt(station, r, k, p, l); }
+  /// The same at node k of a face whose stations and in-section positions are st, rr.
+  Real carriedAt(const std::vector<size_t>& st, const std::vector<Real>& rr, size_t k, const Real* p,
+                 const Real* l) const {
+    const size_t j = st[k];
+    return translation ? p[j] + (rr[2 * k] * l[2 * j] + rr[2 * k + 1] * l[2 * j + 1]) / Vs[j] : p[j];
+  }
+
+  /// A part's frontier copies of wet nodes owned by other parts, after the step's sums (with feAlong):
+  /// each copy's f_ext is its owner's when the sums' terms were taken, plus, where the node moves, the
+  /// carried force the owner adds, computed alike; so the copies stay bitwise their owner's without a
+  /// message of their own.
+  void setCopies(NodalState& st) const {
+    const size_t width = (translation ? 14 : 4) + 3;
+    Real* fe = st.fExtData();
+    for (const auto& [l, k] : part->copies) {
+      const Real* owner = part->whole.data() + width * k + (width - 3);
+      const bool moves = st.mass(l) > 0;
+      const Real pc = moves ? carriedAt(stationW, rW, k, ps.data(), lam.data()) : 0.0;
+      for (int d = 0; d < 3; ++d) {
+        const size_t i = dofIndex(l, d);
+        fe[i] = owner[d];
+        if (moves) fe[i] += pc * gW[3 * k + size_t(d)];
+      }
+    }
   }
 
   /// Open ends: the axial plug flow moves on with this step's station pressures.
@@ -356,36 +410,65 @@ struct CarriedWater::Impl {
   /// With the volume law the exchange leaves the carried modes to the solid: a motion sent loses them
   /// (P u: no volume change, and no translation of the water), a force read loses what would work on
   /// them (Pᵀ F: no work on a volume change or a rigid translation; its resultant goes to the solid).
-  void projectMotion(std::vector<Real>& x) const {
-    std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
-    moments.assign(3 * S, 0.0);
-    foldOverWetNodes(part, nodes.size(), moments, [&](size_t k) {
-      Real* m = &moments[3 * station[k]];
-      for (int d = 0; d < 3; ++d) {
-        const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
-        m[0] += gv * xv;
-        if (modes == 3) m[1] += r[2 * k] * gv * xv / Vs[station[k]], m[2] += r[2 * k + 1] * gv * xv / Vs[station[k]];
+  /// Several motions at once (the fields written): their sums in one gather, each projected as alone.
+  void projectMotions(const std::vector<std::vector<Real>*>& xs) const {
+    // a motion's terms at a node, by dof: g·x, and with the translation r g·x / V (2)
+    const size_t w = size_t(modes), nf = xs.size();
+    motionMoments.assign(nf * 3 * S, 0.0);
+    sumOverWetNodes(
+        part, nodes.size(), 3 * w * nf,
+        [&](size_t k, Real* t) {
+          for (const std::vector<Real>* xp : xs) {
+            const std::vector<Real>& x = *xp;
+            for (int d = 0; d < 3; ++d) {
+              const Real xv = x[3 * k + size_t(d)], gv = g[3 * k + size_t(d)];
+              Real* td = t + w * size_t(d);
+              td[0] = gv * xv;
+              if (modes == 3)
+                td[1] = r[2 * k] * gv * xv / Vs[station[k]], td[2] = r[2 * k + 1] * gv * xv / Vs[station[k]];
+            }
+            t += 3 * w;
+          }
+        },
+        [&](size_t k, const Real* t) {
+          for (size_t f = 0; f < nf; ++f, t += 3 * w) {
+            Real* m = &motionMoments[3 * S * f + 3 * stationW[k]];
+            for (int d = 0; d < 3; ++d)
+              for (size_t a = 0; a < w; ++a) m[a] += t[w * size_t(d) + a];
+          }
+        });
+    for (size_t f = 0; f < nf; ++f) {
+      std::vector<Real>& x = *xs[f];
+      std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);  // m [3S], then c [3S]
+      std::copy_n(motionMoments.begin() + long(3 * S * f), 3 * S, sums.begin());
+      for (size_t j = 0; j < S; ++j)
+        for (int a = 0; a < modes; ++a)
+          for (int b = 0; b < modes; ++b)
+            sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
+      for (size_t k = 0; k < nodes.size(); ++k) {
+        const Real* c = &sums[3 * (S + station[k])];
+        for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
+        if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
       }
-    });
-    std::copy(moments.begin(), moments.end(), sums.begin());
-    for (size_t j = 0; j < S; ++j)
-      for (int a = 0; a < modes; ++a)
-        for (int b = 0; b < modes; ++b)
-          sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      const Real* c = &sums[3 * (S + station[k])];
-      for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
-      if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
     }
   }
   void projectForce(std::vector<Real>& f) const {
     std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);
     moments.assign(3 * S, 0.0);
-    foldOverWetNodes(part, nodes.size(), moments, [&](size_t k) {
-      Real* m = &moments[3 * station[k]];
-      for (int d = 0; d < 3; ++d) m[0] += g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
-      if (modes == 3) m[1] += f[3 * k], m[2] += f[3 * k + 2];
-    });
+    // a node's terms: g·f by dof (3), and with the translation f_x, f_z
+    sumOverWetNodes(
+        part, nodes.size(), modes == 3 ? 5 : 3,
+        [&](size_t k, Real* t) {
+          for (int d = 0; d < 3; ++d) t[d] = g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
+          if (modes == 3) t[3] = f[3 * k], t[4] = f[3 * k + 2];
+        },
+        [&](size_t k, const Real* t) {
+          Real* m = &moments[3 * stationW[k]];
+          m[0] += t[0];
+          m[0] += t[1];
+          m[0] += t[2];
+          if (modes == 3) m[1] += t[3], m[2] += t[4];
+        });
     std::copy(moments.begin(), moments.end(), sums.begin());
     for (size_t j = 0; j < S; ++j)
       for (int a = 0; a < modes; ++a)  // Cᵀ⁻¹ = (C⁻¹)ᵀ
@@ -432,12 +515,16 @@ std::string CarriedWater::name() const { return "water carried by the solid on '
 void CarriedWater::addForces(Real /*t*/, Real dt, NodalState& st) {
   Impl& I = *impl_;
   I.wall.predict(dt, st, nullptr, I.scratch, true);
-  I.applyCarriedLaws(dt, st.vData(), I.scratch, I.ps.data(), I.lam.data());
+  // With frontier copies of wet nodes, each node's f_ext (the exchanged force added) goes with the sums'
+  // terms, and a copy's f_ext is set from its owner's.
+  const bool along = I.part && I.part->copiesAnywhere;
+  I.applyCarriedLaws(dt, st.vData(), I.scratch, I.ps.data(), I.lam.data(), along ? st.fExtData() : nullptr);
   I.advanceAxialFlow(dt);
   Real* fe = st.fExtData();
+  if (along) I.setCopies(st);
   const Real* v = st.vData();
   std::fill(I.force.begin(), I.force.end(), 0.0);
-  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWork()).
+  // The work of the moving dofs, in the order of the wet nodes (on a part: kept for flushWetWork()).
   Real pc = 0, pcPrev = 0;  // the node's carried pressure now and a step before
   I.pending.bookStep(
       I.part, I.nodes.size(), [&](size_t k) { return st.mass(I.nodes[k]) > 0; },
@@ -466,10 +553,7 @@ void CarriedWater::checkpoint(StateArchive& a) {
   if (I.part) I.pending.checkpoint(a);  // the steps whose work is not booked yet
 }
 
-void CarriedWater::flushWork() {
-  Impl& I = *impl_;
-  if (I.part) I.pending.flush(*I.part, I.workSum, I.volumeWork);
-}
+WetWorkBook CarriedWater::workBook() { return {&impl_->pending, &impl_->volumeWork}; }
 
 bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {
   return lowerToFinestLevel(level, impl_->nodes);
@@ -478,7 +562,8 @@ bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {
 void CarriedWater::correct(Real dt, const NodalState& st, WallMotion& m) const {
   impl_->applyCarriedLaws(dt, st.vData(), m, nullptr, nullptr);
 }
-void CarriedWater::projectMotion(std::vector<Real>& x) const { impl_->projectMotion(x); }
+void CarriedWater::projectMotion(std::vector<Real>& x) const { impl_->projectMotions({&x}); }
+void CarriedWater::projectMotions(const std::vector<std::vector<Real>*>& xs) const { impl_->projectMotions(xs); }
 void CarriedWater::projectForce(std::vector<Real>& f) const { impl_->projectForce(f); }
 
 const std::vector<Index>& CarriedWater::nodes() const { return impl_->nodes; }

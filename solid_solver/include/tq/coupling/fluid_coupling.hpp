@@ -90,8 +90,8 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// part of the coupler's participant (Participant::setPart) with its own connection to the water:
   /// `nodes` its nodes in `solver` (in the order of part.places), `ids` their global indices (the
   /// interface's ids); `water` the carried laws on the same part. Every sum over the wet nodes is
-  /// folded over the parts in the one-process order, so each protocol part and addForces are
-  /// collective. The coincident map only (InputError otherwise). `part` outlives it.
+  /// taken in the one-process order on every part (sumOverWetNodes), so each protocol part that sums
+  /// is collective. The coincident map only (InputError otherwise). `part` outlives it.
   FluidCoupling(Solver& solver, const CouplingInput& in, const CarriedWater* water, const WetPart& part,
                 std::vector<Index> nodes, std::vector<std::int64_t> ids);
   ~FluidCoupling() override;  ///< without finalize(): tells the fluid this side stopped (ABORT)
@@ -126,10 +126,10 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   /// The adapter's own step state (the force of the window's steps, its work booking); not the
   /// iteration's data (the force being iterated and the pass count), which survive a restore.
   void checkpoint(StateArchive& archive) override;
-  /// On a part (MPI ranks): the work of the steps since the last call booked, each step's sum over
-  /// the parts in the one-process order (collective; the steps' terms are kept until then, so a step
-  /// costs no message for it); before fluidWork() is read. Nothing in one process (booked each step).
-  void flushWork();
+  /// On a part (MPI ranks): the work terms of the steps not booked yet and the work they go to
+  /// (flushWetWork(), before fluidWork() is read: the steps' terms are kept until then, so a step costs
+  /// no message for them); in one process none are kept (each step books its own).
+  WetWorkBook workBook();
   /// Restart checkpoints (tq/io/restart.hpp): at a window's end, the adapter's state across windows
   /// (the last windows' forces and motions, the predictor's history, the energy bookkeeping, the
   /// counters) and the coupler participant's bytes (Participant::saveState); restored before

@@ -7,14 +7,16 @@
 ///        solver. The water checks that the parts cover the face once each and decides on the whole
 ///        face (convergence, acceleration, window by window), as with one process. The sums over the
 ///        wet nodes (the volume law's, its projections', the works that the energy guard reads) are
-///        folded across the ranks in the one-process order (tq/water/wet_part.hpp), so every decision
-///        and every value is bitwise that of one process. No rank holds the whole face's state.
+///        taken in the one-process order on every rank, from every node's terms gathered in one
+///        collective (tq/water/wet_part.hpp), so every decision and every value is bitwise that of
+///        one process. No rank holds the whole face's state.
 ///
 /// Each rank's RankedCoupling is a contributor of its solver (ForcePhase::Water, in place of the
 /// adapter and the carried laws of the one-process run) and the WindowCoupling CoupledStepper runs:
 /// every call is collective; an error one rank meets is thrown on every rank (the lowest such rank's
-/// message). After the step's water force the owner of a wet node on a partition boundary sends its
-/// f_ext to the other ranks that hold it (their copies stay bitwise equal). On one rank it is the
+/// message). After the step's water force the other ranks that hold a wet node on a partition
+/// boundary take its owner's f_ext (their copies stay bitwise equal): with the carried laws it comes
+/// with the step's gather of their sums, else in a message from the owner. On one rank it is the
 /// one-process run: the adapter on the rank's own solver, no messages.
 #pragma once
 
@@ -47,7 +49,7 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   /// pressures and counters are the whole face's, alike on every rank; nodes() and force() the part's.
   FluidCoupling* adapter();
   const CarriedWater* water() const;
-  /// Collective, before a results sample: the works booked (FluidCoupling::flushWork); the wet nodes'
+  /// Collective, before a results sample: the works booked (flushWetWork); the wet nodes'
   /// force last added (the exchanged one and the carried pressure's) gathered on rank 0 in the order
   /// of wetNodeList(), and their mass as the ranks sum it set on rank 0's `view` (the whole-model
   /// mirror the results are written from; null elsewhere). Results only: gathered as the rest of the
@@ -60,18 +62,18 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   Index partNodes() const;
   /// Rank 0: every rank's part node count, in rank order (they add up to wetNodes()).
   std::vector<Index> partCounts() const;
-  /// The runs of the face's node list each held by one rank: a folded sum passes from rank to rank
-  /// runs − 1 times, then goes to every rank (1 on one rank).
-  Index foldRuns() const;
 
   /// The same on every rank.
   Real endTime() const { return endTime_; }
   long long windowCount() const { return windows_; }
   bool ongoing() const { return done_ < windows_; }
   Index wetNodes() const { return Index(wet_.size()); }
-  /// Seconds this rank spent in the coupling's messages between the ranks (the folded sums, the
+  /// Seconds this rank spent in the coupling's messages between the ranks (the sums' gathers, the
   /// frontier's force, the errors agreed; waiting for the other ranks included).
   double secondsCommunicating() const { return secondsComm_; }
+  /// Of them, the sums' gathers (WetPart::gather), and how many.
+  double secondsSumming() const { return secondsSums_; }
+  long long sumsGathered() const { return sums_; }
 
   // ---- as a contributor (ForcePhase::Water) of this rank's solver -------------------------------
   std::string name() const override;
@@ -112,7 +114,8 @@ class RankedCoupling final : public NodalForceContributor, public WindowCoupling
   Index steps_ = 1;
   Real endTime_ = 0;
   long long windows_ = 0, done_ = 0;
-  double secondsComm_ = 0;
+  double secondsComm_ = 0, secondsSums_ = 0;
+  long long sums_ = 0;
 };
 
 }  // namespace tq

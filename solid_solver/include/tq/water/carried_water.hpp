@@ -39,7 +39,7 @@ class CarriedWater final : public NodalForceContributor {
   CarriedWater(const Solver& solver, const CouplingInput& in);
   /// On MPI ranks: the laws on this rank's part of the wetted face (`nodes`: its nodes in `solver`,
   /// in the order of part.places), their geometry from the `whole` mesh's face, every sum over the
-  /// wet nodes folded over the parts in the one-process order (tq/water/wet_part.hpp): each call
+  /// wet nodes taken in the one-process order on every part (tq/water/wet_part.hpp): each call
   /// that sums (addForces, correct, projectMotion, projectForce) is collective. `part` outlives it.
   CarriedWater(const Solver& solver, const CouplingInput& in, const Mesh& whole, const WetPart& part,
                std::vector<Index> nodes);
@@ -53,9 +53,9 @@ class CarriedWater final : public NodalForceContributor {
   /// The step state: the stations' pressures and resultants of the last two steps, the axial
   /// flow's integrators, the work, the force added, the reference u0.
   void checkpoint(StateArchive& archive) override;
-  /// On a part: the work of the steps since the last call booked, each step's sum over the parts in
-  /// the one-process order (collective); before work() is read. Nothing in one process.
-  void flushWork();
+  /// On a part: the work terms of the steps not booked yet and the work they go to (flushWetWork(),
+  /// before work() is read); in one process none are kept (each step books its own).
+  WetWorkBook workBook();
   /// Subcycling: the wet nodes step every fine step.
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
 
@@ -65,6 +65,9 @@ class CarriedWater final : public NodalForceContributor {
   void correct(Real dt, const NodalState& st, WallMotion& m) const;
   /// The motion the water sees: less the carried modes (no volume change, no translation).
   void projectMotion(std::vector<Real>& x) const;
+  /// The same for several motions (the fields written), each as projectMotion() projects it alone; on
+  /// a part their sums in one gather.
+  void projectMotions(const std::vector<std::vector<Real>*>& xs) const;
   /// The water's force kept: less what would work on the carried modes.
   void projectForce(std::vector<Real>& f) const;
 
