@@ -152,9 +152,15 @@ def callgrind(config: str, exe: Path, baseline: Path, inp: Path, folder: Path, t
         proc = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, env={**os.environ, "OMP_NUM_THREADS": "1"})
     if proc.returncode != 0:
         raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}\n{log.read_text()[-3000:]}")
-    outs = sorted(folder.glob(prefix.name + "-*")) or ([prefix] if prefix.is_file() else [])  # a file a thread
+    return collect(prefix, res)
+
+
+def collect(prefix: Path, res: Path) -> dict:
+    """The figures of one callgrind run from its output files (`prefix`, a file a thread) and its
+    results file."""
+    outs = sorted(prefix.parent.glob(prefix.name + "-*")) or ([prefix] if prefix.is_file() else [])
     if not outs:
-        raise SystemExit(f"no callgrind output for {' '.join(cmd)}")
+        raise SystemExit(f"no callgrind output {prefix}")
     events: dict[str, int] = {}
     for o in outs:
         for k, v in _events(o).items():
@@ -177,6 +183,12 @@ def instructions(name: str, inputs: list[Path], exe: Path, baseline: Path, folde
             runs[c].append(r)
             print(f"{name} length {i}: {c}: {r['ir']:,} instructions ({r['threads']} thread(s); main thread "
                   f"{r['main_thread_ir']:,}; flushes {r['flush_ir']:,}), {r['steps']} steps", flush=True)
+    return summarize(name, runs, cache_sim)
+
+
+def summarize(name: str, runs: dict[str, list[dict]], cache_sim: bool) -> dict:
+    """A step's events and the start-up's instructions of each configuration from its two runs
+    (`callgrind`'s), and their ratios to the baseline's."""
     out: dict = {"runs": runs, "configs": {}}
     for c in CONFIGS:
         a, b = runs[c]
@@ -197,11 +209,16 @@ def instructions(name: str, inputs: list[Path], exe: Path, baseline: Path, folde
         extra = ""
         if cache_sim:
             extra = "; misses a step " + ", ".join(
-                f"{k} {v:,.0f} ({d['events_ratio'][k]:.4f})" for k, v in d["step_events"].items() if k not in ("Ir", "Dr", "Dw"))
+                f"{k} {v:,.0f} ({_fmt(d['events_ratio'][k])})" for k, v in d["step_events"].items()
+                if k not in ("Ir", "Dr", "Dw"))
         print(f"{name}: {c}: {d['step_ir']:,.0f} instructions a step ({d['step_ratio']:.5f} of the baseline; "
               f"flushes included {d['step_ratio_with_flushes']:.5f}), start-up {d['start_ir']:,.0f} "
               f"({d['start_ratio']:.4f}){extra}", flush=True)
     return out
+
+
+def _fmt(ratio: float | None) -> str:
+    return "n/a" if ratio is None else f"{ratio:.4f}"
 
 
 def cpu_rounds(inp: Path, exe: Path, baseline: Path, folder: Path, rounds: int) -> dict:
