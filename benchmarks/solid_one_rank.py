@@ -3,7 +3,7 @@
 test).
 
 usage: PYTHONPATH=scripts:. python -m benchmarks.solid_one_rank FOLDER --baseline EXE
-           [--inputs box,slice] [--box-n 40] [--box-steps 5,15] [--slice-end 0.005,0.02]
+           [--inputs box,slice] [--box-n 40] [--box-steps 5,15] [--slice-end 0.005,0.05]
            [--cache-sim] [--rounds 7] [--round-steps 600] [--json FILE]
 
 Three configurations, each with one thread:
@@ -267,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--inputs", default="box,slice", help="what callgrind counts: box, slice, or none ('')")
     ap.add_argument("--box-n", type=int, default=40)
     ap.add_argument("--box-steps", default="5,15", help="the box's two lengths, steps")
-    ap.add_argument("--slice-end", default="0.005,0.02", help="the slice's two lengths, seconds of the record")
+    ap.add_argument("--slice-end", default="0.005,0.05", help="the slice's two lengths, seconds of the record")
     ap.add_argument("--cache-sim", action="store_true")
     ap.add_argument("--rounds", type=int, default=7, help="CPU-time rounds on the box (0: none)")
     ap.add_argument("--round-steps", type=int, default=600)
