@@ -126,8 +126,9 @@ def test_estimate_predicts_the_cpu_seconds_of_a_case_unlike_the_example(tmp_path
     hours before gave 0.68 to 1.10 of the estimate (2026-11-29, the 2-core VM at load 7-9, alone
     and beside a busy loop). So each of ESTIMATE_ROUNDS rounds runs the two lengths (in alternated
     order) with the probe between them, and the ratio is the median of the rounds' ratios, each at
-    its own probe: the estimate and the run measured at one speed of the machine (5 runs in a row,
-    the same machine and load: 0.887 / 0.899 / 0.947 alone, 0.825 / 0.824 beside a busy loop)."""
+    its own probe: the estimate and the run measured at one speed of the machine (7 runs, the same
+    machine, load 7-10: 0.887 / 0.899 / 0.947 / 0.921 alone, 0.825 / 0.824 / 0.903 beside a busy
+    loop)."""
     import statistics
 
     from tunnelquake.case import load_case
