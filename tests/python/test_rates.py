@@ -112,21 +112,46 @@ def _solid_cpu(case_yaml) -> float:
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+#: rounds of the estimate's check against a real run: each the two lengths and the probe beside them
+ESTIMATE_ROUNDS = 3
+
+
 def test_estimate_predicts_the_cpu_seconds_of_a_case_unlike_the_example(tmp_path):
     """The solid-only condition of the pressure tunnel, 0.6 s of shaking against 0.05 s (the
     difference takes the start and the static stages off): the CPU seconds tq-solid took for the
-    0.55 s between them within 30 % of what the estimate, at this machine's probe, says of them."""
+    0.55 s between them within 30 % of what the estimate says of them at the probe's CPU seconds.
+
+    The VM's speed drifts by 10-25 % over seconds and with the other work on it, and CPU seconds
+    follow it (caches, a busy sibling core): one difference of two runs against the probe cached
+    hours before gave 0.68 to 1.10 of the estimate (2026-11-29, the 2-core VM at load 7-9, alone
+    and beside a busy loop). So each of ESTIMATE_ROUNDS rounds runs the two lengths (in alternated
+    order) with the probe between them, and the ratio is the median of the rounds' ratios, each at
+    its own probe: the estimate and the run measured at one speed of the machine (7 runs, the same
+    machine, load 7-10: 0.887 / 0.899 / 0.947 / 0.921 alone, 0.825 / 0.824 / 0.903 beside a busy
+    loop)."""
+    import statistics
+
     from tunnelquake.case import load_case
     from tunnelquake.scene import runtime_estimate
 
     short, long_ = _pressure_tunnel(tmp_path / "short", 0.05), _pressure_tunnel(tmp_path / "long", 0.6)
-    measured = _solid_cpu(long_) - _solid_cpu(short)
-    rates = R.machine_rates()
-    est = (runtime_estimate(load_case(long_), rates=rates).cpu["no_water"]
-           - runtime_estimate(load_case(short), rates=rates).cpu["no_water"])
-    assert measured > 0
-    print(f"estimate {est:.3f} CPU s, measured {measured:.3f} CPU s, ratio {est / measured:.3f}")
-    assert abs(est / measured - 1) < 0.30, (est, measured, rates)
+    cases = {short: load_case(short), long_: load_case(long_)}
+    ratios = []
+    for r in range(ESTIMATE_ROUNDS):
+        first, second = (short, long_) if r % 2 == 0 else (long_, short)
+        cpu = {first: _solid_cpu(first)}
+        rates = R.MachineRates(R.measure(runs=1), R.processor(), "measured beside the runs")
+        cpu[second] = _solid_cpu(second)
+        measured = cpu[long_] - cpu[short]
+        assert measured > 0
+        est = (runtime_estimate(cases[long_], rates=rates).cpu["no_water"]
+               - runtime_estimate(cases[short], rates=rates).cpu["no_water"])
+        ratios.append(est / measured)
+        print(f"round {r + 1}: probe {rates.probe_s:.3f} CPU s, estimate {est:.3f} CPU s, measured "
+              f"{measured:.3f} CPU s ({cpu[long_]:.3f} - {cpu[short]:.3f}), ratio {est / measured:.3f}")
+    ratio = statistics.median(ratios)
+    print(f"median ratio {ratio:.3f}")
+    assert abs(ratio - 1) < 0.30, ratios
 
 
 def test_no_probe_no_estimate_and_a_slurm_task_gets_a_day_saying_why(monkeypatch):
