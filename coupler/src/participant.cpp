@@ -72,6 +72,55 @@ double meshTolerance(const CouplingConfig& c, const std::string& mesh) {
     if (m.name == mesh) return m.tolerance;
   return 0.0;
 }
+
+/// A node of a partner in parts that pairs with one of mine: its part, its index in that part's
+/// mesh, and the index of my node.
+struct PartPair {
+  std::uint32_t part;
+  std::size_t theirs, mine;
+};
+
+/// The nodes of the partner's parts (their HELLOs, in part order) on mesh `mesh` that pair with my
+/// nodes `own` by the coincident map within `tol`, in part order, then node order. Each of my nodes
+/// belongs to one part: one paired by two parts is written to `bad`, naming the node, both parts
+/// and my node. `holder[o]` is the part that pairs my node o, −1 for none.
+std::vector<PartPair> pairWithParts(const MeshVertices& own, const std::vector<Hello>& parts, const std::string& mesh,
+                                    double tol, const std::string& me, std::vector<int>& holder, std::ostream& bad) {
+  std::vector<PartPair> out;
+  holder.assign(own.ids.size(), -1);
+  std::vector<std::int64_t> heldAs(own.ids.size(), 0);
+  for (std::uint32_t q = 0; q < parts.size(); ++q)
+    for (const auto& pm : parts[q].meshes) {
+      if (pm.name != mesh) continue;
+      const std::vector<long> pair = coincidentWith(own.coordinates, pm.coordinates, tol);
+      for (std::size_t i = 0; i < pm.ids.size(); ++i) {
+        if (pair[i] < 0) continue;  // another part of mine holds it, or none (said where it matters)
+        const auto o = std::size_t(pair[i]);
+        if (holder[o] >= 0)
+          bad << "\n  - mesh '" << mesh << "': node " << pm.ids[i] << " is in part " << holder[o] << " (as node "
+              << heldAs[o] << ") and in part " << q << " (each node belongs to one part; node " << own.ids[o] << " of '"
+              << me << "')";
+        holder[o] = int(q);
+        heldAs[o] = pm.ids[i];
+        out.push_back({q, i, o});
+      }
+    }
+  return out;
+}
+
+/// Appends node `i` of `from` (its id and coordinates) to `to`.
+void appendNode(MeshVertices& to, const MeshVertices& from, std::size_t i) {
+  to.ids.push_back(from.ids[i]);
+  to.coordinates.insert(to.coordinates.end(), from.coordinates.begin() + std::ptrdiff_t(3 * i),
+                        from.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
+}
+
+/// The mesh named `name` of a HELLO (there is one when the meshes matched).
+const MeshVertices* meshNamed(const Hello& h, const std::string& name) {
+  for (const auto& pm : h.meshes)
+    if (pm.name == name) return &pm;
+  return nullptr;
+}
 }  // namespace
 
 std::string partAddressFile(const std::string& addressFile, std::uint32_t part) {
@@ -436,32 +485,16 @@ void Participant::runAcceptor(Deadline deadline) {
       const auto it = meshes_.find(m.name);
       if (it == meshes_.end()) continue;
       const MeshVertices& own = it->second->own;
-      std::vector<int> holder(own.ids.size(), -1);
-      std::vector<std::int64_t> heldAs(own.ids.size(), 0);
+      std::vector<int> holder;
       auto& nodes = partNodes_[m.name];
       nodes.assign(expected, {});
       MeshVertices merged;
       merged.name = m.name;
-      for (std::uint32_t q = 0; q < expected; ++q)
-        for (const auto& pm : hellos[q].meshes) {
-          if (pm.name != m.name) continue;
-          const std::vector<long> pair =
-              coincidentWith(own.coordinates, pm.coordinates, meshTolerance(config_, m.name));
-          for (std::size_t i = 0; i < pm.ids.size(); ++i) {
-            if (pair[i] < 0) continue;  // another part of mine holds it (or none: that part says so)
-            const auto o = std::size_t(pair[i]);
-            if (holder[o] >= 0)
-              bad << "\n  - mesh '" << m.name << "': node " << pm.ids[i] << " is in part " << holder[o] << " (as node "
-                  << heldAs[o] << ") and in part " << q << " (each node belongs to one part; node " << own.ids[o]
-                  << " of '" << name_ << "')";
-            holder[o] = int(q);
-            heldAs[o] = pm.ids[i];
-            nodes[q].push_back(merged.ids.size());
-            merged.ids.push_back(pm.ids[i]);
-            merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin() + std::ptrdiff_t(3 * i),
-                                      pm.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
-          }
-        }
+      for (const PartPair& pp :
+           pairWithParts(own, hellos, m.name, meshTolerance(config_, m.name), name_, holder, bad)) {
+        nodes[pp.part].push_back(merged.ids.size());
+        appendNode(merged, *meshNamed(hellos[pp.part], m.name), pp.theirs);
+      }
       for (std::size_t o = 0; o < own.ids.size(); ++o)
         if (holder[o] < 0)
           bad << "\n  - mesh '" << m.name << "': node " << own.ids[o] << " of '" << name_ << "' is in no part of '"
@@ -621,39 +654,23 @@ void Participant::runConnector(Deadline deadline) {
       if (it == meshes_.end()) continue;
       // where each of my nodes is: the part holding the node that pairs with it (one only)
       const MeshVertices& own = it->second->own;
-      std::vector<int> holder(own.ids.size(), -1);
-      std::vector<std::int64_t> heldAs(own.ids.size(), 0);
+      std::vector<int> holder;
       auto& nodes = partNodes_[m.name];
       nodes.assign(h.parts, {});
       MeshVertices merged;  // the union, in part order (this side in parts: the nodes paired with mine)
       merged.name = m.name;
-      for (std::uint32_t r = 0; r < h.parts; ++r) {
-        for (const auto& pm : parts[r].meshes) {
-          if (pm.name != m.name) continue;
-          const std::vector<long> pair =
-              coincidentWith(own.coordinates, pm.coordinates, meshTolerance(config_, m.name));
-          if (parts_ == 1) {
+      if (parts_ == 1)
+        for (const Hello& part : parts)
+          if (const MeshVertices* pm = meshNamed(part, m.name)) {
             const auto base = std::int32_t(merged.ids.size());
-            merged.ids.insert(merged.ids.end(), pm.ids.begin(), pm.ids.end());
-            merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin(), pm.coordinates.end());
-            for (auto t : pm.triangles) merged.triangles.push_back(base + t);
+            merged.ids.insert(merged.ids.end(), pm->ids.begin(), pm->ids.end());
+            merged.coordinates.insert(merged.coordinates.end(), pm->coordinates.begin(), pm->coordinates.end());
+            for (auto t : pm->triangles) merged.triangles.push_back(base + t);
           }
-          for (std::size_t i = 0; i < pm.ids.size(); ++i) {
-            if (pair[i] < 0) continue;  // a node without a partner: the coincident check names it
-            const auto o = std::size_t(pair[i]);
-            if (holder[o] >= 0)
-              bad << "\n  - mesh '" << m.name << "': node " << pm.ids[i] << " is in part " << holder[o] << " (as node "
-                  << heldAs[o] << ") and in part " << r << " (each node belongs to one part)";
-            holder[o] = int(r);
-            heldAs[o] = pm.ids[i];
-            if (parts_ > 1) {
-              merged.ids.push_back(pm.ids[i]);
-              merged.coordinates.insert(merged.coordinates.end(), pm.coordinates.begin() + std::ptrdiff_t(3 * i),
-                                        pm.coordinates.begin() + std::ptrdiff_t(3 * i + 3));
-            }
-          }
-        }
-      }
+      const std::vector<PartPair> pairs =
+          pairWithParts(own, parts, m.name, meshTolerance(config_, m.name), name_, holder, bad);
+      if (parts_ > 1)
+        for (const PartPair& pp : pairs) appendNode(merged, *meshNamed(parts[pp.part], m.name), pp.theirs);
       for (std::size_t i = 0; i < own.ids.size(); ++i) {
         if (holder[i] >= 0)
           nodes[std::size_t(holder[i])].push_back(i);
