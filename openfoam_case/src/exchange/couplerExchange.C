@@ -172,6 +172,25 @@ void Foam::tq::couplerExchange::syncFlags()
 }
 
 
+void Foam::tq::couplerExchange::sendSublists
+(
+    PstreamBuffers& bufs,
+    const vectorField& values,
+    const labelListList& lists
+)
+{
+    for (label proci = 0; proci < Pstream::nProcs(); ++proci)
+    {
+        if (proci != Pstream::myProcNo())
+        {
+            UOPstream os(proci, bufs);
+            os << vectorField(values, lists[proci]);
+        }
+    }
+    bufs.finishedSends();
+}
+
+
 Foam::tmp<Foam::vectorField> Foam::tq::couplerExchange::spreadOwned
 (
     const vectorField& owned
@@ -179,15 +198,7 @@ Foam::tmp<Foam::vectorField> Foam::tq::couplerExchange::spreadOwned
 {
     const label me = Pstream::myProcNo();
     PstreamBuffers bufs(Pstream::commsTypes::nonBlocking);
-    for (label proci = 0; proci < Pstream::nProcs(); ++proci)
-    {
-        if (proci != me)
-        {
-            UOPstream os(proci, bufs);
-            os << vectorField(owned, recvFrom_[proci]);
-        }
-    }
-    bufs.finishedSends();
+    sendSublists(bufs, owned, recvFrom_);
     tmp<vectorField> tlocal(new vectorField(pointToGlobal_.size(), Zero));
     vectorField& local = tlocal.ref();
     forAll(ownedLocal_, k)
@@ -694,15 +705,7 @@ void Foam::tq::couplerExchange::writeForces
         // rank order from zero (the order of the gathered sum below)
         const label me = Pstream::myProcNo();
         PstreamBuffers bufs(Pstream::commsTypes::nonBlocking);
-        for (label proci = 0; proci < Pstream::nProcs(); ++proci)
-        {
-            if (proci != me)
-            {
-                UOPstream os(proci, bufs);
-                os << vectorField(forces, sendTo_[proci]);
-            }
-        }
-        bufs.finishedSends();
+        sendSublists(bufs, forces, sendTo_);
         vectorField owned(ownedLocal_.size(), Zero);
         for (label proci = 0; proci < Pstream::nProcs(); ++proci)
         {
