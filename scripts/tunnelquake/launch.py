@@ -324,13 +324,12 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     if fluid_side is not None:
         failed = watch_pair(solid, fluid_side, timeout)
         fluid_side.close()
-        if failed is not None:
-            solid.close()  # its last lines read in full
-            failed = root_failure(failed, solid if failed is fluid_side else fluid_side)
     else:  # the solid ended before publishing its address: it never coupled
         solid.proc.wait()
         failed = solid
     solid.close()
+    if failed is not None and fluid_side is not None:  # both logs read in full
+        failed = root_failure(failed, solid if failed is fluid_side else fluid_side)
     wall = _time.perf_counter() - t0
     if children.stopping.is_set():  # stopped by a signal: the supervisor says what and why
         return 130, res, "interrupted"
