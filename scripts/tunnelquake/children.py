@@ -299,8 +299,9 @@ def root_failure(failed: Side, other: Side) -> Side:
 def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
     """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
     stopped (stop_side) after at most PARTNER_GRACE_S; a side that ends cleanly leaves its partner
-    `grace` s to follow (it was told the end) before it is ended. Returns the side that failed
-    first, or None when both ended cleanly."""
+    `grace` s to follow (it was told the end) before it is ended. Returns the side to blame
+    (root_failure: the first to fail, unless it only lost its partner), or None when both ended
+    cleanly."""
     import time as _time
 
     while True:
@@ -308,7 +309,10 @@ def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> 
         for side, rc, other in ((first, r1, second), (second, r2, first)):
             if rc is not None and rc != 0:
                 stop_side(other, min(grace, PARTNER_GRACE_S))
-                return side
+                if other.proc.poll() is not None:  # both ended: their last lines read in full
+                    for s in (side, other):
+                        s.thread.join(timeout=10)
+                return root_failure(side, other)
         if r1 == 0 and r2 == 0:
             return None
         if r1 == 0 or r2 == 0:

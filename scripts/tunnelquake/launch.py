@@ -15,7 +15,7 @@ from pathlib import Path
 
 from . import children, paths, supervise
 from .case_report import OutputsNotWritten, post_case
-from .children import Side, lost_its_partner, root_failure, say, watch_pair
+from .children import Side, lost_its_partner, say, watch_pair
 from .cores import concurrent_conditions, solid_env
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
@@ -328,8 +328,6 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         solid.proc.wait()
         failed = solid
     solid.close()
-    if failed is not None and fluid_side is not None:  # both logs read in full
-        failed = root_failure(failed, solid if failed is fluid_side else fluid_side)
     wall = _time.perf_counter() - t0
     if children.stopping.is_set():  # stopped by a signal: the supervisor says what and why
         return 130, res, "interrupted"
