@@ -109,7 +109,8 @@ def points_3d() -> list[Point]:
     own settings the default; the reference single-rate (subcycling 0) at tolerance 1e-5 in windows
     of 16 (one-step windows cost about 16 water passes a window more, beyond what this bench can
     run in 3D); the window (the water's rate), the tolerance, the subcycling and where the volume
-    law is carried (the water's remainder only) one at a time."""
+    law is carried (the water's remainder only) one at a time, and the explicit scheme (one pass a
+    window, no reuse of past passes) in the default's windows."""
     dw, win, tol, sub = "dynamic_water", "coupling.window", "coupling.tolerance", "time.subcycling"
     law = "coupling.volume_law"
     return [Point(name, dw, {**THREADS_1, **keys}, role) for name, keys, role in (
@@ -120,6 +121,8 @@ def points_3d() -> list[Point]:
         ("window 32, tol 1e-4, subcycling 3", {win: 32}, ""),
         ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid", {law: "solid"}, ""),
+        ("explicit, window 16", {"coupling.scheme": "explicit", "coupling.reuse": 0,
+                                  "coupling.window_force_weight": 0.5}, ""),
     )]
 
 
