@@ -42,6 +42,7 @@ def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
     import yaml
 
     from benchmarks.cost_error import DEFAULT_CASE, points_3d, write_point
+    from benchmarks.paper import slug
     from tunnelquake.case import load_case
 
     base = yaml.safe_load(DEFAULT_CASE.read_text())
@@ -54,10 +55,12 @@ def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
         assert d["parallel"]["threads"] == 1 and d["conditions"] == ["dynamic_water"] and "variants" not in d
         assert d["time"]["subcycling"] == p.overrides.get("time.subcycling", variant["time"]["subcycling"])
         assert d["coupling"]["tolerance"] == p.overrides.get("coupling.tolerance", variant["coupling"]["tolerance"])
-        assert d["coupling"]["window_force_weight"] == variant["coupling"]["window_force_weight"]
+        assert d["coupling"]["window_force_weight"] == p.overrides.get("coupling.window_force_weight",
+                                                                       variant["coupling"]["window_force_weight"])
+        assert d["coupling"].get("scheme", "implicit") == p.overrides.get("coupling.scheme", "implicit")
+        load_case(tmp_path / p.condition / slug(p.name) / "case.yaml")  # each a valid case (check's rules)
     default = next(p for p in pts if p.role == "default")
     assert set(default.overrides) == {"parallel.threads"}  # the variant's own settings
-    load_case(tmp_path / "dynamic_water" / "window_16__tol_1e_5__subcycling_0" / "case.yaml")
 
 
 def test_energy_ratio_is_the_coupling_energy_over_the_interface_work():
