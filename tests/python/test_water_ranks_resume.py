@@ -1,0 +1,121 @@
+"""Restart checkpoints of the water on MPI ranks (docs/formats.md "Restart checkpoints",
+docs/coupler.md "Water on several MPI ranks"): `parallel.fluid_ranks: 2`, the solid on 1 rank and on
+2 (`--ranks 2`), stopped inside a checkpoint and continued with `tunnelquake run --resume`.
+
+The case is test_water_parts's soft-rock slice (rock E = 1.5 GPa, elastic lining, one cycle of a 4 Hz
+sine, dynamic_water only) over END_S of shaking with a checkpoint every INTERVAL_S: tq-solid is killed
+(SIGKILL, the test hook TQ_CHECKPOINT_FAULT) inside its third checkpoint, after its state file and
+before its manifest, so the resume continues both sides from the second. Each water rank's part of
+that checkpoint (its cells' fields with their old-time levels and projection basis, its points'
+motion, its part of the coupler participant: the scheme's counters and secant columns, the
+predictor's history) is in the one fluid-<window>.bin the master wrote.
+
+Reference: the same case, same ranks, never stopped. Every dataset and attribute of the results file
+but the wall-clock figures must be equal byte for byte (tolerance 0), and the water's own load
+history (interface.dat) too: both solvers and the coupler's iterations are deterministic on a fixed
+rank count, so any rank's state the checkpoint misses shows up as a difference.
+
+A resume with another water rank count than the checkpoint's is refused by name, both counts and the
+fix said, before anything runs (and `tunnelquake check` warns of it).
+"""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+h5py = pytest.importorskip("h5py")
+yaml = pytest.importorskip("yaml")
+from test_water_parts import _write_case  # noqa: E402
+
+from conftest import coupled_run_missing  # noqa: E402
+from tunnelquake.cli import main  # noqa: E402
+from tunnelquake.compare import results_differences  # noqa: E402
+
+pytestmark = pytest.mark.skipif(coupled_run_missing(mpirun=True) is not None,
+                                reason=str(coupled_run_missing(mpirun=True)))
+
+#: shaking simulated and the checkpoint interval, s: checkpoints at 0.025, 0.05 and 0.075 s
+END_S, INTERVAL_S = 0.1, 0.025
+
+
+def _case(folder: Path, fluid_ranks: int = 2) -> Path:
+    p = _write_case(folder)
+    data = yaml.safe_load(p.read_text())
+    data["time"]["end_time"] = f"{END_S} s"
+    data["output"]["checkpoint_interval"] = f"{INTERVAL_S} s"
+    data["parallel"]["fluid_ranks"] = fluid_ranks
+    p.write_text(yaml.safe_dump(data, sort_keys=False))
+    return p
+
+
+def _status(res: Path) -> str:
+    with h5py.File(res, "r") as f:
+        s = f.attrs["status"]
+    return s.decode() if isinstance(s, bytes) else str(s)
+
+
+def _interface_rows(folder: Path) -> bytes:
+    """The water's interface.dat (its load history, one row a pass), written by its master."""
+    (path,) = (folder / "results" / "dynamic_water" / "fluid" / "postProcessing").rglob("interface.dat")
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("solid_ranks", [1, 2])
+def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, capsys, monkeypatch, solid_ranks):
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point, fluid_ranks_of
+
+    ranks = ["--ranks", str(solid_ranks)] if solid_ranks > 1 else []
+    ref = _case(tmp_path / "reference")
+    assert main(["run", str(ref), *ranks, "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert "water decomposed on 2 ranks" in said and "--checkpoint-dir" in said, said[-3000:]
+    ref_res = tmp_path / "reference" / "results" / "results_dynamic_water.h5"
+    with h5py.File(ref_res, "r") as f:
+        assert int(f["timings"].attrs["checkpoints"]) == 3  # at 0.025, 0.05, 0.075 s; none at the end
+        window_size = float(f["coupling"].attrs["window_size"])
+
+    case = _case(tmp_path / "case")
+    shutil.copytree(tmp_path / "reference" / "results" / "mesh", case.parent / "results" / "mesh")
+    shutil.copy(tmp_path / "reference" / "results" / "motion.h5", case.parent / "results" / "motion.h5")
+    monkeypatch.setenv("TQ_CHECKPOINT_FAULT", "3:solid")
+    assert main(["run", str(case), *ranks, "--no-post"]) != 0
+    monkeypatch.delenv("TQ_CHECKPOINT_FAULT")
+    res = case.parent / "results" / "results_dynamic_water.h5"
+    stopped = _status(res)
+    assert stopped != "completed", stopped
+    m = coupled_resume_point(load_case(case), "dynamic_water")
+    assert m is not None and int(m["sequence"]) == 2, m
+    assert int(m["window"]) == 2 * round(INTERVAL_S / window_size), m
+    assert fluid_ranks_of(Path(m["fluid"])) == 2  # one file, both water ranks' parts in it
+    capsys.readouterr()
+
+    # the case now with the water on 3 ranks: refused by name with both counts and the fix
+    data = yaml.safe_load(case.read_text())
+    data["parallel"]["fluid_ranks"] = 3
+    case.write_text(yaml.safe_dump(data, sort_keys=False))
+    assert main(["check", str(case), *ranks]) == 0
+    warned = capsys.readouterr().out
+    assert "warning: `tunnelquake run --resume` refuses dynamic_water" in warned, warned[-3000:]
+    assert main(["run", str(case), *ranks, "--resume", "--no-post"]) == 1
+    out, err = capsys.readouterr()
+    assert ("holds the water on 2 rank(s), and the case has parallel.fluid_ranks: 3" in err
+            and "Fix: set parallel.fluid_ranks: 2 to resume it, or run without --resume" in err), err
+    assert "running the solid" not in out and "water decomposed" not in out, out[-3000:]
+    assert _status(res) == stopped  # nothing was written
+    assert coupled_resume_point(load_case(case), "dynamic_water")["sequence"] == m["sequence"]
+
+    data["parallel"]["fluid_ranks"] = 2
+    case.write_text(yaml.safe_dump(data, sort_keys=False))
+    assert main(["run", str(case), *ranks, "--resume", "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert f"resume: dynamic_water continues from its checkpoint at t = {float(m['time']):.6g} s" in said, \
+        said[-3000:]
+    log = (case.parent / "results" / "dynamic_water" / "fluid.log").read_text()
+    assert f"(coupling window {int(m['window'])}, the water on 2 ranks)" in log, log[-3000:]
+    assert _status(res) == "completed"
+    assert results_differences(ref_res, res) == []
+    assert _interface_rows(case.parent) == _interface_rows(tmp_path / "reference")
+    assert not list((case.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
