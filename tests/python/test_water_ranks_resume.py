@@ -33,8 +33,8 @@ from conftest import coupled_run_missing  # noqa: E402
 from tunnelquake.cli import main  # noqa: E402
 from tunnelquake.compare import results_differences  # noqa: E402
 
-pytestmark = pytest.mark.skipif(coupled_run_missing(mpirun=True) is not None,
-                                reason=str(coupled_run_missing(mpirun=True)))
+needs_coupled_run = pytest.mark.skipif(coupled_run_missing(mpirun=True) is not None,
+                                       reason=str(coupled_run_missing(mpirun=True)))
 
 #: shaking simulated and the checkpoint interval, s: checkpoints at 0.025, 0.05 and 0.075 s
 END_S, INTERVAL_S = 0.1, 0.025
@@ -62,6 +62,7 @@ def _interface_rows(folder: Path) -> bytes:
     return path.read_bytes()
 
 
+@needs_coupled_run
 @pytest.mark.parametrize("solid_ranks", [1, 2])
 def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, capsys, monkeypatch, solid_ranks):
     from tunnelquake.case import load_case
@@ -119,3 +120,62 @@ def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, 
     assert results_differences(ref_res, res) == []
     assert _interface_rows(case.parent) == _interface_rows(tmp_path / "reference")
     assert not list((case.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
+
+
+def _fluid_file(path: Path, parts: list[bytes] | None, digest: str = "d" * 64) -> Path:
+    """A water checkpoint as tqInterface writes it (docs/formats.md "Restart checkpoints"): one rank's
+    body after TQFLUID1 (`parts` None), or TQFLUIDR, the rank count and each part; then the trailer."""
+    import struct
+    import sys
+    import zlib
+
+    if parts is None:
+        body = b"TQFLUID1" + b"state of the one rank" + b"TQFLEND1"
+    else:
+        body = b"TQFLUIDR" + struct.pack("=q", len(parts))
+        body += b"".join(struct.pack("=q", len(p)) + p for p in parts)
+    body += digest.ljust(64).encode() + b"TQFLSUM1"
+    path.write_bytes(body + zlib.crc32(body).to_bytes(4, sys.byteorder))
+    return path
+
+
+def test_a_water_checkpoint_on_ranks_is_checked_whole_and_says_its_rank_count(tmp_path):
+    """The supervisor's checks of fluid-<window>.bin (restart.fluid_problem: its trailer, CRC-32 and
+    digest) take the file of a water on ranks as they take one rank's, and read the rank count that
+    wrote it; a file cut anywhere, or with a bit flipped in a rank's part, is damaged."""
+    from tunnelquake.restart import fluid_problem, fluid_ranks_of
+
+    parts = [b"rank 0: its cells, its points, interface.dat" * 40, b"rank 1" * 50, b"rank 2" * 30]
+    good = _fluid_file(tmp_path / "fluid-000000018.bin", parts)
+    assert fluid_problem(good) == (None, "d" * 64)
+    assert fluid_ranks_of(good) == 3
+    assert fluid_ranks_of(_fluid_file(tmp_path / "one.bin", None)) == 1
+    data = good.read_bytes()
+    for cut in (16, len(data) // 2, len(data) - 1):
+        bad = tmp_path / f"cut{cut}.bin"
+        bad.write_bytes(data[:cut])
+        assert fluid_problem(bad)[0] is not None, cut
+    flipped = bytearray(data)
+    flipped[16 + 8 + len(parts[0]) + 8 + 3] ^= 0x10  # a bit of rank 1's part
+    (tmp_path / "flipped.bin").write_bytes(bytes(flipped))
+    problem, _ = fluid_problem(tmp_path / "flipped.bin")
+    assert problem is not None and "CRC-32" in problem and "damaged" in problem, problem
+
+
+@pytest.mark.parametrize(("written", "now"), [(1, 2), (2, 1), (2, 3), (3, 3)])
+def test_a_resume_on_another_water_rank_count_is_refused_naming_both_and_the_fix(tmp_path, written, now):
+    """restart.fluid_ranks_problem, what `run --resume` refuses with before anything runs: the
+    checkpoint's count and the case's both named, and the fix; None on the same count."""
+    from types import SimpleNamespace
+
+    from tunnelquake.restart import fluid_ranks_problem
+
+    f = _fluid_file(tmp_path / "fluid-000000018.bin", None if written == 1 else [b"x"] * written)
+    case = SimpleNamespace(data={"parallel": {"fluid_ranks": now}})
+    why = fluid_ranks_problem(case, "dynamic_water", {"time": "0.0516", "fluid": str(f)})
+    if written == now:
+        assert why is None
+        return
+    assert why is not None
+    assert f"holds the water on {written} rank(s), and the case has parallel.fluid_ranks: {now}" in why, why
+    assert f"Fix: set parallel.fluid_ranks: {written} to resume it, or run without --resume" in why, why
