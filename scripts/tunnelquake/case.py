@@ -1036,7 +1036,8 @@ def schema() -> Section:
                                   doc="MPI ranks of the water (OpenFOAM) in dynamic_water; above 1 the water "
                                       "case is decomposed (method simple, cut across the tunnel's axis in 3D) "
                                       "and run under mpirun, then reconstructed; at least 20 water cells a "
-                                      "rank (docs/coupler.md)"),
+                                      "rank (docs/coupler.md); a restart checkpoint resumes on the count "
+                                      "that wrote it"),
         }),
     })
 

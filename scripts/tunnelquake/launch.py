@@ -23,6 +23,7 @@ from .prepare import make_mesh, mesh_dir, motion_and_figure
 from .restart import (
     checkpoint_dir,
     coupled_resume_point,
+    fluid_ranks_problem,
     forget_resume_source,
     keep_resume_source,
     resume_args,
@@ -211,9 +212,10 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
     exchanging the wet nodes it owns with the water over its own connection (a part of the coupler's
     first participant).
 
-    Restart checkpoints (output.checkpoint_interval > 0, the water on one rank): both sides write
-    theirs into <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows;
-    the solid on ranks gathers its ranks' parts into one, which resumes on the same rank count only);
+    Restart checkpoints (output.checkpoint_interval > 0): both sides write theirs into
+    <condition>/checkpoint at every K-th completed window (settings' checkpoint_windows; the solid
+    on ranks gathers its ranks' parts into one, and so does the water on ranks (fluid-<window>.bin),
+    each resumed on the same rank count only: run_case refuses another fluid_ranks beforehand);
     with `resume` both start from the last window both wrote (restart.coupled_resume_point), with
     the interrupted run's token (the solid's input, and so its fingerprint, is then the same)."""
     import secrets
@@ -259,7 +261,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         ranks = int(case.data["parallel"]["fluid_ranks"])
         every = settings["checkpoint_windows"]
         restart = None
-        if every > 0 and ranks == 1:
+        if every > 0:
             restart = {"restart_dir": str(checkpoint_dir(case, cond)), "restart_windows": every,
                        "restart_from": str(point["fluid"]) if point is not None else None,
                        "input_fingerprint": condition_inputs(case, cond)["digest"]}
@@ -301,8 +303,6 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         solid_cmd += ["--checkpoint-dir", restart["restart_dir"]]
         if point is not None:
             solid_cmd += resume_args(point)
-    elif every > 0:
-        say(f"condition {cond}: no restart checkpoints with the water on {ranks} ranks (parallel.fluid_ranks > 1)")
     started(cond, res)
     t0 = _time.perf_counter()
     say(f"condition {cond}: running the solid ({' '.join(solid_cmd)}); log {work / 'solid.log'}")
@@ -405,6 +405,12 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
             else:
                 say(f"resume: {cond} runs from the start" if getattr(what, "notes", None) else
                     f"resume: {cond} has no restart checkpoint: it runs from the start")
+        refused = [why for cond, what in resuming.items() if what == "checkpoint"
+                   for why in [fluid_ranks_problem(case, cond, what.point)] if why is not None]
+        for why in refused:
+            print(f"error: cannot resume {why}", file=sys.stderr)
+        if refused:
+            return 1
     say(f"case '{case.data['name']}'{which} valid; results go to {case.output_dir}")
     done: list[str] = []
     skipped: list[str] = []

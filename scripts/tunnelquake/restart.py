@@ -111,7 +111,7 @@ def fluid_problem(path: Path) -> tuple[str | None, str | None]:
         data = path.read_bytes()
     except OSError as e:
         return f"{path.name} cannot be read ({e.strerror})", None
-    if len(data) < 8 + FLUID_TRAILER or not data.startswith(b"TQFLUID1"):
+    if len(data) < 8 + FLUID_TRAILER or not data.startswith((b"TQFLUID1", b"TQFLUIDR")):
         return f"{path.name} is not a whole water checkpoint ({len(data)} bytes: cut short or damaged)", None
     body = len(data) - 4
     if data[body - 8:body] != b"TQFLSUM1":
@@ -121,6 +121,38 @@ def fluid_problem(path: Path) -> tuple[str | None, str | None]:
     if got != want:
         return f"the CRC-32 of {path.name} is {got:08x} instead of {want:08x} (the file is damaged)", None
     return None, data[body - 8 - 64:body - 8].decode(errors="replace").strip()
+
+
+def fluid_ranks_of(path: Path) -> int | None:
+    """The water's rank count that wrote its checkpoint `path` (1 for TQFLUID1; TQFLUIDR: the i64
+    after the magic, this machine's order), or None when the file does not say."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return None
+    if head.startswith(b"TQFLUID1"):
+        return 1
+    if head.startswith(b"TQFLUIDR") and len(head) == 16:
+        return int.from_bytes(head[8:], sys.byteorder, signed=True)
+    return None
+
+
+def fluid_ranks_problem(case, cond: str, point: dict) -> str | None:
+    """Why the coupled condition cannot continue from its checkpoint `point` with the case's
+    parallel.fluid_ranks: the water's checkpoint holds each rank's cells, so it resumes on the rank
+    count that wrote it only. None when the counts agree (or the point has no water file)."""
+    if not point.get("fluid"):
+        return None
+    written = fluid_ranks_of(Path(point["fluid"]))
+    now = int(case.data["parallel"]["fluid_ranks"])
+    if written is None or written == now:
+        return None
+    return (f"{cond}: its restart checkpoint at t = {float(point['time']):.6g} s ({Path(point['fluid']).name} in "
+            f"{Path(point['fluid']).parent}) holds the water on {written} rank(s), and the case has "
+            f"parallel.fluid_ranks: {now}; a decomposed water's checkpoint is its ranks' cells, resumed on the "
+            f"rank count that wrote it. Fix: set parallel.fluid_ranks: {written} to resume it, or run without "
+            f"--resume to compute {cond} again from the start")
 
 
 class Choice(str):

@@ -913,13 +913,9 @@ bool getVectors(const std::string& s, size_t& pos, Foam::vectorField& f)
 
 std::string Foam::tq::couplerExchange::saveState() const
 {
-    if (Pstream::parRun())
-    {
-        FatalErrorInFunction
-            << "Restart checkpoints of a decomposed water are not supported."
-            << nl << "Fix: parallel.fluid_ranks 1, or output.checkpoint_interval"
-            << " 0." << exit(FatalError);
-    }
+    // On ranks: this rank's state (its points' motion; in parts its part of
+    // the participant, gathered: the master's participant only); the
+    // function object writes every rank's into one file
     std::string s;
     putRaw<std::int64_t>(s, windowsDone_);
     putRaw(s, windowStart_);
@@ -929,7 +925,10 @@ std::string Foam::tq::couplerExchange::saveState() const
     std::vector<unsigned char> bytes;
     try
     {
-        bytes = participant_->saveState();
+        if (holds() && participant_)
+        {
+            bytes = participant_->saveState();
+        }
     }
     catch (const ::tq::coupler::CouplerError& e)
     {
@@ -969,6 +968,19 @@ void Foam::tq::couplerExchange::initializeResumed
         FatalErrorInFunction
             << "The exchange's restart state is damaged or belongs to"
             << " another interface." << exit(FatalError);
+    }
+    if ((n > 0) != holds())
+    {
+        // a participant's saved bytes exactly where this run holds one
+        FatalErrorInFunction
+            << "The exchange's restart state of rank " << Pstream::myProcNo()
+            << (n > 0 ? " holds" : " holds no")
+            << " coupler state, and this rank "
+            << (holds() ? "holds" : "holds no") << " part of the participant:"
+            << " the checkpoint was written with the water's ranks "
+            << (n > 0 ? "in parts" : "gathered") << " (TQ_WATER_GATHER)."
+            << nl << "Fix: resume with the water's ranks as they ran, or run"
+            << " again without --resume." << exit(FatalError);
     }
     resumeState_ = state.substr(pos);
     initialize(patch, points0, pointAreas);

@@ -26,6 +26,7 @@ License
 #include "addToRunTimeSelectionTable.H"
 #include "tq/coupler/crc32.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <malloc.h>
 #include <cerrno>
@@ -34,8 +35,10 @@ License
 #include <cstring>
 #include <fcntl.h>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <unistd.h>
+#include <vector>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
@@ -1143,6 +1146,76 @@ bool getString(std::istream& is, std::string& s)
     return n == 0 || bool(is.read(&s[0], std::streamsize(n)));
 }
 
+// A decomposed water's checkpoint: these 8 bytes, the rank count (i64), then
+// each rank's part (i64 size and bytes: what follows fluidRestartMagic in a
+// one-rank file, up to and with fluidRestartEnd), then the one trailer
+const char fluidRanksMagic[8] = {'T', 'Q', 'F', 'L', 'U', 'I', 'D', 'R'};
+
+// The tag of the messages carrying the ranks' parts to and from the master
+constexpr int restartTag = 7317;
+// The largest message: MPI counts bytes in an int
+constexpr size_t restartChunk = size_t(1) << 30;
+
+void sendBytes(const int to, const std::string& s)
+{
+    const std::int64_t n = std::int64_t(s.size());
+    bool ok = Foam::UOPstream::write
+    (
+        Foam::UPstream::commsTypes::scheduled, to,
+        reinterpret_cast<const char*>(&n), sizeof n, restartTag
+    );
+    for (size_t done = 0; ok && done < s.size(); done += restartChunk)
+    {
+        ok = Foam::UOPstream::write
+        (
+            Foam::UPstream::commsTypes::scheduled, to, s.data() + done,
+            std::streamsize(std::min(restartChunk, s.size() - done)),
+            restartTag
+        );
+    }
+    if (!ok)
+    {
+        FatalErrorInFunction
+            << "Cannot send rank " << Foam::Pstream::myProcNo() << "'s part of"
+            << " the restart checkpoint to rank " << to << "."
+            << Foam::exit(Foam::FatalError);
+    }
+}
+
+std::string receiveBytes(const int from)
+{
+    std::int64_t n = -1;
+    Foam::UIPstream::read
+    (
+        Foam::UPstream::commsTypes::scheduled, from,
+        reinterpret_cast<char*>(&n), sizeof n, restartTag
+    );
+    if (n < 0)
+    {
+        FatalErrorInFunction
+            << "No size of rank " << from << "'s part of the restart"
+            << " checkpoint." << Foam::exit(Foam::FatalError);
+    }
+    std::string s(size_t(n), '\0');
+    for (size_t done = 0; done < s.size(); done += restartChunk)
+    {
+        const size_t want = std::min(restartChunk, s.size() - done);
+        const Foam::label got = Foam::UIPstream::read
+        (
+            Foam::UPstream::commsTypes::scheduled, from, &s[done],
+            std::streamsize(want), restartTag
+        );
+        if (got != Foam::label(want))
+        {
+            FatalErrorInFunction
+                << "Rank " << from << "'s part of the restart checkpoint came"
+                << " short (" << got << " of " << want << " bytes)."
+                << Foam::exit(Foam::FatalError);
+        }
+    }
+    return s;
+}
+
 Foam::word restartName(const Foam::label n)
 {
     char buf[40];
@@ -1170,17 +1243,50 @@ void Foam::functionObjects::tqInterface::writeRestart(const label n)
         all << in.rdbuf();
         rows = all.str();
     }
+    // This rank's part: on ranks each holds its cells' fields, its points'
+    // motion and its part of the exchange (interface.dat: the master's)
+    std::string part;
+    {
+        std::ostringstream os;
+        const std::int64_t window = n, rollbacks = nRollbacks_;
+        os.write(reinterpret_cast<const char*>(&window), sizeof window);
+        os.write(reinterpret_cast<const char*>(&rollbacks), sizeof rollbacks);
+        os.write(reinterpret_cast<const char*>(&rewriteTime_), sizeof rewriteTime_);
+        os.write(reinterpret_cast<const char*>(&nextLogTime_), sizeof nextLogTime_);
+        putString(os, exchange_->saveState());
+        putString(os, rows);
+        checkpoint_.write(os);
+        os.write(fluidRestartEnd, sizeof fluidRestartEnd);
+        part = os.str();
+    }
+    prevRestartWindow_ = lastRestartWindow_;
+    lastRestartWindow_ = n;
+    if (!Pstream::master())
+    {
+        // The master writes every rank's part into the one file, renamed
+        // whole: a checkpoint holds all ranks or is not there
+        sendBytes(Pstream::masterNo(), part);
+        return;
+    }
     std::ostringstream os;
-    os.write(fluidRestartMagic, sizeof fluidRestartMagic);
-    const std::int64_t window = n, rollbacks = nRollbacks_;
-    os.write(reinterpret_cast<const char*>(&window), sizeof window);
-    os.write(reinterpret_cast<const char*>(&rollbacks), sizeof rollbacks);
-    os.write(reinterpret_cast<const char*>(&rewriteTime_), sizeof rewriteTime_);
-    os.write(reinterpret_cast<const char*>(&nextLogTime_), sizeof nextLogTime_);
-    putString(os, exchange_->saveState());
-    putString(os, rows);
-    checkpoint_.write(os);
-    os.write(fluidRestartEnd, sizeof fluidRestartEnd);
+    if (Pstream::parRun())
+    {
+        os.write(fluidRanksMagic, sizeof fluidRanksMagic);
+        const std::int64_t ranks = Pstream::nProcs();
+        os.write(reinterpret_cast<const char*>(&ranks), sizeof ranks);
+        putString(os, part);
+        part.clear();
+        for (label proci = 1; proci < Pstream::nProcs(); ++proci)
+        {
+            putString(os, receiveBytes(int(proci)));
+        }
+    }
+    else
+    {
+        os.write(fluidRestartMagic, sizeof fluidRestartMagic);
+        os.write(part.data(), std::streamsize(part.size()));
+        part.clear();
+    }
     os << paddedDigest(inputFingerprint_);
     os.write(fluidRestartSum, sizeof fluidRestartSum);
     std::string bytes(os.str());
@@ -1215,8 +1321,6 @@ void Foam::functionObjects::tqInterface::writeRestart(const label n)
             << std::strerror(errno) << exit(FatalError);
     }
     // The last two are kept: the solid's last checkpoint may be one ahead
-    prevRestartWindow_ = lastRestartWindow_;
-    lastRestartWindow_ = n;
     for (const fileName& f : readDir(restartDir_, fileName::FILE))
     {
         const std::string name(f);
@@ -1240,76 +1344,140 @@ std::string Foam::functionObjects::tqInterface::readRestart
     const scalarField& pointArea
 )
 {
+    // The master reads and checks the file, then hands each rank its part
+    const label nRanks = Pstream::nProcs();
+    std::string damage, fix("run again without --resume");
+    std::vector<std::string> parts;
+    if (Pstream::master())
+    {
+        std::string whole;
+        {
+            std::ifstream in(file, std::ios::binary);
+            std::ostringstream all;
+            all << in.rdbuf();
+            whole = all.str();
+        }
+        if (whole.size() < sizeof fluidRestartMagic + fluidTrailerBytes)
+        {
+            damage = "it is missing or cut short (" + std::to_string(whole.size()) + " bytes)";
+        }
+        else
+        {
+            const size_t body = whole.size() - sizeof(std::uint32_t);
+            std::uint32_t want = 0;
+            std::memcpy(&want, whole.data() + body, sizeof want);
+            const std::uint32_t got = ::tq::crc::crc32(whole.data(), body);
+            if
+            (
+                std::memcmp
+                (
+                    whole.data() + body - sizeof fluidRestartSum,
+                    fluidRestartSum,
+                    sizeof fluidRestartSum
+                ) != 0
+            )
+            {
+                damage = "it does not end with the checkpoint's checksum (cut short or damaged)";
+            }
+            else if (got != want)
+            {
+                damage = "its CRC-32 is " + ::tq::crc::hex(got) + " instead of the "
+                    + ::tq::crc::hex(want) + " it records (the file is damaged)";
+            }
+            else if
+            (
+                whole.compare
+                (
+                    body - sizeof fluidRestartSum - fluidDigestBytes,
+                    fluidDigestBytes,
+                    paddedDigest(inputFingerprint_)
+                ) != 0
+            )
+            {
+                damage = "it was written for other inputs (input fingerprint "
+                    + whole.substr(body - sizeof fluidRestartSum - fluidDigestBytes, 16)
+                    + "..., this run " + inputFingerprint_.substr(0, 16) + "...)";
+            }
+        }
+        if (damage.empty())
+        {
+            whole.resize(whole.size() - fluidTrailerBytes);
+            std::istringstream is(whole);
+            whole.clear();
+            char magic[sizeof fluidRestartMagic];
+            is.read(magic, sizeof magic);
+            std::int64_t written = 0;
+            if (std::memcmp(magic, fluidRestartMagic, sizeof magic) == 0)
+            {
+                written = 1;
+                parts.emplace_back(std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>());
+            }
+            else if
+            (
+                std::memcmp(magic, fluidRanksMagic, sizeof magic) != 0
+             || !getValue(is, written)
+             || written < 1
+            )
+            {
+                damage = "it is not a restart checkpoint of the water (or a damaged one)";
+            }
+            else if (written == std::int64_t(nRanks))
+            {
+                parts.resize(size_t(written));
+                for (std::string& p : parts)
+                {
+                    if (!getString(is, p))
+                    {
+                        damage = "a rank's part of it is cut short (a damaged file)";
+                        break;
+                    }
+                }
+            }
+            if (damage.empty() && written != std::int64_t(nRanks))
+            {
+                damage = "it was written by the water on " + std::to_string(written)
+                    + " rank(s), and this run has it on " + std::to_string(nRanks)
+                    + " (parallel.fluid_ranks): a rank's part is its cells' state";
+                fix = "resume with parallel.fluid_ranks: " + std::to_string(written)
+                    + " as it was written, or run again without --resume";
+            }
+        }
+    }
     if (Pstream::parRun())
     {
-        FatalErrorInFunction
-            << "Resuming a decomposed water is not supported." << exit(FatalError);
-    }
-    std::string whole;
-    {
-        std::ifstream in(file, std::ios::binary);
-        std::ostringstream all;
-        all << in.rdbuf();
-        whole = all.str();
-    }
-    std::string damage;
-    if (whole.size() < sizeof fluidRestartMagic + fluidTrailerBytes)
-    {
-        damage = "it is missing or cut short (" + std::to_string(whole.size()) + " bytes)";
-    }
-    else
-    {
-        const size_t body = whole.size() - sizeof(std::uint32_t);
-        std::uint32_t want = 0;
-        std::memcpy(&want, whole.data() + body, sizeof want);
-        const std::uint32_t got = ::tq::crc::crc32(whole.data(), body);
-        if
-        (
-            std::memcmp
-            (
-                whole.data() + body - sizeof fluidRestartSum,
-                fluidRestartSum,
-                sizeof fluidRestartSum
-            ) != 0
-        )
-        {
-            damage = "it does not end with the checkpoint's checksum (cut short or damaged)";
-        }
-        else if (got != want)
-        {
-            damage = "its CRC-32 is " + ::tq::crc::hex(got) + " instead of the "
-                + ::tq::crc::hex(want) + " it records (the file is damaged)";
-        }
-        else if
-        (
-            whole.compare
-            (
-                body - sizeof fluidRestartSum - fluidDigestBytes,
-                fluidDigestBytes,
-                paddedDigest(inputFingerprint_)
-            ) != 0
-        )
-        {
-            damage = "it was written for other inputs (input fingerprint "
-                + whole.substr(body - sizeof fluidRestartSum - fluidDigestBytes, 16)
-                + "..., this run " + inputFingerprint_.substr(0, 16) + "...)";
-        }
+        string says(damage), fixes(fix);
+        Pstream::scatter(says);
+        Pstream::scatter(fixes);
+        damage = says;
+        fix = fixes;
     }
     if (!damage.empty())
     {
         FatalErrorInFunction
-            << "Cannot resume from " << file << ": " << damage << "." << nl
-            << "Fix: run again without --resume." << exit(FatalError);
+            << "Cannot resume from " << file << ": " << damage.c_str() << "." << nl
+            << "Fix: " << fix.c_str() << "." << exit(FatalError);
     }
-    std::istringstream is(whole.substr(0, whole.size() - fluidTrailerBytes));
-    char magic[sizeof fluidRestartMagic];
+    std::string mine;
+    if (Pstream::master())
+    {
+        for (label proci = 1; proci < nRanks; ++proci)
+        {
+            sendBytes(int(proci), parts[size_t(proci)]);
+            parts[size_t(proci)].clear();
+        }
+        mine.swap(parts[0]);
+    }
+    else
+    {
+        mine = receiveBytes(Pstream::masterNo());
+    }
+    std::istringstream is(mine);
+    mine.clear();
     std::int64_t window = 0, rollbacks = 0;
     std::string exchangeState, rows;
     if
     (
         !is
-     || !is.read(magic, sizeof magic)
-     || std::memcmp(magic, fluidRestartMagic, sizeof magic) != 0
      || !getValue(is, window)
      || !getValue(is, rollbacks)
      || !getValue(is, rewriteTime_)
@@ -1331,6 +1499,7 @@ std::string Foam::functionObjects::tqInterface::readRestart
     (
         !is.read(last, sizeof last)
      || std::memcmp(last, fluidRestartEnd, sizeof last) != 0
+     || is.peek() != std::char_traits<char>::eof()
     )
     {
         FatalErrorInFunction
@@ -1340,8 +1509,12 @@ std::string Foam::functionObjects::tqInterface::readRestart
     }
     lastRestartWindow_ = label(window);
     Info<< type() << " " << name() << ": resumed from " << file
-        << " at t = " << time().value() << " s (coupling window " << window
-        << ")" << endl;
+        << " at t = " << time().value() << " s (coupling window " << window;
+    if (Pstream::parRun())
+    {
+        Info<< ", the water on " << nRanks << " ranks";
+    }
+    Info<< ")" << endl;
     return rows;
 }
 

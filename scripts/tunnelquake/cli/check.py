@@ -102,6 +102,13 @@ def main(argv: list[str]) -> int:
 
     for cond, parts in plan(case):
         say(f"  condition {cond}: runs {' + '.join(parts)}")
+    from ..restart import checkpoint_dir, coupled_resume_point, fluid_ranks_problem
+
+    for cond, parts in plan(case):  # a fresh run is fine; `run --resume` refuses to continue these
+        point = coupled_resume_point(case, cond) if "fluid" in parts and checkpoint_dir(case, cond).is_dir() else None
+        why = fluid_ranks_problem(case, cond, point) if point is not None else None
+        if why is not None:
+            print(f"warning: `tunnelquake run --resume` refuses {why}")
     if "dynamic_water" in d["conditions"]:
         am = added_mass_diagnostic(case)
         if am.stable:
