@@ -6,7 +6,8 @@ SOLID_INPUT is a condition's `solid_input.h5` as `tunnelquake run` writes it (re
 Each *point* is a copy of it with a few of its values changed (POINTS: the time step's safety
 factor, `/solver subcycling_levels`, the static stages' relaxation tolerance, the record scaled,
 a material's attribute), run by tq-solid on one thread under `nice`. The first point, `reference`,
-is the input unchanged; every other point is compared with it:
+is the input unchanged; every other point is compared with it (or with the point its "against"
+names, run first):
 
 - its monitored peaks (benchmarks.peaks_compare: every monitor's peak |u|, max sigma3, most
   compressive sigma1, and the ring's largest |N|, |M|, |V| and diameter change), each as a
@@ -35,7 +36,9 @@ from tunnelquake.paths import solid_executable
 from .peaks_compare import compare, condition_figures
 
 # name -> changes: safety (factor on /solver safety), levels (/solver subcycling_levels),
-# relaxation_tolerance (/stages), motion (factor on /motion ax, az), "<material>.<attribute>" (value)
+# relaxation_tolerance (/stages), motion (factor on /motion ax, az), associated (every material's
+# dilation angle set to its friction angle), "<material>.<attribute>" (value); "against": the point
+# it is compared with (default: the reference)
 POINTS: dict[str, dict] = {
     "reference": {},
     "step 1-1e-12": {"safety": 1 - 1e-12},
@@ -51,6 +54,9 @@ POINTS: dict[str, dict] = {
     "subcycling 1": {"levels": 1},
     "subcycling 2": {"levels": 2},
     "subcycling 3": {"levels": 3},
+    "associated": {"associated": True},
+    "associated, subcycling 1": {"associated": True, "levels": 1, "against": "associated"},
+    "associated, subcycling 3": {"associated": True, "levels": 3, "against": "associated"},
 }
 TIMES = (1.0, 2.0, 2.2, 2.3, 3.0, 6.0)
 
@@ -72,6 +78,12 @@ def perturb(src: Path, dst: Path, changes: dict) -> None:
                 f["solver"].attrs["subcycling_levels"] = int(value)
             elif key == "relaxation_tolerance":
                 f["stages"].attrs["relaxation_tolerance"] = float(value)
+            elif key == "associated":
+                for m in f["materials"].values():
+                    if value and "friction_angle" in m.attrs and "dilation_angle" in m.attrs:
+                        m.attrs["dilation_angle"] = m.attrs["friction_angle"]
+            elif key == "against":
+                pass
             elif key == "motion":
                 for c in ("ax", "az"):
                     f[f"motion/{c}"][...] = f[f"motion/{c}"][:] * value
@@ -80,7 +92,7 @@ def perturb(src: Path, dst: Path, changes: dict) -> None:
                 f[f"materials/{material}"].attrs[attr] = value
             else:
                 raise ValueError(f"unknown change {key!r} (safety, levels, relaxation_tolerance, motion, "
-                                 "<material>.<attribute>)")
+                                 "associated, <material>.<attribute>)")
 
 
 def histories(path: Path):
@@ -136,7 +148,8 @@ def table(recs: list[dict]) -> str:
             continue
         w = f"{100 * r['worst_value']:.3g} % ({r['worst']})" if r.get("worst") else r.get("status", "")
         div = r.get("divergence", {})
-        lines.append(f"| {r['name']} | {r['cpu_s']:.1f} | {w} | "
+        vs = "" if r.get("against", "reference") == "reference" else f" (against {r['against']})"
+        lines.append(f"| {r['name']}{vs} | {r['cpu_s']:.1f} | {w} | "
                      + " | ".join(f"{div[str(x)]:.1e}" if str(x) in div else "–" for x in times) + " |")
     return "\n".join(lines)
 
@@ -162,7 +175,11 @@ def main(argv: list[str]) -> int:
 
     with h5py.File(a.input, "r") as f:
         condition = str(f.attrs.get("condition", "no_water"))
-    names = ["reference"] + [n for n in (a.only if a.only is not None else POINTS) if n != "reference"]
+    names = ["reference"]
+    for n in a.only if a.only is not None else POINTS:
+        for m in (POINTS[n].get("against"), n):
+            if m and m not in names:
+                names.append(m)
     recs = []
     for n in names:
         rec = run_point(n, POINTS[n], a.input, a.folder, condition)
@@ -174,13 +191,16 @@ def main(argv: list[str]) -> int:
         print("step_sensitivity: the reference run failed (see its log.txt)", file=sys.stderr)
         return 1
     rf = condition_figures(Path(ref["folder"]), condition)
+    by_name = {r["name"]: r for r in recs}
     for r in recs[1:]:
-        if r["rc"] != 0:
+        base = by_name[r["changes"].get("against", "reference")]
+        r["against"] = base["name"]
+        if r["rc"] != 0 or base["rc"] != 0:
             r["status"] = "failed (see log.txt)"
             continue
-        c = compare(rf, condition_figures(Path(r["folder"]), condition))
+        c = compare(condition_figures(Path(base["folder"]), condition), condition_figures(Path(r["folder"]), condition))
         r.update(worst=c["worst"], worst_value=c["worst_value"], diffs=c["diffs"])
-        ref_h5 = Path(ref["folder"]) / f"results_{condition}.h5"
+        ref_h5 = Path(base["folder"]) / f"results_{condition}.h5"
         r["divergence"] = {str(k): v for k, v in
                            divergence(ref_h5, Path(r["folder"]) / f"results_{condition}.h5", a.times).items()}
     ref["peaks"] = rf["peaks"]

@@ -16,6 +16,8 @@ def _input(path):
         f.create_group("solver").attrs.update({"safety": 0.9, "dt": 0.0})
         f.create_group("stages").attrs["relaxation_tolerance"] = 1e-4
         f.create_group("materials/rock").attrs["dilation_angle"] = 0.0
+        f.create_group("materials/lining").attrs.update({"dilation_angle": 0.0, "friction_angle": 40.0})
+        f.create_group("materials/elastic").attrs["E"] = 1e9
         f["motion/ax"] = np.array([0.0, 1.0, -2.0])
         f["motion/az"] = np.array([0.0, 0.5, 1.0])
 
@@ -25,7 +27,7 @@ def test_perturb_changes_what_it_names(tmp_path):
     src.parent.mkdir(parents=True)
     _input(src)
     dst = tmp_path / "elsewhere" / "p" / "solid_input.h5"
-    perturb(src, dst, {"safety": 0.5, "levels": 3, "relaxation_tolerance": 1e-9, "motion": 2.0,
+    perturb(src, dst, {"safety": 0.5, "levels": 3, "relaxation_tolerance": 1e-9, "motion": 2.0, "associated": True,
                        "rock.dilation_angle": 37.0})
     with h5py.File(dst, "r") as f:
         assert f.attrs["mesh"] == str((tmp_path / "results" / "mesh" / "mesh.h5").resolve())
@@ -33,7 +35,9 @@ def test_perturb_changes_what_it_names(tmp_path):
         assert f["solver"].attrs["subcycling_levels"] == 3
         assert f["stages"].attrs["relaxation_tolerance"] == 1e-9
         assert list(f["motion/ax"][:]) == [0.0, 2.0, -4.0] and list(f["motion/az"][:]) == [0.0, 1.0, 2.0]
-        assert f["materials/rock"].attrs["dilation_angle"] == 37.0
+        assert f["materials/rock"].attrs["dilation_angle"] == 37.0  # named, after `associated`
+        assert f["materials/lining"].attrs["dilation_angle"] == 40.0  # associated: its friction angle
+        assert "dilation_angle" not in f["materials/elastic"].attrs
     with h5py.File(src, "r") as f:  # the original is left as it was
         assert f["solver"].attrs["safety"] == 0.9 and "subcycling_levels" not in f["solver"].attrs
     with pytest.raises(ValueError, match="unknown change 'dt'"):
