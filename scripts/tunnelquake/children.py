@@ -271,6 +271,15 @@ def stop_side(side: Side, grace: float) -> None:
 #: otherwise wait its whole coupling timeout and blame the partner for not connecting
 PARTNER_GRACE_S = 5.0
 
+#: s a side that failed saying it lost its partner leaves that partner, the cause, to end by itself: a
+#: solid on MPI ranks whose rank died is ended by mpirun (OpenMPI 4.1) in two waits of its
+#: odls_base_sigkill_timeout (solid_ranks.solid_command: STOP_GRACE_S): SIGCONT, a wait, SIGTERM (rank 0
+#: writes the results file's status, and the water sees the connection close), a wait, SIGKILL. Measured
+#: (solid and water on 2 ranks, solid rank 1 killed): the water ended 5.0 s after the rank's death and
+#: the solid's mpirun 4.0 s after the water, 1.0 s inside PARTNER_GRACE_S, which a slower mpirun would
+#: overrun (stop_side then ends it: "did not stop within 5 s", and its exit status is not its own)
+PARTNER_CAUSE_GRACE_S = 2 * STOP_GRACE_S + 5.0
+
 
 #: what the coupler's PartnerLostError says (coupler/src/endpoint.cpp, participant.cpp,
 #: transport_tcp.cpp): a side whose last lines hold one of these stopped because its partner went
@@ -298,8 +307,9 @@ def root_failure(failed: Side, other: Side) -> Side:
 
 def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
     """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
-    stopped (stop_side) after at most PARTNER_GRACE_S; a side that ends cleanly leaves its partner
-    `grace` s to follow (it was told the end) before it is ended. Returns the side to blame
+    stopped (stop_side) after at most PARTNER_GRACE_S (PARTNER_CAUSE_GRACE_S when the failed side says
+    it lost its partner: the partner, the cause, is ending by itself); a side that ends cleanly leaves its
+    partner `grace` s to follow (it was told the end) before it is ended. Returns the side to blame
     (root_failure: the first to fail, unless it only lost its partner), or None when both ended
     cleanly."""
     import time as _time
@@ -308,7 +318,8 @@ def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> 
         r1, r2 = first.proc.poll(), second.proc.poll()
         for side, rc, other in ((first, r1, second), (second, r2, first)):
             if rc is not None and rc != 0:
-                stop_side(other, min(grace, PARTNER_GRACE_S))
+                side.thread.join(timeout=2)  # its last lines read: did it only lose its partner?
+                stop_side(other, min(grace, PARTNER_CAUSE_GRACE_S if lost_its_partner(side) else PARTNER_GRACE_S))
                 if other.proc.poll() is not None:  # both ended: their last lines read in full
                     for s in (side, other):
                         s.thread.join(timeout=10)

@@ -33,6 +33,7 @@
 #include "tq/contact/contact.hpp"
 #include "tq/core/constraints.hpp"
 #include "tq/core/state_archive.hpp"
+#include "tq/water/wet_part.hpp"
 
 using namespace tq;
 using namespace tqtest;
@@ -444,4 +445,82 @@ TEST(StateArchive, ArchiveWrittenAsBytesRestoresAFreshlyBuiltSolverBitwise) {
   std::stringstream cut(bytes.str().substr(0, bytes.str().size() / 2));
   EXPECT_FALSE(back.read(cut));
   EXPECT_EQ(back.layout(), ar.layout());
+}
+
+// The water's work on a rank's part of the wetted face (tq/water/wet_part.hpp PendingWetWork): each
+// step's terms are kept until the window's flush sums them over the face. A save taken with steps kept
+// (inside a window) and read back, through a restart checkpoint's bytes, must leave the flush with the
+// work of the run never saved; a restore at a window stepped again drops the steps kept since the save.
+// Reference: the same steps booked and flushed without a save, compared as bytes (tolerance 0).
+TEST(PendingWetWork, StepsKeptInsideAWindowSurviveASaveThroughBytes) {
+  WetPart part;  // one part holding the whole face: 3 nodes, node 1 does not move
+  part.places = {0, 1, 2};
+  part.wholeCount = 3;
+  part.gather = [](const std::vector<Real>& mine, size_t, std::vector<Real>& whole) { whole = mine; };
+  const auto book = [&](PendingWetWork& w, Real& total, int step) {
+    w.bookStep(
+        &part, 3, [](size_t k) { return k != 1; },
+        [&](size_t k, int d, size_t) { return 1e3 * std::sin(1.0 + step + 0.3 * Real(k) + 0.01 * d); }, total);
+  };
+  const auto same = [](Real a, Real b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+
+  PendingWetWork ref;  // steps 1, 2, 3 of a window, flushed at its end
+  Real refTotal = 0.5;
+  for (int j = 1; j <= 3; ++j) book(ref, refTotal, j);
+  flushWetWork(part, {{&ref, &refTotal}});
+  ASSERT_TRUE(ref.terms.empty());
+  ASSERT_NE(refTotal, 0.5);
+
+  // saved after step 2 (inside the window), written as bytes, read back into a new part
+  PendingWetWork run;
+  Real runTotal = 0.5;
+  book(run, runTotal, 1);
+  book(run, runTotal, 2);
+  StateArchive saved;
+  saved.beginSave();
+  run.checkpoint(saved);
+  saved.end();
+  std::stringstream bytes;
+  saved.write(bytes);
+  StateArchive read;
+  ASSERT_TRUE(read.read(bytes));
+  PendingWetWork resumed;
+  Real resumedTotal = 0.5;
+  read.beginRestore();
+  resumed.checkpoint(read);
+  read.end();  // every item read
+  ASSERT_EQ(resumed.terms.size(), 2u);
+  EXPECT_EQ(resumed.terms, run.terms);
+  book(resumed, resumedTotal, 3);
+  flushWetWork(part, {{&resumed, &resumedTotal}});
+  EXPECT_TRUE(same(resumedTotal, refTotal)) << resumedTotal << " " << refTotal;
+
+  // a window stepped again: saved with step 1 kept, steps 2 and 3 booked, restored: step 1 alone
+  // again, whole; the window's steps booked again give the reference's work
+  PendingWetWork again;
+  Real againTotal = 0.5;
+  book(again, againTotal, 1);
+  StateArchive start;
+  start.beginSave();
+  again.checkpoint(start);
+  start.end();
+  const std::vector<Real> step1 = again.terms[0];
+  book(again, againTotal, 2);
+  book(again, againTotal, 3);
+  start.beginRestore();
+  again.checkpoint(start);
+  start.end();
+  ASSERT_EQ(again.terms.size(), 1u);
+  EXPECT_EQ(again.terms[0], step1);
+  book(again, againTotal, 2);
+  book(again, againTotal, 3);
+  flushWetWork(part, {{&again, &againTotal}});
+  EXPECT_TRUE(same(againTotal, refTotal)) << againTotal << " " << refTotal;
+
+  // a checkpoint taken at a window's end (flushed: none kept) is the count 0 alone, as before
+  StateArchive end;
+  end.beginSave();
+  again.checkpoint(end);
+  end.end();
+  EXPECT_EQ(end.layout(), std::vector<size_t>{sizeof(long long)});
 }

@@ -21,11 +21,15 @@ ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "scripts") + os.pathsep + os.environ.get("PYTHONPATH", "")}
 FAKE = [sys.executable, "-m", "tunnelquake.coupling.fakes", "--token", "tok", "--windows", "40",
         "--n-theta", "16", "--n-layers", "1", "--timeout", "20"]
-#: like mpirun after one of its ranks died: the wrapper outlives the dead process by 2 s
-LINGERING = ["sh", "-c", '"$@"; sleep 2; exit 137', "sh"]
 
 
-def _pair(tmp_path: Path, dying: str, lingering: bool) -> tuple[Side, Side, Side | None]:
+def _lingering(seconds: float) -> list[str]:
+    """Like mpirun after one of its ranks died: the wrapper outlives the dead process by `seconds`,
+    then exits 137 itself."""
+    return ["sh", "-c", f'"$@"; sleep {seconds}; exit 137', "sh"]
+
+
+def _pair(tmp_path: Path, dying: str, lingering: bool, linger_s: float = 2.0) -> tuple[Side, Side, Side | None]:
     addr = str(tmp_path / "wall.addr")
     cmds = {}
     for role in ("solid", "fluid"):
@@ -33,7 +37,7 @@ def _pair(tmp_path: Path, dying: str, lingering: bool) -> tuple[Side, Side, Side
         if role == dying:
             cmd += ["--die-at-window", "5"]
             if lingering:
-                cmd = LINGERING + cmd
+                cmd = _lingering(linger_s) + cmd
         cmds[role] = cmd
     solid = Side("solid", cmds["solid"], tmp_path / "solid.log", ENV, lambda line: False)
     fluid = Side("water", cmds["fluid"], tmp_path / "fluid.log", ENV, lambda line: False)
@@ -60,3 +64,18 @@ def test_a_side_that_fails_on_its_own_first_stays_blamed(tmp_path):
     assert failed is fluid and not lost_its_partner(fluid)
     assert root_failure(fluid, solid) is fluid
     assert lost_its_partner(solid), solid.log.read_text()[-2000:]
+
+
+def test_a_partner_that_died_first_is_left_to_end_by_itself_as_mpirun_ends_a_lost_rank(tmp_path, capsys):
+    """mpirun ends a solid on ranks whose rank died in two waits of 5 s (children.PARTNER_CAUSE_GRACE_S;
+    measured with the water on 2 ranks: 4.0 s after the water it had lost). A dying side that lingers 7 s,
+    more than PARTNER_GRACE_S, after its partner saw it go is left to end by itself: its own exit status
+    (137), not a SIGTERM from `run` (-15), no "did not stop" line, and it is blamed."""
+    from tunnelquake.children import PARTNER_CAUSE_GRACE_S, PARTNER_GRACE_S
+
+    assert PARTNER_GRACE_S < 7.0 < PARTNER_CAUSE_GRACE_S
+    solid, fluid, failed = _pair(tmp_path, "solid", lingering=True, linger_s=7.0)
+    assert lost_its_partner(fluid), fluid.log.read_text()[-2000:]
+    assert solid.proc.returncode == 137, solid.proc.returncode
+    assert failed is solid
+    assert "did not stop" not in capsys.readouterr().out

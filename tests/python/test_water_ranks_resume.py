@@ -25,6 +25,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 h5py = pytest.importorskip("h5py")
@@ -65,11 +66,11 @@ def _interface_rows(folder: Path) -> bytes:
     return path.read_bytes()
 
 
-def _kill_a_water_rank(case: Path, ranks: list[str], window: int) -> None:
+def _kill_a_water_rank(case: Path, ranks: list[str], window: int) -> str:
     """`tunnelquake run` started as a user starts it; as soon as the water wrote its checkpoint of
     `window` (the whole run takes about a second here: the folder is polled every 2 ms), one water
     rank (the newest of the solver's processes in the case's folder) is killed (SIGKILL: its node
-    lost)."""
+    lost). Returns what `tunnelquake run` printed."""
     import os
     import signal
     import time
@@ -95,6 +96,7 @@ def _kill_a_water_rank(case: Path, ranks: list[str], window: int) -> None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
     assert proc.returncode == 1 and "(water) failed" in out, out[-3000:]
+    return out
 
 
 @needs_coupled_run
@@ -165,6 +167,162 @@ def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, 
     assert results_differences(ref_res, res) == []
     assert _interface_rows(case.parent) == _interface_rows(tmp_path / "reference")
     assert not list((case.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
+
+
+@pytest.fixture(scope="module")
+def reference_2x2(tmp_path_factory):
+    """The case with the solid on 2 ranks and the water on 2, never stopped: its folder, the solid's
+    steps and the windows between two checkpoints."""
+    folder = tmp_path_factory.mktemp("reference")
+    assert main(["run", str(_case(folder)), "--ranks", "2", "--no-post"]) == 0
+    with h5py.File(folder / "results" / "results_dynamic_water.h5", "r") as f:
+        assert f.attrs["status"] == "completed" and int(f["ranks"].attrs["ranks"]) == 2
+        assert int(f["timings"].attrs["checkpoints"]) == 3  # windows 9, 18 and 27; none at the end
+        steps = int(f["timings"].attrs["steps"])
+        every = round(INTERVAL_S / float(f["coupling"].attrs["window_size"]))
+    return folder, steps, every
+
+
+#: s within which the loss of one rank must have stopped the whole run (both sides) and `tunnelquake
+#: run` returned: mpirun waits its grace (children.STOP_GRACE_S) before it sends the other ranks
+#: SIGTERM and as long again before SIGKILL; anything near this bound is a hang
+STOP_BOUND_S = 90
+
+
+def _whole_up_to_its_status(stopped: Path, reference: Path) -> tuple[float, float]:
+    """The stopped run's results file opened and read whole, its status saying to when results are
+    kept: "the results up to t = T s are kept" (a rank of the solid lost: its last sample, at the end of
+    the last window the water accepted), or "exchange with 'fluid' failed at t = T s ... window W of"
+    (the water lost while the solid waited for its answer to window W: the state at T, inside that
+    window and never accepted, is the last sample). The last row of every time history is at T or
+    before it, and every row up to the end of the last window accepted is the reference's byte for byte
+    (as is every dataset that is not a history: the model, the snapshots), but the lining's envelopes
+    (the extremes of the rows kept). Returns T and the end of the last window accepted."""
+    import re
+
+    with h5py.File(stopped, "r") as s, h5py.File(reference, "r") as r:
+        status = s.attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else str(status)
+        times = s["monitors/top_arch/time"][:, 0]
+        rows, rows_ref = len(times), len(r["monitors/top_arch/time"])
+        if kept := re.search(r"the results up to t = ([0-9.eE+-]+) s are kept", status):
+            t_kept = t_accepted = float(kept.group(1))
+            assert times[-1] == pytest.approx(t_kept, rel=1e-5), (times[-1], status)
+        else:
+            lost = re.search(r"exchange with 'fluid' failed at t = ([0-9.eE+-]+) s .* window (\d+) of", status)
+            assert lost, status
+            t_kept = float(lost.group(1))
+            t_accepted = (int(lost.group(2)) - 1) * float(r["coupling"].attrs["window_size"])
+            assert t_accepted < t_kept and times[-1] <= t_kept, (times[-1], t_accepted, status)
+        same = int(np.searchsorted(times, t_accepted * (1 + 1e-9), side="right"))  # rows up to the accepted end
+        assert 0 < same <= rows < rows_ref, (same, rows, rows_ref)
+        names: list[str] = []
+        s.visit(names.append)
+        checked = 0
+        for name in names:
+            x = s[name]
+            if not isinstance(x, h5py.Dataset) or name.startswith("timings") or "/envelope/" in name:
+                continue
+            y = r[name]
+            if x.shape[:1] == (rows,) and y.shape[:1] == (rows_ref,):
+                assert x[:same].tobytes() == y[:same].tobytes(), name
+            else:
+                assert x.shape == y.shape and x[()].tobytes() == y[()].tobytes(), name
+            checked += 1
+        assert checked > 50, checked
+    return t_kept, t_accepted
+
+
+@needs_coupled_run
+@pytest.mark.parametrize("lost", ["solid rank 1", "a water rank"])
+def test_solid_and_water_on_2_ranks_each_a_rank_lost_stops_whole_and_resumes_bitwise_equal(tmp_path, capsys,
+                                                                                            reference_2x2, lost):
+    """m:n, the solid on 2 ranks (`--ranks 2`) and the water on 2 (`parallel.fluid_ranks: 2`): one rank
+    of one side killed (SIGKILL, a lost node) mid-run: solid rank 1 once it has taken 60 % of the
+    reference's steps (TQ_RANK_FAULT, at the end of window 21: after the checkpoints of windows 9 and
+    18), or a water rank right after the water wrote its checkpoint of window 9. The whole run stops
+    within STOP_BOUND_S with a non-zero exit, the side that lost the rank blamed and its partner said to
+    have stopped because of it; the results file opens, says where it stopped, and is the reference's up
+    to there; `run --resume` continues from the last pair of checkpoints both sides wrote whole and ends
+    with every dataset and attribute the reference's, byte for byte, and the water's interface.dat too."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    from test_restart import _start
+
+    import tunnelquake
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    ref, steps, every = reference_2x2
+    ref_res = ref / "results" / "results_dynamic_water.h5"
+    case = _case(tmp_path / "case")
+    shutil.copytree(ref / "results" / "mesh", case.parent / "results" / "mesh")
+    shutil.copy(ref / "results" / "motion.h5", case.parent / "results" / "motion.h5")
+    res = case.parent / "results" / "results_dynamic_water.h5"
+    child = {"PYTHONPATH": str(Path(tunnelquake.__file__).parents[1])}  # this tree's package in the child
+
+    t0 = time.monotonic()
+    if lost == "solid rank 1":
+        proc = _start(case, "--ranks", "2", env={**child, "TQ_RANK_FAULT": f"1:{int(0.6 * steps)}"})
+        try:
+            out, _ = proc.communicate(timeout=STOP_BOUND_S)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            out, _ = proc.communicate()
+            raise AssertionError(f"the run did not stop within {STOP_BOUND_S} s of its start: {out[-3000:]}") from None
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        assert proc.returncode == 1, out[-3000:]
+        assert "mpirun noticed that process rank 1" in out and "exited on signal 9 (Killed)" in out, out[-3000:]
+        blamed, partner = "tq-solid (solid) failed with exit code 137", "the water stopped because the solid did"
+        wrong = "(water) failed"
+    else:
+        out = _kill_a_water_rank(case, ["--ranks", "2"], every)
+        blamed, partner = "rhoPimpleFoam on 2 ranks (water) failed", "the solid stopped because the water did"
+        wrong = "tq-solid (solid) failed"
+    stop_s = time.monotonic() - t0
+    assert stop_s < STOP_BOUND_S, stop_s
+    assert blamed in out and partner in out and wrong not in out, out[-3000:]
+    assert not _pids_in(case.parent)  # nothing of either side is left running
+
+    status = _status(res)
+    assert status.startswith("stopped: "), status
+    t_kept, t_accepted = _whole_up_to_its_status(res, ref_res)
+    m = coupled_resume_point(load_case(case), "dynamic_water")
+    if lost == "solid rank 1":
+        assert status.startswith("stopped: the run on ranks was ended by signal 15"), status
+        assert m is not None and int(m["sequence"]) == 2, m  # window 18's; window 27's never written
+    else:  # the first pair, or a later one the run wrote before the rank died
+        assert m is not None and 1 <= int(m["sequence"]) < 4, m
+    assert int(m["window"]) == int(m["sequence"]) * every and float(m["time"]) <= t_accepted * (1 + 1e-9), \
+        (m, t_accepted)
+    capsys.readouterr()
+
+    assert main(["run", str(case), "--ranks", "2", "--resume", "--no-post"]) == 0
+    said = capsys.readouterr().out
+    assert f"resume: dynamic_water continues from its checkpoint at t = {float(m['time']):.6g} s" in said, \
+        said[-3000:]
+    assert f"coupling window {int(m['window'])}) on 2 rank(s)" in said, said[-3000:]
+    log = (case.parent / "results" / "dynamic_water" / "fluid.log").read_text()
+    assert f"(coupling window {int(m['window'])}, the water on 2 ranks)" in log, log[-3000:]
+    assert _status(res) == "completed"
+    assert results_differences(ref_res, res) == []
+    assert _interface_rows(case.parent) == _interface_rows(ref)
+    assert not list((case.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
+    print(f"\n{lost} lost: the run stopped {stop_s:.1f} s after its start; results kept to t = {t_kept:.6g} s, "
+          f"the reference's to t = {t_accepted:.6g} s; resumed from window {m['window']}, bitwise equal")
+
+
+def _pids_in(folder: Path) -> list[int]:
+    """The solvers (tq-solid, the water's solver) and mpirun processes still working in `folder`."""
+    from test_restart import _pids
+
+    return [p for prog in (b"tq-solid", b"PimpleFoam", b"mpirun") for p in _pids(folder, prog)]
 
 
 def _fluid_file(path: Path, parts: list[bytes] | None, digest: str = "d" * 64) -> Path:

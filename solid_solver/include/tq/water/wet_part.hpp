@@ -100,11 +100,16 @@ struct PendingWetWork {
     else
       total += work;
   }
-  /// The count of steps kept (those of a window stepped again are dropped).
+  /// The steps kept, each with its terms. Restored, the steps kept since the save are dropped (a
+  /// window stepped again books its steps again) and those kept at the save are back whole, wherever
+  /// the save was taken: at a window's start (CoupledStepper) or end (a restart checkpoint, after
+  /// flushWetWork: none kept, the count 0 alone), or inside a window, whose steps' work is then booked
+  /// by the resumed run's flushWetWork as by the run never stopped.
   void checkpoint(StateArchive& a) {
     long long pending = (long long)terms.size();
     a.io(pending);
     if (!a.saving()) terms.resize(size_t(pending));
+    for (std::vector<Real>& step : terms) a.io(step);
   }
 };
 
