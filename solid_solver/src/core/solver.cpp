@@ -177,9 +177,15 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
   }
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
-  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
+  // The last few nodes, scalar, sum the kinetic energy whatever is asked (left unread then): the
+  // same code as the steps that sum it. Compiled without it this loop moved its nodes differently
+  // in the last bits: a tunnel with contact on 3 ranks (a rank's last few nodes frontier nodes that
+  // another rank updates in the vector loop) differed from its run summing the kinetic energy at
+  // every step (ring forces by 3e-13 of their largest value), its frontier nodes' copies from each
+  // other.
+  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {
     const Real cd = kDash ? cb[i] : 0.0;
-    leapfrogDofs<Real, kKin>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
+    leapfrogDofs<Real, true>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
                              r.damp, r.bdry, bads);
   }
   r.nBad = Index(bads);
@@ -300,12 +306,12 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
   for (int l = 0; l < L; ++l) r.wint += wint[l];
-  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
+  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes, with the kinetic energy (as leapfrogBody's)
     const bool d = q.lev[n] <= q.active;
     const Real dtn = q.dt * Real(1u << q.lev[n]);
     for (int c = 0; c < 3; ++c) {
       const size_t i = dofIndex(n, c);
-      subcycleDofs<Real, kKin>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]),
+      subcycleDofs<Real, true>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]),
                                kDash ? q.cb[i] : 0.0, i, q, r.ke, r.ext, r.damp, r.bdry, r.wint, bads);
     }
     if (q.m[n] > 0 && d) q.dtp[n] = dtn;
