@@ -898,6 +898,14 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       const Index step0 = s.stepCount();
       Real tPrev = s.time();
       const long long faultStep = rankFaultStep(rank);
+      CoupledStepper stepper(s, water.get());  // without the water: one step
+      // The kinetic energy (Solver::setKineticEnergyWanted) summed only for the final states the
+      // balance is read at, as a one-process run decides it (SolidRun::stepToEnd): from the next
+      // history time every rank holds, so every rank alike.
+      const auto wantKinetic = [&] {
+        const Real t = s.time(), g = stepper.finalGap();
+        s.setKineticEnergyWanted(t + 2.5 * g >= nextSample || t + 1.5 * g >= in.tEnd);
+      };
       // After each final state (every step; coupled: not inside an implicit window of several steps,
       // CoupledStepper): the samples, snapshots, checkpoints and progress.
       const auto onFinal = [&] {
@@ -934,19 +942,26 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
           const double wall = std::chrono::duration<double>(now - t0).count();
           const double rate = double(s.stepCount() - step0) / wall;
           out << "  t = " << std::setprecision(5) << t << " s / " << in.tEnd << " s, step " << s.stepCount() << ", "
-              << std::setprecision(4) << rate << " steps/s, energy error " << std::setprecision(2) << s.energy().error
-              << ", ETA " << hms((in.tEnd - t) / s.dt() / rate) << std::endl;
+              << std::setprecision(4) << rate << " steps/s, energy error " << std::setprecision(2)
+              << s.checkedEnergyError() << " (t = " << std::setprecision(5) << s.checkedEnergyTime() << " s), ETA "
+              << hms((in.tEnd - t) / s.dt() / rate) << std::endl;
           lastReport = now;
         }
       };
-      CoupledStepper stepper(s, water.get());  // without the water: one step
+      // after each final state, once its samples are taken (nextSample is then the next one)
+      const auto onFinalThenWant = [&] {
+        onFinal();
+        wantKinetic();
+      };
+      wantKinetic();
       try {
-        while (s.time() < in.tEnd - 1e-9 * s.dt() && (!water || water->ongoing())) stepper.advance(onFinal);
+        while (s.time() < in.tEnd - 1e-9 * s.dt() && (!water || water->ongoing())) stepper.advance(onFinalThenWant);
       } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample (every rank alike)
         observe();
         withWriter([&](ResultsWriter& w) { w.sample(*view); });
         throw;
       }
+      s.setKineticEnergyWanted(true);
       if (water) finishWaterOnRanks(*water, in, writer.get(), exchange.get(), err);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const long long steps = s.stepCount() - step0;
@@ -994,7 +1009,8 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
         if (checkpoints) checkpoints->completed();
         out << "tq-solid: completed " << steps << " steps in " << hms(wall) << " ("
             << (steps > 0 ? 1e6 * wall / (double(steps) * global.numElems()) : 0.0) << " µs per element-step), "
-            << "energy error " << s.energy().error << ", on " << size << " rank(s)\n  peak memory per rank (MiB):";
+            << "energy error " << std::setprecision(3) << s.checkedEnergyError() << " (t = " << std::setprecision(6)
+            << s.checkedEnergyTime() << " s), on " << size << " rank(s)\n  peak memory per rank (MiB):";
         for (int r = 0; r < size; ++r) out << " " << std::llround(peak[size_t(r)]);
         out << (size > 1 ? " (rank 0 also holds the whole model for the results)" : "") << "\n  results: " << cl.output
             << "\n";

@@ -27,6 +27,7 @@ struct LeapfrogArgs {
   const Real* m;             // mass per node (the chunk's first node)
   Index nn;                  // nodes in the chunk
   Real dt, dtl, alpha, vlim;
+  bool kin;  // sum the kinetic energy (Solver::setKineticEnergyWanted)
 };
 struct LeapfrogSums {
   Real ke = 0, ext = 0, damp = 0, bdry = 0;
@@ -96,8 +97,9 @@ inline __attribute__((always_inline)) V2 freeLanes(const std::uint8_t* fr, V2) {
 
 // Central-difference update of one dof or one vector of dofs T (Real or a vector type): every
 // value is computed unconditionally (selects, no branches). A dof of a node of no active element
-// (excavated, not yet installed; m = 0) stays at rest.
-template <class T>
+// (excavated, not yet installed; m = 0) stays at rest. kKin: sum the kinetic energy (a state, read
+// only at some steps); the works are accumulated at every step.
+template <class T, bool kKin>
 inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real* __restrict u, Real* __restrict v,
                                                         Real* __restrict a, const Real* __restrict fi,
                                                         const Real* __restrict fe, const Real* __restrict fprev,
@@ -120,7 +122,7 @@ inline __attribute__((always_inline)) void leapfrogDofs(T mn, T fri, T cd, Real*
   const T wExt = 0.5 * (fei + fpi) * q.dtl * vo, wKin = 0.5 * mn * vo * vn;
   const T wDamp = cm * vb * vb * dt, wBdry = cd * vb * vb * dt;
   ext += has ? wExt : zero;
-  ke += has ? wKin : zero;
+  if (kKin) ke += has ? wKin : zero;
   damp += has ? wDamp : zero;
   bdry += has ? wBdry : zero;
   const T acc = (vn - vo) * rdt, du = dt * vn;
@@ -149,7 +151,7 @@ inline __attribute__((always_inline)) LeapfrogSums laneSums(V ke, V ext, V damp,
 // One SIMD loop over a node chunk, 4 nodes (12 dofs) at a time: V = 2 lanes (generic x86-64) or
 // 4 lanes (AVX2 + FMA), chosen like the element kernel (ElementBlock::defaultUseAvx2; the results
 // of the two differ in the last bits, never with the thread count). kDash: the model has dashpots.
-template <class V, bool kDash>
+template <class V, bool kDash, bool kKin>
 inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogArgs& q) {
   constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
   Real* __restrict u = q.u;
@@ -169,16 +171,22 @@ inline __attribute__((always_inline)) LeapfrogSums leapfrogBody(const LeapfrogAr
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
       const V cd = kDash ? loadv<V>(cb + i) : V{};
-      leapfrogDofs<V>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext, damp,
-                      bdry, bad);
+      leapfrogDofs<V, kKin>(mv[k], freeLanes(fr + i, V{}), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, ke, ext,
+                            damp, bdry, bad);
     }
   }
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
-  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {  // the last few nodes
+  // The last few nodes, scalar, sum the kinetic energy whatever is asked (left unread then): the
+  // same code as the steps that sum it. Compiled without it this loop moved its nodes differently
+  // in the last bits: a tunnel with contact on 3 ranks (a rank's last few nodes frontier nodes that
+  // another rank updates in the vector loop) differed from its run summing the kinetic energy at
+  // every step (ring forces by 3e-13 of their largest value), its frontier nodes' copies from each
+  // other.
+  for (size_t i = 3 * size_t(n4); i < 3 * size_t(q.nn); ++i) {
     const Real cd = kDash ? cb[i] : 0.0;
-    leapfrogDofs<Real>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext, r.damp,
-                       r.bdry, bads);
+    leapfrogDofs<Real, true>(q.m[i / 3], Real(fr[i]), cd, u + i, v + i, a + i, fi + i, fe + i, fp + i, q, r.ke, r.ext,
+                             r.damp, r.bdry, bads);
   }
   r.nBad = Index(bads);
   return r;
@@ -191,6 +199,7 @@ struct SubcycleArgs {
   Index nn;  // nodes in the chunk
   Real dt, alpha, vlim;
   int active;
+  bool kin;     // sum the kinetic energy (Solver::setKineticEnergyWanted)
   Real rdt[9];  // 1 / (2^level Δt), level 0..8
 };
 
@@ -201,7 +210,8 @@ struct SubcycleArgs {
 // own update then balances kinetic + internal + damping - external exactly, at every fine step
 // (the elements' own stress work, booked when they are evaluated, would count a coarse node's
 // motion on the fine elements next to it before its external work and kinetic energy are).
-template <class T>
+// kKin: sum the kinetic energy, as leapfrogDofs.
+template <class T, bool kKin>
 inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rdt, T dtl, T fri, T cd, size_t i,
                                                         const SubcycleArgs& q, T& ke, T& ext, T& damp, T& bdry, T& wint,
                                                         T& bad) {
@@ -219,7 +229,7 @@ inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rd
   wint += upd ? 0.5 * (fii + fisi) * dtl * vo : zero;
   // ½ m v^{k-½}·v^{k+½} of the node's own step k, also between its updates (v^{k-½} = v - a dtn):
   // the kinetic energy changes only where the works are booked.
-  ke += has ? 0.5 * mn * vo * (upd ? vn : vo - dtn * ao) : zero;
+  if (kKin) ke += has ? 0.5 * mn * vo * (upd ? vn : vo - dtn * ao) : zero;
   // The dashpots' work over the node's previous step, ½ v^{k+½}·(c v̄^{k+1} dtn + c v̄^k dtl) with
   // v̄^k = v^{k+½} − ½ a dtl: what the product form of the kinetic energy loses to them from one
   // update to the next (booked as c v̄² dtn at each update, as single-rate books it, the preloaded
@@ -238,7 +248,7 @@ inline __attribute__((always_inline)) void subcycleDofs(T mn, T due, T dtn, T rd
 
 // One chunk of the subcycled update, 4 nodes (12 dofs) at a time, the node values spread over
 // their dofs as the masses are (dofMasses).
-template <class V, bool kDash>
+template <class V, bool kDash, bool kKin>
 inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleArgs& q) {
   constexpr int L = sizeof(V) / sizeof(Real), K = 12 / L;
   V ke{}, ext{}, damp{}, bdry{}, wint{}, bad{};
@@ -249,6 +259,14 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     bool quiet = true;  // none of the 4 due, all of active elements: most groups at most fine steps
     for (int j = 0; j < 4; ++j) quiet = quiet && q.lev[n + j] > q.active && q.m[n + j] > 0;
     if (quiet) {  // move on with v (what subcycleDofs does for them, without its division)
+      if (!kKin) {
+#pragma GCC unroll 6
+        for (int k = 0; k < K; ++k) {
+          const size_t i = 3 * size_t(n) + size_t(k) * L;
+          storev(q.u + i, loadv<V>(q.u + i) + q.dt * loadv<V>(q.v + i));
+        }
+        continue;
+      }
       alignas(32) Real dtq4[4];
       for (int j = 0; j < 4; ++j) dtq4[j] = q.dt * Real(1u << q.lev[n + j]);
       V tq[K];
@@ -279,8 +297,8 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
       const V cd = kDash ? loadv<V>(q.cb + i) : V{};
-      subcycleDofs<V>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry, wint,
-                      bad);
+      subcycleDofs<V, kKin>(mv[k], dv[k], tv[k], rv[k], lv[k], freeLanes(q.fr + i, V{}), cd, i, q, ke, ext, damp, bdry,
+                            wint, bad);
     }
     for (int j = 0; j < 4; ++j)
       if (q.m[n + j] > 0 && due4[j] > 0) q.dtp[n + j] = dtn4[j];
@@ -288,31 +306,36 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
   Real bads = 0;
   LeapfrogSums r = laneSums(ke, ext, damp, bdry, bad, bads);
   for (int l = 0; l < L; ++l) r.wint += wint[l];
-  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes
+  for (Index n = n4; n < q.nn; ++n) {  // the last few nodes, with the kinetic energy (as leapfrogBody's)
     const bool d = q.lev[n] <= q.active;
     const Real dtn = q.dt * Real(1u << q.lev[n]);
     for (int c = 0; c < 3; ++c) {
       const size_t i = dofIndex(n, c);
-      subcycleDofs<Real>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]), kDash ? q.cb[i] : 0.0, i,
-                         q, r.ke, r.ext, r.damp, r.bdry, r.wint, bads);
+      subcycleDofs<Real, true>(q.m[n], d ? 1.0 : 0.0, dtn, q.rdt[q.lev[n]], q.dtp[n], Real(q.fr[i]),
+                               kDash ? q.cb[i] : 0.0, i, q, r.ke, r.ext, r.damp, r.bdry, r.wint, bads);
     }
     if (q.m[n] > 0 && d) q.dtp[n] = dtn;
   }
   r.nBad = Index(bads);
   return r;
 }
+// Each body with or without dashpots, with or without the kinetic energy.
 LeapfrogSums subcycleGeneric(const SubcycleArgs& q) {
-  return q.cb ? subcycleBody<V2, true>(q) : subcycleBody<V2, false>(q);
+  if (q.kin) return q.cb ? subcycleBody<V2, true, true>(q) : subcycleBody<V2, false, true>(q);
+  return q.cb ? subcycleBody<V2, true, false>(q) : subcycleBody<V2, false, false>(q);
 }
 __attribute__((target("avx2,fma"))) LeapfrogSums subcycleAvx2(const SubcycleArgs& q) {
-  return q.cb ? subcycleBody<V4, true>(q) : subcycleBody<V4, false>(q);
+  if (q.kin) return q.cb ? subcycleBody<V4, true, true>(q) : subcycleBody<V4, false, true>(q);
+  return q.cb ? subcycleBody<V4, true, false>(q) : subcycleBody<V4, false, false>(q);
 }
 
 LeapfrogSums leapfrogGeneric(const LeapfrogArgs& q) {
-  return q.cb ? leapfrogBody<V2, true>(q) : leapfrogBody<V2, false>(q);
+  if (q.kin) return q.cb ? leapfrogBody<V2, true, true>(q) : leapfrogBody<V2, false, true>(q);
+  return q.cb ? leapfrogBody<V2, true, false>(q) : leapfrogBody<V2, false, false>(q);
 }
 __attribute__((target("avx2,fma"))) LeapfrogSums leapfrogAvx2(const LeapfrogArgs& q) {
-  return q.cb ? leapfrogBody<V4, true>(q) : leapfrogBody<V4, false>(q);
+  if (q.kin) return q.cb ? leapfrogBody<V4, true, true>(q) : leapfrogBody<V4, false, true>(q);
+  return q.cb ? leapfrogBody<V4, true, false>(q) : leapfrogBody<V4, false, false>(q);
 }
 }  // namespace
 
@@ -617,6 +640,7 @@ void Solver::updateNodes() {
   const Real alpha = alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha;
   const Real vlim = opt_.velocityLimit;
   const bool leapfrog = opt_.integrator == Integrator::CentralDifference;
+  const bool kin = kineticStep_ = kineticWanted_ || !balanceSet_;
   Real* sums = nodeChunkSums_.data();
   if (rx_) {  // on ranks: the ghosts' v^{n-1/2}, to take their share out of the sums (subtractGhostSums)
     ghostV_.clear();
@@ -630,8 +654,9 @@ void Solver::updateNodes() {
     Real ke = 0, ext = 0, damp = 0, bdry = 0;
     Index bad = -1;
     if (leapfrog) {
-      LeapfrogArgs la{u + i0,  v + i0, a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr, fr + i0, fprev + i0, m + n0,
-                      n1 - n0, dt,     dtl,    alpha,   vlim};
+      LeapfrogArgs la{u + i0,  v + i0,     a + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
+                      fr + i0, fprev + i0, m + n0, n1 - n0, dt,      dtl,
+                      alpha,   vlim,       kin};
       const LeapfrogSums ls = avx2_ ? leapfrogAvx2(la) : leapfrogGeneric(la);
       ke = ls.ke;
       ext = ls.ext;
@@ -655,7 +680,7 @@ void Solver::updateNodes() {
           const Real du = dt * vo + 0.5 * dt * dt * acc;
           const Real vn = Real(fr[i]) * (2 * du / dt - vo);
           a[i] = acc;
-          ke += 0.5 * mn * vo * vo;
+          if (kin) ke += 0.5 * mn * vo * vo;
           ext += fe[i] * du;
           damp += cm * vo * vo * dt;
           bdry += cd * vo * vo * dt;
@@ -690,7 +715,7 @@ void Solver::bookNodeChunks(Index nChunks) {
   extWork_ += ext;
   dampWork_ += damp;
   bdryWork_ += bdry;
-  energy_.kinetic = ke;
+  energy_.kinetic = kineticStep_ ? ke : std::numeric_limits<Real>::quiet_NaN();
   finishEnergy(bad);
 }
 
@@ -714,7 +739,7 @@ void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry, Real
         const size_t i = dofIndex(n, d), j = 3 * k + size_t(d);
         const Real vo = ghostV_[j], vn = v[i], vb = 0.5 * (vo + vn), ao = ghostA_[j];
         const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
-        ke -= 0.5 * mn * vo * (due ? vn : vo - dtn * ao);
+        if (kineticStep_) ke -= 0.5 * mn * vo * (due ? vn : vo - dtn * ao);
         if (!due) continue;
         ext -= 0.5 * (fe[i] + ghostFs_[j]) * dtl * vo;
         wint -= 0.5 * (fi[i] + ghostFis_[j]) * dtl * vo;
@@ -734,7 +759,7 @@ void Solver::subtractGhostSums(Real& ke, Real& ext, Real& damp, Real& bdry, Real
       const Real vo = ghostV_[3 * k + size_t(d)], vn = v[i], vb = 0.5 * (vo + vn);
       const Real cm = alpha * mn, cd = cb ? cb[i] : 0.0;
       ext -= 0.5 * (fe[i] + fExtPrev_[i]) * dtLast_ * vo;
-      ke -= 0.5 * mn * vo * vn;
+      if (kineticStep_) ke -= 0.5 * mn * vo * vn;
       damp -= cm * vb * vb * dt_;
       bdry -= cd * vb * vb * dt_;
     }
@@ -765,9 +790,11 @@ void Solver::finishEnergy(Index bad) {
   Real internal = nodeLevel_.empty() ? stressWork_ + storedEnergy_ : intBase_ + nodalIntWork_, damping = dampWork_,
        boundary = bdryWork_, external = extWork_;
   if (rx_) {  // on ranks: the whole model's terms, and a stop on every rank when one went unstable
-    Real sums[8] = {internal, damping, boundary, external, energy_.kinetic, diss, bE, bad >= 0 ? 1.0 : 0.0};
+    Real sums[8] = {
+        internal, damping, boundary, external, kineticStep_ ? energy_.kinetic : 0.0, diss, bE, bad >= 0 ? 1.0 : 0.0};
     rx_->sumAll(sums, 8);
-    internal = sums[0], damping = sums[1], boundary = sums[2], external = sums[3], energy_.kinetic = sums[4];
+    internal = sums[0], damping = sums[1], boundary = sums[2], external = sums[3];
+    if (kineticStep_) energy_.kinetic = sums[4];
     diss = sums[5], bE = sums[6];
     if (sums[7] > 0) {
       if (bad >= 0) reportInstability(bad, state_.vData()[bad]);
@@ -781,6 +808,10 @@ void Solver::finishEnergy(Index bad) {
   energy_.interface = diss;
   plasticStale_ = true;  // energy_.plastic: by energy() when asked (not in the balance)
   energy_.external = external + diss + bE;
+  if (!kineticStep_) {  // a step that did not sum the kinetic energy: no balance
+    energy_.error = std::numeric_limits<Real>::quiet_NaN();
+    return;
+  }
   const Real bal =
       energy_.interface + energy_.kinetic + energy_.internal + energy_.damping + energy_.boundary - energy_.external;
   if (!balanceSet_) {
@@ -791,6 +822,8 @@ void Solver::finishEnergy(Index bad) {
                                std::abs(energy_.damping) + std::abs(energy_.boundary) + std::abs(energy_.interface),
                                std::numeric_limits<Real>::min()});
   energy_.error = std::abs(bal - balance0_) / scale;
+  checkedError_ = energy_.error;
+  checkedTime_ = t_ + dt_;  // the time this step ends at (the clock advances after the node update)
 }
 
 void Solver::updateNodesSubcycled(int active) {
@@ -814,6 +847,7 @@ void Solver::updateNodesSubcycled(int active) {
   const Real dt = dt_, alpha = opt_.damping.alpha, vlim = opt_.velocityLimit;
   Real rdt[9];  // 1 / (2^level Δt)
   for (int l = 0; l < 9; ++l) rdt[l] = 1 / (dt * Real(1u << l));
+  const bool kin = kineticStep_ = kineticWanted_ || !balanceSet_;
   Real* sums = nodeChunkSums_.data();
   if (rx_) {  // on ranks: the ghosts' values before the update, to take their share out of the sums
     ghostV_.clear();
@@ -836,7 +870,8 @@ void Solver::updateNodesSubcycled(int active) {
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
     const size_t i0 = 3 * size_t(n0);
     SubcycleArgs q{u + i0, v + i0,  a + i0,   fs + i0, dtp + n0, fis + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
-                   m + n0, fr + i0, lev + n0, n1 - n0, dt,       alpha,    vlim,    active,  {}};
+                   m + n0, fr + i0, lev + n0, n1 - n0, dt,       alpha,    vlim,    active,  kin,
+                   {}};
     std::copy(rdt, rdt + 9, q.rdt);
     const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
     const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
@@ -1073,6 +1108,10 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(nodalIntWork_);
   a.io(cycle_);
   if (!a.saving()) stepOpen_ = false;  // a restored state abandons an open step
+  if (!a.saving() && std::isnan(checkedTime_) && !std::isnan(energy_.error)) {  // resumed: its balance
+    checkedError_ = energy_.error;
+    checkedTime_ = t_;
+  }
   for (auto& b : blocks_) b->checkpoint(a);
   for (auto& e : contributors_) e.contributor->checkpoint(a);
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -325,8 +326,19 @@ class Solver {
   Real dt() const { return dt_; }
   Index stepCount() const { return step_; }
   /// The energy balance after the last step (the plastic dissipation, a sum over every element,
-  /// is summed here on demand rather than every step).
+  /// is summed here on demand rather than every step). After a step that did not sum the kinetic
+  /// energy (setKineticEnergyWanted) its `kinetic` and `error` are NaN; the works are whole.
   const EnergyBalance& energy() const;
+  /// Whether the steps from now on sum the kinetic energy (default: every step). It is a state, not
+  /// an accumulated work, and the balance needs it only where it is read: a time loop that reads
+  /// energy() after some steps only (the results' samples) turns it off for the others, which skip
+  /// its sum in the node update. The first step after resetMotion() sums it in any case (the
+  /// balance's reference). On ranks every rank must be given the same setting.
+  void setKineticEnergyWanted(bool wanted) { kineticWanted_ = wanted; }
+  /// The energy error of the last step that summed the kinetic energy (NaN before the first one),
+  /// and the time that step ended at (s): for progress lines.
+  Real checkedEnergyError() const { return checkedError_; }
+  Real checkedEnergyTime() const { return checkedTime_; }
   bool isFixed(Index node, int d) const { return free_[dofIndex(node, d)] == 0; }
   /// Mass-proportional damping coefficient of the current step (1/s): α, or the relaxation's.
   Real massDampingCoefficient() const { return alphaRelax_ >= 0 ? alphaRelax_ : opt_.damping.alpha; }
@@ -372,6 +384,9 @@ class Solver {
   Real alphaRelax_ = -1;          // >= 0 while relaxing: replaces α
   mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_
   mutable bool plasticStale_ = true;
+  bool kineticWanted_ = true;  // setKineticEnergyWanted
+  bool kineticStep_ = true;    // the last node update summed the kinetic energy
+  Real checkedError_ = std::numeric_limits<Real>::quiet_NaN(), checkedTime_ = std::numeric_limits<Real>::quiet_NaN();
   Real stressWork_ = 0, storedEnergy_ = 0, dampWork_ = 0, bdryWork_ = 0, extWork_ = 0;
   Real balance0_ = 0;
   Real interface0_ = 0, plastic0_ = 0;  // dissipation totals at the last resetMotion()

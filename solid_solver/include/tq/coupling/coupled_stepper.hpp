@@ -24,6 +24,12 @@ class CoupledStepper {
   /// whose steps are final only at its accepted end.
   void advance(const std::function<void()>& onFinal);
 
+  /// The time from one final state to the next (s): an implicit window of several steps, else one
+  /// step.
+  Real finalGap() const {
+    return coupling_ && coupling_->repeatsWindows() ? Real(coupling_->windowSteps()) * solver_.dt() : solver_.dt();
+  }
+
   /// Windows stepped again from their saved start so far.
   long long restores() const { return restores_; }
   /// Solid steps begun, repeated ones included (a one-step window's step counts once).
