@@ -36,6 +36,7 @@
 #include <filesystem>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 #include "input_fixture.hpp"
 #include "io/h5util.hpp"
@@ -201,6 +202,42 @@ TEST(StepLadder, AboveTheCriticalStepIsRefusedAndAForcedRunStopsCleanly) {
     for (Real x : u) ASSERT_TRUE(std::isfinite(x));
     const auto e = h5::readDoubles(r, "/energy/history", &d);
     for (Real x : e) ASSERT_TRUE(std::isfinite(x));
+  }
+}
+
+// The solver sums the kinetic energy only where its time loop asks (setKineticEnergyWanted): a
+// history row due from a state without it is a defect of the loop, stopped by name rather than
+// written as NaN; asked for at the states either side of each row, the energy rows are whole.
+TEST(ResultsWriter, AnEnergyRowFromAStateWithoutTheKineticEnergyIsRefusedNotWrittenAsNaN) {
+  for (const bool ask : {true, false}) {
+    Files files;
+    LadderRun run;
+    run.setUp(true);
+    Solver& s = *run.solver;
+    std::string message;
+    {
+      ResultsWriter w(files / "results.h5", run.in, s);
+      try {
+        while (s.time() < 0.05) {
+          // asked: the states within two steps of the next row; not asked: none after the first
+          s.setKineticEnergyWanted(ask && s.time() + 2.5 * s.dt() >= w.nextSampleTime());
+          s.step();
+          w.sample(s);
+        }
+      } catch (const std::logic_error& e) {
+        message = e.what();
+      }
+    }
+    if (ask) {
+      EXPECT_TRUE(message.empty()) << message;
+      std::vector<hsize_t> d;
+      const auto e = h5::readDoubles(h5::openFile(files / "results.h5"), "/energy/history", &d);
+      ASSERT_GT(d[0], 2u);
+      for (Real x : e) ASSERT_TRUE(std::isfinite(x));
+    } else {
+      EXPECT_NE(message.find("energy balance was not summed at a state the histories sample"), std::string::npos)
+          << message;
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include <hdf5.h>
 
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -154,6 +155,10 @@ class ClockedRows {
   void observe(const double* row);
   void write(double t, double w);
   hsize_t rows() const { return rows_.rows(); }
+  /// Whether column `col` is finite in both kept states (the rows due now are interpolated from them).
+  bool keptFinite(hsize_t col) const {
+    return col < prev_.size() && col < cur_.size() && std::isfinite(prev_[col]) && std::isfinite(cur_[col]);
+  }
   RowAppender& appender() { return rows_; }
   /// The two kept states the next rows are interpolated between (restart checkpoints).
   template <class Archive>

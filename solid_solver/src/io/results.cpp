@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "h5util.hpp"
 #include "results_nonlinear.hpp"
@@ -337,6 +338,13 @@ void ResultsWriter::sample(const Solver& s) {
   // 2. Write the rows of the requested times this state completes, each interpolated between the
   //    previous observed state and this one.
   I.clock.observe(t);
+  // The solver sums the kinetic energy only at the states its time loop asks for
+  // (Solver::setKineticEnergyWanted): a row due now from a state without it would be NaN.
+  if (!I.clock.due().empty() && !I.energy.keptFinite(1))
+    throw std::logic_error(
+        "the energy balance was not summed at a state the histories sample (t = " + std::to_string(t) +
+        " s): the time loop did not ask for the kinetic energy there; "
+        "this is a defect of tq-solid, please report it with the input file");
   for (const auto& [tk, w] : I.clock.due()) {
     reserve(I.ledger.nextRow);
     for (auto& mon : I.monitors)
