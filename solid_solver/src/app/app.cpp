@@ -486,14 +486,8 @@ void SolidRun::stepToEnd() {
   step0_ = s.stepCount();
   CoupledStepper stepper(s, coupling_.get());
   stepping_ = true;
-  // The kinetic energy (Solver::setKineticEnergyWanted) is summed only for the final states the
-  // balance is read at: those the histories may sample (below: t + gap reaches the next requested
-  // time; the next final state is one finalGap on, the margin of half a gap takes the clock's
-  // rounding) and the last (the summary line).
-  const auto wantKinetic = [&] {
-    const Real t = s.time(), g = stepper.finalGap();
-    s.setKineticEnergyWanted(t + 2.5 * g >= results.nextSampleTime() || t + 1.5 * g >= m_.in.tEnd);
-  };
+  // the kinetic energy summed only for the final states the balance is read at
+  const auto wantKinetic = [&] { stepper.askKineticEnergy(results.nextSampleTime(), m_.in.tEnd); };
   const auto onFinal = [&] {
     if (coupling_) {
       const std::string note = coupling_->takeNote();

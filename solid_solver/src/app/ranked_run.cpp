@@ -899,13 +899,9 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       Real tPrev = s.time();
       const long long faultStep = rankFaultStep(rank);
       CoupledStepper stepper(s, water.get());  // without the water: one step
-      // The kinetic energy (Solver::setKineticEnergyWanted) summed only for the final states the
-      // balance is read at, as a one-process run decides it (SolidRun::stepToEnd): from the next
-      // history time every rank holds, so every rank alike.
-      const auto wantKinetic = [&] {
-        const Real t = s.time(), g = stepper.finalGap();
-        s.setKineticEnergyWanted(t + 2.5 * g >= nextSample || t + 1.5 * g >= in.tEnd);
-      };
+      // The kinetic energy summed only for the final states the balance is read at, as a one-process
+      // run decides it: from the next history time every rank holds, so every rank alike.
+      const auto wantKinetic = [&] { stepper.askKineticEnergy(nextSample, in.tEnd); };
       // After each final state (every step; coupled: not inside an implicit window of several steps,
       // CoupledStepper): the samples, snapshots, checkpoints and progress.
       const auto onFinal = [&] {

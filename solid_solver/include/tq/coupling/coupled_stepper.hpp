@@ -24,10 +24,13 @@ class CoupledStepper {
   /// whose steps are final only at its accepted end.
   void advance(const std::function<void()>& onFinal);
 
-  /// The time from one final state to the next (s): an implicit window of several steps, else one
-  /// step.
-  Real finalGap() const {
-    return coupling_ && coupling_->repeatsWindows() ? Real(coupling_->windowSteps()) * solver_.dt() : solver_.dt();
+  /// At a final state: have the solver sum the kinetic energy (Solver::setKineticEnergyWanted) in
+  /// the steps to the next one only where the balance will be read: a final state the histories may
+  /// sample (within a gap of `nextSample`, the next requested history time; the margin of half a
+  /// gap takes the clock's rounding) and the last one (`tEnd`: the summary line).
+  void askKineticEnergy(Real nextSample, Real tEnd) const {
+    const Real t = solver_.time(), g = finalGap();
+    solver_.setKineticEnergyWanted(t + 2.5 * g >= nextSample || t + 1.5 * g >= tEnd);
   }
 
   /// Windows stepped again from their saved start so far.
@@ -36,6 +39,11 @@ class CoupledStepper {
   long long steps() const { return steps_; }
 
  private:
+  /// The time from one final state to the next (s): an implicit window of several steps, else one
+  /// step.
+  Real finalGap() const {
+    return coupling_ && coupling_->repeatsWindows() ? Real(coupling_->windowSteps()) * solver_.dt() : solver_.dt();
+  }
   void window(const std::function<void()>& onFinal);
   void solveWindow(bool stepsAreFinal, const std::function<void()>& onFinal);
 
