@@ -217,10 +217,10 @@ PASSES_PER_WINDOW = {"implicit": 1.45, "explicit": 1.0, "paper": 2.0}
 IMPLICIT_PASSES_PER_DECADE = 1.37
 
 
-def passes_per_window(coupling: dict, mode: str = "slice") -> float:
+def passes_per_window(coupling: dict) -> float:
     """The water passes a coupling window is expected to take (PASSES_PER_WINDOW; the implicit
-    scheme's at its tolerance), in a slice and in 3D (`mode`, the mesh's) alike, wherever the water's
-    volume law is carried. The first tenths of a second take more where the exchange carries the law
+    scheme's at its tolerance), in a slice and in 3D alike, wherever the water's volume law is
+    carried. The first tenths of a second take more where the exchange carries the law
     (the example's 3D variant at 1e-4: 2.80 a window over its first 0.2 s), but over a run of
     seconds the rule holds: 1.97 over its first 2 s against the rule's 1.99, 2.07 over 2.5 s; the
     slice 1.97 over 2 s against 1.95 with the law in the solid (docs/benchmarks.md "check's
@@ -232,6 +232,8 @@ def passes_per_window(coupling: dict, mode: str = "slice") -> float:
     if scheme == "implicit":
         passes *= IMPLICIT_PASSES_PER_DECADE ** math.log10(1e-3 / float(coupling["tolerance"]))
     return max(1.0, passes)
+
+
 #: the rock's share of its one-rate CPU time with time.subcycling: its element evaluations fall to
 #: 0.32 (the paper mesh in 3D), but every node still moves at every fine step; measured: the 3D
 #: variant's no_water over 0.2 s, 1 thread, 16.1 CPU s of shaking, 0.51 (Intel VM, 2026-11-28); the
@@ -406,7 +408,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
             cpu[cond], seconds[cond] = solid, solid / x
             continue
         c = d["coupling"]
-        per_window = passes_per_window(c, d["mesh"]["mode"])
+        per_window = passes_per_window(c)
         passes = per_window * steps / c["window"]
         water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
         # staggered: the water's passes in series with the solid's (its threads wait meanwhile)

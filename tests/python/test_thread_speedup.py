@@ -95,7 +95,7 @@ def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkey
 
     d, c = case.data, case.data["coupling"]
     counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
-    passes = passes_per_window(c, d["mesh"]["mode"]) * est.steps / c["window"]
+    passes = passes_per_window(c) * est.steps / c["window"]
     water_s = passes * (given.water_pass + counts["water"] * given.water_cell_pass)
     solid_s = est.cpu["dynamic_water"] - water_s
     assert solid_s > 0

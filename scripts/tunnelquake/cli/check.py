@@ -100,11 +100,11 @@ def main(argv: list[str]) -> int:
 
     say(f"  {runtime_estimate(case).line()}")
 
-    for cond, parts in plan(case):
-        say(f"  condition {cond}: runs {' + '.join(parts)}")
     from ..restart import checkpoint_dir, coupled_resume_point, fluid_ranks_problem
 
-    for cond, parts in plan(case):  # a fresh run is fine; `run --resume` refuses to continue these
+    for cond, parts in plan(case):
+        say(f"  condition {cond}: runs {' + '.join(parts)}")
+        # a fresh run is fine; `run --resume` refuses to continue from a checkpoint of another fluid rank count
         point = coupled_resume_point(case, cond) if "fluid" in parts and checkpoint_dir(case, cond).is_dir() else None
         why = fluid_ranks_problem(case, cond, point) if point is not None else None
         if why is not None:
