@@ -405,8 +405,9 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
             else:
                 say(f"resume: {cond} runs from the start" if getattr(what, "notes", None) else
                     f"resume: {cond} has no restart checkpoint: it runs from the start")
-        refused = [why for cond, what in resuming.items() if what == "checkpoint"
-                   for why in [fluid_ranks_problem(case, cond, what.point)] if why is not None]
+        refused = [fluid_ranks_problem(case, cond, what.point) for cond, what in resuming.items()
+                   if what == "checkpoint"]
+        refused = [why for why in refused if why is not None]
         for why in refused:
             print(f"error: cannot resume {why}", file=sys.stderr)
         if refused:

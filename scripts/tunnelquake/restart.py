@@ -16,6 +16,8 @@ from .scene import plan
 MANIFEST_CRC = '"manifest_crc32"'
 #: the water checkpoint's trailer: input digest (64 bytes), TQFLSUM1, CRC-32 (4 bytes)
 FLUID_TRAILER = 64 + 8 + 4
+#: the water checkpoint's first 8 bytes: one rank's, and the decomposed water's (then its rank count)
+FLUID_ONE, FLUID_RANKS = b"TQFLUID1", b"TQFLUIDR"
 
 
 def checkpoint_dir(case, cond: str) -> Path:
@@ -111,7 +113,7 @@ def fluid_problem(path: Path) -> tuple[str | None, str | None]:
         data = path.read_bytes()
     except OSError as e:
         return f"{path.name} cannot be read ({e.strerror})", None
-    if len(data) < 8 + FLUID_TRAILER or not data.startswith((b"TQFLUID1", b"TQFLUIDR")):
+    if len(data) < 8 + FLUID_TRAILER or not data.startswith((FLUID_ONE, FLUID_RANKS)):
         return f"{path.name} is not a whole water checkpoint ({len(data)} bytes: cut short or damaged)", None
     body = len(data) - 4
     if data[body - 8:body] != b"TQFLSUM1":
@@ -131,9 +133,9 @@ def fluid_ranks_of(path: Path) -> int | None:
             head = fh.read(16)
     except OSError:
         return None
-    if head.startswith(b"TQFLUID1"):
+    if head.startswith(FLUID_ONE):
         return 1
-    if head.startswith(b"TQFLUIDR") and len(head) == 16:
+    if head.startswith(FLUID_RANKS) and len(head) == 16:
         return int.from_bytes(head[8:], sys.byteorder, signed=True)
     return None
 
