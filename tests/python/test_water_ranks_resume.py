@@ -30,6 +30,7 @@ import pytest
 
 h5py = pytest.importorskip("h5py")
 yaml = pytest.importorskip("yaml")
+from test_coupled_ranks_resume import status as _status  # noqa: E402
 from test_water_parts import _write_case  # noqa: E402
 
 from conftest import coupled_run_missing  # noqa: E402
@@ -52,12 +53,6 @@ def _case(folder: Path, fluid_ranks: int = 2) -> Path:
     data["parallel"]["fluid_ranks"] = fluid_ranks
     p.write_text(yaml.safe_dump(data, sort_keys=False))
     return p
-
-
-def _status(res: Path) -> str:
-    with h5py.File(res, "r") as f:
-        s = f.attrs["status"]
-    return s.decode() if isinstance(s, bytes) else str(s)
 
 
 def _interface_rows(folder: Path) -> bytes:
