@@ -1,6 +1,6 @@
 // tq-solid-bench: time per element-step of elastic hex8 on an n x n x n box (not a test).
 //
-//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N [--against M]] [--damping] [--generic]
+//   tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N [--against M]] [--damping] [--generic | --avx2]
 //                  [--column P --dt DT [--write-ccx deck.inp]]
 //
 // Default case: builds the box in memory (one region, base fixed), gives it small random
@@ -12,7 +12,8 @@
 // P A/4 per quad corner, fixed step DT; every repeat starts from rest, and the top centre node's
 // u_z after `steps` steps is printed. --write-ccx writes the same problem as a CalculiX deck
 // (*DYNAMIC, EXPLICIT, DIRECT; C3D8R; same nodes, elements, loads and step).
-// --generic: the generic x86-64 kernel instead of the AVX2 one (same as TQ_SOLID_SIMD=generic).
+// --generic: the generic x86-64 kernel instead of the widest one (same as TQ_SOLID_SIMD=generic);
+// --avx2: the AVX2 kernel where the CPU also has AVX-512 (same as TQ_SOLID_SIMD=avx2).
 // The default case also prints the busiest thread's CPU time per element-step (CLOCK_THREAD_CPUTIME_ID
 // of each thread of the team, the largest): about the time the steps take with every thread on a
 // core of its own, which a machine shared with other work does not change as it changes the wall time
@@ -125,7 +126,7 @@ std::string machineLine() {
 int main(int argc, char** argv) {
   using namespace tq;
   bench::SizeOptions size{40, 200, 5};
-  bool damping = false, generic = false;
+  bool damping = false, generic = false, avx2 = false;
   int against = 0;
   double columnP = 0, fixedDt = 0;
   std::string ccxDeck;
@@ -136,6 +137,8 @@ int main(int argc, char** argv) {
       damping = true;
     else if (a == "--generic")
       generic = true;
+    else if (a == "--avx2")
+      avx2 = true;
     else if (a == "--against" && i + 1 < argc)
       against = std::stoi(argv[++i]);
     else if (a == "--column" && i + 1 < argc)
@@ -147,7 +150,7 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: tq-solid-bench [--n 40] [--steps 200] [--repeat 5] [--threads N [--against M]] "
-                   "[--damping] [--generic] [--column P --dt DT [--write-ccx deck.inp]]\n");
+                   "[--damping] [--generic | --avx2] [--column P --dt DT [--write-ccx deck.inp]]\n");
       return 1;
     }
   }
@@ -156,7 +159,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "tq-solid-bench: --column needs --dt (the fixed step shared with CalculiX)\n");
     return 1;
   }
-  if (generic) setenv("TQ_SOLID_SIMD", "generic", 1);
+  if (generic || avx2) setenv("TQ_SOLID_SIMD", generic ? "generic" : "avx2", 1);
   const Mesh mesh = makeBoxMesh({n, n, n, 0, 0, 0, 1.0 * n, 1.0 * n, 1.0 * n});
   SolverOptions opt;
   if (damping) opt.damping = RayleighDamping::fromRatio(0.05, 1.0, 20.0);
@@ -250,7 +253,7 @@ int main(int argc, char** argv) {
       "tq-solid-bench: %d elements (%d^3 box), %d nodes, elastic hex8 one_point_assumed_strain, "
       "damping %s, %d thread(s), %s kernel\n",
       mesh.numElems(), n, mesh.numNodes(), damping ? "on (stiffness+mass)" : "off", omp_get_max_threads(),
-      s.blocks()[0]->usesAvx2() ? "AVX2" : "generic");
+      ElementBlock::simdName(s.blocks()[0]->simd()));
   std::printf(
       "  %d x %d steps: median %.4f us per element-step (min %.4f, max %.4f); "
       "%.3g element-steps/s; energy error %.2e\n",

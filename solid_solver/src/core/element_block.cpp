@@ -210,7 +210,7 @@ ElementBlock::ElementBlock(std::string name, std::shared_ptr<const Material> mat
       nElems_(static_cast<Index>(meshElems.size())),
       meshElems_(scatterOrder(mesh, std::move(meshElems))),
       hgScale_(hourglassScale),
-      avx2_(defaultUseAvx2()) {
+      simd_(defaultSimd()) {
   if (formulation_ == Hex8Formulation::FullIntegration && !material_->isLinearElastic())
     throw InputError("block '" + name_ +
                      "': full_integration is a linear elastic reference "
@@ -527,9 +527,11 @@ Index ElementBlock::findBadStress(Real limit) const {
 namespace {
 
 // The one-point kernel is written on short vectors of elements (GCC vector extensions): 2 lanes
-// (SSE2) for the generic x86-64 build, 4 lanes for the AVX2 path, chosen at run time when the CPU
-// has AVX2 and FMA (TQ_SOLID_SIMD=generic forces the generic one).
-// V2, V4, loadv, storev: simd_util.hpp.
+// (SSE2) for the generic x86-64 build, 4 lanes for the AVX2 path, 8 for the AVX-512 one, chosen at
+// run time by what the CPU has (ElementBlock::defaultSimd; TQ_SOLID_SIMD narrows it). Every lane is
+// one element and runs the same operations whatever the width, so AVX2 and AVX-512 give the same
+// bits; the chunk's energy terms are summed over its elements in lane order after the loops.
+// V2, V4, V8, loadv, storev: simd_util.hpp.
 
 /// Block constants of the assumed-strain hourglass stiffness.
 struct HourglassModuli {
@@ -937,17 +939,32 @@ __attribute__((target("avx2,fma"))) void onePointAvx2(const ElementBlock::ChunkV
   onePointBody<kDamp, kTotal, V4>(cv, u, v, f, en);
 }
 
-}  // namespace
-
-bool ElementBlock::avx2Available() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+template <bool kDamp, bool kTotal>
+__attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"))) void onePointAvx512(const ElementBlock::ChunkView& cv,
+                                                                                  const Real* u, const Real* v, Real* f,
+                                                                                  BlockEnergy& en) {
+  onePointBody<kDamp, kTotal, V8>(cv, u, v, f, en);
 }
 
-bool ElementBlock::defaultUseAvx2() {
+}  // namespace
+
+ElementBlock::Simd ElementBlock::simdAvailable() {
+  static const Simd widest = [] {
+    __builtin_cpu_init();
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return Simd::Generic;
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
+      return Simd::Avx512;
+    return Simd::Avx2;
+  }();
+  return widest;
+}
+
+ElementBlock::Simd ElementBlock::defaultSimd() {
   const char* env = std::getenv("TQ_SOLID_SIMD");
-  if (env && std::string(env) == "generic") return false;
-  return avx2Available();
+  const std::string asked = env ? env : "";
+  if (asked == "generic") return Simd::Generic;
+  if (asked == "avx2") return std::min(Simd::Avx2, simdAvailable());
+  return simdAvailable();
 }
 
 template <bool kDamp, bool kTotal>
@@ -990,10 +1007,17 @@ void ElementBlock::onePointChunk(Index c, const Real* __restrict u, const Real* 
                                     : nullptr;
     cv.nextStress[k] = next ? stress_[k].data() + e1 : nullptr;
   }
-  if (avx2_)
-    onePointAvx2<kDamp, kTotal>(cv, u, v, f, en);
-  else
-    onePointGeneric<kDamp, kTotal>(cv, u, v, f, en);
+  switch (simd_) {
+    case Simd::Avx512:
+      onePointAvx512<kDamp, kTotal>(cv, u, v, f, en);
+      break;
+    case Simd::Avx2:
+      onePointAvx2<kDamp, kTotal>(cv, u, v, f, en);
+      break;
+    case Simd::Generic:
+      onePointGeneric<kDamp, kTotal>(cv, u, v, f, en);
+      break;
+  }
 }
 
 void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real* __restrict f, BlockEnergy& en) {

@@ -8,6 +8,8 @@
 ///        node's sum order is fixed by the mesh alone (bitwise identical for any thread count).
 #pragma once
 
+#include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -163,15 +165,24 @@ class ElementBlock {
     cornerSlot_ = slot;
   }
 
-  /// True when this CPU has AVX2 and FMA (the kernel's fast path).
-  static bool avx2Available();
-  /// The kernel path a new block takes: AVX2 when available, unless the environment variable
-  /// TQ_SOLID_SIMD=generic asks for the generic x86-64 (SSE2) path.
-  static bool defaultUseAvx2();
-  /// Choose the kernel path (AVX2 only if available); results differ between the two in the
-  /// last bits (fused multiply-add), never with the thread count.
-  void setUseAvx2(bool on) { avx2_ = on && avx2Available(); }
-  bool usesAvx2() const { return avx2_; }
+  /// The kernel's vector paths, narrowest first: SSE2 (2 elements a vector, any x86-64), AVX2 + FMA
+  /// (4), AVX-512 (8: AVX-512 F, DQ and VL besides AVX2 + FMA). AVX-512 runs the very operations of
+  /// AVX2 on twice the elements, so the two give the same bits; the generic path differs from them in
+  /// the last bits (fused multiply-add). No path's results depend on the thread count.
+  enum class Simd : std::uint8_t { Generic, Avx2, Avx512 };
+  /// The widest path this CPU has.
+  static Simd simdAvailable();
+  /// True when this CPU has AVX2 and FMA (the node update's and the DRM layer's fast path).
+  static bool avx2Available() { return simdAvailable() >= Simd::Avx2; }
+  /// The path a new block takes: the widest available, narrowed by the environment variable
+  /// TQ_SOLID_SIMD=generic or TQ_SOLID_SIMD=avx2 (any other value: the widest).
+  static Simd defaultSimd();
+  /// Whether the node update and the DRM layer take their AVX2 path (defaultSimd() is not generic).
+  static bool defaultUseAvx2() { return defaultSimd() != Simd::Generic; }
+  /// Choose the kernel path (at most the widest available).
+  void setSimd(Simd s) { simd_ = std::min(s, simdAvailable()); }
+  Simd simd() const { return simd_; }
+  static const char* simdName(Simd s) { return s == Simd::Avx512 ? "AVX-512" : s == Simd::Avx2 ? "AVX2" : "generic"; }
   /// Save or restore the state a step changes: stresses, strains, history, energies (not the
   /// geometry or the active set, which no step changes).
   void checkpoint(StateArchive& a);
@@ -224,7 +235,7 @@ class ElementBlock {
   std::vector<std::vector<Index>> levelChunks_, levelSlabStart_;
   std::vector<Real> chunkCentre_;       // [3 chunk + d] centre of a chunk's elements
   std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
-  bool avx2_ = false;                   // kernel path
+  Simd simd_ = Simd::Generic;           // kernel path
   Real* cornerOut_ = nullptr;           // on ranks: the corner forces' destination (setCornerForceOutput)
   const Index* cornerSlot_ = nullptr;   // on ranks: [element] its slot there, or -1
 };
