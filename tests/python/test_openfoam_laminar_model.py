@@ -22,6 +22,9 @@ implicit laplacian(nuEff, U) (docs/water.md §10).  References and tolerances:
   non-zero in the wall cells; zero for water's nu, first test.)
 - a viscosity model other than Newtonian (nu varying in space, the dropped term not zero) is
   refused at start-up, naming transportModel and the fix.
+- the compressible water (rhoPimpleFoam): the same pipe, loads within 1e-7 of Stokes's (the
+  dropped (mu/3) grad(div U) is about 6e-12 of grad p); a thermo whose viscosity is not uniform
+  (transport other than const) is refused at start-up.
 """
 
 from __future__ import annotations
