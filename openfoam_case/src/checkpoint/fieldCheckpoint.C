@@ -541,8 +541,8 @@ void Foam::tq::fieldCheckpoint::store()
     // The savers, tried in this order on an object of a type not seen
     // before; the first that takes it saves every later object of its type
     // (whether one takes an object depends on its dynamic type alone; up to
-    // eleven dynamic_casts an object each store were a tenth of a water
-    // pass's function-object work on the slice)
+    // eleven dynamic_casts an object each store were 7 % of tqInterface's
+    // work a pass on the slice, 0.31 M of a store's 0.37 M instructions)
     typedef bool (fieldCheckpoint::*saver)
     (
         const regIOobject&,
