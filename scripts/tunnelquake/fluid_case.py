@@ -18,7 +18,7 @@ size and the number of windows are pinned on both sides (none is left to a side'
 Water models (case `water` section):
 
     compressible     rhoPimpleFoam, perfectFluid with R T0 = K / rho0 (K = water.bulk_modulus), p in Pa,
-                     the stock laminar model Stokes
+                     the laminar model tqNewtonian (its dropped (mu/3) grad(div U) about 6e-12 of grad p)
     incompressible   pimpleFoam, nu = viscosity / density, p kinematic, the laminar model
                      tqNewtonian (libtqFoam.so: laplacian(nuEff,U) alone, docs/water.md §10)
 

@@ -66,6 +66,15 @@ def test_brief_log_prints_the_interval_and_keeps_every_row(tmp_path):
     b = np.loadtxt(next((tmp_path / "brief" / "postProcessing" / "interface").glob("*/interface.dat")))
     assert a.shape == b.shape == (2 * NSTEPS, 19)
     assert np.array_equal(a, b)
+    # each row's text: the OpenFOAM file stream's format (scientific, 15 digits: %.15e), the
+    # accepted flag and the rollback count as integers, one space between
+    text = next((tmp_path / "brief" / "postProcessing" / "interface").glob("*/interface.dat")).read_text()
+    rows = [r for r in text.splitlines() if not r.startswith("#")]
+    assert len(rows) == 2 * NSTEPS
+    for row, values in zip(rows, b, strict=True):
+        fields = row.split(" ")
+        assert fields[1] == str(int(values[1])) and fields[18] == str(int(values[18]))
+        assert [fields[0]] + fields[2:18] == [f"{v:.15e}" for v in [values[0], *values[2:18]]]
 
     # verbose: every pass, rolled-back ones marked, the residual lines
     t_v, _, rolled_v = _printed_loads(verbose)

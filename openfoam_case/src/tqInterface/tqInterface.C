@@ -27,6 +27,7 @@ License
 #include "tq/coupler/crc32.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <malloc.h>
 #include <cerrno>
@@ -625,14 +626,39 @@ void Foam::functionObjects::tqInterface::writeRow
     }
     OFstream& os = filePtr_();
     const vector F(totalP_ + totalV_);
-    os  << t << ' ' << (accepted ? 1 : 0);
+
+    // The row's text is what 'os << value' writes to the file (scientific,
+    // precision 15: %.15e; writeFile::initStream), made by std::to_chars:
+    // the stream's locale-aware conversion cost more than the rest of
+    // the row's work
+    // 19 values of at most 23 characters (-d.ddddddddddddddde-308), spaces
+    char row[19*24];
+    char* const end = row + sizeof(row);
+    char* c = row;
+    const auto put = [&c, end](const scalar v, const bool space)
+    {
+        if (space)
+        {
+            *c++ = ' ';
+        }
+        c = std::to_chars(c, end, v, std::chars_format::scientific, 15).ptr;
+    };
+    put(t, false);
+    *c++ = ' ';
+    *c++ = accepted ? '1' : '0';
     for (const vector& v : {F, totalP_, totalV_, totalHs_, totalPoint_})
     {
-        os  << ' ' << v.x() << ' ' << v.y() << ' ' << v.z();
+        put(v.x(), true);
+        put(v.y(), true);
+        put(v.z(), true);
     }
+    put(pMean_, true);
+    *c++ = ' ';
+    c = std::to_chars(c, end, nRollbacks_).ptr;
+    *c++ = '\n';
     // One write a printed pass, not one a pass (the stream's buffer holds
     // the rows in between; the file is complete when the run ends)
-    os  << ' ' << pMean_ << ' ' << nRollbacks_ << nl;
+    os.stdStream().write(row, std::streamsize(c - row));
     if (print)
     {
         os.flush();
