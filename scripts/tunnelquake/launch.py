@@ -446,14 +446,15 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
 
 
 def _motion_figure(draw, failed: list[str]):
-    """`draw` (the motion's figure and motion.json, prepare.motion_and_figure's `later`), a full disk
-    said and added to `failed` instead of raised."""
+    """`draw` (the motion's figure and motion.json, prepare.motion_and_figure's `later`), its error
+    (a full disk) said and added to `failed` instead of raised: the conditions' results stay, and
+    post goes on without the figure."""
     def figure() -> None:
         try:
             draw()
-        except DiskFull as e:
-            say(f"error: {e}")
-            failed.append(f"motion figure: {e}")
+        except Exception as e:  # noqa: BLE001 - said; the next run makes the motion again (no motion.json)
+            say(f"error: the motion's figure not drawn: {e}")
+            failed.append(f"motion figure: {type(e).__name__}: {e}")
 
     return figure
 
@@ -471,11 +472,16 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
         post's per-condition work of the completed conditions on the core it leaves idle."""
         if not other_running:
             return
-        if early is not None:
-            early.idle(list(completed), later)
-        else:
+        if early is None:
             while later:
                 later.pop(0)()
+            return
+        try:
+            early.idle(list(completed), later)
+        except children.Interrupted:
+            raise
+        except Exception as e:  # noqa: BLE001 - post does what is left, and meets the error itself
+            say(f"post's work beside the running condition(s) stopped ({type(e).__name__}: {e}); post does it")
 
     children.check()
     supervise.PHASE[0] = "running the conditions"
