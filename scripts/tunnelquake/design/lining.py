@@ -678,13 +678,15 @@ def lining_design(case, results, known: dict | None = None) -> LiningDesign | No
     """The designer's summary of the conditions whose results carry ring forces; None when none does.
     A case without strengths gets the forces without the checks, and one line saying why. `known`:
     {condition: (dry, condition_parts(case, res, dry))} computed earlier from the same results files
-    (post_early.py); each is used where its `dry` is the static state used here, else computed again."""
+    (post_early.py); each is used where its `dry` is the static state used here (no_water's always),
+    else computed again."""
     params, source = design_parameters(case)
     monitors = case.data["output"].get("monitors") or {}
     combination = Combination.from_case(case.data)
     crack = crack_settings(case)
     dry = next((static_state(Path(r.path), monitors) for r in results if r.condition == "no_water"), None)
-    known = {c: parts for c, (state, parts) in (known or {}).items() if _same_state(state, dry)}
+    # no_water's own design does not use the dry state (condition_design)
+    known = {c: parts for c, (state, parts) in (known or {}).items() if c == "no_water" or _same_state(state, dry)}
     done, missing = [], []
     for res in results:
         if res.condition in known:
