@@ -6,6 +6,11 @@ first and last sighting (its wall span) and its user+sys CPU (the last sample; a
 once at most 50 ms before its end loses at most that). The Python driver's own CPU is reported
 apart (its threads' work: set-up, writing inputs, post-processing). On a machine shared with other
 work, compare the CPU seconds and the shares within one run, not the walls of two runs.
+
+The serial ends: the wall from the start to the first solver's start (a tq-solid run writing results,
+`-o`, or an OpenFOAM solver of SOLVERS), and from the last solver's end to the command's end, each
+with the driver's CPU seconds in it (sampled with the rest) and, for the end, the CPU of the other
+processes that ran then (post's drawing helper).
 """
 from __future__ import annotations
 
@@ -19,6 +24,8 @@ import time
 from pathlib import Path
 
 TICK = os.sysconf("SC_CLK_TCK")
+#: the OpenFOAM solvers a coupled condition runs (their utilities are not solvers)
+SOLVERS = ("rhoPimpleFoam", "pimpleFoam", "interFoam", "pisoFoam", "icoFoam")
 
 
 def _stat(pid: int) -> tuple[int, str, float] | None:
@@ -46,6 +53,7 @@ class Sampler(threading.Thread):
         super().__init__(daemon=True)
         self.root, self.t0, self.period = root, t0, period
         self.procs: dict[int, dict] = {}
+        self.root_cpu: list[tuple[float, float]] = []  # (time, the command's own CPU so far)
         self.done = threading.Event()
 
     def sample(self) -> None:
@@ -64,6 +72,8 @@ class Sampler(threading.Thread):
                 if ppid in below and pid not in below:
                     below.add(pid)
                     grew = True
+        if self.root in table:
+            self.root_cpu.append((now, table[self.root][2]))
         for pid in below:
             if pid not in table:
                 continue
@@ -114,11 +124,38 @@ def main(argv: list[str]) -> int:
         cpu = r["cpu"] - (r["cpu0"] if r["pid"] < 0 else 0.0)
         r["cpu_s"] = round(cpu, 2)
         print(f"{r['start']:8.2f} {r['end']:8.2f} {r['end'] - r['start']:7.2f} {cpu:7.2f}  {r['comm']}: {r['cmd'][:110]}")
+    ends = serial_ends(procs, sampler.root_cpu, wall)
+    if ends:
+        print(f"serial ends: before the first solver {ends['before_wall_s']:.2f} s wall (the driver's CPU "
+              f"{ends['before_driver_cpu_s']:.2f} s); after the last solver {ends['after_wall_s']:.2f} s wall "
+              f"(the driver's CPU {ends['after_driver_cpu_s']:.2f} s, other processes {ends['after_other_cpu_s']:.2f} s)")
     if args.json:
         args.json.write_text(json.dumps({"command": cmd, "wall_s": wall, "status": status,
-                                         "cpu_all_s": usage.ru_utime + usage.ru_stime,
+                                         "cpu_all_s": usage.ru_utime + usage.ru_stime, "serial_ends": ends,
                                          "lines": lines, "processes": procs}, indent=1))
     return os.waitstatus_to_exitcode(status)
+
+
+def _is_solver(r: dict) -> bool:
+    return (r["comm"] == "tq-solid" and " -o " in f" {r['cmd']} ") or r["comm"] in SOLVERS
+
+
+def serial_ends(procs: list[dict], root_cpu: list[tuple[float, float]], wall: float) -> dict | None:
+    """The wall and CPU seconds before the first solver starts and after the last one ends (see the
+    module's text); None when no solver ran. The driver's CPU at a time is its last sample before it;
+    its CPU after the last sample (at most 50 ms of it) is not counted."""
+    solvers = [r for r in procs if _is_solver(r)]
+    if not solvers or not root_cpu:
+        return None
+    first, last = min(r["start"] for r in solvers), max(r["end"] for r in solvers)
+
+    def driver_at(t: float) -> float:
+        return max((c for s, c in root_cpu if s <= t), default=0.0)
+
+    other = sum(r["cpu_s"] for r in procs if r["start"] > last)  # started after the last solver ended
+    return {"before_wall_s": round(first, 3), "before_driver_cpu_s": round(driver_at(first), 2),
+            "after_wall_s": round(wall - last, 3), "after_driver_cpu_s": round(root_cpu[-1][1] - driver_at(last), 2),
+            "after_other_cpu_s": round(other, 2)}
 
 
 if __name__ == "__main__":

@@ -85,12 +85,12 @@ def _run_state(P, res, csv_name: str) -> str:
     return line
 
 
-def _design(R, case, results) -> tuple[object | None, str]:
+def _design(R, case, results, early=None) -> tuple[object | None, str]:
     """The design quantities (None when no result has lining forces) and a line for what was not
     made: a check the case cannot support is skipped with its reason, said once, and never fails
-    the post of a completed run."""
+    the post of a completed run. `early`: post_early.EarlyPost (conditions' parts computed before)."""
     try:
-        design = R.design_quantities(case, results)
+        design = R.design_quantities(case, results, early.design_parts() if early is not None else None)
     except Exception as e:  # noqa: BLE001 - reported; the report keeps everything else
         say(f"design checks not made ({type(e).__name__}: {e})")
         return None, f"design checks not made ({type(e).__name__}: {e})"
@@ -281,7 +281,20 @@ def _lining_axis(P, results, out: Path, unwritten: list, allowed_opening: float 
     return lines
 
 
-def post_case(case) -> Path:
+def post_case(case, early=None) -> Path:
+    """Everything post makes from the results folder (see the module's text); report.md's path.
+    `early`: the per-condition work `tunnelquake run` did beside a condition still running
+    (post_early.EarlyPost), used for each condition whose results file is unchanged since; the
+    outputs are the same files either way. The staging folder of that work is removed at the end."""
+    from .post_early import discard
+
+    try:
+        return _post_case(case, early)
+    finally:
+        discard(case.output_dir)
+
+
+def _post_case(case, early) -> Path:
     from . import paper
     from . import post as P
     from . import report as R
@@ -317,13 +330,16 @@ def post_case(case) -> Path:
                 say(f"{cond}: no results file ({f.name})")
             continue
         try:
-            res = P.read_condition(f, cond, case.data["output"]["displacement_reference"])
+            res = early.result(cond, f) if early is not None else None
+            if res is None:
+                res = P.read_condition(f, cond, case.data["output"]["displacement_reference"])
         except (OSError, KeyError, ValueError, TypeError) as e:  # unreadable: say so, go on with the others
             lines.append(f"- {P.CONDITION_LABELS[cond]}: `{f.name}` cannot be read ({e})")
             say(f"{cond}: {f.name} cannot be read ({e})")
             continue
         csv_file = out / f"monitors_{cond}.csv"
-        _write_csv(P.monitors_csv, res, csv_file, unwritten)
+        if early is None or not early.put_monitors(cond, csv_file):
+            _write_csv(P.monitors_csv, res, csv_file, unwritten)
         lines.append(_run_state(P, res, csv_file.name))
         if not res.samples:
             say(f"{cond}: status '{res.status}', no monitor sample: stopped before the shaking ({res.stage_state()})")
@@ -353,7 +369,7 @@ def post_case(case) -> Path:
 
             lines += R.water_side_check(dyn, fluid, carried=volume_law(case)[0] != "none")
             lines += _water_column_lines(P, dyn, out, unwritten)
-        design, why = _design(R, case, results)
+        design, why = _design(R, case, results, early)
         if design is not None:
             lines[2:2] = design.summary_lines()  # what a designer reads first, after the title
         lines += R.lining_forces_section(design) if design is not None else (
@@ -363,8 +379,8 @@ def post_case(case) -> Path:
         jobs = Jobs()  # every figure and ParaView file, made in two processes (drawing.py)
         if design is not None:
             _design_figure_jobs(design, figs, jobs, results)
-        _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes)
-        drawn = draw_all(jobs)
+        made_early = _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes, early)
+        drawn = {**draw_all(jobs), **made_early}
         if design is not None:
             lines += _design_figures(figs, unwritten, drawn)
         lines += _figures(ref, results, dyn, figs, out, unwritten, drawn)
@@ -396,11 +412,12 @@ def post_case(case) -> Path:
     return report
 
 
-def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes=None) -> None:
+def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, axes=None, early=None) -> dict:
     """The report's figures and the ParaView files to make (drawing.Jobs: keys fig05..fig11 and
     `xdmf:<condition>`); an earlier post's figures removed first. `ref`: the paper module when the
     case compares with it (its marks and bars in the figures); `axes`: the lining along the axis
-    per condition (_lining_axis's), for fig11."""
+    per condition (_lining_axis's), for fig11. A condition's ParaView files made early (`early`,
+    post_early.EarlyPost) are moved into place here instead; their outcomes are returned by key."""
     figs.mkdir(parents=True, exist_ok=True)
     for _, fname, _ in FIGURES:  # an earlier post's figures, which this one may not draw again
         (figs / fname).unlink(missing_ok=True)
@@ -418,8 +435,15 @@ def _figure_jobs(P, ref, results, dyn, fluid, figs, order, strength, out, jobs, 
     jobs.add("fig11", P.fig_lining_axis, axes or {}, figs / name["fig11"])
     if dyn is not None:
         jobs.add("fig12", P.fig_water_column, dyn, figs / name["fig12"])
+    made = {}
     for r in results:
-        jobs.add(f"xdmf:{r.condition}", P.write_xdmf, r, out / "paraview" / f"{r.condition}.xdmf")
+        target = out / "paraview" / f"{r.condition}.xdmf"
+        o = early.put_xdmf(r.condition, target) if early is not None else None
+        if o is not None:
+            made[f"xdmf:{r.condition}"] = o
+        else:
+            jobs.add(f"xdmf:{r.condition}", P.write_xdmf, r, target)
+    return made
 
 
 def _figures(ref, results, dyn, figs, out, unwritten: list, drawn: dict) -> list[str]:

@@ -10,6 +10,7 @@ run_held takes the results folder and runs the job (run_case) under the supervis
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -429,11 +430,58 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
 
     children.check()
     supervise.PHASE[0] = "preparing the motion"
-    made = motion_and_figure(case, reuse=True)
+    later: list = []  # a new motion's figure: drawn beside the conditions, not before them
+    made = motion_and_figure(case, reuse=True, later=later)
     if made is None:
         return 1
     source, motion_file, fig = made
     done.append(f"motion: {source} -> {motion_file.name}, {fig.name}")
+    if later:
+        later[:] = [_motion_figure(later[0], failed)]
+    try:
+        return _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, skipped, failed, t0)
+    finally:
+        if later:  # left by a stop or an error: drawn as if before the conditions
+            later.pop()()
+
+
+def _motion_figure(draw, failed: list[str]):
+    """`draw` (the motion's figure and motion.json, prepare.motion_and_figure's `later`), its error
+    (a full disk) said and added to `failed` instead of raised: the conditions' results stay, and
+    post goes on without the figure."""
+    def figure() -> None:
+        try:
+            draw()
+        except Exception as e:  # noqa: BLE001 - said; the next run makes the motion again (no motion.json)
+            say(f"error: the motion's figure not drawn: {e}")
+            failed.append(f"motion figure: {type(e).__name__}: {e}")
+
+    return figure
+
+
+def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, skipped, failed, t0) -> int:
+    """run_case's conditions and post (`later`: the motion's figure still to draw, drawn by the first
+    path of conditions to end while another runs, else after them)."""
+    from .post_early import EarlyPost
+
+    early = EarlyPost(case) if post else None
+    completed: list[str] = []  # conditions whose solver exited 0 (their results files whole)
+
+    def idle_work(other_running: bool) -> None:
+        """A path of conditions has ended: with another still running, the motion's figure and
+        post's per-condition work of the completed conditions on the core it leaves idle."""
+        if not other_running:
+            return
+        if early is None:
+            while later:
+                later.pop(0)()
+            return
+        try:
+            early.idle(list(completed), later)
+        except children.Interrupted:
+            raise
+        except Exception as e:  # noqa: BLE001 - post does what is left, and meets the error itself
+            say(f"post's work beside the running condition(s) stopped ({type(e).__name__}: {e}); post does it")
 
     children.check()
     supervise.PHASE[0] = "running the conditions"
@@ -460,6 +508,7 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
         if rc == 0:
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
+            completed.append(cond)
         else:
             failed.append(f"{cond} ({runs}): {why}")
 
@@ -473,6 +522,7 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
         if rc == 0:
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
+            completed.append(cond)
         elif rc == SOLID_OUTPUT_ERROR:
             from .files import free_bytes, human_bytes
 
@@ -490,15 +540,16 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
     alone = [(c, p) for c, p in runnable if "fluid" not in p]
     side_by_side = bool(water) and bool(alone) and concurrent_conditions() > 1
     thread = None
+    alone_done, water_done = threading.Event(), threading.Event()
     if side_by_side:
-        import threading
-
         say(f"running {', '.join(c for c, _ in water)} beside {', '.join(c for c, _ in alone)} "
             f"({concurrent_conditions()} cores)")
         def beside():
             try:
                 for c, p in water:
                     coupled(c, p, 2)
+                water_done.set()
+                idle_work(not alone_done.is_set())
             except children.Interrupted:
                 pass
 
@@ -509,14 +560,18 @@ def run_case(case, resume: bool = False, post: bool = True, ranks: int = 1) -> i
             coupled(c, p)
     for c, p in alone:
         solid_only(c, p, side_by_side)
+    alone_done.set()
     if thread is not None:
+        idle_work(not water_done.is_set())
         thread.join()
+    while later:  # not drawn beside a condition: drawn now, as before the conditions
+        later.pop(0)()
 
     children.check()
     supervise.PHASE[0] = "post-processing"
     if post:
         try:
-            report = post_case(case)
+            report = post_case(case, early)
         except OutputsNotWritten as e:
             failed.append(f"post: {e}")
         except Exception as e:  # noqa: BLE001 - the conditions' results stay; say why the report is missing

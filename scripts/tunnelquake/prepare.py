@@ -144,11 +144,14 @@ def make_motion(case, log: list[str] | None = None) -> tuple[ProcessedMotion, Pa
     return motion, out
 
 
-def motion_and_figure(case, reuse: bool = False) -> tuple[str, Path, Path] | None:
+def motion_and_figure(case, reuse: bool = False, later: list | None = None) -> tuple[str, Path, Path] | None:
     """motion.h5 and its figure; (the record's source, motion.h5, the figure), or None after
     printing why (a record refused, a full disk). With `reuse` (`tunnelquake run`), the files an
     earlier run made from the same motion keys, record files and code (motion.json's fingerprint)
-    are kept and what that run said is said again."""
+    are kept and what that run said is said again. With `later` (a list), a motion made afresh has
+    its figure drawn later: the figure of an earlier motion is removed at once, and a function that
+    draws the new one and then writes motion.json is appended to `later` (motion.json is written
+    only once both files are in place, so a run stopped before it makes the motion again)."""
     fig = case.output_dir / "figures" / "fig03_input_motion.png"
     out = case.output_dir / "motion.h5"
     stamp = case.output_dir / MOTION_STAMP
@@ -167,10 +170,18 @@ def motion_and_figure(case, reuse: bool = False) -> tuple[str, Path, Path] | Non
     lines: list[str] = []
     try:
         motion, out = make_motion(case, lines)
-        plot_motion(motion, fig)
         text = json.dumps({"fingerprint": fp, "source": motion.record.source, "lines": lines}, indent=1)
-        with atomic_path(stamp, len(text)) as tmp:
-            tmp.write_text(text)
+
+        def figure_and_stamp() -> None:
+            plot_motion(motion, fig)
+            with atomic_path(stamp, len(text)) as tmp:
+                tmp.write_text(text)
+
+        if later is None:
+            figure_and_stamp()
+        else:
+            fig.unlink(missing_ok=True)
+            later.append(figure_and_stamp)
     except MotionError as e:
         print(f"error: {e}")
         return None

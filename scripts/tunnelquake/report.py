@@ -373,12 +373,13 @@ def water_side_check(res: ConditionResult | None, fluid: dict | None, carried: b
 # free-body (equilibrium) forces and the closed-form ovaling (design/lining.py, from the ring forces
 # tq-solid writes: ring_forces.py).
 
-def design_quantities(case, results: list[ConditionResult]):
+def design_quantities(case, results: list[ConditionResult], known: dict | None = None):
     """The design quantities of the runs (ring forces, envelopes, ovaling, capacity, the closed-form
-    ovaling), or None when no results file carries lining section forces."""
+    ovaling), or None when no results file carries lining section forces. `known`: conditions' parts
+    computed earlier (design.lining.lining_design)."""
     from .design.lining import lining_design
 
-    return lining_design(case, results)
+    return lining_design(case, results, known)
 
 
 def lining_forces_section(design=None) -> list[str]:

@@ -653,19 +653,48 @@ def crack_settings(case) -> CrackSettings | None:
                          des.get("crack_width_limit"))
 
 
-def lining_design(case, results) -> LiningDesign | None:
+def condition_parts(case, res, dry: dict | None) -> dict:
+    """What lining_design computes of one condition alone, from its results (`res`) and the no-water
+    condition's static state `dry` (static_state; None without it): its condition_design ("design")
+    and, for a wet condition of a case with a head, its condition_jacking ("jacking")."""
+    params, source = design_parameters(case)
+    parts = {"design": condition_design(Path(res.path), res.condition, case.data["output"].get("monitors") or {},
+                                        params, Combination.from_case(case.data), dry, crack_settings(case),
+                                        skipped=source if params is None else "",
+                                        bars_in_analysis=case.data["materials"]["lining"].get("model")
+                                        == "reinforced_concrete")}
+    if res.condition != "no_water" and case.data["water"]["head"] > 0:
+        parts["jacking"] = condition_jacking(res, case, case.data["geometry"]["excavated_radius"])
+    return parts
+
+
+def _same_state(a: dict | None, b: dict | None) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return a.keys() == b.keys() and all(np.array_equal(a[q], b[q]) for q in a)
+
+
+def lining_design(case, results, known: dict | None = None) -> LiningDesign | None:
     """The designer's summary of the conditions whose results carry ring forces; None when none does.
-    A case without strengths gets the forces without the checks, and one line saying why."""
+    A case without strengths gets the forces without the checks, and one line saying why. `known`:
+    {condition: (dry, condition_parts(case, res, dry))} computed earlier from the same results files
+    (post_early.py); each is used where its `dry` is the static state used here (no_water's always),
+    else computed again."""
     params, source = design_parameters(case)
     monitors = case.data["output"].get("monitors") or {}
     combination = Combination.from_case(case.data)
     crack = crack_settings(case)
     dry = next((static_state(Path(r.path), monitors) for r in results if r.condition == "no_water"), None)
+    # no_water's own design does not use the dry state (condition_design)
+    known = {c: parts for c, (state, parts) in (known or {}).items() if c == "no_water" or _same_state(state, dry)}
     done, missing = [], []
     for res in results:
-        c = condition_design(Path(res.path), res.condition, monitors, params, combination, dry, crack,
-                             skipped=source if params is None else "",
-                             bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
+        if res.condition in known:
+            c = known[res.condition]["design"]
+        else:
+            c = condition_design(Path(res.path), res.condition, monitors, params, combination, dry, crack,
+                                 skipped=source if params is None else "",
+                                 bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
         if c is None:
             from ..ring_forces import ring_forces_note
 
@@ -679,7 +708,8 @@ def lining_design(case, results) -> LiningDesign | None:
     design.jacking_reach = case.data["geometry"]["excavated_radius"]
     for res in results:
         if res.condition != "no_water" and case.data["water"]["head"] > 0:
-            design.jacking[res.condition] = condition_jacking(res, case, design.jacking_reach)
+            design.jacking[res.condition] = (known[res.condition]["jacking"] if res.condition in known else
+                                             condition_jacking(res, case, design.jacking_reach))
         note = interface_note(res) if hasattr(res, "interface") else ""
         if note:
             design.notes.setdefault(res.condition, []).append(note)
