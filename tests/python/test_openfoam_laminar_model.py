@@ -49,12 +49,18 @@ GEOM = dict(two_d=False, L=9.0, ny=10, nq=12, nr=8, open_ends=True)
 
 def _run(case: Path, model: str, nu: float = pipe.NU) -> tuple[np.ndarray, np.ndarray, str]:
     """(resultant force per step, wall pressure per face at the end, solver log)."""
+    return _solve(case, "pimpleFoam", laminar_model=model, nu=nu)
+
+
+def _solve(case: Path, solver: str, **setup) -> tuple[np.ndarray, np.ndarray, str]:
+    """The pipe of `setup` (pipe.make_pipe_case's keys besides the common ones) run by `solver`:
+    (resultant force per step, wall pressure per face at the end, solver log)."""
     assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
     motion = pipe.make_pipe_case(case, dt=DT, end_time=STEPS * DT, interface_motion="transpiration",
-                                 laminar_model=model, nu=nu, p_tol=1e-10, u_tol=1e-10, **GEOM)
+                                 p_tol=1e-10, u_tol=1e-10, **setup, **GEOM)
     tunnel.benchmark_motion(motion, DT, STEPS, radial=not GEOM["two_d"])
     fc.run(case, "blockMesh")
-    log = fc.run(case, "pimpleFoam")
+    log = fc.run(case, solver)
     rows = fc.read_interface(case)
     force = np.column_stack([rows.Fx, rows.Fy, rows.Fz])
     last = sorted((p for p in (case / "postProcessing" / "interface").iterdir() if p.name != "0"),
@@ -172,20 +178,7 @@ def test_non_newtonian_refused(tmp_path):
 
 def _run_compressible(case: Path, model: str, more: dict | None = None) -> tuple[np.ndarray, np.ndarray, str]:
     """_run's pipe with the weakly compressible water (rhoPimpleFoam, K of water)."""
-    assert fc.LIBRARY.exists(), f"{fc.LIBRARY} not built"
-    motion = pipe.make_pipe_case(case, dt=DT, end_time=STEPS * DT, interface_motion="transpiration",
-                                 laminar_model=model, water="compressible", p_tol=1e-10, u_tol=1e-10,
-                                 more=more, **GEOM)
-    tunnel.benchmark_motion(motion, DT, STEPS, radial=not GEOM["two_d"])
-    fc.run(case, "blockMesh")
-    log = fc.run(case, "rhoPimpleFoam")
-    rows = fc.read_interface(case)
-    force = np.column_stack([rows.Fx, rows.Fy, rows.Fz])
-    last = sorted((p for p in (case / "postProcessing" / "interface").iterdir() if p.name != "0"),
-                  key=lambda p: float(p.name))[-1]
-    faces = np.vstack([np.loadtxt(f, comments="#", ndmin=2) for f in sorted(last.glob("faces*.dat"))])
-    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
-    return force, faces[order, 6], log
+    return _solve(case, "rhoPimpleFoam", laminar_model=model, water="compressible", more=more)
 
 
 def test_compressible_water_loads_unchanged(tmp_path):
