@@ -653,17 +653,30 @@ def crack_settings(case) -> CrackSettings | None:
                          des.get("crack_width_limit"))
 
 
+def _bars_in_analysis(case) -> bool:
+    """Whether the analysis itself carries the bars (the lining's model is reinforced_concrete)."""
+    return case.data["materials"]["lining"].get("model") == "reinforced_concrete"
+
+
+def _condition_design(case, res, dry: dict | None):
+    """condition_design of one condition's results `res` with the case's design settings."""
+    params, source = design_parameters(case)
+    return condition_design(Path(res.path), res.condition, case.data["output"].get("monitors") or {}, params,
+                            Combination.from_case(case.data), dry, crack_settings(case),
+                            skipped=source if params is None else "", bars_in_analysis=_bars_in_analysis(case))
+
+
+def _jacks(case, res) -> bool:
+    """Whether the hydraulic jacking check applies to `res`: a wet condition of a case with a head."""
+    return res.condition != "no_water" and case.data["water"]["head"] > 0
+
+
 def condition_parts(case, res, dry: dict | None) -> dict:
     """What lining_design computes of one condition alone, from its results (`res`) and the no-water
     condition's static state `dry` (static_state; None without it): its condition_design ("design")
     and, for a wet condition of a case with a head, its condition_jacking ("jacking")."""
-    params, source = design_parameters(case)
-    parts = {"design": condition_design(Path(res.path), res.condition, case.data["output"].get("monitors") or {},
-                                        params, Combination.from_case(case.data), dry, crack_settings(case),
-                                        skipped=source if params is None else "",
-                                        bars_in_analysis=case.data["materials"]["lining"].get("model")
-                                        == "reinforced_concrete")}
-    if res.condition != "no_water" and case.data["water"]["head"] > 0:
+    parts = {"design": _condition_design(case, res, dry)}
+    if _jacks(case, res):
         parts["jacking"] = condition_jacking(res, case, case.data["geometry"]["excavated_radius"])
     return parts
 
@@ -682,19 +695,12 @@ def lining_design(case, results, known: dict | None = None) -> LiningDesign | No
     else computed again."""
     params, source = design_parameters(case)
     monitors = case.data["output"].get("monitors") or {}
-    combination = Combination.from_case(case.data)
-    crack = crack_settings(case)
     dry = next((static_state(Path(r.path), monitors) for r in results if r.condition == "no_water"), None)
     # no_water's own design does not use the dry state (condition_design)
     known = {c: parts for c, (state, parts) in (known or {}).items() if c == "no_water" or _same_state(state, dry)}
     done, missing = [], []
     for res in results:
-        if res.condition in known:
-            c = known[res.condition]["design"]
-        else:
-            c = condition_design(Path(res.path), res.condition, monitors, params, combination, dry, crack,
-                                 skipped=source if params is None else "",
-                                 bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
+        c = known[res.condition]["design"] if res.condition in known else _condition_design(case, res, dry)
         if c is None:
             from ..ring_forces import ring_forces_note
 
@@ -703,11 +709,11 @@ def lining_design(case, results, known: dict | None = None) -> LiningDesign | No
             done.append(c)
     if not done:
         return None
-    design = LiningDesign(done, params, source, missing=missing, combination=combination,
-                          bars_in_analysis=case.data["materials"]["lining"].get("model") == "reinforced_concrete")
+    design = LiningDesign(done, params, source, missing=missing, combination=Combination.from_case(case.data),
+                          bars_in_analysis=_bars_in_analysis(case))
     design.jacking_reach = case.data["geometry"]["excavated_radius"]
     for res in results:
-        if res.condition != "no_water" and case.data["water"]["head"] > 0:
+        if _jacks(case, res):
             design.jacking[res.condition] = (known[res.condition]["jacking"] if res.condition in known else
                                              condition_jacking(res, case, design.jacking_reach))
         note = interface_note(res) if hasattr(res, "interface") else ""
