@@ -18,7 +18,7 @@ Description
     The stock Stokes model's explicit term there is
         -div(mu dev2(T(grad U))) = -(mu/3) grad(div U)
     for a uniform mu, with div U = -(1/rho) D(rho)/Dt = -(1/K) Dp/Dt in the
-    water: next to grad p, of relative size mu omega/(3 K), about 1e-11 for
+    water: next to grad p, of relative size mu omega/(3 K), about 6e-12 for
     water (mu 1.3e-3 Pa s, K 2.2 GPa) shaken at 5 Hz.  The thermo must give
     a uniform mu: its transport must be 'const' (constTransport), checked
     at construction.
