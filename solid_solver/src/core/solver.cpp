@@ -62,6 +62,22 @@ inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) {
   out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
   out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
 }
+// The same spread of 4 node values held in a register (built lane by lane: stored to memory one
+// at a time and read back as a vector, they stall the load on its store forwarding).
+inline __attribute__((always_inline)) void dofSpread(V4 mv, V4 out[3]) {
+  out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
+  out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
+  out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
+}
+inline __attribute__((always_inline)) void dofSpread(V4 mv, V2 out[6]) {
+  const V2 a = {mv[0], mv[1]}, b = {mv[2], mv[3]};
+  out[0] = __builtin_shuffle(a, LI2{0, 0});
+  out[1] = a;
+  out[2] = __builtin_shuffle(a, LI2{1, 1});
+  out[3] = __builtin_shuffle(b, LI2{0, 0});
+  out[4] = b;
+  out[5] = __builtin_shuffle(b, LI2{1, 1});
+}
 inline __attribute__((always_inline)) void dofMasses(const Real* m, V2 out[6]) {
   const V2 a = loadv<V2>(m), b = loadv<V2>(m + 2);
   out[0] = __builtin_shuffle(a, LI2{0, 0});
@@ -267,10 +283,10 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
         }
         continue;
       }
-      alignas(32) Real dtq4[4];
-      for (int j = 0; j < 4; ++j) dtq4[j] = q.dt * Real(1u << q.lev[n + j]);
       V tq[K];
-      dofMasses(dtq4, tq);
+      dofSpread(V4{q.dt * Real(1u << q.lev[n]), q.dt * Real(1u << q.lev[n + 1]), q.dt * Real(1u << q.lev[n + 2]),
+                   q.dt * Real(1u << q.lev[n + 3])},
+                tq);
 #pragma GCC unroll 6
       for (int k = 0; k < K; ++k) {
         const size_t i = 3 * size_t(n) + size_t(k) * L;
@@ -280,19 +296,15 @@ inline __attribute__((always_inline)) LeapfrogSums subcycleBody(const SubcycleAr
       }
       continue;
     }
-    alignas(32) Real due4[4], dtn4[4], rdt4[4], dtl4[4];
-    for (int j = 0; j < 4; ++j) {
-      const int l = q.lev[n + j];
-      due4[j] = l <= q.active ? 1.0 : 0.0;
-      dtn4[j] = q.dt * Real(1u << l);
-      rdt4[j] = q.rdt[l];
-      dtl4[j] = q.dtp[n + j];
-    }
+    const int l0 = q.lev[n], l1 = q.lev[n + 1], l2 = q.lev[n + 2], l3 = q.lev[n + 3];
+    const V4 due4 = {l0 <= q.active ? 1.0 : 0.0, l1 <= q.active ? 1.0 : 0.0, l2 <= q.active ? 1.0 : 0.0,
+                     l3 <= q.active ? 1.0 : 0.0};
+    const V4 dtn4 = {q.dt * Real(1u << l0), q.dt * Real(1u << l1), q.dt * Real(1u << l2), q.dt * Real(1u << l3)};
     V dv[K], tv[K], rv[K], lv[K];
-    dofMasses(due4, dv);
-    dofMasses(dtn4, tv);
-    dofMasses(rdt4, rv);
-    dofMasses(dtl4, lv);
+    dofSpread(due4, dv);
+    dofSpread(dtn4, tv);
+    dofSpread(V4{q.rdt[l0], q.rdt[l1], q.rdt[l2], q.rdt[l3]}, rv);
+    dofMasses(q.dtp + n, lv);
 #pragma GCC unroll 6
     for (int k = 0; k < K; ++k) {
       const size_t i = 3 * size_t(n) + size_t(k) * L;
