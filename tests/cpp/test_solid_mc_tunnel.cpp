@@ -11,6 +11,7 @@
 // inner-face hoop stress capped at σt.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
@@ -65,8 +66,12 @@ TEST(SolidMcTunnel, OverloadedLiningDamagesFromTheInnerFaceAndStaysStable) {
   ASSERT_EQ(b.name(), "lining");
   Real Dlayer[3] = {0, 0, 0}, Dmax = 0, hoopInner = 0;
   Index layerOfMax = -1;
+  // The block holds its elements in its own order (breadth first): the layer from the mesh's
+  // numbering, the lining's elements numbered layer by layer after the rock's.
+  Index firstLining = m.numElems();
+  for (Index e = 0; e < b.numElems(); ++e) firstLining = std::min(firstLining, b.meshElem(e));
   for (Index e = 0; e < b.numElems(); ++e) {
-    const Index layer = e / nAround;
+    const Index layer = (b.meshElem(e) - firstLining) / nAround;
     const Real D = b.history(mc_history::kDamage, e);
     Dlayer[layer] += D / nAround;
     if (D > Dmax) {
