@@ -55,22 +55,15 @@ inline void storeChunkSums(Real* s, Real ke, Real ext, Real damp, Real bdry, Ind
 typedef long long LI2 __attribute__((vector_size(16)));
 typedef long long LI4 __attribute__((vector_size(32)));
 
-// The masses of 4 nodes spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...).
-inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) {
-  const V4 mv = loadv<V4>(m);
-  out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
-  out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
-  out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
-}
-// The same spread of 4 node values held in a register (built lane by lane: stored to memory one
-// at a time and read back as a vector, they stall the load on its store forwarding).
+// 4 node values spread over their 12 dofs (node-major: m0 m0 m0 m1 | m1 m1 m2 m2 | ...), from a
+// register (values built lane by lane: stored to memory one at a time and read back as a vector,
+// they stall the load on its store forwarding) or from memory (dofMasses: the masses).
 inline __attribute__((always_inline)) void dofSpread(V4 mv, V4 out[3]) {
   out[0] = __builtin_shuffle(mv, LI4{0, 0, 0, 1});
   out[1] = __builtin_shuffle(mv, LI4{1, 1, 2, 2});
   out[2] = __builtin_shuffle(mv, LI4{2, 3, 3, 3});
 }
-inline __attribute__((always_inline)) void dofSpread(V4 mv, V2 out[6]) {
-  const V2 a = {mv[0], mv[1]}, b = {mv[2], mv[3]};
+inline __attribute__((always_inline)) void dofSpread(V2 a, V2 b, V2 out[6]) {
   out[0] = __builtin_shuffle(a, LI2{0, 0});
   out[1] = a;
   out[2] = __builtin_shuffle(a, LI2{1, 1});
@@ -78,14 +71,12 @@ inline __attribute__((always_inline)) void dofSpread(V4 mv, V2 out[6]) {
   out[4] = b;
   out[5] = __builtin_shuffle(b, LI2{1, 1});
 }
+inline __attribute__((always_inline)) void dofSpread(V4 mv, V2 out[6]) {
+  dofSpread(V2{mv[0], mv[1]}, V2{mv[2], mv[3]}, out);
+}
+inline __attribute__((always_inline)) void dofMasses(const Real* m, V4 out[3]) { dofSpread(loadv<V4>(m), out); }
 inline __attribute__((always_inline)) void dofMasses(const Real* m, V2 out[6]) {
-  const V2 a = loadv<V2>(m), b = loadv<V2>(m + 2);
-  out[0] = __builtin_shuffle(a, LI2{0, 0});
-  out[1] = a;
-  out[2] = __builtin_shuffle(a, LI2{1, 1});
-  out[3] = __builtin_shuffle(b, LI2{0, 0});
-  out[4] = b;
-  out[5] = __builtin_shuffle(b, LI2{1, 1});
+  dofSpread(loadv<V2>(m), loadv<V2>(m + 2), out);
 }
 // The free mask (bytes 0/1) of 4 or 2 dofs as 0.0/1.0 lanes, through a table indexed by the bits
 // (GCC 12 converts byte vectors to doubles one lane at a time).
