@@ -117,6 +117,19 @@ COUPLED_SOLID_FACTOR = 1.13
 WATER_PER_PROBE_S = 1.93e-3
 WATER_CELL_PER_PROBE_S = 3.44e-6
 
+#: The element-evaluation probe, for a subcycled condition (time.subcycling): tq-solid on
+#: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, one layer of 1/8 m under 15 of
+#: 1 m; its step half the thin layer's critical one) one-rate and at 3 levels, EVAL_PROBE_STEPS steps
+#: each, and a run of EVAL_PROBE_SHORT steps (what starting the program costs); EVAL_PROBE_ROUNDS
+#: rounds, the three runs in turn in each, the median of the rounds' shares
+EVAL_PROBE_STEPS = 2000
+EVAL_PROBE_SHORT = 8
+EVAL_PROBE_ROUNDS = 3
+EVAL_PROBE_LEVELS = 3
+#: element-steps of one probe (tq-solid-bench's 10 warm-up steps and 3 x 400 timed of 4,096
+#: elements: PROBE_ARGS): the probe's CPU second over these is its box's element-step
+PROBE_ELEMENT_STEPS = 16**3 * (10 + 3 * 400)
+
 #: A fault offset imposed by a static stage (fault_offset without a rise_time): relaxation steps an
 #: increment (the stage relaxes to equilibrium after each of fault_offset.increments): cases/fault_crossing,
 #: 10 increments, 370 / 380 / 410 / 450 / 490 / 530 / 570 / 590 / 610 / 620 steps, 5,020 in all
@@ -148,6 +161,7 @@ class MachineRates:
     speedup_note: str = ""  # why a speed-up asked for is not there
     size_side: int = 0  # the size class's box side (0: the probe's own box, size_class)
     size_factor: float = 1.0  # its busiest thread's CPU per element-step against the probe box's
+    eval_share: float = 0.0  # the element evaluations' share of the probe box's one-rate step (0: not measured)
 
     def speedup(self, threads: int) -> float:
         """The solid step's speed-up on `threads` OpenMP threads against one: 1 for one thread, the
@@ -158,6 +172,22 @@ class MachineRates:
     def solid_element_step(self) -> float:
         """One thread's CPU seconds of a solid element-step: the probe's rate times the size factor."""
         return SOLID_PER_PROBE_S * self.probe_s * self.size_factor
+
+    @property
+    def solid_eval_share(self) -> float:
+        """The element evaluations' share of a case's one-rate element-step: an evaluation costs what
+        one of the probe box's does (the same hex8 kernel; the size factor scales both alike), which
+        is eval_share of the box's element-step, the probe's CPU second over PROBE_ELEMENT_STEPS; the
+        case's whole element-step is SOLID_PER_PROBE_S a probe second (0 when not measured)."""
+        return min(1.0, self.eval_share / (PROBE_ELEMENT_STEPS * SOLID_PER_PROBE_S))
+
+    def subcycled_factor(self, cost_fraction: float) -> float:
+        """A subcycled step's CPU against the one-rate step's, when a fine step evaluates
+        `cost_fraction` of the elements (subcycle_levels.Levels): the evaluations it leaves out,
+        (1 - cost_fraction) x solid_eval_share; the rest of the step (every node's update, the
+        boundaries, the contact) is taken at every fine step. 1 where eval_share was not measured
+        (speedup_note says why)."""
+        return 1.0 - (1.0 - cost_fraction) * self.solid_eval_share
 
     @property
     def water_pass(self) -> float:
@@ -196,7 +226,7 @@ def _key(program: Path) -> str:
     return f"{processor()} | {program.resolve()} {st.st_size} {int(st.st_mtime)}"
 
 
-def _cpu_seconds(cmd: list[str]) -> float:
+def _cpu_seconds(cmd: list[str], env: dict | None = None) -> float:
     """CPU seconds (user + system) of one run of `cmd`, from its own resource usage (os.wait4)."""
     import tempfile
 
@@ -204,7 +234,7 @@ def _cpu_seconds(cmd: list[str]) -> float:
 
     with tempfile.TemporaryFile() as err:
         try:
-            proc = children.popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+            proc = children.popen(cmd, stdout=subprocess.DEVNULL, stderr=err, env=env)
         except OSError as e:
             raise ProbeFailed(f"{cmd[0]} cannot be started ({e.strerror})") from e
         _, status, usage = os.wait4(proc.pid, 0)
@@ -301,6 +331,50 @@ def measure_speedup(threads: int, program: Path | None = None, rounds: int = THR
     return ratios[len(ratios) // 2]
 
 
+def measure_eval_share(program: Path | None = None, rounds: int = EVAL_PROBE_ROUNDS,
+                       folder: Path | None = None) -> float:
+    """The element evaluations' share of the probe box's one-rate step: in each round tq-solid on the
+    box (subcycle_levels.write_probe_box) for EVAL_PROBE_SHORT steps (C0: its start), one-rate (C1)
+    and at EVAL_PROBE_LEVELS levels (Cs), EVAL_PROBE_STEPS steps each, one thread, the CPU seconds of
+    each process; the subcycled run evaluates the fraction f of the elements a fine step (its
+    results' /subcycling cost_fraction) and moves every node as the one-rate run does, so what it
+    saves, C1 - Cs, is (1 - f) of the evaluations: the share (C1 - Cs) / ((1 - f)(C1 - C0)). The
+    median of `rounds` rounds."""
+    import tempfile
+
+    import h5py
+
+    from .cores import solid_env
+    from .subcycle_levels import write_probe_box
+
+    program = program or paths.build_dir() / "solid_solver" / "tq-solid"
+    if not program.is_file():
+        raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
+    env = {**solid_env(), "OMP_NUM_THREADS": "1"}
+    with tempfile.TemporaryDirectory(prefix="tq-eval-probe-", dir=folder) as tmp:
+        box = Path(tmp)
+        inputs = {}
+        for name, steps, levels in (("start", EVAL_PROBE_SHORT, 0), ("one", EVAL_PROBE_STEPS, 0),
+                                    ("sub", EVAL_PROBE_STEPS, EVAL_PROBE_LEVELS)):
+            inputs[name] = write_probe_box(box, steps, levels).rename(box / f"{name}.h5")
+
+        def cpu(name: str) -> float:
+            return _cpu_seconds([str(program), str(inputs[name]), "-o", str(box / f"{name}_results.h5"),
+                                 "--threads", "1"], env)
+
+        shares = []
+        for _ in range(max(1, rounds)):
+            c0, c1, cs = cpu("start"), cpu("one"), cpu("sub")
+            with h5py.File(box / "sub_results.h5", "r") as f:
+                fraction = float(f["subcycling"].attrs["cost_fraction"]) if "subcycling" in f else 1.0
+            if not (c1 > c0 and fraction < 1):
+                raise ProbeFailed(f"the element-evaluation probe measured nothing ({c1:.3g} against {c0:.3g} CPU s, "
+                                  f"cost fraction {fraction:.3g})")
+            shares.append((c1 - cs) / ((1.0 - fraction) * (c1 - c0)))
+    shares.sort()
+    return shares[len(shares) // 2]
+
+
 def _read_cache() -> dict:
     try:
         data = json.loads(cache_file().read_text())
@@ -323,12 +397,14 @@ def _write_cache(cache: dict) -> None:
 
 
 def machine_rates(program: Path | None = None, measure_if_missing: bool = True, threads: int = 1,
-                  elements: int = 0) -> MachineRates:
+                  elements: int = 0, subcycled: bool = False) -> MachineRates:
     """This machine's rates: the cached probe of this processor and build, else the probe run now
     (and cached); for a model of `elements` solid elements above SIZE_CLASS_MIN_ELEMENTS also its
     size class's factor (measure_size_factor); with `threads` > 1 also the thread speed-up on that
-    many threads (on the size class's box where there is one), each cached the same way (a size or
-    thread probe that cannot run leaves its figure out and says why in speedup_note). Raises
+    many threads (on the size class's box where there is one); with `subcycled` also the element
+    evaluations' share (measure_eval_share, tq-solid beside the bench program), each cached the same
+    way (a size, thread or evaluation probe that cannot run leaves its figure out and says why in
+    speedup_note). Raises
     ProbeFailed when the probe cannot be measured (or `measure_if_missing` is False and nothing is
     cached)."""
     program = program or probe_program()
@@ -372,10 +448,22 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True, 
                 changed = True
             except ProbeFailed as e:
                 notes.append(f"the thread probe could not run: {e}")
+    eval_share = float(hit.get("eval_share", 0) or 0)
+    if subcycled and not eval_share > 0:
+        if not measure_if_missing:
+            notes.append(f"no element-evaluation probe cached in {cache_file()}: subcycled conditions counted at one rate")
+        else:
+            try:
+                eval_share = measure_eval_share(program.parent / "tq-solid")
+                hit.update(eval_share=eval_share, eval_date=time.strftime("%Y-%m-%d"),
+                           eval_args=f"{EVAL_PROBE_STEPS} steps, {EVAL_PROBE_LEVELS} levels, {EVAL_PROBE_ROUNDS} rounds")
+                changed = True
+            except (ProbeFailed, OSError) as e:
+                notes.append(f"the element-evaluation probe could not run ({e}): subcycled conditions counted at one rate")
     if side and where:
         hit.setdefault("size_class", {})[str(side)] = where
     if changed:
         cache[key] = hit
         _write_cache(cache)
     return MachineRates(float(hit["probe_s"]), processor(), source, speedups, "; ".join(notes),
-                        side if factor > 0 else 0, factor if factor > 0 else 1.0)
+                        side if factor > 0 else 0, factor if factor > 0 else 1.0, eval_share)

@@ -17,7 +17,9 @@ mid-length 4x lower than the slice's; docs/benchmarks.md "Slice against 3D").
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut, subcycling_levels
 
@@ -234,12 +236,54 @@ def passes_per_window(coupling: dict) -> float:
     return max(1.0, passes)
 
 
-#: the rock's share of its one-rate CPU time with time.subcycling: its element evaluations fall to
-#: 0.32 (the paper mesh in 3D), but every node still moves at every fine step; measured: the 3D
-#: variant's no_water over 0.2 s, 1 thread, 16.1 CPU s of shaking, 0.51 (Intel VM, 2026-11-28); the
-#: same input's first 0.25 s, 23 against 44 s, 0.47 (docs/benchmarks.md "Solid subcycling and element
-#: order")
-SUBCYCLED_SHARE = 0.5
+@contextmanager
+def current_solid_mesh(case):
+    """The path of the case's solid mesh (mesh.h5): the one in its results folder when it is up to
+    date (prepare.make_mesh's fingerprint), else one meshed now in a temporary folder (the mesher
+    takes about 0.1 CPU s for the example's slice, 1.2 s for its 3D variant)."""
+    import json
+    import tempfile
+
+    from .prepare import _fingerprint, mesh_dir
+
+    out = mesh_dir(case)
+    try:
+        stamp = json.loads((out / "fingerprint.json").read_text())
+    except (OSError, ValueError):
+        stamp = {}
+    if stamp.get("fingerprint") == _fingerprint(case) and (out / "mesh.h5").is_file():
+        yield out / "mesh.h5"
+        return
+    from .case import case_geology, ground_layers, joint_hold, joint_spacing
+    from .meshing import build_tunnel_mesh
+
+    d = case.data
+    with tempfile.TemporaryDirectory(prefix="tq-check-mesh-") as tmp:
+        build_tunnel_mesh(d["geometry"], d["mesh"], Path(tmp), ground_layers(d), case_geology(d), joint_spacing(d),
+                          joint_hold(d))
+        yield Path(tmp) / "mesh.h5"
+
+
+def subcycled_levels(case, conditions=None) -> dict:
+    """condition -> the subcycling levels tq-solid will give its solid (subcycle_levels.Levels), for
+    each subcycled condition among `conditions` (default the case's): from the case's mesh, the
+    materials, the time step's safety factor (and time.dt where given), the rock-lining interface's
+    model, and for a condition with water coupled its wet wall held at the finest level."""
+    from .subcycle_levels import mesh_levels
+
+    d = case.data
+    want = [c for c in (conditions or d["conditions"]) if subcycling_levels(d, c)]
+    if not want:
+        return {}
+    out, seen = {}, {}
+    with current_solid_mesh(case) as mesh_h5:
+        for c in want:
+            key = (subcycling_levels(d, c), "fluid" in PARTICIPANTS[c])
+            if key not in seen:
+                seen[key] = mesh_levels(mesh_h5, d["materials"], key[0], float(d["time"]["safety_factor"]),
+                                        float(d["time"].get("dt") or 0.0), d["interface"]["model"], wet=key[1])
+            out[c] = seen[key]
+    return out
 
 
 @dataclass
@@ -254,6 +298,7 @@ class RuntimeEstimate:
     threads: dict[str, int] = field(default_factory=dict)  # condition -> tq-solid's OpenMP threads
     speedup: dict[str, float] = field(default_factory=dict)  # condition -> their speed-up (1 on one thread)
     cpu: dict[str, float] = field(default_factory=dict)  # condition -> CPU s of its shaking on one thread
+    subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
 
     def line(self) -> str:
         if not self.seconds and self.basis:
@@ -264,8 +309,13 @@ class RuntimeEstimate:
         rest = "the other static stages come on top" if self.statics else "the static stages come on top"
         many = sorted({(n, self.speedup.get(c, 1.0)) for c, n in self.threads.items() if n > 1})
         threads = "".join(f"; the solid on {n} threads, {x:.2f}x one thread's speed" for n, x in many)
+        by = {}
+        for c, (f, x) in self.subcycled.items():
+            by.setdefault((round(f, 3), round(x, 2)), []).append(c)
+        sub = "".join(f"; {' and '.join(cs)} subcycled: {f:.3g} of the element evaluations a step, {x:.2f}x "
+                      "one rate's CPU" for (f, x), cs in by.items())
         return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s{offset}{threads}) on an otherwise idle machine, from {self.basis}; {rest}")
+                f"{self.dt:.2g} s{offset}{threads}{sub}) on an otherwise idle machine, from {self.basis}; {rest}")
 
 
 def _minutes(s: float) -> str:
@@ -381,14 +431,17 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     on_cores = {c: min(n, available()) for c, n in threads.items()}
     if rates is None:
         try:
-            rates = R.machine_rates(threads=max(on_cores.values(), default=1), elements=elements)
+            rates = R.machine_rates(threads=max(on_cores.values(), default=1), elements=elements,
+                                    subcycled=any(subcycling_levels(d, c) for c, _ in conditions))
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
-    # each condition's solid at its own subcycling (time.subcycling, given once or per condition)
-    solid_of = {c: (counts["rock"] * (SUBCYCLED_SHARE if subcycling_levels(d, c) else 1.0) + counts["lining"])
-                * steps * rates.solid_element_step for c, _ in conditions}
+    # each condition's solid at its own subcycling (time.subcycling, given once or per condition): a
+    # fine step evaluates the fraction of the elements its levels give and moves every node
+    levels = subcycled_levels(case, [c for c, _ in conditions])
+    solid_of = {c: elements * steps * rates.solid_element_step
+                * (rates.subcycled_factor(levels[c].cost_fraction) if c in levels else 1.0) for c, _ in conditions}
     statics, statics_steps = 0.0, 0
     fo = d.get("fault_offset") or {}
     from .case import fault_offset_slip
@@ -423,7 +476,9 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
              + (f"; {rates.speedup_note}" if rates.speedup_note else "")
              + "; docs/benchmarks.md \"check's run-time estimate\")")
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
-                           statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu)
+                           statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu,
+                           subcycled={c: (lv.cost_fraction, rates.subcycled_factor(lv.cost_fraction))
+                                      for c, lv in levels.items()})
 
 
 # ------------------------------------------------------------------------------------------------

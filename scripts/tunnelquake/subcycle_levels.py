@@ -1,0 +1,310 @@
+"""The subcycling levels tq-solid gives a mesh (time.subcycling), computed here from the mesh alone so
+that `check` can count what a subcycled condition costs (scene.runtime_estimate) without running it.
+
+The rule is tq-solid's own (Solver::enableSubcycling, ElementBlock::setChunkLevels, scatterOrder):
+
+1. each element's stable step is safety x 2 / w, w = 2 c_p / L, L the element's volume over its
+   largest face (hex8::computeGeometry: the face's area half its diagonals' cross product, the
+   volume the 8-point Gauss sum, exact for a trilinear hexahedron); its level the largest l up to
+   the case's levels with that step at least 2^(l+1) times the solid's step dt (dt the given step,
+   else safety x 2 / w_max);
+2. each node takes the lowest level of its elements; nodes a water contributor holds (the wet
+   nodes) the finest; then, until nothing changes, no node of an element steps more than one level
+   above the element's finest node (the grading);
+3. the elements are evaluated by chunks of 64 in each region's block (the region's elements in mesh
+   order, renumbered breadth first from its smallest elements when that at least halves the
+   scatter's span), each chunk at the finest level of its elements' nodes.
+
+What this yields, per level L: the elements evaluated every 2^L fine steps and the nodes stepping
+2^L dt, and the evaluations of a fine step against one-rate stepping (cost_fraction): tq-solid's
+"subcycling: steps of 1, 2, 4, 8 x dt for ... elements (... nodes)" and its results file's
+/subcycling attributes. tests/python/test_subcycle_levels.py holds the two equal on meshes unlike
+each other.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: elements per chunk of an element block (ElementBlock::kChunk)
+CHUNK = 64
+#: blocks of at least this many elements may be renumbered (scatterOrder: every block of two or more)
+RENUMBER_MIN = 2
+
+# hex8 faces (as local node quadruples) and edges, tq-solid's numbering (tq/elements/hex8.hpp)
+_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
+_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4], [0, 4], [1, 5], [2, 6], [3, 7]])
+_CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
+
+
+@dataclass(frozen=True)
+class Levels:
+    """The subcycling tq-solid would set up: counts by level (index L: steps of 2^L dt)."""
+
+    elements: tuple[int, ...]  # active elements evaluated every 2^L fine steps (by chunk)
+    nodes: tuple[int, ...]  # nodes stepping 2^L dt
+    cost_fraction: float  # element evaluations a fine step against one-rate stepping
+    dt: float  # the solid's (finest) step, s
+
+    @property
+    def element_count(self) -> int:
+        return sum(self.elements)
+
+    @property
+    def node_count(self) -> int:
+        return sum(self.nodes)
+
+
+def p_wave_speed(E: float, nu: float, rho: float) -> float:
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = E / (2 * (1 + nu))
+    return float(np.sqrt((lam + 2.0 * mu) / rho))
+
+
+def characteristic_lengths(coords: np.ndarray, conn: np.ndarray) -> np.ndarray:
+    """Each hexahedron's volume over its largest face area, m."""
+    x = coords[conn]  # (E, 8, 3)
+    g = 1.0 / np.sqrt(3.0)
+    volume = np.zeros(len(conn))
+    for p in _CORNERS * g:  # the 8 Gauss points, weight 1
+        # dN_I/dxi_k = c_Ik (1 + c_Il p_l)(1 + c_Im p_m) / 8 over the other two directions l, m
+        one = 1.0 + _CORNERS * p  # (8, 3)
+        dn = np.empty((8, 3))
+        dn[:, 0] = _CORNERS[:, 0] * one[:, 1] * one[:, 2] / 8
+        dn[:, 1] = _CORNERS[:, 1] * one[:, 0] * one[:, 2] / 8
+        dn[:, 2] = _CORNERS[:, 2] * one[:, 0] * one[:, 1] / 8
+        jac = np.einsum("eIi,Ik->eik", x, dn)
+        volume += np.linalg.det(jac)
+    d1 = x[:, _FACES[:, 2]] - x[:, _FACES[:, 0]]
+    d2 = x[:, _FACES[:, 3]] - x[:, _FACES[:, 1]]
+    area = 0.5 * np.linalg.norm(np.cross(d1, d2), axis=2).max(axis=1)
+    return volume / area
+
+
+def _shortest_edges(coords: np.ndarray, conn: np.ndarray) -> np.ndarray:
+    x = coords[conn]
+    d = x[:, _EDGES[:, 0]] - x[:, _EDGES[:, 1]]
+    return np.sqrt((d * d).sum(axis=2).min(axis=1))
+
+
+def _scatter_span(conn: np.ndarray, elems: np.ndarray, num_nodes: int) -> int:
+    """The largest distance in the list `elems` between two elements sharing a node."""
+    nodes = conn[elems]  # (n, 8), row i at list position i
+    pos = np.repeat(np.arange(len(elems)), 8)
+    flat = nodes.ravel()
+    first = np.full(num_nodes, len(elems), dtype=np.int64)
+    np.minimum.at(first, flat, pos)
+    return int((pos - first[flat]).max()) if len(elems) else 0
+
+
+def _breadth_first(conn: np.ndarray, elems: np.ndarray, sources: list[int], num_nodes: int) -> list[int]:
+    """List positions of `elems` in breadth-first order through shared nodes from `sources`; each
+    element's neighbours by its nodes in turn, each node's elements in list order; then any part not
+    reached, from its first element in the list."""
+    nodes = conn[elems]
+    n = len(elems)
+    flat = nodes.ravel()
+    order_by_node = np.argsort(flat, kind="stable")
+    owners = (order_by_node // 8).tolist()
+    head = np.zeros(num_nodes + 1, dtype=np.int64)
+    np.add.at(head, flat + 1, 1)
+    head = np.cumsum(head).tolist()
+    rows = nodes.tolist()
+    seen = bytearray(n)
+    order: list[int] = []
+    for r in sources:
+        if not seen[r]:
+            seen[r] = 1
+            order.append(r)
+    q = 0
+    root = 0
+    while len(order) < n or q < len(order):
+        if q == len(order):
+            while seen[root]:
+                root += 1
+            seen[root] = 1
+            order.append(root)
+        while q < len(order):
+            for node in rows[order[q]]:
+                for j in range(head[node], head[node + 1]):
+                    e = owners[j]
+                    if not seen[e]:
+                        seen[e] = 1
+                        order.append(e)
+            q += 1
+    return order
+
+
+def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray) -> np.ndarray:
+    """The order of a region's elements in tq-solid's block (scatterOrder)."""
+    n = len(elems)
+    if n < RENUMBER_MIN:
+        return elems
+    num_nodes = len(coords)
+    span = _scatter_span(conn, elems, num_nodes)
+    if span < n // 16:
+        return elems
+    edge = _shortest_edges(coords, conn[elems])
+    sources = np.flatnonzero(edge <= 1.5 * edge.min()).tolist()
+    if len(sources) > n // 8:  # about uniform: from the element reached last from the first one
+        sources = [_breadth_first(conn, elems, [sources[0]], num_nodes)[-1]]
+    renumbered = elems[np.array(_breadth_first(conn, elems, sources, num_nodes))]
+    return renumbered if _scatter_span(conn, renumbered, num_nodes) * 2 <= span else elems
+
+
+def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
+           safety: float, dt: float = 0.0, finest=None, tied=None) -> Levels:
+    """The levels tq-solid gives the mesh (coords (N, 3), conn (E, 8), region (E,) indices into
+    `speeds`, each region's P-wave speed) at `max_level` levels with the time step's safety factor
+    `safety` and step `dt` (0: automatic, safety x 2 / w_max). The contributors' constraints: the
+    nodes `finest` (contact pairs, lining joints, the wet wall) step at the finest level, each row
+    of `tied` (the bonded interface's pairs) at its members' finest."""
+    conn = np.asarray(conn, dtype=np.int64)
+    region = np.asarray(region)
+    w = 2.0 * np.asarray(speeds, dtype=float)[region] / characteristic_lengths(coords, conn)
+    if not dt > 0:
+        dt = safety * ((2.0 / w.max()) * 1.0)
+    dte = safety * 2.0 / w
+    level_e = np.zeros(len(conn), dtype=np.int64)
+    for lv in range(max_level):  # the largest l with dte >= dt 2^(l+1)
+        level_e += (level_e == lv) & (dte >= dt * float(2 << lv))
+    num_nodes = len(coords)
+    node_level = np.full(num_nodes, max_level, dtype=np.int64)
+    np.minimum.at(node_level, conn.ravel(), np.repeat(level_e, 8))
+    finest = np.asarray(finest if finest is not None else [], dtype=np.int64)
+    tied = np.asarray(tied if tied is not None else np.zeros((0, 2)), dtype=np.int64)
+    while True:  # the constraints and the grading (at most one level above the element's finest node)
+        lowered = node_level.copy()
+        lowered[finest] = 0
+        if len(tied):
+            common = lowered[tied].min(axis=1)
+            np.minimum.at(lowered, tied.ravel(), np.repeat(common, tied.shape[1]))
+        cap = lowered[conn].min(axis=1) + 1
+        np.minimum.at(lowered, conn.ravel(), np.repeat(cap, 8))
+        if np.array_equal(lowered, node_level):
+            break
+        node_level = lowered
+    used = np.zeros(num_nodes, dtype=bool)
+    used[conn.ravel()] = True
+    top = max_level
+    nodes = np.bincount(node_level[used], minlength=top + 1)
+    elements = np.zeros(top + 1, dtype=np.int64)
+    evals = 0.0
+    for r in np.unique(region):
+        order = block_order(coords, conn, np.flatnonzero(region == r))
+        finest = node_level[conn[order]].min(axis=1)
+        pad = -len(finest) % CHUNK
+        chunk = np.concatenate([finest, np.full(pad, top)]).reshape(-1, CHUNK).min(axis=1)
+        per_element = np.repeat(chunk, CHUNK)[:len(finest)]
+        elements += np.bincount(per_element, minlength=top + 1)
+        evals += float((1.0 / 2.0 ** per_element).sum())
+    last = max((lv for lv in range(top + 1) if nodes[lv] > 0), default=0)
+    return Levels(elements=tuple(int(x) for x in elements[:last + 1]), nodes=tuple(int(x) for x in nodes[:last + 1]),
+                  cost_fraction=evals / len(conn) if len(conn) else 1.0, dt=float(dt))
+
+
+def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
+                interface: str = "dynamic_contact", wet: bool = False) -> Levels:
+    """levels() of a mesh.h5 (meshing.build's solid mesh), each region's P-wave speed from the case's
+    materials (`materials[region]`: youngs_modulus, poisson_ratio, density). The constraints of
+    tq-solid's contributors: the rock-lining pairs (/interfaces/rock_lining) at the finest level
+    with `interface` dynamic_contact, tied with bonded; the lining joints' pairs at the finest; with
+    `wet` (the water coupled, or its volume law carried in the solid) the lining's inner face too."""
+    import h5py
+
+    with h5py.File(mesh_h5, "r") as f:
+        coords = f["nodes/coordinates"][()]
+        conn = f["elements/connectivity"][()]
+        region = f["elements/region"][()]
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["elements"].attrs["regions"]]
+        pairs = f["interfaces/rock_lining"][()] if "interfaces/rock_lining" in f else np.zeros((0, 2), np.int64)
+        finest = [f["interfaces/lining_joints"][()].ravel()] if "interfaces/lining_joints" in f else []
+        if wet and "faces/lining_inner" in f:
+            finest.append(f["faces/lining_inner"][()].ravel())
+    speeds = [p_wave_speed(float(materials[n]["youngs_modulus"]), float(materials[n]["poisson_ratio"]),
+                           float(materials[n]["density"])) for n in names]
+    if interface == "dynamic_contact":
+        finest.append(np.asarray(pairs).ravel())
+        pairs = None
+    finest = np.unique(np.concatenate(finest)) if finest else None
+    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs)
+
+
+# ------------------------------------------------------------------------------------------------
+# The probe of a node's step against an element's evaluation (rates.measure_node_weight)
+# ------------------------------------------------------------------------------------------------
+#: the probe's box: N x N elements in plan, THIN layers of 1/8 m at the base (they set the step and
+#: step at the finest level) under THICK layers of 1 m (they step at 8 times it, the grading between)
+PROBE_N, PROBE_THIN, PROBE_THICK = 16, 4, 12
+#: its elastic rock
+PROBE_ROCK = (8e9, 0.27, 2700.0)
+
+
+def write_probe_box(folder: Path, steps: int, levels_: int) -> Path:
+    """mesh.h5 and a solid input of the probe's box (base fixed, a ramped load on the top, gravity)
+    stepping `steps` steps of half the thin layers' critical step at `levels_` subcycling levels."""
+    import h5py
+
+    from .solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
+
+    folder.mkdir(parents=True, exist_ok=True)
+    n = PROBE_N
+    zs = np.concatenate([np.arange(PROBE_THIN + 1) / 8.0, PROBE_THIN / 8.0 + np.arange(1, PROBE_THICK + 1)])
+    nz = len(zs) - 1
+    g = np.arange(n + 1, dtype=float)
+    z, y, x = np.meshgrid(zs, g, g, indexing="ij")
+    coords = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+
+    def nid(i, j, k):
+        return i + (n + 1) * (j + (n + 1) * k)
+
+    k, j, i = (a.ravel() for a in np.meshgrid(np.arange(nz), np.arange(n), np.arange(n), indexing="ij"))
+    conn = np.stack([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
+                     nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)], axis=1)
+    bi, bj = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    bottom = np.stack([nid(bi, bj, 0), nid(bi, bj + 1, 0), nid(bi + 1, bj + 1, 0), nid(bi + 1, bj, 0)], axis=1)
+    top = np.stack([nid(bi, bj, nz), nid(bi + 1, bj, nz), nid(bi + 1, bj + 1, nz), nid(bi, bj + 1, nz)], axis=1)
+    with h5py.File(folder / "mesh.h5", "w") as f:
+        f.attrs["format"] = "tunnelquake-solid-mesh"
+        f.attrs["version"] = np.int64(1)
+        f.attrs["slice"] = np.int64(0)
+        f.create_dataset("nodes/coordinates", data=coords)
+        el = f.create_group("elements")
+        el.create_dataset("connectivity", data=conn.astype(np.int32))
+        el.create_dataset("region", data=np.zeros(len(conn), np.int32))
+        el.attrs["regions"] = np.array(["rock"], dtype=h5py.string_dtype())
+        f.create_dataset("faces/bottom", data=bottom.astype(np.int32))
+        f.create_dataset("faces/top", data=top.astype(np.int32))
+    E, nu, rho = PROBE_ROCK
+    dt = 0.5 * (1.0 / 8.0) / p_wave_speed(E, nu, rho)
+    out = folder / f"input_{levels_}.h5"
+    with h5py.File(out, "w") as f:
+        put(f, "/", "format", FORMAT)
+        put(f, "/", "version", VERSION)
+        put(f, "/", "mesh", "mesh.h5")
+        s = f.create_group("solver")
+        put(s, "/solver", "t_end", steps * dt)
+        put(s, "/solver", "dt", dt)
+        put(s, "/solver", "safety", 0.9)
+        put(s, "/solver", "gravity_z", -9.81)
+        if levels_:
+            put(s, "/solver", "subcycling_levels", levels_)
+        mg = f.create_group("materials/rock")
+        put(mg, MATERIALS, "E", E)
+        put(mg, MATERIALS, "nu", nu)
+        put(mg, MATERIALS, "rho", rho)
+        put(f.create_group("boundary/fixed/bottom"), "/boundary/fixed/*", "directions", "xyz")
+        lg = f.create_group("loads/top")
+        put(lg, "/loads/*", "target", "top")
+        put(lg, "/loads/*", "direction", "z")
+        put(lg, "/loads/*", "force", -1e6 * n * n)
+        put(lg, "/loads/*", "time", np.array([0.0, 0.5 * steps * dt]))
+        put(lg, "/loads/*", "value", np.array([0.0, 1.0]))
+        o = f.create_group("output")
+        put(o, "/output", "monitor_dt", steps * dt)
+        put(o, "/output", "progress_s", 1e9)
+        write_schema(f)
+    return out
