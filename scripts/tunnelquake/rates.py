@@ -23,6 +23,11 @@ CPU per element-step, box of the class against the probe's, and the model's one-
 probe's times it. Its thread speed-up is measured on the box of its class (size_class,
 measure_size_factor; docs/benchmarks.md "check's estimates on the 3D cases").
 
+A subcycled condition (time.subcycling) leaves out some of the element evaluations of a fine step
+but not the rest of it (every node moves, the boundaries and the contact act): the **element-evaluation
+probe** measures the evaluations' share of a step, tq-solid on a small graded box one-rate and
+subcycled (measure_eval_share; MachineRates.subcycled_factor).
+
 The probes' results are cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
 bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
 (TQ_RATES_FILE overrides the file), so each runs once a machine and build (the speed-up once for

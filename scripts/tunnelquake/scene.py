@@ -402,7 +402,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     (critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
     steps to each condition and makes the shaking after it dearer in ground that yields (rates.py
     RELAX_STEPS_PER_INCREMENT, RELAX_STEP_FACTOR, YIELDED_SHAKING_FACTOR); the other static stages
-    are not counted. The solid's part is its CPU time on one thread divided by the measured speed-up
+    are not counted. A subcycled condition (time.subcycling) takes its one-rate CPU times
+    rates.MachineRates.subcycled_factor of the fraction of the element evaluations a fine step makes
+    with the levels tq-solid will give the case's mesh (subcycled_levels). The solid's part is its
+    CPU time on one thread divided by the measured speed-up
     of the OpenMP threads `run` gives it (cores.solid_thread_count: the cores divided among the
     conditions running at once, one on a small mesh; rates.MachineRates.speedup)."""
     import math
@@ -439,7 +442,12 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     # each condition's solid at its own subcycling (time.subcycling, given once or per condition): a
     # fine step evaluates the fraction of the elements its levels give and moves every node
-    levels = subcycled_levels(case, [c for c, _ in conditions])
+    try:
+        levels = subcycled_levels(case, [c for c, _ in conditions])
+    except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:  # no mesh: counted at one rate
+        levels, unmeshed = {}, f"; subcycled conditions counted at one rate (the mesh could not be made: {e})"
+    else:
+        unmeshed = ""
     solid_of = {c: elements * steps * rates.solid_element_step
                 * (rates.subcycled_factor(levels[c].cost_fraction) if c in levels else 1.0) for c, _ in conditions}
     statics, statics_steps = 0.0, 0
@@ -473,7 +481,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     size = (f"; {elements:,} solid elements: the {rates.size_side}^3 box's CPU an element-step "
             f"{rates.size_factor:.2f}x the probe's" if rates.size_side else "")
     basis = (f"{rates.processor}'s speed (tq-solid-bench probe {rates.probe_s:.3g} CPU s, {rates.source}{size}"
-             + (f"; {rates.speedup_note}" if rates.speedup_note else "")
+             + (f"; {rates.speedup_note}" if rates.speedup_note else "") + unmeshed
              + "; docs/benchmarks.md \"check's run-time estimate\")")
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
                            statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu,

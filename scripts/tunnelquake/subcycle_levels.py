@@ -8,12 +8,16 @@ The rule is tq-solid's own (Solver::enableSubcycling, ElementBlock::setChunkLeve
    volume the 8-point Gauss sum, exact for a trilinear hexahedron); its level the largest l up to
    the case's levels with that step at least 2^(l+1) times the solid's step dt (dt the given step,
    else safety x 2 / w_max);
-2. each node takes the lowest level of its elements; nodes a water contributor holds (the wet
-   nodes) the finest; then, until nothing changes, no node of an element steps more than one level
-   above the element's finest node (the grading);
+2. each node takes the lowest level of its elements; then, until nothing changes, the contributors'
+   constraints (the contact's pairs, the lining's joints and the coupled wet wall at the finest
+   level, a bonded interface's pairs at their common finest) and the grading (no node of an element
+   more than one level above the element's finest node);
 3. the elements are evaluated by chunks of 64 in each region's block (the region's elements in mesh
    order, renumbered breadth first from its smallest elements when that at least halves the
    scatter's span), each chunk at the finest level of its elements' nodes.
+
+A reinforced_concrete lining is taken at its concrete's modulus (tq-solid stiffens it by its bars'
+steel ratio, which shortens the step a little: the counts may then differ from tq-solid's).
 
 What this yields, per level L: the elements evaluated every 2^L fine steps and the nodes stepping
 2^L dt, and the evaluations of a fine step against one-rate stepping (cost_fraction): tq-solid's
