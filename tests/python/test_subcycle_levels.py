@@ -6,9 +6,9 @@ cost_fraction), and what a subcycled condition then costs in the run-time estima
 References: tq-solid's own counts, exactly (the same rule on the same mesh: integers, and the
 cost fraction a sum of powers of 2 over the elements, to round-off), on meshes unlike each other: a
 bonded slice (the interface's tied pairs share a level); a 3D tunnel with the dynamic contact (its
-pairs at the finest level; a rock block of thousands of elements renumbered before it is cut into
-chunks); the element-evaluation probe's box (one region, layers of two sizes). The estimate's
-subcycled CPU against the one-rate CPU of the same case: the closed form 1 - (1 - f) s."""
+pairs at the finest level; its rock block renumbered before it is cut into chunks); the
+element-evaluation probe's box (one region, layers of two sizes). The estimate's subcycled CPU
+against the one-rate CPU of the same case: the closed form 1 - (1 - f) s."""
 from __future__ import annotations
 
 import h5py
@@ -48,8 +48,9 @@ def _slice() -> str:
 
 
 def _3d_text() -> str:
-    """The section as a 3D tunnel 12 m long (6 axial elements) with the dynamic contact."""
-    return _section("levels_3d", "3d", [0.0, 12.0], "dynamic_contact", elements_along_axis=6)
+    """The section as a 3D tunnel 14 m long (7 axial elements) with the dynamic contact: 2,212 rock
+    elements, a block renumbered breadth first before it is cut into chunks."""
+    return _section("levels_3d", "3d", [0.0, 14.0], "dynamic_contact", elements_along_axis=7)
 
 
 def _case(tmp_path, text: str, levels: int, name: str = "case.yaml"):
