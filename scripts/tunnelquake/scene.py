@@ -236,14 +236,26 @@ def passes_per_window(coupling: dict) -> float:
     return max(1.0, passes)
 
 
+#: the most hexahedra (solid and water) `check` meshes itself to count a subcycled condition's levels:
+#: the example's 3D variant (79,200) takes 1.2 CPU s; a larger case's mesh is counted when
+#: `tunnelquake mesh` has made it
+CHECK_MESH_MAX_ELEMENTS = 250_000
+
+
+class MeshNotMade(ValueError):
+    """check does not mesh a case this large itself (CHECK_MESH_MAX_ELEMENTS)."""
+
+
 @contextmanager
 def current_solid_mesh(case):
     """The path of the case's solid mesh (mesh.h5): the one in its results folder when it is up to
     date (prepare.make_mesh's fingerprint), else one meshed now in a temporary folder (the mesher
-    takes about 0.1 CPU s for the example's slice, 1.2 s for its 3D variant)."""
+    takes about 0.1 CPU s for the example's slice, 1.2 s for its 3D variant). Raises MeshNotMade for
+    a case of more than CHECK_MESH_MAX_ELEMENTS hexahedra without a current mesh."""
     import json
     import tempfile
 
+    from .meshing.params import element_counts, resolve
     from .prepare import _fingerprint, mesh_dir
 
     out = mesh_dir(case)
@@ -258,6 +270,11 @@ def current_solid_mesh(case):
     from .meshing import build_tunnel_mesh
 
     d = case.data
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    total = counts["rock"] + counts["lining"] + counts["water"]
+    if total > CHECK_MESH_MAX_ELEMENTS:
+        raise MeshNotMade(f"its {total:,} hexahedra are more than check meshes itself ({CHECK_MESH_MAX_ELEMENTS:,}); "
+                          "`tunnelquake mesh` makes the mesh check then counts")
     with tempfile.TemporaryDirectory(prefix="tq-check-mesh-") as tmp:
         build_tunnel_mesh(d["geometry"], d["mesh"], Path(tmp), ground_layers(d), case_geology(d), joint_spacing(d),
                           joint_hold(d))
@@ -445,7 +462,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     try:
         levels = subcycled_levels(case, [c for c, _ in conditions])
     except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:  # no mesh: counted at one rate
-        levels, unmeshed = {}, f"; subcycled conditions counted at one rate (the mesh could not be made: {e})"
+        levels, unmeshed = {}, f"; subcycled conditions counted at one rate (no mesh to count their levels on: {e})"
     else:
         unmeshed = ""
     solid_of = {c: elements * steps * rates.solid_element_step

@@ -13,8 +13,8 @@ The rule is tq-solid's own (Solver::enableSubcycling, ElementBlock::setChunkLeve
    level, a bonded interface's pairs at their common finest) and the grading (no node of an element
    more than one level above the element's finest node);
 3. the elements are evaluated by chunks of 64 in each region's block (the region's elements in mesh
-   order, renumbered breadth first from its smallest elements when that at least halves the
-   scatter's span), each chunk at the finest level of its elements' nodes.
+   order, renumbered breadth first from its smallest elements and those on the tunnel's faces when
+   that at least halves the scatter's span), each chunk at the finest level of its elements' nodes.
 
 A reinforced_concrete lining is taken at its concrete's modulus (tq-solid stiffens it by its bars'
 steel ratio, which shortens the step a little: the counts may then differ from tq-solid's).
@@ -34,8 +34,11 @@ import numpy as np
 
 #: elements per chunk of an element block (ElementBlock::kChunk)
 CHUNK = 64
-#: blocks of at least this many elements may be renumbered (scatterOrder: every block of two or more)
+#: blocks of at least this many elements may be renumbered (scatterOrder: any block of two or more)
 RENUMBER_MIN = 2
+
+#: the tunnel's face groups (tq/core/mesh.hpp face_group): the blocks' renumbering starts at their elements
+TUNNEL_FACES = ("lining_inner", "lining_outer", "rock_hole")
 
 # hex8 faces (as local node quadruples) and edges, tq-solid's numbering (tq/elements/hex8.hpp)
 _FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
@@ -142,8 +145,12 @@ def _breadth_first(conn: np.ndarray, elems: np.ndarray, sources: list[int], num_
     return order
 
 
-def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray) -> np.ndarray:
-    """The order of a region's elements in tq-solid's block (scatterOrder)."""
+def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray, wall_nodes=None) -> np.ndarray:
+    """The order of a region's elements in tq-solid's block (scatterOrder): renumbered breadth first
+    when that at least halves the scatter's span, from its smallest elements (shortest edge within
+    1.5 x the block's shortest; none when they are more than an eighth of the block) and its
+    elements with a node among `wall_nodes` (the tunnel's faces; none when more than an eighth),
+    else from the element reached last from the first smallest one."""
     n = len(elems)
     if n < RENUMBER_MIN:
         return elems
@@ -152,20 +159,31 @@ def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray) -> np.n
     if span < n // 16:
         return elems
     edge = _shortest_edges(coords, conn[elems])
-    sources = np.flatnonzero(edge <= 1.5 * edge.min()).tolist()
-    if len(sources) > n // 8:  # about uniform: from the element reached last from the first one
-        sources = [_breadth_first(conn, elems, [sources[0]], num_nodes)[-1]]
+    small = np.flatnonzero(edge <= 1.5 * edge.min())
+    smallest = int(small[0])
+    on_wall = np.zeros(num_nodes, dtype=bool)
+    if wall_nodes is not None and len(wall_nodes):
+        on_wall[np.asarray(wall_nodes, dtype=np.int64)] = True
+    wall = np.flatnonzero(on_wall[conn[elems]].any(axis=1))
+    if len(wall) > n // 8:  # most of the block (the lining)
+        wall = wall[:0]
+    if len(small) > n // 8:  # about uniform size (a slice's thickness)
+        small = small[:0]
+    sources = np.union1d(small, wall).tolist()
+    if not sources:  # about uniform: from a far end instead
+        sources = [_breadth_first(conn, elems, [smallest], num_nodes)[-1]]
     renumbered = elems[np.array(_breadth_first(conn, elems, sources, num_nodes))]
     return renumbered if _scatter_span(conn, renumbered, num_nodes) * 2 <= span else elems
 
 
 def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
-           safety: float, dt: float = 0.0, finest=None, tied=None) -> Levels:
+           safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> Levels:
     """The levels tq-solid gives the mesh (coords (N, 3), conn (E, 8), region (E,) indices into
     `speeds`, each region's P-wave speed) at `max_level` levels with the time step's safety factor
     `safety` and step `dt` (0: automatic, safety x 2 / w_max). The contributors' constraints: the
     nodes `finest` (contact pairs, lining joints, the wet wall) step at the finest level, each row
-    of `tied` (the bonded interface's pairs) at its members' finest."""
+    of `tied` (the bonded interface's pairs) at its members' finest. `wall_nodes`: the nodes of the
+    tunnel's faces, where the blocks' renumbering starts (block_order)."""
     conn = np.asarray(conn, dtype=np.int64)
     region = np.asarray(region)
     w = 2.0 * np.asarray(speeds, dtype=float)[region] / characteristic_lengths(coords, conn)
@@ -198,7 +216,7 @@ def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: lis
     elements = np.zeros(top + 1, dtype=np.int64)
     evals = 0.0
     for r in np.unique(region):
-        order = block_order(coords, conn, np.flatnonzero(region == r))
+        order = block_order(coords, conn, np.flatnonzero(region == r), wall_nodes)
         finest = node_level[conn[order]].min(axis=1)
         pad = -len(finest) % CHUNK
         chunk = np.concatenate([finest, np.full(pad, top)]).reshape(-1, CHUNK).min(axis=1)
@@ -226,6 +244,7 @@ def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, d
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["elements"].attrs["regions"]]
         pairs = f["interfaces/rock_lining"][()] if "interfaces/rock_lining" in f else np.zeros((0, 2), np.int64)
         finest = [f["interfaces/lining_joints"][()].ravel()] if "interfaces/lining_joints" in f else []
+        wall = [f[f"faces/{g}"][()].ravel() for g in TUNNEL_FACES if f"faces/{g}" in f]
         if wet and "faces/lining_inner" in f:
             finest.append(f["faces/lining_inner"][()].ravel())
     speeds = [p_wave_speed(float(materials[n]["youngs_modulus"]), float(materials[n]["poisson_ratio"]),
@@ -234,7 +253,8 @@ def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, d
         finest.append(np.asarray(pairs).ravel())
         pairs = None
     finest = np.unique(np.concatenate(finest)) if finest else None
-    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs)
+    wall_nodes = np.unique(np.concatenate(wall)) if wall else None
+    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall_nodes)
 
 
 # ------------------------------------------------------------------------------------------------

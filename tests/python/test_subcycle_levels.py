@@ -119,3 +119,17 @@ def test_a_subcycled_condition_costs_the_evaluations_it_leaves_out(tmp_path):
     assert b.subcycled["no_water"] == pytest.approx((f, 1 - (1 - f) * s), rel=1e-12)
     unmeasured = runtime_estimate(sub, rates=R.MachineRates(0.3, "test", "given"))
     assert unmeasured.cpu["no_water"] == pytest.approx(a.cpu["no_water"], rel=1e-12)
+
+
+def test_a_case_check_does_not_mesh_counts_at_one_rate_and_says_so(tmp_path, monkeypatch):
+    """A case of more hexahedra than check meshes itself (scene.CHECK_MESH_MAX_ELEMENTS, lowered here
+    below the slice's) and without a current mesh: its subcycled condition counted at one rate, and
+    the estimate's basis says why and how to have it counted (`tunnelquake mesh`)."""
+    from tunnelquake import scene
+
+    monkeypatch.setattr(scene, "CHECK_MESH_MAX_ELEMENTS", 10)
+    rates = R.MachineRates(0.3, "test", "given", eval_share=0.84)
+    one = runtime_estimate(_case(tmp_path, _slice(), 0, "one.yaml"), rates=rates)
+    sub = runtime_estimate(_case(tmp_path, _slice(), 3, "sub.yaml"), rates=rates)
+    assert sub.cpu["no_water"] == pytest.approx(one.cpu["no_water"], rel=1e-12) and not sub.subcycled
+    assert "counted at one rate" in sub.basis and "`tunnelquake mesh`" in sub.basis
