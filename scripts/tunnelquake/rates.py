@@ -123,8 +123,8 @@ WATER_PER_PROBE_S = 1.93e-3
 WATER_CELL_PER_PROBE_S = 3.44e-6
 
 #: The element-evaluation probe, for a subcycled condition (time.subcycling): tq-solid on
-#: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, one layer of 1/8 m under 15 of
-#: 1 m; its step half the thin layer's critical one) one-rate and at 3 levels, EVAL_PROBE_STEPS steps
+#: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, 4 layers of 1/8 m under 12 of
+#: 1 m; its step half the thin layers' critical one) one-rate and at 3 levels, EVAL_PROBE_STEPS steps
 #: each, and a run of EVAL_PROBE_SHORT steps (what starting the program costs); EVAL_PROBE_ROUNDS
 #: rounds, the three runs in turn in each, the median of the rounds' shares
 EVAL_PROBE_STEPS = 2000
