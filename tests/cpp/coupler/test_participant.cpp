@@ -685,43 +685,46 @@ TEST(AddedMass, WindowsEndedAtThePassLimitAreCountedOnBothSides) {
 // (saveState) and run on; a new pair started from those states (initializeResumed, over a new
 // connection) must repeat the rest of the run bitwise (tolerance 0: the same arithmetic on the same
 // values). Reference: the uninterrupted run's windows after the save. The model problem at
-// m_a/m = 5 with pressure-solver noise, the linear predictor, IQN-ILS keeping the columns of 4
-// earlier windows (state carried across windows: the columns, the predictor's history, the
-// divergence monitor's) and Aitken, whose relaxation factor restarts each window.
+// m_a/m = 5 with pressure-solver noise, the linear and the damped predictor, IQN-ILS keeping the
+// columns of 4 earlier windows (state carried across windows: the columns, the predictor's
+// history, the divergence monitor's) and Aitken, whose relaxation factor restarts each window.
 TEST(Restart, ResumedPairRepeatsTheRestOfTheRunBitwise) {
-  for (auto acc : {AccelerationKind::IqnIls, AccelerationKind::Aitken}) {
-    SCOPED_TRACE(acc == AccelerationKind::IqnIls ? "IQN-ILS, reuse 4" : "Aitken");
-    OscOptions o;
-    o.predictor = PredictorKind::Linear;
-    o.noise = 1e-9;
-    o.tolerance = 1e-6;
-    o.reuse = acc == AccelerationKind::IqnIls ? 4 : 0;
-    o.saveAt = 60;
-    const int windows = 120;
-    const OscResult full = oscillated(SchemeKind::Implicit, acc, 5.0, windows, o);
-    ASSERT_EQ(full.x0.size(), std::size_t(windows));
-    ASSERT_FALSE(full.saved.solid.empty());
-    ASSERT_FALSE(full.saved.fluid.empty());
-    // the saved windows carry state into the rest: more than one pass a window on average
-    const double passes = double(full.passes) / windows;
-    EXPECT_GT(passes, 1.5);
+  for (auto pk : {PredictorKind::Linear, PredictorKind::Damped})
+    for (auto acc : {AccelerationKind::IqnIls, AccelerationKind::Aitken}) {
+      SCOPED_TRACE(std::string(acc == AccelerationKind::IqnIls ? "IQN-ILS, reuse 4, " : "Aitken, ") +
+                   predictorName(pk));
+      OscOptions o;
+      o.predictor = pk;
+      o.noise = 1e-9;
+      o.tolerance = 1e-6;
+      o.reuse = acc == AccelerationKind::IqnIls ? 4 : 0;
+      o.saveAt = 60;
+      const int windows = 120;
+      const OscResult full = oscillated(SchemeKind::Implicit, acc, 5.0, windows, o);
+      ASSERT_EQ(full.x0.size(), std::size_t(windows));
+      ASSERT_FALSE(full.saved.solid.empty());
+      ASSERT_FALSE(full.saved.fluid.empty());
+      // the saved windows carry state into the rest: more than one pass a window on average
+      const double passes = double(full.passes) / windows;
+      EXPECT_GT(passes, 1.5);
 
-    OscOptions r = o;
-    r.saveAt = -1;
-    r.resume = &full.saved;
-    const OscResult resumed = oscillated(SchemeKind::Implicit, acc, 5.0, windows, r);
-    ASSERT_EQ(resumed.x0.size(), std::size_t(windows - o.saveAt));
-    size_t diffs = 0;
-    for (std::size_t i = 0; i < resumed.x0.size(); ++i)
-      diffs += std::memcmp(&resumed.x0[i], &full.x0[std::size_t(o.saveAt) + i], sizeof(double)) != 0;
-    EXPECT_EQ(diffs, 0u);
-    EXPECT_EQ(std::vector<int>(full.passesPerWindow.begin() + o.saveAt, full.passesPerWindow.end()),
-              resumed.passesPerWindow);
-    EXPECT_EQ(resumed.unconvergedSolid, full.unconvergedSolid);
-    EXPECT_EQ(resumed.unconvergedFluid, full.unconvergedFluid);
-    std::printf("restart at window %d of %d: %.2f passes a window, %zu of %zu later windows' x0 differ\n", o.saveAt,
-                windows, passes, diffs, resumed.x0.size());
-  }
+      OscOptions r = o;
+      r.saveAt = -1;
+      r.resume = &full.saved;
+      const OscResult resumed = oscillated(SchemeKind::Implicit, acc, 5.0, windows, r);
+      ASSERT_EQ(resumed.x0.size(), std::size_t(windows - o.saveAt));
+      size_t diffs = 0;
+      for (std::size_t i = 0; i < resumed.x0.size(); ++i)
+        diffs += std::memcmp(&resumed.x0[i], &full.x0[std::size_t(o.saveAt) + i], sizeof(double)) != 0;
+      EXPECT_EQ(diffs, 0u);
+      EXPECT_EQ(std::vector<int>(full.passesPerWindow.begin() + o.saveAt, full.passesPerWindow.end()),
+                resumed.passesPerWindow);
+      EXPECT_EQ(resumed.unconvergedSolid, full.unconvergedSolid);
+      EXPECT_EQ(resumed.unconvergedFluid, full.unconvergedFluid);
+      std::printf(
+          "restart at window %d of %d, predictor %s: %.2f passes a window, %zu of %zu later windows' x0 differ\n",
+          o.saveAt, windows, predictorName(pk), passes, diffs, resumed.x0.size());
+    }
 }
 
 // A state that does not fit: another configuration's bytes, or bytes cut short, are refused with
