@@ -39,13 +39,15 @@ const char* predictorName(PredictorKind k) {
       return "constant";
     case PredictorKind::Linear:
       return "linear";
+    case PredictorKind::Damped:
+      return "damped";
   }
   return "?";
 }
 PredictorKind parsePredictor(const std::string& s) {
-  for (auto k : {PredictorKind::Constant, PredictorKind::Linear})
+  for (auto k : {PredictorKind::Constant, PredictorKind::Linear, PredictorKind::Damped})
     if (s == predictorName(k)) return k;
-  throw ConfigError("unknown predictor '" + s + "': use constant or linear");
+  throw ConfigError("unknown predictor '" + s + "': use constant, linear or damped");
 }
 const char* mapKindName(MapKind k) {
   switch (k) {

@@ -59,7 +59,7 @@ CouplingConfig decodeConfig(Reader& r) {
   c.tolerance = r.f64();
   c.acceleration = AccelerationKind(enumValue(r, 3, "acceleration"));
   c.initialRelaxation = r.f64();
-  c.predictor = PredictorKind(enumValue(r, 1, "predictor"));
+  c.predictor = PredictorKind(enumValue(r, 2, "predictor"));
   const std::uint32_t reuse = r.u32();
   if (reuse > 1000) r.fail("reuse " + std::to_string(reuse) + " above the limit 1000");
   c.reuse = int(reuse);

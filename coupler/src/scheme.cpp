@@ -94,7 +94,7 @@ void SerialImplicit::initialize(ExchangePort& port) {
     port.receiveData(0, 0);
     prevReceived_ = port.receivedValues();
     lastSent_ = port.writtenValues();  // what the first participant used: the initial values
-    prevConverged_ = lastSent_;        // x_{−1} of the linear predictor (the initial values)
+    prevConverged_ = lastSent_;        // x_{−1} of an extrapolating predictor (the initial values)
     acc_->startWindow();
   }
 }
@@ -140,26 +140,27 @@ void SerialImplicit::endWindow(ExchangePort& port) {
     const double resRead = k >= 1 && prevReceived_.size() == d.size()
                                ? convergenceFromSums(sums, readAt, port.receivedSlices(), tol)
                                : std::numeric_limits<double>::infinity();
-    // Pass 0 with the linear predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides (the
-    // read data has no earlier pass to compare with; the motion is a function of x⁰).
-    const bool linear = config_.predictor == PredictorKind::Linear;
-    state_.residual = k == 0 && linear ? resWrite : std::max(resWrite, resRead);
+    // Pass 0 with an extrapolating predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides
+    // (the read data has no earlier pass to compare with; the motion is a function of x⁰).
+    const bool extrapolated = extrapolates(config_.predictor);
+    state_.residual = k == 0 && extrapolated ? resWrite : std::max(resWrite, resRead);
     if (!std::isfinite(resWrite) && k >= 1)
       throw DivergenceError("interface residual is not finite in window " + std::to_string(w) + ", pass " +
                             std::to_string(k));
-    const bool converged = test_ && (k >= 1 || linear) && state_.residual < config_.tolerance;
+    const bool converged = test_ && (k >= 1 || extrapolated) && state_.residual < config_.tolerance;
     complete = converged || int(k) + 1 >= maxPasses_;
     if (complete) {
       if (test_ && !converged) ++state_.unconvergedWindows;
       port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0), state_.residual);
-      if (linear) {
-        // The next window's x⁰ = 2 x_w − x_{w−1}, x_w the value the first participant applied in
-        // this window's last pass (lastSent_), not the answer x̃: extrapolating the answers would
-        // multiply each accepted error by the added-mass feedback (a growing period-two mode that
-        // a relative residual does not see); the applied values carry the accepted errors once.
+      if (extrapolated) {
+        // The next window's x⁰ extrapolated (linear: 2 x_w − x_{w−1}; damped: x_w + ¾ (x_w − x_{w−1})),
+        // x_w the value the first participant applied in this window's last pass (lastSent_), not
+        // the answer x̃: extrapolating the answers would multiply each accepted error by the
+        // added-mass feedback (a growing period-two mode that a relative residual does not see);
+        // the applied values carry the accepted errors once.
         const std::vector<double> applied = lastSent_;
         for (std::size_t i = 0; i < applied.size() && i < prevConverged_.size(); ++i)
-          lastSent_[i] = 2.0 * applied[i] - prevConverged_[i];
+          lastSent_[i] = extrapolatedValue(config_.predictor, applied[i], prevConverged_[i]);
         prevConverged_ = applied;
       } else {
         lastSent_ = xt;

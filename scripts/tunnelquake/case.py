@@ -658,9 +658,9 @@ def _check_coupling(c, path, raw, ctx):
         c["window"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" else 1
     if c.get("reuse") is None:
         c["reuse"] = IMPLICIT_WINDOW if c["scheme"] == "implicit" and c["acceleration"] == "iqn-ils" else 0
-    if c.get("predictor") == "linear" and c["scheme"] != "implicit":
-        ctx.error(f"{path}.predictor", c["predictor"], f"the linear predictor starts the iterations of the implicit "
-                  f"scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
+    if c.get("predictor") in ("linear", "damped") and c["scheme"] != "implicit":
+        ctx.error(f"{path}.predictor", c["predictor"], f"the {c['predictor']} predictor starts the iterations of the "
+                  f"implicit scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
                   raw.key_lines.get("predictor"))
     if c.get("reuse", 0) and (c["scheme"] != "implicit" or c["acceleration"] != "iqn-ils"):
         ctx.error(f"{path}.reuse", c["reuse"], "reuse keeps IQN-ILS columns from earlier windows",
@@ -921,11 +921,12 @@ def schema() -> Section:
                                 "a window's first correction is a quasi-Newton step (docs/coupler.md "
                                 "\"Windows of several steps\"); 0: each window starts afresh. Default: "
                                 f"{IMPLICIT_WINDOW} for implicit iqn-ils, 0 otherwise"),
-            "predictor": Choice(choices=("auto", "constant", "linear"), default="auto",
+            "predictor": Choice(choices=("auto", "constant", "linear", "damped"), default="auto",
                                 doc="implicit scheme: the force a window starts from — constant: the last "
                                     "window's; linear: 2 R_w - R_(w-1), so a window whose first answer agrees "
-                                    "needs one water pass (docs/coupler.md \"Predictor\"); auto: linear for "
-                                    "implicit, constant otherwise"),
+                                    "needs one water pass; damped: R_w + 3/4 (R_w - R_(w-1)), the same with "
+                                    "three quarters of the slope (docs/coupler.md \"Predictor\"); auto: linear "
+                                    "for implicit, constant otherwise"),
             "transport": Choice(choices=("tcp", "mpi"), default="tcp",
                                 doc="tcp: the two processes `tunnelquake run` starts; mpi: tq-solid as one "
                                     "application of an MPMD mpirun job with an MPI-speaking fluid, started by "

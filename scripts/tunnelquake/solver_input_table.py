@@ -327,13 +327,14 @@ ENTRIES: tuple[Entry, ...] = (
        "checkpoint at the end of every K-th accepted window (0 = every window; `tunnelquake run` gives "
        "round(checkpoint_interval / window_size), at least 1)", default=0, lo=0, omit_default=True),
     _e("/coupling", "tolerance", "float", "implicit: relative residual, passes per window, acceleration, first "
-       "relaxation factor, windows of IQN-ILS columns kept, predictor (`linear` needs implicit)", default=1e-4,
-       lo=0.0),
+       "relaxation factor, windows of IQN-ILS columns kept, predictor (`linear` and `damped` need implicit)",
+       default=1e-4, lo=0.0),
     _e("/coupling", "max_iterations", "int", default=20, lo=1),
     _e("/coupling", "acceleration", "str", default="iqn-ils", choices=("none", "constant", "aitken", "iqn-ils")),
     _e("/coupling", "initial_relaxation", "float", default=0.5, lo=0.0),
     _e("/coupling", "reuse", "int", default=0, lo=0, omit_default=True),
-    _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear"), omit_default=True),
+    _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear", "damped"),
+       omit_default=True),
     _e("/coupling", "absolute_tolerance_velocity", "float", "implicit: absolute floors on each field's RMS "
        "residual (0 = none); `tunnelquake run` derives them (docs/coupler.md \"Convergence test\")",
        unit="m/s", default=0.0, lo=0.0),

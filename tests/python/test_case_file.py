@@ -215,8 +215,8 @@ def test_the_example_3d_variant_is_the_measured_3d_run_and_leaves_the_slice_alon
 def test_a_bad_key_in_any_variant_is_said_before_a_run(example_text, write_case):
     """A variant not chosen is checked against the schema on every read: its problems are warnings
     naming the variant, the key and its line; choosing it makes them errors."""
-    text = example_text.replace("    coupling: {tolerance: 1e-4, window_force_weight: 0.75, volume_law: water}",
-                                "    coupling: {tolerence: 1e-4, window_force_weight: 0.75, volume_law: water}")
+    text = _mutate(example_text, "    coupling: {tolerance: 1e-4, window_force_weight: 0.75, volume_law: water",
+                   "    coupling: {tolerence: 1e-4, window_force_weight: 0.75, volume_law: water")
     path = write_case(text)
     warned = [w for w in load_case(path).warnings if w.startswith("variant 3d would not run")]
     assert len(warned) == 1 and "coupling.tolerence" in warned[0], warned
@@ -276,3 +276,19 @@ def test_release_fraction_needs_the_lining_stage(example_text, write_case):
     with pytest.raises(CaseError) as err:
         load_case(write_case(text))
     assert "stages.release_fraction" in str(err.value) and "lining" in str(err.value)
+
+
+@pytest.mark.parametrize("predictor", ["linear", "damped"])
+def test_check_refuses_an_extrapolating_predictor_without_the_implicit_scheme(example_text, write_case, capsys,
+                                                                              predictor):
+    """coupling.predictor linear and damped start the implicit scheme's passes: with the explicit scheme
+    `tunnelquake check` refuses either, naming the key, its value and the fix."""
+    from tunnelquake.cli import main
+
+    text = re.sub(r"\n  predictor: \w+\n", f"\n  predictor: {predictor}\n", example_text)
+    text = _mutate(text, "  scheme: implicit\n", "  scheme: explicit\n")
+    assert main(["check", str(write_case(text))]) == 1
+    err = capsys.readouterr().err
+    assert f"coupling.predictor = '{predictor}'" in err, err
+    assert f"the {predictor} predictor starts the iterations of the implicit scheme" in err, err
+    assert "use predictor: auto (or constant), or scheme: implicit" in err, err

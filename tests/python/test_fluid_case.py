@@ -48,8 +48,10 @@ def test_both_sides_get_the_same_configuration(tmp_path):
     # the case's choices went through (the example: the implicit scheme with iqn-ils)
     assert solid["scheme"] == case.data["coupling"]["scheme"] == "implicit"
     assert solid["acceleration"] == "iqn-ils"
-    # predictor auto -> linear for the implicit scheme, on both sides
-    assert solid["predictor"] == "linear" and fluid["predictor"] == "linear"
+    # the example's predictor (damped), on both sides; auto -> linear for the implicit scheme
+    assert solid["predictor"] == "damped" and fluid["predictor"] == "damped"
+    assert fc.coupling_predictor({"scheme": "implicit", "predictor": "auto"}) == "linear"
+    assert fc.coupling_predictor({"scheme": "explicit", "predictor": "auto"}) == "constant"
     # the secret is not written into the OpenFOAM case
     assert "ab" * 16 not in str(fluid) and fluid["tokenEnv"] == fc.TOKEN_ENV
 

@@ -187,7 +187,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bind", default="127.0.0.1")
     ap.add_argument("--scheme", default="implicit")
     ap.add_argument("--acceleration", default="aitken")
-    ap.add_argument("--predictor", default="constant", choices=("constant", "linear"))
+    ap.add_argument("--predictor", default="constant", choices=("constant", "linear", "damped"))
     ap.add_argument("--windows", type=int, default=10)
     ap.add_argument("--window-size", type=float, default=1e-3)
     ap.add_argument("--max-iterations", type=int, default=20)

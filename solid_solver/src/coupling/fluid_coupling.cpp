@@ -44,7 +44,7 @@ struct FluidCoupling::Impl {
   std::vector<Real> force, prev;        // [3n] force added this step / last step (N)
   std::vector<Real> received;           // [3n] latest force read from the fluid
   std::vector<Real> trial;              // [3n] force used in the current prediction
-  std::vector<Real> receivedPrev;       // [3n] predictor linear: the force applied one window earlier
+  std::vector<Real> receivedPrev;       // [3n] predictor linear or damped: the force applied one window earlier
   WallMotion motion;                    // [3n] the predicted motion written (disp, vel) and its response
   std::vector<Real>&disp, &vel;         // motion.disp, motion.vel
   std::vector<std::vector<Real>> sent;  // [3n] each field written, less what the water does not see
@@ -53,6 +53,7 @@ struct FluidCoupling::Impl {
   std::vector<Real> dispStart;          // [3n] u − u0 at the start of the current window (k > 1)
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
+  cp::PredictorKind predictor = cp::PredictorKind::Constant;
   Real window = 0, dtPrev = 0;
   long long windows = 0;
   Index stepInWindow = 0;
@@ -124,15 +125,16 @@ struct FluidCoupling::Impl {
   }
 
   /// The implicit scheme's pass-0 window-end force `trial`, at the start of a window: the last
-  /// converged force, or with the linear predictor 2 F_w − F_{w−1} (F the force applied in a window,
-  /// the initial force before the first; receivedPrev moves on to F_w), from which both sides start:
-  /// a window whose first answer already agrees with it to the tolerance needs one pass
+  /// converged force, or extrapolated from the forces applied, linear 2 F_w − F_{w−1} or damped
+  /// F_w + ¾ (F_w − F_{w−1}) (F the force applied in a window, the initial force before the first;
+  /// receivedPrev moves on to F_w; cp::extrapolatedValue, the coupler's own), from which both sides
+  /// start: a window whose first answer already agrees with it to the tolerance needs one pass
   /// (docs/coupler.md "Predictor").
   void implicitPassZeroForce() {
     trial = received;
-    if (in.predictor != "linear") return;
+    if (!cp::extrapolates(predictor)) return;
     if (stats.windows > 0)  // window 0 starts from the initial force (= receivedPrev)
-      for (size_t j = 0; j < trial.size(); ++j) trial[j] = 2.0 * force[j] - receivedPrev[j];
+      for (size_t j = 0; j < trial.size(); ++j) trial[j] = cp::extrapolatedValue(predictor, force[j], receivedPrev[j]);
     else
       trial = receivedPrev;
     if (stats.windows > 0) receivedPrev = force;
@@ -442,6 +444,7 @@ void FluidCoupling::setUp(std::vector<std::int64_t> ids, std::vector<std::int32_
     throw InputError(std::string("/coupling: ") + e.what());
   }
   I.scheme = c.scheme;
+  I.predictor = c.predictor;
   I.repeats = in.windowSteps > 1 && c.scheme == cp::SchemeKind::Implicit;
   t.kind = in.transport == "mpi" ? cp::TransportKind::Mpi : cp::TransportKind::Tcp;
   t.addressFile = in.addressFile;
@@ -469,7 +472,7 @@ void FluidCoupling::initialize() {
   try {
     I.p->initialize();
     I.read();
-    I.receivedPrev = I.received;  // R_{−1} of the linear predictor: window 0 starts from the initial force
+    I.receivedPrev = I.received;  // R_{−1} of an extrapolating predictor: window 0 starts from the initial force
     I.recvPrev = I.received;      // R_0 of the work booking (its first increment is zero for k = 1)
   } catch (const cp::CouplerError& e) {
     I.fail("could not start the coupling with '" + I.in.partner + "'", e);

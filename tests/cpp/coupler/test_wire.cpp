@@ -255,6 +255,34 @@ TEST(Wire, CodecsRoundTrip) {
   EXPECT_EQ(p.size(), dataPayloadSize({9}));
 }
 
+// The predictor's code in the hello record: 0 constant, 1 linear, 2 damped round-trip and their
+// names parse back; code 3 is refused naming the field; an unknown name lists the three.
+TEST(Wire, EveryPredictorRoundTripsAndAnUndefinedCodeIsRefused) {
+  const std::vector<double> xyz = {4.5, 0, 0, 0, 0, 4.5, -4.5, 0, 0};
+  for (auto k : {PredictorKind::Constant, PredictorKind::Linear, PredictorKind::Damped}) {
+    Hello h{"run-7f3a", "solid", "fluid", sampleConfig(), {{"wall", {1000, 1001, 1002}, xyz, {0, 1, 2}}}};
+    h.config.predictor = k;
+    const auto bytes = encodeHello(h);
+    EXPECT_EQ(decodeHello(bytes.data(), bytes.size()).config.predictor, k) << predictorName(k);
+    EXPECT_EQ(parsePredictor(predictorName(k)), k);
+  }
+  Hello bad{"run-7f3a", "solid", "fluid", sampleConfig(), {{"wall", {1000, 1001, 1002}, xyz, {0, 1, 2}}}};
+  bad.config.predictor = PredictorKind(3);
+  const auto bytes = encodeHello(bad);
+  try {
+    decodeHello(bytes.data(), bytes.size());
+    ADD_FAILURE() << "predictor code 3 decoded";
+  } catch (const ProtocolError& e) {
+    EXPECT_NE(std::string(e.what()).find("predictor code 3 is not defined"), std::string::npos) << e.what();
+  }
+  try {
+    parsePredictor("quadratic");
+    ADD_FAILURE() << "predictor 'quadratic' parsed";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("use constant, linear or damped"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Wire, SharedTestVectorsDecodeAndEncodeIdentically) {
   const auto vectors = readVectors();
   const auto mine = sampleMessages();

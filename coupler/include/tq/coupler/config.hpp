@@ -42,7 +42,22 @@ enum class PredictorKind : std::uint8_t {
   /// ‖H(x⁰) − x⁰‖ is already below
   /// the tolerance completes after that single pass (docs/coupler.md "Predictor").
   Linear = 1,
+  /// x⁰_{w+1} = x_w + ¾ (x_w − x_{w−1}): the linear extrapolation with three quarters of its slope.
+  /// As a recursion of windows accepted in one pass its roots are 1 and ¾ (linear's: 1 twice), so
+  /// a slope error from an accepted residual decays by ¾ a window instead of persisting; pass 0
+  /// ends the window as with Linear.
+  Damped = 2,
 };
+
+/// Whether the predictor extrapolates the applied values (Linear, Damped): both sides start pass 0
+/// from extrapolatedValue(), and a window whose pass-0 residual is within the tolerance ends there.
+constexpr bool extrapolates(PredictorKind k) { return k != PredictorKind::Constant; }
+
+/// The first iterate of window w+1 from the values applied in windows w and w−1, value by value
+/// (Linear or Damped). One function for both participants, so that they start from the same value.
+inline double extrapolatedValue(PredictorKind k, double applied, double previous) {
+  return k == PredictorKind::Damped ? applied + 0.75 * (applied - previous) : 2.0 * applied - previous;
+}
 
 const char* schemeName(SchemeKind k);
 const char* predictorName(PredictorKind k);

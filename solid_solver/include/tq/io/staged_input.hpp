@@ -173,7 +173,7 @@ struct CouplingInput {
   std::string acceleration = "iqn-ils";  ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
   Index reuse = 0;                     ///< IQN-ILS: windows whose secant columns are kept
-  std::string predictor = "constant";  ///< implicit: first force of a window, constant | linear
+  std::string predictor = "constant";  ///< implicit: first force of a window, constant | linear | damped
   std::string transport = "tcp";       ///< tcp | mpi
   std::string addressFile;             ///< tcp: where the listener publishes its port
   std::string token;                   ///< per-run secret both sides were given
