@@ -29,6 +29,7 @@ import numpy as np
 
 from benchmarks.common import machine
 from tunnelquake import paths
+from tunnelquake.box_mesh import write_box_mesh
 from tunnelquake.solid_ranks import solid_command
 from tunnelquake.solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
@@ -38,29 +39,7 @@ def write_box(folder: Path, n: int, steps: int, samples: int = 10) -> Path:
     monitors sampled `samples` times over them."""
     folder.mkdir(parents=True, exist_ok=True)
     g = np.arange(n + 1, dtype=float)
-    z, y, x = np.meshgrid(g, g, g, indexing="ij")
-    xyz = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-
-    def nid(i, j, k):
-        return i + (n + 1) * (j + (n + 1) * k)
-
-    k, j, i = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij"))
-    conn = np.stack([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
-                     nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)], axis=1)
-    bi, bj = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
-    bottom = np.stack([nid(bi, bj, 0), nid(bi, bj + 1, 0), nid(bi + 1, bj + 1, 0), nid(bi + 1, bj, 0)], axis=1)
-    top = np.stack([nid(bi, bj, n), nid(bi + 1, bj, n), nid(bi + 1, bj + 1, n), nid(bi, bj + 1, n)], axis=1)
-    with h5py.File(folder / "mesh.h5", "w") as f:
-        f.attrs["format"] = "tunnelquake-solid-mesh"
-        f.attrs["version"] = np.int64(1)
-        f.attrs["slice"] = np.int64(0)
-        f.create_dataset("nodes/coordinates", data=xyz)
-        el = f.create_group("elements")
-        el.create_dataset("connectivity", data=conn.astype(np.int32))
-        el.create_dataset("region", data=np.zeros(len(conn), np.int32))
-        el.attrs["regions"] = np.array(["rock"], dtype=h5py.string_dtype())
-        f.create_dataset("faces/bottom", data=bottom.astype(np.int32))
-        f.create_dataset("faces/top", data=top.astype(np.int32))
+    write_box_mesh(folder / "mesh.h5", g, g, g)
     E, nu, rho = 8e9, 0.27, 2700.0
     cp = np.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho)
     dt = 0.45 / cp  # half the critical step of a 1 m element (2 / omega = L / cp)

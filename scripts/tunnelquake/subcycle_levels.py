@@ -272,36 +272,14 @@ def write_probe_box(folder: Path, steps: int, levels_: int) -> Path:
     stepping `steps` steps of half the thin layers' critical step at `levels_` subcycling levels."""
     import h5py
 
+    from .box_mesh import write_box_mesh
     from .solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
     folder.mkdir(parents=True, exist_ok=True)
     n = PROBE_N
     zs = np.concatenate([np.arange(PROBE_THIN + 1) / 8.0, PROBE_THIN / 8.0 + np.arange(1, PROBE_THICK + 1)])
-    nz = len(zs) - 1
     g = np.arange(n + 1, dtype=float)
-    z, y, x = np.meshgrid(zs, g, g, indexing="ij")
-    coords = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-
-    def nid(i, j, k):
-        return i + (n + 1) * (j + (n + 1) * k)
-
-    k, j, i = (a.ravel() for a in np.meshgrid(np.arange(nz), np.arange(n), np.arange(n), indexing="ij"))
-    conn = np.stack([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
-                     nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)], axis=1)
-    bi, bj = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
-    bottom = np.stack([nid(bi, bj, 0), nid(bi, bj + 1, 0), nid(bi + 1, bj + 1, 0), nid(bi + 1, bj, 0)], axis=1)
-    top = np.stack([nid(bi, bj, nz), nid(bi + 1, bj, nz), nid(bi + 1, bj + 1, nz), nid(bi, bj + 1, nz)], axis=1)
-    with h5py.File(folder / "mesh.h5", "w") as f:
-        f.attrs["format"] = "tunnelquake-solid-mesh"
-        f.attrs["version"] = np.int64(1)
-        f.attrs["slice"] = np.int64(0)
-        f.create_dataset("nodes/coordinates", data=coords)
-        el = f.create_group("elements")
-        el.create_dataset("connectivity", data=conn.astype(np.int32))
-        el.create_dataset("region", data=np.zeros(len(conn), np.int32))
-        el.attrs["regions"] = np.array(["rock"], dtype=h5py.string_dtype())
-        f.create_dataset("faces/bottom", data=bottom.astype(np.int32))
-        f.create_dataset("faces/top", data=top.astype(np.int32))
+    write_box_mesh(folder / "mesh.h5", g, g, zs)
     E, nu, rho = PROBE_ROCK
     dt = 0.5 * (1.0 / 8.0) / p_wave_speed(E, nu, rho)
     out = folder / f"input_{levels_}.h5"
