@@ -399,6 +399,19 @@ void expectAtRest(const OscResult& r, AccelerationKind acc, int maxPasses, doubl
   EXPECT_LT(r.maxAbs, 1e-12) << accelerationName(acc);
 }
 
+/// At rest with solver noise (1e-12 N) at m_a/m = 0.5, the floors from the problem's scale as in
+/// AbsoluteToleranceEndsWindowsAtRestInTwoPasses (tolerance 1e-10), starting from predictor p.
+OscOptions atRestOptions(PredictorKind p) {
+  const double tol = 1e-10;
+  OscOptions rest;
+  rest.predictor = p;
+  rest.x0 = 0.0;
+  rest.noise = 1e-12;
+  rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
+  rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
+  return rest;
+}
+
 /// The monolithic reference: the same integrator with mass m + m_a.
 std::vector<double> monolithic(double ratio, int windows, double dt = 1e-3) {
   const double m = 1.0 + ratio, k = 4 * M_PI * M_PI * 25.0 * m;
@@ -566,14 +579,7 @@ TEST(AddedMass, LinearPredictorKeepsTheAnswerWithFewerPassesAndOnePassAtRest) {
     // At rest (solver noise 1e-12 N, floors from the problem's scale as in the test above): one
     // pass a window, now and then a second when the noise accepted in a single pass has built
     // up to the floor; the motion stays at the noise's scale.
-    const double tol = 1e-10;
-    OscOptions rest;
-    rest.predictor = PredictorKind::Linear;
-    rest.x0 = 0.0;
-    rest.noise = 1e-12;
-    rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
-    rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
-    const auto one = oscillated(SchemeKind::Implicit, acc, 0.5, 20, rest);
+    const auto one = oscillated(SchemeKind::Implicit, acc, 0.5, 20, atRestOptions(PredictorKind::Linear));
     expectAtRest(one, acc, 2, 1.1);
     // A loose tolerance over a whole period (2,000 windows): the extrapolation of the *applied*
     // forces carries each accepted error once (extrapolating the water's answers instead multiplied
@@ -641,14 +647,7 @@ TEST(AddedMass, DampedPredictorKeepsTheMonolithicAnswerAndEndsWindowsInOnePass) 
     const double ep = largestDeviation(one, mono);
     EXPECT_LT(ep, 2 * 1e-3 * 0.01) << accelerationName(acc);
     // At rest with solver noise (the linear predictor's test): one pass, now and then a second.
-    const double tol = 1e-10;
-    OscOptions rest;
-    rest.predictor = PredictorKind::Damped;
-    rest.x0 = 0.0;
-    rest.noise = 1e-12;
-    rest.atolVelocity = tol * 0.01 * 2 * M_PI * 5;
-    rest.atolForce = tol * 0.5 * 0.01 * std::pow(2 * M_PI * 5, 2);
-    const auto still = oscillated(SchemeKind::Implicit, acc, 0.5, 20, rest);
+    const auto still = oscillated(SchemeKind::Implicit, acc, 0.5, 20, atRestOptions(PredictorKind::Damped));
     expectAtRest(still, acc, 2, 1.1);
     std::cout << "[ info ] m_a/m = 5, tolerance 1e-4, " << accelerationName(acc) << ": passes a window constant "
               << double(a.passes) / windows << ", linear " << double(b.passes) / windows << ", damped "
