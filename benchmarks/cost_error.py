@@ -78,6 +78,7 @@ def points() -> list[Point]:
     tol = "coupling.tolerance"
     win = "coupling.window"
     sub = "time.subcycling"
+    pred = "coupling.predictor"  # the explicit scheme has no iterations to start (auto: constant)
     return [
         Point("implicit, window 1, tol 1e-5, subcycling 0", dw, {win: 1, tol: 1e-5, sub: 0}, "reference"),
         Point("implicit, window 16, tol 1e-3, subcycling 3", dw, {}, "default"),  # the case's own settings
@@ -91,8 +92,8 @@ def points() -> list[Point]:
         Point("implicit, window 64, tol 1e-3", dw, {win: 64}),
         Point("subcycling 1", nw, {sub: 1}),
         Point("subcycling 2", nw, {sub: 2}),
-        Point("explicit, window 1", dw, {"coupling.scheme": "explicit", win: 1, "coupling.reuse": 0}),
-        Point("explicit, window 4", dw, {"coupling.scheme": "explicit", win: 4, "coupling.reuse": 0}),
+        Point("explicit, window 1", dw, {"coupling.scheme": "explicit", win: 1, "coupling.reuse": 0, pred: "auto"}),
+        Point("explicit, window 4", dw, {"coupling.scheme": "explicit", win: 4, "coupling.reuse": 0, pred: "auto"}),
         Point("implicit, window 16, tol 1e-3, subcycling 0", dw, {sub: 0}),
         Point("implicit, window 8, tol 1e-3", dw, {win: 8}),
         Point("implicit, window 16, tol 1e-5", dw, {tol: 1e-5}),
@@ -122,7 +123,7 @@ def points_3d() -> list[Point]:
         ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid", {law: "solid"}, ""),
         ("explicit, window 16", {"coupling.scheme": "explicit", "coupling.reuse": 0,
-                                  "coupling.window_force_weight": 0.5}, ""),
+                                  "coupling.window_force_weight": 0.5, "coupling.predictor": "auto"}, ""),
     )]
 
 

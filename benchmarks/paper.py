@@ -80,7 +80,7 @@ REFERENCE_MESH = {"mesh.max_element_size": "3.375 m", "mesh.lining_elements_arou
 #: through-thickness refinement is measured on the solid-only ladder
 REFERENCE_MESH_COUPLED = {"mesh.max_element_size": "3.375 m", "mesh.lining_elements_around": 64}
 #: one-step coupling windows without IQN-ILS column reuse (the schemes that need them, and the reference)
-ONE_STEP = {"coupling.window": 1, "coupling.reuse": 0}
+ONE_STEP = {"coupling.window": 1, "coupling.reuse": 0, "coupling.predictor": "auto"}  # auto: what the scheme starts from
 COARSE_MESH = {"mesh.max_element_size": "13.5 m", "mesh.lining_elements_around": 32,
                "mesh.lining_elements_through": 2}
 

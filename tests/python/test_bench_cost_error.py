@@ -63,6 +63,23 @@ def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
     assert set(default.overrides) == {"parallel.threads"}  # the variant's own settings
 
 
+def test_every_point_of_the_slice_ladder_and_the_paper_ladder_is_a_valid_case(tmp_path):
+    """Each point written on the example (its coupling keys on top of the case file's, e.g. the
+    explicit scheme over a case that names an implicit-only predictor) passes check's rules."""
+    import yaml
+
+    from benchmarks import paper
+    from benchmarks.cost_error import DEFAULT_CASE, points, write_point
+    from tunnelquake.case import load_case
+
+    base = yaml.safe_load(DEFAULT_CASE.read_text())
+    for p in points():
+        load_case(write_point(p, base, DEFAULT_CASE.parent, tmp_path / "ladder", 0.5) / "case.yaml")
+    for v in paper.variants(0.5):
+        d = paper.write_variant(v, base, DEFAULT_CASE.parent, tmp_path / "paper", 0.5)
+        load_case(d if d.suffix == ".yaml" else d / "case.yaml")
+
+
 def test_energy_ratio_is_the_coupling_energy_over_the_interface_work():
     """|coupling_energy| / interface_work_peak of the run's /coupling record (hand-computed: a
     -0.0073 J energy error against 326.5 J of interface work is 2.24e-5); NaN without the record."""
