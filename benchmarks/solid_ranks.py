@@ -29,9 +29,8 @@ import numpy as np
 
 from benchmarks.common import machine
 from tunnelquake import paths
-from tunnelquake.box_mesh import write_box_mesh
+from tunnelquake.box_mesh import write_box_mesh, write_loaded_box_input
 from tunnelquake.solid_ranks import solid_command
-from tunnelquake.solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
 
 
 def write_box(folder: Path, n: int, steps: int, samples: int = 10) -> Path:
@@ -43,35 +42,9 @@ def write_box(folder: Path, n: int, steps: int, samples: int = 10) -> Path:
     E, nu, rho = 8e9, 0.27, 2700.0
     cp = np.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho)
     dt = 0.45 / cp  # half the critical step of a 1 m element (2 / omega = L / cp)
-    out = folder / "solid_input.h5"
-    with h5py.File(out, "w") as f:
-        put(f, "/", "format", FORMAT)
-        put(f, "/", "version", VERSION)
-        put(f, "/", "mesh", "mesh.h5")
-        s = f.create_group("solver")
-        put(s, "/solver", "t_end", steps * dt)
-        put(s, "/solver", "dt", dt)
-        put(s, "/solver", "safety", 0.9)
-        put(s, "/solver", "gravity_z", -9.81)
-        mg = f.create_group("materials/rock")
-        put(mg, MATERIALS, "E", E)
-        put(mg, MATERIALS, "nu", nu)
-        put(mg, MATERIALS, "rho", rho)
-        put(f.create_group("boundary/fixed/bottom"), "/boundary/fixed/*", "directions", "xyz")
-        lg = f.create_group("loads/top")
-        put(lg, "/loads/*", "target", "top")
-        put(lg, "/loads/*", "direction", "z")
-        put(lg, "/loads/*", "force", -1e6 * n * n)
-        put(lg, "/loads/*", "time", np.array([0.0, 0.5 * steps * dt]))
-        put(lg, "/loads/*", "value", np.array([0.0, 1.0]))
-        mo = f.create_group("monitors")
-        put(mo, "/monitors", "names", np.array(["top", "middle"], dtype=h5py.string_dtype()))
-        put(mo, "/monitors", "points", np.array([[n / 2, n / 2, n], [n / 2, n / 2, n / 2]], dtype=float))
-        o = f.create_group("output")
-        put(o, "/output", "monitor_dt", steps * dt / samples)
-        put(o, "/output", "progress_s", 1e9)
-        write_schema(f)
-    return out
+    return write_loaded_box_input(folder / "solid_input.h5", E=E, nu=nu, rho=rho, dt=dt, steps=steps,
+                                  top_force=-1e6 * n * n, monitor_dt=steps * dt / samples,
+                                  monitors={"top": [n / 2, n / 2, n], "middle": [n / 2, n / 2, n / 2]})
 
 
 def timed(cmd: list[str]) -> tuple[subprocess.CompletedProcess, float, float]:

@@ -1,6 +1,6 @@
-"""A structured box of hex8 elements written as tq-solid's mesh.h5 (docs/formats.md "mesh.h5"): one
-region, `rock`, and the face groups `bottom` (z min) and `top` (z max). The benchmarks' boxes and
-check's subcycling probe are written by it."""
+"""A structured box of hex8 elements written as tq-solid's mesh.h5 (docs/formats.md "mesh.h5": one
+region, `rock`, and the face groups `bottom` (z min) and `top` (z max)) and a solid input that loads
+it. The benchmarks' boxes and check's subcycling probe are written by it."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -36,3 +36,46 @@ def write_box_mesh(path: Path, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> N
         el.attrs["regions"] = np.array(["rock"], dtype=h5py.string_dtype())
         f.create_dataset("faces/bottom", data=bottom.astype(np.int32))
         f.create_dataset("faces/top", data=top.astype(np.int32))
+
+
+def write_loaded_box_input(path: Path, *, E: float, nu: float, rho: float, dt: float, steps: int, top_force: float,
+                           monitor_dt: float, subcycling_levels: int = 0,
+                           monitors: dict[str, list[float]] | None = None) -> Path:
+    """tq-solid's input at `path` for the box of mesh.h5 beside it: one rock material (E Pa, nu, rho
+    kg/m^3), its base fixed, gravity, `top_force` N down on its top ramped up over half the `steps`
+    steps of `dt` s; monitors (name -> point) sampled every `monitor_dt` s."""
+    import h5py
+
+    from .solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
+
+    with h5py.File(path, "w") as f:
+        put(f, "/", "format", FORMAT)
+        put(f, "/", "version", VERSION)
+        put(f, "/", "mesh", "mesh.h5")
+        s = f.create_group("solver")
+        put(s, "/solver", "t_end", steps * dt)
+        put(s, "/solver", "dt", dt)
+        put(s, "/solver", "safety", 0.9)
+        put(s, "/solver", "gravity_z", -9.81)
+        if subcycling_levels:
+            put(s, "/solver", "subcycling_levels", subcycling_levels)
+        mg = f.create_group("materials/rock")
+        put(mg, MATERIALS, "E", E)
+        put(mg, MATERIALS, "nu", nu)
+        put(mg, MATERIALS, "rho", rho)
+        put(f.create_group("boundary/fixed/bottom"), "/boundary/fixed/*", "directions", "xyz")
+        lg = f.create_group("loads/top")
+        put(lg, "/loads/*", "target", "top")
+        put(lg, "/loads/*", "direction", "z")
+        put(lg, "/loads/*", "force", top_force)
+        put(lg, "/loads/*", "time", np.array([0.0, 0.5 * steps * dt]))
+        put(lg, "/loads/*", "value", np.array([0.0, 1.0]))
+        if monitors:
+            mo = f.create_group("monitors")
+            put(mo, "/monitors", "names", np.array(list(monitors), dtype=h5py.string_dtype()))
+            put(mo, "/monitors", "points", np.array(list(monitors.values()), dtype=float))
+        o = f.create_group("output")
+        put(o, "/output", "monitor_dt", monitor_dt)
+        put(o, "/output", "progress_s", 1e9)
+        write_schema(f)
+    return path

@@ -270,10 +270,7 @@ PROBE_ROCK = (8e9, 0.27, 2700.0)
 def write_probe_box(folder: Path, steps: int, levels_: int) -> Path:
     """mesh.h5 and a solid input of the probe's box (base fixed, a ramped load on the top, gravity)
     stepping `steps` steps of half the thin layers' critical step at `levels_` subcycling levels."""
-    import h5py
-
-    from .box_mesh import write_box_mesh
-    from .solver_input_schema import FORMAT, MATERIALS, VERSION, put, write_schema
+    from .box_mesh import write_box_mesh, write_loaded_box_input
 
     folder.mkdir(parents=True, exist_ok=True)
     n = PROBE_N
@@ -282,31 +279,5 @@ def write_probe_box(folder: Path, steps: int, levels_: int) -> Path:
     write_box_mesh(folder / "mesh.h5", g, g, zs)
     E, nu, rho = PROBE_ROCK
     dt = 0.5 * (1.0 / 8.0) / p_wave_speed(E, nu, rho)
-    out = folder / f"input_{levels_}.h5"
-    with h5py.File(out, "w") as f:
-        put(f, "/", "format", FORMAT)
-        put(f, "/", "version", VERSION)
-        put(f, "/", "mesh", "mesh.h5")
-        s = f.create_group("solver")
-        put(s, "/solver", "t_end", steps * dt)
-        put(s, "/solver", "dt", dt)
-        put(s, "/solver", "safety", 0.9)
-        put(s, "/solver", "gravity_z", -9.81)
-        if levels_:
-            put(s, "/solver", "subcycling_levels", levels_)
-        mg = f.create_group("materials/rock")
-        put(mg, MATERIALS, "E", E)
-        put(mg, MATERIALS, "nu", nu)
-        put(mg, MATERIALS, "rho", rho)
-        put(f.create_group("boundary/fixed/bottom"), "/boundary/fixed/*", "directions", "xyz")
-        lg = f.create_group("loads/top")
-        put(lg, "/loads/*", "target", "top")
-        put(lg, "/loads/*", "direction", "z")
-        put(lg, "/loads/*", "force", -1e6 * n * n)
-        put(lg, "/loads/*", "time", np.array([0.0, 0.5 * steps * dt]))
-        put(lg, "/loads/*", "value", np.array([0.0, 1.0]))
-        o = f.create_group("output")
-        put(o, "/output", "monitor_dt", steps * dt)
-        put(o, "/output", "progress_s", 1e9)
-        write_schema(f)
-    return out
+    return write_loaded_box_input(folder / f"input_{levels_}.h5", E=E, nu=nu, rho=rho, dt=dt, steps=steps,
+                                  top_force=-1e6 * n * n, monitor_dt=steps * dt, subcycling_levels=levels_)
