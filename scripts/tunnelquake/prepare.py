@@ -37,26 +37,44 @@ def _fingerprint(case) -> str:
     return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def current_mesh(case) -> dict | None:
+    """The stamp of the results folder's mesh (fingerprint.json: its fingerprint and summary) when it
+    was made from the case's present geometry and mesh keys and mesh.h5 is there; else None (also
+    for a stamp that cannot be read)."""
+    out = mesh_dir(case)
+    try:
+        old = json.loads((out / "fingerprint.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return old if old.get("fingerprint") == _fingerprint(case) and (out / "mesh.h5").is_file() else None
+
+
+def build_case_mesh(case, out: Path) -> dict:
+    """The case's meshes (its geometry, mesh keys, ground layers, geology and lining joints) built into
+    `out`: meshing.build_tunnel_mesh's summary."""
+    from .case import case_geology, ground_layers, joint_hold, joint_spacing
+    from .meshing import build_tunnel_mesh
+
+    d = case.data
+    return build_tunnel_mesh(d["geometry"], d["mesh"], out, ground_layers(d), case_geology(d), joint_spacing(d),
+                             joint_hold(d))
+
+
 def make_mesh(case, force: bool = False) -> dict:
     """Build the mesh unless an up-to-date one (same geometry and mesh keys) is already there."""
-    from .meshing import build_tunnel_mesh, format_summary
+    from .meshing import format_summary
 
     out = mesh_dir(case)
     stamp = out / "fingerprint.json"
-    fp = _fingerprint(case)
-    if not force and stamp.is_file():
-        old = json.loads(stamp.read_text())
-        if old.get("fingerprint") == fp and (out / "mesh.h5").is_file():
-            say(f"mesh: up to date in {out}")
-            return old["summary"]
+    old = None if force else current_mesh(case)
+    if old is not None:
+        say(f"mesh: up to date in {out}")
+        return old["summary"]
     out.mkdir(parents=True, exist_ok=True)
     say(f"mesh: building ({case.data['mesh']['mode']}) in {out}")
-    from .case import case_geology, ground_layers, joint_hold, joint_spacing
-
+    fp = _fingerprint(case)
     stamp.unlink(missing_ok=True)  # the files are up to date only once all three are in place
-    summary = build_tunnel_mesh(case.data["geometry"], case.data["mesh"], out, ground_layers(case.data),
-                                case_geology(case.data), joint_spacing(case.data), joint_hold(case.data))
-    summary = json.loads(json.dumps(summary, default=str))
+    summary = json.loads(json.dumps(build_case_mesh(case, out), default=str))
     with atomic_path(stamp) as tmp:
         tmp.write_text(json.dumps({"fingerprint": fp, "summary": summary}, indent=1))
     for line in format_summary(summary).splitlines():

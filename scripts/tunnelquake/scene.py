@@ -249,26 +249,18 @@ class MeshNotMade(ValueError):
 @contextmanager
 def current_solid_mesh(case):
     """The path of the case's solid mesh (mesh.h5): the one in its results folder when it is up to
-    date (prepare.make_mesh's fingerprint), else one meshed now in a temporary folder (the mesher
+    date (prepare.current_mesh), else one meshed now in a temporary folder (the mesher
     takes about 0.1 CPU s for the example's slice, 1.2 s for its 3D variant). Raises MeshNotMade for
     a case of more than CHECK_MESH_MAX_ELEMENTS hexahedra without a current mesh."""
-    import json
     import tempfile
 
+    from .case import case_geology, ground_layers
     from .meshing.params import element_counts, resolve
-    from .prepare import _fingerprint, mesh_dir
+    from .prepare import build_case_mesh, current_mesh, mesh_dir
 
-    out = mesh_dir(case)
-    try:
-        stamp = json.loads((out / "fingerprint.json").read_text())
-    except (OSError, ValueError):
-        stamp = {}
-    if stamp.get("fingerprint") == _fingerprint(case) and (out / "mesh.h5").is_file():
-        yield out / "mesh.h5"
+    if current_mesh(case) is not None:
+        yield mesh_dir(case) / "mesh.h5"
         return
-    from .case import case_geology, ground_layers, joint_hold, joint_spacing
-    from .meshing import build_tunnel_mesh
-
     d = case.data
     counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
     total = counts["rock"] + counts["lining"] + counts["water"]
@@ -276,8 +268,7 @@ def current_solid_mesh(case):
         raise MeshNotMade(f"its {total:,} hexahedra are more than check meshes itself ({CHECK_MESH_MAX_ELEMENTS:,}); "
                           "`tunnelquake mesh` makes the mesh check then counts")
     with tempfile.TemporaryDirectory(prefix="tq-check-mesh-") as tmp:
-        build_tunnel_mesh(d["geometry"], d["mesh"], Path(tmp), ground_layers(d), case_geology(d), joint_spacing(d),
-                          joint_hold(d))
+        build_case_mesh(case, Path(tmp))
         yield Path(tmp) / "mesh.h5"
 
 

@@ -66,6 +66,9 @@ class Levels:
 
 
 def p_wave_speed(E: float, nu: float, rho: float) -> float:
+    """sqrt((λ + 2μ) / ρ) in tq-solid's own arithmetic (ElasticModuli::pModulus), not the
+    E(1 − ν)/((1 + ν)(1 − 2ν)) form of scene's estimates: an element whose step lies on a level's
+    boundary then falls on tq-solid's side of it."""
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     mu = E / (2 * (1 + nu))
     return float(np.sqrt((lam + 2.0 * mu) / rho))
@@ -258,7 +261,7 @@ def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, d
 
 
 # ------------------------------------------------------------------------------------------------
-# The probe of a node's step against an element's evaluation (rates.measure_node_weight)
+# The element-evaluation probe's box (rates.measure_eval_share)
 # ------------------------------------------------------------------------------------------------
 #: the probe's box: N x N elements in plan, THIN layers of 1/8 m at the base (they set the step and
 #: step at the finest level) under THICK layers of 1 m (they step at 8 times it, the grading between)
