@@ -196,6 +196,11 @@ class Side:
         #: the same last lines, each with whether it was echoed to the terminal
         self.echoed = collections.deque(maxlen=40)
         self.log_error: OSError | None = None
+        #: whether it said it coupled with its partner (COUPLED_SIGNS): it will meet a lost partner at
+        #: its next exchange, once the step or checkpoint it is in is done
+        self.coupled = False
+        #: s `run` waited before ending it (stop_side), None while it ended by itself
+        self.ended_after: float | None = None
         self.fh = open(log, "w")
         self.proc = popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                    bufsize=1)
@@ -220,6 +225,8 @@ class Side:
 
         for line in self.proc.stdout:
             logged(self.fh.write, line)
+            if not self.coupled and any(sign in line for sign in COUPLED_SIGNS):
+                self.coupled = True
             self.lines.append(line)
             shown = bool(echo(line))
             self.echoed.append(shown)
@@ -258,6 +265,7 @@ def stop_side(side: Side, grace: float) -> None:
         if stopping.is_set():
             return  # stop_all ends it
         say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
+        side.ended_after = grace
         side.proc.terminate()
         try:
             side.proc.wait(timeout=10)
@@ -266,10 +274,16 @@ def stop_side(side: Side, grace: float) -> None:
             side.proc.wait(timeout=30)
 
 
-#: s a side that failed leaves its partner: a coupled partner sees the closed connection and stops by
-#: itself at once; one still waiting for the connection (the water stopped at its start) would
-#: otherwise wait its whole coupling timeout and blame the partner for not connecting
+#: s a side that failed leaves a partner still waiting for its connection (the failed side stopped at
+#: its start), which would otherwise wait its whole coupling timeout and blame the partner for not
+#: connecting
 PARTNER_GRACE_S = 5.0
+
+#: s a side that failed leaves a partner that had coupled with it: the partner meets the closed
+#: connection at its next exchange, after the step or the restart checkpoint it is in (a checkpoint's
+#: fsyncs on a disk busy with other writes can take seconds); ended sooner, it would stop on `run`'s
+#: SIGTERM without saying why
+PARTNER_COUPLED_GRACE_S = 15.0
 
 #: s a side that failed saying it lost its partner leaves that partner, the cause, to end by itself: a
 #: solid on MPI ranks whose rank died is ended by mpirun (OpenMPI 4.1) in two waits of its
@@ -288,9 +302,23 @@ PARTNER_LOST_SIGNS = ("The partner process has probably stopped", "stopped on an
                       "ended the coupling (BYE) while", "connection closed by the partner")
 
 
+#: what each side prints once it has coupled with its partner (tq-solid's app.cpp and ranked_run.cpp,
+#: the water's couplerExchange.C)
+COUPLED_SIGNS = ("tq-solid: coupled with the fluid", "' coupled with '")
+
+
 def lost_its_partner(side: Side) -> bool:
     """Whether the side's last output lines say its coupling partner went first."""
     return any(sign in line for line in list(side.lines) for sign in PARTNER_LOST_SIGNS)
+
+
+def partner_grace(failed: Side, partner: Side) -> float:
+    """s `failed`'s partner is left to end by itself: PARTNER_CAUSE_GRACE_S when the failed side says
+    it lost its partner (the partner, the cause, is ending), PARTNER_COUPLED_GRACE_S when the partner
+    had coupled (it is told at its next exchange), else PARTNER_GRACE_S."""
+    if lost_its_partner(failed):
+        return PARTNER_CAUSE_GRACE_S
+    return PARTNER_COUPLED_GRACE_S if partner.coupled else PARTNER_GRACE_S
 
 
 def root_failure(failed: Side, other: Side) -> Side:
@@ -307,8 +335,7 @@ def root_failure(failed: Side, other: Side) -> Side:
 
 def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> Side | None:
     """Wait until both coupled sides have ended. A side that fails (non-zero exit) has its partner
-    stopped (stop_side) after at most PARTNER_GRACE_S (PARTNER_CAUSE_GRACE_S when the failed side says
-    it lost its partner: the partner, the cause, is ending by itself); a side that ends cleanly leaves its
+    stopped (stop_side) after at most partner_grace s; a side that ends cleanly leaves its
     partner `grace` s to follow (it was told the end) before it is ended. Returns the side to blame
     (root_failure: the first to fail, unless it only lost its partner), or None when both ended
     cleanly."""
@@ -319,7 +346,7 @@ def watch_pair(first: Side, second: Side, grace: float, poll_s: float = 0.1) -> 
         for side, rc, other in ((first, r1, second), (second, r2, first)):
             if rc is not None and rc != 0:
                 side.thread.join(timeout=2)  # its last lines read: did it only lose its partner?
-                stop_side(other, min(grace, PARTNER_CAUSE_GRACE_S if lost_its_partner(side) else PARTNER_GRACE_S))
+                stop_side(other, min(grace, partner_grace(side, other)))
                 if other.proc.poll() is not None:  # both ended: their last lines read in full
                     for s in (side, other):
                         s.thread.join(timeout=10)

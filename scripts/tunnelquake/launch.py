@@ -348,6 +348,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         partner = fluid_side if failed is solid else solid
         if partner is not None and lost_its_partner(partner):
             say(f"condition {cond}: the {partner.name} stopped because the {failed.name} did (its log: {partner.log})")
+        elif partner is not None and partner.ended_after is not None:
+            say(f"condition {cond}: the {partner.name} was ended by run {partner.ended_after:.0f} s after the "
+                f"{failed.name} failed: it had not met the loss by itself (its log: {partner.log})")
         if _ran_out_of_space(case.output_dir, [x for x in (solid, fluid_side) if x is not None]):
             note = _disk_full_note(case.output_dir)
             say(f"condition {cond}: stopped by a full disk: {note}")

@@ -79,3 +79,35 @@ def test_a_partner_that_died_first_is_left_to_end_by_itself_as_mpirun_ends_a_los
     assert solid.proc.returncode == 137, solid.proc.returncode
     assert failed is solid
     assert "did not stop" not in capsys.readouterr().out
+
+
+def test_a_coupled_partner_busy_past_the_short_grace_is_left_to_meet_the_loss_by_itself(tmp_path, capsys):
+    """The water killed (SIGKILL) while the solid, coupled, is 8 s into a long step or restart
+    checkpoint (a checkpoint's fsyncs on a busy disk): longer than PARTNER_GRACE_S, which is for a
+    partner still waiting for its connection. The coupled solid is given PARTNER_COUPLED_GRACE_S, meets
+    the closed connection at its next exchange and stops saying so: not ended by `run` (no "did not
+    stop" line, its own exit status, not -15), and the water is blamed."""
+    import signal
+    import time
+
+    from tunnelquake.children import PARTNER_COUPLED_GRACE_S, PARTNER_GRACE_S
+
+    busy_s = 8.0
+    assert PARTNER_GRACE_S < busy_s < PARTNER_COUPLED_GRACE_S - 2.0
+    addr = str(tmp_path / "wall.addr")
+    solid = Side("solid", FAKE + ["--role", "solid", "--address-file", addr, "--busy-at-window", "5", "--busy-s",
+                                  str(busy_s)], tmp_path / "solid.log", ENV, lambda line: False)
+    fluid = Side("water", FAKE + ["--role", "fluid", "--address-file", addr], tmp_path / "fluid.log", ENV,
+                 lambda line: False)
+    deadline = time.monotonic() + 30
+    while not any("busy for" in line for line in list(solid.lines)) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    os.kill(fluid.proc.pid, signal.SIGKILL)
+    failed = watch_pair(solid, fluid, grace=30.0, poll_s=0.02)
+    for s in (solid, fluid):
+        s.close()
+    assert solid.coupled and fluid.coupled
+    assert failed is fluid and fluid.proc.returncode == -9
+    assert solid.ended_after is None and solid.proc.returncode not in (0, -15), solid.proc.returncode
+    assert lost_its_partner(solid), solid.log.read_text()[-2000:]
+    assert "did not stop" not in capsys.readouterr().out
