@@ -14,6 +14,7 @@
 #include "staged_helpers.hpp"
 #include "test_helpers.hpp"
 #include "tq/app/app.hpp"
+#include "tq/boundaries/boundaries.hpp"
 #include "tq/io/mesh.hpp"
 
 using namespace tq;
@@ -228,6 +229,48 @@ TEST(Relaxation, MassScalingReachesTheSameEquilibrium) {
               u[1], steps[1]);
   EXPECT_NEAR(u[1] / u[0], 1, 1e-7);
   EXPECT_LT(steps[1], steps[0]);
+}
+
+// The external force of gravity and the folded constant loads is summed once and reused while they
+// stay the same: it follows every change of what it is summed from. After each change, f_ext is
+// m g + the constant loads exactly (summed in the order they were added): a new constant load, a
+// changed mass, the masses relax() scales (gravity keeps the true ones) and those it puts back, a
+// changed gravity.
+TEST(ExternalForce, GravityAndConstantLoadsFollowEveryChangeOfWhatTheyAreSummedFrom) {
+  Mesh m = makeBoxMesh(BoxSpec{3, 1, 2, 0, 0, 0, 3, 1, 2});
+  SolverOptions opt;
+  opt.gravity[2] = -9.81;
+  Solver s(m, makeBlocksByRegion(m, {{"rock", tqtest::elastic(8e9, 0.27, 2700)}}), opt);
+  const Index N = m.numNodes();
+  std::vector<std::vector<Real>> loads;
+  auto expectExact = [&](const char* after, const Real g[3]) {
+    s.computeForces(true);
+    for (Index n = 0; n < N; ++n)
+      for (int d = 0; d < 3; ++d) {
+        Real f = s.state().mass(n) * g[d];
+        for (const auto& l : loads) f += l[dofIndex(n, d)];
+        ASSERT_EQ(s.state().fExt(n, d), f) << after << ": node " << n << " direction " << d;
+      }
+  };
+  const Real g[3] = {0, 0, -9.81};
+  expectExact("the first step", g);
+  for (int k = 0; k < 2; ++k) {  // a constant load added, folded into the same pass
+    std::vector<Real> f(3 * size_t(N));
+    for (size_t i = 0; i < f.size(); ++i) f[i] = Real(1000 * (k + 1)) * std::sin(Real(i) + k);
+    loads.push_back(f);
+    s.addContributor(ForcePhase::Loads, std::make_shared<ConstantNodalForces>("load", f));
+    expectExact("a constant load added", g);
+  }
+  s.state().addMass(N / 2, 12.5);  // a mass changed
+  expectExact("a mass changed", g);
+  std::vector<Real> trueMass(static_cast<size_t>(N));
+  for (Index n = 0; n < N; ++n) trueMass[size_t(n)] = s.state().mass(n);
+  RelaxParams rp;  // scales the masses while it runs, gravity on the true ones; puts them back
+  rp.massScaling = true;
+  rp.maxSteps = 3;
+  s.relax(rp);
+  for (Index n = 0; n < N; ++n) ASSERT_EQ(s.state().mass(n), trueMass[size_t(n)]);
+  expectExact("relax() with scaled masses", g);
 }
 
 // The whole v2 path through files: mesh.h5 + solid_input.h5 (stages in_situ -> seismic, viscoelastic

@@ -8,6 +8,7 @@ void NodalState::resize(Index n) {
   for (auto* v : {&x0_, &u_, &v_, &a_, &fInt_, &fExt_, &c_}) v->assign(n3, 0.0);
   m_.assign(size_t(n), 0.0);
   hasDashpots_ = false;
+  ++massVersion_;
 }
 
 }  // namespace tq

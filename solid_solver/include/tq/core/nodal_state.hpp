@@ -6,6 +6,7 @@
 ///        touches this file only.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "tq/core/state_archive.hpp"
@@ -42,7 +43,13 @@ class NodalState {
   Real dashpot(Index n, int d) const { return c_[dofIndex(n, d)]; }
 
   void setX0(Index n, int d, Real value) { x0_[dofIndex(n, d)] = value; }
-  void addMass(Index n, Real value) { m_[n] += value; }
+  void addMass(Index n, Real value) {
+    m_[n] += value;
+    ++massVersion_;
+  }
+  /// Changes with every change of the masses (addMass, resize): what a cache of mass-derived values
+  /// compares.
+  std::uint64_t massVersion() const { return massVersion_; }
   void addDashpot(Index n, int d, Real value) {
     c_[dofIndex(n, d)] += value;
     if (value != 0) hasDashpots_ = true;
@@ -80,6 +87,7 @@ class NodalState {
   Index n_ = 0;
   std::vector<Real> x0_, u_, v_, a_, fInt_, fExt_, m_, c_;
   bool hasDashpots_ = false;
+  std::uint64_t massVersion_ = 0;
 };
 
 }  // namespace tq

@@ -392,6 +392,17 @@ class Solver {
   Real interface0_ = 0, plastic0_ = 0;  // dissipation totals at the last resetMotion()
   Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
   std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
+  // Gravity and the folded constant loads summed (addGravityAndFoldedLoads), and what they were
+  // summed from: the masses' version, gravityMass_'s, the gravity vector, the folded loads.
+  struct ConstantLoads {
+    std::vector<Real> f;  // [3N]
+    std::uint64_t massVersion = ~std::uint64_t(0), gravityMassVersion = 0;
+    Real g[3] = {};
+    const Real* folded[kMaxFoldedLoads] = {};
+    int nFolded = -1;
+  };
+  ConstantLoads constantLoads_;
+  std::uint64_t gravityMassVersion_ = 0;  // changes with gravityMass_
   bool balanceSet_ = false;
   bool avx2_ = false;                // node update path (ElementBlock::defaultUseAvx2)
   std::vector<Real> nodeChunkSums_;  // per node chunk: ke, ext, damp, bdry, bad dof
