@@ -511,8 +511,11 @@ void SolidRun::stepToEnd() {
   wantKinetic();
   try {
     while (s.time() < m_.in.tEnd - 1e-9 * s.dt() && (!coupling_ || coupling_->ongoing())) stepper.advance(onFinal);
-  } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample
-    results.sample(s);
+  } catch (const CouplingError&) {
+    // The state the fluid was lost at is the last sample where it is final: a one-step window's (its
+    // step is predicted again when the water answers). Inside an implicit window of several steps
+    // it is one the water never accepted: the histories end with the last window it accepted.
+    if (!coupling_ || !coupling_->repeatsWindows()) results.sample(s);
     throw;
   }
   s.setKineticEnergyWanted(true);

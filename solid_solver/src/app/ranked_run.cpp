@@ -952,9 +952,13 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       wantKinetic();
       try {
         while (s.time() < in.tEnd - 1e-9 * s.dt() && (!water || water->ongoing())) stepper.advance(onFinalThenWant);
-      } catch (const CouplingError&) {  // the state the fluid was lost at is the last sample (every rank alike)
-        observe();
-        withWriter([&](ResultsWriter& w) { w.sample(*view); });
+      } catch (const CouplingError&) {
+        // The state the fluid was lost at is the last sample where it is final (every rank alike):
+        // not inside an implicit window of several steps, which the water never accepted.
+        if (!water || !water->repeatsWindows()) {
+          observe();
+          withWriter([&](ResultsWriter& w) { w.sample(*view); });
+        }
         throw;
       }
       s.setKineticEnergyWanted(true);
