@@ -15,8 +15,9 @@ conditions holds it for the time the files are open (`with FORK_LOCK:`).
 
 Every child started here leads a session of its own (a terminal's Ctrl-C reaches `tunnelquake`
 only, which then stops its children in order), reads nothing from the terminal, and is recorded,
-so that `stop_all` ends them all, with whatever they started (mpirun's ranks), in bounded time:
-SIGTERM to each child's process group, SIGKILL STOP_GRACE_S later to what is left.
+so that `stop_all` ends them all, with whatever they started (mpirun's ranks, in process groups of
+their own), in bounded time: SIGTERM to each child's process group and to each process below it in
+another group, SIGKILL STOP_GRACE_S later to what is left.
 """
 from __future__ import annotations
 
@@ -104,6 +105,46 @@ def children_of(parent: int) -> list[int]:
     return out
 
 
+def descendants_of(roots) -> list[int]:
+    """Every live process below the processes `roots` (children, their children, ...), from one scan
+    of /proc: also those that left their parent's process group (mpirun puts each rank in a group of
+    its own)."""
+    below: dict[int, list[int]] = {}
+    try:
+        names = os.listdir("/proc")
+    except OSError:
+        return []
+    for name in names:
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat") as fh:
+                stat = fh.read()
+        except OSError:
+            continue
+        fields = stat[stat.rfind(")") + 2:].split()
+        if len(fields) > 1 and fields[0] != "Z":
+            below.setdefault(int(fields[1]), []).append(int(name))
+    out, todo = [], list(roots)
+    while todo:
+        for child in below.get(todo.pop(), []):
+            out.append(child)
+            todo.append(child)
+    return out
+
+
+def _outside(pids, groups) -> list[int]:
+    """The processes of `pids` whose process group is none of `groups` (gone ones dropped)."""
+    out = []
+    for pid in pids:
+        try:
+            if os.getpgid(pid) not in groups:
+                out.append(pid)
+        except ProcessLookupError:
+            pass
+    return out
+
+
 def _group_alive(pgid: int) -> bool:
     try:
         os.killpg(pgid, 0)
@@ -133,13 +174,17 @@ def _send(groups, pids, sig) -> None:
 
 
 def stop_all(grace: float = STOP_GRACE_S) -> dict:
-    """Stop every child: SIGTERM to the process group of each recorded child (its own, so that
-    mpirun's ranks get it too) and to any other direct child, SIGKILL to what is left after
+    """Stop every child: SIGTERM to the process group of each recorded child (its own), to any other
+    direct child, and to every process below them outside those groups (mpirun's ranks, each in a
+    group of its own: SIGTERM to mpirun alone reaches them only after its odls_base_sigkill_timeout,
+    and a SIGKILL of mpirun before that would leave them running); SIGKILL to what is left after
     `grace` s, then wait up to KILL_WAIT_S s. Returns {"terminated": n, "killed": n, "left": [pids]}."""
     stopping.set()
     with FORK_LOCK:  # no child is half-created while the list is read
         groups = {p.pid for p in _started if p.poll() is None}
     others = [pid for pid in _direct_children() if pid not in groups]
+    # found before any is signalled: a rank whose mpirun has gone is no longer below it
+    others += _outside(descendants_of(list(groups) + others), groups)
     _send(groups, others, signal.SIGTERM)
 
     def reap() -> None:

@@ -10,6 +10,7 @@ checkpoint misses shows up as a difference."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -334,4 +335,47 @@ def test_resume_while_the_solver_of_a_killed_supervisor_still_runs_is_refused(re
     assert main(["run", str(p), "--resume", "--no-post"]) == 0
     assert "nothing to resume: every condition in " in capsys.readouterr().out
     assert _differences(reference / "results" / "results_no_water.h5",
+                        p.parent / "results" / "results_no_water.h5") == []
+
+
+def test_run_on_ranks_stopped_by_ctrl_c_after_a_checkpoint_resumes_bitwise_equal(reference, tmp_path, capsys):
+    """The solid on 2 MPI ranks (`--ranks 2`: mpirun puts each rank in a process group of its own)
+    stopped by Ctrl-C (SIGINT to the run's process group) after its first checkpoint: `run` sends
+    SIGTERM to the ranks too, so they stop within a second (rank 0 writes the status with the time
+    its results reach), not after mpirun's own wait (odls_base_sigkill_timeout, 5 s, during which they
+    stepped on, and which `run`'s SIGKILL of mpirun at the end of its grace could cut short, leaving
+    them running). `run` exits 130, nothing of the run is left; `run --resume --ranks 2` continues
+    from the checkpoint and ends bitwise equal to the same run on 2 ranks never stopped (against one
+    process the motion is bitwise equal; the energies' sums differ by round-off, 5e-15)."""
+    from tunnelquake.children import STOP_GRACE_S
+
+    whole = _copy(reference, tmp_path / "whole")
+    assert main(["run", str(whole), "--ranks", "2", "--no-post"]) == 0
+    p = _copy(reference, tmp_path)
+    proc = _start(p, "--ranks", "2")
+    ranks_s = math.inf
+    try:
+        t_ck = _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
+        ranks = _pids(p.parent, b"tq-solid")
+        assert len(ranks) == 2, ranks  # both ranks running
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        while time.monotonic() - t0 < 3 * STOP_GRACE_S and _pids(p.parent, b"tq-solid"):
+            time.sleep(0.01)
+        ranks_s = time.monotonic() - t0
+    finally:
+        out = _stop(proc, p.parent, "SIGINT")
+    stopped_s = time.monotonic() - t0
+    assert proc.returncode == 130, out[-2000:]
+    assert ranks_s < 2.0 and stopped_s < STOP_GRACE_S + 3.0, (ranks_s, stopped_s, out[-2000:])
+    assert not _pids(p.parent, b"tq-solid") and not _pids(p.parent, b"mpirun"), out[-2000:]
+    with h5py.File(p.parent / "results" / "results_no_water.h5", "r") as f:
+        status = f.attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else str(status)
+        assert status.startswith("stopped: the run on ranks was ended by signal 15"), (status, out[-2000:])
+        assert INTERVAL - 1e-9 <= f["monitors/top_arch/time"][-1, 0] < END - 1e-6  # rows past the checkpoint
+    assert main(["run", str(p), "--resume", "--ranks", "2", "--no-post"]) == 0
+    resumed = capsys.readouterr().out
+    assert "resume: no_water continues from its checkpoint at t = " in resumed, resumed[-2000:]
+    assert _differences(whole.parent / "results" / "results_no_water.h5",
                         p.parent / "results" / "results_no_water.h5") == []
