@@ -300,8 +300,9 @@ class Side:
 
 def stop_side(side: Side, grace: float) -> None:
     """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
-    after its coupling timeout), then end it: SIGTERM first (mpirun passes it on to its ranks,
-    which a SIGKILL of mpirun would orphan), SIGKILL 10 s later."""
+    after its coupling timeout), then end it: SIGTERM first, to mpirun and to its ranks (each in a
+    process group of its own: mpirun would pass it on only after its odls timeout, and a SIGKILL of
+    mpirun would orphan them), SIGKILL 10 s later."""
     import subprocess
 
     try:
@@ -311,11 +312,15 @@ def stop_side(side: Side, grace: float) -> None:
             return  # stop_all ends it
         say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
         side.ended_after = grace
+        # mpirun's ranks, each in a process group of its own, told at once too (stop_all)
+        below = _outside(descendants_of([side.proc.pid]), {side.proc.pid})
         side.proc.terminate()
+        _send([], below, signal.SIGTERM)
         try:
             side.proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
             side.proc.kill()
+            _send([], [pid for pid in below if _pid_alive(pid)], signal.SIGKILL)
             side.proc.wait(timeout=30)
 
 
