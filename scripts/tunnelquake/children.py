@@ -84,36 +84,13 @@ def _direct_children() -> list[int]:
     return children_of(os.getpid())
 
 
-def children_of(parent: int) -> list[int]:
-    """The live (not zombie) processes whose parent is `parent`, from /proc."""
-    me, out = parent, []
-    try:
-        names = os.listdir("/proc")
-    except OSError:
-        return out
-    for name in names:
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat") as fh:
-                stat = fh.read()
-        except OSError:
-            continue
-        fields = stat[stat.rfind(")") + 2:].split()
-        if len(fields) > 1 and fields[0] != "Z" and int(fields[1]) == me:
-            out.append(int(name))
-    return out
-
-
-def descendants_of(roots) -> list[int]:
-    """Every live process below the processes `roots` (children, their children, ...), from one scan
-    of /proc: also those that left their parent's process group (mpirun puts each rank in a group of
-    its own)."""
+def _live_parents() -> dict[int, list[int]]:
+    """parent PID -> the live (not zombie) processes it is the parent of, from one scan of /proc."""
     below: dict[int, list[int]] = {}
     try:
         names = os.listdir("/proc")
     except OSError:
-        return []
+        return below
     for name in names:
         if not name.isdigit():
             continue
@@ -125,6 +102,19 @@ def descendants_of(roots) -> list[int]:
         fields = stat[stat.rfind(")") + 2:].split()
         if len(fields) > 1 and fields[0] != "Z":
             below.setdefault(int(fields[1]), []).append(int(name))
+    return below
+
+
+def children_of(parent: int) -> list[int]:
+    """The live (not zombie) processes whose parent is `parent`, from /proc."""
+    return _live_parents().get(parent, [])
+
+
+def descendants_of(roots) -> list[int]:
+    """Every live process below the processes `roots` (children, their children, ...), from one scan
+    of /proc: also those that left their parent's process group (mpirun puts each rank in a group of
+    its own)."""
+    below = _live_parents()
     out, todo = [], list(roots)
     while todo:
         for child in below.get(todo.pop(), []):
