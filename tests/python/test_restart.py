@@ -355,7 +355,7 @@ def test_run_on_ranks_stopped_by_ctrl_c_after_a_checkpoint_resumes_bitwise_equal
     proc = _start(p, "--ranks", "2")
     ranks_s = math.inf
     try:
-        t_ck = _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
+        _wait_for_checkpoint(p, proc, INTERVAL - 1e-9)
         ranks = _pids(p.parent, b"tq-solid")
         assert len(ranks) == 2, ranks  # both ranks running
         t0 = time.monotonic()
