@@ -110,27 +110,22 @@ def children_of(parent: int) -> list[int]:
     return _live_parents().get(parent, [])
 
 
-def descendants_of(roots) -> list[int]:
-    """Every live process below the processes `roots` (children, their children, ...), from one scan
-    of /proc: also those that left their parent's process group (mpirun puts each rank in a group of
-    its own)."""
+def outside_below(roots, groups) -> list[int]:
+    """Every live process below the processes `roots` (children, their children, ...; one scan of
+    /proc) whose process group is none of `groups`: those that left their parent's group (mpirun puts
+    each rank in a group of its own), which a signal to the groups does not reach."""
     below = _live_parents()
-    out, todo = [], list(roots)
+    found, todo = [], list(roots)
     while todo:
         for child in below.get(todo.pop(), []):
-            out.append(child)
+            found.append(child)
             todo.append(child)
-    return out
-
-
-def _outside(pids, groups) -> list[int]:
-    """The processes of `pids` whose process group is none of `groups` (gone ones dropped)."""
     out = []
-    for pid in pids:
+    for pid in found:
         try:
             if os.getpgid(pid) not in groups:
                 out.append(pid)
-        except ProcessLookupError:
+        except ProcessLookupError:  # gone meanwhile
             pass
     return out
 
@@ -174,7 +169,7 @@ def stop_all(grace: float = STOP_GRACE_S) -> dict:
         groups = {p.pid for p in _started if p.poll() is None}
     others = [pid for pid in _direct_children() if pid not in groups]
     # found before any is signalled: a rank whose mpirun has gone is no longer below it
-    others += _outside(descendants_of(list(groups) + others), groups)
+    others += outside_below(list(groups) + others, groups)
     _send(groups, others, signal.SIGTERM)
 
     def reap() -> None:
@@ -303,7 +298,7 @@ def stop_side(side: Side, grace: float) -> None:
         say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
         side.ended_after = grace
         # mpirun's ranks, each in a process group of its own, told at once too (stop_all)
-        below = _outside(descendants_of([side.proc.pid]), {side.proc.pid})
+        below = outside_below([side.proc.pid], {side.proc.pid})
         side.proc.terminate()
         _send([], below, signal.SIGTERM)
         try:

@@ -234,8 +234,7 @@ TEST(Relaxation, MassScalingReachesTheSameEquilibrium) {
 // The external force of gravity and the folded constant loads is summed once and reused while they
 // stay the same: it follows every change of what it is summed from. After each change, f_ext is
 // m g + the constant loads exactly (summed in the order they were added): a new constant load, a
-// changed mass, the masses relax() scales (gravity keeps the true ones) and those it puts back, a
-// changed gravity.
+// changed mass, the masses relax() scales (gravity keeps the true ones) and those it puts back.
 TEST(ExternalForce, GravityAndConstantLoadsFollowEveryChangeOfWhatTheyAreSummedFrom) {
   Mesh m = makeBoxMesh(BoxSpec{3, 1, 2, 0, 0, 0, 3, 1, 2});
   SolverOptions opt;

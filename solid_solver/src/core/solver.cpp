@@ -616,14 +616,13 @@ void Solver::addGravityAndFoldedLoads() {
   int nc = 0;
   for (const auto& e : contributors_)
     if (e.foldedIntoGravity) cf[nc++] = e.contributor->constantForces()->data();
-  // Their sum is the same at every step between changes of the masses, the gravity or the folded
-  // loads: summed once then, and copied at each step (the sum at every step cost about 5 % of a
-  // subcycled slice's step).
+  // Their sum is the same at every step between changes of the masses or the folded loads: summed once then, and copied
+  // at each step (the sum at every step cost about 5 % of a subcycled slice's step).
   ConstantLoads& c = constantLoads_;
   const std::uint64_t mv = trueMass ? state_.massVersion() : ~std::uint64_t(0);
   const bool current = c.f.size() == 3 * size_t(N) && c.massVersion == mv &&
-                       c.gravityMassVersion == gravityMassVersion_ && c.g[0] == g[0] && c.g[1] == g[1] &&
-                       c.g[2] == g[2] && c.nFolded == nc && std::equal(cf, cf + nc, c.folded);
+                       c.gravityMassVersion == gravityMassVersion_ && c.nFolded == nc &&
+                       std::equal(cf, cf + nc, c.folded);
   if (!current) {
     c.f.resize(3 * size_t(N));
     for (Index n = 0; n < N; ++n) {
@@ -637,7 +636,6 @@ void Solver::addGravityAndFoldedLoads() {
     }
     c.massVersion = mv;
     c.gravityMassVersion = gravityMassVersion_;
-    std::copy_n(g, 3, c.g);
     std::copy_n(cf, kMaxFoldedLoads, c.folded);
     c.nFolded = nc;
   }

@@ -393,11 +393,11 @@ class Solver {
   Real boundary0_ = 0;                  // contributors' boundary energy at the last resetMotion()
   std::vector<Real> gravityMass_;       // true masses for gravity while relax() scales them
   // Gravity and the folded constant loads summed (addGravityAndFoldedLoads), and what they were
-  // summed from: the masses' version, gravityMass_'s, the gravity vector, the folded loads.
+  // summed from: the masses' version, gravityMass_'s, the folded loads (the gravity vector is the
+  // options', fixed for the solver's life).
   struct ConstantLoads {
     std::vector<Real> f;  // [3N]
     std::uint64_t massVersion = ~std::uint64_t(0), gravityMassVersion = 0;
-    Real g[3] = {};
     const Real* folded[kMaxFoldedLoads] = {};
     int nFolded = -1;
   };
