@@ -96,10 +96,10 @@ class StateArchive {
     const std::size_t n = v.size() * sizeof(T);
     if (mode_ == Mode::Save) {
       s.resize(n);
-      if (n) std::memcpy(s.data(), v.data(), n);
+      copyBytes(s.data(), v.data(), n);
     } else {
       v.resize(s.size() / sizeof(T));
-      if (!s.empty()) std::memcpy(v.data(), s.data(), s.size());
+      copyBytes(v.data(), s.data(), s.size());
     }
   }
   /// One trivially copyable value (a scalar or a struct of scalars).
@@ -117,6 +117,9 @@ class StateArchive {
   }
 
  private:
+  /// memcpy; a large item in fixed pieces over the threads of an OpenMP team (state_archive.cpp).
+  static void copyBytes(void* dst, const void* src, std::size_t n);
+
   std::vector<unsigned char>& slot() {
     if (mode_ == Mode::Save) {
       if (pos_ == slots_.size()) slots_.emplace_back();
