@@ -119,6 +119,8 @@ def points_3d() -> list[Point]:
         ("window 16, tol 1e-4, subcycling 3", {}, "default"),
         ("window 16, tol 1e-4, subcycling 0", {sub: 0}, ""),
         ("window 16, tol 1e-3, subcycling 3", {tol: 1e-3}, ""),
+        ("window 16, tol 5e-4, subcycling 3", {tol: 5e-4}, ""),
+        ("window 16, tol 3e-4, subcycling 3", {tol: 3e-4}, ""),
         ("window 32, tol 1e-4, subcycling 3", {win: 32}, ""),
         ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid", {law: "solid"}, ""),
@@ -448,6 +450,7 @@ def main(argv: list[str]) -> int:
             d = write_point(p, base, a.case.resolve().parent, folder, a.end, a.variant)
             rec = run_point(p, d, a.limit)
             rec["point"] = asdict(p)
+            rec["machine"] = common.machine()  # a store may gather runs of several machines
             print(f"{p.condition} {p.name}: {rec.get('status')} cpu {rec.get('cpu_s', math.nan):.1f} s "
                   f"wall {rec['wall_s']:.0f} s", flush=True)
             with lock:

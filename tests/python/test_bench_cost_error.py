@@ -61,6 +61,8 @@ def test_the_3d_ladder_lays_the_variant_under_each_points_keys(tmp_path):
         load_case(tmp_path / p.condition / slug(p.name) / "case.yaml")  # each a valid case (check's rules)
     default = next(p for p in pts if p.role == "default")
     assert set(default.overrides) == {"parallel.threads"}  # the variant's own settings
+    tol = f"{float(variant['coupling']['tolerance']):.0e}".replace("e-0", "e-")
+    assert f"tol {tol}," in default.name  # the default's name states the variant's tolerance
 
 
 def test_every_point_of_the_slice_ladder_and_the_paper_ladder_is_a_valid_case(tmp_path):
