@@ -408,7 +408,7 @@ TEST(StateArchive, RestoreBeforeSaveAndMismatchedListsThrow) {
 // included (a memcpy reference: tolerance 0).
 TEST(StateArchive, LargeItemsCopiedOverThreadsComeBackByteForByte) {
   const int threads0 = omp_get_max_threads();
-  std::vector<std::uint64_t> bits(300007);  // 2.4 MB: 19 pieces of 128 kB and a part
+  std::vector<std::uint64_t> bits(300007);  // 2.4 MB: 18 pieces of 128 kB and a part
   std::uint64_t x = 0x9E3779B97F4A7C15ULL;
   for (auto& b : bits) {  // xorshift64: every bit pattern, NaNs with payloads among them
     x ^= x << 13;
