@@ -21,6 +21,7 @@ from .cores import concurrent_conditions, solid_env
 from .files import DiskFull, is_no_space
 from .fingerprint import condition_inputs
 from .prepare import make_mesh, mesh_dir, motion_and_figure
+from .rates import WATER_RANK_CELLS
 from .restart import (
     checkpoint_dir,
     coupled_resume_point,
@@ -169,9 +170,6 @@ def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
     return d, float(y.max() - y.min()), d
 
 
-#: Below this many water cells a rank `tunnelquake run` says that the ranks will not pay
-#: (measured, docs/coupler.md "Water on several MPI ranks").
-RANK_CELLS_WORTH_IT = 10000
 
 
 #: tq-solid's exit code when the file system refused its results (a full disk, a quota, an I/O error)
@@ -277,9 +275,9 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
             say(f"condition {cond}: water decomposed on {ranks} ranks (simple, n = {dec['split']}): cells "
                 f"{', '.join(map(str, dec['cells']))}, {dec['processor_faces']} processor faces; log "
                 f"{fluid.path / 'log.decomposePar'}")
-            if min(dec["cells"]) < RANK_CELLS_WORTH_IT:
+            if min(dec["cells"]) < WATER_RANK_CELLS:
                 say(f"condition {cond}: note: {min(dec['cells'])} water cells a rank is below "
-                    f"{RANK_CELLS_WORTH_IT}: the exchange and the ranks' communication outweigh the split "
+                    f"{WATER_RANK_CELLS}: the exchange and the ranks' communication outweigh the split "
                     f"solve, expect no speed-up over parallel.fluid_ranks: 1 (docs/coupler.md)")
     except (fc.FluidCaseError, RuntimeError, ValueError, OSError) as e:
         if is_no_space(e):

@@ -121,6 +121,19 @@ COUPLED_SOLID_FACTOR = 1.13
 #: 0.54 s) gave 15.4 ms at this probe, 29 % under the 21.6 ms measured
 WATER_PER_PROBE_S = 1.93e-3
 WATER_CELL_PER_PROBE_S = 3.44e-6
+#: The water's share of a coupled run's wall time on parallel.fluid_ranks >= 2 ranks against one
+#: rank's, where each rank has at least WATER_RANK_CELLS cells: the 3D example's whole record (14,784
+#: water cells, 37,649 passes) on 2 ranks and on 1, one after the other on the 2-core AMD EPYC VM:
+#: 1,855.8 against 1,915.7 s of tq-solid's wall, 1 - 59.9 / 642.7 s of one rank's exchange time =
+#: 0.907. The water's own solve took 0.70x a pass (10.94 against 15.69 ms) and the solid waited for it
+#: 0.51x as long, but the solid's exchange work and its step took 121 and 118 s more (its CPU in the
+#: exchange 3.6 s more: the work is mostly a wait; docs/benchmarks.md "The 3D water on 2 ranks").
+#: Not measured on more ranks: the 2-rank figure is taken for any N >= 2.
+WATER_RANKS_FACTOR = 0.91
+#: The fewest water cells a rank at which the ranks pay (the 3D example's 7,392 on 2 ranks do; the
+#: slice's 168 a rank took 2.8x one rank's time a pass when measured on an earlier VM and water
+#: code); below it `run` says so and the estimate counts one rank's time
+WATER_RANK_CELLS = 7000
 
 #: The element-evaluation probe, for a subcycled condition (time.subcycling): tq-solid on
 #: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, 4 layers of 1/8 m under 12 of

@@ -307,6 +307,7 @@ class RuntimeEstimate:
     speedup: dict[str, float] = field(default_factory=dict)  # condition -> their speed-up (1 on one thread)
     cpu: dict[str, float] = field(default_factory=dict)  # condition -> CPU s of its shaking on one thread
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
+    water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
 
     def line(self) -> str:
         if not self.seconds and self.basis:
@@ -322,8 +323,11 @@ class RuntimeEstimate:
             by.setdefault((round(f, 3), round(x, 2)), []).append(c)
         sub = "".join(f"; {' and '.join(cs)} subcycled: {f:.3g} of the element evaluations a step, {x:.2f}x "
                       "one rate's CPU" for (f, x), cs in by.items())
+        n, f = self.water_ranks
+        water = f"; the water on {n} ranks, {f:.2f}x one rank's share of the time" if n > 1 else ""
         return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s{offset}{threads}{sub}) on an otherwise idle machine, from {self.basis}; {rest}")
+                f"{self.dt:.2g} s{offset}{threads}{sub}{water}) on an otherwise idle machine, from {self.basis}; "
+                f"{rest}")
 
 
 def _minutes(s: float) -> str:
@@ -400,6 +404,16 @@ def critical_step(d: dict, plan) -> float:
     return dt
 
 
+def water_ranks_factor(d: dict, cells: int) -> float:
+    """The water's share of the wall on parallel.fluid_ranks against one rank's: rates.WATER_RANKS_FACTOR
+    on two ranks or more (as many as the cores) with rates.WATER_RANK_CELLS cells a rank or more, else 1."""
+    from . import rates as R
+    from .cores import available
+
+    ranks = min(int(d["parallel"]["fluid_ranks"]), available())
+    return R.WATER_RANKS_FACTOR if ranks >= 2 and cells // ranks >= R.WATER_RANK_CELLS else 1.0
+
+
 def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
@@ -415,7 +429,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     with the levels tq-solid will give the case's mesh (subcycled_levels). The solid's part is its
     CPU time on one thread divided by the measured speed-up
     of the OpenMP threads `run` gives it (cores.solid_thread_count: the cores divided among the
-    conditions running at once, one on a small mesh; rates.MachineRates.speedup)."""
+    conditions running at once, one on a small mesh; rates.MachineRates.speedup). The water's passes
+    on parallel.fluid_ranks take water_ranks_factor of one rank's share."""
     import math
 
     from .case import case_geology, ground_layers
@@ -470,6 +485,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         if any(m["model"] not in R.LINEAR_MODELS for m in d["materials"].values()):
             solid_of = {c: s * R.YIELDED_SHAKING_FACTOR for c, s in solid_of.items()}
     seconds, cpu = {}, {}
+    water_ranks = (min(int(d["parallel"]["fluid_ranks"]), available()), water_ranks_factor(d, counts["water"]))
     for cond, parts in conditions:
         x = speedup[cond]
         solid = solid_of[cond]
@@ -482,7 +498,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
         # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
         cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window + water
-        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window / x + water
+        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window / x + water * water_ranks[1]
     coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
@@ -494,7 +510,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     return RuntimeEstimate(dt=dt, steps=steps, seconds=seconds, wall=wall, basis=basis, statics=statics,
                            statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu,
                            subcycled={c: (lv.cost_fraction, rates.subcycled_factor(lv.cost_fraction))
-                                      for c, lv in levels.items()})
+                                      for c, lv in levels.items()},
+                           water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -84,6 +84,47 @@ def test_estimate_scales_with_the_measured_probe():
     assert "test's speed" in one.line() and "probe 0.5 CPU s" in one.line()
 
 
+def test_the_water_on_ranks_takes_the_measured_share_of_a_pass_where_its_cells_allow(monkeypatch):
+    """parallel.fluid_ranks on a case unlike the example (cases/pressure_tunnel, its dynamic_water):
+    the water's part of the coupled condition's wall time is WATER_RANKS_FACTOR of one rank's when
+    each rank has WATER_RANK_CELLS cells or more and the machine has a core for each rank, one rank's
+    otherwise (fewer cells a rank, one core); the solid's part and the CPU seconds stay."""
+    import copy
+
+    from tunnelquake import cores
+    from tunnelquake.case import case_geology, ground_layers, load_case
+    from tunnelquake.meshing.params import element_counts, resolve
+    from tunnelquake.scene import passes_per_window, runtime_estimate
+
+    case = load_case(EXAMPLE.parents[1] / "pressure_tunnel" / "case.yaml")
+    assert "dynamic_water" in case.data["conditions"]
+    d = case.data
+    counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
+    rates = R.MachineRates(0.5, "test", "given")
+    on_two = copy.deepcopy(case)
+    on_two.data["parallel"]["fluid_ranks"] = 2
+
+    def water_and_estimates(cells: int):
+        c = dict(counts, water=cells)
+        one, two = runtime_estimate(case, counts=c, rates=rates), runtime_estimate(on_two, counts=c, rates=rates)
+        cp = d["coupling"]
+        passes = passes_per_window(cp) * one.steps / cp["window"]
+        return passes * (rates.water_pass + cells * rates.water_cell_pass), one, two
+
+    monkeypatch.setattr(cores, "available", lambda: 2)
+    water, one, two = water_and_estimates(2 * R.WATER_RANK_CELLS)
+    assert two.seconds["dynamic_water"] == pytest.approx(
+        one.seconds["dynamic_water"] - (1 - R.WATER_RANKS_FACTOR) * water, rel=1e-12)
+    assert two.cpu == one.cpu and two.seconds["no_water"] == one.seconds["no_water"]
+    assert f"the water on 2 ranks, {R.WATER_RANKS_FACTOR:.2f}x one rank's share of the time" in two.line()
+    assert "ranks" not in one.line()
+    _, one, two = water_and_estimates(2 * R.WATER_RANK_CELLS - 1)
+    assert two.seconds == one.seconds
+    monkeypatch.setattr(cores, "available", lambda: 1)
+    _, one, two = water_and_estimates(4 * R.WATER_RANK_CELLS)
+    assert two.seconds == one.seconds
+
+
 def _pressure_tunnel(folder, end: float):
     """cases/pressure_tunnel (a case unlike the example: another section, three-component motion, a
     weathered layer) with its no_water condition alone and `end` s of shaking."""
