@@ -404,13 +404,13 @@ def critical_step(d: dict, plan) -> float:
     return dt
 
 
-def water_ranks_factor(d: dict, cells: int) -> float:
+def water_ranks_factor(d: dict, cells: int, cores: int) -> float:
     """The water's share of the wall on parallel.fluid_ranks against one rank's: rates.WATER_RANKS_FACTOR
-    on two ranks or more (as many as the cores) with rates.WATER_RANK_CELLS cells a rank or more, else 1."""
+    on two ranks or more (as many as the `cores` the coupled condition has) with rates.WATER_RANK_CELLS
+    cells a rank or more, else 1."""
     from . import rates as R
-    from .cores import available
 
-    ranks = min(int(d["parallel"]["fluid_ranks"]), available())
+    ranks = min(int(d["parallel"]["fluid_ranks"]), cores)
     return R.WATER_RANKS_FACTOR if ranks >= 2 and cells // ranks >= R.WATER_RANK_CELLS else 1.0
 
 
@@ -485,7 +485,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         if any(m["model"] not in R.LINEAR_MODELS for m in d["materials"].values()):
             solid_of = {c: s * R.YIELDED_SHAKING_FACTOR for c, s in solid_of.items()}
     seconds, cpu = {}, {}
-    water_ranks = (min(int(d["parallel"]["fluid_ranks"]), available()), water_ranks_factor(d, counts["water"]))
+    # the water's ranks have the cores to themselves only when the coupled condition runs alone
+    water_cores = max(1, available() // share)
+    water_ranks = (min(int(d["parallel"]["fluid_ranks"]), water_cores),
+                   water_ranks_factor(d, counts["water"], water_cores))
     for cond, parts in conditions:
         x = speedup[cond]
         solid = solid_of[cond]

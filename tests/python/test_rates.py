@@ -87,8 +87,9 @@ def test_estimate_scales_with_the_measured_probe():
 def test_the_water_on_ranks_takes_the_measured_share_of_a_pass_where_its_cells_allow(monkeypatch):
     """parallel.fluid_ranks on a case unlike the example (cases/pressure_tunnel, its dynamic_water):
     the water's part of the coupled condition's wall time is WATER_RANKS_FACTOR of one rank's when
-    each rank has WATER_RANK_CELLS cells or more and the machine has a core for each rank, one rank's
-    otherwise (fewer cells a rank, one core); the solid's part and the CPU seconds stay."""
+    each rank has WATER_RANK_CELLS cells or more and the condition has a core for each rank, one
+    rank's otherwise (fewer cells a rank, one core, the solid-only conditions beside it on the two
+    cores); the solid's part and the CPU seconds stay."""
     import copy
 
     from tunnelquake import cores
@@ -98,6 +99,9 @@ def test_the_water_on_ranks_takes_the_measured_share_of_a_pass_where_its_cells_a
 
     case = load_case(EXAMPLE.parents[1] / "pressure_tunnel" / "case.yaml")
     assert "dynamic_water" in case.data["conditions"]
+    side_by_side = copy.deepcopy(case)
+    side_by_side.data["parallel"]["fluid_ranks"] = 2
+    case.data["conditions"] = ["dynamic_water"]
     d = case.data
     counts = element_counts(resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)))
     rates = R.MachineRates(0.5, "test", "given")
@@ -115,11 +119,14 @@ def test_the_water_on_ranks_takes_the_measured_share_of_a_pass_where_its_cells_a
     water, one, two = water_and_estimates(2 * R.WATER_RANK_CELLS)
     assert two.seconds["dynamic_water"] == pytest.approx(
         one.seconds["dynamic_water"] - (1 - R.WATER_RANKS_FACTOR) * water, rel=1e-12)
-    assert two.cpu == one.cpu and two.seconds["no_water"] == one.seconds["no_water"]
+    assert two.cpu == one.cpu
     assert f"the water on 2 ranks, {R.WATER_RANKS_FACTOR:.2f}x one rank's share of the time" in two.line()
     assert "ranks" not in one.line()
     _, one, two = water_and_estimates(2 * R.WATER_RANK_CELLS - 1)
     assert two.seconds == one.seconds
+    c = dict(counts, water=4 * R.WATER_RANK_CELLS)
+    beside = runtime_estimate(side_by_side, counts=c, rates=rates)
+    assert beside.seconds == beside.cpu and "ranks" not in beside.line()
     monkeypatch.setattr(cores, "available", lambda: 1)
     _, one, two = water_and_estimates(4 * R.WATER_RANK_CELLS)
     assert two.seconds == one.seconds
