@@ -170,8 +170,6 @@ def _water_extents(case, mesh_h5) -> tuple[float, float, float]:
     return d, float(y.max() - y.min()), d
 
 
-
-
 #: tq-solid's exit code when the file system refused its results (a full disk, a quota, an I/O error)
 SOLID_OUTPUT_ERROR = 5
 

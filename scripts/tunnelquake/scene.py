@@ -404,13 +404,12 @@ def critical_step(d: dict, plan) -> float:
     return dt
 
 
-def water_ranks_factor(d: dict, cells: int, cores: int) -> float:
-    """The water's share of the wall on parallel.fluid_ranks against one rank's: rates.WATER_RANKS_FACTOR
-    on two ranks or more (as many as the `cores` the coupled condition has) with rates.WATER_RANK_CELLS
-    cells a rank or more, else 1."""
+def water_ranks_factor(ranks: int, cells: int) -> float:
+    """The water's share of the wall on `ranks` ranks (parallel.fluid_ranks, as many as the cores the
+    coupled condition has) against one rank's: rates.WATER_RANKS_FACTOR on two ranks or more with
+    rates.WATER_RANK_CELLS cells a rank or more, else 1."""
     from . import rates as R
 
-    ranks = min(int(d["parallel"]["fluid_ranks"]), cores)
     return R.WATER_RANKS_FACTOR if ranks >= 2 and cells // ranks >= R.WATER_RANK_CELLS else 1.0
 
 
@@ -486,9 +485,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
             solid_of = {c: s * R.YIELDED_SHAKING_FACTOR for c, s in solid_of.items()}
     seconds, cpu = {}, {}
     # the water's ranks have the cores to themselves only when the coupled condition runs alone
-    water_cores = max(1, available() // share)
-    water_ranks = (min(int(d["parallel"]["fluid_ranks"]), water_cores),
-                   water_ranks_factor(d, counts["water"], water_cores))
+    ranks = min(int(d["parallel"]["fluid_ranks"]), max(1, available() // share))
+    water_ranks = (ranks, water_ranks_factor(ranks, counts["water"]))
     for cond, parts in conditions:
         x = speedup[cond]
         solid = solid_of[cond]

@@ -100,7 +100,8 @@ def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkey
     solid_s = est.cpu["dynamic_water"] - water_s
     assert solid_s > 0
     # the variant's water on 2 ranks (7,392 cells a rank): its share at the ranks' factor, not divided
-    ranks = R.WATER_RANKS_FACTOR if d["parallel"]["fluid_ranks"] == 2 else 1.0
+    assert d["parallel"]["fluid_ranks"] == 2 and counts["water"] // 2 >= R.WATER_RANK_CELLS
+    ranks = R.WATER_RANKS_FACTOR
     assert est.seconds["dynamic_water"] == pytest.approx(solid_s / 1.6 + water_s * ranks, rel=1e-12)
     assert one.seconds["dynamic_water"] == pytest.approx(solid_s + water_s * ranks, rel=1e-12)
     assert est.wall == pytest.approx(est.seconds["dynamic_water"], rel=1e-12)
