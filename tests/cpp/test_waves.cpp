@@ -9,11 +9,13 @@
 //    (Kramer 1996 §7.2; tunnelquake.references.layer_transfer_function with ξ = 0);
 //  - a 3D block made of the column's layers, with free-field sides, moves as the 1D column.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstring>
 #include <initializer_list>
 #include <ostream>
 #include <sstream>
@@ -139,8 +141,7 @@ struct BlockRun : StagedRun {
   /// or down by `jitter` of an element's height (in a checkerboard), so that their quads leave the
   /// column's rows as a tunnel's cross-section does.
   void setUp(bool withMotion, bool correction, RayleighDamping damping, Real azimuth = 0, bool sharedY = false,
-             Real jitter = 0) {
-    const BoxSpec box{4, 3, 24, -20, -15, 0, 40, 30, 60};
+             Real jitter = 0, BoxSpec box = {4, 3, 24, -20, -15, 0, 40, 30, 60}) {
     mesh = tqtest::twoLayerBox(box, 20.0, "rock", "soil");
     const Real hx = box.lx / box.nx, hz = box.lz / box.nz;
     for (Index n = 0; n < mesh.numNodes(); ++n) {
@@ -378,4 +379,41 @@ TEST(FreeField, SwitchWithZeroInputStaysAtRest) {
   }
   EXPECT_LT(drift[1], 1e-10);  // round-off
   EXPECT_LT(drift[0], 1e-3);   // reactions alone: the relaxation residual (tolerance 1e-6) moves it a little
+}
+
+// The viscoelastic base's nodes, distinct, are computed on the solver's threads (from
+// SeismicBoundaries::kThreadedBaseNodes nodes), their spring work summed after in node order: the
+// same bits as the one loop at any thread count (a base of 25 x 25 nodes, the staged block above).
+TEST(FreeField, BaseNodesOnThreadsGiveTheOneLoopsBits) {
+  auto run = [](int threads, bool onThreads, bool& threaded) {
+    omp_set_num_threads(threads);
+    BlockRun run;
+    run.setUp(true, true, RayleighDamping::fromRatio(0.05, 2.0, 20.0), 30, false, 0,
+              {24, 24, 4, -20, -15, 0, 40, 30, 60});
+    std::ostringstream log;
+    run.stages->runStatics(log);
+    run.stages->switchToDynamics(log);
+    run.stages->seismic()->computeBaseOnThreads(onThreads);
+    threaded = run.stages->seismic()->baseOnThreads();
+    Solver& s = *run.solver;
+    while (s.time() < 0.1) s.step();
+    std::vector<Real> out(s.state().uData(), s.state().uData() + 3 * run.mesh.numNodes());
+    out.push_back(run.stages->seismic()->boundaryEnergy());
+    out.push_back(s.energy().error);
+    std::printf(
+        "%d thread(s), %s: base spring energy %.9e J, peak |u| %.4e m\n", threads,
+        threaded ? "base on the threads" : "one loop", out[out.size() - 2],
+        *std::max_element(out.begin(), out.end() - 2, [](Real a, Real b) { return std::abs(a) < std::abs(b); }));
+    return out;
+  };
+  bool t0 = true, t1 = false, t2 = false;
+  const auto serial = run(1, false, t0), one = run(1, true, t1), two = run(2, true, t2);
+  omp_set_num_threads(omp_get_num_procs());
+  EXPECT_FALSE(t0);
+  EXPECT_TRUE(t1 && t2);
+  EXPECT_NE(serial[serial.size() - 2], 0.0);  // the springs did work
+  ASSERT_EQ(serial.size(), one.size());
+  ASSERT_EQ(serial.size(), two.size());
+  EXPECT_EQ(std::memcmp(serial.data(), one.data(), serial.size() * sizeof(Real)), 0);
+  EXPECT_EQ(std::memcmp(serial.data(), two.data(), serial.size() * sizeof(Real)), 0);
 }

@@ -418,8 +418,15 @@ void SeismicBoundaries::install(NodalState& state) {
   uPrev_ = u0_;
   fPrev_.assign(u0_.size(), 0.0);
   first_ = true;
+  // Base nodes that are all distinct are independent within a step: computed on the threads.
+  std::vector<Index> nodes = base_.nodes;
+  std::sort(nodes.begin(), nodes.end());
+  baseDistinct_ = std::adjacent_find(nodes.begin(), nodes.end()) == nodes.end();
+  computeBaseOnThreads(nodes.size() >= kThreadedBaseNodes);
   springWork_ = 0;
 }
+
+void SeismicBoundaries::computeBaseOnThreads(bool on) { baseTerm_.assign(on && baseDistinct_ ? u0_.size() : 0, 0.0); }
 
 void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   for (auto& c : columns_) c.advance(t, dt, motion_);
@@ -429,8 +436,9 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   if (spec_.bottom) {
     Real vin[3];
     for (int d = 0; d < 3; ++d) vin[d] = motion_.velocity(d, t);
-    Real work = 0;
-    for (size_t i = 0; i < base_.nodes.size(); ++i) {
+    const size_t B = base_.nodes.size();
+    const bool counting = !first_;
+    auto baseNode = [&](size_t i, Real* terms) {
       const Index n = base_.nodes[i];
       const Real A = base_.area[i];
       const FreeFieldColumn& own = baseColumnOf(i);
@@ -443,10 +451,27 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
         const Real u = state.u(n, d);
         const Real fs = -A * k[d] * (u - u0_[j]);
         fe[dofIndex(n, d)] += fs + A * (k[d] * own.u(0, d) + 2 * baseDashpot(hs, d) * vin[d]);
-        if (!first_ && (baseCounted_.empty() || baseCounted_[i])) work += 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
+        terms[d] = 0.5 * (fs + fPrev_[j]) * (u - uPrev_[j]);
         fPrev_[j] = fs;
         uPrev_[j] = u;
       }
+    };
+    Real work = 0;
+    const auto counts = [&](size_t i) { return counting && (baseCounted_.empty() || baseCounted_[i]); };
+    if (baseTerm_.empty()) {
+      for (size_t i = 0; i < B; ++i) {
+        Real terms[3];
+        baseNode(i, terms);
+        if (counts(i))
+          for (int d = 0; d < 3; ++d) work += terms[d];
+      }
+    } else {  // distinct nodes on the threads; their work summed after, in node order (the same bits)
+      Real* terms = baseTerm_.data();
+#pragma omp parallel for schedule(static)
+      for (size_t i = 0; i < B; ++i) baseNode(i, terms + 3 * i);
+      for (size_t i = 0; i < B; ++i)
+        if (counts(i))
+          for (int d = 0; d < 3; ++d) work += terms[3 * i + size_t(d)];
     }
     springWork_ += work;
     first_ = false;

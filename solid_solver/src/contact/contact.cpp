@@ -132,6 +132,19 @@ DynamicContact::DynamicContact(const Solver& solver, ContactPairs pairs, Contact
   relPrev_.assign(3 * P, 0.0);
   fn_.assign(P, 0.0);
   ft_.assign(P, 0.0);
+  // Pairs that share no node are independent within a step: each reads and writes only its own
+  // two nodes' forces, so they may be computed on the solver's threads.
+  std::vector<Index> nodes(pairs_.node1.begin(), pairs_.node1.end());
+  nodes.insert(nodes.end(), pairs_.node2.begin(), pairs_.node2.end());
+  std::sort(nodes.begin(), nodes.end());
+  disjoint_ = std::adjacent_find(nodes.begin(), nodes.end()) == nodes.end();
+  computeOnThreads(P >= kThreadedPairs);
+}
+
+void DynamicContact::computeOnThreads(bool on) {
+  const size_t P = size_t(pairs_.size());
+  workTerm_.assign(on && disjoint_ ? 3 * P : 0, 0.0);
+  termCounts_.assign(on && disjoint_ ? P : 0, 0);
 }
 
 Index DynamicContact::count(PairState s) const {
@@ -179,118 +192,138 @@ Real DynamicContact::slip(Index p, const NodalState& s) const {
 
 void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
   const PairPrediction predict(solver_, dt, st);
+  const size_t P = size_t(pairs_.size());
+  if (workTerm_.empty()) {  // one thread: the work summed as the pairs go
+    for (size_t p = 0; p < P; ++p) stepPair(p, predict, st, &work_);
+    return;
+  }
+  // Node-disjoint pairs on the threads, each keeping its three work terms; summed after in pair
+  // order, the very additions of the serial loop (the same bits at any thread count).
+  Real* terms = workTerm_.data();
+#pragma omp parallel for schedule(static)
+  for (size_t p = 0; p < P; ++p) stepPair(p, predict, st, nullptr);
+  for (size_t p = 0; p < P; ++p)
+    if (termCounts_[p])
+      for (int d = 0; d < 3; ++d) work_ += terms[3 * p + size_t(d)];
+}
+
+void DynamicContact::stepPair(size_t p, const PairPrediction& predict, NodalState& st, Real* work) {
   const bool leapfrog = predict.leapfrog();
   const Real* u = st.uData();
   Real* fe = st.fExtData();
   const Real* m = st.massData();
   const Real mus = params_.staticFriction, mud = params_.dynamicFriction;
   const bool dynamic = params_.model == InterfaceModel::DynamicContact;
-  const size_t P = size_t(pairs_.size());
-  for (size_t p = 0; p < P; ++p) {
-    const Index a = pairs_.node1[p], b = pairs_.node2[p];
-    Real* R = &force_[3 * p];
-    if (!(m[a] > 0) || !(m[b] > 0)) {  // a side not (yet) in the model
-      state_[p] = std::uint8_t(PairState::Inactive);
-      for (int d = 0; d < 3; ++d) R[d] = 0;
-      fn_[p] = ft_[p] = 0;
-      continue;
-    }
-    if (state_[p] == std::uint8_t(PairState::Inactive)) {
-      // Becomes active (both sides installed): bonded in the current configuration.
-      for (int d = 0; d < 3; ++d) {
-        r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
-        relPrev_[3 * p + d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
-        R[d] = 0;
-      }
-      state_[p] = std::uint8_t(PairState::Bonded);
-      failed_[p] = 0;
-      cohesive_[p] = 1;
-    }
-    // Work of the previous force over the last increment (the solver books the same terms).
-    Real rel[3], Rnew[3] = {0, 0, 0};
-    for (int d = 0; d < 3; ++d) rel[d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
-    const Real* n = &pairs_.normal[3 * p];
-    Real pred[3], cur[3], W[3];
+  const Index a = pairs_.node1[p], b = pairs_.node2[p];
+  Real* R = &force_[3 * p];
+  if (!(m[a] > 0) || !(m[b] > 0)) {  // a side not (yet) in the model
+    state_[p] = std::uint8_t(PairState::Inactive);
+    for (int d = 0; d < 3; ++d) R[d] = 0;
+    fn_[p] = ft_[p] = 0;
+    if (!work) termCounts_[p] = 0;
+    return;
+  }
+  if (state_[p] == std::uint8_t(PairState::Inactive)) {
+    // Becomes active (both sides installed): bonded in the current configuration.
     for (int d = 0; d < 3; ++d) {
-      Real u1, w1, u2, w2;
-      predict(a, d, u1, w1);
-      predict(b, d, u2, w2);
-      pred[d] = u2 - u1 - r0_[3 * p + d];
-      cur[d] = -rel[d] - r0_[3 * p + d];
-      W[d] = w1 + w2;
+      r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
+      relPrev_[3 * p + d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
+      R[d] = 0;
     }
-    const Real gapN = n[0] * pred[0] + n[1] * pred[1] + n[2] * pred[2];  // Δ1n of eq. (10)
-    // Gap to be closed: the whole predicted offset while the bond is intact; else the normal gap
-    // and the increment of the tangential relative displacement (eq. 10).
-    Real delta[3];
-    if (!failed_[p]) {
-      for (int d = 0; d < 3; ++d) delta[d] = pred[d];
+    state_[p] = std::uint8_t(PairState::Bonded);
+    failed_[p] = 0;
+    cohesive_[p] = 1;
+  }
+  // Work of the previous force over the last increment (the solver books the same terms).
+  Real rel[3], Rnew[3] = {0, 0, 0};
+  for (int d = 0; d < 3; ++d) rel[d] = u[dofIndex(a, d)] - u[dofIndex(b, d)];
+  const Real* n = &pairs_.normal[3 * p];
+  Real pred[3], cur[3], W[3];
+  for (int d = 0; d < 3; ++d) {
+    Real u1, w1, u2, w2;
+    predict(a, d, u1, w1);
+    predict(b, d, u2, w2);
+    pred[d] = u2 - u1 - r0_[3 * p + d];
+    cur[d] = -rel[d] - r0_[3 * p + d];
+    W[d] = w1 + w2;
+  }
+  const Real gapN = n[0] * pred[0] + n[1] * pred[1] + n[2] * pred[2];  // Δ1n of eq. (10)
+  // Gap to be closed: the whole predicted offset while the bond is intact; else the normal gap
+  // and the increment of the tangential relative displacement (eq. 10).
+  Real delta[3];
+  if (!failed_[p]) {
+    for (int d = 0; d < 3; ++d) delta[d] = pred[d];
+  } else {
+    Real inc[3], incN = 0;
+    for (int d = 0; d < 3; ++d) {
+      inc[d] = pred[d] - cur[d];
+      incN += n[d] * inc[d];
+    }
+    for (int d = 0; d < 3; ++d) delta[d] = gapN * n[d] + inc[d] - incN * n[d];
+  }
+  Real Rt[3];  // trial force on node 1 that closes the gap (eq. 11 with K_d = 1/(w1+w2))
+  for (int d = 0; d < 3; ++d) Rt[d] = W[d] > 0 ? delta[d] / W[d] : 0.0;
+  const Real N = n[0] * Rt[0] + n[1] * Rt[1] + n[2] * Rt[2];
+  Real T[3], Tm = 0;
+  for (int d = 0; d < 3; ++d) {
+    T[d] = Rt[d] - N * n[d];
+    Tm += T[d] * T[d];
+  }
+  Tm = std::sqrt(Tm);
+  PairState ns;
+  bool fail = false;
+  const Real cA = cohesive_[p] ? params_.cohesion * pairs_.area[p] : 0.0;
+  auto stick = [&] {
+    for (int d = 0; d < 3; ++d) Rnew[d] = Rt[d];
+    return cohesive_[p] ? PairState::Bonded : PairState::Stuck;
+  };
+  if (!dynamic) {
+    ns = stick();
+  } else if (gapN < 0) {  // opening: tension
+    if (state_[p] == std::uint8_t(PairState::Separated) || -N > cA || Tm > cA + mus * N) {
+      ns = PairState::Separated;  // eq. (12): N = T = 0
+      fail = state_[p] != std::uint8_t(PairState::Separated);
     } else {
-      Real inc[3], incN = 0;
-      for (int d = 0; d < 3; ++d) {
-        inc[d] = pred[d] - cur[d];
-        incN += n[d] * inc[d];
-      }
-      for (int d = 0; d < 3; ++d) delta[d] = gapN * n[d] + inc[d] - incN * n[d];
-    }
-    Real Rt[3];  // trial force on node 1 that closes the gap (eq. 11 with K_d = 1/(w1+w2))
-    for (int d = 0; d < 3; ++d) Rt[d] = W[d] > 0 ? delta[d] / W[d] : 0.0;
-    const Real N = n[0] * Rt[0] + n[1] * Rt[1] + n[2] * Rt[2];
-    Real T[3], Tm = 0;
-    for (int d = 0; d < 3; ++d) {
-      T[d] = Rt[d] - N * n[d];
-      Tm += T[d] * T[d];
-    }
-    Tm = std::sqrt(Tm);
-    PairState ns;
-    bool fail = false;
-    const Real cA = cohesive_[p] ? params_.cohesion * pairs_.area[p] : 0.0;
-    auto stick = [&] {
-      for (int d = 0; d < 3; ++d) Rnew[d] = Rt[d];
-      return cohesive_[p] ? PairState::Bonded : PairState::Stuck;
-    };
-    if (!dynamic) {
       ns = stick();
-    } else if (gapN < 0) {  // opening: tension
-      if (state_[p] == std::uint8_t(PairState::Separated) || -N > cA || Tm > cA + mus * N) {
-        ns = PairState::Separated;  // eq. (12): N = T = 0
-        fail = state_[p] != std::uint8_t(PairState::Separated);
-      } else {
-        ns = stick();
-      }
-    } else {  // closing or closed: compression, no penetration
-      const Real Nc = std::max(N, Real(0));
-      if (Tm <= mus * Nc + cA) {
-        ns = stick();
-      } else {  // eq. (13): slides with |T| = μd N along the trial direction
-        for (int d = 0; d < 3; ++d) Rnew[d] = N * n[d] + mud * Nc * T[d] / Tm;
-        ns = PairState::Slipping;
-        fail = true;
-      }
     }
-    if (fail) {
-      failed_[p] = 1;
-      if (params_.afterFailure == AfterFailure::CohesionLost) cohesive_[p] = 0;
-      if (ns == PairState::Bonded) ns = PairState::Stuck;
+  } else {  // closing or closed: compression, no penetration
+    const Real Nc = std::max(N, Real(0));
+    if (Tm <= mus * Nc + cA) {
+      ns = stick();
+    } else {  // eq. (13): slides with |T| = μd N along the trial direction
+      for (int d = 0; d < 3; ++d) Rnew[d] = N * n[d] + mud * Nc * T[d] / Tm;
+      ns = PairState::Slipping;
+      fail = true;
     }
-    state_[p] = std::uint8_t(ns);
-    Real Rn = 0;
-    for (int d = 0; d < 3; ++d) Rn += n[d] * Rnew[d];
-    Real rt2 = 0;
-    for (int d = 0; d < 3; ++d) rt2 += std::pow(Rnew[d] - Rn * n[d], 2);
-    fn_[p] = Rn;
-    ft_[p] = std::sqrt(rt2);
-    // Work of the contact forces: ½(R^{n−1} + R^n)·Δ(u1 − u2) (central difference, as the
-    // solver's trapezoid rule books it), R^{n−1}·Δ(u1 − u2) for the literal eqs. (3)–(4).
-    const bool counted = counted_.empty() || counted_[p];
-    for (int d = 0; d < 3; ++d) {
-      const Real dr = rel[d] - relPrev_[3 * p + d];
-      if (counted) work_ += (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;
-      relPrev_[3 * p + d] = rel[d];
-      R[d] = Rnew[d];
-      fe[dofIndex(a, d)] += Rnew[d];
-      fe[dofIndex(b, d)] -= Rnew[d];
+  }
+  if (fail) {
+    failed_[p] = 1;
+    if (params_.afterFailure == AfterFailure::CohesionLost) cohesive_[p] = 0;
+    if (ns == PairState::Bonded) ns = PairState::Stuck;
+  }
+  state_[p] = std::uint8_t(ns);
+  Real Rn = 0;
+  for (int d = 0; d < 3; ++d) Rn += n[d] * Rnew[d];
+  Real rt2 = 0;
+  for (int d = 0; d < 3; ++d) rt2 += std::pow(Rnew[d] - Rn * n[d], 2);
+  fn_[p] = Rn;
+  ft_[p] = std::sqrt(rt2);
+  // Work of the contact forces: ½(R^{n−1} + R^n)·Δ(u1 − u2) (central difference, as the
+  // solver's trapezoid rule books it), R^{n−1}·Δ(u1 − u2) for the literal eqs. (3)–(4).
+  const bool counted = counted_.empty() || counted_[p];
+  if (!work) termCounts_[p] = counted;
+  for (int d = 0; d < 3; ++d) {
+    const Real dr = rel[d] - relPrev_[3 * p + d];
+    const Real term = (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;
+    if (work) {
+      if (counted) *work += term;
+    } else {
+      workTerm_[3 * p + size_t(d)] = term;
     }
+    relPrev_[3 * p + d] = rel[d];
+    R[d] = Rnew[d];
+    fe[dofIndex(a, d)] += Rnew[d];
+    fe[dofIndex(b, d)] -= Rnew[d];
   }
 }
 

@@ -103,6 +103,11 @@ class SeismicBoundaries final : public NodalForceContributor {
   /// Nodes of the base (sorted) and the springs' K per area (N/m³) per direction (of the base column's
   /// half-space; each node's are its own column's, assignBaseColumns).
   const std::vector<Index>& baseNodes() const { return base_.nodes; }
+  /// Compute the base's nodes on the solver's threads (where they are distinct; the default from
+  /// kThreadedBaseNodes nodes, set by install) or in one loop: the same bits either way.
+  void computeBaseOnThreads(bool on);
+  bool baseOnThreads() const { return !baseTerm_.empty(); }
+  static constexpr size_t kThreadedBaseNodes = 512;
   std::array<Real, 3> springPerArea() const { return kArea_; }
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
 
@@ -145,6 +150,8 @@ class SeismicBoundaries final : public NodalForceContributor {
   bool first_ = true;
   Real springWork_ = 0;
   std::vector<Index> baseColumnOf_;  // [base nodes] the column whose base the node's spring follows
+  bool baseDistinct_ = false;        // no node twice in the base's list
+  std::vector<Real> baseTerm_;       // [3 base nodes] the step's spring-work terms (threaded; else empty)
 };
 
 }  // namespace tq

@@ -79,6 +79,8 @@ enum class PairState : int {
 };
 
 /// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
+class PairPrediction;
+
 class DynamicContact final : public NodalForceContributor {
  public:
   /// The solver supplies the masses, supports and damping of the prediction; it must outlive this.
@@ -122,6 +124,12 @@ class DynamicContact final : public NodalForceContributor {
   /// On MPI ranks (tq/parallel/): every rank computes each pair it holds, but only the pairs marked
   /// here (those it owns) count in its dissipated energy, so that the ranks' sum counts each once.
   void countOnly(std::vector<std::uint8_t> counted) { counted_ = std::move(counted); }
+  /// Compute the pairs on the solver's threads (where no node is in two pairs; the default from
+  /// kThreadedPairs pairs) or in one loop: the same bits either way.
+  void computeOnThreads(bool on);
+  /// From this many node-disjoint pairs the step computes them on the solver's threads.
+  static constexpr size_t kThreadedPairs = 512;
+  bool computedOnThreads() const { return !workTerm_.empty(); }
   /// The results of a run on ranks: pair p's state in kGatheredSize values (state, failed, r0,
   /// normal and tangential force), and a contact that only holds gathered states for the results
   /// (the mirror of rank 0) set from them and from the ranks' summed dissipated energy.
@@ -139,8 +147,13 @@ class DynamicContact final : public NodalForceContributor {
   std::vector<Real> force_;    // [3P] force on node 1 of the last step (N)
   std::vector<Real> relPrev_;  // [3P] u1 − u2 at the last call (for the work)
   std::vector<Real> fn_, ft_;
-  std::vector<std::uint8_t> counted_;  // empty: every pair counts in work_
-  Real work_ = 0;                      // work of the contact forces so far (J, ≤ 0 up to round-off)
+  std::vector<std::uint8_t> counted_;     // empty: every pair counts in work_
+  bool disjoint_ = false;                 // no node in two pairs
+  std::vector<Real> workTerm_;            // [3P] the pairs' work terms of the step (threaded; else empty)
+  std::vector<std::uint8_t> termCounts_;  // [P] whether pair p's terms count in work_ (threaded)
+  /// One pair's step: its force, state and f_ext; its work added to *work, or kept in workTerm_.
+  void stepPair(size_t p, const PairPrediction& predict, NodalState& st, Real* work);
+  Real work_ = 0;  // work of the contact forces so far (J, ≤ 0 up to round-off)
 };
 
 }  // namespace tq
