@@ -15,6 +15,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <sstream>
 
@@ -103,9 +104,10 @@ struct LinedTunnelPeaks {
   Real plastic = 0;                    // the plastic dissipation at the end (J)
   Real rockDamage = 0;                 // the rock's largest damage at the end
   Index bonded = 0, pairs = 0;
+  std::vector<Real> u;  // the displacements at the end
 };
 
-LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real tEnd) {
+LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real tEnd, bool blocksInOneLoop = true) {
   const Index nAround = 48;
   const Mesh l = makeRingSliceMesh({5.25, 6.0, 3, nAround, 1.0, "lining"});
   const Mesh r = makeRingSliceMesh({6.0, 40.0, 12, nAround, 1.0, "rock"});
@@ -125,6 +127,7 @@ LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real t
   auto lining = std::make_shared<MohrCoulombDamageMaterial>(tqtest::paperLining(100));
   Solver s(m, makeBlocksByRegion(m, {{"rock", rock}, {"lining", lining}}), opt);
   s.fixFaceGroup("sides", "y");  // plane strain
+  s.setBlockSlabsInOneLoop(blocksInOneLoop);
   auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), ContactParams{});
   s.addContributor(ForcePhase::Interface, contact);
   // The outer pressure as nodal forces p × (quad area)/4 along the quad's inward normal.
@@ -187,6 +190,7 @@ LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real t
   for (Index e = 0; e < rb.numElems(); ++e) p.rockDamage = std::max(p.rockDamage, rb.history(mc_history::kDamage, e));
   p.bonded = contact->count(PairState::Bonded);
   p.pairs = contact->numPairs();
+  p.u.assign(s.state().uData(), s.state().uData() + 3 * size_t(s.state().numNodes()));
   return p;
 }
 
@@ -401,6 +405,26 @@ TEST(Subcycling, ThreadsAndRestoreMidCycleAreBitwise) {
   ASSERT_GT(peak, 1e-6) << "the pulse must have reached the column";
   EXPECT_EQ(a, b) << "1 vs 2 threads";
   EXPECT_EQ(a, c) << "restored in mid-cycle";
+}
+
+// The rock and the lining share no node (contact pairs join them), so the internal forces run both
+// blocks' slabs in one parallel loop a parity, the widest first: the same bits as block after
+// block, on 1 and 2 threads (runLinedTunnel subcycled, the rock and the lining yielding).
+TEST(Subcycling, BlocksSlabsInOneLoopGiveTheBlockByBlockBits) {
+  const Real p = 5e6, tEnd = 0.03;
+  omp_set_num_threads(1);
+  const LinedTunnelPeaks apart = runLinedTunnel(3, 1.0, p, tEnd, false), one = runLinedTunnel(3, 1.0, p, tEnd);
+  omp_set_num_threads(2);
+  const LinedTunnelPeaks two = runLinedTunnel(3, 1.0, p, tEnd);
+  omp_set_num_threads(omp_get_num_procs());
+  ASSERT_GE(apart.info.levels, 2);
+  ASSERT_GT(apart.plastic, 0.0) << "the rock must yield";
+  for (const LinedTunnelPeaks* r : {&one, &two}) {
+    EXPECT_EQ(apart.u, r->u);
+    EXPECT_EQ(apart.hoopMin, r->hoopMin);
+    EXPECT_EQ(apart.hoopMax, r->hoopMax);
+    EXPECT_EQ(std::memcmp(&apart.plastic, &r->plastic, sizeof(Real)), 0);
+  }
 }
 
 // The kinetic energy summed only at the steps whose balance is read (Solver::setKineticEnergyWanted):

@@ -1099,20 +1099,41 @@ void ElementBlock::fullIntegrationChunk(Index c, const Real* __restrict u, Real*
   en.dampingWork = 0;
 }
 
-BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f) {
-  const Real* u = state.uData();
-  const Real* v = state.vData();
-  const Index nChunks = static_cast<Index>(chunkEnergy_.size());
+void ElementBlock::beginForces(const ElementStepParams& p) {
   const bool full = formulation_ == Hex8Formulation::FullIntegration;
   if (full && p.beta > 0)
     throw InputError("block '" + name_ + "': full_integration does not support stiffness-proportional damping");
-  const bool damp = p.beta > 0;
   if (!full && !total_ && !history_.empty() && material_->hasBlockPass()) {
     const Real* centre[3] = {elemCentre_[0].data(), elemCentre_[1].data(), elemCentre_[2].data()};
     material_->blockPass(nElems_, centre, historyPtr_.data());
   }
-  const Index nSlabs = Index(slabStart_.size()) - 1;
-  const std::vector<std::uint8_t>& levels = chunkLevel_;
+}
+
+// Even slabs first, then odd ones: slabs of one parity share no node, so each scatters into f
+// directly; a node's contributions arrive in an order fixed by the mesh (its elements in slab
+// order within each parity), whatever the thread count and whatever the order of the parity's
+// slabs. Subcycling, a step of a level L below the coarsest: the chunks due at it, in their own
+// slabs (built for each level by setChunkLevels: the due chunks cluster near the tunnel, where this
+// block's slabs are wide). The sums are as fixed as the block's slabs: at a level-L step, a node's
+// contributions arrive in the order of that level's slabs.
+bool ElementBlock::levelStep(const ElementStepParams& p) const {
+  return !chunkLevel_.empty() && size_t(p.activeLevel) < levelChunks_.size();
+}
+
+Index ElementBlock::numSlabs(const ElementStepParams& p) const {
+  const std::vector<Index>& st = levelStep(p) ? levelSlabStart_[size_t(p.activeLevel)] : slabStart_;
+  return Index(st.size()) - 1;
+}
+
+Index ElementBlock::slabWidth(const ElementStepParams& p, Index s) const {
+  const std::vector<Index>& st = levelStep(p) ? levelSlabStart_[size_t(p.activeLevel)] : slabStart_;
+  return st[size_t(s) + 1] - st[size_t(s)];
+}
+
+void ElementBlock::runSlab(const NodalState& state, const ElementStepParams& p, Index s, Real* f) {
+  const Real* u = state.uData();
+  const Real* v = state.vData();
+  const bool full = formulation_ == Hex8Formulation::FullIntegration, damp = p.beta > 0;
   auto chunk = [&](Index c) {
     BlockEnergy& en = chunkEnergy_[size_t(c)];
     if (full)
@@ -1122,47 +1143,44 @@ BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const E
     else
       damp ? onePointChunk<true, false>(c, u, v, p, f, en) : onePointChunk<false, false>(c, u, v, p, f, en);
   };
-  // Even slabs first, then odd ones: slabs of one parity share no node, so each scatters into f
-  // directly; a node's contributions arrive in an order fixed by the mesh (its elements in slab
-  // order within each parity), whatever the thread count. Small blocks run serially: a parallel
-  // region costs more than a few chunks of work, and oversubscribed machines make its barrier
-  // expensive.
-  // Subcycling, a step of a level L below the coarsest: the chunks due at it, in their own slabs
-  // (built for each level by setChunkLevels: the due chunks cluster near the tunnel, where this
-  // block's slabs are wide), handed out one at a time. The sums are as fixed as the block's slabs:
-  // at a level-L step, a node's contributions arrive in the order of that level's slabs.
-  if (!levels.empty() && size_t(p.activeLevel) < levelChunks_.size()) {
-    const size_t L = size_t(p.activeLevel);
-    const std::vector<Index>& cs = levelChunks_[L];
-    const std::vector<Index>& st = levelSlabStart_[L];
-    const Index nS = Index(st.size()) - 1;
-    for (Index parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for schedule(dynamic, 1) if (nS >= 2 + parity)
-      for (Index s = parity; s < nS; s += 2)
-        for (Index k = st[size_t(s)]; k < st[size_t(s) + 1]; ++k) chunk(cs[size_t(k)]);
-    }
+  if (levelStep(p)) {
+    const std::vector<Index>& cs = levelChunks_[size_t(p.activeLevel)];
+    const std::vector<Index>& st = levelSlabStart_[size_t(p.activeLevel)];
+    for (Index k = st[size_t(s)]; k < st[size_t(s) + 1]; ++k) chunk(cs[size_t(k)]);
   } else {
-    for (Index parity = 0; parity < 2; ++parity) {
-      // slabs differ in width (narrow where the element order's span is small): handed out one at a time
-#pragma omp parallel for schedule(dynamic, 1) if (nSlabs >= 2 + parity && nChunks >= 8)
-      for (Index s = parity; s < nSlabs; s += 2) {
-        for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
-          if (!levels.empty() && levels[size_t(c)] > p.activeLevel) continue;  // not due (no active element)
-          chunk(c);
-        }
-      }
+    for (Index c = slabStart_[size_t(s)]; c < slabStart_[size_t(s) + 1]; ++c) {
+      if (!chunkLevel_.empty() && chunkLevel_[size_t(c)] > p.activeLevel) continue;  // not due (no active element)
+      chunk(c);
     }
   }
+}
+
+BlockEnergy ElementBlock::endForces(const ElementStepParams& p) const {
   BlockEnergy total;  // fixed summation order: independent of the thread count
   total.storedEnergy = energyShift_;
+  const Index nChunks = numChunks();
   for (Index c = 0; c < nChunks; ++c) {
     const BlockEnergy& en = chunkEnergy_[size_t(c)];
     total.storedEnergy += en.storedEnergy;
-    if (!levels.empty() && levels[size_t(c)] > p.activeLevel) continue;  // its work was booked when evaluated
+    if (!chunkLevel_.empty() && chunkLevel_[size_t(c)] > p.activeLevel) continue;  // booked when evaluated
     total.stressWork += en.stressWork;
     total.dampingWork += en.dampingWork;
   }
   return total;
+}
+
+BlockEnergy ElementBlock::computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f) {
+  beginForces(p);
+  // Small blocks run serially: a parallel region costs more than a few chunks of work, and
+  // oversubscribed machines make its barrier expensive. Slabs differ in width (narrow where the
+  // element order's span is small): handed out one at a time.
+  const Index nS = numSlabs(p);
+  const bool wide = levelStep(p) || numChunks() >= 8;
+  for (Index parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(dynamic, 1) if (wide && nS >= 2 + parity)
+    for (Index s = parity; s < nS; s += 2) runSlab(state, p, s, f);
+  }
+  return endForces(p);
 }
 
 void ElementBlock::elementForces(Index e, const Real* u, Real f[24]) const {

@@ -430,6 +430,17 @@ Solver::Solver(const Mesh& mesh, std::vector<std::unique_ptr<ElementBlock>> bloc
   nodeChunkSums_.assign(kSums * size_t((N + kNodeChunk - 1) / kNodeChunk), 0.0);
   if (mesh.slice)  // plane strain along y: u_y = 0 everywhere
     for (Index n = 0; n < N; ++n) fix(n, 1);
+  // Blocks that share no node (the rock and a lining tied to it by contact pairs) may have their
+  // slabs in one parallel loop: a node's force then still comes from its own block's slabs alone.
+  std::vector<int> owner(size_t(N), -1);
+  blocksDisjoint_ = blocks_.size() >= 2;
+  for (size_t bi = 0; bi < blocks_.size() && blocksDisjoint_; ++bi)
+    for (Index e = 0; e < blocks_[bi]->numElems() && blocksDisjoint_; ++e)
+      for (int k = 0; k < 8; ++k) {
+        int& o = owner[size_t(blocks_[bi]->node(e, k))];
+        if (o >= 0 && o != int(bi)) blocksDisjoint_ = false;
+        o = int(bi);
+      }
   rebuild();
   setTimeStep(opt_.dt);
 }
@@ -554,7 +565,34 @@ void Solver::computeInternalForces(int activeLevel) {
   Real* __restrict f = state_.fIntData();
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
   for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
-  for (size_t bi = 0; bi < blocks_.size(); ++bi) {                  // blocks in order: a fixed sum order per node
+  const bool oneLoop = blockSlabsInOneLoop();
+  if (oneLoop) {
+    // The blocks' slabs of each parity in one loop, the widest first: a thread that finishes a
+    // slab takes the next, so a wide slab of one block runs beside the narrow ones of another
+    // instead of ending its block's loop alone (the same bits: no node is in two blocks).
+    for (auto& b : blocks_) b->beginForces(p);
+    for (int parity = 0; parity < 2; ++parity) {
+      slabTasks_.clear();
+      for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+        const Index nS = blocks_[bi]->numSlabs(p);
+        for (Index s = parity; s < nS; s += 2) slabTasks_.push_back({bi, s, blocks_[bi]->slabWidth(p, s)});
+      }
+      std::stable_sort(slabTasks_.begin(), slabTasks_.end(),
+                       [](const SlabTask& a, const SlabTask& b) { return a.width > b.width; });
+      const Index nT = Index(slabTasks_.size());
+#pragma omp parallel for schedule(dynamic, 1) if (nT >= 2)
+      for (Index i = 0; i < nT; ++i)
+        blocks_[slabTasks_[size_t(i)].block]->runSlab(state_, p, slabTasks_[size_t(i)].slab, f);
+    }
+  }
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
+    if (oneLoop) {
+      const BlockEnergy en = blocks_[bi]->endForces(p);
+      work += en.stressWork;
+      stored += en.storedEnergy;
+      damp += en.dampingWork;
+      continue;
+    }
     if (rx_ && bi == rx_->frontierBlocks()) rx_->beginForceSum(f);  // on ranks: sent while the rest is computed
     const BlockEnergy en = blocks_[bi]->computeForcesForElems(state_, p, f);
     work += en.stressWork;

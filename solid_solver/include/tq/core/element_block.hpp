@@ -126,6 +126,17 @@ class ElementBlock {
   /// Add the internal + stiffness-damping forces of every element to the nodal forces f [3N]
   /// (the caller zeroes f first), and return the block's energy terms.
   BlockEnergy computeForcesForElems(const NodalState& state, const ElementStepParams& p, Real* f);
+  /// computeForcesForElems in parts, for a caller that runs the slabs of several blocks in one
+  /// parallel loop (Solver, when no node is in two blocks): beginForces (the material's pass over
+  /// the block), then for parity 0 and then 1 every slab s of numSlabs(p) with s % 2 == parity by
+  /// runSlab, in any order and on any thread, then endForces for the energy terms. The same bits as
+  /// computeForcesForElems.
+  void beginForces(const ElementStepParams& p);
+  Index numSlabs(const ElementStepParams& p) const;
+  /// Chunks in slab s at the step p (the work it holds).
+  Index slabWidth(const ElementStepParams& p, Index s) const;
+  void runSlab(const NodalState& state, const ElementStepParams& p, Index s, Real* f);
+  BlockEnergy endForces(const ElementStepParams& p) const;
   /// Internal nodal forces of element e at the displacement u [3N] (one-point formulations): its
   /// stress at u (the stress as last evaluated plus the elastic increment C:(ε(u) − ε) since; in
   /// total form C:ε(u) + σ_off) and the hourglass forces at u, without damping forces; zero for an
@@ -197,6 +208,8 @@ class ElementBlock {
   void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f, BlockEnergy& en);
   void fullIntegrationChunk(Index c, const Real* u, Real* f, BlockEnergy& en);
   void strainFromDisplacement(Index e, const NodalState& state);
+  /// Whether step p is a subcycled step below the coarsest level (its own chunks and slabs).
+  bool levelStep(const ElementStepParams& p) const;
   /// Geometry value `comp` (see element_block.cpp, kG*) of element e.
   Real geo(Index e, int comp) const;
 

@@ -307,6 +307,11 @@ class Solver {
   /// The solid on ranks (tq/parallel/): the exchange with the other ranks (not owned; null: one
   /// process). Call rebuild() and setTimeStep() after setting it (summed masses, reduced step).
   void setRankExchange(RankExchange* x) { rx_ = x; }
+  /// Whether the internal forces run the slabs of every element block in one parallel loop a
+  /// parity (the default where no node is in two blocks and the solver is not on ranks) or block
+  /// after block: the same bits either way.
+  void setBlockSlabsInOneLoop(bool on) { blocksOneLoop_ = on; }
+  bool blockSlabsInOneLoop() const { return blocksDisjoint_ && blocksOneLoop_ && !rx_; }
   RankExchange* rankExchange() const { return rx_; }
   /// A solver that only holds a state gathered from the ranks for the results (tq/parallel/): the
   /// energy balance the ranks reduced (its plastic part is summed from this solver's blocks).
@@ -416,7 +421,14 @@ class Solver {
   Index cycle_ = 0;
   // On ranks (tq/parallel/): the exchange, and the ghost nodes' velocities before a node update.
   RankExchange* rx_ = nullptr;
-  std::vector<Real> rankTerms_;  // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
+  bool blocksDisjoint_ = false;  // two blocks or more and no node in two: their slabs in one loop
+  bool blocksOneLoop_ = true;    // setBlockSlabsInOneLoop
+  struct SlabTask {
+    size_t block;
+    Index slab, width;
+  };
+  std::vector<SlabTask> slabTasks_;  // computeInternalForces: one parity's slabs of every block
+  std::vector<Real> rankTerms_;      // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
   std::vector<Real> ghostV_;
   // subcycling on ranks: the ghosts' fSync_, fIntSync_, accelerations and dtPrevNode_ before the update
   std::vector<Real> ghostFs_, ghostFis_, ghostA_, ghostDtp_;
