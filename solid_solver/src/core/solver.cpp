@@ -1,6 +1,7 @@
 #include "tq/core/solver.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -571,18 +572,23 @@ void Solver::computeInternalForces(int activeLevel) {
     // slab takes the next, so a wide slab of one block runs beside the narrow ones of another
     // instead of ending its block's loop alone (the same bits: no node is in two blocks).
     for (auto& b : blocks_) b->beginForces(p);
-    for (int parity = 0; parity < 2; ++parity) {
-      slabTasks_.clear();
-      for (size_t bi = 0; bi < blocks_.size(); ++bi) {
-        const Index nS = blocks_[bi]->numSlabs(p);
-        for (Index s = parity; s < nS; s += 2) slabTasks_.push_back({bi, s, blocks_[bi]->slabWidth(p, s)});
+    // The lists depend on the step's level only (kept until the levels change: enableSubcycling).
+    const size_t key = size_t(std::min(activeLevel, kSlabTaskLevels - 1));
+    if (slabTasks_.size() < kSlabTaskLevels) slabTasks_.resize(kSlabTaskLevels);
+    std::array<std::vector<SlabTask>, 2>& lists = slabTasks_[key];
+    if (lists[0].empty() && lists[1].empty())
+      for (int parity = 0; parity < 2; ++parity) {
+        for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+          const Index nS = blocks_[bi]->numSlabs(p);
+          for (Index s = parity; s < nS; s += 2) lists[size_t(parity)].push_back({bi, s, blocks_[bi]->slabWidth(p, s)});
+        }
+        std::stable_sort(lists[size_t(parity)].begin(), lists[size_t(parity)].end(),
+                         [](const SlabTask& a, const SlabTask& b) { return a.width > b.width; });
       }
-      std::stable_sort(slabTasks_.begin(), slabTasks_.end(),
-                       [](const SlabTask& a, const SlabTask& b) { return a.width > b.width; });
-      const Index nT = Index(slabTasks_.size());
+    for (const std::vector<SlabTask>& tasks : lists) {
+      const Index nT = Index(tasks.size());
 #pragma omp parallel for schedule(dynamic, 1) if (nT >= 2)
-      for (Index i = 0; i < nT; ++i)
-        blocks_[slabTasks_[size_t(i)].block]->runSlab(state_, p, slabTasks_[size_t(i)].slab, f);
+      for (Index i = 0; i < nT; ++i) blocks_[tasks[size_t(i)].block]->runSlab(state_, p, tasks[size_t(i)].slab, f);
     }
   }
   for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
@@ -967,6 +973,7 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   fSync_.clear();
   fIntSync_.clear();
   dtPrevNode_.clear();
+  slabTasks_.clear();  // the slabs of the new levels
   for (auto& b : blocks_) b->setChunkLevels({});
   if (maxLevel <= 0) return info;
   checkSubcycling(maxLevel);

@@ -4,6 +4,7 @@
 ///        balance, and a check for non-finite or exploding values every step.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -427,8 +428,11 @@ class Solver {
     size_t block;
     Index slab, width;
   };
-  std::vector<SlabTask> slabTasks_;  // computeInternalForces: one parity's slabs of every block
-  std::vector<Real> rankTerms_;      // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
+  /// computeInternalForces: [step level, the last for every level from it on][parity] the slabs of
+  /// every block, widest first
+  static constexpr int kSlabTaskLevels = 16;
+  std::vector<std::array<std::vector<SlabTask>, 2>> slabTasks_;
+  std::vector<Real> rankTerms_;  // on ranks: the relaxation's per-node terms (RankExchange::sumInNodeOrder)
   std::vector<Real> ghostV_;
   // subcycling on ranks: the ghosts' fSync_, fIntSync_, accelerations and dtPrevNode_ before the update
   std::vector<Real> ghostFs_, ghostFis_, ghostA_, ghostDtp_;
