@@ -419,10 +419,8 @@ void SeismicBoundaries::install(NodalState& state) {
   fPrev_.assign(u0_.size(), 0.0);
   first_ = true;
   // Base nodes that are all distinct are independent within a step: computed on the threads.
-  std::vector<Index> nodes = base_.nodes;
-  std::sort(nodes.begin(), nodes.end());
-  baseDistinct_ = std::adjacent_find(nodes.begin(), nodes.end()) == nodes.end();
-  computeBaseOnThreads(nodes.size() >= kThreadedBaseNodes);
+  baseDistinct_ = nodesDistinct(base_.nodes);
+  computeBaseOnThreads(base_.nodes.size() >= kThreadedBaseNodes);
   springWork_ = 0;
 }
 

@@ -136,15 +136,13 @@ DynamicContact::DynamicContact(const Solver& solver, ContactPairs pairs, Contact
   // two nodes' forces, so they may be computed on the solver's threads.
   std::vector<Index> nodes(pairs_.node1.begin(), pairs_.node1.end());
   nodes.insert(nodes.end(), pairs_.node2.begin(), pairs_.node2.end());
-  std::sort(nodes.begin(), nodes.end());
-  disjoint_ = std::adjacent_find(nodes.begin(), nodes.end()) == nodes.end();
+  disjoint_ = nodesDistinct(std::move(nodes));
   computeOnThreads(P >= kThreadedPairs);
 }
 
 void DynamicContact::computeOnThreads(bool on) {
   const size_t P = size_t(pairs_.size());
   workTerm_.assign(on && disjoint_ ? 3 * P : 0, 0.0);
-  termCounts_.assign(on && disjoint_ ? P : 0, 0);
 }
 
 Index DynamicContact::count(PairState s) const {
@@ -202,8 +200,8 @@ void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
   Real* terms = workTerm_.data();
 #pragma omp parallel for schedule(static)
   for (size_t p = 0; p < P; ++p) stepPair(p, predict, st, nullptr);
-  for (size_t p = 0; p < P; ++p)
-    if (termCounts_[p])
+  for (size_t p = 0; p < P; ++p)  // an inactive pair has no terms (stepPair returned before them)
+    if (state_[p] != std::uint8_t(PairState::Inactive) && (counted_.empty() || counted_[p]))
       for (int d = 0; d < 3; ++d) work_ += terms[3 * p + size_t(d)];
 }
 
@@ -220,7 +218,6 @@ void DynamicContact::stepPair(size_t p, const PairPrediction& predict, NodalStat
     state_[p] = std::uint8_t(PairState::Inactive);
     for (int d = 0; d < 3; ++d) R[d] = 0;
     fn_[p] = ft_[p] = 0;
-    if (!work) termCounts_[p] = 0;
     return;
   }
   if (state_[p] == std::uint8_t(PairState::Inactive)) {
@@ -311,7 +308,6 @@ void DynamicContact::stepPair(size_t p, const PairPrediction& predict, NodalStat
   // Work of the contact forces: ½(R^{n−1} + R^n)·Δ(u1 − u2) (central difference, as the
   // solver's trapezoid rule books it), R^{n−1}·Δ(u1 − u2) for the literal eqs. (3)–(4).
   const bool counted = counted_.empty() || counted_[p];
-  if (!work) termCounts_[p] = counted;
   for (int d = 0; d < 3; ++d) {
     const Real dr = rel[d] - relPrev_[3 * p + d];
     const Real term = (leapfrog ? 0.5 * (R[d] + Rnew[d]) : R[d]) * dr;

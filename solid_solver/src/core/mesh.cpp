@@ -22,6 +22,11 @@ std::vector<Index> Mesh::faceNodes(const std::string& group) const {
   return n;
 }
 
+bool nodesDistinct(std::vector<Index> nodes) {
+  std::sort(nodes.begin(), nodes.end());
+  return std::adjacent_find(nodes.begin(), nodes.end()) == nodes.end();
+}
+
 Real tunnelAxisZ(const Mesh& mesh) {
   for (const char* g : {face_group::kLiningInner, face_group::kRockHole})
     if (mesh.faces.count(g)) {

@@ -78,9 +78,9 @@ enum class PairState : int {
   Inactive = 4,   ///< a node of the pair has no mass yet (e.g. lining not yet installed)
 };
 
-/// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
 class PairPrediction;
 
+/// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
 class DynamicContact final : public NodalForceContributor {
  public:
   /// The solver supplies the masses, supports and damping of the prediction; it must outlive this.
@@ -147,10 +147,9 @@ class DynamicContact final : public NodalForceContributor {
   std::vector<Real> force_;    // [3P] force on node 1 of the last step (N)
   std::vector<Real> relPrev_;  // [3P] u1 − u2 at the last call (for the work)
   std::vector<Real> fn_, ft_;
-  std::vector<std::uint8_t> counted_;     // empty: every pair counts in work_
-  bool disjoint_ = false;                 // no node in two pairs
-  std::vector<Real> workTerm_;            // [3P] the pairs' work terms of the step (threaded; else empty)
-  std::vector<std::uint8_t> termCounts_;  // [P] whether pair p's terms count in work_ (threaded)
+  std::vector<std::uint8_t> counted_;  // empty: every pair counts in work_
+  bool disjoint_ = false;              // no node in two pairs
+  std::vector<Real> workTerm_;         // [3P] the pairs' work terms of the step (threaded; else empty)
   /// One pair's step: its force, state and f_ext; its work added to *work, or kept in workTerm_.
   void stepPair(size_t p, const PairPrediction& predict, NodalState& st, Real* work);
   Real work_ = 0;  // work of the contact forces so far (J, ≤ 0 up to round-off)

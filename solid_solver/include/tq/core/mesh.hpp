@@ -41,6 +41,10 @@ inline constexpr const char* kLiningOuter = "lining_outer";
 inline constexpr const char* kRockHole = "rock_hole";
 }  // namespace face_group
 
+/// True when no node appears twice in `nodes` (contributors whose nodes are distinct may compute
+/// them on the solver's threads, each writing only its own nodes' forces).
+bool nodesDistinct(std::vector<Index> nodes);
+
 /// The height z of the tunnel's axis: the middle of the lining's inner face in z, else of the rock's
 /// hole; NaN when the mesh has neither face group.
 Real tunnelAxisZ(const Mesh& mesh);
