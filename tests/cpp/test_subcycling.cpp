@@ -107,6 +107,32 @@ struct LinedTunnelPeaks {
   std::vector<Real> u;  // the displacements at the end
 };
 
+/// A sudden pressure on the quads `q` as nodal loads p × (quad area)/4 along each quad's inward
+/// normal (toward the axis), ramped as (1 − cos)/2 over 40 ms in 17 linear pieces, then held: the
+/// load's content below cs/(8 h) of the coarse rock elements, which their step resolves.
+void addOuterPressure(Solver& s, const Mesh& m, const std::vector<Index>& q, Real pressure) {
+  std::map<Index, std::array<Real, 3>> f;
+  for (size_t k = 0; k < q.size() / 4; ++k) {
+    Real c[3], x[3] = {0, 0, 0};
+    tqtest::quadDiagonalCross(m, q, k, c);  // twice the area vector, either orientation
+    for (int i = 0; i < 4; ++i)
+      for (int d = 0; d < 3; ++d) x[d] += m.coords[3 * size_t(q[4 * k + size_t(i)]) + size_t(d)];
+    const Real sgn = c[0] * x[0] + c[2] * x[2] > 0 ? -1.0 : 1.0;  // inward
+    for (int i = 0; i < 4; ++i)
+      for (int d = 0; d < 3; ++d) f[q[4 * k + size_t(i)]][size_t(d)] += sgn * pressure * 0.5 * c[d] / 4;
+  }
+  const Real tRamp = 0.04;
+  TimeFunction ramp;
+  for (int i = 0; i <= 16; ++i) {
+    ramp.t.push_back(tRamp * i / 16);
+    ramp.value.push_back(0.5 * (1 - std::cos(M_PI * i / 16)));
+  }
+  ramp.t.push_back(10.0);
+  ramp.value.push_back(1.0);
+  for (const auto& [n, fv] : f)
+    for (int d : {0, 2}) s.addLoad({{n}, d, fv[size_t(d)], ramp});
+}
+
 LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real tEnd, bool blocksInOneLoop = true) {
   const Index nAround = 48;
   const Mesh l = makeRingSliceMesh({5.25, 6.0, 3, nAround, 1.0, "lining"});
@@ -130,30 +156,7 @@ LinedTunnelPeaks runLinedTunnel(int levels, Real dtFactor, Real pressure, Real t
   s.setBlockSlabsInOneLoop(blocksInOneLoop);
   auto contact = std::make_shared<DynamicContact>(s, rockLiningPairs(m), ContactParams{});
   s.addContributor(ForcePhase::Interface, contact);
-  // The outer pressure as nodal forces p × (quad area)/4 along the quad's inward normal.
-  std::map<Index, std::array<Real, 3>> f;
-  const auto& q = m.faces.at("rock_outer");
-  for (size_t k = 0; k < q.size() / 4; ++k) {
-    Real c[3], x[3] = {0, 0, 0};
-    tqtest::quadDiagonalCross(m, q, k, c);  // twice the area vector, either orientation
-    for (int i = 0; i < 4; ++i)
-      for (int d = 0; d < 3; ++d) x[d] += m.coords[3 * size_t(q[4 * k + size_t(i)]) + size_t(d)];
-    const Real sgn = c[0] * x[0] + c[2] * x[2] > 0 ? -1.0 : 1.0;  // inward
-    for (int i = 0; i < 4; ++i)
-      for (int d = 0; d < 3; ++d) f[q[4 * k + size_t(i)]][size_t(d)] += sgn * pressure * 0.5 * c[d] / 4;
-  }
-  // (1 − cos)/2 over tRamp, as 17 linear pieces, then held: the load's content below cs/(8 h)
-  // of the coarse rock elements, which their step resolves.
-  const Real tRamp = 0.04;
-  TimeFunction ramp;
-  for (int i = 0; i <= 16; ++i) {
-    ramp.t.push_back(tRamp * i / 16);
-    ramp.value.push_back(0.5 * (1 - std::cos(M_PI * i / 16)));
-  }
-  ramp.t.push_back(10.0);
-  ramp.value.push_back(1.0);
-  for (const auto& [n, fv] : f)
-    for (int d : {0, 2}) s.addLoad({{n}, d, fv[size_t(d)], ramp});
+  addOuterPressure(s, m, m.faces.at("rock_outer"), pressure);
   s.setTimeStep(dtFactor * s.stableStep().dtSafe);
   LinedTunnelPeaks p;
   p.info = s.enableSubcycling(levels);
@@ -425,6 +428,87 @@ TEST(Subcycling, BlocksSlabsInOneLoopGiveTheBlockByBlockBits) {
     EXPECT_EQ(apart.hoopMax, r->hoopMax);
     EXPECT_EQ(std::memcmp(&apart.plastic, &r->plastic, sizeof(Real)), 0);
   }
+}
+
+// A rock ring of 6–150 m (30 × 48 elements growing outward, 2,976 nodes: 3 node chunks) under a
+// sudden pressure on its outer face, subcycled: the outer chunk holds coarse nodes only, so the fine
+// steps set f_int and f_ext in fewer chunks than all (asserted). The displacements, velocities,
+// stresses, works and plastic dissipation after 1,500 fine steps are those of the run that sets every
+// chunk, bitwise, on 1 and 2 threads, and after a coupling window's start copy (no forces in it:
+// StateArchive::setWindowStart) restored in mid-cycle, single-rate too.
+TEST(Subcycling, ForcesSetInTheDueChunksOnlyGiveEveryChunksBits) {
+  struct Out {
+    std::vector<Real> u, v, stress;
+    Real plastic = 0, external = 0, internal = 0;  // the works booked (f_ext: trapezoidal)
+    Index fine = 0, chunks = 0;
+    int levels = 0;
+  };
+  const auto run = [](int levels, bool dueOnly, int threads, bool restore) {
+    omp_set_num_threads(threads);
+    const Mesh m = makeRingSliceMesh({6.0, 150.0, 30, 96, 10.0, "rock"});
+    SolverOptions opt;
+    opt.damping.alpha = 2;
+    auto rock = std::make_shared<MohrCoulombDamageMaterial>(tqtest::paperRock(100));
+    Solver s(m, makeBlocksByRegion(m, {{"rock", rock}}), opt);
+    for (const char* side : {"ymin", "ymax"}) s.fixFaceGroup(side, "y");  // plane strain
+    s.setDueChunksOnly(dueOnly);
+    addOuterPressure(s, m, m.faces.at("outer"), 2e7);
+    s.setTimeStep(s.stableStep().dtSafe);
+    Out o;
+    o.levels = s.enableSubcycling(levels).levels;
+    o.fine = s.nodeChunksSet(0);
+    o.chunks = s.numNodeChunks();
+    StateArchive window;
+    window.setWindowStart(true);
+    for (int k = 0; k < 1500; ++k) {
+      if (restore && k == 99) {  // fine step 3 of a coarse cycle, in the load's ramp: save, 37 steps, back
+        window.beginSave();
+        s.checkpoint(window);
+        window.end();
+        for (int j = 0; j < 37; ++j) s.step();
+        window.beginRestore();
+        s.checkpoint(window);
+        window.end();
+      }
+      s.step();
+    }
+    const NodalState& st = s.state();
+    o.u.assign(st.uData(), st.uData() + 3 * size_t(st.numNodes()));
+    o.v.assign(st.vData(), st.vData() + 3 * size_t(st.numNodes()));
+    const ElementBlock& b = *s.blocks()[0];
+    for (Index e = 0; e < b.numElems(); ++e)
+      for (int c = 0; c < 6; ++c) o.stress.push_back(b.stress(e, c));
+    o.plastic = s.energy().plastic;
+    o.external = s.energy().external;
+    o.internal = s.energy().internal;
+    return o;
+  };
+  const auto sameBits = [](Real a, Real b) { return std::memcmp(&a, &b, sizeof(Real)) == 0; };
+  const Out every = run(3, false, 1, false), due = run(3, true, 1, false), two = run(3, true, 2, false),
+            restored = run(3, true, 1, true), single = run(0, true, 1, false), singleRestored = run(0, true, 1, true);
+  omp_set_num_threads(omp_get_num_procs());
+  Real peak = 0;
+  for (Real x : every.u) peak = std::max(peak, std::abs(x));
+  std::printf("rock ring, %d levels: the fine steps set %ld of %ld node chunks; |u| up to %.3g m, plastic %.4g J\n",
+              due.levels, long(due.fine), long(due.chunks), peak, every.plastic);
+  ASSERT_EQ(every.levels, 3);
+  ASSERT_LT(due.fine, due.chunks) << "a chunk of coarse nodes only must be left out at the fine steps";
+  ASSERT_EQ(every.fine, every.chunks);
+  ASSERT_GT(peak, 1e-4) << "the load must move the ring";
+  ASSERT_GT(every.plastic, 0.0) << "the rock must yield";
+  for (const Out* r : {&due, &two, &restored}) {
+    EXPECT_EQ(every.u, r->u);
+    EXPECT_EQ(every.v, r->v);
+    EXPECT_EQ(every.stress, r->stress);
+    EXPECT_TRUE(sameBits(every.plastic, r->plastic));
+    EXPECT_TRUE(sameBits(every.external, r->external));
+    EXPECT_TRUE(sameBits(every.internal, r->internal));
+  }
+  EXPECT_EQ(single.u, singleRestored.u);
+  EXPECT_EQ(single.v, singleRestored.v);
+  EXPECT_EQ(single.stress, singleRestored.stress);
+  EXPECT_TRUE(sameBits(single.external, singleRestored.external));
+  EXPECT_TRUE(sameBits(single.plastic, singleRestored.plastic));
 }
 
 // The kinetic energy summed only at the steps whose balance is read (Solver::setKineticEnergyWanted):

@@ -564,8 +564,16 @@ void Solver::computeInternalForces(int activeLevel) {
   Real work = 0, stored = 0, damp = 0;
   const Index N = state_.numNodes();
   Real* __restrict f = state_.fIntData();
+  if (everyChunkDue(activeLevel)) {
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
-  for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
+    for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
+  } else {  // subcycling: the due nodes' chunks only (the others' f_int is not read before they are due)
+    const Index nChunks = Index(nodeChunkLevel_.size());
+#pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
+    for (Index c = 0; c < nChunks; ++c)
+      if (chunkDue(c, activeLevel))
+        std::fill(f + 3 * size_t(c * kNodeChunk), f + 3 * size_t(std::min(N, (c + 1) * kNodeChunk)), Real(0));
+  }
   const bool oneLoop = blockSlabsInOneLoop();
   if (oneLoop) {
     // The blocks' slabs of each parity in one loop, the widest first: a thread that finishes a
@@ -614,6 +622,15 @@ void Solver::computeInternalForces(int activeLevel) {
   dampWork_ += damp;
 }
 
+Index Solver::numNodeChunks() const { return Index((state_.numNodes() + kNodeChunk - 1) / kNodeChunk); }
+
+Index Solver::nodeChunksSet(int activeLevel) const {
+  if (everyChunkDue(activeLevel)) return numNodeChunks();
+  Index n = 0;
+  for (Index c = 0; c < Index(nodeChunkLevel_.size()); ++c) n += chunkDue(c, activeLevel);
+  return n;
+}
+
 void Solver::addContributor(ForcePhase phase, std::shared_ptr<NodalForceContributor> c) {
   // The fast path of constant loads (held reactions, static pressures): decided here, once.
   int folded = 0;
@@ -632,8 +649,8 @@ void Solver::computeExternalForces() {
   addPhaseForces(ForcePhase::Loads, ForcePhase::Ties);
 }
 
-void Solver::addGravityAndLoads() {
-  addGravityAndFoldedLoads();
+void Solver::addGravityAndLoads(int activeLevel) {
+  addGravityAndFoldedLoads(activeLevel);
   Real* fe = state_.fExtData();
   for (const auto& l : loads_) {
     const Real f = l.forcePerNode * l.function(t_);
@@ -648,7 +665,7 @@ void Solver::addPhaseForces(ForcePhase first, ForcePhase last) {
         if (e.phase == phase && !e.foldedIntoGravity) e.contributor->addForces(t_, dt_, state_);
 }
 
-void Solver::addGravityAndFoldedLoads() {
+void Solver::addGravityAndFoldedLoads(int activeLevel) {
   const Index N = state_.numNodes();
   Real* fe = state_.fExtData();
   // Gravity acts on the true masses, also while relax() runs with scaled ones.
@@ -685,8 +702,12 @@ void Solver::addGravityAndFoldedLoads() {
   }
   const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
   const Real* src = c.f.data();
+  // Subcycling: the due nodes' chunks only. The contributors then add to every node they act on,
+  // but a node not due at this step has its f_ext set again, from these loads, before it is read.
+  const bool all = everyChunkDue(activeLevel);
 #pragma omp parallel for schedule(static) if (nChunks >= 4)
   for (Index k = 0; k < nChunks; ++k) {
+    if (!all && !chunkDue(k, activeLevel)) continue;
     const size_t i0 = 3 * size_t(k * kNodeChunk), i1 = 3 * size_t(std::min(N, (k + 1) * kNodeChunk));
     std::copy(src + i0, src + i1, fe + i0);
   }
@@ -970,6 +991,8 @@ void Solver::checkSubcycling(int maxLevel) const {
 SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   SubcyclingInfo info;
   nodeLevel_.clear();
+  nodeChunkLevel_.clear();
+  maxChunkLevel_ = 0;
   fSync_.clear();
   fIntSync_.clear();
   dtPrevNode_.clear();
@@ -1035,6 +1058,15 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
     }
   }
   nodeLevel_ = std::move(level);
+  if (!rx_) {  // on ranks every chunk stays due (the frontier's sums take every node's forces)
+    const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
+    nodeChunkLevel_.assign(size_t(nChunks), 255);
+    for (Index n = 0; n < N; ++n) {
+      std::uint8_t& cl = nodeChunkLevel_[size_t(n / kNodeChunk)];
+      cl = std::min(cl, nodeLevel_[size_t(n)]);
+    }
+    for (std::uint8_t l : nodeChunkLevel_) maxChunkLevel_ = std::max(maxChunkLevel_, int(l));
+  }
   fSync_.assign(state_.fExtData(), state_.fExtData() + 3 * size_t(N));     // f_ext of the step just taken
   fIntSync_.assign(state_.fIntData(), state_.fIntData() + 3 * size_t(N));  // and its f_int
   dtPrevNode_.assign(size_t(N), dtLast_);
@@ -1132,7 +1164,7 @@ void Solver::beginStep() {
   activeLevel_ = nodeLevel_.empty() ? 255 : cycle_ == 0 ? 255 : __builtin_ctzll((unsigned long long)cycle_);
   computeInternalForces(activeLevel_);
   state_.swapFExt(fExtPrev_);  // f_ext of the step just taken becomes the previous one
-  addGravityAndLoads();
+  addGravityAndLoads(activeLevel_);
   addPhaseForces(ForcePhase::Loads, ForcePhase::Interface);
   stepOpen_ = true;
 }
@@ -1152,8 +1184,16 @@ void Solver::finishStep() {
 }
 
 void Solver::checkpoint(StateArchive& a) {
-  state_.checkpoint(a);
-  a.io(fExtPrev_);
+  if (a.windowStart()) {
+    // What the window's steps read before they write it: f_int is summed again at every step, and
+    // so is f_ext: at every node single-rate, whose next step reads the last one's f_ext as its
+    // previous one (swapFExt; fExtPrev_ is then written), at the due nodes subcycled, whose last
+    // update's f_ext and f_int are fSync_ and fIntSync_ (fExtPrev_ unread).
+    state_.checkpointMotion(a, nodeLevel_.empty());
+  } else {
+    state_.checkpoint(a);
+    a.io(fExtPrev_);
+  }
   a.io(t_);
   a.io(dtLast_);
   a.io(step_);

@@ -62,11 +62,15 @@ class NodalState {
   /// Save or restore what a step changes (u, v, a, f_int, f_ext); masses and dashpots change only
   /// between stages, never inside a coupling window.
   void checkpoint(StateArchive& ar) {
+    checkpointMotion(ar, true);
+    ar.io(fInt_);
+  }
+  /// u, v, a and, with `withFExt`, f_ext: a coupling window's start (Solver::checkpoint).
+  void checkpointMotion(StateArchive& ar, bool withFExt) {
     ar.io(u_);
     ar.io(v_);
     ar.io(a_);
-    ar.io(fInt_);
-    ar.io(fExt_);
+    if (withFExt) ar.io(fExt_);
   }
 
   // Raw arrays for the kernels ([3N] unless noted).

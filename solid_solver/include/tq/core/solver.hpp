@@ -313,6 +313,13 @@ class Solver {
   /// after block: the same bits either way.
   void setBlockSlabsInOneLoop(bool on) { blocksOneLoop_ = on; }
   bool blockSlabsInOneLoop() const { return blocksDisjoint_ && blocksOneLoop_ && !rx_; }
+  /// Subcycling on one process: a step sets f_int to zero and f_ext to the constant loads only in
+  /// the node chunks that hold a node due at it (true, the default), or in every chunk (false; the
+  /// same bits: no update reads a node's forces at a step it is not due).
+  void setDueChunksOnly(bool on) { dueChunksOnly_ = on; }
+  /// The node chunks a step of level `activeLevel` sets, and all of them.
+  Index nodeChunksSet(int activeLevel) const;
+  Index numNodeChunks() const;
   RankExchange* rankExchange() const { return rx_; }
   /// A solver that only holds a state gathered from the ranks for the results (tq/parallel/): the
   /// energy balance the ranks reduced (its plastic part is summed from this solver's blocks).
@@ -364,8 +371,14 @@ class Solver {
   void computeInternalForces(int activeLevel = 255);
   void computeExternalForces();
   void addPhaseForces(ForcePhase first, ForcePhase last);  // the contributors of the phases first … last
-  void addGravityAndFoldedLoads();                         // the Loads phase's parallel pass
-  void addGravityAndLoads();                               // gravity, the folded loads, the NodalLoads
+  void addGravityAndFoldedLoads(int activeLevel = 255);    // the Loads phase's parallel pass
+  void addGravityAndLoads(int activeLevel = 255);          // gravity, the folded loads, the NodalLoads
+  /// Subcycling: whether node chunk c holds a node due at a step of level activeLevel (a chunk
+  /// that does not needs neither its f_int zeroed nor its f_ext set: no update reads them).
+  bool chunkDue(Index c, int activeLevel) const { return activeLevel >= int(nodeChunkLevel_[size_t(c)]); }
+  bool everyChunkDue(int activeLevel) const {
+    return !dueChunksOnly_ || nodeChunkLevel_.empty() || activeLevel >= maxChunkLevel_;
+  }
   void updateNodes();
   void updateNodesSubcycled(int activeLevel);
   void bookNodeChunks(Index nChunks);  // after a node update: sum its chunks, check, book
@@ -417,6 +430,11 @@ class Solver {
   // internal energy is then the elements' at enableSubcycling (intBase_) plus the internal forces'
   // work booked at the node updates (nodalIntWork_), as the external work is.
   std::vector<std::uint8_t> nodeLevel_;
+  // The finest level of each node chunk's nodes (one process only; empty on ranks and single-rate),
+  // and the coarsest of those: a step of that level or coarser has every chunk due.
+  std::vector<std::uint8_t> nodeChunkLevel_;
+  int maxChunkLevel_ = 0;
+  bool dueChunksOnly_ = true;  // setDueChunksOnly
   std::vector<Real> fSync_, fIntSync_, dtPrevNode_;
   Real intBase_ = 0, nodalIntWork_ = 0;
   Index cycle_ = 0;

@@ -46,6 +46,10 @@ class StateArchive {
   }
   Mode mode() const { return mode_; }
   bool saving() const { return mode_ == Mode::Save; }
+  /// A coupling window's start (CoupledStepper), stepped again from in the same run: the parts may
+  /// leave out what every step writes before it reads it. A restart file's copy holds everything.
+  void setWindowStart(bool w) { windowStart_ = w; }
+  bool windowStart() const { return windowStart_; }
   /// Bytes held (for the log).
   std::size_t bytes() const {
     std::size_t b = 0;
@@ -133,6 +137,7 @@ class StateArchive {
   std::vector<std::vector<unsigned char>> slots_;
   std::size_t pos_ = 0, count_ = 0;
   bool saved_ = false;
+  bool windowStart_ = false;
 };
 
 }  // namespace tq

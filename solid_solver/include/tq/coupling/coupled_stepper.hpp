@@ -17,7 +17,9 @@ class CoupledStepper {
   /// `coupling` may be null (no water): then advance() is one Solver::step(). The coupling must be
   /// one of the solver's contributors (ForcePhase::Water), and initialized (a FluidCoupling; on MPI
   /// ranks each rank's RankedCoupling).
-  CoupledStepper(Solver& solver, WindowCoupling* coupling) : solver_(solver), coupling_(coupling) {}
+  CoupledStepper(Solver& solver, WindowCoupling* coupling) : solver_(solver), coupling_(coupling) {
+    start_.setWindowStart(true);
+  }
 
   /// One coupling window (no coupling: one step). `onFinal` is called after each state that is final
   /// (results may be sampled): after every step, except inside an implicit window of several steps,
