@@ -430,8 +430,8 @@ TEST(Subcycling, BlocksSlabsInOneLoopGiveTheBlockByBlockBits) {
   }
 }
 
-// A rock ring of 6–150 m (30 × 48 elements growing outward, 2,976 nodes: 3 node chunks) under a
-// sudden pressure on its outer face, subcycled: the outer chunk holds coarse nodes only, so the fine
+// A rock ring of 6–150 m (30 × 96 elements, 10 m thick, 5,952 nodes: 6 node chunks) under a sudden
+// pressure on its outer face, subcycled: the outer chunks hold coarse nodes only, so the fine
 // steps set f_int and f_ext in fewer chunks than all (asserted). The displacements, velocities,
 // stresses, works and plastic dissipation after 1,500 fine steps are those of the run that sets every
 // chunk, bitwise, on 1 and 2 threads, and after a coupling window's start copy (no forces in it:

@@ -1059,8 +1059,7 @@ SubcyclingInfo Solver::enableSubcycling(int maxLevel) {
   }
   nodeLevel_ = std::move(level);
   if (!rx_) {  // on ranks every chunk stays due (the frontier's sums take every node's forces)
-    const Index nChunks = Index((N + kNodeChunk - 1) / kNodeChunk);
-    nodeChunkLevel_.assign(size_t(nChunks), 255);
+    nodeChunkLevel_.assign(size_t(numNodeChunks()), 255);
     for (Index n = 0; n < N; ++n) {
       std::uint8_t& cl = nodeChunkLevel_[size_t(n / kNodeChunk)];
       cl = std::min(cl, nodeLevel_[size_t(n)]);

@@ -62,8 +62,9 @@ class NodalState {
   /// Save or restore what a step changes (u, v, a, f_int, f_ext); masses and dashpots change only
   /// between stages, never inside a coupling window.
   void checkpoint(StateArchive& ar) {
-    checkpointMotion(ar, true);
+    checkpointMotion(ar, false);
     ar.io(fInt_);
+    ar.io(fExt_);
   }
   /// u, v, a and, with `withFExt`, f_ext: a coupling window's start (Solver::checkpoint).
   void checkpointMotion(StateArchive& ar, bool withFExt) {
