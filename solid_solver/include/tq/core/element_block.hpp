@@ -205,7 +205,8 @@ class ElementBlock {
 
  private:
   template <bool kDamp, bool kTotal>
-  void onePointChunk(Index c, const Real* u, const Real* v, const ElementStepParams& p, Real* f, BlockEnergy& en);
+  void onePointChunk(Index c, Index next, const Real* u, const Real* v, const ElementStepParams& p, Real* f,
+                     BlockEnergy& en);
   void fullIntegrationChunk(Index c, const Real* u, Real* f, BlockEnergy& en);
   void strainFromDisplacement(Index e, const NodalState& state);
   /// Whether step p is a subcycled step below the coarsest level (its own chunks and slabs).
