@@ -81,6 +81,29 @@ def test_coupled_crash_inside_a_checkpoint_resumes_from_the_one_before(reference
     _resume_and_compare(p, reference, tmp_path, capsys, m)
 
 
+def test_water_killed_inside_its_checkpoint_resumes_from_the_one_before(reference, tmp_path, capsys):
+    """The water killed (SIGKILL) inside its third checkpoint, the file written under its temporary
+    name and not yet renamed (TQ_CHECKPOINT_FAULT=<window>:water): tq-solid wrote its third before
+    (the water writes after the solid), so the last pair both wrote is the second; tunnelquake stops
+    tq-solid and says the water failed; `--resume` continues both from the second and ends bitwise
+    equal to the uninterrupted run, the temporary file gone with the other checkpoints."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    with h5py.File(reference / "results" / "results_dynamic_water.h5", "r") as f:
+        every = round(INTERVAL / float(f["coupling"].attrs["window_size"]))
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": f"{3 * every}:water"})
+    out, _ = proc.communicate(timeout=240)
+    assert proc.returncode == 1 and "(water) failed with exit code -9" in out, out[-2000:]
+    left = list((p.parent / "results" / "dynamic_water").rglob("fluid-*"))
+    assert [f.name for f in left if f.name.endswith(".tmp")] == [f"fluid-{3 * every:09d}.bin.tmp"], left
+    m = coupled_resume_point(load_case(p), "dynamic_water")
+    assert m is not None and int(m["sequence"]) == 2, m
+    _resume_and_compare(p, reference, tmp_path, capsys, m)
+    assert not list((p.parent / "results" / "dynamic_water").rglob("fluid-*"))
+
+
 def _resume_and_compare(p, reference, tmp_path, capsys, m):
     """`--resume` of the stopped run in `p` (whose checkpoint pair `m` is the second) ends completed
     and bitwise equal to the uninterrupted `reference`, its checkpoints removed."""

@@ -29,6 +29,8 @@ License
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <malloc.h>
 #include <cerrno>
 #include <cstdint>
@@ -1339,6 +1341,16 @@ void Foam::functionObjects::tqInterface::writeRestart(const label n)
     if (fd >= 0)
     {
         ::close(fd);
+    }
+    // Test hook (docs/reliability.md "Restart"): TQ_CHECKPOINT_FAULT=<window>:water
+    // kills the water (SIGKILL, as a lost node) once it wrote that window's
+    // checkpoint under its temporary name, before the rename
+    if (const char* fault = std::getenv("TQ_CHECKPOINT_FAULT"))
+    {
+        if (std::to_string(n) + ":water" == fault)
+        {
+            std::raise(SIGKILL);
+        }
     }
     if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0)
     {
