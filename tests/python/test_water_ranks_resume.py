@@ -5,7 +5,10 @@ docs/coupler.md "Water on several MPI ranks"): `parallel.fluid_ranks: 2`, the so
 The case is test_water_parts's soft-rock slice (rock E = 1.5 GPa, elastic lining, one cycle of a 4 Hz
 sine, dynamic_water only) over END_S of shaking with a checkpoint every INTERVAL_S: tq-solid is killed
 (SIGKILL, the test hook TQ_CHECKPOINT_FAULT) inside its third checkpoint, after its state file and
-before its manifest, so the resume continues both sides from the second; or one water rank is killed
+before its manifest, so the resume continues both sides from the second; or the water's master rank
+kills itself inside its third (TQ_CHECKPOINT_FAULT=<window>:water: the one file of both ranks' parts
+written under its temporary name, not renamed), which leaves the second pair the last one whole; or
+one water rank is killed
 (SIGKILL, a lost node) right after the water wrote its first, so the resume continues from the last
 pair both sides wrote whole (the first, in every run so far). Each water rank's part of
 that checkpoint (its cells' fields with their old-time levels and projection basis, its points'
@@ -95,10 +98,12 @@ def _kill_a_water_rank(case: Path, ranks: list[str], window: int) -> str:
 
 
 @needs_coupled_run
-@pytest.mark.parametrize(("solid_ranks", "how"), [(1, "fault"), (2, "fault"), (1, "kill")])
+@pytest.mark.parametrize(("solid_ranks", "how"), [(1, "fault"), (2, "fault"), (1, "water fault"), (1, "kill")])
 def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, capsys, monkeypatch, solid_ranks,
                                                                       how):
-    """`fault`: tq-solid killed inside its third checkpoint (TQ_CHECKPOINT_FAULT); `kill`: a water rank
+    """`fault`: tq-solid killed inside its third checkpoint (TQ_CHECKPOINT_FAULT=3:solid); `water fault`:
+    the water's master rank killed inside its third, the file of both ranks' parts written under its
+    temporary name and not yet renamed (TQ_CHECKPOINT_FAULT=<window>:water); `kill`: a water rank
     killed (SIGKILL) once the water wrote its first."""
     from tunnelquake.case import load_case
     from tunnelquake.restart import coupled_resume_point, fluid_ranks_of
@@ -117,17 +122,22 @@ def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, 
     shutil.copytree(tmp_path / "reference" / "results" / "mesh", case.parent / "results" / "mesh")
     shutil.copy(tmp_path / "reference" / "results" / "motion.h5", case.parent / "results" / "motion.h5")
     every = round(INTERVAL_S / window_size)
-    if how == "fault":
-        monkeypatch.setenv("TQ_CHECKPOINT_FAULT", "3:solid")
+    if how == "kill":
+        _kill_a_water_rank(case, ranks, every)
+    else:
+        monkeypatch.setenv("TQ_CHECKPOINT_FAULT", "3:solid" if how == "fault" else f"{3 * every}:water")
         assert main(["run", str(case), *ranks, "--no-post"]) != 0
         monkeypatch.delenv("TQ_CHECKPOINT_FAULT")
-    else:
-        _kill_a_water_rank(case, ranks, every)
+        if how == "water fault":
+            said = capsys.readouterr().out
+            assert "(water) failed" in said and "the solid stopped because the water did" in said, said[-3000:]
+            left = [f.name for f in (case.parent / "results" / "dynamic_water").rglob("fluid-*.tmp")]
+            assert left == [f"fluid-{3 * every:09d}.bin.tmp"], left
     res = case.parent / "results" / "results_dynamic_water.h5"
     stopped = _status(res)
     assert stopped != "completed", stopped
     m = coupled_resume_point(load_case(case), "dynamic_water")
-    if how == "fault":
+    if how != "kill":
         assert m is not None and int(m["sequence"]) == 2, m
     else:  # the first pair, or a later one the run wrote before the rank died
         assert m is not None and 1 <= int(m["sequence"]) < 4, m
@@ -162,6 +172,7 @@ def test_water_on_ranks_stopped_in_a_checkpoint_resumes_bitwise_equal(tmp_path, 
     assert results_differences(ref_res, res) == []
     assert _interface_rows(case.parent) == _interface_rows(tmp_path / "reference")
     assert not list((case.parent / "results" / "dynamic_water" / "checkpoint").glob("*-*"))
+    assert not list((case.parent / "results" / "dynamic_water").rglob("fluid-*"))
 
 
 @pytest.fixture(scope="module")
