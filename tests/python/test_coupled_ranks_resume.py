@@ -134,45 +134,75 @@ def test_coupled_run_on_ranks_with_a_rank_killed_resumes_bitwise_equal(tmp_path,
 END, INTERVAL = 0.1, 0.025
 
 
-def test_run_on_ranks_with_openfoams_water_killed_and_resumed_is_bitwise_equal(tmp_path, capsys, monkeypatch):
-    """`tunnelquake run --ranks 2` of the example's dynamic_water (OpenFOAM's water), rank 1 killed
-    (SIGKILL) at 85 % of the shaking, after both sides wrote their checkpoint of 0.075 s: `run
-    --ranks 3 --resume` is refused by name with the fix, before the water starts; `run --ranks 2
-    --resume` starts both sides from the last window both wrote, the water as the one-process resume
-    does (its fluid-<window>.bin), and ends with every dataset and attribute of the results (all but
-    the wall-clock figures) byte for byte those of the run on 2 ranks never stopped."""
+@pytest.fixture(scope="module")
+def openfoam_reference(tmp_path_factory):
+    """The example's dynamic_water (OpenFOAM's water) run on 2 ranks, never stopped: its folder and
+    the solid's steps."""
     from case_edits import with_time
     from test_restart import _case_text
 
     from conftest import ran_case
-    from tunnelquake.case import load_case
-    from tunnelquake.cli import main
-    from tunnelquake.restart import coupled_resume_point
 
-    ref = tmp_path / "reference"
-    ref.mkdir()
+    ref = tmp_path_factory.mktemp("reference")
     # single-rate: the example's subcycling of dynamic_water does not run on ranks
-    ran_case(ref, with_time(_case_text("dynamic_water", END, INTERVAL), subcycling=0), "--ranks", "2", "--no-post")
-    said = capsys.readouterr().out
-    assert "--checkpoint-dir" in said, said[-3000:]
+    text = with_time(_case_text("dynamic_water", END, INTERVAL), subcycling=0)
+    ran_case(ref, text, "--ranks", "2", "--no-post")
     with h5py.File(ref / "results" / "results_dynamic_water.h5", "r") as f:
         steps = int(f["timings"].attrs["steps"])
         assert int(f["timings"].attrs["checkpoints"]) == 3  # at 0.025, 0.05 and 0.075 s; none at the end
         assert int(f["ranks"].attrs["ranks"]) == 2
+    return ref, steps
+
+
+@pytest.mark.parametrize("how", ["rank killed", "ctrl-c"])
+def test_run_on_ranks_with_openfoams_water_stopped_and_resumed_is_bitwise_equal(openfoam_reference, tmp_path, capsys,
+                                                                                monkeypatch, how):
+    """`tunnelquake run --ranks 2` of the example's dynamic_water (OpenFOAM's water), stopped after both
+    sides wrote a checkpoint: `rank killed`, rank 1 killed (SIGKILL) at 85 % of the shaking, after the
+    checkpoint pair of 0.075 s; `ctrl-c`, SIGINT to the run's process group (a terminal's Ctrl-C) once
+    the pair of 0.05 s is written, after which `run` exits 130 and no rank, mpirun or water is left.
+    `run --ranks 3 --resume` is refused by name with the fix, before the water starts; `run --ranks 2
+    --resume` starts both sides from the last window both wrote, the water as the one-process resume
+    does (its fluid-<window>.bin), and ends with every dataset and attribute of the results (all but
+    the wall-clock figures) byte for byte those of the run on 2 ranks never stopped."""
+    from test_restart import _pids, _start, _stop
+    from test_restart_coupled import _wait_for_pair
+
+    from tunnelquake.case import load_case
+    from tunnelquake.cli import main
+    from tunnelquake.restart import coupled_resume_point
+
+    ref, steps = openfoam_reference
     case = tmp_path / "case"
     (case / "results").mkdir(parents=True)
     shutil.copy(ref / "case.yaml", case / "case.yaml")
     shutil.copytree(ref / "results" / "mesh", case / "results" / "mesh")
     shutil.copy(ref / "results" / "motion.h5", case / "results" / "motion.h5")
 
-    monkeypatch.setenv("TQ_RANK_FAULT", f"1:{int(0.85 * steps)}")
-    assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--no-post"]) != 0
-    monkeypatch.delenv("TQ_RANK_FAULT")
+    if how == "rank killed":
+        monkeypatch.setenv("TQ_RANK_FAULT", f"1:{int(0.85 * steps)}")
+        assert main(["run", str(case / "case.yaml"), "--ranks", "2", "--no-post"]) != 0
+        monkeypatch.delenv("TQ_RANK_FAULT")
+    else:
+        proc = _start(case / "case.yaml", "--ranks", "2")
+        try:
+            _wait_for_pair(case / "case.yaml", proc, 2)
+        finally:
+            out = _stop(proc, case, "SIGINT")
+        assert proc.returncode == 130, out[-2000:]
+        left = [pid for program in (b"tq-solid", b"mpirun", b"PimpleFoam") for pid in _pids(case, program)]
+        assert not left, out[-2000:]
     res = case / "results" / "results_dynamic_water.h5"
     stopped = status(res)
-    assert stopped.startswith("stopped: the run on ranks was ended by signal"), stopped
+    assert stopped.startswith("stopped"), stopped
+    if how == "rank killed":
+        assert stopped.startswith("stopped: the run on ranks was ended by signal"), stopped
     m = coupled_resume_point(load_case(case / "case.yaml"), "dynamic_water")
-    assert m is not None and float(m["time"]) == pytest.approx(3 * INTERVAL, rel=0.02), m
+    assert m is not None, stopped
+    if how == "rank killed":
+        assert float(m["time"]) == pytest.approx(3 * INTERVAL, rel=0.02), m
+    else:
+        assert int(m["sequence"]) >= 2, m
     capsys.readouterr()
 
     assert main(["run", str(case / "case.yaml"), "--ranks", "3", "--resume", "--no-post"]) != 0
