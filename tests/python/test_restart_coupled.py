@@ -10,6 +10,9 @@ levels, its solver's projection basis, the coupler's secant columns, the adapter
 energy bookkeeping) shows up as a difference."""
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 import time
 
 import h5py
@@ -102,6 +105,32 @@ def test_water_killed_inside_its_checkpoint_resumes_from_the_one_before(referenc
     assert m is not None and int(m["sequence"]) == 2, m
     _resume_and_compare(p, reference, tmp_path, capsys, m)
     assert not list((p.parent / "results" / "dynamic_water").rglob("fluid-*"))
+
+
+def test_coupled_suite_member_resumed_continues_from_its_checkpoint_pair(reference, tmp_path):
+    """A record suite's `--resume` runs a coupled member that did not finish with `run --resume` when it
+    left a restart checkpoint (suite_launch.run_member): tq-solid killed inside its third checkpoint
+    (TQ_CHECKPOINT_FAULT=3:solid), the member continues both sides from the second pair, says so in its
+    run.log, and ends bitwise equal to the uninterrupted run."""
+    from tunnelquake.case import load_case
+    from tunnelquake.restart import coupled_resume_point
+
+    p = _copy(reference, tmp_path)
+    proc = _start(p, env={"TQ_CHECKPOINT_FAULT": "3:solid"})
+    out, _ = proc.communicate(timeout=240)
+    assert proc.returncode == 1 and "tq-solid (solid) failed with exit code -9" in out, out[-2000:]
+    m = coupled_resume_point(load_case(p), "dynamic_water")
+    assert m is not None and int(m["sequence"]) == 2, m
+    # in a process of its own, as a suite's pool runs it: its output (the supervisor's lines too) to run.log
+    member = subprocess.run([sys.executable, "-c", "import json, sys; from tunnelquake.suite_launch import "
+                             "run_member; print(json.dumps(run_member(sys.argv[1], no_post=True, resume=True)))",
+                             str(p)], capture_output=True, text=True, timeout=240)
+    log = (p.parent / "run.log").read_text()
+    assert member.returncode == 0 and json.loads(member.stdout)["status"] == "completed", log[-2000:]
+    assert f"resume: dynamic_water continues from its checkpoint at t = {float(m['time']):.6g} s" in log, log[-2000:]
+    assert f"resumed from \"{m['fluid']}\"" in log, log[-2000:]  # the water from its file of that pair
+    assert _differences(reference / "results" / "results_dynamic_water.h5",
+                        p.parent / "results" / "results_dynamic_water.h5") == []
 
 
 def _resume_and_compare(p, reference, tmp_path, capsys, m):
