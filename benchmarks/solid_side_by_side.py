@@ -5,7 +5,8 @@ usage: python -m benchmarks.solid_side_by_side OUT --solid NAME=TQ_SOLID --solid
            [--rounds 8] [--threads 1] [--json FILE]
 
 Each round starts both programs at once (`tq-solid INPUT -o OUT/<name>.h5 --threads T`), each under
-`taskset` on its own core, the cores swapped every round, and reads each results file's
+`taskset` on its own core, the one started first swapped every round and the cores every second
+round (so each program runs first and second on each core alike), and reads each results file's
 `/timings wall_s` (the shaking's wall; the static stages are before it). A shared VM's speed drifts by
 ±10–15 % from one minute to the next, more than many changes of the code move a run; two runs that
 share the same minutes, the same memory and caches and each core in turn see the same drift, so
@@ -48,7 +49,8 @@ def shaking_wall(results: Path) -> float:
 
 
 def round_of(solids: list[tuple[str, Path]], inp: Path, out: Path, threads: int, cores: list[int]) -> dict:
-    """One round: both programs started at once, solids[i] pinned to cores[i]; their walls."""
+    """One round: both programs started at once (in the order given), solids[i] pinned to cores[i];
+    their walls."""
     procs = []
     for (name, exe), core in zip(solids, cores, strict=True):
         log = open(out / f"{name}.log", "w")  # noqa: SIM115 - closed below, once the program ends
@@ -87,13 +89,14 @@ def main(argv: list[str] | None = None) -> int:
     rounds = []
     first, second = solids[0][0], solids[1][0]
     for r in range(a.rounds):
-        cores = [r % 2, (r + 1) % 2]
-        walls = round_of(solids, a.input.resolve(), a.out, a.threads, cores)
+        cores = [(r // 2) % 2, 1 - (r // 2) % 2]  # solids[0]'s core, solids[1]'s
+        order = [0, 1] if r % 2 == 0 else [1, 0]  # which starts first
+        walls = round_of([solids[i] for i in order], a.input.resolve(), a.out, a.threads, [cores[i] for i in order])
         ratio = walls[second]["wall_s"] / walls[first]["wall_s"]
         rounds.append({"walls": walls, "ratio": ratio})
         print(f"round {r + 1}: {first} {walls[first]['wall_s']:.2f} s (core {walls[first]['core']}), "
               f"{second} {walls[second]['wall_s']:.2f} s (core {walls[second]['core']}), "
-              f"{second}/{first} {ratio:.3f}", flush=True)
+              f"{solids[order[0]][0]} started first, {second}/{first} {ratio:.3f}", flush=True)
     med = {n: statistics.median(x["walls"][n]["wall_s"] for x in rounds) for n in (first, second)}
     ratio = statistics.median(x["ratio"] for x in rounds)
     line = machine()
