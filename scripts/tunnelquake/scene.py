@@ -107,7 +107,7 @@ def assess_slice(case) -> SliceAssessment:
             # Measured on the paper mesh (docs/benchmarks.md "Solid subcycling and element order"): the
             # lining's 0.25 m layers set the step; the rock may take up to 8 times it.
             advice.append(f"time.subcycling: 3 (here single-rate: {', '.join(single)}) lets the rock step up to 8 "
-                          "times the lining's step (paper mesh in 3D: 0.32 of the element evaluations, about 1.9x "
+                          "times the lining's step (paper mesh in 3D: 0.29 of the element evaluations, about 1.9x "
                           "fewer solid seconds a step; docs/solid_solver.md \"Subcycling\")")
     return SliceAssessment(valid=not reasons, reasons=reasons, advice=advice)
 

@@ -14,7 +14,9 @@ The rule is tq-solid's own (Solver::enableSubcycling, ElementBlock::setChunkLeve
    more than one level above the element's finest node);
 3. the elements are evaluated by chunks of 64 in each region's block (the region's elements in mesh
    order, renumbered breadth first from its smallest elements and those on the tunnel's faces when
-   that at least halves the scatter's span), each chunk at the finest level of its elements' nodes.
+   that at least halves the scatter's span, then in order of their estimated level: setOrderLevels,
+   rule 1 at the automatic step with the tunnel's faces at the finest level and the grading), each
+   chunk at the finest level of its elements' nodes.
 
 A reinforced_concrete lining is taken at its concrete's modulus (tq-solid stiffens it by its bars'
 steel ratio, which shortens the step a little: the counts may then differ from tq-solid's).
@@ -55,6 +57,7 @@ class Levels:
     nodes: tuple[int, ...]  # nodes stepping 2^L dt
     cost_fraction: float  # element evaluations a fine step against one-rate stepping
     dt: float  # the solid's (finest) step, s
+    own: tuple[int, ...] = ()  # active elements whose finest node steps 2^L dt (a chunk's can be finer)
 
     @property
     def element_count(self) -> int:
@@ -148,19 +151,29 @@ def _breadth_first(conn: np.ndarray, elems: np.ndarray, sources: list[int], num_
     return order
 
 
-def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray, wall_nodes=None) -> np.ndarray:
+def _by_order_level(conn: np.ndarray, elems: np.ndarray, order_level) -> np.ndarray:
+    """`elems` stably sorted by their estimated level (the smallest of their nodes' order_level);
+    unchanged without one (ElementBlock's byOrderLevel)."""
+    if order_level is None:
+        return elems
+    return elems[np.argsort(order_level[conn[elems]].min(axis=1), kind="stable")]
+
+
+def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray, wall_nodes=None,
+                order_level=None) -> np.ndarray:
     """The order of a region's elements in tq-solid's block (scatterOrder): renumbered breadth first
     when that at least halves the scatter's span, from its smallest elements (shortest edge within
     1.5 x the block's shortest; none when they are more than an eighth of the block) and its
     elements with a node among `wall_nodes` (the tunnel's faces; none when more than an eighth),
-    else from the element reached last from the first smallest one."""
+    else from the element reached last from the first smallest one; then, given the nodes'
+    `order_level` (order_levels), in order of the elements' estimated level."""
     n = len(elems)
     if n < RENUMBER_MIN:
         return elems
     num_nodes = len(coords)
     span = _scatter_span(conn, elems, num_nodes)
     if span < n // 16:
-        return elems
+        return _by_order_level(conn, elems, order_level)
     edge = _shortest_edges(coords, conn[elems])
     small = np.flatnonzero(edge <= 1.5 * edge.min())
     smallest = int(small[0])
@@ -176,7 +189,39 @@ def block_order(coords: np.ndarray, conn: np.ndarray, elems: np.ndarray, wall_no
     if not sources:  # about uniform: from a far end instead
         sources = [_breadth_first(conn, elems, [smallest], num_nodes)[-1]]
     renumbered = elems[np.array(_breadth_first(conn, elems, sources, num_nodes))]
-    return renumbered if _scatter_span(conn, renumbered, num_nodes) * 2 <= span else elems
+    chosen = renumbered if _scatter_span(conn, renumbered, num_nodes) * 2 <= span else elems
+    return _by_order_level(conn, chosen, order_level)
+
+
+def _graded(node_level: np.ndarray, conn: np.ndarray, finest: np.ndarray, tied: np.ndarray) -> np.ndarray:
+    """Node levels lowered until no constraint or grading lowers one: the nodes `finest` at 0, each
+    row of `tied` at its members' finest, no node of an element more than one level above the
+    element's finest node."""
+    while True:
+        lowered = node_level.copy()
+        lowered[finest] = 0
+        if len(tied):
+            common = lowered[tied].min(axis=1)
+            np.minimum.at(lowered, tied.ravel(), np.repeat(common, tied.shape[1]))
+        cap = lowered[conn].min(axis=1) + 1
+        np.minimum.at(lowered, conn.ravel(), np.repeat(cap, 8))
+        if np.array_equal(lowered, node_level):
+            return node_level
+        node_level = lowered
+
+
+def order_levels(w: np.ndarray, conn: np.ndarray, num_nodes: int, max_level: int, wall_nodes=None) -> np.ndarray:
+    """tq-solid's estimate of the nodes' levels that its blocks' order follows (setOrderLevels): each
+    element's level the largest l up to max_level with w_max >= w 2^(l+1) (w its 2 c_p / L), each
+    node its elements' lowest, the tunnel's faces (`wall_nodes`) at 0, graded."""
+    level_e = np.zeros(len(conn), dtype=np.int64)
+    w_max = float(w.max())
+    for lv in range(max_level):
+        level_e += (level_e == lv) & (w_max >= w * float(2 << lv))
+    node_level = np.full(num_nodes, max_level, dtype=np.int64)
+    np.minimum.at(node_level, conn.ravel(), np.repeat(level_e, 8))
+    wall = np.asarray(wall_nodes if wall_nodes is not None else [], dtype=np.int64)
+    return _graded(node_level, conn, wall, np.zeros((0, 2), dtype=np.int64))
 
 
 def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
@@ -201,25 +246,17 @@ def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: lis
     np.minimum.at(node_level, conn.ravel(), np.repeat(level_e, 8))
     finest = np.asarray(finest if finest is not None else [], dtype=np.int64)
     tied = np.asarray(tied if tied is not None else np.zeros((0, 2)), dtype=np.int64)
-    while True:  # the constraints and the grading (at most one level above the element's finest node)
-        lowered = node_level.copy()
-        lowered[finest] = 0
-        if len(tied):
-            common = lowered[tied].min(axis=1)
-            np.minimum.at(lowered, tied.ravel(), np.repeat(common, tied.shape[1]))
-        cap = lowered[conn].min(axis=1) + 1
-        np.minimum.at(lowered, conn.ravel(), np.repeat(cap, 8))
-        if np.array_equal(lowered, node_level):
-            break
-        node_level = lowered
+    node_level = _graded(node_level, conn, finest, tied)  # the constraints and the grading
+    estimate = order_levels(w, conn, num_nodes, max_level, wall_nodes) if max_level > 0 else None
     used = np.zeros(num_nodes, dtype=bool)
     used[conn.ravel()] = True
     top = max_level
     nodes = np.bincount(node_level[used], minlength=top + 1)
     elements = np.zeros(top + 1, dtype=np.int64)
+    own = np.bincount(node_level[conn].min(axis=1), minlength=top + 1)
     evals = 0.0
     for r in np.unique(region):
-        order = block_order(coords, conn, np.flatnonzero(region == r), wall_nodes)
+        order = block_order(coords, conn, np.flatnonzero(region == r), wall_nodes, estimate)
         finest = node_level[conn[order]].min(axis=1)
         pad = -len(finest) % CHUNK
         chunk = np.concatenate([finest, np.full(pad, top)]).reshape(-1, CHUNK).min(axis=1)
@@ -228,7 +265,8 @@ def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: lis
         evals += float((1.0 / 2.0 ** per_element).sum())
     last = max((lv for lv in range(top + 1) if nodes[lv] > 0), default=0)
     return Levels(elements=tuple(int(x) for x in elements[:last + 1]), nodes=tuple(int(x) for x in nodes[:last + 1]),
-                  cost_fraction=evals / len(conn) if len(conn) else 1.0, dt=float(dt))
+                  cost_fraction=evals / len(conn) if len(conn) else 1.0, dt=float(dt),
+                  own=tuple(int(x) for x in own[:last + 1]))
 
 
 def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,

@@ -50,7 +50,7 @@ def test_3d_case_is_offered_the_slice(write_case):
 
 def test_3d_case_is_offered_subcycling(write_case):
     """A 3D case with a condition stepping everything at the lining's step is offered subcycling for
-    it (paper mesh: 0.32 of the element evaluations; docs/solid_solver.md "Subcycling"); one whose
+    it (paper mesh: 0.29 of the element evaluations; docs/solid_solver.md "Subcycling"); one whose
     conditions all have it, and the slice, are not."""
     one = ("  subcycling: {static_water: 3, dynamic_water: 3}\n", "  subcycling: 0\n")
     a = assess_slice(_case(write_case, m=("  mode: slice ", "  mode: 3d "), s=one))

@@ -6,7 +6,8 @@ cost_fraction), and what a subcycled condition then costs in the run-time estima
 References: tq-solid's own counts, exactly (the same rule on the same mesh: integers, and the
 cost fraction a sum of powers of 2 over the elements, to round-off), on meshes unlike each other: a
 bonded slice (the interface's tied pairs share a level); a 3D tunnel with the dynamic contact (its
-pairs at the finest level; its rock block renumbered before it is cut into chunks); the
+pairs at the finest level; its rock block renumbered before it is cut into chunks), and the same
+tunnel with its ends plugged (where the blocks' order by estimated level decides the chunks); the
 element-evaluation probe's box (one region, layers of two sizes). The estimate's subcycled CPU
 against the one-rate CPU of the same case: the closed form 1 - (1 - f) s."""
 from __future__ import annotations
@@ -25,10 +26,10 @@ from tunnelquake.subcycle_levels import PROBE_ROCK, mesh_levels, write_probe_box
 
 def _section(name: str, mode: str, y_range, interface: str, **mesh) -> str:
     """An 8 m tunnel with a 0.35 m lining in an 80 m square of soft elastic rock."""
+    keys = dict(max_element_size="6 m", lining_elements_around=24, lining_elements_through=2,
+                near_field_half_width=10.0, near_field_radial_divisions=4) | mesh
     return tunnel(name, [-40.0, 40.0], y_range, [-40.0, 40.0], centre_x=0.0, centre_z=0.0, radius="4.0 m",
-                  lining="0.35 m", mode=mode, max_element_size="6 m", lining_elements_around=24,
-                  lining_elements_through=2, near_field_half_width=10.0, near_field_radial_divisions=4,
-                  **mesh) + f"""\
+                  lining="0.35 m", mode=mode, **keys) + f"""\
 materials:
   rock: {{model: elastic, youngs_modulus: 6 GPa, poisson_ratio: 0.3, density: 2400 kg/m^3}}
   lining: {{model: elastic, youngs_modulus: 30 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}}
@@ -53,6 +54,13 @@ def _3d_text() -> str:
     return _section("levels_3d", "3d", [0.0, 14.0], "dynamic_contact", elements_along_axis=7)
 
 
+def _plugged_text() -> str:
+    """The 3D tunnel 14 m long in 9 axial elements, its ends plugged with rock 2 elements deep: the
+    plugs' elements touch the tunnel's faces, so the breadth-first fronts from them mix levels."""
+    return _section("levels_plugged", "3d", [0.0, 14.0], "dynamic_contact", elements_along_axis=9,
+                    tunnel_end_plugs=2)
+
+
 def _case(tmp_path, text: str, levels: int, name: str = "case.yaml"):
     p = tmp_path / name
     p.write_text(text + f"time: {{end_time: 0.004 s, subcycling: {levels}}}\nconditions: [no_water]\n")
@@ -74,7 +82,8 @@ def _assert_same(computed, reported: dict) -> None:
 
 
 @pytest.mark.skipif(solid_with() is None, reason="tq-solid not built (set TQ_BUILD_DIR)")
-@pytest.mark.parametrize("text, levels", [(_slice, 3), (_3d_text, 2)], ids=["bonded_slice", "contact_3d"])
+@pytest.mark.parametrize("text, levels", [(_slice, 3), (_3d_text, 2), (_plugged_text, 3)],
+                         ids=["bonded_slice", "contact_3d", "plugged_3d"])
 def test_the_levels_are_tq_solids_own(tmp_path, text, levels):
     """The counts by level and the cost fraction scene.subcycled_levels computes for the case (from a
     mesh it makes itself) equal those tq-solid reports when it runs the case's mesh: the grading,
@@ -86,6 +95,28 @@ def test_the_levels_are_tq_solids_own(tmp_path, text, levels):
     reported = _reported(tmp_path / "out.h5")
     assert int(reported["levels"]) == levels and 0 < reported["cost_fraction"] < 1  # a mesh of several levels
     _assert_same(subcycled_levels(case)["no_water"], reported)
+
+
+def test_a_chunk_steps_at_its_own_elements_level(tmp_path, monkeypatch):
+    """The blocks' elements in order of their estimated level (tq-solid's setOrderLevels; its counts
+    equal these on the same mesh, test_the_levels_are_tq_solids_own's plugged_3d): a chunk of 64 is
+    evaluated at its finest element's level, so an element evaluated finer than its own nodes' finest
+    level sits only in the chunk that straddles a level's end, fewer than 64 a level and block. The
+    breadth-first order alone (the estimate taken out) leaves hundreds so on this mesh and costs more."""
+    from tunnelquake import subcycle_levels as SL
+
+    case = _case(tmp_path, _plugged_text(), 3)
+
+    def excess(lv) -> int:  # the most elements evaluated at level L or finer that own a coarser one
+        return max(sum(lv.elements[:k + 1]) - sum(lv.own[:k + 1]) for k in range(len(lv.elements)))
+
+    by_level = subcycled_levels(case)["no_water"]
+    monkeypatch.setattr(SL, "order_levels", lambda *a, **k: None)
+    fronts = subcycled_levels(case)["no_water"]
+    assert by_level.own == fronts.own and sum(by_level.elements) == sum(fronts.elements)
+    assert 0 <= excess(by_level) < 2 * SL.CHUNK  # two blocks: the rock and the lining
+    assert excess(fronts) > 2 * SL.CHUNK
+    assert by_level.cost_fraction < 0.9 * fronts.cost_fraction
 
 
 @pytest.mark.skipif(solid_with() is None, reason="tq-solid not built (set TQ_BUILD_DIR)")

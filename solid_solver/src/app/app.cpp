@@ -155,7 +155,7 @@ struct Model {
 /// supports, loads, the time step) and the stages. Throws InputError.
 void startModel(const std::string& input, Model& m) {
   m.in = readSolidInput(input);
-  m.mesh = readMeshH5(m.in.meshPath, {m.in.requiredFaces});
+  m.mesh = readInputMesh(m.in);
   m.solver = buildSolver(m.in, m.mesh);
   m.solver->checkSubcycling(m.in.options.subcyclingLevels);  // refused now, not after the static stages
   if (m.in.staged.present) m.stages = std::make_unique<StagedAnalysis>(m.in, m.mesh, *m.solver);

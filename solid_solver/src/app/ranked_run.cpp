@@ -738,7 +738,7 @@ int runOnRank(const RunOptions& cl, int rank, int size, std::ostream& out, std::
       SolidInput in = readSolidInput(cl.input);
       if (const std::string why = unsupportedOnRanks(in, size); !why.empty()) throw InputError(why);
       if (const std::string why = coupledRunOnRanksRefusal(in); !why.empty()) throw InputError(why);
-      const Mesh global = readMeshH5(in.meshPath, {in.requiredFaces});
+      const Mesh global = readInputMesh(in);
       const std::vector<Real> cost = elementCosts(global, in);
       const std::vector<int> part = partitionRcb(global, cost, size);
       std::unique_ptr<RankExchange> exchange;

@@ -172,6 +172,22 @@ std::vector<Index> breadthFirst(const Mesh& mesh, const std::vector<Index>& elem
   return order;
 }
 
+// The elements in order of their estimated level (the smallest of their nodes' mesh.orderLevel),
+// each level's in the order given: the fronts of the breadth-first order follow the levels only
+// roughly (on the 3D paper model a chunk held a face element among 63 of coarser levels, and the
+// whole chunk stepped at the finest level), so the level decides first. Unchanged without
+// mesh.orderLevel.
+std::vector<Index> byOrderLevel(const Mesh& mesh, std::vector<Index> elems) {
+  if (mesh.orderLevel.empty()) return elems;
+  auto level = [&](Index e) {
+    std::uint8_t lo = 255;
+    for (int k = 0; k < 8; ++k) lo = std::min(lo, mesh.orderLevel[size_t(mesh.connectivity[8 * size_t(e) + k])]);
+    return lo;
+  };
+  std::stable_sort(elems.begin(), elems.end(), [&](Index a, Index b) { return level(a) < level(b); });
+  return elems;
+}
+
 // The block's element order. A mesh numbered so that elements sharing a node lie far apart
 // (gmsh numbers the paper mesh's rock so: span 47,081 of 58,080) leaves the scatter two slabs, so
 // one thread: a block is renumbered breadth first when that at least halves the span, from its
@@ -187,7 +203,7 @@ std::vector<Index> breadthFirst(const Mesh& mesh, const std::vector<Index>& elem
 std::vector<Index> scatterOrder(const Mesh& mesh, std::vector<Index> elems) {
   if (elems.size() < 2) return elems;
   const Index span = scatterSpan(mesh, elems);
-  if (span < Index(elems.size()) / 16) return elems;
+  if (span < Index(elems.size()) / 16) return byOrderLevel(mesh, std::move(elems));
   std::vector<Real> edge(elems.size());
   for (size_t i = 0; i < elems.size(); ++i) {
     Real longest = 0;
@@ -222,7 +238,7 @@ std::vector<Index> scatterOrder(const Mesh& mesh, std::vector<Index> elems) {
   const std::vector<Index> order = breadthFirst(mesh, elems, sources);
   std::vector<Index> renumbered(elems.size());
   for (size_t i = 0; i < elems.size(); ++i) renumbered[i] = elems[size_t(order[i])];
-  return scatterSpan(mesh, renumbered) * 2 <= span ? renumbered : elems;
+  return byOrderLevel(mesh, scatterSpan(mesh, renumbered) * 2 <= span ? std::move(renumbered) : std::move(elems));
 }
 
 }  // namespace
@@ -1264,6 +1280,52 @@ void ElementBlock::checkpoint(StateArchive& a) {
   for (auto& h : history_) a.io(h);  // same size back: historyPtr_ stays valid
   a.io(energyShift_);
   a.io(chunkEnergy_);
+}
+
+void setOrderLevels(Mesh& mesh, const std::vector<Real>& regionWaveSpeed, int maxLevel) {
+  const Index N = mesh.numNodes(), E = mesh.numElems();
+  auto speed = [&](Index e) {
+    const size_t r = size_t(mesh.region[size_t(e)]);
+    return r < regionWaveSpeed.size() ? regionWaveSpeed[r] : 0.0;
+  };
+  std::vector<Real> omega(size_t(E), 0.0);
+  Real omegaMax = 0;
+  for (Index e = 0; e < E; ++e) {
+    if (!(speed(e) > 0)) continue;
+    Real x[3][8];
+    for (int k = 0; k < 8; ++k)
+      for (int i = 0; i < 3; ++i) x[i][k] = mesh.coords[dofIndex(mesh.connectivity[8 * size_t(e) + k], i)];
+    omega[size_t(e)] = 2 * speed(e) / hex8::computeGeometry(x).charLength;
+    omegaMax = std::max(omegaMax, omega[size_t(e)]);
+  }
+  std::vector<std::uint8_t>& level = mesh.orderLevel;
+  level.assign(size_t(N), std::uint8_t(std::max(maxLevel, 0)));
+  for (Index e = 0; e < E; ++e) {
+    if (!(omega[size_t(e)] > 0)) continue;
+    int l = 0;
+    while (l < maxLevel && omegaMax >= omega[size_t(e)] * Real(2u << l)) ++l;
+    for (int k = 0; k < 8; ++k) {
+      std::uint8_t& nl = level[size_t(mesh.connectivity[8 * size_t(e) + k])];
+      nl = std::min(nl, std::uint8_t(l));
+    }
+  }
+  for (const char* g : {face_group::kLiningInner, face_group::kLiningOuter, face_group::kRockHole})
+    if (const auto it = mesh.faces.find(g); it != mesh.faces.end())
+      for (Index n : it->second) level[size_t(n)] = 0;
+  for (bool lowered = true; lowered;) {  // graded: no node above its element's finest plus one
+    lowered = false;
+    for (Index e = 0; e < E; ++e) {
+      if (!(omega[size_t(e)] > 0)) continue;
+      const Index* c = &mesh.connectivity[8 * size_t(e)];
+      std::uint8_t lo = 255;
+      for (int k = 0; k < 8; ++k) lo = std::min(lo, level[size_t(c[k])]);
+      for (int k = 0; k < 8; ++k)
+        if (level[size_t(c[k])] > lo + 1) {
+          level[size_t(c[k])] = std::uint8_t(lo + 1);
+          lowered = true;
+        }
+    }
+  }
 }
 
 }  // namespace tq

@@ -10,6 +10,7 @@
 #include "h5util.hpp"
 #include "input_schema.hpp"
 #include "input_staged.hpp"
+#include "tq/io/mesh.hpp"
 #include "tq/materials/registry.hpp"
 
 namespace tq {
@@ -264,6 +265,20 @@ std::map<Index, Real> loadShares(const SolidInput& in, const Mesh& mesh, const L
                      "' is neither a face group nor a node set of mesh " + mesh.source);
   }
   return share;
+}
+
+Mesh readInputMesh(const SolidInput& in) {
+  Mesh mesh = readMeshH5(in.meshPath, {in.requiredFaces});
+  if (in.options.subcyclingLevels <= 0) return mesh;
+  std::vector<Real> speed(mesh.regionNames.size(), 0.0);
+  for (const auto& [region, v] : in.materials) {
+    const Index r = mesh.regionIndex(region);
+    if (r < 0) continue;  // buildSolver refuses it, naming the regions
+    const std::shared_ptr<const Material> m = makeMaterial(v);
+    speed[size_t(r)] = std::sqrt(m->elasticModuli().pModulus() / m->density());
+  }
+  setOrderLevels(mesh, speed, in.options.subcyclingLevels);
+  return mesh;
 }
 
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh) {

@@ -157,7 +157,7 @@ class ElementBlock {
   /// The solid on MPI ranks (tq/parallel/): the order in which a block of `meshElems` (one
   /// region's elements, ascending) adds its elements' values to their nodes, as mesh element
   /// indices: `lumped`, its element order (lumpMassInto); `scattered`, the force kernel's (its
-  /// even slabs, then its odd ones). A function of the mesh and the list alone.
+  /// even slabs, then its odd ones). A function of the mesh (its orderLevel too) and the list alone.
   static void nodeSumOrder(const Mesh& mesh, std::vector<Index> meshElems, std::vector<Index>& lumped,
                            std::vector<Index>& scattered);
   /// Subcycling on MPI ranks: the order in which the force kernel of a block whose element order is
@@ -253,5 +253,14 @@ class ElementBlock {
   Real* cornerOut_ = nullptr;           // on ranks: the corner forces' destination (setCornerForceOutput)
   const Index* cornerSlot_ = nullptr;   // on ranks: [element] its slot there, or -1
 };
+
+/// Fills mesh.orderLevel, the estimate of each node's subcycling level that the element blocks'
+/// order follows (ElementBlock's constructor, nodeSumOrder): every element allows
+/// ⌊log₂(ω_max / ω_e)⌋ up to maxLevel (ω_e = 2 c_p / L_e, c_p = regionWaveSpeed[its region]; a region
+/// at 0 has no material and is left out), a node takes its elements' smallest, the nodes of the
+/// tunnel's faces 0 (the water's and the interface's nodes step at the finest level), and the nodes of
+/// an element are graded to differ by at most one level, as Solver::enableSubcycling does. Only the
+/// order depends on it: a wrong estimate costs element evaluations, never accuracy.
+void setOrderLevels(Mesh& mesh, const std::vector<Real>& regionWaveSpeed, int maxLevel);
 
 }  // namespace tq

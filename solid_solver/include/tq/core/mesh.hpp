@@ -2,6 +2,7 @@
 /// @brief The solid mesh in memory (read from mesh.h5 by tq/io/mesh.hpp, or built here), and its checks.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -22,7 +23,11 @@ struct Mesh {
   std::map<std::string, std::vector<Index>> nodeSets;  ///< name -> node indices
   std::vector<Index> rockLiningPairs;                  ///< [2P] (rock node, lining node) coincident pairs
   bool slice = false;                                  ///< one-element-thick plane-strain slice along y
-  std::string source = "<memory>";                     ///< where the mesh came from, for messages
+  /// [N], or empty: an estimate of each node's subcycling level (setOrderLevels in
+  /// tq/core/element_block.hpp), which the element blocks' order follows so that a chunk's elements
+  /// step at one level; empty: the order depends on the mesh alone.
+  std::vector<std::uint8_t> orderLevel;
+  std::string source = "<memory>";  ///< where the mesh came from, for messages
 
   Index numNodes() const { return static_cast<Index>(coords.size() / 3); }
   Index numElems() const { return static_cast<Index>(connectivity.size() / 8); }

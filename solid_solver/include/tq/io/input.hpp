@@ -67,5 +67,9 @@ std::string inputJson(const SolidInput& in);
 std::map<Index, Real> loadShares(const SolidInput& in, const Mesh& mesh, const LoadInput& load);
 /// Build the solver (blocks per region, supports, loads) for an input and its mesh.
 std::unique_ptr<Solver> buildSolver(const SolidInput& in, const Mesh& mesh);
+/// The input's mesh (readMeshH5 with the faces it requires); when the input subcycles, with the
+/// estimate of its nodes' levels that the element blocks' order follows (setOrderLevels from its
+/// regions' p-wave speeds: the chunks' elements then share a level).
+Mesh readInputMesh(const SolidInput& in);
 
 }  // namespace tq
