@@ -174,9 +174,8 @@ std::vector<Index> breadthFirst(const Mesh& mesh, const std::vector<Index>& elem
 
 // The elements in order of their estimated level (the smallest of their nodes' mesh.orderLevel),
 // each level's in the order given: the fronts of the breadth-first order follow the levels only
-// roughly (on the 3D paper model a chunk held a face element among 63 of coarser levels, and the
-// whole chunk stepped at the finest level), so the level decides first. Unchanged without
-// mesh.orderLevel.
+// roughly (on the 3D paper model 2,368 rock elements of coarser levels sat in chunks that step at the
+// finest level with a face element), so the level decides first. Unchanged without mesh.orderLevel.
 std::vector<Index> byOrderLevel(const Mesh& mesh, std::vector<Index> elems) {
   if (mesh.orderLevel.empty()) return elems;
   auto level = [&](Index e) {
