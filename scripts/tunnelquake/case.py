@@ -638,6 +638,12 @@ def coupling_window_force_weight(c: dict) -> float:
     return float(w)
 
 
+def coupling_defect_correction(c: dict) -> float:
+    """The share of the unpaid defect a coupling section adds to each next window (docs/coupler.md
+    "Defect correction"); 0: off (the default)."""
+    return float(c.get("defect_correction") or 0.0)
+
+
 #: the implicit scheme's default window and IQN-ILS reuse (steps, windows): the example slice's
 #: measured setting (3.7x cheaper than one step a window: docs/benchmarks.md "The paper case's shortcuts")
 IMPLICIT_WINDOW = 16
@@ -672,6 +678,12 @@ def _check_coupling(c, path, raw, ctx):
                   f"weights the force across the steps of an implicit window of several steps; {why}, so it "
                   f"would have no effect", "use scheme: implicit with window > 1, or leave window_force_weight out",
                   raw.key_lines.get("window_force_weight"))
+    if c.get("defect_correction", 0) > 0 and (c["scheme"] != "implicit" or c["window"] == 1):
+        ctx.error(f"{path}.defect_correction", c["defect_correction"],
+                  "carries an implicit window's accepted defect into the next window of several steps; "
+                  f"with scheme {c['scheme']} and window {c['window']} there is none to carry",
+                  "use scheme: implicit with window > 1, or defect_correction: 0",
+                  raw.key_lines.get("defect_correction"))
     if (why := coupling_window_problem(c["scheme"], c["window"])) is not None:
         ctx.error(f"{path}.window", c["window"], why, "use scheme: implicit with this window, or window: 1",
                   raw.key_lines.get("window"))
@@ -899,6 +911,13 @@ def schema() -> Section:
                                               "implicit windows of several steps (damps the period-two mode of "
                                               "the water's added mass; docs/coupler.md \"Window force weight\"), "
                                               "0.5 otherwise"),
+            "defect_correction": Number(min=0.0, max=1.0, default=0.0,
+                                        doc="implicit windows of several steps: the share of the defect not yet "
+                                            "repaid (the accepted windows' water answers less the window-end "
+                                            "forces the solid stepped with) added to the force of the next "
+                                            "window's steps, so that the lining receives the water's impulse "
+                                            "and an accepted residual makes little energy at the interface; it "
+                                            "costs water passes (docs/coupler.md \"Defect correction\"); 0: off"),
             "volume_law": Choice(choices=("solid", "water"), default="solid",
                                  doc="who carries the volumetric part of the water pressure. solid: tq-solid, "
                                      "implicitly each step (p = -K dV/V, or the volume held for incompressible "

@@ -343,6 +343,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "window_force_weight", "float", "implicit windows of k > 1 steps: weight of the window-end "
        "force (0.5 linear ramp, 1 end force held; docs/coupler.md \"Window force weight\")",
        case="coupling.window_force_weight", default=0.5, omit_default=True),
+    _e("/coupling", "defect_correction", "float", "implicit windows of k > 1 steps: the share of the defect not "
+       "yet repaid (the accepted windows' water answers less the forces stepped with) added to the next window's "
+       "force; 0 = off (docs/coupler.md \"Defect correction\")", case="coupling.defect_correction", default=0.0,
+       lo=0.0, hi=1.0, omit_default=True),
     _e("/coupling", "energy_limit", "float", "stop (exit 3) when the coupling's energy exceeds energy_limit × "
        "max(largest \\|interface work\\|, energy_floor) (docs/coupler.md \"Energy guard\"); 0 = no stop",
        default=0.0, lo=0.0, omit_default=True),

@@ -212,6 +212,32 @@ def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, 
         case.data["coupling"] = c
 
 
+def test_defect_correction_reaches_the_solid(prepared, tmp_path):
+    """coupling.defect_correction (docs/coupler.md "Defect correction"; default 0, off) becomes /coupling
+    defect_correction when on, and is left out when off; tq-solid refuses it with one-step windows
+    (exit 2, the attribute named: there is no window to carry a defect into), as the case file's check
+    does (test_case_file.py)."""
+    case = _case(tmp_path)
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5",
+                            coupling=_coupling(case, tmp_path))
+    with h5py.File(inp) as f:
+        assert f["coupling"].attrs["window"] == 16
+        assert "defect_correction" not in f["coupling"].attrs
+    case.data["coupling"]["defect_correction"] = 0.25
+    inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "b.h5",
+                            coupling=_coupling(case, tmp_path))
+    with h5py.File(inp) as f:
+        assert f["coupling"].attrs["defect_correction"] == 0.25
+    exe = _solid_with_stages()
+    if exe is not None:
+        case.data["coupling"]["window"] = 1
+        inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water",
+                                tmp_path / "d.h5", coupling=_coupling(case, tmp_path))
+        run = subprocess.run([str(exe), str(inp), "--check"], capture_output=True, text=True, timeout=60)
+        assert run.returncode == 2, run.stdout + run.stderr
+        assert "defect_correction" in run.stderr and "none to carry" in run.stderr, run.stderr
+
+
 def test_release_fraction_reaches_the_solid(prepared, tmp_path):
     """stages.release_fraction (default 1: the lining installed after full release) becomes /stages
     release_fraction; tq-solid (when built) reads it back without complaint (docs/theory.md §2)."""

@@ -51,6 +51,9 @@ struct FluidCoupling::Impl {
   bool planar = false;                  // a slice: the water is sent the wall's in-plane motion only (write())
   std::vector<Real> total;              // [3n] force(): the exchanged force + the carried pressure
   std::vector<Real> dispStart;          // [3n] u − u0 at the start of the current window (k > 1)
+  // Defect correction (in.defectCorrection = α > 0): the force added to every step of this window, and
+  // the accepted windows' defect not repaid yet.
+  std::vector<Real> carry, unpaid;  // [3n]
   std::unique_ptr<cp::Participant> p;
   cp::SchemeKind scheme = cp::SchemeKind::Implicit;
   cp::PredictorKind predictor = cp::PredictorKind::Constant;
@@ -318,12 +321,28 @@ struct FluidCoupling::Impl {
   }
 
   /// The window accepted, its last step taken: the water's work booked (windows stepped again whole
-  /// pair it as the solver pairs its own steps), the counters, pass 0 of the next window.
+  /// pair it as the solver pairs its own steps), the defect carried, the counters, pass 0 of the next
+  /// window.
+  ///
+  /// Defect correction (α = in.defectCorrection > 0; docs/coupler.md "Defect correction"): the window
+  /// was accepted with its end force F̃ a residual e = F̃ − R from the water's last answer R. Over the
+  /// window the solid received [(1 − β̄) F_w + β̄ F̃]·Δu, the water booked [(1 − β̄) R_w + β̄ R]·Δu (F_w,
+  /// R_w the window before's): (1 − β̄) e_w + β̄ e of energy the exchange made. The defect −e joins
+  /// the unpaid sum D, and the next window's steps each add c = α D (D −= c): with α = 1 the difference
+  /// of window w+1 is β̄ (e_{w+1} − e_w)·Δu, summing to −β̄ Σ e_w·(Δu_{w+1} − Δu_w) (the residual meets
+  /// the change of the motion between windows, not the motion); with α < 1 the defect is repaid over
+  /// about 1/α windows, and a residual that alternates window to window is not doubled.
   void acceptWindow() {
     if (repeats)
       bookReceivedWorkWindow();
     else
       bookReceivedWork();
+    if (in.defectCorrection > 0)
+      for (size_t j = 0; j < carry.size(); ++j) {
+        unpaid[j] += received[j] - trial[j];
+        carry[j] = in.defectCorrection * unpaid[j];
+        unpaid[j] -= carry[j];
+      }
     ++stats.windows;
     stats.passes += pass;
     stats.maxPasses = std::max(stats.maxPasses, pass);
@@ -397,7 +416,7 @@ void FluidCoupling::setUp(std::vector<std::int64_t> ids, std::vector<std::int32_
   const Mesh& mesh = solver.mesh();
   const size_t n3 = 3 * I.nodes.size();
   for (std::vector<Real>* v : {&I.force, &I.prev, &I.received, &I.trial, &I.receivedPrev, &I.dispStart, &I.forceStart,
-                               &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev, &I.total, &I.uLast})
+                               &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev, &I.total, &I.uLast, &I.carry, &I.unpaid})
     v->assign(n3, 0.0);
   I.motion.resize(n3);
   I.planar = mesh.slice;
@@ -497,7 +516,7 @@ void FluidCoupling::restartState(StateArchive& a) {
   if (a.saving()) I.resumeBytes = I.p->saveState();
   a.io(I.resumeBytes);
   for (std::vector<Real>* v : {&I.u0, &I.received, &I.trial, &I.receivedPrev, &I.disp, &I.vel, &I.dispStart,
-                               &I.forceStart, &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev})
+                               &I.forceStart, &I.sent1, &I.sent2, &I.recvPrev, &I.lagPrev, &I.carry, &I.unpaid})
     a.io(*v);
   a.io(I.pass);
   a.io(I.fluidReceived);
@@ -576,11 +595,12 @@ void FluidCoupling::addForces(Real /*t*/, Real dt, NodalState& st) {
       I.part, I.nodes.size(), [&](size_t k) { return st.mass(I.nodes[k]) > 0; },
       [&](size_t k, int d, size_t j) {
         const size_t i = dofIndex(I.nodes[k], d);
-        fe[i] += I.force[j];
-        return 0.5 * (I.force[j] + I.prev[j]) * I.dtPrev * v[i];
+        const Real f = I.force[j] + I.carry[j];
+        fe[i] += f;
+        return 0.5 * (f + I.prev[j]) * I.dtPrev * v[i];
       },
       I.work);
-  I.prev = I.force;
+  for (size_t j = 0; j < I.prev.size(); ++j) I.prev[j] = I.force[j] + I.carry[j];
   I.dtPrev = dt;
 }
 
@@ -628,6 +648,7 @@ const std::vector<Index>& FluidCoupling::nodes() const { return impl_->nodes; }
 const std::vector<Real>& FluidCoupling::force() const {
   Impl& I = *impl_;
   I.total = I.force;
+  for (size_t j = 0; j < I.total.size(); ++j) I.total[j] += I.carry[j];
   if (I.water)
     for (size_t j = 0; j < I.total.size(); ++j) I.total[j] += I.water->force()[j];
   return I.total;

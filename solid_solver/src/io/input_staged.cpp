@@ -297,6 +297,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
     C.energyLimit = c.number(g, w, K::coupling::energy_limit);
     C.energyFloor = c.number(g, w, K::coupling::energy_floor);
     C.windowForceWeight = c.number(g, w, K::coupling::window_force_weight);
+    C.defectCorrection = c.number(g, w, K::coupling::defect_correction);
     C.acceleration = c.text(g, w, K::coupling::acceleration);
     C.initialRelaxation = c.number(g, w, K::coupling::initial_relaxation);
     C.predictor = c.text(g, w, K::coupling::predictor);
@@ -335,6 +336,12 @@ void readStagedInput(hid_t f, SolidInput& in) {
                     C.scheme + " and " + std::to_string(C.windowSteps) +
                     "-step windows it would have no effect; leave it out (0.5) or use scheme implicit with "
                     "window > 1");
+    if (C.defectCorrection > 0 && (C.scheme != "implicit" || C.windowSteps == 1))
+      c.fail(w, "defect_correction " + std::to_string(C.defectCorrection) +
+                    " carries an implicit window's accepted defect into the next window of several "
+                    "steps; with scheme " +
+                    C.scheme + " and " + std::to_string(C.windowSteps) +
+                    "-step windows there is none to carry; leave it out (0) or use scheme implicit with window > 1");
     C.volumeLaw = c.text(g, w, K::coupling::volume_law);
     C.bulkModulus = c.number(g, w, K::coupling::bulk_modulus);
     if (C.volumeLaw == "compressible" && !(C.bulkModulus > 0))

@@ -25,7 +25,7 @@ namespace {
 
 // The last character is the state layout: raise it whenever a part changes what it saves, so that a
 // checkpoint of another layout is refused by name instead of read into the wrong items.
-const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '5'};
+const char kMagic[8] = {'T', 'Q', 'R', 'S', 'T', 'A', 'T', '6'};
 const char* const kManifest = "checkpoint.json";
 
 /// "" when the state file `path`, open as `is`, begins with this build's magic (`is` is left after it);

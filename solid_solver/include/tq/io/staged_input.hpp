@@ -170,6 +170,11 @@ struct CouplingInput {
   /// apply (step j: F_w + w_j (F̃ − F_w), w_j = 1 − (1 − j/k)·2(1 − β)); 0.5 = the linear ramp,
   /// 1 = the end force held over the window (docs/coupler.md "Window force weight").
   Real windowForceWeight = 0.5;
+  /// Implicit windows of k > 1 steps: the share α (0 … 1) of the defect not yet repaid (the sum of the
+  /// accepted windows' residuals, the water's last answer less the window-end force the solid stepped
+  /// with) that is added to the force of every step of the next window; 0 = off (docs/coupler.md
+  /// "Defect correction").
+  Real defectCorrection = 0;
   std::string acceleration = "iqn-ils";  ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
   Index reuse = 0;                     ///< IQN-ILS: windows whose secant columns are kept
