@@ -214,10 +214,15 @@ def test_tq_solid_refuses_a_window_force_weight_that_would_do_nothing(prepared, 
 
 def test_defect_correction_reaches_the_solid(prepared, tmp_path):
     """coupling.defect_correction (docs/coupler.md "Defect correction"; default 0, off) becomes /coupling
-    defect_correction when on, and is left out when off; tq-solid refuses it with one-step windows
-    (exit 2, the attribute named: there is no window to carry a defect into), as the case file's check
-    does (test_case_file.py)."""
+    defect_correction when on, and is left out when off; off, it is not in the results' fingerprint
+    either (a case that does not use it keeps the fingerprint it had before the key existed), on, it
+    counts in the coupling group. tq-solid refuses it with one-step windows (exit 2, the attribute
+    named: there is no window to carry a defect into), as the case file's check does
+    (test_case_file.py)."""
+    from tunnelquake.fingerprint import condition_inputs
+
     case = _case(tmp_path)
+    assert "coupling.defect_correction" not in condition_inputs(case, "dynamic_water")["keys"]
     inp = write_solid_input(case, prepared / "mesh.h5", prepared / "motion.h5", "dynamic_water", tmp_path / "a.h5",
                             coupling=_coupling(case, tmp_path))
     with h5py.File(inp) as f:
@@ -228,6 +233,7 @@ def test_defect_correction_reaches_the_solid(prepared, tmp_path):
                             coupling=_coupling(case, tmp_path))
     with h5py.File(inp) as f:
         assert f["coupling"].attrs["defect_correction"] == 0.25
+    assert condition_inputs(case, "dynamic_water")["keys"]["coupling.defect_correction"][0] == "coupling"
     exe = _solid_with_stages()
     if exe is not None:
         case.data["coupling"]["window"] = 1
