@@ -113,3 +113,21 @@ def ran_case(folder: Path, text: str, *options: str) -> Path:
     (folder / "case.yaml").write_text(text)
     assert main(["run", str(folder / "case.yaml"), *options]) == 0
     return folder
+
+
+#: The files whose tests measure this machine's speed (the rates' probes, the threads' speed-up) or
+#: bound a wall-clock time (a stop within its grace, a timeout kept): ./Alltest runs them after the
+#: rest, one at a time, so that no other test shares the cores with them (the rest runs on two
+#: pytest-xdist workers, each file on one of them). Marked `serial` here, in one place.
+SERIAL_FILES = frozenset({
+    "test_thread_speedup.py", "test_size_class.py", "test_rates.py", "test_drawing.py",
+    "test_slurm.py", "test_suite.py", "test_solid_coupling.py", "test_solid_coupling_mpi.py",
+    "test_reliability_input.py", "test_checkpoint_integrity.py", "test_restart.py", "test_water_ranks_resume.py",
+    "test_failure_blame.py",
+})
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.name in SERIAL_FILES:
+            item.add_marker(pytest.mark.serial)
