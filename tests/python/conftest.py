@@ -115,19 +115,32 @@ def ran_case(folder: Path, text: str, *options: str) -> Path:
     return folder
 
 
-#: The files whose tests measure this machine's speed (the rates' probes, the threads' speed-up) or
-#: bound a wall-clock time (a stop within its grace, a timeout kept): ./Alltest runs them after the
-#: rest, one at a time, so that no other test shares the cores with them (the rest runs on two
-#: pytest-xdist workers, each file on one of them). Marked `serial` here, in one place.
-SERIAL_FILES = frozenset({
-    "test_thread_speedup.py", "test_size_class.py", "test_rates.py", "test_drawing.py",
-    "test_slurm.py", "test_suite.py", "test_solid_coupling.py", "test_solid_coupling_mpi.py",
-    "test_reliability_input.py", "test_checkpoint_integrity.py", "test_restart.py", "test_water_ranks_resume.py",
-    "test_failure_blame.py",
-})
+#: The tests that measure this machine's speed (the rates' probes, the threads' speed-up; whole files),
+#: time a child against a grace period (whole file), or bound a wall-clock time (a stop within its
+#: bound, a timeout kept: those tests alone). ./Alltest runs them after the rest, one at a time, so
+#: that no other test shares the cores with them; the rest runs on two pytest-xdist workers, each file
+#: on one of them. Marked `serial` here, in one place.
+SERIAL_FILES = frozenset({"test_thread_speedup.py", "test_size_class.py", "test_rates.py", "test_failure_blame.py"})
+SERIAL_TESTS = {
+    "test_drawing.py": {"test_a_helper_that_hangs_is_stopped_and_its_jobs_drawn_here"},
+    "test_slurm.py": {"test_slurm_array_from_a_path_with_blanks_completes_and_a_requeued_member_resumes"},
+    "test_solid_coupling.py": {"test_killed_fluid_stops_the_solid_with_a_clear_message",
+                               "test_hung_fluid_stops_the_solid_after_the_timeout"},
+    "test_solid_coupling_mpi.py": {"test_fluid_dying_under_mpirun_stops_the_solid_with_a_clear_message",
+                                   "test_hung_fluid_under_mpirun_ends_the_job_after_the_timeout"},
+    "test_suite.py": {"test_ctrl_c_stops_every_member_in_bounded_time_and_resume_runs_only_the_rest"},
+    "test_reliability_input.py": {"test_yaml_alias_bomb_is_refused_at_once"},
+    "test_checkpoint_integrity.py": {"test_damaged_solid_checkpoint_is_detected_and_the_resume_falls_back",
+                                     "test_damaged_water_checkpoint_is_detected_before_the_water_starts",
+                                     "test_damaged_water_checkpoint_given_to_the_water_stops_the_run_at_once_with_its_cause"},
+    "test_restart.py": {"test_run_on_ranks_stopped_by_ctrl_c_after_a_checkpoint_resumes_bitwise_equal"},
+    "test_water_ranks_resume.py": {
+        "test_solid_and_water_on_2_ranks_each_a_rank_lost_stops_whole_and_resumes_bitwise_equal"},
+}
 
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.name in SERIAL_FILES:
+        name = item.path.name
+        if name in SERIAL_FILES or item.originalname in SERIAL_TESTS.get(name, ()):
             item.add_marker(pytest.mark.serial)
