@@ -224,8 +224,19 @@ def order_levels(w: np.ndarray, conn: np.ndarray, num_nodes: int, max_level: int
     return _graded(node_level, conn, wall, np.zeros((0, 2), dtype=np.int64))
 
 
-def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
-           safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> Levels:
+@dataclass(frozen=True)
+class LevelArrays:
+    """What levels() counts, node by node and element by element."""
+
+    node_level: np.ndarray  # (N,) each node's level (steps of 2^L dt)
+    chunk_level: np.ndarray  # (E,) each element's chunk's level: it is evaluated every 2^L fine steps
+    blocks: tuple  # each region's elements in tq-solid's block order (chunks of CHUNK in turn)
+    top: int  # the case's levels
+    dt: float  # the solid's (finest) step, s
+
+
+def level_arrays(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
+                 safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> LevelArrays:
     """The levels tq-solid gives the mesh (coords (N, 3), conn (E, 8), region (E,) indices into
     `speeds`, each region's P-wave speed) at `max_level` levels with the time step's safety factor
     `safety` and step `dt` (0: automatic, safety x 2 / w_max). The contributors' constraints: the
@@ -248,34 +259,43 @@ def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: lis
     tied = np.asarray(tied if tied is not None else np.zeros((0, 2)), dtype=np.int64)
     node_level = _graded(node_level, conn, finest, tied)  # the constraints and the grading
     estimate = order_levels(w, conn, num_nodes, max_level, wall_nodes) if max_level > 0 else None
-    used = np.zeros(num_nodes, dtype=bool)
-    used[conn.ravel()] = True
-    top = max_level
-    nodes = np.bincount(node_level[used], minlength=top + 1)
-    elements = np.zeros(top + 1, dtype=np.int64)
-    own = np.bincount(node_level[conn].min(axis=1), minlength=top + 1)
-    evals = 0.0
+    chunk_level = np.full(len(conn), max_level, dtype=np.int64)
+    blocks = []
     for r in np.unique(region):
         order = block_order(coords, conn, np.flatnonzero(region == r), wall_nodes, estimate)
-        finest = node_level[conn[order]].min(axis=1)
-        pad = -len(finest) % CHUNK
-        chunk = np.concatenate([finest, np.full(pad, top)]).reshape(-1, CHUNK).min(axis=1)
-        per_element = np.repeat(chunk, CHUNK)[:len(finest)]
+        finest_e = node_level[conn[order]].min(axis=1)
+        pad = -len(finest_e) % CHUNK
+        chunk = np.concatenate([finest_e, np.full(pad, max_level)]).reshape(-1, CHUNK).min(axis=1)
+        chunk_level[order] = np.repeat(chunk, CHUNK)[:len(finest_e)]
+        blocks.append(order)
+    return LevelArrays(node_level=node_level, chunk_level=chunk_level, blocks=tuple(blocks), top=max_level,
+                       dt=float(dt))
+
+
+def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
+           safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> Levels:
+    """The counts by level of level_arrays() (the same arguments)."""
+    a = level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, tied, wall_nodes)
+    conn = np.asarray(conn, dtype=np.int64)
+    top = a.top
+    used = np.zeros(len(coords), dtype=bool)
+    used[conn.ravel()] = True
+    nodes = np.bincount(a.node_level[used], minlength=top + 1)
+    elements = np.zeros(top + 1, dtype=np.int64)
+    own = np.bincount(a.node_level[conn].min(axis=1), minlength=top + 1)
+    evals = 0.0
+    for order in a.blocks:
+        per_element = a.chunk_level[order]
         elements += np.bincount(per_element, minlength=top + 1)
         evals += float((1.0 / 2.0 ** per_element).sum())
     last = max((lv for lv in range(top + 1) if nodes[lv] > 0), default=0)
     return Levels(elements=tuple(int(x) for x in elements[:last + 1]), nodes=tuple(int(x) for x in nodes[:last + 1]),
-                  cost_fraction=evals / len(conn) if len(conn) else 1.0, dt=float(dt),
+                  cost_fraction=evals / len(conn) if len(conn) else 1.0, dt=a.dt,
                   own=tuple(int(x) for x in own[:last + 1]))
 
 
-def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
-                interface: str = "dynamic_contact", wet: bool = False) -> Levels:
-    """levels() of a mesh.h5 (meshing.build's solid mesh), each region's P-wave speed from the case's
-    materials (`materials[region]`: youngs_modulus, poisson_ratio, density). The constraints of
-    tq-solid's contributors: the rock-lining pairs (/interfaces/rock_lining) at the finest level
-    with `interface` dynamic_contact, tied with bonded; the lining joints' pairs at the finest; with
-    `wet` (the water coupled, or its volume law carried in the solid) the lining's inner face too."""
+def _mesh_arguments(mesh_h5: Path, materials: dict, interface: str, wet: bool) -> tuple:
+    """level_arrays()'s arguments but the levels, the safety and the step, from a mesh.h5 (mesh_levels)."""
     import h5py
 
     with h5py.File(mesh_h5, "r") as f:
@@ -295,7 +315,25 @@ def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, d
         pairs = None
     finest = np.unique(np.concatenate(finest)) if finest else None
     wall_nodes = np.unique(np.concatenate(wall)) if wall else None
-    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall_nodes)
+    return coords, conn, region, speeds, finest, pairs, wall_nodes
+
+
+def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
+                interface: str = "dynamic_contact", wet: bool = False) -> Levels:
+    """levels() of a mesh.h5 (meshing.build's solid mesh), each region's P-wave speed from the case's
+    materials (`materials[region]`: youngs_modulus, poisson_ratio, density). The constraints of
+    tq-solid's contributors: the rock-lining pairs (/interfaces/rock_lining) at the finest level
+    with `interface` dynamic_contact, tied with bonded; the lining joints' pairs at the finest; with
+    `wet` (the water coupled, or its volume law carried in the solid) the lining's inner face too."""
+    coords, conn, region, speeds, finest, pairs, wall = _mesh_arguments(mesh_h5, materials, interface, wet)
+    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall)
+
+
+def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
+                      interface: str = "dynamic_contact", wet: bool = False) -> LevelArrays:
+    """level_arrays() of a mesh.h5, as mesh_levels() counts them."""
+    coords, conn, region, speeds, finest, pairs, wall = _mesh_arguments(mesh_h5, materials, interface, wet)
+    return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall)
 
 
 # ------------------------------------------------------------------------------------------------
