@@ -122,6 +122,7 @@ def points_3d() -> list[Point]:
         ("window 16, tol 5e-4, subcycling 3", {tol: 5e-4}, ""),
         ("window 16, tol 3e-4, subcycling 3", {tol: 3e-4}, ""),
         ("window 32, tol 1e-4, subcycling 3", {win: 32}, ""),
+        ("window 24, tol 1e-4, subcycling 3", {win: 24}, ""),
         ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid", {law: "solid"}, ""),
         ("explicit, window 16", {"coupling.scheme": "explicit", "coupling.reuse": 0,
