@@ -5,7 +5,9 @@ A window that the water does not accept is stepped again whole from its saved st
 explicit step carries a change one element ring further at most: a node's update reads the forces of
 its own elements and its contributors (the contact's pairs) at that step, and an element reads its own
 nodes. With subcycling a node of level L moves at every fine step but updates its velocity only every
-2^L fine steps, and an element chunk of level L is evaluated every 2^L fine steps. So within the k
+2^L fine steps, and an element chunk of level L is evaluated every 2^L fine steps: at the fine steps
+0, 2^L, 2·2^L, ... counted from the start of subcycling, so a window of a multiple of 2^top steps
+starts with a step at which everything is due. So within the k
 fine steps of a window only a region around the wet wall can differ from the first pass; everything
 else is bitwise what the first pass computed.
 
@@ -47,7 +49,7 @@ def window_region(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndar
     elem_changed = np.zeros(num_elems, dtype=bool)
     top = int(max(node_level.max(initial=0), chunk_level.max(initial=0)))
     evals_whole = 0
-    for s in range(1, steps + 1):
+    for s in range(steps):  # tq-solid's fine steps since subcycling began, from a window's start
         active = max(lv for lv in range(top + 1) if s % (1 << lv) == 0)
         due = chunk_level <= active
         evals_whole += int(due.sum())

@@ -1,8 +1,8 @@
 """benchmarks.repass_region's window: an explicit step carries a change one element ring further.
 
 A straight row of hexahedra, the water on the first end face: after k fine steps of one rate the
-change has reached the nodes of the first k faces (the wall's nodes at the first step, one face
-further at each step after), so the elements between them (k - 1) have read a changed node, and a
+change has reached the nodes of the first k faces (the wall's nodes at the window's first step, one
+face further at each step after), so the elements between them (k - 1) have read a changed node, and a
 re-pass needs k elements (each changed node's update sums all its elements). With the row's far
 part two levels coarser (steps of 4 dt), the change crosses into it only at those nodes' updates.
 """
@@ -30,18 +30,17 @@ def test_a_change_moves_one_ring_a_step_at_one_rate():
 
 
 def test_a_coarse_node_takes_up_a_change_at_its_updates_only():
-    # faces 0-10 at level 0, the rest at level 2 (updates and evaluations at fine steps 4, 8, 12, 16);
-    # within a step the elements are evaluated, then the due nodes updated. Face s - 1 takes up the
-    # change at step s up to face 10 (step 11); element 10 (chunk level 0: it has level-0 nodes)
-    # reads it at step 12, when face 11 (level 2) is due and takes it up; element 11 (level 2) reads
-    # face 11 at its next evaluation, step 16, when face 12 is due too: faces 0-12 change, elements
-    # 0-10 and 11
+    # faces 0-10 at level 0, the rest at level 2 (updated and evaluated at the window's fine steps
+    # 0, 4, 8, 12); within a step the elements are evaluated, then the due nodes updated. The wall
+    # (face 0) takes up the change at step 0, face j at step j up to face 10 (step 10); element 10
+    # (chunk level 0: it has level-0 nodes) reads face 10 at step 11 and again at 12, when face 11
+    # (level 2) is due and takes it up; element 11 (level 2) is next evaluated at step 16, after the
+    # window: faces 0-11 change, elements 0-10, and a re-pass needs element 11 too (face 11's sum)
     conn, num_nodes = _row(40)
     node_level = np.full(num_nodes, 2, np.int64)
     node_level[:44] = 0
     chunk_level = node_level[conn].min(axis=1)
-    r = window_region(conn, node_level, chunk_level, np.arange(len(conn)), np.arange(4),
-                      np.zeros((0, 2), np.int64), 16)
-    assert r["changed"][0] == 11 and r["changed"][2] == 1  # elements 0-10, and 11 at step 16
-    assert r["nodes_changed"] == 4 * 13
-    assert r["needed"][0] == 11 and r["needed"][2] == 2  # and element 12, which sums onto face 12
+    r = window_region(conn, node_level, chunk_level, np.arange(len(conn)), np.arange(4), np.zeros((0, 2), np.int64), 16)
+    assert r["changed"][0] == 11 and r["changed"][2] == 0
+    assert r["nodes_changed"] == 4 * 12
+    assert r["needed"][0] == 11 and r["needed"][2] == 1
