@@ -15,14 +15,17 @@ This counts that region on a case's own mesh, levels and element chunks (subcycl
 rule), for one window of the case's coupling.window steps, by following the steps of a window:
 
 - a node is *changed* from its first update (at a step it is due) whose force may differ: the wet
-  wall's from the first step on, any node with an element or a contact partner changed before;
+  wall's from the first step on, any node with an element changed before, or with a contact
+  partner changed before or loaded differently at that step (the contact predicts a pair's motion
+  from both nodes' whole force);
 - an element is *changed* from its first evaluation that reads a changed node (its stresses and
   history then differ for the rest of the window);
 - a re-pass updates the changed nodes again, so it must evaluate every element with a changed node
   (a node's update sums all its elements), at its chunk's steps, and a whole chunk where any of its
   elements is needed (tq-solid evaluates chunks of 64).
 
-The counts are an upper bound of what changes (a force that could differ is counted as differing). It
+The counts are an upper bound of what changes (a force that could differ is counted as differing);
+tq-solid plans its re-passes by the same rule (Solver::planRepasses). It
 prints, per level and in all, the elements, the changed ones and the needed ones, the element
 evaluations of a re-pass against a whole pass (exact by element, and by tq-solid's chunks), the
 changed nodes, and the node updates of a re-pass against a whole pass.
@@ -57,8 +60,8 @@ def window_region(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndar
         force = np.zeros(num_nodes, dtype=bool)  # whose force at this step may differ
         force[conn[elem_changed & due].ravel()] = True
         force[wet] = True
-        if len(pairs):
-            force[pairs[changed[pairs].any(axis=1)].ravel()] = True
+        if len(pairs):  # a pair's force from both nodes' motion, or their forces of this step
+            force[pairs[(changed | force)[pairs].any(axis=1)].ravel()] = True
         changed |= force & (node_level <= active)
     # the re-pass updates the changed nodes again, which needs every element of theirs at its chunk's steps
     needed = changed[conn].any(axis=1)

@@ -237,6 +237,7 @@ class SolidRun {
   void connectWater();
   void addCouplingSeries();
   void enableSubcycling();
+  void planRepasses();
   void restoreOrStart();
   void stepToEnd();
   void finish();
@@ -433,6 +434,27 @@ void SolidRun::enableSubcycling() {
   reportSubcycling(m_.solver->enableSubcycling(m_.in.options.subcyclingLevels), out_, *writer_);
 }
 
+// A window the water does not accept is stepped again over what its water force can reach only
+// (Solver::planRepasses); TQ_REPASS_WHOLE=1 steps every re-pass whole (the same bits, for comparison).
+void SolidRun::planRepasses() {
+  if (!coupling_ || !coupling_->repeatsWindows()) return;
+  const char* whole = std::getenv("TQ_REPASS_WHOLE");
+  if (whole && *whole && std::string(whole) != "0") {
+    out_ << "tq-solid: re-passes: stepped whole (TQ_REPASS_WHOLE)" << std::endl;
+    return;
+  }
+  const char* dbg = std::getenv("TQ_REPASS_DEBUG_STEPS");
+  const Solver::RepassPlan p =
+      m_.solver->planRepasses(coupling_->nodes(), dbg ? std::atoi(dbg) : coupling_->windowSteps());
+  if (!p.why.empty()) {
+    out_ << "tq-solid: re-passes: stepped whole: " << p.why << std::endl;
+    return;
+  }
+  out_ << "tq-solid: re-passes: " << p.skippedChunks << " of " << p.chunks << " element chunks (" << p.skippedElements
+       << " of " << p.elements << " elements) out of the water's reach within a window, left as the window's first "
+       << "pass left them; " << p.replayNodes << " nodes take their internal force from it" << std::endl;
+}
+
 // Everything a checkpoint holds, in this order (saved and restored alike).
 void SolidRun::runState(StateArchive& a) {
   m_.solver->checkpoint(a);
@@ -485,6 +507,7 @@ void SolidRun::stepToEnd() {
   t0_ = lastReport_ = lastFlush_ = std::chrono::steady_clock::now();
   step0_ = s.stepCount();
   CoupledStepper stepper(s, coupling_.get());
+  planRepasses();
   stepping_ = true;
   // the kinetic energy summed only for the final states the balance is read at
   const auto wantKinetic = [&] { stepper.askKineticEnergy(results.nextSampleTime(), m_.in.tEnd); };

@@ -1152,6 +1152,7 @@ void ElementBlock::runSlab(const NodalState& state, const ElementStepParams& p, 
   const bool full = formulation_ == Hex8Formulation::FullIntegration, damp = p.beta > 0;
   // c: the chunk to evaluate; next: the one this slab evaluates after it (-1: none), prefetched.
   auto chunk = [&](Index c, Index next) {
+    if (repass_ && repassSkip_[size_t(c)]) return;  // as the window's first pass left it
     BlockEnergy& en = chunkEnergy_[size_t(c)];
     if (full)
       fullIntegrationChunk(c, u, f, en);
@@ -1274,11 +1275,31 @@ void ElementBlock::setGatheredState(Index e, const Real* in) {
 }
 
 void ElementBlock::checkpoint(StateArchive& a) {
-  for (auto& s : stress_) a.io(s);
-  for (auto& s : strain_) a.io(s);
-  for (auto& h : history_) a.io(h);  // same size back: historyPtr_ stays valid
+  // a re-pass restores the chunks it steps again only; every chunk's energy terms come back (a
+  // skipped chunk's are given back step by step by the solver)
+  const auto* only = repass_ && a.windowStart() ? &repassKeep_ : nullptr;
+  for (auto& s : stress_) a.io(s, only);
+  for (auto& s : strain_) a.io(s, only);
+  for (auto& h : history_) a.io(h, only);  // same size back: historyPtr_ stays valid
   a.io(energyShift_);
   a.io(chunkEnergy_);
+}
+
+void ElementBlock::setRepassSkip(std::vector<std::uint8_t> skip) {
+  repassKeep_.clear();
+  repass_ = false;
+  if (std::find(skip.begin(), skip.end(), std::uint8_t(1)) == skip.end()) skip.clear();
+  repassSkip_ = std::move(skip);
+  if (repassSkip_.empty()) return;
+  if (repassSkip_.size() != size_t(numChunks())) throw std::logic_error("setRepassSkip: one flag a chunk");
+  for (Index c = 0; c < numChunks(); ++c) {
+    if (repassSkip_[size_t(c)]) continue;
+    const size_t e0 = size_t(c * kChunk), e1 = size_t(std::min(nElems_, (c + 1) * kChunk));
+    if (!repassKeep_.empty() && repassKeep_.back().second == e0)
+      repassKeep_.back().second = e1;
+    else
+      repassKeep_.push_back({e0, e1});
+  }
 }
 
 void setOrderLevels(Mesh& mesh, const std::vector<Real>& regionWaveSpeed, int maxLevel) {

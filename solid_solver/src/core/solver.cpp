@@ -598,6 +598,7 @@ void Solver::computeInternalForces(int activeLevel) {
 #pragma omp parallel for schedule(dynamic, 1) if (nT >= 2)
       for (Index i = 0; i < nT; ++i) blocks_[tasks[size_t(i)].block]->runSlab(state_, p, tasks[size_t(i)].slab, f);
     }
+    if (rp_.mode) repassEnergies(activeLevel);  // before the blocks sum their chunks' terms
   }
   for (size_t bi = 0; bi < blocks_.size(); ++bi) {  // blocks in order: a fixed sum order per node
     if (oneLoop) {
@@ -617,6 +618,7 @@ void Solver::computeInternalForces(int activeLevel) {
     if (rx_->frontierBlocks() >= blocks_.size()) rx_->beginForceSum(f);
     rx_->finishForceSum(f, activeLevel);
   }
+  if (rp_.mode) repassForces(activeLevel);
   stressWork_ += work;
   storedEnergy_ = stored;
   dampWork_ += damp;
@@ -1180,6 +1182,164 @@ void Solver::finishStep() {
   dtLast_ = dt_;
   t_ += dt_;
   ++step_;
+}
+
+// ---- a coupling window's re-passes (planRepasses) --------------------------------------------
+
+Solver::RepassPlan Solver::planRepasses(const std::vector<Index>& wet, Index windowSteps) {
+  RepassPlan plan;
+  rp_ = Repasses{};
+  for (auto& b : blocks_) b->setRepassSkip({});
+  for (const auto& b : blocks_) {
+    plan.chunks += b->numChunks();
+    for (Index e = 0; e < b->numElems(); ++e) plan.elements += b->active(e);
+  }
+  std::vector<std::vector<Index>> groups;
+  if (rx_)
+    plan.why = "the solid is on MPI ranks";
+  else if (!blockSlabsInOneLoop())
+    plan.why = "the element blocks share nodes";
+  for (const auto& b : blocks_)
+    if (plan.why.empty() && b->hasBlockPass()) plan.why = "block '" + b->name() + "' has a material with a block pass";
+  for (const auto& e : contributors_)
+    if (plan.why.empty() && !e.contributor->forceGroups(groups))
+      plan.why = "'" + e.contributor->name() + "' does not say which nodes its forces join";
+  const Index N = state_.numNodes();
+  int top = 0;
+  for (std::uint8_t l : nodeLevel_) top = std::max(top, int(l));
+  const Index period = Index(1) << top;
+  if (plan.why.empty() && windowSteps % period != 0)
+    plan.why = "windows of " + std::to_string(windowSteps) + " steps are not a multiple of the coarsest level's " +
+               std::to_string(period);
+  if (!plan.why.empty()) return plan;
+  // The window's steps from its start (a multiple of `period` fine steps: every level due at the
+  // first): a node changes at an update whose force may differ (the wet nodes' from the first step,
+  // a node's with an element changed before, or with a group partner changed before or loaded
+  // differently at this step); an element from its first
+  // evaluation that reads a changed node.
+  const auto levelOf = [&](Index n) { return nodeLevel_.empty() ? 0 : int(nodeLevel_[size_t(n)]); };
+  std::vector<std::uint8_t> changed(size_t(N), 0), force(size_t(N), 0);
+  std::vector<std::vector<std::uint8_t>> elemChanged(blocks_.size());
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) elemChanged[bi].assign(size_t(blocks_[bi]->numElems()), 0);
+  for (Index j = 0; j < windowSteps; ++j) {
+    const int active = j % period == 0 ? 255 : __builtin_ctzll((unsigned long long)j);
+    std::fill(force.begin(), force.end(), std::uint8_t(0));
+    for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+      const ElementBlock& b = *blocks_[bi];
+      for (Index e = 0; e < b.numElems(); ++e) {
+        if (!b.active(e) || b.chunkLevel(e / ElementBlock::kChunk) > active) continue;
+        std::uint8_t& ec = elemChanged[bi][size_t(e)];
+        for (int k = 0; k < 8 && !ec; ++k) ec = changed[size_t(b.node(e, k))];
+        if (ec)
+          for (int k = 0; k < 8; ++k) force[size_t(b.node(e, k))] = 1;
+      }
+    }
+    for (Index n : wet) force[size_t(n)] = 1;
+    // a group's forces come from its members' motion, or from their forces of this step (the
+    // contact predicts a pair's motion from both nodes' whole force): until no group adds one
+    for (bool added = true; added;) {
+      added = false;
+      for (const auto& g : groups)
+        if (std::any_of(g.begin(), g.end(), [&](Index n) { return changed[size_t(n)] || force[size_t(n)]; }))
+          for (Index n : g) added = added || !force[size_t(n)], force[size_t(n)] = 1;
+    }
+    for (Index n = 0; n < N; ++n)
+      if (force[size_t(n)] && levelOf(n) <= active) changed[size_t(n)] = 1;
+  }
+  // A re-pass steps every element on a changed node (a node's update sums all its elements), by
+  // chunks; the nodes of the active elements of the chunks it skips take f_int from the first pass.
+  std::vector<std::uint8_t> replay(size_t(N), 0);
+  for (size_t bi = 0; bi < blocks_.size(); ++bi) {
+    ElementBlock& b = *blocks_[bi];
+    std::vector<std::uint8_t> skip(size_t(b.numChunks()), 1);
+    for (Index e = 0; e < b.numElems(); ++e)
+      for (int k = 0; k < 8; ++k)
+        if (changed[size_t(b.node(e, k))]) skip[size_t(e / ElementBlock::kChunk)] = 0;
+    for (Index c = 0; c < b.numChunks(); ++c) {
+      if (!skip[size_t(c)]) continue;
+      ++plan.skippedChunks;
+      rp_.chunks.push_back({Index(bi), c, Index(b.chunkLevel(c))});
+      for (Index e = c * ElementBlock::kChunk; e < std::min(b.numElems(), (c + 1) * ElementBlock::kChunk); ++e) {
+        if (!b.active(e)) continue;
+        ++plan.skippedElements;
+        for (int k = 0; k < 8; ++k) replay[size_t(b.node(e, k))] = 1;
+      }
+    }
+    b.setRepassSkip(std::move(skip));
+  }
+  rp_.nodesByLevel.assign(size_t(top) + 1, {});
+  for (Index n = 0; n < N; ++n)
+    if (replay[size_t(n)]) {
+      if (changed[size_t(n)]) throw std::logic_error("planRepasses: a replayed node changes within the window");
+      rp_.nodesByLevel[size_t(levelOf(n))].push_back(n);
+      ++plan.replayNodes;
+    }
+  rp_.planned = plan.skippedChunks > 0;
+  rp_.period = period;
+  if (!rp_.planned) {
+    for (auto& b : blocks_) b->setRepassSkip({});
+    rp_ = Repasses{};
+    plan.why = "every element chunk is within reach of the water's force within a window";
+  }
+  return plan;
+}
+
+void Solver::beginPass(bool repass) {
+  if (!rp_.planned) return;
+  if (!repass) {  // the first pass records, when the window starts where the plan's steps do
+    rp_.mode = cycle_ % rp_.period == 0 || nodeLevel_.empty() ? 1 : 0;
+    rp_.fInt.clear();
+    rp_.energy.clear();
+  } else if (rp_.mode) {
+    rp_.mode = 2;
+    rp_.fAt = rp_.eAt = 0;
+  }
+  for (auto& b : blocks_) b->setRepass(rp_.mode == 2);
+}
+
+void Solver::endPasses() {
+  if (!rp_.planned) return;
+  rp_.mode = 0;
+  for (auto& b : blocks_) b->setRepass(false);
+}
+
+void Solver::repassEnergies(int activeLevel) {
+  for (const auto& [bi, c, level] : rp_.chunks) {
+    if (level > activeLevel) continue;  // not evaluated at this step in the first pass either
+    BlockEnergy& en = blocks_[size_t(bi)]->chunkEnergy(c);
+    if (rp_.mode == 1) {
+      rp_.energy.push_back(en);
+    } else {
+      if (rp_.eAt >= rp_.energy.size()) throw std::logic_error("re-pass: more chunk steps than the first pass");
+      en = rp_.energy[rp_.eAt++];
+    }
+  }
+}
+
+void Solver::repassForces(int activeLevel) {
+  Real* f = state_.fIntData();
+  for (size_t L = 0; L < rp_.nodesByLevel.size() && int(L) <= activeLevel; ++L) {
+    const std::vector<Index>& nodes = rp_.nodesByLevel[L];
+    const Index n = Index(nodes.size());
+    const size_t at = rp_.mode == 1 ? rp_.fInt.size() : rp_.fAt;
+    if (rp_.mode == 1) {
+      rp_.fInt.resize(at + 3 * size_t(n));
+    } else {
+      if (at + 3 * size_t(n) > rp_.fInt.size()) throw std::logic_error("re-pass: more node steps than the first pass");
+      rp_.fAt = at + 3 * size_t(n);
+    }
+    Real* r = rp_.fInt.data() + at;
+    const bool record = rp_.mode == 1;
+#pragma omp parallel for schedule(static) if (n >= 8192)
+    for (Index i = 0; i < n; ++i) {
+      Real* x = f + 3 * size_t(nodes[size_t(i)]);
+      Real* y = r + 3 * size_t(i);
+      if (record)
+        y[0] = x[0], y[1] = x[1], y[2] = x[2];
+      else
+        x[0] = y[0], x[1] = y[1], x[2] = y[2];
+    }
+  }
 }
 
 void Solver::checkpoint(StateArchive& a) {

@@ -23,16 +23,19 @@ void CoupledStepper::window(const std::function<void()>& onFinal) {
     start_.end();
   }
   c.planWindow(solver_.state());
+  if (whole) solver_.beginPass(false);  // the first pass records what a re-pass takes from it
   for (;;) {
     if (!solver_.stepOpen()) solveWindow(!whole, onFinal);  // steps 1 … k−1, the last one's other forces
     if (c.exchange(solver_.dt(), solver_.state())) break;   // accepted
     if (whole) {                                            // restore: the window again, with the answer
+      solver_.beginPass(true);                              // what the re-pass steps again (Solver::planRepasses)
       start_.beginRestore();
       solver_.checkpoint(start_);
       start_.end();
       ++restores_;
     }
   }
+  if (whole) solver_.endPasses();
   solver_.finishStep();  // the last step with the accepted force (and the water the solid carries)
   c.acceptWindow();
   onFinal();

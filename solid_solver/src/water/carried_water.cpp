@@ -559,6 +559,11 @@ bool CarriedWater::constrainLevels(std::vector<std::uint8_t>& level) const {
   return lowerToFinestLevel(level, impl_->nodes);
 }
 
+bool CarriedWater::forceGroups(std::vector<std::vector<Index>>& groups) const {
+  groups.push_back(impl_->nodes);
+  return true;
+}
+
 void CarriedWater::correct(Real dt, const NodalState& st, WallMotion& m) const {
   impl_->applyCarriedLaws(dt, st.vData(), m, nullptr, nullptr);
 }

@@ -33,6 +33,7 @@ class ConstantNodalForces final : public NodalForceContributor {
   std::string name() const override { return name_; }
   void addForces(Real t, Real dt, NodalState& state) override;
   const std::vector<Real>* constantForces() const override { return &f_; }
+  bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }  // constant
   const std::vector<Real>& forces() const { return f_; }
 
  private:
@@ -89,6 +90,8 @@ class SeismicBoundaries final : public NodalForceContributor {
   void install(NodalState& state);
   void addForces(Real t, Real dt, NodalState& state) override;
   Real boundaryEnergy() const override { return -springWork_; }
+  /// The base's springs and dashpots and the sides' free field act on each node from its own motion.
+  bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }
   void checkpoint(StateArchive& a) override {
     for (auto& c : columns_) c.checkpoint(a);
     a.io(uPrev_);

@@ -37,6 +37,8 @@ class DomainReduction final : public NodalForceContributor {
                   Real beta);
   std::string name() const override { return "domain reduction"; }
   void addForces(Real t, Real dt, NodalState& state) override;
+  /// The layer's forces come from the free field alone.
+  bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }
 
   Index numLayerElements() const { return nLayerElems_; }
   Index numInner() const { return nInner_; }

@@ -93,6 +93,11 @@ class DynamicContact final : public NodalForceContributor {
     const bool rock = lowerToFinestLevel(level, pairs_.node1);
     return lowerToFinestLevel(level, pairs_.node2) || rock;
   }
+  /// Each pair's force comes from its two nodes' motion.
+  bool forceGroups(std::vector<std::vector<Index>>& groups) const override {
+    for (Index p = 0; p < pairs_.size(); ++p) groups.push_back({pairs_.node1[size_t(p)], pairs_.node2[size_t(p)]});
+    return true;
+  }
   void checkpoint(StateArchive& a) override {
     a.io(state_);
     a.io(failed_);

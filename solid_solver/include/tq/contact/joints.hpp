@@ -76,6 +76,11 @@ class LiningJoints final : public NodalForceContributor {
     const bool a = lowerToFinestLevel(level, pairs_.nodeA);
     return lowerToFinestLevel(level, pairs_.nodeB) || a;
   }
+  /// Each pair's force comes from its two nodes' motion.
+  bool forceGroups(std::vector<std::vector<Index>>& groups) const override {
+    for (size_t p = 0; p < pairs_.nodeA.size(); ++p) groups.push_back({pairs_.nodeA[p], pairs_.nodeB[p]});
+    return true;
+  }
   void checkpoint(StateArchive& a) override {
     a.io(state_);
     a.io(cracked_);

@@ -57,6 +57,11 @@ class TiedNodeGroups final : public NodalForceContributor {
     }
     return lowered;
   }
+  /// A group's members share their forces.
+  bool forceGroups(std::vector<std::vector<Index>>& groups) const override {
+    for (Index g = 0; g < numGroups(); ++g) groups.emplace_back(begin(g), end(g));
+    return true;
+  }
 
   Index numGroups() const { return Index(start_.size()) - 1; }
   /// Members of group g: nodes [begin, end).

@@ -197,6 +197,17 @@ class ElementBlock {
   /// Save or restore the state a step changes: stresses, strains, history, energies (not the
   /// geometry or the active set, which no step changes).
   void checkpoint(StateArchive& a);
+  /// A coupling window's re-passes (Solver::planRepasses): the chunks (skip[c] = 1) that a re-pass
+  /// leaves as the window's first pass left them, neither evaluated nor restored (their stresses,
+  /// strains and history); empty: none. setRepass(true) from a window's restore to its acceptance.
+  void setRepassSkip(std::vector<std::uint8_t> skip);
+  void setRepass(bool on) { repass_ = on && !repassSkip_.empty(); }
+  bool repassSkips(Index c) const { return !repassSkip_.empty() && repassSkip_[size_t(c)] != 0; }
+  /// Chunk c's energy terms as its last evaluation left them (a skipped chunk's are the solver's to
+  /// record in the first pass and give back in a re-pass, so that the block's sums keep their bits).
+  BlockEnergy& chunkEnergy(Index c) { return chunkEnergy_[size_t(c)]; }
+  /// Whether the material runs a pass over the whole block before each update (Material::blockPass).
+  bool hasBlockPass() const { return material_->hasBlockPass(); }
 
   struct ChunkView;  // raw view of one chunk for the kernel (element_block.cpp)
 
@@ -247,11 +258,14 @@ class ElementBlock {
   // subcycling: [level L below the coarsest] the chunks due at a step of level L, and their slabs
   // (positions in that list; slabs of one parity share no node)
   std::vector<std::vector<Index>> levelChunks_, levelSlabStart_;
-  std::vector<Real> chunkCentre_;       // [3 chunk + d] centre of a chunk's elements
-  std::vector<Index> slabStart_{0, 0};  // chunk boundaries of the slabs of the parallel scatter
-  Simd simd_ = Simd::Generic;           // kernel path
-  Real* cornerOut_ = nullptr;           // on ranks: the corner forces' destination (setCornerForceOutput)
-  const Index* cornerSlot_ = nullptr;   // on ranks: [element] its slot there, or -1
+  std::vector<Real> chunkCentre_;         // [3 chunk + d] centre of a chunk's elements
+  std::vector<Index> slabStart_{0, 0};    // chunk boundaries of the slabs of the parallel scatter
+  Simd simd_ = Simd::Generic;             // kernel path
+  std::vector<std::uint8_t> repassSkip_;  // setRepassSkip: [chunk] 1 skipped
+  std::vector<std::pair<std::size_t, std::size_t>> repassKeep_;  // the element ranges a re-pass restores
+  bool repass_ = false;                                          // setRepass
+  Real* cornerOut_ = nullptr;          // on ranks: the corner forces' destination (setCornerForceOutput)
+  const Index* cornerSlot_ = nullptr;  // on ranks: [element] its slot there, or -1
 };
 
 /// Fills mesh.orderLevel, the estimate of each node's subcycling level that the element blocks'

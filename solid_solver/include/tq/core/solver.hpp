@@ -94,6 +94,13 @@ class NodalForceContributor {
   /// (contact pairs, the coupled wall), one common level for nodes it moves together (ties).
   /// Nodes it only loads (boundaries, surface pressures) need nothing. Return true if it lowered one.
   virtual bool constrainLevels(std::vector<std::uint8_t>& /*level*/) const { return false; }
+  /// A coupling window's re-pass steps again only what a change of the water's force can reach
+  /// (Solver::planRepasses): which nodes' forces this contributor computes from the motion or the
+  /// forces of other nodes, as groups (a change of one member's motion, or of its other forces at a
+  /// step, may change every member's force at that step). Return true
+  /// and add them to `groups` (none: each node's force depends on its own motion and the time only);
+  /// the default, false, says it does not know, and every re-pass is then stepped whole.
+  virtual bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const { return false; }
   /// A contributor whose [3N] force never changes may return it here: added to the Loads phase,
   /// the solver then adds it in gravity's parallel pass instead of calling addForces (one serial
   /// pass fewer; Solver::addContributor decides).
@@ -303,6 +310,29 @@ class Solver {
   /// What enableSubcycling refuses (levels, integrator, stiffness damping, a viscous material),
   /// without setting anything up: the starter asks it before the static stages. Throws InputError.
   void checkSubcycling(int maxLevel) const;
+  /// What planRepasses set up.
+  struct RepassPlan {
+    Index chunks = 0, skippedChunks = 0;      ///< element chunks, and those a re-pass leaves alone
+    Index elements = 0, skippedElements = 0;  ///< their active elements
+    Index replayNodes = 0;  ///< nodes whose internal force a re-pass takes from the window's first pass
+    std::string why;        ///< empty when set up, else why not (every re-pass is then stepped whole)
+  };
+  /// A coupling window of `windowSteps` steps whose water loads the nodes `wet` (CoupledStepper):
+  /// between its passes only that force differs, and an explicit step carries a change one element
+  /// ring further at most (a node of level L takes it up at its updates only), so a re-pass need
+  /// evaluate only the element chunks with an element on a node the change can reach within the
+  /// window. The others it neither evaluates nor restores (their stresses, strains and history stay
+  /// as the first pass left them, its last), and the nodes they act on take their internal force
+  /// and the chunks their energy terms, step by step, from the first pass: the same bits as a
+  /// re-pass stepped whole. Needs one process, the blocks' slabs in one loop, no material with a
+  /// block pass, every contributor's forceGroups, and with subcycling windows of a multiple of the
+  /// coarsest level's steps; `why` says which is missing otherwise. Plan after enableSubcycling.
+  RepassPlan planRepasses(const std::vector<Index>& wet, Index windowSteps);
+  /// A window's passes (CoupledStepper): beginPass(false) before its first pass (which records what
+  /// a re-pass takes from it), beginPass(true) before each restore for a further pass, endPasses()
+  /// once the water accepts the window. Nothing without a plan.
+  void beginPass(bool repass);
+  void endPasses();
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).
   void setTime(Real t) { t_ = t; }
   /// The solid on ranks (tq/parallel/): the exchange with the other ranks (not owned; null: one
@@ -398,7 +428,21 @@ class Solver {
   std::vector<AddedContributor> contributors_;  // in the order added
   Real t_ = 0, dt_ = 0, dtLast_ = 0;
   Index step_ = 0;
-  int activeLevel_ = 255;  // subcycling: the level of the open step (beginStep to finishStep)
+  // planRepasses: the plan, and what the window's first pass records for its re-passes
+  struct Repasses {
+    bool planned = false;
+    int mode = 0;      // 0 off, 1 the first pass (records), 2 a re-pass (replays)
+    Index period = 1;  // a window's first step is at a multiple of it (every level due there)
+    std::vector<std::vector<Index>> nodesByLevel;  // [level] the nodes whose f_int is replayed
+    std::vector<std::array<Index, 3>> chunks;      // the skipped chunks: block, chunk, level
+    std::vector<Real> fInt;                        // recorded f_int, step by step
+    std::vector<BlockEnergy> energy;               // recorded chunk energies, step by step
+    size_t fAt = 0, eAt = 0;                       // a re-pass's read positions
+  };
+  Repasses rp_;
+  void repassEnergies(int activeLevel);  // computeInternalForces: the skipped chunks' energy terms
+  void repassForces(int activeLevel);    // computeInternalForces: the replayed nodes' f_int
+  int activeLevel_ = 255;                // subcycling: the level of the open step (beginStep to finishStep)
   bool stepOpen_ = false;
   Real alphaRelax_ = -1;          // >= 0 while relaxing: replaces α
   mutable EnergyBalance energy_;  // energy_.plastic: summed by energy() when plasticStale_

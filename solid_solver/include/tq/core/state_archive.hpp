@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace tq {
@@ -105,6 +106,18 @@ class StateArchive {
       v.resize(s.size() / sizeof(T));
       copyBytes(v.data(), s.data(), s.size());
     }
+  }
+  /// io(v), but a restore with `only` copies back the index ranges [first, second) it lists and
+  /// leaves v's other values as they are (v of the size saved). A save, `only` null or an empty v:
+  /// io(v). A coupling window's re-pass restores what it steps again only (Solver::planRepasses).
+  template <class T>
+  void io(std::vector<T>& v, const std::vector<std::pair<std::size_t, std::size_t>>* only) {
+    if (mode_ == Mode::Save || !only || v.empty()) return io(v);
+    std::vector<unsigned char>& s = slot();
+    if (s.size() != v.size() * sizeof(T))
+      throw std::logic_error("StateArchive: a partly restored item changed size between save and restore");
+    for (const auto& r : *only)
+      copyBytes(v.data() + r.first, s.data() + r.first * sizeof(T), (r.second - r.first) * sizeof(T));
   }
   /// One trivially copyable value (a scalar or a struct of scalars).
   template <class T>

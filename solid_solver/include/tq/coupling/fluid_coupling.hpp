@@ -181,6 +181,11 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
   const std::vector<Real>& force() const;
   /// Subcycling: the wet nodes step every fine step (the water force is set per step).
   bool constrainLevels(std::vector<std::uint8_t>& level) const override { return lowerToFinestLevel(level, nodes()); }
+  /// The water's force on the wet nodes: one group (a window's passes differ there first).
+  bool forceGroups(std::vector<std::vector<Index>>& groups) const override {
+    groups.push_back(nodes());
+    return true;
+  }
   /// One line describing the coupling (scheme, window, transport, interface size).
   std::string describe() const;
   /// True when the fluid is known to end by itself: the handshake took place (or was refused,

@@ -58,6 +58,8 @@ class CarriedWater final : public NodalForceContributor {
   WetWorkBook workBook();
   /// Subcycling: the wet nodes step every fine step.
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
+  /// The carried laws load every wet node from the motion of them all (the enclosed volume).
+  bool forceGroups(std::vector<std::vector<Index>>& groups) const override;
 
   // ---- what the exchange asks -----------------------------------------------------------------
   /// A motion predicted with an extra force (m with its response), corrected in place by the
