@@ -38,78 +38,21 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-
-
-def window_region(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarray, chunk_of: np.ndarray,
-                  wet: np.ndarray, pairs: np.ndarray, steps: int) -> dict:
-    """The domain of dependence of one window of `steps` fine steps (module docstring): conn (E, 8),
-    node_level (N,), chunk_level (E,) the level each element is evaluated at, chunk_of (E,) a chunk id
-    per element (unique across blocks), wet the nodes the water loads, pairs (P, 2) the contact's
-    node pairs. Returns the counts (the keys printed by main)."""
-    num_nodes, num_elems = len(node_level), len(conn)
-    changed = np.zeros(num_nodes, dtype=bool)
-    elem_changed = np.zeros(num_elems, dtype=bool)
-    top = int(max(node_level.max(initial=0), chunk_level.max(initial=0)))
-    evals_whole = 0
-    for s in range(steps):  # tq-solid's fine steps since subcycling began, from a window's start
-        active = max(lv for lv in range(top + 1) if s % (1 << lv) == 0)
-        due = chunk_level <= active
-        evals_whole += int(due.sum())
-        elem_changed |= due & changed[conn].any(axis=1)
-        force = np.zeros(num_nodes, dtype=bool)  # whose force at this step may differ
-        force[conn[elem_changed & due].ravel()] = True
-        force[wet] = True
-        if len(pairs):  # a pair's force from both nodes' motion, or their forces of this step
-            force[pairs[(changed | force)[pairs].any(axis=1)].ravel()] = True
-        changed |= force & (node_level <= active)
-    # the re-pass updates the changed nodes again, which needs every element of theirs at its chunk's steps
-    needed = changed[conn].any(axis=1)
-    chunk_needed = np.zeros(int(chunk_of.max()) + 1, dtype=bool)
-    chunk_needed[chunk_of[needed]] = True
-    by_chunk = chunk_needed[chunk_of]
-    per_window = np.array([steps >> int(lv) for lv in range(top + 1)])  # evaluations a window by level
-    levels = np.arange(top + 1)
-    count = lambda mask: np.bincount(chunk_level[mask], minlength=top + 1)  # noqa: E731
-    node_updates = per_window[node_level]
-    return {
-        "levels": levels, "elements": count(np.ones(num_elems, dtype=bool)), "changed": count(elem_changed),
-        "needed": count(needed), "needed_by_chunk": count(by_chunk),
-        "evals_whole": evals_whole, "evals_needed": int((per_window[chunk_level] * needed).sum()),
-        "evals_by_chunk": int((per_window[chunk_level] * by_chunk).sum()),
-        "nodes": num_nodes, "nodes_changed": int(changed.sum()),
-        "updates_whole": int(node_updates.sum()), "updates_changed": int(node_updates[changed].sum()),
-    }
-
 
 def case_region(case_path: str, variant: str | None, condition: str, window: int | None) -> dict:
     from tunnelquake.case import load_case
     from tunnelquake.scene import PARTICIPANTS, current_solid_mesh, subcycling_levels
-    from tunnelquake.subcycle_levels import CHUNK, mesh_level_arrays
+    from tunnelquake.subcycle_levels import mesh_window_reach
 
     case = load_case(case_path, variant)
     d = case.data
     if "fluid" not in PARTICIPANTS[condition]:
         raise SystemExit(f"condition {condition!r} has no water coupled: no window is stepped again")
     k = int(window or d["coupling"]["window"])
-    import h5py
-
     with current_solid_mesh(case) as mesh_h5:
-        a = mesh_level_arrays(mesh_h5, d["materials"], subcycling_levels(d, condition),
-                              float(d["time"]["safety_factor"]), float(d["time"].get("dt") or 0.0),
-                              d["interface"]["model"], wet=True)
-        with h5py.File(mesh_h5, "r") as f:
-            conn = f["elements/connectivity"][()].astype(np.int64)
-            wet = np.unique(f["faces/lining_inner"][()].ravel())
-            pairs = (f["interfaces/rock_lining"][()].astype(np.int64)
-                     if d["interface"]["model"] == "dynamic_contact" and "interfaces/rock_lining" in f
-                     else np.zeros((0, 2), np.int64))
-    chunk_of = np.zeros(len(conn), dtype=np.int64)
-    first = 0
-    for order in a.blocks:
-        chunk_of[order] = first + np.arange(len(order)) // CHUNK
-        first += (len(order) + CHUNK - 1) // CHUNK
-    out = window_region(conn, a.node_level, a.chunk_level, chunk_of, wet, pairs, k)
+        out = mesh_window_reach(mesh_h5, d["materials"], subcycling_levels(d, condition),
+                                float(d["time"]["safety_factor"]), float(d["time"].get("dt") or 0.0),
+                                d["interface"]["model"], k)
     out.update(window=k, case=case_path, variant=variant or "", condition=condition)
     return out
 

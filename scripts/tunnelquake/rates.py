@@ -207,6 +207,16 @@ class MachineRates:
         (speedup_note says why)."""
         return 1.0 - (1.0 - cost_fraction) * self.solid_eval_share
 
+    def repass_factor(self, cost_fraction: float, reach_fraction: float) -> float:
+        """A coupling window's re-pass's CPU against its first pass's (Solver::planRepasses): a pass
+        costs 1 - (1 - cost_fraction) x solid_eval_share of a one-rate step (subcycled_factor), of which
+        the element evaluations cost_fraction x solid_eval_share; a re-pass evaluates
+        `reach_fraction` of them (subcycle_levels.window_reach) and takes the rest as a pass does.
+        1 where eval_share was not measured."""
+        s = self.solid_eval_share
+        whole = 1.0 - (1.0 - cost_fraction) * s
+        return (whole - (1.0 - reach_fraction) * cost_fraction * s) / whole if whole > 0 else 1.0
+
     @property
     def water_pass(self) -> float:
         return WATER_PER_PROBE_S * self.probe_s

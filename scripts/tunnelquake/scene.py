@@ -294,6 +294,35 @@ def subcycled_levels(case, conditions=None) -> dict:
     return out
 
 
+def repass_reach(case, conditions) -> dict:
+    """condition -> the fraction of a window's element evaluations that a re-pass steps again
+    (subcycle_levels.window_reach, tq-solid's Solver::planRepasses), for each condition among
+    `conditions` with the water coupled in implicit windows of several steps; 1 where tq-solid steps
+    every re-pass whole (a reinforced concrete lining's block pass, a fault offset's prescribed slip)."""
+    from .case import fault_offset_slip
+    from .subcycle_levels import mesh_window_reach
+
+    d = case.data
+    c = d["coupling"]
+    want = [x for x in conditions if "fluid" in PARTICIPANTS[x] and c["scheme"] == "implicit" and int(c["window"]) > 1]
+    if not want:
+        return {}
+    whole = (fault_offset_slip(d) is not None
+             or any(m.get("model") == "reinforced_concrete" for m in d["materials"].values()))
+    out, seen = {}, {}
+    with current_solid_mesh(case) as mesh_h5:
+        for x in want:
+            key = subcycling_levels(d, x)
+            if whole:
+                seen[key] = 1.0
+            if key not in seen:
+                r = mesh_window_reach(mesh_h5, d["materials"], key, float(d["time"]["safety_factor"]),
+                                      float(d["time"].get("dt") or 0.0), d["interface"]["model"], int(c["window"]))
+                seen[key] = r["evals_by_chunk"] / r["evals_whole"] if r["evals_whole"] else 1.0
+            out[x] = seen[key]
+    return out
+
+
 @dataclass
 class RuntimeEstimate:
     dt: float  # the solid's step, s (estimated from the lining's first element layer)
@@ -307,6 +336,7 @@ class RuntimeEstimate:
     speedup: dict[str, float] = field(default_factory=dict)  # condition -> their speed-up (1 on one thread)
     cpu: dict[str, float] = field(default_factory=dict)  # condition -> CPU s of its shaking on one thread
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
+    repass: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (re-pass evaluations, CPU factor)
     water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
 
     def line(self) -> str:
@@ -323,10 +353,13 @@ class RuntimeEstimate:
             by.setdefault((round(f, 3), round(x, 2)), []).append(c)
         sub = "".join(f"; {' and '.join(cs)} subcycled: {f:.3g} of the element evaluations a step, {x:.2f}x "
                       "one rate's CPU" for (f, x), cs in by.items())
+        again = "".join(f"; {c}'s windows stepped again over the water's reach: {r:.2f} of a pass's element "
+                        f"evaluations, {x:.2f}x its CPU" for c, (r, x) in self.repass.items() if r < 1)
         n, f = self.water_ranks
         water = f"; the water on {n} ranks, {f:.2f}x one rank's share of the time" if n > 1 else ""
         return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
-                f"{self.dt:.2g} s{offset}{threads}{sub}{water}) on an otherwise idle machine, from {self.basis}; "
+                f"{self.dt:.2g} s{offset}{threads}{sub}{again}{water}) on an otherwise idle machine, from "
+                f"{self.basis}; "
                 f"{rest}")
 
 
@@ -470,6 +503,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         levels, unmeshed = {}, f"; subcycled conditions counted at one rate (no mesh to count their levels on: {e})"
     else:
         unmeshed = ""
+    try:
+        reach = repass_reach(case, [c for c, _ in conditions])
+    except (ValueError, RuntimeError, OSError, ImportError, KeyError):  # no mesh: re-passes counted whole
+        reach = {}
     solid_of = {c: elements * steps * rates.solid_element_step
                 * (rates.subcycled_factor(levels[c].cost_fraction) if c in levels else 1.0) for c, _ in conditions}
     statics, statics_steps = 0.0, 0
@@ -497,9 +534,12 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
         per_window = passes_per_window(c)
         passes = per_window * steps / c["window"]
         water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
+        # a window's first pass, then its re-passes over the water's reach (Solver::planRepasses)
+        again = rates.repass_factor(levels[cond].cost_fraction if cond in levels else 1.0, reach.get(cond, 1.0))
+        solid_passes = 1.0 + max(0.0, per_window - 1.0) * again
         # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
-        cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window + water
-        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * per_window / x + water * water_ranks[1]
+        cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes + water
+        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes / x + water * water_ranks[1]
     coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
@@ -512,6 +552,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
                            statics_steps=statics_steps, threads=threads, speedup=speedup, cpu=cpu,
                            subcycled={c: (lv.cost_fraction, rates.subcycled_factor(lv.cost_fraction))
                                       for c, lv in levels.items()},
+                           repass={c: (r, rates.repass_factor(levels[c].cost_fraction if c in levels else 1.0, r))
+                                   for c, r in reach.items()},
                            water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0))
 
 

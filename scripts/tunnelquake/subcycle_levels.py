@@ -336,6 +336,76 @@ def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: fl
     return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall)
 
 
+def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarray, chunk_of: np.ndarray,
+                 wet: np.ndarray, pairs: np.ndarray, steps: int) -> dict:
+    """What a coupling window's re-pass steps again (tq-solid's Solver::planRepasses, by its rule):
+    between two passes only the water's force on the nodes `wet` differs. Over the window's `steps`
+    fine steps (counted from a step at which every level is due) a node *changes* at an update whose
+    force may differ: the wet nodes' from the first step, a node's with an element changed before, or
+    with a partner (`pairs` (P, 2): the contact's, the ties', the joints') changed before or loaded
+    differently at that step; an
+    element changes from its first evaluation that reads a changed node. A re-pass evaluates every
+    element with a changed node, by whole chunks. conn (E, 8), node_level (N,), chunk_level (E,) the
+    level each element is evaluated at, chunk_of (E,) a chunk id per element (unique across blocks).
+    Returns counts by level ("elements", "changed", "needed", "needed_by_chunk"), the element
+    evaluations of a window of a whole pass and of a re-pass ("evals_whole", "evals_needed" by
+    element, "evals_by_chunk"), and the nodes ("nodes", "nodes_changed", "updates_whole",
+    "updates_changed")."""
+    num_nodes, num_elems = len(node_level), len(conn)
+    changed = np.zeros(num_nodes, dtype=bool)
+    elem_changed = np.zeros(num_elems, dtype=bool)
+    top = int(max(node_level.max(initial=0), chunk_level.max(initial=0)))
+    evals_whole = 0
+    for s in range(steps):  # fine steps from the window's start
+        active = max(lv for lv in range(top + 1) if s % (1 << lv) == 0)
+        due = chunk_level <= active
+        evals_whole += int(due.sum())
+        elem_changed |= due & changed[conn].any(axis=1)
+        force = np.zeros(num_nodes, dtype=bool)  # whose force at this step may differ
+        force[conn[elem_changed & due].ravel()] = True
+        force[wet] = True
+        if len(pairs):  # a pair's force from both nodes' motion, or their forces of this step
+            force[pairs[(changed | force)[pairs].any(axis=1)].ravel()] = True
+        changed |= force & (node_level <= active)
+    needed = changed[conn].any(axis=1)
+    chunk_needed = np.zeros(int(chunk_of.max(initial=0)) + 1, dtype=bool)
+    chunk_needed[chunk_of[needed]] = True
+    by_chunk = chunk_needed[chunk_of]
+    per_window = np.array([steps >> int(lv) for lv in range(top + 1)])  # evaluations a window by level
+    count = lambda mask: np.bincount(chunk_level[mask], minlength=top + 1)  # noqa: E731
+    node_updates = per_window[node_level]
+    return {
+        "levels": np.arange(top + 1), "elements": count(np.ones(num_elems, dtype=bool)),
+        "changed": count(elem_changed), "needed": count(needed), "needed_by_chunk": count(by_chunk),
+        "evals_whole": evals_whole, "evals_needed": int((per_window[chunk_level] * needed).sum()),
+        "evals_by_chunk": int((per_window[chunk_level] * by_chunk).sum()),
+        "nodes": num_nodes, "nodes_changed": int(changed.sum()),
+        "updates_whole": int(node_updates.sum()), "updates_changed": int(node_updates[changed].sum()),
+    }
+
+
+def mesh_window_reach(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float, interface: str,
+                      steps: int) -> dict:  # noqa: PLR0913
+    """window_reach() on a mesh.h5 with the water coupled on its lining's inner face, the levels and
+    chunks as mesh_level_arrays() gives them (max_level 0: one rate)."""
+    import h5py
+
+    a = mesh_level_arrays(mesh_h5, materials, max_level, safety, dt, interface, wet=True)
+    with h5py.File(mesh_h5, "r") as f:
+        conn = f["elements/connectivity"][()].astype(np.int64)
+        wet = np.unique(f["faces/lining_inner"][()].ravel()) if "faces/lining_inner" in f else np.zeros(0, np.int64)
+        # the contact's pairs, a bonded interface's ties and the lining's joints: each pair's forces
+        # come from both nodes
+        pairs = np.concatenate([f[g][()].astype(np.int64).reshape(-1, 2) for g in ("interfaces/rock_lining",
+                                "interfaces/lining_joints") if g in f] or [np.zeros((0, 2), np.int64)])
+    chunk_of = np.zeros(len(conn), dtype=np.int64)
+    first = 0
+    for order in a.blocks:
+        chunk_of[order] = first + np.arange(len(order)) // CHUNK
+        first += (len(order) + CHUNK - 1) // CHUNK
+    return window_reach(conn, a.node_level, a.chunk_level, chunk_of, wet, pairs, steps)
+
+
 # ------------------------------------------------------------------------------------------------
 # The element-evaluation probe's box (rates.measure_eval_share)
 # ------------------------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""benchmarks.repass_region's window: an explicit step carries a change one element ring further.
+"""subcycle_levels.window_reach (check's estimate of a re-pass, benchmarks.repass_region): an explicit
+step carries a change one element ring further.
 
 A straight row of hexahedra, the water on the first end face: after k fine steps of one rate the
 change has reached the nodes of the first k faces (the wall's nodes at the window's first step, one
@@ -8,7 +9,7 @@ part two levels coarser (steps of 4 dt), the change crosses into it only at thos
 """
 import numpy as np
 
-from benchmarks.repass_region import window_region
+from tunnelquake.subcycle_levels import window_reach as window_region
 
 
 def _row(n: int):

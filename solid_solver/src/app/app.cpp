@@ -443,9 +443,7 @@ void SolidRun::planRepasses() {
     out_ << "tq-solid: re-passes: stepped whole (TQ_REPASS_WHOLE)" << std::endl;
     return;
   }
-  const char* dbg = std::getenv("TQ_REPASS_DEBUG_STEPS");
-  const Solver::RepassPlan p =
-      m_.solver->planRepasses(coupling_->nodes(), dbg ? std::atoi(dbg) : coupling_->windowSteps());
+  const Solver::RepassPlan p = m_.solver->planRepasses(coupling_->nodes(), coupling_->windowSteps());
   if (!p.why.empty()) {
     out_ << "tq-solid: re-passes: stepped whole: " << p.why << std::endl;
     return;
