@@ -143,10 +143,11 @@ TEST(Repass, WindowsSteppedAgainOverTheWatersReachGiveTheWholeRepassBitwise) {
   for (int levels : {3, 0}) {
     SCOPED_TRACE(levels);
     const Result whole = run(false, levels), reach = run(true, levels);
-    std::printf("%d levels: %ld of %ld element chunks skipped (%ld of %ld elements), %ld nodes replayed; %ld passes, "
-                "%ld restores\n",
-                levels, long(reach.plan.skippedChunks), long(reach.plan.chunks), long(reach.plan.skippedElements),
-                long(reach.plan.elements), long(reach.plan.replayNodes), reach.passes, reach.restores);
+    std::printf(
+        "%d levels: %ld of %ld element chunks skipped (%ld of %ld elements), %ld nodes replayed; %ld passes, "
+        "%ld restores\n",
+        levels, long(reach.plan.skippedChunks), long(reach.plan.chunks), long(reach.plan.skippedElements),
+        long(reach.plan.elements), long(reach.plan.replayNodes), reach.passes, reach.restores);
     ASSERT_TRUE(reach.plan.why.empty()) << reach.plan.why;
     ASSERT_GT(reach.plan.skippedChunks, 0) << "the outer rock must be out of the water's reach within a window";
     ASSERT_LT(reach.plan.skippedChunks, reach.plan.chunks);
