@@ -895,7 +895,8 @@ def schema() -> Section:
                                  "corrector, two passes; implicit: iterated to the tolerance (docs/coupler.md)"),
             "window": Number(integer=True, min=1, default=None,
                              doc="solid steps per coupling window (one water step); implicit: the window is stepped "
-                                 "again whole until the water agrees; k > 1 is refused for scheme paper. Default: "
+                                 "again until the water agrees (over what the water's force can reach within it, "
+                                 "docs/coupler.md); k > 1 is refused for scheme paper. Default: "
                                  f"{IMPLICIT_WINDOW} for the implicit scheme (the example's measured setting), 1 "
                                  "otherwise"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
