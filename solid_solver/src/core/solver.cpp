@@ -1215,8 +1215,7 @@ Solver::RepassPlan Solver::planRepasses(const std::vector<Index>& wet, Index win
   // The window's steps from its start (a multiple of `period` fine steps: every level due at the
   // first): a node changes at an update whose force may differ (the wet nodes' from the first step,
   // a node's with an element changed before, or with a group partner changed before or loaded
-  // differently at this step); an element from its first
-  // evaluation that reads a changed node.
+  // differently at this step); an element from its first evaluation that reads a changed node.
   const auto levelOf = [&](Index n) { return nodeLevel_.empty() ? 0 : int(nodeLevel_[size_t(n)]); };
   std::vector<std::uint8_t> changed(size_t(N), 0), force(size_t(N), 0);
   std::vector<std::vector<std::uint8_t>> elemChanged(blocks_.size());
