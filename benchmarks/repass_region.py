@@ -42,7 +42,7 @@ import sys
 def case_region(case_path: str, variant: str | None, condition: str, window: int | None) -> dict:
     from tunnelquake.case import load_case
     from tunnelquake.scene import PARTICIPANTS, current_solid_mesh, subcycling_levels
-    from tunnelquake.subcycle_levels import mesh_window_reach
+    from tunnelquake.subcycle_levels import mesh_level_arrays, mesh_window_reach
 
     case = load_case(case_path, variant)
     d = case.data
@@ -50,9 +50,10 @@ def case_region(case_path: str, variant: str | None, condition: str, window: int
         raise SystemExit(f"condition {condition!r} has no water coupled: no window is stepped again")
     k = int(window or d["coupling"]["window"])
     with current_solid_mesh(case) as mesh_h5:
-        out = mesh_window_reach(mesh_h5, d["materials"], subcycling_levels(d, condition),
-                                float(d["time"]["safety_factor"]), float(d["time"].get("dt") or 0.0),
-                                d["interface"]["model"], k)
+        a = mesh_level_arrays(mesh_h5, d["materials"], subcycling_levels(d, condition),
+                              float(d["time"]["safety_factor"]), float(d["time"].get("dt") or 0.0),
+                              d["interface"]["model"], wet=True)
+        out = mesh_window_reach(mesh_h5, a, k)
     out.update(window=k, case=case_path, variant=variant or "", condition=condition)
     return out
 

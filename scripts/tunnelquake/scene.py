@@ -277,21 +277,7 @@ def subcycled_levels(case, conditions=None) -> dict:
     each subcycled condition among `conditions` (default the case's): from the case's mesh, the
     materials, the time step's safety factor (and time.dt where given), the rock-lining interface's
     model, and for a condition with water coupled its wet wall held at the finest level."""
-    from .subcycle_levels import mesh_levels
-
-    d = case.data
-    want = [c for c in (conditions or d["conditions"]) if subcycling_levels(d, c)]
-    if not want:
-        return {}
-    out, seen = {}, {}
-    with current_solid_mesh(case) as mesh_h5:
-        for c in want:
-            key = (subcycling_levels(d, c), "fluid" in PARTICIPANTS[c])
-            if key not in seen:
-                seen[key] = mesh_levels(mesh_h5, d["materials"], key[0], float(d["time"]["safety_factor"]),
-                                        float(d["time"].get("dt") or 0.0), d["interface"]["model"], wet=key[1])
-            out[c] = seen[key]
-    return out
+    return mesh_figures(case, conditions or case.data["conditions"])[0]
 
 
 def repass_reach(case, conditions) -> dict:
@@ -299,28 +285,40 @@ def repass_reach(case, conditions) -> dict:
     (subcycle_levels.window_reach, tq-solid's Solver::planRepasses), for each condition among
     `conditions` with the water coupled in implicit windows of several steps; 1 where tq-solid steps
     every re-pass whole (a reinforced concrete lining's block pass, a fault offset's prescribed slip)."""
+    return mesh_figures(case, conditions)[1]
+
+
+def mesh_figures(case, conditions) -> tuple[dict, dict]:
+    """(subcycled_levels, repass_reach) of `conditions`, from one look at the case's mesh: the levels of
+    each subcycling and wet wall computed once for both."""
     from .case import fault_offset_slip
-    from .subcycle_levels import mesh_window_reach
+    from .subcycle_levels import level_counts, mesh_level_arrays, mesh_window_reach
 
     d = case.data
     c = d["coupling"]
-    want = [x for x in conditions if "fluid" in PARTICIPANTS[x] and c["scheme"] == "implicit" and int(c["window"]) > 1]
-    if not want:
-        return {}
-    whole = (fault_offset_slip(d) is not None
-             or any(m.get("model") == "reinforced_concrete" for m in d["materials"].values()))
-    out, seen = {}, {}
+    sub = [x for x in conditions if subcycling_levels(d, x)]
+    again = [x for x in conditions if "fluid" in PARTICIPANTS[x] and c["scheme"] == "implicit" and int(c["window"]) > 1]
+    if fault_offset_slip(d) is not None or any(m.get("model") == "reinforced_concrete" for m in d["materials"].values()):
+        reach, again = {x: 1.0 for x in again}, []
+    else:
+        reach = {}
+    if not sub and not again:
+        return {}, reach
+    levels, arrays, reached = {}, {}, {}
     with current_solid_mesh(case) as mesh_h5:
-        for x in want:
-            key = subcycling_levels(d, x)
-            if whole:
-                seen[key] = 1.0
-            if key not in seen:
-                r = mesh_window_reach(mesh_h5, d["materials"], key, float(d["time"]["safety_factor"]),
-                                      float(d["time"].get("dt") or 0.0), d["interface"]["model"], int(c["window"]))
-                seen[key] = r["evals_by_chunk"] / r["evals_whole"] if r["evals_whole"] else 1.0
-            out[x] = seen[key]
-    return out
+        for x in dict.fromkeys(sub + again):
+            key = (subcycling_levels(d, x), "fluid" in PARTICIPANTS[x])
+            if key not in arrays:
+                arrays[key] = mesh_level_arrays(mesh_h5, d["materials"], key[0], float(d["time"]["safety_factor"]),
+                                                float(d["time"].get("dt") or 0.0), d["interface"]["model"], wet=key[1])
+            if x in sub:
+                levels[x] = level_counts(arrays[key])
+            if x in again:
+                if key not in reached:
+                    r = mesh_window_reach(mesh_h5, arrays[key], int(c["window"]))
+                    reached[key] = r["evals_by_chunk"] / r["evals_whole"] if r["evals_whole"] else 1.0
+                reach[x] = reached[key]
+    return levels, reach
 
 
 @dataclass
@@ -497,16 +495,13 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     # each condition's solid at its own subcycling (time.subcycling, given once or per condition): a
     # fine step evaluates the fraction of the elements its levels give and moves every node
-    try:
-        levels = subcycled_levels(case, [c for c, _ in conditions])
-    except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:  # no mesh: counted at one rate
-        levels, unmeshed = {}, f"; subcycled conditions counted at one rate (no mesh to count their levels on: {e})"
+    try:  # no mesh: counted at one rate, every re-pass whole
+        levels, reach = mesh_figures(case, [c for c, _ in conditions])
+    except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:
+        levels, reach = {}, {}
+        unmeshed = f"; subcycled conditions counted at one rate (no mesh to count their levels on: {e})"
     else:
         unmeshed = ""
-    try:
-        reach = repass_reach(case, [c for c, _ in conditions])
-    except (ValueError, RuntimeError, OSError, ImportError, KeyError):  # no mesh: re-passes counted whole
-        reach = {}
     solid_of = {c: elements * steps * rates.solid_element_step
                 * (rates.subcycled_factor(levels[c].cost_fraction) if c in levels else 1.0) for c, _ in conditions}
     statics, statics_steps = 0.0, 0

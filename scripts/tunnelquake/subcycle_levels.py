@@ -228,6 +228,7 @@ def order_levels(w: np.ndarray, conn: np.ndarray, num_nodes: int, max_level: int
 class LevelArrays:
     """What levels() counts, node by node and element by element."""
 
+    conn: np.ndarray  # (E, 8) the elements' nodes
     node_level: np.ndarray  # (N,) each node's level (steps of 2^L dt)
     chunk_level: np.ndarray  # (E,) each element's chunk's level: it is evaluated every 2^L fine steps
     blocks: tuple  # each region's elements in tq-solid's block order (chunks of CHUNK in turn)
@@ -268,17 +269,14 @@ def level_arrays(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speed
         chunk = np.concatenate([finest_e, np.full(pad, max_level)]).reshape(-1, CHUNK).min(axis=1)
         chunk_level[order] = np.repeat(chunk, CHUNK)[:len(finest_e)]
         blocks.append(order)
-    return LevelArrays(node_level=node_level, chunk_level=chunk_level, blocks=tuple(blocks), top=max_level,
-                       dt=float(dt))
+    return LevelArrays(conn=conn, node_level=node_level, chunk_level=chunk_level, blocks=tuple(blocks),
+                       top=max_level, dt=float(dt))
 
 
-def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
-           safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> Levels:
-    """The counts by level of level_arrays() (the same arguments)."""
-    a = level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, tied, wall_nodes)
-    conn = np.asarray(conn, dtype=np.int64)
-    top = a.top
-    used = np.zeros(len(coords), dtype=bool)
+def level_counts(a: LevelArrays) -> Levels:
+    """The counts by level of level_arrays()."""
+    conn, top = a.conn, a.top
+    used = np.zeros(len(a.node_level), dtype=bool)
     used[conn.ravel()] = True
     nodes = np.bincount(a.node_level[used], minlength=top + 1)
     elements = np.zeros(top + 1, dtype=np.int64)
@@ -294,8 +292,25 @@ def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: lis
                   own=tuple(int(x) for x in own[:last + 1]))
 
 
-def _mesh_arguments(mesh_h5: Path, materials: dict, interface: str, wet: bool) -> tuple:
-    """level_arrays()'s arguments but the levels, the safety and the step, from a mesh.h5 (mesh_levels)."""
+def levels(coords: np.ndarray, conn: np.ndarray, region: np.ndarray, speeds: list[float], max_level: int,
+           safety: float, dt: float = 0.0, finest=None, tied=None, wall_nodes=None) -> Levels:
+    """The counts by level of level_arrays() (the same arguments)."""
+    return level_counts(level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, tied, wall_nodes))
+
+
+def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
+                interface: str = "dynamic_contact", wet: bool = False) -> Levels:
+    """The counts by level of mesh_level_arrays() (the same arguments)."""
+    return level_counts(mesh_level_arrays(mesh_h5, materials, max_level, safety, dt, interface, wet))
+
+
+def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
+                      interface: str = "dynamic_contact", wet: bool = False) -> LevelArrays:
+    """level_arrays() of a mesh.h5 (meshing.build's solid mesh), each region's P-wave speed from the
+    case's materials (`materials[region]`: youngs_modulus, poisson_ratio, density). The constraints of
+    tq-solid's contributors: the rock-lining pairs (/interfaces/rock_lining) at the finest level
+    with `interface` dynamic_contact, tied with bonded; the lining joints' pairs at the finest; with
+    `wet` (the water coupled, or its volume law carried in the solid) the lining's inner face too."""
     import h5py
 
     with h5py.File(mesh_h5, "r") as f:
@@ -315,25 +330,7 @@ def _mesh_arguments(mesh_h5: Path, materials: dict, interface: str, wet: bool) -
         pairs = None
     finest = np.unique(np.concatenate(finest)) if finest else None
     wall_nodes = np.unique(np.concatenate(wall)) if wall else None
-    return coords, conn, region, speeds, finest, pairs, wall_nodes
-
-
-def mesh_levels(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
-                interface: str = "dynamic_contact", wet: bool = False) -> Levels:
-    """levels() of a mesh.h5 (meshing.build's solid mesh), each region's P-wave speed from the case's
-    materials (`materials[region]`: youngs_modulus, poisson_ratio, density). The constraints of
-    tq-solid's contributors: the rock-lining pairs (/interfaces/rock_lining) at the finest level
-    with `interface` dynamic_contact, tied with bonded; the lining joints' pairs at the finest; with
-    `wet` (the water coupled, or its volume law carried in the solid) the lining's inner face too."""
-    coords, conn, region, speeds, finest, pairs, wall = _mesh_arguments(mesh_h5, materials, interface, wet)
-    return levels(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall)
-
-
-def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float = 0.0,
-                      interface: str = "dynamic_contact", wet: bool = False) -> LevelArrays:
-    """level_arrays() of a mesh.h5, as mesh_levels() counts them."""
-    coords, conn, region, speeds, finest, pairs, wall = _mesh_arguments(mesh_h5, materials, interface, wet)
-    return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall)
+    return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall_nodes)
 
 
 def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarray, chunk_of: np.ndarray,
@@ -343,8 +340,7 @@ def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarr
     fine steps (counted from a step at which every level is due) a node *changes* at an update whose
     force may differ: the wet nodes' from the first step, a node's with an element changed before, or
     with a partner (`pairs` (P, 2): the contact's, the ties', the joints') changed before or loaded
-    differently at that step; an
-    element changes from its first evaluation that reads a changed node. A re-pass evaluates every
+    differently at that step; an element changes from its first evaluation that reads a changed node. A re-pass evaluates every
     element with a changed node, by whole chunks. conn (E, 8), node_level (N,), chunk_level (E,) the
     level each element is evaluated at, chunk_of (E,) a chunk id per element (unique across blocks).
     Returns counts by level ("elements", "changed", "needed", "needed_by_chunk"), the element
@@ -384,26 +380,24 @@ def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarr
     }
 
 
-def mesh_window_reach(mesh_h5: Path, materials: dict, max_level: int, safety: float, dt: float, interface: str,
-                      steps: int) -> dict:  # noqa: PLR0913
-    """window_reach() on a mesh.h5 with the water coupled on its lining's inner face, the levels and
-    chunks as mesh_level_arrays() gives them (max_level 0: one rate)."""
+def mesh_window_reach(mesh_h5: Path, a: LevelArrays, steps: int) -> dict:
+    """window_reach() of windows of `steps` fine steps on a mesh.h5 whose water is coupled on its
+    lining's inner face, at the levels and chunks `a` (mesh_level_arrays of it with the wet wall at the
+    finest level; max_level 0: one rate)."""
     import h5py
 
-    a = mesh_level_arrays(mesh_h5, materials, max_level, safety, dt, interface, wet=True)
     with h5py.File(mesh_h5, "r") as f:
-        conn = f["elements/connectivity"][()].astype(np.int64)
         wet = np.unique(f["faces/lining_inner"][()].ravel()) if "faces/lining_inner" in f else np.zeros(0, np.int64)
         # the contact's pairs, a bonded interface's ties and the lining's joints: each pair's forces
         # come from both nodes
         pairs = np.concatenate([f[g][()].astype(np.int64).reshape(-1, 2) for g in ("interfaces/rock_lining",
                                 "interfaces/lining_joints") if g in f] or [np.zeros((0, 2), np.int64)])
-    chunk_of = np.zeros(len(conn), dtype=np.int64)
+    chunk_of = np.zeros(len(a.conn), dtype=np.int64)
     first = 0
     for order in a.blocks:
         chunk_of[order] = first + np.arange(len(order)) // CHUNK
         first += (len(order) + CHUNK - 1) // CHUNK
-    return window_reach(conn, a.node_level, a.chunk_level, chunk_of, wet, pairs, steps)
+    return window_reach(a.conn, a.node_level, a.chunk_level, chunk_of, wet, pairs, steps)
 
 
 # ------------------------------------------------------------------------------------------------

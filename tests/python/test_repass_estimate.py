@@ -53,10 +53,10 @@ def test_the_estimate_counts_each_repass_at_its_reach(monkeypatch, subcycling):
     f = est.subcycled["dynamic_water"][0] if subcycling else 1.0
     assert again == pytest.approx(rates.repass_factor(f, r), rel=1e-12)
     assert f"dynamic_water's windows stepped again over the water's reach: {r:.2f}" in est.line()
-    monkeypatch.setattr(scene, "repass_reach", lambda *a, **k: {})
+    monkeypatch.setattr(R.MachineRates, "repass_factor", lambda self, f, r: 1.0)  # every re-pass whole
     whole = scene.runtime_estimate(copy.deepcopy(case), rates=rates)
     per_window = scene.passes_per_window(case.data["coupling"])
-    assert per_window > 1 and not whole.repass
+    assert per_window > 1 and whole.repass["dynamic_water"] == (r, 1.0)
     from tunnelquake.case import case_geology, ground_layers
     from tunnelquake.meshing.params import element_counts, resolve
 
