@@ -202,7 +202,6 @@ class ElementBlock {
   /// strains and history); empty: none. setRepass(true) from a window's restore to its acceptance.
   void setRepassSkip(std::vector<std::uint8_t> skip);
   void setRepass(bool on) { repass_ = on && !repassSkip_.empty(); }
-  bool repassSkips(Index c) const { return !repassSkip_.empty() && repassSkip_[size_t(c)] != 0; }
   /// Chunk c's energy terms as its last evaluation left them (a skipped chunk's are the solver's to
   /// record in the first pass and give back in a re-pass, so that the block's sums keep their bits).
   BlockEnergy& chunkEnergy(Index c) { return chunkEnergy_[size_t(c)]; }
