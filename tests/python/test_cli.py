@@ -124,6 +124,20 @@ def test_run_end_to_end_on_the_example(tmp_path, capsys):
         assert "running dynamic_water beside no_water, static_water" in out
         assert "[no_water] tq-solid: completed" in out
     assert (res / "dynamic_water" / "fluid.log").read_text().rstrip().endswith("End")
+    # tq-solid's plan of the re-passes is check's rule on the same mesh (subcycle_levels.window_reach:
+    # the chunks out of the water's reach within a window)
+    from tunnelquake.scene import subcycling_levels
+    from tunnelquake.subcycle_levels import mesh_level_arrays, mesh_window_reach
+
+    d = load_case(p).data
+    levels = mesh_level_arrays(res / "mesh" / "mesh.h5", d["materials"], subcycling_levels(d, "dynamic_water"),
+                               float(d["time"]["safety_factor"]), float(d["time"].get("dt") or 0.0),
+                               d["interface"]["model"], wet=True)
+    reach = mesh_window_reach(res / "mesh" / "mesh.h5", levels, int(d["coupling"]["window"]))
+    skipped = len(conn) - int(sum(reach["needed_by_chunk"]))
+    assert 0 < skipped < len(conn)
+    assert (f"({skipped} of {len(conn)} elements) out of the water's reach"
+            in (res / "dynamic_water" / "solid.log").read_text())
     with h5py.File(res / "results_dynamic_water.h5", "r") as f, \
             h5py.File(res / "results_static_water.h5", "r") as g:
         assert f.attrs["status"] == "completed"
