@@ -163,7 +163,8 @@ TEST(SolidMcDeterminism, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
 }
 
 // The kernel's AVX-512 path runs the AVX2 path's operations on 8 elements a vector instead of 4
-// (ElementBlock::Simd): the same bits, on a yielding Mohr–Coulomb block (the stored form, the
+// (ElementBlock::Simd), the corners' displacements and velocities gathered with AVX-512 gathers
+// instead of the scalar loop: the same bits, on a yielding Mohr–Coulomb block (the stored form, the
 // material called a chunk at a time) and on an elastic one (the total form), both with stiffness
 // damping (the damped kernel), a chunk filled in part (1,365 elements: the last chunk 21) and some
 // elements inactive (the lanes' masks). Skipped on a CPU without AVX-512.

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include <immintrin.h>
+
 #include "tq/elements/hex8.hpp"
 
 // The kernel's 4-wide vector helpers are always inlined: the AVX ABI note does not apply.
@@ -736,6 +738,43 @@ struct ElementBlock::ChunkView {
 
 namespace {
 
+/// The corners' values x[3 node + i] of a chunk's elements into g[i][corner][lane], with AVX-512
+/// gathers: 8 elements at a time, their connectivity transposed in registers to one row of nodes a
+/// corner, then 24 gathers (each the loads the scalar loop makes, so the same bits); the lanes from
+/// n to the next multiple of 8 are set to 0.
+__attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"))) void gatherCornersAvx512(
+    const Real* __restrict x, const Index* __restrict cn, Index n, Real (*g)[8][ElementBlock::kChunk]) {
+  static_assert(sizeof(Index) == 4, "the transpose reads 32-bit node numbers");
+  for (Index l = 0; l < n; l += 8) {
+    const Index rest = n - l;
+    const __mmask8 m = rest >= 8 ? __mmask8(0xff) : __mmask8((1u << rest) - 1);
+    __m256i r[8];  // row j: the 8 corners of element l + j (0 past the chunk's end)
+    for (int j = 0; j < 8; ++j)
+      r[j] = j < rest ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cn + 8 * size_t(l + j)))
+                      : _mm256_setzero_si256();
+    __m256i t[8], q[8], c[8];
+    for (int j = 0; j < 8; j += 2) {
+      t[j] = _mm256_unpacklo_epi32(r[j], r[j + 1]);
+      t[j + 1] = _mm256_unpackhi_epi32(r[j], r[j + 1]);
+    }
+    for (int h = 0; h < 8; h += 4) {
+      q[h] = _mm256_unpacklo_epi64(t[h], t[h + 2]);
+      q[h + 1] = _mm256_unpackhi_epi64(t[h], t[h + 2]);
+      q[h + 2] = _mm256_unpacklo_epi64(t[h + 1], t[h + 3]);
+      q[h + 3] = _mm256_unpackhi_epi64(t[h + 1], t[h + 3]);
+    }
+    for (int k = 0; k < 4; ++k) {
+      c[k] = _mm256_permute2x128_si256(q[k], q[k + 4], 0x20);
+      c[k + 4] = _mm256_permute2x128_si256(q[k], q[k + 4], 0x31);
+    }
+    for (int k = 0; k < 8; ++k) {
+      const __m256i at = _mm256_add_epi32(c[k], _mm256_add_epi32(c[k], c[k]));  // 3 node
+      for (int i = 0; i < 3; ++i)
+        _mm512_store_pd(&g[i][k][l], _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, at, x + i, 8));
+    }
+  }
+}
+
 // The kernel body for one chunk; instantiated for the generic and the AVX2 target.
 // kTotal: linear elastic total form σ = C:ε(u) + σ_off (no strain record, no material call).
 template <bool kDamp, bool kTotal, class V>
@@ -749,25 +788,30 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   // 1. Gather the corners' displacements (and velocities) into [component][corner][lane].
   alignas(64) Real ug[3][8][W];
   alignas(64) Real vg[kDamp ? 3 : 1][8][W];
-  for (Index l = 0; l < n; ++l)
-    for (int k = 0; k < 8; ++k) {
-      const Real* un = u + 3 * size_t(cn[8 * l + k]);
-      ug[0][k][l] = un[0];
-      ug[1][k][l] = un[1];
-      ug[2][k][l] = un[2];
-      if constexpr (kDamp) {
-        const Real* vn = v + 3 * size_t(cn[8 * l + k]);
-        vg[0][k][l] = vn[0];
-        vg[1][k][l] = vn[1];
-        vg[2][k][l] = vn[2];
+  if constexpr (kLanes == 8) {
+    gatherCornersAvx512(u, cn, n, ug);
+    if constexpr (kDamp) gatherCornersAvx512(v, cn, n, vg);
+  } else {
+    for (Index l = 0; l < n; ++l)
+      for (int k = 0; k < 8; ++k) {
+        const Real* un = u + 3 * size_t(cn[8 * l + k]);
+        ug[0][k][l] = un[0];
+        ug[1][k][l] = un[1];
+        ug[2][k][l] = un[2];
+        if constexpr (kDamp) {
+          const Real* vn = v + 3 * size_t(cn[8 * l + k]);
+          vg[0][k][l] = vn[0];
+          vg[1][k][l] = vn[1];
+          vg[2][k][l] = vn[2];
+        }
       }
-    }
-  for (Index l = n; l < nv; ++l)  // padding lanes: at rest (their results are not used)
-    for (int k = 0; k < 8; ++k)
-      for (int i = 0; i < 3; ++i) {
-        ug[i][k][l] = 0;
-        if constexpr (kDamp) vg[i][k][l] = 0;
-      }
+    for (Index l = n; l < nv; ++l)  // padding lanes: at rest (their results are not used)
+      for (int k = 0; k < 8; ++k)
+        for (int i = 0; i < 3; ++i) {
+          ug[i][k][l] = 0;
+          if constexpr (kDamp) vg[i][k][l] = 0;
+        }
+  }
   // 2. Total strain and its increment, hourglass forces (generalised, global frame: Qg).
   alignas(64) Real de[6][W];
   alignas(64) Real Qg[12][W];
