@@ -14,8 +14,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <random>
 
+#include "materials/eigen_sym3.hpp"
 #include "mc_helpers.hpp"
 
 using namespace tq;
@@ -449,4 +451,57 @@ TEST(MohrCoulombDamage, BadParametersAreRejectedWithTheFix) {
   p.cohesion = -1;
   EXPECT_THROW(MohrCoulombDamageMaterial{p}, InputError);
   EXPECT_THROW(parseDamageEffect("stiffness"), InputError);
+}
+
+// The return mapping's eigen-decomposition of the trial stress four elements at a time
+// (eigenSym3x4, AVX2 without FMA) gives eigenSym3's bits in every lane, whatever the other lanes
+// hold: lanes converging after different numbers of sweeps, a zero pivot in some lanes only,
+// diagonal, zero and repeated-eigenvalue matrices, scales from 1 Pa to 1e9 Pa. Each result is an
+// eigenbasis: |A v - lambda v| within 1e-13 of the matrix's size, the vectors orthonormal to 1e-14.
+TEST(PrincipalStresses, FourAtOnceGiveTheOneMatrixJacobisBits) {
+  if (!eigenSym3x4Available()) GTEST_SKIP() << "this CPU has no AVX2 (or TQ_SOLID_SIMD=generic)";
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<Real> U(-1, 1), logScale(0, 9);
+  std::vector<std::array<Real, 6>> mats = {
+      {1, 2, 3, 0, 0, 0},          {0, 0, 0, 0, 0, 0}, {5, 5, 5, 1e-9, 0, 0},   {4, 1, 1, 0, 2, 0},
+      {-3e6, -3e6, -1e6, 0, 0, 0}, {2, 2, 2, 1, 1, 1}, {1, -1, 0, 0, 0, 1e-20}, {7, 7, 3, 0, 0, 0},
+  };
+  for (int i = 0; i < 400; ++i) {
+    const Real scale = std::pow(10.0, logScale(rng));
+    std::array<Real, 6> m;
+    for (Real& x : m) x = scale * U(rng);
+    if (i % 5 == 0) m[XY] = 0;      // a zero first pivot
+    if (i % 7 == 0) m[YY] = m[XX];  // two equal diagonal terms
+    mats.push_back(m);
+  }
+  int compared = 0;
+  for (size_t g = 0; g + 4 <= mats.size(); g += 4) {
+    Real s4[6][4], ev4[4][3], V4[4][3][3];
+    for (int l = 0; l < 4; ++l)
+      for (int q = 0; q < 6; ++q) s4[q][l] = mats[g + size_t(l)][size_t(q)];
+    eigenSym3x4(s4, ev4, V4);
+    for (int l = 0; l < 4; ++l) {
+      const auto& m = mats[g + size_t(l)];
+      Real ev[3], V[3][3];
+      eigenSym3(m.data(), ev, V);
+      EXPECT_EQ(std::memcmp(ev, ev4[l], sizeof ev), 0) << "matrix " << g + size_t(l);
+      EXPECT_EQ(std::memcmp(V, V4[l], sizeof V), 0) << "matrix " << g + size_t(l);
+      const Real A[3][3] = {{m[XX], m[XY], m[ZX]}, {m[XY], m[YY], m[YZ]}, {m[ZX], m[YZ], m[ZZ]}};
+      Real size = 0;
+      for (Real x : m) size = std::max(size, std::abs(x));
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_LE(ev[i], i < 2 ? ev[i + 1] : ev[i]);  // ascending
+        for (int r = 0; r < 3; ++r) {
+          const Real av = A[r][0] * V[0][i] + A[r][1] * V[1][i] + A[r][2] * V[2][i];
+          EXPECT_LE(std::abs(av - ev[i] * V[r][i]), 1e-13 * std::max(size, 1e-300));
+        }
+        for (int j = 0; j < 3; ++j) {
+          const Real d = V[0][i] * V[0][j] + V[1][i] * V[1][j] + V[2][i] * V[2][j];
+          EXPECT_NEAR(d, i == j ? 1.0 : 0.0, 1e-14);
+        }
+      }
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 408);
 }

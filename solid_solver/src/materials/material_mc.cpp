@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "materials/eigen_sym3.hpp"
 #include "materials/parameter_names.hpp"
 
 namespace tq {
@@ -133,48 +134,6 @@ bool solveSmall(int n, Real G[3][3], Real r[3], Real x[3]) {
     x[c] = s / G[idx[c]][c];
   }
   return true;
-}
-
-// Cyclic Jacobi eigen-decomposition of a symmetric 3x3 matrix (accurate also for close or
-// repeated eigenvalues; each rotation in the cheap form of Rutishauser, with τ = s/(1 + c)).
-// On exit eval ascending and evec[:, i] (column i) its unit eigenvector.
-void eigenSym3(const Real s[6], Real eval[3], Real evec[3][3]) {
-  Real A[3][3] = {{s[XX], s[XY], s[ZX]}, {s[XY], s[YY], s[YZ]}, {s[ZX], s[YZ], s[ZZ]}};
-  Real V[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  auto rotate = [&](int p, int q, int r) {
-    const Real apq = A[p][q];
-    if (apq == 0) return;
-    const Real theta = (A[q][q] - A[p][p]) / (2 * apq);
-    const Real t = (theta >= 0 ? 1 : -1) / (std::abs(theta) + std::sqrt(theta * theta + 1));
-    const Real c = 1 / std::sqrt(t * t + 1), sn = t * c, tau = sn / (1 + c);
-    A[p][p] -= t * apq;
-    A[q][q] += t * apq;
-    A[p][q] = A[q][p] = 0;
-    const Real arp = A[r][p], arq = A[r][q];
-    A[r][p] = A[p][r] = arp - sn * (arq + tau * arp);
-    A[r][q] = A[q][r] = arq + sn * (arp - tau * arq);
-    for (int k = 0; k < 3; ++k) {
-      const Real vkp = V[k][p], vkq = V[k][q];
-      V[k][p] = vkp - sn * (vkq + tau * vkp);
-      V[k][q] = vkq + sn * (vkp - tau * vkq);
-    }
-  };
-  for (int sweep = 0; sweep < 50; ++sweep) {
-    const Real off = A[0][1] * A[0][1] + A[0][2] * A[0][2] + A[1][2] * A[1][2];
-    const Real diag = A[0][0] * A[0][0] + A[1][1] * A[1][1] + A[2][2] * A[2][2];
-    if (off <= 1e-34 * diag || off == 0) break;
-    rotate(0, 1, 2);
-    rotate(0, 2, 1);
-    rotate(1, 2, 0);
-  }
-  int o[3] = {0, 1, 2};
-  if (A[o[1]][o[1]] < A[o[0]][o[0]]) std::swap(o[0], o[1]);
-  if (A[o[2]][o[2]] < A[o[1]][o[1]]) std::swap(o[1], o[2]);
-  if (A[o[1]][o[1]] < A[o[0]][o[0]]) std::swap(o[0], o[1]);
-  for (int i = 0; i < 3; ++i) {
-    eval[i] = A[o[i]][o[i]];
-    for (int k = 0; k < 3; ++k) evec[k][i] = V[k][o[i]];
-  }
 }
 
 // Smallest and largest principal value of a symmetric 3x3 (Voigt) in closed form: the
@@ -478,15 +437,6 @@ __attribute__((target("avx2"))) void boundsAvx2(const TrialConstants& k, const R
   principalBounds(k, t, D, n, inside);
 }
 
-// AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit).
-// TQ_SOLID_SIMD=generic asks for the generic path, as it does of the element kernel.
-bool materialAvx2() {
-  const char* env = std::getenv("TQ_SOLID_SIMD");
-  if (env && std::string(env) == "generic") return false;
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
-
 }  // namespace
 
 void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) const {
@@ -500,7 +450,9 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
   //    Elements that pass stay elastic (the common case costs a few flops more than Hooke, in
   //    a loop the compiler vectorises); the others are decomposed and returned if outside.
   constexpr Index kBlock = kBoundBatch;
-  static const bool kMaterialAvx2 = materialAvx2();  // once, on the first use
+  // AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit);
+  // TQ_SOLID_SIMD=generic asks for the generic path, as it does of the element kernel.
+  static const bool kMaterialAvx2 = eigenSym3x4Available();  // once, on the first use
   const TrialConstants tk{
       moduli_.lambda, moduli_.mu,          stiff ? 1.0 : 0.0, Np, dpSlope_, 2 * c0 * sqrtNPhi_, c0, st0,
       cotPhi,         std::sqrt(2.0 / 3.0)};
@@ -540,34 +492,73 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
       boundsAvx2(tk, packed, pD, nSuspect, bounded);
     else
       boundsGeneric(tk, packed, pD, nSuspect, bounded);
+    Index plastic[kBlock], nPlastic = 0;  // lanes of the block outside or too near the surface
     for (Index k = 0; k < nSuspect; ++k) {
       if (bounded[k] != 0) continue;
       const Index e = e0 + suspect[k];
-      {
-        const Real t[6] = {packed[XX][k], packed[YY][k], packed[ZZ][k], packed[XY][k], packed[YZ][k], packed[ZX][k]};
-        const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
-        Real range[3], size;                            // smallest, (unused), largest
-        principalRange(t, range[0], range[2], size);
-        range[1] = range[0];
-        const Real margin = 1e-6 * std::max({size, sD.cohesionTerm, std::abs(sD.tension)});
-        if (sD.shear(range) < -(Np + 1) * margin && sD.tensile(range) < -margin) continue;
+      const Real t[6] = {packed[XX][k], packed[YY][k], packed[ZZ][k], packed[XY][k], packed[YZ][k], packed[ZX][k]};
+      const MohrCoulombSurface sD = surface(dmg[e]);  // the nominal stress's surface (both effects)
+      Real range[3], size;                            // smallest, (unused), largest
+      principalRange(t, range[0], range[2], size);
+      range[1] = range[0];
+      const Real margin = 1e-6 * std::max({size, sD.cohesionTerm, std::abs(sD.tension)});
+      if (sD.shear(range) < -(Np + 1) * margin && sD.tensile(range) < -margin) continue;
+      plastic[nPlastic++] = suspect[k];
+    }
+    // 3. Their trial's eigen-decomposition four at a time (eigenSym3x4: each the scalar one's
+    //    bits), then the return mapping, damage and history of each.
+    for (Index g = 0; g < nPlastic; g += 4) {
+      const int m = int(std::min<Index>(4, nPlastic - g));
+      Real sig[4][6], de[4][6], trial[4][6], ev[4][3], V[4][3][3];
+      bool open[4] = {false, false, false, false};
+      for (int j = 0; j < m; ++j) {
+        const Index e = e0 + plastic[g + j];
+        for (int q = 0; q < 6; ++q) {
+          sig[j][q] = old[q][plastic[g + j]];
+          de[j][q] = c.dstrain[q][e];
+        }
+        open[j] = plasticTrial(sig[j], de[j], dmg[e], trial[j]);
       }
-      Real sig[6], de[6];
-      for (int q = 0; q < 6; ++q) {
-        sig[q] = old[q][suspect[k]];
-        de[q] = c.dstrain[q][e];
+      if (kMaterialAvx2 && m > 1) {
+        Real t4[6][4] = {};  // lanes without a trial: the zero matrix (no rotation)
+        for (int j = 0; j < m; ++j)
+          if (open[j])
+            for (int q = 0; q < 6; ++q) t4[q][j] = trial[j][q];
+        eigenSym3x4(t4, ev, V);
+      } else {
+        for (int j = 0; j < m; ++j)
+          if (open[j]) eigenSym3(trial[j], ev[j], V[j]);
       }
-      plasticUpdate(sig, de, c.history, e);
-      for (int q = 0; q < 6; ++q) c.stress[q][e] = sig[q];
+      for (int j = 0; j < m; ++j) {
+        const Index e = e0 + plastic[g + j];
+        if (open[j]) plasticFinish(sig[j], de[j], c.history, e, trial[j], ev[j], V[j]);
+        for (int q = 0; q < 6; ++q) c.stress[q][e] = sig[j][q];
+      }
     }
   }
 }
 
-void MohrCoulombDamageMaterial::plasticUpdate(Real s[6], const Real de[6], Real* const* h, Index e) const {
+bool MohrCoulombDamageMaterial::plasticTrial(Real s[6], const Real de[6], Real Dn, Real trial[6]) const {
+  const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
+  const Real lam = moduli_.lambda, mu = moduli_.mu;
+  if (stiff && Dn >= 1) {  // fully damaged: no stiffness, no stress
+    for (int q = 0; q < 6; ++q) s[q] = 0;
+    return false;
+  }
+  // Nominal for `cohesion`, effective σ/(1 − D) for `cohesion_and_stiffness` (plasticity then runs
+  // on the undamaged surface).
+  const Real tr = de[XX] + de[YY] + de[ZZ];
+  const Real toEff = stiff ? 1 / (1 - Dn) : 1;
+  for (int q = 0; q < 3; ++q) trial[q] = s[q] * toEff + lam * tr + 2 * mu * de[q];
+  for (int q = 3; q < 6; ++q) trial[q] = s[q] * toEff + mu * de[q];
+  return true;
+}
+
+void MohrCoulombDamageMaterial::plasticFinish(Real s[6], const Real de[6], Real* const* h, Index e, const Real trial[6],
+                                              const Real ev[3], const Real V[3][3]) const {
   using namespace mc_history;
   const bool stiff = params_.damageEffect == DamageEffect::CohesionAndStiffness;
-  const Real lam = moduli_.lambda, mu = moduli_.mu, E = params_.elastic.youngsModulus,
-             nu = params_.elastic.poissonRatio;
+  const Real mu = moduli_.mu, E = params_.elastic.youngsModulus, nu = params_.elastic.poissonRatio;
   const Real Dn = h[kDamage][e];
   // Elastic energy density ½ σ : C⁻¹ : σ / (1 − D) of a nominal stress (0 when fully damaged).
   auto energy = [&](const Real x[6], Real D) {
@@ -579,19 +570,7 @@ void MohrCoulombDamageMaterial::plasticUpdate(Real s[6], const Real de[6], Real*
   };
   Real old[6];
   for (int q = 0; q < 6; ++q) old[q] = s[q];
-  // Trial stress: nominal for `cohesion`, effective σ/(1 − D) for `cohesion_and_stiffness`
-  // (plasticity then runs on the undamaged surface).
-  const Real tr = de[XX] + de[YY] + de[ZZ];
-  Real trial[6];
-  if (stiff && Dn >= 1) {  // fully damaged: no stiffness, no stress
-    for (int q = 0; q < 6; ++q) s[q] = 0;
-    return;
-  }
   const Real toEff = stiff ? 1 / (1 - Dn) : 1;
-  for (int q = 0; q < 3; ++q) trial[q] = s[q] * toEff + lam * tr + 2 * mu * de[q];
-  for (int q = 3; q < 6; ++q) trial[q] = s[q] * toEff + mu * de[q];
-  Real ev[3], V[3][3];
-  eigenSym3(trial, ev, V);
   const Real kappaOld[3] = {h[kKappa1][e], h[kKappa2][e], h[kKappa3][e]};
   Real kappa[3] = {kappaOld[0], kappaOld[1], kappaOld[2]};
   auto kappaAfter = [&](const PrincipalReturn& r, Real out[3]) {

@@ -111,8 +111,14 @@ class MohrCoulombDamageMaterial final : public Material {
   Real damageFrom(const Real kappa[3]) const;
 
  private:
-  /// Full update of one element whose trial stress may lie outside the surface.
-  void plasticUpdate(Real stressOld[6], const Real dstrain[6], Real* const* hist, Index e) const;
+  /// The trial stress of an element whose trial may lie outside the surface (nominal for
+  /// `cohesion`, effective for `cohesion_and_stiffness`); false for a fully damaged element under
+  /// `cohesion_and_stiffness`, whose stress is then 0 (set here).
+  bool plasticTrial(Real stressOld[6], const Real dstrain[6], Real damage, Real trial[6]) const;
+  /// The rest of the update, from the trial's principal values ev (ascending) and directions
+  /// (columns of V): the return, the damage, the history and the dissipation of element e.
+  void plasticFinish(Real stressOld[6], const Real dstrain[6], Real* const* hist, Index e, const Real trial[6],
+                     const Real ev[3], const Real V[3][3]) const;
 
   MohrCoulombDamageParams params_;
   ElasticModuli moduli_;
