@@ -1319,9 +1319,11 @@ void ElementBlock::setGatheredState(Index e, const Real* in) {
 }
 
 void ElementBlock::checkpoint(StateArchive& a) {
-  // a re-pass restores the chunks it steps again only; every chunk's energy terms come back (a
-  // skipped chunk's are given back step by step by the solver)
-  const auto* only = repass_ && a.windowStart() ? &repassKeep_ : nullptr;
+  // a re-pass restores the chunks it steps again only, and the window's start saves only those
+  // when its re-passes will be so; every chunk's energy terms come back (a skipped chunk's are
+  // given back step by step by the solver)
+  const bool ranges = a.windowStart() && (a.saving() ? repassSave_ : repass_);
+  const auto* only = ranges ? &repassKeep_ : nullptr;
   for (auto& s : stress_) a.io(s, only);
   for (auto& s : strain_) a.io(s, only);
   for (auto& h : history_) a.io(h, only);  // same size back: historyPtr_ stays valid
@@ -1331,7 +1333,7 @@ void ElementBlock::checkpoint(StateArchive& a) {
 
 void ElementBlock::setRepassSkip(std::vector<std::uint8_t> skip) {
   repassKeep_.clear();
-  repass_ = false;
+  repass_ = repassSave_ = false;
   if (std::find(skip.begin(), skip.end(), std::uint8_t(1)) == skip.end()) skip.clear();
   repassSkip_ = std::move(skip);
   if (repassSkip_.empty()) return;

@@ -1293,13 +1293,19 @@ void Solver::beginPass(bool repass) {
     rp_.mode = 2;
     rp_.fAt = rp_.eAt = 0;
   }
-  for (auto& b : blocks_) b->setRepass(rp_.mode == 2);
+  for (auto& b : blocks_) {
+    b->setRepass(rp_.mode == 2);
+    b->setRepassSave(rp_.mode == 1);
+  }
 }
 
 void Solver::endPasses() {
   if (!rp_.planned) return;
   rp_.mode = 0;
-  for (auto& b : blocks_) b->setRepass(false);
+  for (auto& b : blocks_) {
+    b->setRepass(false);
+    b->setRepassSave(false);
+  }
 }
 
 void Solver::repassEnergies(int activeLevel) {

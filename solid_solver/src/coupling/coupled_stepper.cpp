@@ -17,13 +17,13 @@ void CoupledStepper::advance(const std::function<void()>& onFinal) {
 void CoupledStepper::window(const std::function<void()>& onFinal) {
   WindowCoupling& c = *coupling_;
   const bool whole = c.repeatsWindows();
-  if (whole) {  // save
+  if (whole) {                 // save
+    solver_.beginPass(false);  // what a re-pass restores; the first pass records what it takes from it
     start_.beginSave();
     solver_.checkpoint(start_);
     start_.end();
   }
   c.planWindow(solver_.state());
-  if (whole) solver_.beginPass(false);  // the first pass records what a re-pass takes from it
   for (;;) {
     if (!solver_.stepOpen()) solveWindow(!whole, onFinal);  // steps 1 … k−1, the last one's other forces
     if (c.exchange(solver_.dt(), solver_.state())) break;   // accepted

@@ -199,9 +199,12 @@ class ElementBlock {
   void checkpoint(StateArchive& a);
   /// A coupling window's re-passes (Solver::planRepasses): the chunks (skip[c] = 1) that a re-pass
   /// leaves as the window's first pass left them, neither evaluated nor restored (their stresses,
-  /// strains and history); empty: none. setRepass(true) from a window's restore to its acceptance.
+  /// strains and history); empty: none. setRepass(true) from a window's restore to its acceptance;
+  /// setRepassSave(true) for the save at a window's start whose re-passes will be so (the chunks a
+  /// re-pass restores are the only ones saved).
   void setRepassSkip(std::vector<std::uint8_t> skip);
   void setRepass(bool on) { repass_ = on && !repassSkip_.empty(); }
+  void setRepassSave(bool on) { repassSave_ = on && !repassSkip_.empty(); }
   /// Chunk c's energy terms as its last evaluation left them (a skipped chunk's are the solver's to
   /// record in the first pass and give back in a re-pass, so that the block's sums keep their bits).
   BlockEnergy& chunkEnergy(Index c) { return chunkEnergy_[size_t(c)]; }
@@ -263,6 +266,7 @@ class ElementBlock {
   std::vector<std::uint8_t> repassSkip_;  // setRepassSkip: [chunk] 1 skipped
   std::vector<std::pair<std::size_t, std::size_t>> repassKeep_;  // the element ranges a re-pass restores
   bool repass_ = false;                                          // setRepass
+  bool repassSave_ = false;                                      // setRepassSave
   Real* cornerOut_ = nullptr;          // on ranks: the corner forces' destination (setCornerForceOutput)
   const Index* cornerSlot_ = nullptr;  // on ranks: [element] its slot there, or -1
 };

@@ -328,9 +328,10 @@ class Solver {
   /// block pass, every contributor's forceGroups, and with subcycling windows of a multiple of the
   /// coarsest level's steps; `why` says which is missing otherwise. Plan after enableSubcycling.
   RepassPlan planRepasses(const std::vector<Index>& wet, Index windowSteps);
-  /// A window's passes (CoupledStepper): beginPass(false) before its first pass (which records what
-  /// a re-pass takes from it), beginPass(true) before each restore for a further pass, endPasses()
-  /// once the water accepts the window. Nothing without a plan.
+  /// A window's passes (CoupledStepper): beginPass(false) before the window's save and its first
+  /// pass (which records what a re-pass takes from it; the save then holds what a re-pass restores
+  /// only), beginPass(true) before each restore for a further pass, endPasses() once the water
+  /// accepts the window. Nothing without a plan.
   void beginPass(bool repass);
   void endPasses();
   /// Set the clock (the seismic stage restarts it at 0 after the static stages).

@@ -107,13 +107,21 @@ class StateArchive {
       copyBytes(v.data(), s.data(), s.size());
     }
   }
-  /// io(v), but a restore with `only` copies back the index ranges [first, second) it lists and
-  /// leaves v's other values as they are (v of the size saved). A save, `only` null or an empty v:
-  /// io(v). A coupling window's re-pass restores what it steps again only (Solver::planRepasses).
+  /// io(v), but with `only` a save copies the index ranges [first, second) it lists (the slot
+  /// keeps v's size; its other bytes are not written) and a restore copies them back, leaving v's
+  /// other values as they are (v of the size saved): a save with `only` is restored with the same
+  /// ranges. `only` null or an empty v: io(v). A coupling window's re-pass restores what it steps
+  /// again only, and the window's start saves that only (Solver::planRepasses).
   template <class T>
   void io(std::vector<T>& v, const std::vector<std::pair<std::size_t, std::size_t>>* only) {
-    if (mode_ == Mode::Save || !only || v.empty()) return io(v);
+    if (!only || v.empty()) return io(v);
     std::vector<unsigned char>& s = slot();
+    if (mode_ == Mode::Save) {
+      s.resize(v.size() * sizeof(T));
+      for (const auto& r : *only)
+        copyBytes(s.data() + r.first * sizeof(T), v.data() + r.first, (r.second - r.first) * sizeof(T));
+      return;
+    }
     if (s.size() != v.size() * sizeof(T))
       throw std::logic_error("StateArchive: a partly restored item changed size between save and restore");
     for (const auto& r : *only)
