@@ -908,6 +908,7 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   if constexpr (!kTotal) {
     MaterialChunk mc;
     mc.count = n;
+    mc.lanes = int(kLanes);
     mc.dt = cv.dtLast;
     for (int k = 0; k < 6; ++k) {
       mc.dstrain[k] = de[k];

@@ -436,6 +436,19 @@ __attribute__((target("avx2"))) void boundsAvx2(const TrialConstants& k, const R
                                                 Index n, Real* inside) {
   principalBounds(k, t, D, n, inside);
 }
+// 8 lanes, still without FMA: this file is compiled with -ffp-contract=off (AVX-512F brings FMA
+// with it), so each lane makes the generic path's operations.
+__attribute__((target("avx512f,avx512dq,avx512vl,avx2"))) void trialAvx512(const TrialConstants& k, Index n,
+                                                                           const Real* Dp, const Real* const* de,
+                                                                           Real* const* st, Real (*old)[kBoundBatch],
+                                                                           Real* inside) {
+  trialBody(k, n, Dp, de, st, old, inside);
+}
+__attribute__((target("avx512f,avx512dq,avx512vl,avx2"))) void boundsAvx512(const TrialConstants& k,
+                                                                            const Real (*t)[kBoundBatch], const Real* D,
+                                                                            Index n, Real* inside) {
+  principalBounds(k, t, D, n, inside);
+}
 
 }  // namespace
 
@@ -453,6 +466,9 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
   // AVX2 without FMA: 4 lanes with the very operations of the 2-lane generic path (bit for bit);
   // TQ_SOLID_SIMD=generic asks for the generic path, as it does of the element kernel.
   static const bool kMaterialAvx2 = eigenSym3x4Available();  // once, on the first use
+  // The trial and the bounds on 8 lanes where the element kernel runs its AVX-512 path (the same
+  // bits as on 4).
+  const bool avx512 = kMaterialAvx2 && c.lanes == 8;
   const TrialConstants tk{
       moduli_.lambda, moduli_.mu,          stiff ? 1.0 : 0.0, Np, dpSlope_, 2 * c0 * sqrtNPhi_, c0, st0,
       cotPhi,         std::sqrt(2.0 / 3.0)};
@@ -467,7 +483,9 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
       de[q] = c.dstrain[q] + e0;
       st[q] = c.stress[q] + e0;
     }
-    if (kMaterialAvx2)
+    if (avx512)
+      trialAvx512(tk, n, dmg + e0, de, st, old, inside);
+    else if (kMaterialAvx2)
       trialAvx2(tk, n, dmg + e0, de, st, old, inside);
     else
       trialGeneric(tk, n, dmg + e0, de, st, old, inside);
@@ -488,7 +506,9 @@ void MohrCoulombDamageMaterial::updateStressForElems(const MaterialChunk& c) con
     for (int q = 0; q < 6; ++q)
       for (Index k = 0; k < nSuspect; ++k) packed[q][k] = c.stress[q][e0 + suspect[k]];
     for (Index k = 0; k < nSuspect; ++k) pD[k] = dmg[e0 + suspect[k]];
-    if (kMaterialAvx2)
+    if (avx512)
+      boundsAvx512(tk, packed, pD, nSuspect, bounded);
+    else if (kMaterialAvx2)
       boundsAvx2(tk, packed, pD, nSuspect, bounded);
     else
       boundsGeneric(tk, packed, pD, nSuspect, bounded);

@@ -59,6 +59,7 @@ struct MaterialChunk {
   Real* stress[6] = {};            ///< σ^n on entry, σ^{n+1} on exit (Pa), [count] each
   Real* const* history = nullptr;  ///< one [count] array per history variable (historyNames())
   Real dt = 0;                     ///< time step of the increment (s)
+  int lanes = 0;                   ///< the element kernel's vector width (8: its AVX-512 path); 0 unknown
 };
 
 /// Constitutive model of one element block.
