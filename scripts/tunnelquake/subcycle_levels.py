@@ -340,8 +340,8 @@ def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarr
     fine steps (counted from a step at which every level is due) a node *changes* at an update whose
     force may differ: the wet nodes' from the first step, a node's with an element changed before, or
     with a partner (`pairs` (P, 2): the contact's, the ties', the joints') changed before or loaded
-    differently at that step; an element changes from its first evaluation that reads a changed node. A re-pass evaluates every
-    element with a changed node, by whole chunks. conn (E, 8), node_level (N,), chunk_level (E,) the
+    differently at that step; an element changes from its first evaluation that reads a changed node.
+    A re-pass evaluates every element with a changed node, by whole chunks. conn (E, 8), node_level (N,), chunk_level (E,) the
     level each element is evaluated at, chunk_of (E,) a chunk id per element (unique across blocks).
     Returns counts by level ("elements", "changed", "needed", "needed_by_chunk"), the element
     evaluations of a window of a whole pass and of a re-pass ("evals_whole", "evals_needed" by

@@ -51,10 +51,6 @@ void eigenSym3(const Real s[6], Real eval[3], Real evec[3][3]) {
   }
 }
 
-// eigenSym3 on 4 matrices at once, s[q][l] component q (Voigt) of matrix l: AVX2 without FMA, every
-// lane the scalar code's operations in its order (its sweeps and rotations, a lane done or with a
-// zero pivot left as it is), so each lane's result is eigenSym3's bit for bit. The Jacobi's chain
-// of square roots and divisions is latency-bound; four lanes share it.
 namespace {
 
 typedef Real JV __attribute__((vector_size(32)));
@@ -88,6 +84,10 @@ __attribute__((target("avx2"), always_inline)) inline void rotateX4(JV (&A)[3][3
 }
 }  // namespace
 
+// eigenSym3 on 4 matrices at once, s[q][l] component q (Voigt) of matrix l: AVX2 without FMA, every
+// lane the scalar code's operations in its order (its sweeps and rotations, a lane done or with a
+// zero pivot left as it is), so each lane's result is eigenSym3's bit for bit. The Jacobi's chain
+// of square roots and divisions is latency-bound; four lanes share it.
 __attribute__((target("avx2"))) void eigenSym3x4(const Real (*s)[4], Real eval[4][3], Real evec[4][3][3]) {
   const JV one = {1, 1, 1, 1}, zero = {0, 0, 0, 0};
   JV c[6];
