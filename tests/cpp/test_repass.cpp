@@ -5,7 +5,7 @@
 // of reach as the first pass left them and takes their nodes' internal force from it. The answer
 // must be the whole re-pass's, bit for bit.
 //
-// The model: a lined ring slice (lining 5.25-6 m in 3 layers, rock 6-60 m in 24, dynamic contact,
+// The model: a lined ring slice (lining 5.25-6 m in 3 layers, rock 6-60 m in 48, dynamic contact,
 // Mohr-Coulomb damage in both), subcycled at 3 levels and single-rate, its inner face loaded by a
 // stand-in for the water whose force changes from pass to pass, windows of 16 steps taking 1, 2 or
 // 3 passes.
@@ -47,6 +47,7 @@ class PassWater final : public NodalForceContributor, public WindowCoupling {
     groups.push_back(wet_);
     return true;
   }
+  bool motionReadNodes(std::vector<Index>&) const override { return true; }
   void planWindow(const NodalState&) override { pass_ = 0; }
   void planStep(Index, Real) override {}
   bool exchange(Real, const NodalState&) override {
@@ -75,16 +76,56 @@ class Unsaid final : public NodalForceContributor {
   void addForces(Real, Real, NodalState&) override {}
 };
 
+/// Springs to the origin on some nodes of the outer rock, far beyond the water's reach, whose work
+/// (½ (f + f_prev)·Δu, its state) is read from those nodes' motion at every step, as the base's
+/// springs are: a re-pass must keep stepping them (motionReadNodes), `say` false: it does not tell.
+class RockSprings final : public NodalForceContributor {
+ public:
+  RockSprings(std::vector<Index> nodes, bool say)
+      : nodes_(std::move(nodes)), say_(say), uPrev_(3 * nodes_.size(), 0.0), fPrev_(3 * nodes_.size(), 0.0) {}
+  std::string name() const override { return "rock springs"; }
+  void addForces(Real, Real, NodalState& st) override {
+    for (size_t i = 0; i < nodes_.size(); ++i)
+      for (int d = 0; d < 3; ++d) {
+        const Real u = st.u(nodes_[i], d), f = -kStiffness * u;
+        st.fExt(nodes_[i], d) += f;
+        work_ += 0.5 * (f + fPrev_[3 * i + size_t(d)]) * (u - uPrev_[3 * i + size_t(d)]);
+        fPrev_[3 * i + size_t(d)] = f;
+        uPrev_[3 * i + size_t(d)] = u;
+      }
+  }
+  Real boundaryEnergy() const override { return -work_; }
+  bool forceGroups(std::vector<std::vector<Index>>&) const override { return true; }
+  bool motionReadNodes(std::vector<Index>& nodes) const override {
+    if (say_) nodes.insert(nodes.end(), nodes_.begin(), nodes_.end());
+    return say_;
+  }
+  void checkpoint(StateArchive& a) override {
+    a.io(uPrev_);
+    a.io(fPrev_);
+    a.io(work_);
+  }
+  Real work() const { return work_; }
+
+ private:
+  static constexpr Real kStiffness = 1e7;  // N/m
+  std::vector<Index> nodes_;
+  bool say_;
+  std::vector<Real> uPrev_, fPrev_;
+  Real work_ = 0;
+};
+
 struct Result {
   std::vector<Real> u, v, stress, history;
   EnergyBalance energy;
+  Real springWork = 0;
   Solver::RepassPlan plan;
   long passes = 0, restores = 0;
 };
 
-Result run(bool planned, int levels, bool unsaid = false) {
+Result run(bool planned, int levels, bool unsaid = false, bool springsSay = true) {
   const Mesh l = makeRingSliceMesh({5.25, 6.0, 3, 64, 1.0, "lining"});
-  const Mesh r = makeRingSliceMesh({6.0, 60.0, 24, 64, 1.0, "rock"});
+  const Mesh r = makeRingSliceMesh({6.0, 60.0, 48, 64, 1.0, "rock"});
   static Mesh m;
   m = tqtest::withLining(r, l);
   const Index off = r.numNodes();
@@ -109,6 +150,12 @@ Result run(bool planned, int levels, bool unsaid = false) {
   s.fixFaceGroup("rock_outer", "xz");
   s.addContributor(ForcePhase::Interface, std::make_shared<DynamicContact>(s, rockLiningPairs(m), ContactParams{}));
   if (unsaid) s.addContributor(ForcePhase::Loads, std::make_shared<Unsaid>());
+  std::vector<Index> far;  // the rock's nodes 45.375 m from the axis (a ring)
+  for (Index n = 0; n < off; ++n)
+    if (const Real rr = std::hypot(m.coords[3 * size_t(n)], m.coords[3 * size_t(n) + 2]); std::abs(rr - 45.375) < 0.1)
+      far.push_back(n);
+  auto springs = std::make_shared<RockSprings>(far, springsSay);
+  s.addContributor(ForcePhase::Boundaries, springs);
   const Index k = 16;
   auto water = std::make_shared<PassWater>(m, wet, k);
   s.addContributor(ForcePhase::Water, water);
@@ -128,6 +175,7 @@ Result run(bool planned, int levels, bool unsaid = false) {
       o.history.push_back(b->history(mc_history::kDissipation, e));
     }
   o.energy = s.energy();
+  o.springWork = springs->work();
   o.passes = water->passes();
   o.restores = stepper.restores();
   return o;
@@ -145,10 +193,19 @@ TEST(Repass, WindowsSteppedAgainOverTheWatersReachGiveTheWholeRepassBitwise) {
     const Result whole = run(false, levels), reach = run(true, levels);
     std::printf(
         "%d levels: %ld of %ld element chunks skipped (%ld of %ld elements), %ld nodes replayed; %ld passes, "
-        "%ld restores\n",
+        "%ld restores; %ld of %ld node chunks (%ld nodes) left alone%s%s\n",
         levels, long(reach.plan.skippedChunks), long(reach.plan.chunks), long(reach.plan.skippedElements),
-        long(reach.plan.elements), long(reach.plan.replayNodes), reach.passes, reach.restores);
+        long(reach.plan.elements), long(reach.plan.replayNodes), reach.passes, reach.restores,
+        long(reach.plan.frozenNodeChunks), long(reach.plan.nodeChunks), long(reach.plan.frozenNodes),
+        reach.plan.whyNodes.empty() ? "" : ": ", reach.plan.whyNodes.c_str());
     ASSERT_TRUE(reach.plan.why.empty()) << reach.plan.why;
+    if (levels > 0) {  // subcycled: the outer rock's node chunks too (the springs' nodes stepped)
+      ASSERT_TRUE(reach.plan.whyNodes.empty()) << reach.plan.whyNodes;
+      ASSERT_GT(reach.plan.frozenNodeChunks, 0);
+      ASSERT_LT(reach.plan.frozenNodeChunks, reach.plan.nodeChunks);
+    } else {
+      EXPECT_EQ(reach.plan.frozenNodeChunks, 0);
+    }
     ASSERT_GT(reach.plan.skippedChunks, 0) << "the outer rock must be out of the water's reach within a window";
     ASSERT_LT(reach.plan.skippedChunks, reach.plan.chunks);
     ASSERT_EQ(whole.passes, reach.passes);
@@ -163,10 +220,22 @@ TEST(Repass, WindowsSteppedAgainOverTheWatersReachGiveTheWholeRepassBitwise) {
     EXPECT_EQ(whole.v, reach.v);
     EXPECT_EQ(whole.stress, reach.stress);
     EXPECT_EQ(whole.history, reach.history);
-    for (Real EnergyBalance::*t : {&EnergyBalance::kinetic, &EnergyBalance::internal, &EnergyBalance::external,
-                                   &EnergyBalance::damping, &EnergyBalance::interface, &EnergyBalance::plastic})
+    ASSERT_GT(std::abs(whole.springWork), 0.0) << "the springs' nodes must move";
+    EXPECT_TRUE(sameBits(whole.springWork, reach.springWork));
+    for (Real EnergyBalance::*t :
+         {&EnergyBalance::kinetic, &EnergyBalance::internal, &EnergyBalance::external, &EnergyBalance::damping,
+          &EnergyBalance::boundary, &EnergyBalance::interface, &EnergyBalance::plastic})
       EXPECT_TRUE(sameBits(whole.energy.*t, reach.energy.*t));
   }
+}
+
+TEST(Repass, AContributorThatDoesNotSayWhoseMotionItReadsKeepsEveryNodeChunkStepped) {
+  const Result r = run(true, 3, false, false);
+  EXPECT_TRUE(r.plan.why.empty()) << r.plan.why;
+  EXPECT_GT(r.plan.skippedChunks, 0);
+  EXPECT_EQ(r.plan.frozenNodeChunks, 0);
+  EXPECT_NE(r.plan.whyNodes.find("'rock springs' does not say which nodes' motion it reads"), std::string::npos)
+      << r.plan.whyNodes;
 }
 
 TEST(Repass, AContributorThatDoesNotSayWhichNodesItJoinsKeepsEveryRepassWhole) {

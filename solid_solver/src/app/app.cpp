@@ -451,6 +451,11 @@ void SolidRun::planRepasses() {
   out_ << "tq-solid: re-passes: " << p.skippedChunks << " of " << p.chunks << " element chunks (" << p.skippedElements
        << " of " << p.elements << " elements) out of the water's reach within a window, left as the window's first "
        << "pass left them; " << p.replayNodes << " nodes take their internal force from it" << std::endl;
+  if (p.whyNodes.empty())
+    out_ << "tq-solid: re-passes: " << p.frozenNodeChunks << " of " << p.nodeChunks << " node chunks (" << p.frozenNodes
+         << " nodes) read by nothing a re-pass steps, neither restored nor updated by it" << std::endl;
+  else
+    out_ << "tq-solid: re-passes: every node chunk stepped: " << p.whyNodes << std::endl;
 }
 
 // Everything a checkpoint holds, in this order (saved and restored alike).

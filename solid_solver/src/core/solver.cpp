@@ -564,14 +564,15 @@ void Solver::computeInternalForces(int activeLevel) {
   Real work = 0, stored = 0, damp = 0;
   const Index N = state_.numNodes();
   Real* __restrict f = state_.fIntData();
-  if (everyChunkDue(activeLevel)) {
+  const bool frozen = rp_.mode == 2 && rp_.nFrozen > 0;  // a re-pass: the chunks it leaves alone keep theirs
+  if (everyChunkDue(activeLevel) && !frozen) {
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
     for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
   } else {  // subcycling: the due nodes' chunks only (the others' f_int is not read before they are due)
     const Index nChunks = Index(nodeChunkLevel_.size());
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
     for (Index c = 0; c < nChunks; ++c)
-      if (chunkDue(c, activeLevel))
+      if (chunkDue(c, activeLevel) && !frozenChunk(c))
         std::fill(f + 3 * size_t(c * kNodeChunk), f + 3 * size_t(std::min(N, (c + 1) * kNodeChunk)), Real(0));
   }
   const bool oneLoop = blockSlabsInOneLoop();
@@ -940,6 +941,19 @@ void Solver::updateNodesSubcycled(int active) {
   for (int l = 0; l < 9; ++l) rdt[l] = 1 / (dt * Real(1u << l));
   const bool kin = kineticStep_ = kineticWanted_ || !balanceSet_;
   Real* sums = nodeChunkSums_.data();
+  // A window's first pass records the sums of the chunks its re-passes leave alone; a re-pass takes
+  // them, step by step, instead of updating those chunks (Solver::planRepasses).
+  const bool record = rp_.mode == 1 && rp_.nFrozen > 0, replay = rp_.mode == 2 && rp_.nFrozen > 0;
+  const size_t stepSums = kSums * size_t(rp_.nFrozen);
+  Real* kept = nullptr;
+  if (record) {
+    rp_.sums.resize(rp_.sums.size() + stepSums);
+    kept = rp_.sums.data() + rp_.sums.size() - stepSums;
+  } else if (replay) {
+    if (rp_.sAt + stepSums > rp_.sums.size()) throw std::logic_error("re-pass: more node updates than the first pass");
+    kept = rp_.sums.data() + rp_.sAt;
+    rp_.sAt += stepSums;
+  }
   if (rx_) {  // on ranks: the ghosts' values before the update, to take their share out of the sums
     ghostV_.clear();
     ghostFs_.clear();
@@ -958,6 +972,11 @@ void Solver::updateNodesSubcycled(int active) {
   }
 #pragma omp parallel for schedule(dynamic, 2) if (nChunks >= 2)
   for (Index c = 0; c < nChunks; ++c) {
+    Real* kc = kept && rp_.frozen[size_t(c)] ? kept + kSums * size_t(rp_.frozenAt[size_t(c)]) : nullptr;
+    if (replay && kc) {
+      std::copy_n(kc, kSums, sums + kSums * size_t(c));
+      continue;
+    }
     const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
     const size_t i0 = 3 * size_t(n0);
     SubcycleArgs q{u + i0, v + i0,  a + i0,   fs + i0, dtp + n0, fis + i0, fi + i0, fe + i0, cb ? cb + i0 : nullptr,
@@ -967,6 +986,7 @@ void Solver::updateNodesSubcycled(int active) {
     const LeapfrogSums ls = avx2_ ? subcycleAvx2(q) : subcycleGeneric(q);
     const Index bad = ls.nBad > 0 ? firstBadDof(v, i0, 3 * size_t(n1), vlim) : -1;
     storeChunkSums(sums + kSums * size_t(c), ls.ke, ls.ext, ls.damp, ls.bdry, bad, ls.wint);
+    if (kc) std::copy_n(sums + kSums * size_t(c), kSums, kc);
   }
   bookNodeChunks(nChunks);
 }
@@ -1247,13 +1267,28 @@ Solver::RepassPlan Solver::planRepasses(const std::vector<Index>& wet, Index win
   }
   // A re-pass steps every element on a changed node (a node's update sums all its elements), by
   // chunks; the nodes of the active elements of the chunks it skips take f_int from the first pass.
-  std::vector<std::uint8_t> replay(size_t(N), 0);
+  // Subcycled, it steps the node chunks with a node that is read: on an element it evaluates,
+  // reached by the change, or read by a contributor (its groups' members, motionReadNodes).
+  std::vector<std::uint8_t> replay(size_t(N), 0), read(size_t(N), 0);
+  std::vector<Index> readNodes;
+  if (nodeLevel_.empty()) plan.whyNodes = "the solid steps single-rate";
+  for (const auto& e : contributors_)
+    if (plan.whyNodes.empty() && !e.contributor->motionReadNodes(readNodes))
+      plan.whyNodes = "'" + e.contributor->name() + "' does not say which nodes' motion it reads";
+  for (Index n : readNodes) read[size_t(n)] = 1;
+  for (const auto& g : groups)
+    for (Index n : g) read[size_t(n)] = 1;
+  for (Index n : wet) read[size_t(n)] = 1;
+  for (Index n = 0; n < N; ++n) read[size_t(n)] |= changed[size_t(n)];
   for (size_t bi = 0; bi < blocks_.size(); ++bi) {
     ElementBlock& b = *blocks_[bi];
     std::vector<std::uint8_t> skip(size_t(b.numChunks()), 1);
     for (Index e = 0; e < b.numElems(); ++e)
       for (int k = 0; k < 8; ++k)
         if (changed[size_t(b.node(e, k))]) skip[size_t(e / ElementBlock::kChunk)] = 0;
+    for (Index e = 0; e < b.numElems(); ++e)
+      if (b.active(e) && !skip[size_t(e / ElementBlock::kChunk)])
+        for (int k = 0; k < 8; ++k) read[size_t(b.node(e, k))] = 1;
     for (Index c = 0; c < b.numChunks(); ++c) {
       if (!skip[size_t(c)]) continue;
       ++plan.skippedChunks;
@@ -1266,9 +1301,33 @@ Solver::RepassPlan Solver::planRepasses(const std::vector<Index>& wet, Index win
     }
     b.setRepassSkip(std::move(skip));
   }
+  plan.nodeChunks = numNodeChunks();
+  rp_.frozen.assign(size_t(plan.nodeChunks), 0);
+  rp_.frozenAt.assign(size_t(plan.nodeChunks), -1);
+  for (Index c = 0; c < plan.nodeChunks && plan.whyNodes.empty(); ++c) {
+    const Index n0 = c * kNodeChunk, n1 = std::min(N, n0 + kNodeChunk);
+    if (std::any_of(read.begin() + n0, read.begin() + n1, [](std::uint8_t r) { return r != 0; })) continue;
+    rp_.frozen[size_t(c)] = 1;
+    rp_.frozenAt[size_t(c)] = plan.frozenNodeChunks++;
+    plan.frozenNodes += n1 - n0;
+  }
+  rp_.nFrozen = plan.frozenNodeChunks;
+  for (Index c = 0; c < plan.nodeChunks;) {  // the other chunks, in runs: what a re-pass restores
+    if (rp_.frozen[size_t(c)]) {
+      ++c;
+      continue;
+    }
+    Index c1 = c;
+    while (c1 < plan.nodeChunks && !rp_.frozen[size_t(c1)]) ++c1;
+    const size_t n0 = size_t(c * kNodeChunk), n1 = size_t(std::min(N, c1 * kNodeChunk));
+    rp_.nodeRanges.push_back({n0, n1});
+    rp_.dofRanges.push_back({3 * n0, 3 * n1});
+    c = c1;
+  }
+  if (plan.whyNodes.empty() && rp_.nFrozen == 0) plan.whyNodes = "every node chunk has a node that a re-pass reads";
   rp_.nodesByLevel.assign(size_t(top) + 1, {});
   for (Index n = 0; n < N; ++n)
-    if (replay[size_t(n)]) {
+    if (replay[size_t(n)] && !rp_.frozen[size_t(n / kNodeChunk)]) {  // a frozen node's f_int is not read
       if (changed[size_t(n)]) throw std::logic_error("planRepasses: a replayed node changes within the window");
       rp_.nodesByLevel[size_t(levelOf(n))].push_back(n);
       ++plan.replayNodes;
@@ -1279,6 +1338,8 @@ Solver::RepassPlan Solver::planRepasses(const std::vector<Index>& wet, Index win
     for (auto& b : blocks_) b->setRepassSkip({});
     rp_ = Repasses{};
     plan.why = "every element chunk is within reach of the water's force within a window";
+    plan.frozenNodeChunks = plan.frozenNodes = 0;
+    plan.whyNodes.clear();
   }
   return plan;
 }
@@ -1289,9 +1350,10 @@ void Solver::beginPass(bool repass) {
     rp_.mode = cycle_ % rp_.period == 0 || nodeLevel_.empty() ? 1 : 0;
     rp_.fInt.clear();
     rp_.energy.clear();
+    rp_.sums.clear();
   } else if (rp_.mode) {
     rp_.mode = 2;
-    rp_.fAt = rp_.eAt = 0;
+    rp_.fAt = rp_.eAt = rp_.sAt = 0;
   }
   for (auto& b : blocks_) {
     b->setRepass(rp_.mode == 2);
@@ -1353,7 +1415,10 @@ void Solver::checkpoint(StateArchive& a) {
     // so is f_ext: at every node single-rate, whose next step reads the last one's f_ext as its
     // previous one (swapFExt; fExtPrev_ is then written), at the due nodes subcycled, whose last
     // update's f_ext and f_int are fSync_ and fIntSync_ (fExtPrev_ unread).
-    state_.checkpointMotion(a, nodeLevel_.empty());
+    // Subcycled, with a re-pass plan: the node chunks a re-pass steps only (the others end as the
+    // first pass ends them; the save at a window's first pass, mode 1, and the re-pass's restore).
+    const bool part = rp_.mode != 0 && rp_.nFrozen > 0;
+    state_.checkpointMotion(a, nodeLevel_.empty(), part ? &rp_.dofRanges : nullptr);
   } else {
     state_.checkpoint(a);
     a.io(fExtPrev_);
@@ -1374,9 +1439,10 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(plastic0_);
   a.io(boundary0_);
   a.io(alphaRelax_);
-  a.io(fSync_);
-  a.io(fIntSync_);
-  a.io(dtPrevNode_);
+  const bool part = a.windowStart() && rp_.mode != 0 && rp_.nFrozen > 0;
+  a.io(fSync_, part ? &rp_.dofRanges : nullptr);
+  a.io(fIntSync_, part ? &rp_.dofRanges : nullptr);
+  a.io(dtPrevNode_, part ? &rp_.nodeRanges : nullptr);
   a.io(intBase_);
   a.io(nodalIntWork_);
   a.io(cycle_);

@@ -131,6 +131,7 @@ class HeldExcavationLoad final : public NodalForceContributor {
   std::string name() const override { return "held excavation load"; }
   void addForces(Real t, Real dt, NodalState& state) override;
   bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }  // held values
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
   void release() { released_ = true; }
   bool released() const { return released_; }
   const std::vector<Real>& forces() const { return f_; }

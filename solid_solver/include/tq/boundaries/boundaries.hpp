@@ -34,6 +34,7 @@ class ConstantNodalForces final : public NodalForceContributor {
   void addForces(Real t, Real dt, NodalState& state) override;
   const std::vector<Real>* constantForces() const override { return &f_; }
   bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }  // constant
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
   const std::vector<Real>& forces() const { return f_; }
 
  private:
@@ -92,6 +93,11 @@ class SeismicBoundaries final : public NodalForceContributor {
   Real boundaryEnergy() const override { return -springWork_; }
   /// The base's springs and dashpots and the sides' free field act on each node from its own motion.
   bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }
+  /// The base's springs book their work from the base nodes' motion at every step.
+  bool motionReadNodes(std::vector<Index>& nodes) const override {
+    nodes.insert(nodes.end(), base_.nodes.begin(), base_.nodes.end());
+    return true;
+  }
   void checkpoint(StateArchive& a) override {
     for (auto& c : columns_) c.checkpoint(a);
     a.io(uPrev_);

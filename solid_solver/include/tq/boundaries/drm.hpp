@@ -39,6 +39,7 @@ class DomainReduction final : public NodalForceContributor {
   void addForces(Real t, Real dt, NodalState& state) override;
   /// The layer's forces come from the free field alone.
   bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const override { return true; }
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
 
   Index numLayerElements() const { return nLayerElems_; }
   Index numInner() const { return nInner_; }

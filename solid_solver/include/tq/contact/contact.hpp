@@ -98,6 +98,8 @@ class DynamicContact final : public NodalForceContributor {
     for (Index p = 0; p < pairs_.size(); ++p) groups.push_back({pairs_.node1[size_t(p)], pairs_.node2[size_t(p)]});
     return true;
   }
+  /// Its state reads its groups' motion only.
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
   void checkpoint(StateArchive& a) override {
     a.io(state_);
     a.io(failed_);

@@ -81,6 +81,8 @@ class LiningJoints final : public NodalForceContributor {
     for (size_t p = 0; p < pairs_.nodeA.size(); ++p) groups.push_back({pairs_.nodeA[p], pairs_.nodeB[p]});
     return true;
   }
+  /// Its state reads its groups' motion only.
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
   void checkpoint(StateArchive& a) override {
     a.io(state_);
     a.io(cracked_);

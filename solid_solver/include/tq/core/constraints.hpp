@@ -62,6 +62,8 @@ class TiedNodeGroups final : public NodalForceContributor {
     for (Index g = 0; g < numGroups(); ++g) groups.emplace_back(begin(g), end(g));
     return true;
   }
+  /// Its state reads its groups' motion only.
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
 
   Index numGroups() const { return Index(start_.size()) - 1; }
   /// Members of group g: nodes [begin, end).

@@ -6,7 +6,9 @@
 ///        touches this file only.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "tq/core/state_archive.hpp"
@@ -66,12 +68,14 @@ class NodalState {
     ar.io(fInt_);
     ar.io(fExt_);
   }
-  /// u, v, a and, with `withFExt`, f_ext: a coupling window's start (Solver::checkpoint).
-  void checkpointMotion(StateArchive& ar, bool withFExt) {
-    ar.io(u_);
-    ar.io(v_);
-    ar.io(a_);
-    if (withFExt) ar.io(fExt_);
+  /// u, v, a and, with `withFExt`, f_ext: a coupling window's start (Solver::checkpoint); with
+  /// `dofs`, their values in those index ranges only (StateArchive::io).
+  void checkpointMotion(StateArchive& ar, bool withFExt,
+                        const std::vector<std::pair<std::size_t, std::size_t>>* dofs = nullptr) {
+    ar.io(u_, dofs);
+    ar.io(v_, dofs);
+    ar.io(a_, dofs);
+    if (withFExt) ar.io(fExt_, dofs);
   }
 
   // Raw arrays for the kernels ([3N] unless noted).

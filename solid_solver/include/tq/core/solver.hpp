@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tq/core/element_block.hpp"
@@ -101,6 +102,12 @@ class NodalForceContributor {
   /// and add them to `groups` (none: each node's force depends on its own motion and the time only);
   /// the default, false, says it does not know, and every re-pass is then stepped whole.
   virtual bool forceGroups(std::vector<std::vector<Index>>& /*groups*/) const { return false; }
+  /// A re-pass also leaves alone the node chunks that nothing it steps reads (Solver::planRepasses):
+  /// which nodes, besides its groups' members, this contributor reads the motion of into its own
+  /// state or energy at every step (a spring's work), so that a re-pass keeps stepping them. Return
+  /// true and add them (none: its state reads no other node's motion); the default, false, says it
+  /// does not know, and a re-pass then steps every node chunk.
+  virtual bool motionReadNodes(std::vector<Index>& /*nodes*/) const { return false; }
   /// A contributor whose [3N] force never changes may return it here: added to the Loads phase,
   /// the solver then adds it in gravity's parallel pass instead of calling addForces (one serial
   /// pass fewer; Solver::addContributor decides).
@@ -315,7 +322,10 @@ class Solver {
     Index chunks = 0, skippedChunks = 0;      ///< element chunks, and those a re-pass leaves alone
     Index elements = 0, skippedElements = 0;  ///< their active elements
     Index replayNodes = 0;  ///< nodes whose internal force a re-pass takes from the window's first pass
-    std::string why;        ///< empty when set up, else why not (every re-pass is then stepped whole)
+    Index nodeChunks = 0, frozenNodeChunks = 0;  ///< node chunks, and those a re-pass leaves alone
+    Index frozenNodes = 0;                       ///< their nodes
+    std::string why;       ///< empty when set up, else why not (every re-pass is then stepped whole)
+    std::string whyNodes;  ///< set up, but every node chunk stepped: why (empty otherwise)
   };
   /// A coupling window of `windowSteps` steps whose water loads the nodes `wet` (CoupledStepper):
   /// between its passes only that force differs, and an explicit step carries a change one element
@@ -326,7 +336,12 @@ class Solver {
   /// and the chunks their energy terms, step by step, from the first pass: the same bits as a
   /// re-pass stepped whole. Needs one process, the blocks' slabs in one loop, no material with a
   /// block pass, every contributor's forceGroups, and with subcycling windows of a multiple of the
-  /// coarsest level's steps; `why` says which is missing otherwise. Plan after enableSubcycling.
+  /// coarsest level's steps; `why` says which is missing otherwise. Subcycled, a re-pass also
+  /// leaves alone the node chunks (kNodeChunk nodes in a row) of nodes that no element it evaluates
+  /// acts on, that the change does not reach, and that no contributor reads (its force groups and
+  /// motionReadNodes): it neither restores nor updates them (they end as the first pass ended
+  /// them), and each such chunk's energy terms come from the first pass step by step; `whyNodes`
+  /// says why none are left alone where the elements are. Plan after enableSubcycling.
   RepassPlan planRepasses(const std::vector<Index>& wet, Index windowSteps);
   /// A window's passes (CoupledStepper): beginPass(false) before the window's save and its first
   /// pass (which records what a re-pass takes from it; the save then holds what a re-pass restores
@@ -434,12 +449,19 @@ class Solver {
     bool planned = false;
     int mode = 0;      // 0 off, 1 the first pass (records), 2 a re-pass (replays)
     Index period = 1;  // a window's first step is at a multiple of it (every level due there)
-    std::vector<std::vector<Index>> nodesByLevel;  // [level] the nodes whose f_int is replayed
-    std::vector<std::array<Index, 3>> chunks;      // the skipped chunks: block, chunk, level
-    std::vector<Real> fInt;                        // recorded f_int, step by step
-    std::vector<BlockEnergy> energy;               // recorded chunk energies, step by step
-    size_t fAt = 0, eAt = 0;                       // a re-pass's read positions
+    std::vector<std::vector<Index>> nodesByLevel;                  // [level] the nodes whose f_int is replayed
+    std::vector<std::array<Index, 3>> chunks;                      // the skipped chunks: block, chunk, level
+    std::vector<Real> fInt;                                        // recorded f_int, step by step
+    std::vector<BlockEnergy> energy;                               // recorded chunk energies, step by step
+    size_t fAt = 0, eAt = 0;                                       // a re-pass's read positions
+    std::vector<std::uint8_t> frozen;                              // [node chunk] 1: left alone by a re-pass
+    Index nFrozen = 0;                                             // chunks with frozen = 1
+    std::vector<Index> frozenAt;                                   // [node chunk] its place among the frozen ones
+    std::vector<std::pair<size_t, size_t>> dofRanges, nodeRanges;  // the other chunks' [dof) and [node)
+    std::vector<Real> sums;                                        // the frozen chunks' node-update sums, step by step
+    size_t sAt = 0;                                                // a re-pass's read position in sums
   };
+  bool frozenChunk(Index c) const { return rp_.mode == 2 && rp_.nFrozen > 0 && rp_.frozen[size_t(c)]; }
   Repasses rp_;
   void repassEnergies(int activeLevel);  // computeInternalForces: the skipped chunks' energy terms
   void repassForces(int activeLevel);    // computeInternalForces: the replayed nodes' f_int

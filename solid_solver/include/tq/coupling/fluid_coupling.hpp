@@ -186,6 +186,8 @@ class FluidCoupling final : public NodalForceContributor, public WindowCoupling 
     groups.push_back(nodes());
     return true;
   }
+  /// Its state reads its groups' motion only.
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
   /// One line describing the coupling (scheme, window, transport, interface size).
   std::string describe() const;
   /// True when the fluid is known to end by itself: the handshake took place (or was refused,

@@ -60,6 +60,8 @@ class CarriedWater final : public NodalForceContributor {
   bool constrainLevels(std::vector<std::uint8_t>& level) const override;
   /// The carried laws load every wet node from the motion of them all (the enclosed volume).
   bool forceGroups(std::vector<std::vector<Index>>& groups) const override;
+  /// Its state reads its groups' motion only.
+  bool motionReadNodes(std::vector<Index>& /*nodes*/) const override { return true; }
 
   // ---- what the exchange asks -----------------------------------------------------------------
   /// A motion predicted with an extra force (m with its response), corrected in place by the
