@@ -352,3 +352,51 @@ TEST(SolidContact, PairsOnThreadsGiveTheOneLoopsBits) {
   EXPECT_EQ(std::memcmp(serial.first.data(), one.first.data(), serial.first.size() * sizeof(Real)), 0);
   EXPECT_EQ(std::memcmp(serial.first.data(), two.first.data(), serial.first.size() * sizeof(Real)), 0);
 }
+
+// The pairs' prediction from kept terms (PredictionTerms: the central difference's m/Δt ± h and
+// Δt²/(m + hΔt) formed once for the masses, dashpots, α and Δt) is the same arithmetic as the
+// direct one: the same bits at every dof, fixed ones included, and again after each of a mass, a
+// dashpot and Δt changed (the terms formed again).
+TEST(SolidContact, PredictionFromKeptTermsGivesTheDirectPredictionsBits) {
+  const Mesh m = stackMesh(4, 3, 2, 1, 2.0, 0.5, 1.0, true);
+  SolverOptions opt;
+  opt.damping.alpha = 0.7;
+  Solver s(m, makeBlocksByRegion(m, {{"rock", rockMat()}, {"lining", liningMat()}}), opt);
+  s.fixFaceGroup("bottom", "xyz");
+  for (Index n = 0; n < m.numNodes(); n += 3) s.state().addDashpot(n, n % 3, 1e6 * (1 + n % 5));
+  for (Index n = 0; n < m.numNodes(); ++n)
+    for (int d = 0; d < 3; ++d) s.state().v(n, d) = 0.01 * std::sin(1.3 * Real(n) + 0.7 * d);
+  s.setTimeStep(s.stableStep().dtSafe);
+  s.step();  // f_int from the motion
+  std::vector<Index> nodes;
+  for (Index n = m.numNodes() - 1; n >= 0; --n) nodes.push_back(n);  // any order
+  PredictionTerms terms;
+  Index fixed = 0;
+  auto compare = [&](const char* after) {
+    SCOPED_TRACE(after);
+    for (Index n = 0; n < m.numNodes(); ++n)
+      for (int d = 0; d < 3; ++d) s.state().fExt(n, d) = 1e3 * std::cos(0.9 * Real(n) - 0.4 * d);
+    ASSERT_TRUE(terms.update(s, s.dt(), s.state(), nodes));
+    const PairPrediction predict(s, s.dt(), s.state());
+    fixed = 0;
+    for (size_t k = 0; k < nodes.size(); ++k)
+      for (int d = 0; d < 3; ++d) {
+        Real u0, w0, u1, w1;
+        predict(nodes[k], d, u0, w0);
+        predict(nodes[k], d, terms.node(k), u1, w1);
+        fixed += s.isFixed(nodes[k], d);
+        ASSERT_EQ(std::memcmp(&u0, &u1, sizeof(Real)), 0) << "node " << nodes[k] << " dof " << d;
+        ASSERT_EQ(std::memcmp(&w0, &w1, sizeof(Real)), 0) << "node " << nodes[k] << " dof " << d;
+      }
+  };
+  compare("the first step");
+  EXPECT_GT(fixed, 0);
+  const Index top = m.numNodes() - 1;  // a free node of the lining
+  ASSERT_FALSE(s.isFixed(top, 0));
+  s.state().addMass(top, 123.0);
+  compare("a mass changed");
+  s.state().addDashpot(top, 0, 3e5);
+  compare("a dashpot changed");
+  s.setTimeStep(0.8 * s.dt());
+  compare("the step changed");
+}

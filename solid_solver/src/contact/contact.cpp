@@ -136,6 +136,7 @@ DynamicContact::DynamicContact(const Solver& solver, ContactPairs pairs, Contact
   // two nodes' forces, so they may be computed on the solver's threads.
   std::vector<Index> nodes(pairs_.node1.begin(), pairs_.node1.end());
   nodes.insert(nodes.end(), pairs_.node2.begin(), pairs_.node2.end());
+  predicted_ = nodes;
   disjoint_ = nodesDistinct(std::move(nodes));
   computeOnThreads(P >= kThreadedPairs);
 }
@@ -190,22 +191,24 @@ Real DynamicContact::slip(Index p, const NodalState& s) const {
 
 void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
   const PairPrediction predict(solver_, dt, st);
+  const PredictionTerms* kept = terms_.update(solver_, dt, st, predicted_) ? &terms_ : nullptr;
   const size_t P = size_t(pairs_.size());
   if (workTerm_.empty()) {  // one thread: the work summed as the pairs go
-    for (size_t p = 0; p < P; ++p) stepPair(p, predict, st, &work_);
+    for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, &work_);
     return;
   }
   // Node-disjoint pairs on the threads, each keeping its three work terms; summed after in pair
   // order, the very additions of the serial loop (the same bits at any thread count).
   Real* terms = workTerm_.data();
 #pragma omp parallel for schedule(static)
-  for (size_t p = 0; p < P; ++p) stepPair(p, predict, st, nullptr);
+  for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, nullptr);
   for (size_t p = 0; p < P; ++p)  // an inactive pair has no terms (stepPair returned before them)
     if (state_[p] != std::uint8_t(PairState::Inactive) && (counted_.empty() || counted_[p]))
       for (int d = 0; d < 3; ++d) work_ += terms[3 * p + size_t(d)];
 }
 
-void DynamicContact::stepPair(size_t p, const PairPrediction& predict, NodalState& st, Real* work) {
+void DynamicContact::stepPair(size_t p, const PairPrediction& predict, const PredictionTerms* terms, NodalState& st,
+                              Real* work) {
   const bool leapfrog = predict.leapfrog();
   const Real* u = st.uData();
   Real* fe = st.fExtData();
@@ -238,8 +241,13 @@ void DynamicContact::stepPair(size_t p, const PairPrediction& predict, NodalStat
   Real pred[3], cur[3], W[3];
   for (int d = 0; d < 3; ++d) {
     Real u1, w1, u2, w2;
-    predict(a, d, u1, w1);
-    predict(b, d, u2, w2);
+    if (terms) {
+      predict(a, d, terms->node(p), u1, w1);
+      predict(b, d, terms->node(size_t(pairs_.size()) + p), u2, w2);
+    } else {
+      predict(a, d, u1, w1);
+      predict(b, d, u2, w2);
+    }
     pred[d] = u2 - u1 - r0_[3 * p + d];
     cur[d] = -rel[d] - r0_[3 * p + d];
     W[d] = w1 + w2;

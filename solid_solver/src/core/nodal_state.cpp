@@ -9,6 +9,7 @@ void NodalState::resize(Index n) {
   m_.assign(size_t(n), 0.0);
   hasDashpots_ = false;
   ++massVersion_;
+  ++dashpotVersion_;
 }
 
 }  // namespace tq

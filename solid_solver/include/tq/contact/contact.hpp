@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "tq/contact/pair_prediction.hpp"
 #include "tq/core/mesh.hpp"
 #include "tq/core/solver.hpp"
 
@@ -77,8 +78,6 @@ enum class PairState : int {
   Stuck = 3,      ///< in contact and sticking by friction after its bond failed (cohesion lost)
   Inactive = 4,   ///< a node of the pair has no mass yet (e.g. lining not yet installed)
 };
-
-class PairPrediction;
 
 /// The dynamic contact force between the pairs; add it to the solver in ForcePhase::Interface.
 class DynamicContact final : public NodalForceContributor {
@@ -157,8 +156,11 @@ class DynamicContact final : public NodalForceContributor {
   std::vector<std::uint8_t> counted_;  // empty: every pair counts in work_
   bool disjoint_ = false;              // no node in two pairs
   std::vector<Real> workTerm_;         // [3P] the pairs' work terms of the step (threaded; else empty)
+  std::vector<Index> predicted_;       // [2P] the pairs' node 1, then their node 2 (terms_' order)
+  PredictionTerms terms_;
   /// One pair's step: its force, state and f_ext; its work added to *work, or kept in workTerm_.
-  void stepPair(size_t p, const PairPrediction& predict, NodalState& st, Real* work);
+  /// `terms`: the prediction's kept terms (the central difference), else null.
+  void stepPair(size_t p, const PairPrediction& predict, const PredictionTerms* terms, NodalState& st, Real* work);
   Real work_ = 0;  // work of the contact forces so far (J, ≤ 0 up to round-off)
 };
 

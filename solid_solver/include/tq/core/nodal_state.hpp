@@ -55,7 +55,10 @@ class NodalState {
   void addDashpot(Index n, int d, Real value) {
     c_[dofIndex(n, d)] += value;
     if (value != 0) hasDashpots_ = true;
+    ++dashpotVersion_;
   }
+  /// Changes with every change of the dashpots (addDashpot, resize).
+  std::uint64_t dashpotVersion() const { return dashpotVersion_; }
   /// False while no dashpot was ever added (the node update then skips the dashpot stream).
   bool hasDashpots() const { return hasDashpots_; }
   /// Exchange the external-force array with `other` (same size): the solver keeps the previous
@@ -96,7 +99,7 @@ class NodalState {
   Index n_ = 0;
   std::vector<Real> x0_, u_, v_, a_, fInt_, fExt_, m_, c_;
   bool hasDashpots_ = false;
-  std::uint64_t massVersion_ = 0;
+  std::uint64_t massVersion_ = 0, dashpotVersion_ = 0;
 };
 
 }  // namespace tq
