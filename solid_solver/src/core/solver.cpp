@@ -564,8 +564,7 @@ void Solver::computeInternalForces(int activeLevel) {
   Real work = 0, stored = 0, damp = 0;
   const Index N = state_.numNodes();
   Real* __restrict f = state_.fIntData();
-  const bool frozen = rp_.mode == 2 && rp_.nFrozen > 0;  // a re-pass: the chunks it leaves alone keep theirs
-  if (everyChunkDue(activeLevel) && !frozen) {
+  if (everyChunkDue(activeLevel) && !leavesNodeChunks(2)) {  // a re-pass: the chunks it leaves alone keep theirs
 #pragma omp parallel for schedule(static) if (N >= 8 * kNodeChunk)
     for (Index i = 0; i < 3 * N; ++i) f[i] = 0;
   } else {  // subcycling: the due nodes' chunks only (the others' f_int is not read before they are due)
@@ -943,7 +942,7 @@ void Solver::updateNodesSubcycled(int active) {
   Real* sums = nodeChunkSums_.data();
   // A window's first pass records the sums of the chunks its re-passes leave alone; a re-pass takes
   // them, step by step, instead of updating those chunks (Solver::planRepasses).
-  const bool record = rp_.mode == 1 && rp_.nFrozen > 0, replay = rp_.mode == 2 && rp_.nFrozen > 0;
+  const bool record = leavesNodeChunks(1), replay = leavesNodeChunks(2);
   const size_t stepSums = kSums * size_t(rp_.nFrozen);
   Real* kept = nullptr;
   if (record) {
@@ -1410,14 +1409,14 @@ void Solver::repassForces(int activeLevel) {
 }
 
 void Solver::checkpoint(StateArchive& a) {
+  // Subcycled, with a re-pass plan: a window's save (its first pass, mode 1) and a re-pass's restore
+  // (mode 2) hold the node chunks a re-pass steps only (the others end as the first pass ends them).
+  const bool part = a.windowStart() && (leavesNodeChunks(1) || leavesNodeChunks(2));
   if (a.windowStart()) {
     // What the window's steps read before they write it: f_int is summed again at every step, and
     // so is f_ext: at every node single-rate, whose next step reads the last one's f_ext as its
     // previous one (swapFExt; fExtPrev_ is then written), at the due nodes subcycled, whose last
     // update's f_ext and f_int are fSync_ and fIntSync_ (fExtPrev_ unread).
-    // Subcycled, with a re-pass plan: the node chunks a re-pass steps only (the others end as the
-    // first pass ends them; the save at a window's first pass, mode 1, and the re-pass's restore).
-    const bool part = rp_.mode != 0 && rp_.nFrozen > 0;
     state_.checkpointMotion(a, nodeLevel_.empty(), part ? &rp_.dofRanges : nullptr);
   } else {
     state_.checkpoint(a);
@@ -1439,7 +1438,6 @@ void Solver::checkpoint(StateArchive& a) {
   a.io(plastic0_);
   a.io(boundary0_);
   a.io(alphaRelax_);
-  const bool part = a.windowStart() && rp_.mode != 0 && rp_.nFrozen > 0;
   a.io(fSync_, part ? &rp_.dofRanges : nullptr);
   a.io(fIntSync_, part ? &rp_.dofRanges : nullptr);
   a.io(dtPrevNode_, part ? &rp_.nodeRanges : nullptr);

@@ -42,17 +42,25 @@ class PairPrediction {
 
   void operator()(Index n, int d, Real& ut, Real& w) const {
     const size_t i = dofIndex(n, d);
+    if (leapfrog_) {
+      Real t[9];
+      centralTerms(m_[n], alpha_, cb_[i], dt_, t + 3 * d);
+      return (*this)(n, d, t, ut, w);
+    }
     const Real fr = solver_.isFixed(n, d) ? 0.0 : 1.0, mn = m_[n];
     const Real f = fe_[i] - fi_[i], cm = alpha_ * mn;
-    if (leapfrog_) {
-      const Real mdt = mn / dt_, ch = 0.5 * (cm + cb_[i]);
-      ut = u_[i] + dt_ * (fr * ((mdt - ch) * v_[i] + f) / (mdt + ch));
-      w = fr * dt_ * dt_ / (mn + ch * dt_);
-    } else {
-      const Real acc = fr * (f - (cm + cb_[i]) * v_[i]) / mn;
-      ut = u_[i] + dt_ * v_[i] + 0.5 * dt_ * dt_ * acc;
-      w = fr * 0.5 * dt_ * dt_ / mn;
-    }
+    const Real acc = fr * (f - (cm + cb_[i]) * v_[i]) / mn;
+    ut = u_[i] + dt_ * v_[i] + 0.5 * dt_ * dt_ * acc;
+    w = fr * 0.5 * dt_ * dt_ / mn;
+  }
+
+  /// The central difference's terms of one dof from its mass, α, its dashpot and Δt: m/Δt − h,
+  /// m/Δt + h and Δt²/(m + hΔt), h = ½(αm + c).
+  static void centralTerms(Real mn, Real alpha, Real c, Real dt, Real* t) {
+    const Real cm = alpha * mn, mdt = mn / dt, ch = 0.5 * (cm + c);
+    t[0] = mdt - ch;
+    t[1] = mdt + ch;
+    t[2] = dt * dt / (mn + ch * dt);
   }
 
  private:
@@ -81,15 +89,9 @@ class PredictionTerms {
     const Real* m = st.massData();
     const Real* cb = st.dashpotData();
     for (size_t k = 0; k < nodes.size(); ++k)
-      for (int d = 0; d < 3; ++d) {
-        const Index n = nodes[k];
-        const size_t i = dofIndex(n, d);
-        const Real mn = m[n], cm = alpha * mn, mdt = mn / dt, ch = 0.5 * (cm + cb[i]);
-        Real* t = t_.data() + 9 * k + 3 * size_t(d);
-        t[0] = mdt - ch;
-        t[1] = mdt + ch;
-        t[2] = dt * dt / (mn + ch * dt);
-      }
+      for (int d = 0; d < 3; ++d)
+        PairPrediction::centralTerms(m[nodes[k]], alpha, cb[dofIndex(nodes[k], d)], dt,
+                                     t_.data() + 9 * k + 3 * size_t(d));
     massVersion_ = st.massVersion();
     dashpotVersion_ = st.dashpotVersion();
     dt_ = dt;

@@ -461,7 +461,9 @@ class Solver {
     std::vector<Real> sums;                                        // the frozen chunks' node-update sums, step by step
     size_t sAt = 0;                                                // a re-pass's read position in sums
   };
-  bool frozenChunk(Index c) const { return rp_.mode == 2 && rp_.nFrozen > 0 && rp_.frozen[size_t(c)]; }
+  // a pass of this mode (1 a window's first, 2 a re-pass) with node chunks a re-pass leaves alone
+  bool leavesNodeChunks(int mode) const { return rp_.mode == mode && rp_.nFrozen > 0; }
+  bool frozenChunk(Index c) const { return leavesNodeChunks(2) && rp_.frozen[size_t(c)]; }
   Repasses rp_;
   void repassEnergies(int activeLevel);  // computeInternalForces: the skipped chunks' energy terms
   void repassForces(int activeLevel);    // computeInternalForces: the replayed nodes' f_int
