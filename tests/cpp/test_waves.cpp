@@ -382,9 +382,11 @@ TEST(FreeField, SwitchWithZeroInputStaysAtRest) {
 }
 
 // The viscoelastic base's nodes, distinct, are computed on the solver's threads (from
-// SeismicBoundaries::kThreadedBaseNodes nodes), their spring work summed after in node order: the
-// same bits as the one loop at any thread count (a base of 25 x 25 nodes, the staged block above).
-TEST(FreeField, BaseNodesOnThreadsGiveTheOneLoopsBits) {
+// SeismicBoundaries::kThreadedBaseNodes nodes), their spring work summed after in node order, and
+// the free-field sides' terms node by node in the one loop's order (from kThreadedSideNodes): the
+// same bits as the one loop at any thread count (a base of 25 x 25 nodes and 480 side nodes, the
+// staged block above).
+TEST(FreeField, BaseAndSideNodesOnThreadsGiveTheOneLoopsBits) {
   auto run = [](int threads, bool onThreads, bool& threaded) {
     omp_set_num_threads(threads);
     BlockRun run;
@@ -394,7 +396,8 @@ TEST(FreeField, BaseNodesOnThreadsGiveTheOneLoopsBits) {
     run.stages->runStatics(log);
     run.stages->switchToDynamics(log);
     run.stages->seismic()->computeBaseOnThreads(onThreads);
-    threaded = run.stages->seismic()->baseOnThreads();
+    run.stages->seismic()->computeSidesOnThreads(onThreads);
+    threaded = run.stages->seismic()->baseOnThreads() && run.stages->seismic()->sidesOnThreads();
     Solver& s = *run.solver;
     while (s.time() < 0.1) s.step();
     std::vector<Real> out(s.state().uData(), s.state().uData() + 3 * run.mesh.numNodes());
@@ -402,7 +405,7 @@ TEST(FreeField, BaseNodesOnThreadsGiveTheOneLoopsBits) {
     out.push_back(s.energy().error);
     std::printf(
         "%d thread(s), %s: base spring energy %.9e J, peak |u| %.4e m\n", threads,
-        threaded ? "base on the threads" : "one loop", out[out.size() - 2],
+        threaded ? "base and sides on the threads" : "one loop", out[out.size() - 2],
         *std::max_element(out.begin(), out.end() - 2, [](Real a, Real b) { return std::abs(a) < std::abs(b); }));
     return out;
   };

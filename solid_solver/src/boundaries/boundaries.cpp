@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <unordered_map>
 
 namespace tq {
 
@@ -404,6 +405,7 @@ void SeismicBoundaries::restrictToNodes(const std::vector<Index>& localNode, con
     if (any) quads.push_back(q);
   }
   sideQuads_ = std::move(quads);
+  if (sidesOnThreads()) computeSidesOnThreads(true);  // in the rank's numbering
 }
 
 void SeismicBoundaries::install(NodalState& state) {
@@ -421,10 +423,40 @@ void SeismicBoundaries::install(NodalState& state) {
   // Base nodes that are all distinct are independent within a step: computed on the threads.
   baseDistinct_ = nodesDistinct(base_.nodes);
   computeBaseOnThreads(base_.nodes.size() >= kThreadedBaseNodes);
+  computeSidesOnThreads(side_.size() >= kThreadedSideNodes);
   springWork_ = 0;
 }
 
 void SeismicBoundaries::computeBaseOnThreads(bool on) { baseTerm_.assign(on && baseDistinct_ ? u0_.size() : 0, 0.0); }
+
+void SeismicBoundaries::computeSidesOnThreads(bool on) {
+  sideNodes_.clear();
+  sideStart_.clear();
+  sideTerms_.clear();
+  quadTraction_.clear();
+  if (!on) return;
+  // Each node's terms in the order the one loop adds them: side_ in order, then the quads' corners.
+  std::unordered_map<Index, size_t> slot;
+  std::vector<std::vector<SideTerm>> terms;
+  const auto add = [&](Index node, SideTerm t) {
+    auto [it, fresh] = slot.try_emplace(node, sideNodes_.size());
+    if (fresh) {
+      sideNodes_.push_back(node);
+      terms.emplace_back();
+    }
+    terms[it->second].push_back(t);
+  };
+  for (size_t k = 0; k < side_.size(); ++k) add(side_[k].node, {Index(k), -1});
+  for (size_t k = 0; k < sideQuads_.size(); ++k)
+    for (int c = 0; c < 4; ++c)
+      if (sideQuads_[k].node[c] >= 0) add(sideQuads_[k].node[c], {Index(k), c});
+  sideStart_.push_back(0);
+  for (const auto& t : terms) {
+    sideTerms_.insert(sideTerms_.end(), t.begin(), t.end());
+    sideStart_.push_back(sideTerms_.size());
+  }
+  quadTraction_.assign(3 * sideQuads_.size(), 0.0);
+}
 
 void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
   for (auto& c : columns_) c.advance(t, dt, motion_);
@@ -475,22 +507,50 @@ void SeismicBoundaries::addForces(Real t, Real dt, NodalState& state) {
     first_ = false;
   }
   // Sides: A C v̄_ff through the dashpots, and σ_ff · n over each quad.
-  for (const auto& s : side_) {
+  const auto dashpotTerm = [&](const SideNode& s, Real* f) {
     const FreeFieldColumn& col = columns_[size_t(s.column)];
     const Index k1 = std::min<Index>(s.level + 1, col.numLevels() - 1);
     for (int d = 0; d < 3; ++d) {
       const Real vff = (1 - s.w) * col.vMean(s.level, d) + s.w * col.vMean(k1, d);
-      fe[dofIndex(s.node, d)] += s.c[d] * vff;
+      f[d] += s.c[d] * vff;
     }
-  }
+  };
   static constexpr int kVoigt[3][3] = {{XX, XY, ZX}, {XY, YY, YZ}, {ZX, YZ, ZZ}};
-  for (const auto& L : sideQuads_) {
+  const auto traction = [&](const SideQuadLoad& L, Real* t3) {
     const Real* sig = columns_[size_t(L.column)].stress(L.layer);
-    Real t3[3];
     for (int i = 0; i < 3; ++i) t3[i] = L.sign * sig[kVoigt[i][L.axis]];
-    for (int c = 0; c < 4; ++c)
-      if (L.node[c] >= 0)  // on ranks: a corner this rank does not hold
-        for (int i = 0; i < 3; ++i) fe[dofIndex(L.node[c], i)] += L.share[c] * t3[i];
+  };
+  if (sideNodes_.empty()) {
+    for (const auto& s : side_) dashpotTerm(s, fe + dofIndex(s.node, 0));
+    for (const auto& L : sideQuads_) {
+      Real t3[3];
+      traction(L, t3);
+      for (int c = 0; c < 4; ++c)
+        if (L.node[c] >= 0)  // on ranks: a corner this rank does not hold
+          for (int i = 0; i < 3; ++i) fe[dofIndex(L.node[c], i)] += L.share[c] * t3[i];
+    }
+    return;
+  }
+  // Node by node on the threads, each node's terms added in the one loop's order: the same bits.
+  Real* tr = quadTraction_.data();
+  const size_t Q = sideQuads_.size(), S = sideNodes_.size();
+#pragma omp parallel
+  {
+#pragma omp for schedule(static)
+    for (size_t k = 0; k < Q; ++k) traction(sideQuads_[k], tr + 3 * k);
+#pragma omp for schedule(static)
+    for (size_t j = 0; j < S; ++j) {
+      Real* f = fe + dofIndex(sideNodes_[j], 0);
+      for (size_t k = sideStart_[j]; k < sideStart_[j + 1]; ++k) {
+        const SideTerm& t = sideTerms_[k];
+        if (t.corner < 0) {
+          dashpotTerm(side_[size_t(t.index)], f);
+          continue;
+        }
+        const Real share = sideQuads_[size_t(t.index)].share[t.corner];
+        for (int i = 0; i < 3; ++i) f[i] += share * tr[3 * size_t(t.index) + size_t(i)];
+      }
+    }
   }
 }
 

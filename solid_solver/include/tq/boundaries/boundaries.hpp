@@ -117,6 +117,12 @@ class SeismicBoundaries final : public NodalForceContributor {
   void computeBaseOnThreads(bool on);
   bool baseOnThreads() const { return !baseTerm_.empty(); }
   static constexpr size_t kThreadedBaseNodes = 512;
+  /// Sum the sides' free-field terms on the solver's threads, node by node in the order one loop
+  /// adds them (the default from kThreadedSideNodes nodes, set by install), or in one loop: the
+  /// same bits either way.
+  void computeSidesOnThreads(bool on);
+  bool sidesOnThreads() const { return !sideNodes_.empty(); }
+  static constexpr size_t kThreadedSideNodes = 512;
   std::array<Real, 3> springPerArea() const { return kArea_; }
   std::array<Real, 3> dashpotPerArea() const { return cArea_; }
 
@@ -161,6 +167,18 @@ class SeismicBoundaries final : public NodalForceContributor {
   std::vector<Index> baseColumnOf_;  // [base nodes] the column whose base the node's spring follows
   bool baseDistinct_ = false;        // no node twice in the base's list
   std::vector<Real> baseTerm_;       // [3 base nodes] the step's spring-work terms (threaded; else empty)
+  // The sides' terms by node (computeSidesOnThreads; empty: one loop): each distinct node's terms
+  // sideTerms_[sideStart_[j] .. sideStart_[j + 1]) in the order one loop adds them, its dashpots'
+  // free-field terms first (corner −1, index into side_), then its quads' tractions in quad order
+  // (index into sideQuads_, the node's corner).
+  struct SideTerm {
+    Index index;
+    int corner;
+  };
+  std::vector<Index> sideNodes_;
+  std::vector<size_t> sideStart_;
+  std::vector<SideTerm> sideTerms_;
+  std::vector<Real> quadTraction_;  // [3 side quads] the step's σ_ff · n (threaded)
 };
 
 }  // namespace tq
