@@ -7,11 +7,16 @@
 //    exact at rest, F_p = k_n A_p g_p);
 //  - static push: the opening is −F / (k_n A) to the same tolerance (the spring carries compression);
 //  - tension cut-off: a pull above f_t A opens every pair (no force, state Open) and the joint keeps
-//    opening.
+//    opening;
+//  - the pairs computed on the threads (and their prediction from kept terms) give the one loop's
+//    bits at any thread count.
 #include <gtest/gtest.h>
+#include <omp.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "test_helpers.hpp"
 #include "tq/contact/joints.hpp"
@@ -143,4 +148,52 @@ TEST(LiningJoints, APullAboveTheTensileStrengthOpensTheJoint) {
   EXPECT_EQ(s.axialForce, 0.0);
   EXPECT_GT(s.opening, before);
   EXPECT_GT(before, 0.0);
+}
+
+// Node-disjoint pairs computed on the solver's threads, their work summed after in pair order: the
+// same bits as the one loop at 1 and 2 threads. The second ring shaken so that the pairs differ
+// (a pull and a push round the ring, a shear across it): some stay closed, some open past f_t,
+// some slip at μ × compression; each pair predicts from kept terms (PredictionTerms) in all three.
+TEST(LiningJoints, PairsOnThreadsGiveTheOneLoopsBits) {
+  auto run = [](int threads, bool onThreads, bool& threaded) {
+    omp_set_num_threads(threads);
+    JointParams jp = gasket();
+    jp.tensileStrength = 0.02e6;  // Pa
+    jp.friction = 0.3;
+    TwoRings m(jp, 0.0);
+    m.joints->computeOnThreads(onThreads);
+    threaded = m.joints->computedOnThreads();
+    for (Index n = m.mesh.numNodes() / 2; n < m.mesh.numNodes(); ++n) {
+      const Real x = m.mesh.coords[3 * size_t(n)], z = m.mesh.coords[3 * size_t(n) + 2];
+      const Real th = std::atan2(z, x);
+      m.solver->state().v(n, 0) = 0.05 * std::sin(2 * th);
+      m.solver->state().v(n, 1) = -0.1 + 0.2 * std::cos(3 * th);  // m/s: opens some, closes others
+      m.solver->state().v(n, 2) = 0.05 * std::cos(th);
+    }
+    for (int i = 0; i < 150; ++i) m.solver->step();
+    std::vector<Real> out(m.solver->state().uData(), m.solver->state().uData() + 3 * m.mesh.numNodes());
+    std::array<Index, 3> count{0, 0, 0};
+    for (Index p = 0; p < m.joints->numPairs(); ++p) {
+      out.push_back(Real(m.joints->state(p)));
+      out.push_back(m.joints->axialForce(p));
+      ++count[size_t(m.joints->state(p))];
+    }
+    out.push_back(m.joints->dissipatedEnergy());
+    out.push_back(m.solver->energy().error);
+    std::printf("%d thread(s), %s: closed %d, open %d, slipping %d of %d pairs; joints' work %.9e J\n", threads,
+                threaded ? "pairs on the threads" : "one loop", int(count[0]), int(count[1]), int(count[2]),
+                int(m.joints->numPairs()), -out[out.size() - 2]);
+    return std::make_pair(out, count);
+  };
+  bool t0 = true, t1 = false, t2 = false;
+  const auto serial = run(1, false, t0), one = run(1, true, t1), two = run(2, true, t2);
+  omp_set_num_threads(omp_get_num_procs());
+  EXPECT_FALSE(t0);
+  EXPECT_TRUE(t1 && t2);
+  for (Index c : serial.second) EXPECT_GT(c, 0);  // every branch taken
+  EXPECT_NE(serial.first[serial.first.size() - 2], 0.0);
+  ASSERT_EQ(serial.first.size(), one.first.size());
+  ASSERT_EQ(serial.first.size(), two.first.size());
+  EXPECT_EQ(std::memcmp(serial.first.data(), one.first.data(), serial.first.size() * sizeof(Real)), 0);
+  EXPECT_EQ(std::memcmp(serial.first.data(), two.first.data(), serial.first.size() * sizeof(Real)), 0);
 }

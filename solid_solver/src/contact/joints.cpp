@@ -54,7 +54,15 @@ LiningJoints::LiningJoints(const Solver& solver, JointPairs pairs, JointParams p
   sp_.assign(3 * P, 0.0);
   force_.assign(3 * P, 0.0);
   relPrev_.assign(3 * P, 0.0);
+  // Pairs that share no node are independent within a step: each reads and writes only its own
+  // two nodes' forces, so they may be computed on the solver's threads.
+  predicted_ = pairs_.nodeA;
+  predicted_.insert(predicted_.end(), pairs_.nodeB.begin(), pairs_.nodeB.end());
+  disjoint_ = nodesDistinct(predicted_);
+  computeOnThreads(P >= kThreadedPairs);
 }
+
+void LiningJoints::computeOnThreads(bool on) { workTerm_.assign(on && disjoint_ ? 3 * size_t(pairs_.size()) : 0, 0.0); }
 
 void LiningJoints::relative(Index p, const NodalState& s, Real r[3]) const {
   const Index a = pairs_.nodeA[size_t(p)], b = pairs_.nodeB[size_t(p)];
@@ -63,91 +71,115 @@ void LiningJoints::relative(Index p, const NodalState& s, Real r[3]) const {
 
 void LiningJoints::addForces(Real /*t*/, Real dt, NodalState& st) {
   const PairPrediction predict(solver_, dt, st);
+  const PredictionTerms* kept = terms_.update(solver_, dt, st, predicted_) ? &terms_ : nullptr;
+  const size_t P = size_t(pairs_.size());
+  if (workTerm_.empty()) {  // one thread: the work summed as the pairs go
+    for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, &work_);
+    return;
+  }
+  // Node-disjoint pairs on the threads, each keeping its three work terms; summed after in pair
+  // order, the very additions of the one loop (the same bits at any thread count).
+  Real* terms = workTerm_.data();
+#pragma omp parallel for schedule(static)
+  for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, nullptr);
+  for (size_t p = 0; p < P; ++p)  // an inactive pair has no terms (stepPair returned before them)
+    if (state_[p] != std::uint8_t(JointState::Inactive))
+      for (int d = 0; d < 3; ++d) work_ += terms[3 * p + size_t(d)];
+}
+
+void LiningJoints::stepPair(size_t p, const PairPrediction& predict, const PredictionTerms* terms, NodalState& st,
+                            Real* work) {
   const bool leapfrog = predict.leapfrog();
   const Real* u = st.uData();
   Real* fe = st.fExtData();
   const Real* m = st.massData();
-  const size_t P = size_t(pairs_.size());
-  for (size_t p = 0; p < P; ++p) {
-    const Index a = pairs_.nodeA[p], b = pairs_.nodeB[p];
-    Real* F = &force_[3 * p];
-    if (!(m[a] > 0) || !(m[b] > 0)) {  // a side not (yet) in the model
-      state_[p] = std::uint8_t(JointState::Inactive);
-      for (int d = 0; d < 3; ++d) F[d] = 0;
-      continue;
-    }
-    if (state_[p] == std::uint8_t(JointState::Inactive)) {  // installed: unstressed in its current configuration
-      for (int d = 0; d < 3; ++d) {
-        r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
-        relPrev_[3 * p + d] = -r0_[3 * p + d];
-        sp_[3 * p + d] = 0;
-        F[d] = 0;
-      }
-      state_[p] = std::uint8_t(JointState::Closed);
-      cracked_[p] = 0;
-    }
-    Real pred[3], W[3], Fn[3] = {0, 0, 0};
+  const Index a = pairs_.nodeA[p], b = pairs_.nodeB[p];
+  Real* F = &force_[3 * p];
+  if (!(m[a] > 0) || !(m[b] > 0)) {  // a side not (yet) in the model
+    state_[p] = std::uint8_t(JointState::Inactive);
+    for (int d = 0; d < 3; ++d) F[d] = 0;
+    return;
+  }
+  if (state_[p] == std::uint8_t(JointState::Inactive)) {  // installed: unstressed in its current configuration
     for (int d = 0; d < 3; ++d) {
-      Real ua, wa, ub, wb;
+      r0_[3 * p + d] = u[dofIndex(b, d)] - u[dofIndex(a, d)];
+      relPrev_[3 * p + d] = -r0_[3 * p + d];
+      sp_[3 * p + d] = 0;
+      F[d] = 0;
+    }
+    state_[p] = std::uint8_t(JointState::Closed);
+    cracked_[p] = 0;
+  }
+  Real pred[3], W[3], Fn[3] = {0, 0, 0};
+  for (int d = 0; d < 3; ++d) {
+    Real ua, wa, ub, wb;
+    if (terms) {
+      predict(a, d, terms->node(p), ua, wa);
+      predict(b, d, terms->node(size_t(pairs_.size()) + p), ub, wb);
+    } else {
       predict(a, d, ua, wa);
       predict(b, d, ub, wb);
-      pred[d] = ub - ua - r0_[3 * p + d];
-      W[d] = wa + wb;
     }
-    const Real A = pairs_.area[p];
-    const Real kn = params_.normalStiffness * A, ks = params_.shearStiffness * A;
-    const Real g = pred[kAxis];
-    JointState ns = JointState::Closed;
-    Real N = 0;
-    if (cracked_[p] && g > 0) {
+    pred[d] = ub - ua - r0_[3 * p + d];
+    W[d] = wa + wb;
+  }
+  const Real A = pairs_.area[p];
+  const Real kn = params_.normalStiffness * A, ks = params_.shearStiffness * A;
+  const Real g = pred[kAxis];
+  JointState ns = JointState::Closed;
+  Real N = 0;
+  if (cracked_[p] && g > 0) {
+    ns = JointState::Open;
+  } else {
+    N = kn * g / (1 + kn * W[kAxis]);  // tension > 0
+    if (N > params_.tensileStrength * A && N > 0) {
       ns = JointState::Open;
-    } else {
-      N = kn * g / (1 + kn * W[kAxis]);  // tension > 0
-      if (N > params_.tensileStrength * A && N > 0) {
-        ns = JointState::Open;
-        cracked_[p] = 1;
-        N = 0;
-      }
+      cracked_[p] = 1;
+      N = 0;
     }
-    Fn[kAxis] = N;
-    if (ns == JointState::Open) {
-      // no shear while open; it takes up again from where the pair closes
-      for (int d = 0; d < 3; ++d)
-        if (d != kAxis) sp_[3 * p + d] = pred[d];
-    } else {
-      Real T[3] = {0, 0, 0}, Tm = 0;
+  }
+  Fn[kAxis] = N;
+  if (ns == JointState::Open) {
+    // no shear while open; it takes up again from where the pair closes
+    for (int d = 0; d < 3; ++d)
+      if (d != kAxis) sp_[3 * p + d] = pred[d];
+  } else {
+    Real T[3] = {0, 0, 0}, Tm = 0;
+    for (int d = 0; d < 3; ++d) {
+      if (d == kAxis) continue;
+      T[d] = ks * (pred[d] - sp_[3 * p + d]) / (1 + ks * W[d]);
+      Tm += T[d] * T[d];
+    }
+    Tm = std::sqrt(Tm);
+    const Real cap = params_.friction >= 0 ? params_.friction * std::max(-N, Real(0)) : -1;
+    if (cap >= 0 && Tm > cap) {
+      const Real scale = Tm > 0 ? cap / Tm : 0;
       for (int d = 0; d < 3; ++d) {
         if (d == kAxis) continue;
-        T[d] = ks * (pred[d] - sp_[3 * p + d]) / (1 + ks * W[d]);
-        Tm += T[d] * T[d];
+        T[d] *= scale;
+        // the slip that leaves the spring at T with the gap it closes to: s_end − T / k_s
+        sp_[3 * p + d] = pred[d] - W[d] * T[d] - T[d] / ks;
       }
-      Tm = std::sqrt(Tm);
-      const Real cap = params_.friction >= 0 ? params_.friction * std::max(-N, Real(0)) : -1;
-      if (cap >= 0 && Tm > cap) {
-        const Real scale = Tm > 0 ? cap / Tm : 0;
-        for (int d = 0; d < 3; ++d) {
-          if (d == kAxis) continue;
-          T[d] *= scale;
-          // the slip that leaves the spring at T with the gap it closes to: s_end − T / k_s
-          sp_[3 * p + d] = pred[d] - W[d] * T[d] - T[d] / ks;
-        }
-        ns = JointState::Slipping;
-      }
-      for (int d = 0; d < 3; ++d)
-        if (d != kAxis) Fn[d] = T[d];
+      ns = JointState::Slipping;
     }
-    state_[p] = std::uint8_t(ns);
-    // Work of the joint forces, booked as the solver books its own (central difference: the
-    // trapezoid rule), on the relative motion u_a − u_b.
-    for (int d = 0; d < 3; ++d) {
-      const Real rel = u[3 * size_t(a) + d] - u[3 * size_t(b) + d];
-      const Real dr = rel - relPrev_[3 * p + d];
-      work_ += (leapfrog ? 0.5 * (F[d] + Fn[d]) : F[d]) * dr;
-      relPrev_[3 * p + d] = rel;
-      F[d] = Fn[d];
-      fe[3 * size_t(a) + d] += Fn[d];
-      fe[3 * size_t(b) + d] -= Fn[d];
-    }
+    for (int d = 0; d < 3; ++d)
+      if (d != kAxis) Fn[d] = T[d];
+  }
+  state_[p] = std::uint8_t(ns);
+  // Work of the joint forces, booked as the solver books its own (central difference: the
+  // trapezoid rule), on the relative motion u_a − u_b.
+  for (int d = 0; d < 3; ++d) {
+    const Real rel = u[3 * size_t(a) + d] - u[3 * size_t(b) + d];
+    const Real dr = rel - relPrev_[3 * p + d];
+    const Real term = (leapfrog ? 0.5 * (F[d] + Fn[d]) : F[d]) * dr;
+    if (work)
+      *work += term;
+    else
+      workTerm_[3 * p + size_t(d)] = term;
+    relPrev_[3 * p + d] = rel;
+    F[d] = Fn[d];
+    fe[3 * size_t(a) + d] += Fn[d];
+    fe[3 * size_t(b) + d] -= Fn[d];
   }
 }
 

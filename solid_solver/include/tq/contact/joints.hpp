@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "tq/contact/pair_prediction.hpp"
 #include "tq/core/solver.hpp"
 
 namespace tq {
@@ -104,8 +105,15 @@ class LiningJoints final : public NodalForceContributor {
   Real axialForce(Index p) const { return force_[3 * size_t(p) + 1]; }
   /// Every joint's resultants at state s (coordinates from the solver's mesh).
   std::vector<JointSummary> summaries(const NodalState& s) const;
+  /// Compute the pairs on the solver's threads (where no node is in two pairs; the default from
+  /// kThreadedPairs pairs) or in one loop: the same bits either way.
+  void computeOnThreads(bool on);
+  static constexpr size_t kThreadedPairs = 512;
+  bool computedOnThreads() const { return !workTerm_.empty(); }
 
  private:
+  /// One pair's step: its force, state and f_ext; its work added to *work, or kept in workTerm_.
+  void stepPair(size_t p, const PairPrediction& predict, const PredictionTerms* terms, NodalState& st, Real* work);
   const Solver& solver_;
   JointPairs pairs_;
   JointParams params_;
@@ -115,6 +123,10 @@ class LiningJoints final : public NodalForceContributor {
   std::vector<Real> force_;    // [3P] force on node a in the last step (on b: minus it)
   std::vector<Real> relPrev_;  // [3P] u_a − u_b at the last call (for the work)
   Real work_ = 0;
+  std::vector<Index> predicted_;  // [2P] the pairs' node a, then their node b (terms_' order)
+  PredictionTerms terms_;
+  bool disjoint_ = false;       // no node in two pairs
+  std::vector<Real> workTerm_;  // [3P] the pairs' work terms of the step (threaded; else empty)
 };
 
 }  // namespace tq
