@@ -717,6 +717,8 @@ def _mesh_section() -> Section:
         if key == "mode":
             fields[key] = Choice(choices=("3d", "slice"), default=default,
                                  doc="'3d' full model or 'slice' one element thick (plane strain)")
+        elif key == "symmetry":
+            fields[key] = Choice(choices=("none", "mid_length"), default=default)
         elif isinstance(default, bool):
             fields[key] = Bool(default=default)
         elif isinstance(default, int):
@@ -1250,6 +1252,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
+    issues += _symmetry_checks(d, raw)
     issues += _incident_wave_checks(d, raw, filename)
     if not issues:
         issues += _within_record_checks(d, raw, filename)
@@ -1371,6 +1374,70 @@ def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
                   "the ground shears along the axis), or a motion across the tunnel and vertical only (azimuth 0 "
                   "or 180, no second_horizontal)",
                   lines.get(key))]
+
+
+def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """A half block (mesh.symmetry: mid_length) holds the scene's answer only where the scene is
+    symmetric about the middle plane of y_range: its ymax face on rollers and the water's end there a
+    symmetry plane. Whatever is not symmetric there, or is not modelled at that plane, is refused,
+    naming its key: a motion along the axis or an incident wave (their fields are not), the geology's
+    planes (a fault, dipping layers, a slope, a portal), the lining's joints, monitors beyond the
+    plane, and for the moving water anything but closed ends with the whole pressure exchanged."""
+    from .motion import along_axis
+
+    if d["mesh"].get("symmetry", "none") == "none" or d["mesh"]["mode"] != "3d":
+        return []  # (a slice with symmetry: the mesher's own error)
+    y0, y1 = d["geometry"]["y_range"]
+    mid = 0.5 * (y0 + y1)
+    mesh_line = _section_lines(raw, "mesh").get("symmetry")
+    fix_whole = "or mesh the whole block (mesh.symmetry: none)"
+    issues: list[Issue] = []
+
+    def refuse(key, value, why, fix, line=None):
+        issues.append(Issue(key, value, f"{why}, so the block is not symmetric about y = {mid:g} m (mesh.symmetry: "
+                            "mid_length)", f"{fix}, {fix_whole}", line or mesh_line))
+
+    gm = d["ground_motion"]
+    if along_axis(gm):
+        key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
+        refuse(f"ground_motion.{key}", gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"],
+               "gives a motion along the tunnel's axis", "use a motion across the tunnel and vertical only (azimuth 0 "
+               "or 180, no second_horizontal)", _section_lines(raw, "ground_motion").get(key))
+    if d["incident_wave"]["type"] != "none":
+        refuse("incident_wave.type", d["incident_wave"]["type"], "brings a wave whose field differs along the axis",
+               "use incident_wave.type: none (the motion from the base)")
+    g = d.get("geology") or {}
+    if g.get("fault_zone", {}).get("material") is not None:
+        refuse("geology.fault_zone", g["fault_zone"]["material"], "crosses the block at a strike and dip of its own",
+               "remove geology.fault_zone")
+    if g.get("dipping_layers"):
+        refuse("geology.dipping_layers", len(g["dipping_layers"]), "are planes that need not be symmetric",
+               "remove geology.dipping_layers (horizontal layers are symmetric)")
+    if (g.get("slope") or {}).get("angle") is not None:
+        refuse("geology.slope.angle", g["slope"]["angle"], "tilts the ground surface", "remove geology.slope")
+    if (g.get("portal") or {}).get("station") is not None:
+        refuse("geology.portal.station", g["portal"]["station"], "ends the tunnel at one end only",
+               "remove geology.portal")
+    if lining_joints_active(d):
+        refuse("lining_joints.spacing", d["lining_joints"]["spacing"], "places joints that need not mirror about "
+               "the middle plane", "remove lining_joints")
+    lines = _section_lines(raw, "output", "monitors")
+    for name, p in (d["output"]["monitors"] or {}).items():
+        if p is not None and p[1] > mid + 1e-9 * max(1.0, abs(mid)):
+            refuse(f"output.monitors.{name}", p, f"lies at y = {p[1]:g} m, beyond the middle plane the half block ends at",
+                   f"give its mirror image y = {y0 + y1 - p[1]:g} m (the same answer by symmetry; u_y changes sign)",
+                   lines.get(name))
+    if "dynamic_water" in d["conditions"]:
+        if d["water"]["ends"] != "closed":
+            refuse("water.ends", d["water"]["ends"], "lets the water flow along the axis to ends the half block "
+                   "does not hold", "use water.ends: closed", _section_lines(raw, "water").get("ends"))
+        if d["coupling"]["volume_law"] != "water":
+            issues.append(Issue("coupling.volume_law", d["coupling"]["volume_law"],
+                                "the volume law carried by tq-solid needs the whole enclosed volume, which a half "
+                                "block (mesh.symmetry: mid_length) does not close",
+                                f"set coupling.volume_law: water (the water's whole pressure exchanged), {fix_whole}",
+                                _section_lines(raw, "coupling").get("volume_law") or mesh_line))
+    return issues
 
 
 #: warn when a setting makes the run this many times slower than the alternative named

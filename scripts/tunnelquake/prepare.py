@@ -21,8 +21,9 @@ def mesh_dir(case) -> Path:
 def _fingerprint(case) -> str:
     from .case import case_geology, ground_layers, joint_hold, lining_joints_active
 
-    mesh = {k: v for k, v in case.data["mesh"].items() if not (k == "tunnel_end_plugs" and not v)}
-    d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs: the meshes made before the key stay current)
+    mesh = {k: v for k, v in case.data["mesh"].items()
+            if not (k == "tunnel_end_plugs" and not v) and not (k == "symmetry" and v == "none")}
+    d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs, no symmetry: the meshes made before the keys stay current)
     if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
         d["layers"] = ground_layers(case.data)
     geology = case_geology(case.data)

@@ -130,10 +130,13 @@ WATER_CELL_PER_PROBE_S = 3.44e-6
 #: exchange 3.6 s more: the work is mostly a wait; docs/benchmarks.md "The 3D water on 2 ranks").
 #: Not measured on more ranks: the 2-rank figure is taken for any N >= 2.
 WATER_RANKS_FACTOR = 0.91
-#: The fewest water cells a rank at which the ranks pay (the 3D example's 7,392 on 2 ranks do; the
-#: slice's 168 a rank took 2.8x one rank's time a pass when measured on an earlier VM and water
-#: code); below it `run` says so and the estimate counts one rank's time
-WATER_RANK_CELLS = 7000
+#: The fewest water cells a rank at which the ranks pay, the least measured that did, rounded down:
+#: the 3D example's half block (mesh.symmetry: mid_length; 7,392 cells, 3,696 a rank on 2 ranks) took
+#: 0.83 / 0.85x one rank's coupled wall over its first second (31.5 / 33.9 against 37.9 / 40.0 s, the
+#: water 5.57 / 5.99 against 7.93 / 8.68 ms a pass; the Intel VM, 2026-12-01), the whole model's 7,392 a
+#: rank pay too; the slice's 168 a rank took 2.8x one rank's time a pass (an earlier VM and water
+#: code). Below it `run` says so and the estimate counts one rank's time
+WATER_RANK_CELLS = 3500
 
 #: The element-evaluation probe, for a subcycled condition (time.subcycling): tq-solid on
 #: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, 4 layers of 1/8 m under 12 of

@@ -153,6 +153,16 @@ def _portal_line(d: dict) -> list[str]:
             f"{po['slope_deg']:g}° (skew {po.get('skew_deg') or 0:g}°) up to z = {plan.zmax:g} m"]
 
 
+def _half_block(d: dict) -> str:
+    """The words for a half block (mesh.symmetry: mid_length), empty for a whole one."""
+    if d["mesh"].get("symmetry", "none") == "none" or d["mesh"]["mode"] != "3d":
+        return ""
+    y0, y1 = d["geometry"]["y_range"]
+    mid = 0.5 * (y0 + y1)
+    return (f", of which the half y {y0:g} … {mid:g} m is meshed (mesh.symmetry: mid_length): the scene is "
+            f"symmetric about y = {mid:g} m, its plane of symmetry on rollers (u_y = 0)")
+
+
 def case_section(case) -> list[str]:
     """Geometry, materials, water and monitors of the case as it ran."""
     d = case.data
@@ -162,7 +172,8 @@ def case_section(case) -> list[str]:
              f"- tunnel: excavated radius {b:g} m (diameter {2 * b:g} m), lining {g['lining_thickness']:g} m thick "
              f"(inner radius {a:g} m), axis at x = {g['tunnel_centre_x']:g} m, z = {g['tunnel_centre_z']:g} m",
              f"- block: x {g['x_range'][0]:g} … {g['x_range'][1]:g} m, y {g['y_range'][0]:g} … {g['y_range'][1]:g} m, "
-             f"z {g['z_range'][0]:g} … {g['z_range'][1]:g} m; mesh mode {d['mesh']['mode']}"]
+             f"z {g['z_range'][0]:g} … {g['z_range'][1]:g} m; mesh mode {d['mesh']['mode']}"
+             + _half_block(d)]
     lines += _portal_line(d)
     w = d.get("water") or {}
     wet = [c for c in d["conditions"] if c != "no_water"]

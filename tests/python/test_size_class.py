@@ -109,6 +109,7 @@ def test_the_estimate_of_a_large_model_takes_its_class_figures(tmp_path, monkeyp
     monkeypatch.setattr(R, "probe_program", lambda: prog)
     case = load_case(EXAMPLE, variant="3d")
     case.data["conditions"] = ["no_water"]
+    case.data["mesh"]["symmetry"] = "none"  # the whole block (the variant meshes half of it)
     est = runtime_estimate(case)
     rates = R.machine_rates(program=prog, threads=2, elements=64_416)  # cached: what the estimate took
     plain = runtime_estimate(case, rates=R.MachineRates(rates.probe_s, "test", "given"))

@@ -36,6 +36,7 @@ MESH_DEFAULTS: dict = {
     "refinement_factor": 1,
     "axial_growth": 1.2,
     "tunnel_end_plugs": 0,
+    "symmetry": "none",
 }
 
 #: One line per key of MESH_DEFAULTS: meaning and unit.
@@ -70,6 +71,9 @@ MESH_DOC: dict = {
     "tunnel_end_plugs": "3d mode: axial element layers at each end of the block where the tunnel is filled "
     "with rock (no lining, no water), so the tunnel ends inside the block; 0: it runs through both y faces. "
     "A domain-reduction layer (incident_wave) needs the tunnel inside it",
+    "symmetry": "3d mode: 'mid_length' meshes only the half of the block y <= the middle of y_range, its ymax "
+    "face the plane of symmetry (rollers, u_y = 0; the water's end there a symmetry plane), for a scene symmetric "
+    "about that plane: half the elements and cells, the same answer; 'none': the whole block",
 }
 
 GEOMETRY_KEYS = (
@@ -157,6 +161,9 @@ class MeshPlan:
     y_levels: tuple[float, ...] = ()
     # Axial element layers at each end where the tunnel is filled with rock (3d mode; 0: none).
     plugs: int = 0
+    # The half y <= the middle of y_range only (mesh.symmetry: mid_length): ymax is the plane of
+    # symmetry, with no plug there.
+    symmetric: bool = False
 
 
 def _fail(where: str, key: str, value, why: str, fix: str):
@@ -347,6 +354,9 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
             )
 
     slice_mode = m["mode"] == "slice"
+    symmetric = _symmetry(m, slice_mode, along * k)
+    if symmetric:  # the half below the middle plane: the tunnel's y faces at ymin and at that plane
+        ymax = 0.5 * (ymin + ymax)
     if slice_mode:
         if m["slice_thickness"] is None:
             thick = (ymax - ymin) / (along * k)
@@ -356,7 +366,7 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
         ymin, ymax = ymid - 0.5 * thick, ymid + 0.5 * thick
         axial = Divisions(1)
     else:
-        axial = Divisions(along * k)
+        axial = Divisions(along * k // (2 if symmetric else 1))
 
     h_box = 2.0 * L / (around // 4)  # box side spacing: the size the outer bands start from
 
@@ -418,7 +428,8 @@ def resolve(geometry: dict, mesh: dict | None, layers=None, geology: Geology | N
         layers=layers,
         geology=geology,
         y_levels=y_levels,
-        plugs=_plugs(m, slice_mode, axial.count, k),
+        plugs=_plugs(m, slice_mode, axial.count, k, symmetric),
+        symmetric=symmetric,
     )
     _check_sizes(plan)
     if geology is not None and geology.slope is not None:
@@ -577,24 +588,47 @@ def _check_slope_edges(p: MeshPlan) -> None:
                              4 * p.quarter.count, why, "Use more elements around, or a larger max_element_size.")
 
 
-def _plugs(m: dict, slice_mode: bool, axial: int, k: int) -> int:
+def _symmetry(m: dict, slice_mode: bool, along: int) -> bool:
+    """Whether the mesh is the half y <= the middle of y_range (mesh.symmetry: mid_length): a 3D block
+    whose axial layers (elements_along_axis times the refinement factor) are even, so that the
+    middle plane is one of the whole block's grid planes."""
+    sym = m.get("symmetry") or "none"
+    if sym not in ("none", "mid_length"):
+        _fail("mesh", "symmetry", sym, "must be 'none' or 'mid_length'", "Pick one of the two.")
+    if sym == "none":
+        return False
+    if slice_mode:
+        _fail("mesh", "symmetry", sym, "a slice is one element thick: it has no half along the axis",
+              "Use symmetry: none with mode: slice.")
+    if along % 2:
+        _fail("mesh", "symmetry", sym, f"halves the {along} axial element layers (elements_along_axis times the "
+              "refinement factor), an odd number: the middle plane would cut a layer", "Give an even elements_along_axis.")
+    return True
+
+
+def _plugs(m: dict, slice_mode: bool, axial: int, k: int, symmetric: bool = False) -> int:
     """The axial element layers filled with rock at each end (mesh.tunnel_end_plugs, times the
-    refinement factor); the tunnel must keep at least one layer between them."""
+    refinement factor; at the ymin end only in a half block, mesh.symmetry); the tunnel must keep
+    at least one layer between them."""
     n = _integer("mesh", m, "tunnel_end_plugs", 0)
     if n and slice_mode:
         _fail("mesh", "tunnel_end_plugs", n, "a slice is one element thick: it has no tunnel ends to fill",
               "Use tunnel_end_plugs: 0 with mode: slice.")
-    if n and 2 * n * k >= axial:
-        _fail("mesh", "tunnel_end_plugs", n, f"fills {2 * n * k} of the {axial} axial element layers: the tunnel "
-              "needs at least one between the two plugs", "Lower it or raise elements_along_axis.")
+    ends = 1 if symmetric else 2
+    if n and ends * n * k >= axial:
+        _fail("mesh", "tunnel_end_plugs", n, f"fills {ends * n * k} of the {axial} axial element layers"
+              + (" of the half block (mesh.symmetry)" if symmetric else "") + ": the tunnel needs at least one "
+              "between the " + ("plug and the plane of symmetry" if symmetric else "two plugs"),
+              "Lower it or raise elements_along_axis.")
     return n * k
 
 
 def plug_levels(plan: MeshPlan) -> tuple[float, float] | None:
-    """(y where the tunnel starts, y where it ends) with plugged ends, None without plugs."""
+    """(y where the tunnel starts, y where it ends) with plugged ends, None without plugs; in a half
+    block (mesh.symmetry) the tunnel ends at the plane of symmetry."""
     if not plan.plugs:
         return None
-    return float(plan.y_levels[plan.plugs]), float(plan.y_levels[-1 - plan.plugs])
+    return float(plan.y_levels[plan.plugs]), float(plan.y_levels[-1 - (0 if plan.symmetric else plan.plugs)])
 
 
 def _layered_band(layers, z_box, zmax, h_box, hmax, growth, k):
