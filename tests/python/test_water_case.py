@@ -43,9 +43,10 @@ CASES = {
                                       ("rhoPimpleFoam", "open", False, K_REMAINDER, False)),
     "3d, open ends, incompressible, whole pressure exchanged": (
         "3d_open_incompressible", {}, {"volume_law": "water"}, ("pimpleFoam", "open", False, None, False)),
-    # not the example's water: sea water, another head and tunnel depth
+    # not the example's water: sea water, another head and tunnel depth; the 3d variant meshes half of
+    # its symmetric block (mesh.symmetry: mid_length), its end_ymax the plane of symmetry
     "3d, closed, sea water": ("3d", {"density": 1025.0, "viscosity": 1.08e-3, "bulk_modulus": 2.34e9,
-                                     "head": 41.5}, {}, ("rhoPimpleFoam", "wall", True, None, False)),
+                                     "head": 41.5}, {}, ("rhoPimpleFoam", ("wall", "symmetry"), True, None, False)),
 }
 
 
@@ -98,26 +99,31 @@ def test_the_case_water_is_written(name, tmp_path):
     assert mixture["equationOfState"]["rho0"] == rho and mixture["transport"]["mu"] == mu
     model = f["constant/turbulenceProperties"]["laminar"]["laminarModel"]
     assert model == "tqNewtonian"
-    # the ends
-    end = {"empty": {"U": "empty", "p": "empty", "T": "empty", "pointDisplacement": "empty"},
-           "wall": {"U": "tqInterfaceVelocity", "p": "fixedFluxExtrapolatedPressure", "T": "zeroGradient",
-                    "pointDisplacement": "calculated"},
-           "open": {"U": "pressureInletOutletVelocity", "p": "fixedValue", "T": "zeroGradient",
-                    "pointDisplacement": "calculated"}}[kind]
+    # the ends (one kind for both, or the kinds of end_ymin and end_ymax)
+    kinds = kind if isinstance(kind, tuple) else (kind, kind)
+    ends = {"empty": {"U": "empty", "p": "empty", "T": "empty", "pointDisplacement": "empty"},
+            "wall": {"U": "tqInterfaceVelocity", "p": "fixedFluxExtrapolatedPressure", "T": "zeroGradient",
+                     "pointDisplacement": "calculated"},
+            "open": {"U": "pressureInletOutletVelocity", "p": "fixedValue", "T": "zeroGradient",
+                     "pointDisplacement": "calculated"},
+            "symmetry": {"U": "symmetryPlane", "p": "symmetryPlane", "T": "symmetryPlane",
+                         "pointDisplacement": "calculated"}}
     assert ("0/T" in f) == compressible
-    for field, typ in end.items():
+    for field in ends["wall"]:
         if f"0/{field}" not in f:
             continue
         bf = f[f"0/{field}"]["boundaryField"]
-        assert bf["end_y(min|max)"]["type"] == typ, field
-        assert set(bf) == {"interface", "end_y(min|max)"}
+        for patch, k in zip(("end_ymin", "end_ymax"), kinds, strict=True):
+            entry = bf.get(patch) or bf["end_y(min|max)"]
+            assert entry["type"] == ends[k][field], (field, patch)
+        assert set(bf) - {"interface"} in ({"end_y(min|max)"}, {"end_ymin", "end_ymax"})
     if kind == "open":
         assert f["0/p"]["boundaryField"]["end_y(min|max)"]["value"] == Uniform(0)  # hydrodynamic p = 0
     assert f["0/p"]["dimensions"] == (Dimensions([1, -1, -2, 0, 0, 0, 0]) if compressible  # Pa
                                       else Dimensions([0, 2, -2, 0, 0, 0, 0]))  # Pa / rho
     assert f["0/U"]["boundaryField"]["interface"]["type"] == "tqInterfaceVelocity"
-    assert wc.patch_types(w) == {"interface": "wall", "end_ymin": {"empty": "empty", "wall": "wall", "open": "patch"}[kind],
-                                 "end_ymax": {"empty": "empty", "wall": "wall", "open": "patch"}[kind]}
+    patch = {"empty": "empty", "wall": "wall", "open": "patch", "symmetry": "symmetryPlane"}
+    assert wc.patch_types(w) == {"interface": "wall", "end_ymin": patch[kinds[0]], "end_ymax": patch[kinds[1]]}
     # the pressure controls: absolute in a closed domain, relative with an open end
     for p in ("p", "pFinal"):
         controls = f["system/fvSolution"]["solvers"][p]
