@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from case_texts import tunnel
 
 h5py = pytest.importorskip("h5py")
 from tunnelquake import paths  # noqa: E402
@@ -35,27 +36,11 @@ coupled = pytest.mark.skipif(
     reason="tq-solid, libtqFoam.so or OpenFOAM v1912 missing (set TQ_BUILD_DIR)")
 
 LENGTH = 32.0
-CASE = """\
-name: symmetric_tunnel
-geometry:
-  x_range: [-30.0, 30.0]
-  y_range: [0.0, 32.0]
-  z_range: [-30.0, 30.0]
-  tunnel_centre_x: 0.0
-  tunnel_centre_z: 0.0
-  excavated_radius: 3.0 m
-  lining_thickness: 0.4 m
-mesh:
-  mode: 3d
-  max_element_size: 10 m
-  lining_elements_around: 16
-  lining_elements_through: 1
-  elements_along_axis: 16
-  near_field_half_width: 9 m
-  near_field_radial_divisions: 4
-  water_ring_divisions: 1
-  tunnel_end_plugs: 1
-  symmetry: mid_length
+CASE = tunnel("symmetric_tunnel", [-30.0, 30.0], [0.0, LENGTH], [-30.0, 30.0], centre_x=0.0, centre_z=0.0,
+              radius="3.0 m", lining="0.4 m", mode="3d", max_element_size="10 m", lining_elements_around=16,
+              lining_elements_through=1, elements_along_axis=16, near_field_half_width="9 m",
+              near_field_radial_divisions=4, water_ring_divisions=1, tunnel_end_plugs=1,
+              symmetry="mid_length") + """\
 materials:
   rock: {model: mohr_coulomb_damage, youngs_modulus: 5 GPa, poisson_ratio: 0.25, density: 2400 kg/m^3,
          cohesion: 0.05 MPa, friction_angle: 30 deg, tensile_strength: 0.05 MPa}

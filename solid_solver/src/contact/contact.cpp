@@ -192,19 +192,10 @@ Real DynamicContact::slip(Index p, const NodalState& s) const {
 void DynamicContact::addForces(Real /*t*/, Real dt, NodalState& st) {
   const PairPrediction predict(solver_, dt, st);
   const PredictionTerms* kept = terms_.update(solver_, dt, st, predicted_) ? &terms_ : nullptr;
-  const size_t P = size_t(pairs_.size());
-  if (workTerm_.empty()) {  // one thread: the work summed as the pairs go
-    for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, &work_);
-    return;
-  }
-  // Node-disjoint pairs on the threads, each keeping its three work terms; summed after in pair
-  // order, the very additions of the serial loop (the same bits at any thread count).
-  Real* terms = workTerm_.data();
-#pragma omp parallel for schedule(static)
-  for (size_t p = 0; p < P; ++p) stepPair(p, predict, kept, st, nullptr);
-  for (size_t p = 0; p < P; ++p)  // an inactive pair has no terms (stepPair returned before them)
-    if (state_[p] != std::uint8_t(PairState::Inactive) && (counted_.empty() || counted_[p]))
-      for (int d = 0; d < 3; ++d) work_ += terms[3 * p + size_t(d)];
+  // on ranks, the pairs another rank counts (counted_) add no work here, in either loop
+  stepPairs(
+      size_t(pairs_.size()), workTerm_, work_, [&](size_t p, Real* work) { stepPair(p, predict, kept, st, work); },
+      [&](size_t p) { return state_[p] != std::uint8_t(PairState::Inactive) && (counted_.empty() || counted_[p]); });
 }
 
 void DynamicContact::stepPair(size_t p, const PairPrediction& predict, const PredictionTerms* terms, NodalState& st,

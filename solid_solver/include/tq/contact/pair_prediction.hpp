@@ -4,6 +4,8 @@
 ///        build their forces on (docs/theory.md §4).
 #pragma once
 
+#include <vector>
+
 #include "tq/core/nodal_state.hpp"
 #include "tq/core/solver.hpp"
 
@@ -106,5 +108,24 @@ class PredictionTerms {
   std::uint64_t massVersion_ = 0, dashpotVersion_ = 0;
   Real dt_ = 0, alpha_ = 0;
 };
+
+/// Steps the P pairs of a node-pair interface: `step(p, work)` computes pair p's force and adds its
+/// work to *work, or, given nullptr, keeps its three work terms in terms[3p .. 3p + 3). With `terms`
+/// empty, one loop adding each pair's work as it goes; else (the pairs sharing no node, each reading
+/// and writing only its own two nodes) the pairs on the solver's threads, their terms summed after in
+/// pair order for those `counted(p)` says (a pair that returned before its work has none): the very
+/// additions of the one loop, the same bits at any thread count.
+template <class Step, class Counted>
+void stepPairs(size_t P, const std::vector<Real>& terms, Real& work, Step&& step, Counted&& counted) {
+  if (terms.empty()) {
+    for (size_t p = 0; p < P; ++p) step(p, &work);
+    return;
+  }
+#pragma omp parallel for schedule(static)
+  for (size_t p = 0; p < P; ++p) step(p, nullptr);
+  for (size_t p = 0; p < P; ++p)
+    if (counted(p))
+      for (size_t d = 0; d < 3; ++d) work += terms[3 * p + d];
+}
 
 }  // namespace tq
