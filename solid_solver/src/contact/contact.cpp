@@ -231,17 +231,9 @@ void DynamicContact::stepPair(size_t p, const PairPrediction& predict, const Pre
   const Real* n = &pairs_.normal[3 * p];
   Real pred[3], cur[3], W[3];
   for (int d = 0; d < 3; ++d) {
-    Real u1, w1, u2, w2;
-    if (terms) {
-      predict(a, d, terms->node(p), u1, w1);
-      predict(b, d, terms->node(size_t(pairs_.size()) + p), u2, w2);
-    } else {
-      predict(a, d, u1, w1);
-      predict(b, d, u2, w2);
-    }
-    pred[d] = u2 - u1 - r0_[3 * p + d];
+    predict.pair(p, size_t(pairs_.size()), a, b, d, terms, pred[d], W[d]);
+    pred[d] -= r0_[3 * p + d];
     cur[d] = -rel[d] - r0_[3 * p + d];
-    W[d] = w1 + w2;
   }
   const Real gapN = n[0] * pred[0] + n[1] * pred[1] + n[2] * pred[2];  // Δ1n of eq. (10)
   // Gap to be closed: the whole predicted offset while the bond is intact; else the normal gap

@@ -102,16 +102,8 @@ void LiningJoints::stepPair(size_t p, const PairPrediction& predict, const Predi
   }
   Real pred[3], W[3], Fn[3] = {0, 0, 0};
   for (int d = 0; d < 3; ++d) {
-    Real ua, wa, ub, wb;
-    if (terms) {
-      predict(a, d, terms->node(p), ua, wa);
-      predict(b, d, terms->node(size_t(pairs_.size()) + p), ub, wb);
-    } else {
-      predict(a, d, ua, wa);
-      predict(b, d, ub, wb);
-    }
-    pred[d] = ub - ua - r0_[3 * p + d];
-    W[d] = wa + wb;
+    predict.pair(p, size_t(pairs_.size()), a, b, d, terms, pred[d], W[d]);
+    pred[d] -= r0_[3 * p + d];
   }
   const Real A = pairs_.area[p];
   const Real kn = params_.normalStiffness * A, ks = params_.shearStiffness * A;

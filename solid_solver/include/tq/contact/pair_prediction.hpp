@@ -11,6 +11,8 @@
 
 namespace tq {
 
+class PredictionTerms;
+
 /// Predicts dof (n, d) by the solver's own update formula (Solver::updateNodes) from the forces
 /// known so far: ut = u^{n+1} without a further force on the node, w = ∂u^{n+1}/∂f (m/N; 0 for a
 /// fixed dof). Central difference: w = Δt² / (m + ½(α m + c)Δt); the literal eqs. (3)–(4):
@@ -55,6 +57,10 @@ class PairPrediction {
     ut = u_[i] + dt_ * v_[i] + 0.5 * dt_ * dt_ * acc;
     w = fr * 0.5 * dt_ * dt_ / mn;
   }
+
+  /// Pair p of P, nodes a and b, direction d: the predicted u_b − u_a and the pair's mobility w_a + w_b,
+  /// from the kept terms where given (a's at p, b's at P + p, PredictionTerms' order), else directly.
+  inline void pair(size_t p, size_t P, Index a, Index b, int d, const PredictionTerms* terms, Real& rel, Real& w) const;
 
   /// The central difference's terms of one dof from its mass, α, its dashpot and Δt: m/Δt − h,
   /// m/Δt + h and Δt²/(m + hΔt), h = ½(αm + c).
@@ -108,6 +114,20 @@ class PredictionTerms {
   std::uint64_t massVersion_ = 0, dashpotVersion_ = 0;
   Real dt_ = 0, alpha_ = 0;
 };
+
+void PairPrediction::pair(size_t p, size_t P, Index a, Index b, int d, const PredictionTerms* terms, Real& rel,
+                          Real& w) const {
+  Real ua, wa, ub, wb;
+  if (terms) {
+    (*this)(a, d, terms->node(p), ua, wa);
+    (*this)(b, d, terms->node(P + p), ub, wb);
+  } else {
+    (*this)(a, d, ua, wa);
+    (*this)(b, d, ub, wb);
+  }
+  rel = ub - ua;
+  w = wa + wb;
+}
 
 /// Steps the P pairs of a node-pair interface: `step(p, work)` computes pair p's force and adds its
 /// work to *work, or, given nullptr, keeps its three work terms in terms[3p .. 3p + 3). With `terms`
