@@ -623,6 +623,11 @@ def coupling_predictor(c: dict) -> str:
     return p
 
 
+def half_block(d: dict) -> bool:
+    """Whether the case meshes the half of its 3D block below the middle of y_range (mesh.symmetry)."""
+    return d["mesh"]["mode"] == "3d" and d["mesh"].get("symmetry", "none") != "none"
+
+
 def closed_section(d: dict) -> bool:
     """Whether the case's water section is closed: a slice (no axial flow), or 3D with closed ends."""
     return d["mesh"]["mode"] == "slice" or d["water"]["ends"] == "closed"
@@ -1365,8 +1370,7 @@ def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
     if int(d["mesh"].get("tunnel_end_plugs") or 0) > 0:
         return []  # the y faces take free-field columns (the first side's, shared)
     lines = _section_lines(raw, "ground_motion")
-    key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
-    value = gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"]
+    key, value = _axial_motion_key(gm)
     return [Issue(f"ground_motion.{key}", value,
                   "gives a motion along the tunnel's axis (y), which a 3D model takes only through free-field "
                   "columns on its y faces, and those need the tunnel's ends plugged with ground",
@@ -1374,6 +1378,14 @@ def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
                   "the ground shears along the axis), or a motion across the tunnel and vertical only (azimuth 0 "
                   "or 180, no second_horizontal)",
                   lines.get(key))]
+
+
+def _axial_motion_key(gm: dict) -> tuple[str, object]:
+    """The ground_motion key (and its value) that gives a motion along the axis: the second
+    horizontal record where there is one, else the azimuth."""
+    if gm["second_horizontal"]["file"] is not None:
+        return "second_horizontal", gm["second_horizontal"]["file"]
+    return "azimuth", gm["azimuth"]
 
 
 def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
@@ -1385,7 +1397,7 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
     plane, and for the moving water anything but closed ends with the whole pressure exchanged."""
     from .motion import along_axis
 
-    if d["mesh"].get("symmetry", "none") == "none" or d["mesh"]["mode"] != "3d":
+    if not half_block(d):
         return []  # (a slice with symmetry: the mesher's own error)
     y0, y1 = d["geometry"]["y_range"]
     mid = 0.5 * (y0 + y1)
@@ -1399,9 +1411,8 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
 
     gm = d["ground_motion"]
     if along_axis(gm):
-        key = "second_horizontal" if gm["second_horizontal"]["file"] is not None else "azimuth"
-        refuse(f"ground_motion.{key}", gm["second_horizontal"]["file"] if key == "second_horizontal" else gm["azimuth"],
-               "gives a motion along the tunnel's axis", "use a motion across the tunnel and vertical only (azimuth 0 "
+        key, value = _axial_motion_key(gm)
+        refuse(f"ground_motion.{key}", value, "gives a motion along the tunnel's axis", "use a motion across the tunnel and vertical only (azimuth 0 "
                "or 180, no second_horizontal)", _section_lines(raw, "ground_motion").get(key))
     if d["incident_wave"]["type"] != "none":
         refuse("incident_wave.type", d["incident_wave"]["type"], "brings a wave whose field differs along the axis",

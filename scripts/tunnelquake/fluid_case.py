@@ -65,6 +65,7 @@ from .case import (
     coupling_window_force_weight,
     coupling_window_problem,
     fluid_ranks_problem,
+    half_block,
     water_end_kinds,
 )
 from .coupling_scales import absolute_tolerances
@@ -355,7 +356,7 @@ def water_case(case, settings: dict, slice_mode: bool, write_interval: float | N
         # a valve is a wall; the reservoir's p = 0 is an open patch, and so is a surge tank's (its level is
         # tq-solid's: the water solver's remainder meets p = 0 there)
         ends = tuple("wall" if k == "valve" else "open" for k in split.end_kinds)
-    if not slice_mode and d["mesh"].get("symmetry", "none") != "none":
+    if not slice_mode and half_block(d):
         ends = (ends[0], "symmetry")  # the half block's ymax end: its plane of symmetry
     dt = settings["window_size"]
     end_time = settings["windows"] * dt

@@ -18,12 +18,16 @@ def mesh_dir(case) -> Path:
     return case.output_dir / "mesh"
 
 
+_UNSET = object()
+
+
 def _fingerprint(case) -> str:
     from .case import case_geology, ground_layers, joint_hold, lining_joints_active
+    from .fingerprint import NEUTRAL
 
-    mesh = {k: v for k, v in case.data["mesh"].items()
-            if not (k == "tunnel_end_plugs" and not v) and not (k == "symmetry" and v == "none")}
-    d = {"geometry": case.data["geometry"], "mesh": mesh}  # (no plugs, no symmetry: the meshes made before the keys stay current)
+    # a mesh key at its neutral value is left out: the meshes made before the key stay current
+    mesh = {k: v for k, v in case.data["mesh"].items() if NEUTRAL.get(f"mesh.{k}", _UNSET) != v}
+    d = {"geometry": case.data["geometry"], "mesh": mesh}
     if ground_layers(case.data):  # only then, so that the meshes of cases without layers stay current
         d["layers"] = ground_layers(case.data)
     geology = case_geology(case.data)

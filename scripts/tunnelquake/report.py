@@ -155,7 +155,9 @@ def _portal_line(d: dict) -> list[str]:
 
 def _half_block(d: dict) -> str:
     """The words for a half block (mesh.symmetry: mid_length), empty for a whole one."""
-    if d["mesh"].get("symmetry", "none") == "none" or d["mesh"]["mode"] != "3d":
+    from .case import half_block
+
+    if not half_block(d):
         return ""
     y0, y1 = d["geometry"]["y_range"]
     mid = 0.5 * (y0 + y1)
