@@ -22,6 +22,8 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from .schema import NEUTRAL
+
 VERSION = 1
 ATTR = "input_fingerprint"
 
@@ -50,11 +52,6 @@ POST_ONLY = "design"
 LEFT_OUT = {"output.directory", "output.allow_outside", "output.checkpoint_interval", "coupling.timeout",
             "coupling.transport", "water.log", "water.log_interval"}
 MOVED = {"output.displacement_reference": "design", "lining_joints.allowed_opening": "design"}
-
-#: keys counted only when they differ from their neutral value (a section or key added to the schema
-#: leaves the fingerprints of the cases that do not use it as they were)
-NEUTRAL = {"incident_wave": ("type", "none"), "lining_joints": ("spacing", None), "mesh.tunnel_end_plugs": 0,
-           "lining_joints.held_at": "along_ring", "coupling.defect_correction": 0.0, "mesh.symmetry": "none"}
 
 #: design sections the analysis itself reads when a region's model takes them (a reinforced_concrete
 #: lining is built from the concrete and the bars the design check reads): then they shape results

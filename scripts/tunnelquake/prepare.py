@@ -23,7 +23,7 @@ _UNSET = object()
 
 def _fingerprint(case) -> str:
     from .case import case_geology, ground_layers, joint_hold, lining_joints_active
-    from .fingerprint import NEUTRAL
+    from .schema import NEUTRAL
 
     # a mesh key at its neutral value is left out: the meshes made before the key stay current
     mesh = {k: v for k, v in case.data["mesh"].items() if NEUTRAL.get(f"mesh.{k}", _UNSET) != v}

@@ -86,6 +86,12 @@ class Issue:
 
 _MISSING = object()
 
+#: keys whose neutral value means "not used": a section (its key, its neutral value) or a dotted key (its
+#: neutral value). The fingerprints count them only away from that value, so a section or key added to
+#: the schema leaves the fingerprints of the cases that do not use it as they were.
+NEUTRAL = {"incident_wave": ("type", "none"), "lining_joints": ("spacing", None), "mesh.tunnel_end_plugs": 0,
+           "lining_joints.held_at": "along_ring", "coupling.defect_correction": 0.0, "mesh.symmetry": "none"}
+
 
 class CaseError(Exception):
     """The case file has problems; ``issues`` lists each one."""
