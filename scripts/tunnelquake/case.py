@@ -1394,7 +1394,8 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
     symmetry plane. Whatever is not symmetric there, or is not modelled at that plane, is refused,
     naming its key: a motion along the axis or an incident wave (their fields are not), the geology's
     planes (a fault, dipping layers, a slope, a portal), the lining's joints, monitors beyond the
-    plane, and for the moving water anything but closed ends with the whole pressure exchanged."""
+    plane, and open water ends that differ (the half holds the end at ymin; its plane of symmetry has no
+    flow through it)."""
     from .motion import along_axis
 
     if not half_block(d):
@@ -1438,16 +1439,16 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
             refuse(f"output.monitors.{name}", p, f"lies at y = {p[1]:g} m, beyond the middle plane the half block ends at",
                    f"give its mirror image y = {y0 + y1 - p[1]:g} m (the same answer by symmetry; u_y changes sign)",
                    lines.get(name))
-    if "dynamic_water" in d["conditions"]:
-        if d["water"]["ends"] != "closed":
-            refuse("water.ends", d["water"]["ends"], "lets the water flow along the axis to ends the half block "
-                   "does not hold", "use water.ends: closed", _section_lines(raw, "water").get("ends"))
-        if d["coupling"]["volume_law"] != "water":
-            issues.append(Issue("coupling.volume_law", d["coupling"]["volume_law"],
-                                "the volume law carried by tq-solid needs the whole enclosed volume, which a half "
-                                "block (mesh.symmetry: mid_length) does not close",
-                                f"set coupling.volume_law: water (the water's whole pressure exchanged), {fix_whole}",
-                                _section_lines(raw, "coupling").get("volume_law") or mesh_line))
+    if d["water"]["ends"] == "open":
+        def end(e, kind):
+            area = (d["water"].get(e) or {}).get("area")
+            return f"kind {kind}" + ("" if area is None else f", area {area:g} m^2")
+
+        ymin, ymax = (end(e, k) for e, k in zip(("end_ymin", "end_ymax"), water_end_kinds(d), strict=True))
+        if ymin != ymax:
+            refuse("water.end_ymax", ymax, f"differs from water.end_ymin ({ymin})",
+                   "give both ends the same kind (and a surge tank the same area)",
+                   _section_lines(raw, "water").get("end_ymax"))
     return issues
 
 

@@ -126,6 +126,9 @@ def water_split(case) -> WaterSplit:
     kinds = water_end_kinds(d) if ends == "open" else ("reservoir", "reservoir")
     areas = tuple(float((water.get(e) or {}).get("area") or 0.0) if k == "surge_tank" else 0.0
                   for e, k in zip(("end_ymin", "end_ymax"), kinds, strict=True))
+    if ends == "open" and half_block(d):
+        # the half's ymax end is the plane of symmetry: by symmetry no water flows through it
+        kinds, areas = (kinds[0], "valve"), (areas[0], 0.0)
     if cs.get("volume_law", "solid") == "water":
         return WaterSplit("none", 0.0, 0.0, ends, rho, water["model"], k_case, False, kinds, areas)
     translation = rho if cs.get("water_translation", "solid") == "solid" else 0.0
@@ -248,6 +251,9 @@ def coupling_settings(case, window_size: float, address_file: Path, token: str,
         # OpenFOAM's part that tq-solid must know of: the water sends its wall pressure less its mean
         # (the water case's tqInterface and tq-solid's /coupling both read it from here)
         "subtract_mean_pressure": split.subtract_mean_pressure,
+        # a half block's wet face ends at its plane of symmetry (its nodes' area vectors there are half
+        # the whole face's)
+        "symmetry_ymax": split.volume_law != "none" and half_block(case.data),
     }
 
 

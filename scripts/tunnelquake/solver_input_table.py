@@ -374,6 +374,9 @@ ENTRIES: tuple[Entry, ...] = (
        "(OpenFOAM's tqInterface `subtractMeanPressure`, written from the same setting): the uniform part is "
        "tq-solid's volume law, so it needs a volume_law with water_ends closed", default=0.0,
        omit_default=True),
+    _e("/coupling", "symmetry_ymax", "flag", "1: the wetted face's nodes at its largest y lie on a plane of "
+       "symmetry (a half block, mesh.symmetry mid_length): the carried modes' projection counts their area "
+       "vectors as the whole face's, twice the half's", default=0.0, omit_default=True, written_with="volume_law"),
     _e("/coupling", "transport", "str", "`mpi`: docs/coupler.md \"tq-solid under mpirun\"; the port file (tcp); "
        "the run's secret; a silent fluid's limit; wait for the fluid (0 = timeout)", default="tcp",
        choices=("tcp", "mpi")),

@@ -377,6 +377,7 @@ void readStagedInput(hid_t f, SolidInput& in) {
              "end_ymin and end_ymax are both valve: the column has no end that fixes its pressure; use water_ends "
              "closed (one uniform pressure) or make one end a reservoir or a surge tank");
     C.subtractMeanPressure = c.flag(g, w, K::coupling::subtract_mean_pressure);
+    C.symmetryYmax = c.flag(g, w, K::coupling::symmetry_ymax);
     if (C.subtractMeanPressure && (C.volumeLaw == "none" || C.waterEnds != "closed"))
       c.fail(w,
              "subtract_mean_pressure 1 (the water sends its wall pressure less its mean) needs the solid to carry "

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "tq/io/mesh.hpp"
@@ -30,8 +31,11 @@ struct CarriedWater::Impl {
   // is a station whose only flow is to its neighbour; at a surge tank the same, its compliance V_j/K
   // plus the tank's A_s/(ρ g) (the water that left into the tank raised its level by p/(ρ g)).
   bool incompressible = false;
-  Real volume = 0;          // m³: all the enclosed water
-  std::vector<Real> g;      // [3n] m²
+  Real volume = 0;      // m³: all the enclosed water
+  std::vector<Real> g;  // [3n] m²
+  // [3n] m²: the volume mode's column of the projection (B): g, twice g on the nodes of a plane of
+  // symmetry (/coupling symmetry_ymax), whose area vectors on the whole face are twice the half's
+  std::vector<Real> gB;
   WallMotion scratch;       // the step's prediction (addForces)
   std::vector<Real> force;  // [3n] N: the carried pressure's force added this step
   Real volumeWork = 0, dtPrev = 0;
@@ -60,7 +64,7 @@ struct CarriedWater::Impl {
   std::vector<Real> r;             // [2n] (x − c_j, z − c_j) of each wet node
   std::vector<Real> lam, lamPrev;  // [2S] N: the water's in-plane resultant −ρ V_j ā_j this step
   // The oblique projection the exchange sees, station by station: P u = u − B C⁻¹ Aᵀu removes the
-  // carried modes from a motion (B: g and the uniform x, z translations; Aᵀ: the volume change g·u
+  // carried modes from a motion (B: gB and the uniform x, z translations; Aᵀ: the volume change g·u
   // and T u), Pᵀ F = F − A C⁻ᵀ BᵀF from a force; m = 1 (volume) or 3 (volume, translation) modes.
   int modes = 0;
   std::vector<Real> Cinv;  // [9 S] row-major 3 × 3 per station
@@ -176,18 +180,28 @@ struct CarriedWater::Impl {
       r[2 * k] = x(geo[k], 0) - (c[0] + cw[2 * j] / Vs[j]);
       r[2 * k + 1] = x(geo[k], 2) - (c[2] + cw[2 * j + 1] / Vs[j]);
     }
+    gB = g;
+    if (in.symmetryYmax) {
+      Real yPlane = -std::numeric_limits<Real>::infinity(), yLow = std::numeric_limits<Real>::infinity();
+      for (Index node : geo) yPlane = std::max(yPlane, x(node, 1)), yLow = std::min(yLow, x(node, 1));
+      const Real tol = 1e-9 * std::max<Real>(1, yPlane - yLow);
+      for (size_t k = 0; k < n; ++k)
+        if (x(geo[k], 1) >= yPlane - tol)
+          for (int d = 0; d < 3; ++d) gB[3 * k + size_t(d)] *= 2;
+    }
     buildProjection();
     stationW = station;
     if (part) gW = g, rW = r;
     if (part) {  // the geometry of this part's nodes only
-      std::vector<Real> gp, rp;
+      std::vector<Real> gp, rp, gbp;
       std::vector<size_t> sp;
       for (size_t k : part->places) {
         gp.insert(gp.end(), g.begin() + long(3 * k), g.begin() + long(3 * k + 3));
+        gbp.insert(gbp.end(), gB.begin() + long(3 * k), gB.begin() + long(3 * k + 3));
         rp.insert(rp.end(), r.begin() + long(2 * k), r.begin() + long(2 * k + 2));
         sp.push_back(station[k]);
       }
-      g.swap(gp), r.swap(rp), station.swap(sp);
+      g.swap(gp), gB.swap(gbp), r.swap(rp), station.swap(sp);
     }
     scratch.resize(3 * nodes.size());
     force.assign(3 * nodes.size(), 0.0);
@@ -376,9 +390,9 @@ struct CarriedWater::Impl {
   void buildProjection() {
     modes = translation ? 3 : 1;
     Cinv.assign(9 * S, 0.0);
-    // columns of B: g, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z (on the station's nodes)
+    // columns of B: gB, the uniform x and z translations; rows of Aᵀ: g·, T_x, T_z (on the station's nodes)
     auto Bcol = [&](int m, size_t k, int d) -> Real {
-      if (m == 0) return g[3 * k + size_t(d)];
+      if (m == 0) return gB[3 * k + size_t(d)];
       return (m == 1 && d == 0) || (m == 2 && d == 2) ? 1.0 : 0.0;
     };
     auto Arow = [&](int m, size_t k, int d) -> Real {
@@ -447,7 +461,7 @@ struct CarriedWater::Impl {
             sums[3 * (S + j) + size_t(a)] += Cinv[9 * j + size_t(3 * a + b)] * sums[3 * j + size_t(b)];
       for (size_t k = 0; k < nodes.size(); ++k) {
         const Real* c = &sums[3 * (S + station[k])];
-        for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * g[3 * k + size_t(d)];
+        for (int d = 0; d < 3; ++d) x[3 * k + size_t(d)] -= c[0] * gB[3 * k + size_t(d)];
         if (modes == 3) x[3 * k] -= c[1], x[3 * k + 2] -= c[2];
       }
     }
@@ -455,11 +469,11 @@ struct CarriedWater::Impl {
   void projectForce(std::vector<Real>& f) const {
     std::fill(sums.begin(), sums.begin() + 6 * long(S), 0.0);
     moments.assign(3 * S, 0.0);
-    // a node's terms: g·f by dof (3), and with the translation f_x, f_z
+    // a node's terms: B's columns on f: gB·f by dof (3), and with the translation f_x, f_z
     sumOverWetNodes(
         part, nodes.size(), modes == 3 ? 5 : 3,
         [&](size_t k, Real* t) {
-          for (int d = 0; d < 3; ++d) t[d] = g[3 * k + size_t(d)] * f[3 * k + size_t(d)];
+          for (int d = 0; d < 3; ++d) t[d] = gB[3 * k + size_t(d)] * f[3 * k + size_t(d)];
           if (modes == 3) t[3] = f[3 * k], t[4] = f[3 * k + 2];
         },
         [&](size_t k, const Real* t) {

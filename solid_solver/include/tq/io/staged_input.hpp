@@ -217,6 +217,10 @@ struct CouplingInput {
   /// `subtractMeanPressure` is written from the same setting): that uniform part is the closed
   /// section's volume law here, which it therefore needs.
   bool subtractMeanPressure = false;
+  /// The wetted face's nodes at its largest y lie on a plane of symmetry (a half block): the
+  /// projection of the carried modes counts their area vectors as the whole face's (twice the half's),
+  /// so that the motion and force the exchange keeps are the whole face's restricted to the half.
+  bool symmetryYmax = false;
 };
 
 /// Everything the v2 groups hold; `present` is false for a version 1 input.
