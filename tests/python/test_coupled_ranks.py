@@ -6,7 +6,8 @@ one process.
 The solid is the lining ring slice of test_solid_coupling (64 around, 2 through the thickness) with
 its outer face held on one half only, under gravity (the section's area changes); the water's volume
 law and its rigid translation are carried by the solid (compressible, K = 2.2 GPa, 1000 kg/m³: their
-pressure implicit in each step from the sums over every wet node); windows of 4 steps stepped again whole (implicit scheme: each window
+pressure implicit in each step from the sums over every wet node; the face y = WIDTH taken as a
+plane of symmetry, /coupling symmetry_ymax); windows of 4 steps stepped again whole (implicit scheme: each window
 restored and stepped again until the exchange converges). The water's pressure ovalises the ring and
 pushes it along x (1 + cos 2θ + ½ cos θ around it) and pulses in time, so every monitored quantity
 moves.
@@ -94,7 +95,11 @@ def solid_input(path: Path, address: Path) -> None:
                         "initial_relaxation": 0.5, "transport": "tcp", "address_file": str(address),
                         "token": TOKEN, "timeout": 30.0, "connect_timeout": 30.0, "face": "lining_inner",
                         "mesh": "wall", "map": "coincident", "write_fields": "velocity",
-                        "volume_law": "compressible", "bulk_modulus": 2.2e9, "water_density": 1000.0})
+                        "volume_law": "compressible", "bulk_modulus": 2.2e9, "water_density": 1000.0,
+                        # the wet nodes of the face y = WIDTH as on a half block's plane of symmetry: the
+                        # projection's volume column twice their area vectors there, so that the parts
+                        # carry both vectors (a mix-up of the two would part from the one process)
+                        "symmetry_ymax": 1})
 
 
 def pressure_history(path: Path) -> None:
