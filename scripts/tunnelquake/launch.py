@@ -557,11 +557,20 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
     else:
         for c, p in water:
             coupled(c, p)
-    for c, p in alone:
-        solid_only(c, p, side_by_side)
-    alone_done.set()
+    try:
+        for c, p in alone:
+            solid_only(c, p, side_by_side)
+        alone_done.set()
+        if thread is not None:
+            idle_work(not water_done.is_set())
+    except children.Interrupted:
+        # the job ends only with the thread beside it: that thread may be inside h5py (writing its
+        # condition's input), and a process finalized beside it never ends; the supervisor bounds
+        # this wait (supervise.JOB_WIND_DOWN_S) and ends the process at once when it runs over
+        if thread is not None:
+            thread.join()
+        raise
     if thread is not None:
-        idle_work(not water_done.is_set())
         thread.join()
     while later:  # not drawn beside a condition: drawn now, as before the conditions
         later.pop(0)()

@@ -400,6 +400,55 @@ def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(pre
     assert runlock.holder(p.parent / "results") is None
 
 
+def test_signal_while_the_thread_beside_holds_h5pys_lock_still_ends_the_process(prepared, tmp_path):
+    """The coupled condition runs in a thread beside the solid-only ones. A signal stops the
+    solid-only path at once while the thread beside is inside h5py (writing its condition's input:
+    h5py's global lock held). The job must not end before that thread: a process finalized beside
+    it never ends. The command exits 128 + 15 within the stated bound, with its one line, and
+    releases the folder. Both paths are replaced: the one beside holds the lock, the solid-only one
+    waits for the stop."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+
+    from tunnelquake import runlock, supervise
+
+    p = _copy(prepared, tmp_path)
+    script = tmp_path / "beside.py"
+    script.write_text(textwrap.dedent(f"""
+        import sys, time
+        import h5py
+        from tunnelquake import children, launch
+        from tunnelquake.cli import main
+        kept = h5py.File({str(tmp_path / "open.h5")!r}, "w").create_group("g")  # freed at teardown
+        def coupled(*args, **kwargs):
+            with h5py._objects.phil:
+                print("beside: holding h5py's lock", flush=True)
+                time.sleep(120)
+        def solid(*args, **kwargs):
+            print("solid: running", flush=True)
+            children.stopping.wait(120)
+            raise children.Interrupted()
+        launch.run_coupled_condition = coupled
+        launch.run_solid_condition = solid
+        sys.argv = ["tunnelquake", "run", {str(p)!r}, "--no-post"]
+        sys.exit(main())
+    """))
+    env = dict(os.environ, TQ_CONDITIONS_AT_ONCE="2")
+    with _killed_at_end(subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, env=env,
+                                         stderr=subprocess.STDOUT, text=True, start_new_session=True)) as proc:
+        seen = _read_until(proc, "beside: holding h5py's lock")
+        if not any("solid: running" in line for line in seen):
+            _read_until(proc, "solid: running")
+        rest, took = _signalled(proc, lambda: os.kill(proc.pid, signal.SIGTERM))
+    assert proc.returncode == 143, rest
+    assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
+    assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
+    assert runlock.holder(p.parent / "results") is None
+
+
 def test_stale_lock_of_a_dead_run_is_taken_over_saying_so(prepared, tmp_path, capsys):
     """The lock file still names a run that died (SIGKILL leaves its record): the next run takes
     the folder over, says so naming the dead PID, runs, and clears the record at its end."""
