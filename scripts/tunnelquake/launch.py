@@ -539,6 +539,7 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
     alone = [(c, p) for c, p in runnable if "fluid" not in p]
     side_by_side = bool(water) and bool(alone) and concurrent_conditions() > 1
     thread = None
+    beside_error: list[BaseException] = []
     alone_done, water_done = threading.Event(), threading.Event()
     if side_by_side:
         say(f"running {', '.join(c for c, _ in water)} beside {', '.join(c for c, _ in alone)} "
@@ -551,6 +552,8 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
                 idle_work(not alone_done.is_set())
             except children.Interrupted:
                 pass
+            except BaseException as e:  # noqa: BLE001 - raised by the job once the solid-only path is done
+                beside_error.append(e)
 
         thread = threading.Thread(target=beside, daemon=True)
         thread.start()
@@ -572,6 +575,8 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
         raise
     if thread is not None:
         thread.join()
+        if beside_error:
+            raise beside_error[0]
     while later:  # not drawn beside a condition: drawn now, as before the conditions
         later.pop(0)()
 

@@ -449,6 +449,30 @@ def test_signal_while_the_thread_beside_holds_h5pys_lock_still_ends_the_process(
     assert runlock.holder(p.parent / "results") is None
 
 
+def test_an_error_in_the_coupled_condition_beside_the_solid_only_ones_is_raised_not_lost(prepared, tmp_path,
+                                                                                          monkeypatch):
+    """An unexpected error in the coupled condition's thread (beside the solid-only conditions)
+    reaches the command as an error once the solid-only conditions are done; the run never ends
+    as if the condition had not been planned."""
+    from tunnelquake import launch
+
+    def coupled(*args, **kwargs):
+        raise RuntimeError("the coupled path failed")
+
+    ran = []
+
+    def solid(case, cond, *args, **kwargs):
+        ran.append(cond)
+        return 1, case.output_dir / f"results_{cond}.h5"
+
+    monkeypatch.setenv("TQ_CONDITIONS_AT_ONCE", "2")
+    monkeypatch.setattr(launch, "run_coupled_condition", coupled)
+    monkeypatch.setattr(launch, "run_solid_condition", solid)
+    with pytest.raises(RuntimeError, match="the coupled path failed"):
+        main(["run", str(_copy(prepared, tmp_path)), "--no-post"])
+    assert ran == ["no_water", "static_water"]  # the solid-only conditions all ran first
+
+
 def test_stale_lock_of_a_dead_run_is_taken_over_saying_so(prepared, tmp_path, capsys):
     """The lock file still names a run that died (SIGKILL leaves its record): the next run takes
     the folder over, says so naming the dead PID, runs, and clears the record at its end."""
