@@ -49,6 +49,20 @@ PredictorKind parsePredictor(const std::string& s) {
     if (s == predictorName(k)) return k;
   throw ConfigError("unknown predictor '" + s + "': use constant, linear or damped");
 }
+const char* residualScaleName(ResidualScale k) {
+  switch (k) {
+    case ResidualScale::Current:
+      return "current";
+    case ResidualScale::Largest:
+      return "largest";
+  }
+  return "?";
+}
+ResidualScale parseResidualScale(const std::string& s) {
+  for (auto k : {ResidualScale::Current, ResidualScale::Largest})
+    if (s == residualScaleName(k)) return k;
+  throw ConfigError("unknown residual scale '" + s + "': use current or largest");
+}
 const char* mapKindName(MapKind k) {
   switch (k) {
     case MapKind::Coincident:
@@ -87,6 +101,9 @@ void CouplingConfig::validate() const {
   } else if (predictor != PredictorKind::Constant) {
     bad(std::string("predictor ") + predictorName(predictor) + " needs the implicit scheme (the " + schemeName(scheme) +
         " scheme has no iterations to start); use predictor constant");
+  } else if (residualScale != ResidualScale::Current) {
+    bad(std::string("residual scale ") + residualScaleName(residualScale) + " needs the implicit scheme (the " +
+        schemeName(scheme) + " scheme tests no convergence); use residual scale current");
   }
   if (!(initialRelaxation > 0 && initialRelaxation <= 1))
     bad("initial relaxation must be in (0, 1], got " + std::to_string(initialRelaxation));
@@ -152,6 +169,8 @@ std::string describeDifferences(const CouplingConfig& a, const CouplingConfig& b
   diff("acceleration", std::string(accelerationName(a.acceleration)), std::string(accelerationName(b.acceleration)));
   diff("initial relaxation", a.initialRelaxation, b.initialRelaxation);
   diff("predictor", std::string(predictorName(a.predictor)), std::string(predictorName(b.predictor)));
+  diff("residual scale", std::string(residualScaleName(a.residualScale)),
+       std::string(residualScaleName(b.residualScale)));
   diff("reuse (windows)", a.reuse, b.reuse);
   diff("number of meshes", a.meshes.size(), b.meshes.size());
   for (std::size_t i = 0; i < std::min(a.meshes.size(), b.meshes.size()); ++i) {

@@ -22,6 +22,7 @@ void encodeConfig(Writer& w, const CouplingConfig& c) {
   w.u8(std::uint8_t(c.acceleration));
   w.f64(c.initialRelaxation);
   w.u8(std::uint8_t(c.predictor));
+  w.u8(std::uint8_t(c.residualScale));
   w.u32(std::uint32_t(c.reuse));
   w.u32(std::uint32_t(c.meshes.size()));
   for (const auto& m : c.meshes) {
@@ -60,6 +61,7 @@ CouplingConfig decodeConfig(Reader& r) {
   c.acceleration = AccelerationKind(enumValue(r, 3, "acceleration"));
   c.initialRelaxation = r.f64();
   c.predictor = PredictorKind(enumValue(r, 2, "predictor"));
+  c.residualScale = ResidualScale(enumValue(r, 1, "residual scale"));
   const std::uint32_t reuse = r.u32();
   if (reuse > 1000) r.fail("reuse " + std::to_string(reuse) + " above the limit 1000");
   c.reuse = int(reuse);

@@ -34,11 +34,12 @@ void addConvergenceSums(const std::vector<double>& a, const std::vector<double>&
 }
 
 double convergenceFromSums(const std::vector<ExactSum>& sums, std::size_t at, const std::vector<FieldSlice>& slices,
-                           double tolerance) {
+                           double tolerance, const double* scale) {
   double worst = 0;
   for (std::size_t j = 0; j < slices.size(); ++j) {
     const FieldSlice& f = slices[j];
-    const double d = sums[at + 2 * j].value(), n = sums[at + 2 * j + 1].value();
+    const double d = sums[at + 2 * j].value();
+    const double n = scale ? std::max(sums[at + 2 * j + 1].value(), scale[j]) : sums[at + 2 * j + 1].value();
     double m = n > 0 ? std::sqrt(d / n) : d == 0 ? 0.0 : std::numeric_limits<double>::infinity();
     if (f.absoluteTolerance > 0 && f.count() > 0)
       m = std::min(m, tolerance * std::sqrt(d / double(f.count())) / f.absoluteTolerance);
@@ -135,10 +136,15 @@ void SerialImplicit::endWindow(ExchangePort& port) {
                             std::to_string(k) +
                             ": the coupled iteration diverged (see docs/coupler.md, "
                             "added-mass instability)");
-    const double resWrite = lastSent_.size() == xt.size() ? convergenceFromSums(sums, 1, port.writtenSlices(), tol)
+    const std::size_t nw = port.writtenSlices().size(), nr = port.receivedSlices().size();
+    if (scale_.size() != nw + nr) scale_.assign(nw + nr, 0.0);
+    const bool largest = config_.residualScale == ResidualScale::Largest;
+    const double* sw = largest ? scale_.data() : nullptr;
+    const double* sr = largest ? scale_.data() + nw : nullptr;
+    const double resWrite = lastSent_.size() == xt.size() ? convergenceFromSums(sums, 1, port.writtenSlices(), tol, sw)
                                                           : std::numeric_limits<double>::infinity();
     const double resRead = k >= 1 && prevReceived_.size() == d.size()
-                               ? convergenceFromSums(sums, readAt, port.receivedSlices(), tol)
+                               ? convergenceFromSums(sums, readAt, port.receivedSlices(), tol, sr)
                                : std::numeric_limits<double>::infinity();
     // Pass 0 with an extrapolating predictor: the fixed-point residual ‖H(x⁰) − x⁰‖ alone decides
     // (the read data has no earlier pass to compare with; the motion is a function of x⁰).
@@ -151,6 +157,11 @@ void SerialImplicit::endWindow(ExchangePort& port) {
     complete = converged || int(k) + 1 >= maxPasses_;
     if (complete) {
       if (test_ && !converged) ++state_.unconvergedWindows;
+      // the largest accepted ‖a‖² of each field (the read fields' only from passes that compared them)
+      for (std::size_t j = 0; j < nw; ++j) scale_[j] = std::max(scale_[j], sums[1 + 2 * j + 1].value());
+      if (k >= 1)
+        for (std::size_t j = 0; j < nr; ++j)
+          scale_[nw + j] = std::max(scale_[nw + j], sums[readAt + 2 * j + 1].value());
       port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0), state_.residual);
       if (extrapolated) {
         // The next window's x⁰ extrapolated (linear: 2 x_w − x_{w−1}; damped: x_w + ¾ (x_w − x_{w−1})),
@@ -204,6 +215,7 @@ void SerialImplicit::checkpoint(StateIo& io) {
   io.io(lastSent_);
   io.io(next_);
   io.io(prevConverged_);
+  if (config_.residualScale == ResidualScale::Largest) io.io(scale_);
   acc_->checkpoint(io);
 }
 

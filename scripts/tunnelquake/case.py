@@ -673,6 +673,10 @@ def _check_coupling(c, path, raw, ctx):
         ctx.error(f"{path}.predictor", c["predictor"], f"the {c['predictor']} predictor starts the iterations of the "
                   f"implicit scheme; the {c['scheme']} scheme has none", "use predictor: auto (or constant), or scheme: implicit",
                   raw.key_lines.get("predictor"))
+    if c.get("residual_scale") == "largest" and c["scheme"] != "implicit":
+        ctx.error(f"{path}.residual_scale", c["residual_scale"], f"the residual scale is the implicit scheme's "
+                  f"convergence test; the {c['scheme']} scheme tests none", "use residual_scale: current, or "
+                  "scheme: implicit", raw.key_lines.get("residual_scale"))
     if c.get("reuse", 0) and (c["scheme"] != "implicit" or c["acceleration"] != "iqn-ils"):
         ctx.error(f"{path}.reuse", c["reuse"], "reuse keeps IQN-ILS columns from earlier windows",
                   "use scheme: implicit with acceleration: iqn-ils, or reuse: 0", raw.key_lines.get("reuse"))
@@ -954,6 +958,13 @@ def schema() -> Section:
                                     "needs one water pass; damped: R_w + 3/4 (R_w - R_(w-1)), the same with "
                                     "three quarters of the slope (docs/coupler.md \"Predictor\"); auto: linear "
                                     "for implicit, constant otherwise"),
+            "residual_scale": Choice(choices=("current", "largest"), default="current",
+                                     doc="implicit scheme: what a field's residual between passes is relative "
+                                         "to — current: the field's norm in this pass; largest: the largest "
+                                         "norm it had in any accepted window so far (or this pass's, if "
+                                         "larger), so after the strongest motion a window converges to the "
+                                         "tolerance of the largest values the interface carried "
+                                         "(docs/coupler.md \"Convergence test\")"),
             "transport": Choice(choices=("tcp", "mpi"), default="tcp",
                                 doc="tcp: the two processes `tunnelquake run` starts; mpi: tq-solid as one "
                                     "application of an MPMD mpirun job with an MPI-speaking fluid, started by "

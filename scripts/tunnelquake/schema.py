@@ -90,7 +90,8 @@ _MISSING = object()
 #: neutral value). The fingerprints count them only away from that value, so a section or key added to
 #: the schema leaves the fingerprints of the cases that do not use it as they were.
 NEUTRAL = {"incident_wave": ("type", "none"), "lining_joints": ("spacing", None), "mesh.tunnel_end_plugs": 0,
-           "lining_joints.held_at": "along_ring", "coupling.defect_correction": 0.0, "mesh.symmetry": "none"}
+           "lining_joints.held_at": "along_ring", "coupling.defect_correction": 0.0, "mesh.symmetry": "none",
+           "coupling.residual_scale": "current"}
 
 
 class CaseError(Exception):

@@ -335,6 +335,10 @@ ENTRIES: tuple[Entry, ...] = (
     _e("/coupling", "reuse", "int", default=0, lo=0, omit_default=True),
     _e("/coupling", "predictor", "str", default="constant", choices=("constant", "linear", "damped"),
        omit_default=True),
+    _e("/coupling", "residual_scale", "str", "implicit: each field's relative residual against its pass's own "
+       "norm (`current`) or the largest norm it had in an accepted window (`largest`; docs/coupler.md "
+       "\"Convergence test\")", case="coupling.residual_scale", default="current",
+       choices=("current", "largest"), omit_default=True),
     _e("/coupling", "absolute_tolerance_velocity", "float", "implicit: absolute floors on each field's RMS "
        "residual (0 = none); `tunnelquake run` derives them (docs/coupler.md \"Convergence test\")",
        unit="m/s", default=0.0, lo=0.0),

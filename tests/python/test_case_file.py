@@ -281,6 +281,20 @@ def test_release_fraction_needs_the_lining_stage(example_text, write_case):
     assert "stages.release_fraction" in str(err.value) and "lining" in str(err.value)
 
 
+def test_check_refuses_the_largest_residual_scale_without_the_implicit_scheme(example_text, write_case, capsys):
+    """coupling.residual_scale largest changes the implicit scheme's convergence test: with the explicit
+    scheme (which tests none) `tunnelquake check` refuses it, naming the key, its value and the fix."""
+    from tunnelquake.cli import main
+
+    text = re.sub(r"\n  predictor: \w+\n", "\n  predictor: auto\n  residual_scale: largest\n", example_text)
+    text = _mutate(text, "  scheme: implicit\n", "  scheme: explicit\n")
+    assert main(["check", str(write_case(text))]) == 1
+    err = capsys.readouterr().err
+    assert "coupling.residual_scale = 'largest'" in err, err
+    assert "the residual scale is the implicit scheme's convergence test; the explicit scheme tests none" in err, err
+    assert "use residual_scale: current, or scheme: implicit" in err, err
+
+
 @pytest.mark.parametrize("predictor", ["linear", "damped"])
 def test_check_refuses_an_extrapolating_predictor_without_the_implicit_scheme(example_text, write_case, capsys,
                                                                               predictor):

@@ -253,6 +253,18 @@ def test_coupling_attributes_leave_out_what_the_rows_say(settings, conditional, 
         fc.solid_coupling_attrs({**settings, "relaxation": 0.5})
 
 
+def test_the_largest_residual_scale_reaches_both_participants(tmp_path):
+    """coupling.residual_scale largest is written to tq-solid's /coupling and to the water's exchange
+    dictionary alike (the coupler refuses a pair whose configurations differ); current, the default,
+    is left out of /coupling (tq-solid's default) and written to the dictionary."""
+    case = load_case(EXAMPLE)
+    for scale, attr in (("largest", "largest"), ("current", None)):
+        case.data["coupling"]["residual_scale"] = scale
+        s = fc.coupling_settings(case, 2.5e-4, tmp_path / "wall.addr", "ab" * 16, t_end=0.02)
+        assert fc.solid_coupling_attrs(s).get("residual_scale") == attr
+        assert fc.exchange_dict(s)["residualScale"] == scale
+
+
 @pytest.mark.parametrize("mode, ends, law, model, translation, predictor, reuse, conditional", [
     ("slice", "open", "solid", "compressible", "solid", "constant", 0,
      {"volume_law": "compressible", "bulk_modulus": 2e9, "water_density": 998.0, "subtract_mean_pressure": 1.0}),

@@ -521,6 +521,10 @@ void Foam::tq::couplerExchange::initialize
             (
                 dict_.lookupOrDefault<word>("predictor", "constant")
             );
+            c.residualScale = ::tq::coupler::parseResidualScale
+            (
+                dict_.lookupOrDefault<word>("residualScale", "current")
+            );
             ::tq::coupler::MeshSpec m;
             m.name = meshName_;
             m.mapping = ::tq::coupler::parseMapKind

@@ -57,6 +57,7 @@ std::string describeCoupling(const CouplingInput& in, Real window, long long win
   if (in.scheme == "implicit")
     os << ", tolerance " << in.tolerance << ", at most " << in.maxIterations << " passes, " << in.acceleration
        << ", predictor " << in.predictor;
+  if (in.scheme == "implicit" && in.residualScale != "current") os << ", residual against the largest so far";
   if (water) os << "; " << water->describe();
   return os.str();
 }

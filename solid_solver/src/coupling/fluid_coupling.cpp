@@ -453,6 +453,7 @@ void FluidCoupling::setUp(std::vector<std::int64_t> ids, std::vector<std::int32_
     c.scheme = cp::parseScheme(in.scheme);
     c.acceleration = cp::parseAcceleration(in.acceleration);
     c.predictor = cp::parsePredictor(in.predictor);
+    c.residualScale = cp::parseResidualScale(in.residualScale);
     c.meshes.push_back({in.mesh, cp::parseMapKind(in.map), in.participant, in.mapTolerance});
     for (const auto& f : in.writeFields)
       c.fields.push_back({in.mesh, f, 3, in.participant, cp::MapConstraint::Consistent,

@@ -304,6 +304,10 @@ void readStagedInput(hid_t f, SolidInput& in) {
     if (C.predictor != "constant" && C.scheme != "implicit")
       c.fail(w, "predictor " + C.predictor + " needs scheme implicit (the " + C.scheme +
                     " scheme has no iterations to start); use predictor constant");
+    C.residualScale = c.text(g, w, K::coupling::residual_scale);
+    if (C.residualScale != "current" && C.scheme != "implicit")
+      c.fail(w, "residual_scale " + C.residualScale + " needs scheme implicit (the " + C.scheme +
+                    " scheme tests no convergence); use residual_scale current");
     C.reuse = Index(c.number(g, w, K::coupling::reuse));
     if (C.reuse > 0 && (C.scheme != "implicit" || C.acceleration != "iqn-ils"))
       c.fail(w, "reuse " + std::to_string(C.reuse) +

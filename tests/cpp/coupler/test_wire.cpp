@@ -1,5 +1,5 @@
 // Wire format: CRC, header validation, payload codecs, and the committed test vectors
-// (tests/data/coupler/vectors_v4.txt) that pin the bytes: the well-formed messages must encode
+// (tests/data/coupler/vectors_v5.txt) that pin the bytes: the well-formed messages must encode
 // to them exactly and every malformed one must be refused with its fault. After a change of the
 // protocol, write a new file with `TQ_COUPLER_WRITE_VECTORS=<dir> tq_coupler_tests`.
 #include <gtest/gtest.h>
@@ -223,7 +223,7 @@ TEST(Wire, HeaderRoundTripAndLayout) {
   const auto m = frame(wire::MessageType::Data, 0x0102030405060708ull, payload);
   ASSERT_EQ(m.size(), 37u);
   EXPECT_EQ(std::string(m.begin(), m.begin() + 4), "TQCP");
-  EXPECT_EQ(m[4], 4);   // version, little-endian
+  EXPECT_EQ(m[4], 5);   // version, little-endian
   EXPECT_EQ(m[6], 10);  // DATA
   EXPECT_EQ(m[8], 0x08);
   EXPECT_EQ(m[15], 0x01);  // sequence little-endian

@@ -32,6 +32,17 @@ enum class AccelerationKind : std::uint8_t {
   IqnIls = 3,    ///< interface quasi-Newton, inverse least squares (Degroote et al. 2009)
 };
 
+/// What the implicit scheme's relative residual of a field is measured against (the second
+/// participant's convergence test).
+enum class ResidualScale : std::uint8_t {
+  /// ‖a‖ of the pass itself: every window converges to the tolerance of its own values.
+  Current = 0,
+  /// the larger of ‖a‖ of the pass and the largest ‖a‖ of the field in any earlier accepted
+  /// window: after the strongest motion a window converges to the tolerance of the largest
+  /// values the interface has carried, not of its own smaller ones.
+  Largest = 1,
+};
+
 /// First iterate of an implicit window (the data the second participant writes, normally the
 /// fluid force). Both participants must start the window's pass 0 from the same value.
 enum class PredictorKind : std::uint8_t {
@@ -62,6 +73,8 @@ inline double extrapolatedValue(PredictorKind k, double applied, double previous
 const char* schemeName(SchemeKind k);
 const char* predictorName(PredictorKind k);
 PredictorKind parsePredictor(const std::string& s);
+const char* residualScaleName(ResidualScale k);
+ResidualScale parseResidualScale(const std::string& s);
 const char* accelerationName(AccelerationKind k);
 const char* mapKindName(MapKind k);
 SchemeKind parseScheme(const std::string& s);
@@ -104,7 +117,8 @@ struct CouplingConfig {
   double tolerance = 1e-4;  ///< implicit: relative residual of every exchanged field
   AccelerationKind acceleration = AccelerationKind::Aitken;
   double initialRelaxation = 0.5;
-  PredictorKind predictor = PredictorKind::Constant;  ///< implicit only
+  PredictorKind predictor = PredictorKind::Constant;     ///< implicit only
+  ResidualScale residualScale = ResidualScale::Current;  ///< implicit only
   /// IQN-ILS: the secant columns of this many earlier windows are kept (IQN-ILS(reuse)), so a
   /// window's first correction is already a quasi-Newton step; 0 = each window starts afresh.
   int reuse = 0;

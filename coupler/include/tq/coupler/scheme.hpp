@@ -119,6 +119,7 @@ class SerialImplicit final : public CouplingScheme {
   std::vector<double> lastSent_;      ///< second: x_k (what the first used in this pass)
   std::vector<double> next_;
   std::vector<double> prevConverged_;  ///< second, predictor linear or damped: x applied in window w−1
+  std::vector<double> scale_;  ///< second, residual scale largest: each field's largest accepted ‖a‖² (written, read)
 };
 
 std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::string& me);
@@ -131,6 +132,7 @@ double relativeDifference(const std::vector<double>& a, const std::vector<double
 /// field has an absolute tolerance): the pass has converged when it is below `tolerance`. It is
 /// the relative residual except where the absolute floor is nearer to being met. The sums are
 /// exact (exact_sum.hpp), so a participant in parts measures what it would in one piece.
+/// `scale` (ResidualScale::Largest): each field's ‖a‖² is taken as at least scale[field].
 double convergenceMeasure(const std::vector<double>& a, const std::vector<double>& b,
                           const std::vector<FieldSlice>& slices, double tolerance);
 /// The sums of convergenceMeasure, appended to `sums` (‖a − b‖², ‖a‖² per field) for combining over
@@ -138,6 +140,6 @@ double convergenceMeasure(const std::vector<double>& a, const std::vector<double
 void addConvergenceSums(const std::vector<double>& a, const std::vector<double>& b,
                         const std::vector<FieldSlice>& slices, std::vector<ExactSum>& sums);
 double convergenceFromSums(const std::vector<ExactSum>& sums, std::size_t at, const std::vector<FieldSlice>& slices,
-                           double tolerance);
+                           double tolerance, const double* scale = nullptr);
 
 }  // namespace tq::coupler

@@ -1,6 +1,6 @@
 #pragma once
 /// @file wire.hpp
-/// The coupler's wire format, version 4 (docs/coupler.md is the normative description).
+/// The coupler's wire format, version 5 (docs/coupler.md is the normative description).
 ///
 /// Every message is a fixed 32-byte header followed by a payload; all integers and floats are
 /// little-endian, floats IEEE-754 binary64:
@@ -27,7 +27,7 @@
 namespace tq::coupler::wire {
 
 constexpr std::array<std::uint8_t, 4> kMagic{'T', 'Q', 'C', 'P'};
-constexpr std::uint16_t kProtocolVersion = 4;
+constexpr std::uint16_t kProtocolVersion = 5;
 constexpr std::size_t kHeaderSize = 32;
 /// Largest payload accepted before the handshake has fixed the exact sizes (HELLO carries the
 /// interface coordinates: 1 GiB allows ~30 million nodes).

@@ -177,17 +177,18 @@ struct CouplingInput {
   Real defectCorrection = 0;
   std::string acceleration = "iqn-ils";  ///< none | constant | aitken | iqn-ils
   Real initialRelaxation = 0.5;
-  Index reuse = 0;                     ///< IQN-ILS: windows whose secant columns are kept
-  std::string predictor = "constant";  ///< implicit: first force of a window, constant | linear | damped
-  std::string transport = "tcp";       ///< tcp | mpi
-  std::string addressFile;             ///< tcp: where the listener publishes its port
-  std::string token;                   ///< per-run secret both sides were given
-  Real timeout = 120;                  ///< s: a silent partner for longer stops the run
-  Real connectTimeout = 0;             ///< s: waiting for the partner to appear (0 = timeout)
-  std::string face = "lining_inner";   ///< mesh.h5 face group of the wetted interface
-  std::string mesh = "wall";           ///< interface mesh name on the wire
-  std::string map = "coincident";      ///< coincident | projection (the solid maps)
-  Real mapTolerance = 1e-6;            ///< m
+  Index reuse = 0;                        ///< IQN-ILS: windows whose secant columns are kept
+  std::string predictor = "constant";     ///< implicit: first force of a window, constant | linear | damped
+  std::string residualScale = "current";  ///< implicit: a field's relative residual against current | largest ‖a‖
+  std::string transport = "tcp";          ///< tcp | mpi
+  std::string addressFile;                ///< tcp: where the listener publishes its port
+  std::string token;                      ///< per-run secret both sides were given
+  Real timeout = 120;                     ///< s: a silent partner for longer stops the run
+  Real connectTimeout = 0;                ///< s: waiting for the partner to appear (0 = timeout)
+  std::string face = "lining_inner";      ///< mesh.h5 face group of the wetted interface
+  std::string mesh = "wall";              ///< interface mesh name on the wire
+  std::string map = "coincident";         ///< coincident | projection (the solid maps)
+  Real mapTolerance = 1e-6;               ///< m
   std::vector<std::string> writeFields = {"velocity", "displacement"};  ///< solid → fluid, in order
   std::string participant = "solid", partner = "fluid";
   /// The water's volume law, carried by the solid (docs/coupler.md "Volume law in the solid"):
