@@ -111,7 +111,8 @@ def points_3d() -> list[Point]:
     of 16 (one-step windows cost about 16 water passes a window more, beyond what this bench can
     run in 3D); the window (the water's rate), the tolerance, the subcycling and where the volume
     law is carried (the water's remainder only; in the whole block, which that needs where the variant
-    meshes half of it, mesh.symmetry) one at a time, and the explicit scheme (one pass a window, no
+    meshes half of it, mesh.symmetry) and the residual's scale (coupling.residual_scale) one at a
+    time, and the explicit scheme (one pass a window, no
     reuse of past passes) in the default's windows."""
     dw, win, tol, sub = "dynamic_water", "coupling.window", "coupling.tolerance", "time.subcycling"
     law = "coupling.volume_law"
@@ -126,8 +127,10 @@ def points_3d() -> list[Point]:
         ("window 24, tol 1e-4, subcycling 3", {win: 24}, ""),
         ("window 8, tol 1e-4, subcycling 3", {win: 8}, ""),
         ("volume law in the solid (the whole block)", {law: "solid", "mesh.symmetry": "none"}, ""),
+        ("window 16, tol 1e-4, residual scale current", {"coupling.residual_scale": "current"}, ""),
         ("explicit, window 16", {"coupling.scheme": "explicit", "coupling.reuse": 0,
-                                  "coupling.window_force_weight": 0.5, "coupling.predictor": "auto"}, ""),
+                                  "coupling.window_force_weight": 0.5, "coupling.predictor": "auto",
+                                  "coupling.residual_scale": "current"}, ""),
     )]
 
 
