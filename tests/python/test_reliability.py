@@ -360,6 +360,17 @@ def test_second_run_of_the_same_case_folder_refuses_naming_the_first(prepared, t
     assert first.returncode == 143
 
 
+def _ended_by_sigterm_within_the_bound(proc, rest: str, took: float, case_file) -> None:
+    """`tunnelquake run`, sent SIGTERM while a thread of its job held h5py's lock, exited 128 + 15 within
+    supervise.JOB_WIND_DOWN_S (+ 5 s), its last line the interruption's, the results folder released."""
+    from tunnelquake import runlock, supervise
+
+    assert proc.returncode == 143, rest
+    assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
+    assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
+    assert runlock.holder(case_file.parent / "results") is None
+
+
 def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(prepared, tmp_path):
     """A signal reaches `tunnelquake run` while its job's thread is inside h5py (h5py's global lock
     held: writing a condition's input beside a running solver). The thread does not end within
@@ -371,8 +382,6 @@ def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(pre
     import subprocess
     import sys
     import textwrap
-
-    from tunnelquake import runlock, supervise
 
     p = _copy(prepared, tmp_path)
     script = tmp_path / "held.py"
@@ -394,10 +403,7 @@ def test_signal_while_the_job_thread_holds_h5pys_lock_still_ends_the_process(pre
                                          stderr=subprocess.STDOUT, text=True, start_new_session=True)) as proc:
         _read_until(proc, "job: holding h5py's lock")
         rest, took = _signalled(proc, lambda: os.kill(proc.pid, signal.SIGTERM))
-    assert proc.returncode == 143, rest
-    assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
-    assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
-    assert runlock.holder(p.parent / "results") is None
+    _ended_by_sigterm_within_the_bound(proc, rest, took, p)
 
 
 def test_signal_while_the_thread_beside_holds_h5pys_lock_still_ends_the_process(prepared, tmp_path):
@@ -412,8 +418,6 @@ def test_signal_while_the_thread_beside_holds_h5pys_lock_still_ends_the_process(
     import subprocess
     import sys
     import textwrap
-
-    from tunnelquake import runlock, supervise
 
     p = _copy(prepared, tmp_path)
     script = tmp_path / "beside.py"
@@ -443,10 +447,7 @@ def test_signal_while_the_thread_beside_holds_h5pys_lock_still_ends_the_process(
         if not any("solid: running" in line for line in seen):
             _read_until(proc, "solid: running")
         rest, took = _signalled(proc, lambda: os.kill(proc.pid, signal.SIGTERM))
-    assert proc.returncode == 143, rest
-    assert took < supervise.JOB_WIND_DOWN_S + 5.0, took
-    assert rest.strip().splitlines()[-1].startswith("tunnelquake run: interrupted by SIGTERM after "), rest
-    assert runlock.holder(p.parent / "results") is None
+    _ended_by_sigterm_within_the_bound(proc, rest, took, p)
 
 
 def test_an_error_in_the_coupled_condition_beside_the_solid_only_ones_is_raised_not_lost(prepared, tmp_path,
