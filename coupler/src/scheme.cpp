@@ -137,8 +137,8 @@ void SerialImplicit::endWindow(ExchangePort& port) {
                             ": the coupled iteration diverged (see docs/coupler.md, "
                             "added-mass instability)");
     const std::size_t nw = port.writtenSlices().size(), nr = port.receivedSlices().size();
-    if (scale_.size() != nw + nr) scale_.assign(nw + nr, 0.0);
     const bool largest = config_.residualScale == ResidualScale::Largest;
+    if (largest && scale_.size() != nw + nr) scale_.assign(nw + nr, 0.0);
     const double* sw = largest ? scale_.data() : nullptr;
     const double* sr = largest ? scale_.data() + nw : nullptr;
     const double resWrite = lastSent_.size() == xt.size() ? convergenceFromSums(sums, 1, port.writtenSlices(), tol, sw)
@@ -157,11 +157,12 @@ void SerialImplicit::endWindow(ExchangePort& port) {
     complete = converged || int(k) + 1 >= maxPasses_;
     if (complete) {
       if (test_ && !converged) ++state_.unconvergedWindows;
-      // the largest accepted ‖a‖² of each field (the read fields' only from passes that compared them)
-      for (std::size_t j = 0; j < nw; ++j) scale_[j] = std::max(scale_[j], sums[1 + 2 * j + 1].value());
-      if (k >= 1)
-        for (std::size_t j = 0; j < nr; ++j)
-          scale_[nw + j] = std::max(scale_[nw + j], sums[readAt + 2 * j + 1].value());
+      if (largest) {  // each field's largest accepted ‖a‖² (the read fields' from passes that compared them)
+        for (std::size_t j = 0; j < nw; ++j) scale_[j] = std::max(scale_[j], sums[1 + 2 * j + 1].value());
+        if (k >= 1)
+          for (std::size_t j = 0; j < nr; ++j)
+            scale_[nw + j] = std::max(scale_[nw + j], sums[readAt + 2 * j + 1].value());
+      }
       port.sendData(w, k, flags::kConverged | (lastWindow ? flags::kLastWindow : 0), state_.residual);
       if (extrapolated) {
         // The next window's x⁰ extrapolated (linear: 2 x_w − x_{w−1}; damped: x_w + ¾ (x_w − x_{w−1})),

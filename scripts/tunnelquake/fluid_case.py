@@ -287,7 +287,7 @@ def exchange_dict(s: dict) -> dict:
         "acceleration": s["acceleration"],
         "initialRelaxation": s["initial_relaxation"],
         "predictor": s["predictor"],
-        "residualScale": s.get("residual_scale", "current"),
+        "residualScale": s["residual_scale"],
         "reuse": s.get("reuse", 0),
         "absoluteTolerance": dict(s["absolute_tolerance"]),
         "mesh": s["mesh"],

@@ -119,7 +119,7 @@ class SerialImplicit final : public CouplingScheme {
   std::vector<double> lastSent_;      ///< second: x_k (what the first used in this pass)
   std::vector<double> next_;
   std::vector<double> prevConverged_;  ///< second, predictor linear or damped: x applied in window w−1
-  std::vector<double> scale_;  ///< second, residual scale largest: each field's largest accepted ‖a‖² (written, read)
+  std::vector<double> scale_;          ///< second, residual scale largest: each field's largest accepted ‖a‖²
 };
 
 std::unique_ptr<CouplingScheme> makeScheme(const CouplingConfig& c, const std::string& me);
