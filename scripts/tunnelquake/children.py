@@ -283,30 +283,135 @@ class Side:
         return "\n".join(f"      {x.rstrip()}" for x in unseen[-n:])
 
 
+def process_tree(root: int) -> list[int]:
+    """`root` and every live process below it (children, their children, ...; one scan of /proc)."""
+    below = _live_parents()
+    found, todo = [root], [root]
+    while todo:
+        for child in below.get(todo.pop(), []):
+            found.append(child)
+            todo.append(child)
+    return found
+
+
+#: /proc/PID/stat's state letters, in words
+_STATES = {"R": "running", "S": "sleeping", "D": "in uninterruptible I/O wait", "T": "stopped", "t": "traced",
+           "Z": "a zombie", "I": "idle"}
+
+
+def process_state(pid: int) -> tuple[str, str, float] | None:
+    """(executable name, state letter, CPU seconds used so far) of `pid` from /proc/PID/stat, or None
+    once it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            stat = fh.read()
+    except OSError:
+        return None
+    name = stat[stat.find("(") + 1:stat.rfind(")")]
+    fields = stat[stat.rfind(")") + 2:].split()
+    # fields from the state on: utime and stime are /proc/PID/stat's 14th and 15th (clock ticks)
+    return name, fields[0], (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _wchan(pid: int) -> str:
+    """The kernel function `pid` sleeps in ("" when running or unknown)."""
+    try:
+        with open(f"/proc/{pid}/wchan") as fh:
+            w = fh.read().strip()
+    except OSError:
+        return ""
+    return "" if w in ("0", "") else w
+
+
+def describe_processes(pids, cpu_before: dict[int, float], seconds: float) -> str:
+    """Each process of `pids` as it is now: its name and PID, its state (and the kernel function it
+    sleeps in), and the CPU seconds it used over the last `seconds` s (from `cpu_before`, its CPU
+    seconds then): a process running with about `seconds` of CPU is busy (a long step, or a busy
+    wait in an MPI call), one asleep with none waits (a message, a lock), one in I/O wait writes."""
+    parts = []
+    for pid in pids:
+        now = process_state(pid)
+        if now is None:
+            continue
+        name, state, cpu = now
+        where = _wchan(pid) if state != "R" else ""
+        used = cpu - cpu_before.get(pid, cpu)
+        parts.append(f"{name} (pid {pid}) {_STATES.get(state, state)}{f' in {where}' if where else ''}, "
+                     f"{used:.1f} s of CPU in the last {seconds:.1f} s")
+    return "; ".join(parts) or "none left"
+
+
+def in_disk_wait(pids, over_s: float = 0.5, every_s: float = 0.05) -> list[int]:
+    """The processes of `pids` seen in uninterruptible I/O wait (state D: a write to disk, an fsync)
+    at any of the samples taken every `every_s` s over `over_s` s (a restart checkpoint's several
+    fsyncs leave gaps between them)."""
+    seen: set[int] = set()
+    deadline = time.monotonic() + over_s
+    while True:
+        for pid in pids:
+            now = process_state(pid)
+            if now is not None and now[1] == "D":
+                seen.add(pid)
+        if seen or time.monotonic() >= deadline:
+            return sorted(seen)
+        time.sleep(every_s)
+
+
+#: s more a partner is left past its grace while one of its processes is in uninterruptible I/O wait
+#: (state D: a restart checkpoint's fsync on a disk busy with other writes, which on a loaded disk can
+#: take longer than any grace): it is writing, not hung, and ended in that write its checkpoint is lost
+PARTNER_DISK_GRACE_S = 60.0
+
+
 def stop_side(side: Side, grace: float) -> None:
     """Let a partner that lost its peer stop by itself within `grace` s (it is told at once, or
-    after its coupling timeout), then end it: SIGTERM first, to mpirun and to its ranks (each in a
-    process group of its own: mpirun would pass it on only after its odls timeout, and a SIGKILL of
-    mpirun would orphan them), SIGKILL 10 s later."""
+    after its coupling timeout), longer while it is writing to disk (PARTNER_DISK_GRACE_S), then end
+    it: SIGTERM first, to mpirun and to its ranks (each in a process group of its own: mpirun would
+    pass it on only after its odls timeout, and a SIGKILL of mpirun would orphan them), SIGKILL 10 s
+    later. Ending it, `run` says what each of its processes was doing (describe_processes): where a
+    partner that did not meet the loss by itself spent the grace."""
     import subprocess
 
+    t0 = time.monotonic()
+    cpu_before = {pid: st[2] for pid in process_tree(side.proc.pid) if (st := process_state(pid))}
     try:
         side.proc.wait(timeout=grace)
+        return
     except subprocess.TimeoutExpired:
-        if stopping.is_set():
-            return  # stop_all ends it
-        say(f"  {side.name} did not stop within {grace:.0f} s: ending it (pid {side.proc.pid})")
-        side.ended_after = grace
-        # mpirun's ranks, each in a process group of its own, told at once too (stop_all)
-        below = outside_below([side.proc.pid], {side.proc.pid})
-        side.proc.terminate()
-        _send([], below, signal.SIGTERM)
+        pass
+    told = False
+    while time.monotonic() - t0 < grace + PARTNER_DISK_GRACE_S and not stopping.is_set():
+        writing = in_disk_wait(process_tree(side.proc.pid))
+        if not writing:
+            break
+        if not told:
+            say(f"  {side.name} did not stop within {grace:.0f} s, but is writing to disk (pid "
+                f"{', '.join(map(str, writing))} in uninterruptible I/O wait, {_wchan(writing[0]) or 'a write'}): "
+                f"left up to {PARTNER_DISK_GRACE_S:.0f} s more to end by itself")
+            told = True
         try:
-            side.proc.wait(timeout=10)
+            side.proc.wait(timeout=1.0)
+            return
         except subprocess.TimeoutExpired:
-            side.proc.kill()
-            _send([], [pid for pid in below if _pid_alive(pid)], signal.SIGKILL)
-            side.proc.wait(timeout=30)
+            pass
+    if stopping.is_set():
+        return  # stop_all ends it
+    waited = time.monotonic() - t0
+    tree = process_tree(side.proc.pid)
+    more = f" and {waited - grace:.0f} s more while it wrote to disk" if told else ""
+    say(f"  {side.name} did not stop within {grace:.0f} s{more}: ending it (pid {side.proc.pid}); its processes: "
+        f"{describe_processes(tree, cpu_before, waited)}")
+    side.ended_after = waited
+    # mpirun's ranks, each in a process group of its own, told at once too (stop_all)
+    below = outside_below([side.proc.pid], {side.proc.pid})
+    side.proc.terminate()
+    _send([], below, signal.SIGTERM)
+    try:
+        side.proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        side.proc.kill()
+        _send([], [pid for pid in below if _pid_alive(pid)], signal.SIGKILL)
+        side.proc.wait(timeout=30)
 
 
 #: s a side that failed leaves a partner still waiting for its connection (the failed side stopped at

@@ -81,22 +81,17 @@ def test_a_partner_that_died_first_is_left_to_end_by_itself_as_mpirun_ends_a_los
     assert "did not stop" not in capsys.readouterr().out
 
 
-def test_a_coupled_partner_busy_past_the_short_grace_is_left_to_meet_the_loss_by_itself(tmp_path, capsys):
-    """The water killed (SIGKILL) while the solid, coupled, is 8 s into a long step or restart
-    checkpoint (a checkpoint's fsyncs on a busy disk): longer than PARTNER_GRACE_S, which is for a
-    partner still waiting for its connection. The coupled solid is given PARTNER_COUPLED_GRACE_S, meets
-    the closed connection at its next exchange and stops saying so: not ended by `run` (no "did not
-    stop" line, its own exit status, not -15), and the water is blamed."""
+def _busy_solid_water_killed(tmp_path: Path, busy_s: float, spin: bool = False) -> tuple[Side, Side, Side | None]:
+    """A fake solid, coupled, busy `busy_s` s at window 5 (asleep, or `spin`: on the CPU all along, as a
+    busy wait in an MPI call); the water killed (SIGKILL) once the solid says it is busy; watch_pair
+    as `run` calls it."""
     import signal
     import time
 
-    from tunnelquake.children import PARTNER_COUPLED_GRACE_S, PARTNER_GRACE_S
-
-    busy_s = 8.0
-    assert PARTNER_GRACE_S < busy_s < PARTNER_COUPLED_GRACE_S - 2.0
     addr = str(tmp_path / "wall.addr")
     solid = Side("solid", FAKE + ["--role", "solid", "--address-file", addr, "--busy-at-window", "5", "--busy-s",
-                                  str(busy_s)], tmp_path / "solid.log", ENV, lambda line: False)
+                                  str(busy_s)] + (["--busy-spin"] if spin else []), tmp_path / "solid.log", ENV,
+                 lambda line: False)
     fluid = Side("water", FAKE + ["--role", "fluid", "--address-file", addr], tmp_path / "fluid.log", ENV,
                  lambda line: False)
     deadline = time.monotonic() + 30
@@ -106,8 +101,75 @@ def test_a_coupled_partner_busy_past_the_short_grace_is_left_to_meet_the_loss_by
     failed = watch_pair(solid, fluid, grace=30.0, poll_s=0.02)
     for s in (solid, fluid):
         s.close()
+    return solid, fluid, failed
+
+
+def test_a_coupled_partner_busy_past_the_short_grace_is_left_to_meet_the_loss_by_itself(tmp_path, capsys):
+    """The water killed (SIGKILL) while the solid, coupled, is 8 s into a long step or restart
+    checkpoint (a checkpoint's fsyncs on a busy disk): longer than PARTNER_GRACE_S, which is for a
+    partner still waiting for its connection. The coupled solid is given PARTNER_COUPLED_GRACE_S, meets
+    the closed connection at its next exchange and stops saying so: not ended by `run` (no "did not
+    stop" line, its own exit status, not -15), and the water is blamed."""
+    from tunnelquake.children import PARTNER_COUPLED_GRACE_S, PARTNER_GRACE_S
+
+    busy_s = 8.0
+    assert PARTNER_GRACE_S < busy_s < PARTNER_COUPLED_GRACE_S - 2.0
+    solid, fluid, failed = _busy_solid_water_killed(tmp_path, busy_s)
     assert solid.coupled and fluid.coupled
     assert failed is fluid and fluid.proc.returncode == -9
     assert solid.ended_after is None and solid.proc.returncode not in (0, -15), solid.proc.returncode
     assert lost_its_partner(solid), solid.log.read_text()[-2000:]
     assert "did not stop" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("spin", [False, True], ids=["asleep", "spinning"])
+def test_a_partner_ended_by_run_is_said_to_be_asleep_or_busy_as_it_was(tmp_path, capsys, monkeypatch, spin):
+    """A partner that has not met the loss when its grace ends (here 2 s, the fake solid busy 6 s) is
+    ended by `run`, which says what its process was doing over the grace, as /proc measured it: asleep
+    with no CPU (waiting: a message, a lock) or running with about the grace's seconds of CPU (a long
+    step, or a busy wait in an MPI call that another rank never reached)."""
+    import re
+
+    from tunnelquake import children
+
+    monkeypatch.setattr(children, "PARTNER_COUPLED_GRACE_S", 2.0)
+    solid, fluid, failed = _busy_solid_water_killed(tmp_path, 6.0, spin)
+    out = capsys.readouterr().out
+    assert failed is fluid and solid.proc.returncode == -15, solid.proc.returncode
+    assert solid.ended_after is not None and 2.0 <= solid.ended_after < 3.5, solid.ended_after
+    said = re.search(rf"solid did not stop within 2 s: ending it \(pid {solid.proc.pid}\); its processes: .*"
+                     rf"\(pid {solid.proc.pid}\) ([a-z ]+?)(?: in \S+)?, ([0-9.]+) s of CPU in the last 2\.[0-9] s", out)
+    assert said, out
+    state, cpu = said.group(1), float(said.group(2))
+    if spin:
+        assert state == "running" and cpu >= 1.0, said.group(0)  # of 2 s; a second core is free
+    else:
+        assert state == "sleeping" and cpu < 0.3, said.group(0)
+
+
+def test_a_partner_writing_to_disk_is_left_to_end_by_itself(tmp_path, capsys, monkeypatch):
+    """A partner in uninterruptible I/O wait when its grace ends (a restart checkpoint's fsync on a
+    disk busy with other writes) is writing, not hung: `run` says so and leaves it up to
+    PARTNER_DISK_GRACE_S more, so it meets the loss and stops by itself with its own exit status and
+    its checkpoint whole. The state D is simulated (children.in_disk_wait reports the solid's process
+    for the first 4 s of the grace's overrun): a real one needs a disk slower than this machine's."""
+    import time
+
+    from tunnelquake import children
+
+    monkeypatch.setattr(children, "PARTNER_COUPLED_GRACE_S", 2.0)
+    real = children.in_disk_wait
+    first: list[float] = []
+
+    def writing(pids, **kw):
+        first.append(first[0] if first else time.monotonic())
+        return [pids[0]] if time.monotonic() - first[0] < 4.0 else real(pids, **kw)
+
+    monkeypatch.setattr(children, "in_disk_wait", writing)
+    solid, fluid, failed = _busy_solid_water_killed(tmp_path, 5.0)
+    out = capsys.readouterr().out
+    assert first, "the grace ended without asking whether the partner writes to disk"
+    assert "solid did not stop within 2 s, but is writing to disk" in out, out
+    assert "ending it" not in out, out
+    assert failed is fluid and solid.ended_after is None and solid.proc.returncode not in (0, -15)
+    assert lost_its_partner(solid), solid.log.read_text()[-2000:]

@@ -114,7 +114,8 @@ class _Fake:
 
     def __init__(self, participant: Participant, ids, coordinates, prescription: Prescription, triangles=None,
                  mesh: str = "wall", die_at_window: int = -1, hang_at_window: int = -1,
-                 busy_at_window: int = -1, busy_s: float = 0.0, checkpoint_dir: Path | None = None,
+                 busy_at_window: int = -1, busy_s: float = 0.0, busy_spin: bool = False,
+                 checkpoint_dir: Path | None = None,
                  checkpoint_windows: int = 0, resume_from: Path | None = None):
         self.p = participant
         self.checkpoint_dir, self.checkpoint_windows = checkpoint_dir, checkpoint_windows
@@ -122,7 +123,7 @@ class _Fake:
         self.mesh = mesh
         self.prescription = prescription
         self.die_at, self.hang_at = die_at_window, hang_at_window
-        self.busy_at, self.busy_s = busy_at_window, busy_s
+        self.busy_at, self.busy_s, self.busy_spin = busy_at_window, busy_s, busy_spin
         self.p.set_mesh_vertices(mesh, ids, coordinates, triangles)
         #: (window, pass, values read at the start of that pass)
         self.received: list[tuple[int, int, np.ndarray]] = []
@@ -148,7 +149,12 @@ class _Fake:
                 time.sleep(3600)
             if w == self.busy_at and k == 0:  # a long step or restart checkpoint: its exchange comes late
                 print(f"fake {self.role}: busy for {self.busy_s:g} s at window {w}", flush=True)
-                time.sleep(self.busy_s)
+                if self.busy_spin:  # on the CPU all along, as a busy wait in an MPI call
+                    end = time.monotonic() + self.busy_s
+                    while time.monotonic() < end:
+                        pass
+                else:
+                    time.sleep(self.busy_s)
             self.received.append((w, k, p.read_data(self.mesh, self.reads)))
             p.write_data(self.mesh, self.writes, self.prescription((w + 1) * window_size))
             p.advance(p.get_max_time_step_size())
@@ -208,6 +214,7 @@ def main(argv=None) -> int:
     ap.add_argument("--hang-at-window", type=int, default=-1)
     ap.add_argument("--busy-at-window", type=int, default=-1, help="sleep --busy-s s before this window's exchange")
     ap.add_argument("--busy-s", type=float, default=0.0)
+    ap.add_argument("--busy-spin", action="store_true", help="spin on the CPU while busy instead of sleeping")
     ap.add_argument("--history", help="replay this HDF5/.npz history instead of the analytic ring scenario")
     ap.add_argument("--report", help="write 'key value' lines: windows, passes, max_error, error_kind, exit")
     ap.add_argument("--checkpoint-dir", type=Path, help="save the participant's state here (fake-<window>.bin)")
@@ -236,16 +243,16 @@ def main(argv=None) -> int:
             h = History.load(a.history)
             fake = (FakeSolid if solid else FakeFluid)(p, h.ids, h.coordinates, h,
                                                        die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
-                                                       busy_at_window=a.busy_at_window, busy_s=a.busy_s, **restart)
+                                                       busy_at_window=a.busy_at_window, busy_s=a.busy_s, busy_spin=a.busy_spin, **restart)
         elif solid:
             fake = FakeSolid(p, ring.solid_ids(), ring.solid_coordinates(), lambda t: ring.velocity(t, True),
                              ring.solid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
-                             busy_at_window=a.busy_at_window, busy_s=a.busy_s,
+                             busy_at_window=a.busy_at_window, busy_s=a.busy_s, busy_spin=a.busy_spin,
                              **restart)
         else:
             fake = FakeFluid(p, ring.fluid_ids(), ring.fluid_coordinates(), lambda t: ring.force(t, False),
                              ring.fluid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
-                             busy_at_window=a.busy_at_window, busy_s=a.busy_s,
+                             busy_at_window=a.busy_at_window, busy_s=a.busy_s, busy_spin=a.busy_spin,
                              **restart)
         received = fake.run()
         # Check what was read against the partner's prescription (analytic scenario only): the
