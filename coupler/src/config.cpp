@@ -1,93 +1,63 @@
 // Coupling configuration: names, validation, and the item-by-item comparison of the handshake.
 #include "tq/coupler/config.hpp"
 
+#include <array>
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "tq/coupler/errors.hpp"
 
 namespace tq::coupler {
 
-const char* schemeName(SchemeKind k) {
-  switch (k) {
-    case SchemeKind::Explicit:
-      return "explicit";
-    case SchemeKind::Paper:
-      return "paper";
-    case SchemeKind::Implicit:
-      return "implicit";
-  }
+namespace {
+
+/// An enum's names in the order its values are offered ("use a, b or c").
+template <class E, size_t N>
+using Names = std::array<std::pair<E, const char*>, N>;
+
+template <class E, size_t N>
+const char* nameIn(const Names<E, N>& names, E k) {
+  for (const auto& [value, name] : names)
+    if (value == k) return name;
   return "?";
 }
-const char* accelerationName(AccelerationKind k) {
-  switch (k) {
-    case AccelerationKind::None:
-      return "none";
-    case AccelerationKind::Constant:
-      return "constant";
-    case AccelerationKind::Aitken:
-      return "aitken";
-    case AccelerationKind::IqnIls:
-      return "iqn-ils";
-  }
-  return "?";
+
+/// The value named `s`, or a ConfigError naming `what` and every name it could have been.
+template <class E, size_t N>
+E parseIn(const Names<E, N>& names, const std::string& s, const char* what) {
+  for (const auto& [value, name] : names)
+    if (s == name) return value;
+  std::string options;
+  for (size_t i = 0; i < N; ++i) options += (i == 0 ? "" : i + 1 == N ? " or " : ", ") + std::string(names[i].second);
+  throw ConfigError("unknown " + std::string(what) + " '" + s + "': use " + options);
 }
-const char* predictorName(PredictorKind k) {
-  switch (k) {
-    case PredictorKind::Constant:
-      return "constant";
-    case PredictorKind::Linear:
-      return "linear";
-    case PredictorKind::Damped:
-      return "damped";
-  }
-  return "?";
-}
-PredictorKind parsePredictor(const std::string& s) {
-  for (auto k : {PredictorKind::Constant, PredictorKind::Linear, PredictorKind::Damped})
-    if (s == predictorName(k)) return k;
-  throw ConfigError("unknown predictor '" + s + "': use constant, linear or damped");
-}
-const char* residualScaleName(ResidualScale k) {
-  switch (k) {
-    case ResidualScale::Current:
-      return "current";
-    case ResidualScale::Largest:
-      return "largest";
-  }
-  return "?";
-}
-ResidualScale parseResidualScale(const std::string& s) {
-  for (auto k : {ResidualScale::Current, ResidualScale::Largest})
-    if (s == residualScaleName(k)) return k;
-  throw ConfigError("unknown residual scale '" + s + "': use current or largest");
-}
-const char* mapKindName(MapKind k) {
-  switch (k) {
-    case MapKind::Coincident:
-      return "coincident";
-    case MapKind::Projection:
-      return "projection";
-  }
-  return "?";
-}
-SchemeKind parseScheme(const std::string& s) {
-  for (auto k : {SchemeKind::Explicit, SchemeKind::Paper, SchemeKind::Implicit})
-    if (s == schemeName(k)) return k;
-  throw ConfigError("unknown coupling scheme '" + s + "': use explicit, paper or implicit");
-}
-AccelerationKind parseAcceleration(const std::string& s) {
-  for (auto k :
-       {AccelerationKind::None, AccelerationKind::Constant, AccelerationKind::Aitken, AccelerationKind::IqnIls})
-    if (s == accelerationName(k)) return k;
-  throw ConfigError("unknown acceleration '" + s + "': use none, constant, aitken or iqn-ils");
-}
-MapKind parseMapKind(const std::string& s) {
-  for (auto k : {MapKind::Coincident, MapKind::Projection})
-    if (s == mapKindName(k)) return k;
-  throw ConfigError("unknown interface map '" + s + "': use coincident or projection");
-}
+
+constexpr Names<SchemeKind, 3> kSchemes{
+    {{SchemeKind::Explicit, "explicit"}, {SchemeKind::Paper, "paper"}, {SchemeKind::Implicit, "implicit"}}};
+constexpr Names<AccelerationKind, 4> kAccelerations{{{AccelerationKind::None, "none"},
+                                                     {AccelerationKind::Constant, "constant"},
+                                                     {AccelerationKind::Aitken, "aitken"},
+                                                     {AccelerationKind::IqnIls, "iqn-ils"}}};
+constexpr Names<PredictorKind, 3> kPredictors{
+    {{PredictorKind::Constant, "constant"}, {PredictorKind::Linear, "linear"}, {PredictorKind::Damped, "damped"}}};
+constexpr Names<ResidualScale, 2> kResidualScales{
+    {{ResidualScale::Current, "current"}, {ResidualScale::Largest, "largest"}}};
+constexpr Names<MapKind, 2> kMapKinds{{{MapKind::Coincident, "coincident"}, {MapKind::Projection, "projection"}}};
+
+}  // namespace
+
+const char* schemeName(SchemeKind k) { return nameIn(kSchemes, k); }
+const char* accelerationName(AccelerationKind k) { return nameIn(kAccelerations, k); }
+const char* predictorName(PredictorKind k) { return nameIn(kPredictors, k); }
+const char* residualScaleName(ResidualScale k) { return nameIn(kResidualScales, k); }
+const char* mapKindName(MapKind k) { return nameIn(kMapKinds, k); }
+SchemeKind parseScheme(const std::string& s) { return parseIn(kSchemes, s, "coupling scheme"); }
+AccelerationKind parseAcceleration(const std::string& s) { return parseIn(kAccelerations, s, "acceleration"); }
+PredictorKind parsePredictor(const std::string& s) { return parseIn(kPredictors, s, "predictor"); }
+ResidualScale parseResidualScale(const std::string& s) { return parseIn(kResidualScales, s, "residual scale"); }
+MapKind parseMapKind(const std::string& s) { return parseIn(kMapKinds, s, "interface map"); }
 
 void CouplingConfig::validate() const {
   auto bad = [](const std::string& m) { throw ConfigError("coupling configuration: " + m); };

@@ -283,6 +283,34 @@ TEST(Wire, EveryPredictorRoundTripsAndAnUndefinedCodeIsRefused) {
   }
 }
 
+// Every configuration name the case files and the hello record's peers use parses back to its value,
+// and an unknown one is refused naming the key and every name it could have been, in order.
+TEST(Wire, EveryConfigurationNameParsesBackAndAnUnknownOneListsThemAll) {
+  auto refused = [](auto parse, const std::string& bad) {
+    try {
+      parse(bad);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("parsed");
+  };
+  for (auto k : {SchemeKind::Explicit, SchemeKind::Paper, SchemeKind::Implicit})
+    EXPECT_EQ(parseScheme(schemeName(k)), k) << schemeName(k);
+  for (auto k :
+       {AccelerationKind::None, AccelerationKind::Constant, AccelerationKind::Aitken, AccelerationKind::IqnIls})
+    EXPECT_EQ(parseAcceleration(accelerationName(k)), k) << accelerationName(k);
+  for (auto k : {ResidualScale::Current, ResidualScale::Largest})
+    EXPECT_EQ(parseResidualScale(residualScaleName(k)), k) << residualScaleName(k);
+  for (auto k : {MapKind::Coincident, MapKind::Projection})
+    EXPECT_EQ(parseMapKind(mapKindName(k)), k) << mapKindName(k);
+  EXPECT_EQ(refused(parseScheme, "staggered"), "unknown coupling scheme 'staggered': use explicit, paper or implicit");
+  EXPECT_EQ(refused(parseAcceleration, "anderson"),
+            "unknown acceleration 'anderson': use none, constant, aitken or iqn-ils");
+  EXPECT_EQ(refused(parsePredictor, "Linear"), "unknown predictor 'Linear': use constant, linear or damped");
+  EXPECT_EQ(refused(parseResidualScale, "peak"), "unknown residual scale 'peak': use current or largest");
+  EXPECT_EQ(refused(parseMapKind, "nearest"), "unknown interface map 'nearest': use coincident or projection");
+}
+
 TEST(Wire, SharedTestVectorsDecodeAndEncodeIdentically) {
   const auto vectors = readVectors();
   const auto mine = sampleMessages();
