@@ -299,9 +299,9 @@ _STATES = {"R": "running", "S": "sleeping", "D": "in uninterruptible I/O wait", 
            "Z": "a zombie", "I": "idle"}
 
 
-def process_state(pid: int) -> tuple[str, str, float] | None:
-    """(executable name, state letter, CPU seconds used so far) of `pid` from /proc/PID/stat, or None
-    once it is gone."""
+def process_state(pid: int | str) -> tuple[str, str, float] | None:
+    """(executable name, state letter, CPU seconds used so far) of `pid` from /proc/PID/stat (a
+    thread's: "PID/task/TID"), or None once it is gone."""
     try:
         with open(f"/proc/{pid}/stat") as fh:
             stat = fh.read()
@@ -342,15 +342,18 @@ def describe_processes(pids, cpu_before: dict[int, float], seconds: float) -> st
 
 
 def in_disk_wait(pids, over_s: float = 0.5, every_s: float = 0.05) -> list[int]:
-    """The processes of `pids` seen in uninterruptible I/O wait (state D: a write to disk, an fsync)
+    """The processes of `pids` with a thread seen in uninterruptible I/O wait (state D: a write to disk, an fsync)
     at any of the samples taken every `every_s` s over `over_s` s (a restart checkpoint's several
     fsyncs leave gaps between them)."""
     seen: set[int] = set()
     deadline = time.monotonic() + over_s
     while True:
         for pid in pids:
-            now = process_state(pid)
-            if now is not None and now[1] == "D":
+            try:  # any of its threads (a writer thread's fsync leaves the main thread asleep)
+                threads = os.listdir(f"/proc/{pid}/task")
+            except OSError:
+                continue
+            if any((now := process_state(f"{pid}/task/{tid}")) is not None and now[1] == "D" for tid in threads):
                 seen.add(pid)
         if seen or time.monotonic() >= deadline:
             return sorted(seen)
