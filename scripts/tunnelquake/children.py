@@ -110,18 +110,24 @@ def children_of(parent: int) -> list[int]:
     return _live_parents().get(parent, [])
 
 
-def outside_below(roots, groups) -> list[int]:
+def _below(roots) -> list[int]:
     """Every live process below the processes `roots` (children, their children, ...; one scan of
-    /proc) whose process group is none of `groups`: those that left their parent's group (mpirun puts
-    each rank in a group of its own), which a signal to the groups does not reach."""
+    /proc)."""
     below = _live_parents()
     found, todo = [], list(roots)
     while todo:
         for child in below.get(todo.pop(), []):
             found.append(child)
             todo.append(child)
+    return found
+
+
+def outside_below(roots, groups) -> list[int]:
+    """Every live process below the processes `roots` (children, their children, ...; one scan of
+    /proc) whose process group is none of `groups`: those that left their parent's group (mpirun puts
+    each rank in a group of its own), which a signal to the groups does not reach."""
     out = []
-    for pid in found:
+    for pid in _below(roots):
         try:
             if os.getpgid(pid) not in groups:
                 out.append(pid)
@@ -141,12 +147,8 @@ def _group_alive(pgid: int) -> bool:
 
 
 def _pid_alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            stat = fh.read()
-    except OSError:
-        return False
-    return stat[stat.rfind(")") + 2:][:1] != "Z"
+    now = process_state(pid)
+    return now is not None and now[1] != "Z"
 
 
 def _send(groups, pids, sig) -> None:
@@ -284,14 +286,8 @@ class Side:
 
 
 def process_tree(root: int) -> list[int]:
-    """`root` and every live process below it (children, their children, ...; one scan of /proc)."""
-    below = _live_parents()
-    found, todo = [root], [root]
-    while todo:
-        for child in below.get(todo.pop(), []):
-            found.append(child)
-            todo.append(child)
-    return found
+    """`root` and every live process below it."""
+    return [root, *_below([root])]
 
 
 #: /proc/PID/stat's state letters, in words
@@ -313,8 +309,8 @@ def process_state(pid: int | str) -> tuple[str, str, float] | None:
     return name, fields[0], (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def _wchan(pid: int) -> str:
-    """The kernel function `pid` sleeps in ("" when running or unknown)."""
+def _wchan(pid: int | str) -> str:
+    """The kernel function `pid` (a thread's: "PID/task/TID") sleeps in ("" when running or unknown)."""
     try:
         with open(f"/proc/{pid}/wchan") as fh:
             w = fh.read().strip()
@@ -341,11 +337,12 @@ def describe_processes(pids, cpu_before: dict[int, float], seconds: float) -> st
     return "; ".join(parts) or "none left"
 
 
-def in_disk_wait(pids, over_s: float = 0.5, every_s: float = 0.05) -> list[int]:
-    """The processes of `pids` with a thread seen in uninterruptible I/O wait (state D: a write to disk, an fsync)
-    at any of the samples taken every `every_s` s over `over_s` s (a restart checkpoint's several
-    fsyncs leave gaps between them)."""
-    seen: set[int] = set()
+def in_disk_wait(pids, over_s: float = 0.5, every_s: float = 0.05) -> dict[int, str]:
+    """The processes of `pids` with a thread seen in uninterruptible I/O wait (state D: a write to
+    disk, an fsync) at any of the samples taken every `every_s` s over `over_s` s (a restart
+    checkpoint's several fsyncs leave gaps between them): PID -> the kernel function that thread
+    waits in."""
+    seen: dict[int, str] = {}
     deadline = time.monotonic() + over_s
     while True:
         for pid in pids:
@@ -353,10 +350,13 @@ def in_disk_wait(pids, over_s: float = 0.5, every_s: float = 0.05) -> list[int]:
                 threads = os.listdir(f"/proc/{pid}/task")
             except OSError:
                 continue
-            if any((now := process_state(f"{pid}/task/{tid}")) is not None and now[1] == "D" for tid in threads):
-                seen.add(pid)
+            for tid in threads:
+                now = process_state(f"{pid}/task/{tid}")
+                if now is not None and now[1] == "D":
+                    seen[pid] = _wchan(f"{pid}/task/{tid}") or "a write"
+                    break
         if seen or time.monotonic() >= deadline:
-            return sorted(seen)
+            return seen
         time.sleep(every_s)
 
 
@@ -388,9 +388,9 @@ def stop_side(side: Side, grace: float) -> None:
         if not writing:
             break
         if not told:
-            say(f"  {side.name} did not stop within {grace:.0f} s, but is writing to disk (pid "
-                f"{', '.join(map(str, writing))} in uninterruptible I/O wait, {_wchan(writing[0]) or 'a write'}): "
-                f"left up to {PARTNER_DISK_GRACE_S:.0f} s more to end by itself")
+            waits = ", ".join(f"pid {pid} in {where}" for pid, where in writing.items())
+            say(f"  {side.name} did not stop within {grace:.0f} s, but is writing to disk ({waits}, uninterruptible "
+                f"I/O wait): left up to {PARTNER_DISK_GRACE_S:.0f} s more to end by itself")
             told = True
         try:
             side.proc.wait(timeout=1.0)

@@ -163,7 +163,7 @@ def test_a_partner_writing_to_disk_is_left_to_end_by_itself(tmp_path, capsys, mo
 
     def writing(pids, **kw):
         first.append(first[0] if first else time.monotonic())
-        return [pids[0]] if time.monotonic() - first[0] < 4.0 else real(pids, **kw)
+        return {pids[0]: "simulated_fsync"} if time.monotonic() - first[0] < 4.0 else real(pids, **kw)
 
     monkeypatch.setattr(children, "in_disk_wait", writing)
     solid, fluid, failed = _busy_solid_water_killed(tmp_path, 5.0)

@@ -243,7 +243,8 @@ def main(argv=None) -> int:
             h = History.load(a.history)
             fake = (FakeSolid if solid else FakeFluid)(p, h.ids, h.coordinates, h,
                                                        die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
-                                                       busy_at_window=a.busy_at_window, busy_s=a.busy_s, busy_spin=a.busy_spin, **restart)
+                                                       busy_at_window=a.busy_at_window, busy_s=a.busy_s,
+                                                       busy_spin=a.busy_spin, **restart)
         elif solid:
             fake = FakeSolid(p, ring.solid_ids(), ring.solid_coordinates(), lambda t: ring.velocity(t, True),
                              ring.solid_triangles(), die_at_window=a.die_at_window, hang_at_window=a.hang_at_window,
