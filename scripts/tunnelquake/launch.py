@@ -458,6 +458,17 @@ def _motion_figure(draw, failed: list[str]):
     return figure
 
 
+def _keep_rates(case, cond: str, res: Path) -> None:
+    """A completed condition's measured time against check's estimate of it, kept for later
+    estimates on this machine (scene.record_run_rates); said in one line."""
+    from .scene import record_run_rates
+
+    kept = record_run_rates(case, cond, res)
+    if kept:
+        said = ", ".join(f"{k} x{r:.2f}" for k, r in kept.items())
+        say(f"condition {cond}: measured against check's estimate: {said} (kept for this machine's next estimates)")
+
+
 def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, skipped, failed, t0) -> int:
     """run_case's conditions and post (`later`: the motion's figure still to draw, drawn by the first
     path of conditions to end while another runs, else after them)."""
@@ -508,6 +519,8 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
             completed.append(cond)
+            if resuming.get(cond) != "checkpoint" and ranks == 1:
+                _keep_rates(case, cond, res)
         else:
             failed.append(f"{cond} ({runs}): {why}")
 
@@ -522,6 +535,8 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
             completed.append(cond)
+            if choice != "checkpoint" and ranks == 1:
+                _keep_rates(case, cond, res)
         elif rc == SOLID_OUTPUT_ERROR:
             from .files import free_bytes, human_bytes
 

@@ -28,6 +28,16 @@ but not the rest of it (every node moves, the boundaries and the contact act): t
 probe** measures the evaluations' share of a step, tq-solid on a small graded box one-rate and
 subcycled (measure_eval_share; MachineRates.subcycled_factor).
 
+What the probes leave out (how this machine's memory, caches and cores treat a whole coupled
+model, how its OpenFOAM runs against the probe) each completed run measures: `run` compares every
+condition's measured parts (the solid's step, the water's passes) with the estimate of that
+condition at the run's own steps and passes, and keeps the ratio under the part's kind (part_key:
+solid-only or coupled, threads, subcycled or not, size class; the water's ranks). The estimate
+takes the median of the last RUN_RECORDS ratios of a kind as its correction (MachineRates.correction)
+and says so. A run of less than RUN_RECORD_MIN_S of shaking, one resumed, one with the solid on
+MPI ranks, or one whose rates were not all measured is not recorded; nor is any with
+TQ_RATES_RECORD=0 in the environment.
+
 The probes' results are cached per processor (/proc/cpuinfo's model name) and tq-solid build (the
 bench program's size and modification time) in ~/.cache/tunnelquake/machine_rates.json
 (TQ_RATES_FILE overrides the file), so each runs once a machine and build (the speed-up once for
@@ -40,6 +50,7 @@ import os
 import platform
 import re
 import subprocess
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -169,6 +180,21 @@ RELAX_STEP_FACTOR = 3.87
 YIELDED_SHAKING_FACTOR = 2.17
 #: Materials that never yield: an offset leaves no plastic zone in them
 LINEAR_MODELS = ("elastic", "kelvin_voigt")
+#: Runs kept a kind (part_key) for the estimate's correction: the median of the last ones
+RUN_RECORDS = 5
+#: The least shaking recorded, s: below it the program's start and its files outweigh its steps
+RUN_RECORD_MIN_S = 10.0
+
+
+def part_key(part: str, count: int, subcycled: bool = False, side: int = 0) -> str:
+    """The kind of a run's part whose measured / estimated ratios correct one another: `part` 'solid'
+    (a solid-only condition's shaking), 'coupled solid' (a coupled condition's solid step) or
+    'water' (its water passes); `count` the solid's threads or the water's ranks; for the solid
+    whether it is subcycled and its size class (0: the probe's own box)."""
+    if part == "water":
+        return f"water, {count} rank(s)"
+    return (f"{part}, {count} thread(s), {'subcycled' if subcycled else 'one rate'}"
+            + (f", {side}^3 class" if side else ""))
 
 
 @dataclass(frozen=True)
@@ -183,11 +209,21 @@ class MachineRates:
     size_side: int = 0  # the size class's box side (0: the probe's own box, size_class)
     size_factor: float = 1.0  # its busiest thread's CPU per element-step against the probe box's
     eval_share: float = 0.0  # the element evaluations' share of the probe box's one-rate step (0: not measured)
+    runs: dict = field(default_factory=dict)  # part_key -> this machine's recorded measured / estimated ratios
 
     def speedup(self, threads: int) -> float:
         """The solid step's speed-up on `threads` OpenMP threads against one: 1 for one thread, the
         measured figure otherwise (1 when it could not be measured: speedup_note says why)."""
         return 1.0 if threads <= 1 else float(self.speedups.get(int(threads), 1.0))
+
+    def correction(self, key: str) -> tuple[float, int]:
+        """The factor on the estimate of a part of kind `key` (part_key): the median of this
+        machine's recorded ratios, and how many there are (1.0, 0 where none)."""
+        ratios = sorted(float(r) for r in self.runs.get(key, ()) if float(r) > 0)
+        if not ratios:
+            return 1.0, 0
+        mid = len(ratios) // 2
+        return (ratios[mid] if len(ratios) % 2 else 0.5 * (ratios[mid - 1] + ratios[mid])), len(ratios)
 
     @property
     def solid_element_step(self) -> float:
@@ -496,5 +532,35 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True, 
     if changed:
         cache[key] = hit
         _write_cache(cache)
+    runs = {k: [float(r["ratio"]) for r in v if isinstance(r, dict) and "ratio" in r]
+            for k, v in (hit.get("runs") or {}).items() if isinstance(v, list)}
     return MachineRates(float(hit["probe_s"]), processor(), source, speedups, "; ".join(notes),
-                        side if factor > 0 else 0, factor if factor > 0 else 1.0, eval_share)
+                        side if factor > 0 else 0, factor if factor > 0 else 1.0, eval_share, runs)
+
+
+def record_run(ratios: dict[str, float], program: Path | None = None) -> bool:
+    """Keep a completed run's measured / estimated ratio of each part (part_key -> ratio) with this
+    machine's and build's cached probes, the last RUN_RECORDS of a kind. Nothing is kept where no
+    probe of this machine and build is cached (the ratios are against its estimate), nor with
+    TQ_RATES_RECORD=0 in the environment (the tests set it). True when kept."""
+    program = program or probe_program()
+    if not program.is_file() or not ratios or os.environ.get("TQ_RATES_RECORD", "1") == "0":
+        return False
+    key = _key(program)
+    with _RECORD_LOCK:  # conditions side by side end in threads of one `run`
+        cache = _read_cache()
+        hit = cache.get(key)
+        if not (isinstance(hit, dict) and float(hit.get("probe_s", 0)) > 0):
+            return False
+        runs = hit.setdefault("runs", {})
+        stamp = time.strftime("%Y-%m-%d %H:%M")
+        for kind, ratio in ratios.items():
+            if not ratio > 0:
+                continue
+            kept = [r for r in runs.get(kind, []) if isinstance(r, dict)]
+            runs[kind] = (kept + [{"ratio": float(ratio), "date": stamp}])[-RUN_RECORDS:]
+        _write_cache(cache)
+    return True
+
+
+_RECORD_LOCK = threading.Lock()

@@ -342,6 +342,11 @@ class RuntimeEstimate:
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
     repass: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (re-pass evaluations, CPU factor)
     water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
+    #: condition -> its parts before any correction: (role 'solid' or 'water', rates.part_key, s)
+    parts: dict[str, list[tuple[str, str, float]]] = field(default_factory=dict)
+    #: part_key -> (factor, runs) of the corrections taken from this machine's recorded runs
+    corrections: dict[str, tuple[float, int]] = field(default_factory=dict)
+    probes_complete: bool = True  # every probe it needs was measured and the mesh counted (basis says what is not)
 
     def line(self) -> str:
         if not self.seconds and self.basis:
@@ -361,9 +366,11 @@ class RuntimeEstimate:
                         f"evaluations, {x:.2f}x its CPU" for c, (r, x) in self.repass.items() if r < 1)
         n, f = self.water_ranks
         water = f"; the water on {n} ranks, {f:.2f}x one rank's share of the time" if n > 1 else ""
+        runs = ", ".join(f"{k} x{x:.2f} ({m} run{'s' if m > 1 else ''})" for k, (x, m) in self.corrections.items())
+        learnt = f"; corrected by this machine's earlier runs of its kind: {runs}" if runs else ""
         return (f"run time: about {_minutes(self.wall)} ({per} of shaking; {self.steps:,} solid steps of "
                 f"{self.dt:.2g} s{offset}{threads}{sub}{again}{water}) on an otherwise idle machine, from "
-                f"{self.basis}; "
+                f"{self.basis}{learnt}; "
                 f"{rest}")
 
 
@@ -450,7 +457,8 @@ def water_ranks_factor(ranks: int, cells: int) -> float:
     return R.WATER_RANKS_FACTOR if ranks >= 2 and cells // ranks >= R.WATER_RANK_CELLS else 1.0
 
 
-def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEstimate:
+def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict | None = None,
+                     corrected: bool = True, measure_if_missing: bool = True) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
     default rates.machine_rates(), the cached probe of this processor and build, run once). The step is the lining's first element layer's
@@ -466,7 +474,11 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     CPU time on one thread divided by the measured speed-up
     of the OpenMP threads `run` gives it (cores.solid_thread_count: the cores divided among the
     conditions running at once, one on a small mesh; rates.MachineRates.speedup). The water's passes
-    on parallel.fluid_ranks take water_ranks_factor of one rank's share."""
+    on parallel.fluid_ranks take water_ranks_factor of one rank's share. Each part (a condition's
+    solid, its water) is then multiplied by the median ratio of measured to estimated time of this
+    machine's recorded runs of its kind (rates.part_key, rates.MachineRates.correction; not with
+    `corrected` False). `actual` (condition -> {'steps', 'passes_per_window'}) takes a run's own
+    counts instead of the estimated ones (record_run_rates); `measure_if_missing` False runs no probe."""
     import math
 
     from .case import case_geology, ground_layers
@@ -494,7 +506,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     if rates is None:
         try:
             rates = R.machine_rates(threads=max(on_cores.values(), default=1), elements=elements,
-                                    subcycled=any(subcycling_levels(d, c) for c, _ in conditions))
+                                    subcycled=any(subcycling_levels(d, c) for c, _ in conditions),
+                                    measure_if_missing=measure_if_missing)
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
                                    basis=f"this machine's speed could not be measured: {e}")
@@ -525,22 +538,35 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
     # the water's ranks have the cores to themselves only when the coupled condition runs alone
     ranks = min(int(d["parallel"]["fluid_ranks"]), max(1, available() // share))
     water_ranks = (ranks, water_ranks_factor(ranks, counts["water"]))
+    parts_of, used = {}, {}
     for cond, parts in conditions:
         x = speedup[cond]
-        solid = solid_of[cond]
+        run = (actual or {}).get(cond, {})
+        n_steps = int(run.get("steps") or steps)
+        solid = solid_of[cond] * (n_steps / steps if steps else 1.0)
+        solid_key = (cond in levels, rates.size_side)
         if "fluid" not in parts:
-            cpu[cond], seconds[cond] = solid, solid / x
-            continue
-        c = d["coupling"]
-        per_window = passes_per_window(c)
-        passes = per_window * steps / c["window"]
-        water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
-        # a window's first pass, then its re-passes over the water's reach (Solver::planRepasses)
-        again = rates.repass_factor(levels[cond].cost_fraction if cond in levels else 1.0, reach.get(cond, 1.0))
-        solid_passes = 1.0 + max(0.0, per_window - 1.0) * again
-        # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
-        cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes + water
-        seconds[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes / x + water * water_ranks[1]
+            cpu[cond] = solid
+            parts_of[cond] = [("solid", R.part_key("solid", on_cores[cond], *solid_key), solid / x)]
+        else:
+            c = d["coupling"]
+            per_window = float(run.get("passes_per_window") or passes_per_window(c))
+            passes = per_window * n_steps / c["window"]
+            water = passes * (rates.water_pass + counts["water"] * rates.water_cell_pass)
+            # a window's first pass, then its re-passes over the water's reach (Solver::planRepasses)
+            again = rates.repass_factor(levels[cond].cost_fraction if cond in levels else 1.0, reach.get(cond, 1.0))
+            solid_passes = 1.0 + max(0.0, per_window - 1.0) * again
+            # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
+            cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes + water
+            parts_of[cond] = [("solid", R.part_key("coupled solid", on_cores[cond], *solid_key),
+                               solid * R.COUPLED_SOLID_FACTOR * solid_passes / x),
+                              ("water", R.part_key("water", water_ranks[0]), water * water_ranks[1])]
+        seconds[cond] = 0.0
+        for _, key, s in parts_of[cond]:
+            factor, n = rates.correction(key) if corrected else (1.0, 0)
+            if n:
+                used[key] = (factor, n)
+            seconds[cond] += s * factor
     coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
@@ -555,7 +581,48 @@ def runtime_estimate(case, counts: dict | None = None, rates=None) -> RuntimeEst
                                       for c, lv in levels.items()},
                            repass={c: (r, rates.repass_factor(levels[c].cost_fraction if c in levels else 1.0, r))
                                    for c, r in reach.items()},
-                           water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0))
+                           water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0),
+                           parts=parts_of, corrections=used,
+                           probes_complete=not (rates.speedup_note or unmeshed))
+
+
+def record_run_rates(case, cond: str, results) -> dict[str, float]:
+    """After condition `cond` of `case` completed in one go (not resumed, the solid in one
+    process): the measured / estimated ratio of each of its parts, estimated at the run's own steps
+    and passes with this machine's cached probes (none run now), kept for later estimates
+    (rates.record_run). The solid's part of a coupled condition is its coupled wall less its waits
+    for the water (results' /coupling exchange_wait_s), the water's those waits. Nothing is kept for
+    a run shorter than rates.RUN_RECORD_MIN_S or when a probe is missing. Returns what was kept."""
+    import h5py
+
+    from . import rates as R
+
+    try:
+        with h5py.File(results, "r") as f:
+            t = dict(f["timings"].attrs) if "timings" in f else {}
+            c = dict(f["coupling"].attrs) if "coupling" in f else None
+    except OSError:
+        return {}
+    steps = int(t.get("steps", 0))
+    if c is not None:
+        wall, wait = float(c.get("coupled_wall_s", 0)), float(c.get("exchange_wait_s", 0))
+        measured = {"solid": wall - wait, "water": wait}
+        windows = float(c.get("windows", 0))
+        run = {"steps": steps, "passes_per_window": float(c.get("passes", 0)) / windows if windows else 0}
+    else:
+        wall = float(t.get("wall_s", 0))
+        measured = {"solid": wall}
+        run = {"steps": steps}
+    if not (wall >= R.RUN_RECORD_MIN_S and steps > 0):
+        return {}
+    try:
+        est = runtime_estimate(case, actual={cond: run}, corrected=False, measure_if_missing=False)
+    except (ValueError, OSError, KeyError):
+        return {}
+    if cond not in est.parts or not est.probes_complete:
+        return {}
+    ratios = {key: measured[role] / s for role, key, s in est.parts[cond] if s > 0 and measured.get(role, 0) > 0}
+    return ratios if R.record_run(ratios) else {}
 
 
 # ------------------------------------------------------------------------------------------------

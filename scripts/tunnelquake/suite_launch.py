@@ -93,6 +93,9 @@ def run_member(case_file: str, no_post: bool = False, stop_file: str | None = No
     run.log is appended to); one without runs from the start."""
     import traceback
 
+    # members share the machine with one another: their times are not this machine's measure of a
+    # lone run, and check's later estimates do not learn from them (rates.record_run)
+    os.environ["TQ_RATES_RECORD"] = "0"
     folder = Path(case_file).parent
     name = folder.name
     if stop_file is not None and Path(stop_file).exists():
