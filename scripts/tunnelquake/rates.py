@@ -31,8 +31,8 @@ subcycled (measure_eval_share; MachineRates.subcycled_factor).
 What the probes leave out (how this machine's memory, caches and cores treat a whole coupled
 model, how its OpenFOAM runs against the probe) each completed run measures: `run` compares every
 condition's measured parts (the solid's step, the water's passes) with the estimate of that
-condition at the run's own steps and passes, and keeps the ratio under the part's kind (part_key:
-solid-only or coupled, threads, subcycled or not, size class; the water's ranks). The estimate
+condition at the run's own steps and passes, and keeps the ratio under the condition's kind
+(part_key: solid-only or coupled, threads, the water's ranks, subcycled or not, size class). The estimate
 takes the median of the last RUN_RECORDS ratios of a kind as its correction (MachineRates.correction)
 and says so. A run of less than RUN_RECORD_MIN_S of shaking, one resumed, one with the solid on
 MPI ranks, or one whose rates were not all measured is not recorded; nor is any with
@@ -186,14 +186,14 @@ RUN_RECORDS = 5
 RUN_RECORD_MIN_S = 10.0
 
 
-def part_key(part: str, count: int, subcycled: bool = False, side: int = 0) -> str:
-    """The kind of a run's part whose measured / estimated ratios correct one another: `part` 'solid'
-    (a solid-only condition's shaking), 'coupled solid' (a coupled condition's solid step) or
-    'water' (its water passes); `count` the solid's threads or the water's ranks; for the solid
-    whether it is subcycled and its size class (0: the probe's own box)."""
-    if part == "water":
-        return f"water, {count} rank(s)"
-    return (f"{part}, {count} thread(s), {'subcycled' if subcycled else 'one rate'}"
+def part_key(part: str, threads: int, subcycled: bool = False, side: int = 0, ranks: int = 1) -> str:
+    """The kind of a condition whose measured / estimated ratios correct one another: `part` 'solid'
+    (a solid-only condition's shaking) or 'coupled' (a coupled condition's, the solid and the water
+    together: how their time splits moves from run to run where they share cores, their sum much
+    less), on `threads` solid threads (and the water on `ranks`), subcycled or not, in a size class
+    (0: the probe's own box)."""
+    water = f", the water on {ranks} rank(s)" if part == "coupled" else ""
+    return (f"{part}, {threads} thread(s){water}, {'subcycled' if subcycled else 'one rate'}"
             + (f", {side}^3 class" if side else ""))
 
 

@@ -342,7 +342,7 @@ class RuntimeEstimate:
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
     repass: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (re-pass evaluations, CPU factor)
     water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
-    #: condition -> its parts before any correction: (role 'solid' or 'water', rates.part_key, s)
+    #: condition -> its parts before any correction: (role 'solid' or 'coupled', rates.part_key, s)
     parts: dict[str, list[tuple[str, str, float]]] = field(default_factory=dict)
     #: part_key -> (factor, runs) of the corrections taken from this machine's recorded runs
     corrections: dict[str, tuple[float, int]] = field(default_factory=dict)
@@ -476,7 +476,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     conditions running at once, one on a small mesh; rates.MachineRates.speedup). The water's passes
     on parallel.fluid_ranks take water_ranks_factor of one rank's share. Each part (a condition's
     solid, its water) is then multiplied by the median ratio of measured to estimated time of this
-    machine's recorded runs of its kind (rates.part_key, rates.MachineRates.correction; not with
+    machine's recorded runs of its kind (rates.part_key: a solid-only condition, or a coupled one's
+    solid and water together; rates.MachineRates.correction; not with
     `corrected` False). `actual` (condition -> {'steps', 'passes_per_window'}) takes a run's own
     counts instead of the estimated ones (record_run_rates); `measure_if_missing` False runs no probe."""
     import math
@@ -558,9 +559,8 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
             solid_passes = 1.0 + max(0.0, per_window - 1.0) * again
             # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
             cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes + water
-            parts_of[cond] = [("solid", R.part_key("coupled solid", on_cores[cond], *solid_key),
-                               solid * R.COUPLED_SOLID_FACTOR * solid_passes / x),
-                              ("water", R.part_key("water", water_ranks[0]), water * water_ranks[1])]
+            parts_of[cond] = [("coupled", R.part_key("coupled", on_cores[cond], *solid_key, ranks=water_ranks[0]),
+                               solid * R.COUPLED_SOLID_FACTOR * solid_passes / x + water * water_ranks[1])]
         seconds[cond] = 0.0
         for _, key, s in parts_of[cond]:
             factor, n = rates.correction(key) if corrected else (1.0, 0)
@@ -590,8 +590,8 @@ def record_run_rates(case, cond: str, results) -> dict[str, float]:
     """After condition `cond` of `case` completed in one go (not resumed, the solid in one
     process): the measured / estimated ratio of each of its parts, estimated at the run's own steps
     and passes with this machine's cached probes (none run now), kept for later estimates
-    (rates.record_run). The solid's part of a coupled condition is its coupled wall less its waits
-    for the water (results' /coupling exchange_wait_s), the water's those waits. Nothing is kept for
+    (rates.record_run): a solid-only condition's shaking (/timings wall_s), a coupled one's coupled
+    wall (/coupling coupled_wall_s: the solid and the water in series). Nothing is kept for
     a run shorter than rates.RUN_RECORD_MIN_S or when a probe is missing. Returns what was kept."""
     import h5py
 
@@ -605,8 +605,8 @@ def record_run_rates(case, cond: str, results) -> dict[str, float]:
         return {}
     steps = int(t.get("steps", 0))
     if c is not None:
-        wall, wait = float(c.get("coupled_wall_s", 0)), float(c.get("exchange_wait_s", 0))
-        measured = {"solid": wall - wait, "water": wait}
+        wall = float(c.get("coupled_wall_s", 0))
+        measured = {"coupled": wall}
         windows = float(c.get("windows", 0))
         run = {"steps": steps, "passes_per_window": float(c.get("passes", 0)) / windows if windows else 0}
     else:

@@ -1,8 +1,8 @@
 """`check`'s run-time estimate learns from this machine's completed runs (tunnelquake.rates
 record_run, scene.record_run_rates; docs/benchmarks.md "check's run-time estimate"): a run's
-measured parts against the estimate of that run at its own steps and passes give a ratio per kind
-of part, and the next estimate of a part of that kind is multiplied by the median of the last
-RUN_RECORDS ratios.
+measured time against the estimate of that run at its own steps and passes gives a ratio per kind
+of condition, and the next estimate of a condition of that kind is multiplied by the median of the
+last RUN_RECORDS ratios.
 
 References: the ratios are constructed here (results files written with known timings), so the
 corrected estimate is known exactly: the uncorrected part times the ratio, to round-off (1e-12). A
@@ -74,7 +74,10 @@ def test_a_solid_run_measured_against_its_estimate_corrects_the_next_estimate_of
     assert after.seconds["dynamic_water"] == pytest.approx(before.seconds["dynamic_water"], rel=1e-12)
 
 
-def test_a_coupled_run_corrects_its_solid_and_its_water_apart_at_its_own_passes(cached_probe, tmp_path):
+def test_a_coupled_run_corrects_its_kind_at_its_own_passes(cached_probe, tmp_path):
+    """A coupled condition is one kind, its solid and its water together (their split moves from
+    run to run where they share cores); the ratio is taken at the run's own passes a window (1.3,
+    not the estimate's rule), and the next estimate keeps its rule's passes."""
     from tunnelquake.case import load_case
     from tunnelquake.scene import record_run_rates, runtime_estimate
 
@@ -82,34 +85,29 @@ def test_a_coupled_run_corrects_its_solid_and_its_water_apart_at_its_own_passes(
     before = runtime_estimate(case)
     window = int(case.data["coupling"]["window"])
     windows = before.steps // window
-    # the run took 1.3 passes a window, not the estimate's rule: estimated again at 1.3
     at_run = runtime_estimate(case, actual={"dynamic_water": {"steps": windows * window, "passes_per_window": 1.3}},
                               corrected=False)
-    (skey, solid), (wkey, water) = _parts(at_run, "dynamic_water")["solid"], _parts(at_run, "dynamic_water")["water"]
-    assert skey.startswith("coupled solid, ") and wkey.startswith("water, ")
-    measured_solid, measured_water = 0.7 * solid, 1.4 * water
-    res = _results(tmp_path / "c.h5", windows * window,
-                   coupled=(measured_solid + measured_water, measured_water, 1.3 * windows, windows))
-    kept = record_run_rates(case, "dynamic_water", res)
-    assert kept == {skey: pytest.approx(0.7, rel=1e-9), wkey: pytest.approx(1.4, rel=1e-9)}
+    key, part = _parts(at_run, "dynamic_water")["coupled"]
+    assert key.startswith("coupled, ") and "the water on 1 rank(s)" in key
+    assert part != pytest.approx(_parts(before, "dynamic_water")["coupled"][1], rel=1e-3)  # the passes count
+    res = _results(tmp_path / "c.h5", windows * window, coupled=(0.7 * part, 0.2 * part, 1.3 * windows, windows))
+    assert record_run_rates(case, "dynamic_water", res) == {key: pytest.approx(0.7, rel=1e-9)}
     after = runtime_estimate(case)
-    parts = _parts(before, "dynamic_water")
-    assert after.seconds["dynamic_water"] == pytest.approx(0.7 * parts["solid"][1] + 1.4 * parts["water"][1],
-                                                           rel=1e-9)
+    assert after.seconds["dynamic_water"] == pytest.approx(0.7 * before.seconds["dynamic_water"], rel=1e-9)
     assert after.seconds["no_water"] == pytest.approx(before.seconds["no_water"], rel=1e-12)
 
 
 def test_the_correction_is_the_median_of_the_last_runs_of_a_kind(cached_probe):
     key = R.part_key("solid", 2, True, 32)
     assert key == "solid, 2 thread(s), subcycled, 32^3 class"
-    assert R.part_key("water", 2) == "water, 2 rank(s)"
+    assert R.part_key("coupled", 1, False, 0, ranks=2) == "coupled, 1 thread(s), the water on 2 rank(s), one rate"
     for ratio in (1.0, 2.0, 3.0, 10.0, 4.0, 5.0):
         assert R.record_run({key: ratio})
     kept = json.loads(cached_probe.read_text())
     assert [r["ratio"] for r in next(iter(kept.values()))["runs"][key]] == [2.0, 3.0, 10.0, 4.0, 5.0]
     rates = R.machine_rates(measure_if_missing=False)
     assert rates.correction(key) == (4.0, R.RUN_RECORDS)
-    assert rates.correction("water, 1 rank(s)") == (1.0, 0)
+    assert rates.correction(R.part_key("solid", 1)) == (1.0, 0)
     assert R.MachineRates(1.0, "t", "given", runs={key: [1.0, 3.0]}).correction(key) == (2.0, 2)
 
 
