@@ -474,11 +474,10 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     CPU time on one thread divided by the measured speed-up
     of the OpenMP threads `run` gives it (cores.solid_thread_count: the cores divided among the
     conditions running at once, one on a small mesh; rates.MachineRates.speedup). The water's passes
-    on parallel.fluid_ranks take water_ranks_factor of one rank's share. Each part (a condition's
-    solid, its water) is then multiplied by the median ratio of measured to estimated time of this
-    machine's recorded runs of its kind (rates.part_key: a solid-only condition, or a coupled one's
-    solid and water together; rates.MachineRates.correction; not with
-    `corrected` False). `actual` (condition -> {'steps', 'passes_per_window'}) takes a run's own
+    on parallel.fluid_ranks take water_ranks_factor of one rank's share. Each condition's time is then
+    multiplied by the median ratio of measured to estimated time of this machine's recorded runs of
+    its kind (rates.part_key: a solid-only condition, or a coupled one, its solid and water together;
+    rates.MachineRates.correction; not with `corrected` False). `actual` (condition -> {'steps', 'passes_per_window'}) takes a run's own
     counts instead of the estimated ones (record_run_rates); `measure_if_missing` False runs no probe."""
     import math
 
@@ -588,7 +587,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
 
 def record_run_rates(case, cond: str, results) -> dict[str, float]:
     """After condition `cond` of `case` completed in one go (not resumed, the solid in one
-    process): the measured / estimated ratio of each of its parts, estimated at the run's own steps
+    process): the measured / estimated ratio of its shaking's time, estimated at the run's own steps
     and passes with this machine's cached probes (none run now), kept for later estimates
     (rates.record_run): a solid-only condition's shaking (/timings wall_s), a coupled one's coupled
     wall (/coupling coupled_wall_s: the solid and the water in series). Nothing is kept for
