@@ -30,9 +30,10 @@ subcycled (measure_eval_share; MachineRates.subcycled_factor).
 
 What the probes leave out (how this machine's memory, caches and cores treat a whole coupled
 model, how its OpenFOAM runs against the probe) each completed run measures: `run` compares every
-condition's measured parts (the solid's step, the water's passes) with the estimate of that
+condition's measured shaking (a coupled one's solid and water together) with the estimate of that
 condition at the run's own steps and passes, and keeps the ratio under the condition's kind
-(part_key: solid-only or coupled, threads, the water's ranks, subcycled or not, size class). The estimate
+(part_key: solid-only or coupled, threads, the water's ranks, subcycled or not, size class, the
+shaking's length within a factor of 4). The estimate
 takes the median of the last RUN_RECORDS ratios of a kind as its correction (MachineRates.correction)
 and says so. A run of less than RUN_RECORD_MIN_S of shaking, one resumed, one with the solid on
 MPI ranks, or one whose rates were not all measured is not recorded; nor is any with
@@ -46,6 +47,7 @@ each thread count asked for; the size factor and its speed-ups once a size class
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import re
@@ -186,15 +188,21 @@ RUN_RECORDS = 5
 RUN_RECORD_MIN_S = 10.0
 
 
-def part_key(part: str, threads: int, subcycled: bool = False, side: int = 0, ranks: int = 1) -> str:
+def part_key(part: str, threads: int, subcycled: bool = False, side: int = 0, ranks: int = 1,
+             seconds: float = 0.0) -> str:
     """The kind of a condition whose measured / estimated ratios correct one another: `part` 'solid'
     (a solid-only condition's shaking) or 'coupled' (a coupled condition's, the solid and the water
     together: how their time splits moves from run to run where they share cores, their sum much
     less), on `threads` solid threads (and the water on `ranks`), subcycled or not, in a size class
-    (0: the probe's own box)."""
+    (0: the probe's own box), and `seconds` of shaking within a factor of 4 (0: not said): the 3D
+    example's first second took 1.13-1.26x its estimate where its whole record took 0.71-0.76x."""
     water = f", the water on {ranks} rank(s)" if part == "coupled" else ""
+    length = ""
+    if seconds > 0:
+        low = 4.0 ** math.floor(math.log(seconds, 4) + 1e-9)
+        length = f", {low:g}-{4 * low:g} s of shaking"
     return (f"{part}, {threads} thread(s){water}, {'subcycled' if subcycled else 'one rate'}"
-            + (f", {side}^3 class" if side else ""))
+            + (f", {side}^3 class" if side else "") + length)
 
 
 @dataclass(frozen=True)
@@ -217,13 +225,12 @@ class MachineRates:
         return 1.0 if threads <= 1 else float(self.speedups.get(int(threads), 1.0))
 
     def correction(self, key: str) -> tuple[float, int]:
-        """The factor on the estimate of a part of kind `key` (part_key): the median of this
+        """The factor on the estimate of a condition of kind `key` (part_key): the median of this
         machine's recorded ratios, and how many there are (1.0, 0 where none)."""
-        ratios = sorted(float(r) for r in self.runs.get(key, ()) if float(r) > 0)
-        if not ratios:
-            return 1.0, 0
-        mid = len(ratios) // 2
-        return (ratios[mid] if len(ratios) % 2 else 0.5 * (ratios[mid - 1] + ratios[mid])), len(ratios)
+        import statistics
+
+        ratios = [float(r) for r in self.runs.get(key, ()) if float(r) > 0]
+        return (statistics.median(ratios), len(ratios)) if ratios else (1.0, 0)
 
     @property
     def solid_element_step(self) -> float:
@@ -539,7 +546,7 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True, 
 
 
 def record_run(ratios: dict[str, float], program: Path | None = None) -> bool:
-    """Keep a completed run's measured / estimated ratio of each part (part_key -> ratio) with this
+    """Keep a completed run's measured / estimated ratio of each kind (part_key -> ratio) with this
     machine's and build's cached probes, the last RUN_RECORDS of a kind. Nothing is kept where no
     probe of this machine and build is cached (the ratios are against its estimate), nor with
     TQ_RATES_RECORD=0 in the environment (the tests set it). True when kept."""

@@ -342,8 +342,8 @@ class RuntimeEstimate:
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
     repass: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (re-pass evaluations, CPU factor)
     water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
-    #: condition -> its parts before any correction: (role 'solid' or 'coupled', rates.part_key, s)
-    parts: dict[str, list[tuple[str, str, float]]] = field(default_factory=dict)
+    #: condition -> its kind (rates.part_key) and its seconds before any correction
+    kinds: dict[str, tuple[str, float]] = field(default_factory=dict)
     #: part_key -> (factor, runs) of the corrections taken from this machine's recorded runs
     corrections: dict[str, tuple[float, int]] = field(default_factory=dict)
     probes_complete: bool = True  # every probe it needs was measured and the mesh counted (basis says what is not)
@@ -538,16 +538,17 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     # the water's ranks have the cores to themselves only when the coupled condition runs alone
     ranks = min(int(d["parallel"]["fluid_ranks"]), max(1, available() // share))
     water_ranks = (ranks, water_ranks_factor(ranks, counts["water"]))
-    parts_of, used = {}, {}
+    kinds, used = {}, {}
     for cond, parts in conditions:
         x = speedup[cond]
         run = (actual or {}).get(cond, {})
         n_steps = int(run.get("steps") or steps)
         solid = solid_of[cond] * (n_steps / steps if steps else 1.0)
         solid_key = (cond in levels, rates.size_side)
+        length = {"seconds": duration}
         if "fluid" not in parts:
             cpu[cond] = solid
-            parts_of[cond] = [("solid", R.part_key("solid", on_cores[cond], *solid_key), solid / x)]
+            kinds[cond] = (R.part_key("solid", on_cores[cond], *solid_key, **length), solid / x)
         else:
             c = d["coupling"]
             per_window = float(run.get("passes_per_window") or passes_per_window(c))
@@ -558,14 +559,13 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
             solid_passes = 1.0 + max(0.0, per_window - 1.0) * again
             # staggered: the water's passes in series with the solid's (its threads wait meanwhile)
             cpu[cond] = solid * R.COUPLED_SOLID_FACTOR * solid_passes + water
-            parts_of[cond] = [("coupled", R.part_key("coupled", on_cores[cond], *solid_key, ranks=water_ranks[0]),
-                               solid * R.COUPLED_SOLID_FACTOR * solid_passes / x + water * water_ranks[1])]
-        seconds[cond] = 0.0
-        for _, key, s in parts_of[cond]:
-            factor, n = rates.correction(key) if corrected else (1.0, 0)
-            if n:
-                used[key] = (factor, n)
-            seconds[cond] += s * factor
+            kinds[cond] = (R.part_key("coupled", on_cores[cond], *solid_key, ranks=water_ranks[0], **length),
+                           solid * R.COUPLED_SOLID_FACTOR * solid_passes / x + water * water_ranks[1])
+        key, alone_s = kinds[cond]
+        factor, n = rates.correction(key) if corrected else (1.0, 0)
+        if n:
+            used[key] = (factor, n)
+        seconds[cond] = alone_s * factor
     coupled = [s + statics / speedup[c] for c, s in seconds.items() if c == "dynamic_water"]
     alone = [s + statics / speedup[c] for c, s in seconds.items() if c != "dynamic_water"]
     wall = max(sum(coupled), sum(alone)) if coupled and alone else sum(coupled) + sum(alone)
@@ -581,7 +581,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
                            repass={c: (r, rates.repass_factor(levels[c].cost_fraction if c in levels else 1.0, r))
                                    for c, r in reach.items()},
                            water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0),
-                           parts=parts_of, corrections=used,
+                           kinds=kinds, corrections=used,
                            probes_complete=not (rates.speedup_note or unmeshed))
 
 
@@ -605,12 +605,10 @@ def record_run_rates(case, cond: str, results) -> dict[str, float]:
     steps = int(t.get("steps", 0))
     if c is not None:
         wall = float(c.get("coupled_wall_s", 0))
-        measured = {"coupled": wall}
         windows = float(c.get("windows", 0))
         run = {"steps": steps, "passes_per_window": float(c.get("passes", 0)) / windows if windows else 0}
     else:
         wall = float(t.get("wall_s", 0))
-        measured = {"solid": wall}
         run = {"steps": steps}
     if not (wall >= R.RUN_RECORD_MIN_S and steps > 0):
         return {}
@@ -618,9 +616,10 @@ def record_run_rates(case, cond: str, results) -> dict[str, float]:
         est = runtime_estimate(case, actual={cond: run}, corrected=False, measure_if_missing=False)
     except (ValueError, OSError, KeyError):
         return {}
-    if cond not in est.parts or not est.probes_complete:
+    if cond not in est.kinds or not est.probes_complete or not est.kinds[cond][1] > 0:
         return {}
-    ratios = {key: measured[role] / s for role, key, s in est.parts[cond] if s > 0 and measured.get(role, 0) > 0}
+    key, estimated = est.kinds[cond]
+    ratios = {key: wall / estimated}
     return ratios if R.record_run(ratios) else {}
 
 

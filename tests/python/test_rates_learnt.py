@@ -47,10 +47,6 @@ def _results(path, steps: int, wall: float | None = None, coupled: tuple | None 
     return path
 
 
-def _parts(est, cond):
-    return {role: (key, s) for role, key, s in est.parts[cond]}
-
-
 def test_a_solid_run_measured_against_its_estimate_corrects_the_next_estimate_of_its_kind(cached_probe, tmp_path):
     from tunnelquake.case import load_case
     from tunnelquake.scene import record_run_rates, runtime_estimate
@@ -58,7 +54,7 @@ def test_a_solid_run_measured_against_its_estimate_corrects_the_next_estimate_of
     case = load_case(PRESSURE_TUNNEL)
     before = runtime_estimate(case)
     assert not before.corrections and "earlier runs" not in before.line()
-    key, part = _parts(before, "no_water")["solid"]
+    key, part = before.kinds["no_water"]
     assert key.startswith("solid, ") and part == pytest.approx(before.seconds["no_water"], rel=1e-12)
     # a run of twice the estimate's steps (the per-step rate is what is compared) at 0.6 of its time
     steps = 2 * before.steps
@@ -72,6 +68,11 @@ def test_a_solid_run_measured_against_its_estimate_corrects_the_next_estimate_of
     assert f"corrected by this machine's earlier runs of its kind: {key} x0.60 (1 run)" in after.line()
     # another kind (the coupled condition's solid) is not corrected by it
     assert after.seconds["dynamic_water"] == pytest.approx(before.seconds["dynamic_water"], rel=1e-12)
+    # nor is the same condition cut to a first second (another length of shaking)
+    case.data["time"]["end_time"] = 1.0
+    short = runtime_estimate(case)
+    assert not short.corrections and short.kinds["no_water"][0] != key
+    assert short.seconds["no_water"] == pytest.approx(short.kinds["no_water"][1], rel=1e-12)
 
 
 def test_a_coupled_run_corrects_its_kind_at_its_own_passes(cached_probe, tmp_path):
@@ -87,9 +88,9 @@ def test_a_coupled_run_corrects_its_kind_at_its_own_passes(cached_probe, tmp_pat
     windows = before.steps // window
     at_run = runtime_estimate(case, actual={"dynamic_water": {"steps": windows * window, "passes_per_window": 1.3}},
                               corrected=False)
-    key, part = _parts(at_run, "dynamic_water")["coupled"]
+    key, part = at_run.kinds["dynamic_water"]
     assert key.startswith("coupled, ") and "the water on 1 rank(s)" in key
-    assert part != pytest.approx(_parts(before, "dynamic_water")["coupled"][1], rel=1e-3)  # the passes count
+    assert part != pytest.approx(before.kinds["dynamic_water"][1], rel=1e-3)  # the passes count
     res = _results(tmp_path / "c.h5", windows * window, coupled=(0.7 * part, 0.2 * part, 1.3 * windows, windows))
     assert record_run_rates(case, "dynamic_water", res) == {key: pytest.approx(0.7, rel=1e-9)}
     after = runtime_estimate(case)
@@ -101,6 +102,11 @@ def test_the_correction_is_the_median_of_the_last_runs_of_a_kind(cached_probe):
     key = R.part_key("solid", 2, True, 32)
     assert key == "solid, 2 thread(s), subcycled, 32^3 class"
     assert R.part_key("coupled", 1, False, 0, ranks=2) == "coupled, 1 thread(s), the water on 2 rank(s), one rate"
+    # the shaking's length within a factor of 4: a record's 20 s and a first second are other kinds
+    assert R.part_key("solid", 1, seconds=20.0).endswith(", 16-64 s of shaking")
+    assert R.part_key("solid", 1, seconds=16.0).endswith(", 16-64 s of shaking")
+    assert R.part_key("solid", 1, seconds=1.0).endswith(", 1-4 s of shaking")
+    assert R.part_key("solid", 1, seconds=0.5).endswith(", 0.25-1 s of shaking")
     for ratio in (1.0, 2.0, 3.0, 10.0, 4.0, 5.0):
         assert R.record_run({key: ratio})
     kept = json.loads(cached_probe.read_text())
