@@ -131,9 +131,12 @@ def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkey
 
 def test_the_real_probe_splits_the_work_over_its_threads(monkeypatch):
     """tq-solid-bench's busiest thread on 2 threads, its idle threads waiting as tq-solid's do
-    (cores.solid_env: a short spin, then sleep), does at least half of one thread's work (a speed-up
-    of at most 2, 10 % allowed for the caches: each core's own L2 holds more of half the box) and
-    measurably less than all of it; the same thread count against itself is 1 within 15 % (each the
+    (cores.solid_env: a short spin, then sleep), does measurably less than all of one thread's work
+    and not less than half of it at one thread's speed on half the box: each core's own L2 holds more
+    of half the box, and one thread on a box of half the elements (25^3 against 32^3) ran 1.17, 1.41
+    and 1.22x faster an element-step (medians of 9, the Zen 5 VM), so the caches allow a speed-up of
+    up to 2.8 (CI's AMD EPYC measured 2.275), where a probe dividing by the threads twice would give
+    about 4; the same thread count against itself is 1 within 15 % (each the
     median of the probe's 3 runs of 9 paired timings, as check measures it: paired in one process, 1
     against 1 came within 3.5 % in 6 runs at load 1–3, where runs in turn in two processes gave up
     to 1.49)."""
@@ -150,5 +153,5 @@ def test_the_real_probe_splits_the_work_over_its_threads(monkeypatch):
         pytest.skip(str(e))
     same = R.measure_speedup(1, prog)
     print(f"speed-up on 2 threads {two:.3f}; 1 against 1 {same:.3f}")
-    assert 1.1 < two <= 2.2, two
+    assert 1.1 < two <= 2 * 1.41, two
     assert abs(same - 1) < 0.15, same
