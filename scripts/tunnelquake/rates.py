@@ -545,13 +545,18 @@ def machine_rates(program: Path | None = None, measure_if_missing: bool = True, 
                         side if factor > 0 else 0, factor if factor > 0 else 1.0, eval_share, runs)
 
 
+def records_runs() -> bool:
+    """Whether completed runs are kept for the estimate's correction: not with TQ_RATES_RECORD=0."""
+    return os.environ.get("TQ_RATES_RECORD", "1") != "0"
+
+
 def record_run(ratios: dict[str, float], program: Path | None = None) -> bool:
     """Keep a completed run's measured / estimated ratio of each kind (part_key -> ratio) with this
     machine's and build's cached probes, the last RUN_RECORDS of a kind. Nothing is kept where no
     probe of this machine and build is cached (the ratios are against its estimate), nor with
     TQ_RATES_RECORD=0 in the environment (the tests set it). True when kept."""
     program = program or probe_program()
-    if not program.is_file() or not ratios or os.environ.get("TQ_RATES_RECORD", "1") == "0":
+    if not program.is_file() or not ratios or not records_runs():
         return False
     key = _key(program)
     with _RECORD_LOCK:  # conditions side by side end in threads of one `run`

@@ -539,13 +539,13 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     ranks = min(int(d["parallel"]["fluid_ranks"]), max(1, available() // share))
     water_ranks = (ranks, water_ranks_factor(ranks, counts["water"]))
     kinds, used = {}, {}
+    length = {"seconds": duration}
     for cond, parts in conditions:
         x = speedup[cond]
         run = (actual or {}).get(cond, {})
         n_steps = int(run.get("steps") or steps)
         solid = solid_of[cond] * (n_steps / steps if steps else 1.0)
         solid_key = (cond in levels, rates.size_side)
-        length = {"seconds": duration}
         if "fluid" not in parts:
             cpu[cond] = solid
             kinds[cond] = (R.part_key("solid", on_cores[cond], *solid_key, **length), solid / x)
@@ -596,6 +596,8 @@ def record_run_rates(case, cond: str, results) -> dict[str, float]:
 
     from . import rates as R
 
+    if not R.records_runs():  # nothing would be kept: no estimate either
+        return {}
     try:
         with h5py.File(results, "r") as f:
             t = dict(f["timings"].attrs) if "timings" in f else {}
