@@ -458,11 +458,15 @@ def _motion_figure(draw, failed: list[str]):
     return figure
 
 
-def _keep_rates(case, cond: str, res: Path) -> None:
+def _keep_rates(case, cond: str, res: Path, resumed: bool, ranks: int) -> None:
     """A completed condition's measured time against check's estimate of it, kept for later
-    estimates on this machine (scene.record_run_rates); said in one line."""
+    estimates on this machine (scene.record_run_rates); said in one line. Not for a condition
+    continued from a checkpoint (its time covers the part after it) nor for a solid on several ranks (the
+    estimate is of one process)."""
     from .scene import record_run_rates
 
+    if resumed or ranks != 1:
+        return
     kept = record_run_rates(case, cond, res)
     if kept:
         said = ", ".join(f"{k} x{r:.2f}" for k, r in kept.items())
@@ -519,8 +523,7 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name}; {why}")
             completed.append(cond)
-            if resuming.get(cond) != "checkpoint" and ranks == 1:
-                _keep_rates(case, cond, res)
+            _keep_rates(case, cond, res, resuming.get(cond) == "checkpoint", ranks)
         else:
             failed.append(f"{cond} ({runs}): {why}")
 
@@ -535,8 +538,7 @@ def _conditions_and_post(case, resuming, post, ranks, motion_file, later, done, 
             forget_resume_source(case, cond)
             done.append(f"{cond} ({runs}): completed -> {res.name} in {time.perf_counter() - t1:.1f} s")
             completed.append(cond)
-            if choice != "checkpoint" and ranks == 1:
-                _keep_rates(case, cond, res)
+            _keep_rates(case, cond, res, choice == "checkpoint", ranks)
         elif rc == SOLID_OUTPUT_ERROR:
             from .files import free_bytes, human_bytes
 
