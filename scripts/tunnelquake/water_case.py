@@ -227,10 +227,11 @@ def fv_solution(w: WaterCase) -> dict:
             "pFinal": dict(p),
             Quoted("U(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1e-9,
                                   "relTol": 0},
-            # compressible water: T stays at T0, h barely moves: one sweep. Its residual is round-off
-            # (0.005 before, 0.01 after 10 sweeps on the paper slice) and the coupled slice's answers
-            # are bit-identical with 1 or 10 sweeps (docs/benchmarks.md "Water: cost of a pass on the slice")
-            Quoted("(e|h)(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1e-4,
+            # compressible water: T stays at T0 (the water is barotropic). h's residual is round-off
+            # (0.005 before, 0.01 after 10 sweeps on the paper slice), under tolerance 1: h is not
+            # swept and keeps T0. One sweep or ten gave the slice the same bits; none moves the
+            # results by under 1e-7 of their peaks (docs/benchmarks.md "The water's energy equation")
+            Quoted("(e|h)(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1,
                                       "relTol": 0, "maxIter": 1},
             Quoted("rho(Final)?"): {"solver": "diagonal"},
         },
@@ -272,6 +273,10 @@ def fv_schemes() -> dict:
             # grad(U) every step) is not worth its cost (docs/water.md, Benchmark)
             "laplacian(nuEff,U)": "Gauss linear uncorrected",
             "laplacian((rho*nuEff),U)": "Gauss linear uncorrected",
+            # the compressible water's enthalpy stays uniform (T at T0: fvSolution does not sweep
+            # h): the non-orthogonal correction of its diffusion (a full grad(h) every pass)
+            # corrects nothing
+            "laplacian(alphahe,h)": "Gauss linear uncorrected",
         },
         "interpolationSchemes": {"default": "linear"},
         "snGradSchemes": {"default": "corrected"},
