@@ -229,8 +229,8 @@ def fv_solution(w: WaterCase) -> dict:
                                   "relTol": 0},
             # compressible water: T stays at T0 (the water is barotropic). h's residual is round-off
             # (0.005 before, 0.01 after 10 sweeps on the paper slice), under tolerance 1: h is not
-            # swept and keeps T0. One sweep or ten gave the slice the same bits; none moves the
-            # results by under 1e-7 of their peaks (docs/benchmarks.md "The water's energy equation")
+            # swept and keeps T0. One sweep or ten gave the slice the same bits; no sweep moves the
+            # results by less than 1e-7 of their peaks (docs/benchmarks.md "The water's energy equation")
             Quoted("(e|h)(Final)?"): {"solver": "smoothSolver", "smoother": "symGaussSeidel", "tolerance": 1,
                                       "relTol": 0, "maxIter": 1},
             Quoted("rho(Final)?"): {"solver": "diagonal"},
