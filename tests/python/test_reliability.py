@@ -215,21 +215,31 @@ def _start_run(case_yaml, *extra):
 
 
 def _read_until(proc, marker: str, timeout: float = 60.0) -> list[str]:
-    """Lines of `proc` up to the first holding `marker` (fails if it ends or times out first)."""
+    """Lines of `proc` up to the first holding `marker` (fails if it ends or times out first). The
+    pipe's bytes are read here, not by a buffered readline: that may take in several lines at once,
+    and select then has nothing to wake on while the marker waits in its buffer. What came after
+    the marker's line is kept for the next read (`_read_until` or `_signalled`)."""
+    import os
     import selectors
 
     lines: list[str] = []
+    got = getattr(proc, "unread", b"")
     sel = selectors.DefaultSelector()
     sel.register(proc.stdout, selectors.EVENT_READ)
     deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if sel.select(timeout=max(0.0, deadline - time.monotonic())):
-            line = proc.stdout.readline()
-            if not line:
-                break
-            lines.append(line)
-            if marker in line:
+    while True:
+        while b"\n" in got:
+            raw, got = got.split(b"\n", 1)
+            lines.append(raw.decode(errors="replace") + "\n")
+            if marker in lines[-1]:
+                proc.unread = got
                 return lines
+        left = deadline - time.monotonic()
+        chunk = os.read(proc.stdout.fileno(), 65536) if left > 0 and sel.select(timeout=left) else b""
+        if not chunk:
+            break
+        got += chunk
+    proc.unread = got
     raise AssertionError(f"no line with {marker!r}; last lines:\n{''.join(lines[-15:])}")
 
 
@@ -272,7 +282,7 @@ def _signalled(proc, send) -> tuple[str, float]:
     t_sig = time.monotonic()
     send()
     rest, _ = proc.communicate(timeout=30)
-    return rest, time.monotonic() - t_sig
+    return getattr(proc, "unread", b"").decode(errors="replace") + rest, time.monotonic() - t_sig
 
 
 def _longer(prepared, tmp_path, end_time: str = "2 s"):
