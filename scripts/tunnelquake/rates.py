@@ -125,15 +125,19 @@ SOLID_PER_PROBE_S = 2.58e-7
 #: 1.125, 0.94; over the whole record 1.15; perf: 6.5 % of the coupled solid's samples are outside
 #: the solid-only code)
 COUPLED_SOLID_FACTOR = 1.13
-#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water,
-#: OpenFOAM's CPU (ExecutionTime) over the passes, 1.267 ms a pass for the slice's 336 cells (the
-#: whole record, 27,730 passes) and 21.5 / 21.8 ms for the 3D variant's 14,784 (its first 0.2 s, 557
-#: passes, on 2 and on 1 solid thread), split between the two, against the probe's 0.41 CPU s
-#: measured beside them (0.401-0.447, 2026-11-29 05:43-06:09, load 6-12; docs/benchmarks.md "check's
-#: estimates on the 3D cases"); the former figures (0.96e-3, 2.49e-6: 20.4 ms a 3D pass at a probe of
-#: 0.54 s) gave 15.4 ms at this probe, 29 % under the 21.6 ms measured
-WATER_PER_PROBE_S = 1.93e-3
-WATER_CELL_PER_PROBE_S = 3.44e-6
+#: OpenFOAM's seconds a water pass, fixed and per cell, per probe CPU second: the example's water on
+#: one rank (the PCG pressure), OpenFOAM's CPU (ExecutionTime) over the passes against the probe
+#: measured before and after each run, on two machines (docs/benchmarks.md "check's run-time
+#: estimate", the water's constants). The Zen 5 VM (2026-12-02, 3 alternated rounds, probe 0.21-0.27
+#: CPU s): the slice's 336 cells 3.17e-3 (its first 4 s), the 3D variant's half block of 7,392 cells
+#: 24.7e-3 (0.3 s), the whole block's 14,784 39.7e-3 (0.2 s); the Intel VM (2026-12-01, 2 rounds,
+#: probe 0.38-0.50 CPU s): the slice 3.16e-3, the whole block 56.6e-3. The water's speed against
+#: the solid probe's differs between the two processors by 1.43x on the whole block: the line through
+#: the slice's point and the whole block's geometric mean, so +19 % on the Zen 5 VM and -16 % on the
+#: Intel VM there, the half block +0.2 % (Zen 5); the former figures (1.93e-3, 3.44e-6, from the
+#: solver before the PCG pressure) were +33 % and -7 % on the whole block, +11 % on the half
+WATER_PER_PROBE_S = 2.14e-3
+WATER_CELL_PER_PROBE_S = 3.06e-6
 #: The water's share of a coupled run's wall time on parallel.fluid_ranks >= 2 ranks against one
 #: rank's, where each rank has at least WATER_RANK_CELLS cells: the 3D example's whole record (14,784
 #: water cells, 37,649 passes) on 2 ranks and on 1, one after the other on the 2-core AMD EPYC VM:
