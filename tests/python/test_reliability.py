@@ -224,21 +224,21 @@ def _read_until(proc, marker: str, timeout: float = 60.0) -> list[str]:
 
     lines: list[str] = []
     got = getattr(proc, "unread", b"")
-    sel = selectors.DefaultSelector()
-    sel.register(proc.stdout, selectors.EVENT_READ)
     deadline = time.monotonic() + timeout
-    while True:
-        while b"\n" in got:
-            raw, got = got.split(b"\n", 1)
-            lines.append(raw.decode(errors="replace") + "\n")
-            if marker in lines[-1]:
-                proc.unread = got
-                return lines
-        left = deadline - time.monotonic()
-        chunk = os.read(proc.stdout.fileno(), 65536) if left > 0 and sel.select(timeout=left) else b""
-        if not chunk:
-            break
-        got += chunk
+    with selectors.DefaultSelector() as sel:
+        sel.register(proc.stdout, selectors.EVENT_READ)
+        while True:
+            while b"\n" in got:
+                raw, got = got.split(b"\n", 1)
+                lines.append(raw.decode(errors="replace") + "\n")
+                if marker in lines[-1]:
+                    proc.unread = got
+                    return lines
+            left = deadline - time.monotonic()
+            chunk = os.read(proc.stdout.fileno(), 65536) if left > 0 and sel.select(timeout=left) else b""
+            if not chunk:
+                break
+            got += chunk
     proc.unread = got
     raise AssertionError(f"no line with {marker!r}; last lines:\n{''.join(lines[-15:])}")
 
