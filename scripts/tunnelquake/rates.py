@@ -66,9 +66,15 @@ PROBE_RUNS = 3
 
 #: the thread probe: tq-solid-bench's arguments without --threads (32,768 elements, about 0.6 CPU s a
 #: run on a 2026 server core); each run times 9 pairs, 20 steps on one thread and 20 on N in one
-#: process (--against 1), and prints the median of the pairs' ratios; THREAD_PROBE_ROUNDS runs
+#: process (--against 1), and prints the median of the pairs' ratios; THREAD_PROBE_ROUNDS runs,
+#: THREAD_PROBE_GAP_S apart, their median kept. A VM's two cores are not always two: on the Zen 5
+#: VM of docs/benchmarks.md 193 runs back to back over 2 minutes gave 1.8-2.4 and, in spells of 1-3
+#: runs (about 10 % of them), 1.17-1.6; three runs in a row once all fell in such a spell (1.19,
+#: where the model's own solid took 1.95x on 2 threads within minutes). Five runs over about 6 s
+#: keep the spell out of the median (docs/benchmarks.md "The probes in a VM's passing spells").
 THREAD_PROBE_ARGS = ("--n", "32", "--steps", "20", "--repeat", "9", "--against", "1")
-THREAD_PROBE_ROUNDS = 3
+THREAD_PROBE_ROUNDS = 5
+THREAD_PROBE_GAP_S = 1.0
 
 #: The size classes: the sides of the boxes a model larger than SIZE_CLASS_MIN_ELEMENTS is probed on
 #: (the one whose cube is nearest its solid elements, in ratio; the largest for any larger model)
@@ -77,10 +83,11 @@ SIZE_CLASSES = (24, 32, 40)
 #: of the example, 1,464 elements, follows the probe: docs/benchmarks.md "check's run-time estimate")
 SIZE_CLASS_MIN_ELEMENTS = 2 * 16**3
 #: one round of the size factor: the probe's box and the class's, one thread, one process each;
-#: SIZE_ROUNDS rounds, median (2.2 CPU s the three rounds at the 40 class, and 4.3 CPU s its thread
-#: probe's three runs, on the Intel VM of docs/benchmarks.md at load 8.6)
+#: SIZE_ROUNDS rounds, median (0.38 s of wall a round at the 32 class on the Zen 5 VM). One round
+#: alone read 1.08-1.71 within a minute there (40 rounds, 2026-12-02): the median of 3 rounds in a
+#: row 1.14-1.60, of 7 1.28-1.53 (docs/benchmarks.md "The probes in a VM's passing spells")
 SIZE_PROBE_ARGS = ("--steps", "400", "--repeat", "3", "--threads", "1")
-SIZE_ROUNDS = 3
+SIZE_ROUNDS = 7
 #: element-steps of each timed run of a size-class box (its steps: this over the box's elements)
 SIZE_ELEMENT_STEPS = 32**3 * 20
 
@@ -159,10 +166,13 @@ WATER_RANK_CELLS = 3500
 #: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, 4 layers of 1/8 m under 12 of
 #: 1 m; its step half the thin layers' critical one) one-rate and at 3 levels, EVAL_PROBE_STEPS steps
 #: each, and a run of EVAL_PROBE_SHORT steps (what starting the program costs); EVAL_PROBE_ROUNDS
-#: rounds, the three runs in turn in each, the median of the rounds' shares
+#: rounds, the three runs in turn in each, the median of the rounds' shares (0.6 s of wall a round on
+#: the Zen 5 VM; the share is a difference of two CPU times, so a round alone read 0.63-1.16 within a
+#: minute there, 40 rounds, 2026-12-02: the median of 3 in a row 0.71-1.14, of 7 0.80-0.98;
+#: docs/benchmarks.md "The probes in a VM's passing spells")
 EVAL_PROBE_STEPS = 2000
 EVAL_PROBE_SHORT = 8
-EVAL_PROBE_ROUNDS = 3
+EVAL_PROBE_ROUNDS = 7
 EVAL_PROBE_LEVELS = 3
 #: element-steps of one probe (tq-solid-bench's 10 warm-up steps and 3 x 400 timed of 4,096
 #: elements: PROBE_ARGS): the probe's CPU second over these is its box's element-step
@@ -396,7 +406,7 @@ def _paired_speedup(program: Path, threads: int, env: dict, side: int = 0) -> fl
 def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS,
                     side: int = 0) -> float:
     """The solid step's speed-up on `threads` threads: the median of `rounds` runs of the thread
-    probe (on the box of size class `side`, 0 for the 32^3 one), each the median of its pairs'
+    probe THREAD_PROBE_GAP_S apart (on the box of size class `side`, 0 for the 32^3 one), each the median of its pairs'
     ratios of the busiest thread's CPU per element-step on one thread and on `threads`. The threads
     wait as tq-solid's do (cores.solid_env)."""
     from .cores import solid_env
@@ -405,7 +415,12 @@ def measure_speedup(threads: int, program: Path | None = None, rounds: int = THR
     if not program.is_file():
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
     env = solid_env()
-    ratios = sorted(_paired_speedup(program, threads, env, side) for _ in range(max(1, rounds)))
+    ratios = []
+    for k in range(max(1, rounds)):
+        if k:
+            time.sleep(THREAD_PROBE_GAP_S)
+        ratios.append(_paired_speedup(program, threads, env, side))
+    ratios.sort()
     return ratios[len(ratios) // 2]
 
 

@@ -27,6 +27,13 @@ ONE_THREAD = {16: 0.10, 24: 0.11, 32: 0.12, 40: 0.14}
 TWO_THREADS = {24: 1.8, 32: 1.7, 40: 1.5}
 
 
+@pytest.fixture(autouse=True)
+def _probe_runs_back_to_back(monkeypatch):
+    """The thread probe's runs without their pause (THREAD_PROBE_GAP_S spaces them against a VM's
+    passing spells; these stand-ins' figures do not drift)."""
+    monkeypatch.setattr(R, "THREAD_PROBE_GAP_S", 0.0)
+
+
 def _stand_in(folder):
     """A probe program printing tq-solid-bench's busiest-thread line (ONE_THREAD of its --n) and with
     --against 1 its speed-up line (TWO_THREADS of its --n); each start logged to runs.log."""
