@@ -406,9 +406,9 @@ def _paired_speedup(program: Path, threads: int, env: dict, side: int = 0) -> fl
 def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS,
                     side: int = 0) -> float:
     """The solid step's speed-up on `threads` threads: the median of `rounds` runs of the thread
-    probe THREAD_PROBE_GAP_S apart (on the box of size class `side`, 0 for the 32^3 one), each the median of its pairs'
-    ratios of the busiest thread's CPU per element-step on one thread and on `threads`. The threads
-    wait as tq-solid's do (cores.solid_env)."""
+    probe, THREAD_PROBE_GAP_S apart (on the box of size class `side`, 0 for the 32^3 one), each the
+    median of its pairs' ratios of the busiest thread's CPU per element-step on one thread and on
+    `threads`. The threads wait as tq-solid's do (cores.solid_env)."""
     from .cores import solid_env
 
     program = program or probe_program()

@@ -149,3 +149,12 @@ def pytest_collection_modifyitems(config, items):
         name = item.path.name
         if name in SERIAL_FILES or item.originalname in SERIAL_TESTS.get(name, ()):
             item.add_marker(pytest.mark.serial)
+
+
+@pytest.fixture
+def probe_runs_back_to_back(monkeypatch):
+    """check's thread probe without the pause between its runs (rates.THREAD_PROBE_GAP_S spaces them
+    against a VM's passing spells), for tests whose probe figures do not drift."""
+    from tunnelquake import rates
+
+    monkeypatch.setattr(rates, "THREAD_PROBE_GAP_S", 0.0)

@@ -27,11 +27,8 @@ ONE_THREAD = {16: 0.10, 24: 0.11, 32: 0.12, 40: 0.14}
 TWO_THREADS = {24: 1.8, 32: 1.7, 40: 1.5}
 
 
-@pytest.fixture(autouse=True)
-def _probe_runs_back_to_back(monkeypatch):
-    """The thread probe's runs without their pause (THREAD_PROBE_GAP_S spaces them against a VM's
-    passing spells; these stand-ins' figures do not drift)."""
-    monkeypatch.setattr(R, "THREAD_PROBE_GAP_S", 0.0)
+# the thread probe's runs back to back: these stand-ins' figures do not drift
+pytestmark = pytest.mark.usefixtures("probe_runs_back_to_back")
 
 
 def _stand_in(folder):

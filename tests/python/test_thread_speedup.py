@@ -20,12 +20,8 @@ from conftest import EXAMPLE
 from tunnelquake import cores
 from tunnelquake import rates as R
 
-
-@pytest.fixture(autouse=True)
-def _probe_runs_back_to_back(monkeypatch):
-    """The thread probe's runs without their pause (THREAD_PROBE_GAP_S spaces them against a VM's
-    passing spells; these stand-ins' figures do not drift)."""
-    monkeypatch.setattr(R, "THREAD_PROBE_GAP_S", 0.0)
+# the thread probe's runs back to back: these stand-ins' figures do not drift
+pytestmark = pytest.mark.usefixtures("probe_runs_back_to_back")
 
 
 def _stand_in(folder, per_threads: dict[int, float], busiest: bool = True):
@@ -144,9 +140,9 @@ def test_the_real_probe_splits_the_work_over_its_threads(monkeypatch):
     and 1.22x faster an element-step (medians of 9, the Zen 5 VM), so the caches allow a speed-up of
     up to 2.8 (CI's AMD EPYC measured 2.275), where a probe dividing by the threads twice would give
     about 4; the same thread count against itself is 1 within 15 % (each the
-    median of the probe's THREAD_PROBE_ROUNDS runs of 9 paired timings, here back to back: paired in one process, 1
-    against 1 came within 3.5 % in 6 runs at load 1–3, where runs in turn in two processes gave up
-    to 1.49)."""
+    median of the probe's THREAD_PROBE_ROUNDS runs of 9 paired timings, here back to back: paired
+    in one process, 1 against 1 came within 3.5 % in 6 runs at load 1–3, where runs in turn in two
+    processes gave up to 1.49)."""
     monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
     monkeypatch.delenv("GOMP_SPINCOUNT", raising=False)
     prog = R.probe_program()
