@@ -10,9 +10,8 @@ import os
 SMALL_MESH_ELEMENTS = 20000
 
 #: spins of an idle OpenMP thread before it sleeps (GNU libgomp's GOMP_SPINCOUNT; its default is
-#: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE); a coupled tq-solid puts its team to sleep at once for
-#: each exchange with the water (coupled_stepper.cpp), so the spin bridges only a step's loops
-SOLID_SPINCOUNT = "100000"
+#: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE)
+SOLID_SPINCOUNT = "10000"
 
 
 def available() -> int:
@@ -56,10 +55,8 @@ def solid_env() -> dict:
     ~2,800 on the slice. Sleeping at once (OMP_WAIT_POLICY=PASSIVE, used until 2026-11-22) costs a
     wake-up at each of the step's parallel loops: on the 3D paper mesh with 2 threads, 17.8-21.7 s
     for 3,968 subcycled steps against 12.3-16.0 s with 2,000-200,000 spins (docs/benchmarks.md
-    "Solid subcycling and element order"). A coupled tq-solid's team sleeps at once through each
-    exchange with the water, so the spin need not end before the water's pass does: the 3D example's
-    first second coupled took 0.90x the wall at 100,000 spins with that sleep against 10,000 without
-    (docs/benchmarks.md "OpenMP waiting")."""
+    "Solid subcycling and element order"); a few thousand spins bridge the gaps between the loops
+    of one step and are spent long before the water's pass ends."""
     env = dict(os.environ)
     if "OMP_WAIT_POLICY" not in env and "GOMP_SPINCOUNT" not in env:
         env["GOMP_SPINCOUNT"] = SOLID_SPINCOUNT

@@ -1,50 +1,7 @@
 // tq-solid's time-loop step with the water coupling (tq/coupling/coupled_stepper.hpp).
 #include "tq/coupling/coupled_stepper.hpp"
 
-#include <omp.h>
-
-#include <condition_variable>
-#include <exception>
-#include <mutex>
-
 namespace tq {
-
-namespace {
-
-/// `f()` on this thread while the other OpenMP threads of the team sleep on a condition variable
-/// instead of spinning in the runtime's wait (GOMP_SPINCOUNT, cores.py): the exchange, and the
-/// water's pass it waits for, have the cores, while the spin still bridges the gaps between the
-/// parallel loops of a step (docs/benchmarks.md "OpenMP waiting").
-bool withTeamAsleep(const std::function<bool()>& f) {
-  const int n = omp_get_max_threads();
-  if (n <= 1 || omp_in_parallel()) return f();
-  std::mutex m;
-  std::condition_variable cv;
-  bool done = false, result = false;
-  std::exception_ptr err;
-#pragma omp parallel num_threads(n)
-  {
-    if (omp_get_thread_num() == 0) {
-      try {
-        result = f();
-      } catch (...) {
-        err = std::current_exception();
-      }
-      {
-        std::lock_guard<std::mutex> l(m);
-        done = true;
-      }
-      cv.notify_all();
-    } else {
-      std::unique_lock<std::mutex> l(m);
-      cv.wait(l, [&] { return done; });
-    }
-  }
-  if (err) std::rethrow_exception(err);
-  return result;
-}
-
-}  // namespace
 
 void CoupledStepper::advance(const std::function<void()>& onFinal) {
   if (coupling_) return window(onFinal);
@@ -69,9 +26,9 @@ void CoupledStepper::window(const std::function<void()>& onFinal) {
   c.planWindow(solver_.state());
   for (;;) {
     if (!solver_.stepOpen()) solveWindow(!whole, onFinal);  // steps 1 … k−1, the last one's other forces
-    if (withTeamAsleep([&] { return c.exchange(solver_.dt(), solver_.state()); })) break;  // accepted
-    if (whole) {                // restore: the window again, with the answer
-      solver_.beginPass(true);  // what the re-pass steps again (Solver::planRepasses)
+    if (c.exchange(solver_.dt(), solver_.state())) break;   // accepted
+    if (whole) {                                            // restore: the window again, with the answer
+      solver_.beginPass(true);                              // what the re-pass steps again (Solver::planRepasses)
       start_.beginRestore();
       solver_.checkpoint(start_);
       start_.end();
