@@ -363,8 +363,8 @@ def _busiest_us(program: Path, args: tuple[str, ...], env: dict) -> float:
     return float(found.group(1))
 
 
-def measure_size_factor(side: int, program: Path | None = None, rounds: int = SIZE_ROUNDS) -> float:
-    """The size factor of the class `side`: the median over `rounds` rounds of the busiest thread's
+def measure_size_factor(side: int, program: Path | None = None, rounds: int | None = None) -> float:
+    """The size factor of the class `side`: the median over `rounds` rounds (SIZE_ROUNDS when None) of the busiest thread's
     CPU per element-step on the class's box (size_probe_args) against the probe's 16^3 box, one
     thread, the two run one after the other in each round (a shared machine's speed drifts over
     seconds: the ratio of neighbours, not of figures taken minutes apart)."""
@@ -376,7 +376,7 @@ def measure_size_factor(side: int, program: Path | None = None, rounds: int = SI
     env = solid_env()
     small = ("--n", "16", *SIZE_PROBE_ARGS)
     ratios = sorted(_busiest_us(program, size_probe_args(side), env) / _busiest_us(program, small, env)
-                    for _ in range(max(1, rounds)))
+                    for _ in range(max(1, SIZE_ROUNDS if rounds is None else rounds)))
     return ratios[len(ratios) // 2]
 
 
@@ -403,9 +403,9 @@ def _paired_speedup(program: Path, threads: int, env: dict, side: int = 0) -> fl
     return float(found.group(1))
 
 
-def measure_speedup(threads: int, program: Path | None = None, rounds: int = THREAD_PROBE_ROUNDS,
+def measure_speedup(threads: int, program: Path | None = None, rounds: int | None = None,
                     side: int = 0) -> float:
-    """The solid step's speed-up on `threads` threads: the median of `rounds` runs of the thread
+    """The solid step's speed-up on `threads` threads: the median of `rounds` runs (THREAD_PROBE_ROUNDS when None) of the thread
     probe, THREAD_PROBE_GAP_S apart (on the box of size class `side`, 0 for the 32^3 one), each the
     median of its pairs' ratios of the busiest thread's CPU per element-step on one thread and on
     `threads`. The threads wait as tq-solid's do (cores.solid_env)."""
@@ -416,7 +416,7 @@ def measure_speedup(threads: int, program: Path | None = None, rounds: int = THR
         raise ProbeFailed(f"{program} is not built (scripts/bootstrap.sh builds it)")
     env = solid_env()
     ratios = []
-    for k in range(max(1, rounds)):
+    for k in range(max(1, THREAD_PROBE_ROUNDS if rounds is None else rounds)):
         if k:
             time.sleep(THREAD_PROBE_GAP_S)
         ratios.append(_paired_speedup(program, threads, env, side))
@@ -424,7 +424,7 @@ def measure_speedup(threads: int, program: Path | None = None, rounds: int = THR
     return ratios[len(ratios) // 2]
 
 
-def measure_eval_share(program: Path | None = None, rounds: int = EVAL_PROBE_ROUNDS,
+def measure_eval_share(program: Path | None = None, rounds: int | None = None,
                        folder: Path | None = None) -> float:
     """The element evaluations' share of the probe box's one-rate step: in each round tq-solid on the
     box (subcycle_levels.write_probe_box) for EVAL_PROBE_SHORT steps (C0: its start), one-rate (C1)
@@ -432,7 +432,7 @@ def measure_eval_share(program: Path | None = None, rounds: int = EVAL_PROBE_ROU
     each process; the subcycled run evaluates the fraction f of the elements a fine step (its
     results' /subcycling cost_fraction) and moves every node as the one-rate run does, so what it
     saves, C1 - Cs, is (1 - f) of the evaluations: the share (C1 - Cs) / ((1 - f)(C1 - C0)). The
-    median of `rounds` rounds."""
+    median of `rounds` rounds (EVAL_PROBE_ROUNDS when None)."""
     import tempfile
 
     import h5py
@@ -456,7 +456,7 @@ def measure_eval_share(program: Path | None = None, rounds: int = EVAL_PROBE_ROU
                                  "--threads", "1"], env)
 
         shares = []
-        for _ in range(max(1, rounds)):
+        for _ in range(max(1, EVAL_PROBE_ROUNDS if rounds is None else rounds)):
             c0, c1, cs = cpu("start"), cpu("one"), cpu("sub")
             with h5py.File(box / "sub_results.h5", "r") as f:
                 fraction = float(f["subcycling"].attrs["cost_fraction"]) if "subcycling" in f else 1.0
