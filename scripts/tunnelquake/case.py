@@ -693,6 +693,11 @@ def _check_coupling(c, path, raw, ctx):
                   f"with scheme {c['scheme']} and window {c['window']} there is none to carry",
                   "use scheme: implicit with window > 1, or defect_correction: 0",
                   raw.key_lines.get("defect_correction"))
+    if c["scheme"] == "implicit" and c["max_iterations"] < 2:
+        ctx.error(f"{path}.max_iterations", c["max_iterations"], "the implicit scheme needs a pass to compare the "
+                  "water's answer with and at least one more to correct the force; tq-solid refuses fewer than 2",
+                  "set max_iterations: 2 or more (default 20), or scheme: explicit for one exchange a window",
+                  raw.key_lines.get("max_iterations"))
     if (why := coupling_window_problem(c["scheme"], c["window"])) is not None:
         ctx.error(f"{path}.window", c["window"], why, "use scheme: implicit with this window, or window: 1",
                   raw.key_lines.get("window"))
@@ -911,7 +916,11 @@ def schema() -> Section:
                                  f"{IMPLICIT_WINDOW} for the implicit scheme (the example's measured setting), 1 "
                                  "otherwise"),
             "tolerance": Number(min=0.0, min_open=True, default=1e-4, doc="implicit scheme: relative residual"),
-            "max_iterations": Number(integer=True, min=1, default=20),
+            "max_iterations": Number(integer=True, min=1, default=20,
+                                     doc="implicit scheme: at most this many water passes a window, at least 2 "
+                                         "(the first pass and one correction); a window still above the "
+                                         "tolerance after them is accepted and counted in the results' "
+                                         "/coupling unconverged_windows (docs/coupler.md)"),
             "energy_limit": Number(min=0.0, default=0.05,
                                    doc="stop the run when the energy the coupling created exceeds this fraction "
                                        "of the largest interface work so far (docs/coupler.md \"Energy guard\"); "

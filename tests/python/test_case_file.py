@@ -295,6 +295,23 @@ def test_check_refuses_the_largest_residual_scale_without_the_implicit_scheme(ex
     assert "use residual_scale: current, or scheme: implicit" in err, err
 
 
+def test_check_refuses_one_pass_a_window_for_the_implicit_scheme(example_text, write_case, capsys):
+    """coupling.max_iterations 1 with the implicit scheme is refused by tq-solid's coupling configuration
+    (it needs a pass to compare and one to correct), which reads it only after the static stages:
+    `tunnelquake check` refuses it first, naming the key, its value, its line and the fix; 2 passes."""
+    from tunnelquake.cli import main
+
+    text = _mutate(example_text, "  scheme: implicit\n", "  scheme: implicit\n  max_iterations: 1\n")
+    path = write_case(text)
+    assert main(["check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "coupling.max_iterations = 1" in err, err
+    assert "tq-solid refuses fewer than 2" in err and "set max_iterations: 2 or more" in err, err
+    assert re.search(rf"{re.escape(str(path))}:\d+: ", err), err
+    two = load_case(write_case(_mutate(example_text, "  scheme: implicit\n", "  scheme: implicit\n  max_iterations: 2\n")))
+    assert two["coupling"]["max_iterations"] == 2
+
+
 @pytest.mark.parametrize("predictor", ["linear", "damped"])
 def test_check_refuses_an_extrapolating_predictor_without_the_implicit_scheme(example_text, write_case, capsys,
                                                                               predictor):
