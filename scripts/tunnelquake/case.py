@@ -553,6 +553,37 @@ def _component_section(what: str) -> Section:
     })
 
 
+def _open_ends_axial_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """Open water ends with the volume law in the solid: tq-solid's open-ends law joins the planes of
+    wet nodes along the axis by the water's axial flow, and needs at least three of them (two axial
+    elements along the lining; a half block's, between its plugs, up to a portal). It refuses fewer
+    when it connects to the water, after the static stages; the case check does first."""
+    if "dynamic_water" not in d["conditions"] or closed_section(d) or d["coupling"]["volume_law"] == "water":
+        return []
+    from .meshing.params import MeshInputError, lining_extent, resolve
+
+    try:
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    except (MeshInputError, MemoryError, OverflowError):
+        return []  # said by _mesh_checks
+    y0, y1 = lining_extent(plan)
+    tol = 1e-6 * max(1.0, y1 - y0)
+    planes = sum(1 for y in plan.y_levels if y0 - tol <= y <= y1 + tol)
+    if planes >= 3:
+        return []
+    m = d["mesh"]
+    lines = _section_lines(raw, "mesh")
+    half = " in the half block (mesh.symmetry: mid_length)" if half_block(d) else ""
+    return [Issue("mesh.elements_along_axis", m["elements_along_axis"],
+                  f"leaves the lining {planes - 1} axial element{'s' if planes != 2 else ''}{half} (y = {y0:g} to "
+                  f"{y1:g} m), whose wetted face has {planes} plane{'s' if planes != 1 else ''} of nodes along the "
+                  "axis: with water.ends open the water's axial flow joins those planes, and tq-solid needs at "
+                  "least 3 (it refuses fewer when it connects to the water, after the static stages)",
+                  "give more elements_along_axis (two or more along the lining, the plugs and a half block's "
+                  "halving counted), or water.ends: closed, or coupling.volume_law: water",
+                  lines.get("elements_along_axis") or lines.get("symmetry") or raw.key_lines.get("mesh"))]
+
+
 def _check_design(des, path, raw, ctx):
     given = getattr(raw, "key_lines", {})
     if not given:
@@ -892,8 +923,11 @@ def schema() -> Section:
         }),
         "stages": Section(checks=[_check_stages], fields={
             "sequence": ListOf(item=Choice(choices=STAGES), min_length=1, unique=True, default=list(STAGES)),
-            "relaxation_tolerance": Number(min=0.0, min_open=True, max=1.0, default=1e-4,
-                                           doc="dynamic relaxation stops when |unbalanced| / |applied| is below"),
+            "relaxation_tolerance": Number(min=0.0, min_open=True, max=1.0, max_open=True, default=1e-4,
+                                           doc="dynamic relaxation stops when |unbalanced| / |applied| is below "
+                                               "this, 0 < tolerance < 1",
+                                           why="1 would end each static stage at its start, unrelaxed; "
+                                               "tq-solid's input takes 0 < relaxation_tolerance < 1"),
             "relaxation_max_steps": Number(integer=True, min=1, default=50000),
             "release_fraction": Number(min=0.0, max=1.0, default=1.0,
                                        doc="fraction, in [0, 1], of the excavation load (the released core tractions) "
@@ -1152,6 +1186,57 @@ def _subcycling_checks(d: dict, raw: LineDict) -> list[Issue]:
     return out
 
 
+def _bar_axis_checks(d: dict, raw: LineDict, where: int | None) -> list[Issue]:
+    """A reinforced_concrete lining's bars lie axis_distance inside each face: tq-solid's material
+    refuses an axis at or beyond the lining's mid-thickness (the inner and outer bars would meet or
+    cross), when it builds the lining's block at the start of the run."""
+    t = float(d["geometry"]["lining_thickness"])
+    a = float(((d.get("design") or {}).get("reinforcement") or {}).get("axis_distance") or 0.05)
+    if 2 * a < t:
+        return []
+    line = (_section_lines(raw, "design", "reinforcement").get("axis_distance")
+            or _section_lines(raw, "geometry").get("lining_thickness") or where)
+    return [Issue("design.reinforcement.axis_distance", a,
+                  f"puts the bars' axis {a:g} m inside each face of the {t:g} m lining, at or beyond its "
+                  "mid-thickness (the inner and outer bars would meet or cross): the reinforced_concrete lining "
+                  "needs 0 < axis_distance < lining_thickness / 2, which tq-solid refuses otherwise",
+                  f"give design.reinforcement.axis_distance below {t / 2:g} m (e.g. {min(0.05, t / 4):g} m: face "
+                  "to the bars' centroid), or a thicker lining (geometry.lining_thickness)", line)]
+
+
+def _time_step_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """time.dt above the solid's stable step: tq-solid refuses a step above safety_factor x its critical
+    step when it builds its solver. The critical step here is check's estimate (scene.critical_step: the
+    lining's first element layer, a fault zone's shortest axial element, Rayleigh's beta K and a
+    Kelvin-Voigt material's retardation time), which is never below tq-solid's own (an element's length
+    volume / largest face is at most its thickness), so no step tq-solid takes is refused here; a step
+    just under the estimate may still be above tq-solid's exact bound, which its own message then names."""
+    dt = d["time"].get("dt")
+    if dt is None:
+        return []
+    from .meshing.params import MeshInputError, resolve
+
+    try:
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    except (MeshInputError, MemoryError, OverflowError):
+        return []  # said by _mesh_checks
+    from .scene import critical_step
+
+    safety = float(d["time"]["safety_factor"])
+    critical = critical_step(d, plan)
+    limit = safety * critical
+    if dt <= limit:
+        return []
+    h1 = lining_layer_step(d)[0]
+    return [Issue("time.dt", dt,
+                  f"is above the solid's stable step, about {limit:.3g} s (safety_factor {safety:g} x the critical "
+                  f"step {critical:.3g} s estimated from the lining's first element layer, {h1:.3g} m thick, the "
+                  "smallest axial elements and the damping): tq-solid refuses a step above safety_factor x its "
+                  "critical step",
+                  f"leave time.dt out (the stable step x safety_factor), or give at most {limit:.3g} s",
+                  _section_lines(raw, "time").get("dt"))]
+
+
 #: Element rows through a reinforced_concrete lining from which its stresses reach the section's
 #: bending resistance within 5 % (a plane-section strip of one-point rows: 4 rows 0.87, 10 rows 0.989).
 RC_BENDING_ROWS = 10
@@ -1202,6 +1287,8 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
             issues.append(Issue("design.reinforcement.As_inner", None, "is required by materials.lining.model "
                                 "reinforced_concrete (hoop bars at the inner and outer faces)",
                                 "add design: {reinforcement: {As_inner: 1005 mm^2/m, As_outer: 1005 mm^2/m}}", where))
+        else:
+            issues += _bar_axis_checks(d, raw, where)
     rc = (d["materials"].get("lining") or {}).get("model") == "reinforced_concrete"
     through = d["mesh"].get("lining_elements_through", 3)
     if rc and through < RC_BENDING_ROWS:
@@ -1213,6 +1300,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
                         f"1.07 with 10: docs/solid_solver.md \"A ring failing in bending\"); where the lining may fail in bending use "
                         f"mesh.lining_elements_through: {RC_BENDING_ROWS} or more")
     issues += _subcycling_checks(d, raw)
+    issues += _time_step_checks(d, raw)
     ranks = d["parallel"]["fluid_ranks"]
     if ranks > 1:
         import os
@@ -1230,6 +1318,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _fault_offset_checks(d, raw)
     issues += _lining_joint_checks(d, raw)
     issues += _water_end_checks(d, raw)
+    issues += _open_ends_axial_checks(d, raw)
     if (d.get("fault_offset") or {}).get("rise_time") is not None:
         warnings.append("fault_offset.rise_time: the slip during the run holds the block's faces but the top in x, y "
                         "and z, so the ground motion does not enter: the run is the slip alone (without rise_time "

@@ -326,3 +326,84 @@ def test_check_refuses_an_extrapolating_predictor_without_the_implicit_scheme(ex
     assert f"coupling.predictor = '{predictor}'" in err, err
     assert f"the {predictor} predictor starts the iterations of the implicit scheme" in err, err
     assert "use predictor: auto (or constant), or scheme: implicit" in err, err
+
+
+def _check_error(text: str, write_case, capsys) -> tuple[str, str]:
+    """`tunnelquake check` of `text`: (the path written, its error output), asserting it failed."""
+    from tunnelquake.cli import main
+
+    path = write_case(text)
+    assert main(["check", str(path)]) == 1
+    return str(path), capsys.readouterr().err
+
+
+def test_check_refuses_a_bar_axis_beyond_the_linings_mid_thickness(example_text, write_case, capsys):
+    """A reinforced_concrete lining's design.reinforcement.axis_distance at or beyond half the lining's
+    thickness is refused by tq-solid's material when the run builds the lining: `tunnelquake check`
+    refuses it first, naming the key, its value, its line and the fix; a value below half passes."""
+    def case(a):
+        return _mutate(example_text, "  lining:\n    model: mohr_coulomb_damage\n",
+                       "  lining:\n    model: reinforced_concrete\n",
+                       "\nreference:\n", "\ndesign:\n  concrete: {fck: 30 MPa}\n  reinforcement:\n"
+                       "    As_inner: 1005 mm2/m\n    As_outer: 1005 mm2/m\n"
+                       f"    axis_distance: {a}\n\nreference:\n")
+
+    path, err = _check_error(case("0.375 m"), write_case, capsys)
+    assert "design.reinforcement.axis_distance = 0.375" in err, err
+    assert "needs 0 < axis_distance < lining_thickness / 2" in err, err
+    assert "give design.reinforcement.axis_distance below 0.375 m" in err, err
+    line = case("0.375 m").splitlines().index("    axis_distance: 0.375 m") + 1
+    assert f"{path}:{line}: " in err, err
+    assert load_case(write_case(case("0.3 m")))["design"]["reinforcement"]["axis_distance"] == pytest.approx(0.3)
+
+
+def test_check_refuses_a_time_step_above_the_stable_step(example_text, write_case, capsys):
+    """time.dt above safety_factor x the solid's critical step is refused by tq-solid when it builds its
+    solver: `tunnelquake check` refuses a step above its estimate of that bound (the lining's first
+    element layer: 0.25 m at 3470 m/s in the example), naming the key, its value, its line and the fix;
+    a step below the bound passes."""
+    def case(dt):
+        return _mutate(example_text, "\ntime:\n", f"\ntime:\n  dt: {dt}\n")
+
+    path, err = _check_error(case("1e-3 s"), write_case, capsys)
+    assert "time.dt = 0.001" in err and "is above the solid's stable step, about 6.48e-05 s" in err, err
+    assert "leave time.dt out (the stable step x safety_factor), or give at most 6.48e-05 s" in err, err
+    line = case("1e-3 s").splitlines().index("  dt: 1e-3 s") + 1
+    assert f"{path}:{line}: " in err, err
+    assert load_case(write_case(case("5e-5 s")))["time"]["dt"] == pytest.approx(5e-5)
+
+
+def test_check_refuses_a_relaxation_tolerance_of_one(example_text, write_case, capsys):
+    """stages.relaxation_tolerance 1 is outside the (0, 1) solid_input.h5 takes (the run stopped writing
+    it): `tunnelquake check` refuses it, naming the key, its value, its line and the fix; 0.5 passes."""
+    def case(tol):
+        return _mutate(example_text, "\nstages:\n", f"\nstages:\n  relaxation_tolerance: {tol}\n")
+
+    path, err = _check_error(case("1.0"), write_case, capsys)
+    assert "stages.relaxation_tolerance = 1.0: must lie in (0, 1)" in err, err
+    assert "Fix: give a value in (0, 1)" in err, err
+    line = case("1.0").splitlines().index("  relaxation_tolerance: 1.0") + 1
+    assert f"{path}:{line}: " in err, err
+    assert load_case(write_case(case("0.5")))["stages"]["relaxation_tolerance"] == pytest.approx(0.5)
+
+
+def test_check_refuses_open_water_ends_on_fewer_than_three_planes(example_text, write_case, capsys):
+    """With water.ends open and the volume law in the solid, tq-solid's open-ends law needs three planes
+    of wet nodes along the axis (two axial elements along the lining) and refused fewer only when it
+    connected to the water, after the static stages: `tunnelquake check` refuses the half block of
+    elements_along_axis 2 (one element along its lining), naming the key, its value, its line and the
+    fix; 4 (two) passes."""
+    def case(n):
+        text = _mutate(example_text, "  y_range: [0.0, 80.0] ", "  y_range: [0.0, 10.0] ",
+                       "  mode: slice ", f"  mode: 3d\n  symmetry: mid_length\n  elements_along_axis: {n}\n  # ",
+                       "conditions: [no_water, static_water, dynamic_water]", "conditions: [dynamic_water]",
+                       "  subcycling: {static_water: 3, dynamic_water: 3}", "  subcycling: 0")
+        return re.sub(r"(\[-?[\d.]+, )40\.0(, [\d.]+\])", r"\g<1>2.0\g<2>", text)
+
+    path, err = _check_error(case(2), write_case, capsys)
+    assert "mesh.elements_along_axis = 2: leaves the lining 1 axial element in the half block" in err, err
+    assert "has 2 planes of nodes along the axis" in err and "tq-solid needs at least 3" in err, err
+    assert "give more elements_along_axis" in err and "or water.ends: closed" in err, err
+    line = case(2).splitlines().index("  elements_along_axis: 2") + 1
+    assert f"{path}:{line}: " in err, err
+    assert load_case(write_case(case(4)))["mesh"]["elements_along_axis"] == 4
