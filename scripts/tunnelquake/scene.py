@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .case import closed_section, coupling_window_force_weight, lining_layer_step, rayleigh_step_cut, subcycling_levels
+from .case import closed_section, coupling_window_force_weight, critical_step, lining_layer_step, subcycling_levels
 
 PARTICIPANTS = {
     "no_water": ("solid",),  # rock + lining only: no fluid process, no coupling
@@ -376,76 +376,6 @@ class RuntimeEstimate:
 
 def _minutes(s: float) -> str:
     return f"{s:.0f} s" if s < 120 else f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.1f} h"
-
-
-def axial_step(d: dict, plan) -> float:
-    """The critical step of the shortest axial element, h / c_p with the fastest material (inf when
-    the axial grid is uniform: the lining's layer sets the step). A fault zone's refined stretch
-    can make it shorter than the lining's (meshing.params.axial_levels)."""
-    import math
-
-    import numpy as np
-
-    h = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else math.inf
-    if plan.geology is None or not math.isfinite(h):
-        return math.inf
-
-    def cp(m):
-        E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
-        return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
-
-    return h / max(cp(m) for m in d["materials"].values())
-
-
-def _p_wave_speed(m: dict) -> float:
-    import math
-
-    E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
-    return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
-
-
-def ground_element_size(plan) -> float:
-    """The smallest side of the ground's elements beside the excavation, m: the rock ring's hoop size
-    at the excavated radius, its first radial size along an axis (meshing.params' near-field
-    grading) or the axial size (a slice's thickness, the shortest axial element in 3D)."""
-    import math
-
-    import numpy as np
-
-    from .meshing.params import graded_sizes
-
-    radial = min(graded_sizes(plan.box_half_width - plan.radius_outer, plan.near_field))
-    hoop = 2 * math.pi * plan.radius_outer / (4 * plan.quarter.count)
-    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
-    return min(radial, hoop, axial)
-
-
-def critical_step(d: dict, plan) -> float:
-    """The solid's critical step, s, bounded as tq-solid's Solver::stableStep bounds it: the elastic
-    bound 2/w_max (w_max from the lining's first element layer, or a fault zone's shortest axial
-    element, axial_step) cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's
-    own bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3),
-    at its w_b = 2 c_p / h: h the lining's layer for the lining, the ground's smallest element side
-    (ground_element_size) for a ground region."""
-    import math
-
-    from .references import rayleigh_coefficients
-
-    h1, dt_lining = lining_layer_step(d)
-    dt_elastic = min(dt_lining, axial_step(d, plan))
-    dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
-    dmp = d["damping"]
-    beta = (rayleigh_coefficients(dmp["ratio"], *dmp["frequencies"])[1]
-            if dmp["model"] == "rayleigh" and dmp["ratio"] > 0 else 0.0)
-    h_ground = ground_element_size(plan)
-    for region, m in d["materials"].items():
-        tau = m.get("retardation_time") or 0.0
-        if m["model"] != "kelvin_voigt" or not tau > 0:
-            continue
-        w = 2 * _p_wave_speed(m) / (h1 if region == "lining" else h_ground)
-        xi = 0.5 * (beta + tau) * w
-        dt = min(dt, 2 / w * (math.sqrt(1 + xi * xi) - xi))
-    return dt
 
 
 def water_ranks_factor(ranks: int, cells: int) -> float:

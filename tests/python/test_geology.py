@@ -335,7 +335,7 @@ def test_side_strips_reproduce_the_single_column_and_carry_the_band(tmp_path):
 @pytest.mark.skipif(_solid_with_stages() is None, reason="tq-solid with staged-seismic is not built")
 def test_check_times_the_step_of_a_thin_bands_elements(tmp_path):
     """A 0.2 m vertical band across the axis, 4 elements across: its 0.05 m axial elements, not the
-    lining's 0.17 m layer, set the stable step. check's run-time estimate takes it (scene.axial_step)
+    lining's 0.17 m layer, set the stable step. check's run-time estimate takes it (case.axial_step)
     and agrees with tq-solid's own step (--check) within 5 %; the lining's alone is 3.3x longer."""
     from tunnelquake.case import lining_layer_step
     from tunnelquake.scene import runtime_estimate

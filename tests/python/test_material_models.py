@@ -13,7 +13,7 @@ from which the case schema takes its choices, and the Kelvin–Voigt rock's key 
    With subcycling (elements at their own elastic step) tq-solid refuses it at --check, naming τ.
 4. `tunnelquake check` refuses subcycling with a viscous stress first (a Kelvin–Voigt material, or
    Rayleigh's stiffness term), naming time.subcycling and the material.
-5. check's step estimate (scene.critical_step) takes the viscous bound as tq-solid does, at the
+5. check's step estimate (case.critical_step) takes the viscous bound as tq-solid does, at the
    block's own largest frequency 2 c_p / h (h its smallest element side), against the step tq-solid
    takes (solid_step: --check --json), the same mesh: Kelvin–Voigt rock τ = 1 ms and 10 ms (measured
    6.9514e-6 and 6.9753e-7 s estimated against 6.9514e-6 and 6.9753e-7 s critical; tolerance 1 %)
