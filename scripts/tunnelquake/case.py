@@ -1364,6 +1364,7 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
     issues += _mesh_checks(d, raw, warnings)
     issues += _record_checks(d["ground_motion"], raw, filename, warnings)
     issues += _axial_motion_checks(d, raw)
+    issues += _shared_column_checks(d, raw)
     issues += _symmetry_checks(d, raw)
     issues += _incident_wave_checks(d, raw, filename)
     if not issues:
@@ -1485,6 +1486,101 @@ def _axial_motion_checks(d: dict, raw: LineDict) -> list[Issue]:
                   "the ground shears along the axis), or a motion across the tunnel and vertical only (azimuth 0 "
                   "or 180, no second_horizontal)",
                   lines.get(key))]
+
+
+def _shared_column_checks(d: dict, raw: LineDict) -> list[Issue]:
+    """A motion along the tunnel's axis in a 3D model with plugged ends drives its y faces by the
+    free-field column of the first side face, shared (solid_input: /boundaries/free_field
+    shared_column_faces; with regions bounded by planes the x faces are cut into strips and the first
+    in name order is xmax's at ymin, xmax_strip0000): each y-face node takes the column at its height, each quad the column's layer at its
+    centroid. tq-solid refuses, when the shaking starts (after the static stages), a y-face node above
+    the column's top (a slope whose ground rises from the xmax side) and a y-face element of another
+    material than the column's layer at its height (a fault zone or a dipping layer that cuts the y
+    faces otherwise than that strip). The same from the mesh plan, nothing meshed: the surface's
+    heights, and the ground's elements of the first and last axial layers as the mesher assigns them
+    (meshing.params.ground_regions: the rock ring's and the outer grid's; the plugs' elements inside
+    the excavation are not listed). Without regions bounded by planes the ground is horizontal
+    layers, which the column follows."""
+    import numpy as np
+
+    from .motion import along_axis
+
+    if d["mesh"]["mode"] == "slice" or not along_axis(d["ground_motion"]) or d["incident_wave"]["type"] != "none":
+        return []
+    geo = case_geology(d)
+    if geo is None or not int(d["mesh"].get("tunnel_end_plugs") or 0) or half_block(d):
+        return []  # (no plugs, a half block: _axial_motion_checks and _symmetry_checks refuse the motion)
+    from .meshing.params import MeshInputError, grid_lines, ground_regions, resolve, surface_nodes
+
+    try:
+        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), geo)
+    except (MeshInputError, MemoryError, OverflowError):
+        return []  # said by _mesh_checks
+    key, value = _axial_motion_key(d["ground_motion"])
+    y = np.asarray(plan.y_levels, float)
+    strip = f"the first strip of the xmax side (y = {y[0]:g} to {y[1]:g} m)"
+    across = ("or use a motion across the tunnel and vertical only (azimuth 0 or 180, no second_horizontal), which "
+              "leaves the y faces on rollers")
+    why = (f"under the motion along the tunnel's axis (ground_motion.{key} {value}) the y faces of the 3D model "
+           f"share the free-field column of {strip}, and tq-solid refuses a y face the column does not follow when "
+           "the shaking starts (after the static stages)")
+    glines = _section_lines(raw, "geology")
+    # The surface: no y-face node above the column's top (the mean height of the strip's two top nodes).
+    column_levels = []
+    zs = grid_lines(plan)[2]
+    for yk in y[:2]:
+        pts = np.stack([np.full(zs.size, plan.xmax), np.full(zs.size, yk), zs], axis=1)
+        column_levels.append(surface_nodes(plan, pts)[:, 2])
+    levels = 0.5 * (column_levels[0] + column_levels[1])
+    tol = 1e-9 * max(1.0, levels[-1] - levels[0])
+    if geo.slope is not None:
+        for face, yf in (("ymin", y[0]), ("ymax", y[-1])):
+            for x in (plan.xmin, plan.xmax):
+                z = float(surface_nodes(plan, np.array([[x, yf, plan.zmax]]))[0, 2])
+                if z > levels[-1] + tol:
+                    sl = d["geology"]["slope"]
+                    return [Issue("geology.slope.angle", sl["angle"],
+                                  f"with dip_direction {sl['dip_direction']:g} and crest {list(sl['crest'])} leaves "
+                                  f"the ground at the {face} face's corner x = {x:g} m at z = {z:.4g} m, above the "
+                                  f"top of the column, z = {levels[-1]:.4g} m: {why}",
+                                  "turn or move the slope so that the ground is nowhere higher at the y faces than at "
+                                  f"the xmax side's end (e.g. descending away from xmax: dip_direction 270), {across}",
+                                  _section_lines(raw, "geology", "slope").get("angle") or glines.get("slope"))]
+    # The regions: each y-face element of the column's material at its height.
+    names = ["rock", "lining"] + [m for m, _ in ground_layers(d)] + geo.materials
+    first = 2 + len(ground_layers(d))
+    props = [tuple(float(d["materials"][n][k]) for k in ("density", "youngs_modulus", "poisson_ratio")) for n in names]
+    same = np.array([props.index(pr) for pr in props])  # regions of one material share an index
+
+    def region_key(region):
+        j = region - first
+        if j < 0:
+            return "geology"
+        return f"geology.dipping_layers[{j}].material" if j < len(geo.dipping) else "geology.fault_zone.material"
+
+    pts, reg = ground_regions(plan, [0, plan.axial.count - 1])
+    nz = levels.size - 1
+    column = reg[len(reg) - nz + np.arange(nz), 0]  # the outer grid's last x column: xmax's
+    for face, k in (("ymin", 0), ("ymax", 1)):
+        row = np.clip(np.searchsorted(levels, pts[:, k, 2], side="right") - 1, 0, nz - 1)
+        bad = np.flatnonzero(same[reg[:, k]] != same[column[row]])
+        if bad.size == 0:
+            continue
+        e = int(bad[0])
+        mine, theirs = int(reg[e, k]), int(column[row[e]])
+        region = mine if mine >= first else theirs
+        rkey = region_key(region)
+        fault = rkey.startswith("geology.fault")
+        what = "the fault zone" if fault else ("the dipping layer" if rkey != "geology" else "the ground")
+        x, z = float(pts[e, k, 0]), float(pts[e, k, 2])
+        return [Issue(rkey, names[region],
+                      f"makes the ground at the {face} face near x = {x:.4g}, z = {z:.4g} m {names[mine]}, where the "
+                      f"column has {names[theirs]} (its layer z = {levels[row[e]]:.4g} to {levels[row[e] + 1]:.4g} "
+                      f"m): {why}",
+                      f"keep {what} ({names[region]}) out of the block's first and last axial element layers (y = "
+                      f"{y[0]:g} to {y[1]:g} m and {y[-2]:g} to {y[-1]:g} m), {across}",
+                      glines.get("fault_zone" if fault else "dipping_layers") or raw.key_lines.get("geology"))]
+    return []
 
 
 def _axial_motion_key(gm: dict) -> tuple[str, object]:

@@ -13,7 +13,8 @@ own connection). What does not run on ranks yet
 a fault offset, a motion along the tunnel's axis, the reinforced_concrete material, the
 lining's joints) is refused by
 ``tunnelquake check`` and ``run`` for ``--ranks N`` above 1, naming it and the fix, before anything
-runs.
+runs; so are more ranks than the solid's mesh has elements (tq-solid's partition gives each rank one
+at least).
 """
 from __future__ import annotations
 
@@ -33,6 +34,11 @@ def ranks_refusal(case, ranks: int) -> list[str]:
         return [f"--ranks {ranks}: give 1 or more"]
     if ranks == 1:
         return []
+    elements = solid_elements(case.data)
+    if ranks > elements:
+        return [f"--ranks {ranks}: the solid's mesh has {elements:,} elements (rock and lining) and tq-solid's "
+                f"partition gives every rank at least one, so it refuses more ranks than elements: give --ranks "
+                f"{elements} or fewer, or a finer mesh (mesh.max_element_size, mesh.refinement_factor)"]
     from .motion import along_axis
 
     d = case.data
@@ -85,8 +91,22 @@ def memory_per_rank(solid_elements: int, ranks: int) -> tuple[float, float]:
     return other + solid_elements * PART_BYTES_PER_ELEMENT, other
 
 
+def solid_elements(d: dict) -> int:
+    """The hexahedra of the solid's mesh (rock and lining: what tq-solid partitions between its ranks) of
+    a validated case's data, counted from the mesh plan's divisions (nothing is meshed): the ground and
+    the lining of meshing.params.element_counts, and the water's hexahedra of the plugged ends
+    (mesh.tunnel_end_plugs), which the mesher fills with rock."""
+    from .case import case_geology, ground_layers
+    from .meshing.params import element_counts, resolve
+
+    plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    counts = element_counts(plan)
+    plugged = plan.plugs * (1 if plan.symmetric else 2)
+    return int(counts["rock"] + counts["lining"] + counts["water"] // plan.axial.count * plugged)
+
+
 def refusal_message(ranks: int, reasons: list[str]) -> str:
-    if ranks < 1:
+    if ranks < 1 or (len(reasons) == 1 and reasons[0].startswith(f"--ranks {ranks}:")):
         return reasons[0]
     return (f"--ranks {ranks}: the solid cannot run this case on ranks yet; it uses " + "; ".join(reasons)
             + ". Without --ranks it runs as one process with OpenMP threads (docs/architecture.md \"The solid on "

@@ -407,3 +407,76 @@ def test_check_refuses_open_water_ends_on_fewer_than_three_planes(example_text, 
     line = case(2).splitlines().index("  elements_along_axis: 2") + 1
     assert f"{path}:{line}: " in err, err
     assert load_case(write_case(case(4)))["mesh"]["elements_along_axis"] == 4
+
+
+def _plugged_axial_case(geology: str, materials: str = "") -> str:
+    """A small 3D block (the axial-wave case's ground and tunnel, no incident wave) with its tunnel's ends
+    plugged and a motion along the axis (azimuth 90): its y faces take the first side's column."""
+    return f"""name: shared_column
+geometry:
+  x_range: [-40.0, 40.0]
+  y_range: [0.0, 48.0]
+  z_range: [-40.0, 30.0]
+  tunnel_centre_z: 0.0
+  excavated_radius: 3.5 m
+  lining_thickness: 0.35 m
+mesh:
+  mode: 3d
+  max_element_size: 8 m
+  lining_elements_around: 16
+  lining_elements_through: 1
+  elements_along_axis: 6
+  near_field_half_width: 10 m
+  near_field_radial_divisions: 3
+  water_ring_divisions: 1
+  tunnel_end_plugs: 1
+materials:
+  rock: {{model: elastic, youngs_modulus: 20 GPa, poisson_ratio: 0.25, density: 2600 kg/m^3}}
+  lining: {{model: elastic, youngs_modulus: 30 GPa, poisson_ratio: 0.2, density: 2500 kg/m^3}}
+{materials}geology:
+{geology}
+interface: {{model: bonded}}
+ground_motion:
+  source: synthetic
+  pga: 0.2 g
+  azimuth: 90
+  vertical_ratio: 0
+  cutoff_frequency: 15 Hz
+  synthetic: {{duration: 2 s, dt: 0.005 s}}
+stages: {{sequence: [seismic]}}
+conditions: [no_water]
+time: {{end_time: 0.05 s}}
+"""
+
+
+SOFT = "  soft: {model: elastic, youngs_modulus: 2 GPa, poisson_ratio: 0.3, density: 2300 kg/m^3}\n"
+
+
+@pytest.mark.parametrize("geology,materials,key,value,words,valid", [
+    ("  slope: {angle: 12, dip_direction: 90, crest: [10.0, 0.0]}", "", "geology.slope.angle", "12.0",
+     "leaves the ground at the ymin face's corner x = -40 m at z = 30 m, above the top of the column, z = 23.62 m",
+     "  slope: {angle: 12, dip_direction: 270, crest: [10.0, 0.0]}"),
+    ("  fault_zone: {material: soft, width: 10 m, strike: 60, dip: 70, point: [0, 24, 0]}", SOFT,
+     "geology.fault_zone.material", "'soft'", "makes the ground at the ymin face near x = ",
+     "  fault_zone: {material: soft, width: 10 m, strike: 90, dip: 90, point: [0, 24, 0]}"),
+    ("  dipping_layers: [{material: soft, dip: 20, dip_direction: 90, point: [0.0, 24.0, 18.0]}]", SOFT,
+     "geology.dipping_layers[0].material", "'soft'", "makes the ground at the ymin face near x = ", None),
+])
+def test_check_refuses_a_geology_the_y_faces_shared_column_does_not_follow(write_case, capsys, geology, materials,
+                                                                         key, value, words, valid):
+    """A motion along the axis in a 3D model with plugged ends drives its y faces by the first side's
+    free-field column, shared (with geology the xmax side's first strip): tq-solid refused, when the shaking
+    started, a y face whose ground rises above that column (a slope rising from xmax: the node at z = 30 m
+    outside the column's -40 .. 23.62 m) or is not of the column's material at its height (a fault
+    zone or a dipping layer reaching the y faces otherwise than that strip). `tunnelquake check` refuses
+    it first, naming the key, its value, its line and the fix; the slope descending away from xmax, and the
+    fault zone square to the axis clear of the end layers, pass."""
+    text = _plugged_axial_case(geology, materials)
+    path, err = _check_error(text, write_case, capsys)
+    assert f"{key} = {value}: " in err and words in err, err
+    assert "share the free-field column of the first strip of the xmax side" in err, err
+    assert "or use a motion across the tunnel and vertical only (azimuth 0 or 180, no second_horizontal)" in err, err
+    line = text.splitlines().index(geology) + 1
+    assert f"{path}:{line}: " in err, err
+    if valid is not None:
+        assert load_case(write_case(_plugged_axial_case(valid, materials)))["ground_motion"]["azimuth"] == 90

@@ -159,3 +159,33 @@ def test_a_reinforced_lining_is_refused_on_ranks(capsys):
     assert main(["check", str(EXAMPLE.parents[1] / "headrace_tunnel" / "case.yaml"), "--ranks", "2"]) == 1
     err = capsys.readouterr().err
     assert "the reinforced_concrete material (materials.lining" in err and "use mohr_coulomb_damage" in err, err
+
+
+def test_more_ranks_than_the_solids_elements_are_refused_by_check(capsys):
+    """tq-solid's partition gives every rank one element at least, and refused more ranks than the
+    mesh's elements only once every rank had started and read its input (the meshing and the motion
+    done): `check --ranks N` refuses them first, naming --ranks, its value, the element count (the
+    example's 1,320 rock + 144 lining) and the fix. The count itself passes the count test (mpirun
+    aside, which the other refusals name)."""
+    from tunnelquake.case import load_case
+    from tunnelquake.solid_ranks import ranks_refusal, solid_elements
+
+    assert solid_elements(load_case(EXAMPLE).data) == 1464
+    assert main(["check", str(EXAMPLE), "--ranks", "1465"]) == 1
+    err = capsys.readouterr().err
+    assert "--ranks 1465: the solid's mesh has 1,464 elements (rock and lining)" in err, err
+    assert "give --ranks 1464 or fewer, or a finer mesh" in err, err
+    assert not any("elements" in r for r in ranks_refusal(load_case(EXAMPLE), 1464))
+
+
+def test_the_solids_element_count_is_the_built_meshs_with_plugged_ends(tmp_path):
+    """The count the ranks are held to is the built mesh's rock and lining, the water's hexahedra of
+    the plugged end layers among them (the mesher fills them with rock; meshing.params.element_counts
+    lists them as water): the axial-wave case's mesh, 3 layers plugged at each end."""
+    from tunnelquake.case import load_case
+    from tunnelquake.meshing import build_tunnel_mesh
+    from tunnelquake.solid_ranks import solid_elements
+
+    d = load_case(EXAMPLE.parent.parent / "axial_wave" / "case.yaml").data
+    built = build_tunnel_mesh(d["geometry"], d["mesh"], tmp_path / "mesh")["counts"]
+    assert solid_elements(d) == built["rock"] + built["lining"], built

@@ -845,16 +845,38 @@ def _geology_regions(p: MeshPlan) -> dict:
     """Ground elements per region with regions bounded by planes: every ground element's
     centroid (cross-section centroid, axial layer mid-point) through geology.assign, as the
     builder assigns them."""
+    names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + p.geology.materials
+    counts = np.zeros(len(names), dtype=np.int64)
+    for j in range(0, p.axial.count, 64):  # a few axial layers at a time: memory stays small
+        _, r = ground_regions(p, range(j, min(j + 64, p.axial.count)))
+        if p.geology.portal is not None:  # what a portal's cut removes (by the unmoved centroid: the
+            # cut's elements lie wholly in front of the face, their z is that of the flat block's)
+            xz, y = ground_centroids(p), np.asarray(p.y_levels)
+            yy = 0.5 * (y[j:j + r.shape[1]] + y[j + 1:j + 1 + r.shape[1]])
+            keep = ~((yy[None, :] < p.geology.portal.station) & (xz[:, None, 1] > portal_bench(p)))
+            r = r[keep]
+        counts += np.bincount(r.ravel(), minlength=len(names))
+    return {n: int(c) for i, (n, c) in enumerate(zip(names, counts, strict=True)) if i != 1}
+
+
+def ground_regions(p: MeshPlan, layers) -> tuple[np.ndarray, np.ndarray]:
+    """(centroids [N, L, 3], regions [N, L]) of every ground element (ground_centroids' order) in the
+    axial element layers `layers` (indices, ascending and consecutive), as the builder places and
+    assigns them: on a sloping surface each centroid's z is moved by the mean surface ratio of its
+    plan corners; the region index is that of build.region_names (0 rock, 2 + i horizontal layer i,
+    then the regions bounded by planes)."""
     from .geology import assign
 
     xz = ground_centroids(p)
     y = np.asarray(p.y_levels)
-    ym = 0.5 * (y[1:] + y[:-1])
+    js = np.asarray(list(layers), dtype=int)
+    y_lo, y_hi = y[js], y[js + 1]
+    yy = 0.5 * (y_lo + y_hi)
     base = layer_of(p, xz[:, 1]) if p.layers else np.zeros(len(xz), np.int32)
-    names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + p.geology.materials
-    counts = np.zeros(len(names), dtype=np.int64)
-    slope = p.geology.slope
-    if slope is not None:  # the outer grid's x extents (ground_centroids lists its elements last)
+    pts = np.empty((len(xz), len(yy), 3))
+    pts[:, :, 0], pts[:, :, 1], pts[:, :, 2] = xz[:, None, 0], yy[None, :], xz[:, None, 1]
+    slope = p.geology.slope if p.geology is not None else None
+    if slope is not None:  # the element's centroid on the slope: its z times the mean r of its plan corners
         q, L = p.quarter.count, p.box_half_width
         xs = _grid_lines(p.xc, L, q, p.left, p.right, p.xmin, p.xmax)
         zs = _grid_lines(p.zc, L, q, p.bottom, p.top, p.zmin, p.zmax)
@@ -862,27 +884,19 @@ def _geology_regions(p: MeshPlan) -> dict:
         X1, _ = np.meshgrid(xs[1:], zs[1:], indexing="ij")
         xm = 0.5 * (X0 + X1)
         box = (np.abs(xm - p.xc) < L) & (np.abs(Z - p.zc) < L)
-        x_ends = np.full((len(xz), 2), np.nan)
+        x_ends = np.full((len(xz), 2), np.nan)  # the outer grid's x extents (ground_centroids lists its elements last)
         x_ends[len(xz) - int((~box).sum()):] = np.stack([X0[~box], X1[~box]], axis=1)
         zb = slope_base(p)
-    for j in range(0, len(ym), 64):  # a few axial layers at a time: memory stays small
-        yy = ym[j:j + 64]
-        pts = np.empty((len(xz), len(yy), 3))
-        pts[:, :, 0], pts[:, :, 1], pts[:, :, 2] = xz[:, None, 0], yy[None, :], xz[:, None, 1]
-        if slope is not None:  # the element's centroid on the slope: its z times the mean r of its plan corners
-            r = np.zeros((len(xz), len(yy)))
-            for xe in (x_ends[:, 0], x_ends[:, 1]):
-                for ye in (y[j:j + 64][:len(yy)], y[j + 1:j + 65][:len(yy)]):
-                    r += 0.25 * surface_ratio(slope, xe[:, None], ye[None, :], p.zmax, zb)
-            above = np.isfinite(r) & (pts[:, :, 2] > zb)
-            pts[:, :, 2] = np.where(above, zb + (pts[:, :, 2] - zb) * np.where(above, r, 1.0), pts[:, :, 2])
-        r = assign(p.geology, pts, np.repeat(base[:, None], len(yy), axis=1), 2 + len(p.layers))
-        if p.geology.portal is not None:  # what a portal's cut removes (by the unmoved centroid: the
-            # cut's elements lie wholly in front of the face, their z is that of the flat block's)
-            keep = ~((yy[None, :] < p.geology.portal.station) & (xz[:, None, 1] > portal_bench(p)))
-            r = r[keep]
-        counts += np.bincount(r.ravel(), minlength=len(names))
-    return {n: int(c) for i, (n, c) in enumerate(zip(names, counts, strict=True)) if i != 1}
+        r = np.zeros((len(xz), len(yy)))
+        for xe in (x_ends[:, 0], x_ends[:, 1]):
+            for ye in (y_lo, y_hi):
+                r += 0.25 * surface_ratio(slope, xe[:, None], ye[None, :], p.zmax, zb)
+        above = np.isfinite(r) & (pts[:, :, 2] > zb)
+        pts[:, :, 2] = np.where(above, zb + (pts[:, :, 2] - zb) * np.where(above, r, 1.0), pts[:, :, 2])
+    base = np.repeat(base[:, None], len(yy), axis=1)
+    if p.geology is None:
+        return pts, base
+    return pts, assign(p.geology, pts, base, 2 + len(p.layers))
 
 
 ROCK_REGION, LINING_REGION = "rock", "lining"
