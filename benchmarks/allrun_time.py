@@ -73,15 +73,22 @@ def write_case(base: dict, base_dir: Path, folder: Path, variant: str | None, en
     return path
 
 
+def run_env(src: Path, build: Path) -> dict:
+    """The environment of `tunnelquake run` from tree `src` with build `build`, its OpenMP wait the
+    product's own (OMP_WAIT_POLICY and GOMP_SPINCOUNT taken out, as run_once says)."""
+    env = dict(os.environ, PYTHONPATH=str(src / "scripts"), TQ_BUILD_DIR=str(build))
+    for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT"):
+        env.pop(name, None)
+    return env
+
+
 def run_once(src: Path, build: Path, case: Path, log: Path) -> dict:
     """`tunnelquake run CASE` from tree `src`: wall s, CPU s of the process tree, exit code. The
     OpenMP wait is the product's own (cores.solid_env: a short spin, then sleep), as `./Allrun` runs
     it: OMP_WAIT_POLICY and GOMP_SPINCOUNT are taken out of the environment (PASSIVE, which
     `./Alltest` sets, took 1.33-1.59x the coupled wall of the 3D example's first second:
     docs/benchmarks.md "OpenMP waiting")."""
-    env = dict(os.environ, PYTHONPATH=str(src / "scripts"), TQ_BUILD_DIR=str(build))
-    for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT"):
-        env.pop(name, None)
+    env = run_env(src, build)
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
     with log.open("w") as out:

@@ -8,9 +8,10 @@ Writes two copies of the case (the variant laid over it, `time.end_time` cut to 
 [dynamic_water], results in OUT/<name>/results): `own`, as written, and `one`, whose
 `coupling.tolerance` is 1e9 and `coupling.energy_limit` 0, so that every window is accepted at its
 first pass (the implicit scheme with an extrapolating predictor, linear or damped, tests pass 0 alone;
-docs/coupler.md "Convergence test"; a run that took more passes than windows stops the benchmark). Each round runs `tunnelquake run CASE --no-post` for both, in an order that turns
-each round, and reads the results' `/coupling` attributes (coupled wall, tq-solid's step, passes,
-windows). Printed: each run's figures, each round's one-pass coupled wall over the own run's, the
+docs/coupler.md "Convergence test"; a run that took more passes than windows stops the benchmark).
+Each round runs `tunnelquake run CASE --no-post` for both, in an order that turns each round (the
+OpenMP wait the product's own, as benchmarks.allrun_time runs it), and reads the results' `/coupling`
+attributes (coupled wall, tq-solid's step, passes, windows). Printed: each run's figures, each round's one-pass coupled wall over the own run's, the
 median ratio; with --record-coupled (a record's coupled wall, s) and --record-outside (its seconds
 outside the coupling: mesh, motion, static stages), the record's time at that ratio. The case needs
 the implicit scheme (the condition's water passes are what the bound removes).
@@ -30,7 +31,7 @@ from pathlib import Path
 import h5py
 import yaml
 
-from .allrun_time import write_case
+from .allrun_time import run_env, write_case
 from .common import machine
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -59,7 +60,7 @@ def run(case: Path) -> dict:
     res = case.parent / "results"
     if res.exists():
         subprocess.run(["rm", "-rf", str(res)], check=True)
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "scripts"))
+    env = run_env(ROOT, Path(os.environ.get("TQ_BUILD_DIR") or ROOT / "build"))
     t0 = time.perf_counter()
     with (case.parent / "run.log").open("w") as log:
         rc = subprocess.run([sys.executable, "-m", "tunnelquake", "run", str(case), "--no-post"], cwd=case.parent,

@@ -385,11 +385,10 @@ def _lining_joint_checks(d: dict, raw: LineDict) -> list[Issue]:
                       "axis to cut into rings", "set mesh.mode: 3d, or remove lining_joints", here)]
     import numpy as np
 
-    from .meshing.params import MeshInputError, lining_extent, resolve
+    from .meshing.params import lining_extent
 
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
-    except (MeshInputError, MemoryError, OverflowError):
+    plan = _mesh_plan(d)
+    if plan is None:
         return []  # said by _mesh_checks
     y0, y1 = lining_extent(plan)  # the plugs' ends, a portal's face, or the block's y faces
     length, s = y1 - y0, float(lj["spacing"])
@@ -553,6 +552,17 @@ def _component_section(what: str) -> Section:
     })
 
 
+def _mesh_plan(d: dict):
+    """The case's mesh plan (meshing.params.resolve: divisions and grading, nothing meshed), or None
+    where the mesh keys cannot make one (_mesh_checks says why)."""
+    from .meshing.params import MeshInputError, resolve
+
+    try:
+        return resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    except (MeshInputError, MemoryError, OverflowError):
+        return None
+
+
 def _open_ends_axial_checks(d: dict, raw: LineDict) -> list[Issue]:
     """Open water ends with the volume law in the solid: tq-solid's open-ends law joins the planes of
     wet nodes along the axis by the water's axial flow, and needs at least three of them (two axial
@@ -560,11 +570,10 @@ def _open_ends_axial_checks(d: dict, raw: LineDict) -> list[Issue]:
     when it connects to the water, after the static stages; the case check does first."""
     if "dynamic_water" not in d["conditions"] or closed_section(d) or d["coupling"]["volume_law"] == "water":
         return []
-    from .meshing.params import MeshInputError, lining_extent, resolve
+    from .meshing.params import lining_extent
 
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
-    except (MeshInputError, MemoryError, OverflowError):
+    plan = _mesh_plan(d)
+    if plan is None:
         return []  # said by _mesh_checks
     y0, y1 = lining_extent(plan)
     tol = 1e-6 * max(1.0, y1 - y0)
@@ -1214,11 +1223,8 @@ def _time_step_checks(d: dict, raw: LineDict) -> list[Issue]:
     dt = d["time"].get("dt")
     if dt is None:
         return []
-    from .meshing.params import MeshInputError, resolve
-
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
-    except (MeshInputError, MemoryError, OverflowError):
+    plan = _mesh_plan(d)
+    if plan is None:
         return []  # said by _mesh_checks
     safety = float(d["time"]["safety_factor"])
     critical = critical_step(d, plan)
@@ -1432,14 +1438,12 @@ def _incident_wave_checks(d: dict, raw: LineDict, filename: str) -> list[Issue]:
     layer falls in the mesh's bands (when the mesh keys themselves are valid), then an H5DRM file
     against that layer."""
     from .incident_wave import active, band_issue, checks, h5drm_issues, monitor_issues
-    from .meshing.params import MeshInputError, resolve
 
     issues = checks(d, ground_layers(d), raw.key_lines, lambda name: _section_lines(raw, name))
     if issues or not active(d):
         return issues
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
-    except (MeshInputError, MemoryError, OverflowError):
+    plan = _mesh_plan(d)
+    if plan is None:
         return []  # said by _mesh_checks
     bad = band_issue(d, plan, lambda name: _section_lines(raw, name))
     if bad:
@@ -1510,11 +1514,10 @@ def _shared_column_checks(d: dict, raw: LineDict) -> list[Issue]:
     geo = case_geology(d)
     if geo is None or not int(d["mesh"].get("tunnel_end_plugs") or 0) or half_block(d):
         return []  # (no plugs, a half block: _axial_motion_checks and _symmetry_checks refuse the motion)
-    from .meshing.params import MeshInputError, grid_lines, ground_regions, resolve, surface_nodes
+    from .meshing.params import grid_lines, ground_regions, surface_nodes
 
-    try:
-        plan = resolve(d["geometry"], d["mesh"], ground_layers(d), geo)
-    except (MeshInputError, MemoryError, OverflowError):
+    plan = _mesh_plan(d)
+    if plan is None:
         return []  # said by _mesh_checks
     key, value = _axial_motion_key(d["ground_motion"])
     y = np.asarray(plan.y_levels, float)
@@ -1663,10 +1666,8 @@ def lining_layer_step(d: dict) -> tuple[float, float]:
     """The lining's first element layer h1 (m) and its undamped critical step h1 / c_p (s): the
     estimate of the solid's stable step (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s
     tq-solid's own hex8 bound)."""
-    g, lin = d["geometry"], d["materials"]["lining"]
-    h1 = g["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
-    E, nu, rho = lin["youngs_modulus"], lin["poisson_ratio"], lin["density"]
-    return h1, h1 / math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
+    h1 = d["geometry"]["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+    return h1, h1 / p_wave_speed(d["materials"]["lining"])
 
 
 def axial_step(d: dict, plan) -> float:
@@ -1680,17 +1681,11 @@ def axial_step(d: dict, plan) -> float:
     h = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else math.inf
     if plan.geology is None or not math.isfinite(h):
         return math.inf
-
-    def cp(m):
-        E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
-        return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
-
-    return h / max(cp(m) for m in d["materials"].values())
+    return h / max(p_wave_speed(m) for m in d["materials"].values())
 
 
 def p_wave_speed(m: dict) -> float:
-    import math
-
+    """A material's P-wave speed sqrt(E (1 - nu) / ((1 + nu) (1 - 2 nu) rho)), m/s."""
     E, nu, rho = m["youngs_modulus"], m["poisson_ratio"], m["density"]
     return math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))
 

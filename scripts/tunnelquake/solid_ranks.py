@@ -106,7 +106,9 @@ def solid_elements(d: dict) -> int:
 
 
 def refusal_message(ranks: int, reasons: list[str]) -> str:
-    if ranks < 1 or (len(reasons) == 1 and reasons[0].startswith(f"--ranks {ranks}:")):
+    """The error for `reasons` (ranks_refusal's): a reason about the rank count itself ("--ranks N: ...")
+    is the whole message; the features that do not run on ranks yet are joined into one."""
+    if len(reasons) == 1 and reasons[0].startswith(f"--ranks {ranks}:"):
         return reasons[0]
     return (f"--ranks {ranks}: the solid cannot run this case on ranks yet; it uses " + "; ".join(reasons)
             + ". Without --ranks it runs as one process with OpenMP threads (docs/architecture.md \"The solid on "

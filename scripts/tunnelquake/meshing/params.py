@@ -847,11 +847,12 @@ def _geology_regions(p: MeshPlan) -> dict:
     builder assigns them."""
     names = [ROCK_REGION, LINING_REGION] + [n for n, _ in p.layers] + p.geology.materials
     counts = np.zeros(len(names), dtype=np.int64)
+    if p.geology.portal is not None:
+        xz, y = ground_centroids(p), np.asarray(p.y_levels)
     for j in range(0, p.axial.count, 64):  # a few axial layers at a time: memory stays small
         _, r = ground_regions(p, range(j, min(j + 64, p.axial.count)))
         if p.geology.portal is not None:  # what a portal's cut removes (by the unmoved centroid: the
             # cut's elements lie wholly in front of the face, their z is that of the flat block's)
-            xz, y = ground_centroids(p), np.asarray(p.y_levels)
             yy = 0.5 * (y[j:j + r.shape[1]] + y[j + 1:j + 1 + r.shape[1]])
             keep = ~((yy[None, :] < p.geology.portal.station) & (xz[:, None, 1] > portal_bench(p)))
             r = r[keep]
