@@ -23,6 +23,7 @@ import argparse
 import copy
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -80,6 +81,24 @@ def run_env(src: Path, build: Path) -> dict:
     for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT"):
         env.pop(name, None)
     return env
+
+
+def run_no_post(case: Path) -> float:
+    """`tunnelquake run CASE --no-post` from this tree (its build, or $TQ_BUILD_DIR) into an empty
+    results folder (CASE's folder/results), with run_env's environment; its log CASE's folder/run.log.
+    The wall seconds; a failed run stops the benchmark."""
+    res = case.parent / "results"
+    if res.exists():
+        shutil.rmtree(res)
+    root = Path(__file__).resolve().parent.parent
+    env = run_env(root, Path(os.environ.get("TQ_BUILD_DIR") or root / "build"))
+    t0 = time.perf_counter()
+    with (case.parent / "run.log").open("w") as log:
+        rc = subprocess.run([sys.executable, "-m", "tunnelquake", "run", str(case), "--no-post"], cwd=case.parent,
+                            stdout=log, stderr=subprocess.STDOUT, env=env).returncode
+    if rc != 0:
+        raise SystemExit(f"{case}: tunnelquake run exited {rc}; see {case.parent / 'run.log'}")
+    return time.perf_counter() - t0
 
 
 def run_once(src: Path, build: Path, case: Path, log: Path) -> dict:

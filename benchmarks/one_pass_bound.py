@@ -21,17 +21,14 @@ from __future__ import annotations
 import argparse
 import copy
 import json
-import os
 import statistics
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
 import yaml
 
-from .allrun_time import run_env, write_case
+from .allrun_time import run_no_post, write_case
 from .common import machine
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -57,18 +54,8 @@ def cases(src: Path, variant: str | None, end: float, out: Path) -> dict[str, Pa
 
 def run(case: Path) -> dict:
     """`tunnelquake run CASE --no-post` from an empty results folder; the /coupling attributes."""
-    res = case.parent / "results"
-    if res.exists():
-        subprocess.run(["rm", "-rf", str(res)], check=True)
-    env = run_env(ROOT, Path(os.environ.get("TQ_BUILD_DIR") or ROOT / "build"))
-    t0 = time.perf_counter()
-    with (case.parent / "run.log").open("w") as log:
-        rc = subprocess.run([sys.executable, "-m", "tunnelquake", "run", str(case), "--no-post"], cwd=case.parent,
-                            stdout=log, stderr=subprocess.STDOUT, env=env).returncode
-    wall = time.perf_counter() - t0
-    if rc != 0:
-        raise SystemExit(f"{case}: tunnelquake run exited {rc}; see {case.parent / 'run.log'}")
-    with h5py.File(res / "results_dynamic_water.h5", "r") as f:
+    wall = run_no_post(case)
+    with h5py.File(case.parent / "results" / "results_dynamic_water.h5", "r") as f:
         a = f["coupling"].attrs
         got = {k: float(a[k]) for k in ("coupled_wall_s", "solid_s", "exchange_wait_s", "exchange_work_s", "passes",
                                         "windows")}

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-pytest.importorskip("h5py")
+h5py = pytest.importorskip("h5py")
 pytest.importorskip("scipy")
 from tunnelquake import paths  # noqa: E402
 from tunnelquake.references import open_tube_added_mass, open_tube_mu_max, ring_ovaling_frequency  # noqa: E402
@@ -133,3 +133,9 @@ def test_water_filled_ring_implicit_windows_of_8_steps(tmp_path):
     # first answer agrees with it end after one pass)
     assert res.windows > 0 and res.max_passes >= 2
     assert abs(res.error()) < FILLED_TOL
+    # tq-solid's stepping split by pass: the re-passes took time here, and first passes and
+    # re-passes are parts of the solid's wall outside the coupler (the rest: the windows' ends)
+    with h5py.File(Path(res.folder) / "results.h5", "r") as f:
+        c = f["coupling"].attrs
+        assert c["solid_first_passes_s"] > 0 and c["solid_repasses_s"] > 0
+        assert c["solid_first_passes_s"] + c["solid_repasses_s"] <= c["solid_s"]

@@ -180,6 +180,8 @@ def test_completed_run_books_the_fluid_work(tmp_path):
     res = read_results(tmp_path / "results.h5")
     assert res["status"] == "completed"
     assert res["coupling"]["windows"] == windows and res["coupling"]["passes"] == windows
+    c = res["coupling"]  # one pass a window: no solid time in re-passes
+    assert c["solid_repasses_s"] == 0 and 0 < c["solid_first_passes_s"] <= c["solid_s"]
     ext = res["energy"][:, 5]
     fw = res["fluid_work"][:, 1]
     assert np.allclose(res["fluid_work"][:, 0], res["energy"][:, 0])

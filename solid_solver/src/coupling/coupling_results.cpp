@@ -91,6 +91,8 @@ void writeCouplingSummary(ResultsWriter& results, const CouplingInput& in, const
                       // cost split over the stepping (docs/coupler.md "Exchange cost")
                       {"coupled_wall_s", cs.secondsCoupled},
                       {"solid_s", cs.secondsCoupled - cs.secondsInCoupler},
+                      {"solid_first_passes_s", cs.secondsFirstPasses},
+                      {"solid_repasses_s", cs.secondsRepasses},
                       {"coupler_s", cs.secondsInCoupler},
                       {"exchange_wait_s", cs.secondsWaiting},
                       {"exchange_work_s", cs.secondsInCoupler - cs.secondsWaiting},

@@ -86,6 +86,10 @@ struct FluidCoupling::Impl {
   // Timers of the cost split: start of the stepping, and the coupler's own tallies then.
   std::chrono::steady_clock::time_point steppingStart;
   double waitAtStart = 0, mappingAtStart = 0, cpuStart = 0;
+  // The solid's stepping since the last protocol part ended, and the tally it goes to (null: the
+  // windows' ends): FluidCouplingStats::secondsFirstPasses, secondsRepasses.
+  std::chrono::steady_clock::time_point partEnd;
+  double* stepping = nullptr;
   bool initialized = false, finalized = false;
   std::vector<unsigned char> resumeBytes;  // the participant's state of a restart checkpoint
 
@@ -106,7 +110,7 @@ struct FluidCoupling::Impl {
     const cp::ExchangeStats xs = p->stats();
     waitAtStart = xs.secondsWaiting;
     mappingAtStart = xs.secondsMapping;
-    steppingStart = std::chrono::steady_clock::now();
+    steppingStart = partEnd = std::chrono::steady_clock::now();
     cpuStart = threadCpu();
     initialized = true;
     linked = true;
@@ -352,6 +356,8 @@ struct FluidCoupling::Impl {
   /// The cost split's tallies for the coupler part of a step that began at t0 (wall) and c0 (CPU).
   void timeCoupler(std::chrono::steady_clock::time_point t0, double c0) {
     const auto t1 = std::chrono::steady_clock::now();
+    if (stepping) *stepping += std::chrono::duration<double>(t0 - partEnd).count();
+    partEnd = t1;
     const double inCoupler = std::chrono::duration<double>(t1 - t0).count();
     stats.secondsExchanging += inCoupler;
     stats.secondsInCoupler += inCoupler;
@@ -559,6 +565,7 @@ void FluidCoupling::planWindow(const NodalState& st) {
     throw CouplingError("water coupling: the solid stepped past the last coupling window (t_end = " +
                         std::to_string(endTime()) + " s); stop the time loop when ongoing() is false");
   I.timed([&] { I.plan(st); });
+  I.stepping = &I.stats.secondsFirstPasses;
 }
 
 void FluidCoupling::planStep(Index j, Real dt) {
@@ -572,11 +579,15 @@ void FluidCoupling::planStep(Index j, Real dt) {
 }
 
 bool FluidCoupling::exchange(Real dt, const NodalState& st) {
-  return impl_->timed([&] { return impl_->exchange(dt, st); });
+  Impl& I = *impl_;
+  const bool accepted = I.timed([&] { return I.exchange(dt, st); });
+  I.stepping = accepted ? nullptr : &I.stats.secondsRepasses;
+  return accepted;
 }
 
 void FluidCoupling::acceptWindow() {
   impl_->timed([&] { impl_->acceptWindow(); });
+  impl_->stepping = nullptr;
   impl_->guardEnergy();
 }
 

@@ -56,6 +56,10 @@ struct FluidCouplingStats {
   double secondsMapping = 0;    ///< of which the interface maps were applied
   double cpuCoupled = 0;        ///< CPU seconds of the calling thread over the same span as secondsCoupled
   double cpuInCoupler = 0;      ///< of which inside the coupler part (a blocked receive costs no CPU)
+  // The solid's wall outside the coupler split by the pass it steps (an implicit window of several
+  // steps; the rest of it is the windows' ends: last steps, results, the next window's save):
+  double secondsFirstPasses = 0;  ///< from a window's plan to its first exchange
+  double secondsRepasses = 0;     ///< from a refused exchange to the next (the restore included)
 };
 
 /// The protocol's parts CoupledStepper runs, per window (see FluidCoupling's for what each does):
