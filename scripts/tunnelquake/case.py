@@ -1215,11 +1215,10 @@ def _bar_axis_checks(d: dict, raw: LineDict, where: int | None) -> list[Issue]:
 
 def _time_step_checks(d: dict, raw: LineDict) -> list[Issue]:
     """time.dt above the solid's stable step: tq-solid refuses a step above safety_factor x its critical
-    step when it builds its solver. The critical step here is check's estimate (critical_step below: the
-    lining's first element layer, a fault zone's shortest axial element, Rayleigh's beta K and a
-    Kelvin-Voigt material's retardation time), which is never below tq-solid's own (an element's length
-    volume / largest face is at most its thickness), so no step tq-solid takes is refused here; a step
-    just under the estimate may still be above tq-solid's exact bound, which its own message then names."""
+    step when it builds its solver. The critical step here is critical_step's (the lining's hexahedra
+    as tq-solid measures them, volume / largest face: its own bound to round-off where the lining
+    limits; a fault zone's shortest axial element; Rayleigh's beta K; a Kelvin-Voigt material's
+    retardation time), so a step refused here is one tq-solid refuses."""
     dt = d["time"].get("dt")
     if dt is None:
         return []
@@ -1231,10 +1230,10 @@ def _time_step_checks(d: dict, raw: LineDict) -> list[Issue]:
     limit = safety * critical
     if dt <= limit:
         return []
-    h1 = lining_layer_step(d)[0]
+    h1 = lining_layer_step(d, plan)[0]
     return [Issue("time.dt", dt,
                   f"is above the solid's stable step, about {limit:.3g} s (safety_factor {safety:g} x the critical "
-                  f"step {critical:.3g} s estimated from the lining's first element layer, {h1:.3g} m thick, the "
+                  f"step {critical:.3g} s of the lining's hexahedra, their layers {h1:.3g} m thick, the "
                   "smallest axial elements and the damping): tq-solid refuses a step above safety_factor x its "
                   "critical step",
                   f"leave time.dt out (the stable step x safety_factor), or give at most {limit:.3g} s",
@@ -1662,12 +1661,45 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
 SLOW_FACTOR = 2.0
 
 
-def lining_layer_step(d: dict) -> tuple[float, float]:
-    """The lining's first element layer h1 (m) and its undamped critical step h1 / c_p (s): the
-    estimate of the solid's stable step (the slice's critical element: 7.2e-5 s estimated, 7.0e-5 s
-    tq-solid's own hex8 bound)."""
-    h1 = d["geometry"]["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
-    return h1, h1 / p_wave_speed(d["materials"]["lining"])
+def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
+    """The lining's thinnest element layer h1 (m) and the critical step of its elements, L / c_p (s),
+    as tq-solid's hex8 bound takes it: L = volume / largest face of the mesh's lining hexahedra
+    (their faces planar between nodes on the lining's circles; `lining_element_length`), c_p the
+    lining's P-wave speed. The divisions come from the case's mesh plan (`plan`, else made here:
+    meshing.params.resolve, nothing meshed); where the mesh keys make none (check says why), h1 is
+    the thickness over mesh.lining_elements_through and L = h1, an upper bound."""
+    if plan is None:
+        plan = _mesh_plan(d)
+    c_p = p_wave_speed(d["materials"]["lining"])
+    if plan is None:
+        h1 = d["geometry"]["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+        return h1, h1 / c_p
+    h1, length = lining_element_length(plan)
+    return h1, length / c_p
+
+
+def lining_element_length(plan) -> tuple[float, float]:
+    """The lining's thinnest radial layer (m) and the shortest characteristic length volume / largest
+    face (m) of its hexahedra (tq-solid's hex8 `charLength`, which sets the element's critical step):
+    each element spans one angle 2 pi / n (n around) between two circles r_i < r_o, its hoop faces
+    the chords 2 r sin(pi / n), the radial edges r_o - r_i, the chords' distance (r_o - r_i) cos(pi / n),
+    and an axial length a (the shortest axial layer; the slice's thickness)."""
+    import math
+
+    import numpy as np
+
+    n, lay = 4 * plan.quarter.count, plan.lining
+    g = lay.growth
+    w = np.ones(lay.count) if g == 1 else g ** np.arange(lay.count)
+    radii = plan.radius_inner + (plan.radius_outer - plan.radius_inner) * np.concatenate(([0.0], np.cumsum(w) / w.sum()))
+    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
+    s, c = math.sin(math.pi / n), math.cos(math.pi / n)
+    lengths = []
+    for r_i, r_o in zip(radii[:-1], radii[1:], strict=True):
+        ci, co = 2 * r_i * s, 2 * r_o * s
+        trapezoid = (r_o - r_i) * c * (ci + co) / 2
+        lengths.append(trapezoid * axial / max(co * axial, (r_o - r_i) * axial, trapezoid))
+    return float(np.diff(radii).min()), float(min(lengths))
 
 
 def axial_step(d: dict, plan) -> float:
@@ -1708,16 +1740,17 @@ def ground_element_size(plan) -> float:
 
 def critical_step(d: dict, plan) -> float:
     """The solid's critical step, s, bounded as tq-solid's Solver::stableStep bounds it: the elastic
-    bound 2/w_max (w_max from the lining's first element layer, or a fault zone's shortest axial
+    bound 2/w_max (w_max from the lining's hexahedra, lining_layer_step, or a fault zone's shortest axial
     element, axial_step) cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's
     own bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3),
-    at its w_b = 2 c_p / h: h the lining's layer for the lining, the ground's smallest element side
-    (ground_element_size) for a ground region."""
+    at its w_b = 2 c_p / h: h the lining's hexahedra's L for the lining, the ground's smallest element
+    side (ground_element_size) for a ground region."""
     import math
 
     from .references import rayleigh_coefficients
 
-    h1, dt_lining = lining_layer_step(d)
+    dt_lining = lining_layer_step(d, plan)[1]
+    length = dt_lining * p_wave_speed(d["materials"]["lining"])  # the lining's hexahedra's L
     dt_elastic = min(dt_lining, axial_step(d, plan))
     dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
     dmp = d["damping"]
@@ -1728,7 +1761,7 @@ def critical_step(d: dict, plan) -> float:
         tau = m.get("retardation_time") or 0.0
         if m["model"] != "kelvin_voigt" or not tau > 0:
             continue
-        w = 2 * p_wave_speed(m) / (h1 if region == "lining" else h_ground)
+        w = 2 * p_wave_speed(m) / (length if region == "lining" else h_ground)
         xi = 0.5 * (beta + tau) * w
         dt = min(dt, 2 / w * (math.sqrt(1 + xi * xi) - xi))
     return dt

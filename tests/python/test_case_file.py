@@ -6,8 +6,9 @@ import math
 import re
 
 import pytest
+from case_texts import small_slice, synthetic_motion
 
-from conftest import EXAMPLE
+from conftest import EXAMPLE, solid_with
 from tunnelquake.case import load_case
 from tunnelquake.schema import CaseError
 
@@ -359,18 +360,51 @@ def test_check_refuses_a_bar_axis_beyond_the_linings_mid_thickness(example_text,
 
 def test_check_refuses_a_time_step_above_the_stable_step(example_text, write_case, capsys):
     """time.dt above safety_factor x the solid's critical step is refused by tq-solid when it builds its
-    solver: `tunnelquake check` refuses a step above its estimate of that bound (the lining's first
-    element layer: 0.25 m at 3470 m/s in the example), naming the key, its value, its line and the fix;
-    a step below the bound passes."""
+    solver (the example: 0.9 x 7.00074e-5 s, element 31634 of the lining, its `--check`): `tunnelquake
+    check` refuses a step above that bound (the lining's innermost hexahedra, 0.25 m thick between
+    chords of 48 around, 3470 m/s), naming the key, its value, its line and the fix, also one just above
+    it (6.35e-5 s, which the thickness alone, 6.48e-5 s, let through to the run); a step below passes."""
     def case(dt):
         return _mutate(example_text, "\ntime:\n", f"\ntime:\n  dt: {dt}\n")
 
     path, err = _check_error(case("1e-3 s"), write_case, capsys)
-    assert "time.dt = 0.001" in err and "is above the solid's stable step, about 6.48e-05 s" in err, err
-    assert "leave time.dt out (the stable step x safety_factor), or give at most 6.48e-05 s" in err, err
+    assert "time.dt = 0.001" in err and "is above the solid's stable step, about 6.3e-05 s" in err, err
+    assert "leave time.dt out (the stable step x safety_factor), or give at most 6.3e-05 s" in err, err
     line = case("1e-3 s").splitlines().index("  dt: 1e-3 s") + 1
     assert f"{path}:{line}: " in err, err
-    assert load_case(write_case(case("5e-5 s")))["time"]["dt"] == pytest.approx(5e-5)
+    _, err = _check_error(case("6.35e-5 s"), write_case, capsys)
+    assert "time.dt = 6.35e-05" in err, err
+    assert load_case(write_case(case("6.3e-5 s")))["time"]["dt"] == pytest.approx(6.3e-5)
+
+
+@pytest.mark.skipif(solid_with("staged-seismic") is None, reason="tq-solid with staged-seismic is not built")
+@pytest.mark.parametrize("refine", [1, 2])
+def test_checks_critical_step_is_tq_solids_on_another_lining(refine, tmp_path):
+    """check's critical step (case.critical_step: the lining's hexahedra, volume over largest face) is
+    tq-solid's own (`--check --json`, safety x its stable step) to round-off on a lining unlike the
+    paper's: a 3 m tunnel with a 0.4 m lining of 32 GPa, 16 elements around and 2 through, 1 m thick
+    slice (mass-proportional damping: no cut), and with mesh.refinement_factor 2 (32 around, 4
+    through), which the lining's thickness over mesh.lining_elements_through alone missed by 2x. The
+    inner layer's hexahedra set it: their hoop chords and the chords' distance make L 0.946x the
+    layer's thickness at 16 around."""
+    from conftest import solid_input
+    from tunnelquake.case import _mesh_plan, critical_step
+    from tunnelquake.solid_input import solid_step
+
+    p = tmp_path / "case.yaml"
+    p.write_text(small_slice("step_test").replace("near_field_radial_divisions: 3\n",
+                                                  "near_field_radial_divisions: 3\n  slice_thickness: 1 m\n"
+                                                  f"  refinement_factor: {refine}\n")
+                 + synthetic_motion("1 m/s^2", 0.5, "0.5 s"))
+    case = load_case(p)
+    d = case.data
+    assert d["mesh"]["refinement_factor"] == refine
+    ours = d["time"]["safety_factor"] * critical_step(d, _mesh_plan(d))
+    got = solid_step(solid_with("staged-seismic"), solid_input(case, tmp_path))
+    print(f"refinement {refine}: check {ours:.9g} s, tq-solid {got:.9g} s")
+    assert ours == pytest.approx(got, rel=1e-9)
+    h1 = 0.4 / (2 * refine)  # the layer's thickness at the lining's 3771.2 m/s
+    assert ours < 0.99 * d["time"]["safety_factor"] * h1 / 3771.2
 
 
 def test_check_refuses_a_relaxation_tolerance_of_one(example_text, write_case, capsys):

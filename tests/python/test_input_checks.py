@@ -297,17 +297,18 @@ def test_defaults_are_the_settings_the_example_measured(tmp_path, capsys):
 def test_rayleigh_damping_warns_with_the_factor_it_slows_the_run(tmp_path, capsys):
     """Stiffness-proportional damping cuts the central-difference step to (2/w)(sqrt(1+xi^2) - xi),
     xi = beta w / 2 at the highest frequency w = 2 c_p / h (Belytschko, Liu & Moran §6.3; tq-solid's
-    stableStep): for the example's lining layer (h = 0.25 m, c_p = 3,470 m/s) and 5 % at 1.5 and 10 Hz,
-    xi = 19.2 and the step is cut 38.4x (tq-solid's own hex8 frequency bound, 2/7.0e-5 s, gives 39.6x)."""
+    stableStep): for the example's innermost lining hexahedra (h = L, their volume / largest face as
+    tq-solid takes it: 0.25 m x cos(pi/48) x (4.5 + 4.75) / (2 x 4.75) = 0.2429 m; c_p = 3,470 m/s) and
+    5 % at 1.5 and 10 Hz, xi = 19.8 and the step is cut 39.6x, as tq-solid's own bound 2/7.0e-5 s gives."""
     import math
 
     rc, err = _check(capsys, _case(tmp_path, "  model: mass_proportional", "  model: rayleigh",
                                    "  subcycling: {static_water: 3, dynamic_water: 3}", "  subcycling: 0"))
     assert rc == 0  # single-rate: subcycling refuses the stiffness term
     cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
-    xi = 2 * 0.05 / (2 * math.pi * 11.5) * cp / 0.25
+    xi = 2 * 0.05 / (2 * math.pi * 11.5) * cp / (0.25 * math.cos(math.pi / 48) * (4.5 + 4.75) / (2 * 4.75))
     factor = 1 / (math.sqrt(1 + xi * xi) - xi)
-    assert factor == pytest.approx(38.44, abs=0.01)
+    assert factor == pytest.approx(39.56, abs=0.01)
     assert f"damping.model rayleigh: its stiffness term cuts the solid's stable step about {factor:.0f}x" in err
     assert f"so the run takes about {factor:.0f}x longer; damping.model: mass_proportional (the default)" in err
 

@@ -85,8 +85,10 @@ def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
     and 2250 (n = 2) kg/m^2: ratios 14.4 and 7.2 > 1, so a staggered scheme (explicit, paper)
     diverges (measured: docs/stability.md), compressible or not; compressible water
     (c = sqrt(2.2e9 / 1000) = 1483 m/s) with the solid step 0.9 x 0.25 m / c_p(lining) also gives the
-    impedance ratio rho_w c dt_c / m_G ~ 0.31 per solid step of the window dt_c (the example's windows
-    of 16 steps: 4.9). The implicit scheme (the example's) is stable."""
+    impedance ratio rho_w c dt_c / m_G ~ 0.30 per solid step of the window dt_c (the example's windows
+    of 16 steps: 4.8), the step 0.9 L / c_p with L the innermost lining hexahedra's volume / largest face
+    as tq-solid takes it (0.25 m x cos(pi/48) x (4.5 + 4.75) / (2 x 4.75): chords of 48 around). The
+    implicit scheme (the example's) is stable."""
     import math
 
     from tunnelquake.scene import added_mass_diagnostic
@@ -97,7 +99,9 @@ def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
     cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
     k = case.data["coupling"]["window"]
     assert k == 16
-    assert am.ratios["impedance"] == pytest.approx(1000 * math.sqrt(2.2e6) * k * 0.9 * 0.25 / cp / 312.5, rel=1e-12)
+    length = 0.25 * math.cos(math.pi / 48) * (4.5 + 4.75) / (2 * 4.75)
+    assert am.ratios["impedance"] == pytest.approx(1000 * math.sqrt(2.2e6) * k * 0.9 * length / cp / 312.5,
+                                                   rel=1e-12)
     assert am.ratios["mode 1"] == pytest.approx(1000 * 4.5 / 312.5, rel=1e-12)
     assert am.ratios["mode 2"] == pytest.approx(1000 * 4.5 / 2 / 312.5, rel=1e-12)
     assert 0.25 < am.ratios["impedance"] / k < 0.4
@@ -140,7 +144,8 @@ def test_incompressible_water_with_long_windows_is_warned(write_case):
 
 def test_check_predicts_the_volumetric_stiffness_limit_of_the_exchange(write_case):
     """The enclosed water's stiffness 2K/R per wall area against the wet nodes' 312.5 kg/m^2, exchanged
-    once a window of dt_c = 16 x 0.9 x 0.25 m / c_p(lining), is stable while omega_v dt_c < 2 (an explicit
+    once a window of dt_c = 16 x 0.9 x L / c_p(lining) (L = 0.243 m, the innermost lining hexahedra's
+    volume / largest face), is stable while omega_v dt_c < 2 (an explicit
     spring with the window's step). Measured on the example slice with coupling.volume_law: water
     (docs/stability.md "Water stiffness"): K = 2.2 GPa (1.84) ran the whole record, 22 GPa (5.8) was
     stopped by the energy guard, 220 GPa diverged. With the volume law in the solid (the default) the
@@ -150,7 +155,7 @@ def test_check_predicts_the_volumetric_stiffness_limit_of_the_exchange(write_cas
     from tunnelquake.scene import added_mass_diagnostic
 
     cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
-    dt_c = 16 * 0.9 * 0.25 / cp
+    dt_c = 16 * 0.9 * 0.25 * math.cos(math.pi / 48) * (4.5 + 4.75) / (2 * 4.75) / cp
     water = ("  scheme: implicit\n", "  scheme: implicit\n  volume_law: water\n")
     for k_gpa, stable in ((2.2, True), (22, False), (220, False)):
         am = added_mass_diagnostic(_case(write_case, w=water,
