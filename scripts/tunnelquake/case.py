@@ -1738,13 +1738,15 @@ def ground_element_size(plan) -> float:
     return min(radial, hoop, axial)
 
 
-def critical_step(d: dict, plan) -> float:
+def critical_step(d: dict, plan, frequencies: dict | None = None) -> float:
     """The solid's critical step, s, bounded as tq-solid's Solver::stableStep bounds it: the elastic
-    bound 2/w_max (w_max from the lining's hexahedra, lining_layer_step, or a fault zone's shortest axial
-    element, axial_step) cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's
-    own bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3),
-    at its w_b = 2 c_p / h: h the lining's hexahedra's L for the lining, the ground's smallest element
-    side (ground_element_size) for a ground region."""
+    bound 2/w_max cut by Rayleigh's beta K (rayleigh_step_cut), and every Kelvin-Voigt region's own
+    bound (2/w_b)(sqrt(1 + xi^2) - xi), xi = (beta + tau) w_b / 2 (Belytschko, Liu & Moran §6.3).
+    `frequencies` (region -> its hexahedra's largest 2 c_p / L, from the case's mesh:
+    subcycle_levels.mesh_frequencies) give w_max and each w_b as tq-solid has them; without them they
+    are estimated from the mesh plan: w_max from the lining's hexahedra (lining_layer_step) or a fault
+    zone's shortest axial element (axial_step), w_b = 2 c_p / h with h the lining's hexahedra's L for
+    the lining, the ground's smallest element side (ground_element_size) for a ground region."""
     import math
 
     from .references import rayleigh_coefficients
@@ -1752,6 +1754,8 @@ def critical_step(d: dict, plan) -> float:
     dt_lining = lining_layer_step(d, plan)[1]
     length = dt_lining * p_wave_speed(d["materials"]["lining"])  # the lining's hexahedra's L
     dt_elastic = min(dt_lining, axial_step(d, plan))
+    if frequencies:
+        dt_elastic = 2 / max(frequencies.values())
     dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
     dmp = d["damping"]
     beta = (rayleigh_coefficients(dmp["ratio"], *dmp["frequencies"])[1]
@@ -1761,7 +1765,8 @@ def critical_step(d: dict, plan) -> float:
         tau = m.get("retardation_time") or 0.0
         if m["model"] != "kelvin_voigt" or not tau > 0:
             continue
-        w = 2 * p_wave_speed(m) / (length if region == "lining" else h_ground)
+        w = (frequencies[region] if frequencies and region in frequencies
+             else 2 * p_wave_speed(m) / (length if region == "lining" else h_ground))
         xi = 0.5 * (beta + tau) * w
         dt = min(dt, 2 / w * (math.sqrt(1 + xi * xi) - xi))
     return dt

@@ -16,6 +16,7 @@ mid-length 4x lower than the slice's; docs/benchmarks.md "Slice against 3D").
 """
 from __future__ import annotations
 
+import contextlib
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -294,9 +295,54 @@ def repass_reach(case, conditions) -> dict:
     return mesh_figures(case, conditions)[1]
 
 
-def mesh_figures(case, conditions) -> tuple[dict, dict]:
-    """(subcycled_levels, repass_reach) of `conditions`, from one look at the case's mesh: the levels of
-    each subcycling and wet wall computed once for both."""
+def solid_frequencies(case, mesh_h5=None) -> dict | None:
+    """Each region of the case's solid mesh -> its hexahedra's largest 2 c_p / L, tq-solid's frequency
+    bound (subcycle_levels.mesh_frequencies; case.critical_step takes them for its stable step), from
+    `mesh_h5` or current_solid_mesh; None where check does not mesh the case or meshing fails (then
+    the mesh plan's estimate stands)."""
+    from .subcycle_levels import mesh_frequencies
+
+    if mesh_h5 is not None:
+        return mesh_frequencies(mesh_h5, case.data["materials"])
+    try:
+        with current_solid_mesh(case) as path:
+            return mesh_frequencies(path, case.data["materials"])
+    except (ValueError, RuntimeError, OSError, ImportError, KeyError):
+        return None
+
+
+def mesh_step_problem(case) -> str | None:
+    """time.dt above the stable step of the case's own mesh, safety_factor x case.critical_step with its
+    hexahedra's frequencies (solid_frequencies), which tq-solid refuses when it builds its solver: the
+    message naming the key, the value, the limit, the region whose elements set it and the fix; None
+    when time.dt is not given, is within it, or check does not mesh the case (the case's own check
+    against the mesh plan's estimate stands then)."""
+    from .case import case_geology, ground_layers
+    from .meshing.params import resolve
+
+    d = case.data
+    dt = d["time"].get("dt")
+    if dt is None:
+        return None
+    frequencies = solid_frequencies(case)
+    if not frequencies:
+        return None
+    safety = float(d["time"]["safety_factor"])
+    limit = safety * critical_step(d, resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)),
+                                   frequencies)
+    if dt <= limit:
+        return None
+    region = max(frequencies, key=frequencies.get)
+    return (f"time.dt = {dt:g} s is above the solid's stable step on this mesh, {limit:.4g} s (safety_factor "
+            f"{safety:g} x the critical step of its hexahedra, the smallest volume / largest face against its "
+            f"material's P-wave speed, in region '{region}', and the damping): tq-solid refuses a step above "
+            f"safety_factor x its critical step. Fix: leave time.dt out (the stable step x safety_factor), or give "
+            f"at most {limit:.4g} s")
+
+
+def mesh_figures(case, conditions, mesh_h5=None) -> tuple[dict, dict]:
+    """(subcycled_levels, repass_reach) of `conditions`, from one look at the case's mesh (`mesh_h5`, else
+    current_solid_mesh): the levels of each subcycling and wet wall computed once for both."""
     from .case import fault_offset_slip
     from .subcycle_levels import level_counts, mesh_level_arrays, mesh_window_reach
 
@@ -311,7 +357,7 @@ def mesh_figures(case, conditions) -> tuple[dict, dict]:
     if not sub and not again:
         return {}, reach
     levels, arrays, reached = {}, {}, {}
-    with current_solid_mesh(case) as mesh_h5:
+    with contextlib.nullcontext(mesh_h5) if mesh_h5 is not None else current_solid_mesh(case) as mesh_h5:
         for x in dict.fromkeys(sub + again):
             key = (subcycling_levels(d, x), "fluid" in PARTICIPANTS[x])
             if key not in arrays:
@@ -419,7 +465,19 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     d = case.data
     mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     counts = counts or element_counts(mesh_plan)
-    dt = d["time"].get("dt") or d["time"]["safety_factor"] * critical_step(d, mesh_plan)
+    conditions = plan(case)
+    # one look at the case's mesh (meshed now in a temporary folder where not current): the stable step
+    # of its hexahedra as tq-solid takes it, each subcycled condition's levels, the re-passes' reach
+    try:  # no mesh: the step from the mesh plan, subcycled conditions counted at one rate, re-passes whole
+        with current_solid_mesh(case) as mesh_h5:
+            frequencies = solid_frequencies(case, mesh_h5)
+            levels, reach = mesh_figures(case, [c for c, _ in conditions], mesh_h5)
+    except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:
+        frequencies, levels, reach = None, {}, {}
+        unmeshed = f"; the step from the mesh plan, subcycled conditions counted at one rate (no mesh: {e})"
+    else:
+        unmeshed = ""
+    dt = d["time"].get("dt") or d["time"]["safety_factor"] * critical_step(d, mesh_plan, frequencies)
     duration = d["time"].get("end_time")
     if duration is None:
         from .motion import window_seconds
@@ -428,7 +486,6 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     steps = int(math.ceil(duration / dt))
     from . import rates as R
 
-    conditions = plan(case)
     share = 2 if side_by_side(conditions) else 1
     elements = counts["rock"] + counts["lining"]
     threads = {c: solid_thread_count(int(d["parallel"]["threads"]), elements, share) for c, _ in conditions}
@@ -445,13 +502,6 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     # each condition's solid at its own subcycling (time.subcycling, given once or per condition): a
     # fine step evaluates the fraction of the elements its levels give and moves every node
-    try:  # no mesh: counted at one rate, every re-pass whole
-        levels, reach = mesh_figures(case, [c for c, _ in conditions])
-    except (ValueError, RuntimeError, OSError, ImportError, KeyError) as e:
-        levels, reach = {}, {}
-        unmeshed = f"; subcycled conditions counted at one rate (no mesh to count their levels on: {e})"
-    else:
-        unmeshed = ""
     solid_of = {c: elements * steps * rates.solid_element_step
                 * (rates.subcycled_factor(levels[c].cost_fraction) if c in levels else 1.0) for c, _ in conditions}
     statics, statics_steps = 0.0, 0

@@ -333,6 +333,28 @@ def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: fl
     return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall_nodes)
 
 
+def mesh_frequencies(mesh_h5: Path, materials: dict) -> dict[str, float]:
+    """Each region of a mesh.h5 -> the largest 2 c_p / L of its hexahedra (rad/s), L their volume over
+    largest face and c_p their material's P-wave speed (`materials[region]`): tq-solid's hex8 frequency
+    bound (ElementBlock::frequency), whose largest over the model sets its stable step 2 / w_max."""
+    import h5py
+
+    with h5py.File(mesh_h5, "r") as f:
+        coords = f["nodes/coordinates"][()]
+        conn = np.asarray(f["elements/connectivity"][()], dtype=np.int64)
+        region = f["elements/region"][()]
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["elements"].attrs["regions"]]
+    length = characteristic_lengths(coords, conn)
+    out = {}
+    for r, name in enumerate(names):
+        mine = region == r
+        if mine.any():
+            m = materials[name]
+            c_p = p_wave_speed(float(m["youngs_modulus"]), float(m["poisson_ratio"]), float(m["density"]))
+            out[name] = float(2.0 * c_p / length[mine].min())
+    return out
+
+
 def window_reach(conn: np.ndarray, node_level: np.ndarray, chunk_level: np.ndarray, chunk_of: np.ndarray,
                  wet: np.ndarray, pairs: np.ndarray, steps: int) -> dict:
     """What a coupling window's re-pass steps again (tq-solid's Solver::planRepasses, by its rule):

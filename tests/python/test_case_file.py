@@ -407,6 +407,39 @@ def test_checks_critical_step_is_tq_solids_on_another_lining(refine, tmp_path):
     assert ours < 0.99 * d["time"]["safety_factor"] * h1 / 3771.2
 
 
+@pytest.mark.skipif(solid_with("staged-seismic") is None, reason="tq-solid with staged-seismic is not built")
+def test_checks_step_is_the_meshs_where_the_rock_sets_it(tmp_path, capsys):
+    """Stiff rock (60 GPa) with 30 graded divisions across the near field: its first ring's hexahedra,
+    not the lining's, set the stable step, 8x shorter than the lining's (tq-solid's `--check` 5.46e-6 s
+    against the lining's 4.5e-5 s). check takes the step from the case's mesh (scene.solid_frequencies,
+    each region's hexahedra's largest 2 c_p / L): its run-time estimate's step is tq-solid's to 1e-9;
+    time.dt 1e-5 s, which the mesh plan's estimate let through, is refused, naming the key, the limit,
+    the region and the fix; 5e-6 s passes."""
+    from conftest import solid_input
+    from tunnelquake.cli import main
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.solid_input import solid_step
+
+    text = (small_slice("rock_step").replace("near_field_radial_divisions: 3\n",
+                                             "near_field_radial_divisions: 30\n  slice_thickness: 1 m\n")
+            .replace("youngs_modulus: 12 GPa", "youngs_modulus: 60 GPa") + synthetic_motion("1 m/s^2", 0.5, "0.5 s"))
+    p = tmp_path / "case.yaml"
+    p.write_text(text)
+    case = load_case(p)
+    got = solid_step(solid_with("staged-seismic"), solid_input(case, tmp_path / "solid"))
+    est = runtime_estimate(case, corrected=False, measure_if_missing=False).dt
+    print(f"step: check {est:.9g} s, tq-solid {got:.9g} s")
+    assert est == pytest.approx(got, rel=1e-9)
+    p.write_text(text + "time:\n  dt: 1e-5 s\n")
+    assert main(["check", str(p)]) == 1
+    err = capsys.readouterr().err
+    assert f"time.dt = 1e-05 s is above the solid's stable step on this mesh, {got:.4g} s" in err, err
+    assert "in region 'rock'" in err and f"Fix: leave time.dt out (the stable step x safety_factor), or give at " \
+        f"most {got:.4g} s" in err, err
+    p.write_text(text + "time:\n  dt: 5e-6 s\n")
+    assert main(["check", str(p)]) == 0, capsys.readouterr().err
+
+
 def test_check_refuses_a_relaxation_tolerance_of_one(example_text, write_case, capsys):
     """stages.relaxation_tolerance 1 is outside the (0, 1) solid_input.h5 takes (the run stopped writing
     it): `tunnelquake check` refuses it, naming the key, its value, its line and the fix; 0.5 passes."""

@@ -63,6 +63,12 @@ def main(argv: list[str]) -> int:
         src += f"; second horizontal record {gm['second_horizontal']['file']} at 90 deg to it"
     if gm["vertical"]["file"] is not None:
         src += f"; vertical record {gm['vertical']['file']}"
+    from ..scene import mesh_step_problem
+
+    step = mesh_step_problem(case)
+    if step is not None:
+        print(f"error: {case.path}: {step}", file=sys.stderr)
+        return 1
     which = f", variant {case.variant}" if case.variant else ""
     say(f"case '{d['name']}' is valid ({case.path}{which}); results go to {case.output_dir}")
     say(f"  block x {g['x_range']} y {g['y_range']} z {g['z_range']} m; tunnel r={g['excavated_radius']:g} m "
