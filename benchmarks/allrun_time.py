@@ -83,6 +83,28 @@ def run_env(src: Path, build: Path) -> dict:
     return env
 
 
+def cut_case_parser(prog: str, doc: str, end: float, rounds: int) -> argparse.ArgumentParser:
+    """The arguments of a benchmark that runs a variant of a case (default the example's `3d`) cut to
+    its first END s, ROUNDS rounds: OUT, --case, --variant, --end, --rounds; parse with
+    parse_cut_case."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0])
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--case", type=Path, default=Path(__file__).resolve().parent.parent / "cases" / "paper_tunnel"
+                    / "case.yaml")
+    ap.add_argument("--variant", default="3d")
+    ap.add_argument("--end", type=float, default=end, help=f"seconds of the record (default {end:g})")
+    ap.add_argument("--rounds", type=int, default=rounds)
+    return ap
+
+
+def parse_cut_case(ap: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """cut_case_parser's arguments, refused where no round or no time would run."""
+    a = ap.parse_args(argv)
+    if a.rounds < 1 or not a.end > 0:
+        raise SystemExit("give --rounds 1 or more and --end above 0 s")
+    return a
+
+
 def run_no_post(case: Path) -> float:
     """`tunnelquake run CASE --no-post` from this tree (its build, or $TQ_BUILD_DIR) into an empty
     results folder (CASE's folder/results), with run_env's environment; its log CASE's folder/run.log.

@@ -20,7 +20,6 @@ OUT/coupled_pass_split.json.
 """
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 import statistics
@@ -30,10 +29,9 @@ from pathlib import Path
 import h5py
 import yaml
 
-from .allrun_time import run_no_post, write_case
+from .allrun_time import cut_case_parser, parse_cut_case, run_no_post, write_case
 from .common import machine
 
-ROOT = Path(__file__).resolve().parent.parent
 ORDER = ("coupled", "alone")
 CONDITION = {"coupled": "dynamic_water", "alone": "static_water"}
 
@@ -79,15 +77,7 @@ def split(c: dict, alone: dict) -> dict:
 
 
 def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.coupled_pass_split", description=__doc__.split("\n\n")[0])
-    ap.add_argument("out", type=Path)
-    ap.add_argument("--case", type=Path, default=ROOT / "cases" / "paper_tunnel" / "case.yaml")
-    ap.add_argument("--variant", default="3d")
-    ap.add_argument("--end", type=float, default=1.0, help="seconds of the record (default 1)")
-    ap.add_argument("--rounds", type=int, default=3)
-    a = ap.parse_args(argv)
-    if a.rounds < 1 or not a.end > 0:
-        raise SystemExit("give --rounds 1 or more and --end above 0 s")
+    a = parse_cut_case(cut_case_parser("python -m benchmarks.coupled_pass_split", __doc__, 1.0, 3), argv)
     paths = cases(a.case.resolve(), a.variant or None, a.end, a.out.resolve())
     print(f"{machine()}; {a.case} ({a.variant or 'as written'}), first {a.end:g} s, {a.rounds} rounds", flush=True)
     rows = []

@@ -18,7 +18,6 @@ the implicit scheme (the condition's water passes are what the bound removes).
 """
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 import statistics
@@ -28,10 +27,9 @@ from pathlib import Path
 import h5py
 import yaml
 
-from .allrun_time import run_no_post, write_case
+from .allrun_time import cut_case_parser, parse_cut_case, run_no_post, write_case
 from .common import machine
 
-ROOT = Path(__file__).resolve().parent.parent
 ORDER = ("own", "one")
 
 
@@ -64,17 +62,10 @@ def run(case: Path) -> dict:
 
 
 def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.one_pass_bound", description=__doc__.split("\n\n")[0])
-    ap.add_argument("out", type=Path)
-    ap.add_argument("--case", type=Path, default=ROOT / "cases" / "paper_tunnel" / "case.yaml")
-    ap.add_argument("--variant", default="3d")
-    ap.add_argument("--end", type=float, default=0.35, help="seconds of the record (default 0.35)")
-    ap.add_argument("--rounds", type=int, default=8)
+    ap = cut_case_parser("python -m benchmarks.one_pass_bound", __doc__, 0.35, 8)
     ap.add_argument("--record-coupled", type=float, default=None, help="a whole record's coupled wall, s")
     ap.add_argument("--record-outside", type=float, default=0.0, help="that record's seconds outside the coupling")
-    a = ap.parse_args(argv)
-    if a.rounds < 1 or not a.end > 0:
-        raise SystemExit("give --rounds 1 or more and --end above 0 s")
+    a = parse_cut_case(ap, argv)
     paths = cases(a.case.resolve(), a.variant or None, a.end, a.out.resolve())
     print(f"{machine()}; {a.case} ({a.variant or 'as written'}), first {a.end:g} s, {a.rounds} rounds", flush=True)
     rows, ratios = [], []
