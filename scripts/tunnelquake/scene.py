@@ -375,7 +375,7 @@ def mesh_figures(case, conditions, mesh_h5=None) -> tuple[dict, dict]:
 
 @dataclass
 class RuntimeEstimate:
-    dt: float  # the solid's step, s (the lining's hexahedra's critical step x safety: critical_step)
+    dt: float  # the solid's step, s (the mesh's critical step x safety: case.critical_step)
     steps: int  # solid steps of the shaking
     seconds: dict[str, float]  # condition -> s of its shaking on an otherwise idle machine
     wall: float  # s, the conditions as `run` schedules them (the coupled one beside the others), statics included
@@ -437,12 +437,12 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
                      corrected: bool = True, measure_if_missing: bool = True) -> RuntimeEstimate:
     """The CPU time of each condition's shaking from the element and cell counts, the stable step
     and the coupling scheme, at this machine's measured rates (`rates`: a rates.MachineRates; by
-    default rates.machine_rates(), the cached probe of this processor and build, run once). The step is the lining's hexahedra's
-    L / c_p, L their volume / largest face as tq-solid takes it (case.lining_layer_step; the example's
-    7.00074e-5 s, tq-solid's own), or a fault zone's shortest axial element's (axial_step) if shorter,
-    times the safety factor, cut by
+    default rates.machine_rates(), the cached probe of this processor and build, run once). The step is tq-solid's own:
+    2 / w_max of the case's mesh (its hexahedra's largest 2 c_p / L, L their volume / largest face:
+    solid_frequencies; where check does not mesh the case, the mesh plan's estimate from the lining's
+    hexahedra and a fault zone's shortest axial element) times the safety factor, cut by
     stiffness-proportional damping and a Kelvin-Voigt material's viscosity as tq-solid cuts it
-    (critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
+    (case.critical_step). A fault offset imposed before the shaking adds its static stage's relaxation
     steps to each condition and makes the shaking after it dearer in ground that yields (rates.py
     RELAX_STEPS_PER_INCREMENT, RELAX_STEP_FACTOR, YIELDED_SHAKING_FACTOR); the other static stages
     are not counted. A subcycled condition (time.subcycling) takes its one-rate CPU times
