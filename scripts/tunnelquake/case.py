@@ -1293,9 +1293,10 @@ def _whole_case_checks(d: dict, raw: LineDict, filename: str) -> tuple[list[Issu
         else:
             issues += _bar_axis_checks(d, raw, where)
     rc = (d["materials"].get("lining") or {}).get("model") == "reinforced_concrete"
-    through = d["mesh"].get("lining_elements_through", 3)
+    through = lining_rows(d)
     if rc and through < RC_BENDING_ROWS:
-        warnings.append(f"mesh.lining_elements_through {through} with a reinforced_concrete lining: each element row "
+        warnings.append(f"mesh.lining_elements_through x refinement_factor {through} with a reinforced_concrete "
+                        "lining: each element row "
                         "has one stress, at its centre, so the lining's bending resistance from its stresses stays "
                         f"below the section's M_Rd (a plane-section strip of 4 such rows reaches 0.87 of it, of 10 "
                         f"0.989), and past the bars' yield the elements' own bending modes carry more than the section "
@@ -1661,6 +1662,12 @@ def _symmetry_checks(d: dict, raw: LineDict) -> list[Issue]:
 SLOW_FACTOR = 2.0
 
 
+def lining_rows(d: dict) -> int:
+    """The lining's element rows through its thickness in the mesh: mesh.lining_elements_through times
+    mesh.refinement_factor (meshing.params.resolve's lining divisions)."""
+    return int(d["mesh"].get("lining_elements_through", 3)) * int(d["mesh"].get("refinement_factor", 1))
+
+
 def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
     """The lining's thinnest element layer h1 (m) and the critical step of its elements, L / c_p (s),
     as tq-solid's hex8 bound takes it: L = volume / largest face of the mesh's lining hexahedra
@@ -1672,7 +1679,7 @@ def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
         plan = _mesh_plan(d)
     c_p = p_wave_speed(d["materials"]["lining"])
     if plan is None:
-        h1 = d["geometry"]["lining_thickness"] / d["mesh"].get("lining_elements_through", 3)
+        h1 = d["geometry"]["lining_thickness"] / lining_rows(d)
         return h1, h1 / c_p
     h1, length = lining_element_length(plan)
     return h1, length / c_p

@@ -101,6 +101,7 @@ def _from_case(obj, group: str, section: dict, table) -> None:
 def _reinforced_concrete_values(d: dict, m: dict) -> dict:
     """The material map of a `reinforced_concrete` region completed from the case's design block
     (concrete and bars: the same keys the design check reads) and the ring's geometry and mesh."""
+    from .case import lining_rows
     from .design.capacity import Concrete
 
     des = d.get("design") or {}
@@ -118,7 +119,7 @@ def _reinforced_concrete_values(d: dict, m: dict) -> dict:
     out.update(fck=c.fck, fctm=c.fctm_value, tunnel_centre_x=g["tunnel_centre_x"],
                tunnel_centre_z=g["tunnel_centre_z"], lining_thickness=g["lining_thickness"],
                ring_inner_radius=g["excavated_radius"] - g["lining_thickness"],
-               lining_elements_through=float(d["mesh"].get("lining_elements_through", 3)))
+               lining_elements_through=float(lining_rows(d)))
     return out
 
 

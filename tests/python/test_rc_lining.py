@@ -122,3 +122,31 @@ def test_check_warns_when_a_reinforced_linings_rows_cannot_reach_its_bending_res
         assert "reinforced_concrete" in said[0] and "mesh.lining_elements_through: 10 or more" in said[0]
     p.write_text(text.replace("model: reinforced_concrete", "model: elastic"))
     assert not [w for w in load_case(p).warnings if w.startswith("mesh.lining_elements_through")]
+
+
+@pytest.mark.parametrize("refine", [1, 2])
+def test_the_bars_rows_are_the_meshs_rows(tmp_path, refine):
+    """tq-solid places each bar layer in the lining's element rows by ring_layers (rc_law::steelRatio:
+    rows of thickness / ring_layers from the inner radius), so ring_layers must be the mesh's rows
+    through the thickness: mesh.lining_elements_through x mesh.refinement_factor (4 and 8 here), counted
+    on the written mesh as the lining nodes' distinct radii less one. With refinement 2 the count of
+    elements_through alone (4) put two mesh rows in each of tq-solid's, the bars smeared over twice
+    their row."""
+    import numpy as np
+
+    p = tmp_path / "case.yaml"
+    p.write_text(CASE.replace("DESIGN", DESIGN).replace("lining_elements_through: 4",
+                                                        f"lining_elements_through: 4\n  refinement_factor: {refine}"))
+    case = load_case(p)
+    assert case.data["mesh"]["refinement_factor"] == refine
+    build_tunnel_mesh(case.data["geometry"], case.data["mesh"], tmp_path)
+    motion, _ = from_case(case.data["ground_motion"], case.dir)
+    write_motion(motion, tmp_path / "motion.h5")
+    out = write_solid_input(case, tmp_path / "mesh.h5", tmp_path / "motion.h5", "no_water", tmp_path / "s.h5")
+    with h5py.File(tmp_path / "mesh.h5") as f:
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["elements"].attrs["regions"]]
+        conn = f["elements/connectivity"][()][f["elements/region"][()] == names.index("lining")]
+        x = f["nodes/coordinates"][()][np.unique(conn)]
+    radii = np.unique(np.round(np.hypot(x[:, 0], x[:, 2] - 10.0), 6))
+    with h5py.File(out) as f:
+        assert f["materials/lining"].attrs["ring_layers"] == len(radii) - 1 == 4 * refine
