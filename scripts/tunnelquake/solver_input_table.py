@@ -190,8 +190,9 @@ ENTRIES: tuple[Entry, ...] = (
        lo=0.0, lo_open=True),
     _e(MATERIALS, "ring_thickness", "float", "`reinforced_concrete`: the lining's thickness", unit="m",
        case="geometry.lining_thickness", models=_RC, lo=0.0, lo_open=True),
-    _e(MATERIALS, "ring_layers", "float", "`reinforced_concrete`: elements through the lining's thickness (the "
-       "bars' rows)", case="mesh.lining_elements_through", models=_RC, lo=1.0),
+    _e(MATERIALS, "ring_layers", "float", "`reinforced_concrete`: the mesh's element rows through the lining's "
+       "thickness, the bars' rows (written as mesh.lining_elements_through x mesh.refinement_factor)",
+       case="mesh.lining_elements_through", models=_RC, lo=1.0),
     _e("/boundary/fixed/*", "directions", "str", "fixed displacement directions of that face group's nodes, "
        "letters from `xyz` (e.g. `\"xyz\"` base, `\"x\"` roller). A slice mesh gets u_y = 0 everywhere",
        required=True),
