@@ -1674,7 +1674,7 @@ def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
     (their faces planar between nodes on the lining's circles; `lining_element_length`), c_p the
     lining's P-wave speed. The divisions come from the case's mesh plan (`plan`, else made here:
     meshing.params.resolve, nothing meshed); where the mesh keys make none (check says why), h1 is
-    the thickness over mesh.lining_elements_through and L = h1, an upper bound."""
+    the thickness over its rows (lining_rows) and L = h1, an upper bound."""
     if plan is None:
         plan = _mesh_plan(d)
     c_p = p_wave_speed(d["materials"]["lining"])
