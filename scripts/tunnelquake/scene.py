@@ -311,21 +311,18 @@ def solid_frequencies(case, mesh_h5=None) -> dict | None:
         return None
 
 
-def mesh_step_problem(case) -> str | None:
+def mesh_step_problem(case, frequencies: dict | None) -> str | None:
     """time.dt above the stable step of the case's own mesh, safety_factor x case.critical_step with its
-    hexahedra's frequencies (solid_frequencies), which tq-solid refuses when it builds its solver: the
-    message naming the key, the value, the limit, the region whose elements set it and the fix; None
-    when time.dt is not given, is within it, or check does not mesh the case (the case's own check
-    against the mesh plan's estimate stands then)."""
+    hexahedra's `frequencies` (solid_frequencies; runtime_estimate keeps them), which tq-solid refuses
+    when it builds its solver: the message naming the key, the value, the limit, the region whose
+    elements set it and the fix; None when time.dt is not given, is within it, or the case was not
+    meshed (`frequencies` None: the case's own check against the mesh plan's estimate stands then)."""
     from .case import case_geology, ground_layers
     from .meshing.params import resolve
 
     d = case.data
     dt = d["time"].get("dt")
-    if dt is None:
-        return None
-    frequencies = solid_frequencies(case)
-    if not frequencies:
+    if dt is None or not frequencies:
         return None
     safety = float(d["time"]["safety_factor"])
     limit = safety * critical_step(d, resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)),
@@ -388,6 +385,7 @@ class RuntimeEstimate:
     subcycled: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (cost fraction, CPU factor)
     repass: dict[str, tuple[float, float]] = field(default_factory=dict)  # condition -> (re-pass evaluations, CPU factor)
     water_ranks: tuple[int, float] = (1, 1.0)  # the water's ranks and its share of the wall against one rank's
+    frequencies: dict | None = None  # region -> its hexahedra's largest 2 c_p / L (None: not meshed)
     #: condition -> its kind (rates.part_key) and its seconds before any correction
     kinds: dict[str, tuple[str, float]] = field(default_factory=dict)
     #: part_key -> (factor, runs) of the corrections taken from this machine's recorded runs
@@ -498,7 +496,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
                                     measure_if_missing=measure_if_missing)
         except (R.ProbeFailed, OSError) as e:
             return RuntimeEstimate(dt=dt, steps=steps, seconds={}, wall=0.0,
-                                   basis=f"this machine's speed could not be measured: {e}")
+                                   basis=f"this machine's speed could not be measured: {e}", frequencies=frequencies)
     speedup = {c: rates.speedup(n) for c, n in on_cores.items()}
     # each condition's solid at its own subcycling (time.subcycling, given once or per condition): a
     # fine step evaluates the fraction of the elements its levels give and moves every node
@@ -563,7 +561,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
                                    for c, r in reach.items()},
                            water_ranks=water_ranks if any("fluid" in p for _, p in conditions) else (1, 1.0),
                            kinds=kinds, corrections=used,
-                           probes_complete=not (rates.speedup_note or unmeshed))
+                           probes_complete=not (rates.speedup_note or unmeshed), frequencies=frequencies)
 
 
 def record_run_rates(case, cond: str, results) -> dict[str, float]:

@@ -63,9 +63,10 @@ def main(argv: list[str]) -> int:
         src += f"; second horizontal record {gm['second_horizontal']['file']} at 90 deg to it"
     if gm["vertical"]["file"] is not None:
         src += f"; vertical record {gm['vertical']['file']}"
-    from ..scene import mesh_step_problem
+    from ..scene import added_mass_diagnostic, assess_slice, mesh_step_problem, plan, runtime_estimate
 
-    step = mesh_step_problem(case)
+    estimate = runtime_estimate(case)  # its look at the mesh gives the step time.dt is held to
+    step = mesh_step_problem(case, estimate.frequencies)
     if step is not None:
         print(f"error: {case.path}: {step}", file=sys.stderr)
         return 1
@@ -102,9 +103,7 @@ def main(argv: list[str]) -> int:
     say(f"  ground motion: {src}; window {window}; PGA {pga}; cut-off {gm['cutoff_frequency']:g} Hz; convention "
         f"{gm['convention']}")
     say(f"  {mesh_estimate(d, case)}")
-    from ..scene import added_mass_diagnostic, assess_slice, plan, runtime_estimate
-
-    say(f"  {runtime_estimate(case).line()}")
+    say(f"  {estimate.line()}")
 
     from ..restart import checkpoint_dir, coupled_resume_point, fluid_ranks_problem
 
