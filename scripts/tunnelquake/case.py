@@ -1668,16 +1668,53 @@ def lining_rows(d: dict) -> int:
     return int(d["mesh"].get("lining_elements_through", 3)) * int(d["mesh"].get("refinement_factor", 1))
 
 
+def reinforced_lining_step_scale(d: dict) -> float:
+    """The factor tq-solid's reinforced_concrete lining puts on its concrete's moduli for the stable
+    step (ReinforcedConcreteMaterial's constructor): 1 + rho_max Es / M, M the concrete's constrained
+    modulus and rho_max the largest steel ratio of its element rows (lining_rows), hoop or axial
+    (rc_law::steelRatio: each bar layer shared between the two rows whose centres straddle it, all of
+    it in the face row beyond that row's centre); 1 for any other lining. The bars, Es and axis distance
+    of design.reinforcement, absent ones at solid_input.h5's defaults (solver_input_table)."""
+    m = d["materials"].get("lining") or {}
+    if m.get("model") != "reinforced_concrete":
+        return 1.0
+    from .solver_input_table import ENTRIES, MATERIALS
+
+    default = {e.name: e.default for e in ENTRIES if e.group == MATERIALS}
+    bars = (d.get("design") or {}).get("reinforcement") or {}
+
+    def bar(key, name):
+        return float(bars.get(key) if bars.get(key) is not None else default[name])
+
+    n, t, a = lining_rows(d), float(d["geometry"]["lining_thickness"]), bar("axis_distance", "axis_distance")
+    h = t / n
+
+    def share(row: int, at: float) -> float:  # this row's share of a bar layer `at` from the inner face
+        x = at / h - 0.5
+        if x <= 0:
+            return 1.0 if row == 0 else 0.0
+        if x >= n - 1:
+            return 1.0 if row == n - 1 else 0.0
+        lo = math.floor(x)
+        return 1 - (x - lo) if row == lo else (x - lo) if row == lo + 1 else 0.0
+
+    areas = [(bar("As_inner", "As_inner_hoop"), bar("As_outer", "As_outer_hoop")),
+             (bar("As_inner_axial", "As_inner_axial"), bar("As_outer_axial", "As_outer_axial"))]
+    rho = max((inner * share(i, a) + outer * share(i, t - a)) / h for i in range(n) for inner, outer in areas)
+    E, nu = float(m["youngs_modulus"]), float(m["poisson_ratio"])
+    return 1 + rho * bar("Es", "Es") / (E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)))
+
+
 def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
     """The lining's thinnest element layer h1 (m) and the critical step of its elements, L / c_p (s),
     as tq-solid's hex8 bound takes it: L = volume / largest face of the mesh's lining hexahedra
     (their faces planar between nodes on the lining's circles; `lining_element_length`), c_p the
-    lining's P-wave speed. The divisions come from the case's mesh plan (`plan`, else made here:
+    lining's P-wave speed (a reinforced_concrete lining's with its bars: reinforced_lining_step_scale). The divisions come from the case's mesh plan (`plan`, else made here:
     meshing.params.resolve, nothing meshed); where the mesh keys make none (check says why), h1 is
     the thickness over its rows (lining_rows) and L = h1, an upper bound."""
     if plan is None:
         plan = _mesh_plan(d)
-    c_p = p_wave_speed(d["materials"]["lining"])
+    c_p = p_wave_speed(d["materials"]["lining"]) * math.sqrt(reinforced_lining_step_scale(d))
     if plan is None:
         h1 = d["geometry"]["lining_thickness"] / lining_rows(d)
         return h1, h1 / c_p

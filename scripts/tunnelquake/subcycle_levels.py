@@ -333,10 +333,11 @@ def mesh_level_arrays(mesh_h5: Path, materials: dict, max_level: int, safety: fl
     return level_arrays(coords, conn, region, speeds, max_level, safety, dt, finest, pairs, wall_nodes)
 
 
-def mesh_frequencies(mesh_h5: Path, materials: dict) -> dict[str, float]:
+def mesh_frequencies(mesh_h5: Path, materials: dict, stiffening: dict | None = None) -> dict[str, float]:
     """Each region of a mesh.h5 -> the largest 2 c_p / L of its hexahedra (rad/s), L their volume over
-    largest face and c_p their material's P-wave speed (`materials[region]`): tq-solid's hex8 frequency
-    bound (ElementBlock::frequency), whose largest over the model sets its stable step 2 / w_max."""
+    largest face and c_p their material's P-wave speed (`materials[region]`, its moduli times
+    `stiffening[region]` where given: a reinforced lining's bars): tq-solid's hex8 frequency bound
+    (ElementBlock::frequency), whose largest over the model sets its stable step 2 / w_max."""
     import h5py
 
     with h5py.File(mesh_h5, "r") as f:
@@ -351,7 +352,7 @@ def mesh_frequencies(mesh_h5: Path, materials: dict) -> dict[str, float]:
         if mine.any():
             m = materials[name]
             c_p = p_wave_speed(float(m["youngs_modulus"]), float(m["poisson_ratio"]), float(m["density"]))
-            out[name] = float(2.0 * c_p / length[mine].min())
+            out[name] = float(2.0 * c_p * np.sqrt((stiffening or {}).get(name, 1.0)) / length[mine].min())
     return out
 
 

@@ -150,3 +150,28 @@ def test_the_bars_rows_are_the_meshs_rows(tmp_path, refine):
     radii = np.unique(np.round(np.hypot(x[:, 0], x[:, 2] - 10.0), 6))
     with h5py.File(out) as f:
         assert f["materials/lining"].attrs["ring_layers"] == len(radii) - 1 == 4 * refine
+
+
+def test_checks_step_takes_the_bars_stiffening_as_tq_solid(tmp_path):
+    """tq-solid takes a reinforced_concrete lining's stable step at its concrete's moduli times
+    1 + rho_max Es / M (rho_max the largest row steel ratio, hoop or axial: the 1005 mm^2/m hoop bars at
+    60 mm in rows of 0.1 m: 1.0493 here). check's step (the case's mesh, scene.solid_frequencies with
+    case.reinforced_lining_step_scale) is tq-solid's `--check` step to 1e-9; at the concrete's moduli
+    alone it would be 1/sqrt(1.0493) = 0.976 of it too long, a step tq-solid refuses."""
+    from conftest import solid_with
+    from tunnelquake.case import reinforced_lining_step_scale
+    from tunnelquake.scene import runtime_estimate
+    from tunnelquake.solid_input import solid_step
+
+    exe = solid_with("staged-seismic")
+    if exe is None:
+        pytest.skip("tq-solid with staged-seismic is not built")
+    out = _write(tmp_path)
+    case = load_case(tmp_path / "case.yaml")
+    scale = reinforced_lining_step_scale(case.data)
+    rho = 1.005e-3 * (1 - (0.06 / 0.1 - 0.5)) / 0.1  # the inner bars' share of the first row
+    assert scale == pytest.approx(1 + rho * 200e9 / (33e9 * 0.8 / (1.2 * 0.6)), rel=1e-12)
+    est = runtime_estimate(case, corrected=False, measure_if_missing=False).dt
+    got = solid_step(exe, out)
+    print(f"step: check {est:.9g} s, tq-solid {got:.9g} s, the bars' factor {scale:.5f}")
+    assert est == pytest.approx(got, rel=1e-9)
