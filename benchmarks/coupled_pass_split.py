@@ -13,7 +13,8 @@ that turns each round, with benchmarks.allrun_time's environment. Read: the coup
 `/coupling` attributes `solid_first_passes_s` (from each window's plan to its first exchange),
 `solid_repasses_s` (from a refused exchange to the next, the restore included), `solid_s`, passes and
 windows, and its `/timings steps`; the alone results' `/timings wall_s` (the shaking's wall) and
-`steps`. Printed per round, in ms: the alone solid per window of the coupled run's steps, the coupled
+`steps` (its shaking's wall holds its results' samples, which the coupled run books at each window's
+end). Printed per round, in ms: the alone solid per window of the coupled run's steps, the coupled
 first pass per window, a re-pass, the window's end (solid_s less both, per window), and the ratios
 first pass / alone and re-pass / first pass; their medians over the rounds. The figures go to
 OUT/coupled_pass_split.json.
