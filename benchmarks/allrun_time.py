@@ -83,6 +83,19 @@ def run_env(src: Path, build: Path) -> dict:
     return env
 
 
+def case_with_conditions(src: Path, conditions: list[str]) -> dict:
+    """The case file `src` as a dict with these `conditions`, its variants' own conditions dropped (so
+    that a variant laid over it by write_case keeps them)."""
+    import yaml
+
+    base = yaml.safe_load(src.read_text())
+    base["conditions"] = list(conditions)
+    for v in (base.get("variants") or {}).values():
+        if isinstance(v, dict):
+            v.pop("conditions", None)
+    return base
+
+
 def cut_case_parser(prog: str, doc: str, end: float, rounds: int) -> argparse.ArgumentParser:
     """The arguments of a benchmark that runs a variant of a case (default the example's `3d`) cut to
     its first END s, ROUNDS rounds: OUT, --case, --variant, --end, --rounds; parse with

@@ -21,16 +21,14 @@ OUT/coupled_pass_split.json.
 """
 from __future__ import annotations
 
-import copy
 import json
 import statistics
 import sys
 from pathlib import Path
 
 import h5py
-import yaml
 
-from .allrun_time import cut_case_parser, parse_cut_case, run_no_post, write_case
+from .allrun_time import case_with_conditions, cut_case_parser, parse_cut_case, run_no_post, write_case
 from .common import machine
 
 ORDER = ("coupled", "alone")
@@ -39,16 +37,8 @@ CONDITION = {"coupled": "dynamic_water", "alone": "static_water"}
 
 def cases(src: Path, variant: str | None, end: float, out: Path) -> dict[str, Path]:
     """OUT/coupled/case.yaml (dynamic_water) and OUT/alone/case.yaml (static_water), cut to `end` s."""
-    base = yaml.safe_load(src.read_text())
-    for v in (base.get("variants") or {}).values():
-        if isinstance(v, dict):
-            v.pop("conditions", None)
-    paths = {}
-    for name in ORDER:
-        d = copy.deepcopy(base)
-        d["conditions"] = [CONDITION[name]]
-        paths[name] = write_case(d, src.parent, out / name, variant, end)
-    return paths
+    return {name: write_case(case_with_conditions(src, [CONDITION[name]]), src.parent, out / name, variant, end)
+            for name in ORDER}
 
 
 def figures(case: Path, name: str) -> dict:

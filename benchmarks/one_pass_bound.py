@@ -25,9 +25,8 @@ import sys
 from pathlib import Path
 
 import h5py
-import yaml
 
-from .allrun_time import cut_case_parser, parse_cut_case, run_no_post, write_case
+from .allrun_time import case_with_conditions, cut_case_parser, parse_cut_case, run_no_post, write_case
 from .common import machine
 
 ORDER = ("own", "one")
@@ -35,11 +34,7 @@ ORDER = ("own", "one")
 
 def cases(src: Path, variant: str | None, end: float, out: Path) -> dict[str, Path]:
     """OUT/own/case.yaml and OUT/one/case.yaml (dynamic_water only, cut to `end` s)."""
-    base = yaml.safe_load(src.read_text())
-    base["conditions"] = ["dynamic_water"]
-    for v in (base.get("variants") or {}).values():
-        if isinstance(v, dict):
-            v.pop("conditions", None)
+    base = case_with_conditions(src, ["dynamic_water"])
     one = copy.deepcopy(base)
     c = one.setdefault("coupling", {})
     if variant and isinstance((one.get("variants") or {}).get(variant), dict):

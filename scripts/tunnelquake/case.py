@@ -1701,8 +1701,7 @@ def reinforced_lining_step_scale(d: dict) -> float:
     areas = [(bar("As_inner", "As_inner_hoop"), bar("As_outer", "As_outer_hoop")),
              (bar("As_inner_axial", "As_inner_axial"), bar("As_outer_axial", "As_outer_axial"))]
     rho = max((inner * share(i, a) + outer * share(i, t - a)) / h for i in range(n) for inner, outer in areas)
-    E, nu = float(m["youngs_modulus"]), float(m["poisson_ratio"])
-    return 1 + rho * bar("Es", "Es") / (E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)))
+    return 1 + rho * bar("Es", "Es") / (p_wave_speed(m) ** 2 * float(m["density"]))  # M = rho c_p^2
 
 
 def lining_layer_step(d: dict, plan=None) -> tuple[float, float]:
@@ -1728,36 +1727,36 @@ def lining_element_length(plan) -> tuple[float, float]:
     each element spans one angle 2 pi / n (n around) between two circles r_i < r_o, its hoop faces
     the chords 2 r sin(pi / n), the radial edges r_o - r_i, the chords' distance (r_o - r_i) cos(pi / n),
     and an axial length a (the shortest axial layer; the slice's thickness)."""
-    import math
+    from .meshing.params import graded_sizes
 
+    n = 4 * plan.quarter.count
+    sizes = graded_sizes(plan.radius_outer - plan.radius_inner, plan.lining)
+    axial = shortest_axial_element(plan)
+    s, c = math.sin(math.pi / n), math.cos(math.pi / n)
+    lengths, r_i = [], plan.radius_inner
+    for h in sizes:
+        r_o = r_i + h
+        ci, co = 2 * r_i * s, 2 * r_o * s
+        trapezoid = h * c * (ci + co) / 2
+        lengths.append(trapezoid * axial / max(co * axial, h * axial, trapezoid))
+        r_i = r_o
+    return min(sizes), min(lengths)
+
+
+def shortest_axial_element(plan) -> float:
+    """The mesh plan's shortest axial element, m (a slice's thickness)."""
     import numpy as np
 
-    n, lay = 4 * plan.quarter.count, plan.lining
-    g = lay.growth
-    w = np.ones(lay.count) if g == 1 else g ** np.arange(lay.count)
-    radii = plan.radius_inner + (plan.radius_outer - plan.radius_inner) * np.concatenate(([0.0], np.cumsum(w) / w.sum()))
-    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
-    s, c = math.sin(math.pi / n), math.cos(math.pi / n)
-    lengths = []
-    for r_i, r_o in zip(radii[:-1], radii[1:], strict=True):
-        ci, co = 2 * r_i * s, 2 * r_o * s
-        trapezoid = (r_o - r_i) * c * (ci + co) / 2
-        lengths.append(trapezoid * axial / max(co * axial, (r_o - r_i) * axial, trapezoid))
-    return float(np.diff(radii).min()), float(min(lengths))
+    return float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
 
 
 def axial_step(d: dict, plan) -> float:
     """The critical step of the shortest axial element, h / c_p with the fastest material (inf when
     the axial grid is uniform: the lining's layer sets the step). A fault zone's refined stretch
     can make it shorter than the lining's (meshing.params.axial_levels)."""
-    import math
-
-    import numpy as np
-
-    h = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else math.inf
-    if plan.geology is None or not math.isfinite(h):
+    if plan.geology is None or len(plan.y_levels) < 2:
         return math.inf
-    return h / max(p_wave_speed(m) for m in d["materials"].values())
+    return shortest_axial_element(plan) / max(p_wave_speed(m) for m in d["materials"].values())
 
 
 def p_wave_speed(m: dict) -> float:
@@ -1770,16 +1769,11 @@ def ground_element_size(plan) -> float:
     """The smallest side of the ground's elements beside the excavation, m: the rock ring's hoop size
     at the excavated radius, its first radial size along an axis (meshing.params' near-field
     grading) or the axial size (a slice's thickness, the shortest axial element in 3D)."""
-    import math
-
-    import numpy as np
-
     from .meshing.params import graded_sizes
 
     radial = min(graded_sizes(plan.box_half_width - plan.radius_outer, plan.near_field))
     hoop = 2 * math.pi * plan.radius_outer / (4 * plan.quarter.count)
-    axial = float(np.diff(plan.y_levels).min()) if len(plan.y_levels) > 1 else plan.ymax - plan.ymin
-    return min(radial, hoop, axial)
+    return min(radial, hoop, shortest_axial_element(plan))
 
 
 def critical_step(d: dict, plan, frequencies: dict | None = None) -> float:
@@ -1795,11 +1789,12 @@ def critical_step(d: dict, plan, frequencies: dict | None = None) -> float:
 
     from .references import rayleigh_coefficients
 
-    dt_lining = lining_layer_step(d, plan)[1]
-    length = dt_lining * p_wave_speed(d["materials"]["lining"])  # the lining's hexahedra's L
-    dt_elastic = min(dt_lining, axial_step(d, plan))
     if frequencies:
-        dt_elastic = 2 / max(frequencies.values())
+        dt_elastic, length = 2 / max(frequencies.values()), None
+    else:
+        dt_lining = lining_layer_step(d, plan)[1]
+        length = dt_lining * p_wave_speed(d["materials"]["lining"])  # the lining's hexahedra's L
+        dt_elastic = min(dt_lining, axial_step(d, plan))
     dt = dt_elastic / rayleigh_step_cut(d, dt_elastic)
     dmp = d["damping"]
     beta = (rayleigh_coefficients(dmp["ratio"], *dmp["frequencies"])[1]

@@ -295,23 +295,15 @@ def repass_reach(case, conditions) -> dict:
     return mesh_figures(case, conditions)[1]
 
 
-def solid_frequencies(case, mesh_h5=None) -> dict | None:
-    """Each region of the case's solid mesh -> its hexahedra's largest 2 c_p / L, tq-solid's frequency
-    bound (subcycle_levels.mesh_frequencies, a reinforced lining stiffened by its bars as tq-solid
-    stiffens it: case.reinforced_lining_step_scale; case.critical_step takes them for its step), from
-    `mesh_h5` or current_solid_mesh; None where check does not mesh the case or meshing fails (then
-    the mesh plan's estimate stands)."""
+def solid_frequencies(case, mesh_h5) -> dict:
+    """Each region of the case's solid mesh `mesh_h5` -> its hexahedra's largest 2 c_p / L, tq-solid's
+    frequency bound (subcycle_levels.mesh_frequencies, a reinforced lining stiffened by its bars as
+    tq-solid stiffens it: case.reinforced_lining_step_scale; case.critical_step takes them for its
+    step)."""
     from .case import reinforced_lining_step_scale
     from .subcycle_levels import mesh_frequencies
 
-    bars = {"lining": reinforced_lining_step_scale(case.data)}
-    if mesh_h5 is not None:
-        return mesh_frequencies(mesh_h5, case.data["materials"], bars)
-    try:
-        with current_solid_mesh(case) as path:
-            return mesh_frequencies(path, case.data["materials"], bars)
-    except (ValueError, RuntimeError, OSError, ImportError, KeyError):
-        return None
+    return mesh_frequencies(mesh_h5, case.data["materials"], {"lining": reinforced_lining_step_scale(case.data)})
 
 
 def mesh_step_problem(case, frequencies: dict | None) -> str | None:
