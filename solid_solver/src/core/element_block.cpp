@@ -738,41 +738,36 @@ struct ElementBlock::ChunkView {
 
 namespace {
 
-/// The corners' values x[3 node + i] of a chunk's elements into g[i][corner][lane], with AVX-512
-/// gathers: 8 elements at a time, their connectivity transposed in registers to one row of nodes a
-/// corner, then 24 gathers (each the loads the scalar loop makes, so the same bits); the lanes from
-/// n to the next multiple of 8 are set to 0.
-__attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"))) void gatherCornersAvx512(
-    const Real* __restrict x, const Index* __restrict cn, Index n, Real (*g)[8][ElementBlock::kChunk]) {
-  static_assert(sizeof(Index) == 4, "the transpose reads 32-bit node numbers");
-  for (Index l = 0; l < n; l += 8) {
-    const Index rest = n - l;
-    const __mmask8 m = rest >= 8 ? __mmask8(0xff) : __mmask8((1u << rest) - 1);
-    __m256i r[8];  // row j: the 8 corners of element l + j (0 past the chunk's end)
-    for (int j = 0; j < 8; ++j)
-      r[j] = j < rest ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cn + 8 * size_t(l + j)))
-                      : _mm256_setzero_si256();
-    __m256i t[8], q[8], c[8];
-    for (int j = 0; j < 8; j += 2) {
-      t[j] = _mm256_unpacklo_epi32(r[j], r[j + 1]);
-      t[j + 1] = _mm256_unpackhi_epi32(r[j], r[j + 1]);
-    }
-    for (int h = 0; h < 8; h += 4) {
-      q[h] = _mm256_unpacklo_epi64(t[h], t[h + 2]);
-      q[h + 1] = _mm256_unpackhi_epi64(t[h], t[h + 2]);
-      q[h + 2] = _mm256_unpacklo_epi64(t[h + 1], t[h + 3]);
-      q[h + 3] = _mm256_unpackhi_epi64(t[h + 1], t[h + 3]);
-    }
-    for (int k = 0; k < 4; ++k) {
-      c[k] = _mm256_permute2x128_si256(q[k], q[k + 4], 0x20);
-      c[k + 4] = _mm256_permute2x128_si256(q[k], q[k + 4], 0x31);
-    }
+/// The corners' values x[3 node + i] of a chunk's elements into g[i][corner][lane], four elements at
+/// a time: a node's (x, y) in one 16-byte load and its z in one 8-byte load, the four elements'
+/// values transposed in registers into one 32-byte row of x, y and z a corner (three stores where
+/// the scalar loop makes twelve; the same values, so the same bits). The lanes from n to nv (a
+/// multiple of 4) are set to 0. No load reaches past a node's own three values.
+__attribute__((target("avx2,fma"))) void gatherCornersAvx2(const Real* __restrict x, const Index* __restrict cn,
+                                                           Index n, Index nv, Real (*g)[8][ElementBlock::kChunk]) {
+  const Index full = n / 4 * 4;
+  for (Index l = 0; l < full; l += 4) {
+    const Index* c0 = cn + 8 * size_t(l);
+#pragma GCC unroll 8
     for (int k = 0; k < 8; ++k) {
-      const __m256i at = _mm256_add_epi32(c[k], _mm256_add_epi32(c[k], c[k]));  // 3 node
-      for (int i = 0; i < 3; ++i)
-        _mm512_store_pd(&g[i][k][l], _mm512_mask_i32gather_pd(_mm512_setzero_pd(), m, at, x + i, 8));
+      const Real* p0 = x + 3 * size_t(c0[k]);
+      const Real* p1 = x + 3 * size_t(c0[8 + k]);
+      const Real* p2 = x + 3 * size_t(c0[16 + k]);
+      const Real* p3 = x + 3 * size_t(c0[24 + k]);
+      const __m256d a = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p0)), _mm_loadu_pd(p2), 1);
+      const __m256d b = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p1)), _mm_loadu_pd(p3), 1);
+      const __m128d z01 = _mm_loadh_pd(_mm_load_sd(p0 + 2), p1 + 2);
+      const __m128d z23 = _mm_loadh_pd(_mm_load_sd(p2 + 2), p3 + 2);
+      _mm256_store_pd(&g[0][k][l], _mm256_unpacklo_pd(a, b));
+      _mm256_store_pd(&g[1][k][l], _mm256_unpackhi_pd(a, b));
+      _mm256_store_pd(&g[2][k][l], _mm256_insertf128_pd(_mm256_castpd128_pd256(z01), z23, 1));
     }
   }
+  for (Index l = full; l < nv; ++l)
+    for (int k = 0; k < 8; ++k) {
+      const Real* p = l < n ? x + 3 * size_t(cn[8 * size_t(l) + k]) : nullptr;
+      for (int i = 0; i < 3; ++i) g[i][k][l] = p ? p[i] : 0;
+    }
 }
 
 // The kernel body for one chunk; instantiated for the generic and the AVX2 target.
@@ -788,9 +783,9 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
   // 1. Gather the corners' displacements (and velocities) into [component][corner][lane].
   alignas(64) Real ug[3][8][W];
   alignas(64) Real vg[kDamp ? 3 : 1][8][W];
-  if constexpr (kLanes == 8) {
-    gatherCornersAvx512(u, cn, n, ug);
-    if constexpr (kDamp) gatherCornersAvx512(v, cn, n, vg);
+  if constexpr (kLanes >= 4) {
+    gatherCornersAvx2(u, cn, n, nv, ug);
+    if constexpr (kDamp) gatherCornersAvx2(v, cn, n, nv, vg);
   } else {
     for (Index l = 0; l < n; ++l)
       for (int k = 0; k < 8; ++k) {
