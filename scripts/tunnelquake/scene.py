@@ -128,7 +128,7 @@ class AddedMassDiagnostic:
     message: str
 
 
-def added_mass_diagnostic(case) -> AddedMassDiagnostic:
+def added_mass_diagnostic(case, frequencies: dict | None = None) -> AddedMassDiagnostic:
     """Estimate whether the case's coupling scheme is stable before running it.
 
     The explicit solid resists the water within one step only with the lumped mass of the lining's
@@ -136,21 +136,22 @@ def added_mass_diagnostic(case) -> AddedMassDiagnostic:
     rho_w R / n per area to ovaling mode n: a staggered exchange (explicit, or the paper's
     predictor-corrector) amplifies interface errors by about rho_w R / (n m_G) each step, unstable
     above 1 (Causin et al. 2005). Compressible water also acts within a window like a dashpot of
-    impedance rho_w c (stable while rho_w c dt_c / m_G < 2, dt_c = window x the solid step, estimated
-    from the lining layer: safety x h_1 / c_p) — but measured on the water-filled ring and on the
+    impedance rho_w c (stable while rho_w c dt_c / m_G < 2, dt_c = window x the solid's step: time.dt
+    where given, else safety x case.critical_step, from the mesh's hexahedra where `frequencies`
+    (solid_frequencies; runtime_estimate keeps them) are given, else from the mesh plan) — but measured on the water-filled ring and on the
     paper's slice (docs/stability.md) the added-mass bound decides for compressible water too (the
     structure's frequencies are far below the water's acoustic ones), so both are checked."""
     import math
 
     d = case.data
     g, w, lin = d["geometry"], d["water"], d["materials"]["lining"]
-    h1, dt_crit = lining_layer_step(d)
+    h1 = lining_layer_step(d)[0]
     m_g = lin["density"] * h1 / 2
     R = g["excavated_radius"] - g["lining_thickness"]
     scheme = d["coupling"]["scheme"]
     ratios = {f"mode {n}": w["density"] * R / (n * m_g) for n in (1, 2)}
     if w["model"] == "compressible":
-        dt_c = d["coupling"]["window"] * d["time"]["safety_factor"] * dt_crit
+        dt_c = d["coupling"]["window"] * solid_step(case, frequencies)
         c_w = math.sqrt(w["bulk_modulus"] / w["density"])
         ratios["impedance"] = w["density"] * c_w * dt_c / m_g
     # The enclosed water's volumetric stiffness 2K/R per wall area (p = -K dA/A, dA/A = 2u/R) against
@@ -304,6 +305,21 @@ def solid_frequencies(case, mesh_h5) -> dict:
     from .subcycle_levels import mesh_frequencies
 
     return mesh_frequencies(mesh_h5, case.data["materials"], {"lining": reinforced_lining_step_scale(case.data)})
+
+
+def solid_step(case, frequencies: dict | None = None, mesh_plan=None) -> float:
+    """The solid's time step, s, as tq-solid takes it: time.dt where given, else safety_factor x
+    case.critical_step (from the mesh's hexahedra's `frequencies` where given: solid_frequencies;
+    `mesh_plan` the case's meshing.params.resolve, made here when not given)."""
+    from .case import case_geology, ground_layers
+    from .meshing.params import resolve
+
+    d = case.data
+    if d["time"].get("dt") is not None:
+        return float(d["time"]["dt"])
+    if mesh_plan is None:
+        mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
+    return float(d["time"]["safety_factor"]) * critical_step(d, mesh_plan, frequencies)
 
 
 def mesh_step_problem(case, frequencies: dict | None) -> str | None:
@@ -470,7 +486,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
         unmeshed = f"; the step from the mesh plan, subcycled conditions counted at one rate (no mesh: {e})"
     else:
         unmeshed = ""
-    dt = d["time"].get("dt") or d["time"]["safety_factor"] * critical_step(d, mesh_plan, frequencies)
+    dt = solid_step(case, frequencies, mesh_plan)
     duration = d["time"].get("end_time")
     if duration is None:
         from .motion import window_seconds

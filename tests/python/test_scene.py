@@ -120,6 +120,31 @@ def test_added_mass_diagnostic_matches_the_hand_estimates(write_case):
         assert not former.stable and "added-mass ratio 14.4" in former.message
 
 
+def test_added_mass_diagnostic_takes_the_solid_step_the_run_takes(write_case):
+    """The impedance ratio rho_w c dt_c / m_G is of the window's time dt_c = window x the solid's step
+    as tq-solid takes it: time.dt where the case gives it (here a third of the lining's stable step: a
+    third of the ratio), and where the mesh's hexahedra set a shorter critical step than the lining's
+    (`frequencies`, region -> 2 c_p / L, as check reads them from the case's mesh), 0.9 x 2 / w_max."""
+    import math
+
+    from tunnelquake.scene import added_mass_diagnostic
+
+    cp = math.sqrt(28e9 * 0.83 / (1.17 * 0.66 * 2500))
+    length = 0.25 * math.cos(math.pi / 48) * (4.5 + 4.75) / (2 * 4.75)
+    z = 1000 * math.sqrt(2.2e6) * 16 / 312.5  # rho_w c k / m_G
+    assert added_mass_diagnostic(_case(write_case)).ratios["impedance"] == pytest.approx(z * 0.9 * length / cp,
+                                                                                          rel=1e-12)
+    dt = 0.9 * length / cp / 3
+    given = _case(write_case, t=("  subcycling: {static_water: 3, dynamic_water: 3}\n",
+                                 f"  subcycling: {{static_water: 3, dynamic_water: 3}}\n  dt: {dt!r}\n"))
+    assert given.data["time"]["dt"] == dt
+    assert added_mass_diagnostic(given).ratios["impedance"] == pytest.approx(z * dt, rel=1e-12)
+    w_rock = 2 * 4000.0 / 0.05  # a rock element 0.05 m across at c_p 4 km/s: shorter than the lining's step
+    frequencies = {"lining": 2 * cp / length, "rock": w_rock}
+    assert added_mass_diagnostic(_case(write_case), frequencies).ratios["impedance"] == pytest.approx(
+        z * 0.9 * 2 / w_rock, rel=1e-12)
+
+
 def test_incompressible_water_with_long_windows_is_warned(write_case):
     """Measured on the paper case in 3D with open ends and the whole pressure exchanged
     (`volume_law: water`; docs/stability.md "The paper case in 3D with incompressible water"): at

@@ -115,7 +115,7 @@ def main(argv: list[str]) -> int:
         if why is not None:
             print(f"warning: `tunnelquake run --resume` refuses {why}")
     if "dynamic_water" in d["conditions"]:
-        am = added_mass_diagnostic(case)
+        am = added_mass_diagnostic(case, estimate.frequencies)
         if am.stable:
             say(f"  {am.message}")
         else:
