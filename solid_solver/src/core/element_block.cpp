@@ -822,9 +822,9 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
-    if (cv.nextG) {  // the next chunk's geometry, spread over this loop (kGeo * W / 8 lines)
-      constexpr Index kLines = kGeo * W / 8;
-      for (Index j = l * kLines / W; j < (l + kLanes) * kLines / W; ++j) __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
+    if (cv.nextG) {  // the first half of the next chunk's geometry, spread over this loop
+      constexpr Index kHalf = kGeo * W / 16;
+      for (Index j = l * kHalf / W; j < (l + kLanes) * kHalf / W; ++j) __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
     }
     V L[3][3];
     gradient(ug, G, l, L);
@@ -924,7 +924,11 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
-    if (cv.nextG) {  // the next chunk's strain or σ_off, stress (one line per 8 lanes), connectivity
+    if (cv.nextG) {  // the rest of the next chunk's geometry; its strain or σ_off, stress (one line per 8
+                     // lanes), connectivity
+      constexpr Index kHalf = kGeo * W / 16, kLines = kGeo * W / 8;
+      for (Index j = kHalf + l * (kLines - kHalf) / W; j < kHalf + (l + kLanes) * (kLines - kHalf) / W; ++j)
+        __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
       if (l % 8 == 0)
         for (int k = 0; k < 6; ++k) {
           if (cv.nextStrain[k]) __builtin_prefetch(cv.nextStrain[k] + l, 0, 2);
