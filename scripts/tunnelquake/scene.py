@@ -136,9 +136,9 @@ def added_mass_diagnostic(case, frequencies: dict | None = None) -> AddedMassDia
     rho_w R / n per area to ovaling mode n: a staggered exchange (explicit, or the paper's
     predictor-corrector) amplifies interface errors by about rho_w R / (n m_G) each step, unstable
     above 1 (Causin et al. 2005). Compressible water also acts within a window like a dashpot of
-    impedance rho_w c (stable while rho_w c dt_c / m_G < 2, dt_c = window x the solid's step: time.dt
-    where given, else safety x case.critical_step, from the mesh's hexahedra where `frequencies`
-    (solid_frequencies; runtime_estimate keeps them) are given, else from the mesh plan) — but measured on the water-filled ring and on the
+    impedance rho_w c (stable while rho_w c dt_c / m_G < 2, dt_c = window x the solid's step,
+    planned_step: from the mesh's hexahedra where `frequencies` are given, as check gives them from
+    runtime_estimate, else from the mesh plan) — but measured on the water-filled ring and on the
     paper's slice (docs/stability.md) the added-mass bound decides for compressible water too (the
     structure's frequencies are far below the water's acoustic ones), so both are checked."""
     import math
@@ -151,7 +151,7 @@ def added_mass_diagnostic(case, frequencies: dict | None = None) -> AddedMassDia
     scheme = d["coupling"]["scheme"]
     ratios = {f"mode {n}": w["density"] * R / (n * m_g) for n in (1, 2)}
     if w["model"] == "compressible":
-        dt_c = d["coupling"]["window"] * solid_step(case, frequencies)
+        dt_c = d["coupling"]["window"] * planned_step(case, frequencies)
         c_w = math.sqrt(w["bulk_modulus"] / w["density"])
         ratios["impedance"] = w["density"] * c_w * dt_c / m_g
     # The enclosed water's volumetric stiffness 2K/R per wall area (p = -K dA/A, dA/A = 2u/R) against
@@ -307,19 +307,24 @@ def solid_frequencies(case, mesh_h5) -> dict:
     return mesh_frequencies(mesh_h5, case.data["materials"], {"lining": reinforced_lining_step_scale(case.data)})
 
 
-def solid_step(case, frequencies: dict | None = None, mesh_plan=None) -> float:
-    """The solid's time step, s, as tq-solid takes it: time.dt where given, else safety_factor x
-    case.critical_step (from the mesh's hexahedra's `frequencies` where given: solid_frequencies;
-    `mesh_plan` the case's meshing.params.resolve, made here when not given)."""
+def stable_step(case, frequencies: dict | None = None, mesh_plan=None) -> float:
+    """safety_factor x case.critical_step, s: the longest step tq-solid takes for the case (from the
+    mesh's hexahedra's `frequencies` where given: solid_frequencies; `mesh_plan` the case's
+    meshing.params.resolve, made here when not given)."""
     from .case import case_geology, ground_layers
     from .meshing.params import resolve
 
     d = case.data
-    if d["time"].get("dt") is not None:
-        return float(d["time"]["dt"])
     if mesh_plan is None:
         mesh_plan = resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d))
     return float(d["time"]["safety_factor"]) * critical_step(d, mesh_plan, frequencies)
+
+
+def planned_step(case, frequencies: dict | None = None, mesh_plan=None) -> float:
+    """The solid's time step, s, as tq-solid will take it: time.dt where given, else stable_step (what
+    solid_input.solid_step reads from tq-solid itself once the input is written)."""
+    dt = case.data["time"].get("dt")
+    return float(dt) if dt is not None else stable_step(case, frequencies, mesh_plan)
 
 
 def mesh_step_problem(case, frequencies: dict | None) -> str | None:
@@ -328,16 +333,12 @@ def mesh_step_problem(case, frequencies: dict | None) -> str | None:
     when it builds its solver: the message naming the key, the value, the limit, the region whose
     elements set it and the fix; None when time.dt is not given, is within it, or the case was not
     meshed (`frequencies` None: the case's own check against the mesh plan's estimate stands then)."""
-    from .case import case_geology, ground_layers
-    from .meshing.params import resolve
-
     d = case.data
     dt = d["time"].get("dt")
     if dt is None or not frequencies:
         return None
     safety = float(d["time"]["safety_factor"])
-    limit = safety * critical_step(d, resolve(d["geometry"], d["mesh"], ground_layers(d), case_geology(d)),
-                                   frequencies)
+    limit = stable_step(case, frequencies)
     if dt <= limit:
         return None
     region = max(frequencies, key=frequencies.get)
@@ -486,7 +487,7 @@ def runtime_estimate(case, counts: dict | None = None, rates=None, actual: dict 
         unmeshed = f"; the step from the mesh plan, subcycled conditions counted at one rate (no mesh: {e})"
     else:
         unmeshed = ""
-    dt = solid_step(case, frequencies, mesh_plan)
+    dt = planned_step(case, frequencies, mesh_plan)
     duration = d["time"].get("end_time")
     if duration is None:
         from .motion import window_seconds
