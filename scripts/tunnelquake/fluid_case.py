@@ -47,11 +47,13 @@ TQ_COUPLING_TOKEN (`tokenEnv`), see fluid_env().
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 import re
 import shutil
 import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -492,6 +494,38 @@ def decompose(folder: Path, ranks: int, extents: tuple[float, float, float], sli
     m = re.search(r"^Number of processor faces = (\d+)", log, flags=re.M)
     return {"split": split, "cells": per, "processor_faces": int(m.group(1)) if m else None}
 
+
+
+#: TQ_WATER_BATCH=0 in the environment runs the water under the scheduling policy it inherits
+BATCH_ENV = "TQ_WATER_BATCH"
+
+
+@functools.lru_cache(maxsize=1)
+def _chrt_batch() -> str | None:
+    """`chrt` where it can start a program under the batch policy here (util-linux, Linux), else None."""
+    exe = shutil.which("chrt")
+    if exe is None or not sys.platform.startswith("linux"):
+        return None
+    try:
+        ok = subprocess.run([exe, "--batch", "0", "true"], capture_output=True, timeout=10).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return exe if ok else None
+
+
+def batch_scheduled(cmd: list[str]) -> list[str]:
+    """The water's ranks (`mpirun ...`, whose ranks inherit the policy) under Linux's batch scheduling
+    policy (SCHED_BATCH, `chrt --batch 0`): a batch task that the solid wakes with the wall's motion
+    does not preempt the solid's thread that woke it, which then sends to the next rank and waits,
+    instead of standing aside while the first rank starts its pass. The 3D example's first second on
+    2 ranks: tq-solid's exchange work 0.54-0.69 s of wall (its CPU) against 1.88-3.02 s, the coupled
+    wall 0.969x (median of 6 alternated rounds); the slice's water on one rank gains nothing (1.010x),
+    so a single water process keeps its policy (docs/benchmarks.md "Against the time goals").
+    Unchanged where chrt cannot (not Linux, no util-linux) or with TQ_WATER_BATCH=0."""
+    if os.environ.get(BATCH_ENV) == "0":
+        return cmd
+    exe = _chrt_batch()
+    return [exe, "--batch", "0", *cmd] if exe else cmd
 
 
 def mpirun_executable() -> str:

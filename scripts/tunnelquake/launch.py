@@ -269,7 +269,7 @@ def run_coupled_condition(case, cond: str, motion_file, share: int = 1,
         fluid_cmd = [fluid.solver, "-case", str(fluid.path)]
         if ranks > 1:
             dec = fc.decompose(fluid.path, ranks, _water_extents(case, mesh_h5), slice_mode)
-            fluid_cmd = fc.mpirun_command(ranks, fluid.solver, fluid.path, env)
+            fluid_cmd = fc.batch_scheduled(fc.mpirun_command(ranks, fluid.solver, fluid.path, env))
             say(f"condition {cond}: water decomposed on {ranks} ranks (simple, n = {dec['split']}): cells "
                 f"{', '.join(map(str, dec['cells']))}, {dec['processor_faces']} processor faces; log "
                 f"{fluid.path / 'log.decomposePar'}")

@@ -2,6 +2,10 @@
 coupler's handshake compares every item), and the water model chosen from the case."""
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -139,3 +143,19 @@ def test_mpirun_command_carries_the_environment_and_yields(monkeypatch):
     monkeypatch.setattr(fc.shutil, "which", lambda name: None)
     with pytest.raises(fc.FluidCaseError, match=r"parallel\.fluid_ranks > 1 needs mpirun"):
         fc.mpirun_command(2, "rhoPimpleFoam", Path("/tmp/fluid"), env)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or shutil.which("chrt") is None,
+                    reason="the batch policy is Linux's (chrt: util-linux)")
+def test_water_runs_under_the_batch_policy(monkeypatch):
+    """The water's command starts its program under SCHED_BATCH (mpirun's ranks inherit it): the
+    program reads its own policy as batch; TQ_WATER_BATCH=0 leaves the command as it was."""
+    probe = [sys.executable, "-c", "import os; print(os.sched_getscheduler(0))"]
+    monkeypatch.delenv(fc.BATCH_ENV, raising=False)
+    cmd = fc.batch_scheduled(probe)
+    assert cmd[-len(probe):] == probe
+    policy = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    assert int(policy) == os.SCHED_BATCH
+    assert int(subprocess.run(probe, capture_output=True, text=True, check=True).stdout) != os.SCHED_BATCH
+    monkeypatch.setenv(fc.BATCH_ENV, "0")
+    assert fc.batch_scheduled(probe) == probe
