@@ -776,6 +776,9 @@ template <bool kDamp, bool kTotal, class V>
 inline __attribute__((always_inline)) void onePointBody(const ElementBlock::ChunkView& cv, const Real* __restrict u,
                                                         const Real* __restrict v, Real* __restrict f, BlockEnergy& en) {
   constexpr Index W = ElementBlock::kChunk, kLanes = sizeof(V) / sizeof(Real);
+  // The next chunk's geometry in cache lines of 8 values: its first half prefetched over the strain
+  // loop, the rest over the force loop.
+  constexpr Index kGeoLines = kGeo * W / 8, kGeoHalf = kGeo * W / 16;
   using M = decltype(V{} != V{});
   const Real* __restrict G = cv.G;
   const Index* __restrict cn = cv.conn;
@@ -822,10 +825,8 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     for (Index i = 0; i < kLanes; ++i) actv[i] = Real(cv.act[l + i]);
     const M on = actv != 0.0;
     const V zero = V{};
-    if (cv.nextG) {  // the first half of the next chunk's geometry, spread over this loop
-      constexpr Index kHalf = kGeo * W / 16;
-      for (Index j = l * kHalf / W; j < (l + kLanes) * kHalf / W; ++j) __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
-    }
+    if (cv.nextG)  // the first half of the next chunk's geometry, spread over this loop
+      for (Index j = l * kGeoHalf / W; j < (l + kLanes) * kGeoHalf / W; ++j) __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
     V L[3][3];
     gradient(ug, G, l, L);
     const V eps[6] = {L[0][0], L[1][1], L[2][2], L[0][1] + L[1][0], L[1][2] + L[2][1], L[2][0] + L[0][2]};
@@ -926,8 +927,8 @@ inline __attribute__((always_inline)) void onePointBody(const ElementBlock::Chun
     const V zero = V{};
     if (cv.nextG) {  // the rest of the next chunk's geometry; its strain or σ_off, stress (one line per 8
                      // lanes), connectivity
-      constexpr Index kHalf = kGeo * W / 16, kLines = kGeo * W / 8;
-      for (Index j = kHalf + l * (kLines - kHalf) / W; j < kHalf + (l + kLanes) * (kLines - kHalf) / W; ++j)
+      constexpr Index rest = kGeoLines - kGeoHalf;
+      for (Index j = kGeoHalf + l * rest / W; j < kGeoHalf + (l + kLanes) * rest / W; ++j)
         __builtin_prefetch(cv.nextG + 8 * j, 0, 2);
       if (l % 8 == 0)
         for (int k = 0; k < 6; ++k) {
