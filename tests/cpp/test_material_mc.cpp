@@ -116,6 +116,53 @@ TEST(MohrCoulombReturn, RandomTrialsLandOnTheSurfaceAndSatisfyKuhnTucker) {
   EXPECT_GT(corners, 1000);  // edges, corners and apexes were exercised
 }
 
+// The material builds its return tables (the planes' return directions and each active set's
+// elimination) once, from its undamaged surface, and returns every damaged surface with them: damage
+// changes a return's strengths (cohesion term, cut-off) but not its elastic constants or flow
+// factors under the `cohesion` effect, and the `cohesion_and_stiffness` effect returns on the
+// undamaged surface. So the tables of a damaged surface must equal those of the undamaged one, and a
+// return with the undamaged surface's tables must give the bits of one that builds its own.
+TEST(MohrCoulombReturn, TablesOfTheUndamagedSurfaceGiveADamagedSurfacesReturnBitForBit) {
+  auto sameTables = [](const MohrCoulombReturnTables& x, const MohrCoulombReturnTables& y) {
+    bool same = x.youngs == y.youngs && x.poisson == y.poisson;
+    for (int j = 0; j < MohrCoulombReturnTables::kPlanes; ++j)
+      for (int i = 0; i < 3; ++i) same = same && x.a[j][i] == y.a[j][i] && x.Db[j][i] == y.Db[j][i];
+    for (int s = 0; s < MohrCoulombReturnTables::kSets; ++s) {
+      const auto &p = x.sets[s], &q = y.sets[s];
+      same = same && p.n == q.n && p.solvable == q.solvable;
+      for (int i = 0; i < 3; ++i) {
+        same = same && p.plane[i] == q.plane[i] && p.pivot[i] == q.pivot[i];
+        for (int j = 0; j < 3; ++j)
+          same = same && p.factor[i][j] == q.factor[i][j] && p.reduced[i][j] == q.reduced[i][j];
+      }
+    }
+    return same;
+  };
+  std::mt19937 rng(11);
+  int returned = 0;
+  for (auto base : {paperRock(), paperLining()})
+    for (Real psi : {0.0, 12.0}) {
+      base.dilationAngle = psi;
+      const MohrCoulombDamageMaterial mat(base);
+      const MohrCoulombReturnTables undamaged = mat.surface(0).returnTables();
+      for (Real D : {0.25, 0.9}) {
+        const MohrCoulombSurface s = mat.surface(D);
+        ASSERT_TRUE(sameTables(s.returnTables(), undamaged)) << "psi " << psi << " D " << D;
+        for (int n = 0; n < 2000; ++n) {
+          Real t[3];
+          sortedRandom(rng, n % 2 ? 3e6 : 25e6, t);
+          if (n % 5 == 0) t[1] = t[2];
+          const PrincipalReturn own = s.returnMap(t), shared = s.returnMap(undamaged, t);
+          returned += own.activeSet >= 0;
+          ASSERT_EQ(own.activeSet, shared.activeSet);
+          ASSERT_EQ(0, std::memcmp(own.sigma, shared.sigma, sizeof own.sigma));
+          ASSERT_EQ(0, std::memcmp(own.plastic, shared.plastic, sizeof own.plastic));
+        }
+      }
+    }
+  EXPECT_GT(returned, 4000);
+}
+
 TEST(MohrCoulombReturn, AssociatedReturnIsTheClosestPointInTheEnergyNorm) {
   auto p = paperLining();
   p.dilationAngle = p.frictionAngle;

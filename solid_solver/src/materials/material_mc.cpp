@@ -66,31 +66,26 @@ Real flowFactor(Real angleDeg) {
 }
 
 // ---- the yield planes in sorted principal space (σ1 ≤ σ2 ≤ σ3, tension positive) -----------
-// F_j(σ) = a_j·σ − k_j (violated when > 0), plastic potential gradient b_j.
+// F_j(σ) = a_j·σ − k_j (violated when > 0), plastic potential gradient b_j; k_j is the surface's
+// cohesion term on the shear planes (before T3) and its cut-off on the tension planes.
 enum Plane : int { S13 = 0, S12, S23, T3, T2, T1, kPlanes };
+static_assert(kPlanes == MohrCoulombReturnTables::kPlanes, "the tables hold every plane");
 
-struct Planes {
-  Real a[kPlanes][3], b[kPlanes][3], k[kPlanes];
-  Real Db[kPlanes][3];  // elastic return direction C : b_j (principal)
-};
-
-Planes makePlanes(const MohrCoulombSurface& s) {
-  Planes p{};
-  auto set = [&](int j, Real a0, Real a1, Real a2, Real b0, Real b1, Real b2, Real k) {
-    p.a[j][0] = a0, p.a[j][1] = a1, p.a[j][2] = a2;
-    p.b[j][0] = b0, p.b[j][1] = b1, p.b[j][2] = b2;
-    p.k[j] = k;
+// The normals a_j and the elastic return directions C : b_j of a surface's planes.
+void setPlanes(const MohrCoulombSurface& s, MohrCoulombReturnTables& T) {
+  auto set = [&](int j, Real a0, Real a1, Real a2, Real b0, Real b1, Real b2) {
+    T.a[j][0] = a0, T.a[j][1] = a1, T.a[j][2] = a2;
+    const Real b[3] = {b0, b1, b2};
     const Real tr = b0 + b1 + b2;
-    for (int i = 0; i < 3; ++i) p.Db[j][i] = s.lambda * tr + 2 * s.mu * p.b[j][i];
+    for (int i = 0; i < 3; ++i) T.Db[j][i] = s.lambda * tr + 2 * s.mu * b[i];
   };
-  const Real Np = s.nPhi, Nq = s.nPsi, kc = s.cohesionTerm, st = s.tension;
-  set(S13, -1, 0, Np, -1, 0, Nq, kc);  // main shear plane (σ1, σ3)
-  set(S12, -1, Np, 0, -1, Nq, 0, kc);  // its partner on the edge σ2 = σ3
-  set(S23, 0, -1, Np, 0, -1, Nq, kc);  // its partner on the edge σ1 = σ2
-  set(T3, 0, 0, 1, 0, 0, 1, st);       // tension cut-off on σ3 (associated)
-  set(T2, 0, 1, 0, 0, 1, 0, st);       // ... on σ2 (edge σ2 = σ3 = σt)
-  set(T1, 1, 0, 0, 1, 0, 0, st);       // ... on σ1 (apex σ1 = σ2 = σ3 = σt)
-  return p;
+  const Real Np = s.nPhi, Nq = s.nPsi;
+  set(S13, -1, 0, Np, -1, 0, Nq);  // main shear plane (σ1, σ3)
+  set(S12, -1, Np, 0, -1, Nq, 0);  // its partner on the edge σ2 = σ3
+  set(S23, 0, -1, Np, 0, -1, Nq);  // its partner on the edge σ1 = σ2
+  set(T3, 0, 0, 1, 0, 0, 1);       // tension cut-off on σ3 (associated)
+  set(T2, 0, 1, 0, 0, 1, 0);       // ... on σ2 (edge σ2 = σ3 = σt)
+  set(T1, 1, 0, 0, 1, 0, 0);       // ... on σ1 (apex σ1 = σ2 = σ3 = σt)
 }
 
 // Active sets tried in order; the first that satisfies the Kuhn–Tucker conditions (multipliers
@@ -108,8 +103,12 @@ constexpr ActiveSet kSets[] = {
 };
 constexpr int kNumSets = int(sizeof(kSets) / sizeof(kSets[0]));
 
-// Solve the n×n system G x = r (n ≤ 3) by Gaussian elimination with partial pivoting.
-bool solveSmall(int n, Real G[3][3], Real r[3], Real x[3]) {
+// Gaussian elimination with partial pivoting of an active set's n×n system G x = r (n ≤ 3), split
+// in two: the matrix's part (it depends only on the return tables) and the right-hand side's,
+// which repeats the matrix's row operations in their order.
+using ReturnSet = MohrCoulombReturnTables::Set;
+
+bool factorSmall(int n, Real G[3][3], ReturnSet& S) {
   int idx[3] = {0, 1, 2};
   Real scale = 0;
   for (int i = 0; i < n; ++i)
@@ -120,20 +119,32 @@ bool solveSmall(int n, Real G[3][3], Real r[3], Real x[3]) {
     for (int i = c + 1; i < n; ++i)
       if (std::abs(G[idx[i]][c]) > std::abs(G[idx[piv]][c])) piv = i;
     std::swap(idx[c], idx[piv]);
+    S.pivot[c] = piv;
     const Real d = G[idx[c]][c];
     if (std::abs(d) <= 1e-13 * scale) return false;  // degenerate active set
     for (int i = c + 1; i < n; ++i) {
       const Real f = G[idx[i]][c] / d;
+      S.factor[c][i] = f;
       for (int j = c; j < n; ++j) G[idx[i]][j] -= f * G[idx[c]][j];
-      r[idx[i]] -= f * r[idx[c]];
     }
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) S.reduced[i][j] = G[i][j];
+  return true;
+}
+
+void solveFactored(const ReturnSet& S, Real r[3], Real x[3]) {
+  const int n = S.n;
+  int idx[3] = {0, 1, 2};
+  for (int c = 0; c < n; ++c) {
+    std::swap(idx[c], idx[S.pivot[c]]);
+    for (int i = c + 1; i < n; ++i) r[idx[i]] -= S.factor[c][i] * r[idx[c]];
   }
   for (int c = n - 1; c >= 0; --c) {
     Real s = r[idx[c]];
-    for (int j = c + 1; j < n; ++j) s -= G[idx[c]][j] * x[j];
-    x[c] = s / G[idx[c]][c];
+    for (int j = c + 1; j < n; ++j) s -= S.reduced[idx[c]][j] * x[j];
+    x[c] = s / S.reduced[idx[c]][c];
   }
-  return true;
 }
 
 // Smallest and largest principal value of a symmetric 3x3 (Voigt) in closed form: the
@@ -243,12 +254,43 @@ void spectralToVoigt(const Real d[3], const Real v[3][3], bool engineering, Real
 
 // ---- return mapping in principal space ------------------------------------------------------
 
+MohrCoulombReturnTables MohrCoulombSurface::returnTables() const {
+  MohrCoulombReturnTables T;
+  setPlanes(*this, T);
+  T.youngs = mu * (3 * lambda + 2 * mu) / (lambda + mu);
+  T.poisson = lambda / (2 * (lambda + mu));
+  static_assert(kNumSets == MohrCoulombReturnTables::kSets, "the tables hold every active set");
+  for (int s = 0; s < kNumSets; ++s) {
+    const ActiveSet& A = kSets[s];
+    ReturnSet& S = T.sets[s];
+    S.n = A.n;
+    Real G[3][3] = {};
+    for (int i = 0; i < A.n; ++i) {
+      S.plane[i] = A.j[i];
+      for (int j = 0; j < A.n; ++j) {
+        const int pi = A.j[i], pj = A.j[j];
+        G[i][j] = T.a[pi][0] * T.Db[pj][0] + T.a[pi][1] * T.Db[pj][1] + T.a[pi][2] * T.Db[pj][2];
+      }
+    }
+    S.solvable = factorSmall(A.n, G, S);
+  }
+  return T;
+}
+
 PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
+  if (shear(t) <= 0 && tensile(t) <= 0) {
+    PrincipalReturn r;
+    for (int i = 0; i < 3; ++i) r.sigma[i] = t[i];
+    return r;
+  }
+  return returnMap(returnTables(), t, hint);
+}
+
+PrincipalReturn MohrCoulombSurface::returnMap(const MohrCoulombReturnTables& T, const Real t[3], int hint) const {
   PrincipalReturn r;
   for (int i = 0; i < 3; ++i) r.sigma[i] = t[i];
   const Real fs = shear(t), ft = tensile(t);
   if (fs <= 0 && ft <= 0) return r;
-  const Planes P = makePlanes(*this);
   const Real scale = std::max({std::abs(t[0]), std::abs(t[1]), std::abs(t[2]), cohesionTerm, std::abs(tension),
                                std::numeric_limits<Real>::min()});
   const Real tolF = 1e-11 * scale * nPhi;  // Pa
@@ -258,26 +300,24 @@ PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
     if (q == hint) continue;  // already tried first
     const int s = q < 0 ? hint : q;
     if (s < 0) continue;
-    const ActiveSet& A = kSets[s];
-    Real G[3][3], rhs[3], x[3] = {0, 0, 0};
-    for (int i = 0; i < A.n; ++i) {
-      const int pi = A.j[i];
-      rhs[i] = P.a[pi][0] * t[0] + P.a[pi][1] * t[1] + P.a[pi][2] * t[2] - P.k[pi];
-      for (int j = 0; j < A.n; ++j) {
-        const int pj = A.j[j];
-        G[i][j] = P.a[pi][0] * P.Db[pj][0] + P.a[pi][1] * P.Db[pj][1] + P.a[pi][2] * P.Db[pj][2];
-      }
+    const ReturnSet& S = T.sets[s];
+    if (!S.solvable) continue;
+    Real rhs[3], x[3] = {0, 0, 0};
+    for (int i = 0; i < S.n; ++i) {
+      const int pi = S.plane[i];
+      const Real k = pi < T3 ? cohesionTerm : tension;
+      rhs[i] = T.a[pi][0] * t[0] + T.a[pi][1] * t[1] + T.a[pi][2] * t[2] - k;
     }
-    if (!solveSmall(A.n, G, rhs, x)) continue;
+    solveFactored(S, rhs, x);
     Real sig[3] = {t[0], t[1], t[2]};
     Real xmax = 0;
-    for (int j = 0; j < A.n; ++j) {
+    for (int j = 0; j < S.n; ++j) {
       xmax = std::max(xmax, std::abs(x[j]));
-      for (int i = 0; i < 3; ++i) sig[i] -= x[j] * P.Db[A.j[j]][i];
+      for (int i = 0; i < 3; ++i) sig[i] -= x[j] * T.Db[S.plane[j]][i];
     }
     // Kuhn–Tucker: multipliers ≥ 0, inside every plane, principal order kept.
     Real violation = 0;
-    for (int j = 0; j < A.n; ++j) violation = std::max(violation, -x[j] / std::max(xmax, 1e-300) * scale);
+    for (int j = 0; j < S.n; ++j) violation = std::max(violation, -x[j] / std::max(xmax, 1e-300) * scale);
     violation = std::max(violation, shear(sig));
     violation = std::max(violation, tensile(sig));
     violation = std::max(violation, sig[0] - sig[1]);
@@ -298,7 +338,7 @@ PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
   r.activeSet = best;
   // Plastic strain increment Δε^p = C⁻¹ (σ^tr − σ) in principal form (unique even where the
   // multipliers of a corner are not).
-  const Real E = mu * (3 * lambda + 2 * mu) / (lambda + mu), nu = lambda / (2 * (lambda + mu));
+  const Real E = T.youngs, nu = T.poisson;
   const Real d[3] = {t[0] - r.sigma[0], t[1] - r.sigma[1], t[2] - r.sigma[2]};
   for (int i = 0; i < 3; ++i) r.plastic[i] = (d[i] - nu * (d[(i + 1) % 3] + d[(i + 2) % 3])) / E;
   return r;
@@ -330,6 +370,7 @@ MohrCoulombDamageMaterial::MohrCoulombDamageMaterial(const MohrCoulombDamagePara
   // φ = 0 (Tresca): no apex; a large finite value keeps 0 × cot φ = 0 for c = 0.
   cotPhi_ = p.frictionAngle > 0 ? 1 / std::tan(p.frictionAngle * kDeg) : std::numeric_limits<Real>::max();
   dpSlope_ = std::sqrt(1 + nPhi_ * nPhi_ - (nPhi_ - 1) * (nPhi_ - 1) / 3);
+  tables_ = surface(0).returnTables();
 }
 
 std::vector<std::string> MohrCoulombDamageMaterial::historyNames() const {
@@ -601,15 +642,15 @@ void MohrCoulombDamageMaterial::plasticFinish(Real s[6], const Real de[6], Real*
   PrincipalReturn ret;
   Real Dnew = Dn;
   if (stiff) {
-    ret = surface(0).returnMap(ev);  // undamaged surface in effective stress
-    if (ret.activeSet < 0) {         // inside after all: elastic
+    ret = surface(0).returnMap(tables_, ev);  // undamaged surface in effective stress
+    if (ret.activeSet < 0) {                  // inside after all: elastic
       for (int q = 0; q < 6; ++q) s[q] = trial[q] / toEff;
       return;
     }
     kappaAfter(ret, kappa);
     if (damageOn) Dnew = std::max(Dn, damageFrom(kappa));
   } else {
-    ret = surface(Dn).returnMap(ev);
+    ret = surface(Dn).returnMap(tables_, ev);
     if (ret.activeSet < 0) {
       for (int q = 0; q < 6; ++q) s[q] = trial[q];
       return;
@@ -621,7 +662,7 @@ void MohrCoulombDamageMaterial::plasticFinish(Real s[6], const Real de[6], Real*
       // in [D_n, 1]: one fixed-point step, then secant steps kept inside the bracket [lo, hi]
       // (h(lo) ≥ 0 ≥ h(hi)), bisection when a secant step would leave it.
       auto G = [&](Real D, PrincipalReturn& r, Real kap[3]) {
-        r = surface(D).returnMap(ev, r.activeSet);
+        r = surface(D).returnMap(tables_, ev, r.activeSet);
         kappaAfter(r, kap);
         return std::max(Dn, damageFrom(kap));
       };

@@ -74,6 +74,28 @@ struct PrincipalReturn {
   int activeSet = -1;           ///< -1 elastic; otherwise the candidate index (docs)
 };
 
+/// The parts of a principal-space return that depend only on the elastic constants and the flow
+/// factors (not on the cohesion or the cut-off): the yield planes' normals, their return
+/// directions C : b and each active set's Gaussian elimination, pivots and multipliers. A material
+/// whose return constants do not change with damage builds them once (MohrCoulombSurface::
+/// returnTables); a return with them makes the very operations of one without (the same bits).
+struct MohrCoulombReturnTables {
+  static constexpr int kPlanes = 6;  ///< S13, S12, S23, T3, T2, T1 (material_mc.cpp)
+  static constexpr int kSets = 12;   ///< the active sets, in the order they are tried
+  struct Set {
+    int n = 0;                 ///< planes in the set (1–3)
+    int plane[3] = {0, 0, 0};  ///< their indices
+    bool solvable = false;     ///< false where the set's system is degenerate
+    int pivot[3] = {0, 1, 2};  ///< the row swapped into place at each column
+    Real factor[3][3] = {};    ///< factor[c][i]: the multiple of pivot row c taken from row i
+    Real reduced[3][3] = {};   ///< the eliminated matrix, by original row
+  };
+  Real a[kPlanes][3] = {};   ///< plane normals in sorted principal space
+  Real Db[kPlanes][3] = {};  ///< return directions C : b_j (principal)
+  Real youngs = 0, poisson = 0;
+  Set sets[kSets];
+};
+
 /// Mohr–Coulomb surface with fixed strengths (one step, one element): the pure geometry of the
 /// return, separated from damage so that it can be tested on its own.
 struct MohrCoulombSurface {
@@ -89,6 +111,10 @@ struct MohrCoulombSurface {
   /// set to try first (the previous result of a nearby return). Throws std::runtime_error only if
   /// no candidate solves at all (degenerate parameters).
   PrincipalReturn returnMap(const Real trial[3], int hint = -1) const;
+  /// The same return with tables built by returnTables() of a surface of the same λ, μ, Nφ, Nψ.
+  PrincipalReturn returnMap(const MohrCoulombReturnTables& tables, const Real trial[3], int hint = -1) const;
+  /// This surface's return tables (its strengths aside).
+  MohrCoulombReturnTables returnTables() const;
 };
 
 /// Mohr–Coulomb elastoplastic damage material (eqs. 16–18).
@@ -122,6 +148,7 @@ class MohrCoulombDamageMaterial final : public Material {
 
   MohrCoulombDamageParams params_;
   ElasticModuli moduli_;
+  MohrCoulombReturnTables tables_;  // of surface(0): damage changes only the strengths of a return
   Real nPhi_ = 1, nPsi_ = 1, sqrtNPhi_ = 1, cotPhi_ = 0;
   Real dpSlope_ = 0;  // √(1 + Nφ² − (Nφ−1)²/3): inscribed-cone bound of the shear function
 };
