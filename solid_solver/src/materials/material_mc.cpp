@@ -133,8 +133,7 @@ bool factorSmall(int n, Real G[3][3], ReturnSet& S) {
   return true;
 }
 
-void solveFactored(const ReturnSet& S, Real r[3], Real x[3]) {
-  const int n = S.n;
+void solveFactored(int n, const ReturnSet& S, Real r[3], Real x[3]) {
   int idx[3] = {0, 1, 2};
   for (int c = 0; c < n; ++c) {
     std::swap(idx[c], idx[S.pivot[c]]);
@@ -262,27 +261,19 @@ MohrCoulombReturnTables MohrCoulombSurface::returnTables() const {
   static_assert(kNumSets == MohrCoulombReturnTables::kSets, "the tables hold every active set");
   for (int s = 0; s < kNumSets; ++s) {
     const ActiveSet& A = kSets[s];
-    ReturnSet& S = T.sets[s];
-    S.n = A.n;
     Real G[3][3] = {};
     for (int i = 0; i < A.n; ++i) {
-      S.plane[i] = A.j[i];
       for (int j = 0; j < A.n; ++j) {
         const int pi = A.j[i], pj = A.j[j];
         G[i][j] = T.a[pi][0] * T.Db[pj][0] + T.a[pi][1] * T.Db[pj][1] + T.a[pi][2] * T.Db[pj][2];
       }
     }
-    S.solvable = factorSmall(A.n, G, S);
+    T.sets[s].solvable = factorSmall(A.n, G, T.sets[s]);
   }
   return T;
 }
 
 PrincipalReturn MohrCoulombSurface::returnMap(const Real t[3], int hint) const {
-  if (shear(t) <= 0 && tensile(t) <= 0) {
-    PrincipalReturn r;
-    for (int i = 0; i < 3; ++i) r.sigma[i] = t[i];
-    return r;
-  }
   return returnMap(returnTables(), t, hint);
 }
 
@@ -300,24 +291,25 @@ PrincipalReturn MohrCoulombSurface::returnMap(const MohrCoulombReturnTables& T, 
     if (q == hint) continue;  // already tried first
     const int s = q < 0 ? hint : q;
     if (s < 0) continue;
+    const ActiveSet& A = kSets[s];
     const ReturnSet& S = T.sets[s];
     if (!S.solvable) continue;
     Real rhs[3], x[3] = {0, 0, 0};
-    for (int i = 0; i < S.n; ++i) {
-      const int pi = S.plane[i];
+    for (int i = 0; i < A.n; ++i) {
+      const int pi = A.j[i];
       const Real k = pi < T3 ? cohesionTerm : tension;
       rhs[i] = T.a[pi][0] * t[0] + T.a[pi][1] * t[1] + T.a[pi][2] * t[2] - k;
     }
-    solveFactored(S, rhs, x);
+    solveFactored(A.n, S, rhs, x);
     Real sig[3] = {t[0], t[1], t[2]};
     Real xmax = 0;
-    for (int j = 0; j < S.n; ++j) {
+    for (int j = 0; j < A.n; ++j) {
       xmax = std::max(xmax, std::abs(x[j]));
-      for (int i = 0; i < 3; ++i) sig[i] -= x[j] * T.Db[S.plane[j]][i];
+      for (int i = 0; i < 3; ++i) sig[i] -= x[j] * T.Db[A.j[j]][i];
     }
     // Kuhn–Tucker: multipliers ≥ 0, inside every plane, principal order kept.
     Real violation = 0;
-    for (int j = 0; j < S.n; ++j) violation = std::max(violation, -x[j] / std::max(xmax, 1e-300) * scale);
+    for (int j = 0; j < A.n; ++j) violation = std::max(violation, -x[j] / std::max(xmax, 1e-300) * scale);
     violation = std::max(violation, shear(sig));
     violation = std::max(violation, tensile(sig));
     violation = std::max(violation, sig[0] - sig[1]);

@@ -83,8 +83,6 @@ struct MohrCoulombReturnTables {
   static constexpr int kPlanes = 6;  ///< S13, S12, S23, T3, T2, T1 (material_mc.cpp)
   static constexpr int kSets = 12;   ///< the active sets, in the order they are tried
   struct Set {
-    int n = 0;                 ///< planes in the set (1–3)
-    int plane[3] = {0, 0, 0};  ///< their indices
     bool solvable = false;     ///< false where the set's system is degenerate
     int pivot[3] = {0, 1, 2};  ///< the row swapped into place at each column
     Real factor[3][3] = {};    ///< factor[c][i]: the multiple of pivot row c taken from row i
