@@ -1127,9 +1127,9 @@ def schema() -> Section:
                                   doc="MPI ranks of the water (OpenFOAM) in dynamic_water; above 1 the water "
                                       "case is decomposed (method simple, cut across the tunnel's axis in 3D) "
                                       "and run under mpirun, then reconstructed; at least 20 water cells a "
-                                      "rank (docs/coupler.md); the ranks pay from about 3,500 cells a rank "
-                                      "(the 3D example's half block, 7,392 cells on 2: 0.83-0.85x one rank's "
-                                      "coupled wall; docs/benchmarks.md \"Half the 3D example\"); a restart checkpoint "
+                                      "rank (docs/coupler.md); the ranks pay from about 1,800 cells a rank "
+                                      "(the 3D example's half block, 3,696 cells on 2: 0.69-0.79x one rank's "
+                                      "coupled wall; docs/benchmarks.md \"The 3D example's axial mesh\"); a restart checkpoint "
                                       "resumes on the count that wrote it"),
         }),
     })

@@ -6,8 +6,10 @@ from __future__ import annotations
 import os
 
 #: Below this many solid elements `parallel.threads: 0` runs one thread: on the paper's slice
-#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one (docs/benchmarks.md).
-SMALL_MESH_ELEMENTS = 20000
+#: (1,464 elements, 1 s of shaking) 2 threads took 1.3x the wall time of one; on the 3D example's
+#: half block of 16,104 elements 2 threads took 0.6-0.8x the wall of one, the least measured that
+#: paid, rounded down (docs/benchmarks.md "The 3D example's axial mesh").
+SMALL_MESH_ELEMENTS = 16000
 
 #: spins of an idle OpenMP thread before it sleeps (GNU libgomp's GOMP_SPINCOUNT; its default is
 #: 300,000, 0 with OMP_WAIT_POLICY=PASSIVE)

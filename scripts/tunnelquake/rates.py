@@ -136,7 +136,7 @@ COUPLED_SOLID_FACTOR = 1.13
 #: one rank (the PCG pressure), OpenFOAM's CPU (ExecutionTime) over the passes against the probe
 #: measured before and after each run, on two machines (docs/benchmarks.md "check's run-time
 #: estimate", the water's constants). The Zen 5 VM (2026-12-02, 3 alternated rounds, probe 0.21-0.27
-#: CPU s): the slice's 336 cells 3.17e-3 (its first 4 s), the 3D variant's half block of 7,392 cells
+#: CPU s): the slice's 336 cells 3.17e-3 (its first 4 s), the 3D half block of 7,392 cells (44 axial)
 #: 24.7e-3 (0.3 s), the whole block's 14,784 39.7e-3 (0.2 s); the Intel VM (2026-12-01, 2 rounds,
 #: probe 0.38-0.50 CPU s): the slice 3.16e-3, the whole block 56.6e-3. The water's speed against
 #: the solid probe's differs between the two processors by 1.43x on the whole block: the line through
@@ -155,12 +155,13 @@ WATER_CELL_PER_PROBE_S = 3.06e-6
 #: Not measured on more ranks: the 2-rank figure is taken for any N >= 2.
 WATER_RANKS_FACTOR = 0.91
 #: The fewest water cells a rank at which the ranks pay, the least measured that did, rounded down:
-#: the 3D example's half block (mesh.symmetry: mid_length; 7,392 cells, 3,696 a rank on 2 ranks) took
-#: 0.83 / 0.85x one rank's coupled wall over its first second (31.5 / 33.9 against 37.9 / 40.0 s, the
-#: water 5.57 / 5.99 against 7.93 / 8.68 ms a pass; the Intel VM, 2026-12-01), the whole model's 7,392 a
-#: rank pay too; the slice's 168 a rank took 2.8x one rank's time a pass (an earlier VM and water
-#: code). Below it `run` says so and the estimate counts one rank's time
-WATER_RANK_CELLS = 3500
+#: the 3D example's half block with 22 axial elements (3,696 cells, 1,848 a rank on 2 ranks) took
+#: 0.69 / 0.79x one rank's coupled wall over its first second (14.1 / 16.5 against 20.5 / 20.8 / 20.4 s,
+#: the water 2.56 / 2.93 against 3.75 / 3.86 / 3.86 ms a pass; the AMD EPYC VM, 2026-12-03); with 44
+#: (7,392 cells, 3,696 a rank) 0.83 / 0.85x (the Intel VM, 2026-12-01); the whole 44-element model's
+#: 7,392 a rank pay too; the slice's 168 a rank took 2.8x one rank's time a pass (an earlier VM and
+#: water code). Below it `run` says so and the estimate counts one rank's time
+WATER_RANK_CELLS = 1800
 
 #: The element-evaluation probe, for a subcycled condition (time.subcycling): tq-solid on
 #: subcycle_levels' probe box (4,096 elastic hex8, 16 x 16 in plan, 4 layers of 1/8 m under 12 of

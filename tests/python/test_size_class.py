@@ -114,6 +114,7 @@ def test_the_estimate_of_a_large_model_takes_its_class_figures(tmp_path, monkeyp
     case = load_case(EXAMPLE, variant="3d")
     case.data["conditions"] = ["no_water"]
     case.data["mesh"]["symmetry"] = "none"  # the whole block (the variant meshes half of it)
+    case.data["mesh"]["elements_along_axis"] = 44  # at the slice's axial length: 64,416 elements
     est = runtime_estimate(case)
     rates = R.machine_rates(program=prog, threads=2, elements=64_416)  # cached: what the estimate took
     plain = runtime_estimate(case, rates=R.MachineRates(rates.probe_s, "test", "given"))

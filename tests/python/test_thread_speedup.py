@@ -77,7 +77,7 @@ def _two_cores(monkeypatch):
 
 
 def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkeypatch):
-    """The 3D example (64,416 solid elements) on 2 cores: condition 3 alone gets both cores (2
+    """The 3D example (16,104 solid elements) on 2 cores: condition 3 alone gets both cores (2
     threads), its solid part divided by the speed-up, the water's passes not; beside the solid-only
     conditions every condition gets one thread; parallel.threads overrides; the slice (1,464
     elements) runs one thread whatever the cores."""
@@ -102,7 +102,7 @@ def test_the_solid_on_its_threads_is_its_one_thread_time_over_the_speedup(monkey
     water_s = passes * (given.water_pass + counts["water"] * given.water_cell_pass)
     solid_s = est.cpu["dynamic_water"] - water_s
     assert solid_s > 0
-    # the variant's water on 2 ranks (7,392 cells a rank): its share at the ranks' factor, not divided
+    # the variant's water on 2 ranks (1,848 cells a rank): its share at the ranks' factor, not divided
     assert d["parallel"]["fluid_ranks"] == 2 and counts["water"] // 2 >= R.WATER_RANK_CELLS
     ranks = R.WATER_RANKS_FACTOR
     assert est.seconds["dynamic_water"] == pytest.approx(solid_s / 1.6 + water_s * ranks, rel=1e-12)
